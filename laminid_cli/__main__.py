@@ -1,0 +1,3 @@
+from laminid_cli.cli import main
+
+main()

@@ -1,0 +1,99 @@
+"""Command-line entry point: ``laminid <command>``.
+
+The group loads each command's module only when that command runs, so ``laminid --help`` and
+shell batches start fast (no numpy/scipy/h5py import before they are needed). This module is the
+only place that turns a :class:`~laminid_cli.errors.LaminidError` into a message and exit code.
+"""
+
+from __future__ import annotations
+
+import importlib
+import logging
+
+import click
+
+from laminid_cli import __version__
+
+# command name -> "module:attribute"; each command lives in laminid_cli/commands/<module>.py
+COMMANDS = {
+    "modes": "laminid_cli.commands.modes:modes",
+    "identify": "laminid_cli.commands.identify:identify",
+    "fit-frf": "laminid_cli.commands.fit_frf:fit_frf",
+    "acquire": "laminid_cli.commands.acquire:acquire",
+}
+
+SHORT_HELP = {
+    "modes": "Natural frequencies of a specimen's plate model vs the measured ones.",
+    "identify": "Identify ply elastic constants from measured natural frequencies.",
+    "fit-frf": "Extract natural frequencies from measured FRFs (rational fraction polynomials).",
+    "acquire": "Acquire impact-test FRFs from a dynamic signal analyser (VISA).",
+}
+
+
+class LazyGroup(click.Group):
+    """A click group whose subcommands are imported on first use."""
+
+    def list_commands(self, ctx):
+        return [name for name in COMMANDS if _module_exists(COMMANDS[name])]
+
+    def get_command(self, ctx, name):
+        target = COMMANDS.get(name)
+        if target is None:
+            return None
+        module_name, attr = target.split(":")
+        try:
+            module = importlib.import_module(module_name)
+        except ModuleNotFoundError as exc:
+            if exc.name == module_name:
+                return None
+            raise
+        return getattr(module, attr)
+
+    def format_commands(self, ctx, formatter):
+        rows = [(name, SHORT_HELP.get(name, "")) for name in self.list_commands(ctx)]
+        if rows:
+            with formatter.section("Commands"):
+                formatter.write_dl(rows)
+
+    def invoke(self, ctx):
+        from laminid_cli.errors import LaminidError
+
+        try:
+            return super().invoke(ctx)
+        except LaminidError as exc:
+            click.echo(f"laminid: error: {exc}", err=True)
+            ctx.exit(exc.exit_code)
+        except KeyboardInterrupt:
+            click.echo("laminid: interrupted", err=True)
+            ctx.exit(130)
+
+
+def _module_exists(target: str) -> bool:
+    import importlib.util
+
+    module_name = target.split(":")[0]
+    try:
+        return importlib.util.find_spec(module_name) is not None
+    except ModuleNotFoundError:
+        return False
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="laminid")
+@click.option("-v", "--verbose", count=True, help="More log output (-vv for debug).")
+@click.option("-q", "--quiet", is_flag=True, help="Only errors on stderr.")
+def cli(verbose: int, quiet: bool):
+    """laminid: elastic constants of laminated plates from their free-vibration frequencies.
+
+    \b
+    Typical chain:
+      laminid acquire --analyser GPIB0::5 -o plate.frf.h5     # impact test, FRFs
+      laminid fit-frf plate.frf.h5 --into plate.yaml           # natural frequencies
+      laminid identify plate.yaml                              # E1, E2, G12, nu12, G13, G23
+    """
+    level = logging.ERROR if quiet else (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)]
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+
+
+def main():  # console-script entry point
+    cli(prog_name="laminid")

@@ -1,0 +1,60 @@
+"""Exception hierarchy.
+
+Every error a user can cause is a :class:`LaminidError` subclass whose message names the file,
+the field, the value and what was expected. The CLI prints the message on one line of stderr and
+exits with ``exit_code``: 2 for bad input or usage, 1 for a run that failed (no convergence,
+instrument fault).
+"""
+
+from __future__ import annotations
+
+
+class LaminidError(Exception):
+    """Base class of all errors laminid reports to a user."""
+
+    exit_code = 2
+
+
+class SpecimenError(LaminidError):
+    """A specimen file is missing, unreadable or invalid."""
+
+    def __init__(self, message: str, *, path: str | None = None, field: str | None = None,
+                 line: int | None = None):
+        where = []
+        if path:
+            where.append(f"{path}" + (f":{line}" if line else ""))
+        if field:
+            where.append(f"field '{field}'")
+        prefix = ", ".join(where)
+        super().__init__(f"{prefix}: {message}" if prefix else message)
+        self.path, self.field, self.line = path, field, line
+
+
+class ModelError(LaminidError):
+    """The model cannot be built (bad mesh, infeasible constants, wrong boundary condition)."""
+
+
+class SolverError(LaminidError):
+    """The eigen solver failed or found a wrong number of rigid-body modes."""
+
+    exit_code = 1
+
+
+class FitError(LaminidError):
+    """An identification or curve fit could not run or did not converge."""
+
+    exit_code = 1
+
+
+class FrfError(LaminidError):
+    """An FRF file or FRF data is invalid (bad axis, NaN, no type-58 record...)."""
+
+
+class InstrumentError(LaminidError):
+    """The analyser failed: timeout, error queue entry, truncated block, lost connection."""
+
+    exit_code = 1
+
+
+class OutputExistsError(LaminidError):
+    """An output file exists and overwriting was not asked for."""

@@ -1,0 +1,1 @@
+"""FRF data: file formats (store, io) and the rational fraction polynomial fitter (rfp)."""

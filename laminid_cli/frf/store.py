@@ -1,0 +1,335 @@
+"""laminid's FRF HDF5 file: the one layout written by ``laminid acquire`` and read by ``fit-frf``.
+
+Layout (schema_version 1)::
+
+    /                       attrs: format="laminid-frf", schema_version=1, laminid_version,
+                                   created, modified (ISO 8601, UTC), complete (bool)
+    /frequency              float64 (n_freq,)            attrs: units="Hz"
+    /frf                    complex128 (n_points, n_freq) attrs: units (e.g. "Pa/N"),
+                                                                 quantity (e.g. "response/force")
+    /coherence              float64 (n_points, n_freq)   attrs: units="1" (NaN where unknown)
+    /points/label           str (n_points,)   measurement point names ("1", "2", ... or user's)
+    /points/timestamp       str (n_points,)   ISO 8601 UTC time the point was read
+    /points/n_averages      int64 (n_points,) hits averaged
+    /points/overloads       int64 (n_points,) overloaded hits seen (rejected or not)
+    /instrument             attrs: idn, model, resource (empty group when not from an analyser)
+    /settings               attrs: one per acquisition setting, unit in the name (span_hz...)
+
+Crash safety: :class:`FrfWriter` keeps the points in memory and, each time a point is added,
+writes the *whole* file to a temporary name in the same folder, fsyncs it and renames it over
+the target (``os.replace`` is atomic). Killing the process at any instant leaves either the
+previous valid file or the new valid one, never a half-written file. Files are small (a few
+MB at most), so the rewrite costs milliseconds.
+
+h5py is imported inside the functions so that importing this module stays cheap.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from laminid_cli import __version__
+from laminid_cli.errors import FrfError, OutputExistsError
+
+FORMAT = "laminid-frf"
+SCHEMA_VERSION = 1
+
+
+@dataclass(frozen=True)
+class FrfSet:
+    """A set of FRFs on one frequency axis.
+
+    Attributes
+    ----------
+    freq : float (n_freq,), Hz, strictly increasing
+    frf : complex (n_points, n_freq), in ``units``
+    coherence : float (n_points, n_freq) or None, dimensionless
+    labels : measurement point names, length n_points
+    units : FRF units, e.g. ``"Pa/N"`` (microphone) or ``"m/s^2/N"`` (accelerometer)
+    source : file the set was read from ("" when built in memory)
+    meta : instrument identity, settings and per-point records (free-form, JSON-able)
+    """
+
+    freq: np.ndarray
+    frf: np.ndarray
+    coherence: np.ndarray | None = None
+    labels: tuple[str, ...] = ()
+    units: str = "1"
+    source: str = ""
+    meta: dict = field(default_factory=dict)
+
+    @property
+    def n_points(self) -> int:
+        return int(self.frf.shape[0])
+
+
+def _now() -> str:
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+
+
+def validate_frf_arrays(freq, frf, coherence=None, source: str = "") -> None:
+    """Raise :class:`FrfError` unless the axis and data are usable.
+
+    Checks: 1-D strictly increasing finite non-negative axis; FRF shape (n_points, n_freq) and
+    finite; coherence (if any) of the same shape, values in [0, 1] (NaN allowed = unknown).
+    """
+    where = f"{source}: " if source else ""
+    freq = np.asarray(freq)
+    if freq.ndim != 1 or freq.size < 2:
+        raise FrfError(f"{where}frequency axis must be 1-D with at least 2 lines (got shape {freq.shape})")
+    if not np.all(np.isfinite(freq)):
+        raise FrfError(f"{where}frequency axis contains NaN or inf")
+    if np.any(np.diff(freq) <= 0):
+        i = int(np.argmax(np.diff(freq) <= 0))
+        raise FrfError(f"{where}frequency axis is not strictly increasing "
+                       f"(line {i + 1}: {freq[i]:g} Hz, line {i + 2}: {freq[i + 1]:g} Hz)")
+    if freq[0] < 0:
+        raise FrfError(f"{where}frequency axis starts below 0 Hz ({freq[0]:g} Hz)")
+    frf = np.asarray(frf)
+    if frf.ndim != 2 or frf.shape[1] != freq.size:
+        raise FrfError(f"{where}FRF array has shape {frf.shape}; expected (n_points, {freq.size}) "
+                       "to match the frequency axis")
+    bad = ~np.isfinite(frf)
+    if bad.any():
+        p, k = np.argwhere(bad)[0]
+        raise FrfError(f"{where}FRF of point {p + 1} has NaN/inf at {freq[k]:g} Hz")
+    if coherence is not None:
+        coherence = np.asarray(coherence)
+        if coherence.shape != frf.shape:
+            raise FrfError(f"{where}coherence has shape {coherence.shape}, FRF has {frf.shape}")
+        c = coherence[np.isfinite(coherence)]
+        if c.size and (c.min() < -1e-9 or c.max() > 1 + 1e-9):
+            raise FrfError(f"{where}coherence outside [0, 1] (min {c.min():g}, max {c.max():g})")
+
+
+def read_frf_h5(path) -> FrfSet:
+    """Read a laminid FRF HDF5 file (see module docstring). Raises :class:`FrfError`."""
+    import h5py
+
+    path = Path(path)
+    try:
+        f = h5py.File(path, "r")
+    except FileNotFoundError as exc:
+        raise FrfError(f"{path}: file not found") from exc
+    except OSError as exc:
+        raise FrfError(f"{path}: not a readable HDF5 file ({exc})") from exc
+    with f:
+        if f.attrs.get("format") != FORMAT:
+            raise FrfError(f"{path}: not a laminid FRF file (attribute 'format' is "
+                           f"{f.attrs.get('format')!r}, expected {FORMAT!r})")
+        version = int(f.attrs.get("schema_version", 0))
+        if version > SCHEMA_VERSION:
+            raise FrfError(f"{path}: schema_version {version} is newer than this laminid "
+                           f"understands ({SCHEMA_VERSION}); upgrade laminid")
+        for name in ("frequency", "frf"):
+            if name not in f:
+                raise FrfError(f"{path}: dataset '/{name}' is missing")
+        freq = f["frequency"][()]
+        frf = f["frf"][()]
+        if frf.size == 0:
+            frf = np.zeros((0, freq.size), dtype=complex)
+        coherence = f["coherence"][()] if "coherence" in f else None
+        pts = f.get("points")
+        labels = tuple(_as_str(x) for x in pts["label"][()]) if pts is not None and "label" in pts \
+            else tuple(str(i + 1) for i in range(frf.shape[0]))
+        meta = {
+            "instrument": {k: _attr(v) for k, v in f["instrument"].attrs.items()} if "instrument" in f else {},
+            "settings": {k: _attr(v) for k, v in f["settings"].attrs.items()} if "settings" in f else {},
+            "points": {k: [_attr(x) for x in pts[k][()]] for k in pts} if pts is not None else {},
+            "created": _attr(f.attrs.get("created", "")),
+            "complete": bool(f.attrs.get("complete", True)),
+        }
+        units = _attr(f["frf"].attrs.get("units", "1"))
+    if frf.shape[0]:
+        validate_frf_arrays(freq, frf, coherence, source=str(path))
+    return FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels, units=units,
+                  source=str(path), meta=meta)
+
+
+def _as_str(x) -> str:
+    return x.decode() if isinstance(x, bytes) else str(x)
+
+
+def _attr(v):
+    if isinstance(v, bytes):
+        return v.decode()
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    return v
+
+
+class FrfWriter:
+    """Crash-safe, point-by-point writer of a laminid FRF file.
+
+    Parameters
+    ----------
+    path : output file
+    freq : float (n_freq,), Hz
+    units : FRF units, e.g. "Pa/N"
+    settings : acquisition settings (name -> number/str; put the unit in the name: ``span_hz``)
+    instrument : identity (``idn``, ``model``, ``resource``)
+    resume : continue an existing file (its axis and units must match)
+    overwrite : replace an existing file; without it (and without ``resume``) an existing file
+        raises :class:`~laminid_cli.errors.OutputExistsError`
+
+    Use :meth:`add_point` for every point read; each call leaves a complete valid file on disk.
+    :meth:`close` marks the file complete.
+    """
+
+    def __init__(self, path, freq, *, units: str = "1", settings: dict | None = None,
+                 instrument: dict | None = None, resume: bool = False, overwrite: bool = False,
+                 quantity: str = "response/force"):
+        self.path = Path(path)
+        self.freq = np.asarray(freq, dtype=float)
+        self.units, self.quantity = units, quantity
+        self.settings = dict(settings or {})
+        self.instrument = dict(instrument or {})
+        self.frf: list[np.ndarray] = []
+        self.coherence: list[np.ndarray] = []
+        self.points: dict[str, list] = {"label": [], "timestamp": [], "n_averages": [], "overloads": []}
+        self.created = _now()
+        if self.path.exists():
+            if resume:
+                self._load_existing()
+            elif not overwrite:
+                raise OutputExistsError(f"{self.path}: file exists; use --resume to continue it "
+                                        "or choose another output name")
+        elif resume:
+            raise FrfError(f"{self.path}: cannot resume, the file does not exist")
+        validate_frf_arrays(self.freq, np.zeros((1, self.freq.size)), source=str(self.path))
+
+    def _load_existing(self) -> None:
+        old = read_frf_h5(self.path)
+        if old.freq.shape != self.freq.shape or not np.allclose(old.freq, self.freq, rtol=1e-9):
+            raise FrfError(f"{self.path}: cannot resume, the file's frequency axis "
+                           f"({old.freq.size} lines, {old.freq[0]:g}-{old.freq[-1]:g} Hz) differs "
+                           f"from the analyser's ({self.freq.size} lines, "
+                           f"{self.freq[0]:g}-{self.freq[-1]:g} Hz)")
+        if old.units != self.units:
+            raise FrfError(f"{self.path}: cannot resume, FRF units differ ({old.units} vs {self.units})")
+        self.frf = list(old.frf)
+        coh = old.coherence if old.coherence is not None else np.full(old.frf.shape, np.nan)
+        self.coherence = list(coh)
+        for key in self.points:
+            self.points[key] = list(old.meta["points"].get(key, [""] * old.n_points))
+        self.created = old.meta.get("created") or self.created
+
+    @property
+    def n_points(self) -> int:
+        return len(self.frf)
+
+    @property
+    def labels(self) -> list[str]:
+        return [str(x) for x in self.points["label"]]
+
+    def add_point(self, label: str, frf, coherence=None, *, n_averages: int = 0,
+                  overloads: int = 0, replace: bool = False) -> None:
+        """Append (or, with ``replace``, overwrite) one point and rewrite the file atomically."""
+        frf = np.asarray(frf, dtype=complex).reshape(-1)
+        coh = (np.full(frf.shape, np.nan) if coherence is None
+               else np.asarray(coherence, dtype=float).reshape(-1))
+        validate_frf_arrays(self.freq, frf[None, :], coh[None, :], source=str(self.path))
+        record = {"label": str(label), "timestamp": _now(), "n_averages": int(n_averages),
+                  "overloads": int(overloads)}
+        if replace and str(label) in self.labels:
+            i = self.labels.index(str(label))
+            self.frf[i], self.coherence[i] = frf, coh
+            for key, value in record.items():
+                self.points[key][i] = value
+        else:
+            self.frf.append(frf)
+            self.coherence.append(coh)
+            for key, value in record.items():
+                self.points[key].append(value)
+        self._write(complete=False)
+
+    def close(self) -> None:
+        """Mark the file complete (rewrites it once more)."""
+        self._write(complete=True)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        if exc[0] is None:
+            self.close()
+        return False
+
+    def _write(self, complete: bool) -> None:
+        write_frf_h5(self.path, self.freq, np.array(self.frf).reshape(-1, self.freq.size),
+                     np.array(self.coherence).reshape(-1, self.freq.size), units=self.units,
+                     labels=self.labels, points=self.points, settings=self.settings,
+                     instrument=self.instrument, created=self.created, complete=complete,
+                     quantity=self.quantity, overwrite=True)
+
+
+def write_frf_h5(path, freq, frf, coherence=None, *, units: str = "1", labels=None,
+                 points: dict | None = None, settings: dict | None = None,
+                 instrument: dict | None = None, created: str | None = None,
+                 complete: bool = True, quantity: str = "response/force",
+                 overwrite: bool = False) -> Path:
+    """Write a whole FRF set atomically (temporary file + fsync + rename). Returns the path."""
+    import h5py
+
+    path = Path(path)
+    if path.exists() and not overwrite:
+        raise OutputExistsError(f"{path}: file exists (not overwritten)")
+    freq = np.asarray(freq, dtype=float)
+    frf = np.asarray(frf, dtype=complex).reshape(-1, freq.size)
+    n = frf.shape[0]
+    if coherence is None:
+        coherence = np.full(frf.shape, np.nan)
+    labels = [str(x) for x in (labels if labels is not None else range(1, n + 1))]
+    points = dict(points or {})
+    points["label"] = labels
+    points.setdefault("timestamp", [_now()] * n)
+    points.setdefault("n_averages", [0] * n)
+    points.setdefault("overloads", [0] * n)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        with h5py.File(tmp, "w") as f:
+            f.attrs["format"] = FORMAT
+            f.attrs["schema_version"] = SCHEMA_VERSION
+            f.attrs["laminid_version"] = __version__
+            f.attrs["created"] = created or _now()
+            f.attrs["modified"] = _now()
+            f.attrs["complete"] = bool(complete)
+            d = f.create_dataset("frequency", data=freq)
+            d.attrs["units"] = "Hz"
+            d = f.create_dataset("frf", data=frf)
+            d.attrs["units"] = units
+            d.attrs["quantity"] = quantity
+            d = f.create_dataset("coherence", data=np.asarray(coherence, dtype=float).reshape(frf.shape))
+            d.attrs["units"] = "1"
+            g = f.create_group("points")
+            str_dt = h5py.string_dtype()
+            for key, values in points.items():
+                values = list(values)
+                if values and all(isinstance(v, (int, np.integer)) for v in values):
+                    g.create_dataset(key, data=np.asarray(values, dtype=np.int64))
+                elif values and all(isinstance(v, (int, float, np.number)) for v in values):
+                    g.create_dataset(key, data=np.asarray(values, dtype=float))
+                else:
+                    g.create_dataset(key, data=np.asarray([str(v) for v in values], dtype=object),
+                                     dtype=str_dt)
+            gi = f.create_group("instrument")
+            for k, v in (instrument or {}).items():
+                gi.attrs[k] = v if v is not None else ""
+            gs = f.create_group("settings")
+            for k, v in (settings or {}).items():
+                gs.attrs[k] = v if v is not None else ""
+            f.flush()
+        with open(tmp, "rb") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
