@@ -1,0 +1,873 @@
+"""Specimen files: YAML -> validated, frozen :class:`Specimen` (SI units inside).
+
+A specimen file describes one plate: geometry, mass, ply materials (initial constants for the
+identification), layup, boundary condition, measured natural frequencies and optional reference
+values from other tests. The full format is documented in ``specimens/README.md``; in short::
+
+    name: S1.1
+    description: IM7/977-2 carbon/epoxy plate, Araujo et al. 2000, Example 1
+    geometry: {a: 210.5 mm, b: 311 mm, h: 3.06 mm}   # a along x, b along y, h total thickness
+    mass: 0.3225 kg                    # gives the density m/(a b h) of a single material
+    materials:
+      IM7/977-2: {E1: 117.2 GPa, E2: 8.8 GPa, G12: 3.1 GPa, G13: 3.1 GPa, G23: 3.1 GPa,
+                  nu12: 0.35}          # optional: density, density_ratio, fixed, prior
+    layup: "[45_3/0_3/-45_3/90_3]s"    # stacking code, bottom ply first (or `plies:` list)
+    boundary: free                     # free | simply-supported | clamped
+    measured:
+      frequencies: [125.05, 203.50, null, 446.65]   # Hz; null = not detected
+      weights: [1, 1, 0, 1]            # optional, in [0, 1]; forced to 0 where null
+      sigma: [0.1, 0.1, null, 0.2]     # optional standard deviations, Hz
+    reference:
+      source: strain gauge
+      materials: {IM7/977-2: {E1: 170 GPa}}
+      global: {Ex: 77 GPa, nu_xy: [0.15, 0.17]}     # a [low, high] pair is a range
+
+Stacking codes (:func:`expand_layup`): plies bottom first separated by ``/`` (or ``,``);
+``45_3`` three plies; ``(0/90)_2`` a repeated group; ``[...]s`` symmetric, ``[...]2s`` or
+``[...]_2s`` repeated twice then mirrored, ``[...]_3`` repeated; ``±45`` (also ``+-45``) is
+``45/-45`` and ``∓45`` (``-+45``) is ``-45/45``, so ``±45_2`` is ``45/-45/45/-45``; an optional
+``°`` after an angle. A material tag follows a ply or a group, after its repeat count:
+``0:carbon``, ``90_2:glass``, ``(0/90):glass``; after a single ply angle the colon may be left
+out when the tag is letters only, as the paper writes it: ``[0c/90g/0c/90_2g/0c/90g]s``. A tag
+is a material name or an unambiguous beginning of one (``c`` for ``carbon``). A tag on a group
+applies to the plies inside that have none.
+
+Errors are :class:`~laminid_cli.errors.SpecimenError` with ``file:line, field 'x.y': problem``.
+Positions in lists are counted from 1 (``plies[1]`` is the bottom ply, ``frequencies[3]`` the
+third mode).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import logging
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from laminid_cli.errors import SpecimenError
+from laminid_cli.material import CONSTANT_NAMES, ElasticConstants, infeasibility_reasons
+from laminid_cli.units import Where, parse_quantity
+
+log = logging.getLogger(__name__)
+
+#: boundary conditions understood by the plate model
+BOUNDARIES = ("free", "simply-supported", "clamped")
+#: laminate (global) properties of Appendix A that a reference may give
+GLOBAL_NAMES = ("Ex", "Ey", "Gxy", "Gxz", "Gyz", "nu_xy", "nu_yx")
+#: ply thicknesses must add up to h within this fraction of h (unless scale_thickness: true)
+THICKNESS_TOLERANCE = 0.005
+#: a stacking code may not expand to more plies than this
+MAX_PLIES = 2000
+
+_TOP_KEYS = ("name", "description", "geometry", "mass", "materials", "layup", "plies",
+             "ply_thickness", "scale_thickness", "scale_density_to_mass", "boundary", "measured",
+             "reference")
+_MATERIAL_KEYS = CONSTANT_NAMES + ("density", "density_ratio", "fixed", "prior")
+_MODULI = ("E1", "E2", "G12", "G13", "G23")
+
+
+# ----------------------------------------------------------------------------------------------
+# the dataclasses
+
+
+@dataclass(frozen=True)
+class Material:
+    """One ply material: initial (or current) constants and options for the identification.
+
+    ``density`` is the value written in the file (kg/m^3, None when not given; the resolved
+    density is in :attr:`Specimen.densities`). ``fixed`` names constants that ``identify`` holds
+    at their initial value; ``prior`` maps constant names to relative confidences (paper Eq. 15).
+    """
+
+    name: str
+    constants: ElasticConstants
+    density: float | None
+    fixed: tuple[str, ...] = ()
+    prior: dict = field(default_factory=dict)
+    density_ratio: float | None = None
+
+
+@dataclass(frozen=True)
+class Ply:
+    """One ply: material name, angle in degrees (x towards y), thickness in m."""
+
+    material: str
+    angle_deg: float
+    thickness: float
+
+
+@dataclass(frozen=True)
+class Measured:
+    """Measured natural frequencies of the first n modes.
+
+    freq : (n,) Hz, NaN where a mode was not detected
+    weight : (n,) in [0, 1], 0 where ``freq`` is NaN (paper Eq. 17)
+    sigma : (n,) Hz standard deviations, NaN where unknown; None when the file gives none
+    """
+
+    freq: np.ndarray
+    weight: np.ndarray
+    sigma: np.ndarray | None = None
+
+    @property
+    def n_modes(self) -> int:
+        return int(self.freq.shape[0])
+
+
+@dataclass(frozen=True)
+class Specimen:
+    """A plate specimen read from a YAML file; SI units (angles in degrees).
+
+    ``source_text`` is the YAML verbatim (stored in result files). ``reference`` always has the
+    keys ``source`` (str), ``materials`` ({material: {constant: value}}), ``global``
+    ({property: value}) and ``intervals`` ({"global.nu_xy": (low, high)} for values given as a
+    range, whose entry in ``materials``/``global`` is then the midpoint).
+    """
+
+    name: str
+    path: str
+    source_text: str
+    a: float
+    b: float
+    h: float
+    mass: float | None
+    materials: dict[str, Material]
+    plies: tuple[Ply, ...]
+    densities: dict[str, float]
+    measured: Measured | None
+    reference: dict
+    boundary: str = "free"
+    description: str = ""
+
+    @property
+    def n_plies(self) -> int:
+        return len(self.plies)
+
+    @property
+    def model_mass(self) -> float:
+        """Mass of the plate model, a b sum(rho_k t_k), kg."""
+        return self.a * self.b * sum(self.densities[p.material] * p.thickness for p in self.plies)
+
+    def with_constants(self, constants: dict[str, ElasticConstants]) -> "Specimen":
+        """Copy with new constants for some or all materials (``source_text`` is unchanged)."""
+        unknown = [name for name in constants if name not in self.materials]
+        if unknown:
+            raise KeyError(f"no material {unknown[0]!r} in specimen {self.name!r} "
+                           f"(materials: {', '.join(self.materials)})")
+        materials = {name: dataclasses.replace(m, constants=constants[name])
+                     if name in constants else m for name, m in self.materials.items()}
+        return dataclasses.replace(self, materials=materials)
+
+
+# ----------------------------------------------------------------------------------------------
+# YAML with line numbers
+
+
+@dataclass
+class _Y:
+    """A YAML value with its line (1-based) and dotted field name.
+
+    ``value`` is a Python scalar, a dict of ``_Y`` (mapping, file order) or a list of ``_Y``.
+    """
+
+    value: Any
+    line: int
+    field: str
+
+
+def _join(parent: str, key: str) -> str:
+    return f"{parent}.{key}" if parent else key
+
+
+def _compose(text: str, path: str) -> _Y:
+    loader = yaml.SafeLoader(text)
+    try:
+        try:
+            node = loader.get_single_node()
+        except yaml.MarkedYAMLError as exc:
+            mark = exc.problem_mark or exc.context_mark
+            line = mark.line + 1 if mark else None
+            problem = " ".join(str(p) for p in (exc.context, exc.problem) if p)
+            hint = ""
+            bad_line = text.splitlines()[line - 1] if line and line <= len(text.splitlines()) \
+                else ""
+            if re.search(r":\s*\[[^\]]*\][^\s#,\]]", bad_line):
+                hint = " (quote a stacking code that starts with '[', e.g. layup: \"[0/90]s\")"
+            raise SpecimenError(f"not valid YAML: {problem}{hint}", path=path, line=line) \
+                from exc
+        except yaml.YAMLError as exc:
+            raise SpecimenError(f"not valid YAML: {exc}", path=path) from exc
+        if node is None:
+            raise SpecimenError("the file is empty; expected a mapping with geometry, materials, "
+                                "layup, ...", path=path)
+        return _convert(node, loader, "", path, set())
+    finally:
+        loader.dispose()
+
+
+def _convert(node, loader, name: str, path: str, active: set) -> _Y:
+    line = node.start_mark.line + 1
+    if id(node) in active:
+        raise SpecimenError("recursive YAML alias", path=path, field=name or None, line=line)
+    if isinstance(node, yaml.ScalarNode):
+        try:
+            value = loader.construct_object(node, deep=True)
+        except yaml.YAMLError as exc:
+            raise SpecimenError(f"cannot read the value: {exc}", path=path, field=name or None,
+                                line=line) from exc
+        return _Y(value, line, name)
+    active = active | {id(node)}
+    if isinstance(node, yaml.SequenceNode):
+        return _Y([_convert(item, loader, f"{name}[{k + 1}]", path, active)
+                   for k, item in enumerate(node.value)], line, name)
+    out: dict[str, _Y] = {}
+    for key_node, value_node in node.value:
+        key_line = key_node.start_mark.line + 1
+        if not isinstance(key_node, yaml.ScalarNode):
+            raise SpecimenError("a key must be a plain name, not a list or mapping", path=path,
+                                field=name or None, line=key_line)
+        key = loader.construct_object(key_node, deep=True)
+        key = "null" if key is None else str(key)
+        if key in out:
+            raise SpecimenError(f"key '{key}' appears twice (first on line {out[key].line})",
+                                path=path, field=_join(name, key), line=key_line)
+        child = _convert(value_node, loader, _join(name, key), path, active)
+        # report errors in a value on the line of its key (a block value starts below it)
+        child.line = key_line
+        out[key] = child
+    return _Y(out, line, name)
+
+
+def _closest(key: str, valid) -> str | None:
+    valid = list(valid)
+    for v in valid:
+        if v.lower() == key.lower():
+            return v
+    found = difflib.get_close_matches(key, valid, n=1, cutoff=0.6)
+    return found[0] if found else None
+
+
+class _Reader:
+    """Typed access to ``_Y`` values, raising SpecimenError with file, field and line."""
+
+    def __init__(self, path: str):
+        self.path = path
+
+    def where(self, y: _Y, field_name: str | None = None) -> Where:
+        return Where(self.path, field_name or y.field or None, y.line)
+
+    def error(self, y: _Y, message: str, field_name: str | None = None) -> SpecimenError:
+        return self.where(y, field_name).error(message)
+
+    def mapping(self, y: _Y, required=(), optional=(), what: str = "a mapping",
+                any_key: bool = False) -> dict:
+        if not isinstance(y.value, dict):
+            raise self.error(y, f"expected {what} (key: value lines), got {_describe(y.value)}")
+        valid = list(required) + list(optional)
+        for key, child in y.value.items():
+            if not any_key and key not in valid:
+                guess = _closest(key, valid)
+                hint = f"; did you mean '{guess}'?" if guess else ""
+                raise self.error(child, f"unknown key '{key}'{hint} (valid keys: "
+                                        f"{', '.join(valid)})")
+        for key in required:
+            if key not in y.value:
+                raise self.error(y, f"missing required key '{key}'", _join(y.field, key))
+        return y.value
+
+    def sequence(self, y: _Y, what: str = "a list") -> list:
+        if not isinstance(y.value, list):
+            raise self.error(y, f"expected {what} ([a, b, ...]), got {_describe(y.value)}")
+        return y.value
+
+    def quantity(self, y: _Y, kind: str) -> float:
+        if isinstance(y.value, (dict, list)):
+            raise self.error(y, f"expected a single {kind} value, got {_describe(y.value)}")
+        return parse_quantity(y.value, kind, where=self.where(y))
+
+    def positive(self, y: _Y, kind: str) -> float:
+        value = self.quantity(y, kind)
+        if value <= 0:
+            raise self.error(y, f"must be positive, got {y.value!r}")
+        return value
+
+    def string(self, y: _Y) -> str:
+        if isinstance(y.value, bool) or isinstance(y.value, (dict, list)) or y.value is None:
+            raise self.error(y, f"expected text, got {_describe(y.value)}")
+        return str(y.value)
+
+    def boolean(self, y: _Y) -> bool:
+        if not isinstance(y.value, bool):
+            raise self.error(y, f"expected true or false, got {_describe(y.value)}")
+        return y.value
+
+
+def _describe(value) -> str:
+    if isinstance(value, dict):
+        return "a mapping"
+    if isinstance(value, list):
+        return "a list"
+    if value is None:
+        return "nothing (null)"
+    if isinstance(value, bool):
+        return f"the boolean {str(value).lower()}"
+    return f"{value!r}"
+
+
+# ----------------------------------------------------------------------------------------------
+# stacking codes
+
+
+class LayupSyntaxError(ValueError):
+    """A stacking code cannot be read; ``position`` is the 0-based index in the code."""
+
+    def __init__(self, code: str, position: int, problem: str):
+        self.code, self.position, self.problem = code, position, problem
+        found = repr(code[position]) if position < len(code) else "the end"
+        super().__init__(f"cannot read the stacking code {code!r}: {problem} at character "
+                         f"{position + 1}, found {found} (…{code[max(0, position - 8):position]}"
+                         f"⟨here⟩{code[position:position + 8]}…)")
+
+
+_TAG_COLON = re.compile(r"[A-Za-z][A-Za-z0-9_.\-]*")
+_TAG_LETTERS = re.compile(r"[A-Za-z]+")
+_ANGLE = re.compile(r"\d+(?:\.\d*)?|\.\d+")
+_SIGNS = (("±", (1, -1)), ("∓", (-1, 1)), ("+-", (1, -1)), ("-+", (-1, 1)), ("+", (1,)),
+          ("-", (-1,)))
+
+
+class _LayupParser:
+    """Recursive-descent reader of stacking codes (grammar in the module docstring)."""
+
+    def __init__(self, code: str):
+        self.code = code
+        self.i = 0
+
+    def fail(self, problem: str, position: int | None = None):
+        raise LayupSyntaxError(self.code, self.i if position is None else position, problem)
+
+    def peek(self, n: int = 1) -> str:
+        return self.code[self.i:self.i + n]
+
+    def skip_space(self):
+        while self.i < len(self.code) and self.code[self.i].isspace():
+            self.i += 1
+
+    def parse(self) -> list[tuple[float, str | None]]:
+        self.skip_space()
+        if not self.code.strip():
+            self.fail("the code is empty; expected plies like [0/90]s")
+        if self.peek() == "[":
+            self.i += 1
+            plies = self.sequence()
+            self.skip_space()
+            if self.peek() != "]":
+                self.fail("expected '/' or the closing ']'")
+            self.i += 1
+            plies = self.suffix(plies, symmetric_allowed=True)
+        else:
+            plies = self.sequence()
+        self.skip_space()
+        if self.i < len(self.code):
+            self.fail("unexpected text after the end of the code")
+        return plies
+
+    def sequence(self) -> list:
+        plies = self.item()
+        while True:
+            self.skip_space()
+            if self.peek() in ("/", ",") and self.peek():
+                self.i += 1
+                plies = plies + self.item()
+            else:
+                return plies
+
+    def item(self) -> list:
+        self.skip_space()
+        if self.peek() == "(":
+            self.i += 1
+            plies = self.sequence()
+            self.skip_space()
+            if self.peek() != ")":
+                self.fail("expected '/' or the closing ')'")
+            self.i += 1
+            return self.suffix(plies, symmetric_allowed=True)
+        return self.angle_item()
+
+    def angle_item(self) -> list:
+        start = self.i
+        signs = (1,)
+        for text, value in _SIGNS:
+            if self.code.startswith(text, self.i):
+                signs = value
+                self.i += len(text)
+                break
+        match = _ANGLE.match(self.code, self.i)
+        if match is None:
+            self.fail("expected a ply angle in degrees (like 45, -45, ±45) or a group '(...)'")
+        angle = float(match.group())
+        self.i = match.end()
+        if self.peek() == "°":
+            self.i += 1
+        if angle > 360:
+            self.fail(f"ply angle {angle:g} is outside -360..360 degrees", start)
+        plies = [(s * angle + 0.0, None) for s in signs]
+        return self.suffix(plies, symmetric_allowed=False)
+
+    def count(self) -> int | None:
+        match = re.compile(r"\d+").match(self.code, self.i)
+        if match is None:
+            return None
+        n = int(match.group())
+        if n < 1:
+            self.fail("a repeat count must be at least 1")
+        self.i = match.end()
+        return n
+
+    def suffix(self, plies: list, symmetric_allowed: bool) -> list:
+        """Optional ``_n`` or ``n`` repeat, ``s`` mirror (groups only) and material tag."""
+        underscore = self.peek() == "_"
+        if underscore:
+            self.i += 1
+        n = self.count()
+        if n is not None:
+            if len(plies) * n > MAX_PLIES:
+                self.fail(f"the code expands to more than {MAX_PLIES} plies")
+            plies = plies * n
+        symmetric = False
+        if symmetric_allowed and self.peek() in ("s", "S") and \
+                not self.code[self.i + 1:self.i + 2].isalnum():
+            self.i += 1
+            symmetric = True
+            plies = plies + plies[::-1]
+        if underscore and n is None and not symmetric:
+            self.fail("expected a repeat count (like _3) or s after '_'")
+        if len(plies) > MAX_PLIES:
+            self.fail(f"the code expands to more than {MAX_PLIES} plies")
+        tag = None
+        if self.peek() == ":":
+            self.i += 1
+            match = _TAG_COLON.match(self.code, self.i)
+            if match is None:
+                self.fail("expected a material name after ':'")
+            tag = match.group()
+            self.i = match.end()
+        elif not symmetric_allowed:
+            match = _TAG_LETTERS.match(self.code, self.i)
+            if match is not None:
+                tag = match.group()
+                self.i = match.end()
+        if tag is not None:
+            plies = [(angle, own if own is not None else tag) for angle, own in plies]
+        return plies
+
+
+def expand_layup(code: str) -> list[tuple[float, str | None]]:
+    """Expand a stacking code into ``(angle_deg, material_tag or None)`` per ply, bottom first.
+
+    >>> [a for a, _ in expand_layup("[±45/0]s")]
+    [45.0, -45.0, 0.0, 0.0, -45.0, 45.0]
+    >>> expand_layup("[0c/90_2g]")
+    [(0.0, 'c'), (90.0, 'g'), (90.0, 'g')]
+
+    Raises
+    ------
+    LayupSyntaxError
+        With the position of the problem in the code.
+    """
+    return _LayupParser(code).parse()
+
+
+def _resolve_tag(tag: str, names) -> str | None:
+    """Material named by a layup tag: exact name, else unique beginning, else unique ignoring case."""
+    names = list(names)
+    if tag in names:
+        return tag
+    for candidates in ([n for n in names if n.startswith(tag)],
+                       [n for n in names if n.lower() == tag.lower()],
+                       [n for n in names if n.lower().startswith(tag.lower())]):
+        if len(candidates) == 1:
+            return candidates[0]
+        if len(candidates) > 1:
+            return None
+    return None
+
+
+# ----------------------------------------------------------------------------------------------
+# sections
+
+
+def _read_geometry(r: _Reader, y: _Y) -> tuple[float, float, float]:
+    g = r.mapping(y, required=("a", "b", "h"))
+    a, b, h = (r.positive(g[k], "length") for k in ("a", "b", "h"))
+    if h >= min(a, b):
+        raise r.error(g["h"], f"the thickness h = {h * 1e3:g} mm must be smaller than the sides "
+                              f"a = {a * 1e3:g} mm and b = {b * 1e3:g} mm")
+    return a, b, h
+
+
+def _read_material(r: _Reader, name: str, y: _Y) -> Material:
+    m = r.mapping(y, required=CONSTANT_NAMES, optional=_MATERIAL_KEYS[len(CONSTANT_NAMES):],
+                  what=f"a mapping of the constants of material '{name}'")
+    values = {k: r.quantity(m[k], "modulus") for k in _MODULI}
+    values["nu12"] = r.quantity(m["nu12"], "dimensionless")
+    constants = ElasticConstants(**values)
+    reasons = infeasibility_reasons(constants)
+    if reasons:
+        raise r.error(y, "constants not physically admissible (paper Eq. 22): "
+                         + "; ".join(reasons))
+    density = r.positive(m["density"], "density") if "density" in m else None
+    ratio = r.positive(m["density_ratio"], "dimensionless") if "density_ratio" in m else None
+    if density is not None and ratio is not None:
+        raise r.error(m["density_ratio"], "give either density or density_ratio, not both")
+    fixed: tuple[str, ...] = ()
+    if "fixed" in m:
+        items = m["fixed"].value if isinstance(m["fixed"].value, list) else [m["fixed"]]
+        names = []
+        for item in items:
+            text = r.string(item)
+            if text not in CONSTANT_NAMES:
+                guess = _closest(text, CONSTANT_NAMES)
+                hint = f"; did you mean '{guess}'?" if guess else ""
+                raise r.error(item, f"'{text}' is not a constant{hint} (constants: "
+                                    f"{', '.join(CONSTANT_NAMES)})")
+            if text not in names:
+                names.append(text)
+        fixed = tuple(names)
+    prior: dict[str, float] = {}
+    if "prior" in m:
+        entries = r.mapping(m["prior"], optional=CONSTANT_NAMES)
+        for key, item in entries.items():
+            value = r.quantity(item, "dimensionless")
+            if value < 0:
+                raise r.error(item, f"a prior weight must not be negative, got {value:g}")
+            prior[key] = value
+    return Material(name=name, constants=constants, density=density, fixed=fixed, prior=prior,
+                    density_ratio=ratio)
+
+
+def _read_plies(r: _Reader, top: dict, root: _Y, h: float,
+                materials: dict[str, Material]) -> tuple[Ply, ...]:
+    names = list(materials)
+    if ("layup" in top) == ("plies" in top):
+        which = "both" if "layup" in top else "neither"
+        raise r.error(root, f"give exactly one of 'layup' (a stacking code) and 'plies' (a list "
+                            f"of plies); the file has {which}", "layup")
+    own_thickness: list[float | None] = []
+    raw: list[tuple[float, str | None, _Y]] = []   # angle, tag, where
+    if "layup" in top:
+        y = top["layup"]
+        if isinstance(y.value, list):   # layup: [0, 90, 90, 0] or an unquoted [0/90]
+            code = "[" + "/".join(r.string(item) for item in y.value) + "]"
+        else:
+            code = r.string(y)
+        try:
+            expanded = expand_layup(code)
+        except LayupSyntaxError as exc:
+            raise r.error(y, str(exc)) from exc
+        raw = [(angle, tag, y) for angle, tag in expanded]
+        own_thickness = [None] * len(raw)
+    else:
+        y = top["plies"]
+        items = r.sequence(y, "a list of plies ({angle: 45, material: ..., thickness: ...})")
+        if not items:
+            raise r.error(y, "the list of plies is empty")
+        if len(items) > MAX_PLIES:
+            raise r.error(y, f"more than {MAX_PLIES} plies")
+        for item in items:
+            p = r.mapping(item, required=("angle",), optional=("material", "thickness"),
+                          what="a ply mapping {angle: ..., material: ..., thickness: ...}")
+            angle = r.quantity(p["angle"], "angle")
+            if abs(angle) > 360:
+                raise r.error(p["angle"], f"ply angle {angle:g} deg is outside -360..360")
+            tag = r.string(p["material"]) if "material" in p else None
+            raw.append((angle, tag, p.get("material", item)))
+            own_thickness.append(r.positive(p["thickness"], "length") if "thickness" in p
+                                 else None)
+
+    # materials of the plies
+    ply_materials = []
+    for k, (angle, tag, y) in enumerate(raw):
+        if tag is None:
+            if len(names) > 1:
+                raise r.error(y, f"ply {k + 1} ({angle:g} deg) has no material and the specimen "
+                                 f"has several ({', '.join(names)}); tag it, e.g. "
+                                 f"{angle:g}:{names[0]}")
+            ply_materials.append(names[0])
+            continue
+        found = _resolve_tag(tag, names)
+        if found is None:
+            guess = _closest(tag, names)
+            hint = f"; did you mean '{guess}'?" if guess else ""
+            raise r.error(y, f"ply {k + 1} uses material '{tag}', which is not one (or not an "
+                             f"unambiguous beginning of one) of the materials "
+                             f"({', '.join(names)}){hint}")
+        ply_materials.append(found)
+    unused = [n for n in names if n not in ply_materials]
+    if unused:
+        raise r.error(top["materials"], f"material '{unused[0]}' is defined but no ply uses it",
+                      f"materials.{unused[0]}")
+
+    thickness = _ply_thicknesses(r, top, root, h, ply_materials, own_thickness, names)
+    return tuple(Ply(material=m, angle_deg=float(angle), thickness=float(t))
+                 for (angle, _, _), m, t in zip(raw, ply_materials, thickness))
+
+
+def _ply_thicknesses(r: _Reader, top: dict, root: _Y, h: float, ply_materials: list[str],
+                     own: list[float | None], names: list[str]) -> np.ndarray:
+    n = len(ply_materials)
+    scale = r.boolean(top["scale_thickness"]) if "scale_thickness" in top else False
+    nominal: dict[str, float] | None = None
+    if "ply_thickness" in top:
+        y = top["ply_thickness"]
+        if isinstance(y.value, dict):
+            entries = r.mapping(y, optional=names)
+            nominal = {k: r.positive(v, "length") for k, v in entries.items()}
+        else:
+            value = r.positive(y, "length")
+            nominal = {name: value for name in names}
+    given = [t is not None for t in own]
+    if all(given) or nominal is not None:
+        t = []
+        for k, (tk, m) in enumerate(zip(own, ply_materials)):
+            if tk is None:
+                if m not in nominal:
+                    raise r.error(top["ply_thickness"], f"no thickness for material '{m}' "
+                                  f"(ply {k + 1})", f"ply_thickness.{m}")
+                tk = nominal[m]
+            t.append(tk)
+        t = np.array(t)
+    elif any(given):
+        raise r.error(top["plies"], "give a thickness for every ply or for none (then the plies "
+                                    "share h equally, or use ply_thickness)")
+    else:
+        if scale:
+            log.debug("scale_thickness without ply thicknesses: plies share h equally")
+        return np.full(n, h / n)
+    total = float(t.sum())
+    if scale:
+        return t * (h / total)
+    if abs(total - h) > THICKNESS_TOLERANCE * h:
+        where = top.get("ply_thickness", top.get("plies", root))
+        raise r.error(where, f"the ply thicknesses add up to {total * 1e3:.4g} mm but h = "
+                             f"{h * 1e3:.4g} mm (tolerance {THICKNESS_TOLERANCE:.1%} of h); fix "
+                             "them or set scale_thickness: true to scale them to h")
+    return t * (h / total)   # remove the small rounding difference so the plies fill h
+
+
+def _resolve_densities(r: _Reader, top: dict, root: _Y, a: float, b: float, h: float,
+                       mass: float | None, materials: dict[str, Material],
+                       plies: tuple[Ply, ...]) -> dict[str, float]:
+    absolute = {n: m.density for n, m in materials.items() if m.density is not None}
+    ratios = {n: m.density_ratio for n, m in materials.items() if m.density_ratio is not None}
+    missing = [n for n in materials if n not in absolute and n not in ratios]
+    if "scale_density_to_mass" in top:
+        scale = r.boolean(top["scale_density_to_mass"])
+    else:
+        scale = mass is not None and len(absolute) < len(materials)
+    if len(materials) == 1 and missing:
+        if mass is None:
+            raise r.error(root, "no density for the material and no mass to compute it from; "
+                                "give mass (kg) or materials.<name>.density", "mass")
+        (name,) = materials
+        return {name: mass / (a * b * h)}
+    if missing:
+        raise r.error(top["materials"], f"material '{missing[0]}' has no density: a specimen "
+                      "with several materials needs a density or a density_ratio for each",
+                      f"materials.{missing[0]}.density")
+    if not scale:
+        if ratios:
+            name = next(iter(ratios))
+            raise r.error(top["materials"], "density_ratio gives relative densities only; set "
+                          "scale_density_to_mass: true and give the mass, or give densities",
+                          f"materials.{name}.density_ratio")
+        return dict(absolute)
+    if mass is None:
+        raise r.error(root, "scaling the densities to the mass needs the mass", "mass")
+    relative = {n: absolute.get(n, ratios.get(n)) for n in materials}
+    per_area = sum(relative[p.material] * p.thickness for p in plies)
+    factor = mass / (a * b * per_area)
+    if absolute and ratios:
+        log.info("%s: densities and density ratios mixed; all are scaled as relative values",
+                 r.path)
+    return {n: relative[n] * factor for n in materials}
+
+
+def _read_measured(r: _Reader, y: _Y) -> Measured:
+    m = r.mapping(y, required=("frequencies",), optional=("weights", "sigma"))
+    items = r.sequence(m["frequencies"], "a list of frequencies in Hz (null where not detected)")
+    if not items:
+        raise r.error(m["frequencies"], "the list of frequencies is empty")
+    freq = np.full(len(items), np.nan)
+    previous = None
+    for k, item in enumerate(items):
+        if item.value is None:
+            continue
+        value = r.quantity(item, "frequency")
+        if value <= 0:
+            raise r.error(item, f"a natural frequency must be positive, got {item.value!r}")
+        if previous is not None and value <= freq[previous]:
+            raise r.error(item, f"frequencies must increase: mode {k + 1} ({value:g} Hz) is not "
+                                f"above mode {previous + 1} ({freq[previous]:g} Hz)")
+        freq[k] = value
+        previous = k
+    if previous is None:
+        raise r.error(m["frequencies"], "every frequency is null; at least one is needed")
+    n = len(items)
+    weight = np.ones(n)
+    if "weights" in m:
+        w_items = r.sequence(m["weights"], "a list of weights in [0, 1]")
+        if len(w_items) != n:
+            raise r.error(m["weights"], f"{len(w_items)} weights for {n} frequencies; give one "
+                                        "per frequency")
+        for k, item in enumerate(w_items):
+            value = r.quantity(item, "dimensionless")
+            if not 0.0 <= value <= 1.0:
+                raise r.error(item, f"a weight must be in [0, 1], got {value:g}")
+            weight[k] = value
+    weight[np.isnan(freq)] = 0.0
+    sigma = None
+    if "sigma" in m:
+        s_items = r.sequence(m["sigma"], "a list of standard deviations in Hz")
+        if len(s_items) != n:
+            raise r.error(m["sigma"], f"{len(s_items)} sigma values for {n} frequencies; give "
+                                      "one per frequency (null where unknown)")
+        sigma = np.full(n, np.nan)
+        for k, item in enumerate(s_items):
+            if item.value is None:
+                continue
+            value = r.quantity(item, "frequency")
+            if value <= 0:
+                raise r.error(item, f"a standard deviation must be positive, got {item.value!r}")
+            sigma[k] = value
+        sigma[np.isnan(freq)] = np.nan
+    for array in (freq, weight, sigma):
+        if array is not None:
+            array.flags.writeable = False
+    return Measured(freq=freq, weight=weight, sigma=sigma)
+
+
+def _reference_value(r: _Reader, y: _Y, kind: str, intervals: dict, key: str) -> float:
+    if isinstance(y.value, list):
+        if len(y.value) != 2:
+            raise r.error(y, "a range is written [low, high]")
+        low, high = (r.quantity(item, kind) for item in y.value)
+        if low > high:
+            raise r.error(y, f"range [{low:g}, {high:g}] has low > high")
+        intervals[key] = (low, high)
+        return 0.5 * (low + high)
+    return r.quantity(y, kind)
+
+
+def _read_reference(r: _Reader, y: _Y, materials: dict[str, Material]) -> dict:
+    ref = {"source": "", "materials": {}, "global": {}, "intervals": {}}
+    m = r.mapping(y, optional=("source", "materials", "global"))
+    if "source" in m:
+        ref["source"] = r.string(m["source"])
+    if "materials" in m:
+        for name, entry in r.mapping(m["materials"], optional=list(materials)).items():
+            values = {}
+            for key, item in r.mapping(entry, optional=CONSTANT_NAMES).items():
+                kind = "dimensionless" if key == "nu12" else "modulus"
+                values[key] = _reference_value(r, item, kind, ref["intervals"],
+                                               f"materials.{name}.{key}")
+            ref["materials"][name] = values
+    if "global" in m:
+        for key, item in r.mapping(m["global"], optional=GLOBAL_NAMES).items():
+            kind = "dimensionless" if key.startswith("nu") else "modulus"
+            ref["global"][key] = _reference_value(r, item, kind, ref["intervals"],
+                                                  f"global.{key}")
+    for key, (low, _) in ref["intervals"].items():
+        if not key.split(".")[-1].startswith("nu") and low <= 0:
+            raise r.error(y, f"reference modulus must be positive, got {low:g}",
+                          f"reference.{key}")
+    return ref
+
+
+# ----------------------------------------------------------------------------------------------
+# entry points
+
+
+def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
+    """Read and validate a specimen from YAML text (``path`` is used in messages only).
+
+    Raises
+    ------
+    SpecimenError
+        ``path:line, field 'x.y': problem`` for anything invalid.
+    """
+    path = str(path)
+    root = _compose(text, path)
+    r = _Reader(path)
+    top = r.mapping(root, required=("geometry", "materials"), optional=[
+        k for k in _TOP_KEYS if k not in ("geometry", "materials")],
+        what="a mapping with name, geometry, materials, layup, measured, ... at the top level")
+
+    name = r.string(top["name"]) if "name" in top else Path(path).stem
+    description = r.string(top["description"]) if "description" in top else ""
+    a, b, h = _read_geometry(r, top["geometry"])
+    mass = r.positive(top["mass"], "mass") if "mass" in top else None
+
+    entries = r.mapping(top["materials"], what="a mapping of material names to constants",
+                        any_key=True)
+    if not entries:
+        raise r.error(top["materials"], "no material defined")
+    materials = {name_: _read_material(r, name_, y) for name_, y in entries.items()}
+
+    boundary = "free"
+    if "boundary" in top:
+        boundary = r.string(top["boundary"]).strip().lower()
+        if boundary not in BOUNDARIES:
+            guess = _closest(boundary, BOUNDARIES)
+            hint = f"; did you mean '{guess}'?" if guess else ""
+            raise r.error(top["boundary"], f"unknown boundary condition '{boundary}'{hint} "
+                                           f"(valid: {', '.join(BOUNDARIES)})")
+
+    plies = _read_plies(r, top, root, h, materials)
+    densities = _resolve_densities(r, top, root, a, b, h, mass, materials, plies)
+    measured = _read_measured(r, top["measured"]) if "measured" in top else None
+    reference = (_read_reference(r, top["reference"], materials) if "reference" in top else
+                 {"source": "", "materials": {}, "global": {}, "intervals": {}})
+
+    specimen = Specimen(name=name, path=path, source_text=text, a=a, b=b, h=h, mass=mass,
+                        materials=materials, plies=plies, densities=densities,
+                        measured=measured, reference=reference, boundary=boundary,
+                        description=description)
+    if mass is not None:
+        model = specimen.model_mass
+        if abs(model - mass) > 0.02 * mass:
+            log.warning("%s: the model mass %.4g kg differs from the measured mass %.4g kg by "
+                        "%.1f %%", path, model, mass, 100 * (model - mass) / mass)
+    return specimen
+
+
+def read_specimen(path) -> Specimen:
+    """Read a specimen YAML file (UTF-8) and validate it; see :func:`load_specimen_text`."""
+    name = str(path)
+    p = Path(path)
+    try:
+        data = p.read_bytes()
+    except FileNotFoundError as exc:
+        raise SpecimenError("file not found", path=name) from exc
+    except IsADirectoryError as exc:
+        raise SpecimenError("is a folder, not a specimen file", path=name) from exc
+    except OSError as exc:
+        raise SpecimenError(f"cannot read the file: {exc.strerror or exc}", path=name) from exc
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = data[:exc.start].count(b"\n") + 1
+        raise SpecimenError(f"not UTF-8 text (byte 0x{data[exc.start]:02x} at byte "
+                            f"{exc.start + 1}); save the file as UTF-8", path=name,
+                            line=line) from exc
+    if not text.strip():
+        raise SpecimenError("the file is empty; expected a mapping with geometry, materials, "
+                            "layup, ...", path=name)
+    return load_specimen_text(text, name)

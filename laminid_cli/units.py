@@ -1,0 +1,180 @@
+"""Quantities written with units in specimen files: ``"210.5 mm"``, ``"117.2 GPa"``, ``"45 deg"``.
+
+Everything inside laminid is SI (m, Pa, kg, kg/m^3, Hz); units are converted here, at the edge.
+A bare number is taken in the base unit of its kind:
+
+============  ==========  ======================================================
+kind          base unit   accepted units
+============  ==========  ======================================================
+length        m           m, cm, mm, um (µm), in
+modulus       Pa          Pa, kPa, MPa, GPa, psi, ksi, Msi   (alias: pressure)
+mass          kg          kg, g, lb
+density       kg/m^3      kg/m^3 (kg/m3, kg/m³), g/cm^3 (g/cm3, g/cm³)
+frequency     Hz          Hz, kHz
+angle         deg         deg (°), rad
+dimensionless 1           none
+============  ==========  ======================================================
+
+Angles are the one exception to "bare numbers are SI": ply angles are written in degrees in
+laminid files and stacking codes (as in the paper), so a bare angle is in degrees and
+:func:`parse_quantity` returns degrees for ``kind="angle"``.
+
+Unit names are matched exactly first, then ignoring case when that is unambiguous within the
+kind (``"gpa"`` is GPa, ``"MM"`` is mm).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+from laminid_cli.errors import SpecimenError
+
+_PSI = 6894.757293168361  # Pa, exact from the international pound and inch
+
+#: unit -> factor to the base unit, per kind; the first unit of each kind is the base unit
+UNITS: dict[str, dict[str, float]] = {
+    "length": {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "μm": 1e-6,
+               "in": 0.0254},
+    "modulus": {"Pa": 1.0, "kPa": 1e3, "MPa": 1e6, "GPa": 1e9, "psi": _PSI, "ksi": 1e3 * _PSI,
+                "Msi": 1e6 * _PSI},
+    "mass": {"kg": 1.0, "g": 1e-3, "lb": 0.45359237},
+    "density": {"kg/m^3": 1.0, "kg/m3": 1.0, "kg/m³": 1.0, "g/cm^3": 1e3, "g/cm3": 1e3,
+                "g/cm³": 1e3},
+    "frequency": {"Hz": 1.0, "kHz": 1e3},
+    "angle": {"deg": 1.0, "°": 1.0, "rad": 180.0 / math.pi},
+    "dimensionless": {},
+}
+_ALIASES = {"pressure": "modulus", "stress": "modulus", "ratio": "dimensionless"}
+#: unit used to show a quantity of each kind to a user
+DISPLAY_UNITS = {"length": "mm", "modulus": "GPa", "mass": "kg", "density": "kg/m^3",
+                 "frequency": "Hz", "angle": "deg", "dimensionless": ""}
+# units that are spellings of another one, left out of "accepted units" lists
+_SPELLINGS = {"µm", "μm", "kg/m3", "kg/m³", "g/cm3", "g/cm³", "°"}
+
+_NUMBER = re.compile(r"\s*([+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?)\s*(.*?)\s*\Z", re.S)
+
+
+@dataclass(frozen=True)
+class Where:
+    """Where a value was read: file, dotted field name and 1-based line (for error messages)."""
+
+    path: str | None = None
+    field: str | None = None
+    line: int | None = None
+
+    def error(self, message: str) -> SpecimenError:
+        return SpecimenError(message, path=self.path, field=self.field, line=self.line)
+
+
+def canonical_kind(kind: str) -> str:
+    """``kind`` with aliases resolved (``pressure`` -> ``modulus``); ValueError if unknown."""
+    kind = _ALIASES.get(kind, kind)
+    if kind not in UNITS:
+        raise ValueError(f"unknown quantity kind {kind!r}; expected one of "
+                         f"{', '.join(list(UNITS) + list(_ALIASES))}")
+    return kind
+
+
+def accepted_units(kind: str) -> str:
+    """Human-readable list of the units accepted for ``kind``."""
+    kind = canonical_kind(kind)
+    names = [u for u in UNITS[kind] if u not in _SPELLINGS]
+    if not names:
+        return "a plain number (no unit)"
+    base = names[0]
+    return ", ".join(names) + f" (a bare number is {base})"
+
+
+def _lookup_unit(unit: str, kind: str) -> float | None:
+    table = UNITS[kind]
+    if unit in table:
+        return table[unit]
+    folded = [u for u in table if u.lower() == unit.lower()]
+    if len({table[u] for u in folded}) == 1:
+        return table[folded[0]]
+    return None
+
+
+def _kind_of_unit(unit: str) -> str | None:
+    for kind in UNITS:
+        if _lookup_unit(unit, kind) is not None:
+            return kind
+    return None
+
+
+def parse_quantity(value, kind: str, *, where: Where | None = None) -> float:
+    """Convert a number or a ``"<number> <unit>"`` string to the base unit of ``kind``.
+
+    Parameters
+    ----------
+    value : int, float or str
+        ``3.06e-3``, ``"3.06 mm"``, ``"3.06mm"``, ``"117.2 GPa"``. Booleans, None and
+        non-finite numbers are refused.
+    kind : str
+        ``length``, ``modulus`` (or ``pressure``), ``mass``, ``density``, ``frequency``,
+        ``angle`` (returns degrees) or ``dimensionless``.
+    where : Where, optional
+        File, field and line quoted in the error message.
+
+    Returns
+    -------
+    float
+        The value in SI (degrees for angles).
+
+    Raises
+    ------
+    SpecimenError
+        Wrong or unknown unit, not a number; the message lists the accepted units.
+
+    Examples
+    --------
+    >>> parse_quantity("210.5 mm", "length")
+    0.2105
+    >>> parse_quantity("1570 kg/m^3", "density")
+    1570.0
+    >>> parse_quantity(0.35, "dimensionless")
+    0.35
+    """
+    kind = canonical_kind(kind)
+    where = where or Where()
+    expected = f"expected a {kind} in {accepted_units(kind)}"
+    if kind == "dimensionless":
+        expected = "expected a plain number (no unit)"
+    if isinstance(value, bool) or value is None:
+        what = "nothing" if value is None else f"the boolean {value}"
+        raise where.error(f"got {what}; {expected}")
+    if isinstance(value, (int, float)):
+        number, unit = float(value), ""
+    elif isinstance(value, str):
+        match = _NUMBER.match(value)
+        if match is None:
+            raise where.error(f"cannot read {value!r} as a number with a unit; {expected}")
+        number, unit = float(match.group(1)), match.group(2)
+    else:
+        raise where.error(f"got {type(value).__name__} {value!r}; {expected}")
+    if not math.isfinite(number):
+        raise where.error(f"got {value!r}, which is not a finite number; {expected}")
+    if not unit:
+        return number
+    factor = _lookup_unit(unit, kind)
+    if factor is None:
+        other = _kind_of_unit(unit)
+        if other is not None:
+            noun = "plain number" if kind == "dimensionless" else kind
+            raise where.error(f"{value!r} is a {other}, not a {noun}; {expected}")
+        raise where.error(f"unknown unit {unit!r} in {value!r}; {expected}")
+    return number * factor
+
+
+def format_quantity(value: float, kind: str, digits: int = 4) -> str:
+    """``value`` (SI; degrees for angles) written in the display unit of ``kind``.
+
+    >>> format_quantity(117.2e9, "modulus")
+    '117.2 GPa'
+    """
+    kind = canonical_kind(kind)
+    unit = DISPLAY_UNITS[kind]
+    number = value / UNITS[kind][unit] if unit else value
+    return f"{number:.{digits}g} {unit}".rstrip()
