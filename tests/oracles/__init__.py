@@ -1,0 +1,1 @@
+"""Independent closed-form references used to verify laminid's numerical models."""
