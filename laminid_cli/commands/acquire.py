@@ -1,0 +1,177 @@
+"""``laminid acquire``: impact-test FRFs from a dynamic signal analyser into an FRF HDF5 file.
+
+Thin glue: options -> :class:`~laminid_cli.instrument.base.AcquisitionSettings`, the driver
+from :mod:`laminid_cli.instrument.registry`, the workflow in
+:func:`laminid_cli.instrument.session.run_session`, the file through
+:class:`laminid_cli.frf.store.FrfWriter`. pyvisa, numpy and h5py are imported inside the
+command so ``laminid --help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import shlex
+from pathlib import Path
+
+import click
+
+from laminid_cli.commands._common import check_output_path, force_option
+
+
+class _ClickUI:
+    """Operator dialogue on the terminal (the session itself never touches click)."""
+
+    def __init__(self, path: Path):
+        self.path = path
+        self._progress_shown = False
+
+    def _end_progress(self):
+        if self._progress_shown:
+            click.echo("", err=True)
+            self._progress_shown = False
+
+    def ready(self, label, index, total):
+        self._end_progress()
+        answer = click.prompt(
+            f"Point {label} ({index}/{total}): press Enter, then hit the plate "
+            "[s = skip, q = quit]", default="", show_default=False).strip().lower()
+        return {"s": "skip", "skip": "skip", "q": "quit", "quit": "quit"}.get(answer, "go")
+
+    def progress(self, label, index, total, hits, n_averages):
+        done = "?" if hits < 0 else str(min(hits, n_averages))
+        running = n_averages if hits >= n_averages else (hits + 1 if hits >= 0 else "?")
+        text = (f"point {label} ({index}/{total}): {done}/{n_averages} hits averaged"
+                + ("" if hits >= n_averages else f", waiting for hit {running}"))
+        click.echo(f"\r{text:<70}", nl=False, err=True)
+        self._progress_shown = True
+
+    def summary(self, quality):
+        self._end_progress()
+        click.echo(quality.line())
+
+    def repeat(self, quality):
+        return click.confirm(f"Repeat point {quality.label}?", default=True)
+
+
+def _resume_command(params: dict, output: Path) -> str:
+    args = ["laminid", "acquire", "--analyser", params["analyser"]]
+    for name, flag in (("model", "--model"), ("visa_backend", "--visa-backend"),
+                       ("span", "--span"), ("start", "--start"), ("lines", "--lines"),
+                       ("averages", "--averages"), ("trigger_level", "--trigger-level"),
+                       ("pretrigger", "--pretrigger"), ("force_window", "--force-window"),
+                       ("exp_window", "--exp-window"), ("points", "--points"),
+                       ("coherence_min", "--coherence-min"), ("units", "--units")):
+        value = params.get(name)
+        if value is not None:
+            args += [flag, f"{value:g}" if isinstance(value, float) else str(value)]
+    if not params.get("configure", True):
+        args.append("--keep-setup")
+    if params.get("no_prompt"):
+        args.append("--no-prompt")
+    args += ["-o", str(output), "--resume"]
+    return shlex.join(args)
+
+
+@click.command(short_help="Acquire impact-test FRFs from a dynamic signal analyser (VISA).")
+@click.option("--analyser", "analyser", required=True, metavar="RESOURCE",
+              help="VISA resource: GPIB0::5, GPIB0::5::INSTR, TCPIP::host::5025::SOCKET, ...")
+@click.option("--model", default="auto", show_default=True,
+              help="Analyser driver: auto (from *IDN?), 35670A or SR785.")
+@click.option("--visa-backend", default=None, metavar="BACKEND",
+              help="pyvisa backend: @py (pyvisa-py, default), @ivi (NI/Keysight VISA), "
+                   "file.yaml@sim. Default from $LAMINID_VISA_BACKEND.")
+@click.option("--timeout", default=5.0, show_default=True, type=click.FloatRange(min=0.01),
+              help="Seconds the analyser may take to answer one query.")
+@click.option("--span", default=1600.0, show_default=True, type=float, help="Span, Hz.")
+@click.option("--start", default=0.0, show_default=True, type=float,
+              help="Start frequency, Hz.")
+@click.option("--lines", default=800, show_default=True, type=int,
+              help="FFT resolution lines.")
+@click.option("--averages", default=5, show_default=True, type=click.IntRange(min=1),
+              help="Hits averaged per point.")
+@click.option("--trigger-level", default=10.0, show_default=True, type=float,
+              help="Channel-1 (hammer) trigger level, % of input range.")
+@click.option("--pretrigger", default=0.005, show_default=True, type=float,
+              help="Time recorded before the trigger, s.")
+@click.option("--force-window", default=0.01, show_default=True, type=float,
+              help="Force-window width on channel 1, s.")
+@click.option("--exp-window", default=0.1, show_default=True, type=float,
+              help="Exponential-window time constant on channel 2, s.")
+@click.option("--points", default=1, show_default=True, type=click.IntRange(min=1),
+              help="Number of measurement points (labels 1..N).")
+@click.option("--coherence-min", default=0.9, show_default=True,
+              type=click.FloatRange(0, 1), help="Coherence at resonances below which a point "
+                                                "is flagged poor (and may be repeated).")
+@click.option("--units", default=None, metavar="UNITS",
+              help="FRF engineering units to record, e.g. Pa/N (microphone) or (m/s^2)/N "
+                   "(accelerometer); default V/V (ratio of the input voltages).")
+@click.option("--no-prompt", is_flag=True,
+              help="Do not ask before each point; just wait for the hits.")
+@click.option("--configure/--keep-setup", default=True, show_default=True,
+              help="Send the set-up to the analyser, or keep the one on its front panel.")
+@click.option("--resume", is_flag=True, help="Continue an interrupted file: measure the "
+                                             "points it does not have yet.")
+@force_option
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
+              help="FRF HDF5 file to write (point by point).")
+@click.pass_context
+def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, averages,
+            trigger_level, pretrigger, force_window, exp_window, points, coherence_min, units,
+            no_prompt, configure, resume, force, output):
+    """Acquire impact-test FRFs (ch2/ch1) and coherence from a dynamic signal analyser.
+
+    Hammer force on channel 1, microphone or accelerometer on channel 2 (paper section 3).
+    For each measurement point the analyser averages the hits, laminid reads FRF and coherence,
+    prints a one-line quality summary and saves the point at once: an interrupted session
+    keeps every finished point, and --resume continues it.
+
+    \b
+    Example:
+      laminid acquire --analyser GPIB0::5 --span 1600 --lines 800 --averages 5 \\
+          --points 12 --units Pa/N -o plate.frf.h5
+      laminid fit-frf plate.frf.h5 --into plate.yaml
+    """
+    from laminid_cli.frf.store import FrfWriter
+    from laminid_cli.instrument.base import AcquisitionSettings
+    from laminid_cli.instrument.registry import open_analyser
+    from laminid_cli.instrument.session import SessionOptions, run_session
+
+    out = Path(output)
+    resume = resume and out.exists()
+    if not resume:
+        check_output_path(out, force)
+    settings = AcquisitionSettings(
+        span_hz=span, start_hz=start, lines=lines, averages=averages,
+        trigger_level_pct=trigger_level, pretrigger_s=pretrigger, force_window_s=force_window,
+        exp_window_s=exp_window)
+    params = dict(ctx.params)
+    hint = _resume_command(params, out)
+    options = SessionOptions(n_points=points, coherence_min=coherence_min, prompt=not no_prompt,
+                             resume_hint=hint)
+    ui = _ClickUI(out)  # with --no-prompt the session never calls ready() or repeat()
+
+    with open_analyser(analyser, model=model, backend=visa_backend, timeout=timeout) as dsa:
+        click.echo(f"{dsa.MODEL} at {dsa.transport.resource}: {dsa.idn}", err=True)
+        if configure:
+            dsa.configure(settings)
+        else:
+            dsa.prepare_transfer()
+            settings = dsa.read_settings()
+        freq = dsa.read_frequency()
+        attrs = settings.as_attrs()
+        attrs.update(coherence_min=coherence_min, n_points=points, configured=bool(configure),
+                     frf_estimator="H1 (RMS-averaged cross/auto spectra)",
+                     channels="ch1 = hammer force, ch2 = response")
+        writer = FrfWriter(out, freq, units=units or "V/V", settings=attrs,
+                           instrument=dsa.identity(), resume=resume, overwrite=force)
+        if resume:
+            click.echo(f"{out}: resuming, {writer.n_points} of {points} point(s) already "
+                       "measured", err=True)
+        result = run_session(dsa, writer, settings, options, ui)
+
+    if result.complete:
+        click.echo(f"{out}: {result.n_saved} point(s), {freq.size} lines "
+                   f"{freq[0]:g}-{freq[-1]:g} Hz; next: laminid fit-frf {out} --into "
+                   "specimen.yaml", err=True)
+    else:
+        click.echo(f"{out}: {result.n_saved} of {points} point(s) saved; continue with: "
+                   f"{hint}", err=True)

@@ -1,0 +1,257 @@
+"""What every analyser driver offers, and the acquisition settings they share.
+
+A driver (one module per analyser family, e.g. :mod:`.hp35670a`, :mod:`.sr785`) subclasses
+:class:`Analyser`: class attributes list the values the manual allows (``SPANS_HZ``,
+``LINES``), :meth:`Analyser.validate` checks settings against them before anything is sent,
+and the actions are methods (``configure``, ``start``, ``wait_until_done``, ``read_*``).
+The driver sees only a :class:`~laminid_cli.instrument.transport.Transport`, so a scripted
+transport can test it command by command.
+
+Measurement set-up of the paper (Araujo et al. 2000, section 3): hammer force on channel 1,
+microphone/accelerometer on channel 2, FRF = ch2/ch1 (H1, RMS-averaged spectra) and coherence,
+channel-1 level trigger with pre-trigger delay, force window on channel 1, exponential window on
+channel 2.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import asdict, dataclass
+from typing import Callable, ClassVar
+
+import numpy as np
+
+from laminid_cli.errors import InstrumentError
+from laminid_cli.instrument.transport import AnalyserSetupError, Transport
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class AcquisitionSettings:
+    """Analyser settings of an impact test; the unit is in each name (SI).
+
+    Attributes
+    ----------
+    span_hz : frequency span
+    start_hz : start frequency (0 for baseband)
+    lines : FFT resolution lines
+    averages : hits averaged per measurement point
+    trigger_level_pct : channel-1 trigger level, percent of the input range
+    pretrigger_s : time recorded before the trigger (sent as a negative trigger delay)
+    force_window_s : width of the force window on channel 1
+    exp_window_s : time constant of the exponential window on channel 2
+    """
+
+    span_hz: float = 1600.0
+    start_hz: float = 0.0
+    lines: int = 800
+    averages: int = 5
+    trigger_level_pct: float = 10.0
+    pretrigger_s: float = 0.005
+    force_window_s: float = 0.01
+    exp_window_s: float = 0.1
+
+    @property
+    def record_s(self) -> float:
+        """Length of the time record, T = lines / span (s)."""
+        return self.lines / self.span_hz
+
+    def as_attrs(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """One averaged point read from the analyser.
+
+    freq : float (n_freq,), Hz; frf : complex (n_freq,), FRF units; coherence : float
+    (n_freq,), 1; n_averages : hits averaged; overloads : overloaded records seen (-1 unknown)
+    """
+
+    freq: np.ndarray
+    frf: np.ndarray
+    coherence: np.ndarray
+    n_averages: int
+    overloads: int
+
+
+ProgressCallback = Callable[[int, int], None]  # (hits done, hits wanted); hits done -1 = unknown
+
+
+def _fmt_list(values) -> str:
+    return ", ".join(f"{v:g}" for v in values)
+
+
+def format_number(x: float) -> str:
+    """Short, exact-enough decimal for a command string (no binary noise)."""
+    return f"{x:.10g}"
+
+
+class Analyser:
+    """Base class of the drivers; use as a context manager.
+
+    Parameters
+    ----------
+    transport : an open :class:`~laminid_cli.instrument.transport.Transport`
+    idn : the analyser's ``*IDN?`` answer, if already read
+    poll_s : interval between status polls while waiting for the averages
+    """
+
+    #: model name used by ``--model`` and in the file
+    MODEL: ClassVar[str] = ""
+    #: one-line description with the manual the commands come from
+    MANUAL: ClassVar[str] = ""
+    #: spans the analyser offers in two-channel FFT mode, Hz
+    SPANS_HZ: ClassVar[tuple[float, ...]] = ()
+    #: resolution lines it offers
+    LINES: ClassVar[tuple[int, ...]] = ()
+    #: highest frequency of the baseband, Hz (start + span must not exceed it)
+    MAX_FREQ_HZ: ClassVar[float] = math.inf
+
+    def __init__(self, transport: Transport, idn: str | None = None, poll_s: float = 0.05):
+        self.transport = transport
+        self.poll_s = poll_s
+        self._idn = idn
+        self._measuring = False
+
+    # ----------------------------------------------------------------- identity
+    @classmethod
+    def matches(cls, idn: str) -> bool:  # pragma: no cover - overridden
+        """True when an ``*IDN?`` answer belongs to this analyser family."""
+        return False
+
+    @property
+    def idn(self) -> str:
+        """The ``*IDN?`` answer (IEEE 488.2 common command, all analysers)."""
+        if self._idn is None:
+            self._idn = self.transport.query("*IDN?")
+        return self._idn
+
+    def identity(self) -> dict:
+        return {"idn": self.idn, "model": self.MODEL, "resource": self.transport.resource,
+                "manual": self.MANUAL}
+
+    # ---------------------------------------------------------------- validation
+    def validate(self, settings: AcquisitionSettings) -> None:
+        """Raise :class:`AnalyserSetupError` unless the analyser offers these settings."""
+        s = settings
+        if not any(math.isclose(s.span_hz, v, rel_tol=1e-6) for v in self.SPANS_HZ):
+            raise AnalyserSetupError(
+                f"{self.MODEL} does not offer a span of {s.span_hz:g} Hz; spans (Hz): "
+                f"{_fmt_list(self.SPANS_HZ)}")
+        if s.lines not in self.LINES:
+            raise AnalyserSetupError(f"{self.MODEL} does not offer {s.lines} lines; lines: "
+                                     f"{', '.join(str(v) for v in self.LINES)}")
+        if s.start_hz < 0 or s.start_hz + s.span_hz > self.MAX_FREQ_HZ * (1 + 1e-9):
+            raise AnalyserSetupError(
+                f"start {s.start_hz:g} Hz + span {s.span_hz:g} Hz is outside {self.MODEL}'s "
+                f"range 0-{self.MAX_FREQ_HZ:g} Hz")
+        if not 1 <= s.averages <= 9999:
+            raise AnalyserSetupError(f"averages must be 1-9999 (got {s.averages})")
+        if not -100 <= s.trigger_level_pct <= 100:
+            raise AnalyserSetupError(f"trigger level must be within -100..100 % of range "
+                                     f"(got {s.trigger_level_pct:g})")
+        if not 0 <= s.pretrigger_s < s.record_s:
+            raise AnalyserSetupError(f"pretrigger {s.pretrigger_s:g} s must be within the "
+                                     f"time record (0-{s.record_s:g} s)")
+        for name in ("force_window_s", "exp_window_s"):
+            v = getattr(s, name)
+            if not 0 < v <= s.record_s:
+                raise AnalyserSetupError(f"{name.replace('_s', '').replace('_', ' ')} "
+                                         f"{v:g} s must be within the time record "
+                                         f"(0-{s.record_s:g} s = lines/span)")
+
+    # ------------------------------------------------------------------ actions
+    def configure(self, settings: AcquisitionSettings) -> None:  # pragma: no cover
+        raise NotImplementedError
+
+    def prepare_transfer(self) -> None:
+        """Set the data formats the read methods expect (also with ``--keep-setup``)."""
+
+    def read_settings(self) -> AcquisitionSettings:  # pragma: no cover
+        """Settings as the analyser has them (for ``--keep-setup``)."""
+        raise NotImplementedError
+
+    def start(self) -> None:  # pragma: no cover
+        raise NotImplementedError
+
+    def is_done(self) -> bool:  # pragma: no cover
+        raise NotImplementedError
+
+    def hits_done(self) -> int:
+        """Averages completed so far (-1 if the analyser cannot tell)."""
+        return -1
+
+    def wait_until_done(self, n_averages: int, progress: ProgressCallback | None = None) -> None:
+        """Poll the analyser's status until the averaging is complete (never a blind sleep).
+
+        Each poll is a short query, so a dead analyser is caught by the transport timeout
+        while a slow operator (minutes between hits) is not.
+        """
+        last = None
+        while True:
+            done = self.is_done()
+            hits = n_averages if done else self.hits_done()
+            if progress is not None and hits != last:
+                progress(hits, n_averages)
+                last = hits
+            if done:
+                self._measuring = False
+                return
+            time.sleep(self.poll_s)
+
+    def read_frequency(self) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError
+
+    def read_frf(self) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError
+
+    def read_coherence(self) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError
+
+    def overloads(self) -> int:
+        return -1
+
+    def check_errors(self) -> None:  # pragma: no cover
+        raise NotImplementedError
+
+    def abort(self) -> None:  # pragma: no cover
+        """Stop a running measurement (safe state)."""
+        raise NotImplementedError
+
+    def measure(self, n_averages: int, progress: ProgressCallback | None = None,
+                freq: np.ndarray | None = None) -> Measurement:
+        """Start, wait for ``n_averages`` hits, read FRF + coherence of one point."""
+        self.start()
+        self.wait_until_done(n_averages, progress)
+        overloads = self.overloads()
+        freq = self.read_frequency() if freq is None else freq
+        frf = self.read_frf()
+        coh = self.read_coherence()
+        for name, arr in (("FRF", frf), ("coherence", coh)):
+            if arr.shape != freq.shape:
+                raise InstrumentError(f"{self.MODEL}: {name} has {arr.size} lines but the "
+                                      f"frequency axis has {freq.size}")
+        return Measurement(freq=freq, frf=frf, coherence=np.clip(coh, 0.0, 1.0),
+                           n_averages=n_averages, overloads=overloads)
+
+    # ----------------------------------------------------------- context manager
+    def close(self) -> None:
+        """Leave the analyser safe (measurement stopped) and close the link."""
+        try:
+            if self._measuring:
+                self.abort()
+        except InstrumentError:
+            log.warning("%s: could not stop the measurement while closing", self.MODEL)
+        finally:
+            self.transport.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False

@@ -1,0 +1,75 @@
+"""Driver registry and auto-detection from ``*IDN?``.
+
+Every module of this package that defines ``DRIVER`` (an :class:`~.base.Analyser` subclass) is
+a driver; adding an analyser is one new module, nothing to register by hand.
+"""
+
+from __future__ import annotations
+
+import importlib
+import logging
+import pkgutil
+
+from laminid_cli.instrument.base import Analyser
+from laminid_cli.instrument.transport import (DEFAULT_TIMEOUT_S, AnalyserSetupError, Transport,
+                                              open_transport)
+
+log = logging.getLogger(__name__)
+
+_INFRASTRUCTURE = {"base", "transport", "registry", "session", "testing"}
+
+
+def drivers() -> dict[str, type[Analyser]]:
+    """Model name (upper case) -> driver class, for every driver module of the package."""
+    import laminid_cli.instrument as pkg
+
+    found = {}
+    for info in sorted(pkgutil.iter_modules(pkg.__path__), key=lambda i: i.name):
+        if info.name in _INFRASTRUCTURE or info.name.startswith("_"):
+            continue
+        module = importlib.import_module(f"{pkg.__name__}.{info.name}")
+        driver = getattr(module, "DRIVER", None)
+        if driver is not None:
+            found[driver.MODEL.upper()] = driver
+    return found
+
+
+def model_names() -> list[str]:
+    return [d.MODEL for d in drivers().values()]
+
+
+def driver_for(model: str, idn: str) -> type[Analyser]:
+    """The driver for ``model`` (``"auto"``: the one whose ``matches(idn)`` is true)."""
+    table = drivers()
+    if model.lower() == "auto":
+        for driver in table.values():
+            if driver.matches(idn):
+                return driver
+        raise AnalyserSetupError(
+            f"the analyser answers *IDN? with {idn!r}, which no laminid driver supports "
+            f"(supported: {', '.join(model_names())}); use --model to force one")
+    driver = table.get(model.upper())
+    if driver is None:
+        raise AnalyserSetupError(f"unknown analyser model {model!r}; choose auto or one of: "
+                                 f"{', '.join(model_names())}")
+    if not driver.matches(idn):
+        log.warning("--model %s forced, but the analyser identifies as %r", driver.MODEL, idn)
+    return driver
+
+
+def connect(transport: Transport, model: str = "auto", poll_s: float = 0.05) -> Analyser:
+    """Identify the analyser on ``transport`` and return its driver (closes it on failure)."""
+    try:
+        idn = transport.query("*IDN?")
+        driver = driver_for(model, idn)
+    except BaseException:
+        transport.close()
+        raise
+    log.info("analyser %s: %s (driver %s)", transport.resource, idn, driver.__name__)
+    return driver(transport, idn=idn, poll_s=poll_s)
+
+
+def open_analyser(resource: str, model: str = "auto", backend: str | None = None,
+                  timeout: float = DEFAULT_TIMEOUT_S, poll_s: float = 0.05) -> Analyser:
+    """Open a VISA resource and return the matching driver (a context manager)."""
+    return connect(open_transport(resource, backend=backend, timeout=timeout), model, poll_s)

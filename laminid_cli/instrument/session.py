@@ -1,0 +1,208 @@
+"""Roving-hammer session: one averaged FRF per measurement point, saved as soon as it is read.
+
+The workflow knows nothing about click: the command passes a :class:`SessionUI` (prompt, progress,
+summary, repeat question), so tests drive it with a scripted UI. Every point goes to the
+:class:`~laminid_cli.frf.store.FrfWriter` the moment it is read (the writer rewrites the file
+atomically), so Ctrl-C, an instrument fault or a crash leaves a valid file with every finished
+point, and ``--resume`` continues with the points not yet in it.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from laminid_cli.errors import InstrumentError, LaminidError
+from laminid_cli.instrument.base import AcquisitionSettings, Analyser, Measurement
+
+log = logging.getLogger(__name__)
+
+
+class AcquisitionInterrupted(LaminidError):
+    """The operator pressed Ctrl-C; the finished points are in the file (exit 130)."""
+
+    exit_code = 130
+
+
+@dataclass(frozen=True)
+class SessionOptions:
+    """How the session runs.
+
+    n_points : measurement points (labels "1".."n_points" unless ``labels`` is given)
+    coherence_min : a point whose coherence at the resonances is below this is "poor"
+    prompt : ask before each point and offer to repeat poor points (False: just wait for hits)
+    resume_hint : command line that continues the file (shown when the session stops early)
+    """
+
+    n_points: int
+    coherence_min: float = 0.9
+    prompt: bool = True
+    labels: tuple[str, ...] | None = None
+    resume_hint: str = ""
+
+    def point_labels(self) -> tuple[str, ...]:
+        return self.labels if self.labels else tuple(str(i + 1) for i in range(self.n_points))
+
+
+@dataclass(frozen=True)
+class PointQuality:
+    """One-line quality of a measured point.
+
+    coherence_resonance : mean coherence over the lines where |H| is in its top quarter
+        (the resonances; coherence dips at anti-resonances are normal and ignored)
+    peak_freq_hz, peak_coherence : frequency of max |H| and the coherence there
+    """
+
+    label: str
+    n_averages: int
+    coherence_resonance: float
+    peak_freq_hz: float
+    peak_coherence: float
+    overloads: int
+    coherence_min: float
+
+    @property
+    def ok(self) -> bool:
+        return self.coherence_resonance >= self.coherence_min and self.overloads <= 0
+
+    def line(self) -> str:
+        ovl = "?" if self.overloads < 0 else str(self.overloads)
+        verdict = "ok" if self.ok else (
+            "POOR coherence" if self.coherence_resonance < self.coherence_min else "OVERLOAD")
+        return (f"point {self.label}: {self.n_averages} hits, coherence at resonances "
+                f"{self.coherence_resonance:.3f} (peak {self.peak_coherence:.3f} at "
+                f"{self.peak_freq_hz:.1f} Hz), overloads {ovl} - {verdict}")
+
+
+def assess_point(label: str, m: Measurement, coherence_min: float) -> PointQuality:
+    """Quality summary of one measurement (see :class:`PointQuality`)."""
+    mag = np.abs(m.frf)
+    use = m.freq > 0  # the DC line of an impact FRF is meaningless
+    if not use.any():
+        use = np.ones_like(mag, dtype=bool)
+    k = int(np.argmax(np.where(use, mag, -np.inf)))
+    coh = np.nan_to_num(m.coherence, nan=0.0)
+    top = use & (mag >= np.quantile(mag[use], 0.75))
+    return PointQuality(label=label, n_averages=m.n_averages,
+                        coherence_resonance=float(coh[top].mean()),
+                        peak_freq_hz=float(m.freq[k]), peak_coherence=float(coh[k]),
+                        overloads=int(m.overloads), coherence_min=coherence_min)
+
+
+class SessionUI(Protocol):
+    """Callbacks the session uses to talk to the operator."""
+
+    def ready(self, label: str, index: int, total: int) -> str:
+        """Before a point: return "go", "skip" or "quit"."""
+
+    def progress(self, label: str, index: int, total: int, hits: int, n_averages: int) -> None:
+        """Hits done so far on the running point (hits = -1 when the analyser cannot tell)."""
+
+    def summary(self, quality: PointQuality) -> None:
+        """After a point has been read and saved."""
+
+    def repeat(self, quality: PointQuality) -> bool:
+        """Poor point: measure it again (replacing the saved one)?"""
+
+
+class QuietUI:
+    """A UI that never asks (``--no-prompt``) and logs the summaries."""
+
+    def ready(self, label, index, total):
+        return "go"
+
+    def progress(self, label, index, total, hits, n_averages):
+        pass
+
+    def summary(self, quality):
+        log.info("%s", quality.line())
+
+    def repeat(self, quality):
+        return False
+
+
+@dataclass
+class SessionResult:
+    measured: list[str] = field(default_factory=list)
+    skipped: list[str] = field(default_factory=list)
+    repeated: int = 0
+    quit: bool = False
+    n_saved: int = 0
+    complete: bool = False
+
+
+def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
+                options: SessionOptions, ui: SessionUI) -> SessionResult:
+    """Measure every point not yet in ``writer``'s file; see the module docstring.
+
+    Raises :class:`~laminid_cli.errors.InstrumentError` (exit 1) on an analyser fault and
+    :class:`AcquisitionInterrupted` (exit 130) on Ctrl-C, both after the finished points are
+    safely on disk and with the number of saved points and the resume command in the message.
+    """
+    labels = options.point_labels()
+    todo = [label for label in labels if label not in writer.labels]
+    result = SessionResult()
+    total = len(labels)
+    try:
+        for label in todo:
+            index = labels.index(label) + 1
+            if options.prompt:
+                answer = ui.ready(label, index, total)
+                if answer == "quit":
+                    result.quit = True
+                    break
+                if answer == "skip":
+                    result.skipped.append(label)
+                    continue
+            replace = False
+            while True:
+                def progress(hits, n, _label=label, _index=index):
+                    ui.progress(_label, _index, total, hits, n)
+
+                m = analyser.measure(settings.averages, progress=progress)
+                if m.freq.shape != writer.freq.shape or not np.allclose(m.freq, writer.freq,
+                                                                        rtol=1e-9):
+                    raise InstrumentError(
+                        f"{analyser.MODEL}: the frequency axis changed during the session "
+                        f"({m.freq.size} lines, {m.freq[0]:g}-{m.freq[-1]:g} Hz; the file has "
+                        f"{writer.freq.size}, {writer.freq[0]:g}-{writer.freq[-1]:g} Hz); were "
+                        "the analyser's settings changed on its front panel?")
+                writer.add_point(label, m.frf, m.coherence, n_averages=m.n_averages,
+                                 overloads=m.overloads, replace=replace)
+                quality = assess_point(label, m, options.coherence_min)
+                ui.summary(quality)
+                if quality.ok or not options.prompt or not ui.repeat(quality):
+                    break
+                replace = True
+                result.repeated += 1
+            result.measured.append(label)
+    except KeyboardInterrupt:
+        _stop(analyser)
+        raise AcquisitionInterrupted(_saved_message("interrupted", writer, options)) from None
+    except InstrumentError as exc:
+        _stop(analyser)
+        raise InstrumentError(_saved_message(str(exc), writer, options)) from exc
+    result.n_saved = writer.n_points
+    result.complete = all(label in writer.labels for label in labels)
+    if result.complete:
+        writer.close()
+    return result
+
+
+def _stop(analyser: Analyser) -> None:
+    try:
+        analyser.abort()
+    except (InstrumentError, OSError):
+        log.debug("could not abort the measurement", exc_info=True)
+
+
+def _saved_message(prefix: str, writer, options: SessionOptions) -> str:
+    n = writer.n_points
+    msg = f"{prefix}; {n} point(s) saved in {writer.path}" if n else \
+        f"{prefix}; no point finished" + (f" (file {writer.path})" if writer.path.exists() else "")
+    if options.resume_hint:
+        msg += f"; continue with: {options.resume_hint}"
+    return msg
