@@ -761,9 +761,14 @@ def _reference_value(r: _Reader, y: _Y, kind: str, intervals: dict, key: str) ->
         low, high = (r.quantity(item, kind) for item in y.value)
         if low > high:
             raise r.error(y, f"range [{low:g}, {high:g}] has low > high")
+        if kind == "modulus" and low <= 0:
+            raise r.error(y, f"a reference modulus must be positive, got {low:g} Pa")
         intervals[key] = (low, high)
         return 0.5 * (low + high)
-    return r.quantity(y, kind)
+    value = r.quantity(y, kind)
+    if kind == "modulus" and value <= 0:
+        raise r.error(y, f"a reference modulus must be positive, got {y.value!r}")
+    return value
 
 
 def _read_reference(r: _Reader, y: _Y, materials: dict[str, Material]) -> dict:
@@ -784,10 +789,6 @@ def _read_reference(r: _Reader, y: _Y, materials: dict[str, Material]) -> dict:
             kind = "dimensionless" if key.startswith("nu") else "modulus"
             ref["global"][key] = _reference_value(r, item, kind, ref["intervals"],
                                                   f"global.{key}")
-    for key, (low, _) in ref["intervals"].items():
-        if not key.split(".")[-1].startswith("nu") and low <= 0:
-            raise r.error(y, f"reference modulus must be positive, got {low:g}",
-                          f"reference.{key}")
     return ref
 
 
