@@ -428,6 +428,7 @@ class _LayupParser:
         n = int(match.group())
         if n < 1:
             self.fail("a repeat count must be at least 1")
+        self.count_start = self.i
         self.i = match.end()
         return n
 
@@ -439,7 +440,7 @@ class _LayupParser:
         n = self.count()
         if n is not None:
             if len(plies) * n > MAX_PLIES:
-                self.fail(f"the code expands to more than {MAX_PLIES} plies")
+                self.fail(f"the code expands to more than {MAX_PLIES} plies", self.count_start)
             plies = plies * n
         symmetric = False
         if symmetric_allowed and self.peek() in ("s", "S") and \
@@ -671,23 +672,24 @@ def _resolve_densities(r: _Reader, top: dict, root: _Y, a: float, b: float, h: f
     if "scale_density_to_mass" in top:
         scale = r.boolean(top["scale_density_to_mass"])
     else:
-        scale = mass is not None and len(absolute) < len(materials)
+        scale = len(absolute) < len(materials)
     if len(materials) == 1 and missing:
         if mass is None:
             raise r.error(root, "no density for the material and no mass to compute it from; "
                                 "give mass (kg) or materials.<name>.density", "mass")
         (name,) = materials
         return {name: mass / (a * b * h)}
+    nodes = top["materials"].value
     if missing:
-        raise r.error(top["materials"], f"material '{missing[0]}' has no density: a specimen "
+        raise r.error(nodes[missing[0]], f"material '{missing[0]}' has no density: a specimen "
                       "with several materials needs a density or a density_ratio for each",
                       f"materials.{missing[0]}.density")
     if not scale:
         if ratios:
             name = next(iter(ratios))
-            raise r.error(top["materials"], "density_ratio gives relative densities only; set "
-                          "scale_density_to_mass: true and give the mass, or give densities",
-                          f"materials.{name}.density_ratio")
+            raise r.error(nodes[name].value["density_ratio"], "density_ratio gives relative "
+                          "densities only; set scale_density_to_mass: true and give the mass, "
+                          "or give densities")
         return dict(absolute)
     if mass is None:
         raise r.error(root, "scaling the densities to the mass needs the mass", "mass")

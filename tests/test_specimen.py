@@ -1,0 +1,702 @@
+"""Tests of laminid_cli.specimen, .units and .laminate: the paper's specimen files, stacking
+codes, units, densities, and one clear SpecimenError (file, field, line) per bad input."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from laminid_cli.errors import SpecimenError
+from laminid_cli.laminate import laminate_from_specimen
+from laminid_cli.material import ElasticConstants
+from laminid_cli.specimen import (LayupSyntaxError, expand_layup, load_specimen_text,
+                                  read_specimen)
+from laminid_cli.units import Where, format_quantity, parse_quantity
+from tests.data import paper
+
+ROOT = Path(__file__).resolve().parents[1]
+GPa = 1e9
+
+
+def load(rel: str):
+    return read_specimen(ROOT / rel)
+
+
+# ============================================================================= units
+
+
+@pytest.mark.parametrize("value, kind, expected", [
+    ("210.5 mm", "length", 0.2105),
+    ("210.5mm", "length", 0.2105),
+    (0.135e-3, "length", 0.135e-3),
+    ("1 in", "length", 0.0254),
+    ("25 um", "length", 25e-6),
+    ("2 cm", "length", 0.02),
+    ("117.2 GPa", "modulus", 117.2e9),
+    ("117.2 gpa", "modulus", 117.2e9),
+    ("3 MPa", "pressure", 3e6),
+    ("10 ksi", "modulus", 68947572.93168361),
+    ("1 Msi", "modulus", 6894757293.168361),
+    ("1e9", "modulus", 1e9),
+    ("0.3225 kg", "mass", 0.3225),
+    ("322.5 g", "mass", 0.3225),
+    ("1 lb", "mass", 0.45359237),
+    ("1570 kg/m^3", "density", 1570.0),
+    ("1570 kg/m3", "density", 1570.0),
+    ("1.57 g/cm^3", "density", 1570.0),
+    ("1.57 g/cm3", "density", 1570.0),
+    ("125.05 Hz", "frequency", 125.05),
+    ("1.2 kHz", "frequency", 1200.0),
+    (125, "frequency", 125.0),
+    ("45 deg", "angle", 45.0),
+    (45, "angle", 45.0),
+    (f"{math.pi / 4} rad", "angle", 45.0),
+    ("-45°", "angle", -45.0),
+    (0.35, "dimensionless", 0.35),
+    ("-0.036", "dimensionless", -0.036),
+])
+def test_parse_quantity(value, kind, expected):
+    assert parse_quantity(value, kind) == pytest.approx(expected, rel=1e-12)
+
+
+@pytest.mark.parametrize("value, kind, words", [
+    ("3.06 GPa", "length", ["is a modulus, not a length", "mm", "in"]),
+    ("3 furlong", "length", ["unknown unit 'furlong'", "m, cm, mm, um, in"]),
+    ("3 mm", "modulus", ["is a length", "GPa", "psi", "Msi"]),
+    ("1 Hz", "mass", ["is a frequency", "kg, g, lb"]),
+    ("1 kg", "density", ["is a mass", "kg/m^3", "g/cm^3"]),
+    ("5 deg", "frequency", ["is a angle", "Hz, kHz"]),
+    ("0.3 mm", "dimensionless", ["plain number"]),
+    ("abc", "length", ["cannot read 'abc'"]),
+    (True, "length", ["boolean"]),
+    (None, "mass", ["nothing"]),
+    ([1, 2], "mass", ["list"]),
+    (float("nan"), "length", ["not a finite number"]),
+    ("inf mm", "length", ["cannot read"]),
+])
+def test_parse_quantity_errors_list_accepted_units(value, kind, words):
+    with pytest.raises(SpecimenError) as info:
+        parse_quantity(value, kind, where=Where("plate.yaml", "geometry.a", 7))
+    msg = str(info.value)
+    assert msg.startswith("plate.yaml:7, field 'geometry.a': ")
+    for word in words:
+        assert word in msg
+
+
+def test_format_quantity():
+    assert format_quantity(117.2e9, "modulus") == "117.2 GPa"
+    assert format_quantity(3.06e-3, "length") == "3.06 mm"
+    assert format_quantity(0.35, "dimensionless") == "0.35"
+
+
+# ============================================================================= stacking codes
+
+
+def angles(code):
+    return [a for a, _ in expand_layup(code)]
+
+
+@pytest.mark.parametrize("code, expected", [
+    ("[0/90]", [0, 90]),
+    ("[0/90]s", [0, 90, 90, 0]),
+    ("[0/90]_s", [0, 90, 90, 0]),
+    ("[0/90]2s", [0, 90, 0, 90, 90, 0, 90, 0]),
+    ("[0/90]_2s", [0, 90, 0, 90, 90, 0, 90, 0]),
+    ("[0/90]_3", [0, 90] * 3),
+    ("[±45/0]s", [45, -45, 0, 0, -45, 45]),
+    ("[+-45/0]s", [45, -45, 0, 0, -45, 45]),
+    ("[∓30]", [-30, 30]),
+    ("[±45_2]", [45, -45, 45, -45]),
+    ("[(0/90)_2/90/0/90]s", [0, 90, 0, 90, 90, 0, 90, 90, 0, 90, 90, 0, 90, 0]),
+    ("[(0, 90)_2, 90, 0, 90]s", [0, 90, 0, 90, 90, 0, 90, 90, 0, 90, 90, 0, 90, 0]),
+    ("[((0/45)_2/90)_2]", [0, 45, 0, 45, 90] * 2),
+    ("[(0/45)s/90]", [0, 45, 45, 0, 90]),
+    ("[45°/-45°]", [45, -45]),
+    ("[ 45_3 / 0 ]", [45, 45, 45, 0]),
+    ("0/90/0", [0, 90, 0]),
+    ("[22.5/-67.5]", [22.5, -67.5]),
+    ("[-0]", [0]),
+])
+def test_stacking_codes_expand(code, expected):
+    assert angles(code) == expected
+
+
+def test_paper_stacking_codes_count_and_order():
+    s11 = angles("[45_3/0_3/-45_3/90_3]s")
+    assert len(s11) == 24 and s11[:12] == [45] * 3 + [0] * 3 + [-45] * 3 + [90] * 3
+    assert s11 == s11[::-1]
+    s12 = angles("[45/0/-45/90/45_2/0_2/-45_2/90_2]s")
+    assert s12[:12] == [45, 0, -45, 90, 45, 45, 0, 0, -45, -45, 90, 90] and len(s12) == 24
+    assert angles("[45_4/-45_4/0_3/90]s")[:12] == [45] * 4 + [-45] * 4 + [0] * 3 + [90]
+    assert angles("[45_3/-45_3/0_5/90]s")[:12] == [45] * 3 + [-45] * 3 + [0] * 5 + [90]
+    assert len(angles("[(0/90)_2/90/0/90]s")) == 14
+    assert angles("[0_2/90_2/0_2/90]s") == [0, 0, 90, 90, 0, 0, 90, 90, 0, 0, 90, 90, 0, 0]
+
+
+def test_material_tags_in_codes():
+    paper_code = expand_layup("[0c/90g/0c/90_2g/0c/90g]s")
+    assert [t for _, t in paper_code] == list("cgcggcg" + "gcggcgc")
+    assert [a for a, _ in paper_code] == [0, 90, 0, 90, 90, 0, 90, 90, 0, 90, 90, 0, 90, 0]
+    assert expand_layup("[(0/90):glass/45:carbon]") == [(0, "glass"), (90, "glass"),
+                                                         (45, "carbon")]
+    assert expand_layup("[90_2:glass]") == [(90, "glass"), (90, "glass")]
+    # an inner tag wins over the group's
+    assert expand_layup("[(0:c/90)_2:g]") == [(0, "c"), (90, "g"), (0, "c"), (90, "g")]
+    assert expand_layup("[±45:IM7]") == [(45, "IM7"), (-45, "IM7")]
+
+
+@pytest.mark.parametrize("code, position, words", [
+    ("[45_3/0_3/x/90]s", 11, ["expected a ply angle"]),
+    ("[0/90", 6, ["closing ']'"]),
+    ("[(0/90]s", 7, ["closing ')'"]),
+    ("[0/90]s)", 8, ["unexpected text"]),
+    ("[0//90]", 4, ["expected a ply angle"]),
+    ("[0/90]_", 8, ["repeat count"]),
+    ("[0_0]", 4, ["at least 1"]),
+    ("[400]", 2, ["outside -360..360"]),
+    ("[0]_99999", 5, ["more than"]),
+    ("", 1, ["empty"]),
+    ("[0:]", 4, ["material name after ':'"]),
+])
+def test_bad_stacking_codes_say_where(code, position, words):
+    with pytest.raises(LayupSyntaxError) as info:
+        expand_layup(code)
+    msg = str(info.value)
+    assert f"at character {position}" in msg
+    for word in words:
+        assert word in msg
+
+
+# ============================================================================= paper specimens
+
+
+@pytest.mark.parametrize("rel", paper.SPECIMENS)
+def test_paper_specimens_load(rel):
+    spec = load(rel)
+    geo = paper.GEOMETRY[rel]
+    assert (spec.a, spec.b, spec.h, spec.mass) == pytest.approx(
+        (geo["a"], geo["b"], geo["h"], geo["mass"]), rel=1e-12)
+    assert spec.boundary == "free"
+    meas = paper.MEASURED[rel]
+    freq = np.array([np.nan if f is None else f for f in meas])
+    np.testing.assert_array_equal(spec.measured.freq, freq)
+    np.testing.assert_array_equal(spec.measured.weight, np.where(np.isnan(freq), 0.0, 1.0))
+    assert spec.measured.sigma is None
+    assert len(paper.RESIDUALS[rel]) == len(meas)
+    assert list(spec.materials) == list(paper.INITIAL[rel])
+    for name, constants in paper.INITIAL[rel].items():
+        assert spec.materials[name].constants.as_dict() == pytest.approx(constants, rel=1e-12)
+    assert sum(p.thickness for p in spec.plies) == pytest.approx(spec.h, rel=1e-12)
+    assert spec.model_mass == pytest.approx(spec.mass, rel=1e-9)
+    assert spec.source_text == (ROOT / rel).read_text(encoding="utf-8")
+    assert spec.path.endswith(rel.split("/")[-1])
+    # the reference values of the files are those of tests/data/paper.py
+    ref = paper.REFERENCE[rel]
+    for name, values in ref.get("materials", {}).items():
+        assert spec.reference["materials"][name] == pytest.approx(values, rel=1e-12)
+    for key, value in ref.get("global", {}).items():
+        if isinstance(value, tuple):
+            assert spec.reference["intervals"][f"global.{key}"] == pytest.approx(value)
+            value = 0.5 * sum(value)
+        assert spec.reference["global"][key] == pytest.approx(value, rel=1e-12)
+    # the identified materials of Tables 2, 3, 6, 7 are the materials of the file
+    assert set(paper.IDENTIFIED[rel]) == set(spec.materials)
+
+
+def test_S11_numbers():
+    spec = load(paper.S11)
+    assert spec.name == "S1.1"
+    assert spec.n_plies == 24
+    assert {p.material for p in spec.plies} == {"IM7/977-2"}
+    np.testing.assert_allclose([p.thickness for p in spec.plies], 3.06e-3 / 24, rtol=1e-12)
+    assert [p.angle_deg for p in spec.plies] == angles("[45_3/0_3/-45_3/90_3]s")
+    rho = 0.3225 / (0.2105 * 0.311 * 0.00306)
+    assert spec.densities["IM7/977-2"] == pytest.approx(rho, rel=1e-9)
+    assert spec.materials["IM7/977-2"].density is None
+    assert spec.measured.n_modes == 12
+    assert spec.measured.freq[0] == 125.05 and spec.measured.freq[-1] == 1343.80
+    assert spec.reference["materials"]["IM7/977-2"]["E1"] == 170 * GPa
+
+
+@pytest.mark.parametrize("rel, missing", [(paper.S12, 4), (paper.S13, 2)])
+def test_undetected_modes_are_nan_with_weight_zero(rel, missing):
+    m = load(rel).measured
+    assert m.n_modes == 13
+    assert np.isnan(m.freq[missing]) and m.weight[missing] == 0.0
+    assert np.isnan(m.freq).sum() == 1 and (m.weight == 1).sum() == 12
+
+
+def test_example2_specimens():
+    s21, s22 = load(paper.S21), load(paper.S22)
+    assert s21.n_plies == s22.n_plies == 14
+    assert [p.angle_deg for p in s21.plies] == angles("[(0/90)_2/90/0/90]s")
+    assert s21.densities["E-glass/R368"] == pytest.approx(0.2571 / (0.191 * 0.283 * 2.89e-3),
+                                                           rel=1e-9)
+    assert s21.reference["global"] == {"Ey": 22.5 * GPa}
+    assert s22.reference["global"] == {"Ey": 17.5 * GPa}
+
+
+def test_hybrid_complete_model():
+    spec = load(paper.CM)
+    assert spec.n_plies == 14
+    assert list(spec.materials) == ["glass", "carbon"]
+    assert [p.material for p in spec.plies[:7]] == ["carbon", "glass", "carbon", "glass",
+                                                     "glass", "carbon", "glass"]
+    assert [p.angle_deg for p in spec.plies] == [0, 90, 0, 90, 90, 0, 90, 90, 0, 90, 90, 0,
+                                                 90, 0]
+    t = {p.material: p.thickness for p in spec.plies}
+    assert sum(p.thickness for p in spec.plies) == pytest.approx(3.83e-3, rel=1e-12)
+    assert t["carbon"] / t["glass"] == pytest.approx(0.327 / 0.130, rel=1e-12)
+    assert t["carbon"] == pytest.approx(0.327e-3 * 3.83 / (6 * 0.327 + 8 * 0.130), rel=1e-12)
+    assert spec.model_mass == pytest.approx(0.3369, rel=1e-12)
+    assert spec.densities["glass"] / spec.densities["carbon"] == pytest.approx(1.95 / 1.55)
+    assert 1300 < spec.densities["carbon"] < 1600 < spec.densities["glass"] < 2000
+    assert spec.reference["intervals"] == {"global.nu_xy": (0.15, 0.17)}
+
+
+def test_hybrid_paper_shorthand_equals_explicit_tags():
+    text = (ROOT / paper.CM).read_text(encoding="utf-8")
+    code = '"[0c/90g/0c/90_2g/0c/90g]s"'
+    assert code in text
+    explicit = text.replace(code, '"[0:carbon/90:glass/0:carbon/90_2:glass/0:carbon/90:glass]s"')
+    assert load_specimen_text(explicit).plies == load(paper.CM).plies
+
+
+def test_hybrid_esl_is_one_layer():
+    spec = load(paper.ESL)
+    assert spec.n_plies == 1 and spec.plies[0].thickness == pytest.approx(3.83e-3)
+    lam = laminate_from_specimen(spec)
+    g = lam.global_properties()
+    c = spec.materials["ESL"].constants
+    assert (g.Ex, g.Ey, g.Gxy, g.Gxz, g.Gyz, g.nu_xy) == pytest.approx(
+        (c.E1, c.E2, c.G12, c.G13, c.G23, c.nu12), rel=1e-12)
+
+
+def test_esl_initial_guess_is_appendix_a_of_the_nominal_complete_model():
+    # the comment in hybrid-esl.yaml says so: check it, to the rounding written in the file
+    g = laminate_from_specimen(load(paper.CM)).global_properties()
+    c = load(paper.ESL).materials["ESL"].constants
+    assert c.E1 == pytest.approx(g.Ex, rel=2e-3)
+    assert c.E2 == pytest.approx(g.Ey, rel=2e-3)
+    assert c.G12 == pytest.approx(g.Gxy, rel=5e-3)      # written as 3.3 GPa
+    assert c.nu12 == pytest.approx(g.nu_xy, rel=2e-3)
+
+
+# ============================================================================= laminate
+
+
+def test_laminate_arrays():
+    spec = load(paper.CM)
+    lam = laminate_from_specimen(spec)
+    assert lam.n_plies == 14 and lam.z.shape == (15,)
+    assert lam.z[0] == -0.5 * spec.h and lam.z[-1] == 0.5 * spec.h
+    assert np.all(np.diff(lam.z) > 0)
+    np.testing.assert_allclose(lam.thickness, [p.thickness for p in spec.plies], rtol=1e-12)
+    np.testing.assert_allclose(lam.angle, np.radians([p.angle_deg for p in spec.plies]))
+    assert lam.material_names == ("glass", "carbon")
+    assert [lam.material_names[i] for i in lam.material_index] == [p.material for p in
+                                                                    spec.plies]
+    assert lam.constants[1] == spec.materials["carbon"].constants
+    assert lam.mass_per_area * spec.a * spec.b == pytest.approx(0.3369, rel=1e-12)
+    assert lam.ply_stiffness().shape == (14, 5, 5)
+    with pytest.raises(ValueError):
+        lam.z[0] = 0.0            # read-only arrays
+
+
+@pytest.mark.parametrize("rel, text", [
+    (paper.S11, "[45_3/0_3/-45_3/90_3]s, 24 plies x 0.1275 mm, h = 3.06 mm"),
+    (paper.S21, "[0/90/0/90_2/0/90]s, 14 plies x 0.2064 mm, h = 2.89 mm"),
+    (paper.CM, "[0:carbon/90:glass/0:carbon/90_2:glass/0:carbon/90:glass]s, 14 plies "
+               "(glass 0.1659 mm, carbon 0.4172 mm), h = 3.83 mm"),
+    (paper.ESL, "[0], 1 ply x 3.83 mm, h = 3.83 mm"),
+])
+def test_stacking_text(rel, text):
+    lam = laminate_from_specimen(load(rel))
+    assert lam.stacking_text() == text
+    code = text.split(",")[0]
+    assert angles(code) == pytest.approx(np.degrees(lam.angle).tolist())
+
+
+def test_global_properties_of_cross_ply_laminate():
+    lam = laminate_from_specimen(load(paper.S22))
+    g = lam.global_properties()
+    # 8 plies at 0 and 6 at 90 degrees: Ex > Ey, both between E2 and E1
+    assert 4.5 * GPa < g.Ey < g.Ex < 45 * GPa
+
+
+def test_with_constants():
+    spec = load(paper.CM)
+    new = ElasticConstants(43.1 * GPa, 4.6 * GPa, 3.8 * GPa, 3.7 * GPa, 3.4 * GPa, 0.28)
+    changed = spec.with_constants({"glass": new})
+    assert changed.materials["glass"].constants == new
+    assert changed.materials["carbon"] == spec.materials["carbon"]
+    assert spec.materials["glass"].constants.E1 == 45 * GPa          # original untouched
+    assert changed.plies == spec.plies and changed.densities == spec.densities
+    assert laminate_from_specimen(changed).constants[0] == new
+    with pytest.raises(KeyError, match="steel"):
+        spec.with_constants({"steel": new})
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        spec.h = 1.0
+
+
+# ============================================================================= good variants
+
+BASE = """\
+name: T
+geometry:
+  a: 200 mm
+  b: 300 mm
+  h: 3 mm
+mass: 0.3 kg
+materials:
+  CFRP:
+    E1: 117.2 GPa
+    E2: 8.8 GPa
+    G12: 3.1 GPa
+    G13: 3.1 GPa
+    G23: 3.1 GPa
+    nu12: 0.35
+layup: "[0/90]s"
+measured:
+  frequencies: [100, 200, 300]
+"""
+# line numbers in BASE
+L_GEOMETRY, L_A, L_B, L_H, L_MASS, L_CFRP, L_E2, L_NU12, L_LAYUP, L_FREQ = \
+    2, 3, 4, 5, 6, 8, 10, 14, 15, 17
+
+HYBRID = """\
+geometry: {a: 200 mm, b: 300 mm, h: 2 mm}
+mass: 0.2 kg
+materials:
+  glass: {E1: 45 GPa, E2: 4.5 GPa, G12: 3.7 GPa, G13: 3.7 GPa, G23: 3.7 GPa, nu12: 0.28,
+          density_ratio: 1.95}
+  carbon: {E1: 117.2 GPa, E2: 8.8 GPa, G12: 3.1 GPa, G13: 3.1 GPa, G23: 3.1 GPa, nu12: 0.35,
+           density_ratio: 1.55}
+layup: "[0:carbon/(90/90):glass]s"
+"""
+
+
+def edit(text, old, new):
+    assert old in text, old
+    return text.replace(old, new, 1)
+
+
+def test_base_loads():
+    spec = load_specimen_text(BASE, "plate.yaml")
+    assert spec.n_plies == 4 and spec.name == "T" and spec.description == ""
+    assert spec.densities["CFRP"] == pytest.approx(0.3 / (0.2 * 0.3 * 0.003))
+
+
+def test_name_defaults_to_file_stem(tmp_path):
+    f = tmp_path / "my-plate.yaml"
+    f.write_text(edit(BASE, "name: T\n", ""), encoding="utf-8")
+    assert read_specimen(f).name == "my-plate"
+
+
+def test_bare_numbers_are_si():
+    text = edit(edit(edit(BASE, "a: 200 mm", "a: 0.2"), "E1: 117.2 GPa", "E1: 117.2e9"),
+                "mass: 0.3 kg", "mass: 0.3")
+    spec = load_specimen_text(text)
+    assert spec.a == 0.2 and spec.materials["CFRP"].constants.E1 == 117.2e9
+
+
+def test_explicit_ply_list():
+    text = edit(BASE, 'layup: "[0/90]s"', """plies:
+  - {angle: 45, thickness: 1 mm}
+  - {angle: -45 deg, material: CFRP, thickness: 1 mm}
+  - {angle: 0.5 rad, thickness: 1.01 mm}""")
+    spec = load_specimen_text(text)
+    assert [p.angle_deg for p in spec.plies] == pytest.approx([45, -45, math.degrees(0.5)])
+    assert sum(p.thickness for p in spec.plies) == pytest.approx(3e-3, rel=1e-12)
+
+
+def test_ply_thickness_within_tolerance_is_adjusted_to_h():
+    spec = load_specimen_text(edit(BASE, 'layup: "[0/90]s"',
+                                   'layup: "[0/90]s"\nply_thickness: 0.752 mm'))
+    assert sum(p.thickness for p in spec.plies) == pytest.approx(3e-3, rel=1e-12)
+
+
+def test_hybrid_with_ratios_is_scaled_to_the_mass():
+    spec = load_specimen_text(HYBRID)
+    assert [p.material for p in spec.plies] == ["carbon", "glass", "glass", "glass", "glass",
+                                                 "carbon"]
+    assert spec.model_mass == pytest.approx(0.2, rel=1e-12)
+    assert spec.densities["glass"] / spec.densities["carbon"] == pytest.approx(1.95 / 1.55)
+
+
+def test_hybrid_with_absolute_densities_is_not_scaled():
+    text = edit(edit(HYBRID, "density_ratio: 1.95", "density: 1950 kg/m^3"),
+                "density_ratio: 1.55", "density: 1.55 g/cm^3")
+    spec = load_specimen_text(text)
+    assert spec.densities == {"glass": 1950.0, "carbon": 1550.0}
+    scaled = load_specimen_text(text + "scale_density_to_mass: true\n")
+    assert scaled.model_mass == pytest.approx(0.2, rel=1e-12)
+
+
+def test_options_weights_sigma_fixed_prior_reference():
+    text = edit(BASE, "frequencies: [100, 200, 300]", """frequencies: [100, null, "300 Hz"]
+  weights: [0.5, 1, 1]
+  sigma: [0.1 Hz, 0.2, null]
+reference:
+  source: tension test
+  materials: {CFRP: {E1: 170 GPa, nu12: [0.3, 0.4]}}
+  global: {Ex: 60 GPa}""")
+    text = edit(text, "nu12: 0.35", "nu12: 0.35\n    fixed: [G13, G23]\n    prior: {nu12: 0.1}")
+    text = edit(text, 'layup: "[0/90]s"', 'layup: "[0/90]s"\nboundary: Simply-Supported')
+    spec = load_specimen_text(text)
+    m = spec.measured
+    np.testing.assert_array_equal(m.freq, [100, np.nan, 300])
+    np.testing.assert_array_equal(m.weight, [0.5, 0, 1])
+    np.testing.assert_array_equal(m.sigma, [0.1, np.nan, np.nan])
+    assert spec.materials["CFRP"].fixed == ("G13", "G23")
+    assert spec.materials["CFRP"].prior == {"nu12": 0.1}
+    assert spec.boundary == "simply-supported"
+    assert spec.reference == {"source": "tension test",
+                              "materials": {"CFRP": {"E1": 170e9, "nu12": pytest.approx(0.35)}},
+                              "global": {"Ex": 60e9},
+                              "intervals": {"materials.CFRP.nu12": (0.3, 0.4)}}
+    with pytest.raises(ValueError):
+        m.freq[0] = 1.0
+
+
+def test_layup_as_a_yaml_list_of_angles():
+    spec = load_specimen_text(edit(BASE, 'layup: "[0/90]s"', "layup: [0, 90, 90, 0]"))
+    assert [p.angle_deg for p in spec.plies] == [0, 90, 90, 0]
+
+
+def test_utf8_bom_is_accepted(tmp_path):
+    f = tmp_path / "bom.yaml"
+    f.write_bytes(b"\xef\xbb\xbf" + BASE.encode())
+    assert read_specimen(f).n_plies == 4
+
+
+# ============================================================================= bad input
+
+
+def bad(tmp_path, text, line, field, *words, name="plate.yaml"):
+    """Write ``text`` to a file, read it, check the SpecimenError message."""
+    f = tmp_path / name
+    if isinstance(text, bytes):
+        f.write_bytes(text)
+    else:
+        f.write_text(text, encoding="utf-8")
+    with pytest.raises(SpecimenError) as info:
+        read_specimen(f)
+    msg = str(info.value)
+    assert name in msg
+    if line is not None:
+        assert f"{name}:{line}" in msg, msg
+    if field is not None:
+        assert f"field '{field}'" in msg, msg
+    for word in words:
+        assert word in msg, msg
+    assert "\n" not in msg
+    return msg
+
+
+BAD_CASES = {
+    # id: (old, new, line, field, words...)
+    "misspelt top key": ("geometry:", "geomtry:", L_GEOMETRY, "geomtry",
+                         "unknown key 'geomtry'", "did you mean 'geometry'"),
+    "unknown top key": ("name: T", "colour: red", 1, "colour", "unknown key 'colour'",
+                        "valid keys: geometry"),
+    "missing geometry key": ("  h: 3 mm\n", "", L_GEOMETRY, "geometry.h",
+                             "missing required key 'h'"),
+    "missing materials": ("materials:", "materialz:", L_CFRP - 1, "materialz",
+                          "did you mean 'materials'"),
+    "misspelt constant": ("nu12:", "nu21:", L_NU12, "materials.CFRP.nu21",
+                          "did you mean 'nu12'"),
+    "constant wrong case": ("E2:", "e2:", L_E2, "materials.CFRP.e2", "did you mean 'E2'"),
+    "missing constant": ("    G23: 3.1 GPa\n", "", L_CFRP, "materials.CFRP.G23",
+                         "missing required key 'G23'"),
+    "length with a modulus unit": ("h: 3 mm", "h: 3.06 GPa", L_H, "geometry.h",
+                                   "is a modulus, not a length", "mm"),
+    "modulus with a length unit": ("E2: 8.8 GPa", "E2: 8.8 mm", L_E2, "materials.CFRP.E2",
+                                   "is a length, not a modulus", "GPa"),
+    "unknown unit": ("a: 200 mm", "a: 200 furlong", L_A, "geometry.a", "unknown unit",
+                     "m, cm, mm, um, in"),
+    "not a number": ("a: 200 mm", "a: wide", L_A, "geometry.a", "cannot read 'wide'"),
+    "boolean": ("b: 300 mm", "b: yes", L_B, "geometry.b", "boolean"),
+    "empty value": ("b: 300 mm", "b:", L_B, "geometry.b", "nothing"),
+    "zero size": ("a: 200 mm", "a: 0 mm", L_A, "geometry.a", "must be positive"),
+    "negative size": ("b: 300 mm", "b: -300 mm", L_B, "geometry.b", "must be positive"),
+    "negative mass": ("mass: 0.3 kg", "mass: -0.3 kg", L_MASS, "mass", "must be positive"),
+    "mass with unit of length": ("mass: 0.3 kg", "mass: 0.3 m", L_MASS, "mass",
+                                 "is a length, not a mass", "kg, g, lb"),
+    "thicker than wide": ("h: 3 mm", "h: 300 mm", L_H, "geometry.h",
+                          "must be smaller than the sides"),
+    "geometry not a mapping": ("geometry:\n  a: 200 mm\n  b: 300 mm\n  h: 3 mm",
+                               "geometry: [200, 300, 3]", L_GEOMETRY, "geometry",
+                               "expected a mapping"),
+    "infeasible E2 > E1": ("E2: 8.8 GPa", "E2: 200 GPa", L_CFRP, "materials.CFRP",
+                           "Eq. 22", "E2", "must not exceed E1"),
+    "infeasible nu12": ("nu12: 0.35", "nu12: 4.0", L_CFRP, "materials.CFRP", "nu12",
+                        "sqrt(E1/E2)"),
+    "negative shear modulus": ("G13: 3.1 GPa", "G13: -3.1 GPa", L_CFRP, "materials.CFRP",
+                               "G13 must be positive"),
+    "nu12 with a unit": ("nu12: 0.35", "nu12: 0.35 GPa", L_NU12, "materials.CFRP.nu12",
+                         "plain number"),
+    "unknown material in ply": ('"[0/90]s"', '"[0:steel/90]s"', L_LAYUP, "layup",
+                                "material 'steel'", "CFRP"),
+    "angle out of range": ('"[0/90]s"', '"[0/400]s"', L_LAYUP, "layup",
+                           "outside -360..360", "character 4"),
+    "unparsable layup": ('"[0/90]s"', '"[45_3/0_3/x/90]s"', L_LAYUP, "layup",
+                         "cannot read the stacking code", "character 11", "found 'x'"),
+    "unbalanced layup": ('"[0/90]s"', '"[(0/90]s"', L_LAYUP, "layup", "closing ')'"),
+    "unquoted layup code": ('"[0/90]s"', "[0/90]s", L_LAYUP, None, "not valid YAML",
+                            "quote a stacking code"),
+    "layup not text": ('"[0/90]s"', "{a: 1}", L_LAYUP, "layup", "expected text"),
+    "no layup": ('layup: "[0/90]s"\n', "", 1, "layup", "exactly one of 'layup'"),
+    "layup and plies": ('layup: "[0/90]s"', 'layup: "[0/90]s"\nplies: [{angle: 0}]', 1,
+                        "layup", "exactly one", "both"),
+    "negative frequency": ("[100, 200, 300]", "[100, -200, 300]", L_FREQ,
+                           "measured.frequencies[2]", "must be positive"),
+    "unsorted frequencies": ("[100, 200, 300]", "[100, 300, 200]", L_FREQ,
+                             "measured.frequencies[3]", "must increase", "mode 3"),
+    "unsorted across null": ("[100, 200, 300]", "[100, null, 90]", L_FREQ,
+                             "measured.frequencies[3]", "must increase"),
+    "equal frequencies": ("[100, 200, 300]", "[100, 200, 200]", L_FREQ,
+                          "measured.frequencies[3]", "must increase"),
+    "frequency with wrong unit": ("[100, 200, 300]", "[100, 200 mm, 300]", L_FREQ,
+                                  "measured.frequencies[2]", "is a length", "Hz, kHz"),
+    "frequencies not a list": ("[100, 200, 300]", "100", L_FREQ, "measured.frequencies",
+                               "expected a list"),
+    "all frequencies null": ("[100, 200, 300]", "[null, null]", L_FREQ,
+                             "measured.frequencies", "every frequency is null"),
+    "weight above one": ("[100, 200, 300]", "[100, 200, 300]\n  weights: [1, 1.5, 1]",
+                         L_FREQ + 1, "measured.weights[2]", "in [0, 1]", "1.5"),
+    "negative weight": ("[100, 200, 300]", "[100, 200, 300]\n  weights: [-1, 1, 1]",
+                        L_FREQ + 1, "measured.weights[1]", "in [0, 1]"),
+    "weights too short": ("[100, 200, 300]", "[100, 200, 300]\n  weights: [1, 1]", L_FREQ + 1,
+                          "measured.weights", "2 weights for 3 frequencies"),
+    "sigma too long": ("[100, 200, 300]", "[100, 200, 300]\n  sigma: [1, 1, 1, 1]", L_FREQ + 1,
+                       "measured.sigma", "4 sigma values for 3 frequencies"),
+    "sigma zero": ("[100, 200, 300]", "[100, 200, 300]\n  sigma: [1, 0, 1]", L_FREQ + 1,
+                   "measured.sigma[2]", "must be positive"),
+    "sigma negative": ("[100, 200, 300]", "[100, 200, 300]\n  sigma: [1, 1, -0.1 Hz]",
+                       L_FREQ + 1, "measured.sigma[3]", "must be positive"),
+    "misspelt measured key": ("frequencies:", "frequency:", L_FREQ, "measured.frequency",
+                              "did you mean 'frequencies'"),
+    "duplicate key": ("mass: 0.3 kg", "mass: 0.3 kg\nmass: 0.2 kg", L_MASS + 1, "mass",
+                      "appears twice", "line 6"),
+    "unknown boundary": ('layup: "[0/90]s"', 'layup: "[0/90]s"\nboundary: fixed', L_LAYUP + 1,
+                         "boundary", "unknown boundary condition 'fixed'", "clamped"),
+    "no mass, no density": ("mass: 0.3 kg\n", "", 1, "mass", "no density", "no mass"),
+    "fixed unknown constant": ("nu12: 0.35", "nu12: 0.35\n    fixed: [G13, E3]", L_NU12 + 1,
+                               "materials.CFRP.fixed[2]", "'E3' is not a constant"),
+    "negative prior": ("nu12: 0.35", "nu12: 0.35\n    prior: {nu12: -1}", L_NU12 + 1,
+                       "materials.CFRP.prior.nu12", "must not be negative"),
+    "negative density": ("nu12: 0.35", "nu12: 0.35\n    density: -1570 kg/m^3", L_NU12 + 1,
+                         "materials.CFRP.density", "must be positive"),
+    "density in wrong unit": ("nu12: 0.35", "nu12: 0.35\n    density: 1570 kg", L_NU12 + 1,
+                              "materials.CFRP.density", "is a mass", "kg/m^3"),
+    "thicknesses do not add up": ('layup: "[0/90]s"', 'layup: "[0/90]s"\nply_thickness: 0.5 mm',
+                                  L_LAYUP + 1, "ply_thickness", "add up to 2 mm",
+                                  "h = 3 mm", "scale_thickness"),
+    "reference for unknown material": ("[100, 200, 300]", "[100, 200, 300]\nreference:\n"
+                                       "  materials: {CFRPX: {E1: 1 GPa}}", L_FREQ + 2,
+                                       "reference.materials.CFRPX", "did you mean 'CFRP'"),
+    "reference unknown global": ("[100, 200, 300]", "[100, 200, 300]\nreference:\n"
+                                 "  global: {Exx: 1 GPa}", L_FREQ + 2, "reference.global.Exx",
+                                 "did you mean 'Ex'"),
+    "reference negative modulus": ("[100, 200, 300]", "[100, 200, 300]\nreference:\n"
+                                   "  global: {Ex: -1 GPa}", L_FREQ + 2, "reference.global.Ex",
+                                   "must be positive"),
+    "material not a mapping": ("  CFRP:\n", "  CFRP: 3\n  OTHER:\n", L_CFRP, "materials.CFRP",
+                               "expected a mapping of the constants of material 'CFRP'"),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD_CASES), ids=list(BAD_CASES))
+def test_bad_input_is_reported_with_file_field_and_line(tmp_path, case):
+    old, new, line, field, *words = BAD_CASES[case]
+    bad(tmp_path, edit(BASE, old, new), line, field, *words)
+
+
+PLY_LIST = 'plies:\n  - {angle: 0, thickness: 1.5 mm}\n  - {angle: 90, thickness: 1.5 mm}'
+
+
+@pytest.mark.parametrize("ply, line, field, words", [
+    ("{angle: 400, thickness: 1.5 mm}", L_LAYUP + 2, "plies[2].angle",
+     ["outside -360..360"]),
+    ("{angle: diagonal, thickness: 1.5 mm}", L_LAYUP + 2, "plies[2].angle",
+     ["cannot read 'diagonal'", "deg, rad"]),
+    ("{angle: 90 mm, thickness: 1.5 mm}", L_LAYUP + 2, "plies[2].angle", ["is a length"]),
+    ("{angle: 90, material: steel, thickness: 1.5 mm}", L_LAYUP + 2, "plies[2].material",
+     ["material 'steel'"]),
+    ("{angle: 90, thickness: 0 mm}", L_LAYUP + 2, "plies[2].thickness", ["must be positive"]),
+    ("{angle: 90, thicknes: 1.5 mm}", L_LAYUP + 2, "plies[2].thicknes",
+     ["did you mean 'thickness'"]),
+    ("{thickness: 1.5 mm}", L_LAYUP + 2, "plies[2].angle", ["missing required key 'angle'"]),
+    ("{angle: 90, thickness: 1 mm}", L_LAYUP, "plies", ["add up to 2.5 mm", "h = 3 mm"]),
+    ("{angle: 90}", L_LAYUP, "plies", ["for every ply or for none"]),
+])
+def test_bad_ply_list(tmp_path, ply, line, field, words):
+    text = edit(BASE, 'layup: "[0/90]s"',
+                PLY_LIST.replace("{angle: 90, thickness: 1.5 mm}", ply))
+    bad(tmp_path, text, line, field, *words)
+
+
+@pytest.mark.parametrize("old, new, line, field, words", [
+    ('layup: "[0:carbon/(90/90):glass]s"', 'layup: "[0:carbon/90/90]s"', 8, "layup",
+     ["ply 2", "has no material", "several"]),
+    ("layup: \"[0:carbon/(90/90):glass]s\"", 'layup: "[0:carbon]s"', 3, "materials.glass",
+     ["'glass' is defined but no ply uses it"]),
+    ("density_ratio: 1.95", "nu13: 1", 5, "materials.glass.nu13", ["unknown key"]),
+    (",\n          density_ratio: 1.95", "", 4, "materials.glass.density",
+     ["'glass' has no density", "density_ratio"]),
+    ("mass: 0.2 kg\n", "", 1, "mass", ["needs the mass"]),
+    ("mass: 0.2 kg\n", "scale_density_to_mass: false\n", 5, "materials.glass.density_ratio",
+     ["relative densities only"]),
+    ("density_ratio: 1.95", "density_ratio: 1.95, density: 1 kg/m^3", 5,
+     "materials.glass.density_ratio", ["either density or density_ratio"]),
+    ('layup: "[0:carbon/(90/90):glass]s"', 'layup: "[0:c/90:x]s"', 8, "layup",
+     ["material 'x'", "glass, carbon"]),
+    ('layup: "[0:carbon/(90/90):glass]s"', 'layup: "[0:carbon/(90/90):glass]s"\n'
+     'ply_thickness: {carbon: 0.3 mm, steel: 1 mm}', 9, "ply_thickness.steel",
+     ["unknown key 'steel'"]),
+    ('layup: "[0:carbon/(90/90):glass]s"', 'layup: "[0:carbon/(90/90):glass]s"\n'
+     'ply_thickness: {carbon: 0.3 mm}', 9, "ply_thickness.glass",
+     ["no thickness for material 'glass'"]),
+    ('layup: "[0:carbon/(90/90):glass]s"', 'layup: "[0:carbon/(90/90):glass]s"\n'
+     'scale_thickness: maybe', 9, "scale_thickness", ["true or false"]),
+])
+def test_bad_hybrid(tmp_path, old, new, line, field, words):
+    bad(tmp_path, edit(HYBRID, old, new), line, field, *words)
+
+
+def test_ambiguous_tag(tmp_path):
+    text = edit(edit(HYBRID, "  glass:", "  cglass:"), "(90/90):glass", "(90/90):cglass")
+    bad(tmp_path, edit(text, "[0:carbon/", "[0:c/"), 8, "layup", "material 'c'",
+        "unambiguous")
+
+
+@pytest.mark.parametrize("content, line, words", [
+    ("", None, ["empty"]),
+    ("   \n# only a comment\n", None, ["empty"]),
+    ("- 1\n- 2\n", 1, ["expected a mapping", "got a list"]),
+    ("just text\n", 1, ["expected a mapping", "'just text'"]),
+    ("geometry: [a\n", 2, ["not valid YAML"]),
+    ("a: 1\n---\nb: 2\n", 2, ["not valid YAML"]),
+    ("a: &x [*x]\n", None, ["recursive"]),
+    (b"name: T\ndescription: caf\xe9\n", 2, ["not UTF-8", "0xe9"]),
+    (b"\x89PNG\r\n\x1a\n\x00\x00", 1, ["not UTF-8"]),
+])
+def test_file_that_is_not_a_specimen(tmp_path, content, line, words):
+    bad(tmp_path, content, line, None, *words)
+
+
+def test_missing_file_and_folder(tmp_path):
+    with pytest.raises(SpecimenError, match=r"nothere\.yaml: file not found"):
+        read_specimen(tmp_path / "nothere.yaml")
+    with pytest.raises(SpecimenError, match="is a folder"):
+        read_specimen(tmp_path)
+
+
+def test_errors_from_text_use_the_given_name():
+    with pytest.raises(SpecimenError, match=r"^<string>:5, field 'geometry.h'"):
+        load_specimen_text(edit(BASE, "h: 3 mm", "h: 3 Hz"))
