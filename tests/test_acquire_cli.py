@@ -1,0 +1,239 @@
+"""``laminid acquire`` end to end against the loopback emulators (127.0.0.1 only).
+
+Every run reaches the emulator through pyvisa-py as ``TCPIP::127.0.0.1::<port>::SOCKET``;
+timeouts are short so the fault tests stay fast.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from laminid_cli.cli import cli
+from laminid_cli.frf.store import read_frf_h5
+from tests.instrument.emulator import (PLATE_MODES, Fault, HP35670AEmulator, PlateSimulator,
+                                       SR785Emulator)
+
+FAST = ["--timeout", "0.5", "--averages", "3", "--span", "1600", "--lines", "800"]
+
+
+def run(args, input=None):
+    return CliRunner().invoke(cli, args, input=input, catch_exceptions=False)
+
+
+@pytest.fixture
+def hp():
+    with HP35670AEmulator() as emu:
+        yield emu
+
+
+@pytest.fixture
+def sr():
+    with SR785Emulator() as emu:
+        yield emu
+
+
+def acquire(emu, out, *extra, points=3, input=None):
+    return run(["acquire", "--analyser", emu.resource, *FAST, "--points", str(points),
+                "-o", str(out), *extra], input=input)
+
+
+# ------------------------------------------------------------------------- happy paths
+@pytest.mark.parametrize("emu_cls, model", [(HP35670AEmulator, "35670A"),
+                                            (SR785Emulator, "SR785")])
+def test_acquire_writes_every_point_with_identity_settings_and_units(tmp_path, emu_cls, model):
+    out = tmp_path / "plate.frf.h5"
+    with emu_cls() as emu:
+        r = acquire(emu, out, "--no-prompt", "--units", "Pa/N")
+    assert r.exit_code == 0, r.output
+    assert "point 3: 3 hits, coherence at resonances" in r.output
+    s = read_frf_h5(out)
+    assert s.n_points == 3 and s.labels == ("1", "2", "3") and s.units == "Pa/N"
+    assert s.meta["complete"] is True
+    assert s.meta["instrument"]["model"] == model
+    assert s.meta["instrument"]["idn"] == emu.idn
+    assert s.meta["settings"]["span_hz"] == 1600.0 and s.meta["settings"]["lines"] == 800
+    assert s.meta["settings"]["averages"] == 3
+    assert s.meta["points"]["n_averages"] == [3, 3, 3]
+    np.testing.assert_allclose(s.freq, np.arange(801) * 2.0)
+    # the averaged H1 is the plate's FRF within the noise (FRF peak vs truth at point 2)
+    truth, _ = PlateSimulator().average(s.freq, 2, 1000, emu.exp_tau_s(), measurement=99)
+    k = int(np.argmax(np.abs(truth)))
+    assert abs(s.frf[1, k] - truth[k]) < 0.02 * abs(truth[k])
+    assert np.all(s.coherence[:, k] > 0.99)
+
+
+def test_prompted_session_skips_quits_and_repeats_a_poor_point(tmp_path, hp):
+    out = tmp_path / "p.h5"
+    # point 1: go, coherence poor (threshold 1.0) -> repeat "y", then "n"; point 2: skip;
+    # point 3: quit
+    r = acquire(hp, out, "--coherence-min", "1.0", input="\ny\nn\ns\nq\n")
+    assert r.exit_code == 0, r.output
+    assert r.output.count("POOR coherence") == 2
+    assert "Repeat point 1?" in r.output
+    assert "1 of 3 point(s) saved; continue with:" in r.output and "--resume" in r.output
+    s = read_frf_h5(out)
+    assert s.labels == ("1",) and s.meta["complete"] is False
+
+
+def test_resume_continues_an_incomplete_file(tmp_path, hp):
+    out = tmp_path / "r.h5"
+    assert acquire(hp, out, "--no-prompt", points=2).exit_code == 0
+    r = acquire(hp, out, "--no-prompt", "--resume", points=4)
+    assert r.exit_code == 0, r.output
+    assert "resuming, 2 of 4 point(s) already measured" in r.output
+    assert read_frf_h5(out).labels == ("1", "2", "3", "4")
+
+
+def test_keep_setup_records_the_analysers_own_settings(tmp_path, hp):
+    out = tmp_path / "k.h5"
+    assert acquire(hp, out, "--no-prompt", points=1).exit_code == 0  # leaves 1600 Hz/800 lines
+    out2 = tmp_path / "k2.h5"
+    r = run(["acquire", "--analyser", hp.resource, "--keep-setup", "--no-prompt", "--timeout",
+             "0.5", "--span", "400", "-o", str(out2)])
+    assert r.exit_code == 0, r.output
+    settings = read_frf_h5(out2).meta["settings"]
+    assert settings["span_hz"] == 1600.0 and settings["lines"] == 800
+    assert not settings["configured"]
+
+
+# ------------------------------------------------------------------------------ faults
+@pytest.mark.parametrize("fault, message", [
+    (Fault("CALC1:DATA?", "silent", 2), "did not answer within 0.5 s"),
+    (Fault("CALC1:DATA?", "truncate", 2), "truncated binary transfer"),
+    (Fault("CALC2:DATA?", "drop", 2), "analyser TCPIP::127.0.0.1::"),
+])
+def test_hp_faults_exit_1_and_keep_every_finished_point(tmp_path, fault, message):
+    out = tmp_path / "f.h5"
+    with HP35670AEmulator(faults=[fault]) as emu:
+        r = acquire(emu, out, "--no-prompt")
+    assert r.exit_code == 1, r.output
+    assert message in r.output
+    assert "1 point(s) saved in" in r.output and "--resume" in r.output
+    s = read_frf_h5(out)
+    assert s.labels == ("1",) and s.meta["complete"] is False
+    # and --resume against a healthy analyser finishes the file
+    with HP35670AEmulator() as emu:
+        r = acquire(emu, out, "--no-prompt", "--resume")
+    assert r.exit_code == 0, r.output
+    assert read_frf_h5(out).labels == ("1", "2", "3")
+
+
+def test_hp_error_queue_after_configuring_exits_1(tmp_path):
+    out = tmp_path / "e.h5"
+    with HP35670AEmulator(faults=[Fault("WIND2:EXP", "error", 0)]) as emu:
+        r = acquire(emu, out, "--no-prompt")
+    assert r.exit_code == 1
+    assert 'reported error(s) after configuring: -222,"Data out of range"' in r.output
+    assert not out.exists()  # nothing was measured
+
+
+@pytest.mark.parametrize("fault, message", [
+    (Fault("DSPB?", "truncate", 3), "expected 6408 bytes"),
+    (Fault("DSPS?", "silent", 2), "did not answer within 0.5 s"),
+])
+def test_sr785_faults_exit_1_and_keep_every_finished_point(tmp_path, fault, message):
+    out = tmp_path / "s.h5"
+    with SR785Emulator(faults=[fault]) as emu:
+        r = acquire(emu, out, "--no-prompt")
+    assert r.exit_code == 1, r.output
+    assert message in r.output
+    n_done = fault.measurement - 1
+    assert f"{n_done} point(s) saved in" in r.output
+    assert read_frf_h5(out).n_points == n_done
+
+
+def test_ctrl_c_keeps_the_file_and_prints_the_resume_command(tmp_path, hp, monkeypatch):
+    import laminid_cli.instrument.session as session
+
+    real = session.assess_point
+    calls = []
+
+    def interrupt_on_second(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(session, "assess_point", interrupt_on_second)
+    out = tmp_path / "c.h5"
+    r = acquire(hp, out, "--no-prompt")
+    assert r.exit_code == 130
+    assert "interrupted; 2 point(s) saved in" in r.output  # point 2 was saved before the ^C
+    assert "--resume" in r.output
+    assert read_frf_h5(out).n_points == 2
+    assert hp.log[-1] == "ABOR"  # the measurement was stopped on the analyser
+
+
+# --------------------------------------------------------------------------- bad input
+def test_unknown_resource_string_exits_2(tmp_path):
+    r = run(["acquire", "--analyser", "NOT-A-RESOURCE", "-o", str(tmp_path / "x.h5")])
+    assert r.exit_code == 2
+    assert "'NOT-A-RESOURCE' is not a VISA resource string" in r.output
+
+
+def test_unsupported_idn_exits_2(tmp_path):
+    with HP35670AEmulator(idn="KEITHLEY INSTRUMENTS INC.,MODEL 2000,1,A02") as emu:
+        r = acquire(emu, tmp_path / "x.h5")
+    assert r.exit_code == 2
+    assert "answers *IDN? with 'KEITHLEY INSTRUMENTS INC.,MODEL 2000,1,A02', which no laminid " \
+           "driver supports (supported: 35670A, SR785)" in r.output
+
+
+def test_unknown_model_exits_2(tmp_path, hp):
+    r = acquire(hp, tmp_path / "x.h5", "--model", "HP3562A")
+    assert r.exit_code == 2 and "unknown analyser model 'HP3562A'" in r.output
+
+
+@pytest.mark.parametrize("emu_cls, args, message", [
+    (HP35670AEmulator, ["--span", "1000"], "35670A does not offer a span of 1000 Hz; spans (Hz)"),
+    (SR785Emulator, ["--lines", "1600"], "SR785 does not offer 1600 lines; lines: 100, 200"),
+])
+def test_span_or_lines_not_offered_exit_2(tmp_path, emu_cls, args, message):
+    with emu_cls() as emu:
+        r = acquire(emu, tmp_path / "x.h5", *args)
+    assert r.exit_code == 2
+    assert message in r.output
+    assert not any(c.startswith(("FREQ", "FSPN")) for c in emu.log)  # nothing sent
+
+
+def test_existing_output_is_not_overwritten(tmp_path, hp):
+    out = tmp_path / "exists.h5"
+    out.write_bytes(b"precious")
+    r = acquire(hp, out, "--no-prompt")
+    assert r.exit_code == 2 and "file exists" in r.output
+    assert out.read_bytes() == b"precious"
+    assert hp.log == []  # checked before talking to the analyser
+
+
+# ------------------------------------------------------------------ acquire -> fit-frf
+@pytest.mark.skipif(importlib.util.find_spec("laminid_cli.commands.fit_frf") is None,
+                    reason="laminid fit-frf is not written yet")
+def test_acquire_then_fit_frf_gives_back_the_emulators_modes(tmp_path, hp):
+    import json
+
+    out = tmp_path / "plate.frf.h5"
+    assert acquire(hp, out, "--no-prompt", "--units", "Pa/N", points=4).exit_code == 0
+    r = run(["fit-frf", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    result = json.loads(r.output)
+    found = np.array(_frequencies(result))
+    truth = np.array([f for f, _ in PLATE_MODES])
+    err = np.array([np.min(np.abs(found - f)) / f for f in truth])
+    assert np.all(err < 5e-4), (found, truth, err)
+
+
+def _frequencies(result):
+    """Natural frequencies (Hz) from fit-frf's JSON, whatever its exact nesting."""
+    if isinstance(result, dict):
+        for key in ("freq_hz", "frequencies_hz", "frequencies", "natural_frequencies_hz"):
+            if key in result:
+                v = result[key]
+                return [x["freq_hz"] if isinstance(x, dict) else x for x in v]
+        for key in ("modes",):
+            if key in result:
+                return [m["freq_hz"] for m in result[key]]
+    raise AssertionError(f"no frequencies in fit-frf JSON: {result}")
