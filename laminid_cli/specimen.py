@@ -42,7 +42,6 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import logging
-import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -203,7 +202,8 @@ def _compose(text: str, path: str) -> _Y:
             raise SpecimenError(f"not valid YAML: {problem}{hint}", path=path, line=line) \
                 from exc
         except yaml.YAMLError as exc:
-            raise SpecimenError(f"not valid YAML: {exc}", path=path) from exc
+            raise SpecimenError(f"not valid YAML: {' '.join(str(exc).split())}",
+                                path=path) from exc
         if node is None:
             raise SpecimenError("the file is empty; expected a mapping with geometry, materials, "
                                 "layup, ...", path=path)
@@ -220,8 +220,9 @@ def _convert(node, loader, name: str, path: str, active: set) -> _Y:
         try:
             value = loader.construct_object(node, deep=True)
         except yaml.YAMLError as exc:
-            raise SpecimenError(f"cannot read the value: {exc}", path=path, field=name or None,
-                                line=line) from exc
+            problem = getattr(exc, "problem", None) or " ".join(str(exc).split())
+            raise SpecimenError(f"cannot read the value: {problem}", path=path,
+                                field=name or None, line=line) from exc
         return _Y(value, line, name)
     active = active | {id(node)}
     if isinstance(node, yaml.SequenceNode):
