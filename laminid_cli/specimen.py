@@ -614,8 +614,8 @@ def _read_plies(r: _Reader, top: dict, root: _Y, h: float,
         ply_materials.append(found)
     unused = [n for n in names if n not in ply_materials]
     if unused:
-        raise r.error(top["materials"], f"material '{unused[0]}' is defined but no ply uses it",
-                      f"materials.{unused[0]}")
+        raise r.error(top["materials"].value[unused[0]],
+                      f"material '{unused[0]}' is defined but no ply uses it")
 
     thickness = _ply_thicknesses(r, top, root, h, ply_materials, own_thickness, names)
     return tuple(Ply(material=m, angle_deg=float(angle), thickness=float(t))

@@ -644,7 +644,7 @@ def test_bad_ply_list(tmp_path, ply, line, field, words):
 @pytest.mark.parametrize("old, new, line, field, words", [
     ('layup: "[0:carbon/(90/90):glass]s"', 'layup: "[0:carbon/90/90]s"', 8, "layup",
      ["ply 2", "has no material", "several"]),
-    ("layup: \"[0:carbon/(90/90):glass]s\"", 'layup: "[0:carbon]s"', 3, "materials.glass",
+    ("layup: \"[0:carbon/(90/90):glass]s\"", 'layup: "[0:carbon]s"', 4, "materials.glass",
      ["'glass' is defined but no ply uses it"]),
     ("density_ratio: 1.95", "nu13: 1", 5, "materials.glass.nu13", ["unknown key"]),
     (",\n          density_ratio: 1.95", "", 4, "materials.glass.density",
