@@ -38,15 +38,20 @@ def model_names() -> list[str]:
     return [d.MODEL for d in drivers().values()]
 
 
-def driver_for(model: str, idn: str) -> type[Analyser]:
+def driver_for(model: str, idn: str, resource: str = "") -> type[Analyser]:
     """The driver for ``model`` (``"auto"``: the one whose ``matches(idn)`` is true)."""
     table = drivers()
+    where = f" at {resource}" if resource else ""
     if model.lower() == "auto":
         for driver in table.values():
             if driver.matches(idn):
                 return driver
+        if not idn.strip():
+            raise AnalyserSetupError(
+                f"the instrument{where} gave an empty answer to *IDN?; check the address "
+                f"(supported analysers: {', '.join(model_names())})")
         raise AnalyserSetupError(
-            f"the analyser answers *IDN? with {idn!r}, which no laminid driver supports "
+            f"the analyser{where} answers *IDN? with {idn!r}, which no laminid driver supports "
             f"(supported: {', '.join(model_names())}); use --model to force one")
     driver = table.get(model.upper())
     if driver is None:
@@ -61,7 +66,7 @@ def connect(transport: Transport, model: str = "auto", poll_s: float = 0.05) -> 
     """Identify the analyser on ``transport`` and return its driver (closes it on failure)."""
     try:
         idn = transport.query("*IDN?")
-        driver = driver_for(model, idn)
+        driver = driver_for(model, idn, transport.resource)
     except BaseException:
         transport.close()
         raise

@@ -76,6 +76,8 @@ def normalise_resource(resource: str) -> str:
         from pyvisa import rname
 
         parsed = rname.parse_resource_name(text)
+        if getattr(parsed, "resource_class", "") == "SOCKET" and not str(parsed.port).isdigit():
+            raise ValueError(f"port {parsed.port!r} is not a number")
     except Exception as exc:  # pyvisa raises InvalidResourceName (a ValueError) or others
         raise AnalyserSetupError(
             f"analyser resource {resource!r} is not a VISA resource string ({exc}); write e.g. "

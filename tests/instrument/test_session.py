@@ -1,0 +1,130 @@
+"""Roving-hammer workflow without click or sockets: a fake analyser and a scripted UI."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from laminid_cli.errors import InstrumentError
+from laminid_cli.frf.store import FrfWriter, read_frf_h5
+from laminid_cli.instrument.base import AcquisitionSettings, Measurement
+from laminid_cli.instrument.session import (AcquisitionInterrupted, SessionOptions,
+                                            assess_point, run_session)
+
+FREQ = np.linspace(0.0, 100.0, 51)
+
+
+class FakeAnalyser:
+    """Serves a list of outcomes: a coherence level (float) or an exception to raise."""
+
+    MODEL = "FAKE"
+
+    def __init__(self, outcomes):
+        self.outcomes = list(outcomes)
+        self.aborted = 0
+
+    def measure(self, n_averages, progress=None):
+        outcome = self.outcomes.pop(0)
+        if isinstance(outcome, BaseException):
+            raise outcome
+        if progress:
+            progress(n_averages, n_averages)
+        frf = 1.0 / (50.0 ** 2 - FREQ ** 2 + 2j * 0.02 * 50.0 * FREQ)
+        return Measurement(freq=FREQ, frf=frf, coherence=np.full(FREQ.shape, outcome),
+                           n_averages=n_averages, overloads=0)
+
+    def abort(self):
+        self.aborted += 1
+
+
+class ScriptUI:
+    def __init__(self, ready=(), repeat=()):
+        self.ready_answers, self.repeat_answers = list(ready), list(repeat)
+        self.lines, self.progress_seen = [], []
+
+    def ready(self, label, index, total):
+        return self.ready_answers.pop(0)
+
+    def progress(self, label, index, total, hits, n):
+        self.progress_seen.append((label, hits, n))
+
+    def summary(self, quality):
+        self.lines.append(quality.line())
+
+    def repeat(self, quality):
+        return self.repeat_answers.pop(0)
+
+
+SETTINGS = AcquisitionSettings(averages=4)
+
+
+def writer(tmp_path, **kw):
+    return FrfWriter(tmp_path / "s.h5", FREQ, units="Pa/N", **kw)
+
+
+def test_poor_point_is_repeated_and_replaced_in_the_file(tmp_path):
+    ui = ScriptUI(ready=["go", "go"], repeat=[True])
+    w = writer(tmp_path)
+    result = run_session(FakeAnalyser([0.5, 0.99, 0.98]), w, SETTINGS,
+                         SessionOptions(n_points=2, coherence_min=0.9), ui)
+    assert result.complete and result.repeated == 1 and result.measured == ["1", "2"]
+    assert "POOR coherence" in ui.lines[0] and ui.lines[1].endswith("- ok")
+    s = read_frf_h5(tmp_path / "s.h5")
+    assert s.labels == ("1", "2") and s.meta["complete"] is True
+    np.testing.assert_allclose(s.coherence[0], 0.99)  # the repeat replaced the poor point
+    assert ("1", 4, 4) in ui.progress_seen
+
+
+def test_skip_and_quit_leave_an_incomplete_but_valid_file(tmp_path):
+    ui = ScriptUI(ready=["go", "skip", "quit"])
+    result = run_session(FakeAnalyser([0.99]), writer(tmp_path), SETTINGS,
+                         SessionOptions(n_points=4), ui)
+    assert result.quit and result.skipped == ["2"] and not result.complete
+    s = read_frf_h5(tmp_path / "s.h5")
+    assert s.labels == ("1",) and s.meta["complete"] is False
+
+
+def test_no_prompt_keeps_poor_points_without_asking(tmp_path):
+    ui = ScriptUI()
+    result = run_session(FakeAnalyser([0.3, 0.3]), writer(tmp_path), SETTINGS,
+                         SessionOptions(n_points=2, prompt=False), ui)
+    assert result.complete and len(ui.lines) == 2
+
+
+def test_ctrl_c_aborts_the_analyser_and_keeps_finished_points(tmp_path):
+    fake = FakeAnalyser([0.99, KeyboardInterrupt()])
+    with pytest.raises(AcquisitionInterrupted) as info:
+        run_session(fake, writer(tmp_path), SETTINGS,
+                    SessionOptions(n_points=3, prompt=False, resume_hint="laminid ... --resume"),
+                    ScriptUI())
+    assert info.value.exit_code == 130
+    assert "1 point(s) saved in" in str(info.value) and "laminid ... --resume" in str(info.value)
+    assert fake.aborted == 1
+    assert read_frf_h5(tmp_path / "s.h5").n_points == 1
+
+
+def test_instrument_fault_keeps_finished_points_and_says_so(tmp_path):
+    fake = FakeAnalyser([0.99, 0.99, InstrumentError("analyser X did not answer within 1 s")])
+    with pytest.raises(InstrumentError, match=r"did not answer within 1 s; 2 point\(s\) saved"):
+        run_session(fake, writer(tmp_path), SETTINGS, SessionOptions(n_points=3, prompt=False),
+                    ScriptUI())
+    assert read_frf_h5(tmp_path / "s.h5").n_points == 2
+
+
+def test_resume_measures_only_the_missing_points(tmp_path):
+    w = writer(tmp_path)
+    run_session(FakeAnalyser([0.99]), w, SETTINGS, SessionOptions(n_points=1, prompt=False),
+                ScriptUI())
+    w2 = writer(tmp_path, resume=True)
+    result = run_session(FakeAnalyser([0.99, 0.99]), w2, SETTINGS,
+                         SessionOptions(n_points=3, prompt=False), ScriptUI())
+    assert result.measured == ["2", "3"] and result.complete
+
+
+def test_quality_uses_coherence_at_the_resonances_not_the_antiresonances():
+    frf = 1.0 / (50.0 ** 2 - FREQ ** 2 + 2j * 0.02 * 50.0 * FREQ)
+    coh = np.where(np.abs(frf) > np.quantile(np.abs(frf), 0.5), 0.97, 0.2)
+    q = assess_point("7", Measurement(FREQ, frf, coh, 5, 0), coherence_min=0.9)
+    assert q.ok and q.peak_freq_hz == 50.0 and q.peak_coherence == pytest.approx(0.97)
+    assert q.line() == ("point 7: 5 hits, coherence at resonances 0.970 (peak 0.970 at 50.0 Hz), "
+                        "overloads 0 - ok")
