@@ -175,6 +175,26 @@ def test_unknown_resource_string_exits_2(tmp_path):
     assert "'NOT-A-RESOURCE' is not a VISA resource string" in r.output
 
 
+def test_nothing_listening_at_the_address_exits_2(tmp_path):
+    import socket
+
+    with socket.socket() as s:  # a free local port with nobody listening
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    r = run(["acquire", "--analyser", f"TCPIP::127.0.0.1::{port}::SOCKET", "--timeout", "0.5",
+             "-o", str(tmp_path / "x.h5")])
+    assert r.exit_code == 2
+    assert f"no analyser at TCPIP0::127.0.0.1::{port}::SOCKET (connection refused)" in r.output
+
+
+def test_end_of_input_at_the_prompt_stops_like_ctrl_c(tmp_path, hp):
+    out = tmp_path / "eof.h5"
+    r = acquire(hp, out, input="\n")  # point 1 measured, then no answer for point 2
+    assert r.exit_code == 130
+    assert "interrupted; 1 point(s) saved in" in r.output and "--resume" in r.output
+    assert read_frf_h5(out).n_points == 1
+
+
 def test_unsupported_idn_exits_2(tmp_path):
     with HP35670AEmulator(idn="KEITHLEY INSTRUMENTS INC.,MODEL 2000,1,A02") as emu:
         r = acquire(emu, tmp_path / "x.h5")

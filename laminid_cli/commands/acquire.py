@@ -31,16 +31,22 @@ class _ClickUI:
 
     def ready(self, label, index, total):
         self._end_progress()
-        answer = click.prompt(
-            f"Point {label} ({index}/{total}): press Enter, then hit the plate "
-            "[s = skip, q = quit]", default="", show_default=False).strip().lower()
+        try:
+            answer = click.prompt(
+                f"Point {label} ({index}/{total}): press Enter, then hit the plate "
+                "[s = skip, q = quit]", default="", show_default=False).strip().lower()
+        except click.Abort:  # Ctrl-C or end of input at the prompt: stop like Ctrl-C anywhere
+            raise KeyboardInterrupt from None
         return {"s": "skip", "skip": "skip", "q": "quit", "quit": "quit"}.get(answer, "go")
 
     def progress(self, label, index, total, hits, n_averages):
-        done = "?" if hits < 0 else str(min(hits, n_averages))
-        running = n_averages if hits >= n_averages else (hits + 1 if hits >= 0 else "?")
-        text = (f"point {label} ({index}/{total}): {done}/{n_averages} hits averaged"
-                + ("" if hits >= n_averages else f", waiting for hit {running}"))
+        head = f"point {label} ({index}/{total}): "
+        if hits < 0:  # the analyser cannot report the hit count while averaging
+            text = head + f"waiting for {n_averages} hits"
+        elif hits >= n_averages:
+            text = head + f"{n_averages}/{n_averages} hits averaged"
+        else:
+            text = head + f"{hits}/{n_averages} hits averaged, waiting for hit {hits + 1}"
         click.echo(f"\r{text:<70}", nl=False, err=True)
         self._progress_shown = True
 
@@ -49,7 +55,10 @@ class _ClickUI:
         click.echo(quality.line())
 
     def repeat(self, quality):
-        return click.confirm(f"Repeat point {quality.label}?", default=True)
+        try:
+            return click.confirm(f"Repeat point {quality.label}?", default=True)
+        except click.Abort:
+            raise KeyboardInterrupt from None
 
 
 def _resume_command(params: dict, output: Path) -> str:

@@ -14,6 +14,9 @@ one DSPB? transfer gives (imag, real) pairs; display B = coherence; RMS averagin
 channel-1 trigger with negative delay, force/exponential window. Floats arrive least
 significant byte first (little-endian), as in the manual's binary transfers.
 
+``DSPB?`` exists only on the GPIB interface (manual p. 5-108): use a GPIB resource (or a
+GPIB-LAN gateway), not the RS-232 port. The test emulator serves it over a TCP socket.
+
 Points to confirm on the first real instrument (opt-in hardware test): the measurement/view/
 window index tables and the input-status overload bits, isolated in the constants below.
 """

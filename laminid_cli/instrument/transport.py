@@ -141,7 +141,7 @@ class VisaTransport:
         except (ValueError, OSError, pyvisa.errors.Error) as exc:
             self._rm.close()
             raise AnalyserSetupError(f"analyser {self.resource}: cannot open with backend "
-                                     f"{self.backend} ({exc})") from exc
+                                     f"{self.backend} ({' '.join(str(exc).split())})") from exc
         # Text messages end with LF; raw sockets have no EOI, so the terminator is required
         # there, and harmless on GPIB (EOI also ends a message). Binary blocks are read with
         # read_bytes, which does not stop at the terminator.
@@ -157,8 +157,11 @@ class VisaTransport:
     def timeout(self, seconds: float) -> None:
         self._inst.timeout = max(1, int(round(seconds * 1000)))
 
-    def _fail(self, exc: Exception, what: str) -> InstrumentError:
+    def _fail(self, exc: Exception, what: str) -> LaminidError:
         err = self._pyvisa.errors
+        if isinstance(exc, ConnectionRefusedError):
+            return AnalyserSetupError(f"no analyser at {self.resource} (connection refused); "
+                                      "check the address, port and that the analyser is on")
         if isinstance(exc, err.VisaIOError) and exc.error_code == \
                 self._pyvisa.constants.StatusCode.error_timeout:
             msg = (f"analyser {self.resource} did not answer within {self.timeout:g} s "
