@@ -1,0 +1,909 @@
+"""Natural frequencies from FRFs: global rational fraction polynomial (RFP) fit.
+
+The estimator of the paper's section 3 (Araujo et al. 2000, ref. [24]): Richardson & Formenti,
+"Parameter estimation from frequency response measurements using rational fraction
+polynomials", IMAC 1982, in its global multi-FRF form (Richardson & Formenti, "Global curve
+fitting of frequency response measurements using the rational fraction polynomial method",
+IMAC 1985). Every FRF ``p`` of a band is modelled as
+
+    H_p(s) = N_p(s) / D(s),   s = j omega,
+
+with one denominator ``D`` (shared poles) of degree ``2 N`` (``N`` modes) and a numerator of
+``2 N + n_extra`` coefficients per FRF; the extra terms absorb the residual effect of modes
+outside the band (mass line below, stiffness line above). The linearised least-squares problem
+``min sum_p ||N_p - H_p D||^2`` is written in *Forsythe orthogonal polynomials* (Forsythe 1957,
+"Generation and use of orthogonal polynomials for data-fitting with a digital computer"): real
+polynomials orthonormal on the symmetric point set {-omega_i, +omega_i} of the band, scaled to
+[-1, 1]. With ``theta_k(j x) = j^k phi_k(x)`` they are polynomials in ``s`` with real
+coefficients, so poles come in conjugate pairs and the least-squares matrices stay well
+conditioned up to high orders. The numerators are eliminated (projection onto the orthogonal
+complement of the numerator basis), the denominator is solved with its top coefficient fixed,
+and its roots are the eigenvalues of the *comrade matrix* of the three-term recurrence (no
+conversion to the ill-conditioned power basis).
+
+A stabilisation sweep over the model order separates physical poles (stable in frequency and
+damping from order to order) from computational ones; each stable track gives one mode, its
+frequency spread over the stable orders the uncertainty. Modal constants then follow from a
+linear least-squares fit of all FRFs with the selected poles plus residual terms (LSFD).
+
+Symbols: ``freq`` Hz, ``omega`` rad/s, poles ``lam = -zeta omega_n + j omega_n sqrt(1 - zeta^2)``
+in rad/s, FRFs ``frf`` complex (n_points, n_freq). Modal constants are the complex residues
+``A_r`` of ``H_p(s) = sum_r A_pr / (s - lam_r) + conj(A_pr) / (s - conj(lam_r)) + residuals``
+(FRF units x rad/s).
+
+This module is pure numerics: no click, no file formats (except :func:`measured_from_frf_file`,
+which delegates reading to :mod:`laminid_cli.frf.io`), no plotting.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from laminid_cli.errors import FrfError
+
+log = logging.getLogger(__name__)
+
+#: fewest frequency lines a band may hold
+MIN_BAND_LINES = 8
+
+
+# --------------------------------------------------------------------------- data classes
+@dataclass(frozen=True)
+class PoleCriteria:
+    """How a physical pole is told from a computational one (stabilisation and selection).
+
+    Attributes
+    ----------
+    freq_tol : relative change of natural frequency between consecutive orders for a pole to be
+        "stable in frequency" (0.002 = 0.2 %)
+    damping_tol : relative change of damping ratio between consecutive orders for "stable in
+        damping"
+    max_damping : largest damping ratio a physical mode may have
+    min_stable : fewest consecutive orders over which a pole must be stable in frequency and
+        damping to be reported as a mode
+    min_snr : a mode's peak contribution (|A| / (zeta omega_n), at the best point) must exceed
+        ``min_snr`` times the RMS of the fit residual around it (noise floor)
+    n_extra : extra numerator terms (out-of-band residuals)
+    max_modes : largest number of modes N in the order sweep of a band (``None``: from the
+        number of peaks in the band)
+    weighting, weight_floor : weighting of the least-squares errors (:func:`fit_weights`)
+    """
+
+    freq_tol: float = 0.002
+    damping_tol: float = 0.20
+    max_damping: float = 0.10
+    min_stable: int = 5
+    min_snr: float = 5.0
+    n_extra: int = 2
+    max_modes: int | None = None
+    weighting: str = "uniform"
+    weight_floor: float = 0.1
+    reweight: bool = True
+
+
+@dataclass(frozen=True)
+class RfpFit:
+    """One global RFP fit of one band at one model order.
+
+    Attributes
+    ----------
+    band_hz : (lo, hi) Hz, the lines used
+    n_modes : N, denominator degree 2N
+    n_extra : extra numerator terms
+    poles : complex (n,) rad/s, roots of the denominator with positive imaginary part, sorted
+    denominator : float (2N+1,), coefficients in the orthonormal basis (top one = 1)
+    """
+
+    band_hz: tuple[float, float]
+    n_modes: int
+    n_extra: int
+    poles: np.ndarray
+    denominator: np.ndarray
+
+    @property
+    def freq_hz(self) -> np.ndarray:
+        return np.abs(self.poles) / (2 * np.pi)
+
+    @property
+    def damping_ratio(self) -> np.ndarray:
+        return -self.poles.real / np.abs(self.poles)
+
+
+@dataclass(frozen=True)
+class Stabilisation:
+    """A stabilisation chart: every pole of every order of one band.
+
+    Attributes (all (n,), one entry per pole)
+    ----------
+    band_hz : (lo, hi) Hz of the fitted lines
+    order : N of the model (denominator degree 2N)
+    freq_hz : natural frequency, Hz
+    damping_ratio : damping ratio (negative = unstable pole)
+    stable : 0 new/unstable, 1 stable in frequency, 2 stable in frequency and damping
+        (with respect to the previous order, :class:`PoleCriteria`)
+    track : id of the pole track across orders (consecutive-order chains), -1 when none
+    """
+
+    band_hz: tuple[float, float]
+    order: np.ndarray
+    freq_hz: np.ndarray
+    damping_ratio: np.ndarray
+    stable: np.ndarray
+    track: np.ndarray
+
+
+@dataclass(frozen=True)
+class Mode:
+    """One identified mode.
+
+    Attributes
+    ----------
+    freq_hz : natural frequency omega_n / 2 pi, Hz
+    damping_ratio : zeta (viscous), dimensionless
+    modal_constants : complex (n_points,), residue A_pr of each FRF (FRF units x rad/s)
+    freq_std_hz : standard deviation of freq_hz over the stable orders, Hz (uncertainty)
+    damping_std : standard deviation of the damping ratio over the stable orders
+    orders_stable : number of model orders over which the pole was stable
+    band_hz : band (lo, hi) the mode was found in, Hz
+    snr : peak modal contribution over the local residual RMS
+    """
+
+    freq_hz: float
+    damping_ratio: float
+    modal_constants: np.ndarray
+    freq_std_hz: float
+    damping_std: float
+    orders_stable: int
+    band_hz: tuple[float, float]
+    snr: float = np.inf
+
+    @property
+    def pole(self) -> complex:
+        w = 2 * np.pi * self.freq_hz
+        z = self.damping_ratio
+        return complex(-z * w, w * np.sqrt(max(1.0 - z * z, 0.0)))
+
+    def as_dict(self) -> dict:
+        return {"freq_hz": self.freq_hz, "freq_std_hz": self.freq_std_hz,
+                "damping_ratio": self.damping_ratio, "damping_std": self.damping_std,
+                "orders_stable": self.orders_stable, "band_hz": list(self.band_hz),
+                "snr": self.snr,
+                "modal_constants": [[float(a.real), float(a.imag)] for a in self.modal_constants]}
+
+
+@dataclass(frozen=True)
+class BandFit:
+    """The fit of one band: its stabilisation chart and the LSFD model of its lines.
+
+    Attributes
+    ----------
+    band_hz : (lo, hi) Hz of the fitted lines
+    chart : the band's :class:`Stabilisation`
+    poles : complex (n,), rad/s, every pole in the LSFD model (the band's modes first, then
+        neighbouring bands' modes)
+    constants : complex (n_points, n), their residues
+    residual : float (n_points, len(RESIDUAL_POWERS)), coefficients of ``(s / w_ref)^k``
+    w_ref : rad/s
+    """
+
+    band_hz: tuple[float, float]
+    chart: Stabilisation
+    poles: np.ndarray
+    constants: np.ndarray
+    residual: np.ndarray
+    w_ref: float
+
+    def synthesise(self, freq) -> np.ndarray:
+        """The fitted FRFs (n_points, n_freq) on ``freq`` (Hz, no 0 Hz line)."""
+        freq = np.asarray(freq, dtype=float)
+        with np.errstate(all="ignore"):
+            B = lsfd_basis(freq, self.poles, self.w_ref)
+        n = self.poles.size
+        X = np.empty((self.constants.shape[0], 2 * n), dtype=float)
+        X[:, 0::2], X[:, 1::2] = self.constants.real, self.constants.imag
+        return np.hstack([X, self.residual]) @ B.T
+
+
+@dataclass(frozen=True)
+class ModalFit:
+    """Result of :func:`find_modes`: the modes of all bands and how they were found.
+
+    Attributes
+    ----------
+    modes : identified modes sorted by frequency
+    bands : one :class:`BandFit` per band
+    criteria : the criteria used
+    """
+
+    modes: tuple[Mode, ...]
+    bands: tuple[BandFit, ...]
+    criteria: PoleCriteria = field(default_factory=PoleCriteria)
+
+    @property
+    def freq_hz(self) -> np.ndarray:
+        return np.array([m.freq_hz for m in self.modes])
+
+    @property
+    def freq_std_hz(self) -> np.ndarray:
+        return np.array([m.freq_std_hz for m in self.modes])
+
+    @property
+    def damping_ratio(self) -> np.ndarray:
+        return np.array([m.damping_ratio for m in self.modes])
+
+
+#: powers k of the residual terms (s / omega_hi)^k in the LSFD fit: mass line (-2), mobility
+#: mass line (-1), constant (0), stiffness-like upper residual terms (1, 2)
+RESIDUAL_POWERS = (-2, -1, 0, 1, 2)
+
+
+# --------------------------------------------------------------------------- polynomials
+def forsythe_basis(x, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Forsythe orthonormal polynomials on the symmetric point set {-x_i, +x_i}.
+
+    Three-term recurrence ``x phi_k = gamma_{k+1} phi_{k+1} + gamma_k phi_{k-1}`` (the
+    diagonal term vanishes by symmetry, so ``phi_k`` is even/odd with k).
+
+    Parameters
+    ----------
+    x : float (n_x,), points (normally omega / omega_max in (0, 1])
+    n : number of polynomials, degrees 0..n-1
+
+    Returns
+    -------
+    phi : float (n, n_x), values at x; rows orthonormal in the sum over the *positive* points
+        within each parity (``phi_k . phi_l = delta_kl`` for k - l even)
+    gamma : float (n + 1,), recurrence coefficients (gamma[0] = 0)
+
+    >>> x = np.linspace(0.1, 1.0, 50)
+    >>> phi, g = forsythe_basis(x, 4)
+    >>> bool(np.allclose(phi[::2] @ phi[::2].T, np.eye(2)))
+    True
+    """
+    x = np.asarray(x, dtype=float)
+    phi = np.empty((n, x.size))
+    gamma = np.zeros(n + 1)
+    phi[0] = 1.0 / np.sqrt(x.size)
+    prev = np.zeros_like(x)
+    for k in range(n):
+        v = x * phi[k] - gamma[k] * prev
+        g = np.sqrt(v @ v)
+        gamma[k + 1] = g
+        if k + 1 < n:
+            prev = phi[k]
+            phi[k + 1] = v / g
+    return phi, gamma
+
+
+def comrade_roots(coef, gamma) -> np.ndarray:
+    """Roots in s of ``D(s) = sum_k coef[k] theta_k(s)``, ``theta_k(j x) = j^k phi_k(x)``.
+
+    The recurrence in s is ``s theta_k = gamma_{k+1} theta_{k+1} - gamma_k theta_{k-1}``; at a
+    root the top polynomial is eliminated with ``D = 0``, so the roots are the eigenvalues of
+    this tridiagonal-plus-last-row (comrade) matrix.
+
+    Parameters
+    ----------
+    coef : float (n + 1,), coefficients of theta_0..theta_n (coef[n] != 0)
+    gamma : float (>= n + 1,), from :func:`forsythe_basis`
+    """
+    coef = np.asarray(coef, dtype=float)
+    n = coef.size - 1
+    C = np.zeros((n, n))
+    k = np.arange(n - 1)
+    C[k, k + 1] = gamma[k + 1]
+    C[k + 1, k] = -gamma[k + 1]
+    C[n - 1, :] -= gamma[n] * coef[:n] / coef[n]
+    return np.linalg.eigvals(C)
+
+
+# --------------------------------------------------------------------------- one band
+class _BandSystem:
+    """Least-squares matrices of one band, built once for the highest order of the sweep."""
+
+    def __init__(self, freq, frf, band, max_modes: int, n_extra: int,
+                 weighting: str = "uniform", weight_floor: float = 0.1, ref_poles=None):
+        freq = np.asarray(freq, dtype=float)
+        lo, hi = band
+        sel = (freq >= lo) & (freq <= hi) & (freq > 0)
+        self.freq = freq[sel]
+        self.frf = np.asarray(frf)[:, sel]
+        self.band = (float(self.freq[0]), float(self.freq[-1]))
+        self.w_hi = 2 * np.pi * self.freq[-1]
+        x = self.freq / self.freq[-1]
+        self.n_extra = n_extra
+        n_poly = 2 * max_modes + max(n_extra, 1)
+        self.phi, self.gamma = forsythe_basis(x, n_poly)
+        # real stacking [Re; Im] of theta_k = j^k phi_k: even k in the real half, odd k in the
+        # imaginary half, sign (-1)^(k//2)
+        sign = (-1.0) ** (np.arange(n_poly) // 2)
+        nf = x.size
+        P = np.zeros((2 * nf, n_poly))
+        P[:nf, 0::2] = (sign[0::2, None] * self.phi[0::2]).T
+        P[nf:, 1::2] = (sign[1::2, None] * self.phi[1::2]).T
+        scale = np.sqrt(np.mean(np.abs(self.frf) ** 2)) or 1.0
+        Hs = self.frf / scale
+        w = fit_weights(Hs, weighting, weight_floor)                   # (n_p, nf)
+        if ref_poles is not None and len(ref_poles):
+            w = w * sk_weights(self.freq, ref_poles)[None, :]
+        w2 = np.concatenate([w, w], axis=1)[:, :, None]                # rows [Re; Im]
+        theta = (1j ** np.arange(n_poly))[:, None] * self.phi          # (n_poly, nf)
+        HQ = Hs[:, None, :] * theta[None, :, :]                        # (n_p, n_poly, nf)
+        # W_p = weighted [Re; Im] of H_p theta_k, (n_p, 2 nf, n_poly)
+        self.W = w2 * np.concatenate([HQ.real, HQ.imag], axis=2).transpose(0, 2, 1)
+        if weighting == "uniform" and (ref_poles is None or not len(ref_poles)):
+            Qp = np.broadcast_to(P, (Hs.shape[0],) + P.shape)
+        else:
+            # the weighted numerator basis of each FRF, re-orthonormalised (its first m columns
+            # span the weighted polynomials of degree < m: Forsythe with weight w_p^2)
+            Qp, Rp = np.linalg.qr(w2 * P[None, :, :])
+            Qp = Qp * np.sign(np.diagonal(Rp, axis1=1, axis2=2))[:, None, :]
+        self.G = np.matmul(Qp.transpose(0, 2, 1), self.W)              # Q_p^T W_p
+        Wf = self.W.reshape(-1, n_poly)
+        self.WW = Wf.T @ Wf                                            # sum_p W_p^T W_p
+
+    def fit(self, n_modes: int) -> RfpFit:
+        n = 2 * n_modes
+        m = n + self.n_extra
+        # reduced normal matrix after eliminating the numerators (Q_p orthonormal):
+        # M = sum_p W_p^T (I - Q_p Q_p^T) W_p = sum_p W_p^T W_p - G_p^T G_p
+        G = self.G[:, :m, : n + 1].reshape(-1, n + 1)
+        M = self.WW[: n + 1, : n + 1] - G.T @ G
+        # min b^T M b with b[n] = 1
+        b = _solve_sym(M[:n, :n], -M[:n, n])
+        coef = np.append(b, 1.0)
+        s = comrade_roots(coef, self.gamma)
+        lam = s * self.w_hi
+        lam = lam[lam.imag > 0]
+        lam = lam[np.argsort(lam.imag)]
+        return RfpFit(band_hz=self.band, n_modes=n_modes, n_extra=self.n_extra, poles=lam,
+                      denominator=coef)
+
+
+#: weightings of the least-squares errors, see :func:`fit_weights`
+WEIGHTINGS = ("relative", "uniform")
+
+
+def fit_weights(frf, weighting: str = "relative", floor: float = 0.1) -> np.ndarray:
+    """Weights (n_points, n_freq) of the fit errors of each FRF line.
+
+    ``"uniform"``: 1 (plain Richardson-Formenti, strong peaks dominate). ``"relative"``:
+    ``1 / sqrt(|H|^2 + (floor * rms_p)^2)``, i.e. relative errors, as for FRF estimates whose
+    noise is proportional to the FRF (coherence-limited); the floor (a fraction of the FRF's
+    RMS over the band) stops antiresonances, where additive noise dominates, from taking over.
+    Weak modes get their fair share of the fit this way.
+    """
+    if weighting not in WEIGHTINGS:
+        raise FrfError(f"weighting {weighting!r}: expected one of {', '.join(WEIGHTINGS)}")
+    mag = np.abs(frf)
+    if weighting == "uniform":
+        return np.ones(mag.shape)
+    rms = np.sqrt(np.mean(mag ** 2, axis=1, keepdims=True))
+    w = 1.0 / np.sqrt(mag ** 2 + (floor * rms) ** 2 + 1e-300)
+    return w / np.sqrt(np.mean(w ** 2))
+
+
+def sk_weights(freq, poles) -> np.ndarray:
+    """Sanathanan-Koerner weights ``1 / |D_ref(j omega)|`` (n_freq,), normalised to RMS 1.
+
+    ``D_ref`` has the given poles (rad/s) and their conjugates. Weighting the linearised RFP
+    equation ``N - H D`` by it turns it into (nearly) the output error ``N / D - H``, so the
+    regions near resonances, where the modes are seen, get their due weight instead of the
+    edges of the band (Sanathanan & Koerner 1963).
+    """
+    s = 2j * np.pi * np.asarray(freq, dtype=float)[:, None]
+    lam = np.asarray(poles, dtype=complex)[None, :]
+    scale = np.abs(lam)
+    with np.errstate(all="ignore"):
+        logd = np.sum(np.log(np.abs((s - lam) / scale)) + np.log(np.abs((s - lam.conj()) / scale)),
+                      axis=1)
+    logw = -(logd - logd.max())
+    w = np.exp(logw - logw.max())
+    return w / np.sqrt(np.mean(w ** 2))
+
+
+def _solve_sym(M, y):
+    """Solve the symmetric M b = y (least-squares fallback if M is singular)."""
+    try:
+        return np.linalg.solve(M, y)
+    except np.linalg.LinAlgError:
+        return np.linalg.lstsq(M, y, rcond=None)[0]
+
+
+def _check_arrays(freq, frf):
+    from laminid_cli.frf.store import validate_frf_arrays
+
+    freq = np.asarray(freq, dtype=float)
+    frf = np.asarray(frf)
+    if frf.ndim == 1:
+        frf = frf[None, :]
+    validate_frf_arrays(freq, frf)
+    if frf.shape[0] == 0:
+        raise FrfError("no FRFs to fit (0 measurement points)")
+    return freq, frf.astype(complex)
+
+
+def _check_band(freq, band, n_modes: int, n_extra: int, n_points: int):
+    lo, hi = float(band[0]), float(band[1])
+    if not (np.isfinite(lo) and np.isfinite(hi)) or hi <= lo:
+        raise FrfError(f"band {lo:g}:{hi:g} Hz is empty (upper edge must exceed the lower)")
+    sel = (freq >= lo) & (freq <= hi) & (freq > 0)
+    n_lines = int(sel.sum())
+    if n_lines < MIN_BAND_LINES:
+        raise FrfError(f"band {lo:g}:{hi:g} Hz holds {n_lines} frequency lines of the FRF axis "
+                       f"({freq[0]:g}-{freq[-1]:g} Hz, {freq[1] - freq[0]:g} Hz step); at least "
+                       f"{MIN_BAND_LINES} are needed")
+    # unknowns per FRF vs real equations per FRF (the denominator is shared)
+    need = (4 * n_modes + n_extra + 1 + (2 * n_modes) // max(n_points, 1)) // 2 + 1
+    if n_lines < need:
+        raise FrfError(f"band {lo:g}:{hi:g} Hz holds {n_lines} lines, too few for {n_modes} "
+                       f"modes (at least {need} lines needed); widen the band or ask fewer modes")
+    return n_lines
+
+
+def fit_rfp(freq, frf, n_modes: int, *, band=None, n_extra: int = 2) -> RfpFit:
+    """Global RFP fit of all FRFs with ``n_modes`` shared pole pairs over one band.
+
+    Parameters
+    ----------
+    freq : float (n_freq,), Hz, strictly increasing
+    frf : complex (n_points, n_freq) (or (n_freq,) for one FRF)
+    n_modes : N, the denominator has degree 2N
+    band : (lo, hi) Hz; default the whole axis (a 0 Hz line is always skipped)
+    n_extra : numerator terms beyond 2N (out-of-band residuals)
+
+    Returns
+    -------
+    RfpFit (all 2N roots; the ones with positive imaginary part are listed)
+
+    References: Richardson & Formenti 1982 (RFP with orthogonal polynomials); Richardson &
+    Formenti 1985 (global multi-FRF fit, common denominator).
+    """
+    freq, frf = _check_arrays(freq, frf)
+    band = (freq[0], freq[-1]) if band is None else band
+    if n_modes < 1:
+        raise FrfError(f"n_modes must be at least 1 (got {n_modes})")
+    _check_band(freq, band, n_modes, n_extra, frf.shape[0])
+    with np.errstate(all="ignore"):
+        return _BandSystem(freq, frf, band, n_modes, n_extra).fit(n_modes)
+
+
+# --------------------------------------------------------------------------- stabilisation
+def stabilisation(freq, frf, band, orders, *, criteria: PoleCriteria = PoleCriteria(),
+                  ref_poles=None) -> Stabilisation:
+    """Poles of the global RFP fit of one band at every model order, linked across orders.
+
+    Parameters
+    ----------
+    freq : float (n_freq,), Hz
+    frf : complex (n_points, n_freq)
+    band : (lo, hi) Hz of the lines to fit
+    orders : increasing numbers of modes N to fit (denominator degree 2N)
+    criteria : stability tolerances (:class:`PoleCriteria`)
+    ref_poles : complex, rad/s, poles of a previous pass for Sanathanan-Koerner weighting
+        (:func:`sk_weights`); ``None`` for the plain linearised fit
+
+    A pole at order N is linked to the nearest pole (in frequency) at order N-1 when that one
+    is also its nearest at order N (mutual nearest neighbours); the link is "stable in frequency"
+    when the relative change is below ``freq_tol`` and "stable in frequency and damping" when
+    the damping changes by less than ``damping_tol`` (relative). Linked poles share a track id.
+    Only poles inside the band are kept.
+    """
+    freq, frf = _check_arrays(freq, frf)
+    orders = [int(n) for n in orders]
+    if not orders or min(orders) < 1:
+        raise FrfError("orders must be a non-empty list of positive numbers of modes")
+    _check_band(freq, band, max(orders), criteria.n_extra, frf.shape[0])
+    with np.errstate(all="ignore"):
+        system = _BandSystem(freq, frf, band, max(orders), criteria.n_extra,
+                             criteria.weighting, criteria.weight_floor, ref_poles)
+        lo, hi = system.band
+        cols = {k: [] for k in ("order", "freq_hz", "damping_ratio", "stable", "track")}
+        prev_f = prev_z = prev_t = None
+        next_track = 0
+        for n in orders:
+            fit = system.fit(n)
+            f, z = fit.freq_hz, fit.damping_ratio
+            keep = (f >= lo) & (f <= hi) & np.isfinite(f)
+            f, z = f[keep], z[keep]
+            stable = np.zeros(f.size, dtype=np.int8)
+            track = np.full(f.size, -1, dtype=int)
+            if prev_f is not None and prev_f.size and f.size:
+                d = np.abs(f[:, None] - prev_f[None, :])              # (new, old)
+                j = np.argmin(d, axis=1)
+                mutual = np.argmin(d, axis=0)[j] == np.arange(f.size)
+                rel_f = d[np.arange(f.size), j] / f
+                rel_z = np.abs(z - prev_z[j]) / np.maximum(np.abs(z), 1e-12)
+                ok_f = mutual & (rel_f < criteria.freq_tol)
+                ok_z = ok_f & (rel_z < criteria.damping_tol)
+                stable[ok_f] = 1
+                stable[ok_z] = 2
+                track[ok_f] = np.where(prev_t[j[ok_f]] >= 0, prev_t[j[ok_f]], -1)
+            fresh = track < 0
+            track[fresh] = next_track + np.arange(int(fresh.sum()))
+            next_track += int(fresh.sum())
+            for key, val in (("order", np.full(f.size, n)), ("freq_hz", f),
+                             ("damping_ratio", z), ("stable", stable), ("track", track)):
+                cols[key].append(val)
+            prev_f, prev_z, prev_t = f, z, track
+    cat = {k: (np.concatenate(v) if v else np.array([])) for k, v in cols.items()}
+    return Stabilisation(band_hz=system.band, order=cat["order"].astype(int),
+                         freq_hz=cat["freq_hz"], damping_ratio=cat["damping_ratio"],
+                         stable=cat["stable"].astype(np.int8), track=cat["track"].astype(int))
+
+
+@dataclass(frozen=True)
+class _Candidate:
+    freq_hz: float
+    damping_ratio: float
+    freq_std_hz: float
+    damping_std: float
+    orders_stable: int
+    top_order: int
+
+
+def select_poles(chart: Stabilisation, *, criteria: PoleCriteria = PoleCriteria()
+                 ) -> list[_Candidate]:
+    """Physical poles of a stabilisation chart, one per mode, sorted by frequency.
+
+    A track qualifies when at least ``min_stable`` of its links are stable in frequency and
+    damping and its damping is in (0, max_damping]. Tracks that never coexist at one order and
+    whose frequencies agree within ``freq_tol`` are one pole (a broken chain) and are merged;
+    coexisting tracks are distinct modes however close (close modes). The estimate is the
+    median over the stable poles of the upper half of the orders; the uncertainty is the
+    standard deviation over all stable poles.
+    """
+    groups: list[np.ndarray] = []
+    for t in np.unique(chart.track[chart.track >= 0]):
+        idx = np.flatnonzero(chart.track == t)
+        groups.append(idx)
+    # merge broken chains: same frequency, never at the same order
+    med = [float(np.median(chart.freq_hz[g])) for g in groups]
+    order = np.argsort(med)
+    merged: list[np.ndarray] = []
+    for i in order:
+        g = groups[i]
+        for k, h in enumerate(merged):
+            fh = np.median(chart.freq_hz[h])
+            if abs(fh - med[i]) / fh < criteria.freq_tol and \
+                    not np.intersect1d(chart.order[h], chart.order[g]).size:
+                merged[k] = np.concatenate([h, g])
+                break
+        else:
+            merged.append(g)
+    out = []
+    for g in merged:
+        stab = g[chart.stable[g] == 2]
+        z = chart.damping_ratio[stab]
+        if stab.size < criteria.min_stable:
+            continue
+        zmed = float(np.median(z))
+        if not (0 < zmed <= criteria.max_damping):
+            continue
+        orders = chart.order[stab]
+        top = stab[orders >= np.median(orders)]
+        f_all = chart.freq_hz[stab]
+        out.append(_Candidate(
+            freq_hz=float(np.median(chart.freq_hz[top])),
+            damping_ratio=float(np.median(chart.damping_ratio[top])),
+            freq_std_hz=float(np.std(f_all, ddof=1)) if f_all.size > 1 else 0.0,
+            damping_std=float(np.std(z, ddof=1)) if z.size > 1 else 0.0,
+            orders_stable=int(stab.size), top_order=int(orders.max())))
+    out.sort(key=lambda c: c.freq_hz)
+    return out
+
+
+# --------------------------------------------------------------------------- modal constants
+def _pole(f_hz, zeta):
+    w = 2 * np.pi * np.asarray(f_hz, dtype=float)
+    z = np.asarray(zeta, dtype=float)
+    return -z * w + 1j * w * np.sqrt(np.clip(1 - z * z, 0, None))
+
+
+def lsfd_basis(freq, poles, w_ref: float) -> np.ndarray:
+    """Complex basis (n_freq, 2 n_poles + n_res) of the LSFD model (real coefficients).
+
+    Columns 2r, 2r+1: ``1/(s-lam) + 1/(s-lam*)`` and ``j/(s-lam) - j/(s-lam*)`` (coefficients
+    Re A_r, Im A_r); then ``(s / w_ref)^k`` for k in :data:`RESIDUAL_POWERS`.
+    """
+    s = 2j * np.pi * np.asarray(freq, dtype=float)[:, None]
+    lam = np.asarray(poles, dtype=complex)[None, :]
+    a, b = 1.0 / (s - lam), 1.0 / (s - lam.conj())
+    modal = np.empty((s.shape[0], 2 * lam.shape[1]), dtype=complex)
+    modal[:, 0::2] = a + b
+    modal[:, 1::2] = 1j * (a - b)
+    res = (s / w_ref) ** np.array(RESIDUAL_POWERS)[None, :]
+    return np.hstack([modal, res])
+
+
+def modal_constants(freq, frf, poles, *, w_ref: float | None = None
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Residues of given poles in all FRFs by linear least squares (LSFD), with residual terms.
+
+    Parameters
+    ----------
+    freq : float (n_freq,), Hz (no 0 Hz line)
+    frf : complex (n_points, n_freq)
+    poles : complex (n_modes,), rad/s, positive imaginary parts
+    w_ref : rad/s scaling of the residual terms (default: top of the axis)
+
+    Returns
+    -------
+    A : complex (n_points, n_modes), residues
+    residual : float (n_points, len(RESIDUAL_POWERS)), coefficients of (s/w_ref)^k
+    synth : complex (n_points, n_freq), the fitted FRFs
+    """
+    freq = np.asarray(freq, dtype=float)
+    frf = np.atleast_2d(np.asarray(frf))
+    poles = np.asarray(poles, dtype=complex).reshape(-1)
+    w_ref = 2 * np.pi * freq[-1] if w_ref is None else w_ref
+    with np.errstate(all="ignore"):
+        B = lsfd_basis(freq, poles, w_ref)
+        Br = np.vstack([B.real, B.imag])
+        norm = np.linalg.norm(Br, axis=0)
+        norm[norm == 0] = 1.0
+        Y = np.hstack([frf.real, frf.imag]).T                   # (2 nf, n_points)
+        X, *_ = np.linalg.lstsq(Br / norm, Y, rcond=1e-12)
+        X = (X / norm[:, None]).T                                # (n_points, n_cols)
+        n = poles.size
+        A = X[:, 0:2 * n:2] + 1j * X[:, 1:2 * n:2]
+        synth = X @ B.T
+    return A, X[:, 2 * n:], synth
+
+
+# --------------------------------------------------------------------------- bands
+def auto_bands(freq, frf, *, max_peaks: int = 4, prominence_db: float = 6.0
+               ) -> list[tuple[tuple[float, float], tuple[float, float], int]]:
+    """Bands around the peaks of the summed FRF magnitude.
+
+    Peaks of ``20 log10(sum_p |H_p|)`` with at least ``prominence_db`` prominence are grouped by
+    ``max_peaks``; bands are split at the deepest minimum between groups. Each band is fitted
+    over its core plus an overlap reaching half-way to the neighbouring band's nearest peak, so
+    a mode near a split point (e.g. a weak mode the peak search missed) is inside a fit range.
+
+    Returns
+    -------
+    list of ((lo, hi) core Hz, (lo, hi) fit range Hz, number of peaks in the fit range)
+    """
+    from scipy.signal import find_peaks
+
+    freq, frf = _check_arrays(freq, frf)
+    with np.errstate(divide="ignore"):
+        db = 20 * np.log10(np.abs(frf).sum(axis=0) + 1e-300)
+    peaks, _ = find_peaks(db, prominence=prominence_db)
+    peaks = peaks[freq[peaks] > 0]
+    if peaks.size == 0:
+        raise FrfError("no resonance peak found in the summed FRF magnitude "
+                       f"({freq[0]:g}-{freq[-1]:g} Hz); give the bands with --band LO:HI")
+    # outer edges: the lowest magnitude between half the first peak and the peak, likewise above
+    i0 = np.searchsorted(freq, 0.5 * freq[peaks[0]])
+    lo = i0 + int(np.argmin(db[i0:peaks[0] + 1]))
+    i1 = min(np.searchsorted(freq, 1.5 * freq[peaks[-1]]), freq.size - 1)
+    hi = peaks[-1] + int(np.argmin(db[peaks[-1]:i1 + 1]))
+    lo = min(lo, max(peaks[0] - 5, 0))
+    hi = max(hi, min(peaks[-1] + 5, freq.size - 1))
+    groups = [peaks[i:i + max_peaks] for i in range(0, peaks.size, max_peaks)]
+    splits = [lo]
+    for a, b in zip(groups[:-1], groups[1:]):
+        splits.append(a[-1] + int(np.argmin(db[a[-1]:b[0] + 1])))
+    splits.append(hi)
+    out = []
+    for k, g in enumerate(groups):
+        c_lo, c_hi = splits[k], splits[k + 1]
+        f_lo = c_lo if k == 0 else (c_lo + groups[k - 1][-1]) // 2
+        f_hi = c_hi if k == len(groups) - 1 else (c_hi + groups[k + 1][0]) // 2
+        n_pk = int(((peaks >= f_lo) & (peaks <= f_hi)).sum())
+        out.append(((float(freq[c_lo]), float(freq[c_hi])), (float(freq[f_lo]), float(freq[f_hi])),
+                    n_pk))
+    return out
+
+
+def _count_peaks(freq, frf, band, prominence_db=6.0) -> int:
+    from scipy.signal import find_peaks
+
+    sel = (freq >= band[0]) & (freq <= band[1])
+    with np.errstate(divide="ignore"):
+        db = 20 * np.log10(np.abs(frf[:, sel]).sum(axis=0) + 1e-300)
+    return int(find_peaks(db, prominence=prominence_db)[0].size)
+
+
+# --------------------------------------------------------------------------- the whole chain
+def find_modes(freq, frf, *, bands=None, n_modes: int | None = None,
+               criteria: PoleCriteria = PoleCriteria()) -> ModalFit:
+    """Natural frequencies, damping and modal constants of all FRFs (global RFP + LSFD).
+
+    Parameters
+    ----------
+    freq : float (n_freq,), Hz, strictly increasing
+    frf : complex (n_points, n_freq)
+    bands : list of (lo, hi) Hz; default :func:`auto_bands`
+    n_modes : return only the ``n_modes`` lowest modes; :class:`FrfError` when fewer are found
+    criteria : :class:`PoleCriteria`
+
+    Returns
+    -------
+    ModalFit
+
+    Steps: (1) per band, a stabilisation sweep over N = 1..N_max (N_max = 2 n_peaks + 6, at
+    least 8, or ``criteria.max_modes``; capped by the lines of the band) and the physical poles
+    of :func:`select_poles`; (2) a pole found by two overlapping bands is kept from the band in
+    which it lies farther from the edges; (3) per band, modal constants by :func:`modal_constants`
+    with every retained pole near the band (neighbours' poles explicit, not left to residual
+    terms); a mode whose peak contribution does not exceed ``min_snr`` times the local RMS
+    residual is dropped (noise pole) and the band refitted.
+    """
+    freq, frf = _check_arrays(freq, frf)
+    if n_modes is not None and n_modes < 1:
+        raise FrfError(f"--modes must be at least 1 (got {n_modes})")
+    if bands is None:
+        plan = [(rng, n_pk) for _core, rng, n_pk in auto_bands(freq, frf)]
+    else:
+        plan = []
+        for b in bands:
+            lo, hi = float(b[0]), float(b[1])
+            if not (np.isfinite(lo) and np.isfinite(hi)) or hi <= lo:
+                raise FrfError(f"band {lo:g}:{hi:g} Hz is empty (upper edge must exceed the lower)")
+            if hi < freq[0] or lo > freq[-1]:
+                raise FrfError(f"band {lo:g}:{hi:g} Hz lies outside the FRF axis "
+                               f"({freq[0]:g}-{freq[-1]:g} Hz)")
+            plan.append(((lo, hi), _count_peaks(freq, frf, (lo, hi))))
+    n_p = frf.shape[0]
+    sweeps = []
+    for rng, n_pk in plan:
+        n_lines = int(((freq >= rng[0]) & (freq <= rng[1]) & (freq > 0)).sum())
+        _check_band(freq, rng, 1, criteria.n_extra, n_p)
+        n_max = criteria.max_modes or max(2 * n_pk + 8, 12)
+        if n_modes is not None and bands is not None:
+            n_max = max(n_max, n_modes + 6)
+        # keep the linearised system overdetermined: 2 N shared + (2 N + n_extra) per FRF
+        # unknowns against 2 n_lines real equations per FRF
+        n_cap = (2 * n_lines * n_p - criteria.n_extra * n_p) // (2 * n_p + 2)
+        if n_modes is not None and bands is not None and len(plan) == 1 and n_modes > n_cap:
+            raise FrfError(f"band {rng[0]:g}:{rng[1]:g} Hz holds {n_lines} lines, too few to "
+                           f"fit {n_modes} modes; widen the band or ask fewer modes")
+        n_max = min(n_max, n_cap)
+        if n_max < criteria.min_stable + 1:
+            raise FrfError(f"band {rng[0]:g}:{rng[1]:g} Hz holds {n_lines} lines, too narrow "
+                           f"for a stabilisation sweep over {criteria.min_stable + 1} orders; "
+                           "widen it")
+        sweeps.append((rng, n_max))
+    margin = 2 * float(np.median(np.diff(freq)))
+
+    def sweep(ref=None):
+        charts, cands = [], []
+        for k, (rng, n_max) in enumerate(sweeps):
+            ref_k = None
+            if ref is not None:
+                ch = ref[k]
+                top = (ch.order == ch.order.max()) & (ch.damping_ratio > 0) & \
+                    (ch.damping_ratio < criteria.max_damping)
+                ref_k = _pole(ch.freq_hz[top], np.maximum(ch.damping_ratio[top], 0.002))
+            chart = stabilisation(freq, frf, rng, range(1, n_max + 1), criteria=criteria,
+                                  ref_poles=ref_k)
+            charts.append(chart)
+            lo, hi = chart.band_hz
+            for c in select_poles(chart, criteria=criteria):
+                if lo + margin <= c.freq_hz <= hi - margin:
+                    cands.append((k, c, min(c.freq_hz - lo, hi - c.freq_hz) / (hi - lo)))
+        return charts, _dedupe(cands, criteria)
+
+    charts, cands = sweep()
+    if criteria.reweight and cands:
+        # second pass weighted with the first pass's physical poles (Sanathanan-Koerner)
+        charts, cands = sweep(charts)
+    band_fits, modes = [], []
+    for k, chart in enumerate(charts):
+        own = [c for b, c, _ in cands if b == k]
+        lo, hi = chart.band_hz
+        near = [c for b, c, _ in cands if b != k and lo - (hi - lo) <= c.freq_hz <= hi + (hi - lo)]
+        bf, ms = _band_constants(freq, frf, chart, own, near, criteria)
+        band_fits.append(bf)
+        modes.extend(ms)
+    modes.sort(key=lambda m: m.freq_hz)
+    if n_modes is not None:
+        if len(modes) < n_modes:
+            where = ", ".join(f"{c.band_hz[0]:g}:{c.band_hz[1]:g}" for c in charts)
+            raise FrfError(f"asked for {n_modes} modes but the band(s) {where} Hz hold only "
+                           f"{len(modes)} stable modes"
+                           + (f" ({', '.join(f'{m.freq_hz:.2f}' for m in modes)} Hz)" if modes else "")
+                           + "; widen the bands or ask fewer modes")
+        modes = modes[:n_modes]
+    return ModalFit(modes=tuple(modes), bands=tuple(band_fits), criteria=criteria)
+
+
+def _dedupe(cands, criteria):
+    """A pole found in two overlapping bands: keep the estimate farther from its band's edges."""
+    cands = sorted(cands, key=lambda t: t[1].freq_hz)
+    keep = [True] * len(cands)
+    for i, (bi, ci, ei) in enumerate(cands):
+        for j in range(i + 1, len(cands)):
+            bj, cj, ej = cands[j]
+            if (cj.freq_hz - ci.freq_hz) / ci.freq_hz >= criteria.freq_tol:
+                break
+            if bi == bj or not (keep[i] and keep[j]):
+                continue
+            # same pole seen from two bands (distinct poles of one band are never merged)
+            if ei >= ej:
+                keep[j] = False
+            else:
+                keep[i] = False
+    return [c for c, k in zip(cands, keep) if k]
+
+
+def _band_constants(freq, frf, chart, own, near, criteria):
+    """LSFD over one band with its own poles and its neighbours'; drop insignificant own poles."""
+    lo, hi = chart.band_hz
+    sel = (freq >= lo) & (freq <= hi) & (freq > 0)
+    f, H = freq[sel], frf[:, sel]
+    w_ref = 2 * np.pi * f[-1]
+    df = float(f[1] - f[0])
+    own = list(own)
+    near_poles = _pole([c.freq_hz for c in near], [c.damping_ratio for c in near])
+    while True:
+        poles = np.concatenate([_pole([c.freq_hz for c in own], [c.damping_ratio for c in own]),
+                                near_poles])
+        A, res, synth = modal_constants(f, H, poles, w_ref=w_ref)
+        resid = np.abs(H - synth)                                           # (n_p, nf)
+        snr = np.empty(len(own))
+        for r, c in enumerate(own):
+            # residual RMS within a few half-power bandwidths (at least 5 lines) of the mode
+            near_lines = np.abs(f - c.freq_hz) <= max(15 * c.damping_ratio * c.freq_hz, 5 * df)
+            noise = np.sqrt(np.mean(resid[:, near_lines] ** 2, axis=1))     # (n_p,)
+            peak = np.abs(A[:, r]) / max(-poles[r].real, 1e-300)            # |A| / sigma_r
+            floor = 1e-12 * float(np.max(np.abs(H)))
+            snr[r] = float(np.max(peak / np.maximum(noise, floor)))
+        if not own or snr.min() >= criteria.min_snr:
+            break
+        worst = int(np.argmin(snr))
+        log.info("dropping pole at %.3f Hz: peak/residual %.2f < %.2f", own[worst].freq_hz,
+                 snr[worst], criteria.min_snr)
+        own.pop(worst)
+    modes = [Mode(freq_hz=c.freq_hz, damping_ratio=c.damping_ratio,
+                  modal_constants=A[:, r].copy(), freq_std_hz=c.freq_std_hz,
+                  damping_std=c.damping_std, orders_stable=c.orders_stable,
+                  band_hz=(float(lo), float(hi)), snr=float(snr[r]))
+             for r, c in enumerate(own)]
+    bf = BandFit(band_hz=(float(lo), float(hi)), chart=chart, poles=poles, constants=A,
+                 residual=res, w_ref=w_ref)
+    return bf, modes
+
+
+# --------------------------------------------------------------------------- file -> specimen
+def measured_from_frf_file(path, *, bands=None, n_modes: int | None = None,
+                           criteria: PoleCriteria = PoleCriteria()
+                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Natural frequencies of the FRFs in a file, for a specimen's ``measured.frf_file``.
+
+    Parameters
+    ----------
+    path : FRF file (laminid HDF5, UFF 58 or CSV; :func:`laminid_cli.frf.io.read_frf`)
+    bands : list of (lo, hi) Hz, default automatic
+    n_modes : the n lowest modes (FrfError if fewer found)
+
+    Returns
+    -------
+    freq_hz : float (n_modes,), Hz
+    sigma_hz : float (n_modes,), Hz, spread over the stable orders (floored, see
+        :func:`frequency_sigma`)
+    damping : float (n_modes,), damping ratios
+
+    Raises :class:`~laminid_cli.errors.FrfError` on unreadable files or failed fits.
+    """
+    from laminid_cli.frf.io import read_frf
+
+    fs = read_frf(path)
+    fit = find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes, criteria=criteria)
+    return fit.freq_hz, frequency_sigma(fit, fs.freq), fit.damping_ratio
+
+
+def frequency_sigma(fit: ModalFit, freq) -> np.ndarray:
+    """Standard deviations (Hz) of the fitted frequencies for weighting an identification.
+
+    The spread over the stable orders, floored at 1 % of the line spacing so that a noise-free
+    fit does not produce infinite weights.
+    """
+    df = float(np.median(np.diff(np.asarray(freq, dtype=float))))
+    return np.maximum(fit.freq_std_hz, 0.01 * df) if fit.modes else np.zeros(0)
