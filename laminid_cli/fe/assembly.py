@@ -1,0 +1,306 @@
+"""Assembly of the parametric plate model (DESIGN.md section 3).
+
+The stiffness is linear in the coefficients ``coef[m, j] = s_m * [1, a2, a3, a4, a8, a9][j]``
+(``s_m = E1_m / (8 alpha0_m)``) of each material m::
+
+    K(p) = sum_m sum_j coef[m, j] * K_basis[m, j]
+
+The ``n_materials * 6`` basis matrices share one CSR pattern and are stored as data arrays
+(``PlateModel.K_data``, shape (n_materials, 6, nnz)), so forming K for new constants is one
+small dense product, and the basis strain energies ``phi_i^T K_basis[m, j] phi_i`` needed by
+the sensitivities (paper Eq. 26) are one product with the mode shapes.
+
+Element matrices are computed in batches over elements and Gauss points (einsum); elements of
+identical shape (all of them in a regular mesh) are computed once. The global matrices come
+from one COO -> CSR conversion.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from laminid_cli.errors import ModelError
+from laminid_cli.fe import element as fe_el
+from laminid_cli.fe.mesh import Mesh
+from laminid_cli.material import ElasticConstants, basis_coefficients, c_basis
+
+#: accepted boundary names -> edge code (edges in the order x=0, y=0, x=a, y=b)
+BOUNDARY_NAMES = {
+    "free": "FFFF",
+    "simply-supported": "SSSS",
+    "clamped": "CCCC",
+}
+#: DOFs fixed by a simply supported edge, by edge direction ("hard" support: tangential
+#: in-plane variables and w fixed, normal ones free)
+_SS_X_EDGE = (1, 2, 4, 6, 8)     # on x = 0, a: v0, w0, psi_y, V, Psi_y
+_SS_Y_EDGE = (0, 2, 3, 5, 7)     # on y = 0, b: u0, w0, psi_x, U, Psi_x
+
+
+def boundary_code(boundary: str) -> str:
+    """Normalise a boundary name ('free', 'simply-supported', 'clamped') or 4-letter edge code.
+
+    The code gives F (free), S (simply supported) or C (clamped) for the edges x = 0, y = 0,
+    x = a, y = b in this order, e.g. ``SFSF``.
+    """
+    text = str(boundary).strip()
+    if text.lower() in BOUNDARY_NAMES:
+        return BOUNDARY_NAMES[text.lower()]
+    aliases = {"ss": "SSSS", "simply supported": "SSSS", "simply_supported": "SSSS"}
+    if text.lower() in aliases:
+        return aliases[text.lower()]
+    code = text.upper()
+    if len(code) == 4 and set(code) <= set("FSC"):
+        return code
+    raise ModelError(f"boundary '{boundary}' not understood: use free, simply-supported, "
+                     "clamped, or a 4-letter code of F/S/C for the edges x=0, y=0, x=a, y=b "
+                     "(e.g. SFSF)")
+
+
+def fixed_dofs(mesh: Mesh, boundary: str) -> np.ndarray:
+    """Global indices of the DOFs fixed by the boundary conditions (sorted, unique)."""
+    code = boundary_code(boundary)
+    x, y = mesh.nodes[:, 0], mesh.nodes[:, 1]
+    tol = 1e-9 * max(mesh.a, mesh.b)
+    edges = [(np.abs(x) < tol, "x"), (np.abs(y) < tol, "y"),
+             (np.abs(x - mesh.a) < tol, "x"), (np.abs(y - mesh.b) < tol, "y")]
+    fixed = []
+    for letter, (on_edge, direction) in zip(code, edges):
+        if letter == "F":
+            continue
+        dofs = range(9) if letter == "C" else (_SS_X_EDGE if direction == "x" else _SS_Y_EDGE)
+        nodes = np.flatnonzero(on_edge)
+        fixed.append((nodes[:, None] * 9 + np.asarray(dofs)[None, :]).ravel())
+    if not fixed:
+        return np.zeros(0, dtype=np.int64)
+    return np.unique(np.concatenate(fixed))
+
+
+@dataclass(frozen=True)
+class PlateModel:
+    """Discretised plate: parametric stiffness basis, mass matrix, mesh and DOF bookkeeping.
+
+    Attributes
+    ----------
+    mesh : the FE mesh
+    h : total thickness, m
+    boundary : edge code (x=0, y=0, x=a, y=b), e.g. 'FFFF'
+    material_names : names of the materials, index m of ``K_data``
+    dofs : (n_dofs,) global DOF index (node * 9 + variable) of each retained equation
+    indptr, indices : CSR pattern shared by every basis matrix and by K and M, (n_dofs x n_dofs)
+    K_data : (n_materials, 6, nnz) basis stiffness data, N/m per unit coefficient (Pa)
+    M : (n_dofs, n_dofs) CSR mass matrix, kg
+    D_bending : (n_materials, 6, 3, 3) bending stiffness basis ``int z^2 C_j dz`` (m^3), for
+        the shift estimate
+    mass_per_area : kg/m^2
+    """
+
+    mesh: Mesh
+    h: float
+    boundary: str
+    material_names: tuple[str, ...]
+    dofs: np.ndarray
+    indptr: np.ndarray
+    indices: np.ndarray
+    K_data: np.ndarray
+    M: sp.csr_matrix
+    D_bending: np.ndarray
+    mass_per_area: float
+
+    @property
+    def n_dofs(self) -> int:
+        return int(self.dofs.size)
+
+    @property
+    def n_rigid_expected(self) -> int:
+        """Six rigid-body modes for a completely free plate, none when any edge is supported."""
+        return 6 if self.boundary == "FFFF" else 0
+
+    def coefficients(self, constants) -> np.ndarray:
+        """(n_materials, 6) stiffness coefficients for a sequence of ElasticConstants."""
+        constants = list(constants)
+        if len(constants) != len(self.material_names):
+            raise ModelError(f"expected constants for {len(self.material_names)} materials "
+                             f"({', '.join(self.material_names)}), got {len(constants)}")
+        return np.array([basis_coefficients(c) for c in constants])
+
+    def stiffness(self, constants=None, *, coef: np.ndarray | None = None) -> sp.csr_matrix:
+        """Global stiffness K for the given constants (or stiffness coefficients), N/m."""
+        if coef is None:
+            coef = self.coefficients(constants)
+        data = np.tensordot(np.asarray(coef, float), self.K_data, axes=([0, 1], [0, 1]))
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n_dofs,) * 2)
+
+    def shift_estimate(self, coef: np.ndarray) -> float:
+        """Rough first elastic eigenvalue (rad^2/s^2) from thin-plate theory.
+
+        lambda_1 ~ (c pi^2 / (a b))^2 D / (rho h) with D the geometric mean of the bending
+        stiffnesses D11, D22 and 4 D66; used as the shift of the eigen solver (paper Eq. 10:
+        "beta of the same magnitude as the first non-zero eigenvalue"). Within a factor of a
+        few of the truth for plates, which is all shift-invert Lanczos needs.
+        """
+        D = np.tensordot(np.asarray(coef, float), self.D_bending, axes=([0, 1], [0, 1]))
+        d = np.array([D[0, 0], D[1, 1], 4 * D[2, 2]])
+        D_ref = float(np.exp(np.mean(np.log(np.maximum(d, 1e-30 * d.max())))))
+        a, b = self.mesh.a, self.mesh.b
+        return (1.4 * np.pi**2 / (a * b)) ** 2 * D_ref / self.mass_per_area
+
+    def basis_matrix(self, m: int, j: int) -> sp.csr_matrix:
+        """Basis stiffness matrix K_basis[m, j] (Pa coefficient units)."""
+        return sp.csr_matrix((self.K_data[m, j], self.indices, self.indptr),
+                             shape=(self.n_dofs,) * 2)
+
+    def basis_energies(self, phi: np.ndarray) -> np.ndarray:
+        """``phi_i^T K_basis[m, j] phi_i`` for every mode i: (n_materials, 6, n_modes).
+
+        With mass-normalised phi, d lambda_i / d coef[m, j] equals this (paper Eq. 26).
+        """
+        phi = np.asarray(phi)
+        rows = np.repeat(np.arange(self.n_dofs), np.diff(self.indptr))
+        prod = phi[rows] * phi[self.indices]                     # (nnz, n_modes)
+        n_mat = self.K_data.shape[0]
+        return (self.K_data.reshape(n_mat * 6, -1) @ prod).reshape(n_mat, 6, -1)
+
+    def w_shape(self, phi: np.ndarray) -> np.ndarray:
+        """Transverse displacement w0 at every mesh node, (n_nodes, n_modes); 0 on fixed DOFs."""
+        full = np.zeros((self.mesh.n_nodes * 9,) + phi.shape[1:])
+        full[self.dofs] = phi
+        return full[2::9]
+
+
+def _unique_elements(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Group elements of identical shape: (index of a representative per group, group of each)."""
+    rel = xy - xy[:, :1, :]
+    scale = np.abs(rel).max() or 1.0
+    key = np.round(rel.reshape(len(xy), -1) / scale, 10)
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    return first, inverse.ravel()
+
+
+def _btdb(B: np.ndarray, D: np.ndarray, wdet: np.ndarray) -> np.ndarray:
+    """sum over Gauss points of w detJ B^T D_b B for every basis b, as batched BLAS products.
+
+    B : (n_el, n_gp, n_s, 72); D : (n_b, n_s, n_s); wdet : (n_el, n_gp) -> (n_b, n_el, 72, 72)
+    """
+    n_el, n_gp, n_s, n_d = B.shape
+    DB = np.matmul(D[:, None, None], B[None])                      # (n_b, n_el, n_gp, n_s, 72)
+    Bw = (B * wdet[:, :, None, None]).reshape(n_el, n_gp * n_s, n_d)
+    return np.matmul(Bw.transpose(0, 2, 1)[None], DB.reshape(len(D), n_el, n_gp * n_s, n_d))
+
+
+def element_matrices(xy: np.ndarray, h: float, D_p: np.ndarray, D_s: np.ndarray,
+                     J: np.ndarray, integration: str = "selective"):
+    """Element stiffness per basis and element mass, batched.
+
+    Parameters
+    ----------
+    xy : (n_el, 8, 2) node coordinates, m
+    D_p : (n_b, 12, 12), D_s : (n_b, 6, 6) generalised constitutive matrices per basis
+    J : (9, 9) inertia per unit area, kg/m^2
+    integration : 'selective' (3x3 in-plane, 2x2 shear) or 'full' (3x3 everywhere)
+
+    Returns
+    -------
+    Ke : (n_b, n_el, 72, 72), Me : (n_el, 72, 72)
+    """
+    if integration not in ("selective", "full"):
+        raise ModelError(f"integration '{integration}' unknown (selective or full)")
+    pts3, w3 = fe_el.gauss_rule(3)
+    N3, dN3 = fe_el.shape_functions(pts3)
+    dNdx3, det3 = fe_el.physical_derivatives(xy, dN3)
+    wd3 = w3[None, :] * det3                                              # (n_el, 9)
+    Bp = fe_el.inplane_operator(dNdx3)
+    Ke = _btdb(Bp, D_p, wd3)
+    if integration == "selective":
+        pts2, w2 = fe_el.gauss_rule(2)
+        N2, dN2 = fe_el.shape_functions(pts2)
+        dNdx2, det2 = fe_el.physical_derivatives(xy, dN2)
+        Bs = fe_el.shear_operator(N2, dNdx2, h)
+        wds = w2[None, :] * det2
+    else:
+        Bs = fe_el.shear_operator(N3, dNdx3, h)
+        wds = wd3
+    Ke += _btdb(Bs, D_s, wds)
+    Nmass = np.einsum("ga,gb,eg->eab", N3, N3, wd3)                       # (n_el, 8, 8)
+    Me = np.einsum("eab,ij->eaibj", Nmass, J).reshape(-1, 72, 72)
+    return Ke, Me
+
+
+def build_plate_model(mesh: Mesh, h: float, z: np.ndarray, angle: np.ndarray,
+                      material_index: np.ndarray, density: np.ndarray,
+                      material_names=("material",), boundary: str = "free",
+                      integration: str = "selective") -> PlateModel:
+    """Assemble the basis stiffness matrices and the mass matrix of a laminated plate.
+
+    Parameters
+    ----------
+    mesh : Q8 mesh of the plate
+    h : total thickness, m
+    z : (n_plies + 1,) ply interfaces from -h/2 to h/2, m (ply 1 at the bottom)
+    angle : (n_plies,) ply angles, rad
+    material_index : (n_plies,) index of each ply's material in ``material_names``
+    density : (n_plies,) kg/m^3
+    boundary : 'free' (default), 'simply-supported', 'clamped' or an edge code like 'SFSF'
+    integration : 'selective' (default) or 'full' (locks for thin plates; for tests)
+    """
+    z = np.asarray(z, float)
+    angle = np.asarray(angle, float)
+    mat = np.asarray(material_index, int)
+    n_mat = len(material_names)
+    if z.size != angle.size + 1 or mat.size != angle.size or np.size(density) != angle.size:
+        raise ModelError("ply arrays have inconsistent lengths")
+    if not np.isclose(z[-1] - z[0], h, rtol=1e-6) or np.any(np.diff(z) <= 0):
+        raise ModelError(f"ply interfaces must rise from -h/2 to h/2 (h = {h} m)")
+    if mat.min() < 0 or mat.max() >= n_mat:
+        raise ModelError("ply material index out of range")
+    code = boundary_code(boundary)
+
+    # --- generalised constitutive matrices per (material, basis) ----------------------------
+    C = c_basis(angle)                                          # (n_plies, 6, 5, 5)
+    Qb = np.zeros((n_mat, 6, angle.size, 5, 5))
+    for m in range(n_mat):                                      # loop over materials only
+        Qb[m, :, mat == m] = C[mat == m]
+    D_p, D_s = fe_el.laminate_operators(z, h, Qb.reshape(n_mat * 6, angle.size, 5, 5))
+    J = fe_el.inertia_operator(z, h, density)
+    D_bending = (h**2 / 4) * D_p[:, 3:6, 3:6].reshape(n_mat, 6, 3, 3)
+
+    # --- element matrices, computed once per distinct element shape ---------------------------
+    xy = mesh.nodes[mesh.elements]                              # (n_el, 8, 2)
+    first, group = _unique_elements(xy)
+    Ke_u, Me_u = element_matrices(xy[first], h, D_p, D_s, J, integration)
+
+    # --- one COO -> CSR pattern, with fixed DOFs removed -------------------------------------
+    n_glob = mesh.n_nodes * 9
+    fixed = fixed_dofs(mesh, code)
+    keep = np.ones(n_glob, bool)
+    keep[fixed] = False
+    new_index = -np.ones(n_glob, dtype=np.int64)
+    new_index[keep] = np.arange(keep.sum())
+    edofs = (mesh.elements[:, :, None] * 9 + np.arange(9)).reshape(-1, 72)
+    red = new_index[edofs]                                      # (n_el, 72)
+    rows = np.broadcast_to(red[:, :, None], (len(red), 72, 72)).ravel()
+    cols = np.broadcast_to(red[:, None, :], (len(red), 72, 72)).ravel()
+    ok = (rows >= 0) & (cols >= 0)
+    rows, cols = rows[ok], cols[ok]
+    n = int(keep.sum())
+    pattern = sp.csr_matrix((np.ones(rows.size), (rows, cols)), shape=(n, n))
+    pattern.sum_duplicates()
+    pattern.sort_indices()
+    slot_rows = np.repeat(np.arange(n), np.diff(pattern.indptr))
+    slot_key = slot_rows * n + pattern.indices
+    slot = np.searchsorted(slot_key, rows * n + cols)           # entry -> CSR slot
+
+    # scatter matrix: CSR slot <- (element shape, local entry); one sparse product per model
+    entry_group = np.broadcast_to(group[:, None], (len(group), 72 * 72)).ravel()[ok]
+    entry_local = np.broadcast_to(np.arange(72 * 72)[None, :], (len(group), 72 * 72)).ravel()[ok]
+    scatter = sp.csr_matrix((np.ones(slot.size), (slot, entry_group * 72 * 72 + entry_local)),
+                            shape=(slot_key.size, len(first) * 72 * 72))
+    K_data = (scatter @ np.ascontiguousarray(Ke_u.reshape(n_mat * 6, -1).T)).T
+    M_data = scatter @ Me_u.reshape(-1)
+    M = sp.csr_matrix((M_data, pattern.indices, pattern.indptr), shape=(n, n))
+    return PlateModel(mesh=mesh, h=float(h), boundary=code, material_names=tuple(material_names),
+                      dofs=np.flatnonzero(keep), indptr=pattern.indptr, indices=pattern.indices,
+                      K_data=K_data.reshape(n_mat, 6, -1), M=M, D_bending=D_bending,
+                      mass_per_area=float(J[2, 2]))

@@ -1,0 +1,96 @@
+"""Forward problem: specimen -> finite-element plate model -> natural frequencies.
+
+``build_forward_model`` assembles the parametric model once (mesh, layup, densities); its
+``solve`` evaluates the modes for any set of material constants (one stiffness combination, one
+banded Cholesky, one Lanczos run). The identification reuses the same object.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from laminid_cli.errors import ModelError
+from laminid_cli.fe.assembly import PlateModel, build_plate_model
+from laminid_cli.fe.mesh import rectangular_mesh
+from laminid_cli.laminate import Laminate, laminate_from_specimen
+from laminid_cli.material import ElasticConstants, infeasibility_reasons
+from laminid_cli.modal import BandedCholesky, Modes, solve_modes
+from laminid_cli.specimen import Specimen
+
+DEFAULT_MESH = (12, 12)
+
+
+@dataclass(frozen=True)
+class ForwardModel:
+    """A specimen's assembled plate model, ready to be solved for any constants."""
+
+    specimen: Specimen
+    laminate: Laminate
+    plate: PlateModel
+    factorizer: BandedCholesky
+    mesh_size: tuple[int, int]
+    _last_lambda1: list = field(default_factory=lambda: [None], repr=False, compare=False)
+
+    @property
+    def material_names(self) -> tuple[str, ...]:
+        return self.laminate.material_names
+
+    @property
+    def initial_constants(self) -> tuple[ElasticConstants, ...]:
+        return self.laminate.constants
+
+    def solve(self, constants=None, n_modes: int = 12, *, coef: np.ndarray | None = None) -> Modes:
+        """Lowest ``n_modes`` elastic modes for the given constants (default: the file's).
+
+        ``constants`` is a sequence of ElasticConstants in ``material_names`` order; ``coef``
+        (n_materials, 6) the stiffness coefficients directly. The shift is the previous
+        solution's first eigenvalue when there is one, else a thin-plate estimate.
+        """
+        if coef is None:
+            constants = self.initial_constants if constants is None else tuple(constants)
+            for name, c in zip(self.material_names, constants):
+                reasons = infeasibility_reasons(c)
+                if reasons:
+                    raise ModelError(f"material '{name}': infeasible constants: "
+                                     + "; ".join(reasons))
+            coef = self.plate.coefficients(constants)
+        K = self.plate.stiffness(coef=coef)
+        last = self._last_lambda1[0]
+        lam_est = last if last is not None else self.plate.shift_estimate(coef)
+        modes = solve_modes(K, self.plate.M, n_modes, n_rigid=self.plate.n_rigid_expected,
+                            sigma=-0.5 * lam_est, factorizer=self.factorizer)
+        self._last_lambda1[0] = float(modes.eigenvalues[0])
+        return modes
+
+
+def build_forward_model(specimen: Specimen, mesh: tuple[int, int] = DEFAULT_MESH,
+                        boundary: str | None = None,
+                        integration: str = "selective") -> ForwardModel:
+    """Assemble the plate model of a specimen.
+
+    Parameters
+    ----------
+    mesh : elements along x (side a) and y (side b)
+    boundary : overrides the specimen's boundary condition when given
+    """
+    lam = laminate_from_specimen(specimen)
+    nx, ny = mesh
+    plate = build_plate_model(
+        rectangular_mesh(specimen.a, specimen.b, nx, ny), lam.h, lam.z, lam.angle,
+        lam.material_index, lam.density, material_names=lam.material_names,
+        boundary=boundary or specimen.boundary, integration=integration)
+    factorizer = BandedCholesky.from_pattern(plate.indptr, plate.indices,
+                                             block=9 if plate.boundary == "FFFF" else 1)
+    return ForwardModel(specimen=specimen, laminate=lam, plate=plate, factorizer=factorizer,
+                        mesh_size=(int(nx), int(ny)))
+
+
+def residuals_percent(measured_hz: np.ndarray, model_hz: np.ndarray) -> np.ndarray:
+    """Paper Eq. 28: r_i = (measured - model) / measured * 100; NaN where not measured."""
+    measured_hz = np.asarray(measured_hz, float)
+    n = min(measured_hz.size, model_hz.size)
+    r = np.full(measured_hz.size, np.nan)
+    r[:n] = (measured_hz[:n] - model_hz[:n]) / measured_hz[:n] * 100.0
+    return r
