@@ -165,7 +165,13 @@ def test_ctrl_c_keeps_the_file_and_prints_the_resume_command(tmp_path, hp, monke
     assert "interrupted; 2 point(s) saved in" in r.output  # point 2 was saved before the ^C
     assert "--resume" in r.output
     assert read_frf_h5(out).n_points == 2
-    assert hp.log[-1] == "ABOR"  # the measurement was stopped on the analyser
+    # the measurement was stopped on the analyser (its server thread may lag a little)
+    import time
+
+    deadline = time.monotonic() + 2.0
+    while hp.log[-1] != "ABOR" and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert hp.log[-1] == "ABOR"
 
 
 # --------------------------------------------------------------------------- bad input
@@ -230,6 +236,32 @@ def test_existing_output_is_not_overwritten(tmp_path, hp):
 
 
 # ------------------------------------------------------------------ acquire -> fit-frf
+#: the issue's acceptance tolerance on the natural frequencies
+FREQ_TOL = 5e-4
+
+
+def _relative_errors(found):
+    truth = np.array([f for f, _ in PLATE_MODES])
+    found = np.asarray(found, dtype=float)
+    return np.array([np.min(np.abs(found - f)) / f for f in truth])
+
+
+def test_acquire_then_rfp_estimator_gives_back_the_emulators_modes(tmp_path, sr):
+    """The acquired file carries the plate's modes: the project's RFP estimator finds them.
+
+    Measured on the SR785 emulator (float32 transfer, the coarser of the two formats): max
+    error about 0.012 % (mode 1, 212.4 Hz, 1.6 % apparent damping with the exponential
+    window), all modes under 0.05 %.
+    """
+    rfp = pytest.importorskip("laminid_cli.frf.rfp")
+    out = tmp_path / "plate.frf.h5"
+    assert acquire(sr, out, "--no-prompt", points=4).exit_code == 0
+    s = read_frf_h5(out)
+    fit = rfp.find_modes(s.freq, s.frf)
+    err = _relative_errors(fit.freq_hz)
+    assert np.all(err < FREQ_TOL), (fit.freq_hz, err)
+
+
 @pytest.mark.skipif(importlib.util.find_spec("laminid_cli.commands.fit_frf") is None,
                     reason="laminid fit-frf is not written yet")
 def test_acquire_then_fit_frf_gives_back_the_emulators_modes(tmp_path, hp):
@@ -240,10 +272,8 @@ def test_acquire_then_fit_frf_gives_back_the_emulators_modes(tmp_path, hp):
     r = run(["fit-frf", str(out), "--json"])
     assert r.exit_code == 0, r.output
     result = json.loads(r.output)
-    found = np.array(_frequencies(result))
-    truth = np.array([f for f, _ in PLATE_MODES])
-    err = np.array([np.min(np.abs(found - f)) / f for f in truth])
-    assert np.all(err < 5e-4), (found, truth, err)
+    err = _relative_errors(_frequencies(result))
+    assert np.all(err < FREQ_TOL), (result, err)
 
 
 def _frequencies(result):
