@@ -70,6 +70,12 @@ class PoleCriteria:
     max_modes : largest number of modes N in the order sweep of a band (``None``: from the
         number of peaks in the band)
     weighting, weight_floor : weighting of the least-squares errors (:func:`fit_weights`)
+    reweight : run the sweep twice, the second time with the equation errors weighted by
+        ``1 / |D_1|`` built from the first pass's physical poles (:func:`sk_weights`); this
+        brings the linearised fit close to an output-error fit near resonances and is what
+        makes close modes under noise separable
+    sk_iter : Sanathanan-Koerner iterations at every order (reweighting with the order's own
+        previous denominator); helps weak modes in narrow bands, costly in wide ones
     """
 
     freq_tol: float = 0.002
@@ -82,6 +88,7 @@ class PoleCriteria:
     weighting: str = "uniform"
     weight_floor: float = 0.1
     reweight: bool = True
+    sk_iter: int = 0
 
 
 @dataclass(frozen=True)
@@ -302,7 +309,13 @@ def comrade_roots(coef, gamma) -> np.ndarray:
 
 # --------------------------------------------------------------------------- one band
 class _BandSystem:
-    """Least-squares matrices of one band, built once for the highest order of the sweep."""
+    """Least-squares matrices of one band, built once for the highest order of the sweep.
+
+    ``fit(n, sk_iter)`` optionally refines the order-n denominator by Sanathanan-Koerner
+    iterations: the equation errors are reweighted with ``1 / |D_prev(j omega)|`` of the
+    previous iterate (evaluated from its orthonormal-basis coefficients, no roots needed) and
+    the order-n matrices rebuilt.
+    """
 
     def __init__(self, freq, frf, band, max_modes: int, n_extra: int,
                  weighting: str = "uniform", weight_floor: float = 0.1, ref_poles=None):
@@ -324,37 +337,54 @@ class _BandSystem:
         P = np.zeros((2 * nf, n_poly))
         P[:nf, 0::2] = (sign[0::2, None] * self.phi[0::2]).T
         P[nf:, 1::2] = (sign[1::2, None] * self.phi[1::2]).T
+        self.P = P
+        self.theta = (1j ** np.arange(n_poly))[:, None] * self.phi     # (n_poly, nf)
         scale = np.sqrt(np.mean(np.abs(self.frf) ** 2)) or 1.0
-        Hs = self.frf / scale
-        w = fit_weights(Hs, weighting, weight_floor)                   # (n_p, nf)
+        self.Hs = self.frf / scale
+        w = fit_weights(self.Hs, weighting, weight_floor)              # (n_p, nf)
         if ref_poles is not None and len(ref_poles):
             w = w * sk_weights(self.freq, ref_poles)[None, :]
+        self.w0 = w
+        uniform = weighting == "uniform" and (ref_poles is None or not len(ref_poles))
+        self.G, self.WW = self._matrices(w, n_poly, orthonormal=uniform)
+
+    def _matrices(self, w, n_cols: int, orthonormal: bool = False):
+        """G_p = Q_p^T W_p (n_p, n_cols, n_cols) and sum_p W_p^T W_p for weights w (n_p, nf)."""
         w2 = np.concatenate([w, w], axis=1)[:, :, None]                # rows [Re; Im]
-        theta = (1j ** np.arange(n_poly))[:, None] * self.phi          # (n_poly, nf)
-        HQ = Hs[:, None, :] * theta[None, :, :]                        # (n_p, n_poly, nf)
-        # W_p = weighted [Re; Im] of H_p theta_k, (n_p, 2 nf, n_poly)
-        self.W = w2 * np.concatenate([HQ.real, HQ.imag], axis=2).transpose(0, 2, 1)
-        if weighting == "uniform" and (ref_poles is None or not len(ref_poles)):
-            Qp = np.broadcast_to(P, (Hs.shape[0],) + P.shape)
+        HQ = self.Hs[:, None, :] * self.theta[None, :n_cols, :]        # (n_p, n_cols, nf)
+        # W_p = weighted [Re; Im] of H_p theta_k, (n_p, 2 nf, n_cols)
+        W = w2 * np.concatenate([HQ.real, HQ.imag], axis=2).transpose(0, 2, 1)
+        P = self.P[:, :n_cols]
+        if orthonormal:
+            G = np.matmul(P.T, W)
         else:
             # the weighted numerator basis of each FRF, re-orthonormalised (its first m columns
             # span the weighted polynomials of degree < m: Forsythe with weight w_p^2)
             Qp, Rp = np.linalg.qr(w2 * P[None, :, :])
             Qp = Qp * np.sign(np.diagonal(Rp, axis1=1, axis2=2))[:, None, :]
-        self.G = np.matmul(Qp.transpose(0, 2, 1), self.W)              # Q_p^T W_p
-        Wf = self.W.reshape(-1, n_poly)
-        self.WW = Wf.T @ Wf                                            # sum_p W_p^T W_p
+            G = np.matmul(Qp.transpose(0, 2, 1), W)
+        Wf = W.reshape(-1, n_cols)
+        return G, Wf.T @ Wf
 
-    def fit(self, n_modes: int) -> RfpFit:
-        n = 2 * n_modes
-        m = n + self.n_extra
+    @staticmethod
+    def _solve(G, WW, n: int, m: int) -> np.ndarray:
         # reduced normal matrix after eliminating the numerators (Q_p orthonormal):
         # M = sum_p W_p^T (I - Q_p Q_p^T) W_p = sum_p W_p^T W_p - G_p^T G_p
-        G = self.G[:, :m, : n + 1].reshape(-1, n + 1)
-        M = self.WW[: n + 1, : n + 1] - G.T @ G
+        Gm = G[:, :m, : n + 1].reshape(-1, n + 1)
+        M = WW[: n + 1, : n + 1] - Gm.T @ Gm
         # min b^T M b with b[n] = 1
-        b = _solve_sym(M[:n, :n], -M[:n, n])
-        coef = np.append(b, 1.0)
+        return np.append(_solve_sym(M[:n, :n], -M[:n, n]), 1.0)
+
+    def fit(self, n_modes: int, sk_iter: int = 0) -> RfpFit:
+        n = 2 * n_modes
+        m = n + self.n_extra
+        coef = self._solve(self.G, self.WW, n, m)
+        n_cols = max(n + 1, m)
+        for _ in range(sk_iter):
+            D = np.abs(coef @ self.theta[: n + 1])
+            w = self.w0 / np.maximum(D, 1e-12 * D.max())[None, :]
+            G, WW = self._matrices(w / np.sqrt(np.mean(w ** 2)), n_cols)
+            coef = self._solve(G, WW, n, m)
         s = comrade_roots(coef, self.gamma)
         lam = s * self.w_hi
         lam = lam[lam.imag > 0]
@@ -505,7 +535,7 @@ def stabilisation(freq, frf, band, orders, *, criteria: PoleCriteria = PoleCrite
         prev_f = prev_z = prev_t = None
         next_track = 0
         for n in orders:
-            fit = system.fit(n)
+            fit = system.fit(n, criteria.sk_iter)
             f, z = fit.freq_hz, fit.damping_ratio
             keep = (f >= lo) & (f <= hi) & np.isfinite(f)
             f, z = f[keep], z[keep]
@@ -777,10 +807,8 @@ def find_modes(freq, frf, *, bands=None, n_modes: int | None = None,
         for k, (rng, n_max) in enumerate(sweeps):
             ref_k = None
             if ref is not None:
-                ch = ref[k]
-                top = (ch.order == ch.order.max()) & (ch.damping_ratio > 0) & \
-                    (ch.damping_ratio < criteria.max_damping)
-                ref_k = _pole(ch.freq_hz[top], np.maximum(ch.damping_ratio[top], 0.002))
+                ref_k = [c for c in ref if rng[0] <= c.freq_hz <= rng[1]]
+                ref_k = _pole([c.freq_hz for c in ref_k], [c.damping_ratio for c in ref_k])
             chart = stabilisation(freq, frf, rng, range(1, n_max + 1), criteria=criteria,
                                   ref_poles=ref_k)
             charts.append(chart)
@@ -793,7 +821,7 @@ def find_modes(freq, frf, *, bands=None, n_modes: int | None = None,
     charts, cands = sweep()
     if criteria.reweight and cands:
         # second pass weighted with the first pass's physical poles (Sanathanan-Koerner)
-        charts, cands = sweep(charts)
+        charts, cands = sweep([c for _, c, _ in cands])
     band_fits, modes = [], []
     for k, chart in enumerate(charts):
         own = [c for b, c, _ in cands if b == k]

@@ -1,0 +1,99 @@
+"""``laminid fit-frf``: natural frequencies from measured FRFs (rational fraction polynomials)."""
+
+from __future__ import annotations
+
+import click
+
+from laminid_cli.commands._common import check_output_path, echo_json, force_option, json_option
+
+
+def _parse_bands(ctx, param, values):
+    bands = []
+    for text in values:
+        parts = text.replace(",", ":").split(":")
+        try:
+            lo, hi = (float(p) for p in parts)
+        except ValueError:
+            raise click.BadParameter(f"{text!r}: expected LO:HI in Hz, e.g. 100:1400") from None
+        if not (lo >= 0 and hi > lo) or hi == float("inf"):
+            raise click.BadParameter(f"{text!r}: the band is empty; need 0 <= LO < HI (Hz)")
+        bands.append((lo, hi))
+    return bands or None
+
+
+@click.command("fit-frf")
+@click.argument("frf_file", type=click.Path(dir_okay=False))
+@click.option("--band", "bands", multiple=True, callback=_parse_bands, metavar="LO:HI",
+              help="Frequency band in Hz to fit (repeatable). Default: bands around the peaks "
+                   "of the summed FRF magnitude.")
+@click.option("--modes", "n_modes", type=click.IntRange(min=1), default=None,
+              help="Report the N lowest modes (error if fewer are found).")
+@click.option("--format", "fmt", type=click.Choice(["hdf5", "uff", "csv"]), default=None,
+              help="FRF file format (default: from the suffix .h5/.uff/.unv/.csv).")
+@click.option("--plot", "plot_path", type=click.Path(dir_okay=False), default=None,
+              help="Write a figure (PNG/PDF/SVG): FRFs with the fit, poles, stabilisation chart.")
+@click.option("--into", "spec_path", type=click.Path(dir_okay=False), default=None,
+              help="Write the frequencies and their sigmas into this specimen file's "
+                   "'measured:' entry (comments kept, backup SPEC.bak).")
+@force_option
+@json_option
+def fit_frf(frf_file, bands, n_modes, fmt, plot_path, spec_path, force, as_json):
+    """Fit the FRFs in FRF_FILE (laminid HDF5, UFF 58 or CSV) and list the natural frequencies.
+
+    A global rational fraction polynomial fit (Richardson & Formenti) of all FRFs with shared
+    poles, over a sweep of model orders; poles stable across orders are the modes. The
+    uncertainty (+/-) is the standard deviation of the frequency over the stable orders.
+
+    \b
+    Examples:
+      laminid fit-frf plate.frf.h5
+      laminid fit-frf plate.uff --band 100:700 --band 700:1500 --modes 8 --plot fit.png
+      laminid fit-frf plate.frf.h5 --into plate.yaml
+    """
+    from pathlib import Path
+
+    from laminid_cli.errors import SpecimenError
+    from laminid_cli.frf import rfp
+    from laminid_cli.frf.io import read_frf
+
+    if plot_path is not None:
+        check_output_path(plot_path, force)
+    if spec_path is not None and not Path(spec_path).is_file():
+        raise SpecimenError("file not found (--into needs an existing specimen file)",
+                            path=spec_path)
+    fs = read_frf(frf_file, fmt)
+    fit = rfp.find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes)
+    sigma = rfp.frequency_sigma(fit, fs.freq)
+    if plot_path is not None:
+        from laminid_cli.frf.plot import plot_fit
+
+        plot_fit(plot_path, fs.freq, fs.frf, fit, title=f"{Path(frf_file).name}: "
+                                                        f"{len(fit.modes)} modes")
+    if spec_path is not None:
+        from laminid_cli.frf.into import write_measured
+
+        write_measured(spec_path, fit.freq_hz.tolist(), sigma.tolist())
+    if as_json:
+        echo_json({
+            "file": str(frf_file), "n_points": fs.n_points, "units": fs.units,
+            "bands_hz": [list(b.band_hz) for b in fit.bands],
+            "modes": [dict(m.as_dict(), mode=i + 1, sigma_hz=float(s))
+                      for i, (m, s) in enumerate(zip(fit.modes, sigma))],
+            "plot": plot_path, "into": spec_path,
+        })
+        return
+    bands_txt = ", ".join(f"{b.band_hz[0]:g}-{b.band_hz[1]:g}" for b in fit.bands)
+    click.echo(f"{frf_file}: {fs.n_points} FRFs, {fs.freq.size} lines, bands {bands_txt} Hz")
+    if not fit.modes:
+        click.echo("no stable mode found")
+    else:
+        click.echo(f"{'mode':>4}  {'freq (Hz)':>11}  {'+/- (Hz)':>9}  {'damping (%)':>11}  "
+                   f"{'stable orders':>13}")
+        for i, (m, s) in enumerate(zip(fit.modes, sigma), start=1):
+            click.echo(f"{i:>4}  {m.freq_hz:>11.3f}  {s:>9.3f}  {100 * m.damping_ratio:>11.3f}  "
+                       f"{m.orders_stable:>13d}")
+    if plot_path is not None:
+        click.echo(f"plot written to {plot_path}")
+    if spec_path is not None:
+        click.echo(f"{len(fit.modes)} frequencies written to {spec_path} "
+                   f"(backup {spec_path}.bak)")

@@ -1,0 +1,243 @@
+"""FRF file formats: laminid HDF5 (see :mod:`laminid_cli.frf.store`), UFF 58 and CSV.
+
+Every reader returns a :class:`~laminid_cli.frf.store.FrfSet` (``frf`` complex
+(n_points, n_freq) on one strictly increasing axis in Hz) validated by
+:func:`~laminid_cli.frf.store.validate_frf_arrays`, and raises
+:class:`~laminid_cli.errors.FrfError` with the file name for anything unusable.
+
+Formats (:data:`FORMATS`, chosen by suffix unless given):
+
+``hdf5`` (``.h5``, ``.hdf5``)
+    laminid's own file, written by ``laminid acquire``.
+``uff`` (``.uff``, ``.unv``)
+    Universal File Format, dataset 58 (function at nodal DOF), ASCII or binary, read with
+    pyuff. Every type-58 record of function type 4 (FRF) is one point; records of function
+    type 6 (coherence) with the same response/reference DOF give the coherence. All FRFs must
+    share one abscissa.
+``csv`` (``.csv``, ``.txt``)
+    Text: first column frequency in Hz, then real and imaginary part of each FRF
+    (``freq, re_1, im_1, re_2, im_2, ...``). Separator ``,`` ``;`` tab or blanks; ``#`` comment
+    lines; an optional header line (its names of the real columns become the point labels).
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+from pathlib import Path
+
+import numpy as np
+
+from laminid_cli.errors import FrfError, OutputExistsError
+from laminid_cli.frf.store import FrfSet, read_frf_h5, validate_frf_arrays, write_frf_h5
+
+FORMATS = ("hdf5", "uff", "csv")
+SUFFIXES = {".h5": "hdf5", ".hdf5": "hdf5", ".hdf": "hdf5", ".uff": "uff", ".unv": "uff",
+            ".csv": "csv", ".txt": "csv"}
+
+#: UFF 58 function types
+UFF_FRF, UFF_COHERENCE = 4, 6
+
+
+def frf_format(path, fmt: str | None = None) -> str:
+    """The format of ``path``: ``fmt`` if given, else from the suffix (:data:`SUFFIXES`)."""
+    if fmt is not None:
+        if fmt not in FORMATS:
+            raise FrfError(f"FRF format {fmt!r}: expected one of {', '.join(FORMATS)}")
+        return fmt
+    suffix = Path(path).suffix.lower()
+    if suffix not in SUFFIXES:
+        raise FrfError(f"{path}: unknown FRF file type {suffix!r}; expected one of "
+                       f"{', '.join(sorted(SUFFIXES))} (laminid HDF5, UFF 58, CSV)")
+    return SUFFIXES[suffix]
+
+
+def read_frf(path, fmt: str | None = None) -> FrfSet:
+    """Read FRFs from a laminid HDF5, UFF 58 or CSV file (format from the suffix)."""
+    path = Path(path)
+    fmt = frf_format(path, fmt)
+    if not path.exists():
+        raise FrfError(f"{path}: file not found")
+    if path.is_dir():
+        raise FrfError(f"{path}: is a folder, not an FRF file")
+    fs = {"hdf5": read_frf_h5, "uff": read_frf_uff, "csv": read_frf_csv}[fmt](path)
+    if fs.n_points == 0:
+        raise FrfError(f"{path}: the file holds no FRF (0 measurement points)")
+    return fs
+
+
+def write_frf(path, fs: FrfSet, fmt: str | None = None, *, overwrite: bool = False) -> Path:
+    """Write an :class:`FrfSet` in any of :data:`FORMATS` (format from the suffix)."""
+    fmt = frf_format(path, fmt)
+    if fmt == "hdf5":
+        return write_frf_h5(path, fs.freq, fs.frf, fs.coherence, units=fs.units,
+                            labels=fs.labels or None, overwrite=overwrite)
+    return {"uff": write_frf_uff, "csv": write_frf_csv}[fmt](path, fs, overwrite=overwrite)
+
+
+def _atomic_target(path, overwrite: bool) -> tuple[Path, Path]:
+    path = Path(path)
+    if path.exists() and not overwrite:
+        raise OutputExistsError(f"{path}: file exists (not overwritten)")
+    return path, path.with_name(f".{path.name}.tmp-{os.getpid()}")
+
+
+# --------------------------------------------------------------------------- CSV
+def _split(line: str, sep: str | None) -> list[str]:
+    return [t.strip() for t in (line.split(sep) if sep else line.split())]
+
+
+def read_frf_csv(path) -> FrfSet:
+    """Read ``freq, re_1, im_1, ...`` text columns (see module docstring)."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise FrfError(f"{path}: not a text (CSV) file") from exc
+    lines = [(i + 1, ln) for i, ln in enumerate(text.splitlines())
+             if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines:
+        raise FrfError(f"{path}: no data lines (expected columns freq, re_1, im_1, ...)")
+    first = lines[0][1]
+    sep = next((c for c in (",", ";", "\t") if c in first), None)
+    header = None
+    try:
+        [float(t) for t in _split(first, sep)]
+    except ValueError:
+        header = _split(first, sep)
+        lines = lines[1:]
+    rows = []
+    for lineno, ln in lines:
+        try:
+            rows.append([float(t) for t in _split(ln, sep)])
+        except ValueError as exc:
+            raise FrfError(f"{path}:{lineno}: not a number in {ln.strip()[:60]!r}") from exc
+    if not rows:
+        raise FrfError(f"{path}: header but no data lines")
+    for i, r in enumerate(rows):
+        if len(r) != len(rows[0]):
+            raise FrfError(f"{path}:{lines[i][0]}: {len(r)} columns, the first data line has "
+                           f"{len(rows[0])}")
+    data = np.array(rows)
+    n = data.shape[1]
+    if n < 3 or (n - 1) % 2:
+        raise FrfError(f"{path}: {n} columns; expected the frequency then a real and an "
+                       "imaginary column per FRF (an odd number, at least 3)")
+    freq = data[:, 0]
+    frf = (data[:, 1::2] + 1j * data[:, 2::2]).T
+    labels = tuple(str(i + 1) for i in range(frf.shape[0]))
+    if header and len(header) == n:
+        labels = tuple(h.removesuffix("_re").removesuffix(".re").strip() or str(i + 1)
+                       for i, h in enumerate(header[1::2]))
+    validate_frf_arrays(freq, frf, source=str(path))
+    return FrfSet(freq=freq, frf=frf, labels=labels, source=str(path))
+
+
+def write_frf_csv(path, fs: FrfSet, *, overwrite: bool = False) -> Path:
+    """Write ``freq_Hz, <label>_re, <label>_im, ...`` with full double precision."""
+    path, tmp = _atomic_target(path, overwrite)
+    labels = fs.labels or tuple(str(i + 1) for i in range(fs.n_points))
+    data = np.empty((fs.freq.size, 1 + 2 * fs.n_points))
+    data[:, 0] = fs.freq
+    data[:, 1::2] = fs.frf.real.T
+    data[:, 2::2] = fs.frf.imag.T
+    try:
+        with open(tmp, "w", newline="") as fh:
+            fh.write(f"# laminid FRF, units {fs.units}\n")
+            w = csv.writer(fh)
+            w.writerow(["freq_Hz"] + [f"{lab}_{part}" for lab in labels for part in ("re", "im")])
+            w.writerows([[repr(float(v)) for v in row] for row in data])
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
+# --------------------------------------------------------------------------- UFF 58
+def read_frf_uff(path) -> FrfSet:
+    """Read the type-58 FRF records of a Universal File (see module docstring)."""
+    import pyuff
+
+    path = Path(path)
+    try:
+        uff = pyuff.UFF(str(path))
+        types = np.asarray(uff.get_set_types(), dtype=int)
+    except Exception as exc:  # pyuff raises bare Exception on unreadable files
+        raise FrfError(f"{path}: not a readable Universal File ({exc})") from exc
+    idx = [int(i) for i in np.flatnonzero(types == 58)]
+    if not idx:
+        found = ", ".join(str(t) for t in sorted(set(types.tolist()))) or "none"
+        raise FrfError(f"{path}: no type-58 (function at nodal DOF) record; dataset types "
+                       f"found: {found}")
+    try:
+        sets = uff.read_sets(idx)
+    except Exception as exc:
+        raise FrfError(f"{path}: cannot read the type-58 records ({exc})") from exc
+    sets = [sets] if isinstance(sets, dict) else sets
+    frfs = [d for d in sets if int(d.get("func_type", 0)) == UFF_FRF]
+    if not frfs:
+        kinds = sorted({int(d.get("func_type", 0)) for d in sets})
+        raise FrfError(f"{path}: no FRF among the type-58 records (function types {kinds}; "
+                       f"{UFF_FRF} = frequency response function)")
+    freq = np.asarray(frfs[0]["x"], dtype=float)
+    for k, d in enumerate(frfs[1:], start=2):
+        x = np.asarray(d["x"], dtype=float)
+        if x.shape != freq.shape or not np.allclose(x, freq, rtol=1e-9, atol=1e-9):
+            raise FrfError(f"{path}: FRF record {k} has a different frequency axis "
+                           f"({x.size} lines, {x[0]:g}-{x[-1]:g} Hz) from record 1 "
+                           f"({freq.size} lines, {freq[0]:g}-{freq[-1]:g} Hz)")
+    frf = np.array([np.asarray(d["data"]).astype(complex) for d in frfs])
+
+    def dof(d):
+        return (int(d.get("rsp_node", 0)), int(d.get("rsp_dir", 0)),
+                int(d.get("ref_node", 0)), int(d.get("ref_dir", 0)))
+
+    coh_by_dof = {dof(d): np.asarray(d["data"]).real for d in sets
+                  if int(d.get("func_type", 0)) == UFF_COHERENCE and np.asarray(d["x"]).size == freq.size}
+    coherence = None
+    if coh_by_dof:
+        coherence = np.array([coh_by_dof.get(dof(d), np.full(freq.size, np.nan)) for d in frfs])
+    labels = tuple(f"{d.get('rsp_node', k + 1)}{_dir(d.get('rsp_dir', 0))}"
+                   for k, d in enumerate(frfs))
+    units = str(frfs[0].get("ordinate_axis_units_lab", "") or "1").strip() or "1"
+    validate_frf_arrays(freq, frf, coherence, source=str(path))
+    return FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels, units=units,
+                  source=str(path), meta={"uff_ids": [str(d.get("id1", "")) for d in frfs]})
+
+
+def _dir(code) -> str:
+    code = int(code)
+    names = {1: "+X", 2: "+Y", 3: "+Z", -1: "-X", -2: "-Y", -3: "-Z"}
+    return names.get(code, f"/{code}" if code else "")
+
+
+def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 1,
+                  rsp_dir: int = 3, ref_dir: int = 3) -> Path:
+    """Write one ASCII type-58 FRF record per point (response node = point number)."""
+    import pyuff
+
+    path, tmp = _atomic_target(path, overwrite)
+    sets = []
+    for k in range(fs.n_points):
+        label = fs.labels[k] if k < len(fs.labels) else str(k + 1)
+        node = int(label) if label.isdigit() else k + 1
+        sets.append(pyuff.prepare_58(
+            binary=0, id1=f"FRF {label}", id2="laminid", func_type=UFF_FRF,
+            rsp_node=node, rsp_dir=rsp_dir, ref_node=ref_node, ref_dir=ref_dir,
+            ord_data_type=6,  # complex double
+            abscissa_spacing=1 if np.allclose(np.diff(fs.freq), fs.freq[1] - fs.freq[0]) else 0,
+            abscissa_spec_data_type=18, ordinate_spec_data_type=12,
+            orddenom_spec_data_type=13, ordinate_axis_units_lab=fs.units,
+            data=np.asarray(fs.frf[k], dtype=complex), x=np.asarray(fs.freq, dtype=float)))
+    try:
+        pyuff.UFF(str(tmp)).write_sets(sets, mode="overwrite")
+        os.replace(tmp, path)
+    except FrfError:
+        raise
+    except Exception as exc:
+        raise FrfError(f"{path}: cannot write the Universal File ({exc})") from exc
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
