@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from laminid_cli.errors import ModelError
-from laminid_cli.fe.assembly import PlateModel, build_plate_model
+from laminid_cli.fe.assembly import PlateModel, boundary_label, build_plate_model
 from laminid_cli.fe.mesh import rectangular_mesh
 from laminid_cli.laminate import Laminate, laminate_from_specimen
 from laminid_cli.material import ElasticConstants, infeasibility_reasons
@@ -31,6 +31,7 @@ class ForwardModel:
     plate: PlateModel
     factorizer: BandedCholesky
     mesh_size: tuple[int, int]
+    rigid: np.ndarray | None
     _last_lambda1: list = field(default_factory=lambda: [None], repr=False, compare=False)
 
     @property
@@ -59,8 +60,8 @@ class ForwardModel:
         K = self.plate.stiffness(coef=coef)
         last = self._last_lambda1[0]
         lam_est = last if last is not None else self.plate.shift_estimate(coef)
-        modes = solve_modes(K, self.plate.M, n_modes, n_rigid=self.plate.n_rigid_expected,
-                            sigma=-0.5 * lam_est, factorizer=self.factorizer)
+        modes = solve_modes(K, self.plate.M, n_modes, rigid=self.rigid, sigma=-0.5 * lam_est,
+                            factorizer=self.factorizer)
         self._last_lambda1[0] = float(modes.eigenvalues[0])
         return modes
 
@@ -84,7 +85,7 @@ def build_forward_model(specimen: Specimen, mesh: tuple[int, int] = DEFAULT_MESH
     factorizer = BandedCholesky.from_pattern(plate.indptr, plate.indices,
                                              block=9 if plate.boundary == "FFFF" else 1)
     return ForwardModel(specimen=specimen, laminate=lam, plate=plate, factorizer=factorizer,
-                        mesh_size=(int(nx), int(ny)))
+                        mesh_size=(int(nx), int(ny)), rigid=plate.rigid_modes())
 
 
 def residuals_percent(measured_hz: np.ndarray, model_hz: np.ndarray) -> np.ndarray:
@@ -94,3 +95,44 @@ def residuals_percent(measured_hz: np.ndarray, model_hz: np.ndarray) -> np.ndarr
     r = np.full(measured_hz.size, np.nan)
     r[:n] = (measured_hz[:n] - model_hz[:n]) / measured_hz[:n] * 100.0
     return r
+
+
+def weighted_rms(residual: np.ndarray, weight: np.ndarray) -> float:
+    """RMS of the residuals (%) over the modes with a non-zero weight (NaN residuals skipped)."""
+    r = np.asarray(residual, float)
+    ok = np.isfinite(r) & (np.asarray(weight, float) > 0)
+    return float(np.sqrt(np.mean(r[ok] ** 2))) if ok.any() else float("nan")
+
+
+def measured_arrays(specimen: Specimen, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
+    """Measured frequencies (Hz, NaN = none) and weights padded/cut to ``n_modes``."""
+    freq = np.full(n_modes, np.nan)
+    weight = np.zeros(n_modes)
+    if specimen.measured is not None:
+        k = min(n_modes, specimen.measured.freq.size)
+        freq[:k] = specimen.measured.freq[:k]
+        weight[:k] = specimen.measured.weight[:k]
+    return freq, weight
+
+
+def modes_summary(fm: ForwardModel, modes: Modes, constants=None) -> dict:
+    """Everything ``laminid modes`` reports, as plain data (SI units, frequencies in Hz)."""
+    spec = fm.specimen
+    constants = fm.initial_constants if constants is None else tuple(constants)
+    lam = fm.laminate.with_constants(constants)
+    measured, weight = measured_arrays(spec, modes.n_modes)
+    residual = residuals_percent(measured, modes.freq)
+    return {
+        "specimen": {"name": spec.name, "path": str(spec.path), "description": spec.description,
+                     "a": spec.a, "b": spec.b, "h": spec.h, "mass": spec.mass,
+                     "model_mass": float(lam.mass_per_area * spec.a * spec.b),
+                     "n_plies": lam.n_plies, "boundary": boundary_label(fm.plate.boundary)},
+        "mesh": {"nx": fm.mesh_size[0], "ny": fm.mesh_size[1], "nodes": fm.plate.mesh.n_nodes,
+                 "dofs": fm.plate.n_dofs, "rigid_modes_dropped": modes.n_rigid},
+        "materials": {name: {**c.as_dict(), "density": float(spec.densities.get(name, np.nan))}
+                      for name, c in zip(fm.material_names, constants)},
+        "frequencies": {"model": modes.freq, "measured": measured, "weight": weight,
+                        "residual_percent": residual},
+        "rms_residual_percent": weighted_rms(residual, weight),
+        "global_properties": lam.global_properties().as_dict(),
+    }

@@ -59,6 +59,12 @@ def boundary_code(boundary: str) -> str:
                      "(e.g. SFSF)")
 
 
+def boundary_label(code: str) -> str:
+    """'free' / 'simply-supported' / 'clamped' for uniform codes, else the code itself."""
+    names = {v: k for k, v in BOUNDARY_NAMES.items()}
+    return names.get(code, f"{code} (edges x=0, y=0, x=a, y=b)")
+
+
 def fixed_dofs(mesh: Mesh, boundary: str) -> np.ndarray:
     """Global indices of the DOFs fixed by the boundary conditions (sorted, unique)."""
     code = boundary_code(boundary)
@@ -113,11 +119,6 @@ class PlateModel:
     def n_dofs(self) -> int:
         return int(self.dofs.size)
 
-    @property
-    def n_rigid_expected(self) -> int:
-        """Six rigid-body modes for a completely free plate, none when any edge is supported."""
-        return 6 if self.boundary == "FFFF" else 0
-
     def coefficients(self, constants) -> np.ndarray:
         """(n_materials, 6) stiffness coefficients for a sequence of ElasticConstants."""
         constants = list(constants)
@@ -146,6 +147,23 @@ class PlateModel:
         D_ref = float(np.exp(np.mean(np.log(np.maximum(d, 1e-30 * d.max())))))
         a, b = self.mesh.a, self.mesh.b
         return (1.4 * np.pi**2 / (a * b)) ** 2 * D_ref / self.mass_per_area
+
+    def rigid_modes(self) -> np.ndarray | None:
+        """The six rigid-body motions of a free plate in the nodal variables, (n_dofs, 6).
+
+        Translations u, v, w; rotation about z (u = -y, v = x); rotations w = y and w = x, with
+        the normal staying normal (theta_y = -1 resp. theta_x = -1, i.e. psi = -h/2 in the
+        scaled variables of laminid_cli.fe.element). None when any edge is supported.
+        """
+        if self.boundary != "FFFF":
+            return None
+        x, y = self.mesh.nodes[:, 0], self.mesh.nodes[:, 1]
+        R = np.zeros((self.mesh.n_nodes, 9, 6))
+        R[:, 0, 0] = R[:, 1, 1] = R[:, 2, 2] = 1.0
+        R[:, 0, 3], R[:, 1, 3] = -y, x
+        R[:, 2, 4], R[:, 4, 4] = y, -self.h / 2
+        R[:, 2, 5], R[:, 3, 5] = x, -self.h / 2
+        return R.reshape(-1, 6)[self.dofs]
 
     def basis_matrix(self, m: int, j: int) -> sp.csr_matrix:
         """Basis stiffness matrix K_basis[m, j] (Pa coefficient units)."""

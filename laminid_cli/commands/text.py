@@ -1,0 +1,78 @@
+"""Plain-text tables for the terminal (formatting only; every number comes from the library)."""
+
+from __future__ import annotations
+
+import math
+
+MODULI = ("E1", "E2", "G12", "G13", "G23")
+GLOBAL_ORDER = (("Ex", "GPa"), ("Ey", "GPa"), ("Gxy", "GPa"), ("Gxz", "GPa"), ("Gyz", "GPa"),
+                ("nu_xy", ""), ("nu_yx", ""))
+
+
+def fmt(value, spec: str, missing: str = "-") -> str:
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return missing
+    return format(value, spec)
+
+
+def format_constant(name: str, value) -> str:
+    """'117.2 GPa' for moduli, '0.350' for Poisson ratios."""
+    if value is None or not math.isfinite(value):
+        return "-"
+    if name.startswith("nu"):
+        return f"{value:.3f}"
+    return f"{value / 1e9:.2f} GPa"
+
+
+def format_header(s: dict) -> list[str]:
+    sp = s["specimen"]
+    lines = [f"{sp['name']}" + (f" — {sp['description']}" if sp.get("description") else "")]
+    mass = f", mass {sp['mass']:.4g} kg (model {sp['model_mass']:.4g} kg)" if sp.get("mass") else ""
+    lines.append(f"plate {sp['a'] * 1e3:.4g} x {sp['b'] * 1e3:.4g} x {sp['h'] * 1e3:.4g} mm, "
+                 f"{sp['n_plies']} plies{mass}, boundary {sp['boundary']}")
+    m = s["mesh"]
+    lines.append(f"mesh {m['nx']}x{m['ny']} ({m['nodes']} nodes, {m['dofs']} DOF)"
+                 + (f", {m['rigid_modes_dropped']} rigid-body modes dropped"
+                    if m.get("rigid_modes_dropped") else ""))
+    return lines
+
+
+def format_frequency_table(freqs: dict, extra: dict | None = None) -> list[str]:
+    """Mode table: model, measured, residual, weight (+ optional extra columns)."""
+    extra = extra or {}
+    head = f"{'mode':>4}  {'model Hz':>10}  {'measured Hz':>11}  {'residual %':>10}  {'weight':>6}"
+    for name in extra:
+        head += f"  {name:>8}"
+    lines = [head]
+    for i, f_model in enumerate(freqs["model"]):
+        row = (f"{i + 1:>4}  {fmt(f_model, '10.2f')}  {fmt(freqs['measured'][i], '11.2f')}  "
+               f"{fmt(freqs['residual_percent'][i], '10.2f')}  {fmt(freqs['weight'][i], '6.2g')}")
+        for values in extra.values():
+            row += f"  {values[i]:>8}"
+        lines.append(row)
+    return lines
+
+
+def format_global(props: dict) -> list[str]:
+    parts = []
+    for key, unit in GLOBAL_ORDER:
+        v = props.get(key)
+        parts.append(f"{key} {v / 1e9:.2f} GPa" if unit == "GPa" else f"{key} {v:.3f}")
+    return ["global laminate properties (Appendix A): " + ", ".join(parts[:5]),
+            "    " + ", ".join(parts[5:])]
+
+
+def format_modes_report(s: dict) -> str:
+    lines = format_header(s)
+    for name, c in s["materials"].items():
+        consts = ", ".join(f"{k} {format_constant(k, c[k])}" for k in (*MODULI, "nu12"))
+        lines.append(f"material {name}: {consts}, density {c['density']:.1f} kg/m^3")
+    lines.append("")
+    lines += format_frequency_table(s["frequencies"])
+    if math.isfinite(s.get("rms_residual_percent", float("nan"))):
+        lines.append(f"RMS residual over the weighted modes: {s['rms_residual_percent']:.2f} %")
+    lines.append("")
+    lines += format_global(s["global_properties"])
+    if "time_s" in s:
+        lines.append(f"time {s['time_s']:.2f} s")
+    return "\n".join(lines)

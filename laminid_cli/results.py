@@ -1,0 +1,168 @@
+"""HDF5 result files (DESIGN.md section 7): self-describing, units on every dataset, atomic.
+
+Every file is written to a temporary name in the target folder and renamed over the target
+only when complete, so an interrupted run never leaves a half-written result.
+
+Common layout::
+
+    /                     attrs: format ("laminid-modes" | "laminid-result"), schema_version,
+                                 laminid_version, created (ISO 8601 UTC), command
+    /specimen             attrs: name, path, a, b, h (m), mass (kg), boundary;
+                          dataset yaml: the specimen file verbatim
+    /mesh                 nodes (n_nodes, 2) m, elements (n_el, 8), attrs nx, ny
+    /materials/<name>     E1, E2, G12, G13, G23 (Pa), nu12 (1), density (kg/m^3)
+    /frequencies          model, measured (Hz; NaN = not measured), residual_percent, weight
+    /modes                w (n_nodes, n_modes) transverse displacement of the mass-normalised
+                          modes (m/sqrt(kg)); phi (n_dofs, n_modes) all DOFs; dofs (n_dofs,)
+    /global_properties    Ex, Ey, Gxy, Gxz, Gyz (Pa), nu_xy, nu_yx (1)
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime as _dt
+import os
+from pathlib import Path
+
+import numpy as np
+
+from laminid_cli import __version__
+from laminid_cli.material import CONSTANT_UNITS, GLOBAL_UNITS
+
+SCHEMA_VERSION = 1
+
+
+def now_iso() -> str:
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+
+
+@contextlib.contextmanager
+def atomic_h5(path, fmt: str, command: str = ""):
+    """Open a new HDF5 file for writing at a temporary name; rename it to ``path`` on success."""
+    import h5py
+
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        with h5py.File(tmp, "w") as f:
+            f.attrs["format"] = fmt
+            f.attrs["schema_version"] = SCHEMA_VERSION
+            f.attrs["laminid_version"] = __version__
+            f.attrs["created"] = now_iso()
+            f.attrs["command"] = command
+            yield f
+        with open(tmp, "rb") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def put(group, name: str, value, units: str, *, compression: str | None = None, **attrs):
+    """Create a dataset with a ``units`` attribute (and any extra attributes)."""
+    d = group.create_dataset(name, data=value, compression=compression)
+    d.attrs["units"] = units
+    for k, v in attrs.items():
+        d.attrs[k] = v
+    return d
+
+
+def write_specimen(f, specimen) -> None:
+    import h5py
+
+    g = f.create_group("specimen")
+    g.attrs["name"] = specimen.name
+    g.attrs["path"] = str(specimen.path)
+    g.attrs["boundary"] = specimen.boundary
+    g.attrs["description"] = specimen.description or ""
+    g.create_dataset("yaml", data=specimen.source_text, dtype=h5py.string_dtype())
+    put(g, "a", specimen.a, "m")
+    put(g, "b", specimen.b, "m")
+    put(g, "h", specimen.h, "m")
+    put(g, "mass", np.nan if specimen.mass is None else specimen.mass, "kg")
+
+
+def write_mesh(f, plate) -> None:
+    g = f.create_group("mesh")
+    put(g, "nodes", plate.mesh.nodes, "m")
+    put(g, "elements", plate.mesh.elements, "1", description="8-node serendipity, node order "
+        "corners counter-clockwise then mid-sides")
+    g.attrs["nx"], g.attrs["ny"] = plate.mesh.nx, plate.mesh.ny
+
+
+def write_materials(f, names, constants, densities: dict, group: str = "materials") -> None:
+    g = f.create_group(group)
+    for name, c in zip(names, constants):
+        gm = g.create_group(name.replace("/", "\u2215"))   # '/' is HDF5's separator
+        gm.attrs["name"] = name
+        for key, value in c.as_dict().items():
+            put(gm, key, value, CONSTANT_UNITS[key])
+        if name in densities:
+            put(gm, "density", densities[name], "kg/m^3")
+
+
+def write_frequencies(f, model_hz, measured_hz, weight, residual) -> None:
+    g = f.create_group("frequencies")
+    put(g, "model", model_hz, "Hz")
+    put(g, "measured", measured_hz, "Hz", description="NaN where the mode was not measured")
+    put(g, "weight", weight, "1")
+    put(g, "residual_percent", residual, "%", description="(measured - model)/measured*100, "
+        "paper Eq. 28")
+
+
+def write_modes(f, plate, modes) -> None:
+    g = f.create_group("modes")
+    put(g, "frequency", modes.freq, "Hz")
+    put(g, "w", plate.w_shape(modes.phi), "m/sqrt(kg)",
+        description="transverse displacement w0 of the mass-normalised modes at the mesh nodes")
+    put(g, "phi", modes.phi, "m/sqrt(kg)", compression="gzip",
+        description="all retained DOFs of the mass-normalised modes; DOF = node*9 + variable "
+        "(u0, v0, w0, psi_x, psi_y, U, V, Psi_x, Psi_y)")
+    put(g, "dofs", plate.dofs, "1")
+
+
+def write_global_properties(f, props, group: str = "global_properties") -> None:
+    g = f.create_group(group)
+    for key, value in props.as_dict().items():
+        put(g, key, value, GLOBAL_UNITS[key])
+
+
+def read_h5(path) -> dict:
+    """Read a laminid result/modes file into nested dicts of numpy values (for tests, report)."""
+    import h5py
+
+    def walk(node):
+        out = {"@attrs": {k: _plain(v) for k, v in node.attrs.items()}}
+        for key, item in node.items():
+            if isinstance(item, h5py.Group):
+                out[key] = walk(item)
+            else:
+                value = item[()]
+                out[key] = value.decode() if isinstance(value, bytes) else value
+        return out
+
+    with h5py.File(path, "r") as f:
+        return walk(f)
+
+
+def _plain(v):
+    if isinstance(v, bytes):
+        return v.decode()
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+def write_modes_file(path, fm, modes, summary: dict) -> None:
+    """Write the result of ``laminid modes`` (format "laminid-modes")."""
+    with atomic_h5(path, "laminid-modes", command="laminid modes") as f:
+        write_specimen(f, fm.specimen)
+        write_mesh(f, fm.plate)
+        write_materials(f, fm.material_names, fm.initial_constants, fm.specimen.densities)
+        fr = summary["frequencies"]
+        write_frequencies(f, fr["model"], fr["measured"], fr["weight"], fr["residual_percent"])
+        write_modes(f, fm.plate, modes)
+        g = f.create_group("global_properties")
+        for key, value in summary["global_properties"].items():
+            put(g, key, value, GLOBAL_UNITS[key])

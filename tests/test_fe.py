@@ -1,0 +1,250 @@
+"""Finite-element verification against closed forms, the Navier oracle and element properties."""
+
+import numpy as np
+import pytest
+
+from laminid_cli.errors import ModelError, SolverError
+from laminid_cli.fe.assembly import boundary_code, build_plate_model
+from laminid_cli.fe.element import gauss_rule, shape_functions
+from laminid_cli.fe.mesh import parse_mesh, rectangular_mesh
+from laminid_cli.material import ElasticConstants
+from laminid_cli.modal import solve_modes
+from tests.oracles.navier_tsdt import lowest_frequencies
+
+# converged thin-plate frequency parameters omega a^2 sqrt(rho h / D) of the completely free
+# square isotropic plate, nu = 0.3, first six elastic modes (DESIGN.md section 5)
+FREE_SQUARE = np.array([13.468, 19.596, 24.270, 34.801, 34.801, 61.093])
+
+
+def isotropic(E=70e9, nu=0.3):
+    G = E / (2 * (1 + nu))
+    return ElasticConstants(E, E, G, G, G, nu)
+
+
+def single_layer_model(a, b, h, c, rho, n, boundary="free", integration="selective", angle=0.0):
+    return build_plate_model(rectangular_mesh(a, b, n, n), h, np.array([-h / 2, h / 2]),
+                             np.array([angle]), np.array([0]), np.array([rho]),
+                             boundary=boundary, integration=integration), c
+
+
+def cross_ply_model(angles_deg, a, h, c, rho, n, boundary="simply-supported"):
+    z = np.linspace(-h / 2, h / 2, len(angles_deg) + 1)
+    pm = build_plate_model(rectangular_mesh(a, a, n, n), h, z, np.deg2rad(angles_deg),
+                           np.zeros(len(angles_deg), int), np.full(len(angles_deg), rho),
+                           boundary=boundary)
+    return pm, z
+
+
+def solve(pm, constants, n_modes):
+    coef = pm.coefficients(constants)
+    return solve_modes(pm.stiffness(coef=coef), pm.M, n_modes, rigid=pm.rigid_modes(),
+                       sigma=-0.5 * pm.shift_estimate(coef))
+
+
+# --- element basics -------------------------------------------------------------------------
+
+def test_shape_functions_partition_of_unity_and_nodal_values():
+    pts, _ = gauss_rule(3)
+    N, dN = shape_functions(pts)
+    assert np.allclose(N.sum(axis=1), 1.0, atol=1e-14)
+    assert np.allclose(dN.sum(axis=2), 0.0, atol=1e-14)
+    from laminid_cli.fe.element import NODE_XI
+    Nn, _ = shape_functions(NODE_XI)
+    assert np.allclose(Nn, np.eye(8), atol=1e-14)
+
+
+def test_mesh_counts_of_the_design_notes():
+    m = rectangular_mesh(0.2105, 0.311, 12, 12)
+    assert m.n_nodes == 481 and m.n_elements == 144
+    assert m.nodes[:, 0].max() == pytest.approx(0.2105) and m.nodes[:, 1].max() == pytest.approx(0.311)
+    assert parse_mesh("16x24") == (16, 24) and parse_mesh("8") == (8, 8)
+    with pytest.raises(ModelError, match="NXxNY"):
+        parse_mesh("twelve")
+
+
+def test_boundary_codes():
+    assert boundary_code("free") == "FFFF"
+    assert boundary_code("Simply-Supported") == "SSSS"
+    assert boundary_code("sfsf") == "SFSF"
+    with pytest.raises(ModelError, match="F/S/C"):
+        boundary_code("pinned")
+
+
+def test_rigid_body_motions_have_zero_strain_energy():
+    """The six rigid motions, written in the scaled nodal variables, are in the null space of K."""
+    h = 0.003
+    pm, c = single_layer_model(0.2, 0.3, h, isotropic(), 1600.0, 4)
+    K = pm.stiffness([c])
+    x, y = pm.mesh.nodes[:, 0], pm.mesh.nodes[:, 1]
+    motions = []
+    for var in (0, 1, 2):                                  # translations u, v, w
+        r = np.zeros((pm.mesh.n_nodes, 9)); r[:, var] = 1.0; motions.append(r)
+    r = np.zeros((pm.mesh.n_nodes, 9)); r[:, 0], r[:, 1] = -y, x; motions.append(r)   # about z
+    r = np.zeros((pm.mesh.n_nodes, 9)); r[:, 2], r[:, 4] = y, -h / 2; motions.append(r)  # w = y
+    r = np.zeros((pm.mesh.n_nodes, 9)); r[:, 2], r[:, 3] = x, -h / 2; motions.append(r)  # w = x
+    scale = abs(K).max()
+    for r in motions:
+        v = r.ravel()
+        assert np.abs(K @ v).max() < 1e-9 * scale * np.abs(v).max()
+
+
+def test_stiffness_symmetric_psd_and_mass_positive_definite():
+    pm, c = single_layer_model(0.2, 0.3, 0.003, ElasticConstants(120e9, 9e9, 5e9, 4e9, 3e9, 0.3),
+                               1600.0, 3, angle=np.deg2rad(30))
+    K = pm.stiffness([c]).toarray()
+    M = pm.M.toarray()
+    assert np.abs(K - K.T).max() < 1e-12 * np.abs(K).max()
+    assert np.abs(M - M.T).max() < 1e-12 * np.abs(M).max()
+    wK = np.linalg.eigvalsh(K)
+    assert wK.min() > -1e-9 * wK.max()
+    assert np.linalg.eigvalsh(M).min() > 0
+    # total mass: rigid translation in x
+    ones = np.zeros((pm.mesh.n_nodes, 9)); ones[:, 0] = 1
+    assert ones.ravel() @ M @ ones.ravel() == pytest.approx(1600.0 * 0.2 * 0.3 * 0.003, rel=1e-12)
+
+
+# --- free isotropic plate: converged thin-plate values, no shear locking --------------------
+
+@pytest.mark.parametrize("ratio", [200, 1000])
+def test_free_square_isotropic_plate_matches_thin_plate_values(ratio):
+    a, E, nu, rho = 1.0, 70e9, 0.3, 2700.0
+    h = a / ratio
+    pm, c = single_layer_model(a, a, h, isotropic(E, nu), rho, 12)
+    modes = solve(pm, [c], 6)
+    assert modes.n_rigid == 6
+    D = E * h**3 / (12 * (1 - nu**2))
+    lam = modes.omega * a**2 * np.sqrt(rho * h / D)
+    assert np.all(np.abs(lam / FREE_SQUARE - 1) < 0.005), lam
+
+
+def test_full_shear_integration_locks_where_selective_does_not():
+    """Why the element integrates transverse shear with 2x2 points: 3x3 over-stiffens thin plates."""
+    a, h, rho = 1.0, 1e-3, 2700.0
+    c = isotropic()
+    D = c.E1 * h**3 / (12 * (1 - 0.09))
+    errs = {}
+    for integ in ("selective", "full"):
+        pm, _ = single_layer_model(a, a, h, c, rho, 6, integration=integ)
+        lam = solve(pm, [c], 6).omega * a**2 * np.sqrt(rho * h / D)
+        errs[integ] = np.abs(lam / FREE_SQUARE - 1).max()
+    assert errs["selective"] < 0.01
+    assert errs["full"] > 3 * errs["selective"]
+
+
+# --- simply supported cross-ply: FE -> Navier solution of the same theory --------------------
+
+CROSS = ElasticConstants(E1=40.0, E2=1.0, G12=0.6, G13=0.6, G23=0.5, nu12=0.25)
+
+
+def scaled(c, E2=10e9):
+    return ElasticConstants(c.E1 * E2, c.E2 * E2, c.G12 * E2, c.G13 * E2, c.G23 * E2, c.nu12)
+
+
+@pytest.mark.parametrize("ratio", [5, 10, 100])
+def test_simply_supported_cross_ply_converges_to_navier(ratio):
+    a, rho = 1.0, 1500.0
+    h = a / ratio
+    c = scaled(CROSS)
+    angles = [0, 90, 90, 0]
+    pm, z = cross_ply_model(angles, a, h, c, rho, 16)
+    fe = solve(pm, [c], 4).omega
+    plies = [(c, ang, z[k], z[k + 1], rho) for k, ang in enumerate(angles)]
+    ref = lowest_frequencies(plies, a, a, 4, kind="all").omega
+    assert np.all(np.abs(fe / ref - 1) < 1e-3), (fe / ref - 1)
+
+
+def test_navier_convergence_rate_of_quadratic_elements():
+    """Eigenvalue error of 8-node elements falls like (element size)^4 (2p with p = 2)."""
+    a, rho, h = 1.0, 1500.0, 0.1
+    c = scaled(CROSS)
+    angles = [0, 90, 90, 0]
+    z = np.linspace(-h / 2, h / 2, 5)
+    plies = [(c, ang, z[k], z[k + 1], rho) for k, ang in enumerate(angles)]
+    ref = lowest_frequencies(plies, a, a, 3, kind="all").omega[2]     # mode with m or n = 2
+    errors = []
+    for n in (4, 8):
+        pm, _ = cross_ply_model(angles, a, h, c, rho, n)
+        errors.append(abs(solve(pm, [c], 3).eigenvalues[2] / ref**2 - 1))
+    rate = np.log2(errors[0] / errors[1])
+    assert 3.0 < rate < 5.5, (errors, rate)
+
+
+def test_thin_simply_supported_isotropic_plate_matches_kirchhoff():
+    a, h, E, nu, rho = 1.0, 0.002, 70e9, 0.3, 2700.0
+    pm, c = single_layer_model(a, a, h, isotropic(E, nu), rho, 12, boundary="simply-supported")
+    w = solve(pm, [c], 1).omega[0]
+    D = E * h**3 / (12 * (1 - nu**2))
+    assert w == pytest.approx(2 * np.pi**2 / a**2 * np.sqrt(D / (rho * h)), rel=5e-4)
+
+
+def test_clamped_plate_is_stiffer_than_simply_supported_and_has_no_rigid_modes():
+    c = isotropic()
+    f = {}
+    for bc in ("simply-supported", "clamped", "CFFF"):
+        pm, _ = single_layer_model(1.0, 1.0, 0.01, c, 2700.0, 8, boundary=bc)
+        modes = solve(pm, [c], 2)
+        assert modes.n_rigid == 0
+        f[bc] = modes.omega[0]
+    # clamped square plate: omega a^2 sqrt(rho h / D) = 35.99 (Leissa); S-S: 2 pi^2 = 19.74
+    D = c.E1 * 0.01**3 / (12 * 0.91)
+    lam = {k: v * np.sqrt(2700.0 * 0.01 / D) for k, v in f.items()}
+    assert lam["clamped"] == pytest.approx(35.99, rel=0.01)
+    assert lam["simply-supported"] == pytest.approx(19.74, rel=0.01)
+    assert lam["CFFF"] == pytest.approx(3.492, rel=0.01)      # cantilever square plate (Leissa)
+
+
+def test_wrong_rigid_body_count_fails_loudly():
+    """A free plate solved as if it were supported shows six unexpected zero modes."""
+    pm, c = single_layer_model(0.2, 0.3, 0.003, isotropic(), 1600.0, 4)
+    coef = pm.coefficients([c])
+    with pytest.raises(SolverError, match="expected 0 rigid-body modes but found 6"):
+        solve_modes(pm.stiffness(coef=coef), pm.M, 4, sigma=-0.5 * pm.shift_estimate(coef))
+
+
+def test_rigid_motions_with_strain_energy_are_refused():
+    pm, c = single_layer_model(0.2, 0.3, 0.003, isotropic(), 1600.0, 4)
+    coef = pm.coefficients([c])
+    R = pm.rigid_modes().copy()
+    R[:, 5] += np.sin(np.arange(R.shape[0]))        # not a rigid motion
+    with pytest.raises(SolverError, match="rigid-body motions have strain energy"):
+        solve_modes(pm.stiffness(coef=coef), pm.M, 4, rigid=R,
+                    sigma=-0.5 * pm.shift_estimate(coef))
+
+
+def test_coarse_mesh_few_modes_keeps_all_six_rigid_modes():
+    """Regression: plain Lanczos found only 5 of the 6-fold zero eigenvalue here."""
+    pm, c = single_layer_model(0.2105, 0.311, 0.00306, isotropic(), 1600.0, 4)
+    modes = solve(pm, [c], 2)
+    assert modes.n_rigid == 6 and modes.eigenvalues[0] > 0
+
+
+def test_indefinite_stiffness_is_reported():
+    pm, c = single_layer_model(0.2, 0.3, 0.003, isotropic(), 1600.0, 3)
+    coef = -pm.coefficients([c])
+    with pytest.raises(SolverError, match="not positive definite"):
+        solve_modes(pm.stiffness(coef=coef), pm.M, 4, sigma=-1e3)
+
+
+def test_basis_energies_are_eigenvalue_derivatives():
+    """d lambda_i / d coef[m, j] = phi_i^T K_j phi_i (paper Eq. 26), against central differences."""
+    h = 0.004
+    z = np.linspace(-h / 2, h / 2, 5)
+    c1 = ElasticConstants(120e9, 9e9, 5e9, 4e9, 3e9, 0.3)
+    c2 = ElasticConstants(45e9, 5e9, 3.5e9, 3.5e9, 3e9, 0.28)
+    pm = build_plate_model(rectangular_mesh(0.2, 0.3, 4, 4), h, z, np.deg2rad([0, 45, -45, 90]),
+                           np.array([0, 1, 1, 0]), np.array([1500.0, 1900, 1900, 1500]),
+                           material_names=("carbon", "glass"))
+    coef = pm.coefficients([c1, c2])
+    sigma = -0.5 * pm.shift_estimate(coef)
+    R = pm.rigid_modes()
+    modes = solve_modes(pm.stiffness(coef=coef), pm.M, 5, sigma=sigma, rigid=R)
+    E = pm.basis_energies(modes.phi)
+    for m, j in [(0, 0), (0, 1), (1, 3), (1, 4), (0, 5)]:
+        step = 1e-5 * np.abs(coef).max()
+        cp, cm = coef.copy(), coef.copy()
+        cp[m, j] += step
+        cm[m, j] -= step
+        lp = solve_modes(pm.stiffness(coef=cp), pm.M, 5, sigma=sigma, rigid=R).eigenvalues
+        lm = solve_modes(pm.stiffness(coef=cm), pm.M, 5, sigma=sigma, rigid=R).eigenvalues
+        fd = (lp - lm) / (2 * step)
+        assert np.allclose(E[m, j], fd, rtol=1e-5, atol=1e-6 * np.abs(E).max()), (m, j)

@@ -1,0 +1,73 @@
+"""`laminid modes` end to end through click."""
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from laminid_cli.cli import cli
+from laminid_cli.results import read_h5
+
+S11 = "specimens/example1/S1.1.yaml"
+
+
+def run(*args):
+    return CliRunner().invoke(cli, list(args))
+
+
+def test_table_shows_model_measured_residuals_and_global_properties():
+    r = run("modes", S11, "--mesh", "8x8")
+    assert r.exit_code == 0, r.output
+    assert "mode    model Hz  measured Hz  residual %" in r.output
+    assert "125.05" in r.output and "1343.80" in r.output
+    assert "6 rigid-body modes dropped" in r.output
+    assert "Ex 44.45 GPa" in r.output        # [45/0/-45/90]s quasi-isotropic at the initial guess
+
+
+def test_json_is_machine_readable_and_consistent():
+    r = run("modes", S11, "--mesh", "8x8", "--json", "--modes", "14")
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output)
+    fr = d["frequencies"]
+    assert len(fr["model"]) == 14 and fr["measured"][12] is None and fr["weight"][13] == 0
+    m, x = np.array(fr["model"][:12]), np.array(fr["measured"][:12])
+    assert np.allclose(fr["residual_percent"][:12], (x - m) / x * 100)
+    assert d["global_properties"]["Ex"] == pytest.approx(d["global_properties"]["Ey"], rel=1e-9)
+    assert d["materials"]["IM7/977-2"]["E1"] == 117.2e9
+
+
+def test_hdf5_output_round_trip_and_no_silent_overwrite(tmp_path):
+    out = tmp_path / "m.h5"
+    r = run("modes", S11, "--mesh", "6x6", "-o", str(out), "--json")
+    assert r.exit_code == 0, r.output
+    d = read_h5(out)
+    assert d["@attrs"]["format"] == "laminid-modes"
+    assert d["frequencies"]["model"].shape == (12,)
+    assert np.allclose(d["frequencies"]["model"], json.loads(r.output)["frequencies"]["model"])
+    assert d["modes"]["w"].shape == (d["mesh"]["nodes"].shape[0], 12)
+    assert "45_3/0_3" in d["specimen"]["yaml"]
+    before = out.read_bytes()
+    r = run("modes", S11, "--mesh", "6x6", "-o", str(out))
+    assert r.exit_code == 2 and "file exists" in r.output
+    assert out.read_bytes() == before
+    assert not list(tmp_path.glob(".*tmp*"))
+
+
+def test_bad_input_gives_message_and_exit_2(tmp_path):
+    r = run("modes", str(tmp_path / "missing.yaml"))
+    assert r.exit_code == 2 and "missing.yaml" in r.output and "not found" in r.output
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(open(S11).read().replace("h: 3.06 mm", "h: 3.06 GPa"))
+    r = run("modes", str(bad))
+    assert r.exit_code == 2 and "geometry.h" in r.output and "Traceback" not in r.output
+    r = run("modes", S11, "--mesh", "abc")
+    assert r.exit_code == 2 and "NXxNY" in r.output
+    r = run("modes", S11, "--boundary", "pinned")
+    assert r.exit_code == 2 and "F/S/C" in r.output
+
+
+def test_boundary_override():
+    r = run("modes", S11, "--mesh", "6x6", "--boundary", "clamped", "--modes", "3", "--json")
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.output)["mesh"]["rigid_modes_dropped"] == 0
