@@ -48,6 +48,8 @@ log = logging.getLogger(__name__)
 
 #: fewest frequency lines a band may hold
 MIN_BAND_LINES = 8
+#: a user band with more resonance peaks than this is fitted as overlapping sub-bands
+MAX_PEAKS_PER_BAND = 6
 
 
 # --------------------------------------------------------------------------- data classes
@@ -76,6 +78,7 @@ class PoleCriteria:
         makes close modes under noise separable
     sk_iter : Sanathanan-Koerner iterations at every order (reweighting with the order's own
         previous denominator); helps weak modes in narrow bands, costly in wide ones
+    refine : polish each band's stable poles by an output-error fit (:func:`refine_poles`)
     """
 
     freq_tol: float = 0.002
@@ -89,6 +92,7 @@ class PoleCriteria:
     weight_floor: float = 0.1
     reweight: bool = True
     sk_iter: int = 0
+    refine: bool = True
 
 
 @dataclass(frozen=True)
@@ -586,24 +590,26 @@ def select_poles(chart: Stabilisation, *, criteria: PoleCriteria = PoleCriteria(
     median over the stable poles of the upper half of the orders; the uncertainty is the
     standard deviation over all stable poles.
     """
-    groups: list[np.ndarray] = []
-    for t in np.unique(chart.track[chart.track >= 0]):
-        idx = np.flatnonzero(chart.track == t)
-        groups.append(idx)
+    tracks = chart.track
+    ids, inverse = np.unique(tracks[tracks >= 0], return_inverse=True)
+    rows = np.flatnonzero(tracks >= 0)
+    groups = [rows[inverse == i] for i in range(ids.size)]
     # merge broken chains: same frequency, never at the same order
     med = [float(np.median(chart.freq_hz[g])) for g in groups]
-    order = np.argsort(med)
-    merged: list[np.ndarray] = []
-    for i in order:
-        g = groups[i]
-        for k, h in enumerate(merged):
-            fh = np.median(chart.freq_hz[h])
-            if abs(fh - med[i]) / fh < criteria.freq_tol and \
-                    not np.intersect1d(chart.order[h], chart.order[g]).size:
-                merged[k] = np.concatenate([h, g])
+    merged: list[list] = []          # [median Hz, set of orders, index array]
+    for i in np.argsort(med):
+        g, orders_g = groups[i], set(chart.order[groups[i]].tolist())
+        for item in reversed(merged):
+            if (med[i] - item[0]) / item[0] >= criteria.freq_tol:
+                merged.append([med[i], orders_g, g])
+                break
+            if not (item[1] & orders_g):
+                item[2] = np.concatenate([item[2], g])
+                item[1] |= orders_g
                 break
         else:
-            merged.append(g)
+            merged.append([med[i], orders_g, g])
+    merged = [item[2] for item in merged]
     out = []
     for g in merged:
         stab = g[chart.stable[g] == 2]
@@ -684,6 +690,62 @@ def modal_constants(freq, frf, poles, *, w_ref: float | None = None
     return A, X[:, 2 * n:], synth
 
 
+def refine_poles(freq, frf, cands, fixed_poles=(), *, w_ref: float, max_damping: float = 0.1):
+    """Output-error refinement of the poles of one band (variable projection).
+
+    Minimises ``sum_p ||H_p - B(lam) X_p||^2`` over the natural frequencies and damping ratios
+    of ``cands``, the modal constants and residual terms ``X_p`` being eliminated by linear least
+    squares at every step (Golub & Pereyra's variable projection; the LSFD model of
+    :func:`lsfd_basis`). ``fixed_poles`` (neighbouring bands' modes) stay as they are. Started
+    from the stabilised RFP poles this is the maximum-likelihood estimate for white noise; a
+    pole that moves by more than two half-power bandwidths keeps its RFP value.
+    """
+    from dataclasses import replace
+
+    from scipy.optimize import least_squares
+
+    f0 = np.array([c.freq_hz for c in cands])
+    z0 = np.array([c.damping_ratio for c in cands])
+    fixed = np.asarray(fixed_poles, dtype=complex).reshape(-1)
+    Y = np.hstack([frf.real, frf.imag]).T                                  # (2 nf, n_p)
+    scale = float(np.sqrt(np.mean(Y ** 2))) or 1.0
+    Y = Y / scale
+    bw = np.maximum(f0 * z0, 0.25 * float(freq[1] - freq[0]))              # half-power half-width
+
+    def resid(u):
+        fr = f0 + u[0::2] * bw
+        zr = z0 * np.exp(u[1::2])
+        B = lsfd_basis(freq, np.concatenate([_pole(fr, zr), fixed]), w_ref)
+        Br = np.vstack([B.real, B.imag])
+        Br = Br / (np.linalg.norm(Br, axis=0) + 1e-300)
+        # small Gram matrix, pseudo-inverse by eigh (residual terms may be nearly collinear)
+        e, V = np.linalg.eigh(Br.T @ Br)
+        inv = np.where(e > 1e-12 * e[-1], 1.0 / np.where(e > 0, e, 1.0), 0.0)
+        X = V @ (inv[:, None] * (V.T @ (Br.T @ Y)))
+        return (Y - Br @ X).ravel()
+
+    u0 = np.zeros(2 * f0.size)
+    lim = np.tile([2.0, 1.5], f0.size)
+    try:
+        with np.errstate(all="ignore"):
+            sol = least_squares(resid, u0, bounds=(-lim, lim), method="trf", x_scale=1.0,
+                                max_nfev=30 * (u0.size + 1), xtol=1e-10, ftol=1e-12)
+    except (ValueError, np.linalg.LinAlgError) as exc:  # pragma: no cover - keep RFP values
+        log.info("pole refinement failed (%s); keeping the RFP poles", exc)
+        return list(cands)
+    if not np.all(np.isfinite(sol.x)) or sol.cost > 0.5 * float(resid(u0) @ resid(u0)) + 1e-300:
+        return list(cands)
+    out = []
+    for r, c in enumerate(cands):
+        fr, zr = f0[r] + sol.x[2 * r] * bw[r], z0[r] * np.exp(sol.x[2 * r + 1])
+        at_bound = np.isclose(abs(sol.x[2 * r]), lim[0]) or np.isclose(abs(sol.x[2 * r + 1]), lim[1])
+        if at_bound or not (0 < zr <= max_damping):
+            out.append(c)
+        else:
+            out.append(replace(c, freq_hz=float(fr), damping_ratio=float(zr)))
+    return out
+
+
 # --------------------------------------------------------------------------- bands
 def auto_bands(freq, frf, *, max_peaks: int = 4, prominence_db: float = 6.0
                ) -> list[tuple[tuple[float, float], tuple[float, float], int]]:
@@ -749,7 +811,8 @@ def find_modes(freq, frf, *, bands=None, n_modes: int | None = None,
     ----------
     freq : float (n_freq,), Hz, strictly increasing
     frf : complex (n_points, n_freq)
-    bands : list of (lo, hi) Hz; default :func:`auto_bands`
+    bands : list of (lo, hi) Hz; default :func:`auto_bands`. A band with more than
+        :data:`MAX_PEAKS_PER_BAND` peaks is fitted as overlapping sub-bands.
     n_modes : return only the ``n_modes`` lowest modes; :class:`FrfError` when fewer are found
     criteria : :class:`PoleCriteria`
 
@@ -779,7 +842,16 @@ def find_modes(freq, frf, *, bands=None, n_modes: int | None = None,
             if hi < freq[0] or lo > freq[-1]:
                 raise FrfError(f"band {lo:g}:{hi:g} Hz lies outside the FRF axis "
                                f"({freq[0]:g}-{freq[-1]:g} Hz)")
-            plan.append(((lo, hi), _count_peaks(freq, frf, (lo, hi))))
+            n_pk = _count_peaks(freq, frf, (lo, hi))
+            if n_pk <= MAX_PEAKS_PER_BAND:
+                plan.append(((lo, hi), n_pk))
+                continue
+            # many resonances: overlapping sub-bands (one high-order fit over a wide band lets
+            # the |D| weighting of the linearised equations vary over decades)
+            sel = (freq >= lo) & (freq <= hi)
+            sub = auto_bands(freq[sel], frf[:, sel])
+            for k, (_core, (s_lo, s_hi), s_pk) in enumerate(sub):
+                plan.append(((lo if k == 0 else s_lo, hi if k == len(sub) - 1 else s_hi), s_pk))
     n_p = frf.shape[0]
     sweeps = []
     for rng, n_pk in plan:
@@ -870,6 +942,8 @@ def _band_constants(freq, frf, chart, own, near, criteria):
     df = float(f[1] - f[0])
     own = list(own)
     near_poles = _pole([c.freq_hz for c in near], [c.damping_ratio for c in near])
+    if criteria.refine and own:
+        own = refine_poles(f, H, own, near_poles, w_ref=w_ref, max_damping=criteria.max_damping)
     while True:
         poles = np.concatenate([_pole([c.freq_hz for c in own], [c.damping_ratio for c in own]),
                                 near_poles])
