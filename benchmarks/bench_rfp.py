@@ -1,0 +1,59 @@
+"""RFP benchmark: fit 5 FRFs x 1601 lines over the full band (issue 4: under 1 s).
+
+Run: .venv/bin/python benchmarks/bench_rfp.py   (median of REPEAT runs, single-threaded BLAS)
+
+Cases: the full axis with automatic bands, the full axis given as one band (split internally
+into overlapping sub-bands), and the same without the output-error pole refinement; 3 %
+proportional noise. Exits 1 if the default case takes 1 s or more.
+"""
+
+import os
+
+for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")
+
+import statistics  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from laminid_cli.frf import rfp  # noqa: E402
+from tests.frf_synth import plate_case  # noqa: E402
+
+REPEAT = 5
+LIMIT_S = 1.0
+
+
+def median_time(fn, repeat=REPEAT):
+    fn()  # warm-up (imports, caches)
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t)
+    return statistics.median(times), out
+
+
+def main() -> int:
+    case = plate_case(n_points=5, n_lines=1601, noise=0.03, seed=0)
+    cases = {
+        "auto bands": dict(),
+        "one band 1-1601 Hz": dict(bands=[(1.0, 1601.0)]),
+        "auto bands, no refinement": dict(criteria=rfp.PoleCriteria(refine=False)),
+    }
+    print(f"RFP: {case.frf.shape[0]} FRFs x {case.freq.size} lines, 3 % noise")
+    status = 0
+    for name, kw in cases.items():
+        t, fit = median_time(lambda: rfp.find_modes(case.freq, case.frf, **kw))
+        err = max(np.min(np.abs(fit.freq_hz - f)) / f for f in case.freq_hz)
+        print(f"  {name:28s} {t * 1e3:7.1f} ms   {len(fit.modes)} modes, max error {100 * err:.4f} %")
+        if name == "auto bands" and t >= LIMIT_S:
+            status = 1
+    return status
+
+
+if __name__ == "__main__":
+    sys.exit(main())

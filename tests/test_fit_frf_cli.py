@@ -1,0 +1,135 @@
+"""``laminid fit-frf`` end to end through click's CliRunner."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import yaml
+from click.testing import CliRunner
+
+from laminid_cli.cli import cli
+from laminid_cli.frf import io
+from laminid_cli.frf.store import FrfSet
+from tests.frf_synth import plate_case
+
+SPEC = """\
+# specimen
+name: P1   # keep me
+measured:
+  frequencies: [1.0, 2.0]   # Hz
+  # frf_file: plate.frf.h5
+"""
+
+
+def run(args):
+    return CliRunner().invoke(cli, args, catch_exceptions=False)
+
+
+@pytest.fixture(scope="module")
+def case():
+    return plate_case(noise=0.02, seed=8)
+
+
+@pytest.fixture
+def h5(tmp_path, case):
+    return io.write_frf(tmp_path / "plate.frf.h5",
+                        FrfSet(freq=case.freq, frf=case.frf, units="Pa/N"))
+
+
+def test_table(h5, case):
+    r = run(["fit-frf", str(h5)])
+    assert r.exit_code == 0, r.output
+    assert "freq (Hz)" in r.output and "damping (%)" in r.output and "stable orders" in r.output
+    rows = [ln.split() for ln in r.output.splitlines() if ln.strip()[:1].isdigit()]
+    assert len(rows) == 10
+    assert np.allclose([float(row[1]) for row in rows], case.freq_hz, rtol=1e-3)
+
+
+def test_json_bands_and_modes(h5, case):
+    r = run(["fit-frf", str(h5), "--json", "--band", "100:300", "--band", "300:500",
+             "--modes", "4"])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.output)
+    assert [m["mode"] for m in out["modes"]] == [1, 2, 3, 4]
+    f = [m["freq_hz"] for m in out["modes"]]
+    assert np.allclose(f, case.freq_hz[:4], rtol=1e-3)
+    assert all(m["sigma_hz"] > 0 and len(m["modal_constants"]) == 5 for m in out["modes"])
+    assert out["bands_hz"] == [[100.0, 300.0], [300.0, 500.0]]
+
+
+def test_into_and_plot(tmp_path, h5, case):
+    spec = tmp_path / "p.yaml"
+    spec.write_text(SPEC)
+    png = tmp_path / "fit.png"
+    r = run(["fit-frf", str(h5), "--into", str(spec), "--plot", str(png)])
+    assert r.exit_code == 0, r.output
+    assert png.stat().st_size > 10_000 and png.read_bytes()[:4] == b"\x89PNG"
+    text = spec.read_text()
+    assert "# keep me" in text and "# frf_file: plate.frf.h5" in text
+    measured = yaml.safe_load(text)["measured"]
+    assert np.allclose(measured["frequencies"], case.freq_hz, rtol=1e-3)
+    assert len(measured["sigma"]) == 10 and min(measured["sigma"]) > 0
+    assert (tmp_path / "p.yaml.bak").read_text() == SPEC
+    # the plot is not overwritten without --force
+    r = run(["fit-frf", str(h5), "--plot", str(png)])
+    assert r.exit_code == 2 and "file exists" in r.output
+    assert run(["fit-frf", str(h5), "--plot", str(png), "--force"]).exit_code == 0
+
+
+def test_pdf_plot(tmp_path, h5):
+    pdf = tmp_path / "fit.pdf"
+    assert run(["fit-frf", str(h5), "--band", "100:300", "--plot", str(pdf)]).exit_code == 0
+    assert pdf.read_bytes()[:4] == b"%PDF"
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--band", "300:200"], "Invalid value for '--band'"),
+    (["--band", "a:b"], "expected LO:HI"),
+    (["--band", "120:123"], "holds 4 frequency lines"),
+    (["--band", "100:300", "--modes", "5"], "asked for 5 modes but the band(s) 100:300 Hz"),
+    (["--modes", "0"], "Invalid value for '--modes'"),
+    (["--plot", "fit.gif"], "plot file type '.gif' not supported"),
+])
+def test_usage_and_fit_errors_exit_2_with_a_message(h5, args, message):
+    r = CliRunner().invoke(cli, ["fit-frf", str(h5)] + args)
+    assert r.exit_code == 2, r.output
+    assert message in r.output
+    assert "Traceback" not in r.output
+
+
+def test_bad_files_exit_2(tmp_path):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("1,1,0\n2,nan,0\n3,1,0\n")
+    r = CliRunner().invoke(cli, ["fit-frf", str(bad)])
+    assert r.exit_code == 2 and "NaN/inf" in r.output
+    bad.write_text("1,1,0\n1,2,0\n")
+    r = CliRunner().invoke(cli, ["fit-frf", str(bad)])
+    assert r.exit_code == 2 and "not strictly increasing" in r.output
+    r = CliRunner().invoke(cli, ["fit-frf", str(tmp_path / "none.h5")])
+    assert r.exit_code == 2 and "file not found" in r.output
+    r = CliRunner().invoke(cli, ["fit-frf", str(tmp_path / "x.doc")])
+    assert r.exit_code == 2 and "unknown FRF file type" in r.output
+
+
+def test_into_missing_or_broken_specimen_is_untouched(tmp_path, h5):
+    r = CliRunner().invoke(cli, ["fit-frf", str(h5), "--into", str(tmp_path / "no.yaml")])
+    assert r.exit_code == 2 and "file not found" in r.output
+    spec = tmp_path / "p.yaml"
+    spec.write_text("measured: [1, 2]\n")
+    r = CliRunner().invoke(cli, ["fit-frf", str(h5), "--into", str(spec)])
+    assert r.exit_code == 2 and "'measured' must be a mapping" in r.output
+    assert spec.read_text() == "measured: [1, 2]\n"
+    assert not (tmp_path / "p.yaml.bak").exists()
+
+
+def test_uff_and_csv_inputs_give_the_same_table(tmp_path, case):
+    fs = FrfSet(freq=case.freq, frf=case.frf)
+    outs = []
+    for name in ("p.uff", "p.csv"):
+        path = io.write_frf(tmp_path / name, fs)
+        r = run(["fit-frf", str(path), "--json"])
+        assert r.exit_code == 0, r.output
+        outs.append([m["freq_hz"] for m in json.loads(r.output)["modes"]])
+    assert np.allclose(outs[0], outs[1], rtol=1e-6)

@@ -1,0 +1,173 @@
+"""FRF readers/writers (HDF5, UFF 58, CSV), the --into specimen editor and measured_from_frf_file."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+from laminid_cli.errors import FrfError, OutputExistsError, SpecimenError
+from laminid_cli.frf import io, rfp
+from laminid_cli.frf.into import write_measured
+from laminid_cli.frf.store import FrfSet
+from tests.frf_synth import plate_case
+
+
+@pytest.fixture(scope="module")
+def frfset():
+    case = plate_case(noise=0.01, seed=4)
+    return FrfSet(freq=case.freq, frf=case.frf, labels=("1", "2", "3", "4", "5"), units="Pa/N")
+
+
+@pytest.mark.parametrize("suffix", [".h5", ".uff", ".unv", ".csv"])
+def test_round_trip(tmp_path, frfset, suffix):
+    path = io.write_frf(tmp_path / f"plate{suffix}", frfset)
+    back = io.read_frf(path)
+    assert back.frf.shape == frfset.frf.shape
+    assert np.array_equal(back.freq, frfset.freq)
+    # UFF ASCII keeps ~13 significant digits; HDF5 and CSV are exact
+    assert np.allclose(back.frf, frfset.frf, rtol=1e-11, atol=1e-12 * np.abs(frfset.frf).max())
+    assert len(back.labels) == 5
+    if suffix != ".csv":
+        assert back.units == "Pa/N"
+
+
+def test_same_answer_from_hdf5_uff_and_csv(tmp_path, frfset):
+    results = []
+    for suffix in (".h5", ".uff", ".csv"):
+        path = io.write_frf(tmp_path / f"plate{suffix}", frfset)
+        f, sigma, zeta = rfp.measured_from_frf_file(path)
+        results.append((f, sigma, zeta))
+    f0, s0, z0 = results[0]
+    assert f0.size == 10
+    # identical up to the 13 significant digits of UFF ASCII (the pole refinement stops at its
+    # own tolerance, so 1e-12 changes in the data move the result by ~1e-7 relative)
+    for f, s, z in results[1:]:
+        assert np.allclose(f, f0, rtol=1e-6)
+        assert np.allclose(z, z0, rtol=1e-4)
+        assert np.allclose(s, s0, rtol=1e-3, atol=1e-4)
+
+
+def test_write_refuses_to_overwrite(tmp_path, frfset):
+    path = io.write_frf(tmp_path / "a.csv", frfset)
+    with pytest.raises(OutputExistsError):
+        io.write_frf(path, frfset)
+    io.write_frf(path, frfset, overwrite=True)
+
+
+def test_csv_variants(tmp_path):
+    p = tmp_path / "x.csv"
+    p.write_text("# exported\nf;a.re;a.im\n1;1;0\n2;0.5;-0.5\n3;0.2;-0.1\n")
+    fs = io.read_frf(p)
+    assert fs.frf.shape == (1, 3)
+    assert fs.frf[0, 1] == 0.5 - 0.5j
+    p.write_text("1 1 0 2 0\n2 1 1 2 2\n")
+    assert io.read_frf(p).frf.shape == (2, 2)
+
+
+@pytest.mark.parametrize("text, message", [
+    ("1,1,0\n1,2,0\n", "not strictly increasing"),
+    ("2,1,0\n1,2,0\n", "not strictly increasing"),
+    ("1,1,0\n2,nan,0\n", "NaN/inf"),
+    ("1,1,0\n2,inf,0\n", "NaN/inf"),
+    ("1,1\n2,1\n", "2 columns"),
+    ("1,1,0\n2,1,0,3\n", ":2: 4 columns"),
+    ("1,1,0\n2,x,0\n", "not a number"),
+    ("# nothing\n", "no data lines"),
+])
+def test_bad_csv(tmp_path, text, message):
+    p = tmp_path / "bad.csv"
+    p.write_text(text)
+    with pytest.raises(FrfError, match=message):
+        io.read_frf(p)
+
+
+def test_uff_without_type_58_and_with_mismatched_axes(tmp_path, frfset):
+    import pyuff
+
+    p = tmp_path / "nodes.uff"
+    pyuff.UFF(str(p)).write_sets(pyuff.prepare_15(node_nums=[1, 2], def_cs=[0, 0], disp_cs=[0, 0],
+                                                   color=[0, 0], x=[0.0, 1.0], y=[0.0, 0.0],
+                                                   z=[0.0, 0.0]), mode="overwrite")
+    with pytest.raises(FrfError, match="no type-58 .* dataset types found: 15"):
+        io.read_frf(p)
+    a = io.write_frf(tmp_path / "a.uff", frfset)
+    b = io.write_frf(tmp_path / "b.uff", FrfSet(freq=frfset.freq * 1.5, frf=frfset.frf[:1]))
+    merged = tmp_path / "m.uff"
+    merged.write_text(a.read_text() + b.read_text())
+    with pytest.raises(FrfError, match="record 6 has a different frequency axis"):
+        io.read_frf(merged)
+
+
+def test_unknown_missing_and_garbage_files(tmp_path):
+    with pytest.raises(FrfError, match="unknown FRF file type"):
+        io.read_frf(tmp_path / "x.xls")
+    with pytest.raises(FrfError, match="file not found"):
+        io.read_frf(tmp_path / "x.h5")
+    g = tmp_path / "g.h5"
+    g.write_text("hello")
+    with pytest.raises(FrfError, match="not a readable HDF5"):
+        io.read_frf(g)
+
+
+# --------------------------------------------------------------------------- --into
+SPEC = """\
+# plate P1 (comments must survive)
+name: P1   # id
+plate:
+  a: 210.5 mm
+measured:
+  frequencies: [125.05, 203.50, null, 446.65]   # Hz; null = not detected
+  weights: [1, 1, 0, 1]          # optional, in [0,1]
+  sigma: [0.1, 0.1, null, 0.2]   # optional, Hz
+  # frf_file: plate.frf.h5       # taken at load time
+identify:
+  fix: [nu12]   # keep
+"""
+
+
+def test_into_replaces_measured_and_keeps_everything_else(tmp_path):
+    spec = tmp_path / "p.yaml"
+    spec.write_text(SPEC)
+    write_measured(spec, [125.1, 203.4, 300.2, None, 580.0], [0.01, 0.02, 0.03, None, 0.05])
+    text = spec.read_text()
+    for comment in ("# plate P1 (comments must survive)", "# id", "# Hz; null = not detected",
+                    "# optional, in [0,1]", "# frf_file: plate.frf.h5", "# keep"):
+        assert comment in text
+    data = yaml.safe_load(text)
+    assert data["measured"]["frequencies"] == [125.1, 203.4, 300.2, None, 580.0]
+    assert data["measured"]["sigma"] == [0.01, 0.02, 0.03, None, 0.05]
+    assert data["measured"]["weights"] == [1, 1, 1, 0, 1]   # length changed: 1 found, 0 null
+    assert data["plate"] == {"a": "210.5 mm"} and data["identify"] == {"fix": ["nu12"]}
+    assert (tmp_path / "p.yaml.bak").read_text() == SPEC
+
+
+def test_into_keeps_user_weights_when_the_length_matches(tmp_path):
+    spec = tmp_path / "p.yaml"
+    spec.write_text(SPEC.replace("[1, 1, 0, 1]", "[0.5, 1, 0, 1]"))
+    write_measured(spec, [125.1, 203.4, 300.2, None], [0.01, 0.02, 0.03, None])
+    data = yaml.safe_load(spec.read_text())
+    assert data["measured"]["weights"] == [0.5, 1, 1, 0]
+
+
+def test_into_inserts_measured_when_absent(tmp_path):
+    spec = tmp_path / "p.yaml"
+    spec.write_text("name: X  # c\nlayup: '[0/90]s'\n")
+    write_measured(spec, [100.0, 200.0], [0.1, 0.2])
+    data = yaml.safe_load(spec.read_text())
+    assert data == {"name": "X", "layup": "[0/90]s",
+                    "measured": {"frequencies": [100.0, 200.0], "sigma": [0.1, 0.2]}}
+    assert "# c" in spec.read_text()
+
+
+@pytest.mark.parametrize("text, message", [("- a\n- b\n", "must be a YAML mapping"),
+                                           ("a: [1, 2\n", "not valid YAML"),
+                                           ("measured: 3\n", "'measured' must be a mapping")])
+def test_into_never_corrupts_a_bad_specimen(tmp_path, text, message):
+    spec = tmp_path / "p.yaml"
+    spec.write_text(text)
+    with pytest.raises(SpecimenError, match=message):
+        write_measured(spec, [100.0], [0.1])
+    assert spec.read_text() == text
+    assert not (tmp_path / "p.yaml.bak").exists()
+    assert [p.name for p in tmp_path.iterdir()] == ["p.yaml"]

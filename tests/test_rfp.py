@@ -1,0 +1,267 @@
+"""The RFP estimator against seeded synthetic FRFs with known modal parameters (tests/frf_synth.py).
+
+Scenario (``plate_case``): 5 points, 1601 lines at 1 Hz (or 801 at 2 Hz), ten modes 125-1388 Hz
+with 0.2-1.5 % damping and modal constants of both signs, one mode above the axis (2200 Hz), a
+rigid-body mass line. Noise is circular complex Gaussian, std = 3 % of |H| line by line
+("proportional") or 3 % of the FRF's RMS ("rms", additive).
+
+Measured on this code (seeds 0-9 for 3 % noise): noise-free max frequency error 4e-5 %, damping
+2e-3 %; 3 % proportional noise max 0.012 % (1 Hz) and 0.016 % (2 Hz), damping 1.9 % / 2.7 %;
+3 % rms noise 0.008 %; no spurious or missed mode. Close pair (351.2 / 352.25 Hz, 0.3 % apart,
+0.2 % damping): both found, 0.011 % at 3 % noise. Mode 50 times weaker: found noise-free with
+the automatic bands, and at 1 % noise in a band around it (0.02 %).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tests.frf_synth import plate_case, synth_frf
+from laminid_cli.errors import FrfError
+from laminid_cli.frf import rfp
+
+# named tolerances (issue 4)
+FREQ_TOL_CLEAN = 1e-4       # 0.01 %
+DAMP_TOL_CLEAN = 0.02       # 2 % of the damping ratio
+FREQ_TOL_NOISY = 1e-3       # 0.1 %
+DAMP_TOL_NOISY = 0.15       # 15 % (not specified by the issue; measured worst 4.4 %)
+MATCH = 2e-3                # a found mode within 0.2 % of a true one "is" that mode
+
+
+def _match(found, truth):
+    """(index of the found mode per true mode or -1, indices of unmatched found modes)."""
+    found = np.asarray(found, dtype=float)
+    idx = []
+    for f in truth:
+        i = int(np.argmin(np.abs(found - f))) if found.size else -1
+        idx.append(i if i >= 0 and abs(found[i] / f - 1) < MATCH else -1)
+    spurious = [i for i in range(found.size) if i not in idx]
+    return np.array(idx), spurious
+
+
+def _check(case, fit, ftol, ztol):
+    idx, spurious = _match(fit.freq_hz, case.freq_hz)
+    assert np.all(idx >= 0), f"missed {case.freq_hz[idx < 0]} Hz; found {fit.freq_hz}"
+    assert not spurious, f"spurious modes at {fit.freq_hz[spurious]} Hz"
+    ferr = np.abs(fit.freq_hz[idx] / case.freq_hz - 1)
+    zerr = np.abs(fit.damping_ratio[idx] / case.damping_ratio - 1)
+    assert ferr.max() < ftol, ferr
+    assert zerr.max() < ztol, zerr
+    return ferr, zerr
+
+
+# --------------------------------------------------------------------------- building blocks
+def test_forsythe_polynomials_are_orthonormal_and_obey_their_recurrence():
+    x = np.linspace(0.05, 1.0, 700)
+    phi, gamma = rfp.forsythe_basis(x, 40)
+    for parity in (0, 1):
+        g = phi[parity::2] @ phi[parity::2].T
+        assert np.allclose(g, np.eye(g.shape[0]), atol=1e-9)
+    k = 7
+    assert np.allclose(x * phi[k], gamma[k + 1] * phi[k + 1] + gamma[k] * phi[k - 1])
+
+
+def test_comrade_matrix_gives_the_roots_of_a_polynomial_in_the_orthogonal_basis():
+    x = np.linspace(0.1, 1.0, 300)
+    phi, gamma = rfp.forsythe_basis(x, 7)
+    roots = np.array([-0.01 + 0.3j, -0.01 - 0.3j, -0.02 + 0.7j, -0.02 - 0.7j, -0.5 + 0.2j,
+                      -0.5 - 0.2j])
+    s = 1j * x
+    D = np.prod(s[:, None] - roots[None, :], axis=1)
+    theta = (1j ** np.arange(7))[:, None] * phi
+    coef = np.linalg.lstsq(theta.T, D, rcond=None)[0]
+    assert np.allclose(coef.imag, 0, atol=1e-9)   # real coefficients in the theta basis
+    got = np.sort_complex(rfp.comrade_roots(coef.real, gamma))
+    assert np.allclose(got, np.sort_complex(roots), atol=1e-8)
+
+
+def test_fit_rfp_single_mode_is_exact():
+    f = np.arange(50.0, 150.0, 0.5)
+    H = synth_frf(f, [(100.0, 0.01)], [[1.0], [-0.4]])
+    fit = rfp.fit_rfp(f, H, 1, n_extra=0)
+    assert fit.freq_hz.size == 1
+    assert fit.freq_hz[0] == pytest.approx(100.0, rel=1e-10)
+    assert fit.damping_ratio[0] == pytest.approx(0.01, rel=1e-8)
+
+
+def test_modal_constants_recover_the_residues():
+    f = np.arange(50.0, 400.0, 1.0)
+    C = np.array([[1.0, -2.0], [0.5, 0.3]]) * 1e4
+    H = synth_frf(f, [(120.0, 0.01), (300.0, 0.02)], C)
+    poles = rfp._pole([120.0, 300.0], [0.01, 0.02])
+    A, _res, synth = rfp.modal_constants(f, H, poles)
+    # receptance C/(wr^2 - w^2 + 2j z wr w) = A/(s - lam) + conj; A = C / (2 j wd)
+    wd = poles.imag
+    assert np.allclose(A, C / (2j * wd[None, :]), rtol=1e-7)
+    assert np.allclose(synth, H, rtol=1e-8, atol=1e-12 * np.abs(H).max())
+
+
+# --------------------------------------------------------------------------- accuracy
+@pytest.mark.parametrize("resolution, n_lines, kind", [(1.0, 1601, "receptance"),
+                                                       (2.0, 801, "receptance"),
+                                                       (1.0, 1601, "accelerance")])
+def test_noise_free_frequencies_within_001_percent_damping_within_2_percent(resolution, n_lines,
+                                                                            kind):
+    case = plate_case(resolution_hz=resolution, n_lines=n_lines, kind=kind)
+    fit = rfp.find_modes(case.freq, case.frf)
+    _check(case, fit, FREQ_TOL_CLEAN, DAMP_TOL_CLEAN)
+    for m in fit.modes:
+        assert m.modal_constants.shape == (5,)
+        assert m.orders_stable >= fit.criteria.min_stable
+
+
+def test_noise_free_modal_constants_are_the_true_residues():
+    case = plate_case()
+    fit = rfp.find_modes(case.freq, case.frf)
+    idx, _ = _match(fit.freq_hz, case.freq_hz)
+    wd = 2 * np.pi * case.freq_hz * np.sqrt(1 - case.damping_ratio ** 2)
+    true_A = case.constants / (2j * wd[None, :])
+    got = np.array([fit.modes[i].modal_constants for i in idx]).T
+    assert np.allclose(got, true_A, rtol=1e-3, atol=1e-3 * np.abs(true_A).max())
+    # signs of the modal constants (real modes: A = C / 2 j wd)
+    assert np.array_equal(np.sign((got * 2j).real), np.sign(case.constants))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_3_percent_noise_frequencies_within_01_percent_and_no_spurious_mode(seed):
+    case = plate_case(noise=0.03, seed=seed)
+    fit = rfp.find_modes(case.freq, case.frf)
+    ferr, _ = _check(case, fit, FREQ_TOL_NOISY, DAMP_TOL_NOISY)
+    # the reported spread is an uncertainty of the right order (not 0, not huge)
+    assert np.all(fit.freq_std_hz > 0)
+    assert np.all(fit.freq_std_hz < 2e-3 * fit.freq_hz)
+
+
+@pytest.mark.parametrize("noise_kind, resolution, n_lines", [("rms", 1.0, 1601),
+                                                             ("proportional", 2.0, 801)])
+def test_3_percent_noise_other_noise_model_and_resolution(noise_kind, resolution, n_lines):
+    case = plate_case(noise=0.03, noise_kind=noise_kind, resolution_hz=resolution,
+                      n_lines=n_lines, seed=5)
+    fit = rfp.find_modes(case.freq, case.frf)
+    _check(case, fit, FREQ_TOL_NOISY, DAMP_TOL_NOISY)
+
+
+@pytest.mark.parametrize("noise", [0.0, 0.03])
+def test_two_modes_03_percent_apart_are_both_found(noise):
+    close = 351.2 * 1.003          # 1.05 Hz from 351.2 Hz (0.2 % damping), 1 Hz lines
+    case = plate_case(extra_modes=[(close, 0.002, 1.0)], noise=noise, seed=3)
+    fit = rfp.find_modes(case.freq, case.frf)
+    ftol = FREQ_TOL_CLEAN if noise == 0 else FREQ_TOL_NOISY
+    ztol = DAMP_TOL_CLEAN if noise == 0 else DAMP_TOL_NOISY
+    ferr, _ = _check(case, fit, ftol, ztol)
+    assert len(fit.modes) == 11
+
+
+def test_mode_50_times_weaker_than_its_neighbours_is_found():
+    case = plate_case(weak=1 / 50)
+    fit = rfp.find_modes(case.freq, case.frf)
+    _check(case, fit, FREQ_TOL_CLEAN, DAMP_TOL_CLEAN)
+
+
+def test_weak_mode_with_1_percent_noise_in_a_band_around_it():
+    case = plate_case(weak=1 / 50, noise=0.01, seed=1)
+    fit = rfp.find_modes(case.freq, case.frf, bands=[(380, 520)])
+    assert len(fit.modes) == 1
+    assert fit.modes[0].freq_hz == pytest.approx(446.65, rel=FREQ_TOL_NOISY)
+
+
+def test_user_bands_and_n_modes():
+    case = plate_case()
+    fit = rfp.find_modes(case.freq, case.frf, bands=[(100, 300), (300, 500)], n_modes=4)
+    assert np.allclose(fit.freq_hz, case.freq_hz[:4], rtol=FREQ_TOL_CLEAN)
+    # a single wide band is split internally and still finds everything
+    fit = rfp.find_modes(case.freq, case.frf, bands=[(60, 1600)])
+    _check(case, fit, FREQ_TOL_CLEAN, DAMP_TOL_CLEAN)
+
+
+def test_stabilisation_chart_marks_physical_poles_stable():
+    case = plate_case()
+    chart = rfp.stabilisation(case.freq, case.frf, (100, 300), range(1, 11))
+    assert set(np.unique(chart.order)) <= set(range(1, 11))
+    for f in case.freq_hz[:3]:
+        near = np.abs(chart.freq_hz / f - 1) < 1e-4
+        assert (chart.stable[near] == 2).sum() >= 5
+    cands = rfp.select_poles(chart)
+    assert np.allclose([c.freq_hz for c in cands], case.freq_hz[:3], rtol=1e-5)
+
+
+# --------------------------------------------------------------------------- bad input
+def test_bad_axes_and_values_raise_frf_error():
+    case = plate_case(n_lines=401)
+    f = case.freq.copy()
+    f[10] = f[9]
+    with pytest.raises(FrfError, match="not strictly increasing"):
+        rfp.find_modes(f, case.frf)
+    with pytest.raises(FrfError, match="shape"):
+        rfp.find_modes(case.freq[:-1], case.frf)
+    H = case.frf.copy()
+    H[2, 7] = np.nan
+    with pytest.raises(FrfError, match="point 3 has NaN/inf"):
+        rfp.find_modes(case.freq, H)
+
+
+def test_bad_bands_and_too_many_modes_raise_frf_error():
+    case = plate_case(n_lines=401)
+    with pytest.raises(FrfError, match="empty"):
+        rfp.find_modes(case.freq, case.frf, bands=[(300, 200)])
+    with pytest.raises(FrfError, match="holds 4 frequency lines"):
+        rfp.find_modes(case.freq, case.frf, bands=[(120, 123)])
+    with pytest.raises(FrfError, match="outside the FRF axis"):
+        rfp.find_modes(case.freq, case.frf, bands=[(1000, 1200)])
+    with pytest.raises(FrfError, match="asked for 5 modes but the band"):
+        rfp.find_modes(case.freq, case.frf, bands=[(100, 300)], n_modes=5)
+    with pytest.raises(FrfError, match="too few to fit 40 modes"):
+        rfp.find_modes(case.freq, case.frf, bands=[(110, 140)], n_modes=40)
+
+
+def test_no_peak_raises_a_clear_error():
+    f = np.arange(1.0, 200.0)
+    with pytest.raises(FrfError, match="no resonance peak"):
+        rfp.find_modes(f, np.ones((2, f.size), dtype=complex))
+
+
+# --------------------------------------------------------------------------- independent estimator
+def test_against_sdypy_ema_lscf():
+    """sdypy-EMA's LSCF (optional dependency) on the same 3 % noise data.
+
+    sdypy is told the true frequencies to pick its poles (select_closest_poles), laminid picks
+    its own. Measured: sdypy max error 0.018 %, laminid 0.0064 % (accelerance, seed 0).
+    """
+    EMA = pytest.importorskip("sdypy.EMA")
+    import warnings
+
+    case = plate_case(kind="accelerance", f_start=0.0, noise=0.03, seed=0)
+    model = EMA.Model(frf=case.frf, freq=case.freq, lower=50, upper=1600, pol_order_high=60,
+                      frf_form="accelerance")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model.get_poles(method="lscf", show_progress=False)
+        model.select_closest_poles(case.freq_hz, f_window=20)
+    sdypy_err = np.abs(np.asarray(model.nat_freq) / case.freq_hz - 1)
+    fit = rfp.find_modes(case.freq, case.frf)
+    idx, spurious = _match(fit.freq_hz, case.freq_hz)
+    assert np.all(idx >= 0) and not spurious
+    ours = np.abs(fit.freq_hz[idx] / case.freq_hz - 1)
+    assert sdypy_err.max() < FREQ_TOL_NOISY
+    assert ours.max() < FREQ_TOL_NOISY
+    assert np.allclose(fit.freq_hz[idx], model.nat_freq, rtol=FREQ_TOL_NOISY)
+
+
+def test_weak_mode_with_3_percent_noise_needs_sanathanan_koerner_iterations():
+    """At 3 % noise the plain linearised fit does not stabilise the weak mode; per-order SK
+    iterations in a band around it do (measured 446.48-446.82 Hz over seeds 0-4)."""
+    case = plate_case(weak=1 / 50, noise=0.03, seed=2)
+    crit = rfp.PoleCriteria(sk_iter=2, reweight=False)
+    fit = rfp.find_modes(case.freq, case.frf, bands=[(380, 520)], criteria=crit)
+    assert len(fit.modes) == 1
+    assert fit.modes[0].freq_hz == pytest.approx(446.65, rel=FREQ_TOL_NOISY)
+
+
+def test_relative_weighting_is_exact_on_clean_data():
+    case = plate_case(n_lines=601)
+    crit = rfp.PoleCriteria(weighting="relative")
+    fit = rfp.find_modes(case.freq, case.frf, bands=[(60, 600)], criteria=crit)
+    assert np.allclose(fit.freq_hz, case.freq_hz[:6], rtol=FREQ_TOL_CLEAN)
+    with pytest.raises(FrfError, match="weighting 'x'"):
+        rfp.find_modes(case.freq, case.frf, criteria=rfp.PoleCriteria(weighting="x"))
