@@ -28,8 +28,7 @@ def test_round_trip(tmp_path, frfset, suffix):
     # UFF ASCII keeps ~13 significant digits; HDF5 and CSV are exact
     assert np.allclose(back.frf, frfset.frf, rtol=1e-11, atol=1e-12 * np.abs(frfset.frf).max())
     assert len(back.labels) == 5
-    if suffix != ".csv":
-        assert back.units == "Pa/N"
+    assert back.units == "Pa/N"
 
 
 def test_same_answer_from_hdf5_uff_and_csv(tmp_path, frfset):
@@ -171,3 +170,21 @@ def test_into_never_corrupts_a_bad_specimen(tmp_path, text, message):
     assert spec.read_text() == text
     assert not (tmp_path / "p.yaml.bak").exists()
     assert [p.name for p in tmp_path.iterdir()] == ["p.yaml"]
+
+
+def test_uff_coherence_records_are_matched_to_their_frf(tmp_path):
+    import pyuff
+
+    f = np.arange(1.0, 101.0)
+    H = np.exp(1j * f / 10)
+    coh = np.linspace(0.5, 1.0, f.size)
+    common = dict(binary=0, rsp_node=7, rsp_dir=3, ref_node=1, ref_dir=3, x=f,
+                  abscissa_spec_data_type=18, ordinate_spec_data_type=12,
+                  orddenom_spec_data_type=13)
+    sets = [pyuff.prepare_58(func_type=4, ord_data_type=6, data=H, id1="FRF", **common),
+            pyuff.prepare_58(func_type=6, ord_data_type=4, data=coh, id1="COH", **common)]
+    p = tmp_path / "c.uff"
+    pyuff.UFF(str(p)).write_sets(sets, mode="overwrite")
+    fs = io.read_frf(p)
+    assert fs.labels == ("7+Z",)
+    assert np.allclose(fs.frf[0], H) and np.allclose(fs.coherence[0], coh)

@@ -35,8 +35,9 @@ FORMATS = ("hdf5", "uff", "csv")
 SUFFIXES = {".h5": "hdf5", ".hdf5": "hdf5", ".hdf": "hdf5", ".uff": "uff", ".unv": "uff",
             ".csv": "csv", ".txt": "csv"}
 
-#: UFF 58 function types
+#: UFF 58 function types, and the abscissa's specific data type for frequency (Hz)
 UFF_FRF, UFF_COHERENCE = 4, 6
+UFF_ABSCISSA_FREQUENCY = 18
 
 
 def frf_format(path, fmt: str | None = None) -> str:
@@ -94,6 +95,14 @@ def read_frf_csv(path) -> FrfSet:
         text = path.read_text(encoding="utf-8-sig")
     except UnicodeDecodeError as exc:
         raise FrfError(f"{path}: not a text (CSV) file") from exc
+    import re
+
+    units = "1"
+    for ln in text.splitlines():
+        hit = re.match(r"\s*#.*\bunits\s+(\S+)", ln)
+        if hit:
+            units = hit.group(1)
+            break
     lines = [(i + 1, ln) for i, ln in enumerate(text.splitlines())
              if ln.strip() and not ln.lstrip().startswith("#")]
     if not lines:
@@ -130,7 +139,7 @@ def read_frf_csv(path) -> FrfSet:
         labels = tuple(h.removesuffix("_re").removesuffix(".re").strip() or str(i + 1)
                        for i, h in enumerate(header[1::2]))
     validate_frf_arrays(freq, frf, source=str(path))
-    return FrfSet(freq=freq, frf=frf, labels=labels, source=str(path))
+    return FrfSet(freq=freq, frf=frf, labels=labels, units=units, source=str(path))
 
 
 def write_frf_csv(path, fs: FrfSet, *, overwrite: bool = False) -> Path:
@@ -180,6 +189,10 @@ def read_frf_uff(path) -> FrfSet:
         kinds = sorted({int(d.get("func_type", 0)) for d in sets})
         raise FrfError(f"{path}: no FRF among the type-58 records (function types {kinds}; "
                        f"{UFF_FRF} = frequency response function)")
+    absc = int(frfs[0].get("abscissa_spec_data_type", 0) or 0)
+    if absc not in (0, UFF_ABSCISSA_FREQUENCY):
+        raise FrfError(f"{path}: the abscissa of the FRF records is not frequency (specific data "
+                       f"type {absc}, expected {UFF_ABSCISSA_FREQUENCY} = frequency in Hz)")
     freq = np.asarray(frfs[0]["x"], dtype=float)
     for k, d in enumerate(frfs[1:], start=2):
         x = np.asarray(d["x"], dtype=float)
@@ -227,7 +240,7 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
             rsp_node=node, rsp_dir=rsp_dir, ref_node=ref_node, ref_dir=ref_dir,
             ord_data_type=6,  # complex double
             abscissa_spacing=1 if np.allclose(np.diff(fs.freq), fs.freq[1] - fs.freq[0]) else 0,
-            abscissa_spec_data_type=18, ordinate_spec_data_type=12,
+            abscissa_spec_data_type=UFF_ABSCISSA_FREQUENCY, ordinate_spec_data_type=12,
             orddenom_spec_data_type=13, ordinate_axis_units_lab=fs.units,
             data=np.asarray(fs.frf[k], dtype=complex), x=np.asarray(fs.freq, dtype=float)))
     try:

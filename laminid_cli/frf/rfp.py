@@ -23,8 +23,17 @@ conversion to the ill-conditioned power basis).
 
 A stabilisation sweep over the model order separates physical poles (stable in frequency and
 damping from order to order) from computational ones; each stable track gives one mode, its
-frequency spread over the stable orders the uncertainty. Modal constants then follow from a
-linear least-squares fit of all FRFs with the selected poles plus residual terms (LSFD).
+frequency spread over the stable orders the uncertainty. The sweep is run twice: the second
+time the equation errors are weighted by ``1 / |D_1(j omega)|`` built from the first pass's
+physical poles (Sanathanan & Koerner 1963, "Transfer function synthesis as a ratio of two
+complex polynomials"), which undoes the linearisation's emphasis on the regions far from the
+resonances. Finally the poles of each band are polished by an output-error least-squares fit
+(variable projection, Golub & Pereyra 1973) in which the modal constants and the residual terms
+are linear (LSFD), and modes whose contribution does not rise above the fit residual are
+dropped.
+
+Automatic bands group the peaks of the summed FRF magnitude (at most four per band) and
+overlap; a pole seen by two bands is taken from the one in which it lies farther from the edges.
 
 Symbols: ``freq`` Hz, ``omega`` rad/s, poles ``lam = -zeta omega_n + j omega_n sqrt(1 - zeta^2)``
 in rad/s, FRFs ``frf`` complex (n_points, n_freq). Modal constants are the complex residues
@@ -55,7 +64,7 @@ MAX_PEAKS_PER_BAND = 6
 # --------------------------------------------------------------------------- data classes
 @dataclass(frozen=True)
 class PoleCriteria:
-    """How a physical pole is told from a computational one (stabilisation and selection).
+    """Options of the fit and how a physical pole is told from a computational one.
 
     Attributes
     ----------
@@ -470,8 +479,9 @@ def _check_band(freq, band, n_modes: int, n_extra: int, n_points: int):
         raise FrfError(f"band {lo:g}:{hi:g} Hz holds {n_lines} frequency lines of the FRF axis "
                        f"({freq[0]:g}-{freq[-1]:g} Hz, {freq[1] - freq[0]:g} Hz step); at least "
                        f"{MIN_BAND_LINES} are needed")
-    # unknowns per FRF vs real equations per FRF (the denominator is shared)
-    need = (4 * n_modes + n_extra + 1 + (2 * n_modes) // max(n_points, 1)) // 2 + 1
+    # real unknowns: 2N + n_extra numerator coefficients per FRF and 2N shared denominator ones,
+    # against 2 n_lines real equations per FRF
+    need = int(np.ceil((2 * n_modes + n_extra + 2 * n_modes / max(n_points, 1)) / 2)) + 1
     if n_lines < need:
         raise FrfError(f"band {lo:g}:{hi:g} Hz holds {n_lines} lines, too few for {n_modes} "
                        f"modes (at least {need} lines needed); widen the band or ask fewer modes")
