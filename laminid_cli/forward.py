@@ -42,12 +42,14 @@ class ForwardModel:
     def initial_constants(self) -> tuple[ElasticConstants, ...]:
         return self.laminate.constants
 
-    def solve(self, constants=None, n_modes: int = 12, *, coef: np.ndarray | None = None) -> Modes:
+    def solve(self, constants=None, n_modes: int = 12, *, coef: np.ndarray | None = None,
+              v0: np.ndarray | None = None) -> Modes:
         """Lowest ``n_modes`` elastic modes for the given constants (default: the file's).
 
         ``constants`` is a sequence of ElasticConstants in ``material_names`` order; ``coef``
-        (n_materials, 6) the stiffness coefficients directly. The shift is the previous
-        solution's first eigenvalue when there is one, else a thin-plate estimate.
+        (n_materials, 6) the stiffness coefficients directly; ``v0`` a Lanczos start vector
+        (e.g. the sum of the previous step's modes). The shift is half the previous solution's
+        first eigenvalue when there is one, else half a thin-plate estimate.
         """
         if coef is None:
             constants = self.initial_constants if constants is None else tuple(constants)
@@ -61,7 +63,7 @@ class ForwardModel:
         last = self._last_lambda1[0]
         lam_est = last if last is not None else self.plate.shift_estimate(coef)
         modes = solve_modes(K, self.plate.M, n_modes, rigid=self.rigid, sigma=-0.5 * lam_est,
-                            factorizer=self.factorizer)
+                            factorizer=self.factorizer, v0=v0, M_on_pattern=self.plate.M_on_K)
         self._last_lambda1[0] = float(modes.eigenvalues[0])
         return modes
 

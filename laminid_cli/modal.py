@@ -135,7 +135,8 @@ class BandedCholesky:
 
 def solve_modes(K: sp.spmatrix, M: sp.spmatrix, n_modes: int, *, sigma: float,
                 rigid: np.ndarray | None = None, margin: int = 4, tol: float = 1e-12,
-                factorizer: BandedCholesky | None = None, v0: np.ndarray | None = None) -> Modes:
+                factorizer: BandedCholesky | None = None, v0: np.ndarray | None = None,
+                M_on_pattern: np.ndarray | None = None) -> Modes:
     """Lowest ``n_modes`` elastic modes of ``K phi = lambda M phi``.
 
     Parameters
@@ -148,8 +149,10 @@ def solve_modes(K: sp.spmatrix, M: sp.spmatrix, n_modes: int, *, sigma: float,
     rigid : (n, n_rigid) rigid-body motions (``PlateModel.rigid_modes()``) to deflate; they
         must have zero strain energy, else :class:`SolverError`
     margin : extra modes asked of Lanczos so that the wanted ones converge well
-    factorizer : precomputed :class:`BandedCholesky` for the pattern of K and M (K and M must
-        then share that CSR pattern); built on the fly when omitted
+    factorizer : precomputed :class:`BandedCholesky` for the CSR pattern of K; built on the fly
+        when omitted
+    M_on_pattern : M's values on K's pattern (``PlateModel.M_on_K``) when M is stored with a
+        sparser pattern of its own; needed with a factorizer unless K and M share a pattern
     v0 : starting vector for Lanczos (e.g. a combination of the previous step's modes)
     """
     n = K.shape[0]
@@ -168,9 +171,11 @@ def solve_modes(K: sp.spmatrix, M: sp.spmatrix, n_modes: int, *, sigma: float,
         factorizer = BandedCholesky.from_pattern(A.indptr, A.indices)
         solve = factorizer.factor(A.data)
     else:
-        if K.nnz != M.nnz or not np.array_equal(K.indices, M.indices):
-            raise SolverError("K and M must share one sparsity pattern with a factorizer")
-        solve = factorizer.factor(K.data - sigma * M.data)
+        if M_on_pattern is None:
+            if K.nnz != M.nnz or not np.array_equal(K.indices, M.indices):
+                raise SolverError("K and M must share one sparsity pattern with a factorizer")
+            M_on_pattern = M.data
+        solve = factorizer.factor(K.data - sigma * M_on_pattern)
 
     rigid_lambda = np.zeros(0)
     if n_rigid:

@@ -97,7 +97,11 @@ class PlateModel:
     dofs : (n_dofs,) global DOF index (node * 9 + variable) of each retained equation
     indptr, indices : CSR pattern shared by every basis matrix and by K and M, (n_dofs x n_dofs)
     K_data : (n_materials, 6, nnz) basis stiffness data, N/m per unit coefficient (Pa)
-    M : (n_dofs, n_dofs) CSR mass matrix, kg
+    M : (n_dofs, n_dofs) CSR mass matrix with its own (sparser) pattern, kg
+    M_on_K : (nnz,) the mass matrix on the stiffness pattern (for ``K - sigma M``)
+    Ke : (n_materials, 6, n_shapes, 72, 72) element basis matrices of each distinct element
+        shape; ``element_shape`` (n_el,) maps elements to them and ``element_dofs`` (n_el, 72)
+        gives each element's equations (-1 where fixed), for element-level sensitivities
     D_bending : (n_materials, 6, 3, 3) bending stiffness basis ``int z^2 C_j dz`` (m^3), for
         the shift estimate
     mass_per_area : kg/m^2
@@ -112,6 +116,10 @@ class PlateModel:
     indices: np.ndarray
     K_data: np.ndarray
     M: sp.csr_matrix
+    M_on_K: np.ndarray
+    Ke: np.ndarray
+    element_shape: np.ndarray
+    element_dofs: np.ndarray
     D_bending: np.ndarray
     mass_per_area: float
 
@@ -173,13 +181,22 @@ class PlateModel:
     def basis_energies(self, phi: np.ndarray) -> np.ndarray:
         """``phi_i^T K_basis[m, j] phi_i`` for every mode i: (n_materials, 6, n_modes).
 
-        With mass-normalised phi, d lambda_i / d coef[m, j] equals this (paper Eq. 26).
+        With mass-normalised phi, d lambda_i / d coef[m, j] equals this (paper Eq. 26). Summed
+        element by element (Eq. 27) with the element matrices of each distinct element shape,
+        as batched matrix products.
         """
-        phi = np.asarray(phi)
-        rows = np.repeat(np.arange(self.n_dofs), np.diff(self.indptr))
-        prod = phi[rows] * phi[self.indices]                     # (nnz, n_modes)
-        n_mat = self.K_data.shape[0]
-        return (self.K_data.reshape(n_mat * 6, -1) @ prod).reshape(n_mat, 6, -1)
+        phi = np.asarray(phi, float)
+        n_modes = phi.shape[1]
+        padded = np.vstack([phi, np.zeros((1, n_modes))])          # row -1: fixed DOF = 0
+        n_mat = self.Ke.shape[0]
+        Kb = self.Ke.reshape(n_mat * 6, -1, 72, 72)
+        out = np.zeros((n_mat * 6, n_modes))
+        for u in range(Kb.shape[1]):                                # distinct shapes only
+            X = padded[self.element_dofs[self.element_shape == u]]  # (n_e, 72, n_modes)
+            Y = X.transpose(1, 0, 2).reshape(72, -1)
+            KY = np.matmul(Kb[:, u], Y)                             # (n_b, 72, n_e * n_modes)
+            out += np.einsum("bik,ik->bk", KY, Y).reshape(n_mat * 6, -1, n_modes).sum(axis=1)
+        return out.reshape(n_mat, 6, n_modes)
 
     def w_shape(self, phi: np.ndarray) -> np.ndarray:
         """Transverse displacement w0 at every mesh node, (n_nodes, n_modes); 0 on fixed DOFs."""
@@ -317,8 +334,11 @@ def build_plate_model(mesh: Mesh, h: float, z: np.ndarray, angle: np.ndarray,
                             shape=(slot_key.size, len(first) * 72 * 72))
     K_data = (scatter @ np.ascontiguousarray(Ke_u.reshape(n_mat * 6, -1).T)).T
     M_data = scatter @ Me_u.reshape(-1)
-    M = sp.csr_matrix((M_data, pattern.indices, pattern.indptr), shape=(n, n))
+    M = sp.csr_matrix((M_data.copy(), pattern.indices.copy(), pattern.indptr.copy()), shape=(n, n))
+    M.eliminate_zeros()         # the inertia couples only x-x, y-y and w-w variables
     return PlateModel(mesh=mesh, h=float(h), boundary=code, material_names=tuple(material_names),
                       dofs=np.flatnonzero(keep), indptr=pattern.indptr, indices=pattern.indices,
-                      K_data=K_data.reshape(n_mat, 6, -1), M=M, D_bending=D_bending,
+                      K_data=K_data.reshape(n_mat, 6, -1), M=M, M_on_K=M_data,
+                      Ke=Ke_u.reshape(n_mat, 6, len(first), 72, 72), element_shape=group,
+                      element_dofs=red, D_bending=D_bending,
                       mass_per_area=float(J[2, 2]))
