@@ -88,6 +88,8 @@ class PoleCriteria:
     sk_iter : Sanathanan-Koerner iterations at every order (reweighting with the order's own
         previous denominator); helps weak modes in narrow bands, costly in wide ones
     refine : polish each band's stable poles by an output-error fit (:func:`refine_poles`)
+    gap_search : look for weak modes between the modes found with narrow SK-iterated fits
+        (:func:`_gap_search`)
     """
 
     freq_tol: float = 0.002
@@ -102,6 +104,7 @@ class PoleCriteria:
     reweight: bool = True
     sk_iter: int = 0
     refine: bool = True
+    gap_search: bool = True
 
 
 @dataclass(frozen=True)
@@ -904,15 +907,30 @@ def find_modes(freq, frf, *, bands=None, n_modes: int | None = None,
     if criteria.reweight and cands:
         # second pass weighted with the first pass's physical poles (Sanathanan-Koerner)
         charts, cands = sweep([c for _, c, _ in cands])
-    band_fits, modes = [], []
-    for k, chart in enumerate(charts):
-        own = [c for b, c, _ in cands if b == k]
-        lo, hi = chart.band_hz
-        near = [c for b, c, _ in cands if b != k and lo - (hi - lo) <= c.freq_hz <= hi + (hi - lo)]
-        bf, ms = _band_constants(freq, frf, chart, own, near, criteria)
-        band_fits.append(bf)
-        modes.extend(ms)
-    modes.sort(key=lambda m: m.freq_hz)
+
+    def constants(cands):
+        band_fits, modes = [], []
+        for k, chart in enumerate(charts):
+            own = [c for b, c, _ in cands if b == k]
+            lo, hi = chart.band_hz
+            near = [c for b, c, _ in cands
+                    if b != k and lo - (hi - lo) <= c.freq_hz <= hi + (hi - lo)]
+            bf, ms = _band_constants(freq, frf, chart, own, near, criteria)
+            band_fits.append(bf)
+            modes.extend(ms)
+        return band_fits, sorted(modes, key=lambda m: m.freq_hz)
+
+    band_fits, modes = constants(cands)
+    if criteria.gap_search:
+        found = _gap_search(freq, frf, modes, charts, criteria)
+        if found:
+            log.info("gap search: %d more pole(s) at %s Hz", len(found),
+                     ", ".join(f"{c.freq_hz:.2f}" for c in found))
+            for c in found:   # into the band where the pole lies farthest from the edges
+                k = int(np.argmax([min(c.freq_hz - ch.band_hz[0], ch.band_hz[1] - c.freq_hz)
+                                   / (ch.band_hz[1] - ch.band_hz[0]) for ch in charts]))
+                cands.append((k, c, 0.0))
+            band_fits, modes = constants(cands)
     if n_modes is not None:
         if len(modes) < n_modes:
             where = ", ".join(f"{c.band_hz[0]:g}:{c.band_hz[1]:g}" for c in charts)
@@ -922,6 +940,38 @@ def find_modes(freq, frf, *, bands=None, n_modes: int | None = None,
                            + "; widen the bands or ask fewer modes")
         modes = modes[:n_modes]
     return ModalFit(modes=tuple(modes), bands=tuple(band_fits), criteria=criteria)
+
+
+def _gap_search(freq, frf, modes, charts, criteria) -> list:
+    """Stable poles in the gaps between the modes found (weak modes the band fits missed).
+
+    Each gap, from three half-power bandwidths above one mode to three below the next (ends of
+    the fitted range included), gets its own narrow fit with Sanathanan-Koerner iterations
+    (``sk_iter=2``) over N = 1..8; a weak mode next to strong ones stabilises there where the
+    wide band's linearised fit let it wander. The candidates still have to pass the refinement
+    and the significance test of :func:`_band_constants`.
+    """
+    from dataclasses import replace
+
+    crit = replace(criteria, sk_iter=2, reweight=False)
+    df = float(np.median(np.diff(freq)))
+    lo0 = min(ch.band_hz[0] for ch in charts)
+    hi0 = max(ch.band_hz[1] for ch in charts)
+    ends = [(lo0, 0.0)] + [(m.freq_hz, m.damping_ratio) for m in modes] + [(hi0, 0.0)]
+    out = []
+    for (fa, za), (fb, zb) in zip(ends[:-1], ends[1:]):
+        lo = fa + 3 * max(za * fa, df)
+        hi = fb - 3 * max(zb * fb, df)
+        if int(((freq >= lo) & (freq <= hi)).sum()) < 20:
+            continue
+        try:
+            chart = stabilisation(freq, frf, (lo, hi), range(1, 9), criteria=crit)
+        except FrfError:  # pragma: no cover - too narrow after all
+            continue
+        b_lo, b_hi = chart.band_hz
+        out.extend(c for c in select_poles(chart, criteria=crit)
+                   if b_lo + 2 * df <= c.freq_hz <= b_hi - 2 * df)
+    return out
 
 
 def _dedupe(cands, criteria):
