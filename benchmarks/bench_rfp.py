@@ -49,7 +49,8 @@ def main() -> int:
     for name, kw in cases.items():
         t, fit = median_time(lambda: rfp.find_modes(case.freq, case.frf, **kw))
         err = max(np.min(np.abs(fit.freq_hz - f)) / f for f in case.freq_hz)
-        print(f"  {name:28s} {t * 1e3:7.1f} ms   {len(fit.modes)} modes, max error {100 * err:.4f} %")
+        print(f"  {name:28s} {t * 1e3:7.1f} ms   {len(fit.modes)} modes, "
+              f"max error {100 * err:.4f} %")
         if name == "auto bands" and t >= LIMIT_S:
             status = 1
     return status

@@ -73,7 +73,8 @@ def synth_frf(freq_hz, modes, points, *, kind: str = "receptance", noise: float 
     C = np.asarray(points)
     C = C.reshape(1, -1) if C.ndim == 1 else C
     if C.shape[1] != m.shape[0]:
-        raise ValueError(f"points has {C.shape[1]} modal constants per point, modes has {m.shape[0]}")
+        raise ValueError(f"points has {C.shape[1]} modal constants per point, "
+                         f"modes has {m.shape[0]}")
     w = 2 * np.pi * f
     wr, zr = 2 * np.pi * m[:, 0], m[:, 1]
     if np.any(wr == 0) and np.any(w == 0) and kind != "accelerance":
@@ -113,7 +114,8 @@ def plate_case(*, n_points: int = 5, resolution_hz: float = 1.0, n_lines: int = 
     ]
     rng = np.random.default_rng(1234)   # fixed "mode shapes", independent of the noise seed
     modes = list(base)
-    C = rng.uniform(0.4, 1.0, (n_points, len(base))) * rng.choice([-1.0, 1.0], (n_points, len(base)))
+    shape = (n_points, len(base))
+    C = rng.uniform(0.4, 1.0, shape) * rng.choice([-1.0, 1.0], shape)
     C[:, 4] *= weak
     for fx, zx, scale in extra_modes:
         modes.append((fx, zx))
@@ -124,10 +126,12 @@ def plate_case(*, n_points: int = 5, resolution_hz: float = 1.0, n_lines: int = 
     all_modes, all_C = list(modes), C
     if out_of_band:
         all_modes.append((2200.0, 0.01))
-        all_C = np.hstack([all_C, 1e-3 * (2 * np.pi * 2200.0) ** 2 * rng.uniform(1.0, 2.0, (n_points, 1))])
+        c_out = 1e-3 * (2 * np.pi * 2200.0) ** 2 * rng.uniform(1.0, 2.0, (n_points, 1))
+        all_C = np.hstack([all_C, c_out])
     if rigid:
         all_modes.append((0.0, 0.0))
-        all_C = np.hstack([all_C, 1e-3 * (2 * np.pi * 20.0) ** 2 * rng.uniform(0.5, 1.0, (n_points, 1))])
+        c_rigid = 1e-3 * (2 * np.pi * 20.0) ** 2 * rng.uniform(0.5, 1.0, (n_points, 1))
+        all_C = np.hstack([all_C, c_rigid])
     if kind != "receptance":   # keep similar peak heights in every kind
         all_C = all_C / (2 * np.pi * 500.0) ** KINDS.index(kind)
     H = synth_frf(freq, all_modes, all_C, kind=kind, noise=noise, noise_kind=noise_kind, seed=seed)

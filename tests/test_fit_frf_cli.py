@@ -133,3 +133,24 @@ def test_uff_and_csv_inputs_give_the_same_table(tmp_path, case):
         assert r.exit_code == 0, r.output
         outs.append([m["freq_hz"] for m in json.loads(r.output)["modes"]])
     assert np.allclose(outs[0], outs[1], rtol=1e-6)
+
+
+def test_into_a_real_specimen_keeps_it_loadable(tmp_path, h5, case):
+    from pathlib import Path
+
+    specimen = pytest.importorskip("laminid_cli.specimen")
+    src = Path(__file__).resolve().parents[1] / "specimens" / "example1" / "S1.1.yaml"
+    if not src.exists():
+        pytest.skip("example specimen not present")
+    spec = tmp_path / "S1.1.yaml"
+    spec.write_text(src.read_text())
+    r = run(["fit-frf", str(h5), "--into", str(spec)])
+    assert r.exit_code == 0, r.output
+    s = specimen.read_specimen(spec)
+    assert np.allclose(s.measured.freq, case.freq_hz, rtol=1e-3)
+    assert np.all(s.measured.sigma > 0)
+    before = yaml.safe_load(src.read_text())
+    after = yaml.safe_load(spec.read_text())
+    before.pop("measured"), after.pop("measured")
+    assert before == after
+    assert spec.read_text().splitlines()[:9] == src.read_text().splitlines()[:9]  # comments

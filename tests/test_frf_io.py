@@ -1,4 +1,4 @@
-"""FRF readers/writers (HDF5, UFF 58, CSV), the --into specimen editor and measured_from_frf_file."""
+"""FRF readers/writers (HDF5, UFF 58, CSV), the --into editor, measured_from_frf_file."""
 
 from __future__ import annotations
 

@@ -207,7 +207,8 @@ def read_frf_uff(path) -> FrfSet:
                 int(d.get("ref_node", 0)), int(d.get("ref_dir", 0)))
 
     coh_by_dof = {dof(d): np.asarray(d["data"]).real for d in sets
-                  if int(d.get("func_type", 0)) == UFF_COHERENCE and np.asarray(d["x"]).size == freq.size}
+                  if int(d.get("func_type", 0)) == UFF_COHERENCE
+                  and np.asarray(d["x"]).size == freq.size}
     coherence = None
     if coh_by_dof:
         coherence = np.array([coh_by_dof.get(dof(d), np.full(freq.size, np.nan)) for d in frfs])

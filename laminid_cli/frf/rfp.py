@@ -751,7 +751,8 @@ def refine_poles(freq, frf, cands, fixed_poles=(), *, w_ref: float, max_damping:
     out = []
     for r, c in enumerate(cands):
         fr, zr = f0[r] + sol.x[2 * r] * bw[r], z0[r] * np.exp(sol.x[2 * r + 1])
-        at_bound = np.isclose(abs(sol.x[2 * r]), lim[0]) or np.isclose(abs(sol.x[2 * r + 1]), lim[1])
+        at_bound = (np.isclose(abs(sol.x[2 * r]), lim[0])
+                    or np.isclose(abs(sol.x[2 * r + 1]), lim[1]))
         if at_bound or not (0 < zr <= max_damping):
             out.append(c)
         else:
@@ -934,9 +935,9 @@ def find_modes(freq, frf, *, bands=None, n_modes: int | None = None,
     if n_modes is not None:
         if len(modes) < n_modes:
             where = ", ".join(f"{c.band_hz[0]:g}:{c.band_hz[1]:g}" for c in charts)
+            listed = ", ".join(f"{m.freq_hz:.2f}" for m in modes)
             raise FrfError(f"asked for {n_modes} modes but the band(s) {where} Hz hold only "
-                           f"{len(modes)} stable modes"
-                           + (f" ({', '.join(f'{m.freq_hz:.2f}' for m in modes)} Hz)" if modes else "")
+                           f"{len(modes)} stable modes" + (f" ({listed} Hz)" if modes else "")
                            + "; widen the bands or ask fewer modes")
         modes = modes[:n_modes]
     return ModalFit(modes=tuple(modes), bands=tuple(band_fits), criteria=criteria)
