@@ -46,6 +46,12 @@ class FitError(LaminidError):
     exit_code = 1
 
 
+class FitInputError(FitError):
+    """An identification cannot start: its input is wrong (exit code 2)."""
+
+    exit_code = 2
+
+
 class FrfError(LaminidError):
     """An FRF file or FRF data is invalid (bad axis, NaN, no type-58 record...)."""
 

@@ -15,6 +15,12 @@ Common layout::
     /modes                w (n_nodes, n_modes) transverse displacement of the mass-normalised
                           modes (m/sqrt(kg)); phi (n_dofs, n_modes) all DOFs; dofs (n_dofs,)
     /global_properties    Ex, Ey, Gxy, Gxz, Gyz (Pa), nu_xy, nu_yx (1)
+
+Identification results ("laminid-result") add: root attrs converged, status, objective,
+evaluations, time_s, optimizer; /materials/<name> attrs parametrization, free; /initial/<name>
+(the starting constants); /frequencies/model_mode (pairing) and attrs rms_residual_percent;
+/history (evaluation, objective, rms_residual_percent, x, constants per evaluation);
+/sensitivities (dlnf_dlnP: d ln f_i / d ln P_j, dlambda_dx); /swaps and /warnings (strings).
 """
 
 from __future__ import annotations
@@ -122,9 +128,10 @@ def write_modes(f, plate, modes) -> None:
     put(g, "dofs", plate.dofs, "1")
 
 
-def write_global_properties(f, props, group: str = "global_properties") -> None:
+def write_global_properties(f, props: dict, group: str = "global_properties") -> None:
+    """Appendix A properties (name -> value, SI) with their units."""
     g = f.create_group(group)
-    for key, value in props.as_dict().items():
+    for key, value in props.items():
         put(g, key, value, GLOBAL_UNITS[key])
 
 
@@ -163,6 +170,90 @@ def write_modes_file(path, fm, modes, summary: dict) -> None:
         fr = summary["frequencies"]
         write_frequencies(f, fr["model"], fr["measured"], fr["weight"], fr["residual_percent"])
         write_modes(f, fm.plate, modes)
-        g = f.create_group("global_properties")
-        for key, value in summary["global_properties"].items():
-            put(g, key, value, GLOBAL_UNITS[key])
+        write_global_properties(f, summary["global_properties"])
+
+
+def identification_summary(r) -> dict:
+    """Everything ``laminid identify`` reports, as plain data (SI units, frequencies in Hz).
+
+    ``r`` is a :class:`laminid_cli.identify.Identification`.
+    """
+    spec = r.specimen
+    ref = spec.reference or {}
+    return {
+        "specimen": {"name": spec.name, "path": str(spec.path), "description": spec.description,
+                     "a": spec.a, "b": spec.b, "h": spec.h, "mass": spec.mass,
+                     "n_plies": len(spec.plies), "boundary": spec.boundary},
+        "materials": {n: c.as_dict() for n, c in zip(r.material_names, r.constants)},
+        "initial": {n: c.as_dict() for n, c in zip(r.material_names, r.initial)},
+        "free": {n: list(v) for n, v in r.free.items()},
+        "parametrization": dict(r.parametrization),
+        "reference": {"source": ref.get("source", ""), "materials": ref.get("materials", {}),
+                      "global": ref.get("global", {})},
+        "frequencies": {"measured": r.measured_hz, "model": r.model_hz,
+                        "residual_percent": r.residual_percent, "weight": r.weight,
+                        "model_mode": r.pairing + 1},
+        "rms_residual_percent": r.rms_residual_percent,
+        "initial_rms_residual_percent": r.initial_rms_residual_percent,
+        "global_properties": r.global_properties,
+        "objective": r.objective,
+        "iterations": r.evaluations,
+        "evaluations": r.evaluations,
+        "converged": r.converged,
+        "status": r.status,
+        "optimizer": {"slsqp": "LD_SLSQP", "mma": "LD_MMA"}[r.options.optimizer],
+        "time_s": r.time_s,
+        "swaps": list(r.swaps),
+        "warnings": list(r.warnings),
+    }
+
+
+def write_identification_file(path, fm, r, summary: dict, command: str = "laminid identify") -> None:
+    """Write an identification result (format "laminid-result", layout in the module docstring
+    plus /history, /sensitivities and the initial constants)."""
+    import h5py
+
+    with atomic_h5(path, "laminid-result", command=command) as f:
+        f.attrs["converged"] = bool(r.converged)
+        f.attrs["status"] = r.status
+        f.attrs["objective"] = float(r.objective)
+        f.attrs["evaluations"] = int(r.evaluations)
+        f.attrs["time_s"] = float(r.time_s)
+        f.attrs["optimizer"] = summary["optimizer"]
+        write_specimen(f, fm.specimen)
+        write_mesh(f, fm.plate)
+        write_materials(f, r.material_names, r.constants, fm.specimen.densities)
+        for name in r.material_names:
+            g = f["materials"][name.replace("/", "\u2215")]
+            g.attrs["parametrization"] = r.parametrization[name]
+            g.attrs["free"] = ",".join(r.free[name])
+        write_materials(f, r.material_names, r.initial, {}, group="initial")
+        write_frequencies(f, r.model_hz, r.measured_hz, r.weight, r.residual_percent)
+        put(f["frequencies"], "model_mode", r.pairing + 1, "1",
+            description="1-based index of the sorted model mode paired with each measured one")
+        f["frequencies"].attrs["rms_residual_percent"] = r.rms_residual_percent
+        f["frequencies"].attrs["initial_rms_residual_percent"] = r.initial_rms_residual_percent
+        g = f.create_group("modes")
+        put(g, "frequency", r.modes.freq, "Hz", description="all computed model modes, sorted")
+        put(g, "w", fm.plate.w_shape(r.phi_paired), "m/sqrt(kg)",
+            description="transverse displacement w0 at the mesh nodes of the model modes paired "
+            "with the measured ones (mass-normalised)")
+        put(g, "phi", r.phi_paired, "m/sqrt(kg)", compression="gzip",
+            description="all retained DOFs of the paired modes; DOF = node*9 + variable")
+        put(g, "dofs", fm.plate.dofs, "1")
+        h = f.create_group("history")
+        for key, unit in (("evaluation", "1"), ("objective", "1"), ("rms_residual_percent", "%")):
+            put(h, key, r.history[key], unit)
+        put(h, "x", r.history["x"], "1", labels=",".join(r.variable_labels))
+        labels = [f"{n}.{k}" for n in r.material_names for k in ("E1", "E2", "G12", "G13", "G23", "nu12")]
+        put(h, "constants", r.history["constants"], "Pa (nu12: 1)", labels=",".join(labels))
+        s = f.create_group("sensitivities")
+        put(s, "dlnf_dlnP", r.sensitivity, "1", labels=",".join(r.sensitivity_labels),
+            description="normalised sensitivity d ln f_i / d ln P_j of each measured mode to "
+            "each constant at the optimum")
+        put(s, "dlambda_dx", r.dlam_dx, "rad^2/s^2", labels=",".join(r.variable_labels),
+            description="eigenvalue derivatives w.r.t. the design variables (paper Eq. 26)")
+        write_global_properties(f, r.global_properties)
+        str_dt = h5py.string_dtype()
+        f.create_dataset("swaps", data=np.array(list(r.swaps), dtype=object), dtype=str_dt)
+        f.create_dataset("warnings", data=np.array(list(r.warnings), dtype=object), dtype=str_dt)

@@ -76,3 +76,61 @@ def format_modes_report(s: dict) -> str:
     if "time_s" in s:
         lines.append(f"time {s['time_s']:.2f} s")
     return "\n".join(lines)
+
+
+def format_identify_report(s: dict) -> str:
+    """Terminal report of an identification, in the shape of the paper's Tables 1-3."""
+    sp = s["specimen"]
+    lines = [f"{sp['name']}" + (f" — {sp['description']}" if sp.get("description") else ""),
+             f"plate {sp['a'] * 1e3:.4g} x {sp['b'] * 1e3:.4g} x {sp['h'] * 1e3:.4g} mm, "
+             f"{sp['n_plies']} plies, boundary {sp['boundary']}"]
+    state = s["status"] if s["converged"] else f"NOT CONVERGED — {s['status']}"
+    lines.append(f"{s['optimizer']}: {state}; {s['evaluations']} evaluations, "
+                 f"{s['time_s']:.2f} s")
+    ref = s.get("reference") or {}
+    ref_mats = ref.get("materials") or {}
+    for name, ident in s["materials"].items():
+        init = s["initial"][name]
+        free = set(s["free"].get(name, ()))
+        param = s["parametrization"].get(name, "")
+        lines.append("")
+        lines.append(f"material {name} (variables: "
+                     + ("paper Eq. 14, E1/E1_0 and alphas" if param == "alpha"
+                        else "free constants / initial values") + ")")
+        rm = ref_mats.get(name, {})
+        lines.append(f"  {'constant':<10} {'initial':>12} {'identified':>12}  "
+                     f"{'reference' if rm else ''}")
+        for k in (*MODULI, "nu12"):
+            note = "" if k in free else "  (fixed)"
+            lines.append(f"  {k + (' [GPa]' if k != 'nu12' else ''):<10} "
+                         f"{_num(k, init[k]):>12} {_num(k, ident[k]):>12}  "
+                         f"{_num(k, rm.get(k)) if k in rm else '':>10}{note}")
+    if ref.get("source") and (ref_mats or ref.get("global")):
+        lines.append(f"  reference: {' '.join(str(ref['source']).split())}")
+    lines.append("")
+    fr = s["frequencies"]
+    extra = {}
+    if any(m != i + 1 for i, m in enumerate(fr["model_mode"])):
+        extra["model #"] = [str(m) for m in fr["model_mode"]]
+    lines += format_frequency_table(fr, extra)
+    lines.append(f"RMS residual {s['rms_residual_percent']:.3f} % "
+                 f"(initial guess {s['initial_rms_residual_percent']:.2f} %), objective "
+                 f"{s['objective']:.4g}")
+    lines.append("")
+    lines += format_global(s["global_properties"])
+    gref = ref.get("global") or {}
+    if gref:
+        lines.append("    reference: " + ", ".join(
+            f"{k} {v / 1e9:.2f} GPa" if not k.startswith("nu") else f"{k} {v:.3f}"
+            for k, v in gref.items()))
+    for msg in s.get("swaps", []):
+        lines.append(f"note: {msg}")
+    for msg in s.get("warnings", []):
+        lines.append(f"warning: {msg}")
+    return "\n".join(lines)
+
+
+def _num(name: str, value) -> str:
+    if value is None or not math.isfinite(value):
+        return "-"
+    return f"{value:.3f}" if name == "nu12" else f"{value / 1e9:.2f}"

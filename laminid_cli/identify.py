@@ -1,0 +1,491 @@
+"""Identification of ply elastic constants from natural frequencies (paper section 4).
+
+Minimise (paper Eqs 15-17)::
+
+    Phi(x) = sum_i w_i ((lt_i - l_i(x)) / lt_i)^2  +  sum_j wp_j ((P_j(x) - P_j0) / P_j0)^2
+
+with lt_i the measured eigenvalues (2 pi f_i)^2, l_i the model's, w_i the weights of the
+specimen file and wp_j the optional prior weights (Eq. 15 with the reliability of the initial
+values, per engineering constant). Design variables x per material: laminid_cli.parametrization.
+
+Gradient (Eqs 24-27): ``d l_i / d x = sum_j E[m, j, i] d coef[m, j] / d x`` where
+``E[m, j, i] = phi_i^T K_basis[m, j] phi_i`` are the basis strain energies of the
+mass-normalised modes (PlateModel.basis_energies): one factorisation and one Lanczos run per
+step plus cheap products; no finite differences.
+
+Mode pairing: measured mode i is paired with the i-th model mode at the initial point (sorted
+order, as in the paper); from then on each paired mode is followed from one evaluation to the
+next by the modal assurance criterion (MAC, mass-weighted) with an optimal assignment, so two
+modes that swap order keep their identity. Swaps are recorded. ``pairing="sorted"`` keeps the
+paper's plain sorted order.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from laminid_cli.errors import FitError, FitInputError, LaminidError
+from laminid_cli.forward import ForwardModel, residuals_percent, weighted_rms
+from laminid_cli.material import CONSTANT_NAMES, ElasticConstants
+from laminid_cli.modal import mac
+from laminid_cli.parametrization import coefficients_and_jacobian, make_parameters
+
+log = logging.getLogger(__name__)
+
+OPTIMIZERS = ("slsqp", "mma")
+PAIRINGS = ("track", "sorted")
+#: damping of the Gauss-Newton scaling, relative to its largest diagonal term
+DAMPING = 1e-2
+
+
+@dataclass(frozen=True)
+class IdentifyOptions:
+    """Settings of an identification run.
+
+    fix : constants held at their initial values, as "nu12" (every material) or
+        "glass.nu12" (one material); added to each material's ``fixed`` list in the specimen
+    optimizer : 'slsqp' (nlopt LD_SLSQP, default) or 'mma' (nlopt LD_MMA)
+    parametrization : 'auto' (paper Eq. 14 alphas where all constants are free), 'alpha', 'constants'
+    xtol_rel : step tolerance on the Gauss-Newton-scaled variables (a step of 1 changes the
+        objective by about its initial value), ftol_rel : relative objective tolerance,
+        max_evaluations : nlopt stopping criteria
+    pairing : 'track' (sorted at the start, then MAC tracking) or 'sorted'
+    extra_modes : model modes computed beyond the measured ones (room for swaps)
+    nu_max : |nu12| bound (< 1 keeps the constitutive matrix positive definite)
+    bound_factor : moduli stay within [P0 / f, P0 * f]
+    far_limit : a measured frequency more than this fraction away from its model mode at the
+        initial guess is refused (wrong units, density, or mode numbering)
+    """
+
+    fix: tuple[str, ...] = ()
+    optimizer: str = "slsqp"
+    parametrization: str = "auto"
+    xtol_rel: float = 1e-6
+    ftol_rel: float = 1e-8
+    max_evaluations: int = 300
+    pairing: str = "track"
+    extra_modes: int = 4
+    nu_max: float = 0.95
+    bound_factor: float = 5.0
+    far_limit: float = 0.5
+
+
+@dataclass
+class Evaluation:
+    """One model evaluation during the optimisation."""
+
+    x: np.ndarray
+    objective: float
+    gradient: np.ndarray
+    eigenvalues: np.ndarray          # (n_measured,) paired model eigenvalues, rad^2/s^2
+    pairing: np.ndarray              # (n_measured,) index of the model mode paired with each
+    dlam_dx: np.ndarray              # (n_measured, n_vars)
+    phi: np.ndarray                  # (n_dofs, n_measured) paired mode shapes
+    modes: object                    # Modes (all computed)
+
+
+@dataclass(frozen=True)
+class Identification:
+    """Result of :func:`identify` (SI units, frequencies in Hz)."""
+
+    specimen: object
+    material_names: tuple[str, ...]
+    initial: tuple[ElasticConstants, ...]
+    constants: tuple[ElasticConstants, ...]
+    free: dict                               # material -> tuple of free constants
+    parametrization: dict                    # material -> 'alpha' | 'constants'
+    variable_labels: tuple[str, ...]
+    x: np.ndarray
+    objective: float
+    evaluations: int
+    converged: bool
+    status: str
+    time_s: float
+    measured_hz: np.ndarray
+    weight: np.ndarray
+    model_hz: np.ndarray                     # paired model frequencies
+    pairing: np.ndarray                      # model mode index (0-based) of each measured mode
+    residual_percent: np.ndarray
+    rms_residual_percent: float
+    initial_rms_residual_percent: float
+    modes: object                            # Modes at the optimum (all computed, sorted)
+    phi_paired: np.ndarray                   # (n_dofs, n_measured)
+    dlam_dx: np.ndarray                      # (n_measured, n_vars) at the optimum
+    sensitivity: np.ndarray                  # (n_measured, n_materials * 6) d ln f / d ln P
+    sensitivity_labels: tuple[str, ...]
+    history: dict                            # arrays over evaluations
+    swaps: tuple[str, ...]
+    bounds_hit: tuple[str, ...]
+    warnings: tuple[str, ...]
+    global_properties: dict
+    options: IdentifyOptions = field(default_factory=IdentifyOptions)
+
+
+class Problem:
+    """Objective, gradient and constraints of one identification, with evaluation cache."""
+
+    def __init__(self, fm: ForwardModel, options: IdentifyOptions):
+        self.fm = fm
+        self.options = options
+        spec = fm.specimen
+        if options.optimizer not in OPTIMIZERS:
+            raise FitInputError(f"optimizer '{options.optimizer}' unknown: choose {', '.join(OPTIMIZERS)}")
+        if options.pairing not in PAIRINGS:
+            raise FitInputError(f"pairing '{options.pairing}' unknown: choose {', '.join(PAIRINGS)}")
+        if spec.measured is None or spec.measured.freq.size == 0:
+            raise FitInputError(f"{spec.path}: no measured frequencies (field 'measured.frequencies')")
+        self.freq = spec.measured.freq.astype(float)
+        self.weight = np.where(np.isfinite(self.freq), spec.measured.weight, 0.0)
+        self.lam_meas = (2 * np.pi * np.nan_to_num(self.freq, nan=1.0)) ** 2
+        self.n_meas = self.freq.size
+        fixed_all = _parse_fix(options.fix, fm.material_names, spec.path)
+        self.params = []
+        for name, c0 in zip(fm.material_names, fm.initial_constants):
+            mat = spec.materials[name]
+            fixed = tuple(dict.fromkeys(tuple(mat.fixed) + fixed_all.get(name, ())))
+            self.params.append(make_parameters(
+                name, c0, fixed, kind=options.parametrization, prior=bool(mat.prior),
+                nu_max=options.nu_max, bound_factor=options.bound_factor))
+        self.sizes = [len(p.x0()) for p in self.params]
+        self.offsets = np.concatenate([[0], np.cumsum(self.sizes)])
+        self.n_vars = int(self.offsets[-1])
+        self.labels = tuple(f"{p.name}.{lab}" for p in self.params for lab in p.labels)
+        # prior (Eq. 15): relative deviation of engineering constants from their initial values
+        self.prior = [{k: float(w) for k, w in spec.materials[p.name].prior.items()}
+                      for p in self.params]
+        n_active = int((self.weight > 0).sum())
+        if n_active == 0:
+            raise FitInputError(f"{spec.path}: every measured frequency has weight 0; nothing to fit")
+        if self.n_vars == 0:
+            raise FitInputError(f"{spec.path}: every constant is fixed; nothing to identify")
+        if n_active < self.n_vars and not any(self.prior):
+            raise FitInputError(f"{spec.path}: {n_active} weighted frequencies for {self.n_vars} free "
+                           "constants; measure more modes or fix constants (--fix nu12,G13,G23)")
+        self.n_model = self.n_meas + options.extra_modes
+        self.best: Evaluation | None = None   # tracking reference: lowest objective so far
+        self.cache: tuple[bytes, Evaluation] | None = None
+        self.swaps: list[str] = []
+        self.history: list[tuple] = []
+        self.n_eval = 0
+
+    # --- variables ---------------------------------------------------------------------------
+    def x0(self) -> np.ndarray:
+        return np.concatenate([p.x0() for p in self.params])
+
+    def split(self, x):
+        return [x[self.offsets[k]:self.offsets[k + 1]] for k in range(len(self.params))]
+
+    def constants(self, x) -> tuple[ElasticConstants, ...]:
+        return tuple(p.constants(xk) for p, xk in zip(self.params, self.split(x)))
+
+    def bounds(self):
+        lo, hi = zip(*(p.bounds() for p in self.params))
+        return np.concatenate(lo), np.concatenate(hi)
+
+    def linear_constraints(self):
+        rows, rhs = [], []
+        for k, p in enumerate(self.params):
+            A, b = p.linear_constraints()
+            full = np.zeros((A.shape[0], self.n_vars))
+            full[:, self.offsets[k]:self.offsets[k + 1]] = A
+            rows.append(full)
+            rhs.append(b)
+        return np.vstack(rows), np.concatenate(rhs)
+
+    def feasible(self, x, tol: float = 1e-9) -> bool:
+        lo, hi = self.bounds()
+        A, b = self.linear_constraints()
+        return bool(np.all(x >= lo - tol) and np.all(x <= hi + tol) and np.all(A @ x <= b + tol))
+
+    # --- evaluation --------------------------------------------------------------------------
+    def evaluate(self, x) -> Evaluation:
+        x = np.asarray(x, float)
+        key = x.tobytes()
+        if self.cache is not None and self.cache[0] == key:
+            return self.cache[1]
+        if not self.feasible(x, tol=1e-7):
+            # never reached with linear constraints kept by the optimiser; refuse anyway
+            raise FitError("the optimiser asked for a point outside the feasible region "
+                           "(constitutive matrix not positive definite); not evaluated")
+        coefs, jacs = zip(*(p.coef_jacobian(xk) for p, xk in zip(self.params, self.split(x))))
+        coef = np.array(coefs)
+        v0 = None if self.best is None else self.best.phi.sum(axis=1)
+        modes = self.fm.solve(n_modes=self.n_model, coef=coef, v0=v0)
+        pairing = self._pair(modes)
+        phi = modes.phi[:, pairing]
+        lam = modes.eigenvalues[pairing]
+        E = self.fm.plate.basis_energies(phi)                         # (n_mat, 6, n_meas)
+        dlam_dx = np.zeros((self.n_meas, self.n_vars))
+        for k, J in enumerate(jacs):
+            dlam_dx[:, self.offsets[k]:self.offsets[k + 1]] = E[k].T @ J
+        rel = (self.lam_meas - lam) / self.lam_meas
+        w = self.weight
+        phi_val = float(np.sum(w * rel**2))
+        grad = -2 * (w * rel / self.lam_meas) @ dlam_dx                # paper Eq. 24
+        pv, pg = self._prior(x)
+        ev = Evaluation(x=x.copy(), objective=phi_val + pv, gradient=grad + pg, eigenvalues=lam,
+                        pairing=pairing, dlam_dx=dlam_dx, phi=phi, modes=modes)
+        if self.best is None or ev.objective < self.best.objective:
+            self.best = ev
+        self.cache = (key, ev)
+        self.n_eval += 1
+        f_model = np.sqrt(lam) / (2 * np.pi)
+        rms = weighted_rms(residuals_percent(self.freq, f_model), self.weight)
+        self.history.append((self.n_eval, ev.objective, rms, x.copy(),
+                             np.concatenate([c.as_array() for c in self.constants(x)])))
+        log.info("evaluation %d: objective %.6g, RMS residual %.4f %%", self.n_eval,
+                 ev.objective, rms)
+        return ev
+
+    def _pair(self, modes) -> np.ndarray:
+        """Model mode paired with each measured one: sorted at the start, then MAC tracking
+        against the best evaluation so far (line-search trial points can be far off)."""
+        sorted_pairing = np.arange(self.n_meas)
+        if self.options.pairing == "sorted" or self.best is None:
+            return sorted_pairing
+        from scipy.optimize import linear_sum_assignment
+
+        M = mac(self.best.phi, modes.phi, self.fm.plate.M)           # (n_meas, n_model)
+        rows, cols = linear_sum_assignment(-M)
+        pairing = cols[np.argsort(rows)]
+        weak = M[np.arange(self.n_meas), pairing] < 0.5
+        if weak.any():
+            log.debug("mode tracking uncertain for measured mode(s) %s (MAC < 0.5)",
+                      ", ".join(str(i + 1) for i in np.flatnonzero(weak)))
+        prev = self.best.pairing
+        if not np.array_equal(pairing, prev) and not weak.any():
+            changed = [f"measured mode {i + 1}: model mode {prev[i] + 1} -> {pairing[i] + 1}"
+                       for i in range(self.n_meas) if pairing[i] != prev[i]]
+            msg = f"evaluation {self.n_eval + 1}: modes swapped order ({'; '.join(changed)})"
+            self.swaps.append(msg)
+            log.info(msg)
+        return pairing
+
+    def _prior(self, x):
+        """Eq. 15 second term on relative engineering constants, and its gradient."""
+        value, grad = 0.0, np.zeros(self.n_vars)
+        for k, (p, xk) in enumerate(zip(self.params, self.split(x))):
+            if not self.prior[k]:
+                continue
+            scale = np.array([1.0 if n == "nu12" else p.initial.as_array()[i]
+                              for i, n in enumerate(CONSTANT_NAMES)])
+            P = p.constants(xk).as_array()
+            P0 = p.initial.as_array()
+            for name, wp in self.prior[k].items():
+                if name not in p.free:
+                    continue
+                i = CONSTANT_NAMES.index(name)
+                ref = P0[i] if P0[i] != 0 else 1.0
+                dev = (P[i] - P0[i]) / ref
+                value += wp * dev**2
+                j = self.offsets[k] + p.free.index(name)
+                grad[j] += 2 * wp * dev * scale[i] / ref
+        return value, grad
+
+
+def _parse_fix(fix, names, path) -> dict:
+    out: dict[str, tuple] = {}
+    for item in fix:
+        item = item.strip()
+        if not item:
+            continue
+        if "." in item and item.rsplit(".", 1)[1] in CONSTANT_NAMES:
+            mat, const = item.rsplit(".", 1)
+            targets = [mat]
+            if mat not in names:
+                raise FitInputError(f"--fix {item}: no material '{mat}' in {path} "
+                               f"(materials: {', '.join(names)})")
+        else:
+            const, targets = item, list(names)
+        if const not in CONSTANT_NAMES:
+            raise FitInputError(f"--fix {item}: '{const}' is not a constant; choose from "
+                           f"{', '.join(CONSTANT_NAMES)}")
+        for t in targets:
+            out[t] = out.get(t, ()) + (const,)
+    return out
+
+
+def check_start(problem: Problem, ev: Evaluation) -> list[str]:
+    """Refuse hopeless starts; return warnings for doubtful ones."""
+    f_model = np.sqrt(ev.eigenvalues) / (2 * np.pi)
+    ok = problem.weight > 0
+    ratio = np.abs(problem.freq - f_model) / problem.freq
+    far = ok & (ratio > problem.options.far_limit)
+    if far.any():
+        i = int(np.flatnonzero(far)[0])
+        raise FitInputError(
+            f"{problem.fm.specimen.path}: measured mode {i + 1} ({problem.freq[i]:.2f} Hz) is "
+            f"{ratio[i] * 100:.0f} % away from the model ({f_model[i]:.2f} Hz) at the initial "
+            f"guess (limit {problem.options.far_limit * 100:.0f} %): check the units, the mass/"
+            "density, the geometry and the initial constants")
+    return [f"measured mode {i + 1} is {ratio[i] * 100:.0f} % from the model at the start"
+            for i in np.flatnonzero(ok & (ratio > 0.25))]
+
+
+def identify(fm: ForwardModel, options: IdentifyOptions = IdentifyOptions(),
+             progress=None) -> Identification:
+    """Identify the constants of every material of ``fm.specimen`` (see module docstring).
+
+    ``progress(evaluation, objective, rms_percent)`` is called after each model evaluation.
+    Raises FitError for hopeless input; a run that stops before convergence returns with
+    ``converged = False`` and a status message.
+    """
+    import nlopt
+
+    t0 = time.perf_counter()
+    prob = Problem(fm, options)
+    x0 = prob.x0()
+    if not prob.feasible(x0):
+        raise FitInputError(f"{fm.specimen.path}: the initial constants (with the fixed ones) are "
+                       "outside the feasible region of Eq. 22 (E2 <= E1, |nu12| < "
+                       f"{options.nu_max}, positive moduli)")
+    ev0 = prob.evaluate(x0)
+    warnings = check_start(prob, ev0)
+    initial_rms = prob.history[0][2]
+
+    # Variables scaled by the Gauss-Newton Hessian at the start, y = L^T (x - x0) with
+    # L L^T = 2 J^T W J / Phi0 (+ damping): SLSQP's first quasi-Newton step is then close to a
+    # Gauss-Newton step instead of a raw gradient step that jumps to the bounds. Bounds and
+    # the feasibility constraints become linear constraints on y (still a polytope).
+    scale = max(ev0.objective, 1e-300)
+    L = _gauss_newton_factor(prob, ev0, scale)
+    T = np.linalg.inv(L.T)                                            # x = x0 + T y
+    lo, hi = prob.bounds()
+    A, b = prob.linear_constraints()
+    A_all = np.vstack([A, np.eye(prob.n_vars), -np.eye(prob.n_vars)])
+    b_all = np.concatenate([b, hi, -lo])
+    Ay = A_all @ T
+    by = b_all - A_all @ x0
+    span = np.abs(L.T) @ np.maximum(hi - x0, x0 - lo)                 # a finite box for MMA
+
+    algo = nlopt.LD_SLSQP if options.optimizer == "slsqp" else nlopt.LD_MMA
+    opt = nlopt.opt(algo, prob.n_vars)
+    opt.set_lower_bounds(-span)
+    opt.set_upper_bounds(span)
+
+    def cons(result, y, grad):
+        if grad.size:
+            grad[:] = Ay
+        result[:] = Ay @ y - by
+
+    opt.add_inequality_mconstraint(cons, np.full(Ay.shape[0], 1e-12))
+
+    def objective(y, grad):
+        ev = prob.evaluate(x0 + T @ y)
+        if grad.size:
+            grad[:] = T.T @ ev.gradient / scale
+        if progress is not None:
+            progress(prob.n_eval, ev.objective, prob.history[-1][2])
+        return ev.objective / scale
+
+    opt.set_min_objective(objective)
+    opt.set_xtol_abs(np.full(prob.n_vars, options.xtol_rel))
+    opt.set_ftol_rel(options.ftol_rel)
+    opt.set_maxeval(options.max_evaluations)
+    status = ""
+    try:
+        x_best = x0 + T @ opt.optimize(np.zeros(prob.n_vars))
+        code = opt.last_optimize_result()
+        converged = code in (nlopt.SUCCESS, nlopt.FTOL_REACHED, nlopt.XTOL_REACHED,
+                             nlopt.STOPVAL_REACHED)
+        status = {nlopt.SUCCESS: "converged", nlopt.FTOL_REACHED: "converged (objective "
+                  "tolerance reached)", nlopt.XTOL_REACHED: "converged (variable tolerance "
+                  "reached)", nlopt.MAXEVAL_REACHED: f"not converged: {options.max_evaluations} "
+                  "evaluations reached (raise --max-evaluations or loosen --xtol/--ftol)",
+                  nlopt.MAXTIME_REACHED: "not converged: time limit"}.get(code, f"stopped ({code})")
+    except nlopt.RoundoffLimited:
+        x_best = _best_x(prob)
+        converged = _stalled(prob)
+        status = ("converged (stopped by round-off: no further decrease is resolvable)"
+                  if converged else "not converged: stopped by round-off errors")
+    except LaminidError:
+        raise
+    except (RuntimeError, ValueError) as exc:
+        x_best = _best_x(prob)
+        converged = False
+        status = f"not converged: optimiser failure ({exc})"
+    # the optimiser's answer may not be the last evaluation: evaluate it (cached if it is)
+    best = _best_x(prob)
+    if prob.evaluate(best).objective < prob.evaluate(x_best).objective:
+        x_best = best
+    ev = prob.evaluate(x_best)
+    return _result(prob, ev, converged, status, warnings, initial_rms, time.perf_counter() - t0)
+
+
+def _gauss_newton_factor(prob: Problem, ev: Evaluation, scale: float) -> np.ndarray:
+    """Lower Cholesky factor of the damped Gauss-Newton Hessian of Phi / scale at ``ev``."""
+    Jr = -(np.sqrt(prob.weight) / prob.lam_meas)[:, None] * ev.dlam_dx
+    H = 2 * Jr.T @ Jr / scale
+    for k, p in enumerate(prob.params):                   # prior term, Eq. 15
+        for name, wp in prob.prior[k].items():
+            if name in p.free:
+                j = prob.offsets[k] + p.free.index(name)
+                ref = p.initial.as_array()[CONSTANT_NAMES.index(name)]
+                sc = 1.0 if name == "nu12" else ref
+                H[j, j] += 2 * wp * (sc / (ref if ref else 1.0)) ** 2 / scale
+    d = np.diag(H).copy()
+    H += np.diag(DAMPING * max(d.max(), 1e-300) + 1e-3 * d)  # Levenberg-Marquardt-type damping
+    return np.linalg.cholesky(H)
+
+
+def _best_x(prob: Problem) -> np.ndarray:
+    k = int(np.argmin([h[1] for h in prob.history]))
+    return prob.history[k][3]
+
+
+def _stalled(prob: Problem) -> bool:
+    """Round-off stop at an optimum: the best objective stopped changing."""
+    obj = np.array([h[1] for h in prob.history])
+    if obj.size < 4:
+        return False
+    best = np.minimum.accumulate(obj)
+    return bool(abs(best[-4] - best[-1]) <= 1e-8 * max(best[-1], 1e-300) or best[-1] < 1e-20)
+
+
+def _result(prob: Problem, ev: Evaluation, converged, status, warnings, initial_rms, dt):
+    fm = prob.fm
+    constants = prob.constants(ev.x)
+    f_model = np.sqrt(ev.eigenvalues) / (2 * np.pi)
+    residual = residuals_percent(prob.freq, f_model)
+    # normalised sensitivities d ln f_i / d ln P_j for every constant of every material
+    E = fm.plate.basis_energies(ev.phi)
+    sens, labels = [], []
+    for k, c in enumerate(constants):
+        _, Jc = coefficients_and_jacobian(c)
+        dlam_dP = E[k].T @ Jc                                        # (n_meas, 6)
+        P = c.as_array()
+        sens.append(dlam_dP * P[None, :] / (2 * ev.eigenvalues[:, None]))
+        labels += [f"{fm.material_names[k]}.{n}" for n in CONSTANT_NAMES]
+    lo, hi = prob.bounds()
+    A, b = prob.linear_constraints()
+    hit = [f"{prob.labels[i]} at its {'lower' if abs(ev.x[i] - lo[i]) < abs(ev.x[i] - hi[i]) else 'upper'} bound"
+           for i in range(prob.n_vars)
+           if min(abs(ev.x[i] - lo[i]), abs(ev.x[i] - hi[i])) <= 1e-6 * max(1.0, abs(ev.x[i]))]
+    active = np.flatnonzero(A @ ev.x - b > -1e-7) if A.shape[0] else []
+    hit += [f"feasibility constraint {int(j) + 1} active (a modulus at its minimum, E2 = E1 or "
+            f"|nu12| = {prob.options.nu_max})" for j in active]
+    if hit:
+        warnings = list(warnings) + [f"the optimum runs into a bound: {'; '.join(hit)}"]
+    hist = prob.history
+    lam = fm.laminate.with_constants(constants)
+    return Identification(
+        specimen=fm.specimen, material_names=fm.material_names, initial=fm.initial_constants,
+        constants=constants, free={p.name: tuple(p.free) for p in prob.params},
+        parametrization={p.name: p.kind for p in prob.params}, variable_labels=prob.labels,
+        x=ev.x, objective=ev.objective, evaluations=prob.n_eval, converged=bool(converged),
+        status=status, time_s=dt, measured_hz=prob.freq, weight=prob.weight, model_hz=f_model,
+        pairing=ev.pairing, residual_percent=residual,
+        rms_residual_percent=weighted_rms(residual, prob.weight),
+        initial_rms_residual_percent=initial_rms, modes=ev.modes, phi_paired=ev.phi,
+        dlam_dx=ev.dlam_dx, sensitivity=np.hstack(sens), sensitivity_labels=tuple(labels),
+        history={"evaluation": np.array([h[0] for h in hist]),
+                 "objective": np.array([h[1] for h in hist]),
+                 "rms_residual_percent": np.array([h[2] for h in hist]),
+                 "x": np.array([h[3] for h in hist]),
+                 "constants": np.array([h[4] for h in hist])},
+        swaps=tuple(prob.swaps), bounds_hit=tuple(hit), warnings=tuple(warnings),
+        global_properties=lam.global_properties().as_dict(), options=prob.options)

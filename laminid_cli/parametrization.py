@@ -1,0 +1,224 @@
+"""Design variables of one material and their maps to the stiffness coefficients.
+
+The plate stiffness depends on a material only through the six coefficients
+``coef = s [1, a2, a3, a4, a8, a9]`` with ``s = E1 / (8 alpha0)`` (laminid_cli.fe.assembly). In
+engineering constants they are (from Eq. 4)::
+
+    t = s E2 / E1,   s = E1^2 / (8 (E1 - nu12^2 E2))
+    coef = [s, 4 s - 4 t, s + (1 - 2 nu12) t - G12/2, s + (1 + 6 nu12) t - G12/2,
+            (G13 + G23)/2, (G13 - G23)/2]
+
+Two parametrisations, both with analytic Jacobians ``d coef / d x``:
+
+- :class:`AlphaParameters` — the paper's Eq. 14: ``x = [E1/E1_0, a2, a3, a4, a8, a9]``, all six
+  constants free (the default, as in the paper);
+- :class:`ConstantParameters` — the free engineering constants, moduli divided by their initial
+  values and nu12 as is; used when some constants are fixed or a prior (Eq. 15) is given.
+
+Feasibility (paper Eqs 21/22) is imposed as *linear* inequalities ``A x <= b`` plus bounds,
+chosen strictly inside the positive-definite region: moduli above a small fraction of E1,
+E2 <= E1, and |nu12| <= nu_max < 1 <= sqrt(E1/E2). The feasible set is then a polytope, so an
+optimiser that keeps linear constraints (SLSQP's line search between feasible points, MMA's
+conservative steps) never produces a point where the constitutive matrix is not positive
+definite.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from laminid_cli.errors import FitInputError
+from laminid_cli.material import (CONSTANT_NAMES, ElasticConstants, alphas_from_constants,
+                                  constants_from_alphas)
+
+#: smallest modulus allowed, as a fraction of E1 (keeps Q safely positive definite)
+MIN_MODULUS_RATIO = 1e-4
+
+
+def coefficients_and_jacobian(c: ElasticConstants) -> tuple[np.ndarray, np.ndarray]:
+    """Stiffness coefficients (6,) Pa and their derivatives w.r.t. the constants (6, 6).
+
+    Columns of the Jacobian follow :data:`~laminid_cli.material.CONSTANT_NAMES`
+    (E1, E2, G12, G13, G23, nu12); moduli derivatives are dimensionless, nu12's in Pa.
+    """
+    E1, E2, G12, G13, G23, nu = c.E1, c.E2, c.G12, c.G13, c.G23, c.nu12
+    D = E1 - nu**2 * E2
+    s = E1**2 / (8 * D)
+    t = E1 * E2 / (8 * D)
+    ds = np.array([E1 * (E1 - 2 * nu**2 * E2), E1**2 * nu**2, 0, 0, 0, 2 * E1**2 * nu * E2]) / (8 * D**2)
+    dt = np.array([-nu**2 * E2**2, E1**2, 0, 0, 0, 2 * E1 * E2**2 * nu]) / (8 * D**2)
+    coef = np.array([s, 4 * s - 4 * t, s + (1 - 2 * nu) * t - G12 / 2,
+                     s + (1 + 6 * nu) * t - G12 / 2, (G13 + G23) / 2, (G13 - G23) / 2])
+    J = np.zeros((6, 6))
+    J[0] = ds
+    J[1] = 4 * ds - 4 * dt
+    J[2] = ds + (1 - 2 * nu) * dt
+    J[2, 5] += -2 * t
+    J[2, 2] += -0.5
+    J[3] = ds + (1 + 6 * nu) * dt
+    J[3, 5] += 6 * t
+    J[3, 2] += -0.5
+    J[4, 3], J[4, 4] = 0.5, 0.5
+    J[5, 3], J[5, 4] = 0.5, -0.5
+    return coef, J
+
+
+@dataclass(frozen=True)
+class AlphaParameters:
+    """Paper Eq. 14: x = [E1/E1_0, a2, a3, a4, a8, a9] for one material, all constants free."""
+
+    name: str
+    initial: ElasticConstants
+    nu_max: float = 0.95
+    bound_factor: float = 5.0
+
+    kind = "alpha"
+
+    @property
+    def free(self) -> tuple[str, ...]:
+        return CONSTANT_NAMES
+
+    @property
+    def labels(self) -> tuple[str, ...]:
+        return ("E1/E1_0", "alpha2", "alpha3", "alpha4", "alpha8", "alpha9")
+
+    def x0(self) -> np.ndarray:
+        a = alphas_from_constants(self.initial)
+        return np.array([1.0, a[1], a[2], a[3], a[4], a[5]])
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        f = self.bound_factor
+        r = MIN_MODULUS_RATIO
+        lo = np.array([1 / f, 0.0, -20.0, -20.0, 8 * r, -8.0])
+        hi = np.array([f, 4.0 * (1 - r), 20.0, 20.0, 8.0, 8.0])
+        return lo, hi
+
+    def linear_constraints(self) -> tuple[np.ndarray, np.ndarray]:
+        """A x <= b: G12, G13, G23 >= r E1 and |nu12| <= nu_max (Eqs 21/22, sufficient form)."""
+        r, n = MIN_MODULUS_RATIO, self.nu_max
+        A = np.array([
+            [0, 1, 3, 1, 0, 0],          # 8 - a2 - 3 a3 - a4 >= 16 r   (G12/E1 >= r)
+            [0, 0, 0, 0, -1, 1],         # a8 - a9 >= 8 r               (G23/E1 >= r)
+            [0, 0, 0, 0, -1, -1],        # a8 + a9 >= 8 r               (G13/E1 >= r)
+            [0, 2 * n, -1, 1, 0, 0],     # a4 - a3 <= 2 nu_max (4 - a2)
+            [0, 2 * n, 1, -1, 0, 0],     # a3 - a4 <= 2 nu_max (4 - a2)
+        ], dtype=float)
+        b = np.array([8 - 16 * r, -8 * r, -8 * r, 8 * n, 8 * n])
+        return A, b
+
+    def constants(self, x) -> ElasticConstants:
+        c = constants_from_alphas(x[0] * self.initial.E1, *x[1:])
+        return ElasticConstants.from_array(c.as_array())
+
+    def coef_jacobian(self, x) -> tuple[np.ndarray, np.ndarray]:
+        """coef (6,) and d coef / d x (6, 6)."""
+        a1, a2, a3, a4, a8, a9 = x
+        d = a4 - a3
+        a0 = 1 - d**2 / (16 * (4 - a2))
+        da0 = np.array([0, -d**2 / (16 * (4 - a2) ** 2), 2 * d / (16 * (4 - a2)),
+                        -2 * d / (16 * (4 - a2)), 0, 0])
+        s = a1 * self.initial.E1 / (8 * a0)
+        ds = -s / a0 * da0
+        ds[0] = self.initial.E1 / (8 * a0)
+        vec = np.array([1.0, a2, a3, a4, a8, a9])
+        J = np.outer(vec, ds)
+        J[1:, 1:] += s * np.eye(5)
+        return s * vec, J
+
+
+@dataclass(frozen=True)
+class ConstantParameters:
+    """The free engineering constants of one material: moduli / initial value, nu12 as is."""
+
+    name: str
+    initial: ElasticConstants
+    free: tuple[str, ...] = CONSTANT_NAMES
+    nu_max: float = 0.95
+    bound_factor: float = 5.0
+
+    kind = "constants"
+
+    @property
+    def labels(self) -> tuple[str, ...]:
+        return tuple(f"{k}/{k}_0" if k != "nu12" else "nu12" for k in self.free)
+
+    def _index(self) -> np.ndarray:
+        return np.array([CONSTANT_NAMES.index(k) for k in self.free], dtype=int)
+
+    def _scale(self) -> np.ndarray:
+        P0 = self.initial.as_array()
+        return np.where(np.array(CONSTANT_NAMES) == "nu12", 1.0, P0)
+
+    def x0(self) -> np.ndarray:
+        return self.initial.as_array()[self._index()] / self._scale()[self._index()]
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        f = self.bound_factor
+        lo = np.array([-self.nu_max if k == "nu12" else 1 / f for k in self.free])
+        hi = np.array([self.nu_max if k == "nu12" else f for k in self.free])
+        # a fixed E1 or E2 bounds the other through E2 <= E1
+        P0 = self.initial.as_array()
+        if "E2" in self.free and "E1" not in self.free:
+            i = self.free.index("E2")
+            hi[i] = min(hi[i], P0[0] / P0[1])
+        if "E1" in self.free and "E2" not in self.free:
+            i = self.free.index("E1")
+            lo[i] = max(lo[i], P0[1] / P0[0])
+        # shear moduli above MIN_MODULUS_RATIO * E1 at the largest E1 allowed
+        return lo, hi
+
+    def linear_constraints(self) -> tuple[np.ndarray, np.ndarray]:
+        """E2 <= E1 when both are free (Eq. 22, g2)."""
+        if "E1" in self.free and "E2" in self.free:
+            P0 = self.initial.as_array()
+            row = np.zeros(len(self.free))
+            row[self.free.index("E1")] = -P0[0]
+            row[self.free.index("E2")] = P0[1]
+            return row[None, :] / P0[0], np.zeros(1)
+        return np.zeros((0, len(self.free))), np.zeros(0)
+
+    def constants(self, x) -> ElasticConstants:
+        P = self.initial.as_array()
+        idx = self._index()
+        P[idx] = np.asarray(x) * self._scale()[idx]
+        return ElasticConstants.from_array(P)
+
+    def coef_jacobian(self, x) -> tuple[np.ndarray, np.ndarray]:
+        coef, J = coefficients_and_jacobian(self.constants(x))
+        idx = self._index()
+        return coef, J[:, idx] * self._scale()[idx]
+
+
+def make_parameters(name: str, initial: ElasticConstants, fixed=(), *, kind: str = "auto",
+                    prior: bool = False, nu_max: float = 0.95, bound_factor: float = 5.0):
+    """Choose the parametrisation of one material.
+
+    ``kind``: 'alpha' (paper Eq. 14; needs all six constants free and no prior), 'constants',
+    or 'auto' (alpha when possible).
+    """
+    fixed = tuple(fixed)
+    unknown = [k for k in fixed if k not in CONSTANT_NAMES]
+    if unknown:
+        raise FitInputError(f"material '{name}': cannot fix {', '.join(unknown)}: constants are "
+                       f"{', '.join(CONSTANT_NAMES)}")
+    free = tuple(k for k in CONSTANT_NAMES if k not in fixed)
+    if kind not in ("auto", "alpha", "constants"):
+        raise FitInputError(f"parametrisation '{kind}' unknown (auto, alpha, constants)")
+    if kind == "alpha" and (fixed or prior):
+        raise FitInputError(f"material '{name}': the alpha design variables (paper Eq. 14) need all "
+                       "six constants free and no prior; use --parametrization constants")
+    if not 0 < nu_max < 1:
+        raise FitInputError(f"nu_max must be in (0, 1) (got {nu_max})")
+    if abs(initial.nu12) > nu_max:
+        raise FitInputError(f"material '{name}': initial nu12 = {initial.nu12} is outside the allowed "
+                       f"range |nu12| <= {nu_max}")
+    if initial.E2 > initial.E1:
+        raise FitInputError(f"material '{name}': initial E2 > E1; direction 1 must be the fibre "
+                       "(stiffer) direction")
+    if not free:
+        return ConstantParameters(name, initial, (), nu_max, bound_factor)
+    if kind == "alpha" or (kind == "auto" and not fixed and not prior):
+        return AlphaParameters(name, initial, nu_max, bound_factor)
+    return ConstantParameters(name, initial, free, nu_max, bound_factor)

@@ -1,0 +1,122 @@
+"""`laminid identify` end to end through click: report, JSON, HDF5, errors, exit codes."""
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from laminid_cli.cli import cli
+from laminid_cli.results import read_h5
+
+S21 = "specimens/example2/S2.1.yaml"
+
+
+def run(*args):
+    return CliRunner().invoke(cli, list(args))
+
+
+@pytest.fixture(scope="module")
+def s21_result(tmp_path_factory):
+    out = tmp_path_factory.mktemp("id") / "s21.h5"
+    r = run("identify", S21, "--mesh", "8x8", "--json", "-o", str(out))
+    assert r.exit_code == 0, r.output
+    return json.loads(r.output), out
+
+
+def test_json_has_the_documented_keys_in_si(s21_result):
+    d, _ = s21_result
+    mat = d["materials"]["R368/E-glass"] if "R368/E-glass" in d["materials"] else next(iter(d["materials"].values()))
+    assert set(mat) >= {"E1", "E2", "G12", "G13", "G23", "nu12"}
+    assert 20e9 < mat["E1"] < 40e9                         # Pa (paper Table 3: 28.8 GPa)
+    fr = d["frequencies"]
+    assert len(fr["measured"]) == len(fr["model"]) == len(fr["residual_percent"]) == 12
+    m, x = np.array(fr["model"]), np.array(fr["measured"])
+    assert np.allclose(fr["residual_percent"], (x - m) / x * 100)
+    assert d["converged"] is True and d["iterations"] >= 3
+    assert d["rms_residual_percent"] < 0.5 and d["objective"] > 0
+    assert set(d["global_properties"]) >= {"Ex", "Ey", "Gxy", "Gxz", "Gyz", "nu_xy", "nu_yx"}
+
+
+def test_hdf5_result_is_self_describing_and_matches_json(s21_result):
+    d, out = s21_result
+    h = read_h5(out)
+    assert h["@attrs"]["format"] == "laminid-result" and h["@attrs"]["converged"]
+    assert "(0/90)_2" in h["specimen"]["yaml"]
+    name = next(k for k in h["materials"] if not k.startswith("@"))
+    assert h["materials"][name]["E1"] == pytest.approx(next(iter(d["materials"].values()))["E1"])
+    assert h["history"]["objective"].shape == (d["evaluations"],)
+    assert h["history"]["objective"][-1] >= h["history"]["objective"].min()
+    assert h["sensitivities"]["dlnf_dlnP"].shape == (12, 6)
+    assert h["modes"]["w"].shape[1] == 12
+    assert np.allclose(h["frequencies"]["model"], d["frequencies"]["model"])
+    import h5py
+    with h5py.File(out) as f:
+        for path in ("frequencies/model", "materials/" + name + "/E1", "history/objective",
+                     "sensitivities/dlnf_dlnP", "global_properties/Ex", "modes/w"):
+            assert "units" in f[path].attrs, path
+
+
+def test_report_and_default_output_next_to_the_specimen(tmp_path):
+    spec = tmp_path / "S2.1.yaml"
+    shutil.copy(S21, spec)
+    r = run("identify", str(spec), "--mesh", "6x6")
+    assert r.exit_code == 0, r.output
+    assert "LD_SLSQP: converged" in r.output
+    assert "E1 [GPa]" in r.output and "residual %" in r.output and "RMS residual" in r.output
+    assert (tmp_path / "S2.1.result.h5").exists()
+    r = run("identify", str(spec), "--mesh", "6x6")             # never overwrite silently
+    assert r.exit_code == 2 and "file exists" in r.output and "--force" in r.output
+
+
+def test_non_convergence_exits_1_with_message_and_keeps_a_complete_file(tmp_path):
+    out = tmp_path / "r.h5"
+    r = run("identify", S21, "--mesh", "6x6", "--max-evaluations", "3", "-o", str(out))
+    assert r.exit_code == 1
+    assert "NOT CONVERGED" in r.output and "evaluations reached" in r.output
+    assert read_h5(out)["@attrs"]["converged"] is False or read_h5(out)["@attrs"]["converged"] == 0
+
+
+def test_fix_and_mma_options(tmp_path):
+    r = run("identify", S21, "--mesh", "6x6", "--fix", "nu12,G13,G23", "--optimizer", "mma",
+            "--json", "--no-output")
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output)
+    mat = next(iter(d["materials"].values()))
+    init = next(iter(d["initial"].values()))
+    assert mat["nu12"] == init["nu12"] and mat["G13"] == init["G13"] and mat["G23"] == init["G23"]
+    assert d["optimizer"] == "LD_MMA" and d["rms_residual_percent"] < 1.0
+
+
+def write_variant(tmp_path, old, new):
+    p = tmp_path / "v.yaml"
+    text = open(S21).read()
+    assert old in text
+    p.write_text(text.replace(old, new))
+    return str(p)
+
+
+def test_bad_input_exit_2_with_clear_message(tmp_path):
+    r = run("identify", S21, "--fix", "nu13")
+    assert r.exit_code == 2 and "'nu13' is not a constant" in r.output
+    r = run("identify", S21, "--fix", "steel.nu12")
+    assert r.exit_code == 2 and "no material 'steel'" in r.output
+    # all six constants fixed
+    r = run("identify", S21, "--fix", "E1,E2,G12,G13,G23,nu12", "--no-output")
+    assert r.exit_code == 2 and "nothing to identify" in r.output
+    # frequencies far from the model at the initial guess (mass 10x too large)
+    far = write_variant(tmp_path, "mass: 0.2571 kg", "mass: 2.571 kg")
+    r = run("identify", far, "--mesh", "6x6", "--no-output")
+    assert r.exit_code == 2 and "away from the model" in r.output and "Traceback" not in r.output
+    # fewer weighted frequencies than free constants
+    few = write_variant(tmp_path, "[72.78, 121.00, 191.38, 286.78, 315.12, 340.40, 400.12, "
+                        "433.84, 634.81, 653.56, 712.43, 789.97]", "[72.78, 121.00, 191.38]")
+    r = run("identify", few, "--mesh", "6x6", "--no-output")
+    assert r.exit_code == 2 and "3 weighted frequencies for 6 free constants" in r.output
+    # every weight zero
+    zero = write_variant(tmp_path, "789.97]   # Hz, Table 5",
+                         "789.97]\n  weights: [0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0]")
+    r = run("identify", zero, "--mesh", "6x6", "--no-output")
+    assert r.exit_code == 2 and "weight 0" in r.output
+    assert not list(tmp_path.glob("*.h5"))
