@@ -57,6 +57,12 @@ def fit_frf(frf_file, bands, n_modes, fmt, plot_path, spec_path, force, as_json)
     from laminid_cli.frf.io import read_frf
 
     if plot_path is not None:
+        from laminid_cli.frf.plot import PLOT_SUFFIXES
+
+        if Path(plot_path).suffix.lower() not in PLOT_SUFFIXES:
+            raise click.BadParameter(f"{plot_path}: plot file type {Path(plot_path).suffix!r} "
+                                     f"not supported; use one of {', '.join(PLOT_SUFFIXES)}",
+                                     param_hint="'--plot'")
         check_output_path(plot_path, force)
     if spec_path is not None and not Path(spec_path).is_file():
         raise SpecimenError("file not found (--into needs an existing specimen file)",
