@@ -704,7 +704,18 @@ def _resolve_densities(r: _Reader, top: dict, root: _Y, a: float, b: float, h: f
 
 
 def _read_measured(r: _Reader, y: _Y) -> Measured:
-    m = r.mapping(y, required=("frequencies",), optional=("weights", "sigma"))
+    m = r.mapping(y, optional=("frequencies", "weights", "sigma", "frf_file", "bands", "modes"))
+    if "frf_file" in m:
+        if "frequencies" in m or "sigma" in m:
+            raise r.error(m["frf_file"], "give either 'frequencies' (and 'sigma') or "
+                                         "'frf_file', not both")
+        return _measured_from_frf(r, m)
+    for key in ("bands", "modes"):
+        if key in m:
+            raise r.error(m[key], f"'{key}' applies only with 'frf_file'")
+    if "frequencies" not in m:
+        raise r.error(y, "missing key 'frequencies' (a list in Hz, null where not detected) "
+                         "or 'frf_file' (an FRF file to fit)")
     items = r.sequence(m["frequencies"], "a list of frequencies in Hz (null where not detected)")
     if not items:
         raise r.error(m["frequencies"], "the list of frequencies is empty")
@@ -754,6 +765,61 @@ def _read_measured(r: _Reader, y: _Y) -> Measured:
     for array in (freq, weight, sigma):
         if array is not None:
             array.flags.writeable = False
+    return Measured(freq=freq, weight=weight, sigma=sigma)
+
+
+def _measured_from_frf(r: _Reader, m: dict) -> Measured:
+    """``measured.frf_file``: natural frequencies and their sigmas from an RFP fit of the FRFs.
+
+    The file path is relative to the specimen file's folder; optional ``bands`` (list of
+    "LO:HI" in Hz) and ``modes`` (the n lowest) are passed to the fitter, ``weights`` apply
+    to the fitted modes in order.
+    """
+    from laminid_cli.errors import FrfError
+    from laminid_cli.frf.rfp import measured_from_frf_file
+
+    name = r.string(m["frf_file"])
+    base = Path(r.path).parent if r.path and not str(r.path).startswith("<") else Path.cwd()
+    path = base / name
+    if not path.exists():
+        raise r.error(m["frf_file"], f"FRF file {path} not found")
+    bands = None
+    if "bands" in m:
+        bands = []
+        for item in r.sequence(m["bands"], 'a list of bands "LO:HI" in Hz'):
+            text = str(item.value)
+            try:
+                lo, hi = (float(v) for v in text.split(":"))
+            except ValueError:
+                raise r.error(item, f"band {text!r} not understood; write LO:HI in Hz, e.g. "
+                                    "100:1400") from None
+            if not 0 <= lo < hi:
+                raise r.error(item, f"band {text!r} is empty; need 0 <= LO < HI")
+            bands.append((lo, hi))
+    n_modes = None
+    if "modes" in m:
+        n_modes = int(r.quantity(m["modes"], "dimensionless"))
+        if n_modes < 1:
+            raise r.error(m["modes"], "the number of modes must be at least 1")
+    try:
+        freq, sigma, _damping = measured_from_frf_file(path, bands=bands, n_modes=n_modes)
+    except FrfError as exc:
+        raise r.error(m["frf_file"], f"fitting {path}: {exc}") from exc
+    freq = np.asarray(freq, float)
+    weight = np.ones(freq.size)
+    if "weights" in m:
+        w_items = r.sequence(m["weights"], "a list of weights in [0, 1]")
+        if len(w_items) != freq.size:
+            raise r.error(m["weights"], f"{len(w_items)} weights for the {freq.size} modes "
+                                        f"fitted in {name}")
+        for k, item in enumerate(w_items):
+            value = r.quantity(item, "dimensionless")
+            if not 0.0 <= value <= 1.0:
+                raise r.error(item, f"a weight must be in [0, 1], got {value:g}")
+            weight[k] = value
+    sigma = np.asarray(sigma, float)
+    for array in (freq, weight, sigma):
+        array.flags.writeable = False
     return Measured(freq=freq, weight=weight, sigma=sigma)
 
 

@@ -1,0 +1,72 @@
+"""FRF file -> specimen (measured.frf_file) -> identification: the whole chain in one test."""
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from laminid_cli.cli import cli
+from laminid_cli.errors import SpecimenError
+from laminid_cli.forward import build_forward_model
+from laminid_cli.frf.store import write_frf_h5
+from laminid_cli.specimen import load_specimen_text, read_specimen
+from tests.frf_synth import synth_frf
+
+S21 = "specimens/example2/S2.1.yaml"
+MEASURED_BLOCK = ("  frequencies: [72.78, 121.00, 191.38, 286.78, 315.12, 340.40, 400.12, 433.84, "
+                  "634.81, 653.56, 712.43, 789.97]   # Hz, Table 5")
+
+
+@pytest.fixture(scope="module")
+def frf_specimen(tmp_path_factory):
+    """S2.1 with its model's first 8 modes (6x6 mesh, 1.3 x the initial E1) written as FRFs."""
+    tmp = tmp_path_factory.mktemp("frf")
+    spec = read_specimen(S21)
+    fm = build_forward_model(spec, (6, 6))
+    c0 = fm.initial_constants[0]
+    truth = type(c0)(c0.E1 * 1.3, c0.E2, c0.G12, c0.G13, c0.G23, c0.nu12)
+    f_true = fm.solve([truth], 8).freq
+    freq = np.arange(0.0, 700.0, 0.5)[1:]
+    rng = np.random.default_rng(3)
+    constants = rng.choice([-1, 1], size=(4, 8)) * rng.uniform(0.3, 1.0, size=(4, 8))
+    modes = np.column_stack([f_true, np.full(8, 0.008)])
+    frf = synth_frf(freq, modes, constants, kind="accelerance", noise=0.01, seed=4)
+    write_frf_h5(tmp / "plate.frf.h5", freq, frf, units="(m/s^2)/N")
+    text = open(S21).read().replace(MEASURED_BLOCK, "  frf_file: plate.frf.h5\n  modes: 8")
+    assert "frf_file" in text
+    (tmp / "plate.yaml").write_text(text)
+    return tmp / "plate.yaml", f_true, truth
+
+
+def test_specimen_takes_frequencies_and_sigmas_from_its_frf_file(frf_specimen):
+    path, f_true, _ = frf_specimen
+    spec = read_specimen(path)
+    assert spec.measured.freq.shape == (8,)
+    assert np.allclose(spec.measured.freq, f_true, rtol=5e-4)          # 1 % noise, RFP
+    assert np.all(spec.measured.sigma > 0) and np.all(spec.measured.weight == 1)
+
+
+def test_identify_from_an_frf_file_recovers_the_constants(frf_specimen):
+    path, _, truth = frf_specimen
+    r = CliRunner().invoke(cli, ["identify", str(path), "--mesh", "6x6", "--fix",
+                                 "nu12,G13,G23", "--json", "--no-output"])
+    assert r.exit_code == 0, r.output
+    mat = next(iter(json.loads(r.output)["materials"].values()))
+    assert mat["E1"] == pytest.approx(truth.E1, rel=5e-3)
+    assert mat["E2"] == pytest.approx(truth.E2, rel=2e-2)
+    assert mat["G12"] == pytest.approx(truth.G12, rel=1e-2)
+
+
+def test_frf_file_errors_name_the_field(tmp_path):
+    text = open(S21).read()
+    bad = text.replace(MEASURED_BLOCK, "  frf_file: nothere.h5")
+    with pytest.raises(SpecimenError, match=r"measured.frf_file.*not found"):
+        load_specimen_text(bad, str(tmp_path / "x.yaml"))
+    both = text.replace(MEASURED_BLOCK, MEASURED_BLOCK + "\n  frf_file: plate.frf.h5")
+    with pytest.raises(SpecimenError, match="either 'frequencies'"):
+        load_specimen_text(both, str(tmp_path / "x.yaml"))
+    (tmp_path / "junk.h5").write_bytes(b"not hdf5")
+    junk = text.replace(MEASURED_BLOCK, "  frf_file: junk.h5")
+    with pytest.raises(SpecimenError, match="frf_file"):
+        load_specimen_text(junk, str(tmp_path / "x.yaml"))
