@@ -16,6 +16,8 @@ setup: $(STAMP)
 
 demo: setup
 	$(BIN)/laminid modes specimens/example1/S1.1.yaml
+	@mkdir -p out
+	$(BIN)/laminid identify specimens/example1/S1.1.yaml -o out/S1.1.result.h5 --force
 
 test: setup
 	$(BIN)/python -m pytest -q -n 2
