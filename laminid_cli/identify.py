@@ -30,7 +30,7 @@ import numpy as np
 
 from laminid_cli.errors import FitError, FitInputError, LaminidError
 from laminid_cli.forward import ForwardModel, residuals_percent, weighted_rms
-from laminid_cli.material import CONSTANT_NAMES, ElasticConstants
+from laminid_cli.material import CONSTANT_NAMES, ElasticConstants, alphas_from_constants
 from laminid_cli.modal import mac
 from laminid_cli.parametrization import coefficients_and_jacobian, make_parameters
 
@@ -128,7 +128,15 @@ class Identification:
 class Problem:
     """Objective, gradient and constraints of one identification, with evaluation cache."""
 
-    def __init__(self, fm: ForwardModel, options: IdentifyOptions):
+    def __init__(self, fm: ForwardModel, options: IdentifyOptions, *, start=None,
+                 start_pairing=None, check_count: bool = True):
+        """``start``: constants (one ElasticConstants per material, ``fm.material_names`` order)
+        to start from instead of the file's initial values, which stay the reference of the
+        design variables, the prior and the fixed constants (a Monte Carlo re-identification
+        starts from the optimum). ``start_pairing``: model mode (0-based) paired with each
+        measured mode at the start, instead of sorted order. ``check_count=False`` accepts
+        fewer weighted frequencies than free constants (one plate of a joint identification).
+        """
         self.fm = fm
         self.options = options
         spec = fm.specimen
@@ -162,10 +170,15 @@ class Problem:
             raise FitInputError(f"{spec.path}: every measured frequency has weight 0; nothing to fit")
         if self.n_vars == 0:
             raise FitInputError(f"{spec.path}: every constant is fixed; nothing to identify")
-        if n_active < self.n_vars and not any(self.prior):
+        if check_count and n_active < self.n_vars and not any(self.prior):
             raise FitInputError(f"{spec.path}: {n_active} weighted frequencies for {self.n_vars} free "
                            "constants; measure more modes or fix constants (--fix nu12,G13,G23)")
         self.n_model = self.n_meas + options.extra_modes
+        self.start = None if start is None else tuple(start)
+        if self.start is not None and len(self.start) != len(self.params):
+            raise FitInputError(f"{spec.path}: {len(self.start)} start constants for "
+                                f"{len(self.params)} materials")
+        self.start_pairing = None if start_pairing is None else np.asarray(start_pairing, int)
         self.best: Evaluation | None = None   # tracking reference: lowest objective so far
         self.cache: tuple[bytes, Evaluation] | None = None
         self.swaps: list[str] = []
@@ -174,7 +187,17 @@ class Problem:
 
     # --- variables ---------------------------------------------------------------------------
     def x0(self) -> np.ndarray:
-        return np.concatenate([p.x0() for p in self.params])
+        """Start point: the initial values, or the ``start`` constants when given."""
+        if self.start is None:
+            return np.concatenate([p.x0() for p in self.params])
+        return np.concatenate([variables_of(p, c) for p, c in zip(self.params, self.start)])
+
+    def describe(self) -> str:
+        """Where the data come from, for error messages."""
+        return str(self.fm.specimen.path)
+
+    def check_start(self, ev: Evaluation) -> list[str]:
+        return check_start(self, ev)
 
     def split(self, x):
         return [x[self.offsets[k]:self.offsets[k + 1]] for k in range(len(self.params))]
@@ -245,6 +268,8 @@ class Problem:
         """Model mode paired with each measured one: sorted at the start, then MAC tracking
         against the best evaluation so far (line-search trial points can be far off)."""
         sorted_pairing = np.arange(self.n_meas)
+        if self.best is None and self.start_pairing is not None:
+            return self.start_pairing.copy()
         if self.options.pairing == "sorted" or self.best is None:
             return sorted_pairing
         from scipy.optimize import linear_sum_assignment
@@ -287,6 +312,22 @@ class Problem:
         return value, grad
 
 
+def variables_of(params, constants: ElasticConstants) -> np.ndarray:
+    """Design variables of one material (``make_parameters`` object) for given constants.
+
+    The inverse of ``params.constants(x)`` on the free constants (the fixed ones keep their
+    initial values whatever ``constants`` says).
+    """
+    if params.kind == "alpha":
+        a = alphas_from_constants(constants)
+        return np.array([constants.E1 / params.initial.E1, a[1], a[2], a[3], a[4], a[5]])
+    P = constants.as_array()
+    P0 = params.initial.as_array()
+    idx = [CONSTANT_NAMES.index(k) for k in params.free]
+    scale = np.where(np.array(CONSTANT_NAMES) == "nu12", 1.0, P0)
+    return P[idx] / scale[idx]
+
+
 def _parse_fix(fix, names, path) -> dict:
     out: dict[str, tuple] = {}
     for item in fix:
@@ -327,24 +368,36 @@ def check_start(problem: Problem, ev: Evaluation) -> list[str]:
 
 
 def identify(fm: ForwardModel, options: IdentifyOptions = IdentifyOptions(),
-             progress=None) -> Identification:
+             progress=None, *, start=None, start_pairing=None) -> Identification:
     """Identify the constants of every material of ``fm.specimen`` (see module docstring).
 
     ``progress(evaluation, objective, rms_percent)`` is called after each model evaluation.
     Raises FitError for hopeless input; a run that stops before convergence returns with
-    ``converged = False`` and a status message.
+    ``converged = False`` and a status message. ``start``/``start_pairing``: see
+    :class:`Problem`.
+    """
+    t0 = time.perf_counter()
+    prob = Problem(fm, options, start=start, start_pairing=start_pairing)
+    ev, converged, status, warnings, initial_rms = run_optimizer(prob, progress)
+    return _result(prob, ev, converged, status, warnings, initial_rms, time.perf_counter() - t0)
+
+
+def run_optimizer(prob, progress=None):
+    """Minimise ``prob``'s objective from ``prob.x0()``.
+
+    ``prob`` is a :class:`Problem` or anything with its interface (a joint problem over several
+    plates). Returns (evaluation at the optimum, converged, status, warnings, initial RMS %).
     """
     import nlopt
 
-    t0 = time.perf_counter()
-    prob = Problem(fm, options)
+    options = prob.options
     x0 = prob.x0()
     if not prob.feasible(x0):
-        raise FitInputError(f"{fm.specimen.path}: the initial constants (with the fixed ones) are "
+        raise FitInputError(f"{prob.describe()}: the initial constants (with the fixed ones) are "
                        "outside the feasible region of Eq. 22 (E2 <= E1, |nu12| < "
                        f"{options.nu_max}, positive moduli)")
     ev0 = prob.evaluate(x0)
-    warnings = check_start(prob, ev0)
+    warnings = prob.check_start(ev0)
     initial_rms = prob.history[0][2]
 
     # Variables scaled by the Gauss-Newton Hessian at the start, y = L^T (x - x0) with
@@ -413,7 +466,7 @@ def identify(fm: ForwardModel, options: IdentifyOptions = IdentifyOptions(),
     if prob.evaluate(best).objective < prob.evaluate(x_best).objective:
         x_best = best
     ev = prob.evaluate(x_best)
-    return _result(prob, ev, converged, status, warnings, initial_rms, time.perf_counter() - t0)
+    return ev, converged, status, warnings, initial_rms
 
 
 def _gauss_newton_factor(prob: Problem, ev: Evaluation, scale: float) -> np.ndarray:
