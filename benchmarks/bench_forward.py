@@ -12,7 +12,6 @@ import statistics  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-import numpy as np  # noqa: E402
 
 from laminid_cli.fe import element as fe_el  # noqa: E402
 from laminid_cli.fe.assembly import _unique_elements, build_plate_model, element_matrices  # noqa: E402

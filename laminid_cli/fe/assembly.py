@@ -25,7 +25,7 @@ import scipy.sparse as sp
 from laminid_cli.errors import ModelError
 from laminid_cli.fe import element as fe_el
 from laminid_cli.fe.mesh import Mesh
-from laminid_cli.material import ElasticConstants, basis_coefficients, c_basis
+from laminid_cli.material import basis_coefficients, c_basis
 
 #: accepted boundary names -> edge code (edges in the order x=0, y=0, x=a, y=b)
 BOUNDARY_NAMES = {
