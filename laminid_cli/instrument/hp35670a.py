@@ -28,8 +28,9 @@ from laminid_cli.instrument.base import AcquisitionSettings, Analyser, format_nu
 
 #: two-channel FFT spans: 51.2 kHz / 2**k (35670A GPIB Commands, [SENSe:]FREQuency:SPAN)
 SPANS_HZ = tuple(51200.0 / 2 ** k for k in range(19))
-#: resolution lines ([SENSe:]FREQuency:RESolution)
-LINES = (100, 200, 400, 800, 1600)
+#: resolution lines ([SENSe:]FREQuency:RESolution); two-channel measurements offer up to 800
+#: (cross-checked with a working public 35670A driver, which accepts only 100-800)
+LINES = (100, 200, 400, 800)
 #: STATus:QUEStionable:VOLTage bits meaning "channel over range" (ch1, ch2)
 OVERLOAD_BITS = (1 << 0, 1 << 2)
 
@@ -59,7 +60,8 @@ class HP35670A(Analyser):
         s = settings
         w = self.transport.write
         w("*CLS")                                   # IEEE 488.2: clear status + error queue
-        w("INST:SEL FFT")                           # INSTrument:SELect  (FFT analysis mode)
+        w("INST:NSEL 0")                            # INSTrument:NSELect 0 = FFT analysis mode
+                                                    # (cross-checked with a working driver)
         w("INP2 ON")                                # INPut2[:STATe]     (two channels)
         w("CALC1:FEED 'XFR:POW:RAT 2,1'")           # CALCulate:FEED     trace A = H = ch2/ch1
         w("CALC2:FEED 'XFR:POW:COH 1,2'")           # CALCulate:FEED     trace B = coherence

@@ -281,7 +281,7 @@ class HP35670AEmulator(EmulatorBase):
 
     IDN = "HEWLETT-PACKARD,35670A,0,A.02.01"
     SPANS = tuple(51200.0 / 2 ** k for k in range(19))
-    LINES = (100, 200, 400, 800, 1600)
+    LINES = (100, 200, 400, 800)
 
     def reset(self):
         self.span_hz, self.start_hz, self.lines, self.averages = 51200.0, 0.0, 400, 1
@@ -337,7 +337,7 @@ class HP35670AEmulator(EmulatorBase):
             return f"+{value}\n".encode()
         if header == "SYST:ERR?":
             return ((self.errors.pop(0) if self.errors else '+0,"No error"') + "\n").encode()
-        if header in ("INST:SEL", "INP2", "AVER:STAT", "AVER:TYPE", "TRIG:SOUR", "TRIG:SLOP",
+        if header in ("INST:NSEL", "INP2", "AVER:STAT", "AVER:TYPE", "TRIG:SOUR", "TRIG:SLOP",
                       "WIND1:TYPE", "WIND2:TYPE"):
             self.settings[header] = arg.upper()
             return None
