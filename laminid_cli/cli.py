@@ -21,6 +21,8 @@ COMMANDS = {
     "identify": "laminid_cli.commands.identify:identify",
     "fit-frf": "laminid_cli.commands.fit_frf:fit_frf",
     "acquire": "laminid_cli.commands.acquire:acquire",
+    "batch": "laminid_cli.commands.batch:batch",
+    "report": "laminid_cli.commands.report:report",
 }
 
 SHORT_HELP = {
@@ -28,6 +30,8 @@ SHORT_HELP = {
     "identify": "Identify ply elastic constants from measured natural frequencies.",
     "fit-frf": "Extract natural frequencies from measured FRFs (rational fraction polynomials).",
     "acquire": "Acquire impact-test FRFs from a dynamic signal analyser (VISA).",
+    "batch": "Identify every specimen of folders/files in parallel; summary table (Table 2).",
+    "report": "PDF/PNG report of a result (frequencies, modes, history...) or a batch summary.",
 }
 
 

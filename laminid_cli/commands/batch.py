@@ -1,0 +1,111 @@
+"""``laminid batch``: identify every specimen of folders or file lists, in parallel."""
+
+from __future__ import annotations
+
+import click
+
+from laminid_cli.commands._common import echo_json, json_option
+
+
+@click.command(short_help="Identify many specimens in parallel, with a summary table.")
+@click.argument("inputs", nargs=-1, required=True, type=click.Path(exists=True))
+@click.option("-j", "--jobs", "n_jobs", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Worker processes (Dask workers with --scheduler local).")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False), default="laminid-results",
+              show_default=True, help="Folder of the result files and summary.csv/.json.")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="Run on Dask: 'local' starts a local cluster of -j workers, "
+                   "tcp://HOST:PORT uses a running scheduler (pip install 'laminid[dask]'). "
+                   "Workers must see the specimen files at the same paths.")
+@click.option("--mesh", default="12x12", show_default=True, metavar="NXxNY",
+              help="Elements along x and y, for every specimen.")
+@click.option("--fix", "fix", default="", metavar="LIST",
+              help="Constants held at their initial values, as in 'laminid identify'.")
+@click.option("--optimizer", type=click.Choice(["slsqp", "mma"]), default="slsqp",
+              show_default=True)
+@click.option("--parametrization", type=click.Choice(["auto", "alpha", "constants"]),
+              default="auto", show_default=True)
+@click.option("--xtol", type=click.FloatRange(min=0, min_open=True), default=1e-6,
+              show_default=True)
+@click.option("--ftol", type=click.FloatRange(min=0, min_open=True), default=1e-8,
+              show_default=True)
+@click.option("--max-evaluations", type=click.IntRange(2, 100000), default=300,
+              show_default=True)
+@click.option("--pairing", type=click.Choice(["track", "sorted"]), default="track",
+              show_default=True)
+@click.option("--force", is_flag=True, help="Redo specimens whose result is up to date.")
+@json_option
+def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrization, xtol,
+          ftol, max_evaluations, pairing, force, as_json):
+    """Identify every specimen in INPUTS (folders searched recursively for *.yaml/*.yml,
+    or files) as 'laminid identify' does, writing OUT/<folder>/<name>.result.h5 per specimen
+    (folders relative to the inputs' common root) and OUT/summary.csv and summary.json.
+
+    A result whose input has not changed (sha256 of the specimen and its FRF file, the
+    options and the laminid version, stored in the file) is not redone unless --force. A
+    failing specimen is listed with its reason and the others go on. Exit code 0 when all
+    converged, 1 when any failed or did not converge, 2 for bad usage (no specimen found).
+
+    \b
+    Examples:
+      laminid batch specimens/ -j 2
+      laminid batch plates/*.yaml --out results --fix nu12,G13,G23
+      laminid batch study/ --scheduler tcp://10.0.0.5:8786 -j 64
+    """
+    import sys
+    from pathlib import Path
+
+    from laminid_cli.batch import (BatchError, BatchOptions, batch_report, discover_specimens,
+                                   format_table, plan_batch, remove_stale_parts, result_row,
+                                   run_jobs, write_result_bytes, write_summary_csv,
+                                   write_summary_json, SUMMARY_CSV, SUMMARY_JSON)
+    from laminid_cli.fe.mesh import parse_mesh
+
+    parse_mesh(mesh)                                      # bad --mesh: exit 2 before any work
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise BatchError(f"--out {out}: exists and is not a folder")
+    options = BatchOptions(mesh=mesh, fix=tuple(x.strip() for x in fix.split(",") if x.strip()),
+                           optimizer=optimizer, parametrization=parametrization, xtol=xtol,
+                           ftol=ftol, max_evaluations=max_evaluations, pairing=pairing)
+    specimens = discover_specimens(inputs, exclude=[out])
+    if not specimens:
+        raise BatchError(f"no specimen file (*.yaml, *.yml) found in {', '.join(inputs)}")
+    out.mkdir(parents=True, exist_ok=True)
+    remove_stale_parts(out)
+    jobs = plan_batch(specimens, out, options, force=force)
+    todo = [j for j in jobs if not j.up_to_date]
+    rows = {j.name: result_row(j, cached=True) for j in jobs if j.up_to_date}
+    if not as_json:
+        click.echo(f"{len(jobs)} specimens, {len(jobs) - len(todo)} up to date, {len(todo)} to "
+                   f"identify" + (f" on {n_jobs} {'workers' if scheduler else 'processes'}"
+                                  if todo else ""), err=True)
+
+    def show(item):
+        return item or ""
+
+    finished = 0
+    try:
+        with click.progressbar(length=len(todo), label="identifying", file=sys.stderr,
+                               item_show_func=show, show_pos=True) as bar:
+            for job, outcome in run_jobs(todo, options, n_jobs=n_jobs, scheduler=scheduler):
+                if outcome.data is not None:
+                    write_result_bytes(job.output, outcome.data)
+                rows[job.name] = result_row(job, outcome)
+                finished += 1
+                bar.update(1, f"{job.name}: {outcome.status}")
+    finally:
+        # also on Ctrl-C: the summary lists what was done ('not run' for the rest)
+        ordered = [rows.get(j.name) or result_row(j) for j in jobs]
+        report = batch_report(ordered, options, out)
+        write_summary_csv(out / SUMMARY_CSV, ordered)
+        write_summary_json(out / SUMMARY_JSON, report)
+    if as_json:
+        echo_json(report)
+    else:
+        click.echo(format_table(ordered), nl=False)
+        c = report["counts"]
+        click.echo(f"\n{c['ok']} ok, {c['not converged']} not converged, {c['error']} failed "
+                   f"({report['n_cached']} up to date); summary: {out / SUMMARY_CSV}")
+    if any(r["status"] != "ok" for r in ordered):
+        sys.exit(1)

@@ -1,0 +1,67 @@
+"""``laminid report``: figures of an identification result or of a batch summary."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from laminid_cli.commands._common import check_output_path, force_option
+
+
+def default_output(source: str) -> Path:
+    p = Path(source)
+    stem = p.name[: -len(".result.h5")] if p.name.endswith(".result.h5") else p.stem
+    return p.with_name(stem + ".report.pdf")
+
+
+@click.command(short_help="PDF/PNG report of a result file or a batch summary.")
+@click.argument("source", type=click.Path(exists=True, dir_okay=False))
+@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
+              help="report.pdf (all pages in one file) or report.png (one PNG per page: "
+                   "report-1.png, report-2.png...) [default: next to SOURCE, "
+                   "<name>.report.pdf].")
+@click.option("--frf", "frf_path", type=click.Path(exists=True, dir_okay=False), default=None,
+              help="FRF file to draw with its RFP fit (default: the specimen's "
+                   "measured.frf_file, when it has one).")
+@click.option("--dpi", type=click.IntRange(50, 600), default=110, show_default=True,
+              help="Resolution of PNG pages.")
+@force_option
+def report(source, output, frf_path, dpi, force):
+    """Draw the report of SOURCE: a result file of 'laminid identify'/'laminid batch'
+    (*.h5) or a batch summary (summary.csv or summary.json).
+
+    \b
+    A result gives the pages:
+      frequencies    measured vs model, residual bars with the RMS, constants table
+      mode shapes    w0 of each paired mode, nodal lines, model/measured frequency
+      history        objective, RMS residual, constants / initial value per evaluation
+      sensitivities  heat map of d ln f_i / d ln P_j at the optimum
+      intervals      confidence intervals (when the file has /uncertainty)
+      FRF            FRFs with their RFP fit (specimens with measured.frf_file, or --frf)
+    A batch summary gives the constants across specimens (with intervals when the results
+    have them) and the RMS residuals.
+
+    \b
+    Examples:
+      laminid report specimens/example1/S1.1.result.h5
+      laminid report results/example2/S2.1.result.h5 -o S2.1.png
+      laminid report results/summary.csv -o study.pdf
+    """
+    from laminid_cli.report import REPORT_SUFFIXES, ReportError, report_pages, write_pages
+
+    out = Path(output) if output else default_output(source)
+    if out.suffix.lower() not in REPORT_SUFFIXES:
+        raise click.BadParameter(f"{out}: report type {out.suffix!r} not supported; use .pdf "
+                                 "or .png", param_hint="'-o'")
+    check_output_path(out, force)
+    pages = report_pages(source, frf_path=frf_path)
+    if out.suffix.lower() == ".png" and len(pages) > 1:
+        for k in range(1, len(pages) + 1):
+            check_output_path(out.with_name(f"{out.stem}-{k}{out.suffix}"), force)
+    try:
+        written = write_pages(pages, out, dpi=dpi)
+    except OSError as exc:
+        raise ReportError(f"{out}: cannot write the report ({exc})") from exc
+    names = ", ".join(p.name for p in pages)
+    click.echo(f"{len(pages)} pages ({names}) written to " + ", ".join(map(str, written)))
