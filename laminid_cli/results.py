@@ -21,18 +21,40 @@ evaluations, time_s, optimizer; /materials/<name> attrs parametrization, free; /
 (the starting constants); /frequencies/model_mode (pairing) and attrs rms_residual_percent;
 /history (evaluation, objective, rms_residual_percent, x, constants per evaluation);
 /sensitivities (dlnf_dlnP: d ln f_i / d ln P_j, dlambda_dx); /swaps and /warnings (strings).
+
+With an uncertainty assessment (``laminid identify`` always makes one) they also hold::
+
+    /uncertainty          attrs: confidence, quantile, scaling (requested), scale_used,
+                                 variance_factor, s2, chi2, dof, rows, condition_number,
+                                 sigma_source, well_determined, weak, max_rel_interval,
+                                 flagged, fixed, fixed_undetermined, notes (strings joined by ';')
+                          labels ("material.constant", the free constants), value, std,
+                          std_stated, half_width, lower, upper (Pa; nu12: 1), rel_half_width,
+                          verdict (strings), correlation (p, p), covariance (p, p),
+                          weakest_labels/weakest_coefficients (weakest combination)
+    /uncertainty/frequency_sigma/<specimen>   sigma (Hz per measured mode, NaN = not measured),
+                          attr source (per mode: file | relative), sigma_rel
+    /uncertainty/monte_carlo   samples (n_converged, p), mean, std, lower, upper,
+                          linearized_std, ratio; attrs trials, converged, sigma_factor, seed, jobs
+    /uncertainty/before_fixing  labels, rel_half_width, verdict of the first run when
+                          --fix-undetermined fixed constants
+
+Joint identifications ("laminid-joint-result", several plates sharing materials): root attrs as
+above plus specimens (names, comma-separated); /materials/<name> and /initial/<name> once
+(no density: it is per plate); /history and /uncertainty of the joint problem; and each plate's
+complete single-plate layout (specimen, mesh, materials with its density, initial, frequencies,
+modes, history, sensitivities, global_properties, swaps, warnings) under /specimens/<name>/.
 """
 
 from __future__ import annotations
 
 import contextlib
 import datetime as _dt
-import os
-from pathlib import Path
 
 import numpy as np
 
 from laminid_cli import __version__
+from laminid_cli.atomic import atomic_path
 from laminid_cli.material import CONSTANT_UNITS, GLOBAL_UNITS
 
 SCHEMA_VERSION = 1
@@ -44,25 +66,16 @@ def now_iso() -> str:
 
 @contextlib.contextmanager
 def atomic_h5(path, fmt: str, command: str = ""):
-    """Open a new HDF5 file for writing at a temporary name; rename it to ``path`` on success."""
+    """Open a new HDF5 file for writing; it appears at ``path`` only once complete."""
     import h5py
 
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        with h5py.File(tmp, "w") as f:
-            f.attrs["format"] = fmt
-            f.attrs["schema_version"] = SCHEMA_VERSION
-            f.attrs["laminid_version"] = __version__
-            f.attrs["created"] = now_iso()
-            f.attrs["command"] = command
-            yield f
-        with open(tmp, "rb") as fh:
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+        f.attrs["format"] = fmt
+        f.attrs["schema_version"] = SCHEMA_VERSION
+        f.attrs["laminid_version"] = __version__
+        f.attrs["created"] = now_iso()
+        f.attrs["command"] = command
+        yield f
 
 
 def put(group, name: str, value, units: str, *, compression: str | None = None, **attrs):
@@ -208,52 +221,227 @@ def identification_summary(r) -> dict:
     }
 
 
-def write_identification_file(path, fm, r, summary: dict, command: str = "laminid identify") -> None:
+def write_identification_file(path, fm, r, summary: dict, command: str = "laminid identify",
+                              assessment=None) -> None:
     """Write an identification result (format "laminid-result", layout in the module docstring
-    plus /history, /sensitivities and the initial constants)."""
+    plus /history, /sensitivities and the initial constants; /uncertainty when ``assessment``,
+    a :class:`laminid_cli.uncertainty.Assessment`, is given)."""
+    with atomic_h5(path, "laminid-result", command=command) as f:
+        _write_identification(f, fm, r, summary)
+        if assessment is not None:
+            write_uncertainty(f, assessment, [fm.specimen.name])
+
+
+def _write_identification(f, fm, r, summary: dict) -> None:
+    """The single-plate layout into a file or group ``f``."""
     import h5py
 
-    with atomic_h5(path, "laminid-result", command=command) as f:
+    f.attrs["converged"] = bool(r.converged)
+    f.attrs["status"] = r.status
+    f.attrs["objective"] = float(r.objective)
+    f.attrs["evaluations"] = int(r.evaluations)
+    f.attrs["time_s"] = float(r.time_s)
+    f.attrs["optimizer"] = summary["optimizer"]
+    write_specimen(f, fm.specimen)
+    write_mesh(f, fm.plate)
+    write_materials(f, r.material_names, r.constants, fm.specimen.densities)
+    for name in r.material_names:
+        g = f["materials"][name.replace("/", "\u2215")]
+        g.attrs["parametrization"] = r.parametrization[name]
+        g.attrs["free"] = ",".join(r.free[name])
+    write_materials(f, r.material_names, r.initial, {}, group="initial")
+    write_frequencies(f, r.model_hz, r.measured_hz, r.weight, r.residual_percent)
+    put(f["frequencies"], "model_mode", r.pairing + 1, "1",
+        description="1-based index of the sorted model mode paired with each measured one")
+    f["frequencies"].attrs["rms_residual_percent"] = r.rms_residual_percent
+    f["frequencies"].attrs["initial_rms_residual_percent"] = r.initial_rms_residual_percent
+    g = f.create_group("modes")
+    put(g, "frequency", r.modes.freq, "Hz", description="all computed model modes, sorted")
+    put(g, "w", fm.plate.w_shape(r.phi_paired), "m/sqrt(kg)",
+        description="transverse displacement w0 at the mesh nodes of the model modes paired "
+        "with the measured ones (mass-normalised)")
+    put(g, "phi", r.phi_paired, "m/sqrt(kg)", compression="gzip",
+        description="all retained DOFs of the paired modes; DOF = node*9 + variable")
+    put(g, "dofs", fm.plate.dofs, "1")
+    h = f.create_group("history")
+    for key, unit in (("evaluation", "1"), ("objective", "1"), ("rms_residual_percent", "%")):
+        put(h, key, r.history[key], unit)
+    put(h, "x", r.history["x"], "1", labels=",".join(r.variable_labels))
+    labels = [f"{n}.{k}" for n in r.material_names for k in ("E1", "E2", "G12", "G13", "G23", "nu12")]
+    put(h, "constants", r.history["constants"], "Pa (nu12: 1)", labels=",".join(labels))
+    s = f.create_group("sensitivities")
+    put(s, "dlnf_dlnP", r.sensitivity, "1", labels=",".join(r.sensitivity_labels),
+        description="normalised sensitivity d ln f_i / d ln P_j of each measured mode to "
+        "each constant at the optimum")
+    put(s, "dlambda_dx", r.dlam_dx, "rad^2/s^2", labels=",".join(r.variable_labels),
+        description="eigenvalue derivatives w.r.t. the design variables (paper Eq. 26)")
+    write_global_properties(f, r.global_properties)
+    str_dt = h5py.string_dtype()
+    f.create_dataset("swaps", data=np.array(list(r.swaps), dtype=object), dtype=str_dt)
+    f.create_dataset("warnings", data=np.array(list(r.warnings), dtype=object), dtype=str_dt)
+
+
+def _strings(values):
+    import h5py
+
+    return np.array([str(v) for v in values], dtype=object), h5py.string_dtype()
+
+
+def write_uncertainty(f, a, plate_names) -> None:
+    """Write an Assessment's uncertainty as /uncertainty (layout in the module docstring)."""
+    u = a.uncertainty
+    g = f.create_group("uncertainty")
+    for key, value in (("confidence", u.confidence), ("quantile", u.quantile),
+                       ("scaling", u.scaling), ("scale_used", u.scale_used),
+                       ("variance_factor", u.variance_factor), ("s2", u.s2), ("chi2", u.chi2),
+                       ("dof", u.dof), ("rows", u.n_rows), ("condition_number", u.condition),
+                       ("sigma_source", u.sigma_source),
+                       ("well_determined", u.thresholds["well_determined"]),
+                       ("weak", u.thresholds["weak"]),
+                       ("max_rel_interval", u.thresholds["max_rel_interval"]),
+                       ("flagged", ",".join(u.flagged)), ("fixed", ",".join(u.fixed)),
+                       ("fixed_undetermined", ",".join(a.fixed_undetermined)),
+                       ("notes", "; ".join(u.notes))):
+        g.attrs[key] = value
+    data, dt = _strings(u.labels)
+    g.create_dataset("labels", data=data, dtype=dt)
+    unit = "Pa (nu12: 1)"
+    for key in ("value", "std", "std_stated", "half_width", "lower", "upper"):
+        put(g, key, getattr(u, key), unit)
+    put(g, "rel_half_width", u.rel_half_width, "1",
+        description="95 % half-width / |value|")
+    data, dt = _strings(u.verdict)
+    g.create_dataset("verdict", data=data, dtype=dt)
+    put(g, "correlation", u.correlation, "1")
+    put(g, "covariance", u.covariance, "Pa^2 (nu12 row/column: Pa, 1)")
+    data, dt = _strings([lab for lab, _ in u.weakest])
+    g.create_dataset("weakest_labels", data=data, dtype=dt)
+    put(g, "weakest_coefficients", np.array([c for _, c in u.weakest], float), "1",
+        description="right singular vector of the smallest singular value of the whitened "
+        "Jacobian over relative constants")
+    gs = g.create_group("frequency_sigma")
+    for name, sig in zip(plate_names, a.sigmas):
+        d = put(gs, name.replace("/", "\u2215"), sig.sigma_hz, "Hz",
+                description="standard deviation of each measured frequency (NaN: not measured)")
+        d.attrs["source"] = ",".join(sig.source)
+        d.attrs["sigma_rel"] = sig.sigma_rel
+    if a.monte_carlo is not None:
+        mc = a.monte_carlo
+        gm = g.create_group("monte_carlo")
+        for key in ("trials", "converged", "sigma_factor", "seed", "jobs", "time_s"):
+            gm.attrs[key] = {"trials": mc.n_trials, "converged": mc.n_converged}.get(
+                key, getattr(mc, key, None))
+        for key in ("samples", "mean", "std", "lower", "upper", "linearized_std"):
+            put(gm, key, getattr(mc, key), unit)
+        put(gm, "ratio", mc.ratio, "1", description="Monte Carlo std / linearised std")
+    if a.before_fixing is not None:
+        b = a.before_fixing
+        gb = g.create_group("before_fixing")
+        data, dt = _strings(b.labels)
+        gb.create_dataset("labels", data=data, dtype=dt)
+        put(gb, "rel_half_width", b.rel_half_width, "1")
+        data, dt = _strings(b.verdict)
+        gb.create_dataset("verdict", data=data, dtype=dt)
+
+
+def uncertainty_summary(a) -> dict:
+    """JSON block "uncertainty" of an Assessment (SI; see laminid_cli.uncertainty)."""
+    from laminid_cli.joint import unique_names
+    from laminid_cli.uncertainty import sensitivity_table
+
+    r = a.result
+    plates = list(getattr(r, "specimens", ())) or [r]
+    names = unique_names([p.specimen.name for p in plates])
+    out = a.uncertainty.as_dict()
+    out["frequency_sigma"] = {n: {"sigma_hz": s.sigma_hz, "source": list(s.source),
+                                  "sigma_rel": s.sigma_rel} for n, s in zip(names, a.sigmas)}
+    out["sensitivity"] = sensitivity_table(r)
+    out["fixed_undetermined"] = list(a.fixed_undetermined)
+    out["runs"] = a.runs
+    if a.before_fixing is not None:
+        out["before_fixing"] = {
+            lab: {"rel_half_width": float(a.before_fixing.rel_half_width[k]),
+                  "verdict": a.before_fixing.verdict[k]}
+            for k, lab in enumerate(a.before_fixing.labels)}
+    if a.monte_carlo is not None:
+        out["monte_carlo"] = a.monte_carlo.as_dict()
+    return out
+
+
+def joint_identification_summary(r) -> dict:
+    """Everything ``laminid identify --joint`` reports, as plain data (SI, Hz).
+
+    Materials once at the top level; per plate (key: specimen name) the single-plate summary
+    without its material keys.
+    """
+    from laminid_cli.joint import unique_names
+
+    plates = {}
+    for name, p in zip(unique_names([q.specimen.name for q in r.specimens]), r.specimens):
+        s = identification_summary(p)
+        for key in ("materials", "initial", "free", "parametrization", "optimizer", "iterations",
+                    "evaluations", "converged", "status", "time_s"):
+            s.pop(key, None)
+        plates[name] = s
+    return {
+        "joint": True,
+        "specimen_names": list(plates),
+        "materials": {n: c.as_dict() for n, c in zip(r.material_names, r.constants)},
+        "initial": {n: c.as_dict() for n, c in zip(r.material_names, r.initial)},
+        "free": {n: list(v) for n, v in r.free.items()},
+        "parametrization": dict(r.parametrization),
+        "specimens": plates,
+        "rms_residual_percent": r.rms_residual_percent,
+        "initial_rms_residual_percent": r.initial_rms_residual_percent,
+        "objective": r.objective,
+        "iterations": r.evaluations,
+        "evaluations": r.evaluations,
+        "converged": r.converged,
+        "status": r.status,
+        "optimizer": {"slsqp": "LD_SLSQP", "mma": "LD_MMA"}[r.options.optimizer],
+        "time_s": r.time_s,
+        "swaps": list(r.swaps),
+        "warnings": list(r.warnings),
+    }
+
+
+def write_joint_identification_file(path, fms, r, summary: dict, assessment=None,
+                                    command: str = "laminid identify --joint") -> None:
+    """Write a joint identification (format "laminid-joint-result", module docstring)."""
+    import h5py
+
+    from laminid_cli.joint import unique_names
+
+    names = unique_names([p.specimen.name for p in r.specimens])
+    with atomic_h5(path, "laminid-joint-result", command=command) as f:
         f.attrs["converged"] = bool(r.converged)
         f.attrs["status"] = r.status
         f.attrs["objective"] = float(r.objective)
         f.attrs["evaluations"] = int(r.evaluations)
         f.attrs["time_s"] = float(r.time_s)
         f.attrs["optimizer"] = summary["optimizer"]
-        write_specimen(f, fm.specimen)
-        write_mesh(f, fm.plate)
-        write_materials(f, r.material_names, r.constants, fm.specimen.densities)
+        f.attrs["specimens"] = ",".join(names)
+        f.attrs["rms_residual_percent"] = float(r.rms_residual_percent)
+        write_materials(f, r.material_names, r.constants, {})
         for name in r.material_names:
             g = f["materials"][name.replace("/", "\u2215")]
             g.attrs["parametrization"] = r.parametrization[name]
             g.attrs["free"] = ",".join(r.free[name])
         write_materials(f, r.material_names, r.initial, {}, group="initial")
-        write_frequencies(f, r.model_hz, r.measured_hz, r.weight, r.residual_percent)
-        put(f["frequencies"], "model_mode", r.pairing + 1, "1",
-            description="1-based index of the sorted model mode paired with each measured one")
-        f["frequencies"].attrs["rms_residual_percent"] = r.rms_residual_percent
-        f["frequencies"].attrs["initial_rms_residual_percent"] = r.initial_rms_residual_percent
-        g = f.create_group("modes")
-        put(g, "frequency", r.modes.freq, "Hz", description="all computed model modes, sorted")
-        put(g, "w", fm.plate.w_shape(r.phi_paired), "m/sqrt(kg)",
-            description="transverse displacement w0 at the mesh nodes of the model modes paired "
-            "with the measured ones (mass-normalised)")
-        put(g, "phi", r.phi_paired, "m/sqrt(kg)", compression="gzip",
-            description="all retained DOFs of the paired modes; DOF = node*9 + variable")
-        put(g, "dofs", fm.plate.dofs, "1")
         h = f.create_group("history")
         for key, unit in (("evaluation", "1"), ("objective", "1"), ("rms_residual_percent", "%")):
             put(h, key, r.history[key], unit)
         put(h, "x", r.history["x"], "1", labels=",".join(r.variable_labels))
-        labels = [f"{n}.{k}" for n in r.material_names for k in ("E1", "E2", "G12", "G13", "G23", "nu12")]
+        labels = [f"{n}.{k}" for n in r.material_names
+                  for k in ("E1", "E2", "G12", "G13", "G23", "nu12")]
         put(h, "constants", r.history["constants"], "Pa (nu12: 1)", labels=",".join(labels))
-        s = f.create_group("sensitivities")
-        put(s, "dlnf_dlnP", r.sensitivity, "1", labels=",".join(r.sensitivity_labels),
-            description="normalised sensitivity d ln f_i / d ln P_j of each measured mode to "
-            "each constant at the optimum")
-        put(s, "dlambda_dx", r.dlam_dx, "rad^2/s^2", labels=",".join(r.variable_labels),
-            description="eigenvalue derivatives w.r.t. the design variables (paper Eq. 26)")
-        write_global_properties(f, r.global_properties)
         str_dt = h5py.string_dtype()
         f.create_dataset("swaps", data=np.array(list(r.swaps), dtype=object), dtype=str_dt)
         f.create_dataset("warnings", data=np.array(list(r.warnings), dtype=object), dtype=str_dt)
+        sg = f.create_group("specimens")
+        for name, fm, plate in zip(names, fms, r.specimens):
+            g = sg.create_group(name.replace("/", "\u2215"))
+            _write_identification(g, fm, plate, summary["specimens"][name] | {
+                "optimizer": summary["optimizer"]})
+        if assessment is not None:
+            write_uncertainty(f, assessment, names)

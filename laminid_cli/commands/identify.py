@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from laminid_cli.commands._common import check_output_path, echo_json, force_option, json_option
-from laminid_cli.commands.text import format_identify_report
+from laminid_cli.commands.text import format_identify_report, format_joint_report
 
 
 def default_output(spec: str) -> Path:
@@ -15,8 +15,15 @@ def default_output(spec: str) -> Path:
     return p.with_name(p.stem + ".result.h5")
 
 
+def default_joint_output(specs) -> Path:
+    """First specimen's folder, ``<stem1>+<stem2>+....joint.result.h5``."""
+    first = Path(specs[0])
+    return first.with_name("+".join(Path(s).stem for s in specs) + ".joint.result.h5")
+
+
 @click.command(short_help="Identify ply elastic constants from measured frequencies.")
-@click.argument("spec", type=click.Path(dir_okay=False))
+@click.argument("specs", nargs=-1, required=True, type=click.Path(dir_okay=False),
+                metavar="SPEC...")
 @click.option("--mesh", default="12x12", show_default=True, metavar="NXxNY",
               help="Elements along x (side a) and y (side b); the paper uses 12x12.")
 @click.option("--fix", "fix", default="", metavar="LIST",
@@ -38,42 +45,91 @@ def default_output(spec: str) -> Path:
 @click.option("--pairing", type=click.Choice(["track", "sorted"]), default="track",
               show_default=True, help="Mode pairing: sorted order at the start then MAC "
                                       "tracking (track), or sorted order throughout (paper).")
+@click.option("--joint", is_flag=True,
+              help="Identify several SPECs together: one set of constants for each material "
+                   "they share (same name, same initial constants), each plate with its own "
+                   "geometry, mass and frequencies.")
+@click.option("--sigma-rel", type=float, default=0.002, show_default=True, metavar="FRACTION",
+              help="Standard deviation of a measured frequency, as a fraction of it, where the "
+                   "specimen file gives no measured.sigma (0.002 = 0.2 %).")
+@click.option("--covariance-scale", type=click.Choice(["stated", "residuals", "larger"]),
+              default="larger", show_default=True,
+              help="Intervals from the stated frequency sigma, from the residuals at the "
+                   "optimum (s2 = chi2/(n-p), Student t), or the larger of the two.")
+@click.option("--max-rel-interval", type=float, default=0.30, show_default=True,
+              metavar="FRACTION",
+              help="Flag a constant whose 95 % half-width exceeds this fraction of its value.")
+@click.option("--fix-undetermined", is_flag=True,
+              help="Fix the flagged constants at their initial values and identify again.")
+@click.option("--monte-carlo", "monte_carlo", type=click.IntRange(min=0), default=0,
+              metavar="N", help="Re-identify N times from frequencies perturbed by their "
+                                "uncertainties and report the spread (0: off).")
+@click.option("--seed", type=int, default=0, show_default=True,
+              help="Random seed of the Monte Carlo perturbations.")
+@click.option("-j", "--jobs", type=click.IntRange(min=1), default=None,
+              help="Processes for the Monte Carlo trials [default: the number of cores].")
 @json_option
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
               help="HDF5 result file [default: SPEC's folder, <name>.result.h5].")
 @click.option("--no-output", is_flag=True, help="Do not write a result file.")
 @force_option
-def identify(spec, mesh, fix, optimizer, parametrization, xtol, ftol, max_evaluations, pairing,
-             as_json, output, no_output, force):
+def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evaluations, pairing,
+             joint, sigma_rel, covariance_scale, max_rel_interval, fix_undetermined, monte_carlo,
+             seed, jobs, as_json, output, no_output, force):
     """Identify E1, E2, G12, G13, G23 and nu12 of every ply material of the plate in SPEC by
     fitting the free-plate finite-element model to the measured frequencies (paper Eq. 17,
-    weights from the file), with analytic sensitivities and constrained optimisation.
+    weights from the file), with analytic sensitivities and constrained optimisation. With
+    --joint, several plates sharing a material are fitted together.
 
-    The report gives the identified constants beside the initial and reference values,
-    measured vs model frequencies with residuals (measured - model)/measured*100, and the
-    global laminate properties. Exit code 0 when converged, 1 when not, 2 for bad input.
+    The report gives the identified constants beside the initial and reference values with
+    their 95 % confidence intervals and a verdict (well determined / weak / not determined),
+    measured vs model frequencies with residuals (measured - model)/measured*100, the global
+    laminate properties, the correlation of the constants and the normalised sensitivities
+    d ln f / d ln P of each mode. Frequency uncertainties come from the file's measured.sigma,
+    else --sigma-rel. Exit code 0 when converged, 1 when not, 2 for bad input.
 
     \b
     Examples:
       laminid identify specimens/example1/S1.1.yaml
       laminid identify plate.yaml --fix nu12,G13,G23 --json
       laminid identify plate.yaml --optimizer mma -o plate-result.h5 --force
+      laminid identify plate.yaml --fix-undetermined --monte-carlo 200
+      laminid identify S1.1.yaml S1.2.yaml S1.3.yaml S1.4.yaml --joint
     """
     import sys
 
+    from laminid_cli.errors import FitInputError
     from laminid_cli.fe.mesh import parse_mesh
     from laminid_cli.forward import build_forward_model
-    from laminid_cli.identify import IdentifyOptions, identify as run_identify
-    from laminid_cli.results import identification_summary, write_identification_file
+    from laminid_cli.identify import IdentifyOptions
+    from laminid_cli.results import (identification_summary, joint_identification_summary,
+                                     uncertainty_summary, write_identification_file,
+                                     write_joint_identification_file)
     from laminid_cli.specimen import read_specimen
+    from laminid_cli.uncertainty import UncertaintyOptions, assess, check_sigma_rel
 
-    out = None if no_output else check_output_path(output or default_output(spec), force)
-    specimen = read_specimen(spec)
+    if len(specs) > 1 and not joint:
+        raise FitInputError(f"{len(specs)} specimens given: add --joint to identify them "
+                            "together (one set of constants per shared material)")
+    if joint and len(specs) < 2:
+        raise FitInputError("--joint needs two or more specimen files")
+    check_sigma_rel(sigma_rel)
+    if not max_rel_interval > 0:
+        raise FitInputError(f"--max-rel-interval must be positive (0.3 = 30 %), got "
+                            f"{max_rel_interval:g}")
+    default = default_joint_output(specs) if joint else default_output(specs[0])
+    out = None if no_output else check_output_path(output or default, force)
+    specimens = [read_specimen(s) for s in specs]
     options = IdentifyOptions(
         fix=tuple(x.strip() for x in fix.split(",") if x.strip()), optimizer=optimizer,
         parametrization=parametrization, xtol_rel=xtol, ftol_rel=ftol,
         max_evaluations=max_evaluations, pairing=pairing)
-    fm = build_forward_model(specimen, parse_mesh(mesh))
+    uopts = UncertaintyOptions(sigma_rel=sigma_rel, scaling=covariance_scale,
+                               max_rel_interval=max_rel_interval,
+                               fix_undetermined=fix_undetermined, monte_carlo=monte_carlo,
+                               jobs=jobs, seed=seed)
+    nxny = parse_mesh(mesh)
+    fms = [build_forward_model(sp, nxny) for sp in specimens]
     show_progress = not as_json and sys.stderr.isatty()
 
     def progress(n, objective, rms):
@@ -81,18 +137,43 @@ def identify(spec, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalua
             click.echo(f"\r  evaluation {n:>4}: objective {objective:10.4g}, RMS residual "
                        f"{rms:8.4f} %", err=True, nl=False)
 
-    result = run_identify(fm, options, progress=progress)
+    bar = None
+
+    def mc_progress(done, total):
+        nonlocal bar
+        if not show_progress:
+            return
+        if bar is None:
+            click.echo("", err=True)
+            bar = click.progressbar(length=total, label="Monte Carlo", file=sys.stderr)
+            bar.__enter__()
+        bar.update(1)
+
+    try:
+        a = assess(fms if joint else fms[0], options, uopts, joint=joint, progress=progress,
+                   mc_progress=mc_progress)
+    finally:
+        if bar is not None:
+            bar.__exit__(None, None, None)
+    result = a.result
     if show_progress:
         click.echo("", err=True)
-    summary = identification_summary(result)
-    summary["mesh"] = {"nx": fm.mesh_size[0], "ny": fm.mesh_size[1]}
+    if joint:
+        summary = joint_identification_summary(result)
+    else:
+        summary = identification_summary(result)
+    summary["mesh"] = {"nx": fms[0].mesh_size[0], "ny": fms[0].mesh_size[1]}
+    summary["uncertainty"] = uncertainty_summary(a)
     if out is not None:
-        write_identification_file(out, fm, result, summary)
+        if joint:
+            write_joint_identification_file(out, fms, result, summary, assessment=a)
+        else:
+            write_identification_file(out, fms[0], result, summary, assessment=a)
         summary["output"] = str(out)
     if as_json:
         echo_json(summary)
     else:
-        click.echo(format_identify_report(summary))
+        click.echo(format_joint_report(summary) if joint else format_identify_report(summary))
         if out is not None:
             click.echo(f"\nwritten: {out}")
     if not result.converged:

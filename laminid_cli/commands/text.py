@@ -79,7 +79,12 @@ def format_modes_report(s: dict) -> str:
 
 
 def format_identify_report(s: dict) -> str:
-    """Terminal report of an identification, in the shape of the paper's Tables 1-3."""
+    """Terminal report of an identification, in the shape of the paper's Tables 1-3.
+
+    With an ``uncertainty`` block (laminid_cli.results.uncertainty_summary) each constant gets
+    its 95 % interval and verdict, followed by the uncertainty, correlation, sensitivity and
+    Monte Carlo tables.
+    """
     sp = s["specimen"]
     lines = [f"{sp['name']}" + (f" — {sp['description']}" if sp.get("description") else ""),
              f"plate {sp['a'] * 1e3:.4g} x {sp['b'] * 1e3:.4g} x {sp['h'] * 1e3:.4g} mm, "
@@ -87,26 +92,7 @@ def format_identify_report(s: dict) -> str:
     state = s["status"] if s["converged"] else f"NOT CONVERGED — {s['status']}"
     lines.append(f"{s['optimizer']}: {state}; {s['evaluations']} evaluations, "
                  f"{s['time_s']:.2f} s")
-    ref = s.get("reference") or {}
-    ref_mats = ref.get("materials") or {}
-    for name, ident in s["materials"].items():
-        init = s["initial"][name]
-        free = set(s["free"].get(name, ()))
-        param = s["parametrization"].get(name, "")
-        lines.append("")
-        lines.append(f"material {name} (variables: "
-                     + ("paper Eq. 14, E1/E1_0 and alphas" if param == "alpha"
-                        else "free constants / initial values") + ")")
-        rm = ref_mats.get(name, {})
-        lines.append(f"  {'constant':<10} {'initial':>12} {'identified':>12}  "
-                     f"{'reference' if rm else ''}")
-        for k in (*MODULI, "nu12"):
-            note = "" if k in free else "  (fixed)"
-            lines.append(f"  {k + (' [GPa]' if k != 'nu12' else ''):<10} "
-                         f"{_num(k, init[k]):>12} {_num(k, ident[k]):>12}  "
-                         f"{_num(k, rm.get(k)) if k in rm else '':>10}{note}")
-    if ref.get("source") and (ref_mats or ref.get("global")):
-        lines.append(f"  reference: {' '.join(str(ref['source']).split())}")
+    lines += _material_tables(s, s.get("reference") or {})
     lines.append("")
     fr = s["frequencies"]
     extra = {}
@@ -118,16 +104,191 @@ def format_identify_report(s: dict) -> str:
                  f"{s['objective']:.4g}")
     lines.append("")
     lines += format_global(s["global_properties"])
+    ref = s.get("reference") or {}
     gref = ref.get("global") or {}
     if gref:
         lines.append("    reference: " + ", ".join(
             f"{k} {v / 1e9:.2f} GPa" if not k.startswith("nu") else f"{k} {v:.3f}"
             for k, v in gref.items()))
+    if s.get("uncertainty"):
+        lines.append("")
+        lines += format_uncertainty(s["uncertainty"])
     for msg in s.get("swaps", []):
         lines.append(f"note: {msg}")
     for msg in s.get("warnings", []):
         lines.append(f"warning: {msg}")
     return "\n".join(lines)
+
+
+def format_joint_report(s: dict) -> str:
+    """Terminal report of a joint identification: shared constants, then each plate."""
+    names = s["specimen_names"]
+    lines = [f"joint identification of {len(names)} plates: {', '.join(names)}"]
+    state = s["status"] if s["converged"] else f"NOT CONVERGED — {s['status']}"
+    lines.append(f"{s['optimizer']}: {state}; {s['evaluations']} evaluations, "
+                 f"{s['time_s']:.2f} s")
+    first_ref = next((p.get("reference") for p in s["specimens"].values()
+                      if (p.get("reference") or {}).get("materials")), {}) or {}
+    lines += _material_tables(s, first_ref)
+    for name, p in s["specimens"].items():
+        sp = p["specimen"]
+        lines.append("")
+        lines.append(f"{name}" + (f" — {sp['description']}" if sp.get("description") else ""))
+        lines.append(f"plate {sp['a'] * 1e3:.4g} x {sp['b'] * 1e3:.4g} x {sp['h'] * 1e3:.4g} mm, "
+                     f"{sp['n_plies']} plies, boundary {sp['boundary']}")
+        fr = p["frequencies"]
+        extra = {}
+        if any(m != i + 1 for i, m in enumerate(fr["model_mode"])):
+            extra["model #"] = [str(m) for m in fr["model_mode"]]
+        lines += format_frequency_table(fr, extra)
+        lines.append(f"RMS residual {p['rms_residual_percent']:.3f} % (initial guess "
+                     f"{p['initial_rms_residual_percent']:.2f} %)")
+        lines += format_global(p["global_properties"])
+    lines.append("")
+    lines.append(f"RMS residual over all plates {s['rms_residual_percent']:.3f} % (initial guess "
+                 f"{s['initial_rms_residual_percent']:.2f} %), objective {s['objective']:.4g}")
+    if s.get("uncertainty"):
+        lines.append("")
+        lines += format_uncertainty(s["uncertainty"])
+    for msg in s.get("swaps", []):
+        lines.append(f"note: {msg}")
+    for msg in s.get("warnings", []):
+        lines.append(f"warning: {msg}")
+    return "\n".join(lines)
+
+
+def _material_tables(s: dict, ref: dict) -> list[str]:
+    """Per material: initial, identified, reference, 95 % interval and verdict per constant."""
+    lines = []
+    ref_mats = ref.get("materials") or {}
+    unc = (s.get("uncertainty") or {}).get("constants", {})
+    for name, ident in s["materials"].items():
+        init = s["initial"][name]
+        free = set(s["free"].get(name, ()))
+        param = s["parametrization"].get(name, "")
+        lines.append("")
+        lines.append(f"material {name} (variables: "
+                     + ("paper Eq. 14, E1/E1_0 and alphas" if param == "alpha"
+                        else "free constants / initial values") + ")")
+        rm = ref_mats.get(name, {})
+        mu = unc.get(name, {})
+        lines.append(f"  {'constant':<10} {'initial':>12} {'identified':>12}  "
+                     f"{'reference' if rm else '':>10}"
+                     + (f"  {'± 95 %':>9} {'of value':>9}  verdict" if mu else ""))
+        for k in (*MODULI, "nu12"):
+            note = "" if k in free else "  (fixed)"
+            row = (f"  {k + (' [GPa]' if k != 'nu12' else ''):<10} "
+                   f"{_num(k, init[k]):>12} {_num(k, ident[k]):>12}  "
+                   f"{_num(k, rm.get(k)) if k in rm else '':>10}")
+            u = mu.get(k)
+            if u is not None and "half_width" in u:
+                flag = " [!]" if u.get("flagged") else ""
+                row += (f"  ±{_num(k, u['half_width']):>8} {_pct(u['rel_half_width']):>9}  "
+                        f"{u['verdict'].split(' — ')[0]}{flag}")
+                lines.append(row)
+            else:
+                lines.append(row + note)
+    if ref.get("source") and (ref_mats or ref.get("global")):
+        lines.append(f"  reference: {' '.join(str(ref['source']).split())}")
+    return lines
+
+
+def _pct(rel) -> str:
+    if rel is None or not math.isfinite(rel):
+        return "inf"
+    return f"{rel * 100:.1f} %" if rel < 10 else f"{rel:.0f}x"
+
+
+def _short(labels) -> list[str]:
+    """Drop the material prefix when there is only one material."""
+    mats = {lab.rsplit(".", 1)[0] for lab in labels}
+    return [lab.rsplit(".", 1)[1] if len(mats) == 1 else lab for lab in labels]
+
+
+def format_uncertainty(u: dict) -> list[str]:
+    """Uncertainty, identifiability, correlation, sensitivity and Monte Carlo sections."""
+    conf = u["confidence"] * 100
+    sc = u["scaling"]
+    ap = u["a_posteriori"]
+    th = u["thresholds"]
+    lines = [f"uncertainty ({conf:.0f} % intervals, linearised at the optimum; verdict: "
+             f"half-width < {th['well_determined'] * 100:.0f} % of the value well determined, "
+             f"< {th['weak'] * 100:.0f} % weak)"]
+    lines.append(f"  frequency standard deviations: {u['sigma_source']}")
+    s2 = ap["s2"]
+    if s2 is not None and math.isfinite(s2):
+        fit = ("residuals consistent with it" if s2 <= 2 else
+               "the model misses the data by more than that (model error or sigma too small)")
+        lines.append(f"  a-posteriori variance factor s2 = chi2/(n-p) = {s2:.3g} (chi2 "
+                     f"{ap['chi2']:.3g}, {ap['dof']} degrees of freedom): {fit}")
+    used = ("stated frequency sigma (normal quantile)" if sc["used"] == "stated" else
+            f"covariance scaled by s2 = {sc['variance_factor']:.3g} (Student t quantile)")
+    lines.append(f"  intervals from: {used}; --covariance-scale {sc['requested']}")
+    cond = u["condition_number"]
+    weakest = " ".join(f"{c:+.2f} {lab}" for lab, c in
+                       zip(_short([w[0] for w in u["weakest_combination"]]),
+                           [w[1] for w in u["weakest_combination"]]))
+    lines.append(f"  condition number {fmt(cond, '.3g', 'inf')} (whitened Jacobian, relative "
+                 f"constants); least determined combination: {weakest}")
+    if u.get("fixed_undetermined"):
+        lines.append("  fixed at their initial values because undetermined (--fix-undetermined): "
+                     + ", ".join(u["fixed_undetermined"]))
+        for lab, b in (u.get("before_fixing") or {}).items():
+            if lab in u["fixed_undetermined"]:
+                lines.append(f"    {lab}: {conf:.0f} % half-width was {_pct(b['rel_half_width'])}"
+                             " of its value")
+    if u["flagged"]:
+        lines.append(f"  flagged (half-width > {th['max_rel_interval'] * 100:.0f} % of the value):"
+                     f" {', '.join(u['flagged'])} — not determined by these modes; fix them "
+                     "(--fix-undetermined) or measure a thicker plate / more modes")
+    for note in u.get("notes", []):
+        lines.append(f"  note: {note}")
+    labels = u["labels"]
+    if len(labels) > 1:
+        short = _short(labels)
+        width = max(6, max(len(x) for x in short) + 1)
+        lines.append("")
+        lines.append("correlation of the identified constants")
+        lines.append(" " * (width + 2) + "".join(f"{x:>{width}}" for x in short))
+        for i, x in enumerate(short):
+            lines.append(f"  {x:<{width}}" + "".join(
+                f"{fmt(u['correlation'][i][j], f'{width}.2f', '-'):>{width}}"
+                for j in range(len(short))))
+    for plate, tab in (u.get("sensitivity") or {}).items():
+        short = _short(tab["labels"])
+        lines.append("")
+        head = "normalised sensitivities d ln f / d ln P"
+        lines.append(head + (f" — {plate}" if len(u["sensitivity"]) > 1 else "")
+                     + " (which mode determines which constant)")
+        width = max(7, max(len(x) for x in short) + 1)
+        lines.append(f"  {'mode':>4}" + "".join(f"{x:>{width}}" for x in short))
+        for i, row in enumerate(tab["dlnf_dlnP"]):
+            skip = "" if tab["weight"][i] > 0 else "  (weight 0)"
+            lines.append(f"  {i + 1:>4}" + "".join(f"{fmt(v, f'{width}.3f'):>{width}}"
+                                                  for v in row) + skip)
+        lines.append("  most sensitive mode: " + ", ".join(
+            f"{x} {tab['dominant_mode'][lab]}" for x, lab in zip(short, tab["labels"])))
+    mc = u.get("monte_carlo")
+    if mc:
+        lines.append("")
+        lines.append(f"Monte Carlo check: {mc['converged']} of {mc['trials']} re-identifications "
+                     f"converged (frequencies perturbed by sigma x {mc['sigma_factor']:.3g}, "
+                     f"{mc['jobs']} processes, {mc['time_s']:.1f} s)")
+        lines.append(f"  {'constant':<18} {'linearised std':>15} {'Monte Carlo std':>16} "
+                     f"{'ratio':>6}  {'Monte Carlo ' + format(conf, '.0f') + ' % range':>26}")
+        for mat, consts in mc["constants"].items():
+            for k, v in consts.items():
+                lab = k if len(mc["constants"]) == 1 else f"{mat}.{k}"
+                lines.append(f"  {lab:<18} {_val(k, v['linearized_std']):>15} "
+                             f"{_val(k, v['std']):>16} {fmt(v['ratio'], '6.2f'):>6}  "
+                             f"{_val(k, v['lower']):>12} .. {_val(k, v['upper']):<12}")
+    return lines
+
+
+def _val(name: str, value) -> str:
+    if value is None or not math.isfinite(value):
+        return "-"
+    return f"{value:.3g}" if name == "nu12" else f"{value / 1e9:.3g} GPa"
 
 
 def _num(name: str, value) -> str:
