@@ -16,8 +16,8 @@ Layout (schema_version 1)::
     /settings               attrs: one per acquisition setting, unit in the name (span_hz...)
 
 Crash safety: :class:`FrfWriter` keeps the points in memory and, each time a point is added,
-writes the *whole* file to a temporary name in the same folder, fsyncs it and renames it over
-the target (``os.replace`` is atomic). Killing the process at any instant leaves either the
+writes the *whole* file through :func:`laminid_cli.atomic.atomic_path` (temporary name in the
+same folder, fsync, ``os.replace``). Killing the process at any instant leaves either the
 previous valid file or the new valid one, never a half-written file. Files are small (a few
 MB at most), so the rewrite costs milliseconds.
 
@@ -27,13 +27,13 @@ h5py is imported inside the functions so that importing this module stays cheap.
 from __future__ import annotations
 
 import datetime as _dt
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from laminid_cli import __version__
+from laminid_cli.atomic import atomic_path
 from laminid_cli.errors import FrfError, OutputExistsError
 
 FORMAT = "laminid-frf"
@@ -292,44 +292,35 @@ def write_frf_h5(path, freq, frf, coherence=None, *, units: str = "1", labels=No
     points.setdefault("timestamp", [_now()] * n)
     points.setdefault("n_averages", [0] * n)
     points.setdefault("overloads", [0] * n)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        with h5py.File(tmp, "w") as f:
-            f.attrs["format"] = FORMAT
-            f.attrs["schema_version"] = SCHEMA_VERSION
-            f.attrs["laminid_version"] = __version__
-            f.attrs["created"] = created or _now()
-            f.attrs["modified"] = _now()
-            f.attrs["complete"] = bool(complete)
-            d = f.create_dataset("frequency", data=freq)
-            d.attrs["units"] = "Hz"
-            d = f.create_dataset("frf", data=frf)
-            d.attrs["units"] = units
-            d.attrs["quantity"] = quantity
-            d = f.create_dataset("coherence", data=np.asarray(coherence, dtype=float).reshape(frf.shape))
-            d.attrs["units"] = "1"
-            g = f.create_group("points")
-            str_dt = h5py.string_dtype()
-            for key, values in points.items():
-                values = list(values)
-                if values and all(isinstance(v, (int, np.integer)) for v in values):
-                    g.create_dataset(key, data=np.asarray(values, dtype=np.int64))
-                elif values and all(isinstance(v, (int, float, np.number)) for v in values):
-                    g.create_dataset(key, data=np.asarray(values, dtype=float))
-                else:
-                    g.create_dataset(key, data=np.asarray([str(v) for v in values], dtype=object),
-                                     dtype=str_dt)
-            gi = f.create_group("instrument")
-            for k, v in (instrument or {}).items():
-                gi.attrs[k] = v if v is not None else ""
-            gs = f.create_group("settings")
-            for k, v in (settings or {}).items():
-                gs.attrs[k] = v if v is not None else ""
-            f.flush()
-        with open(tmp, "rb") as fh:
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+        f.attrs["format"] = FORMAT
+        f.attrs["schema_version"] = SCHEMA_VERSION
+        f.attrs["laminid_version"] = __version__
+        f.attrs["created"] = created or _now()
+        f.attrs["modified"] = _now()
+        f.attrs["complete"] = bool(complete)
+        d = f.create_dataset("frequency", data=freq)
+        d.attrs["units"] = "Hz"
+        d = f.create_dataset("frf", data=frf)
+        d.attrs["units"] = units
+        d.attrs["quantity"] = quantity
+        d = f.create_dataset("coherence", data=np.asarray(coherence, dtype=float).reshape(frf.shape))
+        d.attrs["units"] = "1"
+        g = f.create_group("points")
+        str_dt = h5py.string_dtype()
+        for key, values in points.items():
+            values = list(values)
+            if values and all(isinstance(v, (int, np.integer)) for v in values):
+                g.create_dataset(key, data=np.asarray(values, dtype=np.int64))
+            elif values and all(isinstance(v, (int, float, np.number)) for v in values):
+                g.create_dataset(key, data=np.asarray(values, dtype=float))
+            else:
+                g.create_dataset(key, data=np.asarray([str(v) for v in values], dtype=object),
+                                 dtype=str_dt)
+        gi = f.create_group("instrument")
+        for k, v in (instrument or {}).items():
+            gi.attrs[k] = v if v is not None else ""
+        gs = f.create_group("settings")
+        for k, v in (settings or {}).items():
+            gs.attrs[k] = v if v is not None else ""
     return path

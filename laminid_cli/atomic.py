@@ -1,0 +1,43 @@
+"""Atomic file writing: a result is either complete on disk or not there at all.
+
+Everything laminid writes (FRF files point by point, modes and identification results, batch
+outputs) goes through :func:`atomic_path`: the data are written to a temporary name in the
+target's folder, flushed to disk (fsync) and renamed over the target (``os.replace`` is atomic
+on POSIX and Windows). A crash or SIGKILL at any instant leaves the previous file or the new
+one, never a half-written one; the temporary name starts with a dot and ends in
+``.tmp-<pid>`` so that leftovers are easy to recognise (:data:`TEMP_GLOB`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from pathlib import Path
+
+#: glob pattern of the temporary files (left behind only by a killed process)
+TEMP_GLOB = ".*.tmp-*"
+
+
+@contextlib.contextmanager
+def atomic_path(path):
+    """Yield a temporary path beside ``path``; fsync and rename it to ``path`` on success.
+
+    On an exception the temporary file is removed and ``path`` is untouched.
+    """
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        yield tmp
+        with open(tmp, "rb") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def write_bytes_atomic(path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically (see :func:`atomic_path`)."""
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)
+    return Path(path)
