@@ -76,9 +76,10 @@ def run(path: str, mesh: tuple[int, int]) -> dict:
             lines.append(compare_row(c, paper.get(c), getattr(result.constants[k], c)))
     if path in IDENTIFIED_GLOBAL:
         lines.append("  global properties (Appendix A)")
+        paper_global = IDENTIFIED_GLOBAL[path]
         for g in GLOBAL_NAMES:
-            if g in IDENTIFIED_GLOBAL[path]:
-                lines.append(compare_row(g, IDENTIFIED_GLOBAL[path][g], result.global_properties[g]))
+            if g in paper_global:
+                lines.append(compare_row(g, paper_global[g], result.global_properties[g]))
     lines.append(f"  RMS residual over the paper's {int(use.sum())} modes: paper {p_rms:.3f} %, "
                  f"laminid {our_rms:.3f} % (initial {result.initial_rms_residual_percent:.2f} %)")
     lines.append(f"  {result.status}; {result.evaluations} evaluations, {dt:.1f} s; "

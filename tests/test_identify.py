@@ -398,7 +398,8 @@ def test_crossing_modes_are_reported_and_sorted_pairing_recovers_the_truth():
     assert max(abs(e) for e in err.values()) < 1e-6, err
 
 
-@pytest.mark.xfail(strict=True, reason="pairing='track' keeps the sorted pairing of the initial "
+@pytest.mark.xfail(strict=True, raises=AssertionError,
+                   reason="pairing='track' keeps the sorted pairing of the initial "
                    "guess; modes that cross between the guess and the truth stay mis-paired "
                    "(converges to RMS 0.79 %, E1 -1.3 %)")
 def test_crossing_modes_tracked_pairing_recovers_the_truth():
