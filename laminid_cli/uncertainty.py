@@ -397,6 +397,12 @@ def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
             tq = float(stats.t.ppf(0.5 + confidence / 2, dof))
             if scaling == "residuals" or tq * np.sqrt(s2) > z:
                 used, factor, q = "residuals", s2, tq
+    if dof > 0 and chi2 > stats.chi2.ppf(0.99, dof):
+        notes.append(f"the fit misses the data by more than the stated frequency noise explains "
+                     f"(chi2 {chi2:.3g} for {dof} degrees of freedom, 99 % limit "
+                     f"{stats.chi2.ppf(0.99, dof):.3g}): model error, differences between plates "
+                     "(joint) or sigma too small"
+                     + ("; intervals widened by s = sqrt(s2)" if used == "residuals" else ""))
     cov = cov_stated * factor
     std_stated = np.sqrt(np.clip(np.diag(cov_stated), 0, None))
     std = np.sqrt(np.clip(np.diag(cov), 0, None))

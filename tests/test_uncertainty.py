@@ -1,0 +1,225 @@
+"""Uncertainty of identified constants: sigma sources, sandwich covariance, verdicts, Monte Carlo,
+coverage on seeded synthetic data (small fast version of scripts/validate_coverage.py)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from laminid_cli.errors import FitInputError
+from laminid_cli.forward import build_forward_model
+from laminid_cli.identify import IdentifyOptions, identify
+from laminid_cli.material import CONSTANT_NAMES, ElasticConstants
+from laminid_cli.specimen import Measured, read_specimen
+from laminid_cli.uncertainty import (VERDICT_NOT, VERDICT_WEAK, VERDICT_WELL, MaterialState,
+                                     Observations, UncertaintyOptions, assess, frequency_sigma,
+                                     linearized_uncertainty, monte_carlo, observations,
+                                     uncertainty_of)
+from tests.data.paper import IDENTIFIED, S11, S21
+
+GPa = 1e9
+TRUTH_S11 = ElasticConstants(**IDENTIFIED[S11]["IM7/977-2"])
+
+
+def measured(freq, sigma=None):
+    freq = np.asarray(freq, float)
+    return Measured(freq=freq, weight=np.where(np.isfinite(freq), 1.0, 0.0),
+                    sigma=None if sigma is None else np.asarray(sigma, float))
+
+
+# --- frequency sigma ------------------------------------------------------------------------------
+
+def test_sigma_from_file_where_given_else_relative_default():
+    s = frequency_sigma(measured([100.0, 200.0, np.nan, 400.0], [0.5, np.nan, np.nan, 0.2]),
+                        0.002)
+    assert np.allclose(s.sigma_hz[[0, 1, 3]], [0.5, 0.4, 0.2]) and np.isnan(s.sigma_hz[2])
+    assert s.source == ("file", "relative", "", "file")
+    assert "measured.sigma" in s.summary and "0.2 %" in s.summary
+    assert frequency_sigma(measured([100.0, 200.0])).summary == "0.2 % of each frequency (--sigma-rel)"
+
+
+@pytest.mark.parametrize("bad", [0.0, -0.001, float("nan")])
+def test_zero_or_negative_relative_sigma_is_refused(bad):
+    with pytest.raises(FitInputError, match="must be positive"):
+        frequency_sigma(measured([100.0]), bad)
+
+
+def test_zero_or_negative_given_sigma_is_refused():
+    with pytest.raises(FitInputError, match="plate.yaml: standard deviation of mode 2 is 0 Hz"):
+        frequency_sigma(measured([100.0, 200.0], [0.1, 0.0]), where="plate.yaml")
+    with pytest.raises(FitInputError, match="mode 1 is -0.1 Hz"):
+        frequency_sigma(measured([100.0, 200.0]), sigma_hz=[-0.1, 0.1])
+
+
+# --- linear algebra on a toy linear problem -----------------------------------------------------
+
+def toy(G_rel, f, sigma_rel=0.002, weight=None, values=(100e9, 10e9), lam_model=None,
+        prior=None):
+    """Observations whose relative eigenvalue Jacobian is G_rel (n, 2) w.r.t. ln E1, ln E2."""
+    f = np.asarray(f, float)
+    lam = (2 * np.pi * f) ** 2
+    w = np.ones(f.size) if weight is None else np.asarray(weight, float)
+    dlam_dP = G_rel * lam[:, None] / np.asarray(values)[None, :]
+    obs = Observations("toy", f, w, sigma_rel * f, lam if lam_model is None else lam_model,
+                       dlam_dP)
+    c = ElasticConstants(values[0], values[1], 5e9, 3e9, 3e9, 0.3)
+    mat = MaterialState("m", c, c, ("E1", "E2"), prior or {})
+    return obs, mat
+
+
+def test_covariance_is_the_inverse_fisher_matrix_for_uniform_relative_sigma():
+    rng = np.random.default_rng(3)
+    G = rng.uniform(0.1, 1.0, (8, 2))
+    obs, mat = toy(G, np.linspace(100, 800, 8))
+    u = linearized_uncertainty([obs], [mat], scaling="stated")
+    tau = 2 * 0.002                                     # relative sd of each eigenvalue
+    D = np.diag([100e9, 10e9])
+    expected = D @ np.linalg.inv(G.T @ G / tau**2) @ D
+    assert np.allclose(u.covariance, expected, rtol=1e-10)
+    assert u.quantile == pytest.approx(1.959964, abs=1e-6)
+    assert np.allclose(u.half_width, 1.959964 * np.sqrt(np.diag(expected)))
+    assert u.labels == ("m.E1", "m.E2") and u.fixed == ("m.G12", "m.G13", "m.G23", "m.nu12")
+    assert u.correlation[0, 1] == pytest.approx(expected[0, 1] / np.sqrt(expected[0, 0] * expected[1, 1]))
+
+
+def test_sandwich_covariance_with_weights_that_do_not_match_the_noise():
+    """Weights w_i != 1/sigma_i^2: C = (G'WG)^-1 G'W S W G (G'WG)^-1, checked by simulation."""
+    rng = np.random.default_rng(4)
+    G = rng.uniform(0.1, 1.0, (10, 2))
+    w = rng.uniform(0.2, 1.0, 10)
+    f = np.linspace(100, 900, 10)
+    sig_f = rng.uniform(0.0005, 0.004, 10) * f
+    obs, mat = toy(G, f, weight=w)
+    obs = dataclasses.replace(obs, sigma_hz=sig_f)
+    u = linearized_uncertainty([obs], [mat], scaling="stated")
+    # simulate the weighted least-squares estimate of the linear model (relative parameters)
+    tau = 2 * sig_f / f
+    A = np.sqrt(w)[:, None] * G
+    est = np.array([np.linalg.lstsq(A, np.sqrt(w) * tau * rng.standard_normal(10), rcond=None)[0]
+                    for _ in range(20000)])
+    assert np.allclose(est.std(axis=0) * [100e9, 10e9], u.std, rtol=0.03)
+
+
+def test_verdicts_thresholds_and_flags():
+    # E1 strongly, E2 weakly, a third column hardly sensitive -> well / weak / not determined
+    G = np.array([[1.0, 0.02], [0.9, 0.03], [1.1, 0.01], [0.8, 0.025], [1.0, 0.015]])
+    obs, mat = toy(G, [100, 200, 300, 400, 500])
+    u = linearized_uncertainty([obs], [mat], scaling="stated", max_rel_interval=0.3)
+    rel = u.rel_half_width
+    assert rel[0] < 0.05 and u.verdict[0] == VERDICT_WELL
+    assert rel[1] > 0.3 and u.verdict[1] == VERDICT_NOT and u.flagged == ("m.E2",)
+    obs, mat = toy(G * [1, 3], [100, 200, 300, 400, 500])
+    u = linearized_uncertainty([obs], [mat], scaling="stated", max_rel_interval=0.1)
+    assert 0.05 < u.rel_half_width[1] < 0.3 and u.verdict[1] == VERDICT_WEAK
+    assert u.flagged == ("m.E2",)                      # the user's threshold, tighter than 30 %
+    assert u.condition > 10 and u.weakest[0][0] == "m.E2"
+
+
+def test_a_posteriori_factor_and_covariance_scaling_choices():
+    G = np.array([[1.0, 0.2], [0.5, 0.8], [0.9, 0.4], [0.3, 1.0], [0.7, 0.6], [0.2, 0.3]])
+    f = np.linspace(100, 600, 6)
+    lam = (2 * np.pi * f) ** 2
+    # residuals of 3 stated sigmas on every mode: chi2 = 6 * 9 = 54, dof 4, s2 = 13.5
+    obs, mat = toy(G, f, lam_model=lam * (1 - 3 * 2 * 0.002))
+    stated = linearized_uncertainty([obs], [mat], scaling="stated")
+    assert stated.chi2 == pytest.approx(54.0, rel=1e-9) and stated.dof == 4
+    assert stated.s2 == pytest.approx(13.5) and stated.scale_used == "stated"
+    larger = linearized_uncertainty([obs], [mat], scaling="larger")
+    assert larger.scale_used == "residuals" and larger.variance_factor == pytest.approx(13.5)
+    assert larger.quantile == pytest.approx(2.776445, abs=1e-5)           # t(0.975, 4)
+    assert np.allclose(larger.std, stated.std * np.sqrt(13.5))
+    # residuals within the noise: "larger" keeps the stated sigma
+    obs, mat = toy(G, f, lam_model=lam * (1 - 0.2 * 2 * 0.002))
+    assert linearized_uncertainty([obs], [mat]).scale_used == "stated"
+
+
+def test_a_prior_adds_information_and_is_named():
+    G = np.array([[1.0, 0.001], [0.9, 0.002], [1.1, 0.001], [0.8, 0.001]])
+    obs, mat = toy(G, [100, 200, 300, 400])
+    free = linearized_uncertainty([obs], [mat], scaling="stated")
+    obs, mat = toy(G, [100, 200, 300, 400], prior={"E2": 1.0})
+    held = linearized_uncertainty([obs], [mat], scaling="stated")
+    assert held.std[1] < 0.1 * free.std[1]
+    assert held.verdict[1].endswith("(held by the prior)") and held.information_from_prior[1] > 0.9
+    assert held.information_from_prior[0] < 0.01
+
+
+# --- the plate model ------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def s11_synthetic():
+    """S1.1 on a 6x6 mesh with exact frequencies of the paper's identified constants."""
+    spec = read_specimen(S11)
+    fm = build_forward_model(spec, (6, 6))
+    f = fm.solve([TRUTH_S11], 12).freq
+    spec = dataclasses.replace(spec, measured=measured(f))
+    return dataclasses.replace(fm, specimen=spec), f
+
+
+def test_eigenvalue_jacobian_over_constants_matches_central_differences(s11_synthetic):
+    fm, f = s11_synthetic
+    r = identify(fm, IdentifyOptions(), start=[TRUTH_S11])
+    labels = tuple(f"IM7/977-2.{k}" for k in CONSTANT_NAMES)
+    obs = observations(fm, r, frequency_sigma(fm.specimen.measured), labels)
+    P = r.constants[0].as_array()
+    for j, name in enumerate(CONSTANT_NAMES):
+        h = 1e-4 * (abs(P[j]) if name != "nu12" else 1.0)
+        up, dn = P.copy(), P.copy()
+        up[j] += h
+        dn[j] -= h
+        lam_up = fm.solve([ElasticConstants.from_array(up)], 12).eigenvalues
+        lam_dn = fm.solve([ElasticConstants.from_array(dn)], 12).eigenvalues
+        fd = (lam_up - lam_dn) / (2 * h)
+        assert np.allclose(obs.dlam_dP[:, j], fd, rtol=2e-4, atol=1e-6 * np.abs(fd).max()), name
+
+
+def test_noise_free_data_give_back_the_truth_inside_tiny_intervals(s11_synthetic):
+    fm, _ = s11_synthetic
+    a = assess(fm, IdentifyOptions(), UncertaintyOptions(sigma_rel=0.002))
+    u = a.uncertainty
+    assert a.result.converged
+    truth = TRUTH_S11.as_array()
+    for k in range(3):                                   # E1, E2, G12
+        assert u.value[k] == pytest.approx(truth[k], rel=2e-3)
+        assert u.lower[k] < truth[k] < u.upper[k]
+    assert u.scale_used == "stated" and u.s2 < 1e-3      # no residual at all
+    assert u.verdict[0] == VERDICT_WELL
+    assert {"IM7/977-2.G13", "IM7/977-2.G23"} <= set(u.flagged)
+
+
+def test_coverage_and_monte_carlo_on_seeded_noisy_data():
+    """12 noisy S2.1 data sets (6x6, 0.2 %): 95 % intervals of E1, E2, G12 cover the truth,
+    and the library Monte Carlo spread of one of them matches the linearised one."""
+    spec = read_specimen(S21)
+    fm0 = build_forward_model(spec, (6, 6))
+    truth = ElasticConstants(**IDENTIFIED[S21]["E-glass/R368"])
+    f_true = fm0.solve([truth], 12).freq
+    rng = np.random.default_rng(2000)
+    covered = np.zeros(3, int)
+    opts = IdentifyOptions(fix=("G13", "G23"))
+    n = 12
+    for trial in range(n):
+        f = f_true * (1 + 0.002 * rng.standard_normal(12))
+        fm = dataclasses.replace(fm0, specimen=dataclasses.replace(spec, measured=measured(f)))
+        r = identify(fm, opts, start=[truth])
+        u = uncertainty_of(r, fm, frequency_sigma(fm.specimen.measured, 0.002), scaling="stated")
+        t = truth.as_array()[:3]
+        covered += (u.lower[:3] <= t) & (t <= u.upper[:3])
+    assert np.all(covered >= n - 2), covered           # expected 11.4 of 12; seeded
+    mc = monte_carlo(r, fm, frequency_sigma(fm.specimen.measured, 0.002), u, 8, jobs=2, seed=1)
+    assert mc.n_converged == 8 and mc.jobs == 2
+    assert np.all((mc.ratio[:3] > 0.5) & (mc.ratio[:3] < 1.6)), mc.ratio
+    again = monte_carlo(r, fm, frequency_sigma(fm.specimen.measured, 0.002), u, 8, jobs=1, seed=1)
+    assert np.allclose(again.samples, mc.samples, rtol=1e-6)       # trial order, any jobs
+
+
+def test_fix_undetermined_fixes_the_flagged_constants_and_runs_again(s11_synthetic):
+    fm, _ = s11_synthetic
+    a = assess(fm, IdentifyOptions(), UncertaintyOptions(fix_undetermined=True))
+    assert a.runs >= 2 and a.before_fixing is not None
+    assert {"IM7/977-2.G13", "IM7/977-2.G23"} <= set(a.fixed_undetermined)
+    assert not a.uncertainty.flagged
+    c = a.result.constants[0]
+    assert c.G13 == pytest.approx(3.1 * GPa) and c.G23 == pytest.approx(3.1 * GPa)
+    assert a.result.free["IM7/977-2"] == tuple(
+        k for k in CONSTANT_NAMES if f"IM7/977-2.{k}" not in a.fixed_undetermined)
