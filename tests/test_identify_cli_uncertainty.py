@@ -1,0 +1,186 @@
+"""`laminid identify` uncertainty options end to end: intervals and verdicts in the report, JSON
+and HDF5; --fix-undetermined; --monte-carlo; --joint; bad input."""
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from laminid_cli.cli import cli
+from laminid_cli.results import read_h5
+
+S1 = [f"specimens/example1/S1.{i}.yaml" for i in (1, 2, 3, 4)]
+MAT = "IM7/977-2"
+
+
+def run(*args):
+    return CliRunner().invoke(cli, list(args))
+
+
+@pytest.fixture(scope="module")
+def s11(tmp_path_factory):
+    out = tmp_path_factory.mktemp("unc") / "s11.h5"
+    r = run("identify", S1[0], "--mesh", "6x6", "--json", "-o", str(out))
+    assert r.exit_code == 0, r.output
+    return json.loads(r.output), out
+
+
+def test_json_uncertainty_block_and_paper_verdicts(s11):
+    d, _ = s11
+    u = d["uncertainty"]
+    c = u["constants"][MAT]
+    assert set(c) == {"E1", "E2", "G12", "G13", "G23", "nu12"}
+    for k, v in c.items():
+        assert v["lower"] < d["materials"][MAT][k] < v["upper"]
+        assert v["half_width"] == pytest.approx(u["quantile"] * v["std"])
+    # the paper's conclusion: E1 well determined, G13 and G23 not (thin plate)
+    assert c["E1"]["verdict"] == "well determined" and c["E1"]["rel_half_width"] < 0.05
+    for k in ("G13", "G23"):
+        assert c[k]["verdict"].startswith("not determined by these modes") and c[k]["flagged"]
+    assert f"{MAT}.G13" in u["flagged"] and f"{MAT}.G23" in u["flagged"]
+    assert u["sigma_source"] == "0.2 % of each frequency (--sigma-rel)"
+    assert u["frequency_sigma"]["S1.1"]["sigma_hz"][0] == pytest.approx(0.002 * 125.05)
+    assert u["a_posteriori"]["dof"] == 6 and u["a_posteriori"]["s2"] > 0
+    corr = np.array(u["correlation"])
+    assert corr.shape == (6, 6) and np.allclose(np.diag(corr), 1) and np.allclose(corr, corr.T)
+    assert u["condition_number"] > 100
+    sens = u["sensitivity"]["S1.1"]
+    assert np.array(sens["dlnf_dlnP"]).shape == (12, 6)
+    # E1 dominates every mode of this quasi-isotropic plate; the transverse shears barely count
+    assert np.all(np.array(sens["dlnf_dlnP"])[:, 0] > 0.2)
+    assert np.all(np.abs(np.array(sens["dlnf_dlnP"])[:, 3:5]) < 0.03)
+
+
+def test_hdf5_uncertainty_group_matches_json(s11):
+    d, out = s11
+    h = read_h5(out)
+    g = h["uncertainty"]
+    labels = [x.decode() if isinstance(x, bytes) else x for x in g["labels"]]
+    assert labels == [f"{MAT}.{k}" for k in ("E1", "E2", "G12", "G13", "G23", "nu12")]
+    e1 = d["uncertainty"]["constants"][MAT]["E1"]
+    assert g["std"][0] == pytest.approx(e1["std"]) and g["lower"][0] == pytest.approx(e1["lower"])
+    assert g["correlation"].shape == (6, 6)
+    assert g["@attrs"]["scaling"] == "larger" and "G13" in g["@attrs"]["flagged"]
+    assert g["frequency_sigma"]["S1.1"][0] == pytest.approx(0.002 * 125.05)
+    import h5py
+    with h5py.File(out) as f:
+        for path in ("uncertainty/std", "uncertainty/lower", "uncertainty/correlation",
+                     "uncertainty/rel_half_width", "uncertainty/frequency_sigma/S1.1"):
+            assert "units" in f[path].attrs, path
+    # the single-plate layout is unchanged
+    assert h["sensitivities"]["dlnf_dlnP"].shape == (12, 6) and "frequencies" in h
+
+
+def test_report_shows_intervals_verdicts_and_tables(tmp_path):
+    r = run("identify", S1[0], "--mesh", "6x6", "--no-output")
+    assert r.exit_code == 0, r.output
+    out = r.output
+    assert "± 95 %" in out and "well determined" in out and "not determined by these modes" in out
+    assert "flagged (half-width > 30 % of the value)" in out and "--fix-undetermined" in out
+    assert "correlation of the identified constants" in out
+    assert "normalised sensitivities d ln f / d ln P" in out
+    assert "frequency standard deviations: 0.2 % of each frequency" in out
+    assert "a-posteriori variance factor s2" in out and "condition number" in out
+
+
+def test_fix_undetermined_fixes_g13_g23_and_reruns():
+    r = run("identify", S1[0], "--mesh", "6x6", "--fix-undetermined", "--json", "--no-output")
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output)
+    u = d["uncertainty"]
+    assert {f"{MAT}.G13", f"{MAT}.G23"} <= set(u["fixed_undetermined"]) and u["runs"] >= 2
+    assert not u["flagged"]
+    assert d["materials"][MAT]["G13"] == d["initial"][MAT]["G13"] == pytest.approx(3.1e9)
+    assert "G13" not in d["free"][MAT] and u["constants"][MAT]["G13"]["verdict"] == "fixed"
+    assert u["before_fixing"][f"{MAT}.G13"]["rel_half_width"] > 0.3
+    # a looser threshold flags nothing more than the default
+    r = run("identify", S1[0], "--mesh", "6x6", "--max-rel-interval", "5", "--json",
+            "--no-output")
+    assert r.exit_code == 0 and not json.loads(r.output)["uncertainty"]["flagged"]
+
+
+def test_monte_carlo_in_two_processes(tmp_path):
+    out = tmp_path / "mc.h5"
+    r = run("identify", S1[3], "--mesh", "6x6", "--fix", "G13,G23", "--monte-carlo", "8",
+            "--jobs", "2", "--seed", "3", "--json", "-o", str(out))
+    assert r.exit_code == 0, r.output
+    mc = json.loads(r.output)["uncertainty"]["monte_carlo"]
+    assert mc["trials"] == 8 and mc["converged"] == 8 and mc["jobs"] == 2 and mc["seed"] == 3
+    for k in ("E1", "G12"):
+        v = mc["constants"][MAT][k]
+        assert 0.4 < v["ratio"] < 2.0, (k, v)
+        assert v["lower"] < v["mean"] < v["upper"]
+    h = read_h5(out)["uncertainty"]["monte_carlo"]
+    assert h["samples"].shape == (8, 4) and h["@attrs"]["converged"] == 8
+
+
+def test_joint_identification_of_the_paper_plates(tmp_path):
+    out = tmp_path / "joint.h5"
+    r = run("identify", *S1, "--joint", "--mesh", "6x6", "--json", "-o", str(out))
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output)
+    assert d["joint"] is True and d["specimen_names"] == ["S1.1", "S1.2", "S1.3", "S1.4"]
+    assert list(d["materials"]) == [MAT] and 150e9 < d["materials"][MAT]["E1"] < 170e9
+    assert len(d["specimens"]["S1.2"]["frequencies"]["measured"]) == 13
+    assert d["converged"] and d["rms_residual_percent"] < 1.5
+    u = d["uncertainty"]
+    assert u["a_posteriori"]["dof"] == 48 - 6          # weighted modes 12 + 12 + 12 + 12
+    assert u["constants"][MAT]["E1"]["verdict"] == "well determined"
+    assert set(u["sensitivity"]) == {"S1.1", "S1.2", "S1.3", "S1.4"}
+    h = read_h5(out)
+    assert h["@attrs"]["format"] == "laminid-joint-result"
+    assert h["specimens"]["S1.3"]["frequencies"]["measured"].shape == (13,)
+    assert h["materials"][MAT.replace("/", "\u2215")]["E1"] == pytest.approx(
+        d["materials"][MAT]["E1"])
+    assert h["uncertainty"]["labels"].shape == (6,)
+    # same assumed noise for every plate: the joint nu12 interval is the narrowest
+    joint_stated = u["constants"][MAT]["nu12"]["std_stated"]
+    single = run("identify", S1[3], "--mesh", "6x6", "--json", "--no-output")
+    one = json.loads(single.output)["uncertainty"]["constants"][MAT]["nu12"]["std_stated"]
+    assert joint_stated < 0.7 * one
+
+
+def test_joint_default_output_name(tmp_path):
+    import shutil
+    for p in S1[:2]:
+        shutil.copy(p, tmp_path)
+    a, b = (str(tmp_path / p.rsplit("/", 1)[1]) for p in S1[:2])
+    r = run("identify", a, b, "--joint", "--mesh", "6x6")
+    assert r.exit_code == 0, r.output
+    assert "joint identification of 2 plates: S1.1, S1.2" in r.output
+    assert (tmp_path / "S1.1+S1.2.joint.result.h5").exists()
+
+
+def write_variant(tmp_path, src, old, new, name="v.yaml"):
+    text = open(src).read()
+    assert old in text
+    p = tmp_path / name
+    p.write_text(text.replace(old, new))
+    return str(p)
+
+
+def test_bad_input_is_refused_with_a_clear_message(tmp_path):
+    for bad in ("0", "-0.01"):
+        r = run("identify", S1[0], "--sigma-rel", bad, "--no-output")
+        assert r.exit_code == 2 and "relative frequency uncertainty must be positive" in r.output
+    r = run("identify", S1[0], "--max-rel-interval", "0", "--no-output")
+    assert r.exit_code == 2 and "--max-rel-interval must be positive" in r.output
+    r = run("identify", S1[0], S1[1], "--no-output")
+    assert r.exit_code == 2 and "add --joint" in r.output
+    r = run("identify", S1[0], "--joint", "--no-output")
+    assert r.exit_code == 2 and "--joint needs two or more" in r.output
+    other = write_variant(tmp_path, S1[1], "E1: 117.2 GPa", "E1: 130 GPa")
+    r = run("identify", S1[0], other, "--joint", "--mesh", "4x4", "--no-output")
+    assert r.exit_code == 2 and "material 'IM7/977-2' differs between" in r.output
+    assert "initial E1 117.2 GPa vs 130 GPa" in r.output and "Traceback" not in r.output
+    dens = write_variant(tmp_path, S1[1], "    nu12: 0.35", "    nu12: 0.35\n    density: 1600 kg/m^3",
+                         "d.yaml")
+    r = run("identify", S1[0], dens, "--joint", "--mesh", "4x4", "--no-output")
+    assert r.exit_code == 2 and "same density in every file" in r.output
+    sig = write_variant(tmp_path, S1[0], "1343.80]   # Hz, Table 1",
+                        "1343.80]\n  sigma: [0.1, 0, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, "
+                        "0.1, 0.1]", "s.yaml")
+    r = run("identify", sig, "--mesh", "4x4", "--no-output")
+    assert r.exit_code == 2 and "standard deviation must be positive" in r.output
+    assert not list(tmp_path.glob("*.h5"))
