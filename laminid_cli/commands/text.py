@@ -281,14 +281,14 @@ def format_uncertainty(u: dict) -> list[str]:
                 lab = k if len(mc["constants"]) == 1 else f"{mat}.{k}"
                 lines.append(f"  {lab:<18} {_val(k, v['linearized_std']):>15} "
                              f"{_val(k, v['std']):>16} {fmt(v['ratio'], '6.2f'):>6}  "
-                             f"{_val(k, v['lower']):>12} .. {_val(k, v['upper']):<12}")
+                             f"{_val(k, v['lower'], 4):>12} .. {_val(k, v['upper'], 4):<12}")
     return lines
 
 
-def _val(name: str, value) -> str:
+def _val(name: str, value, digits: int = 3) -> str:
     if value is None or not math.isfinite(value):
         return "-"
-    return f"{value:.3g}" if name == "nu12" else f"{value / 1e9:.3g} GPa"
+    return f"{value:.{digits}g}" if name == "nu12" else f"{value / 1e9:.{digits}g} GPa"
 
 
 def _num(name: str, value) -> str:
