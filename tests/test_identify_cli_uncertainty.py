@@ -184,3 +184,17 @@ def test_bad_input_is_refused_with_a_clear_message(tmp_path):
     r = run("identify", sig, "--mesh", "4x4", "--no-output")
     assert r.exit_code == 2 and "standard deviation must be positive" in r.output
     assert not list(tmp_path.glob("*.h5"))
+
+
+def test_sigma_from_the_specimen_file_is_used_and_reported(tmp_path):
+    sig = write_variant(tmp_path, S1[0], "1343.80]   # Hz, Table 1",
+                        "1343.80]\n  sigma: [0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5, "
+                        "0.5, null]")
+    r = run("identify", sig, "--mesh", "6x6", "--json", "--no-output", "--sigma-rel", "0.001")
+    assert r.exit_code == 0, r.output
+    u = json.loads(r.output)["uncertainty"]
+    fs = u["frequency_sigma"]["S1.1"]
+    assert fs["source"] == ["file"] * 11 + ["relative"]
+    assert fs["sigma_hz"][0] == 0.5 and fs["sigma_hz"][11] == pytest.approx(1.3438)
+    assert u["sigma_source"] == ("specimen file (measured.sigma) for 11 modes, 0.1 % of each "
+                                 "frequency (--sigma-rel) for 1")
