@@ -259,13 +259,17 @@ def run_job(job: Job, options: BatchOptions) -> Outcome:
         summary = identification_summary(result)
         summary["mesh"] = {"nx": fm.mesh_size[0], "ny": fm.mesh_size[1]}
         with tempfile.TemporaryDirectory(prefix="laminid-batch-") as tmp:
-            path = Path(tmp) / Path(job.output).name
-            write_identification_file(path, fm, result, summary, command="laminid batch")
-            with h5py.File(path, "r+") as f:
-                f.attrs[HASH_ATTR] = job.key
-                f.attrs["batch_name"] = job.name
-                f.attrs["batch_options"] = json.dumps(options.as_dict(), sort_keys=True)
-            data = path.read_bytes()
+            _current_tmp.append(tmp)
+            try:
+                path = Path(tmp) / Path(job.output).name
+                write_identification_file(path, fm, result, summary, command="laminid batch")
+                with h5py.File(path, "r+") as f:
+                    f.attrs[HASH_ATTR] = job.key
+                    f.attrs["batch_name"] = job.name
+                    f.attrs["batch_options"] = json.dumps(options.as_dict(), sort_keys=True)
+                data = path.read_bytes()
+            finally:
+                _current_tmp.remove(tmp)
         status = "ok" if result.converged else "not converged"
         reason = "" if result.converged else str(result.status)
         return Outcome(job.name, status, reason, data, time.perf_counter() - t0)
@@ -346,13 +350,43 @@ def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None
     # forkserver: workers start from a clean interpreter (no inherited h5py handles/threads)
     method = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
     pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(jobs)),
-                               mp_context=multiprocessing.get_context(method))
+                               mp_context=multiprocessing.get_context(method),
+                               initializer=_worker_signals)
+    complete = False
     try:
         futures = {pool.submit(run_job, job, options): job for job in jobs}
         for fut in as_completed(futures):
             yield futures[fut], _outcome_of(fut, futures[fut])
+        complete = True
     finally:
-        pool.shutdown(wait=False, cancel_futures=True)
+        if not complete:
+            # Ctrl-C or an error in the consumer: the workers would finish the jobs already
+            # queued to them; stop them now (their partial work is in their own temp folders)
+            for proc in list(getattr(pool, "_processes", {}).values()):
+                with contextlib.suppress(Exception):
+                    proc.terminate()
+        pool.shutdown(wait=complete, cancel_futures=True)
+
+
+#: temporary folder of the job running in this (worker) process, removed on SIGTERM
+_current_tmp: list = []
+
+
+def _worker_signals() -> None:
+    """Pool worker set-up: Ctrl-C is the client's business (it terminates the workers);
+    SIGTERM removes the running job's temporary folder and exits at once (an exception
+    would be caught by the pool's worker loop, which would go on with the next job)."""
+    import signal
+
+    def terminate(*_):
+        import shutil
+
+        for tmp in _current_tmp:
+            shutil.rmtree(tmp, ignore_errors=True)
+        os._exit(143)
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, terminate)
 
 
 def _outcome_of(fut, job: Job) -> Outcome:

@@ -57,7 +57,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrizat
 
     from laminid_cli.batch import (BatchError, BatchOptions, batch_report, discover_specimens,
                                    format_table, plan_batch, remove_stale_parts, result_row,
-                                   run_jobs, write_result_bytes, write_summary_csv,
+                                   run_jobs, stored_hash, write_result_bytes, write_summary_csv,
                                    write_summary_json, SUMMARY_CSV, SUMMARY_JSON)
     from laminid_cli.fe.mesh import parse_mesh
 
@@ -96,7 +96,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrizat
                 bar.update(1, f"{job.name}: {outcome.status}")
     finally:
         # also on Ctrl-C: the summary lists what was done ('not run' for the rest)
-        ordered = [rows.get(j.name) or result_row(j) for j in jobs]
+        ordered = [rows.get(j.name) or result_row(j, cached=stored_hash(j.output) == j.key)
+                   for j in jobs]
         report = batch_report(ordered, options, out)
         write_summary_csv(out / SUMMARY_CSV, ordered)
         write_summary_json(out / SUMMARY_JSON, report)

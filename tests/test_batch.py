@@ -1,0 +1,251 @@
+"""`laminid batch`: same numbers as one-by-one runs, re-runs, failures, kills, Dask."""
+
+import csv
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from laminid_cli.batch import BatchOptions, discover_specimens, input_hash, read_summary
+from laminid_cli.cli import cli
+
+SPECS = {"example1/S1.4.yaml": "specimens/example1/S1.4.yaml",
+         "example2/S2.1.yaml": "specimens/example2/S2.1.yaml"}
+MESH = "6x6"
+
+
+def run(*args):
+    return CliRunner().invoke(cli, [str(a) for a in args])
+
+
+def make_tree(root: Path, specs=SPECS) -> Path:
+    for rel, src in specs.items():
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(src, root / rel)
+    return root
+
+
+def constants_bytes(path) -> dict:
+    """Raw bytes of every dataset of /materials (the identified constants)."""
+    out = {}
+    with h5py.File(path, "r") as f:
+        for name, g in f["materials"].items():
+            for key, d in g.items():
+                out[f"{name}/{key}"] = d[()].tobytes()
+    return out
+
+
+@pytest.fixture(scope="module")
+def batch_run(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("batch")
+    specs = make_tree(tmp / "specs")
+    out = tmp / "out"
+    r = run("batch", specs, "--mesh", MESH, "-j", "2", "--out", out)
+    return specs, out, r
+
+
+def test_batch_gives_the_constants_of_one_by_one_runs_byte_for_byte(batch_run, tmp_path):
+    specs, out, r = batch_run
+    assert r.exit_code == 0, r.output
+    for rel in SPECS:
+        batch_file = out / rel.replace(".yaml", ".result.h5")
+        single = tmp_path / (Path(rel).stem + ".h5")
+        s = run("identify", specs / rel, "--mesh", MESH, "-o", single, "--json")
+        assert s.exit_code == 0, s.output
+        a, b = constants_bytes(batch_file), constants_bytes(single)
+        assert set(a) == set(b) and len(a) == 7                     # six constants + density
+        assert all(a[k] == b[k] for k in a), rel
+        with h5py.File(batch_file) as f:
+            assert len(f.attrs["batch_input_sha256"]) == 64
+            assert f.attrs["batch_name"] == rel[:-5]
+            assert json.loads(f.attrs["batch_options"])["mesh"] == MESH
+
+
+def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run):
+    specs, out, r = batch_run
+    with open(out / "summary.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [row["name"] for row in rows] == ["example1/S1.4", "example2/S2.1"]
+    assert all(row["status"] == "ok" and row["cached"] == "no" for row in rows)
+    s14 = rows[0]
+    with h5py.File(out / "example1" / "S1.4.result.h5") as f:
+        E1 = f["materials"]["IM7∕977-2"]["E1"][()]
+        rms = f["frequencies"].attrs["rms_residual_percent"]
+        n_ev = f.attrs["evaluations"]
+    assert float(s14["IM7/977-2 E1 [GPa]"]) == pytest.approx(E1 / 1e9, rel=1e-14)
+    assert 130 < float(s14["IM7/977-2 E1 [GPa]"]) < 190                 # paper 159.6 GPa
+    assert float(s14["rms_residual [%]"]) == pytest.approx(rms, rel=1e-5) and rms < 1.0
+    assert int(s14["evaluations"]) == n_ev
+    assert s14["E-glass/R368 E1 [GPa]"] == "" and "IM7/977-2 nu12 [1]" in s14
+    assert s14["result"] == "example1/S1.4.result.h5"
+    # terminal: one block per material set, specimens as columns, constants as rows
+    lines = r.output.splitlines()
+    head = next(line for line in lines if line.startswith("IM7/977-2"))
+    assert head.split()[-1] == "S1.4"
+    e1 = next(line for line in lines if line.startswith("E1 [GPa]"))
+    assert float(e1.split()[-1]) == pytest.approx(E1 / 1e9, abs=0.006)
+    assert "2 ok, 0 not converged, 0 failed" in r.output
+    j = json.loads((out / "summary.json").read_text())
+    assert j["counts"]["ok"] == 2 and j["specimens"][0]["materials"]["IM7/977-2"]["E1"] == E1
+    assert read_summary(out / "summary.csv")[0]["materials"]["IM7/977-2"]["E1"] == \
+        pytest.approx(E1, rel=1e-14)
+
+
+def test_rerun_skips_unchanged_redoes_changed_and_forced(batch_run, tmp_path):
+    specs, out, _ = batch_run
+    work = tmp_path / "out"
+    shutil.copytree(out, work)
+    mtimes = {p: p.stat().st_mtime_ns for p in work.rglob("*.h5")}
+    r = run("batch", specs, "--mesh", MESH, "--out", work, "--json")
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.stdout)
+    assert d["n_cached"] == 2 and all(s["cached"] for s in d["specimens"])
+    assert {p: p.stat().st_mtime_ns for p in work.rglob("*.h5")} == mtimes
+    # other options: a different hash, so everything is redone
+    assert json.loads(run("batch", specs, "--mesh", "5x5", "--out", tmp_path / "o2",
+                          "--json").stdout)["n_cached"] == 0
+    # a changed specimen file is redone, the other kept
+    changed = tmp_path / "specs"
+    shutil.copytree(specs, changed)
+    with open(changed / "example2" / "S2.1.yaml", "a") as fh:
+        fh.write("# re-measured\n")
+    r = run("batch", changed, "--mesh", MESH, "--out", work, "--json")
+    d = {s["name"]: s for s in json.loads(r.stdout)["specimens"]}
+    assert d["example1/S1.4"]["cached"] and not d["example2/S2.1"]["cached"]
+    r = run("batch", changed, "--mesh", MESH, "--out", work, "--json", "--force")
+    assert json.loads(r.stdout)["n_cached"] == 0 and r.exit_code == 0
+
+
+def test_failing_specimens_are_listed_and_the_others_go_on(tmp_path):
+    specs = make_tree(tmp_path / "in", {"good/S2.1.yaml": SPECS["example2/S2.1.yaml"]})
+    (specs / "bad.yaml").write_text("geometry: [1\n")
+    text = Path(SPECS["example2/S2.1.yaml"]).read_text()
+    (specs / "far.yaml").write_text(text.replace("mass: 0.2571 kg", "mass: 2.571 kg"))
+    r = run("batch", specs, "--mesh", MESH, "--out", tmp_path / "out", "-j", "2")
+    assert r.exit_code == 1, r.output
+    assert "bad: error:" in r.output and "not valid YAML" in r.output
+    assert "far: error:" in r.output and "away from the model" in r.output
+    assert "1 ok, 0 not converged, 2 failed" in r.output
+    rows = {row["name"]: row for row in read_summary(tmp_path / "out" / "summary.csv")}
+    assert rows["good/S2.1"]["status"] == "ok" and rows["bad"]["status"] == "error"
+    assert sorted(p.name for p in (tmp_path / "out").rglob("*.h5")) == ["S2.1.result.h5"]
+    # no convergence: the file is written (as by identify), status and reason in the summary
+    r = run("batch", specs / "good", "--mesh", MESH, "--out", tmp_path / "nc",
+            "--max-evaluations", "3", "--json")
+    assert r.exit_code == 1
+    row = json.loads(r.stdout)["specimens"][0]
+    assert row["status"] == "not converged" and "evaluations reached" in row["reason"]
+    assert row["materials"]["E-glass/R368"]["E1"] > 0
+
+
+def test_usage_errors_exit_2(tmp_path):
+    r = run("batch", tmp_path)
+    assert r.exit_code == 2 and "no specimen file (*.yaml, *.yml) found" in r.output
+    r = run("batch", SPECS["example2/S2.1.yaml"], "--mesh", "0x3", "--out", tmp_path / "o")
+    assert r.exit_code == 2 and "mesh '0x3' not understood" in r.output
+    assert not (tmp_path / "o").exists()
+    r = run("batch", tmp_path / "missing")
+    assert r.exit_code == 2 and "does not exist" in r.output
+    (tmp_path / "file").write_text("x")
+    r = run("batch", SPECS["example2/S2.1.yaml"], "--out", tmp_path / "file")
+    assert r.exit_code == 2
+
+
+def test_names_are_relative_to_the_common_root_and_never_collide(tmp_path):
+    for sub in ("labA", "labB/deep"):
+        (tmp_path / sub).mkdir(parents=True)
+        (tmp_path / sub / "p1.yaml").write_text("x")
+    (tmp_path / "labA" / ".hidden").mkdir()
+    (tmp_path / "labA" / ".hidden" / "p2.yaml").write_text("x")
+    (tmp_path / "labA" / "notes.txt").write_text("x")
+    found = discover_specimens([tmp_path / "labA", tmp_path / "labB"])
+    assert [n for _, n in found] == ["labA/p1", "labB/deep/p1"]
+    found = discover_specimens([tmp_path / "labB"])
+    assert [n for _, n in found] == ["deep/p1"]
+    found = discover_specimens([tmp_path / "labA" / "p1.yaml", tmp_path / "labB" / "deep" / "p1.yaml"])
+    assert [n for _, n in found] == ["labA/p1", "labB/deep/p1"]
+
+
+def test_hash_covers_the_specimen_its_frf_file_and_the_options(tmp_path):
+    spec = tmp_path / "p.yaml"
+    spec.write_text("measured:\n  frf_file: p.frf.h5\n")
+    (tmp_path / "p.frf.h5").write_bytes(b"one")
+    o = BatchOptions(mesh="6x6")
+    h1 = input_hash(spec, o)
+    assert input_hash(spec, o) == h1 and len(h1) == 64
+    assert input_hash(spec, BatchOptions(mesh="8x8")) != h1
+    (tmp_path / "p.frf.h5").write_bytes(b"two")
+    h2 = input_hash(spec, o)
+    assert h2 != h1
+    spec.write_text("measured:\n  frf_file: p.frf.h5\n# note\n")
+    assert input_hash(spec, o) not in (h1, h2)
+
+
+def _start_batch(specs, out, jobs, *extra):
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
+    return subprocess.Popen([sys.executable, "-m", "laminid_cli", "batch", str(specs), "--mesh",
+                             MESH, "--out", str(out), "-j", jobs, *extra],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            start_new_session=True, env=env, cwd=os.getcwd())
+
+
+def _wait_first_result(proc, out, timeout=120):
+    t0 = time.time()
+    while time.time() - t0 < timeout:
+        if list(out.rglob("*.h5")):
+            return
+        assert proc.poll() is None, proc.communicate()
+        time.sleep(0.05)
+    pytest.fail("no result appeared")
+
+
+@pytest.mark.parametrize("sig, jobs", [(signal.SIGKILL, "2"), (signal.SIGINT, "2"),
+                                       (signal.SIGINT, "1")])
+def test_killed_batch_leaves_only_complete_files_and_a_rerun_finishes(tmp_path, sig, jobs):
+    specs = make_tree(tmp_path / "in", {**SPECS, "example1/S1.1.yaml":
+                                        "specimens/example1/S1.1.yaml"})
+    out = tmp_path / "out"
+    proc = _start_batch(specs, out, jobs)
+    _wait_first_result(proc, out)
+    os.killpg(proc.pid, sig)
+    t0 = time.time()
+    proc.communicate(timeout=60)
+    assert time.time() - t0 < 5                          # Ctrl-C stops the workers at once
+    if sig == signal.SIGINT:
+        assert proc.returncode == 130
+        rows = read_summary(out / "summary.csv")              # the summary of what was done
+        assert {r["status"] for r in rows} <= {"ok", "not run"}
+        assert sum(r["status"] == "ok" for r in rows) >= 1
+    done = sorted(out.rglob("*.h5"))
+    assert 1 <= len(done) < 3
+    for p in done:                                             # every file opens, is complete
+        with h5py.File(p, "r") as f:
+            assert f.attrs["format"] == "laminid-result" and "batch_input_sha256" in f.attrs
+            assert np.isfinite(f["materials"][next(iter(f["materials"]))]["E1"][()])
+    r = run("batch", specs, "--mesh", MESH, "--out", out, "--json")
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.stdout)
+    assert d["counts"]["ok"] == 3 and d["n_cached"] == len(done)
+    assert not [p for p in out.rglob("*") if ".part-" in p.name or ".tmp-" in p.name]
+
+
+def test_dask_local_cluster_gives_the_same_constants(batch_run, tmp_path):
+    pytest.importorskip("distributed")
+    specs, out, _ = batch_run
+    r = run("batch", specs, "--mesh", MESH, "--out", tmp_path / "dask", "--scheduler", "local",
+            "-j", "2", "--json")
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.stdout)
+    assert d["counts"]["ok"] == 2 and d["n_cached"] == 0
+    for rel in SPECS:
+        name = rel.replace(".yaml", ".result.h5")
+        assert constants_bytes(tmp_path / "dask" / name) == constants_bytes(out / name)
