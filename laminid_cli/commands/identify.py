@@ -70,7 +70,8 @@ def default_joint_output(specs) -> Path:
               help="Processes for the Monte Carlo trials [default: the number of cores].")
 @json_option
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
-              help="HDF5 result file [default: SPEC's folder, <name>.result.h5].")
+              help="HDF5 result file [default: SPEC's folder, <name>.result.h5; with --joint "
+                   "the first SPEC's folder, <name1>+<name2>+....joint.result.h5].")
 @click.option("--no-output", is_flag=True, help="Do not write a result file.")
 @force_option
 def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evaluations, pairing,
