@@ -62,8 +62,10 @@ class BatchError(LaminidError):
 class BatchOptions:
     """The options of ``laminid identify`` passed through to every specimen.
 
-    mesh : "NXxNY"; the others as :class:`laminid_cli.identify.IdentifyOptions`
-    (fix is a tuple of "nu12" / "glass.nu12" items).
+    mesh : "NXxNY"; fix ... pairing as :class:`laminid_cli.identify.IdentifyOptions` (fix is a
+    tuple of "nu12" / "glass.nu12" items); sigma_rel ... seed as
+    :class:`laminid_cli.uncertainty.UncertaintyOptions` (the Monte Carlo trials of a specimen
+    run in its worker: the batch is already parallel over specimens).
     """
 
     mesh: str = "12x12"
@@ -74,6 +76,12 @@ class BatchOptions:
     ftol: float = 1e-8
     max_evaluations: int = 300
     pairing: str = "track"
+    sigma_rel: float = 0.002
+    covariance_scale: str = "larger"
+    max_rel_interval: float = 0.30
+    fix_undetermined: bool = False
+    monte_carlo: int = 0
+    seed: int = 0
 
     def as_dict(self) -> dict:
         d = asdict(self)
@@ -87,6 +95,14 @@ class BatchOptions:
                                parametrization=self.parametrization, xtol_rel=self.xtol,
                                ftol_rel=self.ftol, max_evaluations=self.max_evaluations,
                                pairing=self.pairing)
+
+    def uncertainty_options(self):
+        from laminid_cli.uncertainty import UncertaintyOptions
+
+        return UncertaintyOptions(sigma_rel=self.sigma_rel, scaling=self.covariance_scale,
+                                  max_rel_interval=self.max_rel_interval,
+                                  fix_undetermined=self.fix_undetermined,
+                                  monte_carlo=self.monte_carlo, jobs=1, seed=self.seed)
 
 
 @dataclass(frozen=True)
@@ -235,7 +251,8 @@ def plan_batch(specimens, out_dir, options: BatchOptions, force: bool = False) -
 
 
 def run_job(job: Job, options: BatchOptions) -> Outcome:
-    """Identify one specimen, as ``laminid identify SPEC -o OUT`` does; runs in a worker.
+    """Identify one specimen with its uncertainty assessment, as ``laminid identify SPEC -o
+    OUT`` does; runs in a worker.
 
     Returns the result file as bytes, with the root attributes ``batch_input_sha256``,
     ``batch_name`` and ``batch_options`` (JSON) added. A specimen's own fault (unreadable or
@@ -249,20 +266,24 @@ def run_job(job: Job, options: BatchOptions) -> Outcome:
 
         from laminid_cli.fe.mesh import parse_mesh
         from laminid_cli.forward import build_forward_model
-        from laminid_cli.identify import identify
-        from laminid_cli.results import identification_summary, write_identification_file
+        from laminid_cli.results import (identification_summary, uncertainty_summary,
+                                         write_identification_file)
         from laminid_cli.specimen import read_specimen
+        from laminid_cli.uncertainty import assess
 
         specimen = read_specimen(job.spec)
         fm = build_forward_model(specimen, parse_mesh(options.mesh))
-        result = identify(fm, options.identify_options())
+        assessment = assess(fm, options.identify_options(), options.uncertainty_options())
+        result = assessment.result
         summary = identification_summary(result)
         summary["mesh"] = {"nx": fm.mesh_size[0], "ny": fm.mesh_size[1]}
+        summary["uncertainty"] = uncertainty_summary(assessment)
         with tempfile.TemporaryDirectory(prefix="laminid-batch-") as tmp:
             _current_tmp.append(tmp)
             try:
                 path = Path(tmp) / Path(job.output).name
-                write_identification_file(path, fm, result, summary, command="laminid batch")
+                write_identification_file(path, fm, result, summary, command="laminid batch",
+                                          assessment=assessment)
                 with h5py.File(path, "r+") as f:
                     f.attrs[HASH_ATTR] = job.key
                     f.attrs["batch_name"] = job.name
@@ -341,8 +362,7 @@ def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None
         yield from _run_dask(jobs, options, n_jobs, scheduler)
         return
     if n_jobs <= 1:
-        for job in jobs:
-            yield job, run_job(job, options)
+        yield from _run_here(jobs, options)
         return
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -387,6 +407,34 @@ def _worker_signals() -> None:
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, terminate)
+
+
+def _run_here(jobs, options):
+    """The jobs one by one in this process. Ctrl-C raised inside compiled code can be
+    swallowed there (an optimiser callback, for one) and turn into a failed or stopped run:
+    the signal is noted, the job in progress is dropped (never cached as done) and the
+    interrupt raised here."""
+    import signal
+    import threading
+
+    seen: list = []
+
+    def on_sigint(signum, frame):
+        seen.append(signum)
+        raise KeyboardInterrupt
+
+    main = (threading.current_thread() is threading.main_thread()
+            and signal.getsignal(signal.SIGINT) is not signal.SIG_IGN)
+    previous = signal.signal(signal.SIGINT, on_sigint) if main else None
+    try:
+        for job in jobs:
+            outcome = run_job(job, options)
+            if seen:
+                raise KeyboardInterrupt
+            yield job, outcome
+    finally:
+        if main:
+            signal.signal(signal.SIGINT, previous)
 
 
 def _outcome_of(fut, job: Job) -> Outcome:
@@ -647,6 +695,8 @@ def format_table(rows) -> str:
         lines.append("not identified:" if any(r["status"] != "not converged" for r in failed)
                      else "not converged:")
         for r in failed:
-            lines.append(f"  {r['name']}: {r['status']}" + (f": {r['reason']}" if r["reason"]
-                                                           else ""))
+            reason = r["reason"] or ""
+            text = reason if reason.startswith(r["status"]) else \
+                f"{r['status']}: {reason}" if reason else r["status"]
+            lines.append(f"  {r['name']}: {text}")
     return "\n".join(lines).rstrip() + "\n"

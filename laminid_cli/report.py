@@ -576,7 +576,7 @@ def interval_page(h: dict, intervals: dict):
     ax.axvline(0, color="k", lw=0.5)
     ax.set_xlabel("interval relative to the identified value (%)")
     span = max([abs(v) for v in lo + hi] + [1.0])
-    ax.set_xlim(-1.1 * span, 2.2 * span)
+    ax.set_xlim(-1.1 * span, 1.7 * span)
     return fig
 
 
@@ -658,7 +658,7 @@ def constants_across_page(done, title: str):
         materials += [m for m in mats if m not in materials]
     fig = _figure()
     fig.suptitle(f"{title}: identified constants across specimens (bars: confidence "
-                 "intervals where the result has them)", fontsize=11)
+                 "intervals where the results have them; hollow: not converged)", fontsize=11)
     axes = fig.subplots(2, 3).ravel()
     names = [r["specimen"] if r.get("specimen") else r["name"] for r, _, _ in done]
     if len(set(names)) != len(names):
@@ -666,25 +666,46 @@ def constants_across_page(done, title: str):
     x = np.arange(len(done))
     for ax, k in zip(axes, CONSTANTS):
         ax.set_gid(f"across-{k}")
+        values, ends = [], []
         for c, m in enumerate(materials):
-            xs, ys, err = [], [], [[], []]
-            for i, (_, mats, iv) in enumerate(done):
+            xs, ys, err, hollow = [], [], [[], []], []
+            for i, (r, mats, iv) in enumerate(done):
                 if m not in mats or k not in mats[m]:
                     continue
                 v = _gpa(k, mats[m][k])
+                lo, hi = iv.get(m, {}).get(k, (mats[m][k], mats[m][k]))
+                lo, hi = _gpa(k, lo), _gpa(k, hi)
                 xs.append(i)
                 ys.append(v)
-                lo, hi = iv.get(m, {}).get(k, (mats[m][k], mats[m][k]))
-                err[0].append(max(v - _gpa(k, lo), 0))
-                err[1].append(max(_gpa(k, hi) - v, 0))
-            if xs:
-                ax.errorbar(xs, ys, yerr=err, fmt="o", ms=5, capsize=3, color=f"C{c % 10}",
-                            label=m)
+                err[0].append(max(v - lo, 0))
+                err[1].append(max(hi - v, 0))
+                hollow.append(r["status"] != "ok")
+                values.append(v)
+                if hi - lo < abs(v):                  # a meaningful interval sets the scale
+                    ends += [lo, hi]
+            if not xs:
+                continue
+            color = f"C{c % 10}"
+            ax.errorbar(xs, ys, yerr=err, fmt="none", capsize=3, color=color, lw=1)
+            xs, ys, hollow = np.array(xs), np.array(ys), np.array(hollow)
+            ax.plot(xs[~hollow], ys[~hollow], "o", ms=5, color=color, label=m)
+            if hollow.any():
+                ax.plot(xs[hollow], ys[hollow], "o", ms=6, mfc="none", color=color,
+                        label=f"{m} (not converged)")
+        if values:
+            lo, hi = min(values + ends), max(values + ends)
+            pad = 0.12 * (hi - lo) if hi > lo else 0.1 * abs(hi) or 1.0
+            ax.set_ylim(lo - pad, hi + pad)         # wider intervals run off the panel
         ax.set_title(k, fontsize=10)
         ax.set_ylabel(k + _unit(k), fontsize=8)
         ax.set_xticks(x, names, rotation=45, ha="right", fontsize=7)
         ax.grid(axis="y", lw=0.3)
-    axes[0].legend(fontsize=7, loc="best")
+    handles = {}
+    for ax in axes:
+        for hd, lab in zip(*ax.get_legend_handles_labels()):
+            handles.setdefault(lab, hd)
+    fig.legend(list(handles.values()), list(handles), loc="outside lower center",
+               ncol=min(len(handles), 7), fontsize=8)
     return fig
 
 

@@ -33,12 +33,23 @@ from laminid_cli.commands._common import echo_json, json_option
               show_default=True)
 @click.option("--pairing", type=click.Choice(["track", "sorted"]), default="track",
               show_default=True)
+@click.option("--sigma-rel", type=float, default=0.002, show_default=True, metavar="FRACTION",
+              help="Relative frequency standard deviation where a file gives no sigma.")
+@click.option("--covariance-scale", type=click.Choice(["stated", "residuals", "larger"]),
+              default="larger", show_default=True)
+@click.option("--max-rel-interval", type=float, default=0.30, show_default=True,
+              metavar="FRACTION")
+@click.option("--fix-undetermined", is_flag=True)
+@click.option("--monte-carlo", "monte_carlo", type=click.IntRange(min=0), default=0,
+              metavar="N", help="Monte Carlo trials per specimen (run in its worker).")
+@click.option("--seed", type=int, default=0, show_default=True)
 @click.option("--force", is_flag=True, help="Redo specimens whose result is up to date.")
 @json_option
 def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrization, xtol,
-          ftol, max_evaluations, pairing, force, as_json):
+          ftol, max_evaluations, pairing, sigma_rel, covariance_scale, max_rel_interval,
+          fix_undetermined, monte_carlo, seed, force, as_json):
     """Identify every specimen in INPUTS (folders searched recursively for *.yaml/*.yml,
-    or files) as 'laminid identify' does, writing OUT/<folder>/<name>.result.h5 per specimen
+    or files) as 'laminid identify' does (same options, same uncertainty assessment), writing OUT/<folder>/<name>.result.h5 per specimen
     (folders relative to the inputs' common root) and OUT/summary.csv and summary.json.
 
     A result whose input has not changed (sha256 of the specimen and its FRF file, the
@@ -61,13 +72,22 @@ def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrizat
                                    write_summary_json, SUMMARY_CSV, SUMMARY_JSON)
     from laminid_cli.fe.mesh import parse_mesh
 
-    parse_mesh(mesh)                                      # bad --mesh: exit 2 before any work
+    from laminid_cli.uncertainty import check_sigma_rel
+
+    parse_mesh(mesh)                                # bad --mesh, --sigma-rel: exit 2 at once
+    check_sigma_rel(sigma_rel)
+    if not max_rel_interval > 0:
+        raise BatchError(f"--max-rel-interval must be positive (0.3 = 30 %), got "
+                         f"{max_rel_interval:g}")
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise BatchError(f"--out {out}: exists and is not a folder")
     options = BatchOptions(mesh=mesh, fix=tuple(x.strip() for x in fix.split(",") if x.strip()),
                            optimizer=optimizer, parametrization=parametrization, xtol=xtol,
-                           ftol=ftol, max_evaluations=max_evaluations, pairing=pairing)
+                           ftol=ftol, max_evaluations=max_evaluations, pairing=pairing,
+                           sigma_rel=sigma_rel, covariance_scale=covariance_scale,
+                           max_rel_interval=max_rel_interval,
+                           fix_undetermined=fix_undetermined, monte_carlo=monte_carlo, seed=seed)
     specimens = discover_specimens(inputs, exclude=[out])
     if not specimens:
         raise BatchError(f"no specimen file (*.yaml, *.yml) found in {', '.join(inputs)}")
