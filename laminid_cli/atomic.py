@@ -41,3 +41,31 @@ def write_bytes_atomic(path, data: bytes) -> Path:
     with atomic_path(path) as tmp:
         tmp.write_bytes(data)
     return Path(path)
+
+
+def remove_stale_temporaries(folder) -> int:
+    """Delete temporary files below ``folder`` left by killed processes; returns the count.
+
+    Files of processes still alive (their pid ends the name) are kept.
+    """
+    n = 0
+    for p in Path(folder).rglob(TEMP_GLOB):
+        pid = p.name.rsplit("-", 1)[-1]
+        if pid.isdigit() and _alive(int(pid)):
+            continue
+        with contextlib.suppress(OSError):
+            p.unlink()
+            n += 1
+    return n
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True

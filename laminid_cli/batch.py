@@ -13,7 +13,7 @@ The flow of ``laminid batch`` as library functions:
 3. :func:`run_job` (in a worker process: a process pool or a Dask worker) does what
    ``laminid identify SPEC -o OUT`` does and returns the finished HDF5 file as bytes plus its
    status; it never raises for a specimen's fault (bad YAML, infeasible start, no convergence);
-4. :func:`write_result_bytes` (in the client) writes the file atomically: temporary name in
+4. :func:`write_result_bytes` (in the client) writes the file atomically (laminid_cli.atomic): temporary name in
    the target folder, fsync, rename. Killing the batch at any instant leaves either no file or
    a complete one;
 5. :func:`result_row` reads the numbers of the summary back from each result file;
@@ -38,6 +38,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from laminid_cli import __version__
+from laminid_cli.atomic import remove_stale_temporaries, write_bytes_atomic
 from laminid_cli.errors import LaminidError
 
 log = logging.getLogger(__name__)
@@ -303,45 +304,15 @@ def run_job(job: Job, options: BatchOptions) -> Outcome:
 
 
 def write_result_bytes(path, data: bytes) -> Path:
-    """Write a result file atomically: temporary file in the same folder, fsync, rename."""
+    """Write a result file atomically (laminid_cli.atomic), creating its folder."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.part-{os.getpid()}")
-    try:
-        with open(tmp, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    return path
+    return write_bytes_atomic(path, data)
 
 
 def remove_stale_parts(out_dir) -> int:
-    """Delete the temporary files a killed batch left in ``out_dir`` (``.*.part-<pid>``)."""
-    n = 0
-    for p in Path(out_dir).rglob(".*.part-*"):
-        pid = p.name.rsplit("-", 1)[-1]
-        if pid.isdigit() and _alive(int(pid)):
-            continue
-        with contextlib.suppress(OSError):
-            p.unlink()
-            n += 1
-    return n
-
-
-def _alive(pid: int) -> bool:
-    if pid == os.getpid():
-        return True
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
+    """Delete the temporary files a killed batch left in ``out_dir``."""
+    return remove_stale_temporaries(out_dir)
 
 
 def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None = None):
@@ -591,14 +562,7 @@ def json_safe(obj):
 
 
 def _write_text(path: Path, text: str) -> Path:
-    tmp = path.with_name(f".{path.name}.part-{os.getpid()}")
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    return path
+    return write_bytes_atomic(path, text.encode("utf-8"))
 
 
 def read_summary(path) -> list[dict]:

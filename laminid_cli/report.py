@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from laminid_cli.atomic import atomic_path
 from laminid_cli.errors import LaminidError
 
 log = logging.getLogger(__name__)
@@ -750,7 +751,6 @@ def report_pages(path, *, frf_path=None) -> list[Page]:
 def write_pages(pages, out, *, dpi: int = 110) -> list[Path]:
     """Write a multi-page PDF (one file) or PNGs (``out`` for one page, else ``<stem>-1.png``,
     ``<stem>-2.png``...). Each file goes to a temporary name first, then is renamed."""
-    import os
 
     out = Path(out)
     suffix = out.suffix.lower()
@@ -760,25 +760,15 @@ def write_pages(pages, out, *, dpi: int = 110) -> list[Path]:
     if suffix == ".pdf":
         from matplotlib.backends.backend_pdf import PdfPages
 
-        tmp = out.with_name(f".{out.name}.part-{os.getpid()}")
-        try:
+        with atomic_path(out) as tmp:
             with PdfPages(tmp, metadata={"Title": f"laminid report {out.stem}",
                                          "Creator": "laminid"}) as pdf:
                 for p in pages:
                     pdf.savefig(p.figure)
-            os.replace(tmp, out)
-        finally:
-            if tmp.exists():
-                tmp.unlink()
         return [out]
     for k, p in enumerate(pages, start=1):
         target = out if len(pages) == 1 else out.with_name(f"{out.stem}-{k}{out.suffix}")
-        tmp = target.with_name(f".{target.name}.part-{os.getpid()}.png")
-        try:
-            p.figure.savefig(tmp, dpi=dpi)
-            os.replace(tmp, target)
-        finally:
-            if tmp.exists():
-                tmp.unlink()
+        with atomic_path(target) as tmp:
+            p.figure.savefig(tmp, dpi=dpi, format="png")
         written.append(target)
     return written
