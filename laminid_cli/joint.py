@@ -30,8 +30,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from laminid_cli.errors import FitInputError
-from laminid_cli.forward import ForwardModel, residuals_percent, weighted_rms
+from laminid_cli.forward import residuals_percent, weighted_rms
 from laminid_cli.identify import (Evaluation, Identification, IdentifyOptions, Problem,
+                                  VariableSet, refused_evaluation,
                                   _result, run_optimizer)
 from laminid_cli.material import CONSTANT_NAMES, ElasticConstants
 
@@ -127,7 +128,7 @@ def _plain(v):
     return "not given" if v is None else f"{v:g}"
 
 
-class JointProblem:
+class JointProblem(VariableSet):
     """Objective, gradient and constraints over several plates with shared materials.
 
     Same interface as :class:`laminid_cli.identify.Problem` (what ``run_optimizer`` and the
@@ -204,6 +205,7 @@ class JointProblem:
         self.swaps: list[str] = []
         self.history: list[tuple] = []
         self.n_eval = 0
+        self.n_refused = 0
 
     # --- variables (as Problem) ---------------------------------------------------------------
     def x0(self) -> np.ndarray:
@@ -213,30 +215,19 @@ class JointProblem:
             return np.concatenate([p.x0() for p in self.params])
         return np.concatenate([variables_of(p, self.start[p.name]) for p in self.params])
 
-    def split(self, x):
-        return [x[self.offsets[k]:self.offsets[k + 1]] for k in range(len(self.params))]
+    # --- pairing state, for run_optimizer's re-anchoring (as Problem) -----------------------
+    def sorted_pairing(self) -> np.ndarray:
+        return np.concatenate([sub.sorted_pairing() for sub in self.subs])
 
-    def constants(self, x) -> tuple[ElasticConstants, ...]:
-        return tuple(p.constants(xk) for p, xk in zip(self.params, self.split(x)))
+    def reanchor(self) -> None:
+        for sub in self.subs:
+            sub.reanchor()
+        self.best, self.cache = None, None
 
-    def bounds(self):
-        lo, hi = zip(*(p.bounds() for p in self.params))
-        return np.concatenate(lo), np.concatenate(hi)
-
-    def linear_constraints(self):
-        rows, rhs = [], []
-        for k, p in enumerate(self.params):
-            A, b = p.linear_constraints()
-            full = np.zeros((A.shape[0], self.n_vars))
-            full[:, self.offsets[k]:self.offsets[k + 1]] = A
-            rows.append(full)
-            rhs.append(b)
-        return np.vstack(rows), np.concatenate(rhs)
-
-    def feasible(self, x, tol: float = 1e-9) -> bool:
-        lo, hi = self.bounds()
-        A, b = self.linear_constraints()
-        return bool(np.all(x >= lo - tol) and np.all(x <= hi + tol) and np.all(A @ x <= b + tol))
+    def adopt(self, ev) -> None:
+        for sub, part in zip(self.subs, ev.parts):
+            sub.adopt(part)
+        self.best, self.cache = ev, (ev.x.tobytes(), ev)
 
     def describe(self) -> str:
         return "joint identification of " + ", ".join(str(fm.specimen.path) for fm in self.fms)
@@ -254,6 +245,9 @@ class JointProblem:
         if self.cache is not None and self.cache[0] == key:
             return self.cache[1]
         evs = [sub.evaluate(x[idx]) for sub, idx in zip(self.subs, self.index)]
+        if any(e.refused for e in evs):
+            self.n_refused += 1
+            return refused_evaluation(self, x, ["not positive definite"])
         objective = sum(ev.objective for ev in evs)
         gradient = np.zeros(self.n_vars)
         dlam_dx = np.zeros((self.n_meas, self.n_vars))
@@ -266,7 +260,7 @@ class JointProblem:
         lam = np.concatenate([ev.eigenvalues for ev in evs])
         ev = Evaluation(x=x.copy(), objective=objective + pv, gradient=gradient + pg,
                         eigenvalues=lam, pairing=np.concatenate([e.pairing for e in evs]),
-                        dlam_dx=dlam_dx, phi=None, modes=None)
+                        dlam_dx=dlam_dx, phi=None, modes=None, parts=evs)
         if self.best is None or ev.objective < self.best.objective:
             self.best = ev
         self.cache = (key, ev)

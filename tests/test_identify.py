@@ -318,14 +318,15 @@ def test_mma_reaches_the_slsqp_optimum():
     assert np.abs(a / np.array([ElasticConstants(**CARBON).as_array()]) - 1).max() < 1e-6
 
 
-@pytest.mark.xfail(strict=True, raises=FitError,
-                   reason="MMA evaluates points outside the linear feasibility constraints "
-                          "(alpha parametrisation): identify raises FitError at evaluation 2")
 def test_mma_with_all_constants_free():
+    """MMA's inner iterations step outside the safety margins of the linear constraints (alpha
+    parametrisation): such points are evaluated only while still positive definite, refused
+    otherwise, and the run ends at a feasible point."""
     true = {"cf": CARBON}
     fm, _ = synthetic(THIN, true, 12, OFF_THIN)
     r = identify(fm, IdentifyOptions(optimizer="mma", max_evaluations=60))
     assert all(not infeasibility_reasons(c) for c in r.constants)
+    assert r.rms_residual_percent < 0.1 * r.initial_rms_residual_percent
 
 
 def test_fixed_constants_stay_at_their_initial_values_and_every_point_is_feasible():
@@ -392,17 +393,16 @@ def test_crossing_modes_are_reported_and_sorted_pairing_recovers_the_truth():
     opts = dict(fix=("G13", "G23", "nu12"))
     tracked = identify(fm, IdentifyOptions(**opts))
     assert tracked.swaps and "measured mode 8: model mode 8 -> 9" in tracked.swaps[0]
-    assert list(tracked.pairing[7:9]) == [8, 7]
+    assert any("re-anchored" in s for s in tracked.swaps)       # ended mis-paired, re-anchored
+    assert list(tracked.pairing) == list(range(10))
     plain = identify(fm, IdentifyOptions(pairing="sorted", **opts))
     err = relative_errors(plain, true)
     assert max(abs(e) for e in err.values()) < 1e-6, err
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError,
-                   reason="pairing='track' keeps the sorted pairing of the initial "
-                   "guess; modes that cross between the guess and the truth stay mis-paired "
-                   "(converges to RMS 0.79 %, E1 -1.3 %)")
 def test_crossing_modes_tracked_pairing_recovers_the_truth():
+    """Tracking keeps the start's (wrong) pairing through the crossing; re-anchoring in sorted
+    order at the optimum then recovers the truth (before the fix: RMS 0.79 %, E1 -1.3 %)."""
     fm, true = crossing_case()
     r = identify(fm, IdentifyOptions(fix=("G13", "G23", "nu12")))
     assert r.swaps

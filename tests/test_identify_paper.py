@@ -22,6 +22,11 @@ MESH = (12, 12)
 TOLERANCE = {"E1": 0.03, "E2": 0.08, "G12": 0.08}
 
 
+#: uncertainty of the paper's residual RMS from printing each residual to 0.01 % (half a digit
+#: on every residual, taken in the worst case: 0.005 %)
+PAPER_RMS_ROUNDING = 0.005
+
+
 def rms_over_paper_modes(path, result):
     """(laminid RMS, paper RMS) in %, over the modes the paper reports a residual for."""
     paper = np.array([np.nan if v is None else v for v in RESIDUALS[path]])
@@ -45,7 +50,9 @@ def check_against_paper(path, result, values):
     msg = f"{path}: relative differences {err}, RMS {ours:.3f} % (paper {paper:.3f} %)"
     for k, tol in TOLERANCE.items():
         assert abs(err[k]) < tol, msg
-    assert ours <= paper, msg
+    # the paper prints each residual to 0.01 %: the RMS of its rounded residuals is known to
+    # about +-0.003 %, so "no worse than the paper" allows that rounding and nothing more
+    assert ours <= paper + PAPER_RMS_ROUNDING, msg
 
 
 def test_paper_s11():
@@ -59,10 +66,9 @@ def test_paper_s11():
 S13_REASON = ("S1.3: E2 10.42 GPa, +8.5 % from the paper's 9.6 (E1 -0.8 %, G12 -0.2 %, RMS "
               "0.311 % < paper 0.330 %): the paper's own residuals on S1.3 are the largest of "
               "Example 1, E2 is determined to a few % only, and laminid's optimum fits better")
-S22_REASON = ("S2.2 with the default pairing='track': RMS 1.12 % against the paper's 0.22 % "
-              "(11 mode swaps recorded; G13, G23 driven to 0.4 and 0.14 GPa); with "
-              "pairing='sorted' it reaches 0.219 % and E1 29.37, E2 7.21, G12 2.71 GPa "
-              "(test_paper_s22_sorted_pairing)")
+# S2.2 and the hybrid ESL: the initial guess has its modes in another order than the plate;
+# plain tracking kept that wrong start pairing (RMS 1.12 % and 4.35 %), re-anchoring in sorted
+# order at the optimum (laminid_cli.identify.run_optimizer) reaches the paper's optimum.
 
 
 @pytest.mark.slow
@@ -70,9 +76,7 @@ S22_REASON = ("S2.2 with the default pairing='track': RMS 1.12 % against the pap
     S12,
     pytest.param(S13, marks=pytest.mark.xfail(strict=True, raises=AssertionError,
                                               reason=S13_REASON)),
-    S14, S21,
-    pytest.param(S22, marks=pytest.mark.xfail(strict=True, raises=AssertionError,
-                                              reason=S22_REASON))])
+    S14, S21, S22])
 def test_paper_examples_1_and_2(path):
     r = identify_paper(path)
     c = r.constants[0]
@@ -88,12 +92,6 @@ def test_paper_s22_sorted_pairing():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, raises=AssertionError,
-                   reason="hybrid ESL from laminid's initial guess: converges to "
-                   "RMS 4.35 % (paper 0.22 %) with G13 at its upper bound (140 GPa), Ex 69.1 "
-                   "(-9.3 %), Ey 18.1 (+18 %), Gxy 3.33 GPa (-10 %); the paper's Table 6 ESL "
-                   "constants give 0.8 % (tests/test_forward.py); with pairing='sorted' it reaches "
-                   "0.139 % and Ex 75.95, Ey 15.36, Gxy 3.77 GPa (next test)")
 def test_paper_hybrid_esl_global_properties():
     """Table 6, ESL column: Ex 76.2, Ey 15.3, Gxy 3.7 GPa."""
     assert all(IDENTIFIED[ESL]["ESL"][a] == IDENTIFIED_GLOBAL[ESL][b]
