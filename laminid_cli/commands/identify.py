@@ -43,8 +43,10 @@ def default_joint_output(specs) -> Path:
 @click.option("--max-evaluations", type=click.IntRange(2, 100000), default=300,
               show_default=True, help="Most model evaluations before giving up.")
 @click.option("--pairing", type=click.Choice(["track", "sorted"]), default="track",
-              show_default=True, help="Mode pairing: sorted order at the start then MAC "
-                                      "tracking (track), or sorted order throughout (paper).")
+              show_default=True, help="Mode pairing: track = sorted order at the start, then "
+                                      "each mode followed by MAC so swaps cannot corrupt the fit, "
+                                      "re-anchored in sorted order if it ends out of order; "
+                                      "sorted = sorted order throughout (the paper).")
 @click.option("--joint", is_flag=True,
               help="Identify several SPECs together: one set of constants for each material "
                    "they share (same name, same initial constants), each plate with its own "
