@@ -158,6 +158,15 @@ class VariableSet:
         A, b = self.linear_constraints()
         return bool(np.all(x >= lo - tol) and np.all(x <= hi + tol) and np.all(A @ x <= b + tol))
 
+    def _new_run(self) -> None:
+        """Empty optimisation state: tracking reference, cache, history, counters."""
+        self.best: Evaluation | None = None   # tracking reference: lowest objective so far
+        self.cache: tuple[bytes, Evaluation] | None = None
+        self.swaps: list[str] = []
+        self.history: list[tuple] = []
+        self.n_eval = 0
+        self.n_refused = 0
+
 
 class Problem(VariableSet):
     """Objective, gradient and constraints of one identification, with evaluation cache."""
@@ -213,12 +222,7 @@ class Problem(VariableSet):
             raise FitInputError(f"{spec.path}: {len(self.start)} start constants for "
                                 f"{len(self.params)} materials")
         self.start_pairing = None if start_pairing is None else np.asarray(start_pairing, int)
-        self.best: Evaluation | None = None   # tracking reference: lowest objective so far
-        self.cache: tuple[bytes, Evaluation] | None = None
-        self.swaps: list[str] = []
-        self.history: list[tuple] = []
-        self.n_eval = 0
-        self.n_refused = 0
+        self._new_run()
 
     # --- variables ---------------------------------------------------------------------------
     def x0(self) -> np.ndarray:

@@ -200,12 +200,7 @@ class JointProblem(VariableSet):
             raise FitInputError(f"joint identification: {n_active} weighted frequencies for "
                                 f"{self.n_vars} free constants; measure more modes or fix "
                                 "constants (--fix nu12,G13,G23)")
-        self.best: Evaluation | None = None
-        self.cache: tuple[bytes, Evaluation] | None = None
-        self.swaps: list[str] = []
-        self.history: list[tuple] = []
-        self.n_eval = 0
-        self.n_refused = 0
+        self._new_run()
 
     # --- variables (as Problem) ---------------------------------------------------------------
     def x0(self) -> np.ndarray:

@@ -186,6 +186,21 @@ def write_modes_file(path, fm, modes, summary: dict) -> None:
         write_global_properties(f, summary["global_properties"])
 
 
+def run_fields(r) -> dict:
+    """Optimisation outcome shared by single and joint summaries."""
+    return {
+        "objective": r.objective,
+        "iterations": r.evaluations,
+        "evaluations": r.evaluations,
+        "converged": r.converged,
+        "status": r.status,
+        "optimizer": {"slsqp": "LD_SLSQP", "mma": "LD_MMA"}[r.options.optimizer],
+        "time_s": r.time_s,
+        "swaps": list(r.swaps),
+        "warnings": list(r.warnings),
+    }
+
+
 def identification_summary(r) -> dict:
     """Everything ``laminid identify`` reports, as plain data (SI units, frequencies in Hz).
 
@@ -209,15 +224,7 @@ def identification_summary(r) -> dict:
         "rms_residual_percent": r.rms_residual_percent,
         "initial_rms_residual_percent": r.initial_rms_residual_percent,
         "global_properties": r.global_properties,
-        "objective": r.objective,
-        "iterations": r.evaluations,
-        "evaluations": r.evaluations,
-        "converged": r.converged,
-        "status": r.status,
-        "optimizer": {"slsqp": "LD_SLSQP", "mma": "LD_MMA"}[r.options.optimizer],
-        "time_s": r.time_s,
-        "swaps": list(r.swaps),
-        "warnings": list(r.warnings),
+        **run_fields(r),
     }
 
 
@@ -393,15 +400,7 @@ def joint_identification_summary(r) -> dict:
         "specimens": plates,
         "rms_residual_percent": r.rms_residual_percent,
         "initial_rms_residual_percent": r.initial_rms_residual_percent,
-        "objective": r.objective,
-        "iterations": r.evaluations,
-        "evaluations": r.evaluations,
-        "converged": r.converged,
-        "status": r.status,
-        "optimizer": {"slsqp": "LD_SLSQP", "mma": "LD_MMA"}[r.options.optimizer],
-        "time_s": r.time_s,
-        "swaps": list(r.swaps),
-        "warnings": list(r.warnings),
+        **run_fields(r),
     }
 
 

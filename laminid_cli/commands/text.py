@@ -78,6 +78,36 @@ def format_modes_report(s: dict) -> str:
     return "\n".join(lines)
 
 
+def _plate_header(sp: dict) -> list[str]:
+    return [f"{sp['name']}" + (f" — {sp['description']}" if sp.get("description") else ""),
+            f"plate {sp['a'] * 1e3:.4g} x {sp['b'] * 1e3:.4g} x {sp['h'] * 1e3:.4g} mm, "
+            f"{sp['n_plies']} plies, boundary {sp['boundary']}"]
+
+
+def _run_line(s: dict) -> str:
+    state = s["status"] if s["converged"] else f"NOT CONVERGED — {s['status']}"
+    return f"{s['optimizer']}: {state}; {s['evaluations']} evaluations, {s['time_s']:.2f} s"
+
+
+def _paired_frequency_table(fr: dict) -> list[str]:
+    """Frequency table with a 'model #' column when the pairing is not in sorted order."""
+    extra = {}
+    if any(m != i + 1 for i, m in enumerate(fr["model_mode"])):
+        extra["model #"] = [str(m) for m in fr["model_mode"]]
+    return format_frequency_table(fr, extra)
+
+
+def _closing_lines(s: dict) -> list[str]:
+    """Uncertainty tables, then notes (mode swaps) and warnings."""
+    lines = []
+    if s.get("uncertainty"):
+        lines.append("")
+        lines += format_uncertainty(s["uncertainty"])
+    lines += [f"note: {msg}" for msg in s.get("swaps", [])]
+    lines += [f"warning: {msg}" for msg in s.get("warnings", [])]
+    return lines
+
+
 def format_identify_report(s: dict) -> str:
     """Terminal report of an identification, in the shape of the paper's Tables 1-3.
 
@@ -85,20 +115,10 @@ def format_identify_report(s: dict) -> str:
     its 95 % interval and verdict, followed by the uncertainty, correlation, sensitivity and
     Monte Carlo tables.
     """
-    sp = s["specimen"]
-    lines = [f"{sp['name']}" + (f" — {sp['description']}" if sp.get("description") else ""),
-             f"plate {sp['a'] * 1e3:.4g} x {sp['b'] * 1e3:.4g} x {sp['h'] * 1e3:.4g} mm, "
-             f"{sp['n_plies']} plies, boundary {sp['boundary']}"]
-    state = s["status"] if s["converged"] else f"NOT CONVERGED — {s['status']}"
-    lines.append(f"{s['optimizer']}: {state}; {s['evaluations']} evaluations, "
-                 f"{s['time_s']:.2f} s")
+    lines = _plate_header(s["specimen"]) + [_run_line(s)]
     lines += _material_tables(s, s.get("reference") or {})
     lines.append("")
-    fr = s["frequencies"]
-    extra = {}
-    if any(m != i + 1 for i, m in enumerate(fr["model_mode"])):
-        extra["model #"] = [str(m) for m in fr["model_mode"]]
-    lines += format_frequency_table(fr, extra)
+    lines += _paired_frequency_table(s["frequencies"])
     lines.append(f"RMS residual {s['rms_residual_percent']:.3f} % "
                  f"(initial guess {s['initial_rms_residual_percent']:.2f} %), objective "
                  f"{s['objective']:.4g}")
@@ -110,50 +130,28 @@ def format_identify_report(s: dict) -> str:
         lines.append("    reference: " + ", ".join(
             f"{k} {v / 1e9:.2f} GPa" if not k.startswith("nu") else f"{k} {v:.3f}"
             for k, v in gref.items()))
-    if s.get("uncertainty"):
-        lines.append("")
-        lines += format_uncertainty(s["uncertainty"])
-    for msg in s.get("swaps", []):
-        lines.append(f"note: {msg}")
-    for msg in s.get("warnings", []):
-        lines.append(f"warning: {msg}")
+    lines += _closing_lines(s)
     return "\n".join(lines)
 
 
 def format_joint_report(s: dict) -> str:
     """Terminal report of a joint identification: shared constants, then each plate."""
     names = s["specimen_names"]
-    lines = [f"joint identification of {len(names)} plates: {', '.join(names)}"]
-    state = s["status"] if s["converged"] else f"NOT CONVERGED — {s['status']}"
-    lines.append(f"{s['optimizer']}: {state}; {s['evaluations']} evaluations, "
-                 f"{s['time_s']:.2f} s")
+    lines = [f"joint identification of {len(names)} plates: {', '.join(names)}", _run_line(s)]
     first_ref = next((p.get("reference") for p in s["specimens"].values()
                       if (p.get("reference") or {}).get("materials")), {}) or {}
     lines += _material_tables(s, first_ref)
     for name, p in s["specimens"].items():
-        sp = p["specimen"]
         lines.append("")
-        lines.append(f"{name}" + (f" — {sp['description']}" if sp.get("description") else ""))
-        lines.append(f"plate {sp['a'] * 1e3:.4g} x {sp['b'] * 1e3:.4g} x {sp['h'] * 1e3:.4g} mm, "
-                     f"{sp['n_plies']} plies, boundary {sp['boundary']}")
-        fr = p["frequencies"]
-        extra = {}
-        if any(m != i + 1 for i, m in enumerate(fr["model_mode"])):
-            extra["model #"] = [str(m) for m in fr["model_mode"]]
-        lines += format_frequency_table(fr, extra)
+        lines += _plate_header({**p["specimen"], "name": name})
+        lines += _paired_frequency_table(p["frequencies"])
         lines.append(f"RMS residual {p['rms_residual_percent']:.3f} % (initial guess "
                      f"{p['initial_rms_residual_percent']:.2f} %)")
         lines += format_global(p["global_properties"])
     lines.append("")
     lines.append(f"RMS residual over all plates {s['rms_residual_percent']:.3f} % (initial guess "
                  f"{s['initial_rms_residual_percent']:.2f} %), objective {s['objective']:.4g}")
-    if s.get("uncertainty"):
-        lines.append("")
-        lines += format_uncertainty(s["uncertainty"])
-    for msg in s.get("swaps", []):
-        lines.append(f"note: {msg}")
-    for msg in s.get("warnings", []):
-        lines.append(f"warning: {msg}")
+    lines += _closing_lines(s)
     return "\n".join(lines)
 
 
