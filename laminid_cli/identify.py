@@ -613,8 +613,8 @@ def _result(prob: Problem, ev: Evaluation, converged, status, warnings, initial_
            for i in range(prob.n_vars)
            if min(abs(ev.x[i] - lo[i]), abs(ev.x[i] - hi[i])) <= 1e-6 * max(1.0, abs(ev.x[i]))]
     active = np.flatnonzero(A @ ev.x - b > -1e-7) if A.shape[0] else []
-    hit += [f"feasibility constraint {int(j) + 1} active (a modulus at its minimum, E2 = E1 or "
-            f"|nu12| = {prob.options.nu_max})" for j in active]
+    held = [f"{p.name}: {lab}" for p in prob.params for lab in p.constraint_labels()]
+    hit += [held[int(j)] for j in active]
     if hit:
         warnings = list(warnings) + [f"the optimum runs into a bound: {'; '.join(hit)}"]
     hist = prob.history

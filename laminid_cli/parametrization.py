@@ -95,6 +95,12 @@ class AlphaParameters:
         hi = np.array([f, 4.0 * (1 - r), 20.0, 20.0, 8.0, 8.0])
         return lo, hi
 
+    def constraint_labels(self) -> tuple[str, ...]:
+        """What each row of :meth:`linear_constraints` holds, for messages."""
+        low = f"at its minimum ({MIN_MODULUS_RATIO:g} E1)"
+        return (f"G12 {low}", f"G23 {low}", f"G13 {low}", f"nu12 = +{self.nu_max}",
+                f"nu12 = -{self.nu_max}")
+
     def linear_constraints(self) -> tuple[np.ndarray, np.ndarray]:
         """A x <= b: G12, G13, G23 >= r E1 and |nu12| <= nu_max (Eqs 21/22, sufficient form)."""
         r, n = MIN_MODULUS_RATIO, self.nu_max
@@ -168,6 +174,9 @@ class ConstantParameters:
             lo[i] = max(lo[i], P0[1] / P0[0])
         # shear moduli above MIN_MODULUS_RATIO * E1 at the largest E1 allowed
         return lo, hi
+
+    def constraint_labels(self) -> tuple[str, ...]:
+        return ("E2 = E1",) if "E1" in self.free and "E2" in self.free else ()
 
     def linear_constraints(self) -> tuple[np.ndarray, np.ndarray]:
         """E2 <= E1 when both are free (Eq. 22, g2)."""
