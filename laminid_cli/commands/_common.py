@@ -55,3 +55,63 @@ def _clean(obj):
 def echo_json(obj) -> None:
     """Print ``obj`` as indented JSON on stdout (NaN written as null)."""
     click.echo(json.dumps(_clean(obj), indent=2))
+
+
+def _apply(options):
+    def decorate(f):
+        for option in reversed(options):
+            f = option(f)
+        return f
+    return decorate
+
+
+#: identification settings shared by ``identify`` and ``batch`` (parameters: mesh, fix,
+#: optimizer, parametrization, xtol, ftol, max_evaluations, pairing)
+fit_options = _apply([
+    click.option("--mesh", default="12x12", show_default=True, metavar="NXxNY",
+                  help="Elements along x (side a) and y (side b); the paper uses 12x12."),
+    click.option("--fix", "fix", default="", metavar="LIST",
+                  help="Constants held at their initial values, comma-separated: nu12,G13,G23 "
+                       "(all materials) or glass.nu12 (one material). Adds to 'fixed' in the "
+                       "file."),
+    click.option("--optimizer", type=click.Choice(["slsqp", "mma"]), default="slsqp",
+                  show_default=True, help="nlopt algorithm: LD_SLSQP or LD_MMA."),
+    click.option("--parametrization", type=click.Choice(["auto", "alpha", "constants"]),
+                  default="auto", show_default=True,
+                  help="Design variables: alpha = paper Eq. 14 (E1/E1_0, a2, a3, a4, a8, a9); "
+                       "constants = free constants / initial values; auto = alpha where all six "
+                       "constants of a material are free and it has no prior."),
+    click.option("--xtol", type=click.FloatRange(min=0, min_open=True), default=1e-6,
+                  show_default=True, help="Step tolerance on the scaled design variables."),
+    click.option("--ftol", type=click.FloatRange(min=0, min_open=True), default=1e-8,
+                  show_default=True, help="Relative tolerance on the objective."),
+    click.option("--max-evaluations", type=click.IntRange(2, 100000), default=300,
+                  show_default=True, help="Most model evaluations before giving up."),
+    click.option("--pairing", type=click.Choice(["track", "sorted"]), default="track",
+                  show_default=True, help="Mode pairing: track = sorted order at the start, then "
+                                          "each mode followed by MAC so swaps cannot corrupt the fit, "
+                                          "re-anchored in sorted order if it ends out of order; "
+                                          "sorted = sorted order throughout (the paper)."),
+])
+
+#: uncertainty settings shared by ``identify`` and ``batch`` (parameters: sigma_rel,
+#: covariance_scale, max_rel_interval, fix_undetermined, monte_carlo, seed)
+uncertainty_options = _apply([
+    click.option("--sigma-rel", type=float, default=0.002, show_default=True, metavar="FRACTION",
+                  help="Standard deviation of a measured frequency, as a fraction of it, where the "
+                       "specimen file gives no measured.sigma (0.002 = 0.2 %)."),
+    click.option("--covariance-scale", type=click.Choice(["stated", "residuals", "larger"]),
+                  default="larger", show_default=True,
+                  help="Intervals from the stated frequency sigma, from the residuals at the "
+                       "optimum (s2 = chi2/(n-p), Student t), or the larger of the two."),
+    click.option("--max-rel-interval", type=float, default=0.30, show_default=True,
+                  metavar="FRACTION",
+                  help="Flag a constant whose 95 % half-width exceeds this fraction of its value."),
+    click.option("--fix-undetermined", is_flag=True,
+                  help="Fix the flagged constants at their initial values and identify again."),
+    click.option("--monte-carlo", "monte_carlo", type=click.IntRange(min=0), default=0,
+                  metavar="N", help="Re-identify N times from frequencies perturbed by their "
+                                    "uncertainties and report the spread (0: off)."),
+    click.option("--seed", type=int, default=0, show_default=True,
+                  help="Random seed of the Monte Carlo perturbations."),
+])

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import click
 
-from laminid_cli.commands._common import echo_json, json_option
+from laminid_cli.commands._common import (echo_json, fit_options, json_option,
+                                          uncertainty_options)
 
 
 @click.command(short_help="Identify many specimens in parallel, with a summary table.")
@@ -17,39 +18,16 @@ from laminid_cli.commands._common import echo_json, json_option
               help="Run on Dask: 'local' starts a local cluster of -j workers, "
                    "tcp://HOST:PORT uses a running scheduler (pip install 'laminid[dask]'). "
                    "Workers must see the specimen files at the same paths.")
-@click.option("--mesh", default="12x12", show_default=True, metavar="NXxNY",
-              help="Elements along x and y, for every specimen.")
-@click.option("--fix", "fix", default="", metavar="LIST",
-              help="Constants held at their initial values, as in 'laminid identify'.")
-@click.option("--optimizer", type=click.Choice(["slsqp", "mma"]), default="slsqp",
-              show_default=True)
-@click.option("--parametrization", type=click.Choice(["auto", "alpha", "constants"]),
-              default="auto", show_default=True)
-@click.option("--xtol", type=click.FloatRange(min=0, min_open=True), default=1e-6,
-              show_default=True)
-@click.option("--ftol", type=click.FloatRange(min=0, min_open=True), default=1e-8,
-              show_default=True)
-@click.option("--max-evaluations", type=click.IntRange(2, 100000), default=300,
-              show_default=True)
-@click.option("--pairing", type=click.Choice(["track", "sorted"]), default="track",
-              show_default=True)
-@click.option("--sigma-rel", type=float, default=0.002, show_default=True, metavar="FRACTION",
-              help="Relative frequency standard deviation where a file gives no sigma.")
-@click.option("--covariance-scale", type=click.Choice(["stated", "residuals", "larger"]),
-              default="larger", show_default=True)
-@click.option("--max-rel-interval", type=float, default=0.30, show_default=True,
-              metavar="FRACTION")
-@click.option("--fix-undetermined", is_flag=True)
-@click.option("--monte-carlo", "monte_carlo", type=click.IntRange(min=0), default=0,
-              metavar="N", help="Monte Carlo trials per specimen (run in its worker).")
-@click.option("--seed", type=int, default=0, show_default=True)
+@fit_options
+@uncertainty_options
 @click.option("--force", is_flag=True, help="Redo specimens whose result is up to date.")
 @json_option
 def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrization, xtol,
           ftol, max_evaluations, pairing, sigma_rel, covariance_scale, max_rel_interval,
           fix_undetermined, monte_carlo, seed, force, as_json):
     """Identify every specimen in INPUTS (folders searched recursively for *.yaml/*.yml,
-    or files) as 'laminid identify' does (same options, same uncertainty assessment), writing OUT/<folder>/<name>.result.h5 per specimen
+    or files) as 'laminid identify' does (same options, same uncertainty assessment),
+    writing OUT/<folder>/<name>.result.h5 per specimen
     (folders relative to the inputs' common root) and OUT/summary.csv and summary.json.
 
     A result whose input has not changed (sha256 of the specimen and its FRF file, the
