@@ -88,10 +88,10 @@ fit_options = _apply([
     click.option("--max-evaluations", type=click.IntRange(2, 100000), default=300,
                   show_default=True, help="Most model evaluations before giving up."),
     click.option("--pairing", type=click.Choice(["track", "sorted"]), default="track",
-                  show_default=True, help="Mode pairing: track = sorted order at the start, then "
-                                          "each mode followed by MAC so swaps cannot corrupt the fit, "
-                                          "re-anchored in sorted order if it ends out of order; "
-                                          "sorted = sorted order throughout (the paper)."),
+                  show_default=True,
+                  help="Mode pairing: track = sorted order at the start, then each mode followed "
+                       "by MAC so swaps cannot corrupt the fit, re-anchored in sorted order if it "
+                       "ends out of order; sorted = sorted order throughout (the paper)."),
 ])
 
 #: uncertainty settings shared by ``identify`` and ``batch`` (parameters: sigma_rel,
