@@ -40,6 +40,8 @@ from pathlib import Path
 from laminid_cli import __version__
 from laminid_cli.atomic import remove_stale_temporaries, write_bytes_atomic
 from laminid_cli.errors import LaminidError
+from laminid_cli.identify import IdentifyOptions
+from laminid_cli.uncertainty import UncertaintyOptions
 
 log = logging.getLogger(__name__)
 
@@ -69,20 +71,21 @@ class BatchOptions:
     run in its worker: the batch is already parallel over specimens).
     """
 
+    # defaults are those of identify, never restated (they cannot drift apart)
     mesh: str = "12x12"
-    fix: tuple[str, ...] = ()
-    optimizer: str = "slsqp"
-    parametrization: str = "auto"
-    xtol: float = 1e-6
-    ftol: float = 1e-8
-    max_evaluations: int = 300
-    pairing: str = "track"
-    sigma_rel: float = 0.002
-    covariance_scale: str = "larger"
-    max_rel_interval: float = 0.30
-    fix_undetermined: bool = False
-    monte_carlo: int = 0
-    seed: int = 0
+    fix: tuple[str, ...] = IdentifyOptions.fix
+    optimizer: str = IdentifyOptions.optimizer
+    parametrization: str = IdentifyOptions.parametrization
+    xtol: float = IdentifyOptions.xtol_rel
+    ftol: float = IdentifyOptions.ftol_rel
+    max_evaluations: int = IdentifyOptions.max_evaluations
+    pairing: str = IdentifyOptions.pairing
+    sigma_rel: float = UncertaintyOptions.sigma_rel
+    covariance_scale: str = UncertaintyOptions.scaling
+    max_rel_interval: float = UncertaintyOptions.max_rel_interval
+    fix_undetermined: bool = UncertaintyOptions.fix_undetermined
+    monte_carlo: int = UncertaintyOptions.monte_carlo
+    seed: int = UncertaintyOptions.seed
 
     def as_dict(self) -> dict:
         d = asdict(self)
@@ -90,16 +93,12 @@ class BatchOptions:
         return d
 
     def identify_options(self):
-        from laminid_cli.identify import IdentifyOptions
-
         return IdentifyOptions(fix=tuple(self.fix), optimizer=self.optimizer,
                                parametrization=self.parametrization, xtol_rel=self.xtol,
                                ftol_rel=self.ftol, max_evaluations=self.max_evaluations,
                                pairing=self.pairing)
 
     def uncertainty_options(self):
-        from laminid_cli.uncertainty import UncertaintyOptions
-
         return UncertaintyOptions(sigma_rel=self.sigma_rel, scaling=self.covariance_scale,
                                   max_rel_interval=self.max_rel_interval,
                                   fix_undetermined=self.fix_undetermined,
