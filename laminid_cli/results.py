@@ -201,6 +201,13 @@ def run_fields(r) -> dict:
     }
 
 
+def write_run_attrs(f, r) -> None:
+    """Root attributes of a result file: the optimisation outcome (as :func:`run_fields`)."""
+    run = run_fields(r)
+    for key in ("converged", "status", "objective", "evaluations", "time_s", "optimizer"):
+        f.attrs[key] = run[key]
+
+
 def identification_summary(r) -> dict:
     """Everything ``laminid identify`` reports, as plain data (SI units, frequencies in Hz).
 
@@ -243,12 +250,7 @@ def _write_identification(f, fm, r, summary: dict) -> None:
     """The single-plate layout into a file or group ``f``."""
     import h5py
 
-    f.attrs["converged"] = bool(r.converged)
-    f.attrs["status"] = r.status
-    f.attrs["objective"] = float(r.objective)
-    f.attrs["evaluations"] = int(r.evaluations)
-    f.attrs["time_s"] = float(r.time_s)
-    f.attrs["optimizer"] = summary["optimizer"]
+    write_run_attrs(f, r)
     write_specimen(f, fm.specimen)
     write_mesh(f, fm.plate)
     write_materials(f, r.material_names, r.constants, fm.specimen.densities)
@@ -413,12 +415,7 @@ def write_joint_identification_file(path, fms, r, summary: dict, assessment=None
 
     names = unique_names([p.specimen.name for p in r.specimens])
     with atomic_h5(path, "laminid-joint-result", command=command) as f:
-        f.attrs["converged"] = bool(r.converged)
-        f.attrs["status"] = r.status
-        f.attrs["objective"] = float(r.objective)
-        f.attrs["evaluations"] = int(r.evaluations)
-        f.attrs["time_s"] = float(r.time_s)
-        f.attrs["optimizer"] = summary["optimizer"]
+        write_run_attrs(f, r)
         f.attrs["specimens"] = ",".join(names)
         f.attrs["rms_residual_percent"] = float(r.rms_residual_percent)
         write_materials(f, r.material_names, r.constants, {})
