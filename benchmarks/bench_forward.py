@@ -3,15 +3,9 @@
 Run: .venv/bin/python benchmarks/bench_forward.py   (median of REPEAT runs, single-threaded BLAS)
 """
 
-import os
+from _timing import median_time as _median_time  # first: sets single-threaded BLAS
 
-for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_v, "1")
-
-import statistics  # noqa: E402
-import time  # noqa: E402
 from pathlib import Path  # noqa: E402
-
 
 from laminid_cli.fe import element as fe_el  # noqa: E402
 from laminid_cli.fe.assembly import _unique_elements, build_plate_model, element_matrices  # noqa: E402
@@ -26,12 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def median_time(fn, repeat=REPEAT):
-    times = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t)
-    return statistics.median(times), out
+    return _median_time(fn, repeat, warmup=False)
 
 
 def main():

@@ -5,10 +5,7 @@ forward solve (same mesh, same number of modes) and the ratio of the two (median
 Run: .venv/bin/python benchmarks/bench_identify.py [SPEC ...]
 """
 
-import os
-
-for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_v, "1")
+from _timing import median_time  # first: sets single-threaded BLAS
 
 import statistics  # noqa: E402
 import sys  # noqa: E402
@@ -29,11 +26,7 @@ def bench(path, mesh=(12, 12)):
     fm = build_forward_model(spec, mesh)
     t_build = time.perf_counter() - t0
     n = spec.measured.freq.size + IdentifyOptions().extra_modes
-    solves = []
-    for _ in range(5):
-        t = time.perf_counter()
-        fm.solve(n_modes=n)
-        solves.append(time.perf_counter() - t)
+    t_solve, _ = median_time(lambda: fm.solve(n_modes=n), 5, warmup=False)
     runs = []
     for _ in range(REPEAT):
         fm = build_forward_model(spec, mesh)
@@ -42,7 +35,6 @@ def bench(path, mesh=(12, 12)):
         runs.append((time.perf_counter() - t, r))
     t_id = statistics.median(t for t, _ in runs)
     r = runs[0][1]
-    t_solve = statistics.median(solves)
     print(f"{spec.name:<12} {mesh[0]}x{mesh[1]}  build {t_build:5.2f} s  identify {t_id:5.2f} s  "
           f"evaluations {r.evaluations:3d}  one solve ({n} modes) {t_solve * 1e3:6.1f} ms  "
           f"identify/solve {t_id / t_solve:5.1f}  RMS {r.rms_residual_percent:.3f} %  "

@@ -7,14 +7,9 @@ into overlapping sub-bands), and the same without the output-error pole refineme
 proportional noise. Exits 1 if the default case takes 1 s or more.
 """
 
-import os
+from _timing import median_time as _median_time  # first: sets single-threaded BLAS
 
-for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_v, "1")
-
-import statistics  # noqa: E402
 import sys  # noqa: E402
-import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
@@ -28,13 +23,7 @@ LIMIT_S = 1.0
 
 
 def median_time(fn, repeat=REPEAT):
-    fn()  # warm-up (imports, caches)
-    times = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t)
-    return statistics.median(times), out
+    return _median_time(fn, repeat, warmup=True)
 
 
 def main() -> int:
