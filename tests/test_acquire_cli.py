@@ -70,10 +70,14 @@ def test_prompted_session_skips_quits_and_repeats_a_poor_point(tmp_path, hp):
     # point 1: go, coherence poor (threshold 1.0) -> repeat "y", then "n"; point 2: skip;
     # point 3: quit
     r = acquire(hp, out, "--coherence-min", "1.0", input="\ny\nn\ns\nq\n")
-    assert r.exit_code == 0, r.output
+    # issue 12: points missing -> non-zero exit (3) with the resume hint
+    assert r.exit_code == 3, r.output
     assert r.output.count("POOR coherence") == 2
     assert "Repeat point 1?" in r.output
     assert "1 of 3 point(s) saved; continue with:" in r.output and "--resume" in r.output
+    # not a terminal: one progress line per event, no carriage returns
+    assert "\r" not in r.output
+    assert "point 1 (1/3): waiting for 3 hits\npoint 1 (1/3): 3/3 hits averaged\n" in r.output
     s = read_frf_h5(out)
     assert s.labels == ("1",) and s.meta["complete"] is False
 
@@ -126,8 +130,75 @@ def test_hp_error_queue_after_configuring_exits_1(tmp_path):
     with HP35670AEmulator(faults=[Fault("WIND2:EXP", "error", 0)]) as emu:
         r = acquire(emu, out, "--no-prompt")
     assert r.exit_code == 1
-    assert 'reported error(s) after configuring: -222,"Data out of range"' in r.output
+    assert ("35670A rejected 1 command(s) while configuring: 'WIND2:EXP 0.1' -> "
+            '-222,"Data out of range"') in r.output
     assert not out.exists()  # nothing was measured
+
+
+def test_emulator_rejects_the_old_35670a_trigger_commands_and_the_message_names_them(hp):
+    """The emulator follows the public evidence: INP1 is no trigger source (-224) and there is
+    no TRIGger:DELay node (-113); each rejected command is named with the analyser's text."""
+    from laminid_cli.errors import InstrumentError
+    from laminid_cli.instrument.registry import open_analyser
+
+    with open_analyser(hp.resource, timeout=0.5) as dsa:
+        with pytest.raises(InstrumentError) as info:
+            dsa.send_checked(["TRIG:SOUR INP1", "TRIG:SOUR INT1", "TRIG:DEL1 -0.005 S",
+                              "TRIG:STAR1 -0.005"])
+    assert str(info.value) == (
+        "35670A rejected 2 command(s) while configuring: 'TRIG:SOUR INP1' -> "
+        '-224,"Illegal parameter value" | \'TRIG:DEL1 -0.005 S\' -> '
+        '-113,"Undefined header; TRIG:DEL1"')
+
+
+@pytest.mark.parametrize("model", ["hp35670a", "Agilent35670A", "KEYSIGHT35670A", "35670a"])
+def test_model_names_a_lab_types_select_the_35670a(tmp_path, hp, model):
+    r = acquire(hp, tmp_path / "m.h5", "--model", model, "--no-prompt", points=1)
+    assert r.exit_code == 0, r.output
+    assert read_frf_h5(tmp_path / "m.h5").meta["instrument"]["model"] == "35670A"
+
+
+def test_model_sr785_is_case_insensitive(tmp_path, sr):
+    r = acquire(sr, tmp_path / "m.h5", "--model", "sr785", "--no-prompt", points=1)
+    assert r.exit_code == 0, r.output
+
+
+# ------------------------------------ issue 15: an error flagged during a data transfer
+@pytest.mark.parametrize("emu_cls, command, trace", [
+    (HP35670AEmulator, "CALC1:DATA?", "FRF"),
+    (HP35670AEmulator, "CALC2:DATA?", "coherence"),
+    (SR785Emulator, "DSPB? 0", "FRF"),
+    (SR785Emulator, "DSPB? 1", "coherence"),
+])
+def test_error_flagged_during_a_transfer_refuses_the_point_and_resume_completes(
+        tmp_path, emu_cls, command, trace):
+    out = tmp_path / "t.h5"
+    with emu_cls(faults=[Fault(command, "flag", 2)]) as emu:   # flagged on every read
+        r = acquire(emu, out, "--no-prompt")
+    assert r.exit_code == 1, r.output
+    model = emu_cls.IDN.split(",")[1]
+    assert f"point 2: {model} flagged an error during the {trace} transfer, twice" in r.output
+    text = '-230,"Data corrupt or stale"' if model == "35670A" else "*ESR? = 16 (bit 4"
+    assert text in r.output
+    assert "point 2 not saved; 1 point(s) saved in" in r.output and "--resume" in r.output
+    s = read_frf_h5(out)                      # valid file with the earlier point only
+    assert s.labels == ("1",) and s.meta["complete"] is False
+    with emu_cls() as emu:
+        r = acquire(emu, out, "--no-prompt", "--resume")
+    assert r.exit_code == 0, r.output
+    assert read_frf_h5(out).labels == ("1", "2", "3")
+
+
+@pytest.mark.parametrize("emu_cls, command", [(HP35670AEmulator, "CALC2:DATA?"),
+                                              (SR785Emulator, "DSPB? 0")])
+def test_error_flagged_once_is_cured_by_one_more_read(tmp_path, emu_cls, command):
+    out = tmp_path / "once.h5"
+    with emu_cls(faults=[Fault(command, "flag", 2, times=1)]) as emu:
+        r = acquire(emu, out, "--no-prompt")
+        reads = sum(1 for c in emu.log if c == command)
+    assert r.exit_code == 0, r.output
+    assert reads == 4                         # 3 points + the one re-read of point 2
+    assert read_frf_h5(out).labels == ("1", "2", "3")
 
 
 @pytest.mark.parametrize("fault, message", [

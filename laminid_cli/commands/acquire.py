@@ -10,6 +10,7 @@ command so ``laminid --help`` stays fast.
 from __future__ import annotations
 
 import shlex
+import sys
 from pathlib import Path
 
 import click
@@ -20,9 +21,11 @@ from laminid_cli.commands._common import check_output_path, force_option
 class _ClickUI:
     """Operator dialogue on the terminal (the session itself never touches click)."""
 
-    def __init__(self, path: Path):
+    def __init__(self, path: Path, tty: bool | None = None):
         self.path = path
         self._progress_shown = False
+        #: carriage-return progress only on a terminal; one line per event in logs and pipes
+        self.tty = sys.stderr.isatty() if tty is None else tty
 
     def _end_progress(self):
         if self._progress_shown:
@@ -47,8 +50,11 @@ class _ClickUI:
             text = head + f"{n_averages}/{n_averages} hits averaged"
         else:
             text = head + f"{hits}/{n_averages} hits averaged, waiting for hit {hits + 1}"
-        click.echo(f"\r{text:<70}", nl=False, err=True)
-        self._progress_shown = True
+        if self.tty:
+            click.echo(f"\r{text:<70}", nl=False, err=True)
+            self._progress_shown = True
+        else:
+            click.echo(text, err=True)
 
     def summary(self, quality):
         self._end_progress()
@@ -84,7 +90,8 @@ def _resume_command(params: dict, output: Path) -> str:
 @click.option("--analyser", "analyser", required=True, metavar="RESOURCE",
               help="VISA resource: GPIB0::5, GPIB0::5::INSTR, TCPIP::host::5025::SOCKET, ...")
 @click.option("--model", default="auto", show_default=True,
-              help="Analyser driver: auto (from *IDN?), 35670A or SR785.")
+              help="Analyser driver: auto (from *IDN?), 35670a (also hp35670a, agilent35670a, "
+                   "keysight35670a) or sr785; case-insensitive.")
 @click.option("--visa-backend", default=None, metavar="BACKEND",
               help="pyvisa backend: @py (pyvisa-py, default), @ivi (NI/Keysight VISA), "
                    "file.yaml@sim. Default from $LAMINID_VISA_BACKEND.")
@@ -133,6 +140,10 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
     prints a one-line quality summary and saves the point at once: an interrupted session
     keeps every finished point, and --resume continues it.
 
+    Exit status: 0 when every point is saved; 3 when the session ended with points missing
+    (quit or skipped; the file is valid, continue with --resume); 1 on an analyser fault
+    (finished points kept); 130 on Ctrl-C; 2 for bad input.
+
     \b
     Example:
       laminid acquire --analyser GPIB0::5 --span 1600 --lines 800 --averages 5 \\
@@ -166,6 +177,8 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
             dsa.prepare_transfer()
             settings = dsa.read_settings()
         freq = dsa.read_frequency()
+        if configure:
+            dsa.check_axis(settings, freq)
         attrs = settings.as_attrs()
         attrs.update(coherence_min=coherence_min, n_points=points, configured=bool(configure),
                      frf_estimator="H1 (RMS-averaged cross/auto spectra)",
@@ -177,10 +190,11 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
                        "measured", err=True)
         result = run_session(dsa, writer, settings, options, ui)
 
-    if result.complete:
-        click.echo(f"{out}: {result.n_saved} point(s), {freq.size} lines "
-                   f"{freq[0]:g}-{freq[-1]:g} Hz; next: laminid fit-frf {out} --into "
-                   "specimen.yaml", err=True)
-    else:
-        click.echo(f"{out}: {result.n_saved} of {points} point(s) saved; continue with: "
-                   f"{hint}", err=True)
+    if not result.complete:
+        from laminid_cli.instrument.session import SessionIncomplete
+
+        raise SessionIncomplete(f"{out}: {result.n_saved} of {points} point(s) saved; "
+                                f"continue with: {hint}")
+    click.echo(f"{out}: {result.n_saved} point(s), {freq.size} lines "
+               f"{freq[0]:g}-{freq[-1]:g} Hz; next: laminid fit-frf {out} --into "
+               "specimen.yaml", err=True)

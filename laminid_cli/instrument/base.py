@@ -81,6 +81,17 @@ class Measurement:
 ProgressCallback = Callable[[int, int], None]  # (hits done, hits wanted); hits done -1 = unknown
 
 
+class TransferError(InstrumentError):
+    """The analyser flagged an error during a data transfer, twice: the point is not good.
+
+    ``trace`` names the transfer ("FRF", "coherence"); ``errors`` is the analyser's error text.
+    """
+
+    def __init__(self, message: str, *, trace: str = "", errors: tuple[str, ...] = ()):
+        super().__init__(message)
+        self.trace, self.errors = trace, tuple(errors)
+
+
 def _fmt_list(values) -> str:
     return ", ".join(f"{v:g}" for v in values)
 
@@ -215,8 +226,39 @@ class Analyser:
     def overloads(self) -> int:
         return -1
 
-    def check_errors(self) -> None:  # pragma: no cover
+    def command_errors(self) -> list[str]:  # pragma: no cover
+        """Errors the analyser raised since the last check (its text, one entry each); clears
+        them. Used after every set-up command so a rejected command is named."""
         raise NotImplementedError
+
+    def transfer_errors(self) -> list[str]:
+        """Errors raised during the last data transfer (default: :meth:`command_errors`)."""
+        return self.command_errors()
+
+    def send_checked(self, commands, what: str = "configuring") -> None:
+        """Write each command and read the analyser's error state after it.
+
+        Raises :class:`InstrumentError` naming every command the analyser rejected, with its
+        error text (all commands are sent, so one message lists every rejection).
+        """
+        rejected = []
+        for command in commands:
+            self.transport.write(command)
+            errors = self.command_errors()
+            if errors:
+                rejected.append(f"{command!r} -> {'; '.join(errors)}")
+        if rejected:
+            raise InstrumentError(f"{self.MODEL} rejected {len(rejected)} command(s) while "
+                                  f"{what}: " + " | ".join(rejected))
+
+    def check_axis(self, settings: AcquisitionSettings, freq: np.ndarray) -> None:
+        """After configuring: the analyser's axis must have the lines asked for (a resolution
+        command the analyser understood differently would show here, not in the fit)."""
+        if freq.size not in (settings.lines, settings.lines + 1):
+            raise InstrumentError(
+                f"{self.MODEL}: the analyser returns {freq.size} frequency lines but "
+                f"{settings.lines} lines were set (span {settings.span_hz:g} Hz); the "
+                "resolution command was not taken as a number of lines")
 
     def abort(self) -> None:  # pragma: no cover
         """Stop a running measurement (safe state)."""
@@ -229,14 +271,32 @@ class Analyser:
         self.wait_until_done(n_averages, progress)
         overloads = self.overloads()
         freq = self.read_frequency() if freq is None else freq
-        frf = self.read_frf()
-        coh = self.read_coherence()
+        frf = self._read_checked("FRF", self.read_frf)
+        coh = self._read_checked("coherence", self.read_coherence)
         for name, arr in (("FRF", frf), ("coherence", coh)):
             if arr.shape != freq.shape:
                 raise InstrumentError(f"{self.MODEL}: {name} has {arr.size} lines but the "
                                       f"frequency axis has {freq.size}")
         return Measurement(freq=freq, frf=frf, coherence=np.clip(coh, 0.0, 1.0),
                            n_averages=n_averages, overloads=overloads)
+
+    def _read_checked(self, trace: str, read):
+        """Read one trace, then the analyser's error state; an error raised during the transfer
+        means the data may be corrupt or stale: read the trace once more, and if the error
+        repeats raise :class:`TransferError` (the caller must not save the point)."""
+        data = read()
+        first = self.transfer_errors()
+        if not first:
+            return data
+        log.warning("%s flagged an error during the %s transfer (%s); reading it again",
+                    self.MODEL, trace, "; ".join(first))
+        data = read()
+        again = self.transfer_errors()
+        if not again:
+            return data
+        raise TransferError(
+            f"{self.MODEL} flagged an error during the {trace} transfer, twice (read again "
+            f"once): {'; '.join(again)}", trace=trace, errors=tuple(again))
 
     # ----------------------------------------------------------- context manager
     def close(self) -> None:

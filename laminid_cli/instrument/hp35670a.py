@@ -1,20 +1,80 @@
 """HP / Agilent / Keysight 35670A Dynamic Signal Analyzer (SCPI over GPIB).
 
-Command source: *HP 35670A Dynamic Signal Analyzer — GPIB Commands* (the command reference /
-Quick Reference of the 35670A), subsystem named in each comment; IEEE 488.2 common commands
-(``*IDN?``, ``*CLS``, ``*OPC``, ``*ESR?``) and the definite-length block format (IEEE 488.2
-section 8.7.9) are standard. Mnemonics are sent in their short form.
-
 Measurement (paper section 3): FFT instrument mode, two channels, trace A = frequency response
 ch2/ch1 (``XFR:POW:RAT 2,1``), trace B = coherence (``XFR:POW:COH 1,2``), RMS (power)
-averaging so trace A is H1 = <G21>/<G11>, channel-1 trigger with negative delay (pre-trigger),
-force window on channel 1, exponential window on channel 2. Data are read as
-``FORM:DATA REAL,64`` blocks: IEEE 754 doubles, big-endian (the 35670A's byte order); trace A
-in Nyquist coordinates gives (real, imag) pairs.
+averaging so trace A is H1 = <G21>/<G11>, channel-1 input trigger with a negative start delay
+(pre-trigger), force window on channel 1, exponential window on channel 2. Data are read as
+``FORM:DATA REAL,64`` blocks: IEEE 754 doubles, big-endian; trace A in Nyquist coordinates gives
+(real, imag) pairs. Mnemonics are sent in their short form, without the optional ``SENSe:``
+root; numbers without a unit suffix are in the SCPI default units (Hz, s).
 
-Points to confirm on the first real instrument (opt-in hardware test, ``LAMINID_ANALYSER``):
-the overload bits of the Questionable Voltage register and the unit of ``TRIG:LEV``; both are
-isolated in constants below.
+Evidence for every command string (issue 12). "pymeasure" = the public driver
+``pymeasure/pymeasure`` ``pymeasure/instruments/keysight/keysight35670A.py`` (commit b68e0af),
+cited by the attribute that defines the command; IEEE 488.2 = the common commands standard.
+
+=============================  ===========================================================
+command sent                   evidence
+=============================  ===========================================================
+``*IDN?`` ``*CLS`` ``*OPC``    IEEE 488.2 common commands; pymeasure ``SCPIMixin``
+``*ESR?``                      IEEE 488.2 (bit 0 = operation complete); pymeasure
+                               ``standard_event_status``
+``INST:SEL FFT``               pymeasure ``instrument_mode`` (INSTrument:SELect,
+                               ``INSTRUMENT_MODES["fft"] = "FFT"``)
+``INP2:STAT 1``                pymeasure ``Keysight35670AInputChannel.state``
+                               (INPut{ch}:STATe %d)
+``CALC1:FEED 'XFR:POW:RAT      pymeasure ``Keysight35670ATrace.feed`` (CALCulate{ch}:FEED '%s'),
+2,1'``                         ``TRACE_FEEDS["frequency_response_2_1"]``
+``CALC2:FEED 'XFR:POW:COH      same, ``TRACE_FEEDS["coherence_1_2"]``
+1,2'``
+``FREQ:SPAN <Hz>``             pymeasure ``frequency_span`` (SENSe:FREQuency:SPAN %g)
+``FREQ:STAR <Hz>``             pymeasure ``frequency_start`` (SENSe:FREQuency:STARt %g)
+``FREQ:RES <lines>``           pymeasure ``frequency_resolution`` (SENSe:FREQuency:RESolution
+                               %g) confirms the command; that the number is the FFT line
+                               count is **unconfirmed** (pymeasure states a range
+                               0.015625-51200); ``acquire`` checks the axis length after
+                               configuring (:meth:`~.base.Analyser.check_axis`)
+``AVER:STAT 1``                pymeasure ``averaging_enabled`` (SENSe:AVERage:STATe %d)
+``AVER:TYPE RMS``              pymeasure ``average_type``, ``AVERAGE_TYPES["rms"]``
+``AVER:COUN <n>``              pymeasure ``average_count`` (SENSe:AVERage:COUNt %d)
+``TRIG:SOUR INT1``             pymeasure ``trigger_source``, ``TRIGGER_SOURCES`` =
+                               IMM, EXT, INT1..INT4, OUTP, BUS (INT1 = channel-1 input; there
+                               is no ``INP1`` value)
+``TRIG:SLOP POS``              pymeasure ``trigger_slope`` (POS|NEG)
+``TRIG:LEV <pct> PCT``         pymeasure ``trigger_level`` confirms TRIGger:LEVel %g but not
+                               its unit: the ``PCT`` suffix (percent of input range) is
+                               **unconfirmed**; chosen so that a firmware without it rejects
+                               the command by name (SCPI suffix error) instead of
+                               triggering at 10 V
+``TRIG:STAR1 <s>``             pymeasure ``trigger_start1`` ("channel 1 trigger start delay
+``TRIG:STAR2 <s>``             in seconds"), ``trigger_start2``; negative = pre-trigger (there
+                               is no TRIGger:DELay node)
+``WIND1:TYPE FORC``            pymeasure ``Keysight35670ASenseWindow.window_type``
+``WIND2:TYPE EXP``             (SENSe:WINDow{ch}:TYPE), ``WINDOW_TYPES`` force/exponential
+``WIND1:FORC <s>``             pymeasure ``force_window_width`` (seconds)
+``WIND2:EXP <s>``              pymeasure ``exponential_window_time_constant`` (seconds)
+``FORM:DATA REAL,64``          pymeasure ``data_format`` (FORMat:DATA ASC|REAL; its reply
+                               parser drops a ``,<length>``): the ``,64`` length and the
+                               big-endian byte order are **unconfirmed** (checked by the
+                               opt-in hardware test)
+``CALC1:FORM NYQ``             pymeasure ``Keysight35670ATrace.display_format``,
+``CALC2:FORM MLIN``            ``TRACE_DISPLAY_FORMATS`` nyquist/linear_magnitude; the
+                               (real, imag) order of NYQ blocks is **unconfirmed**
+``SYST:ERR?``                  pymeasure ``_raise_if_errors`` (SYSTem:ERRor? read until code
+                               0 "No error")
+``ABOR``                       pymeasure ``abort`` (ABORt)
+``INIT:IMM``                   pymeasure ``initiate`` (INITiate:IMMediate)
+``STAT:QUES:VOLT:EVEN?``       pymeasure ``questionable_voltage_event``; the overload bit
+                               positions (:data:`OVERLOAD_BITS`) are **unconfirmed**
+``CALC1:X:DATA?``              pymeasure ``Keysight35670ATrace.read_x_data``
+``CALC1:DATA?`` ``CALC2:DATA?``  pymeasure ``Keysight35670ATrace.read_data``
+``FREQ:SPAN?`` ``FREQ:STAR?``  query forms of the properties above (pymeasure controls)
+``FREQ:RES?`` ``AVER:COUN?``
+=============================  ===========================================================
+
+Faults: the error queue (``SYST:ERR?`` until ``+0``) is read after every set-up command, so a
+rejected command is reported by name with the analyser's text, and after every trace transfer
+(issue 15): an error raised during a transfer makes the driver read the trace again once; if
+the error repeats the point is refused (:class:`~.base.TransferError`).
 """
 
 from __future__ import annotations
@@ -26,12 +86,12 @@ import numpy as np
 from laminid_cli.errors import InstrumentError
 from laminid_cli.instrument.base import AcquisitionSettings, Analyser, format_number
 
-#: two-channel FFT spans: 51.2 kHz / 2**k (35670A GPIB Commands, [SENSe:]FREQuency:SPAN)
+#: two-channel FFT spans: 51.2 kHz / 2**k. Unconfirmed list (pymeasure's ``frequency_span``
+#: only bounds the value, 0.015625-102400 Hz); an odd span is refused before sending anything.
 SPANS_HZ = tuple(51200.0 / 2 ** k for k in range(19))
-#: resolution lines ([SENSe:]FREQuency:RESolution); two-channel measurements offer up to 800
-#: (cross-checked with a working public 35670A driver, which accepts only 100-800)
+#: FFT resolution lines offered in two-channel mode (unconfirmed, see FREQ:RES above)
 LINES = (100, 200, 400, 800)
-#: STATus:QUEStionable:VOLTage bits meaning "channel over range" (ch1, ch2)
+#: STATus:QUEStionable:VOLTage bits meaning "channel over range" (ch1, ch2); unconfirmed
 OVERLOAD_BITS = (1 << 0, 1 << 2)
 
 
@@ -43,7 +103,10 @@ class HP35670A(Analyser):
     """
 
     MODEL = "35670A"
-    MANUAL = "HP/Agilent 35670A GPIB Commands reference"
+    #: names a lab types for ``--model`` (case-insensitive)
+    ALIASES = ("hp35670a", "agilent35670a", "keysight35670a", "35670a")
+    MANUAL = ("HP/Agilent/Keysight 35670A SCPI command set (evidence: pymeasure Keysight35670A, "
+              "see the driver docstring)")
     SPANS_HZ = SPANS_HZ
     LINES = LINES
     MAX_FREQ_HZ = 51200.0
@@ -55,40 +118,41 @@ class HP35670A(Analyser):
 
     # ------------------------------------------------------------------ set-up
     def configure(self, settings: AcquisitionSettings) -> None:
-        """Send the whole impact-test set-up, then check the error queue."""
+        """Send the whole impact-test set-up; every command is followed by an error-queue
+        read, so a rejected command is named (see the module docstring for the evidence)."""
         self.validate(settings)
         s = settings
-        w = self.transport.write
-        w("*CLS")                                   # IEEE 488.2: clear status + error queue
-        w("INST:NSEL 0")                            # INSTrument:NSELect 0 = FFT analysis mode
-                                                    # (cross-checked with a working driver)
-        w("INP2 ON")                                # INPut2[:STATe]     (two channels)
-        w("CALC1:FEED 'XFR:POW:RAT 2,1'")           # CALCulate:FEED     trace A = H = ch2/ch1
-        w("CALC2:FEED 'XFR:POW:COH 1,2'")           # CALCulate:FEED     trace B = coherence
-        w(f"FREQ:SPAN {format_number(s.span_hz)} HZ")    # [SENSe:]FREQuency:SPAN
-        w(f"FREQ:STAR {format_number(s.start_hz)} HZ")   # [SENSe:]FREQuency:STARt
-        w(f"FREQ:RES {s.lines}")                         # [SENSe:]FREQuency:RESolution (lines)
-        w("AVER:STAT ON")                           # [SENSe:]AVERage:STATe
-        w("AVER:TYPE RMS")                          # [SENSe:]AVERage:TYPE (power avg -> H1)
-        w(f"AVER:COUN {s.averages}")                # [SENSe:]AVERage:COUNt
-        w("TRIG:SOUR INP1")                         # TRIGger:SOURce  channel 1 (hammer)
-        w("TRIG:SLOP POS")                          # TRIGger:SLOPe
-        w(f"TRIG:LEV {format_number(s.trigger_level_pct)} PCT")  # TRIGger:LEVel, % of range
         delay = format_number(-s.pretrigger_s)
-        w(f"TRIG:DEL1 {delay} S")                   # TRIGger:DELay1 (<0 = pre-trigger)
-        w(f"TRIG:DEL2 {delay} S")                   # TRIGger:DELay2
-        w("WIND1:TYPE FORC")                        # [SENSe:]WINDow1:TYPE  force (ch1)
-        w(f"WIND1:FORC {format_number(s.force_window_s)} S")   # [SENSe:]WINDow:FORCe width
-        w("WIND2:TYPE EXP")                         # [SENSe:]WINDow2:TYPE  exponential (ch2)
-        w(f"WIND2:EXP {format_number(s.exp_window_s)} S")      # [SENSe:]WINDow:EXPonential tau
-        self.prepare_transfer()
-        self.check_errors()
+        self.transport.write("*CLS")                # clear status + error queue
+        self.send_checked([
+            "INST:SEL FFT",                         # FFT analysis mode
+            "INP2:STAT 1",                          # channel 2 on (two-channel measurement)
+            "CALC1:FEED 'XFR:POW:RAT 2,1'",         # trace A = H = ch2/ch1
+            "CALC2:FEED 'XFR:POW:COH 1,2'",         # trace B = coherence
+            f"FREQ:SPAN {format_number(s.span_hz)}",   # Hz
+            f"FREQ:STAR {format_number(s.start_hz)}",  # Hz
+            f"FREQ:RES {s.lines}",                  # FFT lines
+            "AVER:STAT 1",
+            "AVER:TYPE RMS",                        # power averaging -> H1
+            f"AVER:COUN {s.averages}",
+            "TRIG:SOUR INT1",                       # channel-1 input (hammer)
+            "TRIG:SLOP POS",
+            f"TRIG:LEV {format_number(s.trigger_level_pct)} PCT",
+            f"TRIG:STAR1 {delay}",                  # s, < 0 = pre-trigger
+            f"TRIG:STAR2 {delay}",
+            "WIND1:TYPE FORC",                      # force window on channel 1
+            f"WIND1:FORC {format_number(s.force_window_s)}",   # width, s
+            "WIND2:TYPE EXP",                       # exponential window on channel 2
+            f"WIND2:EXP {format_number(s.exp_window_s)}",      # time constant, s
+        ] + self.TRANSFER_SETUP)
+
+    #: data formats the read methods expect (also sent with ``--keep-setup``)
+    TRANSFER_SETUP = ["FORM:DATA REAL,64",     # 8-byte IEEE doubles in a # block
+                      "CALC1:FORM NYQ",        # trace A as (real, imag) pairs
+                      "CALC2:FORM MLIN"]       # coherence, linear magnitude
 
     def prepare_transfer(self) -> None:
-        w = self.transport.write
-        w("FORM:DATA REAL,64")      # FORMat[:DATA] REAL,64: 8-byte IEEE doubles in a # block
-        w("CALC1:FORM NYQ")         # CALCulate:FORMat NYQuist: trace A as (real, imag) pairs
-        w("CALC2:FORM MLIN")        # CALCulate:FORMat MLINear: coherence, linear magnitude
+        self.send_checked(self.TRANSFER_SETUP, "setting the data formats")
 
     def read_settings(self) -> AcquisitionSettings:
         q = self.transport.query
@@ -98,22 +162,20 @@ class HP35670A(Analyser):
             lines=int(float(q("FREQ:RES?"))), averages=int(float(q("AVER:COUN?"))),
             trigger_level_pct=nan, pretrigger_s=nan, force_window_s=nan, exp_window_s=nan)
 
-    def check_errors(self) -> None:
-        """Read SYSTem:ERRor? until '+0,"No error"'; raise InstrumentError listing the rest."""
+    def command_errors(self) -> list[str]:
+        """Entries of the error queue (``SYST:ERR?`` until code 0), each as the analyser's text."""
         errors = []
         for _ in range(32):  # the queue is finite; never loop forever on a stuck instrument
             answer = self.transport.query("SYST:ERR?")
             code = answer.split(",", 1)[0].strip()
             try:
                 if int(code) == 0:
-                    break
+                    return errors
             except ValueError as exc:
                 raise InstrumentError(f"{self.MODEL}: unexpected answer to SYST:ERR?: "
                                       f"{answer!r}") from exc
             errors.append(answer)
-        if errors:
-            raise InstrumentError(f"{self.MODEL} reported error(s) after configuring: "
-                                  + "; ".join(errors))
+        return errors
 
     # -------------------------------------------------------------- measuring
     def start(self) -> None:

@@ -38,6 +38,28 @@ def model_names() -> list[str]:
     return [d.MODEL for d in drivers().values()]
 
 
+def _key(name: str) -> str:
+    return "".join(ch for ch in name.lower() if ch.isalnum())
+
+
+def find_driver(model: str) -> type[Analyser] | None:
+    """The driver whose model name or one of its ``ALIASES`` is ``model`` (case, spaces and
+    dashes ignored: ``HP35670A``, ``keysight-35670a`` and ``35670A`` are the same)."""
+    key = _key(model)
+    for driver in drivers().values():
+        if key in {_key(driver.MODEL), *(_key(a) for a in getattr(driver, "ALIASES", ()))}:
+            return driver
+    return None
+
+
+def accepted_names() -> list[str]:
+    """Every name ``--model`` accepts (besides auto)."""
+    names = []
+    for driver in drivers().values():
+        names += [a for a in getattr(driver, "ALIASES", ()) if a not in names]
+    return names
+
+
 def driver_for(model: str, idn: str, resource: str = "") -> type[Analyser]:
     """The driver for ``model`` (``"auto"``: the one whose ``matches(idn)`` is true)."""
     table = drivers()
@@ -53,10 +75,10 @@ def driver_for(model: str, idn: str, resource: str = "") -> type[Analyser]:
         raise AnalyserSetupError(
             f"the analyser{where} answers *IDN? with {idn!r}, which no laminid driver supports "
             f"(supported: {', '.join(model_names())}); use --model to force one")
-    driver = table.get(model.upper())
+    driver = find_driver(model)
     if driver is None:
         raise AnalyserSetupError(f"unknown analyser model {model!r}; choose auto or one of: "
-                                 f"{', '.join(model_names())}")
+                                 f"{', '.join(accepted_names())} (case-insensitive)")
     if not driver.matches(idn):
         log.warning("--model %s forced, but the analyser identifies as %r", driver.MODEL, idn)
     return driver

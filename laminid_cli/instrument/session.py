@@ -27,6 +27,13 @@ class AcquisitionInterrupted(LaminidError):
     exit_code = 130
 
 
+class SessionIncomplete(LaminidError):
+    """The session ended (quit or skipped points) with points missing: the file is valid and
+    ``--resume`` completes it (exit 3, so a script never takes a partial file for a full one)."""
+
+    exit_code = 3
+
+
 @dataclass(frozen=True)
 class SessionOptions:
     """How the session runs.
@@ -162,7 +169,11 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
                 def progress(hits, n, _label=label, _index=index):
                     ui.progress(_label, _index, total, hits, n)
 
-                m = analyser.measure(settings.averages, progress=progress)
+                try:
+                    m = analyser.measure(settings.averages, progress=progress)
+                except InstrumentError as exc:
+                    raise InstrumentError(f"point {label}: {exc}; point {label} not saved") \
+                        from exc
                 if m.freq.shape != writer.freq.shape or not np.allclose(m.freq, writer.freq,
                                                                         rtol=1e-9):
                     raise InstrumentError(

@@ -1,24 +1,70 @@
 """Stanford Research Systems SR785 Dynamic Signal Analyzer (its own four-letter command set).
 
-Command source: *SR785 Dynamic Signal Analyzer, Operating Manual and Programming Reference*
-(SRS, rev. 1.5, 2017), chapter 5 "Programming": Command Syntax (p. 5-25: ``d`` = display,
-0 = A, 1 = B, 2 = both; default units Hz and s), Frequency, Display Setup, Window, Average
-(p. 5-69 ff., ``NAVG?``), Input and Trigger commands, Data Transfer commands (p. 5-107/108:
-``DSPN? d`` length of a display, ``DSPB? d`` binary display data: 4-byte IEEE floats, no header
-and no terminator, so the byte count must be known first; 2-D views such as Nyquist return two
-floats per bin, Y value first, then X) and Status Word Definitions (p. 5-124: reading a status
-word clears it; standard event bits 4 = execution error, 5 = command error).
-
-Measurement (paper section 3): display A = frequency response (ch2/ch1) in Nyquist view, so
-one DSPB? transfer gives (imag, real) pairs; display B = coherence; RMS averaging (H1),
-channel-1 trigger with negative delay, force/exponential window. Floats arrive least
-significant byte first (little-endian), as in the manual's binary transfers.
-
-``DSPB?`` exists only on the GPIB interface (manual p. 5-108): use a GPIB resource (or a
+Measurement (paper section 3): display A = frequency response (ch2/ch1) in Nyquist view, so one
+``DSPB?`` transfer gives (imag, real) pairs; display B = coherence; RMS averaging (H1),
+channel-1 trigger with negative delay, force/exponential window. ``DSPB?`` returns 4-byte IEEE
+floats, no header and no terminator (so the byte count comes from ``DSPN?`` first), least
+significant byte first. ``DSPB?`` exists only on the GPIB interface: use a GPIB resource (or a
 GPIB-LAN gateway), not the RS-232 port. The test emulator serves it over a TCP socket.
+Display argument ``d``: 0 = A, 1 = B, 2 = both.
 
-Points to confirm on the first real instrument (opt-in hardware test): the measurement/view/
-window index tables and the input-status overload bits, isolated in the constants below.
+Evidence for every command string (issue 12). "LIGO script" = the public SR785 FFT
+transfer-function script (© 2021 MIT, L. McCuller; netgpib), which sends the same set-up
+commands with comments giving each code; "pySR785" = a public pyvisa SR785 driver
+(``SR785.FFT`` class, ``_param_map`` and ``measure``). The SR785 manual (SRS, *Operating Manual
+and Programming Reference*, ch. 5) was not found in the searchable corpus: commands resting on
+it alone are marked **unconfirmed**.
+
+===========================  ==============================================================
+command sent                 evidence
+===========================  ==============================================================
+``*IDN?`` ``*CLS``           IEEE 488.2; LIGO script (``*CLS``, IDN check
+                             "Stanford_Research_Systems,SR785")
+``*ESR?``                    IEEE 488.2 standard event status; bits 4 = execution error,
+                             5 = command error: LIGO script ``*ESE 48`` "set bits 4 and 5 ...
+                             EXE and CME"; bits 2 = query error, 3 = device-dependent error:
+                             IEEE 488.2 (SRS SR850 manual p. 1-10 lists the same layout)
+``MGRP 2,0``                 LIGO script ``MGRP2,0`` "Measurement Group = FFT"; pySR785
+``MEAS 0,11`` ``MEAS 1,9``   LIGO script: 11 = "Frequency Resp", 9 = "Coherence"
+``FBAS 2,1``                 LIGO script ``FBAS2,1`` "Base Frequency = 102.4kHz"; pySR785
+                             ``_fft_base_freq_map`` (0 = 100 kHz, 1 = 102.4 kHz)
+``FSPN 2,<Hz>``              LIGO script ``FSPN2,``; pySR785 ``stop_Hz`` (spans 102.4 kHz/2^k)
+``FLIN 2,<i>``               LIGO script / pySR785: 0..3 = 100, 200, 400, 800 lines
+``FSTR 2,<Hz>``              pySR785 ``start_Hz`` (``FSTR 2,``)
+``FAVG 2,1``                 LIGO script "Averaging On"
+``FAVM 2,2``                 LIGO script ``avgModDict``: 2 = RMS
+``FAVT 2,0``                 LIGO script "Averaging Type = Linear"; pySR785
+``FAVN 2,<n>``               LIGO script "Number of Averaging"
+``FWIN 2,5``                 LIGO script ``winFuncDict``: 5 = "Force/Exponential"
+``FWFL 2,<s>``               **unconfirmed** (manual, Window commands: force length)
+``FWTC 2,<%>``               **unconfirmed** (manual: exponential time constant, % of record)
+``TSRC 1``                   LIGO script: 1 = "Ch1" (single argument)
+``TMOD 0``                   LIGO script "Auto trigger arming"
+``TSLP 0``                   **unconfirmed** (manual, Trigger commands: rising slope)
+``TLVL <pct>``               LIGO script "Sets trigger level in percent"
+``TDLA <s>`` ``TDLB <s>``    LIGO script "Delay for channel 1/2 in s"
+``VIEW 0,7`` ``VIEW 1,1``    LIGO script view table: 7 = Nyquist, 1 = Linear Magnitude;
+                             Nyquist Y-then-X order per bin **unconfirmed**
+``STRT``                     LIGO script "Start measurement"; pySR785
+``DSPS?`` ``DSPS? 1``        LIGO script ``DSPS?1`` (loop until averaging done); pySR785
+                             "read AVGA (averaging complete)"
+``NAVG? 0``                  LIGO script (averages done)
+``DSPN? d`` ``DSPB? d``      LIGO script and pySR785 (4-byte floats, no header)
+``FSPN? 0`` ``FLIN? 0``      LIGO script / pySR785 queries
+``FSTR? 0`` ``FAVN? 0``
+``TLVL?``                    LIGO script
+``INPS?``                    **unconfirmed** (manual, Status: input status word); overload
+                             bits :data:`INPS_OVERLOAD_BITS` unconfirmed
+``ERRS?``                    **unconfirmed** for the SR785 (SRS SR850 manual: ERRS? reads the
+                             error status byte, bit 5 "GPIB binary transfer aborted"); the
+                             driver treats any non-zero word as an error and prints it raw
+``PAUS``                     **unconfirmed** (manual: pause measurement)
+===========================  ==============================================================
+
+Faults: ``*ESR?`` is read after every set-up command (a rejected command is named with the
+error bits it set), and ``ERRS?`` + ``*ESR?`` after every trace transfer (issue 15): an error
+raised during a transfer makes the driver read the trace again once; if it repeats the point is
+refused (:class:`~.base.TransferError`).
 """
 
 from __future__ import annotations
@@ -51,9 +97,17 @@ TSRC_CH1 = 1
 DSPS_AVGA = 1
 #: Input status word bits: channel 1 / channel 2 overload
 INPS_OVERLOAD_BITS = (1 << 2, 1 << 10)
-#: standard event status: execution error, command error
-ESR_ERRORS = {4: "execution error (parameter out of range or not allowed now)",
+#: standard event status bits that mean an error (IEEE 488.2)
+ESR_ERRORS = {2: "query error",
+              3: "device-dependent error",
+              4: "execution error (parameter out of range or not allowed now)",
               5: "command error (unknown command or bad syntax)"}
+
+
+def esr_text(word: int) -> str:
+    """The error bits of a standard event status word, as text ("" when none)."""
+    found = [f"bit {bit}: {text}" for bit, text in ESR_ERRORS.items() if word & (1 << bit)]
+    return f"*ESR? = {word} ({'; '.join(found)})" if found else ""
 
 
 class SR785(Analyser):
@@ -64,6 +118,8 @@ class SR785(Analyser):
     """
 
     MODEL = "SR785"
+    #: names a lab types for ``--model`` (case-insensitive)
+    ALIASES = ("sr785",)
     MANUAL = "SRS SR785 Operating Manual and Programming Reference, ch. 5"
     SPANS_HZ = SPANS_HZ
     LINES = LINES
@@ -76,39 +132,41 @@ class SR785(Analyser):
 
     # ------------------------------------------------------------------ set-up
     def configure(self, settings: AcquisitionSettings) -> None:
+        """Send the impact-test set-up; ``*ESR?`` after each command names a rejected one."""
         self.validate(settings)
         s = settings
-        w = self.transport.write
-        w("*CLS")                                        # clear status words
-        w(f"MGRP 2,{MGRP_FFT}")                          # Display Setup: FFT group, both
-        w(f"MEAS 0,{MEAS_FREQ_RESPONSE}")                # display A: frequency response
-        w(f"MEAS 1,{MEAS_COHERENCE}")                    # display B: coherence
-        w("FBAS 2,1")                                    # Frequency: base 102.4 kHz
-        w(f"FSPN 2,{format_number(s.span_hz)}")          # Frequency: span, Hz
-        w(f"FLIN 2,{LINES.index(s.lines)}")              # Frequency: resolution (index)
-        w(f"FSTR 2,{format_number(s.start_hz)}")         # Frequency: start, Hz
-        w("FAVG 2,1")                                    # Average: on
-        w(f"FAVM 2,{FAVM_RMS}")                          # Average: RMS (H1)
-        w(f"FAVT 2,{FAVT_LINEAR}")                       # Average: linear, fixed length
-        w(f"FAVN 2,{s.averages}")                        # Average: number of averages
-        w(f"FWIN 2,{FWIN_FORCE_EXP}")                    # Window: force/exponential
-        w(f"FWFL 2,{format_number(s.force_window_s)}")   # Window: force length, s
         pct = 100.0 * s.exp_window_s / s.record_s
-        w(f"FWTC 2,{format_number(pct)}")                # Window: expo time constant, % of T
-        w(f"TSRC {TSRC_CH1}")                            # Trigger: source channel 1
-        w("TMOD 0")                                      # Trigger: auto arm
-        w("TSLP 0")                                      # Trigger: rising slope
-        w(f"TLVL {format_number(s.trigger_level_pct)}")  # Trigger: level, % of input range
         delay = format_number(-s.pretrigger_s)
-        w(f"TDLA {delay}")                               # Trigger: ch1 delay (<0 pre-trigger)
-        w(f"TDLB {delay}")                               # Trigger: ch2 delay
-        self.prepare_transfer()
-        self.check_errors()
+        self.transport.write("*CLS")                     # clear status words
+        self.send_checked([
+            f"MGRP 2,{MGRP_FFT}",                        # FFT group, both displays
+            f"MEAS 0,{MEAS_FREQ_RESPONSE}",              # display A: frequency response
+            f"MEAS 1,{MEAS_COHERENCE}",                  # display B: coherence
+            "FBAS 2,1",                                  # base frequency 102.4 kHz
+            f"FSPN 2,{format_number(s.span_hz)}",        # span, Hz
+            f"FLIN 2,{LINES.index(s.lines)}",            # resolution (index)
+            f"FSTR 2,{format_number(s.start_hz)}",       # start, Hz
+            "FAVG 2,1",                                  # averaging on
+            f"FAVM 2,{FAVM_RMS}",                        # RMS (H1)
+            f"FAVT 2,{FAVT_LINEAR}",                     # linear, fixed length
+            f"FAVN 2,{s.averages}",                      # number of averages
+            f"FWIN 2,{FWIN_FORCE_EXP}",                  # force/exponential window
+            f"FWFL 2,{format_number(s.force_window_s)}",  # force length, s
+            f"FWTC 2,{format_number(pct)}",              # expo time constant, % of record
+            f"TSRC {TSRC_CH1}",                          # trigger source channel 1
+            "TMOD 0",                                    # auto arm
+            "TSLP 0",                                    # rising slope
+            f"TLVL {format_number(s.trigger_level_pct)}",  # level, % of input range
+            f"TDLA {delay}",                             # ch1 delay, s (<0 pre-trigger)
+            f"TDLB {delay}",                             # ch2 delay, s
+        ] + self.TRANSFER_SETUP)
+
+    #: views the read methods expect (also sent with ``--keep-setup``)
+    TRANSFER_SETUP = [f"VIEW 0,{VIEW_NYQUIST}",      # display A as Nyquist: (Y=im, X=re)
+                      f"VIEW 1,{VIEW_LINEAR_MAG}"]   # display B: coherence, linear
 
     def prepare_transfer(self) -> None:
-        w = self.transport.write
-        w(f"VIEW 0,{VIEW_NYQUIST}")       # display A as Nyquist: DSPB? gives (Y=im, X=re)
-        w(f"VIEW 1,{VIEW_LINEAR_MAG}")    # display B: coherence, linear
+        self.send_checked(self.TRANSFER_SETUP, "setting the display views")
 
     def read_settings(self) -> AcquisitionSettings:
         q = self.transport.query
@@ -119,13 +177,20 @@ class SR785(Analyser):
             trigger_level_pct=float(q("TLVL?")), pretrigger_s=nan, force_window_s=nan,
             exp_window_s=nan)
 
-    def check_errors(self) -> None:
-        """Standard event status (``*ESR?``): command / execution error bits."""
-        word = int(self.transport.query("*ESR?"))
-        found = [text for bit, text in ESR_ERRORS.items() if word & (1 << bit)]
-        if found:
-            raise InstrumentError(f"{self.MODEL} reported after configuring: "
-                                  + "; ".join(found) + f" (*ESR? = {word})")
+    def _esr_errors(self) -> list[str]:
+        text = esr_text(int(self.transport.query("*ESR?")))
+        return [text] if text else []
+
+    def command_errors(self) -> list[str]:
+        """Error bits of the standard event status (``*ESR?``; reading clears it)."""
+        return self._esr_errors()
+
+    def transfer_errors(self) -> list[str]:
+        """Error status word (``ERRS?``) and standard event status (``*ESR?``), both cleared
+        by reading; any error bit raised during the transfer is returned as text."""
+        errs = int(self.transport.query("ERRS?"))
+        found = [f"ERRS? = {errs} (error status word)"] if errs else []
+        return found + self._esr_errors()
 
     # -------------------------------------------------------------- measuring
     def start(self) -> None:

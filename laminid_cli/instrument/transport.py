@@ -140,8 +140,14 @@ class VisaTransport:
             raise InstrumentError(f"analyser {self.resource}: cannot open ({exc.description})") from exc
         except (ValueError, OSError, pyvisa.errors.Error) as exc:
             self._rm.close()
+            hint = ""
+            if self.resource.upper().startswith("GPIB") and self.backend == "@py":
+                hint = ("; for GPIB with pyvisa-py install the extra: pip install "
+                        "'laminid[gpib]' (gpib-ctypes, over the NI-488.2 or linux-gpib "
+                        "driver), or use NI-VISA with --visa-backend @ivi")
             raise AnalyserSetupError(f"analyser {self.resource}: cannot open with backend "
-                                     f"{self.backend} ({' '.join(str(exc).split())})") from exc
+                                     f"{self.backend} ({' '.join(str(exc).split())}){hint}") \
+                from exc
         # Text messages end with LF; raw sockets have no EOI, so the terminator is required
         # there, and harmless on GPIB (EOI also ends a message). Binary blocks are read with
         # read_bytes, which does not stop at the terminator.
@@ -165,7 +171,7 @@ class VisaTransport:
         if isinstance(exc, err.VisaIOError) and exc.error_code == \
                 self._pyvisa.constants.StatusCode.error_timeout:
             msg = (f"analyser {self.resource} did not answer within {self.timeout:g} s "
-                   f"({what}, after {self._last!r})")
+                   f"(waiting for the answer to {self._last!r}, {what})")
         elif isinstance(exc, err.VisaIOError):
             msg = f"analyser {self.resource}: {exc.description} ({what}, after {self._last!r})"
         else:

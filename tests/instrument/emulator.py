@@ -18,7 +18,14 @@ adds 1/tau to every pole's decay rate, as on the analyser. Per hit the force spe
 anti-resonances).
 
 Faults (``Fault``): at a given measurement number and command the emulator can stop
-answering, send a truncated block, drop the connection mid-transfer, or report an error.
+answering, send a truncated block, drop the connection mid-transfer, report an error, or flag an
+error while still sending the data ("flag": the trace sent is corrupt or stale, issue 15).
+
+The 35670A emulator follows the public command evidence listed in
+:mod:`laminid_cli.instrument.hp35670a` (pymeasure's Keysight35670A): it rejects a trigger source
+outside IMM|EXT|INT1..INT4|OUTP|BUS with ``-224,"Illegal parameter value"``, any header it does
+not know (e.g. ``TRIG:DEL1``) with ``-113,"Undefined header"``, and checks the enumerated
+values of the window, average, format and feed commands the same way.
 """
 
 from __future__ import annotations
@@ -54,13 +61,17 @@ class Fault:
 
     kind: "silent" (never answer again), "truncate" (send part of the block, then nothing),
     "drop" (send part of the block, then close the connection), "error" (report an error for
-    the command: SCPI error queue / ESR execution-error bit). ``measurement`` 0 = before any
-    measurement (configuration).
+    the command instead of executing it: SCPI error queue / ESR execution-error bit), "flag"
+    (execute it and send the data, but raise an error during the transfer: 35670A error queue
+    ``-230,"Data corrupt or stale"``; SR785 ``*ESR?`` bit 4 and ``ERRS?`` bit 5).
+    ``measurement`` 0 = before any measurement (configuration). ``times``: how often the fault
+    fires (0 = every time the command comes in that measurement).
     """
 
     command: str
     kind: str
     measurement: int = 1
+    times: int = 0
 
 
 class PlateSimulator:
@@ -140,6 +151,7 @@ class EmulatorBase:
         self.t_start = 0.0
         self.overload_word = 0
         self.silent = False
+        self._fired: dict = {}
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
         self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         self._sock.bind(("127.0.0.1", 0))
@@ -258,9 +270,15 @@ class EmulatorBase:
     def exp_tau_s(self) -> float:  # pragma: no cover - overridden
         return 0.0
 
-    def fault_for(self, header: str):
+    def fault_for(self, header: str, command: str = ""):
+        """The fault for this command: ``Fault.command`` is a header ("DSPB?") or a whole
+        command as sent ("DSPB? 1")."""
         for f in self.faults:
-            if f.command == header and f.measurement == self.measurement:
+            if f.command in (header, command.upper()) and f.measurement == self.measurement:
+                n = self._fired.get(f, 0)
+                if f.times and n >= f.times:
+                    continue
+                self._fired[f] = n + 1
                 return f
         return None
 
@@ -282,6 +300,14 @@ class HP35670AEmulator(EmulatorBase):
     IDN = "HEWLETT-PACKARD,35670A,0,A.02.01"
     SPANS = tuple(51200.0 / 2 ** k for k in range(19))
     LINES = (100, 200, 400, 800)
+    # enumerated values (pymeasure Keysight35670A tables)
+    TRIGGER_SOURCES = {"IMM", "EXT", "INT1", "INT2", "INT3", "INT4", "OUTP", "BUS"}
+    WINDOW_TYPES = {"HANN", "FLAT", "UNIF", "FORC", "EXP", "LAG", "LLAG"}
+    AVERAGE_TYPES = {"MAX", "RMS", "TIME", "VECT", "ECON"}
+    MODES = {"FFT", "CORR", "HIST", "OCT", "ORD", "SINE"}
+    CALC_FORMATS = {"MLIN", "MLOG", "PHAS", "REAL", "IMAG", "NYQ", "UPH", "GDEL", "POL"}
+    FEEDS = {"XFR:POW:RAT 2,1", "XFR:POW:COH 1,2", "XFR:POW 1", "XFR:POW 2"}
+    BOOLEAN = {"0": 0, "1": 1, "ON": 1, "OFF": 0}
 
     def reset(self):
         self.span_hz, self.start_hz, self.lines, self.averages = 51200.0, 0.0, 400, 1
@@ -311,14 +337,43 @@ class HP35670AEmulator(EmulatorBase):
     def dispatch(self, command: str):
         header, _, arg = command.partition(" ")
         header = header.upper()
-        fault = self.fault_for(header)
+        for root in ("SENSE:", "SENS:"):      # [SENSe:] is the optional root
+            if header.startswith(root):
+                header = header[len(root):]
+        fault = self.fault_for(header, command)
         if fault is not None and fault.kind == "error":
             self._error('-222,"Data out of range"')
             return None
         answer = self._dispatch(header, arg.strip())
+        if fault is not None and fault.kind == "flag":
+            self._error('-230,"Data corrupt or stale"')
+            return answer
         if fault is not None:
             return self.apply_fault(fault, answer)
         return answer
+
+    def _illegal(self):
+        self._error('-224,"Illegal parameter value"')
+
+    def _number(self, arg, suffixes=()):
+        """Number with an optional unit suffix; None (and -131 Invalid suffix) otherwise."""
+        parts = arg.split()
+        try:
+            value = float(parts[0])
+        except (ValueError, IndexError):
+            self._error('-104,"Data type error"')
+            return None
+        if len(parts) > 1 and parts[1].upper() not in suffixes:
+            self._error('-131,"Invalid suffix"')
+            return None
+        return value
+
+    def _choice(self, header, arg, allowed):
+        value = arg.upper()
+        if value not in allowed:
+            self._illegal()
+        else:
+            self.settings[header] = value
 
     def _dispatch(self, header, arg):
         if header == "*IDN?":
@@ -337,41 +392,77 @@ class HP35670AEmulator(EmulatorBase):
             return f"+{value}\n".encode()
         if header == "SYST:ERR?":
             return ((self.errors.pop(0) if self.errors else '+0,"No error"') + "\n").encode()
-        if header in ("INST:NSEL", "INP2", "AVER:STAT", "AVER:TYPE", "TRIG:SOUR", "TRIG:SLOP",
-                      "WIND1:TYPE", "WIND2:TYPE"):
-            self.settings[header] = arg.upper()
+        if header == "INST:SEL":
+            return self._choice(header, arg, self.MODES)
+        if header == "INST:NSEL":
+            v = self._number(arg)
+            if v is not None and not (0 <= v <= 5 and v == int(v)):
+                self._illegal()
             return None
+        if header in ("INP2", "INP2:STAT", "AVER:STAT"):
+            return self._choice(header, arg, self.BOOLEAN)
+        if header == "AVER:TYPE":
+            return self._choice(header, arg, self.AVERAGE_TYPES)
+        if header == "TRIG:SOUR":
+            return self._choice(header, arg, self.TRIGGER_SOURCES)
+        if header == "TRIG:SLOP":
+            return self._choice(header, arg, {"POS", "NEG"})
+        if header in ("WIND1:TYPE", "WIND2:TYPE"):
+            return self._choice(header, arg, self.WINDOW_TYPES)
         if header in ("CALC1:FEED", "CALC2:FEED"):
-            self.feed[int(header[4])] = arg.strip("'\"")
+            feed = arg.strip("'\"")
+            if feed not in self.FEEDS:
+                self._illegal()
+            else:
+                self.feed[int(header[4])] = feed
             return None
         if header in ("CALC1:FORM", "CALC2:FORM"):
-            self.calc_form[int(header[4])] = arg.upper()
+            if arg.upper() not in self.CALC_FORMATS:
+                self._illegal()
+            else:
+                self.calc_form[int(header[4])] = arg.upper()
             return None
-        if header in ("TRIG:LEV", "TRIG:DEL1", "TRIG:DEL2", "WIND1:FORC", "WIND2:EXP"):
-            self.settings[header] = _number(arg)
+        if header == "TRIG:LEV":
+            v = self._number(arg, ("PCT", "V"))
+            if v is not None:
+                self.settings[header] = v
+            return None
+        if header in ("TRIG:STAR1", "TRIG:STAR2", "WIND1:FORC", "WIND2:EXP", "WIND1:EXP",
+                      "WIND2:FORC"):
+            v = self._number(arg, ("S",))
+            if v is not None:
+                self.settings[header] = v
             return None
         if header == "FREQ:SPAN":
-            v = _number(arg)
-            if not any(math.isclose(v, s, rel_tol=1e-9) for s in self.SPANS):
+            v = self._number(arg, ("HZ",))
+            if v is not None and not any(math.isclose(v, s, rel_tol=1e-9) for s in self.SPANS):
                 self._error('-222,"Data out of range"')
-            else:
+            elif v is not None:
                 self.span_hz = v
             return None
         if header == "FREQ:STAR":
-            self.start_hz = _number(arg)
+            v = self._number(arg, ("HZ",))
+            if v is not None:
+                self.start_hz = v
             return None
         if header == "FREQ:RES":
-            v = int(_number(arg))
-            if v not in self.LINES:
+            v = self._number(arg)
+            if v is not None and int(v) not in self.LINES:
                 self._error('-222,"Data out of range"')
-            else:
-                self.lines = v
+            elif v is not None:
+                self.lines = int(v)
             return None
         if header == "AVER:COUN":
-            self.averages = int(_number(arg))
+            v = self._number(arg)
+            if v is not None:
+                self.averages = int(v)
             return None
         if header == "FORM:DATA":
-            self.form = arg.upper().replace(" ", "")
+            form = arg.upper().replace(" ", "")
+            if form not in ("ASC", "REAL", "REAL,32", "REAL,64", "ASC,12"):
+                self._illegal()
+            else:
+                self.form = "REAL,64" if form == "REAL" else form
             return None
         if header == "ABOR":
             self.end_measurement()
@@ -417,6 +508,7 @@ class SR785Emulator(EmulatorBase):
         self.span_hz, self.start_hz, self.lines, self.averages = 102400.0, 0.0, 400, 1
         self.settings = {}
         self.esr = 0
+        self.errs = 0
         self.dsps = 0
         self.meas = {0: 0, 1: 0}
         self.view = {0: 0, 1: 0}
@@ -431,12 +523,20 @@ class SR785Emulator(EmulatorBase):
         header = header.upper()
         if header.endswith("?") is False and "?" in header:  # e.g. "DSPS?1"
             header, arg = header.split("?", 1)[0] + "?", header.split("?", 1)[1] + arg
-        fault = self.fault_for(header)
+        fault = self.fault_for(header, command)
         if fault is not None and fault.kind == "error":
             self.esr |= 1 << 4
             return None
         args = [a.strip() for a in arg.split(",")] if arg.strip() else []
-        answer = self._dispatch(header, args)
+        try:
+            answer = self._dispatch(header, args)
+        except (ValueError, IndexError):   # missing or malformed argument
+            self.esr |= 1 << 5
+            return None
+        if fault is not None and fault.kind == "flag":
+            self.esr |= 1 << 4
+            self.errs |= 1 << 5
+            return answer
         if fault is not None:
             return self.apply_fault(fault, answer)
         return answer
@@ -454,18 +554,21 @@ class SR785Emulator(EmulatorBase):
         if header == "*ESR?":
             value, self.esr = self.esr, 0
             return f"{value}\n".encode()
+        if header == "ERRS?":
+            value, self.errs = self.errs, 0
+            return f"{value}\n".encode()
         if header in ("MEAS", "VIEW"):
             table = self.meas if header == "MEAS" else self.view
             for d in self._displays(args[0]):
                 table[d] = int(args[1])
             return None
-        if header in ("MGRP", "FBAS", "FAVG", "FAVM", "FAVT", "FWIN"):
+        if header == "FBAS" and args[1] not in ("0", "1"):   # 0 = 100 kHz, 1 = 102.4 kHz
+            exe_error = True
+        elif header in ("MGRP", "FBAS", "FAVG", "FAVM", "FAVT", "FWIN"):
             self.settings[header] = int(args[1])
-            return None
-        if header in ("FWFL", "FWTC"):
+        elif header in ("FWFL", "FWTC"):
             self.settings[header] = float(args[1])
-            return None
-        if header == "FSPN":
+        elif header == "FSPN":
             v = float(args[1])
             if any(math.isclose(v, s, rel_tol=1e-9) for s in self.SPANS):
                 self.span_hz = v
@@ -481,6 +584,8 @@ class SR785Emulator(EmulatorBase):
             self.start_hz = float(args[1])
         elif header == "FAVN":
             self.averages = int(args[1])
+        elif header == "TSRC" and (len(args) != 1 or not 0 <= int(args[0]) <= 6):
+            exe_error = True
         elif header in ("TSRC", "TMOD", "TSLP"):
             self.settings[header] = int(args[0])
         elif header in ("TLVL", "TDLA", "TDLB"):

@@ -17,43 +17,65 @@ SETTINGS = AcquisitionSettings(span_hz=1600.0, start_hz=0.0, lines=800, averages
                                trigger_level_pct=10.0, pretrigger_s=0.005,
                                force_window_s=0.01, exp_window_s=0.1)
 
-HP_CONFIGURE = [
-    ("*CLS", None), ("INST:NSEL 0", None), ("INP2 ON", None),
-    ("CALC1:FEED 'XFR:POW:RAT 2,1'", None), ("CALC2:FEED 'XFR:POW:COH 1,2'", None),
-    ("FREQ:SPAN 1600 HZ", None), ("FREQ:STAR 0 HZ", None), ("FREQ:RES 800", None),
-    ("AVER:STAT ON", None), ("AVER:TYPE RMS", None), ("AVER:COUN 5", None),
-    ("TRIG:SOUR INP1", None), ("TRIG:SLOP POS", None), ("TRIG:LEV 10 PCT", None),
-    ("TRIG:DEL1 -0.005 S", None), ("TRIG:DEL2 -0.005 S", None),
-    ("WIND1:TYPE FORC", None), ("WIND1:FORC 0.01 S", None),
-    ("WIND2:TYPE EXP", None), ("WIND2:EXP 0.1 S", None),
-    ("FORM:DATA REAL,64", None), ("CALC1:FORM NYQ", None), ("CALC2:FORM MLIN", None),
+#: the 35670A set-up, each string as the public evidence gives it (hp35670a docstring)
+HP_COMMANDS = [
+    "INST:SEL FFT", "INP2:STAT 1",
+    "CALC1:FEED 'XFR:POW:RAT 2,1'", "CALC2:FEED 'XFR:POW:COH 1,2'",
+    "FREQ:SPAN 1600", "FREQ:STAR 0", "FREQ:RES 800",
+    "AVER:STAT 1", "AVER:TYPE RMS", "AVER:COUN 5",
+    "TRIG:SOUR INT1", "TRIG:SLOP POS", "TRIG:LEV 10 PCT",
+    "TRIG:STAR1 -0.005", "TRIG:STAR2 -0.005",
+    "WIND1:TYPE FORC", "WIND1:FORC 0.01", "WIND2:TYPE EXP", "WIND2:EXP 0.1",
+    "FORM:DATA REAL,64", "CALC1:FORM NYQ", "CALC2:FORM MLIN",
 ]
+HP_OK = ("SYST:ERR?", '+0,"No error"')
+#: configure = *CLS, then every command followed by one error-queue read
+HP_CONFIGURE = [("*CLS", None)] + [step for c in HP_COMMANDS for step in ((c, None), HP_OK)]
 
-SR_CONFIGURE = [
-    ("*CLS", None), ("MGRP 2,0", None), ("MEAS 0,11", None), ("MEAS 1,9", None),
-    ("FBAS 2,1", None), ("FSPN 2,1600", None), ("FLIN 2,3", None), ("FSTR 2,0", None),
-    ("FAVG 2,1", None), ("FAVM 2,2", None), ("FAVT 2,0", None), ("FAVN 2,5", None),
-    ("FWIN 2,5", None), ("FWFL 2,0.01", None), ("FWTC 2,20", None),
-    ("TSRC 1", None), ("TMOD 0", None), ("TSLP 0", None), ("TLVL 10", None),
-    ("TDLA -0.005", None), ("TDLB -0.005", None),
-    ("VIEW 0,7", None), ("VIEW 1,1", None),
+SR_COMMANDS = [
+    "MGRP 2,0", "MEAS 0,11", "MEAS 1,9",
+    "FBAS 2,1", "FSPN 2,1600", "FLIN 2,3", "FSTR 2,0",
+    "FAVG 2,1", "FAVM 2,2", "FAVT 2,0", "FAVN 2,5",
+    "FWIN 2,5", "FWFL 2,0.01", "FWTC 2,20",
+    "TSRC 1", "TMOD 0", "TSLP 0", "TLVL 10", "TDLA -0.005", "TDLB -0.005",
+    "VIEW 0,7", "VIEW 1,1",
 ]
+SR_OK = ("*ESR?", "0")
+SR_CONFIGURE = [("*CLS", None)] + [step for c in SR_COMMANDS for step in ((c, None), SR_OK)]
+
+
+def _with_answers(commands, answers, ok):
+    """Configure script where the check after command ``c`` answers ``answers[c]``."""
+    steps = []
+    for c in commands:
+        steps.append((c, None))
+        steps += answers.get(c, [ok])
+    return steps
 
 
 # ------------------------------------------------------------------------ 35670A
-def test_hp_configure_sends_the_impact_setup_and_reads_the_error_queue():
-    steps = HP_CONFIGURE + [("SYST:ERR?", '+0,"No error"')]
-    with expected_protocol(HP35670A, steps) as dsa:
+def test_hp_configure_sends_the_evidenced_setup_and_reads_the_queue_after_each_command():
+    with expected_protocol(HP35670A, HP_CONFIGURE) as dsa:
         dsa.configure(SETTINGS)
+    sent = dsa.transport.sent
+    # issue 12: trigger source INT1 (no INP1 value), delay as TRIGger:STARt<n> in seconds
+    assert "TRIG:SOUR INT1" in sent and not any(c.startswith("TRIG:DEL") for c in sent)
+    assert sent.count("SYST:ERR?") == len(HP_COMMANDS)
 
 
-def test_hp_error_queue_entries_raise_instrument_error_with_the_text():
-    steps = HP_CONFIGURE + [("SYST:ERR?", '-222,"Data out of range"'),
-                            ("SYST:ERR?", '-113,"Undefined header"'),
-                            ("SYST:ERR?", '+0,"No error"')]
+def test_hp_rejected_commands_are_named_with_the_analysers_text():
+    steps = [("*CLS", None)] + _with_answers(HP_COMMANDS, {
+        "TRIG:SOUR INT1": [("SYST:ERR?", '-224,"Illegal parameter value"'), HP_OK],
+        "WIND2:EXP 0.1": [("SYST:ERR?", '-222,"Data out of range"'),
+                          ("SYST:ERR?", '-221,"Settings conflict"'), HP_OK],
+    }, HP_OK)
     with expected_protocol(HP35670A, steps) as dsa:
-        with pytest.raises(InstrumentError, match=r'-222,"Data out of range"; -113'):
+        with pytest.raises(InstrumentError) as info:
             dsa.configure(SETTINGS)
+    assert str(info.value) == (
+        "35670A rejected 2 command(s) while configuring: 'TRIG:SOUR INT1' -> "
+        "-224,\"Illegal parameter value\" | 'WIND2:EXP 0.1' -> -222,\"Data out of range\"; "
+        "-221,\"Settings conflict\"")
 
 
 def test_hp_measure_polls_esr_and_reads_big_endian_real64_blocks():
@@ -65,8 +87,8 @@ def test_hp_measure_polls_esr_and_reads_big_endian_real64_blocks():
              ("*ESR?", "+0"), ("*ESR?", "+0"), ("*ESR?", "+1"),
              ("STAT:QUES:VOLT:EVEN?", "+4"),
              ("CALC1:X:DATA?", ieee_block(doubles_be(freq))),
-             ("CALC1:DATA?", ieee_block(doubles_be(pairs))),
-             ("CALC2:DATA?", ieee_block(doubles_be(coh)))]
+             ("CALC1:DATA?", ieee_block(doubles_be(pairs))), HP_OK,
+             ("CALC2:DATA?", ieee_block(doubles_be(coh))), HP_OK]
     seen = []
     with expected_protocol(HP35670A, steps, poll_s=0.0) as dsa:
         m = dsa.measure(5, progress=lambda hits, n: seen.append((hits, n)))
@@ -116,17 +138,21 @@ def test_context_manager_aborts_a_running_measurement_and_closes():
 
 
 # ------------------------------------------------------------------------- SR785
-def test_sr785_configure_sends_the_impact_setup_and_checks_esr():
-    steps = SR_CONFIGURE + [("*ESR?", "0")]
-    with expected_protocol(SR785, steps) as dsa:
+def test_sr785_configure_sends_the_evidenced_setup_and_checks_esr_after_each_command():
+    with expected_protocol(SR785, SR_CONFIGURE) as dsa:
         dsa.configure(SETTINGS)
+    assert "FBAS 2,1" in dsa.transport.sent   # base frequency 102.4 kHz, both displays
 
 
-def test_sr785_execution_error_bit_raises():
-    steps = SR_CONFIGURE + [("*ESR?", "16")]
+def test_sr785_rejected_command_is_named_with_the_esr_bits():
+    steps = [("*CLS", None)] + _with_answers(SR_COMMANDS, {"FWTC 2,20": [("*ESR?", "32")]},
+                                             SR_OK)
     with expected_protocol(SR785, steps) as dsa:
-        with pytest.raises(InstrumentError, match="execution error"):
+        with pytest.raises(InstrumentError) as info:
             dsa.configure(SETTINGS)
+    assert str(info.value) == ("SR785 rejected 1 command(s) while configuring: 'FWTC 2,20' -> "
+                               "*ESR? = 32 (bit 5: command error (unknown command or bad "
+                               "syntax))")
 
 
 def test_sr785_measure_uses_navg_dsps_and_headerless_dspb():
@@ -140,8 +166,8 @@ def test_sr785_measure_uses_navg_dsps_and_headerless_dspb():
              ("DSPS? 1", "1"),
              ("INPS?", "0"),
              ("FSTR? 0", "100"), ("FSPN? 0", "1600"), ("FLIN? 0", "3"), ("DSPN? 0", str(n)),
-             ("DSPN? 0", str(n)), ("DSPB? 0", floats_le(yx)),
-             ("DSPN? 1", str(n)), ("DSPB? 1", floats_le(coh))]
+             ("DSPN? 0", str(n)), ("DSPB? 0", floats_le(yx)), ("ERRS?", "0"), ("*ESR?", "0"),
+             ("DSPN? 1", str(n)), ("DSPB? 1", floats_le(coh)), ("ERRS?", "0"), ("*ESR?", "0")]
     seen = []
     with expected_protocol(SR785, steps, poll_s=0.0) as dsa:
         m = dsa.measure(5, progress=lambda hits, n_avg: seen.append(hits))
@@ -174,3 +200,87 @@ def test_window_longer_than_the_record_is_rejected():
         with pytest.raises(AnalyserSetupError, match=r"exp window 2 s must be within the time "
                                                      r"record \(0-0.5 s"):
             dsa.configure(AcquisitionSettings(exp_window_s=2.0))
+
+
+# ------------------------------------------- issue 15: errors flagged during a transfer
+FREQ3 = np.array([0.0, 2.0, 4.0])
+FRF3 = np.array([1 + 2j, -3 + 0.5j, 0.25 - 1j])
+COH3 = np.array([0.5, 0.75, 1.0])
+STALE = np.array([9.0, 9.0, 9.0])   # what a corrupt/stale first transfer carries
+
+
+def _hp_transfer(trace, frf_pairs, coh, check):
+    if trace == "FRF":
+        return [("CALC1:DATA?", ieee_block(doubles_be(frf_pairs)))] + check
+    return [("CALC2:DATA?", ieee_block(doubles_be(coh)))] + check
+
+
+def _hp_script(bad_trace, repeats):
+    pairs = np.column_stack([FRF3.real, FRF3.imag]).ravel()
+    flagged = [("SYST:ERR?", '-230,"Data corrupt or stale"'), HP_OK]
+    steps = [("ABOR", None), ("*CLS", None), ("INIT:IMM", None), ("*OPC", None),
+             ("*ESR?", "+1"), ("STAT:QUES:VOLT:EVEN?", "+0"),
+             ("CALC1:X:DATA?", ieee_block(doubles_be(FREQ3)))]
+    for trace in ("FRF", "coherence"):
+        if trace == bad_trace:
+            steps += _hp_transfer(trace, np.tile(STALE, 2), STALE, flagged)
+            good = [HP_OK] if not repeats else flagged
+            steps += _hp_transfer(trace, pairs, COH3, good)
+            if repeats:
+                return steps
+        else:
+            steps += _hp_transfer(trace, pairs, COH3, [HP_OK])
+    return steps
+
+
+def _sr_transfer(trace, frf, coh, check):
+    if trace == "FRF":
+        yx = np.column_stack([frf.imag, frf.real]).ravel()
+        return [("DSPN? 0", "3"), ("DSPB? 0", floats_le(yx))] + check
+    return [("DSPN? 1", "3"), ("DSPB? 1", floats_le(coh))] + check
+
+
+def _sr_script(bad_trace, repeats):
+    ok = [("ERRS?", "0"), ("*ESR?", "0")]
+    flagged = [("ERRS?", "32"), ("*ESR?", "16")]
+    steps = [("DSPS?", "0"), ("STRT", None), ("DSPS? 1", "1"), ("INPS?", "0"),
+             ("FSTR? 0", "0"), ("FSPN? 0", "800"), ("FLIN? 0", "0"), ("DSPN? 0", "3")]
+    for trace in ("FRF", "coherence"):
+        if trace == bad_trace:
+            steps += _sr_transfer(trace, STALE + 0j, STALE, flagged)
+            steps += _sr_transfer(trace, FRF3, COH3, flagged if repeats else ok)
+            if repeats:
+                return steps
+        else:
+            steps += _sr_transfer(trace, FRF3, COH3, ok)
+    return steps
+
+
+SCRIPTS = {HP35670A: _hp_script, SR785: _sr_script}
+ERROR_TEXT = {HP35670A: '-230,"Data corrupt or stale"',
+              SR785: "ERRS? = 32 (error status word); *ESR? = 16 (bit 4: execution error"}
+
+
+@pytest.mark.parametrize("driver", [HP35670A, SR785])
+@pytest.mark.parametrize("trace", ["FRF", "coherence"])
+def test_an_error_flagged_once_during_a_transfer_is_cured_by_reading_the_trace_again(
+        driver, trace):
+    with expected_protocol(driver, SCRIPTS[driver](trace, repeats=False), poll_s=0.0) as dsa:
+        m = dsa.measure(5)
+    # the values of the second (clean) transfer, not the stale first one
+    np.testing.assert_allclose(m.frf, FRF3, rtol=1e-6)
+    np.testing.assert_allclose(m.coherence, COH3, rtol=1e-6)
+
+
+@pytest.mark.parametrize("driver", [HP35670A, SR785])
+@pytest.mark.parametrize("trace", ["FRF", "coherence"])
+def test_an_error_flagged_twice_during_a_transfer_refuses_the_point(driver, trace):
+    from laminid_cli.instrument.base import TransferError
+
+    with expected_protocol(driver, SCRIPTS[driver](trace, repeats=True), poll_s=0.0) as dsa:
+        with pytest.raises(TransferError) as info:
+            dsa.measure(5)
+    msg = str(info.value)
+    assert msg.startswith(f"{driver.MODEL} flagged an error during the {trace} transfer, "
+                          "twice (read again once): ")
+    assert ERROR_TEXT[driver] in msg and info.value.trace == trace

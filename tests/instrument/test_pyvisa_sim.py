@@ -10,7 +10,7 @@ from laminid_cli.cli import cli
 from laminid_cli.instrument.hp35670a import HP35670A
 from laminid_cli.instrument.registry import open_analyser
 from laminid_cli.instrument.transport import AnalyserSetupError, normalise_resource
-from tests.instrument.test_protocol import HP_CONFIGURE, SETTINGS
+from tests.instrument.test_protocol import HP_COMMANDS, SETTINGS
 
 HP_IDN = "HEWLETT-PACKARD,35670A,0,A.02.01"
 
@@ -26,7 +26,7 @@ def _device(idn, commands):
 
 @pytest.fixture
 def sim_backend(tmp_path):
-    config = [c for c, _ in HP_CONFIGURE]
+    config = ["*CLS"] + HP_COMMANDS
     spec = {
         "spec": "1.0",
         "devices": {
@@ -77,7 +77,9 @@ def _acquire(backend, resource, tmp_path):
 def test_error_queue_entry_after_configuring_exits_1(sim_backend, tmp_path):
     r = _acquire(sim_backend, "GPIB0::6", tmp_path)
     assert r.exit_code == 1
-    assert '35670A reported error(s) after configuring: -113,"Undefined header"' in r.output
+    # the rejected command is named, with the analyser's error text
+    assert ("35670A rejected 1 command(s) while configuring: 'FREQ:SPAN 1600' -> "
+            '-113,"Undefined header"') in r.output
     assert not (tmp_path / "x.h5").exists()
 
 
@@ -93,3 +95,26 @@ def test_absent_resource_exits_2(sim_backend, tmp_path):
     r = _acquire(sim_backend, "GPIB0::17", tmp_path)
     assert r.exit_code == 2, r.output
     assert "instrument at GPIB0::17::INSTR gave an empty answer to *IDN?" in r.output
+
+
+def test_gpib_without_a_gpib_library_names_the_extra_to_install():
+    pytest.importorskip("pyvisa_py")
+    try:
+        import gpib_ctypes  # noqa: F401
+        pytest.skip("gpib-ctypes is installed here")
+    except ImportError:
+        pass
+    with pytest.raises(AnalyserSetupError) as info:
+        open_analyser("GPIB0::5", backend="@py", timeout=0.5)
+    msg = str(info.value)
+    assert "pip install 'laminid[gpib]'" in msg and "--visa-backend @ivi" in msg
+
+
+def test_progress_uses_carriage_returns_only_on_a_terminal(capsys):
+    from laminid_cli.commands.acquire import _ClickUI
+
+    for tty, expected in ((True, "\rpoint 1 (1/2): 2/5 hits averaged, waiting for hit 3"),
+                          (False, "point 1 (1/2): 2/5 hits averaged, waiting for hit 3\n")):
+        _ClickUI(path=None, tty=tty).progress("1", 1, 2, 2, 5)
+        err = capsys.readouterr().err
+        assert err.startswith(expected) and (("\r" in err) == tty)

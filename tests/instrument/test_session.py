@@ -105,7 +105,8 @@ def test_ctrl_c_aborts_the_analyser_and_keeps_finished_points(tmp_path):
 
 def test_instrument_fault_keeps_finished_points_and_says_so(tmp_path):
     fake = FakeAnalyser([0.99, 0.99, InstrumentError("analyser X did not answer within 1 s")])
-    with pytest.raises(InstrumentError, match=r"did not answer within 1 s; 2 point\(s\) saved"):
+    with pytest.raises(InstrumentError, match=r"^point 3: analyser X did not answer within 1 s; "
+                                              r"point 3 not saved; 2 point\(s\) saved"):
         run_session(fake, writer(tmp_path), SETTINGS, SessionOptions(n_points=3, prompt=False),
                     ScriptUI())
     assert read_frf_h5(tmp_path / "s.h5").n_points == 2
