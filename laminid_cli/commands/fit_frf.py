@@ -30,6 +30,11 @@ def _parse_bands(ctx, param, values):
               help="Report the N lowest modes (error if fewer are found).")
 @click.option("--format", "fmt", type=click.Choice(["hdf5", "uff", "csv"]), default=None,
               help="FRF file format (default: from the suffix .h5/.uff/.unv/.csv).")
+@click.option("--freq-dataset", default=None, metavar="PATH",
+              help="Plain HDF5 file of another tool: the frequency dataset (1-D, Hz).")
+@click.option("--frf-dataset", default=None, metavar="PATH",
+              help="Plain HDF5 file: the complex FRF dataset (n_points x n_freq or its "
+                   "transpose). Default: found by name, shape and units attributes.")
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False), default=None,
               help="Write a figure (PNG/PDF/SVG): FRFs with the fit, poles, stabilisation chart.")
 @click.option("--into", "spec_path", type=click.Path(dir_okay=False), default=None,
@@ -37,8 +42,13 @@ def _parse_bands(ctx, param, values):
                    "'measured:' entry (comments kept, backup SPEC.bak).")
 @force_option
 @json_option
-def fit_frf(frf_file, bands, n_modes, fmt, plot_path, spec_path, force, as_json):
+def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path, spec_path,
+            force, as_json):
     """Fit the FRFs in FRF_FILE (laminid HDF5, UFF 58 or CSV) and list the natural frequencies.
+
+    A plain HDF5 file of another tool is read too: a 1-D frequency dataset and a complex FRF
+    dataset of matching length (either orientation), found by name, shape and units
+    attributes; name them with --freq-dataset/--frf-dataset when several fit.
 
     A global rational fraction polynomial fit (Richardson & Formenti) of all FRFs with shared
     poles, over a sweep of model orders; poles stable across orders are the modes. The
@@ -67,7 +77,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, plot_path, spec_path, force, as_json)
     if spec_path is not None and not Path(spec_path).is_file():
         raise SpecimenError("file not found (--into needs an existing specimen file)",
                             path=spec_path)
-    fs = read_frf(frf_file, fmt)
+    fs = read_frf(frf_file, fmt, freq_dataset=freq_dataset, frf_dataset=frf_dataset)
     fit = rfp.find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes)
     sigma = rfp.frequency_sigma(fit, fs.freq)
     if plot_path is not None:

@@ -8,7 +8,8 @@ Every reader returns a :class:`~laminid_cli.frf.store.FrfSet` (``frf`` complex
 Formats (:data:`FORMATS`, chosen by suffix unless given):
 
 ``hdf5`` (``.h5``, ``.hdf5``)
-    laminid's own file, written by ``laminid acquire``.
+    laminid's own file, written by ``laminid acquire``, or a plain HDF5 file of another tool
+    (frequency + complex FRF datasets, :mod:`laminid_cli.frf.generic_h5`).
 ``uff`` (``.uff``, ``.unv``)
     Universal File Format, dataset 58 (function at nodal DOF), ASCII or binary, read with
     pyuff. Every type-58 record of function type 4 (FRF) is one point; records of function
@@ -53,15 +54,23 @@ def frf_format(path, fmt: str | None = None) -> str:
     return SUFFIXES[suffix]
 
 
-def read_frf(path, fmt: str | None = None) -> FrfSet:
-    """Read FRFs from a laminid HDF5, UFF 58 or CSV file (format from the suffix)."""
+def read_frf(path, fmt: str | None = None, **h5_paths) -> FrfSet:
+    """Read FRFs from a laminid HDF5, UFF 58 or CSV file (format from the suffix).
+
+    ``h5_paths``: ``freq_dataset``, ``frf_dataset`` for a plain HDF5 file (see
+    :func:`laminid_cli.frf.generic_h5.read_any_frf_h5`)."""
+    from laminid_cli.frf.generic_h5 import read_any_frf_h5
+
     path = Path(path)
     fmt = frf_format(path, fmt)
+    if fmt != "hdf5" and any(v is not None for v in h5_paths.values()):
+        raise FrfError(f"{path}: dataset paths apply to HDF5 files only (format {fmt})")
     if not path.exists():
         raise FrfError(f"{path}: file not found")
     if path.is_dir():
         raise FrfError(f"{path}: is a folder, not an FRF file")
-    fs = {"hdf5": read_frf_h5, "uff": read_frf_uff, "csv": read_frf_csv}[fmt](path)
+    fs = {"hdf5": lambda p: read_any_frf_h5(p, **h5_paths), "uff": read_frf_uff,
+          "csv": read_frf_csv}[fmt](path)
     if fs.n_points == 0:
         raise FrfError(f"{path}: the file holds no FRF (0 measurement points)")
     return fs
@@ -227,8 +236,9 @@ def _dir(code) -> str:
 
 
 def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 1,
-                  rsp_dir: int = 3, ref_dir: int = 3) -> Path:
-    """Write one ASCII type-58 FRF record per point (response node = point number)."""
+                  rsp_dir: int = 3, ref_dir: int = 3, binary: bool = False) -> Path:
+    """Write one type-58 FRF record per point (response node = point number); ASCII, or
+    binary 58b (lossless doubles) with ``binary=True``."""
     import pyuff
 
     path, tmp = _atomic_target(path, overwrite)
@@ -237,15 +247,18 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
         label = fs.labels[k] if k < len(fs.labels) else str(k + 1)
         node = int(label) if label.isdigit() else k + 1
         sets.append(pyuff.prepare_58(
-            binary=0, id1=f"FRF {label}", id2="laminid", func_type=UFF_FRF,
+            binary=int(binary), id1=f"FRF {label}", id2="laminid", func_type=UFF_FRF,
             rsp_node=node, rsp_dir=rsp_dir, ref_node=ref_node, ref_dir=ref_dir,
             ord_data_type=6,  # complex double
             abscissa_spacing=1 if np.allclose(np.diff(fs.freq), fs.freq[1] - fs.freq[0]) else 0,
             abscissa_spec_data_type=UFF_ABSCISSA_FREQUENCY, ordinate_spec_data_type=12,
             orddenom_spec_data_type=13, ordinate_axis_units_lab=fs.units,
+            abscissa_axis_units_lab="Hz",
             data=np.asarray(fs.frf[k], dtype=complex), x=np.asarray(fs.freq, dtype=float)))
     try:
-        pyuff.UFF(str(tmp)).write_sets(sets, mode="overwrite")
+        # "add" to the fresh temporary file: pyuff's "overwrite" truncates the header of a
+        # binary record when it reopens the file for the data (pyuff 2.4/2.5)
+        pyuff.UFF(str(tmp)).write_sets(sets, mode="add")
         os.replace(tmp, path)
     except FrfError:
         raise

@@ -1,0 +1,210 @@
+"""FRFs from a plain HDF5 file written by another tool (issue 12, interchange).
+
+Other modal tools store FRFs in HDF5 without laminid's layout: one frequency dataset and one
+complex FRF dataset, units as attributes, names and orientation their own. This reader finds
+them:
+
+- **frequency**: a 1-D real dataset, at least 2 values, finite, strictly increasing, >= 0; its
+  ``units`` (or ``unit``) attribute, if any, must be a frequency unit (Hz, kHz, 1/s or rad/s;
+  converted to Hz). A name such as ``freq``, ``frequency``, ``f_hz`` ranks first.
+- **FRF**: a complex dataset (HDF5 compound ``r``/``i``, as h5py, MATLAB v7.3 via h5py and
+  most tools write it), 1-D of the frequency's length, or 2-D with one axis of that length:
+  ``(n_points, n_freq)`` or ``(n_freq, n_points)`` (either orientation). Its ``units``
+  attribute becomes the FRF units (default "1").
+- **coherence** (optional): a real dataset whose name contains ``coh``, of the FRF's shape.
+
+When several frequency/FRF pairs fit, the error lists them and the options to choose
+(``--freq-dataset``, ``--frf-dataset`` of ``fit-frf``); a named path that is missing or does
+not fit says why. :func:`read_any_frf_h5` reads laminid's own file with
+:func:`~laminid_cli.frf.store.read_frf_h5` and every other HDF5 file with this reader.
+
+h5py is imported inside the functions so importing this module stays cheap.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from laminid_cli.errors import FrfError
+from laminid_cli.frf.store import FORMAT, FrfSet, read_frf_h5, validate_frf_arrays
+
+#: frequency units accepted in a ``units`` attribute -> factor to Hz
+FREQ_UNITS = {"hz": 1.0, "1/s": 1.0, "s^-1": 1.0, "khz": 1e3, "rad/s": 1.0 / (2.0 * math.pi)}
+_FREQ_NAME = re.compile(r"(^|[^a-z])(f|freq|frequency|frequencies|f_?hz|freq_?hz|hz)"
+                        r"([^a-z]|$)", re.I)
+
+
+@dataclass(frozen=True)
+class _Dataset:
+    path: str
+    shape: tuple[int, ...]
+    kind: str          # numpy dtype kind: "f", "i", "u", "c"
+    units: str | None
+
+    @property
+    def name(self) -> str:
+        return self.path.rsplit("/", 1)[-1]
+
+    def describe(self) -> str:
+        shape = " x ".join(str(n) for n in self.shape)
+        units = f", units {self.units!r}" if self.units else ""
+        return f"'{self.path}' ({shape}{units})"
+
+
+def _text(v) -> str:
+    if isinstance(v, bytes):
+        return v.decode(errors="replace")
+    if isinstance(v, np.ndarray) and v.size == 1:
+        return _text(v.reshape(-1)[0])
+    return str(v)
+
+
+def _units(ds) -> str | None:
+    for key in ("units", "unit", "Units", "UNITS"):
+        if key in ds.attrs:
+            return _text(ds.attrs[key]).strip()
+    return None
+
+
+def _datasets(f) -> list[_Dataset]:
+    import h5py
+
+    found = []
+
+    def visit(name, obj):
+        if isinstance(obj, h5py.Dataset) and obj.dtype.kind in "fiuc" and obj.ndim in (1, 2):
+            found.append(_Dataset("/" + name, tuple(obj.shape), obj.dtype.kind, _units(obj)))
+
+    f.visititems(visit)
+    return found
+
+
+def _freq_factor(units: str | None) -> float | None:
+    """Factor to Hz, 1 when no units attribute, None when the units are not a frequency."""
+    if units is None or units == "":
+        return 1.0
+    return FREQ_UNITS.get(units.replace(" ", "").lower())
+
+
+def _is_axis(f, d: _Dataset) -> bool:
+    if len(d.shape) != 1 or d.shape[0] < 2 or d.kind == "c" or _freq_factor(d.units) is None:
+        return False
+    x = np.asarray(f[d.path][()], dtype=float)
+    return bool(np.all(np.isfinite(x)) and x[0] >= 0 and np.all(np.diff(x) > 0))
+
+
+def _fits(frf: _Dataset, n: int) -> bool:
+    return (len(frf.shape) == 1 and frf.shape[0] == n) or \
+        (len(frf.shape) == 2 and n in frf.shape)
+
+
+def _rank(d: _Dataset) -> int:
+    """0 for a dataset named or labelled as a frequency, 1 otherwise."""
+    return 0 if _FREQ_NAME.search(d.name) or d.units else 1
+
+
+def _choose(path: Path, f, datasets, freq_path, frf_path):
+    by_path = {d.path: d for d in datasets}
+
+    def named(p, what):
+        key = "/" + p.strip("/")
+        if key not in by_path:
+            listing = ", ".join(d.describe() for d in datasets) or "none"
+            raise FrfError(f"{path}: no numeric 1-D/2-D dataset {key!r} for the {what}; "
+                           f"datasets: {listing}")
+        return by_path[key]
+
+    axes = [d for d in datasets if _is_axis(f, d)]
+    frfs = [d for d in datasets if d.kind == "c"]
+    if freq_path is not None:
+        d = named(freq_path, "frequency")
+        if not _is_axis(f, d):
+            raise FrfError(f"{path}: dataset {d.describe()} is not a frequency axis (1-D, "
+                           "finite, strictly increasing, >= 0, units Hz/kHz/1/s/rad/s)")
+        axes = [d]
+    if frf_path is not None:
+        d = named(frf_path, "FRF")
+        if d.kind != "c":
+            raise FrfError(f"{path}: dataset {d.describe()} is not complex; the FRF must be "
+                           "a complex dataset (HDF5 compound of r and i)")
+        frfs = [d]
+    if not frfs:
+        listing = ", ".join(d.describe() for d in datasets) or "none"
+        raise FrfError(f"{path}: not a laminid FRF file and no complex dataset (FRF) in it; "
+                       f"datasets: {listing}")
+    pairs = [(a, h) for a in axes for h in frfs if _fits(h, a.shape[0])]
+    if not pairs:
+        raise FrfError(
+            f"{path}: no frequency axis matches an FRF dataset; frequency candidates: "
+            f"{', '.join(a.describe() for a in axes) or 'none'}; FRF candidates: "
+            f"{', '.join(h.describe() for h in frfs)} (an FRF axis must have the frequency's "
+            "length)")
+    if len(pairs) > 1:
+        best = min(_rank(a) for a, _ in pairs)
+        pairs = [(a, h) for a, h in pairs if _rank(a) == best]
+    if len(pairs) > 1:
+        listing = "; ".join(f"frequency {a.describe()} + FRF {h.describe()}" for a, h in pairs)
+        raise FrfError(f"{path}: several frequency/FRF dataset pairs fit: {listing}; choose "
+                       "one with --freq-dataset PATH and --frf-dataset PATH")
+    return pairs[0]
+
+
+def _orient(values: np.ndarray, n_freq: int) -> np.ndarray:
+    """(n_points, n_freq) from a 1-D or 2-D array with one axis of length n_freq."""
+    values = np.atleast_2d(values)
+    if values.shape[1] == n_freq:
+        return values
+    return values.T
+
+
+def read_generic_frf_h5(path, freq_dataset: str | None = None,
+                        frf_dataset: str | None = None) -> FrfSet:
+    """Read FRFs from a plain HDF5 file (see the module docstring). Raises :class:`FrfError`."""
+    import h5py
+
+    path = Path(path)
+    try:
+        f = h5py.File(path, "r")
+    except FileNotFoundError as exc:
+        raise FrfError(f"{path}: file not found") from exc
+    except OSError as exc:
+        raise FrfError(f"{path}: not a readable HDF5 file ({exc})") from exc
+    with f:
+        datasets = _datasets(f)
+        axis, frf_d = _choose(path, f, datasets, freq_dataset, frf_dataset)
+        freq = np.asarray(f[axis.path][()], dtype=float) * _freq_factor(axis.units)
+        frf = _orient(np.asarray(f[frf_d.path][()], dtype=complex), freq.size)
+        coherence = None
+        for d in datasets:
+            if "coh" in d.name.lower() and d.kind in "fiu" and d.shape == frf_d.shape:
+                coherence = _orient(np.asarray(f[d.path][()], dtype=float), freq.size)
+                break
+    units = frf_d.units or "1"
+    validate_frf_arrays(freq, frf, coherence, source=str(path))
+    labels = tuple(str(i + 1) for i in range(frf.shape[0]))
+    return FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels, units=units,
+                  source=str(path), meta={"frequency_dataset": axis.path,
+                                          "frf_dataset": frf_d.path})
+
+
+def read_any_frf_h5(path, freq_dataset: str | None = None,
+                    frf_dataset: str | None = None) -> FrfSet:
+    """laminid's own FRF file (attribute format = "laminid-frf") with
+    :func:`~laminid_cli.frf.store.read_frf_h5`, any other HDF5 file (or any file when dataset
+    paths are given) with :func:`read_generic_frf_h5`."""
+    import h5py
+
+    if freq_dataset is None and frf_dataset is None:
+        try:
+            with h5py.File(path, "r") as f:
+                own = f.attrs.get("format") in (FORMAT, FORMAT.encode())
+        except OSError:
+            own = True    # let the laminid reader give its message (missing, unreadable)
+        if own:
+            return read_frf_h5(path)
+    return read_generic_frf_h5(path, freq_dataset, frf_dataset)

@@ -1,0 +1,126 @@
+"""Interchange with other modal tools (issue 12): plain HDF5 FRF files in, UFF 58/55/15 out."""
+
+from __future__ import annotations
+
+import json
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from laminid_cli.cli import cli
+from laminid_cli.errors import FrfError
+from laminid_cli.frf import io, rfp
+from laminid_cli.frf.generic_h5 import read_generic_frf_h5
+from laminid_cli.frf.store import FrfSet
+from tests.frf_synth import plate_case
+
+
+def run(args):
+    return CliRunner().invoke(cli, args, catch_exceptions=False)
+
+
+@pytest.fixture(scope="module")
+def case():
+    return plate_case(noise=0.005, seed=11)          # 5 points x 1601 lines, 10 modes
+
+
+@pytest.fixture(scope="module")
+def native(tmp_path_factory, case):
+    path = tmp_path_factory.mktemp("native") / "plate.frf.h5"
+    fs = FrfSet(freq=case.freq, frf=case.frf, labels=tuple("12345"), units="m/s^2/N")
+    return io.write_frf(path, fs)
+
+
+def _plain(path, case, *, transpose: bool, names=("frequency", "H"), freq_units="Hz",
+           extra=None):
+    """An HDF5 file as another tool writes it: one axis, one complex FRF, units attributes."""
+    with h5py.File(path, "w") as f:
+        g = f.create_group("measurement")
+        d = g.create_dataset(names[0], data=case.freq)
+        if freq_units is not None:
+            d.attrs["units"] = freq_units
+        h = g.create_dataset(names[1], data=case.frf.T if transpose else case.frf)
+        h.attrs["units"] = "m/s^2/N"
+        for name, value in (extra or {}).items():
+            f.create_dataset(name, data=value)
+    return path
+
+
+def _fit_json(path, *extra):
+    r = run(["fit-frf", str(path), "--json", *extra])
+    assert r.exit_code == 0, r.output
+    return json.loads(r.output)
+
+
+@pytest.mark.parametrize("transpose", [False, True], ids=["points x freq", "freq x points"])
+def test_plain_hdf5_either_orientation_fits_the_same_as_the_native_file(tmp_path, case, native,
+                                                                          transpose):
+    path = _plain(tmp_path / "other.h5", case, transpose=transpose)
+    fs = io.read_frf(path)
+    assert fs.frf.shape == (5, 1601) and fs.units == "m/s^2/N"
+    np.testing.assert_array_equal(fs.frf, case.frf)      # same numbers, rows = points
+    np.testing.assert_array_equal(fs.freq, case.freq)
+    a, b = _fit_json(native), _fit_json(path)
+    fa = [m["freq_hz"] for m in a["modes"]]
+    assert len(fa) == 10 and fa == [m["freq_hz"] for m in b["modes"]]   # identical fit
+    assert np.allclose(fa, case.freq_hz, rtol=1e-4)      # and it is the truth
+
+
+def test_frequency_in_khz_or_rad_per_s_is_converted_to_hz(tmp_path, case):
+    for units, scale in (("kHz", 1e-3), ("rad/s", 2 * np.pi)):
+        path = tmp_path / f"{units.replace('/', '_')}.h5"
+        with h5py.File(path, "w") as f:
+            f.create_dataset("f", data=case.freq * scale).attrs["units"] = units
+            f.create_dataset("frf", data=case.frf)
+        np.testing.assert_allclose(read_generic_frf_h5(path).freq, case.freq, rtol=1e-12)
+
+
+def test_ambiguous_file_lists_the_candidates_and_the_options_resolve_it(tmp_path, case):
+    path = _plain(tmp_path / "two.h5", case, transpose=False, names=("axis_a", "H"),
+                  freq_units=None, extra={"axis_b": case.freq + 0.5})
+    with pytest.raises(FrfError) as info:
+        io.read_frf(path)
+    msg = str(info.value)
+    assert "several frequency/FRF dataset pairs fit: frequency '/axis_b' (1601) + FRF " \
+           "'/measurement/H' (5 x 1601, units 'm/s^2/N'); frequency '/measurement/axis_a' " \
+           "(1601) + FRF '/measurement/H'" in msg
+    assert "--freq-dataset PATH and --frf-dataset PATH" in msg
+    fs = io.read_frf(path, freq_dataset="/axis_b", frf_dataset="measurement/H")
+    np.testing.assert_array_equal(fs.freq, case.freq + 0.5)
+    r = run(["fit-frf", str(path), "--json", "--freq-dataset", "/measurement/axis_a"])
+    assert r.exit_code == 0, r.output
+
+
+def test_a_name_or_units_decides_between_two_axes(tmp_path, case):
+    path = _plain(tmp_path / "named.h5", case, transpose=True, names=("freq_hz", "H"),
+                  extra={"time": np.arange(1601) * 1e-3})   # 1-D increasing, but not a freq
+    assert read_generic_frf_h5(path).meta["frequency_dataset"] == "/measurement/freq_hz"
+
+
+@pytest.mark.parametrize("extra, message", [
+    ({}, "no complex dataset (FRF) in it; datasets: '/x' (1601)"),
+])
+def test_file_without_an_frf_is_refused_with_the_datasets(tmp_path, case, extra, message):
+    path = tmp_path / "bad.h5"
+    with h5py.File(path, "w") as f:
+        f.create_dataset("x", data=case.freq)
+    r = run(["fit-frf", str(path)])
+    assert r.exit_code == 2 and message in r.output
+
+
+def test_named_dataset_that_does_not_fit_says_why(tmp_path, case):
+    path = _plain(tmp_path / "n.h5", case, transpose=False)
+    with pytest.raises(FrfError, match=r"no numeric 1-D/2-D dataset '/nope' for the frequency"):
+        io.read_frf(path, freq_dataset="nope")
+    with pytest.raises(FrfError, match=r"'/measurement/frequency' \(1601, units 'Hz'\) is not "
+                                       r"complex"):
+        io.read_frf(path, frf_dataset="/measurement/frequency")
+    with pytest.raises(FrfError, match="dataset paths apply to HDF5 files only"):
+        io.read_frf(tmp_path / "x.csv", freq_dataset="/f")
+
+
+def test_laminid_file_is_still_read_by_the_native_reader(native):
+    fs = io.read_frf(native)
+    assert fs.labels == tuple("12345") and "frequency_dataset" not in fs.meta
