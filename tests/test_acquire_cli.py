@@ -332,12 +332,16 @@ def test_acquire_then_rfp_estimator_gives_back_the_emulators_modes(tmp_path, sr)
     assert np.all(err < FREQ_TOL), (fit.freq_hz, err)
 
 
-def test_acquire_then_fit_frf_gives_back_the_emulators_modes(tmp_path, hp):
-    """laminid acquire -> laminid fit-frf: the emulator's modal frequencies within 0.05 %."""
+@pytest.mark.parametrize("emu_cls", [HP35670AEmulator, SR785Emulator])
+def test_acquire_then_fit_frf_gives_back_the_emulators_modes(tmp_path, emu_cls):
+    """laminid acquire -> laminid fit-frf, both analysers with the evidenced command sets:
+    the emulator's modal frequencies within 0.05 %."""
     import json
 
     out = tmp_path / "plate.frf.h5"
-    assert acquire(hp, out, "--no-prompt", "--units", "Pa/N", points=4).exit_code == 0
+    with emu_cls() as emu:
+        r = acquire(emu, out, "--no-prompt", "--units", "Pa/N", points=4)
+    assert r.exit_code == 0, r.output
     r = run(["fit-frf", str(out), "--json"])
     assert r.exit_code == 0, r.output
     result = json.loads(r.output)

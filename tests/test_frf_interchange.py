@@ -124,3 +124,100 @@ def test_named_dataset_that_does_not_fit_says_why(tmp_path, case):
 def test_laminid_file_is_still_read_by_the_native_reader(native):
     fs = io.read_frf(native)
     assert fs.labels == tuple("12345") and "frequency_dataset" not in fs.meta
+
+
+# ------------------------------------------------------------------- laminid export
+LABELS = ("3", "7", "12", "15", "21")     # roving-hammer point numbers
+
+
+@pytest.fixture(scope="module")
+def numbered(tmp_path_factory, case):
+    path = tmp_path_factory.mktemp("num") / "plate.frf.h5"
+    fs = FrfSet(freq=case.freq, frf=case.frf, labels=LABELS, units="Pa/N")
+    return io.write_frf(path, fs)
+
+
+def test_export_frfs_as_uff58_keeps_numbers_units_and_point_numbering(tmp_path, case,
+                                                                      numbered):
+    import pyuff
+
+    out = tmp_path / "plate.uff"
+    r = run(["export", str(numbered), "-o", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.output)["points"] == {lab: int(lab) for lab in LABELS}
+    sets = pyuff.UFF(str(out)).read_sets()
+    assert [s["type"] for s in sets] == [58] * 5
+    for k, s in enumerate(sets):
+        assert s["func_type"] == 4 and s["rsp_node"] == int(LABELS[k]) and s["rsp_dir"] == 3
+        assert s["ordinate_axis_units_lab"].strip() == "Pa/N"
+        assert s["abscissa_axis_units_lab"].strip() == "Hz"
+        np.testing.assert_array_equal(s["data"], case.frf[k])     # binary 58b: lossless
+        np.testing.assert_array_equal(s["x"], case.freq)
+
+
+def test_uff58_round_trip_through_fit_frf_gives_the_same_modes_to_1e9(tmp_path, numbered):
+    out = tmp_path / "plate.uff"
+    assert run(["export", str(numbered), "-o", str(out)]).exit_code == 0
+    a, b = _fit_json(numbered), _fit_json(out)
+    fa = np.array([m["freq_hz"] for m in a["modes"]])
+    fb = np.array([m["freq_hz"] for m in b["modes"]])
+    assert fa.size == 10 and np.allclose(fb, fa, rtol=1e-9, atol=0)
+    za = np.array([m["damping_ratio"] for m in a["modes"]])
+    zb = np.array([m["damping_ratio"] for m in b["modes"]])
+    assert np.allclose(zb, za, rtol=1e-9, atol=0)
+
+
+def test_ascii_uff58_keeps_12_significant_digits(tmp_path, case, numbered):
+    out = tmp_path / "plate_ascii.uff"
+    r = run(["export", str(numbered), "-o", str(out), "--ascii"])
+    assert r.exit_code == 0, r.output
+    back = io.read_frf(out)
+    assert np.allclose(back.frf, case.frf, rtol=0, atol=5e-12 * np.abs(case.frf).max())
+    assert back.labels == tuple(f"{lab}+Z" for lab in LABELS) and back.units == "Pa/N"
+
+
+@pytest.fixture(scope="module")
+def modes_file(tmp_path_factory):
+    out = tmp_path_factory.mktemp("modes") / "S1.1.modes.h5"
+    r = run(["modes", "specimens/example1/S1.1.yaml", "--mesh", "6x6", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    return out
+
+
+def test_export_mode_shapes_as_uff55_on_uff15_nodes_read_back_with_pyuff(tmp_path, modes_file):
+    import pyuff
+
+    from laminid_cli.results import read_h5
+
+    out = tmp_path / "S1.1.unv"
+    r = run(["export", str(modes_file), "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    assert "12 mode shapes of S1.1 (UFF 55) on 133 nodes" in r.output
+    ref = read_h5(modes_file)
+    nodes, w, freq = ref["mesh"]["nodes"], ref["modes"]["w"], ref["modes"]["frequency"]
+    sets = pyuff.UFF(str(out)).read_sets()
+    assert [s["type"] for s in sets] == [164, 15] + [55] * 12
+    assert sets[0]["units_code"] == 1                              # SI
+    n15 = sets[1]
+    np.testing.assert_array_equal(n15["node_nums"], np.arange(1, 134))
+    # UFF 15 writes E13.5 (6 significant digits): coordinates within 5e-6 of the plate size
+    size = np.abs(nodes).max()
+    assert np.abs(n15["x"] - nodes[:, 0]).max() < 5e-6 * size
+    assert np.abs(n15["y"] - nodes[:, 1]).max() < 5e-6 * size
+    assert np.abs(n15["z"]).max() == 0
+    for k, s in enumerate(sets[2:]):
+        assert s["mode_n"] == k + 1 and s["analysis_type"] == 2 and s["data_ch"] == 2
+        assert s["freq"] == pytest.approx(freq[k], rel=5e-6)
+        np.testing.assert_array_equal(s["node_nums"], np.arange(1, 134))
+        scale = np.abs(w[:, k]).max()
+        assert np.abs(s["r3"] - w[:, k]).max() < 5e-6 * scale     # E13.5 again
+        assert np.abs(s["r1"]).max() == 0 and np.abs(s["r2"]).max() == 0
+
+
+def test_export_refuses_to_overwrite_and_names_bad_input(tmp_path, modes_file):
+    out = tmp_path / "x.unv"
+    out.write_text("keep")
+    r = run(["export", str(modes_file), "-o", str(out)])
+    assert r.exit_code == 2 and "file exists" in r.output and out.read_text() == "keep"
+    r = run(["export", str(modes_file), "-o", str(tmp_path / "y.unv"), "--specimen", "S9"])
+    assert r.exit_code == 2 and "holds specimen 'S1.1', not 'S9'" in r.output

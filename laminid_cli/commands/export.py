@@ -1,0 +1,90 @@
+"""``laminid export``: FRFs (UFF 58) or identified mode shapes (UFF 15 + 55) for other tools."""
+
+from __future__ import annotations
+
+import click
+
+from laminid_cli.commands._common import check_output_path, echo_json, force_option, json_option
+
+
+def _is_result(path) -> bool:
+    """True for a laminid result/modes file (mode shapes), False for anything else (FRFs)."""
+    try:
+        import h5py
+
+        with h5py.File(path, "r") as f:
+            fmt = f.attrs.get("format")
+    except (OSError, ValueError):
+        return False
+    from laminid_cli.export import SHAPE_FORMATS
+
+    return (fmt.decode() if isinstance(fmt, bytes) else fmt) in SHAPE_FORMATS
+
+
+@click.command("export")
+@click.argument("input_file", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
+              help="Universal File to write (.uff or .unv).")
+@click.option("--ascii", "ascii_", is_flag=True,
+              help="FRFs: write ASCII UFF 58 (12 significant digits) instead of binary 58b "
+                   "(lossless doubles).")
+@click.option("--format", "fmt", type=click.Choice(["hdf5", "uff", "csv"]), default=None,
+              help="FRF input format (default: from the suffix).")
+@click.option("--freq-dataset", default=None, metavar="PATH",
+              help="Plain HDF5 FRF input: the frequency dataset.")
+@click.option("--frf-dataset", default=None, metavar="PATH",
+              help="Plain HDF5 FRF input: the complex FRF dataset.")
+@click.option("--specimen", default=None, metavar="NAME",
+              help="Joint result: the plate whose mode shapes to write.")
+@force_option
+@json_option
+def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen, force,
+           as_json):
+    """Write FRFs or identified mode shapes as a Universal File for other modal software.
+
+    \b
+    INPUT_FILE is either
+      - FRFs (laminid acquire file, plain HDF5, UFF 58 or CSV): written as one UFF 58 record
+        per measurement point, response node = point number (label), direction +Z, reference
+        node 1 +Z, abscissa Hz, ordinate units as in the file (e.g. Pa/N);
+      - a result of identify/batch/modes: the plate mesh as UFF 15 nodes (metres, UFF 164
+        units SI) and each mode as a UFF 55 normal-mode record (0, 0, w0) at the nodes,
+        w0 of the mass-normalised mode in m/sqrt(kg), with its natural frequency.
+    UFF 15 and 55 store 6 significant digits (E13.5); binary UFF 58 is lossless.
+
+    \b
+    Examples:
+      laminid export plate.frf.h5 -o plate.uff
+      laminid export S1.1.result.h5 -o S1.1_modes.unv
+    """
+    from pathlib import Path
+
+    out = check_output_path(output, force)
+    if Path(input_file).is_file() and _is_result(input_file):
+        from laminid_cli.export import read_shapes, write_shapes_uff
+
+        shapes = read_shapes(input_file, specimen)
+        write_shapes_uff(out, shapes, overwrite=force)
+        summary = {"input": str(input_file), "output": str(out), "kind": "mode shapes",
+                   "datasets": {"164": 1, "15": 1, "55": int(shapes.w.shape[1])},
+                   "specimen": shapes.specimen, "n_nodes": int(shapes.nodes.shape[0]),
+                   "n_modes": int(shapes.w.shape[1]), "freq_hz": shapes.freq_hz.tolist()}
+        text = (f"{out}: {summary['n_modes']} mode shapes of {shapes.specimen} (UFF 55) on "
+                f"{summary['n_nodes']} nodes (UFF 15, metres; UFF 164 SI)")
+    else:
+        from laminid_cli.frf.io import read_frf, write_frf_uff
+
+        fs = read_frf(input_file, fmt, freq_dataset=freq_dataset, frf_dataset=frf_dataset)
+        write_frf_uff(out, fs, overwrite=force, binary=not ascii_)
+        labels = list(fs.labels) or [str(i + 1) for i in range(fs.n_points)]
+        nodes = [int(lab) if lab.isdigit() else i + 1 for i, lab in enumerate(labels)]
+        summary = {"input": str(input_file), "output": str(out), "kind": "FRF",
+                   "datasets": {"58": fs.n_points}, "binary": not ascii_, "units": fs.units,
+                   "n_lines": int(fs.freq.size), "points": dict(zip(labels, nodes))}
+        text = (f"{out}: {fs.n_points} FRFs (UFF 58{'' if ascii_ else 'b'}, {fs.units}, "
+                f"{fs.freq.size} lines {fs.freq[0]:g}-{fs.freq[-1]:g} Hz), point -> node: "
+                + ", ".join(f"{lab}->{n}" for lab, n in zip(labels, nodes)))
+    if as_json:
+        echo_json(summary)
+    else:
+        click.echo(text)

@@ -1,0 +1,124 @@
+"""Universal File output for other modal tools (issue 12): mode shapes (UFF 55) on the plate
+geometry (UFF 15), with the units record (UFF 164). The FRF output (UFF 58) is
+:func:`laminid_cli.frf.io.write_frf_uff`.
+
+Written from a result of ``laminid identify``/``batch`` (format "laminid-result"), ``laminid
+modes`` ("laminid-modes") or one plate of a joint identification ("laminid-joint-result",
+``specimen=``). One file holds, in this order:
+
+- dataset 164, units: SI (code 1: metre, newton, kelvin);
+- dataset 15, nodes: the FE mesh nodes, numbered 1..n in mesh order, coordinates x, y in metres
+  in the plate's mid-plane (z = 0), global coordinate system 0;
+- one dataset 55 per mode: normal-mode data at nodes (model type 1 structural, analysis type 2
+  normal mode, data characteristic 2 = 3 DOF translation, specific data type 8 displacement,
+  real data): (0, 0, w0) at each node, w0 = transverse displacement of the mass-normalised
+  mode in m/sqrt(kg), modal mass 1, the model's natural frequency in Hz, mode number 1..m.
+
+pyuff is imported inside the writer so importing this module stays cheap.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from laminid_cli.errors import LaminidError, OutputExistsError
+
+#: result-file formats that carry a mesh and mode shapes
+SHAPE_FORMATS = ("laminid-result", "laminid-modes", "laminid-joint-result")
+
+
+class ExportError(LaminidError):
+    """A file cannot be exported (not a result with mode shapes, unknown specimen...)."""
+
+
+@dataclass(frozen=True)
+class PlateShapes:
+    """Mode shapes of one plate model, as stored in a result file.
+
+    nodes : (n_nodes, 2) x, y in m; w : (n_nodes, n_modes) transverse displacement of the
+    mass-normalised modes, m/sqrt(kg); freq_hz : (n_modes,) model natural frequencies, Hz
+    """
+
+    specimen: str
+    nodes: np.ndarray
+    w: np.ndarray
+    freq_hz: np.ndarray
+    source: str
+
+
+def read_shapes(path, specimen: str | None = None) -> PlateShapes:
+    """Mesh nodes and mode shapes of a result file (the one place this module reads results;
+    it uses :func:`laminid_cli.results.read_h5`)."""
+    from laminid_cli.results import read_h5
+
+    path = Path(path)
+    try:
+        data = read_h5(path)
+    except OSError as exc:
+        raise ExportError(f"{path}: not a readable HDF5 file ({exc})") from exc
+    fmt = data["@attrs"].get("format")
+    if fmt not in SHAPE_FORMATS:
+        raise ExportError(f"{path}: no mode shapes in it (format {fmt!r}; expected a result of "
+                          "laminid identify/batch/modes)")
+    plates = data.get("specimens", {})
+    if fmt == "laminid-joint-result":
+        names = sorted(k for k in plates if not k.startswith("@"))
+        if specimen not in names:
+            raise ExportError(f"{path}: a joint result of {len(names)} plates; choose one with "
+                              f"--specimen ({', '.join(names)})")
+        data = plates[specimen]
+    elif specimen is not None and specimen != data["specimen"]["@attrs"].get("name"):
+        raise ExportError(f"{path}: holds specimen {data['specimen']['@attrs'].get('name')!r}, "
+                          f"not {specimen!r}")
+    try:
+        nodes = np.asarray(data["mesh"]["nodes"], dtype=float)
+        w = np.asarray(data["modes"]["w"], dtype=float)
+        freq = np.asarray(data["modes"]["frequency"], dtype=float)
+    except KeyError as exc:
+        raise ExportError(f"{path}: dataset {exc} missing (mesh/nodes, modes/w, "
+                          "modes/frequency)") from None
+    name = specimen or str(data["specimen"]["@attrs"].get("name", path.stem))
+    return PlateShapes(specimen=name, nodes=nodes, w=w, freq_hz=freq, source=str(path))
+
+
+def write_shapes_uff(path, shapes: PlateShapes, *, overwrite: bool = False) -> Path:
+    """Write UFF 164 + 15 + 55 (see the module docstring); atomic, no silent overwrite."""
+    import pyuff
+
+    path = Path(path)
+    if path.exists() and not overwrite:
+        raise OutputExistsError(f"{path}: file exists; use --force to overwrite it")
+    n = shapes.nodes.shape[0]
+    node_nums = np.arange(1, n + 1)
+    sets = [
+        pyuff.prepare_164(units_code=1, units_description="SI - m, N, K", temp_mode=2,
+                          length=1.0, force=1.0, temp=1.0, temp_offset=273.15),
+        pyuff.prepare_15(node_nums=node_nums, def_cs=np.zeros(n, int), disp_cs=np.zeros(n, int),
+                         color=np.ones(n, int), x=shapes.nodes[:, 0], y=shapes.nodes[:, 1],
+                         z=np.zeros(n)),
+    ]
+    zeros = np.zeros(n)
+    for k in range(shapes.w.shape[1]):
+        sets.append(pyuff.prepare_55(
+            id1=f"laminid mode {k + 1}: {shapes.freq_hz[k]:.6g} Hz",
+            id2=f"specimen {shapes.specimen}",
+            id3="w0 of the mass-normalised mode, m/sqrt(kg)",
+            id4=f"from {Path(shapes.source).name}", id5="NONE",
+            model_type=1, analysis_type=2, data_ch=2, spec_data_type=8, data_type=2,
+            n_data_per_node=3, r1=zeros, r2=zeros, r3=shapes.w[:, k], load_case=1,
+            mode_n=k + 1, freq=float(shapes.freq_hz[k]), modal_m=1.0, modal_damp_vis=0.0,
+            modal_damp_his=0.0, node_nums=node_nums))
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        pyuff.UFF(str(tmp)).write_sets(sets, mode="add")
+        os.replace(tmp, path)
+    except Exception as exc:
+        raise ExportError(f"{path}: cannot write the Universal File ({exc})") from exc
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
