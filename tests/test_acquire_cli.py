@@ -105,7 +105,8 @@ def test_keep_setup_records_the_analysers_own_settings(tmp_path, hp):
 
 # ------------------------------------------------------------------------------ faults
 @pytest.mark.parametrize("fault, message", [
-    (Fault("CALC1:DATA?", "silent", 2), "did not answer within 0.5 s"),
+    (Fault("CALC1:DATA?", "silent", 2),
+     "did not answer within 0.5 s (waiting for the answer to 'CALC1:DATA?'"),
     (Fault("CALC1:DATA?", "truncate", 2), "truncated binary transfer"),
     (Fault("CALC2:DATA?", "drop", 2), "analyser TCPIP::127.0.0.1::"),
 ])

@@ -34,8 +34,9 @@ def analyser():
 
 def test_identity_and_configuration_without_errors(analyser):
     assert analyser.matches(analyser.idn)
-    analyser.configure(SETTINGS)            # raises on any error-queue / ESR entry
+    analyser.configure(SETTINGS)            # raises on any error-queue / ESR entry, by command
     freq = analyser.read_frequency()
+    analyser.check_axis(SETTINGS, freq)     # the resolution command was taken as lines
     assert freq.size in (SETTINGS.lines, SETTINGS.lines + 1)
     assert freq[0] == pytest.approx(0.0, abs=1e-9)
     assert np.all(np.diff(freq) > 0)
