@@ -12,64 +12,77 @@ Evidence for every command string (issue 12). "pymeasure" = the public driver
 ``pymeasure/pymeasure`` ``pymeasure/instruments/keysight/keysight35670A.py`` (commit b68e0af),
 cited by the attribute that defines the command; IEEE 488.2 = the common commands standard.
 
-=============================  ===========================================================
-command sent                   evidence
-=============================  ===========================================================
-``*IDN?`` ``*CLS`` ``*OPC``    IEEE 488.2 common commands; pymeasure ``SCPIMixin``
-``*ESR?``                      IEEE 488.2 (bit 0 = operation complete); pymeasure
-                               ``standard_event_status``
-``INST:SEL FFT``               pymeasure ``instrument_mode`` (INSTrument:SELect,
-                               ``INSTRUMENT_MODES["fft"] = "FFT"``)
-``INP2:STAT 1``                pymeasure ``Keysight35670AInputChannel.state``
-                               (INPut{ch}:STATe %d)
-``CALC1:FEED 'XFR:POW:RAT      pymeasure ``Keysight35670ATrace.feed`` (CALCulate{ch}:FEED '%s'),
-2,1'``                         ``TRACE_FEEDS["frequency_response_2_1"]``
-``CALC2:FEED 'XFR:POW:COH      same, ``TRACE_FEEDS["coherence_1_2"]``
-1,2'``
-``FREQ:SPAN <Hz>``             pymeasure ``frequency_span`` (SENSe:FREQuency:SPAN %g)
-``FREQ:STAR <Hz>``             pymeasure ``frequency_start`` (SENSe:FREQuency:STARt %g)
-``FREQ:RES <lines>``           pymeasure ``frequency_resolution`` (SENSe:FREQuency:RESolution
-                               %g) confirms the command; that the number is the FFT line
-                               count is **unconfirmed** (pymeasure states a range
-                               0.015625-51200); ``acquire`` checks the axis length after
-                               configuring (:meth:`~.base.Analyser.check_axis`)
-``AVER:STAT 1``                pymeasure ``averaging_enabled`` (SENSe:AVERage:STATe %d)
-``AVER:TYPE RMS``              pymeasure ``average_type``, ``AVERAGE_TYPES["rms"]``
-``AVER:COUN <n>``              pymeasure ``average_count`` (SENSe:AVERage:COUNt %d)
-``TRIG:SOUR INT1``             pymeasure ``trigger_source``, ``TRIGGER_SOURCES`` =
-                               IMM, EXT, INT1..INT4, OUTP, BUS (INT1 = channel-1 input; there
-                               is no ``INP1`` value)
-``TRIG:SLOP POS``              pymeasure ``trigger_slope`` (POS|NEG)
-``TRIG:LEV <pct> PCT``         pymeasure ``trigger_level`` confirms TRIGger:LEVel %g but not
-                               its unit: the ``PCT`` suffix (percent of input range) is
-                               **unconfirmed**; chosen so that a firmware without it rejects
-                               the command by name (SCPI suffix error) instead of
-                               triggering at 10 V
-``TRIG:STAR1 <s>``             pymeasure ``trigger_start1`` ("channel 1 trigger start delay
-``TRIG:STAR2 <s>``             in seconds"), ``trigger_start2``; negative = pre-trigger (there
-                               is no TRIGger:DELay node)
-``WIND1:TYPE FORC``            pymeasure ``Keysight35670ASenseWindow.window_type``
-``WIND2:TYPE EXP``             (SENSe:WINDow{ch}:TYPE), ``WINDOW_TYPES`` force/exponential
-``WIND1:FORC <s>``             pymeasure ``force_window_width`` (seconds)
-``WIND2:EXP <s>``              pymeasure ``exponential_window_time_constant`` (seconds)
-``FORM:DATA REAL,64``          pymeasure ``data_format`` (FORMat:DATA ASC|REAL; its reply
-                               parser drops a ``,<length>``): the ``,64`` length and the
-                               big-endian byte order are **unconfirmed** (checked by the
-                               opt-in hardware test)
-``CALC1:FORM NYQ``             pymeasure ``Keysight35670ATrace.display_format``,
-``CALC2:FORM MLIN``            ``TRACE_DISPLAY_FORMATS`` nyquist/linear_magnitude; the
-                               (real, imag) order of NYQ blocks is **unconfirmed**
-``SYST:ERR?``                  pymeasure ``_raise_if_errors`` (SYSTem:ERRor? read until code
-                               0 "No error")
-``ABOR``                       pymeasure ``abort`` (ABORt)
-``INIT:IMM``                   pymeasure ``initiate`` (INITiate:IMMediate)
-``STAT:QUES:VOLT:EVEN?``       pymeasure ``questionable_voltage_event``; the overload bit
-                               positions (:data:`OVERLOAD_BITS`) are **unconfirmed**
-``CALC1:X:DATA?``              pymeasure ``Keysight35670ATrace.read_x_data``
-``CALC1:DATA?`` ``CALC2:DATA?``  pymeasure ``Keysight35670ATrace.read_data``
-``FREQ:SPAN?`` ``FREQ:STAR?``  query forms of the properties above (pymeasure controls)
+``*IDN?`` ``*CLS`` ``*OPC``
+    IEEE 488.2 common commands; pymeasure ``SCPIMixin``
+``*ESR?``
+    IEEE 488.2 (bit 0 = operation complete); pymeasure ``standard_event_status``
+``INST:SEL FFT``
+    pymeasure ``instrument_mode`` (INSTrument:SELect, ``INSTRUMENT_MODES`` fft = FFT)
+``INP2:STAT 1``
+    pymeasure ``Keysight35670AInputChannel.state`` (INPut{ch}:STATe %d)
+``CALC1:FEED 'XFR:POW:RAT 2,1'``
+    pymeasure ``Keysight35670ATrace.feed`` (CALCulate{ch}:FEED '%s'), ``TRACE_FEEDS``
+    frequency_response_2_1
+``CALC2:FEED 'XFR:POW:COH 1,2'``
+    same, ``TRACE_FEEDS`` coherence_1_2
+``FREQ:SPAN <Hz>``
+    pymeasure ``frequency_span`` (SENSe:FREQuency:SPAN %g)
+``FREQ:STAR <Hz>``
+    pymeasure ``frequency_start`` (SENSe:FREQuency:STARt %g)
+``FREQ:RES <lines>``
+    pymeasure ``frequency_resolution`` (SENSe:FREQuency:RESolution %g) confirms the command;
+    that the number is the FFT line count is **unconfirmed** (pymeasure states a range
+    0.015625-51200): ``acquire`` checks the axis length after configuring
+    (``Analyser.check_axis``)
+``AVER:STAT 1``
+    pymeasure ``averaging_enabled`` (SENSe:AVERage:STATe %d)
+``AVER:TYPE RMS``
+    pymeasure ``average_type``, ``AVERAGE_TYPES`` rms = RMS
+``AVER:COUN <n>``
+    pymeasure ``average_count`` (SENSe:AVERage:COUNt %d)
+``TRIG:SOUR INT1``
+    pymeasure ``trigger_source``, ``TRIGGER_SOURCES`` = IMM, EXT, INT1..INT4, OUTP, BUS (INT1 =
+    channel-1 input; there is no ``INP1``)
+``TRIG:SLOP POS``
+    pymeasure ``trigger_slope`` (POS|NEG)
+``TRIG:LEV <pct> PCT``
+    pymeasure ``trigger_level`` confirms TRIGger:LEVel %g, not its unit: the ``PCT`` suffix
+    (percent of input range) is **unconfirmed**; chosen so that a firmware without it rejects
+    the command by name (SCPI suffix error) instead of triggering at 10 V
+``TRIG:STAR1 <s>`` ``TRIG:STAR2 <s>``
+    pymeasure ``trigger_start1``/``trigger_start2`` ("channel 1 trigger start delay in
+    seconds"); negative = pre-trigger; there is no TRIGger:DELay node
+``WIND1:TYPE FORC`` ``WIND2:TYPE EXP``
+    pymeasure ``Keysight35670ASenseWindow.window_type`` (SENSe:WINDow{ch}:TYPE),
+    ``WINDOW_TYPES`` force = FORC, exponential = EXP
+``WIND1:FORC <s>``
+    pymeasure ``force_window_width`` (seconds)
+``WIND2:EXP <s>``
+    pymeasure ``exponential_window_time_constant`` (seconds)
+``FORM:DATA REAL,64``
+    pymeasure ``data_format`` (FORMat:DATA ASC|REAL; its reply parser drops a ``,<length>``):
+    the ``,64`` and the big-endian byte order are **unconfirmed** (checked by the opt-in
+    hardware test)
+``CALC1:FORM NYQ`` ``CALC2:FORM MLIN``
+    pymeasure ``Keysight35670ATrace.display_format``, ``TRACE_DISPLAY_FORMATS`` nyquist = NYQ,
+    linear_magnitude = MLIN; the (real, imag) order of NYQ blocks is **unconfirmed**
+``SYST:ERR?``
+    pymeasure ``_raise_if_errors`` (SYSTem:ERRor? read until code 0 "No error")
+``ABOR``
+    pymeasure ``abort`` (ABORt)
+``INIT:IMM``
+    pymeasure ``initiate`` (INITiate:IMMediate)
+``STAT:QUES:VOLT:EVEN?``
+    pymeasure ``questionable_voltage_event``; the overload bit positions (``OVERLOAD_BITS``) are
+    **unconfirmed**
+``CALC1:X:DATA?``
+    pymeasure ``Keysight35670ATrace.read_x_data``
+``CALC1:DATA?`` ``CALC2:DATA?``
+    pymeasure ``Keysight35670ATrace.read_data``
+``FREQ:SPAN?`` ``FREQ:STAR?``
+    query forms of the properties above
 ``FREQ:RES?`` ``AVER:COUN?``
-=============================  ===========================================================
+    query forms of the properties above
 
 Faults: the error queue (``SYST:ERR?`` until ``+0``) is read after every set-up command, so a
 rejected command is reported by name with the analyser's text, and after every trace transfer

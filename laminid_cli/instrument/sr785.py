@@ -11,55 +11,81 @@ Display argument ``d``: 0 = A, 1 = B, 2 = both.
 Evidence for every command string (issue 12). "LIGO script" = the public SR785 FFT
 transfer-function script (© 2021 MIT, L. McCuller; netgpib), which sends the same set-up
 commands with comments giving each code; "pySR785" = a public pyvisa SR785 driver
-(``SR785.FFT`` class, ``_param_map`` and ``measure``). The SR785 manual (SRS, *Operating Manual
-and Programming Reference*, ch. 5) was not found in the searchable corpus: commands resting on
-it alone are marked **unconfirmed**.
+(``SR785.FFT`` class, ``_param_map`` and ``measure``); "pyHegel SR780" = ``lupien/pyHegel``
+``pyHegel/instruments/srs.py`` class ``sr780_analyzer`` (the SR780, the SR785's predecessor with
+the same command set and status words; its docstrings give the bit layouts of ``DSPS?``,
+``INPS?``, ``ERRS?`` and ``*ESR?``). The SR785 manual (SRS, *Operating Manual and Programming
+Reference*, ch. 5) was not found in the searchable corpus: commands resting on it alone are
+marked **unconfirmed**.
 
-===========================  ==============================================================
-command sent                 evidence
-===========================  ==============================================================
-``*IDN?`` ``*CLS``           IEEE 488.2; LIGO script (``*CLS``, IDN check
-                             "Stanford_Research_Systems,SR785")
-``*ESR?``                    IEEE 488.2 standard event status; bits 4 = execution error,
-                             5 = command error: LIGO script ``*ESE 48`` "set bits 4 and 5 ...
-                             EXE and CME"; bits 2 = query error, 3 = device-dependent error:
-                             IEEE 488.2 (SRS SR850 manual p. 1-10 lists the same layout)
-``MGRP 2,0``                 LIGO script ``MGRP2,0`` "Measurement Group = FFT"; pySR785
-``MEAS 0,11`` ``MEAS 1,9``   LIGO script: 11 = "Frequency Resp", 9 = "Coherence"
-``FBAS 2,1``                 LIGO script ``FBAS2,1`` "Base Frequency = 102.4kHz"; pySR785
-                             ``_fft_base_freq_map`` (0 = 100 kHz, 1 = 102.4 kHz)
-``FSPN 2,<Hz>``              LIGO script ``FSPN2,``; pySR785 ``stop_Hz`` (spans 102.4 kHz/2^k)
-``FLIN 2,<i>``               LIGO script / pySR785: 0..3 = 100, 200, 400, 800 lines
-``FSTR 2,<Hz>``              pySR785 ``start_Hz`` (``FSTR 2,``)
-``FAVG 2,1``                 LIGO script "Averaging On"
-``FAVM 2,2``                 LIGO script ``avgModDict``: 2 = RMS
-``FAVT 2,0``                 LIGO script "Averaging Type = Linear"; pySR785
-``FAVN 2,<n>``               LIGO script "Number of Averaging"
-``FWIN 2,5``                 LIGO script ``winFuncDict``: 5 = "Force/Exponential"
-``FWFL 2,<s>``               **unconfirmed** (manual, Window commands: force length)
-``FWTC 2,<%>``               **unconfirmed** (manual: exponential time constant, % of record)
-``TSRC 1``                   LIGO script: 1 = "Ch1" (single argument)
-``TMOD 0``                   LIGO script "Auto trigger arming"
-``TSLP 0``                   **unconfirmed** (manual, Trigger commands: rising slope)
-``TLVL <pct>``               LIGO script "Sets trigger level in percent"
-``TDLA <s>`` ``TDLB <s>``    LIGO script "Delay for channel 1/2 in s"
-``VIEW 0,7`` ``VIEW 1,1``    LIGO script view table: 7 = Nyquist, 1 = Linear Magnitude;
-                             Nyquist Y-then-X order per bin **unconfirmed**
-``STRT``                     LIGO script "Start measurement"; pySR785
-``DSPS?`` ``DSPS? 1``        LIGO script ``DSPS?1`` (loop until averaging done); pySR785
-                             "read AVGA (averaging complete)"
-``NAVG? 0``                  LIGO script (averages done)
-``DSPN? d`` ``DSPB? d``      LIGO script and pySR785 (4-byte floats, no header)
-``FSPN? 0`` ``FLIN? 0``      LIGO script / pySR785 queries
-``FSTR? 0`` ``FAVN? 0``
-``TLVL?``                    LIGO script
-``INPS?``                    **unconfirmed** (manual, Status: input status word); overload
-                             bits :data:`INPS_OVERLOAD_BITS` unconfirmed
-``ERRS?``                    **unconfirmed** for the SR785 (SRS SR850 manual: ERRS? reads the
-                             error status byte, bit 5 "GPIB binary transfer aborted"); the
-                             driver treats any non-zero word as an error and prints it raw
-``PAUS``                     **unconfirmed** (manual: pause measurement)
-===========================  ==============================================================
+``*IDN?`` ``*CLS``
+    IEEE 488.2; LIGO script (``*CLS``, IDN check "Stanford_Research_Systems,SR785")
+``*ESR?``
+    IEEE 488.2 standard event status; bits 4 = execution error, 5 = command error: LIGO script
+    ``*ESE 48`` "set bits 4 and 5 ... EXE and CME"; pyHegel SR780 ``get_error``: bit 2 too many
+    responses pending, 3 too many commands received, 4 command cannot execute, 5 command syntax
+    error, 6 key press, 7 power on (bits 2-5 are errors, 6-7 are not)
+``MGRP 2,0``
+    LIGO script ``MGRP2,0`` "Measurement Group = FFT"; pySR785
+``MEAS 0,11`` ``MEAS 1,9``
+    LIGO script: 11 = "Frequency Resp", 9 = "Coherence"
+``FBAS 2,1``
+    LIGO script ``FBAS2,1`` "Base Frequency = 102.4kHz"; pySR785 ``_fft_base_freq_map`` (0 = 100
+    kHz, 1 = 102.4 kHz); pyHegel SR780 ``freq_baseline`` (``FBAS 2,{val}``, index of [100e3,
+    102.4e3])
+``FSPN 2,<Hz>``
+    LIGO script ``FSPN2,``; pySR785 ``stop_Hz`` (spans 102.4 kHz/2^k)
+``FLIN 2,<i>``
+    LIGO script / pySR785: 0..3 = 100, 200, 400, 800 lines
+``FSTR 2,<Hz>``
+    pySR785 ``start_Hz`` (``FSTR 2,``)
+``FAVG 2,1``
+    LIGO script "Averaging On"
+``FAVM 2,2``
+    LIGO script ``avgModDict``: 2 = RMS
+``FAVT 2,0``
+    LIGO script "Averaging Type = Linear"; pySR785
+``FAVN 2,<n>``
+    LIGO script "Number of Averaging"
+``FWIN 2,5``
+    LIGO script ``winFuncDict``: 5 = "Force/Exponential"
+``FWFL 2,<s>``
+    **unconfirmed** (manual, Window commands: force length)
+``FWTC 2,<%>``
+    **unconfirmed** (manual: exponential time constant, % of record)
+``TSRC 1``
+    LIGO script: 1 = "Ch1" (single argument)
+``TMOD 0``
+    LIGO script "Auto trigger arming"
+``TSLP 0``
+    **unconfirmed** (manual, Trigger commands: rising slope)
+``TLVL <pct>``
+    LIGO script "Sets trigger level in percent"
+``TDLA <s>`` ``TDLB <s>``
+    LIGO script "Delay for channel 1/2 in s"
+``VIEW 0,7`` ``VIEW 1,1``
+    LIGO script view table: 7 = Nyquist, 1 = Linear Magnitude; Nyquist Y-then-X order per bin
+    **unconfirmed**
+``STRT``
+    LIGO script "Start measurement"; pySR785
+``DSPS?`` ``DSPS? 1``
+    LIGO script ``DSPS?1`` (loop until averaging done); pySR785 "read AVGA (averaging complete)";
+    pyHegel SR780 ``get_display_status``: bit 1 = display A linear average complete
+``NAVG? 0``
+    LIGO script (averages done)
+``DSPN? d`` ``DSPB? d``
+    LIGO script and pySR785 (4-byte floats, no header)
+``FSPN? 0`` ``FLIN? 0`` ``FSTR? 0`` ``FAVN? 0`` ``TLVL?``
+    LIGO script / pySR785 queries
+``INPS?``
+    pyHegel SR780 ``get_input_status``: bit 2 = input 1 exceeded full scale, bit 10 = input 2
+    exceeded full scale (:data:`INPS_OVERLOAD_BITS`); same word on the SR785 unconfirmed
+``ERRS?``
+    pyHegel SR780 ``get_error`` (``ERRS?``: bit 0 output error, 1 disk error, 2 math error, 3-12
+    memory/calibration test failures, :data:`ERRS_BITS`); the same layout on the SR785 is
+    unconfirmed, so any non-zero word counts as an error and is printed with its bits
+``PAUS``
+    pyHegel SR780 (``PAUS`` "make sure we are not scanning anymore")
 
 Faults: ``*ESR?`` is read after every set-up command (a rejected command is named with the
 error bits it set), and ``ERRS?`` + ``*ESR?`` after every trace transfer (issue 15): an error
@@ -97,17 +123,31 @@ TSRC_CH1 = 1
 DSPS_AVGA = 1
 #: Input status word bits: channel 1 / channel 2 overload
 INPS_OVERLOAD_BITS = (1 << 2, 1 << 10)
-#: standard event status bits that mean an error (IEEE 488.2)
-ESR_ERRORS = {2: "query error",
-              3: "device-dependent error",
+#: standard event status bits that mean an error (IEEE 488.2; SR780 layout in pyHegel)
+ESR_ERRORS = {2: "query error (too many responses pending)",
+              3: "input overflow (too many commands received)",
               4: "execution error (parameter out of range or not allowed now)",
               5: "command error (unknown command or bad syntax)"}
+#: error status word (``ERRS?``) bits, SR780 layout (pyHegel); unconfirmed on the SR785
+ERRS_BITS = {0: "output error", 1: "disk error", 2: "math error", 3: "RAM test failed",
+             4: "ROM test failed", 5: "video memory test failed", 6: "help memory test failed",
+             7: "DSP data memory failed", 8: "DSP program memory failed",
+             9: "DSP DRAM failed", 10: "DSP calibration memory failed",
+             11: "ch1 calibration memory failed", 12: "ch2 calibration memory failed"}
 
 
 def esr_text(word: int) -> str:
     """The error bits of a standard event status word, as text ("" when none)."""
     found = [f"bit {bit}: {text}" for bit, text in ESR_ERRORS.items() if word & (1 << bit)]
     return f"*ESR? = {word} ({'; '.join(found)})" if found else ""
+
+
+def errs_text(word: int) -> str:
+    """An error status word as text ("" when 0); bits outside :data:`ERRS_BITS` by number."""
+    if not word:
+        return ""
+    found = [f"bit {b}: {ERRS_BITS.get(b, 'unknown')}" for b in range(16) if word & (1 << b)]
+    return f"ERRS? = {word} ({'; '.join(found)})"
 
 
 class SR785(Analyser):
@@ -188,9 +228,8 @@ class SR785(Analyser):
     def transfer_errors(self) -> list[str]:
         """Error status word (``ERRS?``) and standard event status (``*ESR?``), both cleared
         by reading; any error bit raised during the transfer is returned as text."""
-        errs = int(self.transport.query("ERRS?"))
-        found = [f"ERRS? = {errs} (error status word)"] if errs else []
-        return found + self._esr_errors()
+        text = errs_text(int(self.transport.query("ERRS?")))
+        return ([text] if text else []) + self._esr_errors()
 
     # -------------------------------------------------------------- measuring
     def start(self) -> None:

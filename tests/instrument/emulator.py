@@ -63,7 +63,7 @@ class Fault:
     "drop" (send part of the block, then close the connection), "error" (report an error for
     the command instead of executing it: SCPI error queue / ESR execution-error bit), "flag"
     (execute it and send the data, but raise an error during the transfer: 35670A error queue
-    ``-230,"Data corrupt or stale"``; SR785 ``*ESR?`` bit 4 and ``ERRS?`` bit 5).
+    ``-230,"Data corrupt or stale"``; SR785 ``*ESR?`` bit 4).
     ``measurement`` 0 = before any measurement (configuration). ``times``: how often the fault
     fires (0 = every time the command comes in that measurement).
     """
@@ -534,8 +534,7 @@ class SR785Emulator(EmulatorBase):
             self.esr |= 1 << 5
             return None
         if fault is not None and fault.kind == "flag":
-            self.esr |= 1 << 4
-            self.errs |= 1 << 5
+            self.esr |= 1 << 4          # execution error: the data sent are not good
             return answer
         if fault is not None:
             return self.apply_fault(fault, answer)

@@ -242,7 +242,7 @@ def _sr_transfer(trace, frf, coh, check):
 
 def _sr_script(bad_trace, repeats):
     ok = [("ERRS?", "0"), ("*ESR?", "0")]
-    flagged = [("ERRS?", "32"), ("*ESR?", "16")]
+    flagged = [("ERRS?", "4"), ("*ESR?", "16")]
     steps = [("DSPS?", "0"), ("STRT", None), ("DSPS? 1", "1"), ("INPS?", "0"),
              ("FSTR? 0", "0"), ("FSPN? 0", "800"), ("FLIN? 0", "0"), ("DSPN? 0", "3")]
     for trace in ("FRF", "coherence"):
@@ -258,7 +258,7 @@ def _sr_script(bad_trace, repeats):
 
 SCRIPTS = {HP35670A: _hp_script, SR785: _sr_script}
 ERROR_TEXT = {HP35670A: '-230,"Data corrupt or stale"',
-              SR785: "ERRS? = 32 (error status word); *ESR? = 16 (bit 4: execution error"}
+              SR785: "ERRS? = 4 (bit 2: math error); *ESR? = 16 (bit 4: execution error"}
 
 
 @pytest.mark.parametrize("driver", [HP35670A, SR785])
