@@ -221,3 +221,40 @@ def test_export_refuses_to_overwrite_and_names_bad_input(tmp_path, modes_file):
     assert r.exit_code == 2 and "file exists" in r.output and out.read_text() == "keep"
     r = run(["export", str(modes_file), "-o", str(tmp_path / "y.unv"), "--specimen", "S9"])
     assert r.exit_code == 2 and "holds specimen 'S1.1', not 'S9'" in r.output
+
+
+def test_matlab_style_compound_real_imag_is_complex(tmp_path, case):
+    path = tmp_path / "matlab.h5"
+    pair = np.dtype([("real", "<f8"), ("imag", "<f8")])
+    data = np.empty(case.frf.T.shape, dtype=pair)
+    data["real"], data["imag"] = case.frf.T.real, case.frf.T.imag
+    with h5py.File(path, "w") as f:
+        f.create_dataset("freq", data=case.freq)
+        f.create_dataset("H", data=data)
+    np.testing.assert_array_equal(io.read_frf(path).frf, case.frf)
+
+
+def test_export_one_plate_of_a_joint_result(tmp_path):
+    """A joint result holds each plate under /specimens/<name>; --specimen picks one."""
+    path = tmp_path / "joint.h5"
+    nodes = np.array([[0.0, 0.0], [0.1, 0.0], [0.0, 0.2]])
+    with h5py.File(path, "w") as f:
+        f.attrs["format"] = "laminid-joint-result"
+        for name, scale in (("A", 1.0), ("B", 2.0)):
+            g = f.create_group(f"specimens/{name}")
+            g.create_group("specimen").attrs["name"] = name
+            g.create_dataset("mesh/nodes", data=nodes * scale)
+            g.create_dataset("modes/w", data=np.array([[1.0, 2.0], [3.0, -4.0], [5.0, 6.0]]))
+            g.create_dataset("modes/frequency", data=[100.0, 200.0])
+    out = tmp_path / "B.unv"
+    r = run(["export", str(path), "-o", str(out)])
+    assert r.exit_code == 2 and "a joint result of 2 plates; choose one with --specimen (A, B)" \
+        in r.output
+    r = run(["export", str(path), "-o", str(out), "--specimen", "B", "--json"])
+    assert r.exit_code == 0, r.output
+    import pyuff
+
+    sets = pyuff.UFF(str(out)).read_sets()
+    np.testing.assert_allclose(sets[1]["y"], [0.0, 0.0, 0.4])
+    np.testing.assert_allclose(sets[3]["r3"], [2.0, -4.0, 6.0])
+    assert sets[3]["freq"] == 200.0 and sets[3]["mode_n"] == 2

@@ -7,8 +7,8 @@ them:
 - **frequency**: a 1-D real dataset, at least 2 values, finite, strictly increasing, >= 0; its
   ``units`` (or ``unit``) attribute, if any, must be a frequency unit (Hz, kHz, 1/s or rad/s;
   converted to Hz). A name such as ``freq``, ``frequency``, ``f_hz`` ranks first.
-- **FRF**: a complex dataset (HDF5 compound ``r``/``i``, as h5py, MATLAB v7.3 via h5py and
-  most tools write it), 1-D of the frequency's length, or 2-D with one axis of that length:
+- **FRF**: a complex dataset (HDF5 compound ``r``/``i`` as h5py and most tools write it, or
+  ``real``/``imag`` as MATLAB v7.3 does, or ``re``/``im``), 1-D of the frequency's length, or 2-D with one axis of that length:
   ``(n_points, n_freq)`` or ``(n_freq, n_points)`` (either orientation). Its ``units``
   attribute becomes the FRF units (default "1").
 - **coherence** (optional): a real dataset whose name contains ``coh``, of the FRF's shape.
@@ -71,14 +71,38 @@ def _units(ds) -> str | None:
     return None
 
 
+#: field names of a compound dataset holding complex numbers
+_COMPLEX_FIELDS = (("r", "i"), ("real", "imag"), ("re", "im"))
+
+
+def _complex_fields(dtype):
+    names = tuple(n.lower() for n in (dtype.names or ()))
+    for pair in _COMPLEX_FIELDS:
+        if names == pair:
+            return dtype.names
+    return None
+
+
+def _read(ds) -> np.ndarray:
+    """A dataset's values; a compound (real, imag) pair as complex."""
+    value = ds[()]
+    fields = _complex_fields(ds.dtype)
+    if fields:
+        return value[fields[0]].astype(float) + 1j * value[fields[1]].astype(float)
+    return value
+
+
 def _datasets(f) -> list[_Dataset]:
     import h5py
 
     found = []
 
     def visit(name, obj):
-        if isinstance(obj, h5py.Dataset) and obj.dtype.kind in "fiuc" and obj.ndim in (1, 2):
-            found.append(_Dataset("/" + name, tuple(obj.shape), obj.dtype.kind, _units(obj)))
+        if not isinstance(obj, h5py.Dataset) or obj.ndim not in (1, 2):
+            return
+        kind = "c" if _complex_fields(obj.dtype) else obj.dtype.kind
+        if kind in "fiuc":
+            found.append(_Dataset("/" + name, tuple(obj.shape), kind, _units(obj)))
 
     f.visititems(visit)
     return found
@@ -178,7 +202,7 @@ def read_generic_frf_h5(path, freq_dataset: str | None = None,
         datasets = _datasets(f)
         axis, frf_d = _choose(path, f, datasets, freq_dataset, frf_dataset)
         freq = np.asarray(f[axis.path][()], dtype=float) * _freq_factor(axis.units)
-        frf = _orient(np.asarray(f[frf_d.path][()], dtype=complex), freq.size)
+        frf = _orient(np.asarray(_read(f[frf_d.path]), dtype=complex), freq.size)
         coherence = None
         for d in datasets:
             if "coh" in d.name.lower() and d.kind in "fiu" and d.shape == frf_d.shape:
