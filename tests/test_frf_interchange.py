@@ -258,3 +258,9 @@ def test_export_one_plate_of_a_joint_result(tmp_path):
     np.testing.assert_allclose(sets[1]["y"], [0.0, 0.0, 0.4])
     np.testing.assert_allclose(sets[3]["r3"], [2.0, -4.0, 6.0])
     assert sets[3]["freq"] == 200.0 and sets[3]["mode_n"] == 2
+
+
+def test_a_laminid_result_given_as_frfs_is_named_for_what_it_is(modes_file):
+    r = run(["fit-frf", str(modes_file)])
+    assert r.exit_code == 2
+    assert "a laminid-modes file (results of laminid), not FRFs" in r.output

@@ -132,15 +132,20 @@ def _rank(d: _Dataset) -> int:
     return 0 if _FREQ_NAME.search(d.name) or d.units else 1
 
 
+def _listing(datasets, limit: int = 12) -> str:
+    shown = ", ".join(d.describe() for d in datasets[:limit]) or "none"
+    more = len(datasets) - limit
+    return shown + (f" and {more} more" if more > 0 else "")
+
+
 def _choose(path: Path, f, datasets, freq_path, frf_path):
     by_path = {d.path: d for d in datasets}
 
     def named(p, what):
         key = "/" + p.strip("/")
         if key not in by_path:
-            listing = ", ".join(d.describe() for d in datasets) or "none"
             raise FrfError(f"{path}: no numeric 1-D/2-D dataset {key!r} for the {what}; "
-                           f"datasets: {listing}")
+                           f"datasets: {_listing(datasets)}")
         return by_path[key]
 
     axes = [d for d in datasets if _is_axis(f, d)]
@@ -158,16 +163,14 @@ def _choose(path: Path, f, datasets, freq_path, frf_path):
                            "a complex dataset (HDF5 compound of r and i)")
         frfs = [d]
     if not frfs:
-        listing = ", ".join(d.describe() for d in datasets) or "none"
         raise FrfError(f"{path}: not a laminid FRF file and no complex dataset (FRF) in it; "
-                       f"datasets: {listing}")
+                       f"datasets: {_listing(datasets)}")
     pairs = [(a, h) for a in axes for h in frfs if _fits(h, a.shape[0])]
     if not pairs:
         raise FrfError(
             f"{path}: no frequency axis matches an FRF dataset; frequency candidates: "
-            f"{', '.join(a.describe() for a in axes) or 'none'}; FRF candidates: "
-            f"{', '.join(h.describe() for h in frfs)} (an FRF axis must have the frequency's "
-            "length)")
+            f"{_listing(axes)}; FRF candidates: {_listing(frfs)} (an FRF axis must have the "
+            "frequency's length)")
     if len(pairs) > 1:
         best = min(_rank(a) for a, _ in pairs)
         pairs = [(a, h) for a, h in pairs if _rank(a) == best]
@@ -226,9 +229,12 @@ def read_any_frf_h5(path, freq_dataset: str | None = None,
     if freq_dataset is None and frf_dataset is None:
         try:
             with h5py.File(path, "r") as f:
-                own = f.attrs.get("format") in (FORMAT, FORMAT.encode())
+                fmt = _text(f.attrs.get("format", ""))
         except OSError:
-            own = True    # let the laminid reader give its message (missing, unreadable)
-        if own:
+            fmt = FORMAT    # let the laminid reader give its message (missing, unreadable)
+        if fmt == FORMAT:
             return read_frf_h5(path)
+        if fmt.startswith("laminid-"):
+            raise FrfError(f"{path}: a {fmt} file (results of laminid), not FRFs; give the "
+                           "file written by laminid acquire or another tool's FRF file")
     return read_generic_frf_h5(path, freq_dataset, frf_dataset)
