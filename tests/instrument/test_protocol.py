@@ -284,3 +284,12 @@ def test_an_error_flagged_twice_during_a_transfer_refuses_the_point(driver, trac
     assert msg.startswith(f"{driver.MODEL} flagged an error during the {trace} transfer, "
                           "twice (read again once): ")
     assert ERROR_TEXT[driver] in msg and info.value.trace == trace
+
+
+def test_axis_with_other_lines_than_set_is_refused_by_name():
+    dsa = HP35670A(ScriptedTransport([]))
+    dsa.check_axis(SETTINGS, np.arange(801.0))          # 800 lines -> 801 bins: fine
+    with pytest.raises(InstrumentError, match=r"^35670A: the analyser returns 101 frequency "
+                                              r"lines but 800 lines were set \(span 1600 Hz\); "
+                                              r"the resolution command was not taken"):
+        dsa.check_axis(SETTINGS, np.arange(101.0))
