@@ -70,9 +70,6 @@ LOSS_NAMES = tuple(f"eta{k}" for k in TERMS)
 METHOD = "modal strain energy"
 #: relative standard deviation of a measured damping ratio where none is given (5 %)
 DEFAULT_DAMPING_SIGMA_REL = 0.05
-#: floor of the damping standard deviation from an RFP fit, relative to the damping ratio
-#: (the spread over the stable orders is zero for a noise-free fit)
-FRF_DAMPING_SIGMA_FLOOR_REL = 0.02
 VERDICT_AT_BOUND = "at bound — not identified"
 VERDICT_FIXED = "fixed"
 #: a term whose largest energy share over the fitted modes is below this is called out

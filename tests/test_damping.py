@@ -165,3 +165,51 @@ def test_too_few_modes_for_the_free_loss_factors():
     shares = np.full((2, 5), 0.2)
     with pytest.raises(FitInputError, match="2 modes with measured damping for 5 free"):
         D.fit_loss_factors(shares, np.full(2, 0.01), np.full(2, 1e-3), D.loss_labels(["m"]))
+
+
+# ----------------------------------------------------------------------------------------------
+# measured damping in the specimen file
+
+BASE = """name: p
+geometry: {a: 200 mm, b: 300 mm, h: 3 mm}
+mass: 0.3 kg
+materials:
+  carbon: {E1: 117 GPa, E2: 8.8 GPa, G12: 3.1 GPa, G13: 3.1 GPa, G23: 3.1 GPa, nu12: 0.35}
+layup: "[0/90]s"
+measured:
+  frequencies: [100, 200, null, 400]
+"""
+
+
+def _spec(extra: str):
+    from laminid_cli.specimen import load_specimen_text
+
+    return load_specimen_text(BASE + extra, "p.yaml")
+
+
+def test_specimen_damping_ratios_and_sigmas():
+    s = _spec("  damping: [0.002, 0.4 %, 0.003, null]\n"
+              "  damping_sigma: [0.0001, null, 0.0002, null]\n")
+    z, sz = s.measured.damping, s.measured.damping_sigma
+    assert z[0] == 0.002 and z[1] == pytest.approx(0.004) and np.isnan(z[2]) and np.isnan(z[3])
+    assert sz[0] == 0.0001 and np.isnan(sz[1]) and np.isnan(sz[2])
+    d = D.measured_damping(s.measured)
+    assert d.sigma[0] == 0.0001 and d.sigma[1] == pytest.approx(D.DEFAULT_DAMPING_SIGMA_REL * 0.004)
+    assert d.source == ("file", "relative", "", "")
+    assert np.allclose(d.loss_factor[:2], [0.004, 0.008])
+    assert D.measured_damping(_spec("").measured) is None
+
+
+@pytest.mark.parametrize("extra, words", [
+    ("  damping: [0.002, 0.003]\n", r"measured.damping.*2 damping ratios for 4 frequencies"),
+    ("  damping: [0.002, 0.7, null, null]\n", r"measured.damping\[2\].*between 0 and 0.5"),
+    ("  damping: [0.002, -1 %, null, null]\n", r"between 0 and 0.5"),
+    ("  damping: [0.002, 3 Hz, null, null]\n", r"plain number"),
+    ("  damping_sigma: [0.1, 0.1, 0.1, 0.1]\n", r"'damping_sigma' without 'damping'"),
+    ("  damping: [null, null, 0.01, null]\n", r"every damping ratio is null"),
+])
+def test_specimen_damping_errors_name_the_field(extra, words):
+    from laminid_cli.errors import SpecimenError
+
+    with pytest.raises(SpecimenError, match=words):
+        _spec(extra)
