@@ -201,6 +201,22 @@ def parse_loss_fix(items, material_names) -> dict[str, float]:
     return out
 
 
+def check_loss_fix(items, fms, joint: bool = False) -> None:
+    """Refuse loss-factor --fix items early (before the stiffness fit): bad names or values,
+    a specimen without measured damping, or a joint fit (its damping is not identified)."""
+    if not items:
+        return
+    fms = list(fms)
+    if joint:
+        raise FitInputError(f"--fix {items[0]}: loss factors are identified for single "
+                            "plates only, not with --joint")
+    spec = fms[0].specimen
+    parse_loss_fix(items, fms[0].material_names)
+    if spec.measured is None or spec.measured.damping is None:
+        raise FitInputError(f"--fix {items[0]}: {spec.path} has no measured damping "
+                            "(measured.damping or measured.frf_file)")
+
+
 # ----------------------------------------------------------------------------------------------
 # measured damping
 
