@@ -69,7 +69,7 @@ from laminid_cli import __version__
 from laminid_cli.atomic import atomic_path
 from laminid_cli.material import CONSTANT_UNITS, GLOBAL_UNITS
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
 
 def now_iso() -> str:
