@@ -57,12 +57,19 @@ def test_fit_frf_into_writes_the_damping(frf_case):
     assert np.all(m.damping_sigma >= 0.0199 * m.damping)
 
 
-def test_frf_to_loss_factors_within_their_intervals(frf_case):
-    tmp, zeta, truth = frf_case
+@pytest.fixture(scope="module")
+def identified(frf_case):
+    """identify --json -o of the fitted specimen: (JSON document, result file)."""
+    tmp = frf_case[0]
     out = tmp / "plate.result.h5"
     r = run("identify", tmp / "plate.yaml", "--mesh", "6x6", "--fix", FIX, "--json", "-o", out)
     assert r.exit_code == 0, r.output
-    doc = json.loads(r.output)
+    return json.loads(r.output), out
+
+
+def test_frf_to_loss_factors_within_their_intervals(frf_case, identified):
+    tmp, zeta, truth = frf_case
+    doc, out = identified
     assert doc["materials"]["E-glass/R368"]["E1"] == pytest.approx(truth.E1, rel=5e-3)
     d = doc["damping"]
     assert d["labels"] == ["E-glass/R368.eta11", "E-glass/R368.eta22", "E-glass/R368.eta12"]
@@ -107,13 +114,11 @@ def test_batch_rows_carry_the_loss_factors(frf_case, tmp_path):
     assert rows[0]["value"] == pytest.approx(eta["eta11"]["value"])
 
 
-def test_damping_report_page(frf_case, tmp_path):
+def test_damping_report_page(frf_case, identified, tmp_path):
     from laminid_cli.report_damping import damping_figures
 
-    tmp, zeta, _ = frf_case
-    out = tmp / "plate.result.h5"
-    if not out.exists():
-        pytest.skip("needs test_frf_to_loss_factors_within_their_intervals")
+    zeta = frf_case[1]
+    out = identified[1]
     figs = damping_figures(out)
     assert [name for name, _ in figs] == ["damping"]
     fig = figs[0][1]
