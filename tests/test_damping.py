@@ -213,3 +213,14 @@ def test_specimen_damping_errors_name_the_field(extra, words):
 
     with pytest.raises(SpecimenError, match=words):
         _spec(extra)
+
+
+def test_damping_and_frf_file_together_are_refused(tmp_path):
+    from laminid_cli.errors import SpecimenError
+    from laminid_cli.specimen import load_specimen_text
+
+    (tmp_path / "p.frf.h5").write_bytes(b"")
+    text = BASE.replace("  frequencies: [100, 200, null, 400]\n",
+                        "  frf_file: p.frf.h5\n  damping: [0.01]\n")
+    with pytest.raises(SpecimenError, match=r"measured.damping.*comes from the fit of 'frf_file'"):
+        load_specimen_text(text, str(tmp_path / "p.yaml"))
