@@ -142,6 +142,10 @@ def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalu
     summary["mesh"] = {"nx": fms[0].mesh_size[0], "ny": fms[0].mesh_size[1]}
     summary["uncertainty"] = uncertainty_summary(a)
     damping = None if joint else damping_of(fms[0], a, fix=fix_loss)
+    if joint and any(sp.measured is not None and sp.measured.damping is not None
+                     for sp in specimens):
+        click.echo("laminid: note: the measured damping is not used with --joint (identify "
+                   "each plate alone for its loss factors)", err=True)
     if damping is not None:
         summary["damping"] = damping.as_dict()
     if out is not None:
