@@ -146,3 +146,16 @@ def test_result_without_damping_has_no_damping_group(tmp_path):
     from laminid_cli.report_damping import damping_figures
 
     assert damping_figures(out) == []
+
+
+def test_joint_says_the_damping_is_not_used(frf_case, tmp_path):
+    tmp = frf_case[0]
+    for name in ("a.yaml", "b.yaml"):
+        (tmp_path / name).write_text((tmp / "plate.yaml").read_text())
+    r = run("identify", tmp_path / "a.yaml", tmp_path / "b.yaml", "--joint", "--mesh", "4x4",
+            "--fix", "nu12,G13,G23", "--no-output")
+    assert r.exit_code == 0, r.output
+    assert "measured damping is not used with --joint" in r.output
+    r = run("identify", tmp_path / "a.yaml", tmp_path / "b.yaml", "--joint", "--mesh", "4x4",
+            "--fix", "nu12,eta13=0.01", "--no-output")
+    assert r.exit_code == 2 and "single plates only, not with --joint" in r.output
