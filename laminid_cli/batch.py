@@ -93,7 +93,9 @@ class BatchOptions:
         return d
 
     def identify_options(self):
-        return IdentifyOptions(fix=tuple(self.fix), optimizer=self.optimizer,
+        from laminid_cli.damping import split_fix
+
+        return IdentifyOptions(fix=split_fix(self.fix)[0], optimizer=self.optimizer,
                                parametrization=self.parametrization, xtol_rel=self.xtol,
                                ftol_rel=self.ftol, max_evaluations=self.max_evaluations,
                                pairing=self.pairing)
@@ -264,6 +266,7 @@ def run_job(job: Job, options: BatchOptions) -> Outcome:
     try:
         import h5py
 
+        from laminid_cli.damping import damping_of, split_fix
         from laminid_cli.fe.mesh import parse_mesh
         from laminid_cli.forward import build_forward_model
         from laminid_cli.results import (identification_summary, uncertainty_summary,
@@ -278,12 +281,13 @@ def run_job(job: Job, options: BatchOptions) -> Outcome:
         summary = identification_summary(result)
         summary["mesh"] = {"nx": fm.mesh_size[0], "ny": fm.mesh_size[1]}
         summary["uncertainty"] = uncertainty_summary(assessment)
+        damping = damping_of(fm, assessment, fix=split_fix(options.fix)[1])
         with tempfile.TemporaryDirectory(prefix="laminid-batch-") as tmp:
             _current_tmp.append(tmp)
             try:
                 path = Path(tmp) / Path(job.output).name
                 write_identification_file(path, fm, result, summary, command="laminid batch",
-                                          assessment=assessment)
+                                          assessment=assessment, damping=damping)
                 with h5py.File(path, "r+") as f:
                     f.attrs[HASH_ATTR] = job.key
                     f.attrs["batch_name"] = job.name
@@ -456,11 +460,12 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False) -
     """One summary row (SI units), with the numbers read back from the job's result file.
 
     Keys: name, specimen (its name field), path, status, reason, cached, materials
-    ({material: {E1.. nu12}}), rms_residual_percent, evaluations, time_s, result.
+    ({material: {E1.. nu12}}), rms_residual_percent, evaluations, time_s, result, damping
+    ({material: {eta11: {value, lower, upper, verdict}}}, empty without measured damping).
     """
     row = {"name": job.name, "specimen": "", "path": str(job.spec), "status": "not run",
            "reason": "", "cached": cached, "materials": {}, "rms_residual_percent": None,
-           "evaluations": None, "time_s": None, "result": None}
+           "evaluations": None, "time_s": None, "result": None, "damping": {}}
     if outcome is not None and outcome.status == "error":
         row.update(status="error", reason=outcome.reason, time_s=outcome.time_s)
         return row
@@ -479,11 +484,45 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False) -
             row["rms_residual_percent"] = float(f["frequencies"].attrs["rms_residual_percent"])
             for g in f["materials"].values():
                 row["materials"][_str(g.attrs["name"])] = {k: float(g[k][()]) for k in CONSTANTS}
+            if "damping" in f:
+                row["damping"] = damping_of_file(f["damping"])
     except (OSError, KeyError) as exc:
         row.update(status="error", reason=f"result file {job.output} unreadable ({exc})")
         return row
     row["result"] = str(job.output)
     return row
+
+
+def damping_of_file(g) -> dict:
+    """{material: {etaXY: {value, lower, upper, verdict}}} of a result's /damping group (free
+    loss factors with their interval, fixed ones with verdict "fixed")."""
+    out: dict[str, dict] = {}
+    for k, lab in enumerate(g["labels"][()]):
+        mat, name = _str(lab).rsplit(".", 1)
+        out.setdefault(mat, {})[name] = {
+            "value": float(g["value"][k]), "lower": float(g["lower"][k]),
+            "upper": float(g["upper"][k]), "verdict": _str(g["verdict"][k])}
+    fixed = _str(g.attrs.get("fixed", ""))
+    for item in filter(None, fixed.split(",")):
+        lab, value = item.rsplit("=", 1)
+        mat, name = lab.rsplit(".", 1)
+        out.setdefault(mat, {})[name] = {"value": float(value), "lower": None, "upper": None,
+                                         "verdict": "fixed"}
+    return out
+
+
+def damping_long_rows(row) -> list[dict]:
+    """Loss-factor rows of the long summary CSV for one summary row: one per material and
+    loss factor, keys specimen, material, constant (eta11 ...), value, lower, upper, verdict,
+    unit ("1"), status; empty when the specimen had no measured damping."""
+    out = []
+    for mat, per in (row.get("damping") or {}).items():
+        for name, v in per.items():
+            out.append({"specimen": row.get("specimen") or row["name"], "material": mat,
+                        "constant": name, "value": v["value"], "lower": v["lower"],
+                        "upper": v["upper"], "verdict": v["verdict"], "unit": "1",
+                        "status": row["status"]})
+    return out
 
 
 def _str(v) -> str:

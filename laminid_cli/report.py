@@ -14,7 +14,8 @@ Pages of a result file (``laminid identify`` / ``laminid batch``), each a matplo
 4. sensitivities: heat map of d ln f_i / d ln P_j at the optimum;
 5. confidence intervals, when the file has an ``/uncertainty`` group;
 6. FRFs with their RFP fit, when the specimen took its frequencies from an FRF file
-   (``measured.frf_file``) or one is given.
+   (``measured.frf_file``) or one is given;
+7. damping (laminid_cli.report_damping), when the file has a ``/damping`` group.
 
 Every number drawn is read from the files. A batch summary (summary.csv/.json) gives one page
 of the constants across specimens (with intervals when the result files have them) and one of
@@ -258,6 +259,8 @@ def result_pages(path, *, frf_path=None) -> list[Page]:
     src = frf_source(h, frf_path)
     if src is not None:
         pages.append(Page("frf", frf_page(h, *src)))
+    from laminid_cli.report_damping import damping_figures
+    pages += [Page(name, fig) for name, fig in damping_figures(path)]
     return pages
 
 

@@ -39,6 +39,18 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
     /uncertainty/before_fixing  labels, rel_half_width, verdict of the first run when
                           --fix-undetermined fixed constants
 
+With measured damping (``measured.damping`` or an FRF file; laminid_cli.damping)::
+
+    /damping              attrs: method ("modal strain energy"), terms ("11,22,12,13,23"), s2,
+                                 chi2, dof, confidence, quantile, scaling, scale_used,
+                                 sigma_source, fixed ("material.eta13=0.01,..."), notes
+                          labels ("material.eta11", ... the free loss factors), value, std,
+                          lower, upper (1), verdict (strings), at_bound (bool);
+                          measured_loss_factor (2 zeta), measured_sigma, model_loss_factor,
+                          used (bool) per measured mode (NaN where not measured);
+                          energy_shares (n_modes, n_materials * 5) with attr labels
+                          ("material.k" columns, k = 11, 22, 12, 13, 23)
+
 Joint identifications ("laminid-joint-result", several plates sharing materials): root attrs as
 above plus specimens (names, comma-separated); /materials/<name> and /initial/<name> once
 (no density: it is per plate); /history and /uncertainty of the joint problem; and each plate's
@@ -57,7 +69,7 @@ from laminid_cli import __version__
 from laminid_cli.atomic import atomic_path
 from laminid_cli.material import CONSTANT_UNITS, GLOBAL_UNITS
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
 
 def now_iso() -> str:
@@ -236,14 +248,17 @@ def identification_summary(r) -> dict:
 
 
 def write_identification_file(path, fm, r, summary: dict, command: str = "laminid identify",
-                              assessment=None) -> None:
+                              assessment=None, damping=None) -> None:
     """Write an identification result (format "laminid-result", layout in the module docstring
     plus /history, /sensitivities and the initial constants; /uncertainty when ``assessment``,
-    a :class:`laminid_cli.uncertainty.Assessment`, is given)."""
+    a :class:`laminid_cli.uncertainty.Assessment`, is given; /damping when ``damping``, a
+    :class:`laminid_cli.damping.DampingFit`, is given)."""
     with atomic_h5(path, "laminid-result", command=command) as f:
         _write_identification(f, fm, r, summary)
         if assessment is not None:
             write_uncertainty(f, assessment, [fm.specimen.name])
+        if damping is not None:
+            write_damping(f, damping)
 
 
 def _write_identification(f, fm, r, summary: dict) -> None:
@@ -441,3 +456,32 @@ def write_joint_identification_file(path, fms, r, summary: dict, assessment=None
                 "optimizer": summary["optimizer"]})
         if assessment is not None:
             write_uncertainty(f, assessment, names)
+
+
+def write_damping(f, d) -> None:
+    """Write a :class:`laminid_cli.damping.DampingFit` as /damping (module docstring)."""
+    g = f.create_group("damping")
+    for key, value in (("method", d.method), ("terms", "11,22,12,13,23"), ("s2", d.s2),
+                       ("chi2", d.chi2), ("dof", d.dof), ("confidence", d.confidence),
+                       ("quantile", d.quantile), ("scaling", d.scaling),
+                       ("scale_used", d.scale_used), ("sigma_source", d.sigma_source),
+                       ("fixed", ",".join(f"{k}={v:g}" for k, v in d.fixed.items())),
+                       ("notes", "; ".join(d.notes))):
+        g.attrs[key] = value
+    data, dt = _strings(d.labels)
+    g.create_dataset("labels", data=data, dtype=dt)
+    for key in ("value", "std", "lower", "upper"):
+        put(g, key, np.asarray(getattr(d, key), float), "1")
+    data, dt = _strings(d.verdict)
+    g.create_dataset("verdict", data=data, dtype=dt)
+    g.create_dataset("at_bound", data=np.asarray(d.at_bound, bool))
+    put(g, "measured_loss_factor", d.measured_loss_factor, "1",
+        description="2 x measured viscous damping ratio; NaN where not measured")
+    put(g, "measured_sigma", d.measured_sigma, "1",
+        description="standard deviation of the measured modal loss factor")
+    put(g, "model_loss_factor", d.model_loss_factor, "1",
+        description="sum of energy share x ply loss factor (modal strain energy)")
+    g.create_dataset("used", data=np.asarray(d.used, bool))
+    put(g, "energy_shares", d.energy_shares, "1", labels=",".join(d.share_labels),
+        description="U_mik / U_i: strain energy of mode i in term k of material m (material "
+        "axes; the nu12 coupling split equally between 11 and 22)")

@@ -17,6 +17,8 @@ values from other tests. The full format is documented in ``specimens/README.md`
       frequencies: [125.05, 203.50, null, 446.65]   # Hz; null = not detected
       weights: [1, 1, 0, 1]            # optional, in [0, 1]; forced to 0 where null
       sigma: [0.1, 0.1, null, 0.2]     # optional standard deviations, Hz
+      damping: [0.0021, 0.0046, null, 0.5 %]   # optional viscous damping ratios zeta
+      damping_sigma: [0.0002, 0.0003, null, 0.0004]   # optional, their standard deviations
     reference:
       source: strain gauge
       materials: {IM7/977-2: {E1: 170 GPa}}
@@ -109,11 +111,16 @@ class Measured:
     freq : (n,) Hz, NaN where a mode was not detected
     weight : (n,) in [0, 1], 0 where ``freq`` is NaN (paper Eq. 17)
     sigma : (n,) Hz standard deviations, NaN where unknown; None when the file gives none
+    damping : (n,) viscous damping ratios zeta (modal loss factor eta = 2 zeta), NaN where not
+        measured; None when the file gives none (laminid_cli.damping)
+    damping_sigma : (n,) their standard deviations, NaN where unknown; None when none given
     """
 
     freq: np.ndarray
     weight: np.ndarray
     sigma: np.ndarray | None = None
+    damping: np.ndarray | None = None
+    damping_sigma: np.ndarray | None = None
 
     @property
     def n_modes(self) -> int:
@@ -704,12 +711,20 @@ def _resolve_densities(r: _Reader, top: dict, root: _Y, a: float, b: float, h: f
 
 
 def _read_measured(r: _Reader, y: _Y) -> Measured:
-    m = r.mapping(y, optional=("frequencies", "weights", "sigma", "frf_file", "bands", "modes"))
+    m = r.mapping(y, optional=("frequencies", "weights", "sigma", "frf_file", "bands", "modes",
+                               "damping", "damping_sigma"))
     if "frf_file" in m:
         if "frequencies" in m or "sigma" in m:
             raise r.error(m["frf_file"], "give either 'frequencies' (and 'sigma') or "
                                          "'frf_file', not both")
+        for key in ("damping", "damping_sigma"):
+            if key in m:
+                raise r.error(m[key], f"'{key}' comes from the fit of 'frf_file'; give either "
+                                      "the FRF file or the damping ratios, not both")
         return _measured_from_frf(r, m)
+    if "damping_sigma" in m and "damping" not in m:
+        raise r.error(m["damping_sigma"], "'damping_sigma' without 'damping' (the damping "
+                                          "ratios it belongs to)")
     for key in ("bands", "modes"):
         if key in m:
             raise r.error(m[key], f"'{key}' applies only with 'frf_file'")
@@ -762,10 +777,44 @@ def _read_measured(r: _Reader, y: _Y) -> Measured:
                 raise r.error(item, f"a standard deviation must be positive, got {item.value!r}")
             sigma[k] = value
         sigma[np.isnan(freq)] = np.nan
-    for array in (freq, weight, sigma):
+    damping = _damping_list(r, m, "damping", n, "damping ratios") if "damping" in m else None
+    damping_sigma = (_damping_list(r, m, "damping_sigma", n, "standard deviations of the damping "
+                                   "ratios") if "damping_sigma" in m else None)
+    if damping is not None:
+        damping[np.isnan(freq)] = np.nan
+        if damping_sigma is not None:
+            damping_sigma[np.isnan(damping)] = np.nan
+        if not np.isfinite(damping).any():
+            raise r.error(m["damping"], "every damping ratio is null (or its frequency is)")
+    for array in (freq, weight, sigma, damping, damping_sigma):
         if array is not None:
             array.flags.writeable = False
-    return Measured(freq=freq, weight=weight, sigma=sigma)
+    return Measured(freq=freq, weight=weight, sigma=sigma, damping=damping,
+                    damping_sigma=damping_sigma)
+
+
+def _damping_list(r: _Reader, m: dict, key: str, n: int, what: str) -> np.ndarray:
+    """``measured.damping`` / ``damping_sigma``: one dimensionless ratio per frequency (a plain
+    number or a percentage "0.4 %"), null where not measured; each in (0, 0.5)."""
+    items = r.sequence(m[key], f"a list of {what} (plain numbers or '0.4 %', null where none)")
+    if len(items) != n:
+        raise r.error(m[key], f"{len(items)} {what} for {n} frequencies; give one per "
+                              "frequency (null where not measured)")
+    out = np.full(n, np.nan)
+    for k, item in enumerate(items):
+        if item.value is None:
+            continue
+        text = item.value
+        if isinstance(text, str) and text.strip().endswith("%"):
+            value = r.quantity(_Y(text.strip()[:-1].strip(), item.line, item.field),
+                               "dimensionless") / 100
+        else:
+            value = r.quantity(item, "dimensionless")
+        if not 0 < value < 0.5:
+            raise r.error(item, f"a damping ratio (viscous, zeta = eta / 2) must be between 0 "
+                                f"and 0.5, got {item.value!r}; write 0.004 or '0.4 %'")
+        out[k] = value
+    return out
 
 
 def _measured_from_frf(r: _Reader, m: dict) -> Measured:
@@ -802,7 +851,8 @@ def _measured_from_frf(r: _Reader, m: dict) -> Measured:
         if n_modes < 1:
             raise r.error(m["modes"], "the number of modes must be at least 1")
     try:
-        freq, sigma, _damping = measured_from_frf_file(path, bands=bands, n_modes=n_modes)
+        freq, sigma, damping, damping_sigma = measured_from_frf_file(
+            path, bands=bands, n_modes=n_modes, with_damping_sigma=True)
     except FrfError as exc:
         raise r.error(m["frf_file"], f"fitting {path}: {exc}") from exc
     freq = np.asarray(freq, float)
@@ -818,9 +868,12 @@ def _measured_from_frf(r: _Reader, m: dict) -> Measured:
                 raise r.error(item, f"a weight must be in [0, 1], got {value:g}")
             weight[k] = value
     sigma = np.asarray(sigma, float)
-    for array in (freq, weight, sigma):
+    damping = np.asarray(damping, float)
+    damping_sigma = np.asarray(damping_sigma, float)
+    for array in (freq, weight, sigma, damping, damping_sigma):
         array.flags.writeable = False
-    return Measured(freq=freq, weight=weight, sigma=sigma)
+    return Measured(freq=freq, weight=weight, sigma=sigma, damping=damping,
+                    damping_sigma=damping_sigma)
 
 
 def _reference_value(r: _Reader, y: _Y, kind: str, intervals: dict, key: str) -> float:

@@ -71,6 +71,9 @@ def test_into_and_plot(tmp_path, h5, case):
     measured = yaml.safe_load(text)["measured"]
     assert np.allclose(measured["frequencies"], case.freq_hz, rtol=1e-3)
     assert len(measured["sigma"]) == 10 and min(measured["sigma"]) > 0
+    # damping ratios and their sigmas too (RFP of the synthetic case, 6 significant digits)
+    assert np.allclose(measured["damping"], case.damping_ratio, rtol=0.05)
+    assert all(s >= 0.0199 * z for s, z in zip(measured["damping_sigma"], measured["damping"]))
     assert (tmp_path / "p.yaml.bak").read_text() == SPEC
     # the plot is not overwritten without --force
     r = run(["fit-frf", str(h5), "--plot", str(png)])
@@ -149,6 +152,8 @@ def test_into_a_real_specimen_keeps_it_loadable(tmp_path, h5, case):
     s = specimen.read_specimen(spec)
     assert np.allclose(s.measured.freq, case.freq_hz, rtol=1e-3)
     assert np.all(s.measured.sigma > 0)
+    assert np.allclose(s.measured.damping, case.damping_ratio, rtol=0.05)
+    assert np.all(s.measured.damping_sigma > 0)
     before = yaml.safe_load(src.read_text())
     after = yaml.safe_load(spec.read_text())
     before.pop("measured"), after.pop("measured")

@@ -38,8 +38,9 @@ def _parse_bands(ctx, param, values):
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False), default=None,
               help="Write a figure (PNG/PDF/SVG): FRFs with the fit, poles, stabilisation chart.")
 @click.option("--into", "spec_path", type=click.Path(dir_okay=False), default=None,
-              help="Write the frequencies and their sigmas into this specimen file's "
-                   "'measured:' entry (comments kept, backup SPEC.bak).")
+              help="Write the frequencies, their sigmas, the damping ratios and their "
+                   "sigmas into this specimen file's 'measured:' entry (comments kept, backup "
+                   "SPEC.bak).")
 @force_option
 @json_option
 def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path, spec_path,
@@ -88,7 +89,9 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     if spec_path is not None:
         from laminid_cli.frf.into import write_measured
 
-        write_measured(spec_path, fit.freq_hz.tolist(), sigma.tolist())
+        write_measured(spec_path, fit.freq_hz.tolist(), sigma.tolist(),
+                       damping=fit.damping_ratio.tolist(),
+                       damping_sigma=rfp.damping_sigma(fit).tolist())
     if as_json:
         echo_json({
             "file": str(frf_file), "n_points": fs.n_points, "units": fs.units,
@@ -111,5 +114,5 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     if plot_path is not None:
         click.echo(f"plot written to {plot_path}")
     if spec_path is not None:
-        click.echo(f"{len(fit.modes)} frequencies written to {spec_path} "
+        click.echo(f"{len(fit.modes)} frequencies and damping ratios written to {spec_path} "
                    f"(backup {spec_path}.bak)")

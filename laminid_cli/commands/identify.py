@@ -8,7 +8,8 @@ import click
 
 from laminid_cli.commands._common import (check_output_path, echo_json, fit_options,
                                           force_option, json_option, uncertainty_options)
-from laminid_cli.commands.text import format_identify_report, format_joint_report
+from laminid_cli.commands.text import (format_damping, format_identify_report,
+                                       format_joint_report)
 
 
 def default_output(spec: str) -> Path:
@@ -54,12 +55,18 @@ def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalu
     d ln f / d ln P of each mode. Frequency uncertainties come from the file's measured.sigma,
     else --sigma-rel. Exit code 0 when converged, 1 when not, 2 for bad input.
 
+    When the specimen has measured damping (measured.damping, or an frf_file), the loss factors
+    eta11, eta22, eta12, eta13, eta23 of each ply material follow from the modal loss factors
+    2 zeta by the modal strain energy method, with intervals and verdicts; --fix holds them too
+    (--fix eta13=0.01,eta23=0.01 or carbon.eta13=0.01).
+
     \b
     Examples:
       laminid identify specimens/example1/S1.1.yaml
       laminid identify plate.yaml --fix nu12,G13,G23 --json
       laminid identify plate.yaml --optimizer mma -o plate-result.h5 --force
       laminid identify plate.yaml --fix-undetermined --monte-carlo 200
+      laminid identify plate.yaml --fix eta13=0.01,eta23=0.01
       laminid identify S1.1.yaml S1.2.yaml S1.3.yaml S1.4.yaml --joint
     """
     import sys
@@ -74,6 +81,8 @@ def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalu
     from laminid_cli.specimen import read_specimen
     from laminid_cli.uncertainty import UncertaintyOptions, assess, check_sigma_rel
 
+    from laminid_cli.damping import check_loss_fix, damping_of, split_fix
+
     if len(specs) > 1 and not joint:
         raise FitInputError(f"{len(specs)} specimens given: add --joint to identify them "
                             "together (one set of constants per shared material)")
@@ -86,8 +95,9 @@ def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalu
     default = default_joint_output(specs) if joint else default_output(specs[0])
     out = None if no_output else check_output_path(output or default, force)
     specimens = [read_specimen(s) for s in specs]
+    fix_elastic, fix_loss = split_fix(fix.split(","))
     options = IdentifyOptions(
-        fix=tuple(x.strip() for x in fix.split(",") if x.strip()), optimizer=optimizer,
+        fix=fix_elastic, optimizer=optimizer,
         parametrization=parametrization, xtol_rel=xtol, ftol_rel=ftol,
         max_evaluations=max_evaluations, pairing=pairing)
     uopts = UncertaintyOptions(sigma_rel=sigma_rel, scaling=covariance_scale,
@@ -96,6 +106,7 @@ def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalu
                                jobs=jobs, seed=seed)
     nxny = parse_mesh(mesh)
     fms = [build_forward_model(sp, nxny) for sp in specimens]
+    check_loss_fix(fix_loss, fms, joint)
     show_progress = not as_json and sys.stderr.isatty()
 
     def progress(n, objective, rms):
@@ -130,16 +141,26 @@ def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalu
         summary = identification_summary(result)
     summary["mesh"] = {"nx": fms[0].mesh_size[0], "ny": fms[0].mesh_size[1]}
     summary["uncertainty"] = uncertainty_summary(a)
+    damping = None if joint else damping_of(fms[0], a, fix=fix_loss)
+    if joint and any(sp.measured is not None and sp.measured.damping is not None
+                     for sp in specimens):
+        click.echo("laminid: note: the measured damping is not used with --joint (identify "
+                   "each plate alone for its loss factors)", err=True)
+    if damping is not None:
+        summary["damping"] = damping.as_dict()
     if out is not None:
         if joint:
             write_joint_identification_file(out, fms, result, summary, assessment=a)
         else:
-            write_identification_file(out, fms[0], result, summary, assessment=a)
+            write_identification_file(out, fms[0], result, summary, assessment=a,
+                                      damping=damping)
         summary["output"] = str(out)
     if as_json:
         echo_json(summary)
     else:
         click.echo(format_joint_report(summary) if joint else format_identify_report(summary))
+        if damping is not None:
+            click.echo("\n" + "\n".join(format_damping(summary["damping"])))
         if out is not None:
             click.echo(f"\nwritten: {out}")
     if not result.converged:

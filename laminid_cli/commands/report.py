@@ -39,6 +39,8 @@ def report(source, output, frf_path, dpi, force):
       sensitivities  heat map of d ln f_i / d ln P_j at the optimum
       intervals      confidence intervals (when the file has /uncertainty)
       FRF            FRFs with their RFP fit (specimens with measured.frf_file, or --frf)
+      damping        measured vs model modal loss factors, strain-energy shares, ply loss
+                     factors (when the specimen has measured damping)
     A batch summary gives the constants across specimens (with intervals when the results
     have them) and the RMS residuals.
 

@@ -293,3 +293,47 @@ def _num(name: str, value) -> str:
     if value is None or not math.isfinite(value):
         return "-"
     return f"{value:.3f}" if name == "nu12" else f"{value / 1e9:.2f}"
+
+
+def format_damping(d: dict) -> list[str]:
+    """Ply loss factors with intervals and verdicts, and measured vs model modal loss factors
+    (the JSON block "damping")."""
+    conf = d["confidence"] * 100
+    lines = [f"ply loss factors ({d['method']}, {conf:.0f} % intervals; eta = 2 zeta)"]
+    mats = d["loss_factors"]
+    many = len(mats) > 1
+    lines.append(f"  {'loss factor':<{24 if many else 12}} {'value %':>9} "
+                 f"{f'{conf:.0f} % interval %':>20}  verdict")
+    for mat, per in mats.items():
+        for name, v in per.items():
+            lab = f"{mat}.{name}" if many else name
+            if v["verdict"] == "fixed":
+                cell = ""
+            elif v.get("at_bound"):
+                cell = f"<= {fmt(100 * v['upper'], '.3g')}"
+            else:
+                cell = f"{fmt(100 * v['lower'], '.3g')} .. {fmt(100 * v['upper'], '.3g')}"
+            lines.append(f"  {lab:<{24 if many else 12}} {fmt(100 * v['value'], '9.3f')} "
+                         f"{cell:>20}  {v['verdict']}")
+    s2 = d["s2"]
+    used = ("stated damping sigma (normal quantile)" if d["scaling"]["used"] == "stated" else
+            "scaled by s2 (Student t quantile)")
+    lines.append(f"  damping standard deviations: {d['sigma_source'] or '-'}; intervals from: "
+                 f"{used}; s2 = {fmt(s2, '.3g')} ({d['dof']} degrees of freedom)")
+    for note in d.get("notes", []):
+        lines.append(f"  note: {note}")
+    lines.append("")
+    labels = d["energy_share_labels"]
+    short = [lab.rsplit(".", 1)[1] if not many else lab for lab in labels]
+    width = max(7, max(len(x) for x in short) + 1)
+    lines.append("modal loss factors (%) and strain-energy shares (%) of each mode")
+    lines.append(f"  {'mode':>4} {'measured':>9} {'+/-':>7} {'model':>7}"
+                 + "".join(f"{'U' + x:>{width}}" for x in short))
+    for i, meas in enumerate(d["measured_loss_factor"]):
+        m = "-" if meas is None or not math.isfinite(meas) else f"{100 * meas:.3f}"
+        sig = d["measured_sigma"][i]
+        sig = "-" if sig is None or not math.isfinite(sig) else f"{100 * sig:.3f}"
+        skip = "" if d["used"][i] or m == "-" else "  (not fitted: weight 0)"
+        lines.append(f"  {i + 1:>4} {m:>9} {sig:>7} {fmt(100 * d['model_loss_factor'][i], '7.3f')}"
+                     + "".join(f"{100 * x:>{width}.1f}" for x in d["energy_shares"][i]) + skip)
+    return lines

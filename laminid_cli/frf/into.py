@@ -1,7 +1,9 @@
 """Write fitted natural frequencies into a specimen file's ``measured:`` mapping.
 
 Only ``measured.frequencies`` (Hz, ``null`` for a mode not found), ``measured.sigma`` (Hz,
-standard deviations) and, when asked or already present, ``measured.weights`` change; every
+standard deviations), ``measured.damping`` and ``measured.damping_sigma`` (viscous damping
+ratios and their standard deviations, when given) and, when asked or already present,
+``measured.weights`` change; every
 comment, every other key and their order are kept (ruamel.yaml round trip). The file is never
 left half-written or invalid:
 
@@ -23,7 +25,7 @@ from pathlib import Path
 
 from laminid_cli.errors import SpecimenError
 
-KEYS = ("frequencies", "sigma", "weights")
+KEYS = ("frequencies", "sigma", "weights", "damping", "damping_sigma")
 
 
 def _round(x: float | None, digits: int) -> float | None:
@@ -32,8 +34,15 @@ def _round(x: float | None, digits: int) -> float | None:
     return round(float(x), digits)
 
 
-def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, backup: bool = True
-                   ) -> Path:
+def _sig(x, digits: int = 6) -> float | None:
+    """``x`` to ``digits`` significant digits (damping ratios are small numbers)."""
+    if x is None or not math.isfinite(x):
+        return None
+    return float(f"{float(x):.{digits - 1}e}")
+
+
+def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=None,
+                   damping_sigma=None, backup: bool = True) -> Path:
     """Replace/insert the measured frequencies (and sigma, weights) of a specimen YAML file.
 
     Parameters
@@ -44,6 +53,8 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, backup: b
     weights : (n,) in [0, 1] or None. When None and the file already has ``weights``: kept if
         its length matches (0 where the new frequency is null, 1 where a mode null before is
         now found), otherwise rewritten as 1 for found modes and 0 for null ones.
+    damping, damping_sigma : (n,) viscous damping ratios and their standard deviations, or
+        None (written to ``measured.damping`` / ``measured.damping_sigma``, 6 significant digits)
     backup : keep the original as ``<spec>.bak``
 
     Returns the backup path (or the spec path when ``backup`` is false).
@@ -76,6 +87,12 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, backup: b
             raise ValueError("sigma_hz and freq_hz differ in length")
         sig = [_round(None if s is None else float(s), 4) if ok else None
                for s, ok in zip(sigma_hz, found)]
+    extra = {}
+    for key, values in (("damping", damping), ("damping_sigma", damping_sigma)):
+        if values is not None:
+            if len(values) != len(freq):
+                raise ValueError(f"{key} and freq_hz differ in length")
+            extra[key] = [_sig(v) if ok else None for v, ok in zip(values, found)]
     if weights is not None:
         if len(weights) != len(freq):
             raise ValueError("weights and freq_hz differ in length")
@@ -123,6 +140,8 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, backup: b
         put("sigma", sig)
     if wts is not None:
         put("weights", wts)
+    for key, values in extra.items():
+        put(key, values)
 
     buf = io.StringIO()
     rt.dump(doc, buf)
@@ -140,6 +159,7 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, backup: b
         exp_measured["sigma"] = sig
     if wts is not None:
         exp_measured["weights"] = wts
+    exp_measured.update(extra)
     expect["measured"] = exp_measured
     if check != expect:
         raise SpecimenError("edited file would not read back as intended; file left unchanged",

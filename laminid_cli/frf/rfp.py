@@ -1036,8 +1036,8 @@ def _band_constants(freq, frf, chart, own, near, criteria):
 
 # --------------------------------------------------------------------------- file -> specimen
 def measured_from_frf_file(path, *, bands=None, n_modes: int | None = None,
-                           criteria: PoleCriteria = PoleCriteria()
-                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                           criteria: PoleCriteria = PoleCriteria(),
+                           with_damping_sigma: bool = False) -> tuple:
     """Natural frequencies of the FRFs in a file, for a specimen's ``measured.frf_file``.
 
     Parameters
@@ -1052,6 +1052,8 @@ def measured_from_frf_file(path, *, bands=None, n_modes: int | None = None,
     sigma_hz : float (n_modes,), Hz, spread over the stable orders (floored, see
         :func:`frequency_sigma`)
     damping : float (n_modes,), damping ratios
+    damping_sigma : float (n_modes,), with ``with_damping_sigma``: their standard deviations
+        (:func:`damping_sigma`)
 
     Raises :class:`~laminid_cli.errors.FrfError` on unreadable files or failed fits.
     """
@@ -1059,7 +1061,25 @@ def measured_from_frf_file(path, *, bands=None, n_modes: int | None = None,
 
     fs = read_frf(path)
     fit = find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes, criteria=criteria)
+    if with_damping_sigma:
+        return fit.freq_hz, frequency_sigma(fit, fs.freq), fit.damping_ratio, damping_sigma(fit)
     return fit.freq_hz, frequency_sigma(fit, fs.freq), fit.damping_ratio
+
+
+#: floor of a fitted damping ratio's standard deviation, relative to the ratio (2 %)
+DAMPING_SIGMA_FLOOR_REL = 0.02
+
+
+def damping_sigma(fit: ModalFit) -> np.ndarray:
+    """Standard deviations of the fitted damping ratios, for the loss-factor identification.
+
+    The spread over the stable orders, floored at :data:`DAMPING_SIGMA_FLOOR_REL` of the
+    damping ratio (a noise-free fit has no spread).
+    """
+    if not fit.modes:
+        return np.zeros(0)
+    std = np.array([m.damping_std for m in fit.modes])
+    return np.maximum(std, DAMPING_SIGMA_FLOOR_REL * fit.damping_ratio)
 
 
 def frequency_sigma(fit: ModalFit, freq) -> np.ndarray:

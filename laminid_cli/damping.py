@@ -1,0 +1,565 @@
+"""Ply loss factors from measured modal damping: the modal strain energy method.
+
+Model (Adams & Bacon 1973; Ni & Adams 1984; Maheri & Adams 1994 for plates with transverse
+shear). The loss factor of mode i is the energy-weighted mean of the ply loss factors::
+
+    eta_i = sum_m sum_k eta_mk U_mik / U_i,     U_i = sum_m sum_k U_mik = phi_i^T K phi_i / 2
+
+with U_mik the strain energy of mode i stored in the stress-strain term k of material m, in the
+material's own axes (1 fibre, 2 transverse, 3 normal), and eta_mk the loss factor of that term
+(specific damping capacity psi = 2 pi eta). The five terms k (:data:`TERMS`) are::
+
+    11:  sigma_1 eps_1 / 2  = (Q11 eps_1^2 + Q12 eps_1 eps_2) / 2
+    22:  sigma_2 eps_2 / 2  = (Q22 eps_2^2 + Q12 eps_1 eps_2) / 2
+    12:  tau_12 gamma_12 / 2 = G12 gamma_12^2 / 2
+    13:  tau_13 gamma_13 / 2 = G13 gamma_13^2 / 2
+    23:  tau_23 gamma_23 / 2 = G23 gamma_23^2 / 2
+
+The nu12 coupling term Q12 eps_1 eps_2 is split equally between 11 and 22: this is Adams and
+Bacon's partition of the energy into the products sigma_k eps_k of each direction (the energy
+that each direction's stress does on its own strain), which Ni & Adams use; the five terms add up
+to the whole strain energy exactly. In complex-modulus form it is the damping model
+Q11 (1 + i eta11), Q22 (1 + i eta22), Q12 (1 + i (eta11 + eta22)/2), G12 (1 + i eta12), ...
+(:func:`complex_coefficients`, ``moduli="terms"``), of which the strain-energy loss factors are
+the exact first-order eigenvalue perturbation. Complex engineering moduli E1 (1 + i eta11),
+E2 (1 + i eta22) with a real nu12 (``moduli="engineering"``) are another damping model: to first
+order Q11, Q22 and Q12 gain i d (eta22 - eta11) with d = nu12^2 E2 / (E1 - nu12^2 E2), and Q12
+carries eta22 rather than the mean; with eta11 = 0.2 %, eta22 = 1.2 % that moves the loss
+factor of fibre-dominated modes by 3-5 % (S1.1, S2.1); with eta11 = eta22 both coincide.
+
+Computation. The plate's stiffness is linear in the coefficients of the six basis matrices of
+each material (laminid_cli.material, Eq. 8), and a term matrix in material axes is an
+orthotropic matrix too, so it is a fixed combination of the same six basis matrices in *every*
+ply orientation (the rotation is linear and the basis matrices are rotations of their 0 deg
+forms). :func:`term_coefficients` gives that combination (5, 6) per material; the term energies
+of all modes then follow from the basis strain energies ``phi^T K_basis[m, j] phi`` that
+PlateModel.basis_energies already computes element-wise as batched products (paper Eq. 27):
+no new assembly, no loop over elements or plies.
+
+Identification. Measured modal loss factors eta_i = 2 zeta_i (zeta: viscous damping ratio of the
+RFP fit or the specimen file) with standard deviations 2 sigma_zeta are fitted by bounded linear
+least squares (eta >= 0, scipy.optimize.lsq_linear), each mode weighted by 1/sigma. Intervals and
+verdicts follow laminid_cli.uncertainty: covariance (A^T W A)^-1 of the free, not-at-bound loss
+factors, a-posteriori factor s2 = chi2/(n - p), the same scaling choices (stated / residuals /
+larger), normal or Student-t quantile, verdict from the relative half-width (5 % well
+determined, 30 % weak). Intervals are linear and clipped at 0. A loss factor that ends on its
+bound eta = 0 is "at bound — not identified", with the one-sided statement eta <= upper.
+
+On thin plates the transverse-shear terms 13 and 23 hold a tiny share of every mode's energy
+(first 12 modes of S1.1, a/h = 69: at most 1.5 %; of S2.1: at most 0.5 %), so their loss
+factors are not determined by the modal damping: the verdict says so; fix them
+(``--fix eta13=0.01,eta23=0.01``) to free the other three.
+
+No click, no h5py: pure library code. Shapes: ``shares`` (n_modes, n_materials * 5);
+``phi`` (n_dofs, n_modes) mass-normalised.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from laminid_cli.errors import FitInputError
+from laminid_cli.material import ElasticConstants, c_basis, ply_stiffness
+from laminid_cli.uncertainty import (SCALINGS, VERDICT_NOT, VERDICT_WEAK, VERDICT_WELL, WEAK,
+                                     WELL_DETERMINED)
+
+#: stress-strain terms in material axes (module docstring)
+TERMS = ("11", "22", "12", "13", "23")
+#: loss-factor names of the terms
+LOSS_NAMES = tuple(f"eta{k}" for k in TERMS)
+METHOD = "modal strain energy"
+#: relative standard deviation of a measured damping ratio where none is given (5 %)
+DEFAULT_DAMPING_SIGMA_REL = 0.05
+VERDICT_AT_BOUND = "at bound — not identified"
+VERDICT_FIXED = "fixed"
+#: a term whose largest energy share over the fitted modes is below this is called out
+SMALL_SHARE = 0.01
+
+# material-axes entries (Q11, Q22, Q12, Q66, Q44 = G23, Q55 = G13) of a 5x5 matrix in the
+# strain order [xx, yy, yz, xz, xy] at theta = 0
+_ENTRY = ((0, 0), (1, 1), (0, 1), (4, 4), (2, 2), (3, 3))
+
+
+def _entries(Q) -> np.ndarray:
+    return np.array([Q[..., i, j] for i, j in _ENTRY]).T
+
+
+def term_coefficients(c: ElasticConstants) -> np.ndarray:
+    """Coefficients of the five term matrices on the six stiffness basis matrices, (5, 6), Pa.
+
+    ``sum_j X[k, j] c_basis(theta)[j]`` is the term-k part of the ply matrix Q(theta) in
+    laminate axes for every angle theta; the rows add up to
+    :func:`laminid_cli.material.basis_coefficients` (the whole Q).
+    """
+    B = _entries(c_basis(0.0))                          # (6 basis, 6 entries)
+    q11, q22, q12, q66, q44, q55 = _entries(ply_stiffness(c, 0.0))
+    T = np.zeros((5, 6))
+    T[0, 0], T[0, 2] = q11, q12 / 2                     # 11: sigma_1 eps_1
+    T[1, 1], T[1, 2] = q22, q12 / 2                     # 22: sigma_2 eps_2
+    T[2, 3] = q66                                       # 12
+    T[3, 5] = q55                                       # 13
+    T[4, 4] = q44                                       # 23
+    return np.linalg.solve(B.T, T.T).T
+
+
+def complex_coefficients(c: ElasticConstants, eta, moduli: str = "terms") -> np.ndarray:
+    """Complex stiffness-basis coefficients (6,) of a ply material with loss factors ``eta``.
+
+    eta : (5,) loss factors of the terms 11, 22, 12, 13, 23
+    moduli : "terms" — each term matrix times (1 + i eta_k) (the model of the strain-energy
+        method, module docstring); "engineering" — complex E1 (1 + i eta11), E2 (1 + i eta22),
+        G12, G13, G23 with real nu12
+    """
+    eta = np.asarray(eta, float)
+    if moduli == "terms":
+        return (1 + 1j * eta) @ term_coefficients(c).astype(complex)
+    if moduli != "engineering":
+        raise ValueError(f"moduli '{moduli}' unknown (terms or engineering)")
+    E1, E2 = c.E1 * (1 + 1j * eta[0]), c.E2 * (1 + 1j * eta[1])
+    a0 = 1 - c.nu12**2 * E2 / E1
+    entries = np.array([E1 / a0, E2 / a0, c.nu12 * E2 / a0, c.G12 * (1 + 1j * eta[2]),
+                        c.G23 * (1 + 1j * eta[4]), c.G13 * (1 + 1j * eta[3])])
+    B = _entries(c_basis(0.0))
+    return np.linalg.solve(B.T.astype(complex), entries)
+
+
+def term_energies(plate, constants, phi) -> np.ndarray:
+    """Strain energies ``phi_i^T K_mk phi_i`` of every term, (n_materials, 5, n_modes), J·2/kg.
+
+    ``plate``: PlateModel; ``constants``: one ElasticConstants per material; ``phi``
+    (n_dofs, n_modes) mass-normalised, so that the sum over m and k is the eigenvalue.
+    """
+    E = plate.basis_energies(np.asarray(phi, float))                # (n_mat, 6, n_modes)
+    X = np.array([term_coefficients(c) for c in constants])         # (n_mat, 5, 6)
+    return np.einsum("mkj,mji->mki", X, E)
+
+
+def energy_shares(plate, constants, phi) -> np.ndarray:
+    """U_mik / U_i, (n_modes, n_materials * 5), columns material-major (m, k); rows sum to 1."""
+    U = term_energies(plate, constants, phi)
+    U = U.reshape(-1, U.shape[-1]).T                                # (n_modes, n_mat * 5)
+    return U / U.sum(axis=1, keepdims=True)
+
+
+def share_labels(material_names) -> tuple[str, ...]:
+    """Column labels of :func:`energy_shares`: "material.11", ... ("material.k")."""
+    return tuple(f"{m}.{k}" for m in material_names for k in TERMS)
+
+
+def modal_loss_factors(shares, eta) -> np.ndarray:
+    """eta_i = sum shares[i, c] eta[c] (module docstring); shares (n_modes, n_cols)."""
+    return np.asarray(shares, float) @ np.asarray(eta, float)
+
+
+# ----------------------------------------------------------------------------------------------
+# --fix for loss factors
+
+
+def split_fix(items) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """Split --fix items into (elastic constants, loss factors): an item whose name (after the
+    last '.' before any '=') starts with 'eta' is a loss factor, e.g. "carbon.eta13=0.01"."""
+    elastic, loss = [], []
+    for item in items:
+        item = item.strip()
+        if not item:
+            continue
+        name = item.split("=", 1)[0].strip().rsplit(".", 1)[-1]
+        (loss if name.startswith("eta") else elastic).append(item)
+    return tuple(elastic), tuple(loss)
+
+
+def parse_loss_fix(items, material_names) -> dict[str, float]:
+    """--fix loss-factor items -> {"material.eta13": value}; "eta13=0.01" fixes every material.
+
+    A value is required (there is no initial value to hold); it must be >= 0.
+    """
+    out: dict[str, float] = {}
+    for item in items:
+        if "=" not in item:
+            raise FitInputError(f"--fix {item}: a loss factor needs a value, e.g. "
+                                f"--fix {item.strip()}=0.01")
+        name, text = (s.strip() for s in item.split("=", 1))
+        try:
+            value = float(text)
+        except ValueError:
+            raise FitInputError(f"--fix {item}: '{text}' is not a number") from None
+        if not (math.isfinite(value) and value >= 0):
+            raise FitInputError(f"--fix {item}: a loss factor must be a number >= 0, got {text}")
+        if "." in name:
+            mat, const = name.rsplit(".", 1)
+            if mat not in material_names:
+                raise FitInputError(f"--fix {item}: no material '{mat}' (materials: "
+                                    f"{', '.join(material_names)})")
+            targets = [mat]
+        else:
+            const, targets = name, list(material_names)
+        if const not in LOSS_NAMES:
+            raise FitInputError(f"--fix {item}: '{const}' is not a loss factor; choose from "
+                                f"{', '.join(LOSS_NAMES)}")
+        for t in targets:
+            out[f"{t}.{const}"] = value
+    return out
+
+
+def check_loss_fix(items, fms, joint: bool = False) -> None:
+    """Refuse loss-factor --fix items early (before the stiffness fit): bad names or values,
+    a specimen without measured damping, or a joint fit (its damping is not identified)."""
+    if not items:
+        return
+    fms = list(fms)
+    if joint:
+        raise FitInputError(f"--fix {items[0]}: loss factors are identified for single "
+                            "plates only, not with --joint")
+    spec = fms[0].specimen
+    parse_loss_fix(items, fms[0].material_names)
+    if spec.measured is None or spec.measured.damping is None:
+        raise FitInputError(f"--fix {items[0]}: {spec.path} has no measured damping "
+                            "(measured.damping or measured.frf_file)")
+
+
+# ----------------------------------------------------------------------------------------------
+# measured damping
+
+
+@dataclass(frozen=True)
+class MeasuredDamping:
+    """Measured viscous damping ratios of the measured modes and their standard deviations.
+
+    zeta, sigma : (n_modes,), dimensionless, NaN where not measured; source: per mode "file"
+    (specimen measured.damping_sigma or the FRF fit's spread) or "relative"
+    (:data:`DEFAULT_DAMPING_SIGMA_REL` times zeta) or ""
+    """
+
+    zeta: np.ndarray
+    sigma: np.ndarray
+    source: tuple[str, ...]
+
+    @property
+    def loss_factor(self) -> np.ndarray:
+        return 2 * self.zeta
+
+    @property
+    def loss_sigma(self) -> np.ndarray:
+        return 2 * self.sigma
+
+
+def measured_damping(measured, sigma_rel: float = DEFAULT_DAMPING_SIGMA_REL
+                     ) -> MeasuredDamping | None:
+    """The damping of a specimen's ``measured`` block (None when it gives none)."""
+    zeta = getattr(measured, "damping", None)
+    if measured is None or zeta is None:
+        return None
+    zeta = np.asarray(zeta, float)
+    given = getattr(measured, "damping_sigma", None)
+    given = np.full(zeta.size, np.nan) if given is None else np.asarray(given, float)
+    ok = np.isfinite(zeta)
+    use = ok & np.isfinite(given)
+    sigma = np.where(use, given, np.where(ok, sigma_rel * zeta, np.nan))
+    source = tuple("file" if u else ("relative" if o else "") for u, o in zip(use, ok))
+    return MeasuredDamping(zeta=zeta, sigma=sigma, source=source)
+
+
+# ----------------------------------------------------------------------------------------------
+# the fit
+
+
+@dataclass(frozen=True)
+class DampingFit:
+    """Identified ply loss factors with their intervals (module docstring).
+
+    labels : free loss factors "material.eta11", ...; value, std, lower, upper, rel_half_width,
+        verdict, at_bound : per label
+    fixed : {"material.eta13": value} held by --fix
+    measured_loss_factor, measured_sigma, model_loss_factor : (n_modes,) over the measured
+        modes (NaN where not measured); used : (n_modes,) bool, the modes in the fit
+    energy_shares : (n_modes, n_cols) with ``share_labels``
+    """
+
+    labels: tuple[str, ...]
+    value: np.ndarray
+    std: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    rel_half_width: np.ndarray
+    verdict: tuple[str, ...]
+    at_bound: np.ndarray
+    fixed: dict
+    measured_loss_factor: np.ndarray
+    measured_sigma: np.ndarray
+    model_loss_factor: np.ndarray
+    used: np.ndarray
+    energy_shares: np.ndarray
+    share_labels: tuple[str, ...]
+    s2: float
+    chi2: float
+    dof: int
+    confidence: float
+    quantile: float
+    scaling: str
+    scale_used: str
+    sigma_source: str
+    notes: tuple[str, ...] = ()
+    method: str = METHOD
+
+    def loss_factors(self) -> dict[str, float]:
+        """Every loss factor (free and fixed), "material.etaXY" -> value."""
+        out = dict(self.fixed)
+        out.update({lab: float(v) for lab, v in zip(self.labels, self.value)})
+        return out
+
+    def as_dict(self) -> dict:
+        """The JSON block "damping" (SI; loss factors as plain numbers)."""
+        per: dict[str, dict] = {}
+        for k, lab in enumerate(self.labels):
+            mat, name = lab.rsplit(".", 1)
+            per.setdefault(mat, {})[name] = {
+                "value": float(self.value[k]), "std": float(self.std[k]),
+                "lower": float(self.lower[k]), "upper": float(self.upper[k]),
+                "rel_half_width": float(self.rel_half_width[k]), "verdict": self.verdict[k],
+                "at_bound": bool(self.at_bound[k])}
+        for lab, v in self.fixed.items():
+            mat, name = lab.rsplit(".", 1)
+            per.setdefault(mat, {})[name] = {"value": float(v), "verdict": VERDICT_FIXED}
+        return {
+            "method": self.method, "terms": ",".join(TERMS), "unit": "1",
+            "loss_factors": per,
+            "labels": list(self.labels), "value": self.value, "std": self.std,
+            "lower": self.lower, "upper": self.upper, "verdict": list(self.verdict),
+            "at_bound": [bool(b) for b in self.at_bound],
+            "fixed": dict(self.fixed),
+            "measured_loss_factor": self.measured_loss_factor,
+            "measured_sigma": self.measured_sigma,
+            "model_loss_factor": self.model_loss_factor,
+            "used": [bool(u) for u in self.used],
+            "energy_shares": self.energy_shares, "energy_share_labels": list(self.share_labels),
+            "s2": self.s2, "chi2": self.chi2, "dof": self.dof,
+            "confidence": self.confidence, "quantile": self.quantile,
+            "scaling": {"requested": self.scaling, "used": self.scale_used},
+            "sigma_source": self.sigma_source, "notes": list(self.notes),
+        }
+
+
+def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
+                     scaling: str = "larger", confidence: float = 0.95,
+                     sigma_source: str = "") -> DampingFit:
+    """Bounded weighted linear least squares of the ply loss factors (module docstring).
+
+    shares : (n_modes, n_cols) energy shares; eta_measured, eta_sigma : (n_modes,) measured
+    modal loss factors and standard deviations (NaN: mode not used); labels : (n_cols,)
+    "material.etaXY"; fixed : {label: value} columns held.
+    """
+    from scipy import stats
+    from scipy.optimize import lsq_linear
+
+    if scaling not in SCALINGS:
+        raise FitInputError(f"covariance scaling '{scaling}' unknown: choose {', '.join(SCALINGS)}")
+    A_all = np.asarray(shares, float)
+    y_all = np.asarray(eta_measured, float)
+    s_all = np.asarray(eta_sigma, float)
+    labels = tuple(labels)
+    fixed = dict(fixed or {})
+    unknown = [lab for lab in fixed if lab not in labels]
+    if unknown:
+        raise FitInputError(f"--fix {unknown[0]}: not a loss factor of this plate "
+                            f"({', '.join(labels)})")
+    used = np.isfinite(y_all) & np.isfinite(s_all) & (s_all > 0)
+    free = [j for j, lab in enumerate(labels) if lab not in fixed]
+    n, p = int(used.sum()), len(free)
+    if p == 0:
+        raise FitInputError("every loss factor is fixed; nothing to identify")
+    if n < p:
+        raise FitInputError(f"{n} modes with measured damping for {p} free loss factors; "
+                            "measure the damping of more modes or fix loss factors "
+                            "(--fix eta13=0.01,eta23=0.01)")
+    eta_fixed = np.array([fixed.get(lab, 0.0) for lab in labels])
+    A = A_all[used][:, free]
+    w = 1.0 / s_all[used]
+    b = (y_all[used] - A_all[used] @ eta_fixed) * w
+    Aw = A * w[:, None]
+    scale = np.linalg.norm(Aw, axis=0)
+    scale[scale == 0] = 1.0
+    sol = lsq_linear(Aw / scale, b, bounds=(0.0, np.inf), method="bvls", tol=1e-14,
+                     lsmr_tol=None)
+    x = np.maximum(sol.x / scale, 0.0)
+    at_bound = np.asarray(sol.active_mask) == -1          # held at eta = 0 by the bound
+    x[at_bound] = 0.0
+    inner = ~at_bound
+
+    # covariance of the interior loss factors (pseudo-inverse: null directions get inf)
+    def cov_of(cols):
+        G = Aw[:, cols] / scale[cols]
+        U_, S, Vt = np.linalg.svd(G, full_matrices=False)
+        null = S <= 1e-10 * (S[0] if S.size else 1.0)
+        Sinv = np.where(null, 0.0, 1.0 / np.where(null, 1.0, S))
+        C = (Vt.T * Sinv**2) @ Vt / np.outer(scale[cols], scale[cols])
+        var = np.diag(C).copy()
+        if null.any():
+            var[np.any(np.abs(Vt[null]) > 1e-6, axis=0)] = np.inf
+        return var
+    var = np.full(p, np.nan)
+    if inner.any():
+        var[inner] = cov_of(np.flatnonzero(inner))
+    if at_bound.any():                    # one-sided statement from the unconstrained spread
+        var[at_bound] = cov_of(np.arange(p))[at_bound]
+    r = Aw @ x - b
+    chi2 = float(r @ r)
+    dof = n - int(inner.sum())
+    s2 = chi2 / dof if dof > 0 else float("nan")
+    z = float(stats.norm.ppf(0.5 + confidence / 2))
+    used_scale, factor, q = "stated", 1.0, z
+    notes = []
+    if scaling in ("residuals", "larger"):
+        if dof <= 0:
+            notes.append(f"no degrees of freedom left ({n} modes for {p} loss factors): the "
+                         "a-posteriori variance cannot be estimated; stated sigma used")
+        else:
+            tq = float(stats.t.ppf(0.5 + confidence / 2, dof))
+            if scaling == "residuals" or tq * math.sqrt(s2) > z:
+                used_scale, factor, q = "residuals", s2, tq
+    if dof > 0 and chi2 > stats.chi2.ppf(0.99, dof):
+        notes.append(f"the strain-energy model misses the measured damping by more than its "
+                     f"stated noise (chi2 {chi2:.3g} for {dof} degrees of freedom): damping "
+                     "not of the ply materials (air, supports, joints) or sigma too small")
+    std = np.sqrt(var * factor)
+    half = q * std
+    lower = np.where(at_bound, 0.0, np.maximum(x - half, 0.0))
+    upper = x + half
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.where(x > 0, half / x, np.inf)
+    verdict = []
+    for k in range(p):
+        if at_bound[k]:
+            verdict.append(VERDICT_AT_BOUND)
+        elif rel[k] < WELL_DETERMINED:
+            verdict.append(VERDICT_WELL)
+        elif rel[k] < WEAK:
+            verdict.append(VERDICT_WEAK)
+        else:
+            verdict.append(VERDICT_NOT)
+    free_labels = tuple(labels[j] for j in free)
+    top = A_all[used].max(axis=0) if n else np.zeros(len(labels))
+    small = [labels[j] for j in free if top[j] < SMALL_SHARE]
+    if small:
+        notes.append(", ".join(small) + f": less than {SMALL_SHARE:.0%} of any fitted mode's "
+                     "strain energy is in these terms (transverse shear of a thin plate), so "
+                     "the modal damping cannot determine them; fix them (--fix "
+                     "eta13=0.01,eta23=0.01) to free the others")
+    eta_all = eta_fixed.copy()
+    eta_all[free] = x
+    meas = np.where(np.isfinite(y_all), y_all, np.nan)
+    return DampingFit(
+        labels=free_labels, value=x, std=std, lower=lower, upper=upper, rel_half_width=rel,
+        verdict=tuple(verdict), at_bound=at_bound, fixed=fixed, measured_loss_factor=meas,
+        measured_sigma=np.where(np.isfinite(y_all), s_all, np.nan),
+        model_loss_factor=A_all @ eta_all, used=used, energy_shares=A_all,
+        share_labels=(), s2=float(s2), chi2=chi2, dof=int(dof), confidence=confidence,
+        quantile=q, scaling=scaling, scale_used=used_scale, sigma_source=sigma_source,
+        notes=tuple(notes))
+
+
+def loss_labels(material_names) -> tuple[str, ...]:
+    return tuple(f"{m}.{k}" for m in material_names for k in LOSS_NAMES)
+
+
+def identify_damping(fm, result, damping: MeasuredDamping, *, fix=(), scaling: str = "larger",
+                     confidence: float = 0.95) -> DampingFit:
+    """Ply loss factors of an identified plate (after the stiffness fit).
+
+    fm : ForwardModel; result : its Identification (``phi_paired``, ``constants``, ``weight``);
+    damping : the measured damping of the same modes; fix : --fix loss-factor items.
+    Modes with frequency weight 0 are left out.
+    """
+    names = tuple(result.material_names)
+    zeta = np.asarray(damping.zeta, float)
+    n_meas = np.asarray(result.measured_hz).size
+    if zeta.size != n_meas:
+        raise FitInputError(f"{fm.specimen.path}: {zeta.size} damping ratios for {n_meas} "
+                            "measured frequencies (field 'measured.damping')")
+    shares = energy_shares(fm.plate, result.constants, result.phi_paired)
+    eta = np.where(np.asarray(result.weight) > 0, damping.loss_factor, np.nan)
+    src = sorted({s for s in damping.source if s})
+    source = {"file": "specimen file / FRF fit", "relative":
+              f"{DEFAULT_DAMPING_SIGMA_REL:.0%} of each damping ratio (none given)"}
+    fit = fit_loss_factors(shares, eta, damping.loss_sigma, loss_labels(names),
+                           fixed=parse_loss_fix(fix, names), scaling=scaling,
+                           confidence=confidence,
+                           sigma_source="; ".join(source[s] for s in src))
+    import dataclasses
+
+    return dataclasses.replace(fit, share_labels=share_labels(names),
+                               measured_loss_factor=damping.loss_factor.copy())
+
+
+def damping_of(fm, assessment, fix=()) -> DampingFit | None:
+    """The damping step of ``identify``/``batch``: loss factors when the specimen has measured
+    damping, else None. ``assessment``: laminid_cli.uncertainty.Assessment of ``fm``."""
+    d = measured_damping(fm.specimen.measured)
+    if d is None:
+        return None
+    u = assessment.uncertainty
+    return identify_damping(fm, assessment.result, d, fix=fix, scaling=u.scaling,
+                            confidence=u.confidence)
+
+
+# ----------------------------------------------------------------------------------------------
+# verification: complex eigenvalues
+
+
+@dataclass(frozen=True)
+class ComplexModes:
+    """Complex eigenvalues lambda* = omega^2 (1 + i eta) of the damped model, paired with the
+    real modes: freq_hz (n,) from Re lambda*, loss_factor (n,) = Im / Re, mac (n,)."""
+
+    freq_hz: np.ndarray
+    loss_factor: np.ndarray
+    mac: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+
+def complex_modal_loss_factors(fm, constants, eta, n_modes: int, *, moduli: str = "terms",
+                               method: str = "dense") -> ComplexModes:
+    """Modal loss factors of the complex-modulus model (verification path, not the default).
+
+    K* = sum_m sum_j coef*_mj K_basis[m, j] with coef* from :func:`complex_coefficients`
+    (eta: (n_materials, 5)); K* phi = lambda* M phi solved densely (``method="dense"``, coarse
+    meshes: all eigenvalues) or by shift-invert Arnoldi about each real eigenvalue
+    (``"shift-invert"``); each complex mode is paired with the real mode of largest MAC.
+    """
+    import scipy.linalg as sla
+    import scipy.sparse as sp
+    from scipy.sparse.linalg import eigs
+
+    plate = fm.plate
+    eta = np.atleast_2d(np.asarray(eta, float))
+    coef = np.array([complex_coefficients(c, e, moduli) for c, e in zip(constants, eta)])
+    data = np.tensordot(coef, plate.K_data.astype(complex), axes=([0, 1], [0, 1]))
+    Kc = sp.csr_matrix((data, plate.indices, plate.indptr), shape=(plate.n_dofs,) * 2)
+    real = fm.solve(constants, n_modes)
+    lam_r, phi_r = real.eigenvalues[:n_modes], real.phi[:, :n_modes]
+    if method == "dense":
+        w, V = sla.eig(Kc.toarray(), plate.M.toarray())
+        keep = np.isfinite(w) & (w.real > 1e-6 * lam_r[0])
+        w, V = w[keep], V[:, keep]
+        near = np.argsort(w.real)[: n_modes + 12]
+        w, V = w[near], V[:, near]
+    elif method == "shift-invert":
+        ws, vs = [], []
+        for lam in lam_r:
+            wi, vi = eigs(Kc, k=1, M=plate.M.astype(complex), sigma=lam)
+            ws.append(wi[0])
+            vs.append(vi[:, 0])
+        w, V = np.array(ws), np.array(vs).T
+    else:
+        raise ValueError(f"method '{method}' unknown (dense or shift-invert)")
+    M = plate.M
+    num = np.abs(phi_r.T @ (M @ V)) ** 2
+    den = np.outer(np.einsum("ij,ij->j", phi_r, M @ phi_r),
+                   np.real(np.einsum("ij,ij->j", V.conj(), M @ V)))
+    macs = num / den
+    pick = np.argmax(macs, axis=1)
+    lam_c = w[pick]
+    return ComplexModes(freq_hz=np.sqrt(lam_c.real) / (2 * np.pi),
+                        loss_factor=lam_c.imag / lam_c.real,
+                        mac=macs[np.arange(n_modes), pick])

@@ -1,0 +1,161 @@
+"""Damping end to end: FRFs with known modal damping -> fit-frf --into -> identify -> loss
+factors; the HDF5 /damping group, --json "damping", batch rows and the report page."""
+
+import json
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from laminid_cli import damping as D
+from laminid_cli.cli import cli
+from laminid_cli.forward import build_forward_model
+from laminid_cli.frf.store import write_frf_h5
+from laminid_cli.specimen import read_specimen
+from tests.frf_synth import synth_frf
+
+S21 = "specimens/example2/S2.1.yaml"
+MEASURED_BLOCK = ("  frequencies: [72.78, 121.00, 191.38, 286.78, 315.12, 340.40, 400.12, 433.84, "
+                  "634.81, 653.56, 712.43, 789.97]   # Hz, Table 5")
+#: true ply loss factors (11, 22, 12, 13, 23); the transverse-shear ones are fixed in the fits
+ETA = np.array([0.002, 0.012, 0.018, 0.012, 0.012])
+FIX = "nu12,G13,G23,eta13=0.012,eta23=0.012"
+
+
+def run(*args):
+    return CliRunner().invoke(cli, [str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def frf_case(tmp_path_factory):
+    """S2.1 (6x6 mesh, 1.3 x the initial E1): its first 8 modes with the modal damping of ETA
+    (strain energy method) as accelerance FRFs at 4 points, 1 % noise; fit-frf --into."""
+    tmp = tmp_path_factory.mktemp("damping")
+    spec = read_specimen(S21)
+    fm = build_forward_model(spec, (6, 6))
+    c0 = fm.initial_constants[0]
+    truth = type(c0)(c0.E1 * 1.3, c0.E2, c0.G12, c0.G13, c0.G23, c0.nu12)
+    modes = fm.solve([truth], 8)
+    zeta = D.modal_loss_factors(D.energy_shares(fm.plate, [truth], modes.phi), ETA) / 2
+    freq = np.arange(0.0, 700.0, 0.25)[1:]
+    rng = np.random.default_rng(3)
+    constants = rng.choice([-1, 1], size=(4, 8)) * rng.uniform(0.3, 1.0, size=(4, 8))
+    frf = synth_frf(freq, np.column_stack([modes.freq, zeta]), constants, kind="accelerance",
+                    noise=0.01, seed=4)
+    write_frf_h5(tmp / "plate.frf.h5", freq, frf, units="(m/s^2)/N")
+    (tmp / "plate.yaml").write_text(open(S21).read())
+    r = run("fit-frf", tmp / "plate.frf.h5", "--modes", "8", "--into", tmp / "plate.yaml")
+    assert r.exit_code == 0, r.output
+    return tmp, zeta, truth
+
+
+def test_fit_frf_into_writes_the_damping(frf_case):
+    tmp, zeta, _ = frf_case
+    m = read_specimen(tmp / "plate.yaml").measured
+    assert np.allclose(m.damping, zeta, rtol=0.03)
+    assert np.all(m.damping_sigma >= 0.0199 * m.damping)
+
+
+@pytest.fixture(scope="module")
+def identified(frf_case):
+    """identify --json -o of the fitted specimen: (JSON document, result file)."""
+    tmp = frf_case[0]
+    out = tmp / "plate.result.h5"
+    r = run("identify", tmp / "plate.yaml", "--mesh", "6x6", "--fix", FIX, "--json", "-o", out)
+    assert r.exit_code == 0, r.output
+    return json.loads(r.output), out
+
+
+def test_frf_to_loss_factors_within_their_intervals(frf_case, identified):
+    tmp, zeta, truth = frf_case
+    doc, out = identified
+    assert doc["materials"]["E-glass/R368"]["E1"] == pytest.approx(truth.E1, rel=5e-3)
+    d = doc["damping"]
+    assert d["labels"] == ["E-glass/R368.eta11", "E-glass/R368.eta22", "E-glass/R368.eta12"]
+    lo, hi, val = map(np.array, (d["lower"], d["upper"], d["value"]))
+    assert np.all((lo <= ETA[:3]) & (ETA[:3] <= hi)), (lo, val, hi)
+    assert val[0] == pytest.approx(ETA[0], rel=0.1) and val[2] == pytest.approx(ETA[2], rel=0.05)
+    assert np.allclose(d["measured_loss_factor"], 2 * zeta, rtol=0.03)
+    assert np.allclose(d["model_loss_factor"], 2 * zeta, rtol=0.03)
+    assert d["fixed"] == {"E-glass/R368.eta13": 0.012, "E-glass/R368.eta23": 0.012}
+    assert d["loss_factors"]["E-glass/R368"]["eta13"]["verdict"] == "fixed"
+    with h5py.File(out, "r") as f:
+        g = f["damping"]
+        assert g.attrs["method"] == "modal strain energy" and g.attrs["terms"] == "11,22,12,13,23"
+        assert [s.decode() for s in g["labels"][()]] == d["labels"]
+        assert np.allclose(g["value"][()], val) and g["value"].attrs["units"] == "1"
+        assert g["energy_shares"].shape == (8, 5)
+        assert np.allclose(g["energy_shares"][()].sum(axis=1), 1, atol=1e-12)
+        assert g["energy_shares"].attrs["labels"].startswith("E-glass/R368.11,")
+        assert g["at_bound"].dtype == bool and not g["at_bound"][()].any()
+    # the terminal report shows them with their verdicts
+    r = run("identify", tmp / "plate.yaml", "--mesh", "6x6", "--fix", FIX, "--no-output")
+    assert r.exit_code == 0
+    assert "ply loss factors (modal strain energy, 95 % intervals" in r.output
+    assert "eta13" in r.output and "fixed" in r.output
+
+
+def test_batch_rows_carry_the_loss_factors(frf_case, tmp_path):
+    from laminid_cli.batch import damping_long_rows
+
+    tmp, _, _ = frf_case
+    (tmp_path / "in").mkdir()
+    (tmp_path / "in" / "plate.yaml").write_text((tmp / "plate.yaml").read_text())
+    r = run("batch", tmp_path / "in", "--mesh", "6x6", "--fix", FIX, "--out", tmp_path / "out")
+    assert r.exit_code == 0, r.output
+    row = json.loads((tmp_path / "out" / "summary.json").read_text())["specimens"][0]
+    eta = row["damping"]["E-glass/R368"]
+    assert eta["eta11"]["lower"] <= ETA[0] <= eta["eta11"]["upper"]
+    assert eta["eta23"] == {"value": 0.012, "lower": None, "upper": None, "verdict": "fixed"}
+    rows = damping_long_rows(row)
+    assert [x["constant"] for x in rows] == ["eta11", "eta22", "eta12", "eta13", "eta23"]
+    assert all(x["unit"] == "1" and x["material"] == "E-glass/R368" for x in rows)
+    assert rows[0]["value"] == pytest.approx(eta["eta11"]["value"])
+
+
+def test_damping_report_page(frf_case, identified, tmp_path):
+    from laminid_cli.report_damping import damping_figures
+
+    zeta = frf_case[1]
+    out = identified[1]
+    figs = damping_figures(out)
+    assert [name for name, _ in figs] == ["damping"]
+    fig = figs[0][1]
+    ax_modal, ax_share = fig.axes[:2]
+    # measured points are the file's 2 zeta, in %
+    meas = ax_modal.lines[0].get_ydata()
+    assert np.allclose(meas, 100 * 2 * zeta, rtol=0.03)
+    # stacked shares reach 100 % in every mode
+    tops = np.zeros(8)
+    for bars in ax_share.containers:
+        tops = np.maximum(tops, [b.get_y() + b.get_height() for b in bars])
+    assert np.allclose(tops, 100, atol=1e-9)
+    fig.savefig(tmp_path / "damping.png", dpi=80)
+    r = run("report", out, "-o", tmp_path / "r.pdf")
+    assert r.exit_code == 0, r.output
+    assert "damping" in r.output
+
+
+def test_result_without_damping_has_no_damping_group(tmp_path):
+    out = tmp_path / "S21.result.h5"
+    r = run("identify", S21, "--mesh", "4x4", "--fix", "nu12,G13,G23", "-o", out)
+    assert r.exit_code == 0, r.output
+    with h5py.File(out, "r") as f:
+        assert "damping" not in f
+    from laminid_cli.report_damping import damping_figures
+
+    assert damping_figures(out) == []
+
+
+def test_joint_says_the_damping_is_not_used(frf_case, tmp_path):
+    tmp = frf_case[0]
+    for name in ("a.yaml", "b.yaml"):
+        (tmp_path / name).write_text((tmp / "plate.yaml").read_text())
+    r = run("identify", tmp_path / "a.yaml", tmp_path / "b.yaml", "--joint", "--mesh", "4x4",
+            "--fix", "nu12,G13,G23", "--no-output")
+    assert r.exit_code == 0, r.output
+    assert "measured damping is not used with --joint" in r.output
+    r = run("identify", tmp_path / "a.yaml", tmp_path / "b.yaml", "--joint", "--mesh", "4x4",
+            "--fix", "nu12,eta13=0.01", "--no-output")
+    assert r.exit_code == 2 and "single plates only, not with --joint" in r.output
