@@ -466,22 +466,20 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False) -
         return row
     if outcome is None and not cached:
         return row
-    import h5py
+    from laminid_cli.resultfile import ResultFileError, read_result
 
     try:
-        with h5py.File(job.output, "r") as f:
-            converged = bool(f.attrs["converged"])
-            row["status"] = "ok" if converged else "not converged"
-            row["reason"] = "" if converged else _str(f.attrs["status"])
-            row["specimen"] = _str(f["specimen"].attrs["name"])
-            row["evaluations"] = int(f.attrs["evaluations"])
-            row["time_s"] = float(f.attrs["time_s"])
-            row["rms_residual_percent"] = float(f["frequencies"].attrs["rms_residual_percent"])
-            for g in f["materials"].values():
-                row["materials"][_str(g.attrs["name"])] = {k: float(g[k][()]) for k in CONSTANTS}
-    except (OSError, KeyError) as exc:
+        res = read_result(job.output)
+    except ResultFileError as exc:
         row.update(status="error", reason=f"result file {job.output} unreadable ({exc})")
         return row
+    row["status"] = "ok" if res.converged else "not converged"
+    row["reason"] = "" if res.converged else res.optimizer_status
+    row["specimen"] = res.plates[0].name
+    row["evaluations"] = res.evaluations
+    row["time_s"] = res.time_s
+    row["rms_residual_percent"] = res.rms_residual_percent
+    row["materials"] = {m: dict(c) for m, c in res.materials.items()}
     row["result"] = str(job.output)
     return row
 
