@@ -499,11 +499,11 @@ def _initial_shapes(yaml_text: str, path: str, mesh: tuple, boundary: str, n: in
 
 def _grid(n: int, aspect: float, width: float = 10.5, height: float = 6.4) -> tuple[int, int]:
     """(n_rows, n_cols) that draws n plates of height/width ``aspect`` largest on the page
-    (each cell also needs room for a two-line title and tick labels: +1.25 in, +0.6 in)."""
+    (each cell also needs room for a three-line title and tick labels: +1.4 in, +0.6 in)."""
     best, best_scale = (1, n), 0.0
     for ncol in range(1, n + 1):
         nrow = -(-n // ncol)
-        scale = min(width / ncol - 0.6, (height / nrow - 1.25) / aspect)
+        scale = min(width / ncol - 0.6, (height / nrow - 1.4) / aspect)
         if scale > best_scale:
             best, best_scale = (nrow, ncol), scale
     return best
@@ -552,7 +552,7 @@ def mode_shape_pages(r: ResultFile, plate) -> list:
             paired = f" (model mode {fr.model_mode[k]})" if fr.model_mode[k] != k + 1 else ""
             meas = (f"meas. {fr.measured[k]:.1f} Hz" if np.isfinite(fr.measured[k])
                     else "not measured")
-            mac_t = f", MAC vs initial {macs[k]:.2f}" if macs is not None else ""
+            mac_t = f"\nMAC vs initial {macs[k]:.2f}" if macs is not None else ""
             ax.set_title(f"mode {k + 1}{paired}: {fr.model[k]:.1f} Hz\n{meas}{mac_t}",
                          fontsize=8)
             ax.xaxis.set_major_locator(MaxNLocator(3))
@@ -638,13 +638,21 @@ def history_page(r: ResultFile):
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0,
                       ncol=1 if len(ax.get_lines()) < 14 else 2)
-    from matplotlib.ticker import LogLocator, NullFormatter
+    from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter
 
     for ax in (ax_o, ax_r, ax_c, ax_n):
         ax.tick_params(labelsize=7)
         ax.grid(lw=0.3, which="major")
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         if ax.get_yscale() == "log":
-            ax.yaxis.set_major_locator(LogLocator(base=10, numticks=8))
+            lo, hi = ax.get_ylim()
+            decades = np.log10(hi / lo)
+            if decades <= 2.5:                  # a narrow range: label 1, 2, 5 x 10^k or more
+                subs = (1.0, 2.0, 5.0) if decades > 1 else (1.0, 1.5, 2.0, 3.0, 5.0, 7.0)
+                ax.yaxis.set_major_locator(LogLocator(base=10, subs=subs))
+                ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            else:
+                ax.yaxis.set_major_locator(LogLocator(base=10, numticks=8))
             ax.yaxis.set_minor_formatter(NullFormatter())
     if hits:
         _footer(fig, "X: constant that ended at a bound of the feasible set (not identified): "
@@ -889,14 +897,14 @@ def constants_across_page(done, title: str):
                         ends += [lo, hi]
                     arrows.append((xi, v, lo, hi, color))
                 ax.plot([xi], [v], "o", ms=6, color=color, mfc="w" if undetermined else color,
-                        gid=f"value-{row['name']}-{m}", label=m)
+                        gid=f"value-{row['name']}-{m}")
                 if undetermined:
                     ax.annotate("?", (xi, v), xytext=(4, 2), textcoords="offset points",
                                 fontsize=9, color=color, weight="bold")
                 ref = r.reference.get(m, {}).get(k) if r is not None else None
                 if ref is not None:
-                    ax.plot([xi], [_gpa(k, ref)], "_", ms=12, mew=2, color="C3",
-                            label="reference value", gid=f"reference-{row['name']}-{m}")
+                    ax.plot([xi], [_gpa(k, ref)], "_", ms=14, mew=2.2, color="k",
+                            gid=f"reference-{row['name']}-{m}")
                     vals.append(_gpa(k, ref))
         if vals:
             lo, hi = min(vals + ends), max(vals + ends)
@@ -922,14 +930,18 @@ def constants_across_page(done, title: str):
         ax.set_xlim(-0.6, len(done) - 0.4)
         ax.grid(axis="y", lw=0.3)
         ax.tick_params(axis="y", labelsize=7)
-    handles = {}
-    for ax in axes:
-        for hd, lab in zip(*ax.get_legend_handles_labels()):
-            handles.setdefault(lab, hd)
+    from matplotlib.lines import Line2D
+
+    handles = {m: Line2D([], [], ls="none", marker="o", ms=6, color=f"C{c % 10}")
+               for c, m in enumerate(materials)}
+    handles["reference value"] = Line2D([], [], ls="none", marker="_", ms=14, mew=2.2,
+                                        color="k")
+    handles["not determined / at bound"] = Line2D([], [], ls="none", marker="o", ms=6,
+                                                  color="0.4", mfc="w")
     fig.legend(list(handles.values()), list(handles), loc="outside lower center",
                ncol=min(len(handles), 7), fontsize=8,
-               title="bars: confidence interval (arrow: runs off the panel); hollow + ?: not "
-                     "determined or at a bound", title_fontsize=8)
+               title="bars: confidence interval of the result file (arrow: runs off the "
+                     "panel); ?: not determined or at a bound", title_fontsize=8)
     checks = [f"{row['name']}: {w}" for row, _, r in done if (w := _row_check(row, r))]
     if checks:
         _footer(fig, "not ok — " + "; ".join(checks), color="#b35900")

@@ -49,7 +49,10 @@ complete single-plate layout (specimen, mesh, materials with its density, initia
 modes, history, sensitivities, global_properties, swaps, warnings) under /specimens/<key>/
 (attr name: the specimen name; <key> as for materials).
 
-Strings (attributes and string datasets) are UTF-8 variable-length strings. The typed reader
+Strings (attributes and string datasets) are UTF-8 variable-length strings.
+schema_version 2 (this round): safe group keys with a ``name`` attribute (schema 1 used the name
+with "/" replaced by the look-alike U+2215); the result status and log-space intervals of
+SCHEMA.md are added by their own writers. The typed reader
 of these files is :func:`laminid_cli.resultfile.read_result`.
 """
 

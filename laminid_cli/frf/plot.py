@@ -34,6 +34,14 @@ def _label_levels(freqs, lo: float, hi: float, min_gap: float = 0.018, levels: i
     return out
 
 
+def _phase(freq, H):
+    """(freq, phase deg wrapped to +/-180) with a NaN gap at each wrap, so that a wrapped line
+    is not joined by a vertical stroke across the panel."""
+    ph = np.degrees(np.angle(H))
+    jumps = np.flatnonzero(np.abs(np.diff(ph)) > 180) + 1
+    return np.insert(freq, jumps, np.nan), np.insert(ph, jumps, np.nan)
+
+
 def draw_frf(ax_m, ax_p, freq, frf, fit, *, units: str = "", coherence=None, ax_c=None,
              decimals: int = 2):
     """Draw measured FRFs (black, on top), the RFP fit per band (coloured, below), the RFP
@@ -59,8 +67,7 @@ def draw_frf(ax_m, ax_p, freq, frf, fit, *, units: str = "", coherence=None, ax_
                 ax_m.plot(freq[sel], 20 * np.log10(np.abs(H)), color=color, lw=2.2, alpha=0.55,
                           zorder=2, label="RFP fit (one colour per band)" if k == 0 and p == 0
                           else None)
-                ax_p.plot(freq[sel], np.degrees(np.angle(H)), color=color, lw=1.8, alpha=0.55,
-                          zorder=2)
+                ax_p.plot(*_phase(freq[sel], H), color=color, lw=1.8, alpha=0.55, zorder=2)
     xr = None
     if fit.bands:
         xr = (min(b.band_hz[0] for b in fit.bands) * 0.95,
@@ -88,6 +95,12 @@ def draw_frf(ax_m, ax_p, freq, frf, fit, *, units: str = "", coherence=None, ax_
         ax_c.grid(axis="y", lw=0.3)
     if xr:
         ax_m.set_xlim(*xr)
+    sel = (freq >= lo) & (freq <= hi)
+    with np.errstate(divide="ignore"):
+        db = 20 * np.log10(np.abs(frf[:, sel]))
+    db = db[np.isfinite(db)]
+    if db.size:                         # magnitudes outside the shown band do not set the scale
+        ax_m.set_ylim(db.min() - 5, db.max() + 12)
     return xr
 
 
