@@ -959,9 +959,11 @@ def residuals_across_page(rows, title: str):
     colors = ["0.45" if r["status"] == "ok" else "0.8" for r in rows]
     ax.bar(np.arange(len(rows)), rms, color=colors)
     for i, r in enumerate(rows):
+        text = (f"{rms[i]:.3f} %" if r["rms_residual_percent"] is not None else "no result")
         if r["status"] != "ok":
-            ax.annotate(r["status"], (i, rms[i]), xytext=(0, 3), textcoords="offset points",
-                        ha="center", fontsize=7, rotation=90, va="bottom")
+            text += f"\n{r['status']}"
+        ax.annotate(text, (i, rms[i]), xytext=(0, 3), textcoords="offset points",
+                    ha="center", fontsize=8, va="bottom")
     ax.set_xticks(np.arange(len(rows)), names, rotation=45, ha="right", fontsize=8)
     ax.set_ylabel("RMS residual (%)")
     ax.set_xlabel("specimen")
