@@ -277,8 +277,19 @@ def _laminate_text(plate) -> str:
     gp = plate.global_properties
     if not gp:
         return ""
-    return "laminate (Appendix A): " + ", ".join(
-        f"{k} {v:.3f}" if k.startswith("nu") else f"{k} {v / 1e9:.2f} GPa" for k, v in gp.items())
+    ref = plate.reference_global
+
+    def one(k, v):
+        nu = k.startswith("nu")
+        text = f"{k} {v:.3f}" if nu else f"{k} {v / 1e9:.2f} GPa"
+        if k in ref:
+            lo, hi = ref[k]
+            r = (f"{lo:.3g}" if nu else f"{lo / 1e9:.3g} GPa") if lo == hi else \
+                (f"{lo:.3g}–{hi:.3g}" if nu else f"{lo / 1e9:.3g}–{hi / 1e9:.3g} GPa")
+            text += f" (reference {r})"
+        return text
+
+    return "laminate (Appendix A): " + ", ".join(one(k, v) for k, v in gp.items())
 
 
 def summary_page(r: ResultFile, plate=None):
@@ -375,6 +386,17 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0, label_b
                 ax.annotate(f"{'to' if up else 'from'}\n{fmt_value(k, end)}", (x, tail),
                             xytext=(5, 0), textcoords="offset points", fontsize=7,
                             va="center", ha="left", color="C0")
+    mc = u.monte_carlo or {}
+    if iv is not None and "lower" in mc and "upper" in mc:
+        j = [x.label for x in u.intervals].index(iv.label)
+        mlo, mhi = np.ravel(mc["lower"]), np.ravel(mc["upper"])
+        if j < mlo.size:
+            ax.plot([x - 0.25] * 2, [max(g(mlo[j]), ymin), min(g(mhi[j]), ymax)], "-",
+                    color="0.45", lw=2, solid_capstyle="butt", gid="monte-carlo",
+                    label="Monte Carlo spread" if label_bands else None)
+            for end, edge, marker in ((g(mhi[j]), ymax, "^"), (g(mlo[j]), ymin, "v")):
+                if (marker == "^" and end > ymax) or (marker == "v" and end < ymin):
+                    ax.plot([x - 0.25], [edge], marker, color="0.45", ms=6, clip_on=False)
     hollow = iv is not None and (iv.at_bound or iv.verdict.startswith(("not", "at bound")))
     ax.plot([x], [g(v)], "o", ms=7, color="k", mfc="w" if hollow else "k", zorder=5,
             gid="value", label="identified" if label_bands else None)
@@ -668,7 +690,7 @@ def sensitivity_page(r: ResultFile, plate):
         labels = [lab.rsplit(".", 1)[-1] for lab in labels]
     model = plate.frequencies.model
     fig = _figure()
-    fig.suptitle(f"{plate.name}: normalised sensitivity ∂ln f_i / ∂ln P_j at the optimum\n"
+    fig.suptitle(f"{plate.name}: normalised sensitivity ∂ ln fᵢ / ∂ ln Pⱼ at the optimum\n"
                  "a column near 0: the frequencies do not determine that constant",
                  fontsize=11)
     ax = fig.subplots()

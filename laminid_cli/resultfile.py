@@ -132,6 +132,7 @@ class Plate:
     warnings: tuple[str, ...]
     reference: dict            # {material: {constant: value SI}} from the specimen's YAML
     reference_source: str = ""
+    reference_global: dict = field(default_factory=dict)   # {Ex...: (low, high) SI}
 
 
 @dataclass(frozen=True)
@@ -248,6 +249,28 @@ def parse_reference(text: str) -> tuple[dict, str]:
     return out, str(ref.get("source", "") or "")
 
 
+def parse_global_reference(text: str) -> dict:
+    """{property: (low, high)} (SI; low == high for one value) of the YAML's
+    ``reference.global`` block (laminate properties of Appendix A: Ex, nu_xy...)."""
+    import yaml
+
+    from laminid_cli.units import parse_quantity
+
+    try:
+        glob = yaml.safe_load(text)["reference"]["global"] or {}
+    except (KeyError, TypeError, AttributeError, yaml.YAMLError):
+        return {}
+    out = {}
+    for k, v in glob.items() if isinstance(glob, dict) else ():
+        kind = "dimensionless" if str(k).startswith("nu") else "modulus"
+        vals = v if isinstance(v, list) and len(v) == 2 else [v, v]
+        try:
+            out[str(k)] = tuple(float(parse_quantity(x, kind)) for x in vals)
+        except Exception:  # noqa: BLE001 - a reference we cannot read is not shown
+            continue
+    return out
+
+
 def _plate(g, name: str | None = None) -> Plate:
     sp = g["specimen"]
     fr = g["frequencies"]
@@ -286,7 +309,8 @@ def _plate(g, name: str | None = None) -> Plate:
         history=hist,
         swaps=_strings(g["swaps"]) if "swaps" in g else (),
         warnings=_strings(g["warnings"]) if "warnings" in g else (),
-        reference=ref, reference_source=source)
+        reference=ref, reference_source=source,
+        reference_global=parse_global_reference(yaml_text))
 
 
 def _uncertainty(f) -> Uncertainty | None:

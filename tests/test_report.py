@@ -369,3 +369,29 @@ def test_report_errors(batch_dir, tmp_path):
     r = run("report", tmp_path / "t.h5", "-o", tmp_path / "t.pdf")
     assert r.exit_code == 2 and "not an HDF5 file" in r.output and "laminid identify" in r.output
     assert not list(tmp_path.glob("*.pdf"))
+
+
+def test_monte_carlo_spread_drawn_beside_the_interval(checked, tmp_path):
+    path = tmp_path / "mc.result.h5"
+    shutil.copy(checked, path)
+    with h5py.File(path, "r+") as f:
+        v = f["uncertainty"]["value"][()]
+        g = f["uncertainty"].create_group("monte_carlo")
+        g.create_dataset("lower", data=0.97 * v)
+        g.create_dataset("upper", data=1.02 * v)
+    res = read_result(path)
+    fig = {p.name: p.figure for p in report_pages(path)}["intervals"]
+    a = ax(fig, f"interval-{MAT}.E1")
+    line = next(ln for ln in a.get_lines() if ln.get_gid() == "monte-carlo")
+    e1 = res.materials[MAT]["E1"] / 1e9
+    assert np.allclose(line.get_ydata(), [0.97 * e1, 1.02 * e1], rtol=1e-12)
+
+
+def test_laminate_reference_values_on_the_summary_page(batch_dir):
+    path = batch_dir / "S2.1.result.h5"
+    res = read_result(path)
+    assert res.plates[0].reference_global == {"Ey": (22.5e9, 22.5e9)}    # S2.1.yaml
+    fig = {p.name: p.figure for p in report_pages(path)}["summary"]
+    text = " ".join(t.get_text() for a in fig.axes for t in a.texts).replace("\n", " ")
+    ey = res.plates[0].global_properties["Ey"] / 1e9
+    assert f"Ey {ey:.2f} GPa (reference 22.5 GPa)" in text
