@@ -471,38 +471,38 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False) -
         return row
     if outcome is None and not cached:
         return row
-    import h5py
+    from laminid_cli.resultfile import ResultFileError, read_result
 
     try:
-        with h5py.File(job.output, "r") as f:
-            converged = bool(f.attrs["converged"])
-            row["status"] = "ok" if converged else "not converged"
-            row["reason"] = "" if converged else _str(f.attrs["status"])
-            row["specimen"] = _str(f["specimen"].attrs["name"])
-            row["evaluations"] = int(f.attrs["evaluations"])
-            row["time_s"] = float(f.attrs["time_s"])
-            row["rms_residual_percent"] = float(f["frequencies"].attrs["rms_residual_percent"])
-            for g in f["materials"].values():
-                row["materials"][_str(g.attrs["name"])] = {k: float(g[k][()]) for k in CONSTANTS}
-            if "damping" in f:
-                row["damping"] = damping_of_file(f["damping"])
-    except (OSError, KeyError) as exc:
+        res = read_result(job.output)
+    except ResultFileError as exc:
         row.update(status="error", reason=f"result file {job.output} unreadable ({exc})")
         return row
+    row["status"] = "ok" if res.converged else "not converged"
+    row["reason"] = "" if res.converged else res.optimizer_status
+    row["specimen"] = res.plates[0].name
+    row["evaluations"] = res.evaluations
+    row["time_s"] = res.time_s
+    row["rms_residual_percent"] = res.rms_residual_percent
+    row["materials"] = {m: dict(c) for m, c in res.materials.items()}
+    if res.damping is not None:
+        row["damping"] = damping_of_file(res.damping)
     row["result"] = str(job.output)
     return row
 
 
-def damping_of_file(g) -> dict:
-    """{material: {etaXY: {value, lower, upper, verdict}}} of a result's /damping group (free
-    loss factors with their interval, fixed ones with verdict "fixed")."""
+def damping_of_file(d) -> dict:
+    """{material: {etaXY: {value, lower, upper, verdict}}} of a result's /damping
+    (:class:`laminid_cli.resultfile.Damping`: free loss factors with their interval, fixed ones
+    with verdict "fixed")."""
     out: dict[str, dict] = {}
-    for k, lab in enumerate(g["labels"][()]):
+    g = d.data
+    for k, lab in enumerate(g["labels"]):
         mat, name = _str(lab).rsplit(".", 1)
         out.setdefault(mat, {})[name] = {
             "value": float(g["value"][k]), "lower": float(g["lower"][k]),
             "upper": float(g["upper"][k]), "verdict": _str(g["verdict"][k])}
-    fixed = _str(g.attrs.get("fixed", ""))
+    fixed = _str(d.attrs.get("fixed", ""))
     for item in filter(None, fixed.split(",")):
         lab, value = item.rsplit("=", 1)
         mat, name = lab.rsplit(".", 1)

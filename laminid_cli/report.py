@@ -1,25 +1,28 @@
 """Report figures of an identification result or of a batch summary (matplotlib, Agg).
 
-Pages of a result file (``laminid identify`` / ``laminid batch``), each a matplotlib Figure:
+The result file is read once by the typed reader :func:`laminid_cli.resultfile.read_result`;
+every number drawn comes from it. Pages of a single-plate result, each a matplotlib Figure:
 
-1. frequencies: measured vs model frequency of every paired mode, the residuals
-   (measured - model)/measured*100 as bars with the weighted RMS, the constants table
-   (identified, initial, reference);
-2. mode shapes: transverse displacement w0 of each paired model mode (``/modes/w`` on
-   ``/mesh/nodes``, interpolated inside each element with its serendipity shape functions),
-   filled contours of w/max|w| with the nodal lines (w = 0) in black, titled with the model and
-   measured frequencies; twelve modes per page;
-3. optimisation history: objective, RMS residual and each free constant relative to its initial
-   value against the evaluation number;
-4. sensitivities: heat map of d ln f_i / d ln P_j at the optimum;
-5. confidence intervals, when the file has an ``/uncertainty`` group;
-6. FRFs with their RFP fit, when the specimen took its frequencies from an FRF file
-   (``measured.frf_file``) or one is given;
-7. damping (laminid_cli.report_damping), when the file has a ``/damping`` group.
+1. summary: the result's status and reasons; the constants with their interval (confidence
+   level from the file), verdict, initial and reference value; a table of measured vs model
+   frequency per mode; the residuals (measured - model)/measured*100 as bars with the RMS;
+2. intervals (when the file has ``/uncertainty``): one panel per constant in its own unit
+   (GPa, 1) and on its own scale, with the verdict bands (well determined / weak, the file's
+   thresholds), the reference value, and arrows where an interval runs off the panel;
+3. mode shapes: w0 of each paired model mode (filled contours of w/max|w|, nodal lines), the
+   same size on every page, with the MAC against the *initial* model's mode the measurement
+   was first paired with (the result holds no measured shapes: frequencies only);
+4. optimisation history: objective, RMS residual and free constants / initial value, on log
+   scales, constants at a bound marked;
+5. sensitivities: heat map of d ln f_i / d ln P_j at the optimum;
+6. pages of :data:`EXTRA_PAGES` (hook for other page makers, e.g. damping);
+7. FRFs with their RFP fit and coherence, when the specimen took its frequencies from an FRF
+   file (``measured.frf_file``) or one is given.
 
-Every number drawn is read from the files. A batch summary (summary.csv/.json) gives one page
-of the constants across specimens (with intervals when the result files have them) and one of
-the RMS residuals.
+A joint result ("laminid-joint-result") gives the shared constants first (summary without the
+frequency table, intervals, history), then per plate its frequencies, mode shapes and
+sensitivities. A batch summary (summary.csv/.json) gives the constants across specimens, the
+materials of one specimen side by side, and the RMS residuals.
 
 matplotlib is imported inside the functions (Agg backend forced), so importing this module is
 cheap; no numerical module imports it.
@@ -27,7 +30,10 @@ cheap; no numerical module imports it.
 
 from __future__ import annotations
 
+import functools
 import logging
+import re
+import textwrap
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -35,13 +41,15 @@ import numpy as np
 
 from laminid_cli.atomic import atomic_path
 from laminid_cli.errors import LaminidError
+from laminid_cli.resultfile import CONSTANTS, ResultFile, read_result
 
 log = logging.getLogger(__name__)
 
-CONSTANTS = ("E1", "E2", "G12", "G13", "G23", "nu12")
 REPORT_SUFFIXES = (".pdf", ".png")
 MODES_PER_PAGE = 12
 A4_LANDSCAPE = (11.69, 8.27)
+UNDETERMINED = "not determined"
+BAND_COLORS = ("#b9dfb9", "#f3e0a6")      # well determined, weak
 
 
 class ReportError(LaminidError):
@@ -50,7 +58,7 @@ class ReportError(LaminidError):
 
 @dataclass
 class Page:
-    """One report page: a short name ("frequencies", "modes-1", ...) and its Figure."""
+    """One report page: a short name ("summary", "modes-1", ...) and its Figure."""
 
     name: str
     figure: object
@@ -65,163 +73,665 @@ def _figure(size=A4_LANDSCAPE):
     return Figure(figsize=size, layout="constrained")
 
 
-def _s(v) -> str:
-    return v.decode() if isinstance(v, bytes) else str(v)
-
-
 def _gpa(key: str, value: float) -> float:
     return value if key == "nu12" else value / 1e9
 
 
 def _unit(key: str) -> str:
-    return "" if key == "nu12" else " (GPa)"
+    return "1" if key == "nu12" else "GPa"
+
+
+def fmt_value(key: str, value) -> str:
+    """A constant in its display unit (GPa for moduli, plain nu12): 4 significant digits
+    (3 beyond 1e4 or below 1e-3, in exponent form), "∞", or "—" for NaN/None."""
+    if value is None or np.isnan(value):
+        return "—"
+    if np.isinf(value):
+        return "∞" if value > 0 else "−∞"
+    v = _gpa(key, value)
+    if key == "nu12":
+        return f"{v:.3f}" if abs(v) < 100 else f"{v:.3g}"
+    a = abs(v)
+    if a >= 1e4 or 0 < a < 1e-3:
+        return f"{v:.3g}"
+    return f"{v:.0f}" if a >= 1000 else f"{v:#.4g}"
+
+
+def short_verdict(text: str) -> str:
+    """The verdict in a few words ("not determined by these modes — fix it ..." -> "not
+    determined"; "at bound — not identified" -> "at bound, not identified")."""
+    if text.startswith("at bound"):
+        return "at bound, not identified"
+    if text.startswith("not determined"):
+        return UNDETERMINED + text[len("not determined by these modes — fix it or measure a "
+                                       "thicker plate / more modes"):]
+    return text
+
+
+def status_line(r: ResultFile) -> tuple[str, str]:
+    """(headline, colour) of the result's status; files without one say so."""
+    if r.status is None:
+        return (f"status not recorded (schema version {r.schema_version} file); optimizer: "
+                f"{r.optimizer_status}", "0.35")
+    if r.status.status == "ok":
+        return "status: OK", "#1a7f37"
+    reasons = "; ".join(f"{x.text} [{x.code}]" for x in r.status.reasons) or "no reason given"
+    return f"status: CHECK — {reasons}", "#b35900"
+
+
+def _title(r: ResultFile, plate=None, what: str = "") -> str:
+    state = "converged" if r.converged else "NOT CONVERGED"
+    name = plate.name if plate is not None else " + ".join(p.name for p in r.plates)
+    rms = plate.frequencies.rms_residual_percent if plate is not None else r.rms_residual_percent
+    mesh = (plate or r.plates[0]).mesh
+    head = f"{name}{': ' + what if what else ''}"
+    return (f"{head}\n{r.optimizer} {state}, RMS residual {rms:.3f} %, {r.evaluations} "
+            f"evaluations, mesh {mesh[0]}x{mesh[1]}")
+
+
+def _footer(fig, text: str, *, color="k", weight="normal", fontsize=8.5, gid=None) -> None:
+    """A line (or a few) of text under the page, with room kept free by the layout."""
+    lines = textwrap.wrap(text, 170)
+    h = (0.006 + 0.021 * len(lines)) * fontsize / 8.5
+    fig.get_layout_engine().set(rect=(0, h, 1, 1 - h))
+    fig.text(0.01, 0.004, "\n".join(lines), fontsize=fontsize, color=color, ha="left",
+             va="bottom", weight=weight, gid=gid)
+
+
+def _status_banner(fig, r: ResultFile) -> None:
+    text, color = status_line(r)
+    _footer(fig, text, color=color, weight="bold", gid="status")
 
 
 # ----------------------------------------------------------------------------------------------
-# reading
+# page 1: constants, frequency table, residuals
 
 
-def read_result(path) -> dict:
-    """A laminid result file as nested dicts (:func:`laminid_cli.results.read_h5`)."""
-    from laminid_cli.results import read_h5
-
-    path = Path(path)
-    try:
-        h = read_h5(path)
-    except FileNotFoundError as exc:
-        raise ReportError(f"{path}: file not found") from exc
-    except OSError as exc:
-        raise ReportError(f"{path}: not a readable HDF5 file ({exc})") from exc
-    fmt = h["@attrs"].get("format")
-    if fmt != "laminid-result":
-        raise ReportError(f"{path}: not a laminid identification result (format {fmt!r}, "
-                          "expected 'laminid-result')")
-    h["_dataset_attrs"] = dataset_attrs(path)
-    return h
-
-
-def dataset_attrs(path) -> dict[str, dict]:
-    """{"group/dataset": {attribute: value}} of every dataset (read_h5 keeps group attributes
-    only; the labels of /history/constants and /sensitivities/dlnf_dlnP are dataset ones)."""
-    import h5py
-
-    out: dict[str, dict] = {}
-
-    def visit(name, obj):
-        if isinstance(obj, h5py.Dataset):
-            out[name] = {k: _s(v) if isinstance(v, bytes) else v for k, v in obj.attrs.items()}
-
-    with h5py.File(path, "r") as f:
-        f.visititems(visit)
-    return out
-
-
-def materials_of(h: dict, group: str = "materials") -> dict[str, dict]:
-    """{material name: {constant: value SI}} of a result's /materials (or /initial)."""
-    out = {}
-    for key, g in h.get(group, {}).items():
-        if key.startswith("@"):
-            continue
-        name = g["@attrs"].get("name", key.replace("\u2215", "/"))
-        out[name] = {k: float(g[k]) for k in CONSTANTS if k in g}
-    return out
-
-
-def read_intervals(h: dict) -> dict[str, dict[str, tuple[float, float]]]:
-    """Confidence intervals {material: {constant: (low, high)}} (SI) from ``/uncertainty``.
-
-    Accepted layouts (the group is optional; an empty dict when absent or not understood):
-    per-material groups ``/uncertainty/<material>`` holding, per constant, a dataset of two
-    values (low, high) or a group/attributes with ``low``/``high`` (or ``lower``/``upper``,
-    ``ci_low``/``ci_high``); or arrays over the labels ``"<material>.<constant>"`` (attribute
-    ``labels`` or dataset ``labels``) named ``lower``/``upper`` (``low``/``high``,
-    ``ci_low``/``ci_high``) or ``interval`` (n, 2); or ``value`` and ``half_width``/
-    ``std`` (then the interval is value +/- 1.96 std).
-    """
-    u = h.get("uncertainty")
-    if not isinstance(u, dict):
-        return {}
-    out: dict[str, dict] = {}
-    mats = materials_of(h)
-
-    def low_high(node):
-        if isinstance(node, dict):
-            src = {**node.get("@attrs", {}), **{k: v for k, v in node.items() if k != "@attrs"}}
-        else:
-            arr = np.asarray(node, dtype=float).ravel()
-            return (float(arr[0]), float(arr[1])) if arr.size == 2 else None
-        for lo, hi in (("low", "high"), ("lower", "upper"), ("ci_low", "ci_high")):
-            if lo in src and hi in src:
-                return float(np.ravel(src[lo])[0]), float(np.ravel(src[hi])[0])
-        if "interval" in src:
-            return low_high(src["interval"])
-        return None
-
-    # per-material groups
-    for key, g in u.items():
-        if key.startswith("@") or not isinstance(g, dict):
-            continue
-        name = g.get("@attrs", {}).get("name", key.replace("\u2215", "/"))
-        if name not in mats:
-            continue
+def constants_rows(r: ResultFile) -> tuple[list[str], list[list[str]]]:
+    """Header and rows of the constants table (strings as drawn)."""
+    conf = r.confidence
+    head = ["constant", "identified",
+            f"{conf:.0%} interval" if conf is not None else "interval", "verdict", "initial",
+            "reference (diff.)"]
+    rows = []
+    multi = len(r.materials) > 1
+    ref = r.reference
+    for m, c in r.materials.items():
         for k in CONSTANTS:
-            if k in g:
-                iv = low_high(g[k])
-                if iv is not None:
-                    out.setdefault(name, {})[k] = iv
-    if out:
-        return out
-    # flat arrays over labels
-    ds_attrs = h.get("_dataset_attrs", {})
-    groups = [("uncertainty", u)] + [(f"uncertainty/{k}", g) for k, g in u.items()
-                                     if not k.startswith("@") and isinstance(g, dict)]
-    for where, g in groups:
-        labels = g.get("labels", g.get("@attrs", {}).get("labels"))
-        if labels is None:                      # a labels attribute on one of the datasets
-            labels = next((a["labels"] for name, a in ds_attrs.items()
-                           if name.rsplit("/", 1)[0] == where and "labels" in a), None)
-        if labels is None:
-            continue
-        if isinstance(labels, (str, bytes)):
-            labels = _s(labels).split(",")
-        labels = [_s(x) for x in np.ravel(labels)]
-        lows = highs = None
-        for lo, hi in (("lower", "upper"), ("low", "high"), ("ci_low", "ci_high")):
-            if lo in g and hi in g:
-                lows, highs = np.ravel(g[lo]), np.ravel(g[hi])
-                break
-        if lows is None and "interval" in g:
-            arr = np.asarray(g["interval"], float).reshape(len(labels), 2)
-            lows, highs = arr[:, 0], arr[:, 1]
-        if lows is None and "value" in g and ("half_width" in g or "std" in g):
-            v = np.ravel(g["value"])
-            hw = np.ravel(g["half_width"]) if "half_width" in g else 1.96 * np.ravel(g["std"])
-            lows, highs = v - hw, v + hw
-        if lows is None or len(lows) != len(labels):
-            continue
-        for lab, lo, hi in zip(labels, lows, highs):
-            if "." not in lab:
-                continue
-            m, k = lab.rsplit(".", 1)
-            if m in mats and k in CONSTANTS and np.isfinite(lo) and np.isfinite(hi):
-                out.setdefault(m, {})[k] = (float(lo), float(hi))
-        if out:
-            return out
-    return out
+            iv = r.uncertainty.get(m, k) if r.uncertainty is not None else None
+            free = k in r.free.get(m, CONSTANTS)
+            if iv is None:
+                interval, verdict = "—", "fixed" if not free else "no interval in file"
+            elif iv.at_bound:
+                interval, verdict = f"≤ {fmt_value(k, iv.upper)}" if np.isfinite(iv.upper) \
+                    else "—", "at bound, not identified"
+            else:
+                interval = f"[{fmt_value(k, iv.lower)}, {fmt_value(k, iv.upper)}]"
+                verdict = short_verdict(iv.verdict)
+            rv = ref.get(m, {}).get(k)
+            rtext = "" if rv is None else (
+                f"{fmt_value(k, rv)} ({round((c[k] - rv) / abs(rv) * 100) + 0:+d} %)" if rv else
+                fmt_value(k, rv))
+            rows.append([f"{m} {k} ({_unit(k)})" if multi else f"{k} ({_unit(k)})",
+                         fmt_value(k, c[k]), interval, verdict,
+                         fmt_value(k, r.initial.get(m, {}).get(k)), rtext])
+    return head, rows
 
 
-def frf_source(h: dict, frf_path=None):
-    """(path, bands, n_modes) of the FRF file the result's specimen was fitted from, or None.
+def _verdict_color(verdict: str) -> str:
+    if verdict.startswith("well"):
+        return "#e3f3e3"
+    if verdict.startswith("weak"):
+        return "#fbf0cf"
+    if verdict.startswith(("not", "at bound")):
+        return "#f8d7d0"
+    return "w"
+
+
+TABLE_ROWS = 22          # rows (header included) a full-height table holds
+
+
+def table_fraction(n_rows: int) -> float:
+    """Height (fraction of its axes) of a table of n_rows + a header, from the top."""
+    return min(1.0, (n_rows + 1) / TABLE_ROWS)
+
+
+def _table(ax, head, rows, *, fontsize=8, col_widths=None, colors=None):
+    ax.axis("off")
+    if not rows:
+        return None
+    t = ax.table(cellText=rows, colLabels=head, loc="upper center", cellLoc="center",
+                 colWidths=col_widths, bbox=[0, 0, 1, 1], cellColours=colors)
+    t.auto_set_font_size(False)
+    t.set_fontsize(fontsize)
+    for (i, _), cell in t.get_celld().items():
+        cell.set_linewidth(0.3)
+        if i == 0:
+            cell.set_text_props(weight="bold")
+            cell.set_facecolor("0.92")
+    return t
+
+
+def constants_table(ax, r: ResultFile) -> None:
+    head, rows = constants_rows(r)
+    colors = [["w", "w", "w", _verdict_color(row[3]), "w", "w"] for row in rows]
+    _table(ax, head, rows, fontsize=7.5, col_widths=[0.18, 0.1, 0.26, 0.19, 0.09, 0.18],
+           colors=colors)
+    ax.set_gid("constants")
+    ax.set_title("identified constants", fontsize=9, loc="left")
+
+
+def frequency_rows(plate) -> tuple[list[str], list[list[str]]]:
+    fr = plate.frequencies
+    head = ["mode", "model\nmode", "measured\n(Hz)", "model\n(Hz)", "residual\n(%)", "weight"]
+    rows = []
+    for k in range(fr.model.size):
+        meas = fr.measured[k]
+        rows.append([str(k + 1), str(fr.model_mode[k]),
+                     f"{meas:.2f}" if np.isfinite(meas) else "not measured",
+                     f"{fr.model[k]:.2f}",
+                     f"{fr.residual_percent[k]:+.3f}" if np.isfinite(fr.residual_percent[k])
+                     else "—", f"{fr.weight[k]:g}"])
+    return head, rows
+
+
+def frequency_block(fig, spec, plate) -> None:
+    """Measured-vs-model table (left) and the residual bars aligned with its rows (right)."""
+    head, rows = frequency_rows(plate)
+    f = table_fraction(len(rows))
+    sub = spec.subgridspec(2, 2, width_ratios=[1.5, 1], height_ratios=[f, 1.001 - f],
+                           wspace=0.0)
+    ax_t = fig.add_subplot(sub[0, 0])
+    ax_r = fig.add_subplot(sub[0, 1])
+    _table(ax_t, head, rows, fontsize=7.5)
+    ax_t.set_gid("frequency-table")
+    ax_t.set_title("measured vs model frequencies", fontsize=9, loc="left")
+    fr = plate.frequencies
+    n = fr.model.size
+    res = fr.residual_percent
+    y = np.arange(n)
+    bars = ax_r.barh(y, np.nan_to_num(res), 0.6, color="0.45")
+    for k in np.flatnonzero(fr.weight == 0):
+        bars[k].set_facecolor("0.85")
+        bars[k].set_hatch("//")
+    ax_r.set_gid("residuals")
+    ax_r.axvline(0, color="k", lw=0.6)
+    rms = fr.rms_residual_percent
+    if np.isfinite(rms):
+        for s in (1, -1):
+            ax_r.axvline(s * rms, color="C0", ls="--", lw=0.9)
+    lim = np.nanmax(np.abs(res)) if np.isfinite(res).any() else 1.0
+    lim = max(lim, rms if np.isfinite(rms) else 0, 1e-3)
+    ax_r.set_xlim(-1.2 * lim, 1.2 * lim)
+    ax_r.set_ylim(n - 0.5, -1.5)               # row k of the table is y = k, the header y = -1
+    ax_r.set_yticks([])
+    ax_r.tick_params(labelsize=7)
+    ax_r.set_xlabel("(measured − model)/measured (%)\nhatched: weight 0", fontsize=7)
+    ax_r.set_title("residuals" + (f"\n(dashed: ± weighted RMS {rms:.3f} %)"
+                                  if np.isfinite(rms) else ""), fontsize=8)
+    for side in ("top", "right", "left"):
+        ax_r.spines[side].set_visible(False)
+
+
+def _laminate_text(plate) -> str:
+    gp = plate.global_properties
+    if not gp:
+        return ""
+    ref = plate.reference_global
+
+    def one(k, v):
+        nu = k.startswith("nu")
+        text = f"{k} {v:.3f}" if nu else f"{k} {v / 1e9:.2f} GPa"
+        if k in ref:
+            lo, hi = ref[k]
+            r = (f"{lo:.3g}" if nu else f"{lo / 1e9:.3g} GPa") if lo == hi else \
+                (f"{lo:.3g}–{hi:.3g}" if nu else f"{lo / 1e9:.3g}–{hi / 1e9:.3g} GPa")
+            text += f" (reference {r})"
+        return text
+
+    return "laminate (Appendix A): " + ", ".join(one(k, v) for k, v in gp.items())
+
+
+def summary_page(r: ResultFile, plate=None):
+    """Page 1: status, constants table, and (single plate, or ``plate`` given) the
+    frequencies. A joint result without ``plate`` gets the RMS of each plate instead."""
+    fig = _figure()
+    fig.suptitle(_title(r, plate if plate is not None else (r.plates[0] if not r.joint
+                                                             else None)), fontsize=11)
+    gs = fig.add_gridspec(1, 2, width_ratios=[1.25, 1])
+    f = table_fraction(sum(len(c) for c in r.materials.values()))
+    left = gs[0, 0].subgridspec(2, 1, height_ratios=[f, 1.001 - f])
+    ax_c = fig.add_subplot(left[0, 0])
+    constants_table(ax_c, r)
+    plate = plate if plate is not None else (None if r.joint else r.plates[0])
+    if plate is not None:
+        frequency_block(fig, gs[0, 1], plate)
+    else:
+        right = gs[0, 1].subgridspec(2, 1, height_ratios=[table_fraction(len(r.plates)),
+                                                           1.001 - table_fraction(len(r.plates))])
+        ax = fig.add_subplot(right[0, 0])
+        head = ["plate", "RMS residual (%)", "modes measured", "mesh"]
+        rows = [[p.name, f"{p.frequencies.rms_residual_percent:.3f}",
+                 str(int(np.isfinite(p.frequencies.measured).sum())),
+                 f"{p.mesh[0]}x{p.mesh[1]}"] for p in r.plates]
+        _table(ax, head, rows, fontsize=8)
+        ax.set_gid("plates")
+        ax.set_title(f"{len(r.plates)} plates fitted together (their pages follow)", fontsize=9,
+                     loc="left")
+    ax_n = fig.add_subplot(left[1, 0])
+    ax_n.axis("off")
+    notes = [t for t in (_laminate_text(plate) if plate is not None else "",) if t]
+    src = r.plates[0].reference_source
+    notes.append(textwrap.shorten("reference: " + src, 200) if src else
+                 "no reference values in the specimen file")
+    if r.uncertainty is not None:
+        u = r.uncertainty
+        notes.append(f"uncertainty: {u.confidence:.0%} intervals, s² = {u.s2:.3g}, "
+                     f"condition number {u.condition_number:.3g}, σ from {u.sigma_source}")
+    ax_n.text(0, 0.97, "\n".join("\n".join(textwrap.wrap(t, 110)) for t in notes),
+              fontsize=7.5, va="top", ha="left", transform=ax_n.transAxes, linespacing=1.5)
+    _status_banner(fig, r)
+    return fig
+
+
+# ----------------------------------------------------------------------------------------------
+# intervals
+
+
+def _panel_limits(v, lo, hi, ref, weak, nu: bool):
+    """(ymin, ymax) of a constant's panel: its value with the weak band and the reference in
+    view; an interval end only when it stays within a value's width (else it gets an arrow)."""
+    a = abs(v) if v else max(abs(lo), abs(hi), 1e-12)
+    need = [1.35 * weak * a]
+    if ref is not None and np.isfinite(ref):
+        need.append(1.15 * abs(ref - v))
+    for e in (lo, hi):
+        if np.isfinite(e) and abs(e - v) <= 1.0 * a:
+            need.append(1.1 * abs(e - v))
+    half = max(need)
+    ymin, ymax = v - half, v + half
+    if not nu and ymin < 0 <= v:
+        ymin = 0.0
+    return ymin, ymax
+
+
+def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0, label_bands=False):
+    """Value, interval, verdict bands and reference of constant ``k`` of material ``m``."""
+    u = r.uncertainty
+    v = r.materials[m][k]
+    iv = u.get(m, k) if u is not None else None
+    ref = r.reference.get(m, {}).get(k)
+    lo, hi = (iv.lower, iv.upper) if iv is not None else (np.nan, np.nan)
+    g = (lambda z: _gpa(k, z))
+    ymin, ymax = _panel_limits(g(v), g(lo), g(hi), None if ref is None else g(ref), u.weak,
+                               k == "nu12")
+    a = abs(g(v)) if iv is None or not iv.at_bound else 0.0     # no verdict at a bound
+    for frac, color, name in ((u.weak, BAND_COLORS[1], f"±{u.weak:.0%}: weak"),
+                              (u.well_determined, BAND_COLORS[0],
+                               f"±{u.well_determined:.0%}: well determined")):
+        ax.axhspan(g(v) - frac * a, g(v) + frac * a, color=color, lw=0, zorder=0,
+                   label=name if label_bands else None)
+    if iv is not None:
+        clo, chi = max(g(lo), ymin), min(g(hi), ymax)
+        if not (np.isnan(clo) or np.isnan(chi)):
+            ax.plot([x, x], [clo, chi], "-", color="C0", lw=3, solid_capstyle="butt",
+                    gid="interval", label=f"{u.confidence:.0%} interval" if label_bands
+                    else None)
+        span = ymax - ymin
+        for end, edge, up in ((hi, ymax, True), (lo, ymin, False)):
+            if not np.isnan(end) and ((up and g(end) > ymax) or (not up and g(end) < ymin)):
+                tail = edge - (0.08 if up else -0.08) * span
+                ax.annotate("", (x, edge), xytext=(x, tail),
+                            arrowprops=dict(arrowstyle="-|>", color="C0", lw=1.5))
+                ax.annotate(f"{'to' if up else 'from'}\n{fmt_value(k, end)}", (x, tail),
+                            xytext=(5, 0), textcoords="offset points", fontsize=7,
+                            va="center", ha="left", color="C0")
+    mc = u.monte_carlo or {}
+    if iv is not None and "lower" in mc and "upper" in mc:
+        j = [x.label for x in u.intervals].index(iv.label)
+        mlo, mhi = np.ravel(mc["lower"]), np.ravel(mc["upper"])
+        if j < mlo.size:
+            ax.plot([x - 0.25] * 2, [max(g(mlo[j]), ymin), min(g(mhi[j]), ymax)], "-",
+                    color="0.45", lw=2, solid_capstyle="butt", gid="monte-carlo",
+                    label="Monte Carlo spread" if label_bands else None)
+            for end, edge, marker in ((g(mhi[j]), ymax, "^"), (g(mlo[j]), ymin, "v")):
+                if (marker == "^" and end > ymax) or (marker == "v" and end < ymin):
+                    ax.plot([x - 0.25], [edge], marker, color="0.45", ms=6, clip_on=False)
+    hollow = iv is not None and (iv.at_bound or iv.verdict.startswith(("not", "at bound")))
+    ax.plot([x], [g(v)], "o", ms=7, color="k", mfc="w" if hollow else "k", zorder=5,
+            gid="value", label="identified" if label_bands else None)
+    if ref is not None:
+        ax.plot([x + 0.25], [g(ref)], "D", ms=6, color="C3", zorder=5, gid="reference",
+                label="reference" if label_bands else None)
+        if not ymin <= g(ref) <= ymax:
+            ax.annotate(f"reference {fmt_value(k, ref)} off scale", (0.5, 0.02),
+                        xycoords="axes fraction", ha="center", fontsize=6.5, color="C3")
+    ax.set_ylim(ymin, ymax)
+    return iv
+
+
+def interval_page(r: ResultFile):
+    """One panel per constant (rows: materials), each in its unit and on its own scale."""
+    u = r.uncertainty
+    mats = list(r.materials)
+    fig = _figure()
+    fig.suptitle(_title(r, None if r.joint else r.plates[0],
+                        f"{u.confidence:.0%} confidence intervals"), fontsize=11)
+    gs = fig.add_gridspec(len(mats) + 1, 6, height_ratios=[1] * len(mats) + [0.1])
+    axes = np.array([[fig.add_subplot(gs[i, j]) for j in range(6)] for i in range(len(mats))])
+    for i, m in enumerate(mats):
+        for j, k in enumerate(CONSTANTS):
+            ax = axes[i, j]
+            ax.set_gid(f"interval-{m}.{k}")
+            iv = interval_panel(ax, r, m, k, label_bands=(i == 0 and j == 0))
+            ax.set_xlim(-0.6, 0.8)
+            ax.set_xticks([])
+            ax.tick_params(labelsize=7)
+            name = f"{m}\n{k} ({_unit(k)})" if len(mats) > 1 else f"{k} ({_unit(k)})"
+            ax.set_title(name, fontsize=9)
+            v = r.materials[m][k]
+            if iv is None:
+                words = "fixed" if k not in r.free.get(m, ()) else "no interval"
+                text = f"{fmt_value(k, v)}\n{words}"
+            elif iv.at_bound:
+                text = f"{fmt_value(k, v)}\n" + "\n".join(textwrap.wrap(
+                    iv.bound_text or "at bound — not identified", 22))
+            else:
+                text = (f"{fmt_value(k, v)} [{fmt_value(k, iv.lower)}, "
+                        f"{fmt_value(k, iv.upper)}]\n" + "\n".join(textwrap.wrap(
+                            short_verdict(iv.verdict), 22)))
+            ax.set_xlabel(text, fontsize=7)
+    scales = {iv.scale for iv in u.intervals}
+    how = ("moduli: interval on ln P (asymmetric, > 0); nu12: linear" if "log" in scales
+           else "linear intervals value ± half-width (as stored in this file)")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    ax_leg = fig.add_subplot(gs[-1, :])
+    ax_leg.axis("off")
+    ax_leg.legend(handles, labels, loc="center", ncol=len(labels), fontsize=8,
+                  title=f"{how}; hollow point: not determined / at bound; arrow: the interval runs "
+                     "off the panel to the value written", title_fontsize=8)
+    _status_banner(fig, r)
+    return fig
+
+
+# ----------------------------------------------------------------------------------------------
+# mode shapes
+
+
+def mode_shape_grid(plate, k: int, n_sub: int = 6):
+    """w0 of paired mode ``k`` on a fine triangulation: (x m, y m, triangles, w).
+
+    Each element is sampled on an n_sub x n_sub grid of natural coordinates and w is
+    interpolated with its eight serendipity shape functions, so the picture is the FE field
+    and not a linear interpolation of the nodal values.
+    """
+    from laminid_cli.fe.element import shape_functions
+
+    nodes, elements = plate.nodes, plate.elements
+    w = plate.w[:, k]
+    s = np.linspace(-1, 1, n_sub + 1)
+    XI, ETA = np.meshgrid(s, s)
+    N, _ = shape_functions(np.column_stack([XI.ravel(), ETA.ravel()]))     # (p, 8)
+    xy = np.einsum("pa,eai->epi", N, nodes[elements])                      # (n_el, p, 2)
+    ww = np.einsum("pa,ea->ep", N, w[elements])                             # (n_el, p)
+    m = n_sub + 1
+    i, j = np.meshgrid(np.arange(n_sub), np.arange(n_sub))
+    p0 = (j * m + i).ravel()
+    local = np.vstack([np.column_stack([p0, p0 + 1, p0 + m + 1]),
+                       np.column_stack([p0, p0 + m + 1, p0 + m])])
+    n_pts = m * m
+    tris = (local[None, :, :] + (np.arange(elements.shape[0]) * n_pts)[:, None, None]).reshape(-1, 3)
+    return xy[..., 0].ravel(), xy[..., 1].ravel(), tris, ww.ravel()
+
+
+def mac(a, b) -> float:
+    """Modal assurance criterion of two real shapes: (a.b)^2 / (a.a b.b)."""
+    a, b = np.ravel(a), np.ravel(b)
+    return float(np.dot(a, b) ** 2 / (np.dot(a, a) * np.dot(b, b)))
+
+
+def initial_mac(plate) -> tuple[np.ndarray | None, str]:
+    """MAC of each paired mode (w0 at the nodes) with the *initial* model's mode i, the mode
+    measured mode i was paired with at the start (sorted order). The model is rebuilt from
+    the specimen YAML stored in the result (its constants are the initial ones) on the same
+    mesh. (None, reason) when it cannot be rebuilt."""
+    n = plate.w.shape[1]
+    try:
+        nodes, w0 = _initial_shapes(plate.yaml, plate.path or "<result>", plate.mesh,
+                                    plate.boundary, n)
+    except Exception as exc:  # noqa: BLE001 - any failure: the page says MAC is not available
+        return None, f"the initial model could not be rebuilt ({exc})"
+    if nodes.shape != plate.nodes.shape or not np.allclose(nodes, plate.nodes, rtol=0,
+                                                           atol=1e-9):
+        return None, "the stored mesh differs from the rebuilt one"
+    return np.array([mac(plate.w[:, k], w0[:, k]) for k in range(n)]), ""
+
+
+@functools.lru_cache(maxsize=8)
+def _initial_shapes(yaml_text: str, path: str, mesh: tuple, boundary: str, n: int):
+    """(mesh nodes, w0 of the n lowest modes) of the specimen's model at its own constants."""
+    from laminid_cli.forward import build_forward_model
+    from laminid_cli.specimen import load_specimen_text
+
+    spec = load_specimen_text(yaml_text, path)
+    fm = build_forward_model(spec, mesh, boundary=boundary)
+    modes = fm.solve(None, n)
+    return fm.plate.mesh.nodes, fm.plate.w_shape(modes.phi)
+
+
+def _grid(n: int, aspect: float, width: float = 10.5, height: float = 6.4) -> tuple[int, int]:
+    """(n_rows, n_cols) that draws n plates of height/width ``aspect`` largest on the page
+    (each cell also needs room for a three-line title and tick labels: +1.4 in, +0.6 in)."""
+    best, best_scale = (1, n), 0.0
+    for ncol in range(1, n + 1):
+        nrow = -(-n // ncol)
+        scale = min(width / ncol - 0.6, (height / nrow - 1.4) / aspect)
+        if scale > best_scale:
+            best, best_scale = (nrow, ncol), scale
+    return best
+
+
+def mode_shape_pages(r: ResultFile, plate) -> list:
+    """Pages of mode shapes: at most MODES_PER_PAGE per page, one grid (same plate size) on
+    every page."""
+    from matplotlib.ticker import MaxNLocator
+
+    n = plate.w.shape[1]
+    fr = plate.frequencies
+    n_pages = -(-n // MODES_PER_PAGE)
+    per_page = -(-n // n_pages)
+    nrow, ncol = _grid(per_page, plate.b / plate.a)
+    macs, why = initial_mac(plate)
+    if macs is None:
+        about = f"MAC not available: {why}"
+    else:
+        about = ("MAC: agreement of the fitted mode's w0 with the initial model's mode it was "
+                 "first paired with (no measured shapes: frequencies only); near 1 = the same "
+                 "mode family, low = the fit moved to another shape")
+    figs = []
+    for start in range(0, n, per_page):
+        idx = list(range(start, min(n, start + per_page)))
+        fig = _figure()
+        page = f" ({len(figs) + 1}/{n_pages})" if n_pages > 1 else ""
+        fig.suptitle(f"{plate.name}: mode shapes w0 of the model at the identified constants"
+                     f"{page}\ncolour w / max|w|, black lines: nodal lines (w = 0); "
+                     "axes x, y in mm",
+                     fontsize=11)
+        axes = fig.subplots(nrow, ncol, squeeze=False).ravel()
+        cs = None
+        for ax, k in zip(axes, idx):
+            x, y, tris, ww = mode_shape_grid(plate, k)
+            ww = ww / (np.max(np.abs(ww)) or 1.0)
+            cs = ax.tricontourf(x * 1e3, y * 1e3, tris, ww, levels=np.linspace(-1, 1, 17),
+                                cmap="RdBu_r")
+            if ww.min() < 0 < ww.max():
+                ax.tricontour(x * 1e3, y * 1e3, tris, ww, levels=[0.0], colors="k",
+                              linewidths=1.3)
+            ax.set_aspect("equal")
+            ax.set_xlim(0, plate.a * 1e3)
+            ax.set_ylim(0, plate.b * 1e3)
+            ax.set_gid(f"mode-{k + 1}")
+            paired = f" (model mode {fr.model_mode[k]})" if fr.model_mode[k] != k + 1 else ""
+            meas = (f"meas. {fr.measured[k]:.1f} Hz" if np.isfinite(fr.measured[k])
+                    else "not measured")
+            mac_t = f"\nMAC vs initial {macs[k]:.2f}" if macs is not None else ""
+            ax.set_title(f"mode {k + 1}{paired}: {fr.model[k]:.1f} Hz\n{meas}{mac_t}",
+                         fontsize=8)
+            ax.xaxis.set_major_locator(MaxNLocator(3))
+            ax.yaxis.set_major_locator(MaxNLocator(4))
+            ax.tick_params(labelsize=7)
+        for ax in axes[len(idx):]:
+            ax.axis("off")
+        if cs is not None:
+            cb = fig.colorbar(cs, ax=axes.tolist(), shrink=0.6, ticks=[-1, 0, 1])
+            cb.set_label("w / max|w|")
+        _footer(fig, about, fontsize=7.5)
+        figs.append(fig)
+    return figs
+
+
+# ----------------------------------------------------------------------------------------------
+# history and sensitivities
+
+_BOUND_WARNING = re.compile(r"(?:(\S+): )?(E1|E2|G12|G13|G23|nu12) (?:at its (?:minimum|maximum)"
+                            r"|= [+-])")
+
+
+def bound_hits(r: ResultFile) -> set[str]:
+    """Labels "material.constant" that ended at a bound: ``at_bound`` of /uncertainty (schema
+    2), else the optimiser's bound warning ("glass: G12 at its minimum ...")."""
+    if r.uncertainty is not None and any(iv.at_bound for iv in r.uncertainty.intervals):
+        return {iv.label for iv in r.uncertainty.intervals if iv.at_bound}
+    hits = set()
+    only = next(iter(r.materials)) if len(r.materials) == 1 else None
+    for w in r.warnings + sum((p.warnings for p in r.plates), ()):
+        if "bound" not in w:
+            continue
+        for m, k in _BOUND_WARNING.findall(w):
+            if m or only:
+                hits.add(f"{m or only}.{k}")
+    return hits
+
+
+def history_page(r: ResultFile):
+    """Objective, RMS residual and the free constants / initial value per evaluation."""
+    hist = r.history
+    ev = hist.evaluation
+    fig = _figure()
+    fig.suptitle(_title(r, None if r.joint else r.plates[0], "optimisation history"),
+                 fontsize=11)
+    ax_o, ax_r, ax_c, ax_n = fig.subplots(4, 1, sharex=True, height_ratios=[1, 1, 1.6, 0.8])
+    ax_o.set_gid("objective")
+    ax_o.semilogy(ev, hist.objective, "o-", ms=2.5, lw=1, color="C0", label="objective")
+    best = int(np.argmin(hist.objective))
+    ax_o.semilogy(ev[best], hist.objective[best], "*", ms=11, color="C3",
+                  label=f"best {hist.objective[best]:.3g}")
+    ax_o.set_ylabel("objective (Eq. 17)", fontsize=8)
+    ax_o.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0)
+    ax_r.set_gid("rms")
+    ax_r.semilogy(ev, hist.rms_residual_percent, "o-", ms=2.5, lw=1, color="C1")
+    ax_r.set_ylabel("RMS residual (%)", fontsize=8)
+    hits = bound_hits(r)
+    multi = len(r.materials) > 1
+    shown_mod = shown_nu = 0
+    for j, lab in enumerate(hist.labels):
+        col = hist.constants[:, j]
+        if col[0] == 0 or np.allclose(col, col[0], rtol=1e-12):
+            continue                                          # fixed constant: flat line
+        name = lab if multi else lab.rsplit(".", 1)[-1]
+        is_nu = lab.endswith(".nu12")
+        ax = ax_n if is_nu else ax_c
+        y = col if is_nu else col / col[0]
+        style = "--" if (shown_nu if is_nu else shown_mod) >= 10 else "-"
+        (line,) = ax.plot(ev, y, style, lw=1.2, label=name, gid=f"history-{lab}")
+        if lab in hits:
+            ax.plot(ev[-1], y[-1], "X", ms=9, color=line.get_color(), mec="k", zorder=5,
+                    gid=f"bound-{lab}")
+        if is_nu:
+            shown_nu += 1
+        else:
+            shown_mod += 1
+    ax_c.set_yscale("log")
+    ax_c.axhline(1, color="k", lw=0.5)
+    ax_c.set_ylabel("modulus / initial value", fontsize=8)
+    ax_n.set_ylabel("nu12 (1)", fontsize=8)
+    ax_n.set_xlabel("evaluation")
+    for ax in (ax_c, ax_n):
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0,
+                      ncol=1 if len(ax.get_lines()) < 14 else 2)
+    from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter
+
+    for ax in (ax_o, ax_r, ax_c, ax_n):
+        ax.tick_params(labelsize=7)
+        ax.grid(lw=0.3, which="major")
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+        if ax.get_yscale() == "log":
+            lo, hi = ax.get_ylim()
+            decades = np.log10(hi / lo)
+            if decades <= 2.5:                  # a narrow range: label 1, 2, 5 x 10^k or more
+                subs = (1.0, 2.0, 5.0) if decades > 1 else (1.0, 1.5, 2.0, 3.0, 5.0, 7.0)
+                ax.yaxis.set_major_locator(LogLocator(base=10, subs=subs))
+                ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            else:
+                ax.yaxis.set_major_locator(LogLocator(base=10, numticks=8))
+            ax.yaxis.set_minor_formatter(NullFormatter())
+    if hits:
+        _footer(fig, "X: constant that ended at a bound of the feasible set (not identified): "
+                + ", ".join(sorted(hits)), color="#b35900")
+    return fig
+
+
+def sensitivity_page(r: ResultFile, plate):
+    """Heat map of the normalised sensitivities d ln f_i / d ln P_j at the optimum."""
+    S = plate.sensitivity
+    labels = list(plate.sensitivity_labels) or [f"P{j + 1}" for j in range(S.shape[1])]
+    if len(r.materials) == 1:
+        labels = [lab.rsplit(".", 1)[-1] for lab in labels]
+    model = plate.frequencies.model
+    fig = _figure()
+    fig.suptitle(f"{plate.name}: normalised sensitivity ∂ ln fᵢ / ∂ ln Pⱼ at the optimum\n"
+                 "a column near 0: the frequencies do not determine that constant",
+                 fontsize=11)
+    ax = fig.subplots()
+    ax.set_gid("sensitivity")
+    vmax = float(np.nanmax(np.abs(S))) or 1.0
+    im = ax.imshow(S, cmap="RdBu_r", vmin=-vmax, vmax=vmax, aspect="auto")
+    rot = S.shape[1] > 6
+    ax.set_xticks(range(S.shape[1]), labels, rotation=30 if rot else 0,
+                  ha="right" if rot else "center", fontsize=8)
+    ax.set_yticks(range(S.shape[0]), [f"mode {i + 1}: {f:.1f} Hz" for i, f in enumerate(model)],
+                  fontsize=8)
+    fs = 8 if S.size <= 150 else 6
+    for i in range(S.shape[0]):
+        for j in range(S.shape[1]):
+            v = S[i, j]
+            ax.text(j, i, f"{v + 0.0:.3f}" if abs(v) >= 5e-4 else "0", ha="center",
+                    va="center", fontsize=fs, color="w" if abs(v) > 0.6 * vmax else "k")
+    ax.set_xlabel("ply constant $P_j$" + (f" ({next(iter(r.materials))})"
+                                         if len(r.materials) == 1 else ""))
+    ax.set_ylabel("measured mode $i$ (model frequency)")
+    cb = fig.colorbar(im, ax=ax, shrink=0.8)
+    cb.set_label(r"$\partial \ln f_i / \partial \ln P_j$")
+    return fig
+
+
+# ----------------------------------------------------------------------------------------------
+# FRF
+
+
+def frf_source(plate, frf_path=None):
+    """(path, bands, n_modes) of the FRF file the plate was fitted from, or None.
 
     ``frf_path`` overrides; otherwise ``measured.frf_file`` of the stored specimen YAML,
-    relative to the specimen's folder (``/specimen`` attribute ``path``).
+    relative to the specimen's folder.
     """
     import yaml
 
     try:
-        doc = yaml.safe_load(h["specimen"]["yaml"])
+        doc = yaml.safe_load(plate.yaml)
         m = doc.get("measured", {}) if isinstance(doc, dict) else {}
-    except (KeyError, yaml.YAMLError, AttributeError):
+    except (yaml.YAMLError, AttributeError):
         m = {}
     bands = None
     if isinstance(m, dict) and m.get("bands"):
@@ -234,397 +744,119 @@ def frf_source(h: dict, frf_path=None):
         return Path(frf_path), bands, n_modes
     if not isinstance(m, dict) or not m.get("frf_file"):
         return None
-    spec_path = Path(h["specimen"]["@attrs"].get("path", "."))
-    p = spec_path.parent / str(m["frf_file"])
+    p = Path(plate.path or ".").parent / str(m["frf_file"])
     if not p.exists():
         log.warning("FRF file %s of the specimen not found: no FRF page", p)
         return None
     return p, bands, n_modes
 
 
-# ----------------------------------------------------------------------------------------------
-# pages of a result
-
-
-def result_pages(path, *, frf_path=None) -> list[Page]:
-    """All pages of the report of one result file."""
-    h = read_result(path)
-    pages = [Page("frequencies", frequency_page(h))]
-    pages += [Page(f"modes-{k + 1}", fig) for k, fig in enumerate(mode_shape_pages(h))]
-    pages.append(Page("history", history_page(h)))
-    pages.append(Page("sensitivities", sensitivity_page(h)))
-    intervals = read_intervals(h)
-    if intervals:
-        pages.append(Page("intervals", interval_page(h, intervals)))
-    src = frf_source(h, frf_path)
-    if src is not None:
-        pages.append(Page("frf", frf_page(h, *src)))
-    from laminid_cli.report_damping import damping_figures
-    pages += [Page(name, fig) for name, fig in damping_figures(path)]
-    return pages
-
-
-def _title(h: dict) -> str:
-    a = h["@attrs"]
-    spec = h["specimen"]["@attrs"].get("name", "")
-    state = "converged" if a.get("converged") else "NOT CONVERGED"
-    rms = h["frequencies"]["@attrs"].get("rms_residual_percent", np.nan)
-    mesh = h["mesh"]["@attrs"]
-    return (f"{spec}: {a.get('optimizer', '')} {state}, RMS residual {rms:.3f} %, "
-            f"{a.get('evaluations', '?')} evaluations, mesh {mesh.get('nx')}x{mesh.get('ny')}")
-
-
-def frequency_page(h: dict):
-    """Measured vs model frequencies, residual bars, constants table."""
-    fr = h["frequencies"]
-    measured, model = np.asarray(fr["measured"], float), np.asarray(fr["model"], float)
-    residual, weight = np.asarray(fr["residual_percent"], float), np.asarray(fr["weight"], float)
-    rms = float(fr["@attrs"].get("rms_residual_percent", np.nan))
-    n = measured.size
-    mode = np.arange(1, n + 1)
-    fig = _figure()
-    fig.suptitle(_title(h), fontsize=11)
-    gs = fig.add_gridspec(2, 2, width_ratios=[1.5, 1], height_ratios=[1, 1])
-    ax_f = fig.add_subplot(gs[0, 0])
-    ax_r = fig.add_subplot(gs[1, 0], sharex=ax_f)
-    ax_t = fig.add_subplot(gs[:, 1])
-    ax_f.set_gid("frequencies")
-    ax_r.set_gid("residuals")
-    width = 0.38
-    ax_f.bar(mode - width / 2, np.nan_to_num(measured), width, color="0.55", label="measured")
-    ax_f.bar(mode + width / 2, model, width, color="C0", label="model")
-    for k in np.flatnonzero(~np.isfinite(measured)):
-        ax_f.annotate("not measured", (mode[k] - width / 2, 0.5 * model[k]), ha="center",
-                      va="center", fontsize=7, rotation=90)
-    ax_f.set_ylabel("natural frequency (Hz)")
-    ax_f.legend(loc="upper left", fontsize=8)
-    ax_f.set_title("measured and model frequencies", fontsize=10)
-    colors = ["C3" if r < 0 else "C2" for r in np.nan_to_num(residual)]
-    bars = ax_r.bar(mode, np.nan_to_num(residual), 0.6, color=colors)
-    for k in np.flatnonzero(weight == 0):
-        bars[k].set_hatch("//")
-        bars[k].set_alpha(0.4)
-        if not np.isfinite(residual[k]):
-            ax_r.annotate("n/m", (mode[k], 0), ha="center", va="bottom", fontsize=7)
-    ax_r.axhline(0, color="k", lw=0.6)
-    if np.isfinite(rms):
-        for s in (1, -1):
-            ax_r.axhline(s * rms, color="k", ls="--", lw=0.8,
-                         label=f"weighted RMS {rms:.3f} %" if s == 1 else None)
-        ax_r.legend(loc="upper right", fontsize=8)
-    ax_r.set_ylabel("residual (measured - model)/measured (%)")
-    ax_r.set_xlabel("mode")
-    ax_r.set_xticks(mode)
-    ax_r.set_title("residuals (hatched: weight 0)", fontsize=10)
-    lim = np.nanmax(np.abs(residual)) if np.isfinite(residual).any() else 1.0
-    ax_r.set_ylim(-1.25 * lim, 1.25 * lim)
-    _constants_table(ax_t, h)
-    return fig
-
-
-def _constants_table(ax, h: dict) -> None:
-    ax.axis("off")
-    ident, init = materials_of(h), materials_of(h, "initial")
-    ref = _reference(h)
-    rows, cells = [], []
-    for m, c in ident.items():
-        for k in CONSTANTS:
-            rows.append(f"{m} {k}{_unit(k)}" if len(ident) > 1 else f"{k}{_unit(k)}")
-            fmt = "{:.3f}" if k == "nu12" else "{:.2f}"
-            r = ref.get(m, {}).get(k)
-            cells.append([fmt.format(_gpa(k, c[k])),
-                          fmt.format(_gpa(k, init[m][k])) if k in init.get(m, {}) else "",
-                          fmt.format(_gpa(k, r)) if r is not None else ""])
-    title = "identified constants" + (f" ({next(iter(ident))})" if len(ident) == 1 else "")
-    ax.set_title(title, fontsize=10)
-    if rows:
-        t = ax.table(cellText=cells, rowLabels=rows, colLabels=["identified", "initial",
-                                                                 "reference"], loc="upper center")
-        t.auto_set_font_size(False)
-        t.set_fontsize(8)
-        t.scale(1, 1.3)
-    gp = {k: float(v) for k, v in h.get("global_properties", {}).items() if not k.startswith("@")}
-    if gp:
-        lines = ["laminate (Appendix A):"] + [
-            f"{k} = {v / 1e9:.2f} GPa" if not k.startswith("nu") else f"{k} = {v:.3f}"
-            for k, v in gp.items()]
-        ax.text(0.02, 0.45, "\n".join(lines), transform=ax.transAxes, fontsize=8, va="top",
-                family="monospace")
-
-
-def _reference(h: dict) -> dict:
-    import yaml
-
-    from laminid_cli.units import parse_quantity
-
-    try:
-        doc = yaml.safe_load(h["specimen"]["yaml"])
-        mats = doc["reference"]["materials"]
-    except (KeyError, TypeError, yaml.YAMLError):
-        return {}
-    out: dict[str, dict] = {}
-    for m, consts in (mats or {}).items():
-        for k, v in (consts or {}).items():
-            if isinstance(v, list) and len(v) == 2:
-                v = None
-            try:
-                out.setdefault(m, {})[k] = float(parse_quantity(v, "dimensionless" if k == "nu12"
-                                                                 else "modulus"))
-            except Exception:  # noqa: BLE001 - a reference value we cannot read is not drawn
-                continue
-    return out
-
-
-def mode_shape_grid(h: dict, k: int, n_sub: int = 6):
-    """w0 of paired mode ``k`` on a fine triangulation: (x m, y m, triangles, w).
-
-    Each element is sampled on an n_sub x n_sub grid of natural coordinates and w is
-    interpolated with its eight serendipity shape functions, so the picture is the FE field
-    and not a linear interpolation of the nodal values.
-    """
-    from laminid_cli.fe.element import shape_functions
-
-    nodes = np.asarray(h["mesh"]["nodes"], float)
-    elements = np.asarray(h["mesh"]["elements"], int)
-    w = np.asarray(h["modes"]["w"], float)[:, k]
-    s = np.linspace(-1, 1, n_sub + 1)
-    XI, ETA = np.meshgrid(s, s)
-    N, _ = shape_functions(np.column_stack([XI.ravel(), ETA.ravel()]))     # (p, 8)
-    xy = np.einsum("pa,eai->epi", N, nodes[elements])                      # (n_el, p, 2)
-    ww = np.einsum("pa,ea->ep", N, w[elements])                             # (n_el, p)
-    # two triangles per sub-cell, local point index j*(n_sub+1)+i
-    m = n_sub + 1
-    i, j = np.meshgrid(np.arange(n_sub), np.arange(n_sub))
-    p0 = (j * m + i).ravel()
-    local = np.vstack([np.column_stack([p0, p0 + 1, p0 + m + 1]),
-                       np.column_stack([p0, p0 + m + 1, p0 + m])])
-    n_pts = m * m
-    tris = (local[None, :, :] + (np.arange(elements.shape[0]) * n_pts)[:, None, None]).reshape(-1, 3)
-    return xy[..., 0].ravel(), xy[..., 1].ravel(), tris, ww.ravel()
-
-
-def _grid(n: int, aspect: float, width: float = 10.5, height: float = 6.6) -> tuple[int, int]:
-    """(n_rows, n_cols) that draws n plates of height/width ``aspect`` largest on the page
-    (each cell also needs room for a two-line title and tick labels: +0.9 in, +0.5 in)."""
-    best, best_scale = (1, n), 0.0
-    for ncol in range(1, n + 1):
-        nrow = -(-n // ncol)
-        scale = min(width / ncol - 0.5, (height / nrow - 0.9) / aspect)
-        if scale > best_scale:
-            best, best_scale = (nrow, ncol), scale
-    return best
-
-
-def mode_shape_pages(h: dict) -> list:
-    """Pages of mode shapes, at most MODES_PER_PAGE per page, split evenly."""
-    w = np.asarray(h["modes"]["w"], float)
-    n = w.shape[1]
-    fr = h["frequencies"]
-    model, measured = np.asarray(fr["model"], float), np.asarray(fr["measured"], float)
-    model_mode = np.asarray(fr.get("model_mode", np.arange(1, n + 1)), int)
-    a, b = float(h["specimen"]["a"]), float(h["specimen"]["b"])
-    n_pages = -(-n // MODES_PER_PAGE)
-    per_page = -(-n // n_pages)
-    spec = h["specimen"]["@attrs"].get("name", "")
-    figs = []
-    for start in range(0, n, per_page):
-        idx = list(range(start, min(n, start + per_page)))
-        nrow, ncol = _grid(len(idx), b / a)
-        fig = _figure()
-        page = f" ({len(figs) + 1}/{n_pages})" if n_pages > 1 else ""
-        fig.suptitle(f"{spec}: mode shapes w0 of the model at the identified constants{page}; "
-                     "colour w / max|w|, black lines: nodal lines (w = 0)", fontsize=11)
-        axes = fig.subplots(nrow, ncol, squeeze=False, sharex=True, sharey=True).ravel()
-        cs = None
-        for ax, k in zip(axes, idx):
-            x, y, tris, ww = mode_shape_grid(h, k)
-            scale = np.max(np.abs(ww)) or 1.0
-            ww = ww / scale
-            cs = ax.tricontourf(x * 1e3, y * 1e3, tris, ww, levels=np.linspace(-1, 1, 17),
-                                cmap="RdBu_r")
-            if ww.min() < 0 < ww.max():
-                ax.tricontour(x * 1e3, y * 1e3, tris, ww, levels=[0.0], colors="k",
-                              linewidths=1.4)
-            ax.set_aspect("equal")
-            ax.set_gid(f"mode-{k + 1}")
-            paired = f" (model mode {model_mode[k]})" if model_mode[k] != k + 1 else ""
-            meas = f"measured {measured[k]:.1f} Hz" if np.isfinite(measured[k]) else \
-                "not measured"
-            ax.set_title(f"mode {k + 1}{paired}: {model[k]:.1f} Hz\n{meas}", fontsize=8)
-            ax.tick_params(labelsize=6)
-        for i, ax in enumerate(axes[:len(idx)]):
-            if i + ncol >= len(idx):                   # nothing drawn below: label x
-                ax.set_xlabel("x (mm)", fontsize=7)
-                ax.tick_params(labelbottom=True)
-            if i % ncol == 0:
-                ax.set_ylabel("y (mm)", fontsize=7)
-        for ax in axes[len(idx):]:
-            ax.axis("off")
-        if cs is not None:
-            cb = fig.colorbar(cs, ax=axes[:len(idx)].tolist(), shrink=0.6, ticks=[-1, 0, 1])
-            cb.set_label("w / max|w|")
-        figs.append(fig)
-    return figs
-
-
-def history_page(h: dict):
-    """Objective, RMS residual and the free constants / initial value per evaluation."""
-    hist = h["history"]
-    ev = np.asarray(hist["evaluation"])
-    fig = _figure()
-    fig.suptitle(_title(h) + ": optimisation history", fontsize=11)
-    ax_o, ax_r, ax_c = fig.subplots(3, 1, sharex=True)
-    ax_o.set_gid("objective")
-    obj = np.asarray(hist["objective"], float)
-    ax_o.semilogy(ev, obj, "o-", ms=3, color="C0")
-    best = int(np.argmin(obj))
-    ax_o.semilogy(ev[best], obj[best], "*", ms=12, color="C3", label=f"best {obj[best]:.3g}")
-    ax_o.legend(fontsize=8)
-    ax_o.set_ylabel("objective (Eq. 17)")
-    ax_r.plot(ev, np.asarray(hist["rms_residual_percent"], float), "o-", ms=3, color="C1")
-    ax_r.set_ylabel("RMS residual (%)")
-    const = np.asarray(hist["constants"], float)
-    labels = _short(h, _labels(h, "history", "constants")
-                    or [f"P{j + 1}" for j in range(const.shape[1])])
-    shown = 0
-    for j, lab in enumerate(labels):
-        col = const[:, j]
-        if col[0] == 0 or np.allclose(col, col[0], rtol=1e-12):
-            continue                                          # fixed constant: flat line
-        ax_c.plot(ev, col / col[0], "-", lw=1.2, label=lab)
-        shown += 1
-    ax_c.axhline(1, color="k", lw=0.5)
-    ax_c.set_ylabel("constant / initial value")
-    ax_c.set_xlabel("evaluation")
-    if shown:
-        ax_c.legend(fontsize=7, ncol=min(6, shown), loc="best")
-    return fig
-
-
-def _labels(h: dict, group: str, name: str) -> list[str]:
-    """The comma-separated ``labels`` attribute of a dataset, as a list ([] when absent)."""
-    text = h.get("_dataset_attrs", {}).get(f"{group}/{name}", {}).get("labels", "")
-    return [x for x in _s(text).split(",") if x] if text is not None else []
-
-
-def _short(h: dict, labels: list[str]) -> list[str]:
-    """Labels "<material>.<constant>" without the material when there is only one."""
-    mats = materials_of(h)
-    if len(mats) != 1:
-        return labels
-    prefix = next(iter(mats)) + "."
-    return [lab[len(prefix):] if lab.startswith(prefix) else lab for lab in labels]
-
-
-def sensitivity_page(h: dict):
-    """Heat map of the normalised sensitivities d ln f_i / d ln P_j at the optimum."""
-    S = np.asarray(h["sensitivities"]["dlnf_dlnP"], float)
-    labels = _short(h, _labels(h, "sensitivities", "dlnf_dlnP")
-                    or [f"P{j + 1}" for j in range(S.shape[1])])
-    fr = h["frequencies"]
-    model = np.asarray(fr["model"], float)
-    fig = _figure()
-    fig.suptitle(_title(h) + ": sensitivities", fontsize=11)
-    ax = fig.subplots()
-    ax.set_gid("sensitivity")
-    vmax = float(np.nanmax(np.abs(S))) or 1.0
-    im = ax.imshow(S, cmap="RdBu_r", vmin=-vmax, vmax=vmax, aspect="auto")
-    ax.set_xticks(range(S.shape[1]), labels, rotation=30 if S.shape[1] > 6 else 0,
-                  ha="right" if S.shape[1] > 6 else "center", fontsize=8)
-    ax.set_yticks(range(S.shape[0]), [f"mode {i + 1}: {f:.1f} Hz" for i, f in enumerate(model)],
-                  fontsize=8)
-    fs = 8 if S.size <= 150 else 6
-    for i in range(S.shape[0]):
-        for j in range(S.shape[1]):
-            v = S[i, j]
-            ax.text(j, i, f"{v + 0.0:.3f}" if abs(v) >= 5e-4 else "0", ha="center", va="center", fontsize=fs,
-                    color="w" if abs(v) > 0.6 * vmax else "k")
-    ax.set_xlabel("ply constant $P_j$" + (f" ({next(iter(materials_of(h)))})"
-                                         if len(materials_of(h)) == 1 else ""))
-    ax.set_ylabel("measured mode $i$ (model frequency)")
-    ax.set_title(r"normalised sensitivity $\partial \ln f_i / \partial \ln P_j$ at the optimum "
-                 "(a column near 0: the frequencies do not determine that constant)", fontsize=9)
-    cb = fig.colorbar(im, ax=ax, shrink=0.8)
-    cb.set_label(r"$\partial \ln f_i / \partial \ln P_j$")
-    return fig
-
-
-def interval_page(h: dict, intervals: dict):
-    """Identified constants with their confidence intervals (relative to the value, %)."""
-    ident = materials_of(h)
-    fig = _figure()
-    fig.suptitle(_title(h) + ": confidence intervals", fontsize=11)
-    ax = fig.subplots()
-    ax.set_gid("intervals")
-    labels, lo, hi, vals = [], [], [], []
-    for m, iv in intervals.items():
-        for k in CONSTANTS:
-            if k not in iv or k not in ident.get(m, {}):
-                continue
-            v = ident[m][k]
-            labels.append(f"{m} {k}" if len(intervals) > 1 else k)
-            vals.append(v)
-            lo.append((iv[k][0] - v) / abs(v) * 100)
-            hi.append((iv[k][1] - v) / abs(v) * 100)
-    y = np.arange(len(labels))
-    ax.hlines(y, lo, hi, color="C0", lw=6, alpha=0.6)
-    ax.plot(np.zeros_like(y), y, "k|", ms=14)
-    for yi, v, l_, h_, lab in zip(y, vals, lo, hi, labels):
-        k = lab.rsplit(" ", 1)[-1]
-        txt = (f"{_gpa(k, v):.3f} [{_gpa(k, v * (1 + l_ / 100)):.3f}, "
-               f"{_gpa(k, v * (1 + h_ / 100)):.3f}]{_unit(k)}")
-        ax.annotate(txt, (max(h_, 0), yi), xytext=(6, 0), textcoords="offset points",
-                    va="center", fontsize=8)
-    ax.set_yticks(y, labels)
-    ax.invert_yaxis()
-    ax.axvline(0, color="k", lw=0.5)
-    ax.set_xlabel("interval relative to the identified value (%)")
-    span = max([abs(v) for v in lo + hi] + [1.0])
-    ax.set_xlim(-1.1 * span, 1.7 * span)
-    return fig
-
-
-def frf_page(h: dict, frf_path, bands=None, n_modes=None):
-    """FRF magnitudes with the RFP fit, the RFP natural frequencies and the model ones."""
+def frf_page(r: ResultFile, plate, frf_path, bands=None, n_modes=None):
+    """Measured FRFs (over the RFP fit), phase, coherence, RFP and model frequencies."""
     from laminid_cli.frf import rfp
     from laminid_cli.frf.io import read_frf
+    from laminid_cli.frf.plot import draw_frf, has_coherence
 
     fs = read_frf(frf_path)
     fit = rfp.find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes)
     fig = _figure()
-    fig.suptitle(f"{h['specimen']['@attrs'].get('name', '')}: FRFs of {Path(frf_path).name} "
-                 f"with the RFP fit", fontsize=11)
-    ax_m, ax_p = fig.subplots(2, 1, sharex=True, height_ratios=[3, 1.4])
+    fig.suptitle(f"{plate.name}: FRFs of {Path(frf_path).name} with the RFP fit", fontsize=11)
+    coh = has_coherence(fs.coherence)
+    ratios = [3, 1.4] + ([0.9] if coh else [])
+    axes = fig.subplots(len(ratios), 1, sharex=True, height_ratios=ratios)
+    ax_m, ax_p = axes[0], axes[1]
     ax_m.set_gid("frf")
-    with np.errstate(divide="ignore", invalid="ignore"):
-        for H in fs.frf:
-            ax_m.plot(fs.freq, 20 * np.log10(np.abs(H)), color="0.7", lw=0.6)
-            ax_p.plot(fs.freq, np.degrees(np.angle(H)), color="0.7", lw=0.6)
-        for k, band in enumerate(fit.bands):
-            lo, hi = band.band_hz
-            sel = (fs.freq >= lo) & (fs.freq <= hi) & (fs.freq > 0)
-            Hs = band.synthesise(fs.freq[sel])
-            for p, H in enumerate(Hs):
-                ax_m.plot(fs.freq[sel], 20 * np.log10(np.abs(H)), color=f"C{k % 10}", lw=0.9,
-                          label="RFP fit" if k == 0 and p == 0 else None)
-                ax_p.plot(fs.freq[sel], np.degrees(np.angle(H)), color=f"C{k % 10}", lw=0.9)
-    for i, m in enumerate(fit.modes):
-        for ax in (ax_m, ax_p):
-            ax.axvline(m.freq_hz, color="k", ls="--", lw=0.6,
-                       label="RFP natural frequency" if ax is ax_m and i == 0 else None)
-        ax_m.annotate(f"{m.freq_hz:.1f}", (m.freq_hz, 1), xycoords=("data", "axes fraction"),
-                      rotation=90, va="top", ha="right", fontsize=7)
-    model = np.asarray(h["frequencies"]["model"], float)
-    for i, f in enumerate(model):
-        ax_m.axvline(f, color="C3", ls=":", lw=1.0, label="model (identified)" if i == 0 else None)
-    ax_m.set_ylabel(f"|H| (dB re 1 {fs.units})")
-    ax_m.legend(loc="lower right", fontsize=8)
-    ax_p.set_ylabel("phase (deg)")
-    ax_p.set_ylim(-185, 185)
-    ax_p.set_xlabel("frequency (Hz)")
-    if fit.bands:
-        ax_p.set_xlim(min(b.band_hz[0] for b in fit.bands) * 0.95,
-                      max(b.band_hz[1] for b in fit.bands) * 1.02)
+    draw_frf(ax_m, ax_p, fs.freq, fs.frf, fit, units=fs.units, coherence=fs.coherence,
+             ax_c=axes[2] if coh else None, decimals=1)
+    for i, f in enumerate(plate.frequencies.model):
+        ax_m.axvline(f, color="C3", ls=":", lw=1.2, label="model (identified)" if i == 0
+                     else None)
+    ax_m.legend(loc="lower left", fontsize=8, framealpha=0.9)
+    axes[-1].set_xlabel("frequency (Hz)")
+    return fig
+
+
+# ----------------------------------------------------------------------------------------------
+# assembling the pages
+
+#: Extra page makers, called as ``fn(result_file) -> list[Page]`` after the sensitivities of a
+#: result (single or joint); e.g. a damping page appends itself here.
+def _damping_pages(r: ResultFile) -> list[Page]:
+    """The damping page (laminid_cli.report_damping) of a result with /damping."""
+    if r.damping is None:
+        return []
+    from laminid_cli.report_damping import damping_figures
+
+    return [Page(name, fig) for name, fig in damping_figures(r.path)]
+
+
+EXTRA_PAGES: list = [_damping_pages]
+
+
+def _read(path) -> ResultFile:
+    from laminid_cli.resultfile import ResultFileError
+
+    try:
+        return read_result(path)
+    except ResultFileError as exc:
+        raise ReportError(str(exc)) from exc
+
+
+def result_pages(path, *, frf_path=None) -> list[Page]:
+    """All pages of the report of one result file (single or joint)."""
+    r = _read(path)
+    if r.joint:
+        return joint_pages(r, frf_path=frf_path)
+    plate = r.plates[0]
+    pages = [Page("summary", summary_page(r))]
+    if r.uncertainty is not None and r.uncertainty.intervals:
+        pages.append(Page("intervals", interval_page(r)))
+    pages += [Page(f"modes-{k + 1}", fig) for k, fig in enumerate(mode_shape_pages(r, plate))]
+    if r.history is not None:
+        pages.append(Page("history", history_page(r)))
+    if plate.sensitivity is not None:
+        pages.append(Page("sensitivities", sensitivity_page(r, plate)))
+    for fn in EXTRA_PAGES:
+        pages += fn(r)
+    src = frf_source(plate, frf_path)
+    if src is not None:
+        pages.append(Page("frf", frf_page(r, plate, *src)))
+    return pages
+
+
+def joint_pages(r: ResultFile, *, frf_path=None) -> list[Page]:
+    """Shared constants (summary, intervals, history), then per plate its frequencies, mode
+    shapes and sensitivities (and FRF page when it has an FRF file)."""
+    pages = [Page("shared", summary_page(r))]
+    if r.uncertainty is not None and r.uncertainty.intervals:
+        pages.append(Page("intervals", interval_page(r)))
+    if r.history is not None:
+        pages.append(Page("history", history_page(r)))
+    for fn in EXTRA_PAGES:
+        pages += fn(r)
+    for plate in r.plates:
+        tag = re.sub(r"[^A-Za-z0-9_.-]", "_", plate.name)
+        pages.append(Page(f"{tag}-frequencies", plate_frequency_page(r, plate)))
+        pages += [Page(f"{tag}-modes-{k + 1}", fig)
+                  for k, fig in enumerate(mode_shape_pages(r, plate))]
+        if plate.sensitivity is not None:
+            pages.append(Page(f"{tag}-sensitivities", sensitivity_page(r, plate)))
+        src = frf_source(plate, None)
+        if src is not None:
+            pages.append(Page(f"{tag}-frf", frf_page(r, plate, *src)))
+    return pages
+
+
+def plate_frequency_page(r: ResultFile, plate):
+    """One plate of a joint result: frequency table and residuals, laminate properties."""
+    fig = _figure()
+    fig.suptitle(_title(r, plate, "measured vs model (joint fit)"), fontsize=11)
+    gs = fig.add_gridspec(2, 1, height_ratios=[1, 0.06])
+    frequency_block(fig, gs[0, 0], plate)
+    ax = fig.add_subplot(gs[1, 0])
+    ax.axis("off")
+    ax.text(0, 1, _laminate_text(plate), fontsize=7.5, va="top", transform=ax.transAxes)
+    _status_banner(fig, r)
     return fig
 
 
@@ -638,78 +870,112 @@ def summary_pages(path) -> list[Page]:
 
     rows = read_summary(path)
     done = []
-    for r in rows:
-        res = r.get("result")
-        mats, iv = r["materials"], {}
+    for row in rows:
+        res = row.get("result")
+        r = None
         if res and Path(res).exists():
             try:
-                h = read_result(res)
-                mats, iv = materials_of(h), read_intervals(h)
-            except ReportError as exc:
-                log.warning("%s: %s; using the summary's numbers", r["name"], exc)
+                r = read_result(res)
+            except LaminidError as exc:
+                log.warning("%s: %s; using the summary's numbers", row["name"], exc)
+        mats = r.materials if r is not None else row["materials"]
         if mats:
-            done.append((r, mats, iv))
+            done.append((row, mats, r))
     if not done:
         raise ReportError(f"{path}: no identified specimen in the summary")
     return [Page("constants", constants_across_page(done, Path(path).name)),
             Page("residuals", residuals_across_page(rows, Path(path).name))]
 
 
+def _row_check(row, r) -> str:
+    """"" when the specimen's result is ok, else a short word (check / not converged ...)."""
+    if r is not None and r.status is not None:
+        return "" if r.status.status == "ok" else r.status.status
+    return "" if row.get("status") == "ok" else str(row.get("status", ""))
+
+
 def constants_across_page(done, title: str):
-    """One panel per constant: value of each specimen (and material) with its interval."""
+    """One panel per constant: each specimen on the x axis, the materials of one specimen side
+    by side, with interval, reference value, and undetermined values hollow."""
     materials: list[str] = []
     for _, mats, _ in done:
         materials += [m for m in mats if m not in materials]
     fig = _figure()
-    fig.suptitle(f"{title}: identified constants across specimens (bars: confidence "
-                 "intervals where the results have them; hollow: not converged)", fontsize=11)
+    fig.suptitle(f"{title}: identified constants across specimens", fontsize=11)
     axes = fig.subplots(2, 3).ravel()
-    names = [r["specimen"] if r.get("specimen") else r["name"] for r, _, _ in done]
-    if len(set(names)) != len(names):
-        names = [r["name"] for r, _, _ in done]
+    names = [row["name"] for row, _, _ in done]
     x = np.arange(len(done))
+    nm = len(materials)
+    offsets = {m: (c - (nm - 1) / 2) * min(0.22, 0.7 / max(nm, 1)) for c, m in
+               enumerate(materials)}
     for ax, k in zip(axes, CONSTANTS):
         ax.set_gid(f"across-{k}")
-        values, ends = [], []
+        vals, ends, arrows = [], [], []
         for c, m in enumerate(materials):
-            xs, ys, err, hollow = [], [], [[], []], []
-            for i, (r, mats, iv) in enumerate(done):
+            color = f"C{c % 10}"
+            for i, (row, mats, r) in enumerate(done):
                 if m not in mats or k not in mats[m]:
                     continue
                 v = _gpa(k, mats[m][k])
-                lo, hi = iv.get(m, {}).get(k, (mats[m][k], mats[m][k]))
-                lo, hi = _gpa(k, lo), _gpa(k, hi)
-                xs.append(i)
-                ys.append(v)
-                err[0].append(max(v - lo, 0))
-                err[1].append(max(hi - v, 0))
-                hollow.append(r["status"] != "ok")
-                values.append(v)
-                if hi - lo < abs(v):                  # a meaningful interval sets the scale
-                    ends += [lo, hi]
-            if not xs:
-                continue
-            color = f"C{c % 10}"
-            ax.errorbar(xs, ys, yerr=err, fmt="none", capsize=3, color=color, lw=1)
-            xs, ys, hollow = np.array(xs), np.array(ys), np.array(hollow)
-            ax.plot(xs[~hollow], ys[~hollow], "o", ms=5, color=color, label=m)
-            if hollow.any():
-                ax.plot(xs[hollow], ys[hollow], "o", ms=6, mfc="none", color=color,
-                        label=f"{m} (not converged)")
-        if values:
-            lo, hi = min(values + ends), max(values + ends)
-            pad = 0.12 * (hi - lo) if hi > lo else 0.1 * abs(hi) or 1.0
-            ax.set_ylim(lo - pad, hi + pad)         # wider intervals run off the panel
-        ax.set_title(k, fontsize=10)
-        ax.set_ylabel(k + _unit(k), fontsize=8)
+                xi = i + offsets[m]
+                iv = r.uncertainty.get(m, k) if r is not None and r.uncertainty else None
+                undetermined = iv is not None and (iv.at_bound or iv.verdict.startswith(
+                    ("not", "at bound")))
+                vals.append(v)
+                if iv is not None:
+                    lo, hi = _gpa(k, iv.lower), _gpa(k, iv.upper)
+                    if not undetermined and abs(hi - lo) < abs(v):
+                        ends += [lo, hi]
+                    arrows.append((xi, v, lo, hi, color))
+                ax.plot([xi], [v], "o", ms=6, color=color, mfc="w" if undetermined else color,
+                        gid=f"value-{row['name']}-{m}")
+                if undetermined:
+                    ax.annotate("?", (xi, v), xytext=(4, 2), textcoords="offset points",
+                                fontsize=9, color=color, weight="bold")
+                ref = r.reference.get(m, {}).get(k) if r is not None else None
+                if ref is not None:
+                    ax.plot([xi], [_gpa(k, ref)], "_", ms=14, mew=2.2, color="k",
+                            gid=f"reference-{row['name']}-{m}")
+                    vals.append(_gpa(k, ref))
+        if vals:
+            lo, hi = min(vals + ends), max(vals + ends)
+            pad = 0.15 * (hi - lo) if hi > lo else 0.1 * abs(hi) or 1.0
+            ymin, ymax = lo - pad, hi + pad
+            if k != "nu12" and ymin < 0 <= lo:
+                ymin = 0.0
+            ax.set_ylim(ymin, ymax)
+            for xi, v, elo, ehi, color in arrows:
+                a, b = max(elo, ymin), min(ehi, ymax)
+                if np.isfinite(a) and np.isfinite(b):
+                    ax.plot([xi, xi], [a, b], "-", color=color, lw=1.2, alpha=0.8,
+                            gid="interval")
+                span = ymax - ymin
+                if np.isfinite(ehi) and ehi > ymax:
+                    ax.annotate("", (xi, ymax), xytext=(xi, ymax - 0.07 * span),
+                                arrowprops=dict(arrowstyle="-|>", color=color, lw=1))
+                if np.isfinite(elo) and elo < ymin:
+                    ax.annotate("", (xi, ymin), xytext=(xi, ymin + 0.07 * span),
+                                arrowprops=dict(arrowstyle="-|>", color=color, lw=1))
+        ax.set_title(f"{k} ({_unit(k)})", fontsize=10)
         ax.set_xticks(x, names, rotation=45, ha="right", fontsize=7)
+        ax.set_xlim(-0.6, len(done) - 0.4)
         ax.grid(axis="y", lw=0.3)
-    handles = {}
-    for ax in axes:
-        for hd, lab in zip(*ax.get_legend_handles_labels()):
-            handles.setdefault(lab, hd)
+        ax.tick_params(axis="y", labelsize=7)
+    from matplotlib.lines import Line2D
+
+    handles = {m: Line2D([], [], ls="none", marker="o", ms=6, color=f"C{c % 10}")
+               for c, m in enumerate(materials)}
+    handles["reference value"] = Line2D([], [], ls="none", marker="_", ms=14, mew=2.2,
+                                        color="k")
+    handles["not determined / at bound"] = Line2D([], [], ls="none", marker="o", ms=6,
+                                                  color="0.4", mfc="w")
     fig.legend(list(handles.values()), list(handles), loc="outside lower center",
-               ncol=min(len(handles), 7), fontsize=8)
+               ncol=min(len(handles), 7), fontsize=8,
+               title="bars: confidence interval of the result file (arrow: runs off the "
+                     "panel); ?: not determined or at a bound", title_fontsize=8)
+    checks = [f"{row['name']}: {w}" for row, _, r in done if (w := _row_check(row, r))]
+    if checks:
+        _footer(fig, "not ok — " + "; ".join(checks), color="#b35900")
     return fig
 
 
@@ -721,13 +987,14 @@ def residuals_across_page(rows, title: str):
     names = [r["name"] for r in rows]
     rms = [r["rms_residual_percent"] if r["rms_residual_percent"] is not None else 0.0
            for r in rows]
-    colors = ["C0" if r["status"] == "ok" else ("C1" if r["status"] == "not converged"
-                                                else "0.7") for r in rows]
+    colors = ["0.45" if r["status"] == "ok" else "0.8" for r in rows]
     ax.bar(np.arange(len(rows)), rms, color=colors)
     for i, r in enumerate(rows):
+        text = (f"{rms[i]:.3f} %" if r["rms_residual_percent"] is not None else "no result")
         if r["status"] != "ok":
-            ax.annotate(r["status"], (i, rms[i]), xytext=(0, 3), textcoords="offset points",
-                        ha="center", fontsize=7, rotation=90, va="bottom")
+            text += f"\n{r['status']}"
+        ax.annotate(text, (i, rms[i]), xytext=(0, 3), textcoords="offset points",
+                    ha="center", fontsize=8, va="bottom")
     ax.set_xticks(np.arange(len(rows)), names, rotation=45, ha="right", fontsize=8)
     ax.set_ylabel("RMS residual (%)")
     ax.set_xlabel("specimen")
@@ -747,8 +1014,7 @@ def report_pages(path, *, frf_path=None) -> list[Page]:
     """Pages of a result file or a batch summary (by the suffix: .csv/.json = summary)."""
     if is_summary(path):
         return summary_pages(path)
-    pages = result_pages(path, frf_path=frf_path)
-    return pages
+    return result_pages(path, frf_path=frf_path)
 
 
 def write_pages(pages, out, *, dpi: int = 110) -> list[Path]:

@@ -10,7 +10,10 @@ Common layout::
     /specimen             attrs: name, path, a, b, h (m), mass (kg), boundary;
                           dataset yaml: the specimen file verbatim
     /mesh                 nodes (n_nodes, 2) m, elements (n_el, 8), attrs nx, ny
-    /materials/<name>     E1, E2, G12, G13, G23 (Pa), nu12 (1), density (kg/m^3)
+    /materials/<key>      attr name (the material's real name, UTF-8); E1, E2, G12, G13, G23
+                          (Pa), nu12 (1), density (kg/m^3). <key> is :func:`safe_keys` of the
+                          names (ASCII [A-Za-z0-9_.-], "_" elsewhere, de-duplicated): group
+                          keys stay readable in h5ls/h5dump; readers take the name attribute
     /frequencies          model, measured (Hz; NaN = not measured), residual_percent, weight
     /modes                w (n_nodes, n_modes) transverse displacement of the mass-normalised
                           modes (m/sqrt(kg)); phi (n_dofs, n_modes) all DOFs; dofs (n_dofs,)
@@ -18,7 +21,7 @@ Common layout::
 
 Identification results ("laminid-result") add: root attrs converged, status, objective,
 evaluations, time_s, optimizer; /materials/<name> attrs parametrization, free; /initial/<name>
-(the starting constants); /frequencies/model_mode (pairing) and attrs rms_residual_percent;
+(the starting constants, same keys); /frequencies/model_mode (pairing) and attrs rms_residual_percent;
 /history (evaluation, objective, rms_residual_percent, x, constants per evaluation);
 /sensitivities (dlnf_dlnP: d ln f_i / d ln P_j, dlambda_dx); /swaps and /warnings (strings).
 
@@ -32,7 +35,7 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
                           std_stated, half_width, lower, upper (Pa; nu12: 1), rel_half_width,
                           verdict (strings), correlation (p, p), covariance (p, p),
                           weakest_labels/weakest_coefficients (weakest combination)
-    /uncertainty/frequency_sigma/<specimen>   sigma (Hz per measured mode, NaN = not measured),
+    /uncertainty/frequency_sigma/<key>   attr name (the specimen name); sigma (Hz per measured mode, NaN = not measured),
                           attr source (per mode: file | relative), sigma_rel
     /uncertainty/monte_carlo   samples (n_converged, p), mean, std, lower, upper,
                           linearized_std, ratio; attrs trials, converged, sigma_factor, seed, jobs
@@ -55,13 +58,21 @@ Joint identifications ("laminid-joint-result", several plates sharing materials)
 above plus specimens (names, comma-separated); /materials/<name> and /initial/<name> once
 (no density: it is per plate); /history and /uncertainty of the joint problem; and each plate's
 complete single-plate layout (specimen, mesh, materials with its density, initial, frequencies,
-modes, history, sensitivities, global_properties, swaps, warnings) under /specimens/<name>/.
+modes, history, sensitivities, global_properties, swaps, warnings) under /specimens/<key>/
+(attr name: the specimen name; <key> as for materials).
+
+Strings (attributes and string datasets) are UTF-8 variable-length strings.
+schema_version 2 (this round): safe group keys with a ``name`` attribute (schema 1 used the name
+with "/" replaced by the look-alike U+2215); the result status and log-space intervals of
+SCHEMA.md are added by their own writers. The typed reader
+of these files is :func:`laminid_cli.resultfile.read_result`.
 """
 
 from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import re
 
 import numpy as np
 
@@ -70,6 +81,23 @@ from laminid_cli.atomic import atomic_path
 from laminid_cli.material import CONSTANT_UNITS, GLOBAL_UNITS
 
 SCHEMA_VERSION = 2
+
+
+def safe_keys(names) -> list[str]:
+    """HDF5 group keys for names (material, specimen): anything outside ``[A-Za-z0-9_.-]``
+    becomes "_", "." / ".." / "" get a leading "_", duplicates get "_2", "_3"... The real name
+    goes into the group's ``name`` attribute."""
+    keys: list[str] = []
+    for name in names:
+        key = re.sub(r"[^A-Za-z0-9_.-]", "_", str(name))
+        if key in ("", ".", ".."):
+            key = "_" + key
+        base, k = key, 1
+        while key in keys:
+            k += 1
+            key = f"{base}_{k}"
+        keys.append(key)
+    return keys
 
 
 def now_iso() -> str:
@@ -124,8 +152,8 @@ def write_mesh(f, plate) -> None:
 
 def write_materials(f, names, constants, densities: dict, group: str = "materials") -> None:
     g = f.create_group(group)
-    for name, c in zip(names, constants):
-        gm = g.create_group(name.replace("/", "\u2215"))   # '/' is HDF5's separator
+    for key, name, c in zip(safe_keys(names), names, constants):
+        gm = g.create_group(key)
         gm.attrs["name"] = name
         for key, value in c.as_dict().items():
             put(gm, key, value, CONSTANT_UNITS[key])
@@ -261,6 +289,14 @@ def write_identification_file(path, fm, r, summary: dict, command: str = "lamini
             write_damping(f, damping)
 
 
+def _write_material_settings(f, r) -> None:
+    """Parametrization and free constants as attributes of each /materials group."""
+    for key, name in zip(safe_keys(r.material_names), r.material_names):
+        g = f["materials"][key]
+        g.attrs["parametrization"] = r.parametrization[name]
+        g.attrs["free"] = ",".join(r.free[name])
+
+
 def _write_identification(f, fm, r, summary: dict) -> None:
     """The single-plate layout into a file or group ``f``."""
     import h5py
@@ -269,10 +305,7 @@ def _write_identification(f, fm, r, summary: dict) -> None:
     write_specimen(f, fm.specimen)
     write_mesh(f, fm.plate)
     write_materials(f, r.material_names, r.constants, fm.specimen.densities)
-    for name in r.material_names:
-        g = f["materials"][name.replace("/", "\u2215")]
-        g.attrs["parametrization"] = r.parametrization[name]
-        g.attrs["free"] = ",".join(r.free[name])
+    _write_material_settings(f, r)
     write_materials(f, r.material_names, r.initial, {}, group="initial")
     write_frequencies(f, r.model_hz, r.measured_hz, r.weight, r.residual_percent)
     put(f["frequencies"], "model_mode", r.pairing + 1, "1",
@@ -344,9 +377,10 @@ def write_uncertainty(f, a, plate_names) -> None:
         description="right singular vector of the smallest singular value of the whitened "
         "Jacobian over relative constants")
     gs = g.create_group("frequency_sigma")
-    for name, sig in zip(plate_names, a.sigmas):
-        d = put(gs, name.replace("/", "\u2215"), sig.sigma_hz, "Hz",
+    for key, name, sig in zip(safe_keys(plate_names), plate_names, a.sigmas):
+        d = put(gs, key, sig.sigma_hz, "Hz",
                 description="standard deviation of each measured frequency (NaN: not measured)")
+        d.attrs["name"] = name
         d.attrs["source"] = ",".join(sig.source)
         d.attrs["sigma_rel"] = sig.sigma_rel
     if a.monte_carlo is not None:
@@ -434,10 +468,7 @@ def write_joint_identification_file(path, fms, r, summary: dict, assessment=None
         f.attrs["specimens"] = ",".join(names)
         f.attrs["rms_residual_percent"] = float(r.rms_residual_percent)
         write_materials(f, r.material_names, r.constants, {})
-        for name in r.material_names:
-            g = f["materials"][name.replace("/", "\u2215")]
-            g.attrs["parametrization"] = r.parametrization[name]
-            g.attrs["free"] = ",".join(r.free[name])
+        _write_material_settings(f, r)
         write_materials(f, r.material_names, r.initial, {}, group="initial")
         h = f.create_group("history")
         for key, unit in (("evaluation", "1"), ("objective", "1"), ("rms_residual_percent", "%")):
@@ -450,8 +481,9 @@ def write_joint_identification_file(path, fms, r, summary: dict, assessment=None
         f.create_dataset("swaps", data=np.array(list(r.swaps), dtype=object), dtype=str_dt)
         f.create_dataset("warnings", data=np.array(list(r.warnings), dtype=object), dtype=str_dt)
         sg = f.create_group("specimens")
-        for name, fm, plate in zip(names, fms, r.specimens):
-            g = sg.create_group(name.replace("/", "\u2215"))
+        for key, name, fm, plate in zip(safe_keys(names), names, fms, r.specimens):
+            g = sg.create_group(key)
+            g.attrs["name"] = name
             _write_identification(g, fm, plate, summary["specimens"][name] | {
                 "optimizer": summary["optimizer"]})
         if assessment is not None:

@@ -1,4 +1,4 @@
-"""`laminid report`: files produced, and the numbers drawn are those of the result file."""
+"""`laminid report`: every page rendered, and the numbers drawn are those of the result file."""
 
 import re
 import shutil
@@ -11,15 +11,20 @@ from click.testing import CliRunner
 from laminid_cli.cli import cli
 from laminid_cli.forward import build_forward_model
 from laminid_cli.frf.store import write_frf_h5
-from laminid_cli.report import read_intervals, read_result, report_pages
-from laminid_cli.results import read_h5
+from laminid_cli.report import fmt_value, mac, report_pages, short_verdict, write_pages
+from laminid_cli.resultfile import read_result
 from laminid_cli.specimen import read_specimen
 from tests.frf_synth import synth_frf
+from tests.resultfix import add_schema2_fields
 
+S11 = "specimens/example1/S1.1.yaml"
+S12 = "specimens/example1/S1.2.yaml"
 S14 = "specimens/example1/S1.4.yaml"
 S21 = "specimens/example2/S2.1.yaml"
+MAT = "IM7/977-2"
 MEASURED_BLOCK = ("  frequencies: [72.78, 121.00, 191.38, 286.78, 315.12, 340.40, 400.12, 433.84, "
                   "634.81, 653.56, 712.43, 789.97]   # Hz, Table 5")
+PNG = b"\x89PNG\r\n\x1a\n"
 
 
 def run(*args):
@@ -37,8 +42,43 @@ def batch_dir(tmp_path_factory):
     return tmp / "out"
 
 
+@pytest.fixture(scope="module")
+def checked(batch_dir, tmp_path_factory):
+    """S1.4's result with the schema-2 fields of SCHEMA.md: status "check", G23 at its bound,
+    log-space moduli intervals."""
+    path = tmp_path_factory.mktemp("chk") / "S1.4.result.h5"
+    shutil.copy(batch_dir / "S1.4.result.h5", path)
+    add_schema2_fields(path, status="check",
+                       reasons=[("at_bound", "G23 at its bound (0.0001 E1)"),
+                                ("undetermined", "G13 not determined by these modes")],
+                       at_bound={f"{MAT}.G23": "at its bound — not identified: G23 <= "
+                                                "0.0001 E1"})
+    return path
+
+
+@pytest.fixture(scope="module")
+def joint(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("joint")
+    out = tmp / "j.result.h5"
+    r = run("identify", S11, S12, "--joint", "--mesh", "6x6", "-o", out)
+    assert r.exit_code == 0, r.output
+    return out
+
+
 def n_pdf_pages(path) -> int:
     return len(re.findall(rb"/Type\s*/Page\b(?!s)", path.read_bytes()))
+
+
+def ax(fig, gid):
+    return next(a for a in fig.axes if a.get_gid() == gid)
+
+
+def cells(axis) -> list[list[str]]:
+    """Text of a table drawn on ``axis``: header row first."""
+    d = axis.tables[0].get_celld()
+    n_r = 1 + max(i for i, _ in d)
+    n_c = 1 + max(j for _, j in d)
+    return [[d[i, j].get_text().get_text() for j in range(n_c)] for i in range(n_r)]
 
 
 def test_pdf_report_of_a_result(batch_dir, tmp_path):
@@ -46,9 +86,8 @@ def test_pdf_report_of_a_result(batch_dir, tmp_path):
     r = run("report", batch_dir / "S1.4.result.h5", "-o", out)
     assert r.exit_code == 0, r.output
     assert out.read_bytes()[:5] == b"%PDF-" and out.stat().st_size > 50_000
-    # 12 modes: frequencies, one page of modes, history, sensitivities, intervals
     assert n_pdf_pages(out) == 5
-    assert "5 pages (frequencies, modes-1, history, sensitivities, intervals)" in r.output
+    assert "5 pages (summary, intervals, modes-1, history, sensitivities)" in r.output
     r = run("report", batch_dir / "S1.4.result.h5", "-o", out)
     assert r.exit_code == 2 and "file exists" in r.output
 
@@ -60,95 +99,179 @@ def test_png_pages_and_default_name(batch_dir, tmp_path):
     assert r.exit_code == 0, r.output
     pngs = sorted(tmp_path.glob("rep-*.png"))
     assert [p.name for p in pngs] == [f"rep-{k}.png" for k in range(1, 6)]
-    assert all(p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and p.stat().st_size > 10_000
-               for p in pngs)
+    assert all(p.read_bytes()[:8] == PNG and p.stat().st_size > 10_000 for p in pngs)
     r = run("report", src)
     assert r.exit_code == 0 and (tmp_path / "S2.1.report.pdf").stat().st_size > 0
 
 
-def test_plotted_numbers_come_from_the_result_file(batch_dir):
-    path = batch_dir / "S1.4.result.h5"
-    h = read_h5(path)
-    pages = {p.name: p.figure for p in report_pages(path)}
-
-    def ax(fig, gid):
-        return next(a for a in fig.axes if a.get_gid() == gid)
-
-    fr = h["frequencies"]
-    bars = ax(pages["frequencies"], "residuals").patches
-    assert np.allclose([b.get_height() for b in bars], fr["residual_percent"], rtol=0, atol=0)
-    fbars = ax(pages["frequencies"], "frequencies").patches
-    n = fr["model"].size
-    assert np.array_equal([b.get_height() for b in fbars[n:]], fr["model"])
-    assert np.array_equal([b.get_height() for b in fbars[:n]], fr["measured"])
-    # mode shapes: title frequencies, and the nodal line at w = 0
-    for k in range(n):
-        a = ax(pages["modes-1"], f"mode-{k + 1}")
-        assert f"{fr['model'][k]:.1f} Hz" in a.get_title()
-        assert f"measured {fr['measured'][k]:.1f} Hz" in a.get_title()
-    # history and sensitivities
-    line = ax(pages["history"], "objective").get_lines()[0]
-    assert np.array_equal(line.get_ydata(), h["history"]["objective"])
-    img = ax(pages["sensitivities"], "sensitivity").get_images()[0]
-    assert np.array_equal(img.get_array(), h["sensitivities"]["dlnf_dlnP"])
-    labels = [t.get_text() for t in ax(pages["sensitivities"], "sensitivity").get_xticklabels()]
-    assert labels == ["E1", "E2", "G12", "G13", "G23", "nu12"]
-
-
-def test_mode_shape_interpolation_reproduces_the_nodal_values(batch_dir):
-    from laminid_cli.report import mode_shape_grid
-
-    h = read_result(batch_dir / "S1.4.result.h5")
-    x, y, tris, w = mode_shape_grid(h, 0, n_sub=2)
-    nodes, wn = h["mesh"]["nodes"], h["modes"]["w"][:, 0]
-    # with 2 subdivisions every element node is a sample point: same value at the same place
-    for (xn, yn), v in zip(nodes[::7], wn[::7]):
-        k = np.flatnonzero(np.hypot(x - xn, y - yn) < 1e-9)
-        assert k.size and np.allclose(w[k], v, rtol=1e-12, atol=1e-15)
-    assert tris.max() < x.size and tris.shape[1] == 3
-
-
-def test_confidence_intervals_of_the_uncertainty_group(batch_dir):
-    path = batch_dir / "S1.4.result.h5"
-    h = read_h5(path)
-    u = h["uncertainty"]
-    iv = read_intervals(read_result(path))
-    labels = [x.decode() if isinstance(x, bytes) else x for x in u["labels"]]
-    assert len(labels) == 6
-    for lab, lo, hi in zip(labels, u["lower"], u["upper"]):
-        m, k = lab.rsplit(".", 1)
-        assert iv[m][k] == (lo, hi)
-    pages = {p.name: p.figure for p in report_pages(path)}
-    a = next(a for a in pages["intervals"].axes if a.get_gid() == "intervals")
-    segs = a.collections[0].get_segments()
-    rel = [(s[0, 0], s[1, 0]) for s in segs]
-    assert np.allclose(rel, [((lo - v) / abs(v) * 100, (hi - v) / abs(v) * 100)
-                             for lo, hi, v in zip(u["lower"], u["upper"], u["value"])])
+def test_summary_page_tables_and_residuals_read_back(checked, tmp_path):
+    res = read_result(checked)
+    plate = res.plates[0]
+    fr = plate.frequencies
+    pages = {p.name: p.figure for p in report_pages(checked)}
+    fig = pages["summary"]
+    # measured vs model table: one row per mode, numbers of the file
+    t = cells(ax(fig, "frequency-table"))
+    assert t[0][2].startswith("measured") and len(t) == fr.model.size + 1
+    for k, row in enumerate(t[1:]):
+        assert row[0] == str(k + 1) and row[1] == str(fr.model_mode[k])
+        assert float(row[2]) == pytest.approx(fr.measured[k], abs=0.005)
+        assert float(row[3]) == pytest.approx(fr.model[k], abs=0.005)
+        assert float(row[4]) == pytest.approx(fr.residual_percent[k], abs=0.0005)
+    # residual bars: exact values, one neutral colour (no sign coding)
+    bars = ax(fig, "residuals").patches
+    assert np.array_equal([b.get_width() for b in bars], fr.residual_percent)
+    assert len({b.get_facecolor() for b in bars}) == 1
+    # constants table: value, interval (confidence level from the file), verdict, reference
+    c = cells(ax(fig, "constants"))
+    assert c[0][2] == "95% interval"
+    u = res.uncertainty
+    rows = {row[0].split(" ")[0]: row for row in c[1:]}
+    for k in ("E1", "E2", "G12", "G13", "nu12"):
+        iv = u.get(MAT, k)
+        scale = 1 if k == "nu12" else 1e9
+        lo, hi = (float(x) for x in rows[k][2].strip("[]").split(", "))
+        tol = dict(abs=5e-4) if k == "nu12" else dict(rel=1e-3)     # 3 decimals / 4 digits
+        assert lo == pytest.approx(iv.lower / scale, **tol)
+        assert hi == pytest.approx(iv.upper / scale, **tol)
+        assert lo < float(rows[k][1]) < hi
+        assert rows[k][3] == short_verdict(iv.verdict)
+    assert u.get(MAT, "E1").scale == "log"             # asymmetric: exp(-/+ q std/v)
+    assert rows["G23"][3] == "at bound, not identified" and rows["G23"][2].startswith("≤")
+    assert rows["E1"][5] == f"170.0 ({round((res.materials[MAT]['E1'] / 170e9 - 1) * 100):+d} %)"
+    assert rows["G13"][5] == ""                         # no reference value for G13
+    # status line with the reasons
+    status = next(t for t in fig.texts if t.get_gid() == "status").get_text()
+    assert status.startswith("status: CHECK") and "[at_bound]" in status \
+        and "G13 not determined" in status.replace("\n", " ")
+    write_pages([p for p in report_pages(checked) if p.name == "summary"], tmp_path / "s.png")
+    assert (tmp_path / "s.png").read_bytes()[:8] == PNG
 
 
-def test_intervals_panel_is_skipped_without_the_group_and_reads_per_material_layout(
-        batch_dir, tmp_path):
-    path = tmp_path / "u.result.h5"
-    shutil.copy(batch_dir / "S2.1.result.h5", path)
+def test_interval_panels_each_in_their_unit_with_reference_and_arrows(checked):
+    res = read_result(checked)
+    fig = {p.name: p.figure for p in report_pages(checked)}["intervals"]
+    u = res.uncertainty
+    for k in ("E1", "E2", "G12", "G13", "G23", "nu12"):
+        a = ax(fig, f"interval-{MAT}.{k}")
+        scale = 1 if k == "nu12" else 1e9
+        iv = u.get(MAT, k)
+        value = next(ln for ln in a.get_lines() if ln.get_gid() == "value")
+        assert value.get_ydata()[0] == res.materials[MAT][k] / scale
+        line = next(ln for ln in a.get_lines() if ln.get_gid() == "interval")
+        ymin, ymax = a.get_ylim()
+        assert np.allclose(line.get_ydata(), [max(iv.lower / scale, ymin),
+                                              min(iv.upper / scale, ymax)], rtol=1e-12)
+        # the value and the weak band are always in view; moduli panels never go below 0
+        assert ymin <= iv.value / scale <= ymax
+        assert k == "nu12" or ymin >= 0
+        arrows = [t for t in a.texts if t.get_text().startswith(("to", "from"))]
+        assert bool(arrows) == (iv.upper / scale > ymax or iv.lower / scale < ymin)
+        ref = res.reference[MAT].get(k)
+        refs = [ln for ln in a.get_lines() if ln.get_gid() == "reference"]
+        assert (len(refs) == 1 and refs[0].get_ydata()[0] == ref / scale) if ref else not refs
+        assert a.get_title() == f"{k} ({'1' if k == 'nu12' else 'GPa'})"
+    # E1 (well determined) is not squashed by G23's (undetermined) interval: its panel spans
+    # a few tens of % of its value, not the width of G23's interval
+    lo, hi = ax(fig, f"interval-{MAT}.E1").get_ylim()
+    assert (hi - lo) / (res.materials[MAT]["E1"] / 1e9) < 1.0
+
+
+def test_mode_shapes_with_mac_against_the_initial_model(batch_dir, tmp_path):
+    path = tmp_path / "S1.4.result.h5"
+    shutil.copy(batch_dir / "S1.4.result.h5", path)
+    res = read_result(path)
+    fr = res.plates[0].frequencies
+    # replace the paired shapes by the initial model's modes, computed here independently:
+    # the MAC against the initial model must then be 1
+    fm = build_forward_model(read_specimen(S14), (6, 6))
+    modes = fm.solve(None, fr.model.size)
+    w0 = fm.plate.w_shape(modes.phi)
     with h5py.File(path, "r+") as f:
-        del f["uncertainty"]
-    assert "intervals" not in [p.name for p in report_pages(path)]
-    with h5py.File(path, "r+") as f:
-        g = f["materials"][next(iter(f["materials"]))]
-        name = g.attrs["name"]
-        value = {k: g[k][()] for k in ("E1", "E2", "G12")}
-        u = f.create_group("uncertainty").create_group(next(iter(f["materials"])))
-        u.attrs["name"] = name
-        for k, v in value.items():
-            u.create_dataset(k, data=[0.97 * v, 1.04 * v])
-    iv = read_intervals(read_result(path))
-    assert iv[name]["E1"] == pytest.approx((0.97 * value["E1"], 1.04 * value["E1"]))
+        f["modes"]["w"][...] = w0
     pages = {p.name: p.figure for p in report_pages(path)}
-    a = next(a for a in pages["intervals"].axes if a.get_gid() == "intervals")
-    segs = a.collections[0].get_segments()
-    assert np.allclose([s[:, 0] for s in segs], [[-3, 4]] * 3)          # percent of the value
-    r = run("report", path, "-o", tmp_path / "u.pdf")
-    assert r.exit_code == 0 and "intervals" in r.output
+    for k in range(fr.model.size):
+        t = ax(pages["modes-1"], f"mode-{k + 1}").get_title()
+        assert f"{fr.model[k]:.1f} Hz" in t and f"meas. {fr.measured[k]:.1f} Hz" in t
+        assert "MAC vs initial 1.00" in t
+    # a mode replaced by another one: MAC of two different mode shapes is small
+    with h5py.File(path, "r+") as f:
+        f["modes"]["w"][:, 0] = w0[:, 1]
+    t = ax({p.name: p.figure for p in report_pages(path)}["modes-1"], "mode-1").get_title()
+    assert f"MAC vs initial {mac(w0[:, 1], w0[:, 0]):.2f}" in t
+    assert mac(w0[:, 1], w0[:, 0]) < 0.1
+    assert mac([1, 2, 3], [-2, -4, -6]) == pytest.approx(1.0, abs=1e-15)
+    assert mac([1, 0], [0, 1]) == 0.0
+    # every mode axes of a page has the same size
+    sizes = {tuple(np.round(a.get_position().size, 4)) for a in pages["modes-1"].axes
+             if (a.get_gid() or "").startswith("mode-")}
+    assert len(sizes) == 1
+
+
+def test_history_on_log_scales_with_bound_hits(checked):
+    res = read_result(checked)
+    fig = {p.name: p.figure for p in report_pages(checked)}["history"]
+    a = ax(fig, "objective")
+    assert a.get_yscale() == "log"
+    assert np.array_equal(a.get_lines()[0].get_ydata(), res.history.objective)
+    assert ax(fig, "rms").get_yscale() == "log"
+    hits = [ln.get_gid() for a in fig.axes for ln in a.get_lines()
+            if (ln.get_gid() or "").startswith("bound-")]
+    assert hits == [f"bound-{MAT}.G23"]
+    line = next(ln for a in fig.axes for ln in a.get_lines()
+                if ln.get_gid() == f"history-{MAT}.E1")
+    col = res.history.constants[:, list(res.history.labels).index(f"{MAT}.E1")]
+    assert np.allclose(line.get_ydata(), col / col[0], rtol=1e-15)
+
+
+def test_sensitivity_page(batch_dir):
+    path = batch_dir / "S1.4.result.h5"
+    res = read_result(path)
+    fig = {p.name: p.figure for p in report_pages(path)}["sensitivities"]
+    a = ax(fig, "sensitivity")
+    assert np.array_equal(a.get_images()[0].get_array(), res.plates[0].sensitivity)
+    assert [t.get_text() for t in a.get_xticklabels()] == ["E1", "E2", "G12", "G13", "G23",
+                                                          "nu12"]
+
+
+def test_version_1_file_says_status_not_recorded(batch_dir, tmp_path):
+    """A schema-1 file: look-alike-slash keys, nlopt outcome in "status", no /status."""
+    path = tmp_path / "v1.result.h5"
+    shutil.copy(batch_dir / "S1.4.result.h5", path)
+    with h5py.File(path, "r+") as f:
+        f.attrs["schema_version"] = 1
+        for group in ("materials", "initial"):
+            f[group].move("IM7_977-2", "IM7\u2215977-2")
+            del f[group]["IM7\u2215977-2"].attrs["name"]
+    res = read_result(path)
+    assert res.schema_version == 1 and res.status is None and list(res.materials) == [MAT]
+    assert res.optimizer_status.startswith("converged")
+    fig = {p.name: p.figure for p in report_pages(path)}["summary"]
+    status = next(t for t in fig.texts if t.get_gid() == "status").get_text()
+    assert status.startswith("status not recorded (schema version 1 file)")
+
+
+def test_joint_report_shared_constants_then_each_plate(joint, tmp_path):
+    res = read_result(joint)
+    pages = report_pages(joint)
+    names = [p.name for p in pages]
+    assert names[:3] == ["shared", "intervals", "history"]
+    assert names.index("S1.1-frequencies") < names.index("S1.2-frequencies")
+    assert {"S1.1-modes-1", "S1.1-sensitivities", "S1.2-modes-1", "S1.2-sensitivities"} \
+        <= set(names)
+    figs = dict((p.name, p.figure) for p in pages)
+    c = cells(ax(figs["shared"], "constants"))
+    assert c[1][1] == fmt_value("E1", res.materials[MAT]["E1"])
+    plates = cells(ax(figs["shared"], "plates"))
+    assert [row[0] for row in plates[1:]] == ["S1.1", "S1.2"]
+    for plate in res.plates:
+        bars = ax(figs[f"{plate.name}-frequencies"], "residuals").patches
+        assert np.array_equal([b.get_width() for b in bars],
+                              np.nan_to_num(plate.frequencies.residual_percent))
+        assert plate.name in figs[f"{plate.name}-frequencies"]._suptitle.get_text()
+    r = run("report", joint, "-o", tmp_path / "j.png", "--dpi", "50")
+    assert r.exit_code == 0, r.output
+    assert len(list(tmp_path.glob("j-*.png"))) == len(pages)
 
 
 def test_frf_page_for_a_specimen_fitted_from_an_frf_file(tmp_path):
@@ -160,37 +283,73 @@ def test_frf_page_for_a_specimen_fitted_from_an_frf_file(tmp_path):
     constants = rng.choice([-1, 1], size=(3, 8)) * rng.uniform(0.3, 1.0, size=(3, 8))
     frf = synth_frf(freq, np.column_stack([f_true, np.full(8, 0.008)]), constants,
                     kind="accelerance", noise=0.005, seed=4)
-    write_frf_h5(tmp_path / "plate.frf.h5", freq, frf, units="(m/s^2)/N")
+    coherence = np.clip(1 - 0.05 * rng.random(frf.shape), 0, 1)
+    write_frf_h5(tmp_path / "plate.frf.h5", freq, frf, coherence, units="(m/s^2)/N")
     text = open(S21).read().replace(MEASURED_BLOCK, "  frf_file: plate.frf.h5\n  modes: 8")
     (tmp_path / "plate.yaml").write_text(text)
     res = tmp_path / "plate.result.h5"
     r = run("identify", tmp_path / "plate.yaml", "--mesh", "6x6", "--fix", "nu12,G13,G23",
             "-o", res)
     assert r.exit_code == 0, r.output
-    pages = {p.name: p.figure for p in report_pages(res)}
-    a = next(a for a in pages["frf"].axes if a.get_gid() == "frf")
+    fig = {p.name: p.figure for p in report_pages(res)}["frf"]
+    a = ax(fig, "frf")
     dashed = [ln.get_xdata()[0] for ln in a.get_lines() if ln.get_linestyle() == "--"]
     assert np.allclose(sorted(dashed), f_true, rtol=1e-3)                # RFP modes
     dotted = [ln.get_xdata()[0] for ln in a.get_lines() if ln.get_linestyle() == ":"]
-    assert np.array_equal(dotted, read_h5(res)["frequencies"]["model"])
+    assert np.array_equal(dotted, read_result(res).plates[0].frequencies.model)
+    measured = [ln for ln in a.get_lines() if ln.get_color() == "k"]
+    fitted = [ln for ln in a.get_lines() if ln.get_linestyle() == "-" and ln.get_color() != "k"]
+    assert len(measured) == 3 and fitted
+    assert min(ln.get_zorder() for ln in measured) > max(ln.get_zorder() for ln in fitted)
+    with np.errstate(divide="ignore"):
+        assert np.array_equal(measured[0].get_ydata(), 20 * np.log10(np.abs(frf[0])))
+    assert a.get_ylabel() == "|H| (dB re 1 (m/s^2)/N)"
+    labels = a.get_legend().get_texts()
+    assert [t.get_text() for t in labels][:2] == ["measured (3 points)",
+                                                  "RFP fit (one colour per band)"]
+    coh = next(x for x in fig.axes if x.get_ylabel() == "coherence (1)")
+    lines = [ln for ln in coh.get_lines() if ln.get_gid() == "coherence"]
+    assert len(lines) == 3 and np.array_equal(lines[0].get_ydata(), coherence[0])
     r = run("report", res, "-o", tmp_path / "plate.png", "--dpi", "50")
     assert r.exit_code == 0 and "frf" in r.output
-    assert (tmp_path / "plate-5.png").stat().st_size > 0
+    assert (tmp_path / "plate-6.png").read_bytes()[:8] == PNG
 
 
 def test_report_of_a_batch_summary(batch_dir, tmp_path):
     for src in ("summary.csv", "summary.json"):
-        out = tmp_path / (src + ".pdf")
-        r = run("report", batch_dir / src, "-o", out)
+        out = tmp_path / (src + ".png")
+        r = run("report", batch_dir / src, "-o", out, "--dpi", "50")
         assert r.exit_code == 0, r.output
-        assert n_pdf_pages(out) == 2
+        assert len(list(tmp_path.glob(src + "-*.png"))) == 2
     pages = {p.name: p.figure for p in report_pages(batch_dir / "summary.csv")}
-    a = next(a for a in pages["constants"].axes if a.get_gid() == "across-E1")
-    h = read_h5(batch_dir / "S1.4.result.h5")
-    E1 = h["materials"][next(k for k in h["materials"] if not k.startswith("@"))]["E1"]
-    ys = np.concatenate([ln.get_ydata() for ln in a.get_lines() if len(ln.get_ydata())])
-    assert np.any(ys == E1 / 1e9)
-    assert [t.get_text() for t in a.get_xticklabels()] == ["S1.4", "S2.1"]
+    a = ax(pages["constants"], "across-E1")
+    res = read_result(batch_dir / "S1.4.result.h5")
+    v = next(ln for ln in a.get_lines() if ln.get_gid() == f"value-S1.4-{MAT}")
+    assert v.get_ydata()[0] == res.materials[MAT]["E1"] / 1e9
+    ref = next(ln for ln in a.get_lines() if ln.get_gid() == f"reference-S1.4-{MAT}")
+    assert ref.get_ydata()[0] == 170.0
+    ticks = [t.get_text() for t in a.get_xticklabels()]
+    assert ticks == ["S1.4", "S2.1"]
+    assert [t.get_text() for t in ax(pages["residuals"], "rms").get_xticklabels()] == ticks
+    # G13 of S1.4 is not determined: hollow marker and "?"
+    g = ax(pages["constants"], "across-G13")
+    m = next(ln for ln in g.get_lines() if ln.get_gid() == f"value-S1.4-{MAT}")
+    assert m.get_markerfacecolor() == "w" and any(t.get_text() == "?" for t in g.texts)
+
+
+def test_summary_puts_the_materials_of_one_specimen_side_by_side(tmp_path):
+    from laminid_cli.report import constants_across_page
+
+    row = {"name": "H1", "status": "ok"}
+    mats = {"glass": {"E1": 45e9, "E2": 9e9, "G12": 3e9, "G13": 3e9, "G23": 3e9, "nu12": 0.3},
+            "carbon": {"E1": 120e9, "E2": 8e9, "G12": 4e9, "G13": 4e9, "G23": 3e9,
+                       "nu12": 0.3}}
+    fig = constants_across_page([(row, mats, None), (dict(row, name="H2"), mats, None)], "t")
+    a = ax(fig, "across-E1")
+    xs = {ln.get_gid(): ln.get_xdata()[0] for ln in a.get_lines()}
+    assert xs["value-H1-glass"] < 0 < xs["value-H1-carbon"] < 1
+    assert xs["value-H2-glass"] < 1 < xs["value-H2-carbon"]
+    write_pages([type("P", (), {"name": "x", "figure": fig})()], tmp_path / "x.png")
 
 
 def test_report_errors(batch_dir, tmp_path):
@@ -198,10 +357,41 @@ def test_report_errors(batch_dir, tmp_path):
     with h5py.File(bad, "w") as f:
         f.attrs["format"] = "laminid-frf"
     r = run("report", bad, "-o", tmp_path / "x.pdf")
-    assert r.exit_code == 2 and "not a laminid identification result" in r.output
+    assert r.exit_code == 2
+    assert "not a laminid identification result (a 'laminid-frf' file" in r.output
+    assert "make one with laminid identify" in r.output
     r = run("report", batch_dir / "S1.4.result.h5", "-o", tmp_path / "x.svg")
     assert r.exit_code == 2 and "use .pdf or .png" in r.output
     (tmp_path / "s.csv").write_text("a,b\n1,2\n")
     r = run("report", tmp_path / "s.csv", "-o", tmp_path / "s.pdf")
     assert r.exit_code == 2 and "not a laminid batch summary" in r.output
+    (tmp_path / "t.h5").write_text("not hdf5")
+    r = run("report", tmp_path / "t.h5", "-o", tmp_path / "t.pdf")
+    assert r.exit_code == 2 and "not an HDF5 file" in r.output and "laminid identify" in r.output
     assert not list(tmp_path.glob("*.pdf"))
+
+
+def test_monte_carlo_spread_drawn_beside_the_interval(checked, tmp_path):
+    path = tmp_path / "mc.result.h5"
+    shutil.copy(checked, path)
+    with h5py.File(path, "r+") as f:
+        v = f["uncertainty"]["value"][()]
+        g = f["uncertainty"].create_group("monte_carlo")
+        g.create_dataset("lower", data=0.97 * v)
+        g.create_dataset("upper", data=1.02 * v)
+    res = read_result(path)
+    fig = {p.name: p.figure for p in report_pages(path)}["intervals"]
+    a = ax(fig, f"interval-{MAT}.E1")
+    line = next(ln for ln in a.get_lines() if ln.get_gid() == "monte-carlo")
+    e1 = res.materials[MAT]["E1"] / 1e9
+    assert np.allclose(line.get_ydata(), [0.97 * e1, 1.02 * e1], rtol=1e-12)
+
+
+def test_laminate_reference_values_on_the_summary_page(batch_dir):
+    path = batch_dir / "S2.1.result.h5"
+    res = read_result(path)
+    assert res.plates[0].reference_global == {"Ey": (22.5e9, 22.5e9)}    # S2.1.yaml
+    fig = {p.name: p.figure for p in report_pages(path)}["summary"]
+    text = " ".join(t.get_text() for a in fig.axes for t in a.texts).replace("\n", " ")
+    ey = res.plates[0].global_properties["Ey"] / 1e9
+    assert f"Ey {ey:.2f} GPa (reference 22.5 GPa)" in text

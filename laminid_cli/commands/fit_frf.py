@@ -84,8 +84,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     if plot_path is not None:
         from laminid_cli.frf.plot import plot_fit
 
-        plot_fit(plot_path, fs.freq, fs.frf, fit, title=f"{Path(frf_file).name}: "
-                                                        f"{len(fit.modes)} modes")
+        plot_fit(plot_path, fs.freq, fs.frf, fit, units=fs.units, coherence=fs.coherence,
+                 title=f"{Path(frf_file).name}: {len(fit.modes)} modes")
     if spec_path is not None:
         from laminid_cli.frf.into import write_measured
 

@@ -28,21 +28,28 @@ def default_output(source: str) -> Path:
               help="Resolution of PNG pages.")
 @force_option
 def report(source, output, frf_path, dpi, force):
-    """Draw the report of SOURCE: a result file of 'laminid identify'/'laminid batch'
-    (*.h5) or a batch summary (summary.csv or summary.json).
+    """Draw the report of SOURCE: a result file of 'laminid identify' (single or --joint)
+    or 'laminid batch' (*.h5), or a batch summary (summary.csv or summary.json).
 
     \b
     A result gives the pages:
-      frequencies    measured vs model, residual bars with the RMS, constants table
-      mode shapes    w0 of each paired mode, nodal lines, model/measured frequency
-      history        objective, RMS residual, constants / initial value per evaluation
+      summary        status and reasons; constants with interval (confidence level of the
+                     file), verdict, initial and reference value; measured vs model
+                     frequency table with the residuals
+      intervals      one panel per constant in its unit, verdict bands, reference values
+                     (when the file has /uncertainty)
+      mode shapes    w0 of each paired mode, nodal lines, MAC vs the initial model's mode
+      history        objective, RMS residual, constants / initial value (log scales),
+                     constants that ended at a bound marked
       sensitivities  heat map of d ln f_i / d ln P_j at the optimum
-      intervals      confidence intervals (when the file has /uncertainty)
-      FRF            FRFs with their RFP fit (specimens with measured.frf_file, or --frf)
+      FRF            FRFs over their RFP fit, phase, coherence (specimens with
+                     measured.frf_file, or --frf)
       damping        measured vs model modal loss factors, strain-energy shares, ply loss
                      factors (when the specimen has measured damping)
-    A batch summary gives the constants across specimens (with intervals when the results
-    have them) and the RMS residuals.
+    A joint result gives the shared constants first (summary, intervals, history), then
+    per plate its frequencies, mode shapes and sensitivities. A batch summary gives the
+    constants across specimens (materials of a specimen side by side, intervals, reference
+    values, undetermined values marked) and the RMS residuals.
 
     \b
     Examples:

@@ -1,7 +1,8 @@
-"""Figure of an RFP fit: FRF magnitude and phase with the fitted curves, and stabilisation charts.
+"""Figure of an RFP fit: FRF magnitude, phase and coherence with the fitted curves, and the
+stabilisation charts.
 
-matplotlib (Agg backend) is imported inside :func:`plot_fit` only, so the numerical modules
-never load it.
+matplotlib (Agg backend) is imported inside the functions only, so the numerical modules never
+load it. :func:`draw_frf` is shared with the FRF page of ``laminid report``.
 """
 
 from __future__ import annotations
@@ -13,15 +14,104 @@ import numpy as np
 from laminid_cli.errors import FrfError
 
 PLOT_SUFFIXES = (".png", ".pdf", ".svg")
+MEASURED_COLOR = "k"
 
 
-def plot_fit(path, freq, frf, fit, *, title: str = "") -> Path:
+def has_coherence(coherence) -> bool:
+    return coherence is not None and bool(np.isfinite(np.asarray(coherence, float)).any())
+
+
+def _label_levels(freqs, lo: float, hi: float, min_gap: float = 0.018, levels: int = 3):
+    """Vertical level (0, 1, 2...) of each frequency label so that labels closer than
+    ``min_gap`` of the axis width sit at different heights."""
+    out, last = [], {}
+    span = max(hi - lo, 1e-12)
+    for f in freqs:
+        x = (f - lo) / span
+        lev = next((k for k in range(levels) if x - last.get(k, -1.0) >= min_gap), levels - 1)
+        last[lev] = x
+        out.append(lev)
+    return out
+
+
+def _phase(freq, H):
+    """(freq, phase deg wrapped to +/-180) with a NaN gap at each wrap, so that a wrapped line
+    is not joined by a vertical stroke across the panel."""
+    ph = np.degrees(np.angle(H))
+    jumps = np.flatnonzero(np.abs(np.diff(ph)) > 180) + 1
+    return np.insert(freq, jumps, np.nan), np.insert(ph, jumps, np.nan)
+
+
+def draw_frf(ax_m, ax_p, freq, frf, fit, *, units: str = "", coherence=None, ax_c=None,
+             decimals: int = 2):
+    """Draw measured FRFs (black, on top), the RFP fit per band (coloured, below), the RFP
+    natural frequencies (dashed, labelled at the top) on magnitude ``ax_m`` (dB re 1 ``units``)
+    and phase ``ax_p`` (wrapped to +/-180 deg), and the coherence on ``ax_c`` when given.
+    Returns the x range of the fitted bands (or None)."""
+    freq = np.asarray(freq, dtype=float)
+    frf = np.atleast_2d(np.asarray(frf))
+    n = frf.shape[0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for p, H in enumerate(frf):
+            lab = (f"measured ({n} point{'s' if n > 1 else ''})" if p == 0 else None)
+            ax_m.plot(freq, 20 * np.log10(np.abs(H)), color=MEASURED_COLOR, lw=0.7, alpha=0.8,
+                      zorder=3, label=lab)
+            ax_p.plot(freq, np.degrees(np.angle(H)), ".", color=MEASURED_COLOR, ms=1.0,
+                      alpha=0.6, zorder=3)
+        for k, band in enumerate(fit.bands):
+            lo, hi = band.band_hz
+            sel = (freq >= lo) & (freq <= hi) & (freq > 0)
+            Hs = band.synthesise(freq[sel])
+            color = f"C{k % 10}"
+            for p, H in enumerate(Hs):
+                ax_m.plot(freq[sel], 20 * np.log10(np.abs(H)), color=color, lw=2.2, alpha=0.55,
+                          zorder=2, label="RFP fit (one colour per band)" if k == 0 and p == 0
+                          else None)
+                ax_p.plot(*_phase(freq[sel], H), color=color, lw=1.8, alpha=0.55, zorder=2)
+    xr = None
+    if fit.bands:
+        xr = (min(b.band_hz[0] for b in fit.bands) * 0.95,
+              max(b.band_hz[1] for b in fit.bands) * 1.02)
+    lo, hi = xr if xr else (float(freq.min()), float(freq.max()))
+    fm = [m.freq_hz for m in fit.modes]
+    for i, (f, lev) in enumerate(zip(fm, _label_levels(fm, lo, hi))):
+        for ax in [a for a in (ax_m, ax_p, ax_c) if a is not None]:
+            ax.axvline(f, color="0.35", ls="--", lw=0.6, zorder=1,
+                       label="RFP natural frequency" if ax is ax_m and i == 0 else None)
+        ax_m.annotate(f"{f:.{decimals}f}", (f, 1 - 0.09 * lev), xycoords=("data", "axes fraction"),
+                      rotation=90, va="top", ha="right", fontsize=7, color="0.25")
+    ax_m.set_ylabel(f"|H| (dB re 1 {units})" if units else "|H| (dB re 1 FRF unit)")
+    ax_p.set_ylabel("phase (deg),\nwrapped to ±180")
+    ax_p.set_ylim(-190, 190)
+    ax_p.set_yticks([-180, -90, 0, 90, 180])
+    ax_p.grid(axis="y", lw=0.3)
+    if ax_c is not None:
+        coh = np.atleast_2d(np.asarray(coherence, float))
+        for p, c in enumerate(coh):
+            ax_c.plot(freq, c, color=MEASURED_COLOR, lw=0.6, alpha=0.7, gid="coherence",
+                      label="coherence" if p == 0 else None)
+        ax_c.set_ylim(0, 1.05)
+        ax_c.set_ylabel("coherence (1)")
+        ax_c.grid(axis="y", lw=0.3)
+    if xr:
+        ax_m.set_xlim(*xr)
+    sel = (freq >= lo) & (freq <= hi)
+    with np.errstate(divide="ignore"):
+        db = 20 * np.log10(np.abs(frf[:, sel]))
+    db = db[np.isfinite(db)]
+    if db.size:                         # magnitudes outside the shown band do not set the scale
+        ax_m.set_ylim(db.min() - 5, db.max() + 12)
+    return xr
+
+
+def plot_fit(path, freq, frf, fit, *, title: str = "", units: str = "", coherence=None) -> Path:
     """Write a figure of a :class:`~laminid_cli.frf.rfp.ModalFit` to ``path`` (PNG/PDF/SVG).
 
-    Top: magnitude (dB re 1 FRF unit) of every measured FRF (thin grey) and the fitted curves
-    (coloured) per band, identified natural frequencies as dashed lines. Middle: phase (deg).
-    Bottom: stabilisation chart of every band (model order N vs pole frequency; o new, + stable
-    in frequency, x stable in frequency and damping) over the summed FRF magnitude.
+    Magnitude (dB re 1 FRF unit) of every measured FRF (black, drawn over the fit) and the
+    fitted curves (coloured, one colour per band), identified natural frequencies as dashed
+    lines; phase (deg, wrapped to +/-180); coherence when the file has it; stabilisation chart
+    of every band (model order N vs pole frequency; o new, + stable in frequency, x stable in
+    frequency and damping) over the summed FRF magnitude.
     """
     import matplotlib
 
@@ -34,49 +124,40 @@ def plot_fit(path, freq, frf, fit, *, title: str = "") -> Path:
                        f"{', '.join(PLOT_SUFFIXES)}")
     freq = np.asarray(freq, dtype=float)
     frf = np.atleast_2d(np.asarray(frf))
-    fig = Figure(figsize=(10, 10), layout="constrained")
-    ax_m, ax_p, ax_s = fig.subplots(3, 1, sharex=True, height_ratios=[3, 2, 3])
+    coh = has_coherence(coherence)
+    fig = Figure(figsize=(10, 11 if coh else 10), layout="constrained")
+    ratios = [3, 1.6] + ([1.1] if coh else []) + [3]
+    axes = fig.subplots(len(ratios), 1, sharex=True, height_ratios=ratios)
+    ax_m, ax_p, ax_s = axes[0], axes[1], axes[-1]
+    ax_c = axes[2] if coh else None
+    xr = draw_frf(ax_m, ax_p, freq, frf, fit, units=units, coherence=coherence, ax_c=ax_c)
+    ax_m.legend(loc="lower left", fontsize=8, framealpha=0.9)
     with np.errstate(divide="ignore", invalid="ignore"):
-        for H in frf:
-            ax_m.plot(freq, 20 * np.log10(np.abs(H)), color="0.7", lw=0.6)
-            ax_p.plot(freq, np.degrees(np.angle(H)), color="0.7", lw=0.6)
         for k, band in enumerate(fit.bands):
-            lo, hi = band.band_hz
-            sel = (freq >= lo) & (freq <= hi) & (freq > 0)
-            Hs = band.synthesise(freq[sel])
             color = f"C{k % 10}"
-            for H in Hs:
-                ax_m.plot(freq[sel], 20 * np.log10(np.abs(H)), color=color, lw=0.9)
-                ax_p.plot(freq[sel], np.degrees(np.angle(H)), color=color, lw=0.9)
             ch = band.chart
-            for code, marker, label in ((0, "o", "new"), (1, "+", "stable f"),
-                                        (2, "x", "stable f, zeta")):
+            for code, marker, label in ((0, "o", "new pole"), (1, "+", "stable in f"),
+                                        (2, "x", "stable in f and damping")):
                 s = ch.stable == code
                 ax_s.plot(ch.freq_hz[s], ch.order[s], marker, ms=3 if code == 0 else 5,
                           mfc="none", color=color if code == 2 else "0.5",
                           label=label if k == 0 else None, ls="none")
         summed = 20 * np.log10(np.abs(frf).sum(axis=0))
     for m in fit.modes:
-        for ax in (ax_m, ax_p, ax_s):
-            ax.axvline(m.freq_hz, color="k", ls="--", lw=0.6)
-        ax_m.annotate(f"{m.freq_hz:.2f}", (m.freq_hz, 1), xycoords=("data", "axes fraction"),
-                      rotation=90, va="top", ha="right", fontsize=7)
+        ax_s.axvline(m.freq_hz, color="0.35", ls="--", lw=0.6)
     ax_s2 = ax_s.twinx()
     finite = np.isfinite(summed)
     ax_s2.plot(freq[finite], summed[finite], color="0.8", lw=0.8, zorder=0)
     ax_s2.set_yticks([])
     ax_s.set_zorder(ax_s2.get_zorder() + 1)
     ax_s.patch.set_visible(False)
-    ax_m.set_ylabel("|H| (dB)")
-    ax_p.set_ylabel("phase (deg)")
-    ax_p.set_ylim(-185, 185)
     ax_s.set_ylabel("model order N (modes)")
     ax_s.set_xlabel("frequency (Hz)")
-    ax_s.legend(loc="upper left", fontsize=7)
-    if fit.bands:
-        ax_s.set_xlim(min(b.band_hz[0] for b in fit.bands) * 0.95,
-                      max(b.band_hz[1] for b in fit.bands) * 1.02)
-    ax_m.set_title(title or f"RFP fit: {len(fit.modes)} modes")
+    ax_s.set_title("stabilisation chart (grey: summed |H|)", fontsize=9)
+    ax_s.legend(loc="upper left", fontsize=7, framealpha=0.9)
+    if xr:
+        ax_s.set_xlim(*xr)
+    fig.suptitle(title or f"RFP fit: {len(fit.modes)} modes")
     try:
         fig.savefig(path, dpi=120)
     except OSError as exc:

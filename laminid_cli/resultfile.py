@@ -1,0 +1,461 @@
+"""Typed reader of identification result files (``laminid identify``, ``laminid batch``).
+
+:func:`read_result` opens a "laminid-result" or "laminid-joint-result" file (layout: the
+docstring of :mod:`laminid_cli.results`), checks its ``format`` and ``schema_version`` and
+returns a frozen :class:`ResultFile`. Version 1 files (material groups keyed by the name with a
+look-alike slash, no result status) are read as far as they go: ``status`` is None then, and a
+report says "status not recorded". The optional groups ``/status``, ``/uncertainty`` and
+``/damping`` are None when absent.
+
+Everything is in SI (Pa, Hz, m, kg; nu12 and loss factors: 1), as stored.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from laminid_cli.errors import LaminidError
+
+CONSTANTS = ("E1", "E2", "G12", "G13", "G23", "nu12")
+RESULT_FORMATS = ("laminid-result", "laminid-joint-result")
+READABLE_VERSIONS = (1, 2)
+MAKES_A_RESULT = ("laminid identify SPEC.yaml (or laminid identify A.yaml B.yaml --joint, "
+                  "laminid batch FOLDER)")
+
+
+class ResultFileError(LaminidError):
+    """Not a readable identification result (exit code 2)."""
+
+
+@dataclass(frozen=True)
+class Reason:
+    code: str
+    text: str
+
+
+@dataclass(frozen=True)
+class Status:
+    """The result's status ("ok" | "check") and its reasons (empty when ok)."""
+
+    status: str
+    reasons: tuple[Reason, ...] = ()
+
+
+@dataclass(frozen=True)
+class Interval:
+    """The confidence interval of one free constant (SI; nu12: 1)."""
+
+    label: str                 # "material.constant"
+    material: str
+    constant: str
+    value: float
+    lower: float
+    upper: float
+    verdict: str
+    rel_half_width: float = np.nan
+    scale: str = "linear"      # "log" (moduli, schema 2) | "linear"
+    at_bound: bool = False
+    bound_text: str = ""
+
+
+@dataclass(frozen=True)
+class Uncertainty:
+    confidence: float
+    s2: float
+    dof: float
+    condition_number: float
+    sigma_source: str
+    well_determined: float     # relative half-width limits of the verdicts (e.g. 0.05, 0.30)
+    weak: float
+    intervals: tuple[Interval, ...]
+    notes: str = ""
+    monte_carlo: dict | None = None      # {"lower", "upper", "mean", "std", ...} arrays
+
+    def get(self, material: str, constant: str) -> Interval | None:
+        return next((iv for iv in self.intervals
+                     if iv.material == material and iv.constant == constant), None)
+
+
+@dataclass(frozen=True)
+class Damping:
+    """``/damping`` (branch i14's loss factors), as stored: attributes and datasets."""
+
+    attrs: dict
+    data: dict
+
+
+@dataclass(frozen=True)
+class Frequencies:
+    measured: np.ndarray       # Hz, NaN = not measured
+    model: np.ndarray          # Hz, the model mode paired with each measured one
+    residual_percent: np.ndarray
+    weight: np.ndarray
+    model_mode: np.ndarray     # 1-based index of the sorted model mode paired with each
+    rms_residual_percent: float
+    initial_rms_residual_percent: float
+
+
+@dataclass(frozen=True)
+class History:
+    evaluation: np.ndarray
+    objective: np.ndarray
+    rms_residual_percent: np.ndarray
+    constants: np.ndarray      # (n_evaluations, n_materials*6), SI
+    labels: tuple[str, ...]    # "material.constant" of the columns of ``constants``
+
+
+@dataclass(frozen=True)
+class Plate:
+    """One plate's part of a result (the whole file for a single identification)."""
+
+    name: str
+    path: str
+    yaml: str
+    a: float
+    b: float
+    h: float
+    boundary: str
+    nodes: np.ndarray          # (n_nodes, 2) m
+    elements: np.ndarray       # (n_el, 8)
+    mesh: tuple[int, int]
+    materials: dict            # {material: {constant: value}} (with "density" when stored)
+    frequencies: Frequencies
+    w: np.ndarray              # (n_nodes, n_modes) transverse displacement of paired modes
+    sensitivity: np.ndarray | None
+    sensitivity_labels: tuple[str, ...]
+    global_properties: dict
+    history: History | None
+    swaps: tuple[str, ...]
+    warnings: tuple[str, ...]
+    reference: dict            # {material: {constant: value SI}} from the specimen's YAML
+    reference_source: str = ""
+    reference_global: dict = field(default_factory=dict)   # {Ex...: (low, high) SI}
+
+
+@dataclass(frozen=True)
+class ResultFile:
+    path: Path
+    format: str
+    schema_version: int
+    joint: bool
+    converged: bool
+    optimizer: str
+    optimizer_status: str      # the nlopt outcome
+    objective: float
+    evaluations: int
+    time_s: float
+    materials: dict            # {material: {constant: value SI}} identified
+    initial: dict
+    free: dict                 # {material: (constant, ...)}
+    history: History | None
+    rms_residual_percent: float
+    plates: tuple[Plate, ...]
+    status: Status | None = None
+    uncertainty: Uncertainty | None = None
+    damping: Damping | None = None
+    warnings: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def confidence(self) -> float | None:
+        return None if self.uncertainty is None else self.uncertainty.confidence
+
+    @property
+    def reference(self) -> dict:
+        """{material: {constant: value}}: the plates' reference values (first plate wins)."""
+        out: dict = {}
+        for p in self.plates:
+            for m, consts in p.reference.items():
+                for k, v in consts.items():
+                    out.setdefault(m, {}).setdefault(k, v)
+        return out
+
+
+# ----------------------------------------------------------------------------------------------
+
+
+def _s(v) -> str:
+    if isinstance(v, bytes):
+        return v.decode("utf-8")
+    if isinstance(v, np.ndarray) and v.shape == ():
+        return _s(v[()])
+    return str(v)
+
+
+def _strings(ds) -> tuple[str, ...]:
+    return tuple(_s(x) for x in np.ravel(ds[()]))
+
+
+def _plain(v):
+    if isinstance(v, bytes):
+        return v.decode("utf-8")
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+def _name(key: str, group) -> str:
+    """A group's real name: its ``name`` attribute; version 1 keys had a look-alike slash."""
+    return _s(group.attrs["name"]) if "name" in group.attrs else key.replace("\u2215", "/")
+
+
+def _materials(f, group: str = "materials") -> dict:
+    out = {}
+    if group not in f:
+        return out
+    for key, g in f[group].items():
+        out[_name(key, g)] = {k: float(g[k][()]) for k in (*CONSTANTS, "density") if k in g}
+    return out
+
+
+def _labels(ds) -> tuple[str, ...]:
+    return tuple(x for x in _s(ds.attrs.get("labels", "")).split(",") if x)
+
+
+def _history(f) -> History | None:
+    if "history" not in f:
+        return None
+    h = f["history"]
+    return History(np.asarray(h["evaluation"][()]), np.asarray(h["objective"][()], float),
+                   np.asarray(h["rms_residual_percent"][()], float),
+                   np.asarray(h["constants"][()], float), _labels(h["constants"]))
+
+
+def parse_reference(text: str) -> tuple[dict, str]:
+    """({material: {constant: value SI}}, source) of a specimen YAML's ``reference`` block;
+    values that cannot be read (ranges, typos) are left out."""
+    import yaml
+
+    from laminid_cli.units import parse_quantity
+
+    try:
+        doc = yaml.safe_load(text)
+        ref = doc["reference"]
+        mats = ref.get("materials") or {}
+    except (KeyError, TypeError, AttributeError, yaml.YAMLError):
+        return {}, ""
+    out: dict[str, dict] = {}
+    for m, consts in mats.items() if isinstance(mats, dict) else ():
+        for k, v in (consts or {}).items() if isinstance(consts, dict) else ():
+            if k not in CONSTANTS or isinstance(v, (list, dict)):
+                continue
+            try:
+                out.setdefault(str(m), {})[k] = float(
+                    parse_quantity(v, "dimensionless" if k == "nu12" else "modulus"))
+            except Exception:  # noqa: BLE001 - a reference we cannot read is not shown
+                continue
+    return out, str(ref.get("source", "") or "")
+
+
+def parse_global_reference(text: str) -> dict:
+    """{property: (low, high)} (SI; low == high for one value) of the YAML's
+    ``reference.global`` block (laminate properties of Appendix A: Ex, nu_xy...)."""
+    import yaml
+
+    from laminid_cli.units import parse_quantity
+
+    try:
+        glob = yaml.safe_load(text)["reference"]["global"] or {}
+    except (KeyError, TypeError, AttributeError, yaml.YAMLError):
+        return {}
+    out = {}
+    for k, v in glob.items() if isinstance(glob, dict) else ():
+        kind = "dimensionless" if str(k).startswith("nu") else "modulus"
+        vals = v if isinstance(v, list) and len(v) == 2 else [v, v]
+        try:
+            out[str(k)] = tuple(float(parse_quantity(x, kind)) for x in vals)
+        except Exception:  # noqa: BLE001 - a reference we cannot read is not shown
+            continue
+    return out
+
+
+def _plate(g, name: str | None = None) -> Plate:
+    sp = g["specimen"]
+    fr = g["frequencies"]
+    measured = np.asarray(fr["measured"][()], float)
+    yaml_text = _s(sp["yaml"][()]) if "yaml" in sp else ""
+    ref, source = parse_reference(yaml_text)
+    mesh = g["mesh"]
+    sens = g.get("sensitivities")
+    hist = _history(g)
+    order = list(dict.fromkeys(lab.rsplit(".", 1)[0] for lab in
+                               (hist.labels if hist is not None else ())))
+    mats = _materials(g)
+    mats = dict(sorted(mats.items(), key=lambda kv: order.index(kv[0]) if kv[0] in order
+                       else len(order)))
+    return Plate(
+        name=name if name is not None else _s(sp.attrs.get("name", "")),
+        path=_s(sp.attrs.get("path", "")), yaml=yaml_text,
+        a=float(sp["a"][()]), b=float(sp["b"][()]), h=float(sp["h"][()]),
+        boundary=_s(sp.attrs.get("boundary", "free")),
+        nodes=np.asarray(mesh["nodes"][()], float), elements=np.asarray(mesh["elements"][()], int),
+        mesh=(int(mesh.attrs.get("nx", 0)), int(mesh.attrs.get("ny", 0))),
+        materials=mats, frequencies=Frequencies(
+            measured=measured, model=np.asarray(fr["model"][()], float),
+            residual_percent=np.asarray(fr["residual_percent"][()], float),
+            weight=np.asarray(fr["weight"][()], float),
+            model_mode=np.asarray(fr["model_mode"][()], int) if "model_mode" in fr
+            else np.arange(1, measured.size + 1),
+            rms_residual_percent=float(fr.attrs.get("rms_residual_percent", np.nan)),
+            initial_rms_residual_percent=float(fr.attrs.get("initial_rms_residual_percent",
+                                                            np.nan))),
+        w=np.asarray(g["modes"]["w"][()], float),
+        sensitivity=None if sens is None else np.asarray(sens["dlnf_dlnP"][()], float),
+        sensitivity_labels=() if sens is None else _labels(sens["dlnf_dlnP"]),
+        global_properties={k: float(v[()]) for k, v in g["global_properties"].items()}
+        if "global_properties" in g else {},
+        history=hist,
+        swaps=_strings(g["swaps"]) if "swaps" in g else (),
+        warnings=_strings(g["warnings"]) if "warnings" in g else (),
+        reference=ref, reference_source=source,
+        reference_global=parse_global_reference(yaml_text))
+
+
+def _uncertainty(f) -> Uncertainty | None:
+    if "uncertainty" not in f:
+        return None
+    u = f["uncertainty"]
+    a = {k: _plain(v) for k, v in u.attrs.items()}
+    labels = _strings(u["labels"]) if "labels" in u else ()
+    n = len(labels)
+
+    def arr(key, default=np.nan):
+        return np.ravel(u[key][()]) if key in u else np.full(n, default)
+
+    def strs(key, default=""):
+        return _strings(u[key]) if key in u else (default,) * n
+
+    value, lower, upper = arr("value"), arr("lower"), arr("upper")
+    rel, verdict, scale = arr("rel_half_width"), strs("verdict"), strs("scale", "linear")
+    at_bound = arr("at_bound", False).astype(bool) if "at_bound" in u else np.zeros(n, bool)
+    bound_text = strs("bound_text")
+    intervals = []
+    for j, lab in enumerate(labels):
+        m, k = lab.rsplit(".", 1) if "." in lab else ("", lab)
+        intervals.append(Interval(lab, m, k, float(value[j]), float(lower[j]), float(upper[j]),
+                                  verdict[j], float(rel[j]), scale[j], bool(at_bound[j]),
+                                  bound_text[j]))
+    mc = None
+    if "monte_carlo" in u:
+        g = u["monte_carlo"]
+        mc = {k: np.asarray(v[()]) for k, v in g.items()} | {
+            k: _plain(v) for k, v in g.attrs.items()}
+    return Uncertainty(
+        confidence=float(a.get("confidence", 0.95)), s2=float(a.get("s2", np.nan)),
+        dof=float(a.get("dof", np.nan)), condition_number=float(a.get("condition_number", np.nan)),
+        sigma_source=str(a.get("sigma_source", "")),
+        well_determined=float(a.get("well_determined", 0.05)), weak=float(a.get("weak", 0.30)),
+        intervals=tuple(intervals), notes=str(a.get("notes", "")), monte_carlo=mc)
+
+
+def _status(f) -> tuple[Status | None, str]:
+    """(Status or None for a file that did not record one, the optimizer's outcome)."""
+    a = f.attrs
+    if "optimizer_status" not in a:               # schema 1: "status" is nlopt's outcome
+        return None, _s(a.get("status", ""))
+    reasons = ()
+    if "status" in f and isinstance(f["status"], _group_type()):
+        g = f["status"]
+        codes = _strings(g["codes"]) if "codes" in g else ()
+        texts = _strings(g["texts"]) if "texts" in g else ()
+        reasons = tuple(Reason(c, t) for c, t in zip(codes, texts))
+    return Status(_s(a.get("status", "")), reasons), _s(a["optimizer_status"])
+
+
+def _group_type():
+    import h5py
+
+    return h5py.Group
+
+
+def _damping(f) -> Damping | None:
+    if "damping" not in f:
+        return None
+    g = f["damping"]
+    data = {}
+    for k, v in g.items():
+        if isinstance(v, _group_type()):
+            continue
+        x = v[()]
+        data[k] = _strings(v) if v.dtype.kind in "OSU" else np.asarray(x)
+    return Damping({k: _plain(v) for k, v in g.attrs.items()}, data)
+
+
+def read_result(path) -> ResultFile:
+    """Read an identification result (single or joint) into a :class:`ResultFile`.
+
+    Raises
+    ------
+    ResultFileError
+        The file is missing, not HDF5, not an identification result (the message names the
+        command that makes one), of a newer schema version, or lacks a required group.
+    """
+    import h5py
+
+    path = Path(path)
+    try:
+        f = h5py.File(path, "r")
+    except FileNotFoundError as exc:
+        raise ResultFileError(f"{path}: file not found") from exc
+    except OSError as exc:
+        raise ResultFileError(f"{path}: not an HDF5 file, so not a laminid identification "
+                              f"result; make one with {MAKES_A_RESULT}") from exc
+    with f:
+        fmt = _s(f.attrs.get("format", ""))
+        if fmt not in RESULT_FORMATS:
+            what = f"a {fmt!r} file" if fmt else "no 'format' attribute"
+            raise ResultFileError(f"{path}: not a laminid identification result ({what}; "
+                                  f"expected format 'laminid-result'); make one with "
+                                  f"{MAKES_A_RESULT}")
+        try:
+            version = int(f.attrs.get("schema_version", 1))
+        except (TypeError, ValueError) as exc:
+            raise ResultFileError(f"{path}: attribute schema_version "
+                                  f"{f.attrs.get('schema_version')!r} is not a number") from exc
+        if version not in READABLE_VERSIONS:
+            raise ResultFileError(f"{path}: schema_version {version} is not readable by this "
+                                  f"laminid (reads {', '.join(map(str, READABLE_VERSIONS))}); "
+                                  "update laminid")
+        try:
+            return _read(f, path, fmt, version)
+        except KeyError as exc:
+            raise ResultFileError(f"{path}: incomplete result file ({exc})") from exc
+
+
+def _read(f, path, fmt, version) -> ResultFile:
+    joint = fmt == "laminid-joint-result"
+    a = f.attrs
+    if joint:
+        plates = tuple(_plate(g, _name(key, g)) for key, g in f["specimens"].items())
+        order = [x for x in _s(a.get("specimens", "")).split(",") if x]
+        if sorted(order) == sorted(p.name for p in plates):          # the order of the run
+            plates = tuple(sorted(plates, key=lambda p: order.index(p.name)))
+        rms = float(a.get("rms_residual_percent", np.nan))
+    else:
+        plates = (_plate(f),)
+        rms = plates[0].frequencies.rms_residual_percent
+    status, opt_status = _status(f)
+    free = {}
+    for key, g in f["materials"].items():
+        free[_name(key, g)] = tuple(x for x in _s(g.attrs.get("free", "")).split(",") if x)
+    history = _history(f)
+    # HDF5 lists groups alphabetically; the run's material order is that of the history labels
+    order = list(dict.fromkeys(lab.rsplit(".", 1)[0] for lab in
+                               (history.labels if history is not None else ())))
+
+    def ordered(d):
+        return dict(sorted(d.items(), key=lambda kv: order.index(kv[0]) if kv[0] in order
+                           else len(order)))
+    return ResultFile(
+        path=Path(path), format=fmt, schema_version=version, joint=joint,
+        converged=bool(a.get("converged", False)), optimizer=_s(a.get("optimizer", "")),
+        optimizer_status=opt_status, objective=float(a.get("objective", np.nan)),
+        evaluations=int(a.get("evaluations", 0)), time_s=float(a.get("time_s", np.nan)),
+        materials=ordered({m: {k: v for k, v in c.items() if k != "density"}
+                           for m, c in _materials(f).items()}),
+        initial=ordered(_materials(f, "initial")), free=ordered(free), history=history,
+        rms_residual_percent=rms, plates=plates, status=status,
+        uncertainty=_uncertainty(f), damping=_damping(f),
+        warnings=_strings(f["warnings"]) if "warnings" in f else ())
