@@ -414,7 +414,39 @@ def _outcome_of(fut, job: Job) -> Outcome:
         return Outcome(job.name, "error", f"worker failed: {type(exc).__name__}: {exc}")
 
 
+#: address schemes Dask's Client accepts for a running scheduler
+SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss")
+
+
+def check_scheduler(address: str) -> str:
+    """Check a ``--scheduler`` value: ``local`` or ``[tcp|tls|ws|wss]://HOST:PORT``.
+
+    Returns it unchanged; raises :class:`BatchError` (one line, exit 2) otherwise, before any
+    connection is tried.
+    """
+    import re
+
+    text = str(address).strip()
+    if text == "local":
+        return text
+    expected = ("expected 'local' or a Dask scheduler address SCHEME://HOST:PORT with SCHEME "
+                f"one of {', '.join(SCHEDULER_SCHEMES)} (e.g. tcp://10.0.0.5:8786)")
+    match = re.fullmatch(r"(?:([A-Za-z][A-Za-z0-9+.-]*)://)?(\[[0-9A-Fa-f:.]+\]|[^\s/:@]+)"
+                         r"(?::([0-9]{1,5}))?", text)
+    if not text or match is None:
+        raise BatchError(f"--scheduler {address!r} not understood; {expected}")
+    scheme, _host, port = match.groups()
+    if scheme is not None and scheme.lower() not in SCHEDULER_SCHEMES:
+        raise BatchError(f"--scheduler {address!r}: unknown scheme {scheme!r}; {expected}")
+    if port is None:
+        raise BatchError(f"--scheduler {address!r}: no port; {expected}")
+    if not 1 <= int(port) <= 65535:
+        raise BatchError(f"--scheduler {address!r}: port {port} is not in 1-65535; {expected}")
+    return text
+
+
 def _run_dask(jobs, options, n_jobs, scheduler):
+    scheduler = check_scheduler(scheduler)
     try:
         from distributed import Client, LocalCluster, as_completed
     except ImportError as exc:
@@ -428,10 +460,12 @@ def _run_dask(jobs, options, n_jobs, scheduler):
             client = Client(cluster)
         else:
             client = Client(scheduler, timeout="20s")
-    except (OSError, TimeoutError) as exc:
+    except Exception as exc:  # noqa: BLE001 - distributed raises OSError, TimeoutError,
+        # ValueError, TypeError... for an unusable address: all are one line for the user
         if cluster is not None:
             cluster.close()
-        raise BatchError(f"--scheduler {scheduler}: cannot connect ({exc})") from exc
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        raise BatchError(f"--scheduler {scheduler}: cannot connect ({reason})") from exc
     try:
         # remote workers have their own working folder: give them absolute paths
         remote = [Job(str(Path(j.spec).resolve()), j.name, j.output, j.key) for j in jobs]

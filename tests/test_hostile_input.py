@@ -139,3 +139,126 @@ def test_ply_thickness_contradicting_h_is_refused_even_when_scaling(tmp_path):
     assert code == 2
     assert "field 'ply_thickness'" in out
     assert "the ply thicknesses add up to 12 mm, which contradicts h = 3.06 mm" in out
+
+
+# ---------------------------------------------------------------------------------- command line
+
+
+def test_mesh_too_big_for_memory_is_refused_with_estimate_and_largest_that_fits():
+    from laminid_cli.fe.mesh import check_mesh_memory, model_memory_bytes
+    from laminid_cli.errors import ModelError
+
+    # 4 GB: 200x200 needs ~72 GB; the answer names the largest square mesh that fits
+    with pytest.raises(ModelError) as err:
+        check_mesh_memory(200, 200, available=4e9)
+    msg = str(err.value)
+    assert "mesh 200x200 needs about 71.8 GB of memory, and 4 GB is available" in msg
+    fits = int(msg.split("fits is ")[1].split("x")[0])
+    assert model_memory_bytes(fits, fits) <= 4e9 < model_memory_bytes(fits + 1, fits + 1)
+    check_mesh_memory(12, 12, available=4e9)          # the paper's mesh: no complaint
+
+
+def test_mesh_too_big_for_memory_on_the_command_line(monkeypatch):
+    import laminid_cli.fe.mesh as mesh
+
+    monkeypatch.setattr(mesh, "available_memory_bytes", lambda: 2e9)
+    r = run("modes", S11, "--mesh", "200x200")
+    assert r.exit_code == 2
+    assert "laminid: error: mesh 200x200 needs about 71.8 GB of memory, and 2 GB is available: " \
+           "the largest mesh that fits is" in r.output
+
+
+def test_batch_counts_one_model_per_worker_in_the_memory_estimate(tmp_path, monkeypatch):
+    import laminid_cli.fe.mesh as mesh
+
+    one = mesh.model_memory_bytes(40, 40)
+    monkeypatch.setattr(mesh, "available_memory_bytes", lambda: 1.5 * one)
+    r = run("batch", S11, "--mesh", "40x40", "-j", "2", "--out", tmp_path / "out")
+    assert r.exit_code == 2 and "for 2 worker processes" in r.output
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("mesh, words", [
+    ("1x1", "mesh '1x1' is degenerate: at least 2 elements per side"),
+    ("1x12", "mesh '1x12' is degenerate"),
+    ("2x60", "mesh 2x60 on a 210.5 x 311 mm plate makes elements 20.3 times longer than wide"),
+])
+def test_degenerate_mesh_is_refused(mesh, words):
+    r = run("modes", S11, "--mesh", mesh)
+    assert r.exit_code == 2 and words in r.output
+
+
+@pytest.mark.parametrize("option", ["--xtol", "--ftol", "--sigma-rel", "--max-rel-interval"])
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf"])
+def test_nan_and_inf_options_are_refused_by_the_parser(tmp_path, option, value):
+    out = tmp_path / "o.h5"
+    r = run("identify", S11, "--mesh", "4x4", option, value, "-o", out)
+    assert r.exit_code == 2
+    assert f"Invalid value for '{option}': '{value}' is not a finite number." in r.output
+    assert not out.exists()
+
+
+def test_identify_without_measured_frequencies_is_refused(tmp_path):
+    path = spec(tmp_path, BASE.split("measured:")[0])
+    r = run("identify", path, "--mesh", "4x4", "-o", tmp_path / "o.h5")
+    assert r.exit_code == 2, r.output
+    assert f"laminid: error: {path}: no measured frequencies: add 'measured:" in r.output
+    assert not (tmp_path / "o.h5").exists()
+
+
+@pytest.mark.parametrize("address, words", [
+    ("bogus", "--scheduler 'bogus': no port"),
+    ("http://host:8786", "unknown scheme 'http'"),
+    ("tcp://host:99999", "port 99999 is not in 1-65535"),
+    ("tcp://a b:1", "not understood"),
+])
+def test_every_scheduler_problem_is_one_line(tmp_path, address, words):
+    r = run("batch", S11, "--scheduler", address, "--out", tmp_path / "out")
+    assert r.exit_code == 2
+    lines = r.output.strip().splitlines()
+    assert len(lines) == 1 and words in lines[0] and lines[0].startswith("laminid: error:")
+    assert not (tmp_path / "out").exists()
+
+
+def test_unreachable_tcpip_analyser_is_an_instrument_error_naming_the_resource(tmp_path):
+    r = run("acquire", "--analyser", "TCPIP0::no-such-host.invalid::5025::SOCKET",
+            "-o", tmp_path / "x.h5")
+    assert r.exit_code == 1, r.output
+    assert "laminid: error: analyser TCPIP0::no-such-host.invalid::5025::SOCKET is unreachable" \
+           in r.output
+    assert not (tmp_path / "x.h5").exists()
+
+
+# ---------------------------------------------------------------------------------- numerics
+
+
+@pytest.mark.parametrize("failure, words", [
+    ("noconv", "the eigen solver (ARPACK) did not converge for 16 modes"),
+    ("error", "the eigen solver (ARPACK) failed for 16 modes"),
+])
+def test_arpack_failure_exits_1_with_what_to_try(monkeypatch, failure, words):
+    import numpy as np
+    import scipy.sparse.linalg as spla
+
+    def eigsh(*args, **kwargs):
+        if failure == "noconv":
+            raise spla.ArpackNoConvergence("no convergence", np.zeros(0), np.zeros((0, 0)))
+        raise spla.ArpackError(-9999)
+
+    monkeypatch.setattr(spla, "eigsh", eigsh)
+    r = run("modes", S11, "--mesh", "4x4")
+    assert r.exit_code == 1
+    assert words in r.output and "try fewer modes (--modes), another mesh (--mesh)" in r.output
+
+
+def test_singular_factorisation_exits_1_with_what_to_try(monkeypatch):
+    import numpy as np
+    import scipy.linalg as sla
+
+    def cholesky_banded(*args, **kwargs):
+        raise np.linalg.LinAlgError("1-th leading minor not positive definite")
+
+    monkeypatch.setattr(sla, "cholesky_banded", cholesky_banded)
+    r = run("modes", S11, "--mesh", "4x4")
+    assert r.exit_code == 1
+    assert "the factorisation of K - sigma M failed" in r.output and "try another mesh" in r.output
