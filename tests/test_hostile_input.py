@@ -159,9 +159,9 @@ def test_mesh_too_big_for_memory_is_refused_with_estimate_and_largest_that_fits(
 
 
 def test_mesh_too_big_for_memory_on_the_command_line(monkeypatch):
-    import laminid_cli.fe.mesh as mesh
+    import laminid_cli.memory as memory
 
-    monkeypatch.setattr(mesh, "available_memory_bytes", lambda: 2e9)
+    monkeypatch.setattr(memory, "available_memory_bytes", lambda: 2e9)
     r = run("modes", S11, "--mesh", "200x200")
     assert r.exit_code == 2
     assert "laminid: error: mesh 200x200 needs about 71.8 GB of memory, and 2 GB is available: " \
@@ -171,8 +171,10 @@ def test_mesh_too_big_for_memory_on_the_command_line(monkeypatch):
 def test_batch_counts_one_model_per_worker_in_the_memory_estimate(tmp_path, monkeypatch):
     import laminid_cli.fe.mesh as mesh
 
+    import laminid_cli.memory as memory
+
     one = mesh.model_memory_bytes(40, 40)
-    monkeypatch.setattr(mesh, "available_memory_bytes", lambda: 1.5 * one)
+    monkeypatch.setattr(memory, "available_memory_bytes", lambda: 1.5 * one)
     r = run("batch", S11, "--mesh", "40x40", "-j", "2", "--out", tmp_path / "out")
     assert r.exit_code == 2 and "for 2 worker processes" in r.output
     assert not (tmp_path / "out").exists()
@@ -262,3 +264,223 @@ def test_singular_factorisation_exits_1_with_what_to_try(monkeypatch):
     r = run("modes", S11, "--mesh", "4x4")
     assert r.exit_code == 1
     assert "the factorisation of K - sigma M failed" in r.output and "try another mesh" in r.output
+
+
+# ---------------------------------------------------------------------------------- FRF files
+
+
+@pytest.fixture(scope="module")
+def frf_files(tmp_path_factory):
+    """A good FRF set written as HDF5, UFF and CSV (3 points, 801 lines)."""
+    from tests.frf_synth import plate_case
+
+    from laminid_cli.frf.io import write_frf
+    from laminid_cli.frf.store import FrfSet
+
+    c = plate_case(n_points=3, n_lines=801)
+    d = tmp_path_factory.mktemp("frf")
+    fs = FrfSet(freq=c.freq, frf=c.frf, units="m/N")
+    return {ext: write_frf(d / f"good.{ext}", fs) for ext in ("h5", "uff", "csv")}
+
+
+def fit_error(path):
+    before = Path(path).read_bytes()
+    r = run("fit-frf", path)
+    assert "Traceback" not in r.output
+    assert r.exception is None or isinstance(r.exception, SystemExit), repr(r.exception)
+    assert Path(path).read_bytes() == before
+    return r.exit_code, r.output
+
+
+def h5_copy(frf_files, tmp_path, edit):
+    import shutil
+
+    import h5py
+
+    path = tmp_path / "bad.h5"
+    shutil.copy(frf_files["h5"], path)
+    with h5py.File(path, "r+") as f:
+        edit(f)
+    return path
+
+
+def test_hdf5_with_flipped_bits_is_a_clear_error_or_reads(frf_files, tmp_path):
+    # bytes of the superblock and object headers flipped in turn: never a traceback
+    from laminid_cli.errors import FrfError
+    from laminid_cli.frf.io import read_frf
+
+    data = bytearray(Path(frf_files["h5"]).read_bytes())
+    codes = set()
+    for pos in range(0, 1000, 61):
+        flipped = bytearray(data)
+        flipped[pos] ^= 0xFF
+        path = tmp_path / "flip.h5"
+        path.write_bytes(flipped)
+        try:
+            read_frf(path)
+            codes.add(0)
+        except FrfError as exc:
+            assert str(exc).startswith(str(path)), exc
+            codes.add(2)
+    assert codes == {0, 2}
+
+
+@pytest.mark.parametrize("pos, words", [
+    (1065, "the HDF5 library crashed reading the file (SIGSEGV); the file is damaged"),
+    (2400, "the HDF5 library did not finish reading the file in 3 s; the file is damaged"),
+])
+def test_hdf5_file_that_crashes_or_hangs_libhdf5_is_refused(frf_files, tmp_path, monkeypatch,
+                                                           pos, words):
+    # one flipped bit that makes libhdf5 1.14 segfault, one that makes it loop (found by the
+    # fuzz test); the child process of probe_hdf5_file takes the risk
+    import laminid_cli.frf.store as store
+
+    monkeypatch.setattr(store, "H5_PROBE_TIMEOUT_S", 3.0)
+    data = bytearray(Path(frf_files["h5"]).read_bytes())
+    data[pos] ^= 0xFF
+    path = tmp_path / "damaged.h5"
+    path.write_bytes(data)
+    code, out = fit_error(path)
+    assert code == 2
+    assert f"{path}: {words}" in out, out
+
+
+def test_hdf5_dangling_soft_link_is_named(frf_files, tmp_path):
+    import h5py
+
+    def edit(f):
+        del f["frf"]
+        f["frf"] = h5py.SoftLink("/nowhere")
+
+    path = h5_copy(frf_files, tmp_path, edit)
+    code, out = fit_error(path)
+    assert code == 2 and f"{path}: '/frf' is a link to nothing (dangling soft link)" in out
+
+
+@pytest.mark.parametrize("value, words", [
+    ("abc", "attribute 'schema_version' is 'abc'; expected an integer"),
+    ([1, 2], "attribute 'schema_version' is [1, 2]; expected an integer"),
+])
+def test_hdf5_attribute_of_the_wrong_type_is_refused(frf_files, tmp_path, value, words):
+    import numpy as np
+
+    path = h5_copy(frf_files, tmp_path,
+                   lambda f: f.attrs.__setitem__("schema_version", value))
+    code, out = fit_error(path)
+    assert code == 2 and words in out
+
+
+def test_hdf5_units_attribute_of_the_wrong_type_is_refused(frf_files, tmp_path):
+    import numpy as np
+
+    path = h5_copy(frf_files, tmp_path,
+                   lambda f: f["frf"].attrs.__setitem__("units", np.array([1.0, 2.0])))
+    code, out = fit_error(path)
+    assert code == 2 and "attribute 'units' of '/frf' is [1.0, 2.0]; expected text" in out
+
+
+def test_hdf5_string_typed_coherence_is_refused(frf_files, tmp_path):
+    import numpy as np
+
+    def edit(f):
+        shape = f["frf"].shape
+        if "coherence" in f:
+            del f["coherence"]
+        f["coherence"] = np.full(shape, b"a", dtype="S1")
+
+    code, out = fit_error(h5_copy(frf_files, tmp_path, edit))
+    assert code == 2 and "dataset '/coherence' holds |S1 values; expected numbers" in out
+
+
+def test_hdf5_group_instead_of_dataset_is_refused(frf_files, tmp_path):
+    def edit(f):
+        del f["frf"]
+        f.create_group("frf")
+
+    code, out = fit_error(h5_copy(frf_files, tmp_path, edit))
+    assert code == 2 and "'/frf' is a group, expected a dataset" in out
+
+
+def test_fit_needing_more_memory_than_available_is_refused_with_the_estimate(monkeypatch,
+                                                                          tmp_path):
+    import numpy as np
+
+    import laminid_cli.memory as memory
+
+    # a 300 000-line CSV: its sweep would need about 0.9 GB; with 0.5 GB available, refused
+    f = np.linspace(1.0, 8000.0, 300_000)
+    h = 1 / (400.0 ** 2 - f ** 2 + 2j * 0.01 * 400 * f)
+    path = tmp_path / "long.csv"
+    np.savetxt(path, np.column_stack([f, h.real, h.imag]), delimiter=",", fmt="%.9g")
+    monkeypatch.setattr(memory, "available_memory_bytes", lambda: 0.5e9)
+    r = run("fit-frf", path, "--band", "1:8000")
+    assert r.exit_code == 2, r.output
+    assert "fitting band 1:8000 Hz (1 FRFs x 300000 lines, up to 12 modes) needs about 924 MB " \
+           "of memory, and 500 MB is available; fit narrower bands" in r.output
+
+
+def test_frf_size_limits_are_checked_before_reading():
+    from laminid_cli.errors import FrfError
+    from laminid_cli.frf.io import check_frf_size
+
+    with pytest.raises(FrfError, match="2000000 frequency lines, more than laminid reads"):
+        check_frf_size(1, 2_000_000, "x.csv")
+    with pytest.raises(FrfError, match=r"100 FRFs of 800000 lines \(80000000 values\)"):
+        check_frf_size(100, 800_000, "x.csv")
+
+
+def test_nan_in_uff_data_is_refused(frf_files, tmp_path):
+    lines = Path(frf_files["uff"]).read_text().split("\n")
+    k = lines.index("    -1", 2) - 5      # a data line of the first record
+    lines[k] = "                 NaN" + lines[k][20:]
+    path = tmp_path / "nan.uff"
+    path.write_text("\n".join(lines))
+    code, out = fit_error(path)
+    assert code == 2 and f"{path}: FRF of point 1 has NaN/inf at" in out
+
+
+def test_nan_frf_is_not_written_to_uff_as_zero(tmp_path):
+    import numpy as np
+
+    from laminid_cli.errors import FrfError
+    from laminid_cli.frf.io import write_frf
+    from laminid_cli.frf.store import FrfSet
+
+    h = np.ones((1, 50), complex)
+    h[0, 5] = np.nan
+    with pytest.raises(FrfError, match="FRF of point 1 has NaN/inf at 6 Hz"):
+        write_frf(tmp_path / "x.uff", FrfSet(freq=np.arange(1.0, 51.0), frf=h))
+    assert not (tmp_path / "x.uff").exists()
+
+
+# ---------------------------------------------------------------------------------- files
+
+
+@pytest.mark.parametrize("edit, words", [
+    (lambda t: t.replace("117.2 GPa", "117200 mPa"), "is not a plausible modulus"),
+    (lambda t: t.replace("geometry:\n", "g0: &g {a: 1}\ngeometry:\n  <<: *g\n"),
+     "YAML merge keys (<<) are not allowed"),
+    (lambda t: t.replace("layup:", "weird_key: 1\nlayup:"), "unknown key 'weird_key'"),
+])
+def test_fit_frf_into_an_invalid_specimen_leaves_it_untouched(frf_files, tmp_path, edit, words):
+    text = edit(BASE)
+    path = spec(tmp_path, text)
+    r = run("fit-frf", frf_files["h5"], "--into", path)
+    assert r.exit_code == 2 and words in r.output and str(path) in r.output
+    assert path.read_text() == text
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["plate.yaml"]
+
+
+def test_fit_frf_into_refuses_an_edit_that_would_make_the_specimen_invalid(frf_files, tmp_path):
+    # the FRFs give 7 modes; the specimen's 12 weights cannot be kept, and frf_file + the new
+    # frequencies together would be invalid: nothing is written
+    text = BASE.split("measured:")[0] + "measured:\n  frf_file: good.h5\n"
+    path = spec(tmp_path, text)
+    import shutil
+
+    shutil.copy(frf_files["h5"], tmp_path / "good.h5")
+    r = run("fit-frf", frf_files["h5"], "--into", path)
+    assert r.exit_code == 2
+    assert "the edited file would not be a valid specimen" in r.output
+    assert "give either 'frequencies' (and 'sigma') or 'frf_file', not both" in r.output
+    assert path.read_text() == text and not (tmp_path / "plate.yaml.bak").exists()

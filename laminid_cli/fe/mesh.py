@@ -17,7 +17,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from laminid_cli import memory
 from laminid_cli.errors import ModelError
+from laminid_cli.memory import format_bytes
 
 
 @dataclass(frozen=True)
@@ -99,35 +101,6 @@ def model_memory_bytes(nx: int, ny: int) -> float:
     return 100e6 + n_eq * (18_000.0 + 8.8 * band)
 
 
-def available_memory_bytes() -> float | None:
-    """Memory this process may still use: MemAvailable (Linux), else physical memory; capped by
-    the address-space limit (``ulimit -v``). None when unknown."""
-    import os
-    import resource
-
-    found = None
-    try:
-        with open("/proc/meminfo") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    found = float(line.split()[1]) * 1024
-                    break
-    except OSError:
-        pass
-    if found is None:
-        try:
-            found = float(os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
-        except (ValueError, OSError, AttributeError):
-            found = None
-    try:
-        soft, _ = resource.getrlimit(resource.RLIMIT_AS)
-        if soft != resource.RLIM_INFINITY and soft > 0:
-            found = float(soft) if found is None else min(found, float(soft))
-    except (ValueError, OSError):
-        pass
-    return found
-
-
 def check_mesh_memory(nx: int, ny: int, copies: int = 1,
                       available: float | None = None) -> None:
     """Raise ModelError when ``copies`` models on an nx x ny mesh would not fit in memory.
@@ -135,7 +108,7 @@ def check_mesh_memory(nx: int, ny: int, copies: int = 1,
     The message gives the estimate (:func:`model_memory_bytes`), the memory available and the
     largest mesh of the same shape that fits.
     """
-    available = available_memory_bytes() if available is None else available
+    available = memory.available_memory_bytes() if available is None else available
     need = copies * model_memory_bytes(nx, ny)
     if available is None or need <= available:
         return
@@ -150,12 +123,8 @@ def check_mesh_memory(nx: int, ny: int, copies: int = 1,
     hint = (f"the largest {'mesh' if nx == ny else 'mesh of this shape'} that fits is "
             f"{fits[0]}x{fits[1]}" if fits and min(fits) >= MIN_ELEMENTS_PER_SIDE
             else "no usable mesh fits")
-    raise ModelError(f"mesh {nx}x{ny} needs about {_gb(need)} of memory{many}, and "
-                     f"{_gb(available)} is available: {hint}")
-
-
-def _gb(n: float) -> str:
-    return f"{n / 1e9:.3g} GB" if n >= 1e9 else f"{n / 1e6:.3g} MB"
+    raise ModelError(f"mesh {nx}x{ny} needs about {format_bytes(need)} of memory{many}, and "
+                     f"{format_bytes(available)} is available: {hint}")
 
 
 def check_element_shape(a: float, b: float, nx: int, ny: int) -> None:
