@@ -262,6 +262,11 @@ def run_job(job: Job, options: BatchOptions) -> Outcome:
     """
     t0 = time.perf_counter()
     try:
+        str(job.spec).encode("utf-8")
+    except UnicodeEncodeError:
+        return Outcome(job.name, "error", "the file name is not valid UTF-8 text; rename the "
+                       "file", None, 0.0)
+    try:
         import h5py
 
         from laminid_cli.fe.mesh import parse_mesh
@@ -341,7 +346,7 @@ def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None
     method = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
     pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(jobs)),
                                mp_context=multiprocessing.get_context(method),
-                               initializer=_worker_signals)
+                               initializer=_worker_init, initargs=(os.getpid(),))
     complete = False
     try:
         futures = {pool.submit(run_job, job, options): job for job in jobs}
@@ -377,6 +382,59 @@ def _worker_signals() -> None:
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, terminate)
+    _stop_with_parent(terminate)
+
+
+#: seconds between two checks that the batch process is still alive (fallback of
+#: PR_SET_PDEATHSIG)
+PARENT_POLL_S = 0.5
+
+
+def _stop_with_parent(terminate, client_pid: int | None = None) -> None:
+    """Make this worker stop when the batch process that started it dies (even by SIGKILL,
+    which runs no clean-up): Linux's ``prctl(PR_SET_PDEATHSIG, SIGTERM)`` signals the worker
+    when its parent dies, and a daemon thread checks every :data:`PARENT_POLL_S` s that the
+    parent and the batch process are still there (the parent is the forkserver, not the batch
+    process, under the forkserver start method; other systems have no prctl)."""
+    import signal
+    import threading
+
+    parent = os.getppid()
+    client = client_pid if client_pid is not None else _CLIENT_PID.get("pid")
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        PR_SET_PDEATHSIG = 1
+        libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0)
+    except (OSError, AttributeError, TypeError):
+        pass
+
+    def alive(pid) -> bool:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return False
+        except PermissionError:
+            return True
+        return True
+
+    def watch():
+        while True:
+            time.sleep(PARENT_POLL_S)
+            if os.getppid() != parent or (client is not None and not alive(client)):
+                terminate()
+
+    threading.Thread(target=watch, name="laminid-parent-watch", daemon=True).start()
+
+
+#: pid of the batch process, given to the pool workers through their initializer
+_CLIENT_PID: dict = {}
+
+
+def _worker_init(client_pid: int) -> None:
+    _CLIENT_PID["pid"] = client_pid
+    _worker_signals()
 
 
 def _run_here(jobs, options):
@@ -595,7 +653,9 @@ def json_safe(obj):
 
 
 def _write_text(path: Path, text: str) -> Path:
-    return write_bytes_atomic(path, text.encode("utf-8"))
+    # a file name that is not UTF-8 (bytes kept as surrogates by Python) is written with
+    # backslash escapes (odd\xff.yaml) rather than failing the whole summary
+    return write_bytes_atomic(path, text.encode("utf-8", errors="backslashreplace"))
 
 
 def read_summary(path) -> list[dict]:
@@ -696,4 +756,10 @@ def format_table(rows) -> str:
             text = reason if reason.startswith(r["status"]) else \
                 f"{r['status']}: {reason}" if reason else r["status"]
             lines.append(f"  {r['name']}: {text}")
-    return "\n".join(lines).rstrip() + "\n"
+    return printable("\n".join(lines).rstrip() + "\n")
+
+
+def printable(text: str) -> str:
+    """``text`` with the undecodable bytes of file names (kept by Python as surrogates, e.g.
+    ``odd\\udcff``) written as backslash escapes, so that it can be printed and saved."""
+    return text.encode("utf-8", errors="backslashreplace").decode("utf-8")

@@ -4,6 +4,7 @@ Each test asserts the exit code and the message (file:line or the field, and wha
 never only the exit code. The generated (fuzz) counterpart is tests/test_fuzz.py.
 """
 
+import contextlib
 import json
 import time
 from pathlib import Path
@@ -484,3 +485,96 @@ def test_fit_frf_into_refuses_an_edit_that_would_make_the_specimen_invalid(frf_f
     assert "the edited file would not be a valid specimen" in r.output
     assert "give either 'frequencies' (and 'sigma') or 'frf_file', not both" in r.output
     assert path.read_text() == text and not (tmp_path / "plate.yaml.bak").exists()
+
+
+def test_batch_writes_no_result_for_a_failing_specimen(tmp_path):
+    folder = tmp_path / "in"
+    folder.mkdir()
+    (folder / "bad.yaml").write_text(BASE.replace("117.2 GPa", "117200 mPa"))
+    (folder / "nomeasured.yaml").write_text(BASE.split("measured:")[0])
+    out = folder / "out"                          # inside the input folder
+    r = run("batch", folder, "--out", out, "--mesh", "4x4")
+    assert r.exit_code == 1
+    assert "bad: error: " in r.output and "is not a plausible modulus" in r.output
+    assert "nomeasured: error: " in r.output and "no measured frequencies" in r.output
+    assert sorted(p.name for p in out.iterdir()) == ["summary.csv", "summary.json"]
+
+
+def test_batch_with_a_file_name_that_is_not_utf8(tmp_path):
+    import os
+
+    folder = tmp_path / "in"
+    folder.mkdir()
+    odd = os.fsdecode(bytes(folder) + b"/odd\xff.yaml")
+    Path(odd).write_text(BASE)
+    out = folder / "out"
+    r = run("batch", folder, "--out", out, "--mesh", "4x4")
+    assert r.exit_code == 1 and "Traceback" not in r.output
+    assert "the file name is not valid UTF-8 text; rename the file" in r.output
+    assert "odd\\udcff" in (out / "summary.csv").read_text(encoding="utf-8")
+
+
+def _descendants(pid: int) -> set[int]:
+    """Processes below ``pid`` (Linux /proc)."""
+    children: dict[int, list[int]] = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            ppid = int(stat.rsplit(")", 1)[1].split()[1])
+            children.setdefault(ppid, []).append(int(entry.name))
+    found, todo = set(), [pid]
+    while todo:
+        for c in children.get(todo.pop(), []):
+            if c not in found:
+                found.add(c)
+                todo.append(c)
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+def test_batch_workers_stop_when_the_batch_process_is_killed(tmp_path):
+    import os
+    import shutil
+    import signal
+    import subprocess
+    import sys
+
+    folder = tmp_path / "in"
+    folder.mkdir()
+    for k in range(2):
+        shutil.copy(S11, folder / f"p{k}.yaml")
+    # long enough jobs (16x16 mesh, many evaluations) that the workers are busy when killed
+    proc = subprocess.Popen([sys.executable, "-m", "laminid_cli", "batch", str(folder), "-j", "2",
+                             "--out", str(tmp_path / "out"), "--mesh", "16x16",
+                             "--max-evaluations", "2000", "--xtol", "1e-14", "--ftol", "1e-15"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    try:
+        deadline = time.monotonic() + 60
+        workers: set[int] = set()
+        while time.monotonic() < deadline and len(workers) < 3:   # forkserver + 2 workers
+            time.sleep(0.2)
+            workers = _descendants(proc.pid)
+        assert len(workers) >= 3, "the workers did not start"
+        time.sleep(1.0)
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait(10)
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and any(_alive(p) for p in workers):
+            time.sleep(0.1)
+        left = [p for p in workers if _alive(p)]
+        assert not left, f"worker processes still running after the batch was killed: {left}"
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)

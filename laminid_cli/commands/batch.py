@@ -45,7 +45,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrizat
     from pathlib import Path
 
     from laminid_cli.batch import (BatchError, BatchOptions, batch_report, check_scheduler,
-                                   discover_specimens, format_table, plan_batch, remove_stale_parts, result_row,
+                                   discover_specimens, format_table, printable, plan_batch, remove_stale_parts, result_row,
                                    run_jobs, stored_hash, write_result_bytes, write_summary_csv,
                                    write_summary_json, SUMMARY_CSV, SUMMARY_JSON)
     from laminid_cli.fe.mesh import parse_mesh
@@ -93,7 +93,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrizat
                     write_result_bytes(job.output, outcome.data)
                 rows[job.name] = result_row(job, outcome)
                 finished += 1
-                bar.update(1, f"{job.name}: {outcome.status}")
+                bar.update(1, printable(f"{job.name}: {outcome.status}"))
     finally:
         # also on Ctrl-C: the summary lists what was done ('not run' for the rest)
         ordered = [rows.get(j.name) or result_row(j, cached=stored_hash(j.output) == j.key)
