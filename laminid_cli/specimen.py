@@ -605,6 +605,17 @@ def _resolve_tag(tag: str, names) -> str | None:
 # sections
 
 
+#: longest specimen or material name
+MAX_NAME_CHARS = 200
+
+
+def _check_name(r: _Reader, y: _Y, name: str, what: str) -> None:
+    """A name used in result files and tables: some visible text, not '.' or '..'."""
+    if not name.strip() or name.strip() in (".", "..") or len(name) > MAX_NAME_CHARS:
+        raise r.error(y, f"{what} {name!r} is not usable: give 1 to {MAX_NAME_CHARS} "
+                         "characters of text other than '.' and '..'")
+
+
 def _read_geometry(r: _Reader, y: _Y) -> tuple[float, float, float]:
     g = r.mapping(y, required=("a", "b", "h"))
     a, b, h = (r.positive(g[k], "length") for k in ("a", "b", "h"))
@@ -988,6 +999,8 @@ def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
         what="a mapping with name, geometry, materials, layup, measured, ... at the top level")
 
     name = r.string(top["name"]) if "name" in top else Path(path).stem
+    if "name" in top:
+        _check_name(r, top["name"], name, "specimen name")
     description = r.string(top["description"]) if "description" in top else ""
     a, b, h = _read_geometry(r, top["geometry"])
     mass = r.positive(top["mass"], "mass") if "mass" in top else None
@@ -996,6 +1009,8 @@ def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
                         any_key=True)
     if not entries:
         raise r.error(top["materials"], "no material defined")
+    for name_, y in entries.items():
+        _check_name(r, y, name_, "material name")
     materials = {name_: _read_material(r, name_, y) for name_, y in entries.items()}
 
     boundary = "free"

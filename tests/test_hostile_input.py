@@ -97,6 +97,14 @@ def test_file_bigger_than_any_specimen_is_refused(tmp_path):
     assert code == 2 and "more than a specimen file can have" in out
 
 
+@pytest.mark.parametrize("line, field", [("name: |", "name"), ("name: '..'", "name"),
+                                         ("name: '   '", "name")])
+def test_unusable_specimen_name_is_refused_not_an_hdf5_error(tmp_path, line, field):
+    # found by the fuzz test: an empty name (block scalar '|') made h5py raise TypeError
+    code, out, path = modes_error(tmp_path, BASE.replace("name: S1.1", line))
+    assert code == 2 and f"field '{field}': specimen name" in out and "is not usable" in out
+
+
 # ---------------------------------------------------------------------------------- units
 
 
