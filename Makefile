@@ -22,8 +22,9 @@ demo: setup
 test: setup
 	$(BIN)/python -m pytest -q -n 2
 
+# LAMINID_FUZZ_SCALE: the fuzz tests (tests/test_fuzz.py) run 10 times their default cases
 test-all: setup
-	$(BIN)/python -m pytest -q -n 2 -m 'not hardware'
+	LAMINID_FUZZ_SCALE=10 $(BIN)/python -m pytest -q -n 2 -m 'not hardware'
 
 bench: setup
 	for f in benchmarks/bench_*.py; do $(BIN)/python $$f || exit 1; done

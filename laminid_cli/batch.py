@@ -264,6 +264,11 @@ def run_job(job: Job, options: BatchOptions) -> Outcome:
     """
     t0 = time.perf_counter()
     try:
+        str(job.spec).encode("utf-8")
+    except UnicodeEncodeError:
+        return Outcome(job.name, "error", "the file name is not valid UTF-8 text; rename the "
+                       "file", None, 0.0)
+    try:
         import h5py
 
         from laminid_cli.damping import damping_of, split_fix
@@ -345,7 +350,7 @@ def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None
     method = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
     pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(jobs)),
                                mp_context=multiprocessing.get_context(method),
-                               initializer=_worker_signals)
+                               initializer=_worker_init, initargs=(os.getpid(),))
     complete = False
     try:
         futures = {pool.submit(run_job, job, options): job for job in jobs}
@@ -381,6 +386,59 @@ def _worker_signals() -> None:
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, terminate)
+    _stop_with_parent(terminate)
+
+
+#: seconds between two checks that the batch process is still alive (fallback of
+#: PR_SET_PDEATHSIG)
+PARENT_POLL_S = 0.5
+
+
+def _stop_with_parent(terminate, client_pid: int | None = None) -> None:
+    """Make this worker stop when the batch process that started it dies (even by SIGKILL,
+    which runs no clean-up): Linux's ``prctl(PR_SET_PDEATHSIG, SIGTERM)`` signals the worker
+    when its parent dies, and a daemon thread checks every :data:`PARENT_POLL_S` s that the
+    parent and the batch process are still there (the parent is the forkserver, not the batch
+    process, under the forkserver start method; other systems have no prctl)."""
+    import signal
+    import threading
+
+    parent = os.getppid()
+    client = client_pid if client_pid is not None else _CLIENT_PID.get("pid")
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        PR_SET_PDEATHSIG = 1
+        libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0)
+    except (OSError, AttributeError, TypeError):
+        pass
+
+    def alive(pid) -> bool:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return False
+        except PermissionError:
+            return True
+        return True
+
+    def watch():
+        while True:
+            time.sleep(PARENT_POLL_S)
+            if os.getppid() != parent or (client is not None and not alive(client)):
+                terminate()
+
+    threading.Thread(target=watch, name="laminid-parent-watch", daemon=True).start()
+
+
+#: pid of the batch process, given to the pool workers through their initializer
+_CLIENT_PID: dict = {}
+
+
+def _worker_init(client_pid: int) -> None:
+    _CLIENT_PID["pid"] = client_pid
+    _worker_signals()
 
 
 def _run_here(jobs, options):
@@ -418,7 +476,39 @@ def _outcome_of(fut, job: Job) -> Outcome:
         return Outcome(job.name, "error", f"worker failed: {type(exc).__name__}: {exc}")
 
 
+#: address schemes Dask's Client accepts for a running scheduler
+SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss")
+
+
+def check_scheduler(address: str) -> str:
+    """Check a ``--scheduler`` value: ``local`` or ``[tcp|tls|ws|wss]://HOST:PORT``.
+
+    Returns it unchanged; raises :class:`BatchError` (one line, exit 2) otherwise, before any
+    connection is tried.
+    """
+    import re
+
+    text = str(address).strip()
+    if text == "local":
+        return text
+    expected = ("expected 'local' or a Dask scheduler address SCHEME://HOST:PORT with SCHEME "
+                f"one of {', '.join(SCHEDULER_SCHEMES)} (e.g. tcp://10.0.0.5:8786)")
+    match = re.fullmatch(r"(?:([A-Za-z][A-Za-z0-9+.-]*)://)?(\[[0-9A-Fa-f:.]+\]|[^\s/:@]+)"
+                         r"(?::([0-9]{1,5}))?", text)
+    if not text or match is None:
+        raise BatchError(f"--scheduler {address!r} not understood; {expected}")
+    scheme, _host, port = match.groups()
+    if scheme is not None and scheme.lower() not in SCHEDULER_SCHEMES:
+        raise BatchError(f"--scheduler {address!r}: unknown scheme {scheme!r}; {expected}")
+    if port is None:
+        raise BatchError(f"--scheduler {address!r}: no port; {expected}")
+    if not 1 <= int(port) <= 65535:
+        raise BatchError(f"--scheduler {address!r}: port {port} is not in 1-65535; {expected}")
+    return text
+
+
 def _run_dask(jobs, options, n_jobs, scheduler):
+    scheduler = check_scheduler(scheduler)
     try:
         from distributed import Client, LocalCluster, as_completed
     except ImportError as exc:
@@ -432,10 +522,12 @@ def _run_dask(jobs, options, n_jobs, scheduler):
             client = Client(cluster)
         else:
             client = Client(scheduler, timeout="20s")
-    except (OSError, TimeoutError) as exc:
+    except Exception as exc:  # noqa: BLE001 - distributed raises OSError, TimeoutError,
+        # ValueError, TypeError... for an unusable address: all are one line for the user
         if cluster is not None:
             cluster.close()
-        raise BatchError(f"--scheduler {scheduler}: cannot connect ({exc})") from exc
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        raise BatchError(f"--scheduler {scheduler}: cannot connect ({reason})") from exc
     try:
         # remote workers have their own working folder: give them absolute paths
         remote = [Job(str(Path(j.spec).resolve()), j.name, j.output, j.key) for j in jobs]
@@ -600,7 +692,9 @@ def json_safe(obj):
 
 
 def _write_text(path: Path, text: str) -> Path:
-    return write_bytes_atomic(path, text.encode("utf-8"))
+    # a file name that is not UTF-8 (bytes kept as surrogates by Python) is written with
+    # backslash escapes (odd\xff.yaml) rather than failing the whole summary
+    return write_bytes_atomic(path, text.encode("utf-8", errors="backslashreplace"))
 
 
 def read_summary(path) -> list[dict]:
@@ -701,4 +795,10 @@ def format_table(rows) -> str:
             text = reason if reason.startswith(r["status"]) else \
                 f"{r['status']}: {reason}" if reason else r["status"]
             lines.append(f"  {r['name']}: {text}")
-    return "\n".join(lines).rstrip() + "\n"
+    return printable("\n".join(lines).rstrip() + "\n")
+
+
+def printable(text: str) -> str:
+    """``text`` with the undecodable bytes of file names (kept by Python as surrogates, e.g.
+    ``odd\\udcff``) written as backslash escapes, so that it can be printed and saved."""
+    return text.encode("utf-8", errors="backslashreplace").decode("utf-8")

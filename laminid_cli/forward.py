@@ -13,7 +13,7 @@ import numpy as np
 
 from laminid_cli.errors import ModelError
 from laminid_cli.fe.assembly import PlateModel, boundary_label, build_plate_model
-from laminid_cli.fe.mesh import rectangular_mesh
+from laminid_cli.fe.mesh import check_element_shape, rectangular_mesh
 from laminid_cli.laminate import Laminate, laminate_from_specimen
 from laminid_cli.material import ElasticConstants, infeasibility_reasons
 from laminid_cli.modal import BandedCholesky, Modes, solve_modes
@@ -80,6 +80,7 @@ def build_forward_model(specimen: Specimen, mesh: tuple[int, int] = DEFAULT_MESH
     """
     lam = laminate_from_specimen(specimen)
     nx, ny = mesh
+    check_element_shape(specimen.a, specimen.b, nx, ny)
     plate = build_plate_model(
         rectangular_mesh(specimen.a, specimen.b, nx, ny), lam.h, lam.z, lam.angle,
         lam.material_index, lam.density, material_names=lam.material_names,

@@ -121,8 +121,10 @@ class BandedCholesky:
             cb = sla.cholesky_banded(ab.reshape(self.bandwidth + 1, self.n), overwrite_ab=True,
                                      check_finite=False)
         except np.linalg.LinAlgError as exc:
-            raise SolverError("K - sigma M is not positive definite: the stiffness is "
-                              "indefinite (infeasible constants?)") from exc
+            raise SolverError("the factorisation of K - sigma M failed (not positive "
+                              "definite: the stiffness is indefinite or singular); check that "
+                              "the constants are admissible and the densities positive, or "
+                              "try another mesh (--mesh)") from exc
         perm = self.perm
 
         def solve(x):
@@ -200,7 +202,14 @@ def solve_modes(K: sp.spmatrix, M: sp.spmatrix, n_modes: int, *, sigma: float,
         vals, vecs = spla.eigsh(K, k=k, M=M, sigma=sigma, which="LM", OPinv=OPinv, tol=tol,
                                 v0=v0)
     except spla.ArpackNoConvergence as exc:
-        raise SolverError(f"the eigen solver did not converge for {k} modes") from exc
+        raise SolverError(f"the eigen solver (ARPACK) did not converge for {k} modes of a "
+                          f"{n}-equation model; try fewer modes (--modes), another mesh "
+                          "(--mesh) or check the constants and densities") from exc
+    except (spla.ArpackError, ValueError) as exc:
+        reason = " ".join(str(exc).split())
+        raise SolverError(f"the eigen solver (ARPACK) failed for {k} modes of a {n}-equation "
+                          f"model ({reason}); try fewer modes (--modes), another mesh (--mesh) "
+                          "or check the constants and densities") from exc
     order = np.argsort(vals)
     vals, vecs = vals[order], vecs[:, order]
     near_zero = np.abs(vals) < RIGID_TOL * np.max(np.abs(vals))
@@ -223,7 +232,12 @@ def solve_modes(K: sp.spmatrix, M: sp.spmatrix, n_modes: int, *, sigma: float,
 def _m_orthonormal(R: np.ndarray, M: sp.spmatrix) -> np.ndarray:
     """M-orthonormal basis of the columns of R (Cholesky of the small Gram matrix)."""
     G = R.T @ (M @ R)
-    L = np.linalg.cholesky(G)
+    try:
+        L = np.linalg.cholesky(G)
+    except np.linalg.LinAlgError as exc:
+        raise SolverError("the rigid-body motions are not independent under the mass matrix "
+                          "(singular factorisation); check the densities and ply thicknesses, "
+                          "or try another mesh (--mesh)") from exc
     return np.linalg.solve(L, R.T).T
 
 

@@ -45,6 +45,7 @@ import dataclasses
 import difflib
 import logging
 import re
+import unicodedata
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -64,6 +65,9 @@ BOUNDARIES = ("free", "simply-supported", "clamped")
 GLOBAL_NAMES = ("Ex", "Ey", "Gxy", "Gxz", "Gyz", "nu_xy", "nu_yx")
 #: ply thicknesses must add up to h within this fraction of h (unless scale_thickness: true)
 THICKNESS_TOLERANCE = 0.005
+#: with scale_thickness, nominal ply thicknesses may be scaled to h by at most this factor (or
+#: its inverse): more is a wrong unit or a wrong h, not a nominal-vs-measured difference
+MAX_THICKNESS_SCALE = 1.5
 #: a stacking code may not expand to more plies than this
 MAX_PLIES = 2000
 
@@ -192,7 +196,102 @@ def _join(parent: str, key: str) -> str:
     return f"{parent}.{key}" if parent else key
 
 
+#: bounds on a specimen file (a real one is a few kB, 3-4 levels deep, with no or few aliases):
+#: the YAML is checked against them, event by event, before anything is built from it
+MAX_SPECIMEN_CHARS = 1_000_000
+MAX_YAML_DEPTH = 32
+MAX_YAML_ALIASES = 100
+MAX_YAML_NODES = 100_000
+
+# characters YAML 1.1 does not allow in a stream (tab, LF, CR, NEL are allowed)
+_NON_PRINTABLE = re.compile("[^\x09\x0A\x0D\x20-\x7E\x85\xA0-\uD7FF\uE000-\uFFFD"
+                            "\U00010000-\U0010FFFF]")
+
+
+def check_yaml_text(text: str, path: str = "<string>") -> None:
+    """Refuse YAML that laminid will not load, before any object is built from it.
+
+    Checked on the raw text and on the parser's event stream (which needs neither recursion
+    nor alias expansion, so the check is linear in the size of the text): the size
+    (:data:`MAX_SPECIMEN_CHARS`), non-printable characters, nesting depth
+    (:data:`MAX_YAML_DEPTH`), the number of aliases (:data:`MAX_YAML_ALIASES`) and the number
+    of nodes once the aliases are expanded (:data:`MAX_YAML_NODES`, which stops "billion
+    laughs" alias bombs), explicit tags (``!!int``, ``!foo``) and merge keys (``<<``).
+
+    Raises
+    ------
+    SpecimenError
+        ``path:line: problem`` (exit code 2).
+    """
+    if len(text) > MAX_SPECIMEN_CHARS:
+        raise SpecimenError(f"the file has {len(text)} characters, more than a specimen file "
+                            f"can have ({MAX_SPECIMEN_CHARS}); is it the right file?", path=path)
+    bad = _NON_PRINTABLE.search(text)
+    if bad is not None:
+        line = text.count("\n", 0, bad.start()) + 1
+        raise SpecimenError(f"non-printable character U+{ord(bad.group()):04X} in the text; "
+                            "remove it (YAML allows no control characters)", path=path, line=line)
+    depth = 0
+    n_aliases = 0
+    total = 0
+    sizes: dict[str, int] = {}          # anchor -> nodes it stands for once expanded
+    open_nodes: list[list] = []          # [anchor, nodes so far] of the open collections
+    try:
+        for event in yaml.parse(text, Loader=yaml.SafeLoader):
+            line = event.start_mark.line + 1 if event.start_mark else None
+            if isinstance(event, yaml.AliasEvent):
+                n_aliases += 1
+                if n_aliases > MAX_YAML_ALIASES:
+                    raise SpecimenError(f"more than {MAX_YAML_ALIASES} YAML aliases (*name); "
+                                        "write the values out", path=path, line=line)
+                count = sizes.get(event.anchor, 1)
+            elif isinstance(event, (yaml.ScalarEvent, yaml.SequenceStartEvent,
+                                    yaml.MappingStartEvent)):
+                tag = event.tag
+                implicit = event.implicit[0] if isinstance(event, yaml.ScalarEvent) \
+                    else event.implicit
+                if tag is not None and not implicit and tag != "!":
+                    tag = tag.replace("tag:yaml.org,2002:", "!!")
+                    raise SpecimenError(f"YAML tag {tag!r} is not allowed in a specimen file; "
+                                        "remove it (quote a value to make it text)",
+                                        path=path, line=line)
+                if isinstance(event, yaml.ScalarEvent) and event.value == "<<" \
+                        and event.style is None:
+                    raise SpecimenError("YAML merge keys (<<) are not allowed in a specimen "
+                                        "file; write the keys out", path=path, line=line)
+                if not isinstance(event, yaml.ScalarEvent):
+                    depth += 1
+                    if depth > MAX_YAML_DEPTH:
+                        raise SpecimenError(f"nesting deeper than {MAX_YAML_DEPTH} levels",
+                                            path=path, line=line)
+                    open_nodes.append([event.anchor, 1])
+                    continue
+                count = 1
+                if event.anchor is not None:
+                    sizes[event.anchor] = 1
+            elif isinstance(event, (yaml.SequenceEndEvent, yaml.MappingEndEvent)):
+                depth -= 1
+                anchor, count = open_nodes.pop()
+                if anchor is not None:
+                    sizes[anchor] = count
+            else:
+                continue
+            if open_nodes:
+                open_nodes[-1][1] += count
+            else:
+                total += count
+            if total + sum(n for _, n in open_nodes) > MAX_YAML_NODES:
+                raise SpecimenError(f"the YAML expands to more than {MAX_YAML_NODES} values "
+                                    "(aliases of aliases?); write the values out",
+                                    path=path, line=line)
+    except yaml.MarkedYAMLError:
+        return   # a syntax error: reported with its context by _compose
+    except yaml.YAMLError as exc:
+        raise SpecimenError(f"not valid YAML: {' '.join(str(exc).split())}", path=path) from exc
+
+
 def _compose(text: str, path: str) -> _Y:
+    check_yaml_text(text, path)
     loader = yaml.SafeLoader(text)
     try:
         try:
@@ -513,6 +612,17 @@ def _resolve_tag(tag: str, names) -> str | None:
 # sections
 
 
+#: longest specimen or material name
+MAX_NAME_CHARS = 200
+
+
+def _check_name(r: _Reader, y: _Y, name: str, what: str) -> None:
+    """A name used in result files and tables: some visible text, not '.' or '..'."""
+    if not name.strip() or name.strip() in (".", "..") or len(name) > MAX_NAME_CHARS:
+        raise r.error(y, f"{what} {name!r} is not usable: give 1 to {MAX_NAME_CHARS} "
+                         "characters of text other than '.' and '..'")
+
+
 def _read_geometry(r: _Reader, y: _Y) -> tuple[float, float, float]:
     g = r.mapping(y, required=("a", "b", "h"))
     a, b, h = (r.positive(g[k], "length") for k in ("a", "b", "h"))
@@ -577,6 +687,7 @@ def _read_plies(r: _Reader, top: dict, root: _Y, h: float,
             code = "[" + "/".join(r.string(item) for item in y.value) + "]"
         else:
             code = r.string(y)
+        code = unicodedata.normalize("NFKC", code)   # full-width digits, slashes, brackets
         try:
             expanded = expand_layup(code)
         except LayupSyntaxError as exc:
@@ -662,6 +773,13 @@ def _ply_thicknesses(r: _Reader, top: dict, root: _Y, h: float, ply_materials: l
         return np.full(n, h / n)
     total = float(t.sum())
     if scale:
+        if not 1 / MAX_THICKNESS_SCALE <= h / total <= MAX_THICKNESS_SCALE:
+            where = top.get("ply_thickness", top.get("plies", root))
+            raise r.error(where, f"the ply thicknesses add up to {total * 1e3:.4g} mm, which "
+                                 f"contradicts h = {h * 1e3:.4g} mm: scale_thickness would "
+                                 f"scale them by {h / total:.3g} (at most "
+                                 f"{MAX_THICKNESS_SCALE:g} or 1/{MAX_THICKNESS_SCALE:g}); check "
+                                 "the thicknesses, their unit and h")
         return t * (h / total)
     if abs(total - h) > THICKNESS_TOLERANCE * h:
         where = top.get("ply_thickness", top.get("plies", root))
@@ -934,6 +1052,8 @@ def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
         what="a mapping with name, geometry, materials, layup, measured, ... at the top level")
 
     name = r.string(top["name"]) if "name" in top else Path(path).stem
+    if "name" in top:
+        _check_name(r, top["name"], name, "specimen name")
     description = r.string(top["description"]) if "description" in top else ""
     a, b, h = _read_geometry(r, top["geometry"])
     mass = r.positive(top["mass"], "mass") if "mass" in top else None
@@ -942,6 +1062,8 @@ def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
                         any_key=True)
     if not entries:
         raise r.error(top["materials"], "no material defined")
+    for name_, y in entries.items():
+        _check_name(r, y, name_, "material name")
     materials = {name_: _read_material(r, name_, y) for name_, y in entries.items()}
 
     boundary = "free"

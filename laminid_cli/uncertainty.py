@@ -143,6 +143,10 @@ def frequency_sigma(measured, sigma_rel: float = DEFAULT_SIGMA_REL, *, sigma_hz=
     with a FitInputError naming ``where`` and the mode.
     """
     sigma_rel = check_sigma_rel(sigma_rel)
+    if measured is None:
+        raise FitInputError(f"{where + ': ' if where else ''}no measured frequencies: add "
+                            "'measured: {frequencies: [...]}' (Hz) or 'measured: {frf_file: ...}' "
+                            "to the specimen file, or run 'laminid fit-frf FRF --into SPEC'")
     freq = np.asarray(measured.freq, float)
     given = measured.sigma if sigma_hz is None else np.asarray(sigma_hz, float)
     n = freq.size

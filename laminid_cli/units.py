@@ -20,13 +20,22 @@ laminid files and stacking codes (as in the paper), so a bare angle is in degree
 :func:`parse_quantity` returns degrees for ``kind="angle"``.
 
 Unit names are matched exactly first, then ignoring case when that is unambiguous within the
-kind (``"gpa"`` is GPa, ``"MM"`` is mm).
+kind (``"gpa"`` is GPa, ``"kpa"`` is kPa); ``mPa`` (millipascal) and ``MPa`` differ only in case,
+so ``"mpa"`` is refused as ambiguous, and ``mPa`` is read as what it says (and then refused by the
+plausibility check of a modulus). The text is first normalised to Unicode NFKC, so full-width
+and compatibility characters read as what they look like (``"２１０ ｍｍ"`` is 210 mm, ``"㎐"`` is
+Hz); a number must be written with ASCII digits after that.
+
+Plausible ranges (:data:`PLAUSIBLE`): a positive length, modulus, mass, density or frequency
+outside its range is refused with the value shown in a sensible unit, since it is far more
+likely a wrong unit than a real plate (a modulus in mPa, a thickness in m written as mm).
 """
 
 from __future__ import annotations
 
 import math
 import re
+import unicodedata
 from dataclasses import dataclass
 
 from laminid_cli.errors import SpecimenError
@@ -38,11 +47,11 @@ UNITS: dict[str, dict[str, float]] = {
     "length": {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "μm": 1e-6,
                "in": 0.0254},
     "modulus": {"Pa": 1.0, "kPa": 1e3, "MPa": 1e6, "GPa": 1e9, "psi": _PSI, "ksi": 1e3 * _PSI,
-                "Msi": 1e6 * _PSI},
+                "Msi": 1e6 * _PSI, "mPa": 1e-3},
     "mass": {"kg": 1.0, "g": 1e-3, "lb": 0.45359237},
     "density": {"kg/m^3": 1.0, "kg/m3": 1.0, "kg/m³": 1.0, "g/cm^3": 1e3, "g/cm3": 1e3,
                 "g/cm³": 1e3},
-    "frequency": {"Hz": 1.0, "kHz": 1e3},
+    "frequency": {"Hz": 1.0, "kHz": 1e3, "mHz": 1e-3, "MHz": 1e6},
     "angle": {"deg": 1.0, "°": 1.0, "rad": 180.0 / math.pi},
     "dimensionless": {},
 }
@@ -51,9 +60,15 @@ _ALIASES = {"pressure": "modulus", "stress": "modulus", "ratio": "dimensionless"
 DISPLAY_UNITS = {"length": "mm", "modulus": "GPa", "mass": "kg", "density": "kg/m^3",
                  "frequency": "Hz", "angle": "deg", "dimensionless": ""}
 # units that are spellings of another one, left out of "accepted units" lists
-_SPELLINGS = {"µm", "μm", "kg/m3", "kg/m³", "g/cm3", "g/cm³", "°"}
+_SPELLINGS = {"µm", "μm", "kg/m3", "kg/m³", "g/cm3", "g/cm³", "°", "mPa", "mHz", "MHz"}
 
-_NUMBER = re.compile(r"\s*([+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?)\s*(.*?)\s*\Z", re.S)
+#: (low, high) in the base unit: a positive value of these kinds outside the range is refused
+#: (plates of polymers to diamond, 10 um to 100 m, 1 mg to 10 t, aerogel to osmium, 1 uHz (a sigma) to 10 MHz)
+PLAUSIBLE = {"length": (1e-5, 100.0), "modulus": (1e5, 2e12), "mass": (1e-6, 1e4),
+             "density": (1.0, 25000.0), "frequency": (1e-6, 1e7)}
+
+_NUMBER = re.compile(r"\s*([+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)\s*(.*?)\s*\Z",
+                     re.S)
 
 
 @dataclass(frozen=True)
@@ -146,26 +161,60 @@ def parse_quantity(value, kind: str, *, where: Where | None = None) -> float:
         what = "nothing" if value is None else f"the boolean {value}"
         raise where.error(f"got {what}; {expected}")
     if isinstance(value, (int, float)):
-        number, unit = float(value), ""
+        try:
+            number, unit = float(value), ""
+        except OverflowError:
+            raise where.error(f"{_show(value)} is too large a number; {expected}") from None
     elif isinstance(value, str):
-        match = _NUMBER.match(value)
+        match = _NUMBER.match(unicodedata.normalize("NFKC", value))
         if match is None:
-            raise where.error(f"cannot read {value!r} as a number with a unit; {expected}")
+            raise where.error(f"cannot read {_show(value)} as a number with a unit; {expected}")
         number, unit = float(match.group(1)), match.group(2)
     else:
-        raise where.error(f"got {type(value).__name__} {value!r}; {expected}")
+        raise where.error(f"got {type(value).__name__} {_show(value)}; {expected}")
     if not math.isfinite(number):
-        raise where.error(f"got {value!r}, which is not a finite number; {expected}")
-    if not unit:
-        return number
-    factor = _lookup_unit(unit, kind)
-    if factor is None:
-        other = _kind_of_unit(unit)
-        if other is not None:
-            noun = "plain number" if kind == "dimensionless" else kind
-            raise where.error(f"{value!r} is a {other}, not a {noun}; {expected}")
-        raise where.error(f"unknown unit {unit!r} in {value!r}; {expected}")
-    return number * factor
+        raise where.error(f"got {_show(value)}, which is not a finite number; {expected}")
+    factor = 1.0
+    if unit:
+        factor = _lookup_unit(unit, kind)
+        if factor is None:
+            other = _kind_of_unit(unit)
+            if other is not None:
+                noun = "plain number" if kind == "dimensionless" else kind
+                raise where.error(f"{_show(value)} is a {other}, not a {noun}; {expected}")
+            if any(u.lower() == unit.lower() for u in UNITS[kind]):
+                raise where.error(f"unit {unit!r} in {_show(value)} is ambiguous (its case "
+                                  f"decides the prefix); {expected}")
+            raise where.error(f"unknown unit {unit!r} in {_show(value)}; {expected}")
+    si = number * factor
+    if not math.isfinite(si):
+        raise where.error(f"{_show(value)} is too large a number; {expected}")
+    check_plausible(si, kind, where=where, text=value)
+    return si
+
+
+def check_plausible(value: float, kind: str, *, where: Where | None = None, text=None) -> None:
+    """Refuse a positive ``value`` (base unit of ``kind``) outside :data:`PLAUSIBLE`.
+
+    Zero and negative values are left to the caller (which knows whether they are allowed).
+    """
+    kind = canonical_kind(kind)
+    if kind not in PLAUSIBLE or not value > 0:
+        return
+    low, high = PLAUSIBLE[kind]
+    if low <= value <= high:
+        return
+    where = where or Where()
+    shown = _show(text) if text is not None else format_quantity(value, kind)
+    raise where.error(f"{shown} = {format_quantity(value, kind)} is not a plausible {kind} "
+                      f"(expected {format_quantity(low, kind)} to {format_quantity(high, kind)}); "
+                      "check the number and its unit")
+
+
+def _show(value, limit: int = 40) -> str:
+    """``repr`` of a value from a file, cut to ``limit`` characters (a 400-digit number...)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 5] + "…" + text[-4:]
 
 
 def format_quantity(value: float, kind: str, digits: int = 4) -> str:

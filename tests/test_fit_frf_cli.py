@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,9 +15,9 @@ from laminid_cli.frf import io
 from laminid_cli.frf.store import FrfSet
 from tests.frf_synth import plate_case
 
-SPEC = """\
-# specimen
-name: P1   # keep me
+# a valid specimen (--into refuses to edit an invalid one): S1.1 with its own measured entry
+_S11 = Path(__file__).parent.parent / "specimens" / "example1" / "S1.1.yaml"
+SPEC = _S11.read_text().split("measured:")[0].replace("name: S1.1", "name: P1   # keep me") + """\
 measured:
   frequencies: [1.0, 2.0]   # Hz
   # frf_file: plate.frf.h5
@@ -120,11 +121,14 @@ def test_into_missing_or_broken_specimen_is_untouched(tmp_path, h5):
     r = CliRunner().invoke(cli, ["fit-frf", str(h5), "--into", str(tmp_path / "no.yaml")])
     assert r.exit_code == 2 and "file not found" in r.output
     spec = tmp_path / "p.yaml"
-    spec.write_text("measured: [1, 2]\n")
-    r = CliRunner().invoke(cli, ["fit-frf", str(h5), "--into", str(spec)])
-    assert r.exit_code == 2 and "'measured' must be a mapping" in r.output
-    assert spec.read_text() == "measured: [1, 2]\n"
-    assert not (tmp_path / "p.yaml.bak").exists()
+    for text, message in [("measured: [1, 2]\n", "missing required key 'geometry'"),
+                          (SPEC.split("measured:")[0] + "measured: [1, 2]\n",
+                           "field 'measured': expected a mapping")]:
+        spec.write_text(text)
+        r = CliRunner().invoke(cli, ["fit-frf", str(h5), "--into", str(spec)])
+        assert r.exit_code == 2 and message in r.output and str(spec) in r.output
+        assert spec.read_text() == text
+        assert not (tmp_path / "p.yaml.bak").exists()
 
 
 def test_uff_and_csv_inputs_give_the_same_table(tmp_path, case):

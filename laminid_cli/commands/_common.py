@@ -8,6 +8,21 @@ from pathlib import Path
 
 import click
 
+class FiniteFloat(click.FloatRange):
+    """A float option that refuses ``nan`` and ``inf`` (click's FLOAT and FloatRange take them:
+    NaN passes every bound check), with optional bounds as :class:`click.FloatRange`."""
+
+    name = "finite float"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, float) and math.isfinite(value):
+            return super().convert(value, param, ctx)
+        number = click.FLOAT.convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number.", param, ctx)
+        return super().convert(number, param, ctx)
+
+
 json_option = click.option(
     "--json", "as_json", is_flag=True,
     help="Print the results as JSON on stdout (SI units, frequencies in Hz) instead of tables.")
@@ -81,9 +96,9 @@ fit_options = _apply([
                   help="Design variables: alpha = paper Eq. 14 (E1/E1_0, a2, a3, a4, a8, a9); "
                        "constants = free constants / initial values; auto = alpha where all six "
                        "constants of a material are free and it has no prior."),
-    click.option("--xtol", type=click.FloatRange(min=0, min_open=True), default=1e-6,
+    click.option("--xtol", type=FiniteFloat(min=0, min_open=True), default=1e-6,
                   show_default=True, help="Step tolerance on the scaled design variables."),
-    click.option("--ftol", type=click.FloatRange(min=0, min_open=True), default=1e-8,
+    click.option("--ftol", type=FiniteFloat(min=0, min_open=True), default=1e-8,
                   show_default=True, help="Relative tolerance on the objective."),
     click.option("--max-evaluations", type=click.IntRange(2, 100000), default=300,
                   show_default=True, help="Most model evaluations before giving up."),
@@ -97,14 +112,14 @@ fit_options = _apply([
 #: uncertainty settings shared by ``identify`` and ``batch`` (parameters: sigma_rel,
 #: covariance_scale, max_rel_interval, fix_undetermined, monte_carlo, seed)
 uncertainty_options = _apply([
-    click.option("--sigma-rel", type=float, default=0.002, show_default=True, metavar="FRACTION",
+    click.option("--sigma-rel", type=FiniteFloat(), default=0.002, show_default=True, metavar="FRACTION",
                   help="Standard deviation of a measured frequency, as a fraction of it, where the "
                        "specimen file gives no measured.sigma (0.002 = 0.2 %)."),
     click.option("--covariance-scale", type=click.Choice(["stated", "residuals", "larger"]),
                   default="larger", show_default=True,
                   help="Intervals from the stated frequency sigma, from the residuals at the "
                        "optimum (s2 = chi2/(n-p), Student t), or the larger of the two."),
-    click.option("--max-rel-interval", type=float, default=0.30, show_default=True,
+    click.option("--max-rel-interval", type=FiniteFloat(), default=0.30, show_default=True,
                   metavar="FRACTION",
                   help="Flag a constant whose 95 % half-width exceeds this fraction of its value."),
     click.option("--fix-undetermined", is_flag=True,

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import click
 
-from laminid_cli.commands._common import check_output_path, force_option
+from laminid_cli.commands._common import FiniteFloat, check_output_path, force_option
 
 
 class _ClickUI:
@@ -95,27 +95,27 @@ def _resume_command(params: dict, output: Path) -> str:
 @click.option("--visa-backend", default=None, metavar="BACKEND",
               help="pyvisa backend: @py (pyvisa-py, default), @ivi (NI/Keysight VISA), "
                    "file.yaml@sim. Default from $LAMINID_VISA_BACKEND.")
-@click.option("--timeout", default=5.0, show_default=True, type=click.FloatRange(min=0.01),
+@click.option("--timeout", default=5.0, show_default=True, type=FiniteFloat(min=0.01),
               help="Seconds the analyser may take to answer one query.")
-@click.option("--span", default=1600.0, show_default=True, type=float, help="Span, Hz.")
-@click.option("--start", default=0.0, show_default=True, type=float,
+@click.option("--span", default=1600.0, show_default=True, type=FiniteFloat(), help="Span, Hz.")
+@click.option("--start", default=0.0, show_default=True, type=FiniteFloat(),
               help="Start frequency, Hz.")
 @click.option("--lines", default=800, show_default=True, type=int,
               help="FFT resolution lines.")
 @click.option("--averages", default=5, show_default=True, type=click.IntRange(min=1),
               help="Hits averaged per point.")
-@click.option("--trigger-level", default=10.0, show_default=True, type=float,
+@click.option("--trigger-level", default=10.0, show_default=True, type=FiniteFloat(),
               help="Channel-1 (hammer) trigger level, % of input range.")
-@click.option("--pretrigger", default=0.005, show_default=True, type=float,
+@click.option("--pretrigger", default=0.005, show_default=True, type=FiniteFloat(),
               help="Time recorded before the trigger, s.")
-@click.option("--force-window", default=0.01, show_default=True, type=float,
+@click.option("--force-window", default=0.01, show_default=True, type=FiniteFloat(),
               help="Force-window width on channel 1, s.")
-@click.option("--exp-window", default=0.1, show_default=True, type=float,
+@click.option("--exp-window", default=0.1, show_default=True, type=FiniteFloat(),
               help="Exponential-window time constant on channel 2, s.")
 @click.option("--points", default=1, show_default=True, type=click.IntRange(min=1),
               help="Number of measurement points (labels 1..N).")
 @click.option("--coherence-min", default=0.9, show_default=True,
-              type=click.FloatRange(0, 1), help="Coherence at resonances below which a point "
+              type=FiniteFloat(0, 1), help="Coherence at resonances below which a point "
                                                 "is flagged poor (and may be repeated).")
 @click.option("--units", default=None, metavar="UNITS",
               help="FRF engineering units to record, e.g. Pa/N (microphone) or (m/s^2)/N "

@@ -44,15 +44,17 @@ def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrizat
     import sys
     from pathlib import Path
 
-    from laminid_cli.batch import (BatchError, BatchOptions, batch_report, discover_specimens,
-                                   format_table, plan_batch, remove_stale_parts, result_row,
+    from laminid_cli.batch import (BatchError, BatchOptions, batch_report, check_scheduler,
+                                   discover_specimens, format_table, printable, plan_batch, remove_stale_parts, result_row,
                                    run_jobs, stored_hash, write_result_bytes, write_summary_csv,
                                    write_summary_json, SUMMARY_CSV, SUMMARY_JSON)
     from laminid_cli.fe.mesh import parse_mesh
 
     from laminid_cli.uncertainty import check_sigma_rel
 
-    parse_mesh(mesh)                                # bad --mesh, --sigma-rel: exit 2 at once
+    parse_mesh(mesh, copies=n_jobs)                 # bad --mesh, --sigma-rel: exit 2 at once
+    if scheduler is not None:
+        check_scheduler(scheduler)
     check_sigma_rel(sigma_rel)
     if not max_rel_interval > 0:
         raise BatchError(f"--max-rel-interval must be positive (0.3 = 30 %), got "
@@ -91,7 +93,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrizat
                     write_result_bytes(job.output, outcome.data)
                 rows[job.name] = result_row(job, outcome)
                 finished += 1
-                bar.update(1, f"{job.name}: {outcome.status}")
+                bar.update(1, printable(f"{job.name}: {outcome.status}"))
     finally:
         # also on Ctrl-C: the summary lists what was done ('not run' for the rest)
         ordered = [rows.get(j.name) or result_row(j, cached=stored_hash(j.output) == j.key)

@@ -78,6 +78,10 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     if spec_path is not None and not Path(spec_path).is_file():
         raise SpecimenError("file not found (--into needs an existing specimen file)",
                             path=spec_path)
+    if spec_path is not None:   # an invalid specimen is refused before the fit, and untouched
+        from laminid_cli.specimen import read_specimen
+
+        read_specimen(spec_path)
     fs = read_frf(frf_file, fmt, freq_dataset=freq_dataset, frf_dataset=frf_dataset)
     fit = rfp.find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes)
     sigma = rfp.frequency_sigma(fit, fs.freq)

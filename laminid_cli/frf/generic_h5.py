@@ -31,7 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from laminid_cli.errors import FrfError
-from laminid_cli.frf.store import FORMAT, FrfSet, read_frf_h5, validate_frf_arrays
+from laminid_cli.frf.store import (FORMAT, FrfSet, probe_hdf5_file, read_frf_h5,
+                                   validate_frf_arrays)
 
 #: frequency units accepted in a ``units`` attribute -> factor to Hz
 FREQ_UNITS = {"hz": 1.0, "1/s": 1.0, "s^-1": 1.0, "khz": 1e3, "rad/s": 1.0 / (2.0 * math.pi)}
@@ -201,16 +202,28 @@ def read_generic_frf_h5(path, freq_dataset: str | None = None,
         raise FrfError(f"{path}: file not found") from exc
     except OSError as exc:
         raise FrfError(f"{path}: not a readable HDF5 file ({exc})") from exc
-    with f:
-        datasets = _datasets(f)
-        axis, frf_d = _choose(path, f, datasets, freq_dataset, frf_dataset)
-        freq = np.asarray(f[axis.path][()], dtype=float) * _freq_factor(axis.units)
-        frf = _orient(np.asarray(_read(f[frf_d.path]), dtype=complex), freq.size)
-        coherence = None
-        for d in datasets:
-            if "coh" in d.name.lower() and d.kind in "fiu" and d.shape == frf_d.shape:
-                coherence = _orient(np.asarray(f[d.path][()], dtype=float), freq.size)
-                break
+    try:
+        with f:
+            return _read_generic(f, path, freq_dataset, frf_dataset)
+    except FrfError:
+        raise
+    except (KeyError, OSError, RuntimeError, TypeError, ValueError, IndexError,
+            UnicodeDecodeError, AttributeError) as exc:
+        # h5py raises any of these for a damaged file (bit flips, truncation, dangling links)
+        raise FrfError(f"{path}: damaged or malformed HDF5 FRF file ({type(exc).__name__}: "
+                       f"{' '.join(str(exc).split())[:200]})") from exc
+
+
+def _read_generic(f, path: Path, freq_dataset, frf_dataset) -> FrfSet:
+    datasets = _datasets(f)
+    axis, frf_d = _choose(path, f, datasets, freq_dataset, frf_dataset)
+    freq = np.asarray(f[axis.path][()], dtype=float) * _freq_factor(axis.units)
+    frf = _orient(np.asarray(_read(f[frf_d.path]), dtype=complex), freq.size)
+    coherence = None
+    for d in datasets:
+        if "coh" in d.name.lower() and d.kind in "fiu" and d.shape == frf_d.shape:
+            coherence = _orient(np.asarray(f[d.path][()], dtype=float), freq.size)
+            break
     units = frf_d.units or "1"
     validate_frf_arrays(freq, frf, coherence, source=str(path))
     labels = tuple(str(i + 1) for i in range(frf.shape[0]))
@@ -220,11 +233,16 @@ def read_generic_frf_h5(path, freq_dataset: str | None = None,
 
 
 def read_any_frf_h5(path, freq_dataset: str | None = None,
-                    frf_dataset: str | None = None) -> FrfSet:
+                    frf_dataset: str | None = None, probe: bool = True) -> FrfSet:
     """laminid's own FRF file (attribute format = "laminid-frf") with
     :func:`~laminid_cli.frf.store.read_frf_h5`, any other HDF5 file (or any file when dataset
-    paths are given) with :func:`read_generic_frf_h5`."""
+    paths are given) with :func:`read_generic_frf_h5`. With ``probe`` the file is first read
+    in a child process (:func:`~laminid_cli.frf.store.probe_hdf5_file`): a damaged file that
+    crashes or hangs libhdf5 is refused instead of killing this process."""
     import h5py
+
+    if probe and Path(path).is_file():
+        probe_hdf5_file(path, reader="read_any_frf_h5", module="laminid_cli.frf.generic_h5")
 
     if freq_dataset is None and frf_dataset is None:
         try:
@@ -233,7 +251,7 @@ def read_any_frf_h5(path, freq_dataset: str | None = None,
         except OSError:
             fmt = FORMAT    # let the laminid reader give its message (missing, unreadable)
         if fmt == FORMAT:
-            return read_frf_h5(path)
+            return read_frf_h5(path, probe=False)
         if fmt.startswith("laminid-"):
             raise FrfError(f"{path}: a {fmt} file (results of laminid), not FRFs; give the "
                            "file written by laminid acquire or another tool's FRF file")

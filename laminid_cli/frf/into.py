@@ -7,9 +7,11 @@ ratios and their standard deviations, when given) and, when asked or already pre
 comment, every other key and their order are kept (ruamel.yaml round trip). The file is never
 left half-written or invalid:
 
+0. the specimen file is read and validated first (:func:`laminid_cli.specimen.read_specimen`,
+   with its bounded YAML checks): an invalid specimen is refused and left untouched;
 1. the edited document is serialised to text and parsed back with ``yaml.safe_load``; the
    result must equal the original document except for those keys, and the new lists must read
-   back exactly;
+   back exactly, and the edited text must be a valid specimen;
 2. the original is copied to ``SPEC.yaml.bak``;
 3. the text goes to a temporary file in the same folder, is fsynced and renamed over the
    specimen file (``os.replace`` is atomic).
@@ -42,7 +44,8 @@ def _sig(x, digits: int = 6) -> float | None:
 
 
 def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=None,
-                   damping_sigma=None, backup: bool = True) -> Path:
+                   damping_sigma=None, backup: bool = True,
+                   validate: bool = True) -> Path:
     """Replace/insert the measured frequencies (and sigma, weights) of a specimen YAML file.
 
     Parameters
@@ -56,6 +59,9 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
     damping, damping_sigma : (n,) viscous damping ratios and their standard deviations, or
         None (written to ``measured.damping`` / ``measured.damping_sigma``, 6 significant digits)
     backup : keep the original as ``<spec>.bak``
+    validate : the file must be a valid specimen before and after the edit (``laminid
+        fit-frf --into``); without it only the YAML checks (bounded size, depth, aliases, no
+        tags) and the structure of ``measured`` are required (any YAML mapping is edited)
 
     Returns the backup path (or the spec path when ``backup`` is false).
     """
@@ -63,13 +69,20 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
     from ruamel.yaml import YAML
     from ruamel.yaml.comments import CommentedMap, CommentedSeq
 
+    from laminid_cli.specimen import check_yaml_text, load_specimen_text, read_specimen
+
     spec_path = Path(spec_path)
-    try:
-        text = spec_path.read_text(encoding="utf-8")
-    except FileNotFoundError as exc:
-        raise SpecimenError("file not found", path=str(spec_path)) from exc
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SpecimenError(f"cannot read the file ({exc})", path=str(spec_path)) from exc
+    if validate:   # the whole specimen must be valid before anything is edited
+        text = read_specimen(spec_path).source_text
+    else:
+        try:
+            text = spec_path.read_text(encoding="utf-8")
+        except FileNotFoundError as exc:
+            raise SpecimenError("file not found", path=str(spec_path)) from exc
+        except (OSError, UnicodeDecodeError) as exc:
+            raise SpecimenError(f"cannot read the file ({exc})", path=str(spec_path)) from exc
+    # bounded before ruamel or PyYAML builds anything from it (aliases, depth, tags, size)
+    check_yaml_text(text, str(spec_path))
     try:
         original = yaml.safe_load(text)
     except yaml.YAMLError as exc:
@@ -164,6 +177,13 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
     if check != expect:
         raise SpecimenError("edited file would not read back as intended; file left unchanged",
                             path=str(spec_path), field="measured")
+
+    try:   # the edited file must be a valid specimen too (e.g. weights of the right length)
+        if validate:
+            load_specimen_text(new_text, str(spec_path))
+    except SpecimenError as exc:
+        raise SpecimenError(f"the edited file would not be a valid specimen ({exc}); file left "
+                            "unchanged", path=str(spec_path)) from exc
 
     bak = spec_path.with_name(spec_path.name + ".bak")
     if backup:

@@ -30,7 +30,11 @@ from pathlib import Path
 import numpy as np
 
 from laminid_cli.errors import FrfError, OutputExistsError
-from laminid_cli.frf.store import FrfSet, read_frf_h5, validate_frf_arrays, write_frf_h5
+from laminid_cli.frf.store import (FrfSet, check_frf_arrays, check_frf_size, read_frf_h5,
+                                   validate_frf_arrays, write_frf_h5)
+
+__all__ = ["FORMATS", "SUFFIXES", "check_frf_arrays", "check_frf_size", "frf_format", "read_frf",
+           "read_frf_csv", "read_frf_uff", "validate_frf_arrays", "write_frf"]
 
 FORMATS = ("hdf5", "uff", "csv")
 SUFFIXES = {".h5": "hdf5", ".hdf5": "hdf5", ".hdf": "hdf5", ".uff": "uff", ".unv": "uff",
@@ -39,6 +43,9 @@ SUFFIXES = {".h5": "hdf5", ".hdf5": "hdf5", ".hdf": "hdf5", ".uff": "uff", ".unv
 #: UFF 58 function types, and the abscissa's specific data type for frequency (Hz)
 UFF_FRF, UFF_COHERENCE = 4, 6
 UFF_ABSCISSA_FREQUENCY = 18
+#: text FRF files (UFF, CSV) larger than this are refused before they are read (2 GB: more
+#: than 50 million values at ~40 characters each)
+MAX_TEXT_FILE_BYTES = 2_000_000_000
 
 
 def frf_format(path, fmt: str | None = None) -> str:
@@ -69,6 +76,11 @@ def read_frf(path, fmt: str | None = None, **h5_paths) -> FrfSet:
         raise FrfError(f"{path}: file not found")
     if path.is_dir():
         raise FrfError(f"{path}: is a folder, not an FRF file")
+    if fmt != "hdf5":
+        size = path.stat().st_size
+        if size > MAX_TEXT_FILE_BYTES:
+            raise FrfError(f"{path}: {size / 1e9:.3g} GB, larger than an FRF text file laminid "
+                           f"reads ({MAX_TEXT_FILE_BYTES / 1e9:g} GB)")
     fs = {"hdf5": lambda p: read_any_frf_h5(p, **h5_paths), "uff": read_frf_uff,
           "csv": read_frf_csv}[fmt](path)
     if fs.n_points == 0:
@@ -79,6 +91,7 @@ def read_frf(path, fmt: str | None = None, **h5_paths) -> FrfSet:
 def write_frf(path, fs: FrfSet, fmt: str | None = None, *, overwrite: bool = False) -> Path:
     """Write an :class:`FrfSet` in any of :data:`FORMATS` (format from the suffix)."""
     fmt = frf_format(path, fmt)
+    check_frf_arrays(fs.freq, fs.frf, fs.coherence, source=str(path))   # e.g. NaN: UFF writes 0
     if fmt == "hdf5":
         return write_frf_h5(path, fs.freq, fs.frf, fs.coherence, units=fs.units,
                             labels=fs.labels or None, overwrite=overwrite)
@@ -114,6 +127,8 @@ def read_frf_csv(path) -> FrfSet:
             break
     lines = [(i + 1, ln) for i, ln in enumerate(text.splitlines())
              if ln.strip() and not ln.lstrip().startswith("#")]
+    if len(lines) > 1:
+        check_frf_size(1, len(lines) - 1, str(path))
     if not lines:
         raise FrfError(f"{path}: no data lines (expected columns freq, re_1, im_1, ...)")
     first = lines[0][1]
@@ -138,6 +153,7 @@ def read_frf_csv(path) -> FrfSet:
                            f"{len(rows[0])}")
     data = np.array(rows)
     n = data.shape[1]
+    check_frf_size(max((n - 1) // 2, 1), data.shape[0], str(path))
     if n < 3 or (n - 1) % 2:
         raise FrfError(f"{path}: {n} columns; expected the frequency then a real and an "
                        "imaginary column per FRF (an odd number, at least 3)")
@@ -147,7 +163,7 @@ def read_frf_csv(path) -> FrfSet:
     if header and len(header) == n:
         labels = tuple(h.removesuffix("_re").removesuffix(".re").strip() or str(i + 1)
                        for i, h in enumerate(header[1::2]))
-    validate_frf_arrays(freq, frf, source=str(path))
+    freq, frf, _ = check_frf_arrays(freq, frf, source=str(path))
     return FrfSet(freq=freq, frf=frf, labels=labels, units=units, source=str(path))
 
 
@@ -190,9 +206,11 @@ def read_frf_uff(path) -> FrfSet:
                        f"found: {found}")
     try:
         sets = uff.read_sets(idx)
-    except Exception as exc:
+    except Exception as exc:  # noqa: BLE001 - pyuff raises bare Exception, and others
         raise FrfError(f"{path}: cannot read the type-58 records ({exc})") from exc
     sets = [sets] if isinstance(sets, dict) else sets
+    for k, d in enumerate(sets, start=1):
+        _check_uff_record(path, k, d)
     frfs = [d for d in sets if int(d.get("func_type", 0)) == UFF_FRF]
     if not frfs:
         kinds = sorted({int(d.get("func_type", 0)) for d in sets})
@@ -209,6 +227,7 @@ def read_frf_uff(path) -> FrfSet:
             raise FrfError(f"{path}: FRF record {k} has a different frequency axis "
                            f"({x.size} lines, {x[0]:g}-{x[-1]:g} Hz) from record 1 "
                            f"({freq.size} lines, {freq[0]:g}-{freq[-1]:g} Hz)")
+    check_frf_size(len(frfs), freq.size, str(path))
     frf = np.array([np.asarray(d["data"]).astype(complex) for d in frfs])
 
     def dof(d):
@@ -224,9 +243,31 @@ def read_frf_uff(path) -> FrfSet:
     labels = tuple(f"{d.get('rsp_node', k + 1)}{_dir(d.get('rsp_dir', 0))}"
                    for k, d in enumerate(frfs))
     units = str(frfs[0].get("ordinate_axis_units_lab", "") or "1").strip() or "1"
-    validate_frf_arrays(freq, frf, coherence, source=str(path))
+    freq, frf, coherence = check_frf_arrays(freq, frf, coherence, source=str(path))
     return FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels, units=units,
                   source=str(path), meta={"uff_ids": [str(d.get("id1", "")) for d in frfs]})
+
+
+def _check_uff_record(path, k: int, d) -> None:
+    """One type-58 record as pyuff returns it: a mapping with numeric ``x`` and ``data`` of
+    the same length (``num_pts`` when given), integer DOF and type fields."""
+    if not isinstance(d, dict) or "x" not in d or "data" not in d:
+        raise FrfError(f"{path}: type-58 record {k} has no abscissa or data")
+    for key in ("func_type", "abscissa_spec_data_type", "rsp_node", "rsp_dir", "ref_node",
+                "ref_dir"):
+        try:
+            int(d.get(key, 0) or 0)
+        except (TypeError, ValueError):
+            raise FrfError(f"{path}: type-58 record {k}: field {key} is {d.get(key)!r}, "
+                           "expected an integer") from None
+    x, data = np.asarray(d["x"]), np.asarray(d["data"])
+    for name, a in (("abscissa", x), ("data", data)):
+        if a.dtype.kind not in "biufc" or a.ndim != 1:
+            raise FrfError(f"{path}: type-58 record {k}: {name} is not a list of numbers")
+    n = d.get("num_pts")
+    if x.size != data.size or (n is not None and int(n) != data.size):
+        raise FrfError(f"{path}: type-58 record {k} is truncated or inconsistent ({data.size} "
+                       f"values, {x.size} abscissa values, header says {n})")
 
 
 def _dir(code) -> str:

@@ -817,6 +817,41 @@ def _count_peaks(freq, frf, band, prominence_db=6.0) -> int:
 
 
 # --------------------------------------------------------------------------- the whole chain
+#: peak bytes of a stabilisation sweep per (FRF x band line x polynomial column): the
+#: weighted basis, its [Re; Im] stacking and the per-FRF QR (measured 55-93, see
+#: :func:`rfp_memory_bytes`)
+RFP_BYTES_PER_VALUE = 112
+
+
+def rfp_memory_bytes(n_points: int, n_lines: int, n_max: int, n_extra: int) -> float:
+    """Estimated peak memory (bytes) of the stabilisation sweep of one band.
+
+    The matrices of :class:`_BandSystem` hold n_points x n_lines x (2 n_max + n_extra) values
+    several times over (complex products, [Re; Im] stacking, QR factors); peak resident memory
+    measured for 1-10 FRFs of 2e4-1e5 lines is 55-93 bytes per value, so 112 is used.
+    """
+    return 50e6 + RFP_BYTES_PER_VALUE * n_points * n_lines * (2 * n_max + max(n_extra, 1))
+
+
+def check_fit_memory(freq, frf, sweeps, n_extra: int, available: float | None = None) -> None:
+    """Raise :class:`FrfError` when a band's sweep would need more memory than is available,
+    with the estimate; ``sweeps`` is a list of ((lo, hi) Hz, n_max)."""
+    from laminid_cli import memory
+
+    available = memory.available_memory_bytes() if available is None else available
+    if available is None:
+        return
+    for (lo, hi), n_max in sweeps:
+        n_lines = int(((freq >= lo) & (freq <= hi) & (freq > 0)).sum())
+        need = rfp_memory_bytes(frf.shape[0], n_lines, n_max, n_extra)
+        if need > available:
+            raise FrfError(
+                f"fitting band {lo:g}:{hi:g} Hz ({frf.shape[0]} FRFs x {n_lines} lines, up to "
+                f"{n_max} modes) needs about {memory.format_bytes(need)} of memory, and "
+                f"{memory.format_bytes(available)} is available; fit narrower bands (--band "
+                "LO:HI), fewer FRFs, or decimate the lines")
+
+
 def find_modes(freq, frf, *, bands=None, n_modes: int | None = None,
                criteria: PoleCriteria = PoleCriteria()) -> ModalFit:
     """Natural frequencies, damping and modal constants of all FRFs (global RFP + LSFD).
@@ -886,6 +921,7 @@ def find_modes(freq, frf, *, bands=None, n_modes: int | None = None,
                            f"for a stabilisation sweep over {criteria.min_stable + 1} orders; "
                            "widen it")
         sweeps.append((rng, n_max))
+    check_fit_memory(freq, frf, sweeps, criteria.n_extra)
     margin = 2 * float(np.median(np.diff(freq)))
 
     def sweep(ref=None):

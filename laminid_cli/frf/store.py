@@ -27,6 +27,7 @@ h5py is imported inside the functions so that importing this module stays cheap.
 from __future__ import annotations
 
 import datetime as _dt
+import logging
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -35,6 +36,8 @@ import numpy as np
 from laminid_cli import __version__
 from laminid_cli.atomic import atomic_path
 from laminid_cli.errors import FrfError, OutputExistsError
+
+log = logging.getLogger(__name__)
 
 FORMAT = "laminid-frf"
 SCHEMA_VERSION = 1
@@ -72,16 +75,61 @@ def _now() -> str:
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 
 
-def validate_frf_arrays(freq, frf, coherence=None, source: str = "") -> None:
-    """Raise :class:`FrfError` unless the axis and data are usable.
+#: most frequency lines accepted on an FRF axis (analysers give at most a few 10^4)
+MAX_FREQ_LINES = 1_000_000
+#: most FRF values (points x lines) accepted in one set: 800 MB of complex numbers
+MAX_FRF_VALUES = 50_000_000
 
-    Checks: 1-D strictly increasing finite non-negative axis; FRF shape (n_points, n_freq) and
-    finite; coherence (if any) of the same shape, values in [0, 1] (NaN allowed = unknown).
+
+def check_frf_size(n_points: int, n_freq: int, source: str = "") -> None:
+    """Raise :class:`FrfError` when an FRF set of this size is more than laminid will read
+    (:data:`MAX_FREQ_LINES`, :data:`MAX_FRF_VALUES`); call it before reading the data."""
+    where = f"{source}: " if source else ""
+    if n_freq > MAX_FREQ_LINES:
+        raise FrfError(f"{where}{n_freq} frequency lines, more than laminid reads "
+                       f"({MAX_FREQ_LINES}); cut the file to the band of interest")
+    if n_points * n_freq > MAX_FRF_VALUES:
+        raise FrfError(f"{where}{n_points} FRFs of {n_freq} lines ({n_points * n_freq} values), "
+                       f"more than laminid reads ({MAX_FRF_VALUES}); split the file")
+
+
+def _numeric(name: str, array, where: str, complex_ok: bool) -> np.ndarray:
+    """``array`` as float64 (complex128 if ``complex_ok``), refusing text, objects, records."""
+    array = np.asarray(array)
+    kinds = "biufc" if complex_ok else "biuf"
+    if array.dtype.kind not in kinds:
+        what = {"S": "text", "U": "text", "O": "objects", "V": "records"}.get(
+            array.dtype.kind, f"dtype {array.dtype}")
+        expected = "numbers (real or complex)" if complex_ok else "real numbers"
+        raise FrfError(f"{where}{name} holds {what}; expected {expected}")
+    return array.astype(complex if complex_ok else float, copy=False)
+
+
+def check_frf_arrays(freq, frf, coherence=None, source: str = ""):
+    """Check FRF data before anything is computed from it; return it in canonical dtypes.
+
+    The checks every FRF reader shares: numeric dtypes (text, objects and records refused),
+    sizes (:func:`check_frf_size`), a 1-D strictly increasing finite non-negative axis in Hz,
+    FRFs (n_points, n_freq) and finite, coherence (if any) of the same shape with values in
+    [0, 1] (NaN = unknown).
+
+    Returns
+    -------
+    freq : float64 (n_freq,), Hz
+    frf : complex128 (n_points, n_freq)
+    coherence : float64 (n_points, n_freq) or None
+
+    Raises :class:`FrfError` naming ``source`` and what is wrong.
     """
     where = f"{source}: " if source else ""
-    freq = np.asarray(freq)
+    freq = _numeric("the frequency axis", freq, where, complex_ok=False)
+    frf = _numeric("the FRF data", frf, where, complex_ok=True)
     if freq.ndim != 1 or freq.size < 2:
         raise FrfError(f"{where}frequency axis must be 1-D with at least 2 lines (got shape {freq.shape})")
+    if frf.ndim == 2:
+        check_frf_size(frf.shape[0], frf.shape[1], source)
+    else:
+        check_frf_size(1, freq.size, source)
     if not np.all(np.isfinite(freq)):
         raise FrfError(f"{where}frequency axis contains NaN or inf")
     if np.any(np.diff(freq) <= 0):
@@ -90,7 +138,6 @@ def validate_frf_arrays(freq, frf, coherence=None, source: str = "") -> None:
                        f"(line {i + 1}: {freq[i]:g} Hz, line {i + 2}: {freq[i + 1]:g} Hz)")
     if freq[0] < 0:
         raise FrfError(f"{where}frequency axis starts below 0 Hz ({freq[0]:g} Hz)")
-    frf = np.asarray(frf)
     if frf.ndim != 2 or frf.shape[1] != freq.size:
         raise FrfError(f"{where}FRF array has shape {frf.shape}; expected (n_points, {freq.size}) "
                        "to match the frequency axis")
@@ -99,56 +146,208 @@ def validate_frf_arrays(freq, frf, coherence=None, source: str = "") -> None:
         p, k = np.argwhere(bad)[0]
         raise FrfError(f"{where}FRF of point {p + 1} has NaN/inf at {freq[k]:g} Hz")
     if coherence is not None:
-        coherence = np.asarray(coherence)
+        coherence = _numeric("the coherence", coherence, where, complex_ok=False)
         if coherence.shape != frf.shape:
             raise FrfError(f"{where}coherence has shape {coherence.shape}, FRF has {frf.shape}")
         c = coherence[np.isfinite(coherence)]
         if c.size and (c.min() < -1e-9 or c.max() > 1 + 1e-9):
             raise FrfError(f"{where}coherence outside [0, 1] (min {c.min():g}, max {c.max():g})")
+    return freq, frf, coherence
 
 
-def read_frf_h5(path) -> FrfSet:
-    """Read a laminid FRF HDF5 file (see module docstring). Raises :class:`FrfError`."""
+def validate_frf_arrays(freq, frf, coherence=None, source: str = "") -> None:
+    """Raise :class:`FrfError` unless the axis and data are usable (:func:`check_frf_arrays`)."""
+    check_frf_arrays(freq, frf, coherence, source)
+
+
+def _dataset(f, name: str, path, required: bool = True):
+    """The dataset ``name`` of an open HDF5 file, checked before it is read: present (a
+    dangling link counts as missing), a dataset (not a group) of numbers, of a size laminid
+    reads. None when absent and not required."""
+    import h5py
+
+    where = f"{path}: "
+    try:
+        obj = f.get(name)
+    except (KeyError, OSError, RuntimeError, ValueError, TypeError) as exc:
+        raise FrfError(f"{where}'/{name}' cannot be opened (dangling link or damaged file: "
+                       f"{_reason(exc)})") from exc
+    if obj is None:
+        if name in f.keys() or isinstance(f.get(name, getlink=True), h5py.SoftLink):
+            raise FrfError(f"{where}'/{name}' is a link to nothing (dangling soft link)")
+        if required:
+            raise FrfError(f"{where}dataset '/{name}' is missing")
+        return None
+    if not isinstance(obj, h5py.Dataset):
+        raise FrfError(f"{where}'/{name}' is a {type(obj).__name__.lower()}, expected a dataset")
+    if obj.dtype.kind not in "biufc":
+        raise FrfError(f"{where}dataset '/{name}' holds {obj.dtype} values; expected numbers")
+    return obj
+
+
+def _reason(exc) -> str:
+    text = " ".join(str(exc).encode("utf-8", "replace").decode("utf-8", "replace").split())
+    return text[:200] or type(exc).__name__
+
+
+#: seconds a damaged HDF5 file may take to be read in the probe process (a good one: < 1 s)
+H5_PROBE_TIMEOUT_S = 30.0
+
+_PROBE = """
+import sys
+from laminid_cli.errors import LaminidError
+from {module} import {reader}
+try:
+    {reader}(sys.argv[1], probe=False)
+except LaminidError:
+    pass
+"""
+
+
+def probe_hdf5_file(path, reader: str = "read_frf_h5",
+                    timeout: float | None = None, module: str = "laminid_cli.frf.store") -> None:
+    """Read an HDF5 file once in a child process before this process touches it.
+
+    libhdf5 can crash (segmentation fault) or loop on a damaged file (seen on files with one
+    flipped bit in an object header or a heap), which no Python ``except`` can catch; the
+    child takes that risk. Raises :class:`FrfError` when the child dies by a signal, fails
+    without a LaminidError, or does not finish within ``timeout`` seconds (default
+    :data:`H5_PROBE_TIMEOUT_S`). ``reader`` names a
+    function of ``module`` taking ``(path, probe=False)``. Costs one interpreter start
+    (about 0.3 s).
+    """
+    import subprocess
+    import sys
+
+    timeout = H5_PROBE_TIMEOUT_S if timeout is None else timeout
+    code = _PROBE.format(reader=reader, module=module)
+    try:
+        done = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True,
+                              timeout=timeout, stdin=subprocess.DEVNULL)
+    except subprocess.TimeoutExpired:
+        raise FrfError(f"{path}: the HDF5 library did not finish reading the file in "
+                       f"{timeout:g} s; the file is damaged") from None
+    except OSError as exc:   # cannot start a process: read in-process as before
+        log.debug("HDF5 probe not run: %s", exc)
+        return
+    if done.returncode < 0:
+        import signal
+
+        try:
+            name = signal.Signals(-done.returncode).name
+        except ValueError:
+            name = f"signal {-done.returncode}"
+        raise FrfError(f"{path}: the HDF5 library crashed reading the file ({name}); the file "
+                       "is damaged")
+    if done.returncode != 0:
+        tail = " ".join(done.stderr.decode("utf-8", "replace").strip().splitlines()[-1:])
+        raise FrfError(f"{path}: the file cannot be read ({tail[:200] or 'exit code ' + str(done.returncode)})")
+
+
+def read_frf_h5(path, probe: bool = True) -> FrfSet:
+    """Read a laminid FRF HDF5 file (see module docstring). Raises :class:`FrfError`.
+
+    Structure, dtypes and sizes are checked before the data are read; a damaged file (flipped
+    bits, truncated, dangling links) is a FrfError with h5py's reason, never an h5py exception.
+    With ``probe`` the file is first read in a child process (:func:`probe_hdf5_file`), so that
+    a file that crashes or hangs libhdf5 is refused instead of killing this process.
+    """
     import h5py
 
     path = Path(path)
+    if probe and path.is_file():
+        probe_hdf5_file(path)
     try:
         f = h5py.File(path, "r")
     except FileNotFoundError as exc:
         raise FrfError(f"{path}: file not found") from exc
-    except OSError as exc:
-        raise FrfError(f"{path}: not a readable HDF5 file ({exc})") from exc
-    with f:
-        if f.attrs.get("format") != FORMAT:
-            raise FrfError(f"{path}: not a laminid FRF file (attribute 'format' is "
-                           f"{f.attrs.get('format')!r}, expected {FORMAT!r})")
-        version = int(f.attrs.get("schema_version", 0))
-        if version > SCHEMA_VERSION:
-            raise FrfError(f"{path}: schema_version {version} is newer than this laminid "
-                           f"understands ({SCHEMA_VERSION}); upgrade laminid")
-        for name in ("frequency", "frf"):
-            if name not in f:
-                raise FrfError(f"{path}: dataset '/{name}' is missing")
-        freq = f["frequency"][()]
-        frf = f["frf"][()]
-        if frf.size == 0:
-            frf = np.zeros((0, freq.size), dtype=complex)
-        coherence = f["coherence"][()] if "coherence" in f else None
-        pts = f.get("points")
-        labels = tuple(_as_str(x) for x in pts["label"][()]) if pts is not None and "label" in pts \
-            else tuple(str(i + 1) for i in range(frf.shape[0]))
-        meta = {
-            "instrument": {k: _attr(v) for k, v in f["instrument"].attrs.items()} if "instrument" in f else {},
-            "settings": {k: _attr(v) for k, v in f["settings"].attrs.items()} if "settings" in f else {},
-            "points": {k: [_attr(x) for x in pts[k][()]] for k in pts} if pts is not None else {},
-            "created": _attr(f.attrs.get("created", "")),
-            "complete": bool(f.attrs.get("complete", True)),
-        }
-        units = _attr(f["frf"].attrs.get("units", "1"))
+    except (OSError, RuntimeError, ValueError) as exc:
+        raise FrfError(f"{path}: not a readable HDF5 file ({_reason(exc)})") from exc
+    try:
+        with f:
+            return _read_open_h5(f, path)
+    except FrfError:
+        raise
+    except (KeyError, OSError, RuntimeError, TypeError, ValueError, IndexError,
+            UnicodeDecodeError, AttributeError) as exc:
+        # h5py raises any of these for a damaged file (bit flips, truncation)
+        raise FrfError(f"{path}: damaged or malformed laminid FRF file ({type(exc).__name__}: "
+                       f"{_reason(exc)})") from exc
+
+
+def _read_open_h5(f, path: Path) -> FrfSet:
+    if _attr(f.attrs.get("format")) != FORMAT:
+        raise FrfError(f"{path}: not a laminid FRF file (attribute 'format' is "
+                       f"{_attr(f.attrs.get('format'))!r}, expected {FORMAT!r})")
+    raw_version = _attr(f.attrs.get("schema_version", 0))
+    try:
+        version = int(raw_version)
+    except (TypeError, ValueError):
+        raise FrfError(f"{path}: attribute 'schema_version' is {raw_version!r}; expected an "
+                       "integer") from None
+    if version > SCHEMA_VERSION:
+        raise FrfError(f"{path}: schema_version {version} is newer than this laminid "
+                       f"understands ({SCHEMA_VERSION}); upgrade laminid")
+    d_freq = _dataset(f, "frequency", path)
+    d_frf = _dataset(f, "frf", path)
+    d_coh = _dataset(f, "coherence", path, required=False)
+    if d_freq.ndim != 1:
+        raise FrfError(f"{path}: '/frequency' has shape {d_freq.shape}; expected (n_freq,)")
+    if d_frf.ndim != 2 or (d_frf.shape[0] and d_frf.shape[1] != d_freq.shape[0]):
+        raise FrfError(f"{path}: '/frf' has shape {d_frf.shape}; expected (n_points, "
+                       f"{d_freq.shape[0]}) to match '/frequency'")
+    check_frf_size(d_frf.shape[0], d_freq.shape[0], str(path))
+    if d_coh is not None and d_coh.shape != d_frf.shape:
+        raise FrfError(f"{path}: '/coherence' has shape {d_coh.shape}, '/frf' has "
+                       f"{d_frf.shape}")
+    freq = d_freq[()]
+    frf = d_frf[()]
+    if frf.size == 0:
+        frf = np.zeros((0, freq.size), dtype=complex)
+    coherence = d_coh[()] if d_coh is not None else None
+    pts = f.get("points")
+    import h5py
+
+    if pts is not None and not isinstance(pts, h5py.Group):
+        raise FrfError(f"{path}: '/points' is not a group")
+    n_points = frf.shape[0]
+    labels = tuple(str(i + 1) for i in range(n_points))
+    points = {}
+    if pts is not None:
+        for k in pts:
+            item = pts[k]
+            if not isinstance(item, h5py.Dataset) or item.ndim != 1 or item.shape[0] != n_points:
+                raise FrfError(f"{path}: '/points/{k}' must be a list of {n_points} values (one "
+                               f"per FRF), got {getattr(item, 'shape', 'a group')}")
+            points[k] = [_attr(x) for x in item[()]]
+        if "label" in points:
+            labels = tuple(_as_str(x) for x in points["label"])
+    meta = {
+        "instrument": _attrs(f, "instrument"),
+        "settings": _attrs(f, "settings"),
+        "points": points,
+        "created": str(_attr(f.attrs.get("created", ""))),
+        "complete": bool(_attr(f.attrs.get("complete", True))),
+    }
+    units = _attr(d_frf.attrs.get("units", "1"))
+    if not isinstance(units, str):
+        raise FrfError(f"{path}: attribute 'units' of '/frf' is {units!r}; expected text "
+                       "(e.g. 'm/s^2/N')")
     if frf.shape[0]:
-        validate_frf_arrays(freq, frf, coherence, source=str(path))
+        freq, frf, coherence = check_frf_arrays(freq, frf, coherence, source=str(path))
     return FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels, units=units,
                   source=str(path), meta=meta)
+
+
+def _attrs(f, name: str) -> dict:
+    import h5py
+
+    group = f.get(name)
+    if group is None:
+        return {}
+    if not isinstance(group, (h5py.Group, h5py.Dataset)):
+        raise FrfError(f"{f.filename}: '/{name}' is not a group")
+    return {k: _attr(v) for k, v in group.attrs.items()}
 
 
 def _as_str(x) -> str:

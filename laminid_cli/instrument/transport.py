@@ -18,6 +18,7 @@ from __future__ import annotations
 import logging
 import os
 import re
+import socket
 from typing import Protocol, runtime_checkable
 
 from laminid_cli.errors import InstrumentError, LaminidError
@@ -138,6 +139,11 @@ class VisaTransport:
                 raise AnalyserSetupError(f"analyser {self.resource}: no such VISA resource on "
                                          f"backend {self.backend} ({exc.description})") from exc
             raise InstrumentError(f"analyser {self.resource}: cannot open ({exc.description})") from exc
+        except (socket.timeout, socket.gaierror, TimeoutError) as exc:
+            self._rm.close()
+            raise InstrumentError(f"analyser {self.resource} is unreachable "
+                                  f"({' '.join(str(exc).split()) or type(exc).__name__}); check "
+                                  "the address, the network and that the analyser is on") from exc
         except (ValueError, OSError, pyvisa.errors.Error) as exc:
             self._rm.close()
             hint = ""
@@ -148,6 +154,12 @@ class VisaTransport:
             raise AnalyserSetupError(f"analyser {self.resource}: cannot open with backend "
                                      f"{self.backend} ({' '.join(str(exc).split())}){hint}") \
                 from exc
+        except Exception as exc:  # noqa: BLE001 - pyvisa-py raises a bare Exception ("could not
+            # connect: ...") when a TCPIP host does not resolve or answer
+            self._rm.close()
+            raise InstrumentError(f"analyser {self.resource} is unreachable "
+                                  f"({' '.join(str(exc).split()) or type(exc).__name__}); check "
+                                  "the address, the network and that the analyser is on") from exc
         # Text messages end with LF; raw sockets have no EOI, so the terminator is required
         # there, and harmless on GPIB (EOI also ends a message). Binary blocks are read with
         # read_bytes, which does not stop at the terminator.

@@ -1,0 +1,588 @@
+"""Hostile and broken input (issue 13): one named regression test per class of failure seen.
+
+Each test asserts the exit code and the message (file:line or the field, and what is wrong),
+never only the exit code. The generated (fuzz) counterpart is tests/test_fuzz.py.
+"""
+
+import contextlib
+import json
+import time
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from laminid_cli.cli import cli
+
+S11 = Path("specimens/example1/S1.1.yaml")
+BASE = S11.read_text()
+
+
+def run(*args):
+    return CliRunner().invoke(cli, [str(a) for a in args])
+
+
+def spec(tmp_path, text, name="plate.yaml"):
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def modes_error(tmp_path, text):
+    """``laminid modes`` on a specimen text that must be refused: (exit code, stderr line)."""
+    path = spec(tmp_path, text)
+    r = run("modes", path, "--mesh", "4x4")
+    assert "Traceback" not in r.output
+    assert r.exception is None or isinstance(r.exception, SystemExit), repr(r.exception)
+    return r.exit_code, r.output, path
+
+
+# ---------------------------------------------------------------------------------- YAML
+
+
+def test_yaml_alias_bomb_is_refused_at_once(tmp_path):
+    # a few hundred bytes expanding to 10^8 values
+    bomb = "x0: &a0 [1,1,1,1,1,1,1,1,1,1]\n" + "".join(
+        f"x{i}: &a{i} [" + ",".join([f"*a{i - 1}"] * 10) + "]\n" for i in range(1, 8))
+    t0 = time.perf_counter()
+    code, out, path = modes_error(tmp_path, bomb + BASE)
+    assert time.perf_counter() - t0 < 5
+    assert code == 2
+    assert f"{path}:5: the YAML expands to more than 100000 values" in out
+
+
+def test_yaml_too_many_aliases_are_refused(tmp_path):
+    text = BASE + "x0: &a 1\nxs: [" + ", ".join(["*a"] * 150) + "]\n"
+    code, out, path = modes_error(tmp_path, text)
+    assert code == 2 and "more than 100 YAML aliases" in out and f"{path}:" in out
+
+
+def test_yaml_nesting_1000_deep_is_refused_not_recursion_error(tmp_path):
+    code, out, path = modes_error(tmp_path, BASE + "x: " + "[" * 1000 + "]" * 1000 + "\n")
+    n = BASE.count("\n") + 1
+    assert code == 2 and f"{path}:{n}: nesting deeper than 32 levels" in out
+
+
+def test_yaml_control_character_is_refused_with_its_line(tmp_path):
+    code, out, path = modes_error(tmp_path, BASE.replace("name: S1.1", "name: S1\x07"))
+    line = BASE.splitlines().index("name: S1.1") + 1
+    assert code == 2
+    assert f"{path}:{line}: non-printable character U+0007" in out
+
+
+def test_yaml_merge_key_is_refused(tmp_path):
+    text = BASE.replace("geometry:\n", "g0: &g {a: 1}\ngeometry:\n  <<: *g\n")
+    code, out, path = modes_error(tmp_path, text)
+    line = text.splitlines().index("  <<: *g") + 1
+    assert code == 2 and f"{path}:{line}: YAML merge keys (<<) are not allowed" in out
+
+
+@pytest.mark.parametrize("value, shown", [("!!int abc", "!!int"), ("!foo 1", "!foo"),
+                                          ("!!binary AAAA", "!!binary")])
+def test_yaml_tags_are_refused(tmp_path, value, shown):
+    text = BASE.replace("mass: 0.3225 kg", f"mass: {value}")
+    code, out, path = modes_error(tmp_path, text)
+    line = text.splitlines().index(f"mass: {value}") + 1
+    assert code == 2 and f"{path}:{line}: YAML tag '{shown}' is not allowed" in out
+
+
+def test_huge_integer_frequency_is_refused_not_overflow_error(tmp_path):
+    code, out, path = modes_error(tmp_path, BASE.replace("125.05,", "1" + "0" * 400 + ","))
+    assert code == 2
+    assert "field 'measured.frequencies[1]'" in out and "is too large a number" in out
+
+
+def test_file_bigger_than_any_specimen_is_refused(tmp_path):
+    code, out, path = modes_error(tmp_path, BASE + "#" + "x" * 1_100_000 + "\n")
+    assert code == 2 and "more than a specimen file can have" in out
+
+
+@pytest.mark.parametrize("line, field", [("name: |", "name"), ("name: '..'", "name"),
+                                         ("name: '   '", "name")])
+def test_unusable_specimen_name_is_refused_not_an_hdf5_error(tmp_path, line, field):
+    # found by the fuzz test: an empty name (block scalar '|') made h5py raise TypeError
+    code, out, path = modes_error(tmp_path, BASE.replace("name: S1.1", line))
+    assert code == 2 and f"field '{field}': specimen name" in out and "is not usable" in out
+
+
+# ---------------------------------------------------------------------------------- units
+
+
+def test_full_width_and_compatibility_units_read_as_what_they_look_like():
+    from laminid_cli.units import parse_quantity
+
+    assert parse_quantity("２１０.５ ｍｍ", "length") == pytest.approx(0.2105)
+    assert parse_quantity("125.05 ㎐", "frequency") == pytest.approx(125.05)
+    assert parse_quantity("117.2 ＧＰａ", "modulus") == pytest.approx(117.2e9)
+
+
+def test_full_width_units_in_a_specimen_give_the_same_model(tmp_path):
+    text = BASE.replace("210.5 mm", "２１０.５ ｍｍ").replace("125.05,", '"125.05 ㎐",')
+    r1 = run("modes", spec(tmp_path, text), "--mesh", "4x4", "--json")
+    r2 = run("modes", S11, "--mesh", "4x4", "--json")
+    assert r1.exit_code == 0, r1.output
+    f1, f2 = (json.loads(r.output)["frequencies"]["model"] for r in (r1, r2))
+    assert f1 == pytest.approx(f2, rel=1e-12)
+
+
+def test_modulus_in_millipascal_is_refused_by_plausibility(tmp_path):
+    code, out, path = modes_error(tmp_path, BASE.replace("117.2 GPa", "117200 mPa"))
+    assert code == 2
+    assert "field 'materials.IM7/977-2.E1'" in out
+    assert "'117200 mPa' = 1.172e-07 GPa is not a plausible modulus" in out
+
+
+def test_ambiguous_case_of_a_prefix_is_refused(tmp_path):
+    code, out, _ = modes_error(tmp_path, BASE.replace("117.2 GPa", "117200 mpa"))
+    assert code == 2 and "unit 'mpa' in '117200 mpa' is ambiguous" in out
+
+
+def test_thickness_in_the_wrong_unit_is_refused_by_plausibility(tmp_path):
+    code, out, _ = modes_error(tmp_path, BASE.replace("h: 3.06 mm", "h: 3.06 um"))
+    assert code == 2 and "field 'geometry.h'" in out and "is not a plausible length" in out
+
+
+def test_ply_thickness_contradicting_h_is_refused_even_when_scaling(tmp_path):
+    text = BASE.replace("layup:", "ply_thickness: 0.5 mm\nscale_thickness: true\nlayup:")
+    code, out, _ = modes_error(tmp_path, text)
+    assert code == 2
+    assert "field 'ply_thickness'" in out
+    assert "the ply thicknesses add up to 12 mm, which contradicts h = 3.06 mm" in out
+
+
+# ---------------------------------------------------------------------------------- command line
+
+
+def test_mesh_too_big_for_memory_is_refused_with_estimate_and_largest_that_fits():
+    from laminid_cli.fe.mesh import check_mesh_memory, model_memory_bytes
+    from laminid_cli.errors import ModelError
+
+    # 4 GB: 200x200 needs ~72 GB; the answer names the largest square mesh that fits
+    with pytest.raises(ModelError) as err:
+        check_mesh_memory(200, 200, available=4e9)
+    msg = str(err.value)
+    assert "mesh 200x200 needs about 71.8 GB of memory, and 4 GB is available" in msg
+    fits = int(msg.split("fits is ")[1].split("x")[0])
+    assert model_memory_bytes(fits, fits) <= 4e9 < model_memory_bytes(fits + 1, fits + 1)
+    check_mesh_memory(12, 12, available=4e9)          # the paper's mesh: no complaint
+
+
+def test_mesh_too_big_for_memory_on_the_command_line(monkeypatch):
+    import laminid_cli.memory as memory
+
+    monkeypatch.setattr(memory, "available_memory_bytes", lambda: 2e9)
+    r = run("modes", S11, "--mesh", "200x200")
+    assert r.exit_code == 2
+    assert "laminid: error: mesh 200x200 needs about 71.8 GB of memory, and 2 GB is available: " \
+           "the largest mesh that fits is" in r.output
+
+
+def test_batch_counts_one_model_per_worker_in_the_memory_estimate(tmp_path, monkeypatch):
+    import laminid_cli.fe.mesh as mesh
+
+    import laminid_cli.memory as memory
+
+    one = mesh.model_memory_bytes(40, 40)
+    monkeypatch.setattr(memory, "available_memory_bytes", lambda: 1.5 * one)
+    r = run("batch", S11, "--mesh", "40x40", "-j", "2", "--out", tmp_path / "out")
+    assert r.exit_code == 2 and "for 2 worker processes" in r.output
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("mesh, words", [
+    ("1x1", "mesh '1x1' is degenerate: at least 2 elements per side"),
+    ("1x12", "mesh '1x12' is degenerate"),
+    ("2x60", "mesh 2x60 on a 210.5 x 311 mm plate makes elements 20.3 times longer than wide"),
+])
+def test_degenerate_mesh_is_refused(mesh, words):
+    r = run("modes", S11, "--mesh", mesh)
+    assert r.exit_code == 2 and words in r.output
+
+
+@pytest.mark.parametrize("option", ["--xtol", "--ftol", "--sigma-rel", "--max-rel-interval"])
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf"])
+def test_nan_and_inf_options_are_refused_by_the_parser(tmp_path, option, value):
+    out = tmp_path / "o.h5"
+    r = run("identify", S11, "--mesh", "4x4", option, value, "-o", out)
+    assert r.exit_code == 2
+    assert f"Invalid value for '{option}': '{value}' is not a finite number." in r.output
+    assert not out.exists()
+
+
+def test_identify_without_measured_frequencies_is_refused(tmp_path):
+    path = spec(tmp_path, BASE.split("measured:")[0])
+    r = run("identify", path, "--mesh", "4x4", "-o", tmp_path / "o.h5")
+    assert r.exit_code == 2, r.output
+    assert f"laminid: error: {path}: no measured frequencies: add 'measured:" in r.output
+    assert not (tmp_path / "o.h5").exists()
+
+
+@pytest.mark.parametrize("address, words", [
+    ("bogus", "--scheduler 'bogus': no port"),
+    ("http://host:8786", "unknown scheme 'http'"),
+    ("tcp://host:99999", "port 99999 is not in 1-65535"),
+    ("tcp://a b:1", "not understood"),
+])
+def test_every_scheduler_problem_is_one_line(tmp_path, address, words):
+    r = run("batch", S11, "--scheduler", address, "--out", tmp_path / "out")
+    assert r.exit_code == 2
+    lines = r.output.strip().splitlines()
+    assert len(lines) == 1 and words in lines[0] and lines[0].startswith("laminid: error:")
+    assert not (tmp_path / "out").exists()
+
+
+def test_unreachable_tcpip_analyser_is_an_instrument_error_naming_the_resource(tmp_path):
+    r = run("acquire", "--analyser", "TCPIP0::no-such-host.invalid::5025::SOCKET",
+            "-o", tmp_path / "x.h5")
+    assert r.exit_code == 1, r.output
+    assert "laminid: error: analyser TCPIP0::no-such-host.invalid::5025::SOCKET is unreachable" \
+           in r.output
+    assert not (tmp_path / "x.h5").exists()
+
+
+# ---------------------------------------------------------------------------------- numerics
+
+
+@pytest.mark.parametrize("failure, words", [
+    ("noconv", "the eigen solver (ARPACK) did not converge for 16 modes"),
+    ("error", "the eigen solver (ARPACK) failed for 16 modes"),
+])
+def test_arpack_failure_exits_1_with_what_to_try(monkeypatch, failure, words):
+    import numpy as np
+    import scipy.sparse.linalg as spla
+
+    def eigsh(*args, **kwargs):
+        if failure == "noconv":
+            raise spla.ArpackNoConvergence("no convergence", np.zeros(0), np.zeros((0, 0)))
+        raise spla.ArpackError(-9999)
+
+    monkeypatch.setattr(spla, "eigsh", eigsh)
+    r = run("modes", S11, "--mesh", "4x4")
+    assert r.exit_code == 1
+    assert words in r.output and "try fewer modes (--modes), another mesh (--mesh)" in r.output
+
+
+def test_singular_factorisation_exits_1_with_what_to_try(monkeypatch):
+    import numpy as np
+    import scipy.linalg as sla
+
+    def cholesky_banded(*args, **kwargs):
+        raise np.linalg.LinAlgError("1-th leading minor not positive definite")
+
+    monkeypatch.setattr(sla, "cholesky_banded", cholesky_banded)
+    r = run("modes", S11, "--mesh", "4x4")
+    assert r.exit_code == 1
+    assert "the factorisation of K - sigma M failed" in r.output and "try another mesh" in r.output
+
+
+# ---------------------------------------------------------------------------------- FRF files
+
+
+@pytest.fixture(scope="module")
+def frf_files(tmp_path_factory):
+    """A good FRF set written as HDF5, UFF and CSV (3 points, 801 lines)."""
+    from tests.frf_synth import plate_case
+
+    from laminid_cli.frf.io import write_frf
+    from laminid_cli.frf.store import FrfSet
+
+    c = plate_case(n_points=3, n_lines=801)
+    d = tmp_path_factory.mktemp("frf")
+    fs = FrfSet(freq=c.freq, frf=c.frf, units="m/N")
+    return {ext: write_frf(d / f"good.{ext}", fs) for ext in ("h5", "uff", "csv")}
+
+
+def fit_error(path):
+    before = Path(path).read_bytes()
+    r = run("fit-frf", path)
+    assert "Traceback" not in r.output
+    assert r.exception is None or isinstance(r.exception, SystemExit), repr(r.exception)
+    assert Path(path).read_bytes() == before
+    return r.exit_code, r.output
+
+
+def h5_copy(frf_files, tmp_path, edit):
+    import shutil
+
+    import h5py
+
+    path = tmp_path / "bad.h5"
+    shutil.copy(frf_files["h5"], path)
+    with h5py.File(path, "r+") as f:
+        edit(f)
+    return path
+
+
+def test_hdf5_with_flipped_bits_is_a_clear_error_or_reads(frf_files, tmp_path):
+    # bytes of the superblock and object headers flipped in turn: never a traceback
+    from laminid_cli.errors import FrfError
+    from laminid_cli.frf.io import read_frf
+
+    data = bytearray(Path(frf_files["h5"]).read_bytes())
+    codes = set()
+    for pos in range(0, 1000, 61):
+        flipped = bytearray(data)
+        flipped[pos] ^= 0xFF
+        path = tmp_path / "flip.h5"
+        path.write_bytes(flipped)
+        try:
+            read_frf(path)
+            codes.add(0)
+        except FrfError as exc:
+            assert str(exc).startswith(str(path)), exc
+            codes.add(2)
+    assert codes == {0, 2}
+
+
+@pytest.mark.parametrize("pos, words", [
+    (1065, "the HDF5 library crashed reading the file (SIGSEGV); the file is damaged"),
+    (2400, "the HDF5 library did not finish reading the file in 3 s; the file is damaged"),
+])
+def test_hdf5_file_that_crashes_or_hangs_libhdf5_is_refused(frf_files, tmp_path, monkeypatch,
+                                                           pos, words):
+    # one flipped bit that makes libhdf5 1.14 segfault, one that makes it loop (found by the
+    # fuzz test); the child process of probe_hdf5_file takes the risk
+    import laminid_cli.frf.store as store
+
+    monkeypatch.setattr(store, "H5_PROBE_TIMEOUT_S", 3.0)
+    data = bytearray(Path(frf_files["h5"]).read_bytes())
+    data[pos] ^= 0xFF
+    path = tmp_path / "damaged.h5"
+    path.write_bytes(data)
+    code, out = fit_error(path)
+    assert code == 2
+    assert f"{path}: {words}" in out, out
+
+
+def test_hdf5_dangling_soft_link_is_named(frf_files, tmp_path):
+    import h5py
+
+    def edit(f):
+        del f["frf"]
+        f["frf"] = h5py.SoftLink("/nowhere")
+
+    path = h5_copy(frf_files, tmp_path, edit)
+    code, out = fit_error(path)
+    assert code == 2 and f"{path}: '/frf' is a link to nothing (dangling soft link)" in out
+
+
+@pytest.mark.parametrize("value, words", [
+    ("abc", "attribute 'schema_version' is 'abc'; expected an integer"),
+    ([1, 2], "attribute 'schema_version' is [1, 2]; expected an integer"),
+])
+def test_hdf5_attribute_of_the_wrong_type_is_refused(frf_files, tmp_path, value, words):
+    import numpy as np
+
+    path = h5_copy(frf_files, tmp_path,
+                   lambda f: f.attrs.__setitem__("schema_version", value))
+    code, out = fit_error(path)
+    assert code == 2 and words in out
+
+
+def test_hdf5_units_attribute_of_the_wrong_type_is_refused(frf_files, tmp_path):
+    import numpy as np
+
+    path = h5_copy(frf_files, tmp_path,
+                   lambda f: f["frf"].attrs.__setitem__("units", np.array([1.0, 2.0])))
+    code, out = fit_error(path)
+    assert code == 2 and "attribute 'units' of '/frf' is [1.0, 2.0]; expected text" in out
+
+
+def test_hdf5_string_typed_coherence_is_refused(frf_files, tmp_path):
+    import numpy as np
+
+    def edit(f):
+        shape = f["frf"].shape
+        if "coherence" in f:
+            del f["coherence"]
+        f["coherence"] = np.full(shape, b"a", dtype="S1")
+
+    code, out = fit_error(h5_copy(frf_files, tmp_path, edit))
+    assert code == 2 and "dataset '/coherence' holds |S1 values; expected numbers" in out
+
+
+def test_hdf5_group_instead_of_dataset_is_refused(frf_files, tmp_path):
+    def edit(f):
+        del f["frf"]
+        f.create_group("frf")
+
+    code, out = fit_error(h5_copy(frf_files, tmp_path, edit))
+    assert code == 2 and "'/frf' is a group, expected a dataset" in out
+
+
+def test_fit_needing_more_memory_than_available_is_refused_with_the_estimate(monkeypatch,
+                                                                          tmp_path):
+    import numpy as np
+
+    import laminid_cli.memory as memory
+
+    # a 300 000-line CSV: its sweep would need about 0.9 GB; with 0.5 GB available, refused
+    f = np.linspace(1.0, 8000.0, 300_000)
+    h = 1 / (400.0 ** 2 - f ** 2 + 2j * 0.01 * 400 * f)
+    path = tmp_path / "long.csv"
+    np.savetxt(path, np.column_stack([f, h.real, h.imag]), delimiter=",", fmt="%.9g")
+    monkeypatch.setattr(memory, "available_memory_bytes", lambda: 0.5e9)
+    r = run("fit-frf", path, "--band", "1:8000")
+    assert r.exit_code == 2, r.output
+    assert "fitting band 1:8000 Hz (1 FRFs x 300000 lines, up to 12 modes) needs about 924 MB " \
+           "of memory, and 500 MB is available; fit narrower bands" in r.output
+
+
+def test_frf_size_limits_are_checked_before_reading():
+    from laminid_cli.errors import FrfError
+    from laminid_cli.frf.io import check_frf_size
+
+    with pytest.raises(FrfError, match="2000000 frequency lines, more than laminid reads"):
+        check_frf_size(1, 2_000_000, "x.csv")
+    with pytest.raises(FrfError, match=r"100 FRFs of 800000 lines \(80000000 values\)"):
+        check_frf_size(100, 800_000, "x.csv")
+
+
+def test_nan_in_uff_data_is_refused(frf_files, tmp_path):
+    lines = Path(frf_files["uff"]).read_text().split("\n")
+    k = lines.index("    -1", 2) - 5      # a data line of the first record
+    lines[k] = "                 NaN" + lines[k][20:]
+    path = tmp_path / "nan.uff"
+    path.write_text("\n".join(lines))
+    code, out = fit_error(path)
+    assert code == 2 and f"{path}: FRF of point 1 has NaN/inf at" in out
+
+
+def test_nan_frf_is_not_written_to_uff_as_zero(tmp_path):
+    import numpy as np
+
+    from laminid_cli.errors import FrfError
+    from laminid_cli.frf.io import write_frf
+    from laminid_cli.frf.store import FrfSet
+
+    h = np.ones((1, 50), complex)
+    h[0, 5] = np.nan
+    with pytest.raises(FrfError, match="FRF of point 1 has NaN/inf at 6 Hz"):
+        write_frf(tmp_path / "x.uff", FrfSet(freq=np.arange(1.0, 51.0), frf=h))
+    assert not (tmp_path / "x.uff").exists()
+
+
+# ---------------------------------------------------------------------------------- files
+
+
+@pytest.mark.parametrize("edit, words", [
+    (lambda t: t.replace("117.2 GPa", "117200 mPa"), "is not a plausible modulus"),
+    (lambda t: t.replace("geometry:\n", "g0: &g {a: 1}\ngeometry:\n  <<: *g\n"),
+     "YAML merge keys (<<) are not allowed"),
+    (lambda t: t.replace("layup:", "weird_key: 1\nlayup:"), "unknown key 'weird_key'"),
+])
+def test_fit_frf_into_an_invalid_specimen_leaves_it_untouched(frf_files, tmp_path, edit, words):
+    text = edit(BASE)
+    path = spec(tmp_path, text)
+    r = run("fit-frf", frf_files["h5"], "--into", path)
+    assert r.exit_code == 2 and words in r.output and str(path) in r.output
+    assert path.read_text() == text
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["plate.yaml"]
+
+
+def test_fit_frf_into_refuses_an_edit_that_would_make_the_specimen_invalid(frf_files, tmp_path):
+    # the FRFs give 7 modes; the specimen's 12 weights cannot be kept, and frf_file + the new
+    # frequencies together would be invalid: nothing is written
+    text = BASE.split("measured:")[0] + "measured:\n  frf_file: good.h5\n"
+    path = spec(tmp_path, text)
+    import shutil
+
+    shutil.copy(frf_files["h5"], tmp_path / "good.h5")
+    r = run("fit-frf", frf_files["h5"], "--into", path)
+    assert r.exit_code == 2
+    assert "the edited file would not be a valid specimen" in r.output
+    assert "give either 'frequencies' (and 'sigma') or 'frf_file', not both" in r.output
+    assert path.read_text() == text and not (tmp_path / "plate.yaml.bak").exists()
+
+
+def test_batch_writes_no_result_for_a_failing_specimen(tmp_path):
+    folder = tmp_path / "in"
+    folder.mkdir()
+    (folder / "bad.yaml").write_text(BASE.replace("117.2 GPa", "117200 mPa"))
+    (folder / "nomeasured.yaml").write_text(BASE.split("measured:")[0])
+    out = folder / "out"                          # inside the input folder
+    r = run("batch", folder, "--out", out, "--mesh", "4x4")
+    assert r.exit_code == 1
+    assert "bad: error: " in r.output and "is not a plausible modulus" in r.output
+    assert "nomeasured: error: " in r.output and "no measured frequencies" in r.output
+    assert sorted(p.name for p in out.iterdir()) == ["summary.csv", "summary.json"]
+
+
+def test_batch_with_a_file_name_that_is_not_utf8(tmp_path):
+    import os
+
+    folder = tmp_path / "in"
+    folder.mkdir()
+    odd = os.fsdecode(bytes(folder) + b"/odd\xff.yaml")
+    Path(odd).write_text(BASE)
+    out = folder / "out"
+    r = run("batch", folder, "--out", out, "--mesh", "4x4")
+    assert r.exit_code == 1 and "Traceback" not in r.output
+    assert "the file name is not valid UTF-8 text; rename the file" in r.output
+    assert "odd\\udcff" in (out / "summary.csv").read_text(encoding="utf-8")
+
+
+def _descendants(pid: int) -> set[int]:
+    """Processes below ``pid`` (Linux /proc)."""
+    children: dict[int, list[int]] = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            ppid = int(stat.rsplit(")", 1)[1].split()[1])
+            children.setdefault(ppid, []).append(int(entry.name))
+    found, todo = set(), [pid]
+    while todo:
+        for c in children.get(todo.pop(), []):
+            if c not in found:
+                found.add(c)
+                todo.append(c)
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+def test_batch_workers_stop_when_the_batch_process_is_killed(tmp_path):
+    import os
+    import shutil
+    import signal
+    import subprocess
+    import sys
+
+    folder = tmp_path / "in"
+    folder.mkdir()
+    for k in range(2):
+        shutil.copy(S11, folder / f"p{k}.yaml")
+    # long enough jobs (16x16 mesh, many evaluations) that the workers are busy when killed
+    proc = subprocess.Popen([sys.executable, "-m", "laminid_cli", "batch", str(folder), "-j", "2",
+                             "--out", str(tmp_path / "out"), "--mesh", "16x16",
+                             "--max-evaluations", "2000", "--xtol", "1e-14", "--ftol", "1e-15"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    try:
+        deadline = time.monotonic() + 60
+        workers: set[int] = set()
+        while time.monotonic() < deadline and len(workers) < 3:   # forkserver + 2 workers
+            time.sleep(0.2)
+            workers = _descendants(proc.pid)
+        assert len(workers) >= 3, "the workers did not start"
+        time.sleep(1.0)
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.wait(10)
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and any(_alive(p) for p in workers):
+            time.sleep(0.1)
+        left = [p for p in workers if _alive(p)]
+        assert not left, f"worker processes still running after the batch was killed: {left}"
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
