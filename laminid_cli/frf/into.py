@@ -174,16 +174,16 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
         exp_measured["weights"] = wts
     exp_measured.update(extra)
     expect["measured"] = exp_measured
-    if check != expect:
-        raise SpecimenError("edited file would not read back as intended; file left unchanged",
-                            path=str(spec_path), field="measured")
-
     try:   # the edited file must be a valid specimen too (e.g. weights of the right length)
         if validate:
             load_specimen_text(new_text, str(spec_path))
     except SpecimenError as exc:
         raise SpecimenError(f"the edited file would not be a valid specimen ({exc}); file left "
                             "unchanged", path=str(spec_path)) from exc
+
+    if check != expect:
+        raise SpecimenError("edited file would not read back as intended; file left unchanged",
+                            path=str(spec_path), field="measured")
 
     bak = spec_path.with_name(spec_path.name + ".bak")
     if backup:
