@@ -586,3 +586,24 @@ def test_batch_workers_stop_when_the_batch_process_is_killed(tmp_path):
     finally:
         with contextlib.suppress(ProcessLookupError):
             os.killpg(proc.pid, signal.SIGKILL)
+
+
+def test_unreachable_scheduler_writes_nothing(tmp_path):
+    # found by the fuzz test: 'local:5' is a valid address form that nobody answers; the
+    # connection fails after the out folder and the summary had been written
+    import laminid_cli.batch as batch
+
+    def refuse(*args, **kwargs):
+        raise batch.BatchError("--scheduler tcp://127.0.0.1:9: cannot connect (refused)")
+        yield  # pragma: no cover
+
+    import pytest as _pytest
+
+    mp = _pytest.MonkeyPatch()
+    mp.setattr(batch, "_run_dask", refuse)
+    try:
+        r = run("batch", S11, "--scheduler", "tcp://127.0.0.1:9", "--out", tmp_path / "out")
+    finally:
+        mp.undo()
+    assert r.exit_code == 2 and "cannot connect" in r.output
+    assert not (tmp_path / "out").exists()
