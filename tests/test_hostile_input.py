@@ -607,3 +607,14 @@ def test_unreachable_scheduler_writes_nothing(tmp_path):
         mp.undo()
     assert r.exit_code == 2 and "cannot connect" in r.output
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("name, command", [("huge.yaml", "modes"), ("huge.csv", "fit-frf")])
+def test_huge_file_is_refused_before_it_is_read(tmp_path, name, command):
+    path = tmp_path / name
+    with open(path, "wb") as fh:      # sparse: 1.5 GB that take no disk space
+        fh.truncate(1_500_000_000)
+    r = run(command, path)
+    assert r.exit_code == 2
+    assert f"{path}" in r.output and ("more than a specimen file can have" in r.output
+                                      or "larger than an FRF text file laminid reads" in r.output)
