@@ -1098,6 +1098,11 @@ def read_specimen(path) -> Specimen:
     name = str(path)
     p = Path(path)
     try:
+        size = p.stat().st_size if p.is_file() else 0
+        if size > 4 * MAX_SPECIMEN_CHARS:   # refused before it is read into memory
+            raise SpecimenError(f"the file has {size} bytes, more than a specimen file can have "
+                                f"({MAX_SPECIMEN_CHARS} characters); is it the right file?",
+                                path=name)
         data = p.read_bytes()
     except FileNotFoundError as exc:
         raise SpecimenError("file not found", path=name) from exc

@@ -362,7 +362,7 @@ OPTIONS = {
                  "--optimizer": ["slsqp", "bogus"], "--seed": NUMBERS},
     "fit-frf": {"--band": ["nan:5", "5:nan", "1:inf", "300:200", "a:b", "1:2:3", ":", "-5:5",
                            "100:300"], "--modes": NUMBERS, "--format": ["csv", "hdf5", "xls"]},
-    "batch": {"--scheduler": ["bogus", "tcp://", "tcp://a:b", "http://x:1", "local:5", ":",
+    "batch": {"--scheduler": ["bogus", "tcp://", "tcp://a:b", "http://x:1", "local:x", ":",
                               "tcp://[::1", "tcp://h:0", "\x07"], "-j": NUMBERS,
               "--mesh": ["1x1", "200x200", "3x3"], "--xtol": NUMBERS},
     "report": {"--format": ["png", "xyz", ""], "--dpi": NUMBERS},

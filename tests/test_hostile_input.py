@@ -586,3 +586,35 @@ def test_batch_workers_stop_when_the_batch_process_is_killed(tmp_path):
     finally:
         with contextlib.suppress(ProcessLookupError):
             os.killpg(proc.pid, signal.SIGKILL)
+
+
+def test_unreachable_scheduler_writes_nothing(tmp_path):
+    # found by the fuzz test: 'local:5' is a valid address form that nobody answers; the
+    # connection fails after the out folder and the summary had been written
+    import laminid_cli.batch as batch
+
+    def refuse(*args, **kwargs):
+        raise batch.BatchError("--scheduler tcp://127.0.0.1:9: cannot connect (refused)")
+        yield  # pragma: no cover
+
+    import pytest as _pytest
+
+    mp = _pytest.MonkeyPatch()
+    mp.setattr(batch, "_run_dask", refuse)
+    try:
+        r = run("batch", S11, "--scheduler", "tcp://127.0.0.1:9", "--out", tmp_path / "out")
+    finally:
+        mp.undo()
+    assert r.exit_code == 2 and "cannot connect" in r.output
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("name, command", [("huge.yaml", "modes"), ("huge.csv", "fit-frf")])
+def test_huge_file_is_refused_before_it_is_read(tmp_path, name, command):
+    path = tmp_path / name
+    with open(path, "wb") as fh:      # sparse: 1.5 GB that take no disk space
+        fh.truncate(1_500_000_000)
+    r = run(command, path)
+    assert r.exit_code == 2
+    assert f"{path}" in r.output and ("more than a specimen file can have" in r.output
+                                      or "larger than an FRF text file laminid reads" in r.output)

@@ -41,6 +41,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrizat
       laminid batch plates/*.yaml --out results --fix nu12,G13,G23
       laminid batch study/ --scheduler tcp://10.0.0.5:8786 -j 64
     """
+    import contextlib
     import sys
     from pathlib import Path
 
@@ -52,7 +53,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrizat
 
     from laminid_cli.uncertainty import check_sigma_rel
 
-    parse_mesh(mesh, copies=n_jobs)                 # bad --mesh, --sigma-rel: exit 2 at once
+    # bad --mesh, --sigma-rel: exit 2 at once (remote Dask workers check their own memory)
+    parse_mesh(mesh, copies=n_jobs if scheduler in (None, "local") else 1)
     if scheduler is not None:
         check_scheduler(scheduler)
     check_sigma_rel(sigma_rel)
@@ -71,6 +73,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrizat
     specimens = discover_specimens(inputs, exclude=[out])
     if not specimens:
         raise BatchError(f"no specimen file (*.yaml, *.yml) found in {', '.join(inputs)}")
+    created = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     remove_stale_parts(out)
     jobs = plan_batch(specimens, out, options, force=force)
@@ -85,6 +88,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrizat
         return item or ""
 
     finished = 0
+    refused = False
     try:
         with click.progressbar(length=len(todo), label="identifying", file=sys.stderr,
                                item_show_func=show, show_pos=True) as bar:
@@ -94,13 +98,21 @@ def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrizat
                 rows[job.name] = result_row(job, outcome)
                 finished += 1
                 bar.update(1, printable(f"{job.name}: {outcome.status}"))
+    except BatchError:   # e.g. --scheduler unreachable: nothing ran, so nothing is written
+        refused = finished == 0
+        raise
     finally:
-        # also on Ctrl-C: the summary lists what was done ('not run' for the rest)
-        ordered = [rows.get(j.name) or result_row(j, cached=stored_hash(j.output) == j.key)
-                   for j in jobs]
-        report = batch_report(ordered, options, out)
-        write_summary_csv(out / SUMMARY_CSV, ordered)
-        write_summary_json(out / SUMMARY_JSON, report)
+        if refused:
+            if created:
+                with contextlib.suppress(OSError):
+                    out.rmdir()
+        else:
+            # also on Ctrl-C: the summary lists what was done ('not run' for the rest)
+            ordered = [rows.get(j.name) or result_row(j, cached=stored_hash(j.output) == j.key)
+                       for j in jobs]
+            report = batch_report(ordered, options, out)
+            write_summary_csv(out / SUMMARY_CSV, ordered)
+            write_summary_json(out / SUMMARY_JSON, report)
     if as_json:
         echo_json(report)
     else:

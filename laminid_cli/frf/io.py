@@ -43,9 +43,9 @@ SUFFIXES = {".h5": "hdf5", ".hdf5": "hdf5", ".hdf": "hdf5", ".uff": "uff", ".unv
 #: UFF 58 function types, and the abscissa's specific data type for frequency (Hz)
 UFF_FRF, UFF_COHERENCE = 4, 6
 UFF_ABSCISSA_FREQUENCY = 18
-#: text FRF files (UFF, CSV) larger than this are refused before they are read (2 GB: more
-#: than 50 million values at ~40 characters each)
-MAX_TEXT_FILE_BYTES = 2_000_000_000
+#: text FRF files (UFF, CSV) larger than this are refused before they are read (1 GB: the
+#: 50 million values of MAX_FRF_VALUES at ~20 characters each)
+MAX_TEXT_FILE_BYTES = 1_000_000_000
 
 
 def frf_format(path, fmt: str | None = None) -> str:
