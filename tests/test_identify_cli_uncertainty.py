@@ -76,7 +76,7 @@ def test_report_shows_intervals_verdicts_and_tables(tmp_path):
     r = run("identify", S1[0], "--mesh", "6x6", "--no-output")
     assert r.exit_code == 0, r.output
     out = r.output
-    assert "± 95 %" in out and "well determined" in out and "not determined by these modes" in out
+    assert "95 % interval" in out and "well determined" in out and "not determined by these modes" in out
     assert "flagged (half-width > 30 % of the value)" in out and "--fix-undetermined" in out
     assert "correlation of the identified constants" in out
     assert "normalised sensitivities d ln f / d ln P" in out

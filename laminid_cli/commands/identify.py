@@ -6,8 +6,9 @@ from pathlib import Path
 
 import click
 
-from laminid_cli.commands._common import (check_output_path, echo_json, fit_options,
-                                          force_option, json_option, uncertainty_options)
+from laminid_cli.commands._common import (check_output_path, derived_output_path, echo_json,
+                                          fit_options, force_option, json_option,
+                                          uncertainty_options)
 from laminid_cli.commands.text import format_identify_report, format_joint_report
 
 
@@ -35,8 +36,10 @@ def default_joint_output(specs) -> Path:
               help="Processes for the Monte Carlo trials [default: the number of cores].")
 @json_option
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
-              help="HDF5 result file [default: SPEC's folder, <name>.result.h5; with --joint "
-                   "the first SPEC's folder, <name1>+<name2>+....joint.result.h5].")
+              help="HDF5 result file, never overwritten without --force [default: SPEC's "
+                   "folder, <name>.result.h5; with --joint the first SPEC's folder, "
+                   "<name1>+<name2>+....joint.result.h5; a derived file, replaced by each "
+                   "run].")
 @click.option("--no-output", is_flag=True, help="Do not write a result file.")
 @force_option
 def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evaluations, pairing,
@@ -52,7 +55,13 @@ def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalu
     measured vs model frequencies with residuals (measured - model)/measured*100, the global
     laminate properties, the correlation of the constants and the normalised sensitivities
     d ln f / d ln P of each mode. Frequency uncertainties come from the file's measured.sigma,
-    else --sigma-rel. Exit code 0 when converged, 1 when not, 2 for bad input.
+    else --sigma-rel. Every result has a status: ok, or check with the reasons (a constant at
+    its bound or undetermined, a fit worse than the stated noise, implausible values, modes
+    swapped). Exit code 0 when converged (also with status check), 1 when not, 2 for bad
+    input.
+
+    Run it again after editing SPEC: the default result file beside SPEC is derived from it
+    and is replaced (the output says so); a file named with -o is kept unless --force.
 
     \b
     Examples:
@@ -69,7 +78,7 @@ def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalu
     from laminid_cli.forward import build_forward_model
     from laminid_cli.identify import IdentifyOptions
     from laminid_cli.results import (identification_summary, joint_identification_summary,
-                                     uncertainty_summary, write_identification_file,
+                                     status_of, uncertainty_summary, write_identification_file,
                                      write_joint_identification_file)
     from laminid_cli.specimen import read_specimen
     from laminid_cli.uncertainty import UncertaintyOptions, assess, check_sigma_rel
@@ -84,7 +93,13 @@ def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalu
         raise FitInputError(f"--max-rel-interval must be positive (0.3 = 30 %), got "
                             f"{max_rel_interval:g}")
     default = default_joint_output(specs) if joint else default_output(specs[0])
-    out = None if no_output else check_output_path(output or default, force)
+    replacing = False
+    if no_output:
+        out = None
+    elif output is None:
+        out, replacing = derived_output_path(default)
+    else:
+        out = check_output_path(output, force)
     specimens = [read_specimen(s) for s in specs]
     options = IdentifyOptions(
         fix=tuple(x.strip() for x in fix.split(",") if x.strip()), optimizer=optimizer,
@@ -130,18 +145,21 @@ def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalu
         summary = identification_summary(result)
     summary["mesh"] = {"nx": fms[0].mesh_size[0], "ny": fms[0].mesh_size[1]}
     summary["uncertainty"] = uncertainty_summary(a)
+    summary.update(status_of(result, a).as_dict())
     if out is not None:
         if joint:
             write_joint_identification_file(out, fms, result, summary, assessment=a)
         else:
             write_identification_file(out, fms[0], result, summary, assessment=a)
         summary["output"] = str(out)
+        summary["output_replaced"] = replacing
     if as_json:
         echo_json(summary)
     else:
         click.echo(format_joint_report(summary) if joint else format_identify_report(summary))
         if out is not None:
-            click.echo(f"\nwritten: {out}")
+            click.echo(f"\nwritten: {out}" + (" (replaced the previous result of this "
+                                              "specimen: a derived file)" if replacing else ""))
     if not result.converged:
         click.echo(f"laminid: identification did not converge: {result.status}", err=True)
         sys.exit(1)
