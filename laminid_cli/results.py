@@ -49,7 +49,8 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
                           attr chi2_limit_99;
                           weakest_labels/weakest_coefficients (weakest combination)
     /uncertainty/frequency_sigma/<specimen>   sigma (Hz per measured mode, NaN = not measured),
-                          attr source (per mode: file | relative), sigma_rel
+                          attr source (per mode: file | relative), sigma_rel, note (how the
+                          file's sigmas were made: measured.sigma_source, e.g. by fit-frf)
     /uncertainty/monte_carlo   samples (n_converged, p), mean, std, lower, upper (quantiles
                           (1 -/+ confidence)/2 of the samples), linearized_std, ratio; attrs trials, converged, sigma_factor, seed, jobs
     /uncertainty/before_fixing  labels, rel_half_width, verdict of the first run when
@@ -380,6 +381,7 @@ def write_uncertainty(f, a, plate_names) -> None:
                 description="standard deviation of each measured frequency (NaN: not measured)")
         d.attrs["source"] = ",".join(sig.source)
         d.attrs["sigma_rel"] = sig.sigma_rel
+        d.attrs["note"] = sig.note
     if a.monte_carlo is not None:
         mc = a.monte_carlo
         gm = g.create_group("monte_carlo")
@@ -409,7 +411,8 @@ def uncertainty_summary(a) -> dict:
     names = unique_names([p.specimen.name for p in plates])
     out = a.uncertainty.as_dict()
     out["frequency_sigma"] = {n: {"sigma_hz": s.sigma_hz, "source": list(s.source),
-                                  "sigma_rel": s.sigma_rel} for n, s in zip(names, a.sigmas)}
+                                  "sigma_rel": s.sigma_rel, "note": s.note}
+                              for n, s in zip(names, a.sigmas)}
     out["sensitivity"] = sensitivity_table(r)
     out["fixed_undetermined"] = list(a.fixed_undetermined)
     out["runs"] = a.runs

@@ -109,11 +109,14 @@ class Measured:
     freq : (n,) Hz, NaN where a mode was not detected
     weight : (n,) in [0, 1], 0 where ``freq`` is NaN (paper Eq. 17)
     sigma : (n,) Hz standard deviations, NaN where unknown; None when the file gives none
+    sigma_source : how the sigmas were made (``measured.sigma_source``, written by
+        ``fit-frf --into``; for ``frf_file`` the fit's rule), "" when not said
     """
 
     freq: np.ndarray
     weight: np.ndarray
     sigma: np.ndarray | None = None
+    sigma_source: str = ""
 
     @property
     def n_modes(self) -> int:
@@ -704,9 +707,10 @@ def _resolve_densities(r: _Reader, top: dict, root: _Y, a: float, b: float, h: f
 
 
 def _read_measured(r: _Reader, y: _Y) -> Measured:
-    m = r.mapping(y, optional=("frequencies", "weights", "sigma", "frf_file", "bands", "modes"))
+    m = r.mapping(y, optional=("frequencies", "weights", "sigma", "sigma_source", "frf_file",
+                               "bands", "modes"))
     if "frf_file" in m:
-        if "frequencies" in m or "sigma" in m:
+        if "frequencies" in m or "sigma" in m or "sigma_source" in m:
             raise r.error(m["frf_file"], "give either 'frequencies' (and 'sigma') or "
                                          "'frf_file', not both")
         return _measured_from_frf(r, m)
@@ -762,10 +766,15 @@ def _read_measured(r: _Reader, y: _Y) -> Measured:
                 raise r.error(item, f"a standard deviation must be positive, got {item.value!r}")
             sigma[k] = value
         sigma[np.isnan(freq)] = np.nan
+    source = ""
+    if "sigma_source" in m:
+        if sigma is None:
+            raise r.error(m["sigma_source"], "'sigma_source' describes 'sigma', which is missing")
+        source = r.string(m["sigma_source"])
     for array in (freq, weight, sigma):
         if array is not None:
             array.flags.writeable = False
-    return Measured(freq=freq, weight=weight, sigma=sigma)
+    return Measured(freq=freq, weight=weight, sigma=sigma, sigma_source=source)
 
 
 def _measured_from_frf(r: _Reader, m: dict) -> Measured:
@@ -820,7 +829,9 @@ def _measured_from_frf(r: _Reader, m: dict) -> Measured:
     sigma = np.asarray(sigma, float)
     for array in (freq, weight, sigma):
         array.flags.writeable = False
-    return Measured(freq=freq, weight=weight, sigma=sigma)
+    return Measured(freq=freq, weight=weight, sigma=sigma,
+                    sigma_source=f"fit of {name}: RFP spread, resolution and window, at least "
+                                 "0.2 % of f")
 
 
 def _reference_value(r: _Reader, y: _Y, kind: str, intervals: dict, key: str) -> float:

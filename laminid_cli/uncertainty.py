@@ -119,11 +119,13 @@ class FrequencySigma:
     sigma_hz : (n_modes,) Hz, NaN where the mode is not measured
     source : per mode, "file" (specimen ``measured.sigma``), "relative" (sigma_rel * f) or ""
     sigma_rel : the relative default used where the file gives none
+    note : how the file's sigmas were made (``measured.sigma_source``, e.g. by fit-frf)
     """
 
     sigma_hz: np.ndarray
     source: tuple[str, ...]
     sigma_rel: float
+    note: str = ""
 
     @property
     def summary(self) -> str:
@@ -131,11 +133,13 @@ class FrequencySigma:
         n_file = self.source.count("file")
         n_rel = self.source.count("relative")
         rel = f"{self.sigma_rel * 100:.3g} % of each frequency (--sigma-rel)"
+        file = "specimen file (measured.sigma" + (f"; {self.note})" if self.note else
+                                                  ", origin not stated)")
         if n_file and not n_rel:
-            return "specimen file (measured.sigma)"
+            return file
         if n_rel and not n_file:
             return rel
-        return f"specimen file (measured.sigma) for {n_file} modes, {rel} for {n_rel}"
+        return f"{file} for {n_file} modes, {rel} for {n_rel}"
 
 
 def check_sigma_rel(sigma_rel: float) -> float:
@@ -184,7 +188,8 @@ def frequency_sigma(measured, sigma_rel: float = DEFAULT_SIGMA_REL, *, sigma_hz=
             out[i], source[i] = given[i], "file"
         else:
             out[i], source[i] = sigma_rel * freq[i], "relative"
-    return FrequencySigma(sigma_hz=out, source=tuple(source), sigma_rel=sigma_rel)
+    note = getattr(measured, "sigma_source", "") if sigma_hz is None else ""
+    return FrequencySigma(sigma_hz=out, source=tuple(source), sigma_rel=sigma_rel, note=note)
 
 
 # ----------------------------------------------------------------------------------------------

@@ -1,7 +1,8 @@
 """Write fitted natural frequencies into a specimen file's ``measured:`` mapping.
 
 Only ``measured.frequencies`` (Hz, ``null`` for a mode not found), ``measured.sigma`` (Hz,
-standard deviations) and, when asked or already present, ``measured.weights`` change; every
+standard deviations), ``measured.sigma_source`` (how the sigmas were made) and, when asked or
+already present, ``measured.weights`` change; every
 comment, every other key and their order are kept (ruamel.yaml round trip). The file is never
 left half-written or invalid:
 
@@ -32,8 +33,8 @@ def _round(x: float | None, digits: int) -> float | None:
     return round(float(x), digits)
 
 
-def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, backup: bool = True
-                   ) -> Path:
+def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, backup: bool = True,
+                   sigma_source: str | None = None) -> Path:
     """Replace/insert the measured frequencies (and sigma, weights) of a specimen YAML file.
 
     Parameters
@@ -45,6 +46,7 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, backup: b
         its length matches (0 where the new frequency is null, 1 where a mode null before is
         now found), otherwise rewritten as 1 for found modes and 0 for null ones.
     backup : keep the original as ``<spec>.bak``
+    sigma_source : written as ``measured.sigma_source`` (shown by identify), with ``sigma_hz``
 
     Returns the backup path (or the spec path when ``backup`` is false).
     """
@@ -121,6 +123,10 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, backup: b
     put("frequencies", freq)
     if sig is not None:
         put("sigma", sig)
+        if sigma_source:
+            measured["sigma_source"] = str(sigma_source)
+        elif "sigma_source" in measured:
+            del measured["sigma_source"]               # it described the previous sigmas
     if wts is not None:
         put("weights", wts)
 
@@ -138,6 +144,10 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, backup: b
     exp_measured["frequencies"] = freq
     if sig is not None:
         exp_measured["sigma"] = sig
+        if sigma_source:
+            exp_measured["sigma_source"] = str(sigma_source)
+        else:
+            exp_measured.pop("sigma_source", None)
     if wts is not None:
         exp_measured["weights"] = wts
     expect["measured"] = exp_measured
