@@ -112,11 +112,13 @@ def implausible_combinations(result, uncertainty=None) -> list[str]:
         if usable("G23", "E2") and c.G23 > c.E2:
             out.append(f"{prefix}G23 = {_gpa(c.G23)} is above E2 = {_gpa(c.E2)} (a transversely "
                        "isotropic ply has G23 = E2/(2(1+nu23)) <= E2/2)")
+        why = {"G13": "G13 = G12 for a transversely isotropic ply",
+               "G23": "G23 = E2/(2(1+nu23)) stays below G12 for carbon and glass plies"}
         for k in ("G13", "G23"):
             v = getattr(c, k)
             if usable(k, "G12") and v > SHEAR_RATIO_LIMIT * c.G12:
                 out.append(f"{prefix}{k} = {_gpa(v)} is more than {SHEAR_RATIO_LIMIT:g} x G12 = "
-                           f"{_gpa(c.G12)} (G13 = G12 for a transversely isotropic ply)")
+                           f"{_gpa(c.G12)} ({why[k]})")
         if usable("nu12") and c.nu12 < 0:
             out.append(f"{prefix}nu12 = {c.nu12:.3f} is negative (fibre plies, and laminates "
                        "of them, have a positive in-plane Poisson ratio)")

@@ -366,7 +366,8 @@ def bounds_reached(materials, nu_max: float = 0.95, bound_factor: float = 5.0
     """The free constants that ended on a limit of the search (laminid_cli.parametrization),
     judged on the constants themselves whatever the design variables were:
 
-    - a modulus at ``initial / bound_factor`` or ``initial * bound_factor``;
+    - a modulus at ``initial / bound_factor`` or ``initial * bound_factor`` (within
+      :data:`BOUND_TOL`; with the alphas only E1 is held there, so a value beyond is not a hit);
     - G12, G13, G23 or E2 at most ``2 * MIN_MODULUS_RATIO * E1`` (the feasibility limit is
       ``MIN_MODULUS_RATIO * E1`` on the alphas, i.e. slightly above it in the constants);
     - E2 >= E1 (limit E2 <= E1, paper Eq. 22);
@@ -397,9 +398,11 @@ def bounds_reached(materials, nu_max: float = 0.95, bound_factor: float = 5.0
                     hit = ("lower", r * c.E1, f"{k} <= {r:g} E1 ({_gpa(r * c.E1)})")
                 elif k == "E2" and v >= c.E1 * (1 - tol):
                     hit = ("upper", c.E1, f"E2 >= E1 ({_gpa(c.E1)})")
-                elif v <= lo * (1 + tol):
+                # the factor limits bind every modulus of the 'constants' parametrisation but
+                # only E1 of the alphas (the others can pass them): at the limit, not beyond
+                elif abs(v - lo) <= tol * lo:
                     hit = ("lower", lo, f"{k} <= initial / {bound_factor:g} ({_gpa(lo)})")
-                elif v >= hi * (1 - tol):
+                elif abs(v - hi) <= tol * hi:
                     hit = ("upper", hi, f"{k} >= {bound_factor:g} x initial ({_gpa(hi)})")
             if hit is not None:
                 side, limit, stmt = hit
