@@ -63,6 +63,15 @@ def derived_output_path(path: str | Path) -> tuple[Path, bool]:
     return path, True
 
 
+def result_output(output, default, force: bool) -> tuple[Path, bool]:
+    """The result file of identify: ``-o output`` protected by :func:`check_output_path`, or
+    the derived ``default`` beside the specimen, replaced (:func:`derived_output_path`).
+    Returns (path, replacing an earlier result)."""
+    if output is not None:
+        return check_output_path(output, force), False
+    return derived_output_path(default)
+
+
 def _clean(obj):
     """JSON-safe copy: numpy scalars/arrays to Python, NaN/inf to None."""
     try:

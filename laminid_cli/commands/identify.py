@@ -6,9 +6,8 @@ from pathlib import Path
 
 import click
 
-from laminid_cli.commands._common import (check_output_path, derived_output_path, echo_json,
-                                          fit_options, force_option, json_option,
-                                          uncertainty_options)
+from laminid_cli.commands._common import (echo_json, fit_options, force_option, json_option,
+                                          result_output, uncertainty_options)
 from laminid_cli.commands.text import format_identify_report, format_joint_report
 
 
@@ -93,13 +92,7 @@ def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalu
         raise FitInputError(f"--max-rel-interval must be positive (0.3 = 30 %), got "
                             f"{max_rel_interval:g}")
     default = default_joint_output(specs) if joint else default_output(specs[0])
-    replacing = False
-    if no_output:
-        out = None
-    elif output is None:
-        out, replacing = derived_output_path(default)
-    else:
-        out = check_output_path(output, force)
+    out, replacing = (None, False) if no_output else result_output(output, default, force)
     specimens = [read_specimen(s) for s in specs]
     options = IdentifyOptions(
         fix=tuple(x.strip() for x in fix.split(",") if x.strip()), optimizer=optimizer,
