@@ -16,9 +16,19 @@ The flow of ``laminid batch`` as library functions:
 4. :func:`write_result_bytes` (in the client) writes the file atomically (laminid_cli.atomic): temporary name in
    the target folder, fsync, rename. Killing the batch at any instant leaves either no file or
    a complete one;
-5. :func:`result_row` reads the numbers of the summary back from each result file;
-   :func:`write_summary_csv`, :func:`write_summary_json` and :func:`format_table` give the
-   table across specimens (the shape of the paper's Table 2: specimens as columns).
+5. :func:`result_row` reads the numbers of the summary back from each result file (values,
+   intervals, verdicts, the status and its reasons); :func:`write_summary_csv` (long form: one
+   row per specimen, material and constant; ``wide=True`` one row per specimen),
+   :func:`write_summary_json` and :func:`format_table` give the table across specimens (the
+   shape of the paper's Table 2: specimens as columns, undetermined values marked).
+
+Units: SI everywhere in the files (Pa, 1, %, s). summary.json has a ``units`` map, the long CSV
+a ``unit`` column, the wide CSV the unit in each header ("IM7/977-2 E1 [Pa]"). The terminal
+table shows GPa.
+
+Status of a row: "ok" or "check" (the result's status, laminid_cli.status; a run that did not
+converge is "check" with reason ``not_converged``), "error" (no result: bad input, crash) or
+"not run" (interrupted batch).
 
 Nothing here imports numpy, h5py or the solver at module level, so the command starts fast.
 """
@@ -46,15 +56,22 @@ from laminid_cli.uncertainty import UncertaintyOptions
 log = logging.getLogger(__name__)
 
 CONSTANTS = ("E1", "E2", "G12", "G13", "G23", "nu12")
-#: summary value units: moduli in GPa in the CSV and the table, Poisson ratio plain
-CONSTANT_UNITS = {"E1": "GPa", "E2": "GPa", "G12": "GPa", "G13": "GPa", "G23": "GPa", "nu12": "1"}
+#: SI units of the summary files (the terminal table shows GPa)
+CONSTANT_UNITS = {"E1": "Pa", "E2": "Pa", "G12": "Pa", "G13": "Pa", "G23": "Pa", "nu12": "1"}
+#: the ``units`` map of summary.json
+UNITS = {**CONSTANT_UNITS, "lower": "unit of the constant", "upper": "unit of the constant",
+         "rms_residual_percent": "%", "time_s": "s"}
+#: the columns of the long summary.csv
+LONG_COLUMNS = ("name", "specimen", "material", "constant", "value", "lower", "upper", "verdict",
+                "unit", "status", "reasons", "rms_residual [%]", "result")
 SPECIMEN_SUFFIXES = (".yaml", ".yml")
 RESULT_SUFFIX = ".result.h5"
 SUMMARY_CSV = "summary.csv"
 SUMMARY_JSON = "summary.json"
 HASH_ATTR = "batch_input_sha256"
-#: statuses of a summary row; every status but "ok" makes the batch exit with 1
-STATUSES = ("ok", "not converged", "error", "not run")
+#: statuses of a summary row; "error", "not run" and a run that did not converge make the
+#: batch exit with 1 ("check" alone does not: the reasons say what to look at)
+STATUSES = ("ok", "check", "error", "not run")
 
 
 class BatchError(LaminidError):
@@ -125,8 +142,8 @@ class Job:
 
 @dataclass
 class Outcome:
-    """What a worker returns: status ("ok" | "not converged" | "error"), the reason of a
-    failure, the result file's bytes (None on error) and the wall time in s."""
+    """What a worker returns: status ("ok" | "check" | "error"), the reason of a failure or
+    the reason codes of a check, the result file's bytes (None on error) and the wall time."""
 
     name: str
     status: str
@@ -206,8 +223,10 @@ def input_hash(spec, options: BatchOptions) -> str:
     """sha256 (hex) of everything a result depends on: the laminid version, the options, the
     specimen file's bytes and those of its FRF file (``measured.frf_file``) when it has one."""
     spec = Path(spec)
+    from laminid_cli.results import SCHEMA_VERSION
+
     h = hashlib.sha256()
-    h.update(f"laminid {__version__}\0".encode())
+    h.update(f"laminid {__version__} schema {SCHEMA_VERSION}\0".encode())
     h.update(json.dumps(options.as_dict(), sort_keys=True).encode() + b"\0")
     h.update(spec.read_bytes())
     frf = _frf_file(spec)
@@ -274,8 +293,8 @@ def run_job(job: Job, options: BatchOptions) -> Outcome:
         from laminid_cli.damping import damping_of, split_fix
         from laminid_cli.fe.mesh import parse_mesh
         from laminid_cli.forward import build_forward_model
-        from laminid_cli.results import (identification_summary, uncertainty_summary,
-                                         write_identification_file)
+        from laminid_cli.results import (identification_summary, status_of,
+                                         uncertainty_summary, write_identification_file)
         from laminid_cli.specimen import read_specimen
         from laminid_cli.uncertainty import assess
 
@@ -300,9 +319,9 @@ def run_job(job: Job, options: BatchOptions) -> Outcome:
                 data = path.read_bytes()
             finally:
                 _current_tmp.remove(tmp)
-        status = "ok" if result.converged else "not converged"
-        reason = "" if result.converged else str(result.status)
-        return Outcome(job.name, status, reason, data, time.perf_counter() - t0)
+        st = status_of(result, assessment)
+        return Outcome(job.name, st.status, ", ".join(st.codes), data,
+                       time.perf_counter() - t0)
     except LaminidError as exc:
         return Outcome(job.name, "error", str(exc), None, time.perf_counter() - t0)
     except Exception as exc:  # noqa: BLE001 - one specimen's crash must not stop the batch
@@ -551,12 +570,16 @@ def _run_dask(jobs, options, n_jobs, scheduler):
 def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False) -> dict:
     """One summary row (SI units), with the numbers read back from the job's result file.
 
-    Keys: name, specimen (its name field), path, status, reason, cached, materials
-    ({material: {E1.. nu12}}), rms_residual_percent, evaluations, time_s, result, damping
-    ({material: {eta11: {value, lower, upper, verdict}}}, empty without measured damping).
+    Keys: name, specimen (its name field), path, status ("ok" | "check" | "error" | "not run"),
+    reasons ([{code, text}], laminid_cli.status), reason (one line: the error, or the codes),
+    converged, optimizer_status, cached, materials ({material: {E1.. nu12}}), intervals
+    ({material: {constant: {lower, upper, verdict, at_bound, flagged}}} for the free
+    constants; fixed ones {verdict: "fixed"}), rms_residual_percent, evaluations, time_s, result,
+    damping ({material: {eta11: {value, lower, upper, verdict}}}, empty without measured damping).
     """
     row = {"name": job.name, "specimen": "", "path": str(job.spec), "status": "not run",
-           "reason": "", "cached": cached, "materials": {}, "rms_residual_percent": None,
+           "reasons": [], "reason": "", "converged": None, "optimizer_status": "",
+           "cached": cached, "materials": {}, "intervals": {}, "rms_residual_percent": None,
            "evaluations": None, "time_s": None, "result": None, "damping": {}}
     if outcome is not None and outcome.status == "error":
         row.update(status="error", reason=outcome.reason, time_s=outcome.time_s)
@@ -566,17 +589,14 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False) -
     from laminid_cli.resultfile import ResultFileError, read_result
 
     try:
+        import h5py
+
         res = read_result(job.output)
-    except ResultFileError as exc:
+        with h5py.File(job.output, "r") as f:
+            _read_row(f, row)
+    except (ResultFileError, OSError, KeyError) as exc:
         row.update(status="error", reason=f"result file {job.output} unreadable ({exc})")
         return row
-    row["status"] = "ok" if res.converged else "not converged"
-    row["reason"] = "" if res.converged else res.optimizer_status
-    row["specimen"] = res.plates[0].name
-    row["evaluations"] = res.evaluations
-    row["time_s"] = res.time_s
-    row["rms_residual_percent"] = res.rms_residual_percent
-    row["materials"] = {m: dict(c) for m, c in res.materials.items()}
     if res.damping is not None:
         row["damping"] = damping_of_file(res.damping)
     row["result"] = str(job.output)
@@ -617,6 +637,43 @@ def damping_long_rows(row) -> list[dict]:
     return out
 
 
+def _read_row(f, row: dict) -> None:
+    """Fill a summary row from an open result file (schema version 1 or 2)."""
+    converged = bool(f.attrs["converged"])
+    row["converged"] = converged
+    row["optimizer_status"] = _str(f.attrs.get("optimizer_status", f.attrs.get("status", "")))
+    if "status" in f and "codes" in f["status"]:                    # schema version 2
+        codes = [_str(c) for c in f["status"]["codes"][()]]
+        texts = [_str(t) for t in f["status"]["texts"][()]]
+        row["status"] = _str(f.attrs["status"])
+        row["reasons"] = [{"code": c, "text": t} for c, t in zip(codes, texts)]
+    else:                                                           # version 1: no status
+        row["status"] = "ok" if converged else "check"
+        row["reasons"] = [] if converged else [
+            {"code": "not_converged", "text": f"the optimiser did not converge "
+                                              f"({row['optimizer_status']})"}]
+    row["reason"] = ", ".join(r["code"] for r in row["reasons"])
+    row["specimen"] = _str(f["specimen"].attrs["name"])
+    row["evaluations"] = int(f.attrs["evaluations"])
+    row["time_s"] = float(f.attrs["time_s"])
+    row["rms_residual_percent"] = float(f["frequencies"].attrs["rms_residual_percent"])
+    for g in f["materials"].values():
+        name = _str(g.attrs["name"])
+        row["materials"][name] = {k: float(g[k][()]) for k in CONSTANTS}
+        row["intervals"][name] = {k: {"verdict": "fixed"} for k in CONSTANTS}
+    if "uncertainty" in f:
+        u = f["uncertainty"]
+        flagged = set(_str(u.attrs.get("flagged", "")).split(","))
+        n = len(u["labels"])
+        at_bound = u["at_bound"][()] if "at_bound" in u else [False] * n
+        for k, lab in enumerate(_str(x) for x in u["labels"][()]):
+            mat, const = lab.rsplit(".", 1)
+            row["intervals"].setdefault(mat, {})[const] = {
+                "lower": float(u["lower"][k]), "upper": float(u["upper"][k]),
+                "verdict": _str(u["verdict"][k]), "at_bound": bool(at_bound[k]),
+                "flagged": lab in flagged}
+
+
 def _str(v) -> str:
     return v.decode() if isinstance(v, bytes) else str(v)
 
@@ -632,30 +689,65 @@ def material_names(rows) -> list[str]:
 
 
 def csv_header(materials) -> list[str]:
-    cols = ["name", "specimen", "path", "status", "reason"]
+    """Columns of the wide summary (one row per specimen), SI units in the headers."""
+    cols = ["name", "specimen", "path", "status", "reasons"]
     cols += [f"{m} {k} [{CONSTANT_UNITS[k]}]" for m in materials for k in CONSTANTS]
     return cols + ["rms_residual [%]", "evaluations", "time [s]", "cached", "result"]
 
 
-def _gpa(key: str, value: float) -> float:
-    return value if key == "nu12" else value / 1e9
+def _num(v) -> str:
+    import math
+
+    return "" if v is None or not math.isfinite(v) else repr(float(v))
 
 
-def write_summary_csv(path, rows) -> Path:
-    """One row per specimen; constants in GPa (nu12 plain), units in the header. The result
-    column is relative to the CSV's folder. Written atomically."""
+def long_rows(rows, folder=None) -> list[list[str]]:
+    """The long summary: one row per specimen, material and constant (LONG_COLUMNS), SI;
+    a specimen without a result has one row with its status and reason."""
+    out = []
+    for r in rows:
+        # the codes (the words are in summary.json and the result file); an error's message
+        reasons = r["reason"] if r["status"] in ("error", "not run") else \
+            ", ".join(x["code"] for x in r.get("reasons", []))
+        tail = ["" if r["rms_residual_percent"] is None else f"{r['rms_residual_percent']:.6g}",
+                "" if not r["result"] else
+                os.path.relpath(r["result"], folder) if folder is not None else r["result"]]
+        if not r["materials"]:
+            out.append([r["name"], r["specimen"], "", "", "", "", "", "", "", r["status"],
+                        reasons] + tail)
+            continue
+        for m, consts in r["materials"].items():
+            for k in CONSTANTS:
+                iv = (r.get("intervals") or {}).get(m, {}).get(k, {})
+                out.append([r["name"], r["specimen"], m, k, _num(consts[k]),
+                            _num(iv.get("lower")), _num(iv.get("upper")),
+                            iv.get("verdict", ""), CONSTANT_UNITS[k], r["status"], reasons]
+                           + tail)
+    return out
+
+
+def write_summary_csv(path, rows, wide: bool = False) -> Path:
+    """The summary as CSV, SI units, written atomically.
+
+    Long form (default): LONG_COLUMNS, one row per specimen, material and constant, the unit
+    in the ``unit`` column. ``wide``: one row per specimen, the unit in each header; its result
+    column is relative to the CSV's folder."""
     import io
 
     path = Path(path)
-    mats = material_names(rows)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
+    if not wide:
+        w.writerow(LONG_COLUMNS)
+        w.writerows(long_rows(rows, path.parent))
+        return _write_text(path, buf.getvalue())
+    mats = material_names(rows)
     w.writerow(csv_header(mats))
     for r in rows:
         values = [r["name"], r["specimen"], r["path"], r["status"], r["reason"]]
         for m in mats:
             c = r["materials"].get(m, {})
-            values += [repr(_gpa(k, c[k])) if k in c else "" for k in CONSTANTS]
+            values += [repr(c[k]) if k in c else "" for k in CONSTANTS]
         values += ["" if r["rms_residual_percent"] is None else f"{r['rms_residual_percent']:.6g}",
                    "" if r["evaluations"] is None else r["evaluations"],
                    "" if r["time_s"] is None else f"{r['time_s']:.3f}",
@@ -668,10 +760,17 @@ def write_summary_csv(path, rows) -> Path:
 def batch_report(rows, options: BatchOptions, out_dir) -> dict:
     """The summary as plain data (SI), as written to summary.json and printed by --json."""
     counts = {s: sum(r["status"] == s for r in rows) for s in STATUSES}
+    counts["not converged"] = sum(r.get("converged") is False for r in rows)
     return {"format": "laminid-batch-summary", "laminid_version": __version__,
-            "out": str(out_dir), "options": options.as_dict(), "n_specimens": len(rows),
-            "counts": counts, "n_cached": sum(bool(r["cached"]) for r in rows),
-            "specimens": rows}
+            "out": str(out_dir), "options": options.as_dict(), "units": dict(UNITS),
+            "n_specimens": len(rows), "counts": counts,
+            "n_cached": sum(bool(r["cached"]) for r in rows), "specimens": rows}
+
+
+def failed(rows) -> bool:
+    """True when the batch must exit 1: an error, a run not done or not converged."""
+    return any(r["status"] in ("error", "not run") or r.get("converged") is False
+               for r in rows)
 
 
 def write_summary_json(path, report: dict) -> Path:
@@ -723,26 +822,50 @@ def read_summary(path) -> list[dict]:
     if not records or "status" not in records[0] or "name" not in records[0]:
         raise BatchError(f"{path}: not a laminid batch summary (columns name, status, ... "
                          "expected)")
+    if "constant" in records[0]:
+        return _rows_of_long(records, path)
     rows = []
     for rec in records:
         mats: dict[str, dict] = {}
         for col, val in rec.items():
             if col and col.endswith("]") and val not in ("", None):
-                head = col.rsplit(" [", 1)[0]
+                head, unit = col[:-1].rsplit(" [", 1)
                 if " " in head and head.rsplit(" ", 1)[1] in CONSTANTS:
                     m, k = head.rsplit(" ", 1)
-                    v = float(val)
-                    mats.setdefault(m, {})[k] = v if k == "nu12" else v * 1e9
+                    mats.setdefault(m, {})[k] = float(val) * (1e9 if unit == "GPa" else 1.0)
         res = rec.get("result") or None
         rows.append({"name": rec["name"], "specimen": rec.get("specimen", ""),
                      "path": rec.get("path", ""), "status": rec["status"],
-                     "reason": rec.get("reason", ""), "cached": rec.get("cached") == "yes",
-                     "materials": mats,
+                     "reason": rec.get("reasons", rec.get("reason", "")),
+                     "cached": rec.get("cached") == "yes", "materials": mats,
                      "rms_residual_percent": _float(rec.get("rms_residual [%]")),
                      "evaluations": _float(rec.get("evaluations")),
                      "time_s": _float(rec.get("time [s]")),
                      "result": str(path.parent / res) if res else None})
     return rows
+
+
+def _rows_of_long(records, path: Path) -> list[dict]:
+    """Rows of a long summary.csv (one record per constant) grouped by specimen."""
+    rows: dict[str, dict] = {}
+    for rec in records:
+        r = rows.get(rec["name"])
+        if r is None:
+            res = rec.get("result") or None
+            r = rows[rec["name"]] = {
+                "name": rec["name"], "specimen": rec.get("specimen", ""), "path": "",
+                "status": rec["status"], "reason": rec.get("reasons", ""), "cached": False,
+                "materials": {}, "intervals": {},
+                "rms_residual_percent": _float(rec.get("rms_residual [%]")),
+                "evaluations": None, "time_s": None,
+                "result": str(path.parent / res) if res else None}
+        m, k = rec.get("material"), rec.get("constant")
+        if m and k in CONSTANTS and rec.get("value") not in ("", None):
+            r["materials"].setdefault(m, {})[k] = float(rec["value"])
+            r["intervals"].setdefault(m, {})[k] = {"lower": _float(rec.get("lower")),
+                                                   "upper": _float(rec.get("upper")),
+                                                   "verdict": rec.get("verdict", "")}
+    return list(rows.values())
 
 
 def _float(text):
@@ -752,14 +875,30 @@ def _float(text):
         return None
 
 
+#: markers of the terminal table: value at a bound (not identified), value not determined
+MARK_BOUND, MARK_UNDETERMINED = "!", "?"
+
+
+def _mark(row: dict, material: str, constant: str) -> str:
+    iv = (row.get("intervals") or {}).get(material, {}).get(constant, {})
+    if iv.get("at_bound"):
+        return MARK_BOUND
+    if iv.get("flagged"):
+        return MARK_UNDETERMINED
+    return " "
+
+
 def format_table(rows) -> str:
     """The constants across specimens as text, shaped like the paper's Table 2: one block per
-    set of materials, specimens as columns, constants as rows; failures listed below."""
+    set of materials, specimens as columns, constants as rows (GPa; a value at its bound
+    marked "!", one not determined by the modes "?"), a status row; then the reasons of every
+    "check" and the specimens without a result."""
     lines = []
     groups: dict[tuple, list] = {}
     for r in rows:
         if r["materials"]:
             groups.setdefault(tuple(r["materials"]), []).append(r)
+    marked = False
     for mats, members in groups.items():
         specs = [r["specimen"] for r in members]
         labels = specs if all(specs) and len(set(specs)) == len(specs) else \
@@ -768,7 +907,7 @@ def format_table(rows) -> str:
         label_w = max(18, *(len(f"{m} {k} [GPa]") for m in mats for k in CONSTANTS)) \
             if len(mats) > 1 else 18
         head = ", ".join(mats)
-        lines.append(f"{head:<{label_w}}" + "".join(f"  {s:>{width}}" for s in labels))
+        lines.append(f"{head:<{label_w}}" + "".join(f"  {s:>{width}} " for s in labels))
         for m in mats:
             for k in CONSTANTS:
                 unit = "" if k == "nu12" else " [GPa]"
@@ -776,21 +915,32 @@ def format_table(rows) -> str:
                 cells = []
                 for r in members:
                     v = r["materials"][m][k]
-                    cells.append(f"{v:.3f}" if k == "nu12" else f"{v / 1e9:.2f}")
-                lines.append(f"{name:<{label_w}}" + "".join(f"  {c:>{width}}" for c in cells))
+                    mark = _mark(r, m, k)
+                    marked |= mark != " "
+                    cells.append((f"{v:.3f}" if k == "nu12" else f"{v / 1e9:.2f}") + mark)
+                lines.append(f"{name:<{label_w}}" + "".join(f"  {c:>{width + 1}}" for c in cells))
         lines.append(f"{'RMS residual [%]':<{label_w}}" + "".join(
-            f"  {r['rms_residual_percent']:>{width}.3f}" for r in members))
+            f"  {r['rms_residual_percent']:>{width}.3f} " for r in members))
         lines.append(f"{'evaluations':<{label_w}}" + "".join(
-            f"  {int(r['evaluations']):>{width}d}" for r in members))
+            f"  {int(r['evaluations']):>{width}d} " for r in members))
         lines.append(f"{'status':<{label_w}}" + "".join(
-            f"  {('cached' if r['cached'] and r['status'] == 'ok' else r['status']):>{width}}"
+            f"  {(r['status'] + (' (cached)' if r['cached'] else '')):>{width}} "
             for r in members))
         lines.append("")
-    failed = [r for r in rows if r["status"] != "ok"]
-    if failed:
-        lines.append("not identified:" if any(r["status"] != "not converged" for r in failed)
-                     else "not converged:")
-        for r in failed:
+    if marked:
+        lines.append(f"{MARK_BOUND} at its bound — not identified; {MARK_UNDETERMINED} not "
+                     "determined by these modes (interval wider than --max-rel-interval)")
+        lines.append("")
+    checks = [r for r in rows if r["status"] == "check"]
+    if checks:
+        lines.append("check:")
+        for r in checks:
+            lines.append(f"  {r['name']}:")
+            lines += [f"    {x['code']}: {x['text']}" for x in r.get("reasons", [])]
+    failed_rows = [r for r in rows if r["status"] in ("error", "not run")]
+    if failed_rows:
+        lines.append("not identified:")
+        for r in failed_rows:
             reason = r["reason"] or ""
             text = reason if reason.startswith(r["status"]) else \
                 f"{r['status']}: {reason}" if reason else r["status"]

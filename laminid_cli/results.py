@@ -19,11 +19,21 @@ Common layout::
                           modes (m/sqrt(kg)); phi (n_dofs, n_modes) all DOFs; dofs (n_dofs,)
     /global_properties    Ex, Ey, Gxy, Gxz, Gyz (Pa), nu_xy, nu_yx (1)
 
-Identification results ("laminid-result") add: root attrs converged, status, objective,
-evaluations, time_s, optimizer; /materials/<name> attrs parametrization, free; /initial/<name>
+Identification results ("laminid-result") add: root attrs converged, optimizer_status (the
+nlopt outcome; ``status`` in schema version 1), objective, evaluations, time_s, optimizer; /materials/<name> attrs parametrization, free; /initial/<name>
 (the starting constants, same keys); /frequencies/model_mode (pairing) and attrs rms_residual_percent;
 /history (evaluation, objective, rms_residual_percent, x, constants per evaluation);
 /sensitivities (dlnf_dlnP: d ln f_i / d ln P_j, dlambda_dx); /swaps and /warnings (strings).
+
+Status (schema version 2; laminid_cli.status)::
+
+    /                     attrs: status ("ok" | "check")
+    /status               codes, texts (UTF-8 strings, same length, empty when ok): the
+                          reasons, codes not_converged | at_bound | undetermined | poor_fit |
+                          implausible | modes_swapped (laminid_cli.status.CODES)
+
+JSON (``--json``, batch summary rows): top-level ``status``, ``reasons`` ([{code, text}]) and
+``optimizer_status``.
 
 With an uncertainty assessment (``laminid identify`` always makes one) they also hold::
 
@@ -34,11 +44,19 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
                           labels ("material.constant", the free constants), value, std,
                           std_stated, half_width, lower, upper (Pa; nu12: 1), rel_half_width,
                           verdict (strings), correlation (p, p), covariance (p, p),
+                          scale ("log" | "linear" per label: lower/upper are value *
+                          exp(-/+ q std/value) for moduli, value -/+ q std clipped to
+                          [-nu_max, nu_max] for nu12), at_bound (bool per label; its
+                          lower/upper are NaN), bound_text ("" or the one-sided statement,
+                          e.g. "at its bound — not identified: G13 <= 0.0001 E1 (0.0154 GPa)");
+                          attr chi2_limit_99;
                           weakest_labels/weakest_coefficients (weakest combination)
-    /uncertainty/frequency_sigma/<key>   attr name (the specimen name); sigma (Hz per measured mode, NaN = not measured),
-                          attr source (per mode: file | relative), sigma_rel
-    /uncertainty/monte_carlo   samples (n_converged, p), mean, std, lower, upper,
-                          linearized_std, ratio; attrs trials, converged, sigma_factor, seed, jobs
+    /uncertainty/frequency_sigma/<key>   attr name (the specimen name); sigma (Hz per measured
+                          mode, NaN = not measured), attr source (per mode: file | relative),
+                          sigma_rel, note (how the file's sigmas were made:
+                          measured.sigma_source, e.g. by fit-frf)
+    /uncertainty/monte_carlo   samples (n_converged, p), mean, std, lower, upper (quantiles
+                          (1 -/+ confidence)/2 of the samples), linearized_std, ratio; attrs trials, converged, sigma_factor, seed, jobs
     /uncertainty/before_fixing  labels, rel_half_width, verdict of the first run when
                           --fix-undetermined fixed constants
 
@@ -233,7 +251,7 @@ def run_fields(r) -> dict:
         "iterations": r.evaluations,
         "evaluations": r.evaluations,
         "converged": r.converged,
-        "status": r.status,
+        "optimizer_status": r.status,
         "optimizer": {"slsqp": "LD_SLSQP", "mma": "LD_MMA"}[r.options.optimizer],
         "time_s": r.time_s,
         "swaps": list(r.swaps),
@@ -244,8 +262,30 @@ def run_fields(r) -> dict:
 def write_run_attrs(f, r) -> None:
     """Root attributes of a result file: the optimisation outcome (as :func:`run_fields`)."""
     run = run_fields(r)
-    for key in ("converged", "status", "objective", "evaluations", "time_s", "optimizer"):
+    for key in ("converged", "optimizer_status", "objective", "evaluations", "time_s",
+                "optimizer"):
         f.attrs[key] = run[key]
+
+
+def write_status(f, status) -> None:
+    """Root attribute ``status`` and group /status (codes, texts) of a
+    :class:`laminid_cli.status.ResultStatus`."""
+    import h5py
+
+    f.attrs["status"] = status.status
+    g = f.create_group("status")
+    dt = h5py.string_dtype(encoding="utf-8")
+    for key, values in (("codes", status.codes), ("texts", status.texts)):
+        g.create_dataset(key, data=np.array(list(values), dtype=object), dtype=dt)
+
+
+def status_of(r, assessment=None):
+    """The ResultStatus of a result: the assessment's when given, else from ``r`` alone."""
+    from laminid_cli.status import result_status
+
+    if assessment is not None:
+        return result_status(assessment.result, assessment.uncertainty)
+    return result_status(r)
 
 
 def identification_summary(r) -> dict:
@@ -283,6 +323,7 @@ def write_identification_file(path, fm, r, summary: dict, command: str = "lamini
     :class:`laminid_cli.damping.DampingFit`, is given)."""
     with atomic_h5(path, "laminid-result", command=command) as f:
         _write_identification(f, fm, r, summary)
+        write_status(f, status_of(r, assessment))
         if assessment is not None:
             write_uncertainty(f, assessment, [fm.specimen.name])
         if damping is not None:
@@ -341,7 +382,7 @@ def _write_identification(f, fm, r, summary: dict) -> None:
 def _strings(values):
     import h5py
 
-    return np.array([str(v) for v in values], dtype=object), h5py.string_dtype()
+    return np.array([str(v) for v in values], dtype=object), h5py.string_dtype(encoding="utf-8")
 
 
 def write_uncertainty(f, a, plate_names) -> None:
@@ -369,6 +410,13 @@ def write_uncertainty(f, a, plate_names) -> None:
         description="95 % half-width / |value|")
     data, dt = _strings(u.verdict)
     g.create_dataset("verdict", data=data, dtype=dt)
+    data, dt = _strings(u.scale)
+    g.create_dataset("scale", data=data, dtype=dt)
+    put(g, "at_bound", np.asarray(u.at_bound, bool), "1",
+        description="the constant ended on a limit of the search: not identified, no interval")
+    data, dt = _strings(u.bound_text)
+    g.create_dataset("bound_text", data=data, dtype=dt)
+    g.attrs["chi2_limit_99"] = u.chi2_limit
     put(g, "correlation", u.correlation, "1")
     put(g, "covariance", u.covariance, "Pa^2 (nu12 row/column: Pa, 1)")
     data, dt = _strings([lab for lab, _ in u.weakest])
@@ -383,6 +431,7 @@ def write_uncertainty(f, a, plate_names) -> None:
         d.attrs["name"] = name
         d.attrs["source"] = ",".join(sig.source)
         d.attrs["sigma_rel"] = sig.sigma_rel
+        d.attrs["note"] = sig.note
     if a.monte_carlo is not None:
         mc = a.monte_carlo
         gm = g.create_group("monte_carlo")
@@ -412,7 +461,8 @@ def uncertainty_summary(a) -> dict:
     names = unique_names([p.specimen.name for p in plates])
     out = a.uncertainty.as_dict()
     out["frequency_sigma"] = {n: {"sigma_hz": s.sigma_hz, "source": list(s.source),
-                                  "sigma_rel": s.sigma_rel} for n, s in zip(names, a.sigmas)}
+                                  "sigma_rel": s.sigma_rel, "note": s.note}
+                              for n, s in zip(names, a.sigmas)}
     out["sensitivity"] = sensitivity_table(r)
     out["fixed_undetermined"] = list(a.fixed_undetermined)
     out["runs"] = a.runs
@@ -438,7 +488,7 @@ def joint_identification_summary(r) -> dict:
     for name, p in zip(unique_names([q.specimen.name for q in r.specimens]), r.specimens):
         s = identification_summary(p)
         for key in ("materials", "initial", "free", "parametrization", "optimizer", "iterations",
-                    "evaluations", "converged", "status", "time_s"):
+                    "evaluations", "converged", "optimizer_status", "time_s"):
             s.pop(key, None)
         plates[name] = s
     return {
@@ -465,6 +515,7 @@ def write_joint_identification_file(path, fms, r, summary: dict, assessment=None
     names = unique_names([p.specimen.name for p in r.specimens])
     with atomic_h5(path, "laminid-joint-result", command=command) as f:
         write_run_attrs(f, r)
+        write_status(f, status_of(r, assessment))
         f.attrs["specimens"] = ",".join(names)
         f.attrs["rms_residual_percent"] = float(r.rms_residual_percent)
         write_materials(f, r.material_names, r.constants, {})

@@ -118,6 +118,8 @@ class Measured:
     damping : (n,) viscous damping ratios zeta (modal loss factor eta = 2 zeta), NaN where not
         measured; None when the file gives none (laminid_cli.damping)
     damping_sigma : (n,) their standard deviations, NaN where unknown; None when none given
+    sigma_source : how the sigmas were made (``measured.sigma_source``, written by
+        ``fit-frf --into``; for ``frf_file`` the fit's rule), "" when not said
     """
 
     freq: np.ndarray
@@ -125,6 +127,7 @@ class Measured:
     sigma: np.ndarray | None = None
     damping: np.ndarray | None = None
     damping_sigma: np.ndarray | None = None
+    sigma_source: str = ""
 
     @property
     def n_modes(self) -> int:
@@ -829,10 +832,10 @@ def _resolve_densities(r: _Reader, top: dict, root: _Y, a: float, b: float, h: f
 
 
 def _read_measured(r: _Reader, y: _Y) -> Measured:
-    m = r.mapping(y, optional=("frequencies", "weights", "sigma", "frf_file", "bands", "modes",
-                               "damping", "damping_sigma"))
+    m = r.mapping(y, optional=("frequencies", "weights", "sigma", "sigma_source", "frf_file",
+                               "bands", "modes", "damping", "damping_sigma"))
     if "frf_file" in m:
-        if "frequencies" in m or "sigma" in m:
+        if "frequencies" in m or "sigma" in m or "sigma_source" in m:
             raise r.error(m["frf_file"], "give either 'frequencies' (and 'sigma') or "
                                          "'frf_file', not both")
         for key in ("damping", "damping_sigma"):
@@ -895,6 +898,11 @@ def _read_measured(r: _Reader, y: _Y) -> Measured:
                 raise r.error(item, f"a standard deviation must be positive, got {item.value!r}")
             sigma[k] = value
         sigma[np.isnan(freq)] = np.nan
+    source = ""
+    if "sigma_source" in m:
+        if sigma is None:
+            raise r.error(m["sigma_source"], "'sigma_source' describes 'sigma', which is missing")
+        source = r.string(m["sigma_source"])
     damping = _damping_list(r, m, "damping", n, "damping ratios") if "damping" in m else None
     damping_sigma = (_damping_list(r, m, "damping_sigma", n, "standard deviations of the damping "
                                    "ratios") if "damping_sigma" in m else None)
@@ -908,7 +916,7 @@ def _read_measured(r: _Reader, y: _Y) -> Measured:
         if array is not None:
             array.flags.writeable = False
     return Measured(freq=freq, weight=weight, sigma=sigma, damping=damping,
-                    damping_sigma=damping_sigma)
+                    damping_sigma=damping_sigma, sigma_source=source)
 
 
 def _damping_list(r: _Reader, m: dict, key: str, n: int, what: str) -> np.ndarray:
@@ -991,7 +999,9 @@ def _measured_from_frf(r: _Reader, m: dict) -> Measured:
     for array in (freq, weight, sigma, damping, damping_sigma):
         array.flags.writeable = False
     return Measured(freq=freq, weight=weight, sigma=sigma, damping=damping,
-                    damping_sigma=damping_sigma)
+                    damping_sigma=damping_sigma,
+                    sigma_source=f"fit of {name}: RFP spread, resolution and window, at least "
+                                 "0.2 % of f")
 
 
 def _reference_value(r: _Reader, y: _Y, kind: str, intervals: dict, key: str) -> float:

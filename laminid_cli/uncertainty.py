@@ -38,6 +38,24 @@ A-posteriori variance factor
     visibly worse than that noise (which for real plates is model error that the stated
     measurement noise does not cover).
 
+Intervals on the constants' own scales
+    Moduli are positive: their covariance is computed over ln P (the columns of G are
+    d r / d ln P), so the interval is ``P exp(-q s) .. P exp(+q s)`` with ``s`` the standard
+    error of ln P (``std / P``): asymmetric and never below zero. nu12 keeps its linear scale
+    ``nu12 -/+ q std``, clipped to the search's feasibility bounds ``[-nu_max, nu_max]``
+    (``scale`` "log" | "linear" per constant). ``half_width``/``rel_half_width`` stay
+    ``q std`` and ``q std / |P|`` (for a modulus exactly ``q s``), which the verdicts use.
+
+Constants at a bound
+    A free constant that ends on a limit of the search (:func:`bounds_reached`: moduli at
+    ``bound_factor`` times/over their initial value, shear moduli and E2 at
+    ``MIN_MODULUS_RATIO * E1``, E2 = E1, |nu12| = nu_max) is not identified: the data would move
+    it further. It gets no interval (``lower``/``upper`` NaN, ``at_bound`` true), the verdict
+    :data:`VERDICT_AT_BOUND` and a one-sided statement in ``bound_text`` ("at its bound — not
+    identified: G13 <= 0.0001 E1 (0.0154 GPa)"). The covariance of the other constants is
+    computed with the constants at a bound held there (an active constraint), so one constant
+    on its limit does not blow up every interval.
+
 Identifiability
     Normalised sensitivities d ln f_i / d ln P_j (:attr:`Identification.sensitivity`), the
     condition number of the noise-whitened Jacobian over relative constants (moduli: d / d ln P;
@@ -83,6 +101,7 @@ VERDICT_WELL = "well determined"
 VERDICT_WEAK = "weak"
 VERDICT_NOT = "not determined by these modes — fix it or measure a thicker plate / more modes"
 VERDICT_FIXED = "fixed"
+VERDICT_AT_BOUND = "at bound — not identified"
 #: nu12 columns are scaled by max(|nu12|, NU_SCALE) for the condition number
 NU_SCALE = 0.1
 #: relative singular value below which a direction counts as not determined at all
@@ -100,11 +119,13 @@ class FrequencySigma:
     sigma_hz : (n_modes,) Hz, NaN where the mode is not measured
     source : per mode, "file" (specimen ``measured.sigma``), "relative" (sigma_rel * f) or ""
     sigma_rel : the relative default used where the file gives none
+    note : how the file's sigmas were made (``measured.sigma_source``, e.g. by fit-frf)
     """
 
     sigma_hz: np.ndarray
     source: tuple[str, ...]
     sigma_rel: float
+    note: str = ""
 
     @property
     def summary(self) -> str:
@@ -112,11 +133,13 @@ class FrequencySigma:
         n_file = self.source.count("file")
         n_rel = self.source.count("relative")
         rel = f"{self.sigma_rel * 100:.3g} % of each frequency (--sigma-rel)"
+        file = "specimen file (measured.sigma" + (f"; {self.note})" if self.note else
+                                                  ", origin not stated)")
         if n_file and not n_rel:
-            return "specimen file (measured.sigma)"
+            return file
         if n_rel and not n_file:
             return rel
-        return f"specimen file (measured.sigma) for {n_file} modes, {rel} for {n_rel}"
+        return f"{file} for {n_file} modes, {rel} for {n_rel}"
 
 
 def check_sigma_rel(sigma_rel: float) -> float:
@@ -169,7 +192,8 @@ def frequency_sigma(measured, sigma_rel: float = DEFAULT_SIGMA_REL, *, sigma_hz=
             out[i], source[i] = given[i], "file"
         else:
             out[i], source[i] = sigma_rel * freq[i], "relative"
-    return FrequencySigma(sigma_hz=out, source=tuple(source), sigma_rel=sigma_rel)
+    note = getattr(measured, "sigma_source", "") if sigma_hz is None else ""
+    return FrequencySigma(sigma_hz=out, source=tuple(source), sigma_rel=sigma_rel, note=note)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -242,6 +266,10 @@ class Uncertainty:
     sigma_source: str
     thresholds: dict
     notes: tuple[str, ...] = ()
+    scale: tuple[str, ...] = ()             # per label: "log" (moduli) | "linear" (nu12)
+    at_bound: np.ndarray | None = None      # (p,) bool: ended on a limit of the search
+    bound_text: tuple[str, ...] = ()        # per label: "" or the one-sided statement
+    chi2_limit: float = float("nan")        # 99 % quantile of chi2 with dof degrees of freedom
 
     def as_dict(self) -> dict:
         """Plain data for JSON (per material and constant) and the report."""
@@ -255,7 +283,10 @@ class Uncertainty:
                 "half_width": float(self.half_width[k]),
                 "rel_half_width": float(self.rel_half_width[k]),
                 "verdict": self.verdict[k], "flagged": lab in self.flagged,
-                "information_from_prior": float(self.information_from_prior[k])}
+                "information_from_prior": float(self.information_from_prior[k]),
+                "scale": self.scale[k] if self.scale else "",
+                "at_bound": bool(self.at_bound[k]) if self.at_bound is not None else False,
+                "bound_text": self.bound_text[k] if self.bound_text else ""}
         for lab in self.fixed:
             mat, const = lab.rsplit(".", 1)
             per.setdefault(mat, {})[const] = {"verdict": VERDICT_FIXED, "flagged": False}
@@ -269,7 +300,7 @@ class Uncertainty:
             "scaling": {"requested": self.scaling, "used": self.scale_used,
                         "variance_factor": self.variance_factor},
             "a_posteriori": {"s2": self.s2, "chi2": self.chi2, "dof": self.dof,
-                             "rows": self.n_rows},
+                             "rows": self.n_rows, "chi2_limit_99": self.chi2_limit},
             "condition_number": self.condition,
             "weakest_combination": [[lab, float(c)] for lab, c in self.weakest],
             "flagged": list(self.flagged),
@@ -315,17 +346,89 @@ def material_states(result) -> tuple[MaterialState, ...]:
                  for n, c, c0 in zip(result.material_names, result.constants, result.initial))
 
 
+#: relative closeness to a limit of the search that counts as "at the bound"
+BOUND_TOL = 1e-4
+
+
+@dataclass(frozen=True)
+class BoundHit:
+    """A free constant on a limit of the search: side "lower" | "upper", the limit (SI) and the
+    one-sided statement."""
+
+    label: str
+    side: str
+    limit: float
+    text: str
+
+
+def _gpa(v: float) -> str:
+    return f"{v / 1e9:.3g} GPa"
+
+
+def bounds_reached(materials, nu_max: float = 0.95, bound_factor: float = 5.0
+                   ) -> dict[str, BoundHit]:
+    """The free constants that ended on a limit of the search (laminid_cli.parametrization),
+    judged on the constants themselves whatever the design variables were:
+
+    - a modulus at ``initial / bound_factor`` or ``initial * bound_factor`` (within
+      :data:`BOUND_TOL`; with the alphas only E1 is held there, so a value beyond is not a hit);
+    - G12, G13, G23 or E2 at most ``2 * MIN_MODULUS_RATIO * E1`` (the feasibility limit is
+      ``MIN_MODULUS_RATIO * E1`` on the alphas, i.e. slightly above it in the constants);
+    - E2 >= E1 (limit E2 <= E1, paper Eq. 22);
+    - |nu12| at ``nu_max``.
+
+    Returns {label: BoundHit}. A lower bound says "the data push it lower": the statement is
+    one-sided ("G13 <= 0.0001 E1 (0.0154 GPa)").
+    """
+    from laminid_cli.parametrization import MIN_MODULUS_RATIO as r
+
+    tol = BOUND_TOL
+    out: dict[str, BoundHit] = {}
+    for m in materials:
+        c, c0 = m.constants, m.initial
+        for k in m.free:
+            lab = f"{m.name}.{k}"
+            v = float(getattr(c, k))
+            hit = None
+            if k == "nu12":
+                if v >= nu_max * (1 - tol):
+                    hit = ("upper", nu_max, f"nu12 >= {nu_max:g}")
+                elif v <= -nu_max * (1 - tol):
+                    hit = ("lower", -nu_max, f"nu12 <= {-nu_max:g}")
+            else:
+                v0 = float(getattr(c0, k))
+                lo, hi = v0 / bound_factor, v0 * bound_factor
+                if k in ("E2", "G12", "G13", "G23") and v <= 2 * r * c.E1:
+                    hit = ("lower", r * c.E1, f"{k} <= {r:g} E1 ({_gpa(r * c.E1)})")
+                elif k == "E2" and v >= c.E1 * (1 - tol):
+                    hit = ("upper", c.E1, f"E2 >= E1 ({_gpa(c.E1)})")
+                # the factor limits bind every modulus of the 'constants' parametrisation but
+                # only E1 of the alphas (the others can pass them): at the limit, not beyond
+                elif abs(v - lo) <= tol * lo:
+                    hit = ("lower", lo, f"{k} <= initial / {bound_factor:g} ({_gpa(lo)})")
+                elif abs(v - hi) <= tol * hi:
+                    hit = ("upper", hi, f"{k} >= {bound_factor:g} x initial ({_gpa(hi)})")
+            if hit is not None:
+                side, limit, stmt = hit
+                out[lab] = BoundHit(lab, side, float(limit),
+                                    f"at its bound — not identified: {stmt}")
+    return out
+
+
 def free_labels(materials) -> tuple[str, ...]:
     return tuple(f"{m.name}.{k}" for m in materials for k in CONSTANT_NAMES if k in m.free)
 
 
 def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
                            max_rel_interval: float = WEAK, confidence: float = 0.95,
-                           sigma_source: str = "", notes=()) -> Uncertainty:
+                           sigma_source: str = "", notes=(), nu_max: float = 0.95,
+                           bound_factor: float = 5.0) -> Uncertainty:
     """Covariance, intervals, correlation, condition and verdicts (module docstring).
 
     obs : sequence of :class:`Observations` (one per plate, columns = ``free_labels``)
     materials : sequence of :class:`MaterialState`
+    nu_max, bound_factor : the search limits of the identification (IdentifyOptions), for the
+        nu12 interval's clipping and :func:`bounds_reached`
     """
     from scipy import stats
 
@@ -341,7 +444,10 @@ def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
     mat_of = {m.name: m for m in materials}
     value = np.array([getattr(mat_of[lab.rsplit(".", 1)[0]].constants, lab.rsplit(".", 1)[1])
                       for lab in labels], float)
-    is_nu = np.array([lab.endswith(".nu12") for lab in labels])
+    is_nu = np.array([lab.endswith(".nu12") for lab in labels], bool)
+    hits = bounds_reached(materials, nu_max, bound_factor)
+    at_bound = np.array([lab in hits for lab in labels], bool)
+    inner = ~at_bound                      # constants at a bound are held there (module doc)
     # column scale: relative constants (moduli per ln P, nu12 per max(|nu12|, NU_SCALE))
     D = np.where(is_nu, np.maximum(np.abs(value), NU_SCALE), np.abs(value))
     rows, tau, resid = [], [], []
@@ -377,49 +483,69 @@ def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
     t = np.concatenate([tau_data, np.array(prior_tau)])
     r = np.concatenate(resid + [np.array(prior_res)])
     n_rows = G.shape[0]
-    # sandwich covariance in scaled variables, through the SVD of G (rank-safe)
-    U, S, Vt = np.linalg.svd(G, full_matrices=False)
+    idx = np.flatnonzero(inner)
+    p_in = idx.size
+    # sandwich covariance in scaled variables, through the SVD of G (rank-safe), over the
+    # constants not at a bound
+    Gi = G[:, idx]
+    U, S, Vt = np.linalg.svd(Gi, full_matrices=False)
     null = S <= NULL_TOL * (S[0] if S.size else 1.0)
     S_inv = np.where(null, 0.0, 1.0 / np.where(null, 1.0, S))
-    Ginv = (Vt.T * S_inv) @ U.T                                      # pseudo-inverse (p, n)
-    cov_s = Ginv @ np.diag(t**2) @ Ginv.T
+    Ginv = (Vt.T * S_inv) @ U.T                                      # pseudo-inverse (p_in, n)
+    cov_s = np.full((p, p), np.nan)
+    cov_s[np.ix_(idx, idx)] = Ginv @ np.diag(t**2) @ Ginv.T
     in_null = np.zeros(p, bool)
     if null.any():
-        in_null = np.any(np.abs(Vt[null]) > 1e-6, axis=0)
+        in_null[idx] = np.any(np.abs(Vt[null]) > 1e-6, axis=0)
     cov_stated = cov_s * np.outer(D, D)
     chi2 = float(np.sum((r / t) ** 2))
-    dof = int(n_rows - p)
+    dof = int(n_rows - p_in)
     s2 = chi2 / dof if dof > 0 else float("nan")
+    chi2_limit = float(stats.chi2.ppf(0.99, dof)) if dof > 0 else float("nan")
     z = float(stats.norm.ppf(0.5 + confidence / 2))
     notes = list(notes)
+    if at_bound.any():
+        notes.append("at a bound, not identified: " + ", ".join(
+            lab for lab in labels if lab in hits) + "; the intervals of the other constants "
+            "hold them there")
     used, factor, q = "stated", 1.0, z
     if scaling in ("residuals", "larger"):
         if dof <= 0:
-            notes.append(f"no degrees of freedom left ({n_rows} data rows for {p} constants): "
+            notes.append(f"no degrees of freedom left ({n_rows} data rows for {p_in} constants): "
                          "the a-posteriori variance cannot be estimated; stated sigma used")
         else:
             tq = float(stats.t.ppf(0.5 + confidence / 2, dof))
             if scaling == "residuals" or tq * np.sqrt(s2) > z:
                 used, factor, q = "residuals", s2, tq
-    if dof > 0 and chi2 > stats.chi2.ppf(0.99, dof):
+    if dof > 0 and chi2 > chi2_limit:
         notes.append(f"the fit misses the data by more than the stated frequency noise explains "
                      f"(chi2 {chi2:.3g} for {dof} degrees of freedom, 99 % limit "
-                     f"{stats.chi2.ppf(0.99, dof):.3g}): model error, differences between plates "
+                     f"{chi2_limit:.3g}): model error, differences between plates "
                      "(joint) or sigma too small"
                      + ("; intervals widened by s = sqrt(s2)" if used == "residuals" else ""))
     cov = cov_stated * factor
-    std_stated = np.sqrt(np.clip(np.diag(cov_stated), 0, None))
-    std = np.sqrt(np.clip(np.diag(cov), 0, None))
+    with np.errstate(invalid="ignore"):
+        std_stated = np.sqrt(np.clip(np.diag(cov_stated), 0, None))
+        std = np.sqrt(np.clip(np.diag(cov), 0, None))
     std_stated[in_null] = np.inf
     std[in_null] = np.inf
     half = q * std
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         rel = np.where(value != 0, half / np.abs(value), np.inf)
         corr = cov / np.outer(std, std)
+        # moduli on ln P (asymmetric, > 0); nu12 linear within [-nu_max, nu_max]
+        s_ln = np.where(is_nu, np.nan, std / np.abs(value))
+        lower = np.where(is_nu, np.clip(value - half, -nu_max, nu_max),
+                         value * np.exp(-q * s_ln))
+        upper = np.where(is_nu, np.clip(value + half, -nu_max, nu_max),
+                         value * np.exp(q * s_ln))
+    rel[at_bound] = np.inf
+    lower[at_bound] = np.nan
+    upper[at_bound] = np.nan
     corr[~np.isfinite(corr)] = np.nan
     np.fill_diagonal(corr, 1.0)
     # identifiability: condition of the noise-whitened data Jacobian (relative constants)
-    Gw = G_data / tau_data[:, None]
+    Gw = G_data[:, idx] / tau_data[:, None]
     Sw = np.linalg.svd(Gw, compute_uv=False) if Gw.size else np.zeros(0)
     condition = float(Sw[0] / Sw[-1]) if Sw.size and Sw[-1] > 0 else float("inf")
     weakest: tuple = ()
@@ -427,8 +553,8 @@ def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
         v = np.linalg.svd(Gw, full_matrices=False)[2][-1]
         v = v * np.sign(v[np.argmax(np.abs(v))])
         order = np.argsort(-np.abs(v))
-        weakest = tuple((labels[k], float(v[k])) for k in order if abs(v[k]) >= 0.1)
-    info_data = np.sum(Gw**2, axis=0)
+        weakest = tuple((labels[idx[k]], float(v[k])) for k in order if abs(v[k]) >= 0.1)
+    info_data = np.sum((G_data / tau_data[:, None]) ** 2, axis=0)
     info_prior = np.zeros(p)
     for row, tp in zip(prior_rows, prior_tau):
         info_prior += (row / tp) ** 2
@@ -437,20 +563,22 @@ def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
                                info_prior / (info_data + info_prior), 0.0)
     verdict, flagged = [], []
     for k, lab in enumerate(labels):
-        if rel[k] < WELL_DETERMINED:
+        if at_bound[k]:
+            v_ = VERDICT_AT_BOUND
+        elif rel[k] < WELL_DETERMINED:
             v_ = VERDICT_WELL
         elif rel[k] < WEAK:
             v_ = VERDICT_WEAK
         else:
             v_ = VERDICT_NOT
-        if prior_share[k] > 0.5:
+        if prior_share[k] > 0.5 and not at_bound[k]:
             v_ += " (held by the prior)"
         verdict.append(v_)
         if not rel[k] <= max_rel_interval:
             flagged.append(lab)
     return Uncertainty(
         labels=labels, value=value, std=std, std_stated=std_stated, half_width=half,
-        lower=value - half, upper=value + half, rel_half_width=rel, covariance=cov,
+        lower=lower, upper=upper, rel_half_width=rel, covariance=cov,
         correlation=corr, verdict=tuple(verdict), flagged=tuple(flagged), fixed=fixed,
         confidence=confidence, quantile=q, scaling=scaling, scale_used=used,
         variance_factor=float(factor), s2=float(s2), chi2=chi2, dof=dof, n_rows=n_rows,
@@ -458,7 +586,10 @@ def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
         sigma_source=sigma_source,
         thresholds={"well_determined": WELL_DETERMINED, "weak": WEAK,
                     "max_rel_interval": float(max_rel_interval)},
-        notes=tuple(notes))
+        notes=tuple(notes), scale=tuple("linear" if n else "log" for n in is_nu),
+        at_bound=at_bound, bound_text=tuple(hits[lab].text if lab in hits else ""
+                                            for lab in labels),
+        chi2_limit=chi2_limit)
 
 
 def _parts(result, fms):
@@ -488,7 +619,9 @@ def uncertainty_of(result, fms, sigmas, **kwargs) -> Uncertainty:
                          "linearised intervals assume an interior optimum")
             break
     source = "; ".join(dict.fromkeys(s.summary for s in sigmas))
-    return linearized_uncertainty(obs, materials, sigma_source=source, notes=notes, **kwargs)
+    opts = result.options
+    return linearized_uncertainty(obs, materials, sigma_source=source, notes=notes,
+                                  nu_max=opts.nu_max, bound_factor=opts.bound_factor, **kwargs)
 
 
 def sensitivity_table(result) -> dict:

@@ -70,35 +70,72 @@ def test_batch_gives_the_constants_of_one_by_one_runs_byte_for_byte(batch_run, t
             assert json.loads(f.attrs["batch_options"])["mesh"] == MESH
 
 
-def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run):
+def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
     specs, out, r = batch_run
     with open(out / "summary.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
-    assert [row["name"] for row in rows] == ["example1/S1.4", "example2/S2.1"]
-    assert all(row["status"] == "ok" and row["cached"] == "no" for row in rows)
-    s14 = rows[0]
+    # long form: one row per specimen, material and constant, SI, the unit in its column
+    assert list(rows[0])[:11] == ["name", "specimen", "material", "constant", "value", "lower",
+                                  "upper", "verdict", "unit", "status", "reasons"]
+    assert [(row["name"], row["constant"]) for row in rows] == [
+        (n, k) for n in ("example1/S1.4", "example2/S2.1")
+        for k in ("E1", "E2", "G12", "G13", "G23", "nu12")]
+    by = {(row["name"], row["constant"]): row for row in rows}
+    e1 = by["example1/S1.4", "E1"]
     with h5py.File(out / "example1" / "S1.4.result.h5") as f:
         g = f["materials"]["IM7_977-2"]                # safe key, real name as attribute
         assert g.attrs["name"] == "IM7/977-2"
         E1 = g["E1"][()]
         rms = f["frequencies"].attrs["rms_residual_percent"]
-        n_ev = f.attrs["evaluations"]
-    assert float(s14["IM7/977-2 E1 [GPa]"]) == pytest.approx(E1 / 1e9, rel=1e-14)
-    assert 130 < float(s14["IM7/977-2 E1 [GPa]"]) < 190                 # paper 159.6 GPa
-    assert float(s14["rms_residual [%]"]) == pytest.approx(rms, rel=1e-5) and rms < 1.0
-    assert int(s14["evaluations"]) == n_ev
-    assert s14["E-glass/R368 E1 [GPa]"] == "" and "IM7/977-2 nu12 [1]" in s14
-    assert s14["result"] == "example1/S1.4.result.h5"
-    # terminal: one block per material set, specimens as columns, constants as rows
+        u = f["uncertainty"]
+        k = [x.decode() for x in u["labels"][()]].index("IM7/977-2.E1")
+        lo, hi = u["lower"][k], u["upper"][k]
+    assert e1["material"] == "IM7/977-2" and e1["unit"] == "Pa" and by[
+        "example1/S1.4", "nu12"]["unit"] == "1"
+    assert float(e1["value"]) == pytest.approx(E1, rel=1e-14)
+    assert 130e9 < float(e1["value"]) < 190e9                       # paper 159.6 GPa
+    assert float(e1["lower"]) == pytest.approx(lo, rel=1e-14) and lo < E1 < hi
+    assert float(e1["upper"]) == pytest.approx(hi, rel=1e-14)
+    assert e1["verdict"] == "well determined" and e1["result"] == "example1/S1.4.result.h5"
+    assert float(e1["rms_residual [%]"]) == pytest.approx(rms, rel=1e-5) and rms < 1.0
+    # S2.1 on 6x6: G13 ends at its bound, G23 undetermined, s2 far above its 99 % limit
+    g13 = by["example2/S2.1", "G13"]
+    assert g13["verdict"] == "at bound — not identified" and g13["lower"] == g13["upper"] == ""
+    assert g13["status"] == "check"
+    assert g13["reasons"] == "at_bound, undetermined, poor_fit"
+    # terminal: one block per material set, specimens as columns, constants as rows, marks
     lines = r.output.splitlines()
     head = next(line for line in lines if line.startswith("IM7/977-2"))
     assert head.split()[-1] == "S1.4"
-    e1 = next(line for line in lines if line.startswith("E1 [GPa]"))
-    assert float(e1.split()[-1]) == pytest.approx(E1 / 1e9, abs=0.006)
-    assert "2 ok, 0 not converged, 0 failed" in r.output
+    line = next(line for line in lines if line.startswith("E1 [GPa]"))
+    assert float(line.split()[-1]) == pytest.approx(E1 / 1e9, abs=0.006)
+    g13_cells = [line.split()[-1] for line in lines if line.startswith("G13 [GPa]")]
+    assert g13_cells[1].endswith("!") and float(g13_cells[1][:-1]) < 0.01
+    assert [line.split()[-1] for line in lines if line.startswith("status")] == ["check"] * 2
+    assert "    at_bound: E-glass/R368.G13: at its bound — not identified: G13 <= 0.0001 E1" \
+        in r.output
+    assert "    poor_fit: the fit misses the data" in r.output
+    assert "0 ok, 2 check (0 not converged), 0 failed" in r.output and r.exit_code == 0
     j = json.loads((out / "summary.json").read_text())
-    assert j["counts"]["ok"] == 2 and j["specimens"][0]["materials"]["IM7/977-2"]["E1"] == E1
-    assert read_summary(out / "summary.csv")[0]["materials"]["IM7/977-2"]["E1"] == \
+    assert j["counts"]["check"] == 2 and j["specimens"][0]["materials"]["IM7/977-2"]["E1"] == E1
+    assert j["units"]["E1"] == "Pa" and j["units"]["nu12"] == "1"
+    s21 = j["specimens"][1]
+    assert [x["code"] for x in s21["reasons"]] == ["at_bound", "undetermined", "poor_fit"]
+    assert s21["intervals"]["E-glass/R368"]["G13"]["at_bound"] is True
+    assert s21["optimizer_status"].startswith("converged")
+    back = read_summary(out / "summary.csv")
+    assert back[0]["materials"]["IM7/977-2"]["E1"] == pytest.approx(E1, rel=1e-14)
+    assert back[1]["status"] == "check" and back[0]["result"] == str(
+        out / "example1" / "S1.4.result.h5")
+    # the wide table stays as an option, SI units in its headers
+    wide = tmp_path / "wide"
+    shutil.copytree(out, wide)
+    r = run("batch", specs, "--mesh", MESH, "--out", wide, "--wide")
+    with open(wide / "summary.csv", newline="") as fh:
+        w = list(csv.DictReader(fh))
+    assert float(w[0]["IM7/977-2 E1 [Pa]"]) == pytest.approx(E1, rel=1e-14)
+    assert w[1]["status"] == "check" and w[1]["reasons"] == "at_bound, undetermined, poor_fit"
+    assert read_summary(wide / "summary.csv")[0]["materials"]["IM7/977-2"]["E1"] == \
         pytest.approx(E1, rel=1e-14)
 
 
@@ -136,16 +173,20 @@ def test_failing_specimens_are_listed_and_the_others_go_on(tmp_path):
     assert r.exit_code == 1, r.output
     assert "bad: error:" in r.output and "not valid YAML" in r.output
     assert "far: error:" in r.output and "away from the model" in r.output
-    assert "1 ok, 0 not converged, 2 failed" in r.output
+    assert "0 ok, 1 check (0 not converged), 2 failed" in r.output
     rows = {row["name"]: row for row in read_summary(tmp_path / "out" / "summary.csv")}
-    assert rows["good/S2.1"]["status"] == "ok" and rows["bad"]["status"] == "error"
+    assert rows["good/S2.1"]["status"] == "check" and rows["bad"]["status"] == "error"
+    assert "not valid YAML" in rows["bad"]["reason"]
     assert sorted(p.name for p in (tmp_path / "out").rglob("*.h5")) == ["S2.1.result.h5"]
     # no convergence: the file is written (as by identify), status and reason in the summary
     r = run("batch", specs / "good", "--mesh", MESH, "--out", tmp_path / "nc",
             "--max-evaluations", "3", "--json")
     assert r.exit_code == 1
     row = json.loads(r.stdout)["specimens"][0]
-    assert row["status"] == "not converged" and "evaluations reached" in row["reason"]
+    assert row["status"] == "check" and row["converged"] is False
+    assert row["reasons"][0]["code"] == "not_converged"
+    assert "evaluations reached" in row["reasons"][0]["text"]
+    assert "evaluations reached" in row["optimizer_status"]
     assert row["materials"]["E-glass/R368"]["E1"] > 0
 
 
@@ -225,8 +266,8 @@ def test_killed_batch_leaves_only_complete_files_and_a_rerun_finishes(tmp_path, 
     if sig == signal.SIGINT:
         assert proc.returncode == 130
         rows = read_summary(out / "summary.csv")              # the summary of what was done
-        assert {r["status"] for r in rows} <= {"ok", "not run"}
-        assert sum(r["status"] == "ok" for r in rows) >= 1
+        assert {r["status"] for r in rows} <= {"ok", "check", "not run"}
+        assert sum(r["status"] in ("ok", "check") for r in rows) >= 1
     done = sorted(out.rglob("*.h5"))
     assert 1 <= len(done) < 3
     for p in done:                                             # every file opens, is complete
@@ -236,7 +277,7 @@ def test_killed_batch_leaves_only_complete_files_and_a_rerun_finishes(tmp_path, 
     r = run("batch", specs, "--mesh", MESH, "--out", out, "--json")
     assert r.exit_code == 0, r.output
     d = json.loads(r.stdout)
-    assert d["counts"]["ok"] == 3 and d["n_cached"] == len(done)
+    assert d["counts"]["ok"] + d["counts"]["check"] == 3 and d["n_cached"] == len(done)
     assert not [p for p in out.rglob("*") if ".part-" in p.name or ".tmp-" in p.name]
 
 
@@ -247,7 +288,7 @@ def test_dask_local_cluster_gives_the_same_constants(batch_run, tmp_path):
             "-j", "2", "--json")
     assert r.exit_code == 0, r.output
     d = json.loads(r.stdout)
-    assert d["counts"]["ok"] == 2 and d["n_cached"] == 0
+    assert d["counts"]["ok"] + d["counts"]["check"] == 2 and d["n_cached"] == 0
     for rel in SPECS:
         name = rel.replace(".yaml", ".result.h5")
         assert constants_bytes(tmp_path / "dask" / name) == constants_bytes(out / name)

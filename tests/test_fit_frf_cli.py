@@ -79,6 +79,7 @@ def test_into_and_plot(tmp_path, h5, case):
     # the plot is not overwritten without --force
     r = run(["fit-frf", str(h5), "--plot", str(png)])
     assert r.exit_code == 2 and "file exists" in r.output
+    assert "another name with --plot" in r.output and "with -o" not in r.output
     assert run(["fit-frf", str(h5), "--plot", str(png), "--force"]).exit_code == 0
 
 
@@ -163,3 +164,69 @@ def test_into_a_real_specimen_keeps_it_loadable(tmp_path, h5, case):
     before.pop("measured"), after.pop("measured")
     assert before == after
     assert spec.read_text().splitlines()[:9] == src.read_text().splitlines()[:9]  # comments
+
+
+def test_sigma_is_a_measurement_uncertainty_and_says_what_dominated(h5, case):
+    """sigma = max(sqrt(spread^2 + (df/sqrt 12)^2 + window^2), sigma_rel f), per mode."""
+    from laminid_cli.frf import rfp
+
+    fit = rfp.find_modes(case.freq, case.frf)
+    df = float(np.median(np.diff(case.freq)))
+    m = rfp.measurement_sigma(fit, case.freq, sigma_rel=0.002)
+    f = fit.freq_hz
+    assert np.allclose(m.terms["resolution"], df / np.sqrt(12))
+    assert np.allclose(m.terms["floor"], 0.002 * f) and np.all(m.terms["window"] == 0)
+    expect = np.maximum(np.hypot(fit.freq_std_hz, df / np.sqrt(12)), 0.002 * f)
+    assert np.allclose(m.sigma_hz, expect, rtol=1e-12)
+    assert np.all(m.sigma_hz >= 0.002 * f) and np.all(m.sigma_hz > fit.freq_std_hz)
+    # a tiny floor: the FRF's own limits dominate
+    tiny = rfp.measurement_sigma(fit, case.freq, sigma_rel=1e-7)
+    assert set(tiny.dominant) <= {"rfp spread", "resolution"}
+    assert np.allclose(tiny.sigma_hz, np.hypot(fit.freq_std_hz, df / np.sqrt(12)))
+    # the CLI: a 'from' column, JSON terms, and --into records the rule for identify
+    r = run(["fit-frf", str(h5), "--json", "--sigma-rel", "0.002"])
+    out = json.loads(r.output)
+    assert [mo["sigma_dominant"] for mo in out["modes"]] == list(m.dominant)
+    assert out["modes"][0]["sigma_terms_hz"]["resolution"] == pytest.approx(df / np.sqrt(12))
+    r = run(["fit-frf", str(h5)])
+    assert "from" in r.output and "dominated by" in r.output
+
+
+def test_exponential_window_shift_of_the_natural_frequency():
+    """A pole at 100 Hz, zeta 3 %, tau 0.1 s: |pole| falls from 100 Hz to
+    sqrt(omega_d^2 + (zeta omega - 10)^2) / 2 pi once the window's 1/tau is removed."""
+    from types import SimpleNamespace
+
+    from laminid_cli.frf import rfp
+
+    fit = SimpleNamespace(modes=[1], freq_hz=np.array([100.0]), freq_std_hz=np.array([0.0]),
+                          damping_ratio=np.array([0.03]))
+    m = rfp.measurement_sigma(fit, np.arange(0, 200, 0.01), sigma_rel=1e-6, exp_window_s=0.1)
+    w = 2 * np.pi * 100.0
+    wd2 = w**2 * (1 - 0.03**2)
+    expected = (w - np.sqrt(wd2 + (0.03 * w - 10.0) ** 2)) / (2 * np.pi)     # 0.0351 Hz
+    assert m.terms["window"][0] == pytest.approx(expected, rel=1e-12)
+    assert expected == pytest.approx(0.0351, abs=2e-4) and m.dominant == ("window",)
+
+
+def test_into_records_the_sigma_rule_and_identify_reports_it(tmp_path, h5, case):
+    from pathlib import Path
+
+    from laminid_cli.uncertainty import frequency_sigma
+    from laminid_cli.specimen import read_specimen
+
+    src = Path(__file__).resolve().parents[1] / "specimens" / "example1" / "S1.1.yaml"
+    spec = tmp_path / "S1.1.yaml"
+    spec.write_text(src.read_text())
+    assert run(["fit-frf", str(h5), "--into", str(spec)]).exit_code == 0
+    measured = yaml.safe_load(spec.read_text())["measured"]
+    assert measured["sigma_source"].startswith("plate.frf.h5: fit-frf: sqrt(RFP spread^2")
+    s = read_specimen(spec)
+    summary = frequency_sigma(s.measured).summary
+    assert summary.startswith("specimen file (measured.sigma; plate.frf.h5: fit-frf:")
+    assert "dominated by" in summary
+    # a second fit without a sigma rule (library call) drops the stale description
+    from laminid_cli.frf.into import write_measured
+
+    write_measured(spec, list(s.measured.freq), list(s.measured.sigma))
+    assert "sigma_source" not in yaml.safe_load(spec.read_text())["measured"]

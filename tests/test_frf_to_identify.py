@@ -52,7 +52,15 @@ def test_identify_from_an_frf_file_recovers_the_constants(frf_specimen):
     r = CliRunner().invoke(cli, ["identify", str(path), "--mesh", "6x6", "--fix",
                                  "nu12,G13,G23", "--json", "--no-output"])
     assert r.exit_code == 0, r.output
-    mat = next(iter(json.loads(r.output)["materials"].values()))
+    d = json.loads(r.output)
+    assert d["uncertainty"]["sigma_source"] == (
+        "specimen file (measured.sigma; fit of plate.frf.h5: RFP spread, resolution and "
+        "window, at least 0.2 % of f)")
+    # 0.5 Hz lines: sigma >= max(0.002 f, 0.5/sqrt(12) Hz)
+    sig = np.array(d["uncertainty"]["frequency_sigma"]["S2.1"]["sigma_hz"])
+    f = np.array(d["frequencies"]["measured"])
+    assert np.all(sig >= np.maximum(0.002 * f, 0.5 / np.sqrt(12)) * (1 - 1e-12))
+    mat = next(iter(d["materials"].values()))
     assert mat["E1"] == pytest.approx(truth.E1, rel=5e-3)
     assert mat["E2"] == pytest.approx(truth.E2, rel=2e-2)
     assert mat["G12"] == pytest.approx(truth.G12, rel=1e-2)

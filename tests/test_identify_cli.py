@@ -3,6 +3,7 @@
 import json
 import shutil
 
+import h5py
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -66,8 +67,24 @@ def test_report_and_default_output_next_to_the_specimen(tmp_path):
     assert "LD_SLSQP: converged" in r.output
     assert "E1 [GPa]" in r.output and "residual %" in r.output and "RMS residual" in r.output
     assert (tmp_path / "S2.1.result.h5").exists()
-    r = run("identify", str(spec), "--mesh", "6x6")             # never overwrite silently
+    # a second run after editing the specimen: the derived default file is replaced, and said so
+    spec.write_text(spec.read_text() + "# re-weighed\n")
+    r = run("identify", str(spec), "--mesh", "6x6")
+    assert r.exit_code == 0, r.output
+    assert "replaced the previous result of this specimen" in r.output
+    with h5py.File(tmp_path / "S2.1.result.h5") as f:
+        assert "# re-weighed" in f["specimen"]["yaml"][()].decode()
+    # a file named with -o is never overwritten silently
+    named = str(tmp_path / "mine.h5")
+    assert run("identify", str(spec), "--mesh", "6x6", "-o", named).exit_code == 0
+    r = run("identify", str(spec), "--mesh", "6x6", "-o", named)
     assert r.exit_code == 2 and "file exists" in r.output and "--force" in r.output
+    assert run("identify", str(spec), "--mesh", "6x6", "-o", named, "--force").exit_code == 0
+    # something else at the default name is not a derived result: refused, left alone
+    (tmp_path / "S2.1.result.h5").write_text("my notes")
+    r = run("identify", str(spec), "--mesh", "6x6")
+    assert r.exit_code == 2 and "not a laminid result file" in r.output
+    assert (tmp_path / "S2.1.result.h5").read_text() == "my notes"
 
 
 def test_non_convergence_exits_1_with_message_and_keeps_a_complete_file(tmp_path):

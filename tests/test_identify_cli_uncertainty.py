@@ -76,7 +76,7 @@ def test_report_shows_intervals_verdicts_and_tables(tmp_path):
     r = run("identify", S1[0], "--mesh", "6x6", "--no-output")
     assert r.exit_code == 0, r.output
     out = r.output
-    assert "± 95 %" in out and "well determined" in out and "not determined by these modes" in out
+    assert "95 % interval" in out and "well determined" in out and "not determined by these modes" in out
     assert "flagged (half-width > 30 % of the value)" in out and "--fix-undetermined" in out
     assert "correlation of the identified constants" in out
     assert "normalised sensitivities d ln f / d ln P" in out
@@ -197,5 +197,5 @@ def test_sigma_from_the_specimen_file_is_used_and_reported(tmp_path):
     fs = u["frequency_sigma"]["S1.1"]
     assert fs["source"] == ["file"] * 11 + ["relative"]
     assert fs["sigma_hz"][0] == 0.5 and fs["sigma_hz"][11] == pytest.approx(1.3438)
-    assert u["sigma_source"] == ("specimen file (measured.sigma) for 11 modes, 0.1 % of each "
+    assert u["sigma_source"] == ("specimen file (measured.sigma, origin not stated) for 11 modes, 0.1 % of each "
                                  "frequency (--sigma-rel) for 1")

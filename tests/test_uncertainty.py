@@ -223,3 +223,120 @@ def test_fix_undetermined_fixes_the_flagged_constants_and_runs_again(s11_synthet
     assert c.G13 == pytest.approx(3.1 * GPa) and c.G23 == pytest.approx(3.1 * GPa)
     assert a.result.free["IM7/977-2"] == tuple(
         k for k in CONSTANT_NAMES if f"IM7/977-2.{k}" not in a.fixed_undetermined)
+
+
+# --- intervals on the constants' own scales --------------------------------------------------------
+
+def _power_law_trials(n_trials=200, seed=11, sigma_rel=0.002):
+    """ln f_i = ln c_i + sum_j a_ij ln P_j (plate-like: f ~ sqrt(stiffness)), E2 weakly seen.
+
+    The least-squares estimate in ln P is exact here, so ln P_hat is normal and the exact
+    95 % interval of P is log-symmetric. Returns the truth, the estimates (n_trials, 2) and
+    each trial's linearised Uncertainty."""
+    rng = np.random.default_rng(seed)
+    n = 8
+    A = np.column_stack([rng.uniform(0.4, 0.5, n), rng.uniform(0.004, 0.012, n)])
+    truth = np.array([100e9, 10e9])
+    c = np.linspace(100, 800, n)
+    lnf_true = np.log(c)                               # f = c at the truth
+    mat0 = MaterialState("m", ElasticConstants(100e9, 10e9, 5e9, 3e9, 3e9, 0.3),
+                         ElasticConstants(100e9, 10e9, 5e9, 3e9, 3e9, 0.3), ("E1", "E2"), {})
+    est, uncs = [], []
+    for _ in range(n_trials):
+        lnf = lnf_true + sigma_rel * rng.standard_normal(n)
+        dlnP = np.linalg.lstsq(A, lnf - lnf_true, rcond=None)[0]
+        P = truth * np.exp(dlnP)
+        f_model = np.exp(lnf_true + A @ dlnP)
+        lam = (2 * np.pi * f_model) ** 2
+        f_obs = np.exp(lnf)
+        obs = Observations("toy", f_obs, np.ones(n), sigma_rel * f_obs, lam,
+                           2 * lam[:, None] * A / P[None, :])
+        c_hat = ElasticConstants(P[0], P[1], 5e9, 3e9, 3e9, 0.3)
+        mat = dataclasses.replace(mat0, constants=c_hat)
+        est.append(P)
+        uncs.append(linearized_uncertainty([obs], [mat], scaling="stated"))
+    return truth, np.array(est), uncs
+
+
+def test_log_space_intervals_cover_both_tails_and_match_the_sampling_quantiles():
+    """200 seeded trials of a model linear in ln P: the moduli's 95 % intervals miss the truth
+    about 2.5 % of the time on EACH side (binomial 200 x 0.025 = 5); the symmetric linear
+    interval of the same standard error would miss almost only on the upper side."""
+    truth, est, uncs = _power_law_trials()
+    lower = np.array([u.lower for u in uncs])
+    upper = np.array([u.upper for u in uncs])
+    below = np.sum(truth < lower, axis=0)                # truth under the interval
+    above = np.sum(truth > upper, axis=0)
+    assert np.all((below >= 1) & (below <= 12)), below  # 99 % binomial range 0..11 (+1 slack)
+    assert np.all((above >= 1) & (above <= 12)), above
+    k = 1                                               # E2: about +-60 % (weak)
+    rel = uncs[0].rel_half_width[k]
+    assert 0.3 < rel < 0.8
+    assert np.all(lower[:, k] > 0) and uncs[0].scale == ("log", "log")
+    # asymmetric: value / lower == upper / value
+    u = uncs[0]
+    assert u.value[k] / u.lower[k] == pytest.approx(u.upper[k] / u.value[k], rel=1e-12)
+    sym_lo = np.array([x.value[k] - x.half_width[k] for x in uncs])
+    sym_hi = np.array([x.value[k] + x.half_width[k] for x in uncs])
+    assert np.sum(truth[k] < sym_lo) <= 1 and np.sum(truth[k] > sym_hi) >= 2 * above[k]
+    # the interval at the truth against the quantiles of the 200 estimates (a Monte Carlo)
+    q_lo, q_hi = np.quantile(est[:, k], [0.025, 0.975])
+    noise_free = _power_law_trials(1, seed=11, sigma_rel=0.002)[2][0]
+    s_ln = noise_free.std[k] / noise_free.value[k]
+    lo_t, hi_t = truth[k] * np.exp(-1.959964 * s_ln), truth[k] * np.exp(1.959964 * s_ln)
+    assert q_lo == pytest.approx(lo_t, rel=0.08) and q_hi == pytest.approx(hi_t, rel=0.08)
+
+
+def test_nu12_interval_is_linear_and_clipped_to_its_bounds():
+    G = np.array([[1.0, 0.002], [0.9, 0.001], [1.1, 0.003], [0.8, 0.002]])
+    obs, mat = toy(G, [100, 200, 300, 400])
+    c = ElasticConstants(100e9, 10e9, 5e9, 3e9, 3e9, 0.3)
+    mat = dataclasses.replace(mat, constants=c, initial=c, free=("E1", "nu12"))
+    obs = dataclasses.replace(obs, dlam_dP=obs.dlam_dP * [1.0, 10e9])    # per unit nu12
+    u = linearized_uncertainty([obs], [mat], scaling="stated", nu_max=0.95)
+    assert u.scale == ("log", "linear") and u.half_width[1] > 1.0       # nu12 undetermined
+    assert u.lower[1] == -0.95 and u.upper[1] == 0.95                    # clipped
+    assert u.lower[0] == pytest.approx(u.value[0] * np.exp(-u.quantile * u.std[0] / u.value[0]))
+
+
+def test_a_constant_at_its_bound_gets_a_one_sided_statement_and_no_interval():
+    G = np.array([[1.0, 0.02], [0.9, 0.03], [1.1, 0.01], [0.8, 0.025], [1.0, 0.015]])
+    obs, mat = toy(G, [100, 200, 300, 400, 500])
+    c = ElasticConstants(100e9, 10e9, 5e9, 3e9, 1.5e7, 0.3)            # G23 = 1.5e-4 E1
+    c0 = ElasticConstants(100e9, 10e9, 5e9, 3e9, 3e9, 0.3)
+    mat = MaterialState("m", c, c0, ("E1", "G23"), {})
+    obs = dataclasses.replace(obs, dlam_dP=obs.dlam_dP * [1.0, 10e9 / 1.5e7])
+    free = linearized_uncertainty([obs], [dataclasses.replace(mat, free=("E1",))],
+                                  scaling="stated")
+    u = linearized_uncertainty([obs], [mat], scaling="stated")
+    assert list(u.at_bound) == [False, True] and u.verdict[1] == "at bound — not identified"
+    assert u.bound_text[1] == ("at its bound — not identified: G23 <= 0.0001 E1 (0.01 GPa)")
+    assert np.isnan(u.lower[1]) and np.isnan(u.upper[1]) and "m.G23" in u.flagged
+    # the other constant's interval is the one with G23 held at its bound
+    assert u.std[0] == pytest.approx(free.std[0], rel=1e-12) and u.dof == free.dof
+
+
+@pytest.mark.slow
+def test_plate_log_intervals_against_200_monte_carlo_trials():
+    """S2.1 (4x4 mesh, exact frequencies of the paper's constants, 1 % frequency sigma,
+    G13, G23 fixed): 200 Monte Carlo re-identifications. Their 2.5/97.5 % quantiles sit at the
+    ends of the linearised log-space intervals, and the share of samples beyond each end is
+    near 2.5 % on each side separately."""
+    spec = read_specimen(S21)
+    fm0 = build_forward_model(spec, (4, 4))
+    truth = ElasticConstants(**IDENTIFIED[S21]["E-glass/R368"])
+    f = fm0.solve([truth], 12).freq
+    fm = dataclasses.replace(fm0, specimen=dataclasses.replace(spec, measured=measured(f)))
+    r = identify(fm, IdentifyOptions(fix=("G13", "G23")), start=[truth])
+    sig = frequency_sigma(fm.specimen.measured, 0.01)
+    u = uncertainty_of(r, fm, sig, scaling="stated")
+    mc = monte_carlo(r, fm, sig, u, 200, jobs=2, seed=7)
+    assert mc.n_converged >= 195
+    S = mc.samples
+    for k in range(3):                                          # E1, E2, G12 (log scale)
+        below = np.mean(S[:, k] < u.lower[k])
+        above = np.mean(S[:, k] > u.upper[k])
+        assert below <= 0.065 and above <= 0.065, (k, below, above)
+        width = u.upper[k] - u.lower[k]
+        assert abs(mc.lower[k] - u.lower[k]) < 0.2 * width, k
+        assert abs(mc.upper[k] - u.upper[k]) < 0.2 * width, k

@@ -31,8 +31,11 @@ force_option = click.option(
     "--force", is_flag=True, help="Overwrite an existing output file.")
 
 
-def check_output_path(path: str | Path | None, force: bool) -> Path | None:
-    """Refuse to overwrite an existing file unless --force (exit 2 via OutputExistsError)."""
+def check_output_path(path: str | Path | None, force: bool, option: str = "-o"
+                      ) -> Path | None:
+    """Refuse to overwrite an existing file unless --force (exit 2 via OutputExistsError).
+
+    ``option``: the command's option that names this file, for the hint."""
     from laminid_cli.errors import OutputExistsError
 
     if path is None:
@@ -40,10 +43,48 @@ def check_output_path(path: str | Path | None, force: bool) -> Path | None:
     path = Path(path)
     if path.exists() and not force:
         raise OutputExistsError(f"{path}: file exists; use --force to overwrite it or choose "
-                                "another name with -o")
+                                f"another name with {option}")
     if not path.parent.exists():
         raise OutputExistsError(f"{path}: folder {path.parent} does not exist")
     return path
+
+
+RESULT_FORMATS = ("laminid-result", "laminid-joint-result")
+
+
+def derived_output_path(path: str | Path) -> tuple[Path, bool]:
+    """A default result file derived from its specimen: replaced when it exists (returns
+    (path, True)) as long as it is a laminid identification result; anything else at that
+    name is refused (OutputExistsError, exit 2) rather than overwritten."""
+    from laminid_cli.errors import OutputExistsError
+
+    path = Path(path)
+    if not path.parent.exists():
+        raise OutputExistsError(f"{path}: folder {path.parent} does not exist")
+    if not path.exists():
+        return path, False
+    fmt = None
+    try:
+        import h5py
+
+        with h5py.File(path, "r") as f:
+            fmt = f.attrs.get("format")
+    except (OSError, ValueError):
+        pass
+    fmt = fmt.decode() if isinstance(fmt, bytes) else fmt
+    if fmt not in RESULT_FORMATS:
+        raise OutputExistsError(f"{path}: exists and is not a laminid result file; move it or "
+                                "name the result with -o")
+    return path, True
+
+
+def result_output(output, default, force: bool) -> tuple[Path, bool]:
+    """The result file of identify: ``-o output`` protected by :func:`check_output_path`, or
+    the derived ``default`` beside the specimen, replaced (:func:`derived_output_path`).
+    Returns (path, replacing an earlier result)."""
+    if output is not None:
+        return check_output_path(output, force), False
+    return derived_output_path(default)
 
 
 def _clean(obj):

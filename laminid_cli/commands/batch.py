@@ -21,19 +21,26 @@ from laminid_cli.commands._common import (echo_json, fit_options, json_option,
 @fit_options
 @uncertainty_options
 @click.option("--force", is_flag=True, help="Redo specimens whose result is up to date.")
+@click.option("--wide", is_flag=True,
+              help="summary.csv with one row per specimen (a column per constant) instead of "
+                   "one row per specimen, material and constant.")
 @json_option
 def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrization, xtol,
           ftol, max_evaluations, pairing, sigma_rel, covariance_scale, max_rel_interval,
-          fix_undetermined, monte_carlo, seed, force, as_json):
+          fix_undetermined, monte_carlo, seed, force, wide, as_json):
     """Identify every specimen in INPUTS (folders searched recursively for *.yaml/*.yml,
     or files) as 'laminid identify' does (same options, same uncertainty assessment),
     writing OUT/<folder>/<name>.result.h5 per specimen
-    (folders relative to the inputs' common root) and OUT/summary.csv and summary.json.
+    (folders relative to the inputs' common root) and OUT/summary.csv and summary.json
+    (SI units: summary.csv has one row per specimen, material and constant with value,
+    interval, verdict, unit and status; --wide one row per specimen; summary.json a units
+    map). Every result has a status, ok or check with its reasons, shown in the table.
 
     A result whose input has not changed (sha256 of the specimen and its FRF file, the
     options and the laminid version, stored in the file) is not redone unless --force. A
     failing specimen is listed with its reason and the others go on. Exit code 0 when all
-    converged, 1 when any failed or did not converge, 2 for bad usage (no specimen found).
+    converged (status ok or check), 1 when any failed or did not converge, 2 for bad usage
+    (no specimen found).
 
     \b
     Examples:
@@ -46,7 +53,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrizat
     from pathlib import Path
 
     from laminid_cli.batch import (BatchError, BatchOptions, batch_report, check_scheduler,
-                                   discover_specimens, format_table, printable, plan_batch, remove_stale_parts, result_row,
+                                   discover_specimens, failed, format_table, plan_batch,
+                                   printable, remove_stale_parts, result_row,
                                    run_jobs, stored_hash, write_result_bytes, write_summary_csv,
                                    write_summary_json, SUMMARY_CSV, SUMMARY_JSON)
     from laminid_cli.fe.mesh import parse_mesh
@@ -111,14 +119,15 @@ def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrizat
             ordered = [rows.get(j.name) or result_row(j, cached=stored_hash(j.output) == j.key)
                        for j in jobs]
             report = batch_report(ordered, options, out)
-            write_summary_csv(out / SUMMARY_CSV, ordered)
+            write_summary_csv(out / SUMMARY_CSV, ordered, wide=wide)
             write_summary_json(out / SUMMARY_JSON, report)
     if as_json:
         echo_json(report)
     else:
         click.echo(format_table(ordered), nl=False)
         c = report["counts"]
-        click.echo(f"\n{c['ok']} ok, {c['not converged']} not converged, {c['error']} failed "
-                   f"({report['n_cached']} up to date); summary: {out / SUMMARY_CSV}")
-    if any(r["status"] != "ok" for r in ordered):
+        click.echo(f"\n{c['ok']} ok, {c['check']} check ({c['not converged']} not converged), "
+                   f"{c['error']} failed ({report['n_cached']} up to date); summary: "
+                   f"{out / SUMMARY_CSV}")
+    if failed(ordered):
         sys.exit(1)

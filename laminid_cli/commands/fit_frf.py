@@ -41,10 +41,13 @@ def _parse_bands(ctx, param, values):
               help="Write the frequencies, their sigmas, the damping ratios and their "
                    "sigmas into this specimen file's 'measured:' entry (comments kept, backup "
                    "SPEC.bak).")
+@click.option("--sigma-rel", type=float, default=0.002, show_default=True, metavar="FRACTION",
+              help="Floor of each frequency's standard deviation, as a fraction of it "
+                   "(supports, temperature, repeatability: what the FRF cannot show).")
 @force_option
 @json_option
 def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path, spec_path,
-            force, as_json):
+            sigma_rel, force, as_json):
     """Fit the FRFs in FRF_FILE (laminid HDF5, UFF 58 or CSV) and list the natural frequencies.
 
     A plain HDF5 file of another tool is read too: a 1-D frequency dataset and a complex FRF
@@ -52,8 +55,13 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     attributes; name them with --freq-dataset/--frf-dataset when several fit.
 
     A global rational fraction polynomial fit (Richardson & Formenti) of all FRFs with shared
-    poles, over a sweep of model orders; poles stable across orders are the modes. The
-    uncertainty (+/-) is the standard deviation of the frequency over the stable orders.
+    poles, over a sweep of model orders; poles stable across orders are the modes.
+
+    The uncertainty (+/-, a standard deviation in Hz, written by --into as measured.sigma) is a
+    measurement uncertainty: sqrt(RFP spread^2 + resolution^2 + window^2), at least
+    --sigma-rel of the frequency. RFP spread: over the stable orders; resolution: line
+    spacing / sqrt(12); window: the shift of |pole| by an exponential window's 1/tau (when the
+    FRF file records exp_window_s). The 'from' column names the term that dominated.
 
     \b
     Examples:
@@ -74,17 +82,22 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
             raise click.BadParameter(f"{plot_path}: plot file type {Path(plot_path).suffix!r} "
                                      f"not supported; use one of {', '.join(PLOT_SUFFIXES)}",
                                      param_hint="'--plot'")
-        check_output_path(plot_path, force)
+        check_output_path(plot_path, force, option="--plot")
     if spec_path is not None and not Path(spec_path).is_file():
         raise SpecimenError("file not found (--into needs an existing specimen file)",
                             path=spec_path)
+    from laminid_cli.uncertainty import check_sigma_rel
+
+    check_sigma_rel(sigma_rel)
     if spec_path is not None:   # an invalid specimen is refused before the fit, and untouched
         from laminid_cli.specimen import read_specimen
 
         read_specimen(spec_path)
     fs = read_frf(frf_file, fmt, freq_dataset=freq_dataset, frf_dataset=frf_dataset)
     fit = rfp.find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes)
-    sigma = rfp.frequency_sigma(fit, fs.freq)
+    msig = rfp.measurement_sigma(fit, fs.freq, sigma_rel=sigma_rel,
+                                 exp_window_s=rfp.window_time_constant(fs))
+    sigma = msig.sigma_hz
     if plot_path is not None:
         from laminid_cli.frf.plot import plot_fit
 
@@ -95,13 +108,17 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
 
         write_measured(spec_path, fit.freq_hz.tolist(), sigma.tolist(),
                        damping=fit.damping_ratio.tolist(),
-                       damping_sigma=rfp.damping_sigma(fit).tolist())
+                       damping_sigma=rfp.damping_sigma(fit).tolist(),
+                       sigma_source=f"{Path(frf_file).name}: {msig.summary()}")
     if as_json:
         echo_json({
             "file": str(frf_file), "n_points": fs.n_points, "units": fs.units,
             "bands_hz": [list(b.band_hz) for b in fit.bands],
-            "modes": [dict(m.as_dict(), mode=i + 1, sigma_hz=float(s))
+            "modes": [dict(m.as_dict(), mode=i + 1, sigma_hz=float(s),
+                           sigma_terms_hz={t: float(msig.terms[t][i]) for t in msig.terms},
+                           sigma_dominant=msig.dominant[i])
                       for i, (m, s) in enumerate(zip(fit.modes, sigma))],
+            "sigma_rule": msig.summary(), "sigma_rel": sigma_rel,
             "plot": plot_path, "into": spec_path,
         })
         return
@@ -110,11 +127,12 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     if not fit.modes:
         click.echo("no stable mode found")
     else:
-        click.echo(f"{'mode':>4}  {'freq (Hz)':>11}  {'+/- (Hz)':>9}  {'damping (%)':>11}  "
-                   f"{'stable orders':>13}")
+        click.echo(f"{'mode':>4}  {'freq (Hz)':>11}  {'+/- (Hz)':>9}  {'from':>10}  "
+                   f"{'damping (%)':>11}  {'stable orders':>13}")
         for i, (m, s) in enumerate(zip(fit.modes, sigma), start=1):
-            click.echo(f"{i:>4}  {m.freq_hz:>11.3f}  {s:>9.3f}  {100 * m.damping_ratio:>11.3f}  "
-                       f"{m.orders_stable:>13d}")
+            click.echo(f"{i:>4}  {m.freq_hz:>11.3f}  {s:>9.3f}  {msig.dominant[i - 1]:>10}  "
+                       f"{100 * m.damping_ratio:>11.3f}  {m.orders_stable:>13d}")
+        click.echo(f"+/-: one standard deviation, {msig.summary()}")
     if plot_path is not None:
         click.echo(f"plot written to {plot_path}")
     if spec_path is not None:

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import click
 
-from laminid_cli.commands._common import (check_output_path, echo_json, fit_options,
-                                          force_option, json_option, uncertainty_options)
+from laminid_cli.commands._common import (echo_json, fit_options, force_option, json_option,
+                                          result_output, uncertainty_options)
 from laminid_cli.commands.text import (format_damping, format_identify_report,
                                        format_joint_report)
 
@@ -36,8 +36,10 @@ def default_joint_output(specs) -> Path:
               help="Processes for the Monte Carlo trials [default: the number of cores].")
 @json_option
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
-              help="HDF5 result file [default: SPEC's folder, <name>.result.h5; with --joint "
-                   "the first SPEC's folder, <name1>+<name2>+....joint.result.h5].")
+              help="HDF5 result file, never overwritten without --force [default: SPEC's "
+                   "folder, <name>.result.h5; with --joint the first SPEC's folder, "
+                   "<name1>+<name2>+....joint.result.h5; a derived file, replaced by each "
+                   "run].")
 @click.option("--no-output", is_flag=True, help="Do not write a result file.")
 @force_option
 def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evaluations, pairing,
@@ -53,7 +55,13 @@ def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalu
     measured vs model frequencies with residuals (measured - model)/measured*100, the global
     laminate properties, the correlation of the constants and the normalised sensitivities
     d ln f / d ln P of each mode. Frequency uncertainties come from the file's measured.sigma,
-    else --sigma-rel. Exit code 0 when converged, 1 when not, 2 for bad input.
+    else --sigma-rel. Every result has a status: ok, or check with the reasons (a constant at
+    its bound or undetermined, a fit worse than the stated noise, implausible values, modes
+    swapped). Exit code 0 when converged (also with status check), 1 when not, 2 for bad
+    input.
+
+    Run it again after editing SPEC: the default result file beside SPEC is derived from it
+    and is replaced (the output says so); a file named with -o is kept unless --force.
 
     When the specimen has measured damping (measured.damping, or an frf_file), the loss factors
     eta11, eta22, eta12, eta13, eta23 of each ply material follow from the modal loss factors
@@ -76,7 +84,7 @@ def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalu
     from laminid_cli.forward import build_forward_model
     from laminid_cli.identify import IdentifyOptions
     from laminid_cli.results import (identification_summary, joint_identification_summary,
-                                     uncertainty_summary, write_identification_file,
+                                     status_of, uncertainty_summary, write_identification_file,
                                      write_joint_identification_file)
     from laminid_cli.specimen import read_specimen
     from laminid_cli.uncertainty import UncertaintyOptions, assess, check_sigma_rel
@@ -93,7 +101,7 @@ def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalu
         raise FitInputError(f"--max-rel-interval must be positive (0.3 = 30 %), got "
                             f"{max_rel_interval:g}")
     default = default_joint_output(specs) if joint else default_output(specs[0])
-    out = None if no_output else check_output_path(output or default, force)
+    out, replacing = (None, False) if no_output else result_output(output, default, force)
     specimens = [read_specimen(s) for s in specs]
     fix_elastic, fix_loss = split_fix(fix.split(","))
     options = IdentifyOptions(
@@ -148,6 +156,7 @@ def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalu
                    "each plate alone for its loss factors)", err=True)
     if damping is not None:
         summary["damping"] = damping.as_dict()
+    summary.update(status_of(result, a).as_dict())
     if out is not None:
         if joint:
             write_joint_identification_file(out, fms, result, summary, assessment=a)
@@ -155,6 +164,7 @@ def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalu
             write_identification_file(out, fms[0], result, summary, assessment=a,
                                       damping=damping)
         summary["output"] = str(out)
+        summary["output_replaced"] = replacing
     if as_json:
         echo_json(summary)
     else:
@@ -162,7 +172,8 @@ def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalu
         if damping is not None:
             click.echo("\n" + "\n".join(format_damping(summary["damping"])))
         if out is not None:
-            click.echo(f"\nwritten: {out}")
+            click.echo(f"\nwritten: {out}" + (" (replaced the previous result of this "
+                                              "specimen: a derived file)" if replacing else ""))
     if not result.converged:
         click.echo(f"laminid: identification did not converge: {result.status}", err=True)
         sys.exit(1)

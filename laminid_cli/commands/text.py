@@ -85,8 +85,21 @@ def _plate_header(sp: dict) -> list[str]:
 
 
 def _run_line(s: dict) -> str:
-    state = s["status"] if s["converged"] else f"NOT CONVERGED — {s['status']}"
+    opt = s["optimizer_status"]
+    state = opt if s["converged"] else f"NOT CONVERGED — {opt}"
     return f"{s['optimizer']}: {state}; {s['evaluations']} evaluations, {s['time_s']:.2f} s"
+
+
+def format_status(s: dict) -> list[str]:
+    """'status: ok' or 'status: CHECK' and one line per reason (laminid_cli.status)."""
+    if "status" not in s:
+        return []
+    reasons = s.get("reasons") or []
+    if not reasons:
+        return ["status: ok"]
+    lines = [f"status: CHECK — {len(reasons)} reason{'s' if len(reasons) > 1 else ''}"]
+    lines += [f"  {r['code']}: {r['text']}" for r in reasons]
+    return lines
 
 
 def _paired_frequency_table(fr: dict) -> list[str]:
@@ -115,7 +128,7 @@ def format_identify_report(s: dict) -> str:
     its 95 % interval and verdict, followed by the uncertainty, correlation, sensitivity and
     Monte Carlo tables.
     """
-    lines = _plate_header(s["specimen"]) + [_run_line(s)]
+    lines = _plate_header(s["specimen"]) + [_run_line(s)] + format_status(s)
     lines += _material_tables(s, s.get("reference") or {})
     lines.append("")
     lines += _paired_frequency_table(s["frequencies"])
@@ -138,6 +151,7 @@ def format_joint_report(s: dict) -> str:
     """Terminal report of a joint identification: shared constants, then each plate."""
     names = s["specimen_names"]
     lines = [f"joint identification of {len(names)} plates: {', '.join(names)}", _run_line(s)]
+    lines += format_status(s)
     first_ref = next((p.get("reference") for p in s["specimens"].values()
                       if (p.get("reference") or {}).get("materials")), {}) or {}
     lines += _material_tables(s, first_ref)
@@ -172,16 +186,20 @@ def _material_tables(s: dict, ref: dict) -> list[str]:
         mu = unc.get(name, {})
         lines.append(f"  {'constant':<10} {'initial':>12} {'identified':>12}  "
                      f"{'reference' if rm else '':>10}"
-                     + (f"  {'± 95 %':>9} {'of value':>9}  verdict" if mu else ""))
+                     + (f"  {'95 % interval':>17} {'± of value':>10}  verdict" if mu else ""))
         for k in (*MODULI, "nu12"):
             note = "" if k in free else "  (fixed)"
             row = (f"  {k + (' [GPa]' if k != 'nu12' else ''):<10} "
                    f"{_num(k, init[k]):>12} {_num(k, ident[k]):>12}  "
                    f"{_num(k, rm.get(k)) if k in rm else '':>10}")
             u = mu.get(k)
-            if u is not None and "half_width" in u:
+            if u is not None and u.get("at_bound"):
+                row += f"  {'—':>17} {'—':>10}  {u.get('bound_text') or u['verdict']} [!]"
+                lines.append(row)
+            elif u is not None and "half_width" in u:
                 flag = " [!]" if u.get("flagged") else ""
-                row += (f"  ±{_num(k, u['half_width']):>8} {_pct(u['rel_half_width']):>9}  "
+                span = f"{_num(k, u['lower'])} .. {_num(k, u['upper'])}"
+                row += (f"  {span:>17} {_pct(u['rel_half_width']):>10}  "
                         f"{u['verdict'].split(' — ')[0]}{flag}")
                 lines.append(row)
             else:
@@ -290,7 +308,11 @@ def _val(name: str, value, digits: int = 3) -> str:
 
 
 def _num(name: str, value) -> str:
-    if value is None or not math.isfinite(value):
+    if value is None:
+        return "-"
+    if value == math.inf:
+        return "inf"
+    if not math.isfinite(value):
         return "-"
     return f"{value:.3f}" if name == "nu12" else f"{value / 1e9:.2f}"
 

@@ -1,9 +1,9 @@
 """Write fitted natural frequencies into a specimen file's ``measured:`` mapping.
 
 Only ``measured.frequencies`` (Hz, ``null`` for a mode not found), ``measured.sigma`` (Hz,
-standard deviations), ``measured.damping`` and ``measured.damping_sigma`` (viscous damping
-ratios and their standard deviations, when given) and, when asked or already present,
-``measured.weights`` change; every
+standard deviations), ``measured.sigma_source`` (how the sigmas were made),
+``measured.damping`` and ``measured.damping_sigma`` (viscous damping ratios and their standard
+deviations, when given) and, when asked or already present, ``measured.weights`` change; every
 comment, every other key and their order are kept (ruamel.yaml round trip). The file is never
 left half-written or invalid:
 
@@ -45,7 +45,7 @@ def _sig(x, digits: int = 6) -> float | None:
 
 def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=None,
                    damping_sigma=None, backup: bool = True,
-                   validate: bool = True) -> Path:
+                   validate: bool = True, sigma_source: str | None = None) -> Path:
     """Replace/insert the measured frequencies (and sigma, weights) of a specimen YAML file.
 
     Parameters
@@ -62,6 +62,7 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
     validate : the file must be a valid specimen before and after the edit (``laminid
         fit-frf --into``); without it only the YAML checks (bounded size, depth, aliases, no
         tags) and the structure of ``measured`` are required (any YAML mapping is edited)
+    sigma_source : written as ``measured.sigma_source`` (shown by identify), with ``sigma_hz``
 
     Returns the backup path (or the spec path when ``backup`` is false).
     """
@@ -151,6 +152,10 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
     put("frequencies", freq)
     if sig is not None:
         put("sigma", sig)
+        if sigma_source:
+            measured["sigma_source"] = str(sigma_source)
+        elif "sigma_source" in measured:
+            del measured["sigma_source"]               # it described the previous sigmas
     if wts is not None:
         put("weights", wts)
     for key, values in extra.items():
@@ -170,6 +175,10 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
     exp_measured["frequencies"] = freq
     if sig is not None:
         exp_measured["sigma"] = sig
+        if sigma_source:
+            exp_measured["sigma_source"] = str(sigma_source)
+        else:
+            exp_measured.pop("sigma_source", None)
     if wts is not None:
         exp_measured["weights"] = wts
     exp_measured.update(extra)

@@ -1085,8 +1085,8 @@ def measured_from_frf_file(path, *, bands=None, n_modes: int | None = None,
     Returns
     -------
     freq_hz : float (n_modes,), Hz
-    sigma_hz : float (n_modes,), Hz, spread over the stable orders (floored, see
-        :func:`frequency_sigma`)
+    sigma_hz : float (n_modes,), Hz, measurement uncertainty (:func:`measurement_sigma`:
+        RFP spread, resolution, window, 0.2 % floor)
     damping : float (n_modes,), damping ratios
     damping_sigma : float (n_modes,), with ``with_damping_sigma``: their standard deviations
         (:func:`damping_sigma`)
@@ -1097,9 +1097,10 @@ def measured_from_frf_file(path, *, bands=None, n_modes: int | None = None,
 
     fs = read_frf(path)
     fit = find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes, criteria=criteria)
+    sig = measurement_sigma(fit, fs.freq, exp_window_s=window_time_constant(fs))
     if with_damping_sigma:
-        return fit.freq_hz, frequency_sigma(fit, fs.freq), fit.damping_ratio, damping_sigma(fit)
-    return fit.freq_hz, frequency_sigma(fit, fs.freq), fit.damping_ratio
+        return fit.freq_hz, sig.sigma_hz, fit.damping_ratio, damping_sigma(fit)
+    return fit.freq_hz, sig.sigma_hz, fit.damping_ratio
 
 
 #: floor of a fitted damping ratio's standard deviation, relative to the ratio (2 %)
@@ -1118,11 +1119,88 @@ def damping_sigma(fit: ModalFit) -> np.ndarray:
     return np.maximum(std, DAMPING_SIGMA_FLOOR_REL * fit.damping_ratio)
 
 
-def frequency_sigma(fit: ModalFit, freq) -> np.ndarray:
-    """Standard deviations (Hz) of the fitted frequencies for weighting an identification.
+def window_time_constant(fs) -> float | None:
+    """The exponential window's time constant (s) of an FRF set's acquisition settings, if
+    recorded (``exp_window_s``, laminid_cli.frf.store)."""
+    try:
+        value = float((fs.meta.get("settings") or {}).get("exp_window_s"))
+    except (TypeError, ValueError):
+        return None
+    return value if np.isfinite(value) and value > 0 else None
 
-    The spread over the stable orders, floored at 1 % of the line spacing so that a noise-free
-    fit does not produce infinite weights.
+
+#: default relative floor of a measured frequency's standard deviation (as identify's
+#: --sigma-rel): what limits a natural frequency beyond the FRF itself (supports, temperature,
+#: transducer mass, repeatability)
+DEFAULT_SIGMA_REL = 0.002
+#: names of the terms of :func:`measurement_sigma`
+SIGMA_TERMS = ("rfp spread", "resolution", "window", "floor")
+
+
+@dataclass(frozen=True)
+class MeasurementSigma:
+    """Standard deviation of each fitted natural frequency as a measurement uncertainty.
+
+    sigma_hz : (n_modes,) Hz, ``max(sqrt(spread^2 + resolution^2 + window^2), floor)``
+    terms : {name: (n_modes,) Hz} for the names of :data:`SIGMA_TERMS`
+    dominant : per mode, the name of the largest term
+    sigma_rel : the relative floor used
     """
+
+    sigma_hz: np.ndarray
+    terms: dict
+    dominant: tuple[str, ...]
+    sigma_rel: float
+
+    def summary(self) -> str:
+        """One line: the rule and which term dominated how many modes."""
+        counts = {t: self.dominant.count(t) for t in SIGMA_TERMS if t in self.dominant}
+        dom = ", ".join(f"{t} {n}" for t, n in counts.items())
+        return (f"fit-frf: sqrt(RFP spread^2 + resolution^2 + window^2), at least "
+                f"{self.sigma_rel * 100:.3g} % of f (--sigma-rel); dominated by: {dom} "
+                f"(modes)")
+
+
+def measurement_sigma(fit: ModalFit, freq, *, sigma_rel: float = DEFAULT_SIGMA_REL,
+                      exp_window_s: float | None = None) -> MeasurementSigma:
+    """What limits each fitted natural frequency, as a standard deviation (Hz).
+
+    Terms (combined in quadrature as independent standard uncertainties, GUM):
+
+    - RFP spread: the standard deviation of the frequency over the stable model orders (the
+      fitter's own precision);
+    - resolution: ``df / sqrt(12)``, a uniform distribution over one line spacing ``df`` —
+      what the frequency grid can resolve whatever the fit interpolates;
+    - window: with an exponential response window of time constant ``tau`` (impact testing,
+      ``exp_window_s`` in the FRF file's settings) every pole's decay rate is raised by
+      ``1/tau``; the fitted ``f_n = |pole| / 2 pi`` is then above the unwindowed one by
+      ``(|pole| - sqrt(omega_d^2 + (zeta omega_n - 1/tau)^2)) / 2 pi`` (0 without a window);
+
+    and the result is floored at ``sigma_rel * f`` (the user's floor: supports, temperature,
+    repeatability — what the FRF cannot show). ``dominant`` names the largest term per mode.
+    """
+    n = len(fit.modes)
+    f = fit.freq_hz if n else np.zeros(0)
     df = float(np.median(np.diff(np.asarray(freq, dtype=float))))
-    return np.maximum(fit.freq_std_hz, 0.01 * df) if fit.modes else np.zeros(0)
+    spread = np.nan_to_num(np.asarray(fit.freq_std_hz, float)) if n else np.zeros(0)
+    resolution = np.full(n, df / np.sqrt(12.0))
+    window = np.zeros(n)
+    if exp_window_s is not None and np.isfinite(exp_window_s) and exp_window_s > 0 and n:
+        wn = 2 * np.pi * f
+        zeta = np.asarray(fit.damping_ratio, float)
+        wd = wn * np.sqrt(np.clip(1 - zeta**2, 0, None))
+        sig = np.clip(zeta * wn - 1.0 / exp_window_s, 0, None)
+        window = np.abs(wn - np.sqrt(wd**2 + sig**2)) / (2 * np.pi)
+    floor = sigma_rel * f
+    combined = np.sqrt(spread**2 + resolution**2 + window**2)
+    sigma = np.maximum(combined, floor)
+    terms = {"rfp spread": spread, "resolution": resolution, "window": window, "floor": floor}
+    stack = np.vstack([terms[t] for t in SIGMA_TERMS]) if n else np.zeros((4, 0))
+    dominant = tuple(SIGMA_TERMS[int(k)] for k in np.argmax(stack, axis=0))
+    return MeasurementSigma(sigma_hz=sigma, terms=terms, dominant=dominant,
+                            sigma_rel=float(sigma_rel))
+
+
+def frequency_sigma(fit: ModalFit, freq, **kwargs) -> np.ndarray:
+    """Standard deviations (Hz) of the fitted frequencies: :func:`measurement_sigma`."""
+    return measurement_sigma(fit, freq, **kwargs).sigma_hz

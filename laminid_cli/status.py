@@ -1,0 +1,200 @@
+"""Status of an identification result: ``ok`` or ``check``, with the reasons in codes and words.
+
+:func:`result_status` is a pure function of the identification (single or joint) and its
+uncertainty assessment. A result is ``ok`` when no reason applies, ``check`` otherwise; the
+reasons (stable lowercase codes, one entry per code, the words name the constants):
+
+``not_converged``
+    the optimiser stopped without converging (``laminid identify`` exits 1 for this one).
+``at_bound``
+    a free constant ended on a limit of the search (laminid_cli.uncertainty.bounds_reached),
+    or the optimum sits on a feasibility constraint: that constant is not identified.
+``undetermined``
+    a free constant's 95 % half-width exceeds ``--max-rel-interval`` of its value (flagged by
+    the uncertainty assessment): the modes do not determine it.
+``poor_fit``
+    chi2 of the residuals is above its 99 % quantile for the degrees of freedom (s2 beyond
+    its 99 % limit): the model misses the data by more than the stated frequency noise —
+    plates that disagree (joint), model error, or frequency sigmas that are too small.
+``implausible``
+    a combination a mechanics reader would reject, judged on the identified values of free
+    constants that are not at a bound:
+
+    - **G23 > E2.** A transversely isotropic ply has G23 = E2 / (2 (1 + nu23)); with
+      nu23 >= 0 (every fibre composite) G23 <= E2 / 2, and G23 > E2 needs nu23 < -1/2.
+    - **G13 > 2 G12 or G23 > 2 G12.** Transverse isotropy gives G13 = G12, and
+      G23 = E2 / (2 (1 + nu23)) stays below G12 for carbon and glass plies; for an
+      equivalent single layer the transverse shear moduli are thickness averages of the plies'
+      G13, G23, themselves <= the ply G12 <= the laminate's in-plane Gxy. A factor 2 leaves
+      room for real scatter.
+    - **nu12 < 0.** A fibre/matrix ply has nu12 = Vf nu_f + (1 - Vf) nu_m > 0 (rule of
+      mixtures; fibres and matrices have positive Poisson ratios). A laminate of such plies
+      cannot produce a negative in-plane nu_xy either: A12 = sum t_k Q12(theta_k) with
+      Q12(theta) = Q12 (c^4 + s^4) + (Q11 + Q22 - 4 Q66) s^2 c^2 > 0 whenever Q12 > 0 and
+      Q11 + Q22 > 4 Q66 (fibre plies), so nu_xy = A12 / A22 > 0.
+``modes_swapped``
+    the final pairing of measured and model modes is not in sorted order (MAC tracking
+    re-ordered them): check the mode identification against the mode shapes.
+
+No click, no h5py: library code. Texts use GPa for moduli; the numbers in files are SI.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+OK = "ok"
+CHECK = "check"
+#: reason codes, in the order they are listed
+CODES = ("not_converged", "at_bound", "undetermined", "poor_fit", "implausible",
+         "modes_swapped")
+#: a transverse shear modulus above this multiple of G12 is implausible (module docstring)
+SHEAR_RATIO_LIMIT = 2.0
+
+
+@dataclass(frozen=True)
+class Reason:
+    code: str
+    text: str
+
+
+@dataclass(frozen=True)
+class ResultStatus:
+    """``status`` "ok" | "check" and the reasons (empty when ok), in :data:`CODES` order."""
+
+    status: str
+    reasons: tuple[Reason, ...] = ()
+
+    @property
+    def codes(self) -> tuple[str, ...]:
+        return tuple(r.code for r in self.reasons)
+
+    @property
+    def texts(self) -> tuple[str, ...]:
+        return tuple(r.text for r in self.reasons)
+
+    def as_dict(self) -> dict:
+        """JSON keys ``status`` and ``reasons`` (results.py, schema version 2)."""
+        return {"status": self.status,
+                "reasons": [{"code": r.code, "text": r.text} for r in self.reasons]}
+
+    def line(self) -> str:
+        """One line for tables: "ok" or "check: at_bound, poor_fit"."""
+        return self.status if not self.reasons else f"{self.status}: {', '.join(self.codes)}"
+
+
+def _gpa(v: float) -> str:
+    return f"{v / 1e9:.3g} GPa"
+
+
+def _plates(result) -> list:
+    return list(getattr(result, "specimens", ())) or [result]
+
+
+def implausible_combinations(result, uncertainty=None) -> list[str]:
+    """The implausible combinations of the module docstring, as sentences (empty: none).
+
+    Only constants that are free (in at least one of the pair) and not at a bound count."""
+    at_bound = set()
+    if uncertainty is not None and uncertainty.at_bound is not None:
+        at_bound = {lab for lab, b in zip(uncertainty.labels, uncertainty.at_bound) if b}
+    out = []
+    for name, c in zip(result.material_names, result.constants):
+        free = set(result.free.get(name, ()))
+        prefix = f"{name}: " if len(result.material_names) > 1 else ""
+
+        def usable(*keys):
+            return any(k in free for k in keys) and not any(f"{name}.{k}" in at_bound
+                                                            for k in keys)
+
+        if usable("G23", "E2") and c.G23 > c.E2:
+            out.append(f"{prefix}G23 = {_gpa(c.G23)} is above E2 = {_gpa(c.E2)} (a transversely "
+                       "isotropic ply has G23 = E2/(2(1+nu23)) <= E2/2)")
+        why = {"G13": "G13 = G12 for a transversely isotropic ply",
+               "G23": "G23 = E2/(2(1+nu23)) stays below G12 for carbon and glass plies"}
+        for k in ("G13", "G23"):
+            v = getattr(c, k)
+            if usable(k, "G12") and v > SHEAR_RATIO_LIMIT * c.G12:
+                out.append(f"{prefix}{k} = {_gpa(v)} is more than {SHEAR_RATIO_LIMIT:g} x G12 = "
+                           f"{_gpa(c.G12)} ({why[k]})")
+        if usable("nu12") and c.nu12 < 0:
+            out.append(f"{prefix}nu12 = {c.nu12:.3f} is negative (fibre plies, and laminates "
+                       "of them, have a positive in-plane Poisson ratio)")
+    return out
+
+
+def swapped_modes(result) -> list[str]:
+    """Per plate, the measured modes paired out of sorted order (empty: none)."""
+    out = []
+    plates = _plates(result)
+    for p in plates:
+        pairing = np.asarray(p.pairing)
+        used = np.asarray(p.weight) > 0
+        bad = [i for i in range(pairing.size) if used[i] and pairing[i] != i]
+        if bad:
+            pairs = ", ".join(f"{i + 1}->{int(pairing[i]) + 1}" for i in bad)
+            who = f"{p.specimen.name}: " if len(plates) > 1 else ""
+            out.append(f"{who}measured -> model mode {pairs}")
+    return out
+
+
+def result_status(result, uncertainty=None) -> ResultStatus:
+    """Status and reasons of an Identification or JointIdentification (module docstring).
+
+    ``uncertainty``: its :class:`laminid_cli.uncertainty.Uncertainty` (None: the reasons that
+    need it — at_bound per constant, undetermined, poor_fit — are judged without it: only the
+    optimiser's bound hits count).
+    """
+    found: dict[str, list[str]] = {}
+
+    def add(code, text):
+        found.setdefault(code, []).append(text)
+
+    if not result.converged:
+        add("not_converged", f"the optimiser did not converge ({result.status})")
+    u = uncertainty
+    covered = set()
+    if u is not None and u.at_bound is not None:
+        for lab, hit, text in zip(u.labels, u.at_bound, u.bound_text):
+            if hit:
+                add("at_bound", f"{lab}: {text}")
+                covered.add(lab.rsplit(".", 1)[1])
+    hits = []
+    for p in _plates(result):
+        for h in p.bounds_hit:
+            if h not in hits:
+                hits.append(h)
+    if hits and not covered:
+        # the optimiser's own bound hits (on design variables) when no constant explains them
+        add("at_bound", "the optimum is on a limit of the search: " + "; ".join(hits))
+    if u is not None:
+        bound = set(lab for lab, b in zip(u.labels, u.at_bound) if b) \
+            if u.at_bound is not None else set()
+        und = [lab for lab in u.flagged if lab not in bound]
+        if und:
+            rel = dict(zip(u.labels, u.rel_half_width))
+            words = ", ".join(f"{lab} (±{_pct(rel[lab])})" for lab in und)
+            add("undetermined", f"not determined by these modes ({u.confidence * 100:.0f} % "
+                                f"half-width above {u.thresholds['max_rel_interval'] * 100:.0f} %"
+                                f" of the value): {words}")
+        if u.dof > 0 and np.isfinite(u.chi2_limit) and u.chi2 > u.chi2_limit:
+            add("poor_fit", f"the fit misses the data by more than the stated frequency noise: "
+                            f"s2 = {u.s2:.3g} (chi2 {u.chi2:.3g} for {u.dof} degrees of freedom, "
+                            f"99 % limit {u.chi2_limit:.3g}): plates that disagree, model error "
+                            "or frequency sigmas too small")
+    for text in implausible_combinations(result, u):
+        add("implausible", text)
+    sw = swapped_modes(result)
+    if sw:
+        add("modes_swapped", "modes paired out of sorted order (check the mode shapes): "
+                             + "; ".join(sw))
+    reasons = tuple(Reason(code, "; ".join(found[code])) for code in CODES if code in found)
+    return ResultStatus(CHECK if reasons else OK, reasons)
+
+
+def _pct(rel) -> str:
+    if rel is None or not np.isfinite(rel):
+        return "inf"
+    return f"{rel * 100:.0f} %" if rel < 10 else f"{rel:.0f}x"

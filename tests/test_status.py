@@ -1,0 +1,190 @@
+"""Status of a result (laminid_cli.status): the rules, and the same status and reasons in the
+terminal output, --json and the HDF5 file of single and joint identifications. (The batch
+table, summary.csv and summary.json are checked in tests/test_batch.py.)"""
+
+import dataclasses
+import json
+from types import SimpleNamespace
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from scipy import stats
+
+from laminid_cli.cli import cli
+from laminid_cli.forward import build_forward_model
+from laminid_cli.identify import IdentifyOptions
+from laminid_cli.material import ElasticConstants
+from laminid_cli.specimen import Measured, read_specimen
+from laminid_cli.status import result_status
+from laminid_cli.uncertainty import MaterialState, UncertaintyOptions, assess, bounds_reached
+from tests.data.paper import IDENTIFIED, S21
+
+S22 = "specimens/example2/S2.2.yaml"
+MAT = "E-glass/R368"
+GPa = 1e9
+
+
+def run(*args):
+    return CliRunner().invoke(cli, [str(a) for a in args])
+
+
+def fake(constants, free=("E1", "E2", "G12", "G13", "G23", "nu12"), pairing=(0, 1, 2),
+         converged=True):
+    """The fields of an Identification that result_status reads."""
+    return SimpleNamespace(
+        material_names=("m",), constants=(constants,), free={"m": tuple(free)},
+        converged=converged, status="converged (objective tolerance reached)" if converged
+        else "stopped: maximum evaluations reached", bounds_hit=(), pairing=np.array(pairing),
+        weight=np.ones(len(pairing)), specimen=SimpleNamespace(name="P"))
+
+
+# --- the rules ----------------------------------------------------------------------------------
+
+def test_a_plausible_converged_result_without_uncertainty_is_ok():
+    st = result_status(fake(ElasticConstants(150e9, 9e9, 5e9, 5e9, 3.5e9, 0.3)))
+    assert st.status == "ok" and st.reasons == () and st.as_dict() == {"status": "ok",
+                                                                         "reasons": []}
+
+
+def test_implausible_combinations_are_named_with_their_values():
+    st = result_status(fake(ElasticConstants(150e9, 9e9, 5e9, 11e9, 14e9, -0.1)))
+    assert st.status == "check" and st.codes == ("implausible",)
+    text = st.reasons[0].text
+    assert "G23 = 14 GPa is above E2 = 9 GPa" in text
+    assert "G13 = 11 GPa is more than 2 x G12 = 5 GPa" in text
+    assert "G23 = 14 GPa is more than 2 x G12" in text
+    assert "nu12 = -0.100 is negative" in text
+    # just inside each limit: nothing
+    assert result_status(fake(ElasticConstants(150e9, 9e9, 5e9, 9.9e9, 8.9e9, 0.0))).status == "ok"
+    # fixed constants are the user's: not judged
+    st = result_status(fake(ElasticConstants(150e9, 9e9, 5e9, 11e9, 14e9, -0.1),
+                            free=("E1",)))
+    assert st.status == "ok"
+
+
+def test_modes_out_of_sorted_order_and_non_convergence():
+    st = result_status(fake(ElasticConstants(150e9, 9e9, 5e9, 5e9, 3.5e9, 0.3),
+                            pairing=(0, 2, 1), converged=False))
+    assert st.codes == ("not_converged", "modes_swapped")
+    assert "maximum evaluations reached" in st.reasons[0].text
+    assert "measured -> model mode 2->3, 3->2" in st.reasons[1].text
+
+
+def test_bounds_reached_on_the_constants_themselves():
+    c0 = ElasticConstants(117.2e9, 8.8e9, 3.1e9, 3.1e9, 3.1e9, 0.35)
+    c = ElasticConstants(5 * 117.2e9, 117.2e9 * 5, 3.1e9, 1e-4 * 117.2e9 * 5 * 1.01, 3.1e9 / 5,
+                         -0.95)
+    hits = bounds_reached([MaterialState("m", c, c0, ("E1", "E2", "G12", "G13", "G23", "nu12"),
+                                         {})])
+    assert set(hits) == {"m.E1", "m.E2", "m.G13", "m.G23", "m.nu12"}
+    assert hits["m.E1"].side == "upper" and hits["m.E1"].limit == pytest.approx(5 * 117.2e9)
+    assert hits["m.E2"].text.endswith("E2 >= E1 (586 GPa)")
+    assert hits["m.G13"].side == "lower" and "G13 <= 0.0001 E1" in hits["m.G13"].text
+    assert hits["m.G23"].text.endswith("G23 <= initial / 5 (0.62 GPa)")
+    assert hits["m.nu12"].text == "at its bound — not identified: nu12 <= -0.95"
+
+
+def test_noise_free_synthetic_data_with_the_weak_constants_fixed_are_ok():
+    spec = read_specimen(S21)
+    fm = build_forward_model(spec, (4, 4))
+    truth = ElasticConstants(**IDENTIFIED[S21][MAT])
+    f = fm.solve([truth], 12).freq
+    spec = dataclasses.replace(spec, measured=Measured(freq=f, weight=np.ones(12)))
+    fm = dataclasses.replace(fm, specimen=spec)
+    a = assess(fm, IdentifyOptions(fix=("G13", "G23", "nu12")), UncertaintyOptions())
+    st = result_status(a.result, a.uncertainty)
+    assert st.status == "ok", st.reasons
+    # G13, G23, nu12 held at the initial guess, not the truth: a small misfit, inside the noise
+    assert not a.uncertainty.at_bound.any() and a.uncertainty.s2 < 1.0
+
+
+# --- the same status everywhere -----------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def s21_check(tmp_path_factory):
+    """S2.1 on a 6x6 mesh: G13 ends at its bound, G23 undetermined, s2 above its 99 % limit."""
+    out = tmp_path_factory.mktemp("status") / "s21.h5"
+    j = run("identify", S21, "--mesh", "6x6", "-o", out, "--json")
+    t = run("identify", S21, "--mesh", "6x6", "--no-output")
+    return j, t, out
+
+
+def test_single_result_status_in_json_hdf5_and_terminal(s21_check):
+    j, t, out = s21_check
+    assert j.exit_code == 0 and t.exit_code == 0, j.output     # converged: 0 even with check
+    d = json.loads(j.output)
+    assert d["status"] == "check"
+    assert [r["code"] for r in d["reasons"]] == ["at_bound", "undetermined", "poor_fit"]
+    assert d["optimizer_status"].startswith("converged")
+    texts = {r["code"]: r["text"] for r in d["reasons"]}
+    assert texts["at_bound"].startswith(f"{MAT}.G13: at its bound — not identified: G13 <= "
+                                        "0.0001 E1")
+    assert texts["undetermined"].endswith(f"{MAT}.G23 (±60 %)")
+    u = d["uncertainty"]
+    ap = u["a_posteriori"]
+    assert ap["chi2_limit_99"] == pytest.approx(stats.chi2.ppf(0.99, ap["dof"]), rel=1e-12)
+    assert ap["chi2"] > 2 * ap["chi2_limit_99"] and ap["dof"] == 7      # 12 modes, 5 inside
+    g13 = u["constants"][MAT]["G13"]
+    assert g13["at_bound"] is True and g13["lower"] is None and g13["upper"] is None
+    assert g13["verdict"] == "at bound — not identified" and g13["scale"] == "log"
+    e1 = u["constants"][MAT]["E1"]
+    assert e1["lower"] < e1["value"] < e1["upper"]
+    assert e1["value"] / e1["lower"] == pytest.approx(e1["upper"] / e1["value"], rel=1e-9)
+    with h5py.File(out) as f:
+        assert f.attrs["status"] == "check" and f.attrs["schema_version"] == 2
+        assert f.attrs["optimizer_status"] == d["optimizer_status"]
+        assert [c.decode() for c in f["status"]["codes"][()]] == ["at_bound", "undetermined",
+                                                                  "poor_fit"]
+        assert [x.decode() for x in f["status"]["texts"][()]] == [r["text"] for r in d["reasons"]]
+        g = f["uncertainty"]
+        labels = [x.decode() for x in g["labels"][()]]
+        k = labels.index(f"{MAT}.G13")
+        assert bool(g["at_bound"][k]) and np.isnan(g["lower"][k]) and np.isnan(g["upper"][k])
+        assert g["bound_text"][k].decode() == g13["bound_text"]
+        assert [x.decode() for x in g["scale"][()]] == ["log"] * 5 + ["linear"]
+    lines = t.output.splitlines()
+    assert lines[3] == "status: CHECK — 3 reasons"
+    assert lines[4].startswith("  at_bound: E-glass/R368.G13: at its bound")
+    assert lines[6].startswith("  poor_fit: the fit misses the data")
+    g13_row = next(line for line in lines if line.startswith("  G13 [GPa]"))
+    assert "at its bound — not identified: G13 <= 0.0001 E1" in g13_row and "[!]" in g13_row
+
+
+def test_non_convergence_is_a_check_and_exits_1(tmp_path):
+    r = run("identify", S21, "--mesh", "6x6", "--max-evaluations", "3", "--json", "-o",
+            tmp_path / "nc.h5")
+    assert r.exit_code == 1
+    d = json.loads(r.stdout)
+    assert d["status"] == "check" and d["reasons"][0]["code"] == "not_converged"
+    with h5py.File(tmp_path / "nc.h5") as f:
+        assert f.attrs["status"] == "check" and f["status"]["codes"][0].decode() == \
+            "not_converged"
+
+
+def test_joint_result_status_in_json_hdf5_and_terminal(tmp_path):
+    out = tmp_path / "joint.h5"
+    r = run("identify", S21, S22, "--joint", "--mesh", "4x4", "-o", out, "--json")
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.stdout)
+    codes = [x["code"] for x in d["reasons"]]
+    assert d["status"] == "check" and codes == ["undetermined", "poor_fit"]
+    ap = d["uncertainty"]["a_posteriori"]
+    assert ap["s2"] > 10 and ap["chi2"] > ap["chi2_limit_99"]      # the two plates disagree
+    assert "optimizer_status" in d and "status" not in d["specimens"]["S2.1"]
+    with h5py.File(out) as f:
+        assert f.attrs["format"] == "laminid-joint-result" and f.attrs["status"] == "check"
+        assert [c.decode() for c in f["status"]["codes"][()]] == codes
+        assert "optimizer_status" in f["specimens"]["S2.1"].attrs
+    t = run("identify", S21, S22, "--joint", "--mesh", "4x4", "--no-output")
+    assert f"status: CHECK — {len(codes)} reasons" in t.output
+    assert "  poor_fit: the fit misses the data" in t.output
+
+
+def test_a_modulus_beyond_a_factor_limit_the_alphas_do_not_impose_is_not_at_a_bound():
+    c0 = ElasticConstants(117.2e9, 8.8e9, 3.1e9, 3.1e9, 3.1e9, 0.35)
+    c = ElasticConstants(163e9, 10e9, 6.8e9, 0.372e9, 4.4e9, 0.2)     # G13 < 3.1/5 GPa
+    hits = bounds_reached([MaterialState("m", c, c0, ("E1", "E2", "G12", "G13", "G23", "nu12"),
+                                         {})])
+    assert hits == {}
