@@ -261,10 +261,10 @@ def test_killed_batch_leaves_only_complete_files_and_a_rerun_finishes(tmp_path, 
     _wait_first_result(proc, out)
     os.killpg(proc.pid, sig)
     t0 = time.time()
-    proc.communicate(timeout=60)
+    _o, _e = proc.communicate(timeout=60)
     assert time.time() - t0 < 5                          # Ctrl-C stops the workers at once
     if sig == signal.SIGINT:
-        assert proc.returncode == 130
+        assert proc.returncode == 130, _e.decode()[-2000:]
         rows = read_summary(out / "summary.csv")              # the summary of what was done
         assert {r["status"] for r in rows} <= {"ok", "check", "not run"}
         assert sum(r["status"] in ("ok", "check") for r in rows) >= 1
