@@ -33,8 +33,9 @@ from laminid_cli.errors import FitInputError
 from laminid_cli.forward import residuals_percent, weighted_rms
 from laminid_cli.identify import (Evaluation, Identification, IdentifyOptions, Problem,
                                   VariableSet, refused_evaluation,
-                                  _result, run_optimizer)
+                                  _result, run_optimizer, work_since)
 from laminid_cli.material import CONSTANT_NAMES, ElasticConstants
+from laminid_cli.modal import WORK
 
 
 @dataclass(frozen=True)
@@ -66,6 +67,7 @@ class JointIdentification:
     warnings: tuple[str, ...]
     merged_fixed: dict                       # material -> constants fixed in only some files
     options: IdentifyOptions = field(default_factory=IdentifyOptions)
+    work: dict = field(default_factory=dict)   # as Identification.work
 
     @property
     def specimen_names(self) -> tuple[str, ...]:
@@ -224,6 +226,37 @@ class JointProblem(VariableSet):
             sub.adopt(part)
         self.best, self.cache = ev, (ev.x.tobytes(), ev)
 
+    # --- reduced-order model: one basis per plate (as Problem) ---------------------------------
+    @property
+    def reduced(self) -> bool:
+        return self.subs[0].reduced
+
+    def start_reduced(self, ev, basis=None) -> None:
+        for k, (sub, part) in enumerate(zip(self.subs, ev.parts)):
+            sub.start_reduced(part, None if basis is None else basis[k])
+        self.cache = None
+
+    def enrich(self, ev, rounds: int = 2, target: float = 0.0) -> float:
+        change = max(sub.enrich(part, rounds, target) for sub, part in zip(self.subs, ev.parts))
+        self.n_enrich += 1
+        self.cache = None
+        bounds = [sub.final_bound for sub in self.subs]
+        self.final_bound = (ev.x.tobytes(), np.concatenate([b[1] for b in bounds]),
+                            max(b[2] for b in bounds))
+        return change
+
+    def bound_at(self, x):
+        return Problem.bound_at(self, x)
+
+    def use_full(self) -> None:
+        for sub in self.subs:
+            sub.use_full()
+        self.cache = None
+
+    @property
+    def basis(self):
+        return [sub.basis for sub in self.subs]
+
     def describe(self) -> str:
         return "joint identification of " + ", ".join(str(fm.specimen.path) for fm in self.fms)
 
@@ -241,8 +274,22 @@ class JointProblem(VariableSet):
             return self.cache[1]
         evs = [sub.evaluate(x[idx]) for sub, idx in zip(self.subs, self.index)]
         if any(e.refused for e in evs):
-            self.n_refused += 1
             return refused_evaluation(self, x, ["not positive definite"])
+        return self._combine(x, evs)
+
+    def final_check(self, ev):
+        """As Problem.final_check, plate by plate."""
+        parts = [sub.final_check(part) for sub, part in zip(self.subs, ev.parts)]
+        self.cache = None
+        out = self._combine(np.asarray(ev.x, float), parts)
+        bounds = [sub.final_bound for sub in self.subs]
+        self.final_bound = (out.x.tobytes(), np.concatenate([b[1] for b in bounds]),
+                            max(b[2] for b in bounds))
+        return out
+
+    def _combine(self, x, evs):
+        """The joint evaluation from the plates' evaluations at ``x``."""
+        key = x.tobytes()
         objective = sum(ev.objective for ev in evs)
         gradient = np.zeros(self.n_vars)
         dlam_dx = np.zeros((self.n_meas, self.n_vars))
@@ -278,8 +325,10 @@ def identify_joint(fms, options: IdentifyOptions = IdentifyOptions(), progress=N
     :func:`check_shared_materials`).
     """
     t0 = time.perf_counter()
+    work0 = dict(WORK)
     prob = JointProblem(fms, options, start=start, start_pairing=start_pairing)
     ev, converged, status, warnings, initial_rms = run_optimizer(prob, progress)
+    work = work_since(work0, prob)
     dt = time.perf_counter() - t0
     per_plate = []
     for sub, idx in zip(prob.subs, prob.index):
@@ -307,4 +356,4 @@ def identify_joint(fms, options: IdentifyOptions = IdentifyOptions(), progress=N
                  "x": np.array([h[3] for h in hist]),
                  "constants": np.array([h[4] for h in hist])},
         swaps=swaps, warnings=tuple(list(warnings) + notes + bounds),
-        merged_fixed=dict(prob.merged_fixed), options=options)
+        merged_fixed=dict(prob.merged_fixed), options=options, work=work)
