@@ -608,9 +608,7 @@ def run_optimizer(prob, progress=None):
 MAX_ENRICH = 40
 #: initial trust radius (Gauss-Newton-scaled variables: a step of 1 changes the objective by
 #: about its value) and its growth when the reduced model predicted the decrease well
-RADIUS0 = 2.0
-#: the reduced model's evaluations are cheap: its optimiser runs converge this much tighter
-REDUCED_FTOL = 1e-2
+RADIUS0 = 8.0
 #: Gauss-Newton damping of the reduced stages: each restarts the optimiser (its quasi-Newton
 #: memory is lost), so its scaling must be the Gauss-Newton Hessian itself for the first step
 #: to reach along flat valleys; the trust region bounds the step instead
@@ -643,18 +641,15 @@ def _optimize_reduced(prob, ev_c, progress=None):
     radius = RADIUS0
     converged, status = False, "not converged: reduced model did not settle"
     for _ in range(MAX_ENRICH):
-        remaining = options.max_evaluations - prob.n_eval - 1      # one kept for the finish
-        if remaining < 2:
-            status = (f"not converged: {options.max_evaluations} evaluations reached (raise "
-                      "--max-evaluations or loosen --xtol/--ftol)")
-            break
+        # each optimiser run on the reduced model has the evaluation budget of a full-model
+        # run, less the start's evaluation and the final check's
+        n_before = prob.n_eval
+        budget = max(options.max_evaluations - 2, 1)
         ev_t, inner_conv, inner_status = _optimize_from(prob, ev_c, progress, radius=radius,
-                                                        maxeval=remaining,
-                                                        ftol_rel=REDUCED_FTOL * options.ftol_rel,
-                                                        xtol=REDUCED_FTOL * options.xtol_rel,
+                                                        maxeval=budget,
                                                         damping=REDUCED_DAMPING)
         step = prob.last_step
-        if prob.n_eval >= options.max_evaluations - 1:
+        if prob.n_eval - n_before >= budget:
             converged, status = False, inner_status
             ev_c = ev_t if ev_t.objective <= ev_c.objective else ev_c
             break

@@ -131,10 +131,13 @@ class ReducedBasis:
         """Mass-weighted MAC (n_ref, k) between full vectors ``phi_ref`` and the Ritz vectors
         of reduced eigenvectors ``Y`` (Mr-orthonormal): through ``V^T M phi_ref``, which is exact
         for vectors in the span of V (earlier Ritz vectors: the basis only grows)."""
-        P = self.MV.T @ phi_ref                              # (r, n_ref)
-        num = (P.T @ Y) ** 2
-        den = np.einsum("ij,ij->j", phi_ref, self.M @ phi_ref)[:, None]
-        return num / den
+        cached = getattr(self, "_mac_ref", None)
+        if cached is None or cached[0] is not phi_ref or cached[1] != self.size:
+            P = self.MV.T @ phi_ref                          # (r, n_ref)
+            den = np.einsum("ij,ij->j", phi_ref, self.M @ phi_ref)[:, None]
+            self._mac_ref = cached = (phi_ref, self.size, P, den)
+        P, den = cached[2], cached[3]
+        return (P.T @ Y) ** 2 / den
 
     def enrich(self, coef: np.ndarray, k: int, rounds: int = 2, target: float = 0.0):
         """Enrich the basis at ``coef`` with the preconditioned residuals of the lowest ``k``
