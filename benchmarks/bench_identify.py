@@ -53,7 +53,7 @@ def unit_costs(fm, n_modes):
     return t_factor, t_pair, t_full, WORK["solve_pairs"]
 
 
-def bench(path, mesh):
+def bench(path, mesh, repeat=REPEAT):
     spec = read_specimen(path)
     fm = build_forward_model(spec, mesh)
     n = spec.measured.freq.size + IdentifyOptions().extra_modes
@@ -62,7 +62,7 @@ def bench(path, mesh):
     rows = {}
     for solver in ("reduced", "full"):
         runs = []
-        for _ in range(REPEAT):
+        for _ in range(repeat):
             fm = build_forward_model(spec, mesh)
             reset_work()
             t = time.perf_counter()
@@ -106,8 +106,9 @@ if __name__ == "__main__":
     ap.add_argument("spec", nargs="?", default=str(ROOT / "specimens/example1/S1.1.yaml"))
     ap.add_argument("--meshes", default="8,12,16,24")
     ap.add_argument("--no-cli", action="store_true")
+    ap.add_argument("--repeat", type=int, default=REPEAT, help="identifications per row")
     a = ap.parse_args()
     for m in a.meshes.split(","):
-        bench(a.spec, (int(m), int(m)))
+        bench(a.spec, (int(m), int(m)), a.repeat)
     if not a.no_cli:
         cli_ratio(a.spec)

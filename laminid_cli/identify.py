@@ -145,6 +145,9 @@ class Identification:
     error_bound: np.ndarray | None = None
     #: work of the run: factorisations, solve pairs, Lanczos runs, enrichments
     work: dict = field(default_factory=dict)
+    #: the reduced basis at the end (laminid_cli.reduced.ReducedBasis; None with the full
+    #: solver), for re-identifications of the same plate to start from
+    basis: object = field(default=None, repr=False, compare=False)
 
 
 class VariableSet:
@@ -193,7 +196,7 @@ class Problem(VariableSet):
     """Objective, gradient and constraints of one identification, with evaluation cache."""
 
     def __init__(self, fm: ForwardModel, options: IdentifyOptions, *, start=None,
-                 start_pairing=None, check_count: bool = True):
+                 start_pairing=None, check_count: bool = True, basis=None):
         """``start``: constants (one ElasticConstants per material, ``fm.material_names`` order)
         to start from instead of the file's initial values, which stay the reference of the
         design variables, the prior and the fixed constants (a Monte Carlo re-identification
@@ -246,6 +249,8 @@ class Problem(VariableSet):
                                 f"{len(self.params)} materials")
         self.start_pairing = None if start_pairing is None else np.asarray(start_pairing, int)
         self.basis = None                # ReducedBasis while the reduced model is in use
+        self.given_basis = basis         # a basis to start from (reduced solver)
+        self._last_basis = None
         self._new_run()
 
     # --- variables ---------------------------------------------------------------------------
@@ -334,14 +339,12 @@ class Problem(VariableSet):
             return self.start_pairing.copy(), ""
         if self.options.pairing == "sorted" or self.best is None:
             return sorted_pairing, ""
-        from scipy.optimize import linear_sum_assignment
 
         if Y is not None:                                            # reduced model
             M = self.basis.mac(self.best.phi, Y)
         else:
             M = mac(self.best.phi, modes.phi, self.fm.plate.M)       # (n_meas, n_model)
-        rows, cols = linear_sum_assignment(-M)
-        pairing = cols[np.argsort(rows)]
+        pairing = max_assignment(M)
         weak = M[np.arange(self.n_meas), pairing] < 0.5
         if weak.any():
             log.debug("mode tracking uncertain for measured mode(s) %s (MAC < 0.5)",
@@ -366,7 +369,11 @@ class Problem(VariableSet):
         if basis is None:
             basis = ReducedBasis(self.fm)
             basis.add(ev.modes.phi)
-        self.basis = basis
+            if SENSITIVITY_START:
+                coef = np.array([p.coef_jacobian(xk)[0]
+                                 for p, xk in zip(self.params, self.split(ev.x))])
+                basis.add_sensitivities(coef, ev.modes.phi)
+        self.basis = self._last_basis = basis
         self.cache = None
 
     def enrich(self, ev: Evaluation, rounds: int = 2, target: float = 0.0) -> float:
@@ -415,6 +422,11 @@ class Problem(VariableSet):
         self.basis = None
         self.cache = None
 
+    @property
+    def last_basis(self):
+        """The basis in use, or the one given / built before a final full solve."""
+        return self.basis if self.basis is not None else self._last_basis
+
     # --- pairing state, for run_optimizer's re-anchoring -----------------------------------------
     def sorted_pairing(self) -> np.ndarray:
         return np.arange(self.n_meas)
@@ -447,6 +459,20 @@ class Problem(VariableSet):
                 j = self.offsets[k] + p.free.index(name)
                 grad[j] += 2 * wp * dev * scale[i] / ref
         return value, grad
+
+
+def max_assignment(M: np.ndarray) -> np.ndarray:
+    """Column matched to each row of ``M`` (n_rows <= n_cols, entries in [0, 1], e.g. MAC
+    values) so that the sum of the matched entries is largest, one column per row.
+
+    ``min_weight_full_bipartite_matching`` on ``2 - M`` (every edge present, weights > 0): the
+    assignment of ``scipy.optimize.linear_sum_assignment(-M)`` without importing
+    scipy.optimize (checked in tests/test_identify_reduced.py)."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import min_weight_full_bipartite_matching
+
+    rows, cols = min_weight_full_bipartite_matching(sp.csr_matrix(2.0 - np.asarray(M, float)))
+    return cols[np.argsort(rows)]
 
 
 def variables_of(params, constants: ElasticConstants) -> np.ndarray:
@@ -505,17 +531,18 @@ def check_start(problem: Problem, ev: Evaluation) -> list[str]:
 
 
 def identify(fm: ForwardModel, options: IdentifyOptions = IdentifyOptions(),
-             progress=None, *, start=None, start_pairing=None) -> Identification:
+             progress=None, *, start=None, start_pairing=None, basis=None) -> Identification:
     """Identify the constants of every material of ``fm.specimen`` (see module docstring).
 
     ``progress(evaluation, objective, rms_percent)`` is called after each model evaluation.
     Raises FitError for hopeless input; a run that stops before convergence returns with
     ``converged = False`` and a status message. ``start``/``start_pairing``: see
-    :class:`Problem`.
+    :class:`Problem`. ``basis``: a ReducedBasis of ``fm`` to start the reduced solver from
+    (e.g. ``earlier_result.basis.copy()``: no full solve at the start).
     """
     t0 = time.perf_counter()
     work0 = dict(WORK)
-    prob = Problem(fm, options, start=start, start_pairing=start_pairing)
+    prob = Problem(fm, options, start=start, start_pairing=start_pairing, basis=basis)
     ev, converged, status, warnings, initial_rms = run_optimizer(prob, progress)
     prob.work = work_since(work0, prob)
     return _result(prob, ev, converged, status, warnings, initial_rms, time.perf_counter() - t0)
@@ -563,6 +590,8 @@ def run_optimizer(prob, progress=None):
         raise FitInputError(f"{prob.describe()}: the initial constants (with the fixed ones) are "
                        "outside the feasible region of Eq. 22 (E2 <= E1, |nu12| < "
                        f"{options.nu_max}, positive moduli)")
+    if options.solver == "reduced" and prob.given_basis is not None:
+        prob.start_reduced(None, prob.given_basis)
     ev0 = prob.evaluate(x0)
     warnings = prob.check_start(ev0)
     initial_rms = prob.history[0][2]
@@ -604,6 +633,11 @@ def run_optimizer(prob, progress=None):
     return ev, converged, status, warnings, initial_rms
 
 
+#: the start's basis also holds the first-order mode changes in every stiffness coefficient
+#: (ReducedBasis.add_sensitivities). Off: it halves the evaluations and saves 2 factorisations
+#: on S1.1, but its stiff directions raise the round-off floor of the projected eigenvalues to
+#: ~1e-8 relative (seen in central differences); the Monte Carlo trials use it at the optimum
+SENSITIVITY_START = False
 #: most enrichments of one reduced-model stage
 MAX_ENRICH = 40
 #: initial trust radius (Gauss-Newton-scaled variables: a step of 1 changes the objective by
@@ -682,8 +716,9 @@ def _optimize_reduced(prob, ev_c, progress=None):
         # the step is within the step tolerance
         if change <= options.reduced_tol and step <= STEP_TOL:
             converged, status = inner_conv, inner_status
-            if ev_c is not ev_t2 and ev_t2.objective <= ev_c.objective * (1 + 1e-10):
-                ev_c = ev_t2             # as good within round-off, and enriched there
+            if ev_c is not ev_t2 and ev_t2.objective <= ev_c.objective * (1 + 1e-9):
+                ev_c = ev_t2             # as good within a 1e-9 of the objective (a step of
+                #                          < STEP_TOL), and enriched there: no new factorisation
                 prob.adopt(ev_c)
             break
     return ev_c, converged, status
@@ -870,7 +905,8 @@ def _result(prob: Problem, ev: Evaluation, converged, status, warnings, initial_
                  "constants": np.array([h[4] for h in hist])},
         swaps=tuple(prob.swaps), bounds_hit=tuple(hit), warnings=tuple(warnings),
         global_properties=lam.global_properties().as_dict(), options=prob.options,
-        error_bound=_error_bound(prob, ev), work=dict(getattr(prob, "work", {})))
+        error_bound=_error_bound(prob, ev), work=dict(getattr(prob, "work", {})),
+        basis=prob.last_basis)
 
 
 def _error_bound(prob, ev) -> np.ndarray:

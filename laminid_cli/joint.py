@@ -68,6 +68,7 @@ class JointIdentification:
     merged_fixed: dict                       # material -> constants fixed in only some files
     options: IdentifyOptions = field(default_factory=IdentifyOptions)
     work: dict = field(default_factory=dict)   # as Identification.work
+    basis: object = field(default=None, repr=False, compare=False)   # one per plate
 
     @property
     def specimen_names(self) -> tuple[str, ...]:
@@ -138,7 +139,8 @@ class JointProblem(VariableSet):
     weights and ``dlam_dx`` over the plates' measured modes.
     """
 
-    def __init__(self, fms, options: IdentifyOptions, *, start=None, start_pairing=None):
+    def __init__(self, fms, options: IdentifyOptions, *, start=None, start_pairing=None,
+                 basis=None):
         fms = tuple(fms)
         if len(fms) < 2:
             raise FitInputError("joint identification needs two or more specimens")
@@ -202,6 +204,7 @@ class JointProblem(VariableSet):
             raise FitInputError(f"joint identification: {n_active} weighted frequencies for "
                                 f"{self.n_vars} free constants; measure more modes or fix "
                                 "constants (--fix nu12,G13,G23)")
+        self.given_basis = None if basis is None else list(basis)
         self._new_run()
 
     # --- variables (as Problem) ---------------------------------------------------------------
@@ -232,9 +235,14 @@ class JointProblem(VariableSet):
         return self.subs[0].reduced
 
     def start_reduced(self, ev, basis=None) -> None:
-        for k, (sub, part) in enumerate(zip(self.subs, ev.parts)):
+        parts = ev.parts if ev is not None else [None] * len(self.subs)
+        for k, (sub, part) in enumerate(zip(self.subs, parts)):
             sub.start_reduced(part, None if basis is None else basis[k])
         self.cache = None
+
+    @property
+    def last_basis(self):
+        return [sub.last_basis for sub in self.subs]
 
     def enrich(self, ev, rounds: int = 2, target: float = 0.0) -> float:
         change = max(sub.enrich(part, rounds, target) for sub, part in zip(self.subs, ev.parts))
@@ -315,7 +323,7 @@ class JointProblem(VariableSet):
 
 
 def identify_joint(fms, options: IdentifyOptions = IdentifyOptions(), progress=None, *,
-                   start=None, start_pairing=None) -> JointIdentification:
+                   start=None, start_pairing=None, basis=None) -> JointIdentification:
     """Identify one set of constants per material from several plates at once.
 
     ``fms``: ForwardModels of the plates (same mesh advised). ``progress(evaluation, objective,
@@ -326,7 +334,7 @@ def identify_joint(fms, options: IdentifyOptions = IdentifyOptions(), progress=N
     """
     t0 = time.perf_counter()
     work0 = dict(WORK)
-    prob = JointProblem(fms, options, start=start, start_pairing=start_pairing)
+    prob = JointProblem(fms, options, start=start, start_pairing=start_pairing, basis=basis)
     ev, converged, status, warnings, initial_rms = run_optimizer(prob, progress)
     work = work_since(work0, prob)
     dt = time.perf_counter() - t0
@@ -356,4 +364,5 @@ def identify_joint(fms, options: IdentifyOptions = IdentifyOptions(), progress=N
                  "x": np.array([h[3] for h in hist]),
                  "constants": np.array([h[4] for h in hist])},
         swaps=swaps, warnings=tuple(list(warnings) + notes + bounds),
-        merged_fixed=dict(prob.merged_fixed), options=options, work=work)
+        merged_fixed=dict(prob.merged_fixed), options=options, work=work,
+        basis=prob.last_basis if prob.options.solver == "reduced" else None)

@@ -21,6 +21,8 @@ bound stays valid for the enriched Ritz values.
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import scipy.linalg as sla
 
@@ -57,6 +59,18 @@ class ReducedBasis:
     @property
     def size(self) -> int:
         return self.V.shape[1]
+
+    def copy(self) -> "ReducedBasis":
+        """An independent basis with the same vectors (arrays are replaced, never changed in
+        place, so a shallow copy suffices)."""
+        return copy.copy(self)
+
+    @classmethod
+    def from_vectors(cls, fm, V: np.ndarray) -> "ReducedBasis":
+        """A basis of ``fm`` spanning the columns of V (e.g. another process's basis)."""
+        b = cls(fm)
+        b.add(V)
+        return b
 
     def add(self, W: np.ndarray) -> int:
         """Add the directions of W (n, k) not yet in the basis; returns how many were added."""
@@ -103,6 +117,26 @@ class ReducedBasis:
         self.V = np.hstack([self.V, W])
         self.MV = np.hstack([self.MV, MW])
         return k
+
+    def add_sensitivities(self, coef: np.ndarray, phi: np.ndarray) -> int:
+        """Add ``A^-1 K_b phi_i`` for every basis stiffness K_b and mode phi_i (one
+        factorisation of A = K - sigma M at ``coef``): the directions of the first-order change
+        of the modes with every stiffness coefficient, so that the basis follows the modes
+        over a neighbourhood in every parameter direction (the poorly determined constants
+        move far). Returns the directions added."""
+        plate = self.fm.plate
+        coef = np.asarray(coef, float)
+        last = getattr(self, "_factor", None)
+        if last is not None and last[0] == coef.tobytes():
+            K, sigma, solve = last[1:]
+        else:
+            K = plate.stiffness(coef=coef)
+            lam1 = float(phi[:, 0] @ (K @ phi[:, 0]) / (phi[:, 0] @ (self.M @ phi[:, 0])))
+            sigma = -0.5 * lam1
+            solve = self.fm.factorizer.factor(K.data - sigma * plate.M_on_K)
+            self._factor = (coef.tobytes(), K, sigma, solve)
+        rhs = np.hstack([Kb @ phi for Kb in self._Kb])
+        return self.add(solve(rhs))
 
     def eig(self, coef: np.ndarray, k: int):
         """Lowest ``k`` Ritz values and reduced eigenvectors (r, k) at coefficients ``coef``."""

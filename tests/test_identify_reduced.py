@@ -187,3 +187,64 @@ def test_work_counter_counts_one_full_solve():
     assert WORK["factorizations"] - before["factorizations"] == 1
     assert WORK["lanczos_runs"] - before["lanczos_runs"] == 1
     assert WORK["solve_pairs"] - before["solve_pairs"] >= 16
+
+
+# --- start-up: the same numbers without scipy.optimize and scipy.stats ------------------------
+
+def test_max_assignment_is_linear_sum_assignment():
+    from scipy.optimize import linear_sum_assignment
+
+    from laminid_cli.identify import max_assignment
+
+    rng = np.random.default_rng(7)
+    for _ in range(300):
+        M = rng.random((12, 16)) ** 4                  # MAC-like: a few large, many small
+        rows, cols = linear_sum_assignment(-M)
+        np.testing.assert_array_equal(max_assignment(M), cols[np.argsort(rows)])
+    # a near-swap of two modes, and exact zeros (edges must not vanish)
+    M = np.eye(4, 6)
+    M[1:3, 1:3] = [[0.49, 0.51], [0.51, 0.49]]
+    np.testing.assert_array_equal(max_assignment(M), [0, 2, 1, 3])
+
+
+def test_quantiles_equal_scipy_stats():
+    from scipy import stats
+
+    from laminid_cli.quantiles import chi2_ppf, norm_ppf, t_ppf
+
+    for q in (0.975, 0.95, 0.995):
+        assert norm_ppf(q) == pytest.approx(stats.norm.ppf(q), rel=1e-12)
+        for dof in (1, 2, 5, 11.5, 100):
+            assert t_ppf(q, dof) == pytest.approx(stats.t.ppf(q, dof), rel=1e-10)
+            assert chi2_ppf(q, dof) == pytest.approx(stats.chi2.ppf(q, dof), rel=1e-10)
+    assert norm_ppf(0.975) == pytest.approx(1.959963984540054, rel=1e-12)
+
+
+# --- re-identifications reuse the basis ------------------------------------------------------
+
+def test_restart_from_the_optimum_basis_needs_no_full_solve():
+    """A re-identification from the optimum with its basis (as a Monte Carlo trial does, with
+    perturbed frequencies): no Lanczos run, at most 4 factorisations (a run from the same
+    start without the basis: 1 Lanczos run and more), the same optimum as that run."""
+    import dataclasses
+
+    fm = build_forward_model(read_specimen(S11), (8, 8))
+    r = identify(fm)
+    meas = fm.specimen.measured
+    f = meas.freq * (1 + 0.002 * np.random.default_rng(3).standard_normal(meas.freq.size))
+    fm2 = dataclasses.replace(fm, specimen=dataclasses.replace(
+        fm.specimen, measured=dataclasses.replace(meas, freq=f)))
+    basis = r.basis.copy()              # as monte_carlo: with the mode changes at the optimum
+    basis.add_sensitivities(fm.plate.coefficients(r.constants), r.modes.phi)
+    trial = identify(fm2, start=r.constants, start_pairing=r.pairing, basis=basis)
+    scratch = identify(fm2, start=r.constants, start_pairing=r.pairing)
+    assert trial.converged, trial.status
+    assert trial.work["lanczos_runs"] == 0
+    assert trial.work["factorizations"] <= 4
+    assert scratch.work["lanczos_runs"] == 1
+    assert scratch.work["factorizations"] > trial.work["factorizations"]
+    assert trial.objective == pytest.approx(scratch.objective, rel=OBJECTIVE_REL)
+    for a, b in zip(trial.constants, scratch.constants):
+        for k in ("E1", "E2", "G12"):
+            assert getattr(a, k) == pytest.approx(getattr(b, k), rel=CONSTANT_REL), k
+    np.testing.assert_allclose(trial.model_hz, full_frequencies_at(fm2, trial), rtol=FREQ_REL)
