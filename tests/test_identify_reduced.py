@@ -261,3 +261,31 @@ def test_restart_from_the_optimum_basis_needs_no_full_solve():
         for k in ("E1", "E2", "G12"):
             assert getattr(a, k) == pytest.approx(getattr(b, k), rel=CONSTANT_REL), k
     np.testing.assert_allclose(trial.model_hz, full_frequencies_at(fm2, trial), rtol=FREQ_REL)
+
+
+def test_cli_solver_option_and_json_fields():
+    """--solver full|reduced on identify: same constants; the JSON names the solver and the
+    work."""
+    import json
+
+    from click.testing import CliRunner
+
+    from laminid_cli.cli import cli
+
+    out = {}
+    for solver in ("full", "reduced"):
+        r = CliRunner().invoke(cli, ["identify", S11, "--mesh", "6x6", "--solver", solver,
+                                      "--json", "--no-output"])
+        assert r.exit_code == 0, r.output
+        out[solver] = json.loads(r.output)
+        assert out[solver]["solver"] == solver
+    w_full, w_red = out["full"]["work"], out["reduced"]["work"]
+    assert w_full["lanczos_runs"] == w_full["factorizations"] >= 10
+    assert w_red["lanczos_runs"] == 1 and w_red["factorizations"] < w_full["factorizations"]
+    assert max(b for b in out["reduced"]["frequencies"]["error_bound"]) <= 1e-9
+    for k in ("E1", "E2", "G12"):
+        (cf,) = out["full"]["materials"].values()
+        (cr,) = out["reduced"]["materials"].values()
+        assert cr[k] == pytest.approx(cf[k], rel=CONSTANT_REL)
+    r = CliRunner().invoke(cli, ["identify", S11, "--mesh", "6x6", "--solver", "bogus"])
+    assert r.exit_code == 2 and "bogus" in r.output
