@@ -25,6 +25,7 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -87,6 +88,22 @@ class IdentifyOptions:
     far_limit: float = 0.5
     solver: str = "reduced"
     reduced_tol: float = 1e-7
+
+
+class HistoryRow(NamedTuple):
+    """One model evaluation of a run, as kept in the run's history (and written to the result
+    file's /history by :func:`history_arrays`)."""
+
+    evaluation: int                  # 1-based count within the run
+    objective: float
+    rms_residual_percent: float
+    x: np.ndarray                    # design variables
+    constants: np.ndarray            # every material's six constants, CONSTANT_NAMES order
+
+
+def history_arrays(rows) -> dict:
+    """The history rows as arrays, one per field (the result's ``history``)."""
+    return {name: np.array([getattr(h, name) for h in rows]) for name in HistoryRow._fields}
 
 
 @dataclass
@@ -185,7 +202,7 @@ class VariableSet:
         self.best: Evaluation | None = None   # tracking reference: lowest objective so far
         self.cache: tuple[bytes, Evaluation] | None = None
         self.swaps: list[str] = []
-        self.history: list[tuple] = []
+        self.history: list[HistoryRow] = []
         self.n_eval = 0
         self.n_refused = 0
         self.n_enrich = 0
@@ -323,8 +340,8 @@ class Problem(VariableSet):
         self.n_eval += 1
         f_model = np.sqrt(lam) / (2 * np.pi)
         rms = weighted_rms(residuals_percent(self.freq, f_model), self.weight)
-        self.history.append((self.n_eval, ev.objective, rms, x.copy(),
-                             np.concatenate([c.as_array() for c in self.constants(x)])))
+        self.history.append(HistoryRow(self.n_eval, ev.objective, rms, x.copy(),
+                                       np.concatenate([c.as_array() for c in self.constants(x)])))
         log.info("evaluation %d: objective %.6g, RMS residual %.4f %%", self.n_eval,
                  ev.objective, rms)
         return ev
@@ -567,7 +584,7 @@ def refused_evaluation(prob, x, reasons) -> Evaluation:
     """
     prob.n_refused += 1
     log.warning("point outside the feasible region not evaluated (%s)", "; ".join(reasons))
-    worst = max((h[1] for h in prob.history), default=1.0)
+    worst = max((h.objective for h in prob.history), default=1.0)
     ref = prob.best
     n = prob.n_meas
     return Evaluation(x=np.asarray(x, float).copy(), objective=10.0 * worst + 1.0,
@@ -594,7 +611,7 @@ def run_optimizer(prob, progress=None):
         prob.start_reduced(None, prob.given_basis)
     ev0 = prob.evaluate(x0)
     warnings = prob.check_start(ev0)
-    initial_rms = prob.history[0][2]
+    initial_rms = prob.history[0].rms_residual_percent
     if options.solver == "reduced" and not prob.reduced:
         prob.start_reduced(ev0)
         prob.adopt(ev0)
@@ -792,7 +809,7 @@ def _optimize_from(prob, ev0, progress=None, radius=None, ftol_rel=None, xtol=No
         if grad.size:
             grad[:] = T.T @ ev.gradient / scale
         if progress is not None:
-            progress(prob.n_eval, ev.objective, prob.history[-1][2])
+            progress(prob.n_eval, ev.objective, prob.history[-1].rms_residual_percent)
         return ev.objective / scale
 
     opt.set_min_objective(objective)
@@ -849,13 +866,13 @@ def _gauss_newton_factor(prob: Problem, ev: Evaluation, scale: float,
 
 def _best_x(prob: Problem, first: int = 0) -> np.ndarray:
     """Variables of the lowest objective among the evaluations from index ``first`` on."""
-    k = first + int(np.argmin([h[1] for h in prob.history[first:]]))
-    return prob.history[k][3]
+    k = first + int(np.argmin([h.objective for h in prob.history[first:]]))
+    return prob.history[k].x
 
 
 def _stalled(prob: Problem) -> bool:
     """Round-off stop at an optimum: the best objective stopped changing."""
-    obj = np.array([h[1] for h in prob.history])
+    obj = np.array([h.objective for h in prob.history])
     if obj.size < 4:
         return False
     best = np.minimum.accumulate(obj)
@@ -898,11 +915,7 @@ def _result(prob: Problem, ev: Evaluation, converged, status, warnings, initial_
         rms_residual_percent=weighted_rms(residual, prob.weight),
         initial_rms_residual_percent=initial_rms, modes=ev.modes, phi_paired=ev.phi,
         dlam_dx=ev.dlam_dx, sensitivity=np.hstack(sens), sensitivity_labels=tuple(labels),
-        history={"evaluation": np.array([h[0] for h in hist]),
-                 "objective": np.array([h[1] for h in hist]),
-                 "rms_residual_percent": np.array([h[2] for h in hist]),
-                 "x": np.array([h[3] for h in hist]),
-                 "constants": np.array([h[4] for h in hist])},
+        history=history_arrays(hist),
         swaps=tuple(prob.swaps), bounds_hit=tuple(hit), warnings=tuple(warnings),
         global_properties=lam.global_properties().as_dict(), options=prob.options,
         error_bound=_error_bound(prob, ev), work=dict(getattr(prob, "work", {})),

@@ -31,7 +31,8 @@ import numpy as np
 
 from laminid_cli.errors import FitInputError
 from laminid_cli.forward import residuals_percent, weighted_rms
-from laminid_cli.identify import (Evaluation, Identification, IdentifyOptions, Problem,
+from laminid_cli.identify import (Evaluation, HistoryRow, Identification, IdentifyOptions,
+                                  Problem, history_arrays,
                                   VariableSet, refused_evaluation,
                                   _result, run_optimizer, work_since)
 from laminid_cli.material import CONSTANT_NAMES, ElasticConstants
@@ -317,8 +318,8 @@ class JointProblem(VariableSet):
         self.n_eval += 1
         f_model = np.sqrt(lam) / (2 * np.pi)
         rms = weighted_rms(residuals_percent(self.freq, f_model), self.weight)
-        self.history.append((self.n_eval, ev.objective, rms, x.copy(),
-                             np.concatenate([c.as_array() for c in self.constants(x)])))
+        self.history.append(HistoryRow(self.n_eval, ev.objective, rms, x.copy(),
+                                       np.concatenate([c.as_array() for c in self.constants(x)])))
         return ev
 
 
@@ -341,7 +342,7 @@ def identify_joint(fms, options: IdentifyOptions = IdentifyOptions(), progress=N
     per_plate = []
     for sub, idx in zip(prob.subs, prob.index):
         sub_ev = sub.evaluate(ev.x[idx])                  # cached: the last joint evaluation
-        per_plate.append(_result(sub, sub_ev, converged, status, [], sub.history[0][2], dt))
+        per_plate.append(_result(sub, sub_ev, converged, status, [], sub.history[0].rms_residual_percent, dt))
     swaps = tuple(f"{r.specimen.name}: {s}" for r in per_plate for s in r.swaps)
     bounds = [f"{r.specimen.name}: {w}" for r in per_plate for w in r.warnings]
     notes = [f"material '{n}': {', '.join(ks)} fixed in some of the files, so fixed in all"
@@ -358,11 +359,7 @@ def identify_joint(fms, options: IdentifyOptions = IdentifyOptions(), progress=N
         converged=bool(converged), status=status, time_s=dt,
         rms_residual_percent=weighted_rms(residuals_percent(prob.freq, f_model), prob.weight),
         initial_rms_residual_percent=initial_rms, specimens=tuple(per_plate),
-        history={"evaluation": np.array([h[0] for h in hist]),
-                 "objective": np.array([h[1] for h in hist]),
-                 "rms_residual_percent": np.array([h[2] for h in hist]),
-                 "x": np.array([h[3] for h in hist]),
-                 "constants": np.array([h[4] for h in hist])},
+        history=history_arrays(hist),
         swaps=swaps, warnings=tuple(list(warnings) + notes + bounds),
         merged_fixed=dict(prob.merged_fixed), options=options, work=work,
         basis=prob.last_basis if prob.options.solver == "reduced" else None)

@@ -289,3 +289,46 @@ def test_cli_solver_option_and_json_fields():
         assert cr[k] == pytest.approx(cf[k], rel=CONSTANT_REL)
     r = CliRunner().invoke(cli, ["identify", S11, "--mesh", "6x6", "--solver", "bogus"])
     assert r.exit_code == 2 and "bogus" in r.output
+
+
+# --- run log: typed history rows, round-tripped to the result file ---------------------------
+
+def test_history_rows_are_typed_and_round_trip_to_the_result_file(tmp_path):
+    from laminid_cli.identify import HistoryRow, history_arrays
+    from laminid_cli.results import (identification_summary, read_h5,
+                                     write_identification_file)
+
+    fm = build_forward_model(read_specimen(S11), (6, 6))
+    prob = Problem(fm, IdentifyOptions())
+    ev = prob.evaluate(prob.x0())
+    row = prob.history[0]
+    assert isinstance(row, HistoryRow)
+    assert row.evaluation == 1 and row.objective == ev.objective
+    np.testing.assert_array_equal(row.x, prob.x0())
+    assert row.constants.shape == (6,)
+    r = identify(fm)
+    out = tmp_path / "r.h5"
+    write_identification_file(out, fm, r, identification_summary(r))
+    h = read_h5(out)["history"]
+    for name in HistoryRow._fields:
+        np.testing.assert_array_equal(h[name], r.history[name])
+    assert h["evaluation"].tolist() == list(range(1, r.evaluations + 1))
+    # the last row is the full-model check at the optimum, which is the result
+    assert h["objective"][-1] == r.objective
+    assert set(history_arrays([row])) == set(HistoryRow._fields)
+
+
+def test_refused_joint_point_is_counted_once():
+    """A joint point refused by one plate is one refused point (the warning's count)."""
+    from laminid_cli.joint import JointProblem
+
+    fms = [build_forward_model(read_specimen(p), (4, 4)) for p in (S11, S12)]
+    prob = JointProblem(fms, IdentifyOptions(solver="full"))
+    x = prob.x0()
+    prob.evaluate(x)
+    bad = x.copy()
+    lo, hi = prob.bounds()
+    bad[:] = hi * 50                       # far outside: constitutive matrices indefinite
+    ev = prob.evaluate(bad)
+    assert ev.refused
+    assert prob.n_refused == 1
