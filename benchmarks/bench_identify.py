@@ -1,47 +1,114 @@
-"""Identification benchmark: S1.1 on the paper's 12x12 mesh.
+"""Identification benchmark: S1.1 with the reduced and the full solver, and the whole CLI.
 
-Reports the wall time of the whole identification, the model evaluations, the time of one
-forward solve (same mesh, same number of modes) and the ratio of the two (median of REPEAT).
-Run: .venv/bin/python benchmarks/bench_identify.py [SPEC ...]
+Per mesh (8x8, 12x12, 16x16, 24x24 by default) and solver: wall time of the identification,
+the model evaluations, and the work counted by laminid_cli.modal.WORK (banded factorisations,
+solve pairs = one right-hand side through forward and back substitution, Lanczos runs),
+expressed in full-solve equivalents:
+
+    FSE = (factorisations * t_factor + solve_pairs * t_pair) / (t_factor + s_full * t_pair)
+
+with t_factor, t_pair the median times of one factorisation and one single-vector solve pair
+on that mesh, and s_full the solve pairs of one full solve at the start (its Lanczos run).
+Then the whole CLI process ``laminid identify S1.1.yaml --json --no-output`` against
+``laminid modes S1.1.yaml --json``, run alternately (median of CLI_REPEAT each).
+All ratios come from one run (the machine may be loaded; ratios are what to compare).
+
+Run: .venv/bin/python benchmarks/bench_identify.py [--meshes 8,12,16,24] [--no-cli] [SPEC]
 """
 
 from _timing import median_time  # first: sets single-threaded BLAS
 
+import argparse  # noqa: E402
+import os  # noqa: E402
 import statistics  # noqa: E402
+import subprocess  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
+import numpy as np  # noqa: E402
+
 from laminid_cli.forward import build_forward_model  # noqa: E402
 from laminid_cli.identify import IdentifyOptions, identify  # noqa: E402
+from laminid_cli.modal import WORK, reset_work  # noqa: E402
 from laminid_cli.specimen import read_specimen  # noqa: E402
 
 REPEAT = 3
+CLI_REPEAT = 5
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def bench(path, mesh=(12, 12)):
+def unit_costs(fm, n_modes):
+    """(t_factor, t_pair, t_full_solve, solve pairs of one full solve)."""
+    coef = fm.plate.coefficients(fm.initial_constants)
+    K = fm.plate.stiffness(coef=coef)
+    sigma = -0.5 * fm.plate.shift_estimate(coef)
+    data = K.data - sigma * fm.plate.M_on_K
+    t_factor, solve = median_time(lambda: fm.factorizer.factor(data), 7)
+    x = np.random.default_rng(0).standard_normal(fm.plate.n_dofs)
+    t_pair, _ = median_time(lambda: solve(x), 21)
+    t_full, _ = median_time(lambda: fm.solve(n_modes=n_modes), 5)
+    reset_work()
+    fm.solve(n_modes=n_modes)
+    return t_factor, t_pair, t_full, WORK["solve_pairs"]
+
+
+def bench(path, mesh, repeat=REPEAT):
     spec = read_specimen(path)
-    t0 = time.perf_counter()
     fm = build_forward_model(spec, mesh)
-    t_build = time.perf_counter() - t0
     n = spec.measured.freq.size + IdentifyOptions().extra_modes
-    t_solve, _ = median_time(lambda: fm.solve(n_modes=n), 5, warmup=False)
-    runs = []
-    for _ in range(REPEAT):
-        fm = build_forward_model(spec, mesh)
-        t = time.perf_counter()
-        r = identify(fm)
-        runs.append((time.perf_counter() - t, r))
-    t_id = statistics.median(t for t, _ in runs)
-    r = runs[0][1]
-    print(f"{spec.name:<12} {mesh[0]}x{mesh[1]}  build {t_build:5.2f} s  identify {t_id:5.2f} s  "
-          f"evaluations {r.evaluations:3d}  one solve ({n} modes) {t_solve * 1e3:6.1f} ms  "
-          f"identify/solve {t_id / t_solve:5.1f}  RMS {r.rms_residual_percent:.3f} %  "
-          f"{'converged' if r.converged else 'NOT converged'}")
+    t_f, t_s, t_full, s_full = unit_costs(fm, n)
+    unit = t_f + s_full * t_s
+    rows = {}
+    for solver in ("reduced", "full"):
+        runs = []
+        for _ in range(repeat):
+            fm = build_forward_model(spec, mesh)
+            reset_work()
+            t = time.perf_counter()
+            r = identify(fm, IdentifyOptions(solver=solver))
+            runs.append((time.perf_counter() - t, r, dict(WORK)))
+        t_id = statistics.median(t for t, _, _ in runs)
+        _, r, w = runs[0]
+        fse = (w["factorizations"] * t_f + w["solve_pairs"] * t_s) / unit
+        rows[solver] = (t_id, r, w, fse)
+        print(f"{spec.name:<6} {mesh[0]:>2}x{mesh[1]:<2} {solver:<7} identify {t_id:6.2f} s  "
+              f"= {t_id / t_full:5.1f} full solves ({t_full * 1e3:5.1f} ms)  "
+              f"evaluations {r.evaluations:3d}  factorisations {w['factorizations']:2d}  "
+              f"solve pairs {w['solve_pairs']:4d}  Lanczos {w['lanczos_runs']:2d}  "
+              f"FSE {fse:5.1f}  objective {r.objective:.9e}", flush=True)
+    red, full = rows["reduced"], rows["full"]
+    print(f"       {'':5}   reduced/full: time {red[0] / full[0]:.2f}, FSE "
+          f"{red[3] / full[3]:.2f}; objective rel. diff "
+          f"{red[1].objective / full[1].objective - 1:+.1e}; (t_factor {t_f * 1e3:.2f} ms, "
+          f"t_pair {t_s * 1e3:.3f} ms, full solve = 1 factorisation + {s_full} pairs)",
+          flush=True)
+
+
+def cli_ratio(path):
+    exe = [sys.executable, "-m", "laminid_cli"]
+    env = dict(os.environ)
+    cmds = {"identify": exe + ["identify", str(path), "--json", "--no-output"],
+            "modes": exe + ["modes", str(path), "--json"]}
+    times = {k: [] for k in cmds}
+    for _ in range(CLI_REPEAT):
+        for k, c in cmds.items():
+            t = time.perf_counter()
+            subprocess.run(c, check=False, stdout=subprocess.DEVNULL, env=env, cwd=ROOT)
+            times[k].append(time.perf_counter() - t)
+    ti, tm = statistics.median(times["identify"]), statistics.median(times["modes"])
+    print(f"CLI: identify --json --no-output {ti:.2f} s, modes --json {tm:.2f} s, "
+          f"ratio {ti / tm:.2f} (median of {CLI_REPEAT}, run alternately)")
 
 
 if __name__ == "__main__":
-    paths = sys.argv[1:] or [ROOT / "specimens/example1/S1.1.yaml"]
-    for p in paths:
-        bench(p)
+    ap = argparse.ArgumentParser()
+    ap.add_argument("spec", nargs="?", default=str(ROOT / "specimens/example1/S1.1.yaml"))
+    ap.add_argument("--meshes", default="8,12,16,24")
+    ap.add_argument("--no-cli", action="store_true")
+    ap.add_argument("--repeat", type=int, default=REPEAT, help="identifications per row")
+    a = ap.parse_args()
+    for m in a.meshes.split(","):
+        bench(a.spec, (int(m), int(m)), a.repeat)
+    if not a.no_cli:
+        cli_ratio(a.spec)

@@ -97,6 +97,7 @@ class BatchOptions:
     ftol: float = IdentifyOptions.ftol_rel
     max_evaluations: int = IdentifyOptions.max_evaluations
     pairing: str = IdentifyOptions.pairing
+    solver: str = IdentifyOptions.solver
     sigma_rel: float = UncertaintyOptions.sigma_rel
     covariance_scale: str = UncertaintyOptions.scaling
     max_rel_interval: float = UncertaintyOptions.max_rel_interval
@@ -115,7 +116,7 @@ class BatchOptions:
         return IdentifyOptions(fix=split_fix(self.fix)[0], optimizer=self.optimizer,
                                parametrization=self.parametrization, xtol_rel=self.xtol,
                                ftol_rel=self.ftol, max_evaluations=self.max_evaluations,
-                               pairing=self.pairing)
+                               pairing=self.pairing, solver=self.solver)
 
     def uncertainty_options(self):
         return UncertaintyOptions(sigma_rel=self.sigma_rel, scaling=self.covariance_scale,

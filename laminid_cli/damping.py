@@ -351,7 +351,7 @@ def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
     modal loss factors and standard deviations (NaN: mode not used); labels : (n_cols,)
     "material.etaXY"; fixed : {label: value} columns held.
     """
-    from scipy import stats
+    from laminid_cli.quantiles import chi2_ppf, norm_ppf, t_ppf
     from scipy.optimize import lsq_linear
 
     if scaling not in SCALINGS:
@@ -408,7 +408,7 @@ def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
     chi2 = float(r @ r)
     dof = n - int(inner.sum())
     s2 = chi2 / dof if dof > 0 else float("nan")
-    z = float(stats.norm.ppf(0.5 + confidence / 2))
+    z = norm_ppf(0.5 + confidence / 2)
     used_scale, factor, q = "stated", 1.0, z
     notes = []
     if scaling in ("residuals", "larger"):
@@ -416,10 +416,10 @@ def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
             notes.append(f"no degrees of freedom left ({n} modes for {p} loss factors): the "
                          "a-posteriori variance cannot be estimated; stated sigma used")
         else:
-            tq = float(stats.t.ppf(0.5 + confidence / 2, dof))
+            tq = t_ppf(0.5 + confidence / 2, dof)
             if scaling == "residuals" or tq * math.sqrt(s2) > z:
                 used_scale, factor, q = "residuals", s2, tq
-    if dof > 0 and chi2 > stats.chi2.ppf(0.99, dof):
+    if dof > 0 and chi2 > chi2_ppf(0.99, dof):
         notes.append(f"the strain-energy model misses the measured damping by more than its "
                      f"stated noise (chi2 {chi2:.3g} for {dof} degrees of freedom): damping "
                      "not of the ply materials (air, supports, joints) or sigma too small")

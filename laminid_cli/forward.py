@@ -7,7 +7,7 @@ banded Cholesky, one Lanczos run). The identification reuses the same object.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -32,7 +32,6 @@ class ForwardModel:
     factorizer: BandedCholesky
     mesh_size: tuple[int, int]
     rigid: np.ndarray | None
-    _last_lambda1: list = field(default_factory=lambda: [None], repr=False, compare=False)
 
     @property
     def material_names(self) -> tuple[str, ...]:
@@ -43,13 +42,15 @@ class ForwardModel:
         return self.laminate.constants
 
     def solve(self, constants=None, n_modes: int = 12, *, coef: np.ndarray | None = None,
-              v0: np.ndarray | None = None) -> Modes:
+              v0: np.ndarray | None = None, lambda1: float | None = None) -> Modes:
         """Lowest ``n_modes`` elastic modes for the given constants (default: the file's).
 
         ``constants`` is a sequence of ElasticConstants in ``material_names`` order; ``coef``
         (n_materials, 6) the stiffness coefficients directly; ``v0`` a Lanczos start vector
-        (e.g. the sum of the previous step's modes). The shift is half the previous solution's
-        first eigenvalue when there is one, else half a thin-plate estimate.
+        (e.g. the sum of the previous step's modes). The shift is minus half ``lambda1`` (the
+        caller's estimate of the first eigenvalue, e.g. its previous solution's) when given,
+        else minus half a thin-plate estimate. The model keeps no state: the same call gives
+        the same answer whatever was solved before.
         """
         if coef is None:
             constants = self.initial_constants if constants is None else tuple(constants)
@@ -60,12 +61,9 @@ class ForwardModel:
                                      + "; ".join(reasons))
             coef = self.plate.coefficients(constants)
         K = self.plate.stiffness(coef=coef)
-        last = self._last_lambda1[0]
-        lam_est = last if last is not None else self.plate.shift_estimate(coef)
-        modes = solve_modes(K, self.plate.M, n_modes, rigid=self.rigid, sigma=-0.5 * lam_est,
-                            factorizer=self.factorizer, v0=v0, M_on_pattern=self.plate.M_on_K)
-        self._last_lambda1[0] = float(modes.eigenvalues[0])
-        return modes
+        lam_est = lambda1 if lambda1 is not None else self.plate.shift_estimate(coef)
+        return solve_modes(K, self.plate.M, n_modes, rigid=self.rigid, sigma=-0.5 * lam_est,
+                           factorizer=self.factorizer, v0=v0, M_on_pattern=self.plate.M_on_K)
 
 
 def build_forward_model(specimen: Specimen, mesh: tuple[int, int] = DEFAULT_MESH,

@@ -25,6 +25,7 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -32,13 +33,20 @@ from laminid_cli.errors import FitInputError, LaminidError
 from laminid_cli.forward import ForwardModel, residuals_percent, weighted_rms
 from laminid_cli.material import (CONSTANT_NAMES, ElasticConstants, alphas_from_constants,
                                   infeasibility_reasons)
-from laminid_cli.modal import mac
+from laminid_cli.modal import WORK, Modes, mac
 from laminid_cli.parametrization import coefficients_and_jacobian, make_parameters
 
 log = logging.getLogger(__name__)
 
 OPTIMIZERS = ("slsqp", "mma")
 PAIRINGS = ("track", "sorted")
+SOLVERS = ("reduced", "full")
+#: a reduced-model result is taken as the full model's when the relative eigenvalue error bound
+#: of every mode up to two beyond the highest paired one is below this (the modes written are
+#: cut there); else the optimum is solved again with the full model
+FINAL_BOUND = 1e-9
+#: block solves tried at the optimum (with one factorisation) to reach FINAL_BOUND
+FINAL_ROUNDS = 8
 #: damping of the Gauss-Newton scaling, relative to its largest diagonal term
 DAMPING = 1e-2
 
@@ -60,6 +68,11 @@ class IdentifyOptions:
     bound_factor : moduli stay within [P0 / f, P0 * f]
     far_limit : a measured frequency more than this fraction away from its model mode at the
         initial guess is refused (wrong units, density, or mode numbering)
+    solver : 'reduced' (default: the optimiser runs on a reduced-order model enriched where it
+        goes, laminid_cli.reduced) or 'full' (one full eigen solution per evaluation, the
+        reference)
+    reduced_tol : the reduced solver stops when an enrichment changes the paired eigenvalues by
+        less than this (relative)
     """
 
     fix: tuple[str, ...] = ()
@@ -73,6 +86,24 @@ class IdentifyOptions:
     nu_max: float = 0.95
     bound_factor: float = 5.0
     far_limit: float = 0.5
+    solver: str = "reduced"
+    reduced_tol: float = 1e-7
+
+
+class HistoryRow(NamedTuple):
+    """One model evaluation of a run, as kept in the run's history (and written to the result
+    file's /history by :func:`history_arrays`)."""
+
+    evaluation: int                  # 1-based count within the run
+    objective: float
+    rms_residual_percent: float
+    x: np.ndarray                    # design variables
+    constants: np.ndarray            # every material's six constants, CONSTANT_NAMES order
+
+
+def history_arrays(rows) -> dict:
+    """The history rows as arrays, one per field (the result's ``history``)."""
+    return {name: np.array([getattr(h, name) for h in rows]) for name in HistoryRow._fields}
 
 
 @dataclass
@@ -126,6 +157,14 @@ class Identification:
     warnings: tuple[str, ...]
     global_properties: dict
     options: IdentifyOptions = field(default_factory=IdentifyOptions)
+    #: relative error bound of each paired eigenvalue against the full FE model (0 where the
+    #: full model was solved at the optimum)
+    error_bound: np.ndarray | None = None
+    #: work of the run: factorisations, solve pairs, Lanczos runs, enrichments
+    work: dict = field(default_factory=dict)
+    #: the reduced basis at the end (laminid_cli.reduced.ReducedBasis; None with the full
+    #: solver), for re-identifications of the same plate to start from
+    basis: object = field(default=None, repr=False, compare=False)
 
 
 class VariableSet:
@@ -163,16 +202,18 @@ class VariableSet:
         self.best: Evaluation | None = None   # tracking reference: lowest objective so far
         self.cache: tuple[bytes, Evaluation] | None = None
         self.swaps: list[str] = []
-        self.history: list[tuple] = []
+        self.history: list[HistoryRow] = []
         self.n_eval = 0
         self.n_refused = 0
+        self.n_enrich = 0
+        self.final_bound = None          # (x bytes, relative bound per paired mode)
 
 
 class Problem(VariableSet):
     """Objective, gradient and constraints of one identification, with evaluation cache."""
 
     def __init__(self, fm: ForwardModel, options: IdentifyOptions, *, start=None,
-                 start_pairing=None, check_count: bool = True):
+                 start_pairing=None, check_count: bool = True, basis=None):
         """``start``: constants (one ElasticConstants per material, ``fm.material_names`` order)
         to start from instead of the file's initial values, which stay the reference of the
         design variables, the prior and the fixed constants (a Monte Carlo re-identification
@@ -185,6 +226,8 @@ class Problem(VariableSet):
         spec = fm.specimen
         if options.optimizer not in OPTIMIZERS:
             raise FitInputError(f"optimizer '{options.optimizer}' unknown: choose {', '.join(OPTIMIZERS)}")
+        if options.solver not in SOLVERS:
+            raise FitInputError(f"solver '{options.solver}' unknown: choose {', '.join(SOLVERS)}")
         if options.pairing not in PAIRINGS:
             raise FitInputError(f"pairing '{options.pairing}' unknown: choose {', '.join(PAIRINGS)}")
         if spec.measured is None or spec.measured.freq.size == 0:
@@ -222,6 +265,9 @@ class Problem(VariableSet):
             raise FitInputError(f"{spec.path}: {len(self.start)} start constants for "
                                 f"{len(self.params)} materials")
         self.start_pairing = None if start_pairing is None else np.asarray(start_pairing, int)
+        self.basis = None                # ReducedBasis while the reduced model is in use
+        self.given_basis = basis         # a basis to start from (reduced solver)
+        self._last_basis = None
         self._new_run()
 
     # --- variables ---------------------------------------------------------------------------
@@ -254,12 +300,27 @@ class Problem(VariableSet):
                 return refused_evaluation(self, x, reasons)
         coefs, jacs = zip(*(p.coef_jacobian(xk) for p, xk in zip(self.params, self.split(x))))
         coef = np.array(coefs)
-        v0 = None if self.best is None else self.best.phi.sum(axis=1)
-        modes = self.fm.solve(n_modes=self.n_model, coef=coef, v0=v0)
-        pairing, swap = self._pair(modes)
+        if self.basis is not None:
+            modes, E_all, Y = self.basis.solve(coef, self.n_model)
+            pairing, swap = self._pair(modes, Y)
+            E = E_all[:, :, pairing]
+        else:
+            ref = self.best if self.best is not None and not self.best.refused else None
+            v0 = None if ref is None else ref.phi.sum(axis=1)
+            lambda1 = None if ref is None else float(ref.modes.eigenvalues[0])
+            modes = self.fm.solve(n_modes=self.n_model, coef=coef, v0=v0, lambda1=lambda1)
+            pairing, swap = self._pair(modes)
+            E = None
+        return self._record(x, jacs, modes, pairing, swap, E)
+
+    def _record(self, x, jacs, modes, pairing, swap, E=None) -> Evaluation:
+        """Objective and gradient from the paired modes; the run's bookkeeping. ``E``: basis
+        energies of the paired modes (computed from their shapes when None)."""
+        key = x.tobytes()
         phi = modes.phi[:, pairing]
         lam = modes.eigenvalues[pairing]
-        E = self.fm.plate.basis_energies(phi)                         # (n_mat, 6, n_meas)
+        if E is None:
+            E = self.fm.plate.basis_energies(phi)                     # (n_mat, 6, n_meas)
         dlam_dx = np.zeros((self.n_meas, self.n_vars))
         for k, J in enumerate(jacs):
             dlam_dx[:, self.offsets[k]:self.offsets[k + 1]] = E[k].T @ J
@@ -279,13 +340,13 @@ class Problem(VariableSet):
         self.n_eval += 1
         f_model = np.sqrt(lam) / (2 * np.pi)
         rms = weighted_rms(residuals_percent(self.freq, f_model), self.weight)
-        self.history.append((self.n_eval, ev.objective, rms, x.copy(),
-                             np.concatenate([c.as_array() for c in self.constants(x)])))
+        self.history.append(HistoryRow(self.n_eval, ev.objective, rms, x.copy(),
+                                       np.concatenate([c.as_array() for c in self.constants(x)])))
         log.info("evaluation %d: objective %.6g, RMS residual %.4f %%", self.n_eval,
                  ev.objective, rms)
         return ev
 
-    def _pair(self, modes) -> tuple[np.ndarray, str]:
+    def _pair(self, modes, Y=None) -> tuple[np.ndarray, str]:
         """Model mode paired with each measured one, and a swap message ('' if none).
 
         Sorted order at the start (or ``start_pairing``), then MAC tracking against the best
@@ -295,11 +356,12 @@ class Problem(VariableSet):
             return self.start_pairing.copy(), ""
         if self.options.pairing == "sorted" or self.best is None:
             return sorted_pairing, ""
-        from scipy.optimize import linear_sum_assignment
 
-        M = mac(self.best.phi, modes.phi, self.fm.plate.M)           # (n_meas, n_model)
-        rows, cols = linear_sum_assignment(-M)
-        pairing = cols[np.argsort(rows)]
+        if Y is not None:                                            # reduced model
+            M = self.basis.mac(self.best.phi, Y)
+        else:
+            M = mac(self.best.phi, modes.phi, self.fm.plate.M)       # (n_meas, n_model)
+        pairing = max_assignment(M)
         weak = M[np.arange(self.n_meas), pairing] < 0.5
         if weak.any():
             log.debug("mode tracking uncertain for measured mode(s) %s (MAC < 0.5)",
@@ -310,6 +372,77 @@ class Problem(VariableSet):
         changed = [f"measured mode {i + 1}: model mode {prev[i] + 1} -> {pairing[i] + 1}"
                    for i in range(self.n_meas) if pairing[i] != prev[i]]
         return pairing, f"evaluation {self.n_eval + 1}: modes swapped order ({'; '.join(changed)})"
+
+    # --- reduced-order model (laminid_cli.reduced) ---------------------------------------------
+    @property
+    def reduced(self) -> bool:
+        return self.basis is not None
+
+    def start_reduced(self, ev: Evaluation, basis=None) -> None:
+        """Use the reduced model from now on, with a basis made of ``ev``'s modes (a full
+        evaluation) or the given ``basis`` (kept from an earlier run)."""
+        from laminid_cli.reduced import ReducedBasis
+
+        if basis is None:
+            basis = ReducedBasis(self.fm)
+            basis.add(ev.modes.phi)
+            if SENSITIVITY_START:
+                coef = np.array([p.coef_jacobian(xk)[0]
+                                 for p, xk in zip(self.params, self.split(ev.x))])
+                basis.add_sensitivities(coef, ev.modes.phi)
+        self.basis = self._last_basis = basis
+        self.cache = None
+
+    def enrich(self, ev: Evaluation, rounds: int = 2, target: float = 0.0) -> float:
+        """Enrich the basis at ``ev.x``; returns the relative change of the paired eigenvalues
+        and records the relative error bound of the paired modes there (see
+        ReducedBasis.enrich for ``rounds`` and ``target``)."""
+        coef = np.array([p.coef_jacobian(xk)[0] for p, xk in zip(self.params, self.split(ev.x))])
+        before, after, bound = self.basis.enrich(coef, self.n_model, rounds, target)
+        self.n_enrich += 1
+        self.cache = None
+        lam = ev.eigenvalues
+        ok = self.weight > 0
+        rel = bound / after
+        n_keep = self.checked_modes(ev)
+        self.final_bound = (ev.x.tobytes(), rel[ev.pairing], float(np.max(rel[:n_keep])))
+        change = np.abs(after[ev.pairing] - lam) / lam
+        return float(np.max(change[ok])) if ok.any() else 0.0
+
+    def final_check(self, ev: Evaluation):
+        """``ev`` (reduced model) checked against the full model: eigenvalues the full model's
+        Rayleigh quotients of its Ritz vectors, sensitivities from their full strain energies,
+        and the relative error bound of each checked mode (ReducedBasis.check)."""
+        coefs, jacs = zip(*(p.coef_jacobian(xk) for p, xk in zip(self.params, self.split(ev.x))))
+        n = self.checked_modes(ev)
+        theta, U, bound = self.basis.check(np.array(coefs), ev.modes.phi[:, :n])
+        m = ev.modes
+        modes = Modes(eigenvalues=theta, phi=U, n_rigid=m.n_rigid,
+                      rigid_eigenvalues=m.rigid_eigenvalues)
+        self.cache = None
+        out = self._record(np.asarray(ev.x, float), jacs, modes, ev.pairing, "")
+        rel = bound / theta
+        self.final_bound = (out.x.tobytes(), rel[ev.pairing], float(rel.max()))
+        return out
+
+    def checked_modes(self, ev: Evaluation) -> int:
+        """Modes held to FINAL_BOUND at the optimum: up to two beyond the highest paired one."""
+        return int(min(self.n_model, np.max(ev.pairing) + 3))
+
+    def bound_at(self, x) -> np.ndarray | None:
+        """Relative error bound of every computed mode at ``x`` if the last enrichment was there."""
+        if self.final_bound is not None and self.final_bound[0] == np.asarray(x, float).tobytes():
+            return self.final_bound
+        return None
+
+    def use_full(self) -> None:
+        self.basis = None
+        self.cache = None
+
+    @property
+    def last_basis(self):
+        """The basis in use, or the one given / built before a final full solve."""
+        return self.basis if self.basis is not None else self._last_basis
 
     # --- pairing state, for run_optimizer's re-anchoring -----------------------------------------
     def sorted_pairing(self) -> np.ndarray:
@@ -343,6 +476,20 @@ class Problem(VariableSet):
                 j = self.offsets[k] + p.free.index(name)
                 grad[j] += 2 * wp * dev * scale[i] / ref
         return value, grad
+
+
+def max_assignment(M: np.ndarray) -> np.ndarray:
+    """Column matched to each row of ``M`` (n_rows <= n_cols, entries in [0, 1], e.g. MAC
+    values) so that the sum of the matched entries is largest, one column per row.
+
+    ``min_weight_full_bipartite_matching`` on ``2 - M`` (every edge present, weights > 0): the
+    assignment of ``scipy.optimize.linear_sum_assignment(-M)`` without importing
+    scipy.optimize (checked in tests/test_identify_reduced.py)."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import min_weight_full_bipartite_matching
+
+    rows, cols = min_weight_full_bipartite_matching(sp.csr_matrix(2.0 - np.asarray(M, float)))
+    return cols[np.argsort(rows)]
 
 
 def variables_of(params, constants: ElasticConstants) -> np.ndarray:
@@ -401,18 +548,28 @@ def check_start(problem: Problem, ev: Evaluation) -> list[str]:
 
 
 def identify(fm: ForwardModel, options: IdentifyOptions = IdentifyOptions(),
-             progress=None, *, start=None, start_pairing=None) -> Identification:
+             progress=None, *, start=None, start_pairing=None, basis=None) -> Identification:
     """Identify the constants of every material of ``fm.specimen`` (see module docstring).
 
     ``progress(evaluation, objective, rms_percent)`` is called after each model evaluation.
     Raises FitError for hopeless input; a run that stops before convergence returns with
     ``converged = False`` and a status message. ``start``/``start_pairing``: see
-    :class:`Problem`.
+    :class:`Problem`. ``basis``: a ReducedBasis of ``fm`` to start the reduced solver from
+    (e.g. ``earlier_result.basis.copy()``: no full solve at the start).
     """
     t0 = time.perf_counter()
-    prob = Problem(fm, options, start=start, start_pairing=start_pairing)
+    work0 = dict(WORK)
+    prob = Problem(fm, options, start=start, start_pairing=start_pairing, basis=basis)
     ev, converged, status, warnings, initial_rms = run_optimizer(prob, progress)
+    prob.work = work_since(work0, prob)
     return _result(prob, ev, converged, status, warnings, initial_rms, time.perf_counter() - t0)
+
+
+def work_since(work0: dict, prob) -> dict:
+    """Factorisations, solve pairs and Lanczos runs since ``work0``, and the enrichments."""
+    out = {k: WORK[k] - work0.get(k, 0) for k in WORK}
+    out["enrichments"] = int(prob.n_enrich)
+    return out
 
 
 #: a tracked pairing that ends out of sorted order is re-anchored at most this many times
@@ -427,7 +584,7 @@ def refused_evaluation(prob, x, reasons) -> Evaluation:
     """
     prob.n_refused += 1
     log.warning("point outside the feasible region not evaluated (%s)", "; ".join(reasons))
-    worst = max((h[1] for h in prob.history), default=1.0)
+    worst = max((h.objective for h in prob.history), default=1.0)
     ref = prob.best
     n = prob.n_meas
     return Evaluation(x=np.asarray(x, float).copy(), objective=10.0 * worst + 1.0,
@@ -450,10 +607,15 @@ def run_optimizer(prob, progress=None):
         raise FitInputError(f"{prob.describe()}: the initial constants (with the fixed ones) are "
                        "outside the feasible region of Eq. 22 (E2 <= E1, |nu12| < "
                        f"{options.nu_max}, positive moduli)")
+    if options.solver == "reduced" and prob.given_basis is not None:
+        prob.start_reduced(None, prob.given_basis)
     ev0 = prob.evaluate(x0)
     warnings = prob.check_start(ev0)
-    initial_rms = prob.history[0][2]
-    ev, converged, status = _optimize_from(prob, ev0, progress)
+    initial_rms = prob.history[0].rms_residual_percent
+    if options.solver == "reduced" and not prob.reduced:
+        prob.start_reduced(ev0)
+        prob.adopt(ev0)
+    ev, converged, status = _stage(prob, ev0, progress)
     # Re-anchoring: measured mode i pairs with the model's i-th mode at the start; if tracking
     # ends with another order, that start pairing was wrong (the initial guess had its modes in
     # another order than the plate). Re-pair in sorted order there and optimise again; keep
@@ -463,7 +625,7 @@ def run_optimizer(prob, progress=None):
             break
         prob.reanchor()
         ev_r = prob.evaluate(ev.x)
-        ev2, converged2, status2 = _optimize_from(prob, ev_r, progress)
+        ev2, converged2, status2 = _stage(prob, ev_r, progress)
         log.info("re-anchored the mode pairing: objective %.6g -> %.6g", ev.objective,
                  ev2.objective)
         if ev2.objective < ev.objective:
@@ -483,11 +645,131 @@ def run_optimizer(prob, progress=None):
     if prob.n_refused:
         warnings = list(warnings) + [f"{prob.n_refused} trial point(s) outside the feasible "
                                      "region were refused without evaluating the model"]
+    if prob.reduced:
+        ev = _finish_reduced(prob, ev)
     return ev, converged, status, warnings, initial_rms
 
 
-def _optimize_from(prob, ev0, progress=None):
-    """One nlopt run from ``ev0`` (Gauss-Newton-scaled variables); returns (ev, converged, status)."""
+#: the start's basis also holds the first-order mode changes in every stiffness coefficient
+#: (ReducedBasis.add_sensitivities). Off: it halves the evaluations and saves 2 factorisations
+#: on S1.1, but its stiff directions raise the round-off floor of the projected eigenvalues to
+#: ~1e-8 relative (seen in central differences); the Monte Carlo trials use it at the optimum
+SENSITIVITY_START = False
+#: most enrichments of one reduced-model stage
+MAX_ENRICH = 40
+#: initial trust radius (Gauss-Newton-scaled variables: a step of 1 changes the objective by
+#: about its value) and its growth when the reduced model predicted the decrease well
+RADIUS0 = 8.0
+#: Gauss-Newton damping of the reduced stages: each restarts the optimiser (its quasi-Newton
+#: memory is lost), so its scaling must be the Gauss-Newton Hessian itself for the first step
+#: to reach along flat valleys; the trust region bounds the step instead
+REDUCED_DAMPING = 1e-6
+#: converged when, besides the eigenvalues, the step from a centre enriched there is below
+#: this (Gauss-Newton-scaled: changes the objective by about STEP_TOL^2 of its value)
+STEP_TOL = 1e-4
+RADIUS_GROWTH = 4.0
+
+
+def _stage(prob, ev0, progress=None):
+    """One optimisation stage from ``ev0``: on the reduced model when it is in use."""
+    if prob.reduced:
+        return _optimize_reduced(prob, ev0, progress)
+    return _optimize_from(prob, ev0, progress)
+
+
+def _optimize_reduced(prob, ev_c, progress=None):
+    """Trust-region loop on the reduced model (laminid_cli.reduced).
+
+    From the centre ``ev_c`` the optimiser runs on the reduced model within a box of radius
+    ``radius`` in the Gauss-Newton-scaled variables; at its answer x_t the basis is enriched
+    and the objective evaluated again. The step is accepted when the enriched objective at x_t
+    is below the enriched one at the centre; the radius doubles when the predicted decrease is
+    confirmed (ratio rho >= 0.75) and the step reached the box, and shrinks to a quarter of the
+    step when rho < 0.25. Stops when an enrichment changes the paired eigenvalues by less than
+    ``reduced_tol`` (relative) and the step is within ``xtol``.
+    """
+    options = prob.options
+    radius = RADIUS0
+    converged, status = False, "not converged: reduced model did not settle"
+    for _ in range(MAX_ENRICH):
+        # each optimiser run on the reduced model has the evaluation budget of a full-model
+        # run, less the start's evaluation and the final check's
+        n_before = prob.n_eval
+        budget = max(options.max_evaluations - 2, 1)
+        ev_t, inner_conv, inner_status = _optimize_from(prob, ev_c, progress, radius=radius,
+                                                        maxeval=budget,
+                                                        damping=REDUCED_DAMPING)
+        step = prob.last_step
+        if prob.n_eval - n_before >= budget:
+            converged, status = False, inner_status
+            ev_c = ev_t if ev_t.objective <= ev_c.objective else ev_c
+            break
+        f_c_old, f_pred, lam_pred = ev_c.objective, ev_t.objective, ev_t.eigenvalues
+        prob.enrich(ev_t)
+        ev_t2 = prob.evaluate(ev_t.x)
+        same = np.array_equal(ev_t.x, ev_c.x)
+        ev_c2 = ev_t2 if same else prob.evaluate(ev_c.x)
+        ok = prob.weight > 0
+        change = (float(np.max(np.abs(ev_t2.eigenvalues - lam_pred)[ok] / lam_pred[ok]))
+                  if not ev_t2.refused else np.inf)
+        predicted = f_c_old - f_pred
+        actual = ev_c2.objective - ev_t2.objective
+        rho = actual / predicted if predicted > 0 else (1.0 if actual >= 0 else -1.0)
+        if ev_t2.objective <= ev_c2.objective:
+            ev_c = ev_t2
+        else:
+            ev_c = ev_c2
+        prob.adopt(ev_c)
+        if predicted <= 1e-12 * abs(f_c_old):
+            pass                         # decrease at round-off level: rho means nothing
+        elif rho >= 0.75 and step >= 0.9 * radius:
+            radius *= RADIUS_GROWTH
+        elif rho < 0.25:
+            radius = max(0.25 * step, 1e-3 * options.xtol_rel)
+        log.info("enrichment %d: basis change of the paired eigenvalues %.2e, step %.2e, "
+                 "rho %.3f, radius %.3g", prob.n_enrich, change, step, rho, radius)
+        # converged: the enrichment left the paired eigenvalues at the optimiser's answer
+        # unchanged, and that answer is the optimiser's own (not cut by the trust region) or
+        # the step is within the step tolerance
+        if change <= options.reduced_tol and step <= STEP_TOL:
+            converged, status = inner_conv, inner_status
+            if ev_c is not ev_t2 and ev_t2.objective <= ev_c.objective * (1 + 1e-9):
+                ev_c = ev_t2             # as good within a 1e-9 of the objective (a step of
+                #                          < STEP_TOL), and enriched there: no new factorisation
+                prob.adopt(ev_c)
+            break
+    return ev_c, converged, status
+
+
+def _finish_reduced(prob, ev):
+    """The evaluation reported at the optimum: the reduced one when its error bound shows it
+    equal to the full model's (relative eigenvalue bound <= FINAL_BOUND for every computed
+    mode), else the full model solved there."""
+    bounds = prob.bound_at(ev.x)
+    if bounds is None or bounds[2] > FINAL_BOUND:
+        prob.enrich(ev, rounds=FINAL_ROUNDS, target=FINAL_BOUND)
+        prob.adopt(prob.evaluate(ev.x))
+        ev = prob.best
+        bounds = prob.bound_at(ev.x)
+    final = prob.final_check(ev)
+    bounds = prob.bound_at(final.x)
+    log.info("error bound at the optimum: %.2e relative (limit %.0e)", bounds[2], FINAL_BOUND)
+    if bounds[2] <= FINAL_BOUND:
+        prob.adopt(final)
+        return final
+    prob.use_full()
+    full = prob.evaluate(ev.x)
+    prob.adopt(full)
+    prob.final_bound = (full.x.tobytes(), np.zeros(full.eigenvalues.size), 0.0)
+    return full
+
+
+def _optimize_from(prob, ev0, progress=None, radius=None, ftol_rel=None, xtol=None,
+                   damping=None, maxeval=None):
+    """One nlopt run from ``ev0`` (Gauss-Newton-scaled variables); returns (ev, converged, status).
+
+    ``radius``: the scaled step stays within this box (trust region of the reduced model);
+    the step taken (max norm, scaled) is left in ``prob.last_step``."""
     import nlopt
 
     options = prob.options
@@ -498,7 +780,7 @@ def _optimize_from(prob, ev0, progress=None):
     # Gauss-Newton step instead of a raw gradient step that jumps to the bounds. Bounds and
     # the feasibility constraints become linear constraints on y (still a polytope).
     scale = max(ev0.objective, 1e-300)
-    L = _gauss_newton_factor(prob, ev0, scale)
+    L = _gauss_newton_factor(prob, ev0, scale, DAMPING if damping is None else damping)
     T = np.linalg.inv(L.T)                                            # x = x0 + T y
     lo, hi = prob.bounds()
     A, b = prob.linear_constraints()
@@ -507,6 +789,8 @@ def _optimize_from(prob, ev0, progress=None):
     Ay = A_all @ T
     by = b_all - A_all @ x0
     span = np.abs(L.T) @ np.maximum(hi - x0, x0 - lo)                 # a finite box for MMA
+    if radius is not None:
+        span = np.minimum(span, radius)
 
     algo = nlopt.LD_SLSQP if options.optimizer == "slsqp" else nlopt.LD_MMA
     opt = nlopt.opt(algo, prob.n_vars)
@@ -525,13 +809,13 @@ def _optimize_from(prob, ev0, progress=None):
         if grad.size:
             grad[:] = T.T @ ev.gradient / scale
         if progress is not None:
-            progress(prob.n_eval, ev.objective, prob.history[-1][2])
+            progress(prob.n_eval, ev.objective, prob.history[-1].rms_residual_percent)
         return ev.objective / scale
 
     opt.set_min_objective(objective)
-    opt.set_xtol_abs(np.full(prob.n_vars, options.xtol_rel))
-    opt.set_ftol_rel(options.ftol_rel)
-    opt.set_maxeval(options.max_evaluations)
+    opt.set_xtol_abs(np.full(prob.n_vars, options.xtol_rel if xtol is None else xtol))
+    opt.set_ftol_rel(options.ftol_rel if ftol_rel is None else ftol_rel)
+    opt.set_maxeval(options.max_evaluations if maxeval is None else maxeval)
     status = ""
     try:
         x_best = x0 + T @ opt.optimize(np.zeros(prob.n_vars))
@@ -559,10 +843,12 @@ def _optimize_from(prob, ev0, progress=None):
     if prob.evaluate(best).objective < prob.evaluate(x_best).objective:
         x_best = best
     ev = prob.evaluate(x_best)
+    prob.last_step = float(np.max(np.abs(L.T @ (ev.x - x0)))) if prob.n_vars else 0.0
     return ev, converged, status
 
 
-def _gauss_newton_factor(prob: Problem, ev: Evaluation, scale: float) -> np.ndarray:
+def _gauss_newton_factor(prob: Problem, ev: Evaluation, scale: float,
+                         damping: float = DAMPING) -> np.ndarray:
     """Lower Cholesky factor of the damped Gauss-Newton Hessian of Phi / scale at ``ev``."""
     Jr = -(np.sqrt(prob.weight) / prob.lam_meas)[:, None] * ev.dlam_dx
     H = 2 * Jr.T @ Jr / scale
@@ -574,19 +860,19 @@ def _gauss_newton_factor(prob: Problem, ev: Evaluation, scale: float) -> np.ndar
                 sc = 1.0 if name == "nu12" else ref
                 H[j, j] += 2 * wp * (sc / (ref if ref else 1.0)) ** 2 / scale
     d = np.diag(H).copy()
-    H += np.diag(DAMPING * max(d.max(), 1e-300) + 1e-3 * d)  # Levenberg-Marquardt-type damping
+    H += np.diag(damping * max(d.max(), 1e-300) + 1e-3 * d)  # Levenberg-Marquardt-type damping
     return np.linalg.cholesky(H)
 
 
 def _best_x(prob: Problem, first: int = 0) -> np.ndarray:
     """Variables of the lowest objective among the evaluations from index ``first`` on."""
-    k = first + int(np.argmin([h[1] for h in prob.history[first:]]))
-    return prob.history[k][3]
+    k = first + int(np.argmin([h.objective for h in prob.history[first:]]))
+    return prob.history[k].x
 
 
 def _stalled(prob: Problem) -> bool:
     """Round-off stop at an optimum: the best objective stopped changing."""
-    obj = np.array([h[1] for h in prob.history])
+    obj = np.array([h.objective for h in prob.history])
     if obj.size < 4:
         return False
     best = np.minimum.accumulate(obj)
@@ -629,10 +915,16 @@ def _result(prob: Problem, ev: Evaluation, converged, status, warnings, initial_
         rms_residual_percent=weighted_rms(residual, prob.weight),
         initial_rms_residual_percent=initial_rms, modes=ev.modes, phi_paired=ev.phi,
         dlam_dx=ev.dlam_dx, sensitivity=np.hstack(sens), sensitivity_labels=tuple(labels),
-        history={"evaluation": np.array([h[0] for h in hist]),
-                 "objective": np.array([h[1] for h in hist]),
-                 "rms_residual_percent": np.array([h[2] for h in hist]),
-                 "x": np.array([h[3] for h in hist]),
-                 "constants": np.array([h[4] for h in hist])},
+        history=history_arrays(hist),
         swaps=tuple(prob.swaps), bounds_hit=tuple(hit), warnings=tuple(warnings),
-        global_properties=lam.global_properties().as_dict(), options=prob.options)
+        global_properties=lam.global_properties().as_dict(), options=prob.options,
+        error_bound=_error_bound(prob, ev), work=dict(getattr(prob, "work", {})),
+        basis=prob.last_basis)
+
+
+def _error_bound(prob, ev) -> np.ndarray:
+    """Relative error bound of the paired eigenvalues at ``ev`` against the full model."""
+    if prob.basis is None:
+        return np.zeros(prob.n_meas)
+    b = prob.bound_at(ev.x)
+    return np.full(prob.n_meas, np.nan) if b is None else b[1]

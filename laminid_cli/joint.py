@@ -31,10 +31,12 @@ import numpy as np
 
 from laminid_cli.errors import FitInputError
 from laminid_cli.forward import residuals_percent, weighted_rms
-from laminid_cli.identify import (Evaluation, Identification, IdentifyOptions, Problem,
+from laminid_cli.identify import (Evaluation, HistoryRow, Identification, IdentifyOptions,
+                                  Problem, history_arrays,
                                   VariableSet, refused_evaluation,
-                                  _result, run_optimizer)
+                                  _result, run_optimizer, work_since)
 from laminid_cli.material import CONSTANT_NAMES, ElasticConstants
+from laminid_cli.modal import WORK
 
 
 @dataclass(frozen=True)
@@ -66,6 +68,8 @@ class JointIdentification:
     warnings: tuple[str, ...]
     merged_fixed: dict                       # material -> constants fixed in only some files
     options: IdentifyOptions = field(default_factory=IdentifyOptions)
+    work: dict = field(default_factory=dict)   # as Identification.work
+    basis: object = field(default=None, repr=False, compare=False)   # one per plate
 
     @property
     def specimen_names(self) -> tuple[str, ...]:
@@ -136,7 +140,8 @@ class JointProblem(VariableSet):
     weights and ``dlam_dx`` over the plates' measured modes.
     """
 
-    def __init__(self, fms, options: IdentifyOptions, *, start=None, start_pairing=None):
+    def __init__(self, fms, options: IdentifyOptions, *, start=None, start_pairing=None,
+                 basis=None):
         fms = tuple(fms)
         if len(fms) < 2:
             raise FitInputError("joint identification needs two or more specimens")
@@ -200,6 +205,7 @@ class JointProblem(VariableSet):
             raise FitInputError(f"joint identification: {n_active} weighted frequencies for "
                                 f"{self.n_vars} free constants; measure more modes or fix "
                                 "constants (--fix nu12,G13,G23)")
+        self.given_basis = None if basis is None else list(basis)
         self._new_run()
 
     # --- variables (as Problem) ---------------------------------------------------------------
@@ -224,6 +230,42 @@ class JointProblem(VariableSet):
             sub.adopt(part)
         self.best, self.cache = ev, (ev.x.tobytes(), ev)
 
+    # --- reduced-order model: one basis per plate (as Problem) ---------------------------------
+    @property
+    def reduced(self) -> bool:
+        return self.subs[0].reduced
+
+    def start_reduced(self, ev, basis=None) -> None:
+        parts = ev.parts if ev is not None else [None] * len(self.subs)
+        for k, (sub, part) in enumerate(zip(self.subs, parts)):
+            sub.start_reduced(part, None if basis is None else basis[k])
+        self.cache = None
+
+    @property
+    def last_basis(self):
+        return [sub.last_basis for sub in self.subs]
+
+    def enrich(self, ev, rounds: int = 2, target: float = 0.0) -> float:
+        change = max(sub.enrich(part, rounds, target) for sub, part in zip(self.subs, ev.parts))
+        self.n_enrich += 1
+        self.cache = None
+        bounds = [sub.final_bound for sub in self.subs]
+        self.final_bound = (ev.x.tobytes(), np.concatenate([b[1] for b in bounds]),
+                            max(b[2] for b in bounds))
+        return change
+
+    def bound_at(self, x):
+        return Problem.bound_at(self, x)
+
+    def use_full(self) -> None:
+        for sub in self.subs:
+            sub.use_full()
+        self.cache = None
+
+    @property
+    def basis(self):
+        return [sub.basis for sub in self.subs]
+
     def describe(self) -> str:
         return "joint identification of " + ", ".join(str(fm.specimen.path) for fm in self.fms)
 
@@ -241,8 +283,22 @@ class JointProblem(VariableSet):
             return self.cache[1]
         evs = [sub.evaluate(x[idx]) for sub, idx in zip(self.subs, self.index)]
         if any(e.refused for e in evs):
-            self.n_refused += 1
             return refused_evaluation(self, x, ["not positive definite"])
+        return self._combine(x, evs)
+
+    def final_check(self, ev):
+        """As Problem.final_check, plate by plate."""
+        parts = [sub.final_check(part) for sub, part in zip(self.subs, ev.parts)]
+        self.cache = None
+        out = self._combine(np.asarray(ev.x, float), parts)
+        bounds = [sub.final_bound for sub in self.subs]
+        self.final_bound = (out.x.tobytes(), np.concatenate([b[1] for b in bounds]),
+                            max(b[2] for b in bounds))
+        return out
+
+    def _combine(self, x, evs):
+        """The joint evaluation from the plates' evaluations at ``x``."""
+        key = x.tobytes()
         objective = sum(ev.objective for ev in evs)
         gradient = np.zeros(self.n_vars)
         dlam_dx = np.zeros((self.n_meas, self.n_vars))
@@ -262,13 +318,13 @@ class JointProblem(VariableSet):
         self.n_eval += 1
         f_model = np.sqrt(lam) / (2 * np.pi)
         rms = weighted_rms(residuals_percent(self.freq, f_model), self.weight)
-        self.history.append((self.n_eval, ev.objective, rms, x.copy(),
-                             np.concatenate([c.as_array() for c in self.constants(x)])))
+        self.history.append(HistoryRow(self.n_eval, ev.objective, rms, x.copy(),
+                                       np.concatenate([c.as_array() for c in self.constants(x)])))
         return ev
 
 
 def identify_joint(fms, options: IdentifyOptions = IdentifyOptions(), progress=None, *,
-                   start=None, start_pairing=None) -> JointIdentification:
+                   start=None, start_pairing=None, basis=None) -> JointIdentification:
     """Identify one set of constants per material from several plates at once.
 
     ``fms``: ForwardModels of the plates (same mesh advised). ``progress(evaluation, objective,
@@ -278,13 +334,15 @@ def identify_joint(fms, options: IdentifyOptions = IdentifyOptions(), progress=N
     :func:`check_shared_materials`).
     """
     t0 = time.perf_counter()
-    prob = JointProblem(fms, options, start=start, start_pairing=start_pairing)
+    work0 = dict(WORK)
+    prob = JointProblem(fms, options, start=start, start_pairing=start_pairing, basis=basis)
     ev, converged, status, warnings, initial_rms = run_optimizer(prob, progress)
+    work = work_since(work0, prob)
     dt = time.perf_counter() - t0
     per_plate = []
     for sub, idx in zip(prob.subs, prob.index):
         sub_ev = sub.evaluate(ev.x[idx])                  # cached: the last joint evaluation
-        per_plate.append(_result(sub, sub_ev, converged, status, [], sub.history[0][2], dt))
+        per_plate.append(_result(sub, sub_ev, converged, status, [], sub.history[0].rms_residual_percent, dt))
     swaps = tuple(f"{r.specimen.name}: {s}" for r in per_plate for s in r.swaps)
     bounds = [f"{r.specimen.name}: {w}" for r in per_plate for w in r.warnings]
     notes = [f"material '{n}': {', '.join(ks)} fixed in some of the files, so fixed in all"
@@ -301,10 +359,7 @@ def identify_joint(fms, options: IdentifyOptions = IdentifyOptions(), progress=N
         converged=bool(converged), status=status, time_s=dt,
         rms_residual_percent=weighted_rms(residuals_percent(prob.freq, f_model), prob.weight),
         initial_rms_residual_percent=initial_rms, specimens=tuple(per_plate),
-        history={"evaluation": np.array([h[0] for h in hist]),
-                 "objective": np.array([h[1] for h in hist]),
-                 "rms_residual_percent": np.array([h[2] for h in hist]),
-                 "x": np.array([h[3] for h in hist]),
-                 "constants": np.array([h[4] for h in hist])},
+        history=history_arrays(hist),
         swaps=swaps, warnings=tuple(list(warnings) + notes + bounds),
-        merged_fixed=dict(prob.merged_fixed), options=options)
+        merged_fixed=dict(prob.merged_fixed), options=options, work=work,
+        basis=prob.last_basis if prob.options.solver == "reduced" else None)

@@ -33,6 +33,18 @@ from laminid_cli.errors import SolverError
 #: a mode is rigid when |lambda| < RIGID_TOL * (largest |lambda| found)
 RIGID_TOL = 1e-6
 
+#: work done by this process: banded factorisations, solve pairs (one right-hand side through
+#: the forward and back substitution) and Lanczos runs; read by benchmarks/bench_identify.py
+WORK = {"factorizations": 0, "solve_pairs": 0, "lanczos_runs": 0}
+
+
+def reset_work() -> dict:
+    """Zero the work counter; returns the counts before the reset."""
+    before = dict(WORK)
+    for k in WORK:
+        WORK[k] = 0
+    return before
+
 
 @dataclass(frozen=True)
 class Modes:
@@ -125,9 +137,11 @@ class BandedCholesky:
                               "definite: the stiffness is indefinite or singular); check that "
                               "the constants are admissible and the densities positive, or "
                               "try another mesh (--mesh)") from exc
+        WORK["factorizations"] += 1
         perm = self.perm
 
         def solve(x):
+            WORK["solve_pairs"] += 1 if x.ndim == 1 else x.shape[1]
             y = np.empty_like(x)
             y[perm] = sla.cho_solve_banded((cb, False), x[perm], check_finite=False)
             return y
@@ -198,6 +212,7 @@ def solve_modes(K: sp.spmatrix, M: sp.spmatrix, n_modes: int, *, sigma: float,
     if n_rigid:
         v0 = v0 - R @ (MR.T @ v0)
     OPinv = spla.LinearOperator(K.shape, matvec=op, dtype=float)
+    WORK["lanczos_runs"] += 1
     try:
         vals, vecs = spla.eigsh(K, k=k, M=M, sigma=sigma, which="LM", OPinv=OPinv, tol=tol,
                                 v0=v0)

@@ -253,6 +253,8 @@ def run_fields(r) -> dict:
         "converged": r.converged,
         "optimizer_status": r.status,
         "optimizer": {"slsqp": "LD_SLSQP", "mma": "LD_MMA"}[r.options.optimizer],
+        "solver": r.options.solver,
+        "work": dict(getattr(r, "work", {}) or {}),
         "time_s": r.time_s,
         "swaps": list(r.swaps),
         "warnings": list(r.warnings),
@@ -263,7 +265,7 @@ def write_run_attrs(f, r) -> None:
     """Root attributes of a result file: the optimisation outcome (as :func:`run_fields`)."""
     run = run_fields(r)
     for key in ("converged", "optimizer_status", "objective", "evaluations", "time_s",
-                "optimizer"):
+                "optimizer", "solver"):
         f.attrs[key] = run[key]
 
 
@@ -307,7 +309,9 @@ def identification_summary(r) -> dict:
                       "global": ref.get("global", {})},
         "frequencies": {"measured": r.measured_hz, "model": r.model_hz,
                         "residual_percent": r.residual_percent, "weight": r.weight,
-                        "model_mode": r.pairing + 1},
+                        "model_mode": r.pairing + 1,
+                        # relative eigenvalue error bound against the full FE model (0: solved)
+                        "error_bound": r.error_bound},
         "rms_residual_percent": r.rms_residual_percent,
         "initial_rms_residual_percent": r.initial_rms_residual_percent,
         "global_properties": r.global_properties,

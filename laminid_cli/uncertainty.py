@@ -430,7 +430,7 @@ def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
     nu_max, bound_factor : the search limits of the identification (IdentifyOptions), for the
         nu12 interval's clipping and :func:`bounds_reached`
     """
-    from scipy import stats
+    from laminid_cli.quantiles import chi2_ppf, norm_ppf, t_ppf
 
     if scaling not in SCALINGS:
         raise FitInputError(f"covariance scaling '{scaling}' unknown: choose {', '.join(SCALINGS)}")
@@ -501,8 +501,8 @@ def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
     chi2 = float(np.sum((r / t) ** 2))
     dof = int(n_rows - p_in)
     s2 = chi2 / dof if dof > 0 else float("nan")
-    chi2_limit = float(stats.chi2.ppf(0.99, dof)) if dof > 0 else float("nan")
-    z = float(stats.norm.ppf(0.5 + confidence / 2))
+    chi2_limit = chi2_ppf(0.99, dof) if dof > 0 else float("nan")
+    z = norm_ppf(0.5 + confidence / 2)
     notes = list(notes)
     if at_bound.any():
         notes.append("at a bound, not identified: " + ", ".join(
@@ -514,7 +514,7 @@ def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
             notes.append(f"no degrees of freedom left ({n_rows} data rows for {p_in} constants): "
                          "the a-posteriori variance cannot be estimated; stated sigma used")
         else:
-            tq = float(stats.t.ppf(0.5 + confidence / 2, dof))
+            tq = t_ppf(0.5 + confidence / 2, dof)
             if scaling == "residuals" or tq * np.sqrt(s2) > z:
                 used, factor, q = "residuals", s2, tq
     if dof > 0 and chi2 > chi2_limit:
@@ -693,13 +693,18 @@ class MonteCarlo:
 _WORKER: dict = {}
 
 
-def _init_worker(specimens, mesh, boundaries, options, start, start_pairing, joint):
+def _init_worker(specimens, mesh, boundaries, options, start, start_pairing, joint,
+                 basis_vectors=None):
     from laminid_cli.forward import build_forward_model
+    from laminid_cli.reduced import ReducedBasis
 
     _WORKER.clear()
-    _WORKER.update(
-        fms=[build_forward_model(s, mesh, boundary=b) for s, b in zip(specimens, boundaries)],
-        options=options, start=start, start_pairing=start_pairing, joint=joint)
+    fms = [build_forward_model(s, mesh, boundary=b) for s, b in zip(specimens, boundaries)]
+    # the optimum's reduced basis, rebuilt once per process: each trial starts from a copy
+    bases = (None if basis_vectors is None else
+             [ReducedBasis.from_vectors(fm, V) for fm, V in zip(fms, basis_vectors)])
+    _WORKER.update(fms=fms, options=options, start=start, start_pairing=start_pairing,
+                   joint=joint, bases=bases)
 
 
 def _run_trial(args):
@@ -714,13 +719,17 @@ def _run_trial(args):
         meas = dataclasses.replace(fm.specimen.measured, freq=f)
         fms.append(dataclasses.replace(fm, specimen=dataclasses.replace(fm.specimen,
                                                                         measured=meas)))
+    bases = _WORKER["bases"]
+    if bases is not None:                  # the bases hold the plate, not its frequencies
+        bases = [b.copy() for b in bases]
     try:
         if _WORKER["joint"]:
             r = identify_joint(fms, _WORKER["options"], start=_WORKER["start"],
-                               start_pairing=_WORKER["start_pairing"])
+                               start_pairing=_WORKER["start_pairing"], basis=bases)
         else:
             r = identify(fms[0], _WORKER["options"], start=_WORKER["start"],
-                         start_pairing=_WORKER["start_pairing"][0])
+                         start_pairing=_WORKER["start_pairing"][0],
+                         basis=None if bases is None else bases[0])
     except LaminidError as exc:
         return index, None, str(exc)
     if not r.converged:
@@ -728,6 +737,25 @@ def _run_trial(args):
     consts = {n: c for n, c in zip(r.material_names, r.constants)}
     vals = [getattr(consts[lab.rsplit(".", 1)[0]], lab.rsplit(".", 1)[1]) for lab in labels]
     return index, np.array(vals), ""
+
+
+def _basis_vectors(result):
+    """The reduced basis vectors of each plate of ``result`` (None with the full solver)."""
+    basis = getattr(result, "basis", None)
+    if basis is None:
+        return None
+    bases = basis if isinstance(basis, list) else [basis]
+    if any(b is None for b in bases):
+        return None
+    plates = result.specimens if hasattr(result, "specimens") else [result]
+    out = []
+    for b, plate in zip(bases, plates):
+        # with the first-order mode changes at the optimum, the trials (which move the poorly
+        # determined constants far) need few enrichments: one factorisation here for all
+        b = b.copy()
+        b.add_sensitivities(b.fm.plate.coefficients(plate.constants), plate.modes.phi)
+        out.append(b.V)
+    return out
 
 
 def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
@@ -761,7 +789,7 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
         trials.append((i, freqs, uncertainty.labels))
     init = ([plate.specimen for _, plate in parts], parts[0][0].mesh_size,
             [fm.plate.boundary for fm, _ in parts], result.options, tuple(result.constants),
-            [np.asarray(plate.pairing) for _, plate in parts], joint)
+            [np.asarray(plate.pairing) for _, plate in parts], joint, _basis_vectors(result))
     jobs = max(1, min(int(jobs or os.cpu_count() or 1), n_trials))
     out: list = [None] * n_trials
     failures = []
@@ -884,10 +912,12 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
     kw = dict(scaling=uopts.scaling, max_rel_interval=uopts.max_rel_interval,
               confidence=uopts.confidence)
 
-    def run(opts):
+    def run(opts, basis=None):
         if joint:
-            return identify_joint(fm_list, opts, progress)
-        return identify(fm_list[0], opts, progress)
+            return identify_joint(fm_list, opts, progress,
+                                  basis=None if basis is None else [b.copy() for b in basis])
+        return identify(fm_list[0], opts, progress,
+                        basis=None if basis is None else basis.copy())
 
     result = run(options)
     unc = uncertainty_of(result, fm_list if joint else fm_list[0], sigmas if joint else sigmas[0],
@@ -909,7 +939,7 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
         log.info("fixing undetermined constants at their initial values: %s", ", ".join(new))
         options = dataclasses.replace(options, fix=tuple(options.fix) + tuple(new))
         earlier.append(result)
-        result = run(options)
+        result = run(options, result.basis)          # the basis spans the path already walked
         runs += 1
         unc = uncertainty_of(result, fm_list if joint else fm_list[0],
                              sigmas if joint else sigmas[0], **kw)

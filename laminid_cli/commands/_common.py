@@ -122,7 +122,7 @@ def _apply(options):
 
 
 #: identification settings shared by ``identify`` and ``batch`` (parameters: mesh, fix,
-#: optimizer, parametrization, xtol, ftol, max_evaluations, pairing)
+#: optimizer, parametrization, xtol, ftol, max_evaluations, pairing, solver)
 fit_options = _apply([
     click.option("--mesh", default="12x12", show_default=True, metavar="NXxNY",
                   help="Elements along x (side a) and y (side b); the paper uses 12x12."),
@@ -148,6 +148,12 @@ fit_options = _apply([
                   help="Mode pairing: track = sorted order at the start, then each mode followed "
                        "by MAC so swaps cannot corrupt the fit, re-anchored in sorted order if it "
                        "ends out of order; sorted = sorted order throughout (the paper)."),
+    click.option("--solver", type=click.Choice(["reduced", "full"]), default="reduced",
+                  show_default=True,
+                  help="Eigen solver of the fit: reduced = the optimiser runs on a reduced-order "
+                       "model enriched where it goes and converged to the full model (same "
+                       "result, several times less work); full = one full eigen solution per "
+                       "evaluation (the reference)."),
 ])
 
 #: uncertainty settings shared by ``identify`` and ``batch`` (parameters: sigma_rel,

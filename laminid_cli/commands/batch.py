@@ -26,7 +26,7 @@ from laminid_cli.commands._common import (echo_json, fit_options, json_option,
                    "one row per specimen, material and constant.")
 @json_option
 def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrization, xtol,
-          ftol, max_evaluations, pairing, sigma_rel, covariance_scale, max_rel_interval,
+          ftol, max_evaluations, pairing, solver, sigma_rel, covariance_scale, max_rel_interval,
           fix_undetermined, monte_carlo, seed, force, wide, as_json):
     """Identify every specimen in INPUTS (folders searched recursively for *.yaml/*.yml,
     or files) as 'laminid identify' does (same options, same uncertainty assessment),
@@ -75,6 +75,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrizat
     options = BatchOptions(mesh=mesh, fix=tuple(x.strip() for x in fix.split(",") if x.strip()),
                            optimizer=optimizer, parametrization=parametrization, xtol=xtol,
                            ftol=ftol, max_evaluations=max_evaluations, pairing=pairing,
+                           solver=solver,
                            sigma_rel=sigma_rel, covariance_scale=covariance_scale,
                            max_rel_interval=max_rel_interval,
                            fix_undetermined=fix_undetermined, monte_carlo=monte_carlo, seed=seed)

@@ -43,7 +43,7 @@ def default_joint_output(specs) -> Path:
 @click.option("--no-output", is_flag=True, help="Do not write a result file.")
 @force_option
 def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evaluations, pairing,
-             joint, sigma_rel, covariance_scale, max_rel_interval, fix_undetermined, monte_carlo,
+             solver, joint, sigma_rel, covariance_scale, max_rel_interval, fix_undetermined, monte_carlo,
              seed, jobs, as_json, output, no_output, force):
     """Identify E1, E2, G12, G13, G23 and nu12 of every ply material of the plate in SPEC by
     fitting the free-plate finite-element model to the measured frequencies (paper Eq. 17,
@@ -107,7 +107,7 @@ def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalu
     options = IdentifyOptions(
         fix=fix_elastic, optimizer=optimizer,
         parametrization=parametrization, xtol_rel=xtol, ftol_rel=ftol,
-        max_evaluations=max_evaluations, pairing=pairing)
+        max_evaluations=max_evaluations, pairing=pairing, solver=solver)
     uopts = UncertaintyOptions(sigma_rel=sigma_rel, scaling=covariance_scale,
                                max_rel_interval=max_rel_interval,
                                fix_undetermined=fix_undetermined, monte_carlo=monte_carlo,

@@ -1,0 +1,239 @@
+"""Reduced-order eigen model of a plate, exact in the material parameters.
+
+The stiffness is affine in the stiffness coefficients, ``K(c) = sum_mj c_mj K_mj``, and M is
+fixed. With a mass-orthonormal basis V (n_dofs x r, ``V^T M V = I``) the projected matrices
+``Kr_mj = V^T K_mj V`` are computed once per basis change; an evaluation at any c is then the
+small dense eigenproblem ``(sum c_mj Kr_mj) y = theta Mr y`` (Rayleigh-Ritz; ``Mr = V^T M V``
+is the identity up to round-off and kept exactly), with eigenvalue gradients
+``d theta_i / d c_mj = y_i^T Kr_mj y_i`` (y_i Mr-orthonormal). Ritz values are upper
+bounds of the eigenvalues (theta_i >= lambda_i) and only as good as the basis, so the basis is
+enriched where the optimiser goes (:meth:`ReducedBasis.enrich`): one factorisation of
+``A = K - sigma M`` (sigma < 0, so A is positive definite) and the preconditioned residuals
+``s_i = A^-1 (K - theta_i M) u_i`` of the Ritz vectors ``u_i = V y_i`` are added to V.
+
+Error bound (per mode, computed from the same solves): with ``eta_i^2 = r_i^T A^-1 r_i``,
+expanding u_i in the M-orthonormal eigenvectors gives ``eta_i^2 = sum_j c_j^2 (lambda_j -
+theta_i)^2 / (lambda_j - sigma)``, so some eigenvalue lambda lies within
+``d_i = (eta_i^2 + sqrt(eta_i^4 + 4 eta_i^2 (theta_i - sigma))) / 2`` of theta_i; adding
+vectors to the basis only moves each theta_i down towards lambda_i (Cauchy interlacing), so the
+bound stays valid for the enriched Ritz values.
+"""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import scipy.linalg as sla
+
+from laminid_cli.errors import SolverError
+from laminid_cli.modal import Modes, _m_orthonormal
+
+#: columns added by an enrichment whose M-norm after orthogonalisation is below this (relative
+#: to the normalised residual) add nothing and are dropped
+DROP_TOL = 1e-9
+#: the basis is rebuilt from the current Ritz vectors when it would grow beyond this
+MAX_BASIS = 260
+
+
+class ReducedBasis:
+    """Mass-orthonormal basis V of one plate and the projected basis stiffness matrices."""
+
+    def __init__(self, fm):
+        plate = fm.plate
+        self.fm = fm
+        self.M = plate.M
+        n = plate.n_dofs
+        n_mat = plate.K_data.shape[0]
+        self._Kb = [plate.basis_matrix(m, j) for m in range(n_mat) for j in range(6)]
+        self.n_mat = n_mat
+        self.R = None
+        if fm.rigid is not None:
+            self.R = _m_orthonormal(fm.rigid, self.M)
+            self.MR = self.M @ self.R
+        self.V = np.zeros((n, 0))
+        self.MV = np.zeros((n, 0))
+        self.Kr = np.zeros((n_mat, 6, 0, 0))
+        self.Mr = np.zeros((0, 0))          # V^T M V: I up to round-off, kept exactly
+
+    @property
+    def size(self) -> int:
+        return self.V.shape[1]
+
+    def copy(self) -> "ReducedBasis":
+        """An independent basis with the same vectors (arrays are replaced, never changed in
+        place, so a shallow copy suffices)."""
+        return copy.copy(self)
+
+    @classmethod
+    def from_vectors(cls, fm, V: np.ndarray) -> "ReducedBasis":
+        """A basis of ``fm`` spanning the columns of V (e.g. another process's basis)."""
+        b = cls(fm)
+        b.add(V)
+        return b
+
+    def add(self, W: np.ndarray) -> int:
+        """Add the directions of W (n, k) not yet in the basis; returns how many were added."""
+        W = np.array(W, float, copy=True)
+        if W.ndim == 1:
+            W = W[:, None]
+        norm = np.sqrt(np.einsum("ij,ij->j", W, self.M @ W))
+        W = W[:, norm > 0] / norm[norm > 0]
+        for _ in range(2):                                   # classical Gram-Schmidt, twice
+            if self.R is not None:
+                W -= self.R @ (self.MR.T @ W)
+            W -= self.V @ (self.MV.T @ W)
+        G = W.T @ (self.M @ W)
+        d, Q = np.linalg.eigh(0.5 * (G + G.T))
+        keep = d > DROP_TOL**2
+        if not keep.any():
+            return 0
+        W = W @ (Q[:, keep] / np.sqrt(d[keep]))
+        for _ in range(2):                                   # clean up once more
+            if self.R is not None:
+                W -= self.R @ (self.MR.T @ W)
+            W -= self.V @ (self.MV.T @ W)
+            W = _m_orthonormal(W, self.M)
+        MW = self.M @ W
+        k = W.shape[1]
+        r = self.size
+        n_b = len(self._Kb)
+        KW = np.stack([Kb @ W for Kb in self._Kb])           # (n_b, n, k)
+        top = np.matmul(self.V.T, KW)                        # V^T K_b W  (n_b, r, k)
+        low = np.matmul(W.T, KW)                             # W^T K_b W  (n_b, k, k)
+        Kr = np.zeros((n_b, r + k, r + k))
+        Kr[:, :r, :r] = self.Kr.reshape(n_b, r, r)
+        Kr[:, :r, r:] = top
+        Kr[:, r:, :r] = top.transpose(0, 2, 1)
+        Kr[:, r:, r:] = 0.5 * (low + low.transpose(0, 2, 1))
+        self.Kr = Kr.reshape(self.n_mat, 6, r + k, r + k)
+        Mr = np.zeros((r + k, r + k))
+        Mr[:r, :r] = self.Mr
+        Mr[:r, r:] = self.V.T @ MW
+        Mr[r:, :r] = Mr[:r, r:].T
+        G = W.T @ MW
+        Mr[r:, r:] = 0.5 * (G + G.T)
+        self.Mr = Mr
+        self.V = np.hstack([self.V, W])
+        self.MV = np.hstack([self.MV, MW])
+        return k
+
+    def add_sensitivities(self, coef: np.ndarray, phi: np.ndarray) -> int:
+        """Add ``A^-1 K_b phi_i`` for every basis stiffness K_b and mode phi_i (one
+        factorisation of A = K - sigma M at ``coef``): the directions of the first-order change
+        of the modes with every stiffness coefficient, so that the basis follows the modes
+        over a neighbourhood in every parameter direction (the poorly determined constants
+        move far). Returns the directions added."""
+        plate = self.fm.plate
+        coef = np.asarray(coef, float)
+        last = getattr(self, "_factor", None)
+        if last is not None and last[0] == coef.tobytes():
+            K, sigma, solve = last[1:]
+        else:
+            K = plate.stiffness(coef=coef)
+            lam1 = float(phi[:, 0] @ (K @ phi[:, 0]) / (phi[:, 0] @ (self.M @ phi[:, 0])))
+            sigma = -0.5 * lam1
+            solve = self.fm.factorizer.factor(K.data - sigma * plate.M_on_K)
+            self._factor = (coef.tobytes(), K, sigma, solve)
+        rhs = np.hstack([Kb @ phi for Kb in self._Kb])
+        return self.add(solve(rhs))
+
+    def eig(self, coef: np.ndarray, k: int):
+        """Lowest ``k`` Ritz values and reduced eigenvectors (r, k) at coefficients ``coef``."""
+        if k > self.size:
+            raise SolverError(f"reduced basis of {self.size} vectors cannot give {k} modes")
+        Kr = np.tensordot(np.asarray(coef, float), self.Kr, axes=([0, 1], [0, 1]))
+        theta, Y = sla.eigh(0.5 * (Kr + Kr.T), self.Mr, subset_by_index=[0, k - 1],
+                            check_finite=False)
+        return theta, Y
+
+    def energies(self, Y: np.ndarray) -> np.ndarray:
+        """``y_i^T Kr_mj y_i``: d theta_i / d coef[m, j], (n_materials, 6, k)."""
+        KY = np.matmul(self.Kr, Y)                           # (n_mat, 6, r, k)
+        return np.einsum("mjak,ak->mjk", KY, Y)
+
+    def solve(self, coef: np.ndarray, k: int):
+        """Ritz modes (a :class:`Modes` with full-size vectors) and their basis energies."""
+        theta, Y = self.eig(coef, k)
+        if np.any(theta <= 0):
+            raise SolverError("reduced model: non-positive eigenvalue (infeasible constants?)")
+        n_rigid = 0 if self.R is None else self.R.shape[1]
+        modes = Modes(eigenvalues=theta, phi=self.V @ Y, n_rigid=n_rigid)
+        return modes, self.energies(Y), Y
+
+    def mac(self, phi_ref: np.ndarray, Y: np.ndarray) -> np.ndarray:
+        """Mass-weighted MAC (n_ref, k) between full vectors ``phi_ref`` and the Ritz vectors
+        of reduced eigenvectors ``Y`` (Mr-orthonormal): through ``V^T M phi_ref``, which is exact
+        for vectors in the span of V (earlier Ritz vectors: the basis only grows)."""
+        cached = getattr(self, "_mac_ref", None)
+        if cached is None or cached[0] is not phi_ref or cached[1] != self.size:
+            P = self.MV.T @ phi_ref                          # (r, n_ref)
+            den = np.einsum("ij,ij->j", phi_ref, self.M @ phi_ref)[:, None]
+            self._mac_ref = cached = (phi_ref, self.size, P, den)
+        P, den = cached[2], cached[3]
+        return (P.T @ Y) ** 2 / den
+
+    def enrich(self, coef: np.ndarray, k: int, rounds: int = 2, target: float = 0.0):
+        """Enrich the basis at ``coef`` with the preconditioned residuals of the lowest ``k``
+        Ritz modes: one factorisation (kept for a further call at the same ``coef``), up to
+        ``rounds`` block solves with it, fewer when every relative bound is below ``target``.
+
+        Returns (Ritz values before, Ritz values after, absolute error bound of the values
+        after, rad^2/s^2)."""
+        plate = self.fm.plate
+        coef = np.asarray(coef, float)
+        if self.size + rounds * k > MAX_BASIS:               # restart from the Ritz vectors
+            theta, Y = self.eig(coef, k)
+            U = self.V @ Y
+            self.__init__(self.fm)
+            self.add(U)
+        theta0, Y = self.eig(coef, k)
+        last = getattr(self, "_factor", None)
+        if last is not None and last[0] == coef.tobytes():
+            K, sigma, solve = last[1:]
+        else:
+            K = plate.stiffness(coef=coef)
+            sigma = -0.5 * theta0[0]
+            solve = self.fm.factorizer.factor(K.data - sigma * plate.M_on_K)
+            self._factor = (coef.tobytes(), K, sigma, solve)
+        theta = theta0
+        bound = np.full(k, np.inf)
+        for _ in range(rounds):
+            U = self.V @ Y
+            Rs = K @ U - (self.M @ U) * theta
+            S = solve(Rs)
+            eta2 = np.maximum(np.einsum("ij,ij->j", Rs, S), 0.0)
+            bound = 0.5 * (eta2 + np.sqrt(eta2**2 + 4 * eta2 * (theta - sigma)))
+            if np.max(bound / theta) <= target:
+                break
+            added = self.add(S)
+            theta, Y = self.eig(coef, k)
+            if added == 0:
+                break
+        return theta0, theta, bound
+
+    def check(self, coef: np.ndarray, U: np.ndarray):
+        """Ritz vectors ``U`` (n, k) checked with the full matrices at ``coef``: their Rayleigh
+        quotients ``u^T K u / u^T M u`` (free of the round-off that the projected matrices
+        carry from their stiff directions), the M-normalised vectors and the absolute error
+        bound of each quotient (same bound as :meth:`enrich`, with the factorisation kept from
+        an enrichment at the same ``coef`` when there is one)."""
+        plate = self.fm.plate
+        coef = np.asarray(coef, float)
+        last = getattr(self, "_factor", None)
+        if last is not None and last[0] == coef.tobytes():
+            K, sigma, solve = last[1:]
+        else:
+            K = plate.stiffness(coef=coef)
+            MU = self.M @ U
+            KU = K @ U
+            sigma = -0.5 * float(np.einsum("ij,ij->j", U, KU)[0] / np.einsum("ij,ij->j", U, MU)[0])
+            solve = self.fm.factorizer.factor(K.data - sigma * plate.M_on_K)
+            self._factor = (coef.tobytes(), K, sigma, solve)
+        U = U / np.sqrt(np.einsum("ij,ij->j", U, self.M @ U))
+        KU, MU = K @ U, self.M @ U
+        theta = np.einsum("ij,ij->j", U, KU)
+        Rs = KU - MU * theta
+        eta2 = np.maximum(np.einsum("ij,ij->j", Rs, solve(Rs)), 0.0)
+        bound = 0.5 * (eta2 + np.sqrt(eta2**2 + 4 * eta2 * (theta - sigma)))
+        return theta, U, bound
