@@ -18,8 +18,11 @@ def add_schema2_fields(path, *, status="ok", reasons=(), at_bound=None, log_scal
     at_bound = at_bound or {}
     s = h5py.string_dtype()
     with h5py.File(path, "r+") as f:
-        f.attrs["optimizer_status"] = f.attrs["status"]
+        if "optimizer_status" not in f.attrs:         # version 1 file: status was nlopt's
+            f.attrs["optimizer_status"] = f.attrs["status"]
         f.attrs["status"] = status
+        if "status" in f:                               # the writer's own /status replaced
+            del f["status"]
         g = f.create_group("status")
         g.create_dataset("codes", data=np.array([c for c, _ in reasons], dtype=object), dtype=s)
         g.create_dataset("texts", data=np.array([t for _, t in reasons], dtype=object), dtype=s)
