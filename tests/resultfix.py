@@ -50,6 +50,9 @@ def add_schema2_fields(path, *, status="ok", reasons=(), at_bound=None, log_scal
         u["upper"][...] = upper
         del u["verdict"]
         u.create_dataset("verdict", data=np.array(verdict, dtype=object), dtype=s)
+        for key in ("scale", "at_bound", "bound_text"):   # the writer's own, replaced
+            if key in u:
+                del u[key]
         u.create_dataset("scale", data=np.array(scale, dtype=object), dtype=s)
         u.create_dataset("at_bound", data=np.array(flags, bool))
         u.create_dataset("bound_text", data=np.array(texts, dtype=object), dtype=s)
