@@ -743,20 +743,26 @@ def _optimize_reduced(prob, ev_c, progress=None):
 
 def _finish_reduced(prob, ev):
     """The evaluation reported at the optimum: the reduced one when its error bound shows it
-    equal to the full model's (relative eigenvalue bound <= FINAL_BOUND for every computed
-    mode), else the full model solved there."""
-    bounds = prob.bound_at(ev.x)
-    if bounds is None or bounds[2] > FINAL_BOUND:
-        prob.enrich(ev, rounds=FINAL_ROUNDS, target=FINAL_BOUND)
-        prob.adopt(prob.evaluate(ev.x))
-        ev = prob.best
+    equal to the full model's (relative eigenvalue bound <= FINAL_BOUND for every checked
+    mode), else the full model solved there.
+
+    The bound of the enrichment is that of the Ritz vectors before its last block solve; the
+    final check's (full-matrix Rayleigh quotients of the Ritz vectors) can land just above the
+    limit (seen: 1.2e-9 on a Monte Carlo trial), so one more enrichment at the same point -- its
+    factorisation is kept -- is tried before a full solve."""
+    for _ in range(2):
         bounds = prob.bound_at(ev.x)
-    final = prob.final_check(ev)
-    bounds = prob.bound_at(final.x)
-    log.info("error bound at the optimum: %.2e relative (limit %.0e)", bounds[2], FINAL_BOUND)
-    if bounds[2] <= FINAL_BOUND:
-        prob.adopt(final)
-        return final
+        if bounds is None or bounds[2] > FINAL_BOUND:
+            prob.enrich(ev, rounds=FINAL_ROUNDS, target=FINAL_BOUND)
+            prob.adopt(prob.evaluate(ev.x))
+            ev = prob.best
+        final = prob.final_check(ev)
+        bounds = prob.bound_at(final.x)
+        log.info("error bound at the optimum: %.2e relative (limit %.0e)", bounds[2],
+                 FINAL_BOUND)
+        if bounds[2] <= FINAL_BOUND:
+            prob.adopt(final)
+            return final
     prob.use_full()
     full = prob.evaluate(ev.x)
     prob.adopt(full)
