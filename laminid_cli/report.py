@@ -78,7 +78,8 @@ def _gpa(key: str, value: float) -> float:
 
 
 def _unit(key: str) -> str:
-    return "1" if key == "nu12" else "GPa"
+    """Display unit: GPa for moduli, "–" for the dimensionless nu12."""
+    return "–" if key == "nu12" else "GPa"
 
 
 def fmt_value(key: str, value) -> str:
@@ -108,6 +109,41 @@ def short_verdict(text: str) -> str:
     return text
 
 
+#: an interval whose ends differ by more than this factor carries no information (a modulus
+#: interval on ln P with a huge standard deviation: "[1e-30, 5e+30] GPa")
+UNINFORMATIVE_RATIO = 1e3
+_BOUND_STATEMENT = re.compile(r"(?:nu12|E1|E2|G12|G13|G23)\s*(<=|>=)\s*(.*)$")
+
+
+def bound_statement(text: str) -> tuple[str, str]:
+    """(side, statement) of a ``bound_text`` ("at its bound — not identified: G13 <= 0.0001 E1
+    (0.00286 GPa)" -> ("lower", "≤ 0.0001 E1 (0.00286 GPa)")); side "lower" means the data
+    push the constant below its limit, "upper" above it, "" when the text says neither."""
+    m = _BOUND_STATEMENT.search(text.rsplit(": ", 1)[-1]) if text else None
+    if m is None:
+        return "", ""
+    op, rest = m.groups()
+    return ("lower", f"≤ {rest}") if op == "<=" else ("upper", f"≥ {rest}")
+
+
+def interval_text(k: str, iv) -> str:
+    """The interval of a constant as a table cell: "[lo, hi]" in its display unit, the
+    one-sided statement of a constant at its bound, or "uninformative" for an interval whose
+    ends are more than UNINFORMATIVE_RATIO apart (log-space modulus intervals only)."""
+    if iv is None:
+        return "—"
+    if iv.at_bound:
+        side, stmt = bound_statement(iv.bound_text)
+        if stmt:           # the limit in GPa when the statement gives it ("≤ 0.00286")
+            limit = re.search(r"\(([-+0-9.eE]+) GPa\)", stmt)
+            return f"{stmt[0]} {limit.group(1)}" if limit else stmt
+        return f"≤ {fmt_value(k, iv.upper)}" if np.isfinite(iv.upper) else "—"
+    lo, hi = iv.lower, iv.upper
+    if k != "nu12" and lo > 0 and hi / lo > UNINFORMATIVE_RATIO:
+        return f"uninformative (×{hi / lo:.0e})"
+    return f"[{fmt_value(k, lo)}, {fmt_value(k, hi)}]"
+
+
 def status_line(r: ResultFile) -> tuple[str, str]:
     """(headline, colour) of the result's status; files without one say so."""
     if r.status is None:
@@ -115,8 +151,10 @@ def status_line(r: ResultFile) -> tuple[str, str]:
                 f"{r.optimizer_status}", "0.35")
     if r.status.status == "ok":
         return "status: OK", "#1a7f37"
-    reasons = "; ".join(f"{x.text} [{x.code}]" for x in r.status.reasons) or "no reason given"
-    return f"status: CHECK — {reasons}", "#b35900"
+    if not r.status.reasons:
+        return "status: CHECK — no reason given", "#b35900"
+    lines = [f"[{x.code}] {x.text}" for x in r.status.reasons]
+    return "status: CHECK — " + "\n".join(lines), "#b35900"
 
 
 def _title(r: ResultFile, plate=None, what: str = "") -> str:
@@ -129,9 +167,19 @@ def _title(r: ResultFile, plate=None, what: str = "") -> str:
             f"evaluations, mesh {mesh[0]}x{mesh[1]}")
 
 
+def _wrap_width(fig, fontsize: float, bold: bool = False) -> int:
+    """Characters of a line of text across the page (average glyph width 0.55 em, bold
+    0.62 em, with a margin)."""
+    return int(fig.get_figwidth() * 72 * 0.97 / ((0.62 if bold else 0.55) * fontsize))
+
+
 def _footer(fig, text: str, *, color="k", weight="normal", fontsize=8.5, gid=None) -> None:
-    """A line (or a few) of text under the page, with room kept free by the layout."""
-    lines = textwrap.wrap(text, 170)
+    """Lines of text under the page (paragraphs separated by newlines, each wrapped to the
+    page width), with room kept free by the layout."""
+    width = _wrap_width(fig, fontsize, weight == "bold")
+    lines = [ln for para in text.split("\n")
+             for ln in textwrap.wrap(para, width, break_on_hyphens=False,
+                                     subsequent_indent="    ")]
     h = (0.006 + 0.021 * len(lines)) * fontsize / 8.5
     fig.get_layout_engine().set(rect=(0, h, 1, 1 - h))
     fig.text(0.01, 0.004, "\n".join(lines), fontsize=fontsize, color=color, ha="left",
@@ -160,13 +208,12 @@ def constants_rows(r: ResultFile) -> tuple[list[str], list[list[str]]]:
         for k in CONSTANTS:
             iv = r.uncertainty.get(m, k) if r.uncertainty is not None else None
             free = k in r.free.get(m, CONSTANTS)
+            interval = interval_text(k, iv)
             if iv is None:
-                interval, verdict = "—", "fixed" if not free else "no interval in file"
+                verdict = "fixed" if not free else "no interval in file"
             elif iv.at_bound:
-                interval, verdict = f"≤ {fmt_value(k, iv.upper)}" if np.isfinite(iv.upper) \
-                    else "—", "at bound, not identified"
+                verdict = "at bound, not identified"
             else:
-                interval = f"[{fmt_value(k, iv.lower)}, {fmt_value(k, iv.upper)}]"
                 verdict = short_verdict(iv.verdict)
             rv = ref.get(m, {}).get(k)
             rtext = "" if rv is None else (
@@ -215,7 +262,7 @@ def _table(ax, head, rows, *, fontsize=8, col_widths=None, colors=None):
 def constants_table(ax, r: ResultFile) -> None:
     head, rows = constants_rows(r)
     colors = [["w", "w", "w", _verdict_color(row[3]), "w", "w"] for row in rows]
-    _table(ax, head, rows, fontsize=7.5, col_widths=[0.18, 0.1, 0.26, 0.19, 0.09, 0.18],
+    _table(ax, head, rows, fontsize=7.5, col_widths=[0.17, 0.1, 0.23, 0.23, 0.09, 0.18],
            colors=colors)
     ax.set_gid("constants")
     ax.set_title("identified constants", fontsize=9, loc="left")
@@ -243,7 +290,8 @@ def frequency_block(fig, spec, plate) -> None:
                            wspace=0.0)
     ax_t = fig.add_subplot(sub[0, 0])
     ax_r = fig.add_subplot(sub[0, 1])
-    _table(ax_t, head, rows, fontsize=7.5)
+    _table(ax_t, head, rows, fontsize=7.5,
+           col_widths=[0.12, 0.13, 0.21, 0.2, 0.2, 0.14])
     ax_t.set_gid("frequency-table")
     ax_t.set_title("measured vs model frequencies", fontsize=9, loc="left")
     fr = plate.frequencies
@@ -292,12 +340,12 @@ def _laminate_text(plate) -> str:
     return "laminate (Appendix A): " + ", ".join(one(k, v) for k, v in gp.items())
 
 
-def summary_page(r: ResultFile, plate=None):
+def summary_page(r: ResultFile, plate=None, what: str = ""):
     """Page 1: status, constants table, and (single plate, or ``plate`` given) the
     frequencies. A joint result without ``plate`` gets the RMS of each plate instead."""
     fig = _figure()
     fig.suptitle(_title(r, plate if plate is not None else (r.plates[0] if not r.joint
-                                                             else None)), fontsize=11)
+                                                             else None), what), fontsize=11)
     gs = fig.add_gridspec(1, 2, width_ratios=[1.25, 1])
     f = table_fraction(sum(len(c) for c in r.materials.values()))
     left = gs[0, 0].subgridspec(2, 1, height_ratios=[f, 1.001 - f])
@@ -328,7 +376,8 @@ def summary_page(r: ResultFile, plate=None):
         u = r.uncertainty
         notes.append(f"uncertainty: {u.confidence:.0%} intervals, s² = {u.s2:.3g}, "
                      f"condition number {u.condition_number:.3g}, σ from {u.sigma_source}")
-    ax_n.text(0, 0.97, "\n".join("\n".join(textwrap.wrap(t, 110)) for t in notes),
+    ax_n.text(0, 0.97, "\n".join("\n".join(textwrap.wrap(t, 110, break_on_hyphens=False))
+                                  for t in notes),
               fontsize=7.5, va="top", ha="left", transform=ax_n.transAxes, linespacing=1.5)
     _status_banner(fig, r)
     return fig
@@ -355,7 +404,37 @@ def _panel_limits(v, lo, hi, ref, weak, nu: bool):
     return ymin, ymax
 
 
-def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0, label_bands=False):
+def _bound_limits(v, side: str, ref, nu: bool):
+    """(ymin, ymax) of the panel of a constant at its bound: room on the side the data push
+    it to (where the one-sided statement points), and the reference in view."""
+    half = max(0.6 * abs(v), 0.1 if nu else 1e-12)
+    ymin, ymax = (v - half, v + 0.35 * half) if side == "lower" else (v - 0.35 * half, v + half)
+    if ref is not None and np.isfinite(ref):
+        pad = 0.1 * max(abs(ref - v), half)
+        ymin, ymax = min(ymin, ref - pad), max(ymax, ref + pad)
+    if not nu and (ymin < 0 or side == "lower"):   # a modulus below its limit: 0 .. limit
+        ymin = 0.0
+    return ymin, ymax
+
+
+INTERVAL_COLOR = "C0"
+
+
+def _bound_panel(ax, k, v, iv, x, ymin, ymax):
+    """A constant at its bound: no interval, a one-sided arrow from the value towards the side
+    the data push it to, and the statement ("≤ 0.0001 E1 (0.00286 GPa)")."""
+    side, stmt = bound_statement(iv.bound_text)
+    if not side:
+        return
+    edge = ymin if side == "lower" else ymax
+    ax.annotate("", (x, edge), xytext=(x, v), gid="one-sided",
+                arrowprops=dict(arrowstyle="-|>", color=INTERVAL_COLOR, lw=2.5, ls="--"))
+    ax.annotate("\n".join(textwrap.wrap(stmt, 14)), (x, (v + edge) / 2), xytext=(6, 0),
+                textcoords="offset points", fontsize=7, va="center", ha="left",
+                color=INTERVAL_COLOR, gid="bound-statement")
+
+
+def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
     """Value, interval, verdict bands and reference of constant ``k`` of material ``m``."""
     u = r.uncertainty
     v = r.materials[m][k]
@@ -363,51 +442,75 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0, label_b
     ref = r.reference.get(m, {}).get(k)
     lo, hi = (iv.lower, iv.upper) if iv is not None else (np.nan, np.nan)
     g = (lambda z: _gpa(k, z))
-    ymin, ymax = _panel_limits(g(v), g(lo), g(hi), None if ref is None else g(ref), u.weak,
-                               k == "nu12")
+    nu = k == "nu12"
+    gref = None if ref is None else g(ref)
+    if iv is not None and iv.at_bound:
+        ymin, ymax = _bound_limits(g(v), bound_statement(iv.bound_text)[0], gref, nu)
+    else:
+        ymin, ymax = _panel_limits(g(v), g(lo), g(hi), gref, u.weak, nu)
     a = abs(g(v)) if iv is None or not iv.at_bound else 0.0     # no verdict at a bound
-    for frac, color, name in ((u.weak, BAND_COLORS[1], f"±{u.weak:.0%}: weak"),
-                              (u.well_determined, BAND_COLORS[0],
-                               f"±{u.well_determined:.0%}: well determined")):
-        ax.axhspan(g(v) - frac * a, g(v) + frac * a, color=color, lw=0, zorder=0,
-                   label=name if label_bands else None)
-    if iv is not None:
+    for frac, color in ((u.weak, BAND_COLORS[1]), (u.well_determined, BAND_COLORS[0])):
+        ax.axhspan(g(v) - frac * a, g(v) + frac * a, color=color, lw=0, zorder=0)
+    if iv is not None and iv.at_bound:
+        _bound_panel(ax, k, g(v), iv, x, ymin, ymax)
+    elif iv is not None:
         clo, chi = max(g(lo), ymin), min(g(hi), ymax)
         if not (np.isnan(clo) or np.isnan(chi)):
-            ax.plot([x, x], [clo, chi], "-", color="C0", lw=3, solid_capstyle="butt",
-                    gid="interval", label=f"{u.confidence:.0%} interval" if label_bands
-                    else None)
+            ax.plot([x, x], [clo, chi], "-", color=INTERVAL_COLOR, lw=3,
+                    solid_capstyle="butt", gid="interval")
+            caps = [e for e, inside in ((clo, g(lo) >= ymin), (chi, g(hi) <= ymax)) if inside]
+            ax.plot([x] * len(caps), caps, "_", ms=14, mew=2.5, color=INTERVAL_COLOR,
+                    gid="interval-caps")
         span = ymax - ymin
         for end, edge, up in ((hi, ymax, True), (lo, ymin, False)):
             if not np.isnan(end) and ((up and g(end) > ymax) or (not up and g(end) < ymin)):
                 tail = edge - (0.08 if up else -0.08) * span
                 ax.annotate("", (x, edge), xytext=(x, tail),
-                            arrowprops=dict(arrowstyle="-|>", color="C0", lw=1.5))
+                            arrowprops=dict(arrowstyle="-|>", color=INTERVAL_COLOR, lw=1.5))
                 ax.annotate(f"{'to' if up else 'from'}\n{fmt_value(k, end)}", (x, tail),
                             xytext=(5, 0), textcoords="offset points", fontsize=7,
-                            va="center", ha="left", color="C0")
+                            va="center", ha="left", color=INTERVAL_COLOR)
     mc = u.monte_carlo or {}
     if iv is not None and "lower" in mc and "upper" in mc:
         j = [x.label for x in u.intervals].index(iv.label)
         mlo, mhi = np.ravel(mc["lower"]), np.ravel(mc["upper"])
         if j < mlo.size:
             ax.plot([x - 0.25] * 2, [max(g(mlo[j]), ymin), min(g(mhi[j]), ymax)], "-",
-                    color="0.45", lw=2, solid_capstyle="butt", gid="monte-carlo",
-                    label="Monte Carlo spread" if label_bands else None)
+                    color="0.45", lw=2, solid_capstyle="butt", gid="monte-carlo")
             for end, edge, marker in ((g(mhi[j]), ymax, "^"), (g(mlo[j]), ymin, "v")):
                 if (marker == "^" and end > ymax) or (marker == "v" and end < ymin):
                     ax.plot([x - 0.25], [edge], marker, color="0.45", ms=6, clip_on=False)
     hollow = iv is not None and (iv.at_bound or iv.verdict.startswith(("not", "at bound")))
     ax.plot([x], [g(v)], "o", ms=7, color="k", mfc="w" if hollow else "k", zorder=5,
-            gid="value", label="identified" if label_bands else None)
+            gid="value")
     if ref is not None:
-        ax.plot([x + 0.25], [g(ref)], "D", ms=6, color="C3", zorder=5, gid="reference",
-                label="reference" if label_bands else None)
-        if not ymin <= g(ref) <= ymax:
+        ax.plot([x + 0.25], [gref], "D", ms=6, color="C3", zorder=5, gid="reference")
+        if not ymin <= gref <= ymax:
             ax.annotate(f"reference {fmt_value(k, ref)} off scale", (0.5, 0.02),
                         xycoords="axes fraction", ha="center", fontsize=6.5, color="C3")
     ax.set_ylim(ymin, ymax)
     return iv
+
+
+def _interval_legend(r: ResultFile) -> tuple[list, list[str]]:
+    """Handles and labels of the interval page's legend (what is drawn on any panel)."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    u = r.uncertainty
+    items = [(Patch(color=BAND_COLORS[0], lw=0),
+              f"interval within ±{u.well_determined:.0%} of the value: well determined"),
+             (Patch(color=BAND_COLORS[1], lw=0), f"within ±{u.weak:.0%}: weak"),
+             (Line2D([], [], color=INTERVAL_COLOR, lw=3, marker="_", ms=10, mew=2.5),
+              f"{u.confidence:.0%} interval"),
+             (Line2D([], [], ls="none", marker="o", ms=7, color="k"), "identified"),
+             (Line2D([], [], ls="none", marker="o", ms=7, color="k", mfc="w"),
+              "not determined / at its bound")]
+    if any(r.reference.get(m, {}).get(k) is not None for m in r.materials for k in CONSTANTS):
+        items.append((Line2D([], [], ls="none", marker="D", ms=6, color="C3"), "reference"))
+    if u.monte_carlo and "lower" in u.monte_carlo:
+        items.append((Line2D([], [], color="0.45", lw=2), "Monte Carlo spread"))
+    return [h for h, _ in items], [t for _, t in items]
 
 
 def interval_page(r: ResultFile):
@@ -423,7 +526,7 @@ def interval_page(r: ResultFile):
         for j, k in enumerate(CONSTANTS):
             ax = axes[i, j]
             ax.set_gid(f"interval-{m}.{k}")
-            iv = interval_panel(ax, r, m, k, label_bands=(i == 0 and j == 0))
+            iv = interval_panel(ax, r, m, k)
             ax.set_xlim(-0.6, 0.8)
             ax.set_xticks([])
             ax.tick_params(labelsize=7)
@@ -434,22 +537,21 @@ def interval_page(r: ResultFile):
                 words = "fixed" if k not in r.free.get(m, ()) else "no interval"
                 text = f"{fmt_value(k, v)}\n{words}"
             elif iv.at_bound:
-                text = f"{fmt_value(k, v)}\n" + "\n".join(textwrap.wrap(
-                    iv.bound_text or "at bound — not identified", 22))
+                text = f"{fmt_value(k, v)}\nat its bound:\nnot identified"
             else:
-                text = (f"{fmt_value(k, v)} [{fmt_value(k, iv.lower)}, "
-                        f"{fmt_value(k, iv.upper)}]\n" + "\n".join(textwrap.wrap(
-                            short_verdict(iv.verdict), 22)))
+                text = (f"{fmt_value(k, v)} {interval_text(k, iv)}\n" + "\n".join(
+                    textwrap.wrap(short_verdict(iv.verdict), 22)))
             ax.set_xlabel(text, fontsize=7)
     scales = {iv.scale for iv in u.intervals}
     how = ("moduli: interval on ln P (asymmetric, > 0); nu12: linear" if "log" in scales
            else "linear intervals value ± half-width (as stored in this file)")
-    handles, labels = axes[0, 0].get_legend_handles_labels()
+    handles, labels = _interval_legend(r)
     ax_leg = fig.add_subplot(gs[-1, :])
     ax_leg.axis("off")
-    ax_leg.legend(handles, labels, loc="center", ncol=len(labels), fontsize=8,
-                  title=f"{how}; hollow point: not determined / at bound; arrow: the interval runs "
-                     "off the panel to the value written", title_fontsize=8)
+    ax_leg.legend(handles, labels, loc="center", ncol=4, fontsize=8,
+                  title=f"{how}; arrow: the interval runs off the panel to the value written; "
+                        "dashed arrow: one-sided statement of a constant at its bound",
+                  title_fontsize=8)
     _status_banner(fig, r)
     return fig
 
@@ -622,14 +724,15 @@ def history_page(r: ResultFile):
                  fontsize=11)
     ax_o, ax_r, ax_c, ax_n = fig.subplots(4, 1, sharex=True, height_ratios=[1, 1, 1.6, 0.8])
     ax_o.set_gid("objective")
-    ax_o.semilogy(ev, hist.objective, "o-", ms=2.5, lw=1, color="C0", label="objective")
+    pts = "o-" if ev.size <= 200 else "-"             # points only while they stay apart
+    ax_o.semilogy(ev, hist.objective, pts, ms=2.5, lw=1, color="C0", label="objective")
     best = int(np.argmin(hist.objective))
     ax_o.semilogy(ev[best], hist.objective[best], "*", ms=11, color="C3",
                   label=f"best {hist.objective[best]:.3g}")
     ax_o.set_ylabel("objective (Eq. 17)", fontsize=8)
     ax_o.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0)
     ax_r.set_gid("rms")
-    ax_r.semilogy(ev, hist.rms_residual_percent, "o-", ms=2.5, lw=1, color="C1")
+    ax_r.semilogy(ev, hist.rms_residual_percent, pts, ms=2.5, lw=1, color="C1")
     ax_r.set_ylabel("RMS residual (%)", fontsize=8)
     hits = bound_hits(r)
     multi = len(r.materials) > 1
@@ -654,7 +757,7 @@ def history_page(r: ResultFile):
     ax_c.set_yscale("log")
     ax_c.axhline(1, color="k", lw=0.5)
     ax_c.set_ylabel("modulus / initial value", fontsize=8)
-    ax_n.set_ylabel("nu12 (1)", fontsize=8)
+    ax_n.set_ylabel("nu12 (–)", fontsize=8)
     ax_n.set_xlabel("evaluation")
     for ax in (ax_c, ax_n):
         if ax.get_legend_handles_labels()[0]:
@@ -771,7 +874,8 @@ def frf_page(r: ResultFile, plate, frf_path, bands=None, n_modes=None):
     for i, f in enumerate(plate.frequencies.model):
         ax_m.axvline(f, color="C3", ls=":", lw=1.2, label="model (identified)" if i == 0
                      else None)
-    ax_m.legend(loc="lower left", fontsize=8, framealpha=0.9)
+    ax_m.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=4, fontsize=8,
+                frameon=False)                  # above the panel: clear of the curves
     axes[-1].set_xlabel("frequency (Hz)")
     return fig
 
@@ -827,7 +931,8 @@ def result_pages(path, *, frf_path=None) -> list[Page]:
 def joint_pages(r: ResultFile, *, frf_path=None) -> list[Page]:
     """Shared constants (summary, intervals, history), then per plate its frequencies, mode
     shapes and sensitivities (and FRF page when it has an FRF file)."""
-    pages = [Page("shared", summary_page(r))]
+    pages = [Page("shared", summary_page(r, what=f"joint identification of {len(r.plates)} "
+                                                  "plates, shared constants"))]
     if r.uncertainty is not None and r.uncertainty.intervals:
         pages.append(Page("intervals", interval_page(r)))
     if r.history is not None:
@@ -888,10 +993,23 @@ def summary_pages(path) -> list[Page]:
 
 
 def _row_check(row, r) -> str:
-    """"" when the specimen's result is ok, else a short word (check / not converged ...)."""
+    """"" when the specimen's result is ok, else its status with the reason codes ("check:
+    at_bound, undetermined"; "failed: ..." for a specimen without a result)."""
     if r is not None and r.status is not None:
-        return "" if r.status.status == "ok" else r.status.status
-    return "" if row.get("status") == "ok" else str(row.get("status", ""))
+        if r.status.status == "ok":
+            return ""
+        return f"{r.status.status}: {', '.join(x.code for x in r.status.reasons)}"
+    if row.get("status") == "ok":
+        return ""
+    why = str(row.get("reason") or "")
+    return f"{row.get('status', '')}: {why}" if why else str(row.get("status", ""))
+
+
+def specimen_labels(rows) -> list[str]:
+    """The label of each summary row: the specimen's name (as on the pages of its result),
+    or the batch name (folder/stem) when two rows share a specimen name."""
+    names = [str(row.get("specimen") or row["name"]) for row in rows]
+    return [n if names.count(n) == 1 else str(row["name"]) for n, row in zip(names, rows)]
 
 
 def constants_across_page(done, title: str):
@@ -902,8 +1020,9 @@ def constants_across_page(done, title: str):
         materials += [m for m in mats if m not in materials]
     fig = _figure()
     fig.suptitle(f"{title}: identified constants across specimens", fontsize=11)
-    axes = fig.subplots(2, 3).ravel()
-    names = [row["name"] for row, _, _ in done]
+    gs = fig.add_gridspec(3, 3, height_ratios=[1, 1, 0.14])
+    axes = np.array([fig.add_subplot(gs[i, j]) for i in range(2) for j in range(3)])
+    names = specimen_labels([row for row, _, _ in done])
     x = np.arange(len(done))
     nm = len(materials)
     offsets = {m: (c - (nm - 1) / 2) * min(0.22, 0.7 / max(nm, 1)) for c, m in
@@ -913,7 +1032,7 @@ def constants_across_page(done, title: str):
         vals, ends, arrows = [], [], []
         for c, m in enumerate(materials):
             color = f"C{c % 10}"
-            for i, (row, mats, r) in enumerate(done):
+            for i, (name, (row, mats, r)) in enumerate(zip(names, done)):
                 if m not in mats or k not in mats[m]:
                     continue
                 v = _gpa(k, mats[m][k])
@@ -928,14 +1047,14 @@ def constants_across_page(done, title: str):
                         ends += [lo, hi]
                     arrows.append((xi, v, lo, hi, color))
                 ax.plot([xi], [v], "o", ms=6, color=color, mfc="w" if undetermined else color,
-                        gid=f"value-{row['name']}-{m}")
+                        gid=f"value-{name}-{m}")
                 if undetermined:
                     ax.annotate("?", (xi, v), xytext=(4, 2), textcoords="offset points",
                                 fontsize=9, color=color, weight="bold")
                 ref = r.reference.get(m, {}).get(k) if r is not None else None
                 if ref is not None:
                     ax.plot([xi], [_gpa(k, ref)], "_", ms=14, mew=2.2, color="k",
-                            gid=f"reference-{row['name']}-{m}")
+                            gid=f"reference-{name}-{m}")
                     vals.append(_gpa(k, ref))
         if vals:
             lo, hi = min(vals + ends), max(vals + ends)
@@ -969,35 +1088,46 @@ def constants_across_page(done, title: str):
                                         color="k")
     handles["not determined / at bound"] = Line2D([], [], ls="none", marker="o", ms=6,
                                                   color="0.4", mfc="w")
-    fig.legend(list(handles.values()), list(handles), loc="outside lower center",
+    ax_leg = fig.add_subplot(gs[2, :])                 # a row of its own: clear of the panels
+    ax_leg.axis("off")
+    ax_leg.legend(list(handles.values()), list(handles), loc="center",
                ncol=min(len(handles), 7), fontsize=8,
                title="bars: confidence interval of the result file (arrow: runs off the "
                      "panel); ?: not determined or at a bound", title_fontsize=8)
-    checks = [f"{row['name']}: {w}" for row, _, r in done if (w := _row_check(row, r))]
+    checks = [f"{name}: {w}" for name, (row, _, r) in zip(names, done)
+              if (w := _row_check(row, r))]
     if checks:
-        _footer(fig, "not ok — " + "; ".join(checks), color="#b35900")
+        _footer(fig, "status not ok — " + "; ".join(checks), color="#b35900")
     return fig
 
 
 def residuals_across_page(rows, title: str):
+    """The weighted RMS residual of each specimen, its status and reason codes above."""
+    from matplotlib.patches import Patch
+
     fig = _figure()
     fig.suptitle(f"{title}: weighted RMS frequency residual per specimen", fontsize=11)
     ax = fig.subplots()
     ax.set_gid("rms")
-    names = [r["name"] for r in rows]
+    names = specimen_labels(rows)
     rms = [r["rms_residual_percent"] if r["rms_residual_percent"] is not None else 0.0
            for r in rows]
     colors = ["0.45" if r["status"] == "ok" else "0.8" for r in rows]
     ax.bar(np.arange(len(rows)), rms, color=colors)
     for i, r in enumerate(rows):
         text = (f"{rms[i]:.3f} %" if r["rms_residual_percent"] is not None else "no result")
-        if r["status"] != "ok":
-            text += f"\n{r['status']}"
+        check = _row_check(r, None)
+        if check:
+            text += "\n" + "\n".join(textwrap.wrap(check, 18, break_on_hyphens=False))
         ax.annotate(text, (i, rms[i]), xytext=(0, 3), textcoords="offset points",
-                    ha="center", fontsize=8, va="bottom")
+                    ha="center", fontsize=7.5, va="bottom")
+    ax.set_ylim(0, 1.3 * max(max(rms), 1e-3))          # room for the labels above the bars
     ax.set_xticks(np.arange(len(rows)), names, rotation=45, ha="right", fontsize=8)
     ax.set_ylabel("RMS residual (%)")
     ax.set_xlabel("specimen")
+    ax.legend(handles=[Patch(color="0.45"), Patch(color="0.8")],
+              labels=["status ok", "status not ok (reason codes above the bar)"],
+              loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0, fontsize=8)
     return fig
 
 

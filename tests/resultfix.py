@@ -1,58 +1,69 @@
-"""Test helper: turn a result file written by today's writer into one with the schema-2 fields
-of /work SCHEMA.md that branch i11a writes (status + reasons, physical intervals, scale,
-at_bound, bound_text), so the reader and the report can be tested before that writer exists."""
+"""Test helpers that edit a result file written by ``laminid identify`` (schema 2) in place:
+
+- :func:`mark_at_bound` marks free constants as at a bound exactly as the writer marks one
+  (results.py: at_bound True, bound_text, the at-bound verdict, lower/upper NaN) and sets the
+  status and its reasons, for pages that need a bound hit on a specimen with reference values;
+- :func:`make_version_1` turns the file into what schema version 1 wrote (results.py before
+  the typed reader: material groups keyed by the name with the look-alike slash U+2215, the
+  nlopt outcome in the root attribute ``status``, no /status group, symmetric linear intervals
+  value -/+ half_width, no scale/at_bound/bound_text).
+"""
 
 import h5py
 import numpy as np
 
+from laminid_cli.uncertainty import VERDICT_AT_BOUND
 
-def add_schema2_fields(path, *, status="ok", reasons=(), at_bound=None, log_scale=True):
-    """Add root attrs status/optimizer_status, /status (codes, texts) and the /uncertainty
-    datasets scale, at_bound, bound_text to the result file ``path`` (in place).
+STR = h5py.string_dtype()
 
-    ``reasons``: [(code, text)]; ``at_bound``: {label: bound_text} of constants at a bound (their
-    verdict becomes "at bound — not identified", their interval one-sided from 0 to the value's
-    upper end). With ``log_scale`` the moduli intervals are recomputed on ln P from the stored
-    value and std (asymmetric, > 0), as i11a does: exp(ln v -/+ q std/v).
-    """
-    at_bound = at_bound or {}
-    s = h5py.string_dtype()
+
+def _strings(ds) -> list[str]:
+    return [x.decode() if isinstance(x, bytes) else str(x) for x in ds[()]]
+
+
+def _replace(group, key, data, dtype=None):
+    if key in group:
+        del group[key]
+    group.create_dataset(key, data=data, dtype=dtype)
+
+
+def mark_at_bound(path, at_bound: dict, *, status="check", reasons=()):
+    """``at_bound``: {label: bound_text}; ``reasons``: [(code, text)] of the new status."""
     with h5py.File(path, "r+") as f:
-        if "optimizer_status" not in f.attrs:         # version 1 file: status was nlopt's
-            f.attrs["optimizer_status"] = f.attrs["status"]
         f.attrs["status"] = status
-        if "status" in f:                               # the writer's own /status replaced
-            del f["status"]
-        g = f.create_group("status")
-        g.create_dataset("codes", data=np.array([c for c, _ in reasons], dtype=object), dtype=s)
-        g.create_dataset("texts", data=np.array([t for _, t in reasons], dtype=object), dtype=s)
-        if "uncertainty" not in f:
-            return
+        g = f["status"]
+        _replace(g, "codes", np.array([c for c, _ in reasons], dtype=object), STR)
+        _replace(g, "texts", np.array([t for _, t in reasons], dtype=object), STR)
         u = f["uncertainty"]
-        labels = [x.decode() if isinstance(x, bytes) else x for x in u["labels"][()]]
-        value, std = u["value"][()], u["std"][()]
-        q = float(u.attrs["quantile"])
+        labels = _strings(u["labels"])
+        verdict, texts = _strings(u["verdict"]), _strings(u["bound_text"])
+        flags = u["at_bound"][()].copy()
         lower, upper = u["lower"][()], u["upper"][()]
-        scale, flags, texts = [], [], []
-        verdict = [x.decode() if isinstance(x, bytes) else x for x in u["verdict"][()]]
-        for j, lab in enumerate(labels):
-            is_mod = not lab.endswith(".nu12")
-            scale.append("log" if is_mod and log_scale else "linear")
-            if is_mod and log_scale:
-                r = q * std[j] / abs(value[j])
-                lower[j], upper[j] = value[j] * np.exp(-r), value[j] * np.exp(r)
-            flags.append(lab in at_bound)
-            texts.append(at_bound.get(lab, ""))
-            if lab in at_bound:
-                verdict[j] = "at bound — not identified"
-                lower[j] = 0.0
-        u["lower"][...] = lower
-        u["upper"][...] = upper
-        del u["verdict"]
-        u.create_dataset("verdict", data=np.array(verdict, dtype=object), dtype=s)
-        for key in ("scale", "at_bound", "bound_text"):   # the writer's own, replaced
-            if key in u:
+        for lab, text in at_bound.items():
+            j = labels.index(lab)
+            flags[j], texts[j], verdict[j] = True, text, VERDICT_AT_BOUND
+            lower[j] = upper[j] = np.nan
+        u["lower"][...], u["upper"][...] = lower, upper
+        _replace(u, "at_bound", flags)
+        _replace(u, "bound_text", np.array(texts, dtype=object), STR)
+        _replace(u, "verdict", np.array(verdict, dtype=object), STR)
+
+
+def make_version_1(path):
+    """Rewrite a single-plate schema-2 result as schema version 1 wrote it (module docstring)."""
+    with h5py.File(path, "r+") as f:
+        f.attrs["schema_version"] = 1
+        f.attrs["status"] = f.attrs["optimizer_status"]
+        del f.attrs["optimizer_status"]
+        del f["status"]
+        for group in ("materials", "initial"):
+            for key in list(f[group]):
+                name = f[group][key].attrs["name"]
+                f[group].move(key, name.replace("/", "\u2215"))
+        if "uncertainty" in f:
+            u = f["uncertainty"]
+            for key in ("scale", "at_bound", "bound_text"):
                 del u[key]
-        u.create_dataset("scale", data=np.array(scale, dtype=object), dtype=s)
-        u.create_dataset("at_bound", data=np.array(flags, bool))
-        u.create_dataset("bound_text", data=np.array(texts, dtype=object), dtype=s)
+            del u.attrs["chi2_limit_99"]
+            v, hw = u["value"][()], u["half_width"][()]
+            u["lower"][...], u["upper"][...] = v - hw, v + hw

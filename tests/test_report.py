@@ -15,7 +15,7 @@ from laminid_cli.report import fmt_value, mac, report_pages, short_verdict, writ
 from laminid_cli.resultfile import read_result
 from laminid_cli.specimen import read_specimen
 from tests.frf_synth import synth_frf
-from tests.resultfix import add_schema2_fields
+from tests.resultfix import make_version_1, mark_at_bound
 
 S11 = "specimens/example1/S1.1.yaml"
 S12 = "specimens/example1/S1.2.yaml"
@@ -44,15 +44,14 @@ def batch_dir(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def checked(batch_dir, tmp_path_factory):
-    """S1.4's result with the schema-2 fields of SCHEMA.md: status "check", G23 at its bound,
-    log-space moduli intervals."""
+    """S1.4's result as written (status "check", log-space moduli intervals, reference values)
+    with G23 marked at its bound as the writer marks one (resultfix.mark_at_bound)."""
     path = tmp_path_factory.mktemp("chk") / "S1.4.result.h5"
     shutil.copy(batch_dir / "S1.4.result.h5", path)
-    add_schema2_fields(path, status="check",
-                       reasons=[("at_bound", "G23 at its bound (0.0001 E1)"),
-                                ("undetermined", "G13 not determined by these modes")],
-                       at_bound={f"{MAT}.G23": "at its bound — not identified: G23 <= "
-                                                "0.0001 E1"})
+    mark_at_bound(path, {f"{MAT}.G23": "at its bound — not identified: G23 <= 0.0001 E1 "
+                                       "(0.0160 GPa)"},
+                  reasons=[("at_bound", "G23 at its bound (0.0001 E1)"),
+                           ("undetermined", "G13 not determined by these modes")])
     return path
 
 
@@ -137,7 +136,7 @@ def test_summary_page_tables_and_residuals_read_back(checked, tmp_path):
         assert lo < float(rows[k][1]) < hi
         assert rows[k][3] == short_verdict(iv.verdict)
     assert u.get(MAT, "E1").scale == "log"             # asymmetric: exp(-/+ q std/v)
-    assert rows["G23"][3] == "at bound, not identified" and rows["G23"][2].startswith("≤")
+    assert rows["G23"][3] == "at bound, not identified" and rows["G23"][2] == "≤ 0.0160"
     assert rows["E1"][5] == f"170.0 ({round((res.materials[MAT]['E1'] / 170e9 - 1) * 100):+d} %)"
     assert rows["G13"][5] == ""                         # no reference value for G13
     # status line with the reasons
@@ -152,16 +151,20 @@ def test_interval_panels_each_in_their_unit_with_reference_and_arrows(checked):
     res = read_result(checked)
     fig = {p.name: p.figure for p in report_pages(checked)}["intervals"]
     u = res.uncertainty
-    for k in ("E1", "E2", "G12", "G13", "G23", "nu12"):
+    for k in ("E1", "E2", "G12", "G13", "nu12"):
         a = ax(fig, f"interval-{MAT}.{k}")
         scale = 1 if k == "nu12" else 1e9
         iv = u.get(MAT, k)
+        assert iv.scale == ("linear" if k == "nu12" else "log")
         value = next(ln for ln in a.get_lines() if ln.get_gid() == "value")
         assert value.get_ydata()[0] == res.materials[MAT][k] / scale
         line = next(ln for ln in a.get_lines() if ln.get_gid() == "interval")
         ymin, ymax = a.get_ylim()
         assert np.allclose(line.get_ydata(), [max(iv.lower / scale, ymin),
                                               min(iv.upper / scale, ymax)], rtol=1e-12)
+        caps = next(ln for ln in a.get_lines() if ln.get_gid() == "interval-caps")
+        inside = [e / scale for e in (iv.lower, iv.upper) if ymin <= e / scale <= ymax]
+        assert np.allclose(caps.get_ydata(), inside, rtol=1e-12)
         # the value and the weak band are always in view; moduli panels never go below 0
         assert ymin <= iv.value / scale <= ymax
         assert k == "nu12" or ymin >= 0
@@ -170,7 +173,18 @@ def test_interval_panels_each_in_their_unit_with_reference_and_arrows(checked):
         ref = res.reference[MAT].get(k)
         refs = [ln for ln in a.get_lines() if ln.get_gid() == "reference"]
         assert (len(refs) == 1 and refs[0].get_ydata()[0] == ref / scale) if ref else not refs
-        assert a.get_title() == f"{k} ({'1' if k == 'nu12' else 'GPa'})"
+        assert a.get_title() == f"{k} ({'–' if k == 'nu12' else 'GPa'})"
+    # G23 at its bound: no interval, a one-sided arrow from the value down to 0 and the limit
+    a = ax(fig, f"interval-{MAT}.G23")
+    assert not [ln for ln in a.get_lines() if ln.get_gid() in ("interval", "interval-caps")]
+    assert a.get_ylim()[0] == 0.0
+    arrow = next(t for t in a.texts if t.get_gid() == "one-sided")
+    g23 = res.materials[MAT]["G23"] / 1e9
+    assert arrow.xyann == (0.0, g23) and arrow.xy == (0.0, 0.0)
+    stmt = next(t for t in a.texts if t.get_gid() == "bound-statement").get_text()
+    assert stmt.replace("\n", " ") == "≤ 0.0001 E1 (0.0160 GPa)"
+    assert next(ln for ln in a.get_lines() if ln.get_gid() == "value").get_markerfacecolor() \
+        == "w"
     # E1 (well determined) is not squashed by G23's (undetermined) interval: its panel spans
     # a few tens of % of its value, not the width of G23's interval
     lo, hi = ax(fig, f"interval-{MAT}.E1").get_ylim()
@@ -234,22 +248,30 @@ def test_sensitivity_page(batch_dir):
                                                           "nu12"]
 
 
-@pytest.mark.xfail(reason="fixture written for files without i11a status writer; to rewrite after the merge", strict=False)
 def test_version_1_file_says_status_not_recorded(batch_dir, tmp_path):
-    """A schema-1 file: look-alike-slash keys, nlopt outcome in "status", no /status."""
+    """A file as schema 1 wrote it (look-alike-slash keys, nlopt outcome in "status", no
+    /status, symmetric linear intervals): every page drawn, the status said not recorded."""
     path = tmp_path / "v1.result.h5"
     shutil.copy(batch_dir / "S1.4.result.h5", path)
-    with h5py.File(path, "r+") as f:
-        f.attrs["schema_version"] = 1
-        for group in ("materials", "initial"):
-            f[group].move("IM7_977-2", "IM7\u2215977-2")
-            del f[group]["IM7\u2215977-2"].attrs["name"]
+    make_version_1(path)
+    with h5py.File(path) as f:
+        assert list(f["materials"]) == ["IM7\u2215977-2"] and "status" not in f
     res = read_result(path)
     assert res.schema_version == 1 and res.status is None and list(res.materials) == [MAT]
     assert res.optimizer_status.startswith("converged")
-    fig = {p.name: p.figure for p in report_pages(path)}["summary"]
-    status = next(t for t in fig.texts if t.get_gid() == "status").get_text()
-    assert status.startswith("status not recorded (schema version 1 file)")
+    pages = {p.name: p.figure for p in report_pages(path)}
+    assert list(pages) == ["summary", "intervals", "modes-1", "history", "sensitivities"]
+    for name in ("summary", "intervals"):
+        status = next(t for t in pages[name].texts if t.get_gid() == "status").get_text()
+        assert status.startswith("status not recorded (schema version 1 file); optimizer: "
+                                  "converged")
+    legend = ax(pages["intervals"], None).get_legend().get_title().get_text()
+    assert legend.startswith("linear intervals value ± half-width")
+    e1 = res.uncertainty.get(MAT, "E1")
+    assert e1.scale == "linear"
+    line = next(ln for ln in ax(pages["intervals"], f"interval-{MAT}.E1").get_lines()
+                if ln.get_gid() == "interval")
+    assert np.allclose(line.get_ydata(), [e1.lower / 1e9, e1.upper / 1e9], rtol=1e-12)
 
 
 def test_joint_report_shared_constants_then_each_plate(joint, tmp_path):
@@ -308,7 +330,7 @@ def test_frf_page_for_a_specimen_fitted_from_an_frf_file(tmp_path):
     labels = a.get_legend().get_texts()
     assert [t.get_text() for t in labels][:2] == ["measured (3 points)",
                                                   "RFP fit (one colour per band)"]
-    coh = next(x for x in fig.axes if x.get_ylabel() == "coherence (1)")
+    coh = next(x for x in fig.axes if x.get_ylabel() == "coherence (–)")
     lines = [ln for ln in coh.get_lines() if ln.get_gid() == "coherence"]
     assert len(lines) == 3 and np.array_equal(lines[0].get_ydata(), coherence[0])
     r = run("report", res, "-o", tmp_path / "plate.png", "--dpi", "50")

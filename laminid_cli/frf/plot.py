@@ -79,7 +79,8 @@ def draw_frf(ax_m, ax_p, freq, frf, fit, *, units: str = "", coherence=None, ax_
             ax.axvline(f, color="0.35", ls="--", lw=0.6, zorder=1,
                        label="RFP natural frequency" if ax is ax_m and i == 0 else None)
         ax_m.annotate(f"{f:.{decimals}f}", (f, 1 - 0.09 * lev), xycoords=("data", "axes fraction"),
-                      rotation=90, va="top", ha="right", fontsize=7, color="0.25")
+                      rotation=90, va="top", ha="right", fontsize=7, color="0.25",
+                      bbox=dict(fc="w", ec="none", pad=0.4, alpha=0.85), zorder=6)
     ax_m.set_ylabel(f"|H| (dB re 1 {units})" if units else "|H| (dB re 1 FRF unit)")
     ax_p.set_ylabel("phase (deg),\nwrapped to ±180")
     ax_p.set_ylim(-190, 190)
@@ -91,7 +92,7 @@ def draw_frf(ax_m, ax_p, freq, frf, fit, *, units: str = "", coherence=None, ax_
             ax_c.plot(freq, c, color=MEASURED_COLOR, lw=0.6, alpha=0.7, gid="coherence",
                       label="coherence" if p == 0 else None)
         ax_c.set_ylim(0, 1.05)
-        ax_c.set_ylabel("coherence (1)")
+        ax_c.set_ylabel("coherence (–)")
         ax_c.grid(axis="y", lw=0.3)
     if xr:
         ax_m.set_xlim(*xr)
@@ -131,7 +132,8 @@ def plot_fit(path, freq, frf, fit, *, title: str = "", units: str = "", coherenc
     ax_m, ax_p, ax_s = axes[0], axes[1], axes[-1]
     ax_c = axes[2] if coh else None
     xr = draw_frf(ax_m, ax_p, freq, frf, fit, units=units, coherence=coherence, ax_c=ax_c)
-    ax_m.legend(loc="lower left", fontsize=8, framealpha=0.9)
+    ax_m.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=3, fontsize=8,
+                frameon=False)                  # above the panel: clear of the curves
     with np.errstate(divide="ignore", invalid="ignore"):
         for k, band in enumerate(fit.bands):
             color = f"C{k % 10}"
@@ -153,8 +155,9 @@ def plot_fit(path, freq, frf, fit, *, title: str = "", units: str = "", coherenc
     ax_s.patch.set_visible(False)
     ax_s.set_ylabel("model order N (modes)")
     ax_s.set_xlabel("frequency (Hz)")
-    ax_s.set_title("stabilisation chart (grey: summed |H|)", fontsize=9)
-    ax_s.legend(loc="upper left", fontsize=7, framealpha=0.9)
+    ax_s.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=3, fontsize=8,
+                frameon=False, title="stabilisation chart (grey: summed |H|)",
+                title_fontsize=9)
     if xr:
         ax_s.set_xlim(*xr)
     fig.suptitle(title or f"RFP fit: {len(fit.modes)} modes")
