@@ -891,7 +891,7 @@ def _damping_pages(r: ResultFile) -> list[Page]:
         return []
     from laminid_cli.report_damping import damping_figures
 
-    return [Page(name, fig) for name, fig in damping_figures(r.path)]
+    return [Page(name, fig) for name, fig in damping_figures(r)]
 
 
 EXTRA_PAGES: list = [_damping_pages]

@@ -9,7 +9,7 @@ One page (A4 landscape):
   material term (11, 22, 12, 13, 23);
 - the identified loss factors with their intervals and verdicts, fixed ones marked.
 
-Every number drawn is read from the result file. ``laminid_cli.report`` adds the page when the
+Every number drawn is read from the result file by the typed reader. ``laminid_cli.report`` adds the page when the
 file has ``/damping`` (one-line hook); matplotlib is imported inside the functions.
 """
 
@@ -22,32 +22,30 @@ TERM_NAMES = {"11": "11 (fibre)", "22": "22 (transverse)", "12": "12 (in-plane s
               "13": "13 (transverse shear)", "23": "23 (transverse shear)"}
 
 
-def _s(v) -> str:
-    return v.decode() if isinstance(v, bytes) else str(v)
+def read_damping(result) -> dict | None:
+    """The /damping group of a result (a path or a read :class:`ResultFile`) as the plain
+    data the page draws, or None when it has none. Read by the typed reader
+    (:func:`laminid_cli.resultfile.read_result`), like every other page."""
+    from laminid_cli.resultfile import ResultFile, read_result
 
-
-def read_damping(path) -> dict | None:
-    """The /damping group of a result file as plain data, or None when it has none."""
-    import h5py
-
-    with h5py.File(path, "r") as f:
-        if "damping" not in f:
-            return None
-        g = f["damping"]
-        d = {k: _s(v) if isinstance(v, (bytes, str)) else v for k, v in g.attrs.items()}
-        for key in ("value", "std", "lower", "upper", "measured_loss_factor", "measured_sigma",
-                    "model_loss_factor", "energy_shares", "at_bound", "used"):
-            d[key] = g[key][()]
-        d["labels"] = [_s(x) for x in g["labels"][()]]
-        d["verdict"] = [_s(x) for x in g["verdict"][()]]
-        d["share_labels"] = _s(g["energy_shares"].attrs["labels"]).split(",")
-        d["specimen"] = _s(f["specimen"].attrs["name"]) if "specimen" in f else ""
+    r = result if isinstance(result, ResultFile) else read_result(result)
+    if r.damping is None:
+        return None
+    g = r.damping
+    d = {k: str(v) if isinstance(v, str) else v for k, v in g.attrs.items()}
+    for key in ("value", "std", "lower", "upper", "measured_loss_factor", "measured_sigma",
+                "model_loss_factor", "energy_shares", "at_bound", "used"):
+        d[key] = g.data[key]
+    d["labels"] = list(g.data["labels"])
+    d["verdict"] = list(g.data["verdict"])
+    d["share_labels"] = str(g.dataset_attrs["energy_shares"]["labels"]).split(",")
+    d["specimen"] = r.plates[0].name if r.plates else ""
     return d
 
 
-def damping_figures(path) -> list[tuple[str, object]]:
-    """[("damping", Figure)] for a result with /damping, else []."""
-    d = read_damping(path)
+def damping_figures(result) -> list[tuple[str, object]]:
+    """[("damping", Figure)] for a result (path or ResultFile) with /damping, else []."""
+    d = read_damping(result)
     return [] if d is None else [("damping", damping_page(d))]
 
 

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from laminid_cli.errors import LaminidError
+from laminid_cli.status import Reason, ResultStatus
 
 CONSTANTS = ("E1", "E2", "G12", "G13", "G23", "nu12")
 RESULT_FORMATS = ("laminid-result", "laminid-joint-result")
@@ -30,18 +31,8 @@ class ResultFileError(LaminidError):
     """Not a readable identification result (exit code 2)."""
 
 
-@dataclass(frozen=True)
-class Reason:
-    code: str
-    text: str
-
-
-@dataclass(frozen=True)
-class Status:
-    """The result's status ("ok" | "check") and its reasons (empty when ok)."""
-
-    status: str
-    reasons: tuple[Reason, ...] = ()
+#: the result's status ("ok" | "check") and its reasons, as :mod:`laminid_cli.status` makes it
+Status = ResultStatus
 
 
 @dataclass(frozen=True)
@@ -81,10 +72,12 @@ class Uncertainty:
 
 @dataclass(frozen=True)
 class Damping:
-    """``/damping`` (branch i14's loss factors), as stored: attributes and datasets."""
+    """``/damping`` (the ply loss factors, results.py), as stored: the group's attributes,
+    its datasets (string datasets as tuples of str) and each dataset's attributes."""
 
     attrs: dict
     data: dict
+    dataset_attrs: dict = field(default_factory=dict)    # {dataset: {attribute: value}}
 
 
 @dataclass(frozen=True)
@@ -176,24 +169,24 @@ class ResultFile:
 # ----------------------------------------------------------------------------------------------
 
 
-def _s(v) -> str:
+def decode(v):
+    """An HDF5 attribute or dataset element as a plain Python value: bytes and 0-d string
+    arrays as ``str`` (UTF-8), NumPy scalars as Python numbers, anything else unchanged."""
     if isinstance(v, bytes):
         return v.decode("utf-8")
     if isinstance(v, np.ndarray) and v.shape == ():
-        return _s(v[()])
-    return str(v)
+        return decode(v[()])
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+def _s(v) -> str:
+    return str(decode(v))
 
 
 def _strings(ds) -> tuple[str, ...]:
     return tuple(_s(x) for x in np.ravel(ds[()]))
-
-
-def _plain(v):
-    if isinstance(v, bytes):
-        return v.decode("utf-8")
-    if isinstance(v, np.generic):
-        return v.item()
-    return v
 
 
 def _name(key: str, group) -> str:
@@ -317,7 +310,7 @@ def _uncertainty(f) -> Uncertainty | None:
     if "uncertainty" not in f:
         return None
     u = f["uncertainty"]
-    a = {k: _plain(v) for k, v in u.attrs.items()}
+    a = {k: decode(v) for k, v in u.attrs.items()}
     labels = _strings(u["labels"]) if "labels" in u else ()
     n = len(labels)
 
@@ -341,7 +334,7 @@ def _uncertainty(f) -> Uncertainty | None:
     if "monte_carlo" in u:
         g = u["monte_carlo"]
         mc = {k: np.asarray(v[()]) for k, v in g.items()} | {
-            k: _plain(v) for k, v in g.attrs.items()}
+            k: decode(v) for k, v in g.attrs.items()}
     return Uncertainty(
         confidence=float(a.get("confidence", 0.95)), s2=float(a.get("s2", np.nan)),
         dof=float(a.get("dof", np.nan)), condition_number=float(a.get("condition_number", np.nan)),
@@ -374,13 +367,14 @@ def _damping(f) -> Damping | None:
     if "damping" not in f:
         return None
     g = f["damping"]
-    data = {}
+    data, ds_attrs = {}, {}
     for k, v in g.items():
         if isinstance(v, _group_type()):
             continue
         x = v[()]
         data[k] = _strings(v) if v.dtype.kind in "OSU" else np.asarray(x)
-    return Damping({k: _plain(v) for k, v in g.attrs.items()}, data)
+        ds_attrs[k] = {a: decode(y) for a, y in v.attrs.items()}
+    return Damping({k: decode(v) for k, v in g.attrs.items()}, data, ds_attrs)
 
 
 def read_result(path) -> ResultFile:
@@ -392,16 +386,11 @@ def read_result(path) -> ResultFile:
         The file is missing, not HDF5, not an identification result (the message names the
         command that makes one), of a newer schema version, or lacks a required group.
     """
-    import h5py
+    from laminid_cli.h5open import open_h5
 
     path = Path(path)
-    try:
-        f = h5py.File(path, "r")
-    except FileNotFoundError as exc:
-        raise ResultFileError(f"{path}: file not found") from exc
-    except OSError as exc:
-        raise ResultFileError(f"{path}: not an HDF5 file, so not a laminid identification "
-                              f"result; make one with {MAKES_A_RESULT}") from exc
+    f = open_h5(path, ResultFileError, "not an HDF5 file, so not a laminid identification "
+                f"result; make one with {MAKES_A_RESULT}")
     with f:
         fmt = _s(f.attrs.get("format", ""))
         if fmt not in RESULT_FORMATS:

@@ -193,15 +193,10 @@ def _orient(values: np.ndarray, n_freq: int) -> np.ndarray:
 def read_generic_frf_h5(path, freq_dataset: str | None = None,
                         frf_dataset: str | None = None) -> FrfSet:
     """Read FRFs from a plain HDF5 file (see the module docstring). Raises :class:`FrfError`."""
-    import h5py
+    from laminid_cli.h5open import open_h5
 
     path = Path(path)
-    try:
-        f = h5py.File(path, "r")
-    except FileNotFoundError as exc:
-        raise FrfError(f"{path}: file not found") from exc
-    except OSError as exc:
-        raise FrfError(f"{path}: not a readable HDF5 file ({exc})") from exc
+    f = open_h5(path, FrfError, "not a readable HDF5 file ({exc})")
     try:
         with f:
             return _read_generic(f, path, freq_dataset, frf_dataset)

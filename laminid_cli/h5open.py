@@ -1,0 +1,25 @@
+"""Open an HDF5 file for reading, or refuse with the caller's error class and words.
+
+One place for the "file not found" / "not an HDF5 file" split that every reader of HDF5 input
+makes (result files: :mod:`laminid_cli.resultfile`; plain FRF files of other tools:
+:mod:`laminid_cli.frf.generic_h5`). h5py is imported inside the function.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def open_h5(path, error: type[Exception], not_hdf5: str):
+    """``h5py.File(path, "r")``, or ``error`` raised from the h5py exception: "PATH: file not
+    found", or "PATH: " + ``not_hdf5`` (formatted with ``exc``, the h5py message) for a file
+    that exists but is not readable HDF5. The caller closes the file (``with``)."""
+    import h5py
+
+    path = Path(path)
+    try:
+        return h5py.File(path, "r")
+    except FileNotFoundError as exc:
+        raise error(f"{path}: file not found") from exc
+    except OSError as exc:
+        raise error(f"{path}: " + not_hdf5.format(exc=exc)) from exc
