@@ -60,6 +60,8 @@ def damping_page(d: dict):
     ax_m = fig.add_subplot(gs[0, 0])
     ax_s = fig.add_subplot(gs[0, 1])
     ax_t = fig.add_subplot(gs[1, :])
+    ax_m.set_gid("modal-loss-factors")
+    ax_s.set_gid("energy-shares")
     meas = np.asarray(d["measured_loss_factor"], float) * 100
     sig = np.asarray(d["measured_sigma"], float) * 100
     model = np.asarray(d["model_loss_factor"], float) * 100
@@ -69,7 +71,7 @@ def damping_page(d: dict):
     ok = np.isfinite(meas)
     # measured (filled where fitted, hollow where left out), error bars +-1 sd, model beside
     ax_m.plot(modes[ok], meas[ok], "o", color="C0", label="measured 2\u03b6 \u00b1 1 sd",
-              zorder=3)
+              zorder=3, gid="measured")
     ax_m.errorbar(modes[ok], meas[ok], yerr=sig[ok], fmt="none", ecolor="C0", capsize=4,
                   zorder=2)
     out = ok & ~used
@@ -77,7 +79,7 @@ def damping_page(d: dict):
         ax_m.plot(modes[out], meas[out], "o", mfc="white", color="C0", zorder=4,
                   label="measured, not fitted (weight 0)")
     ax_m.plot(modes, model, "s", color="C3", mfc="none", ms=8, mew=1.5,
-              label="model \u03a3 share \u00d7 ply \u03b7", zorder=5)
+              label="model \u03a3 share \u00d7 ply \u03b7", zorder=5, gid="model")
     ax_m.set_xlabel("mode")
     ax_m.set_ylabel("modal loss factor \u03b7 (%)")
     ax_m.set_xticks(modes)
@@ -125,6 +127,7 @@ def damping_page(d: dict):
                                                  f"{conf:.0f} % interval (%)", "verdict"],
                        loc="upper center", cellLoc="left", colLoc="left",
                        colWidths=[0.22, 0.1, 0.16, 0.52])
+    ax_t.set_gid("loss-factors")
     table.auto_set_font_size(False)
     table.set_fontsize(8)
     s2 = float(d.get("s2", np.nan))
@@ -132,5 +135,5 @@ def damping_page(d: dict):
                    f"{int(d.get('dof', 0))} degrees of freedom; damping sigma: "
                    f"{d.get('sigma_source', '') or '-'})", fontsize=9)
     name = d.get("specimen", "")
-    fig.suptitle(f"{name}: damping" if name else "damping")
+    fig.suptitle(f"{name}: damping (modal strain energy)" if name else "damping", fontsize=11)
     return fig

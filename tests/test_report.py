@@ -418,3 +418,135 @@ def test_laminate_reference_values_on_the_summary_page(batch_dir):
     text = " ".join(t.get_text() for a in fig.axes for t in a.texts).replace("\n", " ")
     ey = res.plates[0].global_properties["Ey"] / 1e9
     assert f"Ey {ey:.2f} GPa (reference 22.5 GPa)" in text
+
+
+def _no_overlap(fig, axis, legend) -> bool:
+    """The legend's box is outside the axes' box (drawn figure, display coordinates)."""
+    fig.canvas.draw()
+    a = axis.get_window_extent()
+    b = legend.get_window_extent()
+    return b.x0 >= a.x1 or b.x1 <= a.x0 or b.y0 >= a.y1 or b.y1 <= a.y0
+
+
+@pytest.fixture(scope="module")
+def damped(tmp_path_factory):
+    """S2.1 (6x6) with measured damping ratios: a result with /damping."""
+    tmp = tmp_path_factory.mktemp("damped")
+    zeta = "[" + ", ".join(f"{0.002 + 0.0004 * k:.4f}" for k in range(12)) + "]"
+    text = open(S21).read().replace("  frequencies:", f"  damping: {zeta}\n  frequencies:", 1)
+    (tmp / "d.yaml").write_text(text)
+    out = tmp / "d.result.h5"
+    r = run("identify", tmp / "d.yaml", "--mesh", "6x6", "--fix",
+            "nu12,G13,G23,eta13=0.01,eta23=0.01", "-o", out)
+    assert r.exit_code == 0, r.output
+    return out
+
+
+def test_damping_page_numbers_read_back(damped, tmp_path):
+    res = read_result(damped)
+    d = res.damping.data
+    pages = {p.name: p.figure for p in report_pages(damped)}
+    fig = pages["damping"]
+    a = ax(fig, "modal-loss-factors")
+    meas = next(ln for ln in a.get_lines() if ln.get_gid() == "measured")
+    ok = np.isfinite(d["measured_loss_factor"])
+    assert np.array_equal(meas.get_ydata(), 100 * d["measured_loss_factor"][ok])
+    assert np.allclose(d["measured_loss_factor"], 2 * (0.002 + 0.0004 * np.arange(12)),
+                       rtol=1e-12)                              # 2 zeta of the YAML
+    model = next(ln for ln in a.get_lines() if ln.get_gid() == "model")
+    assert np.array_equal(model.get_ydata(), 100 * d["model_loss_factor"])
+    s = ax(fig, "energy-shares")
+    heights = np.array([[b.get_height() for b in c] for c in s.containers]).T
+    assert np.allclose(heights, 100 * d["energy_shares"], rtol=1e-12, atol=1e-12)
+    t = cells(ax(fig, "loss-factors"))
+    assert [row[0] for row in t[1:4]] == list(d["labels"])
+    assert [float(row[1]) for row in t[1:4]] == pytest.approx(100 * d["value"], abs=5e-4)
+    assert fig._suptitle.get_text() == f"{res.plates[0].name}: damping (modal strain energy)"
+    write_pages([p for p in report_pages(damped) if p.name == "damping"], tmp_path / "d.png")
+    assert (tmp_path / "d.png").read_bytes()[:8] == PNG
+
+
+def test_joint_interval_panels_read_back(joint):
+    res = read_result(joint)
+    fig = {p.name: p.figure for p in report_pages(joint)}["intervals"]
+    for iv in res.uncertainty.intervals:
+        a = ax(fig, f"interval-{iv.label}")
+        scale = 1 if iv.constant == "nu12" else 1e9
+        v = next(ln for ln in a.get_lines() if ln.get_gid() == "value")
+        assert v.get_ydata()[0] == res.materials[iv.material][iv.constant] / scale
+        line = next(ln for ln in a.get_lines() if ln.get_gid() == "interval")
+        lo, hi = a.get_ylim()
+        assert np.allclose(line.get_ydata(), [max(iv.lower / scale, lo),
+                                              min(iv.upper / scale, hi)], rtol=1e-12)
+    assert fig._suptitle.get_text().startswith("S1.1 + S1.2: 95% confidence intervals")
+
+
+def test_residuals_page_reads_back_the_result_files(batch_dir):
+    from laminid_cli.batch import read_summary
+
+    rows = read_summary(batch_dir / "summary.json")
+    fig = {p.name: p.figure for p in report_pages(batch_dir / "summary.json")}["residuals"]
+    a = ax(fig, "rms")
+    heights = [b.get_height() for b in a.patches]
+    for h, row in zip(heights, rows):
+        res = read_result(row["result"])
+        assert h == pytest.approx(res.rms_residual_percent, rel=1e-12)
+    assert [t.get_text() for t in a.get_xticklabels()] == [
+        read_result(row["result"]).plates[0].name for row in rows]
+    texts = [t.get_text() for t in a.texts]
+    for t, row in zip(texts, rows):
+        codes = ", ".join(x.code for x in read_result(row["result"]).status.reasons)
+        assert t.replace("\n", " ").startswith(f"{row['rms_residual_percent']:.3f} %")
+        assert (f"check: {codes}" in t.replace("\n", " ")) == bool(codes)
+    assert _no_overlap(fig, a, a.get_legend())
+
+
+def test_fit_frf_figure_reads_back_the_frf_file(tmp_path):
+    from laminid_cli.frf import rfp
+    from laminid_cli.frf.io import read_frf
+    from laminid_cli.frf.plot import fit_figure
+
+    freq = np.arange(1.0, 400.0, 0.5)
+    poles = np.array([[80.0, 0.01], [150.0, 0.008], [260.0, 0.01]])
+    frf = synth_frf(freq, poles, np.array([[1.0, -0.6, 0.8], [0.5, 0.9, -0.7]]),
+                    kind="accelerance", noise=0.002, seed=1)
+    coh = np.full(frf.shape, 0.97)
+    write_frf_h5(tmp_path / "p.frf.h5", freq, frf, coh, units="(m/s^2)/N")
+    fs = read_frf(tmp_path / "p.frf.h5")
+    fit = rfp.find_modes(fs.freq, fs.frf, n_modes=3)
+    fig = fit_figure(fs.freq, fs.frf, fit, units=fs.units, coherence=fs.coherence)
+    a = ax(fig, "frf")
+    measured = [ln for ln in a.get_lines() if ln.get_color() == "k"]
+    assert len(measured) == 2
+    with np.errstate(divide="ignore"):
+        assert np.array_equal(measured[1].get_ydata(), 20 * np.log10(np.abs(fs.frf[1])))
+    dashed = sorted(ln.get_xdata()[0] for ln in a.get_lines() if ln.get_linestyle() == "--")
+    assert dashed == [m.freq_hz for m in fit.modes]
+    assert np.allclose(dashed, poles[:, 0], rtol=2e-3)
+    assert a.get_ylabel() == "|H| (dB re 1 (m/s^2)/N)"
+    assert _no_overlap(fig, a, a.get_legend())                  # legend clear of the curves
+    s = ax(fig, "stabilisation")
+    assert _no_overlap(fig, s, s.get_legend())
+    coh_ax = next(x for x in fig.axes if x.get_ylabel() == "coherence (–)")
+    coh_lines = [ln for ln in coh_ax.get_lines() if ln.get_gid() == "coherence"]
+    assert len(coh_lines) == 2
+    assert np.array_equal(coh_lines[1].get_ydata(), fs.coherence[1])
+    r = run("fit-frf", tmp_path / "p.frf.h5", "--modes", "3", "--plot", tmp_path / "p.png")
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "p.png").read_bytes()[:8] == PNG
+
+
+def test_legends_clear_of_the_lines(checked, batch_dir):
+    """History legends right of their panels; the summary legend in a row of its own."""
+    fig = {p.name: p.figure for p in report_pages(checked)}["history"]
+    for gid in ("objective",):
+        a = ax(fig, gid)
+        assert _no_overlap(fig, a, a.get_legend())
+    for a in fig.axes:
+        if a.get_legend() is not None:
+            assert _no_overlap(fig, a, a.get_legend())
+    fig = {p.name: p.figure for p in report_pages(batch_dir / "summary.csv")}["constants"]
+    leg = next(a for a in fig.axes if a.get_legend() is not None).get_legend()
+    for a in fig.axes:
+        if (a.get_gid() or "").startswith("across-"):
+            assert _no_overlap(fig, a, leg)

@@ -106,7 +106,21 @@ def draw_frf(ax_m, ax_p, freq, frf, fit, *, units: str = "", coherence=None, ax_
 
 
 def plot_fit(path, freq, frf, fit, *, title: str = "", units: str = "", coherence=None) -> Path:
-    """Write a figure of a :class:`~laminid_cli.frf.rfp.ModalFit` to ``path`` (PNG/PDF/SVG).
+    """Write :func:`fit_figure` to ``path`` (PNG/PDF/SVG)."""
+    path = Path(path)
+    if path.suffix.lower() not in PLOT_SUFFIXES:
+        raise FrfError(f"{path}: plot file type {path.suffix!r} not supported; use one of "
+                       f"{', '.join(PLOT_SUFFIXES)}")
+    fig = fit_figure(freq, frf, fit, title=title, units=units, coherence=coherence)
+    try:
+        fig.savefig(path, dpi=120)
+    except OSError as exc:
+        raise FrfError(f"{path}: cannot write the plot ({exc})") from exc
+    return path
+
+
+def fit_figure(freq, frf, fit, *, title: str = "", units: str = "", coherence=None):
+    """The figure of a :class:`~laminid_cli.frf.rfp.ModalFit` (``fit-frf --plot``).
 
     Magnitude (dB re 1 FRF unit) of every measured FRF (black, drawn over the fit) and the
     fitted curves (coloured, one colour per band), identified natural frequencies as dashed
@@ -119,10 +133,6 @@ def plot_fit(path, freq, frf, fit, *, title: str = "", units: str = "", coherenc
     matplotlib.use("Agg", force=True)
     from matplotlib.figure import Figure
 
-    path = Path(path)
-    if path.suffix.lower() not in PLOT_SUFFIXES:
-        raise FrfError(f"{path}: plot file type {path.suffix!r} not supported; use one of "
-                       f"{', '.join(PLOT_SUFFIXES)}")
     freq = np.asarray(freq, dtype=float)
     frf = np.atleast_2d(np.asarray(frf))
     coh = has_coherence(coherence)
@@ -130,6 +140,8 @@ def plot_fit(path, freq, frf, fit, *, title: str = "", units: str = "", coherenc
     ratios = [3, 1.6] + ([1.1] if coh else []) + [3]
     axes = fig.subplots(len(ratios), 1, sharex=True, height_ratios=ratios)
     ax_m, ax_p, ax_s = axes[0], axes[1], axes[-1]
+    ax_m.set_gid("frf")
+    ax_s.set_gid("stabilisation")
     ax_c = axes[2] if coh else None
     xr = draw_frf(ax_m, ax_p, freq, frf, fit, units=units, coherence=coherence, ax_c=ax_c)
     ax_m.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=3, fontsize=8,
@@ -161,8 +173,4 @@ def plot_fit(path, freq, frf, fit, *, title: str = "", units: str = "", coherenc
     if xr:
         ax_s.set_xlim(*xr)
     fig.suptitle(title or f"RFP fit: {len(fit.modes)} modes")
-    try:
-        fig.savefig(path, dpi=120)
-    except OSError as exc:
-        raise FrfError(f"{path}: cannot write the plot ({exc})") from exc
-    return path
+    return fig
