@@ -429,7 +429,7 @@ def _bound_panel(ax, k, v, iv, x, ymin, ymax):
     edge = ymin if side == "lower" else ymax
     ax.annotate("", (x, edge), xytext=(x, v), gid="one-sided",
                 arrowprops=dict(arrowstyle="-|>", color=INTERVAL_COLOR, lw=2.5, ls="--"))
-    ax.annotate("\n".join(textwrap.wrap(stmt, 14)), (x, (v + edge) / 2), xytext=(6, 0),
+    ax.annotate("\n".join(textwrap.wrap(stmt, 11)), (x, (v + edge) / 2), xytext=(5, 0),
                 textcoords="offset points", fontsize=7, va="center", ha="left",
                 color=INTERVAL_COLOR, gid="bound-statement")
 
@@ -728,7 +728,10 @@ def history_page(r: ResultFile):
     ax_o.semilogy(ev, hist.objective, pts, ms=2.5, lw=1, color="C0", label="objective")
     best = int(np.argmin(hist.objective))
     ax_o.semilogy(ev[best], hist.objective[best], "*", ms=11, color="C3",
-                  label=f"best {hist.objective[best]:.3g}")
+                  label=f"lowest evaluated {hist.objective[best]:.3g}")
+    if np.isfinite(r.objective) and r.objective > 0:
+        ax_o.semilogy(ev[-1], r.objective, "D", ms=7, mfc="w", color="k", zorder=5,
+                      gid="result", label=f"result {r.objective:.3g}")
     ax_o.set_ylabel("objective (Eq. 17)", fontsize=8)
     ax_o.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0)
     ax_r.set_gid("rms")

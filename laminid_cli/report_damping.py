@@ -86,7 +86,8 @@ def damping_page(d: dict):
     top = np.nanmax(np.concatenate([meas + np.nan_to_num(sig), model]))
     ax_m.set_ylim(0, 1.25 * top if np.isfinite(top) and top > 0 else 1)
     ax_m.grid(alpha=0.3)
-    ax_m.legend(loc="upper right", fontsize=8)
+    ax_m.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=3, fontsize=8,
+                frameon=False)                   # below the panel: clear of the points
     ax_m.set_title("measured vs model modal loss factor")
 
     # stacked energy shares
@@ -118,18 +119,23 @@ def damping_page(d: dict):
         if d["at_bound"][k]:
             interval = f"\u2264 {100 * d['upper'][k]:.3g}"
         else:
-            interval = f"{100 * d['lower'][k]:.3g} .. {100 * d['upper'][k]:.3g}"
+            interval = f"[{100 * d['lower'][k]:.3g}, {100 * d['upper'][k]:.3g}]"
         rows.append([lab, f"{100 * d['value'][k]:.3f}", interval, d["verdict"][k]])
     for item in filter(None, str(d.get("fixed", "")).split(",")):
         lab, value = item.rsplit("=", 1)
-        rows.append([lab, f"{100 * float(value):.3f}", "", "fixed"])
+        rows.append([lab, f"{100 * float(value):.3f}", "—", "fixed"])
     table = ax_t.table(cellText=rows, colLabels=["loss factor", "value (%)",
                                                  f"{conf:.0f} % interval (%)", "verdict"],
-                       loc="upper center", cellLoc="left", colLoc="left",
-                       colWidths=[0.22, 0.1, 0.16, 0.52])
+                       loc="upper center", cellLoc="center", colLoc="center",
+                       colWidths=[0.3, 0.14, 0.2, 0.36])
     ax_t.set_gid("loss-factors")
     table.auto_set_font_size(False)
     table.set_fontsize(8)
+    for (i, _), cell in table.get_celld().items():    # the look of the other report tables
+        cell.set_linewidth(0.3)
+        if i == 0:
+            cell.set_text_props(weight="bold")
+            cell.set_facecolor("0.92")
     s2 = float(d.get("s2", np.nan))
     ax_t.set_title(f"ply loss factors, modal strain energy method (s\u00b2 = {s2:.3g}, "
                    f"{int(d.get('dof', 0))} degrees of freedom; damping sigma: "

@@ -228,6 +228,8 @@ def test_history_on_log_scales_with_bound_hits(checked):
     a = ax(fig, "objective")
     assert a.get_yscale() == "log"
     assert np.array_equal(a.get_lines()[0].get_ydata(), res.history.objective)
+    result = next(ln for ln in a.get_lines() if ln.get_gid() == "result")
+    assert result.get_ydata()[0] == res.objective
     assert ax(fig, "rms").get_yscale() == "log"
     hits = [ln.get_gid() for a in fig.axes for ln in a.get_lines()
             if (ln.get_gid() or "").startswith("bound-")]
