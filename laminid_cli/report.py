@@ -623,11 +623,11 @@ def _initial_shapes(yaml_text: str, path: str, mesh: tuple, boundary: str, n: in
 
 def _grid(n: int, aspect: float, width: float = 10.5, height: float = 6.4) -> tuple[int, int]:
     """(n_rows, n_cols) that draws n plates of height/width ``aspect`` largest on the page
-    (each cell also needs room for a three-line title and tick labels: +1.4 in, +0.6 in)."""
+    (each cell also needs room for a three-line title and tick labels: +0.95 in, +0.5 in)."""
     best, best_scale = (1, n), 0.0
     for ncol in range(1, n + 1):
         nrow = -(-n // ncol)
-        scale = min(width / ncol - 0.6, (height / nrow - 1.4) / aspect)
+        scale = min(width / ncol - 0.5, (height / nrow - 0.95) / aspect)
         if scale > best_scale:
             best, best_scale = (nrow, ncol), scale
     return best
