@@ -646,6 +646,379 @@ def sensitivity_table(result) -> dict:
 
 
 # ----------------------------------------------------------------------------------------------
+# Monte Carlo trials on a reduced model of the optimum
+
+
+#: a trial is accepted when the relative eigenvalue error bound (against the full FE model) of
+#: its paired modes and two beyond is below this; the spread it measures is at the 1e-3 level
+#: and a constant moves by at most (its std / the eigenvalue std) times this (module docstring)
+TRIAL_BOUND = 1e-6
+#: the trial optimiser's step tolerance, in linearised standard errors of the constants
+TRIAL_XTOL = 1e-5
+#: the trial basis is enriched at this many standard errors from the optimum along at most
+#: CLOUD_DIRECTIONS directions whose stiffness coefficients change there by more than
+#: CLOUD_CHANGE (relative), with CLOUD_ROUNDS block solves each
+CLOUD_RADIUS = 2.5
+CLOUD_DIRECTIONS = 2
+CLOUD_CHANGE = 0.05
+CLOUD_ROUNDS = 1
+#: enrich-and-optimise-again rounds of a trial before it is re-identified with identify()
+TRIAL_ROUNDS = 3
+
+
+class TrialModel:
+    """One plate's reduced model for the Monte Carlo trials (single plate, reduced solver).
+
+    Basis (mass-orthonormal, built once, shipped once per worker process): the optimum's final
+    basis, its checked Ritz vectors ``phi_i`` and their first-order changes with every basis
+    stiffness ``A0^-1 K_b phi_i`` (``A0 = K(c*) - sigma0 M``, the one factorisation of the whole
+    Monte Carlo run in the calling process; each worker process factorises A0 once more).
+
+    A trial minimises paper Eq. 17 (+ Eq. 15) with its perturbed frequencies on this model from
+    the optimum (nlopt SLSQP, Gauss-Newton-scaled variables, the search's bounds and linear
+    constraints), modes paired by MAC against the optimum's. At its answer the Ritz vectors are
+    checked with the full matrices: Rayleigh quotients theta_i and the residual bound of
+    laminid_cli.reduced with A0^-1 in place of A^-1: when the constitutive matrices satisfy
+    ``Q(c) >= mu Q(c*)`` ply by ply (mu the smallest generalised eigenvalue of the 5x5 pair,
+    the same for every ply angle), then ``K(c) >= mu K(c*)`` and ``A(c) >= min(mu, 1) A0``, so
+    ``r^T A(c)^-1 r <= r^T A0^-1 r / min(mu, 1)``: a valid bound with no factorisation at the
+    trial point. Above :data:`TRIAL_BOUND` the preconditioned residuals ``A0^-1 r`` are added to
+    a copy of the basis and the trial optimised again from there.
+    """
+
+    def __init__(self, fm, result, tau2: float):
+        from laminid_cli.parametrization import make_parameters
+        from laminid_cli.reduced import ReducedBasis
+
+        plate = fm.plate
+        opts = result.options
+        spec = fm.specimen
+        self.fm = fm
+        self.names = tuple(result.material_names)
+        self.params = []
+        for name, c0 in zip(self.names, fm.initial_constants):
+            free = result.free[name]
+            fixed = tuple(k for k in CONSTANT_NAMES if k not in free)
+            self.params.append(make_parameters(
+                name, c0, fixed, kind=result.parametrization[name],
+                prior=bool(spec.materials[name].prior), nu_max=opts.nu_max,
+                bound_factor=opts.bound_factor))
+        sizes = [len(p.x0()) for p in self.params]
+        self.offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
+        self.n_vars = int(self.offsets[-1])
+        self.prior = [{k: float(w) for k, w in spec.materials[p.name].prior.items()
+                       if k in p.free} for p in self.params]
+        self.x_opt = np.asarray(result.x, float)
+        self.pairing = np.asarray(result.pairing, int)
+        self.n_model = int(result.modes.n_modes)
+        self.n_check = int(min(self.n_model, np.max(self.pairing) + 3))
+        self.coef_opt = np.array(self._coef_jac(self.x_opt)[0])
+        self.Q_opt = [self._q(c) for c in self.coef_opt]
+        self.tau2 = float(tau2)
+        # the basis, with the one factorisation at the optimum
+        phi = np.asarray(result.modes.phi, float)
+        K0 = plate.stiffness(coef=self.coef_opt)
+        lam1 = float(result.modes.eigenvalues[0])
+        self.sigma = -0.5 * lam1
+        self._solve = fm.factorizer.factor(K0.data - self.sigma * plate.M_on_K)
+        basis = ReducedBasis(fm)
+        if getattr(result, "basis", None) is not None:
+            basis.add(result.basis.V)
+        basis.add(phi)
+        basis.add(self._solve(np.hstack([plate.basis_matrix(m, j) @ phi
+                                        for m in range(len(self.names)) for j in range(6)])))
+        self.basis = basis
+        # Gauss-Newton scaling at the optimum: y = L^T (x - x*) in linearised standard errors
+        w = np.asarray(result.weight, float)
+        lam_meas = (2 * np.pi * np.nan_to_num(np.asarray(result.measured_hz, float), nan=1.0))**2
+        Jr = (np.sqrt(w) / lam_meas)[:, None] * np.asarray(result.dlam_dx, float)
+        H = Jr.T @ Jr + self._prior_rows(self.x_opt)[1].T @ self._prior_rows(self.x_opt)[1]
+        d = np.diag(H).copy()
+        H += np.diag(1e-10 * max(d.max(), 1e-300) + 1e-12 * d)
+        self.L = np.linalg.cholesky(H / self.tau2)
+        self.T = np.linalg.inv(self.L.T)
+        lo, hi = zip(*(p.bounds() for p in self.params))
+        self.lo, self.hi = np.concatenate(lo), np.concatenate(hi)
+        rows, rhs = [], []
+        for k, p in enumerate(self.params):
+            A, b = p.linear_constraints()
+            full = np.zeros((A.shape[0], self.n_vars))
+            full[:, self.offsets[k]:self.offsets[k + 1]] = A
+            rows.append(full)
+            rhs.append(b)
+        self.A = np.vstack(rows)
+        self.b = np.concatenate(rhs)
+        self._enrich_cloud(fm)
+        theta, Y = self.basis.eig(self.coef_opt, self.n_model)
+        self.Y_ref = Y[:, self.pairing]
+
+    def _enrich_cloud(self, fm):
+        """Enrich the basis where the trials go far: at ``x* +- CLOUD_RADIUS`` standard errors
+        along the directions of the largest relative change of the stiffness coefficients per
+        standard error (where that change exceeds CLOUD_CHANGE), shrunk into the feasible
+        set; one factorisation and CLOUD_ROUNDS block solves of the Ritz residuals each."""
+        plate = fm.plate
+        coefs, jacs = self._coef_jac(self.x_opt)
+        c = np.concatenate(coefs)
+        J = np.vstack([np.asarray(jk) for jk in jacs])
+        rel = (J @ self.T) / np.maximum(np.abs(c), 1e-300)[:, None]
+        _, sv, Wt = np.linalg.svd(rel, full_matrices=False)
+        for k in range(min(CLOUD_DIRECTIONS, sv.size)):
+            if sv[k] * CLOUD_RADIUS < CLOUD_CHANGE:
+                break
+            for sign in (1.0, -1.0):
+                y = sign * CLOUD_RADIUS * Wt[k]
+                x = self.x_opt + self.T @ y
+                for _ in range(20):
+                    if (np.all(x >= self.lo) and np.all(x <= self.hi)
+                            and np.all(self.A @ x <= self.b)):
+                        break
+                    y = 0.8 * y
+                    x = self.x_opt + self.T @ y
+                else:
+                    continue
+                coef = np.array(self._coef_jac(x)[0])
+                theta, Y = self.basis.eig(coef, self.n_model)
+                K = plate.stiffness(coef=coef)
+                sigma = -0.5 * theta[0]
+                solve = fm.factorizer.factor(K.data - sigma * plate.M_on_K)
+                for _ in range(CLOUD_ROUNDS):
+                    U = self.basis.V @ Y
+                    added = self.basis.add(solve(K @ U - (plate.M @ U) * theta))
+                    theta, Y = self.basis.eig(coef, self.n_model)
+                    if not added:
+                        break
+
+    def __getstate__(self):                  # the factorisation is redone in each process
+        state = dict(self.__dict__)
+        state["_solve"] = None
+        return state
+
+    def solve0(self, R):
+        """``A0^-1 R`` (A0 factorised once per process)."""
+        if self._solve is None:
+            plate = self.fm.plate
+            K0 = plate.stiffness(coef=self.coef_opt)
+            self._solve = self.fm.factorizer.factor(K0.data - self.sigma * plate.M_on_K)
+        return self._solve(R)
+
+    @staticmethod
+    def _q(coef):
+        from laminid_cli.material import c_basis
+
+        return np.tensordot(np.asarray(coef, float), c_basis(0.0), axes=([0], [0]))
+
+    def _split(self, x):
+        return [x[self.offsets[k]:self.offsets[k + 1]] for k in range(len(self.params))]
+
+    def _coef_jac(self, x):
+        """(coefficients per material, Jacobians per material) at ``x``."""
+        return tuple(zip(*(p.coef_jacobian(xk) for p, xk in zip(self.params, self._split(x)))))
+
+    def constants(self, x):
+        return tuple(p.constants(xk) for p, xk in zip(self.params, self._split(x)))
+
+    def _prior_rows(self, x):
+        """Eq. 15 as residual rows sqrt(wp) (P - P0) / P0 and their derivatives (linear in x)."""
+        vals, rows = [], []
+        for k, (p, xk) in enumerate(zip(self.params, self._split(x))):
+            if not self.prior[k]:
+                continue
+            P = p.constants(xk).as_array()
+            P0 = p.initial.as_array()
+            for name, wp in self.prior[k].items():
+                i = CONSTANT_NAMES.index(name)
+                ref = P0[i] if P0[i] != 0 else 1.0
+                scale = 1.0 if name == "nu12" else P0[i]
+                row = np.zeros(self.n_vars)
+                row[self.offsets[k] + p.free.index(name)] = np.sqrt(wp) * scale / ref
+                vals.append(np.sqrt(wp) * (P[i] - P0[i]) / ref)
+                rows.append(row)
+        return np.array(vals), np.array(rows).reshape(len(rows), self.n_vars)
+
+    def evaluate(self, basis, x, lam_meas, w, Y_ref):
+        """Objective, gradient, paired Ritz values and reduced vectors at ``x``."""
+        coefs, jacs = self._coef_jac(x)
+        coef = np.array(coefs)
+        theta, Y = basis.eig(coef, self.n_model)
+        mac = (Y_ref.T @ (basis.Mr @ Y)) ** 2
+        pairing = _max_assignment(mac)
+        Yp = Y[:, pairing]
+        E = basis.energies(Yp)
+        lam = theta[pairing]
+        dlam = np.hstack([E[k].T @ J for k, J in enumerate(jacs)])
+        rel = (lam_meas - lam) / lam_meas
+        f = float(np.sum(w * rel**2))
+        g = -2 * (w * rel / lam_meas) @ dlam
+        pv, pr = self._prior_rows(x)
+        if pv.size:
+            f += float(pv @ pv)
+            g = g + 2 * pv @ pr
+        return f, g, lam, pairing, Y
+
+    def check(self, basis, x, Y, pairing, ref=None):
+        """Full-matrix Ritz values of the checked Ritz vectors at ``x`` and the largest relative
+        error bound of the paired ones, with the factorisation ``ref`` = (coefficients, sigma,
+        solve) of another point (default: the optimum's; class docstring). Returns (theta,
+        bound, preconditioned residuals); bound inf when not computable."""
+        plate = self.fm.plate
+        coef = np.array(self._coef_jac(x)[0])
+        if ref is None:
+            ref = (self.coef_opt, self.sigma, self.solve0)
+        coef_ref, sigma, solve = ref
+        mu = min(float(np.linalg.eigvalsh(np.linalg.solve(
+            np.linalg.cholesky(self._q(c0)),
+            np.linalg.solve(np.linalg.cholesky(self._q(c0)), self._q(c)).T)).min())
+            for c, c0 in zip(coef, coef_ref))
+        if not mu > 0:
+            return None, np.inf, None
+        n = min(self.n_check + 1, Y.shape[1])
+        U = basis.V @ Y[:, :n]
+        U = U / np.sqrt(np.einsum("ij,ij->j", U, plate.M @ U))
+        MU = plate.M @ U
+        KU = plate.stiffness(coef=coef) @ U
+        theta = np.einsum("ij,ij->j", U, KU)
+        R = KU - MU * theta
+        S = solve(R)
+        eta2 = np.maximum(np.einsum("ij,ij->j", R, S), 0.0) / min(mu, 1.0)
+        bound = _residual_bounds(theta, eta2, sigma)
+        return theta, float(np.max(bound[pairing] / theta[pairing])), S
+
+    def factor_at(self, x, theta1):
+        """(coefficients, sigma, solve) of A = K - sigma M factorised at ``x``."""
+        plate = self.fm.plate
+        coef = np.array(self._coef_jac(x)[0])
+        sigma = -0.5 * float(theta1)
+        solve = self.fm.factorizer.factor(plate.stiffness(coef=coef).data
+                                          - sigma * plate.M_on_K)
+        return coef, sigma, solve
+
+    def trial(self, freq_hz, weight):
+        """Identify from ``freq_hz``: (constants, relative eigenvalue bound, rounds) or raises
+        _TrialFailed."""
+        import nlopt
+
+        lam_meas = (2 * np.pi * np.nan_to_num(freq_hz, nan=1.0)) ** 2
+        w = np.where(np.isfinite(freq_hz), weight, 0.0)
+        basis = self.basis
+        Y_ref = self.Y_ref
+        x0 = self.x_opt
+        lo, hi, A, b, T, L = self.lo, self.hi, self.A, self.b, self.T, self.L
+        A_all = np.vstack([A, np.eye(self.n_vars), -np.eye(self.n_vars)])
+        b_all = np.concatenate([b, hi, -lo])
+        scale = 2 * self.tau2
+        ref = None
+        for rounds in range(1, TRIAL_ROUNDS + 1):
+            Ay = A_all @ T
+            by = b_all - A_all @ x0
+            span = np.abs(L.T) @ np.maximum(hi - x0, x0 - lo)
+            best = [np.inf, None]
+            memo = {}
+
+            def objective(y, grad):
+                x = x0 + T @ y
+                f, g, lam, pairing, Y = self.evaluate(basis, x, lam_meas, w, Y_ref)
+                if grad.size:
+                    grad[:] = T.T @ g / scale
+                if f < best[0]:
+                    best[0], best[1] = f, x
+                    memo["last"] = (lam, pairing, Y)
+                return f / scale
+
+            def cons(result, y, grad):
+                if grad.size:
+                    grad[:] = Ay
+                result[:] = Ay @ y - by
+
+            opt = nlopt.opt(nlopt.LD_SLSQP, self.n_vars)
+            opt.set_lower_bounds(-span)
+            opt.set_upper_bounds(span)
+            opt.add_inequality_mconstraint(cons, np.full(Ay.shape[0], 1e-12))
+            opt.set_min_objective(objective)
+            opt.set_xtol_abs(np.full(self.n_vars, TRIAL_XTOL))
+            opt.set_ftol_rel(1e-12)
+            opt.set_maxeval(200)
+            try:
+                opt.optimize(np.zeros(self.n_vars))
+                code = opt.last_optimize_result()
+                if code == nlopt.MAXEVAL_REACHED:
+                    raise _TrialFailed("200 evaluations of the trial model reached")
+                if code < 0:
+                    raise _TrialFailed(f"optimiser stopped ({code})")
+            except nlopt.RoundoffLimited:
+                pass                         # at the round-off floor: the best point is kept
+            except (RuntimeError, ValueError) as exc:
+                raise _TrialFailed(f"optimiser failure ({exc})") from None
+            x = best[1]
+            lam, pairing, Y = memo["last"]
+            theta, bound, S = self.check(basis, x, Y, pairing, ref)
+            if bound > TRIAL_BOUND and ref is None:
+                # the optimum's A0 is a poor preconditioner where the trial went far: one
+                # factorisation at the trial's answer, for the check and the enrichments
+                ref = self.factor_at(x, basis.eig(np.array(self._coef_jac(x)[0]), 1)[0][0])
+                theta, bound, S = self.check(basis, x, Y, pairing, ref)
+            if bound <= TRIAL_BOUND:
+                return self.constants(x), bound, rounds
+            if rounds == TRIAL_ROUNDS or S is None:
+                break
+            basis = basis.copy()
+            if basis.add(S) == 0:
+                break
+            # the basis only grows (new columns appended): old reduced vectors extend by zeros
+            Y_ref = np.vstack([Y_ref, np.zeros((basis.size - Y_ref.shape[0], Y_ref.shape[1]))])
+            x0 = x
+        raise _TrialFailed(f"reduced trial model: eigenvalue bound {bound:.1e} above "
+                           f"{TRIAL_BOUND:.0e}")
+
+
+class _TrialFailed(Exception):
+    pass
+
+
+def _residual_bounds(theta, eta2, sigma):
+    """Absolute error bounds of Ritz values ``theta`` (ascending, M-orthonormal Ritz vectors)
+    from ``eta2_i = r_i^T A^-1 r_i`` (A = K - sigma M, or an upper bound of it).
+
+    Linear (laminid_cli.reduced): some eigenvalue lies within
+    ``d_i = (eta2 + sqrt(eta2^2 + 4 eta2 (theta_i - sigma))) / 2`` of theta_i. Quadratic
+    (Temple's argument with the A^-1 weights): with ``u_i = sum_j c_j phi_j``, ``theta_i >=
+    lambda_i`` (interlacing), ``a = theta_(i-1) >= lambda_(i-1)`` and ``b = theta_(i+1) -
+    d_(i+1) <= lambda_(i+1)`` (the next Ritz value matched with the next eigenvalue, as the
+    linear bound is read), ``(lambda - sigma) / (lambda - theta)`` decreasing above b and
+    ``sum_j c_j^2 (lambda_j - theta_i) = 0`` give
+    ``c_i^2 (theta_i - lambda_i) <= eta2 (b - sigma) / (b - theta_i)`` and
+    ``1 - c_i^2 <= eta2 max((b - sigma) / (b - theta_i)^2, (a - sigma) / (theta_i - a)^2)``.
+    Returns the smaller of the two where the quadratic one applies (the last value: linear)."""
+    theta = np.asarray(theta, float)
+    eta2 = np.asarray(eta2, float)
+    lin = 0.5 * (eta2 + np.sqrt(eta2**2 + 4 * eta2 * (theta - sigma)))
+    out = lin.copy()
+    for i in range(theta.size - 1):
+        t, b = theta[i], theta[i + 1] - lin[i + 1]
+        if not b > t:
+            continue
+        spill = (b - sigma) / (b - t) ** 2
+        if i > 0:
+            a = theta[i - 1]
+            if not a < t:
+                continue
+            spill = max(spill, (a - sigma) / (t - a) ** 2)
+        ci2 = 1.0 - eta2[i] * spill
+        if ci2 > 0:
+            out[i] = min(lin[i], eta2[i] * (b - sigma) / ((b - t) * ci2))
+    return out
+
+
+def _max_assignment(M):
+    """Column matched to each row of ``M`` maximising the sum (one column per row)."""
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import min_weight_full_bipartite_matching
+
+    rows, cols = min_weight_full_bipartite_matching(sp.csr_matrix(2.0 - np.asarray(M, float)))
+    return cols[np.argsort(rows)]
+
+
+# ----------------------------------------------------------------------------------------------
 # Monte Carlo
 
 
@@ -659,6 +1032,11 @@ class MonteCarlo:
     ratio : std / linearized_std
     sigma_factor : the frequencies were perturbed by sigma_f * sigma_factor (sqrt of the
         variance factor used for the linearised intervals, so both describe the same noise)
+    method : how the trials ran: "reduced" (the optimum's TrialModel) or "identify"
+    trial_bound : largest relative eigenvalue error bound, against the full FE model, of the
+        converged trials' paired modes (and two beyond) where the trials computed it (NaN
+        where not: trials of the full solver)
+    n_reidentified : reduced trials whose model missed TRIAL_BOUND, re-run through identify()
     """
 
     labels: tuple[str, ...]
@@ -676,6 +1054,9 @@ class MonteCarlo:
     jobs: int
     time_s: float
     failures: tuple[str, ...] = ()
+    method: str = "identify"
+    trial_bound: float = float("nan")
+    n_reidentified: int = 0
 
     def as_dict(self) -> dict:
         per = {}
@@ -687,60 +1068,94 @@ class MonteCarlo:
                 "linearized_std": float(self.linearized_std[k]), "ratio": float(self.ratio[k])}
         return {"trials": self.n_trials, "converged": self.n_converged, "constants": per,
                 "sigma_factor": self.sigma_factor, "seed": self.seed, "jobs": self.jobs,
-                "time_s": self.time_s, "failures": list(self.failures)}
+                "time_s": self.time_s, "failures": list(self.failures),
+                "method": self.method, "trial_eigenvalue_bound": self.trial_bound,
+                "reidentified": self.n_reidentified}
 
 
 _WORKER: dict = {}
 
 
-def _init_worker(specimens, mesh, boundaries, options, start, start_pairing, joint,
-                 basis_vectors=None):
-    from laminid_cli.forward import build_forward_model
+def _init_worker(fms, options, start, start_pairing, joint, basis_vectors=None, model=None):
+    """Per process: the plates' forward models, the identify() route's bases (rebuilt here from
+    their vectors, copied per trial) or the reduced trial model (shared by the trials: an
+    enrichment copies it; its factorisation is redone once per process)."""
     from laminid_cli.reduced import ReducedBasis
 
-    _WORKER.clear()
-    fms = [build_forward_model(s, mesh, boundary=b) for s, b in zip(specimens, boundaries)]
-    # the optimum's reduced basis, rebuilt once per process: each trial starts from a copy
     bases = (None if basis_vectors is None else
              [ReducedBasis.from_vectors(fm, V) for fm, V in zip(fms, basis_vectors)])
-    _WORKER.update(fms=fms, options=options, start=start, start_pairing=start_pairing,
-                   joint=joint, bases=bases)
+    _WORKER.clear()
+    _WORKER.update(fms=list(fms), options=options, start=start, start_pairing=start_pairing,
+                   joint=joint, bases=bases, model=model)
 
 
-def _run_trial(args):
-    """One re-identification from perturbed frequencies; (index, values or None, message)."""
-    from laminid_cli.errors import LaminidError
-    from laminid_cli.identify import identify
-    from laminid_cli.joint import identify_joint
-
-    index, freqs, labels = args
+def _trial_fms(freqs):
     fms = []
     for fm, f in zip(_WORKER["fms"], freqs):
         meas = dataclasses.replace(fm.specimen.measured, freq=f)
         fms.append(dataclasses.replace(fm, specimen=dataclasses.replace(fm.specimen,
                                                                         measured=meas)))
-    bases = _WORKER["bases"]
+    return fms
+
+
+def _identify_trial(freqs, bases):
+    """A trial through identify() / identify_joint() from the optimum with its basis."""
+    from laminid_cli.identify import identify
+    from laminid_cli.joint import identify_joint
+
+    fms = _trial_fms(freqs)
     if bases is not None:                  # the bases hold the plate, not its frequencies
         bases = [b.copy() for b in bases]
+    if _WORKER["joint"]:
+        return identify_joint(fms, _WORKER["options"], start=_WORKER["start"],
+                              start_pairing=_WORKER["start_pairing"], basis=bases)
+    return identify(fms[0], _WORKER["options"], start=_WORKER["start"],
+                    start_pairing=_WORKER["start_pairing"][0],
+                    basis=None if bases is None else bases[0])
+
+
+def _run_trial(args):
+    """One re-identification from perturbed frequencies: (index, values or None, message,
+    relative eigenvalue bound of the trial's model or NaN, route)."""
+    from laminid_cli.errors import LaminidError
+
+    index, freqs, labels = args
+    model = _WORKER.get("model")
+    route, bound = "identify", float("nan")
+    consts = None
     try:
-        if _WORKER["joint"]:
-            r = identify_joint(fms, _WORKER["options"], start=_WORKER["start"],
-                               start_pairing=_WORKER["start_pairing"], basis=bases)
-        else:
-            r = identify(fms[0], _WORKER["options"], start=_WORKER["start"],
-                         start_pairing=_WORKER["start_pairing"][0],
-                         basis=None if bases is None else bases[0])
+        if model is not None:
+            try:
+                c, bound, _ = model.trial(np.asarray(freqs[0], float),
+                                          np.asarray(model.fm.specimen.measured.weight, float))
+                consts = dict(zip(model.names, c))
+                route = "reduced"
+            except _TrialFailed as exc:
+                log.info("trial %d: %s; identified again with identify()", index + 1, exc)
+        if consts is None:
+            bases = _WORKER["bases"]
+            if bases is None and model is not None:
+                bases = [model.basis]          # it holds the first-order mode changes
+            r = _identify_trial(freqs, bases)
+            if not r.converged:
+                return index, None, r.status, bound, route
+            consts = {n: c for n, c in zip(r.material_names, r.constants)}
+            eb = getattr(r, "error_bound", None)
+            bound = float(np.max(eb)) if eb is not None and np.size(eb) else float("nan")
     except LaminidError as exc:
-        return index, None, str(exc)
-    if not r.converged:
-        return index, None, r.status
-    consts = {n: c for n, c in zip(r.material_names, r.constants)}
+        return index, None, str(exc), bound, route
     vals = [getattr(consts[lab.rsplit(".", 1)[0]], lab.rsplit(".", 1)[1]) for lab in labels]
-    return index, np.array(vals), ""
+    return index, np.array(vals), "", bound, route
+
+
+def _run_chunk(chunk):
+    return [_run_trial(t) for t in chunk]
 
 
 def _basis_vectors(result):
-    """The reduced basis vectors of each plate of ``result`` (None with the full solver)."""
+    """The reduced basis vectors of each plate of ``result`` with the first-order mode changes
+    at the optimum (None with the full solver): one factorisation per plate here for all
+    trials, which then move the poorly determined constants far with few enrichments."""
     basis = getattr(result, "basis", None)
     if basis is None:
         return None
@@ -750,8 +1165,6 @@ def _basis_vectors(result):
     plates = result.specimens if hasattr(result, "specimens") else [result]
     out = []
     for b, plate in zip(bases, plates):
-        # with the first-order mode changes at the optimum, the trials (which move the poorly
-        # determined constants far) need few enrichments: one factorisation here for all
         b = b.copy()
         b.add_sensitivities(b.fm.plate.coefficients(plate.constants), plate.modes.phi)
         out.append(b.V)
@@ -759,20 +1172,29 @@ def _basis_vectors(result):
 
 
 def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
-                jobs: int | None = None, seed: int = 0, progress=None) -> MonteCarlo:
+                jobs: int | None = None, seed: int = 0, progress=None,
+                method: str = "auto") -> MonteCarlo:
     """Re-identify ``n_trials`` times from frequencies perturbed by their uncertainties.
 
     Each trial draws f_i + sigma_f,i * sigma_factor * N(0, 1) for every measured mode of every
     plate (sigma_factor = sqrt(uncertainty.variance_factor)), starts at the optimum of
     ``result`` with its mode pairing, and keeps the free constants of converged runs. Trials run
-    in ``jobs`` processes (default: the number of cores); ``progress(done, total)`` after each.
-    The perturbations come from ``numpy.random.default_rng(seed)`` in the calling process, so a
-    result does not depend on ``jobs``.
+    in ``jobs`` processes (default: the number of cores), in chunks; ``progress(done, total)``
+    after each chunk. The perturbations come from ``numpy.random.default_rng(seed)`` in the
+    calling process, so a result does not depend on ``jobs``.
+
+    ``method``: "reduced" runs each trial on the optimum's :class:`TrialModel` (one plate,
+    reduced solver; no factorisation per trial), "identify" through identify() /
+    identify_joint() from the optimum with its basis, "auto" (default) the first where it
+    applies. A reduced trial whose model does not reach :data:`TRIAL_BOUND` is run through
+    identify().
     """
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     if n_trials < 2:
         raise FitInputError(f"Monte Carlo needs at least 2 trials, got {n_trials}")
+    if method not in ("auto", "reduced", "identify"):
+        raise FitInputError(f"Monte Carlo method '{method}' unknown: auto, reduced, identify")
     t0 = time.perf_counter()
     joint = hasattr(result, "specimens")
     parts = _parts(result, fms)
@@ -787,21 +1209,35 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
             noise = rng.standard_normal(f.size) * np.nan_to_num(s.sigma_hz) * factor
             freqs.append(np.where(np.isfinite(f), f + noise, np.nan))
         trials.append((i, freqs, uncertainty.labels))
-    init = ([plate.specimen for _, plate in parts], parts[0][0].mesh_size,
-            [fm.plate.boundary for fm, _ in parts], result.options, tuple(result.constants),
-            [np.asarray(plate.pairing) for _, plate in parts], joint, _basis_vectors(result))
+    reducible = not joint and getattr(result, "basis", None) is not None
+    if method == "reduced" and not reducible:
+        raise FitInputError("the reduced Monte Carlo trials need a single-plate result of the "
+                            "reduced solver")
+    model = None
+    if reducible and method != "identify":
+        fm, plate = parts[0]
+        w = np.asarray(plate.weight, float)
+        f = np.asarray(plate.measured_hz, float)
+        tau2 = w * (2 * np.nan_to_num(sigmas[0].sigma_hz) * factor / np.nan_to_num(f, nan=1.0))**2
+        model = TrialModel(fm, result, float(np.mean(tau2[w > 0])))
+    init = ([fm for fm, _ in parts], result.options, tuple(result.constants),
+            [np.asarray(plate.pairing) for _, plate in parts], joint,
+            None if model is not None else _basis_vectors(result), model)
     jobs = max(1, min(int(jobs or os.cpu_count() or 1), n_trials))
     out: list = [None] * n_trials
     failures = []
+    bounds = np.full(n_trials, np.nan)
+    routes: list = [""] * n_trials
     done = 0
 
-    def collect(res):
+    def collect(results):
         nonlocal done
-        i, vals, msg = res
-        out[i] = vals
-        if vals is None:
-            failures.append(f"trial {i + 1}: {msg}")
-        done += 1
+        for i, vals, msg, bound, route in results:
+            out[i] = vals
+            bounds[i], routes[i] = bound, route
+            if vals is None:
+                failures.append(f"trial {i + 1}: {msg}")
+            done += 1
         if progress is not None:
             progress(done, n_trials)
 
@@ -810,14 +1246,17 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
         try:
             _init_worker(*init)
             for t in trials:
-                collect(_run_trial(t))
+                collect([_run_trial(t)])
         finally:
             _WORKER.clear()
             _WORKER.update(saved)
     else:
+        # chunks: a few per process and round, so that a slow trial does not leave one idle
+        size = max(1, min(16, n_trials // (4 * jobs)))
+        chunks = [trials[k:k + size] for k in range(0, n_trials, size)]
         with ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker,
                                  initargs=init) as pool:
-            futures = [pool.submit(_run_trial, t) for t in trials]
+            futures = [pool.submit(_run_chunk, c) for c in chunks]
             try:
                 for fut in as_completed(futures):
                     collect(fut.result())
@@ -839,10 +1278,16 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
         ratio = std / lin
     if failures:
         log.info("Monte Carlo: %d of %d trials failed (%s)", len(failures), n_trials, failures[0])
+    conv = np.array([v is not None for v in out])
+    finite = bounds[conv & np.isfinite(bounds)]
     return MonteCarlo(labels=uncertainty.labels, n_trials=n_trials, n_converged=len(ok),
                       samples=samples, mean=mean, std=std, lower=lower, upper=upper,
                       linearized_std=lin, ratio=ratio, sigma_factor=factor, seed=seed, jobs=jobs,
-                      time_s=time.perf_counter() - t0, failures=tuple(failures[:10]))
+                      time_s=time.perf_counter() - t0, failures=tuple(failures[:10]),
+                      method="reduced" if model is not None else "identify",
+                      trial_bound=float(finite.max()) if finite.size else float("nan"),
+                      n_reidentified=sum(r == "identify" for r in routes) if model is not None
+                      else 0)
 
 
 # ----------------------------------------------------------------------------------------------
