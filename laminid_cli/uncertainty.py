@@ -662,6 +662,9 @@ CLOUD_RADIUS = 2.5
 CLOUD_DIRECTIONS = 2
 CLOUD_CHANGE = 0.05
 CLOUD_ROUNDS = 1
+#: SLSQP runs of a trial, each restarted from the last answer, and evaluations of each
+TRIAL_RESTARTS = 4
+TRIAL_MAXEVAL = 200
 #: enrich-and-optimise-again rounds of a trial before it is re-identified with identify()
 TRIAL_ROUNDS = 3
 
@@ -854,6 +857,7 @@ class TrialModel:
         if pv.size:
             f += float(pv @ pv)
             g = g + 2 * pv @ pr
+        self._last_jac = np.vstack([(np.sqrt(w) / lam_meas)[:, None] * dlam, pr])
         return f, g, lam, pairing, Y
 
     def check(self, basis, x, Y, pairing, ref=None):
@@ -893,64 +897,80 @@ class TrialModel:
                                           - sigma * plate.M_on_K)
         return coef, sigma, solve
 
+    def _minimise(self, basis, x0, lam_meas, w, Y_ref):
+        """One SLSQP run on the reduced model from ``x0`` (variables y = L^T (x - x0), in
+        linearised standard errors); returns (best x, (its paired Ritz values, pairing, Y))."""
+        import nlopt
+
+        # scaled by the Gauss-Newton Hessian at x0 (far from the optimum the valley turns)
+        self.evaluate(basis, x0, lam_meas, w, Y_ref)
+        H = self._last_jac.T @ self._last_jac / self.tau2
+        d = np.diag(H).copy()
+        H += np.diag(1e-9 * max(d.max(), 1e-300) + 1e-9 * d)
+        L = np.linalg.cholesky(H)
+        T = np.linalg.inv(L.T)
+        A_all = np.vstack([self.A, np.eye(self.n_vars), -np.eye(self.n_vars)])
+        b_all = np.concatenate([self.b, self.hi, -self.lo])
+        Ay = A_all @ T
+        by = b_all - A_all @ x0
+        span = np.abs(L.T) @ np.maximum(self.hi - x0, x0 - self.lo)
+        scale = 2 * self.tau2
+        best = [np.inf, None, None]
+
+        def objective(y, grad):
+            x = x0 + T @ y
+            f, g, lam, pairing, Y = self.evaluate(basis, x, lam_meas, w, Y_ref)
+            if grad.size:
+                grad[:] = T.T @ g / scale
+            if f < best[0]:
+                best[:] = f, x, (lam, pairing, Y)
+            return f / scale
+
+        def cons(result, y, grad):
+            if grad.size:
+                grad[:] = Ay
+            result[:] = Ay @ y - by
+
+        opt = nlopt.opt(nlopt.LD_SLSQP, self.n_vars)
+        opt.set_lower_bounds(-span)
+        opt.set_upper_bounds(span)
+        opt.add_inequality_mconstraint(cons, np.full(Ay.shape[0], 1e-12))
+        opt.set_min_objective(objective)
+        opt.set_xtol_abs(np.full(self.n_vars, TRIAL_XTOL))
+        opt.set_ftol_rel(1e-12)
+        opt.set_maxeval(TRIAL_MAXEVAL)
+        try:
+            opt.optimize(np.zeros(self.n_vars))
+            code = opt.last_optimize_result()
+            if code == nlopt.MAXEVAL_REACHED:
+                raise _TrialFailed(f"{TRIAL_MAXEVAL} evaluations of the trial model reached")
+            if code < 0:
+                raise _TrialFailed(f"optimiser stopped ({code})")
+        except nlopt.RoundoffLimited:
+            pass                             # at the round-off floor: the best point is kept
+        except (RuntimeError, ValueError) as exc:
+            raise _TrialFailed(f"optimiser failure ({exc})") from None
+        if best[1] is None:
+            raise _TrialFailed("the trial model was not evaluated")
+        return best[1], best[2]
+
     def trial(self, freq_hz, weight):
         """Identify from ``freq_hz``: (constants, relative eigenvalue bound, rounds) or raises
         _TrialFailed."""
-        import nlopt
-
         lam_meas = (2 * np.pi * np.nan_to_num(freq_hz, nan=1.0)) ** 2
         w = np.where(np.isfinite(freq_hz), weight, 0.0)
-        basis = self.basis
-        Y_ref = self.Y_ref
-        x0 = self.x_opt
-        lo, hi, A, b, T, L = self.lo, self.hi, self.A, self.b, self.T, self.L
-        A_all = np.vstack([A, np.eye(self.n_vars), -np.eye(self.n_vars)])
-        b_all = np.concatenate([b, hi, -lo])
-        scale = 2 * self.tau2
+        basis, Y_ref, x0, L = self.basis, self.Y_ref, self.x_opt, self.L
         ref = None
         for rounds in range(1, TRIAL_ROUNDS + 1):
-            Ay = A_all @ T
-            by = b_all - A_all @ x0
-            span = np.abs(L.T) @ np.maximum(hi - x0, x0 - lo)
-            best = [np.inf, None]
-            memo = {}
-
-            def objective(y, grad):
-                x = x0 + T @ y
-                f, g, lam, pairing, Y = self.evaluate(basis, x, lam_meas, w, Y_ref)
-                if grad.size:
-                    grad[:] = T.T @ g / scale
-                if f < best[0]:
-                    best[0], best[1] = f, x
-                    memo["last"] = (lam, pairing, Y)
-                return f / scale
-
-            def cons(result, y, grad):
-                if grad.size:
-                    grad[:] = Ay
-                result[:] = Ay @ y - by
-
-            opt = nlopt.opt(nlopt.LD_SLSQP, self.n_vars)
-            opt.set_lower_bounds(-span)
-            opt.set_upper_bounds(span)
-            opt.add_inequality_mconstraint(cons, np.full(Ay.shape[0], 1e-12))
-            opt.set_min_objective(objective)
-            opt.set_xtol_abs(np.full(self.n_vars, TRIAL_XTOL))
-            opt.set_ftol_rel(1e-12)
-            opt.set_maxeval(200)
-            try:
-                opt.optimize(np.zeros(self.n_vars))
-                code = opt.last_optimize_result()
-                if code == nlopt.MAXEVAL_REACHED:
-                    raise _TrialFailed("200 evaluations of the trial model reached")
-                if code < 0:
-                    raise _TrialFailed(f"optimiser stopped ({code})")
-            except nlopt.RoundoffLimited:
-                pass                         # at the round-off floor: the best point is kept
-            except (RuntimeError, ValueError) as exc:
-                raise _TrialFailed(f"optimiser failure ({exc})") from None
-            x = best[1]
-            lam, pairing, Y = memo["last"]
+            # SLSQP restarted from its answer while that moves (its quasi-Newton model starts
+            # from the Gauss-Newton scaling again: flat valleys are followed to the end)
+            for _ in range(TRIAL_RESTARTS):
+                x, memo = self._minimise(basis, x0, lam_meas, w, Y_ref)
+                step = float(np.max(np.abs(L.T @ (x - x0))))
+                x0 = x
+                if step <= 10 * TRIAL_XTOL:
+                    break
+            lam, pairing, Y = memo
             theta, bound, S = self.check(basis, x, Y, pairing, ref)
             if bound > TRIAL_BOUND and ref is None:
                 # the optimum's A0 is a poor preconditioner where the trial went far: one
