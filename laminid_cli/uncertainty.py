@@ -653,8 +653,10 @@ def sensitivity_table(result) -> dict:
 #: its paired modes and two beyond is below this; the spread it measures is at the 1e-3 level
 #: and a constant moves by at most (its std / the eigenvalue std) times this (module docstring)
 TRIAL_BOUND = 1e-6
-#: the trial optimiser's step tolerance, in linearised standard errors of the constants
-TRIAL_XTOL = 1e-5
+#: the trial optimiser's step tolerance, in linearised standard errors of the constants at the
+#: optimum (a trial's constants then move by about 1e-3 of their spread; smaller steps are at
+#: the reduced objective's round-off floor)
+TRIAL_XTOL = 1e-3
 #: the trial basis is enriched at this many standard errors from the optimum along at most
 #: CLOUD_DIRECTIONS directions whose stiffness coefficients change there by more than
 #: CLOUD_CHANGE (relative), with CLOUD_ROUNDS block solves each
@@ -664,7 +666,12 @@ CLOUD_CHANGE = 0.05
 CLOUD_ROUNDS = 1
 #: SLSQP runs of a trial, each restarted from the last answer, and evaluations of each
 TRIAL_RESTARTS = 4
+#: Levenberg-Marquardt iterations of a trial before SLSQP takes over
+TRIAL_GN_ITERATIONS = 30
 TRIAL_MAXEVAL = 200
+#: a trial's first answer is checked with the optimum's factorisation only when its constitutive
+#: matrices are at least this fraction of the optimum's (else the bound would be too loose)
+TRIAL_MU = 0.9
 #: enrich-and-optimise-again rounds of a trial before it is re-identified with identify()
 TRIAL_ROUNDS = 3
 
@@ -857,7 +864,9 @@ class TrialModel:
         if pv.size:
             f += float(pv @ pv)
             g = g + 2 * pv @ pr
-        self._last_jac = np.vstack([(np.sqrt(w) / lam_meas)[:, None] * dlam, pr])
+        # residual rows [sqrt(w) (lt - l) / lt, prior] and their Jacobian, for Gauss-Newton
+        self._last_rows = (np.concatenate([np.sqrt(w) * rel, pv]),
+                           np.vstack([-(np.sqrt(w) / lam_meas)[:, None] * dlam, pr]))
         return f, g, lam, pairing, Y
 
     def check(self, basis, x, Y, pairing, ref=None):
@@ -870,10 +879,7 @@ class TrialModel:
         if ref is None:
             ref = (self.coef_opt, self.sigma, self.solve0)
         coef_ref, sigma, solve = ref
-        mu = min(float(np.linalg.eigvalsh(np.linalg.solve(
-            np.linalg.cholesky(self._q(c0)),
-            np.linalg.solve(np.linalg.cholesky(self._q(c0)), self._q(c)).T)).min())
-            for c, c0 in zip(coef, coef_ref))
+        mu = self.mu(x, coef_ref)
         if not mu > 0:
             return None, np.inf, None
         n = min(self.n_check + 1, Y.shape[1])
@@ -888,6 +894,17 @@ class TrialModel:
         bound = _residual_bounds(theta, eta2, sigma)
         return theta, float(np.max(bound[pairing] / theta[pairing])), S
 
+    def mu(self, x, coef_ref):
+        """Smallest generalised eigenvalue of the constitutive matrices at ``x`` against those
+        of ``coef_ref`` over the materials: ``K(x) >= mu K(ref)`` (class docstring)."""
+        coef = np.array(self._coef_jac(x)[0])
+        out = np.inf
+        for c, c0 in zip(coef, coef_ref):
+            C = np.linalg.cholesky(self._q(c0))
+            G = np.linalg.solve(C, np.linalg.solve(C, self._q(c)).T)
+            out = min(out, float(np.linalg.eigvalsh(0.5 * (G + G.T)).min()))
+        return out
+
     def factor_at(self, x, theta1):
         """(coefficients, sigma, solve) of A = K - sigma M factorised at ``x``."""
         plate = self.fm.plate
@@ -897,6 +914,50 @@ class TrialModel:
                                           - sigma * plate.M_on_K)
         return coef, sigma, solve
 
+    def _gauss_newton(self, basis, x0, lam_meas, w, Y_ref):
+        """Levenberg-Marquardt on the reduced model from ``x0``, steps kept inside the search's
+        bounds and linear constraints; returns (x, (paired Ritz values, pairing, Y)) when the
+        step is below TRIAL_XTOL standard errors, None when it stalls (e.g. at a bound)."""
+        x = np.asarray(x0, float)
+        f, _, lam, pairing, Y = self.evaluate(basis, x, lam_meas, w, Y_ref)
+        res, J = self._last_rows
+        damp = 1e-6
+        for _ in range(TRIAL_GN_ITERATIONS):
+            H = J.T @ J
+            d = np.diag(H)
+            try:
+                dx = -np.linalg.solve(H + damp * np.diag(d) + 1e-14 * d.max() * np.eye(d.size),
+                                      J.T @ res)
+            except np.linalg.LinAlgError:
+                return None
+            # the largest fraction of the step inside the feasible polytope
+            A = np.vstack([self.A, np.eye(self.n_vars), -np.eye(self.n_vars)])
+            b = np.concatenate([self.b, self.hi, -self.lo])
+            Adx = A @ dx
+            slack = b - A @ x
+            grow = Adx > 0
+            alpha = min(1.0, float(np.min(slack[grow] / Adx[grow]))) if grow.any() else 1.0
+            if alpha < 1.0:
+                return None                  # a constraint in the way: SLSQP handles it
+            x_new = x + dx
+            step = float(np.max(np.abs(self.L.T @ dx)))
+            f_new, _, lam_n, pairing_n, Y_n = self.evaluate(basis, x_new, lam_meas, w, Y_ref)
+            if f_new <= f:
+                x, f, lam, pairing, Y = x_new, f_new, lam_n, pairing_n, Y_n
+                res, J = self._last_rows
+                damp = max(damp / 10, 1e-9)
+                if step <= TRIAL_XTOL:
+                    return x, (lam, pairing, Y)
+            elif step <= 10 * TRIAL_XTOL:
+                # a step this small gives no decrease: the reduced objective's round-off floor
+                # (about 1e-9 relative) is reached
+                return x, (lam, pairing, Y)
+            else:
+                damp = max(10 * damp, 1e-3)
+                if damp > 1e3:
+                    return None
+        return None
+
     def _minimise(self, basis, x0, lam_meas, w, Y_ref):
         """One SLSQP run on the reduced model from ``x0`` (variables y = L^T (x - x0), in
         linearised standard errors); returns (best x, (its paired Ritz values, pairing, Y))."""
@@ -904,7 +965,8 @@ class TrialModel:
 
         # scaled by the Gauss-Newton Hessian at x0 (far from the optimum the valley turns)
         self.evaluate(basis, x0, lam_meas, w, Y_ref)
-        H = self._last_jac.T @ self._last_jac / self.tau2
+        J = self._last_rows[1]
+        H = J.T @ J / self.tau2
         d = np.diag(H).copy()
         H += np.diag(1e-9 * max(d.max(), 1e-300) + 1e-9 * d)
         L = np.linalg.cholesky(H)
@@ -964,19 +1026,26 @@ class TrialModel:
         for rounds in range(1, TRIAL_ROUNDS + 1):
             # SLSQP restarted from its answer while that moves (its quasi-Newton model starts
             # from the Gauss-Newton scaling again: flat valleys are followed to the end)
-            for _ in range(TRIAL_RESTARTS):
+            gn = self._gauss_newton(basis, x0, lam_meas, w, Y_ref)
+            for _ in range(0 if gn is not None else TRIAL_RESTARTS):
                 x, memo = self._minimise(basis, x0, lam_meas, w, Y_ref)
                 step = float(np.max(np.abs(L.T @ (x - x0))))
                 x0 = x
                 if step <= 10 * TRIAL_XTOL:
                     break
+            if gn is not None:
+                x, memo = gn
             lam, pairing, Y = memo
-            theta, bound, S = self.check(basis, x, Y, pairing, ref)
+            if ref is None and self.mu(x, self.coef_opt) < TRIAL_MU:
+                bound = np.inf               # the optimum's A0 is a poor preconditioner here
+            else:
+                theta, bound, S = self.check(basis, x, Y, pairing, ref)
             if bound > TRIAL_BOUND and ref is None:
                 # the optimum's A0 is a poor preconditioner where the trial went far: one
                 # factorisation at the trial's answer, for the check and the enrichments
                 ref = self.factor_at(x, basis.eig(np.array(self._coef_jac(x)[0]), 1)[0][0])
                 theta, bound, S = self.check(basis, x, Y, pairing, ref)
+            log.debug("trial round %d bound %.2e", rounds, bound)
             if bound <= TRIAL_BOUND:
                 return self.constants(x), bound, rounds
             if rounds == TRIAL_ROUNDS or S is None:
