@@ -652,7 +652,7 @@ def sensitivity_table(result) -> dict:
 #: a trial is accepted when the relative eigenvalue error bound (against the full FE model) of
 #: its paired modes and two beyond is below this; the spread it measures is at the 1e-3 level
 #: and a constant moves by at most (its std / the eigenvalue std) times this (module docstring)
-TRIAL_BOUND = 1e-6
+TRIAL_BOUND = 1e-5
 #: the trial optimiser's step tolerance, in linearised standard errors of the constants at the
 #: optimum (a trial's constants then move by about 1e-3 of their spread; smaller steps are at
 #: the reduced objective's round-off floor)
@@ -669,9 +669,10 @@ TRIAL_RESTARTS = 4
 #: Levenberg-Marquardt iterations of a trial before SLSQP takes over
 TRIAL_GN_ITERATIONS = 30
 TRIAL_MAXEVAL = 200
-#: a trial's first answer is checked with the optimum's factorisation only when its constitutive
-#: matrices are at least this fraction of the optimum's (else the bound would be too loose)
-TRIAL_MU = 0.9
+#: a trial's first answer is checked with a kept factorisation (the optimum's or the cloud's)
+#: only when its constitutive matrices are at least this fraction of that point's (the bound
+#: grows as 1 / mu)
+TRIAL_MU = 0.5
 #: enrich-and-optimise-again rounds of a trial before it is re-identified with identify()
 TRIAL_ROUNDS = 3
 
@@ -758,6 +759,7 @@ class TrialModel:
             rhs.append(b)
         self.A = np.vstack(rows)
         self.b = np.concatenate(rhs)
+        self.refs = [(self.coef_opt, self.sigma, self.solve0)]     # factorisations kept
         self._enrich_cloud(fm)
         theta, Y = self.basis.eig(self.coef_opt, self.n_model)
         self.Y_ref = Y[:, self.pairing]
@@ -792,6 +794,7 @@ class TrialModel:
                 K = plate.stiffness(coef=coef)
                 sigma = -0.5 * theta[0]
                 solve = fm.factorizer.factor(K.data - sigma * plate.M_on_K)
+                self.refs.append((coef, sigma, solve))
                 for _ in range(CLOUD_ROUNDS):
                     U = self.basis.V @ Y
                     added = self.basis.add(solve(K @ U - (plate.M @ U) * theta))
@@ -799,10 +802,20 @@ class TrialModel:
                     if not added:
                         break
 
-    def __getstate__(self):                  # the factorisation is redone in each process
-        state = dict(self.__dict__)
+    def __getstate__(self):                  # pickled (spawned workers): A0 is factorised
+        state = dict(self.__dict__)          # again there, the cloud's are not kept
         state["_solve"] = None
+        state["refs"] = None
         return state
+
+    def nearest_ref(self, x):
+        """(mu, (coefficients, sigma, solve)) of the kept factorisation whose constitutive
+        matrices are closest below those at ``x`` (largest mu)."""
+        if not self.refs:
+            self.refs = [(self.coef_opt, self.sigma, self.solve0)]
+        mus = [self.mu(x, ref[0]) for ref in self.refs]
+        k = int(np.argmax(mus))
+        return mus[k], self.refs[k]
 
     def solve0(self, R):
         """``A0^-1 R`` (A0 factorised once per process)."""
@@ -1036,13 +1049,16 @@ class TrialModel:
             if gn is not None:
                 x, memo = gn
             lam, pairing, Y = memo
-            if ref is None and self.mu(x, self.coef_opt) < TRIAL_MU:
-                bound = np.inf               # the optimum's A0 is a poor preconditioner here
+            if ref is None:
+                # the kept factorisation nearest to the answer, if near enough
+                mu, near = self.nearest_ref(x)
+                bound = np.inf
+                if mu >= TRIAL_MU:
+                    theta, bound, S = self.check(basis, x, Y, pairing, near)
             else:
                 theta, bound, S = self.check(basis, x, Y, pairing, ref)
             if bound > TRIAL_BOUND and ref is None:
-                # the optimum's A0 is a poor preconditioner where the trial went far: one
-                # factorisation at the trial's answer, for the check and the enrichments
+                # one factorisation at the trial's answer, for the check and the enrichments
                 ref = self.factor_at(x, basis.eig(np.array(self._coef_jac(x)[0]), 1)[0][0])
                 theta, bound, S = self.check(basis, x, Y, pairing, ref)
             log.debug("trial round %d bound %.2e", rounds, bound)
