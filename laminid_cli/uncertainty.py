@@ -675,10 +675,10 @@ CLOUD_RADIUS = 2.5
 CLOUD_DIRECTIONS = 2
 CLOUD_CHANGE = 0.05
 CLOUD_ROUNDS = 1
-#: SLSQP runs of a trial, each restarted from the last answer, and evaluations of each
-TRIAL_RESTARTS = 4
 #: Levenberg-Marquardt iterations of a trial before SLSQP takes over
 TRIAL_GN_ITERATIONS = 30
+#: SLSQP runs of a trial, each restarted from the last answer, and evaluations of each
+TRIAL_RESTARTS = 4
 TRIAL_MAXEVAL = 200
 #: a trial's first answer is checked with a kept factorisation (the optimum's or the cloud's)
 #: only when its constitutive matrices are at least this fraction of that point's (the bound
