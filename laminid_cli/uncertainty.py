@@ -68,7 +68,16 @@ Identifiability
 Monte Carlo
     :func:`monte_carlo` re-identifies from frequencies perturbed by their (scaled) standard
     deviations, in parallel processes, each run starting at the optimum, and reports the
-    empirical spread beside the linearised one.
+    empirical spread beside the linearised one. A single-plate result of the reduced solver
+    runs its trials on a :class:`TrialModel` built once at the optimum (no full solve; at most
+    one factorisation per trial, none where a kept factorisation is near enough); each trial's
+    paired eigenvalues are checked against the full FE model by a residual bound, at most
+    :data:`TRIAL_SHARE` (1 %) of the smallest relative eigenvalue standard deviation
+    2 sigma_f / f (4e-5 at the default 0.2 %; at most :data:`TRIAL_BOUND`): to first order a
+    constant then moves by at most about 1 % of its standard error, far below the sampling
+    error of the quantiles (about 20 % of a standard error for the 2.5 % quantile of 200
+    trials). The largest bound is reported (``trial_eigenvalue_bound``).
+    Joint results and the full solver's go through identify() for every trial.
 
 No click, no h5py here: pure library code (DESIGN.md section 1).
 """
@@ -646,6 +655,499 @@ def sensitivity_table(result) -> dict:
 
 
 # ----------------------------------------------------------------------------------------------
+# Monte Carlo trials on a reduced model of the optimum
+
+
+#: a trial is accepted when the relative eigenvalue error bound (against the full FE model) of
+#: its paired modes is below TRIAL_SHARE times the smallest relative eigenvalue standard
+#: deviation 2 sigma_f / f of the weighted modes (to first order a constant then moves by at
+#: most about TRIAL_SHARE of its standard error; module docstring), and never above TRIAL_BOUND
+TRIAL_SHARE = 0.01
+TRIAL_BOUND = 1e-4
+#: the trial optimiser's step tolerance, in linearised standard errors of the constants at the
+#: optimum (a trial's constants then move by about 1e-3 of their spread; smaller steps are at
+#: the reduced objective's round-off floor)
+TRIAL_XTOL = 1e-3
+#: the trial basis is enriched at this many standard errors from the optimum along at most
+#: CLOUD_DIRECTIONS directions whose stiffness coefficients change there by more than
+#: CLOUD_CHANGE (relative), with CLOUD_ROUNDS block solves each
+CLOUD_RADIUS = 2.5
+CLOUD_DIRECTIONS = 2
+CLOUD_CHANGE = 0.05
+CLOUD_ROUNDS = 1
+#: Levenberg-Marquardt iterations of a trial before SLSQP takes over
+TRIAL_GN_ITERATIONS = 30
+#: SLSQP runs of a trial, each restarted from the last answer, and evaluations of each
+TRIAL_RESTARTS = 4
+TRIAL_MAXEVAL = 200
+#: a trial's first answer is checked with a kept factorisation (the optimum's or the cloud's)
+#: only when its constitutive matrices are at least this fraction of that point's (the bound
+#: grows as 1 / mu)
+TRIAL_MU = 0.5
+#: enrich-and-optimise-again rounds of a trial before it is re-identified with identify()
+TRIAL_ROUNDS = 3
+
+
+class TrialModel:
+    """One plate's reduced model for the Monte Carlo trials (single plate, reduced solver).
+
+    Basis (mass-orthonormal, built once in the calling process, inherited by forked worker
+    processes): the optimum's final basis, its checked Ritz vectors ``phi_i``, their
+    first-order changes with every basis stiffness ``A0^-1 K_b phi_i`` (``A0 = K(c*) - sigma0
+    M``), and the preconditioned Ritz residuals at ``x* +- CLOUD_RADIUS`` standard errors
+    along the directions where the trials change the stiffness most (:meth:`_enrich_cloud`).
+    The factorisations of the optimum and of those points are kept.
+
+    A trial minimises paper Eq. 17 (+ Eq. 15) with its perturbed frequencies on this model from
+    the optimum (Levenberg-Marquardt; SLSQP when a bound or linear constraint is in the way),
+    modes paired by MAC against the optimum's. At its answer the Ritz vectors are checked with
+    the full matrices: Rayleigh quotients and the residual bound of :func:`_residual_bounds`
+    with a kept factorisation ``A_ref^-1`` in place of ``A^-1``: when the constitutive matrices
+    satisfy ``Q(c) >= mu Q(c_ref)`` (mu the smallest generalised eigenvalue of the 5x5 pair of
+    each material, the same for every ply angle since Q(theta) = T^T Q(0) T), then ``K(c) >= mu
+    K(c_ref)`` and ``A(c) >= min(mu, 1) A_ref``, so ``r^T A(c)^-1 r <= r^T A_ref^-1 r / min(mu,
+    1)``: a valid bound with no factorisation at the trial point. Above the accepted bound,
+    ``A`` is factorised at the trial's answer (its one factorisation), the preconditioned
+    residuals are added to a copy of the basis and the trial optimised again from there.
+    """
+
+    def __init__(self, fm, result, tau2: float, bound: float = TRIAL_BOUND):
+        from laminid_cli.parametrization import make_parameters
+        from laminid_cli.reduced import ReducedBasis
+
+        plate = fm.plate
+        opts = result.options
+        spec = fm.specimen
+        self.fm = fm
+        self.names = tuple(result.material_names)
+        self.params = []
+        for name, c0 in zip(self.names, fm.initial_constants):
+            free = result.free[name]
+            fixed = tuple(k for k in CONSTANT_NAMES if k not in free)
+            self.params.append(make_parameters(
+                name, c0, fixed, kind=result.parametrization[name],
+                prior=bool(spec.materials[name].prior), nu_max=opts.nu_max,
+                bound_factor=opts.bound_factor))
+        sizes = [len(p.x0()) for p in self.params]
+        self.offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
+        self.n_vars = int(self.offsets[-1])
+        self.prior = [{k: float(w) for k, w in spec.materials[p.name].prior.items()
+                       if k in p.free} for p in self.params]
+        self.x_opt = np.asarray(result.x, float)
+        self.pairing = np.asarray(result.pairing, int)
+        self.n_model = int(result.modes.n_modes)
+        self.n_check = int(min(self.n_model, np.max(self.pairing) + 3))
+        self.coef_opt = np.array(self._coef_jac(self.x_opt)[0])
+        self.Q_opt = [self._q(c) for c in self.coef_opt]
+        self.tau2 = float(tau2)
+        self.bound = float(bound)            # accepted relative eigenvalue error bound
+        # the basis, with the one factorisation at the optimum
+        phi = np.asarray(result.modes.phi, float)
+        K0 = plate.stiffness(coef=self.coef_opt)
+        lam1 = float(result.modes.eigenvalues[0])
+        self.sigma = -0.5 * lam1
+        self._solve = fm.factorizer.factor(K0.data - self.sigma * plate.M_on_K)
+        basis = ReducedBasis(fm)
+        if getattr(result, "basis", None) is not None:
+            basis.add(result.basis.V)
+        basis.add(phi)
+        basis.add(self._solve(np.hstack([plate.basis_matrix(m, j) @ phi
+                                        for m in range(len(self.names)) for j in range(6)])))
+        self.basis = basis
+        # Gauss-Newton scaling at the optimum: y = L^T (x - x*) in linearised standard errors
+        w = np.asarray(result.weight, float)
+        lam_meas = (2 * np.pi * np.nan_to_num(np.asarray(result.measured_hz, float), nan=1.0))**2
+        Jr = (np.sqrt(w) / lam_meas)[:, None] * np.asarray(result.dlam_dx, float)
+        H = Jr.T @ Jr + self._prior_rows(self.x_opt)[1].T @ self._prior_rows(self.x_opt)[1]
+        d = np.diag(H).copy()
+        H += np.diag(1e-10 * max(d.max(), 1e-300) + 1e-12 * d)
+        self.L = np.linalg.cholesky(H / self.tau2)
+        self.T = np.linalg.inv(self.L.T)
+        lo, hi = zip(*(p.bounds() for p in self.params))
+        self.lo, self.hi = np.concatenate(lo), np.concatenate(hi)
+        rows, rhs = [], []
+        for k, p in enumerate(self.params):
+            A, b = p.linear_constraints()
+            full = np.zeros((A.shape[0], self.n_vars))
+            full[:, self.offsets[k]:self.offsets[k + 1]] = A
+            rows.append(full)
+            rhs.append(b)
+        self.A = np.vstack(rows)
+        self.b = np.concatenate(rhs)
+        self.refs = [(self.coef_opt, self.sigma, self.solve0)]     # factorisations kept
+        self._enrich_cloud(fm)
+        theta, Y = self.basis.eig(self.coef_opt, self.n_model)
+        self.Y_ref = Y[:, self.pairing]
+
+    def _enrich_cloud(self, fm):
+        """Enrich the basis where the trials go far: at ``x* +- CLOUD_RADIUS`` standard errors
+        along the directions of the largest relative change of the stiffness coefficients per
+        standard error (where that change exceeds CLOUD_CHANGE), shrunk into the feasible
+        set; one factorisation and CLOUD_ROUNDS block solves of the Ritz residuals each."""
+        plate = fm.plate
+        coefs, jacs = self._coef_jac(self.x_opt)
+        c = np.concatenate(coefs)
+        J = np.vstack([np.asarray(jk) for jk in jacs])
+        rel = (J @ self.T) / np.maximum(np.abs(c), 1e-300)[:, None]
+        _, sv, Wt = np.linalg.svd(rel, full_matrices=False)
+        for k in range(min(CLOUD_DIRECTIONS, sv.size)):
+            if sv[k] * CLOUD_RADIUS < CLOUD_CHANGE:
+                break
+            for sign in (1.0, -1.0):
+                y = sign * CLOUD_RADIUS * Wt[k]
+                x = self.x_opt + self.T @ y
+                for _ in range(20):
+                    if (np.all(x >= self.lo) and np.all(x <= self.hi)
+                            and np.all(self.A @ x <= self.b)):
+                        break
+                    y = 0.8 * y
+                    x = self.x_opt + self.T @ y
+                else:
+                    continue
+                coef = np.array(self._coef_jac(x)[0])
+                theta, Y = self.basis.eig(coef, self.n_model)
+                K = plate.stiffness(coef=coef)
+                sigma = -0.5 * theta[0]
+                solve = fm.factorizer.factor(K.data - sigma * plate.M_on_K)
+                self.refs.append((coef, sigma, solve))
+                for _ in range(CLOUD_ROUNDS):
+                    U = self.basis.V @ Y
+                    added = self.basis.add(solve(K @ U - (plate.M @ U) * theta))
+                    theta, Y = self.basis.eig(coef, self.n_model)
+                    if not added:
+                        break
+
+    def __getstate__(self):                  # pickled (spawned workers): A0 is factorised
+        state = dict(self.__dict__)          # again there, the cloud's are not kept
+        state["_solve"] = None
+        state["refs"] = None
+        return state
+
+    def nearest_ref(self, x):
+        """(mu, (coefficients, sigma, solve)) of the kept factorisation whose constitutive
+        matrices are closest below those at ``x`` (largest mu)."""
+        if not self.refs:
+            self.refs = [(self.coef_opt, self.sigma, self.solve0)]
+        mus = [self.mu(x, ref[0]) for ref in self.refs]
+        k = int(np.argmax(mus))
+        return mus[k], self.refs[k]
+
+    def solve0(self, R):
+        """``A0^-1 R`` (A0 factorised once per process)."""
+        if self._solve is None:
+            plate = self.fm.plate
+            K0 = plate.stiffness(coef=self.coef_opt)
+            self._solve = self.fm.factorizer.factor(K0.data - self.sigma * plate.M_on_K)
+        return self._solve(R)
+
+    @staticmethod
+    def _q(coef):
+        from laminid_cli.material import c_basis
+
+        return np.tensordot(np.asarray(coef, float), c_basis(0.0), axes=([0], [0]))
+
+    def _split(self, x):
+        return [x[self.offsets[k]:self.offsets[k + 1]] for k in range(len(self.params))]
+
+    def _coef_jac(self, x):
+        """(coefficients per material, Jacobians per material) at ``x``."""
+        return tuple(zip(*(p.coef_jacobian(xk) for p, xk in zip(self.params, self._split(x)))))
+
+    def constants(self, x):
+        return tuple(p.constants(xk) for p, xk in zip(self.params, self._split(x)))
+
+    def _prior_rows(self, x):
+        """Eq. 15 as residual rows sqrt(wp) (P - P0) / P0 and their derivatives (linear in x)."""
+        vals, rows = [], []
+        for k, (p, xk) in enumerate(zip(self.params, self._split(x))):
+            if not self.prior[k]:
+                continue
+            P = p.constants(xk).as_array()
+            P0 = p.initial.as_array()
+            for name, wp in self.prior[k].items():
+                i = CONSTANT_NAMES.index(name)
+                ref = P0[i] if P0[i] != 0 else 1.0
+                scale = 1.0 if name == "nu12" else P0[i]
+                row = np.zeros(self.n_vars)
+                row[self.offsets[k] + p.free.index(name)] = np.sqrt(wp) * scale / ref
+                vals.append(np.sqrt(wp) * (P[i] - P0[i]) / ref)
+                rows.append(row)
+        return np.array(vals), np.array(rows).reshape(len(rows), self.n_vars)
+
+    def evaluate(self, basis, x, lam_meas, w, Y_ref):
+        """Objective, gradient, paired Ritz values and reduced vectors at ``x``."""
+        coefs, jacs = self._coef_jac(x)
+        coef = np.array(coefs)
+        theta, Y = basis.eig(coef, self.n_model)
+        mac = (Y_ref.T @ (basis.Mr @ Y)) ** 2
+        pairing = _max_assignment(mac)
+        Yp = Y[:, pairing]
+        E = basis.energies(Yp)
+        lam = theta[pairing]
+        dlam = np.hstack([E[k].T @ J for k, J in enumerate(jacs)])
+        rel = (lam_meas - lam) / lam_meas
+        f = float(np.sum(w * rel**2))
+        g = -2 * (w * rel / lam_meas) @ dlam
+        pv, pr = self._prior_rows(x)
+        if pv.size:
+            f += float(pv @ pv)
+            g = g + 2 * pv @ pr
+        # residual rows [sqrt(w) (lt - l) / lt, prior] and their Jacobian, for Gauss-Newton
+        self._last_rows = (np.concatenate([np.sqrt(w) * rel, pv]),
+                           np.vstack([-(np.sqrt(w) / lam_meas)[:, None] * dlam, pr]))
+        return f, g, lam, pairing, Y
+
+    def check(self, basis, x, Y, pairing, ref=None):
+        """Full-matrix Ritz values of the checked Ritz vectors at ``x`` and the largest relative
+        error bound of the paired ones, with the factorisation ``ref`` = (coefficients, sigma,
+        solve) of another point (default: the optimum's; class docstring). Returns (theta,
+        bound, preconditioned residuals); bound inf when not computable."""
+        plate = self.fm.plate
+        coef = np.array(self._coef_jac(x)[0])
+        if ref is None:
+            ref = (self.coef_opt, self.sigma, self.solve0)
+        coef_ref, sigma, solve = ref
+        mu = self.mu(x, coef_ref)
+        if not mu > 0:
+            return None, np.inf, None
+        n = min(self.n_check + 1, Y.shape[1])
+        U = basis.V @ Y[:, :n]
+        U = U / np.sqrt(np.einsum("ij,ij->j", U, plate.M @ U))
+        MU = plate.M @ U
+        KU = plate.stiffness(coef=coef) @ U
+        theta = np.einsum("ij,ij->j", U, KU)
+        R = KU - MU * theta
+        S = solve(R)
+        eta2 = np.maximum(np.einsum("ij,ij->j", R, S), 0.0) / min(mu, 1.0)
+        bound = _residual_bounds(theta, eta2, sigma)
+        return theta, float(np.max(bound[pairing] / theta[pairing])), S
+
+    def mu(self, x, coef_ref):
+        """Smallest generalised eigenvalue of the constitutive matrices at ``x`` against those
+        of ``coef_ref`` over the materials: ``K(x) >= mu K(ref)`` (class docstring)."""
+        coef = np.array(self._coef_jac(x)[0])
+        out = np.inf
+        for c, c0 in zip(coef, coef_ref):
+            C = np.linalg.cholesky(self._q(c0))
+            G = np.linalg.solve(C, np.linalg.solve(C, self._q(c)).T)
+            out = min(out, float(np.linalg.eigvalsh(0.5 * (G + G.T)).min()))
+        return out
+
+    def factor_at(self, x, theta1):
+        """(coefficients, sigma, solve) of A = K - sigma M factorised at ``x``."""
+        plate = self.fm.plate
+        coef = np.array(self._coef_jac(x)[0])
+        sigma = -0.5 * float(theta1)
+        solve = self.fm.factorizer.factor(plate.stiffness(coef=coef).data
+                                          - sigma * plate.M_on_K)
+        return coef, sigma, solve
+
+    def _gauss_newton(self, basis, x0, lam_meas, w, Y_ref):
+        """Levenberg-Marquardt on the reduced model from ``x0``, steps kept inside the search's
+        bounds and linear constraints; returns (x, (paired Ritz values, pairing, Y)) when the
+        step is below TRIAL_XTOL standard errors, None when it stalls (e.g. at a bound)."""
+        x = np.asarray(x0, float)
+        f, _, lam, pairing, Y = self.evaluate(basis, x, lam_meas, w, Y_ref)
+        res, J = self._last_rows
+        damp = 1e-6
+        for _ in range(TRIAL_GN_ITERATIONS):
+            H = J.T @ J
+            d = np.diag(H)
+            try:
+                dx = -np.linalg.solve(H + damp * np.diag(d) + 1e-14 * d.max() * np.eye(d.size),
+                                      J.T @ res)
+            except np.linalg.LinAlgError:
+                return None
+            # the largest fraction of the step inside the feasible polytope
+            A = np.vstack([self.A, np.eye(self.n_vars), -np.eye(self.n_vars)])
+            b = np.concatenate([self.b, self.hi, -self.lo])
+            Adx = A @ dx
+            slack = b - A @ x
+            grow = Adx > 0
+            alpha = min(1.0, float(np.min(slack[grow] / Adx[grow]))) if grow.any() else 1.0
+            if alpha < 1.0:
+                return None                  # a constraint in the way: SLSQP handles it
+            x_new = x + dx
+            step = float(np.max(np.abs(self.L.T @ dx)))
+            f_new, _, lam_n, pairing_n, Y_n = self.evaluate(basis, x_new, lam_meas, w, Y_ref)
+            if f_new <= f:
+                x, f, lam, pairing, Y = x_new, f_new, lam_n, pairing_n, Y_n
+                res, J = self._last_rows
+                damp = max(damp / 10, 1e-9)
+                if step <= TRIAL_XTOL:
+                    return x, (lam, pairing, Y)
+            elif step <= 10 * TRIAL_XTOL:
+                # a step this small gives no decrease: the reduced objective's round-off floor
+                # (about 1e-9 relative) is reached
+                return x, (lam, pairing, Y)
+            else:
+                damp = max(10 * damp, 1e-3)
+                if damp > 1e3:
+                    return None
+        return None
+
+    def _minimise(self, basis, x0, lam_meas, w, Y_ref):
+        """One SLSQP run on the reduced model from ``x0`` (variables y = L^T (x - x0), in
+        linearised standard errors); returns (best x, (its paired Ritz values, pairing, Y))."""
+        import nlopt
+
+        # scaled by the Gauss-Newton Hessian at x0 (far from the optimum the valley turns)
+        self.evaluate(basis, x0, lam_meas, w, Y_ref)
+        J = self._last_rows[1]
+        H = J.T @ J / self.tau2
+        d = np.diag(H).copy()
+        H += np.diag(1e-9 * max(d.max(), 1e-300) + 1e-9 * d)
+        L = np.linalg.cholesky(H)
+        T = np.linalg.inv(L.T)
+        A_all = np.vstack([self.A, np.eye(self.n_vars), -np.eye(self.n_vars)])
+        b_all = np.concatenate([self.b, self.hi, -self.lo])
+        Ay = A_all @ T
+        by = b_all - A_all @ x0
+        span = np.abs(L.T) @ np.maximum(self.hi - x0, x0 - self.lo)
+        scale = 2 * self.tau2
+        best = [np.inf, None, None]
+
+        def objective(y, grad):
+            x = x0 + T @ y
+            f, g, lam, pairing, Y = self.evaluate(basis, x, lam_meas, w, Y_ref)
+            if grad.size:
+                grad[:] = T.T @ g / scale
+            if f < best[0]:
+                best[:] = f, x, (lam, pairing, Y)
+            return f / scale
+
+        def cons(result, y, grad):
+            if grad.size:
+                grad[:] = Ay
+            result[:] = Ay @ y - by
+
+        opt = nlopt.opt(nlopt.LD_SLSQP, self.n_vars)
+        opt.set_lower_bounds(-span)
+        opt.set_upper_bounds(span)
+        opt.add_inequality_mconstraint(cons, np.full(Ay.shape[0], 1e-12))
+        opt.set_min_objective(objective)
+        opt.set_xtol_abs(np.full(self.n_vars, TRIAL_XTOL))
+        opt.set_ftol_rel(1e-12)
+        opt.set_maxeval(TRIAL_MAXEVAL)
+        try:
+            opt.optimize(np.zeros(self.n_vars))
+            code = opt.last_optimize_result()
+            if code == nlopt.MAXEVAL_REACHED:
+                raise _TrialFailed(f"{TRIAL_MAXEVAL} evaluations of the trial model reached")
+            if code < 0:
+                raise _TrialFailed(f"optimiser stopped ({code})")
+        except nlopt.RoundoffLimited:
+            pass                             # at the round-off floor: the best point is kept
+        except (RuntimeError, ValueError) as exc:
+            raise _TrialFailed(f"optimiser failure ({exc})") from None
+        if best[1] is None:
+            raise _TrialFailed("the trial model was not evaluated")
+        return best[1], best[2]
+
+    def trial(self, freq_hz, weight):
+        """Identify from ``freq_hz``: (constants, relative eigenvalue bound, rounds) or raises
+        _TrialFailed."""
+        lam_meas = (2 * np.pi * np.nan_to_num(freq_hz, nan=1.0)) ** 2
+        w = np.where(np.isfinite(freq_hz), weight, 0.0)
+        basis, Y_ref, x0, L = self.basis, self.Y_ref, self.x_opt, self.L
+        ref = None
+        for rounds in range(1, TRIAL_ROUNDS + 1):
+            # SLSQP restarted from its answer while that moves (its quasi-Newton model starts
+            # from the Gauss-Newton scaling again: flat valleys are followed to the end)
+            gn = self._gauss_newton(basis, x0, lam_meas, w, Y_ref)
+            for _ in range(0 if gn is not None else TRIAL_RESTARTS):
+                x, memo = self._minimise(basis, x0, lam_meas, w, Y_ref)
+                step = float(np.max(np.abs(L.T @ (x - x0))))
+                x0 = x
+                if step <= 10 * TRIAL_XTOL:
+                    break
+            if gn is not None:
+                x, memo = gn
+            lam, pairing, Y = memo
+            if ref is None:
+                # the kept factorisation nearest to the answer, if near enough
+                mu, near = self.nearest_ref(x)
+                bound = np.inf
+                if mu >= TRIAL_MU:
+                    theta, bound, S = self.check(basis, x, Y, pairing, near)
+            else:
+                theta, bound, S = self.check(basis, x, Y, pairing, ref)
+            if bound > self.bound and ref is None:
+                # one factorisation at the trial's answer, for the check and the enrichments
+                ref = self.factor_at(x, basis.eig(np.array(self._coef_jac(x)[0]), 1)[0][0])
+                theta, bound, S = self.check(basis, x, Y, pairing, ref)
+            log.debug("trial round %d bound %.2e", rounds, bound)
+            if bound <= self.bound:
+                return self.constants(x), bound, rounds
+            if rounds == TRIAL_ROUNDS or S is None:
+                break
+            basis = basis.copy()
+            if basis.add(S) == 0:
+                break
+            # the basis only grows (new columns appended): old reduced vectors extend by zeros
+            Y_ref = np.vstack([Y_ref, np.zeros((basis.size - Y_ref.shape[0], Y_ref.shape[1]))])
+            x0 = x
+        raise _TrialFailed(f"reduced trial model: eigenvalue bound {bound:.1e} above "
+                           f"{self.bound:.0e}")
+
+
+class _TrialFailed(Exception):
+    pass
+
+
+def _residual_bounds(theta, eta2, sigma):
+    """Absolute error bounds of Ritz values ``theta`` (ascending, M-orthonormal Ritz vectors)
+    from ``eta2_i = r_i^T A^-1 r_i`` (A = K - sigma M, or an upper bound of it).
+
+    Linear (laminid_cli.reduced): some eigenvalue lies within
+    ``d_i = (eta2 + sqrt(eta2^2 + 4 eta2 (theta_i - sigma))) / 2`` of theta_i. Quadratic
+    (Temple's argument with the A^-1 weights): with ``u_i = sum_j c_j phi_j``, ``theta_i >=
+    lambda_i`` (interlacing), ``a = theta_(i-1) >= lambda_(i-1)`` and ``b = theta_(i+1) -
+    d_(i+1) <= lambda_(i+1)`` (the next Ritz value matched with the next eigenvalue, as the
+    linear bound is read), ``(lambda - sigma) / (lambda - theta)`` decreasing above b and
+    ``sum_j c_j^2 (lambda_j - theta_i) = 0`` give
+    ``c_i^2 (theta_i - lambda_i) <= eta2 (b - sigma) / (b - theta_i)`` and
+    ``1 - c_i^2 <= eta2 max((b - sigma) / (b - theta_i)^2, (a - sigma) / (theta_i - a)^2)``.
+    Returns the smaller of the two where the quadratic one applies (the last value: linear)."""
+    theta = np.asarray(theta, float)
+    eta2 = np.asarray(eta2, float)
+    lin = 0.5 * (eta2 + np.sqrt(eta2**2 + 4 * eta2 * (theta - sigma)))
+    out = lin.copy()
+    for i in range(theta.size - 1):
+        t, b = theta[i], theta[i + 1] - lin[i + 1]
+        if not b > t:
+            continue
+        spill = (b - sigma) / (b - t) ** 2
+        if i > 0:
+            a = theta[i - 1]
+            if not a < t:
+                continue
+            spill = max(spill, (a - sigma) / (t - a) ** 2)
+        ci2 = 1.0 - eta2[i] * spill
+        if ci2 > 0:
+            out[i] = min(lin[i], eta2[i] * (b - sigma) / ((b - t) * ci2))
+    return out
+
+
+def _max_assignment(M):
+    """Column matched to each row of ``M`` maximising the sum (one column per row).
+
+    MAC values between two orthonormal sets sum to at most 1 along a row and a column, so when
+    every row's largest value exceeds 0.5 those columns are distinct and the assignment is
+    optimal (any other column of a row is below 1 - that value < 0.5); else an optimal
+    bipartite matching."""
+    M = np.asarray(M, float)
+    best = np.argmax(M, axis=1)
+    if np.all(M[np.arange(M.shape[0]), best] > 0.5):
+        return best
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import min_weight_full_bipartite_matching
+
+    rows, cols = min_weight_full_bipartite_matching(sp.csr_matrix(2.0 - np.asarray(M, float)))
+    return cols[np.argsort(rows)]
+
+
+# ----------------------------------------------------------------------------------------------
 # Monte Carlo
 
 
@@ -659,6 +1161,13 @@ class MonteCarlo:
     ratio : std / linearized_std
     sigma_factor : the frequencies were perturbed by sigma_f * sigma_factor (sqrt of the
         variance factor used for the linearised intervals, so both describe the same noise)
+    method : how the trials ran: "reduced" (the optimum's TrialModel) or "identify"
+    trial_bound : largest relative eigenvalue error bound, against the full FE model, of the
+        converged trials' paired modes (and two beyond) where the trials computed it (NaN
+        where not: trials of the full solver)
+    n_reidentified : reduced trials whose model missed its bound, re-run through identify()
+    trial_bound_limit : the bound a reduced trial had to reach (TRIAL_SHARE of the smallest
+        relative eigenvalue standard deviation, at most TRIAL_BOUND)
     """
 
     labels: tuple[str, ...]
@@ -676,6 +1185,10 @@ class MonteCarlo:
     jobs: int
     time_s: float
     failures: tuple[str, ...] = ()
+    method: str = "identify"
+    trial_bound: float = float("nan")
+    n_reidentified: int = 0
+    trial_bound_limit: float = float("nan")
 
     def as_dict(self) -> dict:
         per = {}
@@ -687,60 +1200,95 @@ class MonteCarlo:
                 "linearized_std": float(self.linearized_std[k]), "ratio": float(self.ratio[k])}
         return {"trials": self.n_trials, "converged": self.n_converged, "constants": per,
                 "sigma_factor": self.sigma_factor, "seed": self.seed, "jobs": self.jobs,
-                "time_s": self.time_s, "failures": list(self.failures)}
+                "time_s": self.time_s, "failures": list(self.failures),
+                "method": self.method, "trial_eigenvalue_bound": self.trial_bound,
+                "trial_eigenvalue_bound_limit": self.trial_bound_limit,
+                "reidentified": self.n_reidentified}
 
 
 _WORKER: dict = {}
 
 
-def _init_worker(specimens, mesh, boundaries, options, start, start_pairing, joint,
-                 basis_vectors=None):
-    from laminid_cli.forward import build_forward_model
+def _init_worker(fms, options, start, start_pairing, joint, basis_vectors=None, model=None):
+    """Per process: the plates' forward models, the identify() route's bases (rebuilt here from
+    their vectors, copied per trial) or the reduced trial model (shared by the trials: an
+    enrichment copies it; its factorisation is redone once per process)."""
     from laminid_cli.reduced import ReducedBasis
 
-    _WORKER.clear()
-    fms = [build_forward_model(s, mesh, boundary=b) for s, b in zip(specimens, boundaries)]
-    # the optimum's reduced basis, rebuilt once per process: each trial starts from a copy
     bases = (None if basis_vectors is None else
              [ReducedBasis.from_vectors(fm, V) for fm, V in zip(fms, basis_vectors)])
-    _WORKER.update(fms=fms, options=options, start=start, start_pairing=start_pairing,
-                   joint=joint, bases=bases)
+    _WORKER.clear()
+    _WORKER.update(fms=list(fms), options=options, start=start, start_pairing=start_pairing,
+                   joint=joint, bases=bases, model=model)
 
 
-def _run_trial(args):
-    """One re-identification from perturbed frequencies; (index, values or None, message)."""
-    from laminid_cli.errors import LaminidError
-    from laminid_cli.identify import identify
-    from laminid_cli.joint import identify_joint
-
-    index, freqs, labels = args
+def _trial_fms(freqs):
     fms = []
     for fm, f in zip(_WORKER["fms"], freqs):
         meas = dataclasses.replace(fm.specimen.measured, freq=f)
         fms.append(dataclasses.replace(fm, specimen=dataclasses.replace(fm.specimen,
                                                                         measured=meas)))
-    bases = _WORKER["bases"]
+    return fms
+
+
+def _identify_trial(freqs, bases):
+    """A trial through identify() / identify_joint() from the optimum with its basis."""
+    from laminid_cli.identify import identify
+    from laminid_cli.joint import identify_joint
+
+    fms = _trial_fms(freqs)
     if bases is not None:                  # the bases hold the plate, not its frequencies
         bases = [b.copy() for b in bases]
+    if _WORKER["joint"]:
+        return identify_joint(fms, _WORKER["options"], start=_WORKER["start"],
+                              start_pairing=_WORKER["start_pairing"], basis=bases)
+    return identify(fms[0], _WORKER["options"], start=_WORKER["start"],
+                    start_pairing=_WORKER["start_pairing"][0],
+                    basis=None if bases is None else bases[0])
+
+
+def _run_trial(args):
+    """One re-identification from perturbed frequencies: (index, values or None, message,
+    relative eigenvalue bound of the trial's model or NaN, route)."""
+    from laminid_cli.errors import LaminidError
+
+    index, freqs, labels = args
+    model = _WORKER.get("model")
+    route, bound = "identify", float("nan")
+    consts = None
     try:
-        if _WORKER["joint"]:
-            r = identify_joint(fms, _WORKER["options"], start=_WORKER["start"],
-                               start_pairing=_WORKER["start_pairing"], basis=bases)
-        else:
-            r = identify(fms[0], _WORKER["options"], start=_WORKER["start"],
-                         start_pairing=_WORKER["start_pairing"][0],
-                         basis=None if bases is None else bases[0])
+        if model is not None:
+            try:
+                c, bound, _ = model.trial(np.asarray(freqs[0], float),
+                                          np.asarray(model.fm.specimen.measured.weight, float))
+                consts = dict(zip(model.names, c))
+                route = "reduced"
+            except _TrialFailed as exc:
+                log.info("trial %d: %s; identified again with identify()", index + 1, exc)
+        if consts is None:
+            bases = _WORKER["bases"]
+            if bases is None and model is not None:
+                bases = [model.basis]          # it holds the first-order mode changes
+            r = _identify_trial(freqs, bases)
+            if not r.converged:
+                return index, None, r.status, bound, route
+            consts = {n: c for n, c in zip(r.material_names, r.constants)}
+            eb = getattr(r, "error_bound", None)
+            bound = float(np.max(eb)) if eb is not None and np.size(eb) else float("nan")
     except LaminidError as exc:
-        return index, None, str(exc)
-    if not r.converged:
-        return index, None, r.status
-    consts = {n: c for n, c in zip(r.material_names, r.constants)}
+        return index, None, str(exc), bound, route
     vals = [getattr(consts[lab.rsplit(".", 1)[0]], lab.rsplit(".", 1)[1]) for lab in labels]
-    return index, np.array(vals), ""
+    return index, np.array(vals), "", bound, route
+
+
+def _run_chunk(chunk):
+    return [_run_trial(t) for t in chunk]
 
 
 def _basis_vectors(result):
-    """The reduced basis vectors of each plate of ``result`` (None with the full solver)."""
+    """The reduced basis vectors of each plate of ``result`` with the first-order mode changes
+    at the optimum (None with the full solver): one factorisation per plate here for all
+    trials, which then move the poorly determined constants far with few enrichments."""
     basis = getattr(result, "basis", None)
     if basis is None:
         return None
@@ -750,8 +1298,6 @@ def _basis_vectors(result):
     plates = result.specimens if hasattr(result, "specimens") else [result]
     out = []
     for b, plate in zip(bases, plates):
-        # with the first-order mode changes at the optimum, the trials (which move the poorly
-        # determined constants far) need few enrichments: one factorisation here for all
         b = b.copy()
         b.add_sensitivities(b.fm.plate.coefficients(plate.constants), plate.modes.phi)
         out.append(b.V)
@@ -759,20 +1305,29 @@ def _basis_vectors(result):
 
 
 def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
-                jobs: int | None = None, seed: int = 0, progress=None) -> MonteCarlo:
+                jobs: int | None = None, seed: int = 0, progress=None,
+                method: str = "auto") -> MonteCarlo:
     """Re-identify ``n_trials`` times from frequencies perturbed by their uncertainties.
 
     Each trial draws f_i + sigma_f,i * sigma_factor * N(0, 1) for every measured mode of every
     plate (sigma_factor = sqrt(uncertainty.variance_factor)), starts at the optimum of
     ``result`` with its mode pairing, and keeps the free constants of converged runs. Trials run
-    in ``jobs`` processes (default: the number of cores); ``progress(done, total)`` after each.
-    The perturbations come from ``numpy.random.default_rng(seed)`` in the calling process, so a
-    result does not depend on ``jobs``.
+    in ``jobs`` processes (default: the number of cores), in chunks; ``progress(done, total)``
+    after each chunk. The perturbations come from ``numpy.random.default_rng(seed)`` in the
+    calling process, so a result does not depend on ``jobs``.
+
+    ``method``: "reduced" runs each trial on the optimum's :class:`TrialModel` (one plate,
+    reduced solver; no factorisation per trial), "identify" through identify() /
+    identify_joint() from the optimum with its basis, "auto" (default) the first where it
+    applies. A reduced trial whose model does not reach its bound is run through
+    identify().
     """
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     if n_trials < 2:
         raise FitInputError(f"Monte Carlo needs at least 2 trials, got {n_trials}")
+    if method not in ("auto", "reduced", "identify"):
+        raise FitInputError(f"Monte Carlo method '{method}' unknown: auto, reduced, identify")
     t0 = time.perf_counter()
     joint = hasattr(result, "specimens")
     parts = _parts(result, fms)
@@ -787,21 +1342,37 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
             noise = rng.standard_normal(f.size) * np.nan_to_num(s.sigma_hz) * factor
             freqs.append(np.where(np.isfinite(f), f + noise, np.nan))
         trials.append((i, freqs, uncertainty.labels))
-    init = ([plate.specimen for _, plate in parts], parts[0][0].mesh_size,
-            [fm.plate.boundary for fm, _ in parts], result.options, tuple(result.constants),
-            [np.asarray(plate.pairing) for _, plate in parts], joint, _basis_vectors(result))
+    reducible = not joint and getattr(result, "basis", None) is not None
+    if method == "reduced" and not reducible:
+        raise FitInputError("the reduced Monte Carlo trials need a single-plate result of the "
+                            "reduced solver")
+    model = None
+    if reducible and method != "identify":
+        fm, plate = parts[0]
+        w = np.asarray(plate.weight, float)
+        f = np.asarray(plate.measured_hz, float)
+        rel = 2 * np.nan_to_num(sigmas[0].sigma_hz) * factor / np.nan_to_num(f, nan=1.0)
+        tau2 = w * rel**2
+        limit = min(TRIAL_BOUND, TRIAL_SHARE * float(np.min(rel[w > 0])))
+        model = TrialModel(fm, result, float(np.mean(tau2[w > 0])), limit)
+    init = ([fm for fm, _ in parts], result.options, tuple(result.constants),
+            [np.asarray(plate.pairing) for _, plate in parts], joint,
+            None if model is not None else _basis_vectors(result), model)
     jobs = max(1, min(int(jobs or os.cpu_count() or 1), n_trials))
     out: list = [None] * n_trials
     failures = []
+    bounds = np.full(n_trials, np.nan)
+    routes: list = [""] * n_trials
     done = 0
 
-    def collect(res):
+    def collect(results):
         nonlocal done
-        i, vals, msg = res
-        out[i] = vals
-        if vals is None:
-            failures.append(f"trial {i + 1}: {msg}")
-        done += 1
+        for i, vals, msg, bound, route in results:
+            out[i] = vals
+            bounds[i], routes[i] = bound, route
+            if vals is None:
+                failures.append(f"trial {i + 1}: {msg}")
+            done += 1
         if progress is not None:
             progress(done, n_trials)
 
@@ -810,14 +1381,17 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
         try:
             _init_worker(*init)
             for t in trials:
-                collect(_run_trial(t))
+                collect([_run_trial(t)])
         finally:
             _WORKER.clear()
             _WORKER.update(saved)
     else:
+        # chunks: a few per process and round, so that a slow trial does not leave one idle
+        size = max(1, min(16, n_trials // (4 * jobs)))
+        chunks = [trials[k:k + size] for k in range(0, n_trials, size)]
         with ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker,
                                  initargs=init) as pool:
-            futures = [pool.submit(_run_trial, t) for t in trials]
+            futures = [pool.submit(_run_chunk, c) for c in chunks]
             try:
                 for fut in as_completed(futures):
                     collect(fut.result())
@@ -839,10 +1413,16 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
         ratio = std / lin
     if failures:
         log.info("Monte Carlo: %d of %d trials failed (%s)", len(failures), n_trials, failures[0])
+    conv = np.array([v is not None for v in out])
+    finite = bounds[conv & np.isfinite(bounds)]
     return MonteCarlo(labels=uncertainty.labels, n_trials=n_trials, n_converged=len(ok),
                       samples=samples, mean=mean, std=std, lower=lower, upper=upper,
                       linearized_std=lin, ratio=ratio, sigma_factor=factor, seed=seed, jobs=jobs,
-                      time_s=time.perf_counter() - t0, failures=tuple(failures[:10]))
+                      time_s=time.perf_counter() - t0, failures=tuple(failures[:10]),
+                      method="reduced" if model is not None else "identify",
+                      trial_bound=float(finite.max()) if finite.size else float("nan"),
+                      n_reidentified=sum(r == "identify" for r in routes) if model is not None
+                      else 0, trial_bound_limit=model.bound if model is not None else float("nan"))
 
 
 # ----------------------------------------------------------------------------------------------

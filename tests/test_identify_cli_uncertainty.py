@@ -107,6 +107,9 @@ def test_monte_carlo_in_two_processes(tmp_path):
     assert r.exit_code == 0, r.output
     mc = json.loads(r.output)["uncertainty"]["monte_carlo"]
     assert mc["trials"] == 8 and mc["converged"] == 8 and mc["jobs"] == 2 and mc["seed"] == 3
+    # trials on the optimum's reduced trial model, each checked against the full FE model
+    assert mc["method"] == "reduced" and mc["reidentified"] == 0
+    assert 0 < mc["trial_eigenvalue_bound"] <= mc["trial_eigenvalue_bound_limit"] <= 1e-4
     for k in ("E1", "G12"):
         v = mc["constants"][MAT][k]
         assert 0.4 < v["ratio"] < 2.0, (k, v)

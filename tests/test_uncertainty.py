@@ -340,3 +340,63 @@ def test_plate_log_intervals_against_200_monte_carlo_trials():
         width = u.upper[k] - u.lower[k]
         assert abs(mc.lower[k] - u.lower[k]) < 0.2 * width, k
         assert abs(mc.upper[k] - u.upper[k]) < 0.2 * width, k
+
+
+# --- Monte Carlo trials on the reduced trial model ---------------------------------------------
+
+def test_reduced_monte_carlo_trials_equal_the_identify_route_trial_by_trial():
+    """S1.1 (8x8, measured frequencies, all six constants free), 12 seeded trials: the reduced
+    trial model (0-2 factorisations per trial) gives per trial the constants of the
+    identify() route from the optimum with its basis: E1, E2, G12 within 1e-4 relative, every
+    constant within 1 % of its linearised standard error (G13/G23 move far and are flat), and
+    its stated eigenvalue bound is at most 1 % of the relative eigenvalue standard deviation
+    (2 x 0.2 %)."""
+    from laminid_cli import uncertainty as U
+    from laminid_cli.modal import WORK, reset_work
+
+    fm = build_forward_model(read_specimen(S11), (8, 8))
+    r = identify(fm)
+    sig = frequency_sigma(fm.specimen.measured, 0.002)
+    u = uncertainty_of(r, fm, sig)
+    reset_work()
+    red = monte_carlo(r, fm, sig, u, 12, jobs=1, seed=5, method="reduced")
+    work = dict(WORK)
+    ref = monte_carlo(r, fm, sig, u, 12, jobs=1, seed=5, method="identify")
+    assert red.method == "reduced" and ref.method == "identify"
+    assert red.n_converged == ref.n_converged == 12 and red.n_reidentified == 0
+    assert red.trial_bound_limit == pytest.approx(U.TRIAL_SHARE * 0.004)
+    assert red.trial_bound <= red.trial_bound_limit
+    assert work["lanczos_runs"] == 0
+    assert work["factorizations"] <= 2 * 12          # model build and trials together
+    rel = np.abs(red.samples / ref.samples - 1)
+    assert np.all(rel[:, :3] < 1e-4), rel[:, :3].max(axis=0)
+    assert np.all(np.abs(red.samples - ref.samples) / u.std < 0.01)
+    d = red.as_dict()
+    assert d["method"] == "reduced" and d["trial_eigenvalue_bound"] == red.trial_bound
+
+
+def test_residual_bounds_hold_against_exact_eigenvalues():
+    """The linear and quadratic Ritz value bounds of _residual_bounds against a small dense
+    problem with known eigenvalues (perturbed eigenvectors as Ritz vectors)."""
+    from laminid_cli.uncertainty import _residual_bounds
+
+    rng = np.random.default_rng(4)
+    n = 40
+    lam = np.sort(rng.uniform(1.0, 100.0, n))
+    Q, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    K = Q @ np.diag(lam) @ Q.T                         # M = I
+    sigma = -0.5 * lam[0]
+    A_inv = np.linalg.inv(K - sigma * np.eye(n))
+    for eps in (1e-2, 1e-4, 1e-6):
+        V, _ = np.linalg.qr(Q[:, :8] + eps * rng.standard_normal((n, 8)))
+        theta, Y = np.linalg.eigh(V.T @ K @ V)
+        U = V @ Y
+        R = K @ U - U * theta
+        eta2 = np.einsum("ij,ij->j", R, A_inv @ R)
+        b = _residual_bounds(theta, eta2, sigma)
+        err = theta - lam[:8]
+        assert np.all(err >= -1e-12) and np.all(err <= b * (1 + 1e-9)), (eps, err / b)
+        lin = 0.5 * (eta2 + np.sqrt(eta2**2 + 4 * eta2 * (theta - sigma)))
+        assert np.all(b <= lin)
+        if eps <= 1e-4:
+            assert b[0] < 0.1 * lin[0]                   # the quadratic bound is sharper

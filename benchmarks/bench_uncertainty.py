@@ -1,0 +1,73 @@
+"""Monte Carlo benchmark: one identification of S1.1 against --monte-carlo N trials.
+
+In one run (ratios are what to compare; the machine may be loaded): the wall time of one
+identification (median of REPEAT), then ``monte_carlo`` with N trials (default 200) with
+``-j 1`` and ``-j 2`` for each trial route ("reduced": the optimum's TrialModel; "identify":
+identify() from the optimum with its basis, the route before the trial model, run on
+--identify-trials trials and scaled to N), the time per trial, the ratio of the whole Monte Carlo to one identification, and the work per trial
+counted by laminid_cli.modal.WORK (factorisations, solve pairs, Lanczos runs; with -j 1, in
+this process, model build included). Single-threaded BLAS, as the CLI.
+
+Run: .venv/bin/python benchmarks/bench_uncertainty.py [--trials 200] [--mesh 12x12]
+     [--routes reduced,identify] [--jobs 1,2] [SPEC]
+"""
+
+from _timing import median_time  # first: sets single-threaded BLAS
+
+import argparse  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+from laminid_cli.forward import build_forward_model  # noqa: E402
+from laminid_cli.identify import identify  # noqa: E402
+from laminid_cli.modal import WORK, reset_work  # noqa: E402
+from laminid_cli.specimen import read_specimen  # noqa: E402
+from laminid_cli.uncertainty import frequency_sigma, monte_carlo, uncertainty_of  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+REPEAT = 3
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("spec", nargs="?", default=str(ROOT / "specimens/example1/S1.1.yaml"))
+    ap.add_argument("--trials", type=int, default=200)
+    ap.add_argument("--mesh", default="12x12")
+    ap.add_argument("--routes", default="reduced,identify")
+    ap.add_argument("--identify-trials", type=int, default=20,
+                    help="trials of the (slow) identify route; the ratio is scaled to --trials")
+    ap.add_argument("--jobs", default="1,2")
+    a = ap.parse_args()
+    mesh = tuple(int(v) for v in a.mesh.split("x"))
+    spec = read_specimen(a.spec)
+    fm = build_forward_model(spec, mesh)
+    t_id, r = median_time(lambda: identify(fm), REPEAT)
+    reset_work()
+    identify(fm)
+    w_id = dict(WORK)
+    print(f"{spec.name} {a.mesh}: one identification {t_id:.2f} s (median of {REPEAT}), "
+          f"factorisations {w_id['factorizations']}, solve pairs {w_id['solve_pairs']}, "
+          f"Lanczos {w_id['lanczos_runs']}", flush=True)
+    sig = frequency_sigma(fm.specimen.measured)
+    u = uncertainty_of(r, fm, sig)
+    for route in a.routes.split(","):
+        n = a.trials if route == "reduced" else a.identify_trials
+        for jobs in (int(j) for j in a.jobs.split(",")):
+            reset_work()
+            t = time.perf_counter()
+            mc = monte_carlo(r, fm, sig, u, n, jobs=jobs, seed=0, method=route)
+            dt = time.perf_counter() - t
+            per = ""
+            if jobs == 1:
+                per = (f"  per trial: factorisations {WORK['factorizations'] / n:.2f}, solve pairs "
+                       f"{WORK['solve_pairs'] / n:.1f}, Lanczos {WORK['lanczos_runs'] / n:.2f}")
+            scaled = dt / n * a.trials
+            print(f"  MC {route:<8} -j {jobs}: {n} trials {dt:7.2f} s, {dt / n * 1e3:6.1f} ms "
+                  f"per trial = {dt / n / t_id:.3f} identifications; {a.trials} trials = "
+                  f"{scaled / t_id:6.1f} x one identification; converged "
+                  f"{mc.n_converged}, re-identified {mc.n_reidentified}, eigenvalue bound "
+                  f"{mc.trial_bound:.1e}{per}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
