@@ -149,6 +149,8 @@ class Evaluation:
     #: measured modes whose model mode changed against the reference: (i, before, after)
     changes: tuple = ()
     reasons: tuple = ()              # why a refused point was refused
+    #: reduced model: (basis lineage, basis size, reduced eigenvectors of the paired modes)
+    ritz: tuple | None = None
 
 
 class HistoryRow(NamedTuple):
@@ -287,8 +289,10 @@ class Objective(VariableSet):
         if model is not None:                                       # reduced model
             modes, E_all, Y = model.solve(coef, plate.n_model)
             pairing, changes = self._pair(plate, modes, ref, start_pairing, model, Y)
-            return self.plate_evaluation(k, xk, modes, pairing, jacs, E_all[:, :, pairing],
-                                         changes)
+            ev = self.plate_evaluation(k, xk, modes, pairing, jacs, E_all[:, :, pairing],
+                                       changes)
+            ev.ritz = (model.lineage, model.size, Y[:, pairing])
+            return ev
         ref_ok = ref is not None and ref.modes is not None
         modes = plate.fm.solve(n_modes=plate.n_model, coef=coef,
                                v0=ref.phi.sum(axis=1) if ref_ok else None,
@@ -345,7 +349,7 @@ class Objective(VariableSet):
         if self.pairing_mode == "sorted" or ref is None or ref.phi is None:
             return np.arange(n), ()
         if Y is not None:                                            # reduced model
-            M = model.mac(ref.phi, Y)
+            M = model.mac(ref.phi, Y, ref.ritz)
         else:
             M = mac(ref.phi, modes.phi, plate.fm.plate.M)            # (n_meas, n_model)
         pairing = max_assignment(M)
