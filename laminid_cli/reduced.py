@@ -110,9 +110,12 @@ class ReducedBasis:
         k = W.shape[1]
         r = self.size
         n_b = len(self._Kb)
-        KW = np.stack([Kb @ W for Kb in self._Kb])           # (n_b, n, k)
-        top = np.matmul(self.V.T, KW)                        # V^T K_b W  (n_b, r, k)
-        low = np.matmul(W.T, KW)                             # W^T K_b W  (n_b, k, k)
+        # K_b W side by side, (n, n_b k): V^T K_b W and W^T K_b W as one product each
+        KW = np.empty((W.shape[0], n_b * k))
+        for b, Kb in enumerate(self._Kb):
+            KW[:, b * k:(b + 1) * k] = Kb @ W
+        top = (self.V.T @ KW).reshape(r, n_b, k).transpose(1, 0, 2)     # (n_b, r, k)
+        low = (W.T @ KW).reshape(k, n_b, k).transpose(1, 0, 2)          # (n_b, k, k)
         Kr = np.zeros((n_b, r + k, r + k))
         Kr[:, :r, :r] = self.Kr.reshape(n_b, r, r)
         Kr[:, :r, r:] = top
