@@ -642,10 +642,11 @@ def _optimize_reduced(prob, ev_c, progress=None):
         elif rho < 0.25:
             radius = max(0.25 * step, 1e-3 * options.xtol_rel)
         log.info("enrichment %d: basis change of the paired eigenvalues %.2e, step %.2e, "
-                 "rho %.3f, radius %.3g", prob.n_enrich, change, step, rho, radius)
+                 "rho %.3f (predicted decrease %.2e, actual %.2e relative), radius %.3g",
+                 prob.n_enrich, change, step, rho, predicted / max(abs(f_c_old), 1e-300),
+                 actual / max(abs(f_c_old), 1e-300), radius)
         # converged: the enrichment left the paired eigenvalues at the optimiser's answer
-        # unchanged, and that answer is the optimiser's own (not cut by the trust region) or
-        # the step is within the step tolerance
+        # unchanged, and the step is within the step tolerance
         if change <= options.reduced_tol and step <= STEP_TOL:
             converged, status = inner_conv, inner_status
             if ev_c is not ev_t2 and ev_t2.objective <= ev_c.objective * (1 + 1e-9):
