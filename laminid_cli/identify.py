@@ -346,14 +346,15 @@ class Problem(VariableSet):
         self._last_basis = list(models)
         self.log.cache = None
 
-    def enrich(self, ev: Evaluation, rounds: int = 2, target: float = 0.0) -> float:
+    def enrich(self, ev: Evaluation, rounds: int = 2, target: float = 0.0,
+               reuse: float = 0.0) -> float:
         """Enrich every plate's basis at ``ev.x``; returns the largest relative change of the
         weighted paired eigenvalues and records the relative error bound of the paired modes
         there (see ReducedBasis.enrich for ``rounds`` and ``target``)."""
         changes, paired, worst = [], [], 0.0
         for plate, part, model in zip(self.plates, ev.parts, self.models):
             coef, _ = plate.coefficients(part.x)
-            _, after, bound = model.enrich(coef, plate.n_model, rounds, target)
+            _, after, bound = model.enrich(coef, plate.n_model, rounds, target, reuse)
             rel = bound / after
             paired.append(rel[part.pairing])
             worst = max(worst, float(np.max(rel[:checked_modes(plate, part)])))
@@ -583,6 +584,10 @@ REDUCED_DAMPING = 1e-6
 #: this (Gauss-Newton-scaled: changes the objective by about STEP_TOL^2 of its value)
 STEP_TOL = 1e-4
 RADIUS_GROWTH = 4.0
+#: an enrichment of the trust-region loop at stiffness coefficients within this relative
+#: distance of the last factorised ones preconditions with that factorisation (no new one);
+#: its error bound is then not certified, so the optimum gets a factorisation of its own
+REUSE_FACTOR = 1e-2
 
 
 def _stage(prob, ev0, progress=None):
@@ -620,7 +625,7 @@ def _optimize_reduced(prob, ev_c, progress=None):
             ev_c = ev_t if ev_t.objective <= ev_c.objective else ev_c
             break
         f_c_old, f_pred, lam_pred = ev_c.objective, ev_t.objective, ev_t.eigenvalues
-        prob.enrich(ev_t)
+        prob.enrich(ev_t, reuse=REUSE_FACTOR)
         ev_t2 = prob.evaluate(ev_t.x)
         same = np.array_equal(ev_t.x, ev_c.x)
         ev_c2 = ev_t2 if same else prob.evaluate(ev_c.x)

@@ -204,31 +204,53 @@ class ReducedBasis:
         P, den = cached[2], cached[3]
         return (P.T @ Y) ** 2 / den
 
-    def enrich(self, coef: np.ndarray, k: int, rounds: int = 2, target: float = 0.0):
+    def enrich(self, coef: np.ndarray, k: int, rounds: int = 2, target: float = 0.0,
+               reuse: float = 0.0):
         """Enrich the basis at ``coef`` with the preconditioned residuals of the lowest ``k``
         Ritz modes: one factorisation (kept for a further call at the same ``coef``), up to
         ``rounds`` block solves with it, fewer when every relative bound is below ``target``.
 
+        ``reuse`` > 0: when the kept factorisation is of coefficients within this relative
+        distance of ``coef`` (every coefficient), it preconditions the residuals instead of a
+        new one (the residuals themselves are those of the stiffness at ``coef``); the bound
+        is then not certified and returned as infinite.
+
         Returns (Ritz values before, Ritz values after, absolute error bound of the values
         after, rad^2/s^2)."""
         coef = np.asarray(coef, float)
+        last = getattr(self, "_factor", None)
+        if reuse > 0 and last is not None and last[0] != coef.tobytes():
+            c0 = np.frombuffer(last[0]).reshape(coef.shape)
+            if np.all(np.abs(coef - c0) <= reuse * np.abs(c0)):
+                return self._enrich_with(coef, k, rounds, self.fm.plate.stiffness(coef=coef),
+                                         last[3])
+        theta0, Y = self.eig(coef, k)
+        K, sigma, solve = self._factorisation(coef, lambda K: theta0[0])
+        return self._enrich_with(coef, k, rounds, K, solve, sigma, target, theta0, Y)
+
+    def _enrich_with(self, coef, k, rounds, K, solve, sigma=None, target=0.0, theta0=None,
+                     Y=None):
+        """The block solves of :meth:`enrich` with ``solve`` = (K - sigma M)^-1 (with the
+        bound) or a preconditioner (``sigma`` None: no bound)."""
         if self.size + rounds * k > MAX_BASIS:               # restart from the Ritz vectors
             theta, Y = self.eig(coef, k)
             U = self.V @ Y
             self.__init__(self.fm)
             self.add(U)
-        theta0, Y = self.eig(coef, k)
-        K, sigma, solve = self._factorisation(coef, lambda K: theta0[0])
+            theta0 = None
+        if theta0 is None:
+            theta0, Y = self.eig(coef, k)
         theta = theta0
         bound = np.full(k, np.inf)
         for _ in range(rounds):
             U = self.V @ Y
             Rs = K @ U - (self.M @ U) * theta
             S = solve(Rs)
-            eta2 = np.maximum(np.einsum("ij,ij->j", Rs, S), 0.0)
-            bound = 0.5 * (eta2 + np.sqrt(eta2**2 + 4 * eta2 * (theta - sigma)))
-            if np.max(bound / theta) <= target:
-                break
+            if sigma is not None:
+                eta2 = np.maximum(np.einsum("ij,ij->j", Rs, S), 0.0)
+                bound = 0.5 * (eta2 + np.sqrt(eta2**2 + 4 * eta2 * (theta - sigma)))
+                if np.max(bound / theta) <= target:
+                    break
             added = self.add(S)
             theta, Y = self.eig(coef, k)
             if added == 0:
