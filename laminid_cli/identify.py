@@ -18,6 +18,11 @@ order, as in the paper); from then on each paired mode is followed from one eval
 next by the modal assurance criterion (MAC, mass-weighted) with an optimal assignment, so two
 modes that swap order keep their identity. Swaps are recorded. ``pairing="sorted"`` keeps the
 paper's plain sorted order.
+
+Structure: the objective itself is pure (:class:`laminid_cli.objective.Objective`, over a list
+of plates); :class:`Problem` is one optimisation run over it (the plates' eigen models and a
+:class:`laminid_cli.objective.RunLog`); a single plate is the problem of one plate, the joint
+identification (laminid_cli.joint) the same over several.
 """
 
 from __future__ import annotations
