@@ -11,7 +11,8 @@ with t_factor, t_pair the median times of one factorisation and one single-vecto
 on that mesh, and s_full the solve pairs of one full solve at the start (its Lanczos run).
 Then the whole CLI process ``laminid identify S1.1.yaml --json --no-output`` against
 ``laminid modes S1.1.yaml --json``, run alternately (median of CLI_REPEAT each).
-All ratios come from one run (the machine may be loaded; ratios are what to compare).
+All ratios come from one run (the machine may be loaded; ratios are what to compare). The CPU
+time of the process is printed beside the wall time: on a loaded machine it is the steadier.
 
 Run: .venv/bin/python benchmarks/bench_identify.py [--meshes 8,12,16,24] [--no-cli] [SPEC]
 """
@@ -62,17 +63,21 @@ def bench(path, mesh, repeat=REPEAT):
     rows = {}
     for solver in ("reduced", "full"):
         runs = []
+        cpu = []
         for _ in range(repeat):
             fm = build_forward_model(spec, mesh)
             reset_work()
-            t = time.perf_counter()
+            t, c = time.perf_counter(), time.process_time()
             r = identify(fm, IdentifyOptions(solver=solver))
             runs.append((time.perf_counter() - t, r, dict(WORK)))
+            cpu.append(time.process_time() - c)
         t_id = statistics.median(t for t, _, _ in runs)
+        t_cpu = statistics.median(cpu)
         _, r, w = runs[0]
         fse = (w["factorizations"] * t_f + w["solve_pairs"] * t_s) / unit
         rows[solver] = (t_id, r, w, fse)
-        print(f"{spec.name:<6} {mesh[0]:>2}x{mesh[1]:<2} {solver:<7} identify {t_id:6.2f} s  "
+        print(f"{spec.name:<6} {mesh[0]:>2}x{mesh[1]:<2} {solver:<7} identify {t_id:6.2f} s "
+              f"(CPU {t_cpu:6.2f} s)  "
               f"= {t_id / t_full:5.1f} full solves ({t_full * 1e3:5.1f} ms)  "
               f"evaluations {r.evaluations:3d}  factorisations {w['factorizations']:2d}  "
               f"solve pairs {w['solve_pairs']:4d}  Lanczos {w['lanczos_runs']:2d}  "

@@ -18,6 +18,11 @@ order, as in the paper); from then on each paired mode is followed from one eval
 next by the modal assurance criterion (MAC, mass-weighted) with an optimal assignment, so two
 modes that swap order keep their identity. Swaps are recorded. ``pairing="sorted"`` keeps the
 paper's plain sorted order.
+
+Structure: the objective itself is pure (:class:`laminid_cli.objective.Objective`, over a list
+of plates); :class:`Problem` is one optimisation run over it (the plates' eigen models and a
+:class:`laminid_cli.objective.RunLog`); a single plate is the problem of one plate, the joint
+identification (laminid_cli.joint) the same over several.
 """
 
 from __future__ import annotations
@@ -25,15 +30,16 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass, field
-from typing import NamedTuple
 
 import numpy as np
 
 from laminid_cli.errors import FitInputError, LaminidError
 from laminid_cli.forward import ForwardModel, residuals_percent, weighted_rms
-from laminid_cli.material import (CONSTANT_NAMES, ElasticConstants, alphas_from_constants,
-                                  infeasibility_reasons)
-from laminid_cli.modal import WORK, Modes, mac
+from laminid_cli.material import CONSTANT_NAMES, ElasticConstants, alphas_from_constants
+from laminid_cli.modal import WORK, Modes
+from laminid_cli.objective import (ErrorBound, Evaluation, HistoryRow, MeasuredData,  # noqa: F401
+                                   Objective, PlateTerm, RunLog, VariableSet,
+                                   check_shared_materials, history_arrays, max_assignment)
 from laminid_cli.parametrization import coefficients_and_jacobian, make_parameters
 
 log = logging.getLogger(__name__)
@@ -90,37 +96,6 @@ class IdentifyOptions:
     reduced_tol: float = 1e-7
 
 
-class HistoryRow(NamedTuple):
-    """One model evaluation of a run, as kept in the run's history (and written to the result
-    file's /history by :func:`history_arrays`)."""
-
-    evaluation: int                  # 1-based count within the run
-    objective: float
-    rms_residual_percent: float
-    x: np.ndarray                    # design variables
-    constants: np.ndarray            # every material's six constants, CONSTANT_NAMES order
-
-
-def history_arrays(rows) -> dict:
-    """The history rows as arrays, one per field (the result's ``history``)."""
-    return {name: np.array([getattr(h, name) for h in rows]) for name in HistoryRow._fields}
-
-
-@dataclass
-class Evaluation:
-    """One model evaluation during the optimisation."""
-
-    x: np.ndarray
-    objective: float
-    gradient: np.ndarray
-    eigenvalues: np.ndarray          # (n_measured,) paired model eigenvalues, rad^2/s^2
-    pairing: np.ndarray              # (n_measured,) index of the model mode paired with each
-    dlam_dx: np.ndarray              # (n_measured, n_vars)
-    phi: np.ndarray                  # (n_dofs, n_measured) paired mode shapes
-    modes: object                    # Modes (all computed)
-    parts: list | None = None        # per-plate evaluations of a joint problem
-    refused: bool = False            # not positive definite: the model was not evaluated
-
 
 @dataclass(frozen=True)
 class Identification:
@@ -167,108 +142,133 @@ class Identification:
     basis: object = field(default=None, repr=False, compare=False)
 
 
-class VariableSet:
-    """Design variables of a list of material parametrisations (``self.params``, ``self.offsets``,
-    ``self.n_vars``): splitting, constants, bounds and the linear feasibility constraints.
-    Shared by :class:`Problem` and the joint problem."""
-
-    def split(self, x):
-        return [x[self.offsets[k]:self.offsets[k + 1]] for k in range(len(self.params))]
-
-    def constants(self, x) -> tuple[ElasticConstants, ...]:
-        return tuple(p.constants(xk) for p, xk in zip(self.params, self.split(x)))
-
-    def bounds(self):
-        lo, hi = zip(*(p.bounds() for p in self.params))
-        return np.concatenate(lo), np.concatenate(hi)
-
-    def linear_constraints(self):
-        rows, rhs = [], []
-        for k, p in enumerate(self.params):
-            A, b = p.linear_constraints()
-            full = np.zeros((A.shape[0], self.n_vars))
-            full[:, self.offsets[k]:self.offsets[k + 1]] = A
-            rows.append(full)
-            rhs.append(b)
-        return np.vstack(rows), np.concatenate(rhs)
-
-    def feasible(self, x, tol: float = 1e-9) -> bool:
-        lo, hi = self.bounds()
-        A, b = self.linear_constraints()
-        return bool(np.all(x >= lo - tol) and np.all(x <= hi + tol) and np.all(A @ x <= b + tol))
-
-    def _new_run(self) -> None:
-        """Empty optimisation state: tracking reference, cache, history, counters."""
-        self.best: Evaluation | None = None   # tracking reference: lowest objective so far
-        self.cache: tuple[bytes, Evaluation] | None = None
-        self.swaps: list[str] = []
-        self.history: list[HistoryRow] = []
-        self.n_eval = 0
-        self.n_refused = 0
-        self.n_enrich = 0
-        self.final_bound = None          # (x bytes, relative bound per paired mode)
-
 
 class Problem(VariableSet):
-    """Objective, gradient and constraints of one identification, with evaluation cache."""
+    """One optimisation run over a list of plates: the pure :class:`Objective`, the eigen model
+    of each plate (full, or a reduced basis that follows the optimiser) and the run's
+    :class:`RunLog` (cache, tracking reference, swaps, counters, history).
 
-    def __init__(self, fm: ForwardModel, options: IdentifyOptions, *, start=None,
-                 start_pairing=None, check_count: bool = True, basis=None):
-        """``start``: constants (one ElasticConstants per material, ``fm.material_names`` order)
-        to start from instead of the file's initial values, which stay the reference of the
-        design variables, the prior and the fixed constants (a Monte Carlo re-identification
-        starts from the optimum). ``start_pairing``: model mode (0-based) paired with each
-        measured mode at the start, instead of sorted order. ``check_count=False`` accepts
-        fewer weighted frequencies than free constants (one plate of a joint identification).
-        """
-        self.fm = fm
+    A single plate (``identify``) is the problem of one plate; ``identify --joint`` the same
+    over several plates sharing materials by name (laminid_cli.joint)."""
+
+    def __init__(self, fms, options: IdentifyOptions, *, start=None, start_pairing=None,
+                 basis=None, check_count: bool = True):
+        """``fms``: a ForwardModel (one plate) or a sequence of them. ``start``: constants (one
+        ElasticConstants per distinct material, first-appearance order) to start from instead
+        of the files' initial values, which stay the reference of the design variables, the
+        prior and the fixed constants (a Monte Carlo re-identification starts from the
+        optimum). ``start_pairing``: model mode (0-based) paired with each measured mode at
+        the start instead of sorted order (one array; with several plates a list of them, or
+        None entries). ``basis``: a ReducedBasis (a list of them with several plates) to start
+        the reduced solver from. ``check_count=False`` accepts fewer weighted frequencies than
+        free constants."""
+        self.single = isinstance(fms, ForwardModel)
+        fms = (fms,) if self.single else tuple(fms)
+        if not self.single:
+            start_pairing = None if start_pairing is None else list(start_pairing)
+            basis = None if basis is None else list(basis)
+        else:
+            start_pairing = None if start_pairing is None else [start_pairing]
+            basis = None if basis is None else [basis]
+        self.fms = fms
         self.options = options
-        spec = fm.specimen
         if options.optimizer not in OPTIMIZERS:
             raise FitInputError(f"optimizer '{options.optimizer}' unknown: choose {', '.join(OPTIMIZERS)}")
         if options.solver not in SOLVERS:
             raise FitInputError(f"solver '{options.solver}' unknown: choose {', '.join(SOLVERS)}")
         if options.pairing not in PAIRINGS:
             raise FitInputError(f"pairing '{options.pairing}' unknown: choose {', '.join(PAIRINGS)}")
-        if spec.measured is None or spec.measured.freq.size == 0:
-            raise FitInputError(f"{spec.path}: no measured frequencies (field 'measured.frequencies')")
-        self.freq = spec.measured.freq.astype(float)
-        self.weight = np.where(np.isfinite(self.freq), spec.measured.weight, 0.0)
-        self.lam_meas = (2 * np.pi * np.nan_to_num(self.freq, nan=1.0)) ** 2
-        self.n_meas = self.freq.size
-        fixed_all = _parse_fix(options.fix, fm.material_names, spec.path)
-        self.params = []
-        for name, c0 in zip(fm.material_names, fm.initial_constants):
-            mat = spec.materials[name]
-            fixed = tuple(dict.fromkeys(tuple(mat.fixed) + fixed_all.get(name, ())))
-            self.params.append(make_parameters(
-                name, c0, fixed, kind=options.parametrization, prior=bool(mat.prior),
+        specimens = [fm.specimen for fm in fms]
+        data = [MeasuredData.of(spec) for spec in specimens]
+        for d in data:
+            if not (d.weight > 0).any():
+                raise FitInputError(f"{d.source}: every measured frequency has weight 0; "
+                                    "nothing to fit")
+        merged = check_shared_materials(specimens)   # material -> fixed in some file
+        self.material_names = tuple(merged)
+        self.merged_fixed = {n: tuple(k for k in merged[n]
+                                      if not all(k in s.materials[n].fixed
+                                                 for s in specimens if n in s.materials))
+                             for n in merged}
+        first_mat = {}
+        for spec in specimens:
+            for name, mat in spec.materials.items():
+                first_mat.setdefault(name, mat)
+        fixed_opt = _parse_fix(options.fix, self.material_names, self.describe())
+        params = []
+        for name in self.material_names:
+            mat = first_mat[name]
+            fixed = tuple(dict.fromkeys(merged[name] + fixed_opt.get(name, ())))
+            params.append(make_parameters(
+                name, mat.constants, fixed, kind=options.parametrization, prior=bool(mat.prior),
                 nu_max=options.nu_max, bound_factor=options.bound_factor))
-        self.sizes = [len(p.x0()) for p in self.params]
-        self.offsets = np.concatenate([[0], np.cumsum(self.sizes)])
-        self.n_vars = int(self.offsets[-1])
-        self.labels = tuple(f"{p.name}.{lab}" for p in self.params for lab in p.labels)
-        # prior (Eq. 15): relative deviation of engineering constants from their initial values
-        self.prior = [{k: float(w) for k, w in spec.materials[p.name].prior.items()}
-                      for p in self.params]
+        self._set_params(params)
+        prior = [{k: float(w) for k, w in first_mat[p.name].prior.items()} for p in params]
+        by_name = {p.name: (k, p) for k, p in enumerate(params)}
+        plates = []
+        for fm, d in zip(fms, data):
+            mine = [by_name[n] for n in fm.material_names]
+            index = np.concatenate([np.arange(self.offsets[k], self.offsets[k + 1])
+                                    for k, _ in mine]).astype(int)
+            plates.append(PlateTerm(fm, d, [p for _, p in mine], index,
+                                    d.n + options.extra_modes))
+        self.objective = Objective(plates, params, prior, pairing=options.pairing)
+        obj = self.objective
+        self.plates, self.prior = obj.plates, obj.prior
+        self.freq, self.weight, self.lam_meas, self.n_meas = (obj.freq, obj.weight,
+                                                              obj.lam_meas, obj.n_meas)
         n_active = int((self.weight > 0).sum())
-        if n_active == 0:
-            raise FitInputError(f"{spec.path}: every measured frequency has weight 0; nothing to fit")
         if self.n_vars == 0:
-            raise FitInputError(f"{spec.path}: every constant is fixed; nothing to identify")
+            raise FitInputError(f"{self.describe()}: every constant is fixed; nothing to identify")
         if check_count and n_active < self.n_vars and not any(self.prior):
-            raise FitInputError(f"{spec.path}: {n_active} weighted frequencies for {self.n_vars} free "
-                           "constants; measure more modes or fix constants (--fix nu12,G13,G23)")
-        self.n_model = self.n_meas + options.extra_modes
+            raise FitInputError(f"{self.describe()}: {n_active} weighted frequencies for "
+                                f"{self.n_vars} free constants; measure more modes or fix "
+                                "constants (--fix nu12,G13,G23)")
         self.start = None if start is None else tuple(start)
-        if self.start is not None and len(self.start) != len(self.params):
-            raise FitInputError(f"{spec.path}: {len(self.start)} start constants for "
-                                f"{len(self.params)} materials")
-        self.start_pairing = None if start_pairing is None else np.asarray(start_pairing, int)
-        self.basis = None                # ReducedBasis while the reduced model is in use
-        self.given_basis = basis         # a basis to start from (reduced solver)
+        if self.start is not None and len(self.start) != len(params):
+            raise FitInputError(f"{self.describe()}: {len(self.start)} start constants for "
+                                f"{len(params)} materials")
+        self.start_pairing = (None if start_pairing is None else
+                              [None if s is None else np.asarray(s, int) for s in start_pairing])
+        self.models = None               # per plate: ReducedBasis while the reduced model is used
+        self.given_basis = basis         # bases to start from (reduced solver)
         self._last_basis = None
-        self._new_run()
+        self.log = RunLog(n_plates=len(plates))
+
+    # --- the plates and the run log ------------------------------------------------------------
+    @property
+    def fm(self):
+        """The forward model (one plate)."""
+        return self.fms[0]
+
+    @property
+    def n_model(self) -> int:
+        """Model modes computed (one plate)."""
+        return self.plates[0].n_model
+
+    @property
+    def history(self) -> list:
+        return self.log.history
+
+    @property
+    def n_eval(self) -> int:
+        return self.log.n_eval
+
+    @property
+    def n_refused(self) -> int:
+        return self.log.n_refused
+
+    @property
+    def n_enrich(self) -> int:
+        return self.log.n_enrich
+
+    @property
+    def swaps(self) -> list:
+        return self.log.swaps
+
+    @property
+    def best(self):
+        return self.log.best
 
     # --- variables ---------------------------------------------------------------------------
     def x0(self) -> np.ndarray:
@@ -279,217 +279,155 @@ class Problem(VariableSet):
 
     def describe(self) -> str:
         """Where the data come from, for error messages."""
-        return str(self.fm.specimen.path)
+        if self.single:
+            return str(self.fms[0].specimen.path)
+        return "joint identification of " + ", ".join(str(fm.specimen.path) for fm in self.fms)
 
     def check_start(self, ev: Evaluation) -> list[str]:
-        return check_start(self, ev)
+        """Refuse hopeless starts; return warnings for doubtful ones."""
+        out = []
+        for plate, part in zip(self.plates, ev.parts):
+            warn = check_start(plate, part, self.options.far_limit)
+            out += warn if self.single else [f"{plate.name}: {w}" for w in warn]
+        return out
 
     # --- evaluation --------------------------------------------------------------------------
     def evaluate(self, x) -> Evaluation:
+        """The objective at ``x`` on the current models, tracked against the best point so far;
+        recorded in the run log (cached: the same ``x`` twice is one evaluation)."""
         x = np.asarray(x, float)
-        key = x.tobytes()
-        if self.cache is not None and self.cache[0] == key:
-            return self.cache[1]
-        if not self.feasible(x, tol=1e-7):
-            # Outside the safety margins of the linear constraints (MMA's inner iterations and
-            # round-off can step there). Evaluate only if the constitutive matrices are still
-            # positive definite; otherwise refuse without touching the model.
-            reasons = [f"{p.name}: {r}" for p, c in zip(self.params, self.constants(x))
-                       for r in infeasibility_reasons(c)]
-            if reasons:
-                return refused_evaluation(self, x, reasons)
-        coefs, jacs = zip(*(p.coef_jacobian(xk) for p, xk in zip(self.params, self.split(x))))
-        coef = np.array(coefs)
-        if self.basis is not None:
-            modes, E_all, Y = self.basis.solve(coef, self.n_model)
-            pairing, swap = self._pair(modes, Y)
-            E = E_all[:, :, pairing]
-        else:
-            ref = self.best if self.best is not None and not self.best.refused else None
-            v0 = None if ref is None else ref.phi.sum(axis=1)
-            lambda1 = None if ref is None else float(ref.modes.eigenvalues[0])
-            modes = self.fm.solve(n_modes=self.n_model, coef=coef, v0=v0, lambda1=lambda1)
-            pairing, swap = self._pair(modes)
-            E = None
-        return self._record(x, jacs, modes, pairing, swap, E)
-
-    def _record(self, x, jacs, modes, pairing, swap, E=None) -> Evaluation:
-        """Objective and gradient from the paired modes; the run's bookkeeping. ``E``: basis
-        energies of the paired modes (computed from their shapes when None)."""
-        key = x.tobytes()
-        phi = modes.phi[:, pairing]
-        lam = modes.eigenvalues[pairing]
-        if E is None:
-            E = self.fm.plate.basis_energies(phi)                     # (n_mat, 6, n_meas)
-        dlam_dx = np.zeros((self.n_meas, self.n_vars))
-        for k, J in enumerate(jacs):
-            dlam_dx[:, self.offsets[k]:self.offsets[k + 1]] = E[k].T @ J
-        rel = (self.lam_meas - lam) / self.lam_meas
-        w = self.weight
-        phi_val = float(np.sum(w * rel**2))
-        grad = -2 * (w * rel / self.lam_meas) @ dlam_dx                # paper Eq. 24
-        pv, pg = self._prior(x)
-        ev = Evaluation(x=x.copy(), objective=phi_val + pv, gradient=grad + pg, eigenvalues=lam,
-                        pairing=pairing, dlam_dx=dlam_dx, phi=phi, modes=modes)
-        if self.best is None or ev.objective < self.best.objective:
-            self.best = ev
-            if swap:                     # reported only where the optimiser moves to
-                self.swaps.append(swap)
-                log.info(swap)
-        self.cache = (key, ev)
-        self.n_eval += 1
-        f_model = np.sqrt(lam) / (2 * np.pi)
-        rms = weighted_rms(residuals_percent(self.freq, f_model), self.weight)
-        self.history.append(HistoryRow(self.n_eval, ev.objective, rms, x.copy(),
-                                       np.concatenate([c.as_array() for c in self.constants(x)])))
-        log.info("evaluation %d: objective %.6g, RMS residual %.4f %%", self.n_eval,
-                 ev.objective, rms)
+        ev = self.log.cached(x)
+        if ev is not None:
+            return ev
+        ref = self.log.best
+        ev = self.objective.evaluate(x, self.models, ref,
+                                     self.start_pairing if ref is None else None)
+        if ev.refused:
+            return self._refused(ev)
+        self.log.record(ev, self.objective)
         return ev
 
-    def _pair(self, modes, Y=None) -> tuple[np.ndarray, str]:
-        """Model mode paired with each measured one, and a swap message ('' if none).
+    def _refused(self, ev: Evaluation) -> Evaluation:
+        """Stand-in for a point whose constitutive matrix is not positive definite (paper Eq.
+        22), counted once: the objective is ten times the worst one met so far, the gradient
+        zero, so the optimiser's line search or conservative update steps back inside."""
+        self.log.n_refused += 1
+        log.warning("point outside the feasible region not evaluated (%s)", "; ".join(ev.reasons))
+        worst = max((h.objective for h in self.log.history), default=1.0)
+        ref = self.log.best
+        ev.objective = 10.0 * worst + 1.0
+        if ref is not None:
+            ev.pairing, ev.phi, ev.modes, ev.parts = ref.pairing, ref.phi, ref.modes, ref.parts
+        return ev
 
-        Sorted order at the start (or ``start_pairing``), then MAC tracking against the best
-        evaluation so far (line-search trial points can be far off)."""
-        sorted_pairing = np.arange(self.n_meas)
-        if self.best is None and self.start_pairing is not None:
-            return self.start_pairing.copy(), ""
-        if self.options.pairing == "sorted" or self.best is None:
-            return sorted_pairing, ""
-
-        if Y is not None:                                            # reduced model
-            M = self.basis.mac(self.best.phi, Y)
-        else:
-            M = mac(self.best.phi, modes.phi, self.fm.plate.M)       # (n_meas, n_model)
-        pairing = max_assignment(M)
-        weak = M[np.arange(self.n_meas), pairing] < 0.5
-        if weak.any():
-            log.debug("mode tracking uncertain for measured mode(s) %s (MAC < 0.5)",
-                      ", ".join(str(i + 1) for i in np.flatnonzero(weak)))
-        prev = self.best.pairing
-        if np.array_equal(pairing, prev) or weak.any():
-            return pairing, ""
-        changed = [f"measured mode {i + 1}: model mode {prev[i] + 1} -> {pairing[i] + 1}"
-                   for i in range(self.n_meas) if pairing[i] != prev[i]]
-        return pairing, f"evaluation {self.n_eval + 1}: modes swapped order ({'; '.join(changed)})"
-
-    # --- reduced-order model (laminid_cli.reduced) ---------------------------------------------
+    # --- reduced-order model (laminid_cli.reduced): one basis per plate ------------------------
     @property
     def reduced(self) -> bool:
-        return self.basis is not None
+        return self.models is not None
 
-    def start_reduced(self, ev: Evaluation, basis=None) -> None:
-        """Use the reduced model from now on, with a basis made of ``ev``'s modes (a full
-        evaluation) or the given ``basis`` (kept from an earlier run)."""
+    @property
+    def basis(self):
+        """The basis in use (one plate; a list with several), None with the full model."""
+        if self.models is None:
+            return None
+        return self.models[0] if self.single else list(self.models)
+
+    def start_reduced(self, ev: Evaluation | None, basis=None) -> None:
+        """Use the reduced model from now on, with bases made of ``ev``'s modes (a full
+        evaluation) or the given ``basis`` list (kept from an earlier run)."""
         from laminid_cli.reduced import ReducedBasis
 
-        if basis is None:
-            basis = ReducedBasis(self.fm)
-            basis.add(ev.modes.phi)
-            if SENSITIVITY_START:
-                coef = np.array([p.coef_jacobian(xk)[0]
-                                 for p, xk in zip(self.params, self.split(ev.x))])
-                basis.add_sensitivities(coef, ev.modes.phi)
-        self.basis = self._last_basis = basis
-        self.cache = None
+        models = []
+        for k, plate in enumerate(self.plates):
+            b = None if basis is None else basis[k]
+            if b is None:
+                part = ev.parts[k]
+                b = ReducedBasis(plate.fm)
+                b.add(part.modes.phi)
+                if SENSITIVITY_START:
+                    b.add_sensitivities(plate.coefficients(part.x)[0], part.modes.phi)
+            models.append(b)
+        self.models = models
+        self._last_basis = list(models)
+        self.log.cache = None
 
-    def enrich(self, ev: Evaluation, rounds: int = 2, target: float = 0.0) -> float:
-        """Enrich the basis at ``ev.x``; returns the relative change of the paired eigenvalues
-        and records the relative error bound of the paired modes there (see
-        ReducedBasis.enrich for ``rounds`` and ``target``)."""
-        coef = np.array([p.coef_jacobian(xk)[0] for p, xk in zip(self.params, self.split(ev.x))])
-        before, after, bound = self.basis.enrich(coef, self.n_model, rounds, target)
-        self.n_enrich += 1
-        self.cache = None
-        lam = ev.eigenvalues
-        ok = self.weight > 0
-        rel = bound / after
-        n_keep = self.checked_modes(ev)
-        self.final_bound = (ev.x.tobytes(), rel[ev.pairing], float(np.max(rel[:n_keep])))
-        change = np.abs(after[ev.pairing] - lam) / lam
-        return float(np.max(change[ok])) if ok.any() else 0.0
+    def enrich(self, ev: Evaluation, rounds: int = 2, target: float = 0.0,
+               reuse: float = 0.0) -> float:
+        """Enrich every plate's basis at ``ev.x``; returns the largest relative change of the
+        weighted paired eigenvalues and records the relative error bound of the paired modes
+        there (see ReducedBasis.enrich for ``rounds`` and ``target``)."""
+        changes, paired, worst = [], [], 0.0
+        for plate, part, model in zip(self.plates, ev.parts, self.models):
+            coef, _ = plate.coefficients(part.x)
+            _, after, bound = model.enrich(coef, plate.n_model, rounds, target, reuse)
+            rel = bound / after
+            paired.append(rel[part.pairing])
+            worst = max(worst, float(np.max(rel[:checked_modes(plate, part)])))
+            ok = plate.data.weight > 0
+            change = np.abs(after[part.pairing] - part.eigenvalues) / part.eigenvalues
+            changes.append(float(np.max(change[ok])) if ok.any() else 0.0)
+        self.log.n_enrich += 1
+        self.log.cache = None
+        self.log.final_bound = ErrorBound(ev.x.tobytes(), np.concatenate(paired), worst)
+        return max(changes)
 
-    def final_check(self, ev: Evaluation):
+    def final_check(self, ev: Evaluation) -> Evaluation:
         """``ev`` (reduced model) checked against the full model: eigenvalues the full model's
         Rayleigh quotients of its Ritz vectors, sensitivities from their full strain energies,
         and the relative error bound of each checked mode (ReducedBasis.check)."""
-        coefs, jacs = zip(*(p.coef_jacobian(xk) for p, xk in zip(self.params, self.split(ev.x))))
-        n = self.checked_modes(ev)
-        theta, U, bound = self.basis.check(np.array(coefs), ev.modes.phi[:, :n])
-        m = ev.modes
-        modes = Modes(eigenvalues=theta, phi=U, n_rigid=m.n_rigid,
-                      rigid_eigenvalues=m.rigid_eigenvalues)
-        self.cache = None
-        out = self._record(np.asarray(ev.x, float), jacs, modes, ev.pairing, "")
-        rel = bound / theta
-        self.final_bound = (out.x.tobytes(), rel[ev.pairing], float(rel.max()))
+        parts, paired, worst = [], [], 0.0
+        for k, (plate, part, model) in enumerate(zip(self.plates, ev.parts, self.models)):
+            n = checked_modes(plate, part)
+            coef, jacs = plate.coefficients(part.x)
+            theta, U, bound = model.check(coef, part.modes.phi[:, :n])
+            m = part.modes
+            modes = Modes(eigenvalues=theta, phi=U, n_rigid=m.n_rigid,
+                          rigid_eigenvalues=m.rigid_eigenvalues)
+            parts.append(self.objective.plate_evaluation(k, part.x, modes, part.pairing, jacs))
+            rel = bound / theta
+            paired.append(rel[part.pairing])
+            worst = max(worst, float(rel.max()))
+        out = self.objective.combine(ev.x, parts)
+        self.log.record(out, self.objective)
+        self.log.final_bound = ErrorBound(out.x.tobytes(), np.concatenate(paired), worst)
         return out
 
-    def checked_modes(self, ev: Evaluation) -> int:
-        """Modes held to FINAL_BOUND at the optimum: up to two beyond the highest paired one."""
-        return int(min(self.n_model, np.max(ev.pairing) + 3))
-
-    def bound_at(self, x) -> np.ndarray | None:
-        """Relative error bound of every computed mode at ``x`` if the last enrichment was there."""
-        if self.final_bound is not None and self.final_bound[0] == np.asarray(x, float).tobytes():
-            return self.final_bound
+    def bound_at(self, x) -> ErrorBound | None:
+        """Relative error bounds at ``x`` if the last enrichment or check was there."""
+        b = self.log.final_bound
+        if b is not None and b.key == np.asarray(x, float).tobytes():
+            return b
         return None
 
     def use_full(self) -> None:
-        self.basis = None
-        self.cache = None
+        self.models = None
+        self.log.cache = None
 
     @property
     def last_basis(self):
-        """The basis in use, or the one given / built before a final full solve."""
-        return self.basis if self.basis is not None else self._last_basis
+        """The bases in use, or the ones given / built before a final full solve (one plate:
+        the basis itself)."""
+        b = self.models if self.models is not None else self._last_basis
+        if b is None:
+            return None
+        return b[0] if self.single else list(b)
 
     # --- pairing state, for run_optimizer's re-anchoring -----------------------------------------
     def sorted_pairing(self) -> np.ndarray:
-        return np.arange(self.n_meas)
+        return np.concatenate([np.arange(p.data.n) for p in self.plates])
 
     def reanchor(self) -> None:
         """Forget the tracked identities: the next evaluation pairs in sorted order."""
-        self.best, self.cache, self.start_pairing = None, None, None
+        self.log.best, self.log.cache, self.start_pairing = None, None, None
 
     def adopt(self, ev: Evaluation) -> None:
         """Make ``ev`` the tracking reference and the cached evaluation again."""
-        self.best, self.cache = ev, (ev.x.tobytes(), ev)
-
-    def _prior(self, x):
-        """Eq. 15 second term on relative engineering constants, and its gradient."""
-        value, grad = 0.0, np.zeros(self.n_vars)
-        for k, (p, xk) in enumerate(zip(self.params, self.split(x))):
-            if not self.prior[k]:
-                continue
-            scale = np.array([1.0 if n == "nu12" else p.initial.as_array()[i]
-                              for i, n in enumerate(CONSTANT_NAMES)])
-            P = p.constants(xk).as_array()
-            P0 = p.initial.as_array()
-            for name, wp in self.prior[k].items():
-                if name not in p.free:
-                    continue
-                i = CONSTANT_NAMES.index(name)
-                ref = P0[i] if P0[i] != 0 else 1.0
-                dev = (P[i] - P0[i]) / ref
-                value += wp * dev**2
-                j = self.offsets[k] + p.free.index(name)
-                grad[j] += 2 * wp * dev * scale[i] / ref
-        return value, grad
+        self.log.best, self.log.cache = ev, (ev.x.tobytes(), ev)
 
 
-def max_assignment(M: np.ndarray) -> np.ndarray:
-    """Column matched to each row of ``M`` (n_rows <= n_cols, entries in [0, 1], e.g. MAC
-    values) so that the sum of the matched entries is largest, one column per row.
-
-    ``min_weight_full_bipartite_matching`` on ``2 - M`` (every edge present, weights > 0): the
-    assignment of ``scipy.optimize.linear_sum_assignment(-M)`` without importing
-    scipy.optimize (checked in tests/test_identify_reduced.py)."""
-    import scipy.sparse as sp
-    from scipy.sparse.csgraph import min_weight_full_bipartite_matching
-
-    rows, cols = min_weight_full_bipartite_matching(sp.csr_matrix(2.0 - np.asarray(M, float)))
-    return cols[np.argsort(rows)]
+def checked_modes(plate: PlateTerm, part: Evaluation) -> int:
+    """Modes held to FINAL_BOUND at the optimum: up to two beyond the highest paired one."""
+    return int(min(plate.n_model, np.max(part.pairing) + 3))
 
 
 def variables_of(params, constants: ElasticConstants) -> np.ndarray:
@@ -530,18 +468,20 @@ def _parse_fix(fix, names, path) -> dict:
     return out
 
 
-def check_start(problem: Problem, ev: Evaluation) -> list[str]:
-    """Refuse hopeless starts; return warnings for doubtful ones."""
+def check_start(plate: PlateTerm, ev: Evaluation, far_limit: float) -> list[str]:
+    """Refuse a hopeless start of one plate (its evaluation ``ev``); return warnings for
+    doubtful ones."""
+    d = plate.data
     f_model = np.sqrt(ev.eigenvalues) / (2 * np.pi)
-    ok = problem.weight > 0
-    ratio = np.abs(problem.freq - f_model) / problem.freq
-    far = ok & (ratio > problem.options.far_limit)
+    ok = d.weight > 0
+    ratio = np.abs(d.freq - f_model) / d.freq
+    far = ok & (ratio > far_limit)
     if far.any():
         i = int(np.flatnonzero(far)[0])
         raise FitInputError(
-            f"{problem.fm.specimen.path}: measured mode {i + 1} ({problem.freq[i]:.2f} Hz) is "
+            f"{d.source}: measured mode {i + 1} ({d.freq[i]:.2f} Hz) is "
             f"{ratio[i] * 100:.0f} % away from the model ({f_model[i]:.2f} Hz) at the initial "
-            f"guess (limit {problem.options.far_limit * 100:.0f} %): check the units, the mass/"
+            f"guess (limit {far_limit * 100:.0f} %): check the units, the mass/"
             "density, the geometry and the initial constants")
     return [f"measured mode {i + 1} is {ratio[i] * 100:.0f} % from the model at the start"
             for i in np.flatnonzero(ok & (ratio > 0.25))]
@@ -561,8 +501,8 @@ def identify(fm: ForwardModel, options: IdentifyOptions = IdentifyOptions(),
     work0 = dict(WORK)
     prob = Problem(fm, options, start=start, start_pairing=start_pairing, basis=basis)
     ev, converged, status, warnings, initial_rms = run_optimizer(prob, progress)
-    prob.work = work_since(work0, prob)
-    return _result(prob, ev, converged, status, warnings, initial_rms, time.perf_counter() - t0)
+    return _result(prob, 0, ev, converged, status, warnings, initial_rms,
+                   time.perf_counter() - t0, work=work_since(work0, prob))
 
 
 def work_since(work0: dict, prob) -> dict:
@@ -574,25 +514,6 @@ def work_since(work0: dict, prob) -> dict:
 
 #: a tracked pairing that ends out of sorted order is re-anchored at most this many times
 MAX_REANCHOR = 2
-
-
-def refused_evaluation(prob, x, reasons) -> Evaluation:
-    """Stand-in for a point whose constitutive matrix is not positive definite (paper Eq. 22).
-
-    The model is not evaluated: the objective is ten times the worst one met so far, the
-    gradient zero, so the optimiser's line search or conservative update steps back inside.
-    """
-    prob.n_refused += 1
-    log.warning("point outside the feasible region not evaluated (%s)", "; ".join(reasons))
-    worst = max((h.objective for h in prob.history), default=1.0)
-    ref = prob.best
-    n = prob.n_meas
-    return Evaluation(x=np.asarray(x, float).copy(), objective=10.0 * worst + 1.0,
-                      gradient=np.zeros(prob.n_vars), eigenvalues=np.full(n, np.nan),
-                      pairing=ref.pairing if ref is not None else np.arange(n),
-                      dlam_dx=np.zeros((n, prob.n_vars)),
-                      phi=ref.phi if ref is not None else None,
-                      modes=ref.modes if ref is not None else None, refused=True)
 
 
 def run_optimizer(prob, progress=None):
@@ -629,7 +550,7 @@ def run_optimizer(prob, progress=None):
         log.info("re-anchored the mode pairing: objective %.6g -> %.6g", ev.objective,
                  ev2.objective)
         if ev2.objective < ev.objective:
-            prob.swaps.append(f"evaluation {prob.n_eval}: mode pairing re-anchored in sorted "
+            prob.log.swaps.append(f"evaluation {prob.n_eval}: mode pairing re-anchored in sorted "
                               "order at the optimum (the initial guess had the modes in another "
                               "order)")
             ev, converged, status = ev2, converged2, status2
@@ -668,6 +589,10 @@ REDUCED_DAMPING = 1e-6
 #: this (Gauss-Newton-scaled: changes the objective by about STEP_TOL^2 of its value)
 STEP_TOL = 1e-4
 RADIUS_GROWTH = 4.0
+#: an enrichment of the trust-region loop at stiffness coefficients within this relative
+#: distance of the last factorised ones preconditions with that factorisation (no new one);
+#: its error bound is then not certified, so the optimum gets a factorisation of its own
+REUSE_FACTOR = 1e-2
 
 
 def _stage(prob, ev0, progress=None):
@@ -699,13 +624,13 @@ def _optimize_reduced(prob, ev_c, progress=None):
         ev_t, inner_conv, inner_status = _optimize_from(prob, ev_c, progress, radius=radius,
                                                         maxeval=budget,
                                                         damping=REDUCED_DAMPING)
-        step = prob.last_step
+        step = prob.log.last_step
         if prob.n_eval - n_before >= budget:
             converged, status = False, inner_status
             ev_c = ev_t if ev_t.objective <= ev_c.objective else ev_c
             break
         f_c_old, f_pred, lam_pred = ev_c.objective, ev_t.objective, ev_t.eigenvalues
-        prob.enrich(ev_t)
+        prob.enrich(ev_t, reuse=REUSE_FACTOR)
         ev_t2 = prob.evaluate(ev_t.x)
         same = np.array_equal(ev_t.x, ev_c.x)
         ev_c2 = ev_t2 if same else prob.evaluate(ev_c.x)
@@ -727,10 +652,11 @@ def _optimize_reduced(prob, ev_c, progress=None):
         elif rho < 0.25:
             radius = max(0.25 * step, 1e-3 * options.xtol_rel)
         log.info("enrichment %d: basis change of the paired eigenvalues %.2e, step %.2e, "
-                 "rho %.3f, radius %.3g", prob.n_enrich, change, step, rho, radius)
+                 "rho %.3f (predicted decrease %.2e, actual %.2e relative), radius %.3g",
+                 prob.n_enrich, change, step, rho, predicted / max(abs(f_c_old), 1e-300),
+                 actual / max(abs(f_c_old), 1e-300), radius)
         # converged: the enrichment left the paired eigenvalues at the optimiser's answer
-        # unchanged, and that answer is the optimiser's own (not cut by the trust region) or
-        # the step is within the step tolerance
+        # unchanged, and the step is within the step tolerance
         if change <= options.reduced_tol and step <= STEP_TOL:
             converged, status = inner_conv, inner_status
             if ev_c is not ev_t2 and ev_t2.objective <= ev_c.objective * (1 + 1e-9):
@@ -752,21 +678,21 @@ def _finish_reduced(prob, ev):
     factorisation is kept -- is tried before a full solve."""
     for _ in range(2):
         bounds = prob.bound_at(ev.x)
-        if bounds is None or bounds[2] > FINAL_BOUND:
+        if bounds is None or bounds.worst > FINAL_BOUND:
             prob.enrich(ev, rounds=FINAL_ROUNDS, target=FINAL_BOUND)
             prob.adopt(prob.evaluate(ev.x))
             ev = prob.best
         final = prob.final_check(ev)
         bounds = prob.bound_at(final.x)
-        log.info("error bound at the optimum: %.2e relative (limit %.0e)", bounds[2],
+        log.info("error bound at the optimum: %.2e relative (limit %.0e)", bounds.worst,
                  FINAL_BOUND)
-        if bounds[2] <= FINAL_BOUND:
+        if bounds.worst <= FINAL_BOUND:
             prob.adopt(final)
             return final
     prob.use_full()
     full = prob.evaluate(ev.x)
     prob.adopt(full)
-    prob.final_bound = (full.x.tobytes(), np.zeros(full.eigenvalues.size), 0.0)
+    prob.log.final_bound = ErrorBound(full.x.tobytes(), np.zeros(full.eigenvalues.size), 0.0)
     return full
 
 
@@ -775,7 +701,7 @@ def _optimize_from(prob, ev0, progress=None, radius=None, ftol_rel=None, xtol=No
     """One nlopt run from ``ev0`` (Gauss-Newton-scaled variables); returns (ev, converged, status).
 
     ``radius``: the scaled step stays within this box (trust region of the reduced model);
-    the step taken (max norm, scaled) is left in ``prob.last_step``."""
+    the step taken (max norm, scaled) is left in ``prob.log.last_step``."""
     import nlopt
 
     options = prob.options
@@ -849,7 +775,7 @@ def _optimize_from(prob, ev0, progress=None, radius=None, ftol_rel=None, xtol=No
     if prob.evaluate(best).objective < prob.evaluate(x_best).objective:
         x_best = best
     ev = prob.evaluate(x_best)
-    prob.last_step = float(np.max(np.abs(L.T @ (ev.x - x0)))) if prob.n_vars else 0.0
+    prob.log.last_step = float(np.max(np.abs(L.T @ (ev.x - x0)))) if prob.n_vars else 0.0
     return ev, converged, status
 
 
@@ -885,52 +811,64 @@ def _stalled(prob: Problem) -> bool:
     return bool(abs(best[-4] - best[-1]) <= 1e-8 * max(best[-1], 1e-300) or best[-1] < 1e-20)
 
 
-def _result(prob: Problem, ev: Evaluation, converged, status, warnings, initial_rms, dt):
-    fm = prob.fm
-    constants = prob.constants(ev.x)
-    f_model = np.sqrt(ev.eigenvalues) / (2 * np.pi)
-    residual = residuals_percent(prob.freq, f_model)
+def _result(prob: Problem, k: int, ev: Evaluation, converged, status, warnings, initial_rms,
+            dt, work=None):
+    """The Identification of plate ``k`` at the optimum ``ev``: with one plate the run's
+    result; with several, the plate's own part (its variables, its term of the objective
+    without the prior, its history)."""
+    plate = prob.plates[k]
+    fm = plate.fm
+    part = ev.parts[k]
+    x = part.x
+    constants = plate.constants(x)
+    f_model = np.sqrt(part.eigenvalues) / (2 * np.pi)
+    residual = residuals_percent(plate.data.freq, f_model)
     # normalised sensitivities d ln f_i / d ln P_j for every constant of every material
-    E = fm.plate.basis_energies(ev.phi)
+    E = fm.plate.basis_energies(part.phi)
     sens, labels = [], []
-    for k, c in enumerate(constants):
+    for m, c in enumerate(constants):
         _, Jc = coefficients_and_jacobian(c)
-        dlam_dP = E[k].T @ Jc                                        # (n_meas, 6)
+        dlam_dP = E[m].T @ Jc                                        # (n_meas, 6)
         P = c.as_array()
-        sens.append(dlam_dP * P[None, :] / (2 * ev.eigenvalues[:, None]))
-        labels += [f"{fm.material_names[k]}.{n}" for n in CONSTANT_NAMES]
-    lo, hi = prob.bounds()
-    A, b = prob.linear_constraints()
-    hit = [f"{prob.labels[i]} at its {'lower' if abs(ev.x[i] - lo[i]) < abs(ev.x[i] - hi[i]) else 'upper'} bound"
-           for i in range(prob.n_vars)
-           if min(abs(ev.x[i] - lo[i]), abs(ev.x[i] - hi[i])) <= 1e-6 * max(1.0, abs(ev.x[i]))]
-    active = np.flatnonzero(A @ ev.x - b > -1e-7) if A.shape[0] else []
-    held = [f"{p.name}: {lab}" for p in prob.params for lab in p.constraint_labels()]
+        sens.append(dlam_dP * P[None, :] / (2 * part.eigenvalues[:, None]))
+        labels += [f"{fm.material_names[m]}.{n}" for n in CONSTANT_NAMES]
+    lo, hi = plate.bounds()
+    A, b = plate.linear_constraints()
+    hit = [f"{plate.labels[i]} at its {'lower' if abs(x[i] - lo[i]) < abs(x[i] - hi[i]) else 'upper'} bound"
+           for i in range(plate.n_vars)
+           if min(abs(x[i] - lo[i]), abs(x[i] - hi[i])) <= 1e-6 * max(1.0, abs(x[i]))]
+    active = np.flatnonzero(A @ x - b > -1e-7) if A.shape[0] else []
+    held = [f"{p.name}: {lab}" for p in plate.params for lab in p.constraint_labels()]
     hit += [held[int(j)] for j in active]
     if hit:
         warnings = list(warnings) + [f"the optimum runs into a bound: {'; '.join(hit)}"]
-    hist = prob.history
     lam = fm.laminate.with_constants(constants)
+    bases = prob.last_basis if prob.single else (prob.last_basis or [None] * len(prob.plates))
     return Identification(
         specimen=fm.specimen, material_names=fm.material_names, initial=fm.initial_constants,
-        constants=constants, free={p.name: tuple(p.free) for p in prob.params},
-        parametrization={p.name: p.kind for p in prob.params}, variable_labels=prob.labels,
-        x=ev.x, objective=ev.objective, evaluations=prob.n_eval, converged=bool(converged),
-        status=status, time_s=dt, measured_hz=prob.freq, weight=prob.weight, model_hz=f_model,
-        pairing=ev.pairing, residual_percent=residual,
-        rms_residual_percent=weighted_rms(residual, prob.weight),
-        initial_rms_residual_percent=initial_rms, modes=ev.modes, phi_paired=ev.phi,
-        dlam_dx=ev.dlam_dx, sensitivity=np.hstack(sens), sensitivity_labels=tuple(labels),
-        history=history_arrays(hist),
-        swaps=tuple(prob.swaps), bounds_hit=tuple(hit), warnings=tuple(warnings),
+        constants=constants, free={p.name: tuple(p.free) for p in plate.params},
+        parametrization={p.name: p.kind for p in plate.params}, variable_labels=plate.labels,
+        x=x, objective=ev.objective if prob.single else part.objective,
+        evaluations=prob.n_eval, converged=bool(converged),
+        status=status, time_s=dt, measured_hz=plate.data.freq, weight=plate.data.weight,
+        model_hz=f_model, pairing=part.pairing, residual_percent=residual,
+        rms_residual_percent=weighted_rms(residual, plate.data.weight),
+        initial_rms_residual_percent=initial_rms, modes=part.modes, phi_paired=part.phi,
+        dlam_dx=part.dlam_dx, sensitivity=np.hstack(sens), sensitivity_labels=tuple(labels),
+        history=history_arrays(prob.log.plate_history[k]),
+        swaps=tuple(prob.log.swaps if prob.single else prob.log.plate_swaps[k]),
+        bounds_hit=tuple(hit), warnings=tuple(warnings),
         global_properties=lam.global_properties().as_dict(), options=prob.options,
-        error_bound=_error_bound(prob, ev), work=dict(getattr(prob, "work", {})),
-        basis=prob.last_basis)
+        error_bound=_error_bound(prob, k, ev), work=dict(work or {}),
+        basis=bases if prob.single else bases[k])
 
 
-def _error_bound(prob, ev) -> np.ndarray:
-    """Relative error bound of the paired eigenvalues at ``ev`` against the full model."""
-    if prob.basis is None:
-        return np.zeros(prob.n_meas)
+def _error_bound(prob, k, ev) -> np.ndarray:
+    """Relative error bound of plate ``k``'s paired eigenvalues at ``ev`` against the full
+    model (0 where the full model was solved there)."""
+    n = prob.plates[k].data.n
+    if not prob.reduced:
+        return np.zeros(n)
     b = prob.bound_at(ev.x)
-    return np.full(prob.n_meas, np.nan) if b is None else b[1]
+    return np.full(n, np.nan) if b is None else b.paired[prob.objective.rows[k]:
+                                                           prob.objective.rows[k + 1]]

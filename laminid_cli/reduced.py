@@ -55,6 +55,9 @@ class ReducedBasis:
         self.MV = np.zeros((n, 0))
         self.Kr = np.zeros((n_mat, 6, 0, 0))
         self.Mr = np.zeros((0, 0))          # V^T M V: I up to round-off, kept exactly
+        #: identity of the vectors: the basis only grows (its first columns stay) until a
+        #: restart gives it a new lineage; copies share it
+        self.lineage = object()
 
     @property
     def size(self) -> int:
@@ -62,8 +65,10 @@ class ReducedBasis:
 
     def copy(self) -> "ReducedBasis":
         """An independent basis with the same vectors (arrays are replaced, never changed in
-        place, so a shallow copy suffices)."""
-        return copy.copy(self)
+        place, so a shallow copy suffices); a lineage of its own, since it grows apart."""
+        out = copy.copy(self)
+        out.lineage = object()
+        return out
 
     @classmethod
     def from_vectors(cls, fm, V: np.ndarray) -> "ReducedBasis":
@@ -72,17 +77,26 @@ class ReducedBasis:
         b.add(V)
         return b
 
+    def _project_out(self, W: np.ndarray) -> None:
+        """Remove from W (in place) its M-components along the rigid motions and the basis
+        (one classical Gram-Schmidt pass)."""
+        if self.R is not None:
+            W -= self.R @ (self.MR.T @ W)
+        W -= self.V @ (self.MV.T @ W)
+
     def add(self, W: np.ndarray) -> int:
-        """Add the directions of W (n, k) not yet in the basis; returns how many were added."""
+        """Add the directions of W (n, k) not yet in the basis; returns how many were added.
+
+        Classical Gram-Schmidt in the M inner product, twice; an eigen decomposition of the
+        Gram matrix drops the directions that add nothing (M-norm below DROP_TOL); then twice
+        more with an M-orthonormalisation for round-off."""
         W = np.array(W, float, copy=True)
         if W.ndim == 1:
             W = W[:, None]
         norm = np.sqrt(np.einsum("ij,ij->j", W, self.M @ W))
         W = W[:, norm > 0] / norm[norm > 0]
         for _ in range(2):                                   # classical Gram-Schmidt, twice
-            if self.R is not None:
-                W -= self.R @ (self.MR.T @ W)
-            W -= self.V @ (self.MV.T @ W)
+            self._project_out(W)
         G = W.T @ (self.M @ W)
         d, Q = np.linalg.eigh(0.5 * (G + G.T))
         keep = d > DROP_TOL**2
@@ -90,17 +104,18 @@ class ReducedBasis:
             return 0
         W = W @ (Q[:, keep] / np.sqrt(d[keep]))
         for _ in range(2):                                   # clean up once more
-            if self.R is not None:
-                W -= self.R @ (self.MR.T @ W)
-            W -= self.V @ (self.MV.T @ W)
+            self._project_out(W)
             W = _m_orthonormal(W, self.M)
         MW = self.M @ W
         k = W.shape[1]
         r = self.size
         n_b = len(self._Kb)
-        KW = np.stack([Kb @ W for Kb in self._Kb])           # (n_b, n, k)
-        top = np.matmul(self.V.T, KW)                        # V^T K_b W  (n_b, r, k)
-        low = np.matmul(W.T, KW)                             # W^T K_b W  (n_b, k, k)
+        # K_b W side by side, (n, n_b k): V^T K_b W and W^T K_b W as one product each
+        KW = np.empty((W.shape[0], n_b * k))
+        for b, Kb in enumerate(self._Kb):
+            KW[:, b * k:(b + 1) * k] = Kb @ W
+        top = (self.V.T @ KW).reshape(r, n_b, k).transpose(1, 0, 2)     # (n_b, r, k)
+        low = (W.T @ KW).reshape(k, n_b, k).transpose(1, 0, 2)          # (n_b, k, k)
         Kr = np.zeros((n_b, r + k, r + k))
         Kr[:, :r, :r] = self.Kr.reshape(n_b, r, r)
         Kr[:, :r, r:] = top
@@ -118,23 +133,30 @@ class ReducedBasis:
         self.MV = np.hstack([self.MV, MW])
         return k
 
+    def _factorisation(self, coef: np.ndarray, first_eigenvalue):
+        """(K, sigma, solve) at ``coef``: the factorisation of ``A = K - sigma M`` kept from
+        the last call at the same ``coef``, else a new one with ``sigma = -lambda_1 / 2``,
+        ``lambda_1 = first_eigenvalue(K)`` (an estimate of the first elastic eigenvalue)."""
+        last = getattr(self, "_factor", None)
+        if last is not None and last[0] == coef.tobytes():
+            return last[1:]
+        plate = self.fm.plate
+        K = plate.stiffness(coef=coef)
+        sigma = -0.5 * float(first_eigenvalue(K))
+        solve = self.fm.factorizer.factor(K.data - sigma * plate.M_on_K)
+        self._factor = (coef.tobytes(), K, sigma, solve)
+        return K, sigma, solve
+
     def add_sensitivities(self, coef: np.ndarray, phi: np.ndarray) -> int:
         """Add ``A^-1 K_b phi_i`` for every basis stiffness K_b and mode phi_i (one
         factorisation of A = K - sigma M at ``coef``): the directions of the first-order change
         of the modes with every stiffness coefficient, so that the basis follows the modes
         over a neighbourhood in every parameter direction (the poorly determined constants
         move far). Returns the directions added."""
-        plate = self.fm.plate
         coef = np.asarray(coef, float)
-        last = getattr(self, "_factor", None)
-        if last is not None and last[0] == coef.tobytes():
-            K, sigma, solve = last[1:]
-        else:
-            K = plate.stiffness(coef=coef)
-            lam1 = float(phi[:, 0] @ (K @ phi[:, 0]) / (phi[:, 0] @ (self.M @ phi[:, 0])))
-            sigma = -0.5 * lam1
-            solve = self.fm.factorizer.factor(K.data - sigma * plate.M_on_K)
-            self._factor = (coef.tobytes(), K, sigma, solve)
+        p0 = phi[:, 0]
+        _, _, solve = self._factorisation(
+            coef, lambda K: (p0 @ (K @ p0)) / (p0 @ (self.M @ p0)))
         rhs = np.hstack([Kb @ phi for Kb in self._Kb])
         return self.add(solve(rhs))
 
@@ -161,10 +183,19 @@ class ReducedBasis:
         modes = Modes(eigenvalues=theta, phi=self.V @ Y, n_rigid=n_rigid)
         return modes, self.energies(Y), Y
 
-    def mac(self, phi_ref: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    def mac(self, phi_ref: np.ndarray, Y: np.ndarray, ritz=None) -> np.ndarray:
         """Mass-weighted MAC (n_ref, k) between full vectors ``phi_ref`` and the Ritz vectors
         of reduced eigenvectors ``Y`` (Mr-orthonormal): through ``V^T M phi_ref``, which is exact
-        for vectors in the span of V (earlier Ritz vectors: the basis only grows)."""
+        for vectors in the span of V (earlier Ritz vectors: the basis only grows).
+
+        ``ritz = (lineage, r, Y_ref)`` when ``phi_ref`` are Ritz vectors ``V[:, :r] Y_ref`` of
+        this basis' lineage: then ``V^T M phi_ref = Mr[:, :r] Y_ref`` and no product with the
+        full vectors is needed."""
+        if ritz is not None and ritz[0] is self.lineage and ritz[1] <= self.size:
+            r, Y_ref = ritz[1], ritz[2]
+            P = self.Mr[:, :r] @ Y_ref                        # (size, n_ref)
+            den = np.einsum("ij,ij->j", Y_ref, P[:r])[:, None]
+            return (P.T @ Y) ** 2 / den
         cached = getattr(self, "_mac_ref", None)
         if cached is None or cached[0] is not phi_ref or cached[1] != self.size:
             P = self.MV.T @ phi_ref                          # (r, n_ref)
@@ -173,39 +204,53 @@ class ReducedBasis:
         P, den = cached[2], cached[3]
         return (P.T @ Y) ** 2 / den
 
-    def enrich(self, coef: np.ndarray, k: int, rounds: int = 2, target: float = 0.0):
+    def enrich(self, coef: np.ndarray, k: int, rounds: int = 2, target: float = 0.0,
+               reuse: float = 0.0):
         """Enrich the basis at ``coef`` with the preconditioned residuals of the lowest ``k``
         Ritz modes: one factorisation (kept for a further call at the same ``coef``), up to
         ``rounds`` block solves with it, fewer when every relative bound is below ``target``.
 
+        ``reuse`` > 0: when the kept factorisation is of coefficients within this relative
+        distance of ``coef`` (every coefficient), it preconditions the residuals instead of a
+        new one (the residuals themselves are those of the stiffness at ``coef``); the bound
+        is then not certified and returned as infinite.
+
         Returns (Ritz values before, Ritz values after, absolute error bound of the values
         after, rad^2/s^2)."""
-        plate = self.fm.plate
         coef = np.asarray(coef, float)
+        last = getattr(self, "_factor", None)
+        if reuse > 0 and last is not None and last[0] != coef.tobytes():
+            c0 = np.frombuffer(last[0]).reshape(coef.shape)
+            if np.all(np.abs(coef - c0) <= reuse * np.abs(c0)):
+                return self._enrich_with(coef, k, rounds, self.fm.plate.stiffness(coef=coef),
+                                         last[3])
+        theta0, Y = self.eig(coef, k)
+        K, sigma, solve = self._factorisation(coef, lambda K: theta0[0])
+        return self._enrich_with(coef, k, rounds, K, solve, sigma, target, theta0, Y)
+
+    def _enrich_with(self, coef, k, rounds, K, solve, sigma=None, target=0.0, theta0=None,
+                     Y=None):
+        """The block solves of :meth:`enrich` with ``solve`` = (K - sigma M)^-1 (with the
+        bound) or a preconditioner (``sigma`` None: no bound)."""
         if self.size + rounds * k > MAX_BASIS:               # restart from the Ritz vectors
             theta, Y = self.eig(coef, k)
             U = self.V @ Y
             self.__init__(self.fm)
             self.add(U)
-        theta0, Y = self.eig(coef, k)
-        last = getattr(self, "_factor", None)
-        if last is not None and last[0] == coef.tobytes():
-            K, sigma, solve = last[1:]
-        else:
-            K = plate.stiffness(coef=coef)
-            sigma = -0.5 * theta0[0]
-            solve = self.fm.factorizer.factor(K.data - sigma * plate.M_on_K)
-            self._factor = (coef.tobytes(), K, sigma, solve)
+            theta0 = None
+        if theta0 is None:
+            theta0, Y = self.eig(coef, k)
         theta = theta0
         bound = np.full(k, np.inf)
         for _ in range(rounds):
             U = self.V @ Y
             Rs = K @ U - (self.M @ U) * theta
             S = solve(Rs)
-            eta2 = np.maximum(np.einsum("ij,ij->j", Rs, S), 0.0)
-            bound = 0.5 * (eta2 + np.sqrt(eta2**2 + 4 * eta2 * (theta - sigma)))
-            if np.max(bound / theta) <= target:
-                break
+            if sigma is not None:
+                eta2 = np.maximum(np.einsum("ij,ij->j", Rs, S), 0.0)
+                bound = 0.5 * (eta2 + np.sqrt(eta2**2 + 4 * eta2 * (theta - sigma)))
+                if np.max(bound / theta) <= target:
+                    break
             added = self.add(S)
             theta, Y = self.eig(coef, k)
             if added == 0:
@@ -218,18 +263,10 @@ class ReducedBasis:
         carry from their stiff directions), the M-normalised vectors and the absolute error
         bound of each quotient (same bound as :meth:`enrich`, with the factorisation kept from
         an enrichment at the same ``coef`` when there is one)."""
-        plate = self.fm.plate
         coef = np.asarray(coef, float)
-        last = getattr(self, "_factor", None)
-        if last is not None and last[0] == coef.tobytes():
-            K, sigma, solve = last[1:]
-        else:
-            K = plate.stiffness(coef=coef)
-            MU = self.M @ U
-            KU = K @ U
-            sigma = -0.5 * float(np.einsum("ij,ij->j", U, KU)[0] / np.einsum("ij,ij->j", U, MU)[0])
-            solve = self.fm.factorizer.factor(K.data - sigma * plate.M_on_K)
-            self._factor = (coef.tobytes(), K, sigma, solve)
+        u0 = U[:, 0]
+        K, sigma, solve = self._factorisation(
+            coef, lambda K: (u0 @ (K @ u0)) / (u0 @ (self.M @ u0)))
         U = U / np.sqrt(np.einsum("ij,ij->j", U, self.M @ U))
         KU, MU = K @ U, self.M @ U
         theta = np.einsum("ij,ij->j", U, KU)

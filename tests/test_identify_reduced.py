@@ -332,3 +332,26 @@ def test_refused_joint_point_is_counted_once():
     ev = prob.evaluate(bad)
     assert ev.refused
     assert prob.n_refused == 1
+
+
+def test_enrichment_near_the_last_factorisation_reuses_it():
+    """Within the reuse distance the enrichment preconditions with the kept factorisation (no
+    new one), leaves the bound uncertified (inf) and still improves the Ritz values; beyond it,
+    or without reuse, it factorises and certifies."""
+    fm, prob, ev0 = s11_problem((6, 6))
+    B = ReducedBasis(fm)
+    B.add(ev0.modes.phi)
+    coef0 = coef_at(prob, ev0.x * np.array([1.1, 0.9, 1.0, 1.0, 1.0, 1.0]))
+    B.enrich(coef0, prob.n_model, rounds=1)
+    coef1 = coef0 * (1 + 2e-3)
+    coef1[0, 0] *= 1.001
+    n_fact = WORK["factorizations"]
+    before, after, bound = B.enrich(coef1, prob.n_model, rounds=1, reuse=1e-2)
+    assert WORK["factorizations"] == n_fact
+    assert np.all(np.isinf(bound)) and np.all(after <= before * (1 + 1e-12))
+    full = fm.solve(n_modes=prob.n_model, coef=coef1)
+    assert np.all(after >= full.eigenvalues * (1 - 1e-8))           # still Ritz upper bounds
+    n_fact = WORK["factorizations"]
+    far = coef0 * 1.05
+    _, after, bound = B.enrich(far, prob.n_model, rounds=1, reuse=1e-2)
+    assert WORK["factorizations"] == n_fact + 1 and np.all(np.isfinite(bound))
