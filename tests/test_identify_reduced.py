@@ -55,11 +55,31 @@ def test_reduced_equals_full_s11():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("path", [S12, S13, S14, S21, S22, ESL])
+@pytest.mark.parametrize("path", [S12, S13, S14, S21, ESL, pytest.param(S22, marks=pytest.mark.xfail(
+    strict=True, reason="S2.2 after re-anchoring: the two solvers end in two minima of the flat "
+    "G13/G23 valley (reduced 2.3180e-4 with G23 at its bound, full 2.3005e-4 with G13 0.23 GPa); "
+    "see test_s22_solvers_agree_on_the_determined_constants"))])
 def test_reduced_equals_full_paper(path):
     """The other paper specimens, re-anchored cases S2.2 and the hybrid ESL included."""
     fm = build_forward_model(read_specimen(path), (12, 12))
     check_reduced_equals_full(fm)
+
+
+@pytest.mark.slow
+def test_s22_solvers_agree_on_the_determined_constants():
+    """S2.2: after the re-anchoring the solvers take different paths down a valley in which
+    G13 and G23 are not determined by the 12 modes. Both results must say so (a status of
+    'check' comes from the uncertainty step; here: the ill-determined pair differs, the
+    well-determined constants agree within 1e-3 and the objectives within 1 %)."""
+    fm = build_forward_model(read_specimen(S22), (12, 12))
+    full = identify(fm, IdentifyOptions(solver="full"))
+    red = identify(fm, IdentifyOptions(solver="reduced"))
+    assert red.converged and full.converged
+    assert red.objective == pytest.approx(full.objective, rel=1e-2)
+    for k in ("E1", "E2", "G12", "nu12"):
+        assert getattr(red.constants[0], k) == pytest.approx(getattr(full.constants[0], k),
+                                                             rel=1e-3), k
+    np.testing.assert_allclose(red.model_hz, full_frequencies_at(fm, red), rtol=FREQ_REL)
 
 
 @pytest.mark.slow
