@@ -36,8 +36,11 @@ def atomic_path(path):
             tmp.unlink()
 
 
-def write_bytes_atomic(path, data: bytes) -> Path:
-    """Write ``data`` to ``path`` atomically (see :func:`atomic_path`)."""
+def write_bytes_atomic(path, data: bytes, parents: bool = False) -> Path:
+    """Write ``data`` to ``path`` atomically (see :func:`atomic_path`); ``parents``: create
+    the missing folders of ``path`` first."""
+    if parents:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(path) as tmp:
         tmp.write_bytes(data)
     return Path(path)
@@ -51,7 +54,7 @@ def remove_stale_temporaries(folder) -> int:
     n = 0
     for p in Path(folder).rglob(TEMP_GLOB):
         pid = p.name.rsplit("-", 1)[-1]
-        if pid.isdigit() and _alive(int(pid)):
+        if pid.isdigit() and process_alive(int(pid)):
             continue
         with contextlib.suppress(OSError):
             p.unlink()
@@ -59,7 +62,8 @@ def remove_stale_temporaries(folder) -> int:
     return n
 
 
-def _alive(pid: int) -> bool:
+def process_alive(pid: int) -> bool:
+    """True while process ``pid`` exists (also when it belongs to another user)."""
     if pid == os.getpid():
         return True
     try:
