@@ -233,6 +233,82 @@ def test_hash_covers_the_specimen_its_frf_file_and_the_options(tmp_path):
     assert input_hash(spec, o) not in (h1, h2)
 
 
+def test_a_summary_row_reads_its_result_file_once(batch_run, monkeypatch):
+    """The row comes from the typed reader alone (laminid_cli.resultfile), one open."""
+    from laminid_cli.batch import Job, result_row
+
+    specs, out, _ = batch_run
+    path = out / "example2" / "S2.1.result.h5"
+    real, opened = h5py.File, []
+
+    def counting(name, *args, **kw):
+        opened.append(str(name))
+        return real(name, *args, **kw)
+
+    monkeypatch.setattr(h5py, "File", counting)
+    job = Job(spec=str(specs / "example2" / "S2.1.yaml"), name="example2/S2.1",
+              output=str(path), key="")
+    row = result_row(job, cached=True, options=BatchOptions(mesh=MESH))
+    assert opened == [str(path)]
+    # the numbers: those of the file, read here with h5py directly
+    with real(path, "r") as f:
+        g = f["materials"]["E-glass_R368"]
+        u = f["uncertainty"]
+        labels = [x.decode() for x in u["labels"][()]]
+        flagged = u.attrs["flagged"].split(",")
+        codes = [x.decode() for x in f["status"]["codes"][()]]
+        assert row["materials"]["E-glass/R368"] == {k: g[k][()] for k in
+                                                    ("E1", "E2", "G12", "G13", "G23", "nu12")}
+        assert row["evaluations"] == f.attrs["evaluations"] and row["time_s"] == f.attrs["time_s"]
+        assert row["rms_residual_percent"] == f["frequencies"].attrs["rms_residual_percent"]
+        assert row["status"] == f.attrs["status"] == "check" and row["reason"] == ", ".join(codes)
+        for k, lab in enumerate(labels):
+            iv = row["intervals"]["E-glass/R368"][lab.rsplit(".", 1)[1]]
+            assert iv["verdict"] == u["verdict"][k].decode()
+            assert iv["at_bound"] == bool(u["at_bound"][k])
+            assert iv["flagged"] == (lab in flagged)             # as the assessment flagged it
+            assert np.array_equal([iv["lower"], iv["upper"]], [u["lower"][k], u["upper"][k]],
+                                  equal_nan=True)
+    assert row["specimen"] == "S2.1" and row["converged"] is True and row["cached"]
+    assert row["intervals"]["E-glass/R368"]["G13"]["flagged"]          # at its bound
+    assert row["result"] == str(path) and row["damping"] == {}
+
+
+def _hash_of_the_earlier_option_layout(spec, mesh):
+    """input_hash as laminid hashed it before the options were RunOptions (a flat dict)."""
+    import hashlib
+
+    from laminid_cli import __version__
+    from laminid_cli.results import SCHEMA_VERSION
+
+    flat = {"mesh": mesh, "fix": [], "optimizer": "slsqp", "parametrization": "auto",
+            "xtol": 1e-6, "ftol": 1e-8, "max_evaluations": 300, "pairing": "track",
+            "solver": "reduced", "sigma_rel": 0.002, "covariance_scale": "larger",
+            "max_rel_interval": 0.3, "fix_undetermined": False, "monte_carlo": 0, "seed": 0}
+    h = hashlib.sha256()
+    h.update(f"laminid {__version__} schema {SCHEMA_VERSION}\0".encode())
+    h.update(json.dumps(flat, sort_keys=True).encode() + b"\0")
+    h.update(Path(spec).read_bytes())
+    return h.hexdigest()
+
+
+def test_results_hashed_by_the_earlier_option_layout_are_redone(tmp_path):
+    from laminid_cli.batch import plan_batch, result_path
+
+    specs = make_tree(tmp_path / "in", {"example2/S2.1.yaml": SPECS["example2/S2.1.yaml"]})
+    found = discover_specimens([specs])
+    (spec, name), = found
+    options = BatchOptions(mesh=MESH)
+    out = tmp_path / "out"
+    result = result_path(out, name)
+    result.parent.mkdir(parents=True)
+    for stored, up_to_date in ((_hash_of_the_earlier_option_layout(spec, MESH), False),
+                               (input_hash(spec, options), True)):
+        with h5py.File(result, "w") as f:
+            f.attrs["batch_input_sha256"] = stored
+        assert [j.up_to_date for j in plan_batch(found, out, options)] == [up_to_date]
+
+
 def _start_batch(specs, out, jobs, *extra):
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
     return subprocess.Popen([sys.executable, "-m", "laminid_cli", "batch", str(specs), "--mesh",
