@@ -53,6 +53,9 @@ from laminid_cli import __version__
 from laminid_cli.atomic import process_alive, remove_stale_temporaries, write_bytes_atomic
 from laminid_cli.errors import LaminidError
 from laminid_cli.pipeline import RunOptions
+# imported here, not on the first summary row: a Ctrl-C landing in an import (in the code
+# a dataclass definition executes) can turn the exit code 130 into a kill by SIGINT (-2)
+from laminid_cli.resultfile import ResultFileError, read_result
 
 log = logging.getLogger(__name__)
 
@@ -310,7 +313,8 @@ def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None
                                initializer=_worker_init, initargs=(os.getpid(),))
     complete = False
     try:
-        futures = {pool.submit(run_job, job, options): job for job in jobs}
+        with _sigint_blocked():      # the pool starts its worker processes in submit
+            futures = {pool.submit(run_job, job, options): job for job in jobs}
         for fut in as_completed(futures):
             yield futures[fut], _outcome_of(fut, futures[fut])
         complete = True
@@ -322,6 +326,29 @@ def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None
                 with contextlib.suppress(Exception):
                     proc.terminate()
         pool.shutdown(wait=complete, cancel_futures=True)
+
+
+@contextlib.contextmanager
+def _sigint_blocked():
+    """Block SIGINT in this thread while worker processes are started.
+
+    A process started meanwhile (the forkserver, a pool worker; fork and exec keep the signal
+    mask) cannot be killed by a Ctrl-C before its initializer ignores it: a worker dying in
+    its start-up breaks the whole pool. A Ctrl-C meant for this process stays pending and is
+    delivered (KeyboardInterrupt) when the block is lifted. No-op outside the main thread and
+    where there is no pthread_sigmask (Windows)."""
+    import signal
+    import threading
+
+    if not hasattr(signal, "pthread_sigmask") or \
+            threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 #: temporary folder of the job running in this (worker) process, removed on SIGTERM
@@ -342,6 +369,8 @@ def _worker_signals() -> None:
         os._exit(143)
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "pthread_sigmask"):      # started with it blocked (_sigint_blocked)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     signal.signal(signal.SIGTERM, terminate)
     _stop_with_parent(terminate)
 
@@ -520,8 +549,6 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False, *
         return row
     if outcome is None and not cached:
         return row
-    from laminid_cli.resultfile import ResultFileError, read_result
-
     try:
         res = read_result(job.output)
     except (ResultFileError, OSError, KeyError, ValueError) as exc:

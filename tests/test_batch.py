@@ -309,12 +309,19 @@ def test_results_hashed_by_the_earlier_option_layout_are_redone(tmp_path):
         assert [j.up_to_date for j in plan_batch(found, out, options)] == [up_to_date]
 
 
+def _interactive_sigint():
+    """In the child: Ctrl-C as in a terminal. A test run started as a background job has
+    SIGINT ignored, which its children inherit (and the batch then rightly ignores it)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _start_batch(specs, out, jobs, *extra):
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
     return subprocess.Popen([sys.executable, "-m", "laminid_cli", "batch", str(specs), "--mesh",
                              MESH, "--out", str(out), "-j", jobs, *extra],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            start_new_session=True, env=env, cwd=os.getcwd())
+                            start_new_session=True, env=env, cwd=os.getcwd(),
+                            preexec_fn=_interactive_sigint)
 
 
 def _wait_first_result(proc, out, timeout=120):

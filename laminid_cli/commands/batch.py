@@ -87,8 +87,10 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
     finished = 0
     refused = False
     try:
+        # no bar (not even its label) when every result is up to date
         with click.progressbar(length=len(todo), label="identifying", file=sys.stderr,
-                               item_show_func=show, show_pos=True) as bar:
+                               item_show_func=show, show_pos=True) if todo else \
+                contextlib.nullcontext() as bar:
             for job, outcome in run_jobs(todo, options, n_jobs=n_jobs, scheduler=scheduler):
                 if outcome.data is not None:
                     write_bytes_atomic(job.output, outcome.data, parents=True)
