@@ -18,6 +18,12 @@ from pathlib import Path
 TEMP_GLOB = ".*.tmp-*"
 
 
+def temporary_name(path) -> Path:
+    """The temporary file :func:`atomic_path` writes ``path`` to in this process."""
+    path = Path(path)
+    return path.with_name(f".{path.name}.tmp-{os.getpid()}")
+
+
 @contextlib.contextmanager
 def atomic_path(path):
     """Yield a temporary path beside ``path``; fsync and rename it to ``path`` on success.
@@ -25,7 +31,7 @@ def atomic_path(path):
     On an exception the temporary file is removed and ``path`` is untouched.
     """
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    tmp = temporary_name(path)
     try:
         yield tmp
         with open(tmp, "rb") as fh:

@@ -12,11 +12,11 @@ The flow of ``laminid batch`` as library functions:
    ``batch_input_sha256``) equals the job's is up to date and is not run again;
 3. :func:`run_job` (in a worker process: a process pool or a Dask worker) runs the pipeline of
    ``laminid identify SPEC -o OUT`` (laminid_cli.pipeline, the same code) and returns the
-   finished HDF5 file as bytes plus its status; it never raises for a specimen's fault (bad
-   YAML, infeasible start, no convergence);
-4. the client writes the file atomically (laminid_cli.atomic.write_bytes_atomic): temporary
-   name in the target folder, fsync, rename. Killing the batch at any instant leaves either no
-   file or a complete one;
+   finished HDF5 file (as bytes for a Dask or in-process run) plus its status; it never raises
+   for a specimen's fault (bad YAML, infeasible start, no convergence);
+4. the file is written atomically (laminid_cli.atomic: temporary name in the target folder,
+   fsync, rename) by the pool worker, or by the client from the bytes. Killing the batch at
+   any instant leaves either no file or a complete one;
 5. :func:`result_row` reads the numbers of the summary back from each result file with the
    typed reader (laminid_cli.resultfile: values, intervals, verdicts, the status and its
    reasons); :func:`write_summary_csv` (long form: one
@@ -50,7 +50,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from laminid_cli import __version__
-from laminid_cli.atomic import process_alive, remove_stale_temporaries, write_bytes_atomic
+from laminid_cli.atomic import (process_alive, remove_stale_temporaries, temporary_name,
+                                write_bytes_atomic)
 from laminid_cli.errors import LaminidError
 from laminid_cli.pipeline import RunOptions
 # imported here, not on the first summary row: a Ctrl-C landing in an import (in the code
@@ -238,44 +239,72 @@ def plan_batch(specimens, out_dir, options: BatchOptions, force: bool = False) -
 # running
 
 
-def run_job(job: Job, options: BatchOptions) -> Outcome:
-    """Identify one specimen with its uncertainty assessment, as ``laminid identify SPEC -o
-    OUT`` does; runs in a worker.
+#: longest failure reason a pool worker sends back (its whole message must stay below the
+#: pipe's atomic write size, see :func:`run_job`)
+MAX_REASON_CHARS = 1500
 
-    Returns the result file as bytes, with the root attributes ``batch_input_sha256``,
-    ``batch_name`` and ``batch_options`` (JSON) added. A specimen's own fault (unreadable or
-    invalid file, infeasible start, no convergence, solver failure) is an Outcome with status
-    "error" or "not converged" and its reason, never an exception; an unexpected exception
-    is reported the same way (with its type) so that the other specimens go on.
+
+def run_job(job: Job, options: BatchOptions, write: bool = False) -> Outcome:
+    """Identify one specimen with its uncertainty assessment, as ``laminid identify SPEC -o
+    OUT`` does (laminid_cli.pipeline); runs in a worker.
+
+    The result file gets the root attributes ``batch_input_sha256``, ``batch_name`` and
+    ``batch_options`` (JSON). ``write=False``: it is returned as bytes (Outcome.data) for the
+    client to write (a Dask worker may not see the output folder; an in-process run must not
+    write a run that Ctrl-C interrupted). ``write=True`` (pool workers): the worker writes it
+    at ``job.output`` itself, atomically, and returns a small Outcome: a few hundred bytes
+    travel through the pool's pipe, written in one piece (POSIX pipes write up to 4096 bytes
+    at once), so a worker stopped by Ctrl-C can never leave half a message there (the pool's
+    reader thread would then wait for the rest forever, and the batch would hang at exit).
+
+    A specimen's own fault (unreadable or invalid file, infeasible start, no convergence,
+    solver failure) is an Outcome with status "error" or "check" and its reason, never an
+    exception; an unexpected exception is reported the same way (with its type) so that the
+    other specimens go on.
     """
     t0 = time.perf_counter()
+
+    def failure(reason: str) -> Outcome:
+        if write and len(reason) > MAX_REASON_CHARS:
+            reason = reason[:MAX_REASON_CHARS - 1] + "\u2026"
+        return Outcome(job.name, "error", reason, None, time.perf_counter() - t0)
+
     try:
         str(job.spec).encode("utf-8")
     except UnicodeEncodeError:
-        return Outcome(job.name, "error", "the file name is not valid UTF-8 text; rename the "
-                       "file", None, 0.0)
+        return failure("the file name is not valid UTF-8 text; rename the file")
     try:
         from laminid_cli.pipeline import run_identification, write_result
 
         run = run_identification([job.spec], options, loss_fix_needs_damping=False)
         attrs = {HASH_ATTR: job.key, "batch_name": job.name,
                  "batch_options": json.dumps(options.as_dict(), sort_keys=True)}
-        with tempfile.TemporaryDirectory(prefix="laminid-batch-") as tmp:
-            _current_tmp.append(tmp)
+        if write:
+            out = Path(job.output)
+            out.parent.mkdir(parents=True, exist_ok=True)
+            part = temporary_name(out)
+            _current_tmp.append(part)
             try:
-                path = write_result(Path(tmp) / Path(job.output).name, run,
-                                    command="laminid batch", attrs=attrs)
-                data = path.read_bytes()
+                write_result(out, run, command="laminid batch", attrs=attrs)
             finally:
-                _current_tmp.remove(tmp)
+                _current_tmp.remove(part)
+            data = None
+        else:
+            with tempfile.TemporaryDirectory(prefix="laminid-batch-") as tmp:
+                _current_tmp.append(Path(tmp))
+                try:
+                    path = write_result(Path(tmp) / Path(job.output).name, run,
+                                        command="laminid batch", attrs=attrs)
+                    data = path.read_bytes()
+                finally:
+                    _current_tmp.remove(Path(tmp))
         return Outcome(job.name, run.status.status, ", ".join(run.status.codes), data,
                        time.perf_counter() - t0)
     except LaminidError as exc:
-        return Outcome(job.name, "error", str(exc), None, time.perf_counter() - t0)
+        return failure(str(exc))
     except Exception as exc:  # noqa: BLE001 - one specimen's crash must not stop the batch
         log.debug("%s: %s", job.spec, traceback.format_exc())
-        return Outcome(job.name, "error", f"internal error {type(exc).__name__}: {exc}", None,
-                       time.perf_counter() - t0)
+        return failure(f"internal error {type(exc).__name__}: {exc}")
 
 
 def remove_stale_parts(out_dir) -> int:
@@ -314,14 +343,14 @@ def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None
     complete = False
     try:
         with _sigint_blocked():      # the pool starts its worker processes in submit
-            futures = {pool.submit(run_job, job, options): job for job in jobs}
+            futures = {pool.submit(run_job, job, options, True): job for job in jobs}
         for fut in as_completed(futures):
             yield futures[fut], _outcome_of(fut, futures[fut])
         complete = True
     finally:
         if not complete:
             # Ctrl-C or an error in the consumer: the workers would finish the jobs already
-            # queued to them; stop them now (their partial work is in their own temp folders)
+            # queued to them; stop them now (a worker removes its partial file on SIGTERM)
             for proc in list(getattr(pool, "_processes", {}).values()):
                 with contextlib.suppress(Exception):
                     proc.terminate()
@@ -351,7 +380,7 @@ def _sigint_blocked():
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
-#: temporary folder of the job running in this (worker) process, removed on SIGTERM
+#: temporary folder or file of the job running in this (worker) process, removed on SIGTERM
 _current_tmp: list = []
 
 
@@ -365,7 +394,11 @@ def _worker_signals() -> None:
         import shutil
 
         for tmp in _current_tmp:
-            shutil.rmtree(tmp, ignore_errors=True)
+            if Path(tmp).is_dir():
+                shutil.rmtree(tmp, ignore_errors=True)
+            else:
+                with contextlib.suppress(OSError):
+                    os.unlink(tmp)
         os._exit(143)
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)

@@ -274,6 +274,34 @@ def test_a_summary_row_reads_its_result_file_once(batch_run, monkeypatch):
     assert row["result"] == str(path) and row["damping"] == {}
 
 
+def test_a_pool_worker_writes_its_file_and_sends_back_one_small_message(tmp_path):
+    """Only a few hundred bytes go through the pool's pipe, so that a worker stopped by
+    Ctrl-C cannot leave half a message there (the pool's reader would wait for the rest
+    forever: seen as a batch hanging at exit). POSIX writes up to 4096 bytes to a pipe in one
+    piece; the pool adds its own envelope (work id, pickling) to the Outcome."""
+    import pickle
+
+    from laminid_cli.batch import MAX_REASON_CHARS, Job, run_job
+
+    out = tmp_path / "out" / "deep" / "S1.4.result.h5"
+    job = Job(spec=SPECS["example1/S1.4.yaml"], name="deep/S1.4", output=str(out), key="k")
+    outcome = run_job(job, BatchOptions(mesh=MESH), write=True)
+    assert outcome.status == "check" and outcome.data is None
+    with h5py.File(out, "r") as f:                     # complete, with the batch attributes
+        assert f.attrs["batch_input_sha256"] == "k" and f.attrs["batch_name"] == "deep/S1.4"
+    assert not [p for p in out.parent.iterdir() if ".tmp-" in p.name]
+    assert len(pickle.dumps(outcome)) < 1024
+    # a failure whose message is longer than the limit (the path is in it) is shortened
+    long_spec = tmp_path.joinpath(*["x" * 200] * 12, "missing.yaml")
+    bad = run_job(Job(spec=str(long_spec), name="missing", output=str(tmp_path / "m.h5"),
+                      key="k"), BatchOptions(mesh=MESH), write=True)
+    assert bad.status == "error" and len(bad.reason) == MAX_REASON_CHARS
+    assert bad.reason.endswith("\u2026") and len(pickle.dumps(bad)) < 3000
+    full = run_job(Job(spec=str(long_spec), name="missing", output=str(tmp_path / "m.h5"),
+                       key="k"), BatchOptions(mesh=MESH))
+    assert len(full.reason) > MAX_REASON_CHARS and full.reason.startswith(bad.reason[:-1])
+
+
 def _hash_of_the_earlier_option_layout(spec, mesh):
     """input_hash as laminid hashed it before the options were RunOptions (a flat dict)."""
     import hashlib
