@@ -69,7 +69,9 @@ def remove_stale_temporaries(folder) -> int:
 
 
 def process_alive(pid: int) -> bool:
-    """True while process ``pid`` exists (also when it belongs to another user)."""
+    """True while process ``pid`` runs (also when it belongs to another user). A zombie (dead,
+    not yet reaped: a killed batch's workers whose parent died too, until init reaps them) is
+    not alive; Linux's /proc says which, elsewhere a zombie counts as alive."""
     if pid == os.getpid():
         return True
     try:
@@ -77,5 +79,9 @@ def process_alive(pid: int) -> bool:
     except ProcessLookupError:
         return False
     except PermissionError:
+        pass
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
         return True
-    return True
+    return stat.rsplit(")", 1)[-1].split()[0] != "Z"

@@ -302,6 +302,32 @@ def test_a_pool_worker_writes_its_file_and_sends_back_one_small_message(tmp_path
     assert len(full.reason) > MAX_REASON_CHARS and full.reason.startswith(bad.reason[:-1])
 
 
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+def test_temporaries_of_dead_processes_are_removed_even_unreaped(tmp_path):
+    """A worker killed with its batch leaves its temporary file; until some init reaps it
+    the dead worker is a zombie, which os.kill(pid, 0) still finds: it must count as dead."""
+    from laminid_cli.batch import remove_stale_parts
+
+    zombie = subprocess.Popen([sys.executable, "-c", "pass"])
+    deadline = time.time() + 30
+    while time.time() < deadline and \
+            Path(f"/proc/{zombie.pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z":
+        time.sleep(0.05)                                        # exited, not reaped
+    live = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        (tmp_path / "a").mkdir()
+        dead_part = tmp_path / "a" / f".x.result.h5.tmp-{zombie.pid}"
+        live_part = tmp_path / "a" / f".y.result.h5.tmp-{live.pid}"
+        dead_part.write_bytes(b"partial")
+        live_part.write_bytes(b"being written")
+        assert remove_stale_parts(tmp_path) == 1
+        assert not dead_part.exists() and live_part.exists()
+    finally:
+        live.kill()
+        live.wait()
+        zombie.wait()
+
+
 def _hash_of_the_earlier_option_layout(spec, mesh):
     """input_hash as laminid hashed it before the options were RunOptions (a flat dict)."""
     import hashlib
