@@ -18,6 +18,12 @@ from pathlib import Path
 TEMP_GLOB = ".*.tmp-*"
 
 
+def temporary_name(path) -> Path:
+    """The temporary file :func:`atomic_path` writes ``path`` to in this process."""
+    path = Path(path)
+    return path.with_name(f".{path.name}.tmp-{os.getpid()}")
+
+
 @contextlib.contextmanager
 def atomic_path(path):
     """Yield a temporary path beside ``path``; fsync and rename it to ``path`` on success.
@@ -25,7 +31,7 @@ def atomic_path(path):
     On an exception the temporary file is removed and ``path`` is untouched.
     """
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    tmp = temporary_name(path)
     try:
         yield tmp
         with open(tmp, "rb") as fh:
@@ -36,8 +42,11 @@ def atomic_path(path):
             tmp.unlink()
 
 
-def write_bytes_atomic(path, data: bytes) -> Path:
-    """Write ``data`` to ``path`` atomically (see :func:`atomic_path`)."""
+def write_bytes_atomic(path, data: bytes, parents: bool = False) -> Path:
+    """Write ``data`` to ``path`` atomically (see :func:`atomic_path`); ``parents``: create
+    the missing folders of ``path`` first."""
+    if parents:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(path) as tmp:
         tmp.write_bytes(data)
     return Path(path)
@@ -51,7 +60,7 @@ def remove_stale_temporaries(folder) -> int:
     n = 0
     for p in Path(folder).rglob(TEMP_GLOB):
         pid = p.name.rsplit("-", 1)[-1]
-        if pid.isdigit() and _alive(int(pid)):
+        if pid.isdigit() and process_alive(int(pid)):
             continue
         with contextlib.suppress(OSError):
             p.unlink()
@@ -59,7 +68,10 @@ def remove_stale_temporaries(folder) -> int:
     return n
 
 
-def _alive(pid: int) -> bool:
+def process_alive(pid: int) -> bool:
+    """True while process ``pid`` runs (also when it belongs to another user). A zombie (dead,
+    not yet reaped: a killed batch's workers whose parent died too, until init reaps them) is
+    not alive; Linux's /proc says which, elsewhere a zombie counts as alive."""
     if pid == os.getpid():
         return True
     try:
@@ -67,5 +79,9 @@ def _alive(pid: int) -> bool:
     except ProcessLookupError:
         return False
     except PermissionError:
+        pass
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
         return True
-    return True
+    return stat.rsplit(")", 1)[-1].split()[0] != "Z"

@@ -10,14 +10,16 @@ The flow of ``laminid batch`` as library functions:
    (sha256 of the specimen bytes, of the FRF file named by ``measured.frf_file`` if any, of
    the options and of the laminid version). A result whose stored hash (root attribute
    ``batch_input_sha256``) equals the job's is up to date and is not run again;
-3. :func:`run_job` (in a worker process: a process pool or a Dask worker) does what
-   ``laminid identify SPEC -o OUT`` does and returns the finished HDF5 file as bytes plus its
-   status; it never raises for a specimen's fault (bad YAML, infeasible start, no convergence);
-4. :func:`write_result_bytes` (in the client) writes the file atomically (laminid_cli.atomic): temporary name in
-   the target folder, fsync, rename. Killing the batch at any instant leaves either no file or
-   a complete one;
-5. :func:`result_row` reads the numbers of the summary back from each result file (values,
-   intervals, verdicts, the status and its reasons); :func:`write_summary_csv` (long form: one
+3. :func:`run_job` (in a worker process: a process pool or a Dask worker) runs the pipeline of
+   ``laminid identify SPEC -o OUT`` (laminid_cli.pipeline, the same code) and returns the
+   finished HDF5 file (as bytes for a Dask or in-process run) plus its status; it never raises
+   for a specimen's fault (bad YAML, infeasible start, no convergence);
+4. the file is written atomically (laminid_cli.atomic: temporary name in the target folder,
+   fsync, rename) by the pool worker, or by the client from the bytes. Killing the batch at
+   any instant leaves either no file or a complete one;
+5. :func:`result_row` reads the numbers of the summary back from each result file with the
+   typed reader (laminid_cli.resultfile: values, intervals, verdicts, the status and its
+   reasons); :func:`write_summary_csv` (long form: one
    row per specimen, material and constant; ``wide=True`` one row per specimen),
    :func:`write_summary_json` and :func:`format_table` give the table across specimens (the
    shape of the paper's Table 2: specimens as columns, undetermined values marked).
@@ -30,7 +32,7 @@ Status of a row: "ok" or "check" (the result's status, laminid_cli.status; a run
 converge is "check" with reason ``not_converged``), "error" (no result: bad input, crash) or
 "not run" (interrupted batch).
 
-Nothing here imports numpy, h5py or the solver at module level, so the command starts fast.
+h5py and the solver are imported where they are used (the option classes bring numpy in).
 """
 
 from __future__ import annotations
@@ -44,14 +46,17 @@ import os
 import tempfile
 import time
 import traceback
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from laminid_cli import __version__
-from laminid_cli.atomic import remove_stale_temporaries, write_bytes_atomic
+from laminid_cli.atomic import (process_alive, remove_stale_temporaries, temporary_name,
+                                write_bytes_atomic)
 from laminid_cli.errors import LaminidError
-from laminid_cli.identify import IdentifyOptions
-from laminid_cli.uncertainty import UncertaintyOptions
+from laminid_cli.pipeline import RunOptions
+# imported here, not on the first summary row: a Ctrl-C landing in an import (in the code
+# a dataclass definition executes) can turn the exit code 130 into a kill by SIGINT (-2)
+from laminid_cli.resultfile import ResultFileError, read_result
 
 log = logging.getLogger(__name__)
 
@@ -78,51 +83,11 @@ class BatchError(LaminidError):
     """A batch cannot run: no specimen found, bad output folder, no Dask (exit code 2)."""
 
 
-@dataclass(frozen=True)
-class BatchOptions:
-    """The options of ``laminid identify`` passed through to every specimen.
-
-    mesh : "NXxNY"; fix ... pairing as :class:`laminid_cli.identify.IdentifyOptions` (fix is a
-    tuple of "nu12" / "glass.nu12" items); sigma_rel ... seed as
-    :class:`laminid_cli.uncertainty.UncertaintyOptions` (the Monte Carlo trials of a specimen
-    run in its worker: the batch is already parallel over specimens).
-    """
-
-    # defaults are those of identify, never restated (they cannot drift apart)
-    mesh: str = "12x12"
-    fix: tuple[str, ...] = IdentifyOptions.fix
-    optimizer: str = IdentifyOptions.optimizer
-    parametrization: str = IdentifyOptions.parametrization
-    xtol: float = IdentifyOptions.xtol_rel
-    ftol: float = IdentifyOptions.ftol_rel
-    max_evaluations: int = IdentifyOptions.max_evaluations
-    pairing: str = IdentifyOptions.pairing
-    solver: str = IdentifyOptions.solver
-    sigma_rel: float = UncertaintyOptions.sigma_rel
-    covariance_scale: str = UncertaintyOptions.scaling
-    max_rel_interval: float = UncertaintyOptions.max_rel_interval
-    fix_undetermined: bool = UncertaintyOptions.fix_undetermined
-    monte_carlo: int = UncertaintyOptions.monte_carlo
-    seed: int = UncertaintyOptions.seed
-
-    def as_dict(self) -> dict:
-        d = asdict(self)
-        d["fix"] = list(self.fix)
-        return d
-
-    def identify_options(self):
-        from laminid_cli.damping import split_fix
-
-        return IdentifyOptions(fix=split_fix(self.fix)[0], optimizer=self.optimizer,
-                               parametrization=self.parametrization, xtol_rel=self.xtol,
-                               ftol_rel=self.ftol, max_evaluations=self.max_evaluations,
-                               pairing=self.pairing, solver=self.solver)
-
-    def uncertainty_options(self):
-        return UncertaintyOptions(sigma_rel=self.sigma_rel, scaling=self.covariance_scale,
-                                  max_rel_interval=self.max_rel_interval,
-                                  fix_undetermined=self.fix_undetermined,
-                                  monte_carlo=self.monte_carlo, jobs=1, seed=self.seed)
+#: The settings every specimen of a batch is identified with: those of ``laminid identify``
+#: (laminid_cli.pipeline.RunOptions: the mesh, IdentifyOptions, UncertaintyOptions and the
+#: loss factors held by --fix). The command gives ``uncertainty.jobs = 1``: a specimen's Monte
+#: Carlo trials run in its worker, the batch being parallel over specimens already.
+BatchOptions = RunOptions
 
 
 @dataclass(frozen=True)
@@ -227,7 +192,9 @@ def input_hash(spec, options: BatchOptions) -> str:
     from laminid_cli.results import SCHEMA_VERSION
 
     h = hashlib.sha256()
-    h.update(f"laminid {__version__} schema {SCHEMA_VERSION}\0".encode())
+    # "options 2": the options as RunOptions.as_dict (every field of IdentifyOptions and
+    # UncertaintyOptions); results hashed by earlier versions never match, so are redone
+    h.update(f"laminid {__version__} schema {SCHEMA_VERSION} options 2\0".encode())
     h.update(json.dumps(options.as_dict(), sort_keys=True).encode() + b"\0")
     h.update(spec.read_bytes())
     frf = _frf_file(spec)
@@ -272,70 +239,72 @@ def plan_batch(specimens, out_dir, options: BatchOptions, force: bool = False) -
 # running
 
 
-def run_job(job: Job, options: BatchOptions) -> Outcome:
-    """Identify one specimen with its uncertainty assessment, as ``laminid identify SPEC -o
-    OUT`` does; runs in a worker.
+#: longest failure reason a pool worker sends back (its whole message must stay below the
+#: pipe's atomic write size, see :func:`run_job`)
+MAX_REASON_CHARS = 1500
 
-    Returns the result file as bytes, with the root attributes ``batch_input_sha256``,
-    ``batch_name`` and ``batch_options`` (JSON) added. A specimen's own fault (unreadable or
-    invalid file, infeasible start, no convergence, solver failure) is an Outcome with status
-    "error" or "not converged" and its reason, never an exception; an unexpected exception
-    is reported the same way (with its type) so that the other specimens go on.
+
+def run_job(job: Job, options: BatchOptions, write: bool = False) -> Outcome:
+    """Identify one specimen with its uncertainty assessment, as ``laminid identify SPEC -o
+    OUT`` does (laminid_cli.pipeline); runs in a worker.
+
+    The result file gets the root attributes ``batch_input_sha256``, ``batch_name`` and
+    ``batch_options`` (JSON). ``write=False``: it is returned as bytes (Outcome.data) for the
+    client to write (a Dask worker may not see the output folder; an in-process run must not
+    write a run that Ctrl-C interrupted). ``write=True`` (pool workers): the worker writes it
+    at ``job.output`` itself, atomically, and returns a small Outcome: a few hundred bytes
+    travel through the pool's pipe, written in one piece (POSIX pipes write up to 4096 bytes
+    at once), so a worker stopped by Ctrl-C can never leave half a message there (the pool's
+    reader thread would then wait for the rest forever, and the batch would hang at exit).
+
+    A specimen's own fault (unreadable or invalid file, infeasible start, no convergence,
+    solver failure) is an Outcome with status "error" or "check" and its reason, never an
+    exception; an unexpected exception is reported the same way (with its type) so that the
+    other specimens go on.
     """
     t0 = time.perf_counter()
+
+    def failure(reason: str) -> Outcome:
+        if write and len(reason) > MAX_REASON_CHARS:
+            reason = reason[:MAX_REASON_CHARS - 1] + "\u2026"
+        return Outcome(job.name, "error", reason, None, time.perf_counter() - t0)
+
     try:
         str(job.spec).encode("utf-8")
     except UnicodeEncodeError:
-        return Outcome(job.name, "error", "the file name is not valid UTF-8 text; rename the "
-                       "file", None, 0.0)
+        return failure("the file name is not valid UTF-8 text; rename the file")
     try:
-        import h5py
+        from laminid_cli.pipeline import run_identification, write_result
 
-        from laminid_cli.damping import damping_of, split_fix
-        from laminid_cli.fe.mesh import parse_mesh
-        from laminid_cli.forward import build_forward_model
-        from laminid_cli.results import (identification_summary, status_of,
-                                         uncertainty_summary, write_identification_file)
-        from laminid_cli.specimen import read_specimen
-        from laminid_cli.uncertainty import assess
-
-        specimen = read_specimen(job.spec)
-        fm = build_forward_model(specimen, parse_mesh(options.mesh))
-        assessment = assess(fm, options.identify_options(), options.uncertainty_options())
-        result = assessment.result
-        summary = identification_summary(result)
-        summary["mesh"] = {"nx": fm.mesh_size[0], "ny": fm.mesh_size[1]}
-        summary["uncertainty"] = uncertainty_summary(assessment)
-        damping = damping_of(fm, assessment, fix=split_fix(options.fix)[1])
-        with tempfile.TemporaryDirectory(prefix="laminid-batch-") as tmp:
-            _current_tmp.append(tmp)
+        run = run_identification([job.spec], options, loss_fix_needs_damping=False)
+        attrs = {HASH_ATTR: job.key, "batch_name": job.name,
+                 "batch_options": json.dumps(options.as_dict(), sort_keys=True)}
+        if write:
+            out = Path(job.output)
+            out.parent.mkdir(parents=True, exist_ok=True)
+            part = temporary_name(out)
+            _current_tmp.append(part)
             try:
-                path = Path(tmp) / Path(job.output).name
-                write_identification_file(path, fm, result, summary, command="laminid batch",
-                                          assessment=assessment, damping=damping)
-                with h5py.File(path, "r+") as f:
-                    f.attrs[HASH_ATTR] = job.key
-                    f.attrs["batch_name"] = job.name
-                    f.attrs["batch_options"] = json.dumps(options.as_dict(), sort_keys=True)
-                data = path.read_bytes()
+                write_result(out, run, command="laminid batch", attrs=attrs)
             finally:
-                _current_tmp.remove(tmp)
-        st = status_of(result, assessment)
-        return Outcome(job.name, st.status, ", ".join(st.codes), data,
+                _current_tmp.remove(part)
+            data = None
+        else:
+            with tempfile.TemporaryDirectory(prefix="laminid-batch-") as tmp:
+                _current_tmp.append(Path(tmp))
+                try:
+                    path = write_result(Path(tmp) / Path(job.output).name, run,
+                                        command="laminid batch", attrs=attrs)
+                    data = path.read_bytes()
+                finally:
+                    _current_tmp.remove(Path(tmp))
+        return Outcome(job.name, run.status.status, ", ".join(run.status.codes), data,
                        time.perf_counter() - t0)
     except LaminidError as exc:
-        return Outcome(job.name, "error", str(exc), None, time.perf_counter() - t0)
+        return failure(str(exc))
     except Exception as exc:  # noqa: BLE001 - one specimen's crash must not stop the batch
         log.debug("%s: %s", job.spec, traceback.format_exc())
-        return Outcome(job.name, "error", f"internal error {type(exc).__name__}: {exc}", None,
-                       time.perf_counter() - t0)
-
-
-def write_result_bytes(path, data: bytes) -> Path:
-    """Write a result file atomically (laminid_cli.atomic), creating its folder."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    return write_bytes_atomic(path, data)
+        return failure(f"internal error {type(exc).__name__}: {exc}")
 
 
 def remove_stale_parts(out_dir) -> int:
@@ -373,21 +342,45 @@ def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None
                                initializer=_worker_init, initargs=(os.getpid(),))
     complete = False
     try:
-        futures = {pool.submit(run_job, job, options): job for job in jobs}
+        with _sigint_blocked():      # the pool starts its worker processes in submit
+            futures = {pool.submit(run_job, job, options, True): job for job in jobs}
         for fut in as_completed(futures):
             yield futures[fut], _outcome_of(fut, futures[fut])
         complete = True
     finally:
         if not complete:
             # Ctrl-C or an error in the consumer: the workers would finish the jobs already
-            # queued to them; stop them now (their partial work is in their own temp folders)
+            # queued to them; stop them now (a worker removes its partial file on SIGTERM)
             for proc in list(getattr(pool, "_processes", {}).values()):
                 with contextlib.suppress(Exception):
                     proc.terminate()
         pool.shutdown(wait=complete, cancel_futures=True)
 
 
-#: temporary folder of the job running in this (worker) process, removed on SIGTERM
+@contextlib.contextmanager
+def _sigint_blocked():
+    """Block SIGINT in this thread while worker processes are started.
+
+    A process started meanwhile (the forkserver, a pool worker; fork and exec keep the signal
+    mask) cannot be killed by a Ctrl-C before its initializer ignores it: a worker dying in
+    its start-up breaks the whole pool. A Ctrl-C meant for this process stays pending and is
+    delivered (KeyboardInterrupt) when the block is lifted. No-op outside the main thread and
+    where there is no pthread_sigmask (Windows)."""
+    import signal
+    import threading
+
+    if not hasattr(signal, "pthread_sigmask") or \
+            threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+#: temporary folder or file of the job running in this (worker) process, removed on SIGTERM
 _current_tmp: list = []
 
 
@@ -401,10 +394,16 @@ def _worker_signals() -> None:
         import shutil
 
         for tmp in _current_tmp:
-            shutil.rmtree(tmp, ignore_errors=True)
+            if Path(tmp).is_dir():
+                shutil.rmtree(tmp, ignore_errors=True)
+            else:
+                with contextlib.suppress(OSError):
+                    os.unlink(tmp)
         os._exit(143)
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "pthread_sigmask"):      # started with it blocked (_sigint_blocked)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     signal.signal(signal.SIGTERM, terminate)
     _stop_with_parent(terminate)
 
@@ -434,19 +433,10 @@ def _stop_with_parent(terminate, client_pid: int | None = None) -> None:
     except (OSError, AttributeError, TypeError):
         pass
 
-    def alive(pid) -> bool:
-        try:
-            os.kill(pid, 0)
-        except ProcessLookupError:
-            return False
-        except PermissionError:
-            return True
-        return True
-
     def watch():
         while True:
             time.sleep(PARENT_POLL_S)
-            if os.getppid() != parent or (client is not None and not alive(client)):
+            if os.getppid() != parent or (client is not None and not process_alive(client)):
                 terminate()
 
     threading.Thread(target=watch, name="laminid-parent-watch", daemon=True).start()
@@ -568,8 +558,10 @@ def _run_dask(jobs, options, n_jobs, scheduler):
 # summary
 
 
-def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False) -> dict:
-    """One summary row (SI units), with the numbers read back from the job's result file.
+def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False, *,
+               options: BatchOptions) -> dict:
+    """One summary row (SI units), with the numbers read back from the job's result file
+    (:func:`laminid_cli.resultfile.read_result`, one read).
 
     Keys: name, specimen (its name field), path, status ("ok" | "check" | "error" | "not run"),
     reasons ([{code, text}], laminid_cli.status), reason (one line: the error, or the codes),
@@ -577,6 +569,9 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False) -
     ({material: {constant: {lower, upper, verdict, at_bound, flagged}}} for the free
     constants; fixed ones {verdict: "fixed"}), rms_residual_percent, evaluations, time_s, result,
     damping ({material: {eta11: {value, lower, upper, verdict}}}, empty without measured damping).
+    ``options``: the batch's; a constant is flagged (not determined) when its relative
+    half-width is not within ``uncertainty.max_rel_interval`` (as laminid_cli.uncertainty flags
+    it: the file was made with these options, its hash says so).
     """
     row = {"name": job.name, "specimen": "", "path": str(job.spec), "status": "not run",
            "reasons": [], "reason": "", "converged": None, "optimizer_status": "",
@@ -587,20 +582,41 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False) -
         return row
     if outcome is None and not cached:
         return row
-    from laminid_cli.resultfile import ResultFileError, read_result
-
     try:
-        import h5py
-
         res = read_result(job.output)
-        with h5py.File(job.output, "r") as f:
-            _read_row(f, row)
-    except (ResultFileError, OSError, KeyError) as exc:
+    except (ResultFileError, OSError, KeyError, ValueError) as exc:
         row.update(status="error", reason=f"result file {job.output} unreadable ({exc})")
         return row
-    if res.damping is not None:
-        row["damping"] = damping_of_file(res.damping)
+    row.update(_row_of_result(res, options.uncertainty.max_rel_interval))
     row["result"] = str(job.output)
+    return row
+
+
+def _row_of_result(res, max_rel_interval: float) -> dict:
+    """The summary-row fields of a :class:`laminid_cli.resultfile.ResultFile` (schema 1 or 2;
+    version 1 recorded no status: "ok" when converged, else "check")."""
+    row: dict = {"converged": res.converged, "optimizer_status": res.optimizer_status}
+    if res.status is not None:
+        row["status"] = res.status.status
+        row["reasons"] = [{"code": r.code, "text": r.text} for r in res.status.reasons]
+    else:
+        row["status"] = "ok" if res.converged else "check"
+        row["reasons"] = [] if res.converged else [
+            {"code": "not_converged", "text": f"the optimiser did not converge "
+                                              f"({res.optimizer_status})"}]
+    row["reason"] = ", ".join(r["code"] for r in row["reasons"])
+    row["specimen"] = res.plates[0].name
+    row["evaluations"] = res.evaluations
+    row["time_s"] = res.time_s
+    row["rms_residual_percent"] = res.rms_residual_percent
+    row["materials"] = {m: {k: c[k] for k in CONSTANTS} for m, c in res.materials.items()}
+    intervals: dict = {m: {k: {"verdict": "fixed"} for k in CONSTANTS} for m in res.materials}
+    for iv in res.uncertainty.intervals if res.uncertainty is not None else ():
+        intervals.setdefault(iv.material, {})[iv.constant] = {
+            "lower": iv.lower, "upper": iv.upper, "verdict": iv.verdict,
+            "at_bound": iv.at_bound, "flagged": not iv.rel_half_width <= max_rel_interval}
+    row["intervals"] = intervals
+    row["damping"] = damping_of_file(res.damping) if res.damping is not None else {}
     return row
 
 
@@ -636,43 +652,6 @@ def damping_long_rows(row) -> list[dict]:
                         "upper": v["upper"], "verdict": v["verdict"], "unit": "1",
                         "status": row["status"]})
     return out
-
-
-def _read_row(f, row: dict) -> None:
-    """Fill a summary row from an open result file (schema version 1 or 2)."""
-    converged = bool(f.attrs["converged"])
-    row["converged"] = converged
-    row["optimizer_status"] = _str(f.attrs.get("optimizer_status", f.attrs.get("status", "")))
-    if "status" in f and "codes" in f["status"]:                    # schema version 2
-        codes = [_str(c) for c in f["status"]["codes"][()]]
-        texts = [_str(t) for t in f["status"]["texts"][()]]
-        row["status"] = _str(f.attrs["status"])
-        row["reasons"] = [{"code": c, "text": t} for c, t in zip(codes, texts)]
-    else:                                                           # version 1: no status
-        row["status"] = "ok" if converged else "check"
-        row["reasons"] = [] if converged else [
-            {"code": "not_converged", "text": f"the optimiser did not converge "
-                                              f"({row['optimizer_status']})"}]
-    row["reason"] = ", ".join(r["code"] for r in row["reasons"])
-    row["specimen"] = _str(f["specimen"].attrs["name"])
-    row["evaluations"] = int(f.attrs["evaluations"])
-    row["time_s"] = float(f.attrs["time_s"])
-    row["rms_residual_percent"] = float(f["frequencies"].attrs["rms_residual_percent"])
-    for g in f["materials"].values():
-        name = _str(g.attrs["name"])
-        row["materials"][name] = {k: float(g[k][()]) for k in CONSTANTS}
-        row["intervals"][name] = {k: {"verdict": "fixed"} for k in CONSTANTS}
-    if "uncertainty" in f:
-        u = f["uncertainty"]
-        flagged = set(_str(u.attrs.get("flagged", "")).split(","))
-        n = len(u["labels"])
-        at_bound = u["at_bound"][()] if "at_bound" in u else [False] * n
-        for k, lab in enumerate(_str(x) for x in u["labels"][()]):
-            mat, const = lab.rsplit(".", 1)
-            row["intervals"].setdefault(mat, {})[const] = {
-                "lower": float(u["lower"][k]), "upper": float(u["upper"][k]),
-                "verdict": _str(u["verdict"][k]), "at_bound": bool(at_bound[k]),
-                "flagged": lab in flagged}
 
 
 def _str(v) -> str:

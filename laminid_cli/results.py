@@ -320,14 +320,18 @@ def identification_summary(r) -> dict:
 
 
 def write_identification_file(path, fm, r, summary: dict, command: str = "laminid identify",
-                              assessment=None, damping=None) -> None:
+                              assessment=None, damping=None, status=None,
+                              attrs: dict | None = None) -> None:
     """Write an identification result (format "laminid-result", layout in the module docstring
     plus /history, /sensitivities and the initial constants; /uncertainty when ``assessment``,
     a :class:`laminid_cli.uncertainty.Assessment`, is given; /damping when ``damping``, a
-    :class:`laminid_cli.damping.DampingFit`, is given)."""
+    :class:`laminid_cli.damping.DampingFit`, is given). ``status``: the ResultStatus when the
+    caller has it already (else :func:`status_of`); ``attrs``: extra root attributes."""
     with atomic_h5(path, "laminid-result", command=command) as f:
         _write_identification(f, fm, r, summary)
-        write_status(f, status_of(r, assessment))
+        write_status(f, status if status is not None else status_of(r, assessment))
+        for key, value in (attrs or {}).items():
+            f.attrs[key] = value
         if assessment is not None:
             write_uncertainty(f, assessment, [fm.specimen.name])
         if damping is not None:
@@ -510,8 +514,10 @@ def joint_identification_summary(r) -> dict:
 
 
 def write_joint_identification_file(path, fms, r, summary: dict, assessment=None,
-                                    command: str = "laminid identify --joint") -> None:
-    """Write a joint identification (format "laminid-joint-result", module docstring)."""
+                                    command: str = "laminid identify --joint", status=None,
+                                    attrs: dict | None = None) -> None:
+    """Write a joint identification (format "laminid-joint-result", module docstring);
+    ``status`` and ``attrs`` as in :func:`write_identification_file`."""
     import h5py
 
     from laminid_cli.joint import unique_names
@@ -519,7 +525,9 @@ def write_joint_identification_file(path, fms, r, summary: dict, assessment=None
     names = unique_names([p.specimen.name for p in r.specimens])
     with atomic_h5(path, "laminid-joint-result", command=command) as f:
         write_run_attrs(f, r)
-        write_status(f, status_of(r, assessment))
+        write_status(f, status if status is not None else status_of(r, assessment))
+        for key, value in (attrs or {}).items():
+            f.attrs[key] = value
         f.attrs["specimens"] = ",".join(names)
         f.attrs["rms_residual_percent"] = float(r.rms_residual_percent)
         write_materials(f, r.material_names, r.constants, {})

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 from pathlib import Path
@@ -177,3 +178,46 @@ uncertainty_options = _apply([
     click.option("--seed", type=int, default=0, show_default=True,
                   help="Random seed of the Monte Carlo perturbations."),
 ])
+
+#: the parameters of :data:`fit_options` and :data:`uncertainty_options`
+FIT_PARAMS = ("mesh", "fix", "optimizer", "parametrization", "xtol", "ftol", "max_evaluations",
+              "pairing", "solver")
+UNCERTAINTY_PARAMS = ("sigma_rel", "covariance_scale", "max_rel_interval", "fix_undetermined",
+                      "monte_carlo", "seed")
+
+
+def run_options_of(params: dict, monte_carlo_jobs: int | None = 1):
+    """The :class:`laminid_cli.pipeline.RunOptions` of the :data:`fit_options` and
+    :data:`uncertainty_options` parameters, which are taken out of ``params``;
+    ``monte_carlo_jobs``: processes of the Monte Carlo trials (None: the number of cores)."""
+    from laminid_cli.identify import IdentifyOptions
+    from laminid_cli.pipeline import RunOptions
+    from laminid_cli.uncertainty import UncertaintyOptions
+
+    p = {k: params.pop(k) for k in FIT_PARAMS + UNCERTAINTY_PARAMS}
+    return RunOptions.with_fix(
+        p["fix"], mesh=p["mesh"],
+        identify=IdentifyOptions(optimizer=p["optimizer"], parametrization=p["parametrization"],
+                                 xtol_rel=p["xtol"], ftol_rel=p["ftol"],
+                                 max_evaluations=p["max_evaluations"], pairing=p["pairing"],
+                                 solver=p["solver"]),
+        uncertainty=UncertaintyOptions(sigma_rel=p["sigma_rel"], scaling=p["covariance_scale"],
+                                       max_rel_interval=p["max_rel_interval"],
+                                       fix_undetermined=p["fix_undetermined"],
+                                       monte_carlo=p["monte_carlo"], jobs=monte_carlo_jobs,
+                                       seed=p["seed"]))
+
+
+def pass_run_options(monte_carlo_jobs: str | None = None):
+    """Decorator (put it right above the command function): the command receives one argument
+    ``options`` (:class:`laminid_cli.pipeline.RunOptions`) in place of the parameters of
+    :data:`fit_options` and :data:`uncertainty_options`. ``monte_carlo_jobs`` names the
+    command's own parameter that gives the Monte Carlo processes (it is passed on as well);
+    without it the trials run in one process."""
+    def decorate(f):
+        @functools.wraps(f)
+        def command(*args, **params):
+            jobs = params.get(monte_carlo_jobs) if monte_carlo_jobs else 1
+            return f(*args, options=run_options_of(params, jobs), **params)
+        return command
+    return decorate

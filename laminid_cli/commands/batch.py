@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from laminid_cli.commands._common import (echo_json, fit_options, json_option,
-                                          uncertainty_options)
+                                          pass_run_options, uncertainty_options)
 
 
 @click.command(short_help="Identify many specimens in parallel, with a summary table.")
@@ -25,9 +25,8 @@ from laminid_cli.commands._common import (echo_json, fit_options, json_option,
               help="summary.csv with one row per specimen (a column per constant) instead of "
                    "one row per specimen, material and constant.")
 @json_option
-def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrization, xtol,
-          ftol, max_evaluations, pairing, solver, sigma_rel, covariance_scale, max_rel_interval,
-          fix_undetermined, monte_carlo, seed, force, wide, as_json):
+@pass_run_options()
+def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
     """Identify every specimen in INPUTS (folders searched recursively for *.yaml/*.yml,
     or files) as 'laminid identify' does (same options, same uncertainty assessment),
     writing OUT/<folder>/<name>.result.h5 per specimen
@@ -52,33 +51,21 @@ def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrizat
     import sys
     from pathlib import Path
 
-    from laminid_cli.batch import (BatchError, BatchOptions, batch_report, check_scheduler,
+    from laminid_cli.atomic import write_bytes_atomic
+    from laminid_cli.batch import (BatchError, batch_report, check_scheduler,
                                    discover_specimens, failed, format_table, plan_batch,
-                                   printable, remove_stale_parts, result_row,
-                                   run_jobs, stored_hash, write_result_bytes, write_summary_csv,
-                                   write_summary_json, SUMMARY_CSV, SUMMARY_JSON)
-    from laminid_cli.fe.mesh import parse_mesh
+                                   printable, remove_stale_parts, result_row, run_jobs,
+                                   stored_hash, write_summary_csv, write_summary_json,
+                                   SUMMARY_CSV, SUMMARY_JSON)
 
-    from laminid_cli.uncertainty import check_sigma_rel
-
-    # bad --mesh, --sigma-rel: exit 2 at once (remote Dask workers check their own memory)
-    parse_mesh(mesh, copies=n_jobs if scheduler in (None, "local") else 1)
+    # bad --mesh, --sigma-rel...: exit 2 at once (remote Dask workers check their own memory);
+    # the options are those of identify, with the Monte Carlo trials in each specimen's worker
+    options.check(copies=n_jobs if scheduler in (None, "local") else 1)
     if scheduler is not None:
         check_scheduler(scheduler)
-    check_sigma_rel(sigma_rel)
-    if not max_rel_interval > 0:
-        raise BatchError(f"--max-rel-interval must be positive (0.3 = 30 %), got "
-                         f"{max_rel_interval:g}")
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise BatchError(f"--out {out}: exists and is not a folder")
-    options = BatchOptions(mesh=mesh, fix=tuple(x.strip() for x in fix.split(",") if x.strip()),
-                           optimizer=optimizer, parametrization=parametrization, xtol=xtol,
-                           ftol=ftol, max_evaluations=max_evaluations, pairing=pairing,
-                           solver=solver,
-                           sigma_rel=sigma_rel, covariance_scale=covariance_scale,
-                           max_rel_interval=max_rel_interval,
-                           fix_undetermined=fix_undetermined, monte_carlo=monte_carlo, seed=seed)
     specimens = discover_specimens(inputs, exclude=[out])
     if not specimens:
         raise BatchError(f"no specimen file (*.yaml, *.yml) found in {', '.join(inputs)}")
@@ -87,7 +74,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrizat
     remove_stale_parts(out)
     jobs = plan_batch(specimens, out, options, force=force)
     todo = [j for j in jobs if not j.up_to_date]
-    rows = {j.name: result_row(j, cached=True) for j in jobs if j.up_to_date}
+    rows = {j.name: result_row(j, cached=True, options=options) for j in jobs
+            if j.up_to_date}
     if not as_json:
         click.echo(f"{len(jobs)} specimens, {len(jobs) - len(todo)} up to date, {len(todo)} to "
                    f"identify" + (f" on {n_jobs} {'workers' if scheduler else 'processes'}"
@@ -99,12 +87,14 @@ def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrizat
     finished = 0
     refused = False
     try:
+        # no bar (not even its label) when every result is up to date
         with click.progressbar(length=len(todo), label="identifying", file=sys.stderr,
-                               item_show_func=show, show_pos=True) as bar:
+                               item_show_func=show, show_pos=True) if todo else \
+                contextlib.nullcontext() as bar:
             for job, outcome in run_jobs(todo, options, n_jobs=n_jobs, scheduler=scheduler):
                 if outcome.data is not None:
-                    write_result_bytes(job.output, outcome.data)
-                rows[job.name] = result_row(job, outcome)
+                    write_bytes_atomic(job.output, outcome.data, parents=True)
+                rows[job.name] = result_row(job, outcome, options=options)
                 finished += 1
                 bar.update(1, printable(f"{job.name}: {outcome.status}"))
     except BatchError:   # e.g. --scheduler unreachable: nothing ran, so nothing is written
@@ -117,8 +107,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, mesh, fix, optimizer, parametrizat
                     out.rmdir()
         else:
             # also on Ctrl-C: the summary lists what was done ('not run' for the rest)
-            ordered = [rows.get(j.name) or result_row(j, cached=stored_hash(j.output) == j.key)
-                       for j in jobs]
+            ordered = [rows.get(j.name) or result_row(
+                j, cached=stored_hash(j.output) == j.key, options=options) for j in jobs]
             report = batch_report(ordered, options, out)
             write_summary_csv(out / SUMMARY_CSV, ordered, wide=wide)
             write_summary_json(out / SUMMARY_JSON, report)

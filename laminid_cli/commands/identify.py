@@ -7,7 +7,8 @@ from pathlib import Path
 import click
 
 from laminid_cli.commands._common import (echo_json, fit_options, force_option, json_option,
-                                          result_output, uncertainty_options)
+                                          pass_run_options, result_output,
+                                          uncertainty_options)
 from laminid_cli.commands.text import (format_damping, format_identify_report,
                                        format_joint_report)
 
@@ -42,9 +43,8 @@ def default_joint_output(specs) -> Path:
                    "run].")
 @click.option("--no-output", is_flag=True, help="Do not write a result file.")
 @force_option
-def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evaluations, pairing,
-             solver, joint, sigma_rel, covariance_scale, max_rel_interval, fix_undetermined, monte_carlo,
-             seed, jobs, as_json, output, no_output, force):
+@pass_run_options(monte_carlo_jobs="jobs")
+def identify(specs, options, joint, jobs, as_json, output, no_output, force):
     """Identify E1, E2, G12, G13, G23 and nu12 of every ply material of the plate in SPEC by
     fitting the free-plate finite-element model to the measured frequencies (paper Eq. 17,
     weights from the file), with analytic sensitivities and constrained optimisation. With
@@ -80,41 +80,16 @@ def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalu
     import sys
 
     from laminid_cli.errors import FitInputError
-    from laminid_cli.fe.mesh import parse_mesh
-    from laminid_cli.forward import build_forward_model
-    from laminid_cli.identify import IdentifyOptions
-    from laminid_cli.results import (identification_summary, joint_identification_summary,
-                                     status_of, uncertainty_summary, write_identification_file,
-                                     write_joint_identification_file)
-    from laminid_cli.specimen import read_specimen
-    from laminid_cli.uncertainty import UncertaintyOptions, assess, check_sigma_rel
-
-    from laminid_cli.damping import check_loss_fix, damping_of, split_fix
+    from laminid_cli.pipeline import run_identification, write_result
 
     if len(specs) > 1 and not joint:
         raise FitInputError(f"{len(specs)} specimens given: add --joint to identify them "
                             "together (one set of constants per shared material)")
     if joint and len(specs) < 2:
         raise FitInputError("--joint needs two or more specimen files")
-    check_sigma_rel(sigma_rel)
-    if not max_rel_interval > 0:
-        raise FitInputError(f"--max-rel-interval must be positive (0.3 = 30 %), got "
-                            f"{max_rel_interval:g}")
+    options.check()
     default = default_joint_output(specs) if joint else default_output(specs[0])
     out, replacing = (None, False) if no_output else result_output(output, default, force)
-    specimens = [read_specimen(s) for s in specs]
-    fix_elastic, fix_loss = split_fix(fix.split(","))
-    options = IdentifyOptions(
-        fix=fix_elastic, optimizer=optimizer,
-        parametrization=parametrization, xtol_rel=xtol, ftol_rel=ftol,
-        max_evaluations=max_evaluations, pairing=pairing, solver=solver)
-    uopts = UncertaintyOptions(sigma_rel=sigma_rel, scaling=covariance_scale,
-                               max_rel_interval=max_rel_interval,
-                               fix_undetermined=fix_undetermined, monte_carlo=monte_carlo,
-                               jobs=jobs, seed=seed)
-    nxny = parse_mesh(mesh)
-    fms = [build_forward_model(sp, nxny) for sp in specimens]
-    check_loss_fix(fix_loss, fms, joint)
     show_progress = not as_json and sys.stderr.isatty()
 
     def progress(n, objective, rms):
@@ -135,45 +110,28 @@ def identify(specs, mesh, fix, optimizer, parametrization, xtol, ftol, max_evalu
         bar.update(1)
 
     try:
-        a = assess(fms if joint else fms[0], options, uopts, joint=joint, progress=progress,
-                   mc_progress=mc_progress)
+        run = run_identification(specs, options, progress=progress, mc_progress=mc_progress)
     finally:
         if bar is not None:
             bar.__exit__(None, None, None)
-    result = a.result
     if show_progress:
         click.echo("", err=True)
-    if joint:
-        summary = joint_identification_summary(result)
-    else:
-        summary = identification_summary(result)
-    summary["mesh"] = {"nx": fms[0].mesh_size[0], "ny": fms[0].mesh_size[1]}
-    summary["uncertainty"] = uncertainty_summary(a)
-    damping = None if joint else damping_of(fms[0], a, fix=fix_loss)
-    if joint and any(sp.measured is not None and sp.measured.damping is not None
-                     for sp in specimens):
-        click.echo("laminid: note: the measured damping is not used with --joint (identify "
-                   "each plate alone for its loss factors)", err=True)
-    if damping is not None:
-        summary["damping"] = damping.as_dict()
-    summary.update(status_of(result, a).as_dict())
+    for note in run.notes:
+        click.echo(f"laminid: note: {note}", err=True)
+    summary = dict(run.summary)
     if out is not None:
-        if joint:
-            write_joint_identification_file(out, fms, result, summary, assessment=a)
-        else:
-            write_identification_file(out, fms[0], result, summary, assessment=a,
-                                      damping=damping)
+        write_result(out, run)
         summary["output"] = str(out)
         summary["output_replaced"] = replacing
     if as_json:
         echo_json(summary)
     else:
         click.echo(format_joint_report(summary) if joint else format_identify_report(summary))
-        if damping is not None:
+        if "damping" in summary:
             click.echo("\n" + "\n".join(format_damping(summary["damping"])))
         if out is not None:
             click.echo(f"\nwritten: {out}" + (" (replaced the previous result of this "
                                               "specimen: a derived file)" if replacing else ""))
-    if not result.converged:
-        click.echo(f"laminid: identification did not converge: {result.status}", err=True)
+    if not run.converged:
+        click.echo(f"laminid: identification did not converge: {run.result.status}", err=True)
         sys.exit(1)

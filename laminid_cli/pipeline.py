@@ -1,0 +1,208 @@
+"""One identification, from specimen files to a result file: the pipeline of ``laminid
+identify`` and of every specimen of ``laminid batch``.
+
+    specimens -> forward models (mesh)
+      -> identify / identify_joint with the uncertainty assessment
+         (laminid_cli.uncertainty.assess: --fix-undetermined re-runs, Monte Carlo)
+      -> status (laminid_cli.status)
+      -> loss factors, for one plate with measured damping (laminid_cli.damping)
+      -> summary (plain data, SI: what ``identify --json`` prints)
+      -> result file, written atomically (laminid_cli.results)
+
+:func:`run_identification` does everything up to the summary and returns an
+:class:`IdentificationRun`; :func:`write_result` writes its file. Neither echoes nor exits:
+``identify`` prints the summary, ``batch`` sends the file's bytes to its client.
+
+The settings are one :class:`RunOptions`: the mesh, :class:`laminid_cli.identify.IdentifyOptions`,
+:class:`laminid_cli.uncertainty.UncertaintyOptions` and the loss factors held by ``--fix``
+(``batch`` uses them as they are: laminid_cli.batch.BatchOptions).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from laminid_cli.errors import FitInputError
+from laminid_cli.identify import IdentifyOptions
+from laminid_cli.uncertainty import UncertaintyOptions
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """Settings of one identification run.
+
+    mesh : "NXxNY" elements (laminid_cli.fe.mesh.parse_mesh)
+    identify : the optimisation (its ``fix`` holds the elastic constants fixed by ``--fix``)
+    uncertainty : intervals, --fix-undetermined, Monte Carlo
+    fix_loss : loss factors held by ``--fix``, e.g. ("carbon.eta13=0.01",)
+    """
+
+    mesh: str = "12x12"
+    identify: IdentifyOptions = IdentifyOptions()
+    uncertainty: UncertaintyOptions = UncertaintyOptions()
+    fix_loss: tuple[str, ...] = ()
+
+    @classmethod
+    def with_fix(cls, fix="", **kw) -> "RunOptions":
+        """Options whose ``--fix`` list (a comma-separated string or items, elastic constants
+        and loss factors mixed) is split between ``identify.fix`` and ``fix_loss``; ``kw`` as
+        the fields (``identify`` without its fix)."""
+        from laminid_cli.damping import split_fix
+
+        items = fix.split(",") if isinstance(fix, str) else list(fix)
+        elastic, loss = split_fix(items)
+        identify = kw.pop("identify", IdentifyOptions())
+        return cls(identify=dataclasses.replace(identify, fix=elastic), fix_loss=loss, **kw)
+
+    @property
+    def fix(self) -> tuple[str, ...]:
+        """All ``--fix`` items: the elastic constants, then the loss factors."""
+        return tuple(self.identify.fix) + tuple(self.fix_loss)
+
+    def check(self, copies: int = 1) -> tuple[int, int]:
+        """Refuse bad settings before any work (a one-line LaminidError, exit code 2): the mesh
+        (``copies`` models in memory at once, one per worker), the frequency sigma and the
+        interval threshold. Returns the mesh (nx, ny)."""
+        from laminid_cli.fe.mesh import parse_mesh
+        from laminid_cli.uncertainty import check_sigma_rel
+
+        nxny = parse_mesh(self.mesh, copies=copies)
+        u = self.uncertainty
+        check_sigma_rel(u.sigma_rel)
+        if not u.max_rel_interval > 0:
+            raise FitInputError(f"--max-rel-interval must be positive (0.3 = 30 %), got "
+                                f"{u.max_rel_interval:g}")
+        return nxny
+
+    def as_dict(self) -> dict:
+        """Every setting as JSON-safe plain data (lists for tuples): the batch's input hash and
+        summary. A field added to IdentifyOptions or UncertaintyOptions is in it at once."""
+        return json.loads(json.dumps({
+            "mesh": self.mesh, "fix": list(self.fix),
+            "identify": dataclasses.asdict(self.identify),
+            "uncertainty": dataclasses.asdict(self.uncertainty),
+            "fix_loss": list(self.fix_loss)}, default=str))
+
+
+@dataclass(frozen=True)
+class IdentificationRun:
+    """What :func:`run_identification` made.
+
+    forward_models : one per plate; assessment : laminid_cli.uncertainty.Assessment (its
+    ``result`` the final Identification or JointIdentification); status :
+    laminid_cli.status.ResultStatus; damping : laminid_cli.damping.DampingFit or None;
+    summary : plain data, SI (``identify --json``); notes : things the user should be told
+    (one line each, e.g. measured damping not used by a joint fit)
+    """
+
+    options: RunOptions
+    forward_models: tuple
+    assessment: object
+    status: object
+    damping: object | None
+    summary: dict = field(repr=False)
+    notes: tuple[str, ...] = ()
+
+    @property
+    def joint(self) -> bool:
+        return len(self.forward_models) > 1
+
+    @property
+    def result(self):
+        return self.assessment.result
+
+    @property
+    def converged(self) -> bool:
+        return bool(self.result.converged)
+
+
+def run_identification(specimens, options: RunOptions = RunOptions(), *, progress=None,
+                       mc_progress=None, loss_fix_needs_damping: bool = True
+                       ) -> IdentificationRun:
+    """Identify the plate of one specimen, or the plates of several jointly (one set of
+    constants per shared material), with the uncertainty assessment, the status and, for one
+    plate with measured damping, the loss factors.
+
+    Parameters
+    ----------
+    specimens : specimen files (or laminid_cli.specimen.Specimen objects); two or more make a
+        joint identification
+    options : RunOptions
+    progress : ``progress(n, objective, rms_percent)`` after each model evaluation;
+        mc_progress : ``mc_progress(done, total)`` after each Monte Carlo trial
+    loss_fix_needs_damping : a loss factor in ``options.fix_loss`` for a specimen without
+        measured damping is an error (``identify``); False ignores it there (``batch``, where
+        one --fix serves specimens with and without damping). Bad names or values are always
+        errors.
+
+    Raises
+    ------
+    LaminidError
+        Bad specimen, options or start (before the fit), solver failure. A run that does not
+        converge is not an error: ``converged`` is False and the status says so.
+    """
+    from laminid_cli.damping import check_loss_fix, damping_of, parse_loss_fix
+    from laminid_cli.forward import build_forward_model
+    from laminid_cli.results import (identification_summary, joint_identification_summary,
+                                     status_of, uncertainty_summary)
+    from laminid_cli.specimen import read_specimen
+    from laminid_cli.uncertainty import assess
+
+    specimens = list(specimens)
+    if not specimens:
+        raise FitInputError("no specimen to identify")
+    joint = len(specimens) > 1
+    nxny = options.check()
+    specimens = [read_specimen(s) if isinstance(s, (str, Path)) else s for s in specimens]
+    fms = tuple(build_forward_model(sp, nxny) for sp in specimens)
+    if options.fix_loss:
+        if loss_fix_needs_damping or joint:
+            check_loss_fix(options.fix_loss, fms, joint)
+        else:
+            parse_loss_fix(options.fix_loss, fms[0].material_names)
+    a = assess(list(fms) if joint else fms[0], options.identify, options.uncertainty,
+               joint=joint, progress=progress, mc_progress=mc_progress)
+    result = a.result
+    summary = joint_identification_summary(result) if joint else identification_summary(result)
+    summary["mesh"] = {"nx": fms[0].mesh_size[0], "ny": fms[0].mesh_size[1]}
+    summary["uncertainty"] = uncertainty_summary(a)
+    notes = []
+    damping = None
+    if not joint:
+        damping = damping_of(fms[0], a, fix=options.fix_loss)
+    elif any(sp.measured is not None and sp.measured.damping is not None for sp in specimens):
+        notes.append("the measured damping is not used with --joint (identify each plate "
+                     "alone for its loss factors)")
+    if damping is not None:
+        summary["damping"] = damping.as_dict()
+    status = status_of(result, a)
+    summary.update(status.as_dict())
+    return IdentificationRun(options=options, forward_models=fms, assessment=a, status=status,
+                             damping=damping, summary=summary, notes=tuple(notes))
+
+
+def write_result(path, run: IdentificationRun, *, command: str | None = None,
+                 attrs: dict | None = None) -> Path:
+    """Write the result file of a run (format "laminid-result", or "laminid-joint-result" for a
+    joint run; layout in laminid_cli.results), atomically: it appears at ``path`` complete or
+    not at all.
+
+    command : the root attribute ``command`` [default "laminid identify", "laminid identify
+    --joint"]; attrs : extra root attributes (batch: its input hash, name and options)
+    """
+    from laminid_cli.results import write_identification_file, write_joint_identification_file
+
+    path = Path(path)
+    if run.joint:
+        write_joint_identification_file(
+            path, list(run.forward_models), run.result, run.summary, assessment=run.assessment,
+            command=command or "laminid identify --joint", status=run.status, attrs=attrs)
+    else:
+        write_identification_file(
+            path, run.forward_models[0], run.result, run.summary,
+            command=command or "laminid identify", assessment=run.assessment,
+            damping=run.damping, status=run.status, attrs=attrs)
+    return path
