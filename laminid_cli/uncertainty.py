@@ -408,7 +408,10 @@ def bounds_reached(materials, nu_max: float = 0.95, bound_factor: float = 5.0
                 v0 = float(getattr(c0, k))
                 lo, hi = v0 / bound_factor, v0 * bound_factor
                 if k in ("E2", "G12", "G13", "G23") and v <= 2 * r * c.E1:
-                    hit = ("lower", r * c.E1, f"{k} <= {r:g} E1 ({_gpa(r * c.E1)})")
+                    # the limit on the alphas lies slightly above r * E1 in the constants: the
+                    # one-sided statement is the value where the search stopped, never below it
+                    lim = max(v, r * c.E1)
+                    hit = ("lower", lim, f"{k} <= {r:g} E1 ({_gpa(lim)} at the optimum)")
                 elif k == "E2" and v >= c.E1 * (1 - tol):
                     hit = ("upper", c.E1, f"E2 >= E1 ({_gpa(c.E1)})")
                 # the factor limits bind every modulus of the 'constants' parametrisation but
