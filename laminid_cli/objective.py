@@ -162,6 +162,10 @@ class HistoryRow(NamedTuple):
     rms_residual_percent: float
     x: np.ndarray                    # design variables
     constants: np.ndarray            # every material's six constants, CONSTANT_NAMES order
+    #: relative eigenvalue error bound of the evaluation against the full FE model: 0 for a
+    #: full-model evaluation, the enrichment's bound where the reduced basis was just enriched
+    #: (or checked) at this point, NaN for a reduced-model prediction whose error is unknown
+    error_bound: float = float("nan")
 
 
 def history_arrays(rows) -> dict:
@@ -203,6 +207,15 @@ class RunLog:
             return self.cache[1]
         return None
 
+    def bound_of(self, ev: Evaluation) -> float:
+        """The ``error_bound`` of a history row (see HistoryRow)."""
+        b = self.final_bound
+        if b is not None and b.key == ev.x.tobytes():
+            return float(b.worst)        # enriched or checked against the full matrices here
+        if all(p.ritz is None for p in (ev.parts or [ev])):
+            return 0.0                   # every plate solved with the full model
+        return float("nan")
+
     def record(self, ev: Evaluation, objective: "Objective") -> None:
         """Count ``ev`` (a new evaluation), make it the cache, the best when it is, and append
         its history rows."""
@@ -221,13 +234,14 @@ class RunLog:
                     log.info(msg)
         self.cache = (ev.x.tobytes(), ev)
         rms = objective.rms(ev.eigenvalues)
+        bound = self.bound_of(ev)
         self.history.append(HistoryRow(n, ev.objective, rms, ev.x.copy(),
-                                       _stacked(objective.constants(ev.x))))
+                                       _stacked(objective.constants(ev.x)), bound))
         if self.n_plates > 1:
             for k, (plate, part) in enumerate(zip(objective.plates, ev.parts)):
                 self.plate_history[k].append(HistoryRow(
                     n, part.objective, objective.plate_rms(k, part.eigenvalues), part.x.copy(),
-                    _stacked(plate.constants(part.x))))
+                    _stacked(plate.constants(part.x)), bound))
         else:
             self.plate_history[0] = self.history
         log.info("evaluation %d: objective %.6g, RMS residual %.4f %%", n, ev.objective, rms)

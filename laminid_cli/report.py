@@ -726,9 +726,18 @@ def history_page(r: ResultFile):
     ax_o.set_gid("objective")
     pts = "o-" if ev.size <= 200 else "-"             # points only while they stay apart
     ax_o.semilogy(ev, hist.objective, pts, ms=2.5, lw=1, color="C0", label="objective")
-    best = int(np.argmin(hist.objective))
+    # reduced solver: trial points are predictions of the reduced model (error bound NaN);
+    # only evaluations with a known error bound count as the lowest evaluated
+    bound = hist.error_bound if hist.error_bound is not None else np.zeros(ev.size)
+    known = np.isfinite(bound)
+    if not known.all():
+        ax_o.semilogy(ev[~known], hist.objective[~known], ".", ms=3, color="0.6", zorder=3,
+                      gid="predicted",
+                      label="reduced-model prediction (trial point, error not bounded)")
+    pool = np.flatnonzero(known) if known.any() else np.arange(ev.size)
+    best = int(pool[np.argmin(hist.objective[pool])])
     ax_o.semilogy(ev[best], hist.objective[best], "*", ms=11, color="C3",
-                  label=f"lowest evaluated {hist.objective[best]:.3g}")
+                  label=f"lowest checked evaluation {hist.objective[best]:.3g}")
     if np.isfinite(r.objective) and r.objective > 0:
         ax_o.semilogy(ev[-1], r.objective, "D", ms=7, mfc="w", color="k", zorder=5,
                       gid="result", label=f"result {r.objective:.3g}")

@@ -98,6 +98,9 @@ class History:
     rms_residual_percent: np.ndarray
     constants: np.ndarray      # (n_evaluations, n_materials*6), SI
     labels: tuple[str, ...]    # "material.constant" of the columns of ``constants``
+    #: relative eigenvalue error bound per evaluation (0: full model, NaN: a reduced-model
+    #: prediction); all zeros in files written before it was recorded (full-model runs)
+    error_bound: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -211,9 +214,10 @@ def _history(f) -> History | None:
     if "history" not in f:
         return None
     h = f["history"]
+    bound = np.asarray(h["error_bound"][()], float) if "error_bound" in h else None
     return History(np.asarray(h["evaluation"][()]), np.asarray(h["objective"][()], float),
                    np.asarray(h["rms_residual_percent"][()], float),
-                   np.asarray(h["constants"][()], float), _labels(h["constants"]))
+                   np.asarray(h["constants"][()], float), _labels(h["constants"]), bound)
 
 
 def parse_reference(text: str) -> tuple[dict, str]:

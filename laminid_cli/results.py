@@ -145,6 +145,17 @@ def put(group, name: str, value, units: str, *, compression: str | None = None, 
     return d
 
 
+def put_error_bound(h, history: dict) -> None:
+    """/history/error_bound: per evaluation, the relative eigenvalue error bound against the
+    full FE model (0: full model; NaN: a reduced-model prediction of unknown error)."""
+    if "error_bound" in history:
+        put(h, "error_bound", np.asarray(history["error_bound"], float), "1",
+            description="relative eigenvalue error bound of the evaluation against the full FE "
+            "model: 0 for a full-model evaluation, the bound where the reduced basis was "
+            "enriched at that point, NaN for a reduced-model prediction (trust-region trial "
+            "point) whose error is not known")
+
+
 def write_specimen(f, specimen) -> None:
     import h5py
 
@@ -372,6 +383,7 @@ def _write_identification(f, fm, r, summary: dict) -> None:
     h = f.create_group("history")
     for key, unit in (("evaluation", "1"), ("objective", "1"), ("rms_residual_percent", "%")):
         put(h, key, r.history[key], unit)
+    put_error_bound(h, r.history)
     put(h, "x", r.history["x"], "1", labels=",".join(r.variable_labels))
     labels = [f"{n}.{k}" for n in r.material_names for k in ("E1", "E2", "G12", "G13", "G23", "nu12")]
     put(h, "constants", r.history["constants"], "Pa (nu12: 1)", labels=",".join(labels))
@@ -536,6 +548,7 @@ def write_joint_identification_file(path, fms, r, summary: dict, assessment=None
         h = f.create_group("history")
         for key, unit in (("evaluation", "1"), ("objective", "1"), ("rms_residual_percent", "%")):
             put(h, key, r.history[key], unit)
+        put_error_bound(h, r.history)
         put(h, "x", r.history["x"], "1", labels=",".join(r.variable_labels))
         labels = [f"{n}.{k}" for n in r.material_names
                   for k in ("E1", "E2", "G12", "G13", "G23", "nu12")]

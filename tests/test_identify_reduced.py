@@ -336,6 +336,12 @@ def test_history_rows_are_typed_and_round_trip_to_the_result_file(tmp_path):
     # the last row is the full-model check at the optimum, which is the result
     assert h["objective"][-1] == r.objective
     assert set(history_arrays([row])) == set(HistoryRow._fields)
+    # error bound per row: 0 for the full solve at the start, NaN for the reduced model's
+    # predictions at trial points, the final check's bound (<= 1e-9) at the result
+    b = h["error_bound"]
+    assert b[0] == 0.0 and np.isnan(b).sum() >= 0.5 * b.size
+    assert 0 < b[-1] <= 1e-9
+    assert np.all((b[np.isfinite(b)] >= 0))
 
 
 def test_refused_joint_point_is_counted_once():
