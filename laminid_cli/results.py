@@ -22,7 +22,8 @@ Common layout::
 Identification results ("laminid-result") add: root attrs converged, optimizer_status (the
 nlopt outcome; ``status`` in schema version 1), objective, evaluations, time_s, optimizer; /materials/<name> attrs parametrization, free; /initial/<name>
 (the starting constants, same keys); /frequencies/model_mode (pairing) and attrs rms_residual_percent;
-/history (evaluation, objective, rms_residual_percent, x, constants per evaluation);
+/history (evaluation, objective, rms_residual_percent, x, constants, error_bound per evaluation;
+error_bound: 0 full model, NaN a reduced-model prediction, else the bound where enriched);
 /sensitivities (dlnf_dlnP: d ln f_i / d ln P_j, dlambda_dx); /swaps and /warnings (strings).
 
 Status (schema version 2; laminid_cli.status)::
