@@ -49,7 +49,8 @@ def interval_scale(scaling: str, dof: int, s2: float, confidence: float, counts:
 
 
 def verdict(rel: float, at_bound: bool) -> str:
-    """Verdict of one constant from its relative half-width (:data:`WELL_DETERMINED`, :data:`WEAK`)."""
+    """Verdict of one constant from its relative half-width (:data:`WELL_DETERMINED`,
+    :data:`WEAK`)."""
     if at_bound:
         return VERDICT_AT_BOUND
     if rel < WELL_DETERMINED:
