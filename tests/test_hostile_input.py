@@ -410,6 +410,32 @@ def test_hdf5_group_instead_of_dataset_is_refused(frf_files, tmp_path):
     assert code == 2 and "'/frf' is a group, expected a dataset" in out
 
 
+@pytest.mark.parametrize("name, factor, words", [
+    # a flipped bit in the float type's exponent bias made every line subnormal (fuzz, seed 13)
+    ("frequency", 1e-312, "Hz, outside 1e-06-1e+12 Hz: not a frequency axis in Hz"),
+    ("frequency", 1e15, "Hz, outside 1e-06-1e+12 Hz: not a frequency axis in Hz"),
+    ("frf", 1e-200, "the largest FRF magnitude is"),
+    ("frf", 1e200, "the largest FRF magnitude is"),
+    ("frf", 0.0, "every FRF value is zero: nothing to fit"),
+])
+def test_fit_of_an_axis_or_frf_values_no_test_can_give_is_refused(frf_files, tmp_path, name,
+                                                                 factor, words):
+    from laminid_cli.errors import FrfError
+    from laminid_cli.frf.rfp import measured_from_frf_file
+
+    def edit(f):
+        v = f[name][()] * factor
+        del f[name]
+        f[name] = v
+
+    path = h5_copy(frf_files, tmp_path, edit)
+    code, out = fit_error(path)
+    assert code == 2 and words in out, out
+    with pytest.raises(FrfError) as info:      # the file named first where the caller knows it
+        measured_from_frf_file(path)
+    assert str(info.value).startswith(f"{path}: ") and words in str(info.value)
+
+
 def test_fit_needing_more_memory_than_available_is_refused_with_the_estimate(monkeypatch,
                                                                           tmp_path):
     import numpy as np
