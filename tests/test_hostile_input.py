@@ -240,6 +240,18 @@ def test_unreachable_tcpip_analyser_is_an_instrument_error_naming_the_resource(t
     assert not (tmp_path / "x.h5").exists()
 
 
+@pytest.mark.parametrize("timeout", ["10000000000000000000000", "1e300", "4294968"])
+def test_timeout_longer_than_visa_can_wait_is_refused_before_connecting(tmp_path, timeout):
+    # found by make test-all's command-line fuzz (seeds 13 and 1013): pyvisa's ValueError
+    r = run("acquire", "--analyser", "TCPIP0::127.0.0.1::1::SOCKET", "--timeout", timeout,
+            "-o", tmp_path / "x.h5")
+    assert r.exit_code == 2, r.output
+    assert r.exception is None or isinstance(r.exception, SystemExit), repr(r.exception)
+    assert f"laminid: error: --timeout {float(timeout):g} s: must be above 0 and at most " \
+           "4294967 s" in r.output
+    assert not (tmp_path / "x.h5").exists()
+
+
 # ---------------------------------------------------------------------------------- numerics
 
 
