@@ -158,7 +158,9 @@ def read_frf_csv(path) -> FrfSet:
         raise FrfError(f"{path}: {n} columns; expected the frequency then a real and an "
                        "imaginary column per FRF (an odd number, at least 3)")
     freq = data[:, 0]
-    frf = (data[:, 1::2] + 1j * data[:, 2::2]).T
+    frf = np.empty((data.shape[0], (n - 1) // 2), dtype=complex)
+    frf.real, frf.imag = data[:, 1::2], data[:, 2::2]     # no inf * 1j = nan: inf stays inf
+    frf = frf.T
     labels = tuple(str(i + 1) for i in range(frf.shape[0]))
     if header and len(header) == n:
         labels = tuple(h.removesuffix("_re").removesuffix(".re").strip() or str(i + 1)
