@@ -63,8 +63,8 @@ import numpy as np
 
 from laminid_cli.errors import FitInputError
 from laminid_cli.material import ElasticConstants, c_basis, ply_stiffness
-from laminid_cli.uncertainty import (SCALINGS, VERDICT_NOT, VERDICT_WEAK, VERDICT_WELL, WEAK,
-                                     WELL_DETERMINED)
+from laminid_cli.intervals import (SCALINGS, VERDICT_AT_BOUND, VERDICT_FIXED,  # noqa: F401
+                                   interval_scale, verdict as verdict_of)
 
 #: stress-strain terms in material axes (module docstring)
 TERMS = ("11", "22", "12", "13", "23")
@@ -73,8 +73,6 @@ LOSS_NAMES = tuple(f"eta{k}" for k in TERMS)
 METHOD = "modal strain energy"
 #: relative standard deviation of a measured damping ratio where none is given (5 %)
 DEFAULT_DAMPING_SIGMA_REL = 0.05
-VERDICT_AT_BOUND = "at bound — not identified"
-VERDICT_FIXED = "fixed"
 #: a term whose largest energy share over the fitted modes is below this is called out
 SMALL_SHARE = 0.01
 
@@ -351,7 +349,7 @@ def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
     modal loss factors and standard deviations (NaN: mode not used); labels : (n_cols,)
     "material.etaXY"; fixed : {label: value} columns held.
     """
-    from laminid_cli.quantiles import chi2_ppf, norm_ppf, t_ppf
+    from laminid_cli.quantiles import chi2_ppf
     from scipy.optimize import lsq_linear
 
     if scaling not in SCALINGS:
@@ -408,17 +406,9 @@ def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
     chi2 = float(r @ r)
     dof = n - int(inner.sum())
     s2 = chi2 / dof if dof > 0 else float("nan")
-    z = norm_ppf(0.5 + confidence / 2)
-    used_scale, factor, q = "stated", 1.0, z
-    notes = []
-    if scaling in ("residuals", "larger"):
-        if dof <= 0:
-            notes.append(f"no degrees of freedom left ({n} modes for {p} loss factors): the "
-                         "a-posteriori variance cannot be estimated; stated sigma used")
-        else:
-            tq = t_ppf(0.5 + confidence / 2, dof)
-            if scaling == "residuals" or tq * math.sqrt(s2) > z:
-                used_scale, factor, q = "residuals", s2, tq
+    used_scale, factor, q, note = interval_scale(scaling, dof, s2, confidence,
+                                                 f"{n} modes for {p} loss factors")
+    notes = [note] if note else []
     if dof > 0 and chi2 > chi2_ppf(0.99, dof):
         notes.append(f"the strain-energy model misses the measured damping by more than its "
                      f"stated noise (chi2 {chi2:.3g} for {dof} degrees of freedom): damping "
@@ -429,16 +419,7 @@ def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
     upper = x + half
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.where(x > 0, half / x, np.inf)
-    verdict = []
-    for k in range(p):
-        if at_bound[k]:
-            verdict.append(VERDICT_AT_BOUND)
-        elif rel[k] < WELL_DETERMINED:
-            verdict.append(VERDICT_WELL)
-        elif rel[k] < WEAK:
-            verdict.append(VERDICT_WEAK)
-        else:
-            verdict.append(VERDICT_NOT)
+    verdict = [verdict_of(rel[k], at_bound[k]) for k in range(p)]
     free_labels = tuple(labels[j] for j in free)
     top = A_all[used].max(axis=0) if n else np.zeros(len(labels))
     small = [labels[j] for j in free if top[j] < SMALL_SHARE]

@@ -19,7 +19,6 @@ pyuff is imported inside the writer so importing this module stays cheap.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -89,6 +88,8 @@ def write_shapes_uff(path, shapes: PlateShapes, *, overwrite: bool = False) -> P
     """Write UFF 164 + 15 + 55 (see the module docstring); atomic, no silent overwrite."""
     import pyuff
 
+    from laminid_cli.frf.io import write_uff_sets
+
     path = Path(path)
     if path.exists() and not overwrite:
         raise OutputExistsError(f"{path}: file exists; use --force to overwrite it")
@@ -112,13 +113,4 @@ def write_shapes_uff(path, shapes: PlateShapes, *, overwrite: bool = False) -> P
             n_data_per_node=3, r1=zeros, r2=zeros, r3=shapes.w[:, k], load_case=1,
             mode_n=k + 1, freq=float(shapes.freq_hz[k]), modal_m=1.0, modal_damp_vis=0.0,
             modal_damp_his=0.0, node_nums=node_nums))
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        pyuff.UFF(str(tmp)).write_sets(sets, mode="add")
-        os.replace(tmp, path)
-    except Exception as exc:
-        raise ExportError(f"{path}: cannot write the Universal File ({exc})") from exc
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-    return path
+    return write_uff_sets(path, sets, ExportError)

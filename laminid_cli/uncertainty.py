@@ -93,6 +93,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from laminid_cli.errors import FitInputError
+# thresholds, scalings and verdicts shared with the damping fit (re-exported here)
+from laminid_cli.intervals import (SCALINGS, VERDICT_AT_BOUND, VERDICT_FIXED,  # noqa: F401
+                                   VERDICT_NOT, VERDICT_WEAK, VERDICT_WELL, WEAK, WELL_DETERMINED,
+                                   interval_scale, verdict as verdict_of)
 from laminid_cli.material import CONSTANT_NAMES
 from laminid_cli.parametrization import coefficients_and_jacobian
 
@@ -100,17 +104,6 @@ log = logging.getLogger(__name__)
 
 #: default relative standard deviation of a measured frequency (0.2 %)
 DEFAULT_SIGMA_REL = 0.002
-#: relative 95 % half-width below which a constant is "well determined"
-WELL_DETERMINED = 0.05
-#: relative 95 % half-width below which a constant is "weak" (above: not determined)
-WEAK = 0.30
-#: covariance scaling choices (module docstring)
-SCALINGS = ("stated", "residuals", "larger")
-VERDICT_WELL = "well determined"
-VERDICT_WEAK = "weak"
-VERDICT_NOT = "not determined by these modes — fix it or measure a thicker plate / more modes"
-VERDICT_FIXED = "fixed"
-VERDICT_AT_BOUND = "at bound — not identified"
 #: nu12 columns are scaled by max(|nu12|, NU_SCALE) for the condition number
 NU_SCALE = 0.1
 #: relative singular value below which a direction counts as not determined at all
@@ -442,7 +435,7 @@ def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
     nu_max, bound_factor : the search limits of the identification (IdentifyOptions), for the
         nu12 interval's clipping and :func:`bounds_reached`
     """
-    from laminid_cli.quantiles import chi2_ppf, norm_ppf, t_ppf
+    from laminid_cli.quantiles import chi2_ppf
 
     if scaling not in SCALINGS:
         raise FitInputError(f"covariance scaling '{scaling}' unknown: choose {', '.join(SCALINGS)}")
@@ -514,21 +507,14 @@ def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
     dof = int(n_rows - p_in)
     s2 = chi2 / dof if dof > 0 else float("nan")
     chi2_limit = chi2_ppf(0.99, dof) if dof > 0 else float("nan")
-    z = norm_ppf(0.5 + confidence / 2)
     notes = list(notes)
     if at_bound.any():
         notes.append("at a bound, not identified: " + ", ".join(
             lab for lab in labels if lab in hits) + "; the intervals of the other constants "
             "hold them there")
-    used, factor, q = "stated", 1.0, z
-    if scaling in ("residuals", "larger"):
-        if dof <= 0:
-            notes.append(f"no degrees of freedom left ({n_rows} data rows for {p_in} constants): "
-                         "the a-posteriori variance cannot be estimated; stated sigma used")
-        else:
-            tq = t_ppf(0.5 + confidence / 2, dof)
-            if scaling == "residuals" or tq * np.sqrt(s2) > z:
-                used, factor, q = "residuals", s2, tq
+    used, factor, q, note = interval_scale(scaling, dof, s2, confidence,
+                                           f"{n_rows} data rows for {p_in} constants")
+    notes += [note] if note else []
     if dof > 0 and chi2 > chi2_limit:
         notes.append(f"the fit misses the data by more than the stated frequency noise explains "
                      f"(chi2 {chi2:.3g} for {dof} degrees of freedom, 99 % limit "
@@ -575,14 +561,7 @@ def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
                                info_prior / (info_data + info_prior), 0.0)
     verdict, flagged = [], []
     for k, lab in enumerate(labels):
-        if at_bound[k]:
-            v_ = VERDICT_AT_BOUND
-        elif rel[k] < WELL_DETERMINED:
-            v_ = VERDICT_WELL
-        elif rel[k] < WEAK:
-            v_ = VERDICT_WEAK
-        else:
-            v_ = VERDICT_NOT
+        v_ = verdict_of(rel[k], at_bound[k])
         if prior_share[k] > 0.5 and not at_bound[k]:
             v_ += " (held by the prior)"
         verdict.append(v_)

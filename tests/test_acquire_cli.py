@@ -104,23 +104,27 @@ def test_keep_setup_records_the_analysers_own_settings(tmp_path, hp):
 
 
 # ------------------------------------------------------------------------------ faults
-@pytest.mark.parametrize("fault, message", [
-    (Fault("CALC1:DATA?", "silent", 2),
+@pytest.mark.parametrize("emu_cls, fault, message", [
+    (HP35670AEmulator, Fault("CALC1:DATA?", "silent", 2),
      "did not answer within 0.5 s (waiting for the answer to 'CALC1:DATA?'"),
-    (Fault("CALC1:DATA?", "truncate", 2), "truncated binary transfer"),
-    (Fault("CALC2:DATA?", "drop", 2), "analyser TCPIP::127.0.0.1::"),
+    (HP35670AEmulator, Fault("CALC1:DATA?", "truncate", 2), "truncated binary transfer"),
+    (HP35670AEmulator, Fault("CALC2:DATA?", "drop", 2), "analyser TCPIP::127.0.0.1::"),
+    (SR785Emulator, Fault("DSPB?", "truncate", 3), "expected 6408 bytes"),
+    (SR785Emulator, Fault("DSPS?", "silent", 2), "did not answer within 0.5 s"),
 ])
-def test_hp_faults_exit_1_and_keep_every_finished_point(tmp_path, fault, message):
+def test_faults_exit_1_and_keep_every_finished_point(tmp_path, emu_cls, fault, message):
     out = tmp_path / "f.h5"
-    with HP35670AEmulator(faults=[fault]) as emu:
+    with emu_cls(faults=[fault]) as emu:
         r = acquire(emu, out, "--no-prompt")
     assert r.exit_code == 1, r.output
     assert message in r.output
-    assert "1 point(s) saved in" in r.output and "--resume" in r.output
+    n_done = fault.measurement - 1
+    assert f"{n_done} point(s) saved in" in r.output and "--resume" in r.output
     s = read_frf_h5(out)
-    assert s.labels == ("1",) and s.meta["complete"] is False
+    assert s.n_points == n_done and s.meta["complete"] is False
+    assert s.labels == tuple(str(k + 1) for k in range(n_done))
     # and --resume against a healthy analyser finishes the file
-    with HP35670AEmulator() as emu:
+    with emu_cls() as emu:
         r = acquire(emu, out, "--no-prompt", "--resume")
     assert r.exit_code == 0, r.output
     assert read_frf_h5(out).labels == ("1", "2", "3")
@@ -200,21 +204,6 @@ def test_error_flagged_once_is_cured_by_one_more_read(tmp_path, emu_cls, command
     assert r.exit_code == 0, r.output
     assert reads == 4                         # 3 points + the one re-read of point 2
     assert read_frf_h5(out).labels == ("1", "2", "3")
-
-
-@pytest.mark.parametrize("fault, message", [
-    (Fault("DSPB?", "truncate", 3), "expected 6408 bytes"),
-    (Fault("DSPS?", "silent", 2), "did not answer within 0.5 s"),
-])
-def test_sr785_faults_exit_1_and_keep_every_finished_point(tmp_path, fault, message):
-    out = tmp_path / "s.h5"
-    with SR785Emulator(faults=[fault]) as emu:
-        r = acquire(emu, out, "--no-prompt")
-    assert r.exit_code == 1, r.output
-    assert message in r.output
-    n_done = fault.measurement - 1
-    assert f"{n_done} point(s) saved in" in r.output
-    assert read_frf_h5(out).n_points == n_done
 
 
 def test_ctrl_c_keeps_the_file_and_prints_the_resume_command(tmp_path, hp, monkeypatch):

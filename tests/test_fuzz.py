@@ -215,16 +215,6 @@ def fuzz_specimens(n_cases: int, tmp_path: Path, seed: int):
     return stats
 
 
-def test_fuzz_specimen_files(tmp_path):
-    stats = fuzz_specimens(int(500 * SCALE), tmp_path, SEED)
-    assert stats.codes[2] > 0.3 * stats.n     # the mutations do hit the validation
-
-
-@pytest.mark.slow
-def test_fuzz_specimen_files_long(tmp_path):
-    fuzz_specimens(int(2000 * max(SCALE, 1)), tmp_path, SEED + 1000)
-
-
 # ---------------------------------------------------------------------------------- FRF files
 
 
@@ -336,16 +326,6 @@ def fuzz_frf_files(n_cases: int, tmp_path: Path, seed: int):
     return stats
 
 
-def test_fuzz_frf_files(tmp_path):
-    stats = fuzz_frf_files(int(100 * SCALE), tmp_path, SEED)
-    assert stats.codes[2] > 0.2 * stats.n
-
-
-@pytest.mark.slow
-def test_fuzz_frf_files_long(tmp_path):
-    fuzz_frf_files(int(600 * max(SCALE, 1)), tmp_path, SEED + 1000)
-
-
 # ---------------------------------------------------------------------------------- command lines
 
 NUMBERS = ["nan", "inf", "-inf", "-1", "0", "1e-300", "1e300", "abc", "", "1,5", "０.５", "1e",
@@ -431,14 +411,29 @@ def fuzz_command_lines(n_cases: int, tmp_path: Path, seed: int):
     return stats
 
 
-def test_fuzz_command_lines(tmp_path):
-    stats = fuzz_command_lines(int(300 * SCALE), tmp_path, SEED)
-    assert stats.codes[2] > 0.5 * stats.n
+# ---------------------------------------------------------------------------------- the runs
+
+#: kind -> (fuzzer, cases of the default run, cases of the long run (slow), least share of the
+#: default run's cases refused with exit 2: the mutations do hit the validation)
+FUZZ_RUNS = {
+    "specimen_files": (fuzz_specimens, 500, 2000, 0.3),
+    "frf_files": (fuzz_frf_files, 100, 600, 0.2),
+    "command_lines": (fuzz_command_lines, 300, 1500, 0.5),
+}
+
+
+@pytest.mark.parametrize("kind", FUZZ_RUNS)
+def test_fuzz(tmp_path, kind):
+    fuzz, n_cases, _, refused = FUZZ_RUNS[kind]
+    stats = fuzz(int(n_cases * SCALE), tmp_path, SEED)
+    assert stats.codes[2] > refused * stats.n
 
 
 @pytest.mark.slow
-def test_fuzz_command_lines_long(tmp_path):
-    fuzz_command_lines(int(1500 * max(SCALE, 1)), tmp_path, SEED + 1000)
+@pytest.mark.parametrize("kind", FUZZ_RUNS)
+def test_fuzz_long(tmp_path, kind):
+    fuzz, _, n_cases, _ = FUZZ_RUNS[kind]
+    fuzz(int(n_cases * max(SCALE, 1)), tmp_path, SEED + 1000)
 
 
 # ---------------------------------------------------------------------------------- real processes

@@ -240,6 +240,18 @@ def test_unreachable_tcpip_analyser_is_an_instrument_error_naming_the_resource(t
     assert not (tmp_path / "x.h5").exists()
 
 
+@pytest.mark.parametrize("timeout", ["10000000000000000000000", "1e300", "4294968"])
+def test_timeout_longer_than_visa_can_wait_is_refused_before_connecting(tmp_path, timeout):
+    # found by make test-all's command-line fuzz (seeds 13 and 1013): pyvisa's ValueError
+    r = run("acquire", "--analyser", "TCPIP0::127.0.0.1::1::SOCKET", "--timeout", timeout,
+            "-o", tmp_path / "x.h5")
+    assert r.exit_code == 2, r.output
+    assert r.exception is None or isinstance(r.exception, SystemExit), repr(r.exception)
+    assert f"laminid: error: --timeout {float(timeout):g} s: must be above 0 and at most " \
+           "4294967 s" in r.output
+    assert not (tmp_path / "x.h5").exists()
+
+
 # ---------------------------------------------------------------------------------- numerics
 
 
@@ -408,6 +420,32 @@ def test_hdf5_group_instead_of_dataset_is_refused(frf_files, tmp_path):
 
     code, out = fit_error(h5_copy(frf_files, tmp_path, edit))
     assert code == 2 and "'/frf' is a group, expected a dataset" in out
+
+
+@pytest.mark.parametrize("name, factor, words", [
+    # a flipped bit in the float type's exponent bias made every line subnormal (fuzz, seed 13)
+    ("frequency", 1e-312, "Hz, outside 1e-06-1e+12 Hz: not a frequency axis in Hz"),
+    ("frequency", 1e15, "Hz, outside 1e-06-1e+12 Hz: not a frequency axis in Hz"),
+    ("frf", 1e-200, "the largest FRF magnitude is"),
+    ("frf", 1e200, "the largest FRF magnitude is"),
+    ("frf", 0.0, "every FRF value is zero: nothing to fit"),
+])
+def test_fit_of_an_axis_or_frf_values_no_test_can_give_is_refused(frf_files, tmp_path, name,
+                                                                 factor, words):
+    from laminid_cli.errors import FrfError
+    from laminid_cli.frf.rfp import measured_from_frf_file
+
+    def edit(f):
+        v = f[name][()] * factor
+        del f[name]
+        f[name] = v
+
+    path = h5_copy(frf_files, tmp_path, edit)
+    code, out = fit_error(path)
+    assert code == 2 and words in out, out
+    with pytest.raises(FrfError) as info:      # the file named first where the caller knows it
+        measured_from_frf_file(path)
+    assert str(info.value).startswith(f"{path}: ") and words in str(info.value)
 
 
 def test_fit_needing_more_memory_than_available_is_refused_with_the_estimate(monkeypatch,

@@ -6,24 +6,16 @@ import shutil
 import h5py
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
-from laminid_cli.cli import cli
 from laminid_cli.results import read_h5
+from tests.clihelp import identify_json, run
 
 S21 = "specimens/example2/S2.1.yaml"
 
 
-def run(*args):
-    return CliRunner().invoke(cli, list(args))
-
-
 @pytest.fixture(scope="module")
 def s21_result(tmp_path_factory):
-    out = tmp_path_factory.mktemp("id") / "s21.h5"
-    r = run("identify", S21, "--mesh", "8x8", "--json", "-o", str(out))
-    assert r.exit_code == 0, r.output
-    return json.loads(r.output), out
+    return identify_json(tmp_path_factory, S21, "8x8", "s21.h5")
 
 
 def test_json_has_the_documented_keys_in_si(s21_result):

@@ -5,25 +5,17 @@ import json
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 
-from laminid_cli.cli import cli
 from laminid_cli.results import read_h5
+from tests.clihelp import identify_json, run
 
 S1 = [f"specimens/example1/S1.{i}.yaml" for i in (1, 2, 3, 4)]
 MAT = "IM7/977-2"
 
 
-def run(*args):
-    return CliRunner().invoke(cli, list(args))
-
-
 @pytest.fixture(scope="module")
 def s11(tmp_path_factory):
-    out = tmp_path_factory.mktemp("unc") / "s11.h5"
-    r = run("identify", S1[0], "--mesh", "6x6", "--json", "-o", str(out))
-    assert r.exit_code == 0, r.output
-    return json.loads(r.output), out
+    return identify_json(tmp_path_factory, S1[0], "6x6", "s11.h5")
 
 
 def test_json_uncertainty_block_and_paper_verdicts(s11):

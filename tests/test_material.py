@@ -154,28 +154,20 @@ def test_rotation_by_180_degrees_changes_nothing():
 # ---------------------------------------------------------------------------- Appendix A
 
 
-def test_appendix_a_single_zero_degree_ply_returns_the_ply_constants():
-    g = global_properties(ply_stiffness(SKEWED, np.array([0.0])), np.array([2e-3]))
-    c = SKEWED
-    assert g.Ex == pytest.approx(c.E1, rel=1e-12)
-    assert g.Ey == pytest.approx(c.E2, rel=1e-12)
-    assert g.Gxy == pytest.approx(c.G12, rel=1e-12)
-    assert g.Gxz == pytest.approx(c.G13, rel=1e-12)
-    assert g.Gyz == pytest.approx(c.G23, rel=1e-12)
-    assert g.nu_xy == pytest.approx(c.nu12, rel=1e-12)
-    assert g.nu_yx == pytest.approx(c.nu12 * c.E2 / c.E1, rel=1e-12)
+_C = SKEWED
+_NU21 = _C.nu12 * _C.E2 / _C.E1
 
 
-def test_appendix_a_ninety_degree_ply_swaps_the_axes():
-    g = global_properties(ply_stiffness(SKEWED, np.array([np.pi / 2])), np.array([2e-3]))
-    c = SKEWED
-    assert g.Ex == pytest.approx(c.E2, rel=1e-12)
-    assert g.Ey == pytest.approx(c.E1, rel=1e-12)
-    assert g.Gxy == pytest.approx(c.G12, rel=1e-12)
-    assert g.Gxz == pytest.approx(c.G23, rel=1e-12)
-    assert g.Gyz == pytest.approx(c.G13, rel=1e-12)
-    assert g.nu_xy == pytest.approx(c.nu12 * c.E2 / c.E1, rel=1e-12)
-    assert g.nu_yx == pytest.approx(c.nu12, rel=1e-12)
+@pytest.mark.parametrize("angle, expected", [
+    (0.0, dict(Ex=_C.E1, Ey=_C.E2, Gxy=_C.G12, Gxz=_C.G13, Gyz=_C.G23, nu_xy=_C.nu12,
+               nu_yx=_NU21)),
+    (np.pi / 2, dict(Ex=_C.E2, Ey=_C.E1, Gxy=_C.G12, Gxz=_C.G23, Gyz=_C.G13, nu_xy=_NU21,
+                     nu_yx=_C.nu12)),
+], ids=["zero-degree-ply-returns-the-ply-constants", "ninety-degree-ply-swaps-the-axes"])
+def test_appendix_a_single_ply(angle, expected):
+    g = global_properties(ply_stiffness(SKEWED, np.array([angle])), np.array([2e-3]))
+    for name, value in expected.items():
+        assert getattr(g, name) == pytest.approx(value, rel=1e-12), name
 
 
 def test_appendix_a_does_not_depend_on_the_number_of_identical_plies():

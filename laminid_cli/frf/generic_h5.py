@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from laminid_cli.errors import FrfError
-from laminid_cli.frf.store import (FORMAT, FrfSet, probe_hdf5_file, read_frf_h5,
+from laminid_cli.frf.store import (FORMAT, FrfSet, probe_hdf5_file, read_frf_h5, read_hdf5,
                                    validate_frf_arrays)
 
 #: frequency units accepted in a ``units`` attribute -> factor to Hz
@@ -193,20 +193,9 @@ def _orient(values: np.ndarray, n_freq: int) -> np.ndarray:
 def read_generic_frf_h5(path, freq_dataset: str | None = None,
                         frf_dataset: str | None = None) -> FrfSet:
     """Read FRFs from a plain HDF5 file (see the module docstring). Raises :class:`FrfError`."""
-    from laminid_cli.h5open import open_h5
-
     path = Path(path)
-    f = open_h5(path, FrfError, "not a readable HDF5 file ({exc})")
-    try:
-        with f:
-            return _read_generic(f, path, freq_dataset, frf_dataset)
-    except FrfError:
-        raise
-    except (KeyError, OSError, RuntimeError, TypeError, ValueError, IndexError,
-            UnicodeDecodeError, AttributeError) as exc:
-        # h5py raises any of these for a damaged file (bit flips, truncation, dangling links)
-        raise FrfError(f"{path}: damaged or malformed HDF5 FRF file ({type(exc).__name__}: "
-                       f"{' '.join(str(exc).split())[:200]})") from exc
+    return read_hdf5(path, lambda f: _read_generic(f, path, freq_dataset, frf_dataset),
+                     "HDF5 FRF file")
 
 
 def _read_generic(f, path: Path, freq_dataset, frf_dataset) -> FrfSet:

@@ -24,12 +24,12 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
 from __future__ import annotations
 
 import csv
-import os
 from pathlib import Path
 
 import numpy as np
 
-from laminid_cli.errors import FrfError, OutputExistsError
+from laminid_cli.atomic import atomic_path
+from laminid_cli.errors import FrfError, LaminidError, OutputExistsError
 from laminid_cli.frf.store import (FrfSet, check_frf_arrays, check_frf_size, read_frf_h5,
                                    validate_frf_arrays, write_frf_h5)
 
@@ -98,11 +98,11 @@ def write_frf(path, fs: FrfSet, fmt: str | None = None, *, overwrite: bool = Fal
     return {"uff": write_frf_uff, "csv": write_frf_csv}[fmt](path, fs, overwrite=overwrite)
 
 
-def _atomic_target(path, overwrite: bool) -> tuple[Path, Path]:
+def _new_target(path, overwrite: bool) -> Path:
     path = Path(path)
     if path.exists() and not overwrite:
         raise OutputExistsError(f"{path}: file exists (not overwritten)")
-    return path, path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    return path
 
 
 # --------------------------------------------------------------------------- CSV
@@ -158,7 +158,9 @@ def read_frf_csv(path) -> FrfSet:
         raise FrfError(f"{path}: {n} columns; expected the frequency then a real and an "
                        "imaginary column per FRF (an odd number, at least 3)")
     freq = data[:, 0]
-    frf = (data[:, 1::2] + 1j * data[:, 2::2]).T
+    frf = np.empty((data.shape[0], (n - 1) // 2), dtype=complex)
+    frf.real, frf.imag = data[:, 1::2], data[:, 2::2]     # no inf * 1j = nan: inf stays inf
+    frf = frf.T
     labels = tuple(str(i + 1) for i in range(frf.shape[0]))
     if header and len(header) == n:
         labels = tuple(h.removesuffix("_re").removesuffix(".re").strip() or str(i + 1)
@@ -169,22 +171,17 @@ def read_frf_csv(path) -> FrfSet:
 
 def write_frf_csv(path, fs: FrfSet, *, overwrite: bool = False) -> Path:
     """Write ``freq_Hz, <label>_re, <label>_im, ...`` with full double precision."""
-    path, tmp = _atomic_target(path, overwrite)
+    path = _new_target(path, overwrite)
     labels = fs.labels or tuple(str(i + 1) for i in range(fs.n_points))
     data = np.empty((fs.freq.size, 1 + 2 * fs.n_points))
     data[:, 0] = fs.freq
     data[:, 1::2] = fs.frf.real.T
     data[:, 2::2] = fs.frf.imag.T
-    try:
-        with open(tmp, "w", newline="") as fh:
-            fh.write(f"# laminid FRF, units {fs.units}\n")
-            w = csv.writer(fh)
-            w.writerow(["freq_Hz"] + [f"{lab}_{part}" for lab in labels for part in ("re", "im")])
-            w.writerows([[repr(float(v)) for v in row] for row in data])
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
+        fh.write(f"# laminid FRF, units {fs.units}\n")
+        w = csv.writer(fh)
+        w.writerow(["freq_Hz"] + [f"{lab}_{part}" for lab in labels for part in ("re", "im")])
+        w.writerows([[repr(float(v)) for v in row] for row in data])
     return path
 
 
@@ -282,7 +279,7 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
     binary 58b (lossless doubles) with ``binary=True``."""
     import pyuff
 
-    path, tmp = _atomic_target(path, overwrite)
+    path = _new_target(path, overwrite)
     sets = []
     for k in range(fs.n_points):
         label = fs.labels[k] if k < len(fs.labels) else str(k + 1)
@@ -296,16 +293,22 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
             orddenom_spec_data_type=13, ordinate_axis_units_lab=fs.units,
             abscissa_axis_units_lab="Hz",
             data=np.asarray(fs.frf[k], dtype=complex), x=np.asarray(fs.freq, dtype=float)))
+    return write_uff_sets(path, sets)
+
+
+def write_uff_sets(path: Path, sets, error: type[LaminidError] = FrfError) -> Path:
+    """Write pyuff's dataset dicts ``sets`` to ``path`` atomically
+    (:func:`~laminid_cli.atomic.atomic_path`); a failure is ``error`` naming the file, the
+    target untouched. Shared by the FRF (UFF 58) and the mode-shape (UFF 15/55/164) writers."""
+    import pyuff
+
     try:
-        # "add" to the fresh temporary file: pyuff's "overwrite" truncates the header of a
-        # binary record when it reopens the file for the data (pyuff 2.4/2.5)
-        pyuff.UFF(str(tmp)).write_sets(sets, mode="add")
-        os.replace(tmp, path)
-    except FrfError:
+        with atomic_path(path) as tmp:
+            # "add" to the fresh temporary file: pyuff's "overwrite" truncates the header of a
+            # binary record when it reopens the file for the data (pyuff 2.4/2.5)
+            pyuff.UFF(str(tmp)).write_sets(sets, mode="add")
+    except LaminidError:
         raise
-    except Exception as exc:
-        raise FrfError(f"{path}: cannot write the Universal File ({exc})") from exc
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    except Exception as exc:     # pyuff's failures are not documented: any of them, named
+        raise error(f"{path}: cannot write the Universal File ({exc})") from exc
     return path

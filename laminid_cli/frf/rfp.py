@@ -59,6 +59,13 @@ log = logging.getLogger(__name__)
 MIN_BAND_LINES = 8
 #: a user band with more resonance peaks than this is fitted as overlapping sub-bands
 MAX_PEAKS_PER_BAND = 6
+#: range of the highest line of a frequency axis the fit accepts (Hz): far beyond any vibration
+#: test either way; outside it the axis is not in Hz (a damaged file's float type, wrong units)
+#: and the fit's scaling loses precision (subnormal numbers) or overflows
+FIT_TOP_FREQ_HZ = (1e-6, 1e12)
+#: range of the largest FRF magnitude the fit accepts (any units): outside it the squared
+#: magnitudes of the least-squares fit underflow or overflow
+FIT_FRF_MAGNITUDE = (1e-100, 1e100)
 
 
 # --------------------------------------------------------------------------- data classes
@@ -469,6 +476,16 @@ def _check_arrays(freq, frf):
     validate_frf_arrays(freq, frf)
     if frf.shape[0] == 0:
         raise FrfError("no FRFs to fit (0 measurement points)")
+    lo, hi = FIT_TOP_FREQ_HZ
+    if not lo <= freq[-1] <= hi:
+        raise FrfError(f"the frequency axis ends at {freq[-1]:g} Hz, outside {lo:g}-{hi:g} Hz: "
+                       "not a frequency axis in Hz (wrong units or a damaged file)")
+    peak = float(np.max(np.abs(frf)))
+    lo, hi = FIT_FRF_MAGNITUDE
+    if not lo <= peak <= hi:
+        raise FrfError(("every FRF value is zero" if peak == 0 else
+                        f"the largest FRF magnitude is {peak:g}, outside {lo:g}-{hi:g}")
+                       + ": nothing to fit (a damaged file?)")
     return freq, frf.astype(complex)
 
 
@@ -853,7 +870,7 @@ def check_fit_memory(freq, frf, sweeps, n_extra: int, available: float | None = 
 
 
 def find_modes(freq, frf, *, bands=None, n_modes: int | None = None,
-               criteria: PoleCriteria = PoleCriteria()) -> ModalFit:
+               criteria: PoleCriteria = PoleCriteria(), source: str = "") -> ModalFit:
     """Natural frequencies, damping and modal constants of all FRFs (global RFP + LSFD).
 
     Parameters
@@ -864,6 +881,7 @@ def find_modes(freq, frf, *, bands=None, n_modes: int | None = None,
         :data:`MAX_PEAKS_PER_BAND` peaks is fitted as overlapping sub-bands.
     n_modes : return only the ``n_modes`` lowest modes; :class:`FrfError` when fewer are found
     criteria : :class:`PoleCriteria`
+    source : the FRF file, named at the start of every :class:`FrfError` message
 
     Returns
     -------
@@ -877,6 +895,19 @@ def find_modes(freq, frf, *, bands=None, n_modes: int | None = None,
     terms); a mode whose peak contribution does not exceed ``min_snr`` times the local RMS
     residual is dropped (noise pole) and the band refitted.
     """
+    where = f"{source}: " if source else ""
+    try:
+        return _find_modes(freq, frf, bands, n_modes, criteria)
+    except FrfError as exc:
+        if not where or str(exc).startswith(where):
+            raise
+        raise FrfError(f"{where}{exc}") from exc
+    except np.linalg.LinAlgError as exc:   # data the preconditions let through, still degenerate
+        raise FrfError(f"{where}the RFP fit failed numerically ({exc}); the FRF data are "
+                       "degenerate (check the frequency axis and the FRF values)") from exc
+
+
+def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
     freq, frf = _check_arrays(freq, frf)
     if n_modes is not None and n_modes < 1:
         raise FrfError(f"--modes must be at least 1 (got {n_modes})")
@@ -1096,7 +1127,8 @@ def measured_from_frf_file(path, *, bands=None, n_modes: int | None = None,
     from laminid_cli.frf.io import read_frf
 
     fs = read_frf(path)
-    fit = find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes, criteria=criteria)
+    fit = find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes, criteria=criteria,
+                     source=str(path))
     sig = measurement_sigma(fit, fs.freq, exp_window_s=window_time_constant(fs))
     if with_damping_sigma:
         return fit.freq_hz, sig.sigma_hz, fit.damping_ratio, damping_sigma(fit)

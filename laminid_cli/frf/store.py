@@ -252,11 +252,26 @@ def read_frf_h5(path, probe: bool = True) -> FrfSet:
     With ``probe`` the file is first read in a child process (:func:`probe_hdf5_file`), so that
     a file that crashes or hangs libhdf5 is refused instead of killing this process.
     """
-    import h5py
-
     path = Path(path)
     if probe and path.is_file():
         probe_hdf5_file(path)
+    return read_hdf5(path, lambda f: _read_open_h5(f, path), "laminid FRF file")
+
+
+#: what h5py raises, besides OSError, for a damaged file (bit flips, truncation, dangling links)
+H5_DAMAGE_ERRORS = (KeyError, OSError, RuntimeError, TypeError, ValueError, IndexError,
+                    UnicodeDecodeError, AttributeError)
+
+
+def read_hdf5(path: Path, read, what: str):
+    """``read(f)`` of the HDF5 file ``path`` opened for reading, h5py's errors made FrfErrors.
+
+    A missing file, a file libhdf5 cannot open and a damaged one ("damaged or malformed
+    ``what``", with h5py's reason) are each a :class:`FrfError` naming the file; a FrfError
+    of ``read`` passes unchanged.
+    """
+    import h5py
+
     try:
         f = h5py.File(path, "r")
     except FileNotFoundError as exc:
@@ -265,13 +280,11 @@ def read_frf_h5(path, probe: bool = True) -> FrfSet:
         raise FrfError(f"{path}: not a readable HDF5 file ({_reason(exc)})") from exc
     try:
         with f:
-            return _read_open_h5(f, path)
+            return read(f)
     except FrfError:
         raise
-    except (KeyError, OSError, RuntimeError, TypeError, ValueError, IndexError,
-            UnicodeDecodeError, AttributeError) as exc:
-        # h5py raises any of these for a damaged file (bit flips, truncation)
-        raise FrfError(f"{path}: damaged or malformed laminid FRF file ({type(exc).__name__}: "
+    except H5_DAMAGE_ERRORS as exc:
+        raise FrfError(f"{path}: damaged or malformed {what} ({type(exc).__name__}: "
                        f"{_reason(exc)})") from exc
 
 

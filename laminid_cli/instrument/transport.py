@@ -16,6 +16,7 @@ pyvisa is imported inside :func:`open_transport` so importing this module stays 
 from __future__ import annotations
 
 import logging
+import math
 import os
 import re
 import socket
@@ -28,12 +29,22 @@ log = logging.getLogger(__name__)
 DEFAULT_BACKEND = "@py"
 BACKEND_ENV = "LAMINID_VISA_BACKEND"
 DEFAULT_TIMEOUT_S = 5.0
+#: longest timeout VISA can set (2^32 - 2 ms, about 49.7 days); the shortest it can is 1 ms
+MAX_TIMEOUT_S = 4294967.294
 
 
 class AnalyserSetupError(LaminidError):
     """Bad input for an analyser: resource string, model, span, lines... (exit 2)."""
 
     exit_code = 2
+
+
+def check_timeout(seconds: float) -> float:
+    """``seconds`` if VISA can wait that long, else :class:`AnalyserSetupError` naming --timeout."""
+    if not (math.isfinite(seconds) and 0 < seconds <= MAX_TIMEOUT_S):
+        raise AnalyserSetupError(f"--timeout {seconds:g} s: must be above 0 and at most "
+                                 f"{MAX_TIMEOUT_S:.0f} s (about 49.7 days, VISA's longest timeout)")
+    return seconds
 
 
 @runtime_checkable
@@ -121,6 +132,7 @@ class VisaTransport:
                  timeout: float = DEFAULT_TIMEOUT_S):
         import pyvisa
 
+        check_timeout(timeout)           # before anything is opened
         self._pyvisa = pyvisa
         self.resource = normalise_resource(resource)
         self.backend = backend or os.environ.get(BACKEND_ENV) or DEFAULT_BACKEND
@@ -173,7 +185,7 @@ class VisaTransport:
 
     @timeout.setter
     def timeout(self, seconds: float) -> None:
-        self._inst.timeout = max(1, int(round(seconds * 1000)))
+        self._inst.timeout = max(1, int(round(check_timeout(seconds) * 1000)))
 
     def _fail(self, exc: Exception, what: str) -> LaminidError:
         err = self._pyvisa.errors

@@ -112,15 +112,6 @@ def test_hp_answer_that_is_not_a_block_is_an_instrument_error():
         dsa.read_coherence()
 
 
-def test_hp_rejects_a_span_it_does_not_offer_before_sending_anything():
-    with expected_protocol(HP35670A, []) as dsa:
-        with pytest.raises(AnalyserSetupError, match=r"span of 1000 Hz; spans \(Hz\): 51200, "
-                                                     r"25600.*1600"):
-            dsa.configure(AcquisitionSettings(span_hz=1000.0))
-        with pytest.raises(AnalyserSetupError, match="3200 lines; lines: 100, 200, 400, 800$"):
-            dsa.configure(AcquisitionSettings(lines=3200))
-
-
 def test_hp_keep_setup_reads_the_settings_back():
     steps = [("FREQ:SPAN?", "+1.60000000000E+003"), ("FREQ:STAR?", "+0.0E+000"),
              ("FREQ:RES?", "+800"), ("AVER:COUN?", "+10")]
@@ -184,22 +175,25 @@ def test_sr785_short_dspb_transfer_is_an_instrument_error():
             dsa.read_coherence()
 
 
-def test_sr785_rejects_lines_it_does_not_offer():
-    with expected_protocol(SR785, []) as dsa:
-        with pytest.raises(AnalyserSetupError, match="1600 lines; lines: 100, 200, 400, 800"):
-            dsa.configure(AcquisitionSettings(lines=1600))
-
-
 def test_sr785_abort_pauses():
     with expected_protocol(SR785, [("PAUS", None)]) as dsa:
         dsa.abort()
 
 
-def test_window_longer_than_the_record_is_rejected():
-    with expected_protocol(SR785, []) as dsa:
-        with pytest.raises(AnalyserSetupError, match=r"exp window 2 s must be within the time "
-                                                     r"record \(0-0.5 s"):
-            dsa.configure(AcquisitionSettings(exp_window_s=2.0))
+# ------------------------------------------------------- settings refused before sending
+@pytest.mark.parametrize("driver, settings, message", [
+    (HP35670A, AcquisitionSettings(span_hz=1000.0),
+     r"span of 1000 Hz; spans \(Hz\): 51200, 25600.*1600"),
+    (HP35670A, AcquisitionSettings(lines=3200), "3200 lines; lines: 100, 200, 400, 800$"),
+    (SR785, AcquisitionSettings(lines=1600), "1600 lines; lines: 100, 200, 400, 800"),
+    (SR785, AcquisitionSettings(exp_window_s=2.0),
+     r"exp window 2 s must be within the time record \(0-0.5 s"),
+], ids=["hp-span", "hp-lines", "sr785-lines", "window-longer-than-the-record"])
+def test_settings_the_analyser_does_not_offer_are_refused_before_sending_anything(
+        driver, settings, message):
+    with expected_protocol(driver, []) as dsa:
+        with pytest.raises(AnalyserSetupError, match=message):
+            dsa.configure(settings)
 
 
 # ------------------------------------------- issue 15: errors flagged during a transfer

@@ -1,0 +1,60 @@
+"""Interval scale and verdicts shared by the stiffness and the damping fits.
+
+Both :func:`laminid_cli.uncertainty.linearized_uncertainty` (elastic constants) and
+:func:`laminid_cli.damping.fit_loss_factors` (ply loss factors) turn a least-squares covariance
+into intervals the same way:
+
+* the covariance ``scaling`` — "stated" (the stated noise), "residuals" (times the a-posteriori
+  variance s2 = chi2 / dof, Student t quantile) or "larger" (whichever gives the wider interval);
+  without degrees of freedom the stated noise is used and a note says so (:func:`interval_scale`);
+* the verdict of a constant from its relative half-width (:func:`verdict`).
+"""
+
+from __future__ import annotations
+
+import math
+
+#: relative 95 % half-width below which a constant is "well determined"
+WELL_DETERMINED = 0.05
+#: relative 95 % half-width below which a constant is "weak" (above: not determined)
+WEAK = 0.30
+#: covariance scaling choices (module docstring)
+SCALINGS = ("stated", "residuals", "larger")
+VERDICT_WELL = "well determined"
+VERDICT_WEAK = "weak"
+VERDICT_NOT = "not determined by these modes — fix it or measure a thicker plate / more modes"
+VERDICT_FIXED = "fixed"
+VERDICT_AT_BOUND = "at bound — not identified"
+
+
+def interval_scale(scaling: str, dof: int, s2: float, confidence: float, counts: str
+                   ) -> tuple[str, float, float, str | None]:
+    """(scale used, variance factor, quantile, note or None) of a fit's intervals.
+
+    scaling : one of :data:`SCALINGS`; dof, s2 : degrees of freedom and chi2 / dof of the fit;
+    confidence : two-sided level (0.95); counts : what the data and unknowns were, for the note
+    when no degree of freedom is left (e.g. "5 modes for 5 loss factors").
+    """
+    from laminid_cli.quantiles import norm_ppf, t_ppf
+
+    z = norm_ppf(0.5 + confidence / 2)
+    if scaling in ("residuals", "larger"):
+        if dof <= 0:
+            return "stated", 1.0, z, (f"no degrees of freedom left ({counts}): the a-posteriori "
+                                      "variance cannot be estimated; stated sigma used")
+        tq = t_ppf(0.5 + confidence / 2, dof)
+        if scaling == "residuals" or tq * math.sqrt(s2) > z:
+            return "residuals", s2, tq, None
+    return "stated", 1.0, z, None
+
+
+def verdict(rel: float, at_bound: bool) -> str:
+    """Verdict of one constant from its relative half-width (:data:`WELL_DETERMINED`,
+    :data:`WEAK`)."""
+    if at_bound:
+        return VERDICT_AT_BOUND
+    if rel < WELL_DETERMINED:
+        return VERDICT_WELL
+    if rel < WEAK:
+        return VERDICT_WEAK
+    return VERDICT_NOT                    # also a NaN half-width
