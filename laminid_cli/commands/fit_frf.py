@@ -94,7 +94,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
 
         read_specimen(spec_path)
     fs = read_frf(frf_file, fmt, freq_dataset=freq_dataset, frf_dataset=frf_dataset)
-    fit = rfp.find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes)
+    fit = rfp.find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes,
+                         source=str(frf_file))
     msig = rfp.measurement_sigma(fit, fs.freq, sigma_rel=sigma_rel,
                                  exp_window_s=rfp.window_time_constant(fs))
     sigma = msig.sigma_hz
