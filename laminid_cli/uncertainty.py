@@ -98,6 +98,7 @@ from laminid_cli.intervals import (SCALINGS, VERDICT_AT_BOUND, VERDICT_FIXED,  #
                                    VERDICT_NOT, VERDICT_WEAK, VERDICT_WELL, WEAK, WELL_DETERMINED,
                                    interval_scale, verdict as verdict_of)
 from laminid_cli.material import CONSTANT_NAMES
+from laminid_cli.objective import VariableSet
 from laminid_cli.parametrization import coefficients_and_jacobian
 
 log = logging.getLogger(__name__)
@@ -670,7 +671,7 @@ TRIAL_MU = 0.5
 TRIAL_ROUNDS = 3
 
 
-class TrialModel:
+class TrialModel(VariableSet):
     """One plate's reduced model for the Monte Carlo trials (single plate, reduced solver).
 
     Basis (mass-orthonormal, built once in the calling process, inherited by forked worker
@@ -702,17 +703,15 @@ class TrialModel:
         spec = fm.specimen
         self.fm = fm
         self.names = tuple(result.material_names)
-        self.params = []
+        params = []
         for name, c0 in zip(self.names, fm.initial_constants):
             free = result.free[name]
             fixed = tuple(k for k in CONSTANT_NAMES if k not in free)
-            self.params.append(make_parameters(
+            params.append(make_parameters(
                 name, c0, fixed, kind=result.parametrization[name],
                 prior=bool(spec.materials[name].prior), nu_max=opts.nu_max,
                 bound_factor=opts.bound_factor))
-        sizes = [len(p.x0()) for p in self.params]
-        self.offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
-        self.n_vars = int(self.offsets[-1])
+        self._set_params(params)
         self.prior = [{k: float(w) for k, w in spec.materials[p.name].prior.items()
                        if k in p.free} for p in self.params]
         self.x_opt = np.asarray(result.x, float)
@@ -745,17 +744,8 @@ class TrialModel:
         H += np.diag(1e-10 * max(d.max(), 1e-300) + 1e-12 * d)
         self.L = np.linalg.cholesky(H / self.tau2)
         self.T = np.linalg.inv(self.L.T)
-        lo, hi = zip(*(p.bounds() for p in self.params))
-        self.lo, self.hi = np.concatenate(lo), np.concatenate(hi)
-        rows, rhs = [], []
-        for k, p in enumerate(self.params):
-            A, b = p.linear_constraints()
-            full = np.zeros((A.shape[0], self.n_vars))
-            full[:, self.offsets[k]:self.offsets[k + 1]] = A
-            rows.append(full)
-            rhs.append(b)
-        self.A = np.vstack(rows)
-        self.b = np.concatenate(rhs)
+        self.lo, self.hi = self.bounds()
+        self.A, self.b = self.linear_constraints()
         self.refs = [(self.coef_opt, self.sigma, self.solve0)]     # factorisations kept
         self._enrich_cloud(fm)
         theta, Y = self.basis.eig(self.coef_opt, self.n_model)
@@ -828,20 +818,17 @@ class TrialModel:
 
         return np.tensordot(np.asarray(coef, float), c_basis(0.0), axes=([0], [0]))
 
-    def _split(self, x):
-        return [x[self.offsets[k]:self.offsets[k + 1]] for k in range(len(self.params))]
-
     def _coef_jac(self, x):
         """(coefficients per material, Jacobians per material) at ``x``."""
-        return tuple(zip(*(p.coef_jacobian(xk) for p, xk in zip(self.params, self._split(x)))))
+        return tuple(zip(*(p.coef_jacobian(xk) for p, xk in zip(self.params, self.split(x)))))
 
     def constants(self, x):
-        return tuple(p.constants(xk) for p, xk in zip(self.params, self._split(x)))
+        return tuple(p.constants(xk) for p, xk in zip(self.params, self.split(x)))
 
     def _prior_rows(self, x):
         """Eq. 15 as residual rows sqrt(wp) (P - P0) / P0 and their derivatives (linear in x)."""
         vals, rows = [], []
-        for k, (p, xk) in enumerate(zip(self.params, self._split(x))):
+        for k, (p, xk) in enumerate(zip(self.params, self.split(x))):
             if not self.prior[k]:
                 continue
             P = p.constants(xk).as_array()
