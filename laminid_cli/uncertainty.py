@@ -822,9 +822,6 @@ class TrialModel(VariableSet):
         """(coefficients per material, Jacobians per material) at ``x``."""
         return tuple(zip(*(p.coef_jacobian(xk) for p, xk in zip(self.params, self.split(x)))))
 
-    def constants(self, x):
-        return tuple(p.constants(xk) for p, xk in zip(self.params, self.split(x)))
-
     def _prior_rows(self, x):
         """Eq. 15 as residual rows sqrt(wp) (P - P0) / P0 and their derivatives (linear in x)."""
         vals, rows = [], []
