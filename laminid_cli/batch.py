@@ -883,7 +883,8 @@ def format_table(rows) -> str:
         specs = [r["specimen"] for r in members]
         labels = specs if all(specs) and len(set(specs)) == len(specs) else \
             [r["name"] for r in members]
-        width = max(9, *(len(s) for s in labels))
+        status_w = [len(r['status'] + (' (cached)' if r['cached'] else '')) for r in members]
+        width = max(9, *(len(s) for s in labels), *status_w)
         label_w = max(18, *(len(f"{m} {k} [GPa]") for m in mats for k in CONSTANTS)) \
             if len(mats) > 1 else 18
         head = ", ".join(mats)
