@@ -783,14 +783,8 @@ def _gauss_newton_factor(prob: Problem, ev: Evaluation, scale: float,
                          damping: float = DAMPING) -> np.ndarray:
     """Lower Cholesky factor of the damped Gauss-Newton Hessian of Phi / scale at ``ev``."""
     Jr = -(np.sqrt(prob.weight) / prob.lam_meas)[:, None] * ev.dlam_dx
-    H = 2 * Jr.T @ Jr / scale
-    for k, p in enumerate(prob.params):                   # prior term, Eq. 15
-        for name, wp in prob.prior[k].items():
-            if name in p.free:
-                j = prob.offsets[k] + p.free.index(name)
-                ref = p.initial.as_array()[CONSTANT_NAMES.index(name)]
-                sc = 1.0 if name == "nu12" else ref
-                H[j, j] += 2 * wp * (sc / (ref if ref else 1.0)) ** 2 / scale
+    Jp = prob.prior_rows(ev.x)[1]                         # prior term, Eq. 15 (linear)
+    H = 2 * (Jr.T @ Jr + Jp.T @ Jp) / scale
     d = np.diag(H).copy()
     H += np.diag(damping * max(d.max(), 1e-300) + 1e-3 * d)  # Levenberg-Marquardt-type damping
     return np.linalg.cholesky(H)

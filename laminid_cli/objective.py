@@ -112,6 +112,29 @@ class VariableSet:
         A, b = self.linear_constraints()
         return bool(np.all(x >= lo - tol) and np.all(x <= hi + tol) and np.all(A @ x <= b + tol))
 
+    def prior_rows(self, x):
+        """Eq. 15's second term as residual rows ``sqrt(wp) (P - P0) / P0`` (nu12: over 1 when
+        P0 is 0) of the free constants given a prior weight (``self.prior``: per material,
+        {constant: wp}), and their derivatives (n_rows, n_vars): each row is linear in one
+        design variable (P = x * P0, nu12 = x). The term is ``rows . rows``."""
+        vals, rows = [], []
+        for k, (p, xk) in enumerate(zip(self.params, self.split(x))):
+            if not self.prior[k]:
+                continue
+            P = p.constants(xk).as_array()
+            P0 = p.initial.as_array()
+            for name, wp in self.prior[k].items():
+                if name not in p.free:
+                    continue
+                i = CONSTANT_NAMES.index(name)
+                ref = P0[i] if P0[i] != 0 else 1.0
+                scale = 1.0 if name == "nu12" else P0[i]
+                row = np.zeros(self.n_vars)
+                row[self.offsets[k] + p.free.index(name)] = np.sqrt(wp) * scale / ref
+                vals.append(np.sqrt(wp) * (P[i] - P0[i]) / ref)
+                rows.append(row)
+        return np.array(vals), np.array(rows).reshape(len(rows), self.n_vars)
+
 
 class PlateTerm(VariableSet):
     """One plate of an objective: its forward model, measured data, its materials'
@@ -379,22 +402,8 @@ class Objective(VariableSet):
 
     def prior_term(self, x):
         """Eq. 15 second term on relative engineering constants, and its gradient."""
-        value, grad = 0.0, np.zeros(self.n_vars)
-        for k, (p, xk) in enumerate(zip(self.params, self.split(x))):
-            if not self.prior[k]:
-                continue
-            P0 = p.initial.as_array()
-            scale = np.where(np.array(CONSTANT_NAMES) == "nu12", 1.0, P0)
-            P = p.constants(xk).as_array()
-            for name, wp in self.prior[k].items():
-                if name not in p.free:
-                    continue
-                i = CONSTANT_NAMES.index(name)
-                ref = P0[i] if P0[i] != 0 else 1.0
-                dev = (P[i] - P0[i]) / ref
-                value += wp * dev**2
-                grad[self.offsets[k] + p.free.index(name)] += 2 * wp * dev * scale[i] / ref
-        return value, grad
+        vals, rows = self.prior_rows(x)
+        return float(vals @ vals), 2 * vals @ rows
 
     # --- residuals ------------------------------------------------------------------------------
     def rms(self, eigenvalues) -> float:

@@ -739,7 +739,8 @@ class TrialModel(VariableSet):
         w = np.asarray(result.weight, float)
         lam_meas = (2 * np.pi * np.nan_to_num(np.asarray(result.measured_hz, float), nan=1.0))**2
         Jr = (np.sqrt(w) / lam_meas)[:, None] * np.asarray(result.dlam_dx, float)
-        H = Jr.T @ Jr + self._prior_rows(self.x_opt)[1].T @ self._prior_rows(self.x_opt)[1]
+        Jp = self.prior_rows(self.x_opt)[1]
+        H = Jr.T @ Jr + Jp.T @ Jp
         d = np.diag(H).copy()
         H += np.diag(1e-10 * max(d.max(), 1e-300) + 1e-12 * d)
         self.L = np.linalg.cholesky(H / self.tau2)
@@ -822,24 +823,6 @@ class TrialModel(VariableSet):
         """(coefficients per material, Jacobians per material) at ``x``."""
         return tuple(zip(*(p.coef_jacobian(xk) for p, xk in zip(self.params, self.split(x)))))
 
-    def _prior_rows(self, x):
-        """Eq. 15 as residual rows sqrt(wp) (P - P0) / P0 and their derivatives (linear in x)."""
-        vals, rows = [], []
-        for k, (p, xk) in enumerate(zip(self.params, self.split(x))):
-            if not self.prior[k]:
-                continue
-            P = p.constants(xk).as_array()
-            P0 = p.initial.as_array()
-            for name, wp in self.prior[k].items():
-                i = CONSTANT_NAMES.index(name)
-                ref = P0[i] if P0[i] != 0 else 1.0
-                scale = 1.0 if name == "nu12" else P0[i]
-                row = np.zeros(self.n_vars)
-                row[self.offsets[k] + p.free.index(name)] = np.sqrt(wp) * scale / ref
-                vals.append(np.sqrt(wp) * (P[i] - P0[i]) / ref)
-                rows.append(row)
-        return np.array(vals), np.array(rows).reshape(len(rows), self.n_vars)
-
     def evaluate(self, basis, x, lam_meas, w, Y_ref):
         """Objective, gradient, paired Ritz values and reduced vectors at ``x``."""
         coefs, jacs = self._coef_jac(x)
@@ -854,7 +837,7 @@ class TrialModel(VariableSet):
         rel = (lam_meas - lam) / lam_meas
         f = float(np.sum(w * rel**2))
         g = -2 * (w * rel / lam_meas) @ dlam
-        pv, pr = self._prior_rows(x)
+        pv, pr = self.prior_rows(x)
         if pv.size:
             f += float(pv @ pv)
             g = g + 2 * pv @ pr
