@@ -558,8 +558,7 @@ def _run_dask(jobs, options, n_jobs, scheduler):
 # summary
 
 
-def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False, *,
-               options: BatchOptions) -> dict:
+def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False) -> dict:
     """One summary row (SI units), with the numbers read back from the job's result file
     (:func:`laminid_cli.resultfile.read_result`, one read).
 
@@ -569,9 +568,7 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False, *
     ({material: {constant: {lower, upper, verdict, at_bound, flagged}}} for the free
     constants; fixed ones {verdict: "fixed"}), rms_residual_percent, evaluations, time_s, result,
     damping ({material: {eta11: {value, lower, upper, verdict}}}, empty without measured damping).
-    ``options``: the batch's; a constant is flagged (not determined) when its relative
-    half-width is not within ``uncertainty.max_rel_interval`` (as laminid_cli.uncertainty flags
-    it: the file was made with these options, its hash says so).
+    ``flagged`` (not determined) is the file's own flag (the run's --max-rel-interval).
     """
     row = {"name": job.name, "specimen": "", "path": str(job.spec), "status": "not run",
            "reasons": [], "reason": "", "converged": None, "optimizer_status": "",
@@ -587,12 +584,12 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False, *
     except (ResultFileError, OSError, KeyError, ValueError) as exc:
         row.update(status="error", reason=f"result file {job.output} unreadable ({exc})")
         return row
-    row.update(_row_of_result(res, options.uncertainty.max_rel_interval))
+    row.update(_row_of_result(res))
     row["result"] = str(job.output)
     return row
 
 
-def _row_of_result(res, max_rel_interval: float) -> dict:
+def _row_of_result(res) -> dict:
     """The summary-row fields of a :class:`laminid_cli.resultfile.ResultFile` (schema 1 or 2;
     version 1 recorded no status: "ok" when converged, else "check")."""
     row: dict = {"converged": res.converged, "optimizer_status": res.optimizer_status}
@@ -614,7 +611,7 @@ def _row_of_result(res, max_rel_interval: float) -> dict:
     for iv in res.uncertainty.intervals if res.uncertainty is not None else ():
         intervals.setdefault(iv.material, {})[iv.constant] = {
             "lower": iv.lower, "upper": iv.upper, "verdict": iv.verdict,
-            "at_bound": iv.at_bound, "flagged": not iv.rel_half_width <= max_rel_interval}
+            "at_bound": iv.at_bound, "flagged": iv.flagged}
     row["intervals"] = intervals
     row["damping"] = damping_of_file(res.damping) if res.damping is not None else {}
     return row

@@ -50,6 +50,9 @@ class Interval:
     scale: str = "linear"      # "log" (moduli, schema 2) | "linear"
     at_bound: bool = False
     bound_text: str = ""
+    #: not determined: relative half-width above the run's --max-rel-interval (the file's
+    #: /uncertainty attribute ``flagged``)
+    flagged: bool = False
 
 
 @dataclass(frozen=True)
@@ -328,12 +331,13 @@ def _uncertainty(f) -> Uncertainty | None:
     rel, verdict, scale = arr("rel_half_width"), strs("verdict"), strs("scale", "linear")
     at_bound = arr("at_bound", False).astype(bool) if "at_bound" in u else np.zeros(n, bool)
     bound_text = strs("bound_text")
+    flagged = set(filter(None, str(a.get("flagged", "")).split(",")))
     intervals = []
     for j, lab in enumerate(labels):
         m, k = lab.rsplit(".", 1) if "." in lab else ("", lab)
         intervals.append(Interval(lab, m, k, float(value[j]), float(lower[j]), float(upper[j]),
                                   verdict[j], float(rel[j]), scale[j], bool(at_bound[j]),
-                                  bound_text[j]))
+                                  bound_text[j], lab in flagged))
     mc = None
     if "monte_carlo" in u:
         g = u["monte_carlo"]

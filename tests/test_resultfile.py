@@ -111,14 +111,17 @@ def test_schema_2_fields_status_intervals_and_damping(checked):
     consts = doc["uncertainty"]["constants"][name]
     g13 = r.uncertainty.get(name, "G13")
     assert g13.at_bound and consts["G13"]["at_bound"]
+    assert g13.flagged == consts["G13"]["flagged"]
+    assert sorted(iv.label for iv in r.uncertainty.intervals if iv.flagged) == sorted(
+        doc["uncertainty"]["flagged"])
     assert g13.bound_text == consts["G13"]["bound_text"]
     assert g13.bound_text.startswith("at its bound — not identified: G13 <= ")
     assert np.isnan(g13.lower) and np.isnan(g13.upper) and consts["G13"]["lower"] is None
     for k in ("E1", "E2", "G12", "G23", "nu12"):
         iv = r.uncertainty.get(name, k)
         assert not iv.at_bound and iv.bound_text == ""
-        assert (iv.value, iv.lower, iv.upper, iv.verdict, iv.scale) == tuple(
-            consts[k][x] for x in ("value", "lower", "upper", "verdict", "scale"))
+        assert (iv.value, iv.lower, iv.upper, iv.verdict, iv.scale, iv.flagged) == tuple(
+            consts[k][x] for x in ("value", "lower", "upper", "verdict", "scale", "flagged"))
         if k == "nu12":
             assert iv.scale == "linear"
             assert iv.upper - iv.value == pytest.approx(iv.value - iv.lower, rel=1e-9)

@@ -74,7 +74,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
     remove_stale_parts(out)
     jobs = plan_batch(specimens, out, options, force=force)
     todo = [j for j in jobs if not j.up_to_date]
-    rows = {j.name: result_row(j, cached=True, options=options) for j in jobs
+    rows = {j.name: result_row(j, cached=True) for j in jobs
             if j.up_to_date}
     if not as_json:
         click.echo(f"{len(jobs)} specimens, {len(jobs) - len(todo)} up to date, {len(todo)} to "
@@ -94,7 +94,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
             for job, outcome in run_jobs(todo, options, n_jobs=n_jobs, scheduler=scheduler):
                 if outcome.data is not None:
                     write_bytes_atomic(job.output, outcome.data, parents=True)
-                rows[job.name] = result_row(job, outcome, options=options)
+                rows[job.name] = result_row(job, outcome)
                 finished += 1
                 bar.update(1, printable(f"{job.name}: {outcome.status}"))
     except BatchError:   # e.g. --scheduler unreachable: nothing ran, so nothing is written
@@ -108,7 +108,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
         else:
             # also on Ctrl-C: the summary lists what was done ('not run' for the rest)
             ordered = [rows.get(j.name) or result_row(
-                j, cached=stored_hash(j.output) == j.key, options=options) for j in jobs]
+                j, cached=stored_hash(j.output) == j.key) for j in jobs]
             report = batch_report(ordered, options, out)
             write_summary_csv(out / SUMMARY_CSV, ordered, wide=wide)
             write_summary_json(out / SUMMARY_JSON, report)
