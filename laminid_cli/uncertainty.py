@@ -718,7 +718,7 @@ class TrialModel(VariableSet):
         self.pairing = np.asarray(result.pairing, int)
         self.n_model = int(result.modes.n_modes)
         self.n_check = int(min(self.n_model, np.max(self.pairing) + 3))
-        self.coef_opt = np.array(self._coef_jac(self.x_opt)[0])
+        self.coef_opt = self.coefficients(self.x_opt)[0]
         self.Q_opt = [self._q(c) for c in self.coef_opt]
         self.tau2 = float(tau2)
         self.bound = float(bound)            # accepted relative eigenvalue error bound
@@ -758,7 +758,7 @@ class TrialModel(VariableSet):
         standard error (where that change exceeds CLOUD_CHANGE), shrunk into the feasible
         set; one factorisation and CLOUD_ROUNDS block solves of the Ritz residuals each."""
         plate = fm.plate
-        coefs, jacs = self._coef_jac(self.x_opt)
+        coefs, jacs = self.coefficients(self.x_opt)
         c = np.concatenate(coefs)
         J = np.vstack([np.asarray(jk) for jk in jacs])
         rel = (J @ self.T) / np.maximum(np.abs(c), 1e-300)[:, None]
@@ -777,7 +777,7 @@ class TrialModel(VariableSet):
                     x = self.x_opt + self.T @ y
                 else:
                     continue
-                coef = np.array(self._coef_jac(x)[0])
+                coef = self.coefficients(x)[0]
                 theta, Y = self.basis.eig(coef, self.n_model)
                 K = plate.stiffness(coef=coef)
                 sigma = -0.5 * theta[0]
@@ -819,14 +819,9 @@ class TrialModel(VariableSet):
 
         return np.tensordot(np.asarray(coef, float), c_basis(0.0), axes=([0], [0]))
 
-    def _coef_jac(self, x):
-        """(coefficients per material, Jacobians per material) at ``x``."""
-        return tuple(zip(*(p.coef_jacobian(xk) for p, xk in zip(self.params, self.split(x)))))
-
     def evaluate(self, basis, x, lam_meas, w, Y_ref):
         """Objective, gradient, paired Ritz values and reduced vectors at ``x``."""
-        coefs, jacs = self._coef_jac(x)
-        coef = np.array(coefs)
+        coef, jacs = self.coefficients(x)
         theta, Y = basis.eig(coef, self.n_model)
         mac = (Y_ref.T @ (basis.Mr @ Y)) ** 2
         pairing = _max_assignment(mac)
@@ -852,7 +847,7 @@ class TrialModel(VariableSet):
         solve) of another point (default: the optimum's; class docstring). Returns (theta,
         bound, preconditioned residuals); bound inf when not computable."""
         plate = self.fm.plate
-        coef = np.array(self._coef_jac(x)[0])
+        coef = self.coefficients(x)[0]
         if ref is None:
             ref = (self.coef_opt, self.sigma, self.solve0)
         coef_ref, sigma, solve = ref
@@ -874,7 +869,7 @@ class TrialModel(VariableSet):
     def mu(self, x, coef_ref):
         """Smallest generalised eigenvalue of the constitutive matrices at ``x`` against those
         of ``coef_ref`` over the materials: ``K(x) >= mu K(ref)`` (class docstring)."""
-        coef = np.array(self._coef_jac(x)[0])
+        coef = self.coefficients(x)[0]
         out = np.inf
         for c, c0 in zip(coef, coef_ref):
             C = np.linalg.cholesky(self._q(c0))
@@ -885,7 +880,7 @@ class TrialModel(VariableSet):
     def factor_at(self, x, theta1):
         """(coefficients, sigma, solve) of A = K - sigma M factorised at ``x``."""
         plate = self.fm.plate
-        coef = np.array(self._coef_jac(x)[0])
+        coef = self.coefficients(x)[0]
         sigma = -0.5 * float(theta1)
         solve = self.fm.factorizer.factor(plate.stiffness(coef=coef).data
                                           - sigma * plate.M_on_K)
@@ -1023,7 +1018,7 @@ class TrialModel(VariableSet):
                 theta, bound, S = self.check(basis, x, Y, pairing, ref)
             if bound > self.bound and ref is None:
                 # one factorisation at the trial's answer, for the check and the enrichments
-                ref = self.factor_at(x, basis.eig(np.array(self._coef_jac(x)[0]), 1)[0][0])
+                ref = self.factor_at(x, basis.eig(self.coefficients(x)[0], 1)[0][0])
                 theta, bound, S = self.check(basis, x, Y, pairing, ref)
             log.debug("trial round %d bound %.2e", rounds, bound)
             if bound <= self.bound:
@@ -1089,11 +1084,9 @@ def _max_assignment(M):
     best = np.argmax(M, axis=1)
     if np.all(M[np.arange(M.shape[0]), best] > 0.5):
         return best
-    import scipy.sparse as sp
-    from scipy.sparse.csgraph import min_weight_full_bipartite_matching
+    from laminid_cli.objective import max_assignment
 
-    rows, cols = min_weight_full_bipartite_matching(sp.csr_matrix(2.0 - np.asarray(M, float)))
-    return cols[np.argsort(rows)]
+    return max_assignment(M)
 
 
 # ----------------------------------------------------------------------------------------------
