@@ -45,7 +45,7 @@ class ReducedBasis:
         self.M = plate.M
         n = plate.n_dofs
         n_mat = plate.K_data.shape[0]
-        self._Kb = [plate.basis_matrix(m, j) for m in range(n_mat) for j in range(6)]
+        self.n_b = n_mat * 6
         self.n_mat = n_mat
         self.R = None
         if fm.rigid is not None:
@@ -109,11 +109,9 @@ class ReducedBasis:
         MW = self.M @ W
         k = W.shape[1]
         r = self.size
-        n_b = len(self._Kb)
+        n_b = self.n_b
         # K_b W side by side, (n, n_b k): V^T K_b W and W^T K_b W as one product each
-        KW = np.empty((W.shape[0], n_b * k))
-        for b, Kb in enumerate(self._Kb):
-            KW[:, b * k:(b + 1) * k] = Kb @ W
+        KW = self.fm.plate.basis_products(W)
         top = (self.V.T @ KW).reshape(r, n_b, k).transpose(1, 0, 2)     # (n_b, r, k)
         low = (W.T @ KW).reshape(k, n_b, k).transpose(1, 0, 2)          # (n_b, k, k)
         Kr = np.zeros((n_b, r + k, r + k))
@@ -157,8 +155,7 @@ class ReducedBasis:
         p0 = phi[:, 0]
         _, _, solve = self._factorisation(
             coef, lambda K: (p0 @ (K @ p0)) / (p0 @ (self.M @ p0)))
-        rhs = np.hstack([Kb @ phi for Kb in self._Kb])
-        return self.add(solve(rhs))
+        return self.add(solve(self.fm.plate.basis_products(phi)))
 
     def eig(self, coef: np.ndarray, k: int):
         """Lowest ``k`` Ritz values and reduced eigenvectors (r, k) at coefficients ``coef``."""
