@@ -589,6 +589,9 @@ REDUCED_DAMPING = 1e-6
 #: this (Gauss-Newton-scaled: changes the objective by about STEP_TOL^2 of its value)
 STEP_TOL = 1e-4
 RADIUS_GROWTH = 4.0
+#: loosest step tolerance (Gauss-Newton-scaled) of a reduced-model stage; the stages after an
+#: enrichment take the relative change of the paired eigenvalues it made, down to xtol_rel
+INNER_XTOL_MAX = 1e-2
 #: an enrichment of the trust-region loop at stiffness coefficients within this relative
 #: distance of the last factorised ones preconditions with that factorisation (no new one);
 #: its error bound is then not certified, so the optimum gets a factorisation of its own
@@ -616,13 +619,18 @@ def _optimize_reduced(prob, ev_c, progress=None):
     options = prob.options
     radius = RADIUS0
     converged, status = False, "not converged: reduced model did not settle"
+    change = 0.0                         # the last enrichment's change of the eigenvalues
     for _ in range(MAX_ENRICH):
         # each optimiser run on the reduced model has the evaluation budget of a full-model
         # run, less the start's evaluation and the final check's
         n_before = prob.n_eval
         budget = max(options.max_evaluations - 2, 1)
+        # after an enrichment, the reduced model is only as good as that enrichment showed it:
+        # solve it to a step tolerance of that order, not beyond (a tail of evaluations the
+        # next enrichment would make moot); the first stage runs to xtol_rel
+        xtol = max(options.xtol_rel, min(INNER_XTOL_MAX, change))
         ev_t, inner_conv, inner_status = _optimize_from(prob, ev_c, progress, radius=radius,
-                                                        maxeval=budget,
+                                                        maxeval=budget, xtol=xtol,
                                                         damping=REDUCED_DAMPING)
         step = prob.log.last_step
         if prob.n_eval - n_before >= budget:

@@ -423,11 +423,17 @@ def max_assignment(M: np.ndarray) -> np.ndarray:
 
     ``min_weight_full_bipartite_matching`` on ``2 - M`` (every edge present, weights > 0): the
     assignment of ``scipy.optimize.linear_sum_assignment(-M)`` without importing
-    scipy.optimize (checked in tests/test_identify_reduced.py)."""
+    scipy.optimize (checked in tests/test_identify_reduced.py). When every row's largest entry
+    is in a column of its own, that is the assignment (no other can exceed the sum of the row
+    maxima) and no matching is run."""
+    M = np.asarray(M, float)
+    best = np.argmax(M, axis=1)
+    if np.unique(best).size == best.size:
+        return best
     import scipy.sparse as sp
     from scipy.sparse.csgraph import min_weight_full_bipartite_matching
 
-    rows, cols = min_weight_full_bipartite_matching(sp.csr_matrix(2.0 - np.asarray(M, float)))
+    rows, cols = min_weight_full_bipartite_matching(sp.csr_matrix(2.0 - M))
     return cols[np.argsort(rows)]
 
 

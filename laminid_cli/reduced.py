@@ -127,6 +127,7 @@ class ReducedBasis:
         G = W.T @ MW
         Mr[r:, r:] = 0.5 * (G + G.T)
         self.Mr = Mr
+        self._std = None
         self.V = np.hstack([self.V, W])
         self.MV = np.hstack([self.MV, MW])
         return k
@@ -161,10 +162,25 @@ class ReducedBasis:
         """Lowest ``k`` Ritz values and reduced eigenvectors (r, k) at coefficients ``coef``."""
         if k > self.size:
             raise SolverError(f"reduced basis of {self.size} vectors cannot give {k} modes")
-        Kr = np.tensordot(np.asarray(coef, float), self.Kr, axes=([0, 1], [0, 1]))
-        theta, Y = sla.eigh(0.5 * (Kr + Kr.T), self.Mr, subset_by_index=[0, k - 1],
-                            check_finite=False)
-        return theta, Y
+        Linv, Kt = self._standard()
+        A = (np.asarray(coef, float).reshape(-1) @ Kt.reshape(self.n_b, -1)).reshape(Linv.shape)
+        theta, Z = sla.eigh(A, subset_by_index=[0, k - 1], check_finite=False)
+        return theta, Linv.T @ Z
+
+    def _standard(self):
+        """(L^-1, L^-1 Kr_b L^-T) with ``Mr = L L^T``, once per basis change: the reduced
+        eigenproblem in standard form, ``(sum c_b Kt_b) z = theta z``, ``y = L^-T z`` (what
+        the generalised ``eigh`` does at every call, done once)."""
+        std = getattr(self, "_std", None)
+        if std is None or std[0].shape[0] != self.size:
+            r = self.size
+            L = np.linalg.cholesky(self.Mr)
+            Linv = sla.solve_triangular(L, np.eye(r), lower=True, check_finite=False)
+            Kb = self.Kr.reshape(self.n_b, r, r)
+            Kt = Linv @ Kb @ Linv.T
+            Kt = 0.5 * (Kt + Kt.transpose(0, 2, 1))
+            self._std = std = (Linv, Kt)
+        return std
 
     def energies(self, Y: np.ndarray) -> np.ndarray:
         """``y_i^T Kr_mj y_i``: d theta_i / d coef[m, j], (n_materials, 6, k)."""

@@ -156,7 +156,14 @@ def test_reduced_model_is_exact_on_its_own_modes():
 
 def test_error_bound_is_honest_and_shrinks():
     """At a point 15 % away from the basis' point, the per-mode bound holds the true error
-    (against a full solution there) at every enrichment, and shrinks to the final limit."""
+    (against a full solution there) at every enrichment, and shrinks to the final limit.
+
+    Up to the round-off floor of the projected eigenvalues: once the basis holds the modes, the
+    Ritz values differ from the full-matrix Rayleigh quotients of their vectors by ~2e-10
+    relative (round-off in the projected stiff directions, measured with both the generalised
+    and the standard-form reduced eigenproblem), and the bound then meets the error within
+    that floor; ROUNDOFF = 5e-10 relative is allowed, below FINAL_BOUND = 1e-9."""
+    ROUNDOFF = 5e-10
     fm, prob, ev0 = s11_problem()
     B = ReducedBasis(fm)
     B.add(ev0.modes.phi)
@@ -169,7 +176,7 @@ def test_error_bound_is_honest_and_shrinks():
     for _ in range(7):
         before, after, bound = B.enrich(coef, prob.n_model, rounds=1)
         err = np.abs(before - full.eigenvalues)
-        assert np.all(bound >= err), (bound, err)
+        assert np.all(bound + ROUNDOFF * full.eigenvalues >= err), (bound, err)
         # Ritz values are upper bounds (up to the round-off of the projected matrices)
         assert np.all(before >= full.eigenvalues * (1 - 1e-8))
         last = bound / before
@@ -234,6 +241,14 @@ def test_max_assignment_is_linear_sum_assignment():
         M = rng.random((12, 16)) ** 4                  # MAC-like: a few large, many small
         rows, cols = linear_sum_assignment(-M)
         np.testing.assert_array_equal(max_assignment(M), cols[np.argsort(rows)])
+    fast = 0
+    for _ in range(300):                               # tracked modes: one large entry per row
+        M = 0.4 * rng.random((12, 16)) ** 2
+        M[np.arange(12), rng.permutation(16)[:12]] += 0.5
+        rows, cols = linear_sum_assignment(-M)
+        fast += np.unique(M.argmax(axis=1)).size == 12
+        np.testing.assert_array_equal(max_assignment(M), cols[np.argsort(rows)])
+    assert fast > 200                                  # the no-matching path was taken
     # a near-swap of two modes, and exact zeros (edges must not vanish)
     M = np.eye(4, 6)
     M[1:3, 1:3] = [[0.49, 0.51], [0.51, 0.49]]
