@@ -139,14 +139,93 @@ class BandedCholesky:
                               "try another mesh (--mesh)") from exc
         WORK["factorizations"] += 1
         perm = self.perm
+        blocks = _BandBlocks(cb)
 
         def solve(x):
             WORK["solve_pairs"] += 1 if x.ndim == 1 else x.shape[1]
             y = np.empty_like(x)
-            y[perm] = sla.cho_solve_banded((cb, False), x[perm], check_finite=False)
+            if x.ndim == 2 and x.shape[1] >= BLOCK_RHS:
+                y[perm] = blocks.solve(x[perm])
+            else:
+                y[perm] = sla.cho_solve_banded((cb, False), x[perm], check_finite=False)
             return y
 
         return solve
+
+
+#: right-hand sides from which a solve goes block by block (level-3 BLAS) instead of through
+#: LAPACK's column-by-column banded solve
+BLOCK_RHS = 12
+
+
+class _BandBlocks:
+    """Triangular solves with a banded Cholesky factor ``A = U^T U`` (LAPACK upper band storage
+    ``cb``, bandwidth bw) block by block, for many right-hand sides at once.
+
+    With blocks of bw equations, U is block bidiagonal: upper-triangular diagonal blocks
+    ``U_ii`` and lower-triangular blocks ``U_i,i+1`` above them. ``U^T y = b`` is then
+    ``y_i = U_ii^-T (b_i - U_i-1,i^T y_i-1)`` and ``U x = y`` is ``x_i = U_ii^-1 (y_i - U_i,i+1
+    x_i+1)``: triangular solves and products with all right-hand sides at once, where
+    ``cho_solve_banded`` (LAPACK pbtrs) goes column by column through the whole factor and is
+    bound by memory traffic. In the column-major band storage ``U[r, c]`` sits at flat index
+    ``bw + r + c bw``, so each block is a strided view (leading dimension bw) of the factor: the
+    diagonal blocks are used as they are (the triangular solves read only their upper
+    triangle), the off-diagonal ones are copied once with their lower triangle.
+    """
+
+    def __init__(self, cb: np.ndarray):
+        self.cb = cb
+        self.bw = bw = cb.shape[0] - 1
+        self.n = n = cb.shape[1]
+        self.edges = list(range(0, n, max(bw, 1))) + [n]
+        self._off = None
+
+    def _view(self, r0, nr, c0, nc):
+        flat = self.cb.ravel(order="F")
+        bw = self.bw
+        item = flat.itemsize
+        return np.lib.stride_tricks.as_strided(flat[bw + r0 + c0 * bw:], shape=(nr, nc),
+                                               strides=(item, item * bw), writeable=False)
+
+    def _blocks(self):
+        if self._off is None:
+            e = self.edges
+            diag, off = [], []
+            for i in range(len(e) - 1):
+                nr = e[i + 1] - e[i]
+                diag.append(self._view(e[i], nr, e[i], nr))
+                if i + 2 < len(e):
+                    nc = e[i + 2] - e[i + 1]
+                    off.append(np.tril(self._view(e[i], nr, e[i + 1], nc), nr - self.bw))
+            self._diag, self._off = diag, off
+        return self._diag, self._off
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        if self.bw == 0 or not self.cb.flags.f_contiguous:
+            return sla.cho_solve_banded((self.cb, False), b, check_finite=False)
+        from scipy.linalg.blas import dtrsm
+
+        diag, off = self._blocks()
+        e = self.edges
+        x = np.array(b, float, order="C", copy=True)
+        nb = len(diag)
+        # a row block x_i (C order) is x_i^T in column-major order: solve x_i^T U_ii = b_i^T
+        # (forward) and x_i^T U_ii^T = y_i^T (backward) in place, from the right
+        for i in range(nb):                                        # U^T y = b
+            xi = x[e[i]:e[i + 1]]
+            if i:
+                xi -= off[i - 1].T @ x[e[i - 1]:e[i]]
+            xt = dtrsm(1.0, diag[i], xi.T, side=1, lower=0, trans_a=0, overwrite_b=1)
+            if not np.shares_memory(xt, xi):
+                xi[:] = xt.T
+        for i in range(nb - 1, -1, -1):                            # U x = y
+            xi = x[e[i]:e[i + 1]]
+            if i + 1 < nb:
+                xi -= off[i] @ x[e[i + 1]:e[i + 2]]
+            xt = dtrsm(1.0, diag[i], xi.T, side=1, lower=0, trans_a=1, overwrite_b=1)
+            if not np.shares_memory(xt, xi):
+                xi[:] = xt.T
+        return x
 
 
 def solve_modes(K: sp.spmatrix, M: sp.spmatrix, n_modes: int, *, sigma: float,
