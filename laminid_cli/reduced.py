@@ -235,13 +235,12 @@ class ReducedBasis:
         if reuse > 0 and last is not None and last[0] != coef.tobytes():
             c0 = np.frombuffer(last[0]).reshape(coef.shape)
             if np.all(np.abs(coef - c0) <= reuse * np.abs(c0)):
-                return self._enrich_with(coef, k, rounds, self.fm.plate.stiffness(coef=coef),
-                                         last[3])
+                return self._enrich_with(coef, k, rounds, last[3])
         theta0, Y = self.eig(coef, k)
-        K, sigma, solve = self._factorisation(coef, lambda K: theta0[0])
-        return self._enrich_with(coef, k, rounds, K, solve, sigma, target, theta0, Y)
+        _, sigma, solve = self._factorisation(coef, lambda K: theta0[0])
+        return self._enrich_with(coef, k, rounds, solve, sigma, target, theta0, Y)
 
-    def _enrich_with(self, coef, k, rounds, K, solve, sigma=None, target=0.0, theta0=None,
+    def _enrich_with(self, coef, k, rounds, solve, sigma=None, target=0.0, theta0=None,
                      Y=None):
         """The block solves of :meth:`enrich` with ``solve`` = (K - sigma M)^-1 (with the
         bound) or a preconditioner (``sigma`` None: no bound)."""
@@ -257,7 +256,7 @@ class ReducedBasis:
         bound = np.full(k, np.inf)
         for _ in range(rounds):
             U = self.V @ Y
-            Rs = K @ U - (self.M @ U) * theta
+            Rs = self.fm.plate.stiffness_products(coef, U) - (self.M @ U) * theta
             S = solve(Rs)
             if sigma is not None:
                 eta2 = np.maximum(np.einsum("ij,ij->j", Rs, S), 0.0)
@@ -278,10 +277,10 @@ class ReducedBasis:
         an enrichment at the same ``coef`` when there is one)."""
         coef = np.asarray(coef, float)
         u0 = U[:, 0]
-        K, sigma, solve = self._factorisation(
+        _, sigma, solve = self._factorisation(
             coef, lambda K: (u0 @ (K @ u0)) / (u0 @ (self.M @ u0)))
         U = U / np.sqrt(np.einsum("ij,ij->j", U, self.M @ U))
-        KU, MU = K @ U, self.M @ U
+        KU, MU = self.fm.plate.stiffness_products(coef, U), self.M @ U
         theta = np.einsum("ij,ij->j", U, KU)
         Rs = KU - MU * theta
         eta2 = np.maximum(np.einsum("ij,ij->j", Rs, solve(Rs)), 0.0)

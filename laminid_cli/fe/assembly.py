@@ -190,30 +190,43 @@ class PlateModel:
         with the assembled basis matrices, whose pattern (every equation of every element
         coupled to every other) has ~7x the entries of S. ``block``: columns per pass (memory
         ~ 8 n_el 72 n_b block bytes)."""
+        n_b = self.K_data.shape[0] * 6
+        return self._element_products(self.Ke.reshape(n_b, -1, 72, 72), W, block)
+
+    def stiffness_products(self, coef: np.ndarray, W: np.ndarray) -> np.ndarray:
+        """``K(coef) @ W`` element by element (as :meth:`basis_products`, with the element
+        stiffness ``sum_b coef_b Ke_b`` of each element shape formed first)."""
+        n_b = self.K_data.shape[0] * 6
+        Ke = np.tensordot(np.asarray(coef, float).reshape(n_b), self.Ke.reshape(n_b, -1, 72, 72),
+                          axes=(0, 0))
+        return self._element_products(Ke[None], W)
+
+    def _element_products(self, Ke: np.ndarray, W: np.ndarray, block: int = 32) -> np.ndarray:
+        """``[A_c W]`` side by side for assembled matrices A_c of element matrices ``Ke`` (n_c,
+        n_shapes, 72, 72) (see :meth:`basis_products`)."""
         W = np.asarray(W, float)
         if W.ndim == 1:
             W = W[:, None]
         n, k = W.shape
-        n_b = self.K_data.shape[0] * 6
-        Kb = self.Ke.reshape(n_b, -1, 72, 72)
+        n_c = Ke.shape[0]
         S, groups = self._scatter
         n_el = self.element_dofs.shape[0]
-        out = np.empty((n, n_b * k))
+        out = np.empty((n, n_c * k))
         padded = np.vstack([W, np.zeros((1, k))])                  # row -1: fixed DOF = 0
         dofs_t = self.element_dofs.T                                # (72, n_el)
         for c0 in range(0, k, block):
             c1 = min(k, c0 + block)
             kc = c1 - c0
             X = padded[:, c0:c1][dofs_t]                            # (72, n_el, kc)
-            KX = np.empty((n_b, 72, n_el, kc)) if len(groups) > 1 else None
+            KX = np.empty((n_c, 72, n_el, kc)) if len(groups) > 1 else None
             for u, els in enumerate(groups):                        # distinct shapes only
                 Xu = X if els is None else X[:, els]
-                P = np.matmul(Kb[:, u], Xu.reshape(72, -1)).reshape(n_b, 72, -1, kc)
+                P = np.matmul(Ke[:, u], Xu.reshape(72, -1)).reshape(n_c, 72, -1, kc)
                 if els is None:
                     KX = P
                 else:
                     KX[:, :, els] = P
-            for b in range(n_b):
+            for b in range(n_c):
                 out[:, b * k + c0:b * k + c1] = S @ KX[b].reshape(72 * n_el, kc)
         return out
 
