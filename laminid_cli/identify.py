@@ -379,7 +379,7 @@ class Problem(VariableSet):
         for k, (plate, part, model) in enumerate(zip(self.plates, ev.parts, self.models)):
             n = checked_modes(plate, part)
             coef, jacs = plate.coefficients(part.x)
-            theta, U, bound = model.check(coef, part.modes.phi[:, :n])
+            theta, U, bound = model.check(coef, part.modes.phi[:, :n], reuse=REUSE_FACTOR)
             m = part.modes
             modes = Modes(eigenvalues=theta, phi=U, n_rigid=m.n_rigid,
                           rigid_eigenvalues=m.rigid_eigenvalues)
@@ -592,9 +592,9 @@ RADIUS_GROWTH = 4.0
 #: loosest step tolerance (Gauss-Newton-scaled) of a reduced-model stage; the stages after an
 #: enrichment take the relative change of the paired eigenvalues it made, down to xtol_rel
 INNER_XTOL_MAX = 1e-2
-#: an enrichment of the trust-region loop at stiffness coefficients within this relative
-#: distance of the last factorised ones preconditions with that factorisation (no new one);
-#: its error bound is then not certified, so the optimum gets a factorisation of its own
+#: an enrichment (or the final check) at stiffness coefficients within this relative distance
+#: of the last factorised ones preconditions with that factorisation (no new one); its error
+#: bound holds with the factor 1 / min(mu, 1) of reduced.stiffness_ratio (mu ~ 0.99 here)
 REUSE_FACTOR = 1e-2
 
 
@@ -687,7 +687,7 @@ def _finish_reduced(prob, ev):
     for _ in range(2):
         bounds = prob.bound_at(ev.x)
         if bounds is None or bounds.worst > FINAL_BOUND:
-            prob.enrich(ev, rounds=FINAL_ROUNDS, target=FINAL_BOUND)
+            prob.enrich(ev, rounds=FINAL_ROUNDS, target=FINAL_BOUND, reuse=REUSE_FACTOR)
             prob.adopt(prob.evaluate(ev.x))
             ev = prob.best
         final = prob.final_check(ev)

@@ -155,6 +155,31 @@ class PlateTerm(VariableSet):
 
 # --- evaluations and the run log ---------------------------------------------------------------
 
+class _Shapes:
+    """Descriptor of :attr:`Evaluation.phi`: an array, None, or a function that forms the array
+    when it is first asked for (a reduced model's Ritz vectors ``V y_i``: most evaluations of
+    an optimisation never need them at full size)."""
+
+    def __set_name__(self, owner, name):
+        self.key = "_" + name
+
+    def __get__(self, obj, objtype=None):
+        if obj is None:
+            return None                          # the dataclass default
+        value = obj.__dict__.get(self.key)
+        if callable(value):
+            value = obj.__dict__[self.key] = value()
+        return value
+
+    def __set__(self, obj, value):
+        obj.__dict__[self.key] = value
+
+    @staticmethod
+    def source(obj):
+        """What ``obj.phi`` holds, without forming it."""
+        return obj.__dict__.get("_phi")
+
+
 @dataclass
 class Evaluation:
     """One evaluation of the objective (or, in ``parts``, of one plate's term)."""
@@ -165,8 +190,9 @@ class Evaluation:
     eigenvalues: np.ndarray          # (n_measured,) paired model eigenvalues, rad^2/s^2
     pairing: np.ndarray              # (n_measured,) index of the model mode paired with each
     dlam_dx: np.ndarray              # (n_measured, n_vars)
-    phi: np.ndarray | None           # (n_dofs, n_measured) paired mode shapes (one plate)
-    modes: object                    # Modes (all computed; one plate)
+    #: (n_dofs, n_measured) paired mode shapes (one plate), formed when first asked for
+    phi: np.ndarray | None = _Shapes()
+    modes: object = None             # Modes (all computed; one plate)
     parts: list | None = None        # per-plate evaluations (their own variables, no prior)
     refused: bool = False            # not positive definite: the model was not evaluated
     #: measured modes whose model mode changed against the reference: (i, before, after)
@@ -344,10 +370,12 @@ class Objective(VariableSet):
         plate = self.plates[k]
         if jacs is None:
             _, jacs = plate.coefficients(xk)
-        phi = modes.phi[:, pairing]
+        pairing = np.asarray(pairing)
+        columns = getattr(modes, "columns", None)
+        phi = ((lambda: columns(pairing)) if columns is not None else modes.phi[:, pairing])
         lam = modes.eigenvalues[pairing]
         if E is None:
-            E = plate.fm.plate.basis_energies(phi)                  # (n_mat, 6, n_meas)
+            E = plate.fm.plate.basis_energies(modes.phi[:, pairing])  # (n_mat, 6, n_meas)
         dlam_dx = np.zeros((plate.data.n, plate.n_vars))
         for m, J in enumerate(jacs):
             dlam_dx[:, plate.offsets[m]:plate.offsets[m + 1]] = E[m].T @ J
@@ -372,7 +400,7 @@ class Objective(VariableSet):
                           gradient=gradient + pg,
                           eigenvalues=np.concatenate([ev.eigenvalues for ev in parts]),
                           pairing=np.concatenate([ev.pairing for ev in parts]),
-                          dlam_dx=dlam_dx, phi=None if one is None else one.phi,
+                          dlam_dx=dlam_dx, phi=None if one is None else _Shapes.source(one),
                           modes=None if one is None else one.modes, parts=list(parts))
 
     def _pair(self, plate, modes, ref, start_pairing, model=None, Y=None):
@@ -383,7 +411,7 @@ class Objective(VariableSet):
         n = plate.data.n
         if ref is None and start_pairing is not None:
             return np.asarray(start_pairing, int).copy(), ()
-        if self.pairing_mode == "sorted" or ref is None or ref.phi is None:
+        if self.pairing_mode == "sorted" or ref is None or ref.modes is None:
             return np.arange(n), ()
         if Y is not None:                                            # reduced model
             M = model.mac(ref.phi, Y, ref.ritz)

@@ -36,6 +36,56 @@ DROP_TOL = 1e-9
 MAX_BASIS = 260
 
 
+def stiffness_ratio(coef: np.ndarray, coef_ref: np.ndarray) -> float:
+    """mu with ``K(coef) >= mu K(coef_ref)`` (positive semi-definite order): the smallest
+    generalised eigenvalue of each material's constitutive matrix at ``coef`` against the one
+    at ``coef_ref`` (5x5, ply axes), over the materials. The stiffness is a sum over plies and
+    elements of ``B^T T^T Q T B`` terms with the material's Q, so the order of the Qs carries
+    over (the rotation T is a congruence); with M fixed and a shift sigma < 0, ``K(coef) -
+    sigma M >= min(mu, 1) (K(coef_ref) - sigma M)``. Not positive: the ratio gives no bound."""
+    from laminid_cli.material import c_basis
+
+    C = c_basis(0.0)                                          # (6, 5, 5)
+    out = np.inf
+    for c, c0 in zip(np.atleast_2d(coef), np.atleast_2d(coef_ref)):
+        Q, Q0 = np.tensordot(c, C, axes=(0, 0)), np.tensordot(c0, C, axes=(0, 0))
+        try:
+            L = np.linalg.cholesky(Q0)
+        except np.linalg.LinAlgError:
+            return 0.0
+        G = np.linalg.solve(L, np.linalg.solve(L, Q).T)
+        out = min(out, float(np.linalg.eigvalsh(0.5 * (G + G.T)).min()))
+    return out
+
+
+class RitzModes(Modes):
+    """Ritz modes of a reduced basis: :class:`Modes` whose shapes ``V Y`` are formed when first
+    asked for (an optimiser's evaluation needs only the eigenvalues and the reduced vectors)."""
+
+    def __init__(self, eigenvalues: np.ndarray, V: np.ndarray, Y: np.ndarray, n_rigid: int = 0):
+        object.__setattr__(self, "eigenvalues", eigenvalues)
+        object.__setattr__(self, "n_rigid", n_rigid)
+        object.__setattr__(self, "rigid_eigenvalues", np.zeros(0))
+        object.__setattr__(self, "_VY", (V, Y))       # V is replaced, never changed, on add
+
+    @property
+    def phi(self) -> np.ndarray:
+        phi = self.__dict__.get("_phi")
+        if phi is None:
+            V, Y = self._VY
+            phi = V @ Y
+            object.__setattr__(self, "_phi", phi)
+        return phi
+
+    def columns(self, index) -> np.ndarray:
+        """``phi[:, index]``, formed from those columns of Y only unless phi is formed."""
+        phi = self.__dict__.get("_phi")
+        if phi is not None:
+            return phi[:, index]
+        V, Y = self._VY
+        return V @ Y[:, index]
+
+
 class ReducedBasis:
     """Mass-orthonormal basis V of one plate and the projected basis stiffness matrices."""
 
@@ -193,8 +243,7 @@ class ReducedBasis:
         if np.any(theta <= 0):
             raise SolverError("reduced model: non-positive eigenvalue (infeasible constants?)")
         n_rigid = 0 if self.R is None else self.R.shape[1]
-        modes = Modes(eigenvalues=theta, phi=self.V @ Y, n_rigid=n_rigid)
-        return modes, self.energies(Y), Y
+        return RitzModes(theta, self.V, Y, n_rigid), self.energies(Y), Y
 
     def mac(self, phi_ref: np.ndarray, Y: np.ndarray, ritz=None) -> np.ndarray:
         """Mass-weighted MAC (n_ref, k) between full vectors ``phi_ref`` and the Ritz vectors
@@ -225,25 +274,40 @@ class ReducedBasis:
 
         ``reuse`` > 0: when the kept factorisation is of coefficients within this relative
         distance of ``coef`` (every coefficient), it preconditions the residuals instead of a
-        new one (the residuals themselves are those of the stiffness at ``coef``); the bound
-        is then not certified and returned as infinite.
+        new one (the residuals themselves are those of the stiffness at ``coef``), and the
+        bound holds with ``A_ref^-1`` in place of ``A^-1`` scaled by ``1 / min(mu, 1)``
+        (:func:`stiffness_ratio`: ``A(coef) >= min(mu, 1) A_ref`` for the shift of A_ref).
 
         Returns (Ritz values before, Ritz values after, absolute error bound of the values
         after, rad^2/s^2)."""
         coef = np.asarray(coef, float)
-        last = getattr(self, "_factor", None)
-        if reuse > 0 and last is not None and last[0] != coef.tobytes():
-            c0 = np.frombuffer(last[0]).reshape(coef.shape)
-            if np.all(np.abs(coef - c0) <= reuse * np.abs(c0)):
-                return self._enrich_with(coef, k, rounds, last[3])
+        kept = self._kept(coef, reuse)
+        if kept is not None:
+            return self._enrich_with(coef, k, rounds, *kept, target)
         theta0, Y = self.eig(coef, k)
         _, sigma, solve = self._factorisation(coef, lambda K: theta0[0])
-        return self._enrich_with(coef, k, rounds, solve, sigma, target, theta0, Y)
+        return self._enrich_with(coef, k, rounds, solve, sigma, 1.0, target, theta0, Y)
 
-    def _enrich_with(self, coef, k, rounds, solve, sigma=None, target=0.0, theta0=None,
+    def _kept(self, coef: np.ndarray, reuse: float):
+        """(solve, sigma, scale) of the kept factorisation when it is of other coefficients
+        within ``reuse`` (relative, every coefficient) of ``coef``: ``A_ref^-1`` with its shift
+        and the factor ``1 / min(mu, 1)`` that makes ``r^T A_ref^-1 r`` a bound of ``r^T
+        A(coef)^-1 r``; None otherwise."""
+        last = getattr(self, "_factor", None)
+        if reuse <= 0 or last is None or last[0] == coef.tobytes():
+            return None
+        c0 = np.frombuffer(last[0]).reshape(coef.shape)
+        if not np.all(np.abs(coef - c0) <= reuse * np.abs(c0)):
+            return None
+        mu = stiffness_ratio(coef, c0)
+        if not mu > 0:
+            return None
+        return last[3], last[2], 1.0 / min(mu, 1.0)
+
+    def _enrich_with(self, coef, k, rounds, solve, sigma, scale=1.0, target=0.0, theta0=None,
                      Y=None):
-        """The block solves of :meth:`enrich` with ``solve`` = (K - sigma M)^-1 (with the
-        bound) or a preconditioner (``sigma`` None: no bound)."""
+        """The block solves of :meth:`enrich` with ``solve`` = (K_ref - sigma M)^-1 and
+        ``r^T A^-1 r <= scale r^T solve(r)``."""
         if self.size + rounds * k > MAX_BASIS:               # restart from the Ritz vectors
             theta, Y = self.eig(coef, k)
             U = self.V @ Y
@@ -258,31 +322,35 @@ class ReducedBasis:
             U = self.V @ Y
             Rs = self.fm.plate.stiffness_products(coef, U) - (self.M @ U) * theta
             S = solve(Rs)
-            if sigma is not None:
-                eta2 = np.maximum(np.einsum("ij,ij->j", Rs, S), 0.0)
-                bound = 0.5 * (eta2 + np.sqrt(eta2**2 + 4 * eta2 * (theta - sigma)))
-                if np.max(bound / theta) <= target:
-                    break
+            eta2 = np.maximum(np.einsum("ij,ij->j", Rs, S), 0.0) * scale
+            bound = 0.5 * (eta2 + np.sqrt(eta2**2 + 4 * eta2 * (theta - sigma)))
+            if np.max(bound / theta) <= target:
+                break
             added = self.add(S)
             theta, Y = self.eig(coef, k)
             if added == 0:
                 break
         return theta0, theta, bound
 
-    def check(self, coef: np.ndarray, U: np.ndarray):
+    def check(self, coef: np.ndarray, U: np.ndarray, reuse: float = 0.0):
         """Ritz vectors ``U`` (n, k) checked with the full matrices at ``coef``: their Rayleigh
         quotients ``u^T K u / u^T M u`` (free of the round-off that the projected matrices
         carry from their stiff directions), the M-normalised vectors and the absolute error
         bound of each quotient (same bound as :meth:`enrich`, with the factorisation kept from
-        an enrichment at the same ``coef`` when there is one)."""
+        an enrichment at the same ``coef``, or within ``reuse`` of it, when there is one)."""
         coef = np.asarray(coef, float)
         u0 = U[:, 0]
-        _, sigma, solve = self._factorisation(
-            coef, lambda K: (u0 @ (K @ u0)) / (u0 @ (self.M @ u0)))
+        kept = self._kept(coef, reuse)
+        if kept is not None:
+            solve, sigma, scale = kept
+        else:
+            _, sigma, solve = self._factorisation(
+                coef, lambda K: (u0 @ (K @ u0)) / (u0 @ (self.M @ u0)))
+            scale = 1.0
         U = U / np.sqrt(np.einsum("ij,ij->j", U, self.M @ U))
         KU, MU = self.fm.plate.stiffness_products(coef, U), self.M @ U
         theta = np.einsum("ij,ij->j", U, KU)
         Rs = KU - MU * theta
-        eta2 = np.maximum(np.einsum("ij,ij->j", Rs, solve(Rs)), 0.0)
+        eta2 = np.maximum(np.einsum("ij,ij->j", Rs, solve(Rs)), 0.0) * scale
         bound = 0.5 * (eta2 + np.sqrt(eta2**2 + 4 * eta2 * (theta - sigma)))
         return theta, U, bound
