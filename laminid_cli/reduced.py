@@ -127,36 +127,50 @@ class ReducedBasis:
         b.add(V)
         return b
 
-    def _project_out(self, W: np.ndarray) -> None:
+    def _project_out(self, W: np.ndarray, MW: np.ndarray) -> None:
         """Remove from W (in place) its M-components along the rigid motions and the basis
-        (one classical Gram-Schmidt pass)."""
+        (one classical Gram-Schmidt pass), and the same combination from MW = M W."""
         if self.R is not None:
-            W -= self.R @ (self.MR.T @ W)
-        W -= self.V @ (self.MV.T @ W)
+            C = self.MR.T @ W
+            W -= self.R @ C
+            MW -= self.MR @ C
+        C = self.MV.T @ W
+        W -= self.V @ C
+        MW -= self.MV @ C
 
     def add(self, W: np.ndarray) -> int:
         """Add the directions of W (n, k) not yet in the basis; returns how many were added.
 
         Classical Gram-Schmidt in the M inner product, twice; an eigen decomposition of the
         Gram matrix drops the directions that add nothing (M-norm below DROP_TOL); then twice
-        more with an M-orthonormalisation for round-off."""
+        more with an M-orthonormalisation for round-off. M W is formed twice (at the start and
+        after the eigen decomposition, whose scaling amplifies round-off in the directions it
+        keeps) and otherwise carried along by the same combinations as W."""
         W = np.array(W, float, copy=True)
         if W.ndim == 1:
             W = W[:, None]
-        norm = np.sqrt(np.einsum("ij,ij->j", W, self.M @ W))
-        W = W[:, norm > 0] / norm[norm > 0]
+        MW = self.M @ W
+        norm = np.sqrt(np.einsum("ij,ij->j", W, MW))
+        W, MW = W[:, norm > 0] / norm[norm > 0], MW[:, norm > 0] / norm[norm > 0]
         for _ in range(2):                                   # classical Gram-Schmidt, twice
-            self._project_out(W)
-        G = W.T @ (self.M @ W)
+            self._project_out(W, MW)
+        G = W.T @ MW
         d, Q = np.linalg.eigh(0.5 * (G + G.T))
         keep = d > DROP_TOL**2
         if not keep.any():
             return 0
         W = W @ (Q[:, keep] / np.sqrt(d[keep]))
-        for _ in range(2):                                   # clean up once more
-            self._project_out(W)
-            W = _m_orthonormal(W, self.M)
         MW = self.M @ W
+        for _ in range(2):                                   # clean up once more
+            self._project_out(W, MW)
+            G = W.T @ MW
+            try:
+                L = np.linalg.cholesky(0.5 * (G + G.T))
+            except np.linalg.LinAlgError as exc:
+                raise SolverError("the reduced basis lost its M-orthogonality (singular Gram "
+                                  "matrix); try --solver full") from exc
+            W = sla.solve_triangular(L, W.T, lower=True, check_finite=False).T
+            MW = sla.solve_triangular(L, MW.T, lower=True, check_finite=False).T
         k = W.shape[1]
         r = self.size
         n_b = self.n_b

@@ -181,6 +181,10 @@ def test_error_bound_is_honest_and_shrinks():
         assert np.all(before >= full.eigenvalues * (1 - 1e-8))
         last = bound / before
     assert last[:14].max() < 1e-8 and last.max() < 1e-7
+    # M V carried along by the Gram-Schmidt combinations is M V, and V stays M-orthonormal
+    MV = fm.plate.M @ B.V
+    assert np.abs(B.MV - MV).max() <= 1e-12 * np.abs(MV).max()
+    np.testing.assert_allclose(B.V.T @ MV, np.eye(B.size), atol=1e-12)
 
 
 def test_reduced_gradient_matches_central_differences():
