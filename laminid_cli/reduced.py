@@ -32,6 +32,9 @@ from laminid_cli.modal import Modes, _m_orthonormal
 #: columns added by an enrichment whose M-norm after orthogonalisation is below this (relative
 #: to the normalised residual) add nothing and are dropped
 DROP_TOL = 1e-9
+#: an enrichment adds no residual of a mode whose relative error bound is below this (its
+#: residual is round-off: it would add noise directions to the basis)
+CONVERGED = 1e-13
 #: the basis is rebuilt from the current Ritz vectors when it would grow beyond this
 MAX_BASIS = 260
 
@@ -340,7 +343,11 @@ class ReducedBasis:
             bound = 0.5 * (eta2 + np.sqrt(eta2**2 + 4 * eta2 * (theta - sigma)))
             if np.max(bound / theta) <= target:
                 break
-            added = self.add(S)
+            # a mode already converged to round-off adds only noise directions
+            active = bound / theta > CONVERGED
+            if not active.any():
+                break
+            added = self.add(S[:, active])
             theta, Y = self.eig(coef, k)
             if added == 0:
                 break
