@@ -1,0 +1,57 @@
+"""Start-up of the ``laminid`` process (laminid_cli.__main__, laminid_cli.cli): which modules a
+command imports.
+
+The tests run the real entry point in a fresh interpreter (subprocess). The import budget is checked
+by module names, not by timings: ``identify`` needs numpy, scipy.sparse/linalg and nlopt, but
+none of the heavy modules that other commands or options use (each costs 40 ms to a second of
+start-up; ``laminid identify`` should cost little more than ``laminid modes`` besides the fit).
+"""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+S1 = ROOT / "specimens" / "example1" / "S1.1.yaml"
+
+# runs `laminid ARGS...` through the console script's entry point and writes the names of the
+# modules imported by the end of the process to the file named by the first argument
+_MODULES_AT_EXIT = r"""
+import atexit, json, sys
+out = sys.argv[1]
+atexit.register(lambda: json.dump(sorted(sys.modules), open(out, "w")))
+sys.argv = ["laminid"] + sys.argv[2:]
+from laminid_cli.cli import main
+main()
+"""
+
+#: imported by other commands or options only (plots, result files, instruments, statistics)
+HEAVY = ("scipy.optimize", "scipy.stats", "scipy.special", "scipy.integrate",
+         "scipy.interpolate", "matplotlib", "h5py", "pyvisa", "pandas")
+
+
+def _modules_after(tmp_path, *args):
+    out = tmp_path / "modules.json"
+    r = subprocess.run([sys.executable, "-c", _MODULES_AT_EXIT, str(out), *map(str, args)],
+                       capture_output=True, text=True, cwd=ROOT, timeout=300)
+    return r, set(json.loads(out.read_text()))
+
+
+def test_identify_imports_none_of_the_heavy_modules(tmp_path):
+    r, modules = _modules_after(tmp_path, "identify", S1, "--mesh", "4x4", "--json",
+                                "--no-output")
+    assert r.returncode == 0, r.stderr[-2000:]
+    summary = json.loads(r.stdout)                         # it did identify, with intervals
+    assert summary["evaluations"] > 0 and summary["uncertainty"]
+    assert {"numpy", "scipy.sparse", "nlopt", "laminid_cli.uncertainty"} <= modules
+    heavy = sorted(m for m in modules if m in HEAVY or m.split(".")[0] in HEAVY)
+    assert not heavy, f"identify --json --no-output imported {heavy}"
+    # the loss factors' module only for a specimen with measured damping or a --fix eta...
+    assert "laminid_cli.damping" not in modules
+
+
+def test_help_imports_no_numerics(tmp_path):
+    r, modules = _modules_after(tmp_path, "--help")
+    assert r.returncode == 0 and "identify" in r.stdout
+    assert not {"numpy", "scipy", "yaml", "laminid_cli.commands.identify"} & modules
