@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib
 import logging
+
 import click
 
 from laminid_cli import __version__
