@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import importlib
 import logging
-import os
 
 import click
 
 from laminid_cli import __version__
+from laminid_cli.errors import EXIT_INTERRUPTED
 
 # command name -> "module:attribute"; each command lives in laminid_cli/commands/<module>.py
 COMMANDS = {
@@ -72,7 +72,16 @@ class LazyGroup(click.Group):
             ctx.exit(exc.exit_code)
         except KeyboardInterrupt:
             click.echo("laminid: interrupted", err=True)
-            ctx.exit(130)
+            ctx.exit(EXIT_INTERRUPTED)
+
+    def make_context(self, info_name, args, parent=None, **extra):
+        # parsing the arguments (--help, --version, list_commands); click itself would say
+        # "Aborted!" and exit 1
+        try:
+            return super().make_context(info_name, args, parent=parent, **extra)
+        except KeyboardInterrupt:
+            click.echo("laminid: interrupted", err=True)
+            raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
 
 
 def _module_exists(target: str) -> bool:
@@ -102,10 +111,7 @@ def cli(verbose: int, quiet: bool):
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
 
 
-def main():  # console-script entry point
-    # laminid's linear algebra is banded and small: BLAS threads only contend with each other
-    # (measured: 28 ms single-threaded vs 0.2-6 s with two threads on a loaded 2-core machine).
-    # Parallel work goes through processes (batch -j). Must be set before numpy is imported.
-    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(var, "1")
-    cli(prog_name="laminid")
+def main():  # kept for callers of the old entry point: laminid_cli.__main__.main
+    from laminid_cli.__main__ import main as entry
+
+    entry()

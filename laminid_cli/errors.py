@@ -8,6 +8,9 @@ instrument fault).
 
 from __future__ import annotations
 
+#: exit code of a command interrupted by Ctrl-C (128 + SIGINT)
+EXIT_INTERRUPTED = 130
+
 
 class LaminidError(Exception):
     """Base class of all errors laminid reports to a user."""

@@ -50,10 +50,13 @@ class RunOptions:
         """Options whose ``--fix`` list (a comma-separated string or items, elastic constants
         and loss factors mixed) is split between ``identify.fix`` and ``fix_loss``; ``kw`` as
         the fields (``identify`` without its fix)."""
-        from laminid_cli.damping import split_fix
-
         items = fix.split(",") if isinstance(fix, str) else list(fix)
-        elastic, loss = split_fix(items)
+        if any(item.strip() for item in items):
+            from laminid_cli.damping import split_fix
+
+            elastic, loss = split_fix(items)
+        else:                              # nothing fixed: no need of the damping module
+            elastic, loss = (), ()
         identify = kw.pop("identify", IdentifyOptions())
         return cls(identify=dataclasses.replace(identify, fix=elastic), fix_loss=loss, **kw)
 
@@ -144,7 +147,6 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
         Bad specimen, options or start (before the fit), solver failure. A run that does not
         converge is not an error: ``converged`` is False and the status says so.
     """
-    from laminid_cli.damping import check_loss_fix, damping_of, parse_loss_fix
     from laminid_cli.forward import build_forward_model
     from laminid_cli.results import (identification_summary, joint_identification_summary,
                                      status_of, uncertainty_summary)
@@ -159,6 +161,8 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
     specimens = [read_specimen(s) if isinstance(s, (str, Path)) else s for s in specimens]
     fms = tuple(build_forward_model(sp, nxny) for sp in specimens)
     if options.fix_loss:
+        from laminid_cli.damping import check_loss_fix, parse_loss_fix
+
         if loss_fix_needs_damping or joint:
             check_loss_fix(options.fix_loss, fms, joint)
         else:
@@ -171,9 +175,11 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
     summary["uncertainty"] = uncertainty_summary(a)
     notes = []
     damping = None
-    if not joint:
+    if not joint and _has_damping(specimens[0]):
+        from laminid_cli.damping import damping_of
+
         damping = damping_of(fms[0], a, fix=options.fix_loss)
-    elif any(sp.measured is not None and sp.measured.damping is not None for sp in specimens):
+    elif joint and any(_has_damping(sp) for sp in specimens):
         notes.append("the measured damping is not used with --joint (identify each plate "
                      "alone for its loss factors)")
     if damping is not None:
@@ -182,6 +188,11 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
     summary.update(status.as_dict())
     return IdentificationRun(options=options, forward_models=fms, assessment=a, status=status,
                              damping=damping, summary=summary, notes=tuple(notes))
+
+
+def _has_damping(specimen) -> bool:
+    """Whether a specimen gives measured damping (the loss factors need it)."""
+    return specimen.measured is not None and specimen.measured.damping is not None
 
 
 def write_result(path, run: IdentificationRun, *, command: str | None = None,
