@@ -137,3 +137,14 @@ def test_an_optimum_on_a_feasibility_bound_names_the_constraint():
     assert r.exit_code == 0, r.output
     warnings = " ".join(json.loads(r.output)["warnings"])
     assert "runs into a bound" in warnings and "G13 at its minimum (0.0001 E1)" in warnings
+
+
+def test_huge_interval_ends_print_in_exponent_form():
+    """An undetermined constant's interval can run to 4e25 GPa (S1.3 G13, log-space interval):
+    printed as 4.17e+25, not with 26 digits; ordinary values keep their fixed decimals."""
+    from laminid_cli.commands.text import _num
+
+    assert _num("G13", 4.1736501225891e34) == "4.17e+25"
+    assert _num("G23", 1.82e14) == "1.82e+05"
+    assert _num("E1", 163.46e9) == "163.46"
+    assert _num("nu12", -0.0193) == "-0.019"

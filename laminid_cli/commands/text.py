@@ -314,7 +314,10 @@ def _num(name: str, value) -> str:
         return "inf"
     if not math.isfinite(value):
         return "-"
-    return f"{value:.3f}" if name == "nu12" else f"{value / 1e9:.2f}"
+    v = value if name == "nu12" else value / 1e9
+    if abs(v) >= 1e5:                    # an undetermined constant's interval end: no 26 digits
+        return f"{v:.2e}"
+    return f"{v:.3f}" if name == "nu12" else f"{v:.2f}"
 
 
 def format_damping(d: dict) -> list[str]:
