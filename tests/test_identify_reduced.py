@@ -158,12 +158,12 @@ def test_error_bound_is_honest_and_shrinks():
     """At a point 15 % away from the basis' point, the per-mode bound holds the true error
     (against a full solution there) at every enrichment, and shrinks to the final limit.
 
-    Up to the round-off floor of the projected eigenvalues: once the basis holds the modes, the
-    Ritz values differ from the full-matrix Rayleigh quotients of their vectors by ~2e-10
-    relative (round-off in the projected stiff directions, measured with both the generalised
-    and the standard-form reduced eigenproblem), and the bound then meets the error within
-    that floor; ROUNDOFF = 5e-10 relative is allowed, below FINAL_BOUND = 1e-9."""
-    ROUNDOFF = 5e-10
+    Up to the round-off of the eigenvalues themselves: the reduced values are Rayleigh
+    quotients of the reduced eigenvectors (ReducedBasis.eig), within ~5e-12 of the full
+    matrices' quotients of their Ritz vectors (eigh's own values were up to ~5e-10 off, where
+    the bound met the error); ROUNDOFF = 1e-11 relative is allowed (seen: bound >= 19 x error).
+    """
+    ROUNDOFF = 1e-11
     fm, prob, ev0 = s11_problem()
     B = ReducedBasis(fm)
     B.add(ev0.modes.phi)
@@ -440,6 +440,6 @@ def test_error_bound_with_a_reused_factorisation_is_honest():
         before, after, bound = B.enrich(coef, prob.n_model, rounds=1, reuse=1e-2)
         err = np.abs(before - full.eigenvalues)
         assert np.all(np.isfinite(bound))
-        assert np.all(bound + 5e-10 * full.eigenvalues >= err), (bound, err)
+        assert np.all(bound + 1e-11 * full.eigenvalues >= err), (bound, err)
     assert WORK["factorizations"] == n_factor
     assert (bound / after)[:14].max() < 1e-8
