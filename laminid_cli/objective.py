@@ -112,6 +112,12 @@ class VariableSet:
         A, b = self.linear_constraints()
         return bool(np.all(x >= lo - tol) and np.all(x <= hi + tol) and np.all(A @ x <= b + tol))
 
+    def eigenvalue_jacobian(self, E, jacs) -> np.ndarray:
+        """``d lambda / d x`` (n_modes, n_vars) from the basis energies ``E`` (n_materials, 6,
+        n_modes) = d lambda / d coef of some modes and each material's coefficient Jacobian
+        (:meth:`coefficients`)."""
+        return np.hstack([E[m].T @ J for m, J in enumerate(jacs)])
+
     def prior_rows(self, x):
         """Eq. 15's second term as residual rows ``sqrt(wp) (P - P0) / P0`` (nu12: over 1 when
         P0 is 0) of the free constants given a prior weight (``self.prior``: per material,
@@ -348,14 +354,11 @@ class Objective(VariableSet):
         lam = modes.eigenvalues[pairing]
         if E is None:
             E = plate.fm.plate.basis_energies(phi)                  # (n_mat, 6, n_meas)
-        dlam_dx = np.zeros((plate.data.n, plate.n_vars))
-        for m, J in enumerate(jacs):
-            dlam_dx[:, plate.offsets[m]:plate.offsets[m + 1]] = E[m].T @ J
-        lam_meas, w = plate.data.lam, plate.data.weight
-        rel = (lam_meas - lam) / lam_meas
-        grad = -2 * (w * rel / lam_meas) @ dlam_dx                  # paper Eq. 24
-        return Evaluation(x=np.array(xk, float), objective=float(np.sum(w * rel**2)),
-                          gradient=grad, eigenvalues=lam, pairing=np.asarray(pairing),
+        dlam_dx = plate.eigenvalue_jacobian(E, jacs)
+        rows, drows = residual_rows(plate.data.lam, plate.data.weight, lam, dlam_dx)
+        return Evaluation(x=np.array(xk, float), objective=float(rows @ rows),
+                          gradient=2 * rows @ drows,                # paper Eq. 24
+                          eigenvalues=lam, pairing=np.asarray(pairing),
                           dlam_dx=dlam_dx, phi=phi, modes=modes, changes=tuple(changes))
 
     def combine(self, x, parts) -> Evaluation:
@@ -415,6 +418,17 @@ class Objective(VariableSet):
         d = self.plates[k].data
         return weighted_rms(residuals_percent(d.freq, np.sqrt(eigenvalues) / (2 * np.pi)),
                             d.weight)
+
+
+def residual_rows(lam_meas, weight, lam, dlam_dx):
+    """Paper Eq. 17 as residual rows ``r_i = sqrt(w_i) (lt_i - l_i) / lt_i`` (the term is
+    ``r . r``) and their derivatives ``-sqrt(w_i) / lt_i d l_i / d x`` (n_modes, n_vars), from
+    the measured eigenvalues ``lam_meas``, weights, paired model eigenvalues and their
+    Jacobian. The objective's value and gradient and the Monte Carlo trials' Gauss-Newton
+    steps are all made of these."""
+    s = np.sqrt(np.asarray(weight, float))
+    lam_meas = np.asarray(lam_meas, float)
+    return s * (lam_meas - lam) / lam_meas, -(s / lam_meas)[:, None] * dlam_dx
 
 
 def max_assignment(M: np.ndarray) -> np.ndarray:
