@@ -69,8 +69,9 @@ Monte Carlo
     :func:`monte_carlo` re-identifies from frequencies perturbed by their (scaled) standard
     deviations, in parallel processes, each run starting at the optimum, and reports the
     empirical spread beside the linearised one. A single-plate result of the reduced solver
-    runs its trials on a :class:`TrialModel` built once at the optimum (no full solve; at most
-    one factorisation per trial, none where a kept factorisation is near enough); each trial's
+    runs its trials on a :class:`TrialModel` built once at the optimum and enriched where the
+    first trials need it (no full solve; at most one factorisation per trial, none where a kept
+    factorisation is near enough); each trial's
     paired eigenvalues are checked against the full FE model by a residual bound, at most
     :data:`TRIAL_SHARE` (1 %) of the smallest relative eigenvalue standard deviation
     2 sigma_f / f (4e-5 at the default 0.2 %; at most :data:`TRIAL_BOUND`): to first order a
@@ -668,6 +669,9 @@ TRIAL_MAXEVAL = 200
 #: only when its constitutive matrices are at least this fraction of that point's (the bound
 #: grows as 1 / mu)
 TRIAL_MU = 0.5
+#: the shared trial basis is enriched where the first TRIAL_PILOT trials need it
+#: (TrialModel.prepare) before the trials run
+TRIAL_PILOT = 16
 #: enrich-and-optimise-again rounds of a trial before it is re-identified with identify()
 TRIAL_ROUNDS = 3
 
@@ -679,14 +683,21 @@ class TrialModel(VariableSet):
     processes): the optimum's final basis, its checked Ritz vectors ``phi_i``, their
     first-order changes with every basis stiffness ``A0^-1 K_b phi_i`` (``A0 = K(c*) - sigma0
     M``), and the preconditioned Ritz residuals at ``x* +- CLOUD_RADIUS`` standard errors
-    along the directions where the trials change the stiffness most (:meth:`_enrich_cloud`).
-    The factorisations of the optimum and of those points are kept.
+    along the directions where the trials change the stiffness most (:meth:`_enrich_cloud`),
+    then, before the trials run, the preconditioned residuals where the first TRIAL_PILOT
+    trials miss the accepted bound (:meth:`prepare`). The factorisations of the optimum and of
+    those points are kept. The trials' eigenproblems on this shared basis are solved in
+    standard form (``Mr = C C^T`` once).
 
     A trial minimises paper Eq. 17 (+ Eq. 15) with its perturbed frequencies on this model from
-    the optimum (Levenberg-Marquardt; SLSQP when a bound or linear constraint is in the way),
-    modes paired by MAC against the optimum's. At its answer the Ritz vectors are checked with
-    the full matrices: Rayleigh quotients and the residual bound of :func:`_residual_bounds`
-    with a kept factorisation ``A_ref^-1`` in place of ``A^-1``: when the constitutive matrices
+    the optimum: Levenberg-Marquardt on the residual rows of
+    :func:`laminid_cli.objective.residual_rows` (the objective's own), each step restricted
+    to the search's bounds and linear constraints (:func:`_constrained_step`; SLSQP only when
+    that does not converge), modes paired by MAC against the optimum's. At its answer the
+    paired Ritz vectors (and the next one) are checked with the full matrices: Rayleigh
+    quotients and the residual bound of :func:`_residual_bounds` with a kept factorisation
+    ``A_ref = U^T U`` in place of A (``r^T A_ref^-1 r = |U^-T r|^2``, one triangular solve per
+    vector, :class:`_Factor`): when the constitutive matrices
     satisfy ``Q(c) >= mu Q(c_ref)`` (mu the smallest generalised eigenvalue of the 5x5 pair of
     each material, the same for every ply angle since Q(theta) = T^T Q(0) T), then ``K(c) >= mu
     K(c_ref)`` and ``A(c) >= min(mu, 1) A_ref``, so ``r^T A(c)^-1 r <= r^T A_ref^-1 r / min(mu,
@@ -752,14 +763,53 @@ class TrialModel(VariableSet):
         self._enrich_cloud(fm)
         self._A_all = np.vstack([self.A, np.eye(self.n_vars), -np.eye(self.n_vars)])
         self._b_all = np.concatenate([self.b, self.hi, -self.lo])
-        C_inv = np.linalg.inv(np.linalg.cholesky(self.basis.Mr))
-        self._Kt = C_inv @ self.basis.Kr @ C_inv.T
-        self._Kt = 0.5 * (self._Kt + np.swapaxes(self._Kt, -1, -2))
-        self._CinvT = np.ascontiguousarray(C_inv.T)
         theta, Y = self.basis.eig(self.coef_opt, self.n_model)
         self.Y_ref = Y[:, self.pairing]
-        #: the model at the optimum, where every trial starts
+        self._shared_basis_changed()
+
+    def _shared_basis_changed(self):
+        """After a change of the shared basis: its standard form (``Mr = C C^T``, ``Kt = C^-1
+        Kr C^-T``), the optimum's reduced vectors extended by zeros (columns were appended)
+        and the model at the optimum, where every trial starts."""
+        C_inv = np.linalg.inv(np.linalg.cholesky(self.basis.Mr))
+        Kt = C_inv @ self.basis.Kr @ C_inv.T
+        self._Kt = 0.5 * (Kt + np.swapaxes(Kt, -1, -2))
+        self._CinvT = np.ascontiguousarray(C_inv.T)
+        extra = self.basis.size - self.Y_ref.shape[0]
+        self.Y_ref = np.vstack([self.Y_ref, np.zeros((extra, self.Y_ref.shape[1]))])
         self.model_opt = self.modes(self.basis, self.x_opt, self.Y_ref)
+
+    def prepare(self, freqs, weight) -> int:
+        """Enrich the shared basis where the first trials (``freqs``: their frequencies, in
+        order) need it, before the trials run: each is optimised on the shared basis and
+        checked (:meth:`trial`'s first round); where the check misses the accepted bound, A
+        is factorised at its answer (kept for the later checks) and, if still missed, the
+        preconditioned residuals there are added to the shared basis. Deterministic (the
+        same trials in the same order, whatever the number of processes); returns the
+        directions added."""
+        added = 0
+        for f in freqs:
+            lam_meas = (2 * np.pi * np.nan_to_num(f, nan=1.0)) ** 2
+            w = np.where(np.isfinite(f), weight, 0.0)
+            gn = self._gauss_newton(self.basis, self.x_opt, lam_meas, w, self.Y_ref,
+                                    self.model_opt)
+            if gn is None:
+                continue
+            x, (_, pairing, Y, _) = gn
+            mu, near = self.nearest_ref(x)
+            bound = self.check(self.basis, x, Y, pairing, near)[1] if mu >= TRIAL_MU else np.inf
+            if bound <= self.bound:
+                continue
+            coef = self.coefficients(x)[0]
+            ref = self.factor_at(x, self.basis.eig(coef, 1)[0][0])
+            self.refs.append(ref)
+            _, bound, S = self.check(self.basis, x, Y, pairing, ref)
+            if bound > self.bound:
+                k = self.basis.add(S())
+                added += k
+                if k:
+                    self._shared_basis_changed()
+        return added
 
     def _enrich_cloud(self, fm):
         """Enrich the basis where the trials go far: at ``x* +- CLOUD_RADIUS`` standard errors
@@ -918,8 +968,9 @@ class TrialModel(VariableSet):
         res, J = self.rows(x, model, lam_meas, w)
         f = float(res @ res)
         A, b = self._A_all, self._b_all
-        # Marquardt's scaling, Nielsen's damping update from the gain ratio
-        damp, nu = 1e-6, 2.0
+        # Marquardt's scaling, Nielsen's damping update from the gain ratio (a rejected step
+        # raises the damping to at least 1e-2 at once: the first steps of far trials overshoot)
+        damp, nu = 1e-6, 4.0
         for _ in range(TRIAL_GN_ITERATIONS):
             H = J.T @ J
             d = np.diag(H)
@@ -933,20 +984,20 @@ class TrialModel(VariableSet):
             model_n = self.modes(basis, x_new, Y_ref)
             res_n, J_n = self.rows(x_new, model_n, lam_meas, w)
             f_new = float(res_n @ res_n)
-            predicted = -(2 * g @ dx + dx @ H @ dx)
             if f_new <= f:
+                predicted = -(2 * g @ dx + dx @ H @ dx)
                 rho = (f - f_new) / predicted if predicted > 0 else 0.0
                 x, f, res, J, model = x_new, f_new, res_n, J_n, model_n
-                if step <= TRIAL_XTOL:
+                if step <= TRIAL_XTOL and damp <= 0.1:     # (not a step cut by damping)
                     return x, model
                 damp = max(damp * max(1 / 3, 1 - (2 * rho - 1) ** 3), 1e-9)
-                nu = 2.0
+                nu = 4.0
             elif step <= 10 * TRIAL_XTOL:
                 # a step this small gives no decrease: the reduced objective's round-off floor
                 # (about 1e-9 relative) is reached
                 return x, model
             else:
-                damp, nu = max(damp * nu, 1e-4), 2 * nu
+                damp, nu = max(damp * nu, 1e-2), 2 * nu
                 if damp > 1e3:
                     return None
         return None
@@ -1016,10 +1067,10 @@ class TrialModel(VariableSet):
         basis, Y_ref, x0, L = self.basis, self.Y_ref, self.x_opt, self.L
         ref = None
         for rounds in range(1, TRIAL_ROUNDS + 1):
-            # SLSQP restarted from its answer while that moves (its quasi-Newton model starts
-            # from the Gauss-Newton scaling again: flat valleys are followed to the end)
             gn = self._gauss_newton(basis, x0, lam_meas, w, Y_ref,
                                     self.model_opt if rounds == 1 else None)
+            # else SLSQP, restarted from its answer while that moves (its quasi-Newton model
+            # starts from the Gauss-Newton scaling again: flat valleys are followed to the end)
             for _ in range(0 if gn is not None else TRIAL_RESTARTS):
                 x, memo = self._minimise(basis, x0, lam_meas, w, Y_ref)
                 step = float(np.max(np.abs(L.T @ (x - x0))))
@@ -1405,6 +1456,8 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
         tau2 = w * rel**2
         limit = min(TRIAL_BOUND, TRIAL_SHARE * float(np.min(rel[w > 0])))
         model = TrialModel(fm, result, float(np.mean(tau2[w > 0])), limit)
+        model.prepare([np.asarray(t[1][0], float) for t in trials[:TRIAL_PILOT]],
+                      np.asarray(fm.specimen.measured.weight, float))
     init = ([fm for fm, _ in parts], result.options, tuple(result.constants),
             [np.asarray(plate.pairing) for _, plate in parts], joint,
             None if model is not None else _basis_vectors(result), model)
