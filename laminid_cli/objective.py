@@ -355,9 +355,8 @@ class Objective(VariableSet):
         if E is None:
             E = plate.fm.plate.basis_energies(phi)                  # (n_mat, 6, n_meas)
         dlam_dx = plate.eigenvalue_jacobian(E, jacs)
-        rows, drows = residual_rows(plate.data.lam, plate.data.weight, lam, dlam_dx)
-        return Evaluation(x=np.array(xk, float), objective=float(rows @ rows),
-                          gradient=2 * rows @ drows,                # paper Eq. 24
+        eq17 = residual_rows(plate.data.lam, plate.data.weight, lam, dlam_dx)
+        return Evaluation(x=np.array(xk, float), objective=eq17.value, gradient=eq17.gradient,
                           eigenvalues=lam, pairing=np.asarray(pairing),
                           dlam_dx=dlam_dx, phi=phi, modes=modes, changes=tuple(changes))
 
@@ -420,15 +419,28 @@ class Objective(VariableSet):
                             d.weight)
 
 
-def residual_rows(lam_meas, weight, lam, dlam_dx):
-    """Paper Eq. 17 as residual rows ``r_i = sqrt(w_i) (lt_i - l_i) / lt_i`` (the term is
-    ``r . r``) and their derivatives ``-sqrt(w_i) / lt_i d l_i / d x`` (n_modes, n_vars), from
-    the measured eigenvalues ``lam_meas``, weights, paired model eigenvalues and their
-    Jacobian. The objective's value and gradient and the Monte Carlo trials' Gauss-Newton
-    steps are all made of these."""
-    s = np.sqrt(np.asarray(weight, float))
+class Eq17(NamedTuple):
+    """Paper Eq. 17 of one plate at some paired model eigenvalues (:func:`residual_rows`)."""
+
+    rows: np.ndarray                 # (n,) r_i = sqrt(w_i) (lt_i - l_i) / lt_i
+    jacobian: np.ndarray             # (n, n_vars) d r_i / d x = -sqrt(w_i) / lt_i d l_i / d x
+    value: float                     # sum_i w_i ((lt_i - l_i) / lt_i)^2 = r . r
+    gradient: np.ndarray             # (n_vars,) paper Eq. 24 = 2 J^T r
+
+
+def residual_rows(lam_meas, weight, lam, dlam_dx) -> Eq17:
+    """Paper Eq. 17 from the measured eigenvalues ``lam_meas``, the weights, the paired model
+    eigenvalues and their Jacobian ``dlam_dx``: as residual rows with their Jacobian (the Monte
+    Carlo trials' Gauss-Newton steps) and as value and gradient (the objective), in one
+    place. Value and gradient are computed as ``sum w rel^2`` and ``-2 (w rel / lt) . dl/dx``
+    (the same numbers as ``r . r`` and ``2 J^T r`` up to round-off, and the same round-off as
+    the optimiser has always seen)."""
+    w = np.asarray(weight, float)
     lam_meas = np.asarray(lam_meas, float)
-    return s * (lam_meas - lam) / lam_meas, -(s / lam_meas)[:, None] * dlam_dx
+    s = np.sqrt(w)
+    rel = (lam_meas - lam) / lam_meas
+    return Eq17(rows=s * rel, jacobian=-(s / lam_meas)[:, None] * dlam_dx,
+                value=float(np.sum(w * rel**2)), gradient=-2 * (w * rel / lam_meas) @ dlam_dx)
 
 
 def max_assignment(M: np.ndarray) -> np.ndarray:

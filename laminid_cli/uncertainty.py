@@ -897,7 +897,7 @@ class TrialModel(VariableSet):
     def rows(self, x, model, lam_meas, w):
         """Residual rows of paper Eq. 17 (+ Eq. 15) at ``x`` from its ``model`` (:meth:`modes`)
         and their Jacobian: (rows, Jacobian); the objective is ``rows . rows``."""
-        r, J = residual_rows(lam_meas, w, model[0], model[3])
+        r, J = residual_rows(lam_meas, w, model[0], model[3])[:2]
         pv, pr = self.prior_rows(x)
         return np.concatenate([r, pv]), np.vstack([J, pr])
 

@@ -472,3 +472,19 @@ def test_trial_rows_give_the_objective_of_the_identification():
     assert model.model_opt[0] == pytest.approx(r.modes.eigenvalues[r.pairing], rel=1e-7)
     assert J[:res.size - len(model.prior_rows(model.x_opt)[0])] == pytest.approx(
         -(np.sqrt(r.weight) / lam_meas)[:, None] * np.asarray(r.dlam_dx), rel=1e-5, abs=1e-12)
+
+
+def test_eq17_rows_value_and_gradient_agree():
+    """objective.residual_rows: value = r . r and gradient = 2 J^T r (paper Eq. 24), with
+    unequal weights and an unmeasured mode (weight 0)."""
+    from laminid_cli.objective import residual_rows
+
+    rng = np.random.default_rng(6)
+    lam_meas = rng.uniform(1e5, 1e7, 7)
+    lam = lam_meas * (1 + 0.01 * rng.standard_normal(7))
+    w = np.array([1.0, 2.0, 0.5, 1.0, 0.0, 3.0, 1.0])
+    dlam = rng.standard_normal((7, 4)) * lam[:, None]
+    e = residual_rows(lam_meas, w, lam, dlam)
+    assert e.value == pytest.approx(float(e.rows @ e.rows), rel=1e-12)
+    assert e.gradient == pytest.approx(2 * e.rows @ e.jacobian, rel=1e-10)
+    assert e.value == pytest.approx(np.sum(w * ((lam_meas - lam) / lam_meas) ** 2), rel=1e-12)
