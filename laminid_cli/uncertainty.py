@@ -860,9 +860,9 @@ class TrialModel(VariableSet):
         matrices are closest below those at ``x`` (largest mu)."""
         if not self.refs:
             self.refs = [(self.coef_opt, self.sigma, self.factor0())]
-        mus = [self.mu(x, ref[0]) for ref in self.refs]
+        mus = self.mus(x, [ref[0] for ref in self.refs])
         k = int(np.argmax(mus))
-        return mus[k], self.refs[k]
+        return float(mus[k]), self.refs[k]
 
     def factor0(self) -> "_Factor":
         """The factorisation of ``A0`` (once per process)."""
@@ -874,9 +874,10 @@ class TrialModel(VariableSet):
 
     @staticmethod
     def _q(coef):
+        """Constitutive matrices (..., 5, 5) of stiffness coefficients (..., 6)."""
         from laminid_cli.material import c_basis
 
-        return np.tensordot(np.asarray(coef, float), c_basis(0.0), axes=([0], [0]))
+        return np.tensordot(np.asarray(coef, float), c_basis(0.0), axes=([-1], [0]))
 
     def modes(self, basis, x, Y_ref):
         """The model at ``x``: (paired Ritz values, pairing, reduced vectors, d lambda / d x of
@@ -942,13 +943,14 @@ class TrialModel(VariableSet):
     def mu(self, x, coef_ref):
         """Smallest generalised eigenvalue of the constitutive matrices at ``x`` against those
         of ``coef_ref`` over the materials: ``K(x) >= mu K(ref)`` (class docstring)."""
-        coef = self.coefficients(x)[0]
-        out = np.inf
-        for c, c0 in zip(coef, coef_ref):
-            C = np.linalg.cholesky(self._q(c0))
-            G = np.linalg.solve(C, np.linalg.solve(C, self._q(c)).T)
-            out = min(out, float(np.linalg.eigvalsh(0.5 * (G + G.T)).min()))
-        return out
+        return float(self.mus(x, [coef_ref])[0])
+
+    def mus(self, x, coef_refs) -> np.ndarray:
+        """:meth:`mu` against each of ``coef_refs`` (one batched 5x5 computation)."""
+        Q = self._q(self.coefficients(x)[0])                   # (n_mat, 5, 5)
+        C_inv = np.linalg.inv(np.linalg.cholesky(self._q(np.array(coef_refs))))
+        G = C_inv @ Q @ np.swapaxes(C_inv, -1, -2)             # (n_ref, n_mat, 5, 5)
+        return np.linalg.eigvalsh(0.5 * (G + np.swapaxes(G, -1, -2))).min(axis=(1, 2))
 
     def factor_at(self, x, theta1):
         """(coefficients, sigma, solve) of A = K - sigma M factorised at ``x``."""
