@@ -4,9 +4,11 @@ In one run (ratios are what to compare; the machine may be loaded): the wall tim
 identification (median of REPEAT), then ``monte_carlo`` with N trials (default 200) with
 ``-j 1`` and ``-j 2`` for each trial route ("reduced": the optimum's TrialModel; "identify":
 identify() from the optimum with its basis, the route before the trial model, run on
---identify-trials trials and scaled to N), the time per trial, the ratio of the whole Monte Carlo to one identification, and the work per trial
+--identify-trials trials and scaled to N), the time per trial, the ratio of the whole Monte
+Carlo to one identification, and the work per trial
 counted by laminid_cli.modal.WORK (factorisations, solve pairs, Lanczos runs; with -j 1, in
-this process, model build included). Single-threaded BLAS, as the CLI.
+this process, model build and its enrichment by the first trials included; a trial check's
+triangular solve counts as half a solve pair). Single-threaded BLAS, as the CLI.
 
 Run: .venv/bin/python benchmarks/bench_uncertainty.py [--trials 200] [--mesh 12x12]
      [--routes reduced,identify] [--jobs 1,2] [SPEC]
@@ -43,9 +45,12 @@ def main():
     fm = build_forward_model(spec, mesh)
     t_id, r = median_time(lambda: identify(fm), REPEAT)
     reset_work()
+    c = time.process_time()
     identify(fm)
+    cpu_id = time.process_time() - c
     w_id = dict(WORK)
-    print(f"{spec.name} {a.mesh}: one identification {t_id:.2f} s (median of {REPEAT}), "
+    print(f"{spec.name} {a.mesh}: one identification {t_id:.2f} s (median of {REPEAT}; CPU "
+          f"{cpu_id:.2f} s), "
           f"factorisations {w_id['factorizations']}, solve pairs {w_id['solve_pairs']}, "
           f"Lanczos {w_id['lanczos_runs']}", flush=True)
     sig = frequency_sigma(fm.specimen.measured)
@@ -54,13 +59,15 @@ def main():
         n = a.trials if route == "reduced" else a.identify_trials
         for jobs in (int(j) for j in a.jobs.split(",")):
             reset_work()
-            t = time.perf_counter()
+            t, c = time.perf_counter(), time.process_time()
             mc = monte_carlo(r, fm, sig, u, n, jobs=jobs, seed=0, method=route)
-            dt = time.perf_counter() - t
+            dt, cpu = time.perf_counter() - t, time.process_time() - c
             per = ""
             if jobs == 1:
                 per = (f"  per trial: factorisations {WORK['factorizations'] / n:.2f}, solve pairs "
-                       f"{WORK['solve_pairs'] / n:.1f}, Lanczos {WORK['lanczos_runs'] / n:.2f}")
+                       f"{WORK['solve_pairs'] / n:.1f}, Lanczos {WORK['lanczos_runs'] / n:.2f}; "
+                       f"CPU {cpu / n * 1e3:.1f} ms per trial, {a.trials} trials = "
+                       f"{cpu / n * a.trials / cpu_id:.1f} x one identification's CPU")
             scaled = dt / n * a.trials
             print(f"  MC {route:<8} -j {jobs}: {n} trials {dt:7.2f} s, {dt / n * 1e3:6.1f} ms "
                   f"per trial = {dt / n / t_id:.3f} identifications; {a.trials} trials = "

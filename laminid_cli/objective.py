@@ -112,6 +112,12 @@ class VariableSet:
         A, b = self.linear_constraints()
         return bool(np.all(x >= lo - tol) and np.all(x <= hi + tol) and np.all(A @ x <= b + tol))
 
+    def eigenvalue_jacobian(self, E, jacs) -> np.ndarray:
+        """``d lambda / d x`` (n_modes, n_vars) from the basis energies ``E`` (n_materials, 6,
+        n_modes) = d lambda / d coef of some modes and each material's coefficient Jacobian
+        (:meth:`coefficients`)."""
+        return np.hstack([E[m].T @ J for m, J in enumerate(jacs)])
+
     def prior_rows(self, x):
         """Eq. 15's second term as residual rows ``sqrt(wp) (P - P0) / P0`` (nu12: over 1 when
         P0 is 0) of the free constants given a prior weight (``self.prior``: per material,
@@ -376,14 +382,10 @@ class Objective(VariableSet):
         lam = modes.eigenvalues[pairing]
         if E is None:
             E = plate.fm.plate.basis_energies(modes.phi[:, pairing])  # (n_mat, 6, n_meas)
-        dlam_dx = np.zeros((plate.data.n, plate.n_vars))
-        for m, J in enumerate(jacs):
-            dlam_dx[:, plate.offsets[m]:plate.offsets[m + 1]] = E[m].T @ J
-        lam_meas, w = plate.data.lam, plate.data.weight
-        rel = (lam_meas - lam) / lam_meas
-        grad = -2 * (w * rel / lam_meas) @ dlam_dx                  # paper Eq. 24
-        return Evaluation(x=np.array(xk, float), objective=float(np.sum(w * rel**2)),
-                          gradient=grad, eigenvalues=lam, pairing=np.asarray(pairing),
+        dlam_dx = plate.eigenvalue_jacobian(E, jacs)
+        eq17 = residual_rows(plate.data.lam, plate.data.weight, lam, dlam_dx)
+        return Evaluation(x=np.array(xk, float), objective=eq17.value, gradient=eq17.gradient,
+                          eigenvalues=lam, pairing=np.asarray(pairing),
                           dlam_dx=dlam_dx, phi=phi, modes=modes, changes=tuple(changes))
 
     def combine(self, x, parts) -> Evaluation:
@@ -443,6 +445,30 @@ class Objective(VariableSet):
         d = self.plates[k].data
         return weighted_rms(residuals_percent(d.freq, np.sqrt(eigenvalues) / (2 * np.pi)),
                             d.weight)
+
+
+class Eq17(NamedTuple):
+    """Paper Eq. 17 of one plate at some paired model eigenvalues (:func:`residual_rows`)."""
+
+    rows: np.ndarray                 # (n,) r_i = sqrt(w_i) (lt_i - l_i) / lt_i
+    jacobian: np.ndarray             # (n, n_vars) d r_i / d x = -sqrt(w_i) / lt_i d l_i / d x
+    value: float                     # sum_i w_i ((lt_i - l_i) / lt_i)^2 = r . r
+    gradient: np.ndarray             # (n_vars,) paper Eq. 24 = 2 J^T r
+
+
+def residual_rows(lam_meas, weight, lam, dlam_dx) -> Eq17:
+    """Paper Eq. 17 from the measured eigenvalues ``lam_meas``, the weights, the paired model
+    eigenvalues and their Jacobian ``dlam_dx``: as residual rows with their Jacobian (the Monte
+    Carlo trials' Gauss-Newton steps) and as value and gradient (the objective), in one
+    place. Value and gradient are computed as ``sum w rel^2`` and ``-2 (w rel / lt) . dl/dx``
+    (the same numbers as ``r . r`` and ``2 J^T r`` up to round-off, and the same round-off as
+    the optimiser has always seen)."""
+    w = np.asarray(weight, float)
+    lam_meas = np.asarray(lam_meas, float)
+    s = np.sqrt(w)
+    rel = (lam_meas - lam) / lam_meas
+    return Eq17(rows=s * rel, jacobian=-(s / lam_meas)[:, None] * dlam_dx,
+                value=float(np.sum(w * rel**2)), gradient=-2 * (w * rel / lam_meas) @ dlam_dx)
 
 
 def max_assignment(M: np.ndarray) -> np.ndarray:

@@ -69,8 +69,9 @@ Monte Carlo
     :func:`monte_carlo` re-identifies from frequencies perturbed by their (scaled) standard
     deviations, in parallel processes, each run starting at the optimum, and reports the
     empirical spread beside the linearised one. A single-plate result of the reduced solver
-    runs its trials on a :class:`TrialModel` built once at the optimum (no full solve; at most
-    one factorisation per trial, none where a kept factorisation is near enough); each trial's
+    runs its trials on a :class:`TrialModel` built once at the optimum and enriched where the
+    first trials need it (no full solve; at most one factorisation per trial, none where a kept
+    factorisation is near enough); each trial's
     paired eigenvalues are checked against the full FE model by a residual bound, at most
     :data:`TRIAL_SHARE` (1 %) of the smallest relative eigenvalue standard deviation
     2 sigma_f / f (4e-5 at the default 0.2 %; at most :data:`TRIAL_BOUND`): to first order a
@@ -91,6 +92,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg as sla
 
 from laminid_cli.errors import FitInputError
 # thresholds, scalings and verdicts shared with the damping fit (re-exported here)
@@ -98,7 +100,7 @@ from laminid_cli.intervals import (SCALINGS, VERDICT_AT_BOUND, VERDICT_FIXED,  #
                                    VERDICT_NOT, VERDICT_WEAK, VERDICT_WELL, WEAK, WELL_DETERMINED,
                                    interval_scale, verdict as verdict_of)
 from laminid_cli.material import CONSTANT_NAMES
-from laminid_cli.objective import VariableSet
+from laminid_cli.objective import VariableSet, residual_rows
 from laminid_cli.parametrization import coefficients_and_jacobian
 
 log = logging.getLogger(__name__)
@@ -667,6 +669,9 @@ TRIAL_MAXEVAL = 200
 #: only when its constitutive matrices are at least this fraction of that point's (the bound
 #: grows as 1 / mu)
 TRIAL_MU = 0.5
+#: the shared trial basis is enriched where the first TRIAL_PILOT trials need it
+#: (TrialModel.prepare) before the trials run
+TRIAL_PILOT = 16
 #: enrich-and-optimise-again rounds of a trial before it is re-identified with identify()
 TRIAL_ROUNDS = 3
 
@@ -678,14 +683,21 @@ class TrialModel(VariableSet):
     processes): the optimum's final basis, its checked Ritz vectors ``phi_i``, their
     first-order changes with every basis stiffness ``A0^-1 K_b phi_i`` (``A0 = K(c*) - sigma0
     M``), and the preconditioned Ritz residuals at ``x* +- CLOUD_RADIUS`` standard errors
-    along the directions where the trials change the stiffness most (:meth:`_enrich_cloud`).
-    The factorisations of the optimum and of those points are kept.
+    along the directions where the trials change the stiffness most (:meth:`_enrich_cloud`),
+    then, before the trials run, the preconditioned residuals where the first TRIAL_PILOT
+    trials miss the accepted bound (:meth:`prepare`). The factorisations of the optimum and of
+    those points are kept. The trials' eigenproblems on this shared basis are solved in
+    standard form (``Mr = C C^T`` once).
 
     A trial minimises paper Eq. 17 (+ Eq. 15) with its perturbed frequencies on this model from
-    the optimum (Levenberg-Marquardt; SLSQP when a bound or linear constraint is in the way),
-    modes paired by MAC against the optimum's. At its answer the Ritz vectors are checked with
-    the full matrices: Rayleigh quotients and the residual bound of :func:`_residual_bounds`
-    with a kept factorisation ``A_ref^-1`` in place of ``A^-1``: when the constitutive matrices
+    the optimum: Levenberg-Marquardt on the residual rows of
+    :func:`laminid_cli.objective.residual_rows` (the objective's own), each step restricted
+    to the search's bounds and linear constraints (:func:`_constrained_step`; SLSQP only when
+    that does not converge), modes paired by MAC against the optimum's. At its answer the
+    paired Ritz vectors (and the next one) are checked with the full matrices: Rayleigh
+    quotients and the residual bound of :func:`_residual_bounds` with a kept factorisation
+    ``A_ref = U^T U`` in place of A (``r^T A_ref^-1 r = |U^-T r|^2``, one triangular solve per
+    vector, :class:`_Factor`): when the constitutive matrices
     satisfy ``Q(c) >= mu Q(c_ref)`` (mu the smallest generalised eigenvalue of the 5x5 pair of
     each material, the same for every ply angle since Q(theta) = T^T Q(0) T), then ``K(c) >= mu
     K(c_ref)`` and ``A(c) >= min(mu, 1) A_ref``, so ``r^T A(c)^-1 r <= r^T A_ref^-1 r / min(mu,
@@ -727,7 +739,7 @@ class TrialModel(VariableSet):
         K0 = plate.stiffness(coef=self.coef_opt)
         lam1 = float(result.modes.eigenvalues[0])
         self.sigma = -0.5 * lam1
-        self._solve = fm.factorizer.factor(K0.data - self.sigma * plate.M_on_K)
+        self._solve = _Factor(fm, K0.data - self.sigma * plate.M_on_K)
         basis = ReducedBasis(fm)
         if getattr(result, "basis", None) is not None:
             basis.add(result.basis.V)
@@ -747,10 +759,57 @@ class TrialModel(VariableSet):
         self.T = np.linalg.inv(self.L.T)
         self.lo, self.hi = self.bounds()
         self.A, self.b = self.linear_constraints()
-        self.refs = [(self.coef_opt, self.sigma, self.solve0)]     # factorisations kept
+        self.refs = [(self.coef_opt, self.sigma, self._solve)]     # factorisations kept
         self._enrich_cloud(fm)
+        self._A_all = np.vstack([self.A, np.eye(self.n_vars), -np.eye(self.n_vars)])
+        self._b_all = np.concatenate([self.b, self.hi, -self.lo])
         theta, Y = self.basis.eig(self.coef_opt, self.n_model)
         self.Y_ref = Y[:, self.pairing]
+        self._shared_basis_changed()
+
+    def _shared_basis_changed(self):
+        """After a change of the shared basis: its standard form (``Mr = C C^T``, ``Kt = C^-1
+        Kr C^-T``), the optimum's reduced vectors extended by zeros (columns were appended)
+        and the model at the optimum, where every trial starts."""
+        C_inv = np.linalg.inv(np.linalg.cholesky(self.basis.Mr))
+        Kt = C_inv @ self.basis.Kr @ C_inv.T
+        self._Kt = 0.5 * (Kt + np.swapaxes(Kt, -1, -2))
+        self._CinvT = np.ascontiguousarray(C_inv.T)
+        extra = self.basis.size - self.Y_ref.shape[0]
+        self.Y_ref = np.vstack([self.Y_ref, np.zeros((extra, self.Y_ref.shape[1]))])
+        self.model_opt = self.modes(self.basis, self.x_opt, self.Y_ref)
+
+    def prepare(self, freqs, weight) -> int:
+        """Enrich the shared basis where the first trials (``freqs``: their frequencies, in
+        order) need it, before the trials run: each is optimised on the shared basis and
+        checked (:meth:`trial`'s first round); where the check misses the accepted bound, A
+        is factorised at its answer (kept for the later checks) and, if still missed, the
+        preconditioned residuals there are added to the shared basis. Deterministic (the
+        same trials in the same order, whatever the number of processes); returns the
+        directions added."""
+        added = 0
+        for f in freqs:
+            lam_meas = (2 * np.pi * np.nan_to_num(f, nan=1.0)) ** 2
+            w = np.where(np.isfinite(f), weight, 0.0)
+            gn = self._gauss_newton(self.basis, self.x_opt, lam_meas, w, self.Y_ref,
+                                    self.model_opt)
+            if gn is None:
+                continue
+            x, (_, pairing, Y, _) = gn
+            mu, near = self.nearest_ref(x)
+            bound = self.check(self.basis, x, Y, pairing, near)[1] if mu >= TRIAL_MU else np.inf
+            if bound <= self.bound:
+                continue
+            coef = self.coefficients(x)[0]
+            ref = self.factor_at(x, self.basis.eig(coef, 1)[0][0])
+            self.refs.append(ref)
+            _, bound, S = self.check(self.basis, x, Y, pairing, ref)
+            if bound > self.bound:
+                k = self.basis.add(S())
+                added += k
+                if k:
+                    self._shared_basis_changed()
+        return added
 
     def _enrich_cloud(self, fm):
         """Enrich the basis where the trials go far: at ``x* +- CLOUD_RADIUS`` standard errors
@@ -781,7 +840,7 @@ class TrialModel(VariableSet):
                 theta, Y = self.basis.eig(coef, self.n_model)
                 K = plate.stiffness(coef=coef)
                 sigma = -0.5 * theta[0]
-                solve = fm.factorizer.factor(K.data - sigma * plate.M_on_K)
+                solve = _Factor(fm, K.data - sigma * plate.M_on_K)
                 self.refs.append((coef, sigma, solve))
                 for _ in range(CLOUD_ROUNDS):
                     U = self.basis.V @ Y
@@ -800,144 +859,158 @@ class TrialModel(VariableSet):
         """(mu, (coefficients, sigma, solve)) of the kept factorisation whose constitutive
         matrices are closest below those at ``x`` (largest mu)."""
         if not self.refs:
-            self.refs = [(self.coef_opt, self.sigma, self.solve0)]
-        mus = [self.mu(x, ref[0]) for ref in self.refs]
+            self.refs = [(self.coef_opt, self.sigma, self.factor0())]
+        mus = self.mus(x, [ref[0] for ref in self.refs])
         k = int(np.argmax(mus))
-        return mus[k], self.refs[k]
+        return float(mus[k]), self.refs[k]
 
-    def solve0(self, R):
-        """``A0^-1 R`` (A0 factorised once per process)."""
+    def factor0(self) -> "_Factor":
+        """The factorisation of ``A0`` (once per process)."""
         if self._solve is None:
             plate = self.fm.plate
             K0 = plate.stiffness(coef=self.coef_opt)
-            self._solve = self.fm.factorizer.factor(K0.data - self.sigma * plate.M_on_K)
-        return self._solve(R)
+            self._solve = _Factor(self.fm, K0.data - self.sigma * plate.M_on_K)
+        return self._solve
 
     @staticmethod
     def _q(coef):
+        """Constitutive matrices (..., 5, 5) of stiffness coefficients (..., 6)."""
         from laminid_cli.material import c_basis
 
-        return np.tensordot(np.asarray(coef, float), c_basis(0.0), axes=([0], [0]))
+        return np.tensordot(np.asarray(coef, float), c_basis(0.0), axes=([-1], [0]))
+
+    def modes(self, basis, x, Y_ref):
+        """The model at ``x``: (paired Ritz values, pairing, reduced vectors, d lambda / d x of
+        the paired modes); modes paired by MAC against ``Y_ref`` (the optimum's)."""
+        coef, jacs = self.coefficients(x)
+        if basis is self.basis:
+            # standard form of the shared basis: Mr = C C^T, Kt = C^-1 Kr C^-T (once)
+            Kc = np.tensordot(coef, self._Kt, axes=([0, 1], [0, 1]))
+            theta, Z = sla.eigh(Kc, subset_by_index=[0, self.n_model - 1], driver="evr",
+                                check_finite=False)
+            Y = self._CinvT @ Z
+        else:
+            theta, Y = basis.eig(coef, self.n_model)
+        pairing = _max_assignment((Y_ref.T @ (basis.Mr @ Y)) ** 2)
+        Yp = Y[:, pairing]
+        return theta[pairing], pairing, Y, self.eigenvalue_jacobian(basis.energies(Yp), jacs)
+
+    def rows(self, x, model, lam_meas, w):
+        """Residual rows of paper Eq. 17 (+ Eq. 15) at ``x`` from its ``model`` (:meth:`modes`)
+        and their Jacobian: (rows, Jacobian); the objective is ``rows . rows``."""
+        r, J = residual_rows(lam_meas, w, model[0], model[3])[:2]
+        pv, pr = self.prior_rows(x)
+        return np.concatenate([r, pv]), np.vstack([J, pr])
 
     def evaluate(self, basis, x, lam_meas, w, Y_ref):
-        """Objective, gradient, paired Ritz values and reduced vectors at ``x``."""
-        coef, jacs = self.coefficients(x)
-        theta, Y = basis.eig(coef, self.n_model)
-        mac = (Y_ref.T @ (basis.Mr @ Y)) ** 2
-        pairing = _max_assignment(mac)
-        Yp = Y[:, pairing]
-        E = basis.energies(Yp)
-        lam = theta[pairing]
-        dlam = np.hstack([E[k].T @ J for k, J in enumerate(jacs)])
-        rel = (lam_meas - lam) / lam_meas
-        f = float(np.sum(w * rel**2))
-        g = -2 * (w * rel / lam_meas) @ dlam
-        pv, pr = self.prior_rows(x)
-        if pv.size:
-            f += float(pv @ pv)
-            g = g + 2 * pv @ pr
-        # residual rows [sqrt(w) (lt - l) / lt, prior] and their Jacobian, for Gauss-Newton
-        self._last_rows = (np.concatenate([np.sqrt(w) * rel, pv]),
-                           np.vstack([-(np.sqrt(w) / lam_meas)[:, None] * dlam, pr]))
-        return f, g, lam, pairing, Y
+        """Objective, gradient, residual rows and their Jacobian, and the model at ``x``."""
+        model = self.modes(basis, x, Y_ref)
+        res, J = self.rows(x, model, lam_meas, w)
+        return float(res @ res), 2 * res @ J, res, J, model
 
     def check(self, basis, x, Y, pairing, ref=None):
         """Full-matrix Ritz values of the checked Ritz vectors at ``x`` and the largest relative
         error bound of the paired ones, with the factorisation ``ref`` = (coefficients, sigma,
-        solve) of another point (default: the optimum's; class docstring). Returns (theta,
-        bound, preconditioned residuals); bound inf when not computable."""
+        :class:`_Factor`) of another point (default: the optimum's; class docstring). Returns
+        (theta, bound, directions): ``directions()`` gives the preconditioned residuals (for
+        an enrichment); bound inf when not computable.
+
+        The vectors checked are the paired modes and the next one (whose bound enters theirs,
+        :func:`_residual_bounds`); ``r^T A_ref^-1 r`` is ``|U^-T r|^2`` with ``A_ref = U^T U``
+        (one triangular solve per vector)."""
         plate = self.fm.plate
         coef = self.coefficients(x)[0]
         if ref is None:
-            ref = (self.coef_opt, self.sigma, self.solve0)
+            ref = (self.coef_opt, self.sigma, self.factor0())
         coef_ref, sigma, solve = ref
         mu = self.mu(x, coef_ref)
         if not mu > 0:
             return None, np.inf, None
-        n = min(self.n_check + 1, Y.shape[1])
-        U = basis.V @ Y[:, :n]
-        U = U / np.sqrt(np.einsum("ij,ij->j", U, plate.M @ U))
-        MU = plate.M @ U
+        n = min(int(np.max(pairing)) + 2, Y.shape[1])
+        Yn = Y[:, :n]
+        U = basis.V @ Yn
+        MU = basis.MV @ Yn
+        scale = 1.0 / np.sqrt(np.einsum("ij,ij->j", U, MU))
+        U *= scale
+        MU *= scale
         KU = plate.stiffness(coef=coef) @ U
         theta = np.einsum("ij,ij->j", U, KU)
         R = KU - MU * theta
-        S = solve(R)
-        eta2 = np.maximum(np.einsum("ij,ij->j", R, S), 0.0) / min(mu, 1.0)
-        bound = _residual_bounds(theta, eta2, sigma)
-        return theta, float(np.max(bound[pairing] / theta[pairing])), S
+        eta2 = np.maximum(solve.energy(R), 0.0) / min(mu, 1.0)
+        rel = _residual_bounds(theta, eta2, sigma) / theta
+        return theta, float(np.max(rel[pairing])), lambda: solve(R)
 
     def mu(self, x, coef_ref):
         """Smallest generalised eigenvalue of the constitutive matrices at ``x`` against those
         of ``coef_ref`` over the materials: ``K(x) >= mu K(ref)`` (class docstring)."""
-        coef = self.coefficients(x)[0]
-        out = np.inf
-        for c, c0 in zip(coef, coef_ref):
-            C = np.linalg.cholesky(self._q(c0))
-            G = np.linalg.solve(C, np.linalg.solve(C, self._q(c)).T)
-            out = min(out, float(np.linalg.eigvalsh(0.5 * (G + G.T)).min()))
-        return out
+        return float(self.mus(x, [coef_ref])[0])
+
+    def mus(self, x, coef_refs) -> np.ndarray:
+        """:meth:`mu` against each of ``coef_refs`` (one batched 5x5 computation)."""
+        Q = self._q(self.coefficients(x)[0])                   # (n_mat, 5, 5)
+        C_inv = np.linalg.inv(np.linalg.cholesky(self._q(np.array(coef_refs))))
+        G = C_inv @ Q @ np.swapaxes(C_inv, -1, -2)             # (n_ref, n_mat, 5, 5)
+        return np.linalg.eigvalsh(0.5 * (G + np.swapaxes(G, -1, -2))).min(axis=(1, 2))
 
     def factor_at(self, x, theta1):
         """(coefficients, sigma, solve) of A = K - sigma M factorised at ``x``."""
         plate = self.fm.plate
         coef = self.coefficients(x)[0]
         sigma = -0.5 * float(theta1)
-        solve = self.fm.factorizer.factor(plate.stiffness(coef=coef).data
-                                          - sigma * plate.M_on_K)
+        solve = _Factor(self.fm, plate.stiffness(coef=coef).data - sigma * plate.M_on_K)
         return coef, sigma, solve
 
-    def _gauss_newton(self, basis, x0, lam_meas, w, Y_ref):
-        """Levenberg-Marquardt on the reduced model from ``x0``, steps kept inside the search's
-        bounds and linear constraints; returns (x, (paired Ritz values, pairing, Y)) when the
-        step is below TRIAL_XTOL standard errors, None when it stalls (e.g. at a bound)."""
+    def _gauss_newton(self, basis, x0, lam_meas, w, Y_ref, model0=None):
+        """Levenberg-Marquardt on the reduced model from ``x0`` (``model0``: the model there,
+        when known), each step the damped Gauss-Newton step restricted to the search's bounds
+        and linear constraints (:func:`_constrained_step`); returns (x, model there) when the
+        step is below TRIAL_XTOL standard errors, None when it does not get there."""
         x = np.asarray(x0, float)
-        f, _, lam, pairing, Y = self.evaluate(basis, x, lam_meas, w, Y_ref)
-        res, J = self._last_rows
-        damp = 1e-6
+        model = self.modes(basis, x, Y_ref) if model0 is None else model0
+        res, J = self.rows(x, model, lam_meas, w)
+        f = float(res @ res)
+        A, b = self._A_all, self._b_all
+        # Marquardt's scaling, Nielsen's damping update from the gain ratio (a rejected step
+        # raises the damping to at least 1e-2 at once: the first steps of far trials overshoot)
+        damp, nu = 1e-6, 4.0
         for _ in range(TRIAL_GN_ITERATIONS):
             H = J.T @ J
             d = np.diag(H)
-            try:
-                dx = -np.linalg.solve(H + damp * np.diag(d) + 1e-14 * d.max() * np.eye(d.size),
-                                      J.T @ res)
-            except np.linalg.LinAlgError:
+            g = J.T @ res
+            dx = _constrained_step(H + damp * np.diag(d) + 1e-14 * d.max() * np.eye(d.size), g,
+                                   A, b - A @ x)
+            if dx is None:
                 return None
-            # the largest fraction of the step inside the feasible polytope
-            A = np.vstack([self.A, np.eye(self.n_vars), -np.eye(self.n_vars)])
-            b = np.concatenate([self.b, self.hi, -self.lo])
-            Adx = A @ dx
-            slack = b - A @ x
-            grow = Adx > 0
-            alpha = min(1.0, float(np.min(slack[grow] / Adx[grow]))) if grow.any() else 1.0
-            if alpha < 1.0:
-                return None                  # a constraint in the way: SLSQP handles it
             x_new = x + dx
             step = float(np.max(np.abs(self.L.T @ dx)))
-            f_new, _, lam_n, pairing_n, Y_n = self.evaluate(basis, x_new, lam_meas, w, Y_ref)
+            model_n = self.modes(basis, x_new, Y_ref)
+            res_n, J_n = self.rows(x_new, model_n, lam_meas, w)
+            f_new = float(res_n @ res_n)
             if f_new <= f:
-                x, f, lam, pairing, Y = x_new, f_new, lam_n, pairing_n, Y_n
-                res, J = self._last_rows
-                damp = max(damp / 10, 1e-9)
-                if step <= TRIAL_XTOL:
-                    return x, (lam, pairing, Y)
+                predicted = -(2 * g @ dx + dx @ H @ dx)
+                rho = (f - f_new) / predicted if predicted > 0 else 0.0
+                x, f, res, J, model = x_new, f_new, res_n, J_n, model_n
+                if step <= TRIAL_XTOL and damp <= 0.1:     # (not a step cut by damping)
+                    return x, model
+                damp = max(damp * max(1 / 3, 1 - (2 * rho - 1) ** 3), 1e-9)
+                nu = 4.0
             elif step <= 10 * TRIAL_XTOL:
                 # a step this small gives no decrease: the reduced objective's round-off floor
                 # (about 1e-9 relative) is reached
-                return x, (lam, pairing, Y)
+                return x, model
             else:
-                damp = max(10 * damp, 1e-3)
+                damp, nu = max(damp * nu, 1e-2), 2 * nu
                 if damp > 1e3:
                     return None
         return None
 
     def _minimise(self, basis, x0, lam_meas, w, Y_ref):
         """One SLSQP run on the reduced model from ``x0`` (variables y = L^T (x - x0), in
-        linearised standard errors); returns (best x, (its paired Ritz values, pairing, Y))."""
+        linearised standard errors); returns (best x, the model there (:meth:`modes`))."""
         import nlopt
 
         # scaled by the Gauss-Newton Hessian at x0 (far from the optimum the valley turns)
-        self.evaluate(basis, x0, lam_meas, w, Y_ref)
-        J = self._last_rows[1]
+        J = self.evaluate(basis, x0, lam_meas, w, Y_ref)[3]
         H = J.T @ J / self.tau2
         d = np.diag(H).copy()
         H += np.diag(1e-9 * max(d.max(), 1e-300) + 1e-9 * d)
@@ -953,11 +1026,11 @@ class TrialModel(VariableSet):
 
         def objective(y, grad):
             x = x0 + T @ y
-            f, g, lam, pairing, Y = self.evaluate(basis, x, lam_meas, w, Y_ref)
+            f, g, _, _, model = self.evaluate(basis, x, lam_meas, w, Y_ref)
             if grad.size:
                 grad[:] = T.T @ g / scale
             if f < best[0]:
-                best[:] = f, x, (lam, pairing, Y)
+                best[:] = f, x, model
             return f / scale
 
         def cons(result, y, grad):
@@ -996,9 +1069,10 @@ class TrialModel(VariableSet):
         basis, Y_ref, x0, L = self.basis, self.Y_ref, self.x_opt, self.L
         ref = None
         for rounds in range(1, TRIAL_ROUNDS + 1):
-            # SLSQP restarted from its answer while that moves (its quasi-Newton model starts
-            # from the Gauss-Newton scaling again: flat valleys are followed to the end)
-            gn = self._gauss_newton(basis, x0, lam_meas, w, Y_ref)
+            gn = self._gauss_newton(basis, x0, lam_meas, w, Y_ref,
+                                    self.model_opt if rounds == 1 else None)
+            # else SLSQP, restarted from its answer while that moves (its quasi-Newton model
+            # starts from the Gauss-Newton scaling again: flat valleys are followed to the end)
             for _ in range(0 if gn is not None else TRIAL_RESTARTS):
                 x, memo = self._minimise(basis, x0, lam_meas, w, Y_ref)
                 step = float(np.max(np.abs(L.T @ (x - x0))))
@@ -1007,7 +1081,7 @@ class TrialModel(VariableSet):
                     break
             if gn is not None:
                 x, memo = gn
-            lam, pairing, Y = memo
+            lam, pairing, Y, _ = memo
             if ref is None:
                 # the kept factorisation nearest to the answer, if near enough
                 mu, near = self.nearest_ref(x)
@@ -1026,7 +1100,7 @@ class TrialModel(VariableSet):
             if rounds == TRIAL_ROUNDS or S is None:
                 break
             basis = basis.copy()
-            if basis.add(S) == 0:
+            if basis.add(S()) == 0:
                 break
             # the basis only grows (new columns appended): old reduced vectors extend by zeros
             Y_ref = np.vstack([Y_ref, np.zeros((basis.size - Y_ref.shape[0], Y_ref.shape[1]))])
@@ -1037,6 +1111,97 @@ class TrialModel(VariableSet):
 
 class _TrialFailed(Exception):
     pass
+
+
+def _constrained_step(H, g, A, s, max_iter: int = 50):
+    """The step d minimising ``g . d + d . H d / 2`` (H positive definite) subject to
+    ``A d <= s`` (``s >= 0``: d = 0 is feasible, up to round-off): primal active-set method
+    (Nocedal & Wright, Algorithm 16.3) from d = 0; None if it does not finish."""
+    n = g.size
+    d = np.zeros(n)
+    s = np.maximum(s, 0.0)
+    p = np.linalg.solve(H, -g)
+    if np.all(A @ p <= s):
+        return p                             # the unconstrained step (the usual case)
+    tiny = 1e-12 * np.abs(p).max()
+    work: list[int] = []
+    for _ in range(max_iter):
+        grad = H @ d + g
+        m = len(work)
+        if m:
+            # H p + Aw^T lambda = -grad, Aw p = 0 (lambda >= 0 at the answer)
+            Aw = A[work]
+            K = np.block([[H, Aw.T], [Aw, np.zeros((m, m))]])
+            sol = np.linalg.lstsq(K, np.concatenate([-grad, np.zeros(m)]), rcond=None)[0]
+            p, mult = sol[:n], sol[n:]
+        else:
+            p, mult = np.linalg.solve(H, -grad), np.zeros(0)
+        if np.abs(p).max() <= tiny:
+            if m == 0 or mult.min() >= 0:
+                return d
+            work.pop(int(np.argmin(mult)))
+            continue
+        Ap = A @ p
+        slack = s - A @ d
+        grow = Ap > 1e-15 * np.abs(A).sum(axis=1) * np.abs(p).max()
+        grow[work] = False
+        alpha, block = 1.0, -1
+        if grow.any():
+            ratios = np.where(grow, np.maximum(slack, 0.0) / np.where(grow, Ap, 1.0), np.inf)
+            k = int(np.argmin(ratios))
+            if ratios[k] < 1.0:
+                alpha, block = float(ratios[k]), k
+        d = d + alpha * p
+        if block >= 0:
+            work.append(block)
+    return None
+
+
+class _Factor:
+    """``A = U^T U`` (banded Cholesky, the forward model's plan: fm.factorizer) of the CSR
+    ``data`` on the stiffness pattern: ``A^-1 R`` by calling it, ``r^T A^-1 r = |U^-T r|^2`` per
+    column by :meth:`energy` (one triangular solve, half a solve pair)."""
+
+    def __init__(self, fm, data):
+        from laminid_cli.errors import SolverError
+        from laminid_cli.modal import WORK
+
+        f = fm.factorizer
+        ab = np.zeros((f.bandwidth + 1) * f.n)
+        ab[f.band_index] = data[f.upper_slots]
+        try:
+            self.cb = sla.cholesky_banded(ab.reshape(f.bandwidth + 1, f.n), overwrite_ab=True,
+                                          check_finite=False)
+        except np.linalg.LinAlgError:
+            raise SolverError("trial model: K - sigma M is not positive definite") from None
+        WORK["factorizations"] += 1
+        self.perm = f.perm
+
+    def _half(self, R, trans):
+        from scipy.linalg.lapack import dtbtrs
+
+        Z, info = dtbtrs(self.cb, R, uplo="U", trans=trans)
+        if info:
+            raise np.linalg.LinAlgError(f"dtbtrs info {info}")
+        return Z
+
+    def __call__(self, R):
+        from laminid_cli.modal import WORK
+
+        R = np.asarray(R, float)
+        WORK["solve_pairs"] += 1 if R.ndim == 1 else R.shape[1]
+        out = np.empty_like(R)
+        out[self.perm] = self._half(self._half(R[self.perm], "T"), "N")
+        return out
+
+    def energy(self, R):
+        """``r^T A^-1 r`` of each column of R (counted as half a solve pair each)."""
+        from laminid_cli.modal import WORK
+
+        R = np.asarray(R, float)
+        WORK["solve_pairs"] += (R.shape[1] + 1) // 2
+        Z = self._half(R[self.perm], "T")
+        return np.einsum("ij,ij->j", Z, Z)
 
 
 def _residual_bounds(theta, eta2, sigma):
@@ -1297,6 +1462,8 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
         tau2 = w * rel**2
         limit = min(TRIAL_BOUND, TRIAL_SHARE * float(np.min(rel[w > 0])))
         model = TrialModel(fm, result, float(np.mean(tau2[w > 0])), limit)
+        model.prepare([np.asarray(t[1][0], float) for t in trials[:TRIAL_PILOT]],
+                      np.asarray(fm.specimen.measured.weight, float))
     init = ([fm for fm, _ in parts], result.options, tuple(result.constants),
             [np.asarray(plate.pairing) for _, plate in parts], joint,
             None if model is not None else _basis_vectors(result), model)

@@ -207,7 +207,7 @@ def test_coverage_and_monte_carlo_on_seeded_noisy_data():
         covered += (u.lower[:3] <= t) & (t <= u.upper[:3])
     assert np.all(covered >= n - 2), covered           # expected 11.4 of 12; seeded
     mc = monte_carlo(r, fm, frequency_sigma(fm.specimen.measured, 0.002), u, 8, jobs=2, seed=1)
-    assert mc.n_converged == 8 and mc.jobs == 2
+    assert mc.n_converged == 8 and mc.jobs == 2 and mc.method == "reduced"
     assert np.all((mc.ratio[:3] > 0.5) & (mc.ratio[:3] < 1.6)), mc.ratio
     again = monte_carlo(r, fm, frequency_sigma(fm.specimen.measured, 0.002), u, 8, jobs=1, seed=1)
     assert np.allclose(again.samples, mc.samples, rtol=1e-6)       # trial order, any jobs
@@ -400,3 +400,91 @@ def test_residual_bounds_hold_against_exact_eigenvalues():
         assert np.all(b <= lin)
         if eps <= 1e-4:
             assert b[0] < 0.1 * lin[0]                   # the quadratic bound is sharper
+
+
+def test_constrained_trial_step_is_the_qp_minimum():
+    """_constrained_step (active set) against every KKT candidate of small random convex QPs
+    min g.d + d.H.d/2, A d <= s: the unique minimum is the feasible candidate with
+    non-negative multipliers (all 2^m working sets enumerated)."""
+    import itertools
+
+    from laminid_cli.uncertainty import _constrained_step
+
+    rng = np.random.default_rng(8)
+    n, m = 3, 6
+    constrained = 0
+    for _ in range(200):
+        B = rng.standard_normal((n, n))
+        H = B @ B.T + 0.1 * np.eye(n)
+        g = 3 * rng.standard_normal(n)
+        A = rng.standard_normal((m, n))
+        s = rng.uniform(0.0, 1.0, m)
+        s[:2] = 0.0                                     # active at d = 0
+        best = None
+        for k in range(n + 1):
+            for W in itertools.combinations(range(m), k):
+                Aw = A[list(W)]
+                K = np.block([[H, Aw.T], [Aw, np.zeros((k, k))]])
+                if abs(np.linalg.det(K)) < 1e-12:
+                    continue
+                sol = np.linalg.solve(K, np.concatenate([-g, s[list(W)]]))
+                d, lam = sol[:n], sol[n:]
+                if np.all(A @ d <= s + 1e-10) and np.all(lam >= -1e-10):
+                    best = d
+        d = _constrained_step(H, g, A, s)
+        assert d is not None and np.all(A @ d <= s + 1e-9)
+        assert np.allclose(d, best, atol=1e-9 * max(1.0, np.abs(best).max()))
+        constrained += bool(np.any(np.abs(A @ d - s) < 1e-9))
+    assert constrained > 50                             # the constraints did act
+
+
+def test_trial_factor_solves_and_energies_against_a_sparse_direct_solve():
+    """_Factor (the trial checks' banded Cholesky): A^-1 R and r^T A^-1 r against SuperLU."""
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
+
+    from laminid_cli.uncertainty import _Factor
+
+    fm = build_forward_model(read_specimen(S11), (4, 4))
+    plate = fm.plate
+    K = plate.stiffness(list(fm.initial_constants))
+    data = K.data + 1e6 * plate.M_on_K
+    A = sp.csc_matrix((data, K.indices, K.indptr), shape=K.shape)
+    R = np.random.default_rng(2).standard_normal((plate.n_dofs, 5))
+    ref = spla.splu(A).solve(R)
+    f = _Factor(fm, data)
+    assert np.allclose(f(R), ref, rtol=1e-9, atol=1e-12 * np.abs(ref).max())
+    assert np.allclose(f.energy(R), np.einsum("ij,ij->j", R, ref), rtol=1e-9)
+
+
+def test_trial_rows_give_the_objective_of_the_identification():
+    """The trial model's residual rows (objective.residual_rows + prior rows) at the optimum,
+    with the measured frequencies, give the identification's objective (paper Eq. 17 + 15),
+    its paired eigenvalues and the rows' Jacobian -sqrt(w) / lt d lambda / d x."""
+    from laminid_cli.uncertainty import TrialModel
+
+    fm = build_forward_model(read_specimen(S11), (6, 6))
+    r = identify(fm)
+    model = TrialModel(fm, r, 1.6e-5)
+    lam_meas = (2 * np.pi * np.nan_to_num(np.asarray(r.measured_hz, float), nan=1.0)) ** 2
+    res, J = model.rows(model.x_opt, model.model_opt, lam_meas, np.asarray(r.weight, float))
+    assert float(res @ res) == pytest.approx(r.objective, rel=1e-7)
+    assert model.model_opt[0] == pytest.approx(r.modes.eigenvalues[r.pairing], rel=1e-7)
+    assert J[:res.size - len(model.prior_rows(model.x_opt)[0])] == pytest.approx(
+        -(np.sqrt(r.weight) / lam_meas)[:, None] * np.asarray(r.dlam_dx), rel=1e-5, abs=1e-12)
+
+
+def test_eq17_rows_value_and_gradient_agree():
+    """objective.residual_rows: value = r . r and gradient = 2 J^T r (paper Eq. 24), with
+    unequal weights and an unmeasured mode (weight 0)."""
+    from laminid_cli.objective import residual_rows
+
+    rng = np.random.default_rng(6)
+    lam_meas = rng.uniform(1e5, 1e7, 7)
+    lam = lam_meas * (1 + 0.01 * rng.standard_normal(7))
+    w = np.array([1.0, 2.0, 0.5, 1.0, 0.0, 3.0, 1.0])
+    dlam = rng.standard_normal((7, 4)) * lam[:, None]
+    e = residual_rows(lam_meas, w, lam, dlam)
+    assert e.value == pytest.approx(float(e.rows @ e.rows), rel=1e-12)
+    assert e.gradient == pytest.approx(2 * e.rows @ e.jacobian, rel=1e-10)
+    assert e.value == pytest.approx(np.sum(w * ((lam_meas - lam) / lam_meas) ** 2), rel=1e-12)
