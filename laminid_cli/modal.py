@@ -138,19 +138,37 @@ class BandedCholesky:
                               "the constants are admissible and the densities positive, or "
                               "try another mesh (--mesh)") from exc
         WORK["factorizations"] += 1
-        perm = self.perm
-        blocks = _BandBlocks(cb)
+        return BandFactor(cb, self.perm)
 
-        def solve(x):
-            WORK["solve_pairs"] += 1 if x.ndim == 1 else x.shape[1]
-            y = np.empty_like(x)
-            if x.ndim == 2 and x.shape[1] >= BLOCK_RHS:
-                y[perm] = blocks.solve(x[perm])
-            else:
-                y[perm] = sla.cho_solve_banded((cb, False), x[perm], check_finite=False)
-            return y
 
-        return solve
+class BandFactor:
+    """``A = U^T U`` on a :class:`BandedCholesky` plan (LAPACK upper band storage ``cb``, the
+    plan's ordering ``perm``): ``A^-1 x`` by calling it, and ``r^T A^-1 r = |U^-T r|^2`` per
+    column by :meth:`energy` (one triangular solve: half a solve pair)."""
+
+    def __init__(self, cb: np.ndarray, perm: np.ndarray):
+        self.cb, self.perm = cb, perm
+        self.blocks = _BandBlocks(cb)
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x, float)
+        WORK["solve_pairs"] += 1 if x.ndim == 1 else x.shape[1]
+        y = np.empty_like(x)
+        if x.ndim == 2 and x.shape[1] >= BLOCK_RHS:
+            y[self.perm] = self.blocks.solve(x[self.perm])
+        else:
+            y[self.perm] = sla.cho_solve_banded((self.cb, False), x[self.perm],
+                                                check_finite=False)
+        return y
+
+    def energy(self, R: np.ndarray) -> np.ndarray:
+        """``r^T A^-1 r`` of each column of R (n, k), counted as half a solve pair each."""
+        R = np.asarray(R, float)
+        if R.ndim == 1:
+            R = R[:, None]
+        WORK["solve_pairs"] += (R.shape[1] + 1) // 2
+        Z = self.blocks.forward(R[self.perm])
+        return np.einsum("ij,ij->j", Z, Z)
 
 
 #: right-hand sides from which a solve goes block by block (level-3 BLAS) instead of through
@@ -200,28 +218,45 @@ class _BandBlocks:
             self._diag, self._off = diag, off
         return self._diag, self._off
 
-    def solve(self, b: np.ndarray) -> np.ndarray:
-        if self.bw == 0 or not self.cb.flags.f_contiguous:
-            return sla.cho_solve_banded((self.cb, False), b, check_finite=False)
+    def forward(self, b: np.ndarray) -> np.ndarray:
+        """``U^-T b`` (a new array)."""
+        if self.bw == 0 or not self.cb.flags.f_contiguous or b.ndim == 1 or b.shape[1] < BLOCK_RHS:
+            from scipy.linalg.lapack import dtbtrs
+
+            z, info = dtbtrs(self.cb, b, uplo="U", trans="T")
+            if info:
+                raise SolverError(f"triangular band solve failed (LAPACK info {info})")
+            return z
         from scipy.linalg.blas import dtrsm
 
         diag, off = self._blocks()
         e = self.edges
         x = np.array(b, float, order="C", copy=True)
-        nb = len(diag)
         # a row block x_i (C order) is x_i^T in column-major order: solve x_i^T U_ii = b_i^T
-        # (forward) and x_i^T U_ii^T = y_i^T (backward) in place, from the right
-        for i in range(nb):                                        # U^T y = b
+        # in place, from the right
+        for i in range(len(diag)):                                 # U^T y = b
             xi = x[e[i]:e[i + 1]]
             if i:
                 xi -= off[i - 1].T @ x[e[i - 1]:e[i]]
             xt = dtrsm(1.0, diag[i], xi.T, side=1, lower=0, trans_a=0, overwrite_b=1)
             if not np.shares_memory(xt, xi):
                 xi[:] = xt.T
-        for i in range(nb - 1, -1, -1):                            # U x = y
+        return x
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        """``A^-1 b``."""
+        if self.bw == 0 or not self.cb.flags.f_contiguous:
+            return sla.cho_solve_banded((self.cb, False), b, check_finite=False)
+        from scipy.linalg.blas import dtrsm
+
+        diag, off = self._blocks()
+        e = self.edges
+        x = self.forward(b)
+        for i in range(len(diag) - 1, -1, -1):                     # U x = y
             xi = x[e[i]:e[i + 1]]
-            if i + 1 < nb:
+            if i + 1 < len(diag):
                 xi -= off[i] @ x[e[i + 1]:e[i + 2]]
+            # x_i^T U_ii^T = y_i^T
             xt = dtrsm(1.0, diag[i], xi.T, side=1, lower=0, trans_a=1, overwrite_b=1)
             if not np.shares_memory(xt, xi):
                 xi[:] = xt.T

@@ -697,7 +697,7 @@ class TrialModel(VariableSet):
     paired Ritz vectors (and the next one) are checked with the full matrices: Rayleigh
     quotients and the residual bound of :func:`_residual_bounds` with a kept factorisation
     ``A_ref = U^T U`` in place of A (``r^T A_ref^-1 r = |U^-T r|^2``, one triangular solve per
-    vector, :class:`_Factor`): when the constitutive matrices
+    vector, :class:`laminid_cli.modal.BandFactor`): when the constitutive matrices
     satisfy ``Q(c) >= mu Q(c_ref)`` (mu the smallest generalised eigenvalue of the 5x5 pair of
     each material, the same for every ply angle since Q(theta) = T^T Q(0) T), then ``K(c) >= mu
     K(c_ref)`` and ``A(c) >= min(mu, 1) A_ref``, so ``r^T A(c)^-1 r <= r^T A_ref^-1 r / min(mu,
@@ -739,13 +739,12 @@ class TrialModel(VariableSet):
         K0 = plate.stiffness(coef=self.coef_opt)
         lam1 = float(result.modes.eigenvalues[0])
         self.sigma = -0.5 * lam1
-        self._solve = _Factor(fm, K0.data - self.sigma * plate.M_on_K)
+        self._solve = fm.factorizer.factor(K0.data - self.sigma * plate.M_on_K)
         basis = ReducedBasis(fm)
         if getattr(result, "basis", None) is not None:
             basis.add(result.basis.V)
         basis.add(phi)
-        basis.add(self._solve(np.hstack([plate.basis_matrix(m, j) @ phi
-                                        for m in range(len(self.names)) for j in range(6)])))
+        basis.add(self._solve(plate.basis_products(phi)))
         self.basis = basis
         # Gauss-Newton scaling at the optimum: y = L^T (x - x*) in linearised standard errors
         w = np.asarray(result.weight, float)
@@ -768,13 +767,9 @@ class TrialModel(VariableSet):
         self._shared_basis_changed()
 
     def _shared_basis_changed(self):
-        """After a change of the shared basis: its standard form (``Mr = C C^T``, ``Kt = C^-1
-        Kr C^-T``), the optimum's reduced vectors extended by zeros (columns were appended)
-        and the model at the optimum, where every trial starts."""
-        C_inv = np.linalg.inv(np.linalg.cholesky(self.basis.Mr))
-        Kt = C_inv @ self.basis.Kr @ C_inv.T
-        self._Kt = 0.5 * (Kt + np.swapaxes(Kt, -1, -2))
-        self._CinvT = np.ascontiguousarray(C_inv.T)
+        """After a change of the shared basis: the optimum's reduced vectors extended by zeros
+        (columns were appended) and the model at the optimum, where every trial starts (the
+        basis keeps its reduced eigenproblem in standard form itself, ReducedBasis.eig)."""
         extra = self.basis.size - self.Y_ref.shape[0]
         self.Y_ref = np.vstack([self.Y_ref, np.zeros((extra, self.Y_ref.shape[1]))])
         self.model_opt = self.modes(self.basis, self.x_opt, self.Y_ref)
@@ -840,7 +835,7 @@ class TrialModel(VariableSet):
                 theta, Y = self.basis.eig(coef, self.n_model)
                 K = plate.stiffness(coef=coef)
                 sigma = -0.5 * theta[0]
-                solve = _Factor(fm, K.data - sigma * plate.M_on_K)
+                solve = fm.factorizer.factor(K.data - sigma * plate.M_on_K)
                 self.refs.append((coef, sigma, solve))
                 for _ in range(CLOUD_ROUNDS):
                     U = self.basis.V @ Y
@@ -864,12 +859,12 @@ class TrialModel(VariableSet):
         k = int(np.argmax(mus))
         return float(mus[k]), self.refs[k]
 
-    def factor0(self) -> "_Factor":
+    def factor0(self):
         """The factorisation of ``A0`` (once per process)."""
         if self._solve is None:
             plate = self.fm.plate
             K0 = plate.stiffness(coef=self.coef_opt)
-            self._solve = _Factor(self.fm, K0.data - self.sigma * plate.M_on_K)
+            self._solve = self.fm.factorizer.factor(K0.data - self.sigma * plate.M_on_K)
         return self._solve
 
     @staticmethod
@@ -883,14 +878,7 @@ class TrialModel(VariableSet):
         """The model at ``x``: (paired Ritz values, pairing, reduced vectors, d lambda / d x of
         the paired modes); modes paired by MAC against ``Y_ref`` (the optimum's)."""
         coef, jacs = self.coefficients(x)
-        if basis is self.basis:
-            # standard form of the shared basis: Mr = C C^T, Kt = C^-1 Kr C^-T (once)
-            Kc = np.tensordot(coef, self._Kt, axes=([0, 1], [0, 1]))
-            theta, Z = sla.eigh(Kc, subset_by_index=[0, self.n_model - 1], driver="evr",
-                                check_finite=False)
-            Y = self._CinvT @ Z
-        else:
-            theta, Y = basis.eig(coef, self.n_model)
+        theta, Y = basis.eig(coef, self.n_model)
         pairing = _max_assignment((Y_ref.T @ (basis.Mr @ Y)) ** 2)
         Yp = Y[:, pairing]
         return theta[pairing], pairing, Y, self.eigenvalue_jacobian(basis.energies(Yp), jacs)
@@ -911,7 +899,7 @@ class TrialModel(VariableSet):
     def check(self, basis, x, Y, pairing, ref=None):
         """Full-matrix Ritz values of the checked Ritz vectors at ``x`` and the largest relative
         error bound of the paired ones, with the factorisation ``ref`` = (coefficients, sigma,
-        :class:`_Factor`) of another point (default: the optimum's; class docstring). Returns
+        :class:`laminid_cli.modal.BandFactor`) of another point (default: the optimum's; class docstring). Returns
         (theta, bound, directions): ``directions()`` gives the preconditioned residuals (for
         an enrichment); bound inf when not computable.
 
@@ -957,7 +945,7 @@ class TrialModel(VariableSet):
         plate = self.fm.plate
         coef = self.coefficients(x)[0]
         sigma = -0.5 * float(theta1)
-        solve = _Factor(self.fm, plate.stiffness(coef=coef).data - sigma * plate.M_on_K)
+        solve = self.fm.factorizer.factor(plate.stiffness(coef=coef).data - sigma * plate.M_on_K)
         return coef, sigma, solve
 
     def _gauss_newton(self, basis, x0, lam_meas, w, Y_ref, model0=None):
@@ -1155,53 +1143,6 @@ def _constrained_step(H, g, A, s, max_iter: int = 50):
         if block >= 0:
             work.append(block)
     return None
-
-
-class _Factor:
-    """``A = U^T U`` (banded Cholesky, the forward model's plan: fm.factorizer) of the CSR
-    ``data`` on the stiffness pattern: ``A^-1 R`` by calling it, ``r^T A^-1 r = |U^-T r|^2`` per
-    column by :meth:`energy` (one triangular solve, half a solve pair)."""
-
-    def __init__(self, fm, data):
-        from laminid_cli.errors import SolverError
-        from laminid_cli.modal import WORK
-
-        f = fm.factorizer
-        ab = np.zeros((f.bandwidth + 1) * f.n)
-        ab[f.band_index] = data[f.upper_slots]
-        try:
-            self.cb = sla.cholesky_banded(ab.reshape(f.bandwidth + 1, f.n), overwrite_ab=True,
-                                          check_finite=False)
-        except np.linalg.LinAlgError:
-            raise SolverError("trial model: K - sigma M is not positive definite") from None
-        WORK["factorizations"] += 1
-        self.perm = f.perm
-
-    def _half(self, R, trans):
-        from scipy.linalg.lapack import dtbtrs
-
-        Z, info = dtbtrs(self.cb, R, uplo="U", trans=trans)
-        if info:
-            raise np.linalg.LinAlgError(f"dtbtrs info {info}")
-        return Z
-
-    def __call__(self, R):
-        from laminid_cli.modal import WORK
-
-        R = np.asarray(R, float)
-        WORK["solve_pairs"] += 1 if R.ndim == 1 else R.shape[1]
-        out = np.empty_like(R)
-        out[self.perm] = self._half(self._half(R[self.perm], "T"), "N")
-        return out
-
-    def energy(self, R):
-        """``r^T A^-1 r`` of each column of R (counted as half a solve pair each)."""
-        from laminid_cli.modal import WORK
-
-        R = np.asarray(R, float)
-        WORK["solve_pairs"] += (R.shape[1] + 1) // 2
-        Z = self._half(R[self.perm], "T")
-        return np.einsum("ij,ij->j", Z, Z)
 
 
 def _residual_bounds(theta, eta2, sigma):

@@ -439,22 +439,22 @@ def test_constrained_trial_step_is_the_qp_minimum():
 
 
 def test_trial_factor_solves_and_energies_against_a_sparse_direct_solve():
-    """_Factor (the trial checks' banded Cholesky): A^-1 R and r^T A^-1 r against SuperLU."""
+    """BandFactor (the trial checks' banded Cholesky, fm.factorizer.factor): A^-1 R and
+    r^T A^-1 r against SuperLU, with few right-hand sides (LAPACK) and many (block by block)."""
     import scipy.sparse as sp
     import scipy.sparse.linalg as spla
-
-    from laminid_cli.uncertainty import _Factor
 
     fm = build_forward_model(read_specimen(S11), (4, 4))
     plate = fm.plate
     K = plate.stiffness(list(fm.initial_constants))
     data = K.data + 1e6 * plate.M_on_K
     A = sp.csc_matrix((data, K.indices, K.indptr), shape=K.shape)
-    R = np.random.default_rng(2).standard_normal((plate.n_dofs, 5))
-    ref = spla.splu(A).solve(R)
-    f = _Factor(fm, data)
-    assert np.allclose(f(R), ref, rtol=1e-9, atol=1e-12 * np.abs(ref).max())
-    assert np.allclose(f.energy(R), np.einsum("ij,ij->j", R, ref), rtol=1e-9)
+    f = fm.factorizer.factor(data)
+    for k in (1, 5, 30):
+        R = np.random.default_rng(2).standard_normal((plate.n_dofs, k))
+        ref = spla.splu(A).solve(R)
+        assert np.allclose(f(R), ref, rtol=1e-9, atol=1e-12 * np.abs(ref).max())
+        assert np.allclose(f.energy(R), np.einsum("ij,ij->j", R, ref), rtol=1e-9)
 
 
 def test_trial_rows_give_the_objective_of_the_identification():
