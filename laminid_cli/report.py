@@ -731,12 +731,17 @@ def history_page(r: ResultFile):
     bound = hist.error_bound if hist.error_bound is not None else np.zeros(ev.size)
     known = np.isfinite(bound)
     if not known.all():
-        ax_o.semilogy(ev[~known], hist.objective[~known], ".", ms=3, color="0.6", zorder=3,
-                      gid="predicted",
+        # a light marker for a prediction and a dark one for a checked evaluation, both
+        # over the line (a grey dot over the line's own marker read as one marker)
+        ax_o.semilogy(ev[~known], hist.objective[~known], "o", ms=3.5, color="0.75",
+                      mec="0.55", mew=0.5, zorder=3, gid="predicted",
                       label="reduced-model prediction (trial point, error not bounded)")
+        ax_o.semilogy(ev[known], hist.objective[known], "o", ms=4.5, color="C0", mec="k",
+                      mew=0.6, zorder=4, gid="checked",
+                      label="checked: full model, or basis enriched there (error bounded)")
     pool = np.flatnonzero(known) if known.any() else np.arange(ev.size)
     best = int(pool[np.argmin(hist.objective[pool])])
-    ax_o.semilogy(ev[best], hist.objective[best], "*", ms=11, color="C3",
+    ax_o.semilogy(ev[best], hist.objective[best], "*", ms=10, color="C3", zorder=6,
                   label=f"lowest checked evaluation {hist.objective[best]:.3g}")
     if np.isfinite(r.objective) and r.objective > 0:
         ax_o.semilogy(ev[-1], r.objective, "D", ms=7, mfc="w", color="k", zorder=5,

@@ -238,6 +238,15 @@ def test_history_on_log_scales_with_bound_hits(checked):
                 if ln.get_gid() == f"history-{MAT}.E1")
     col = res.history.constants[:, list(res.history.labels).index(f"{MAT}.E1")]
     assert np.allclose(line.get_ydata(), col / col[0], rtol=1e-15)
+    # reduced solver: predictions (error bound NaN) and checked evaluations marked apart,
+    # together every evaluation once
+    bound = res.history.error_bound
+    pred = next(ln for ln in a.get_lines() if ln.get_gid() == "predicted")
+    chk = next(ln for ln in a.get_lines() if ln.get_gid() == "checked")
+    assert np.array_equal(pred.get_xdata(), res.history.evaluation[np.isnan(bound)])
+    assert np.array_equal(chk.get_ydata(), res.history.objective[np.isfinite(bound)])
+    assert pred.get_xdata().size + chk.get_xdata().size == res.history.evaluation.size
+    assert 0 < chk.get_xdata().size < pred.get_xdata().size
 
 
 def test_sensitivity_page(batch_dir):
