@@ -46,19 +46,34 @@ def stiffness_ratio(coef: np.ndarray, coef_ref: np.ndarray) -> float:
     elements of ``B^T T^T Q T B`` terms with the material's Q, so the order of the Qs carries
     over (the rotation T is a congruence); with M fixed and a shift sigma < 0, ``K(coef) -
     sigma M >= min(mu, 1) (K(coef_ref) - sigma M)``. Not positive: the ratio gives no bound."""
+    return float(stiffness_ratios(coef, [coef_ref])[0])
+
+
+def stiffness_ratios(coef: np.ndarray, coef_refs) -> np.ndarray:
+    """:func:`stiffness_ratio` of ``coef`` (n_materials, 6) against each of ``coef_refs``, in
+    one batched 5x5 computation; 0 against a reference whose constitutive matrices are not
+    positive definite."""
     from laminid_cli.material import c_basis
 
     C = c_basis(0.0)                                          # (6, 5, 5)
-    out = np.inf
-    for c, c0 in zip(np.atleast_2d(coef), np.atleast_2d(coef_ref)):
-        Q, Q0 = np.tensordot(c, C, axes=(0, 0)), np.tensordot(c0, C, axes=(0, 0))
-        try:
-            L = np.linalg.cholesky(Q0)
-        except np.linalg.LinAlgError:
-            return 0.0
-        G = np.linalg.solve(L, np.linalg.solve(L, Q).T)
-        out = min(out, float(np.linalg.eigvalsh(0.5 * (G + G.T)).min()))
-    return out
+    Q = np.tensordot(np.atleast_2d(np.asarray(coef, float)), C, axes=([-1], [0]))
+    Q0 = np.tensordot(np.asarray(coef_refs, float).reshape(-1, *Q.shape[:1], 6), C,
+                      axes=([-1], [0]))                       # (n_ref, n_mat, 5, 5)
+    try:
+        L_inv = np.linalg.inv(np.linalg.cholesky(Q0))
+    except np.linalg.LinAlgError:                             # a reference not positive definite
+        return np.array([stiffness_ratios(coef, [c])[0] if _pd(q) else 0.0
+                         for c, q in zip(np.asarray(coef_refs, float), Q0)])
+    G = L_inv @ Q @ np.swapaxes(L_inv, -1, -2)                # (n_ref, n_mat, 5, 5)
+    return np.linalg.eigvalsh(0.5 * (G + np.swapaxes(G, -1, -2))).min(axis=(1, 2))
+
+
+def _pd(Q: np.ndarray) -> bool:
+    try:
+        np.linalg.cholesky(Q)
+    except np.linalg.LinAlgError:
+        return False
+    return True
 
 
 class RitzModes(Modes):

@@ -735,7 +735,6 @@ class TrialModel(VariableSet):
         self.n_model = int(result.modes.n_modes)
         self.n_check = int(min(self.n_model, np.max(self.pairing) + 3))
         self.coef_opt = self.coefficients(self.x_opt)[0]
-        self.Q_opt = [self._q(c) for c in self.coef_opt]
         self.tau2 = float(tau2)
         self.bound = float(bound)            # accepted relative eigenvalue error bound
         # the basis, with the one factorisation at the optimum
@@ -876,13 +875,6 @@ class TrialModel(VariableSet):
             self._solve = self.fm.factorizer.factor(K0.data - self.sigma * plate.M_on_K)
         return self._solve
 
-    @staticmethod
-    def _q(coef):
-        """Constitutive matrices (..., 5, 5) of stiffness coefficients (..., 6)."""
-        from laminid_cli.material import c_basis
-
-        return np.tensordot(np.asarray(coef, float), c_basis(0.0), axes=([-1], [0]))
-
     def modes(self, basis, x, Y_ref):
         """The model at ``x``: (paired Ritz values, pairing, reduced vectors, d lambda / d x of
         the paired modes); modes paired by MAC against ``Y_ref`` (the optimum's)."""
@@ -943,11 +935,10 @@ class TrialModel(VariableSet):
         return float(self.mus(x, [coef_ref])[0])
 
     def mus(self, x, coef_refs) -> np.ndarray:
-        """:meth:`mu` against each of ``coef_refs`` (one batched 5x5 computation)."""
-        Q = self._q(self.coefficients(x)[0])                   # (n_mat, 5, 5)
-        C_inv = np.linalg.inv(np.linalg.cholesky(self._q(np.array(coef_refs))))
-        G = C_inv @ Q @ np.swapaxes(C_inv, -1, -2)             # (n_ref, n_mat, 5, 5)
-        return np.linalg.eigvalsh(0.5 * (G + np.swapaxes(G, -1, -2))).min(axis=(1, 2))
+        """:meth:`mu` against each of ``coef_refs`` (reduced.stiffness_ratios)."""
+        from laminid_cli.reduced import stiffness_ratios
+
+        return stiffness_ratios(self.coefficients(x)[0], coef_refs)
 
     def factor_at(self, x, theta1):
         """(coefficients, sigma, solve) of A = K - sigma M factorised at ``x``."""

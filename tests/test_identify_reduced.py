@@ -407,7 +407,7 @@ def test_stiffness_ratio_orders_the_stiffness_matrices():
     """K(c) - mu K(c_ref) is positive semi-definite with mu = stiffness_ratio(c, c_ref) and
     is not with a mu 1 % larger (the ratio is the sharp one of the constitutive matrices, and
     a 3x3 S1.1 model's K is that sharp too, to its round-off): dense eigenvalues."""
-    from laminid_cli.reduced import stiffness_ratio
+    from laminid_cli.reduced import stiffness_ratio, stiffness_ratios
 
     fm = build_forward_model(read_specimen(S11), (3, 3))
     pm = fm.plate
@@ -420,6 +420,9 @@ def test_stiffness_ratio_orders_the_stiffness_matrices():
     scale = np.abs(K0).max()
     assert np.linalg.eigvalsh(K1 - mu * K0).min() >= -1e-10 * scale
     assert np.linalg.eigvalsh(K1 - 1.01 * mu * K0).min() < -1e-6 * scale
+    # batched against several references; one that is not positive definite gives no bound
+    np.testing.assert_allclose(stiffness_ratios(c1, [c0, 0.5 * c0, -c0]), [mu, 2 * mu, 0.0],
+                               rtol=1e-12)
 
 
 def test_error_bound_with_a_reused_factorisation_is_honest():
