@@ -112,6 +112,9 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
             report = batch_report(ordered, options, out)
             write_summary_csv(out / SUMMARY_CSV, ordered, wide=wide)
             write_summary_json(out / SUMMARY_JSON, report)
+            # once more at the end: a killed run's worker may still have been exiting at the
+            # start (its temporary file then counted as a live process's)
+            remove_stale_parts(out)
     if as_json:
         echo_json(report)
     else:
