@@ -76,6 +76,13 @@ def _pd(Q: np.ndarray) -> bool:
     return True
 
 
+def residual_bound(theta: np.ndarray, eta2: np.ndarray, sigma: float) -> np.ndarray:
+    """Absolute error bound of each Ritz value ``theta_i`` from ``eta2_i = r_i^T A^-1 r_i`` (A =
+    K - sigma M, or an upper bound of it): some eigenvalue lies within ``d_i = (eta2 +
+    sqrt(eta2^2 + 4 eta2 (theta_i - sigma))) / 2`` of theta_i (module docstring)."""
+    return 0.5 * (eta2 + np.sqrt(eta2**2 + 4 * eta2 * (theta - sigma)))
+
+
 class RitzModes(Modes):
     """Ritz modes of a reduced basis: :class:`Modes` whose shapes ``V Y`` are formed when first
     asked for (an optimiser's evaluation needs only the eigenvalues and the reduced vectors)."""
@@ -361,7 +368,7 @@ class ReducedBasis:
             Rs = self.fm.plate.stiffness_products(coef, U) - (self.M @ U) * theta
             S = solve(Rs)
             eta2 = np.maximum(np.einsum("ij,ij->j", Rs, S), 0.0) * scale
-            bound = 0.5 * (eta2 + np.sqrt(eta2**2 + 4 * eta2 * (theta - sigma)))
+            bound = residual_bound(theta, eta2, sigma)
             if np.max(bound / theta) <= target:
                 break
             # a mode already converged to round-off adds only noise directions
@@ -394,5 +401,5 @@ class ReducedBasis:
         theta = np.einsum("ij,ij->j", U, KU)
         Rs = KU - MU * theta
         eta2 = np.maximum(np.einsum("ij,ij->j", Rs, solve(Rs)), 0.0) * scale
-        bound = 0.5 * (eta2 + np.sqrt(eta2**2 + 4 * eta2 * (theta - sigma)))
+        bound = residual_bound(theta, eta2, sigma)
         return theta, U, bound

@@ -100,7 +100,7 @@ from laminid_cli.intervals import (SCALINGS, VERDICT_AT_BOUND, VERDICT_FIXED,  #
                                    VERDICT_NOT, VERDICT_WEAK, VERDICT_WELL, WEAK, WELL_DETERMINED,
                                    interval_scale, verdict as verdict_of)
 from laminid_cli.material import CONSTANT_NAMES
-from laminid_cli.objective import VariableSet, residual_rows
+from laminid_cli.objective import VariableSet, max_assignment, residual_rows
 from laminid_cli.parametrization import coefficients_and_jacobian
 
 log = logging.getLogger(__name__)
@@ -880,7 +880,7 @@ class TrialModel(VariableSet):
         the paired modes); modes paired by MAC against ``Y_ref`` (the optimum's)."""
         coef, jacs = self.coefficients(x)
         theta, Y = basis.eig(coef, self.n_model)
-        pairing = _max_assignment((Y_ref.T @ (basis.Mr @ Y)) ** 2)
+        pairing = max_assignment((Y_ref.T @ (basis.Mr @ Y)) ** 2)
         Yp = Y[:, pairing]
         return theta[pairing], pairing, Y, self.eigenvalue_jacobian(basis.energies(Yp), jacs)
 
@@ -922,7 +922,7 @@ class TrialModel(VariableSet):
         scale = 1.0 / np.sqrt(np.einsum("ij,ij->j", U, MU))
         U *= scale
         MU *= scale
-        KU = plate.stiffness(coef=coef) @ U
+        KU = plate.stiffness_products(coef, U)
         theta = np.einsum("ij,ij->j", U, KU)
         R = KU - MU * theta
         eta2 = np.maximum(solve.energy(R), 0.0) / min(mu, 1.0)
@@ -1159,9 +1159,11 @@ def _residual_bounds(theta, eta2, sigma):
     ``c_i^2 (theta_i - lambda_i) <= eta2 (b - sigma) / (b - theta_i)`` and
     ``1 - c_i^2 <= eta2 max((b - sigma) / (b - theta_i)^2, (a - sigma) / (theta_i - a)^2)``.
     Returns the smaller of the two where the quadratic one applies (the last value: linear)."""
+    from laminid_cli.reduced import residual_bound
+
     theta = np.asarray(theta, float)
     eta2 = np.asarray(eta2, float)
-    lin = 0.5 * (eta2 + np.sqrt(eta2**2 + 4 * eta2 * (theta - sigma)))
+    lin = residual_bound(theta, eta2, sigma)
     out = lin.copy()
     for i in range(theta.size - 1):
         t, b = theta[i], theta[i + 1] - lin[i + 1]
@@ -1177,22 +1179,6 @@ def _residual_bounds(theta, eta2, sigma):
         if ci2 > 0:
             out[i] = min(lin[i], eta2[i] * (b - sigma) / ((b - t) * ci2))
     return out
-
-
-def _max_assignment(M):
-    """Column matched to each row of ``M`` maximising the sum (one column per row).
-
-    MAC values between two orthonormal sets sum to at most 1 along a row and a column, so when
-    every row's largest value exceeds 0.5 those columns are distinct and the assignment is
-    optimal (any other column of a row is below 1 - that value < 0.5); else an optimal
-    bipartite matching."""
-    M = np.asarray(M, float)
-    best = np.argmax(M, axis=1)
-    if np.all(M[np.arange(M.shape[0]), best] > 0.5):
-        return best
-    from laminid_cli.objective import max_assignment
-
-    return max_assignment(M)
 
 
 # ----------------------------------------------------------------------------------------------
