@@ -39,7 +39,8 @@ from laminid_cli.material import CONSTANT_NAMES, ElasticConstants, alphas_from_c
 from laminid_cli.modal import WORK, Modes
 from laminid_cli.objective import (ErrorBound, Evaluation, HistoryRow, MeasuredData,  # noqa: F401
                                    Objective, PlateTerm, RunLog, VariableSet,
-                                   check_shared_materials, history_arrays, max_assignment)
+                                   check_shared_materials, history_arrays, max_assignment,
+                                   residual_rows)
 from laminid_cli.parametrization import coefficients_and_jacobian, make_parameters
 
 log = logging.getLogger(__name__)
@@ -790,7 +791,7 @@ def _optimize_from(prob, ev0, progress=None, radius=None, ftol_rel=None, xtol=No
 def _gauss_newton_factor(prob: Problem, ev: Evaluation, scale: float,
                          damping: float = DAMPING) -> np.ndarray:
     """Lower Cholesky factor of the damped Gauss-Newton Hessian of Phi / scale at ``ev``."""
-    Jr = -(np.sqrt(prob.weight) / prob.lam_meas)[:, None] * ev.dlam_dx
+    Jr = residual_rows(prob.lam_meas, prob.weight, ev.eigenvalues, ev.dlam_dx).jacobian
     Jp = prob.prior_rows(ev.x)[1]                         # prior term, Eq. 15 (linear)
     H = 2 * (Jr.T @ Jr + Jp.T @ Jp) / scale
     d = np.diag(H).copy()

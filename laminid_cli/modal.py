@@ -77,6 +77,10 @@ class Modes:
     def n_modes(self) -> int:
         return int(self.eigenvalues.size)
 
+    def columns(self, index) -> np.ndarray:
+        """``phi[:, index]`` (reduced.RitzModes forms only those columns)."""
+        return self.phi[:, index]
+
 
 class BandedCholesky:
     """Banded Cholesky factorisation for a fixed symmetric sparsity pattern.

@@ -377,16 +377,15 @@ class Objective(VariableSet):
         if jacs is None:
             _, jacs = plate.coefficients(xk)
         pairing = np.asarray(pairing)
-        columns = getattr(modes, "columns", None)
-        phi = ((lambda: columns(pairing)) if columns is not None else modes.phi[:, pairing])
         lam = modes.eigenvalues[pairing]
         if E is None:
-            E = plate.fm.plate.basis_energies(modes.phi[:, pairing])  # (n_mat, 6, n_meas)
+            E = plate.fm.plate.basis_energies(modes.columns(pairing))  # (n_mat, 6, n_meas)
         dlam_dx = plate.eigenvalue_jacobian(E, jacs)
         eq17 = residual_rows(plate.data.lam, plate.data.weight, lam, dlam_dx)
         return Evaluation(x=np.array(xk, float), objective=eq17.value, gradient=eq17.gradient,
-                          eigenvalues=lam, pairing=np.asarray(pairing),
-                          dlam_dx=dlam_dx, phi=phi, modes=modes, changes=tuple(changes))
+                          eigenvalues=lam, pairing=pairing,
+                          dlam_dx=dlam_dx, phi=lambda: modes.columns(pairing), modes=modes,
+                          changes=tuple(changes))
 
     def combine(self, x, parts) -> Evaluation:
         """The objective's evaluation at ``x`` from its plates' evaluations there."""

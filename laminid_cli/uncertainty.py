@@ -757,7 +757,8 @@ class TrialModel(VariableSet):
         # Gauss-Newton scaling at the optimum: y = L^T (x - x*) in linearised standard errors
         w = np.asarray(result.weight, float)
         lam_meas = (2 * np.pi * np.nan_to_num(np.asarray(result.measured_hz, float), nan=1.0))**2
-        Jr = (np.sqrt(w) / lam_meas)[:, None] * np.asarray(result.dlam_dx, float)
+        lam = (2 * np.pi * np.asarray(result.model_hz, float)) ** 2
+        Jr = residual_rows(lam_meas, w, lam, np.asarray(result.dlam_dx, float)).jacobian
         Jp = self.prior_rows(self.x_opt)[1]
         H = Jr.T @ Jr + Jp.T @ Jp
         d = np.diag(H).copy()
