@@ -158,11 +158,7 @@ class BandFactor:
         x = np.asarray(x, float)
         WORK["solve_pairs"] += 1 if x.ndim == 1 else x.shape[1]
         y = np.empty_like(x)
-        if x.ndim == 2 and x.shape[1] >= BLOCK_RHS:
-            y[self.perm] = self.blocks.solve(x[self.perm])
-        else:
-            y[self.perm] = sla.cho_solve_banded((self.cb, False), x[self.perm],
-                                                check_finite=False)
+        y[self.perm] = self.blocks.solve(x[self.perm])
         return y
 
     def energy(self, R: np.ndarray) -> np.ndarray:
@@ -222,9 +218,14 @@ class _BandBlocks:
             self._diag, self._off = diag, off
         return self._diag, self._off
 
+    def _blocked(self, b: np.ndarray) -> bool:
+        """Whether ``b`` goes block by block (else through LAPACK, column by column)."""
+        return (self.bw > 0 and self.cb.flags.f_contiguous and b.ndim == 2
+                and b.shape[1] >= BLOCK_RHS)
+
     def forward(self, b: np.ndarray) -> np.ndarray:
         """``U^-T b`` (a new array)."""
-        if self.bw == 0 or not self.cb.flags.f_contiguous or b.ndim == 1 or b.shape[1] < BLOCK_RHS:
+        if not self._blocked(b):
             from scipy.linalg.lapack import dtbtrs
 
             z, info = dtbtrs(self.cb, b, uplo="U", trans="T")
@@ -249,7 +250,7 @@ class _BandBlocks:
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """``A^-1 b``."""
-        if self.bw == 0 or not self.cb.flags.f_contiguous:
+        if not self._blocked(b):
             return sla.cho_solve_banded((self.cb, False), b, check_finite=False)
         from scipy.linalg.blas import dtrsm
 
