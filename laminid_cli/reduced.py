@@ -222,8 +222,8 @@ class ReducedBasis:
         return k
 
     def _factorisation(self, coef: np.ndarray, first_eigenvalue):
-        """(K, sigma, solve) at ``coef``: the factorisation of ``A = K - sigma M`` kept from
-        the last call at the same ``coef``, else a new one with ``sigma = -lambda_1 / 2``,
+        """(sigma, solve) at ``coef``: the factorisation of ``A = K - sigma M`` kept from the
+        last call at the same ``coef``, else a new one with ``sigma = -lambda_1 / 2``,
         ``lambda_1 = first_eigenvalue(K)`` (an estimate of the first elastic eigenvalue)."""
         last = getattr(self, "_factor", None)
         if last is not None and last[0] == coef.tobytes():
@@ -232,8 +232,8 @@ class ReducedBasis:
         K = plate.stiffness(coef=coef)
         sigma = -0.5 * float(first_eigenvalue(K))
         solve = self.fm.factorizer.factor(K.data - sigma * plate.M_on_K)
-        self._factor = (coef.tobytes(), K, sigma, solve)
-        return K, sigma, solve
+        self._factor = (coef.tobytes(), sigma, solve)
+        return sigma, solve
 
     def add_sensitivities(self, coef: np.ndarray, phi: np.ndarray) -> int:
         """Add ``A^-1 K_b phi_i`` for every basis stiffness K_b and mode phi_i (one
@@ -243,7 +243,7 @@ class ReducedBasis:
         move far). Returns the directions added."""
         coef = np.asarray(coef, float)
         p0 = phi[:, 0]
-        _, _, solve = self._factorisation(
+        _, solve = self._factorisation(
             coef, lambda K: (p0 @ (K @ p0)) / (p0 @ (self.M @ p0)))
         return self.add(solve(self.fm.plate.basis_products(phi)))
 
@@ -330,7 +330,7 @@ class ReducedBasis:
         if kept is not None:
             return self._enrich_with(coef, k, rounds, *kept, target)
         theta0, Y = self.eig(coef, k)
-        _, sigma, solve = self._factorisation(coef, lambda K: theta0[0])
+        sigma, solve = self._factorisation(coef, lambda K: theta0[0])
         return self._enrich_with(coef, k, rounds, solve, sigma, 1.0, target, theta0, Y)
 
     def _kept(self, coef: np.ndarray, reuse: float):
@@ -347,7 +347,7 @@ class ReducedBasis:
         mu = stiffness_ratio(coef, c0)
         if not mu > 0:
             return None
-        return last[3], last[2], 1.0 / min(mu, 1.0)
+        return last[2], last[1], 1.0 / min(mu, 1.0)
 
     def _enrich_with(self, coef, k, rounds, solve, sigma, scale=1.0, target=0.0, theta0=None,
                      Y=None):
@@ -393,7 +393,7 @@ class ReducedBasis:
         if kept is not None:
             solve, sigma, scale = kept
         else:
-            _, sigma, solve = self._factorisation(
+            sigma, solve = self._factorisation(
                 coef, lambda K: (u0 @ (K @ u0)) / (u0 @ (self.M @ u0)))
             scale = 1.0
         U = U / np.sqrt(np.einsum("ij,ij->j", U, self.M @ U))
