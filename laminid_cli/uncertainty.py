@@ -842,13 +842,13 @@ class TrialModel(VariableSet):
                     continue
                 coef = self.coefficients(x)[0]
                 theta, Y = self.basis.eig(coef, self.n_model)
-                K = plate.stiffness(coef=coef)
-                sigma = -0.5 * theta[0]
-                solve = fm.factorizer.factor(K.data - sigma * plate.M_on_K)
-                self.refs.append((coef, sigma, solve))
+                ref = self.factor_at(x, theta[0])
+                self.refs.append(ref)
+                solve = ref[2]
                 for _ in range(CLOUD_ROUNDS):
                     U = self.basis.V @ Y
-                    added = self.basis.add(solve(K @ U - (plate.M @ U) * theta))
+                    added = self.basis.add(solve(plate.stiffness_products(coef, U)
+                                                 - (plate.M @ U) * theta))
                     theta, Y = self.basis.eig(coef, self.n_model)
                     if not added:
                         break
