@@ -251,6 +251,7 @@ class RunLog:
     n_refused: int = 0
     n_enrich: int = 0
     final_bound: ErrorBound | None = None
+    checked: Evaluation | None = None        # the optimum checked against the full model
     last_step: float = 0.0                   # scaled step of the last optimiser stage
 
     def __post_init__(self):

@@ -35,6 +35,9 @@ DROP_TOL = 1e-9
 #: an enrichment adds no residual of a mode whose relative error bound is below this (its
 #: residual is round-off: it would add noise directions to the basis)
 CONVERGED = 1e-13
+#: with a target bound, a mode whose bound is below this fraction of it adds no residual (it
+#: has reached its target; its residual is mostly round-off)
+TARGET_MARGIN = 0.1
 #: the basis is rebuilt from the current Ritz vectors when it would grow beyond this
 MAX_BASIS = 260
 
@@ -312,7 +315,7 @@ class ReducedBasis:
         return (P.T @ Y) ** 2 / den
 
     def enrich(self, coef: np.ndarray, k: int, rounds: int = 2, target: float = 0.0,
-               reuse: float = 0.0):
+               reuse: float = 0.0, keep: int = 0):
         """Enrich the basis at ``coef`` with the preconditioned residuals of the lowest ``k``
         Ritz modes: one factorisation (kept for a further call at the same ``coef``), up to
         ``rounds`` block solves with it, fewer when every relative bound is below ``target``.
@@ -323,15 +326,18 @@ class ReducedBasis:
         bound holds with ``A_ref^-1`` in place of ``A^-1`` scaled by ``1 / min(mu, 1)``
         (:func:`stiffness_ratio`: ``A(coef) >= min(mu, 1) A_ref`` for the shift of A_ref).
 
+        ``keep``: a basis restarted (it would grow beyond MAX_BASIS) keeps at least this many
+        Ritz vectors (the modes its evaluations need, when ``k`` is fewer).
+
         Returns (Ritz values before, Ritz values after, absolute error bound of the values
         after, rad^2/s^2)."""
         coef = np.asarray(coef, float)
         kept = self._kept(coef, reuse)
         if kept is not None:
-            return self._enrich_with(coef, k, rounds, *kept, target)
+            return self._enrich_with(coef, k, rounds, *kept, target, keep=keep)
         theta0, Y = self.eig(coef, k)
         sigma, solve = self._factorisation(coef, lambda K: theta0[0])
-        return self._enrich_with(coef, k, rounds, solve, sigma, 1.0, target, theta0, Y)
+        return self._enrich_with(coef, k, rounds, solve, sigma, 1.0, target, theta0, Y, keep)
 
     def _kept(self, coef: np.ndarray, reuse: float):
         """(solve, sigma, scale) of the kept factorisation when it is of other coefficients
@@ -350,11 +356,11 @@ class ReducedBasis:
         return last[2], last[1], 1.0 / min(mu, 1.0)
 
     def _enrich_with(self, coef, k, rounds, solve, sigma, scale=1.0, target=0.0, theta0=None,
-                     Y=None):
+                     Y=None, keep=0):
         """The block solves of :meth:`enrich` with ``solve`` = (K_ref - sigma M)^-1 and
         ``r^T A^-1 r <= scale r^T solve(r)``."""
         if self.size + rounds * k > MAX_BASIS:               # restart from the Ritz vectors
-            theta, Y = self.eig(coef, k)
+            theta, Y = self.eig(coef, max(k, keep))
             U = self.V @ Y
             self.__init__(self.fm)
             self.add(U)
@@ -372,7 +378,7 @@ class ReducedBasis:
             if np.max(bound / theta) <= target:
                 break
             # a mode already converged to round-off adds only noise directions
-            active = bound / theta > CONVERGED
+            active = bound / theta > max(CONVERGED, TARGET_MARGIN * target)
             if not active.any():
                 break
             added = self.add(S[:, active])
@@ -381,12 +387,25 @@ class ReducedBasis:
                 break
         return theta0, theta, bound
 
-    def check(self, coef: np.ndarray, U: np.ndarray, reuse: float = 0.0):
+    def check(self, coef: np.ndarray, U: np.ndarray, reuse: float = 0.0, target: float = 0.0,
+              rounds: int = 1, n: int | None = None):
         """Ritz vectors ``U`` (n, k) checked with the full matrices at ``coef``: their Rayleigh
         quotients ``u^T K u / u^T M u`` (free of the round-off that the projected matrices
         carry from their stiff directions), the M-normalised vectors and the absolute error
         bound of each quotient (same bound as :meth:`enrich`, with the factorisation kept from
-        an enrichment at the same ``coef``, or within ``reuse`` of it, when there is one)."""
+        an enrichment at the same ``coef``, or within ``reuse`` of it, when there is one).
+
+        ``target`` > 0: while some relative bound is above it, up to ``rounds - 1`` times, the
+        vectors are refined by a Rayleigh-Ritz step on a local space: the vectors, and the
+        preconditioned residuals of this and the earlier steps (block Davidson, with the same
+        factorisation). The local space, k to a few k vectors, is not added to the basis: a
+        step costs one block solve and k products with K and M, where an enrichment of the
+        basis also projects the new vectors on the basis and on every basis stiffness (the
+        bounds are of the vectors returned, whatever space they come from).
+
+        ``n``: only the first n vectors are checked and returned; the others are refined with
+        them as guards (the convergence of the highest wanted mode depends on its distance to
+        the lowest one outside the local space)."""
         coef = np.asarray(coef, float)
         u0 = U[:, 0]
         kept = self._kept(coef, reuse)
@@ -396,10 +415,67 @@ class ReducedBasis:
             sigma, solve = self._factorisation(
                 coef, lambda K: (u0 @ (K @ u0)) / (u0 @ (self.M @ u0)))
             scale = 1.0
-        U = U / np.sqrt(np.einsum("ij,ij->j", U, self.M @ U))
-        KU, MU = self.fm.plate.stiffness_products(coef, U), self.M @ U
-        theta = np.einsum("ij,ij->j", U, KU)
-        Rs = KU - MU * theta
-        eta2 = np.maximum(np.einsum("ij,ij->j", Rs, solve(Rs)), 0.0) * scale
-        bound = residual_bound(theta, eta2, sigma)
-        return theta, U, bound
+        plate = self.fm.plate
+        k = U.shape[1]
+        Z = U / np.sqrt(np.einsum("ij,ij->j", U, self.M @ U))
+        KZ, MZ = plate.stiffness_products(coef, Z), self.M @ Z
+        A, B = Z.T @ KZ, Z.T @ MZ                           # the local space's projections
+        U, KU, MU = Z, KZ, MZ
+        for step in range(max(rounds, 1)):
+            if step:                                         # Rayleigh-Ritz on the local space
+                _, C = sla.eigh(0.5 * (A + A.T), 0.5 * (B + B.T), subset_by_index=[0, k - 1],
+                                check_finite=False)
+                U, KU, MU = Z @ C, KZ @ C, MZ @ C
+                norm = np.sqrt(np.einsum("ij,ij->j", U, MU))
+                U, KU, MU = U / norm, KU / norm, MU / norm
+            theta = np.einsum("ij,ij->j", U, KU)
+            Rs = KU - MU * theta
+            S = solve(Rs)
+            eta2 = np.maximum(np.einsum("ij,ij->j", Rs, S), 0.0) * scale
+            bound = residual_bound(theta, eta2, sigma)
+            rel = bound / theta
+            if target <= 0 or step == rounds - 1 or np.max(rel[:n]) <= target:
+                break
+            W, MW = self._orthonormal_to(S[:, rel > max(CONVERGED, TARGET_MARGIN * target)],
+                                         Z, MZ)
+            if W.shape[1] == 0:
+                break
+            KW = plate.stiffness_products(coef, W)
+            m = Z.shape[1]
+            A2, B2 = np.empty((m + W.shape[1],) * 2), np.empty((m + W.shape[1],) * 2)
+            for G, P, PW in ((A2, A, KW), (B2, B, MW)):
+                G[:m, :m] = P
+                G[:m, m:] = Z.T @ PW
+                G[m:, :m] = G[:m, m:].T
+                G[m:, m:] = W.T @ PW
+            A, B = A2, B2
+            Z, KZ, MZ = np.hstack([Z, W]), np.hstack([KZ, KW]), np.hstack([MZ, MW])
+        if Z.shape[1] > k:
+            # the refined vectors in the order of the vectors given (their identities: a
+            # Rayleigh-Ritz step sorts by value, which may swap two close modes)
+            P = (MZ[:, :k].T @ U) ** 2
+            perm = np.argmax(P, axis=1)
+            if np.array_equal(np.sort(perm), np.arange(k)):
+                theta, U, bound = theta[perm], U[:, perm], bound[perm]
+        return theta[:n], U[:, :n], bound[:n]
+
+    def _orthonormal_to(self, W: np.ndarray, Z: np.ndarray, MZ: np.ndarray):
+        """(W', M W'): the directions of W M-orthogonal to the columns Z (``MZ`` = M Z,
+        M-orthonormal up to the conditioning a Rayleigh-Ritz step tolerates) and to the rigid
+        motions, M-orthonormalised; those whose M-norm after orthogonalisation is below
+        DROP_TOL (relative) dropped. One classical Gram-Schmidt pass: the local space's
+        Rayleigh-Ritz step takes its Gram matrix as it is."""
+        MW = self.M @ W
+        norm = np.sqrt(np.einsum("ij,ij->j", W, MW))
+        ok = norm > 0
+        W, MW = W[:, ok] / norm[ok], MW[:, ok] / norm[ok]
+        if self.R is not None:
+            C = self.MR.T @ W
+            W, MW = W - self.R @ C, MW - self.MR @ C
+        C = MZ.T @ W
+        W, MW = W - Z @ C, MW - MZ @ C
+        G = W.T @ MW
+        d, Q = np.linalg.eigh(0.5 * (G + G.T))
+        keep = d > DROP_TOL**2
+        W = W @ (Q[:, keep] / np.sqrt(d[keep]))
+        return W, self.M @ W

@@ -56,9 +56,9 @@ def test_reduced_equals_full_s11():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("path", [S12, S13, S14, S21, ESL, S22])
+@pytest.mark.parametrize("path", [S12, S13, S14, S21, S22])
 def test_reduced_equals_full_paper(path):
-    """The other paper specimens, re-anchored cases S2.2 and the hybrid ESL included."""
+    """The other paper specimens, the re-anchored case S2.2 included (the hybrid ESL: below)."""
     fm = build_forward_model(read_specimen(path), (12, 12))
     check_reduced_equals_full(fm)
 
@@ -80,6 +80,27 @@ def test_s22_solvers_agree_on_the_determined_constants():
         assert getattr(red.constants[0], k) == pytest.approx(getattr(full.constants[0], k),
                                                              rel=1e-3), k
     np.testing.assert_allclose(red.model_hz, full_frequencies_at(fm, red), rtol=FREQ_REL)
+
+
+@pytest.mark.slow
+def test_reduced_on_the_hybrid_esl_is_no_worse_than_full():
+    """Hybrid ESL (20 modes, two re-anchorings of the pairing on both solvers): which pairing
+    the last re-anchoring keeps depends on the path through the near-coincident modes 14-21.
+    Until stop 19 (two block solves per enrichment) the reduced solver happened to end at the
+    full solver's minimum, 3.8944e-4 with the modes paired in sorted order; with one block
+    solve per enrichment it ends at 2.4431e-4, measured mode 20 paired with model mode 21 (and
+    the warning that says so). Held: converged, never worse than the full solver, and what it
+    reports is the full model's at its optimum."""
+    fm = build_forward_model(read_specimen(ESL), (12, 12))
+    full = identify(fm, IdentifyOptions(solver="full"))
+    red = identify(fm, IdentifyOptions(solver="reduced"))
+    assert red.converged, red.status
+    assert red.objective <= full.objective * (1 + OBJECTIVE_REL)
+    np.testing.assert_allclose(red.model_hz, full_frequencies_at(fm, red), rtol=FREQ_REL)
+    assert np.all(red.error_bound <= 1e-9)
+    if not np.array_equal(red.pairing, np.arange(red.pairing.size)):
+        assert any("not paired with the model modes in sorted order" in w
+                   for w in red.warnings)
 
 
 @pytest.mark.slow
@@ -446,3 +467,40 @@ def test_error_bound_with_a_reused_factorisation_is_honest():
         assert np.all(bound + 1e-11 * full.eigenvalues >= err), (bound, err)
     assert WORK["factorizations"] == n_factor
     assert (bound / after)[:14].max() < 1e-8
+
+
+def test_refined_check_reaches_the_bound_on_a_local_space():
+    """The final check's refinement (ReducedBasis.check with a target): from Ritz vectors of a
+    basis enriched twice at a point 15 % away from its modes' point, Rayleigh-Ritz steps on the
+    local space [U, A^-1 R, ...] bring every checked mode's bound below 1e-9 with the kept
+    factorisation; the bound holds the true error against a full solve there, the modes keep
+    the order (identity) of the vectors given, and the basis itself is not changed."""
+    ROUNDOFF = 1e-11
+    fm, prob, ev0 = s11_problem()
+    B = ReducedBasis(fm)
+    B.add(ev0.modes.phi)
+    x1 = ev0.x.copy()
+    x1[0] *= 1.15
+    x1[1] *= 0.9
+    coef = coef_at(prob, x1)
+    full = fm.solve(n_modes=prob.n_model, coef=coef)
+    for _ in range(2):
+        B.enrich(coef, prob.n_model, rounds=1)
+    size, n_factor = B.size, WORK["factorizations"]
+    _, Y = B.eig(coef, prob.n_model)
+    U = B.V @ Y
+    n = 14
+    theta0, _, bound0 = B.check(coef, U, n=n)               # no refinement
+    assert (bound0 / theta0).max() > 1e-6                  # far from the limit before
+    theta, V, bound = B.check(coef, U, target=1e-9, rounds=12, n=n)
+    assert theta.shape == (n,) and V.shape == (fm.plate.n_dofs, n)
+    assert (bound / theta).max() <= 1e-9
+    err = np.abs(theta - full.eigenvalues[:n])
+    assert np.all(bound + ROUNDOFF * full.eigenvalues[:n] >= err), (bound, err)
+    assert np.all(err <= 2e-9 * full.eigenvalues[:n])
+    # the i-th refined vector is the i-th mode (MAC against the full modes' shapes)
+    M = fm.plate.M
+    mac = (full.phi[:, :n].T @ (M @ V)) ** 2
+    assert np.all(np.argmax(mac, axis=0) == np.arange(n))
+    assert np.diag(mac).min() > 0.999
+    assert B.size == size and WORK["factorizations"] == n_factor
