@@ -465,6 +465,8 @@ class ReducedBasis:
         motions, M-orthonormalised; those whose M-norm after orthogonalisation is below
         DROP_TOL (relative) dropped. One classical Gram-Schmidt pass: the local space's
         Rayleigh-Ritz step takes its Gram matrix as it is."""
+        if W.shape[1] == 0:
+            return W, W.copy()
         MW = self.M @ W
         norm = np.sqrt(np.einsum("ij,ij->j", W, MW))
         ok = norm > 0
