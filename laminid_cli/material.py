@@ -15,7 +15,7 @@ Moduli in Pa. Everything here is a pure function on floats or numpy arrays.
 
 from __future__ import annotations
 
-from dataclasses import astuple, dataclass, fields
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -42,8 +42,10 @@ class ElasticConstants:
     nu12: float
 
     def as_array(self) -> np.ndarray:
-        """Constants in :data:`CONSTANT_NAMES` order, shape (6,)."""
-        return np.array(astuple(self), dtype=float)
+        """Constants in :data:`CONSTANT_NAMES` order, shape (6,). (Not ``astuple``: it
+        deep-copies each field, and this runs at every optimiser evaluation.)"""
+        return np.array([self.E1, self.E2, self.G12, self.G13, self.G23, self.nu12],
+                        dtype=float)
 
     @classmethod
     def from_array(cls, values) -> "ElasticConstants":
