@@ -172,8 +172,17 @@ class BandFactor:
 
 
 #: right-hand sides from which a solve goes block by block (level-3 BLAS) instead of through
-#: LAPACK's column-by-column banded solve
+#: LAPACK's column-by-column banded solve, when the factor is larger than BLOCK_BAND_BYTES;
+#: twice as many when it is smaller (it then stays in the cache, and LAPACK's passes through
+#: it are cheap). Measured on S1.1, single thread, 32 MiB L3, solve blocked / LAPACK, 16
+#: right-hand sides: 8x8 (4 MB) 2.6 / 2.6 ms, 12x12 (13 MB) 10.1 / 8.7, 16x16 (29 MB)
+#: 22.7 / 39.5, 24x24 (91 MB) 77 / 154; 24: 12x12 12.0 / 13.0
 BLOCK_RHS = 12
+BLOCK_BAND_BYTES = 16e6
+#: the same for the forward half alone (BandFactor.energy): LAPACK's tbtrs is better for
+#: longer (16 columns: 12x12 5.8 / 3.6 ms, 16x16 14.2 / 11.3, 24x24 43 / 43; 24 columns:
+#: 16x16 15.7 / 17.0, 24x24 52 / 72; 36 columns: 12x12 8.7 / 7.6)
+BLOCK_RHS_FORWARD = 24
 
 
 class _BandBlocks:
@@ -218,14 +227,18 @@ class _BandBlocks:
             self._diag, self._off = diag, off
         return self._diag, self._off
 
-    def _blocked(self, b: np.ndarray) -> bool:
-        """Whether ``b`` goes block by block (else through LAPACK, column by column)."""
-        return (self.bw > 0 and self.cb.flags.f_contiguous and b.ndim == 2
-                and b.shape[1] >= BLOCK_RHS)
+    def _blocked(self, b: np.ndarray, forward: bool = False) -> bool:
+        """Whether ``b`` goes block by block (else through LAPACK, column by column), for a
+        solve or (``forward``) the forward half alone (BLOCK_RHS, BLOCK_RHS_FORWARD)."""
+        if not (self.bw > 0 and self.cb.flags.f_contiguous and b.ndim == 2):
+            return False
+        k = BLOCK_RHS_FORWARD if forward else BLOCK_RHS
+        return b.shape[1] >= (k if self.cb.nbytes > BLOCK_BAND_BYTES else 2 * k)
 
-    def forward(self, b: np.ndarray) -> np.ndarray:
-        """``U^-T b`` (a new array)."""
-        if not self._blocked(b):
+    def forward(self, b: np.ndarray, blocked: bool | None = None) -> np.ndarray:
+        """``U^-T b`` (a new array); ``blocked``: the choice of the caller (default: the
+        forward half's own)."""
+        if not (self._blocked(b, forward=True) if blocked is None else blocked):
             from scipy.linalg.lapack import dtbtrs
 
             z, info = dtbtrs(self.cb, b, uplo="U", trans="T")
@@ -256,7 +269,7 @@ class _BandBlocks:
 
         diag, off = self._blocks()
         e = self.edges
-        x = self.forward(b)
+        x = self.forward(b, blocked=True)
         for i in range(len(diag) - 1, -1, -1):                     # U x = y
             xi = x[e[i]:e[i + 1]]
             if i + 1 < len(diag):

@@ -305,4 +305,6 @@ def test_banded_cholesky_solves_block_by_block_as_lapack(n_rhs):
     Bp = B[chol.perm]
     ref = sla.cho_solve_banded((cb, False), Bp)
     np.testing.assert_allclose(_BandBlocks(cb).solve(Bp), ref, rtol=0, atol=1e-12 * np.abs(ref).max())
-    assert BLOCK_RHS <= 40
+    # a factor this small stays in the cache: block by block from 2 x BLOCK_RHS columns (40 is)
+    assert _BandBlocks(cb)._blocked(Bp) == (n_rhs >= 2 * BLOCK_RHS)
+    assert 2 * BLOCK_RHS <= 40
