@@ -790,9 +790,16 @@ class TrialModel(VariableSet):
         is factorised at its answer (kept for the later checks) and, if still missed, the
         preconditioned residuals there are added to the shared basis. Deterministic (the
         same trials in the same order, whatever the number of processes); returns the
-        directions added."""
+        directions added.
+
+        A trial that reaches the accepted bound here is done: what :meth:`trial` would do
+        with it (its first round on the shared basis as it is then, checked with the kept
+        factorisation nearest to its answer or one at its answer) is already done, and its
+        (constants, bound, rounds) is kept in ``self.pilot`` (by position in ``freqs``)
+        instead of running it again."""
         added = 0
-        for f in freqs:
+        self.pilot = {}
+        for i, f in enumerate(freqs):
             lam_meas = (2 * np.pi * np.nan_to_num(f, nan=1.0)) ** 2
             w = np.where(np.isfinite(f), weight, 0.0)
             gn = self._gauss_newton(self.basis, self.x_opt, lam_meas, w, self.Y_ref,
@@ -803,12 +810,15 @@ class TrialModel(VariableSet):
             mu, near = self.nearest_ref(x)
             bound = self.check(self.basis, x, Y, pairing, near)[1] if mu >= TRIAL_MU else np.inf
             if bound <= self.bound:
+                self.pilot[i] = (self.constants(x), bound, 1)
                 continue
             coef = self.coefficients(x)[0]
             ref = self.factor_at(x, self.basis.eig(coef, 1)[0][0])
             self.refs.append(ref)
             _, bound, S = self.check(self.basis, x, Y, pairing, ref)
-            if bound > self.bound:
+            if bound <= self.bound:
+                self.pilot[i] = (self.constants(x), bound, 1)
+            else:
                 k = self.basis.add(S())
                 added += k
                 if k:
@@ -1294,8 +1304,10 @@ def _run_trial(args):
     try:
         if model is not None:
             try:
-                c, bound, _ = model.trial(np.asarray(freqs[0], float),
-                                          np.asarray(model.fm.specimen.measured.weight, float))
+                done = getattr(model, "pilot", {}).get(index)
+                c, bound, _ = done if done is not None else model.trial(
+                    np.asarray(freqs[0], float),
+                    np.asarray(model.fm.specimen.measured.weight, float))
                 consts = dict(zip(model.names, c))
                 route = "reduced"
             except _TrialFailed as exc:
@@ -1396,6 +1408,18 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
             [np.asarray(plate.pairing) for _, plate in parts], joint,
             None if model is not None else _basis_vectors(result), model)
     jobs = max(1, min(int(jobs or os.cpu_count() or 1), n_trials))
+    pilot_done = []
+    if model is not None and model.pilot:
+        # the trials that the model's preparation finished (TrialModel.prepare): their result
+        # here, the others in the processes
+        saved = dict(_WORKER)
+        try:
+            _init_worker(*init)
+            pilot_done = [_run_trial(trials[i]) for i in sorted(model.pilot)]
+        finally:
+            _WORKER.clear()
+            _WORKER.update(saved)
+        trials = [t for t in trials if t[0] not in model.pilot]
     out: list = [None] * n_trials
     failures = []
     bounds = np.full(n_trials, np.nan)
@@ -1413,7 +1437,11 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
         if progress is not None:
             progress(done, n_trials)
 
-    if jobs == 1:
+    if pilot_done:
+        collect(pilot_done)
+    if not trials:
+        pass
+    elif jobs == 1:
         saved = dict(_WORKER)
         try:
             _init_worker(*init)
@@ -1424,8 +1452,8 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
             _WORKER.update(saved)
     else:
         # chunks: a few per process and round, so that a slow trial does not leave one idle
-        size = max(1, min(16, n_trials // (4 * jobs)))
-        chunks = [trials[k:k + size] for k in range(0, n_trials, size)]
+        size = max(1, min(16, len(trials) // (4 * jobs)))
+        chunks = [trials[k:k + size] for k in range(0, len(trials), size)]
         with ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker,
                                  initargs=init) as pool:
             futures = [pool.submit(_run_chunk, c) for c in chunks]
