@@ -657,7 +657,7 @@ TRIAL_XTOL = 1e-3
 #: CLOUD_DIRECTIONS directions whose stiffness coefficients change there by more than
 #: CLOUD_CHANGE (relative), with CLOUD_ROUNDS block solves each
 CLOUD_RADIUS = 2.5
-CLOUD_DIRECTIONS = 2
+CLOUD_DIRECTIONS = 1
 CLOUD_CHANGE = 0.05
 CLOUD_ROUNDS = 1
 #: Levenberg-Marquardt iterations of a trial before SLSQP takes over
@@ -671,7 +671,7 @@ TRIAL_MAXEVAL = 200
 TRIAL_MU = 0.5
 #: the shared trial basis is enriched where the first TRIAL_PILOT trials need it
 #: (TrialModel.prepare) before the trials run
-TRIAL_PILOT = 16
+TRIAL_PILOT = 8
 #: enrich-and-optimise-again rounds of a trial before it is re-identified with identify()
 TRIAL_ROUNDS = 3
 
