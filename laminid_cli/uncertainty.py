@@ -672,6 +672,9 @@ TRIAL_MU = 0.5
 #: the shared trial basis is enriched where the first TRIAL_PILOT trials need it
 #: (TrialModel.prepare) before the trials run
 TRIAL_PILOT = 8
+#: a trial's enrichment adds the preconditioned residuals of the checked modes whose relative
+#: bound exceeds this fraction of the accepted one
+TRIAL_ACTIVE = 0.1
 #: enrich-and-optimise-again rounds of a trial before it is re-identified with identify()
 TRIAL_ROUNDS = 3
 
@@ -940,7 +943,10 @@ class TrialModel(VariableSet):
         R = KU - MU * theta
         eta2 = np.maximum(_band_energy(solve, R), 0.0) / min(mu, 1.0)
         rel = _residual_bounds(theta, eta2, sigma) / theta
-        return theta, float(np.max(rel[pairing])), lambda: solve(R)
+        # an enrichment adds the residuals of the modes above a tenth of the accepted bound
+        # (as ReducedBasis.enrich with a target: the others' residuals are mostly round-off)
+        active = rel > TRIAL_ACTIVE * self.bound
+        return theta, float(np.max(rel[pairing])), lambda: solve(R[:, active])
 
     def mu(self, x, coef_ref):
         """Smallest generalised eigenvalue of the constitutive matrices at ``x`` against those
