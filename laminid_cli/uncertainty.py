@@ -657,7 +657,7 @@ TRIAL_XTOL = 1e-3
 #: CLOUD_DIRECTIONS directions whose stiffness coefficients change there by more than
 #: CLOUD_CHANGE (relative), with CLOUD_ROUNDS block solves each
 CLOUD_RADIUS = 2.5
-CLOUD_DIRECTIONS = 2
+CLOUD_DIRECTIONS = 1
 CLOUD_CHANGE = 0.05
 CLOUD_ROUNDS = 1
 #: Levenberg-Marquardt iterations of a trial before SLSQP takes over
@@ -671,7 +671,10 @@ TRIAL_MAXEVAL = 200
 TRIAL_MU = 0.5
 #: the shared trial basis is enriched where the first TRIAL_PILOT trials need it
 #: (TrialModel.prepare) before the trials run
-TRIAL_PILOT = 16
+TRIAL_PILOT = 8
+#: a trial's enrichment adds the preconditioned residuals of the checked modes whose relative
+#: bound exceeds this fraction of the accepted one
+TRIAL_ACTIVE = 0.1
 #: enrich-and-optimise-again rounds of a trial before it is re-identified with identify()
 TRIAL_ROUNDS = 3
 
@@ -706,8 +709,10 @@ class TrialModel(VariableSet):
     each material, the same for every ply angle since Q(theta) = T^T Q(0) T), then ``K(c) >= mu
     K(c_ref)`` and ``A(c) >= min(mu, 1) A_ref``, so ``r^T A(c)^-1 r <= r^T A_ref^-1 r / min(mu,
     1)``: a valid bound with no factorisation at the trial point. Above the accepted bound,
-    ``A`` is factorised at the trial's answer (its one factorisation), the preconditioned
-    residuals are added to a copy of the basis and the trial optimised again from there.
+    the preconditioned residuals (with that kept factorisation) are added to a copy of the
+    basis and the trial optimised again from there; where no kept factorisation is near
+    enough, or the next answer still misses the bound with it, ``A`` is factorised at the
+    trial's answer (its one factorisation) for the check and the further enrichment.
     """
 
     def __init__(self, fm, result, tau2: float, bound: float = TRIAL_BOUND):
@@ -790,9 +795,16 @@ class TrialModel(VariableSet):
         is factorised at its answer (kept for the later checks) and, if still missed, the
         preconditioned residuals there are added to the shared basis. Deterministic (the
         same trials in the same order, whatever the number of processes); returns the
-        directions added."""
+        directions added.
+
+        A trial that reaches the accepted bound here is done: what :meth:`trial` would do
+        with it (its first round on the shared basis as it is then, checked with the kept
+        factorisation nearest to its answer or one at its answer) is already done, and its
+        (constants, bound, rounds) is kept in ``self.pilot`` (by position in ``freqs``)
+        instead of running it again."""
         added = 0
-        for f in freqs:
+        self.pilot = {}
+        for i, f in enumerate(freqs):
             lam_meas = (2 * np.pi * np.nan_to_num(f, nan=1.0)) ** 2
             w = np.where(np.isfinite(f), weight, 0.0)
             gn = self._gauss_newton(self.basis, self.x_opt, lam_meas, w, self.Y_ref,
@@ -803,12 +815,15 @@ class TrialModel(VariableSet):
             mu, near = self.nearest_ref(x)
             bound = self.check(self.basis, x, Y, pairing, near)[1] if mu >= TRIAL_MU else np.inf
             if bound <= self.bound:
+                self.pilot[i] = (self.constants(x), bound, 1)
                 continue
             coef = self.coefficients(x)[0]
             ref = self.factor_at(x, self.basis.eig(coef, 1)[0][0])
             self.refs.append(ref)
             _, bound, S = self.check(self.basis, x, Y, pairing, ref)
-            if bound > self.bound:
+            if bound <= self.bound:
+                self.pilot[i] = (self.constants(x), bound, 1)
+            else:
                 k = self.basis.add(S())
                 added += k
                 if k:
@@ -926,9 +941,12 @@ class TrialModel(VariableSet):
         KU = plate.stiffness_products(coef, U)
         theta = np.einsum("ij,ij->j", U, KU)
         R = KU - MU * theta
-        eta2 = np.maximum(solve.energy(R), 0.0) / min(mu, 1.0)
+        eta2 = np.maximum(_band_energy(solve, R), 0.0) / min(mu, 1.0)
         rel = _residual_bounds(theta, eta2, sigma) / theta
-        return theta, float(np.max(rel[pairing])), lambda: solve(R)
+        # an enrichment adds the residuals of the modes above a tenth of the accepted bound
+        # (as ReducedBasis.enrich with a target: the others' residuals are mostly round-off)
+        active = rel > TRIAL_ACTIVE * self.bound
+        return theta, float(np.max(rel[pairing])), lambda: solve(R[:, active])
 
     def mu(self, x, coef_ref):
         """Smallest generalised eigenvalue of the constitutive matrices at ``x`` against those
@@ -1074,14 +1092,17 @@ class TrialModel(VariableSet):
             if ref is None:
                 # the kept factorisation nearest to the answer, if near enough
                 mu, near = self.nearest_ref(x)
-                bound = np.inf
+                bound, S = np.inf, None
                 if mu >= TRIAL_MU:
                     theta, bound, S = self.check(basis, x, Y, pairing, near)
+                if bound > self.bound and (S is None or rounds > 1):
+                    # one factorisation at the trial's answer, for the check and the
+                    # enrichments; in the first round a kept one near enough gives the
+                    # enrichment's directions instead (the enriched basis mostly reaches the
+                    # bound with it: 19 instead of 43 factorisations in 200 trials of S1.1)
+                    ref = self.factor_at(x, basis.eig(self.coefficients(x)[0], 1)[0][0])
+                    theta, bound, S = self.check(basis, x, Y, pairing, ref)
             else:
-                theta, bound, S = self.check(basis, x, Y, pairing, ref)
-            if bound > self.bound and ref is None:
-                # one factorisation at the trial's answer, for the check and the enrichments
-                ref = self.factor_at(x, basis.eig(self.coefficients(x)[0], 1)[0][0])
                 theta, bound, S = self.check(basis, x, Y, pairing, ref)
             log.debug("trial round %d bound %.2e", rounds, bound)
             if bound <= self.bound:
@@ -1100,6 +1121,28 @@ class TrialModel(VariableSet):
 
 class _TrialFailed(Exception):
     pass
+
+
+def _band_energy(solve, R: np.ndarray) -> np.ndarray:
+    """``r^T A^-1 r`` of each column of R (n, k) with a :class:`laminid_cli.modal.BandFactor`
+    ``A = U^T U``: ``|U^-T r|^2`` by LAPACK's triangular band solve (dtbtrs), column by column.
+    For the dozen or so columns of a trial check this is about twice as fast as the block
+    algorithm BandFactor.energy picks from 12 columns (S1.1 12x12, bandwidth 368, 13 columns:
+    2.9 against 6.9 ms); counted as half a solve pair per column, as there. Other
+    factorisations: their own ``energy``."""
+    from scipy.linalg.lapack import dtbtrs
+
+    from laminid_cli.modal import WORK
+
+    cb, perm = getattr(solve, "cb", None), getattr(solve, "perm", None)
+    R = np.asarray(R, float)
+    if cb is None or perm is None or R.ndim != 2:
+        return solve.energy(R)
+    Z, info = dtbtrs(cb, R[perm], uplo="U", trans="T")
+    if info:
+        return solve.energy(R)
+    WORK["solve_pairs"] += (R.shape[1] + 1) // 2
+    return np.einsum("ij,ij->j", Z, Z)
 
 
 def _constrained_step(H, g, A, s, max_iter: int = 50):
@@ -1294,8 +1337,10 @@ def _run_trial(args):
     try:
         if model is not None:
             try:
-                c, bound, _ = model.trial(np.asarray(freqs[0], float),
-                                          np.asarray(model.fm.specimen.measured.weight, float))
+                done = getattr(model, "pilot", {}).get(index)
+                c, bound, _ = done if done is not None else model.trial(
+                    np.asarray(freqs[0], float),
+                    np.asarray(model.fm.specimen.measured.weight, float))
                 consts = dict(zip(model.names, c))
                 route = "reduced"
             except _TrialFailed as exc:
@@ -1396,6 +1441,18 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
             [np.asarray(plate.pairing) for _, plate in parts], joint,
             None if model is not None else _basis_vectors(result), model)
     jobs = max(1, min(int(jobs or os.cpu_count() or 1), n_trials))
+    pilot_done = []
+    if model is not None and model.pilot:
+        # the trials that the model's preparation finished (TrialModel.prepare): their result
+        # here, the others in the processes
+        saved = dict(_WORKER)
+        try:
+            _init_worker(*init)
+            pilot_done = [_run_trial(trials[i]) for i in sorted(model.pilot)]
+        finally:
+            _WORKER.clear()
+            _WORKER.update(saved)
+        trials = [t for t in trials if t[0] not in model.pilot]
     out: list = [None] * n_trials
     failures = []
     bounds = np.full(n_trials, np.nan)
@@ -1413,7 +1470,11 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
         if progress is not None:
             progress(done, n_trials)
 
-    if jobs == 1:
+    if pilot_done:
+        collect(pilot_done)
+    if not trials:
+        pass
+    elif jobs == 1:
         saved = dict(_WORKER)
         try:
             _init_worker(*init)
@@ -1424,8 +1485,8 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
             _WORKER.update(saved)
     else:
         # chunks: a few per process and round, so that a slow trial does not leave one idle
-        size = max(1, min(16, n_trials // (4 * jobs)))
-        chunks = [trials[k:k + size] for k in range(0, n_trials, size)]
+        size = max(1, min(16, len(trials) // (4 * jobs)))
+        chunks = [trials[k:k + size] for k in range(0, len(trials), size)]
         with ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker,
                                  initargs=init) as pool:
             futures = [pool.submit(_run_chunk, c) for c in chunks]

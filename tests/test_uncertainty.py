@@ -457,6 +457,28 @@ def test_trial_factor_solves_and_energies_against_a_sparse_direct_solve():
         assert np.allclose(f.energy(R), np.einsum("ij,ij->j", R, ref), rtol=1e-9)
 
 
+def test_trial_check_energy_against_a_sparse_direct_solve():
+    """_band_energy (the trial check's r^T A^-1 r by LAPACK's triangular band solve) against
+    SuperLU and BandFactor.energy, with 1, 13 (a check's columns) and 30 columns."""
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
+
+    from laminid_cli.uncertainty import _band_energy
+
+    fm = build_forward_model(read_specimen(S11), (4, 4))
+    plate = fm.plate
+    K = plate.stiffness(list(fm.initial_constants))
+    data = K.data + 1e6 * plate.M_on_K
+    A = sp.csc_matrix((data, K.indices, K.indptr), shape=K.shape)
+    f = fm.factorizer.factor(data)
+    lu = spla.splu(A)
+    for k in (1, 13, 30):
+        R = np.random.default_rng(3).standard_normal((plate.n_dofs, k))
+        ref = np.einsum("ij,ij->j", R, lu.solve(R))
+        assert _band_energy(f, R) == pytest.approx(ref, rel=1e-9)
+        assert _band_energy(f, R) == pytest.approx(f.energy(R), rel=1e-12)
+
+
 def test_trial_rows_give_the_objective_of_the_identification():
     """The trial model's residual rows (objective.residual_rows + prior rows) at the optimum,
     with the measured frequencies, give the identification's objective (paper Eq. 17 + 15),
