@@ -941,7 +941,7 @@ class TrialModel(VariableSet):
         KU = plate.stiffness_products(coef, U)
         theta = np.einsum("ij,ij->j", U, KU)
         R = KU - MU * theta
-        eta2 = np.maximum(_band_energy(solve, R), 0.0) / min(mu, 1.0)
+        eta2 = np.maximum(solve.energy(R), 0.0) / min(mu, 1.0)
         rel = _residual_bounds(theta, eta2, sigma) / theta
         # an enrichment adds the residuals of the modes above a tenth of the accepted bound
         # (as ReducedBasis.enrich with a target: the others' residuals are mostly round-off)
@@ -1121,28 +1121,6 @@ class TrialModel(VariableSet):
 
 class _TrialFailed(Exception):
     pass
-
-
-def _band_energy(solve, R: np.ndarray) -> np.ndarray:
-    """``r^T A^-1 r`` of each column of R (n, k) with a :class:`laminid_cli.modal.BandFactor`
-    ``A = U^T U``: ``|U^-T r|^2`` by LAPACK's triangular band solve (dtbtrs), column by column.
-    For the dozen or so columns of a trial check this is about twice as fast as the block
-    algorithm BandFactor.energy picks from 12 columns (S1.1 12x12, bandwidth 368, 13 columns:
-    2.9 against 6.9 ms); counted as half a solve pair per column, as there. Other
-    factorisations: their own ``energy``."""
-    from scipy.linalg.lapack import dtbtrs
-
-    from laminid_cli.modal import WORK
-
-    cb, perm = getattr(solve, "cb", None), getattr(solve, "perm", None)
-    R = np.asarray(R, float)
-    if cb is None or perm is None or R.ndim != 2:
-        return solve.energy(R)
-    Z, info = dtbtrs(cb, R[perm], uplo="U", trans="T")
-    if info:
-        return solve.energy(R)
-    WORK["solve_pairs"] += (R.shape[1] + 1) // 2
-    return np.einsum("ij,ij->j", Z, Z)
 
 
 def _constrained_step(H, g, A, s, max_iter: int = 50):

@@ -458,12 +458,13 @@ def test_trial_factor_solves_and_energies_against_a_sparse_direct_solve():
 
 
 def test_trial_check_energy_against_a_sparse_direct_solve():
-    """_band_energy (the trial check's r^T A^-1 r by LAPACK's triangular band solve) against
-    SuperLU and BandFactor.energy, with 1, 13 (a check's columns) and 30 columns."""
+    """BandFactor.energy (the trial check's r^T A^-1 r) against SuperLU, with 1, 13 (a check's
+    columns: LAPACK's triangular band solve on a factor this small) and 60 columns (block by
+    block)."""
     import scipy.sparse as sp
     import scipy.sparse.linalg as spla
 
-    from laminid_cli.uncertainty import _band_energy
+    from laminid_cli.modal import BLOCK_RHS_FORWARD
 
     fm = build_forward_model(read_specimen(S11), (4, 4))
     plate = fm.plate
@@ -472,11 +473,11 @@ def test_trial_check_energy_against_a_sparse_direct_solve():
     A = sp.csc_matrix((data, K.indices, K.indptr), shape=K.shape)
     f = fm.factorizer.factor(data)
     lu = spla.splu(A)
-    for k in (1, 13, 30):
+    for k in (1, 13, 60):
         R = np.random.default_rng(3).standard_normal((plate.n_dofs, k))
+        assert f.blocks._blocked(R, forward=True) == (k >= 2 * BLOCK_RHS_FORWARD)
         ref = np.einsum("ij,ij->j", R, lu.solve(R))
-        assert _band_energy(f, R) == pytest.approx(ref, rel=1e-9)
-        assert _band_energy(f, R) == pytest.approx(f.energy(R), rel=1e-12)
+        assert f.energy(R) == pytest.approx(ref, rel=1e-9)
 
 
 def test_trial_rows_give_the_objective_of_the_identification():
