@@ -622,13 +622,13 @@ def _optimize_reduced(prob, ev_c, progress=None):
     From the centre ``ev_c`` the optimiser runs on the reduced model within a box of radius
     ``radius`` in the Gauss-Newton-scaled variables; at its answer x_t the basis is enriched
     and the objective evaluated again. The step is accepted when the enriched objective at x_t
-    is below the enriched one at the centre; the radius doubles when the predicted decrease is
-    confirmed (ratio rho >= 0.75) and the step reached the box, and shrinks to a quarter of the
-    step when rho < 0.25 (the radius grows fourfold, RADIUS_GROWTH). Stops when an enrichment
-    changes the paired eigenvalues by less than ``reduced_tol`` (relative) and the step is
-    within STEP_TOL; once an enrichment has changed them by less than ``reduced_tol``, a stage
-    whose step is within STEP_TOL is checked against the full model at once (:func:`_checked`,
-    no enrichment), and ends the loop when the check agrees with the reduced model.
+    is below the enriched one at the centre; the radius grows fourfold (RADIUS_GROWTH) when the
+    predicted decrease is confirmed (ratio rho >= 0.75) and the step reached the box, and
+    shrinks to a quarter of the step when rho < 0.25. Stops when an enrichment changes the
+    paired eigenvalues by less than ``reduced_tol`` (relative) and the step is within
+    STEP_TOL; once an enrichment has changed them by less than ``reduced_tol``, a stage whose
+    step is within STEP_TOL is checked against the full model at once (:func:`_checked`, no
+    enrichment), and ends the loop when the check agrees with the reduced model.
     """
     options = prob.options
     radius = RADIUS0
