@@ -367,9 +367,8 @@ class Problem(VariableSet):
             rel = bound / after
             paired.append(rel[part.pairing])
             worst = max(worst, float(np.max(rel[:checked_modes(plate, part)])))
-            ok = plate.data.weight > 0
-            change = np.abs(after[part.pairing] - part.eigenvalues) / part.eigenvalues
-            changes.append(float(np.max(change[ok])) if ok.any() else 0.0)
+            changes.append(weighted_change(plate.data.weight, after[part.pairing],
+                                           part.eigenvalues))
         self.log.n_enrich += 1
         self.log.cache = None
         self.log.final_bound = ErrorBound(ev.x.tobytes(), np.concatenate(paired), worst)
@@ -429,6 +428,13 @@ class Problem(VariableSet):
     def adopt(self, ev: Evaluation) -> None:
         """Make ``ev`` the tracking reference and the cached evaluation again."""
         self.log.best, self.log.cache = ev, (ev.x.tobytes(), ev)
+
+
+def weighted_change(weight: np.ndarray, lam: np.ndarray, ref: np.ndarray) -> float:
+    """Largest relative change ``|lam - ref| / ref`` over the modes of positive weight (0
+    when there is none): how far a basis change or a check moved the paired eigenvalues."""
+    ok = weight > 0
+    return float(np.max(np.abs(lam - ref)[ok] / ref[ok])) if ok.any() else 0.0
 
 
 def checked_modes(plate: PlateTerm, part: Evaluation) -> int:
@@ -663,8 +669,7 @@ def _optimize_reduced(prob, ev_c, progress=None):
         ev_t2 = prob.evaluate(ev_t.x)
         same = np.array_equal(ev_t.x, ev_c.x)
         ev_c2 = ev_t2 if same else prob.evaluate(ev_c.x)
-        ok = prob.weight > 0
-        change = (float(np.max(np.abs(ev_t2.eigenvalues - lam_pred)[ok] / lam_pred[ok]))
+        change = (weighted_change(prob.weight, ev_t2.eigenvalues, lam_pred)
                   if not ev_t2.refused else np.inf)
         predicted = f_c_old - f_pred
         actual = ev_c2.objective - ev_t2.objective
@@ -704,9 +709,7 @@ def _checked(prob, ev, tol=None):
     follows)."""
     final = prob.final_check(ev, target=FINAL_BOUND, rounds=FINAL_ROUNDS)
     bounds = prob.bound_at(final.x)
-    ok = prob.weight > 0
-    lam = ev.eigenvalues
-    change = float(np.max(np.abs(final.eigenvalues - lam)[ok] / lam[ok])) if ok.any() else 0.0
+    change = weighted_change(prob.weight, final.eigenvalues, ev.eigenvalues)
     log.info("check at the optimum: error bound %.2e relative (limit %.0e), change of the "
              "paired eigenvalues %.2e", bounds.worst, FINAL_BOUND, change)
     if bounds.worst <= FINAL_BOUND and (tol is None or change <= tol):

@@ -672,9 +672,6 @@ TRIAL_MU = 0.5
 #: the shared trial basis is enriched where the first TRIAL_PILOT trials need it
 #: (TrialModel.prepare) before the trials run
 TRIAL_PILOT = 8
-#: a trial's enrichment adds the preconditioned residuals of the checked modes whose relative
-#: bound exceeds this fraction of the accepted one
-TRIAL_ACTIVE = 0.1
 #: enrich-and-optimise-again rounds of a trial before it is re-identified with identify()
 TRIAL_ROUNDS = 3
 
@@ -723,6 +720,7 @@ class TrialModel(VariableSet):
         opts = result.options
         spec = fm.specimen
         self.fm = fm
+        self.pilot: dict = {}                    # trials finished by prepare(), by position
         self.names = tuple(result.material_names)
         params = []
         for name, c0 in zip(self.names, fm.initial_constants):
@@ -943,9 +941,11 @@ class TrialModel(VariableSet):
         R = KU - MU * theta
         eta2 = np.maximum(solve.energy(R), 0.0) / min(mu, 1.0)
         rel = _residual_bounds(theta, eta2, sigma) / theta
-        # an enrichment adds the residuals of the modes above a tenth of the accepted bound
-        # (as ReducedBasis.enrich with a target: the others' residuals are mostly round-off)
-        active = rel > TRIAL_ACTIVE * self.bound
+        from laminid_cli.reduced import TARGET_MARGIN
+
+        # an enrichment adds the residuals of the modes above TARGET_MARGIN of the accepted
+        # bound (the rule of ReducedBasis.enrich with a target: the others' are mostly round-off)
+        active = rel > TARGET_MARGIN * self.bound
         return theta, float(np.max(rel[pairing])), lambda: solve(R[:, active])
 
     def mu(self, x, coef_ref):
@@ -1315,7 +1315,7 @@ def _run_trial(args):
     try:
         if model is not None:
             try:
-                done = getattr(model, "pilot", {}).get(index)
+                done = model.pilot.get(index)
                 c, bound, _ = done if done is not None else model.trial(
                     np.asarray(freqs[0], float),
                     np.asarray(model.fm.specimen.measured.weight, float))
@@ -1419,18 +1419,13 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
             [np.asarray(plate.pairing) for _, plate in parts], joint,
             None if model is not None else _basis_vectors(result), model)
     jobs = max(1, min(int(jobs or os.cpu_count() or 1), n_trials))
-    pilot_done = []
-    if model is not None and model.pilot:
-        # the trials that the model's preparation finished (TrialModel.prepare): their result
-        # here, the others in the processes
-        saved = dict(_WORKER)
-        try:
-            _init_worker(*init)
-            pilot_done = [_run_trial(trials[i]) for i in sorted(model.pilot)]
-        finally:
-            _WORKER.clear()
-            _WORKER.update(saved)
-        trials = [t for t in trials if t[0] not in model.pilot]
+    # the trials that the model's preparation finished (TrialModel.prepare) are collected
+    # here, the others in the processes (all here with one job)
+    pilot = model.pilot if model is not None else {}
+    local = [t for t in trials if t[0] in pilot]
+    trials = [t for t in trials if t[0] not in pilot]
+    if jobs == 1:
+        local, trials = local + trials, []
     out: list = [None] * n_trials
     failures = []
     bounds = np.full(n_trials, np.nan)
@@ -1448,20 +1443,16 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
         if progress is not None:
             progress(done, n_trials)
 
-    if pilot_done:
-        collect(pilot_done)
-    if not trials:
-        pass
-    elif jobs == 1:
+    if local:
         saved = dict(_WORKER)
         try:
             _init_worker(*init)
-            for t in trials:
+            for t in local:
                 collect([_run_trial(t)])
         finally:
             _WORKER.clear()
             _WORKER.update(saved)
-    else:
+    if trials:
         # chunks: a few per process and round, so that a slow trial does not leave one idle
         size = max(1, min(16, len(trials) // (4 * jobs)))
         chunks = [trials[k:k + size] for k in range(0, len(trials), size)]
