@@ -163,6 +163,19 @@ def coef_at(prob, x):
     return np.array([p.coef_jacobian(xk)[0] for p, xk in zip(prob.params, prob.split(x))])
 
 
+def basis_away_from_its_point():
+    """S1.1 12x12: a basis of the start's modes, and the point 15 % (E1) / -10 % (second
+    variable) away from it with its full solution: (fm, prob, basis, coefficients, full)."""
+    fm, prob, ev0 = s11_problem()
+    B = ReducedBasis(fm)
+    B.add(ev0.modes.phi)
+    x1 = ev0.x.copy()
+    x1[0] *= 1.15
+    x1[1] *= 0.9
+    coef = coef_at(prob, x1)
+    return fm, prob, B, coef, fm.solve(n_modes=prob.n_model, coef=coef)
+
+
 def test_reduced_model_is_exact_on_its_own_modes():
     """A basis holding the exact modes at a point reproduces their eigenvalues there."""
     fm, prob, ev0 = s11_problem()
@@ -185,14 +198,7 @@ def test_error_bound_is_honest_and_shrinks():
     the bound met the error); ROUNDOFF = 1e-11 relative is allowed (seen: bound >= 19 x error).
     """
     ROUNDOFF = 1e-11
-    fm, prob, ev0 = s11_problem()
-    B = ReducedBasis(fm)
-    B.add(ev0.modes.phi)
-    x1 = ev0.x.copy()
-    x1[0] *= 1.15
-    x1[1] *= 0.9
-    coef = coef_at(prob, x1)
-    full = fm.solve(n_modes=prob.n_model, coef=coef)
+    fm, prob, B, coef, full = basis_away_from_its_point()
     last = None
     for _ in range(7):
         before, after, bound = B.enrich(coef, prob.n_model, rounds=1)
@@ -476,14 +482,7 @@ def test_refined_check_reaches_the_bound_on_a_local_space():
     factorisation; the bound holds the true error against a full solve there, the modes keep
     the order (identity) of the vectors given, and the basis itself is not changed."""
     ROUNDOFF = 1e-11
-    fm, prob, ev0 = s11_problem()
-    B = ReducedBasis(fm)
-    B.add(ev0.modes.phi)
-    x1 = ev0.x.copy()
-    x1[0] *= 1.15
-    x1[1] *= 0.9
-    coef = coef_at(prob, x1)
-    full = fm.solve(n_modes=prob.n_model, coef=coef)
+    fm, prob, B, coef, full = basis_away_from_its_point()
     for _ in range(2):
         B.enrich(coef, prob.n_model, rounds=1)
     size, n_factor = B.size, WORK["factorizations"]

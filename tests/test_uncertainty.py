@@ -440,27 +440,9 @@ def test_constrained_trial_step_is_the_qp_minimum():
 
 def test_trial_factor_solves_and_energies_against_a_sparse_direct_solve():
     """BandFactor (the trial checks' banded Cholesky, fm.factorizer.factor): A^-1 R and
-    r^T A^-1 r against SuperLU, with few right-hand sides (LAPACK) and many (block by block)."""
-    import scipy.sparse as sp
-    import scipy.sparse.linalg as spla
-
-    fm = build_forward_model(read_specimen(S11), (4, 4))
-    plate = fm.plate
-    K = plate.stiffness(list(fm.initial_constants))
-    data = K.data + 1e6 * plate.M_on_K
-    A = sp.csc_matrix((data, K.indices, K.indptr), shape=K.shape)
-    f = fm.factorizer.factor(data)
-    for k in (1, 5, 30):
-        R = np.random.default_rng(2).standard_normal((plate.n_dofs, k))
-        ref = spla.splu(A).solve(R)
-        assert np.allclose(f(R), ref, rtol=1e-9, atol=1e-12 * np.abs(ref).max())
-        assert np.allclose(f.energy(R), np.einsum("ij,ij->j", R, ref), rtol=1e-9)
-
-
-def test_trial_check_energy_against_a_sparse_direct_solve():
-    """BandFactor.energy (the trial check's r^T A^-1 r) against SuperLU, with 1, 13 (a check's
-    columns: LAPACK's triangular band solve on a factor this small) and 60 columns (block by
-    block)."""
+    r^T A^-1 r against SuperLU, with few right-hand sides (LAPACK) and many (block by block);
+    r^T A^-1 r alone also with a check's 13 columns (LAPACK's triangular band solve on a factor
+    this small) and 60 (its forward half block by block from 2 x BLOCK_RHS_FORWARD)."""
     import scipy.sparse as sp
     import scipy.sparse.linalg as spla
 
@@ -473,6 +455,11 @@ def test_trial_check_energy_against_a_sparse_direct_solve():
     A = sp.csc_matrix((data, K.indices, K.indptr), shape=K.shape)
     f = fm.factorizer.factor(data)
     lu = spla.splu(A)
+    for k in (1, 5, 30):
+        R = np.random.default_rng(2).standard_normal((plate.n_dofs, k))
+        ref = lu.solve(R)
+        assert np.allclose(f(R), ref, rtol=1e-9, atol=1e-12 * np.abs(ref).max())
+        assert np.allclose(f.energy(R), np.einsum("ij,ij->j", R, ref), rtol=1e-9)
     for k in (1, 13, 60):
         R = np.random.default_rng(3).standard_normal((plate.n_dofs, k))
         assert f.blocks._blocked(R, forward=True) == (k >= 2 * BLOCK_RHS_FORWARD)
