@@ -699,17 +699,18 @@ class TrialModel(VariableSet):
     to the search's bounds and linear constraints (:func:`_constrained_step`; SLSQP only when
     that does not converge), modes paired by MAC against the optimum's. At its answer the
     paired Ritz vectors (and the next one) are checked with the full matrices: Rayleigh
-    quotients and the residual bound of :func:`_residual_bounds` with a kept factorisation
-    ``A_ref = U^T U`` in place of A (``r^T A_ref^-1 r = |U^-T r|^2``, one triangular solve per
-    vector, :class:`laminid_cli.modal.BandFactor`): when the constitutive matrices
-    satisfy ``Q(c) >= mu Q(c_ref)`` (mu the smallest generalised eigenvalue of the 5x5 pair of
-    each material, the same for every ply angle since Q(theta) = T^T Q(0) T), then ``K(c) >= mu
-    K(c_ref)`` and ``A(c) >= min(mu, 1) A_ref``, so ``r^T A(c)^-1 r <= r^T A_ref^-1 r / min(mu,
-    1)``: a valid bound with no factorisation at the trial point. Above the accepted bound,
-    the preconditioned residuals (with that kept factorisation) are added to a copy of the
-    basis and the trial optimised again from there; where no kept factorisation is near
-    enough, or the next answer still misses the bound with it, ``A`` is factorised at the
-    trial's answer (its one factorisation) for the check and the further enrichment.
+    quotients and the residual bound of :func:`laminid_cli.reduced.residual_bounds` with a
+    kept factorisation ``A_ref = U^T U`` in place of A (``r^T A_ref^-1 r = |U^-T r|^2``, one
+    triangular solve per vector, :class:`laminid_cli.modal.BandFactor`): when the
+    constitutive matrices satisfy ``Q(c) >= mu Q(c_ref)`` (mu the smallest generalised
+    eigenvalue of the 5x5 pair of each material, the same for every ply angle since Q(theta) =
+    T^T Q(0) T), then ``K(c) >= mu K(c_ref)`` and ``A(c) >= min(mu, 1) A_ref``, so ``r^T
+    A(c)^-1 r <= r^T A_ref^-1 r / min(mu, 1)``: a valid bound with no factorisation at the
+    trial point. Above the accepted bound, the preconditioned residuals (with that kept
+    factorisation) are added to a copy of the basis and the trial optimised again from there;
+    where no kept factorisation is near enough, or the next answer still misses the bound with
+    it, ``A`` is factorised at the trial's answer (its one factorisation) for the check and the
+    further enrichment.
     """
 
     def __init__(self, fm, result, tau2: float, bound: float = TRIAL_BOUND):
@@ -919,8 +920,8 @@ class TrialModel(VariableSet):
         an enrichment); bound inf when not computable.
 
         The vectors checked are the paired modes and the next one (whose bound enters theirs,
-        :func:`_residual_bounds`); ``r^T A_ref^-1 r`` is ``|U^-T r|^2`` with ``A_ref = U^T U``
-        (one triangular solve per vector)."""
+        :func:`laminid_cli.reduced.residual_bounds`); ``r^T A_ref^-1 r`` is ``|U^-T r|^2``
+        with ``A_ref = U^T U`` (one triangular solve per vector)."""
         plate = self.fm.plate
         coef = self.coefficients(x)[0]
         if ref is None:
@@ -940,8 +941,9 @@ class TrialModel(VariableSet):
         theta = np.einsum("ij,ij->j", U, KU)
         R = KU - MU * theta
         eta2 = np.maximum(solve.energy(R), 0.0) / min(mu, 1.0)
-        rel = _residual_bounds(theta, eta2, sigma) / theta
-        from laminid_cli.reduced import TARGET_MARGIN
+        from laminid_cli.reduced import TARGET_MARGIN, residual_bounds
+
+        rel = residual_bounds(theta, eta2, sigma) / theta
 
         # an enrichment adds the residuals of the modes above TARGET_MARGIN of the accepted
         # bound (the rule of ReducedBasis.enrich with a target: the others' are mostly round-off)
@@ -1165,42 +1167,6 @@ def _constrained_step(H, g, A, s, max_iter: int = 50):
         if block >= 0:
             work.append(block)
     return None
-
-
-def _residual_bounds(theta, eta2, sigma):
-    """Absolute error bounds of Ritz values ``theta`` (ascending, M-orthonormal Ritz vectors)
-    from ``eta2_i = r_i^T A^-1 r_i`` (A = K - sigma M, or an upper bound of it).
-
-    Linear (laminid_cli.reduced): some eigenvalue lies within
-    ``d_i = (eta2 + sqrt(eta2^2 + 4 eta2 (theta_i - sigma))) / 2`` of theta_i. Quadratic
-    (Temple's argument with the A^-1 weights): with ``u_i = sum_j c_j phi_j``, ``theta_i >=
-    lambda_i`` (interlacing), ``a = theta_(i-1) >= lambda_(i-1)`` and ``b = theta_(i+1) -
-    d_(i+1) <= lambda_(i+1)`` (the next Ritz value matched with the next eigenvalue, as the
-    linear bound is read), ``(lambda - sigma) / (lambda - theta)`` decreasing above b and
-    ``sum_j c_j^2 (lambda_j - theta_i) = 0`` give
-    ``c_i^2 (theta_i - lambda_i) <= eta2 (b - sigma) / (b - theta_i)`` and
-    ``1 - c_i^2 <= eta2 max((b - sigma) / (b - theta_i)^2, (a - sigma) / (theta_i - a)^2)``.
-    Returns the smaller of the two where the quadratic one applies (the last value: linear)."""
-    from laminid_cli.reduced import residual_bound
-
-    theta = np.asarray(theta, float)
-    eta2 = np.asarray(eta2, float)
-    lin = residual_bound(theta, eta2, sigma)
-    out = lin.copy()
-    for i in range(theta.size - 1):
-        t, b = theta[i], theta[i + 1] - lin[i + 1]
-        if not b > t:
-            continue
-        spill = (b - sigma) / (b - t) ** 2
-        if i > 0:
-            a = theta[i - 1]
-            if not a < t:
-                continue
-            spill = max(spill, (a - sigma) / (t - a) ** 2)
-        ci2 = 1.0 - eta2[i] * spill
-        if ci2 > 0:
-            out[i] = min(lin[i], eta2[i] * (b - sigma) / ((b - t) * ci2))
-    return out
 
 
 # ----------------------------------------------------------------------------------------------

@@ -378,7 +378,7 @@ def test_reduced_monte_carlo_trials_equal_the_identify_route_trial_by_trial():
 def test_residual_bounds_hold_against_exact_eigenvalues():
     """The linear and quadratic Ritz value bounds of _residual_bounds against a small dense
     problem with known eigenvalues (perturbed eigenvectors as Ritz vectors)."""
-    from laminid_cli.uncertainty import _residual_bounds
+    from laminid_cli.reduced import residual_bounds as _residual_bounds
 
     rng = np.random.default_rng(4)
     n = 40
