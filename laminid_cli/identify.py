@@ -613,6 +613,15 @@ REUSE_FACTOR = 1e-2
 #: replaces (S1.1 12x12: 0.86 -> 0.69 s; eight paper specimens 17.0 -> 11.3 s, with the
 #: check's local refinement below); the accuracy at the optimum comes from the final check
 LOOP_ROUNDS = 1
+#: once an enrichment has changed the paired eigenvalues by at most CHECK_CHANGE (relative) and
+#: the next stage's step is within CHECK_STEP (Gauss-Newton-scaled), its answer is checked
+#: against the full model instead of enriched (:func:`_checked`): accepted when the checked
+#: eigenvalues agree with the reduced ones within ``reduced_tol`` there (the enrichment's
+#: criterion, measured at the answer itself). With the check's quadratic bound (one refinement
+#: step) this saves the last enrichment: S1.1 12x12 6 -> 5 enrichments, 0.59 -> 0.53 s; the
+#: eight paper specimens 11.1 -> 9.6 s, objectives within 1.3e-8 (hybrid CM) of before
+CHECK_CHANGE = 1e-5
+CHECK_STEP = 1e-3
 
 
 def _stage(prob, ev0, progress=None):
@@ -632,9 +641,10 @@ def _optimize_reduced(prob, ev_c, progress=None):
     predicted decrease is confirmed (ratio rho >= 0.75) and the step reached the box, and
     shrinks to a quarter of the step when rho < 0.25. Stops when an enrichment changes the
     paired eigenvalues by less than ``reduced_tol`` (relative) and the step is within
-    STEP_TOL; once an enrichment has changed them by less than ``reduced_tol``, a stage whose
-    step is within STEP_TOL is checked against the full model at once (:func:`_checked`, no
-    enrichment), and ends the loop when the check agrees with the reduced model.
+    STEP_TOL; once an enrichment has changed them by at most CHECK_CHANGE, a stage whose step
+    is within CHECK_STEP is checked against the full model at once (:func:`_checked`, no
+    enrichment), and ends the loop when the checked eigenvalues agree with the reduced ones
+    within ``reduced_tol`` (the same criterion, measured at the answer itself).
     """
     options = prob.options
     radius = RADIUS0
@@ -658,10 +668,11 @@ def _optimize_reduced(prob, ev_c, progress=None):
             ev_c = ev_t if ev_t.objective <= ev_c.objective else ev_c
             break
         f_c_old, f_pred, lam_pred = ev_c.objective, ev_t.objective, ev_t.eigenvalues
-        if prob.n_enrich and change <= options.reduced_tol and step <= STEP_TOL:
-            # the last enrichment left the eigenvalues unchanged and the optimiser moved
-            # within the step tolerance of its point: check the answer against the full model
-            # (refined to FINAL_BOUND) instead of enriching; converged if the check agrees
+        if prob.n_enrich and change <= max(CHECK_CHANGE, options.reduced_tol) and step <= CHECK_STEP:
+            # the last enrichment changed the eigenvalues little and the optimiser moved little
+            # from its point: check the answer against the full model (refined to
+            # FINAL_BOUND) instead of enriching; converged if the check agrees within
+            # reduced_tol (else its factorisation serves the enrichment that follows)
             final = _checked(prob, ev_t, options.reduced_tol)
             if final is not None:
                 return final, inner_conv, inner_status

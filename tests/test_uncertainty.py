@@ -480,8 +480,11 @@ def test_trial_rows_give_the_objective_of_the_identification():
     res, J = model.rows(model.x_opt, model.model_opt, lam_meas, np.asarray(r.weight, float))
     assert float(res @ res) == pytest.approx(r.objective, rel=1e-7)
     assert model.model_opt[0] == pytest.approx(r.modes.eigenvalues[r.pairing], rel=1e-7)
-    assert J[:res.size - len(model.prior_rows(model.x_opt)[0])] == pytest.approx(
-        -(np.sqrt(r.weight) / lam_meas)[:, None] * np.asarray(r.dlam_dx), rel=1e-5, abs=1e-12)
+    # the identification's d lambda / d x come from its checked vectors, whose error is of
+    # first order there (~1e-6 of a row's largest entry; the eigenvalues' is quadratic)
+    got = J[:res.size - len(model.prior_rows(model.x_opt)[0])]
+    want = -(np.sqrt(r.weight) / lam_meas)[:, None] * np.asarray(r.dlam_dx)
+    assert np.all(np.abs(got - want) <= 1e-5 * np.abs(want).max(axis=1, keepdims=True))
 
 
 def test_eq17_rows_value_and_gradient_agree():
