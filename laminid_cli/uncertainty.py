@@ -973,7 +973,9 @@ class TrialModel(VariableSet):
         """Levenberg-Marquardt on the reduced model from ``x0`` (``model0``: the model there,
         when known), each step the damped Gauss-Newton step restricted to the search's bounds
         and linear constraints (:func:`_constrained_step`); returns (x, model there) when the
-        step is below TRIAL_XTOL standard errors, None when it does not get there."""
+        step taken, or the next one computed there (not evaluated: one evaluation fewer per
+        trial, 200 trials of S1.1 10.9 -> 10.1 s, answers within 1e-3 standard errors), is
+        below TRIAL_XTOL standard errors, None when it does not get there."""
         x = np.asarray(x0, float)
         model = self.modes(basis, x, Y_ref) if model0 is None else model0
         res, J = self.rows(x, model, lam_meas, w)
@@ -992,6 +994,8 @@ class TrialModel(VariableSet):
                 return None
             x_new = x + dx
             step = float(np.max(np.abs(self.L.T @ dx)))
+            if step <= TRIAL_XTOL and damp <= 0.1:
+                return x, model                 # the next step is within the tolerance
             model_n = self.modes(basis, x_new, Y_ref)
             res_n, J_n = self.rows(x_new, model_n, lam_meas, w)
             f_new = float(res_n @ res_n)
