@@ -84,6 +84,13 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
     def show(item):
         return item or ""
 
+    # the summary rows read the result files back (h5py), from the first finished job on and in
+    # the `finally` below after a Ctrl-C: imported here, before any job runs, so that an
+    # interrupt cannot land inside its import. One that did left h5py half-initialised, and the
+    # summary's own import then failed with a traceback (KeyError '__reduce_cython__', exit 1
+    # instead of 130; seen once in test_killed_batch..., whose SIGINT follows the first result)
+    import h5py  # noqa: F401
+
     finished = 0
     refused = False
     try:
