@@ -668,7 +668,8 @@ def _optimize_reduced(prob, ev_c, progress=None):
             ev_c = ev_t if ev_t.objective <= ev_c.objective else ev_c
             break
         f_c_old, f_pred, lam_pred = ev_c.objective, ev_t.objective, ev_t.eigenvalues
-        if prob.n_enrich and change <= max(CHECK_CHANGE, options.reduced_tol) and step <= CHECK_STEP:
+        check_change = max(CHECK_CHANGE, options.reduced_tol)
+        if prob.n_enrich and change <= check_change and step <= CHECK_STEP:
             # the last enrichment changed the eigenvalues little and the optimiser moved little
             # from its point: check the answer against the full model (refined to
             # FINAL_BOUND) instead of enriching; converged if the check agrees within
