@@ -673,7 +673,7 @@ TRIAL_MU = 0.5
 #: one is factorised at its answer at once, instead of first enriched with the kept
 #: factorisation: in 200 trials of S1.1 every trial above 6e-3 (150x the 4e-5 bound) needed
 #: that factorisation anyway, one round later; every one below 3.1e-3 did without (11 far
-#: trials 210 -> ~155 ms each, 200 trials 10.1 -> 9.2 s in one run)
+#: trials 210 -> ~155 ms each, ~0.6 s of the 200 trials)
 TRIAL_FAR = 100.0
 #: the shared trial basis is enriched where the first TRIAL_PILOT trials need it
 #: (TrialModel.prepare) before the trials run
