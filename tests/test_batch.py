@@ -363,6 +363,46 @@ def test_results_hashed_by_the_earlier_option_layout_are_redone(tmp_path):
         assert [j.up_to_date for j in plan_batch(found, out, options)] == [up_to_date]
 
 
+def test_a_noted_ctrl_c_stops_the_pool_run_even_when_its_exception_was_swallowed(
+        tmp_path, monkeypatch):
+    """run_jobs with a process pool notes SIGINT (batch._note_sigint) and looks at the note at
+    least every SIGINT_POLL s: a Ctrl-C whose KeyboardInterrupt Python swallowed (raised inside
+    a weakref callback it only printed "Exception ignored"; seen once in the killed-batch test
+    below, where the batch then finished and exited 0) still ends the run, before the jobs
+    finish. And the handler itself: a SIGINT raises KeyboardInterrupt and is noted, and the
+    previous handler is back after restore()."""
+    import threading
+
+    import laminid_cli.batch as B
+
+    previous = signal.getsignal(signal.SIGINT)
+    if previous is signal.SIG_IGN:                     # a background test run: as a terminal
+        monkeypatch.setattr(signal, "getsignal", lambda s: signal.default_int_handler)
+    seen, restore = B._note_sigint()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            signal.raise_signal(signal.SIGINT)
+        assert seen == [signal.SIGINT]
+    finally:
+        restore()
+    monkeypatch.undo()
+    assert signal.getsignal(signal.SIGINT) is previous
+
+    note: list = []
+    monkeypatch.setattr(B, "_note_sigint", lambda: (note, lambda: None))
+    specs = make_tree(tmp_path / "in", {**SPECS, "example1/S1.1.yaml":
+                                        "specimens/example1/S1.1.yaml", "example1/S1.2.yaml":
+                                        "specimens/example1/S1.2.yaml"})
+    jobs = B.plan_batch(discover_specimens([specs]), tmp_path / "out",
+                        BatchOptions(mesh="12x12"))
+    threading.Timer(0.3, note.append, (signal.SIGINT,)).start()   # noted, nothing raised
+    t0, done = time.time(), 0
+    with pytest.raises(KeyboardInterrupt):
+        for _job, _outcome in B.run_jobs(jobs, BatchOptions(mesh="12x12"), n_jobs=2):
+            done += 1
+    assert done < len(jobs) and time.time() - t0 < 5      # (as the killed-batch test)
+
+
 def _interactive_sigint():
     """In the child: Ctrl-C as in a terminal. A test run started as a background job has
     SIGINT ignored, which its children inherit (and the batch then rightly ignores it)."""
