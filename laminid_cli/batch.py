@@ -502,6 +502,8 @@ def _run_here(jobs, options):
             if seen:
                 raise KeyboardInterrupt
             yield job, outcome
+        if seen:                             # swallowed while the last one was written
+            raise KeyboardInterrupt
     finally:
         restore()
 
