@@ -198,16 +198,36 @@ class ReducedBasis:
         b.add(V)
         return b
 
-    def _project_out(self, W: np.ndarray, MW: np.ndarray) -> None:
-        """Remove from W (in place) its M-components along the rigid motions and the basis
-        (one classical Gram-Schmidt pass), and the same combination from MW = M W."""
+    def _project_out(self, W: np.ndarray, MW: np.ndarray, Z: np.ndarray | None = None,
+                     MZ: np.ndarray | None = None) -> None:
+        """Remove from W (in place) its M-components along the rigid motions and the columns
+        of Z (default: the basis; ``MZ`` = M Z, M-orthonormal) (one classical Gram-Schmidt
+        pass), and the same combination from MW = M W."""
+        if Z is None:
+            Z, MZ = self.V, self.MV
         if self.R is not None:
             C = self.MR.T @ W
             W -= self.R @ C
             MW -= self.MR @ C
-        C = self.MV.T @ W
-        W -= self.V @ C
-        MW -= self.MV @ C
+        C = MZ.T @ W
+        W -= Z @ C
+        MW -= MZ @ C
+
+    def _m_normalised(self, W: np.ndarray):
+        """(W, M W) with every column of W M-normalised; zero columns dropped."""
+        MW = self.M @ W
+        norm = np.sqrt(np.einsum("ij,ij->j", W, MW))
+        ok = norm > 0
+        return W[:, ok] / norm[ok], MW[:, ok] / norm[ok]
+
+    @staticmethod
+    def _independent(W: np.ndarray, MW: np.ndarray) -> np.ndarray:
+        """The directions of W with M-norm above DROP_TOL, M-orthonormalised by an eigen
+        decomposition of their Gram matrix (``MW`` = M W)."""
+        G = W.T @ MW
+        d, Q = np.linalg.eigh(0.5 * (G + G.T))
+        keep = d > DROP_TOL**2
+        return W @ (Q[:, keep] / np.sqrt(d[keep]))
 
     def add(self, W: np.ndarray) -> int:
         """Add the directions of W (n, k) not yet in the basis; returns how many were added.
@@ -220,17 +240,12 @@ class ReducedBasis:
         W = np.array(W, float, copy=True)
         if W.ndim == 1:
             W = W[:, None]
-        MW = self.M @ W
-        norm = np.sqrt(np.einsum("ij,ij->j", W, MW))
-        W, MW = W[:, norm > 0] / norm[norm > 0], MW[:, norm > 0] / norm[norm > 0]
+        W, MW = self._m_normalised(W)
         for _ in range(2):                                   # classical Gram-Schmidt, twice
             self._project_out(W, MW)
-        G = W.T @ MW
-        d, Q = np.linalg.eigh(0.5 * (G + G.T))
-        keep = d > DROP_TOL**2
-        if not keep.any():
+        W = self._independent(W, MW)
+        if W.shape[1] == 0:
             return 0
-        W = W @ (Q[:, keep] / np.sqrt(d[keep]))
         MW = self.M @ W
         for _ in range(2):                                   # clean up once more
             self._project_out(W, MW)
@@ -398,6 +413,14 @@ class ReducedBasis:
             return None
         return last[2], last[1], 1.0 / min(mu, 1.0)
 
+    def residuals(self, coef: np.ndarray, theta: np.ndarray, Y: np.ndarray, solve):
+        """(R, solve(R)): the residuals ``K u_i - theta_i M u_i`` of the Ritz vectors ``u_i =
+        V y_i`` at ``coef`` and their preconditioned form (``solve``: (K_ref - sigma M)^-1),
+        the directions an enrichment adds."""
+        U = self.V @ Y
+        R = self.fm.plate.stiffness_products(coef, U) - (self.M @ U) * theta
+        return R, solve(R)
+
     def _enrich_with(self, coef, k, rounds, solve, sigma, scale=1.0, target=0.0, theta0=None,
                      Y=None, keep=0):
         """The block solves of :meth:`enrich` with ``solve`` = (K_ref - sigma M)^-1 and
@@ -413,9 +436,7 @@ class ReducedBasis:
         theta = theta0
         bound = np.full(k, np.inf)
         for _ in range(rounds):
-            U = self.V @ Y
-            Rs = self.fm.plate.stiffness_products(coef, U) - (self.M @ U) * theta
-            S = solve(Rs)
+            Rs, S = self.residuals(coef, theta, Y, solve)
             eta2 = np.maximum(np.einsum("ij,ij->j", Rs, S), 0.0) * scale
             bound = residual_bound(theta, eta2, sigma)
             if np.max(bound / theta) <= target:
@@ -514,17 +535,7 @@ class ReducedBasis:
         Rayleigh-Ritz step takes its Gram matrix as it is."""
         if W.shape[1] == 0:
             return W, W.copy()
-        MW = self.M @ W
-        norm = np.sqrt(np.einsum("ij,ij->j", W, MW))
-        ok = norm > 0
-        W, MW = W[:, ok] / norm[ok], MW[:, ok] / norm[ok]
-        if self.R is not None:
-            C = self.MR.T @ W
-            W, MW = W - self.R @ C, MW - self.MR @ C
-        C = MZ.T @ W
-        W, MW = W - Z @ C, MW - MZ @ C
-        G = W.T @ MW
-        d, Q = np.linalg.eigh(0.5 * (G + G.T))
-        keep = d > DROP_TOL**2
-        W = W @ (Q[:, keep] / np.sqrt(d[keep]))
+        W, MW = self._m_normalised(W)
+        self._project_out(W, MW, Z, MZ)
+        W = self._independent(W, MW)
         return W, self.M @ W

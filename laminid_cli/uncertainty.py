@@ -778,7 +778,7 @@ class TrialModel(VariableSet):
         self.lo, self.hi = self.bounds()
         self.A, self.b = self.linear_constraints()
         self.refs = [(self.coef_opt, self.sigma, self._solve)]     # factorisations kept
-        self._enrich_cloud(fm)
+        self._enrich_cloud()
         self._A_all = np.vstack([self.A, np.eye(self.n_vars), -np.eye(self.n_vars)])
         self._b_all = np.concatenate([self.b, self.hi, -self.lo])
         theta, Y = self.basis.eig(self.coef_opt, self.n_model)
@@ -835,12 +835,11 @@ class TrialModel(VariableSet):
                     self._shared_basis_changed()
         return added
 
-    def _enrich_cloud(self, fm):
+    def _enrich_cloud(self):
         """Enrich the basis where the trials go far: at ``x* +- CLOUD_RADIUS`` standard errors
         along the directions of the largest relative change of the stiffness coefficients per
         standard error (where that change exceeds CLOUD_CHANGE), shrunk into the feasible
         set; one factorisation and CLOUD_ROUNDS block solves of the Ritz residuals each."""
-        plate = fm.plate
         coefs, jacs = self.coefficients(self.x_opt)
         c = np.concatenate(coefs)
         J = np.vstack([np.asarray(jk) for jk in jacs])
@@ -866,9 +865,7 @@ class TrialModel(VariableSet):
                 self.refs.append(ref)
                 solve = ref[2]
                 for _ in range(CLOUD_ROUNDS):
-                    U = self.basis.V @ Y
-                    added = self.basis.add(solve(plate.stiffness_products(coef, U)
-                                                 - (plate.M @ U) * theta))
+                    added = self.basis.add(self.basis.residuals(coef, theta, Y, solve)[1])
                     theta, Y = self.basis.eig(coef, self.n_model)
                     if not added:
                         break
