@@ -6,7 +6,8 @@ identification (median of REPEAT), then ``monte_carlo`` with N trials (default 2
 identify() from the optimum with its basis, the route before the trial model, run on
 --identify-trials trials and scaled to N), the time per trial, the ratio of the whole Monte
 Carlo to one identification, and the work per trial
-counted by laminid_cli.modal.WORK (factorisations, solve pairs, Lanczos runs; with -j 1, in
+counted by laminid_cli.modal.WORK (factorisations, solve pairs, Lanczos runs, the reduced
+models' dense eigenproblems, one per trial-model evaluation; with -j 1, in
 this process, model build and its enrichment by the first trials included; a trial check's
 triangular solve counts as half a solve pair). Single-threaded BLAS, as the CLI.
 
@@ -52,7 +53,8 @@ def main():
     print(f"{spec.name} {a.mesh}: one identification {t_id:.2f} s (median of {REPEAT}; CPU "
           f"{cpu_id:.2f} s), "
           f"factorisations {w_id['factorizations']}, solve pairs {w_id['solve_pairs']}, "
-          f"Lanczos {w_id['lanczos_runs']}", flush=True)
+          f"Lanczos {w_id['lanczos_runs']}, reduced eigenproblems "
+          f"{w_id['reduced_eigenproblems']}", flush=True)
     sig = frequency_sigma(fm.specimen.measured)
     u = uncertainty_of(r, fm, sig)
     for route in a.routes.split(","):
@@ -65,7 +67,8 @@ def main():
             per = ""
             if jobs == 1:
                 per = (f"  per trial: factorisations {WORK['factorizations'] / n:.2f}, solve pairs "
-                       f"{WORK['solve_pairs'] / n:.1f}, Lanczos {WORK['lanczos_runs'] / n:.2f}; "
+                       f"{WORK['solve_pairs'] / n:.1f}, Lanczos {WORK['lanczos_runs'] / n:.2f}, "
+                       f"reduced eigenproblems {WORK['reduced_eigenproblems'] / n:.1f}; "
                        f"CPU {cpu / n * 1e3:.1f} ms per trial, {a.trials} trials = "
                        f"{cpu / n * a.trials / cpu_id:.1f} x one identification's CPU")
             scaled = dt / n * a.trials

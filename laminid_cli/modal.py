@@ -34,8 +34,10 @@ from laminid_cli.errors import SolverError
 RIGID_TOL = 1e-6
 
 #: work done by this process: banded factorisations, solve pairs (one right-hand side through
-#: the forward and back substitution) and Lanczos runs; read by benchmarks/bench_identify.py
-WORK = {"factorizations": 0, "solve_pairs": 0, "lanczos_runs": 0}
+#: the forward and back substitution), Lanczos runs and the reduced models' dense eigen
+#: problems (laminid_cli.reduced.ReducedBasis.eig: one per reduced-model evaluation); read by
+#: benchmarks/bench_identify.py and bench_uncertainty.py
+WORK = {"factorizations": 0, "solve_pairs": 0, "lanczos_runs": 0, "reduced_eigenproblems": 0}
 
 
 def reset_work() -> dict:

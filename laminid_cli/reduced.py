@@ -30,7 +30,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from laminid_cli.errors import SolverError
-from laminid_cli.modal import Modes, _m_orthonormal
+from laminid_cli.modal import WORK, Modes, _m_orthonormal
 
 #: columns added by an enrichment whose M-norm after orthogonalisation is below this (relative
 #: to the normalised residual) add nothing and are dropped
@@ -313,6 +313,7 @@ class ReducedBasis:
         if k > self.size:
             raise SolverError(f"reduced basis of {self.size} vectors cannot give {k} modes")
         Linv, Kt = self._standard()
+        WORK["reduced_eigenproblems"] += 1
         A = (np.asarray(coef, float).reshape(-1) @ Kt.reshape(self.n_b, -1)).reshape(Linv.shape)
         _, Z = sla.eigh(A, subset_by_index=[0, k - 1], check_finite=False)
         # the eigenvalues as Rayleigh quotients of the eigenvectors: eigh's values carry an

@@ -65,6 +65,10 @@ def test_reduced_equals_full_s11():
     assert full.work["factorizations"] >= 25 and full.work["lanczos_runs"] >= 25
     assert red.work["lanczos_runs"] == 1                     # the start only
     assert red.work["factorizations"] <= 12
+    # one dense reduced eigenproblem per evaluation on the reduced model, plus the loop's own
+    # (enrichments, checks); none in the full solver
+    assert full.work["reduced_eigenproblems"] == 0
+    assert red.evaluations <= red.work["reduced_eigenproblems"] <= 2 * red.evaluations
     assert red.work["solve_pairs"] <= 0.4 * full.work["solve_pairs"]
     # the sensitivities reported (strain energies of the checked vectors, first order in their
     # error where the eigenvalues are of second order) against the full model's modes at the
