@@ -44,7 +44,7 @@ def main():
             times[j] = wall
             print(f"batch {d['n_specimens']} specimens, mesh {args.mesh}, -j {j}: wall "
                   f"{wall:6.1f} s (identification time summed over specimens {work:6.1f} s; "
-                  f"{d['counts']['ok']} ok, {d['counts']['not converged']} not converged)")
+                  + ", ".join(f"{n} {k}" for k, n in d["counts"].items() if n) + ")")
     if 1 in times:
         for j, t in times.items():
             if j != 1:
