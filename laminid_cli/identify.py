@@ -16,8 +16,10 @@ step plus cheap products; no finite differences.
 Mode pairing: measured mode i is paired with the i-th model mode at the initial point (sorted
 order, as in the paper); from then on each paired mode is followed from one evaluation to the
 next by the modal assurance criterion (MAC, mass-weighted) with an optimal assignment, so two
-modes that swap order keep their identity. Swaps are recorded. ``pairing="sorted"`` keeps the
-paper's plain sorted order.
+modes that swap order keep their identity. Swaps are recorded. A tracked pairing that ends out
+of sorted order is re-anchored in sorted order there (run_optimizer), and such a run is also
+fitted with the plain sorted pairing from the start, the better answer kept
+(:func:`_sorted_from_start`). ``pairing="sorted"`` keeps the paper's plain sorted order.
 
 Structure: the objective itself is pure (:class:`laminid_cli.objective.Objective`, over a list
 of plates); :class:`Problem` is one optimisation run over it (the plates' eigen models and a
@@ -553,9 +555,11 @@ def run_optimizer(prob, progress=None):
     # ends with another order, that start pairing was wrong (the initial guess had its modes in
     # another order than the plate). Re-pair in sorted order there and optimise again; keep
     # the better fit. Found on the paper's S2.2 and hybrid ESL (RMS 1.12 / 4.35 % -> 0.22 / 0.14 %).
+    reanchored = False
     for _ in range(MAX_REANCHOR):
         if prob.options.pairing != "track" or np.array_equal(ev.pairing, prob.sorted_pairing()):
             break
+        reanchored = True
         prob.reanchor()
         ev_r = prob.evaluate(ev.x)
         ev2, converged2, status2 = _stage(prob, ev_r, progress)
@@ -569,6 +573,8 @@ def run_optimizer(prob, progress=None):
         else:
             prob.adopt(ev)
             break
+    if reanchored:
+        ev, converged, status = _sorted_from_start(prob, x0, ev, converged, status, progress)
     if prob.options.pairing == "track" and not np.array_equal(ev.pairing, prob.sorted_pairing()):
         warnings = list(warnings) + [
             "at the optimum the measured modes are not paired with the model modes in sorted "
@@ -581,6 +587,53 @@ def run_optimizer(prob, progress=None):
     if prob.reduced:
         ev = _finish_reduced(prob, ev)
     return ev, converged, status, warnings, initial_rms
+
+
+#: the plain sorted pairing's answer replaces the tracked one only when its objective is lower
+#: by more than this (relative): an equal answer (S2.2) keeps the tracked run's
+SORTED_GAIN = 1e-9
+
+
+def _sorted_from_start(prob, x0, ev, converged, status, progress=None):
+    """A second opinion for a tracked pairing that needed re-anchoring: the paper's plain
+    sorted pairing, from the same start. Returns the better of the two answers.
+
+    The tracking that ended out of sorted order went through near-coincident modes whose order
+    along the way decides which minimum the re-anchorings reach. Each solver then takes its
+    own path: on the hybrid ESL the reduced solver ended at 2.443e-4 (measured mode 20 paired
+    with model mode 21) and the full solver at 3.894e-4. The sorted pairing from the start does
+    not depend on that path: both solvers reach 1.5359e-4 with it, sorted, closer to the
+    paper's Table 6. Where the tracked answer is as good (S2.2: both 2.3005e-4), it is kept.
+
+    The pass is the ``pairing="sorted"`` identification itself: the reduced solver starts it
+    afresh from a full solve at the start, as that run does (with the tracked run's basis it
+    took another path, to 1.267e-3 on the hybrid ESL). The tracked run's bases and final
+    check are kept for the case its answer stays."""
+    tracked = prob.objective
+    log_ = prob.log
+    saved = (prob.models, prob._last_basis, log_.checked, log_.final_bound)
+    prob.objective = tracked.with_pairing("sorted")
+    prob.reanchor()
+    reduced = prob.reduced
+    if reduced:
+        prob.use_full()
+    ev0 = prob.evaluate(x0)
+    if reduced:
+        prob.start_reduced(ev0)
+        prob.adopt(ev0)
+    ev_s, converged_s, status_s = _stage(prob, ev0, progress)
+    log.info("plain sorted pairing from the start: objective %.6g (tracked: %.6g)",
+             ev_s.objective, ev.objective)
+    if ev_s.objective < ev.objective * (1 - SORTED_GAIN):
+        prob.log.swaps.append(
+            f"evaluation {prob.n_eval}: the plain sorted pairing from the start fits better than "
+            f"the tracked one (objective {ev.objective:.6g} -> {ev_s.objective:.6g}); its "
+            "answer is kept")
+        return ev_s, converged_s, status_s
+    prob.objective = tracked
+    prob.models, prob._last_basis, log_.checked, log_.final_bound = saved
+    prob.adopt(ev)
+    return ev, converged, status
 
 
 #: the start's basis also holds the first-order mode changes in every stiffness coefficient

@@ -21,6 +21,7 @@ enrichments and the last error bound -- lives in a :class:`RunLog`
 
 from __future__ import annotations
 
+import copy
 import logging
 from dataclasses import dataclass, field
 from typing import NamedTuple
@@ -325,6 +326,12 @@ class Objective(VariableSet):
         self.lam_meas = np.concatenate([p.data.lam for p in self.plates])
         self.n_meas = int(self.freq.size)
         self.rows = np.concatenate([[0], np.cumsum([p.data.n for p in self.plates])]).astype(int)
+
+    def with_pairing(self, pairing: str) -> "Objective":
+        """The same objective with another pairing mode ('track' or 'sorted')."""
+        out = copy.copy(self)
+        out.pairing_mode = pairing
+        return out
 
     # --- evaluation -------------------------------------------------------------------------
     def evaluate(self, x, models=None, reference: Evaluation | None = None,

@@ -148,7 +148,8 @@ fit_options = _apply([
                   show_default=True,
                   help="Mode pairing: track = sorted order at the start, then each mode followed "
                        "by MAC so swaps cannot corrupt the fit, re-anchored in sorted order if it "
-                       "ends out of order; sorted = sorted order throughout (the paper)."),
+                       "ends out of order (and then also fitted with sorted order from the start, "
+                       "the better answer kept); sorted = sorted order throughout (the paper)."),
     click.option("--solver", type=click.Choice(["reduced", "full"]), default="reduced",
                   show_default=True,
                   help="Eigen solver of the fit: reduced = the optimiser runs on a reduced-order "
