@@ -8,4 +8,4 @@ Conventions (project-wide, SI inside):
 - stress/strain order [xx, yy, yz, xz, xy] (paper Eq. 7).
 """
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
