@@ -138,15 +138,16 @@ def test_s22_solvers_agree_on_the_determined_constants():
     np.testing.assert_allclose(red.model_hz, full_frequencies_at(fm, red), rtol=FREQ_REL)
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("solver", ["reduced", "full"])
+@pytest.mark.parametrize("solver", ["reduced", pytest.param("full", marks=pytest.mark.slow)])
 def test_hybrid_esl_keeps_the_sorted_pairing_when_it_fits_better(solver):
     """Hybrid ESL (20 modes): the tracked pairing needs two re-anchorings and each solver's
     path through the near-coincident modes 14-21 decides where they end (reduced 2.4431e-4,
     measured mode 20 paired with model mode 21; full 3.8944e-4, sorted). The plain sorted
     pairing from the start (identify._sorted_from_start) reaches 1.53592e-4 on both, and
     is kept, with a line in the swaps that says so and no unsorted-pairing warning; it is the
-    ``pairing="sorted"`` identification's answer (objective within 1e-9)."""
+    ``pairing="sorted"`` identification's answer (objective within 1e-9). The reduced solver's
+    case (~4 s) runs by default: it is the one test of the default run in which the sorted
+    pass wins."""
     fm = build_forward_model(read_specimen(ESL), (12, 12))
     r = identify(fm, IdentifyOptions(solver=solver))
     assert r.converged, r.status
