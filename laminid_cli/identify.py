@@ -610,15 +610,12 @@ def _sorted_from_start(prob, x0, ev, converged, status, progress=None):
     took another path, to 1.267e-3 on the hybrid ESL). The tracked run's bases and final
     check are kept for the case its answer stays."""
     tracked = prob.objective
-    log_ = prob.log
-    saved = (prob.models, prob._last_basis, log_.checked, log_.final_bound)
+    saved = (prob.models, prob._last_basis, prob.log.checked, prob.log.final_bound)
     prob.objective = tracked.with_pairing("sorted")
     prob.reanchor()
-    reduced = prob.reduced
-    if reduced:
-        prob.use_full()
+    prob.use_full()                      # the start afresh, as in run_optimizer
     ev0 = prob.evaluate(x0)
-    if reduced:
+    if prob.options.solver == "reduced":
         prob.start_reduced(ev0)
         prob.adopt(ev0)
     ev_s, converged_s, status_s = _stage(prob, ev0, progress)
@@ -631,7 +628,7 @@ def _sorted_from_start(prob, x0, ev, converged, status, progress=None):
             "answer is kept")
         return ev_s, converged_s, status_s
     prob.objective = tracked
-    prob.models, prob._last_basis, log_.checked, log_.final_bound = saved
+    prob.models, prob._last_basis, prob.log.checked, prob.log.final_bound = saved
     prob.adopt(ev)
     return ev, converged, status
 
