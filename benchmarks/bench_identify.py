@@ -1,7 +1,7 @@
 """Identification benchmark: S1.1 with the reduced and the full solver, and the whole CLI.
 
 Per mesh (8x8, 12x12, 16x16, 24x24 by default) and solver: wall time of the identification,
-the model evaluations, and the work counted by laminid_cli.modal.WORK (banded factorisations,
+the model evaluations, and the work counted by laminid_cli.modal.WORK (Cholesky factorisations,
 solve pairs = one right-hand side through forward and back substitution, Lanczos runs),
 expressed in full-solve equivalents:
 
@@ -61,6 +61,8 @@ def bench(path, mesh, repeat=REPEAT):
     n = spec.measured.freq.size + IdentifyOptions().extra_modes
     t_f, t_s, t_full, s_full = unit_costs(fm, n)
     unit = t_f + s_full * t_s
+    print(f"{spec.name} {mesh[0]}x{mesh[1]}: {fm.plate.n_dofs} equations, factorisation "
+          f"{fm.factorizer.name} (LAMINID_FACTORIZER=banded|cholmod chooses)", flush=True)
     rows = {}
     for solver in ("reduced", "full"):
         runs = []

@@ -2,7 +2,7 @@
 
 ``build_forward_model`` assembles the parametric model once (mesh, layup, densities); its
 ``solve`` evaluates the modes for any set of material constants (one stiffness combination, one
-banded Cholesky, one Lanczos run). The identification reuses the same object.
+Cholesky factorisation, one Lanczos run). The identification reuses the same object.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from laminid_cli.fe.assembly import PlateModel, boundary_label, build_plate_mode
 from laminid_cli.fe.mesh import check_element_shape, rectangular_mesh
 from laminid_cli.laminate import Laminate, laminate_from_specimen
 from laminid_cli.material import ElasticConstants, infeasibility_reasons
-from laminid_cli.modal import BandedCholesky, Modes, solve_modes
+from laminid_cli.modal import BandedCholesky, Modes, SparseCholesky, make_factorizer, solve_modes
 from laminid_cli.specimen import Specimen
 
 DEFAULT_MESH = (12, 12)
@@ -29,7 +29,7 @@ class ForwardModel:
     specimen: Specimen
     laminate: Laminate
     plate: PlateModel
-    factorizer: BandedCholesky
+    factorizer: SparseCholesky | BandedCholesky
     mesh_size: tuple[int, int]
     rigid: np.ndarray | None
 
@@ -68,13 +68,15 @@ class ForwardModel:
 
 def build_forward_model(specimen: Specimen, mesh: tuple[int, int] = DEFAULT_MESH,
                         boundary: str | None = None,
-                        integration: str = "selective") -> ForwardModel:
+                        integration: str = "selective",
+                        factorizer: str | None = None) -> ForwardModel:
     """Assemble the plate model of a specimen.
 
     Parameters
     ----------
     mesh : elements along x (side a) and y (side b)
     boundary : overrides the specimen's boundary condition when given
+    factorizer : 'cholmod' or 'banded' (default: ``modal.default_factorizer()``)
     """
     lam = laminate_from_specimen(specimen)
     nx, ny = mesh
@@ -83,9 +85,9 @@ def build_forward_model(specimen: Specimen, mesh: tuple[int, int] = DEFAULT_MESH
         rectangular_mesh(specimen.a, specimen.b, nx, ny), lam.h, lam.z, lam.angle,
         lam.material_index, lam.density, material_names=lam.material_names,
         boundary=boundary or specimen.boundary, integration=integration)
-    factorizer = BandedCholesky.from_pattern(plate.indptr, plate.indices,
-                                             block=9 if plate.boundary == "FFFF" else 1)
-    return ForwardModel(specimen=specimen, laminate=lam, plate=plate, factorizer=factorizer,
+    plan = make_factorizer(plate.indptr, plate.indices,
+                           block=9 if plate.boundary == "FFFF" else 1, kind=factorizer)
+    return ForwardModel(specimen=specimen, laminate=lam, plate=plate, factorizer=plan,
                         mesh_size=(int(nx), int(ny)), rigid=plate.rigid_modes())
 
 

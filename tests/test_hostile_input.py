@@ -274,14 +274,23 @@ def test_arpack_failure_exits_1_with_what_to_try(monkeypatch, failure, words):
     assert words in r.output and "try fewer modes (--modes), another mesh (--mesh)" in r.output
 
 
-def test_singular_factorisation_exits_1_with_what_to_try(monkeypatch):
+@pytest.mark.parametrize("kind", ["cholmod", "banded"])
+def test_singular_factorisation_exits_1_with_what_to_try(monkeypatch, kind):
+    """Each factorisation's own failure (LAPACK pbtrf's LinAlgError, CHOLMOD's
+    ArithmeticError through cvxopt) becomes the same message and exit code."""
     import numpy as np
     import scipy.linalg as sla
+    from cvxopt import cholmod
 
     def cholesky_banded(*args, **kwargs):
         raise np.linalg.LinAlgError("1-th leading minor not positive definite")
 
+    def numeric(*args, **kwargs):
+        raise ArithmeticError("1")           # what cvxopt raises: the failing column
+
+    monkeypatch.setenv("LAMINID_FACTORIZER", kind)
     monkeypatch.setattr(sla, "cholesky_banded", cholesky_banded)
+    monkeypatch.setattr(cholmod, "numeric", numeric)
     r = run("modes", S11, "--mesh", "4x4")
     assert r.exit_code == 1
     assert "the factorisation of K - sigma M failed" in r.output and "try another mesh" in r.output
