@@ -423,7 +423,7 @@ class Objective(VariableSet):
         if self.pairing_mode == "sorted" or ref is None or ref.modes is None:
             return np.arange(n), ()
         if Y is not None:                                            # reduced model
-            M = model.mac(ref.phi, Y, ref.ritz)
+            M = model.mac(lambda: ref.phi, Y, ref.ritz)        # (n_meas, n_model)
         else:
             M = mac(ref.phi, modes.phi, plate.fm.plate.M)            # (n_meas, n_model)
         pairing = max_assignment(M)

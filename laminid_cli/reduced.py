@@ -355,19 +355,23 @@ class ReducedBasis:
         n_rigid = 0 if self.R is None else self.R.shape[1]
         return RitzModes(theta, self.V, Y, n_rigid), self.energies(Y), Y
 
-    def mac(self, phi_ref: np.ndarray, Y: np.ndarray, ritz=None) -> np.ndarray:
+    def mac(self, phi_ref, Y: np.ndarray, ritz=None) -> np.ndarray:
         """Mass-weighted MAC (n_ref, k) between full vectors ``phi_ref`` and the Ritz vectors
         of reduced eigenvectors ``Y`` (Mr-orthonormal): through ``V^T M phi_ref``, which is exact
         for vectors in the span of V (earlier Ritz vectors: the basis only grows).
 
         ``ritz = (lineage, r, Y_ref)`` when ``phi_ref`` are Ritz vectors ``V[:, :r] Y_ref`` of
         this basis' lineage: then ``V^T M phi_ref = Mr[:, :r] Y_ref`` and no product with the
-        full vectors is needed."""
+        full vectors is needed. ``phi_ref`` may be a function that gives the vectors: it is
+        called only when they are needed (an evaluation forms its Ritz vectors at full size
+        on demand)."""
         if ritz is not None and ritz[0] is self.lineage and ritz[1] <= self.size:
             r, Y_ref = ritz[1], ritz[2]
             P = self.Mr[:, :r] @ Y_ref                        # (size, n_ref)
             den = np.einsum("ij,ij->j", Y_ref, P[:r])[:, None]
             return (P.T @ Y) ** 2 / den
+        if callable(phi_ref):
+            phi_ref = phi_ref()
         cached = getattr(self, "_mac_ref", None)
         if cached is None or cached[0] is not phi_ref or cached[1] != self.size:
             P = self.MV.T @ phi_ref                          # (r, n_ref)
