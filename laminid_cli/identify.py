@@ -337,6 +337,17 @@ class Problem(VariableSet):
             return None
         return self.models[0] if self.single else list(self.models)
 
+    def run_state(self) -> tuple:
+        """What a second pass from the start replaces, for :meth:`restore_run_state`: the
+        objective (its pairing), the bases and the final check's record."""
+        return (self.objective, self.models, self._last_basis, self.log.checked,
+                self.log.final_bound)
+
+    def restore_run_state(self, state: tuple) -> None:
+        """Put back what :meth:`run_state` saved (the counters and history go on)."""
+        (self.objective, self.models, self._last_basis, self.log.checked,
+         self.log.final_bound) = state
+
     def start_reduced(self, ev: Evaluation | None, basis=None) -> None:
         """Use the reduced model from now on, with bases made of ``ev``'s modes (a full
         evaluation) or the given ``basis`` list (kept from an earlier run)."""
@@ -609,9 +620,8 @@ def _sorted_from_start(prob, x0, ev, converged, status, progress=None):
     afresh from a full solve at the start, as that run does (with the tracked run's basis it
     took another path, to 1.267e-3 on the hybrid ESL). The tracked run's bases and final
     check are kept for the case its answer stays."""
-    tracked = prob.objective
-    saved = (prob.models, prob._last_basis, prob.log.checked, prob.log.final_bound)
-    prob.objective = tracked.with_pairing("sorted")
+    saved = prob.run_state()
+    prob.objective = prob.objective.with_pairing("sorted")
     prob.reanchor()
     prob.use_full()                      # the start afresh, as in run_optimizer
     ev0 = prob.evaluate(x0)
@@ -627,8 +637,7 @@ def _sorted_from_start(prob, x0, ev, converged, status, progress=None):
             f"the tracked one (objective {ev.objective:.6g} -> {ev_s.objective:.6g}); its "
             "answer is kept")
         return ev_s, converged_s, status_s
-    prob.objective = tracked
-    prob.models, prob._last_basis, prob.log.checked, prob.log.final_bound = saved
+    prob.restore_run_state(saved)
     prob.adopt(ev)
     return ev, converged, status
 
