@@ -145,6 +145,8 @@ class Identification:
     #: the reduced basis at the end (laminid_cli.reduced.ReducedBasis; None with the full
     #: solver), for re-identifications of the same plate to start from
     basis: object = field(default=None, repr=False, compare=False)
+    #: the factorisation of K - sigma M used: 'cholmod' or 'banded' (modal.make_factorizer)
+    factorization: str = ""
 
 
 
@@ -972,7 +974,8 @@ def _result(prob: Problem, k: int, ev: Evaluation, converged, status, warnings, 
         bounds_hit=tuple(hit), warnings=tuple(warnings),
         global_properties=lam.global_properties().as_dict(), options=prob.options,
         error_bound=_error_bound(prob, k, ev), work=dict(work or {}),
-        basis=bases if prob.single else bases[k])
+        basis=bases if prob.single else bases[k],
+        factorization=getattr(fm.factorizer, "name", ""))
 
 
 def _error_bound(prob, k, ev) -> np.ndarray:

@@ -70,6 +70,11 @@ class JointIdentification:
     basis: object = field(default=None, repr=False, compare=False)   # one per plate
 
     @property
+    def factorization(self) -> str:
+        """How K - sigma M was factorised (as Identification.factorization)."""
+        return self.specimens[0].factorization if self.specimens else ""
+
+    @property
     def specimen_names(self) -> tuple[str, ...]:
         return unique_names([r.specimen.name for r in self.specimens])
 

@@ -20,7 +20,9 @@ Common layout::
     /global_properties    Ex, Ey, Gxy, Gxz, Gyz (Pa), nu_xy, nu_yx (1)
 
 Identification results ("laminid-result") add: root attrs converged, optimizer_status (the
-nlopt outcome; ``status`` in schema version 1), objective, evaluations, time_s, optimizer; /materials/<name> attrs parametrization, free; /initial/<name>
+nlopt outcome; ``status`` in schema version 1), objective, evaluations, time_s, optimizer, solver
+(reduced | full), factorization (cholmod | banded: how K - sigma M was factorised; the answers
+agree to round-off); /materials/<name> attrs parametrization, free; /initial/<name>
 (the starting constants, same keys); /frequencies/model_mode (pairing) and attrs rms_residual_percent;
 /history (evaluation, objective, rms_residual_percent, x, constants, error_bound per evaluation;
 error_bound: 0 full model, NaN a reduced-model prediction, else the bound where enriched);
@@ -266,6 +268,7 @@ def run_fields(r) -> dict:
         "optimizer_status": r.status,
         "optimizer": {"slsqp": "LD_SLSQP", "mma": "LD_MMA"}[r.options.optimizer],
         "solver": r.options.solver,
+        "factorization": getattr(r, "factorization", ""),
         "work": dict(getattr(r, "work", {}) or {}),
         "time_s": r.time_s,
         "swaps": list(r.swaps),
@@ -277,7 +280,7 @@ def write_run_attrs(f, r) -> None:
     """Root attributes of a result file: the optimisation outcome (as :func:`run_fields`)."""
     run = run_fields(r)
     for key in ("converged", "optimizer_status", "objective", "evaluations", "time_s",
-                "optimizer", "solver"):
+                "optimizer", "solver", "factorization"):
         f.attrs[key] = run[key]
 
 
