@@ -9,6 +9,7 @@ start-up; ``laminid identify`` should cost little more than ``laminid modes`` be
 
 import json
 import os
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -99,10 +100,15 @@ runpy.run_module("laminid_cli", run_name="__main__", alter_sys=True)
 def test_ctrl_c_during_start_up_exits_130_without_traceback(module, how, tmp_path):
     (tmp_path / "interrupt_at_import.py").write_text(_INTERRUPT_AT_IMPORT)
     path = os.pathsep.join([str(tmp_path)] + [p for p in [os.environ.get("PYTHONPATH")] if p])
+    # preexec_fn: Ctrl-C as in a terminal. A test run started as a background job of a
+    # non-interactive shell has SIGINT ignored, which its children inherit (the interpreter
+    # then never raises KeyboardInterrupt: seen with `(pytest ... &)`, the command then ran
+    # to its end and exited 0)
     r = subprocess.run([sys.executable, "-m", "interrupt_at_import", module, how, "identify",
                         str(S1), "--json", "--no-output"],
                        capture_output=True, text=True, cwd=ROOT, timeout=120,
-                       env={**os.environ, "PYTHONPATH": path})
+                       env={**os.environ, "PYTHONPATH": path},
+                       preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     assert r.returncode == 130, r.stderr[-2000:]
     assert "laminid: interrupted" in r.stderr
     assert "Traceback" not in r.stderr and r.stdout == ""
