@@ -451,7 +451,7 @@ class _BandBlocks:
 def solve_modes(K: sp.spmatrix, M: sp.spmatrix, n_modes: int, *, sigma: float,
                 rigid: np.ndarray | None = None, margin: int = 4, tol: float = 1e-12,
                 factorizer=None, v0: np.ndarray | None = None,
-                M_on_pattern: np.ndarray | None = None) -> Modes:
+                M_on_pattern: np.ndarray | None = None, M_products=None) -> Modes:
     """Lowest ``n_modes`` elastic modes of ``K phi = lambda M phi``.
 
     Parameters
@@ -469,6 +469,8 @@ def solve_modes(K: sp.spmatrix, M: sp.spmatrix, n_modes: int, *, sigma: float,
     M_on_pattern : M's values on K's pattern (``PlateModel.M_on_K``) when M is stored with a
         sparser pattern of its own; needed with a factorizer unless K and M share a pattern
     v0 : starting vector for Lanczos (e.g. a combination of the previous step's modes)
+    M_products : M in a form faster for products (``M_products @ x`` equal to ``M @ x``, e.g.
+        ``PlateModel.mass_op``); M itself when omitted
     """
     n = K.shape[0]
     n_rigid = 0 if rigid is None else rigid.shape[1]
@@ -492,10 +494,11 @@ def solve_modes(K: sp.spmatrix, M: sp.spmatrix, n_modes: int, *, sigma: float,
             M_on_pattern = M.data
         solve = factorizer.factor(K.data - sigma * M_on_pattern)
 
+    Mx = M if M_products is None else M_products
     rigid_lambda = np.zeros(0)
     if n_rigid:
-        R = _m_orthonormal(rigid, M)
-        MR = M @ R
+        R = _m_orthonormal(rigid, Mx)
+        MR = Mx @ R
         rigid_lambda = np.einsum("ij,ij->j", R, K @ R)
         if np.abs(rigid_lambda).max() > RIGID_TOL * abs(sigma):
             raise SolverError("the rigid-body motions have strain energy: the element or the "
@@ -513,8 +516,10 @@ def solve_modes(K: sp.spmatrix, M: sp.spmatrix, n_modes: int, *, sigma: float,
     OPinv = spla.LinearOperator(K.shape, matvec=op, dtype=float)
     WORK["lanczos_runs"] += 1
     try:
-        vals, vecs = spla.eigsh(K, k=k, M=M, sigma=sigma, which="LM", OPinv=OPinv, tol=tol,
-                                v0=v0)
+        M_op = M if M_products is None else spla.LinearOperator(
+            M.shape, matvec=lambda x: Mx @ x, matmat=lambda X: Mx @ X, dtype=float)
+        vals, vecs = spla.eigsh(K, k=k, M=M_op, sigma=sigma, which="LM", OPinv=OPinv,
+                                tol=tol, v0=v0)
     except spla.ArpackNoConvergence as exc:
         raise SolverError(f"the eigen solver (ARPACK) did not converge for {k} modes of a "
                           f"{n}-equation model; try fewer modes (--modes), another mesh "
@@ -538,7 +543,7 @@ def solve_modes(K: sp.spmatrix, M: sp.spmatrix, n_modes: int, *, sigma: float,
                           "(infeasible constants?)")
     phi = vecs[:, :n_modes]
     # eigsh returns M-orthonormal vectors; normalise again to remove round-off drift
-    phi = phi / np.sqrt(np.einsum("ij,ij->j", phi, M @ phi))
+    phi = phi / np.sqrt(np.einsum("ij,ij->j", phi, Mx @ phi))
     return Modes(eigenvalues=vals[:n_modes], phi=phi, n_rigid=n_rigid,
                  rigid_eigenvalues=rigid_lambda)
 

@@ -425,7 +425,7 @@ class Objective(VariableSet):
         if Y is not None:                                            # reduced model
             M = model.mac(lambda: ref.phi, Y, ref.ritz)        # (n_meas, n_model)
         else:
-            M = mac(ref.phi, modes.phi, plate.fm.plate.M)            # (n_meas, n_model)
+            M = mac(ref.phi, modes.phi, plate.fm.plate.mass)            # (n_meas, n_model)
         pairing = max_assignment(M)
         weak = M[np.arange(n), pairing] < 0.5
         if weak.any():

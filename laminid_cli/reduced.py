@@ -163,7 +163,7 @@ class ReducedBasis:
     def __init__(self, fm):
         plate = fm.plate
         self.fm = fm
-        self.M = plate.M
+        self.M = plate.mass                  # products M @ W (fe.assembly.KroneckerMass)
         n = plate.n_dofs
         n_mat = plate.K_data.shape[0]
         self.n_b = n_mat * 6
@@ -294,7 +294,7 @@ class ReducedBasis:
         sigma = -0.5 * float(first_eigenvalue(K))
         # the old factor goes first: where no one else holds it, its memory (and CHOLMOD's
         # analysis, modal.SparseCholesky) serves the new one
-        self._factor = None
+        self._factor = last = None
         solve = self.fm.factorizer.factor(K.data - sigma * plate.M_on_K)
         self._factor = (coef.tobytes(), sigma, solve)
         return sigma, solve
