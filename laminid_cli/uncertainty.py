@@ -707,7 +707,8 @@ class TrialModel(VariableSet):
     paired Ritz vectors (and the next one) are checked with the full matrices: Rayleigh
     quotients and the residual bound of :func:`laminid_cli.reduced.residual_bounds` with a
     kept factorisation ``A_ref = U^T U`` in place of A (``r^T A_ref^-1 r = |U^-T r|^2``, one
-    triangular solve per vector, :class:`laminid_cli.modal.BandFactor`): when the
+    triangular solve per vector: ``energy`` of :class:`laminid_cli.modal.CholmodFactor` or
+    :class:`laminid_cli.modal.BandFactor`): when the
     constitutive matrices satisfy ``Q(c) >= mu Q(c_ref)`` (mu the smallest generalised
     eigenvalue of the 5x5 pair of each material, the same for every ply angle since Q(theta) =
     T^T Q(0) T), then ``K(c) >= mu K(c_ref)`` and ``A(c) >= min(mu, 1) A_ref``, so ``r^T
@@ -918,13 +919,14 @@ class TrialModel(VariableSet):
     def check(self, basis, x, Y, pairing, ref=None):
         """Full-matrix Ritz values of the checked Ritz vectors at ``x`` and the largest relative
         error bound of the paired ones, with the factorisation ``ref`` = (coefficients, sigma,
-        :class:`laminid_cli.modal.BandFactor`) of another point (default: the optimum's; class docstring). Returns
+        a factor of :func:`laminid_cli.modal.make_factorizer`) of another point (default: the
+        optimum's; class docstring). Returns
         (theta, bound, directions): ``directions()`` gives the preconditioned residuals (for
         an enrichment); bound inf when not computable.
 
         The vectors checked are the paired modes and the next one (whose bound enters theirs,
-        :func:`laminid_cli.reduced.residual_bounds`); ``r^T A_ref^-1 r`` is ``|U^-T r|^2``
-        with ``A_ref = U^T U`` (one triangular solve per vector)."""
+        :func:`laminid_cli.reduced.residual_bounds`); ``r^T A_ref^-1 r`` is ``|L^-1 P r|^2``
+        with ``P A_ref P^T = L L^T`` (one triangular solve per vector; banded: ``|U^-T r|^2``)."""
         plate = self.fm.plate
         coef = self.coefficients(x)[0]
         if ref is None:
