@@ -1,6 +1,7 @@
 """`laminid identify` end to end through click: report, JSON, HDF5, errors, exit codes."""
 
 import json
+import re
 import shutil
 
 import h5py
@@ -57,6 +58,7 @@ def test_report_and_default_output_next_to_the_specimen(tmp_path):
     r = run("identify", str(spec), "--mesh", "6x6")
     assert r.exit_code == 0, r.output
     assert "LD_SLSQP: converged" in r.output
+    assert re.search(r"\d+ evaluations, \d+\.\d\d s \(reduced solver, CHOLMOD\)", r.output)
     assert "E1 [GPa]" in r.output and "residual %" in r.output and "RMS residual" in r.output
     assert (tmp_path / "S2.1.result.h5").exists()
     # a second run after editing the specimen: the derived default file is replaced, and said so

@@ -87,7 +87,11 @@ def _plate_header(sp: dict) -> list[str]:
 def _run_line(s: dict) -> str:
     opt = s["optimizer_status"]
     state = opt if s["converged"] else f"NOT CONVERGED — {opt}"
-    return f"{s['optimizer']}: {state}; {s['evaluations']} evaluations, {s['time_s']:.2f} s"
+    how = ", ".join(x for x in (f"{s['solver']} solver" if s.get("solver") else "",
+                                {"cholmod": "CHOLMOD", "banded": "banded Cholesky"}.get(
+                                    s.get("factorization", ""), "")) if x)
+    return (f"{s['optimizer']}: {state}; {s['evaluations']} evaluations, {s['time_s']:.2f} s"
+            + (f" ({how})" if how else ""))
 
 
 def format_status(s: dict) -> list[str]:
