@@ -16,7 +16,8 @@ from laminid_cli.laminate import laminate_from_specimen  # noqa: E402
 from laminid_cli.material import c_basis  # noqa: E402
 import numpy as np  # noqa: E402
 
-from laminid_cli.modal import FACTORIZERS, cholmod_available, make_factorizer, solve_modes  # noqa: E402
+from laminid_cli.modal import (FACTORIZERS, cholmod_available, make_factorizer,  # noqa: E402
+                                solve_modes)
 from laminid_cli.specimen import read_specimen  # noqa: E402
 
 REPEAT = 7
