@@ -69,11 +69,15 @@ class RunOptions:
         """Refuse bad settings before any work (a one-line LaminidError, exit code 2): the mesh
         (``copies`` models in memory at once, one per worker), the frequency sigma and the
         interval threshold. Returns the mesh (nx, ny)."""
-        from laminid_cli.fe.mesh import parse_mesh
+        from laminid_cli.fe.mesh import monte_carlo_factors, parse_mesh
         from laminid_cli.uncertainty import check_sigma_rel
 
-        nxny = parse_mesh(self.mesh, copies=copies)
         u = self.uncertainty
+        if u.monte_carlo > 0:       # its trial model keeps factorisations; its workers add theirs
+            nxny = parse_mesh(self.mesh, copies=copies, factors=monte_carlo_factors(u.jobs),
+                              what=" with the Monte Carlo trials")
+        else:
+            nxny = parse_mesh(self.mesh, copies=copies)
         check_sigma_rel(u.sigma_rel)
         if not u.max_rel_interval > 0:
             raise FitInputError(f"--max-rel-interval must be positive (0.3 = 30 %), got "

@@ -157,11 +157,11 @@ def test_mesh_too_big_for_memory_is_refused_with_estimate_and_largest_that_fits(
     from laminid_cli.fe.mesh import check_mesh_memory, model_memory_bytes
     from laminid_cli.errors import ModelError
 
-    # 4 GB: 200x200 needs ~72 GB; the answer names the largest square mesh that fits
+    # 4 GB: 200x200 needs ~124 GB; the answer names the largest square mesh that fits
     with pytest.raises(ModelError) as err:
         check_mesh_memory(200, 200, available=4e9)
     msg = str(err.value)
-    assert "mesh 200x200 needs about 71.8 GB of memory, and 4 GB is available" in msg
+    assert "mesh 200x200 needs about 124 GB of memory, and 4 GB is available" in msg
     fits = int(msg.split("fits is ")[1].split("x")[0])
     assert model_memory_bytes(fits, fits) <= 4e9 < model_memory_bytes(fits + 1, fits + 1)
     check_mesh_memory(12, 12, available=4e9)          # the paper's mesh: no complaint
@@ -173,7 +173,7 @@ def test_mesh_too_big_for_memory_on_the_command_line(monkeypatch):
     monkeypatch.setattr(memory, "available_memory_bytes", lambda: 2e9)
     r = run("modes", S11, "--mesh", "200x200")
     assert r.exit_code == 2
-    assert "laminid: error: mesh 200x200 needs about 71.8 GB of memory, and 2 GB is available: " \
+    assert "laminid: error: mesh 200x200 needs about 124 GB of memory, and 2 GB is available: " \
            "the largest mesh that fits is" in r.output
 
 
@@ -187,6 +187,23 @@ def test_batch_counts_one_model_per_worker_in_the_memory_estimate(tmp_path, monk
     r = run("batch", S11, "--mesh", "40x40", "-j", "2", "--out", tmp_path / "out")
     assert r.exit_code == 2 and "for 2 worker processes" in r.output
     assert not (tmp_path / "out").exists()
+
+
+def test_monte_carlo_counts_its_kept_factorisations_in_the_memory_estimate(monkeypatch):
+    """The Monte Carlo keeps factorisations (its trial model's, its trials', one set per worker):
+    a mesh that fits an identification is refused with --monte-carlo when the trials would
+    not fit, with the words saying why; nothing else has run."""
+    import laminid_cli.fe.mesh as mesh
+    import laminid_cli.memory as memory
+
+    one = mesh.model_memory_bytes(24, 24)
+    mc = mesh.model_memory_bytes(24, 24, mesh.monte_carlo_factors(2))
+    assert mc > 4 * one                                  # 2.67 GB against 0.60 GB
+    monkeypatch.setattr(memory, "available_memory_bytes", lambda: 2 * one)
+    r = run("identify", S11, "--mesh", "24x24", "--monte-carlo", "20", "-j", "2", "--no-output")
+    assert r.exit_code == 2
+    assert ("mesh 24x24 needs about 2.67 GB of memory with the Monte Carlo trials, and "
+            "1.19 GB is available: the largest mesh that fits is") in r.output
 
 
 @pytest.mark.parametrize("mesh, words", [

@@ -60,13 +60,14 @@ MAX_ELEMENTS_PER_SIDE = 200
 MAX_ELEMENT_ASPECT = 20.0
 
 
-def parse_mesh(text: str, copies: int = 1) -> tuple[int, int]:
+def parse_mesh(text: str, copies: int = 1, factors: float | None = None,
+               what: str = "") -> tuple[int, int]:
     """``"12x12"`` -> (12, 12); ``"16"`` -> (16, 16).
 
     Raises ModelError on nonsense, on a degenerate mesh (fewer than
     :data:`MIN_ELEMENTS_PER_SIDE` elements on a side) and on a mesh whose model (``copies`` of
     it, one per worker process) would not fit in the memory of this machine
-    (:func:`check_mesh_memory`).
+    (:func:`check_mesh_memory`, with ``factors`` and ``what``; default: an identification's).
     """
     parts = str(text).lower().replace("*", "x").split("x")
     try:
@@ -84,50 +85,77 @@ def parse_mesh(text: str, copies: int = 1) -> tuple[int, int]:
     if max(nums) > MAX_ELEMENTS_PER_SIDE:
         raise ModelError(f"mesh '{text}' is too fine (at most {MAX_ELEMENTS_PER_SIDE} elements "
                          "per side)")
-    check_mesh_memory(nums[0], nums[1], copies=copies)
+    check_mesh_memory(nums[0], nums[1], copies=copies,
+                      factors=FACTORS_IDENTIFY if factors is None else factors, what=what)
     return nums[0], nums[1]
 
 
-def model_memory_bytes(nx: int, ny: int) -> float:
-    """Estimated peak memory (bytes) of building and solving the plate model on an nx x ny mesh.
+#: factorisations of K - sigma M (banded size) an identification holds at its peak; measured
+#: peak resident memory of ``identify`` on S1.1 with the banded Cholesky (stop 23): 12x12
+#: 187 MB, 16x16 278, 24x24 561, 32x32 1019 (the model part and up to 1.9 factors)
+FACTORS_IDENTIFY = 2.2
+#: the same for a Monte Carlo's calling process (the trial model's kept factorisations, the
+#: trials' own, their bases): 12x12 304 MB, 16x16 738 (200 trials), 24x24 1740 (up to 17.6
+#: factors) ...
+FACTORS_MONTE_CARLO = 18.0
+#: ... and what each further worker process adds (16x16, 200 trials: proportional set size of
+#: the whole process tree 714 MB with -j 1, 914 MB with -j 2: ~7 factors)
+FACTORS_PER_WORKER = 7.0
 
-    9 unknowns per node; the banded Cholesky factor of K - sigma M holds (bandwidth + 1) values
-    per equation, with bandwidth + 1 = 9 (3 min(nx, ny) + 5) after node-wise reverse
-    Cuthill-McKee; the assembled stiffness basis and mass about 18 kB per equation. Fitted to
-    peak resident memory measured for meshes 8x8 to 48x48 and 16x64 (within +20 %, never below).
-    CHOLMOD's factor (modal.SparseCholesky, used when cvxopt is installed) is smaller than the
-    band (24x24: 33 against 91 MB; peak of ``identify --mesh 24x24``: 488 MB with it, 561 MB
-    with the band, against the estimate's 496 MB).
+
+def monte_carlo_factors(jobs: int | None) -> float:
+    """Factorisations held by a Monte Carlo in ``jobs`` processes (None: the cores)."""
+    import os
+
+    jobs = int(jobs or os.cpu_count() or 1)
+    return FACTORS_MONTE_CARLO + FACTORS_PER_WORKER * max(jobs - 1, 0)
+
+
+def model_memory_bytes(nx: int, ny: int, factors: float = FACTORS_IDENTIFY) -> float:
+    """Estimated peak memory (bytes) of an identification on an nx x ny mesh, holding
+    ``factors`` factorisations of K - sigma M at once (FACTORS_IDENTIFY; a Monte Carlo
+    :func:`monte_carlo_factors`).
+
+    9 unknowns per node; the assembled stiffness basis and mass about 18 kB per equation, plus
+    100 MB; a banded Cholesky factor holds (bandwidth + 1) values per equation, with
+    bandwidth + 1 = 9 (3 min(nx, ny) + 5) after node-wise reverse Cuthill-McKee. CHOLMOD's
+    factor (modal.SparseCholesky, used when cvxopt is installed) is smaller (24x24: 33 against
+    91 MB), so the estimate is an upper bound with either: fitted to the peaks measured with
+    the banded one (the constants' comments; with CHOLMOD: identify 24x24 488 MB, 32x32 767 MB;
+    Monte Carlo 16x16 -j 2 613 MB against 914 MB banded). Until stop 23 it counted ~1.1
+    factors, below identify's peaks (670 MB at 24x24 then, against 496 estimated).
     """
     n_eq = 9 * ((2 * nx + 1) * (2 * ny + 1) - nx * ny)
     band = 9 * (3 * min(nx, ny) + 5)
-    return 100e6 + n_eq * (18_000.0 + 8.8 * band)
+    return 100e6 + n_eq * (18_000.0 + 8.0 * band * factors)
 
 
 def check_mesh_memory(nx: int, ny: int, copies: int = 1,
-                      available: float | None = None) -> None:
+                      available: float | None = None,
+                      factors: float = FACTORS_IDENTIFY, what: str = "") -> None:
     """Raise ModelError when ``copies`` models on an nx x ny mesh would not fit in memory.
 
-    The message gives the estimate (:func:`model_memory_bytes`), the memory available and the
-    largest mesh of the same shape that fits.
+    The message gives the estimate (:func:`model_memory_bytes` with ``factors``; ``what``
+    names the work, e.g. " with the Monte Carlo trials"), the memory available and the largest
+    mesh of the same shape that fits.
     """
     available = memory.available_memory_bytes() if available is None else available
-    need = copies * model_memory_bytes(nx, ny)
+    need = copies * model_memory_bytes(nx, ny, factors)
     if available is None or need <= available:
         return
     fits = None
     longest = max(nx, ny)
     for k in range(longest - 1, 0, -1):      # same shape, one element fewer on the long side
         mx, my = max(1, round(nx * k / longest)), max(1, round(ny * k / longest))
-        if copies * model_memory_bytes(mx, my) <= available:
+        if copies * model_memory_bytes(mx, my, factors) <= available:
             fits = (mx, my)
             break
     many = f" for {copies} worker processes" if copies > 1 else ""
     hint = (f"the largest {'mesh' if nx == ny else 'mesh of this shape'} that fits is "
             f"{fits[0]}x{fits[1]}" if fits and min(fits) >= MIN_ELEMENTS_PER_SIDE
             else "no usable mesh fits")
-    raise ModelError(f"mesh {nx}x{ny} needs about {format_bytes(need)} of memory{many}, and "
-                     f"{format_bytes(available)} is available: {hint}")
+    raise ModelError(f"mesh {nx}x{ny} needs about {format_bytes(need)} of memory{what}{many}, "
+                     f"and {format_bytes(available)} is available: {hint}")
 
 
 def check_element_shape(a: float, b: float, nx: int, ny: int) -> None:
