@@ -129,6 +129,20 @@ def residual_bounds(theta: np.ndarray, eta2: np.ndarray, sigma: float) -> np.nda
     return bound
 
 
+def checked_ritz(U: np.ndarray, KU: np.ndarray, MU: np.ndarray, solve, sigma: float,
+                 scale: float = 1.0):
+    """(theta, R, bound) of M-normalised vectors U with ``KU = K U``, ``MU = M U`` (the full
+    matrices): Rayleigh quotients, residuals ``K u - theta M u`` and the absolute error bounds of
+    :func:`residual_bounds` from ``r^T A^-1 r <= scale r^T A_ref^-1 r`` (``solve.energy``: the
+    forward half of the solve with a factor of ``A_ref = K_ref - sigma M``). The check of an
+    identification's answer (:meth:`ReducedBasis.check`) and of a Monte Carlo trial's
+    (``uncertainty.TrialModel.check``) both go through it."""
+    theta = np.einsum("ij,ij->j", U, KU)
+    R = KU - MU * theta
+    eta2 = np.maximum(solve.energy(R), 0.0) * scale
+    return theta, R, residual_bounds(theta, eta2, sigma)
+
+
 class RitzModes(Modes):
     """Ritz modes of a reduced basis: :class:`Modes` whose shapes ``V Y`` are formed when first
     asked for (an optimiser's evaluation needs only the eigenvalues and the reduced vectors)."""
@@ -504,12 +518,9 @@ class ReducedBasis:
                 U, KU, MU = Z @ C, KZ @ C, MZ @ C
                 norm = np.sqrt(np.einsum("ij,ij->j", U, MU))
                 U, KU, MU = U / norm, KU / norm, MU / norm
-            theta = np.einsum("ij,ij->j", U, KU)
-            Rs = KU - MU * theta
             # r^T A^-1 r by the forward half of the solve for every vector; the whole solve
             # only for the residuals a refinement adds (at the end of a fit, a few guard modes)
-            eta2 = np.maximum(solve.energy(Rs), 0.0) * scale
-            bound = residual_bounds(theta, eta2, sigma)
+            theta, Rs, bound = checked_ritz(U, KU, MU, solve, sigma, scale)
             rel = bound / theta
             if target <= 0 or step == rounds - 1 or np.max(rel[:n]) <= target:
                 break

@@ -942,13 +942,11 @@ class TrialModel(VariableSet):
         scale = 1.0 / np.sqrt(np.einsum("ij,ij->j", U, MU))
         U *= scale
         MU *= scale
-        KU = plate.stiffness_products(coef, U)
-        theta = np.einsum("ij,ij->j", U, KU)
-        R = KU - MU * theta
-        eta2 = np.maximum(solve.energy(R), 0.0) / min(mu, 1.0)
-        from laminid_cli.reduced import TARGET_MARGIN, residual_bounds
+        from laminid_cli.reduced import TARGET_MARGIN, checked_ritz
 
-        rel = residual_bounds(theta, eta2, sigma) / theta
+        theta, R, bound = checked_ritz(U, plate.stiffness_products(coef, U), MU, solve, sigma,
+                                       1.0 / min(mu, 1.0))
+        rel = bound / theta
 
         # an enrichment adds the residuals of the modes above TARGET_MARGIN of the accepted
         # bound (the rule of ReducedBasis.enrich with a target: the others' are mostly round-off)
