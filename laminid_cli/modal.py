@@ -32,7 +32,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
-from laminid_cli.errors import SolverError
+from laminid_cli.errors import ModelError, SolverError
 
 #: a mode is rigid when |lambda| < RIGID_TOL * (largest |lambda| found)
 RIGID_TOL = 1e-6
@@ -204,11 +204,11 @@ def default_factorizer() -> str:
     asked = os.environ.get(FACTORIZER_ENV, "").strip().lower()
     if asked:
         if asked not in FACTORIZERS:
-            raise SolverError(f"{FACTORIZER_ENV}={asked!r} is not a factorisation laminid "
-                              f"knows (one of {', '.join(FACTORIZERS)})")
+            raise ModelError(f"{FACTORIZER_ENV}={asked!r} is not a factorisation laminid "
+                             f"knows (one of {', '.join(FACTORIZERS)})")
         if asked == "cholmod" and not cholmod_available():
-            raise SolverError(f"{FACTORIZER_ENV}=cholmod, but cvxopt (CHOLMOD) is not "
-                              "installed: pip install 'laminid[fast]' or cvxopt")
+            raise ModelError(f"{FACTORIZER_ENV}=cholmod, but cvxopt (CHOLMOD) is not "
+                             "installed: pip install 'laminid[fast]' or cvxopt")
         return asked
     return "cholmod" if cholmod_available() else "banded"
 
@@ -224,7 +224,7 @@ def make_factorizer(indptr: np.ndarray, indices: np.ndarray, block: int = 1,
         return SparseCholesky.from_pattern(indptr, indices)
     if kind == "banded":
         return BandedCholesky.from_pattern(indptr, indices, block=block)
-    raise SolverError(f"unknown factorisation {kind!r} (one of {', '.join(FACTORIZERS)})")
+    raise ModelError(f"unknown factorisation {kind!r} (one of {', '.join(FACTORIZERS)})")
 
 
 class SparseCholesky:

@@ -377,8 +377,9 @@ def test_factorisation_of_an_indefinite_matrix_says_what_to_try(kind):
 
 
 def test_factorisation_chosen_by_environment(monkeypatch):
-    """LAMINID_FACTORIZER chooses the factorisation; an unknown value is a clear error;
-    without it, CHOLMOD (cvxopt is installed with the test extra)."""
+    """LAMINID_FACTORIZER chooses the factorisation; an unknown value is a clear error (exit
+    code 2 on the command line); without it, CHOLMOD (cvxopt is installed with the test
+    extra)."""
     from laminid_cli.modal import FACTORIZER_ENV, default_factorizer
 
     monkeypatch.delenv(FACTORIZER_ENV, raising=False)
@@ -386,9 +387,18 @@ def test_factorisation_chosen_by_environment(monkeypatch):
     monkeypatch.setenv(FACTORIZER_ENV, " Banded ")
     assert default_factorizer() == "banded"
     monkeypatch.setenv(FACTORIZER_ENV, "superlu")
-    with pytest.raises(SolverError, match="LAMINID_FACTORIZER='superlu' is not a "
-                                          "factorisation laminid knows .*cholmod, banded"):
+    with pytest.raises(ModelError, match="LAMINID_FACTORIZER='superlu' is not a "
+                                         "factorisation laminid knows .*cholmod, banded"):
         default_factorizer()
+    # on the command line: a setting error, exit code 2, no traceback
+    from click.testing import CliRunner
+
+    from laminid_cli.cli import cli
+
+    r = CliRunner().invoke(cli, ["modes", "specimens/example1/S1.1.yaml", "--mesh", "4x4"])
+    assert r.exit_code == 2
+    assert "LAMINID_FACTORIZER='superlu' is not a factorisation laminid knows" in r.output
+    assert "Traceback" not in r.output
 
 
 @pytest.mark.parametrize("n_rhs", [1, 5, 40])
