@@ -10,6 +10,7 @@ from laminid_cli.fe.mesh import parse_mesh, rectangular_mesh
 from laminid_cli.material import ElasticConstants
 from laminid_cli.modal import solve_modes
 from tests.oracles.navier_tsdt import lowest_frequencies
+from tests.factorizers import HAVE_CHOLMOD, KINDS
 
 # converged thin-plate frequency parameters omega a^2 sqrt(rho h / D) of the completely free
 # square isotropic plate, nu = 0.3, first six elastic modes (DESIGN.md section 5)
@@ -314,7 +315,7 @@ def test_kronecker_mass_products_equal_the_assembled_mass(boundary):
                                rtol=1e-9)
 
 
-@pytest.mark.parametrize("kind", ["cholmod", "banded"])
+@pytest.mark.parametrize("kind", KINDS)
 def test_factorisations_solve_and_give_energies_of_the_matrix_itself(kind):
     """Both factorisations (modal.make_factorizer) on a plate's K + 1e3 M: solves backward
     stable for 1, 5 and 40 right-hand sides; r^T A^-1 r against a dense solve; two factors
@@ -361,7 +362,7 @@ def test_factorisations_solve_and_give_energies_of_the_matrix_itself(kind):
     np.testing.assert_allclose(again.energy(R), ref, rtol=1e-10)
 
 
-@pytest.mark.parametrize("kind", ["cholmod", "banded"])
+@pytest.mark.parametrize("kind", KINDS)
 def test_factorisation_of_an_indefinite_matrix_says_what_to_try(kind):
     """A real indefinite K - sigma M (sigma above the first elastic eigenvalue) is refused by
     either factorisation with the same SolverError."""
@@ -378,12 +379,11 @@ def test_factorisation_of_an_indefinite_matrix_says_what_to_try(kind):
 
 def test_factorisation_chosen_by_environment(monkeypatch):
     """LAMINID_FACTORIZER chooses the factorisation; an unknown value is a clear error (exit
-    code 2 on the command line); without it, CHOLMOD (cvxopt is installed with the test
-    extra)."""
+    code 2 on the command line); without it, CHOLMOD where cvxopt is installed."""
     from laminid_cli.modal import FACTORIZER_ENV, default_factorizer
 
     monkeypatch.delenv(FACTORIZER_ENV, raising=False)
-    assert default_factorizer() == "cholmod"
+    assert default_factorizer() == ("cholmod" if HAVE_CHOLMOD else "banded")
     monkeypatch.setenv(FACTORIZER_ENV, " Banded ")
     assert default_factorizer() == "banded"
     monkeypatch.setenv(FACTORIZER_ENV, "superlu")

@@ -15,6 +15,7 @@ from laminid_cli.modal import WORK, default_factorizer
 from laminid_cli.reduced import ReducedBasis
 from laminid_cli.specimen import read_specimen
 from tests.data.paper import CM, ESL, S11, S12, S13, S14, S21, S22
+from tests.factorizers import NEEDS_CHOLMOD
 from tests.test_identify import (CARBON, CARBON_H, GLASS_H, HYBRID, HYBRID_DENSITY, OFF_HYBRID,
                                  OFF_THICK, OFF_THIN, THICK, THIN, relative_errors, synthetic)
 
@@ -398,7 +399,7 @@ def test_cli_solver_option_and_json_fields():
         assert r.exit_code == 0, r.output
         out[solver] = json.loads(r.output)
         assert out[solver]["solver"] == solver
-        assert out[solver]["factorization"] == default_factorizer()   # cholmod (test extra)
+        assert out[solver]["factorization"] == default_factorizer()
     w_full, w_red = out["full"]["work"], out["reduced"]["work"]
     assert w_full["lanczos_runs"] == w_full["factorizations"] >= 10
     assert w_red["lanczos_runs"] == 1 and w_red["factorizations"] < w_full["factorizations"]
@@ -566,6 +567,7 @@ def test_refined_check_reaches_the_bound_on_a_local_space():
     assert B.size == size and WORK["factorizations"] == n_factor
 
 
+@NEEDS_CHOLMOD
 @pytest.mark.parametrize("spec", [S11, S22], ids=["S1.1", "S2.2"])
 def test_identification_is_the_same_with_either_factorisation(spec):
     """CHOLMOD (the default with cvxopt) and the banded Cholesky (without it) factorise the

@@ -16,6 +16,7 @@ from laminid_cli.uncertainty import (VERDICT_NOT, VERDICT_WEAK, VERDICT_WELL, Ma
                                      linearized_uncertainty, monte_carlo, observations,
                                      uncertainty_of)
 from tests.data.paper import IDENTIFIED, S11, S21
+from tests.factorizers import KINDS
 
 GPa = 1e9
 TRUTH_S11 = ElasticConstants(**IDENTIFIED[S11]["IM7/977-2"])
@@ -441,7 +442,7 @@ def test_constrained_trial_step_is_the_qp_minimum():
     assert constrained > 50                             # the constraints did act
 
 
-@pytest.mark.parametrize("kind", ["cholmod", "banded"])
+@pytest.mark.parametrize("kind", KINDS)
 def test_trial_factor_solves_and_energies_against_a_sparse_direct_solve(kind):
     """The trial checks' factor (fm.factorizer.factor: CHOLMOD, or BandFactor): A^-1 R and
     r^T A^-1 r against SuperLU, with few right-hand sides and many; r^T A^-1 r alone also
