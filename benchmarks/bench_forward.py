@@ -82,16 +82,10 @@ def factor_megabytes(plan, f):
         return f.cb.nbytes / 1e6
     from cvxopt import cholmod
 
-    # entries of L (simplicial copy of the same analysis): 8 bytes each
-    saved = dict(cholmod.options)
-    cholmod.options["supernodal"] = 0
-    try:
-        F = cholmod.symbolic(plan._matrix(), uplo="L")
-        cholmod.numeric(plan._matrix(), F)
-        return len(cholmod.getfactor(F)) * 8 / 1e6
-    finally:
-        cholmod.options.clear()
-        cholmod.options.update(saved)
+    # entries of L (a simplicial factor of the same matrix): 8 bytes each
+    F = plan._analyse(supernodal=0)
+    cholmod.numeric(plan._matrix(), F)
+    return len(cholmod.getfactor(F)) * 8 / 1e6
 
 
 if __name__ == "__main__":

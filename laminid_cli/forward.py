@@ -64,7 +64,7 @@ class ForwardModel:
         lam_est = lambda1 if lambda1 is not None else self.plate.shift_estimate(coef)
         return solve_modes(K, self.plate.M, n_modes, rigid=self.rigid, sigma=-0.5 * lam_est,
                            factorizer=self.factorizer, v0=v0, M_on_pattern=self.plate.M_on_K,
-                           M_products=self.plate.mass_op)
+                           M_products=self.plate.mass)
 
 
 def build_forward_model(specimen: Specimen, mesh: tuple[int, int] = DEFAULT_MESH,

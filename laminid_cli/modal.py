@@ -24,6 +24,7 @@ mass-normalised (phi^T M phi = I).
 from __future__ import annotations
 
 import os
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -278,11 +279,14 @@ class SparseCholesky:
             self._A = spmatrix(np.ones(len(self.slots)), self.rows, self.cols, (self.n, self.n))
         return self._A
 
-    def _analyse(self):
+    def _analyse(self, supernodal: int = 2):
+        """CHOLMOD's ordering and analysis of the pattern: supernodal (2, BLAS-3 blocks) for
+        the factorisations; simplicial (0) gives a factor whose entries can be read
+        (``cholmod.getfactor``, benchmarks/bench_forward.py)."""
         from cvxopt import cholmod
 
         saved = dict(cholmod.options)
-        cholmod.options["supernodal"] = 2            # always supernodal (BLAS-3 blocks)
+        cholmod.options["supernodal"] = supernodal
         try:
             return cholmod.symbolic(self._matrix(), uplo="L")
         finally:
@@ -291,8 +295,6 @@ class SparseCholesky:
 
     def factor(self, data: np.ndarray) -> "CholmodFactor":
         """Factorise the matrix with CSR ``data`` on this pattern."""
-        import weakref
-
         from cvxopt import cholmod, matrix
 
         A = self._matrix()
@@ -471,7 +473,7 @@ def solve_modes(K: sp.spmatrix, M: sp.spmatrix, n_modes: int, *, sigma: float,
         sparser pattern of its own; needed with a factorizer unless K and M share a pattern
     v0 : starting vector for Lanczos (e.g. a combination of the previous step's modes)
     M_products : M in a form faster for products (``M_products @ x`` equal to ``M @ x``, e.g.
-        ``PlateModel.mass_op``); M itself when omitted
+        ``PlateModel.mass``); M itself when omitted
     """
     n = K.shape[0]
     n_rigid = 0 if rigid is None else rigid.shape[1]
@@ -515,10 +517,10 @@ def solve_modes(K: sp.spmatrix, M: sp.spmatrix, n_modes: int, *, sigma: float,
     if n_rigid:
         v0 = v0 - R @ (MR.T @ v0)
     OPinv = spla.LinearOperator(K.shape, matvec=op, dtype=float)
+    M_op = M if M_products is None else spla.LinearOperator(
+        M.shape, matvec=lambda x: Mx @ x, matmat=lambda X: Mx @ X, dtype=float)
     WORK["lanczos_runs"] += 1
     try:
-        M_op = M if M_products is None else spla.LinearOperator(
-            M.shape, matvec=lambda x: Mx @ x, matmat=lambda X: Mx @ X, dtype=float)
         vals, vecs = spla.eigsh(K, k=k, M=M_op, sigma=sigma, which="LM", OPinv=OPinv,
                                 tol=tol, v0=v0)
     except spla.ArpackNoConvergence as exc:

@@ -306,8 +306,8 @@ class ReducedBasis:
         plate = self.fm.plate
         K = plate.stiffness(coef=coef)
         sigma = -0.5 * float(first_eigenvalue(K))
-        # the old factor goes first: where no one else holds it, its memory (and CHOLMOD's
-        # analysis, modal.SparseCholesky) serves the new one
+        # the old factor goes first (this attribute and the local ``last``): where no one else
+        # holds it, its memory (and CHOLMOD's analysis, modal.SparseCholesky) serves the new one
         self._factor = last = None
         solve = self.fm.factorizer.factor(K.data - sigma * plate.M_on_K)
         self._factor = (coef.tobytes(), sigma, solve)

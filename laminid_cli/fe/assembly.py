@@ -104,7 +104,6 @@ class KroneckerMass:
         n_glob = 9 * self.n_nodes
         self.dofs = None if len(dofs) == n_glob else np.asarray(dofs)
         self.shape = (len(dofs), len(dofs))
-        self.dtype = np.dtype(float)
 
     def __matmul__(self, W):
         W = np.asarray(W, dtype=float)
@@ -118,9 +117,6 @@ class KroneckerMass:
         Z = np.matmul(self.J, X.reshape(nn, 9, k))          # (n_nodes, 9, k)
         Y = (self.S @ Z.reshape(nn, 9 * k)).reshape(9 * nn, k)
         return Y if self.dofs is None else Y[self.dofs]
-
-    def dot(self, W):
-        return self @ W
 
 
 def _scatter_rows(W: np.ndarray, rows: np.ndarray, n: int) -> np.ndarray:
@@ -143,7 +139,7 @@ class PlateModel:
     indptr, indices : CSR pattern shared by every basis matrix and by K and M, (n_dofs x n_dofs)
     K_data : (n_materials, 6, nnz) basis stiffness data, N/m per unit coefficient (Pa)
     M : (n_dofs, n_dofs) CSR mass matrix with its own (sparser) pattern, kg; products with it
-        go faster through ``mass`` (:class:`KroneckerMass`)
+        go faster through ``mass``
     M_on_K : (nnz,) the mass matrix on the stiffness pattern (for ``K - sigma M``)
     Ke : (n_materials, 6, n_shapes, 72, 72) element basis matrices of each distinct element
         shape; ``element_shape`` (n_el,) maps elements to them and ``element_dofs`` (n_el, 72)
@@ -151,6 +147,7 @@ class PlateModel:
     D_bending : (n_materials, 6, 3, 3) bending stiffness basis ``int z^2 C_j dz`` (m^3), for
         the shift estimate
     mass_per_area : kg/m^2
+    mass : M for products, ``mass @ W`` (:class:`KroneckerMass`)
     """
 
     mesh: Mesh
@@ -168,13 +165,7 @@ class PlateModel:
     element_dofs: np.ndarray
     D_bending: np.ndarray
     mass_per_area: float
-    #: M for products (:class:`KroneckerMass`; None: use M itself)
-    mass_op: object = None
-
-    @property
-    def mass(self):
-        """What products with M go through: :attr:`mass_op`, else M (``mass @ W``)."""
-        return self.M if self.mass_op is None else self.mass_op
+    mass: KroneckerMass
 
     @property
     def n_dofs(self) -> int:
@@ -467,10 +458,10 @@ def build_plate_model(mesh: Mesh, h: float, z: np.ndarray, angle: np.ndarray,
                         np.broadcast_to(nodes[:, None, :], (len(nodes), 8, 8)).ravel())),
                       shape=(mesh.n_nodes,) * 2)
     S.sum_duplicates()
-    mass_op = KroneckerMass(S, J, np.flatnonzero(keep), mesh.n_nodes)
     return PlateModel(mesh=mesh, h=float(h), boundary=code, material_names=tuple(material_names),
                       dofs=np.flatnonzero(keep), indptr=pattern.indptr, indices=pattern.indices,
                       K_data=K_data.reshape(n_mat, 6, -1), M=M, M_on_K=M_data,
                       Ke=Ke_u.reshape(n_mat, 6, len(first), 72, 72), element_shape=group,
                       element_dofs=red, D_bending=D_bending,
-                      mass_per_area=float(J[2, 2]), mass_op=mass_op)
+                      mass_per_area=float(J[2, 2]),
+                      mass=KroneckerMass(S, J, np.flatnonzero(keep), mesh.n_nodes))

@@ -60,7 +60,28 @@ MAX_ELEMENTS_PER_SIDE = 200
 MAX_ELEMENT_ASPECT = 20.0
 
 
-def parse_mesh(text: str, copies: int = 1, factors: float | None = None,
+#: factorisations of K - sigma M (banded size) an identification holds at its peak; measured
+#: peak resident memory of ``identify`` on S1.1 with the banded Cholesky (stop 23): 12x12
+#: 187 MB, 16x16 278, 24x24 561, 32x32 1019 (the model part and up to 1.9 factors)
+FACTORS_IDENTIFY = 2.2
+#: the same for a Monte Carlo's calling process (the trial model's kept factorisations, the
+#: trials' own, their bases): 12x12 304 MB, 16x16 738 (200 trials), 24x24 1740 (up to 17.6
+#: factors) ...
+FACTORS_MONTE_CARLO = 18.0
+#: ... and what each further worker process adds (16x16, 200 trials: proportional set size of
+#: the whole process tree 714 MB with -j 1, 914 MB with -j 2: ~7 factors)
+FACTORS_PER_WORKER = 7.0
+
+
+def monte_carlo_factors(jobs: int | None) -> float:
+    """Factorisations held by a Monte Carlo in ``jobs`` processes (None: the cores)."""
+    import os
+
+    jobs = int(jobs or os.cpu_count() or 1)
+    return FACTORS_MONTE_CARLO + FACTORS_PER_WORKER * max(jobs - 1, 0)
+
+
+def parse_mesh(text: str, copies: int = 1, factors: float = FACTORS_IDENTIFY,
                what: str = "") -> tuple[int, int]:
     """``"12x12"`` -> (12, 12); ``"16"`` -> (16, 16).
 
@@ -85,30 +106,8 @@ def parse_mesh(text: str, copies: int = 1, factors: float | None = None,
     if max(nums) > MAX_ELEMENTS_PER_SIDE:
         raise ModelError(f"mesh '{text}' is too fine (at most {MAX_ELEMENTS_PER_SIDE} elements "
                          "per side)")
-    check_mesh_memory(nums[0], nums[1], copies=copies,
-                      factors=FACTORS_IDENTIFY if factors is None else factors, what=what)
+    check_mesh_memory(nums[0], nums[1], copies=copies, factors=factors, what=what)
     return nums[0], nums[1]
-
-
-#: factorisations of K - sigma M (banded size) an identification holds at its peak; measured
-#: peak resident memory of ``identify`` on S1.1 with the banded Cholesky (stop 23): 12x12
-#: 187 MB, 16x16 278, 24x24 561, 32x32 1019 (the model part and up to 1.9 factors)
-FACTORS_IDENTIFY = 2.2
-#: the same for a Monte Carlo's calling process (the trial model's kept factorisations, the
-#: trials' own, their bases): 12x12 304 MB, 16x16 738 (200 trials), 24x24 1740 (up to 17.6
-#: factors) ...
-FACTORS_MONTE_CARLO = 18.0
-#: ... and what each further worker process adds (16x16, 200 trials: proportional set size of
-#: the whole process tree 714 MB with -j 1, 914 MB with -j 2: ~7 factors)
-FACTORS_PER_WORKER = 7.0
-
-
-def monte_carlo_factors(jobs: int | None) -> float:
-    """Factorisations held by a Monte Carlo in ``jobs`` processes (None: the cores)."""
-    import os
-
-    jobs = int(jobs or os.cpu_count() or 1)
-    return FACTORS_MONTE_CARLO + FACTORS_PER_WORKER * max(jobs - 1, 0)
 
 
 def model_memory_bytes(nx: int, ny: int, factors: float = FACTORS_IDENTIFY) -> float:
