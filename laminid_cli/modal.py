@@ -117,19 +117,30 @@ class BandedCholesky:
 
         ``block`` > 1 orders whole nodes (``block`` consecutive equations each) with reverse
         Cuthill-McKee on the node graph, which gives a narrower band for FE matrices than
-        ordering single equations; the natural order is kept when it is narrower still.
+        ordering single equations; the natural order is kept when it is narrower still. A
+        pattern of independent blocks (a symmetric laminate's membrane and bending equations,
+        ``fe.assembly.build_plate_model``) is ordered block after block, each in the order of
+        a candidate above: the band is the widest block's (S1.1 12x12: 204 equations instead
+        of 368, a factorisation 25 -> 11 ms).
         """
+        from scipy.sparse.csgraph import connected_components
+
         n = len(indptr) - 1
         rows_nat = np.repeat(np.arange(n), np.diff(indptr))
         candidates = [np.arange(n)]
+        pattern = sp.csr_matrix((np.ones(len(indices)), indices, indptr), shape=(n, n))
         if block > 1 and n % block == 0:
             nodes = sp.csr_matrix((np.ones(len(indices)), (rows_nat // block, indices // block)),
                                   shape=(n // block,) * 2)
             node_perm = reverse_cuthill_mckee(nodes.tocsr(), symmetric_mode=True)
             candidates.append((node_perm[:, None] * block + np.arange(block)).ravel())
         else:
-            pattern = sp.csr_matrix((np.ones(len(indices)), indices, indptr), shape=(n, n))
             candidates.append(reverse_cuthill_mckee(pattern, symmetric_mode=True))
+        n_blocks, label = connected_components(pattern, directed=False)
+        for perm in list(candidates) if n_blocks > 1 else ():
+            position = np.empty(n, dtype=np.int64)
+            position[perm] = np.arange(n)
+            candidates.append(np.lexsort((position, label)))
         best = None
         for perm in candidates:
             perm = np.asarray(perm, dtype=np.int64)

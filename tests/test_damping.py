@@ -143,7 +143,10 @@ def test_dense_and_shift_invert_complex_solutions_agree():
     a = D.complex_modal_loss_factors(fm, c, [ETA], 6, method="dense")
     b = D.complex_modal_loss_factors(fm, c, [ETA], 6, method="shift-invert")
     assert np.allclose(a.loss_factor, b.loss_factor, rtol=1e-8)
-    assert np.allclose(a.freq_hz, b.freq_hz, rtol=1e-10)
+    # the dense QZ's eigenvalues carry ~eps times the stiffness' range: measured 1.8e-10
+    # relative against the shift-invert ones, which agree to 3e-12 with the unconjugated
+    # Rayleigh quotient after inverse iteration (the complex symmetric pencil's own accuracy)
+    assert np.abs(a.freq_hz / b.freq_hz - 1).max() < 1e-9
 
 
 def test_fix_items_are_split_and_parsed():
