@@ -14,6 +14,9 @@ Then the whole CLI process ``laminid identify S1.1.yaml --json --no-output`` aga
 All ratios come from one run (the machine may be loaded; ratios are what to compare). The CPU
 time of the process is printed beside the wall time: on a loaded machine it is the steadier.
 
+The model is the one the identify command uses: a symmetric laminate's bending equations
+alone where its membrane modes lie well above the measured ones (forward.bending_model).
+
 Run: .venv/bin/python benchmarks/bench_identify.py [--meshes 8,12,16,24] [--no-cli] [SPEC]
 """
 
@@ -30,7 +33,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from laminid_cli.forward import build_forward_model  # noqa: E402
+from laminid_cli.forward import bending_model, build_forward_model  # noqa: E402
 from laminid_cli.identify import IdentifyOptions, identify  # noqa: E402
 from laminid_cli.modal import WORK, reset_work  # noqa: E402
 from laminid_cli.specimen import read_specimen  # noqa: E402
@@ -57,18 +60,21 @@ def unit_costs(fm, n_modes):
 
 def bench(path, mesh, repeat=REPEAT):
     spec = read_specimen(path)
-    fm = build_forward_model(spec, mesh)
+    fm = bending_model(build_forward_model(spec, mesh))
     n = spec.measured.freq.size + IdentifyOptions().extra_modes
     t_f, t_s, t_full, s_full = unit_costs(fm, n)
     unit = t_f + s_full * t_s
-    print(f"{spec.name} {mesh[0]}x{mesh[1]}: {fm.plate.n_dofs} equations, factorisation "
+    which = ("its bending equations, of " + str(fm.whole.plate.n_dofs) if fm.whole is not None
+             else "the whole plate")
+    print(f"{spec.name} {mesh[0]}x{mesh[1]}: {fm.plate.n_dofs} equations ({which}; as the "
+          f"pipeline, forward.bending_model), factorisation "
           f"{fm.factorizer.name} (LAMINID_FACTORIZER=banded|cholmod chooses)", flush=True)
     rows = {}
     for solver in ("reduced", "full"):
         runs = []
         cpu = []
         for _ in range(repeat):
-            fm = build_forward_model(spec, mesh)
+            fm = bending_model(build_forward_model(spec, mesh))
             reset_work()
             t, c = time.perf_counter(), time.process_time()
             r = identify(fm, IdentifyOptions(solver=solver))

@@ -16,7 +16,7 @@ import statistics  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-from laminid_cli.forward import build_forward_model  # noqa: E402
+from laminid_cli.forward import bending_model, build_forward_model  # noqa: E402
 from laminid_cli.identify import IdentifyOptions, identify  # noqa: E402
 from laminid_cli.joint import identify_joint  # noqa: E402
 from laminid_cli.modal import WORK, reset_work  # noqa: E402
@@ -45,7 +45,7 @@ def timed(fn, repeat):
 
 def bench(mesh, repeat):
     specs = [read_specimen(p) for p in PLATES]
-    fms = [build_forward_model(s, mesh) for s in specs]
+    fms = [bending_model(build_forward_model(s, mesh)) for s in specs]
     opts = IdentifyOptions()
     identify(fms[0], opts)                                   # warm-up (imports, caches)
     single, single_cpu = [], []

@@ -21,7 +21,7 @@ import argparse  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-from laminid_cli.forward import build_forward_model  # noqa: E402
+from laminid_cli.forward import bending_model, build_forward_model  # noqa: E402
 from laminid_cli.identify import identify  # noqa: E402
 from laminid_cli.modal import WORK, reset_work  # noqa: E402
 from laminid_cli.specimen import read_specimen  # noqa: E402
@@ -43,7 +43,7 @@ def main():
     a = ap.parse_args()
     mesh = tuple(int(v) for v in a.mesh.split("x"))
     spec = read_specimen(a.spec)
-    fm = build_forward_model(spec, mesh)
+    fm = bending_model(build_forward_model(spec, mesh))
     t_id, r = median_time(lambda: identify(fm), REPEAT)
     reset_work()
     c = time.process_time()

@@ -25,6 +25,8 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from laminid_cli.errors import FitInputError
 from laminid_cli.identify import IdentifyOptions
 from laminid_cli.uncertainty import UncertaintyOptions
@@ -151,7 +153,7 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
         Bad specimen, options or start (before the fit), solver failure. A run that does not
         converge is not an error: ``converged`` is False and the status says so.
     """
-    from laminid_cli.forward import build_forward_model
+    from laminid_cli.forward import bending_model, build_forward_model
     from laminid_cli.results import (identification_summary, joint_identification_summary,
                                      status_of, uncertainty_summary)
     from laminid_cli.specimen import read_specimen
@@ -163,7 +165,9 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
     joint = len(specimens) > 1
     nxny = options.check()
     specimens = [read_specimen(s) if isinstance(s, (str, Path)) else s for s in specimens]
-    fms = tuple(build_forward_model(sp, nxny) for sp in specimens)
+    # a symmetric laminate is identified on its bending equations alone when its membrane
+    # modes lie well above the measured ones (forward.bending_model; checked at the answer)
+    fms = tuple(bending_model(build_forward_model(sp, nxny)) for sp in specimens)
     if options.fix_loss:
         from laminid_cli.damping import check_loss_fix, parse_loss_fix
 
@@ -173,11 +177,19 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
             parse_loss_fix(options.fix_loss, fms[0].material_names)
     a = assess(list(fms) if joint else fms[0], options.identify, options.uncertainty,
                joint=joint, progress=progress, mc_progress=mc_progress)
+    notes = []
+    low = _membrane_in_band(fms, a.result)
+    if low:
+        # a membrane mode came below the model's highest mode at the answer: the bending
+        # equations alone are not the plate any more; identified again on the whole plate
+        fms = tuple(fm.whole if fm.whole is not None else fm for fm in fms)
+        notes.append("; ".join(low) + ": identified on the whole plate's equations")
+        a = assess(list(fms) if joint else fms[0], options.identify, options.uncertainty,
+                   joint=joint, progress=progress, mc_progress=mc_progress)
     result = a.result
     summary = joint_identification_summary(result) if joint else identification_summary(result)
     summary["mesh"] = {"nx": fms[0].mesh_size[0], "ny": fms[0].mesh_size[1]}
     summary["uncertainty"] = uncertainty_summary(a)
-    notes = []
     damping = None
     if not joint and _has_damping(specimens[0]):
         from laminid_cli.damping import damping_of
@@ -192,6 +204,25 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
     summary.update(status.as_dict())
     return IdentificationRun(options=options, forward_models=fms, assessment=a, status=status,
                              damping=damping, summary=summary, notes=tuple(notes))
+
+
+def _membrane_in_band(fms, result) -> list[str]:
+    """The plates identified on their bending equations alone (forward.bending_model) whose
+    lowest membrane mode, at the identified constants, is not above the model's highest mode
+    (one line each; empty when none)."""
+    from laminid_cli.forward import membrane_floor_hz
+
+    plates = result.specimens if hasattr(result, "specimens") else [result]
+    out = []
+    for fm, plate in zip(fms, plates):
+        if fm.whole is None:
+            continue
+        top = float(np.max(plate.modes.freq))
+        floor = membrane_floor_hz(fm, plate.constants)
+        if not floor > top:
+            out.append(f"{fm.specimen.name}: a membrane mode at {floor:.1f} Hz, below the "
+                       f"model's mode at {top:.1f} Hz")
+    return out
 
 
 def _has_damping(specimen) -> bool:

@@ -513,3 +513,39 @@ def test_banded_plan_orders_independent_blocks_apart():
     x = np.random.default_rng(3).standard_normal((pm.n_dofs, 3))
     ya, yb = a.factor(A)(x), b.factor(B)(x)
     assert np.abs(ya - yb).max() <= 1e-8 * np.abs(yb).max()
+
+
+@pytest.mark.parametrize("boundary", ["free", "SFCF"])
+def test_bending_and_membrane_models_of_a_symmetric_laminate(boundary):
+    """PlateModel.restrict: the bending and the membrane equations of [30/-60/30] as models of
+    their own. Their modes are the whole plate's modes of each family (eigenvalues to 1e-10,
+    from a dense solve of the whole plate classified by the membrane share of each mode);
+    their mass products are their CSR mass matrices' (1e-14); a free plate keeps three rigid
+    motions in each. An unsymmetric layup does not split."""
+    import scipy.linalg as sla
+
+    from laminid_cli.fe.assembly import BENDING_VARIABLES
+
+    pm, coef = _thick_hybrid([30, -60, 30], boundary)
+    K, M = pm.stiffness(coef=coef).toarray(), pm.M.toarray()
+    lam, phi = sla.eigh(K, M)
+    n_rigid = 3 if boundary == "free" else 0
+    lam, phi = lam[2 * n_rigid:], phi[:, 2 * n_rigid:]       # the six rigid modes mix
+    bend = np.isin(pm.dofs % 9, BENDING_VARIABLES)
+    share = np.linalg.norm(phi[~bend], axis=0) / np.linalg.norm(phi, axis=0)
+    assert np.all((share < 1e-6) | (share > 1 - 1e-6))      # each mode in one family
+    for family, members, eqs in (("bending", share < 0.5, bend), ("membrane", share > 0.5, ~bend)):
+        part = pm.restrict(family)
+        assert part.family == family and part.n_dofs == int(eqs.sum())
+        R = part.rigid_modes()
+        assert (0 if R is None else R.shape[1]) == n_rigid
+        W = np.random.default_rng(4).standard_normal((part.n_dofs, 5))
+        assert np.abs(part.mass @ W - part.M @ W).max() <= 1e-14 * np.abs(part.M @ W).max()
+        modes = solve_modes(part.stiffness(coef=coef), part.M, 8, rigid=R,
+                            sigma=-0.5 * pm.shift_estimate(coef), M_on_pattern=part.M_on_K,
+                            M_products=part.mass)
+        ref = lam[members][:8]
+        assert np.abs(modes.eigenvalues / ref - 1).max() < 1e-10, family
+    unsym, _ = _thick_hybrid([30, -60])
+    with pytest.raises(ModelError, match="decoupled"):
+        unsym.restrict("bending")

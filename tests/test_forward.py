@@ -61,3 +61,49 @@ def test_mode_shapes_are_mass_normalised():
     assert np.abs(G - np.eye(5)).max() < 1e-9
     K = fm.plate.stiffness(fm.initial_constants)
     assert np.allclose(np.diag(modes.phi.T @ (K @ modes.phi)), modes.eigenvalues, rtol=1e-9)
+
+
+@pytest.mark.parametrize("path", SPECIMENS)
+def test_paper_plates_identify_on_their_bending_equations(path):
+    """Every paper plate is a symmetric laminate: decoupled, and its lowest membrane mode lies
+    1.7 - 5.3 times above its highest measured frequency (MEMBRANE_MARGIN 1.5), so
+    bending_model gives the model of its bending equations (5 of the 9 variables per node);
+    its 12 lowest modes equal the whole plate's to 1e-10. A frequency band reaching the
+    membrane modes keeps the whole plate."""
+    from laminid_cli.forward import MEMBRANE_MARGIN, bending_model, membrane_floor_hz
+
+    fm = build_forward_model(read_specimen(path), (8, 8))
+    assert fm.plate.decoupled
+    f_max = float(np.nanmax(fm.specimen.measured.freq))
+    floor = membrane_floor_hz(fm)
+    assert 1.6 * f_max < floor < 5.5 * f_max
+    fb = bending_model(fm)
+    assert fb.whole is fm and fb.plate.family == "bending"
+    assert fb.plate.n_dofs * 9 == fm.plate.n_dofs * 5 and fb.rigid.shape[1] == 3
+    a, b = fm.solve(n_modes=12), fb.solve(n_modes=12)
+    assert b.n_rigid == 3 and np.abs(b.eigenvalues / a.eigenvalues - 1).max() < 1e-10
+    assert bending_model(fm, floor / MEMBRANE_MARGIN * 1.01) is fm
+    assert bending_model(fb) is fb
+
+
+def test_membrane_floor_is_the_lowest_membrane_mode_of_the_whole_plate():
+    """membrane_floor_hz against a dense solve of the whole S1.1 plate (4x4 mesh, 585
+    equations), its modes classified by their membrane share: 1e-9 relative, at the file's
+    constants and at others (E1 and G12 halved)."""
+    import dataclasses
+
+    import scipy.linalg as sla
+
+    from laminid_cli.fe.assembly import BENDING_VARIABLES
+    from laminid_cli.forward import membrane_floor_hz
+
+    fm = build_forward_model(read_specimen("specimens/example1/S1.1.yaml"), (4, 4))
+    c0 = fm.initial_constants[0]
+    for c in (c0, dataclasses.replace(c0, E1=0.5 * c0.E1, G12=0.5 * c0.G12)):
+        K = fm.plate.stiffness([c]).toarray()
+        lam, phi = sla.eigh(K, fm.plate.M.toarray())
+        lam, phi = lam[6:], phi[:, 6:]                         # the rigid modes mix
+        membrane = np.linalg.norm(phi[~np.isin(fm.plate.dofs % 9, BENDING_VARIABLES)],
+                                  axis=0) > 0.5
+        ref = np.sqrt(lam[membrane].min()) / (2 * np.pi)
+        assert membrane_floor_hz(fm, [c]) == pytest.approx(ref, rel=1e-9)

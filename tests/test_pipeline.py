@@ -105,13 +105,14 @@ def s14_run():
 def test_the_pipeline_is_assess_then_status_bit_for_bit(s14_run):
     """The reference: the stages called one by one, as the identify command did before."""
     from laminid_cli.fe.mesh import parse_mesh
-    from laminid_cli.forward import build_forward_model
+    from laminid_cli.forward import bending_model, build_forward_model
     from laminid_cli.specimen import read_specimen
     from laminid_cli.status import result_status
     from laminid_cli.uncertainty import assess
 
     run = s14_run
-    fm = build_forward_model(read_specimen(S14), parse_mesh(MESH))
+    fm = bending_model(build_forward_model(read_specimen(S14), parse_mesh(MESH)))
+    assert fm.whole is not None and run.forward_models[0].plate.family == "bending"
     a = assess(fm, IdentifyOptions(), UncertaintyOptions())
     assert not run.joint and run.converged and run.damping is None and run.notes == ()
     for c_run, c_ref in zip(run.result.constants, a.result.constants):
@@ -144,3 +145,25 @@ def test_identify_prints_and_writes_what_the_pipeline_gives(s14_run, tmp_path):
             assert f["materials/IM7_977-2"][key][()] == g["materials/IM7_977-2"][key][()]
         assert list(f["status/codes"][()]) == list(g["status/codes"][()])
         assert np.array_equal(f["uncertainty/lower"][()], g["uncertainty/lower"][()])
+
+
+def test_a_membrane_mode_in_band_at_the_answer_reidentifies_on_the_whole_plate(monkeypatch,
+                                                                              s14_run):
+    """The pipeline identifies a symmetric plate on its bending equations; where the membrane
+    floor at the answer is not above the model's highest mode (forced here: 1 Hz at every
+    constants but the file's), it says so and identifies again on the whole plate, whose
+    answer equals the bending model's (E1 to 1e-8, the objective to 1e-7)."""
+    import laminid_cli.forward as F
+
+    real = F.membrane_floor_hz
+    monkeypatch.setattr(F, "membrane_floor_hz",
+                        lambda fm, constants=None: real(fm) if constants is None else 1.0)
+    run = run_identification([S14], RunOptions(mesh=MESH))
+    assert run.forward_models[0].whole is None
+    assert run.forward_models[0].plate.family == "all"
+    assert len(run.notes) == 1 and "membrane mode at 1.0 Hz" in run.notes[0]
+    assert "identified on the whole plate" in run.notes[0]
+    assert s14_run.forward_models[0].plate.family == "bending" and s14_run.notes == ()
+    a, b = run.result, s14_run.result
+    assert a.constants[0].E1 == pytest.approx(b.constants[0].E1, rel=1e-8)
+    assert a.objective == pytest.approx(b.objective, rel=1e-7)

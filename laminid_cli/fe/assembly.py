@@ -95,27 +95,43 @@ class KroneckerMass:
     ~1/33 of M's entries: at 12x12 a vector 31 against 127 us, 16 columns 0.23 against 0.87 ms
     (the same values to round-off; tests/test_fe.py holds them to the assembled M).
     Supports ``@`` with (n,) and (n, k) arrays, as the CSR matrix does.
+
+    ``variables``: the node variables kept (default all nine; a plate model of one family of a
+    symmetric laminate keeps five or four, :meth:`PlateModel.restrict`): J is then their block
+    of the inertia, which is exact when the other variables do not couple to them.
     """
 
-    def __init__(self, S: sp.csr_matrix, J: np.ndarray, dofs: np.ndarray, n_nodes: int):
+    def __init__(self, S: sp.csr_matrix, J: np.ndarray, dofs: np.ndarray, n_nodes: int,
+                 variables=None):
         self.S = S.tocsr()
-        self.J = np.ascontiguousarray(J, dtype=float)
+        self.variables = tuple(range(9)) if variables is None else tuple(int(v) for v in variables)
+        nv = len(self.variables)
+        J = np.asarray(J, dtype=float)
+        self.J_all = J
+        self.J = np.ascontiguousarray(J[np.ix_(self.variables, self.variables)])
         self.n_nodes = int(n_nodes)
-        n_glob = 9 * self.n_nodes
-        self.dofs = None if len(dofs) == n_glob else np.asarray(dofs)
+        self.nv = nv
+        # the kept equations in the numbering node * nv + (position of the variable)
+        position = -np.ones(9, dtype=np.int64)
+        position[list(self.variables)] = np.arange(nv)
+        dofs = np.asarray(dofs, dtype=np.int64)
+        local = (dofs // 9) * nv + position[dofs % 9]
+        if np.any(position[dofs % 9] < 0):
+            raise ModelError("mass matrix: an equation outside the kept variables")
+        self.dofs = None if len(dofs) == nv * self.n_nodes else local
         self.shape = (len(dofs), len(dofs))
 
     def __matmul__(self, W):
         W = np.asarray(W, dtype=float)
-        nn = self.n_nodes
+        nn, nv = self.n_nodes, self.nv
         if W.ndim == 1:
-            X = W if self.dofs is None else _scatter_rows(W, self.dofs, 9 * nn)
-            Y = (self.S @ (X.reshape(nn, 9) @ self.J.T)).reshape(-1)
+            X = W if self.dofs is None else _scatter_rows(W, self.dofs, nv * nn)
+            Y = (self.S @ (X.reshape(nn, nv) @ self.J.T)).reshape(-1)
             return Y if self.dofs is None else Y[self.dofs]
         k = W.shape[1]
-        X = W if self.dofs is None else _scatter_rows(W, self.dofs, 9 * nn)
-        Z = np.matmul(self.J, X.reshape(nn, 9, k))          # (n_nodes, 9, k)
-        Y = (self.S @ Z.reshape(nn, 9 * k)).reshape(9 * nn, k)
+        X = W if self.dofs is None else _scatter_rows(W, self.dofs, nv * nn)
+        Z = np.matmul(self.J, X.reshape(nn, nv, k))         # (n_nodes, nv, k)
+        Y = (self.S @ Z.reshape(nn, nv * k)).reshape(nv * nn, k)
         return Y if self.dofs is None else Y[self.dofs]
 
 
@@ -174,6 +190,49 @@ class PlateModel:
     def n_dofs(self) -> int:
         return int(self.dofs.size)
 
+    @property
+    def family(self) -> str:
+        """'all' (every node variable), 'bending' or 'membrane' (:meth:`restrict`)."""
+        return self.__dict__.get("_family", "all")
+
+    def restrict(self, family: str) -> "PlateModel":
+        """The plate model of one family of equations of a decoupled plate (a symmetric
+        laminate, :func:`build_plate_model`): 'bending' (w0, psi, Psi) or 'membrane' (u0, v0,
+        U, V). The matrices are the blocks of this model's, which holds no entry between the
+        families; the modes of the block are modes of the whole plate (the other family's
+        components zero), with the eigenvalues of this model to round-off."""
+        if family not in ("bending", "membrane"):
+            raise ModelError(f"unknown family of equations '{family}' (bending or membrane)")
+        if not self.decoupled or self.family != "all":
+            raise ModelError("only a decoupled plate model (a symmetric laminate) splits into "
+                             "bending and membrane equations")
+        variables = (BENDING_VARIABLES if family == "bending" else
+                     tuple(v for v in range(9) if v not in BENDING_VARIABLES))
+        keep = np.isin(self.dofs % 9, variables)
+        n, k = self.n_dofs, int(keep.sum())
+        new_index = -np.ones(n, dtype=np.int64)
+        new_index[keep] = np.arange(k)
+        rows = np.repeat(np.arange(n), np.diff(self.indptr))
+        entry = keep[rows]
+        if np.any(keep[self.indices[entry]] != True):           # noqa: E712
+            raise ModelError("the plate model couples bending and membrane equations")
+        indptr = np.concatenate([[0], np.cumsum(np.bincount(new_index[rows[entry]],
+                                                            minlength=k))])
+        element_dofs = np.where(self.element_dofs >= 0,
+                                new_index[np.maximum(self.element_dofs, 0)], -1)
+        out = PlateModel(
+            mesh=self.mesh, h=self.h, boundary=self.boundary,
+            material_names=self.material_names, dofs=self.dofs[keep], indptr=indptr,
+            indices=new_index[self.indices[entry]], K_data=self.K_data[:, :, entry],
+            M=self.M[keep][:, keep].tocsr(), M_on_K=self.M_on_K[entry], Ke=self.Ke,
+            element_shape=self.element_shape, element_dofs=element_dofs,
+            D_bending=self.D_bending, mass_per_area=self.mass_per_area,
+            mass=KroneckerMass(self.mass.S, self.mass.J_all, self.dofs[keep],
+                               self.mesh.n_nodes, variables),
+            decoupled=True)
+        object.__setattr__(out, "_family", family)
+        return out
+
     def coefficients(self, constants) -> np.ndarray:
         """(n_materials, 6) stiffness coefficients for a sequence of ElasticConstants."""
         constants = list(constants)
@@ -204,7 +263,8 @@ class PlateModel:
         return (1.4 * np.pi**2 / (a * b)) ** 2 * D_ref / self.mass_per_area
 
     def rigid_modes(self) -> np.ndarray | None:
-        """The six rigid-body motions of a free plate in the nodal variables, (n_dofs, 6).
+        """The rigid-body motions of a free plate in the nodal variables, (n_dofs, 6): six, or
+        the three of each family of equations of a :meth:`restrict` ed model.
 
         Translations u, v, w; rotation about z (u = -y, v = x); rotations w = y and w = x, with
         the normal staying normal (theta_y = -1 resp. theta_x = -1, i.e. psi = -h/2 in the
@@ -218,7 +278,9 @@ class PlateModel:
         R[:, 0, 3], R[:, 1, 3] = -y, x
         R[:, 2, 4], R[:, 4, 4] = y, -self.h / 2
         R[:, 2, 5], R[:, 3, 5] = x, -self.h / 2
-        return R.reshape(-1, 6)[self.dofs]
+        R = R.reshape(-1, 6)[self.dofs]
+        # one family of a decoupled plate (restrict) keeps the motions in its variables
+        return R[:, np.abs(R).max(axis=0) > 0]
 
     def basis_matrix(self, m: int, j: int) -> sp.csr_matrix:
         """Basis stiffness matrix K_basis[m, j] (Pa coefficient units)."""
@@ -292,8 +354,14 @@ class PlateModel:
         if not self.decoupled:
             return np.arange(72), (72,)
         bending = np.isin(np.arange(72) % 9, BENDING_VARIABLES)
-        return (np.concatenate([np.flatnonzero(bending), np.flatnonzero(~bending)]),
-                (int(bending.sum()), int((~bending).sum())))
+        live = np.any(self.element_dofs >= 0, axis=0)               # (72,) used at all
+        order, sizes = [], []
+        for part in (bending, ~bending):              # a restricted model: its family only
+            idx = np.flatnonzero(part & live)
+            if idx.size:
+                order.append(idx)
+                sizes.append(int(idx.size))
+        return np.concatenate(order), tuple(sizes)
 
     @property
     def _element_blocks(self) -> list:
