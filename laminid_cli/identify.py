@@ -147,6 +147,9 @@ class Identification:
     basis: object = field(default=None, repr=False, compare=False)
     #: the factorisation of K - sigma M used: 'cholmod' or 'banded' (modal.make_factorizer)
     factorization: str = ""
+    #: the plate's equations the model had: 'all', or 'bending' for a symmetric laminate's
+    #: bending equations alone (forward.bending_model)
+    equations: str = "all"
 
 
 
@@ -975,7 +978,7 @@ def _result(prob: Problem, k: int, ev: Evaluation, converged, status, warnings, 
         global_properties=lam.global_properties().as_dict(), options=prob.options,
         error_bound=_error_bound(prob, k, ev), work=dict(work or {}),
         basis=bases if prob.single else bases[k],
-        factorization=getattr(fm.factorizer, "name", ""))
+        factorization=getattr(fm.factorizer, "name", ""), equations=fm.plate.family)
 
 
 def _error_bound(prob, k, ev) -> np.ndarray:

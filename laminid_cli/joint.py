@@ -75,6 +75,16 @@ class JointIdentification:
         return self.specimens[0].factorization if self.specimens else ""
 
     @property
+    def equations(self) -> str:
+        """The plates' equations (as Identification.equations): 'all', 'bending', or e.g.
+        'bending, all' where the plates differ (in their order of first appearance)."""
+        seen = []
+        for r in self.specimens:
+            if r.equations not in seen:
+                seen.append(r.equations)
+        return ", ".join(seen)
+
+    @property
     def specimen_names(self) -> tuple[str, ...]:
         return unique_names([r.specimen.name for r in self.specimens])
 

@@ -22,7 +22,9 @@ Common layout::
 Identification results ("laminid-result") add: root attrs converged, optimizer_status (the
 nlopt outcome; ``status`` in schema version 1), objective, evaluations, time_s, optimizer, solver
 (reduced | full), factorization (cholmod | banded: how K - sigma M was factorised; the answers
-agree to round-off); /materials/<name> attrs parametrization, free; /initial/<name>
+agree to round-off), equations (all | bending: a symmetric laminate's bending equations alone,
+whose modes are the plate's bending modes to round-off; /modes/dofs then lists those
+equations); /materials/<name> attrs parametrization, free; /initial/<name>
 (the starting constants, same keys); /frequencies/model_mode (pairing) and attrs rms_residual_percent;
 /history (evaluation, objective, rms_residual_percent, x, constants, error_bound per evaluation;
 error_bound: 0 full model, NaN a reduced-model prediction, else the bound where enriched);
@@ -269,6 +271,7 @@ def run_fields(r) -> dict:
         "optimizer": {"slsqp": "LD_SLSQP", "mma": "LD_MMA"}[r.options.optimizer],
         "solver": r.options.solver,
         "factorization": getattr(r, "factorization", ""),
+        "equations": getattr(r, "equations", "all"),
         "work": dict(getattr(r, "work", {}) or {}),
         "time_s": r.time_s,
         "swaps": list(r.swaps),
@@ -280,7 +283,7 @@ def write_run_attrs(f, r) -> None:
     """Root attributes of a result file: the optimisation outcome (as :func:`run_fields`)."""
     run = run_fields(r)
     for key in ("converged", "optimizer_status", "objective", "evaluations", "time_s",
-                "optimizer", "solver", "factorization"):
+                "optimizer", "solver", "factorization", "equations"):
         f.attrs[key] = run[key]
 
 
@@ -382,7 +385,9 @@ def _write_identification(f, fm, r, summary: dict) -> None:
         description="transverse displacement w0 at the mesh nodes of the model modes paired "
         "with the measured ones (mass-normalised)")
     put(g, "phi", r.phi_paired, "m/sqrt(kg)", compression="gzip",
-        description="all retained DOFs of the paired modes; DOF = node*9 + variable")
+        description="the paired modes at the model's equations (dofs: node*9 + variable; "
+        "with root attribute equations = bending, a symmetric laminate's membrane variables, "
+        "zero in its bending modes, are left out)")
     put(g, "dofs", fm.plate.dofs, "1")
     h = f.create_group("history")
     for key, unit in (("evaluation", "1"), ("objective", "1"), ("rms_residual_percent", "%")):

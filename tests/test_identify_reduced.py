@@ -385,7 +385,7 @@ def test_restart_from_the_optimum_basis_needs_no_full_solve():
 
 def test_cli_solver_option_and_json_fields():
     """--solver full|reduced on identify: same constants; the JSON names the solver, the
-    factorisation and the work."""
+    factorisation, the equations (a symmetric plate's bending equations) and the work."""
     import json
 
     from click.testing import CliRunner
@@ -400,6 +400,7 @@ def test_cli_solver_option_and_json_fields():
         out[solver] = json.loads(r.output)
         assert out[solver]["solver"] == solver
         assert out[solver]["factorization"] == default_factorizer()
+        assert out[solver]["equations"] == "bending"          # S1.1: a symmetric laminate
     w_full, w_red = out["full"]["work"], out["reduced"]["work"]
     assert w_full["lanczos_runs"] == w_full["factorizations"] >= 10
     assert w_red["lanczos_runs"] == 1 and w_red["factorizations"] < w_full["factorizations"]

@@ -161,6 +161,7 @@ def test_a_membrane_mode_in_band_at_the_answer_reidentifies_on_the_whole_plate(m
     run = run_identification([S14], RunOptions(mesh=MESH))
     assert run.forward_models[0].whole is None
     assert run.forward_models[0].plate.family == "all"
+    assert run.summary["equations"] == "all" and s14_run.summary["equations"] == "bending"
     assert len(run.notes) == 1 and "membrane mode at 1.0 Hz" in run.notes[0]
     assert "identified on the whole plate" in run.notes[0]
     assert s14_run.forward_models[0].plate.family == "bending" and s14_run.notes == ()

@@ -51,6 +51,10 @@ def test_round_trip_of_a_written_result(result):
         assert f.attrs["schema_version"] == SCHEMA_VERSION == 2
         assert f.attrs["solver"] == doc["solver"] == "reduced"
         assert f.attrs["factorization"] == doc["factorization"] == default_factorizer()
+        # S2.1 is symmetric: its bending equations alone; /modes/dofs lists them
+        assert f.attrs["equations"] == doc["equations"] == "bending"
+        dofs = f["modes"]["dofs"][()]
+        assert f["modes"]["phi"].shape[0] == dofs.size and set(dofs % 9) == {2, 3, 4, 7, 8}
         g = f["materials"]["Glas_Epoxid__-Lage"]            # readable in h5ls, no "/" in it
         assert g.attrs["name"] == name                      # UTF-8 round trip
         assert h5py.check_string_dtype(f["specimen"]["yaml"].dtype).encoding == "utf-8"

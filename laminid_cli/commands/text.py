@@ -89,7 +89,9 @@ def _run_line(s: dict) -> str:
     state = opt if s["converged"] else f"NOT CONVERGED — {opt}"
     how = ", ".join(x for x in (f"{s['solver']} solver" if s.get("solver") else "",
                                 {"cholmod": "CHOLMOD", "banded": "banded Cholesky"}.get(
-                                    s.get("factorization", ""), "")) if x)
+                                    s.get("factorization", ""), ""),
+                                f"{s['equations']} equations"
+                                if s.get("equations", "all") != "all" else "") if x)
     return (f"{s['optimizer']}: {state}; {s['evaluations']} evaluations, {s['time_s']:.2f} s"
             + (f" ({how})" if how else ""))
 
