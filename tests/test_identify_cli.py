@@ -60,7 +60,8 @@ def test_report_and_default_output_next_to_the_specimen(tmp_path):
     assert r.exit_code == 0, r.output
     assert "LD_SLSQP: converged" in r.output
     label = {"cholmod": "CHOLMOD", "banded": "banded Cholesky"}[default_factorizer()]
-    assert re.search(rf"\d+ evaluations, \d+\.\d\d s \(reduced solver, {label}\)", r.output)
+    assert re.search(rf"\d+ evaluations, \d+\.\d\d s \(reduced solver, {label}, bending "
+                     r"equations\)", r.output)
     assert "E1 [GPa]" in r.output and "residual %" in r.output and "RMS residual" in r.output
     assert (tmp_path / "S2.1.result.h5").exists()
     # a second run after editing the specimen: the derived default file is replaced, and said so
