@@ -214,7 +214,7 @@ class PlateModel:
         new_index[keep] = np.arange(k)
         rows = np.repeat(np.arange(n), np.diff(self.indptr))
         entry = keep[rows]
-        if np.any(keep[self.indices[entry]] != True):           # noqa: E712
+        if not np.all(keep[self.indices[entry]]):
             raise ModelError("the plate model couples bending and membrane equations")
         indptr = np.concatenate([[0], np.cumsum(np.bincount(new_index[rows[entry]],
                                                             minlength=k))])
