@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from laminid_cli.errors import ModelError
+from laminid_cli.errors import ModelError, SolverError
 from laminid_cli.fe.assembly import PlateModel, boundary_label, build_plate_model
 from laminid_cli.fe.mesh import check_element_shape, rectangular_mesh
 from laminid_cli.laminate import Laminate, laminate_from_specimen
@@ -160,7 +160,11 @@ def bending_model(fm: ForwardModel, f_max_hz: float | None = None) -> ForwardMod
         if not f.size:
             return fm
         f_max_hz = float(f.max())
-    if not membrane_floor_hz(fm) >= MEMBRANE_MARGIN * f_max_hz:
+    try:
+        floor = membrane_floor_hz(fm)
+    except SolverError:
+        return fm                     # not known: the whole plate, as without this shortcut
+    if not floor >= MEMBRANE_MARGIN * f_max_hz:
         return fm
     return _family_model(fm, "bending")
 

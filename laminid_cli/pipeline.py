@@ -208,8 +208,9 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
 
 def _membrane_in_band(fms, result) -> list[str]:
     """The plates identified on their bending equations alone (forward.bending_model) whose
-    lowest membrane mode, at the identified constants, is not above the model's highest mode
-    (one line each; empty when none)."""
+    lowest membrane mode, at the identified constants, is not above the model's highest mode,
+    or could not be computed (one line each; empty when none)."""
+    from laminid_cli.errors import SolverError
     from laminid_cli.forward import membrane_floor_hz
 
     plates = result.specimens if hasattr(result, "specimens") else [result]
@@ -218,7 +219,12 @@ def _membrane_in_band(fms, result) -> list[str]:
         if fm.whole is None:
             continue
         top = float(np.max(plate.modes.freq))
-        floor = membrane_floor_hz(fm, plate.constants)
+        try:
+            floor = membrane_floor_hz(fm, plate.constants)
+        except SolverError as exc:
+            out.append(f"{fm.specimen.name}: the membrane modes at the answer not computed "
+                       f"({exc})")
+            continue
         if not floor > top:
             out.append(f"{fm.specimen.name}: a membrane mode at {floor:.1f} Hz, below the "
                        f"model's mode at {top:.1f} Hz")

@@ -168,3 +168,27 @@ def test_a_membrane_mode_in_band_at_the_answer_reidentifies_on_the_whole_plate(m
     a, b = run.result, s14_run.result
     assert a.constants[0].E1 == pytest.approx(b.constants[0].E1, rel=1e-8)
     assert a.objective == pytest.approx(b.objective, rel=1e-7)
+
+
+def test_membrane_modes_not_computed_means_the_whole_plate(monkeypatch):
+    """Where the membrane floor cannot be computed (a solver failure), the shortcut is not
+    taken: at the start bending_model keeps the whole plate; at the answer the run is
+    identified again on the whole plate, and the note says why."""
+    import laminid_cli.forward as F
+    from laminid_cli.errors import SolverError
+    from laminid_cli.fe.mesh import parse_mesh
+    from laminid_cli.specimen import read_specimen
+
+    real = F.membrane_floor_hz
+
+    def fail(fm, constants=None):
+        raise SolverError("ARPACK did not converge (test)")
+
+    fm = F.build_forward_model(read_specimen(S14), parse_mesh(MESH))
+    monkeypatch.setattr(F, "membrane_floor_hz", fail)
+    assert F.bending_model(fm) is fm
+    monkeypatch.setattr(F, "membrane_floor_hz",
+                        lambda fm, constants=None: real(fm) if constants is None else fail(fm))
+    run = run_identification([S14], RunOptions(mesh=MESH))
+    assert run.forward_models[0].plate.family == "all" and run.converged
+    assert len(run.notes) == 1 and "membrane modes at the answer not computed" in run.notes[0]
