@@ -202,6 +202,8 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
         summary["damping"] = damping.as_dict()
     status = status_of(result, a)
     summary.update(status.as_dict())
+    if notes:
+        summary["notes"] = list(notes)
     return IdentificationRun(options=options, forward_models=fms, assessment=a, status=status,
                              damping=damping, summary=summary, notes=tuple(notes))
 
@@ -243,11 +245,14 @@ def write_result(path, run: IdentificationRun, *, command: str | None = None,
     not at all.
 
     command : the root attribute ``command`` [default "laminid identify", "laminid identify
-    --joint"]; attrs : extra root attributes (batch: its input hash, name and options)
+    --joint"]; attrs : extra root attributes (batch: its input hash, name and options); the
+    run's notes, if any, go to the root attribute ``notes`` (one string, "; " between them)
     """
     from laminid_cli.results import write_identification_file, write_joint_identification_file
 
     path = Path(path)
+    if run.notes:                            # e.g. identified again on the whole plate
+        attrs = {**(attrs or {}), "notes": "; ".join(run.notes)}
     if run.joint:
         write_joint_identification_file(
             path, list(run.forward_models), run.result, run.summary, assessment=run.assessment,

@@ -148,7 +148,8 @@ def test_identify_prints_and_writes_what_the_pipeline_gives(s14_run, tmp_path):
 
 
 def test_a_membrane_mode_in_band_at_the_answer_reidentifies_on_the_whole_plate(monkeypatch,
-                                                                              s14_run):
+                                                                              s14_run,
+                                                                              tmp_path):
     """The pipeline identifies a symmetric plate on its bending equations; where the membrane
     floor at the answer is not above the model's highest mode (forced here: 1 Hz at every
     constants but the file's), it says so and identifies again on the whole plate, whose
@@ -162,6 +163,10 @@ def test_a_membrane_mode_in_band_at_the_answer_reidentifies_on_the_whole_plate(m
     assert run.forward_models[0].whole is None
     assert run.forward_models[0].plate.family == "all"
     assert run.summary["equations"] == "all" and s14_run.summary["equations"] == "bending"
+    assert run.summary["notes"] == list(run.notes) and "notes" not in s14_run.summary
+    out = write_result(tmp_path / "r.h5", run)
+    with h5py.File(out) as f:                       # the note and the equations in the file
+        assert f.attrs["notes"] == run.notes[0] and f.attrs["equations"] == "all"
     assert len(run.notes) == 1 and "membrane mode at 1.0 Hz" in run.notes[0]
     assert "identified on the whole plate" in run.notes[0]
     assert s14_run.forward_models[0].plate.family == "bending" and s14_run.notes == ()
