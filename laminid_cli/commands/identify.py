@@ -63,6 +63,11 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force):
     Run it again after editing SPEC: the default result file beside SPEC is derived from it
     and is replaced (the output says so); a file named with -o is kept unless --force.
 
+    A symmetric laminate is fitted on its bending equations alone (its bending modes are the
+    same), where its membrane modes lie well above the measured ones; the run line and the
+    result ('equations') say so, and a membrane mode reaching the model's modes sends the fit
+    back to the whole plate.
+
     When the specimen has measured damping (measured.damping, or an frf_file), the loss factors
     eta11, eta22, eta12, eta13, eta23 of each ply material follow from the modal loss factors
     2 zeta by the modal strain energy method, with intervals and verdicts; --fix holds them too
