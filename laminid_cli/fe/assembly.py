@@ -166,6 +166,8 @@ class PlateModel:
     mass : M for products, ``mass @ W`` (:class:`KroneckerMass`)
     decoupled : the pattern leaves out the membrane-bending entries (a symmetric laminate,
         :func:`build_plate_model`)
+    family : 'all' (every node variable), or 'bending' / 'membrane' for the equations of one
+        family of a decoupled plate (:meth:`restrict`)
     """
 
     mesh: Mesh
@@ -185,15 +187,11 @@ class PlateModel:
     mass_per_area: float
     mass: KroneckerMass
     decoupled: bool = False
+    family: str = "all"
 
     @property
     def n_dofs(self) -> int:
         return int(self.dofs.size)
-
-    @property
-    def family(self) -> str:
-        """'all' (every node variable), 'bending' or 'membrane' (:meth:`restrict`)."""
-        return self.__dict__.get("_family", "all")
 
     def restrict(self, family: str) -> "PlateModel":
         """The plate model of one family of equations of a decoupled plate (a symmetric
@@ -229,8 +227,7 @@ class PlateModel:
             D_bending=self.D_bending, mass_per_area=self.mass_per_area,
             mass=KroneckerMass(self.mass.S, self.mass.J_all, self.dofs[keep],
                                self.mesh.n_nodes, variables),
-            decoupled=True)
-        object.__setattr__(out, "_family", family)
+            decoupled=True, family=family)
         return out
 
     def coefficients(self, constants) -> np.ndarray:
