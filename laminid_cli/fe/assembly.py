@@ -218,7 +218,7 @@ class PlateModel:
                                                             minlength=k))])
         element_dofs = np.where(self.element_dofs >= 0,
                                 new_index[np.maximum(self.element_dofs, 0)], -1)
-        out = PlateModel(
+        return PlateModel(
             mesh=self.mesh, h=self.h, boundary=self.boundary,
             material_names=self.material_names, dofs=self.dofs[keep], indptr=indptr,
             indices=new_index[self.indices[entry]], K_data=self.K_data[:, :, entry],
@@ -228,7 +228,6 @@ class PlateModel:
             mass=KroneckerMass(self.mass.S, self.mass.J_all, self.dofs[keep],
                                self.mesh.n_nodes, variables),
             decoupled=True, family=family)
-        return out
 
     def coefficients(self, constants) -> np.ndarray:
         """(n_materials, 6) stiffness coefficients for a sequence of ElasticConstants."""
