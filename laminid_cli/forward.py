@@ -102,10 +102,6 @@ def build_forward_model(specimen: Specimen, mesh: tuple[int, int] = DEFAULT_MESH
 MEMBRANE_MARGIN = 1.5
 
 
-def _kind(fm: ForwardModel) -> str:
-    return "cholmod" if isinstance(fm.factorizer, SparseCholesky) else "banded"
-
-
 def _family_model(fm: ForwardModel, family: str) -> ForwardModel:
     """The forward model of one family of equations of a decoupled plate, made once."""
     cache = fm.__dict__.setdefault("_families", {})
@@ -113,7 +109,8 @@ def _family_model(fm: ForwardModel, family: str) -> ForwardModel:
         plate = fm.plate.restrict(family)
         per_node = len(plate.mass.variables)
         plan = make_factorizer(plate.indptr, plate.indices,
-                               block=per_node if plate.boundary == "FFFF" else 1, kind=_kind(fm))
+                               block=per_node if plate.boundary == "FFFF" else 1,
+                               kind=fm.factorizer.name)
         cache[family] = ForwardModel(specimen=fm.specimen, laminate=fm.laminate, plate=plate,
                                      factorizer=plan, mesh_size=fm.mesh_size,
                                      rigid=plate.rigid_modes(), whole=fm)
