@@ -84,6 +84,20 @@ def fixed_dofs(mesh: Mesh, boundary: str) -> np.ndarray:
     return np.unique(np.concatenate(fixed))
 
 
+#: the nodal variables of bending (w0, psi_x, psi_y, Psi_x, Psi_y; the others are membrane
+#: variables: u0, v0, U, V), by their index in ``fe.element.DOF_NAMES``
+BENDING_VARIABLES = (2, 3, 4, 7, 8)
+#: membrane-bending coupling (relative) below which a laminate counts as decoupled: round-off
+#: is ~1e-17 on symmetric layups (2e-17 S1.1, 4e-16 S2.2); a [0/90/0] whose middle ply sits
+#: delta of the thickness off centre couples by 1.8 delta (measured for delta = 1e-3 ... 1e-9),
+#: so only layups symmetric to ~5e-13 of their thickness count; the entries left out then
+#: change the eigenvalues by far less than the solves' round-off
+DECOUPLE_TOL = 1e-12
+#: the bending equations among an element's 72 (local equation ``node * 9 + variable``)
+BENDING_LOCAL = np.isin(np.arange(72) % 9, BENDING_VARIABLES)
+BENDING_LOCAL.setflags(write=False)
+
+
 class KroneckerMass:
     """The mass matrix as ``M = P (S kron J) P^T``, for products with it.
 
@@ -349,7 +363,7 @@ class PlateModel:
         (40^2 + 32^2) / 72^2 = 51 % of the work), else all 72 in their order."""
         if not self.decoupled:
             return np.arange(72), (72,)
-        bending = np.isin(np.arange(72) % 9, BENDING_VARIABLES)
+        bending = BENDING_LOCAL
         live = np.any(self.element_dofs >= 0, axis=0)               # (72,) used at all
         order, sizes = [], []
         for part in (bending, ~bending):              # a restricted model: its family only
@@ -558,7 +572,7 @@ def build_plate_model(mesh: Mesh, h: float, z: np.ndarray, angle: np.ndarray,
     ok = (rows >= 0) & (cols >= 0)
     decoupled = bool(decouple) and membrane_bending_coupling(Ke_u, Me_u) <= DECOUPLE_TOL
     if decoupled:
-        bending = np.isin(np.arange(72) % 9, BENDING_VARIABLES)
+        bending = BENDING_LOCAL
         cross = bending[:, None] != bending[None, :]
         ok &= ~np.broadcast_to(cross, (len(red), 72, 72)).ravel()
     rows, cols = rows[ok], cols[ok]
@@ -597,23 +611,12 @@ def build_plate_model(mesh: Mesh, h: float, z: np.ndarray, angle: np.ndarray,
                       decoupled=decoupled)
 
 
-#: the nodal variables of bending (w0, psi_x, psi_y, Psi_x, Psi_y; the others are membrane
-#: variables: u0, v0, U, V), by their index in ``fe.element.DOF_NAMES``
-BENDING_VARIABLES = (2, 3, 4, 7, 8)
-#: membrane-bending coupling (relative) below which a laminate counts as decoupled: round-off
-#: is ~1e-17 on symmetric layups (2e-17 S1.1, 4e-16 S2.2); a [0/90/0] whose middle ply sits
-#: delta of the thickness off centre couples by 1.8 delta (measured for delta = 1e-3 ... 1e-9),
-#: so only layups symmetric to ~5e-13 of their thickness count; the entries left out then
-#: change the eigenvalues by far less than the solves' round-off
-DECOUPLE_TOL = 1e-12
-
-
 def membrane_bending_coupling(Ke: np.ndarray, Me: np.ndarray) -> float:
     """Largest membrane-bending entry of the element matrices, relative to the largest entry of
     the same matrix (each basis stiffness and the mass): zero (to round-off) for a symmetric
     laminate. ``Ke``: (..., 72, 72) element stiffness matrices, ``Me``: (..., 72, 72) element
     mass matrices; local equation ``node * 9 + variable``."""
-    bending = np.isin(np.arange(72) % 9, BENDING_VARIABLES)
+    bending = BENDING_LOCAL
     worst = 0.0
     for A in (np.asarray(Ke).reshape(-1, Ke.shape[-3], 72, 72),
               np.asarray(Me).reshape(1, -1, 72, 72)):
