@@ -175,8 +175,12 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
             check_loss_fix(options.fix_loss, fms, joint)
         else:
             parse_loss_fix(options.fix_loss, fms[0].material_names)
-    a = assess(list(fms) if joint else fms[0], options.identify, options.uncertainty,
-               joint=joint, progress=progress, mc_progress=mc_progress)
+
+    def run(fms):
+        return assess(list(fms) if joint else fms[0], options.identify, options.uncertainty,
+                      joint=joint, progress=progress, mc_progress=mc_progress)
+
+    a = run(fms)
     notes = []
     low = _membrane_in_band(fms, a.result)
     if low:
@@ -184,8 +188,7 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
         # equations alone are not the plate any more; identified again on the whole plate
         fms = tuple(fm.whole if fm.whole is not None else fm for fm in fms)
         notes.append("; ".join(low) + ": identified on the whole plate's equations")
-        a = assess(list(fms) if joint else fms[0], options.identify, options.uncertainty,
-                   joint=joint, progress=progress, mc_progress=mc_progress)
+        a = run(fms)
     result = a.result
     summary = joint_identification_summary(result) if joint else identification_summary(result)
     summary["mesh"] = {"nx": fms[0].mesh_size[0], "ny": fms[0].mesh_size[1]}
