@@ -176,13 +176,18 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
         else:
             parse_loss_fix(options.fix_loss, fms[0].material_names)
 
-    def run(fms):
-        return assess(list(fms) if joint else fms[0], options.identify, options.uncertainty,
-                      joint=joint, progress=progress, mc_progress=mc_progress)
+    low: list[str] = []
 
-    a = run(fms)
+    def bending_holds(result) -> bool:        # asked by assess of its final result
+        low[:] = _membrane_in_band(fms, result)
+        return not low
+
+    def run(fms, accept=None):
+        return assess(list(fms) if joint else fms[0], options.identify, options.uncertainty,
+                      joint=joint, progress=progress, mc_progress=mc_progress, accept=accept)
+
+    a = run(fms, bending_holds)
     notes = []
-    low = _membrane_in_band(fms, a.result)
     if low:
         # a membrane mode came below the model's highest mode at the answer: the bending
         # equations alone are not the plate any more; identified again on the whole plate

@@ -1514,13 +1514,16 @@ class Assessment:
 
 
 def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
-           joint: bool = False, progress=None, mc_progress=None) -> Assessment:
+           joint: bool = False, progress=None, mc_progress=None, accept=None) -> Assessment:
     """Identify (one plate, or several jointly), then compute the uncertainty; optionally fix
     the flagged constants and identify again (until nothing new is flagged), and run the
     Monte Carlo check on the final result.
 
     ``fms``: a ForwardModel, or a sequence of them with ``joint=True``. ``progress`` is passed to
-    the identification, ``mc_progress(done, total)`` to :func:`monte_carlo`.
+    the identification, ``mc_progress(done, total)`` to :func:`monte_carlo`. ``accept(result)``
+    is asked about the final result, before the Monte Carlo: False returns the assessment
+    without it (``monte_carlo`` None), for a caller that will identify again (the pipeline,
+    when the bending equations alone no longer describe the plate at the answer).
     """
     from laminid_cli.identify import identify
     from laminid_cli.joint import identify_joint
@@ -1566,7 +1569,8 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
         unc = uncertainty_of(result, fm_list if joint else fm_list[0],
                              sigmas if joint else sigmas[0], **kw)
     mc = None
-    if uopts.monte_carlo:
+    accepted = accept is None or accept(result)
+    if uopts.monte_carlo and accepted:
         mc = monte_carlo(result, fm_list if joint else fm_list[0], sigmas if joint else sigmas[0],
                          unc, uopts.monte_carlo, jobs=uopts.jobs, seed=uopts.seed,
                          progress=mc_progress)

@@ -175,6 +175,30 @@ def test_a_membrane_mode_in_band_at_the_answer_reidentifies_on_the_whole_plate(m
     assert a.objective == pytest.approx(b.objective, rel=1e-7)
 
 
+def test_a_membrane_mode_in_band_is_found_before_the_monte_carlo(monkeypatch):
+    """The membrane check of the answer comes before the Monte Carlo (assess's ``accept``):
+    a run identified again on the whole plate runs its trials once, on the whole plate, not
+    first on the bending equations whose answer it drops."""
+    import laminid_cli.forward as F
+    import laminid_cli.uncertainty as U
+
+    real_floor, real_mc = F.membrane_floor_hz, U.monte_carlo
+    monkeypatch.setattr(F, "membrane_floor_hz",
+                        lambda fm, constants=None: real_floor(fm) if constants is None else 1.0)
+    families = []
+
+    def mc(result, fm, *args, **kw):
+        families.append(fm.plate.family)
+        return real_mc(result, fm, *args, **kw)
+
+    monkeypatch.setattr(U, "monte_carlo", mc)
+    options = RunOptions(mesh=MESH, uncertainty=UncertaintyOptions(monte_carlo=3, jobs=1))
+    run = run_identification([S14], options)
+    assert families == ["all"]
+    assert run.assessment.monte_carlo is not None and run.assessment.monte_carlo.n_trials == 3
+    assert len(run.notes) == 1 and "identified on the whole plate" in run.notes[0]
+
+
 def test_membrane_modes_not_computed_means_the_whole_plate(monkeypatch):
     """Where the membrane floor cannot be computed (a solver failure), the shortcut is not
     taken: at the start bending_model keeps the whole plate; at the answer the run is
