@@ -480,6 +480,16 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
             for end, edge, marker in ((g(mhi[j]), ymax, "^"), (g(mlo[j]), ymin, "v")):
                 if (marker == "^" and end > ymax) or (marker == "v" and end < ymin):
                     ax.plot([x - 0.25], [edge], marker, color="0.45", ms=6, clip_on=False)
+            # an end set by trials on a limit of the search is the search's, not the data's
+            for side, end in (("lower", g(mlo[j])), ("upper", g(mhi[j]))):
+                flags = np.ravel(mc.get(f"{side}_at_bound", ()))
+                if j < flags.size and flags[j]:
+                    y = min(max(end, ymin), ymax)
+                    up = side == "upper"            # the label inside the panel, by the end
+                    ax.annotate("search\nlimit", (x - 0.25, y), xytext=(-4, -3 if up else 3),
+                                textcoords="offset points", fontsize=6.5,
+                                va="top" if up else "bottom", ha="right", color="0.35",
+                                gid=f"monte-carlo-{side}-limit")
     hollow = iv is not None and (iv.at_bound or iv.verdict.startswith(("not", "at bound")))
     ax.plot([x], [g(v)], "o", ms=7, color="k", mfc="w" if hollow else "k", zorder=5,
             gid="value")

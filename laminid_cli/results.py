@@ -61,7 +61,11 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
                           sigma_rel, note (how the file's sigmas were made:
                           measured.sigma_source, e.g. by fit-frf)
     /uncertainty/monte_carlo   samples (n_converged, p), mean, std, lower, upper (quantiles
-                          (1 -/+ confidence)/2 of the samples), linearized_std, ratio; attrs trials, converged, sigma_factor, seed, jobs
+                          (1 -/+ confidence)/2 of the samples), linearized_std, ratio;
+                          at_lower_bound, at_upper_bound (trials whose answer has the constant
+                          on a limit of the search), lower_at_bound, upper_at_bound (0/1: that
+                          end of the range is set by such trials: the search's end, not the
+                          data's); attrs trials, converged, sigma_factor, seed, jobs
     /uncertainty/before_fixing  labels, rel_half_width, verdict of the first run when
                           --fix-undetermined fixed constants
 
@@ -470,6 +474,16 @@ def write_uncertainty(f, a, plate_names) -> None:
         for key in ("samples", "mean", "std", "lower", "upper", "linearized_std"):
             put(gm, key, getattr(mc, key), unit)
         put(gm, "ratio", mc.ratio, "1", description="Monte Carlo std / linearised std")
+        lo_b, up_b = mc.ends_at_bound()
+        for side, count, flag in (("lower", mc.at_lower_bound, lo_b),
+                                  ("upper", mc.at_upper_bound, up_b)):
+            put(gm, f"at_{side}_bound", np.zeros(len(mc.labels), int) if count is None
+                else np.asarray(count, int), "1",
+                description=f"converged trials whose answer has the constant on a {side} limit "
+                "of the search")
+            put(gm, f"{side}_at_bound", np.asarray(flag, np.int8), "1",
+                description=f"1: the {side} end of the range is set by trials at a limit of the "
+                "search (the search's end, not the data's)")
     if a.before_fixing is not None:
         b = a.before_fixing
         gb = g.create_group("before_fixing")

@@ -1199,6 +1199,9 @@ class MonteCarlo:
     n_reidentified : reduced trials whose model missed its bound, re-run through identify()
     trial_bound_limit : the bound a reduced trial had to reach (TRIAL_SHARE of the smallest
         relative eigenvalue standard deviation, at most TRIAL_BOUND)
+    at_lower_bound, at_upper_bound : (p,) converged trials whose answer has the constant on a
+        lower / upper limit of the search (:func:`bounds_reached`, as for the identification)
+    confidence : of the range ``lower`` .. ``upper``
     """
 
     labels: tuple[str, ...]
@@ -1220,21 +1223,69 @@ class MonteCarlo:
     trial_bound: float = float("nan")
     n_reidentified: int = 0
     trial_bound_limit: float = float("nan")
+    at_lower_bound: np.ndarray | None = None
+    at_upper_bound: np.ndarray | None = None
+    confidence: float = 0.95
+
+    def ends_at_bound(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lower, upper) flags (p,): the end of the range is set by trials at a limit of the
+        search (:func:`range_ends_at_bound`), so it is the search's end, not the data's."""
+        p = len(self.labels)
+        low = np.zeros(p, int) if self.at_lower_bound is None else self.at_lower_bound
+        up = np.zeros(p, int) if self.at_upper_bound is None else self.at_upper_bound
+        return range_ends_at_bound(low, up, self.n_converged, self.confidence)
 
     def as_dict(self) -> dict:
         per = {}
+        lo_b, up_b = self.ends_at_bound()
         for k, lab in enumerate(self.labels):
             mat, const = lab.rsplit(".", 1)
             per.setdefault(mat, {})[const] = {
                 "mean": float(self.mean[k]), "std": float(self.std[k]),
                 "lower": float(self.lower[k]), "upper": float(self.upper[k]),
-                "linearized_std": float(self.linearized_std[k]), "ratio": float(self.ratio[k])}
+                "linearized_std": float(self.linearized_std[k]), "ratio": float(self.ratio[k]),
+                "trials_at_lower_bound": int(0 if self.at_lower_bound is None
+                                             else self.at_lower_bound[k]),
+                "trials_at_upper_bound": int(0 if self.at_upper_bound is None
+                                             else self.at_upper_bound[k]),
+                "lower_at_bound": bool(lo_b[k]), "upper_at_bound": bool(up_b[k])}
         return {"trials": self.n_trials, "converged": self.n_converged, "constants": per,
                 "sigma_factor": self.sigma_factor, "seed": self.seed, "jobs": self.jobs,
                 "time_s": self.time_s, "failures": list(self.failures),
                 "method": self.method, "trial_eigenvalue_bound": self.trial_bound,
                 "trial_eigenvalue_bound_limit": self.trial_bound_limit,
                 "reidentified": self.n_reidentified}
+
+
+def range_ends_at_bound(at_lower, at_upper, n: int, confidence: float
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """(lower, upper) flags: the (1 - confidence) / 2 quantile of ``n`` samples (linear
+    interpolation between order statistics, position q (n - 1) from 0) depends on a sample at
+    the lower limit of the search when more than q (n - 1) of them lie there; likewise the
+    upper one. ``at_lower``/``at_upper``: samples at each limit, per constant."""
+    at_lower = np.asarray(at_lower, int)
+    at_upper = np.asarray(at_upper, int)
+    pos = (1 - confidence) / 2 * max(n - 1, 0)
+    return (at_lower > 0) & (at_lower > pos), (at_upper > 0) & (at_upper > pos)
+
+
+def trials_at_bounds(result, labels, samples) -> tuple[np.ndarray, np.ndarray]:
+    """Per free constant (``labels``), the trials (rows of ``samples``, over ``labels``) whose
+    answer has it on a lower / upper limit of the search: :func:`bounds_reached` on each
+    trial's constants (the fixed ones are the result's)."""
+    states = material_states(result)
+    opts = result.options
+    index = {lab: k for k, lab in enumerate(labels)}
+    low = np.zeros(len(labels), int)
+    up = np.zeros(len(labels), int)
+    for row in np.asarray(samples, float):
+        trial = [dataclasses.replace(m, constants=dataclasses.replace(
+            m.constants, **{k: float(row[index[f"{m.name}.{k}"]]) for k in m.free
+                            if f"{m.name}.{k}" in index})) for m in states]
+        for lab, hit in bounds_reached(trial, opts.nu_max, opts.bound_factor).items():
+            if lab in index:
+                (low if hit.side == "lower" else up)[index[lab]] += 1
+    return low, up
 
 
 _WORKER: dict = {}
@@ -1457,6 +1508,7 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
         log.info("Monte Carlo: %d of %d trials failed (%s)", len(failures), n_trials, failures[0])
     conv = np.array([v is not None for v in out])
     finite = bounds[conv & np.isfinite(bounds)]
+    at_lower, at_upper = trials_at_bounds(result, uncertainty.labels, samples)
     return MonteCarlo(labels=uncertainty.labels, n_trials=n_trials, n_converged=len(ok),
                       samples=samples, mean=mean, std=std, lower=lower, upper=upper,
                       linearized_std=lin, ratio=ratio, sigma_factor=factor, seed=seed, jobs=jobs,
@@ -1464,7 +1516,9 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
                       method="reduced" if model is not None else "identify",
                       trial_bound=float(finite.max()) if finite.size else float("nan"),
                       n_reidentified=sum(r == "identify" for r in routes) if model is not None
-                      else 0, trial_bound_limit=model.bound if model is not None else float("nan"))
+                      else 0,
+                      trial_bound_limit=model.bound if model is not None else float("nan"),
+                      at_lower_bound=at_lower, at_upper_bound=at_upper, confidence=conf)
 
 
 # ----------------------------------------------------------------------------------------------

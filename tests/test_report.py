@@ -419,6 +419,32 @@ def test_monte_carlo_spread_drawn_beside_the_interval(checked, tmp_path):
     line = next(ln for ln in a.get_lines() if ln.get_gid() == "monte-carlo")
     e1 = res.materials[MAT]["E1"] / 1e9
     assert np.allclose(line.get_ydata(), [0.97 * e1, 1.02 * e1], rtol=1e-12)
+    assert not [t for t in a.texts if "limit" in (t.get_gid() or "")]
+
+
+def test_monte_carlo_range_end_at_a_search_limit_is_labelled(checked, tmp_path):
+    """A Monte Carlo range end set by trials on a limit of the search (the file's
+    /uncertainty/monte_carlo/lower_at_bound) is labelled "search limit" at that end, on that
+    constant's panel only."""
+    path = tmp_path / "mc.result.h5"
+    shutil.copy(checked, path)
+    with h5py.File(path, "r+") as f:
+        v = f["uncertainty"]["value"][()]
+        g = f["uncertainty"].create_group("monte_carlo")
+        g.create_dataset("lower", data=0.97 * v)
+        g.create_dataset("upper", data=1.02 * v)
+        flags = np.zeros(v.size, np.int8)
+        flags[1] = 1                                    # E2's lower end
+        g.create_dataset("lower_at_bound", data=flags)
+        g.create_dataset("upper_at_bound", data=np.zeros(v.size, np.int8))
+    res = read_result(path)
+    fig = {p.name: p.figure for p in report_pages(path)}["intervals"]
+    a = ax(fig, f"interval-{MAT}.E2")
+    label = next(t for t in a.texts if t.get_gid() == "monte-carlo-lower-limit")
+    assert label.get_text() == "search\nlimit"
+    assert label.xy[1] == pytest.approx(0.97 * res.materials[MAT]["E2"] / 1e9, rel=1e-12)
+    assert not [t for t in ax(fig, f"interval-{MAT}.E1").texts
+                if "limit" in (t.get_gid() or "")]
 
 
 def test_laminate_reference_values_on_the_summary_page(batch_dir):

@@ -508,3 +508,67 @@ def test_eq17_rows_value_and_gradient_agree():
     assert e.value == pytest.approx(float(e.rows @ e.rows), rel=1e-12)
     assert e.gradient == pytest.approx(2 * e.rows @ e.jacobian, rel=1e-10)
     assert e.value == pytest.approx(np.sum(w * ((lam_meas - lam) / lam_meas) ** 2), rel=1e-12)
+
+
+# --- Monte Carlo trials on a limit of the search -----------------------------------------------
+
+@pytest.mark.parametrize("n", [8, 40, 200])
+def test_a_range_end_is_at_the_bound_when_the_quantile_depends_on_a_trial_there(n):
+    """range_ends_at_bound against numpy's quantile itself: an end is flagged exactly when
+    moving the samples at the limit moves the quantile (0-6 samples at each limit)."""
+    from laminid_cli.uncertainty import range_ends_at_bound
+
+    rng = np.random.default_rng(n)
+    for k in range(7):
+        x = 1.0 + rng.random(n)
+        x[:k] = 1.0                                     # k samples at the lower limit
+        moved = x.copy()
+        moved[:k] = 0.5
+        for conf in (0.9, 0.95):
+            q = (1 - conf) / 2
+            depends = np.quantile(x, q) != np.quantile(moved, q)
+            low, up = range_ends_at_bound([k], [0], n, conf)
+            assert bool(low[0]) == depends and not up[0], (n, k, conf)
+            y = -x                                      # the same at the upper limit
+            depends = np.quantile(y, 1 - q) != np.quantile(-moved, 1 - q)
+            low, up = range_ends_at_bound([0], [k], n, conf)
+            assert bool(up[0]) == depends and not low[0], (n, k, conf)
+
+
+def test_monte_carlo_trials_on_a_search_limit_are_counted_and_marked(tmp_path):
+    """S1.1 (12x12, all six free, 40 seeded trials): G23 is not determined and some trials end
+    on its lower limit (G23 >= 1e-4 E1 / alpha0 on the alphas). The trials counted there are
+    exactly those on that constraint (G23 / (1e-4 E1) within 1 %); the 2.5 % quantile then
+    depends on them, and the terminal, JSON and HDF5 say so; E1, E2, G12 have none."""
+    import h5py
+
+    from laminid_cli.commands.text import format_identify_report
+    from laminid_cli.pipeline import RunOptions, run_identification, write_result
+    from laminid_cli.resultfile import read_result
+
+    run = run_identification([S11], RunOptions(
+        mesh="12x12", uncertainty=UncertaintyOptions(monte_carlo=40, jobs=2, seed=0)))
+    mc = run.assessment.monte_carlo
+    labels = list(mc.labels)
+    k, e1 = labels.index("IM7/977-2.G23"), labels.index("IM7/977-2.E1")
+    ratio = mc.samples[:, k] / (1e-4 * mc.samples[:, e1])
+    on = ratio < 2.0
+    assert 3 <= on.sum() < 20 and np.all((ratio[on] >= 1.0) & (ratio[on] <= 1.01))
+    assert np.all(ratio[~on] > 3)                      # the others well off it
+    assert mc.at_lower_bound[k] == on.sum() and mc.at_upper_bound[k] == 0
+    assert np.all(mc.at_lower_bound[:3] == 0) and np.all(mc.at_upper_bound[:3] == 0)
+    low, up = mc.ends_at_bound()
+    assert low[k] and not up[k] and not low[:3].any()
+    assert mc.lower[k] <= np.max(mc.samples[on, k])   # the quantile is among those trials
+    d = run.summary["uncertainty"]["monte_carlo"]["constants"]["IM7/977-2"]
+    assert d["G23"]["trials_at_lower_bound"] == on.sum() and d["G23"]["lower_at_bound"] is True
+    assert d["E1"]["trials_at_lower_bound"] == 0 and d["E1"]["lower_at_bound"] is False
+    text = format_identify_report(run.summary)
+    assert f"G23 ({on.sum()} at its lower limit)" in text
+    assert "GPa* .." in text and "the search's limit, not the data's" in text
+    out = write_result(tmp_path / "r.h5", run)
+    with h5py.File(out) as f:
+        g = f["uncertainty/monte_carlo"]
+        assert g["at_lower_bound"][k] == on.sum() and g["lower_at_bound"][k] == 1
+        assert g["upper_at_bound"][()].sum() == 0
+    assert read_result(out).uncertainty.monte_carlo["lower_at_bound"][k] == 1
