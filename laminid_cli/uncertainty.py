@@ -90,6 +90,7 @@ import logging
 import os
 import time
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 import scipy.linalg as sla
@@ -686,6 +687,17 @@ TRIAL_ROUNDS = 3
 TRIAL_RITZ = 2
 
 
+class TrialModes(NamedTuple):
+    """The trial model at one point: the paired Ritz values ``lam`` (rad^2/s^2), the pairing
+    (model mode of each measured one), the reduced eigenvectors ``Y`` (all computed modes)
+    and ``dlam_dx``, d lambda / d x of the paired modes."""
+
+    lam: np.ndarray
+    pairing: np.ndarray
+    Y: np.ndarray
+    dlam_dx: np.ndarray
+
+
 class TrialModel(VariableSet):
     """One plate's reduced model for the Monte Carlo trials (single plate, reduced solver).
 
@@ -817,7 +829,8 @@ class TrialModel(VariableSet):
                                     self.model_opt)
             if gn is None:
                 continue
-            x, (_, pairing, Y, _) = gn
+            x, model = gn
+            pairing, Y = model.pairing, model.Y
             mu, near = self.nearest_ref(x)
             bound = self.check(self.basis, x, Y, pairing, near)[1] if mu >= TRIAL_MU else np.inf
             if bound <= self.bound:
@@ -894,19 +907,20 @@ class TrialModel(VariableSet):
             self._solve = self.fm.factorizer.factor(K0.data - self.sigma * plate.M_on_K)
         return self._solve
 
-    def modes(self, basis, x, Y_ref):
-        """The model at ``x``: (paired Ritz values, pairing, reduced vectors, d lambda / d x of
-        the paired modes); modes paired by MAC against ``Y_ref`` (the optimum's)."""
+    def modes(self, basis, x, Y_ref) -> "TrialModes":
+        """The model at ``x`` (:class:`TrialModes`), its modes paired by MAC against ``Y_ref``
+        (the optimum's)."""
         coef, jacs = self.coefficients(x)
         theta, Y = basis.eig(coef, self.n_model)
         pairing = max_assignment((Y_ref.T @ (basis.Mr @ Y)) ** 2)
         Yp = Y[:, pairing]
-        return theta[pairing], pairing, Y, self.eigenvalue_jacobian(basis.energies(Yp), jacs)
+        return TrialModes(theta[pairing], pairing, Y,
+                          self.eigenvalue_jacobian(basis.energies(Yp), jacs))
 
     def rows(self, x, model, lam_meas, w):
         """Residual rows of paper Eq. 17 (+ Eq. 15) at ``x`` from its ``model`` (:meth:`modes`)
         and their Jacobian: (rows, Jacobian); the objective is ``rows . rows``."""
-        r, J = residual_rows(lam_meas, w, model[0], model[3])[:2]
+        r, J = residual_rows(lam_meas, w, model.lam, model.dlam_dx)[:2]
         pv, pr = self.prior_rows(x)
         return np.concatenate([r, pv]), np.vstack([J, pr])
 
@@ -1090,14 +1104,14 @@ class TrialModel(VariableSet):
             # else SLSQP, restarted from its answer while that moves (its quasi-Newton model
             # starts from the Gauss-Newton scaling again: flat valleys are followed to the end)
             for _ in range(0 if gn is not None else TRIAL_RESTARTS):
-                x, memo = self._minimise(basis, x0, lam_meas, w, Y_ref)
+                x, model = self._minimise(basis, x0, lam_meas, w, Y_ref)
                 step = float(np.max(np.abs(L.T @ (x - x0))))
                 x0 = x
                 if step <= 10 * TRIAL_XTOL:
                     break
             if gn is not None:
-                x, memo = gn
-            lam, pairing, Y, _ = memo
+                x, model = gn
+            pairing, Y = model.pairing, model.Y
             if ref is None:
                 # the kept factorisation nearest to the answer, if near enough
                 mu, near = self.nearest_ref(x)
