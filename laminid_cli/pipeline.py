@@ -178,7 +178,7 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
 
     low: list[str] = []
 
-    def bending_holds(result) -> bool:        # asked by assess of its final result
+    def bending_holds(result, fms=fms) -> bool:     # asked by assess of its final result
         low[:] = _membrane_in_band(fms, result)
         return not low
 

@@ -474,11 +474,8 @@ def write_uncertainty(f, a, plate_names) -> None:
         for key in ("samples", "mean", "std", "lower", "upper", "linearized_std"):
             put(gm, key, getattr(mc, key), unit)
         put(gm, "ratio", mc.ratio, "1", description="Monte Carlo std / linearised std")
-        lo_b, up_b = mc.ends_at_bound()
-        for side, count, flag in (("lower", mc.at_lower_bound, lo_b),
-                                  ("upper", mc.at_upper_bound, up_b)):
-            put(gm, f"at_{side}_bound", np.zeros(len(mc.labels), int) if count is None
-                else np.asarray(count, int), "1",
+        for side, count, flag in zip(("lower", "upper"), mc.bound_counts(), mc.ends_at_bound()):
+            put(gm, f"at_{side}_bound", count, "1",
                 description=f"converged trials whose answer has the constant on a {side} limit "
                 "of the search")
             put(gm, f"{side}_at_bound", np.asarray(flag, np.int8), "1",

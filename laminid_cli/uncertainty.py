@@ -1241,16 +1241,21 @@ class MonteCarlo:
     at_upper_bound: np.ndarray | None = None
     confidence: float = 0.95
 
+    def bound_counts(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lower, upper) trials at a limit of the search per constant (p,), zeros where not
+        counted."""
+        p = len(self.labels)
+        return tuple(np.zeros(p, int) if c is None else np.asarray(c, int)
+                     for c in (self.at_lower_bound, self.at_upper_bound))
+
     def ends_at_bound(self) -> tuple[np.ndarray, np.ndarray]:
         """(lower, upper) flags (p,): the end of the range is set by trials at a limit of the
         search (:func:`range_ends_at_bound`), so it is the search's end, not the data's."""
-        p = len(self.labels)
-        low = np.zeros(p, int) if self.at_lower_bound is None else self.at_lower_bound
-        up = np.zeros(p, int) if self.at_upper_bound is None else self.at_upper_bound
-        return range_ends_at_bound(low, up, self.n_converged, self.confidence)
+        return range_ends_at_bound(*self.bound_counts(), self.n_converged, self.confidence)
 
     def as_dict(self) -> dict:
         per = {}
+        lo_n, up_n = self.bound_counts()
         lo_b, up_b = self.ends_at_bound()
         for k, lab in enumerate(self.labels):
             mat, const = lab.rsplit(".", 1)
@@ -1258,10 +1263,7 @@ class MonteCarlo:
                 "mean": float(self.mean[k]), "std": float(self.std[k]),
                 "lower": float(self.lower[k]), "upper": float(self.upper[k]),
                 "linearized_std": float(self.linearized_std[k]), "ratio": float(self.ratio[k]),
-                "trials_at_lower_bound": int(0 if self.at_lower_bound is None
-                                             else self.at_lower_bound[k]),
-                "trials_at_upper_bound": int(0 if self.at_upper_bound is None
-                                             else self.at_upper_bound[k]),
+                "trials_at_lower_bound": int(lo_n[k]), "trials_at_upper_bound": int(up_n[k]),
                 "lower_at_bound": bool(lo_b[k]), "upper_at_bound": bool(up_b[k])}
         return {"trials": self.n_trials, "converged": self.n_converged, "constants": per,
                 "sigma_factor": self.sigma_factor, "seed": self.seed, "jobs": self.jobs,
@@ -1280,7 +1282,7 @@ def range_ends_at_bound(at_lower, at_upper, n: int, confidence: float
     at_lower = np.asarray(at_lower, int)
     at_upper = np.asarray(at_upper, int)
     pos = (1 - confidence) / 2 * max(n - 1, 0)
-    return (at_lower > 0) & (at_lower > pos), (at_upper > 0) & (at_upper > pos)
+    return at_lower > pos, at_upper > pos          # pos >= 0: a flag needs a trial there
 
 
 def trials_at_bounds(result, labels, samples) -> tuple[np.ndarray, np.ndarray]:

@@ -299,12 +299,13 @@ def format_uncertainty(u: dict) -> list[str]:
                      f"{procs}, {mc['time_s']:.1f} s)")
         lines.append(f"  {'constant':<18} {'linearised std':>15} {'Monte Carlo std':>16} "
                      f"{'ratio':>6}  {'Monte Carlo ' + format(conf, '.0f') + ' % range':>26}")
-        limits = []
+        limits, marked = [], False
         for mat, consts in mc["constants"].items():
             for k, v in consts.items():
                 lab = k if len(mc["constants"]) == 1 else f"{mat}.{k}"
                 lo = _val(k, v['lower'], 4) + ("*" if v.get("lower_at_bound") else "")
                 hi = _val(k, v['upper'], 4) + ("*" if v.get("upper_at_bound") else "")
+                marked |= bool(v.get("lower_at_bound") or v.get("upper_at_bound"))
                 lines.append(f"  {lab:<18} {_val(k, v['linearized_std']):>15} "
                              f"{_val(k, v['std']):>16} {fmt(v['ratio'], '6.2f'):>6}  "
                              f"{lo:>12} .. {hi:<12}")
@@ -315,8 +316,7 @@ def format_uncertainty(u: dict) -> list[str]:
         if limits:
             lines.append(f"  trials that ended on a limit of the search, of {mc['converged']}: "
                          + "; ".join(limits))
-            if any(v.get("lower_at_bound") or v.get("upper_at_bound")
-                   for consts in mc["constants"].values() for v in consts.values()):
+            if marked:
                 lines.append("  * that end of the range is set by such trials: it is the "
                              "search's limit, not the data's (the constant is not determined "
                              "there)")
