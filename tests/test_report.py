@@ -405,7 +405,9 @@ def test_report_errors(batch_dir, tmp_path):
     assert not list(tmp_path.glob("*.pdf"))
 
 
-def test_monte_carlo_spread_drawn_beside_the_interval(checked, tmp_path):
+def _with_monte_carlo(checked, tmp_path, lower_at_bound=None):
+    """A copy of the checked result with a Monte Carlo range of 0.97 .. 1.02 x each value (and
+    ``lower_at_bound`` flags, with no upper end at a bound, when given)."""
     path = tmp_path / "mc.result.h5"
     shutil.copy(checked, path)
     with h5py.File(path, "r+") as f:
@@ -413,6 +415,14 @@ def test_monte_carlo_spread_drawn_beside_the_interval(checked, tmp_path):
         g = f["uncertainty"].create_group("monte_carlo")
         g.create_dataset("lower", data=0.97 * v)
         g.create_dataset("upper", data=1.02 * v)
+        if lower_at_bound is not None:
+            g.create_dataset("lower_at_bound", data=np.asarray(lower_at_bound, np.int8))
+            g.create_dataset("upper_at_bound", data=np.zeros(v.size, np.int8))
+    return path
+
+
+def test_monte_carlo_spread_drawn_beside_the_interval(checked, tmp_path):
+    path = _with_monte_carlo(checked, tmp_path)
     res = read_result(path)
     fig = {p.name: p.figure for p in report_pages(path)}["intervals"]
     a = ax(fig, f"interval-{MAT}.E1")
@@ -426,17 +436,10 @@ def test_monte_carlo_range_end_at_a_search_limit_is_labelled(checked, tmp_path):
     """A Monte Carlo range end set by trials on a limit of the search (the file's
     /uncertainty/monte_carlo/lower_at_bound) is labelled "search limit" at that end, on that
     constant's panel only."""
-    path = tmp_path / "mc.result.h5"
-    shutil.copy(checked, path)
-    with h5py.File(path, "r+") as f:
-        v = f["uncertainty"]["value"][()]
-        g = f["uncertainty"].create_group("monte_carlo")
-        g.create_dataset("lower", data=0.97 * v)
-        g.create_dataset("upper", data=1.02 * v)
-        flags = np.zeros(v.size, np.int8)
-        flags[1] = 1                                    # E2's lower end
-        g.create_dataset("lower_at_bound", data=flags)
-        g.create_dataset("upper_at_bound", data=np.zeros(v.size, np.int8))
+    with h5py.File(checked) as f:
+        flags = np.zeros(f["uncertainty"]["value"].size, np.int8)
+    flags[1] = 1                                        # E2's lower end
+    path = _with_monte_carlo(checked, tmp_path, lower_at_bound=flags)
     res = read_result(path)
     fig = {p.name: p.figure for p in report_pages(path)}["intervals"]
     a = ax(fig, f"interval-{MAT}.E2")
