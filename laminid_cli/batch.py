@@ -65,10 +65,14 @@ CONSTANTS = ("E1", "E2", "G12", "G13", "G23", "nu12")
 CONSTANT_UNITS = {"E1": "Pa", "E2": "Pa", "G12": "Pa", "G13": "Pa", "G23": "Pa", "nu12": "1"}
 #: the ``units`` map of summary.json
 UNITS = {**CONSTANT_UNITS, "lower": "unit of the constant", "upper": "unit of the constant",
+         "mc_lower": "unit of the constant", "mc_upper": "unit of the constant",
          "rms_residual_percent": "%", "time_s": "s"}
-#: the columns of the long summary.csv
+#: the columns of the long summary.csv: lower/upper the linearised interval, mc_lower/mc_upper
+#: the Monte Carlo range (--monte-carlo), mc_search_limit which of its ends ("lower", "upper",
+#: "both") trials on a limit of the search set (the search's end, not the data's)
 LONG_COLUMNS = ("name", "specimen", "material", "constant", "value", "lower", "upper", "verdict",
-                "unit", "status", "reasons", "rms_residual [%]", "result")
+                "mc_lower", "mc_upper", "mc_search_limit", "unit", "status", "reasons",
+                "rms_residual [%]", "result")
 SPECIMEN_SUFFIXES = (".yaml", ".yml")
 RESULT_SUFFIX = ".result.h5"
 SUMMARY_CSV = "summary.csv"
@@ -595,7 +599,8 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False) -
     reasons ([{code, text}], laminid_cli.status), reason (one line: the error, or the codes),
     converged, optimizer_status, cached, materials ({material: {E1.. nu12}}), intervals
     ({material: {constant: {lower, upper, verdict, at_bound, flagged}}} for the free
-    constants; fixed ones {verdict: "fixed"}), rms_residual_percent, evaluations, time_s, result,
+    constants, with mc_lower, mc_upper and mc_lower_at_limit, mc_upper_at_limit (None: the
+    file does not say) after a Monte Carlo; fixed ones {verdict: "fixed"}), rms_residual_percent, evaluations, time_s, result,
     damping ({material: {eta11: {value, lower, upper, verdict}}}, empty without measured damping).
     ``flagged`` (not determined) is the file's own flag (the run's --max-rel-interval).
     """
@@ -621,6 +626,8 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False) -
 def _row_of_result(res) -> dict:
     """The summary-row fields of a :class:`laminid_cli.resultfile.ResultFile` (schema 1 or 2;
     version 1 recorded no status: "ok" when converged, else "check")."""
+    import numpy as np
+
     row: dict = {"converged": res.converged, "optimizer_status": res.optimizer_status}
     if res.status is not None:
         row["status"] = res.status.status
@@ -637,10 +644,20 @@ def _row_of_result(res) -> dict:
     row["rms_residual_percent"] = res.rms_residual_percent
     row["materials"] = {m: {k: c[k] for k in CONSTANTS} for m, c in res.materials.items()}
     intervals: dict = {m: {k: {"verdict": "fixed"} for k in CONSTANTS} for m in res.materials}
-    for iv in res.uncertainty.intervals if res.uncertainty is not None else ():
-        intervals.setdefault(iv.material, {})[iv.constant] = {
+    u = res.uncertainty
+    mc = u.monte_carlo if u is not None and u.monte_carlo and "lower" in u.monte_carlo \
+        else None
+    for j, iv in enumerate(u.intervals if u is not None else ()):
+        entry = intervals.setdefault(iv.material, {})[iv.constant] = {
             "lower": iv.lower, "upper": iv.upper, "verdict": iv.verdict,
             "at_bound": iv.at_bound, "flagged": iv.flagged}
+        if mc is not None:               # the Monte Carlo's constants are the intervals'
+            entry["mc_lower"] = float(np.ravel(mc["lower"])[j])
+            entry["mc_upper"] = float(np.ravel(mc["upper"])[j])
+            for side in ("lower", "upper"):      # (files before stop 25 do not say)
+                flag = mc.get(f"{side}_at_bound")
+                entry[f"mc_{side}_at_limit"] = None if flag is None else \
+                    bool(np.ravel(flag)[j])
     row["intervals"] = intervals
     row["damping"] = damping_of_file(res.damping) if res.damping is not None else {}
     return row
@@ -708,28 +725,46 @@ def _num(v) -> str:
 
 
 def long_rows(rows, folder=None) -> list[list[str]]:
-    """The long summary: one row per specimen, material and constant (LONG_COLUMNS), SI;
-    a specimen without a result has one row with its status and reason."""
+    """The long summary: one row per specimen, material and constant (LONG_COLUMNS), SI, then
+    its loss factors (:func:`damping_long_rows`); a specimen without a result has one row with
+    its status and reason."""
     out = []
     for r in rows:
         # the codes (the words are in summary.json and the result file); an error's message
         reasons = r["reason"] if r["status"] in ("error", "not run") else \
             ", ".join(x["code"] for x in r.get("reasons", []))
-        tail = ["" if r["rms_residual_percent"] is None else f"{r['rms_residual_percent']:.6g}",
-                "" if not r["result"] else
-                os.path.relpath(r["result"], folder) if folder is not None else r["result"]]
-        if not r["materials"]:
-            out.append([r["name"], r["specimen"], "", "", "", "", "", "", "", r["status"],
-                        reasons] + tail)
-            continue
+        common = {"name": r["name"], "specimen": r["specimen"], "status": r["status"],
+                  "reasons": reasons,
+                  "rms_residual [%]": "" if r["rms_residual_percent"] is None
+                  else f"{r['rms_residual_percent']:.6g}",
+                  "result": "" if not r["result"] else
+                  os.path.relpath(r["result"], folder) if folder is not None else r["result"]}
+        cells = []
         for m, consts in r["materials"].items():
             for k in CONSTANTS:
                 iv = (r.get("intervals") or {}).get(m, {}).get(k, {})
-                out.append([r["name"], r["specimen"], m, k, _num(consts[k]),
-                            _num(iv.get("lower")), _num(iv.get("upper")),
-                            iv.get("verdict", ""), CONSTANT_UNITS[k], r["status"], reasons]
-                           + tail)
+                cells.append({"material": m, "constant": k, "value": _num(consts[k]),
+                              "lower": _num(iv.get("lower")), "upper": _num(iv.get("upper")),
+                              "verdict": iv.get("verdict", ""),
+                              "mc_lower": _num(iv.get("mc_lower")),
+                              "mc_upper": _num(iv.get("mc_upper")),
+                              "mc_search_limit": search_limit_text(iv),
+                              "unit": CONSTANT_UNITS[k]})
+        for d in damping_long_rows(r):
+            cells.append({"material": d["material"], "constant": d["constant"],
+                          "value": _num(d["value"]), "lower": _num(d["lower"]),
+                          "upper": _num(d["upper"]), "verdict": d["verdict"], "unit": d["unit"]})
+        for cell in cells or [{}]:
+            row = common | cell
+            out.append([row.get(col, "") for col in LONG_COLUMNS])
     return out
+
+
+def search_limit_text(iv: dict) -> str:
+    """The long CSV's mc_search_limit of one interval entry: which ends of the Monte Carlo
+    range trials on a limit of the search set ("lower", "upper", "both" or "")."""
+    ends = [side for side in ("lower", "upper") if iv.get(f"mc_{side}_at_limit")]
+    return "both" if len(ends) == 2 else ends[0] if ends else ""
 
 
 def write_summary_csv(path, rows, wide: bool = False) -> Path:
@@ -868,9 +903,18 @@ def _rows_of_long(records, path: Path) -> list[dict]:
         m, k = rec.get("material"), rec.get("constant")
         if m and k in CONSTANTS and rec.get("value") not in ("", None):
             r["materials"].setdefault(m, {})[k] = float(rec["value"])
-            r["intervals"].setdefault(m, {})[k] = {"lower": _float(rec.get("lower")),
-                                                   "upper": _float(rec.get("upper")),
-                                                   "verdict": rec.get("verdict", "")}
+            iv = r["intervals"].setdefault(m, {})[k] = {
+                "lower": _float(rec.get("lower")), "upper": _float(rec.get("upper")),
+                "verdict": rec.get("verdict", "")}
+            if rec.get("mc_lower") not in ("", None):
+                limit = rec.get("mc_search_limit") or ""
+                iv.update(mc_lower=_float(rec["mc_lower"]), mc_upper=_float(rec.get("mc_upper")),
+                          mc_lower_at_limit=limit in ("lower", "both"),
+                          mc_upper_at_limit=limit in ("upper", "both"))
+        elif m and k and k.startswith("eta") and rec.get("value") not in ("", None):
+            r.setdefault("damping", {}).setdefault(m, {})[k] = {
+                "value": float(rec["value"]), "lower": _float(rec.get("lower")),
+                "upper": _float(rec.get("upper")), "verdict": rec.get("verdict", "")}
     return list(rows.values())
 
 

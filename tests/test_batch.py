@@ -75,8 +75,11 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
     with open(out / "summary.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     # long form: one row per specimen, material and constant, SI, the unit in its column
-    assert list(rows[0])[:11] == ["name", "specimen", "material", "constant", "value", "lower",
-                                  "upper", "verdict", "unit", "status", "reasons"]
+    assert list(rows[0]) == ["name", "specimen", "material", "constant", "value", "lower",
+                             "upper", "verdict", "mc_lower", "mc_upper", "mc_search_limit",
+                             "unit", "status", "reasons", "rms_residual [%]", "result"]
+    assert all(row["mc_lower"] == row["mc_upper"] == row["mc_search_limit"] == ""
+               for row in rows)                          # no --monte-carlo
     assert [(row["name"], row["constant"]) for row in rows] == [
         (n, k) for n in ("example1/S1.4", "example2/S2.1")
         for k in ("E1", "E2", "G12", "G13", "G23", "nu12")]
@@ -137,6 +140,41 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
     assert w[1]["status"] == "check" and w[1]["reasons"] == "at_bound, undetermined, poor_fit"
     assert read_summary(wide / "summary.csv")[0]["materials"]["IM7/977-2"]["E1"] == \
         pytest.approx(E1, rel=1e-14)
+
+
+def test_summary_carries_the_monte_carlo_range_and_its_search_limit_ends(tmp_path):
+    """S1.1 (12x12, --monte-carlo 40, seed 0): the long CSV's mc_lower/mc_upper are the result
+    file's /uncertainty/monte_carlo range, and mc_search_limit names the ends the file flags
+    as set by trials on a limit of the search (here G23's lower end: trials at G23 = 1e-4
+    E1); summary.json and read_summary say the same."""
+    specs = make_tree(tmp_path / "in", {"S1.1.yaml": "specimens/example1/S1.1.yaml"})
+    out = tmp_path / "out"
+    r = run("batch", specs, "--mesh", "12x12", "--monte-carlo", "40", "--out", out)
+    assert r.exit_code == 0, r.output
+    with open(out / "summary.csv", newline="") as fh:
+        by = {row["constant"]: row for row in csv.DictReader(fh)}
+    with h5py.File(out / "S1.1.result.h5") as f:
+        u = f["uncertainty"]
+        labels = [x.decode().rsplit(".", 1)[1] for x in u["labels"][()]]
+        mc = {k: u["monte_carlo"][k][()] for k in ("lower", "upper", "lower_at_bound",
+                                                   "upper_at_bound")}
+    assert labels == ["E1", "E2", "G12", "G13", "G23", "nu12"]
+    for j, k in enumerate(labels):
+        assert float(by[k]["mc_lower"]) == pytest.approx(mc["lower"][j], rel=1e-14)
+        assert float(by[k]["mc_upper"]) == pytest.approx(mc["upper"][j], rel=1e-14)
+        ends = [s for s in ("lower", "upper") if mc[f"{s}_at_bound"][j]]
+        assert by[k]["mc_search_limit"] == ("both" if len(ends) == 2 else "".join(ends)), k
+    assert by["G23"]["mc_search_limit"] == "lower"
+    assert float(by["G23"]["mc_lower"]) == pytest.approx(1e-4 * float(by["E1"]["value"]),
+                                                         rel=0.02)
+    assert [k for k in labels if by[k]["mc_search_limit"]] == ["G23"]
+    j = json.loads((out / "summary.json").read_text())
+    g23 = j["specimens"][0]["intervals"]["IM7/977-2"]["G23"]
+    assert g23["mc_lower_at_limit"] is True and g23["mc_upper_at_limit"] is False
+    assert j["units"]["mc_lower"] == "unit of the constant"
+    back = read_summary(out / "summary.csv")[0]["intervals"]["IM7/977-2"]
+    assert back["G23"]["mc_lower_at_limit"] and not back["E1"]["mc_lower_at_limit"]
+    assert back["E1"]["mc_upper"] == pytest.approx(mc["upper"][0], rel=1e-14)
 
 
 def test_rerun_skips_unchanged_redoes_changed_and_forced(batch_run, tmp_path):

@@ -1,6 +1,7 @@
 """Damping end to end: FRFs with known modal damping -> fit-frf --into -> identify -> loss
 factors; the HDF5 /damping group, --json "damping", batch rows and the report page."""
 
+import csv
 import json
 
 import h5py
@@ -97,7 +98,7 @@ def test_frf_to_loss_factors_within_their_intervals(frf_case, identified):
 
 
 def test_batch_rows_carry_the_loss_factors(frf_case, tmp_path):
-    from laminid_cli.batch import damping_long_rows
+    from laminid_cli.batch import damping_long_rows, read_summary
 
     tmp, _, _ = frf_case
     (tmp_path / "in").mkdir()
@@ -112,6 +113,19 @@ def test_batch_rows_carry_the_loss_factors(frf_case, tmp_path):
     assert [x["constant"] for x in rows] == ["eta11", "eta22", "eta12", "eta13", "eta23"]
     assert all(x["unit"] == "1" and x["material"] == "E-glass/R368" for x in rows)
     assert rows[0]["value"] == pytest.approx(eta["eta11"]["value"])
+    # the long summary.csv has them after the elastic constants, and reads them back
+    with open(tmp_path / "out" / "summary.csv", newline="") as fh:
+        recs = list(csv.DictReader(fh))
+    assert [x["constant"] for x in recs] == ["E1", "E2", "G12", "G13", "G23", "nu12", "eta11",
+                                             "eta22", "eta12", "eta13", "eta23"]
+    e11 = recs[6]
+    assert e11["unit"] == "1" and e11["material"] == "E-glass/R368"
+    assert float(e11["value"]) == pytest.approx(eta["eta11"]["value"], rel=1e-14)
+    assert float(e11["lower"]) <= ETA[0] <= float(e11["upper"])
+    assert recs[10]["verdict"] == "fixed" and recs[10]["lower"] == recs[10]["upper"] == ""
+    back = read_summary(tmp_path / "out" / "summary.csv")[0]["damping"]["E-glass/R368"]
+    assert back["eta23"]["value"] == 0.012 and back["eta23"]["verdict"] == "fixed"
+    assert back["eta11"]["value"] == pytest.approx(eta["eta11"]["value"], rel=1e-14)
 
 
 def test_damping_report_page(frf_case, identified, tmp_path):
