@@ -376,6 +376,43 @@ def test_reduced_monte_carlo_trials_equal_the_identify_route_trial_by_trial():
     assert d["method"] == "reduced" and d["trial_eigenvalue_bound"] == red.trial_bound
 
 
+@pytest.mark.parametrize("fix", [(), ("nu12",)])
+def test_trial_variables_take_the_transverse_shear_moduli_in_logarithm(s11_synthetic, fix):
+    """The trials' step variables (TrialModel.trial_variables) on paper Eq. 14's alphas (all
+    free) and on the constants (nu12 fixed): log G13 and log G23 up to a constant, the other
+    variables unchanged; design_variables inverts them to 1e-14 and its dx/dy equals central
+    differences to 1e-7."""
+    from laminid_cli.uncertainty import TrialModel
+
+    fm, _ = s11_synthetic
+    r = identify(fm, IdentifyOptions(fix=fix), start=[TRUTH_S11])
+    tm = TrialModel(fm, r, 1.0)
+    assert tm.params[0].kind == ("alpha" if not fix else "constants")
+    x = np.asarray(r.x, float)
+    y = tm.trial_variables(x)
+    x2, D = tm.design_variables(y)
+    np.testing.assert_allclose(x2, x, rtol=1e-14, atol=1e-15)
+    for j in range(y.size):
+        h = 1e-6 * max(1.0, abs(y[j]))
+        e = np.eye(y.size)[j] * h
+        fd = (tm.design_variables(y + e)[0] - tm.design_variables(y - e)[0]) / (2 * h)
+        np.testing.assert_allclose(D[:, j], fd, rtol=1e-7, atol=1e-9)
+    # moving the two logarithmic variables scales G13 and G23 and nothing else
+    i13, i23 = (4, 5) if not fix else (tm.params[0].free.index("G13"),
+                                       tm.params[0].free.index("G23"))
+    c = tm.constants(x)[0]
+    y2 = y.copy()
+    y2[i13] += np.log(2.0)
+    y2[i23] -= np.log(4.0)
+    c2 = tm.constants(tm.design_variables(y2)[0])[0]
+    assert c2.G13 == pytest.approx(2 * c.G13, rel=1e-12)
+    assert c2.G23 == pytest.approx(c.G23 / 4, rel=1e-12)
+    for k in ("E1", "E2", "G12", "nu12"):
+        assert getattr(c2, k) == pytest.approx(getattr(c, k), rel=1e-12), k
+    others = [k for k in range(y.size) if k not in (i13, i23)]
+    np.testing.assert_array_equal(y[others], x[others])
+
+
 def test_trials_with_fixed_constants_equal_the_identify_route_on_a_smaller_basis():
     """S1.1 (8x8) with G13, G23 and nu12 fixed (what --fix-undetermined does there), 8 seeded
     trials: the trial model's first-order directions are the stiffness' changes along the
