@@ -411,6 +411,17 @@ def test_trial_variables_take_the_transverse_shear_moduli_in_logarithm(s11_synth
         assert getattr(c2, k) == pytest.approx(getattr(c, k), rel=1e-12), k
     others = [k for k in range(y.size) if k not in (i13, i23)]
     np.testing.assert_array_equal(y[others], x[others])
+    # the limits on G13 and G23 alone are linear in y, and a step is held to them exactly: the
+    # largest step allowed towards G23's lower limit lands on it (to round-off)
+    rows = {(k, sign) for _, k, sign, _ in tm._exact_rows}
+    assert rows == ({(i13, -1.0), (i23, -1.0)} if not fix else
+                    {(i13, -1.0), (i23, -1.0), (i13, 1.0), (i23, 1.0)})
+    G, s = tm._step_constraints(x, y, D)
+    row = next(r for r, k, sign, _ in tm._exact_rows if k == i23 and sign < 0)
+    dy = np.zeros(y.size)
+    dy[i23] = -s[row]                                   # -dy <= s: the step to the limit
+    x_lim = tm.design_variables(y + dy)[0]
+    assert (tm._A_all @ x_lim)[row] == pytest.approx(tm._b_all[row], rel=1e-13)
 
 
 def test_trials_with_fixed_constants_equal_the_identify_route_on_a_smaller_basis():
