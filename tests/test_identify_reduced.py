@@ -242,6 +242,35 @@ def test_reduced_model_is_exact_on_its_own_modes():
     assert B.add(ev0.modes.phi) == 0
 
 
+def test_standard_form_extended_with_the_basis_equals_its_recomputation():
+    """ReducedBasis keeps its eigenproblem in standard form (Mr = L L^T, Kt_b = L^-1 Kr_b
+    L^-T) and extends it when columns are appended (_extend_standard, O(r^2 k)): after three
+    additions (a full basis' modes, then the first-order changes in two parts) it equals
+    the form computed afresh on the same basis to 1e-14, and so do the Ritz values."""
+    fm, prob, ev0 = s11_problem()
+    B = ReducedBasis(fm)
+    B.add(ev0.modes.phi)
+    B._standard()
+    extended = []
+    extend = B._extend_standard
+    B._extend_standard = lambda *a: extended.append(a[0].shape[0]) or extend(*a)
+    W = fm.plate.basis_products(ev0.modes.phi[:, :6])
+    assert B.add(W[:, :18]) > 0
+    coef = coef_at(prob, ev0.x)
+    B.eig(coef, 6)                                     # extends the form
+    assert B.add(W[:, 18:]) > 0
+    theta, Y = B.eig(coef, prob.n_model)               # extends it again
+    assert B._std[0].shape == (B.size, B.size) and len(extended) == 2
+    assert extended[0] == prob.n_model
+    Linv, Kt = B._std[:2]
+    B._std = None
+    Linv_new, Kt_new = B._standard()
+    np.testing.assert_allclose(Linv, Linv_new, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(Kt, Kt_new, rtol=0, atol=1e-14 * np.abs(Kt_new).max())
+    theta_new, Y_new = B.eig(coef, prob.n_model)
+    np.testing.assert_allclose(theta, theta_new, rtol=1e-13)
+
+
 def test_error_bound_is_honest_and_shrinks():
     """At a point 15 % away from the basis' point, the per-mode bound holds the true error
     (against a full solution there) at every enrichment, and shrinks to the final limit.
