@@ -876,6 +876,16 @@ class TrialModel(VariableSet):
         D[k, k] = x[k]
         return x, D
 
+    def coefficient_jacobian(self, x) -> tuple[np.ndarray, np.ndarray]:
+        """The stiffness coefficients of every material at ``x``, in one vector (n_b,), and
+        their derivatives with respect to all design variables (n_b, n_vars): block diagonal,
+        each material's coefficients depending on its own variables only."""
+        coefs, jacs = self.coefficients(x)
+        J = np.zeros((coefs.size, self.n_vars))
+        for m, Jm in enumerate(jacs):
+            J[6 * m:6 * m + 6, self.offsets[m]:self.offsets[m + 1]] = Jm
+        return coefs.reshape(-1), J
+
     def _free_products(self, phi):
         """``dK/dx_v phi`` for every design variable v at the optimum, side by side (n, n_vars
         * k; columns ``v * k ... (v + 1) * k - 1``): the stiffness' first-order changes that
@@ -893,10 +903,7 @@ class TrialModel(VariableSet):
         n_b = P.shape[1] // phi.shape[1]
         if self.n_vars >= n_b:
             return P
-        jacs = self.coefficients(self.x_opt)[1]
-        Jc = np.zeros((n_b, self.n_vars))
-        for m, J in enumerate(jacs):
-            Jc[6 * m:6 * m + 6, self.offsets[m]:self.offsets[m + 1]] = J
+        Jc = self.coefficient_jacobian(self.x_opt)[1]
         k = phi.shape[1]
         Jc /= np.maximum(np.abs(Jc).max(axis=0), 1e-300)
         W = np.einsum("nbk,bv->nvk", P.reshape(P.shape[0], n_b, k), Jc)
@@ -959,9 +966,7 @@ class TrialModel(VariableSet):
         along the directions of the largest relative change of the stiffness coefficients per
         standard error (where that change exceeds CLOUD_CHANGE), shrunk into the feasible
         set; one factorisation and CLOUD_ROUNDS block solves of the Ritz residuals each."""
-        coefs, jacs = self.coefficients(self.x_opt)
-        c = np.concatenate(coefs)
-        J = np.vstack([np.asarray(jk) for jk in jacs])
+        c, J = self.coefficient_jacobian(self.x_opt)
         rel = (J @ self.T) / np.maximum(np.abs(c), 1e-300)[:, None]
         _, sv, Wt = np.linalg.svd(rel, full_matrices=False)
         for k in range(min(CLOUD_DIRECTIONS, sv.size)):
@@ -1134,9 +1139,10 @@ class TrialModel(VariableSet):
                         return x, model
                     dy = dy / (1.0 - q)
             for _ in range(30):
-                x_new, D_new = self.design_variables(y + dy)
-                if np.all(A @ x_new <= b + slack):
-                    break
+                with np.errstate(over="ignore", invalid="ignore"):  # exp of a far step
+                    x_new, D_new = self.design_variables(y + dy)
+                    if np.all(np.isfinite(x_new)) and np.all(A @ x_new <= b + slack):
+                        break
                 dy = 0.5 * dy                  # (the constraints are linear in x, not in y)
             else:
                 return None
