@@ -162,7 +162,7 @@ class Problem(VariableSet):
     over several plates sharing materials by name (laminid_cli.joint)."""
 
     def __init__(self, fms, options: IdentifyOptions, *, start=None, start_pairing=None,
-                 basis=None, check_count: bool = True):
+                 basis=None, check_count: bool = True, prior_shift: dict | None = None):
         """``fms``: a ForwardModel (one plate) or a sequence of them. ``start``: constants (one
         ElasticConstants per distinct material, first-appearance order) to start from instead
         of the files' initial values, which stay the reference of the design variables, the
@@ -171,7 +171,8 @@ class Problem(VariableSet):
         the start instead of sorted order (one array; with several plates a list of them, or
         None entries). ``basis``: a ReducedBasis (a list of them with several plates) to start
         the reduced solver from. ``check_count=False`` accepts fewer weighted frequencies than
-        free constants."""
+        free constants. ``prior_shift``: a Monte Carlo trial's draw of the prior's
+        pseudo-measurements (:attr:`laminid_cli.objective.VariableSet.prior_shift`)."""
         self.single = isinstance(fms, ForwardModel)
         fms = (fms,) if self.single else tuple(fms)
         if not self.single:
@@ -224,6 +225,8 @@ class Problem(VariableSet):
                                     d.n + options.extra_modes))
         self.objective = Objective(plates, params, prior, pairing=options.pairing)
         obj = self.objective
+        if prior_shift:
+            obj.prior_shift = self.prior_shift = dict(prior_shift)
         self.plates, self.prior = obj.plates, obj.prior
         self.freq, self.weight, self.lam_meas, self.n_meas = (obj.freq, obj.weight,
                                                               obj.lam_meas, obj.n_meas)
@@ -518,18 +521,21 @@ def check_start(plate: PlateTerm, ev: Evaluation, far_limit: float) -> list[str]
 
 
 def identify(fm: ForwardModel, options: IdentifyOptions = IdentifyOptions(),
-             progress=None, *, start=None, start_pairing=None, basis=None) -> Identification:
+             progress=None, *, start=None, start_pairing=None, basis=None,
+             prior_shift: dict | None = None) -> Identification:
     """Identify the constants of every material of ``fm.specimen`` (see module docstring).
 
     ``progress(evaluation, objective, rms_percent)`` is called after each model evaluation.
     Raises FitError for hopeless input; a run that stops before convergence returns with
     ``converged = False`` and a status message. ``start``/``start_pairing``: see
     :class:`Problem`. ``basis``: a ReducedBasis of ``fm`` to start the reduced solver from
-    (e.g. ``earlier_result.basis.copy()``: no full solve at the start).
+    (e.g. ``earlier_result.basis.copy()``: no full solve at the start). ``prior_shift``: see
+    :class:`Problem` (Monte Carlo trials).
     """
     t0 = time.perf_counter()
     work0 = dict(WORK)
-    prob = Problem(fm, options, start=start, start_pairing=start_pairing, basis=basis)
+    prob = Problem(fm, options, start=start, start_pairing=start_pairing, basis=basis,
+                   prior_shift=prior_shift)
     ev, converged, status, warnings, initial_rms = run_optimizer(prob, progress)
     return _result(prob, 0, ev, converged, status, warnings, initial_rms,
                    time.perf_counter() - t0, work=work_since(work0, prob))

@@ -105,7 +105,7 @@ class JointProblem(Problem):
     eigenvalues, weights and ``dlam_dx`` over the plates' measured modes."""
 
     def __init__(self, fms, options: IdentifyOptions, *, start=None, start_pairing=None,
-                 basis=None):
+                 basis=None, prior_shift=None):
         fms = tuple(fms)
         if len(fms) < 2:
             raise FitInputError("joint identification needs two or more specimens")
@@ -118,11 +118,13 @@ class JointProblem(Problem):
         if not any(c > 1 for c in counts.values()):
             raise FitInputError("joint identification: the specimens share no material (names: "
                                 + ", ".join(counts) + "); identify them separately")
-        super().__init__(fms, options, start=start, start_pairing=start_pairing, basis=basis)
+        super().__init__(fms, options, start=start, start_pairing=start_pairing, basis=basis,
+                         prior_shift=prior_shift)
 
 
 def identify_joint(fms, options: IdentifyOptions = IdentifyOptions(), progress=None, *,
-                   start=None, start_pairing=None, basis=None) -> JointIdentification:
+                   start=None, start_pairing=None, basis=None,
+                   prior_shift=None) -> JointIdentification:
     """Identify one set of constants per material from several plates at once.
 
     ``fms``: ForwardModels of the plates (same mesh advised). ``progress(evaluation, objective,
@@ -133,7 +135,8 @@ def identify_joint(fms, options: IdentifyOptions = IdentifyOptions(), progress=N
     """
     t0 = time.perf_counter()
     work0 = dict(WORK)
-    prob = JointProblem(fms, options, start=start, start_pairing=start_pairing, basis=basis)
+    prob = JointProblem(fms, options, start=start, start_pairing=start_pairing, basis=basis,
+                        prior_shift=prior_shift)
     ev, converged, status, warnings, initial_rms = run_optimizer(prob, progress)
     work = work_since(work0, prob)
     dt = time.perf_counter() - t0

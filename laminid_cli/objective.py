@@ -119,17 +119,23 @@ class VariableSet:
         (:meth:`coefficients`)."""
         return np.hstack([E[m].T @ J for m, J in enumerate(jacs)])
 
+    #: a Monte Carlo trial's draw of the prior's pseudo-measurements: {material: {constant:
+    #: delta}}, each row becoming ``sqrt(wp) ((P - P0) / P0 - delta)`` (none: delta = 0)
+    prior_shift: dict = {}
+
     def prior_rows(self, x):
         """Eq. 15's second term as residual rows ``sqrt(wp) (P - P0) / P0`` (nu12: over 1 when
         P0 is 0) of the free constants given a prior weight (``self.prior``: per material,
-        {constant: wp}), and their derivatives (n_rows, n_vars): each row is linear in one
-        design variable (P = x * P0, nu12 = x). The term is ``rows . rows``."""
+        {constant: wp}), less ``sqrt(wp) delta`` of :attr:`prior_shift`, and their derivatives
+        (n_rows, n_vars): each row is linear in one design variable (P = x * P0, nu12 = x).
+        The term is ``rows . rows``."""
         vals, rows = [], []
         for k, (p, xk) in enumerate(zip(self.params, self.split(x))):
             if not self.prior[k]:
                 continue
             P = p.constants(xk).as_array()
             P0 = p.initial.as_array()
+            shift = self.prior_shift.get(p.name, {})
             for name, wp in self.prior[k].items():
                 if name not in p.free:
                     continue
@@ -138,7 +144,7 @@ class VariableSet:
                 scale = 1.0 if name == "nu12" else P0[i]
                 row = np.zeros(self.n_vars)
                 row[self.offsets[k] + p.free.index(name)] = np.sqrt(wp) * scale / ref
-                vals.append(np.sqrt(wp) * (P[i] - P0[i]) / ref)
+                vals.append(np.sqrt(wp) * ((P[i] - P0[i]) / ref - shift.get(name, 0.0)))
                 rows.append(row)
         return np.array(vals), np.array(rows).reshape(len(rows), self.n_vars)
 

@@ -65,7 +65,8 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
                           at_lower_bound, at_upper_bound (trials whose answer has the constant
                           on a limit of the search), lower_at_bound, upper_at_bound (0/1: that
                           end of the range is set by such trials: the search's end, not the
-                          data's); attrs trials, converged, sigma_factor, seed, jobs
+                          data's); attrs trials, converged, sigma_factor, seed, jobs,
+                          prior_sigma (relative sd of the prior values' draws; 0: no prior)
     /uncertainty/before_fixing  labels, rel_half_width, verdict of the first run when
                           --fix-undetermined fixed constants
 
@@ -468,7 +469,8 @@ def write_uncertainty(f, a, plate_names) -> None:
     if a.monte_carlo is not None:
         mc = a.monte_carlo
         gm = g.create_group("monte_carlo")
-        for key in ("trials", "converged", "sigma_factor", "seed", "jobs", "time_s"):
+        for key in ("trials", "converged", "sigma_factor", "seed", "jobs", "time_s",
+                    "prior_sigma"):
             gm.attrs[key] = {"trials": mc.n_trials, "converged": mc.n_converged}.get(
                 key, getattr(mc, key, None))
         for key in ("samples", "mean", "std", "lower", "upper", "linearized_std"):

@@ -276,6 +276,9 @@ class Uncertainty:
     at_bound: np.ndarray | None = None      # (p,) bool: ended on a limit of the search
     bound_text: tuple[str, ...] = ()        # per label: "" or the one-sided statement
     chi2_limit: float = float("nan")        # 99 % quantile of chi2 with dof degrees of freedom
+    #: RMS relative eigenvalue standard deviation 2 sigma_f / f of the weighted modes: the
+    #: noise of a prior row is sqrt(wp) sigma_unit (module docstring)
+    sigma_unit: float = float("nan")
 
     def as_dict(self) -> dict:
         """Plain data for JSON (per material and constant) and the report."""
@@ -584,7 +587,7 @@ def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
         notes=tuple(notes), scale=tuple("linear" if n else "log" for n in is_nu),
         at_bound=at_bound, bound_text=tuple(hits[lab].text if lab in hits else ""
                                             for lab in labels),
-        chi2_limit=chi2_limit)
+        chi2_limit=chi2_limit, sigma_unit=sigma_unit)
 
 
 def _parts(result, fms):
@@ -917,9 +920,10 @@ class TrialModel(VariableSet):
         self.Y_ref = np.vstack([self.Y_ref, np.zeros((extra, self.Y_ref.shape[1]))])
         self.model_opt = self.modes(self.basis, self.x_opt, self.Y_ref)
 
-    def prepare(self, freqs, weight) -> int:
+    def prepare(self, freqs, weight, prior_shifts=None) -> int:
         """Enrich the shared basis where the first trials (``freqs``: their frequencies, in
-        order) need it, before the trials run: each is optimised on the shared basis and
+        order; ``prior_shifts``: their draws of the prior, :meth:`trial`) need it, before the
+        trials run: each is optimised on the shared basis and
         checked (:meth:`trial`'s first round); where the check misses the accepted bound, A
         is factorised at its answer (kept for the later checks) and, if still missed, the
         preconditioned residuals there are added to the shared basis. Deterministic (the
@@ -934,6 +938,7 @@ class TrialModel(VariableSet):
         added = 0
         self.pilot = {}
         for i, f in enumerate(freqs):
+            self.prior_shift = prior_shifts[i] if prior_shifts else {}
             lam_meas = (2 * np.pi * np.nan_to_num(f, nan=1.0)) ** 2
             w = np.where(np.isfinite(f), weight, 0.0)
             gn = self._gauss_newton(self.basis, self.x_opt, lam_meas, w, self.Y_ref,
@@ -1230,9 +1235,11 @@ class TrialModel(VariableSet):
             raise _TrialFailed("the trial model was not evaluated")
         return best[1], best[2]
 
-    def trial(self, freq_hz, weight):
-        """Identify from ``freq_hz``: (constants, relative eigenvalue bound, rounds) or raises
-        _TrialFailed."""
+    def trial(self, freq_hz, weight, prior_shift=None):
+        """Identify from ``freq_hz`` (and the prior's pseudo-measurements drawn as
+        ``prior_shift``, :attr:`laminid_cli.objective.VariableSet.prior_shift`): (constants,
+        relative eigenvalue bound, rounds) or raises _TrialFailed."""
+        self.prior_shift = prior_shift or {}
         lam_meas = (2 * np.pi * np.nan_to_num(freq_hz, nan=1.0)) ** 2
         w = np.where(np.isfinite(freq_hz), weight, 0.0)
         basis, Y_ref, x0, L = self.basis, self.Y_ref, self.x_opt, self.L
@@ -1379,6 +1386,9 @@ class MonteCarlo:
     at_lower_bound: np.ndarray | None = None
     at_upper_bound: np.ndarray | None = None
     confidence: float = 0.95
+    #: relative standard deviation with which each trial drew the prior's values (paper Eq.
+    #: 15: P0 of a constant given a prior weight), 0 without a prior
+    prior_sigma: float = 0.0
 
     def bound_counts(self) -> tuple[np.ndarray, np.ndarray]:
         """(lower, upper) trials at a limit of the search per constant (p,), zeros where not
@@ -1409,7 +1419,7 @@ class MonteCarlo:
                 "time_s": self.time_s, "failures": list(self.failures),
                 "method": self.method, "trial_eigenvalue_bound": self.trial_bound,
                 "trial_eigenvalue_bound_limit": self.trial_bound_limit,
-                "reidentified": self.n_reidentified}
+                "reidentified": self.n_reidentified, "prior_sigma": self.prior_sigma}
 
 
 def range_ends_at_bound(at_lower, at_upper, n: int, confidence: float
@@ -1468,8 +1478,9 @@ def _trial_fms(freqs):
     return fms
 
 
-def _identify_trial(freqs, bases):
-    """A trial through identify() / identify_joint() from the optimum with its basis."""
+def _identify_trial(freqs, bases, prior_shift=None):
+    """A trial through identify() / identify_joint() from the optimum with its basis (and the
+    trial's draw of the prior, ``prior_shift``)."""
     from laminid_cli.identify import identify
     from laminid_cli.joint import identify_joint
 
@@ -1478,10 +1489,11 @@ def _identify_trial(freqs, bases):
         bases = [b.copy() for b in bases]
     if _WORKER["joint"]:
         return identify_joint(fms, _WORKER["options"], start=_WORKER["start"],
-                              start_pairing=_WORKER["start_pairing"], basis=bases)
+                              start_pairing=_WORKER["start_pairing"], basis=bases,
+                              prior_shift=prior_shift)
     return identify(fms[0], _WORKER["options"], start=_WORKER["start"],
                     start_pairing=_WORKER["start_pairing"][0],
-                    basis=None if bases is None else bases[0])
+                    basis=None if bases is None else bases[0], prior_shift=prior_shift)
 
 
 def _run_trial(args):
@@ -1489,7 +1501,7 @@ def _run_trial(args):
     relative eigenvalue bound of the trial's model or NaN, route)."""
     from laminid_cli.errors import LaminidError
 
-    index, freqs, labels = args
+    index, freqs, labels, shift = args
     model = _WORKER.get("model")
     route, bound = "identify", float("nan")
     consts = None
@@ -1499,7 +1511,7 @@ def _run_trial(args):
                 done = model.pilot.get(index)
                 c, bound, _ = done if done is not None else model.trial(
                     np.asarray(freqs[0], float),
-                    np.asarray(model.fm.specimen.measured.weight, float))
+                    np.asarray(model.fm.specimen.measured.weight, float), shift)
                 consts = dict(zip(model.names, c))
                 route = "reduced"
             except _TrialFailed as exc:
@@ -1508,7 +1520,7 @@ def _run_trial(args):
             bases = _WORKER["bases"]
             if bases is None and model is not None:
                 bases = [model.basis]          # it holds the first-order mode changes
-            r = _identify_trial(freqs, bases)
+            r = _identify_trial(freqs, bases, shift)
             if not r.converged:
                 return index, None, r.status, bound, route
             consts = {n: c for n, c in zip(r.material_names, r.constants)}
@@ -1580,7 +1592,18 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
         for f, s in zip(base, sigmas):
             noise = rng.standard_normal(f.size) * np.nan_to_num(s.sigma_hz) * factor
             freqs.append(np.where(np.isfinite(f), f + noise, np.nan))
-        trials.append((i, freqs, uncertainty.labels))
+        trials.append((i, freqs, uncertainty.labels, {}))
+    shift_sd = float(uncertainty.sigma_unit) * factor
+    priors = [m for m in material_states(result) if m.prior]
+    if shift_sd > 0 and priors:
+        # the prior's pseudo-measurements drawn as the linearised covariance counts them
+        # (noise sqrt(wp) sigma_unit on each row: module docstring), from a stream of their own
+        # (a specimen without a prior draws the same frequencies as before)
+        prng = np.random.default_rng(None if seed is None else [int(seed), 15])
+        for k, (i, freqs, labels, _) in enumerate(trials):
+            shift = {m.name: {c: float(prng.standard_normal() * shift_sd)
+                              for c in m.prior if c in m.free} for m in priors}
+            trials[k] = (i, freqs, labels, shift)
     reducible = not joint and getattr(result, "basis", None) is not None
     if method == "reduced" and not reducible:
         raise FitInputError("the reduced Monte Carlo trials need a single-plate result of the "
@@ -1595,7 +1618,8 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
         limit = min(TRIAL_BOUND, TRIAL_SHARE * float(np.min(rel[w > 0])))
         model = TrialModel(fm, result, float(np.mean(tau2[w > 0])), limit)
         model.prepare([np.asarray(t[1][0], float) for t in trials[:TRIAL_PILOT]],
-                      np.asarray(fm.specimen.measured.weight, float))
+                      np.asarray(fm.specimen.measured.weight, float),
+                      [t[3] for t in trials[:TRIAL_PILOT]])
     init = ([fm for fm, _ in parts], result.options, tuple(result.constants),
             [np.asarray(plate.pairing) for _, plate in parts], joint,
             None if model is not None else _basis_vectors(result), model)
@@ -1673,6 +1697,7 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
                       n_reidentified=sum(r == "identify" for r in routes) if model is not None
                       else 0,
                       trial_bound_limit=model.bound if model is not None else float("nan"),
+                      prior_sigma=shift_sd if priors else 0.0,
                       at_lower_bound=at_lower, at_upper_bound=at_upper, confidence=conf)
 
 

@@ -486,6 +486,37 @@ def test_trials_on_a_two_material_plate_equal_the_identify_route():
     assert np.all(np.abs(red.samples - ref.samples) / u.std < 0.01)
 
 
+def test_monte_carlo_draws_the_prior_as_the_linearised_covariance_counts_it():
+    """S1.1 (8x8) with a prior on nu12 (weight 1) and G23 (0.5), which then hold those two
+    constants: the linearised covariance counts each prior row as a pseudo-measurement with
+    noise sqrt(wp) sigma_unit, so the trials draw the prior's values with that noise as well
+    (until stop 26 they kept them, and the Monte Carlo spread of G23 and nu12 was 0.02 of the
+    linearised one). 80 seeded trials: the ratios of the prior-held constants within 0.7-1.4;
+    the reduced trials equal the identify() route's trial by trial (same draws) within 1 % of
+    a standard error (G13, not determined, 2 %); prior_sigma is sigma_unit times the variance factor's root."""
+    spec = read_specimen(S11)
+    mat = dataclasses.replace(spec.materials["IM7/977-2"], prior={"nu12": 1.0, "G23": 0.5})
+    spec = dataclasses.replace(spec, materials={"IM7/977-2": mat})
+    fm = build_forward_model(spec, (8, 8))
+    r = identify(fm)
+    sig = frequency_sigma(fm.specimen.measured, 0.002)
+    u = uncertainty_of(r, fm, sig)
+    labels = list(u.labels)
+    held = [labels.index("IM7/977-2.G23"), labels.index("IM7/977-2.nu12")]
+    assert all(u.verdict[k].endswith("(held by the prior)") for k in held)
+    mc = monte_carlo(r, fm, sig, u, 80, jobs=2, seed=4)
+    assert mc.n_converged == 80 and mc.method == "reduced"
+    assert mc.prior_sigma == pytest.approx(u.sigma_unit * np.sqrt(u.variance_factor), rel=1e-12)
+    assert 0.001 < mc.prior_sigma < 0.02
+    assert np.all((mc.ratio[held] > 0.7) & (mc.ratio[held] < 1.4)), mc.ratio
+    red = monte_carlo(r, fm, sig, u, 5, jobs=1, seed=4, method="reduced")
+    ref = monte_carlo(r, fm, sig, u, 5, jobs=1, seed=4, method="identify")
+    dev = np.abs(red.samples - ref.samples) / u.std
+    g13 = labels.index("IM7/977-2.G13")      # not determined (+-150 %): a flat valley, where
+    assert np.all(np.delete(dev, g13, axis=1) < 0.01) and np.all(dev[:, g13] < 0.02)  # 1.1 %
+    assert red.as_dict()["prior_sigma"] == mc.prior_sigma
+
+
 def test_residual_bounds_hold_against_exact_eigenvalues():
     """The linear and quadratic Ritz value bounds of reduced.residual_bounds against a small dense
     problem with known eigenvalues (perturbed eigenvectors as Ritz vectors)."""

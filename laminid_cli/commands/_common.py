@@ -175,7 +175,9 @@ uncertainty_options = _apply([
                   help="Fix the flagged constants at their initial values and identify again."),
     click.option("--monte-carlo", "monte_carlo", type=click.IntRange(min=0), default=0,
                   metavar="N", help="Re-identify N times from frequencies perturbed by their "
-                                    "uncertainties and report the spread (0: off); a range "
+                                    "uncertainties (and prior values by the noise the "
+                                    "intervals count for them) and report the spread (0: "
+                                    "off); a range "
                                     "end set by trials on a limit of the search is marked as "
                                     "such (terminal *, JSON, HDF5, report)."),
     click.option("--seed", type=int, default=0, show_default=True,

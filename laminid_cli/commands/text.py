@@ -294,9 +294,11 @@ def format_uncertainty(u: dict) -> list[str]:
     if mc:
         lines.append("")
         procs = f"{mc['jobs']} process" + ("es" if mc["jobs"] != 1 else "")
+        prior = (f"; the priors' values by {100 * mc['prior_sigma']:.2g} % "
+                 "(their pseudo-measurements' noise)" if mc.get("prior_sigma") else "")
         lines.append(f"Monte Carlo check: {mc['converged']} of {mc['trials']} re-identifications "
-                     f"converged (frequencies perturbed by sigma x {mc['sigma_factor']:.3g}, "
-                     f"{procs}, {mc['time_s']:.1f} s)")
+                     f"converged (frequencies perturbed by sigma x {mc['sigma_factor']:.3g}"
+                     f"{prior}, {procs}, {mc['time_s']:.1f} s)")
         lines.append(f"  {'constant':<18} {'linearised std':>15} {'Monte Carlo std':>16} "
                      f"{'ratio':>6}  {'Monte Carlo ' + format(conf, '.0f') + ' % range':>26}")
         limits, marked = [], False
