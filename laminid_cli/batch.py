@@ -600,8 +600,9 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False) -
     converged, optimizer_status, cached, materials ({material: {E1.. nu12}}), intervals
     ({material: {constant: {lower, upper, verdict, at_bound, flagged}}} for the free
     constants, with mc_lower, mc_upper and mc_lower_at_limit, mc_upper_at_limit (None: the
-    file does not say) after a Monte Carlo; fixed ones {verdict: "fixed"}), rms_residual_percent, evaluations, time_s, result,
-    damping ({material: {eta11: {value, lower, upper, verdict}}}, empty without measured damping).
+    file does not say) after a Monte Carlo; fixed ones {verdict: "fixed"}),
+    rms_residual_percent, evaluations, time_s, result, damping ({material: {eta11: {value,
+    lower, upper, verdict}}}, empty without measured damping).
     ``flagged`` (not determined) is the file's own flag (the run's --max-rel-interval).
     """
     row = {"name": job.name, "specimen": "", "path": str(job.spec), "status": "not run",
