@@ -1586,24 +1586,21 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
     factor = float(np.sqrt(uncertainty.variance_factor))
     rng = np.random.default_rng(seed)
     base = [np.asarray(plate.measured_hz, float) for _, plate in parts]
+    # the prior's pseudo-measurements are drawn as the linearised covariance counts them
+    # (noise sqrt(wp) sigma_unit on each row: module docstring), from a stream of their own
+    # (a specimen without a prior draws the same frequencies as before)
+    shift_sd = float(uncertainty.sigma_unit) * factor
+    priors = [m for m in material_states(result) if m.prior] if shift_sd > 0 else []
+    prng = np.random.default_rng(None if seed is None else [int(seed), 15])
     trials = []
     for i in range(n_trials):
         freqs = []
         for f, s in zip(base, sigmas):
             noise = rng.standard_normal(f.size) * np.nan_to_num(s.sigma_hz) * factor
             freqs.append(np.where(np.isfinite(f), f + noise, np.nan))
-        trials.append((i, freqs, uncertainty.labels, {}))
-    shift_sd = float(uncertainty.sigma_unit) * factor
-    priors = [m for m in material_states(result) if m.prior]
-    if shift_sd > 0 and priors:
-        # the prior's pseudo-measurements drawn as the linearised covariance counts them
-        # (noise sqrt(wp) sigma_unit on each row: module docstring), from a stream of their own
-        # (a specimen without a prior draws the same frequencies as before)
-        prng = np.random.default_rng(None if seed is None else [int(seed), 15])
-        for k, (i, freqs, labels, _) in enumerate(trials):
-            shift = {m.name: {c: float(prng.standard_normal() * shift_sd)
-                              for c in m.prior if c in m.free} for m in priors}
-            trials[k] = (i, freqs, labels, shift)
+        shift = {m.name: {c: float(prng.standard_normal() * shift_sd)
+                          for c in m.prior if c in m.free} for m in priors}
+        trials.append((i, freqs, uncertainty.labels, shift))
     reducible = not joint and getattr(result, "basis", None) is not None
     if method == "reduced" and not reducible:
         raise FitInputError("the reduced Monte Carlo trials need a single-plate result of the "
