@@ -367,8 +367,8 @@ class ReducedBasis:
         ``[[L, 0], [E, F]]`` with ``E = B^T L^-T``, ``F F^T = C - E E^T``, and its inverse
         ``[[L^-1, 0], [G1, G2]]`` with ``G2 = F^-1``, ``G1 = -G2 E L^-1``; Kt keeps its block
         and gains ``L^-1 X`` and ``G1 X + G2 (K21 G1^T + K22 G2^T)`` with ``X = K11 G1^T + K12
-        G2^T``: O(r^2 k) per basis matrix instead of O(r^3) (r = 177, k = 14: ~1 against
-        ~6 ms)."""
+        G2^T``: O(r^2 k) per basis matrix instead of O(r^3) (S1.1 12x12, r = 96 + 14: 0.22
+        against 0.97 ms for the form computed again)."""
         r0, r = L.shape[0], self.size
         k = r - r0
         Mr = self.Mr

@@ -177,9 +177,9 @@ uncertainty_options = _apply([
                   metavar="N", help="Re-identify N times from frequencies perturbed by their "
                                     "uncertainties (and prior values by the noise the "
                                     "intervals count for them) and report the spread (0: "
-                                    "off); a range "
-                                    "end set by trials on a limit of the search is marked as "
-                                    "such (terminal *, JSON, HDF5, report)."),
+                                    "off); a range end set by trials on a limit of the "
+                                    "search is marked as such (terminal *, JSON, HDF5, "
+                                    "report)."),
     click.option("--seed", type=int, default=0, show_default=True,
                   help="Random seed of the Monte Carlo perturbations."),
 ])

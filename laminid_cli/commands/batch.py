@@ -34,7 +34,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
     (SI units: summary.csv has one row per specimen, material and constant with value,
     interval, verdict, the Monte Carlo range with --monte-carlo (mc_search_limit: its ends set
     by trials on a search limit), unit and status, then the ply loss factors where damping
-    was measured; --wide one row per specimen; summary.json a units map). Every result has a status, ok or check with its reasons, shown in the table.
+    was measured; --wide one row per specimen; summary.json a units map). Every result has a
+    status, ok or check with its reasons, shown in the table.
 
     A result whose input has not changed (sha256 of the specimen and its FRF file, the
     options and the laminid version, stored in the file) is not redone unless --force. A
