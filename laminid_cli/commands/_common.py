@@ -23,6 +23,12 @@ class FiniteFloat(click.FloatRange):
             self.fail(f"{value!r} is not a finite number.", param, ctx)
         return super().convert(number, param, ctx)
 
+    def _describe_range(self) -> str:
+        # click shows an unbounded range as "x<=None" in the help
+        if self.min is None and self.max is None:
+            return ""
+        return super()._describe_range()
+
 
 json_option = click.option(
     "--json", "as_json", is_flag=True,

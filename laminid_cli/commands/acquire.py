@@ -97,20 +97,24 @@ def _resume_command(params: dict, output: Path) -> str:
                    "file.yaml@sim. Default from $LAMINID_VISA_BACKEND.")
 @click.option("--timeout", default=5.0, show_default=True, type=FiniteFloat(min=0.01),
               help="Seconds the analyser may take to answer one query.")
-@click.option("--span", default=1600.0, show_default=True, type=FiniteFloat(), help="Span, Hz.")
-@click.option("--start", default=0.0, show_default=True, type=FiniteFloat(),
+@click.option("--span", default=1600.0, show_default=True,
+              type=FiniteFloat(min=0, min_open=True), help="Span, Hz.")
+@click.option("--start", default=0.0, show_default=True, type=FiniteFloat(min=0),
               help="Start frequency, Hz.")
 @click.option("--lines", default=800, show_default=True, type=int,
               help="FFT resolution lines.")
 @click.option("--averages", default=5, show_default=True, type=click.IntRange(min=1),
               help="Hits averaged per point.")
-@click.option("--trigger-level", default=10.0, show_default=True, type=FiniteFloat(),
+@click.option("--trigger-level", default=10.0, show_default=True,
+              type=FiniteFloat(-100, 100),
               help="Channel-1 (hammer) trigger level, % of input range.")
-@click.option("--pretrigger", default=0.005, show_default=True, type=FiniteFloat(),
+@click.option("--pretrigger", default=0.005, show_default=True, type=FiniteFloat(min=0),
               help="Time recorded before the trigger, s.")
-@click.option("--force-window", default=0.01, show_default=True, type=FiniteFloat(),
+@click.option("--force-window", default=0.01, show_default=True,
+              type=FiniteFloat(min=0, min_open=True),
               help="Force-window width on channel 1, s.")
-@click.option("--exp-window", default=0.1, show_default=True, type=FiniteFloat(),
+@click.option("--exp-window", default=0.1, show_default=True,
+              type=FiniteFloat(min=0, min_open=True),
               help="Exponential-window time constant on channel 2, s.")
 @click.option("--points", default=1, show_default=True, type=click.IntRange(min=1),
               help="Number of measurement points (labels 1..N).")
