@@ -104,8 +104,11 @@ def short_verdict(text: str) -> str:
     if text.startswith("at bound"):
         return "at bound, not identified"
     if text.startswith("not determined"):
-        return UNDETERMINED + text[len("not determined by these modes — fix it or measure a "
-                                       "thicker plate / more modes"):]
+        # "not determined by these modes[ (Monte Carlo)] — fix it or ...[ (held by the prior)]"
+        head, _, tail = text.partition(" — ")
+        advice = "fix it or measure a thicker plate / more modes"
+        return (UNDETERMINED + head[len("not determined by these modes"):]
+                + (tail[len(advice):] if tail.startswith(advice) else ""))
     return text
 
 
@@ -214,7 +217,8 @@ def constants_rows(r: ResultFile) -> tuple[list[str], list[list[str]]]:
             elif iv.at_bound:
                 verdict = "at bound, not identified"
             else:
-                verdict = short_verdict(iv.verdict)
+                # (on two lines where the Monte Carlo set it: the column is narrow)
+                verdict = short_verdict(iv.verdict).replace(" (Monte Carlo)", "\n(Monte Carlo)")
             rv = ref.get(m, {}).get(k)
             rtext = "" if rv is None else (
                 f"{fmt_value(k, rv)} ({round((c[k] - rv) / abs(rv) * 100) + 0:+d} %)" if rv else

@@ -53,6 +53,9 @@ class Interval:
     #: not determined: relative half-width above the run's --max-rel-interval (the file's
     #: /uncertainty attribute ``flagged``)
     flagged: bool = False
+    #: the verdict is the Monte Carlo range's (worse than the linearised interval's; the
+    #: /uncertainty attribute ``verdict_from_monte_carlo``)
+    verdict_from_monte_carlo: bool = False
 
 
 @dataclass(frozen=True)
@@ -332,12 +335,13 @@ def _uncertainty(f) -> Uncertainty | None:
     at_bound = arr("at_bound", False).astype(bool) if "at_bound" in u else np.zeros(n, bool)
     bound_text = strs("bound_text")
     flagged = set(filter(None, str(a.get("flagged", "")).split(",")))
+    from_mc = set(filter(None, str(a.get("verdict_from_monte_carlo", "")).split(",")))
     intervals = []
     for j, lab in enumerate(labels):
         m, k = lab.rsplit(".", 1) if "." in lab else ("", lab)
         intervals.append(Interval(lab, m, k, float(value[j]), float(lower[j]), float(upper[j]),
                                   verdict[j], float(rel[j]), scale[j], bool(at_bound[j]),
-                                  bound_text[j], lab in flagged))
+                                  bound_text[j], lab in flagged, lab in from_mc))
     mc = None
     if "monte_carlo" in u:
         g = u["monte_carlo"]

@@ -45,7 +45,9 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
     /uncertainty          attrs: confidence, quantile, scaling (requested), scale_used,
                                  variance_factor, s2, chi2, dof, rows, condition_number,
                                  sigma_source, well_determined, weak, max_rel_interval,
-                                 flagged, fixed, fixed_undetermined, notes (strings joined by ';')
+                                 flagged, fixed, fixed_undetermined, notes (strings joined by ';'),
+                                 verdict_from_monte_carlo (the labels whose verdict the Monte
+                                 Carlo range set, marked "(Monte Carlo)" in verdict)
                           labels ("material.constant", the free constants), value, std,
                           std_stated, half_width, lower, upper (Pa; nu12: 1), rel_half_width,
                           verdict (strings), correlation (p, p), covariance (p, p),
@@ -432,6 +434,7 @@ def write_uncertainty(f, a, plate_names) -> None:
                        ("weak", u.thresholds["weak"]),
                        ("max_rel_interval", u.thresholds["max_rel_interval"]),
                        ("flagged", ",".join(u.flagged)), ("fixed", ",".join(u.fixed)),
+                       ("verdict_from_monte_carlo", ",".join(u.verdict_from_monte_carlo)),
                        ("fixed_undetermined", ",".join(a.fixed_undetermined)),
                        ("notes", "; ".join(u.notes))):
         g.attrs[key] = value

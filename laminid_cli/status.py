@@ -11,7 +11,8 @@ reasons (stable lowercase codes, one entry per code, the words name the constant
     or the optimum sits on a feasibility constraint: that constant is not identified.
 ``undetermined``
     a free constant's 95 % half-width exceeds ``--max-rel-interval`` of its value (flagged by
-    the uncertainty assessment): the modes do not determine it.
+    the uncertainty assessment): the modes do not determine it. With a Monte Carlo, the half-
+    width of its 95 % range counts too (:func:`laminid_cli.uncertainty.with_monte_carlo`).
 ``poor_fit``
     chi2 of the residuals is above its 99 % quantile for the degrees of freedom (s2 beyond
     its 99 % limit): the model misses the data by more than the stated frequency noise —
@@ -175,7 +176,17 @@ def result_status(result, uncertainty=None) -> ResultStatus:
         und = [lab for lab in u.flagged if lab not in bound]
         if und:
             rel = dict(zip(u.labels, u.rel_half_width))
-            words = ", ".join(f"{lab} (±{_pct(rel[lab])})" for lab in und)
+            mc = dict(zip(u.labels, u.mc_rel_half_width)) if u.mc_rel_half_width is not None \
+                else {}
+            limit = u.thresholds["max_rel_interval"]
+
+            def width(lab):
+                # flagged by the Monte Carlo range where the linearised interval was narrower
+                if not rel[lab] > limit and mc.get(lab, 0.0) > limit:
+                    return f"Monte Carlo ±{_pct(mc[lab])}, linearised ±{_pct(rel[lab])}"
+                return f"±{_pct(rel[lab])}"
+
+            words = ", ".join(f"{lab} ({width(lab)})" for lab in und)
             add("undetermined", f"not determined by these modes ({u.confidence * 100:.0f} % "
                                 f"half-width above {u.thresholds['max_rel_interval'] * 100:.0f} %"
                                 f" of the value): {words}")

@@ -279,6 +279,10 @@ class Uncertainty:
     #: RMS relative eigenvalue standard deviation 2 sigma_f / f of the weighted modes: the
     #: noise of a prior row is sqrt(wp) sigma_unit (module docstring)
     sigma_unit: float = float("nan")
+    #: (p,) the Monte Carlo range's half-width / |value| (:func:`with_monte_carlo`; None
+    #: without a Monte Carlo), and the labels whose verdict it set
+    mc_rel_half_width: np.ndarray | None = None
+    verdict_from_monte_carlo: tuple[str, ...] = ()
 
     def as_dict(self) -> dict:
         """Plain data for JSON (per material and constant) and the report."""
@@ -295,7 +299,11 @@ class Uncertainty:
                 "information_from_prior": float(self.information_from_prior[k]),
                 "scale": self.scale[k] if self.scale else "",
                 "at_bound": bool(self.at_bound[k]) if self.at_bound is not None else False,
-                "bound_text": self.bound_text[k] if self.bound_text else ""}
+                "bound_text": self.bound_text[k] if self.bound_text else "",
+                "verdict_from": ("monte_carlo" if lab in self.verdict_from_monte_carlo
+                                 else "linearised")}
+            if self.mc_rel_half_width is not None:
+                per[mat][const]["monte_carlo_rel_half_width"] = float(self.mc_rel_half_width[k])
         for lab in self.fixed:
             mat, const = lab.rsplit(".", 1)
             per.setdefault(mat, {})[const] = {"verdict": VERDICT_FIXED, "flagged": False}
@@ -313,6 +321,7 @@ class Uncertainty:
             "condition_number": self.condition,
             "weakest_combination": [[lab, float(c)] for lab, c in self.weakest],
             "flagged": list(self.flagged),
+            "verdict_from_monte_carlo": list(self.verdict_from_monte_carlo),
             "fixed": list(self.fixed),
             "sigma_source": self.sigma_source,
             "thresholds": dict(self.thresholds),
@@ -1698,6 +1707,53 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
                       at_lower_bound=at_lower, at_upper_bound=at_upper, confidence=conf)
 
 
+#: the verdict of a constant whose Monte Carlo range is worse than its linearised interval
+MC_MARK = " (Monte Carlo)"
+
+
+def _verdict_rank(rel: float) -> int:
+    return 0 if rel < WELL_DETERMINED else 1 if rel < WEAK else 2     # NaN: 2
+
+
+def with_monte_carlo(u: Uncertainty, mc: MonteCarlo) -> Uncertainty:
+    """``u`` with the verdicts the Monte Carlo makes worse: a constant whose Monte Carlo
+    range, as a relative half-width ``(upper - lower) / 2 / |value|``, falls in a worse band
+    (:data:`WELL_DETERMINED`, :data:`WEAK`) than its linearised interval gets the verdict of
+    that band marked "(Monte Carlo)", and is flagged where the range is above the flagging
+    threshold (``max_rel_interval``). The linearised interval assumes the frequencies are
+    linear in the constants over it; where the trials show a wider spread (a curved or flat
+    valley, a second minimum, a limit of the search within reach), the narrow interval is not
+    what a lab should act on. The Monte Carlo never improves a verdict: its range is cut by
+    the search's limits, where the linearised interval is not. Constants at a bound keep
+    theirs. The intervals themselves stay the linearised ones (the Monte Carlo range is
+    reported beside them)."""
+    index = {lab: k for k, lab in enumerate(mc.labels)}
+    p = len(u.labels)
+    rel_mc = np.full(p, np.nan)
+    for k, lab in enumerate(u.labels):
+        j = index.get(lab)
+        if j is not None and mc.n_converged >= 2:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                rel_mc[k] = 0.5 * (mc.upper[j] - mc.lower[j]) / abs(u.value[k])
+    at_bound = (np.zeros(p, bool) if u.at_bound is None else np.asarray(u.at_bound, bool))
+    verdict, flagged, changed = list(u.verdict), list(u.flagged), []
+    limit = u.thresholds["max_rel_interval"]
+    for k, lab in enumerate(u.labels):
+        if at_bound[k] or not np.isfinite(rel_mc[k]):
+            continue
+        if _verdict_rank(rel_mc[k]) > _verdict_rank(u.rel_half_width[k]):
+            head, _, tail = verdict_of(rel_mc[k], False).partition(" — ")
+            prior = " (held by the prior)" if verdict[k].endswith(" (held by the prior)") else ""
+            verdict[k] = head + MC_MARK + (" — " + tail if tail else "") + prior
+            changed.append(lab)
+        if rel_mc[k] > limit and lab not in flagged:
+            flagged.append(lab)
+    flagged = [lab for lab in u.labels if lab in flagged]
+    return dataclasses.replace(u, verdict=tuple(verdict), flagged=tuple(flagged),
+                               mc_rel_half_width=rel_mc,
+                               verdict_from_monte_carlo=tuple(changed))
+
+
 # ----------------------------------------------------------------------------------------------
 # the whole assessment
 
@@ -1805,6 +1861,7 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
         mc = monte_carlo(result, fm_list if joint else fm_list[0], sigmas if joint else sigmas[0],
                          unc, uopts.monte_carlo, jobs=uopts.jobs, seed=uopts.seed,
                          progress=mc_progress)
+        unc = with_monte_carlo(unc, mc)
     return Assessment(result=result, uncertainty=unc, sigmas=sigmas,
                       fixed_undetermined=tuple(fixed), before_fixing=first if fixed else None,
                       monte_carlo=mc, runs=runs, earlier_results=tuple(earlier))

@@ -713,3 +713,79 @@ def test_monte_carlo_trials_on_a_search_limit_are_counted_and_marked(tmp_path):
         assert g["at_lower_bound"][k] == on.sum() and g["lower_at_bound"][k] == 1
         assert g["upper_at_bound"][()].sum() == 0
     assert read_result(out).uncertainty.monte_carlo["lower_at_bound"][k] == 1
+
+
+# --- the Monte Carlo range in the verdicts --------------------------------------------------------
+
+def _mc_range(u, rel_half, at_lower=None):
+    """A MonteCarlo over ``u``'s labels whose 95 % range is value -/+ rel_half * value."""
+    from laminid_cli.uncertainty import MonteCarlo
+
+    v = np.asarray(u.value, float)
+    half = np.asarray(rel_half, float) * np.abs(v)
+    p = v.size
+    z = np.zeros(p)
+    return MonteCarlo(labels=u.labels, n_trials=40, n_converged=40, samples=np.zeros((40, p)),
+                      mean=v, std=half / 2, lower=v - half, upper=v + half,
+                      linearized_std=u.std, ratio=half / 2 / u.std, sigma_factor=1.0, seed=0,
+                      jobs=1, time_s=0.0, at_lower_bound=z if at_lower is None else at_lower,
+                      at_upper_bound=z)
+
+
+@pytest.mark.parametrize("mc_rel, verdict, flagged", [
+    (0.01, VERDICT_WELL, False),              # narrower than linearised: no change
+    (0.10, "weak (Monte Carlo)", False),      # worse band: the Monte Carlo's verdict, marked
+    (0.50, "not determined by these modes (Monte Carlo) — fix it or measure a thicker plate "
+           "/ more modes", True)])
+def test_a_monte_carlo_range_wider_than_the_interval_sets_a_worse_verdict(mc_rel, verdict,
+                                                                         flagged):
+    """The linearised verdict of E1 (well determined, ~1 %) against a Monte Carlo range of
+    1 / 10 / 50 % (half-width over |value|): only a worse band changes it, and a range above
+    --max-rel-interval flags it; the interval itself stays the linearised one."""
+    from laminid_cli.report import short_verdict
+    from laminid_cli.status import result_status
+    from laminid_cli.uncertainty import with_monte_carlo
+
+    G = np.array([[1.0, 0.2], [0.9, 0.3], [1.1, 0.1], [0.8, 0.25], [1.0, 0.15]])
+    obs, mat = toy(G, [100, 200, 300, 400, 500])
+    u = linearized_uncertainty([obs], [mat], scaling="stated", max_rel_interval=0.3)
+    assert u.rel_half_width[0] < 0.05 and u.verdict[0] == VERDICT_WELL and not u.flagged
+    u2 = with_monte_carlo(u, _mc_range(u, [mc_rel, u.rel_half_width[1]]))
+    assert u2.verdict[0] == verdict and u2.verdict[1] == u.verdict[1]
+    assert u2.mc_rel_half_width[0] == pytest.approx(mc_rel, rel=1e-12)
+    assert (u2.flagged == ("m.E1",)) is flagged
+    assert u2.verdict_from_monte_carlo == (() if mc_rel < 0.05 else ("m.E1",))
+    assert np.array_equal(u2.lower, u.lower) and np.array_equal(u2.upper, u.upper)
+    d = u2.as_dict()["constants"]["m"]["E1"]
+    assert d["verdict_from"] == ("linearised" if mc_rel < 0.05 else "monte_carlo")
+    assert d["monte_carlo_rel_half_width"] == pytest.approx(mc_rel)
+    if flagged:
+        assert short_verdict(u2.verdict[0]) == "not determined (Monte Carlo)"
+        res = type("R", (), {"converged": True, "material_names": ("m",),
+                             "constants": (mat.constants,), "free": {"m": ("E1", "E2")},
+                             "bounds_hit": (), "pairing": np.arange(5), "weight": np.ones(5),
+                             "specimen": type("S", (), {"name": "P"})})()
+        st = result_status(res, u2)
+        assert st.codes == ("undetermined",)
+        lin = f"{u.rel_half_width[0] * 100:.0f} %"
+        assert f"m.E1 (Monte Carlo ±50 %, linearised ±{lin})" in st.reasons[0].text
+
+
+def test_the_monte_carlo_never_improves_a_verdict_nor_touches_a_constant_at_its_bound():
+    """E2 not determined linearised (~70 %) stays so with a 10 % Monte Carlo range (the search's
+    limits cut the trials, not the linearised interval); a constant at its bound keeps its
+    verdict whatever its range; a prior's note stays on a changed verdict."""
+    from laminid_cli.uncertainty import VERDICT_AT_BOUND, with_monte_carlo
+
+    G = np.array([[1.0, 0.02], [0.9, 0.03], [1.1, 0.01], [0.8, 0.025], [1.0, 0.015]])
+    obs, mat = toy(G, [100, 200, 300, 400, 500])
+    u = linearized_uncertainty([obs], [mat], scaling="stated", max_rel_interval=0.3)
+    assert u.verdict[1] == VERDICT_NOT and u.flagged == ("m.E2",)
+    u2 = with_monte_carlo(u, _mc_range(u, [0.01, 0.10]))
+    assert u2.verdict == u.verdict and u2.flagged == u.flagged
+    assert u2.verdict_from_monte_carlo == ()
+    held = dataclasses.replace(u, verdict=(VERDICT_WELL + " (held by the prior)", VERDICT_AT_BOUND),
+                               at_bound=np.array([False, True]), flagged=())
+    u3 = with_monte_carlo(held, _mc_range(held, [0.2, 5.0]))
+    assert u3.verdict == ("weak (Monte Carlo) (held by the prior)", VERDICT_AT_BOUND)
+    assert u3.flagged == () and u3.verdict_from_monte_carlo == ("m.E1",)

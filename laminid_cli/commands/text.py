@@ -322,6 +322,12 @@ def format_uncertainty(u: dict) -> list[str]:
                 lines.append("  * that end of the range is set by such trials: it is the "
                              "search's limit, not the data's (the constant is not determined "
                              "there)")
+        from_mc = u.get("verdict_from_monte_carlo") or []
+        if from_mc:
+            lines.append("  verdicts set by the Monte Carlo range, wider than the linearised "
+                         "interval (the frequencies are not linear in the constant over it): "
+                         + ", ".join(_short(from_mc) if len(mc["constants"]) == 1
+                                     else from_mc))
     return lines
 
 
