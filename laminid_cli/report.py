@@ -138,7 +138,8 @@ def interval_text(k: str, iv) -> str:
     if iv.at_bound:
         side, stmt = bound_statement(iv.bound_text)
         if stmt:           # the limit in GPa when the statement gives it ("≤ 0.00286")
-            limit = re.search(r"\(([-+0-9.eE]+) GPa\)", stmt)
+            # ("... (0.00286 GPa)" or "... (0.00595 GPa at the optimum)")
+            limit = re.search(r"\(([-+0-9.eE]+) GPa[^)]*\)", stmt)
             return f"{stmt[0]} {limit.group(1)}" if limit else stmt
         return f"≤ {fmt_value(k, iv.upper)}" if np.isfinite(iv.upper) else "—"
     lo, hi = iv.lower, iv.upper
