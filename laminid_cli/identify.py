@@ -325,7 +325,9 @@ class Problem(VariableSet):
         22), counted once: the objective is ten times the worst one met so far, the gradient
         zero, so the optimiser's line search or conservative update steps back inside."""
         self.log.n_refused += 1
-        log.warning("point outside the feasible region not evaluated (%s)", "; ".join(ev.reasons))
+        # (info: the optimiser steps back inside by itself; the result's warnings count these
+        # points, run_optimizer; a Monte Carlo's trials would print one line per point)
+        log.info("point outside the feasible region not evaluated (%s)", "; ".join(ev.reasons))
         worst = max((h.objective for h in self.log.history), default=1.0)
         ref = self.log.best
         ev.objective = 10.0 * worst + 1.0
