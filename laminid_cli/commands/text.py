@@ -260,7 +260,10 @@ def format_uncertainty(u: dict) -> list[str]:
                 lines.append(f"    {lab}: {conf:.0f} % half-width was {_pct(b['rel_half_width'])}"
                              " of its value")
     if u["flagged"]:
-        lines.append(f"  flagged (half-width > {th['max_rel_interval'] * 100:.0f} % of the value):"
+        mc_too = " of the interval or the Monte Carlo range" if u.get(
+            "verdict_from_monte_carlo") else ""
+        lines.append(f"  flagged (half-width{mc_too} > {th['max_rel_interval'] * 100:.0f} % of "
+                     "the value):"
                      f" {', '.join(u['flagged'])} — not determined by these modes; fix them "
                      "(--fix-undetermined) or measure a thicker plate / more modes")
     for note in u.get("notes", []):
