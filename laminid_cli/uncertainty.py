@@ -1804,7 +1804,8 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
            joint: bool = False, progress=None, mc_progress=None, accept=None) -> Assessment:
     """Identify (one plate, or several jointly), then compute the uncertainty; optionally fix
     the flagged constants and identify again (until nothing new is flagged), and run the
-    Monte Carlo check on the final result.
+    Monte Carlo check on the final result (with ``fix_undetermined``, the constants its range
+    flags (:func:`with_monte_carlo`) are fixed as well, and the assessment goes on from there).
 
     ``fms``: a ForwardModel, or a sequence of them with ``joint=True``. ``progress`` is passed to
     the identification, ``mc_progress(done, total)`` to :func:`monte_carlo`. ``accept(result)``
@@ -1831,37 +1832,42 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
         return identify(fm_list[0], opts, progress,
                         basis=None if basis is None else basis.copy())
 
+    fms_arg = fm_list if joint else fm_list[0]
+    sig_arg = sigmas if joint else sigmas[0]
     result = run(options)
-    unc = uncertainty_of(result, fm_list if joint else fm_list[0], sigmas if joint else sigmas[0],
-                         **kw)
+    unc = uncertainty_of(result, fms_arg, sig_arg, **kw)
     first = unc
     fixed: list[str] = []
     earlier = []
     runs = 1
-    while uopts.fix_undetermined and unc.flagged:
-        new = [lab for lab in unc.flagged if lab not in fixed]
-        if not new:
+    while True:
+        while uopts.fix_undetermined and unc.flagged:
+            new = [lab for lab in unc.flagged if lab not in fixed]
+            if not new:
+                break
+            if len(new) == len(unc.labels):
+                raise FitInputError(
+                    "every free constant is undetermined by these modes ("
+                    + ", ".join(new) + "); nothing left to identify: measure more modes or a "
+                    "thicker plate, or raise --max-rel-interval")
+            fixed += new
+            log.info("fixing undetermined constants at their initial values: %s", ", ".join(new))
+            options = dataclasses.replace(options, fix=tuple(options.fix) + tuple(new))
+            earlier.append(result)
+            result = run(options, result.basis)      # the basis spans the path already walked
+            runs += 1
+            unc = uncertainty_of(result, fms_arg, sig_arg, **kw)
+        mc = None
+        accepted = accept is None or accept(result)
+        if not (uopts.monte_carlo and accepted):
             break
-        if len(new) == len(unc.labels):
-            raise FitInputError(
-                "every free constant is undetermined by these modes ("
-                + ", ".join(new) + "); nothing left to identify: measure more modes or a "
-                "thicker plate, or raise --max-rel-interval")
-        fixed += new
-        log.info("fixing undetermined constants at their initial values: %s", ", ".join(new))
-        options = dataclasses.replace(options, fix=tuple(options.fix) + tuple(new))
-        earlier.append(result)
-        result = run(options, result.basis)          # the basis spans the path already walked
-        runs += 1
-        unc = uncertainty_of(result, fm_list if joint else fm_list[0],
-                             sigmas if joint else sigmas[0], **kw)
-    mc = None
-    accepted = accept is None or accept(result)
-    if uopts.monte_carlo and accepted:
-        mc = monte_carlo(result, fm_list if joint else fm_list[0], sigmas if joint else sigmas[0],
-                         unc, uopts.monte_carlo, jobs=uopts.jobs, seed=uopts.seed,
-                         progress=mc_progress)
+        mc = monte_carlo(result, fms_arg, sig_arg, unc, uopts.monte_carlo, jobs=uopts.jobs,
+                         seed=uopts.seed, progress=mc_progress)
         unc = with_monte_carlo(unc, mc)
+        # with --fix-undetermined, the constants the Monte Carlo range flags are fixed too and
+        # the whole assessment runs again (its Monte Carlo included)
+        if not (uopts.fix_undetermined and any(lab not in fixed for lab in unc.flagged)):
+            break
     return Assessment(result=result, uncertainty=unc, sigmas=sigmas,
                       fixed_undetermined=tuple(fixed), before_fixing=first if fixed else None,
                       monte_carlo=mc, runs=runs, earlier_results=tuple(earlier))

@@ -789,3 +789,24 @@ def test_the_monte_carlo_never_improves_a_verdict_nor_touches_a_constant_at_its_
     u3 = with_monte_carlo(held, _mc_range(held, [0.2, 5.0]))
     assert u3.verdict == ("weak (Monte Carlo) (held by the prior)", VERDICT_AT_BOUND)
     assert u3.flagged == () and u3.verdict_from_monte_carlo == ("m.E1",)
+
+
+def test_fix_undetermined_also_fixes_what_the_monte_carlo_flags():
+    """S1.4 (8x8, measured frequencies, 40 trials, seed 0): --fix-undetermined alone fixes G13
+    and G23 and leaves nu12 weak (linearised ±29 %, measured); its Monte Carlo range is ±32 %,
+    so with --monte-carlo nu12 is fixed as well, and the assessment's final Monte Carlo (on
+    E1, E2, G12) flags nothing: status ok, three runs."""
+    from laminid_cli.status import result_status
+
+    fm = build_forward_model(read_specimen("specimens/example1/S1.4.yaml"), (8, 8))
+    lin = assess(fm, IdentifyOptions(), UncertaintyOptions(fix_undetermined=True))
+    assert lin.fixed_undetermined == ("IM7/977-2.G13", "IM7/977-2.G23") and lin.runs == 2
+    k = lin.uncertainty.labels.index("IM7/977-2.nu12")
+    assert 0.2 < lin.uncertainty.rel_half_width[k] < 0.3 and not lin.uncertainty.flagged
+    a = assess(fm, IdentifyOptions(), UncertaintyOptions(fix_undetermined=True, monte_carlo=40,
+                                                        jobs=1, seed=0))
+    assert a.fixed_undetermined == ("IM7/977-2.G13", "IM7/977-2.G23", "IM7/977-2.nu12")
+    assert a.runs == 3 and a.monte_carlo is not None and a.monte_carlo.n_converged == 40
+    assert a.monte_carlo.labels == ("IM7/977-2.E1", "IM7/977-2.E2", "IM7/977-2.G12")
+    assert not a.uncertainty.flagged and a.uncertainty.verdict_from_monte_carlo == ()
+    assert result_status(a.result, a.uncertainty).status == "ok"
