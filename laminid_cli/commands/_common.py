@@ -178,14 +178,16 @@ uncertainty_options = _apply([
                   metavar="FRACTION",
                   help="Flag a constant whose 95 % half-width exceeds this fraction of its value."),
     click.option("--fix-undetermined", is_flag=True,
-                  help="Fix the flagged constants at their initial values and identify again."),
+                  help="Fix the flagged constants at their initial values and identify again "
+                       "(until nothing new is flagged, by the intervals or the Monte Carlo)."),
     click.option("--monte-carlo", "monte_carlo", type=click.IntRange(min=0), default=0,
                   metavar="N", help="Re-identify N times from frequencies perturbed by their "
                                     "uncertainties (and prior values by the noise the "
                                     "intervals count for them) and report the spread (0: "
                                     "off); a range end set by trials on a limit of the "
                                     "search is marked as such (terminal *, JSON, HDF5, "
-                                    "report)."),
+                                    "report). A range wider than the linearised interval "
+                                    "sets a worse verdict, marked '(Monte Carlo)'."),
     click.option("--seed", type=int, default=0, show_default=True,
                   help="Random seed of the Monte Carlo perturbations."),
 ])
