@@ -1712,7 +1712,9 @@ MC_MARK = " (Monte Carlo)"
 
 
 def _verdict_rank(rel: float) -> int:
-    return 0 if rel < WELL_DETERMINED else 1 if rel < WEAK else 2     # NaN: 2
+    """0 well determined, 1 weak, 2 not determined (NaN too): the band of
+    :func:`laminid_cli.intervals.verdict`."""
+    return (VERDICT_WELL, VERDICT_WEAK, VERDICT_NOT).index(verdict_of(rel, False))
 
 
 def with_monte_carlo(u: Uncertainty, mc: MonteCarlo) -> Uncertainty:
