@@ -41,6 +41,7 @@ import numpy as np
 
 from laminid_cli.atomic import atomic_path
 from laminid_cli.errors import LaminidError
+from laminid_cli.intervals import VERDICT_NOT
 from laminid_cli.resultfile import CONSTANTS, ResultFile, read_result
 
 log = logging.getLogger(__name__)
@@ -104,10 +105,11 @@ def short_verdict(text: str) -> str:
     if text.startswith("at bound"):
         return "at bound, not identified"
     if text.startswith("not determined"):
-        # "not determined by these modes[ (Monte Carlo)] — fix it or ...[ (held by the prior)]"
+        # VERDICT_NOT "<phrase> — <advice>", with " (Monte Carlo)" after the phrase and
+        # " (held by the prior)" after the advice where they apply
+        phrase, _, advice = VERDICT_NOT.partition(" — ")
         head, _, tail = text.partition(" — ")
-        advice = "fix it or measure a thicker plate / more modes"
-        return (UNDETERMINED + head[len("not determined by these modes"):]
+        return (UNDETERMINED + head[len(phrase):]
                 + (tail[len(advice):] if tail.startswith(advice) else ""))
     return text
 

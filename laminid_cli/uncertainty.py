@@ -234,6 +234,10 @@ class MaterialState:
     prior: dict
 
 
+#: the note on a verdict whose constant gets most of its information from the prior
+HELD_BY_PRIOR = " (held by the prior)"
+
+
 @dataclass(frozen=True)
 class Uncertainty:
     """Linearised uncertainty of the free constants (SI; labels "material.constant").
@@ -579,7 +583,7 @@ def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
     for k, lab in enumerate(labels):
         v_ = verdict_of(rel[k], at_bound[k])
         if prior_share[k] > 0.5 and not at_bound[k]:
-            v_ += " (held by the prior)"
+            v_ += HELD_BY_PRIOR
         verdict.append(v_)
         if not rel[k] <= max_rel_interval:
             flagged.append(lab)
@@ -1745,7 +1749,7 @@ def with_monte_carlo(u: Uncertainty, mc: MonteCarlo) -> Uncertainty:
             continue
         if _verdict_rank(rel_mc[k]) > _verdict_rank(u.rel_half_width[k]):
             head, _, tail = verdict_of(rel_mc[k], False).partition(" — ")
-            prior = " (held by the prior)" if verdict[k].endswith(" (held by the prior)") else ""
+            prior = HELD_BY_PRIOR if verdict[k].endswith(HELD_BY_PRIOR) else ""
             verdict[k] = head + MC_MARK + (" — " + tail if tail else "") + prior
             changed.append(lab)
         if rel_mc[k] > limit and lab not in flagged:
