@@ -53,6 +53,7 @@ from laminid_cli import __version__
 from laminid_cli.atomic import (process_alive, remove_stale_temporaries, temporary_name,
                                 write_bytes_atomic)
 from laminid_cli.errors import LaminidError
+from laminid_cli.intervals import VERDICT_AT_BOUND
 from laminid_cli.pipeline import RunOptions
 # imported here, not on the first summary row: a Ctrl-C landing in an import (in the code
 # a dataclass definition executes) can turn the exit code 130 into a kill by SIGINT (-2)
@@ -65,13 +66,16 @@ CONSTANTS = ("E1", "E2", "G12", "G13", "G23", "nu12")
 CONSTANT_UNITS = {"E1": "Pa", "E2": "Pa", "G12": "Pa", "G13": "Pa", "G23": "Pa", "nu12": "1"}
 #: the ``units`` map of summary.json
 UNITS = {**CONSTANT_UNITS, "lower": "unit of the constant", "upper": "unit of the constant",
+         "bound_limit": "unit of the constant",
          "mc_lower": "unit of the constant", "mc_upper": "unit of the constant",
          "rms_residual_percent": "%", "time_s": "s"}
-#: the columns of the long summary.csv: lower/upper the linearised interval, mc_lower/mc_upper
-#: the Monte Carlo range (--monte-carlo), mc_search_limit which of its ends ("lower", "upper",
-#: "both") trials on a limit of the search set (the search's end, not the data's)
+#: the columns of the long summary.csv: lower/upper the linearised interval (empty for a
+#: constant at its bound), bound_side/bound_limit of a constant at its bound (the data push it
+#: below a "lower" limit, above an "upper" one; no interval), mc_lower/mc_upper the Monte Carlo
+#: range (--monte-carlo), mc_search_limit which of its ends ("lower", "upper", "both") trials
+#: on a limit of the search set (the search's end, not the data's)
 LONG_COLUMNS = ("name", "specimen", "material", "constant", "value", "lower", "upper", "verdict",
-                "mc_lower", "mc_upper", "mc_search_limit", "unit", "status", "reasons",
+                "bound_side", "bound_limit", "mc_lower", "mc_upper", "mc_search_limit", "unit", "status", "reasons",
                 "rms_residual [%]", "result")
 SPECIMEN_SUFFIXES = (".yaml", ".yml")
 RESULT_SUFFIX = ".result.h5"
@@ -599,8 +603,8 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False) -
     Keys: name, specimen (its name field), path, status ("ok" | "check" | "error" | "not run"),
     reasons ([{code, text}], laminid_cli.status), reason (one line: the error, or the codes),
     converged, optimizer_status, cached, materials ({material: {E1.. nu12}}), intervals
-    ({material: {constant: {lower, upper, verdict, at_bound, flagged}}} for the free
-    constants, with mc_lower, mc_upper and mc_lower_at_limit, mc_upper_at_limit (None: the
+    ({material: {constant: {lower, upper, verdict, at_bound, bound_side, bound_limit,
+    flagged}}} for the free constants (bound_side "" and bound_limit None when not at a bound), with mc_lower, mc_upper and mc_lower_at_limit, mc_upper_at_limit (None: the
     file does not say) after a Monte Carlo; fixed ones {verdict: "fixed"}),
     rms_residual_percent, evaluations, time_s, result, damping ({material: {eta11: {value,
     lower, upper, verdict}}}, empty without measured damping).
@@ -652,7 +656,8 @@ def _row_of_result(res) -> dict:
     for j, iv in enumerate(u.intervals if u is not None else ()):
         entry = intervals.setdefault(iv.material, {})[iv.constant] = {
             "lower": iv.lower, "upper": iv.upper, "verdict": iv.verdict,
-            "at_bound": iv.at_bound, "flagged": iv.flagged}
+            "at_bound": iv.at_bound, "bound_side": iv.bound_side,
+            "bound_limit": iv.bound_limit, "flagged": iv.flagged}
         if mc is not None:               # the Monte Carlo's constants are the intervals'
             entry["mc_lower"] = float(np.ravel(mc["lower"])[j])
             entry["mc_upper"] = float(np.ravel(mc["upper"])[j])
@@ -748,6 +753,8 @@ def long_rows(rows, folder=None) -> list[list[str]]:
                 cells.append({"material": m, "constant": k, "value": _num(consts[k]),
                               "lower": _num(iv.get("lower")), "upper": _num(iv.get("upper")),
                               "verdict": iv.get("verdict", ""),
+                              "bound_side": iv.get("bound_side") or "",
+                              "bound_limit": _num(iv.get("bound_limit")),
                               "mc_lower": _num(iv.get("mc_lower")),
                               "mc_upper": _num(iv.get("mc_upper")),
                               "mc_search_limit": search_limit_text(iv),
@@ -905,9 +912,13 @@ def _rows_of_long(records, path: Path) -> list[dict]:
         m, k = rec.get("material"), rec.get("constant")
         if m and k in CONSTANTS and rec.get("value") not in ("", None):
             r["materials"].setdefault(m, {})[k] = float(rec["value"])
+            side = rec.get("bound_side") or ""
             iv = r["intervals"].setdefault(m, {})[k] = {
                 "lower": _float(rec.get("lower")), "upper": _float(rec.get("upper")),
-                "verdict": rec.get("verdict", "")}
+                "verdict": rec.get("verdict", ""),
+                # (summaries written before the bound columns: the verdict says it)
+                "at_bound": bool(side) or rec.get("verdict", "") == VERDICT_AT_BOUND,
+                "bound_side": side, "bound_limit": _float(rec.get("bound_limit"))}
             if rec.get("mc_lower") not in ("", None):
                 limit = rec.get("mc_search_limit") or ""
                 iv.update(mc_lower=_float(rec["mc_lower"]), mc_upper=_float(rec.get("mc_upper")),

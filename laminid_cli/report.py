@@ -42,7 +42,7 @@ import numpy as np
 from laminid_cli.atomic import atomic_path
 from laminid_cli.errors import LaminidError
 from laminid_cli.intervals import VERDICT_NOT
-from laminid_cli.resultfile import CONSTANTS, ResultFile, read_result
+from laminid_cli.resultfile import CONSTANTS, ResultFile, bound_statement, read_result
 
 log = logging.getLogger(__name__)
 
@@ -117,18 +117,6 @@ def short_verdict(text: str) -> str:
 #: an interval whose ends differ by more than this factor carries no information (a modulus
 #: interval on ln P with a huge standard deviation: "[1e-30, 5e+30] GPa")
 UNINFORMATIVE_RATIO = 1e3
-_BOUND_STATEMENT = re.compile(r"(?:nu12|E1|E2|G12|G13|G23)\s*(<=|>=)\s*(.*)$")
-
-
-def bound_statement(text: str) -> tuple[str, str]:
-    """(side, statement) of a ``bound_text`` ("at its bound — not identified: G13 <= 0.0001 E1
-    (0.00286 GPa)" -> ("lower", "≤ 0.0001 E1 (0.00286 GPa)")); side "lower" means the data
-    push the constant below its limit, "upper" above it, "" when the text says neither."""
-    m = _BOUND_STATEMENT.search(text.rsplit(": ", 1)[-1]) if text else None
-    if m is None:
-        return "", ""
-    op, rest = m.groups()
-    return ("lower", f"≤ {rest}") if op == "<=" else ("upper", f"≥ {rest}")
 
 
 def interval_text(k: str, iv) -> str:
@@ -137,13 +125,10 @@ def interval_text(k: str, iv) -> str:
     ends are more than UNINFORMATIVE_RATIO apart (log-space modulus intervals only)."""
     if iv is None:
         return "—"
-    if iv.at_bound:
-        side, stmt = bound_statement(iv.bound_text)
-        if stmt:           # the limit in GPa when the statement gives it ("≤ 0.00286")
-            # ("... (0.00286 GPa)" or "... (0.00595 GPa at the optimum)")
-            limit = re.search(r"\(([-+0-9.eE]+) GPa[^)]*\)", stmt)
-            return f"{stmt[0]} {limit.group(1)}" if limit else stmt
-        return f"≤ {fmt_value(k, iv.upper)}" if np.isfinite(iv.upper) else "—"
+    if iv.at_bound:         # the side and the limit of the search it ended on ("≤ 0.002860")
+        if iv.bound_side and np.isfinite(iv.bound_limit):
+            return f"{'≤' if iv.bound_side == 'lower' else '≥'} {fmt_value(k, iv.bound_limit)}"
+        return bound_statement(iv.bound_text)[1] or "at its bound"
     lo, hi = iv.lower, iv.upper
     if k != "nu12" and lo > 0 and hi / lo > UNINFORMATIVE_RATIO:
         return f"uninformative (×{hi / lo:.0e})"
@@ -430,7 +415,7 @@ INTERVAL_COLOR = "C0"
 def _bound_panel(ax, k, v, iv, x, ymin, ymax):
     """A constant at its bound: no interval, a one-sided arrow from the value towards the side
     the data push it to, and the statement ("≤ 0.0001 E1 (0.00286 GPa)")."""
-    side, stmt = bound_statement(iv.bound_text)
+    side, stmt = iv.bound_side, bound_statement(iv.bound_text)[1]
     if not side:
         return
     edge = ymin if side == "lower" else ymax
@@ -452,7 +437,7 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
     nu = k == "nu12"
     gref = None if ref is None else g(ref)
     if iv is not None and iv.at_bound:
-        ymin, ymax = _bound_limits(g(v), bound_statement(iv.bound_text)[0], gref, nu)
+        ymin, ymax = _bound_limits(g(v), iv.bound_side, gref, nu)
     else:
         ymin, ymax = _panel_limits(g(v), g(lo), g(hi), gref, u.weak, nu)
     a = abs(g(v)) if iv is None or not iv.at_bound else 0.0     # no verdict at a bound

@@ -12,6 +12,7 @@ Everything is in SI (Pa, Hz, m, kg; nu12 and loss factors: 1), as stored.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -50,6 +51,10 @@ class Interval:
     scale: str = "linear"      # "log" (moduli, schema 2) | "linear"
     at_bound: bool = False
     bound_text: str = ""
+    #: of a constant at its bound: "lower" (the data push it below ``bound_limit``) | "upper";
+    #: "" when not at a bound. Files written before these datasets: read from ``bound_text``
+    bound_side: str = ""
+    bound_limit: float = np.nan              # SI (Pa; nu12: 1)
     #: not determined: relative half-width above the run's --max-rel-interval (the file's
     #: /uncertainty attribute ``flagged``)
     flagged: bool = False
@@ -316,6 +321,36 @@ def _plate(g, name: str | None = None) -> Plate:
         reference_global=parse_global_reference(yaml_text))
 
 
+_BOUND_STATEMENT = re.compile(r"(?:nu12|E1|E2|G12|G13|G23)\s*(<=|>=)\s*(.*)$")
+
+
+def bound_statement(text: str) -> tuple[str, str]:
+    """(side, statement) of a ``bound_text`` ("at its bound — not identified: G13 <= 0.0001 E1
+    (0.00286 GPa)" -> ("lower", "≤ 0.0001 E1 (0.00286 GPa)")); side "lower" means the data
+    push the constant below its limit, "upper" above it, "" when the text says neither."""
+    m = _BOUND_STATEMENT.search(text.rsplit(": ", 1)[-1]) if text else None
+    if m is None:
+        return "", ""
+    op, rest = m.groups()
+    return ("lower", f"≤ {rest}") if op == "<=" else ("upper", f"≥ {rest}")
+
+
+def bound_from_text(text: str) -> tuple[str, float]:
+    """(side, limit SI) of a constant at its bound from its one-sided statement, for files
+    written before /uncertainty held them as data (bound_side, bound_limit): "... G13 <= 0.0001
+    E1 (0.0154 GPa)" -> ("lower", 1.54e7); "nu12 >= 0.95" -> ("upper", 0.95); ("", NaN) when
+    the text says neither."""
+    side, stmt = bound_statement(text)
+    if not side:
+        return "", np.nan
+    rest = stmt[2:]
+    if "nu12" in text.rsplit(": ", 1)[-1].split()[0]:
+        num = re.match(r"[-+0-9.eE]+", rest)
+        return side, float(num.group()) if num else np.nan
+    gpa = re.search(r"\(([-+0-9.eE]+) GPa[^)]*\)", rest)
+    return side, float(gpa.group(1)) * 1e9 if gpa else np.nan
+
+
 def _uncertainty(f) -> Uncertainty | None:
     if "uncertainty" not in f:
         return None
@@ -334,6 +369,13 @@ def _uncertainty(f) -> Uncertainty | None:
     rel, verdict, scale = arr("rel_half_width"), strs("verdict"), strs("scale", "linear")
     at_bound = arr("at_bound", False).astype(bool) if "at_bound" in u else np.zeros(n, bool)
     bound_text = strs("bound_text")
+    if "bound_side" in u:
+        bound_side, bound_limit = strs("bound_side"), arr("bound_limit")
+    else:                                   # written before the limits were data
+        parsed = [bound_from_text(t) if b else ("", np.nan)
+                  for t, b in zip(bound_text, at_bound)]
+        bound_side = tuple(s for s, _ in parsed)
+        bound_limit = np.array([v for _, v in parsed], float)
     flagged = set(filter(None, str(a.get("flagged", "")).split(",")))
     from_mc = set(filter(None, str(a.get("verdict_from_monte_carlo", "")).split(",")))
     intervals = []
@@ -341,7 +383,8 @@ def _uncertainty(f) -> Uncertainty | None:
         m, k = lab.rsplit(".", 1) if "." in lab else ("", lab)
         intervals.append(Interval(lab, m, k, float(value[j]), float(lower[j]), float(upper[j]),
                                   verdict[j], float(rel[j]), scale[j], bool(at_bound[j]),
-                                  bound_text[j], lab in flagged, lab in from_mc))
+                                  bound_text[j], bound_side[j], float(bound_limit[j]),
+                                  lab in flagged, lab in from_mc))
     mc = None
     if "monte_carlo" in u:
         g = u["monte_carlo"]

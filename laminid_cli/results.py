@@ -55,7 +55,10 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
                           exp(-/+ q std/value) for moduli, value -/+ q std clipped to
                           [-nu_max, nu_max] for nu12), at_bound (bool per label; its
                           lower/upper are NaN), bound_text ("" or the one-sided statement,
-                          e.g. "at its bound — not identified: G13 <= 0.0001 E1 (0.0154 GPa)");
+                          e.g. "at its bound — not identified: G13 <= 0.0001 E1 (0.0154 GPa)"),
+                          bound_side ("" | "lower" | "upper": the data push the constant below /
+                          above its limit) and bound_limit (that limit, Pa; nu12: 1; NaN when
+                          not at a bound);
                           attr chi2_limit_99;
                           weakest_labels/weakest_coefficients (weakest combination)
     /uncertainty/frequency_sigma/<key>   attr name (the specimen name); sigma (Hz per measured
@@ -453,6 +456,13 @@ def write_uncertainty(f, a, plate_names) -> None:
         description="the constant ended on a limit of the search: not identified, no interval")
     data, dt = _strings(u.bound_text)
     g.create_dataset("bound_text", data=data, dtype=dt)
+    p = len(u.labels)
+    data, dt = _strings(u.bound_side or ("",) * p)
+    g.create_dataset("bound_side", data=data, dtype=dt)
+    put(g, "bound_limit", u.bound_limit if u.bound_limit is not None else np.full(p, np.nan),
+        unit, description="of a constant at its bound: the limit of the search it ended on "
+        "(the data push it below a lower limit, above an upper one; bound_side); NaN: not at "
+        "a bound")
     g.attrs["chi2_limit_99"] = u.chi2_limit
     put(g, "correlation", u.correlation, "1")
     put(g, "covariance", u.covariance, "Pa^2 (nu12 row/column: Pa, 1)")

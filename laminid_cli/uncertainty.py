@@ -52,9 +52,11 @@ Constants at a bound
     ``MIN_MODULUS_RATIO * E1``, E2 = E1, |nu12| = nu_max) is not identified: the data would move
     it further. It gets no interval (``lower``/``upper`` NaN, ``at_bound`` true), the verdict
     :data:`VERDICT_AT_BOUND` and a one-sided statement in ``bound_text`` ("at its bound — not
-    identified: G13 <= 0.0001 E1 (0.0154 GPa)"). The covariance of the other constants is
-    computed with the constants at a bound held there (an active constraint), so one constant
-    on its limit does not blow up every interval.
+    identified: G13 <= 0.0001 E1 (0.0154 GPa)"), with its side and limit as data in
+    ``bound_side`` ("lower": the data push it below ``bound_limit``) and ``bound_limit`` (SI).
+    The covariance of the other constants is computed with the constants at a bound held
+    there (an active constraint), so one constant on its limit does not blow up every
+    interval.
 
 Identifiability
     Normalised sensitivities d ln f_i / d ln P_j (:attr:`Identification.sensitivity`), the
@@ -279,6 +281,10 @@ class Uncertainty:
     scale: tuple[str, ...] = ()             # per label: "log" (moduli) | "linear" (nu12)
     at_bound: np.ndarray | None = None      # (p,) bool: ended on a limit of the search
     bound_text: tuple[str, ...] = ()        # per label: "" or the one-sided statement
+    #: per label, of a constant at its bound: the side the data push it to ("lower" | "upper";
+    #: "" when not at a bound) and the limit of the search there (SI; NaN when not at a bound)
+    bound_side: tuple[str, ...] = ()
+    bound_limit: np.ndarray | None = None
     chi2_limit: float = float("nan")        # 99 % quantile of chi2 with dof degrees of freedom
     #: RMS relative eigenvalue standard deviation 2 sigma_f / f of the weighted modes: the
     #: noise of a prior row is sqrt(wp) sigma_unit (module docstring)
@@ -304,6 +310,9 @@ class Uncertainty:
                 "scale": self.scale[k] if self.scale else "",
                 "at_bound": bool(self.at_bound[k]) if self.at_bound is not None else False,
                 "bound_text": self.bound_text[k] if self.bound_text else "",
+                "bound_side": self.bound_side[k] if self.bound_side else "",
+                "bound_limit": (float(self.bound_limit[k]) if self.bound_limit is not None
+                                else float("nan")),
                 "verdict_from": ("monte_carlo" if lab in self.verdict_from_monte_carlo
                                  else "linearised")}
             if self.mc_rel_half_width is not None:
@@ -600,6 +609,8 @@ def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
         notes=tuple(notes), scale=tuple("linear" if n else "log" for n in is_nu),
         at_bound=at_bound, bound_text=tuple(hits[lab].text if lab in hits else ""
                                             for lab in labels),
+        bound_side=tuple(hits[lab].side if lab in hits else "" for lab in labels),
+        bound_limit=np.array([hits[lab].limit if lab in hits else np.nan for lab in labels]),
         chi2_limit=chi2_limit, sigma_unit=sigma_unit)
 
 

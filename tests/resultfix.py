@@ -1,12 +1,15 @@
 """Test helpers that edit a result file written by ``laminid identify`` (schema 2) in place:
 
 - :func:`mark_at_bound` marks free constants as at a bound exactly as the writer marks one
-  (results.py: at_bound True, bound_text, the at-bound verdict, lower/upper NaN) and sets the
+  (results.py: at_bound True, bound_text, bound_side, bound_limit, the at-bound verdict,
+  lower/upper NaN) and sets the
   status and its reasons, for pages that need a bound hit on a specimen with reference values;
 - :func:`make_version_1` turns the file into what schema version 1 wrote (results.py before
   the typed reader: material groups keyed by the name with the look-alike slash U+2215, the
   nlopt outcome in the root attribute ``status``, no /status group, symmetric linear intervals
-  value -/+ half_width, no scale/at_bound/bound_text).
+  value -/+ half_width, no scale/at_bound/bound_text/bound_side/bound_limit);
+- :func:`drop_bound_data` removes /uncertainty/bound_side and bound_limit, as files written
+  before stop 28 lack them.
 """
 
 import h5py
@@ -28,7 +31,8 @@ def _replace(group, key, data, dtype=None):
 
 
 def mark_at_bound(path, at_bound: dict, *, status="check", reasons=()):
-    """``at_bound``: {label: bound_text}; ``reasons``: [(code, text)] of the new status."""
+    """``at_bound``: {label: (bound_text, side, limit SI)}; ``reasons``: [(code, text)] of the
+    new status."""
     with h5py.File(path, "r+") as f:
         f.attrs["status"] = status
         g = f["status"]
@@ -37,12 +41,16 @@ def mark_at_bound(path, at_bound: dict, *, status="check", reasons=()):
         u = f["uncertainty"]
         labels = _strings(u["labels"])
         verdict, texts = _strings(u["verdict"]), _strings(u["bound_text"])
+        sides, limits = _strings(u["bound_side"]), u["bound_limit"][()].copy()
         flags = u["at_bound"][()].copy()
         lower, upper = u["lower"][()], u["upper"][()]
-        for lab, text in at_bound.items():
+        for lab, (text, side, limit) in at_bound.items():
             j = labels.index(lab)
             flags[j], texts[j], verdict[j] = True, text, VERDICT_AT_BOUND
+            sides[j], limits[j] = side, limit
             lower[j] = upper[j] = np.nan
+        u["bound_limit"][...] = limits
+        _replace(u, "bound_side", np.array(sides, dtype=object), STR)
         u["lower"][...], u["upper"][...] = lower, upper
         _replace(u, "at_bound", flags)
         _replace(u, "bound_text", np.array(texts, dtype=object), STR)
@@ -62,8 +70,15 @@ def make_version_1(path):
                 f[group].move(key, name.replace("/", "\u2215"))
         if "uncertainty" in f:
             u = f["uncertainty"]
-            for key in ("scale", "at_bound", "bound_text"):
+            for key in ("scale", "at_bound", "bound_text", "bound_side", "bound_limit"):
                 del u[key]
             del u.attrs["chi2_limit_99"]
             v, hw = u["value"][()], u["half_width"][()]
             u["lower"][...], u["upper"][...] = v - hw, v + hw
+
+
+def drop_bound_data(path):
+    """Remove /uncertainty/bound_side and bound_limit (module docstring)."""
+    with h5py.File(path, "r+") as f:
+        for key in ("bound_side", "bound_limit"):
+            del f["uncertainty"][key]

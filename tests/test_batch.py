@@ -76,8 +76,9 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
         rows = list(csv.DictReader(fh))
     # long form: one row per specimen, material and constant, SI, the unit in its column
     assert list(rows[0]) == ["name", "specimen", "material", "constant", "value", "lower",
-                             "upper", "verdict", "mc_lower", "mc_upper", "mc_search_limit",
-                             "unit", "status", "reasons", "rms_residual [%]", "result"]
+                             "upper", "verdict", "bound_side", "bound_limit", "mc_lower",
+                             "mc_upper", "mc_search_limit", "unit", "status", "reasons",
+                             "rms_residual [%]", "result"]
     assert all(row["mc_lower"] == row["mc_upper"] == row["mc_search_limit"] == ""
                for row in rows)                          # no --monte-carlo
     assert [(row["name"], row["constant"]) for row in rows] == [
@@ -104,6 +105,16 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
     # S2.1 on 6x6: G13 ends at its bound, G23 undetermined, s2 far above its 99 % limit
     g13 = by["example2/S2.1", "G13"]
     assert g13["verdict"] == "at bound — not identified" and g13["lower"] == g13["upper"] == ""
+    # ... its side and limit in their own columns (the file's /uncertainty/bound_limit),
+    # empty for every constant not at its bound
+    with h5py.File(out / "example2" / "S2.1.result.h5") as f:
+        u = f["uncertainty"]
+        k = [x.decode() for x in u["labels"][()]].index("E-glass/R368.G13")
+        g13_limit = u["bound_limit"][k]
+    assert g13["bound_side"] == "lower" and float(g13["bound_limit"]) == g13_limit
+    assert 0 < g13_limit < 0.01e9                           # 0.0001 E1 at the optimum
+    assert all(row["bound_side"] == row["bound_limit"] == "" for key, row in by.items()
+               if key != ("example2/S2.1", "G13"))
     assert g13["status"] == "check"
     assert g13["reasons"] == "at_bound, undetermined, poor_fit"
     # terminal: one block per material set, specimens as columns, constants as rows, marks
@@ -128,6 +139,10 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
     assert s21["optimizer_status"].startswith("converged")
     back = read_summary(out / "summary.csv")
     assert back[0]["materials"]["IM7/977-2"]["E1"] == pytest.approx(E1, rel=1e-14)
+    back_g13 = back[1]["intervals"]["E-glass/R368"]["G13"]
+    assert back_g13["at_bound"] and back_g13["bound_side"] == "lower"
+    assert back_g13["bound_limit"] == g13_limit
+    assert not back[1]["intervals"]["E-glass/R368"]["E1"]["at_bound"]
     assert back[1]["status"] == "check" and back[0]["result"] == str(
         out / "example1" / "S1.4.result.h5")
     # the wide table stays as an option, SI units in its headers
@@ -304,6 +319,8 @@ def test_a_summary_row_reads_its_result_file_once(batch_run, monkeypatch):
             iv = row["intervals"]["E-glass/R368"][lab.rsplit(".", 1)[1]]
             assert iv["verdict"] == u["verdict"][k].decode()
             assert iv["at_bound"] == bool(u["at_bound"][k])
+            assert iv["bound_side"] == u["bound_side"][k].decode()
+            assert np.array_equal(iv["bound_limit"], u["bound_limit"][k], equal_nan=True)
             assert iv["flagged"] == (lab in flagged)             # as the assessment flagged it
             assert np.array_equal([iv["lower"], iv["upper"]], [u["lower"][k], u["upper"][k]],
                                   equal_nan=True)

@@ -153,3 +153,5 @@ def test_huge_interval_ends_print_in_exponent_form():
     assert _num("G23", 1.82e14) == "1.82e+05"
     assert _num("E1", 163.46e9) == "163.46"
     assert _num("nu12", -0.0193) == "-0.019"
+    # a modulus at its floor (0.0001 E1): 3 significant digits, not "0.00"
+    assert _num("G13", 2.9936e6) == "0.00299" and _num("G23", 0.0) == "0.00"

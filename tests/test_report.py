@@ -11,11 +11,12 @@ from click.testing import CliRunner
 from laminid_cli.cli import cli
 from laminid_cli.forward import build_forward_model
 from laminid_cli.frf.store import write_frf_h5
-from laminid_cli.report import fmt_value, mac, report_pages, short_verdict, write_pages
+from laminid_cli.report import (fmt_value, interval_text, mac, report_pages, short_verdict,
+                                write_pages)
 from laminid_cli.resultfile import read_result
 from laminid_cli.specimen import read_specimen
 from tests.frf_synth import synth_frf
-from tests.resultfix import make_version_1, mark_at_bound
+from tests.resultfix import drop_bound_data, make_version_1, mark_at_bound
 
 S11 = "specimens/example1/S1.1.yaml"
 S12 = "specimens/example1/S1.2.yaml"
@@ -50,8 +51,8 @@ def checked(batch_dir, tmp_path_factory):
     shutil.copy(batch_dir / "S1.4.result.h5", path)
     # (the text as uncertainty.bounds_reached writes it; until stop 27 this fixture had the
     # older "(0.0160 GPa)", and the summary table's pattern did not follow the writer)
-    mark_at_bound(path, {f"{MAT}.G23": "at its bound — not identified: G23 <= 0.0001 E1 "
-                                       "(0.0160 GPa at the optimum)"},
+    mark_at_bound(path, {f"{MAT}.G23": ("at its bound — not identified: G23 <= 0.0001 E1 "
+                                        "(0.0160 GPa at the optimum)", "lower", 0.0160e9)},
                   reasons=[("at_bound", "G23 at its bound (0.0001 E1)"),
                            ("undetermined", "G13 not determined by these modes")])
     return path
@@ -138,7 +139,7 @@ def test_summary_page_tables_and_residuals_read_back(checked, tmp_path):
         assert lo < float(rows[k][1]) < hi
         assert rows[k][3] == short_verdict(iv.verdict)
     assert u.get(MAT, "E1").scale == "log"             # asymmetric: exp(-/+ q std/v)
-    assert rows["G23"][3] == "at bound, not identified" and rows["G23"][2] == "≤ 0.0160"
+    assert rows["G23"][3] == "at bound, not identified" and rows["G23"][2] == "≤ 0.01600"
     assert rows["E1"][5] == f"170.0 ({round((res.materials[MAT]['E1'] / 170e9 - 1) * 100):+d} %)"
     assert rows["G13"][5] == ""                         # no reference value for G13
     # status line with the reasons
@@ -191,6 +192,28 @@ def test_interval_panels_each_in_their_unit_with_reference_and_arrows(checked):
     # a few tens of % of its value, not the width of G23's interval
     lo, hi = ax(fig, f"interval-{MAT}.E1").get_ylim()
     assert (hi - lo) / (res.materials[MAT]["E1"] / 1e9) < 1.0
+
+
+def test_at_bound_cell_from_the_limit_and_from_an_older_files_statement(checked, tmp_path):
+    """The summary cell of a constant at its bound is its side and limit (the file's
+    bound_side, bound_limit: 0.0160 GPa, shown with 4 digits); a file written before those
+    datasets gives the same cell from its statement; an upper limit shows "≥"."""
+    import dataclasses
+
+    iv = read_result(checked).uncertainty.get(MAT, "G23")
+    assert iv.bound_limit == 0.0160e9 and interval_text("G23", iv) == "≤ 0.01600"
+    old = tmp_path / "old.result.h5"
+    shutil.copy(checked, old)
+    drop_bound_data(old)
+    o = read_result(old).uncertainty.get(MAT, "G23")
+    assert (o.bound_side, o.bound_limit) == ("lower", pytest.approx(0.0160e9, rel=1e-12))
+    assert interval_text("G23", o) == "≤ 0.01600"
+    up = dataclasses.replace(iv, constant="nu12", bound_side="upper", bound_limit=0.95,
+                             bound_text="at its bound — not identified: nu12 >= 0.95")
+    assert interval_text("nu12", up) == "≥ 0.950"
+    # without a usable limit (a hand-edited file): the statement, never an empty cell
+    blank = dataclasses.replace(o, bound_side="", bound_limit=np.nan)
+    assert interval_text("G23", blank) == "≤ 0.0001 E1 (0.0160 GPa at the optimum)"
 
 
 def test_mode_shapes_with_mac_against_the_initial_model(batch_dir, tmp_path):

@@ -12,7 +12,7 @@ from laminid_cli.cli import cli
 from laminid_cli.modal import default_factorizer
 from laminid_cli.resultfile import ResultFileError, read_result
 from laminid_cli.results import SCHEMA_VERSION, safe_keys
-from tests.resultfix import make_version_1
+from tests.resultfix import drop_bound_data, make_version_1
 
 S21 = "specimens/example2/S2.1.yaml"
 MAT = "E-glass/R368"
@@ -141,6 +141,46 @@ def test_schema_2_fields_status_intervals_and_damping(checked):
     assert np.array_equal(d.data["value"], doc["damping"]["value"])
     assert np.allclose(d.data["measured_loss_factor"],
                        2 * (0.002 + 0.0004 * np.arange(12)), rtol=1e-12)
+
+
+def test_bound_side_and_limit_are_data(checked, tmp_path):
+    """A constant at its bound carries its side and limit as numbers: --json, the HDF5
+    datasets and the reader agree; the limit is the one its statement names (3 digits), at
+    least the search's floor MIN_MODULUS_RATIO * E1 and at most the value it ended on (a shear
+    modulus the data push below its floor). The other constants: side "", limit NaN. A file
+    written before these datasets (bound_side/bound_limit removed) is read from the
+    statement: the same side, the limit to the statement's 3 digits."""
+    import re
+
+    from laminid_cli.parametrization import MIN_MODULUS_RATIO
+
+    path, doc = checked
+    name = "Glas/Epoxid µ-Lage"
+    consts = doc["uncertainty"]["constants"][name]
+    r = read_result(path)
+    g13 = r.uncertainty.get(name, "G13")
+    assert g13.at_bound and g13.bound_side == consts["G13"]["bound_side"] == "lower"
+    assert g13.bound_limit == consts["G13"]["bound_limit"]
+    E1, G13 = r.materials[name]["E1"], r.materials[name]["G13"]
+    assert MIN_MODULUS_RATIO * E1 * (1 - 1e-12) <= g13.bound_limit <= G13 * (1 + 1e-12)
+    stated = float(re.search(r"\(([0-9.e+-]+) GPa", g13.bound_text).group(1))
+    assert stated == pytest.approx(g13.bound_limit / 1e9, rel=5e-3)
+    with h5py.File(path) as f:
+        u = f["uncertainty"]
+        k = [x.decode() for x in u["labels"][()]].index(f"{name}.G13")
+        assert u["bound_side"][k].decode() == "lower"
+        assert u["bound_limit"][k] == g13.bound_limit
+        assert u["bound_limit"].attrs["units"] == "Pa (nu12: 1)"
+    for k in ("E1", "E2", "G12", "G23", "nu12"):
+        iv = r.uncertainty.get(name, k)
+        assert iv.bound_side == consts[k]["bound_side"] == "" and np.isnan(iv.bound_limit)
+        assert consts[k]["bound_limit"] is None
+    old = tmp_path / "old.result.h5"
+    shutil.copy(path, old)
+    drop_bound_data(old)
+    o = read_result(old).uncertainty.get(name, "G13")
+    assert o.bound_side == "lower" and o.bound_limit == pytest.approx(g13.bound_limit, rel=5e-3)
+    assert np.isnan(read_result(old).uncertainty.get(name, "E1").bound_limit)
 
 
 def test_version_1_file(checked, tmp_path):

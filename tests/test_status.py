@@ -150,6 +150,11 @@ def test_single_result_status_in_json_hdf5_and_terminal(s21_check):
     assert lines[6].startswith("  poor_fit: the fit misses the data")
     g13_row = next(line for line in lines if line.startswith("  G13 [GPa]"))
     assert "at its bound — not identified: G13 <= 0.0001 E1" in g13_row and "[!]" in g13_row
+    # the interval column: the limit it ended on (--json's bound_limit, GPa, 3 digits)
+    limit = g13["bound_limit"] / 1e9
+    assert g13["bound_side"] == "lower" and 0 < limit < 0.1
+    assert g13_row.split()[4:6] == ["≤", f"{limit:.3g}"]
+    assert g13_row.split()[3] == f"{d['materials'][MAT]['G13'] / 1e9:.3g}"
 
 
 def test_non_convergence_is_a_check_and_exits_1(tmp_path):

@@ -200,7 +200,11 @@ def _material_tables(s: dict, ref: dict) -> list[str]:
                    f"{_num(k, rm.get(k)) if k in rm else '':>10}")
             u = mu.get(k)
             if u is not None and u.get("at_bound"):
-                row += f"  {'—':>17} {'—':>10}  {u.get('bound_text') or u['verdict']} [!]"
+                # no interval: the side and the limit of the search it ended on
+                side, limit = u.get("bound_side"), u.get("bound_limit")
+                span = (f"{'≤' if side == 'lower' else '≥'} {_num(k, limit)}"
+                        if side and limit is not None and math.isfinite(limit) else "—")
+                row += f"  {span:>17} {'—':>10}  {u.get('bound_text') or u['verdict']} [!]"
                 lines.append(row)
             elif u is not None and "half_width" in u:
                 flag = " [!]" if u.get("flagged") else ""
@@ -350,6 +354,8 @@ def _num(name: str, value) -> str:
     v = value if name == "nu12" else value / 1e9
     if abs(v) >= 1e5:                    # an undetermined constant's interval end: no 26 digits
         return f"{v:.2e}"
+    if name != "nu12" and 0 < abs(v) < 0.1:
+        return f"{v:.3g}"                # a modulus at its floor: 0.00299, not 0.00
     return f"{v:.3f}" if name == "nu12" else f"{v:.2f}"
 
 
