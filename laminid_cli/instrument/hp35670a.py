@@ -31,9 +31,10 @@ cited by the attribute that defines the command; IEEE 488.2 = the common command
     pymeasure ``frequency_start`` (SENSe:FREQuency:STARt %g)
 ``FREQ:RES <lines>``
     pymeasure ``frequency_resolution`` (SENSe:FREQuency:RESolution %g) confirms the command;
-    that the number is the FFT line count is **unconfirmed** (pymeasure states a range
-    0.015625-51200): ``acquire`` checks the axis length after configuring
-    (``Analyser.check_axis``)
+    qkit ``qkitgroup/qkit`` ``qkit/drivers/Keysight_35670A.py`` (commit 34c7e1b)
+    ``do_set_frequency_resolution`` that the number is the FFT line count ("sets the frequency
+    resolution in lines (unitless)", 100 / 200 / 400 / 800 allowed, lines + 1 points); still
+    ``acquire`` checks the axis length after configuring (``Analyser.check_axis``)
 ``AVER:STAT 1``
     pymeasure ``averaging_enabled`` (SENSe:AVERage:STATe %d)
 ``AVER:TYPE RMS``
@@ -73,8 +74,11 @@ cited by the attribute that defines the command; IEEE 488.2 = the common command
 ``INIT:IMM``
     pymeasure ``initiate`` (INITiate:IMMediate)
 ``STAT:QUES:VOLT:EVEN?``
-    pymeasure ``questionable_voltage_event``; the overload bit positions (``OVERLOAD_BITS``) are
-    **unconfirmed**
+    pymeasure ``questionable_voltage_event``; the bits (``OVERLOAD_BITS``): Agilent 35670A
+    manual, "The Agilent 35670A's Status Registers", p. 1-19, Questionable Voltage Register Set
+    (https://www.easymanua.ls/agilent-technologies/35670a/manual/530226?p=37): channel 1
+    overload bit 0, channel 2 overload bit 1 (bits 2-3 channels 3-4 of option AY6, bits 8-11
+    input half-range). Until stop 28 the driver took bit 2 (channel 3) for channel 2
 ``CALC1:X:DATA?``
     pymeasure ``Keysight35670ATrace.read_x_data``
 ``CALC1:DATA?`` ``CALC2:DATA?``
@@ -102,10 +106,11 @@ from laminid_cli.instrument.base import AcquisitionSettings, Analyser, format_nu
 #: two-channel FFT spans: 51.2 kHz / 2**k. Unconfirmed list (pymeasure's ``frequency_span``
 #: only bounds the value, 0.015625-102400 Hz); an odd span is refused before sending anything.
 SPANS_HZ = tuple(51200.0 / 2 ** k for k in range(19))
-#: FFT resolution lines offered in two-channel mode (unconfirmed, see FREQ:RES above)
+#: FFT resolution lines offered in two-channel mode (qkit's 35670A driver, see FREQ:RES above)
 LINES = (100, 200, 400, 800)
-#: STATus:QUEStionable:VOLTage bits meaning "channel over range" (ch1, ch2); unconfirmed
-OVERLOAD_BITS = (1 << 0, 1 << 2)
+#: STATus:QUEStionable:VOLTage bits meaning "channel over range" (ch1, ch2): the 35670A
+#: manual's Questionable Voltage Register Set (module docstring)
+OVERLOAD_BITS = (1 << 0, 1 << 1)
 
 
 class HP35670A(Analyser):

@@ -85,7 +85,7 @@ def test_hp_measure_polls_esr_and_reads_big_endian_real64_blocks():
     pairs = np.column_stack([frf.real, frf.imag]).ravel()
     steps = [("ABOR", None), ("*CLS", None), ("INIT:IMM", None), ("*OPC", None),
              ("*ESR?", "+0"), ("*ESR?", "+0"), ("*ESR?", "+1"),
-             ("STAT:QUES:VOLT:EVEN?", "+4"),
+             ("STAT:QUES:VOLT:EVEN?", "+2"),
              ("CALC1:X:DATA?", ieee_block(doubles_be(freq))),
              ("CALC1:DATA?", ieee_block(doubles_be(pairs))), HP_OK,
              ("CALC2:DATA?", ieee_block(doubles_be(coh))), HP_OK]
@@ -95,8 +95,18 @@ def test_hp_measure_polls_esr_and_reads_big_endian_real64_blocks():
     np.testing.assert_array_equal(m.freq, freq)
     np.testing.assert_array_equal(m.frf, frf)
     np.testing.assert_array_equal(m.coherence, coh)
-    assert m.overloads == 1  # bit 2: channel 2 over range
+    assert m.overloads == 1  # bit 1: channel 2 over range (35670A manual p. 1-19)
     assert seen == [(-1, 5), (5, 5)]  # the 35670A cannot tell the hit count
+
+
+@pytest.mark.parametrize("word, n", [(1, 1), (2, 1), (3, 2), (4, 0), (8, 0), (256, 0),
+                                     (512, 0), (0x303, 2)])
+def test_hp_overload_bits_are_the_manuals(word, n):
+    """STATus:QUEStionable:VOLTage (35670A manual, Questionable Voltage Register Set): bit 0
+    channel 1 over range, bit 1 channel 2; bits 2-3 are channels 3-4 (option AY6, not measured
+    here) and bits 8-11 "input half-range", which are not overloads."""
+    dsa = HP35670A(ScriptedTransport([("STAT:QUES:VOLT:EVEN?", f"+{word}")]))
+    assert dsa.overloads() == n
 
 
 def test_hp_truncated_block_is_an_instrument_error():
