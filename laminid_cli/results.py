@@ -70,7 +70,10 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
                           at_lower_bound, at_upper_bound (trials whose answer has the constant
                           on a limit of the search), lower_at_bound, upper_at_bound (0/1: that
                           end of the range is set by such trials: the search's end, not the
-                          data's); attrs trials, converged, sigma_factor, seed, jobs,
+                          data's); inner_lower, inner_upper (the order statistics inside the
+                          range's quantiles with probability >= attr evidence_level each: the
+                          width the Monte Carlo verdicts use); attrs trials, converged,
+                          sigma_factor, seed, jobs, evidence_level,
                           prior_sigma (relative sd of the prior values' draws; 0: no prior)
     /uncertainty/before_fixing  labels, rel_half_width, verdict of the first run when
                           --fix-undetermined fixed constants
@@ -480,6 +483,8 @@ def write_uncertainty(f, a, plate_names) -> None:
         d.attrs["sigma_rel"] = sig.sigma_rel
         d.attrs["note"] = sig.note
     if a.monte_carlo is not None:
+        from laminid_cli.uncertainty import MC_EVIDENCE
+
         mc = a.monte_carlo
         gm = g.create_group("monte_carlo")
         for key in ("trials", "converged", "sigma_factor", "seed", "jobs", "time_s",
@@ -489,6 +494,12 @@ def write_uncertainty(f, a, plate_names) -> None:
         for key in ("samples", "mean", "std", "lower", "upper", "linearized_std"):
             put(gm, key, getattr(mc, key), unit)
         put(gm, "ratio", mc.ratio, "1", description="Monte Carlo std / linearised std")
+        inner_lo, inner_hi = mc.inner_range()
+        for key, value in (("inner_lower", inner_lo), ("inner_upper", inner_hi)):
+            put(gm, key, value, unit, description="order statistic of the samples inside the "
+                "range's quantile with probability >= evidence_level (NaN: too few trials); "
+                "the Monte Carlo verdicts use the width inner_upper - inner_lower")
+        gm.attrs["evidence_level"] = MC_EVIDENCE
         for side, count, flag in zip(("lower", "upper"), mc.bound_counts(), mc.ends_at_bound()):
             put(gm, f"at_{side}_bound", count, "1",
                 description=f"converged trials whose answer has the constant on a {side} limit "

@@ -12,7 +12,8 @@ reasons (stable lowercase codes, one entry per code, the words name the constant
 ``undetermined``
     a free constant's 95 % half-width exceeds ``--max-rel-interval`` of its value (flagged by
     the uncertainty assessment): the modes do not determine it. With a Monte Carlo, the half-
-    width of its 95 % range counts too (:func:`laminid_cli.uncertainty.with_monte_carlo`).
+    width its 95 % range has for sure (90 % confidence from the trials' order statistics)
+    counts too (:func:`laminid_cli.uncertainty.with_monte_carlo`).
 ``poor_fit``
     chi2 of the residuals is above its 99 % quantile for the degrees of freedom (s2 beyond
     its 99 % limit): the model misses the data by more than the stated frequency noise —
@@ -178,12 +179,16 @@ def result_status(result, uncertainty=None) -> ResultStatus:
             rel = dict(zip(u.labels, u.rel_half_width))
             mc = dict(zip(u.labels, u.mc_rel_half_width)) if u.mc_rel_half_width is not None \
                 else {}
+            sure = (dict(zip(u.labels, u.mc_rel_half_width_lower))
+                    if u.mc_rel_half_width_lower is not None else {})
             limit = u.thresholds["max_rel_interval"]
 
             def width(lab):
-                # flagged by the Monte Carlo range where the linearised interval was narrower
-                if not rel[lab] > limit and mc.get(lab, 0.0) > limit:
-                    return f"Monte Carlo ±{_pct(mc[lab])}, linearised ±{_pct(rel[lab])}"
+                # flagged by the Monte Carlo range (the width its trials show for sure) where
+                # the linearised interval was narrower
+                if not rel[lab] > limit and sure.get(lab, 0.0) > limit:
+                    return (f"Monte Carlo ±{_pct(mc[lab])}, at least ±{_pct(sure[lab])}; "
+                            f"linearised ±{_pct(rel[lab])}")
                 return f"±{_pct(rel[lab])}"
 
             words = ", ".join(f"{lab} ({width(lab)})" for lab in und)

@@ -717,31 +717,101 @@ def test_monte_carlo_trials_on_a_search_limit_are_counted_and_marked(tmp_path):
 
 # --- the Monte Carlo range in the verdicts --------------------------------------------------------
 
+#: 40 "trials" of a unit spread: the normal quantiles at (i + 1/2) / 40 (deterministic)
+_T40 = None
+
+
+def _unit_trials():
+    from scipy import stats
+
+    global _T40
+    if _T40 is None:
+        _T40 = stats.norm.ppf((np.arange(40) + 0.5) / 40)
+    return _T40
+
+
 def _mc_range(u, rel_half, at_lower=None):
-    """A MonteCarlo over ``u``'s labels whose 95 % range is value -/+ rel_half * value."""
+    """A MonteCarlo over ``u``'s labels of 40 samples value + rel_half * |value| * t_i (t: the
+    normal quantiles at (i + 1/2) / 40), its 95 % range their numpy quantiles, as
+    monte_carlo computes it."""
     from laminid_cli.uncertainty import MonteCarlo
 
     v = np.asarray(u.value, float)
-    half = np.asarray(rel_half, float) * np.abs(v)
+    samples = v + np.outer(_unit_trials(), np.asarray(rel_half, float) * np.abs(v))
     p = v.size
     z = np.zeros(p)
-    return MonteCarlo(labels=u.labels, n_trials=40, n_converged=40, samples=np.zeros((40, p)),
-                      mean=v, std=half / 2, lower=v - half, upper=v + half,
-                      linearized_std=u.std, ratio=half / 2 / u.std, sigma_factor=1.0, seed=0,
-                      jobs=1, time_s=0.0, at_lower_bound=z if at_lower is None else at_lower,
-                      at_upper_bound=z)
+    lo, hi = np.quantile(samples, [0.025, 0.975], axis=0)
+    return MonteCarlo(labels=u.labels, n_trials=40, n_converged=40, samples=samples,
+                      mean=samples.mean(axis=0), std=samples.std(axis=0, ddof=1), lower=lo,
+                      upper=hi, linearized_std=u.std, ratio=samples.std(axis=0, ddof=1) / u.std,
+                      sigma_factor=1.0, seed=0, jobs=1, time_s=0.0,
+                      at_lower_bound=z if at_lower is None else at_lower, at_upper_bound=z)
+
+
+def _sure_width(samples, value, level=0.95, confidence=0.95):
+    """The reference for MonteCarlo.inner_range, from scipy.stats.binom: the largest k with
+    P(Bin(n, (1 + confidence) / 2) >= k) >= level, the range x_(n + 1 - k) .. x_(k) of the
+    sorted samples, as a relative half-width."""
+    from scipy import stats
+
+    n = samples.shape[0]
+    k = max(j for j in range(1, n + 1)
+            if stats.binom.sf(j - 1, n, 0.5 + confidence / 2) >= level)
+    x = np.sort(samples)
+    return 0.5 * (x[k - 1] - x[n - k]) / abs(value)
+
+
+def test_inner_range_is_the_order_statistics_binomial_tails_give():
+    """MonteCarlo.inner_range against scipy.stats.binom (_sure_width): with 40 trials the 4th
+    smallest and largest samples (P = 0.982 each; the 3rd would give 0.921 < 0.95), with 200
+    the 10th, with 5 the 2nd, with 2 both (0.975^2 = 0.9506); one trial bounds no width (NaN).
+    And the pure-Python binomial tail against scipy's."""
+    from scipy import stats
+
+    from laminid_cli.quantiles import binom_sf, order_statistic_below
+    from laminid_cli.uncertainty import MonteCarlo
+
+    assert order_statistic_below(40, 0.975, 0.95) == 37
+    assert order_statistic_below(200, 0.975, 0.95) == 191
+    assert order_statistic_below(5, 0.975, 0.95) == 4
+    assert order_statistic_below(2, 0.975, 0.95) == 2
+    assert order_statistic_below(2, 0.975, 0.951) == 1           # x_(1) only: no width
+    for n, p in ((40, 0.975), (200, 0.975), (1000, 0.5), (3, 0.025)):
+        for k in range(0, n + 2):
+            assert binom_sf(k, n, p) == pytest.approx(stats.binom.sf(k - 1, n, p), rel=1e-10,
+                                                      abs=1e-300)
+    rng = np.random.default_rng(7)
+    for n in (1, 2, 5, 40, 200):
+        x = rng.lognormal(size=(n, 2))
+        mc = MonteCarlo(labels=("m.E1", "m.E2"), n_trials=n, n_converged=n, samples=x,
+                        mean=x.mean(0), std=x.std(0), lower=x.min(0), upper=x.max(0),
+                        linearized_std=np.ones(2), ratio=np.ones(2), sigma_factor=1.0, seed=0,
+                        jobs=1, time_s=0.0)
+        lo, hi = mc.inner_range()
+        if n == 1:
+            assert np.isnan(lo).all() and np.isnan(hi).all()
+            continue
+        xs = np.sort(x, axis=0)
+        j = {2: 1, 5: 2, 40: 4, 200: 10}[n]
+        assert np.array_equal(lo, xs[j - 1]) and np.array_equal(hi, xs[n - j])
+        for c in range(2):
+            assert 0.5 * (hi[c] - lo[c]) == pytest.approx(_sure_width(x[:, c], 1.0), rel=1e-14)
 
 
 @pytest.mark.parametrize("mc_rel, verdict, flagged", [
     (0.01, VERDICT_WELL, False),              # narrower than linearised: no change
-    (0.10, "weak (Monte Carlo)", False),      # worse band: the Monte Carlo's verdict, marked
+    (0.06, VERDICT_WELL, False),              # wider, but what 40 trials show for sure is not
+    (0.10, "weak (Monte Carlo)", False),      # worse band for sure: the Monte Carlo's verdict
+    (0.38, "weak (Monte Carlo)", False),      # 38 % range, 29 % for sure: weak, not flagged
     (0.50, "not determined by these modes (Monte Carlo) — fix it or measure a thicker plate "
            "/ more modes", True)])
 def test_a_monte_carlo_range_wider_than_the_interval_sets_a_worse_verdict(mc_rel, verdict,
                                                                          flagged):
-    """The linearised verdict of E1 (well determined, ~1 %) against a Monte Carlo range of
-    1 / 10 / 50 % (half-width over |value|): only a worse band changes it, and a range above
-    --max-rel-interval flags it; the interval itself stays the linearised one."""
+    """The linearised verdict of E1 (well determined, ~1 %) against 40 trials whose range is
+    about 1 / 6 / 10 / 38 / 50 % (half-width over |value|): a verdict changes only where the
+    width the trials show for sure (_sure_width: 0.76 of the range here) falls in a worse band,
+    and it is flagged above --max-rel-interval (0.3); the interval itself stays the linearised
+    one."""
     from laminid_cli.report import short_verdict
     from laminid_cli.status import result_status
     from laminid_cli.uncertainty import with_monte_carlo
@@ -750,15 +820,23 @@ def test_a_monte_carlo_range_wider_than_the_interval_sets_a_worse_verdict(mc_rel
     obs, mat = toy(G, [100, 200, 300, 400, 500])
     u = linearized_uncertainty([obs], [mat], scaling="stated", max_rel_interval=0.3)
     assert u.rel_half_width[0] < 0.05 and u.verdict[0] == VERDICT_WELL and not u.flagged
-    u2 = with_monte_carlo(u, _mc_range(u, [mc_rel, u.rel_half_width[1]]))
+    mc = _mc_range(u, [mc_rel / 1.79, u.rel_half_width[1] / 1.79])   # range ~ +-1.79 t
+    u2 = with_monte_carlo(u, mc)
+    point = 0.5 * (mc.upper[0] - mc.lower[0]) / abs(u.value[0])
+    sure = _sure_width(mc.samples[:, 0], u.value[0])
+    assert point == pytest.approx(mc_rel, rel=0.01) and sure == pytest.approx(0.757 * point,
+                                                                              rel=0.01)
     assert u2.verdict[0] == verdict and u2.verdict[1] == u.verdict[1]
-    assert u2.mc_rel_half_width[0] == pytest.approx(mc_rel, rel=1e-12)
+    assert u2.mc_rel_half_width[0] == pytest.approx(point, rel=1e-12)
+    assert u2.mc_rel_half_width_lower[0] == pytest.approx(sure, rel=1e-12)
     assert (u2.flagged == ("m.E1",)) is flagged
-    assert u2.verdict_from_monte_carlo == (() if mc_rel < 0.05 else ("m.E1",))
+    changed = verdict != VERDICT_WELL
+    assert u2.verdict_from_monte_carlo == (("m.E1",) if changed else ())
     assert np.array_equal(u2.lower, u.lower) and np.array_equal(u2.upper, u.upper)
     d = u2.as_dict()["constants"]["m"]["E1"]
-    assert d["verdict_from"] == ("linearised" if mc_rel < 0.05 else "monte_carlo")
-    assert d["monte_carlo_rel_half_width"] == pytest.approx(mc_rel)
+    assert d["verdict_from"] == ("monte_carlo" if changed else "linearised")
+    assert d["monte_carlo_rel_half_width"] == pytest.approx(point)
+    assert d["monte_carlo_rel_half_width_lower"] == pytest.approx(sure)
     if flagged:
         assert short_verdict(u2.verdict[0]) == "not determined (Monte Carlo)"
         res = type("R", (), {"converged": True, "material_names": ("m",),
@@ -768,7 +846,8 @@ def test_a_monte_carlo_range_wider_than_the_interval_sets_a_worse_verdict(mc_rel
         st = result_status(res, u2)
         assert st.codes == ("undetermined",)
         lin = f"{u.rel_half_width[0] * 100:.0f} %"
-        assert f"m.E1 (Monte Carlo ±50 %, linearised ±{lin})" in st.reasons[0].text
+        assert (f"m.E1 (Monte Carlo ±50 %, at least ±{sure * 100:.0f} %; linearised ±{lin})"
+                in st.reasons[0].text)
 
 
 def test_the_monte_carlo_never_improves_a_verdict_nor_touches_a_constant_at_its_bound():
@@ -791,11 +870,15 @@ def test_the_monte_carlo_never_improves_a_verdict_nor_touches_a_constant_at_its_
     assert u3.flagged == () and u3.verdict_from_monte_carlo == ("m.E1",)
 
 
-def test_fix_undetermined_also_fixes_what_the_monte_carlo_flags():
-    """S1.4 (8x8, measured frequencies, 40 trials, seed 0): --fix-undetermined alone fixes G13
-    and G23 and leaves nu12 weak (linearised ±29 %, measured); its Monte Carlo range is ±32 %,
-    so with --monte-carlo nu12 is fixed as well, and the assessment's final Monte Carlo (on
-    E1, E2, G12) flags nothing: status ok, three runs."""
+def test_fix_undetermined_also_fixes_what_the_monte_carlo_flags(monkeypatch):
+    """S1.4 (8x8, measured frequencies): --fix-undetermined alone fixes G13 and G23 and leaves
+    nu12 weak (linearised ±29 %). With a Monte Carlo whose trials spread nu12 over ±50 % (a
+    stand-in for monte_carlo: 40 samples of _mc_range, for sure ±38 %, above the 30 % limit;
+    the others within half their intervals), nu12 is fixed as well and the assessment runs
+    again from there, its Monte Carlo included (on E1, E2, G12: nothing flagged): status ok,
+    three identifications, two Monte Carlos. (S1.4's real trials spread nu12 over ±24-32 %
+    depending on the seed, for sure ±20-24 %: not enough to flag it.)"""
+    import laminid_cli.uncertainty as unc_mod
     from laminid_cli.status import result_status
 
     fm = build_forward_model(read_specimen("specimens/example1/S1.4.yaml"), (8, 8))
@@ -803,10 +886,20 @@ def test_fix_undetermined_also_fixes_what_the_monte_carlo_flags():
     assert lin.fixed_undetermined == ("IM7/977-2.G13", "IM7/977-2.G23") and lin.runs == 2
     k = lin.uncertainty.labels.index("IM7/977-2.nu12")
     assert 0.2 < lin.uncertainty.rel_half_width[k] < 0.3 and not lin.uncertainty.flagged
+    calls = []
+
+    def fake_monte_carlo(result, fms, sigmas, u, n_trials, **kw):
+        calls.append(u.labels)
+        rel = [0.5 / 1.79 if lab.endswith("nu12") else 0.5 * r / 1.79
+               for lab, r in zip(u.labels, u.rel_half_width)]
+        return _mc_range(u, rel)
+
+    monkeypatch.setattr(unc_mod, "monte_carlo", fake_monte_carlo)
     a = assess(fm, IdentifyOptions(), UncertaintyOptions(fix_undetermined=True, monte_carlo=40,
                                                         jobs=1, seed=0))
     assert a.fixed_undetermined == ("IM7/977-2.G13", "IM7/977-2.G23", "IM7/977-2.nu12")
-    assert a.runs == 3 and a.monte_carlo is not None and a.monte_carlo.n_converged == 40
-    assert a.monte_carlo.labels == ("IM7/977-2.E1", "IM7/977-2.E2", "IM7/977-2.G12")
+    first = ("IM7/977-2.E1", "IM7/977-2.E2", "IM7/977-2.G12")
+    assert a.runs == 3 and calls == [first + ("IM7/977-2.nu12",), first]
+    assert a.monte_carlo.labels == first
     assert not a.uncertainty.flagged and a.uncertainty.verdict_from_monte_carlo == ()
     assert result_status(a.result, a.uncertainty).status == "ok"

@@ -187,7 +187,9 @@ uncertainty_options = _apply([
                                     "off); a range end set by trials on a limit of the "
                                     "search is marked as such (terminal *, JSON, HDF5, "
                                     "report). A range wider than the linearised interval "
-                                    "sets a worse verdict, marked '(Monte Carlo)'."),
+                                    "for sure (90 % confidence from the trials' order "
+                                    "statistics) sets a worse verdict, marked '(Monte "
+                                    "Carlo)'."),
     click.option("--seed", type=int, default=0, show_default=True,
                   help="Random seed of the Monte Carlo perturbations."),
 ])

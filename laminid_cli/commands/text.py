@@ -331,7 +331,9 @@ def format_uncertainty(u: dict) -> list[str]:
                              "there)")
         from_mc = u.get("verdict_from_monte_carlo") or []
         if from_mc:
-            lines.append("  verdicts set by the Monte Carlo range, wider than the linearised "
+            sure = 100 * (2 * mc.get("evidence_level", 0.95) - 1)
+            lines.append(f"  verdicts set by the Monte Carlo range (the width its trials show "
+                         f"with {sure:.0f} % confidence), wider than the linearised "
                          "interval (the frequencies are not linear in the constant over it): "
                          + ", ".join(_short(from_mc) if len(mc["constants"]) == 1
                                      else from_mc))
