@@ -469,6 +469,12 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
         if j < mlo.size:
             ax.plot([x - 0.25] * 2, [max(g(mlo[j]), ymin), min(g(mhi[j]), ymax)], "-",
                     color="0.45", lw=2, solid_capstyle="butt", gid="monte-carlo")
+            # the width the trials show for sure, which the verdicts use (files since stop 28)
+            ilo, ihi = np.ravel(mc.get("inner_lower", ())), np.ravel(mc.get("inner_upper", ()))
+            if j < ilo.size and j < ihi.size and np.isfinite(ilo[j]) and np.isfinite(ihi[j]):
+                ax.plot([x - 0.25] * 2, [min(max(g(ilo[j]), ymin), ymax),
+                                         max(min(g(ihi[j]), ymax), ymin)], "-",
+                        color="0.2", lw=4.5, solid_capstyle="butt", gid="monte-carlo-sure")
             for end, edge, marker in ((g(mhi[j]), ymax, "^"), (g(mlo[j]), ymin, "v")):
                 if (marker == "^" and end > ymax) or (marker == "v" and end < ymin):
                     ax.plot([x - 0.25], [edge], marker, color="0.45", ms=6, clip_on=False)
@@ -512,6 +518,10 @@ def _interval_legend(r: ResultFile) -> tuple[list, list[str]]:
         items.append((Line2D([], [], ls="none", marker="D", ms=6, color="C3"), "reference"))
     if u.monte_carlo and "lower" in u.monte_carlo:
         items.append((Line2D([], [], color="0.45", lw=2), "Monte Carlo spread"))
+        if "inner_lower" in u.monte_carlo:
+            sure = 100 * (2 * float(u.monte_carlo.get("evidence_level", 0.95)) - 1)
+            items.append((Line2D([], [], color="0.2", lw=4.5),
+                          f"Monte Carlo range for sure ({sure:.0f} %)"))
     return [h for h, _ in items], [t for _, t in items]
 
 

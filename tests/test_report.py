@@ -430,9 +430,10 @@ def test_report_errors(batch_dir, tmp_path):
     assert not list(tmp_path.glob("*.pdf"))
 
 
-def _with_monte_carlo(checked, tmp_path, lower_at_bound=None):
+def _with_monte_carlo(checked, tmp_path, lower_at_bound=None, inner=False):
     """A copy of the checked result with a Monte Carlo range of 0.97 .. 1.02 x each value (and
-    ``lower_at_bound`` flags, with no upper end at a bound, when given)."""
+    ``lower_at_bound`` flags, with no upper end at a bound, when given; ``inner``: the width
+    for sure 0.98 .. 1.01 x, as files since stop 28 have it)."""
     path = tmp_path / "mc.result.h5"
     shutil.copy(checked, path)
     with h5py.File(path, "r+") as f:
@@ -440,6 +441,10 @@ def _with_monte_carlo(checked, tmp_path, lower_at_bound=None):
         g = f["uncertainty"].create_group("monte_carlo")
         g.create_dataset("lower", data=0.97 * v)
         g.create_dataset("upper", data=1.02 * v)
+        if inner:
+            g.create_dataset("inner_lower", data=0.98 * v)
+            g.create_dataset("inner_upper", data=1.01 * v)
+            g.attrs["evidence_level"] = 0.95
         if lower_at_bound is not None:
             g.create_dataset("lower_at_bound", data=np.asarray(lower_at_bound, np.int8))
             g.create_dataset("upper_at_bound", data=np.zeros(v.size, np.int8))
@@ -455,6 +460,17 @@ def test_monte_carlo_spread_drawn_beside_the_interval(checked, tmp_path):
     e1 = res.materials[MAT]["E1"] / 1e9
     assert np.allclose(line.get_ydata(), [0.97 * e1, 1.02 * e1], rtol=1e-12)
     assert not [t for t in a.texts if "limit" in (t.get_gid() or "")]
+    assert not [ln for ln in a.get_lines() if ln.get_gid() == "monte-carlo-sure"]  # older file
+    # the width the trials show for sure (what the verdicts use), over the spread, in the legend
+    fig = {p.name: p.figure for p in report_pages(_with_monte_carlo(checked, tmp_path,
+                                                                    inner=True))}["intervals"]
+    a = ax(fig, f"interval-{MAT}.E1")
+    sure = next(ln for ln in a.get_lines() if ln.get_gid() == "monte-carlo-sure")
+    assert np.allclose(sure.get_ydata(), [0.98 * e1, 1.01 * e1], rtol=1e-12)
+    assert sure.get_xdata()[0] == line.get_xdata()[0]
+    texts = [t.get_text() for a_ in fig.axes if a_.get_legend() is not None
+             for t in a_.get_legend().get_texts()]
+    assert "Monte Carlo range for sure (90 %)" in texts
 
 
 def test_monte_carlo_range_end_at_a_search_limit_is_labelled(checked, tmp_path):
