@@ -166,6 +166,7 @@ def test_model_names_a_lab_types_select_the_35670a(tmp_path, hp, model):
 def test_model_sr785_is_case_insensitive(tmp_path, sr):
     r = acquire(sr, tmp_path / "m.h5", "--model", "sr785", "--no-prompt", points=1)
     assert r.exit_code == 0, r.output
+    assert read_frf_h5(tmp_path / "m.h5").meta["instrument"]["model"] == "SR785"
 
 
 # ------------------------------------ issue 15: an error flagged during a data transfer

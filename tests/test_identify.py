@@ -106,6 +106,25 @@ def linearised_std(result, noise):
     return dict(zip((result.sensitivity_labels[j] for j in cols), std))
 
 
+def fd_std(fm, true, n_modes, noise, h=1e-4):
+    """The linearised standard deviations of ln P of the six constants of the single material
+    ``true`` for relative frequency noise ``noise``, from central differences of the forward
+    model's frequencies at ``true`` (steps of h in ln P): a reference independent of the
+    identification's own sensitivities."""
+    (m, c), = true.items()
+    cols = []
+    for k in CONSTANT_NAMES:
+        f = []
+        for sign in (1, -1):
+            cc = dict(c)
+            cc[k] = c[k] * np.exp(sign * h)
+            f.append(fm.solve([ElasticConstants(**cc)], n_modes).freq)
+        cols.append((np.log(f[0]) - np.log(f[1])) / (2 * h))
+    S = np.column_stack(cols)
+    std = noise * np.sqrt(np.diag(np.linalg.inv(S.T @ S)))
+    return {f"{m}.{k}": float(v) for k, v in zip(CONSTANT_NAMES, std)}
+
+
 def central_differences(prob, x, h):
     """Richardson-extrapolated central differences (steps h and h/2, error O(h^4)) of the
     objective (n_vars,) and of the paired eigenvalues (n_measured, n_vars)."""
@@ -294,7 +313,12 @@ def test_noisy_round_trip_all_free_within_linearised_scatter(plate, n_modes, off
     r = identify(fm, IdentifyOptions())
     assert r.converged, r.status
     err = relative_errors(r, true)
-    std = linearised_std(r, 0.002)
+    # the scatter the data allow, from finite differences at the true constants (independent
+    # of the identification); the identification's own sensitivities at its optimum agree
+    std = fd_std(fm, true, n_modes, 0.002)
+    own = linearised_std(r, 0.002)
+    for k in ("E1", "E2", "G12"):
+        assert own[f"cf.{k}"] == pytest.approx(std[f"cf.{k}"], rel=0.15), (k, own, std)
     assert std["cf.E2"] > 0.03                          # why 1 % cannot be asked for E2
     for k in ("E1", "E2", "G12"):
         assert abs(err[f"cf.{k}"]) < 3 * std[f"cf.{k}"], (k, err, std)

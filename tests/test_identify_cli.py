@@ -22,9 +22,11 @@ def s21_result(tmp_path_factory):
 
 def test_json_has_the_documented_keys_in_si(s21_result):
     d, _ = s21_result
-    mat = d["materials"]["R368/E-glass"] if "R368/E-glass" in d["materials"] else next(iter(d["materials"].values()))
+    mat = d["materials"]["E-glass/R368"]
     assert set(mat) >= {"E1", "E2", "G12", "G13", "G23", "nu12"}
-    assert 20e9 < mat["E1"] < 40e9                         # Pa (paper Table 3: 28.8 GPa)
+    # Pa: the paper's Table 3 gives 28.8 GPa; this 8x8 mesh 28.73 GPa (measured), within 1 %
+    assert mat["E1"] == pytest.approx(28.8e9, rel=0.01)
+    assert mat["G12"] == pytest.approx(2.7e9, rel=0.05)               # Table 3: 2.7 GPa
     fr = d["frequencies"]
     assert len(fr["measured"]) == len(fr["model"]) == len(fr["residual_percent"]) == 12
     m, x = np.array(fr["model"]), np.array(fr["measured"])
@@ -42,7 +44,7 @@ def test_hdf5_result_is_self_describing_and_matches_json(s21_result):
     name = next(k for k in h["materials"] if not k.startswith("@"))
     assert h["materials"][name]["E1"] == pytest.approx(next(iter(d["materials"].values()))["E1"])
     assert h["history"]["objective"].shape == (d["evaluations"],)
-    assert h["history"]["objective"][-1] >= h["history"]["objective"].min()
+    assert h["history"]["objective"][-1] == pytest.approx(d["objective"], rel=1e-12)
     assert h["sensitivities"]["dlnf_dlnP"].shape == (12, 6)
     assert h["modes"]["w"].shape[1] == 12
     assert np.allclose(h["frequencies"]["model"], d["frequencies"]["model"])

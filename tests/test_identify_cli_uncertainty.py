@@ -108,44 +108,88 @@ def test_monte_carlo_in_two_processes(tmp_path):
         assert v["lower"] < v["mean"] < v["upper"]
     h = read_h5(out)["uncertainty"]["monte_carlo"]
     assert h["samples"].shape == (8, 4) and h["@attrs"]["converged"] == 8
-    # the verdicts take the width the Monte Carlo range has for sure (the order statistics
-    # inside its quantiles with probability 0.95 each, computed here from the file's samples
-    # with scipy.stats.binom) where it falls in a worse band (5 %, 30 %) than the linearised
-    # interval; JSON, HDF5 and the typed reader say which
+    # the width the range has for sure (the order statistics inside its quantiles with
+    # probability 0.95 each: here, of 8 trials, the 2nd smallest and largest, from
+    # scipy.stats.binom), in JSON and HDF5; no verdict changes with these 8 trials (the
+    # linearised intervals are at least as wide)
     from scipy import stats
 
-    from laminid_cli.resultfile import read_result
-
     u = json.loads(r.output)["uncertainty"]
-
-    def band(rel):
-        return 0 if rel < 0.05 else 1 if rel < 0.3 else 2
-
     n = h["samples"].shape[0]
     j = max(i for i in range(1, n + 1) if stats.binom.sf(i - 1, n, 0.975) >= 0.95)
-    assert j == 7 and mc["evidence_level"] == h["@attrs"]["evidence_level"] == 0.95  # of 8
+    assert j == 7 and mc["evidence_level"] == h["@attrs"]["evidence_level"] == 0.95
     labels = [x.decode() if isinstance(x, bytes) else str(x)
               for x in read_h5(out)["uncertainty"]["labels"]]
-    worse = []
     for k, v in u["constants"][MAT].items():
         if "rel_half_width" not in v:
             continue                                       # fixed
         m = mc["constants"][MAT][k]
-        mc_rel = (m["upper"] - m["lower"]) / 2 / abs(v["value"])
         x = np.sort(h["samples"][:, labels.index(f"{MAT}.{k}")])
         assert (m["inner_lower"], m["inner_upper"]) == (x[n - j], x[j - 1])
         assert h["inner_lower"][labels.index(f"{MAT}.{k}")] == x[n - j]
-        sure = (x[j - 1] - x[n - j]) / 2 / abs(v["value"])
-        assert v["monte_carlo_rel_half_width"] == pytest.approx(mc_rel, rel=1e-9)
-        assert v["monte_carlo_rel_half_width_lower"] == pytest.approx(sure, rel=1e-9)
-        assert sure <= mc_rel
-        if band(sure) > band(v["rel_half_width"]):
-            worse.append(f"{MAT}.{k}")
-            assert v["verdict"].split(" — ")[0].endswith("(Monte Carlo)")
-        assert v["verdict_from"] == ("monte_carlo" if f"{MAT}.{k}" in worse else "linearised")
-    assert u["verdict_from_monte_carlo"] == worse
-    typed = read_result(out).uncertainty
-    assert [iv.label for iv in typed.intervals if iv.verdict_from_monte_carlo] == worse
+        assert v["monte_carlo_rel_half_width"] == pytest.approx(
+            (m["upper"] - m["lower"]) / 2 / abs(v["value"]), rel=1e-9)
+        assert v["monte_carlo_rel_half_width_lower"] == pytest.approx(
+            (x[j - 1] - x[n - j]) / 2 / abs(v["value"]), rel=1e-9)
+        assert v["verdict_from"] == "linearised"
+    assert u["verdict_from_monte_carlo"] == []
+
+
+def test_a_monte_carlo_verdict_reaches_json_hdf5_the_reader_terminal_and_status(
+        monkeypatch, tmp_path):
+    """The plumbing of a verdict set by the Monte Carlo, on a Monte Carlo that sets one: a
+    stand-in for monte_carlo (tests.mcfix.mc_range: 40 trials spreading E1 over ±40 % of its
+    value, for sure ±30.3 %, the others within their intervals) on S1.4 (6x6, G13, G23
+    fixed; E1 linearised ±2 %): E1 "not determined (Monte Carlo)", flagged, status check
+    with the three widths, in --json, the HDF5 file (verdict, flag, verdict_from_monte_carlo,
+    inner_lower/upper), the typed reader and the terminal. (The real trials set verdicts on
+    hybrid CM: the slow test below.)"""
+    import laminid_cli.uncertainty as unc_mod
+    from laminid_cli.resultfile import read_result
+    from tests.mcfix import mc_range, sure_width
+
+    made = []
+
+    def fake_monte_carlo(result, fms, sigmas, u, n_trials, **kw):
+        rel = [0.4 / 1.79 if lab.endswith(".E1") else 0.5 * r / 1.79
+               for lab, r in zip(u.labels, u.rel_half_width)]
+        made.append(mc_range(u, rel))
+        return made[-1]
+
+    monkeypatch.setattr(unc_mod, "monte_carlo", fake_monte_carlo)
+    out = tmp_path / "mc.h5"
+    r = run("identify", S1[3], "--mesh", "6x6", "--fix", "G13,G23", "--monte-carlo", "40",
+            "--json", "-o", str(out))
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output)
+    e1 = d["uncertainty"]["constants"][MAT]["E1"]
+    k = made[0].labels.index(f"{MAT}.E1")
+    sure = sure_width(made[0].samples[:, k], e1["value"])
+    assert 0.3 < sure < 0.31 and e1["rel_half_width"] < 0.05
+    assert e1["monte_carlo_rel_half_width_lower"] == pytest.approx(sure, rel=1e-12)
+    assert e1["verdict"] == ("not determined by these modes (Monte Carlo) — fix it or measure "
+                             "a thicker plate / more modes")
+    assert e1["flagged"] and e1["verdict_from"] == "monte_carlo"
+    assert d["uncertainty"]["verdict_from_monte_carlo"] == [f"{MAT}.E1"]
+    assert d["status"] == "check"
+    und = next(x["text"] for x in d["reasons"] if x["code"] == "undetermined")
+    assert (f"{MAT}.E1 (Monte Carlo ±{e1['monte_carlo_rel_half_width'] * 100:.0f} %, at least "
+            f"±30 %; linearised ±{e1['rel_half_width'] * 100:.0f} %)") in und
+    h = read_h5(out)["uncertainty"]
+    assert h["@attrs"]["verdict_from_monte_carlo"] == f"{MAT}.E1"
+    assert f"{MAT}.E1" in h["@attrs"]["flagged"].split(",")
+    x = np.sort(made[0].samples[:, k])
+    assert (h["monte_carlo"]["inner_lower"][k], h["monte_carlo"]["inner_upper"][k]) == (x[3],
+                                                                                       x[36])
+    iv = read_result(out).uncertainty.get(MAT, "E1")
+    assert iv.verdict_from_monte_carlo and iv.flagged and iv.verdict == e1["verdict"]
+    t = run("identify", S1[3], "--mesh", "6x6", "--fix", "G13,G23", "--monte-carlo", "40",
+            "--no-output")
+    assert t.exit_code == 0
+    line = next(ln for ln in t.output.splitlines() if ln.startswith("  E1 [GPa]"))
+    assert line.endswith("not determined by these modes (Monte Carlo) [!]")
+    said = next(ln for ln in t.output.splitlines() if "verdicts set by the Monte Carlo" in ln)
+    assert "(the width its trials show with 90 % confidence)" in said and said.endswith(": E1")
 
 
 def test_joint_identification_of_the_paper_plates(tmp_path):

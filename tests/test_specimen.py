@@ -324,7 +324,18 @@ def test_stacking_text(rel, text):
 def test_global_properties_of_cross_ply_laminate():
     lam = laminate_from_specimen(load(paper.S22))
     g = lam.global_properties()
-    # 8 plies at 0 and 6 at 90 degrees: Ex > Ey, both between E2 and E1
+    # 8 plies at 0 and 6 at 90 degrees of equal thickness: A / h = (8 Q(0) + 6 Q(90)) / 14,
+    # Q11 = E1 / (1 - nu12 nu21), Q22 = E2 / (...), Q12 = nu12 Q22 (classical lamination
+    # theory, worked out here from the file's constants E1 45, E2 4.5 GPa, nu12 0.28)
+    E1, E2, nu12 = 45 * GPa, 4.5 * GPa, 0.28
+    d = 1 - nu12 ** 2 * E2 / E1
+    Q11, Q22, Q12 = E1 / d, E2 / d, nu12 * E2 / d
+    A11, A22 = (8 * Q11 + 6 * Q22) / 14, (8 * Q22 + 6 * Q11) / 14
+    det = A11 * A22 - Q12 ** 2
+    assert g.Ex == pytest.approx(det / A22, rel=1e-12)
+    assert g.Ey == pytest.approx(det / A11, rel=1e-12)
+    assert g.nu_xy == pytest.approx(Q12 / A22, rel=1e-12)
+    assert g.Gxy == pytest.approx(3.7 * GPa, rel=1e-12)
     assert 4.5 * GPa < g.Ey < g.Ex < 45 * GPa
 
 

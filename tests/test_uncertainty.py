@@ -16,6 +16,8 @@ from laminid_cli.uncertainty import (VERDICT_NOT, VERDICT_WEAK, VERDICT_WELL, Ma
                                      linearized_uncertainty, monte_carlo, observations,
                                      uncertainty_of)
 from tests.data.paper import IDENTIFIED, S11, S21
+from tests.mcfix import mc_range as _mc_range
+from tests.mcfix import sure_width as _sure_width
 from tests.factorizers import KINDS
 
 GPa = 1e9
@@ -716,50 +718,6 @@ def test_monte_carlo_trials_on_a_search_limit_are_counted_and_marked(tmp_path):
 
 
 # --- the Monte Carlo range in the verdicts --------------------------------------------------------
-
-#: 40 "trials" of a unit spread: the normal quantiles at (i + 1/2) / 40 (deterministic)
-_T40 = None
-
-
-def _unit_trials():
-    from scipy import stats
-
-    global _T40
-    if _T40 is None:
-        _T40 = stats.norm.ppf((np.arange(40) + 0.5) / 40)
-    return _T40
-
-
-def _mc_range(u, rel_half, at_lower=None):
-    """A MonteCarlo over ``u``'s labels of 40 samples value + rel_half * |value| * t_i (t: the
-    normal quantiles at (i + 1/2) / 40), its 95 % range their numpy quantiles, as
-    monte_carlo computes it."""
-    from laminid_cli.uncertainty import MonteCarlo
-
-    v = np.asarray(u.value, float)
-    samples = v + np.outer(_unit_trials(), np.asarray(rel_half, float) * np.abs(v))
-    p = v.size
-    z = np.zeros(p)
-    lo, hi = np.quantile(samples, [0.025, 0.975], axis=0)
-    return MonteCarlo(labels=u.labels, n_trials=40, n_converged=40, samples=samples,
-                      mean=samples.mean(axis=0), std=samples.std(axis=0, ddof=1), lower=lo,
-                      upper=hi, linearized_std=u.std, ratio=samples.std(axis=0, ddof=1) / u.std,
-                      sigma_factor=1.0, seed=0, jobs=1, time_s=0.0,
-                      at_lower_bound=z if at_lower is None else at_lower, at_upper_bound=z)
-
-
-def _sure_width(samples, value, level=0.95, confidence=0.95):
-    """The reference for MonteCarlo.inner_range, from scipy.stats.binom: the largest k with
-    P(Bin(n, (1 + confidence) / 2) >= k) >= level, the range x_(n + 1 - k) .. x_(k) of the
-    sorted samples, as a relative half-width."""
-    from scipy import stats
-
-    n = samples.shape[0]
-    k = max(j for j in range(1, n + 1)
-            if stats.binom.sf(j - 1, n, 0.5 + confidence / 2) >= level)
-    x = np.sort(samples)
-    return 0.5 * (x[k - 1] - x[n - k]) / abs(value)
-
 
 def test_inner_range_is_the_order_statistics_binomial_tails_give():
     """MonteCarlo.inner_range against scipy.stats.binom (_sure_width): with 40 trials the 4th
