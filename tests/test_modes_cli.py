@@ -1,6 +1,7 @@
 """`laminid modes` end to end through click."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -71,3 +72,19 @@ def test_boundary_override():
     r = run("modes", S11, "--mesh", "6x6", "--boundary", "clamped", "--modes", "3", "--json")
     assert r.exit_code == 0, r.output
     assert json.loads(r.output)["mesh"]["rigid_modes_dropped"] == 0
+
+
+def test_a_mode_not_measured_keeps_the_columns():
+    """A null frequency (mode not detected) prints "-" right-aligned in its columns, so the
+    row lines up with the header and the measured rows."""
+    from laminid_cli.commands.text import format_frequency_table
+
+    nan = float("nan")
+    lines = format_frequency_table({"model": [105.12, 374.66], "measured": [125.05, nan],
+                                    "residual_percent": [15.93, nan], "weight": [1.0, 0.0]})
+    head, full, missing = lines
+    assert len(full) == len(missing) == len(head)
+    assert missing.split() == ["2", "374.66", "-", "-", "0"]
+    ends = [m.end() for m in re.finditer(r"\S+", head)]            # right-aligned columns
+    assert [m.end() for m in re.finditer(r"\S+", missing)] == [ends[0], ends[2], ends[4],
+                                                                ends[6], ends[7]]

@@ -835,7 +835,7 @@ def test_fix_undetermined_also_fixes_what_the_monte_carlo_flags(monkeypatch):
     the others within half their intervals), nu12 is fixed as well and the assessment runs
     again from there, its Monte Carlo included (on E1, E2, G12: nothing flagged): status ok,
     three identifications, two Monte Carlos. (S1.4's real trials spread nu12 over ±24-32 %
-    depending on the seed, for sure ±20-24 %: not enough to flag it.)"""
+    depending on the seed, for sure ±18-24 %: not enough to flag it.)"""
     import laminid_cli.uncertainty as unc_mod
     from laminid_cli.status import result_status
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 MODULI = ("E1", "E2", "G12", "G13", "G23")
 GLOBAL_ORDER = (("Ex", "GPa"), ("Ey", "GPa"), ("Gxy", "GPa"), ("Gxz", "GPa"), ("Gyz", "GPa"),
@@ -10,8 +11,11 @@ GLOBAL_ORDER = (("Ex", "GPa"), ("Ey", "GPa"), ("Gxy", "GPa"), ("Gxz", "GPa"), ("
 
 
 def fmt(value, spec: str, missing: str = "-") -> str:
+    """``value`` in ``spec``; ``missing`` (None, NaN, inf) right-aligned to the spec's width,
+    so a mode that was not measured keeps its table's columns."""
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
-        return missing
+        width = re.match(r"\d*", spec.lstrip("<>^=+- ")).group()
+        return missing.rjust(int(width)) if width else missing
     return format(value, spec)
 
 
