@@ -1103,11 +1103,31 @@ def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
     return specimen
 
 
+#: leading bytes of files a specimen path is sometimes given by mistake: what they are, and
+#: what takes them
+_NOT_A_SPECIMEN = (
+    (b"\x89HDF\r\n\x1a\n", "an HDF5 file (an FRF or result file?), not a specimen file (YAML "
+     "text): FRFs go through 'laminid fit-frf FILE --into SPECIMEN.yaml' (or measured.frf_file "
+     "in the specimen), a result through 'laminid report FILE'"),
+    (b"%PDF", "a PDF document, not a specimen file (YAML text)"),
+    (b"PK\x03\x04", "a ZIP archive (an Excel or Word file?), not a specimen file (YAML text); "
+     "write the specimen as YAML text (specimens/README.md)"),
+    (b"\x89PNG", "a PNG image, not a specimen file (YAML text)"),
+    (b"\x1f\x8b", "a gzip archive, not a specimen file (YAML text); unpack it first"),
+)
+
+
 def read_specimen(path) -> Specimen:
     """Read a specimen YAML file (UTF-8) and validate it; see :func:`load_specimen_text`."""
     name = str(path)
     p = Path(path)
     try:
+        if p.is_file():
+            with open(p, "rb") as fh:
+                head = fh.read(8)
+            for magic, what in _NOT_A_SPECIMEN:
+                if head.startswith(magic):
+                    raise SpecimenError(f"is {what}", path=name)
         size = p.stat().st_size if p.is_file() else 0
         if size > 4 * MAX_SPECIMEN_CHARS:   # refused before it is read into memory
             raise SpecimenError(f"the file has {size} bytes, more than a specimen file can have "

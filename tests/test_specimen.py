@@ -713,3 +713,26 @@ def test_missing_file_and_folder(tmp_path):
 def test_errors_from_text_use_the_given_name():
     with pytest.raises(SpecimenError, match=r"^<string>:5, field 'geometry.h'"):
         load_specimen_text(edit(BASE, "h: 3 mm", "h: 3 Hz"))
+
+
+@pytest.mark.parametrize("head, what", [
+    (b"\x89HDF\r\n\x1a\n\x00\x00", "an HDF5 file (an FRF or result file?)"),
+    (b"%PDF-1.7\n", "a PDF document"),
+    (b"PK\x03\x04\x14\x00", "a ZIP archive (an Excel or Word file?)"),
+    (b"\x89PNG\r\n\x1a\n", "a PNG image"),
+    (b"\x1f\x8b\x08\x00", "a gzip archive")])
+def test_a_file_that_is_not_text_is_named_for_what_it_is(tmp_path, head, what):
+    """A binary file given as a specimen (an FRF file passed to identify, a spreadsheet) gets
+    what it is and what takes it, not "save the file as UTF-8"; identify exits 2."""
+    from click.testing import CliRunner
+
+    from laminid_cli.cli import cli
+
+    path = tmp_path / "plate.bin"
+    path.write_bytes(head + bytes(range(256)) * 4)
+    with pytest.raises(SpecimenError) as info:
+        read_specimen(path)
+    assert str(info.value).startswith(f"{path}: is {what}")
+    assert "UTF-8" not in str(info.value)
+    r = CliRunner().invoke(cli, ["identify", str(path), "--no-output"])
+    assert r.exit_code == 2 and f"is {what}" in r.output and "Traceback" not in r.output
