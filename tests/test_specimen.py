@@ -697,7 +697,7 @@ def test_ambiguous_tag(tmp_path):
     ("name: !!python/object:os.system x\n", 1, ["is not allowed", "python/object"]),
     ("name: !foo x\n", 1, ["is not allowed", "!foo"]),
     (b"name: T\ndescription: caf\xe9\n", 2, ["not UTF-8", "0xe9"]),
-    (b"\x89PNG\r\n\x1a\n\x00\x00", 1, ["not UTF-8"]),
+    (b"\x89PNG\r\n\x1a\n\x00\x00", None, ["is a PNG image", "not a specimen file"]),
 ])
 def test_file_that_is_not_a_specimen(tmp_path, content, line, words):
     bad(tmp_path, content, line, None, *words)
