@@ -672,16 +672,22 @@ def _row_of_result(res) -> dict:
 
 
 def damping_of_file(d) -> dict:
-    """{material: {etaXY: {value, lower, upper, verdict}}} of a result's /damping
-    (:class:`laminid_cli.resultfile.Damping`: free loss factors with their interval, fixed ones
-    with verdict "fixed")."""
+    """{material: {etaXY: {value, lower, upper, verdict, at_bound, bound_side, bound_limit}}}
+    of a result's /damping (:class:`laminid_cli.resultfile.Damping`: free loss factors with
+    their interval, fixed ones with verdict "fixed")."""
     out: dict[str, dict] = {}
     g = d.data
+    at = g.get("at_bound")
     for k, lab in enumerate(g["labels"]):
         mat, name = _str(lab).rsplit(".", 1)
+        hit = at is not None and bool(at[k])
+        # a loss factor at its bound is held at 0 by eta >= 0 (the data push it below): its
+        # one-sided interval 0 .. upper stays, with the side and limit as for the constants
         out.setdefault(mat, {})[name] = {
             "value": float(g["value"][k]), "lower": float(g["lower"][k]),
-            "upper": float(g["upper"][k]), "verdict": _str(g["verdict"][k])}
+            "upper": float(g["upper"][k]), "verdict": _str(g["verdict"][k]),
+            "at_bound": hit, "bound_side": "lower" if hit else "",
+            "bound_limit": 0.0 if hit else None}
     fixed = _str(d.attrs.get("fixed", ""))
     for item in filter(None, fixed.split(",")):
         lab, value = item.rsplit("=", 1)
@@ -701,7 +707,8 @@ def damping_long_rows(row) -> list[dict]:
             out.append({"specimen": row.get("specimen") or row["name"], "material": mat,
                         "constant": name, "value": v["value"], "lower": v["lower"],
                         "upper": v["upper"], "verdict": v["verdict"], "unit": "1",
-                        "status": row["status"]})
+                        "status": row["status"], "bound_side": v.get("bound_side") or "",
+                        "bound_limit": v.get("bound_limit")})
     return out
 
 
@@ -763,7 +770,8 @@ def long_rows(rows, folder=None) -> list[list[str]]:
         for d in damping_long_rows(r):
             cells.append({"material": d["material"], "constant": d["constant"],
                           "value": _num(d["value"]), "lower": _num(d["lower"]),
-                          "upper": _num(d["upper"]), "verdict": d["verdict"], "unit": d["unit"]})
+                          "upper": _num(d["upper"]), "verdict": d["verdict"], "unit": d["unit"],
+                          "bound_side": d["bound_side"], "bound_limit": _num(d["bound_limit"])})
         for cell in cells or [{}]:
             row = common | cell
             out.append([row.get(col, "") for col in LONG_COLUMNS])

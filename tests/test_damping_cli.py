@@ -109,6 +109,8 @@ def test_batch_rows_carry_the_loss_factors(frf_case, tmp_path):
     eta = row["damping"]["E-glass/R368"]
     assert eta["eta11"]["lower"] <= ETA[0] <= eta["eta11"]["upper"]
     assert eta["eta23"] == {"value": 0.012, "lower": None, "upper": None, "verdict": "fixed"}
+    assert (eta["eta11"]["at_bound"], eta["eta11"]["bound_side"], eta["eta11"]["bound_limit"]) \
+        == (False, "", None)
     rows = damping_long_rows(row)
     assert [x["constant"] for x in rows] == ["eta11", "eta22", "eta12", "eta13", "eta23"]
     assert all(x["unit"] == "1" and x["material"] == "E-glass/R368" for x in rows)
@@ -126,6 +128,32 @@ def test_batch_rows_carry_the_loss_factors(frf_case, tmp_path):
     back = read_summary(tmp_path / "out" / "summary.csv")[0]["damping"]["E-glass/R368"]
     assert back["eta23"]["value"] == 0.012 and back["eta23"]["verdict"] == "fixed"
     assert back["eta11"]["value"] == pytest.approx(eta["eta11"]["value"], rel=1e-14)
+
+
+def test_a_loss_factor_at_its_bound_in_the_summary_rows():
+    """A loss factor held at 0 by eta >= 0 (/damping/at_bound) keeps its one-sided interval
+    0 .. upper in summary.csv and gets bound_side "lower", bound_limit 0, as an elastic
+    constant at its bound does; the others leave both columns empty."""
+    from laminid_cli.batch import LONG_COLUMNS, damping_of_file, long_rows
+    from laminid_cli.resultfile import Damping
+
+    d = Damping(attrs={"fixed": "m.eta23=0.012"}, data={
+        "labels": ("m.eta11", "m.eta12"), "value": np.array([0.011, 0.0]),
+        "lower": np.array([0.009, 0.0]), "upper": np.array([0.013, 0.062]),
+        "verdict": ("well determined", "at bound — not identified"),
+        "at_bound": np.array([False, True])})
+    per = damping_of_file(d)["m"]
+    assert (per["eta12"]["at_bound"], per["eta12"]["bound_side"], per["eta12"]["bound_limit"]) \
+        == (True, "lower", 0.0)
+    assert per["eta11"]["bound_side"] == "" and per["eta11"]["bound_limit"] is None
+    row = {"name": "p", "specimen": "p", "status": "ok", "reason": "", "reasons": [],
+           "rms_residual_percent": None, "result": None, "materials": {}, "damping": {"m": per}}
+    recs = {r[LONG_COLUMNS.index("constant")]: dict(zip(LONG_COLUMNS, r))
+            for r in long_rows([row])}
+    assert (recs["eta12"]["bound_side"], recs["eta12"]["bound_limit"]) == ("lower", "0.0")
+    assert (recs["eta12"]["lower"], recs["eta12"]["upper"]) == ("0.0", "0.062")
+    assert recs["eta11"]["bound_side"] == recs["eta11"]["bound_limit"] == ""
+    assert recs["eta23"]["verdict"] == "fixed" and recs["eta23"]["bound_side"] == ""
 
 
 def test_damping_report_page(frf_case, identified, tmp_path):
