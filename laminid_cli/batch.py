@@ -75,8 +75,8 @@ UNITS = {**CONSTANT_UNITS, "lower": "unit of the constant", "upper": "unit of th
 #: range (--monte-carlo), mc_search_limit which of its ends ("lower", "upper", "both") trials
 #: on a limit of the search set (the search's end, not the data's)
 LONG_COLUMNS = ("name", "specimen", "material", "constant", "value", "lower", "upper", "verdict",
-                "bound_side", "bound_limit", "mc_lower", "mc_upper", "mc_search_limit", "unit", "status", "reasons",
-                "rms_residual [%]", "result")
+                "bound_side", "bound_limit", "mc_lower", "mc_upper", "mc_search_limit", "unit",
+                "status", "reasons", "rms_residual [%]", "result")
 SPECIMEN_SUFFIXES = (".yaml", ".yml")
 RESULT_SUFFIX = ".result.h5"
 SUMMARY_CSV = "summary.csv"
@@ -605,8 +605,9 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False) -
     reasons ([{code, text}], laminid_cli.status), reason (one line: the error, or the codes),
     converged, optimizer_status, cached, materials ({material: {E1.. nu12}}), intervals
     ({material: {constant: {lower, upper, verdict, at_bound, bound_side, bound_limit,
-    flagged}}} for the free constants (bound_side "" and bound_limit None when not at a bound), with mc_lower, mc_upper and mc_lower_at_limit, mc_upper_at_limit (None: the
-    file does not say) after a Monte Carlo; fixed ones {verdict: "fixed"}),
+    flagged}}} for the free constants (bound_side "" and bound_limit None when not at a
+    bound), with mc_lower, mc_upper and mc_lower_at_limit, mc_upper_at_limit (None: the file
+    does not say) after a Monte Carlo; fixed ones {verdict: "fixed"}),
     rms_residual_percent, evaluations, time_s, result, damping ({material: {eta11: {value,
     lower, upper, verdict}}}, empty without measured damping).
     ``flagged`` (not determined) is the file's own flag (the run's --max-rel-interval).
