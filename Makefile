@@ -4,7 +4,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup demo test test-all bench clean
+.PHONY: setup demo example-frf test test-all bench clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -21,6 +21,10 @@ demo: setup
 	$(BIN)/laminid modes specimens/example1/S1.1.yaml
 	@mkdir -p out
 	$(BIN)/laminid identify specimens/example1/S1.1.yaml -o out/S1.1.result.h5 --force
+
+# a synthetic impact test of S1.1 (FRFs + specimen without frequencies), for fit-frf and damping
+example-frf: setup
+	$(BIN)/python scripts/example_frf.py --out out/example-frf
 
 test: setup
 	$(BIN)/python -m pytest -q -n 2

@@ -487,6 +487,12 @@ def _parse_fix(fix, names, path) -> dict:
         item = item.strip()
         if not item:
             continue
+        key = item.split("=", 1)[0].strip()
+        if "=" in item and key.rsplit(".", 1)[-1] in CONSTANT_NAMES:
+            raise FitInputError(
+                f"--fix {item}: an elastic constant is fixed at its initial value in {path}; "
+                f"write '--fix {key}' and set that value in the specimen's materials (only loss "
+                "factors take a value here: eta13=0.01)")
         if "." in item and item.rsplit(".", 1)[1] in CONSTANT_NAMES:
             mat, const = item.rsplit(".", 1)
             targets = [mat]
