@@ -82,6 +82,39 @@ def test_prompted_session_skips_quits_and_repeats_a_poor_point(tmp_path, hp):
     assert s.labels == ("1",) and s.meta["complete"] is False
 
 
+def test_json_summary_on_stdout_for_shell_batches(tmp_path, hp):
+    """--json: stdout is one JSON document (file, points saved, each point's quality as the
+    file records it); quality lines and prompts go to stderr. With points missing (quit) it is
+    printed too, complete false, with the resume command (exit 3)."""
+    import json
+
+    out = tmp_path / "j.h5"
+    r = acquire(hp, out, "--no-prompt", "--json", "--units", "Pa/N", points=2)
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.stdout)
+    s = read_frf_h5(out)
+    assert d["file"] == str(out) and d["complete"] is True and d["resume"] is None
+    assert d["points_requested"] == d["points_saved"] == 2 and d["measured"] == ["1", "2"]
+    assert d["units"] == "Pa/N" and d["lines"] == s.freq.size == 801
+    assert (d["f_start_hz"], d["f_stop_hz"]) == (s.freq[0], s.freq[-1])
+    assert d["instrument"]["model"] == "35670A"
+    assert [p["label"] for p in d["points"]] == list(s.labels)
+    pts = s.meta["points"]
+    for p, n_avg, ovl in zip(d["points"], pts["n_averages"], pts["overloads"]):
+        assert (p["n_averages"], p["overloads"]) == (n_avg, ovl) == (3, 0)
+        assert 0.9 <= p["coherence_resonance"] <= 1.0 and p["ok"] is True
+    assert "coherence at resonances" not in r.stdout and "coherence at resonances" in r.stderr
+    # prompted, poor coherence, point 1 kept after one repeat, then quit: exit 3, JSON printed
+    r = acquire(hp, tmp_path / "q.h5", "--coherence-min", "1.0", "--json",
+                input="\ny\nn\nq\n")
+    assert r.exit_code == 3, r.output
+    d = json.loads(r.stdout)
+    assert d["complete"] is False and d["points_saved"] == 1 and d["quit"] is True
+    assert d["repeated"] == 1 and d["points"][0]["ok"] is False
+    assert "--resume" in d["resume"] and "--json" in d["resume"]
+    assert "Repeat point 1?" in r.stderr and "Repeat point 1?" not in r.stdout
+
+
 def test_resume_continues_an_incomplete_file(tmp_path, hp):
     out = tmp_path / "r.h5"
     assert acquire(hp, out, "--no-prompt", points=2).exit_code == 0

@@ -21,8 +21,10 @@ from laminid_cli.commands._common import FiniteFloat, check_output_path, force_o
 class _ClickUI:
     """Operator dialogue on the terminal (the session itself never touches click)."""
 
-    def __init__(self, path: Path, tty: bool | None = None):
+    def __init__(self, path: Path, tty: bool | None = None, as_json: bool = False):
         self.path = path
+        self.as_json = as_json                 # stdout holds the JSON: quality lines to stderr
+        self.qualities: dict = {}              # the last quality of each saved point, by label
         self._progress_shown = False
         #: carriage-return progress only on a terminal; one line per event in logs and pipes
         self.tty = sys.stderr.isatty() if tty is None else tty
@@ -37,7 +39,8 @@ class _ClickUI:
         try:
             answer = click.prompt(
                 f"Point {label} ({index}/{total}): press Enter, then hit the plate "
-                "[s = skip, q = quit]", default="", show_default=False).strip().lower()
+                "[s = skip, q = quit]", default="", show_default=False,
+                err=self.as_json).strip().lower()
         except click.Abort:  # Ctrl-C or end of input at the prompt: stop like Ctrl-C anywhere
             raise KeyboardInterrupt from None
         return {"s": "skip", "skip": "skip", "q": "quit", "quit": "quit"}.get(answer, "go")
@@ -58,11 +61,13 @@ class _ClickUI:
 
     def summary(self, quality):
         self._end_progress()
-        click.echo(quality.line())
+        self.qualities[quality.label] = quality
+        click.echo(quality.line(), err=self.as_json)
 
     def repeat(self, quality):
         try:
-            return click.confirm(f"Repeat point {quality.label}?", default=True)
+            return click.confirm(f"Repeat point {quality.label}?", default=True,
+                                 err=self.as_json)
         except click.Abort:
             raise KeyboardInterrupt from None
 
@@ -82,6 +87,8 @@ def _resume_command(params: dict, output: Path) -> str:
         args.append("--keep-setup")
     if params.get("no_prompt"):
         args.append("--no-prompt")
+    if params.get("as_json"):
+        args.append("--json")
     args += ["-o", str(output), "--resume"]
     return shlex.join(args)
 
@@ -131,12 +138,16 @@ def _resume_command(params: dict, output: Path) -> str:
 @click.option("--resume", is_flag=True, help="Continue an interrupted file: measure the "
                                              "points it does not have yet.")
 @force_option
+@click.option("--json", "as_json", is_flag=True,
+              help="Print a JSON summary on stdout (file, points saved and missing, each point's "
+                   "quality); the quality lines go to stderr. Printed also when points are "
+                   "missing (exit 3).")
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
               help="FRF HDF5 file to write (point by point).")
 @click.pass_context
 def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, averages,
             trigger_level, pretrigger, force_window, exp_window, points, coherence_min, units,
-            no_prompt, configure, resume, force, output):
+            no_prompt, configure, resume, force, as_json, output):
     """Acquire impact-test FRFs (ch2/ch1) and coherence from a dynamic signal analyser.
 
     Hammer force on channel 1, microphone or accelerometer on channel 2 (paper section 3).
@@ -171,7 +182,7 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
     hint = _resume_command(params, out)
     options = SessionOptions(n_points=points, coherence_min=coherence_min, prompt=not no_prompt,
                              resume_hint=hint)
-    ui = _ClickUI(out)  # with --no-prompt the session never calls ready() or repeat()
+    ui = _ClickUI(out, as_json=as_json)  # --no-prompt: the session never calls ready()/repeat()
 
     with open_analyser(analyser, model=model, backend=visa_backend, timeout=timeout) as dsa:
         click.echo(f"{dsa.MODEL} at {dsa.transport.resource}: {dsa.idn}", err=True)
@@ -193,7 +204,21 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
             click.echo(f"{out}: resuming, {writer.n_points} of {points} point(s) already "
                        "measured", err=True)
         result = run_session(dsa, writer, settings, options, ui)
+        identity = dsa.identity()
 
+    if as_json:
+        from dataclasses import asdict
+
+        from laminid_cli.commands._common import echo_json
+
+        echo_json({
+            "file": str(out), "complete": result.complete, "points_requested": points,
+            "points_saved": result.n_saved, "measured": result.measured,
+            "skipped": result.skipped, "repeated": result.repeated, "quit": result.quit,
+            "units": units or "V/V", "lines": int(freq.size), "f_start_hz": float(freq[0]),
+            "f_stop_hz": float(freq[-1]), "instrument": identity,
+            "points": [asdict(q) | {"ok": q.ok} for q in ui.qualities.values()],
+            "resume": None if result.complete else hint})
     if not result.complete:
         from laminid_cli.instrument.session import SessionIncomplete
 
