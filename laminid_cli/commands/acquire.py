@@ -139,9 +139,9 @@ def _resume_command(params: dict, output: Path) -> str:
                                              "points it does not have yet.")
 @force_option
 @click.option("--json", "as_json", is_flag=True,
-              help="Print a JSON summary on stdout (file, points saved and missing, each point's "
-                   "quality); the quality lines go to stderr. Printed also when points are "
-                   "missing (exit 3).")
+              help="Print a JSON summary on stdout (file, points saved and missing, the "
+                   "quality of each point measured in this run); the quality lines go to "
+                   "stderr. Printed also when points are missing (exit 3).")
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
               help="FRF HDF5 file to write (point by point).")
 @click.pass_context
@@ -171,6 +171,7 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
     from laminid_cli.instrument.session import SessionOptions, run_session
 
     out = Path(output)
+    units = units or "V/V"
     resume = resume and out.exists()
     if not resume:
         check_output_path(out, force)
@@ -198,7 +199,7 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
         attrs.update(coherence_min=coherence_min, n_points=points, configured=bool(configure),
                      frf_estimator="H1 (RMS-averaged cross/auto spectra)",
                      channels="ch1 = hammer force, ch2 = response")
-        writer = FrfWriter(out, freq, units=units or "V/V", settings=attrs,
+        writer = FrfWriter(out, freq, units=units, settings=attrs,
                            instrument=dsa.identity(), resume=resume, overwrite=force)
         if resume:
             click.echo(f"{out}: resuming, {writer.n_points} of {points} point(s) already "
@@ -215,7 +216,7 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
             "file": str(out), "complete": result.complete, "points_requested": points,
             "points_saved": result.n_saved, "measured": result.measured,
             "skipped": result.skipped, "repeated": result.repeated, "quit": result.quit,
-            "units": units or "V/V", "lines": int(freq.size), "f_start_hz": float(freq[0]),
+            "units": units, "lines": int(freq.size), "f_start_hz": float(freq[0]),
             "f_stop_hz": float(freq[-1]), "instrument": identity,
             "points": [asdict(q) | {"ok": q.ok} for q in ui.qualities.values()],
             "resume": None if result.complete else hint})
