@@ -317,3 +317,25 @@ def test_hybrid_cm_verdicts_follow_a_monte_carlo_range_wider_than_the_linearised
     assert "carbon.G12" not in und
     iv = read_result(out).uncertainty.get("carbon", "G13")
     assert iv.flagged and iv.verdict_from_monte_carlo and iv.verdict == g13["verdict"]
+
+
+def test_too_few_trials_to_bound_the_width_are_said_so():
+    """3 converged trials: no two order statistics lie inside the 95 % range's quantiles with
+    probability 0.95 each (x_(3) is below the 97.5 % quantile with probability 0.927 only), so
+    the Monte Carlo bounds no width and sets no verdict; the terminal says so. 8 trials do
+    (the 2nd smallest and largest): no such line."""
+    r = run("identify", S1[3], "--mesh", "6x6", "--fix", "G13,G23", "--monte-carlo", "3",
+            "-j", "1", "--json", "--no-output")
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output)["uncertainty"]
+    assert all(v["inner_lower"] is None and v["inner_upper"] is None
+               for v in d["monte_carlo"]["constants"][MAT].values())
+    assert d["verdict_from_monte_carlo"] == []
+    said = ("3 converged trial(s) do not bound the range's width with 90 % confidence: the "
+            "verdicts stay the linearised ones")
+    t = run("identify", S1[3], "--mesh", "6x6", "--fix", "G13,G23", "--monte-carlo", "3",
+            "-j", "1", "--no-output")
+    assert t.exit_code == 0 and said in t.output
+    t = run("identify", S1[3], "--mesh", "6x6", "--fix", "G13,G23", "--monte-carlo", "8",
+            "-j", "1", "--no-output")
+    assert t.exit_code == 0 and "do not bound the range's width" not in t.output

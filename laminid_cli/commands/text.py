@@ -334,8 +334,14 @@ def format_uncertainty(u: dict) -> list[str]:
                              "search's limit, not the data's (the constant is not determined "
                              "there)")
         from_mc = u.get("verdict_from_monte_carlo") or []
+        sure = 100 * (2 * mc.get("evidence_level", 0.95) - 1)
+        inner = [v.get("inner_lower") for c in mc["constants"].values() for v in c.values()]
+        if inner and all(x is None or not math.isfinite(x) for x in inner) \
+                and "evidence_level" in mc:
+            lines.append(f"  {mc['converged']} converged trial(s) do not bound the range's width "
+                         f"with {sure:.0f} % confidence: the verdicts stay the linearised ones; "
+                         "run 40 or more trials for the Monte Carlo to set them")
         if from_mc:
-            sure = 100 * (2 * mc.get("evidence_level", 0.95) - 1)
             lines.append(f"  verdicts set by the Monte Carlo range (the width its trials show "
                          f"with {sure:.0f} % confidence), wider than the linearised "
                          "interval (the frequencies are not linear in the constant over it): "
