@@ -7,6 +7,7 @@ Writes, in OUT (default ``out/example-frf``):
   midway between the model's 13th and 14th modes (1425 Hz; the
   modes up to the 15th are in the sum), from the plate model (12x12 mesh) with known
   constants and known ply loss factors, plus circular Gaussian noise of NOISE x |H| per line;
+  the coherence is a stand-in, 1 - (4 NOISE)^2 at every line (no averaging is simulated);
 * ``plate.yaml``: S1.1's specimen file without its measured frequencies (what ``laminid
   fit-frf plate.frf.h5 --into plate.yaml`` fills in);
 * ``truth.json``: the constants, loss factors, frequencies and damping ratios the FRFs were
