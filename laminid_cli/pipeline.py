@@ -208,7 +208,7 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
                      "alone for its loss factors)")
     if damping is not None:
         summary["damping"] = damping.as_dict()
-    status = status_of(result, a)
+    status = status_of(result, a, damping)
     summary.update(status.as_dict())
     if notes:
         summary["notes"] = list(notes)

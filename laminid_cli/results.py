@@ -312,13 +312,14 @@ def write_status(f, status) -> None:
         g.create_dataset(key, data=np.array(list(values), dtype=object), dtype=dt)
 
 
-def status_of(r, assessment=None):
-    """The ResultStatus of a result: the assessment's when given, else from ``r`` alone."""
+def status_of(r, assessment=None, damping=None):
+    """The ResultStatus of a result: the assessment's when given, else from ``r`` alone; with
+    the ply loss factors' fit ``damping`` when there is one."""
     from laminid_cli.status import result_status
 
     if assessment is not None:
-        return result_status(assessment.result, assessment.uncertainty)
-    return result_status(r)
+        return result_status(assessment.result, assessment.uncertainty, damping)
+    return result_status(r, damping=damping)
 
 
 def identification_summary(r) -> dict:
@@ -360,7 +361,7 @@ def write_identification_file(path, fm, r, summary: dict, command: str = "lamini
     caller has it already (else :func:`status_of`); ``attrs``: extra root attributes."""
     with atomic_h5(path, "laminid-result", command=command) as f:
         _write_identification(f, fm, r, summary)
-        write_status(f, status if status is not None else status_of(r, assessment))
+        write_status(f, status if status is not None else status_of(r, assessment, damping))
         for key, value in (attrs or {}).items():
             f.attrs[key] = value
         if assessment is not None:

@@ -8,16 +8,19 @@ reasons (stable lowercase codes, one entry per code, the words name the constant
     the optimiser stopped without converging (``laminid identify`` exits 1 for this one).
 ``at_bound``
     a free constant ended on a limit of the search (laminid_cli.uncertainty.bounds_reached),
-    or the optimum sits on a feasibility constraint: that constant is not identified.
+    or the optimum sits on a feasibility constraint: that constant is not identified. A free
+    ply loss factor held at 0 (the measured damping asks for less than none) counts too.
 ``undetermined``
     a free constant's 95 % half-width exceeds ``--max-rel-interval`` of its value (flagged by
     the uncertainty assessment): the modes do not determine it. With a Monte Carlo, the half-
     width its 95 % range has for sure (90 % confidence from the trials' order statistics)
-    counts too (:func:`laminid_cli.uncertainty.with_monte_carlo`).
+    counts too (:func:`laminid_cli.uncertainty.with_monte_carlo`). So does a free ply loss
+    factor whose 95 % half-width exceeds the same fraction of its value.
 ``poor_fit``
     chi2 of the residuals is above its 99 % quantile for the degrees of freedom (s2 beyond
     its 99 % limit): the model misses the data by more than the stated frequency noise —
-    plates that disagree (joint), model error, or frequency sigmas that are too small.
+    plates that disagree (joint), model error, or frequency sigmas that are too small. The
+    same test on the loss factors' fit to the measured modal damping counts too.
 ``implausible``
     a combination a mechanics reader would reject, judged on the identified values of free
     constants that are not at a bound:
@@ -142,12 +145,13 @@ def swapped_modes(result) -> list[str]:
     return out
 
 
-def result_status(result, uncertainty=None) -> ResultStatus:
+def result_status(result, uncertainty=None, damping=None) -> ResultStatus:
     """Status and reasons of an Identification or JointIdentification (module docstring).
 
     ``uncertainty``: its :class:`laminid_cli.uncertainty.Uncertainty` (None: the reasons that
     need it — at_bound per constant, undetermined, poor_fit — are judged without it: only the
-    optimiser's bound hits count).
+    optimiser's bound hits count). ``damping``: the ply loss factors'
+    :class:`laminid_cli.damping.DampingFit`, when the specimen has measured damping.
     """
     found: dict[str, list[str]] = {}
 
@@ -200,6 +204,10 @@ def result_status(result, uncertainty=None) -> ResultStatus:
                             f"s2 = {u.s2:.3g} (chi2 {u.chi2:.3g} for {u.dof} degrees of freedom, "
                             f"99 % limit {u.chi2_limit:.3g}): plates that disagree, model error "
                             "or frequency sigmas too small")
+    if damping is not None:
+        limit = (u.thresholds["max_rel_interval"] if u is not None else None)
+        for code, text in damping_reasons(damping, limit):
+            add(code, text)
     for text in implausible_combinations(result, u):
         add("implausible", text)
     sw = swapped_modes(result)
@@ -208,6 +216,38 @@ def result_status(result, uncertainty=None) -> ResultStatus:
                              + "; ".join(sw))
     reasons = tuple(Reason(code, "; ".join(found[code])) for code in CODES if code in found)
     return ResultStatus(CHECK if reasons else OK, reasons)
+
+
+def damping_reasons(damping, max_rel_interval: float | None = None) -> list[tuple[str, str]]:
+    """(code, text) of the ply loss factors' fit (module docstring): free loss factors held at
+    0 (``at_bound``), with a 95 % half-width above ``max_rel_interval`` of their value
+    (default :data:`laminid_cli.intervals.WEAK`; ``undetermined``), and a fit whose chi2 is
+    above its 99 % quantile (``poor_fit``)."""
+    from laminid_cli.intervals import WEAK
+    from laminid_cli.quantiles import chi2_ppf
+
+    limit = WEAK if max_rel_interval is None else max_rel_interval
+    conf = f"{damping.confidence * 100:.0f} %"
+    out = []
+    at = [lab for lab, b in zip(damping.labels, damping.at_bound) if b]
+    if at:
+        out.append(("at_bound", "loss factors held at their lower limit 0 (the measured damping "
+                                "asks for less than none in these terms): " + ", ".join(at)))
+    und = [(lab, rel) for lab, rel, b in zip(damping.labels, damping.rel_half_width,
+                                             damping.at_bound)
+           if not b and not rel <= limit]
+    if und:
+        words = ", ".join(f"{lab} (±{_pct(rel)})" for lab, rel in und)
+        out.append(("undetermined", f"loss factors not determined by the measured damping "
+                                    f"({conf} half-width above {limit * 100:.0f} % of the "
+                                    f"value): {words}"))
+    if damping.dof > 0 and damping.chi2 > chi2_ppf(0.99, damping.dof):
+        out.append(("poor_fit", f"the loss factors' model misses the measured modal damping by "
+                                f"more than its stated noise: chi2 {damping.chi2:.3g} for "
+                                f"{damping.dof} degrees of freedom (99 % limit "
+                                f"{chi2_ppf(0.99, damping.dof):.3g}): damping that is not the "
+                                "ply materials' (air, supports), or damping sigmas too small"))
+    return out
 
 
 def _pct(rel) -> str:

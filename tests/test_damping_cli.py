@@ -97,6 +97,42 @@ def test_frf_to_loss_factors_within_their_intervals(frf_case, identified):
     assert "eta13" in r.output and "fixed" in r.output
 
 
+def test_undetermined_loss_factors_make_the_status_check(frf_case, tmp_path):
+    """With eta13 and eta23 free, the thin plate's modal damping cannot determine them (less
+    than 2 % of any mode's strain energy is in transverse shear): the result is "check", with
+    both named, in --json, the HDF5 file and the terminal; with them fixed it is not."""
+    tmp = frf_case[0]
+    out = tmp_path / "free.h5"
+    r = run("identify", tmp / "plate.yaml", "--mesh", "6x6", "--fix", "nu12,G13,G23", "--json",
+            "-o", out)
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.output)
+    d = doc["damping"]
+    per = d["loss_factors"]["E-glass/R368"]
+    assert doc["status"] == "check"
+    why = {x["code"]: x["text"] for x in doc["reasons"]}
+    for name in ("eta13", "eta23"):
+        lab = f"E-glass/R368.{name}"
+        if per[name]["at_bound"]:                        # held at 0
+            assert per[name]["value"] == 0.0
+            assert "lower limit 0" in why["at_bound"] and lab in why["at_bound"]
+        else:
+            assert per[name]["rel_half_width"] > 0.3
+            assert "loss factors not determined by the measured damping" in why["undetermined"]
+            assert f"{lab} (±{per[name]['rel_half_width'] * 100:.0f} %)" in why["undetermined"]
+    assert not any("eta11" in x["text"] for x in doc["reasons"])      # eta11 is weak: not named
+    with h5py.File(out, "r") as f:
+        assert f.attrs["status"] == "check"
+    t = run("identify", tmp / "plate.yaml", "--mesh", "6x6", "--fix", "nu12,G13,G23",
+            "--no-output")
+    assert "status: CHECK" in t.output and "E-glass/R368.eta23" in t.output
+    # the same plate with the two fixed (the fixture's run): no reason from the damping
+    r = run("identify", tmp / "plate.yaml", "--mesh", "6x6", "--fix", FIX, "--json",
+            "--no-output")
+    doc = json.loads(r.output)
+    assert not any("loss factor" in x["text"] for x in doc["reasons"]), doc["reasons"]
+
+
 def test_batch_rows_carry_the_loss_factors(frf_case, tmp_path):
     from laminid_cli.batch import damping_long_rows, read_summary
 

@@ -86,6 +86,40 @@ def test_bounds_reached_on_the_constants_themselves():
     assert hits["m.nu12"].text == "at its bound — not identified: nu12 <= -0.95"
 
 
+def fake_damping(rel, at_bound, chi2, dof):
+    """The fields of a DampingFit that result_status reads."""
+    labels = tuple(f"m.eta{k}" for k in ("11", "22", "12", "13", "23")[:len(rel)])
+    return SimpleNamespace(labels=labels, rel_half_width=np.array(rel, float),
+                           at_bound=np.array(at_bound, bool), confidence=0.95, chi2=chi2,
+                           dof=dof)
+
+
+def test_loss_factors_count_in_the_status():
+    """A result with measured damping is "ok" only when its free loss factors are: one held at
+    0 is at_bound, one wider than the limit (30 % by default, --max-rel-interval otherwise) is
+    undetermined, and a damping fit beyond chi2's 99 % quantile is a poor fit."""
+    c = ElasticConstants(150e9, 9e9, 5e9, 5e9, 3.5e9, 0.3)
+    limit9 = stats.chi2.ppf(0.99, 9)                   # 21.67, the independent reference
+    good = fake_damping([0.1, 0.29, 0.2], [False] * 3, limit9 * 0.99, 9)
+    assert result_status(fake(c), damping=good).status == "ok"
+    bad = fake_damping([0.1, 0.31, 0.2, 2.5, np.inf], [False, False, False, False, True],
+                       limit9 * 1.01, 9)
+    st = result_status(fake(c), damping=bad)
+    assert st.status == "check" and st.codes == ("at_bound", "undetermined", "poor_fit")
+    text = dict(zip(st.codes, st.texts))
+    assert text["at_bound"].endswith(": m.eta23") and "lower limit 0" in text["at_bound"]
+    assert text["undetermined"].endswith("m.eta22 (±31 %), m.eta13 (±250 %)")
+    assert "above 30 % of the value" in text["undetermined"]
+    assert f"chi2 {limit9 * 1.01:.3g} for 9 degrees of freedom (99 % limit {limit9:.3g})" \
+        in text["poor_fit"]
+    # the uncertainty's --max-rel-interval is the limit for the loss factors too
+    u = SimpleNamespace(at_bound=None, labels=(), flagged=(), dof=0, chi2=0.0,
+                        chi2_limit=np.nan, thresholds={"max_rel_interval": 0.5},
+                        rel_half_width=())
+    st = result_status(fake(c), u, damping=fake_damping([0.1, 0.45], [False, False], 1.0, 3))
+    assert st.status == "ok"
+
+
 def test_noise_free_synthetic_data_with_the_weak_constants_fixed_are_ok():
     spec = read_specimen(S21)
     fm = build_forward_model(spec, (4, 4))
