@@ -322,29 +322,44 @@ def _plate(g, name: str | None = None) -> Plate:
 
 
 _BOUND_STATEMENT = re.compile(r"(?:nu12|E1|E2|G12|G13|G23)\s*(<=|>=)\s*(.*)$")
+#: the statement since stop 29: "stopped on the search's lower limit, G13 = 0.0001 E1 (...)"
+_BOUND_LIMIT = re.compile(r"search's (lower|upper) limit, (nu12|E1|E2|G12|G13|G23) = (.*)$")
+
+
+def _bound_parts(text: str) -> tuple[str, str, str]:
+    """(side, constant, the limit as written) of a ``bound_text``, ("", "", "") if neither
+    form."""
+    if not text:
+        return "", "", ""
+    m = _BOUND_LIMIT.search(text)
+    if m is not None:
+        return m.group(1), m.group(2), m.group(3)
+    tail = text.rsplit(": ", 1)[-1]
+    m = _BOUND_STATEMENT.search(tail)
+    if m is None:
+        return "", "", ""
+    return ("lower" if m.group(1) == "<=" else "upper"), tail.split()[0], m.group(2)
 
 
 def bound_statement(text: str) -> tuple[str, str]:
-    """(side, statement) of a ``bound_text`` ("at its bound — not identified: G13 <= 0.0001 E1
-    (0.00286 GPa)" -> ("lower", "≤ 0.0001 E1 (0.00286 GPa)")); side "lower" means the data
-    push the constant below its limit, "upper" above it, "" when the text says neither."""
-    m = _BOUND_STATEMENT.search(text.rsplit(": ", 1)[-1]) if text else None
-    if m is None:
-        return "", ""
-    op, rest = m.groups()
-    return ("lower", f"≤ {rest}") if op == "<=" else ("upper", f"≥ {rest}")
+    """(side, statement) of a ``bound_text``: "at its bound — not identified: stopped on the
+    search's lower limit, G13 = 0.0001 E1 (0.00286 GPa at the optimum)" -> ("lower", "lower
+    limit 0.0001 E1 (0.00286 GPa at the optimum)"); files before stop 29 wrote "... G13 <=
+    0.0001 E1 (0.00286 GPa)", read the same way. Side "lower": the fit would take the constant
+    below its limit, "upper" above it; "" when the text says neither."""
+    side, _, limit = _bound_parts(text)
+    return (side, f"{side} limit {limit}") if side else ("", "")
 
 
 def bound_from_text(text: str) -> tuple[str, float]:
-    """(side, limit SI) of a constant at its bound from its one-sided statement, for files
-    written before /uncertainty held them as data (bound_side, bound_limit): "... G13 <= 0.0001
-    E1 (0.0154 GPa)" -> ("lower", 1.54e7); "nu12 >= 0.95" -> ("upper", 0.95); ("", NaN) when
-    the text says neither."""
-    side, stmt = bound_statement(text)
+    """(side, limit SI) of a constant at its bound from its statement, for files written before
+    /uncertainty held them as data (bound_side, bound_limit): "... G13 <= 0.0001 E1 (0.0154
+    GPa)" -> ("lower", 1.54e7); "nu12 >= 0.95" -> ("upper", 0.95); ("", NaN) when the text
+    says neither."""
+    side, name, rest = _bound_parts(text)
     if not side:
         return "", np.nan
-    rest = stmt[2:]
-    if "nu12" in text.rsplit(": ", 1)[-1].split()[0]:
+    if name == "nu12":
         num = re.match(r"[-+0-9.eE]+", rest)
         return side, float(num.group()) if num else np.nan
     gpa = re.search(r"\(([-+0-9.eE]+) GPa[^)]*\)", rest)

@@ -51,8 +51,10 @@ Constants at a bound
     ``bound_factor`` times/over their initial value, shear moduli and E2 at
     ``MIN_MODULUS_RATIO * E1``, E2 = E1, |nu12| = nu_max) is not identified: the data would move
     it further. It gets no interval (``lower``/``upper`` NaN, ``at_bound`` true), the verdict
-    :data:`VERDICT_AT_BOUND` and a one-sided statement in ``bound_text`` ("at its bound — not
-    identified: G13 <= 0.0001 E1 (0.0154 GPa)"), with its side and limit as data in
+    :data:`VERDICT_AT_BOUND` and a statement in ``bound_text`` ("at its bound — not
+    identified: stopped on the search's lower limit, G13 = 0.0001 E1 (0.0154 GPa at the
+    optimum)"; files before stop 29 wrote "G13 <= 0.0001 E1 (...)", which read like a
+    confidence bound: it is not one), with its side and limit as data in
     ``bound_side`` ("lower": the data push it below ``bound_limit``) and ``bound_limit`` (SI).
     The covariance of the other constants is computed with the constants at a bound held
     there (an active constraint), so one constant on its limit does not blow up every
@@ -280,7 +282,7 @@ class Uncertainty:
     notes: tuple[str, ...] = ()
     scale: tuple[str, ...] = ()             # per label: "log" (moduli) | "linear" (nu12)
     at_bound: np.ndarray | None = None      # (p,) bool: ended on a limit of the search
-    bound_text: tuple[str, ...] = ()        # per label: "" or the one-sided statement
+    bound_text: tuple[str, ...] = ()        # per label: "" or the statement at the limit
     #: per label, of a constant at its bound: the side the data push it to ("lower" | "upper";
     #: "" when not at a bound) and the limit of the search there (SI; NaN when not at a bound)
     bound_side: tuple[str, ...] = ()
@@ -385,12 +387,14 @@ def material_states(result) -> tuple[MaterialState, ...]:
 
 #: relative closeness to a limit of the search that counts as "at the bound"
 BOUND_TOL = 1e-4
+#: how a constant's statement at a limit of the search begins (BoundHit.text)
+BOUND_PREFIX = "at its bound — not identified: "
 
 
 @dataclass(frozen=True)
 class BoundHit:
     """A free constant on a limit of the search: side "lower" | "upper", the limit (SI) and the
-    one-sided statement."""
+    statement (:data:`BOUND_PREFIX` ...)."""
 
     label: str
     side: str
@@ -414,8 +418,10 @@ def bounds_reached(materials, nu_max: float = 0.95, bound_factor: float = 5.0
     - E2 >= E1 (limit E2 <= E1, paper Eq. 22);
     - |nu12| at ``nu_max``.
 
-    Returns {label: BoundHit}. A lower bound says "the data push it lower": the statement is
-    one-sided ("G13 <= 0.0001 E1 (0.0154 GPa)").
+    Returns {label: BoundHit}. At a lower limit the fit would take the constant lower, but
+    that is no confidence bound (a Monte Carlo of such a result has trials far above the
+    limit): the statement names the limit, "stopped on the search's lower limit, G13 = 0.0001
+    E1 (0.0154 GPa at the optimum)", and gives no interval.
     """
     from laminid_cli.parametrization import MIN_MODULUS_RATIO as r
 
@@ -429,9 +435,9 @@ def bounds_reached(materials, nu_max: float = 0.95, bound_factor: float = 5.0
             hit = None
             if k == "nu12":
                 if v >= nu_max * (1 - tol):
-                    hit = ("upper", nu_max, f"nu12 >= {nu_max:g}")
+                    hit = ("upper", nu_max, f"nu12 = {nu_max:g}")
                 elif v <= -nu_max * (1 - tol):
-                    hit = ("lower", -nu_max, f"nu12 <= {-nu_max:g}")
+                    hit = ("lower", -nu_max, f"nu12 = {-nu_max:g}")
             else:
                 v0 = float(getattr(c0, k))
                 lo, hi = v0 / bound_factor, v0 * bound_factor
@@ -439,19 +445,19 @@ def bounds_reached(materials, nu_max: float = 0.95, bound_factor: float = 5.0
                     # the limit on the alphas lies slightly above r * E1 in the constants: the
                     # one-sided statement is the value where the search stopped, never below it
                     lim = max(v, r * c.E1)
-                    hit = ("lower", lim, f"{k} <= {r:g} E1 ({_gpa(lim)} at the optimum)")
+                    hit = ("lower", lim, f"{k} = {r:g} E1 ({_gpa(lim)} at the optimum)")
                 elif k == "E2" and v >= c.E1 * (1 - tol):
-                    hit = ("upper", c.E1, f"E2 >= E1 ({_gpa(c.E1)})")
+                    hit = ("upper", c.E1, f"E2 = E1 ({_gpa(c.E1)})")
                 # the factor limits bind every modulus of the 'constants' parametrisation but
                 # only E1 of the alphas (the others can pass them): at the limit, not beyond
                 elif abs(v - lo) <= tol * lo:
-                    hit = ("lower", lo, f"{k} <= initial / {bound_factor:g} ({_gpa(lo)})")
+                    hit = ("lower", lo, f"{k} = initial / {bound_factor:g} ({_gpa(lo)})")
                 elif abs(v - hi) <= tol * hi:
-                    hit = ("upper", hi, f"{k} >= {bound_factor:g} x initial ({_gpa(hi)})")
+                    hit = ("upper", hi, f"{k} = {bound_factor:g} x initial ({_gpa(hi)})")
             if hit is not None:
                 side, limit, stmt = hit
-                out[lab] = BoundHit(lab, side, float(limit),
-                                    f"at its bound — not identified: {stmt}")
+                out[lab] = BoundHit(lab, side, float(limit), f"{BOUND_PREFIX}stopped on the "
+                                    f"search's {side} limit, {stmt}")
     return out
 
 

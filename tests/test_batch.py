@@ -126,7 +126,8 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
     g13_cells = [line.split()[-1] for line in lines if line.startswith("G13 [GPa]")]
     assert g13_cells[1].endswith("!") and float(g13_cells[1][:-1]) < 0.01
     assert [line.split()[-1] for line in lines if line.startswith("status")] == ["check"] * 2
-    assert "    at_bound: E-glass/R368.G13: at its bound — not identified: G13 <= 0.0001 E1" \
+    assert ("    at_bound: E-glass/R368.G13: at its bound — not identified: stopped on the search's "
+            "lower limit, G13 = 0.0001 E1") \
         in r.output
     assert "    poor_fit: the fit misses the data" in r.output
     assert "0 ok, 2 check (0 not converged), 0 failed" in r.output and r.exit_code == 0

@@ -185,7 +185,7 @@ def test_interval_panels_each_in_their_unit_with_reference_and_arrows(checked):
     g23 = res.materials[MAT]["G23"] / 1e9
     assert arrow.xyann == (0.0, g23) and arrow.xy == (0.0, 0.0)
     stmt = next(t for t in a.texts if t.get_gid() == "bound-statement").get_text()
-    assert stmt.replace("\n", " ") == "≤ 0.0001 E1 (0.0160 GPa at the optimum)"
+    assert stmt.replace("\n", " ") == "lower limit 0.0001 E1 (0.0160 GPa at the optimum)"
     assert next(ln for ln in a.get_lines() if ln.get_gid() == "value").get_markerfacecolor() \
         == "w"
     # E1 (well determined) is not squashed by G23's (undetermined) interval: its panel spans
@@ -213,7 +213,7 @@ def test_at_bound_cell_from_the_limit_and_from_an_older_files_statement(checked,
     assert interval_text("nu12", up) == "≥ 0.950"
     # without a usable limit (a hand-edited file): the statement, never an empty cell
     blank = dataclasses.replace(o, bound_side="", bound_limit=np.nan)
-    assert interval_text("G23", blank) == "≤ 0.0001 E1 (0.0160 GPa at the optimum)"
+    assert interval_text("G23", blank) == "lower limit 0.0001 E1 (0.0160 GPa at the optimum)"
 
 
 def test_mode_shapes_with_mac_against_the_initial_model(batch_dir, tmp_path):

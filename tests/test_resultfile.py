@@ -122,7 +122,8 @@ def test_schema_2_fields_status_intervals_and_damping(checked):
     assert sorted(iv.label for iv in r.uncertainty.intervals if iv.flagged) == sorted(
         doc["uncertainty"]["flagged"])
     assert g13.bound_text == consts["G13"]["bound_text"]
-    assert g13.bound_text.startswith("at its bound — not identified: G13 <= ")
+    assert g13.bound_text.startswith("at its bound — not identified: stopped on the search's "
+                                     "lower limit, G13 = 0.0001 E1 (")
     assert np.isnan(g13.lower) and np.isnan(g13.upper) and consts["G13"]["lower"] is None
     for k in ("E1", "E2", "G12", "G23", "nu12"):
         iv = r.uncertainty.get(name, k)

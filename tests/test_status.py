@@ -80,10 +80,11 @@ def test_bounds_reached_on_the_constants_themselves():
                                          {})])
     assert set(hits) == {"m.E1", "m.E2", "m.G13", "m.G23", "m.nu12"}
     assert hits["m.E1"].side == "upper" and hits["m.E1"].limit == pytest.approx(5 * 117.2e9)
-    assert hits["m.E2"].text.endswith("E2 >= E1 (586 GPa)")
-    assert hits["m.G13"].side == "lower" and "G13 <= 0.0001 E1" in hits["m.G13"].text
-    assert hits["m.G23"].text.endswith("G23 <= initial / 5 (0.62 GPa)")
-    assert hits["m.nu12"].text == "at its bound — not identified: nu12 <= -0.95"
+    assert hits["m.E2"].text.endswith("search's upper limit, E2 = E1 (586 GPa)")
+    assert hits["m.G13"].side == "lower" and "lower limit, G13 = 0.0001 E1" in hits["m.G13"].text
+    assert hits["m.G23"].text.endswith("lower limit, G23 = initial / 5 (0.62 GPa)")
+    assert hits["m.nu12"].text == ("at its bound — not identified: stopped on the search's lower "
+                                   "limit, nu12 = -0.95")
 
 
 def fake_damping(rel, at_bound, chi2, dof):
@@ -153,8 +154,8 @@ def test_single_result_status_in_json_hdf5_and_terminal(s21_check):
     assert [r["code"] for r in d["reasons"]] == ["at_bound", "undetermined", "poor_fit"]
     assert d["optimizer_status"].startswith("converged")
     texts = {r["code"]: r["text"] for r in d["reasons"]}
-    assert texts["at_bound"].startswith(f"{MAT}.G13: at its bound — not identified: G13 <= "
-                                        "0.0001 E1")
+    assert texts["at_bound"].startswith(f"{MAT}.G13: at its bound — not identified: stopped on "
+                                        "the search's lower limit, G13 = 0.0001 E1")
     assert texts["undetermined"].endswith(f"{MAT}.G23 (±60 %)")
     u = d["uncertainty"]
     ap = u["a_posteriori"]
@@ -183,11 +184,13 @@ def test_single_result_status_in_json_hdf5_and_terminal(s21_check):
     assert lines[4].startswith("  at_bound: E-glass/R368.G13: at its bound")
     assert lines[6].startswith("  poor_fit: the fit misses the data")
     g13_row = next(line for line in lines if line.startswith("  G13 [GPa]"))
-    assert "at its bound — not identified: G13 <= 0.0001 E1" in g13_row and "[!]" in g13_row
-    # the interval column: the limit it ended on (--json's bound_limit, GPa, 3 digits)
+    # the statement names the limit it ended on (--json's bound_limit, GPa, 3 digits)
     limit = g13["bound_limit"] / 1e9
     assert g13["bound_side"] == "lower" and 0 < limit < 0.1
-    assert g13_row.split()[4:6] == ["≤", f"{limit:.3g}"]
+    assert (f"at its bound — not identified: stopped on the search's lower limit, G13 = 0.0001 "
+            f"E1 ({limit:.3g} GPa at the optimum) [!]") in g13_row
+    # no interval: a limit of the search is no confidence bound
+    assert g13_row.split()[4:8] == ["none:", "at", "limit", "—"]
     assert g13_row.split()[3] == f"{d['materials'][MAT]['G13'] / 1e9:.3g}"
 
 

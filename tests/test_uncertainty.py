@@ -313,7 +313,8 @@ def test_a_constant_at_its_bound_gets_a_one_sided_statement_and_no_interval():
                                   scaling="stated")
     u = linearized_uncertainty([obs], [mat], scaling="stated")
     assert list(u.at_bound) == [False, True] and u.verdict[1] == "at bound — not identified"
-    assert u.bound_text[1] == ("at its bound — not identified: G23 <= 0.0001 E1 (0.015 GPa at the optimum)")
+    assert u.bound_text[1] == ("at its bound — not identified: stopped on the search's lower "
+                               "limit, G23 = 0.0001 E1 (0.015 GPa at the optimum)")
     assert np.isnan(u.lower[1]) and np.isnan(u.upper[1]) and "m.G23" in u.flagged
     # the other constant's interval is the one with G23 held at its bound
     assert u.std[0] == pytest.approx(free.std[0], rel=1e-12) and u.dof == free.dof

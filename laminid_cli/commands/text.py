@@ -204,11 +204,10 @@ def _material_tables(s: dict, ref: dict) -> list[str]:
                    f"{_num(k, rm.get(k)) if k in rm else '':>10}")
             u = mu.get(k)
             if u is not None and u.get("at_bound"):
-                # no interval: the side and the limit of the search it ended on
-                side, limit = u.get("bound_side"), u.get("bound_limit")
-                span = (f"{'≤' if side == 'lower' else '≥'} {_num(k, limit)}"
-                        if side and limit is not None and math.isfinite(limit) else "—")
-                row += f"  {span:>17} {'—':>10}  {u.get('bound_text') or u['verdict']} [!]"
+                # no interval (a limit of the search is no confidence bound: a Monte Carlo has
+                # trials far from it); the statement names the side and the limit
+                row += (f"  {'none: at limit':>17} {'—':>10}  "
+                        f"{u.get('bound_text') or u['verdict']} [!]")
                 lines.append(row)
             elif u is not None and "half_width" in u:
                 flag = " [!]" if u.get("flagged") else ""
