@@ -7,6 +7,7 @@ only place that turns a :class:`~laminid_cli.errors.LaminidError` into a message
 
 from __future__ import annotations
 
+import errno
 import importlib
 import logging
 
@@ -35,6 +36,12 @@ SHORT_HELP = {
     "report": "PDF/PNG report of a result (frequencies, modes, history...) or a batch summary.",
     "export": "FRFs (UFF 58) or identified mode shapes (UFF 15 + 55) for other modal software.",
 }
+
+
+#: errors of the file system that a user can fix (reported in one line, exit 2)
+_FILE_SYSTEM_ERRNOS = {getattr(errno, name) for name in (
+    "EROFS", "EACCES", "EPERM", "ENOSPC", "EDQUOT", "ENOTDIR", "EISDIR", "ENAMETOOLONG",
+    "ENOENT", "EEXIST", "ETXTBSY", "EFBIG") if hasattr(errno, name)}
 
 
 class LazyGroup(click.Group):
@@ -73,6 +80,14 @@ class LazyGroup(click.Group):
         except KeyboardInterrupt:
             click.echo("laminid: interrupted", err=True)
             ctx.exit(EXIT_INTERRUPTED)
+        except OSError as exc:
+            # the file system refused a file (read-only, full, permissions, a file where a
+            # folder is expected): the user's environment, not a bug; no traceback
+            if exc.errno not in _FILE_SYSTEM_ERRNOS:
+                raise
+            what = f"{exc.filename}: " if exc.filename else ""
+            click.echo(f"laminid: error: {what}{exc.strerror or exc}", err=True)
+            ctx.exit(2)
 
     def make_context(self, info_name, args, parent=None, **extra):
         # parsing the arguments (--help, --version, list_commands); click itself would say

@@ -685,3 +685,74 @@ def test_huge_file_is_refused_before_it_is_read(tmp_path, name, command):
     assert r.exit_code == 2
     assert f"{path}" in r.output and ("more than a specimen file can have" in r.output
                                       or "larger than an FRF text file laminid reads" in r.output)
+
+
+# --- output paths that cannot take a result ----------------------------------------------------
+
+S11 = "specimens/example1/S1.1.yaml"
+
+
+def test_output_that_is_not_a_regular_file_is_never_replaced(tmp_path):
+    """-o naming a FIFO or a folder is refused before any work, even with --force (exit 2),
+    and the FIFO stays a FIFO; an empty name and a file used as a folder are refused too."""
+    import os
+    import stat
+
+    fifo = tmp_path / "p.h5"
+    os.mkfifo(fifo)
+    r = run("identify", S11, "--mesh", "6x6", "-o", fifo, "--force")
+    assert r.exit_code == 2 and "is a named pipe (FIFO), not a file" in r.output
+    assert stat.S_ISFIFO(fifo.stat().st_mode)
+    r = run("modes", S11, "--mesh", "6x6", "-o", tmp_path, "--force")
+    assert r.exit_code == 2 and "is a directory" in r.output     # click's own check
+    r = run("identify", S11, "-o", "")
+    assert r.exit_code == 2 and "-o: the file name is empty" in r.output
+    r = run("identify", S11, "-o", Path(S11) / "out.h5")
+    assert r.exit_code == 2 and f"{S11} is not a folder" in r.output
+    assert "Traceback" not in r.output
+
+
+def test_output_through_a_symbolic_link_writes_its_target(tmp_path):
+    """--force on a symbolic link replaces the file it points to; the link stays a link."""
+    import h5py
+
+    (tmp_path / "store").mkdir()
+    target = tmp_path / "store" / "real.h5"
+    link = tmp_path / "link.h5"
+    link.symlink_to(target)
+    r = run("identify", S11, "--mesh", "6x6", "-o", link, "--force")
+    assert r.exit_code == 0, r.output
+    assert link.is_symlink() and target.is_file()
+    with h5py.File(link, "r") as f:
+        assert f.attrs["format"] == "laminid-result"
+
+
+def test_unwritable_output_folder_is_refused_before_the_work(tmp_path, monkeypatch):
+    """A folder that cannot be written to (permissions, read-only file system; here os.access
+    says so, since the tests may run as root) is refused up front with exit 2."""
+    import os
+
+    real = os.access
+    monkeypatch.setattr(os, "access", lambda p, mode, **kw: False
+                        if Path(p) == tmp_path and mode & os.W_OK else real(p, mode, **kw))
+    r = run("identify", S11, "--mesh", "6x6", "-o", tmp_path / "x.h5")
+    assert r.exit_code == 2
+    assert f"folder {tmp_path} cannot be written to" in r.output
+    assert not (tmp_path / "x.h5").exists()
+
+
+def test_a_file_system_error_while_writing_is_one_line(tmp_path, monkeypatch):
+    """An error of the file system that escapes a command (a disk that fills up, a folder made
+    read-only during the run) is one line naming the file, exit 2, no traceback."""
+    import errno
+
+    from laminid_cli import results
+
+    def full(path, *a, **k):
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(results, "write_identification_file", full)
+    r = run("identify", S11, "--mesh", "6x6", "-o", tmp_path / "x.h5")
+    assert r.exit_code == 2, r.output
+    assert f"laminid: error: {tmp_path / 'x.h5'}: No space left on device" in r.output
+    assert "Traceback" not in r.output

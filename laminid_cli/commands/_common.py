@@ -38,21 +38,63 @@ force_option = click.option(
     "--force", is_flag=True, help="Overwrite an existing output file.")
 
 
+def _kind(path: Path) -> str:
+    """What a non-regular file is, in words."""
+    import stat
+
+    mode = path.stat().st_mode
+    for test, word in ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe (FIFO)"),
+                       (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+                       (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return word
+    return "not a regular file"
+
+
+def writable_target(path: str | Path, option: str = "-o") -> Path:
+    """``path`` as the file to write: refused (OutputExistsError, exit 2) when its name is
+    empty, its folder does not exist, is not a folder or cannot be written to, or it exists and
+    is not a regular file (a folder, FIFO or device is never replaced, even with --force). A
+    symbolic link is followed: its target is the file written (the link stays)."""
+    import os
+
+    from laminid_cli.errors import OutputExistsError
+
+    if str(path).strip() == "":
+        raise OutputExistsError(f"{option}: the file name is empty")
+    path = Path(path)
+    if path.is_symlink():
+        path = Path(os.path.realpath(path))
+    if path.exists() and not path.is_file():
+        raise OutputExistsError(f"{path}: is {_kind(path)}, not a file: laminid writes its results "
+                                f"to regular files only; choose another name with {option}")
+    parent = path.parent
+    if not parent.exists():
+        raise OutputExistsError(f"{path}: folder {parent} does not exist")
+    if not parent.is_dir():
+        raise OutputExistsError(f"{path}: {parent} is not a folder")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputExistsError(f"{path}: folder {parent} cannot be written to (permissions or a "
+                                "read-only file system); choose another place with "
+                                f"{option}")
+    return path
+
+
 def check_output_path(path: str | Path | None, force: bool, option: str = "-o"
                       ) -> Path | None:
-    """Refuse to overwrite an existing file unless --force (exit 2 via OutputExistsError).
+    """Refuse to overwrite an existing file unless --force (exit 2 via OutputExistsError), and
+    a target that cannot be written (:func:`writable_target`); a symbolic link gives its target.
 
     ``option``: the command's option that names this file, for the hint."""
     from laminid_cli.errors import OutputExistsError
 
     if path is None:
         return None
-    path = Path(path)
+    given = Path(path) if str(path).strip() else path
+    path = writable_target(path, option)
     if path.exists() and not force:
-        raise OutputExistsError(f"{path}: file exists; use --force to overwrite it or choose "
+        raise OutputExistsError(f"{given}: file exists; use --force to overwrite it or choose "
                                 f"another name with {option}")
-    if not path.parent.exists():
-        raise OutputExistsError(f"{path}: folder {path.parent} does not exist")
     return path
 
 
@@ -65,9 +107,7 @@ def derived_output_path(path: str | Path) -> tuple[Path, bool]:
     name is refused (OutputExistsError, exit 2) rather than overwritten."""
     from laminid_cli.errors import OutputExistsError
 
-    path = Path(path)
-    if not path.parent.exists():
-        raise OutputExistsError(f"{path}: folder {path.parent} does not exist")
+    path = writable_target(path)
     if not path.exists():
         return path, False
     fmt = None
