@@ -6,7 +6,10 @@ from pathlib import Path
 
 import click
 
-from laminid_cli.commands._common import check_output_path, force_option
+from laminid_cli.commands._common import check_output_path, force_option, writable_target
+
+#: what write_pages puts in a PDF's information dictionary
+_CREATOR = b"/Creator (laminid)"
 
 
 def default_output(source: str) -> Path:
@@ -15,12 +18,36 @@ def default_output(source: str) -> Path:
     return p.with_name(stem + ".report.pdf")
 
 
+def is_laminid_report(path: Path) -> bool:
+    """A PDF that ``laminid report`` wrote (its Creator is laminid)."""
+    try:
+        with open(path, "rb") as fh:
+            data = fh.read(64 << 20)
+    except OSError:
+        return False
+    return data.startswith(b"%PDF") and _CREATOR in data
+
+
+def derived_report(source: str) -> tuple[Path, bool]:
+    """The default report beside SOURCE: (path, replacing an earlier laminid report). Re-running
+    replaces the report laminid wrote there; any other file of that name is refused."""
+    from laminid_cli.errors import OutputExistsError
+
+    out = writable_target(default_output(source))
+    if not out.exists():
+        return out, False
+    if not is_laminid_report(out):
+        raise OutputExistsError(f"{out}: exists and is not a laminid report; move it or name "
+                                "the report with -o")
+    return out, True
+
+
 @click.command(short_help="PDF/PNG report of a result file or a batch summary.")
 @click.argument("source", type=click.Path(exists=True, dir_okay=False))
 @click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
               help="report.pdf (all pages in one file) or report.png (one PNG per page: "
-                   "report-1.png, report-2.png...) [default: next to SOURCE, "
-                   "<name>.report.pdf].")
+                   "report-1.png, report-2.png...), never overwritten without --force "
+                   "[default: next to SOURCE, <name>.report.pdf, replaced on a re-run].")
 @click.option("--frf", "frf_path", type=click.Path(exists=True, dir_okay=False), default=None,
               help="FRF file to draw with its RFP fit (default: the specimen's "
                    "measured.frf_file, when it has one).")
@@ -63,7 +90,11 @@ def report(source, output, frf_path, dpi, force):
     if out.suffix.lower() not in REPORT_SUFFIXES:
         raise click.BadParameter(f"{out}: report type {out.suffix!r} not supported; use .pdf "
                                  "or .png", param_hint="'-o'")
-    check_output_path(out, force)
+    replacing = False
+    if output:
+        out = check_output_path(out, force)
+    else:
+        out, replacing = derived_report(source)
     pages = report_pages(source, frf_path=frf_path)
     if out.suffix.lower() == ".png" and len(pages) > 1:
         for k in range(1, len(pages) + 1):
@@ -73,4 +104,5 @@ def report(source, output, frf_path, dpi, force):
     except OSError as exc:
         raise ReportError(f"{out}: cannot write the report ({exc})") from exc
     names = ", ".join(p.name for p in pages)
-    click.echo(f"{len(pages)} pages ({names}) written to " + ", ".join(map(str, written)))
+    click.echo(f"{len(pages)} pages ({names}) written to " + ", ".join(map(str, written))
+               + (" (replaced the previous report of this result)" if replacing else ""))

@@ -1,0 +1,55 @@
+"""Where `laminid report` writes: its default report beside the result is replaced on a re-run
+(the edit -> identify -> report loop), a file named with -o is kept unless --force, and a file
+at the default name that laminid did not write is never replaced."""
+
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from laminid_cli.cli import cli
+
+S11 = "specimens/example1/S1.1.yaml"
+
+
+def run(*args):
+    return CliRunner().invoke(cli, [str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def result(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("rep") / "S1.1.result.h5"
+    r = run("identify", S11, "--mesh", "6x6", "-o", out)
+    assert r.exit_code == 0, r.output
+    return out
+
+
+def test_the_default_report_is_replaced_on_a_rerun(result):
+    pdf = result.with_name("S1.1.report.pdf")
+    pdf.unlink(missing_ok=True)
+    r = run("report", result)
+    assert r.exit_code == 0, r.output
+    assert "replaced" not in r.output and pdf.read_bytes()[:5] == b"%PDF-"
+    first = pdf.stat().st_mtime_ns
+    r = run("report", result)
+    assert r.exit_code == 0, r.output
+    assert "(replaced the previous report of this result)" in r.output
+    assert pdf.stat().st_mtime_ns >= first and pdf.read_bytes()[:5] == b"%PDF-"
+
+
+def test_a_foreign_file_at_the_default_name_is_kept(result):
+    pdf = result.with_name("S1.1.report.pdf")
+    pdf.write_bytes(b"%PDF-1.4 a lab's own notes\n")
+    r = run("report", result)
+    assert r.exit_code == 2
+    assert "exists and is not a laminid report; move it or name the report with -o" in r.output
+    assert pdf.read_bytes() == b"%PDF-1.4 a lab's own notes\n"
+    pdf.unlink()
+
+
+def test_an_explicit_output_is_protected(result, tmp_path):
+    out = tmp_path / "mine.pdf"
+    assert run("report", result, "-o", out).exit_code == 0
+    r = run("report", result, "-o", out)
+    assert r.exit_code == 2 and "file exists; use --force" in r.output
+    assert run("report", result, "-o", out, "--force").exit_code == 0
