@@ -37,6 +37,7 @@ h5py and the solver are imported where they are used (the option classes bring n
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import csv
 import hashlib
@@ -142,7 +143,9 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
     Returns
     -------
     list of (path, name), sorted by name; name = path relative to the common folder of all
-    inputs, without the suffix, with '/' separators (unique because the paths are).
+    inputs, without the suffix, with '/' separators; with the suffix where two files differ
+    only in theirs (plate.yaml and plate.yml: names "plate.yaml" and "plate.yml"), so the names
+    are unique.
     """
     exclude = [Path(e).resolve() for e in exclude]
     found: dict[Path, Path] = {}          # resolved -> as found
@@ -165,11 +168,14 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
     if not found:
         return []
     root = Path(os.path.commonpath([str(r) for r in roots]))
-    out = []
-    for resolved, as_found in found.items():
-        rel = resolved.relative_to(root)
-        name = rel.with_name(rel.name[: -len(rel.suffix)] if rel.suffix else rel.name)
-        out.append((as_found, name.as_posix()))
+    rels = {resolved: resolved.relative_to(root) for resolved in found}
+    names = {r: rel.with_name(rel.name[: -len(rel.suffix)] if rel.suffix else rel.name
+                              ).as_posix() for r, rel in rels.items()}
+    # plate.yaml and plate.yml (or plate) in one folder: their names keep the suffix, so that
+    # neither result file overwrites the other
+    count = collections.Counter(names.values())
+    out = [(as_found, names[r] if count[names[r]] == 1 else rels[r].as_posix())
+           for r, as_found in found.items()]
     return sorted(out, key=lambda t: t[1])
 
 

@@ -557,3 +557,24 @@ def test_a_killed_workers_temporary_file_is_removed_at_the_end_if_it_was_exiting
     assert calls.count(999999) == 2
     assert not stale.exists()
     assert (out / "example1" / "S1.4.result.h5").exists()
+
+
+def test_specimens_differing_only_in_their_suffix_keep_both_results(tmp_path):
+    """plate.yaml and plate.yml in one folder: two results (names with their suffix), each with
+    its own plate's constants; nothing overwritten."""
+    d = tmp_path / "c"
+    d.mkdir()
+    shutil.copy("specimens/example1/S1.1.yaml", d / "plate.yaml")
+    shutil.copy("specimens/example2/S2.1.yaml", d / "plate.yml")
+    shutil.copy("specimens/example1/S1.2.yaml", d / "other.yaml")
+    assert [n for _, n in discover_specimens([d])] == ["other", "plate.yaml", "plate.yml"]
+    out = tmp_path / "r"
+    r = run("batch", d, "--mesh", "6x6", "--out", out, "-j", "1")
+    assert r.exit_code == 0, r.output
+    with h5py.File(out / "plate.yaml.result.h5") as f:
+        assert f["specimen"].attrs["name"] == "S1.1"
+    with h5py.File(out / "plate.yml.result.h5") as f:
+        assert f["specimen"].attrs["name"] == "S2.1"
+    rows = read_summary(out / "summary.csv")
+    assert sorted({(row["name"], row["specimen"]) for row in rows}) == [
+        ("other", "S1.2"), ("plate.yaml", "S1.1"), ("plate.yml", "S2.1")]

@@ -157,3 +157,27 @@ def test_huge_interval_ends_print_in_exponent_form():
     assert _num("nu12", -0.0193) == "-0.019"
     # a modulus at its floor (0.0001 E1): 3 significant digits, not "0.00"
     assert _num("G13", 2.9936e6) == "0.00299" and _num("G23", 0.0) == "0.00"
+
+
+def test_default_result_of_another_specimen_file_is_not_replaced(tmp_path):
+    """plate.yaml and plate.yml derive the same plate.result.h5: the second identify refuses
+    to replace the first one's result (exit 2) and says how to name its own."""
+    shutil.copy("specimens/example1/S1.1.yaml", tmp_path / "plate.yaml")
+    shutil.copy(S21, tmp_path / "plate.yml")
+    r = run("identify", tmp_path / "plate.yaml", "--mesh", "6x6")
+    assert r.exit_code == 0, r.output
+    r = run("identify", tmp_path / "plate.yml", "--mesh", "6x6")
+    assert r.exit_code == 2
+    assert "holds the result of another specimen file (plate.yaml); name this one's result " \
+           "with -o" in r.output
+    with h5py.File(tmp_path / "plate.result.h5") as f:
+        assert f["specimen"].attrs["name"] == "S1.1"
+    # the same file again: replaced, as before
+    r = run("identify", tmp_path / "plate.yaml", "--mesh", "6x6")
+    assert r.exit_code == 0 and "replaced the previous result" in r.output
+
+
+def test_joint_refuses_the_same_file_twice(tmp_path):
+    r = run("identify", S21, "./" + S21, "--joint", "--no-output")
+    assert r.exit_code == 2
+    assert "the same specimen file as" in r.output and "counts once" in r.output

@@ -101,37 +101,47 @@ def check_output_path(path: str | Path | None, force: bool, option: str = "-o"
 RESULT_FORMATS = ("laminid-result", "laminid-joint-result")
 
 
-def derived_output_path(path: str | Path) -> tuple[Path, bool]:
+def derived_output_path(path: str | Path, specimen: str | Path | None = None
+                        ) -> tuple[Path, bool]:
     """A default result file derived from its specimen: replaced when it exists (returns
-    (path, True)) as long as it is a laminid identification result; anything else at that
-    name is refused (OutputExistsError, exit 2) rather than overwritten."""
+    (path, True)) as long as it is a laminid identification result of the same specimen file
+    (``specimen``; plate.yaml and plate.yml derive the same name); anything else at that name
+    is refused (OutputExistsError, exit 2) rather than overwritten."""
     from laminid_cli.errors import OutputExistsError
 
     path = writable_target(path)
     if not path.exists():
         return path, False
-    fmt = None
+    fmt, source = None, None
     try:
         import h5py
 
         with h5py.File(path, "r") as f:
             fmt = f.attrs.get("format")
+            if "specimen" in f:
+                source = f["specimen"].attrs.get("path")
     except (OSError, ValueError):
         pass
     fmt = fmt.decode() if isinstance(fmt, bytes) else fmt
+    source = source.decode() if isinstance(source, bytes) else source
     if fmt not in RESULT_FORMATS:
         raise OutputExistsError(f"{path}: exists and is not a laminid result file; move it or "
                                 "name the result with -o")
+    if specimen is not None and isinstance(source, str) and source \
+            and Path(source).name != Path(specimen).name:
+        raise OutputExistsError(f"{path}: exists and holds the result of another specimen file "
+                                f"({Path(source).name}); name this one's result with -o")
     return path, True
 
 
-def result_output(output, default, force: bool) -> tuple[Path, bool]:
+def result_output(output, default, force: bool, specimen=None) -> tuple[Path, bool]:
     """The result file of identify: ``-o output`` protected by :func:`check_output_path`, or
-    the derived ``default`` beside the specimen, replaced (:func:`derived_output_path`).
-    Returns (path, replacing an earlier result)."""
+    the derived ``default`` beside the specimen, replaced (:func:`derived_output_path`; a
+    result of another ``specimen`` file is refused). Returns (path, replacing an earlier
+    result)."""
     if output is not None:
         return check_output_path(output, force), False
-    return derived_output_path(default)
+    return derived_output_path(default, specimen)
 
 
 def _clean(obj):

@@ -92,9 +92,18 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force):
                             "together (one set of constants per shared material)")
     if joint and len(specs) < 2:
         raise FitInputError("--joint needs two or more specimen files")
+    seen: dict = {}
+    for sp in specs:
+        key = Path(sp).resolve()
+        if key in seen:
+            raise FitInputError(f"{sp}: the same specimen file as {seen[key]}: a plate measured "
+                                "once counts once (twice would narrow the intervals by "
+                                "sqrt(2))")
+        seen[key] = sp
     options.check()
     default = default_joint_output(specs) if joint else default_output(specs[0])
-    out, replacing = (None, False) if no_output else result_output(output, default, force)
+    out, replacing = ((None, False) if no_output else
+                      result_output(output, default, force, None if joint else specs[0]))
     show_progress = not as_json and sys.stderr.isatty()
 
     def progress(n, objective, rms):
