@@ -201,18 +201,23 @@ class Problem(VariableSet):
                                       if not all(k in s.materials[n].fixed
                                                  for s in specimens if n in s.materials))
                              for n in merged}
-        first_mat = {}
+        first_mat, first_file = {}, {}
         for spec in specimens:
             for name, mat in spec.materials.items():
                 first_mat.setdefault(name, mat)
+                first_file.setdefault(name, spec.path)
         fixed_opt = _parse_fix(options.fix, self.material_names, self.describe())
         params = []
         for name in self.material_names:
             mat = first_mat[name]
             fixed = tuple(dict.fromkeys(merged[name] + fixed_opt.get(name, ())))
-            params.append(make_parameters(
-                name, mat.constants, fixed, kind=options.parametrization, prior=bool(mat.prior),
-                nu_max=options.nu_max, bound_factor=options.bound_factor))
+            try:
+                params.append(make_parameters(
+                    name, mat.constants, fixed, kind=options.parametrization,
+                    prior=bool(mat.prior), nu_max=options.nu_max,
+                    bound_factor=options.bound_factor))
+            except FitInputError as exc:      # an initial value the search cannot start from
+                raise FitInputError(f"{first_file[name]}: {exc}") from None
         self._set_params(params)
         prior = [{k: float(w) for k, w in first_mat[p.name].prior.items()} for p in params]
         by_name = {p.name: (k, p) for k, p in enumerate(params)}

@@ -221,8 +221,9 @@ def make_parameters(name: str, initial: ElasticConstants, fixed=(), *, kind: str
     if not 0 < nu_max < 1:
         raise FitInputError(f"nu_max must be in (0, 1) (got {nu_max})")
     if abs(initial.nu12) > nu_max:
-        raise FitInputError(f"material '{name}': initial nu12 = {initial.nu12} is outside the allowed "
-                       f"range |nu12| <= {nu_max}")
+        raise FitInputError(f"material '{name}', field 'nu12': the initial nu12 = {initial.nu12} is "
+                            f"outside the identification's range |nu12| <= {nu_max} (fibre "
+                            "plies have about 0.2 to 0.4)")
     if initial.E2 > initial.E1:
         raise FitInputError(f"material '{name}': initial E2 > E1; direction 1 must be the fibre "
                        "(stiffer) direction")

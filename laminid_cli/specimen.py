@@ -831,6 +831,23 @@ def _resolve_densities(r: _Reader, top: dict, root: _Y, a: float, b: float, h: f
     return {n: relative[n] * factor for n in materials}
 
 
+def _check_derived_densities(r: _Reader, top: dict, root: _Y, densities: dict,
+                             materials: dict[str, Material]) -> None:
+    """A density computed from the mass (not written in the file, where the unit check has
+    seen it already) must be plausible too (units.PLAUSIBLE): a mass or a dimension in the
+    wrong unit shows there."""
+    from laminid_cli.units import PLAUSIBLE
+
+    low, high = PLAUSIBLE["density"]
+    for name, rho in densities.items():
+        if low <= rho <= high or materials[name].density == rho:
+            continue
+        node = top.get("mass", root)
+        raise r.error(node, f"the mass gives material '{name}' a density of {rho:.4g} kg/m^3, "
+                            f"not a plausible one ({low:g} to {high:g} kg/m^3): check the units "
+                            "of mass, a, b, h and the ply thicknesses", "mass")
+
+
 def _read_measured(r: _Reader, y: _Y) -> Measured:
     m = r.mapping(y, optional=("frequencies", "weights", "sigma", "sigma_source", "frf_file",
                                "bands", "modes", "damping", "damping_sigma"))
@@ -1087,6 +1104,7 @@ def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
 
     plies = _read_plies(r, top, root, h, materials)
     densities = _resolve_densities(r, top, root, a, b, h, mass, materials, plies)
+    _check_derived_densities(r, top, root, densities, materials)
     measured = _read_measured(r, top["measured"]) if "measured" in top else None
     reference = (_read_reference(r, top["reference"], materials) if "reference" in top else
                  {"source": "", "materials": {}, "global": {}, "intervals": {}})

@@ -756,3 +756,29 @@ def test_a_file_system_error_while_writing_is_one_line(tmp_path, monkeypatch):
     assert r.exit_code == 2, r.output
     assert f"laminid: error: {tmp_path / 'x.h5'}: No space left on device" in r.output
     assert "Traceback" not in r.output
+
+
+def test_density_derived_from_a_mass_in_the_wrong_unit_is_refused(tmp_path):
+    """mass: 322.5 (kg meant as g) makes the density m/(a b h) 1.61e6 kg/m^3: refused at the
+    mass line by modes and identify alike, exit 2."""
+    text = Path(S11).read_text()
+    line = next(k for k, t in enumerate(text.splitlines(), 1) if t.startswith("mass:"))
+    bad = tmp_path / "m.yaml"
+    bad.write_text("\n".join("mass: 322.5" if t.startswith("mass:") else t
+                             for t in text.splitlines()) + "\n")
+    rho = 322.5 / (0.2105 * 0.311 * 3.06e-3)              # a, b, h of S1.1
+    for cmd in ("modes", "identify"):
+        r = run(cmd, bad, "--mesh", "6x6")
+        assert r.exit_code == 2, r.output
+        assert f"m.yaml:{line}, field 'mass'" in r.output
+        assert f"a density of {rho:.4g} kg/m^3, not a plausible one (1 to 25000 kg/m^3)" \
+            in r.output
+
+
+def test_initial_nu12_outside_the_search_names_the_file(tmp_path):
+    bad = tmp_path / "n.yaml"
+    bad.write_text(Path(S11).read_text().replace("nu12: 0.35", "nu12: 3.5"))
+    r = run("identify", bad, "--mesh", "6x6", "--no-output")
+    assert r.exit_code == 2
+    assert (f"{bad}: material 'IM7/977-2', field 'nu12': the initial nu12 = 3.5 is outside the "
+            "identification's range |nu12| <= 0.95") in r.output
