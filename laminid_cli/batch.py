@@ -954,12 +954,15 @@ def _float(text):
         return None
 
 
-#: markers of the terminal table: value at a bound (not identified), value not determined
-MARK_BOUND, MARK_UNDETERMINED = "!", "?"
+#: markers of the terminal table: value at a bound (not identified), value not determined,
+#: value held fixed (the initial value, not identified)
+MARK_BOUND, MARK_UNDETERMINED, MARK_FIXED = "!", "?", "="
 
 
 def _mark(row: dict, material: str, constant: str) -> str:
     iv = (row.get("intervals") or {}).get(material, {}).get(constant, {})
+    if iv.get("verdict") == "fixed":
+        return MARK_FIXED
     if iv.get("at_bound"):
         return MARK_BOUND
     if iv.get("flagged"):
@@ -970,14 +973,14 @@ def _mark(row: dict, material: str, constant: str) -> str:
 def format_table(rows) -> str:
     """The constants across specimens as text, shaped like the paper's Table 2: one block per
     set of materials, specimens as columns, constants as rows (GPa; a value at its bound
-    marked "!", one not determined by the modes "?"), a status row; then the reasons of every
-    "check" and the specimens without a result."""
+    marked "!", one not determined by the modes "?", a fixed one "="), a status row; then the
+    reasons of every "check" and the specimens without a result."""
     lines = []
     groups: dict[tuple, list] = {}
     for r in rows:
         if r["materials"]:
             groups.setdefault(tuple(r["materials"]), []).append(r)
-    marked = False
+    marked: set[str] = set()
     for mats, members in groups.items():
         specs = [r["specimen"] for r in members]
         labels = specs if all(specs) and len(set(specs)) == len(specs) else \
@@ -996,8 +999,12 @@ def format_table(rows) -> str:
                 for r in members:
                     v = r["materials"][m][k]
                     mark = _mark(r, m, k)
-                    marked |= mark != " "
-                    cells.append((f"{v:.3f}" if k == "nu12" else f"{v / 1e9:.2f}") + mark)
+                    marked.add(mark)
+                    # a modulus at its floor (a few MPa) keeps 3 digits, not "0.00"
+                    gpa = v / 1e9
+                    text = (f"{v:.3f}" if k == "nu12" else
+                            f"{gpa:.2f}" if abs(gpa) >= 0.1 or gpa == 0 else f"{gpa:.3g}")
+                    cells.append(text + mark)
                 lines.append(f"{name:<{label_w}}" + "".join(f"  {c:>{width + 1}}" for c in cells))
         lines.append(f"{'RMS residual [%]':<{label_w}}" + "".join(
             f"  {r['rms_residual_percent']:>{width}.3f} " for r in members))
@@ -1007,9 +1014,14 @@ def format_table(rows) -> str:
             f"  {(r['status'] + (' (cached)' if r['cached'] else '')):>{width}} "
             for r in members))
         lines.append("")
-    if marked:
-        lines.append(f"{MARK_BOUND} at its bound — not identified; {MARK_UNDETERMINED} not "
-                     "determined by these modes (interval wider than --max-rel-interval)")
+    legend = [text for mark, text in (
+        (MARK_BOUND, f"{MARK_BOUND} at its bound — not identified"),
+        (MARK_UNDETERMINED, f"{MARK_UNDETERMINED} not determined by these modes (interval wider "
+                            "than --max-rel-interval)"),
+        (MARK_FIXED, f"{MARK_FIXED} fixed at its initial value — not identified (--fix, "
+                     "--fix-undetermined or the file's 'fixed')")) if mark in marked]
+    if legend:
+        lines.append("; ".join(legend))
         lines.append("")
     checks = [r for r in rows if r["status"] == "check"]
     if checks:

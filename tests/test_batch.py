@@ -578,3 +578,29 @@ def test_specimens_differing_only_in_their_suffix_keep_both_results(tmp_path):
     rows = read_summary(out / "summary.csv")
     assert sorted({(row["name"], row["specimen"]) for row in rows}) == [
         ("other", "S1.2"), ("plate.yaml", "S1.1"), ("plate.yml", "S2.1")]
+
+
+def test_table_marks_fixed_bound_and_undetermined_values():
+    """The batch table marks a value held fixed "=", at a bound "!", undetermined "?", and its
+    legend names only the marks it uses."""
+    from laminid_cli.batch import format_table
+
+    consts = {"E1": 150e9, "E2": 9e9, "G12": 5e9, "G13": 3.1e9, "G23": 2.95e6, "nu12": 0.35}
+    iv = {"E1": {"verdict": "well determined"}, "E2": {"verdict": "weak"},
+          "G12": {"verdict": "not determined", "flagged": True}, "G13": {"verdict": "fixed"},
+          "G23": {"verdict": "at bound — not identified", "at_bound": True, "flagged": True},
+          "nu12": {"verdict": "fixed"}}
+    row = {"name": "p", "specimen": "P", "status": "check", "cached": False, "reason": "",
+           "reasons": [], "materials": {"m": consts}, "intervals": {"m": iv},
+           "rms_residual_percent": 0.3, "evaluations": 40}
+    lines = format_table([row]).splitlines()
+    cell = {ln.split()[0]: ln.split()[-1] for ln in lines if ln[:3] in ("E1 ", "E2 ", "G12", "G13",
+                                                                         "G23", "nu1")}
+    assert cell == {"E1": "150.00", "E2": "9.00", "G12": "5.00?", "G13": "3.10=",
+                    "G23": "0.00295!", "nu12": "0.350="}
+    legend = next(ln for ln in lines if ln.startswith("! "))
+    assert legend.count(";") == 2 and "= fixed at its initial value — not identified" in legend
+    row["intervals"] = {"m": {k: {"verdict": "fixed"} if k == "nu12" else {} for k in consts}}
+    legend = [ln for ln in format_table([row]).splitlines() if "not identified" in ln]
+    assert legend == ["= fixed at its initial value — not identified (--fix, --fix-undetermined "
+                      "or the file's 'fixed')"]
