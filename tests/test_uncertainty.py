@@ -659,7 +659,8 @@ def test_eq17_rows_value_and_gradient_agree():
 @pytest.mark.parametrize("n", [8, 40, 200])
 def test_a_range_end_is_at_the_bound_when_the_quantile_depends_on_a_trial_there(n):
     """range_ends_at_bound against numpy's quantile itself: an end is flagged exactly when
-    moving the samples at the limit moves the quantile (0-6 samples at each limit)."""
+    moving the samples at the limit moves the quantile by at least half as much (it takes at
+    least half its weight from them; 0-6 samples at each limit)."""
     from laminid_cli.uncertainty import range_ends_at_bound
 
     rng = np.random.default_rng(n)
@@ -670,11 +671,11 @@ def test_a_range_end_is_at_the_bound_when_the_quantile_depends_on_a_trial_there(
         moved[:k] = 0.5
         for conf in (0.9, 0.95):
             q = (1 - conf) / 2
-            depends = np.quantile(x, q) != np.quantile(moved, q)
+            depends = abs(np.quantile(x, q) - np.quantile(moved, q)) >= 0.25 - 1e-12
             low, up = range_ends_at_bound([k], [0], n, conf)
             assert bool(low[0]) == depends and not up[0], (n, k, conf)
             y = -x                                      # the same at the upper limit
-            depends = np.quantile(y, 1 - q) != np.quantile(-moved, 1 - q)
+            depends = abs(np.quantile(y, 1 - q) - np.quantile(-moved, 1 - q)) >= 0.25 - 1e-12
             low, up = range_ends_at_bound([0], [k], n, conf)
             assert bool(up[0]) == depends and not low[0], (n, k, conf)
 
