@@ -60,6 +60,10 @@ FINAL_BOUND = 1e-9
 FINAL_ROUNDS = 12
 #: damping of the Gauss-Newton scaling, relative to its largest diagonal term
 DAMPING = 1e-2
+#: default cap on an identification's model evaluations in all (full and reduced; the paper
+#: plates take 46-272, hybrid CM 1067 along its flat valley; each re-run of --fix-undetermined
+#: and each Monte Carlo trial has its own)
+MAX_EVALUATIONS = 3000
 
 
 @dataclass(frozen=True)
@@ -72,7 +76,8 @@ class IdentifyOptions:
     parametrization : 'auto' (paper Eq. 14 alphas where all constants are free), 'alpha', 'constants'
     xtol_rel : step tolerance on the Gauss-Newton-scaled variables (a step of 1 changes the
         objective by about its initial value), ftol_rel : relative objective tolerance,
-        max_evaluations : nlopt stopping criteria
+        max_evaluations : most model evaluations of the whole identification (every stage,
+        reduced ones included, and a sorted-pairing second pass)
     pairing : 'track' (sorted at the start, then MAC tracking) or 'sorted'
     extra_modes : model modes computed beyond the measured ones (room for swaps)
     nu_max : |nu12| bound (< 1 keeps the constitutive matrix positive definite)
@@ -91,7 +96,7 @@ class IdentifyOptions:
     parametrization: str = "auto"
     xtol_rel: float = 1e-6
     ftol_rel: float = 1e-8
-    max_evaluations: int = 300
+    max_evaluations: int = MAX_EVALUATIONS
     pairing: str = "track"
     extra_modes: int = 4
     nu_max: float = 0.95
@@ -734,10 +739,14 @@ def _optimize_reduced(prob, ev_c, progress=None):
     converged, status = False, "not converged: reduced model did not settle"
     change = 0.0                         # the last enrichment's change of the eigenvalues
     for _ in range(MAX_ENRICH):
-        # each optimiser run on the reduced model has the evaluation budget of a full-model
-        # run, less the start's evaluation and the final check's
+        # --max-evaluations caps the identification's evaluations in all (reduced-model ones
+        # included): a stage gets what is left, less what an enrichment and the final check
+        # take (RESERVE_EVALUATIONS)
         n_before = prob.n_eval
-        budget = max(options.max_evaluations - 2, 1)
+        budget = options.max_evaluations - prob.n_eval - RESERVE_EVALUATIONS
+        if budget < 1:
+            converged, status = False, maxeval_status(options)
+            break
         # after an enrichment, the reduced model is only as good as that enrichment showed it:
         # solve it to a step tolerance of that order, not beyond (a tail of evaluations the
         # next enrichment would make moot); the first stage runs to xtol_rel
@@ -812,6 +821,15 @@ def _checked(prob, ev, tol=None):
         prob.log.checked = final
         return final
     return None
+
+
+#: evaluations the reduced loop keeps for an enrichment's two and the final check's
+RESERVE_EVALUATIONS = 5
+
+
+def maxeval_status(options) -> str:
+    return (f"not converged: {options.max_evaluations} evaluations reached (raise "
+            "--max-evaluations or loosen --xtol/--ftol)")
 
 
 def _finish_reduced(prob, ev):
@@ -889,7 +907,8 @@ def _optimize_from(prob, ev0, progress=None, radius=None, ftol_rel=None, xtol=No
     opt.set_min_objective(objective)
     opt.set_xtol_abs(np.full(prob.n_vars, options.xtol_rel if xtol is None else xtol))
     opt.set_ftol_rel(options.ftol_rel if ftol_rel is None else ftol_rel)
-    opt.set_maxeval(options.max_evaluations if maxeval is None else maxeval)
+    left = max(options.max_evaluations - prob.n_eval, 1)          # a cap on them in all
+    opt.set_maxeval(min(left, options.max_evaluations if maxeval is None else maxeval))
     status = ""
     try:
         x_best = x0 + T @ opt.optimize(np.zeros(prob.n_vars))
@@ -898,8 +917,7 @@ def _optimize_from(prob, ev0, progress=None, radius=None, ftol_rel=None, xtol=No
                              nlopt.STOPVAL_REACHED)
         status = {nlopt.SUCCESS: "converged", nlopt.FTOL_REACHED: "converged (objective "
                   "tolerance reached)", nlopt.XTOL_REACHED: "converged (variable tolerance "
-                  "reached)", nlopt.MAXEVAL_REACHED: f"not converged: {options.max_evaluations} "
-                  "evaluations reached (raise --max-evaluations or loosen --xtol/--ftol)",
+                  "reached)", nlopt.MAXEVAL_REACHED: maxeval_status(options),
                   nlopt.MAXTIME_REACHED: "not converged: time limit"}.get(code, f"stopped ({code})")
     except nlopt.RoundoffLimited:
         x_best = _best_x(prob, first)

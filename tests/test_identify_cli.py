@@ -181,3 +181,17 @@ def test_joint_refuses_the_same_file_twice(tmp_path):
     r = run("identify", S21, "./" + S21, "--joint", "--no-output")
     assert r.exit_code == 2
     assert "the same specimen file as" in r.output and "counts once" in r.output
+
+
+@pytest.mark.parametrize("solver", ["reduced", "full"])
+def test_max_evaluations_caps_the_whole_identification(solver):
+    """--max-evaluations bounds the evaluations of every stage together (the reduced solver ran
+    one budget per stage before: S1.1 with 20 took 71), the answer's final check included
+    (the reduced loop keeps 5 for it and an enrichment). S1.1 at 8x8 needs 94 reduced / 28
+    full evaluations to converge. (Refused infeasible points count for nlopt, not here.)"""
+    r = run("identify", "specimens/example1/S1.1.yaml", "--mesh", "8x8", "--solver", solver,
+            "--max-evaluations", "20", "--json", "--no-output")
+    assert r.exit_code == 1, r.output
+    d = json.loads(r.stdout)
+    assert d["converged"] is False and "20 evaluations reached" in d["optimizer_status"]
+    assert 15 <= d["evaluations"] <= 20
