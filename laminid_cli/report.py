@@ -119,6 +119,12 @@ def short_verdict(text: str) -> str:
 UNINFORMATIVE_RATIO = 1e3
 
 
+def _signed_statement(text: str) -> str:
+    """"≤ 0.0001 E1 (0.00286 GPa)" of a bound_text (either form), "" when it says neither."""
+    side, limit = bound_statement(text)
+    return f"{'≤' if side == 'lower' else '≥'} {limit}" if side else ""
+
+
 def interval_text(k: str, iv) -> str:
     """The interval of a constant as a table cell: "[lo, hi]" in its display unit, the
     one-sided statement of a constant at its bound, or "uninformative" for an interval whose
@@ -128,7 +134,7 @@ def interval_text(k: str, iv) -> str:
     if iv.at_bound:         # the side and the limit of the search it ended on ("≤ 0.002860")
         if iv.bound_side and np.isfinite(iv.bound_limit):
             return f"{'≤' if iv.bound_side == 'lower' else '≥'} {fmt_value(k, iv.bound_limit)}"
-        return bound_statement(iv.bound_text)[1] or "at its bound"
+        return _signed_statement(iv.bound_text) or "at its bound"
     lo, hi = iv.lower, iv.upper
     if k != "nu12" and lo > 0 and hi / lo > UNINFORMATIVE_RATIO:
         return f"uninformative (×{hi / lo:.0e})"
@@ -415,7 +421,7 @@ INTERVAL_COLOR = "C0"
 def _bound_panel(ax, k, v, iv, x, ymin, ymax):
     """A constant at its bound: no interval, a one-sided arrow from the value towards the side
     the data push it to, and the statement ("≤ 0.0001 E1 (0.00286 GPa)")."""
-    side, stmt = iv.bound_side, bound_statement(iv.bound_text)[1]
+    side, stmt = iv.bound_side, _signed_statement(iv.bound_text)
     if not side:
         return
     edge = ymin if side == "lower" else ymax
