@@ -119,26 +119,107 @@ def short_verdict(text: str) -> str:
 UNINFORMATIVE_RATIO = 1e3
 
 
-def _signed_statement(text: str) -> str:
-    """"≤ 0.0001 E1 (0.00286 GPa)" of a bound_text (either form), "" when it says neither."""
-    side, limit = bound_statement(text)
-    return f"{'≤' if side == 'lower' else '≥'} {limit}" if side else ""
+def bound_words(iv) -> str:
+    """Where a constant at its bound stopped: "none — on lower search limit" (from the file's
+    bound_side; an older file's statement when the side is not stored). A constant at a bound
+    has no interval: the value shown beside it is the limit, not a confidence bound."""
+    side = iv.bound_side or bound_statement(iv.bound_text)[0]
+    return f"none — on {side} search limit" if side else "none — on a search limit"
+
+
+def is_uninformative(k: str, lo: float, hi: float) -> bool:
+    return k != "nu12" and lo > 0 and np.isfinite(hi) and hi / lo > UNINFORMATIVE_RATIO
 
 
 def interval_text(k: str, iv) -> str:
-    """The interval of a constant as a table cell: "[lo, hi]" in its display unit, the
-    one-sided statement of a constant at its bound, or "uninformative" for an interval whose
-    ends are more than UNINFORMATIVE_RATIO apart (log-space modulus intervals only)."""
+    """The interval of a constant as a table cell: "[lo, hi]" in its display unit; "none — on
+    lower search limit" for a constant at its bound; an interval whose ends are more than
+    UNINFORMATIVE_RATIO apart (log-space modulus intervals only) gets a second line saying
+    that it carries no information."""
     if iv is None:
         return "—"
-    if iv.at_bound:         # the side and the limit of the search it ended on ("≤ 0.002860")
-        if iv.bound_side and np.isfinite(iv.bound_limit):
-            return f"{'≤' if iv.bound_side == 'lower' else '≥'} {fmt_value(k, iv.bound_limit)}"
-        return _signed_statement(iv.bound_text) or "at its bound"
+    if iv.at_bound:
+        return bound_words(iv)
     lo, hi = iv.lower, iv.upper
-    if k != "nu12" and lo > 0 and hi / lo > UNINFORMATIVE_RATIO:
-        return f"uninformative (×{hi / lo:.0e})"
-    return f"[{fmt_value(k, lo)}, {fmt_value(k, hi)}]"
+    text = f"[{fmt_value(k, lo)}, {fmt_value(k, hi)}]"
+    if is_uninformative(k, lo, hi):
+        text += "\nno information"
+    return text
+
+
+def fixed_words(r: ResultFile, m: str, k: str, width: int = 0) -> str | None:
+    """Why constant ``k`` of material ``m`` was not identified, or None when it is free:
+    "fixed because undetermined (half-width was ±109 %)" (``--fix-undetermined``, with the
+    first run's relative half-width) or "fixed at its initial value (not identified)"."""
+    lab = f"{m}.{k}"
+    u = r.uncertainty
+    fixed = (u is not None and lab in u.fixed) or k not in r.free.get(m, CONSTANTS)
+    if not fixed or (u is not None and u.get(m, k) is not None):
+        return None
+    if u is not None and lab in u.fixed_undetermined:
+        # the first run's half-width is the one that had it fixed only where that run left it
+        # undetermined; a constant fixed in a later round was undetermined there
+        rel, verdict = u.before_fixing.get(lab, (np.nan, ""))
+        if not np.isfinite(rel):
+            return "fixed because undetermined"
+        if verdict.startswith("not"):
+            return f"fixed because undetermined (half-width was {_pct(rel)})"
+        return f"fixed because undetermined in a later run (first run {_pct(rel)})"
+    return "fixed at its initial value (not identified)"
+
+
+def _pct(rel: float) -> str:
+    """A relative half-width as the terminal writes it: "±11 %", "±41x" beyond 10."""
+    if not np.isfinite(rel):
+        return "±?"
+    return f"±{rel:.0f}x" if rel >= 10 else f"±{100 * rel:.0f} %"
+
+
+@dataclass
+class MonteCarloRange:
+    """The Monte Carlo range of one constant (SI): its ends, the width for sure (NaN where the
+    file has none), and whether trials on a limit of the search set an end."""
+
+    lower: float
+    upper: float
+    inner_lower: float = np.nan
+    inner_upper: float = np.nan
+    lower_at_limit: bool = False
+    upper_at_limit: bool = False
+
+    def rel(self, value: float) -> tuple[float, float]:
+        """(relative half-width of the range, of the width for sure) about ``value``."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return (0.5 * (self.upper - self.lower) / abs(value),
+                    0.5 * (self.inner_upper - self.inner_lower) / abs(value))
+
+
+def monte_carlo_range(u, iv) -> MonteCarloRange | None:
+    """The Monte Carlo range of a free constant from /uncertainty/monte_carlo, or None."""
+    mc = (u.monte_carlo or {}) if u is not None else {}
+    if iv is None or "lower" not in mc or "upper" not in mc:
+        return None
+    j = [x.label for x in u.intervals].index(iv.label)
+    lo, hi = np.ravel(mc["lower"]), np.ravel(mc["upper"])
+    if j >= lo.size or j >= hi.size:
+        return None
+
+    def at(key, default=np.nan):
+        a = np.ravel(mc.get(key, ()))
+        return a[j] if j < a.size else default
+    return MonteCarloRange(float(lo[j]), float(hi[j]), float(at("inner_lower")),
+                           float(at("inner_upper")), bool(at("lower_at_bound", 0)),
+                           bool(at("upper_at_bound", 0)))
+
+
+def monte_carlo_text(k: str, rng: MonteCarloRange, value: float) -> tuple[str, str]:
+    """("0.01025*–4.894", "±50 %, ±11 % for sure") of a Monte Carlo range about ``value``
+    (display unit; "*": an end set by trials on a search limit)."""
+    ends = (f"{fmt_value(k, rng.lower)}{'*' if rng.lower_at_limit else ''}–"
+            f"{fmt_value(k, rng.upper)}{'*' if rng.upper_at_limit else ''}")
+    rel, sure = rng.rel(value)
+    widths = _pct(rel) + (f", {_pct(sure)} for sure" if np.isfinite(sure) else "")
+    return ends, widths
 
 
 def status_line(r: ResultFile) -> tuple[str, str]:
@@ -193,34 +274,57 @@ def _status_banner(fig, r: ResultFile) -> None:
 
 
 def constants_rows(r: ResultFile) -> tuple[list[str], list[list[str]]]:
-    """Header and rows of the constants table (strings as drawn)."""
+    """Header and rows of the constants table (strings as drawn). A fixed constant says why
+    (and gets no "% against the reference": its value is the initial one, not a result); a
+    verdict set by the Monte Carlo gives the range and its widths."""
     conf = r.confidence
-    head = ["constant", "identified",
+    head = ["constant", "value",
             f"{conf:.0%} interval" if conf is not None else "interval", "verdict", "initial",
             "reference (diff.)"]
     rows = []
     multi = len(r.materials) > 1
     ref = r.reference
+    u = r.uncertainty
     for m, c in r.materials.items():
         for k in CONSTANTS:
-            iv = r.uncertainty.get(m, k) if r.uncertainty is not None else None
-            free = k in r.free.get(m, CONSTANTS)
+            iv = u.get(m, k) if u is not None else None
+            fixed = fixed_words(r, m, k)
             interval = interval_text(k, iv)
-            if iv is None:
-                verdict = "fixed" if not free else "no interval in file"
+            if fixed is not None:
+                interval = "none — not identified"
+                verdict = fixed.replace(" (", "\n(", 1)
+            elif iv is None:
+                verdict = "no interval in file"
             elif iv.at_bound:
                 verdict = "at bound, not identified"
+            elif iv.verdict_from_monte_carlo or iv.verdict.startswith(("weak (Monte Carlo",
+                                                                          "not determined (Mo")):
+                # the range that set the verdict, on a second line of both cells
+                verdict = short_verdict(iv.verdict).replace(" (Monte Carlo)", "")
+                rng = monte_carlo_range(u, iv)
+                if rng is not None:
+                    ends, widths = monte_carlo_text(k, rng, c[k])
+                    interval += f"\nMonte Carlo {ends}"
+                    verdict += f" (Monte Carlo\n{widths})"
+                else:
+                    verdict += "\n(Monte Carlo)"
             else:
-                # (on two lines where the Monte Carlo set it: the column is narrow)
-                verdict = short_verdict(iv.verdict).replace(" (Monte Carlo)", "\n(Monte Carlo)")
+                verdict = short_verdict(iv.verdict)
             rv = ref.get(m, {}).get(k)
-            rtext = "" if rv is None else (
-                f"{fmt_value(k, rv)} ({round((c[k] - rv) / abs(rv) * 100) + 0:+d} %)" if rv else
-                fmt_value(k, rv))
+            if rv is None:
+                rtext = ""
+            elif fixed is not None or (iv is not None and iv.at_bound) or not rv:
+                rtext = fmt_value(k, rv) + ("\n(not compared: fixed)" if fixed is not None else
+                                            "\n(not compared)" if rv else "")
+            else:
+                rtext = f"{fmt_value(k, rv)} ({round((c[k] - rv) / abs(rv) * 100) + 0:+d} %)"
             rows.append([f"{m} {k} ({_unit(k)})" if multi else f"{k} ({_unit(k)})",
                          fmt_value(k, c[k]), interval, verdict,
                          fmt_value(k, r.initial.get(m, {}).get(k)), rtext])
     return head, rows
+
+
+FIXED_COLOR = "0.55"        # the marker of a fixed constant (hollow): not a result
 
 
 def _verdict_color(verdict: str) -> str:
@@ -230,6 +334,8 @@ def _verdict_color(verdict: str) -> str:
         return "#fbf0cf"
     if verdict.startswith(("not", "at bound")):
         return "#f8d7d0"
+    if verdict.startswith("fixed"):
+        return "0.9"
     return "w"
 
 
@@ -260,7 +366,7 @@ def _table(ax, head, rows, *, fontsize=8, col_widths=None, colors=None):
 def constants_table(ax, r: ResultFile) -> None:
     head, rows = constants_rows(r)
     colors = [["w", "w", "w", _verdict_color(row[3]), "w", "w"] for row in rows]
-    _table(ax, head, rows, fontsize=7.5, col_widths=[0.17, 0.1, 0.23, 0.23, 0.09, 0.18],
+    _table(ax, head, rows, fontsize=7.5, col_widths=[0.16, 0.09, 0.26, 0.25, 0.08, 0.16],
            colors=colors)
     ax.set_gid("constants")
     ax.set_title("identified constants", fontsize=9, loc="left")
@@ -313,7 +419,7 @@ def frequency_block(fig, spec, plate) -> None:
     ax_r.set_yticks([])
     ax_r.tick_params(labelsize=7)
     ax_r.set_xlabel("(measured − model)/measured (%)\nhatched: weight 0", fontsize=7)
-    ax_r.set_title("residuals" + (f"\n(dashed: ± weighted RMS {rms:.3f} %)"
+    ax_r.set_title("residuals" + (f"\n(dashed: ± weighted\nRMS {rms:.3f} %)"
                                   if np.isfinite(rms) else ""), fontsize=8)
     for side in ("top", "right", "left"):
         ax_r.spines[side].set_visible(False)
@@ -338,13 +444,38 @@ def _laminate_text(plate) -> str:
     return "laminate (Appendix A): " + ", ".join(one(k, v) for k, v in gp.items())
 
 
+def table_notes(r: ResultFile) -> list[str]:
+    """What the constants table's words mean, for the words it uses."""
+    _, rows = constants_rows(r)
+    cells = [c for row in rows for c in row[2:4]]
+    notes = []
+    if any("no information" in c for c in cells):
+        notes.append(f"no information: the interval's upper end is more than "
+                     f"{UNINFORMATIVE_RATIO:.0f} times its lower end (the frequencies do not "
+                     "constrain this constant)")
+    if any("search limit" in c for c in cells):
+        notes.append("none — on a search limit: the fit stopped on a limit of the search (its "
+                     "value is that limit): not identified, no interval")
+    if any("Monte Carlo" in c for c in cells):
+        notes.append("(Monte Carlo): the verdict is set by the Monte Carlo range (the constant "
+                     "re-identified from perturbed frequencies), wider than the linearised "
+                     "interval; its half-width over the value, and the half-width the range "
+                     "has for sure" + ("; *: an end set by trials that stopped on a search "
+                                      "limit (the search's end, not the data's)"
+                                      if any("*" in c for c in cells) else ""))
+    if any(c.startswith("fixed") for c in cells):
+        notes.append("fixed: held at its initial value, not identified (its value is an "
+                     "assumption, not a result; no comparison with the reference)")
+    return notes
+
+
 def summary_page(r: ResultFile, plate=None, what: str = ""):
     """Page 1: status, constants table, and (single plate, or ``plate`` given) the
     frequencies. A joint result without ``plate`` gets the RMS of each plate instead."""
     fig = _figure()
     fig.suptitle(_title(r, plate if plate is not None else (r.plates[0] if not r.joint
                                                              else None), what), fontsize=11)
-    gs = fig.add_gridspec(1, 2, width_ratios=[1.25, 1])
+    gs = fig.add_gridspec(1, 2, width_ratios=[1.5, 1])
     f = table_fraction(sum(len(c) for c in r.materials.values()))
     left = gs[0, 0].subgridspec(2, 1, height_ratios=[f, 1.001 - f])
     ax_c = fig.add_subplot(left[0, 0])
@@ -374,6 +505,7 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
         u = r.uncertainty
         notes.append(f"uncertainty: {u.confidence:.0%} intervals, s² = {u.s2:.3g}, "
                      f"condition number {u.condition_number:.3g}, σ from {u.sigma_source}")
+        notes += table_notes(r)
     ax_n.text(0, 0.97, "\n".join("\n".join(textwrap.wrap(t, 110, break_on_hyphens=False))
                                   for t in notes),
               fontsize=7.5, va="top", ha="left", transform=ax_n.transAxes, linespacing=1.5)
@@ -419,17 +551,52 @@ INTERVAL_COLOR = "C0"
 
 
 def _bound_panel(ax, k, v, iv, x, ymin, ymax):
-    """A constant at its bound: no interval, a one-sided arrow from the value towards the side
-    the data push it to, and the statement ("≤ 0.0001 E1 (0.00286 GPa)")."""
-    side, stmt = iv.bound_side, _signed_statement(iv.bound_text)
+    """A constant at its bound: no interval, a dashed arrow from the value towards the side
+    the fit pushes it to, and words from the file's bound_side (never a statement that reads
+    like a confidence bound)."""
+    side = iv.bound_side or bound_statement(iv.bound_text)[0]
     if not side:
         return
     edge = ymin if side == "lower" else ymax
     ax.annotate("", (x, edge), xytext=(x, v), gid="one-sided",
                 arrowprops=dict(arrowstyle="-|>", color=INTERVAL_COLOR, lw=2.5, ls="--"))
-    ax.annotate("\n".join(textwrap.wrap(stmt, 11)), (x, (v + edge) / 2), xytext=(5, 0),
-                textcoords="offset points", fontsize=7, va="center", ha="left",
+    words = f"stopped on the {side} search limit: no interval"
+    ax.annotate("\n".join(textwrap.wrap(words, 12)), (x, (v + edge) / 2), xytext=(5, 0),
+                textcoords="offset points", fontsize=6.5, va="center", ha="left",
                 color=INTERVAL_COLOR, gid="bound-statement")
+
+
+def _mc_end_label(ax, k, x, y, end_si, up, at_limit, gid):
+    """The words at an end of the Monte Carlo bar (left of it): its value where the bar runs
+    off the panel, "search limit" where trials on a limit of the search set it."""
+    text = f"{'to' if up else 'from'}\n{fmt_value(k, end_si)}" if end_si is not None else ""
+    if at_limit:
+        text += ("\n" if text else "") + "search\nlimit"
+    ax.annotate(text, (x, y), xytext=(-4, -3 if up else 3), textcoords="offset points",
+                fontsize=6.5, va="top" if up else "bottom", ha="right", color="0.35", gid=gid)
+
+
+def _monte_carlo_bar(ax, k, rng: MonteCarloRange, x, ymin, ymax) -> None:
+    g = (lambda z: _gpa(k, z))
+    lo, hi = g(rng.lower), g(rng.upper)
+    ax.plot([x] * 2, [min(max(lo, ymin), ymax), max(min(hi, ymax), ymin)], "-",
+            color="0.45", lw=2, solid_capstyle="butt", gid="monte-carlo")
+    # the width the trials show for sure, which the verdicts use (files since stop 28)
+    if np.isfinite(rng.inner_lower) and np.isfinite(rng.inner_upper):
+        ax.plot([x] * 2, [min(max(g(rng.inner_lower), ymin), ymax),
+                          max(min(g(rng.inner_upper), ymax), ymin)], "-",
+                color="0.2", lw=4.5, solid_capstyle="butt", gid="monte-carlo-sure")
+    for side, end, end_si, at_limit in (("upper", hi, rng.upper, rng.upper_at_limit),
+                                        ("lower", lo, rng.lower, rng.lower_at_limit)):
+        up = side == "upper"
+        off = (end > ymax) if up else (end < ymin)
+        if off:                     # an arrow head on the edge and the end's value beside it
+            edge = ymax if up else ymin
+            ax.plot([x], [edge], "^" if up else "v", color="0.45", ms=6, clip_on=False)
+            _mc_end_label(ax, k, x, edge, end_si, up, at_limit, f"monte-carlo-{side}-end")
+        elif at_limit:
+            # an end set by trials on a limit of the search is the search's, not the data's
+            _mc_end_label(ax, k, x, end, None, up, True, f"monte-carlo-{side}-limit")
 
 
 def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
@@ -437,6 +604,7 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
     u = r.uncertainty
     v = r.materials[m][k]
     iv = u.get(m, k) if u is not None else None
+    fixed = fixed_words(r, m, k) is not None
     ref = r.reference.get(m, {}).get(k)
     lo, hi = (iv.lower, iv.upper) if iv is not None else (np.nan, np.nan)
     g = (lambda z: _gpa(k, z))
@@ -446,9 +614,11 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
         ymin, ymax = _bound_limits(g(v), iv.bound_side, gref, nu)
     else:
         ymin, ymax = _panel_limits(g(v), g(lo), g(hi), gref, u.weak, nu)
-    a = abs(g(v)) if iv is None or not iv.at_bound else 0.0     # no verdict at a bound
-    for frac, color in ((u.weak, BAND_COLORS[1]), (u.well_determined, BAND_COLORS[0])):
-        ax.axhspan(g(v) - frac * a, g(v) + frac * a, color=color, lw=0, zorder=0)
+    # verdict bands about an identified value only (none at a bound, none for a fixed value)
+    if iv is not None and not iv.at_bound:
+        a = abs(g(v))
+        for frac, color in ((u.weak, BAND_COLORS[1]), (u.well_determined, BAND_COLORS[0])):
+            ax.axhspan(g(v) - frac * a, g(v) + frac * a, color=color, lw=0, zorder=0)
     if iv is not None and iv.at_bound:
         _bound_panel(ax, k, g(v), iv, x, ymin, ymax)
     elif iv is not None:
@@ -468,35 +638,20 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
                 ax.annotate(f"{'to' if up else 'from'}\n{fmt_value(k, end)}", (x, tail),
                             xytext=(5, 0), textcoords="offset points", fontsize=7,
                             va="center", ha="left", color=INTERVAL_COLOR)
-    mc = u.monte_carlo or {}
-    if iv is not None and "lower" in mc and "upper" in mc:
-        j = [x.label for x in u.intervals].index(iv.label)
-        mlo, mhi = np.ravel(mc["lower"]), np.ravel(mc["upper"])
-        if j < mlo.size:
-            ax.plot([x - 0.25] * 2, [max(g(mlo[j]), ymin), min(g(mhi[j]), ymax)], "-",
-                    color="0.45", lw=2, solid_capstyle="butt", gid="monte-carlo")
-            # the width the trials show for sure, which the verdicts use (files since stop 28)
-            ilo, ihi = np.ravel(mc.get("inner_lower", ())), np.ravel(mc.get("inner_upper", ()))
-            if j < ilo.size and j < ihi.size and np.isfinite(ilo[j]) and np.isfinite(ihi[j]):
-                ax.plot([x - 0.25] * 2, [min(max(g(ilo[j]), ymin), ymax),
-                                         max(min(g(ihi[j]), ymax), ymin)], "-",
-                        color="0.2", lw=4.5, solid_capstyle="butt", gid="monte-carlo-sure")
-            for end, edge, marker in ((g(mhi[j]), ymax, "^"), (g(mlo[j]), ymin, "v")):
-                if (marker == "^" and end > ymax) or (marker == "v" and end < ymin):
-                    ax.plot([x - 0.25], [edge], marker, color="0.45", ms=6, clip_on=False)
-            # an end set by trials on a limit of the search is the search's, not the data's
-            for side, end in (("lower", g(mlo[j])), ("upper", g(mhi[j]))):
-                flags = np.ravel(mc.get(f"{side}_at_bound", ()))
-                if j < flags.size and flags[j]:
-                    y = min(max(end, ymin), ymax)
-                    up = side == "upper"            # the label inside the panel, by the end
-                    ax.annotate("search\nlimit", (x - 0.25, y), xytext=(-4, -3 if up else 3),
-                                textcoords="offset points", fontsize=6.5,
-                                va="top" if up else "bottom", ha="right", color="0.35",
-                                gid=f"monte-carlo-{side}-limit")
-    hollow = iv is not None and (iv.at_bound or iv.verdict.startswith(("not", "at bound")))
-    ax.plot([x], [g(v)], "o", ms=7, color="k", mfc="w" if hollow else "k", zorder=5,
-            gid="value")
+    rng = monte_carlo_range(u, iv)
+    if rng is not None:
+        _monte_carlo_bar(ax, k, rng, x - 0.25, ymin, ymax)
+    if fixed:                       # not a result: a hollow grey square, no band, no interval
+        ax.plot([x], [g(v)], "s", ms=7, color=FIXED_COLOR, mfc="w", mew=1.5, zorder=5,
+                gid="fixed")
+    elif iv is not None and iv.at_bound:   # the limit it stopped on, pointing the fit's way
+        side = iv.bound_side or bound_statement(iv.bound_text)[0]
+        ax.plot([x], [g(v)], "^" if side == "upper" else "v", ms=8, color="k", mfc="w",
+                zorder=5, gid="at-bound")
+    else:
+        hollow = iv is not None and iv.verdict.startswith("not")
+        ax.plot([x], [g(v)], "o", ms=7, color="k", mfc="w" if hollow else "k", zorder=5,
+                gid="value")
     if ref is not None:
         ax.plot([x + 0.25], [gref], "D", ms=6, color="C3", zorder=5, gid="reference")
         if not ymin <= gref <= ymax:
@@ -517,18 +672,55 @@ def _interval_legend(r: ResultFile) -> tuple[list, list[str]]:
              (Patch(color=BAND_COLORS[1], lw=0), f"within ±{u.weak:.0%}: weak"),
              (Line2D([], [], color=INTERVAL_COLOR, lw=3, marker="_", ms=10, mew=2.5),
               f"{u.confidence:.0%} interval"),
-             (Line2D([], [], ls="none", marker="o", ms=7, color="k"), "identified"),
-             (Line2D([], [], ls="none", marker="o", ms=7, color="k", mfc="w"),
-              "not determined / at its bound")]
+             (Line2D([], [], ls="none", marker="o", ms=7, color="k"), "identified")]
+    ivs = u.intervals
+    if any(not iv.at_bound and iv.verdict.startswith("not") for iv in ivs):
+        items.append((Line2D([], [], ls="none", marker="o", ms=7, color="k", mfc="w"),
+                      "not determined (interval too wide)"))
+    if any(iv.at_bound for iv in ivs):
+        items.append(((Line2D([], [], ls="none", marker="v", ms=7, color="k", mfc="w"),
+                       Line2D([], [], ls="none", marker="^", ms=7, color="k", mfc="w")),
+                      "stopped on a search limit: not identified"))
+    why = {fixed_words(r, m, k) for m in r.materials for k in CONSTANTS} - {None}
+    if why:
+        only = next(iter(why)) if len(why) == 1 else ""
+        label = (only if only and "half-width" not in only else
+                 "fixed because undetermined (not identified)" if all(
+                     w.startswith("fixed because") for w in why) else
+                 "fixed (not identified; why: below the panel)")
+        items.append((Line2D([], [], ls="none", marker="s", ms=7, color=FIXED_COLOR, mfc="w",
+                             mew=1.5), label))
     if any(r.reference.get(m, {}).get(k) is not None for m in r.materials for k in CONSTANTS):
         items.append((Line2D([], [], ls="none", marker="D", ms=6, color="C3"), "reference"))
     if u.monte_carlo and "lower" in u.monte_carlo:
-        items.append((Line2D([], [], color="0.45", lw=2), "Monte Carlo spread"))
+        items.append((Line2D([], [], color="0.45", lw=2),
+                      f"Monte Carlo range ({u.confidence:.0%} of the trials)"))
         if "inner_lower" in u.monte_carlo:
             sure = 100 * (2 * float(u.monte_carlo.get("evidence_level", 0.95)) - 1)
             items.append((Line2D([], [], color="0.2", lw=4.5),
                           f"Monte Carlo range for sure ({sure:.0f} %)"))
     return [h for h, _ in items], [t for _, t in items]
+
+
+def panel_words(r: ResultFile, m: str, k: str, iv) -> str:
+    """The words under a constant's panel: value, interval (or why there is none), verdict
+    (with the Monte Carlo range's width where it set the verdict)."""
+    v = r.materials[m][k]
+    fixed = fixed_words(r, m, k)
+    if fixed is not None:
+        return f"{fmt_value(k, v)}\n" + "\n".join(
+            ln for para in fixed.replace(" (", "\n(", 1).split("\n")
+            for ln in textwrap.wrap(para, 26))
+    if iv is None:
+        return f"{fmt_value(k, v)}\nno interval"
+    if iv.at_bound:
+        return f"{fmt_value(k, v)}\n{bound_words(iv).replace('none — ', '')}:\nnot identified"
+    text = f"{fmt_value(k, v)} " + interval_text(k, iv)
+    verdict = short_verdict(iv.verdict)
+    rng = monte_carlo_range(r.uncertainty, iv)
+    if " (Monte Carlo)" in verdict and rng is not None:
+        verdict = verdict.replace(" (Monte Carlo)", f" (Monte Carlo {monte_carlo_text(k, rng, v)[1]})")
+    return text + "\n" + "\n".join(textwrap.wrap(verdict, 24))
 
 
 def interval_page(r: ResultFile):
@@ -545,30 +737,26 @@ def interval_page(r: ResultFile):
             ax = axes[i, j]
             ax.set_gid(f"interval-{m}.{k}")
             iv = interval_panel(ax, r, m, k)
-            ax.set_xlim(-0.6, 0.8)
+            ax.set_xlim(-0.75, 0.75)
             ax.set_xticks([])
             ax.tick_params(labelsize=7)
             name = f"{m}\n{k} ({_unit(k)})" if len(mats) > 1 else f"{k} ({_unit(k)})"
             ax.set_title(name, fontsize=9)
-            v = r.materials[m][k]
-            if iv is None:
-                words = "fixed" if k not in r.free.get(m, ()) else "no interval"
-                text = f"{fmt_value(k, v)}\n{words}"
-            elif iv.at_bound:
-                text = f"{fmt_value(k, v)}\nat its bound:\nnot identified"
-            else:
-                text = (f"{fmt_value(k, v)} {interval_text(k, iv)}\n" + "\n".join(
-                    textwrap.wrap(short_verdict(iv.verdict), 22)))
-            ax.set_xlabel(text, fontsize=7)
+            ax.set_xlabel(panel_words(r, m, k, iv), fontsize=7)
     scales = {iv.scale for iv in u.intervals}
     how = ("moduli: interval on ln P (asymmetric, > 0); nu12: linear" if "log" in scales
            else "linear intervals value ± half-width (as stored in this file)")
     handles, labels = _interval_legend(r)
     ax_leg = fig.add_subplot(gs[-1, :])
     ax_leg.axis("off")
+    from matplotlib.legend_handler import HandlerTuple
+
     ax_leg.legend(handles, labels, loc="center", ncol=4, fontsize=8,
-                  title=f"{how}; arrow: the interval runs off the panel to the value written; "
-                        "dashed arrow: one-sided statement of a constant at its bound",
+                  handler_map={tuple: HandlerTuple(ndivide=None)},
+                  title=f"{how}; arrow: the interval or range runs off the panel to the value "
+                        "written" + (";\ndashed arrow: the way the fit pushes a constant stopped "
+                                     "on a search limit (the value drawn is that limit)"
+                                     if any(iv.at_bound for iv in u.intervals) else ""),
                   title_fontsize=8)
     _status_banner(fig, r)
     return fig
@@ -772,10 +960,17 @@ def history_page(r: ResultFile):
     hits = bound_hits(r)
     multi = len(r.materials) > 1
     shown_mod = shown_nu = 0
+    fixed = {"mod": [], "nu": []}            # fixed constants: no line, named instead
     for j, lab in enumerate(hist.labels):
         col = hist.constants[:, j]
+        m, k = lab.rsplit(".", 1)
+        if m in r.materials and fixed_words(r, m, k) is not None:
+            name = lab if multi else k
+            fixed["nu" if k == "nu12" else "mod"].append(
+                f"{name} = {fmt_value(k, r.materials[m][k])}" if k == "nu12" else name)
+            continue
         if col[0] == 0 or np.allclose(col, col[0], rtol=1e-12):
-            continue                                          # fixed constant: flat line
+            continue                                          # never moved: flat line
         name = lab if multi else lab.rsplit(".", 1)[-1]
         is_nu = lab.endswith(".nu12")
         ax = ax_n if is_nu else ax_c
@@ -794,10 +989,17 @@ def history_page(r: ResultFile):
     ax_c.set_ylabel("modulus / initial value", fontsize=8)
     ax_n.set_ylabel("nu12 (–)", fontsize=8)
     ax_n.set_xlabel("evaluation")
-    for ax in (ax_c, ax_n):
+    for ax, which in ((ax_c, "mod"), (ax_n, "nu")):
+        title = ("fixed, not identified:\n" + "\n".join(textwrap.wrap(
+            ", ".join(fixed[which]), 30))) if fixed[which] else None
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0,
-                      ncol=1 if len(ax.get_lines()) < 14 else 2)
+                      ncol=1 if len(ax.get_lines()) < 14 else 2, title=title,
+                      title_fontsize=7)
+        elif title:                         # nothing identified here: say why it is empty
+            ax.text(0.5, 0.5, title.replace(":\n", ": "), transform=ax.transAxes,
+                    ha="center", va="center", fontsize=8, color=FIXED_COLOR, gid="fixed-note")
+            ax.set_yticks([])
     from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter
 
     for ax in (ax_o, ax_r, ax_c, ax_n):

@@ -139,7 +139,10 @@ def test_summary_page_tables_and_residuals_read_back(checked, tmp_path):
         assert lo < float(rows[k][1]) < hi
         assert rows[k][3] == short_verdict(iv.verdict)
     assert u.get(MAT, "E1").scale == "log"             # asymmetric: exp(-/+ q std/v)
-    assert rows["G23"][3] == "at bound, not identified" and rows["G23"][2] == "≤ 0.01600"
+    # at its bound: no interval (the value column is the limit it stopped on)
+    assert rows["G23"][3] == "at bound, not identified"
+    assert rows["G23"][2] == "none — on lower search limit"
+    assert rows["G23"][1] == fmt_value("G23", res.materials[MAT]["G23"])
     assert rows["E1"][5] == f"170.0 ({round((res.materials[MAT]['E1'] / 170e9 - 1) * 100):+d} %)"
     assert rows["G13"][5] == ""                         # no reference value for G13
     # status line with the reasons
@@ -177,17 +180,22 @@ def test_interval_panels_each_in_their_unit_with_reference_and_arrows(checked):
         refs = [ln for ln in a.get_lines() if ln.get_gid() == "reference"]
         assert (len(refs) == 1 and refs[0].get_ydata()[0] == ref / scale) if ref else not refs
         assert a.get_title() == f"{k} ({'–' if k == 'nu12' else 'GPa'})"
-    # G23 at its bound: no interval, a one-sided arrow from the value down to 0 and the limit
+    # G23 at its bound: no interval, no verdict band, a dashed arrow from the value down to 0
+    # (the way the fit pushes it), the limit drawn as a hollow triangle pointing down
     a = ax(fig, f"interval-{MAT}.G23")
-    assert not [ln for ln in a.get_lines() if ln.get_gid() in ("interval", "interval-caps")]
+    assert not [ln for ln in a.get_lines() if ln.get_gid() in ("interval", "interval-caps",
+                                                               "value")]
+    assert not a.patches                               # the verdict bands have zero height
     assert a.get_ylim()[0] == 0.0
     arrow = next(t for t in a.texts if t.get_gid() == "one-sided")
     g23 = res.materials[MAT]["G23"] / 1e9
     assert arrow.xyann == (0.0, g23) and arrow.xy == (0.0, 0.0)
     stmt = next(t for t in a.texts if t.get_gid() == "bound-statement").get_text()
-    assert stmt.replace("\n", " ") == "≤ 0.0001 E1 (0.0160 GPa at the optimum)"
-    assert next(ln for ln in a.get_lines() if ln.get_gid() == "value").get_markerfacecolor() \
-        == "w"
+    assert stmt.replace("\n", " ") == "stopped on the lower search limit: no interval"
+    mark = next(ln for ln in a.get_lines() if ln.get_gid() == "at-bound")
+    assert mark.get_marker() == "v" and mark.get_markerfacecolor() == "w"
+    assert mark.get_ydata()[0] == g23
+    assert a.get_xlabel() == f"{g23:#.4g}\non lower search limit:\nnot identified"
     # E1 (well determined) is not squashed by G23's (undetermined) interval: its panel spans
     # a few tens of % of its value, not the width of G23's interval
     lo, hi = ax(fig, f"interval-{MAT}.E1").get_ylim()
@@ -201,19 +209,28 @@ def test_at_bound_cell_from_the_limit_and_from_an_older_files_statement(checked,
     import dataclasses
 
     iv = read_result(checked).uncertainty.get(MAT, "G23")
-    assert iv.bound_limit == 0.0160e9 and interval_text("G23", iv) == "≤ 0.01600"
+    # no "≤ 0.01600": a constant at its bound has no interval, and the limit is no
+    # confidence bound (a Monte Carlo of such a result has trials far above it)
+    assert iv.bound_limit == 0.0160e9
+    assert interval_text("G23", iv) == "none — on lower search limit"
     old = tmp_path / "old.result.h5"
     shutil.copy(checked, old)
     drop_bound_data(old)
     o = read_result(old).uncertainty.get(MAT, "G23")
     assert (o.bound_side, o.bound_limit) == ("lower", pytest.approx(0.0160e9, rel=1e-12))
-    assert interval_text("G23", o) == "≤ 0.01600"
+    assert interval_text("G23", o) == "none — on lower search limit"
     up = dataclasses.replace(iv, constant="nu12", bound_side="upper", bound_limit=0.95,
                              bound_text="at its bound — not identified: nu12 >= 0.95")
-    assert interval_text("nu12", up) == "≥ 0.950"
-    # without a usable limit (a hand-edited file): the statement, never an empty cell
-    blank = dataclasses.replace(o, bound_side="", bound_limit=np.nan)
-    assert interval_text("G23", blank) == "≤ 0.0001 E1 (0.0160 GPa at the optimum)"
+    assert interval_text("nu12", up) == "none — on upper search limit"
+    # the side comes from the data, not the words: a bound_text in the new form, or none
+    new = dataclasses.replace(up, bound_side="", bound_text="at its bound — not identified: "
+                              "stopped on the search's upper limit, nu12 = 0.95")
+    assert interval_text("nu12", new) == "none — on upper search limit"
+    assert interval_text("nu12", dataclasses.replace(up, bound_text="")) == \
+        "none — on upper search limit"
+    # neither side nor a readable statement (a hand-edited file): still no interval
+    blank = dataclasses.replace(o, bound_side="", bound_text="", bound_limit=np.nan)
+    assert interval_text("G23", blank) == "none — on a search limit"
 
 
 def test_mode_shapes_with_mac_against_the_initial_model(batch_dir, tmp_path):
@@ -631,3 +648,142 @@ def test_legends_clear_of_the_lines(checked, batch_dir):
     for a in fig.axes:
         if (a.get_gid() or "").startswith("across-"):
             assert _no_overlap(fig, a, leg)
+
+
+@pytest.fixture(scope="module")
+def fixed_undetermined(tmp_path_factory):
+    """S1.1 (6x6) with --fix-undetermined: G13, G23, nu12 undetermined in the first run and
+    fixed, E2 and G12 fixed in a later round; E1 the one constant identified."""
+    out = tmp_path_factory.mktemp("fixu") / "f.result.h5"
+    r = run("identify", S11, "--mesh", "6x6", "--fix-undetermined", "-o", out)
+    assert r.exit_code == 0, r.output
+    return out
+
+
+def test_fixed_constants_are_not_drawn_as_identified(fixed_undetermined):
+    """A constant fixed by --fix-undetermined says so and why (the first run's half-width),
+    has no interval, no verdict band and no "% against the reference"; on the interval page
+    a hollow grey square, never the black "identified" dot; the history names it instead of
+    leaving an empty panel."""
+    res = read_result(fixed_undetermined)
+    u = res.uncertainty
+    before = {lab.rsplit(".", 1)[1]: rel for lab, (rel, _) in u.before_fixing.items()}
+    pages = {p.name: p.figure for p in report_pages(fixed_undetermined)}
+    rows = {row[0].split(" ")[0]: row for row in cells(ax(pages["summary"], "constants"))[1:]}
+    for k in ("G13", "G23", "nu12"):
+        assert rows[k][1] == fmt_value(k, res.initial[MAT][k]) == rows[k][4]
+        assert rows[k][2] == "none — not identified"
+        assert rows[k][3] == ("fixed because undetermined\n(half-width was "
+                              f"±{100 * before[k]:.0f} %)")
+    assert before["G13"] > 0.3 and before["E2"] < 0.3          # E2: weak in the first run
+    assert rows["E2"][3] == (f"fixed because undetermined in a later run\n(first run "
+                             f"±{100 * before['E2']:.0f} %)")
+    assert rows["nu12"][5] == "0.350\n(not compared: fixed)"
+    e1 = res.materials[MAT]["E1"]
+    assert rows["E1"][5] == f"170.0 ({round((e1 / 170e9 - 1) * 100):+d} %)"
+    assert rows["E1"][3] == short_verdict(u.get(MAT, "E1").verdict)
+    notes = " ".join(t.get_text() for a in pages["summary"].axes for t in a.texts)
+    assert "fixed: held at its initial value, not identified" in notes.replace("\n", " ")
+    fig = pages["intervals"]
+    for k in ("E2", "G12", "G13", "G23", "nu12"):
+        a = ax(fig, f"interval-{MAT}.{k}")
+        gids = [ln.get_gid() for ln in a.get_lines()]
+        assert "value" not in gids and "interval" not in gids and not a.patches
+        mark = next(ln for ln in a.get_lines() if ln.get_gid() == "fixed")
+        assert mark.get_marker() == "s" and mark.get_markerfacecolor() == "w"
+        assert mark.get_ydata()[0] == pytest.approx(_gpa_(k, res.materials[MAT][k]))
+        assert "fixed because undetermined" in a.get_xlabel().replace("\n", " ")
+    assert [ln.get_gid() for ln in ax(fig, f"interval-{MAT}.E1").get_lines()
+            if ln.get_gid() == "value"] == ["value"]
+    legend = [t.get_text() for a in fig.axes if a.get_legend() is not None
+              for t in a.get_legend().get_texts()]
+    assert "fixed because undetermined (not identified)" in legend
+    assert "not determined (interval too wide)" not in legend        # none is drawn
+    hist = pages["history"]
+    note = next(t for a in hist.axes for t in a.texts if t.get_gid() == "fixed-note")
+    assert note.get_text() == "fixed, not identified: nu12 = 0.350"
+    titles = [a.get_legend().get_title().get_text() for a in hist.axes
+              if a.get_legend() is not None]
+    assert "fixed, not identified:\nE2, G12, G13, G23" in titles
+
+
+def _gpa_(k, v):
+    return v if k == "nu12" else v / 1e9
+
+
+def test_constants_fixed_by_fix_say_so(damped):
+    """--fix nu12,G13,G23: "fixed at its initial value (not identified)" in the table and in
+    the interval page's legend."""
+    pages = {p.name: p.figure for p in report_pages(damped)}
+    mat = "E-glass/R368"
+    rows = {row[0].split(" ")[0]: row for row in cells(ax(pages["summary"], "constants"))[1:]}
+    for k in ("nu12", "G13", "G23"):
+        assert rows[k][3] == "fixed at its initial value\n(not identified)"
+        assert rows[k][2] == "none — not identified"
+    legend = [t.get_text() for a in pages["intervals"].axes if a.get_legend() is not None
+              for t in a.get_legend().get_texts()]
+    assert "fixed at its initial value (not identified)" in legend
+    g13 = read_result(damped).materials[mat]["G13"]
+    assert ax(pages["intervals"], f"interval-{mat}.G13").get_xlabel() == \
+        f"{fmt_value('G13', g13)}\nfixed at its initial value\n(not identified)"
+
+
+def test_monte_carlo_numbers_on_the_pages(checked, tmp_path):
+    """A Monte Carlo end beyond the panel gets its value, like the linearised interval's; a
+    verdict the Monte Carlo set gives the range (an end on a search limit starred) and its
+    half-widths, whole and for sure, in the table and under the panel."""
+    path = _with_monte_carlo(checked, tmp_path, inner=True)
+    with h5py.File(path, "r+") as f:
+        u = f["uncertainty"]
+        labels = [x.decode() for x in u["labels"][()]]
+        j13, j2 = labels.index(f"{MAT}.G13"), labels.index(f"{MAT}.E2")
+        mc = u["monte_carlo"]
+        v = u["value"][()]
+        up, lo = mc["upper"][()], mc["lower"][()]
+        up[j13] = 30 * v[j13]                              # far above G13's panel
+        lo[j2] = 0.2 * v[j2]                               # E2: trials down to a limit
+        mc["upper"][...], mc["lower"][...] = up, lo
+        flags = np.zeros(v.size, np.int8)
+        flags[j2] = 1
+        mc.create_dataset("lower_at_bound", data=flags)
+        mc.create_dataset("upper_at_bound", data=np.zeros(v.size, np.int8))
+        verdict = [x.decode() for x in u["verdict"][()]]
+        verdict[j2] = "weak (Monte Carlo)"
+        del u["verdict"]
+        u.create_dataset("verdict", data=np.array(verdict, dtype=object),
+                         dtype=h5py.string_dtype())
+        u.attrs["verdict_from_monte_carlo"] = f"{MAT}.E2"
+    res = read_result(path)
+    pages = {p.name: p.figure for p in report_pages(path)}
+    a = ax(pages["intervals"], f"interval-{MAT}.G13")
+    g13 = res.materials[MAT]["G13"]
+    end = next(t for t in a.texts if t.get_gid() == "monte-carlo-upper-end")
+    assert end.get_text() == f"to\n{fmt_value('G13', 30 * g13)}"
+    assert end.xy[1] == a.get_ylim()[1]
+    e2 = res.materials[MAT]["E2"]
+    iv = res.uncertainty.get(MAT, "E2")
+    whole = round(100 * 0.5 * (1.02 - 0.2))                 # range 0.2 .. 1.02 x the value
+    sure = round(100 * 0.5 * (1.01 - 0.98))                 # inner 0.98 .. 1.01 x
+    rows = {row[0].split(" ")[0]: row for row in cells(ax(pages["summary"], "constants"))[1:]}
+    assert rows["E2"][2] == (f"[{fmt_value('E2', iv.lower)}, {fmt_value('E2', iv.upper)}]\n"
+                             f"Monte Carlo {fmt_value('E2', 0.2 * e2)}*–"
+                             f"{fmt_value('E2', 1.02 * e2)}")
+    assert rows["E2"][3] == f"weak (Monte Carlo\n±{whole} %, ±{sure} % for sure)"
+    label = ax(pages["intervals"], f"interval-{MAT}.E2").get_xlabel().replace("\n", " ")
+    assert label.endswith(f"weak (Monte Carlo ±{whole} %, ±{sure} % for sure)")
+    notes = " ".join(t.get_text() for a in pages["summary"].axes for t in a.texts)
+    assert "*: an end set by trials that stopped on a search limit" in notes.replace("\n", " ")
+
+
+def test_an_interval_without_information_shows_its_ends_in_words(checked):
+    """A modulus interval whose ends are more than 1000 x apart shows both ends and says it
+    carries no information (no "×5e+07" code), and the summary page says what that means."""
+    import dataclasses
+
+    iv = read_result(checked).uncertainty.get(MAT, "E2")
+    wide = dataclasses.replace(iv, lower=1e7, upper=5e14)
+    assert interval_text("E2", wide) == "[0.01000, 5e+05]\nno information"
+    assert interval_text("E2", dataclasses.replace(iv, lower=1e9, upper=9e11)) == \
+        "[1.000, 900.0]"                                   # 900 x apart: an interval
+    assert interval_text("nu12", dataclasses.replace(iv, lower=-0.95, upper=0.95)) == \
+        "[-0.950, 0.950]"
