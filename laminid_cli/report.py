@@ -1207,7 +1207,10 @@ def plate_frequency_page(r: ResultFile, plate):
 
 
 def summary_pages(path) -> list[Page]:
-    """Pages of the report of a batch summary (summary.csv or summary.json)."""
+    """Pages of the report of a batch summary (summary.csv or summary.json). The doubt of
+    every constant (interval, verdict, at a bound, fixed, Monte Carlo range) is the summary's
+    own; the result files, where found, add the reference values (and the doubt for a wide
+    CSV, which has none)."""
     from laminid_cli.batch import read_summary
 
     rows = read_summary(path)
@@ -1220,7 +1223,7 @@ def summary_pages(path) -> list[Page]:
                 r = read_result(res)
             except LaminidError as exc:
                 log.warning("%s: %s; using the summary's numbers", row["name"], exc)
-        mats = r.materials if r is not None else row["materials"]
+        mats = row["materials"] or (r.materials if r is not None else {})
         if mats:
             done.append((row, mats, r))
     if not done:
@@ -1229,10 +1232,68 @@ def summary_pages(path) -> list[Page]:
             Page("residuals", residuals_across_page(rows, Path(path).name))]
 
 
+@dataclass
+class Doubt:
+    """What is known of one constant of one specimen in a batch summary (SI): its interval
+    (NaN where it has none), verdict, whether it stopped on a search limit (side, limit) or
+    was fixed, and its Monte Carlo range (NaN without one)."""
+
+    lower: float = np.nan
+    upper: float = np.nan
+    verdict: str = ""
+    at_bound: bool = False
+    bound_side: str = ""
+    bound_limit: float = np.nan
+    fixed: bool = False
+    mc_lower: float = np.nan
+    mc_upper: float = np.nan
+    mc_lower_at_limit: bool = False
+    mc_upper_at_limit: bool = False
+
+    @property
+    def undetermined(self) -> bool:
+        return not self.at_bound and not self.fixed and self.verdict.startswith("not")
+
+
+def _si(v) -> float:
+    return np.nan if v is None else float(v)
+
+
+def doubt_of_row(row, m: str, k: str, r: ResultFile | None = None) -> Doubt | None:
+    """The :class:`Doubt` of constant ``k`` of material ``m`` from the summary row's own
+    columns (summary.json, long summary.csv); from the result file ``r`` only when the row has
+    none (a wide summary.csv); None when neither says anything."""
+    e = (row.get("intervals") or {}).get(m, {}).get(k)
+    if e is not None:
+        verdict = str(e.get("verdict") or "")
+        return Doubt(
+            lower=_si(e.get("lower")), upper=_si(e.get("upper")), verdict=verdict,
+            at_bound=bool(e.get("at_bound")) or verdict.startswith("at bound"),
+            bound_side=str(e.get("bound_side") or ""), bound_limit=_si(e.get("bound_limit")),
+            fixed=verdict == "fixed", mc_lower=_si(e.get("mc_lower")),
+            mc_upper=_si(e.get("mc_upper")),
+            mc_lower_at_limit=bool(e.get("mc_lower_at_limit")),
+            mc_upper_at_limit=bool(e.get("mc_upper_at_limit")))
+    if r is None or m not in r.materials:
+        return None
+    if fixed_words(r, m, k) is not None:
+        return Doubt(verdict="fixed", fixed=True)
+    iv = r.uncertainty.get(m, k) if r.uncertainty is not None else None
+    if iv is None:
+        return None
+    d = Doubt(iv.lower, iv.upper, iv.verdict, iv.at_bound, iv.bound_side, iv.bound_limit)
+    rng = monte_carlo_range(r.uncertainty, iv)
+    if rng is not None:
+        d.mc_lower, d.mc_upper = rng.lower, rng.upper
+        d.mc_lower_at_limit, d.mc_upper_at_limit = rng.lower_at_limit, rng.upper_at_limit
+    return d
+
+
 def _row_check(row, r) -> str:
     """"" when the specimen's result is ok, else its status with the reason codes ("check:
-    at_bound, undetermined"; "failed: ..." for a specimen without a result)."""
-    if r is not None and r.status is not None:
+    at_bound, undetermined"; "failed: ..." for a specimen without a result): the summary's
+    own status, the result file's only for a row without one."""
+    if not row.get("status") and r is not None and r.status is not None:
         if r.status.status == "ok":
             return ""
         return f"{r.status.status}: {', '.join(x.code for x in r.status.reasons)}"
@@ -1249,24 +1310,78 @@ def specimen_labels(rows) -> list[str]:
     return [n if names.count(n) == 1 else str(row["name"]) for n, row in zip(names, rows)]
 
 
+MC_COLOR = "0.62"
+
+
+def _across_point(ax, k, xi, v, d: Doubt | None, color, tag):
+    """One specimen's constant on a panel of the page across specimens; returns what it draws
+    by kind ("identified", "undetermined", "at bound", "fixed", "no interval")."""
+    if d is not None and d.fixed:
+        ax.plot([xi], [v], "s", ms=6, color=FIXED_COLOR, mfc="w", mew=1.3, gid=f"fixed-{tag}")
+        return "fixed"
+    if d is not None and d.at_bound:
+        ax.plot([xi], [v], "^" if d.bound_side == "upper" else "v", ms=7, color=color, mfc="w",
+                mew=1.3, gid=f"at-bound-{tag}")
+        return "at bound"
+    if d is None or (np.isnan(d.lower) and np.isnan(d.upper)):
+        ax.plot([xi], [v], "d", ms=6, color=color, mfc="w", mew=1.0, gid=f"value-{tag}")
+        return "no interval"
+    ax.plot([xi], [v], "o", ms=6, color=color, mfc="w" if d.undetermined else color,
+            gid=f"value-{tag}")
+    if d.undetermined:
+        ax.annotate("?", (xi, v), xytext=(4, 2), textcoords="offset points", fontsize=9,
+                    color=color, weight="bold")
+        return "undetermined"
+    return "identified"
+
+
+def _clipped_bar(ax, k, xi, lo, hi, ymin, ymax, color, *, lw, gid, marks=(False, False),
+                 arrow=True):
+    """A vertical bar lo..hi (display unit) clipped to the panel, with an arrow where it runs
+    off and a "*" at an end set on a search limit (``marks``: lower, upper)."""
+    a, b = max(lo, ymin) if np.isfinite(lo) else ymin, min(hi, ymax) if np.isfinite(hi) else ymax
+    if a > b:
+        return
+    ax.plot([xi, xi], [a, b], "-", color=color, lw=lw, alpha=0.85, gid=gid,
+            solid_capstyle="butt")
+    span = ymax - ymin
+    for end, edge, up in ((hi, ymax, True), (lo, ymin, False)):
+        if arrow and (not np.isfinite(end) or (end > ymax if up else end < ymin)):
+            ax.annotate("", (xi, edge), xytext=(xi, edge - (0.07 if up else -0.07) * span),
+                        arrowprops=dict(arrowstyle="-|>", color=color, lw=1))
+    for end, mark, up in ((lo, marks[0], False), (hi, marks[1], True)):
+        if mark:
+            y = min(max(end, ymin), ymax)
+            ax.annotate("*", (xi, y), xytext=(2, -6 if up else 0), textcoords="offset points",
+                        fontsize=9, color=color, weight="bold", gid=f"{gid}-search-limit")
+
+
 def constants_across_page(done, title: str):
     """One panel per constant: each specimen on the x axis, the materials of one specimen side
-    by side, with interval, reference value, and undetermined values hollow."""
+    by side, each with the doubt the summary gives it: interval bar, hollow "?" when not
+    determined, a triangle when it stopped on a search limit (no interval), a grey square when
+    fixed, the Monte Carlo range in grey beside the interval; reference values from the result
+    files where found."""
+    from matplotlib.legend_handler import HandlerTuple
+    from matplotlib.lines import Line2D
+
     materials: list[str] = []
     for _, mats, _ in done:
         materials += [m for m in mats if m not in materials]
     fig = _figure()
     fig.suptitle(f"{title}: identified constants across specimens", fontsize=11)
-    gs = fig.add_gridspec(3, 3, height_ratios=[1, 1, 0.14])
+    gs = fig.add_gridspec(3, 3, height_ratios=[1, 1, 0.2])
     axes = np.array([fig.add_subplot(gs[i, j]) for i in range(2) for j in range(3)])
     names = specimen_labels([row for row, _, _ in done])
     x = np.arange(len(done))
     nm = len(materials)
-    offsets = {m: (c - (nm - 1) / 2) * min(0.22, 0.7 / max(nm, 1)) for c, m in
-               enumerate(materials)}
+    width = min(0.22, 0.7 / max(nm, 1))
+    offsets = {m: (c - (nm - 1) / 2) * width for c, m in enumerate(materials)}
+    kinds: set[str] = set()
+    has_mc = has_mc_limit = has_ref = False
     for ax, k in zip(axes, CONSTANTS):
         ax.set_gid(f"across-{k}")
-        vals, ends, arrows = [], [], []
+        vals, ends, bars = [], [], []
         for c, m in enumerate(materials):
             color = f"C{c % 10}"
             for i, (name, (row, mats, r)) in enumerate(zip(names, done)):
@@ -1274,22 +1389,23 @@ def constants_across_page(done, title: str):
                     continue
                 v = _gpa(k, mats[m][k])
                 xi = i + offsets[m]
-                iv = r.uncertainty.get(m, k) if r is not None and r.uncertainty else None
-                undetermined = iv is not None and (iv.at_bound or iv.verdict.startswith(
-                    ("not", "at bound")))
+                d = doubt_of_row(row, m, k, r)
+                kinds.add(_across_point(ax, k, xi, v, d, color, f"{name}-{m}"))
                 vals.append(v)
-                if iv is not None:
-                    lo, hi = _gpa(k, iv.lower), _gpa(k, iv.upper)
-                    if not undetermined and abs(hi - lo) < abs(v):
+                if d is not None and not d.fixed and not d.at_bound and np.isfinite(d.lower):
+                    lo, hi = _gpa(k, d.lower), _gpa(k, d.upper)
+                    if not d.undetermined and abs(hi - lo) < abs(v):
                         ends += [lo, hi]
-                    arrows.append((xi, v, lo, hi, color))
-                ax.plot([xi], [v], "o", ms=6, color=color, mfc="w" if undetermined else color,
-                        gid=f"value-{name}-{m}")
-                if undetermined:
-                    ax.annotate("?", (xi, v), xytext=(4, 2), textcoords="offset points",
-                                fontsize=9, color=color, weight="bold")
+                    bars.append((xi, lo, hi, color, 1.2, "interval", (False, False)))
+                if d is not None and np.isfinite(d.mc_lower) and np.isfinite(d.mc_upper):
+                    has_mc = True
+                    marks = (d.mc_lower_at_limit, d.mc_upper_at_limit)
+                    has_mc_limit |= any(marks)
+                    bars.append((xi + 0.4 * width, _gpa(k, d.mc_lower), _gpa(k, d.mc_upper),
+                                 MC_COLOR, 2.2, "monte-carlo", marks))
                 ref = r.reference.get(m, {}).get(k) if r is not None else None
                 if ref is not None:
+                    has_ref = True
                     ax.plot([xi], [_gpa(k, ref)], "_", ms=14, mew=2.2, color="k",
                             gid=f"reference-{name}-{m}")
                     vals.append(_gpa(k, ref))
@@ -1300,41 +1416,57 @@ def constants_across_page(done, title: str):
             if k != "nu12" and ymin < 0 <= lo:
                 ymin = 0.0
             ax.set_ylim(ymin, ymax)
-            for xi, v, elo, ehi, color in arrows:
-                a, b = max(elo, ymin), min(ehi, ymax)
-                if np.isfinite(a) and np.isfinite(b):
-                    ax.plot([xi, xi], [a, b], "-", color=color, lw=1.2, alpha=0.8,
-                            gid="interval")
-                span = ymax - ymin
-                if np.isfinite(ehi) and ehi > ymax:
-                    ax.annotate("", (xi, ymax), xytext=(xi, ymax - 0.07 * span),
-                                arrowprops=dict(arrowstyle="-|>", color=color, lw=1))
-                if np.isfinite(elo) and elo < ymin:
-                    ax.annotate("", (xi, ymin), xytext=(xi, ymin + 0.07 * span),
-                                arrowprops=dict(arrowstyle="-|>", color=color, lw=1))
+            for xi, blo, bhi, color, lw, gid, marks in bars:
+                _clipped_bar(ax, k, xi, blo, bhi, ymin, ymax, color, lw=lw, gid=gid,
+                             marks=marks)
         ax.set_title(f"{k} ({_unit(k)})", fontsize=10)
         ax.set_xticks(x, names, rotation=45, ha="right", fontsize=7)
         ax.set_xlim(-0.6, len(done) - 0.4)
         ax.grid(axis="y", lw=0.3)
         ax.tick_params(axis="y", labelsize=7)
-    from matplotlib.lines import Line2D
-
     handles = {m: Line2D([], [], ls="none", marker="o", ms=6, color=f"C{c % 10}")
                for c, m in enumerate(materials)}
-    handles["reference value"] = Line2D([], [], ls="none", marker="_", ms=14, mew=2.2,
-                                        color="k")
-    handles["not determined / at bound"] = Line2D([], [], ls="none", marker="o", ms=6,
-                                                  color="0.4", mfc="w")
+    grey = "0.3"
+    marks = {
+        "identified": (Line2D([], [], ls="-", marker="o", ms=6, color=grey, lw=1.2),
+                       "identified, with its confidence interval"),
+        "undetermined": (Line2D([], [], ls="none", marker="o", ms=6, color=grey, mfc="w"),
+                         "?: not determined (interval too wide)"),
+        "at bound": ((Line2D([], [], ls="none", marker="v", ms=7, color=grey, mfc="w"),
+                      Line2D([], [], ls="none", marker="^", ms=7, color=grey, mfc="w")),
+                     "stopped on a lower / upper search limit: not identified, no interval"),
+        "fixed": (Line2D([], [], ls="none", marker="s", ms=6, color=FIXED_COLOR, mfc="w"),
+                  "fixed at its initial value: not identified"),
+        "no interval": (Line2D([], [], ls="none", marker="d", ms=6, color=grey, mfc="w"),
+                        "no interval in this summary (wide CSV, result file not found)")}
+    for kind in ("identified", "undetermined", "at bound", "fixed", "no interval"):
+        if kind in kinds:
+            h, text = marks[kind]
+            handles[text] = h
+    if has_mc:
+        handles["Monte Carlo range" + (" (*: end set by trials on a search limit)"
+                                       if has_mc_limit else "")] = Line2D([], [], color=MC_COLOR,
+                                                                          lw=2.2)
+    if has_ref:
+        handles["reference value"] = Line2D([], [], ls="none", marker="_", ms=14, mew=2.2,
+                                            color="k")
     ax_leg = fig.add_subplot(gs[2, :])                 # a row of its own: clear of the panels
     ax_leg.axis("off")
     ax_leg.legend(list(handles.values()), list(handles), loc="center",
-               ncol=min(len(handles), 7), fontsize=8,
-               title="bars: confidence interval of the result file (arrow: runs off the "
-                     "panel); ?: not determined or at a bound", title_fontsize=8)
+                  ncol=min(len(handles), 3 if len(handles) > 6 else 4), fontsize=8,
+                  handler_map={tuple: HandlerTuple(ndivide=None)},
+                  title="colour: material; bars: confidence interval of the summary (arrow: "
+                        "runs off the panel)", title_fontsize=8)
+    notes = []
     checks = [f"{name}: {w}" for name, (row, _, r) in zip(names, done)
               if (w := _row_check(row, r))]
     if checks:
-        _footer(fig, "status not ok — " + "; ".join(checks), color="#b35900")
+        notes.append("status not ok — " + "; ".join(checks))
+    missing = [name for name, (row, _, r) in zip(names, done) if r is None]
+    if missing:
+        notes.append("result file not found (no reference values): " + ", ".join(missing))
+    if notes:
+        _footer(fig, "\n".join(notes), color="#b35900")
     return fig
 
 

@@ -787,3 +787,132 @@ def test_an_interval_without_information_shows_its_ends_in_words(checked):
         "[1.000, 900.0]"                                   # 900 x apart: an interval
     assert interval_text("nu12", dataclasses.replace(iv, lower=-0.95, upper=0.95)) == \
         "[-0.950, 0.950]"
+
+
+def _summary_rows():
+    """Two specimens as `laminid batch` rows (SI): H (glass and carbon, as hybrid CM at 8x8
+    with 40 trials: glass E2 and nu12 on upper limits, glass G12 on a lower one, glass G13
+    fixed, glass G23 with an interval of no information, carbon G12 "weak (Monte Carlo)" with
+    a range down to a search limit) and Q (carbon, all well determined)."""
+    well = "well determined"
+    nd = "not determined by these modes — fix it or measure a thicker plate / more modes"
+
+    def iv(lo, hi, verdict=well, **kw):
+        return {"lower": lo, "upper": hi, "verdict": verdict, "at_bound": False,
+                "bound_side": "", "bound_limit": None, "flagged": verdict == nd} | kw
+
+    def at(side, limit):
+        return {"lower": None, "upper": None, "verdict": "at bound — not identified",
+                "at_bound": True, "bound_side": side, "bound_limit": limit, "flagged": False}
+
+    glass = {"E1": 58.0e9, "E2": 58.47e9, "G12": 5.949e6, "G13": 3.7e9, "G23": 3.0e9,
+             "nu12": 0.95}
+    carbon = {"E1": 87.0e9, "E2": 8.0e9, "G12": 4.864e9, "G13": 3.8e9, "G23": 3.0e9,
+              "nu12": 0.3}
+    h_iv = {"glass": {"E1": iv(55e9, 61e9), "E2": at("upper", 58.47e9),
+                      "G12": at("lower", 5.949e6), "G13": {"verdict": "fixed"},
+                      "G23": iv(1.4e-45, 1.7e63, nd), "nu12": at("upper", 0.95)},
+            "carbon": {k: iv(0.99 * v, 1.01 * v) for k, v in carbon.items()}}
+    h_iv["carbon"]["G12"] = iv(4.786e9, 4.943e9, "weak (Monte Carlo)", mc_lower=1.025e7,
+                               mc_upper=4.894e9, mc_lower_at_limit=True,
+                               mc_upper_at_limit=False)
+    common = {"status": "check", "reasons": [{"code": "at_bound", "text": "..."}],
+              "reason": "at_bound", "converged": True, "cached": False, "path": "",
+              "rms_residual_percent": 0.14, "evaluations": 600, "time_s": 9.0,
+              "result": "H.result.h5", "damping": {}}
+    h = common | {"name": "H", "specimen": "H", "materials": {"glass": glass,
+                                                               "carbon": carbon},
+                  "intervals": h_iv}
+    q = common | {"name": "Q", "specimen": "Q", "status": "ok", "reasons": [], "reason": "",
+                  "materials": {"carbon": carbon}, "result": "Q.result.h5",
+                  "intervals": {"carbon": {k: iv(0.98 * v, 1.02 * v)
+                                           for k, v in carbon.items()}}}
+    return [h, q]
+
+
+def _line(axis, gid):
+    return next(ln for ln in axis.get_lines() if ln.get_gid() == gid)
+
+
+@pytest.mark.parametrize("kind", ["csv", "json"])
+def test_summary_pages_take_the_doubt_from_the_summary_itself(tmp_path, kind):
+    """With no result file next to it, summary.csv (long) or summary.json still gives every
+    constant its doubt: the interval, "?" for not determined, a triangle on the limit for a
+    constant at a bound (never a data dot), a grey square for a fixed one, the Monte Carlo
+    range with its search-limit end starred; the legend tells them apart."""
+    import json
+
+    from laminid_cli.batch import write_summary_csv
+    from laminid_cli.report import FIXED_COLOR
+
+    rows = _summary_rows()
+    path = tmp_path / f"summary.{kind}"
+    if kind == "csv":
+        write_summary_csv(path, rows)
+    else:
+        path.write_text(json.dumps({"format": "laminid-batch-summary", "specimens": rows}))
+    fig = {p.name: p.figure for p in report_pages(path)}["constants"]
+    for k, marker, y in (("E2", "^", 58.47), ("G12", "v", 5.949e-3), ("nu12", "^", 0.95)):
+        a = ax(fig, f"across-{k}")
+        mark = _line(a, "at-bound-H-glass")
+        assert mark.get_marker() == marker and mark.get_markerfacecolor() == "w"
+        assert mark.get_ydata()[0] == pytest.approx(y, rel=1e-12)
+        assert "value-H-glass" not in [ln.get_gid() for ln in a.get_lines()]
+    a = ax(fig, "across-G13")
+    mark = _line(a, "fixed-H-glass")
+    assert mark.get_marker() == "s" and mark.get_color() == FIXED_COLOR
+    assert "value-H-glass" not in [ln.get_gid() for ln in a.get_lines()]
+    a = ax(fig, "across-G23")                               # no information: "?", both arrows
+    assert _line(a, "value-H-glass").get_markerfacecolor() == "w"
+    assert [t.get_text() for t in a.texts].count("?") == 1
+    assert len([t for t in a.texts if t.arrow_patch is not None and not t.get_text()]) == 2
+    a = ax(fig, "across-G12")                       # carbon: identified, Monte Carlo range
+    v = _line(a, "value-H-carbon")
+    assert v.get_markerfacecolor() == v.get_color()                        # filled
+    lo, hi = a.get_ylim()
+    mc = [ln for ln in a.get_lines() if ln.get_gid() == "monte-carlo"]
+    assert len(mc) == 1
+    assert np.allclose(mc[0].get_ydata(), [max(0.01025, lo), 4.894], rtol=1e-12)
+    star = next(t for t in a.texts if t.get_gid() == "monte-carlo-search-limit")
+    assert star.get_text() == "*" and star.xy[1] == pytest.approx(max(0.01025, lo))
+    legend = [t.get_text() for a in fig.axes if a.get_legend() is not None
+              for t in a.get_legend().get_texts()]
+    for text in ("?: not determined (interval too wide)",
+                 "stopped on a lower / upper search limit: not identified, no interval",
+                 "fixed at its initial value: not identified",
+                 "Monte Carlo range (*: end set by trials on a search limit)"):
+        assert text in legend
+    footer = " ".join(t.get_text() for t in fig.texts).replace("\n", " ")
+    assert "result file not found (no reference values): H, Q" in footer
+    assert "H: check: at_bound" in footer and "Q:" not in footer
+
+
+def test_batch_summary_alone_keeps_its_verdicts(batch_dir, tmp_path):
+    """The batch's own summary.csv copied away from its result files: S1.4's G13 is still
+    drawn not determined (hollow, "?") with its interval; a wide CSV alone (no intervals in
+    it) draws its values as "no interval in this summary", and with its result files beside
+    it takes their doubt."""
+    from laminid_cli.batch import read_summary, write_summary_csv
+
+    shutil.copy(batch_dir / "summary.csv", tmp_path / "summary.csv")
+    fig = {p.name: p.figure for p in report_pages(tmp_path / "summary.csv")}["constants"]
+    g = ax(fig, "across-G13")
+    assert _line(g, "value-S1.4-IM7/977-2").get_markerfacecolor() == "w"
+    assert any(t.get_text() == "?" for t in g.texts)
+    assert any(ln.get_gid() == "interval" for ln in g.get_lines())
+    wide = tmp_path / "wide.csv"
+    write_summary_csv(wide, read_summary(batch_dir / "summary.json"), wide=True)
+    fig = {p.name: p.figure for p in report_pages(wide)}["constants"]
+    g = ax(fig, "across-G13")
+    assert _line(g, "value-S1.4-IM7/977-2").get_marker() == "o"        # from the result file
+    assert _line(g, "value-S1.4-IM7/977-2").get_markerfacecolor() == "w"
+    (tmp_path / "x").mkdir()
+    alone = tmp_path / "x" / "wide.csv"
+    shutil.copy(wide, alone)
+    fig = {p.name: p.figure for p in report_pages(alone)}["constants"]
+    g = ax(fig, "across-E1")
+    assert _line(g, "value-S1.4-IM7/977-2").get_marker() == "d"
+    legend = [t.get_text() for a in fig.axes if a.get_legend() is not None
+              for t in a.get_legend().get_texts()]
+    assert "no interval in this summary (wide CSV, result file not found)" in legend
+    assert "identified, with its confidence interval" not in legend
