@@ -916,3 +916,38 @@ def test_batch_summary_alone_keeps_its_verdicts(batch_dir, tmp_path):
               for t in a.get_legend().get_texts()]
     assert "no interval in this summary (wide CSV, result file not found)" in legend
     assert "identified, with its confidence interval" not in legend
+
+
+def test_damping_page_fits_the_page_and_ends_with_the_status(damped, tmp_path):
+    """The loss-factor table stays inside the page (short verdicts, the advice once under the
+    table), fixed loss factors say they were given, one held at 0 keeps its one-sided
+    interval, and the page ends with the result's status like the others."""
+    from laminid_cli.report import status_line
+    from laminid_cli.report_damping import loss_factor_rows, read_damping
+
+    res = read_result(damped)
+    fig = {p.name: p.figure for p in report_pages(damped)}["damping"]
+    status = next(t for t in fig.texts if t.get_gid() == "status").get_text()
+    head, _ = status_line(res)
+    assert status.replace("\n    ", " ").replace("\n", " ") == head.replace("\n", " ")
+    a = ax(fig, "loss-factors")
+    t = cells(a)
+    d = read_damping(res)
+    assert [row[3] for row in t[1:4]] == [short_verdict(v) for v in d["verdict"]]
+    assert t[4] == ["E-glass/R368.eta13", "1.000", "none — fixed",
+                    "fixed at the value given (not identified)"]
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    width = fig.bbox.width
+    for cell in a.tables[0].get_celld().values():
+        box = cell.get_window_extent(renderer)
+        assert 0 <= box.x0 and box.x1 <= width
+        text = cell.get_text().get_window_extent(renderer)
+        assert box.x0 <= text.x0 and text.x1 <= box.x1 + 1          # no text past its cell
+    held = dict(d, at_bound=np.array([True] + [False] * (len(d["labels"]) - 1)))
+    row = loss_factor_rows(held)[0]
+    assert row[2] == f"[0, {100 * d['upper'][0]:.3g}]"
+    assert row[3] == "held at 0 by η ≥ 0: not identified"
+    write_pages([type("P", (), {"name": "d", "figure": fig})()], tmp_path / "d.png")
