@@ -475,7 +475,19 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
     fig = _figure()
     fig.suptitle(_title(r, plate if plate is not None else (r.plates[0] if not r.joint
                                                              else None), what), fontsize=11)
-    gs = fig.add_gridspec(1, 2, width_ratios=[1.5, 1])
+    # the status first, under the title: what a lab reads before any number (the other pages
+    # repeat it at their foot)
+    text, color = status_line(r)
+    width = _wrap_width(fig, 9, bold=True)
+    lines = [ln for para in text.split("\n")
+             for ln in textwrap.wrap(para, width, break_on_hyphens=False, subsequent_indent="    ")]
+    h = min(0.35, 0.025 * len(lines) + 0.01)
+    outer = fig.add_gridspec(2, 1, height_ratios=[h, 1 - h])
+    ax_s = fig.add_subplot(outer[0, 0])
+    ax_s.axis("off")
+    ax_s.text(0, 1, "\n".join(lines), transform=ax_s.transAxes, ha="left", va="top",
+              fontsize=9, weight="bold", color=color, gid="status")
+    gs = outer[1, 0].subgridspec(1, 2, width_ratios=[1.5, 1])
     f = table_fraction(sum(len(c) for c in r.materials.values()))
     left = gs[0, 0].subgridspec(2, 1, height_ratios=[f, 1.001 - f])
     ax_c = fig.add_subplot(left[0, 0])
@@ -509,7 +521,6 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
     ax_n.text(0, 0.97, "\n".join("\n".join(textwrap.wrap(t, 110, break_on_hyphens=False))
                                   for t in notes),
               fontsize=7.5, va="top", ha="left", transform=ax_n.transAxes, linespacing=1.5)
-    _status_banner(fig, r)
     return fig
 
 
@@ -719,7 +730,8 @@ def panel_words(r: ResultFile, m: str, k: str, iv) -> str:
     verdict = short_verdict(iv.verdict)
     rng = monte_carlo_range(r.uncertainty, iv)
     if " (Monte Carlo)" in verdict and rng is not None:
-        verdict = verdict.replace(" (Monte Carlo)", f" (Monte Carlo {monte_carlo_text(k, rng, v)[1]})")
+        widths = monte_carlo_text(k, rng, v)[1]
+        verdict = verdict.replace(" (Monte Carlo)", f" (Monte Carlo {widths})")
     return text + "\n" + "\n".join(textwrap.wrap(verdict, 24))
 
 

@@ -67,6 +67,14 @@ def joint(tmp_path_factory):
     return out
 
 
+def status_text(fig):
+    """The one status text of a page (the page's own text, or in an axes of its own)."""
+    found = [t for t in list(fig.texts) + [t for a in fig.axes for t in a.texts]
+             if t.get_gid() == "status"]
+    assert len(found) == 1
+    return found[0]
+
+
 def n_pdf_pages(path) -> int:
     return len(re.findall(rb"/Type\s*/Page\b(?!s)", path.read_bytes()))
 
@@ -146,7 +154,7 @@ def test_summary_page_tables_and_residuals_read_back(checked, tmp_path):
     assert rows["E1"][5] == f"170.0 ({round((res.materials[MAT]['E1'] / 170e9 - 1) * 100):+d} %)"
     assert rows["G13"][5] == ""                         # no reference value for G13
     # status line with the reasons
-    status = next(t for t in fig.texts if t.get_gid() == "status").get_text()
+    status = status_text(fig).get_text()
     assert status.startswith("status: CHECK") and "[at_bound]" in status \
         and "G13 not determined" in status.replace("\n", " ")
     write_pages([p for p in report_pages(checked) if p.name == "summary"], tmp_path / "s.png")
@@ -315,7 +323,7 @@ def test_version_1_file_says_status_not_recorded(batch_dir, tmp_path):
     pages = {p.name: p.figure for p in report_pages(path)}
     assert list(pages) == ["summary", "intervals", "modes-1", "history", "sensitivities"]
     for name in ("summary", "intervals"):
-        status = next(t for t in pages[name].texts if t.get_gid() == "status").get_text()
+        status = status_text(pages[name]).get_text()
         assert status.startswith("status not recorded (schema version 1 file); optimizer: "
                                   "converged")
     legend = ax(pages["intervals"], None).get_legend().get_title().get_text()
@@ -951,3 +959,24 @@ def test_damping_page_fits_the_page_and_ends_with_the_status(damped, tmp_path):
     assert row[2] == f"[0, {100 * d['upper'][0]:.3g}]"
     assert row[3] == "held at 0 by η ≥ 0: not identified"
     write_pages([type("P", (), {"name": "d", "figure": fig})()], tmp_path / "d.png")
+
+
+def test_status_on_top_of_the_first_page_at_the_foot_of_the_others(checked):
+    """As the README says: the status and its reasons open the report (under the title of
+    the first page, above the constants); every other page repeats it at its foot."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    pages = {p.name: p.figure for p in report_pages(checked)}
+    fig = pages["summary"]
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    status = status_text(fig)
+    assert status not in fig.texts                          # not a footer
+    box = status.get_window_extent(renderer)
+    table = ax(fig, "constants").get_window_extent(renderer)
+    title = fig._suptitle.get_window_extent(renderer)
+    assert table.y1 < box.y0 and box.y1 <= title.y0 + 1      # under the title, above the table
+    assert status.get_text().startswith("status: CHECK — [at_bound]")
+    for name in ("intervals", "damping") if "damping" in pages else ("intervals",):
+        foot = status_text(pages[name])
+        assert foot in pages[name].texts and foot.get_position()[1] < 0.05
