@@ -119,20 +119,107 @@ def short_verdict(text: str) -> str:
 UNINFORMATIVE_RATIO = 1e3
 
 
+def bound_words(iv) -> str:
+    """Where a constant at its bound stopped: "none — on lower search limit" (from the file's
+    bound_side; an older file's statement when the side is not stored). A constant at a bound
+    has no interval: the value shown beside it is the limit, not a confidence bound."""
+    side = iv.bound_side or bound_statement(iv.bound_text)[0]
+    return f"none — on {side} search limit" if side else "none — on a search limit"
+
+
+def is_uninformative(k: str, lo: float, hi: float) -> bool:
+    return k != "nu12" and lo > 0 and np.isfinite(hi) and hi / lo > UNINFORMATIVE_RATIO
+
+
 def interval_text(k: str, iv) -> str:
-    """The interval of a constant as a table cell: "[lo, hi]" in its display unit, the
-    one-sided statement of a constant at its bound, or "uninformative" for an interval whose
-    ends are more than UNINFORMATIVE_RATIO apart (log-space modulus intervals only)."""
+    """The interval of a constant as a table cell: "[lo, hi]" in its display unit; "none — on
+    lower search limit" for a constant at its bound; an interval whose ends are more than
+    UNINFORMATIVE_RATIO apart (log-space modulus intervals only) gets a second line saying
+    that it carries no information."""
     if iv is None:
         return "—"
-    if iv.at_bound:         # the side and the limit of the search it ended on ("≤ 0.002860")
-        if iv.bound_side and np.isfinite(iv.bound_limit):
-            return f"{'≤' if iv.bound_side == 'lower' else '≥'} {fmt_value(k, iv.bound_limit)}"
-        return bound_statement(iv.bound_text)[1] or "at its bound"
+    if iv.at_bound:
+        return bound_words(iv)
     lo, hi = iv.lower, iv.upper
-    if k != "nu12" and lo > 0 and hi / lo > UNINFORMATIVE_RATIO:
-        return f"uninformative (×{hi / lo:.0e})"
-    return f"[{fmt_value(k, lo)}, {fmt_value(k, hi)}]"
+    text = f"[{fmt_value(k, lo)}, {fmt_value(k, hi)}]"
+    if is_uninformative(k, lo, hi):
+        text += "\nno information"
+    return text
+
+
+def fixed_words(r: ResultFile, m: str, k: str, width: int = 0) -> str | None:
+    """Why constant ``k`` of material ``m`` was not identified, or None when it is free:
+    "fixed because undetermined (half-width was ±109 %)" (``--fix-undetermined``, with the
+    first run's relative half-width) or "fixed at its initial value (not identified)"."""
+    lab = f"{m}.{k}"
+    u = r.uncertainty
+    fixed = (u is not None and lab in u.fixed) or k not in r.free.get(m, CONSTANTS)
+    if not fixed or (u is not None and u.get(m, k) is not None):
+        return None
+    if u is not None and lab in u.fixed_undetermined:
+        # the first run's half-width is the one that had it fixed only where that run left it
+        # undetermined; a constant fixed in a later round was undetermined there
+        rel, verdict = u.before_fixing.get(lab, (np.nan, ""))
+        if not np.isfinite(rel):
+            return "fixed because undetermined"
+        if verdict.startswith("not"):
+            return f"fixed because undetermined (half-width was {_pct(rel)})"
+        return f"fixed because undetermined in a later run (first run {_pct(rel)})"
+    return "fixed at its initial value (not identified)"
+
+
+def _pct(rel: float) -> str:
+    """A relative half-width as the terminal writes it: "±11 %", "±41x" beyond 10."""
+    if not np.isfinite(rel):
+        return "±?"
+    return f"±{rel:.0f}x" if rel >= 10 else f"±{100 * rel:.0f} %"
+
+
+@dataclass
+class MonteCarloRange:
+    """The Monte Carlo range of one constant (SI): its ends, the width for sure (NaN where the
+    file has none), and whether trials on a limit of the search set an end."""
+
+    lower: float
+    upper: float
+    inner_lower: float = np.nan
+    inner_upper: float = np.nan
+    lower_at_limit: bool = False
+    upper_at_limit: bool = False
+
+    def rel(self, value: float) -> tuple[float, float]:
+        """(relative half-width of the range, of the width for sure) about ``value``."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return (0.5 * (self.upper - self.lower) / abs(value),
+                    0.5 * (self.inner_upper - self.inner_lower) / abs(value))
+
+
+def monte_carlo_range(u, iv) -> MonteCarloRange | None:
+    """The Monte Carlo range of a free constant from /uncertainty/monte_carlo, or None."""
+    mc = (u.monte_carlo or {}) if u is not None else {}
+    if iv is None or "lower" not in mc or "upper" not in mc:
+        return None
+    j = [x.label for x in u.intervals].index(iv.label)
+    lo, hi = np.ravel(mc["lower"]), np.ravel(mc["upper"])
+    if j >= lo.size or j >= hi.size:
+        return None
+
+    def at(key, default=np.nan):
+        a = np.ravel(mc.get(key, ()))
+        return a[j] if j < a.size else default
+    return MonteCarloRange(float(lo[j]), float(hi[j]), float(at("inner_lower")),
+                           float(at("inner_upper")), bool(at("lower_at_bound", 0)),
+                           bool(at("upper_at_bound", 0)))
+
+
+def monte_carlo_text(k: str, rng: MonteCarloRange, value: float) -> tuple[str, str]:
+    """("0.01025*–4.894", "±50 %, ±11 % for sure") of a Monte Carlo range about ``value``
+    (display unit; "*": an end set by trials on a search limit)."""
+    ends = (f"{fmt_value(k, rng.lower)}{'*' if rng.lower_at_limit else ''}–"
+            f"{fmt_value(k, rng.upper)}{'*' if rng.upper_at_limit else ''}")
+    rel, sure = rng.rel(value)
+    widths = _pct(rel) + (f", {_pct(sure)} for sure" if np.isfinite(sure) else "")
+    return ends, widths
 
 
 def status_line(r: ResultFile) -> tuple[str, str]:
@@ -187,34 +274,57 @@ def _status_banner(fig, r: ResultFile) -> None:
 
 
 def constants_rows(r: ResultFile) -> tuple[list[str], list[list[str]]]:
-    """Header and rows of the constants table (strings as drawn)."""
+    """Header and rows of the constants table (strings as drawn). A fixed constant says why
+    (and gets no "% against the reference": its value is the initial one, not a result); a
+    verdict set by the Monte Carlo gives the range and its widths."""
     conf = r.confidence
-    head = ["constant", "identified",
+    head = ["constant", "value",
             f"{conf:.0%} interval" if conf is not None else "interval", "verdict", "initial",
             "reference (diff.)"]
     rows = []
     multi = len(r.materials) > 1
     ref = r.reference
+    u = r.uncertainty
     for m, c in r.materials.items():
         for k in CONSTANTS:
-            iv = r.uncertainty.get(m, k) if r.uncertainty is not None else None
-            free = k in r.free.get(m, CONSTANTS)
+            iv = u.get(m, k) if u is not None else None
+            fixed = fixed_words(r, m, k)
             interval = interval_text(k, iv)
-            if iv is None:
-                verdict = "fixed" if not free else "no interval in file"
+            if fixed is not None:
+                interval = "none — not identified"
+                verdict = fixed.replace(" (", "\n(", 1)
+            elif iv is None:
+                verdict = "no interval in file"
             elif iv.at_bound:
                 verdict = "at bound, not identified"
+            elif iv.verdict_from_monte_carlo or iv.verdict.startswith(("weak (Monte Carlo",
+                                                                          "not determined (Mo")):
+                # the range that set the verdict, on a second line of both cells
+                verdict = short_verdict(iv.verdict).replace(" (Monte Carlo)", "")
+                rng = monte_carlo_range(u, iv)
+                if rng is not None:
+                    ends, widths = monte_carlo_text(k, rng, c[k])
+                    interval += f"\nMonte Carlo {ends}"
+                    verdict += f" (Monte Carlo\n{widths})"
+                else:
+                    verdict += "\n(Monte Carlo)"
             else:
-                # (on two lines where the Monte Carlo set it: the column is narrow)
-                verdict = short_verdict(iv.verdict).replace(" (Monte Carlo)", "\n(Monte Carlo)")
+                verdict = short_verdict(iv.verdict)
             rv = ref.get(m, {}).get(k)
-            rtext = "" if rv is None else (
-                f"{fmt_value(k, rv)} ({round((c[k] - rv) / abs(rv) * 100) + 0:+d} %)" if rv else
-                fmt_value(k, rv))
+            if rv is None:
+                rtext = ""
+            elif fixed is not None or (iv is not None and iv.at_bound) or not rv:
+                rtext = fmt_value(k, rv) + ("\n(not compared: fixed)" if fixed is not None else
+                                            "\n(not compared)" if rv else "")
+            else:
+                rtext = f"{fmt_value(k, rv)} ({round((c[k] - rv) / abs(rv) * 100) + 0:+d} %)"
             rows.append([f"{m} {k} ({_unit(k)})" if multi else f"{k} ({_unit(k)})",
                          fmt_value(k, c[k]), interval, verdict,
                          fmt_value(k, r.initial.get(m, {}).get(k)), rtext])
     return head, rows
+
+
+FIXED_COLOR = "0.55"        # the marker of a fixed constant (hollow): not a result
 
 
 def _verdict_color(verdict: str) -> str:
@@ -224,6 +334,8 @@ def _verdict_color(verdict: str) -> str:
         return "#fbf0cf"
     if verdict.startswith(("not", "at bound")):
         return "#f8d7d0"
+    if verdict.startswith("fixed"):
+        return "0.9"
     return "w"
 
 
@@ -254,7 +366,7 @@ def _table(ax, head, rows, *, fontsize=8, col_widths=None, colors=None):
 def constants_table(ax, r: ResultFile) -> None:
     head, rows = constants_rows(r)
     colors = [["w", "w", "w", _verdict_color(row[3]), "w", "w"] for row in rows]
-    _table(ax, head, rows, fontsize=7.5, col_widths=[0.17, 0.1, 0.23, 0.23, 0.09, 0.18],
+    _table(ax, head, rows, fontsize=7.5, col_widths=[0.16, 0.09, 0.26, 0.25, 0.08, 0.16],
            colors=colors)
     ax.set_gid("constants")
     ax.set_title("identified constants", fontsize=9, loc="left")
@@ -307,7 +419,7 @@ def frequency_block(fig, spec, plate) -> None:
     ax_r.set_yticks([])
     ax_r.tick_params(labelsize=7)
     ax_r.set_xlabel("(measured − model)/measured (%)\nhatched: weight 0", fontsize=7)
-    ax_r.set_title("residuals" + (f"\n(dashed: ± weighted RMS {rms:.3f} %)"
+    ax_r.set_title("residuals" + (f"\n(dashed: ± weighted\nRMS {rms:.3f} %)"
                                   if np.isfinite(rms) else ""), fontsize=8)
     for side in ("top", "right", "left"):
         ax_r.spines[side].set_visible(False)
@@ -332,13 +444,50 @@ def _laminate_text(plate) -> str:
     return "laminate (Appendix A): " + ", ".join(one(k, v) for k, v in gp.items())
 
 
+def table_notes(r: ResultFile) -> list[str]:
+    """What the constants table's words mean, for the words it uses."""
+    _, rows = constants_rows(r)
+    cells = [c for row in rows for c in row[2:4]]
+    notes = []
+    if any("no information" in c for c in cells):
+        notes.append(f"no information: the interval's upper end is more than "
+                     f"{UNINFORMATIVE_RATIO:.0f} times its lower end (the frequencies do not "
+                     "constrain this constant)")
+    if any("search limit" in c for c in cells):
+        notes.append("none — on a search limit: the fit stopped on a limit of the search (its "
+                     "value is that limit): not identified, no interval")
+    if any("Monte Carlo" in c for c in cells):
+        notes.append("(Monte Carlo): the verdict is set by the Monte Carlo range (the constant "
+                     "re-identified from perturbed frequencies), wider than the linearised "
+                     "interval; its half-width over the value, and the half-width the range "
+                     "has for sure" + ("; *: an end set by trials that stopped on a search "
+                                      "limit (the search's end, not the data's)"
+                                      if any("*" in c for c in cells) else ""))
+    if any(c.startswith("fixed") for c in cells):
+        notes.append("fixed: held at its initial value, not identified (its value is an "
+                     "assumption, not a result; no comparison with the reference)")
+    return notes
+
+
 def summary_page(r: ResultFile, plate=None, what: str = ""):
     """Page 1: status, constants table, and (single plate, or ``plate`` given) the
     frequencies. A joint result without ``plate`` gets the RMS of each plate instead."""
     fig = _figure()
     fig.suptitle(_title(r, plate if plate is not None else (r.plates[0] if not r.joint
                                                              else None), what), fontsize=11)
-    gs = fig.add_gridspec(1, 2, width_ratios=[1.25, 1])
+    # the status first, under the title: what a lab reads before any number (the other pages
+    # repeat it at their foot)
+    text, color = status_line(r)
+    width = _wrap_width(fig, 9, bold=True)
+    lines = [ln for para in text.split("\n")
+             for ln in textwrap.wrap(para, width, break_on_hyphens=False, subsequent_indent="    ")]
+    h = min(0.35, 0.025 * len(lines) + 0.01)
+    outer = fig.add_gridspec(2, 1, height_ratios=[h, 1 - h])
+    ax_s = fig.add_subplot(outer[0, 0])
+    ax_s.axis("off")
+    ax_s.text(0, 1, "\n".join(lines), transform=ax_s.transAxes, ha="left", va="top",
+              fontsize=9, weight="bold", color=color, gid="status")
+    gs = outer[1, 0].subgridspec(1, 2, width_ratios=[1.5, 1])
     f = table_fraction(sum(len(c) for c in r.materials.values()))
     left = gs[0, 0].subgridspec(2, 1, height_ratios=[f, 1.001 - f])
     ax_c = fig.add_subplot(left[0, 0])
@@ -368,10 +517,10 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
         u = r.uncertainty
         notes.append(f"uncertainty: {u.confidence:.0%} intervals, s² = {u.s2:.3g}, "
                      f"condition number {u.condition_number:.3g}, σ from {u.sigma_source}")
+        notes += table_notes(r)
     ax_n.text(0, 0.97, "\n".join("\n".join(textwrap.wrap(t, 110, break_on_hyphens=False))
                                   for t in notes),
               fontsize=7.5, va="top", ha="left", transform=ax_n.transAxes, linespacing=1.5)
-    _status_banner(fig, r)
     return fig
 
 
@@ -413,17 +562,52 @@ INTERVAL_COLOR = "C0"
 
 
 def _bound_panel(ax, k, v, iv, x, ymin, ymax):
-    """A constant at its bound: no interval, a one-sided arrow from the value towards the side
-    the data push it to, and the statement ("≤ 0.0001 E1 (0.00286 GPa)")."""
-    side, stmt = iv.bound_side, bound_statement(iv.bound_text)[1]
+    """A constant at its bound: no interval, a dashed arrow from the value towards the side
+    the fit pushes it to, and words from the file's bound_side (never a statement that reads
+    like a confidence bound)."""
+    side = iv.bound_side or bound_statement(iv.bound_text)[0]
     if not side:
         return
     edge = ymin if side == "lower" else ymax
     ax.annotate("", (x, edge), xytext=(x, v), gid="one-sided",
                 arrowprops=dict(arrowstyle="-|>", color=INTERVAL_COLOR, lw=2.5, ls="--"))
-    ax.annotate("\n".join(textwrap.wrap(stmt, 11)), (x, (v + edge) / 2), xytext=(5, 0),
-                textcoords="offset points", fontsize=7, va="center", ha="left",
+    words = f"stopped on the {side} search limit: no interval"
+    ax.annotate("\n".join(textwrap.wrap(words, 12)), (x, (v + edge) / 2), xytext=(5, 0),
+                textcoords="offset points", fontsize=6.5, va="center", ha="left",
                 color=INTERVAL_COLOR, gid="bound-statement")
+
+
+def _mc_end_label(ax, k, x, y, end_si, up, at_limit, gid):
+    """The words at an end of the Monte Carlo bar (left of it): its value where the bar runs
+    off the panel, "search limit" where trials on a limit of the search set it."""
+    text = f"{'to' if up else 'from'}\n{fmt_value(k, end_si)}" if end_si is not None else ""
+    if at_limit:
+        text += ("\n" if text else "") + "search\nlimit"
+    ax.annotate(text, (x, y), xytext=(-4, -3 if up else 3), textcoords="offset points",
+                fontsize=6.5, va="top" if up else "bottom", ha="right", color="0.35", gid=gid)
+
+
+def _monte_carlo_bar(ax, k, rng: MonteCarloRange, x, ymin, ymax) -> None:
+    g = (lambda z: _gpa(k, z))
+    lo, hi = g(rng.lower), g(rng.upper)
+    ax.plot([x] * 2, [min(max(lo, ymin), ymax), max(min(hi, ymax), ymin)], "-",
+            color="0.45", lw=2, solid_capstyle="butt", gid="monte-carlo")
+    # the width the trials show for sure, which the verdicts use (files since stop 28)
+    if np.isfinite(rng.inner_lower) and np.isfinite(rng.inner_upper):
+        ax.plot([x] * 2, [min(max(g(rng.inner_lower), ymin), ymax),
+                          max(min(g(rng.inner_upper), ymax), ymin)], "-",
+                color="0.2", lw=4.5, solid_capstyle="butt", gid="monte-carlo-sure")
+    for side, end, end_si, at_limit in (("upper", hi, rng.upper, rng.upper_at_limit),
+                                        ("lower", lo, rng.lower, rng.lower_at_limit)):
+        up = side == "upper"
+        off = (end > ymax) if up else (end < ymin)
+        if off:                     # an arrow head on the edge and the end's value beside it
+            edge = ymax if up else ymin
+            ax.plot([x], [edge], "^" if up else "v", color="0.45", ms=6, clip_on=False)
+            _mc_end_label(ax, k, x, edge, end_si, up, at_limit, f"monte-carlo-{side}-end")
+        elif at_limit:
+            # an end set by trials on a limit of the search is the search's, not the data's
+            _mc_end_label(ax, k, x, end, None, up, True, f"monte-carlo-{side}-limit")
 
 
 def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
@@ -431,6 +615,7 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
     u = r.uncertainty
     v = r.materials[m][k]
     iv = u.get(m, k) if u is not None else None
+    fixed = fixed_words(r, m, k) is not None
     ref = r.reference.get(m, {}).get(k)
     lo, hi = (iv.lower, iv.upper) if iv is not None else (np.nan, np.nan)
     g = (lambda z: _gpa(k, z))
@@ -440,9 +625,11 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
         ymin, ymax = _bound_limits(g(v), iv.bound_side, gref, nu)
     else:
         ymin, ymax = _panel_limits(g(v), g(lo), g(hi), gref, u.weak, nu)
-    a = abs(g(v)) if iv is None or not iv.at_bound else 0.0     # no verdict at a bound
-    for frac, color in ((u.weak, BAND_COLORS[1]), (u.well_determined, BAND_COLORS[0])):
-        ax.axhspan(g(v) - frac * a, g(v) + frac * a, color=color, lw=0, zorder=0)
+    # verdict bands about an identified value only (none at a bound, none for a fixed value)
+    if iv is not None and not iv.at_bound:
+        a = abs(g(v))
+        for frac, color in ((u.weak, BAND_COLORS[1]), (u.well_determined, BAND_COLORS[0])):
+            ax.axhspan(g(v) - frac * a, g(v) + frac * a, color=color, lw=0, zorder=0)
     if iv is not None and iv.at_bound:
         _bound_panel(ax, k, g(v), iv, x, ymin, ymax)
     elif iv is not None:
@@ -462,35 +649,20 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
                 ax.annotate(f"{'to' if up else 'from'}\n{fmt_value(k, end)}", (x, tail),
                             xytext=(5, 0), textcoords="offset points", fontsize=7,
                             va="center", ha="left", color=INTERVAL_COLOR)
-    mc = u.monte_carlo or {}
-    if iv is not None and "lower" in mc and "upper" in mc:
-        j = [x.label for x in u.intervals].index(iv.label)
-        mlo, mhi = np.ravel(mc["lower"]), np.ravel(mc["upper"])
-        if j < mlo.size:
-            ax.plot([x - 0.25] * 2, [max(g(mlo[j]), ymin), min(g(mhi[j]), ymax)], "-",
-                    color="0.45", lw=2, solid_capstyle="butt", gid="monte-carlo")
-            # the width the trials show for sure, which the verdicts use (files since stop 28)
-            ilo, ihi = np.ravel(mc.get("inner_lower", ())), np.ravel(mc.get("inner_upper", ()))
-            if j < ilo.size and j < ihi.size and np.isfinite(ilo[j]) and np.isfinite(ihi[j]):
-                ax.plot([x - 0.25] * 2, [min(max(g(ilo[j]), ymin), ymax),
-                                         max(min(g(ihi[j]), ymax), ymin)], "-",
-                        color="0.2", lw=4.5, solid_capstyle="butt", gid="monte-carlo-sure")
-            for end, edge, marker in ((g(mhi[j]), ymax, "^"), (g(mlo[j]), ymin, "v")):
-                if (marker == "^" and end > ymax) or (marker == "v" and end < ymin):
-                    ax.plot([x - 0.25], [edge], marker, color="0.45", ms=6, clip_on=False)
-            # an end set by trials on a limit of the search is the search's, not the data's
-            for side, end in (("lower", g(mlo[j])), ("upper", g(mhi[j]))):
-                flags = np.ravel(mc.get(f"{side}_at_bound", ()))
-                if j < flags.size and flags[j]:
-                    y = min(max(end, ymin), ymax)
-                    up = side == "upper"            # the label inside the panel, by the end
-                    ax.annotate("search\nlimit", (x - 0.25, y), xytext=(-4, -3 if up else 3),
-                                textcoords="offset points", fontsize=6.5,
-                                va="top" if up else "bottom", ha="right", color="0.35",
-                                gid=f"monte-carlo-{side}-limit")
-    hollow = iv is not None and (iv.at_bound or iv.verdict.startswith(("not", "at bound")))
-    ax.plot([x], [g(v)], "o", ms=7, color="k", mfc="w" if hollow else "k", zorder=5,
-            gid="value")
+    rng = monte_carlo_range(u, iv)
+    if rng is not None:
+        _monte_carlo_bar(ax, k, rng, x - 0.25, ymin, ymax)
+    if fixed:                       # not a result: a hollow grey square, no band, no interval
+        ax.plot([x], [g(v)], "s", ms=7, color=FIXED_COLOR, mfc="w", mew=1.5, zorder=5,
+                gid="fixed")
+    elif iv is not None and iv.at_bound:   # the limit it stopped on, pointing the fit's way
+        side = iv.bound_side or bound_statement(iv.bound_text)[0]
+        ax.plot([x], [g(v)], "^" if side == "upper" else "v", ms=8, color="k", mfc="w",
+                zorder=5, gid="at-bound")
+    else:
+        hollow = iv is not None and iv.verdict.startswith("not")
+        ax.plot([x], [g(v)], "o", ms=7, color="k", mfc="w" if hollow else "k", zorder=5,
+                gid="value")
     if ref is not None:
         ax.plot([x + 0.25], [gref], "D", ms=6, color="C3", zorder=5, gid="reference")
         if not ymin <= gref <= ymax:
@@ -511,18 +683,56 @@ def _interval_legend(r: ResultFile) -> tuple[list, list[str]]:
              (Patch(color=BAND_COLORS[1], lw=0), f"within ±{u.weak:.0%}: weak"),
              (Line2D([], [], color=INTERVAL_COLOR, lw=3, marker="_", ms=10, mew=2.5),
               f"{u.confidence:.0%} interval"),
-             (Line2D([], [], ls="none", marker="o", ms=7, color="k"), "identified"),
-             (Line2D([], [], ls="none", marker="o", ms=7, color="k", mfc="w"),
-              "not determined / at its bound")]
+             (Line2D([], [], ls="none", marker="o", ms=7, color="k"), "identified")]
+    ivs = u.intervals
+    if any(not iv.at_bound and iv.verdict.startswith("not") for iv in ivs):
+        items.append((Line2D([], [], ls="none", marker="o", ms=7, color="k", mfc="w"),
+                      "not determined (interval too wide)"))
+    if any(iv.at_bound for iv in ivs):
+        items.append(((Line2D([], [], ls="none", marker="v", ms=7, color="k", mfc="w"),
+                       Line2D([], [], ls="none", marker="^", ms=7, color="k", mfc="w")),
+                      "stopped on a search limit: not identified"))
+    why = {fixed_words(r, m, k) for m in r.materials for k in CONSTANTS} - {None}
+    if why:
+        only = next(iter(why)) if len(why) == 1 else ""
+        label = (only if only and "half-width" not in only else
+                 "fixed because undetermined (not identified)" if all(
+                     w.startswith("fixed because") for w in why) else
+                 "fixed (not identified; why: below the panel)")
+        items.append((Line2D([], [], ls="none", marker="s", ms=7, color=FIXED_COLOR, mfc="w",
+                             mew=1.5), label))
     if any(r.reference.get(m, {}).get(k) is not None for m in r.materials for k in CONSTANTS):
         items.append((Line2D([], [], ls="none", marker="D", ms=6, color="C3"), "reference"))
     if u.monte_carlo and "lower" in u.monte_carlo:
-        items.append((Line2D([], [], color="0.45", lw=2), "Monte Carlo spread"))
+        items.append((Line2D([], [], color="0.45", lw=2),
+                      f"Monte Carlo range ({u.confidence:.0%} of the trials)"))
         if "inner_lower" in u.monte_carlo:
             sure = 100 * (2 * float(u.monte_carlo.get("evidence_level", 0.95)) - 1)
             items.append((Line2D([], [], color="0.2", lw=4.5),
                           f"Monte Carlo range for sure ({sure:.0f} %)"))
     return [h for h, _ in items], [t for _, t in items]
+
+
+def panel_words(r: ResultFile, m: str, k: str, iv) -> str:
+    """The words under a constant's panel: value, interval (or why there is none), verdict
+    (with the Monte Carlo range's width where it set the verdict)."""
+    v = r.materials[m][k]
+    fixed = fixed_words(r, m, k)
+    if fixed is not None:
+        return f"{fmt_value(k, v)}\n" + "\n".join(
+            ln for para in fixed.replace(" (", "\n(", 1).split("\n")
+            for ln in textwrap.wrap(para, 26))
+    if iv is None:
+        return f"{fmt_value(k, v)}\nno interval"
+    if iv.at_bound:
+        return f"{fmt_value(k, v)}\n{bound_words(iv).replace('none — ', '')}:\nnot identified"
+    text = f"{fmt_value(k, v)} " + interval_text(k, iv)
+    verdict = short_verdict(iv.verdict)
+    rng = monte_carlo_range(r.uncertainty, iv)
+    if " (Monte Carlo)" in verdict and rng is not None:
+        widths = monte_carlo_text(k, rng, v)[1]
+        verdict = verdict.replace(" (Monte Carlo)", f" (Monte Carlo {widths})")
+    return text + "\n" + "\n".join(textwrap.wrap(verdict, 24))
 
 
 def interval_page(r: ResultFile):
@@ -539,30 +749,26 @@ def interval_page(r: ResultFile):
             ax = axes[i, j]
             ax.set_gid(f"interval-{m}.{k}")
             iv = interval_panel(ax, r, m, k)
-            ax.set_xlim(-0.6, 0.8)
+            ax.set_xlim(-0.75, 0.75)
             ax.set_xticks([])
             ax.tick_params(labelsize=7)
             name = f"{m}\n{k} ({_unit(k)})" if len(mats) > 1 else f"{k} ({_unit(k)})"
             ax.set_title(name, fontsize=9)
-            v = r.materials[m][k]
-            if iv is None:
-                words = "fixed" if k not in r.free.get(m, ()) else "no interval"
-                text = f"{fmt_value(k, v)}\n{words}"
-            elif iv.at_bound:
-                text = f"{fmt_value(k, v)}\nat its bound:\nnot identified"
-            else:
-                text = (f"{fmt_value(k, v)} {interval_text(k, iv)}\n" + "\n".join(
-                    textwrap.wrap(short_verdict(iv.verdict), 22)))
-            ax.set_xlabel(text, fontsize=7)
+            ax.set_xlabel(panel_words(r, m, k, iv), fontsize=7)
     scales = {iv.scale for iv in u.intervals}
     how = ("moduli: interval on ln P (asymmetric, > 0); nu12: linear" if "log" in scales
            else "linear intervals value ± half-width (as stored in this file)")
     handles, labels = _interval_legend(r)
     ax_leg = fig.add_subplot(gs[-1, :])
     ax_leg.axis("off")
+    from matplotlib.legend_handler import HandlerTuple
+
     ax_leg.legend(handles, labels, loc="center", ncol=4, fontsize=8,
-                  title=f"{how}; arrow: the interval runs off the panel to the value written; "
-                        "dashed arrow: one-sided statement of a constant at its bound",
+                  handler_map={tuple: HandlerTuple(ndivide=None)},
+                  title=f"{how}; arrow: the interval or range runs off the panel to the value "
+                        "written" + (";\ndashed arrow: the way the fit pushes a constant stopped "
+                                     "on a search limit (the value drawn is that limit)"
+                                     if any(iv.at_bound for iv in u.intervals) else ""),
                   title_fontsize=8)
     _status_banner(fig, r)
     return fig
@@ -766,10 +972,17 @@ def history_page(r: ResultFile):
     hits = bound_hits(r)
     multi = len(r.materials) > 1
     shown_mod = shown_nu = 0
+    fixed = {"mod": [], "nu": []}            # fixed constants: no line, named instead
     for j, lab in enumerate(hist.labels):
         col = hist.constants[:, j]
+        m, k = lab.rsplit(".", 1)
+        if m in r.materials and fixed_words(r, m, k) is not None:
+            name = lab if multi else k
+            fixed["nu" if k == "nu12" else "mod"].append(
+                f"{name} = {fmt_value(k, r.materials[m][k])}" if k == "nu12" else name)
+            continue
         if col[0] == 0 or np.allclose(col, col[0], rtol=1e-12):
-            continue                                          # fixed constant: flat line
+            continue                                          # never moved: flat line
         name = lab if multi else lab.rsplit(".", 1)[-1]
         is_nu = lab.endswith(".nu12")
         ax = ax_n if is_nu else ax_c
@@ -788,10 +1001,17 @@ def history_page(r: ResultFile):
     ax_c.set_ylabel("modulus / initial value", fontsize=8)
     ax_n.set_ylabel("nu12 (–)", fontsize=8)
     ax_n.set_xlabel("evaluation")
-    for ax in (ax_c, ax_n):
+    for ax, which in ((ax_c, "mod"), (ax_n, "nu")):
+        title = ("fixed, not identified:\n" + "\n".join(textwrap.wrap(
+            ", ".join(fixed[which]), 30))) if fixed[which] else None
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0,
-                      ncol=1 if len(ax.get_lines()) < 14 else 2)
+                      ncol=1 if len(ax.get_lines()) < 14 else 2, title=title,
+                      title_fontsize=7)
+        elif title:                         # nothing identified here: say why it is empty
+            ax.text(0.5, 0.5, title.replace(":\n", ": "), transform=ax.transAxes,
+                    ha="center", va="center", fontsize=8, color=FIXED_COLOR, gid="fixed-note")
+            ax.set_yticks([])
     from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter
 
     for ax in (ax_o, ax_r, ax_c, ax_n):
@@ -999,7 +1219,10 @@ def plate_frequency_page(r: ResultFile, plate):
 
 
 def summary_pages(path) -> list[Page]:
-    """Pages of the report of a batch summary (summary.csv or summary.json)."""
+    """Pages of the report of a batch summary (summary.csv or summary.json). The doubt of
+    every constant (interval, verdict, at a bound, fixed, Monte Carlo range) is the summary's
+    own; the result files, where found, add the reference values (and the doubt for a wide
+    CSV, which has none)."""
     from laminid_cli.batch import read_summary
 
     rows = read_summary(path)
@@ -1012,7 +1235,7 @@ def summary_pages(path) -> list[Page]:
                 r = read_result(res)
             except LaminidError as exc:
                 log.warning("%s: %s; using the summary's numbers", row["name"], exc)
-        mats = r.materials if r is not None else row["materials"]
+        mats = row["materials"] or (r.materials if r is not None else {})
         if mats:
             done.append((row, mats, r))
     if not done:
@@ -1021,10 +1244,68 @@ def summary_pages(path) -> list[Page]:
             Page("residuals", residuals_across_page(rows, Path(path).name))]
 
 
+@dataclass
+class Doubt:
+    """What is known of one constant of one specimen in a batch summary (SI): its interval
+    (NaN where it has none), verdict, whether it stopped on a search limit (side, limit) or
+    was fixed, and its Monte Carlo range (NaN without one)."""
+
+    lower: float = np.nan
+    upper: float = np.nan
+    verdict: str = ""
+    at_bound: bool = False
+    bound_side: str = ""
+    bound_limit: float = np.nan
+    fixed: bool = False
+    mc_lower: float = np.nan
+    mc_upper: float = np.nan
+    mc_lower_at_limit: bool = False
+    mc_upper_at_limit: bool = False
+
+    @property
+    def undetermined(self) -> bool:
+        return not self.at_bound and not self.fixed and self.verdict.startswith("not")
+
+
+def _si(v) -> float:
+    return np.nan if v is None else float(v)
+
+
+def doubt_of_row(row, m: str, k: str, r: ResultFile | None = None) -> Doubt | None:
+    """The :class:`Doubt` of constant ``k`` of material ``m`` from the summary row's own
+    columns (summary.json, long summary.csv); from the result file ``r`` only when the row has
+    none (a wide summary.csv); None when neither says anything."""
+    e = (row.get("intervals") or {}).get(m, {}).get(k)
+    if e is not None:
+        verdict = str(e.get("verdict") or "")
+        return Doubt(
+            lower=_si(e.get("lower")), upper=_si(e.get("upper")), verdict=verdict,
+            at_bound=bool(e.get("at_bound")) or verdict.startswith("at bound"),
+            bound_side=str(e.get("bound_side") or ""), bound_limit=_si(e.get("bound_limit")),
+            fixed=verdict == "fixed", mc_lower=_si(e.get("mc_lower")),
+            mc_upper=_si(e.get("mc_upper")),
+            mc_lower_at_limit=bool(e.get("mc_lower_at_limit")),
+            mc_upper_at_limit=bool(e.get("mc_upper_at_limit")))
+    if r is None or m not in r.materials:
+        return None
+    if fixed_words(r, m, k) is not None:
+        return Doubt(verdict="fixed", fixed=True)
+    iv = r.uncertainty.get(m, k) if r.uncertainty is not None else None
+    if iv is None:
+        return None
+    d = Doubt(iv.lower, iv.upper, iv.verdict, iv.at_bound, iv.bound_side, iv.bound_limit)
+    rng = monte_carlo_range(r.uncertainty, iv)
+    if rng is not None:
+        d.mc_lower, d.mc_upper = rng.lower, rng.upper
+        d.mc_lower_at_limit, d.mc_upper_at_limit = rng.lower_at_limit, rng.upper_at_limit
+    return d
+
+
 def _row_check(row, r) -> str:
     """"" when the specimen's result is ok, else its status with the reason codes ("check:
-    at_bound, undetermined"; "failed: ..." for a specimen without a result)."""
-    if r is not None and r.status is not None:
+    at_bound, undetermined"; "failed: ..." for a specimen without a result): the summary's
+    own status, the result file's only for a row without one."""
+    if not row.get("status") and r is not None and r.status is not None:
         if r.status.status == "ok":
             return ""
         return f"{r.status.status}: {', '.join(x.code for x in r.status.reasons)}"
@@ -1041,24 +1322,78 @@ def specimen_labels(rows) -> list[str]:
     return [n if names.count(n) == 1 else str(row["name"]) for n, row in zip(names, rows)]
 
 
+MC_COLOR = "0.62"
+
+
+def _across_point(ax, k, xi, v, d: Doubt | None, color, tag):
+    """One specimen's constant on a panel of the page across specimens; returns what it draws
+    by kind ("identified", "undetermined", "at bound", "fixed", "no interval")."""
+    if d is not None and d.fixed:
+        ax.plot([xi], [v], "s", ms=6, color=FIXED_COLOR, mfc="w", mew=1.3, gid=f"fixed-{tag}")
+        return "fixed"
+    if d is not None and d.at_bound:
+        ax.plot([xi], [v], "^" if d.bound_side == "upper" else "v", ms=7, color=color, mfc="w",
+                mew=1.3, gid=f"at-bound-{tag}")
+        return "at bound"
+    if d is None or (np.isnan(d.lower) and np.isnan(d.upper)):
+        ax.plot([xi], [v], "d", ms=6, color=color, mfc="w", mew=1.0, gid=f"value-{tag}")
+        return "no interval"
+    ax.plot([xi], [v], "o", ms=6, color=color, mfc="w" if d.undetermined else color,
+            gid=f"value-{tag}")
+    if d.undetermined:
+        ax.annotate("?", (xi, v), xytext=(4, 2), textcoords="offset points", fontsize=9,
+                    color=color, weight="bold")
+        return "undetermined"
+    return "identified"
+
+
+def _clipped_bar(ax, k, xi, lo, hi, ymin, ymax, color, *, lw, gid, marks=(False, False),
+                 arrow=True):
+    """A vertical bar lo..hi (display unit) clipped to the panel, with an arrow where it runs
+    off and a "*" at an end set on a search limit (``marks``: lower, upper)."""
+    a, b = max(lo, ymin) if np.isfinite(lo) else ymin, min(hi, ymax) if np.isfinite(hi) else ymax
+    if a > b:
+        return
+    ax.plot([xi, xi], [a, b], "-", color=color, lw=lw, alpha=0.85, gid=gid,
+            solid_capstyle="butt")
+    span = ymax - ymin
+    for end, edge, up in ((hi, ymax, True), (lo, ymin, False)):
+        if arrow and (not np.isfinite(end) or (end > ymax if up else end < ymin)):
+            ax.annotate("", (xi, edge), xytext=(xi, edge - (0.07 if up else -0.07) * span),
+                        arrowprops=dict(arrowstyle="-|>", color=color, lw=1))
+    for end, mark, up in ((lo, marks[0], False), (hi, marks[1], True)):
+        if mark:
+            y = min(max(end, ymin), ymax)
+            ax.annotate("*", (xi, y), xytext=(2, -6 if up else 0), textcoords="offset points",
+                        fontsize=9, color=color, weight="bold", gid=f"{gid}-search-limit")
+
+
 def constants_across_page(done, title: str):
     """One panel per constant: each specimen on the x axis, the materials of one specimen side
-    by side, with interval, reference value, and undetermined values hollow."""
+    by side, each with the doubt the summary gives it: interval bar, hollow "?" when not
+    determined, a triangle when it stopped on a search limit (no interval), a grey square when
+    fixed, the Monte Carlo range in grey beside the interval; reference values from the result
+    files where found."""
+    from matplotlib.legend_handler import HandlerTuple
+    from matplotlib.lines import Line2D
+
     materials: list[str] = []
     for _, mats, _ in done:
         materials += [m for m in mats if m not in materials]
     fig = _figure()
     fig.suptitle(f"{title}: identified constants across specimens", fontsize=11)
-    gs = fig.add_gridspec(3, 3, height_ratios=[1, 1, 0.14])
+    gs = fig.add_gridspec(3, 3, height_ratios=[1, 1, 0.2])
     axes = np.array([fig.add_subplot(gs[i, j]) for i in range(2) for j in range(3)])
     names = specimen_labels([row for row, _, _ in done])
     x = np.arange(len(done))
     nm = len(materials)
-    offsets = {m: (c - (nm - 1) / 2) * min(0.22, 0.7 / max(nm, 1)) for c, m in
-               enumerate(materials)}
+    width = min(0.22, 0.7 / max(nm, 1))
+    offsets = {m: (c - (nm - 1) / 2) * width for c, m in enumerate(materials)}
+    kinds: set[str] = set()
+    has_mc = has_mc_limit = has_ref = False
     for ax, k in zip(axes, CONSTANTS):
         ax.set_gid(f"across-{k}")
-        vals, ends, arrows = [], [], []
+        vals, ends, bars = [], [], []
         for c, m in enumerate(materials):
             color = f"C{c % 10}"
             for i, (name, (row, mats, r)) in enumerate(zip(names, done)):
@@ -1066,22 +1401,23 @@ def constants_across_page(done, title: str):
                     continue
                 v = _gpa(k, mats[m][k])
                 xi = i + offsets[m]
-                iv = r.uncertainty.get(m, k) if r is not None and r.uncertainty else None
-                undetermined = iv is not None and (iv.at_bound or iv.verdict.startswith(
-                    ("not", "at bound")))
+                d = doubt_of_row(row, m, k, r)
+                kinds.add(_across_point(ax, k, xi, v, d, color, f"{name}-{m}"))
                 vals.append(v)
-                if iv is not None:
-                    lo, hi = _gpa(k, iv.lower), _gpa(k, iv.upper)
-                    if not undetermined and abs(hi - lo) < abs(v):
+                if d is not None and not d.fixed and not d.at_bound and np.isfinite(d.lower):
+                    lo, hi = _gpa(k, d.lower), _gpa(k, d.upper)
+                    if not d.undetermined and abs(hi - lo) < abs(v):
                         ends += [lo, hi]
-                    arrows.append((xi, v, lo, hi, color))
-                ax.plot([xi], [v], "o", ms=6, color=color, mfc="w" if undetermined else color,
-                        gid=f"value-{name}-{m}")
-                if undetermined:
-                    ax.annotate("?", (xi, v), xytext=(4, 2), textcoords="offset points",
-                                fontsize=9, color=color, weight="bold")
+                    bars.append((xi, lo, hi, color, 1.2, "interval", (False, False)))
+                if d is not None and np.isfinite(d.mc_lower) and np.isfinite(d.mc_upper):
+                    has_mc = True
+                    marks = (d.mc_lower_at_limit, d.mc_upper_at_limit)
+                    has_mc_limit |= any(marks)
+                    bars.append((xi + 0.4 * width, _gpa(k, d.mc_lower), _gpa(k, d.mc_upper),
+                                 MC_COLOR, 2.2, "monte-carlo", marks))
                 ref = r.reference.get(m, {}).get(k) if r is not None else None
                 if ref is not None:
+                    has_ref = True
                     ax.plot([xi], [_gpa(k, ref)], "_", ms=14, mew=2.2, color="k",
                             gid=f"reference-{name}-{m}")
                     vals.append(_gpa(k, ref))
@@ -1092,41 +1428,57 @@ def constants_across_page(done, title: str):
             if k != "nu12" and ymin < 0 <= lo:
                 ymin = 0.0
             ax.set_ylim(ymin, ymax)
-            for xi, v, elo, ehi, color in arrows:
-                a, b = max(elo, ymin), min(ehi, ymax)
-                if np.isfinite(a) and np.isfinite(b):
-                    ax.plot([xi, xi], [a, b], "-", color=color, lw=1.2, alpha=0.8,
-                            gid="interval")
-                span = ymax - ymin
-                if np.isfinite(ehi) and ehi > ymax:
-                    ax.annotate("", (xi, ymax), xytext=(xi, ymax - 0.07 * span),
-                                arrowprops=dict(arrowstyle="-|>", color=color, lw=1))
-                if np.isfinite(elo) and elo < ymin:
-                    ax.annotate("", (xi, ymin), xytext=(xi, ymin + 0.07 * span),
-                                arrowprops=dict(arrowstyle="-|>", color=color, lw=1))
+            for xi, blo, bhi, color, lw, gid, marks in bars:
+                _clipped_bar(ax, k, xi, blo, bhi, ymin, ymax, color, lw=lw, gid=gid,
+                             marks=marks)
         ax.set_title(f"{k} ({_unit(k)})", fontsize=10)
         ax.set_xticks(x, names, rotation=45, ha="right", fontsize=7)
         ax.set_xlim(-0.6, len(done) - 0.4)
         ax.grid(axis="y", lw=0.3)
         ax.tick_params(axis="y", labelsize=7)
-    from matplotlib.lines import Line2D
-
     handles = {m: Line2D([], [], ls="none", marker="o", ms=6, color=f"C{c % 10}")
                for c, m in enumerate(materials)}
-    handles["reference value"] = Line2D([], [], ls="none", marker="_", ms=14, mew=2.2,
-                                        color="k")
-    handles["not determined / at bound"] = Line2D([], [], ls="none", marker="o", ms=6,
-                                                  color="0.4", mfc="w")
+    grey = "0.3"
+    marks = {
+        "identified": (Line2D([], [], ls="-", marker="o", ms=6, color=grey, lw=1.2),
+                       "identified, with its confidence interval"),
+        "undetermined": (Line2D([], [], ls="none", marker="o", ms=6, color=grey, mfc="w"),
+                         "?: not determined (interval too wide)"),
+        "at bound": ((Line2D([], [], ls="none", marker="v", ms=7, color=grey, mfc="w"),
+                      Line2D([], [], ls="none", marker="^", ms=7, color=grey, mfc="w")),
+                     "stopped on a lower / upper search limit: not identified, no interval"),
+        "fixed": (Line2D([], [], ls="none", marker="s", ms=6, color=FIXED_COLOR, mfc="w"),
+                  "fixed at its initial value: not identified"),
+        "no interval": (Line2D([], [], ls="none", marker="d", ms=6, color=grey, mfc="w"),
+                        "no interval in this summary (wide CSV, result file not found)")}
+    for kind in ("identified", "undetermined", "at bound", "fixed", "no interval"):
+        if kind in kinds:
+            h, text = marks[kind]
+            handles[text] = h
+    if has_mc:
+        handles["Monte Carlo range" + (" (*: end set by trials on a search limit)"
+                                       if has_mc_limit else "")] = Line2D([], [], color=MC_COLOR,
+                                                                          lw=2.2)
+    if has_ref:
+        handles["reference value"] = Line2D([], [], ls="none", marker="_", ms=14, mew=2.2,
+                                            color="k")
     ax_leg = fig.add_subplot(gs[2, :])                 # a row of its own: clear of the panels
     ax_leg.axis("off")
     ax_leg.legend(list(handles.values()), list(handles), loc="center",
-               ncol=min(len(handles), 7), fontsize=8,
-               title="bars: confidence interval of the result file (arrow: runs off the "
-                     "panel); ?: not determined or at a bound", title_fontsize=8)
+                  ncol=min(len(handles), 3 if len(handles) > 6 else 4), fontsize=8,
+                  handler_map={tuple: HandlerTuple(ndivide=None)},
+                  title="colour: material; bars: confidence interval of the summary (arrow: "
+                        "runs off the panel)", title_fontsize=8)
+    notes = []
     checks = [f"{name}: {w}" for name, (row, _, r) in zip(names, done)
               if (w := _row_check(row, r))]
     if checks:
-        _footer(fig, "status not ok — " + "; ".join(checks), color="#b35900")
+        notes.append("status not ok — " + "; ".join(checks))
+    missing = [name for name, (row, _, r) in zip(names, done) if r is None]
+    if missing:
+        notes.append("result file not found (no reference values): " + ", ".join(missing))
+    if notes:
+        _footer(fig, "\n".join(notes), color="#b35900")
     return fig
 
 

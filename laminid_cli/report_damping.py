@@ -44,9 +44,38 @@ def read_damping(result) -> dict | None:
 
 
 def damping_figures(result) -> list[tuple[str, object]]:
-    """[("damping", Figure)] for a result (path or ResultFile) with /damping, else []."""
-    d = read_damping(result)
-    return [] if d is None else [("damping", damping_page(d))]
+    """[("damping", Figure)] for a result (path or ResultFile) with /damping, else []; the
+    page ends with the result's status line, as every other page of the report."""
+    from laminid_cli.report import _status_banner
+    from laminid_cli.resultfile import ResultFile, read_result
+
+    r = result if isinstance(result, ResultFile) else read_result(result)
+    d = read_damping(r)
+    if d is None:
+        return []
+    fig = damping_page(d)
+    _status_banner(fig, r)
+    return [("damping", fig)]
+
+
+def loss_factor_rows(d: dict) -> list[list[str]]:
+    """Rows of the loss-factor table (strings as drawn, %): label, value, interval, verdict
+    in a few words (the advice is under the table). A loss factor held at 0 by eta >= 0
+    keeps its one-sided interval 0 .. upper; a fixed one has none."""
+    from laminid_cli.report import short_verdict
+
+    rows = []
+    for k, lab in enumerate(d["labels"]):
+        lo = 0.0 if d["at_bound"][k] else 100 * d["lower"][k]
+        interval = f"[{lo:.3g}, {100 * d['upper'][k]:.3g}]"
+        verdict = ("held at 0 by η ≥ 0: not identified" if d["at_bound"][k]
+                   else short_verdict(d["verdict"][k]))
+        rows.append([lab, f"{100 * d['value'][k]:.3f}", interval, verdict])
+    for item in filter(None, str(d.get("fixed", "")).split(",")):
+        lab, value = item.rsplit("=", 1)
+        rows.append([lab, f"{100 * float(value):.3f}", "none — fixed",
+                     "fixed at the value given (not identified)"])
+    return rows
 
 
 def damping_page(d: dict):
@@ -114,28 +143,28 @@ def damping_page(d: dict):
     # table of loss factors
     ax_t.axis("off")
     conf = float(d.get("confidence", 0.95)) * 100
-    rows = []
-    for k, lab in enumerate(d["labels"]):
-        if d["at_bound"][k]:
-            interval = f"\u2264 {100 * d['upper'][k]:.3g}"
-        else:
-            interval = f"[{100 * d['lower'][k]:.3g}, {100 * d['upper'][k]:.3g}]"
-        rows.append([lab, f"{100 * d['value'][k]:.3f}", interval, d["verdict"][k]])
-    for item in filter(None, str(d.get("fixed", "")).split(",")):
-        lab, value = item.rsplit("=", 1)
-        rows.append([lab, f"{100 * float(value):.3f}", "—", "fixed"])
+    rows = loss_factor_rows(d)
     table = ax_t.table(cellText=rows, colLabels=["loss factor", "value (%)",
                                                  f"{conf:.0f} % interval (%)", "verdict"],
                        loc="upper center", cellLoc="center", colLoc="center",
-                       colWidths=[0.3, 0.14, 0.2, 0.36])
+                       colWidths=[0.28, 0.14, 0.22, 0.36])
     ax_t.set_gid("loss-factors")
     table.auto_set_font_size(False)
     table.set_fontsize(8)
-    for (i, _), cell in table.get_celld().items():    # the look of the other report tables
+    from laminid_cli.report import _verdict_color
+
+    for (i, j), cell in table.get_celld().items():    # the look of the other report tables
         cell.set_linewidth(0.3)
         if i == 0:
             cell.set_text_props(weight="bold")
             cell.set_facecolor("0.92")
+        elif j == 3:
+            cell.set_facecolor(_verdict_color(rows[i - 1][3].replace("held at 0", "at bound")))
+    if any(row[3].startswith("not determined") for row in rows):
+        ax_t.text(0.5, 0.0, "not determined: the measured damping does not pin this loss factor "
+                  "down — fix it (--fix eta13=0.01 ...) or measure more modes / a thicker plate",
+                  transform=ax_t.transAxes, ha="center", va="bottom", fontsize=8,
+                  gid="loss-factor-note")
     s2 = float(d.get("s2", np.nan))
     ax_t.set_title(f"ply loss factors, modal strain energy method (s\u00b2 = {s2:.3g}, "
                    f"{int(d.get('dof', 0))} degrees of freedom; damping sigma: "

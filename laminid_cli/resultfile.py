@@ -75,6 +75,14 @@ class Uncertainty:
     intervals: tuple[Interval, ...]
     notes: str = ""
     monte_carlo: dict | None = None      # {"lower", "upper", "mean", "std", ...} arrays
+    #: labels ("material.constant") held at their initial value: by ``--fix`` or by
+    #: ``--fix-undetermined`` (attribute ``fixed``; () in files that did not write it)
+    fixed: tuple[str, ...] = ()
+    #: the labels ``--fix-undetermined`` fixed because the first run left them undetermined
+    #: (attribute ``fixed_undetermined``), with that run's assessment of every constant in
+    #: ``before_fixing`` ({label: (relative half-width, verdict)}; /uncertainty/before_fixing)
+    fixed_undetermined: tuple[str, ...] = ()
+    before_fixing: dict = field(default_factory=dict)
 
     def get(self, material: str, constant: str) -> Interval | None:
         return next((iv for iv in self.intervals
@@ -321,45 +329,48 @@ def _plate(g, name: str | None = None) -> Plate:
         reference_global=parse_global_reference(yaml_text))
 
 
-_BOUND_STATEMENT = re.compile(r"(?:nu12|E1|E2|G12|G13|G23)\s*(<=|>=)\s*(.*)$")
-#: the statement since stop 29: "stopped on the search's lower limit, G13 = 0.0001 E1 (...)"
-_BOUND_LIMIT = re.compile(r"search's (lower|upper) limit, (nu12|E1|E2|G12|G13|G23) = (.*)$")
+#: the statement of a constant at a bound: files before stop 29 wrote it as an inequality
+#: ("G13 <= 0.0001 E1 (0.0154 GPa)", "nu12 >= 0.95"), later ones name the limit ("stopped on
+#: the search's lower limit, G13 = 0.0001 E1 (0.0154 GPa at the optimum)")
+_BOUND_OLD = re.compile(r"(nu12|E1|E2|G12|G13|G23)\s*(<=|>=)\s*(.*)$")
+_BOUND_NEW = re.compile(r"stopped on the search's (lower|upper) limit, "
+                        r"(nu12|E1|E2|G12|G13|G23)\s*=\s*(.*)$")
 
 
 def _bound_parts(text: str) -> tuple[str, str, str]:
-    """(side, constant, the limit as written) of a ``bound_text``, ("", "", "") if neither
-    form."""
-    if not text:
-        return "", "", ""
-    m = _BOUND_LIMIT.search(text)
+    """(side, constant, the limit as written) of a ``bound_text``, ("", "", "") when it says
+    neither form."""
+    tail = text.rsplit(": ", 1)[-1] if text else ""
+    m = _BOUND_NEW.search(tail)
     if m is not None:
-        return m.group(1), m.group(2), m.group(3)
-    tail = text.rsplit(": ", 1)[-1]
-    m = _BOUND_STATEMENT.search(tail)
-    if m is None:
-        return "", "", ""
-    return ("lower" if m.group(1) == "<=" else "upper"), tail.split()[0], m.group(2)
+        return m.group(1), m.group(2), m.group(3).strip()
+    m = _BOUND_OLD.search(tail)
+    if m is not None:
+        k, op, rest = m.groups()
+        return ("lower" if op == "<=" else "upper"), k, rest.strip()
+    return "", "", ""
 
 
 def bound_statement(text: str) -> tuple[str, str]:
-    """(side, statement) of a ``bound_text``: "at its bound — not identified: stopped on the
-    search's lower limit, G13 = 0.0001 E1 (0.00286 GPa at the optimum)" -> ("lower", "lower
-    limit 0.0001 E1 (0.00286 GPa at the optimum)"); files before stop 29 wrote "... G13 <=
-    0.0001 E1 (0.00286 GPa)", read the same way. Side "lower": the fit would take the constant
-    below its limit, "upper" above it; "" when the text says neither."""
+    """(side, limit) of a ``bound_text``: side "lower" when the data push the constant below
+    the search's limit, "upper" above it, "" when the text says neither; the limit as the
+    text writes it, without the constant or an inequality sign. Both forms:
+    "at its bound — not identified: G13 <= 0.0001 E1 (0.00286 GPa)" (files before stop 29)
+    and "... stopped on the search's lower limit, G13 = 0.0001 E1 (0.00286 GPa at the
+    optimum)" both give ("lower", "0.0001 E1 (0.00286 GPa...)")."""
     side, _, limit = _bound_parts(text)
-    return (side, f"{side} limit {limit}") if side else ("", "")
+    return side, limit
 
 
 def bound_from_text(text: str) -> tuple[str, float]:
-    """(side, limit SI) of a constant at its bound from its statement, for files written before
-    /uncertainty held them as data (bound_side, bound_limit): "... G13 <= 0.0001 E1 (0.0154
-    GPa)" -> ("lower", 1.54e7); "nu12 >= 0.95" -> ("upper", 0.95); ("", NaN) when the text
-    says neither."""
-    side, name, rest = _bound_parts(text)
+    """(side, limit SI) of a constant at its bound from its statement (either form of
+    :func:`bound_statement`), for files written before /uncertainty held them as data
+    (bound_side, bound_limit): "... G13 <= 0.0001 E1 (0.0154 GPa)" -> ("lower", 1.54e7);
+    "nu12 >= 0.95" -> ("upper", 0.95); ("", NaN) when the text says neither."""
+    side, k, rest = _bound_parts(text)
     if not side:
         return "", np.nan
-    if name == "nu12":
+    if k == "nu12":
         num = re.match(r"[-+0-9.eE]+", rest)
         return side, float(num.group()) if num else np.nan
     gpa = re.search(r"\(([-+0-9.eE]+) GPa[^)]*\)", rest)
@@ -410,7 +421,25 @@ def _uncertainty(f) -> Uncertainty | None:
         dof=float(a.get("dof", np.nan)), condition_number=float(a.get("condition_number", np.nan)),
         sigma_source=str(a.get("sigma_source", "")),
         well_determined=float(a.get("well_determined", 0.05)), weak=float(a.get("weak", 0.30)),
-        intervals=tuple(intervals), notes=str(a.get("notes", "")), monte_carlo=mc)
+        intervals=tuple(intervals), notes=str(a.get("notes", "")), monte_carlo=mc,
+        fixed=_label_list(a.get("fixed")), fixed_undetermined=_label_list(
+            a.get("fixed_undetermined")), before_fixing=_before_fixing(u))
+
+
+def _label_list(text) -> tuple[str, ...]:
+    return tuple(x for x in str(text or "").split(",") if x)
+
+
+def _before_fixing(u) -> dict:
+    """{label: (relative half-width, verdict)} of /uncertainty/before_fixing, {} without it."""
+    if "before_fixing" not in u:
+        return {}
+    b = u["before_fixing"]
+    labels = _strings(b["labels"]) if "labels" in b else ()
+    rel = np.ravel(b["rel_half_width"][()]) if "rel_half_width" in b else np.full(len(labels),
+                                                                                   np.nan)
+    verdict = _strings(b["verdict"]) if "verdict" in b else ("",) * len(labels)
+    return {lab: (float(rel[k]), verdict[k]) for k, lab in enumerate(labels)}
 
 
 def _status(f) -> tuple[Status | None, str]:

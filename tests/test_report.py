@@ -67,6 +67,14 @@ def joint(tmp_path_factory):
     return out
 
 
+def status_text(fig):
+    """The one status text of a page (the page's own text, or in an axes of its own)."""
+    found = [t for t in list(fig.texts) + [t for a in fig.axes for t in a.texts]
+             if t.get_gid() == "status"]
+    assert len(found) == 1
+    return found[0]
+
+
 def n_pdf_pages(path) -> int:
     return len(re.findall(rb"/Type\s*/Page\b(?!s)", path.read_bytes()))
 
@@ -139,11 +147,14 @@ def test_summary_page_tables_and_residuals_read_back(checked, tmp_path):
         assert lo < float(rows[k][1]) < hi
         assert rows[k][3] == short_verdict(iv.verdict)
     assert u.get(MAT, "E1").scale == "log"             # asymmetric: exp(-/+ q std/v)
-    assert rows["G23"][3] == "at bound, not identified" and rows["G23"][2] == "≤ 0.01600"
+    # at its bound: no interval (the value column is the limit it stopped on)
+    assert rows["G23"][3] == "at bound, not identified"
+    assert rows["G23"][2] == "none — on lower search limit"
+    assert rows["G23"][1] == fmt_value("G23", res.materials[MAT]["G23"])
     assert rows["E1"][5] == f"170.0 ({round((res.materials[MAT]['E1'] / 170e9 - 1) * 100):+d} %)"
     assert rows["G13"][5] == ""                         # no reference value for G13
     # status line with the reasons
-    status = next(t for t in fig.texts if t.get_gid() == "status").get_text()
+    status = status_text(fig).get_text()
     assert status.startswith("status: CHECK") and "[at_bound]" in status \
         and "G13 not determined" in status.replace("\n", " ")
     write_pages([p for p in report_pages(checked) if p.name == "summary"], tmp_path / "s.png")
@@ -177,17 +188,22 @@ def test_interval_panels_each_in_their_unit_with_reference_and_arrows(checked):
         refs = [ln for ln in a.get_lines() if ln.get_gid() == "reference"]
         assert (len(refs) == 1 and refs[0].get_ydata()[0] == ref / scale) if ref else not refs
         assert a.get_title() == f"{k} ({'–' if k == 'nu12' else 'GPa'})"
-    # G23 at its bound: no interval, a one-sided arrow from the value down to 0 and the limit
+    # G23 at its bound: no interval, no verdict band, a dashed arrow from the value down to 0
+    # (the way the fit pushes it), the limit drawn as a hollow triangle pointing down
     a = ax(fig, f"interval-{MAT}.G23")
-    assert not [ln for ln in a.get_lines() if ln.get_gid() in ("interval", "interval-caps")]
+    assert not [ln for ln in a.get_lines() if ln.get_gid() in ("interval", "interval-caps",
+                                                               "value")]
+    assert not a.patches                               # the verdict bands have zero height
     assert a.get_ylim()[0] == 0.0
     arrow = next(t for t in a.texts if t.get_gid() == "one-sided")
     g23 = res.materials[MAT]["G23"] / 1e9
     assert arrow.xyann == (0.0, g23) and arrow.xy == (0.0, 0.0)
     stmt = next(t for t in a.texts if t.get_gid() == "bound-statement").get_text()
-    assert stmt.replace("\n", " ") == "lower limit 0.0001 E1 (0.0160 GPa at the optimum)"
-    assert next(ln for ln in a.get_lines() if ln.get_gid() == "value").get_markerfacecolor() \
-        == "w"
+    assert stmt.replace("\n", " ") == "stopped on the lower search limit: no interval"
+    mark = next(ln for ln in a.get_lines() if ln.get_gid() == "at-bound")
+    assert mark.get_marker() == "v" and mark.get_markerfacecolor() == "w"
+    assert mark.get_ydata()[0] == g23
+    assert a.get_xlabel() == f"{g23:#.4g}\non lower search limit:\nnot identified"
     # E1 (well determined) is not squashed by G23's (undetermined) interval: its panel spans
     # a few tens of % of its value, not the width of G23's interval
     lo, hi = ax(fig, f"interval-{MAT}.E1").get_ylim()
@@ -201,19 +217,28 @@ def test_at_bound_cell_from_the_limit_and_from_an_older_files_statement(checked,
     import dataclasses
 
     iv = read_result(checked).uncertainty.get(MAT, "G23")
-    assert iv.bound_limit == 0.0160e9 and interval_text("G23", iv) == "≤ 0.01600"
+    # no "≤ 0.01600": a constant at its bound has no interval, and the limit is no
+    # confidence bound (a Monte Carlo of such a result has trials far above it)
+    assert iv.bound_limit == 0.0160e9
+    assert interval_text("G23", iv) == "none — on lower search limit"
     old = tmp_path / "old.result.h5"
     shutil.copy(checked, old)
     drop_bound_data(old)
     o = read_result(old).uncertainty.get(MAT, "G23")
     assert (o.bound_side, o.bound_limit) == ("lower", pytest.approx(0.0160e9, rel=1e-12))
-    assert interval_text("G23", o) == "≤ 0.01600"
+    assert interval_text("G23", o) == "none — on lower search limit"
     up = dataclasses.replace(iv, constant="nu12", bound_side="upper", bound_limit=0.95,
                              bound_text="at its bound — not identified: nu12 >= 0.95")
-    assert interval_text("nu12", up) == "≥ 0.950"
-    # without a usable limit (a hand-edited file): the statement, never an empty cell
-    blank = dataclasses.replace(o, bound_side="", bound_limit=np.nan)
-    assert interval_text("G23", blank) == "lower limit 0.0001 E1 (0.0160 GPa at the optimum)"
+    assert interval_text("nu12", up) == "none — on upper search limit"
+    # the side comes from the data, not the words: a bound_text in the new form, or none
+    new = dataclasses.replace(up, bound_side="", bound_text="at its bound — not identified: "
+                              "stopped on the search's upper limit, nu12 = 0.95")
+    assert interval_text("nu12", new) == "none — on upper search limit"
+    assert interval_text("nu12", dataclasses.replace(up, bound_text="")) == \
+        "none — on upper search limit"
+    # neither side nor a readable statement (a hand-edited file): still no interval
+    blank = dataclasses.replace(o, bound_side="", bound_text="", bound_limit=np.nan)
+    assert interval_text("G23", blank) == "none — on a search limit"
 
 
 def test_mode_shapes_with_mac_against_the_initial_model(batch_dir, tmp_path):
@@ -298,7 +323,7 @@ def test_version_1_file_says_status_not_recorded(batch_dir, tmp_path):
     pages = {p.name: p.figure for p in report_pages(path)}
     assert list(pages) == ["summary", "intervals", "modes-1", "history", "sensitivities"]
     for name in ("summary", "intervals"):
-        status = next(t for t in pages[name].texts if t.get_gid() == "status").get_text()
+        status = status_text(pages[name]).get_text()
         assert status.startswith("status not recorded (schema version 1 file); optimizer: "
                                   "converged")
     legend = ax(pages["intervals"], None).get_legend().get_title().get_text()
@@ -631,3 +656,327 @@ def test_legends_clear_of_the_lines(checked, batch_dir):
     for a in fig.axes:
         if (a.get_gid() or "").startswith("across-"):
             assert _no_overlap(fig, a, leg)
+
+
+@pytest.fixture(scope="module")
+def fixed_undetermined(tmp_path_factory):
+    """S1.1 (6x6) with --fix-undetermined: G13, G23, nu12 undetermined in the first run and
+    fixed, E2 and G12 fixed in a later round; E1 the one constant identified."""
+    out = tmp_path_factory.mktemp("fixu") / "f.result.h5"
+    r = run("identify", S11, "--mesh", "6x6", "--fix-undetermined", "-o", out)
+    assert r.exit_code == 0, r.output
+    return out
+
+
+def test_fixed_constants_are_not_drawn_as_identified(fixed_undetermined):
+    """A constant fixed by --fix-undetermined says so and why (the first run's half-width),
+    has no interval, no verdict band and no "% against the reference"; on the interval page
+    a hollow grey square, never the black "identified" dot; the history names it instead of
+    leaving an empty panel."""
+    res = read_result(fixed_undetermined)
+    u = res.uncertainty
+    before = {lab.rsplit(".", 1)[1]: rel for lab, (rel, _) in u.before_fixing.items()}
+    pages = {p.name: p.figure for p in report_pages(fixed_undetermined)}
+    rows = {row[0].split(" ")[0]: row for row in cells(ax(pages["summary"], "constants"))[1:]}
+    for k in ("G13", "G23", "nu12"):
+        assert rows[k][1] == fmt_value(k, res.initial[MAT][k]) == rows[k][4]
+        assert rows[k][2] == "none — not identified"
+        assert rows[k][3] == ("fixed because undetermined\n(half-width was "
+                              f"±{100 * before[k]:.0f} %)")
+    assert before["G13"] > 0.3 and before["E2"] < 0.3          # E2: weak in the first run
+    assert rows["E2"][3] == (f"fixed because undetermined in a later run\n(first run "
+                             f"±{100 * before['E2']:.0f} %)")
+    assert rows["nu12"][5] == "0.350\n(not compared: fixed)"
+    e1 = res.materials[MAT]["E1"]
+    assert rows["E1"][5] == f"170.0 ({round((e1 / 170e9 - 1) * 100):+d} %)"
+    assert rows["E1"][3] == short_verdict(u.get(MAT, "E1").verdict)
+    notes = " ".join(t.get_text() for a in pages["summary"].axes for t in a.texts)
+    assert "fixed: held at its initial value, not identified" in notes.replace("\n", " ")
+    fig = pages["intervals"]
+    for k in ("E2", "G12", "G13", "G23", "nu12"):
+        a = ax(fig, f"interval-{MAT}.{k}")
+        gids = [ln.get_gid() for ln in a.get_lines()]
+        assert "value" not in gids and "interval" not in gids and not a.patches
+        mark = next(ln for ln in a.get_lines() if ln.get_gid() == "fixed")
+        assert mark.get_marker() == "s" and mark.get_markerfacecolor() == "w"
+        assert mark.get_ydata()[0] == pytest.approx(_gpa_(k, res.materials[MAT][k]))
+        assert "fixed because undetermined" in a.get_xlabel().replace("\n", " ")
+    assert [ln.get_gid() for ln in ax(fig, f"interval-{MAT}.E1").get_lines()
+            if ln.get_gid() == "value"] == ["value"]
+    legend = [t.get_text() for a in fig.axes if a.get_legend() is not None
+              for t in a.get_legend().get_texts()]
+    assert "fixed because undetermined (not identified)" in legend
+    assert "not determined (interval too wide)" not in legend        # none is drawn
+    hist = pages["history"]
+    note = next(t for a in hist.axes for t in a.texts if t.get_gid() == "fixed-note")
+    assert note.get_text() == "fixed, not identified: nu12 = 0.350"
+    titles = [a.get_legend().get_title().get_text() for a in hist.axes
+              if a.get_legend() is not None]
+    assert "fixed, not identified:\nE2, G12, G13, G23" in titles
+
+
+def _gpa_(k, v):
+    return v if k == "nu12" else v / 1e9
+
+
+def test_constants_fixed_by_fix_say_so(damped):
+    """--fix nu12,G13,G23: "fixed at its initial value (not identified)" in the table and in
+    the interval page's legend."""
+    pages = {p.name: p.figure for p in report_pages(damped)}
+    mat = "E-glass/R368"
+    rows = {row[0].split(" ")[0]: row for row in cells(ax(pages["summary"], "constants"))[1:]}
+    for k in ("nu12", "G13", "G23"):
+        assert rows[k][3] == "fixed at its initial value\n(not identified)"
+        assert rows[k][2] == "none — not identified"
+    legend = [t.get_text() for a in pages["intervals"].axes if a.get_legend() is not None
+              for t in a.get_legend().get_texts()]
+    assert "fixed at its initial value (not identified)" in legend
+    g13 = read_result(damped).materials[mat]["G13"]
+    assert ax(pages["intervals"], f"interval-{mat}.G13").get_xlabel() == \
+        f"{fmt_value('G13', g13)}\nfixed at its initial value\n(not identified)"
+
+
+def test_monte_carlo_numbers_on_the_pages(checked, tmp_path):
+    """A Monte Carlo end beyond the panel gets its value, like the linearised interval's; a
+    verdict the Monte Carlo set gives the range (an end on a search limit starred) and its
+    half-widths, whole and for sure, in the table and under the panel."""
+    path = _with_monte_carlo(checked, tmp_path, inner=True)
+    with h5py.File(path, "r+") as f:
+        u = f["uncertainty"]
+        labels = [x.decode() for x in u["labels"][()]]
+        j13, j2 = labels.index(f"{MAT}.G13"), labels.index(f"{MAT}.E2")
+        mc = u["monte_carlo"]
+        v = u["value"][()]
+        up, lo = mc["upper"][()], mc["lower"][()]
+        up[j13] = 30 * v[j13]                              # far above G13's panel
+        lo[j2] = 0.2 * v[j2]                               # E2: trials down to a limit
+        mc["upper"][...], mc["lower"][...] = up, lo
+        flags = np.zeros(v.size, np.int8)
+        flags[j2] = 1
+        mc.create_dataset("lower_at_bound", data=flags)
+        mc.create_dataset("upper_at_bound", data=np.zeros(v.size, np.int8))
+        verdict = [x.decode() for x in u["verdict"][()]]
+        verdict[j2] = "weak (Monte Carlo)"
+        del u["verdict"]
+        u.create_dataset("verdict", data=np.array(verdict, dtype=object),
+                         dtype=h5py.string_dtype())
+        u.attrs["verdict_from_monte_carlo"] = f"{MAT}.E2"
+    res = read_result(path)
+    pages = {p.name: p.figure for p in report_pages(path)}
+    a = ax(pages["intervals"], f"interval-{MAT}.G13")
+    g13 = res.materials[MAT]["G13"]
+    end = next(t for t in a.texts if t.get_gid() == "monte-carlo-upper-end")
+    assert end.get_text() == f"to\n{fmt_value('G13', 30 * g13)}"
+    assert end.xy[1] == a.get_ylim()[1]
+    e2 = res.materials[MAT]["E2"]
+    iv = res.uncertainty.get(MAT, "E2")
+    whole = round(100 * 0.5 * (1.02 - 0.2))                 # range 0.2 .. 1.02 x the value
+    sure = round(100 * 0.5 * (1.01 - 0.98))                 # inner 0.98 .. 1.01 x
+    rows = {row[0].split(" ")[0]: row for row in cells(ax(pages["summary"], "constants"))[1:]}
+    assert rows["E2"][2] == (f"[{fmt_value('E2', iv.lower)}, {fmt_value('E2', iv.upper)}]\n"
+                             f"Monte Carlo {fmt_value('E2', 0.2 * e2)}*–"
+                             f"{fmt_value('E2', 1.02 * e2)}")
+    assert rows["E2"][3] == f"weak (Monte Carlo\n±{whole} %, ±{sure} % for sure)"
+    label = ax(pages["intervals"], f"interval-{MAT}.E2").get_xlabel().replace("\n", " ")
+    assert label.endswith(f"weak (Monte Carlo ±{whole} %, ±{sure} % for sure)")
+    notes = " ".join(t.get_text() for a in pages["summary"].axes for t in a.texts)
+    assert "*: an end set by trials that stopped on a search limit" in notes.replace("\n", " ")
+
+
+def test_an_interval_without_information_shows_its_ends_in_words(checked):
+    """A modulus interval whose ends are more than 1000 x apart shows both ends and says it
+    carries no information (no "×5e+07" code), and the summary page says what that means."""
+    import dataclasses
+
+    iv = read_result(checked).uncertainty.get(MAT, "E2")
+    wide = dataclasses.replace(iv, lower=1e7, upper=5e14)
+    assert interval_text("E2", wide) == "[0.01000, 5e+05]\nno information"
+    assert interval_text("E2", dataclasses.replace(iv, lower=1e9, upper=9e11)) == \
+        "[1.000, 900.0]"                                   # 900 x apart: an interval
+    assert interval_text("nu12", dataclasses.replace(iv, lower=-0.95, upper=0.95)) == \
+        "[-0.950, 0.950]"
+
+
+def _summary_rows():
+    """Two specimens as `laminid batch` rows (SI): H (glass and carbon, as hybrid CM at 8x8
+    with 40 trials: glass E2 and nu12 on upper limits, glass G12 on a lower one, glass G13
+    fixed, glass G23 with an interval of no information, carbon G12 "weak (Monte Carlo)" with
+    a range down to a search limit) and Q (carbon, all well determined)."""
+    well = "well determined"
+    nd = "not determined by these modes — fix it or measure a thicker plate / more modes"
+
+    def iv(lo, hi, verdict=well, **kw):
+        return {"lower": lo, "upper": hi, "verdict": verdict, "at_bound": False,
+                "bound_side": "", "bound_limit": None, "flagged": verdict == nd} | kw
+
+    def at(side, limit):
+        return {"lower": None, "upper": None, "verdict": "at bound — not identified",
+                "at_bound": True, "bound_side": side, "bound_limit": limit, "flagged": False}
+
+    glass = {"E1": 58.0e9, "E2": 58.47e9, "G12": 5.949e6, "G13": 3.7e9, "G23": 3.0e9,
+             "nu12": 0.95}
+    carbon = {"E1": 87.0e9, "E2": 8.0e9, "G12": 4.864e9, "G13": 3.8e9, "G23": 3.0e9,
+              "nu12": 0.3}
+    h_iv = {"glass": {"E1": iv(55e9, 61e9), "E2": at("upper", 58.47e9),
+                      "G12": at("lower", 5.949e6), "G13": {"verdict": "fixed"},
+                      "G23": iv(1.4e-45, 1.7e63, nd), "nu12": at("upper", 0.95)},
+            "carbon": {k: iv(0.99 * v, 1.01 * v) for k, v in carbon.items()}}
+    h_iv["carbon"]["G12"] = iv(4.786e9, 4.943e9, "weak (Monte Carlo)", mc_lower=1.025e7,
+                               mc_upper=4.894e9, mc_lower_at_limit=True,
+                               mc_upper_at_limit=False)
+    common = {"status": "check", "reasons": [{"code": "at_bound", "text": "..."}],
+              "reason": "at_bound", "converged": True, "cached": False, "path": "",
+              "rms_residual_percent": 0.14, "evaluations": 600, "time_s": 9.0,
+              "result": "H.result.h5", "damping": {}}
+    h = common | {"name": "H", "specimen": "H", "materials": {"glass": glass,
+                                                               "carbon": carbon},
+                  "intervals": h_iv}
+    q = common | {"name": "Q", "specimen": "Q", "status": "ok", "reasons": [], "reason": "",
+                  "materials": {"carbon": carbon}, "result": "Q.result.h5",
+                  "intervals": {"carbon": {k: iv(0.98 * v, 1.02 * v)
+                                           for k, v in carbon.items()}}}
+    return [h, q]
+
+
+def _line(axis, gid):
+    return next(ln for ln in axis.get_lines() if ln.get_gid() == gid)
+
+
+@pytest.mark.parametrize("kind", ["csv", "json"])
+def test_summary_pages_take_the_doubt_from_the_summary_itself(tmp_path, kind):
+    """With no result file next to it, summary.csv (long) or summary.json still gives every
+    constant its doubt: the interval, "?" for not determined, a triangle on the limit for a
+    constant at a bound (never a data dot), a grey square for a fixed one, the Monte Carlo
+    range with its search-limit end starred; the legend tells them apart."""
+    import json
+
+    from laminid_cli.batch import write_summary_csv
+    from laminid_cli.report import FIXED_COLOR
+
+    rows = _summary_rows()
+    path = tmp_path / f"summary.{kind}"
+    if kind == "csv":
+        write_summary_csv(path, rows)
+    else:
+        path.write_text(json.dumps({"format": "laminid-batch-summary", "specimens": rows}))
+    fig = {p.name: p.figure for p in report_pages(path)}["constants"]
+    for k, marker, y in (("E2", "^", 58.47), ("G12", "v", 5.949e-3), ("nu12", "^", 0.95)):
+        a = ax(fig, f"across-{k}")
+        mark = _line(a, "at-bound-H-glass")
+        assert mark.get_marker() == marker and mark.get_markerfacecolor() == "w"
+        assert mark.get_ydata()[0] == pytest.approx(y, rel=1e-12)
+        assert "value-H-glass" not in [ln.get_gid() for ln in a.get_lines()]
+    a = ax(fig, "across-G13")
+    mark = _line(a, "fixed-H-glass")
+    assert mark.get_marker() == "s" and mark.get_color() == FIXED_COLOR
+    assert "value-H-glass" not in [ln.get_gid() for ln in a.get_lines()]
+    a = ax(fig, "across-G23")                               # no information: "?", both arrows
+    assert _line(a, "value-H-glass").get_markerfacecolor() == "w"
+    assert [t.get_text() for t in a.texts].count("?") == 1
+    assert len([t for t in a.texts if t.arrow_patch is not None and not t.get_text()]) == 2
+    a = ax(fig, "across-G12")                       # carbon: identified, Monte Carlo range
+    v = _line(a, "value-H-carbon")
+    assert v.get_markerfacecolor() == v.get_color()                        # filled
+    lo, hi = a.get_ylim()
+    mc = [ln for ln in a.get_lines() if ln.get_gid() == "monte-carlo"]
+    assert len(mc) == 1
+    assert np.allclose(mc[0].get_ydata(), [max(0.01025, lo), 4.894], rtol=1e-12)
+    star = next(t for t in a.texts if t.get_gid() == "monte-carlo-search-limit")
+    assert star.get_text() == "*" and star.xy[1] == pytest.approx(max(0.01025, lo))
+    legend = [t.get_text() for a in fig.axes if a.get_legend() is not None
+              for t in a.get_legend().get_texts()]
+    for text in ("?: not determined (interval too wide)",
+                 "stopped on a lower / upper search limit: not identified, no interval",
+                 "fixed at its initial value: not identified",
+                 "Monte Carlo range (*: end set by trials on a search limit)"):
+        assert text in legend
+    footer = " ".join(t.get_text() for t in fig.texts).replace("\n", " ")
+    assert "result file not found (no reference values): H, Q" in footer
+    assert "H: check: at_bound" in footer and "Q:" not in footer
+
+
+def test_batch_summary_alone_keeps_its_verdicts(batch_dir, tmp_path):
+    """The batch's own summary.csv copied away from its result files: S1.4's G13 is still
+    drawn not determined (hollow, "?") with its interval; a wide CSV alone (no intervals in
+    it) draws its values as "no interval in this summary", and with its result files beside
+    it takes their doubt."""
+    from laminid_cli.batch import read_summary, write_summary_csv
+
+    shutil.copy(batch_dir / "summary.csv", tmp_path / "summary.csv")
+    fig = {p.name: p.figure for p in report_pages(tmp_path / "summary.csv")}["constants"]
+    g = ax(fig, "across-G13")
+    assert _line(g, "value-S1.4-IM7/977-2").get_markerfacecolor() == "w"
+    assert any(t.get_text() == "?" for t in g.texts)
+    assert any(ln.get_gid() == "interval" for ln in g.get_lines())
+    wide = tmp_path / "wide.csv"
+    write_summary_csv(wide, read_summary(batch_dir / "summary.json"), wide=True)
+    fig = {p.name: p.figure for p in report_pages(wide)}["constants"]
+    g = ax(fig, "across-G13")
+    assert _line(g, "value-S1.4-IM7/977-2").get_marker() == "o"        # from the result file
+    assert _line(g, "value-S1.4-IM7/977-2").get_markerfacecolor() == "w"
+    (tmp_path / "x").mkdir()
+    alone = tmp_path / "x" / "wide.csv"
+    shutil.copy(wide, alone)
+    fig = {p.name: p.figure for p in report_pages(alone)}["constants"]
+    g = ax(fig, "across-E1")
+    assert _line(g, "value-S1.4-IM7/977-2").get_marker() == "d"
+    legend = [t.get_text() for a in fig.axes if a.get_legend() is not None
+              for t in a.get_legend().get_texts()]
+    assert "no interval in this summary (wide CSV, result file not found)" in legend
+    assert "identified, with its confidence interval" not in legend
+
+
+def test_damping_page_fits_the_page_and_ends_with_the_status(damped, tmp_path):
+    """The loss-factor table stays inside the page (short verdicts, the advice once under the
+    table), fixed loss factors say they were given, one held at 0 keeps its one-sided
+    interval, and the page ends with the result's status like the others."""
+    from laminid_cli.report import status_line
+    from laminid_cli.report_damping import loss_factor_rows, read_damping
+
+    res = read_result(damped)
+    fig = {p.name: p.figure for p in report_pages(damped)}["damping"]
+    status = next(t for t in fig.texts if t.get_gid() == "status").get_text()
+    head, _ = status_line(res)
+    assert status.replace("\n    ", " ").replace("\n", " ") == head.replace("\n", " ")
+    a = ax(fig, "loss-factors")
+    t = cells(a)
+    d = read_damping(res)
+    assert [row[3] for row in t[1:4]] == [short_verdict(v) for v in d["verdict"]]
+    assert t[4] == ["E-glass/R368.eta13", "1.000", "none — fixed",
+                    "fixed at the value given (not identified)"]
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    width = fig.bbox.width
+    for cell in a.tables[0].get_celld().values():
+        box = cell.get_window_extent(renderer)
+        assert 0 <= box.x0 and box.x1 <= width
+        text = cell.get_text().get_window_extent(renderer)
+        assert box.x0 <= text.x0 and text.x1 <= box.x1 + 1          # no text past its cell
+    held = dict(d, at_bound=np.array([True] + [False] * (len(d["labels"]) - 1)))
+    row = loss_factor_rows(held)[0]
+    assert row[2] == f"[0, {100 * d['upper'][0]:.3g}]"
+    assert row[3] == "held at 0 by η ≥ 0: not identified"
+    write_pages([type("P", (), {"name": "d", "figure": fig})()], tmp_path / "d.png")
+
+
+def test_status_on_top_of_the_first_page_at_the_foot_of_the_others(checked):
+    """As the README says: the status and its reasons open the report (under the title of
+    the first page, above the constants); every other page repeats it at its foot."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    pages = {p.name: p.figure for p in report_pages(checked)}
+    fig = pages["summary"]
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    status = status_text(fig)
+    assert status not in fig.texts                          # not a footer
+    box = status.get_window_extent(renderer)
+    table = ax(fig, "constants").get_window_extent(renderer)
+    title = fig._suptitle.get_window_extent(renderer)
+    assert table.y1 < box.y0 and box.y1 <= title.y0 + 1      # under the title, above the table
+    assert status.get_text().startswith("status: CHECK — [at_bound]")
+    for name in ("intervals", "damping") if "damping" in pages else ("intervals",):
+        foot = status_text(pages[name])
+        assert foot in pages[name].texts and foot.get_position()[1] < 0.05

@@ -241,3 +241,65 @@ def test_joint_groups_have_safe_keys_and_names(tmp_path):
     assert res.joint and [p.name for p in res.plates] == ["plate A/1", "S1.2"]
     assert list(res.materials) == ["IM7/977-2"]
     assert "density" in res.plates[0].materials["IM7/977-2"]
+
+
+def test_fixed_and_fixed_because_undetermined_are_read(tmp_path):
+    """``--fix-undetermined`` writes /uncertainty@fixed, @fixed_undetermined and the first
+    run's assessment in /uncertainty/before_fixing: the reader gives all three (S1.1 at 6x6:
+    the first run leaves G13, G23, nu12 undetermined, a later round fixes E2 and G12 too; the
+    one free constant is E1). A file without them (an --fix run of an older laminid) reads
+    as nothing fixed-because-undetermined, with ``fixed`` from /materials@free."""
+    out = tmp_path / "f.result.h5"
+    r = run("identify", "specimens/example1/S1.1.yaml", "--mesh", "6x6", "--fix-undetermined",
+            "-o", out, "--json")
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.output)
+    res = read_result(out)
+    u = res.uncertainty
+    mat = "IM7/977-2"
+    labels = [f"{mat}.{k}" for k in ("G13", "G23", "nu12", "E2", "G12")]
+    assert u.fixed_undetermined == tuple(doc["uncertainty"]["fixed_undetermined"]) == \
+        tuple(labels)
+    assert set(u.fixed) == set(labels) and res.free == {mat: ("E1",)}
+    first = doc["uncertainty"]["before_fixing"]
+    assert set(u.before_fixing) == {f"{mat}.{k}" for k in ("E1", "E2", "G12", "G13", "G23",
+                                                            "nu12")}
+    for lab, (rel, verdict) in u.before_fixing.items():
+        assert rel == first[lab]["rel_half_width"] and verdict == first[lab]["verdict"]
+    assert u.before_fixing[f"{mat}.G13"][1].startswith("not determined")
+    assert u.before_fixing[f"{mat}.E2"][1] == "weak"           # fixed in the later round
+    with h5py.File(out, "r+") as f:
+        for key in ("fixed", "fixed_undetermined"):
+            del f["uncertainty"].attrs[key]
+        del f["uncertainty"]["before_fixing"]
+    old = read_result(out).uncertainty
+    assert old.fixed == old.fixed_undetermined == () and old.before_fixing == {}
+
+
+def test_bound_statement_reads_both_forms():
+    """The statement of a constant at its bound, as files before stop 29 wrote it ("G13 <=
+    0.0001 E1 (...)") and as later ones do ("stopped on the search's lower limit, G13 =
+    0.0001 E1 (...)"): the same side and limit from both; no inequality sign in the limit."""
+    from laminid_cli.resultfile import bound_from_text, bound_statement
+
+    head = "at its bound — not identified: "
+    for old, new, side, limit, words in (
+            ("G13 <= 0.0001 E1 (0.0154 GPa)",
+             "stopped on the search's lower limit, G13 = 0.0001 E1 (0.0154 GPa)",
+             "lower", 1.54e7, "0.0001 E1 (0.0154 GPa)"),
+            ("G23 <= 0.0001 E1 (0.00295 GPa at the optimum)",
+             "stopped on the search's lower limit, G23 = 0.0001 E1 (0.00295 GPa at the optimum)",
+             "lower", 2.95e6, "0.0001 E1 (0.00295 GPa at the optimum)"),
+            ("nu12 >= 0.95", "stopped on the search's upper limit, nu12 = 0.95", "upper", 0.95,
+             "0.95"),
+            ("E2 >= E1 (58.5 GPa)", "stopped on the search's upper limit, E2 = E1 (58.5 GPa)",
+             "upper", 58.5e9, "E1 (58.5 GPa)"),
+            ("G12 >= 5 x initial (15.5 GPa)",
+             "stopped on the search's upper limit, G12 = 5 x initial (15.5 GPa)", "upper",
+             15.5e9, "5 x initial (15.5 GPa)")):
+        for text in (head + old, head + new):
+            assert bound_statement(text) == (side, words)
+            s, v = bound_from_text(text)
+            assert s == side and v == pytest.approx(limit, rel=1e-12)
+    assert bound_statement("") == ("", "") and bound_statement(head + "somewhere") == ("", "")
+    assert np.isnan(bound_from_text(head + "somewhere")[1])
