@@ -39,8 +39,9 @@ def _parse_bands(ctx, param, values):
               help="Write a figure (PNG/PDF/SVG): FRFs with the fit, poles, stabilisation chart.")
 @click.option("--into", "spec_path", type=click.Path(dir_okay=False), default=None,
               help="Write the frequencies, their sigmas, the damping ratios and their "
-                   "sigmas into this specimen file's 'measured:' entry (comments kept, backup "
-                   "SPEC.bak).")
+                   "sigmas into this specimen file's 'measured:' entry (comments kept; the "
+                   "previous version goes to a new backup SPEC.bak, SPEC.bak1, ...; weights "
+                   "follow their modes by frequency).")
 @click.option("--sigma-rel", type=float, default=0.002, show_default=True, metavar="FRACTION",
               help="Floor of each frequency's standard deviation, as a fraction of it "
                    "(supports, temperature, repeatability: what the FRF cannot show).")
@@ -104,13 +105,14 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
 
         plot_fit(plot_path, fs.freq, fs.frf, fit, units=fs.units, coherence=fs.coherence,
                  title=f"{Path(frf_file).name}: {len(fit.modes)} modes")
+    into = None
     if spec_path is not None:
         from laminid_cli.frf.into import write_measured
 
-        write_measured(spec_path, fit.freq_hz.tolist(), sigma.tolist(),
-                       damping=fit.damping_ratio.tolist(),
-                       damping_sigma=rfp.damping_sigma(fit).tolist(),
-                       sigma_source=f"{Path(frf_file).name}: {msig.summary()}")
+        into = write_measured(spec_path, fit.freq_hz.tolist(), sigma.tolist(),
+                              damping=fit.damping_ratio.tolist(),
+                              damping_sigma=rfp.damping_sigma(fit).tolist(),
+                              sigma_source=f"{Path(frf_file).name}: {msig.summary()}")
     if as_json:
         echo_json({
             "file": str(frf_file), "n_points": fs.n_points, "units": fs.units,
@@ -121,6 +123,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
                       for i, (m, s) in enumerate(zip(fit.modes, sigma))],
             "sigma_rule": msig.summary(), "sigma_rel": sigma_rel,
             "plot": plot_path, "into": spec_path,
+            "backup": None if into is None else into.backup_text,
+            "weights": None if into is None else list(into.weight_notes),
         })
         return
     bands_txt = ", ".join(f"{b.band_hz[0]:g}-{b.band_hz[1]:g}" for b in fit.bands)
@@ -136,6 +140,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         click.echo(f"+/-: one standard deviation, {msig.summary()}")
     if plot_path is not None:
         click.echo(f"plot written to {plot_path}")
-    if spec_path is not None:
+    if into is not None:
         click.echo(f"{len(fit.modes)} frequencies and damping ratios written to {spec_path} "
-                   f"(backup {spec_path}.bak)")
+                   f"({into.backup_text})")
+        for note in into.weight_notes:
+            click.echo(f"weights: {note}")
