@@ -45,13 +45,16 @@ class MeasuredEdit:
     path : the specimen file; backup : the backup holding the previous text (None without
     ``backup``); backup_new : False when the newest backup already held exactly that text;
     weight_notes : sentences on the user's weights that could not follow their modes (empty
-    when every weight was kept or none was given)
+    when every weight was kept or none was given); damping_written : False when every damping
+    ratio given was null (none written; an earlier fit's lists are removed, ``damping_notes``)
     """
 
     path: Path
     backup: Path | None
     backup_new: bool
     weight_notes: tuple[str, ...]
+    damping_written: bool = True
+    damping_notes: tuple[str, ...] = ()
 
     @property
     def backup_text(self) -> str:
@@ -194,7 +197,8 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
         weight other than 1 that cannot follow is named in the returned ``weight_notes``.
     damping, damping_sigma : (n,) viscous damping ratios and their standard deviations, or
         None (written to ``measured.damping`` / ``measured.damping_sigma``, 6 significant
-        digits)
+        digits; None/NaN for a mode without one: null). When every ratio is None/NaN nothing is
+        written and lists of an earlier fit are removed (see the returned ``damping_notes``)
     backup : keep the original in a new backup file (``<spec>.bak``, ``<spec>.bak1``, ...;
         an existing one is never overwritten)
     validate : the file must be a valid specimen before and after the edit (``laminid
@@ -247,6 +251,9 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
             if len(values) != len(freq):
                 raise ValueError(f"{key} and freq_hz differ in length")
             extra[key] = [_sig(v) if ok else None for v, ok in zip(values, found)]
+    drop_damping = "damping" in extra and all(v is None for v in extra["damping"])
+    if drop_damping:   # no mode's damping measured: an all-null list is no valid specimen
+        extra.clear()
     if weights is not None:
         if len(weights) != len(freq):
             raise ValueError("weights and freq_hz differ in length")
@@ -304,6 +311,12 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
         put("weights", wts)
     for key, values in extra.items():
         put(key, values)
+    damping_notes = []
+    if drop_damping:
+        for key in ("damping", "damping_sigma"):
+            if key in measured:
+                del measured[key]
+                damping_notes.append(f"measured.{key} removed (it described an earlier fit)")
 
     buf = io.StringIO()
     rt.dump(doc, buf)
@@ -326,6 +339,9 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
     if wts is not None:
         exp_measured["weights"] = wts
     exp_measured.update(extra)
+    if drop_damping:
+        exp_measured.pop("damping", None)
+        exp_measured.pop("damping_sigma", None)
     expect["measured"] = exp_measured
     try:   # the edited file must be a valid specimen too (e.g. weights of the right length)
         if validate:
@@ -361,4 +377,5 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
         if tmp.exists():
             tmp.unlink()
     return MeasuredEdit(path=spec_path, backup=bak, backup_new=bak_new,
-                        weight_notes=tuple(weight_notes))
+                        weight_notes=tuple(weight_notes), damping_written=not drop_damping,
+                        damping_notes=tuple(damping_notes))
