@@ -124,6 +124,68 @@ def test_resume_continues_an_incomplete_file(tmp_path, hp):
     assert read_frf_h5(out).labels == ("1", "2", "3", "4")
 
 
+def test_resume_refuses_other_windows_before_touching_the_analyser(tmp_path, hp):
+    """A file measured with --exp-window 0.1 (force window 0.01 s): --resume --points 8
+    --exp-window 0.5 --force-window 0.05 is refused (exit 2) naming the file, both settings,
+    recorded and requested values; the file and the analyser's set-up are left as they were."""
+    out = tmp_path / "w.h5"
+    assert acquire(hp, out, "--no-prompt", "--exp-window", "0.1", points=2).exit_code == 0
+    before = out.read_bytes()
+    hp.settings.clear()
+    r = CliRunner().invoke(cli, ["acquire", "--analyser", hp.resource, *FAST, "--points", "8",
+                                 "--no-prompt", "--resume", "--exp-window", "0.5",
+                                 "--force-window", "0.05", "-o", str(out)])
+    assert r.exit_code == 2, r.output
+    assert "Traceback" not in r.output
+    assert (f"{out}: cannot resume, its points were measured with other settings than this "
+            "run's (force window: recorded 0.01 s, requested 0.05 s (--force-window); exp "
+            "window: recorded 0.1 s, requested 0.5 s (--exp-window))") in r.output
+    assert "resume with the recorded values (--force-window 0.01 --exp-window 0.1" in r.output
+    assert out.read_bytes() == before
+    s = read_frf_h5(out)
+    assert s.n_points == 2 and s.meta["settings"]["exp_window_s"] == 0.1
+    assert "WIND2:EXP" not in hp.settings        # refused before anything was sent
+    # a different pre-trigger is refused the same way; --averages may differ
+    r = CliRunner().invoke(cli, ["acquire", "--analyser", hp.resource, *FAST, "--points", "3",
+                                 "--no-prompt", "--resume", "--pretrigger", "0.02", "-o",
+                                 str(out)])
+    assert r.exit_code == 2 and "pretrigger: recorded 0.005 s, requested 0.02 s" in r.output
+    r = run(["acquire", "--analyser", hp.resource, "--timeout", "0.5", "--averages", "2",
+             "--points", "3", "--no-prompt", "--resume", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    s = read_frf_h5(out)
+    assert s.labels == ("1", "2", "3") and s.meta["points"]["n_averages"] == [3, 3, 2]
+    assert s.meta["settings"]["exp_window_s"] == 0.1
+
+
+def test_resume_with_keep_setup_of_a_configured_file_is_refused(tmp_path, hp):
+    """--keep-setup cannot read the windows back: resuming a file whose windows are recorded
+    would record them as unknown for every point; refused, naming the options to use."""
+    out = tmp_path / "k.h5"
+    assert acquire(hp, out, "--no-prompt", points=1).exit_code == 0
+    r = CliRunner().invoke(cli, ["acquire", "--analyser", hp.resource, "--keep-setup",
+                                 "--no-prompt", "--timeout", "0.5", "--points", "2", "--resume",
+                                 "-o", str(out)])
+    assert r.exit_code == 2, r.output
+    assert "exp window: recorded 0.1 s, requested unknown (--keep-setup does not read it " \
+           "back)" in r.output
+    assert "(--pretrigger 0.005 --force-window 0.01 --exp-window 0.1, without --keep-setup)" \
+        in r.output
+    assert read_frf_h5(out).n_points == 1
+
+
+def test_frf_writer_resume_keeps_settings_the_run_does_not_state(tmp_path):
+    from laminid_cli.frf.store import FrfWriter
+
+    freq = np.arange(10.0)
+    path = tmp_path / "x.h5"
+    with FrfWriter(path, freq, settings={"exp_window_s": 0.2, "averages": 3}) as w:
+        w.add_point("1", np.ones(10))
+    with FrfWriter(path, freq, settings={"averages": 5}, resume=True) as w:
+        w.add_point("2", np.ones(10))
+    assert read_frf_h5(path).meta["settings"] == {"exp_window_s": 0.2, "averages": 5}
+
+
 def test_keep_setup_records_the_analysers_own_settings(tmp_path, hp):
     out = tmp_path / "k.h5"
     assert acquire(hp, out, "--no-prompt", points=1).exit_code == 0  # leaves 1600 Hz/800 lines

@@ -229,3 +229,63 @@ def test_into_records_the_sigma_rule_and_identify_reports_it(tmp_path, h5, case)
 
     write_measured(spec, list(s.measured.freq), list(s.measured.sigma))
     assert "sigma_source" not in yaml.safe_load(spec.read_text())["measured"]
+
+
+def test_into_weights_follow_their_modes_when_the_mode_count_changes(tmp_path, h5, case):
+    """--modes 10 into a file of 13 frequencies whose weights hold a 0 (mode 3) and a 0.5
+    (mode 12, beyond the fit): the 0 stays on its mode, the 0.5 cannot follow and is named."""
+    spec = tmp_path / "p.yaml"
+    freqs = [float(f) for f in case.freq_hz] + [1500.0, 1550.0, 1590.0]
+    weights = [1, 1, 0, 1, 1, 1, 1, 1, 1, 1, 1, 0.5, 1]
+    spec.write_text(SPEC.replace("frequencies: [1.0, 2.0]   # Hz",
+                                 f"frequencies: {freqs}   # Hz\n  weights: {weights}   # mine"))
+    r = run(["fit-frf", str(h5), "--into", str(spec), "--modes", "10"])
+    assert r.exit_code == 0, r.output
+    measured = yaml.safe_load(spec.read_text())["measured"]
+    assert measured["weights"] == [1, 1, 0, 1, 1, 1, 1, 1, 1, 1]
+    assert "# mine" in spec.read_text()
+    assert ("weights: the weight 0.5 of the mode at 1550 Hz was dropped: no fitted mode within "
+            "1 % of it") in r.output
+    # the previous version (13 frequencies, its weights) is in the backup
+    assert yaml.safe_load((tmp_path / "p.yaml.bak").read_text())["measured"]["weights"] == weights
+
+
+def test_into_weights_follow_by_frequency_when_a_mode_is_missing():
+    """Same count is not same modes: a mode lost in the middle does not shift the weights."""
+    from laminid_cli.frf.into import carry_weights
+
+    w, notes = carry_weights([100.0, 200.0, 300.0, 400.0], [1, 0, 1, 0.5],
+                             [100.3, 300.5, 400.2, 505.0])
+    assert w == [1, 1, 0.5, 1]
+    assert notes == ["the weight 0 of the mode at 200 Hz was dropped: no fitted mode within "
+                     "1 % of it", "weight 1 for the mode(s) at 505 Hz: no mode of the file "
+                     "within 1 % had a weight"]
+    # one to one, nearest first: two new modes near one old one
+    w, notes = carry_weights([100.0, None], [0, 0], [99.5, 100.1])
+    assert w == [1, 0] and notes == ["weight 1 for the mode(s) at 99.5 Hz: no mode of the file "
+                                     "within 1 % had a weight"]
+    # all weights 1 and nothing dropped: nothing to say
+    assert carry_weights([100.0, 200.0], [1, 1], [100.0, 150.0, None]) == ([1, 1, 0], [])
+
+
+def test_into_never_overwrites_a_backup(tmp_path, h5):
+    """Each --into keeps the text it replaces in a backup of its own (SPEC.bak, SPEC.bak1...);
+    a run that would back up exactly the newest backup's text makes none, and says where."""
+    spec = tmp_path / "p.yaml"
+    spec.write_text(SPEC)
+    r = run(["fit-frf", str(h5), "--into", str(spec)])
+    assert f"(previous version in {tmp_path / 'p.yaml.bak'})" in r.output
+    texts = [SPEC]
+    for k, word in ((1, "one"), (2, "two")):       # edited by hand between two fits
+        spec.write_text(spec.read_text().replace("# keep me", f"# keep me {word}"))
+        texts.append(spec.read_text())
+        r = run(["fit-frf", str(h5), "--into", str(spec), "--json"])
+        assert json.loads(r.output)["backup"] == \
+            f"previous version in {tmp_path / f'p.yaml.bak{k}'}"
+    # the fit writes what the file holds already: no third copy of the same text
+    r = run(["fit-frf", str(h5), "--into", str(spec)])
+    assert f"(previous version already in {tmp_path / 'p.yaml.bak2'})" in r.output
+    assert [(tmp_path / n).read_text() for n in ("p.yaml.bak", "p.yaml.bak1", "p.yaml.bak2")] \
+        == texts
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "p.yaml", "p.yaml.bak", "p.yaml.bak1", "p.yaml.bak2", "plate.frf.h5"]

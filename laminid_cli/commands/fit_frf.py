@@ -38,9 +38,10 @@ def _parse_bands(ctx, param, values):
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False), default=None,
               help="Write a figure (PNG/PDF/SVG): FRFs with the fit, poles, stabilisation chart.")
 @click.option("--into", "spec_path", type=click.Path(dir_okay=False), default=None,
-              help="Write the frequencies, their sigmas, the damping ratios and their "
-                   "sigmas into this specimen file's 'measured:' entry (comments kept, backup "
-                   "SPEC.bak).")
+              help="Write the frequencies, their sigmas, the damping ratios (the exponential "
+                   "window's damping removed) and their sigmas into this specimen file's "
+                   "'measured:' entry (comments kept; the previous version goes to a new "
+                   "backup SPEC.bak, SPEC.bak1, ...; weights follow their modes by frequency).")
 @click.option("--sigma-rel", type=float, default=0.002, show_default=True, metavar="FRACTION",
               help="Floor of each frequency's standard deviation, as a fraction of it "
                    "(supports, temperature, repeatability: what the FRF cannot show).")
@@ -63,6 +64,13 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     spacing / sqrt(12); window: the shift of |pole| by an exponential window's 1/tau (when the
     FRF file records exp_window_s). The 'from' column names the term that dominated.
 
+    Damping: when the FRF file records the exponential window acquire applied to the response
+    (exp_window_s = tau), every fitted pole decays faster by 1/tau; fit-frf removes it
+    (damping = fitted - about 1/(tau*omega_n), the 'window' column) in the table, --json and
+    --into. A mode whose fitted damping is not above the window's gets no damping ratio
+    (null), with a note. The standard deviation is the fitted ratio's (the spread over the
+    stable orders, at least 2 % of the fitted ratio).
+
     \b
     Examples:
       laminid fit-frf plate.frf.h5
@@ -70,6 +78,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
       laminid fit-frf plate.frf.h5 --into plate.yaml
     """
     from pathlib import Path
+
+    import numpy as np
 
     from laminid_cli.errors import SpecimenError
     from laminid_cli.frf import rfp
@@ -96,46 +106,79 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     fs = read_frf(frf_file, fmt, freq_dataset=freq_dataset, frf_dataset=frf_dataset)
     fit = rfp.find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes,
                          source=str(frf_file))
-    msig = rfp.measurement_sigma(fit, fs.freq, sigma_rel=sigma_rel,
-                                 exp_window_s=rfp.window_time_constant(fs))
+    tau = rfp.window_time_constant(fs)
+    msig = rfp.measurement_sigma(fit, fs.freq, sigma_rel=sigma_rel, exp_window_s=tau)
     sigma = msig.sigma_hz
+    wc = rfp.window_corrected_damping(fit, tau)
+    notes = wc.below_notes(fit.freq_hz)
+    if rfp.window_unknown(fs):
+        notes.append(f"{frf_file} does not record the exponential window's time constant "
+                     "(acquired with --keep-setup): the damping ratios are as fitted and include "
+                     "whatever damping the analyser's window added")
     if plot_path is not None:
         from laminid_cli.frf.plot import plot_fit
 
         plot_fit(plot_path, fs.freq, fs.frf, fit, units=fs.units, coherence=fs.coherence,
                  title=f"{Path(frf_file).name}: {len(fit.modes)} modes")
+    into = None
     if spec_path is not None:
         from laminid_cli.frf.into import write_measured
 
-        write_measured(spec_path, fit.freq_hz.tolist(), sigma.tolist(),
-                       damping=fit.damping_ratio.tolist(),
-                       damping_sigma=rfp.damping_sigma(fit).tolist(),
-                       sigma_source=f"{Path(frf_file).name}: {msig.summary()}")
+        into = write_measured(spec_path, fit.freq_hz.tolist(), sigma.tolist(),
+                              damping=wc.damping.tolist(), damping_sigma=wc.sigma.tolist(),
+                              sigma_source=f"{Path(frf_file).name}: {msig.summary()}")
     if as_json:
+        def damping_fields(i):
+            return {"damping_ratio": float(wc.damping[i]), "damping_sigma": float(wc.sigma[i]),
+                    "damping_ratio_fitted": float(wc.fitted[i]),
+                    "damping_window_removed": float(wc.removed[i])}
+
         echo_json({
             "file": str(frf_file), "n_points": fs.n_points, "units": fs.units,
             "bands_hz": [list(b.band_hz) for b in fit.bands],
             "modes": [dict(m.as_dict(), mode=i + 1, sigma_hz=float(s),
                            sigma_terms_hz={t: float(msig.terms[t][i]) for t in msig.terms},
-                           sigma_dominant=msig.dominant[i])
+                           sigma_dominant=msig.dominant[i], **damping_fields(i))
                       for i, (m, s) in enumerate(zip(fit.modes, sigma))],
             "sigma_rule": msig.summary(), "sigma_rel": sigma_rel,
+            "exp_window_s": tau, "damping_rule": wc.summary() or None, "notes": notes,
             "plot": plot_path, "into": spec_path,
+            "backup": None if into is None else into.backup_text,
+            "weights": None if into is None else list(into.weight_notes),
+            "into_notes": None if into is None else list(into.damping_notes),
         })
         return
     bands_txt = ", ".join(f"{b.band_hz[0]:g}-{b.band_hz[1]:g}" for b in fit.bands)
     click.echo(f"{frf_file}: {fs.n_points} FRFs, {fs.freq.size} lines, bands {bands_txt} Hz")
+    windowed = wc.exp_window_s is not None
     if not fit.modes:
         click.echo("no stable mode found")
     else:
         click.echo(f"{'mode':>4}  {'freq (Hz)':>11}  {'+/- (Hz)':>9}  {'from':>10}  "
-                   f"{'damping (%)':>11}  {'stable orders':>13}")
+                   f"{'damping (%)':>11}  " + (f"{'window (%)':>10}  " if windowed else "")
+                   + f"{'stable orders':>13}")
         for i, (m, s) in enumerate(zip(fit.modes, sigma), start=1):
+            z = wc.damping[i - 1]
+            z_txt = f"{100 * z:>11.3f}" if np.isfinite(z) else f"{'below win.':>11}"
+            w_txt = ""
+            if windowed:
+                r = wc.removed[i - 1] if np.isfinite(z) else wc.window[i - 1]
+                w_txt = f"{100 * r:>10.3f}  "
             click.echo(f"{i:>4}  {m.freq_hz:>11.3f}  {s:>9.3f}  {msig.dominant[i - 1]:>10}  "
-                       f"{100 * m.damping_ratio:>11.3f}  {m.orders_stable:>13d}")
+                       f"{z_txt}  {w_txt}{m.orders_stable:>13d}")
         click.echo(f"+/-: one standard deviation, {msig.summary()}")
+        if windowed:
+            click.echo(f"damping: {wc.summary()}; as fitted = damping + window (--json: "
+                       "damping_ratio_fitted)")
+    for note in notes:
+        click.echo(f"note: {note}")
     if plot_path is not None:
         click.echo(f"plot written to {plot_path}")
-    if spec_path is not None:
-        click.echo(f"{len(fit.modes)} frequencies and damping ratios written to {spec_path} "
-                   f"(backup {spec_path}.bak)")
+    if into is not None:
+        what = "frequencies and damping ratios" if into.damping_written else \
+            "frequencies (no damping ratio: none is above the window's)"
+        click.echo(f"{len(fit.modes)} {what} written to {spec_path} ({into.backup_text})")
+        for note in into.damping_notes:
+            click.echo(f"note: {note}")
+        for note in into.weight_notes:
+            click.echo(f"weights: {note}")

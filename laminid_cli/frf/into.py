@@ -12,7 +12,9 @@ left half-written or invalid:
 1. the edited document is serialised to text and parsed back with ``yaml.safe_load``; the
    result must equal the original document except for those keys, and the new lists must read
    back exactly, and the edited text must be a valid specimen;
-2. the original is copied to ``SPEC.yaml.bak``;
+2. the original is copied to a backup that did not exist before: ``SPEC.yaml.bak``, then
+   ``SPEC.yaml.bak1``, ``SPEC.yaml.bak2``, ... (an existing backup is never overwritten; when
+   the newest backup already holds exactly the current text no new one is made);
 3. the text goes to a temporary file in the same folder, is fsynced and renamed over the
    specimen file (``os.replace`` is atomic).
 """
@@ -23,11 +25,147 @@ import io
 import math
 import os
 import shutil
+from dataclasses import dataclass
 from pathlib import Path
 
 from laminid_cli.errors import SpecimenError
 
 KEYS = ("frequencies", "sigma", "weights", "damping", "damping_sigma")
+#: a user's weight follows its mode to the new fit when their frequencies are within this
+#: relative distance (one to one, nearest first)
+WEIGHT_MATCH_REL = 0.01
+#: most numbered backups looked for (SPEC.bak, SPEC.bak1 ... SPEC.bak<N>)
+MAX_BACKUPS = 9999
+
+
+@dataclass(frozen=True)
+class MeasuredEdit:
+    """What :func:`write_measured` did.
+
+    path : the specimen file; backup : the backup holding the previous text (None without
+    ``backup``); backup_new : False when the newest backup already held exactly that text;
+    weight_notes : sentences on the user's weights that could not follow their modes (empty
+    when every weight was kept or none was given); damping_written : False when every damping
+    ratio given was null (none written; an earlier fit's lists are removed, ``damping_notes``)
+    """
+
+    path: Path
+    backup: Path | None
+    backup_new: bool
+    weight_notes: tuple[str, ...]
+    damping_written: bool = True
+    damping_notes: tuple[str, ...] = ()
+
+    @property
+    def backup_text(self) -> str:
+        if self.backup is None:
+            return "no backup"
+        if self.backup_new:
+            return f"previous version in {self.backup}"
+        return f"previous version already in {self.backup}"
+
+
+def _f(x) -> float | None:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) and v > 0 else None
+
+
+def _w(x) -> float | None:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return None
+    return v if 0 <= v <= 1 else None
+
+
+def carry_weights(old_freq, old_weights, new_freq, rel: float = WEIGHT_MATCH_REL):
+    """The user's weights for the new frequencies, each following its mode by frequency.
+
+    Parameters
+    ----------
+    old_freq, old_weights : the file's lists (same length; None for a mode not found)
+    new_freq : the new frequencies (None for a mode not found)
+    rel : two modes are the same when their frequencies differ by at most ``rel`` of the old one
+
+    Modes are paired one to one, nearest relative distance first. A new mode not found gets 0;
+    a found mode with no old partner gets 1 (it was not weighted before). Returns ``(weights,
+    notes)``: ``notes`` names every old weight other than 1 (of a found mode) that has no
+    partner and so is dropped, and the new modes that got 1 for want of one, when the user had
+    any weight other than 1.
+
+    >>> carry_weights([100.0, 200.0, 300.0], [1, 0, 0.5], [100.2, 299.0])
+    ([1, 0.5], ['the weight 0 of the mode at 200 Hz was dropped: no fitted mode within 1 % of it'])
+    """
+    old_f = [_f(x) for x in old_freq]
+    old_w = [_w(w) for w in old_weights]
+    new_f = [_f(x) for x in new_freq]
+    pairs = sorted((abs(nf - of) / of, i, j) for i, nf in enumerate(new_f) if nf is not None
+                   for j, of in enumerate(old_f) if of is not None and abs(nf - of) <= rel * of)
+    partner: dict[int, int] = {}
+    used: set[int] = set()
+    for _, i, j in pairs:
+        if i not in partner and j not in used:
+            partner[i] = j
+            used.add(j)
+    weights = []
+    for i, nf in enumerate(new_f):
+        if nf is None:
+            weights.append(0)
+        elif i in partner and old_w[partner[i]] is not None:
+            w = old_w[partner[i]]
+            weights.append(int(w) if w.is_integer() else w)
+        else:
+            weights.append(1)
+    notes = []
+    for j, (of, w) in enumerate(zip(old_f, old_w)):
+        if of is not None and j not in used and w is not None and w != 1:
+            notes.append(f"the weight {w:g} of the mode at {of:g} Hz was dropped: no fitted mode "
+                         f"within {100 * rel:g} % of it")
+    custom = any(w is not None and w != 1 for of, w in zip(old_f, old_w) if of is not None)
+    fresh = [f"{nf:g}" for i, nf in enumerate(new_f) if nf is not None and i not in partner]
+    if custom and fresh:
+        notes.append(f"weight 1 for the mode(s) at {', '.join(fresh)} Hz: no mode of the file "
+                     f"within {100 * rel:g} % had a weight")
+    return weights, notes
+
+
+def _next_backup(spec_path: Path, text: bytes) -> tuple[Path, bool]:
+    """A backup file of ``text`` that overwrites nothing: SPEC.bak, SPEC.bak1, SPEC.bak2...
+
+    The newest existing backup is reused when it holds exactly ``text``. The new file is
+    created exclusively (``open(..., "xb")``), so two runs at once cannot take the same name.
+    """
+    names = [spec_path.with_name(spec_path.name + ".bak")] + [
+        spec_path.with_name(f"{spec_path.name}.bak{k}") for k in range(1, MAX_BACKUPS + 1)]
+    newest = None
+    for k, name in enumerate(names):
+        if not name.exists():
+            if newest is not None:
+                try:
+                    if newest.read_bytes() == text:
+                        return newest, False
+                except OSError:
+                    pass
+            try:
+                with open(name, "xb") as fh:
+                    fh.write(text)
+                    fh.flush()
+                    os.fsync(fh.fileno())
+            except FileExistsError:      # taken meanwhile: look further
+                newest = name
+                continue
+            except OSError as exc:
+                raise SpecimenError(f"cannot write the backup {name} ({exc}); file left "
+                                    "unchanged", path=str(spec_path)) from exc
+            shutil.copystat(spec_path, name)
+            return name, True
+        newest = name
+    raise SpecimenError(f"{MAX_BACKUPS + 1} backups ({names[0].name} ... {names[-1].name}) "
+                        "exist already; move some away; file left unchanged",
+                        path=str(spec_path))
 
 
 def _round(x: float | None, digits: int) -> float | None:
@@ -45,7 +183,7 @@ def _sig(x, digits: int = 6) -> float | None:
 
 def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=None,
                    damping_sigma=None, backup: bool = True,
-                   validate: bool = True, sigma_source: str | None = None) -> Path:
+                   validate: bool = True, sigma_source: str | None = None) -> MeasuredEdit:
     """Replace/insert the measured frequencies (and sigma, weights) of a specimen YAML file.
 
     Parameters
@@ -53,18 +191,22 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
     spec_path : specimen YAML file (must exist and hold a mapping)
     freq_hz : (n,) Hz; None/NaN for a mode not found (written as ``null``)
     sigma_hz : (n,) Hz or None; standard deviations (``null`` where the frequency is null)
-    weights : (n,) in [0, 1] or None. When None and the file already has ``weights``: kept if
-        its length matches (0 where the new frequency is null, 1 where a mode null before is
-        now found), otherwise rewritten as 1 for found modes and 0 for null ones.
+    weights : (n,) in [0, 1] or None. When None and the file already has ``weights``: each
+        weight follows its mode to the new list by frequency (:func:`carry_weights`: within
+        1 %, one to one); 0 where the new frequency is null, 1 for a mode with no partner. A
+        weight other than 1 that cannot follow is named in the returned ``weight_notes``.
     damping, damping_sigma : (n,) viscous damping ratios and their standard deviations, or
-        None (written to ``measured.damping`` / ``measured.damping_sigma``, 6 significant digits)
-    backup : keep the original as ``<spec>.bak``
+        None (written to ``measured.damping`` / ``measured.damping_sigma``, 6 significant
+        digits; None/NaN for a mode without one: null). When every ratio is None/NaN nothing is
+        written and lists of an earlier fit are removed (see the returned ``damping_notes``)
+    backup : keep the original in a new backup file (``<spec>.bak``, ``<spec>.bak1``, ...;
+        an existing one is never overwritten)
     validate : the file must be a valid specimen before and after the edit (``laminid
         fit-frf --into``); without it only the YAML checks (bounded size, depth, aliases, no
         tags) and the structure of ``measured`` are required (any YAML mapping is edited)
     sigma_source : written as ``measured.sigma_source`` (shown by identify), with ``sigma_hz``
 
-    Returns the backup path (or the spec path when ``backup`` is false).
+    Returns a :class:`MeasuredEdit` (the backup's path, the notes on the weights).
     """
     import yaml
     from ruamel.yaml import YAML
@@ -73,8 +215,10 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
     from laminid_cli.specimen import check_yaml_text, load_specimen_text, read_specimen
 
     spec_path = Path(spec_path)
+    parsed = None
     if validate:   # the whole specimen must be valid before anything is edited
-        text = read_specimen(spec_path).source_text
+        parsed = read_specimen(spec_path)
+        text = parsed.source_text
     else:
         try:
             text = spec_path.read_text(encoding="utf-8")
@@ -107,6 +251,9 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
             if len(values) != len(freq):
                 raise ValueError(f"{key} and freq_hz differ in length")
             extra[key] = [_sig(v) if ok else None for v, ok in zip(values, found)]
+    drop_damping = "damping" in extra and all(v is None for v in extra["damping"])
+    if drop_damping:   # no mode's damping measured: an all-null list is no valid specimen
+        extra.clear()
     if weights is not None:
         if len(weights) != len(freq):
             raise ValueError("weights and freq_hz differ in length")
@@ -129,16 +276,20 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
     elif not isinstance(measured, dict):
         raise SpecimenError("'measured' must be a mapping; file left unchanged",
                             path=str(spec_path), field="measured")
+    weight_notes: list[str] = []
     if wts is None and "weights" in measured:
         old = measured["weights"]
         old_f = measured.get("frequencies")
-        old_f = list(old_f) if isinstance(old_f, list) else [None] * len(freq)
-        if isinstance(old, list) and len(old) == len(freq) and len(old_f) == len(freq):
-            # the user's weights stay, except for modes that appear or disappear
-            wts = [(1 if of is None else (w if w is not None else 0)) if ok else 0
-                   for w, ok, of in zip(old, found, old_f)]
+        if parsed is not None and parsed.measured is not None:   # values with units read
+            old_f = [None if not math.isfinite(x) else float(x) for x in parsed.measured.freq]
+            old = [float(x) for x in parsed.measured.weight]
+        if isinstance(old, list) and isinstance(old_f, list) and len(old) == len(old_f):
+            # the user's weights follow their modes by frequency
+            wts, weight_notes = carry_weights(old_f, old, freq)
         else:
             wts = [1 if ok else 0 for ok in found]
+            weight_notes = ["the file's weights did not pair with its frequencies; rewritten "
+                            "as 1 for the modes found and 0 for the others"]
 
     def put(key, values):
         old = measured.get(key)
@@ -160,6 +311,12 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
         put("weights", wts)
     for key, values in extra.items():
         put(key, values)
+    damping_notes = []
+    if drop_damping:
+        for key in ("damping", "damping_sigma"):
+            if key in measured:
+                del measured[key]
+                damping_notes.append(f"measured.{key} removed (it described an earlier fit)")
 
     buf = io.StringIO()
     rt.dump(doc, buf)
@@ -182,6 +339,9 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
     if wts is not None:
         exp_measured["weights"] = wts
     exp_measured.update(extra)
+    if drop_damping:
+        exp_measured.pop("damping", None)
+        exp_measured.pop("damping_sigma", None)
     expect["measured"] = exp_measured
     try:   # the edited file must be a valid specimen too (e.g. weights of the right length)
         if validate:
@@ -194,9 +354,14 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
         raise SpecimenError("edited file would not read back as intended; file left unchanged",
                             path=str(spec_path), field="measured")
 
-    bak = spec_path.with_name(spec_path.name + ".bak")
+    bak, bak_new = None, False
     if backup:
-        shutil.copy2(spec_path, bak)
+        try:
+            current = spec_path.read_bytes()
+        except OSError as exc:
+            raise SpecimenError(f"cannot read ({exc}); file left unchanged",
+                                path=str(spec_path)) from exc
+        bak, bak_new = _next_backup(spec_path, current)
     tmp = spec_path.with_name(f".{spec_path.name}.tmp-{os.getpid()}")
     try:
         with open(tmp, "w", encoding="utf-8") as fh:
@@ -211,4 +376,6 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
     finally:
         if tmp.exists():
             tmp.unlink()
-    return bak if backup else spec_path
+    return MeasuredEdit(path=spec_path, backup=bak, backup_new=bak_new,
+                        weight_notes=tuple(weight_notes), damping_written=not drop_damping,
+                        damping_notes=tuple(damping_notes))

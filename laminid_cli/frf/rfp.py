@@ -1118,7 +1118,9 @@ def measured_from_frf_file(path, *, bands=None, n_modes: int | None = None,
     freq_hz : float (n_modes,), Hz
     sigma_hz : float (n_modes,), Hz, measurement uncertainty (:func:`measurement_sigma`:
         RFP spread, resolution, window, 0.2 % floor)
-    damping : float (n_modes,), damping ratios
+    damping : float (n_modes,), damping ratios of the structure: with the exponential window
+        the file records, its added damping removed (:func:`window_corrected_damping`; NaN
+        for a mode whose fitted damping is not above the window's)
     damping_sigma : float (n_modes,), with ``with_damping_sigma``: their standard deviations
         (:func:`damping_sigma`)
 
@@ -1129,10 +1131,12 @@ def measured_from_frf_file(path, *, bands=None, n_modes: int | None = None,
     fs = read_frf(path)
     fit = find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes, criteria=criteria,
                      source=str(path))
-    sig = measurement_sigma(fit, fs.freq, exp_window_s=window_time_constant(fs))
+    tau = window_time_constant(fs)
+    sig = measurement_sigma(fit, fs.freq, exp_window_s=tau)
+    wc = window_corrected_damping(fit, tau)
     if with_damping_sigma:
-        return fit.freq_hz, sig.sigma_hz, fit.damping_ratio, damping_sigma(fit)
-    return fit.freq_hz, sig.sigma_hz, fit.damping_ratio
+        return fit.freq_hz, sig.sigma_hz, wc.damping, wc.sigma
+    return fit.freq_hz, sig.sigma_hz, wc.damping
 
 
 #: floor of a fitted damping ratio's standard deviation, relative to the ratio (2 %)
@@ -1149,6 +1153,129 @@ def damping_sigma(fit: ModalFit) -> np.ndarray:
         return np.zeros(0)
     std = np.array([m.damping_std for m in fit.modes])
     return np.maximum(std, DAMPING_SIGMA_FLOOR_REL * fit.damping_ratio)
+
+
+#: Where the exponential window's convention comes from (written beside the code, issue 1 of
+#: the frf-fixes branch). The window multiplies the response record by w(t) = exp(-t / tau):
+#: the 35670A takes tau in seconds (``[SENSe:]WINDow[1|2|3|4]:EXPonential``: pymeasure's
+#: Keysight35670A driver, ``exponential_window_time_constant``, "time constant in seconds"),
+#: the SR785 as a percent of the time record (``FWTC``; our driver sends 100 tau / T and
+#: records tau in seconds). tau is the time constant of the amplitude (w(tau) = 1/e), the
+#: first of the conventions listed by W. Fladung, "Windows used for impact testing", IMAC XV
+#: (1997) pp. 1662-1666, section on the exponential window ("specifying the time constant
+#: (tau) in seconds"; the other conventions, the reciprocal beta = 1/tau in rad/s or the value
+#: reached at the end of the record, are converted to it before they reach the file). By the
+#: shift property of the Laplace transform (same paper) a free decay exp(lam t) becomes
+#: exp((lam - 1/tau) t): every pole moves left by 1/tau and the fitted decay rate is
+#: zeta omega_n + 1/tau, which modal tests remove after the fit ("the added damping is then
+#: removed mathematically", Dirac Delta glossary, "Exponential Window"). The emulators of
+#: tests/instrument/ and tests/test_window_damping.py (a record windowed sample by sample)
+#: check the sign and size.
+WINDOW_CONVENTION = ("exponential window w(t) = exp(-t/tau), tau in seconds (amplitude to 1/e "
+                     "at tau): fitted decay rate = zeta*omega_n + 1/tau")
+
+
+@dataclass(frozen=True)
+class WindowCorrection:
+    """Modal damping with an exponential response window's added damping removed.
+
+    exp_window_s : the window's time constant tau (s), None when the FRF file records none
+    fitted : (n,) damping ratios of the fitted poles (with the window's damping in them)
+    removed : (n,) what the window added, ``fitted - damping`` (~ 1 / (tau omega_n)); NaN where
+        ``damping`` is NaN, 0 without a window
+    window : (n,) the window's share ``1 / (tau omega_n)`` at each fitted |pole| (0 without)
+    damping : (n,) damping ratios of the structure; NaN where the fitted decay rate is not above
+        the window's 1/tau (the FRF does not determine that mode's damping)
+    sigma : (n,) their standard deviations (:func:`damping_sigma` of the fit: subtracting the
+        exactly known 1/tau leaves the absolute standard deviation as it was); NaN where
+        ``damping`` is NaN
+    below : indices of the modes whose fitted damping is not above the window's
+    """
+
+    exp_window_s: float | None
+    fitted: np.ndarray
+    removed: np.ndarray
+    window: np.ndarray
+    damping: np.ndarray
+    sigma: np.ndarray
+    below: tuple[int, ...]
+
+    def summary(self) -> str:
+        """One line: what was removed (empty without a window)."""
+        if self.exp_window_s is None or not self.fitted.size:
+            return ""
+        text = (f"the exponential window's 1/(tau*omega_n) (tau = {self.exp_window_s:g} s, "
+                "from the FRF file's settings) removed from each damping ratio")
+        ok = np.isfinite(self.removed)
+        if ok.any():
+            lo, hi = (f"{100 * v:.3g}" for v in (self.removed[ok].min(), self.removed[ok].max()))
+            text += f": {lo} % " if lo == hi else f": {hi} to {lo} % "
+            text += "(the 'window' column)"
+        if self.below:
+            text += (f"; mode(s) {', '.join(str(i + 1) for i in self.below)} not above it "
+                     "(see the note)")
+        return text
+
+    def below_notes(self, freq_hz) -> list[str]:
+        """One sentence per mode whose fitted damping is not above the window's."""
+        notes = []
+        for i in self.below:
+            notes.append(
+                f"mode {i + 1} ({freq_hz[i]:.2f} Hz): fitted damping {100 * self.fitted[i]:.3g} % "
+                f"is not above the window's 1/(tau*omega_n) = {100 * self.window[i]:.3g} % "
+                f"(tau = {self.exp_window_s:g} s), which no decaying mode can give: the window "
+                "applied was not the one the file records, or this mode's fit is poor. Its "
+                "damping is not measured (null in --json and --into)")
+        return notes
+
+
+def window_corrected_damping(fit: ModalFit, exp_window_s: float | None) -> WindowCorrection:
+    """Remove an exponential response window's added damping from the fitted modes.
+
+    The window multiplies the free decay by exp(-t/tau) (:data:`WINDOW_CONVENTION`), so each
+    fitted pole is the structure's pole moved by -1/tau: ``lam_fit = lam - 1/tau``. The
+    structure's pole is ``lam_fit + 1/tau``; its damping ratio ``-Re / |.|``::
+
+        sigma_fit = zeta_fit omega_fit,  omega_d = omega_fit sqrt(1 - zeta_fit^2)
+        sigma = sigma_fit - 1/tau,        zeta = sigma / sqrt(omega_d^2 + sigma^2)
+
+    i.e. ``zeta = zeta_fit - 1/(tau omega_n)`` to first order. A mode whose ``sigma`` is not
+    positive (fitted decay not above the window's) gets NaN and is listed in ``below``; it is
+    never clipped to a small positive number or written negative.
+
+    >>> from types import SimpleNamespace
+    >>> w = 2 * np.pi * 100.0                  # 100 Hz, zeta 1 %, tau 0.1 s (1/tau = 10 /s)
+    >>> lam = complex(-0.01 * w - 10.0, w * np.sqrt(1 - 0.01**2))     # the windowed pole
+    >>> fit = SimpleNamespace(modes=[SimpleNamespace(damping_std=0.0)],
+    ...                       freq_hz=np.array([abs(lam) / (2 * np.pi)]),
+    ...                       damping_ratio=np.array([-lam.real / abs(lam)]))
+    >>> c = window_corrected_damping(fit, 0.1)
+    >>> round(float(c.damping[0]), 12), round(float(c.removed[0]), 4)
+    (0.01, 0.0159)
+    """
+    n = len(fit.modes)
+    fitted = np.asarray(fit.damping_ratio, float) if n else np.zeros(0)
+    sig = damping_sigma(fit) if n else np.zeros(0)
+    if exp_window_s is None or not (np.isfinite(exp_window_s) and exp_window_s > 0) or not n:
+        z = np.zeros(n)
+        return WindowCorrection(None, fitted, z, z.copy(), fitted.copy(), sig, ())
+    wn = 2 * np.pi * np.asarray(fit.freq_hz, float)
+    wd = wn * np.sqrt(np.clip(1 - fitted**2, 0, None))
+    decay = fitted * wn - 1.0 / exp_window_s
+    below = decay <= 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        zeta = np.where(below, np.nan, decay / np.hypot(wd, decay))
+    return WindowCorrection(
+        exp_window_s=float(exp_window_s), fitted=fitted, removed=fitted - zeta,
+        window=1.0 / (exp_window_s * wn), damping=zeta, sigma=np.where(below, np.nan, sig),
+        below=tuple(int(i) for i in np.flatnonzero(below)))
+
+
+def window_unknown(fs) -> bool:
+    """True when the FRF file's settings name an exponential window but not its time constant
+    (``exp_window_s`` NaN or empty: acquired with ``--keep-setup``, which cannot read it)."""
+    settings = fs.meta.get("settings") or {}
+    return "exp_window_s" in settings and window_time_constant(fs) is None
 
 
 def window_time_constant(fs) -> float | None:

@@ -377,6 +377,65 @@ def _attr(v):
     return v
 
 
+#: acquisition settings that change what a saved point means (name in the file: option, unit).
+#: A point measured with other values is another measurement (an exponential window's 1/tau is
+#: in every pole's decay rate; the force window and the pre-trigger decide how much of the hit
+#: and of the response the analyser keeps; span, start and lines the axis), so ``--resume``
+#: must not add such points to a file, nor record the new values as if they held for all.
+#: Averages, trigger level and the coherence threshold only change the noise or the quality
+#: check, and may differ.
+RESUME_SETTINGS = {"span_hz": ("--span", "Hz"), "start_hz": ("--start", "Hz"),
+                   "lines": ("--lines", ""), "pretrigger_s": ("--pretrigger", "s"),
+                   "force_window_s": ("--force-window", "s"),
+                   "exp_window_s": ("--exp-window", "s")}
+
+
+def _setting_value(v) -> float | None:
+    """A recorded/requested setting as a number; None when absent or unknown (NaN, "")."""
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        return None
+    return x if np.isfinite(x) else None
+
+
+def check_resume_settings(path, recorded: dict, requested: dict) -> None:
+    """Raise :class:`FrfError` when ``requested`` settings differ from those ``path`` records
+    for any of :data:`RESUME_SETTINGS` (keys absent from ``requested`` are not checked).
+
+    The message names the file, each differing setting with its recorded and requested value,
+    and the options that would resume the file as it was measured.
+    """
+    diffs, keep = [], []
+    for key, (flag, unit) in RESUME_SETTINGS.items():
+        if key not in requested:
+            continue
+        rec, req = _setting_value(recorded.get(key)), _setting_value(requested.get(key))
+        if rec is None and req is None:
+            continue
+        if rec is not None and req is not None and np.isclose(rec, req, rtol=1e-9, atol=0):
+            continue
+        name = key.rsplit("_", 1)[0].replace("_", " ")
+        u = f" {unit}" if unit else ""
+        rec_txt = "not recorded (--keep-setup)" if rec is None else f"{rec:g}{u}"
+        req_txt = ("unknown (--keep-setup does not read it back)" if req is None
+                   else f"{req:g}{u} ({flag})")
+        diffs.append(f"{name}: recorded {rec_txt}, requested {req_txt}")
+        if rec is not None:
+            keep.append(f"{flag} {rec:g}")
+    if not diffs:
+        return
+    if keep and len(keep) == len(diffs):
+        how = (f"resume with the recorded values ({' '.join(keep)}, without --keep-setup) "
+               "or write the new points to another file (-o)")
+    else:
+        how = ("resume the file the way it was measured (with or without --keep-setup, the "
+               "same values) or write the new points to another file (-o)")
+    raise FrfError(f"{path}: cannot resume, its points were measured with other settings "
+                   f"than this run's ({'; '.join(diffs)}): points of both kinds in one file "
+                   f"would not be one measurement; {how}")
+
+
 class FrfWriter:
     """Crash-safe, point-by-point writer of a laminid FRF file.
 
@@ -387,7 +446,8 @@ class FrfWriter:
     units : FRF units, e.g. "Pa/N"
     settings : acquisition settings (name -> number/str; put the unit in the name: ``span_hz``)
     instrument : identity (``idn``, ``model``, ``resource``)
-    resume : continue an existing file (its axis and units must match)
+    resume : continue an existing file (its axis, units and the :data:`RESUME_SETTINGS` must
+        match: :func:`check_resume_settings`)
     overwrite : replace an existing file; without it (and without ``resume``) an existing file
         raises :class:`~laminid_cli.errors.OutputExistsError`
 
@@ -426,6 +486,10 @@ class FrfWriter:
                            f"{self.freq[0]:g}-{self.freq[-1]:g} Hz)")
         if old.units != self.units:
             raise FrfError(f"{self.path}: cannot resume, FRF units differ ({old.units} vs {self.units})")
+        recorded = dict(old.meta.get("settings") or {})
+        check_resume_settings(self.path, recorded, self.settings)
+        # what this run does not state stays as recorded (never dropped by a resume)
+        self.settings = {**recorded, **self.settings}
         self.frf = list(old.frf)
         coh = old.coherence if old.coherence is not None else np.full(old.frf.shape, np.nan)
         self.coherence = list(coh)
