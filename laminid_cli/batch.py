@@ -69,7 +69,8 @@ CONSTANT_UNITS = {"E1": "Pa", "E2": "Pa", "G12": "Pa", "G13": "Pa", "G23": "Pa",
 UNITS = {**CONSTANT_UNITS, "lower": "unit of the constant", "upper": "unit of the constant",
          "bound_limit": "unit of the constant",
          "mc_lower": "unit of the constant", "mc_upper": "unit of the constant",
-         "rms_residual_percent": "%", "time_s": "s"}
+         "rms_residual_percent": "%", "time_s": "s",
+         **{f"eta{k}": "1 (loss factor, eta = 2 zeta)" for k in ("11", "22", "12", "13", "23")}}
 #: the columns of the long summary.csv: lower/upper the linearised interval (empty for a
 #: constant at its bound), bound_side/bound_limit of a constant at its bound (the data push it
 #: below a "lower" limit, above an "upper" one; no interval), mc_lower/mc_upper the Monte Carlo

@@ -317,7 +317,9 @@ class DampingFit:
                 "value": float(self.value[k]), "std": float(self.std[k]),
                 "lower": float(self.lower[k]), "upper": float(self.upper[k]),
                 "rel_half_width": float(self.rel_half_width[k]), "verdict": self.verdict[k],
-                "at_bound": bool(self.at_bound[k])}
+                "at_bound": bool(self.at_bound[k]),
+                "bound_side": "lower" if self.at_bound[k] else "",
+                "bound_limit": 0.0 if self.at_bound[k] else None}
         for lab, v in self.fixed.items():
             mat, name = lab.rsplit(".", 1)
             per.setdefault(mat, {})[name] = {"value": float(v), "verdict": VERDICT_FIXED}

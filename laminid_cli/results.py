@@ -627,9 +627,16 @@ def write_damping(f, d) -> None:
     g.create_dataset("labels", data=data, dtype=dt)
     for key in ("value", "std", "lower", "upper"):
         put(g, key, np.asarray(getattr(d, key), float), "1")
+    put(g, "rel_half_width", np.asarray(d.rel_half_width, float), "1",
+        description="95 % half-width / value (inf for a loss factor held at 0)")
     data, dt = _strings(d.verdict)
     g.create_dataset("verdict", data=data, dtype=dt)
     g.create_dataset("at_bound", data=np.asarray(d.at_bound, bool))
+    at = np.asarray(d.at_bound, bool)
+    data, dt = _strings(["lower" if b else "" for b in at])
+    g.create_dataset("bound_side", data=data, dtype=dt)
+    put(g, "bound_limit", np.where(at, 0.0, np.nan), "1",
+        description="0 for a loss factor held at its lower limit (eta >= 0), NaN otherwise")
     put(g, "measured_loss_factor", d.measured_loss_factor, "1",
         description="2 x measured viscous damping ratio; NaN where not measured")
     put(g, "measured_sigma", d.measured_sigma, "1",

@@ -123,6 +123,18 @@ def test_undetermined_loss_factors_make_the_status_check(frf_case, tmp_path):
     assert not any("eta11" in x["text"] for x in doc["reasons"])      # eta11 is weak: not named
     with h5py.File(out, "r") as f:
         assert f.attrs["status"] == "check"
+        g = f["damping"]
+        labels = [x.decode() for x in g["labels"][()]]
+        for k, lab in enumerate(labels):
+            j = per[lab.rsplit(".", 1)[1]]
+            assert (j["bound_side"], j["bound_limit"]) == (
+                ("lower", 0.0) if j["at_bound"] else ("", None))
+            assert g["bound_side"][k].decode() == j["bound_side"]
+            if j["at_bound"]:
+                assert np.isinf(g["rel_half_width"][k]) and g["bound_limit"][k] == 0.0
+            else:
+                assert g["rel_half_width"][k] == j["rel_half_width"]
+                assert np.isnan(g["bound_limit"][k])
     t = run("identify", tmp / "plate.yaml", "--mesh", "6x6", "--fix", "nu12,G13,G23",
             "--no-output")
     assert "status: CHECK" in t.output and "E-glass/R368.eta23" in t.output
