@@ -425,15 +425,31 @@ def frequency_block(fig, spec, plate) -> None:
         ax_r.spines[side].set_visible(False)
 
 
+#: a laminate property wider than this (95 % half-width / value) is "not determined", as a
+#: constant is (laminid_cli.intervals.WEAK)
+WEAK_BAND = 0.30
+
+
 def _laminate_text(plate) -> str:
     gp = plate.global_properties
     if not gp:
         return ""
     ref = plate.reference_global
 
+    unc = getattr(plate, "global_uncertainty", None) or {}
+
     def one(k, v):
         nu = k.startswith("nu")
         text = f"{k} {v:.3f}" if nu else f"{k} {v / 1e9:.2f} GPa"
+        u = unc.get(k)
+        if u is not None:                 # its doubt, from the constants' covariance
+            rel = u["rel_half_width"]
+            if not np.isfinite(rel):
+                text += " (not identified)"
+            else:
+                text += f" ±{rel * 100:.2g} %" if rel < 1 else f" (±{rel * 100:.0f} %)"
+                if rel >= WEAK_BAND:
+                    text += " not determined"
         if k in ref:
             lo, hi = ref[k]
             r = (f"{lo:.3g}" if nu else f"{lo / 1e9:.3g} GPa") if lo == hi else \

@@ -148,6 +148,9 @@ class Plate:
     reference: dict            # {material: {constant: value SI}} from the specimen's YAML
     reference_source: str = ""
     reference_global: dict = field(default_factory=dict)   # {Ex...: (low, high) SI}
+    #: {Ex...: {"value", "std", "lower", "upper", "rel_half_width", "verdict"}} (SI; NaN
+    #: interval: not identified) from /uncertainty/global_properties; {} when not stored
+    global_uncertainty: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -326,7 +329,21 @@ def _plate(g, name: str | None = None) -> Plate:
         swaps=_strings(g["swaps"]) if "swaps" in g else (),
         warnings=_strings(g["warnings"]) if "warnings" in g else (),
         reference=ref, reference_source=source,
-        reference_global=parse_global_reference(yaml_text))
+        reference_global=parse_global_reference(yaml_text),
+        global_uncertainty=_global_uncertainty(g))
+
+
+def _global_uncertainty(g) -> dict:
+    """/uncertainty/global_properties of a single result (its plate is the root)."""
+    if g.name != "/" or "uncertainty/global_properties" not in g:
+        return {}
+    h = g["uncertainty/global_properties"]
+    keys = _strings(h["keys"])
+    cols = {k: np.asarray(h[k][()], float) for k in ("value", "std", "lower", "upper",
+                                                       "rel_half_width")}
+    verdict = _strings(h["verdict"])
+    return {key: {**{k: float(v[i]) for k, v in cols.items()}, "verdict": verdict[i]}
+            for i, key in enumerate(keys)}
 
 
 #: the statement of a constant at a bound: files before stop 29 wrote it as an inequality

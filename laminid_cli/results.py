@@ -366,6 +366,8 @@ def write_identification_file(path, fm, r, summary: dict, command: str = "lamini
             f.attrs[key] = value
         if assessment is not None:
             write_uncertainty(f, assessment, [fm.specimen.name])
+            if summary.get("global_uncertainty"):
+                write_global_uncertainty(f["uncertainty"], summary["global_uncertainty"])
         if damping is not None:
             write_damping(f, damping)
 
@@ -611,6 +613,25 @@ def write_joint_identification_file(path, fms, r, summary: dict, assessment=None
                 "optimizer": summary["optimizer"]})
         if assessment is not None:
             write_uncertainty(f, assessment, names)
+
+
+def write_global_uncertainty(g, unc: dict) -> None:
+    """/uncertainty/global_properties: the laminate's global properties (Appendix A) with their
+    intervals and verdicts (laminid_cli.global_uncertainty; NaN interval: not identified)."""
+    import h5py
+
+    keys = list(unc)
+    h = g.create_group("global_properties")
+    data, dt = _strings(keys)
+    h.create_dataset("keys", data=data, dtype=dt)
+    unit = "Pa (nu_xy, nu_yx: 1)"
+    for field in ("value", "std", "lower", "upper"):
+        put(h, field, np.array([np.nan if unc[k][field] is None else unc[k][field]
+                                for k in keys], float), unit)
+    put(h, "rel_half_width", np.array([np.nan if unc[k]["rel_half_width"] is None
+                                       else unc[k]["rel_half_width"] for k in keys], float), "1")
+    h.create_dataset("verdict", data=[unc[k]["verdict"] for k in keys],
+                     dtype=h5py.string_dtype())
 
 
 def write_damping(f, d) -> None:

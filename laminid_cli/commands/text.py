@@ -5,6 +5,10 @@ from __future__ import annotations
 import math
 import re
 
+#: the advice that ends the verdict "not determined by these modes — fix it or ..." (shown
+#: once in the constants' table, not again for the laminate's properties)
+VERDICT_ADVICE = " — fix it or measure a thicker plate / more modes"
+
 MODULI = ("E1", "E2", "G12", "G13", "G23")
 GLOBAL_ORDER = (("Ex", "GPa"), ("Ey", "GPa"), ("Gxy", "GPa"), ("Gxz", "GPa"), ("Gyz", "GPa"),
                 ("nu_xy", ""), ("nu_yx", ""))
@@ -57,7 +61,30 @@ def format_frequency_table(freqs: dict, extra: dict | None = None) -> list[str]:
     return lines
 
 
-def format_global(props: dict) -> list[str]:
+def format_global(props: dict, unc: dict | None = None) -> list[str]:
+    """The laminate's global properties (Appendix A); with ``unc`` (the JSON block
+    "global_uncertainty") a table with their intervals and verdicts."""
+    if unc:
+        lines = ["global laminate properties (Appendix A; 95 % intervals from the constants' "
+                 "covariance)"]
+        for key, unit in GLOBAL_ORDER:
+            u = unc.get(key)
+            v = props.get(key)
+            if u is None or v is None:
+                continue
+            gpa = unit == "GPa"
+
+            def num(x):
+                return "—" if x is None else f"{x / 1e9:.2f}" if gpa else f"{x:.3f}"
+
+            def finite(x):
+                return x is not None and math.isfinite(x)
+
+            span = (f"{num(u['lower'])} .. {num(u['upper'])}" if finite(u["lower"]) else "none")
+            rel = _pct(u["rel_half_width"]) if finite(u["rel_half_width"]) else "—"
+            lines.append(f"  {key + (' [GPa]' if gpa else ''):<10} {num(v):>8}  {span:>17} "
+                         f"{rel:>8}  {u['verdict'].replace(VERDICT_ADVICE, '')}")
+        return lines
     parts = []
     for key, unit in GLOBAL_ORDER:
         v = props.get(key)
@@ -146,7 +173,7 @@ def format_identify_report(s: dict) -> str:
                  f"(initial guess {s['initial_rms_residual_percent']:.2f} %), objective "
                  f"{s['objective']:.4g}")
     lines.append("")
-    lines += format_global(s["global_properties"])
+    lines += format_global(s["global_properties"], s.get("global_uncertainty"))
     ref = s.get("reference") or {}
     gref = ref.get("global") or {}
     if gref:

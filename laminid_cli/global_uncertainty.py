@@ -1,0 +1,172 @@
+"""Doubt on the laminate's global properties (paper Appendix A: Ex, Ey, Gxy, Gxz, Gyz, nu_xy,
+nu_yx), propagated from the identified constants.
+
+A global property g(P) is a smooth function of the ply constants P. Its linearised variance is
+J C J^T, with J = dg/dP by central differences (relative step :data:`REL_STEP`) over the free
+constants and C their covariance (:class:`laminid_cli.uncertainty.Uncertainty`, the same
+scaling and quantile as the constants' intervals). Moduli get intervals on ln g, as the
+constants do (``g exp(-/+ q std / g)``), Poisson ratios linear ones; the verdict follows the
+same bands (5 % / 30 % half-width).
+
+A property that depends (``|dg / dP| s / |g| >`` :data:`DEPENDS`, with s the constant's value, at
+least a tenth of E2 for a modulus) on a constant at a limit of the search is not identified: it
+gets no interval and says on which. One fixed because the modes did not determine it
+(``--fix-undetermined``) adds the variance its standard deviation had in the run before it was
+fixed (so Gxz of a plate whose G13 was fixed is as undetermined as G13 was); without that
+run, the property is not identified either. One that depends on a constant fixed by
+the user (``--fix`` or the file's ``fixed``) keeps its interval, "given" that value (the
+interval does not count the fixed value's own doubt). For an orthotropic ply rotated about z
+the in-plane and the transverse-shear blocks of Q do not mix, so Ex, Ey, Gxy and the Poisson
+ratios never depend on G13 or G23, and Gxz, Gyz only on them.
+
+No click, no h5py: library code.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from laminid_cli.intervals import verdict as verdict_of
+from laminid_cli.material import CONSTANT_NAMES
+
+#: the properties, in the order they are shown
+KEYS = ("Ex", "Ey", "Gxy", "Gxz", "Gyz", "nu_xy", "nu_yx")
+#: relative step of the central differences (a Poisson ratio: of max(|nu|, 0.1))
+REL_STEP = 1e-6
+#: |d ln g / d ln P| above which a property depends on a constant
+DEPENDS = 1e-3
+NOT_IDENTIFIED = "not identified"
+
+
+@dataclass(frozen=True)
+class GlobalInterval:
+    """One property: value (Pa or 1), std, 95 % interval, relative half-width, verdict; the
+    constants it depends on that are at a bound / fixed because undetermined (then no
+    interval: NaN) / fixed by the user (the interval is given their values)."""
+
+    key: str
+    value: float
+    std: float
+    lower: float
+    upper: float
+    rel_half_width: float
+    verdict: str
+    at_bound: tuple[str, ...] = ()
+    undetermined_fixed: tuple[str, ...] = ()
+    given_fixed: tuple[str, ...] = ()
+    #: constants fixed because undetermined whose spread before fixing the interval counts
+    spread_counted: tuple[str, ...] = ()
+
+    @property
+    def identified(self) -> bool:
+        return not (self.at_bound or self.undetermined_fixed)
+
+    def as_dict(self) -> dict:
+        return {"value": self.value, "std": self.std, "lower": self.lower, "upper": self.upper,
+                "rel_half_width": self.rel_half_width, "verdict": self.verdict,
+                "depends_on_at_bound": list(self.at_bound),
+                "depends_on_undetermined_fixed": list(self.undetermined_fixed),
+                "given_fixed": list(self.given_fixed),
+                "spread_counted": list(self.spread_counted)}
+
+
+def _props(laminate, constants: dict) -> np.ndarray:
+    gp = laminate.with_constants(constants).global_properties().as_dict()
+    return np.array([gp[k] for k in KEYS])
+
+
+def _step(name: str, value: float) -> float:
+    return REL_STEP * (max(abs(value), 0.1) if name == "nu12" else abs(value))
+
+
+def _dependence_scale(constants: dict, label: str) -> float:
+    """The change of a constant that its dependence is judged on: its value, at least a tenth
+    of its material's E2 for a modulus (a shear modulus at its floor, a few MPa, would
+    otherwise hide a property's dependence on it: its real value is not known) and 0.1 for
+    nu12."""
+    name, k = label.rsplit(".", 1)
+    c = constants[name]
+    v = abs(float(getattr(c, k)))
+    return max(v, 0.1) if k == "nu12" else max(v, 0.1 * abs(float(c.E2)))
+
+
+def sensitivities(laminate, constants: dict) -> tuple[np.ndarray, tuple[str, ...], np.ndarray]:
+    """(J, labels, g0): J (7, p) = d g / d P of :data:`KEYS` over every constant of every
+    material ("material.E1", ...), by central differences; g0 the properties."""
+    g0 = _props(laminate, constants)
+    labels, cols = [], []
+    for name, c in constants.items():
+        for k in CONSTANT_NAMES:
+            v = float(getattr(c, k))
+            h = _step(k, v)
+            up = dict(constants, **{name: dataclasses.replace(c, **{k: v + h})})
+            dn = dict(constants, **{name: dataclasses.replace(c, **{k: v - h})})
+            cols.append((_props(laminate, up) - _props(laminate, dn)) / (2 * h))
+            labels.append(f"{name}.{k}")
+    return np.column_stack(cols), tuple(labels), g0
+
+
+def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before=None
+                     ) -> dict[str, GlobalInterval]:
+    """The :class:`GlobalInterval` of each property of ``laminate`` (a
+    :class:`laminid_cli.laminate.Laminate`) with the identified ``constants`` ({material:
+    ElasticConstants}), from the constants' uncertainty ``u``. ``fixed_undetermined``: labels
+    fixed because undetermined; ``before``: the uncertainty of the run before they were fixed,
+    whose standard deviations of them are added to the properties' variance (without it, a
+    property depending on them is not identified)."""
+    J, labels, g0 = sensitivities(laminate, constants)
+    index = {lab: j for j, lab in enumerate(labels)}
+    free = list(u.labels)
+    at_bound = ({lab for lab, b in zip(free, u.at_bound) if b} if u.at_bound is not None
+                else set())
+    cov = np.nan_to_num(np.asarray(u.covariance, float))
+    keep = [k for k, lab in enumerate(free) if lab not in at_bound]
+    Jf = J[:, [index[free[k]] for k in keep]] if keep else np.zeros((len(KEYS), 0))
+    var = np.einsum("ij,jk,ik->i", Jf, cov[np.ix_(keep, keep)], Jf) if keep else np.zeros(7)
+    # a constant fixed because undetermined still has the spread it had before it was fixed
+    spread = {}
+    if before is not None:
+        for lab, sd in zip(before.labels, before.std):
+            if lab in set(fixed_undetermined) and np.isfinite(sd):
+                spread[lab] = float(sd)
+    for lab, sd in spread.items():
+        var = var + (J[:, index[lab]] * sd) ** 2
+    std = np.sqrt(np.maximum(var, 0.0))
+    q = float(u.quantile)
+    scale = np.array([_dependence_scale(constants, lab) for lab in labels])
+    out = {}
+    undetermined = set(fixed_undetermined)
+    for i, key in enumerate(KEYS):
+        g = float(g0[i])
+        rel_dep = np.abs(J[i]) * scale / max(abs(g), 1e-300)
+        deps = [lab for lab, d in zip(labels, rel_dep) if d > DEPENDS]
+        bound = tuple(lab for lab in deps if lab in at_bound)
+        und = tuple(lab for lab in deps if lab in undetermined)
+        counted = tuple(lab for lab in und if lab in spread)
+        und = tuple(lab for lab in und if lab not in spread)
+        given = tuple(lab for lab in deps if lab not in free and lab not in undetermined)
+        half = q * float(std[i])
+        rel = half / abs(g) if g != 0 else np.inf
+        if bound or und:
+            why = ", ".join([f"{lab} (at its bound)" for lab in bound]
+                            + [f"{lab} (fixed because undetermined)" for lab in und])
+            out[key] = GlobalInterval(key, g, np.nan, np.nan, np.nan, np.nan,
+                                      f"{NOT_IDENTIFIED}: depends on {why}", bound, und, given)
+            continue
+        if key.startswith("nu"):
+            lo, hi = g - half, g + half
+        else:
+            with np.errstate(over="ignore"):
+                lo, hi = g * np.exp(-half / g), g * np.exp(half / g)
+        verdict = verdict_of(rel, False)
+        if counted:
+            verdict += (" — counts the spread " + ", ".join(counted) + " had before "
+                        + ("it was" if len(counted) == 1 else "they were") + " fixed")
+        if given:
+            verdict += " — given the fixed " + ", ".join(given)
+        out[key] = GlobalInterval(key, g, float(std[i]), float(lo), float(hi), float(rel),
+                                  verdict, (), (), given, counted)
+    return out

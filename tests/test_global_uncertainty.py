@@ -1,0 +1,139 @@
+"""Doubt on the laminate's global properties (laminid_cli.global_uncertainty): against closed
+forms (a unidirectional laminate's properties are its ply's constants), against sampling (the
+linearised spread of a quasi-isotropic laminate's properties vs 20000 draws of the constants),
+the dependence rules, and the same numbers in --json, the HDF5 file, the terminal and the
+report's text."""
+
+import json
+from types import SimpleNamespace
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from laminid_cli.cli import cli
+from laminid_cli.global_uncertainty import KEYS, global_intervals
+from laminid_cli.laminate import Laminate
+from laminid_cli.material import CONSTANT_NAMES, ElasticConstants
+
+C0 = ElasticConstants(E1=150e9, E2=9e9, G12=5e9, G13=4.5e9, G23=3e9, nu12=0.3)
+LABELS = tuple(f"m.{k}" for k in CONSTANT_NAMES)
+
+
+def laminate(angles_deg):
+    n = len(angles_deg)
+    h = 2e-3
+    return Laminate(z=np.linspace(-h / 2, h / 2, n + 1), angle=np.radians(angles_deg),
+                    material_index=np.zeros(n, int), material_names=("m",),
+                    density=np.full(n, 1500.0), constants=(C0,))
+
+
+def fake_u(cov, at_bound=None, labels=LABELS, q=1.959963984540054):
+    return SimpleNamespace(labels=labels, covariance=np.asarray(cov, float), quantile=q,
+                           at_bound=None if at_bound is None else np.asarray(at_bound, bool))
+
+
+def rel_std():
+    """5 % on every modulus, 0.03 on nu12, E1-E2 correlated 0.5."""
+    v = np.array([getattr(C0, k) for k in CONSTANT_NAMES])
+    sd = np.where(np.array(CONSTANT_NAMES) == "nu12", 0.03, 0.05 * v)
+    corr = np.eye(6)
+    corr[0, 1] = corr[1, 0] = 0.5
+    return sd, corr * np.outer(sd, sd)
+
+
+def test_a_unidirectional_laminate_has_its_plys_constants_and_their_doubt():
+    """[0]4: Ex = E1, Ey = E2, Gxy = G12, Gxz = G13, Gyz = G23, nu_xy = nu12, so their standard
+    deviations are the constants' own (1e-6, the central differences' error)."""
+    sd, cov = rel_std()
+    out = global_intervals(laminate([0, 0, 0, 0]), {"m": C0}, fake_u(cov))
+    pairs = {"Ex": 0, "Ey": 1, "Gxy": 2, "Gxz": 3, "Gyz": 4, "nu_xy": 5}
+    for key, j in pairs.items():
+        assert out[key].std == pytest.approx(sd[j], rel=1e-6), key
+        assert out[key].verdict == "weak"          # 1.96 x 5 % (moduli), 1.96 x 0.03 / 0.3
+    # nu_yx = nu12 E2 / E1: d = nu12/E1 dE2 - nu12 E2/E1^2 dE1 + E2/E1 dnu12 (closed form)
+    g = np.array([-C0.nu12 * C0.E2 / C0.E1 ** 2, C0.nu12 / C0.E1, 0, 0, 0, C0.E2 / C0.E1])
+    assert out["nu_yx"].std == pytest.approx(np.sqrt(g @ cov @ g), rel=1e-6)
+    # moduli: intervals on ln g, as the constants'
+    q = 1.959963984540054
+    assert out["Ex"].lower == pytest.approx(C0.E1 * np.exp(-q * sd[0] / C0.E1), rel=1e-9)
+
+
+def test_linearised_spread_against_sampling_for_a_quasi_isotropic_laminate():
+    """[0/45/-45/90]s with 1 % moduli and 0.005 on nu12: the linearised standard deviation of
+    every property within 3 % of the spread of 8000 draws of the constants (the sample
+    standard deviation's own error is 0.8 %)."""
+    lam = laminate([0, 45, -45, 90, 90, -45, 45, 0])
+    v = np.array([getattr(C0, k) for k in CONSTANT_NAMES])
+    sd = np.where(np.array(CONSTANT_NAMES) == "nu12", 0.005, 0.01 * v)
+    cov = np.diag(sd ** 2)
+    out = global_intervals(lam, {"m": C0}, fake_u(cov))
+    rng = np.random.default_rng(7)
+    draws = rng.multivariate_normal(v, cov, size=8000)
+    props = (lam.with_constants([ElasticConstants(*row)]).global_properties().as_dict()
+             for row in draws)
+    gp = np.array([[d[k] for k in KEYS] for d in props])
+    for i, key in enumerate(KEYS):
+        assert out[key].std == pytest.approx(gp[:, i].std(), rel=0.03), key
+
+
+def test_dependence_on_constants_at_a_bound_fixed_or_fixed_because_undetermined():
+    """Gxz and Gyz of a cross-ply depend on G13 and G23 only, Ex, Ey, Gxy, nu_xy never on
+    them: G13 at its bound leaves Gxz, Gyz not identified; G23 fixed because undetermined adds
+    the spread it had before fixing; nu12 fixed by the user gives 'given the fixed'."""
+    lam = laminate([0, 90, 90, 0])
+    sd, cov = rel_std()
+    out = global_intervals(lam, {"m": C0}, fake_u(cov, at_bound=[0, 0, 0, 1, 0, 0]))
+    assert not out["Gxz"].identified and out["Gxz"].at_bound == ("m.G13",)
+    assert np.isnan(out["Gyz"].lower) and "depends on m.G13 (at its bound)" in out["Gyz"].verdict
+    for key in ("Ex", "Ey", "Gxy", "nu_xy", "nu_yx"):
+        assert out[key].identified and np.isfinite(out[key].lower), key
+    # G23 and nu12 fixed (not among the labels); G23 because undetermined, with its earlier std
+    free = ("m.E1", "m.E2", "m.G12", "m.G13")
+    u = fake_u(cov[:4, :4], labels=free)
+    before = SimpleNamespace(labels=LABELS, std=np.array([1, 1, 1, 1, 0.8e9, 1]))
+    out = global_intervals(lam, {"m": C0}, u, fixed_undetermined=("m.G23",), before=before)
+    assert out["Gxz"].spread_counted == ("m.G23",)
+    assert "counts the spread m.G23 had before it was fixed" in out["Gxz"].verdict
+    assert out["Ex"].given_fixed == ("m.nu12",) and out["Ex"].verdict.endswith(
+        "given the fixed m.nu12")
+    # G13 and G23 of a cross-ply enter Gxz as t-weighted sums: exact variance by hand
+    t0 = t90 = 0.5
+    dGxz = np.array([t0, t90])                       # d Gxz / d (G13, G23), Voigt average
+    var = dGxz @ np.diag([sd[3] ** 2, 0.8e9 ** 2]) @ dGxz
+    assert out["Gxz"].std == pytest.approx(np.sqrt(var), rel=1e-5)
+    # without the earlier run: not identified
+    out = global_intervals(lam, {"m": C0}, u, fixed_undetermined=("m.G23",))
+    assert not out["Gxz"].identified and "fixed because undetermined" in out["Gxz"].verdict
+
+
+def test_global_doubt_in_json_hdf5_terminal_and_report(tmp_path):
+    """S2.1 (8x8): G13 ends at its bound, so Gxz and Gyz are not identified everywhere; Ex
+    keeps an interval, the same in --json, HDF5 and the terminal."""
+    from laminid_cli.report import _laminate_text
+    from laminid_cli.resultfile import read_result
+
+    out = tmp_path / "r.h5"
+    r = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8",
+                                 "--json", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    gu = json.loads(r.output)["global_uncertainty"]
+    assert gu["Gxz"]["lower"] is None and "not identified" in gu["Gxz"]["verdict"]
+    assert gu["Ex"]["rel_half_width"] < 0.05 and gu["Ex"]["verdict"] == "well determined"
+    with h5py.File(out) as f:
+        h = f["uncertainty/global_properties"]
+        keys = [k.decode() for k in h["keys"][()]]
+        assert keys == list(KEYS)
+        assert h["lower"][keys.index("Ex")] == gu["Ex"]["lower"]
+        assert np.isnan(h["lower"][keys.index("Gyz")])
+    plate = read_result(out).plates[0]
+    assert plate.global_uncertainty["Ex"]["upper"] == gu["Ex"]["upper"]
+    text = _laminate_text(plate)
+    assert "Gxz 2.21 GPa (not identified)" in text
+    assert f"Ex {gu['Ex']['value'] / 1e9:.2f} GPa ±{gu['Ex']['rel_half_width'] * 100:.2g} %" \
+        in text
+    t = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8",
+                                 "--no-output"])
+    row = next(ln for ln in t.output.splitlines() if ln.startswith("  Gxz [GPa]"))
+    assert "none" in row and "not identified: depends on E-glass/R368.G13 (at its bound)" in row
