@@ -523,7 +523,8 @@ def test_laminate_reference_values_on_the_summary_page(batch_dir):
     fig = {p.name: p.figure for p in report_pages(path)}["summary"]
     text = " ".join(t.get_text() for a in fig.axes for t in a.texts).replace("\n", " ")
     ey = res.plates[0].global_properties["Ey"] / 1e9
-    assert f"Ey {ey:.2f} GPa (reference 22.5 GPa)" in text
+    rel = res.plates[0].global_uncertainty["Ey"]["rel_half_width"]       # its doubt, then the
+    assert f"Ey {ey:.2f} GPa ±{rel * 100:.2g} % (reference 22.5 GPa)" in text   # reference
 
 
 def _no_overlap(fig, axis, legend) -> bool:
