@@ -198,13 +198,18 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
     summary = joint_identification_summary(result) if joint else identification_summary(result)
     summary["mesh"] = {"nx": fms[0].mesh_size[0], "ny": fms[0].mesh_size[1]}
     summary["uncertainty"] = uncertainty_summary(a)
-    if not joint:
-        from laminid_cli.global_uncertainty import global_intervals
+    from laminid_cli.global_uncertainty import global_intervals
 
-        summary["global_uncertainty"] = {
-            k: gi.as_dict() for k, gi in global_intervals(
-                fms[0].laminate, dict(zip(result.material_names, result.constants)),
-                a.uncertainty, a.fixed_undetermined, a.before_fixing).items()}
+    shared = dict(zip(result.material_names, result.constants))
+    for k, fm in enumerate(fms):
+        # the laminate's global properties with their doubt (one block per plate when joint)
+        gu = {key: gi.as_dict() for key, gi in global_intervals(
+            fm.laminate, {n: shared[n] for n in fm.material_names}, a.uncertainty,
+            a.fixed_undetermined, a.before_fixing).items()}
+        if joint:
+            list(summary["specimens"].values())[k]["global_uncertainty"] = gu
+        else:
+            summary["global_uncertainty"] = gu
     damping = None
     if not joint and _has_damping(specimens[0]):
         from laminid_cli.damping import damping_of

@@ -137,3 +137,19 @@ def test_global_doubt_in_json_hdf5_terminal_and_report(tmp_path):
                                  "--no-output"])
     row = next(ln for ln in t.output.splitlines() if ln.startswith("  Gxz [GPa]"))
     assert "none" in row and "not identified: depends on E-glass/R368.G13 (at its bound)" in row
+
+
+def test_joint_result_gives_each_plate_its_laminate_doubt():
+    """--joint: each plate's block has its laminate's properties with intervals from the shared
+    constants' covariance (S1.1 and S1.2 are both quasi-isotropic: Ex = Ey to 1e-9)."""
+    r = CliRunner().invoke(cli, ["identify", "specimens/example1/S1.1.yaml",
+                                 "specimens/example1/S1.2.yaml", "--joint", "--mesh", "8x8",
+                                 "--json", "--no-output"])
+    assert r.exit_code == 0, r.output
+    plates = json.loads(r.output)["specimens"]
+    assert len(plates) == 2
+    for p in plates.values():
+        gu = p["global_uncertainty"]
+        assert gu["Ex"]["value"] == pytest.approx(p["global_properties"]["Ex"], rel=1e-12)
+        assert gu["Ex"]["value"] == pytest.approx(gu["Ey"]["value"], rel=1e-9)
+        assert 0 < gu["Ex"]["rel_half_width"] < 0.05

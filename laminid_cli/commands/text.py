@@ -198,7 +198,7 @@ def format_joint_report(s: dict) -> str:
         lines += _paired_frequency_table(p["frequencies"])
         lines.append(f"RMS residual {p['rms_residual_percent']:.3f} % (initial guess "
                      f"{p['initial_rms_residual_percent']:.2f} %)")
-        lines += format_global(p["global_properties"])
+        lines += format_global(p["global_properties"], p.get("global_uncertainty"))
     lines.append("")
     lines.append(f"RMS residual over all plates {s['rms_residual_percent']:.3f} % (initial guess "
                  f"{s['initial_rms_residual_percent']:.2f} %), objective {s['objective']:.4g}")
