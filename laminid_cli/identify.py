@@ -534,8 +534,20 @@ def check_start(plate: PlateTerm, ev: Evaluation, far_limit: float) -> list[str]
             f"{ratio[i] * 100:.0f} % away from the model ({f_model[i]:.2f} Hz) at the initial "
             f"guess (limit {far_limit * 100:.0f} %): check the units, the mass/"
             "density, the geometry and the initial constants")
-    return [f"measured mode {i + 1} is {ratio[i] * 100:.0f} % from the model at the start"
-            for i in np.flatnonzero(ok & (ratio > 0.25))]
+    warnings = [f"measured mode {i + 1} is {ratio[i] * 100:.0f} % from the model at the start"
+                for i in np.flatnonzero(ok & (ratio > 0.25))]
+    spec = plate.fm.specimen
+    slender = min(spec.a, spec.b) / spec.h
+    if slender < THICK_PLATE:
+        warnings.append(f"{d.source}: min(a, b)/h = {slender:.2g}: a plate theory (here third-"
+                        "order shear deformation) describes a plate, not a block; below about "
+                        f"{THICK_PLATE:g} its frequencies depart from 3-D elasticity, which "
+                        "the constants then absorb")
+    return warnings
+
+
+#: side-to-thickness ratio below which check_start warns that the plate is a thick block
+THICK_PLATE = 5.0
 
 
 def identify(fm: ForwardModel, options: IdentifyOptions = IdentifyOptions(),

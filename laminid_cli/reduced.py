@@ -268,7 +268,9 @@ class ReducedBasis:
                 L = np.linalg.cholesky(0.5 * (G + G.T))
             except np.linalg.LinAlgError as exc:
                 raise SolverError("the reduced basis lost its M-orthogonality (singular Gram "
-                                  "matrix); try --solver full") from exc
+                                  "matrix): a mesh too coarse for the measured modes (use a "
+                                  "finer --mesh; the paper uses 12x12) or try --solver full"
+                                  ) from exc
             W = sla.solve_triangular(L, W.T, lower=True, check_finite=False).T
             MW = sla.solve_triangular(L, MW.T, lower=True, check_finite=False).T
         k = W.shape[1]

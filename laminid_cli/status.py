@@ -203,7 +203,8 @@ def result_status(result, uncertainty=None, damping=None) -> ResultStatus:
             add("poor_fit", f"the fit misses the data by more than the stated frequency noise: "
                             f"s2 = {u.s2:.3g} (chi2 {u.chi2:.3g} for {u.dof} degrees of freedom, "
                             f"99 % limit {u.chi2_limit:.3g}): plates that disagree, model error "
-                            "or frequency sigmas too small")
+                            "(a mesh too coarse, a wrong layup, thickness or mass), or frequency "
+                            "sigmas too small")
     if damping is not None:
         limit = (u.thresholds["max_rel_interval"] if u is not None else None)
         for code, text in damping_reasons(damping, limit):

@@ -782,3 +782,28 @@ def test_initial_nu12_outside_the_search_names_the_file(tmp_path):
     assert r.exit_code == 2
     assert (f"{bad}: material 'IM7/977-2', field 'nu12': the initial nu12 = 3.5 is outside the "
             "identification's range |nu12| <= 0.95") in r.output
+
+
+def test_a_block_gets_a_warning_and_a_too_coarse_mesh_says_so(tmp_path):
+    """h = 150 mm on a 210 x 311 mm plate (min(a, b)/h = 1.4), with the frequencies its own
+    model gives: identified, with a warning that the plate theory describes a plate, not a
+    block; a 2x2 mesh for 12 modes fails (exit 1) naming the mesh."""
+    import re
+
+    text = Path(S11).read_text().replace("h: 3.06 mm", "h: 150 mm").replace(
+        "mass: 0.3225 kg", "mass: 15.8 kg")
+    block = tmp_path / "block.yaml"
+    block.write_text(text)
+    r = run("modes", block, "--mesh", "6x6", "--json")
+    assert r.exit_code == 0, r.output
+    model = json.loads(r.stdout)["frequencies"]["model"][:6]
+    block.write_text(re.sub(r"frequencies: \[[^\]]*\]",
+                            "frequencies: [" + ", ".join(f"{f:.6g}" for f in model) + "]",
+                            text, count=1))
+    r = run("identify", block, "--mesh", "6x6", "--fix", "nu12,G13,G23", "--json",
+            "--no-output")
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout)
+    assert any("min(a, b)/h = 1.4: a plate theory" in w for w in doc["warnings"]), doc["warnings"]
+    r = run("identify", S11, "--mesh", "2x2", "--no-output")
+    assert r.exit_code == 1 and "a mesh too coarse for the measured modes" in r.output
