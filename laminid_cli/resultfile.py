@@ -83,6 +83,9 @@ class Uncertainty:
     #: ``before_fixing`` ({label: (relative half-width, verdict)}; /uncertainty/before_fixing)
     fixed_undetermined: tuple[str, ...] = ()
     before_fixing: dict = field(default_factory=dict)
+    #: {label: (relative half-width, verdict, run)} in the run that had it fixed
+    #: (/uncertainty/fixed_undetermined; {} in files before stop 29)
+    fixed_widths: dict = field(default_factory=dict)
 
     def get(self, material: str, constant: str) -> Interval | None:
         return next((iv for iv in self.intervals
@@ -440,11 +443,24 @@ def _uncertainty(f) -> Uncertainty | None:
         well_determined=float(a.get("well_determined", 0.05)), weak=float(a.get("weak", 0.30)),
         intervals=tuple(intervals), notes=str(a.get("notes", "")), monte_carlo=mc,
         fixed=_label_list(a.get("fixed")), fixed_undetermined=_label_list(
-            a.get("fixed_undetermined")), before_fixing=_before_fixing(u))
+            a.get("fixed_undetermined")), before_fixing=_before_fixing(u),
+        fixed_widths=_fixed_widths(u))
 
 
 def _label_list(text) -> tuple[str, ...]:
     return tuple(x for x in str(text or "").split(",") if x)
+
+
+def _fixed_widths(u) -> dict:
+    """{label: (relative half-width, verdict, run)} of /uncertainty/fixed_undetermined."""
+    if "fixed_undetermined" not in u:
+        return {}
+    g = u["fixed_undetermined"]
+    labels = _strings(g["labels"])
+    rel = np.ravel(g["rel_half_width"][()])
+    verdict = _strings(g["verdict"])
+    run = np.ravel(g["run"][()])
+    return {lab: (float(rel[k]), verdict[k], int(run[k])) for k, lab in enumerate(labels)}
 
 
 def _before_fixing(u) -> dict:

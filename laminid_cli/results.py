@@ -510,6 +510,17 @@ def write_uncertainty(f, a, plate_names) -> None:
             put(gm, f"{side}_at_bound", np.asarray(flag, np.int8), "1",
                 description=f"1: the {side} end of the range is set by trials at a limit of the "
                 "search (the search's end, not the data's)")
+    if a.fixed_widths:
+        gf = g.create_group("fixed_undetermined")
+        labels = list(a.fixed_widths)
+        data, dt = _strings(labels)
+        gf.create_dataset("labels", data=data, dtype=dt)
+        put(gf, "rel_half_width", np.array([a.fixed_widths[x][0] for x in labels], float), "1",
+            description="95 % half-width / value in the run that had it fixed (the Monte "
+            "Carlo's for-sure width where that flagged it)")
+        data, dt = _strings([a.fixed_widths[x][1] for x in labels])
+        gf.create_dataset("verdict", data=data, dtype=dt)
+        gf.create_dataset("run", data=np.array([a.fixed_widths[x][2] for x in labels], int))
     if a.before_fixing is not None:
         b = a.before_fixing
         gb = g.create_group("before_fixing")
@@ -534,6 +545,9 @@ def uncertainty_summary(a) -> dict:
                               for n, s in zip(names, a.sigmas)}
     out["sensitivity"] = sensitivity_table(r)
     out["fixed_undetermined"] = list(a.fixed_undetermined)
+    out["fixed_undetermined_widths"] = {
+        lab: {"rel_half_width": w[0], "verdict": w[1], "run": w[2]}
+        for lab, w in a.fixed_widths.items()}
     out["runs"] = a.runs
     if a.before_fixing is not None:
         out["before_fixing"] = {

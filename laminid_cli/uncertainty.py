@@ -1872,6 +1872,9 @@ class Assessment:
     monte_carlo: MonteCarlo | None = None
     runs: int = 1
     earlier_results: tuple = field(default=(), repr=False)
+    #: per label fixed by ``fix_undetermined``: (relative half-width, verdict, run) in the run
+    #: that flagged it (the Monte Carlo's "for sure" width where that flagged it)
+    fixed_widths: dict = field(default_factory=dict)
 
 
 def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
@@ -1912,6 +1915,7 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
     unc = uncertainty_of(result, fms_arg, sig_arg, **kw)
     first = unc
     fixed: list[str] = []
+    fixed_widths: dict = {}
     earlier = []
     runs = 1
     while True:
@@ -1924,6 +1928,8 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
                     "every free constant is undetermined by these modes ("
                     + ", ".join(new) + "); nothing left to identify: measure more modes or a "
                     "thicker plate, or raise --max-rel-interval")
+            for lab in new:
+                fixed_widths[lab] = _flagging_width(unc, lab, runs)
             fixed += new
             log.info("fixing undetermined constants at their initial values: %s", ", ".join(new))
             options = dataclasses.replace(options, fix=tuple(options.fix) + tuple(new))
@@ -1944,4 +1950,18 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
             break
     return Assessment(result=result, uncertainty=unc, sigmas=sigmas,
                       fixed_undetermined=tuple(fixed), before_fixing=first if fixed else None,
-                      monte_carlo=mc, runs=runs, earlier_results=tuple(earlier))
+                      monte_carlo=mc, runs=runs, earlier_results=tuple(earlier),
+                      fixed_widths=fixed_widths)
+
+
+def _flagging_width(u: Uncertainty, label: str, run: int) -> tuple[float, str, int]:
+    """(relative half-width, verdict, run) that flagged ``label`` in ``u``: the linearised
+    half-width, or the Monte Carlo's "for sure" one where only that was above the limit."""
+    k = u.labels.index(label)
+    rel = float(u.rel_half_width[k])
+    limit = u.thresholds["max_rel_interval"]
+    if not rel > limit and u.mc_rel_half_width_lower is not None:
+        sure = float(u.mc_rel_half_width_lower[k])
+        if sure > limit:
+            rel = sure
+    return rel, u.verdict[k], run

@@ -339,3 +339,43 @@ def test_too_few_trials_to_bound_the_width_are_said_so():
     t = run("identify", S1[3], "--mesh", "6x6", "--fix", "G13,G23", "--monte-carlo", "8",
             "-j", "1", "--no-output")
     assert t.exit_code == 0 and "do not bound the range's width" not in t.output
+
+
+def test_constants_fixed_in_a_later_run_keep_the_width_that_had_them_fixed(tmp_path):
+    """S1.1 at 6x6 with --fix-undetermined: G13, G23, nu12 are flagged in run 1, E2 and G12 in
+    run 2 (once the first three are fixed). Each keeps the half-width of the run that flagged
+    it, above --max-rel-interval (30 %), in --json, HDF5, the reader, the terminal and the
+    report's words; run 1's widths are the first run's own (before_fixing)."""
+    import h5py
+
+    from laminid_cli.report import fixed_words
+    from laminid_cli.resultfile import read_result
+
+    out = tmp_path / "f.h5"
+    r = run("identify", "specimens/example1/S1.1.yaml", "--mesh", "6x6", "--fix-undetermined",
+            "--json", "-o", str(out))
+    assert r.exit_code == 0, r.output
+    u = json.loads(r.output)["uncertainty"]
+    w = u["fixed_undetermined_widths"]
+    assert set(w) == set(u["fixed_undetermined"])
+    assert {lab: v["run"] for lab, v in w.items()} == {
+        "IM7/977-2.G13": 1, "IM7/977-2.G23": 1, "IM7/977-2.nu12": 1, "IM7/977-2.E2": 2,
+        "IM7/977-2.G12": 2}
+    for lab, v in w.items():
+        assert v["rel_half_width"] > 0.3, lab
+        if v["run"] == 1:
+            assert v["rel_half_width"] == u["before_fixing"][lab]["rel_half_width"]
+        else:                                  # not undetermined in the first run
+            assert u["before_fixing"][lab]["rel_half_width"] < 0.3
+    with h5py.File(out) as f:
+        g = f["uncertainty/fixed_undetermined"]
+        labels = [x.decode() for x in g["labels"][()]]
+        assert list(g["run"][()]) == [w[lab]["run"] for lab in labels]
+    res = read_result(out)
+    e2 = w["IM7/977-2.E2"]["rel_half_width"]
+    assert res.uncertainty.fixed_widths["IM7/977-2.E2"][2] == 2
+    assert fixed_words(res, "IM7/977-2", "E2") == \
+        f"fixed because undetermined (half-width was ±{100 * e2:.0f} % in run 2)"
+    t = run("identify", "specimens/example1/S1.1.yaml", "--mesh", "6x6", "--fix-undetermined",
+            "--no-output")
+    assert f"IM7/977-2.E2: 95 % half-width was {100 * e2:.1f} % of its value in run 2" in t.output

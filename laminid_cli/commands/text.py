@@ -289,10 +289,13 @@ def format_uncertainty(u: dict) -> list[str]:
     if u.get("fixed_undetermined"):
         lines.append("  fixed at their initial values because undetermined (--fix-undetermined): "
                      + ", ".join(u["fixed_undetermined"]))
-        for lab, b in (u.get("before_fixing") or {}).items():
-            if lab in u["fixed_undetermined"]:
-                lines.append(f"    {lab}: {conf:.0f} % half-width was {_pct(b['rel_half_width'])}"
-                             " of its value")
+        widths = u.get("fixed_undetermined_widths") or {}
+        for lab in u["fixed_undetermined"]:
+            w = widths.get(lab) or (u.get("before_fixing") or {}).get(lab)
+            if w is not None:
+                run = f" in run {w['run']}" if w.get("run", 1) > 1 else ""
+                lines.append(f"    {lab}: {conf:.0f} % half-width was {_pct(w['rel_half_width'])}"
+                             f" of its value{run}")
     if u["flagged"]:
         mc_too = " of the interval or the Monte Carlo range" if u.get(
             "verdict_from_monte_carlo") else ""
