@@ -755,7 +755,8 @@ def _optimize_reduced(prob, ev_c, progress=None):
         # included): a stage gets what is left, less what an enrichment and the final check
         # take (RESERVE_EVALUATIONS)
         n_before = prob.n_eval
-        budget = options.max_evaluations - prob.n_eval - RESERVE_EVALUATIONS
+        reserve = min(RESERVE_EVALUATIONS, max(1, options.max_evaluations // 4))
+        budget = options.max_evaluations - prob.n_eval - reserve
         if budget < 1:
             converged, status = False, maxeval_status(options)
             break
@@ -835,7 +836,8 @@ def _checked(prob, ev, tol=None):
     return None
 
 
-#: evaluations the reduced loop keeps for an enrichment's two and the final check's
+#: evaluations the reduced loop keeps for an enrichment's two and the final check's (a quarter
+#: of a smaller --max-evaluations, at least 1: a cap of 5 still runs 3)
 RESERVE_EVALUATIONS = 5
 
 

@@ -440,7 +440,8 @@ def test_too_few_evaluations_is_not_converged_with_a_status():
     assert not r.converged
     assert "not converged" in r.status and "5 evaluations" in r.status
     assert r.evaluations <= 6
-    assert r.rms_residual_percent < r.initial_rms_residual_percent
+    # the few evaluations are spent on the fit (10.8 % -> 0.75 % RMS), not only on checks
+    assert r.rms_residual_percent < 0.2 * r.initial_rms_residual_percent
 
 
 # --- 5. bad input ----------------------------------------------------------------------------
