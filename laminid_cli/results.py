@@ -75,8 +75,16 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
                           width the Monte Carlo verdicts use); attrs trials, converged,
                           sigma_factor, seed, jobs, evidence_level,
                           prior_sigma (relative sd of the prior values' draws; 0: no prior)
+    /uncertainty/monte_carlo_rel_half_width, monte_carlo_rel_half_width_lower   per label (with
+                          a Monte Carlo): its range's half-width / |value|, and the one it has
+                          for sure (what its verdicts use)
     /uncertainty/before_fixing  labels, rel_half_width, verdict of the first run when
                           --fix-undetermined fixed constants
+    /uncertainty/fixed_undetermined  labels, rel_half_width, verdict, run: each constant fixed
+                          by --fix-undetermined with the width of the run that had it fixed
+    /uncertainty/global_properties  keys (Ex, Ey, Gxy, Gxz, Gyz, nu_xy, nu_yx), value, std,
+                          lower, upper (Pa; nu: 1; NaN: not identified), rel_half_width, verdict
+                          (laminid_cli.global_uncertainty)
 
 With measured damping (``measured.damping`` or an FRF file; laminid_cli.damping)::
 
@@ -84,7 +92,9 @@ With measured damping (``measured.damping`` or an FRF file; laminid_cli.damping)
                                  chi2, dof, confidence, quantile, scaling, scale_used,
                                  sigma_source, fixed ("material.eta13=0.01,..."), notes
                           labels ("material.eta11", ... the free loss factors), value, std,
-                          lower, upper (1), verdict (strings), at_bound (bool);
+                          lower, upper (1), rel_half_width (inf: held at 0), verdict
+                          (strings), at_bound (bool), bound_side ("lower" or ""), bound_limit
+                          (0, NaN when not at it);
                           measured_loss_factor (2 zeta), measured_sigma, model_loss_factor,
                           used (bool) per measured mode (NaN where not measured);
                           energy_shares (n_modes, n_materials * 5) with attr labels
@@ -469,6 +479,13 @@ def write_uncertainty(f, a, plate_names) -> None:
         unit, description="of a constant at its bound: the limit of the search it ended on "
         "(the data push it below a lower limit, above an upper one; bound_side); NaN: not at "
         "a bound")
+    if u.mc_rel_half_width is not None:
+        put(g, "monte_carlo_rel_half_width", u.mc_rel_half_width, "1",
+            description="the Monte Carlo range's half-width / |value|")
+    if u.mc_rel_half_width_lower is not None:
+        put(g, "monte_carlo_rel_half_width_lower", u.mc_rel_half_width_lower, "1",
+            description="the half-width / |value| the Monte Carlo range has for sure "
+            "(monte_carlo/@evidence_level): the width its verdicts use; NaN: too few trials")
     g.attrs["chi2_limit_99"] = u.chi2_limit
     put(g, "correlation", u.correlation, "1")
     put(g, "covariance", u.covariance, "Pa^2 (nu12 row/column: Pa, 1)")

@@ -181,6 +181,9 @@ def test_a_monte_carlo_verdict_reaches_json_hdf5_the_reader_terminal_and_status(
     x = np.sort(made[0].samples[:, k])
     assert (h["monte_carlo"]["inner_lower"][k], h["monte_carlo"]["inner_upper"][k]) == (x[3],
                                                                                        x[36])
+    j = d["uncertainty"]["labels"].index(f"{MAT}.E1")
+    assert h["monte_carlo_rel_half_width_lower"][j] == e1["monte_carlo_rel_half_width_lower"]
+    assert h["monte_carlo_rel_half_width"][j] == e1["monte_carlo_rel_half_width"]
     iv = read_result(out).uncertainty.get(MAT, "E1")
     assert iv.verdict_from_monte_carlo and iv.flagged and iv.verdict == e1["verdict"]
     t = run("identify", S1[3], "--mesh", "6x6", "--fix", "G13,G23", "--monte-carlo", "40",
