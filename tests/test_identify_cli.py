@@ -91,6 +91,11 @@ def test_non_convergence_exits_1_with_message_and_keeps_a_complete_file(tmp_path
     r = run("identify", S21, "--mesh", "6x6", "--max-evaluations", "3", "-o", str(out))
     assert r.exit_code == 1
     assert "NOT CONVERGED" in r.output and "evaluations reached" in r.output
+    # the constants' table says its values and verdicts are the last point's, not an optimum's
+    head = next(ln for ln in r.output.splitlines() if ln.startswith("  constant"))
+    assert head.split()[:3] == ["constant", "initial", "last"]
+    assert ("  (NOT CONVERGED: the values, intervals and verdicts are those of the last point, "
+            "not of an optimum)") in r.output.splitlines()
     assert read_h5(out)["@attrs"]["converged"] is False or read_h5(out)["@attrs"]["converged"] == 0
 
 

@@ -221,9 +221,16 @@ def _material_tables(s: dict, ref: dict) -> list[str]:
                         else "free constants / initial values") + ")")
         rm = ref_mats.get(name, {})
         mu = unc.get(name, {})
-        lines.append(f"  {'constant':<10} {'initial':>12} {'identified':>12}  "
+        # a run that did not converge stopped at a point that is not an optimum: its values
+        # and intervals are that point's
+        done = s.get("converged", True) is not False
+        lines.append(f"  {'constant':<10} {'initial':>12} "
+                     f"{'identified' if done else 'last point':>12}  "
                      f"{'reference' if rm else '':>10}"
                      + (f"  {'95 % interval':>17} {'± of value':>10}  verdict" if mu else ""))
+        if not done:
+            lines.append("  (NOT CONVERGED: the values, intervals and verdicts are those of the "
+                         "last point, not of an optimum)")
         for k in (*MODULI, "nu12"):
             note = "" if k in free else "  (fixed)"
             row = (f"  {k + (' [GPa]' if k != 'nu12' else ''):<10} "
