@@ -15,7 +15,8 @@ gets no interval and says on which. One fixed because the modes did not determin
 fixed (so Gxz of a plate whose G13 was fixed is as undetermined as G13 was); without that
 run, the property is not identified either. One that depends on a constant fixed by
 the user (``--fix`` or the file's ``fixed``) keeps its interval, "given" that value (the
-interval does not count the fixed value's own doubt). For an orthotropic ply rotated about z
+interval does not count the fixed value's own doubt); one that depends on fixed constants only
+is not identified ("from the fixed G13, G23"): it is an assumption. For an orthotropic ply rotated about z
 the in-plane and the transverse-shear blocks of Q do not mix, so Ex, Ey, Gxy and the Poisson
 ratios never depend on G13 or G23, and Gxz, Gyz only on them.
 
@@ -150,6 +151,14 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
         given = tuple(lab for lab in deps if lab not in free and lab not in undetermined)
         half = q * float(std[i])
         rel = half / abs(g) if g != 0 else np.inf
+        from_free = [lab for lab in deps if lab in free]
+        if given and not from_free and not counted:
+            # only fixed values (e.g. Gxz of a plate with G13, G23 fixed): an assumption, not a
+            # result; no interval (its doubt is the fixed values', which laminid does not know)
+            out[key] = GlobalInterval(key, g, np.nan, np.nan, np.nan, np.nan,
+                                      f"{NOT_IDENTIFIED}: from the fixed " + ", ".join(given),
+                                      (), (), given)
+            continue
         if bound or und:
             why = ", ".join([f"{lab} (at its bound)" for lab in bound]
                             + [f"{lab} (fixed because undetermined)" for lab in und])

@@ -152,7 +152,8 @@ class Plate:
     reference_source: str = ""
     reference_global: dict = field(default_factory=dict)   # {Ex...: (low, high) SI}
     #: {Ex...: {"value", "std", "lower", "upper", "rel_half_width", "verdict"}} (SI; NaN
-    #: interval: not identified) from /uncertainty/global_properties; {} when not stored
+    #: interval: not identified) from the plate's global_properties_uncertainty; {} when not
+    #: stored
     global_uncertainty: dict = field(default_factory=dict)
 
 
@@ -337,10 +338,10 @@ def _plate(g, name: str | None = None) -> Plate:
 
 
 def _global_uncertainty(g) -> dict:
-    """/uncertainty/global_properties of a single result (its plate is the root)."""
-    if g.name != "/" or "uncertainty/global_properties" not in g:
+    """The plate group's global_properties_uncertainty ({} in files before stop 29)."""
+    if "global_properties_uncertainty" not in g:
         return {}
-    h = g["uncertainty/global_properties"]
+    h = g["global_properties_uncertainty"]
     keys = _strings(h["keys"])
     cols = {k: np.asarray(h[k][()], float) for k in ("value", "std", "lower", "upper",
                                                        "rel_half_width")}

@@ -82,9 +82,9 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
                           --fix-undetermined fixed constants
     /uncertainty/fixed_undetermined  labels, rel_half_width, verdict, run: each constant fixed
                           by --fix-undetermined with the width of the run that had it fixed
-    /uncertainty/global_properties  keys (Ex, Ey, Gxy, Gxz, Gyz, nu_xy, nu_yx), value, std,
+    /global_properties_uncertainty  keys (Ex, Ey, Gxy, Gxz, Gyz, nu_xy, nu_yx), value, std,
                           lower, upper (Pa; nu: 1; NaN: not identified), rel_half_width, verdict
-                          (laminid_cli.global_uncertainty)
+                          (laminid_cli.global_uncertainty; in /specimens/<key> of a joint one)
 
 With measured damping (``measured.damping`` or an FRF file; laminid_cli.damping)::
 
@@ -377,7 +377,7 @@ def write_identification_file(path, fm, r, summary: dict, command: str = "lamini
         if assessment is not None:
             write_uncertainty(f, assessment, [fm.specimen.name])
             if summary.get("global_uncertainty"):
-                write_global_uncertainty(f["uncertainty"], summary["global_uncertainty"])
+                write_global_uncertainty(f, summary["global_uncertainty"])
         if damping is not None:
             write_damping(f, damping)
 
@@ -642,17 +642,20 @@ def write_joint_identification_file(path, fms, r, summary: dict, assessment=None
             g.attrs["name"] = name
             _write_identification(g, fm, plate, summary["specimens"][name] | {
                 "optimizer": summary["optimizer"]})
+            if summary["specimens"][name].get("global_uncertainty"):
+                write_global_uncertainty(g, summary["specimens"][name]["global_uncertainty"])
         if assessment is not None:
             write_uncertainty(f, assessment, names)
 
 
 def write_global_uncertainty(g, unc: dict) -> None:
-    """/uncertainty/global_properties: the laminate's global properties (Appendix A) with their
+    """``global_properties_uncertainty`` of a plate's group (the root of a single result,
+    /specimens/<key> of a joint one): the laminate's global properties (Appendix A) with their
     intervals and verdicts (laminid_cli.global_uncertainty; NaN interval: not identified)."""
     import h5py
 
     keys = list(unc)
-    h = g.create_group("global_properties")
+    h = g.create_group("global_properties_uncertainty")
     data, dt = _strings(keys)
     h.create_dataset("keys", data=data, dtype=dt)
     unit = "Pa (nu_xy, nu_yx: 1)"

@@ -122,7 +122,7 @@ def test_global_doubt_in_json_hdf5_terminal_and_report(tmp_path):
     assert gu["Gxz"]["lower"] is None and "not identified" in gu["Gxz"]["verdict"]
     assert gu["Ex"]["rel_half_width"] < 0.05 and gu["Ex"]["verdict"] == "well determined"
     with h5py.File(out) as f:
-        h = f["uncertainty/global_properties"]
+        h = f["global_properties_uncertainty"]
         keys = [k.decode() for k in h["keys"][()]]
         assert keys == list(KEYS)
         assert h["lower"][keys.index("Ex")] == gu["Ex"]["lower"]
@@ -139,17 +139,39 @@ def test_global_doubt_in_json_hdf5_terminal_and_report(tmp_path):
     assert "none" in row and "not identified: depends on E-glass/R368.G13 (at its bound)" in row
 
 
-def test_joint_result_gives_each_plate_its_laminate_doubt():
+def test_joint_result_gives_each_plate_its_laminate_doubt(tmp_path):
     """--joint: each plate's block has its laminate's properties with intervals from the shared
-    constants' covariance (S1.1 and S1.2 are both quasi-isotropic: Ex = Ey to 1e-9)."""
+    constants' covariance (S1.1 and S1.2 are both quasi-isotropic: Ex = Ey to 1e-9), in --json,
+    in each plate's group of the HDF5 file and on each plate's report page."""
+    from laminid_cli.report import _laminate_text
+    from laminid_cli.resultfile import read_result
+
+    out = tmp_path / "j.h5"
     r = CliRunner().invoke(cli, ["identify", "specimens/example1/S1.1.yaml",
                                  "specimens/example1/S1.2.yaml", "--joint", "--mesh", "8x8",
-                                 "--json", "--no-output"])
+                                 "--json", "-o", str(out)])
     assert r.exit_code == 0, r.output
     plates = json.loads(r.output)["specimens"]
     assert len(plates) == 2
-    for p in plates.values():
+    res = read_result(out)
+    for plate, (name, p) in zip(res.plates, plates.items()):
         gu = p["global_uncertainty"]
         assert gu["Ex"]["value"] == pytest.approx(p["global_properties"]["Ex"], rel=1e-12)
         assert gu["Ex"]["value"] == pytest.approx(gu["Ey"]["value"], rel=1e-9)
         assert 0 < gu["Ex"]["rel_half_width"] < 0.05
+        assert plate.global_uncertainty["Gxz"]["upper"] == gu["Gxz"]["upper"]
+        rel = gu["Ex"]["rel_half_width"]
+        assert f"Ex {gu['Ex']['value'] / 1e9:.2f} GPa ±{rel * 100:.2g} %" in _laminate_text(plate)
+
+
+def test_a_property_from_fixed_constants_only_is_not_identified():
+    """S1.1 with nu12, G13, G23 fixed: Gxz and Gyz come from the fixed G13, G23 alone (an
+    assumption: no interval, never '±0 % well determined'); Ex is given the fixed nu12."""
+    r = CliRunner().invoke(cli, ["identify", "specimens/example1/S1.1.yaml", "--mesh", "8x8",
+                                 "--fix", "nu12,G13,G23", "--json", "--no-output"])
+    gu = json.loads(r.output)["global_uncertainty"]
+    assert gu["Gxz"]["lower"] is None and gu["Gxz"]["rel_half_width"] is None
+    assert gu["Gxz"]["verdict"] == ("not identified: from the fixed IM7/977-2.G13, "
+                                    "IM7/977-2.G23")
+    assert gu["Ex"]["verdict"].endswith("given the fixed IM7/977-2.nu12")
+    assert 0 < gu["Ex"]["rel_half_width"] < 0.05
