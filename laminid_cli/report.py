@@ -158,9 +158,12 @@ def fixed_words(r: ResultFile, m: str, k: str, width: int = 0) -> str | None:
         return None
     if u is not None and lab in u.fixed_undetermined:
         width = getattr(u, "fixed_widths", {}).get(lab)
-        if width is not None and np.isfinite(width[0]):      # the run that had it fixed
-            return (f"fixed because undetermined (half-width was {_pct(width[0])}"
-                    + (f" in run {width[2]})" if width[2] > 1 else ")"))
+        if width is not None:                                 # the run that had it fixed
+            run = f" in run {width[2]}" if width[2] > 1 else ""
+            if width[1].startswith("at bound"):
+                return "fixed: it was at a search limit" + (f" ({run.strip()})" if run else "")
+            if np.isfinite(width[0]):
+                return f"fixed because undetermined (half-width was {_pct(width[0])}{run})"
         # older files: the first run's half-width is the one that had it fixed only where
         # that run left it undetermined; a constant fixed in a later round was undetermined there
         rel, verdict = u.before_fixing.get(lab, (np.nan, ""))

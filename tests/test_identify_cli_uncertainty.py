@@ -382,3 +382,21 @@ def test_constants_fixed_in_a_later_run_keep_the_width_that_had_them_fixed(tmp_p
     t = run("identify", "specimens/example1/S1.1.yaml", "--mesh", "6x6", "--fix-undetermined",
             "--no-output")
     assert f"IM7/977-2.E2: 95 % half-width was {100 * e2:.1f} % of its value in run 2" in t.output
+
+
+def test_a_constant_fixed_at_a_search_limit_says_so_not_an_infinite_width(tmp_path):
+    """S1.2 at 8x8, --fix-undetermined: G13 ends on a limit of the search in run 1 and G23 in
+    run 2; both are fixed and said to have been at a limit, in the terminal and the report's
+    words (no 'half-width was inf')."""
+    from laminid_cli.report import fixed_words
+    from laminid_cli.resultfile import read_result
+
+    out = tmp_path / "s12.h5"
+    r = run("identify", S1[1], "--mesh", "8x8", "--fix-undetermined", "-o", str(out))
+    assert r.exit_code == 0, r.output
+    assert "    IM7/977-2.G13: was at a limit of the search (not identified)" in r.output
+    assert "    IM7/977-2.G23: was at a limit of the search (not identified) in run 2" in r.output
+    assert "inf of its value" not in r.output
+    res = read_result(out)
+    assert fixed_words(res, "IM7/977-2", "G13") == "fixed: it was at a search limit"
+    assert fixed_words(res, "IM7/977-2", "G23") == "fixed: it was at a search limit (in run 2)"

@@ -301,8 +301,11 @@ def format_uncertainty(u: dict) -> list[str]:
             w = widths.get(lab) or (u.get("before_fixing") or {}).get(lab)
             if w is not None:
                 run = f" in run {w['run']}" if w.get("run", 1) > 1 else ""
-                lines.append(f"    {lab}: {conf:.0f} % half-width was {_pct(w['rel_half_width'])}"
-                             f" of its value{run}")
+                if str(w.get("verdict", "")).startswith("at bound"):
+                    lines.append(f"    {lab}: was at a limit of the search (not identified){run}")
+                else:
+                    lines.append(f"    {lab}: {conf:.0f} % half-width was "
+                                 f"{_pct(w['rel_half_width'])} of its value{run}")
     if u["flagged"]:
         mc_too = " of the interval or the Monte Carlo range" if u.get(
             "verdict_from_monte_carlo") else ""
