@@ -1924,10 +1924,18 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
             if not new:
                 break
             if len(new) == len(unc.labels):
-                raise FitInputError(
-                    "every free constant is undetermined by these modes ("
-                    + ", ".join(new) + "); nothing left to identify: measure more modes or a "
-                    "thicker plate, or raise --max-rel-interval")
+                from laminid_cli.errors import FitError
+
+                done = "; ".join(f"run {w[2]}: {lab}" for lab, w in fixed_widths.items())
+                raise FitError(
+                    ("every free constant is undetermined by these modes" if not fixed else
+                     f"after {runs} runs of --fix-undetermined, every constant left is "
+                     "undetermined") + " (" + ", ".join(new) + (f" in run {runs}" if fixed
+                                                                else "")
+                    + "); nothing left to identify"
+                    + (f" (fixed before: {done})" if done else "")
+                    + ": measure more modes or a thicker plate, fix constants you know (--fix), "
+                    "or raise --max-rel-interval")
             for lab in new:
                 fixed_widths[lab] = _flagging_width(unc, lab, runs)
             fixed += new

@@ -400,3 +400,15 @@ def test_a_constant_fixed_at_a_search_limit_says_so_not_an_infinite_width(tmp_pa
     res = read_result(out)
     assert fixed_words(res, "IM7/977-2", "G13") == "fixed: it was at a search limit"
     assert fixed_words(res, "IM7/977-2", "G23") == "fixed: it was at a search limit (in run 2)"
+
+
+def test_fix_undetermined_that_fixes_everything_is_a_failed_run_naming_the_rounds():
+    """The hybrid CM (8x8): --fix-undetermined fixes ten constants in run 1 and finds carbon
+    G12 (well determined in run 1) and G13 undetermined in run 2 with nothing left: a run that
+    failed (exit 1, not bad input), naming what each run fixed."""
+    r = run("identify", "specimens/example3/hybrid-cm.yaml", "--mesh", "8x8",
+            "--fix-undetermined", "--no-output")
+    assert r.exit_code == 1, r.output
+    assert "after 2 runs of --fix-undetermined, every constant left is undetermined " \
+           "(carbon.G12, carbon.G13 in run 2)" in r.output
+    assert "fixed before: run 1: glass.E1;" in r.output and "Traceback" not in r.output
