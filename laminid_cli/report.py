@@ -276,6 +276,23 @@ def _status_banner(fig, r: ResultFile) -> None:
     _footer(fig, text, color=color, weight="bold", gid="status")
 
 
+def status_corner(fig, r: ResultFile) -> None:
+    """The status in one short line at the page's top right, for a page without the status
+    text (its codes; the words are on page 1)."""
+    if any(t.get_gid() == "status" for t in [*fig.texts, *(t for a in fig.axes
+                                                           for t in a.texts)]):
+        return
+    if r.status is None:
+        text, color = "status not recorded", "0.35"
+    elif r.status.status == "ok":
+        text, color = "status: OK", "#1a7f37"
+    else:
+        codes = ", ".join(x.code for x in r.status.reasons) or "no reason given"
+        text, color = f"status: CHECK ({codes}; see page 1)", "#b35900"
+    fig.text(0.995, 0.995, text, ha="right", va="top", fontsize=8, color=color,
+             weight="bold", gid="status")
+
+
 # ----------------------------------------------------------------------------------------------
 # page 1: constants, frequency table, residuals
 
@@ -1197,6 +1214,8 @@ def result_pages(path, *, frf_path=None) -> list[Page]:
     src = frf_source(plate, frf_path)
     if src is not None:
         pages.append(Page("frf", frf_page(r, plate, *src)))
+    for page in pages:                   # every page says the result's status
+        status_corner(page.figure, r)
     return pages
 
 
@@ -1221,6 +1240,8 @@ def joint_pages(r: ResultFile, *, frf_path=None) -> list[Page]:
         src = frf_source(plate, None)
         if src is not None:
             pages.append(Page(f"{tag}-frf", frf_page(r, plate, *src)))
+    for page in pages:                   # every page says the result's status
+        status_corner(page.figure, r)
     return pages
 
 

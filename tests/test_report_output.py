@@ -53,3 +53,23 @@ def test_an_explicit_output_is_protected(result, tmp_path):
     r = run("report", result, "-o", out)
     assert r.exit_code == 2 and "file exists; use --force" in r.output
     assert run("report", result, "-o", out, "--force").exit_code == 0
+
+
+def test_every_page_says_the_status(result):
+    """Page 1 has the status with its reasons; every other page (mode shapes, history,
+    sensitivities...) at least the status and its codes."""
+    from laminid_cli.report import report_pages
+    from laminid_cli.resultfile import read_result
+
+    res = read_result(result)
+    codes = ", ".join(x.code for x in res.status.reasons)
+    pages = report_pages(result)
+    assert len(pages) >= 4
+    for page in pages:
+        fig = page.figure
+        texts = [t.get_text() for t in [*fig.texts, *(t for a in fig.axes for t in a.texts)]
+                 if t.get_gid() == "status"]
+        assert len(texts) == 1, page.name
+        if res.status.status == "check":
+            assert texts[0].startswith("status: CHECK")
+            assert codes in texts[0] or all(c in texts[0] for c in codes.split(", ")), page.name
