@@ -289,3 +289,18 @@ def test_into_never_overwrites_a_backup(tmp_path, h5):
         == texts
     assert sorted(p.name for p in tmp_path.iterdir()) == [
         "p.yaml", "p.yaml.bak", "p.yaml.bak1", "p.yaml.bak2", "plate.frf.h5"]
+
+
+def test_into_through_a_symbolic_link_edits_the_file_it_points_to(tmp_path, h5):
+    """--into link.yaml (a symbolic link): the file it points to gets the frequencies and its
+    backup; the link stays a link."""
+    real = tmp_path / "store" / "real.yaml"
+    real.parent.mkdir()
+    real.write_text(SPEC)
+    link = tmp_path / "link.yaml"
+    link.symlink_to(real)
+    r = run(["fit-frf", str(h5), "--into", str(link)])
+    assert r.exit_code == 0, r.output
+    assert link.is_symlink() and link.resolve() == real.resolve()
+    assert real.read_text() != SPEC and "frequencies:" in real.read_text()
+    assert (real.parent / "real.yaml.bak").read_text() == SPEC

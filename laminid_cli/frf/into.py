@@ -215,6 +215,10 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
     from laminid_cli.specimen import check_yaml_text, load_specimen_text, read_specimen
 
     spec_path = Path(spec_path)
+    if spec_path.is_symlink():          # edit the file it points to; the link stays a link
+        import os
+
+        spec_path = Path(os.path.realpath(spec_path))
     parsed = None
     if validate:   # the whole specimen must be valid before anything is edited
         parsed = read_specimen(spec_path)
