@@ -842,8 +842,9 @@ RESERVE_EVALUATIONS = 5
 
 
 def maxeval_status(options) -> str:
-    return (f"not converged: {options.max_evaluations} evaluations reached (raise "
-            "--max-evaluations or loosen --xtol/--ftol)")
+    return (f"not converged: the budget of --max-evaluations {options.max_evaluations} "
+            "evaluations ran out (a few are kept for the final check; raise it or loosen "
+            "--xtol/--ftol)")
 
 
 def _finish_reduced(prob, ev):

@@ -239,8 +239,8 @@ def test_failing_specimens_are_listed_and_the_others_go_on(tmp_path):
     row = json.loads(r.stdout)["specimens"][0]
     assert row["status"] == "check" and row["converged"] is False
     assert row["reasons"][0]["code"] == "not_converged"
-    assert "evaluations reached" in row["reasons"][0]["text"]
-    assert "evaluations reached" in row["optimizer_status"]
+    assert "evaluations ran out" in row["reasons"][0]["text"]
+    assert "evaluations ran out" in row["optimizer_status"]
     with h5py.File(row["result"]) as f:                 # the values of the file written
         assert row["materials"]["E-glass/R368"]["E1"] == f["materials"]["E-glass_R368"]["E1"][()]
         assert not f.attrs["converged"] and f.attrs["evaluations"] == row["evaluations"]

@@ -90,7 +90,7 @@ def test_non_convergence_exits_1_with_message_and_keeps_a_complete_file(tmp_path
     out = tmp_path / "r.h5"
     r = run("identify", S21, "--mesh", "6x6", "--max-evaluations", "3", "-o", str(out))
     assert r.exit_code == 1
-    assert "NOT CONVERGED" in r.output and "evaluations reached" in r.output
+    assert "NOT CONVERGED" in r.output and "evaluations ran out" in r.output
     # the constants' table says its values and verdicts are the last point's, not an optimum's
     head = next(ln for ln in r.output.splitlines() if ln.startswith("  constant"))
     assert head.split()[:3] == ["constant", "initial", "last"]
@@ -198,5 +198,5 @@ def test_max_evaluations_caps_the_whole_identification(solver):
             "--max-evaluations", "20", "--json", "--no-output")
     assert r.exit_code == 1, r.output
     d = json.loads(r.stdout)
-    assert d["converged"] is False and "20 evaluations reached" in d["optimizer_status"]
+    assert d["converged"] is False and "--max-evaluations 20 evaluations ran out" in d["optimizer_status"]
     assert 15 <= d["evaluations"] <= 20
