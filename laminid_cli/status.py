@@ -200,11 +200,13 @@ def result_status(result, uncertainty=None, damping=None) -> ResultStatus:
                                 f"half-width above {u.thresholds['max_rel_interval'] * 100:.0f} %"
                                 f" of the value): {words}")
         if u.dof > 0 and np.isfinite(u.chi2_limit) and u.chi2 > u.chi2_limit:
+            joint = len(_plates(result)) > 1
             add("poor_fit", f"the fit misses the data by more than the stated frequency noise: "
                             f"s2 = {u.s2:.3g} (chi2 {u.chi2:.3g} for {u.dof} degrees of freedom, "
-                            f"99 % limit {u.chi2_limit:.3g}): plates that disagree, model error "
-                            "(a mesh too coarse, a wrong layup, thickness or mass), or frequency "
-                            "sigmas too small")
+                            f"99 % limit {u.chi2_limit:.3g}): "
+                            + ("plates that disagree, " if joint else "")
+                            + "model error (a mesh too coarse, a wrong layup, thickness or mass, "
+                            "a mode paired with the wrong one), or frequency sigmas too small")
     if damping is not None:
         limit = (u.thresholds["max_rel_interval"] if u is not None else None)
         for code, text in damping_reasons(damping, limit):

@@ -216,8 +216,6 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
 
     spec_path = Path(spec_path)
     if spec_path.is_symlink():          # edit the file it points to; the link stays a link
-        import os
-
         spec_path = Path(os.path.realpath(spec_path))
     parsed = None
     if validate:   # the whole specimen must be valid before anything is edited
