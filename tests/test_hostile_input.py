@@ -739,6 +739,10 @@ def test_unwritable_output_folder_is_refused_before_the_work(tmp_path, monkeypat
     assert r.exit_code == 2
     assert f"folder {tmp_path} cannot be written to" in r.output
     assert not (tmp_path / "x.h5").exists()
+    if Path("/proc/self").is_dir():        # Linux: root passes os.access, /proc takes no file
+        monkeypatch.setattr(os, "access", real)
+        r = run("identify", S11, "--mesh", "6x6", "-o", "/proc/laminid-x.h5")
+        assert r.exit_code == 2 and "folder /proc cannot be written to" in r.output
 
 
 def test_a_file_system_error_while_writing_is_one_line(tmp_path, monkeypatch):

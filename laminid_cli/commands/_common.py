@@ -73,10 +73,23 @@ def writable_target(path: str | Path, option: str = "-o") -> Path:
         raise OutputExistsError(f"{path}: folder {parent} does not exist")
     if not parent.is_dir():
         raise OutputExistsError(f"{path}: {parent} is not a folder")
+    unwritable = OutputExistsError(f"{path}: folder {parent} cannot be written to (permissions, "
+                                   "a read-only or special file system); choose another place "
+                                   f"with {option}")
     if not os.access(parent, os.W_OK | os.X_OK):
-        raise OutputExistsError(f"{path}: folder {parent} cannot be written to (permissions or a "
-                                "read-only file system); choose another place with "
-                                f"{option}")
+        raise unwritable
+    # the file system has the last word (root passes os.access; /proc refuses new files)
+    probe = parent / f".{path.name}.probe-{os.getpid()}"
+    try:
+        with open(probe, "x"):
+            pass
+    except OSError:
+        raise unwritable from None
+    finally:
+        try:
+            probe.unlink()
+        except OSError:
+            pass
     return path
 
 
