@@ -75,7 +75,7 @@ class LazyGroup(click.Group):
         try:
             return super().invoke(ctx)
         except LaminidError as exc:
-            click.echo(f"laminid: error: {exc}", err=True)
+            click.echo(f"laminid: {getattr(exc, 'label', 'error')}: {exc}", err=True)
             ctx.exit(exc.exit_code)
         except KeyboardInterrupt:
             click.echo("laminid: interrupted", err=True)

@@ -16,6 +16,9 @@ class LaminidError(Exception):
     """Base class of all errors laminid reports to a user."""
 
     exit_code = 2
+    #: how the one-line message begins ("laminid: error: ..."); an outcome that is not an
+    #: error (a session the operator ended early) says what it is instead
+    label = "error"
 
 
 class SpecimenError(LaminidError):

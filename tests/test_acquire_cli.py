@@ -113,6 +113,8 @@ def test_json_summary_on_stdout_for_shell_batches(tmp_path, hp):
     assert d["repeated"] == 1 and d["points"][0]["ok"] is False
     assert "--resume" in d["resume"] and "--json" in d["resume"]
     assert "Repeat point 1?" in r.stderr and "Repeat point 1?" not in r.stdout
+    # a session the operator ended is no error: "laminid: stopped: ..."
+    assert "laminid: stopped: " in r.stderr and "laminid: error:" not in r.stderr
 
 
 def test_resume_continues_an_incomplete_file(tmp_path, hp):
@@ -349,12 +351,21 @@ def test_nothing_listening_at_the_address_exits_2(tmp_path):
     assert f"no analyser at TCPIP0::127.0.0.1::{port}::SOCKET (connection refused)" in r.output
 
 
-def test_end_of_input_at_the_prompt_stops_like_ctrl_c(tmp_path, hp):
+def test_end_of_input_at_the_prompt_says_to_run_unattended(tmp_path, hp):
+    """Standard input closed at a prompt (a script without --no-prompt): exit 2 saying to use
+    --no-prompt; the finished point stays in the file, with the resume command. With no point
+    finished there is no file, so no resume command either."""
     out = tmp_path / "eof.h5"
     r = acquire(hp, out, input="\n")  # point 1 measured, then no answer for point 2
-    assert r.exit_code == 130
-    assert "interrupted; 1 point(s) saved in" in r.output and "--resume" in r.output
+    assert r.exit_code == 2, r.output
+    assert ("laminid: error: no answer to the prompt: standard input is closed (a script or a "
+            "pipe?); run unattended with --no-prompt; 1 point(s) saved in") in r.output
+    assert "continue with: laminid acquire" in r.output and "--resume" in r.output
     assert read_frf_h5(out).n_points == 1
+    out2 = tmp_path / "none.h5"
+    r = acquire(hp, out2, input="")
+    assert r.exit_code == 2 and "no point finished" in r.output
+    assert "--resume" not in r.output and not out2.exists()
 
 
 def test_unsupported_idn_exits_2(tmp_path):

@@ -34,15 +34,23 @@ class _ClickUI:
             click.echo("", err=True)
             self._progress_shown = False
 
+    def _ask(self, text: str) -> str:
+        """The operator's answer to ``text``; standard input closed (a script without
+        --no-prompt) is NoOperatorInput, Ctrl-C a KeyboardInterrupt."""
+        from laminid_cli.instrument.session import NoOperatorInput
+
+        click.echo(text + ": ", nl=False, err=self.as_json)
+        line = click.get_text_stream("stdin").readline()
+        if not line:                         # end of input: nobody at the keyboard
+            click.echo("", err=self.as_json)
+            raise NoOperatorInput("no answer to the prompt: standard input is closed (a script "
+                                  "or a pipe?); run unattended with --no-prompt")
+        return line.strip().lower()
+
     def ready(self, label, index, total):
         self._end_progress()
-        try:
-            answer = click.prompt(
-                f"Point {label} ({index}/{total}): press Enter, then hit the plate "
-                "[s = skip, q = quit]", default="", show_default=False,
-                err=self.as_json).strip().lower()
-        except click.Abort:  # Ctrl-C or end of input at the prompt: stop like Ctrl-C anywhere
-            raise KeyboardInterrupt from None
+        answer = self._ask(f"Point {label} ({index}/{total}): press Enter, then hit the plate "
+                           "[s = skip, q = quit]")
         return {"s": "skip", "skip": "skip", "q": "quit", "quit": "quit"}.get(answer, "go")
 
     def progress(self, label, index, total, hits, n_averages):
@@ -65,11 +73,8 @@ class _ClickUI:
         click.echo(quality.line(), err=self.as_json)
 
     def repeat(self, quality):
-        try:
-            return click.confirm(f"Repeat point {quality.label}?", default=True,
-                                 err=self.as_json)
-        except click.Abort:
-            raise KeyboardInterrupt from None
+        answer = self._ask(f"Repeat point {quality.label}? [Y/n]")
+        return answer not in ("n", "no")
 
 
 def _resume_command(params: dict, output: Path) -> str:

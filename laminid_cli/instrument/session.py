@@ -25,6 +25,7 @@ class AcquisitionInterrupted(LaminidError):
     """The operator pressed Ctrl-C; the finished points are in the file (exit 130)."""
 
     exit_code = 130
+    label = "stopped"
 
 
 class SessionIncomplete(LaminidError):
@@ -32,6 +33,14 @@ class SessionIncomplete(LaminidError):
     ``--resume`` completes it (exit 3, so a script never takes a partial file for a full one)."""
 
     exit_code = 3
+    label = "stopped"
+
+
+class NoOperatorInput(LaminidError):
+    """A prompt found standard input closed (a script without --no-prompt): nobody can answer
+    it (exit 2; the finished points, if any, are in the file)."""
+
+    exit_code = 2
 
 
 @dataclass(frozen=True)
@@ -193,6 +202,9 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
     except KeyboardInterrupt:
         _stop(analyser)
         raise AcquisitionInterrupted(_saved_message("interrupted", writer, options)) from None
+    except NoOperatorInput as exc:
+        _stop(analyser)
+        raise NoOperatorInput(_saved_message(str(exc), writer, options)) from None
     except InstrumentError as exc:
         _stop(analyser)
         raise InstrumentError(_saved_message(str(exc), writer, options)) from exc
@@ -214,6 +226,6 @@ def _saved_message(prefix: str, writer, options: SessionOptions) -> str:
     n = writer.n_points
     msg = f"{prefix}; {n} point(s) saved in {writer.path}" if n else \
         f"{prefix}; no point finished" + (f" (file {writer.path})" if writer.path.exists() else "")
-    if options.resume_hint:
+    if options.resume_hint and writer.path.exists():   # nothing to resume without the file
         msg += f"; continue with: {options.resume_hint}"
     return msg
