@@ -79,9 +79,11 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
     rows = {j.name: result_row(j, cached=True) for j in jobs
             if j.up_to_date}
     if not as_json:
-        click.echo(f"{len(jobs)} specimens, {len(jobs) - len(todo)} up to date, {len(todo)} to "
-                   f"identify" + (f" on {n_jobs} {'workers' if scheduler else 'processes'}"
-                                  if todo else ""), err=True)
+        unit = "worker" if scheduler else "process"
+        unit = unit if n_jobs == 1 else unit + ("s" if scheduler else "es")
+        click.echo(f"{len(jobs)} specimen{'' if len(jobs) == 1 else 's'}, "
+                   f"{len(jobs) - len(todo)} up to date, {len(todo)} to identify"
+                   + (f" on {n_jobs} {unit}" if todo else ""), err=True)
 
     def show(item):
         return item or ""
