@@ -455,6 +455,7 @@ def write_uncertainty(f, a, plate_names) -> None:
                        ("flagged", ",".join(u.flagged)), ("fixed", ",".join(u.fixed)),
                        ("verdict_from_monte_carlo", ",".join(u.verdict_from_monte_carlo)),
                        ("fixed_undetermined", ",".join(a.fixed_undetermined)),
+                       ("kept_free", "; ".join(f"{k}: {v}" for k, v in a.kept_free.items())),
                        ("notes", "; ".join(u.notes))):
         g.attrs[key] = value
     data, dt = _strings(u.labels)
@@ -562,6 +563,7 @@ def uncertainty_summary(a) -> dict:
                               for n, s in zip(names, a.sigmas)}
     out["sensitivity"] = sensitivity_table(r)
     out["fixed_undetermined"] = list(a.fixed_undetermined)
+    out["kept_free"] = dict(a.kept_free)
     out["fixed_undetermined_widths"] = {
         lab: {"rel_half_width": w[0], "verdict": w[1], "run": w[2]}
         for lab, w in a.fixed_widths.items()}

@@ -1875,6 +1875,9 @@ class Assessment:
     #: per label fixed by ``fix_undetermined``: (relative half-width, verdict, run) in the run
     #: that flagged it (the Monte Carlo's "for sure" width where that flagged it)
     fixed_widths: dict = field(default_factory=dict)
+    #: per label flagged but not fixed by ``fix_undetermined``: why (fixing it at its initial
+    #: value would move the others beyond their spread, :func:`_initial_rejected`)
+    kept_free: dict = field(default_factory=dict)
 
 
 def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
@@ -1916,11 +1919,23 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
     first = unc
     fixed: list[str] = []
     fixed_widths: dict = {}
+    kept_free: dict = {}
     earlier = []
     runs = 1
     while True:
         while uopts.fix_undetermined and unc.flagged:
-            new = [lab for lab in unc.flagged if lab not in fixed]
+            new = [lab for lab in unc.flagged if lab not in fixed and lab not in kept_free]
+            # fixing a constant at its initial value must not bias the others beyond their
+            # own spread (S1.2: G12 5.99 GPa +-32 %, initial 3.10 GPa moved E1 by 6 %): such a
+            # constant stays free (and undetermined); the note says how to fix it at a
+            # known value
+            for lab in list(new):
+                # judged on the constants that stay determined (the flagged ones are either
+                # fixed or reported undetermined anyway)
+                why = _initial_rejected(result, unc, lab, fixing=set(unc.flagged) | set(fixed))
+                if why:
+                    kept_free[lab] = why
+                    new.remove(lab)
             if not new:
                 break
             if len(new) == len(unc.labels):
@@ -1954,12 +1969,50 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
         unc = with_monte_carlo(unc, mc)
         # with --fix-undetermined, the constants the Monte Carlo range flags are fixed too and
         # the whole assessment runs again (its Monte Carlo included)
-        if not (uopts.fix_undetermined and any(lab not in fixed for lab in unc.flagged)):
+        if not (uopts.fix_undetermined and any(lab not in fixed and lab not in kept_free
+                                               for lab in unc.flagged)):
             break
     return Assessment(result=result, uncertainty=unc, sigmas=sigmas,
                       fixed_undetermined=tuple(fixed), before_fixing=first if fixed else None,
                       monte_carlo=mc, runs=runs, earlier_results=tuple(earlier),
-                      fixed_widths=fixed_widths)
+                      fixed_widths=fixed_widths, kept_free=kept_free)
+
+
+def _initial_rejected(result, u: Uncertainty, label: str, fixing=()) -> str:
+    """Why ``label`` must not be fixed at its initial value by --fix-undetermined ("" when it
+    may): fixing it there moves another free constant out of its own 95 % interval. To first
+    order (the posterior's regression) the move of constant j is rho_jp s_j (p0 - p) / s_p, so
+    the test is max |rho_jp| |p0 - p| / s_p > q (the intervals' quantile, 1.96 or Student's)
+    over the constants that stay free (not ``fixing``). An undetermined constant with little correlation (nu12 of
+    a thin plate) may be fixed even where its interval excludes p0; one the others lean on
+    (S1.2's G12, 5.99 GPa +-32 %, p0 3.10 GPa: E1 moved by 6 %) may not. A constant at a limit
+    of the search (no interval) may be fixed."""
+    k = u.labels.index(label)
+    sd = np.sqrt(np.maximum(np.diag(np.asarray(u.covariance, float)), 0.0))
+    if not (np.isfinite(sd[k]) and sd[k] > 0) or (u.at_bound is not None and u.at_bound[k]):
+        return ""
+    name, const = label.rsplit(".", 1)
+    c0 = float(getattr(result.initial[list(result.material_names).index(name)], const))
+    z = abs(c0 - float(u.value[k])) / sd[k]
+    corr = np.asarray(u.correlation, float)[k]
+    others = [j for j, lab in enumerate(u.labels)
+              if j != k and lab not in fixing and np.isfinite(corr[j])
+              and not (u.at_bound is not None and u.at_bound[j])]
+    if not others:
+        return ""
+    j = max(others, key=lambda j: abs(corr[j]))
+    shift = abs(corr[j]) * z
+    if shift <= float(u.quantile):       # within that constant's own 95 % interval
+        return ""
+
+    def show(v):
+        return f"{v:.3g}" if const == "nu12" else f"{v / 1e9:.3g} GPa"
+
+    return (f"not fixed: its initial value {show(c0)} is {z:.1f} standard deviations from the "
+            f"identified {show(float(u.value[k]))}, and fixing it there would move "
+            f"{u.labels[j]} by {shift:.1f} of its own standard deviations, out of its "
+            f"{u.confidence * 100:.0f} % interval: put a value you know in the specimen file "
+            "and --fix it")
 
 
 def _flagging_width(u: Uncertainty, label: str, run: int) -> tuple[float, str, int]:

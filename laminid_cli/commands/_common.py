@@ -245,7 +245,9 @@ uncertainty_options = _apply([
                   help="Flag a constant whose 95 % half-width exceeds this fraction of its value."),
     click.option("--fix-undetermined", is_flag=True,
                   help="Fix the flagged constants at their initial values and identify again "
-                       "(until nothing new is flagged, by the intervals or the Monte Carlo)."),
+                       "(until nothing new is flagged, by the intervals or the Monte Carlo); a "
+                       "constant whose initial value would move another out of its 95 % "
+                       "interval stays free (the output says why)."),
     click.option("--monte-carlo", "monte_carlo", type=click.IntRange(min=0), default=0,
                   metavar="N", help="Re-identify N times from frequencies perturbed by their "
                                     "uncertainties (and prior values by the noise the "

@@ -306,6 +306,8 @@ def format_uncertainty(u: dict) -> list[str]:
                 else:
                     lines.append(f"    {lab}: {conf:.0f} % half-width was "
                                  f"{_pct(w['rel_half_width'])} of its value{run}")
+    for lab, why in (u.get("kept_free") or {}).items():
+        lines.append(f"  --fix-undetermined: {lab} {why}")
     if u["flagged"]:
         mc_too = " of the interval or the Monte Carlo range" if u.get(
             "verdict_from_monte_carlo") else ""
