@@ -338,7 +338,7 @@ def constants_rows(r: ResultFile) -> tuple[list[str], list[list[str]]]:
             if rv is None:
                 rtext = ""
             elif fixed is not None or (iv is not None and iv.at_bound) or not rv:
-                rtext = fmt_value(k, rv) + ("\n(not compared: fixed)" if fixed is not None else
+                rtext = fmt_value(k, rv) + ("\n(fixed: not\ncompared)" if fixed is not None else
                                             "\n(not compared)" if rv else "")
             else:
                 rtext = f"{fmt_value(k, rv)} ({round((c[k] - rv) / abs(rv) * 100) + 0:+d} %)"
@@ -403,7 +403,7 @@ def frequency_rows(plate) -> tuple[list[str], list[list[str]]]:
     for k in range(fr.model.size):
         meas = fr.measured[k]
         rows.append([str(k + 1), str(fr.model_mode[k]),
-                     f"{meas:.2f}" if np.isfinite(meas) else "not measured",
+                     f"{meas:.2f}" if np.isfinite(meas) else "not\nmeasured",
                      f"{fr.model[k]:.2f}",
                      f"{fr.residual_percent[k]:+.3f}" if np.isfinite(fr.residual_percent[k])
                      else "—", f"{fr.weight[k]:g}"])
@@ -442,6 +442,10 @@ def frequency_block(fig, spec, plate) -> None:
     ax_r.set_ylim(n - 0.5, -1.5)               # row k of the table is y = k, the header y = -1
     ax_r.set_yticks([])
     ax_r.tick_params(labelsize=7)
+    # few ticks, so that small residuals' labels (-0.0010, -0.0005...) do not run together
+    from matplotlib.ticker import MaxNLocator
+
+    ax_r.xaxis.set_major_locator(MaxNLocator(nbins=4, symmetric=True))
     ax_r.set_xlabel("(measured − model)/measured (%)\nhatched: weight 0", fontsize=7)
     ax_r.set_title("residuals" + (f"\n(dashed: ± weighted\nRMS {rms:.3f} %)"
                                   if np.isfinite(rms) else ""), fontsize=8)

@@ -689,7 +689,7 @@ def test_fixed_constants_are_not_drawn_as_identified(fixed_undetermined):
     assert run == 2 and e2 > 0.3                                # undetermined in run 2
     assert rows["E2"][3] == (f"fixed because undetermined\n(half-width was ±{100 * e2:.0f} % "
                              "in run 2)")
-    assert rows["nu12"][5] == "0.350\n(not compared: fixed)"
+    assert rows["nu12"][5] == "0.350\n(fixed: not\ncompared)"
     e1 = res.materials[MAT]["E1"]
     assert rows["E1"][5] == f"170.0 ({round((e1 / 170e9 - 1) * 100):+d} %)"
     assert rows["E1"][3] == short_verdict(u.get(MAT, "E1").verdict)
