@@ -125,13 +125,16 @@ def test_emulator_damping_after_acquire_and_fit_frf_into(tmp_path, emu_cls):
     np.testing.assert_allclose(measured["damping"], truth, rtol=5e-3)
     assert np.all(np.abs(np.array(measured["damping"]) - (truth + 1 / (0.1 * w)))
                   > 0.1 * truth)
-    # the table's damping column is the same number, the window column 1/(tau omega)
+    # the table's damping column is the same number, then its +/-, the window column
+    # 1/(tau omega)
     rows = [ln.split() for ln in r.output.splitlines() if ln.strip()[:1].isdigit()
             and "written" not in ln]
     np.testing.assert_allclose([float(row[4]) / 100 for row in rows], truth, rtol=5e-3,
                                atol=6e-6)
-    np.testing.assert_allclose([float(row[5]) / 100 for row in rows], 1 / (0.1 * w),
+    np.testing.assert_allclose([float(row[6]) / 100 for row in rows], 1 / (0.1 * w),
                                rtol=2e-3, atol=6e-6)
+    # beside the damping, its standard deviation (the --json damping_sigma, 3 decimals in %)
+    assert all(0 < float(row[5]) < float(row[4]) for row in rows)
 
 
 def test_file_without_a_recorded_window_is_unchanged(tmp_path):

@@ -155,11 +155,14 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         click.echo("no stable mode found")
     else:
         click.echo(f"{'mode':>4}  {'freq (Hz)':>11}  {'+/- (Hz)':>9}  {'from':>10}  "
-                   f"{'damping (%)':>11}  " + (f"{'window (%)':>10}  " if windowed else "")
-                   + f"{'stable orders':>13}")
+                   f"{'damping (%)':>11}  {'+/- (%)':>7}  "
+                   + (f"{'window (%)':>10}  " if windowed else "") + f"{'stable orders':>13}")
         for i, (m, s) in enumerate(zip(fit.modes, sigma), start=1):
             z = wc.damping[i - 1]
-            z_txt = f"{100 * z:>11.3f}" if np.isfinite(z) else f"{'below win.':>11}"
+            zs = wc.sigma[i - 1]
+            z_txt = (f"{100 * z:>11.3f}  " + (f"{100 * zs:>7.3f}" if np.isfinite(zs)
+                                               else f"{'—':>7}")
+                     if np.isfinite(z) else f"{'below win.':>11}  {'—':>7}")
             w_txt = ""
             if windowed:
                 r = wc.removed[i - 1] if np.isfinite(z) else wc.window[i - 1]
