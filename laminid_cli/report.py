@@ -1525,6 +1525,11 @@ def constants_across_page(done, title: str):
     missing = [name for name, (row, _, r) in zip(names, done) if r is None]
     if missing:
         notes.append("result file not found (no reference values): " + ", ".join(missing))
+    if "no interval" in kinds:
+        notes.insert(0, "values without their doubt (hollow diamonds): a --wide summary.csv has "
+                        "no intervals, verdicts or search limits, and their result files were "
+                        "not found: a value at a search limit or not determined looks like any "
+                        "other here; use the long summary.csv or summary.json")
     if notes:
         _footer(fig, "\n".join(notes), color="#b35900")
     return fig

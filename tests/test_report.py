@@ -930,6 +930,9 @@ def test_batch_summary_alone_keeps_its_verdicts(batch_dir, tmp_path):
               for t in a.get_legend().get_texts()]
     assert "no interval in this summary (wide CSV, result file not found)" in legend
     assert "identified, with its confidence interval" not in legend
+    foot = " ".join(t.get_text() for t in fig.texts).replace("\n", " ")
+    assert "values without their doubt (hollow diamonds): a --wide summary.csv has no " \
+           "intervals" in foot
 
 
 def test_damping_page_fits_the_page_and_ends_with_the_status(damped, tmp_path):
