@@ -1376,18 +1376,23 @@ MC_COLOR = "0.62"
 def _across_point(ax, k, xi, v, d: Doubt | None, color, tag):
     """One specimen's constant on a panel of the page across specimens; returns what it draws
     by kind ("identified", "undetermined", "at bound", "fixed", "no interval")."""
+    # markers above the bars and the reference ticks, and not clipped by the axes (a value at
+    # a lower limit of a few MPa sits on the panel's edge)
+    on_top = dict(zorder=6, clip_on=False)
     if d is not None and d.fixed:
-        ax.plot([xi], [v], "s", ms=6, color=FIXED_COLOR, mfc="w", mew=1.3, gid=f"fixed-{tag}")
+        ax.plot([xi], [v], "s", ms=6, color=FIXED_COLOR, mfc="w", mew=1.3, gid=f"fixed-{tag}",
+                **on_top)
         return "fixed"
     if d is not None and d.at_bound:
         ax.plot([xi], [v], "^" if d.bound_side == "upper" else "v", ms=7, color=color, mfc="w",
-                mew=1.3, gid=f"at-bound-{tag}")
+                mew=1.3, gid=f"at-bound-{tag}", **on_top)
         return "at bound"
     if d is None or (np.isnan(d.lower) and np.isnan(d.upper)):
-        ax.plot([xi], [v], "d", ms=6, color=color, mfc="w", mew=1.0, gid=f"value-{tag}")
+        ax.plot([xi], [v], "d", ms=6, color=color, mfc="w", mew=1.0, gid=f"value-{tag}",
+                **on_top)
         return "no interval"
     ax.plot([xi], [v], "o", ms=6, color=color, mfc="w" if d.undetermined else color,
-            gid=f"value-{tag}")
+            gid=f"value-{tag}", **on_top)
     if d.undetermined:
         ax.annotate("?", (xi, v), xytext=(4, 2), textcoords="offset points", fontsize=9,
                     color=color, weight="bold")
@@ -1461,7 +1466,7 @@ def constants_across_page(done, title: str):
                     has_mc = True
                     marks = (d.mc_lower_at_limit, d.mc_upper_at_limit)
                     has_mc_limit |= any(marks)
-                    bars.append((xi + 0.4 * width, _gpa(k, d.mc_lower), _gpa(k, d.mc_upper),
+                    bars.append((xi + 0.55 * width, _gpa(k, d.mc_lower), _gpa(k, d.mc_upper),
                                  MC_COLOR, 2.2, "monte-carlo", marks))
                 ref = r.reference.get(m, {}).get(k) if r is not None else None
                 if ref is not None:
