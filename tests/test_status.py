@@ -189,6 +189,11 @@ def test_single_result_status_in_json_hdf5_and_terminal(s21_check):
     assert g13["bound_side"] == "lower" and 0 < limit < 0.1
     assert (f"at its bound — not identified: stopped on the search's lower limit, G13 = 0.0001 "
             f"E1 ({limit:.3g} GPa at the optimum) [!]") in g13_row
+    # flagged lines: the at-bound constant apart from the undetermined ones
+    assert f"  flagged (at a limit of the search, no interval): {MAT}.G13 — not identified" \
+        in lines
+    wide = next(ln for ln in lines if ln.startswith("  flagged (half-width"))
+    assert f"{MAT}.G23" in wide and f"{MAT}.G13" not in wide
     # no interval: a limit of the search is no confidence bound
     assert g13_row.split()[4:8] == ["none:", "at", "limit", "—"]
     assert g13_row.split()[3] == f"{d['materials'][MAT]['G13'] / 1e9:.3g}"

@@ -308,13 +308,20 @@ def format_uncertainty(u: dict) -> list[str]:
                                  f"{_pct(w['rel_half_width'])} of its value{run}")
     for lab, why in (u.get("kept_free") or {}).items():
         lines.append(f"  --fix-undetermined: {lab} {why}")
-    if u["flagged"]:
+    at_bound = {f"{m}.{k}" for m, per in (u.get("constants") or {}).items()
+                for k, v in per.items() if v.get("at_bound")}
+    wide = [lab for lab in u["flagged"] if lab not in at_bound]
+    if wide:
         mc_too = " of the interval or the Monte Carlo range" if u.get(
             "verdict_from_monte_carlo") else ""
         lines.append(f"  flagged (half-width{mc_too} > {th['max_rel_interval'] * 100:.0f} % of "
                      "the value):"
-                     f" {', '.join(u['flagged'])} — not determined by these modes; fix them "
+                     f" {', '.join(wide)} — not determined by these modes; fix them "
                      "(--fix-undetermined) or measure a thicker plate / more modes")
+    bound = [lab for lab in u["flagged"] if lab in at_bound]
+    if bound:
+        lines.append(f"  flagged (at a limit of the search, no interval): {', '.join(bound)} — "
+                     "not identified")
     for note in u.get("notes", []):
         lines.append(f"  note: {note}")
     labels = u["labels"]
