@@ -977,6 +977,16 @@ def bound_hits(r: ResultFile) -> set[str]:
     return hits
 
 
+def revisits(constants) -> np.ndarray:
+    """(n,) bool: evaluation i is at the same point as an evaluation before i - 1 (not a step,
+    a point evaluated again)."""
+    C = np.asarray(constants, float)
+    out = np.zeros(C.shape[0], bool)
+    for i in range(2, C.shape[0]):
+        out[i] = bool(np.any(np.all(C[:i - 1] == C[i], axis=1))) and not np.all(C[i - 1] == C[i])
+    return out
+
+
 def history_page(r: ResultFile):
     """Objective, RMS residual and the free constants / initial value per evaluation."""
     hist = r.history
@@ -987,7 +997,16 @@ def history_page(r: ResultFile):
     ax_o, ax_r, ax_c, ax_n = fig.subplots(4, 1, sharex=True, height_ratios=[1, 1, 1.6, 0.8])
     ax_o.set_gid("objective")
     pts = "o-" if ev.size <= 200 else "-"             # points only while they stay apart
-    ax_o.semilogy(ev, hist.objective, pts, ms=2.5, lw=1, color="C0", label="objective")
+    # the reduced solver evaluates an earlier point again after enriching its basis (the
+    # trust region's ratio): drawn apart, off the line (else it looks like a restart)
+    again = revisits(hist.constants)
+    on = ~again
+    ax_o.semilogy(ev[on], hist.objective[on], pts, ms=2.5, lw=1, color="C0", label="objective")
+    if again.any():
+        ax_o.semilogy(ev[again], hist.objective[again], "o", ms=4.5, mfc="w", color="0.4",
+                      mew=0.8, zorder=4, gid="revisit", linestyle="none",
+                      label="an earlier point evaluated again (trust-region check after a "
+                            "basis enrichment)")
     # reduced solver: trial points are predictions of the reduced model (error bound NaN);
     # only evaluations with a known error bound count as the lowest evaluated
     bound = hist.error_bound if hist.error_bound is not None else np.zeros(ev.size)
@@ -1011,7 +1030,7 @@ def history_page(r: ResultFile):
     ax_o.set_ylabel("objective (Eq. 17)", fontsize=8)
     ax_o.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0)
     ax_r.set_gid("rms")
-    ax_r.semilogy(ev, hist.rms_residual_percent, pts, ms=2.5, lw=1, color="C1")
+    ax_r.semilogy(ev[on], hist.rms_residual_percent[on], pts, ms=2.5, lw=1, color="C1")
     ax_r.set_ylabel("RMS residual (%)", fontsize=8)
     hits = bound_hits(r)
     multi = len(r.materials) > 1
@@ -1032,7 +1051,7 @@ def history_page(r: ResultFile):
         ax = ax_n if is_nu else ax_c
         y = col if is_nu else col / col[0]
         style = "--" if (shown_nu if is_nu else shown_mod) >= 10 else "-"
-        (line,) = ax.plot(ev, y, style, lw=1.2, label=name, gid=f"history-{lab}")
+        (line,) = ax.plot(ev[on], y[on], style, lw=1.2, label=name, gid=f"history-{lab}")
         if lab in hits:
             ax.plot(ev[-1], y[-1], "X", ms=9, color=line.get_color(), mec="k", zorder=5,
                     gid=f"bound-{lab}")

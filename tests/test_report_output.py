@@ -73,3 +73,16 @@ def test_every_page_says_the_status(result):
         if res.status.status == "check":
             assert texts[0].startswith("status: CHECK")
             assert codes in texts[0] or all(c in texts[0] for c in codes.split(", ")), page.name
+
+
+def test_an_earlier_point_evaluated_again_is_drawn_off_the_history_line():
+    """revisits(): evaluation i is at the point of an evaluation before i - 1 (the reduced
+    solver re-evaluates its trust region's centre after enriching the basis), not a step; a
+    repeat of the previous point is not one."""
+    import numpy as np
+
+    from laminid_cli.report import revisits
+
+    a, b, c, d = ([1.0, 2.0], [1.5, 2.0], [1.6, 2.1], [1.7, 2.2])
+    C = np.array([a, b, c, a, d, d, c])
+    assert revisits(C).tolist() == [False, False, False, True, False, False, True]
