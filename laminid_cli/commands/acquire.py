@@ -40,7 +40,7 @@ class _ClickUI:
         from laminid_cli.instrument.session import NoOperatorInput
 
         click.echo(text + ": ", nl=False, err=self.as_json)
-        line = click.get_text_stream("stdin").readline()
+        line = sys.stdin.readline()
         if not line:                         # end of input: nobody at the keyboard
             click.echo("", err=self.as_json)
             raise NoOperatorInput("no answer to the prompt: standard input is closed (a script "
