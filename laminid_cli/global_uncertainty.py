@@ -123,15 +123,22 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
     free = list(u.labels)
     at_bound = ({lab for lab, b in zip(free, u.at_bound) if b} if u.at_bound is not None
                 else set())
+    # a constant with no finite standard deviation (a direction the modes do not see: the
+    # covariance's pseudo-inverse gives it none) is as unknown as one at a limit
+    std_u = np.asarray(getattr(u, "std", np.zeros(len(free))), float)
+    unseen = {lab for lab, sd in zip(free, std_u) if not np.isfinite(sd)} - at_bound
     cov = np.nan_to_num(np.asarray(u.covariance, float))
-    keep = [k for k, lab in enumerate(free) if lab not in at_bound]
+    # the labels of this plate's materials only (a joint fit's other materials do not change
+    # this laminate; the covariance's sub-matrix over these labels is exact)
+    keep = [k for k, lab in enumerate(free)
+            if lab in index and lab not in at_bound and lab not in unseen]
     Jf = J[:, [index[free[k]] for k in keep]] if keep else np.zeros((len(KEYS), 0))
     var = np.einsum("ij,jk,ik->i", Jf, cov[np.ix_(keep, keep)], Jf) if keep else np.zeros(7)
     # a constant fixed because undetermined still has the spread it had before it was fixed
     spread = {}
     if before is not None:
         for lab, sd in zip(before.labels, before.std):
-            if lab in set(fixed_undetermined) and np.isfinite(sd):
+            if lab in set(fixed_undetermined) and lab in index and np.isfinite(sd):
                 spread[lab] = float(sd)
     for lab, sd in spread.items():
         var = var + (J[:, index[lab]] * sd) ** 2
@@ -144,7 +151,7 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
         g = float(g0[i])
         rel_dep = np.abs(J[i]) * scale / max(abs(g), 1e-300)
         deps = [lab for lab, d in zip(labels, rel_dep) if d > DEPENDS]
-        bound = tuple(lab for lab in deps if lab in at_bound)
+        bound = tuple(lab for lab in deps if lab in at_bound or lab in unseen)
         und = tuple(lab for lab in deps if lab in undetermined)
         counted = tuple(lab for lab in und if lab in spread)
         und = tuple(lab for lab in und if lab not in spread)
@@ -160,7 +167,8 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
                                       (), (), given)
             continue
         if bound or und:
-            why = ", ".join([f"{lab} (at its bound)" for lab in bound]
+            why = ", ".join([f"{lab} (at its bound)" if lab in at_bound else
+                             f"{lab} (not determined in any direction)" for lab in bound]
                             + [f"{lab} (fixed because undetermined)" for lab in und])
             out[key] = GlobalInterval(key, g, np.nan, np.nan, np.nan, np.nan,
                                       f"{NOT_IDENTIFIED}: depends on {why}", bound, und, given)
@@ -171,6 +179,10 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
             with np.errstate(over="ignore"):
                 lo, hi = g * np.exp(-half / g), g * np.exp(half / g)
         verdict = verdict_of(rel, False)
+        mc = [lab for lab in deps if lab in set(getattr(u, "verdict_from_monte_carlo", ()))]
+        if mc:
+            verdict += (" — linearised; the Monte Carlo found " + ", ".join(mc)
+                        + " less determined than that: this interval is too narrow")
         if counted:
             verdict += (" — counts the spread " + ", ".join(counted) + " had before "
                         + ("it was" if len(counted) == 1 else "they were") + " fixed")

@@ -1969,6 +1969,13 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
         unc = with_monte_carlo(unc, mc)
         # with --fix-undetermined, the constants the Monte Carlo range flags are fixed too and
         # the whole assessment runs again (its Monte Carlo included)
+        if uopts.fix_undetermined:           # what the Monte Carlo flagged, judged as above:
+            for lab in unc.flagged:          # only a constant that will be fixed runs it again
+                if lab not in fixed and lab not in kept_free:
+                    why = _initial_rejected(result, unc, lab,
+                                            fixing=set(unc.flagged) | set(fixed))
+                    if why:
+                        kept_free[lab] = why
         if not (uopts.fix_undetermined and any(lab not in fixed and lab not in kept_free
                                                for lab in unc.flagged)):
             break

@@ -438,3 +438,46 @@ def identify_json_lite(spec, *args):
     r = run("identify", spec, *args, "--json", "--no-output")
     assert r.exit_code == 0, r.output
     return json.loads(r.output)
+
+
+def test_a_monte_carlo_flag_that_fixes_nothing_does_not_run_it_again(monkeypatch):
+    """--fix-undetermined --monte-carlo: a constant the Monte Carlo flags but that stays free
+    (its initial value rejected: here E1 of S1.4, 58 standard deviations from 117.2 GPa) does
+    not start another Monte Carlo on the same result."""
+    import dataclasses
+
+    import laminid_cli.uncertainty as unc_mod
+
+    calls = []
+    real_mc, real_with = unc_mod.monte_carlo, unc_mod.with_monte_carlo
+
+    def counted(result, *a, **k):
+        calls.append(id(result))
+        return real_mc(result, *a, **k)
+
+    def flag_e1(u, mc):
+        v = real_with(u, mc)
+        lab = f"{MAT}.E1"
+        return v if lab in v.flagged else dataclasses.replace(v, flagged=v.flagged + (lab,))
+
+    monkeypatch.setattr(unc_mod, "monte_carlo", counted)
+    monkeypatch.setattr(unc_mod, "with_monte_carlo", flag_e1)
+    r = run("identify", S1[3], "--mesh", "6x6", "--fix-undetermined", "--monte-carlo", "6",
+            "-j", "1", "--json", "--no-output")
+    assert r.exit_code == 0, r.output
+    assert len(calls) == len(set(calls)) == 1
+    assert f"{MAT}.E1" in json.loads(r.output)["uncertainty"]["kept_free"]
+
+
+def test_joint_plates_with_different_materials_each_get_their_laminate_doubt():
+    """A joint fit of S1.1 (im7) and a hybrid of it with a glass ply (im7 + glass): each plate's
+    laminate properties come from its own materials' block of the covariance (the glass
+    constants are not in the first plate's laminate)."""
+    r = run("identify", "tests/data/joint/A.yaml", "tests/data/joint/B.yaml", "--joint",
+            "--mesh", "6x6", "--json", "--no-output")
+    assert r.exit_code == 0, r.output
+    plates = json.loads(r.output)["specimens"]
+    assert sorted(plates) == ["S1.1", "S1.1h"]
+    for p in plates.values():
+        ex = p["global_uncertainty"]["Ex"]
+        assert 0 < ex["rel_half_width"] < 0.05 and ex["verdict"] == "well determined"
