@@ -28,9 +28,12 @@ def temporary_name(path) -> Path:
 def atomic_path(path):
     """Yield a temporary path beside ``path``; fsync and rename it to ``path`` on success.
 
-    On an exception the temporary file is removed and ``path`` is untouched.
+    On an exception the temporary file is removed and ``path`` is untouched. A symbolic link
+    is written through: its target is replaced, the link stays a link.
     """
     path = Path(path)
+    if path.is_symlink():
+        path = Path(os.path.realpath(path))
     tmp = temporary_name(path)
     try:
         yield tmp

@@ -475,7 +475,9 @@ def _laminate_text(plate) -> str:
             if not np.isfinite(rel):
                 text += " (not identified)"
             else:
-                text += f" ±{rel * 100:.2g} %" if rel < 1 else f" (±{rel * 100:.0f} %)"
+                pct = rel * 100
+                text += (f" ±{pct:.2g} %" if pct < 9.95 else f" ±{pct:.0f} %" if rel < 1
+                         else f" (±{pct:.0f} %)")
                 if rel >= WEAK_BAND:
                     text += " not determined"
         if k in ref:
@@ -1006,7 +1008,7 @@ def history_page(r: ResultFile):
         ax_o.semilogy(ev[again], hist.objective[again], "o", ms=4.5, mfc="w", color="0.4",
                       mew=0.8, zorder=4, gid="revisit", linestyle="none",
                       label="an earlier point evaluated again (trust-region check after a "
-                            "basis enrichment)")
+                            "basis enrichment, or a second pass from the start)")
     # reduced solver: trial points are predictions of the reduced model (error bound NaN);
     # only evaluations with a known error bound count as the lowest evaluated
     bound = hist.error_bound if hist.error_bound is not None else np.zeros(ev.size)

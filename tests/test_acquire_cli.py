@@ -444,3 +444,41 @@ def test_acquire_then_fit_frf_gives_back_the_emulators_modes(tmp_path, emu_cls):
     result = json.loads(r.output)
     err = _relative_errors([m["freq_hz"] for m in result["modes"]])
     assert np.all(err < FREQ_TOL), (result, err)
+
+
+def test_a_closed_or_unreadable_stdin_is_no_operator_input(monkeypatch, tmp_path):
+    """Standard input closed at the OS level (sys.stdin None: `laminid acquire ... <&-`) or not
+    text is the same as its end: NoOperatorInput, not an AttributeError traceback; the repeat
+    prompt asks again on an answer it does not know."""
+    import io
+    import sys
+
+    from laminid_cli.commands.acquire import _ClickUI
+    from laminid_cli.instrument.session import NoOperatorInput
+
+    ui = _ClickUI(tmp_path / "x.h5", tty=False)
+    monkeypatch.setattr(sys, "stdin", None)
+    with pytest.raises(NoOperatorInput, match="run unattended with --no-prompt"):
+        ui.ready("1", 1, 3)
+
+    class Bad(io.StringIO):
+        def readline(self, *a):
+            raise UnicodeDecodeError("utf-8", b"\xff", 0, 1, "invalid start byte")
+
+    monkeypatch.setattr(sys, "stdin", Bad())
+    with pytest.raises(NoOperatorInput):
+        ui.ready("1", 1, 3)
+    monkeypatch.setattr(sys, "stdin", io.StringIO("q\nmaybe\nn\n"))
+    quality = type("Q", (), {"label": "2"})()
+    assert ui.repeat(quality) is False            # 'q' and 'maybe' asked again, then 'n'
+
+
+def test_output_through_a_symbolic_link_keeps_the_link(tmp_path, hp):
+    """-o naming a symbolic link: the measured file is its target; the link stays a link."""
+    target = tmp_path / "real" / "target.h5"
+    target.parent.mkdir()
+    link = tmp_path / "link.h5"
+    link.symlink_to(target)
+    r = acquire(hp, link, "--no-prompt")
+    assert r.exit_code == 0, r.output
+    assert link.is_symlink() and read_frf_h5(target).n_points == read_frf_h5(link).n_points > 0

@@ -79,17 +79,17 @@ def writable_target(path: str | Path, option: str = "-o") -> Path:
     if not os.access(parent, os.W_OK | os.X_OK):
         raise unwritable
     # the file system has the last word (root passes os.access; /proc refuses new files)
-    probe = parent / f".{path.name}.probe-{os.getpid()}"
+    import tempfile
+
     try:
-        with open(probe, "x"):
-            pass
+        fd, probe = tempfile.mkstemp(prefix=".laminid-probe-", dir=parent)
     except OSError:
         raise unwritable from None
-    finally:
-        try:
-            probe.unlink()
-        except OSError:
-            pass
+    os.close(fd)
+    try:
+        os.unlink(probe)
+    except OSError:
+        pass
     return path
 
 

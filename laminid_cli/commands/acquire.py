@@ -40,7 +40,10 @@ class _ClickUI:
         from laminid_cli.instrument.session import NoOperatorInput
 
         click.echo(text + ": ", nl=False, err=self.as_json)
-        line = sys.stdin.readline()
+        try:
+            line = sys.stdin.readline() if sys.stdin is not None else ""
+        except (OSError, ValueError, UnicodeDecodeError):    # closed, or not text
+            line = ""
         if not line:                         # end of input: nobody at the keyboard
             click.echo("", err=self.as_json)
             raise NoOperatorInput("no answer to the prompt: standard input is closed (a script "
@@ -73,8 +76,12 @@ class _ClickUI:
         click.echo(quality.line(), err=self.as_json)
 
     def repeat(self, quality):
-        answer = self._ask(f"Repeat point {quality.label}? [Y/n]")
-        return answer not in ("n", "no")
+        while True:                           # y (or Enter) / n; anything else asks again
+            answer = self._ask(f"Repeat point {quality.label}? [Y/n]")
+            if answer in ("", "y", "yes"):
+                return True
+            if answer in ("n", "no"):
+                return False
 
 
 def _resume_command(params: dict, output: Path) -> str:
@@ -179,7 +186,7 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
     units = units or "V/V"
     resume = resume and out.exists()
     if not resume:
-        check_output_path(out, force)
+        out = check_output_path(out, force)          # a symbolic link: its target
     settings = AcquisitionSettings(
         span_hz=span, start_hz=start, lines=lines, averages=averages,
         trigger_level_pct=trigger_level, pretrigger_s=pretrigger, force_window_s=force_window,

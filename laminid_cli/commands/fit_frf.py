@@ -92,7 +92,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
             raise click.BadParameter(f"{plot_path}: plot file type {Path(plot_path).suffix!r} "
                                      f"not supported; use one of {', '.join(PLOT_SUFFIXES)}",
                                      param_hint="'--plot'")
-        check_output_path(plot_path, force, option="--plot")
+        plot_path = check_output_path(plot_path, force, option="--plot")
     if spec_path is not None and not Path(spec_path).is_file():
         raise SpecimenError("file not found (--into needs an existing specimen file)",
                             path=spec_path)
