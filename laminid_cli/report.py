@@ -480,6 +480,8 @@ def _laminate_text(plate) -> str:
                          else f" (±{pct:.0f} %)")
                 if rel >= WEAK_BAND:
                     text += " not determined"
+                if "given the fixed" in u.get("verdict", ""):
+                    text += " (given fixed values)"     # their own doubt is not in the ±
         if k in ref:
             lo, hi = ref[k]
             r = (f"{lo:.3g}" if nu else f"{lo / 1e9:.3g} GPa") if lo == hi else \

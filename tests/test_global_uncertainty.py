@@ -175,3 +175,8 @@ def test_a_property_from_fixed_constants_only_is_not_identified():
                                     "IM7/977-2.G23")
     assert gu["Ex"]["verdict"].endswith("given the fixed IM7/977-2.nu12")
     assert 0 < gu["Ex"]["rel_half_width"] < 0.05
+    from laminid_cli.report import _laminate_text
+
+    plate = type("P", (), {"global_properties": {"Ex": gu["Ex"]["value"]},
+                           "reference_global": {}, "global_uncertainty": {"Ex": gu["Ex"]}})()
+    assert _laminate_text(plate).endswith("% (given fixed values)")
