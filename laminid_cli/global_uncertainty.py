@@ -144,6 +144,10 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
         var = var + (J[:, index[lab]] * sd) ** 2
     std = np.sqrt(np.maximum(var, 0.0))
     q = float(u.quantile)
+    # fixed because it was at a limit of the search in the run before (no spread to count)
+    was_at_limit = set()
+    if before is not None and getattr(before, "at_bound", None) is not None:
+        was_at_limit = {lab for lab, b in zip(before.labels, before.at_bound) if b}
     scale = np.array([_dependence_scale(constants, lab) for lab in labels])
     out = {}
     undetermined = set(fixed_undetermined)
@@ -169,7 +173,8 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
         if bound or und:
             why = ", ".join([f"{lab} (at its bound)" if lab in at_bound else
                              f"{lab} (not determined in any direction)" for lab in bound]
-                            + [f"{lab} (fixed because undetermined)" for lab in und])
+                            + [f"{lab} (fixed: it was at a search limit)" if lab in was_at_limit
+                               else f"{lab} (fixed because undetermined)" for lab in und])
             out[key] = GlobalInterval(key, g, np.nan, np.nan, np.nan, np.nan,
                                       f"{NOT_IDENTIFIED}: depends on {why}", bound, und, given)
             continue

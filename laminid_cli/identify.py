@@ -922,7 +922,9 @@ def _optimize_from(prob, ev0, progress=None, radius=None, ftol_rel=None, xtol=No
     opt.set_min_objective(objective)
     opt.set_xtol_abs(np.full(prob.n_vars, options.xtol_rel if xtol is None else xtol))
     opt.set_ftol_rel(options.ftol_rel if ftol_rel is None else ftol_rel)
-    left = max(options.max_evaluations - prob.n_eval, 1)          # a cap on them in all
+    left = options.max_evaluations - prob.n_eval                 # a cap on them in all
+    if left < 1:                       # the budget is spent: a later stage runs no evaluation
+        return ev0, False, maxeval_status(options)
     opt.set_maxeval(min(left, options.max_evaluations if maxeval is None else maxeval))
     status = ""
     try:

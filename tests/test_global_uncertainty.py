@@ -106,6 +106,11 @@ def test_dependence_on_constants_at_a_bound_fixed_or_fixed_because_undetermined(
     # without the earlier run: not identified
     out = global_intervals(lam, {"m": C0}, u, fixed_undetermined=("m.G23",))
     assert not out["Gxz"].identified and "fixed because undetermined" in out["Gxz"].verdict
+    # fixed because it was at a search limit in the run before: said so, not "undetermined"
+    at_limit = SimpleNamespace(labels=LABELS, std=np.array([1, 1, 1, 1, np.nan, 1]),
+                               at_bound=np.array([0, 0, 0, 0, 1, 0], bool))
+    out = global_intervals(lam, {"m": C0}, u, fixed_undetermined=("m.G23",), before=at_limit)
+    assert "depends on m.G23 (fixed: it was at a search limit)" in out["Gxz"].verdict
 
 
 def test_global_doubt_in_json_hdf5_terminal_and_report(tmp_path):

@@ -200,3 +200,13 @@ def test_max_evaluations_caps_the_whole_identification(solver):
     d = json.loads(r.stdout)
     assert d["converged"] is False and "--max-evaluations 20 evaluations ran out" in d["optimizer_status"]
     assert 15 <= d["evaluations"] <= 20
+
+
+@pytest.mark.parametrize("solver", ["reduced", "full"])
+def test_max_evaluations_holds_across_re_anchoring_passes(solver):
+    """S2.2 re-anchors its pairing and runs a second pass from the start: the cap still bounds
+    the evaluations of all passes together (a spent budget runs no later stage)."""
+    r = run("identify", "specimens/example2/S2.2.yaml", "--mesh", "8x8", "--solver", solver,
+            "--max-evaluations", "30", "--json", "--no-output")
+    d = json.loads(r.stdout)
+    assert d["evaluations"] <= 30 and d["converged"] is False and r.exit_code == 1
