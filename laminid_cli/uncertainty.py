@@ -1922,22 +1922,26 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
     kept_free: dict = {}
     earlier = []
     runs = 1
+    def to_fix(unc):
+        """The flagged constants to fix now: not fixed yet, and not ones whose initial value
+        would bias the others beyond their own spread (S1.2: G12 5.99 GPa +-32 %, initial
+        3.10 GPa moved E1 by 6 %; :func:`_initial_rejected`, judged on the constants that
+        stay determined). Those stay free (and undetermined), with why in ``kept_free``."""
+        out = []
+        for lab in unc.flagged:
+            if lab in fixed or lab in kept_free:
+                continue
+            why = _initial_rejected(result, unc, lab, fixing=set(unc.flagged) | set(fixed))
+            if why:
+                kept_free[lab] = why
+            else:
+                out.append(lab)
+        return out
+
+    mc = None
     while True:
-        while uopts.fix_undetermined and unc.flagged:
-            new = [lab for lab in unc.flagged if lab not in fixed and lab not in kept_free]
-            # fixing a constant at its initial value must not bias the others beyond their
-            # own spread (S1.2: G12 5.99 GPa +-32 %, initial 3.10 GPa moved E1 by 6 %): such a
-            # constant stays free (and undetermined); the note says how to fix it at a
-            # known value
-            for lab in list(new):
-                # judged on the constants that stay determined (the flagged ones are either
-                # fixed or reported undetermined anyway)
-                why = _initial_rejected(result, unc, lab, fixing=set(unc.flagged) | set(fixed))
-                if why:
-                    kept_free[lab] = why
-                    new.remove(lab)
-            if not new:
-                break
+        fixed_before = len(fixed)
+        while uopts.fix_undetermined and (new := to_fix(unc)):
             if len(new) == len(unc.labels):
                 from laminid_cli.errors import FitError
 
@@ -1960,6 +1964,8 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
             result = run(options, result.basis)      # the basis spans the path already walked
             runs += 1
             unc = uncertainty_of(result, fms_arg, sig_arg, **kw)
+        if mc is not None and len(fixed) == fixed_before:
+            break             # the Monte Carlo's flags fixed nothing: it stands for this result
         mc = None
         accepted = accept is None or accept(result)
         if not (uopts.monte_carlo and accepted):
@@ -1969,15 +1975,7 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
         unc = with_monte_carlo(unc, mc)
         # with --fix-undetermined, the constants the Monte Carlo range flags are fixed too and
         # the whole assessment runs again (its Monte Carlo included)
-        if uopts.fix_undetermined:           # what the Monte Carlo flagged, judged as above:
-            for lab in unc.flagged:          # only a constant that will be fixed runs it again
-                if lab not in fixed and lab not in kept_free:
-                    why = _initial_rejected(result, unc, lab,
-                                            fixing=set(unc.flagged) | set(fixed))
-                    if why:
-                        kept_free[lab] = why
-        if not (uopts.fix_undetermined and any(lab not in fixed and lab not in kept_free
-                                               for lab in unc.flagged)):
+        if not uopts.fix_undetermined:
             break
     return Assessment(result=result, uncertainty=unc, sigmas=sigmas,
                       fixed_undetermined=tuple(fixed), before_fixing=first if fixed else None,
@@ -1990,10 +1988,10 @@ def _initial_rejected(result, u: Uncertainty, label: str, fixing=()) -> str:
     may): fixing it there moves another free constant out of its own 95 % interval. To first
     order (the posterior's regression) the move of constant j is rho_jp s_j (p0 - p) / s_p, so
     the test is max |rho_jp| |p0 - p| / s_p > q (the intervals' quantile, 1.96 or Student's)
-    over the constants that stay free (not ``fixing``). An undetermined constant with little correlation (nu12 of
-    a thin plate) may be fixed even where its interval excludes p0; one the others lean on
-    (S1.2's G12, 5.99 GPa +-32 %, p0 3.10 GPa: E1 moved by 6 %) may not. A constant at a limit
-    of the search (no interval) may be fixed."""
+    over the constants that stay free (not ``fixing``). An undetermined constant with little
+    correlation (nu12 of a thin plate) may be fixed even where its interval excludes p0; one
+    the others lean on (S1.2's G12, 5.99 GPa +-32 %, p0 3.10 GPa: E1 moved by 6 %) may not. A
+    constant at a limit of the search (no interval) may be fixed."""
     k = u.labels.index(label)
     sd = np.sqrt(np.maximum(np.diag(np.asarray(u.covariance, float)), 0.0))
     if not (np.isfinite(sd[k]) and sd[k] > 0) or (u.at_bound is not None and u.at_bound[k]):
@@ -2013,7 +2011,7 @@ def _initial_rejected(result, u: Uncertainty, label: str, fixing=()) -> str:
         return ""
 
     def show(v):
-        return f"{v:.3g}" if const == "nu12" else f"{v / 1e9:.3g} GPa"
+        return f"{v:.3g}" if const == "nu12" else _gpa(v)
 
     return (f"not fixed: its initial value {show(c0)} is {z:.1f} standard deviations from the "
             f"identified {show(float(u.value[k]))}, and fixing it there would move "
