@@ -16,9 +16,9 @@ fixed (so Gxz of a plate whose G13 was fixed is as undetermined as G13 was); wit
 run, the property is not identified either. One that depends on a constant fixed by
 the user (``--fix`` or the file's ``fixed``) keeps its interval, "given" that value (the
 interval does not count the fixed value's own doubt); one that depends on fixed constants only
-is not identified ("from the fixed G13, G23"): it is an assumption. For an orthotropic ply rotated about z
-the in-plane and the transverse-shear blocks of Q do not mix, so Ex, Ey, Gxy and the Poisson
-ratios never depend on G13 or G23, and Gxz, Gyz only on them.
+is not identified ("from the fixed G13, G23"): it is an assumption. For an orthotropic ply
+rotated about z the in-plane and the transverse-shear blocks of Q do not mix, so Ex, Ey, Gxy
+and the Poisson ratios never depend on G13 or G23, and Gxz, Gyz only on them.
 
 No click, no h5py: library code.
 """
@@ -133,12 +133,14 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
     keep = [k for k, lab in enumerate(free)
             if lab in index and lab not in at_bound and lab not in unseen]
     Jf = J[:, [index[free[k]] for k in keep]] if keep else np.zeros((len(KEYS), 0))
-    var = np.einsum("ij,jk,ik->i", Jf, cov[np.ix_(keep, keep)], Jf) if keep else np.zeros(7)
+    var = (np.einsum("ij,jk,ik->i", Jf, cov[np.ix_(keep, keep)], Jf) if keep
+           else np.zeros(len(KEYS)))
     # a constant fixed because undetermined still has the spread it had before it was fixed
+    undetermined = set(fixed_undetermined)
     spread = {}
     if before is not None:
         for lab, sd in zip(before.labels, before.std):
-            if lab in set(fixed_undetermined) and lab in index and np.isfinite(sd):
+            if lab in undetermined and lab in index and np.isfinite(sd):
                 spread[lab] = float(sd)
     for lab, sd in spread.items():
         var = var + (J[:, index[lab]] * sd) ** 2
@@ -149,8 +151,8 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
     if before is not None and getattr(before, "at_bound", None) is not None:
         was_at_limit = {lab for lab, b in zip(before.labels, before.at_bound) if b}
     scale = np.array([_dependence_scale(constants, lab) for lab in labels])
+    by_monte_carlo = set(getattr(u, "verdict_from_monte_carlo", ()))
     out = {}
-    undetermined = set(fixed_undetermined)
     for i, key in enumerate(KEYS):
         g = float(g0[i])
         rel_dep = np.abs(J[i]) * scale / max(abs(g), 1e-300)
@@ -184,7 +186,7 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
             with np.errstate(over="ignore"):
                 lo, hi = g * np.exp(-half / g), g * np.exp(half / g)
         verdict = verdict_of(rel, False)
-        mc = [lab for lab in deps if lab in set(getattr(u, "verdict_from_monte_carlo", ()))]
+        mc = [lab for lab in deps if lab in by_monte_carlo]
         if mc:
             verdict += (" — linearised; the Monte Carlo found " + ", ".join(mc)
                         + " less determined than that: this interval is too narrow")

@@ -41,7 +41,7 @@ import numpy as np
 
 from laminid_cli.atomic import atomic_path
 from laminid_cli.errors import LaminidError
-from laminid_cli.intervals import VERDICT_NOT
+from laminid_cli.intervals import VERDICT_NOT, WEAK
 from laminid_cli.resultfile import CONSTANTS, ResultFile, bound_statement, read_result
 
 log = logging.getLogger(__name__)
@@ -282,13 +282,12 @@ def status_corner(fig, r: ResultFile) -> None:
     if any(t.get_gid() == "status" for t in [*fig.texts, *(t for a in fig.axes
                                                            for t in a.texts)]):
         return
+    text, color = status_line(r)                     # the words and colour of page 1's
     if r.status is None:
-        text, color = "status not recorded", "0.35"
-    elif r.status.status == "ok":
-        text, color = "status: OK", "#1a7f37"
-    else:
+        text = "status not recorded"
+    elif r.status.status != "ok":
         codes = ", ".join(x.code for x in r.status.reasons) or "no reason given"
-        text, color = f"status: CHECK ({codes}; see page 1)", "#b35900"
+        text = f"status: CHECK ({codes}; see page 1)"
     fig.text(0.995, 0.995, text, ha="right", va="top", fontsize=8, color=color,
              weight="bold", gid="status")
 
@@ -453,11 +452,6 @@ def frequency_block(fig, spec, plate) -> None:
         ax_r.spines[side].set_visible(False)
 
 
-#: a laminate property wider than this (95 % half-width / value) is "not determined", as a
-#: constant is (laminid_cli.intervals.WEAK)
-WEAK_BAND = 0.30
-
-
 def _laminate_text(plate) -> str:
     gp = plate.global_properties
     if not gp:
@@ -478,7 +472,7 @@ def _laminate_text(plate) -> str:
                 pct = rel * 100
                 text += (f" ±{pct:.2g} %" if pct < 9.95 else f" ±{pct:.0f} %" if rel < 1
                          else f" (±{pct:.0f} %)")
-                if rel >= WEAK_BAND:
+                if rel >= WEAK:           # as a constant is (intervals.WEAK)
                     text += " not determined"
                 if "given the fixed" in u.get("verdict", ""):
                     text += " (given fixed values)"     # their own doubt is not in the ±
@@ -985,10 +979,12 @@ def revisits(constants) -> np.ndarray:
     """(n,) bool: evaluation i is at the same point as an evaluation before i - 1 (not a step,
     a point evaluated again)."""
     C = np.asarray(constants, float)
-    out = np.zeros(C.shape[0], bool)
-    for i in range(2, C.shape[0]):
-        out[i] = bool(np.any(np.all(C[:i - 1] == C[i], axis=1))) and not np.all(C[i - 1] == C[i])
-    return out
+    n = C.shape[0]
+    if n < 3:
+        return np.zeros(n, bool)
+    _, first, inverse = np.unique(C, axis=0, return_index=True, return_inverse=True)
+    same_as_previous = np.r_[False, np.all(C[1:] == C[:-1], axis=1)]
+    return (first[np.ravel(inverse)] < np.arange(n) - 1) & ~same_as_previous
 
 
 def history_page(r: ResultFile):

@@ -244,11 +244,12 @@ def damping_reasons(damping, max_rel_interval: float | None = None) -> list[tupl
         out.append(("undetermined", f"loss factors not determined by the measured damping "
                                     f"({conf} half-width above {limit * 100:.0f} % of the "
                                     f"value): {words}"))
-    if damping.dof > 0 and damping.chi2 > chi2_ppf(0.99, damping.dof):
+    limit99 = chi2_ppf(0.99, damping.dof) if damping.dof > 0 else np.inf
+    if damping.chi2 > limit99:
         out.append(("poor_fit", f"the loss factors' model misses the measured modal damping by "
                                 f"more than its stated noise: chi2 {damping.chi2:.3g} for "
                                 f"{damping.dof} degrees of freedom (99 % limit "
-                                f"{chi2_ppf(0.99, damping.dof):.3g}): damping that is not the "
+                                f"{limit99:.3g}): damping that is not the "
                                 "ply materials' (air, supports), or damping sigmas too small"))
     return out
 

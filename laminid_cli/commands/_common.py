@@ -103,7 +103,7 @@ def check_output_path(path: str | Path | None, force: bool, option: str = "-o"
 
     if path is None:
         return None
-    given = Path(path) if str(path).strip() else path
+    given = path                            # named as given (a link: not its target)
     path = writable_target(path, option)
     if path.exists() and not force:
         raise OutputExistsError(f"{given}: file exists; use --force to overwrite it or choose "

@@ -5,9 +5,11 @@ from __future__ import annotations
 import math
 import re
 
+from laminid_cli.intervals import VERDICT_NOT
+
 #: the advice that ends the verdict "not determined by these modes — fix it or ..." (shown
 #: once in the constants' table, not again for the laminate's properties)
-VERDICT_ADVICE = " — fix it or measure a thicker plate / more modes"
+VERDICT_ADVICE = " — " + VERDICT_NOT.split(" — ", 1)[1]
 
 MODULI = ("E1", "E2", "G12", "G13", "G23")
 GLOBAL_ORDER = (("Ex", "GPa"), ("Ey", "GPa"), ("Gxy", "GPa"), ("Gxz", "GPa"), ("Gyz", "GPa"),
@@ -61,6 +63,10 @@ def format_frequency_table(freqs: dict, extra: dict | None = None) -> list[str]:
     return lines
 
 
+def _finite(x) -> bool:
+    return x is not None and math.isfinite(x)
+
+
 def format_global(props: dict, unc: dict | None = None) -> list[str]:
     """The laminate's global properties (Appendix A); with ``unc`` (the JSON block
     "global_uncertainty") a table with their intervals and verdicts."""
@@ -73,16 +79,11 @@ def format_global(props: dict, unc: dict | None = None) -> list[str]:
             if u is None or v is None:
                 continue
             gpa = unit == "GPa"
-
-            def num(x):
-                return "—" if x is None else f"{x / 1e9:.2f}" if gpa else f"{x:.3f}"
-
-            def finite(x):
-                return x is not None and math.isfinite(x)
-
-            span = (f"{num(u['lower'])} .. {num(u['upper'])}" if finite(u["lower"]) else "none")
-            rel = _pct(u["rel_half_width"]) if finite(u["rel_half_width"]) else "—"
-            lines.append(f"  {key + (' [GPa]' if gpa else ''):<10} {num(v):>8}  {span:>17} "
+            name = key if gpa else "nu12"         # _num: a modulus in GPa, or a ratio
+            span = (f"{_num(name, u['lower'])} .. {_num(name, u['upper'])}"
+                    if _finite(u["lower"]) else "none")
+            rel = _pct(u["rel_half_width"]) if _finite(u["rel_half_width"]) else "—"
+            lines.append(f"  {key + (' [GPa]' if gpa else ''):<10} {_num(name, v):>8}  {span:>17} "
                          f"{rel:>8}  {u['verdict'].replace(VERDICT_ADVICE, '')}")
         return lines
     parts = []
