@@ -1005,8 +1005,8 @@ def history_page(r: ResultFile):
     if again.any():
         ax_o.semilogy(ev[again], hist.objective[again], "o", ms=4.5, mfc="w", color="0.4",
                       mew=0.8, zorder=4, gid="revisit", linestyle="none",
-                      label="an earlier point evaluated again (trust-region check after a "
-                            "basis enrichment, or a second pass from the start)")
+                      label="an earlier point evaluated again\n(a check or a new pass, "
+                            "not a step)")
     # reduced solver: trial points are predictions of the reduced model (error bound NaN);
     # only evaluations with a known error bound count as the lowest evaluated
     bound = hist.error_bound if hist.error_bound is not None else np.zeros(ev.size)
