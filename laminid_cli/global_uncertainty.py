@@ -11,9 +11,11 @@ same bands (5 % / 30 % half-width).
 A property that depends (``|dg / dP| s / |g| >`` :data:`DEPENDS`, with s the constant's value, at
 least a tenth of E2 for a modulus) on a constant at a limit of the search is not identified: it
 gets no interval and says on which. One fixed because the modes did not determine it
-(``--fix-undetermined``) adds the variance its standard deviation had in the run before it was
-fixed (so Gxz of a plate whose G13 was fixed is as undetermined as G13 was); without that
-run, the property is not identified either. One that depends on a constant fixed by
+(``--fix-undetermined``) counts the spread it had in the run before it was fixed, with its
+covariance with the free constants (``spread_covariance``, ``spread_cross`` of
+:func:`laminid_cli.uncertainty.counting_fixed_spread`; so Gxz of a plate whose G13 was fixed
+is as undetermined as G13 was); without that spread (it was at a limit of the search), the
+property is not identified either. One that depends on a constant fixed by
 the user (``--fix`` or the file's ``fixed``) keeps its interval, "given" that value (the
 interval does not count the fixed value's own doubt); one that depends on fixed constants only
 is not identified ("from the fixed G13, G23"): it is an assumption. For an orthotropic ply
@@ -115,9 +117,10 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
     """The :class:`GlobalInterval` of each property of ``laminate`` (a
     :class:`laminid_cli.laminate.Laminate`) with the identified ``constants`` ({material:
     ElasticConstants}), from the constants' uncertainty ``u``. ``fixed_undetermined``: labels
-    fixed because undetermined; ``before``: the uncertainty of the run before they were fixed,
-    whose standard deviations of them are added to the properties' variance (without it, a
-    property depending on them is not identified)."""
+    fixed because undetermined, whose spread counts where ``u`` counted it
+    (``u.spread_counted``; a property depending on one not counted is not identified);
+    ``before``: the uncertainty of the run before they were fixed (which of them were at a
+    limit of the search there)."""
     J, labels, g0 = sensitivities(laminate, constants)
     index = {lab: j for j, lab in enumerate(labels)}
     free = list(u.labels)
@@ -135,15 +138,21 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
     Jf = J[:, [index[free[k]] for k in keep]] if keep else np.zeros((len(KEYS), 0))
     var = (np.einsum("ij,jk,ik->i", Jf, cov[np.ix_(keep, keep)], Jf) if keep
            else np.zeros(len(KEYS)))
-    # a constant fixed because undetermined still has the spread it had before it was fixed
+    # a constant fixed because undetermined still has the spread it had before it was fixed,
+    # and the free constants share part of it (uncertainty.counting_fixed_spread: the
+    # covariance of the free constants already counts it; here the fixed ones' own block and
+    # the cross terms are added)
     undetermined = set(fixed_undetermined)
-    spread = {}
-    if before is not None:
-        for lab, sd in zip(before.labels, before.std):
-            if lab in undetermined and lab in index and np.isfinite(sd):
-                spread[lab] = float(sd)
-    for lab, sd in spread.items():
-        var = var + (J[:, index[lab]] * sd) ** 2
+    counted_all = tuple(getattr(u, "spread_counted", ()) or ())
+    spread = [lab for lab in counted_all if lab in undetermined and lab in index]
+    if spread:
+        ks = [counted_all.index(lab) for lab in spread]
+        Jc = J[:, [index[lab] for lab in spread]]
+        Cf = np.asarray(u.spread_covariance, float)[np.ix_(ks, ks)]
+        var = var + np.einsum("ij,jk,ik->i", Jc, Cf, Jc)
+        if keep:
+            X = np.asarray(u.spread_cross, float)[np.ix_(keep, ks)]
+            var = var + 2 * np.einsum("ij,jk,ik->i", Jf, X, Jc)
     std = np.sqrt(np.maximum(var, 0.0))
     q = float(u.quantile)
     # fixed because it was at a limit of the search in the run before (no spread to count)

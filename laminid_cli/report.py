@@ -508,6 +508,17 @@ def table_notes(r: ResultFile) -> list[str]:
     if any(c.startswith("fixed") for c in cells):
         notes.append("fixed: held at its initial value, not identified (its value is an "
                      "assumption, not a result; no comparison with the reference)")
+    u = r.uncertainty
+    if u is not None and getattr(u, "spread_counted", ()):
+        names = [lab.rsplit(".", 1)[1] if len(r.materials) == 1 else lab
+                 for lab in u.spread_counted]
+        given = [(iv, u.given_fixed.get(iv.label, np.nan)) for iv in u.intervals]
+        given = ", ".join(f"{iv.constant if len(r.materials) == 1 else iv.label} {_pct(w)}"
+                          for iv, w in given if np.isfinite(w))
+        notes.append("the intervals count the spread " + ", ".join(names) + " had before "
+                     + ("it was" if len(names) == 1 else "they were") + " fixed (a fixed value "
+                     "is not known better than that)"
+                     + (f"; given the fixed values alone: {given}" if given else ""))
     return notes
 
 

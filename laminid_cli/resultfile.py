@@ -86,6 +86,12 @@ class Uncertainty:
     #: {label: (relative half-width, verdict, run)} in the run that had it fixed
     #: (/uncertainty/fixed_undetermined; {} in files before stop 29)
     fixed_widths: dict = field(default_factory=dict)
+    #: the fixed values whose spread before fixing the intervals count (attribute
+    #: ``spread_counted``), and {label: relative half-width given the fixed values alone}
+    #: (/uncertainty/rel_half_width_given_fixed); () and {} in files before stop 30, whose
+    #: intervals were given the fixed values
+    spread_counted: tuple[str, ...] = ()
+    given_fixed: dict = field(default_factory=dict)
 
     def get(self, material: str, constant: str) -> Interval | None:
         return next((iv for iv in self.intervals
@@ -445,7 +451,10 @@ def _uncertainty(f) -> Uncertainty | None:
         intervals=tuple(intervals), notes=str(a.get("notes", "")), monte_carlo=mc,
         fixed=_label_list(a.get("fixed")), fixed_undetermined=_label_list(
             a.get("fixed_undetermined")), before_fixing=_before_fixing(u),
-        fixed_widths=_fixed_widths(u))
+        fixed_widths=_fixed_widths(u), spread_counted=_label_list(a.get("spread_counted")),
+        given_fixed=({lab: float(w) for lab, w in zip(
+            labels, np.ravel(u["rel_half_width_given_fixed"][()]))}
+            if "rel_half_width_given_fixed" in u else {}))
 
 
 def _label_list(text) -> tuple[str, ...]:

@@ -78,6 +78,13 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
     /uncertainty/monte_carlo_rel_half_width, monte_carlo_rel_half_width_lower   per label (with
                           a Monte Carlo): its range's half-width / |value|, and the one it has
                           for sure (what its verdicts use)
+    /uncertainty/rel_half_width_given_fixed  per label, with --fix-undetermined: the 95 %
+                          half-width / |value| given the fixed values alone (rel_half_width,
+                          std, lower, upper and covariance count the spread the fixed values
+                          had before fixing: laminid_cli.uncertainty.counting_fixed_spread);
+                          attrs spread_counted, spread_not_counted (labels, comma-separated)
+    /uncertainty/spread_counted  labels, covariance (of the fixed values counted),
+                          cross_covariance (free constants x those)
     /uncertainty/before_fixing  labels, rel_half_width, verdict of the first run when
                           --fix-undetermined fixed constants
     /uncertainty/fixed_undetermined  labels, rel_half_width, verdict, run: each constant fixed
@@ -487,6 +494,21 @@ def write_uncertainty(f, a, plate_names) -> None:
         put(g, "monte_carlo_rel_half_width_lower", u.mc_rel_half_width_lower, "1",
             description="the half-width / |value| the Monte Carlo range has for sure "
             "(monte_carlo/@evidence_level): the width its verdicts use; NaN: too few trials")
+    if u.rel_half_width_given_fixed is not None:
+        put(g, "rel_half_width_given_fixed", u.rel_half_width_given_fixed, "1",
+            description="95 % half-width / |value| given the values --fix-undetermined fixed "
+            "(rel_half_width counts their spread before fixing: attr spread_counted)")
+    if u.spread_counted:
+        data, dt = _strings(u.spread_counted)
+        gs = g.create_group("spread_counted")
+        gs.create_dataset("labels", data=data, dtype=dt)
+        put(gs, "covariance", u.spread_covariance, "Pa^2 (nu12: Pa, 1)",
+            description="covariance of the fixed values counted (their spread before fixing)")
+        put(gs, "cross_covariance", u.spread_cross, "Pa^2 (nu12: Pa, 1)",
+            description="covariance of the free constants (rows: /uncertainty/labels) with the "
+            "fixed values counted (columns: labels)")
+    g.attrs["spread_counted"] = ",".join(u.spread_counted)
+    g.attrs["spread_not_counted"] = ",".join(u.spread_not_counted)
     g.attrs["chi2_limit_99"] = u.chi2_limit
     put(g, "correlation", u.correlation, "1")
     put(g, "covariance", u.covariance, "Pa^2 (nu12 row/column: Pa, 1)")

@@ -60,6 +60,15 @@ Constants at a bound
     there (an active constraint), so one constant on its limit does not blow up every
     interval.
 
+Constants fixed because undetermined
+    ``--fix-undetermined`` (:func:`assess`) fixes a flagged constant at its initial value: an
+    assumption, known no better than the modes left it. The final intervals count that
+    (:func:`counting_fixed_spread`): ``C + S C_f S^T`` with ``S = -G_P^+ G_f`` the free
+    constants' first-order change per change of the fixed ones and C_f their covariance before
+    fixing; ``rel_half_width_given_fixed`` keeps the widths given the fixed values alone. The
+    flags that decide what to fix are judged given the fixed values (counting their spread
+    would otherwise fix more and more).
+
 Identifiability
     Normalised sensitivities d ln f_i / d ln P_j (:attr:`Identification.sensitivity`), the
     condition number of the noise-whitened Jacobian over relative constants (moduli: d / d ln P;
@@ -298,6 +307,15 @@ class Uncertainty:
     #: (p,) the width the Monte Carlo verdicts use: that of MonteCarlo.inner_range, the range's
     #: half-width / |value| that the trials show with probability >= 90 % (NaN: too few)
     mc_rel_half_width_lower: np.ndarray | None = None
+    #: with constants fixed because undetermined (:func:`counting_fixed_spread`): the labels
+    #: whose spread before fixing the intervals count, (p,) the relative half-widths given
+    #: the fixed values alone, the covariance of the free constants with the counted ones
+    #: (p, k) and among those (k, k) (SI), and the fixed labels not counted (no finite spread)
+    spread_counted: tuple[str, ...] = ()
+    rel_half_width_given_fixed: np.ndarray | None = None
+    spread_cross: np.ndarray | None = None
+    spread_covariance: np.ndarray | None = None
+    spread_not_counted: tuple[str, ...] = ()
 
     def as_dict(self) -> dict:
         """Plain data for JSON (per material and constant) and the report."""
@@ -325,6 +343,9 @@ class Uncertainty:
             if self.mc_rel_half_width_lower is not None:
                 per[mat][const]["monte_carlo_rel_half_width_lower"] = float(
                     self.mc_rel_half_width_lower[k])
+            if self.rel_half_width_given_fixed is not None:
+                per[mat][const]["rel_half_width_given_fixed"] = float(
+                    self.rel_half_width_given_fixed[k])
         for lab in self.fixed:
             mat, const = lab.rsplit(".", 1)
             per.setdefault(mat, {})[const] = {"verdict": VERDICT_FIXED, "flagged": False}
@@ -344,6 +365,8 @@ class Uncertainty:
             "flagged": list(self.flagged),
             "verdict_from_monte_carlo": list(self.verdict_from_monte_carlo),
             "fixed": list(self.fixed),
+            "spread_counted": list(self.spread_counted),
+            "spread_not_counted": list(self.spread_not_counted),
             "sigma_source": self.sigma_source,
             "thresholds": dict(self.thresholds),
             "notes": list(self.notes),
@@ -1829,6 +1852,144 @@ def with_monte_carlo(u: Uncertainty, mc: MonteCarlo) -> Uncertainty:
 
 
 # ----------------------------------------------------------------------------------------------
+# the doubt of the constants --fix-undetermined fixed
+
+
+def counting_fixed_spread(u: Uncertainty, before: Uncertainty, obs, materials,
+                          nu_max: float = 0.95) -> Uncertainty:
+    """``u`` (the uncertainty of a run with constants fixed because undetermined) with the
+    doubt of those fixed values counted (a "consider" covariance).
+
+    ``obs``: the run's :class:`Observations` over ``u.labels + u.fixed`` (free, then fixed
+    columns); ``materials``: its :class:`MaterialState` (values, priors); ``before``: the
+    uncertainty of the run before fixing (all of the fixed-because-undetermined constants
+    free there).
+
+    The free constants' estimate depends on the fixed values f: to first order
+    ``dP = S df`` (:func:`fixed_value_regression`). A fixed value is as uncertain as the modes
+    left it before it was fixed: its covariance C_f is ``before``'s, relative for moduli (their
+    intervals are on ln P: the relative spread is kept at the fixed value), absolute for
+    nu12. The free constants' covariance becomes ``C + S C_f S^T``; they share ``S C_f`` with
+    the fixed ones (``spread_cross``, which the laminate properties use). For a linear model
+    whose row weights follow the frequencies' noise (the default) this is exactly the
+    covariance of the run before fixing: fixing an undetermined constant
+    at an assumed value gives a stable point, not a better-known one. The intervals given the
+    fixed values alone stay in ``rel_half_width_given_fixed``.
+
+    A fixed constant with no finite spread before (at a limit of the search, or in a direction
+    the modes do not see) is not counted (``spread_not_counted``; a note says the intervals are
+    given its value). Constants fixed by the user are not counted either: their values are
+    the user's statement.
+    """
+    bi = {lab: k for k, lab in enumerate(before.labels)}
+    fixed = [lab for lab in u.fixed if lab in bi]
+    if not fixed:
+        return u
+    b_at = (np.zeros(len(before.labels), bool) if before.at_bound is None
+            else np.asarray(before.at_bound, bool))
+    b_std = np.asarray(before.std, float)
+    counted = [lab for lab in fixed if not b_at[bi[lab]] and np.isfinite(b_std[bi[lab]])]
+    missing = tuple(lab for lab in fixed if lab not in counted)
+    notes = u.notes + ((_not_counted_note(missing),) if missing else ())
+    if not counted:
+        return dataclasses.replace(u, spread_not_counted=missing, notes=notes)
+    labels = tuple(u.labels)
+    p = len(labels)
+    value = np.asarray(u.value, float)
+    is_nu = np.array([lab.endswith(".nu12") for lab in labels], bool)
+    inner = ~(np.zeros(p, bool) if u.at_bound is None else np.asarray(u.at_bound, bool))
+    dP_df = fixed_value_regression(obs, materials, labels,
+                                   [p + list(u.fixed).index(lab) for lab in counted], inner)
+    mat_of = {m.name: m for m in materials}
+    fval = np.array([float(getattr(mat_of[lab.rsplit(".", 1)[0]].constants,
+                                   lab.rsplit(".", 1)[1])) for lab in counted])
+    kb = [bi[lab] for lab in counted]
+    ratio = np.where([lab.endswith(".nu12") for lab in counted], 1.0,
+                     np.abs(fval / np.asarray(before.value, float)[kb]))
+    Cf = (np.nan_to_num(np.asarray(before.covariance, float)[np.ix_(kb, kb)])
+          * np.outer(ratio, ratio))
+    cross = dP_df @ Cf                                     # Cov(P, f), SI
+    cov = np.asarray(u.covariance, float) + np.where(np.outer(inner, inner),
+                                                     cross @ dP_df.T, 0.0)
+    std_u = np.asarray(u.std, float)
+    with np.errstate(invalid="ignore"):
+        std = np.where(np.isfinite(std_u), np.sqrt(np.clip(np.diag(cov), 0, None)), std_u)
+    q = float(u.quantile)
+    half = q * std
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        rel = np.where(value != 0, half / np.abs(value), np.inf)
+        s_ln = np.where(is_nu, np.nan, std / np.abs(value))
+        lower = np.where(is_nu, np.clip(value - half, -nu_max, nu_max), value * np.exp(-q * s_ln))
+        upper = np.where(is_nu, np.clip(value + half, -nu_max, nu_max), value * np.exp(q * s_ln))
+        corr = cov / np.outer(std, std)
+    rel[~inner] = np.inf
+    lower[~inner], upper[~inner] = np.nan, np.nan
+    corr[~np.isfinite(corr)] = np.nan
+    np.fill_diagonal(corr, 1.0)
+    verdict, flagged = list(u.verdict), set(u.flagged)
+    for j, lab in enumerate(labels):
+        if inner[j]:
+            verdict[j] = verdict_of(rel[j], False) + (
+                HELD_BY_PRIOR if u.verdict[j].endswith(HELD_BY_PRIOR) else "")
+            if not rel[j] <= u.thresholds["max_rel_interval"]:
+                flagged.add(lab)
+    return dataclasses.replace(
+        u, std=std, half_width=half, lower=lower, upper=upper, rel_half_width=rel,
+        covariance=cov, correlation=corr, verdict=tuple(verdict),
+        flagged=tuple(lab for lab in labels if lab in flagged), notes=notes,
+        rel_half_width_given_fixed=np.asarray(u.rel_half_width, float),
+        spread_counted=tuple(counted), spread_cross=cross, spread_covariance=Cf,
+        spread_not_counted=missing)
+
+
+def fixed_value_regression(obs, materials, labels, fixed_cols, inner=None) -> np.ndarray:
+    """(p, k) d P / d f (SI): how the free constants ``labels`` (the first p columns of the
+    :class:`Observations` ``obs``) of an optimum move, to first order, when the constants of
+    the columns ``fixed_cols`` are fixed at other values: the least-squares regression
+    ``-G_P^+ G_f`` of the objective's rows (paper Eq. 17; the prior rows of Eq. 15 are on
+    free constants, zero in the fixed columns) on the fixed columns. Gauss-Newton: the
+    residuals' curvature is left out, as in the covariance (S1.1 with G13, G23, nu12 fixed:
+    within 4 % of re-identifying with G13, G23 moved, 20-37 % with nu12 moved).
+    ``inner`` (p,) bool: the constants not at a bound (held there: rows of zeros)."""
+    labels = tuple(labels)
+    p = len(labels)
+    inner = np.ones(p, bool) if inner is None else np.asarray(inner, bool)
+    cols = list(range(p)) + list(fixed_cols)
+    rows = []
+    for o in obs:
+        ok = (np.asarray(o.weight) > 0) & np.isfinite(o.freq_hz)
+        lam_m = (2 * np.pi * o.freq_hz[ok]) ** 2
+        rows.append((np.sqrt(o.weight[ok]) / lam_m)[:, None] * o.dlam_dP[ok][:, cols])
+    A = np.vstack(rows)
+    mat_of = {m.name: m for m in materials}
+    value = np.array([float(getattr(mat_of[lab.rsplit(".", 1)[0]].constants,
+                                    lab.rsplit(".", 1)[1])) for lab in labels])
+    for j, lab in enumerate(labels):
+        name, const = lab.rsplit(".", 1)
+        wp = float(mat_of[name].prior.get(const, 0.0))
+        if wp > 0:
+            P0 = float(getattr(mat_of[name].initial, const))
+            row = np.zeros((1, A.shape[1]))
+            row[0, j] = np.sqrt(wp) / (P0 if P0 != 0 else 1.0)
+            A = np.vstack([A, row])
+    # columns scaled as in linearized_uncertainty, for the pseudo-inverse's rank decision
+    D = np.where([lab.endswith(".nu12") for lab in labels],
+                 np.maximum(np.abs(value), NU_SCALE), np.abs(value))
+    idx = np.flatnonzero(inner)
+    out = np.zeros((p, len(cols) - p))
+    if idx.size:
+        out[idx] = -(np.linalg.pinv(A[:, idx] * D[idx], rcond=NULL_TOL) @ A[:, p:]) \
+            * D[idx][:, None]
+    return out
+
+
+def _not_counted_note(missing) -> str:
+    return ("the intervals are given the fixed value of " + ", ".join(missing) + ": it was at "
+            "a limit of the search (or in a direction the modes do not see) before it was "
+            "fixed, so its doubt is not known and not counted")
+
+
+# ----------------------------------------------------------------------------------------------
 # the whole assessment
 
 
@@ -1972,11 +2133,27 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
             break
         mc = monte_carlo(result, fms_arg, sig_arg, unc, uopts.monte_carlo, jobs=uopts.jobs,
                          seed=uopts.seed, progress=mc_progress)
+        linearised = unc
         unc = with_monte_carlo(unc, mc)
         # with --fix-undetermined, the constants the Monte Carlo range flags are fixed too and
         # the whole assessment runs again (its Monte Carlo included)
         if not uopts.fix_undetermined:
             break
+    if fixed:
+        # the fixed values are as uncertain as the modes left them: the final intervals count
+        # that (the flags above were judged given the fixed values, so counting it does not
+        # fix more constants); the Monte Carlo's trials hold the fixed values
+        u0 = unc if mc is None else linearised
+        obs = [observations(fm, plate, s, u0.labels + u0.fixed)
+               for (fm, plate), s in zip(_parts(result, fms_arg), sigmas)]
+        unc = counting_fixed_spread(u0, first, obs, material_states(result),
+                                    result.options.nu_max)
+        if mc is not None:
+            unc = with_monte_carlo(unc, mc)
+            if unc.spread_counted:
+                unc = dataclasses.replace(unc, notes=unc.notes + (
+                    "the Monte Carlo trials hold the fixed values: its ranges are given them, "
+                    "like the intervals given the fixed values alone",))
     return Assessment(result=result, uncertainty=unc, sigmas=sigmas,
                       fixed_undetermined=tuple(fixed), before_fixing=first if fixed else None,
                       monte_carlo=mc, runs=runs, earlier_results=tuple(earlier),

@@ -91,9 +91,13 @@ def test_dependence_on_constants_at_a_bound_fixed_or_fixed_because_undetermined(
         assert out[key].identified and np.isfinite(out[key].lower), key
     # G23 and nu12 fixed (not among the labels); G23 because undetermined, with its earlier std
     free = ("m.E1", "m.E2", "m.G12", "m.G13")
-    u = fake_u(cov[:4, :4], labels=free)
-    before = SimpleNamespace(labels=LABELS, std=np.array([1, 1, 1, 1, 0.8e9, 1]))
-    out = global_intervals(lam, {"m": C0}, u, fixed_undetermined=("m.G23",), before=before)
+    # its spread as uncertainty.counting_fixed_spread counts it: its own variance and its
+    # covariance with the free G13 (the free constants' covariance already counts it)
+    cross = np.zeros((4, 1))
+    cross[3, 0] = -0.4 * sd[3] * 0.8e9
+    u = SimpleNamespace(**vars(fake_u(cov[:4, :4], labels=free)), spread_counted=("m.G23",),
+                        spread_covariance=np.array([[0.8e9 ** 2]]), spread_cross=cross)
+    out = global_intervals(lam, {"m": C0}, u, fixed_undetermined=("m.G23",))
     assert out["Gxz"].spread_counted == ("m.G23",)
     assert "counts the spread m.G23 had before it was fixed" in out["Gxz"].verdict
     assert out["Ex"].given_fixed == ("m.nu12",) and out["Ex"].verdict.endswith(
@@ -101,9 +105,10 @@ def test_dependence_on_constants_at_a_bound_fixed_or_fixed_because_undetermined(
     # G13 and G23 of a cross-ply enter Gxz as t-weighted sums: exact variance by hand
     t0 = t90 = 0.5
     dGxz = np.array([t0, t90])                       # d Gxz / d (G13, G23), Voigt average
-    var = dGxz @ np.diag([sd[3] ** 2, 0.8e9 ** 2]) @ dGxz
+    var = dGxz @ np.array([[sd[3] ** 2, cross[3, 0]], [cross[3, 0], 0.8e9 ** 2]]) @ dGxz
     assert out["Gxz"].std == pytest.approx(np.sqrt(var), rel=1e-5)
-    # without the earlier run: not identified
+    # without its spread counted: not identified
+    u = fake_u(cov[:4, :4], labels=free)
     out = global_intervals(lam, {"m": C0}, u, fixed_undetermined=("m.G23",))
     assert not out["Gxz"].identified and "fixed because undetermined" in out["Gxz"].verdict
     # fixed because it was at a search limit in the run before: said so, not "undetermined"

@@ -307,6 +307,19 @@ def format_uncertainty(u: dict) -> list[str]:
                 else:
                     lines.append(f"    {lab}: {conf:.0f} % half-width was "
                                  f"{_pct(w['rel_half_width'])} of its value{run}")
+        counted = u.get("spread_counted") or []
+        if counted:
+            given = [(f"{m}.{k}", v.get("rel_half_width_given_fixed"))
+                     for m, per in (u.get("constants") or {}).items() for k, v in per.items()]
+            given = [(lab, w) for lab, w in given if w is not None and math.isfinite(w)]
+            names = _short(list(counted) + [lab for lab, _ in given])
+            given = [f"{n} ±{_pct(w)}" for n, (_, w) in zip(names[len(counted):], given)]
+            lines.append(f"  the {conf:.0f} % intervals count the spread "
+                         + ", ".join(names[:len(counted)])
+                         + " had before " + ("it was" if len(counted) == 1 else "they were")
+                         + " fixed (a fixed value is not known better than that)"
+                         + ("; given the fixed values alone: " + ", ".join(given)
+                            if given else ""))
     for lab, why in (u.get("kept_free") or {}).items():
         lines.append(f"  --fix-undetermined: {lab} {why}")
     at_bound = {f"{m}.{k}" for m, per in (u.get("constants") or {}).items()
