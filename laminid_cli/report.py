@@ -124,7 +124,14 @@ def bound_words(iv) -> str:
     bound_side; an older file's statement when the side is not stored). A constant at a bound
     has no interval: the value shown beside it is the limit, not a confidence bound."""
     side = iv.bound_side or bound_statement(iv.bound_text)[0]
-    return f"none — on {side} search limit" if side else "none — on a search limit"
+    words = f"none — on {side} search limit" if side else "none — on a search limit"
+    pb = getattr(iv, "profile_bound", np.nan)
+    if np.isfinite(pb):
+        sign = "<" if pb > iv.bound_limit or side == "lower" else ">"
+        words += f"\nprofile: {sign} {fmt_value(iv.constant, pb)}"
+    elif getattr(iv, "profile_text", "").startswith("the fit is as good"):
+        words += "\nprofile: flat"
+    return words
 
 
 def is_uninformative(k: str, lo: float, hi: float) -> bool:
@@ -498,6 +505,11 @@ def table_notes(r: ResultFile) -> list[str]:
     if any("search limit" in c for c in cells):
         notes.append("none — on a search limit: the fit stopped on a limit of the search (its "
                      "value is that limit): not identified, no interval")
+    if any("profile:" in c for c in cells):
+        notes.append("profile: < x: the fit rejects values beyond x at the intervals' level "
+                     "(the other constants identified again with it held there); flat: it "
+                     "rejects none up to the search's other limit (the modes do not "
+                     "determine it)")
     if any("Monte Carlo" in c for c in cells):
         notes.append("(Monte Carlo): the verdict is set by the Monte Carlo range (the constant "
                      "re-identified from perturbed frequencies), wider than the linearised "
@@ -625,6 +637,11 @@ def _bound_panel(ax, k, v, iv, x, ymin, ymax):
     ax.annotate("", (x, edge), xytext=(x, v), gid="one-sided",
                 arrowprops=dict(arrowstyle="-|>", color=INTERVAL_COLOR, lw=2.5, ls="--"))
     words = f"stopped on the {side} search limit: no interval"
+    pb = getattr(iv, "profile_bound", np.nan)
+    if np.isfinite(pb):
+        words += f"; profile: {'<' if side == 'lower' else '>'} {fmt_value(k, pb)}"
+    elif getattr(iv, "profile_text", "").startswith("the fit is as good"):
+        words += "; profile: flat to the other limit"
     ax.annotate("\n".join(textwrap.wrap(words, 12)), (x, (v + edge) / 2), xytext=(5, 0),
                 textcoords="offset points", fontsize=6.5, va="center", ha="left",
                 color=INTERVAL_COLOR, gid="bound-statement")
@@ -778,7 +795,9 @@ def panel_words(r: ResultFile, m: str, k: str, iv) -> str:
     if iv is None:
         return f"{fmt_value(k, v)}\nno interval"
     if iv.at_bound:
-        return f"{fmt_value(k, v)}\n{bound_words(iv).replace('none — ', '')}:\nnot identified"
+        words = bound_words(iv).replace("none — ", "")
+        words += "" if "\n" in words else ":"        # "on lower search limit:" alone
+        return f"{fmt_value(k, v)}\n{words}\nnot identified"
     text = f"{fmt_value(k, v)} " + interval_text(k, iv)
     verdict = short_verdict(iv.verdict)
     rng = monte_carlo_range(r.uncertainty, iv)

@@ -61,6 +61,11 @@ class Interval:
     #: the verdict is the Monte Carlo range's (worse than the linearised interval's; the
     #: /uncertainty attribute ``verdict_from_monte_carlo``)
     verdict_from_monte_carlo: bool = False
+    #: of a constant at its bound: the profile's bound (where the fit rejects it, SI; NaN:
+    #: none within the search) and its statement (/uncertainty/profile_*; files before stop
+    #: 30 have none: "")
+    profile_bound: float = np.nan
+    profile_text: str = ""
 
 
 @dataclass(frozen=True)
@@ -429,6 +434,7 @@ def _uncertainty(f) -> Uncertainty | None:
                   for t, b in zip(bound_text, at_bound)]
         bound_side = tuple(s for s, _ in parsed)
         bound_limit = np.array([v for _, v in parsed], float)
+    profile_bound, profile_text = arr("profile_bound"), strs("profile_text")
     flagged = set(filter(None, str(a.get("flagged", "")).split(",")))
     from_mc = set(filter(None, str(a.get("verdict_from_monte_carlo", "")).split(",")))
     intervals = []
@@ -437,7 +443,8 @@ def _uncertainty(f) -> Uncertainty | None:
         intervals.append(Interval(lab, m, k, float(value[j]), float(lower[j]), float(upper[j]),
                                   verdict[j], float(rel[j]), scale[j], bool(at_bound[j]),
                                   bound_text[j], bound_side[j], float(bound_limit[j]),
-                                  lab in flagged, lab in from_mc))
+                                  lab in flagged, lab in from_mc, float(profile_bound[j]),
+                                  profile_text[j]))
     mc = None
     if "monte_carlo" in u:
         g = u["monte_carlo"]

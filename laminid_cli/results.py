@@ -83,6 +83,10 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
                           std, lower, upper and covariance count the spread the fixed values
                           had before fixing: laminid_cli.uncertainty.counting_fixed_spread);
                           attrs spread_counted, spread_not_counted (labels, comma-separated)
+    /uncertainty/profile_bound, profile_far, profile_delta_chi2_far (attr threshold),
+                          profile_text   per label, of a constant at its bound: where the fit
+                          rejects it (profile of the fit; NaN: nowhere within the search up to
+                          profile_far), and the statement (laminid_cli.uncertainty.Profile)
     /uncertainty/spread_counted  labels, covariance (of the fixed values counted),
                           cross_covariance (free constants x those)
     /uncertainty/before_fixing  labels, rel_half_width, verdict of the first run when
@@ -494,6 +498,23 @@ def write_uncertainty(f, a, plate_names) -> None:
         put(g, "monte_carlo_rel_half_width_lower", u.mc_rel_half_width_lower, "1",
             description="the half-width / |value| the Monte Carlo range has for sure "
             "(monte_carlo/@evidence_level): the width its verdicts use; NaN: too few trials")
+    if u.profiles:
+        put(g, "profile_bound", np.array([u.profiles[lab].bound if lab in u.profiles
+                                          else np.nan for lab in u.labels]), unit,
+            description="of a constant at its bound: where the fit rejects it at the "
+            "intervals' level (profile: the others identified again with it held there); NaN: "
+            "not at a bound, or the fit does not reject it within the search (profile_text)")
+        put(g, "profile_far", np.array([u.profiles[lab].far if lab in u.profiles else np.nan
+                                        for lab in u.labels]), unit,
+            description="the other end of the profile's scan (the search's other limit)")
+        put(g, "profile_delta_chi2_far", np.array(
+            [u.profiles[lab].delta_far if lab in u.profiles else np.nan for lab in u.labels]),
+            "1", description="rise of chi2 (scaled as the intervals) at profile_far; "
+            "threshold q^2 in the attribute")
+        g["profile_delta_chi2_far"].attrs["threshold"] = float(u.quantile) ** 2
+        data, dt = _strings([u.profiles[lab].text if lab in u.profiles else ""
+                             for lab in u.labels])
+        g.create_dataset("profile_text", data=data, dtype=dt)
     if u.rel_half_width_given_fixed is not None:
         put(g, "rel_half_width_given_fixed", u.rel_half_width_given_fixed, "1",
             description="95 % half-width / |value| given the values --fix-undetermined fixed "

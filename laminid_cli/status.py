@@ -165,7 +165,9 @@ def result_status(result, uncertainty=None, damping=None) -> ResultStatus:
     if u is not None and u.at_bound is not None:
         for lab, hit, text in zip(u.labels, u.at_bound, u.bound_text):
             if hit:
-                add("at_bound", f"{lab}: {text}")
+                prof = getattr(u, "profiles", {}).get(lab)
+                add("at_bound", f"{lab}: {text}" + (f"; {prof.text}" if prof is not None
+                                                    and not prof.error else ""))
                 covered.add(lab.rsplit(".", 1)[1])
     hits = []
     for p in _plates(result):

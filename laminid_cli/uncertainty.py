@@ -108,7 +108,7 @@ from typing import NamedTuple
 import numpy as np
 import scipy.linalg as sla
 
-from laminid_cli.errors import FitInputError
+from laminid_cli.errors import FitError, FitInputError
 # thresholds, scalings and verdicts shared with the damping fit (re-exported here)
 from laminid_cli.intervals import (SCALINGS, VERDICT_AT_BOUND, VERDICT_FIXED,  # noqa: F401
                                    VERDICT_NOT, VERDICT_WEAK, VERDICT_WELL, WEAK, WELL_DETERMINED,
@@ -316,6 +316,8 @@ class Uncertainty:
     spread_cross: np.ndarray | None = None
     spread_covariance: np.ndarray | None = None
     spread_not_counted: tuple[str, ...] = ()
+    #: {label: Profile} of the constants at a limit of the search (:func:`with_profiles`)
+    profiles: dict = field(default_factory=dict)
 
     def as_dict(self) -> dict:
         """Plain data for JSON (per material and constant) and the report."""
@@ -343,6 +345,8 @@ class Uncertainty:
             if self.mc_rel_half_width_lower is not None:
                 per[mat][const]["monte_carlo_rel_half_width_lower"] = float(
                     self.mc_rel_half_width_lower[k])
+            if lab in self.profiles:
+                per[mat][const]["profile"] = self.profiles[lab].as_dict()
             if self.rel_half_width_given_fixed is not None:
                 per[mat][const]["rel_half_width_given_fixed"] = float(
                     self.rel_half_width_given_fixed[k])
@@ -1990,6 +1994,195 @@ def _not_counted_note(missing) -> str:
 
 
 # ----------------------------------------------------------------------------------------------
+# constants on a limit of the search: how far the fit lets them go (profile of the fit)
+
+
+#: the profile's bisection stops when its bracket is this narrow: in ln P for a modulus
+#: (2 %), in nu12 itself for nu12
+PROFILE_TOL = 0.02
+#: at most this many identifications per bisection (after the one at the far end)
+PROFILE_RUNS = 8
+#: the most model evaluations of one identification of a profile (it starts at the optimum;
+#: one that needs more gives no profile, since an unfinished fit would overstate the rise)
+PROFILE_EVALUATIONS = 300
+#: where the optimum is no start (constants on other limits), a profile's identifications
+#: start these fractions of the way to the initial values
+PROFILE_STEPS = (0.0, 1e-3, 1e-2, 0.1, 1.0)
+
+
+@dataclass(frozen=True)
+class Profile:
+    """How far a constant that stopped on a limit of the search can go before the fit rejects
+    it: the other constants are identified again with it held at each value tried, and the
+    chi2 of the fit (scaled as the intervals are: divided by their variance factor) is
+    compared with the one at the limit. ``bound``: the value where the increase reaches
+    ``threshold`` = q^2 (q the intervals' quantile: the same level as their ends), SI; NaN
+    when it stays below that up to ``far``, the other end of the search (the modes do not
+    determine the constant there). ``delta_far``: the increase at ``far``. ``text``: the
+    statement. ``error``: why the profile could not be made ("" when it was)."""
+
+    label: str
+    side: str
+    limit: float
+    bound: float
+    far: float
+    delta_far: float
+    threshold: float
+    runs: int
+    text: str
+    error: str = ""
+
+    def as_dict(self) -> dict:
+        return {"bound": self.bound, "far": self.far, "delta_chi2_far": self.delta_far,
+                "threshold": self.threshold, "runs": self.runs, "text": self.text,
+                "error": self.error}
+
+
+def _between(c, c0, step: float):
+    """ElasticConstants ``step`` of the way from ``c`` to ``c0``."""
+    if step == 0:
+        return c
+    return dataclasses.replace(c, **{k: (1 - step) * getattr(c, k) + step * getattr(c0, k)
+                                     for k in CONSTANT_NAMES})
+
+
+def _show(k: str, v: float) -> str:
+    return f"{v:.3g}" if k == "nu12" else _gpa(v)
+
+
+def _profile_far(k: str, side: str, limit: float, initial: float, nu_max: float,
+                 bound_factor: float) -> float:
+    """The other end of the profile's scan: for a modulus on its lower limit the search's
+    upper factor limit (at least 10 times the limit), on an upper one its lower factor limit;
+    for nu12 zero (a Poisson ratio beyond that is not a composite's)."""
+    if k == "nu12":
+        return 0.0
+    if side == "lower":
+        return max(abs(initial) * bound_factor, 10 * abs(limit))
+    return min(abs(initial) / bound_factor, 0.1 * abs(limit))
+
+
+def profile_bound(label: str, side: str, limit: float, far: float, delta, threshold: float,
+                  confidence: float = 0.95) -> Profile:
+    """The :class:`Profile` of ``label`` from ``delta(value)``: the scaled increase of chi2
+    with the constant held at ``value`` (one identification of the others per call). First
+    the far end: below ``threshold`` there, the fit does not bound the constant within the
+    search. Otherwise a bisection (regula falsi, Illinois) between the limit (increase 0) and
+    the far end, on ln P for a modulus and nu12 itself, to :data:`PROFILE_TOL`."""
+    k = label.rsplit(".", 1)[1]
+    nu = k == "nu12"
+
+    def show(v):
+        return _show(k, v)
+
+    to = (lambda t: limit + t * (far - limit)) if nu else (
+        lambda t: limit * np.exp(t * np.log(far / limit)))
+    d_far = float(delta(far))
+    runs = 1
+    direction = "above" if far > limit else "below"
+    if not d_far >= threshold:
+        text = (f"the fit is as good with {k} anywhere {direction} the limit "
+                f"{'up' if far > limit else 'down'} to {show(far)}"
+                f" (chi2 rises by {d_far:.2g}; {threshold:.3g} would reject it at "
+                f"{confidence * 100:.0f} %): the modes do not determine {k}")
+        return Profile(label, side, limit, np.nan, far, d_far, threshold, runs, text)
+    a, ga, b, gb = 0.0, -threshold, 1.0, d_far - threshold
+    last = 0
+    span = 1.0 if nu else abs(np.log(far / limit))
+    while runs < PROFILE_RUNS + 1 and (b - a) * span > PROFILE_TOL:
+        t = (a * gb - b * ga) / (gb - ga)
+        t = min(max(t, a + 0.05 * (b - a)), b - 0.05 * (b - a))
+        g = float(delta(to(t))) - threshold
+        runs += 1
+        if g > 0:
+            b, gb = t, g
+            if last == 1:
+                ga *= 0.5
+            last = 1
+        else:
+            a, ga = t, g
+            if last == -1:
+                gb *= 0.5
+            last = -1
+    bound = float(to(b))
+    text = (f"the fit rejects {k} {direction} {show(bound)} ({confidence * 100:.0f} %, profile: "
+            f"the other constants identified again, within the search, with {k} held there)")
+    return Profile(label, side, limit, bound, far, d_far, threshold, runs, text)
+
+
+def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) -> Uncertainty:
+    """``u`` with a :class:`Profile` of each constant that stopped on a limit of the search
+    (``profiles``; {} when none did). ``fms``/``sigmas``: the plates' forward models and
+    frequency sigmas (lists); ``kw``: the interval settings of :func:`uncertainty_of`."""
+    from laminid_cli.identify import identify
+    from laminid_cli.joint import identify_joint
+
+    if u.at_bound is None or not np.any(u.at_bound):
+        return u
+    options = result.options
+    threshold = float(u.quantile) ** 2
+    factor = float(u.variance_factor) if u.variance_factor > 0 else 1.0
+    names = tuple(result.material_names)
+    bases = result.basis
+    out = {}
+    for j, lab in enumerate(u.labels):
+        if not u.at_bound[j]:
+            continue
+        name, k = lab.rsplit(".", 1)
+        m = names.index(name)
+        initial = float(getattr(result.initial[m], k))
+
+        def delta(v, name=name, k=k, lab=lab, m=m):
+            fms_v = []
+            for fm in fms:
+                spec = fm.specimen
+                if name in spec.materials:
+                    mat = spec.materials[name]
+                    mat = dataclasses.replace(mat, constants=dataclasses.replace(
+                        mat.constants, **{k: v}))
+                    spec = dataclasses.replace(spec, materials={**spec.materials, name: mat})
+                fms_v.append(dataclasses.replace(fm, specimen=spec))
+            opts = dataclasses.replace(options, fix=tuple(options.fix) + (lab,),
+                                       max_evaluations=min(options.max_evaluations,
+                                                           PROFILE_EVALUATIONS))
+
+            def run(start):
+                if joint:
+                    return identify_joint(fms_v, opts, start=start, basis=None if bases is None
+                                          else [b.copy() for b in bases])
+                return identify(fms_v[0], opts, start=start,
+                                basis=None if bases is None else bases.copy())
+
+            # from the optimum (a short walk); where other constants sit on a limit there that
+            # a run may not start from (E2 = E1 exactly), a little towards the initial values
+            for step in PROFILE_STEPS:
+                start = [_between(c, c0, step) for c, c0 in zip(result.constants, result.initial)]
+                start[m] = dataclasses.replace(start[m], **{k: v})
+                try:
+                    r = run(start)
+                    break
+                except FitInputError:
+                    if step == PROFILE_STEPS[-1]:
+                        raise
+            if not r.converged:
+                raise FitError(f"the identification with {k} held at {_show(k, v)} did not "
+                               f"converge in {opts.max_evaluations} evaluations")
+            uc = uncertainty_of(r, fms_v if joint else fms_v[0],
+                                sigmas if joint else sigmas[0], **kw)
+            return (uc.chi2 - u.chi2) / factor
+
+        limit = float(u.bound_limit[j]) if u.bound_limit is not None else float(u.value[j])
+        side = u.bound_side[j] if u.bound_side else ""
+        far = _profile_far(k, side, limit, initial, options.nu_max, options.bound_factor)
+        try:
+            out[lab] = profile_bound(lab, side, limit, far, delta, threshold, u.confidence)
+        except (FitError, FitInputError) as exc:
+            out[lab] = Profile(lab, side, limit, np.nan, far, np.nan, threshold, 0,
+                               f"no profile: {exc}", str(exc))
+    return dataclasses.replace(u, profiles=out)
+
+
+# ----------------------------------------------------------------------------------------------
 # the whole assessment
 
 
@@ -2100,11 +2293,11 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
         return out
 
     mc = None
+    accepted = True
     while True:
         fixed_before = len(fixed)
         while uopts.fix_undetermined and (new := to_fix(unc)):
             if len(new) == len(unc.labels):
-                from laminid_cli.errors import FitError
 
                 done = "; ".join(f"run {w[2]}: {lab}" for lab, w in fixed_widths.items())
                 raise FitError(
@@ -2154,6 +2347,10 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
                 unc = dataclasses.replace(unc, notes=unc.notes + (
                     "the Monte Carlo trials hold the fixed values: its ranges are given them, "
                     "like the intervals given the fixed values alone",))
+    if accepted:
+        # how far the fit lets a constant on a search limit go (identifications of the
+        # others with it held): only for the result that stands
+        unc = with_profiles(unc, result, fm_list, sigmas, kw, joint)
     return Assessment(result=result, uncertainty=unc, sigmas=sigmas,
                       fixed_undetermined=tuple(fixed), before_fixing=first if fixed else None,
                       monte_carlo=mc, runs=runs, earlier_results=tuple(earlier),

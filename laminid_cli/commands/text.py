@@ -241,9 +241,18 @@ def _material_tables(s: dict, ref: dict) -> list[str]:
             if u is not None and u.get("at_bound"):
                 # no interval (a limit of the search is no confidence bound: a Monte Carlo has
                 # trials far from it); the statement names the side and the limit
-                row += (f"  {'none: at limit':>17} {'—':>10}  "
+                prof = u.get("profile") or {}
+                span = "none: at limit"
+                if prof.get("bound") is not None and math.isfinite(prof["bound"]):
+                    below = prof["bound"] > (u.get("bound_limit") or 0)
+                    span = f"{'<' if below else '>'} {_num(k, prof['bound'])} (profile)"
+                elif prof.get("text") and not prof.get("error"):
+                    span = f"none: flat to {_num(k, prof['far'])}"
+                row += (f"  {span:>17} {'—':>10}  "
                         f"{u.get('bound_text') or u['verdict']} [!]")
                 lines.append(row)
+                if prof.get("text"):
+                    lines.append(f"{'':14}profile: {prof['text']}")
             elif u is not None and "half_width" in u:
                 flag = " [!]" if u.get("flagged") else ""
                 span = f"{_num(k, u['lower'])} .. {_num(k, u['upper'])}"

@@ -1,0 +1,102 @@
+"""How far the fit lets a constant on a limit of the search go (laminid_cli.uncertainty.Profile):
+the bisection against closed forms, a thick plate whose G13 the search stops above its truth
+(the bound checked by identifying the others again at it), and S2.1's flat G13 in --json, the
+HDF5 file, the terminal and the report."""
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from laminid_cli.cli import cli
+from laminid_cli.identify import IdentifyOptions, identify
+from laminid_cli.uncertainty import (PROFILE_TOL, UncertaintyOptions, assess, frequency_sigma,
+                                     profile_bound, uncertainty_of)
+from tests.test_identify import CARBON, OFF_THICK, THICK, synthetic
+
+Q2 = 1.959963984540054 ** 2
+
+
+def test_bisection_against_closed_forms():
+    """A chi2 rise quadratic in ln G (standard error 0.3 in ln G): the bound is
+    L exp(0.3 q), within the bisection's 2 % in ln G and never below it (the returned end
+    is rejected); a rise quadratic in nu12 (0.1) from 0.95 down: 0.95 - 0.196 within 0.02; a
+    rise that stays below q^2 up to the far end: no bound, and the statement says so."""
+    L, far = 3e9, 30e9
+    calls = []
+
+    def quad(v):
+        calls.append(v)
+        return (np.log(v / L) / 0.3) ** 2
+
+    p = profile_bound("m.G13", "lower", L, far, quad, Q2)
+    exact = L * np.exp(0.3 * np.sqrt(Q2))
+    assert 0 <= np.log(p.bound / exact) <= PROFILE_TOL
+    assert p.runs == len(calls) <= 9 and p.text.startswith("the fit rejects G13 above 5.4")
+    p = profile_bound("m.nu12", "upper", 0.95, 0.0, lambda v: ((0.95 - v) / 0.1) ** 2, Q2)
+    assert p.bound == pytest.approx(0.95 - 0.1 * np.sqrt(Q2), abs=0.02)
+    assert p.bound <= 0.95 - 0.1 * np.sqrt(Q2) and f"below {p.bound:.3g}" in p.text
+    p = profile_bound("m.G13", "lower", L, far, lambda v: 0.1 * np.log(v / L), Q2)
+    assert np.isnan(p.bound) and p.runs == 1
+    assert p.delta_far == pytest.approx(0.1 * np.log(10)) and "up to 30 GPa" in p.text
+    assert "the modes do not determine G13" in p.text
+
+
+def test_a_thick_plate_whose_g13_stops_above_its_truth():
+    """a/h = 10 cross-ply, 8 modes with 0.2 % noise, true G13 3.1 GPa, initial 5.58 GPa and
+    a search factor of 1.5 (lower limit 3.72 GPa): G13 stops on that limit. Its profile bound
+    is where identifying the others again with G13 held there raises chi2 (scaled as the
+    intervals) to q^2: checked here by two such identifications, at the bound (rise >= q^2)
+    and 2.1 % below it in ln G (rise <= q^2)."""
+    off = {k: 1.0 for k in OFF_THICK} | {"G13": 1.8, "E2": 0.7}
+    fm, _ = synthetic(THICK, {"cf": CARBON}, 8, off, noise=0.002, seed=4)
+    opts = IdentifyOptions(parametrization="constants", bound_factor=1.5, fix=("nu12",))
+    a = assess(fm, opts, UncertaintyOptions())
+    u = a.uncertainty
+    assert [lab for lab, b in zip(u.labels, u.at_bound) if b] == ["cf.G13"]
+    p = u.profiles["cf.G13"]
+    assert p.limit == pytest.approx(5.58e9 / 1.5, rel=1e-9)
+    assert 1.05 * p.limit < p.bound < 1.5 * p.limit, p
+    sigma = frequency_sigma(fm.specimen.measured, 0.002)
+
+    def rise(g13):
+        mat = fm.specimen.materials["cf"]
+        spec = dataclasses.replace(fm.specimen, materials={"cf": dataclasses.replace(
+            mat, constants=dataclasses.replace(mat.constants, G13=g13))})
+        fm_g = dataclasses.replace(fm, specimen=spec)
+        r = identify(fm_g, dataclasses.replace(opts, fix=("nu12", "G13")))
+        assert r.converged
+        return (uncertainty_of(r, fm_g, sigma).chi2 - u.chi2) / u.variance_factor
+
+    q2 = u.quantile ** 2
+    assert rise(p.bound) >= 0.999 * q2
+    assert rise(p.bound * np.exp(-1.05 * PROFILE_TOL)) <= q2
+    assert "the fit rejects G13 above" in p.text
+
+
+def test_s21_g13_is_flat_in_json_hdf5_terminal_and_report(tmp_path):
+    """S2.1 (8x8): G13 stops on its lower limit, and the fit is as good up to the search's
+    other end, 5 x 3.7 = 18.5 GPa (chi2 rises by 3.9 where 5.59 would reject it; 0.4 at
+    12x12, the identify default): the
+    same statement in --json, the HDF5 reader, the terminal and the report's cell."""
+    from laminid_cli.report import interval_text
+    from laminid_cli.resultfile import read_result
+
+    out = tmp_path / "r.h5"
+    res = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8",
+                                   "--json", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    g13 = json.loads(res.output)["uncertainty"]["constants"]["E-glass/R368"]["G13"]
+    prof = g13["profile"]
+    assert g13["at_bound"] and prof["bound"] is None and prof["far"] == pytest.approx(18.5e9)
+    assert prof["delta_chi2_far"] == pytest.approx(3.9, abs=0.4)      # of 5.59: flat
+    assert prof["text"].startswith("the fit is as good with G13 anywhere above the limit up "
+                                   "to 18.5 GPa")
+    iv = read_result(out).uncertainty.get("E-glass/R368", "G13")
+    assert iv.profile_text == prof["text"] and np.isnan(iv.profile_bound)
+    assert interval_text("G13", iv).endswith("profile: flat")
+    text = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8",
+                                    "--no-output"]).output
+    assert "none: flat to 18.50" in text and "profile: the fit is as good" in text
