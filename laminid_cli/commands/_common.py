@@ -258,8 +258,9 @@ uncertainty_options = _apply([
                                     "for sure (90 % confidence from the trials' order "
                                     "statistics) sets a worse verdict, marked '(Monte "
                                     "Carlo)'."),
-    click.option("--seed", type=int, default=0, show_default=True,
-                  help="Random seed of the Monte Carlo perturbations."),
+    # numpy's generators take no negative seed, the result file no seed above int64
+    click.option("--seed", type=click.IntRange(0, 2**63 - 1), default=0, show_default=True,
+                  help="Random seed of the Monte Carlo perturbations (a whole number >= 0)."),
 ])
 
 #: the parameters of :data:`fit_options` and :data:`uncertainty_options`
