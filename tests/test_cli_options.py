@@ -4,11 +4,15 @@ naming the option and what is wrong (exit 2), before any work and without touchi
 Each test asserts the exit code, the message and the files left behind.
 """
 
+import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from laminid_cli.frf.store import write_frf_h5
 from tests.clihelp import run
+from tests.frf_synth import synth_frf
 
 S11 = Path("specimens/example1/S1.1.yaml")
 
@@ -34,4 +38,56 @@ def test_seed_outside_what_the_random_generator_and_the_file_take_is_refused(
     assert (f"Invalid value for '--seed': {seed} is not in the range "
             "0<=x<=9223372036854775807.") in r.output
     assert not out.exists()
+
+
+# ------------------------------------------------------------------ output = an input file
+def frf_file(path):
+    freq = np.arange(0.0, 801.0)
+    write_frf_h5(path, freq, synth_frf(freq, [(200.0, 0.01), (450.0, 0.01)], np.ones((2, 2))),
+                 units="Pa/N")
+    return path
+
+
+@pytest.mark.parametrize("command", ["identify", "modes", "export"])
+def test_output_named_like_the_input_is_refused_even_with_force(tmp_path, command):
+    # was: `laminid identify plate.yaml -o plate.yaml --force` (and modes, and `export
+    # plate.frf.h5 -o plate.frf.h5 --force`) replaced the input by the output: the specimen
+    # or the acquired FRFs were lost. --force overwrites an earlier output, never the input.
+    if command == "export":
+        source = frf_file(tmp_path / "plate.frf.h5")
+        args = ["export", source, "-o", source, "--force"]
+    else:
+        source = tmp_path / "plate.yaml"
+        shutil.copy(S11, source)
+        args = [command, source, "--mesh", "4x4", "-o", source, "--force"]
+    before = source.read_bytes()
+    r = run(*args)
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert (f"laminid: error: {source}: is the input file; -o must name another file "
+            "(--force overwrites an earlier output, never an input)") in r.output
+    assert source.read_bytes() == before
+
+
+def test_output_through_a_link_to_the_input_is_refused(tmp_path):
+    source = tmp_path / "plate.yaml"
+    shutil.copy(S11, source)
+    link = tmp_path / "result.h5"
+    link.symlink_to(source)
+    before = source.read_bytes()
+    r = run("modes", source, "--mesh", "4x4", "-o", link, "--force")
+    assert r.exit_code == 2
+    assert f"{link}: is the input file; -o must name another file" in r.output
+    assert source.read_bytes() == before
+
+
+def test_joint_output_named_like_the_second_specimen_is_refused(tmp_path):
+    a, b = tmp_path / "a.yaml", tmp_path / "b.yaml"
+    shutil.copy(S11, a)
+    shutil.copy("specimens/example1/S1.2.yaml", b)
+    before = b.read_bytes()
+    r = run("identify", a, b, "--joint", "--mesh", "4x4", "-o", b, "--force")
+    assert r.exit_code == 2
+    assert f"{b}: is the input file; -o must name another file" in r.output
+    assert b.read_bytes() == before
 

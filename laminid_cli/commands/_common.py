@@ -93,18 +93,32 @@ def writable_target(path: str | Path, option: str = "-o") -> Path:
     return path
 
 
-def check_output_path(path: str | Path | None, force: bool, option: str = "-o"
-                      ) -> Path | None:
+def _same_file(a: Path, b) -> bool:
+    import os
+
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):           # one of them does not exist (or is no path)
+        return False
+
+
+def check_output_path(path: str | Path | None, force: bool, option: str = "-o",
+                      inputs=()) -> Path | None:
     """Refuse to overwrite an existing file unless --force (exit 2 via OutputExistsError), and
     a target that cannot be written (:func:`writable_target`); a symbolic link gives its target.
 
-    ``option``: the command's option that names this file, for the hint."""
+    ``option``: the command's option that names this file, for the hint. ``inputs``: the files
+    the command reads; the output is never one of them (by name, link or hard link), even with
+    --force."""
     from laminid_cli.errors import OutputExistsError
 
     if path is None:
         return None
     given = path                            # named as given (a link: not its target)
     path = writable_target(path, option)
+    if path.exists() and any(_same_file(path, i) for i in inputs):
+        raise OutputExistsError(f"{given}: is the input file; {option} must name another file "
+                                "(--force overwrites an earlier output, never an input)")
     if path.exists() and not force:
         raise OutputExistsError(f"{given}: file exists; use --force to overwrite it or choose "
                                 f"another name with {option}")
@@ -147,13 +161,14 @@ def derived_output_path(path: str | Path, specimen: str | Path | None = None
     return path, True
 
 
-def result_output(output, default, force: bool, specimen=None) -> tuple[Path, bool]:
-    """The result file of identify: ``-o output`` protected by :func:`check_output_path`, or
-    the derived ``default`` beside the specimen, replaced (:func:`derived_output_path`; a
-    result of another ``specimen`` file is refused). Returns (path, replacing an earlier
-    result)."""
+def result_output(output, default, force: bool, specimen=None, inputs=()
+                  ) -> tuple[Path, bool]:
+    """The result file of identify: ``-o output`` protected by :func:`check_output_path` (never
+    one of the ``inputs``), or the derived ``default`` beside the specimen, replaced
+    (:func:`derived_output_path`; a result of another ``specimen`` file is refused). Returns
+    (path, replacing an earlier result)."""
     if output is not None:
-        return check_output_path(output, force), False
+        return check_output_path(output, force, inputs=inputs), False
     return derived_output_path(default, specimen)
 
 

@@ -59,7 +59,7 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
     """
     from pathlib import Path
 
-    out = check_output_path(output, force)
+    out = check_output_path(output, force, inputs=[input_file])
     if Path(input_file).is_file() and _is_result(input_file):
         from laminid_cli.export import read_shapes, write_shapes_uff
 

@@ -103,7 +103,8 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force):
     options.check()
     default = default_joint_output(specs) if joint else default_output(specs[0])
     out, replacing = ((None, False) if no_output else
-                      result_output(output, default, force, None if joint else specs[0]))
+                      result_output(output, default, force, None if joint else specs[0],
+                                    inputs=specs))
     show_progress = not as_json and sys.stderr.isatty()
 
     def progress(n, objective, rms):
