@@ -91,3 +91,19 @@ def test_joint_output_named_like_the_second_specimen_is_refused(tmp_path):
     assert f"{b}: is the input file; -o must name another file" in r.output
     assert b.read_bytes() == before
 
+
+# ------------------------------------------------------------------------- empty names
+def test_batch_out_empty_is_refused_not_the_current_folder(tmp_path, monkeypatch):
+    # was: --out "" wrote summary.csv, summary.json and the result files into the current
+    # folder, exit 0
+    spec = tmp_path / "plate.yaml"
+    shutil.copy(S11, spec)
+    work = tmp_path / "cwd"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    r = run("batch", spec, "--mesh", "4x4", "--out", "")
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert "laminid: error: --out: the folder name is empty" in r.output
+    assert list(work.iterdir()) == []
+
