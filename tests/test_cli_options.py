@@ -107,3 +107,13 @@ def test_batch_out_empty_is_refused_not_the_current_folder(tmp_path, monkeypatch
     assert "laminid: error: --out: the folder name is empty" in r.output
     assert list(work.iterdir()) == []
 
+
+@pytest.mark.parametrize("value", ["", "  "])
+def test_modes_boundary_empty_is_refused_not_the_specimen_boundary(tmp_path, value):
+    # was: --boundary "" silently computed the specimen's own boundary (exit 0)
+    out = tmp_path / "m.h5"
+    r = run("modes", S11, "--mesh", "4x4", "--boundary", value, "-o", out)
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert f"boundary '{value}' not understood: use free, simply-supported, clamped" in r.output
+    assert not out.exists()
