@@ -117,3 +117,29 @@ def test_modes_boundary_empty_is_refused_not_the_specimen_boundary(tmp_path, val
     assert r.exit_code == 2
     assert f"boundary '{value}' not understood: use free, simply-supported, clamped" in r.output
     assert not out.exists()
+
+
+# -------------------------------------------------------------------------- --monte-carlo
+@pytest.mark.parametrize("command", ["identify", "batch"])
+@pytest.mark.parametrize("trials, words", [
+    ("1", "1 trial gives no spread: 0 (off) or at least 2"),
+    # was: accepted, and the trials' perturbations (a list of a billion) filled the memory
+    ("1000000000", "1000000000 is more than 100000 trials"),
+])
+def test_monte_carlo_of_one_or_of_a_huge_number_of_trials_is_refused_before_the_work(
+        tmp_path, command, trials, words):
+    # was, for 1: the identification ran, then "Monte Carlo needs at least 2 trials, got 1"
+    # without the option's name (batch: the same for every specimen, exit 1)
+    out = tmp_path / "out"
+    where = ["-o", out] if command == "identify" else ["--out", out]
+    r = run(command, S11, "--mesh", "4x4", "--monte-carlo", trials, *where)
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert f"Invalid value for '--monte-carlo': {words}" in r.output
+    assert not out.exists()
+
+
+def test_monte_carlo_help_gives_the_range():
+    r = run("identify", "--help")
+    assert "[default: 0; 0 (off) or 2<=N<=100000]" in " ".join(r.output.split())
+

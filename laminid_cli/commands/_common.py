@@ -30,6 +30,29 @@ class FiniteFloat(click.FloatRange):
         return super()._describe_range()
 
 
+class TrialCount(click.IntRange):
+    """The number of Monte Carlo trials: 0 (off) or 2..:data:`MAX_TRIALS` (one trial has no
+    spread; the trials' perturbations are drawn up front, so a huge number fills the memory)."""
+
+    name = "trials"
+    MAX_TRIALS = 100000
+
+    def __init__(self):
+        super().__init__(0, self.MAX_TRIALS)
+
+    def convert(self, value, param, ctx):
+        n = click.INT.convert(value, param, ctx)
+        if n == 1:
+            self.fail("1 trial gives no spread: 0 (off) or at least 2.", param, ctx)
+        if n > self.MAX_TRIALS:
+            self.fail(f"{n} is more than {self.MAX_TRIALS} trials (hours of work; the "
+                      "2.5 %/97.5 % quantiles need a few hundred).", param, ctx)
+        return super().convert(n, param, ctx)
+
+    def _describe_range(self) -> str:
+        return f"0 (off) or 2<=N<={self.MAX_TRIALS}"
+
+
 json_option = click.option(
     "--json", "as_json", is_flag=True,
     help="Print the results as JSON on stdout (SI units, frequencies in Hz) instead of tables.")
@@ -263,8 +286,8 @@ uncertainty_options = _apply([
                        "(until nothing new is flagged, by the intervals or the Monte Carlo); a "
                        "constant whose initial value would move another out of its 95 % "
                        "interval stays free (the output says why)."),
-    click.option("--monte-carlo", "monte_carlo", type=click.IntRange(min=0), default=0,
-                  metavar="N", help="Re-identify N times from frequencies perturbed by their "
+    click.option("--monte-carlo", "monte_carlo", type=TrialCount(), default=0,
+                  show_default=True, metavar="N", help="Re-identify N times from frequencies perturbed by their "
                                     "uncertainties (and prior values by the noise the "
                                     "intervals count for them) and report the spread (0: "
                                     "off); a range end set by trials on a limit of the "
