@@ -143,3 +143,14 @@ def test_monte_carlo_help_gives_the_range():
     r = run("identify", "--help")
     assert "[default: 0; 0 (off) or 2<=N<=100000]" in " ".join(r.output.split())
 
+
+# ------------------------------------------------------------------ conflicting options
+def test_no_output_with_an_output_file_is_refused(tmp_path):
+    # was: -o silently ignored (no file written, exit 0)
+    out = tmp_path / "r.h5"
+    r = run("identify", S11, "--mesh", "4x4", "--no-output", "-o", out)
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert ("laminid: error: --no-output and -o contradict each other: give one of them"
+            in r.output)
+    assert not out.exists()
