@@ -154,3 +154,45 @@ def test_no_output_with_an_output_file_is_refused(tmp_path):
     assert ("laminid: error: --no-output and -o contradict each other: give one of them"
             in r.output)
     assert not out.exists()
+
+
+# ------------------------------------------------------- --sigma-rel, --max-rel-interval
+@pytest.mark.parametrize("command", ["identify", "batch", "fit-frf"])
+@pytest.mark.parametrize("value", ["0", "-0.01", "0.5", "5"])
+def test_sigma_rel_outside_0_to_half_is_refused_naming_the_option(tmp_path, command, value):
+    # was: "relative frequency uncertainty must be positive ..., got 0" (or "... is 50 % or
+    # more"), without the option's name
+    if command == "fit-frf":
+        args = ["fit-frf", frf_file(tmp_path / "plate.frf.h5")]
+    else:
+        args = [command, S11, "--mesh", "4x4"] + (["--out", tmp_path / "out"]
+                                                  if command == "batch" else ["--no-output"])
+    r = run(*args, "--sigma-rel", value)
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert (f"Invalid value for '--sigma-rel': {float(value)} is not in the range 0<x<0.5."
+            in r.output)
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("command", ["identify", "batch"])
+@pytest.mark.parametrize("value", ["0", "-1"])
+def test_max_rel_interval_not_positive_is_refused_by_the_parser(tmp_path, command, value):
+    args = [command, S11, "--mesh", "4x4"] + (["--out", tmp_path / "out"]
+                                              if command == "batch" else ["--no-output"])
+    r = run(*args, "--max-rel-interval", value)
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert (f"Invalid value for '--max-rel-interval': {float(value)} is not in the range x>0."
+            in r.output)
+
+
+@pytest.mark.parametrize("command, option, shown", [
+    ("identify", "--sigma-rel", "[default: 0.002; 0<x<0.5]"),
+    ("fit-frf", "--sigma-rel", "[default: 0.002; 0<x<0.5]"),
+    ("batch", "--max-rel-interval", "[default: 0.3; x>0]"),
+])
+def test_fraction_options_show_their_range_in_the_help(command, option, shown):
+    r = run(command, "--help")
+    text = " ".join(r.output.split())
+    assert shown in text[text.index(option):]

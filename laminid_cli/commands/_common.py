@@ -53,6 +53,10 @@ class TrialCount(click.IntRange):
         return f"0 (off) or 2<=N<={self.MAX_TRIALS}"
 
 
+#: a relative standard deviation of a frequency (--sigma-rel): a fraction, 0 < x < 0.5
+SIGMA_REL = FiniteFloat(min=0, max=0.5, min_open=True, max_open=True)
+
+
 json_option = click.option(
     "--json", "as_json", is_flag=True,
     help="Print the results as JSON on stdout (SI units, frequencies in Hz) instead of tables.")
@@ -271,14 +275,14 @@ fit_options = _apply([
 #: uncertainty settings shared by ``identify`` and ``batch`` (parameters: sigma_rel,
 #: covariance_scale, max_rel_interval, fix_undetermined, monte_carlo, seed)
 uncertainty_options = _apply([
-    click.option("--sigma-rel", type=FiniteFloat(), default=0.002, show_default=True, metavar="FRACTION",
+    click.option("--sigma-rel", type=SIGMA_REL, default=0.002, show_default=True, metavar="FRACTION",
                   help="Standard deviation of a measured frequency, as a fraction of it, where the "
                        "specimen file gives no measured.sigma (0.002 = 0.2 %)."),
     click.option("--covariance-scale", type=click.Choice(["stated", "residuals", "larger"]),
                   default="larger", show_default=True,
                   help="Intervals from the stated frequency sigma, from the residuals at the "
                        "optimum (s2 = chi2/(n-p), Student t), or the larger of the two."),
-    click.option("--max-rel-interval", type=FiniteFloat(), default=0.30, show_default=True,
+    click.option("--max-rel-interval", type=FiniteFloat(min=0, min_open=True), default=0.30, show_default=True,
                   metavar="FRACTION",
                   help="Flag a constant whose 95 % half-width exceeds this fraction of its value."),
     click.option("--fix-undetermined", is_flag=True,
