@@ -196,3 +196,28 @@ def test_fraction_options_show_their_range_in_the_help(command, option, shown):
     r = run(command, "--help")
     text = " ".join(r.output.split())
     assert shown in text[text.index(option):]
+
+
+# ---------------------------------------------------------------------------- acquire
+#: nothing listens there: an option checked after connecting would give an instrument error
+NOWHERE = "TCPIP::127.0.0.1::1::SOCKET"
+
+
+@pytest.mark.parametrize("option, value, words", [
+    # was: "" recorded V/V, "  " recorded blank units in the file (and in the UFF export)
+    ("--units", "", "--units: empty; give the FRF's engineering units, e.g. Pa/N or "
+                    "(m/s^2)/N, or leave the option out for V/V"),
+    ("--units", "  ", "--units: empty; give the FRF's engineering units"),
+    # was: "" silently the default backend
+    ("--visa-backend", "", "--visa-backend: empty; give @py, @ivi or file.yaml@sim, or leave "
+                           "the option out"),
+])
+def test_acquire_blank_text_options_are_refused_before_connecting(tmp_path, option, value,
+                                                                  words):
+    out = tmp_path / "plate.frf.h5"
+    r = run("acquire", "--analyser", NOWHERE, "--timeout", "0.5", "--no-prompt", option, value,
+            "-o", out)
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert f"laminid: error: {words}" in r.output
+    assert not out.exists()
