@@ -4,6 +4,7 @@ naming the option and what is wrong (exit 2), before any work and without touchi
 Each test asserts the exit code, the message and the files left behind.
 """
 
+import json
 import shutil
 from pathlib import Path
 
@@ -221,3 +222,48 @@ def test_acquire_blank_text_options_are_refused_before_connecting(tmp_path, opti
     assert r.exit_code == 2
     assert f"laminid: error: {words}" in r.output
     assert not out.exists()
+
+
+# ----------------------------------------------------------------------------- export
+@pytest.fixture(scope="module")
+def modes_file(tmp_path_factory):
+    out = tmp_path_factory.mktemp("modes") / "S1.1.modes.h5"
+    r = run("modes", S11, "--mesh", "4x4", "--modes", "3", "-o", out)
+    assert r.exit_code == 0, r.output
+    return out
+
+
+@pytest.mark.parametrize("option, value", [("--format", "csv"), ("--freq-dataset", "/f"),
+                                           ("--frf-dataset", "/frf")])
+def test_export_of_mode_shapes_refuses_the_frf_input_options(tmp_path, modes_file, option,
+                                                             value):
+    # was: silently ignored (a plain HDF5 FRF file taken for a result would be exported as
+    # mode shapes without a word)
+    out = tmp_path / "m.unv"
+    r = run("export", modes_file, "-o", out, option, value)
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert (f"laminid: error: {modes_file}: holds mode shapes (a laminid-modes file); "
+            f"{option} applies to FRF input only") in r.output
+    assert not out.exists()
+
+
+def test_export_of_frfs_refuses_specimen(tmp_path):
+    # was: --specimen silently ignored
+    source = frf_file(tmp_path / "plate.frf.h5")
+    out = tmp_path / "plate.uff"
+    r = run("export", source, "-o", out, "--specimen", "S1.1")
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert (f"laminid: error: {source}: holds FRFs; --specimen picks the plate of a joint "
+            "result (mode shapes)") in r.output
+    assert not out.exists()
+
+
+def test_export_of_mode_shapes_still_takes_specimen_of_its_plate(tmp_path, modes_file):
+    out = tmp_path / "m.unv"
+    r = run("export", modes_file, "-o", out, "--specimen", "S1.1", "--json")
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output)
+    assert d["specimen"] == "S1.1" and d["datasets"] == {"164": 1, "15": 1, "55": 3}
+    assert out.stat().st_size > 0
