@@ -88,7 +88,8 @@ def build_forward_model(specimen: Specimen, mesh: tuple[int, int] = DEFAULT_MESH
     plate = build_plate_model(
         rectangular_mesh(specimen.a, specimen.b, nx, ny), lam.h, lam.z, lam.angle,
         lam.material_index, lam.density, material_names=lam.material_names,
-        boundary=boundary or specimen.boundary, integration=integration)
+        boundary=specimen.boundary if boundary is None else boundary,
+        integration=integration)
     plan = make_factorizer(plate.indptr, plate.indices,
                            block=9 if plate.boundary == "FFFF" else 1, kind=factorizer)
     return ForwardModel(specimen=specimen, laminate=lam, plate=plate, factorizer=plan,

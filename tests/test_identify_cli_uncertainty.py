@@ -244,9 +244,11 @@ def write_variant(tmp_path, src, old, new, name="v.yaml"):
 def test_bad_input_is_refused_with_a_clear_message(tmp_path):
     for bad in ("0", "-0.01"):
         r = run("identify", S1[0], "--sigma-rel", bad, "--no-output")
-        assert r.exit_code == 2 and "relative frequency uncertainty must be positive" in r.output
+        assert r.exit_code == 2 and (f"Invalid value for '--sigma-rel': {float(bad)} is not in "
+                                     "the range 0<x<0.5.") in r.output
     r = run("identify", S1[0], "--max-rel-interval", "0", "--no-output")
-    assert r.exit_code == 2 and "--max-rel-interval must be positive" in r.output
+    assert r.exit_code == 2 and ("Invalid value for '--max-rel-interval': 0.0 is not in the "
+                                 "range x>0.") in r.output
     r = run("identify", S1[0], S1[1], "--no-output")
     assert r.exit_code == 2 and "add --joint" in r.output
     r = run("identify", S1[0], "--joint", "--no-output")

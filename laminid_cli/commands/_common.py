@@ -30,6 +30,33 @@ class FiniteFloat(click.FloatRange):
         return super()._describe_range()
 
 
+class TrialCount(click.IntRange):
+    """The number of Monte Carlo trials: 0 (off) or 2..:data:`MAX_TRIALS` (one trial has no
+    spread; the trials' perturbations are drawn up front, so a huge number fills the memory)."""
+
+    name = "trials"
+    MAX_TRIALS = 100000
+
+    def __init__(self):
+        super().__init__(0, self.MAX_TRIALS)
+
+    def convert(self, value, param, ctx):
+        n = click.INT.convert(value, param, ctx)
+        if n == 1:
+            self.fail("1 trial gives no spread: 0 (off) or at least 2.", param, ctx)
+        if n > self.MAX_TRIALS:
+            self.fail(f"{n} is more than {self.MAX_TRIALS} trials (hours of work; the "
+                      "2.5 %/97.5 % quantiles need a few hundred).", param, ctx)
+        return super().convert(n, param, ctx)
+
+    def _describe_range(self) -> str:
+        return f"0 (off) or 2<=N<={self.MAX_TRIALS}"
+
+
+#: a relative standard deviation of a frequency (--sigma-rel): a fraction, 0 < x < 0.5
+SIGMA_REL = FiniteFloat(min=0, max=0.5, min_open=True, max_open=True)
+
+
 json_option = click.option(
     "--json", "as_json", is_flag=True,
     help="Print the results as JSON on stdout (SI units, frequencies in Hz) instead of tables.")
@@ -93,18 +120,32 @@ def writable_target(path: str | Path, option: str = "-o") -> Path:
     return path
 
 
-def check_output_path(path: str | Path | None, force: bool, option: str = "-o"
-                      ) -> Path | None:
+def _same_file(a: Path, b) -> bool:
+    import os
+
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):           # one of them does not exist (or is no path)
+        return False
+
+
+def check_output_path(path: str | Path | None, force: bool, option: str = "-o",
+                      inputs=()) -> Path | None:
     """Refuse to overwrite an existing file unless --force (exit 2 via OutputExistsError), and
     a target that cannot be written (:func:`writable_target`); a symbolic link gives its target.
 
-    ``option``: the command's option that names this file, for the hint."""
+    ``option``: the command's option that names this file, for the hint. ``inputs``: the files
+    the command reads; the output is never one of them (by name, link or hard link), even with
+    --force."""
     from laminid_cli.errors import OutputExistsError
 
     if path is None:
         return None
     given = path                            # named as given (a link: not its target)
     path = writable_target(path, option)
+    if path.exists() and any(_same_file(path, i) for i in inputs):
+        raise OutputExistsError(f"{given}: is the input file; {option} must name another file "
+                                "(--force overwrites an earlier output, never an input)")
     if path.exists() and not force:
         raise OutputExistsError(f"{given}: file exists; use --force to overwrite it or choose "
                                 f"another name with {option}")
@@ -147,13 +188,14 @@ def derived_output_path(path: str | Path, specimen: str | Path | None = None
     return path, True
 
 
-def result_output(output, default, force: bool, specimen=None) -> tuple[Path, bool]:
-    """The result file of identify: ``-o output`` protected by :func:`check_output_path`, or
-    the derived ``default`` beside the specimen, replaced (:func:`derived_output_path`; a
-    result of another ``specimen`` file is refused). Returns (path, replacing an earlier
-    result)."""
+def result_output(output, default, force: bool, specimen=None, inputs=()
+                  ) -> tuple[Path, bool]:
+    """The result file of identify: ``-o output`` protected by :func:`check_output_path` (never
+    one of the ``inputs``), or the derived ``default`` beside the specimen, replaced
+    (:func:`derived_output_path`; a result of another ``specimen`` file is refused). Returns
+    (path, replacing an earlier result)."""
     if output is not None:
-        return check_output_path(output, force), False
+        return check_output_path(output, force, inputs=inputs), False
     return derived_output_path(default, specimen)
 
 
@@ -233,14 +275,14 @@ fit_options = _apply([
 #: uncertainty settings shared by ``identify`` and ``batch`` (parameters: sigma_rel,
 #: covariance_scale, max_rel_interval, fix_undetermined, monte_carlo, seed)
 uncertainty_options = _apply([
-    click.option("--sigma-rel", type=FiniteFloat(), default=0.002, show_default=True, metavar="FRACTION",
+    click.option("--sigma-rel", type=SIGMA_REL, default=0.002, show_default=True, metavar="FRACTION",
                   help="Standard deviation of a measured frequency, as a fraction of it, where the "
                        "specimen file gives no measured.sigma (0.002 = 0.2 %)."),
     click.option("--covariance-scale", type=click.Choice(["stated", "residuals", "larger"]),
                   default="larger", show_default=True,
                   help="Intervals from the stated frequency sigma, from the residuals at the "
                        "optimum (s2 = chi2/(n-p), Student t), or the larger of the two."),
-    click.option("--max-rel-interval", type=FiniteFloat(), default=0.30, show_default=True,
+    click.option("--max-rel-interval", type=FiniteFloat(min=0, min_open=True), default=0.30, show_default=True,
                   metavar="FRACTION",
                   help="Flag a constant whose 95 % half-width exceeds this fraction of its value."),
     click.option("--fix-undetermined", is_flag=True,
@@ -248,8 +290,8 @@ uncertainty_options = _apply([
                        "(until nothing new is flagged, by the intervals or the Monte Carlo); a "
                        "constant whose initial value would move another out of its 95 % "
                        "interval stays free (the output says why)."),
-    click.option("--monte-carlo", "monte_carlo", type=click.IntRange(min=0), default=0,
-                  metavar="N", help="Re-identify N times from frequencies perturbed by their "
+    click.option("--monte-carlo", "monte_carlo", type=TrialCount(), default=0,
+                  show_default=True, metavar="N", help="Re-identify N times from frequencies perturbed by their "
                                     "uncertainties (and prior values by the noise the "
                                     "intervals count for them) and report the spread (0: "
                                     "off); a range end set by trials on a limit of the "
@@ -258,8 +300,9 @@ uncertainty_options = _apply([
                                     "for sure (90 % confidence from the trials' order "
                                     "statistics) sets a worse verdict, marked '(Monte "
                                     "Carlo)'."),
-    click.option("--seed", type=int, default=0, show_default=True,
-                  help="Random seed of the Monte Carlo perturbations."),
+    # numpy's generators take no negative seed, the result file no seed above int64
+    click.option("--seed", type=click.IntRange(0, 2**63 - 1), default=0, show_default=True,
+                  help="Random seed of the Monte Carlo perturbations (a whole number >= 0)."),
 ])
 
 #: the parameters of :data:`fit_options` and :data:`uncertainty_options`

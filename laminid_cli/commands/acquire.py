@@ -182,6 +182,15 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
     from laminid_cli.instrument.registry import open_analyser
     from laminid_cli.instrument.session import SessionOptions, run_session
 
+    from laminid_cli.instrument.transport import AnalyserSetupError
+
+    # a blank text is a mistake, not a request for the default
+    if units is not None and not units.strip():
+        raise AnalyserSetupError("--units: empty; give the FRF's engineering units, e.g. Pa/N "
+                                 "or (m/s^2)/N, or leave the option out for V/V")
+    if visa_backend is not None and not visa_backend.strip():
+        raise AnalyserSetupError("--visa-backend: empty; give @py, @ivi or file.yaml@sim, or "
+                                 "leave the option out")
     out = Path(output)
     units = units or "V/V"
     resume = resume and out.exists()

@@ -65,6 +65,9 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
     options.check(copies=n_jobs if scheduler in (None, "local") else 1)
     if scheduler is not None:
         check_scheduler(scheduler)
+    if not str(out_dir).strip():        # Path("") is the current folder
+        raise BatchError("--out: the folder name is empty; name the folder of the results "
+                         "(default: laminid-results)")
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise BatchError(f"--out {out}: exists and is not a folder")

@@ -7,18 +7,20 @@ import click
 from laminid_cli.commands._common import check_output_path, echo_json, force_option, json_option
 
 
-def _is_result(path) -> bool:
-    """True for a laminid result/modes file (mode shapes), False for anything else (FRFs)."""
+def _shape_format(path) -> str | None:
+    """The format of a laminid result/modes file (mode shapes), None for anything else
+    (FRFs)."""
     try:
         import h5py
 
         with h5py.File(path, "r") as f:
             fmt = f.attrs.get("format")
     except (OSError, ValueError):
-        return False
+        return None
     from laminid_cli.export import SHAPE_FORMATS
 
-    return (fmt.decode() if isinstance(fmt, bytes) else fmt) in SHAPE_FORMATS
+    fmt = fmt.decode() if isinstance(fmt, bytes) else fmt
+    return fmt if fmt in SHAPE_FORMATS else None
 
 
 @click.command("export")
@@ -59,8 +61,21 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
     """
     from pathlib import Path
 
-    out = check_output_path(output, force)
-    if Path(input_file).is_file() and _is_result(input_file):
+    from laminid_cli.export import ExportError
+
+    out = check_output_path(output, force, inputs=[input_file])
+    shape_format = _shape_format(input_file) if Path(input_file).is_file() else None
+    # an option that does not apply to this input is a mistake, not something to ignore
+    if shape_format is not None:
+        for given, option in ((fmt, "--format"), (freq_dataset, "--freq-dataset"),
+                              (frf_dataset, "--frf-dataset")):
+            if given is not None:
+                raise ExportError(f"{input_file}: holds mode shapes (a {shape_format} file); "
+                                   f"{option} applies to FRF input only")
+    elif specimen is not None:
+        raise ExportError(f"{input_file}: holds FRFs; --specimen picks the plate of a joint "
+                           "result (mode shapes)")
+    if shape_format is not None:
         from laminid_cli.export import read_shapes, write_shapes_uff
 
         shapes = read_shapes(input_file, specimen)

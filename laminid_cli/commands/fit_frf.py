@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import click
 
-from laminid_cli.commands._common import check_output_path, echo_json, force_option, json_option
+from laminid_cli.commands._common import (SIGMA_REL, check_output_path, echo_json,
+                                          force_option, json_option)
 
 
 def _parse_bands(ctx, param, values):
@@ -42,7 +43,7 @@ def _parse_bands(ctx, param, values):
                    "window's damping removed) and their sigmas into this specimen file's "
                    "'measured:' entry (comments kept; the previous version goes to a new "
                    "backup SPEC.bak, SPEC.bak1, ...; weights follow their modes by frequency).")
-@click.option("--sigma-rel", type=float, default=0.002, show_default=True, metavar="FRACTION",
+@click.option("--sigma-rel", type=SIGMA_REL, default=0.002, show_default=True, metavar="FRACTION",
               help="Floor of each frequency's standard deviation, as a fraction of it "
                    "(supports, temperature, repeatability: what the FRF cannot show).")
 @force_option

@@ -87,6 +87,8 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force):
     from laminid_cli.errors import FitInputError
     from laminid_cli.pipeline import run_identification, write_result
 
+    if no_output and output is not None:
+        raise FitInputError("--no-output and -o contradict each other: give one of them")
     if len(specs) > 1 and not joint:
         raise FitInputError(f"{len(specs)} specimens given: add --joint to identify them "
                             "together (one set of constants per shared material)")
@@ -103,7 +105,8 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force):
     options.check()
     default = default_joint_output(specs) if joint else default_output(specs[0])
     out, replacing = ((None, False) if no_output else
-                      result_output(output, default, force, None if joint else specs[0]))
+                      result_output(output, default, force, None if joint else specs[0],
+                                    inputs=specs))
     show_progress = not as_json and sys.stderr.isatty()
 
     def progress(n, objective, rms):

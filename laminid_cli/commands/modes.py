@@ -41,7 +41,7 @@ def modes(spec, mesh, n_modes, boundary, as_json, output, force):
     from laminid_cli.forward import build_forward_model, modes_summary
     from laminid_cli.specimen import read_specimen
 
-    out = check_output_path(output, force)
+    out = check_output_path(output, force, inputs=[spec])
     specimen = read_specimen(spec)
     t0 = time.perf_counter()
     fm = build_forward_model(specimen, parse_mesh(mesh), boundary=boundary)

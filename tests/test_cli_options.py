@@ -1,0 +1,269 @@
+"""Option audit: mistaken or hostile option values of every command are refused with one line
+naming the option and what is wrong (exit 2), before any work and without touching any file.
+
+Each test asserts the exit code, the message and the files left behind.
+"""
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from laminid_cli.frf.store import write_frf_h5
+from tests.clihelp import run
+from tests.frf_synth import synth_frf
+
+S11 = Path("specimens/example1/S1.1.yaml")
+
+
+def no_traceback(r):
+    assert "Traceback" not in r.output
+    assert r.exception is None or isinstance(r.exception, SystemExit), repr(r.exception)
+
+
+# ------------------------------------------------------------------------------- --seed
+@pytest.mark.parametrize("command", ["identify", "batch"])
+@pytest.mark.parametrize("seed", ["-1", "99999999999999999999999"])
+def test_seed_outside_what_the_random_generator_and_the_file_take_is_refused(
+        tmp_path, command, seed):
+    # was: numpy's "ValueError: expected non-negative integer" as a traceback (identify) or
+    # as "internal error" of every specimen (batch); a seed above 2**63 failed writing the
+    # result file (h5py: "Object dtype has no native HDF5 equivalent")
+    out = tmp_path / "out"
+    where = ["-o", out] if command == "identify" else ["--out", out]
+    r = run(command, S11, "--mesh", "4x4", "--monte-carlo", "2", "--seed", seed, *where)
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert (f"Invalid value for '--seed': {seed} is not in the range "
+            "0<=x<=9223372036854775807.") in r.output
+    assert not out.exists()
+
+
+# ------------------------------------------------------------------ output = an input file
+def frf_file(path):
+    freq = np.arange(0.0, 801.0)
+    write_frf_h5(path, freq, synth_frf(freq, [(200.0, 0.01), (450.0, 0.01)], np.ones((2, 2))),
+                 units="Pa/N")
+    return path
+
+
+@pytest.mark.parametrize("command", ["identify", "modes", "export"])
+def test_output_named_like_the_input_is_refused_even_with_force(tmp_path, command):
+    # was: `laminid identify plate.yaml -o plate.yaml --force` (and modes, and `export
+    # plate.frf.h5 -o plate.frf.h5 --force`) replaced the input by the output: the specimen
+    # or the acquired FRFs were lost. --force overwrites an earlier output, never the input.
+    if command == "export":
+        source = frf_file(tmp_path / "plate.frf.h5")
+        args = ["export", source, "-o", source, "--force"]
+    else:
+        source = tmp_path / "plate.yaml"
+        shutil.copy(S11, source)
+        args = [command, source, "--mesh", "4x4", "-o", source, "--force"]
+    before = source.read_bytes()
+    r = run(*args)
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert (f"laminid: error: {source}: is the input file; -o must name another file "
+            "(--force overwrites an earlier output, never an input)") in r.output
+    assert source.read_bytes() == before
+
+
+def test_output_through_a_link_to_the_input_is_refused(tmp_path):
+    source = tmp_path / "plate.yaml"
+    shutil.copy(S11, source)
+    link = tmp_path / "result.h5"
+    link.symlink_to(source)
+    before = source.read_bytes()
+    r = run("modes", source, "--mesh", "4x4", "-o", link, "--force")
+    assert r.exit_code == 2
+    assert f"{link}: is the input file; -o must name another file" in r.output
+    assert source.read_bytes() == before
+
+
+def test_joint_output_named_like_the_second_specimen_is_refused(tmp_path):
+    a, b = tmp_path / "a.yaml", tmp_path / "b.yaml"
+    shutil.copy(S11, a)
+    shutil.copy("specimens/example1/S1.2.yaml", b)
+    before = b.read_bytes()
+    r = run("identify", a, b, "--joint", "--mesh", "4x4", "-o", b, "--force")
+    assert r.exit_code == 2
+    assert f"{b}: is the input file; -o must name another file" in r.output
+    assert b.read_bytes() == before
+
+
+# ------------------------------------------------------------------------- empty names
+def test_batch_out_empty_is_refused_not_the_current_folder(tmp_path, monkeypatch):
+    # was: --out "" wrote summary.csv, summary.json and the result files into the current
+    # folder, exit 0
+    spec = tmp_path / "plate.yaml"
+    shutil.copy(S11, spec)
+    work = tmp_path / "cwd"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    r = run("batch", spec, "--mesh", "4x4", "--out", "")
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert "laminid: error: --out: the folder name is empty" in r.output
+    assert list(work.iterdir()) == []
+
+
+@pytest.mark.parametrize("value", ["", "  "])
+def test_modes_boundary_empty_is_refused_not_the_specimen_boundary(tmp_path, value):
+    # was: --boundary "" silently computed the specimen's own boundary (exit 0)
+    out = tmp_path / "m.h5"
+    r = run("modes", S11, "--mesh", "4x4", "--boundary", value, "-o", out)
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert f"boundary '{value}' not understood: use free, simply-supported, clamped" in r.output
+    assert not out.exists()
+
+
+# -------------------------------------------------------------------------- --monte-carlo
+@pytest.mark.parametrize("command", ["identify", "batch"])
+@pytest.mark.parametrize("trials, words", [
+    ("1", "1 trial gives no spread: 0 (off) or at least 2"),
+    # was: accepted, and the trials' perturbations (a list of a billion) filled the memory
+    ("1000000000", "1000000000 is more than 100000 trials"),
+])
+def test_monte_carlo_of_one_or_of_a_huge_number_of_trials_is_refused_before_the_work(
+        tmp_path, command, trials, words):
+    # was, for 1: the identification ran, then "Monte Carlo needs at least 2 trials, got 1"
+    # without the option's name (batch: the same for every specimen, exit 1)
+    out = tmp_path / "out"
+    where = ["-o", out] if command == "identify" else ["--out", out]
+    r = run(command, S11, "--mesh", "4x4", "--monte-carlo", trials, *where)
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert f"Invalid value for '--monte-carlo': {words}" in r.output
+    assert not out.exists()
+
+
+def test_monte_carlo_help_gives_the_range():
+    r = run("identify", "--help")
+    assert "[default: 0; 0 (off) or 2<=N<=100000]" in " ".join(r.output.split())
+
+
+# ------------------------------------------------------------------ conflicting options
+def test_no_output_with_an_output_file_is_refused(tmp_path):
+    # was: -o silently ignored (no file written, exit 0)
+    out = tmp_path / "r.h5"
+    r = run("identify", S11, "--mesh", "4x4", "--no-output", "-o", out)
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert ("laminid: error: --no-output and -o contradict each other: give one of them"
+            in r.output)
+    assert not out.exists()
+
+
+# ------------------------------------------------------- --sigma-rel, --max-rel-interval
+@pytest.mark.parametrize("command", ["identify", "batch", "fit-frf"])
+@pytest.mark.parametrize("value", ["0", "-0.01", "0.5", "5"])
+def test_sigma_rel_outside_0_to_half_is_refused_naming_the_option(tmp_path, command, value):
+    # was: "relative frequency uncertainty must be positive ..., got 0" (or "... is 50 % or
+    # more"), without the option's name
+    if command == "fit-frf":
+        args = ["fit-frf", frf_file(tmp_path / "plate.frf.h5")]
+    else:
+        args = [command, S11, "--mesh", "4x4"] + (["--out", tmp_path / "out"]
+                                                  if command == "batch" else ["--no-output"])
+    r = run(*args, "--sigma-rel", value)
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert (f"Invalid value for '--sigma-rel': {float(value)} is not in the range 0<x<0.5."
+            in r.output)
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("command", ["identify", "batch"])
+@pytest.mark.parametrize("value", ["0", "-1"])
+def test_max_rel_interval_not_positive_is_refused_by_the_parser(tmp_path, command, value):
+    args = [command, S11, "--mesh", "4x4"] + (["--out", tmp_path / "out"]
+                                              if command == "batch" else ["--no-output"])
+    r = run(*args, "--max-rel-interval", value)
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert (f"Invalid value for '--max-rel-interval': {float(value)} is not in the range x>0."
+            in r.output)
+
+
+@pytest.mark.parametrize("command, option, shown", [
+    ("identify", "--sigma-rel", "[default: 0.002; 0<x<0.5]"),
+    ("fit-frf", "--sigma-rel", "[default: 0.002; 0<x<0.5]"),
+    ("batch", "--max-rel-interval", "[default: 0.3; x>0]"),
+])
+def test_fraction_options_show_their_range_in_the_help(command, option, shown):
+    r = run(command, "--help")
+    text = " ".join(r.output.split())
+    assert shown in text[text.index(option):]
+
+
+# ---------------------------------------------------------------------------- acquire
+#: nothing listens there: an option checked after connecting would give an instrument error
+NOWHERE = "TCPIP::127.0.0.1::1::SOCKET"
+
+
+@pytest.mark.parametrize("option, value, words", [
+    # was: "" recorded V/V, "  " recorded blank units in the file (and in the UFF export)
+    ("--units", "", "--units: empty; give the FRF's engineering units, e.g. Pa/N or "
+                    "(m/s^2)/N, or leave the option out for V/V"),
+    ("--units", "  ", "--units: empty; give the FRF's engineering units"),
+    # was: "" silently the default backend
+    ("--visa-backend", "", "--visa-backend: empty; give @py, @ivi or file.yaml@sim, or leave "
+                           "the option out"),
+])
+def test_acquire_blank_text_options_are_refused_before_connecting(tmp_path, option, value,
+                                                                  words):
+    out = tmp_path / "plate.frf.h5"
+    r = run("acquire", "--analyser", NOWHERE, "--timeout", "0.5", "--no-prompt", option, value,
+            "-o", out)
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert f"laminid: error: {words}" in r.output
+    assert not out.exists()
+
+
+# ----------------------------------------------------------------------------- export
+@pytest.fixture(scope="module")
+def modes_file(tmp_path_factory):
+    out = tmp_path_factory.mktemp("modes") / "S1.1.modes.h5"
+    r = run("modes", S11, "--mesh", "4x4", "--modes", "3", "-o", out)
+    assert r.exit_code == 0, r.output
+    return out
+
+
+@pytest.mark.parametrize("option, value", [("--format", "csv"), ("--freq-dataset", "/f"),
+                                           ("--frf-dataset", "/frf")])
+def test_export_of_mode_shapes_refuses_the_frf_input_options(tmp_path, modes_file, option,
+                                                             value):
+    # was: silently ignored (a plain HDF5 FRF file taken for a result would be exported as
+    # mode shapes without a word)
+    out = tmp_path / "m.unv"
+    r = run("export", modes_file, "-o", out, option, value)
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert (f"laminid: error: {modes_file}: holds mode shapes (a laminid-modes file); "
+            f"{option} applies to FRF input only") in r.output
+    assert not out.exists()
+
+
+def test_export_of_frfs_refuses_specimen(tmp_path):
+    # was: --specimen silently ignored
+    source = frf_file(tmp_path / "plate.frf.h5")
+    out = tmp_path / "plate.uff"
+    r = run("export", source, "-o", out, "--specimen", "S1.1")
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert (f"laminid: error: {source}: holds FRFs; --specimen picks the plate of a joint "
+            "result (mode shapes)") in r.output
+    assert not out.exists()
+
+
+def test_export_of_mode_shapes_still_takes_specimen_of_its_plate(tmp_path, modes_file):
+    out = tmp_path / "m.unv"
+    r = run("export", modes_file, "-o", out, "--specimen", "S1.1", "--json")
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output)
+    assert d["specimen"] == "S1.1" and d["datasets"] == {"164": 1, "15": 1, "55": 3}
+    assert out.stat().st_size > 0
