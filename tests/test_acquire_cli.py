@@ -126,6 +126,16 @@ def test_resume_continues_an_incomplete_file(tmp_path, hp):
     assert read_frf_h5(out).labels == ("1", "2", "3", "4")
 
 
+def test_resume_without_a_file_starts_one_and_says_so(tmp_path, hp):
+    """Scripts may pass --resume every time: without the file it starts a new one, with a note
+    on stderr (it used to be silent)."""
+    out = tmp_path / "new.h5"
+    r = acquire(hp, out, "--no-prompt", "--resume", points=2)
+    assert r.exit_code == 0, r.output
+    assert f"laminid: note: {out}: no file to resume; starting a new one" in r.stderr
+    assert read_frf_h5(out).labels == ("1", "2")
+
+
 def test_resume_refuses_other_windows_before_touching_the_analyser(tmp_path, hp):
     """A file measured with --exp-window 0.1 (force window 0.01 s): --resume --points 8
     --exp-window 0.5 --force-window 0.05 is refused (exit 2) naming the file, both settings,

@@ -193,6 +193,9 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
                                  "leave the option out")
     out = Path(output)
     units = units or "V/V"
+    if resume and not out.exists():
+        # scripts may pass --resume every time: a new file, said so (not silently)
+        click.echo(f"laminid: note: {out}: no file to resume; starting a new one", err=True)
     resume = resume and out.exists()
     if not resume:
         out = check_output_path(out, force)          # a symbolic link: its target
