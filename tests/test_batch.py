@@ -604,3 +604,57 @@ def test_table_marks_fixed_bound_and_undetermined_values():
     legend = [ln for ln in format_table([row]).splitlines() if "not identified" in ln]
     assert legend == ["= fixed at its initial value — not identified (--fix, --fix-undetermined "
                       "or the file's 'fixed')"]
+
+
+def test_summary_json_finds_its_results_after_the_folder_moves_and_from_elsewhere(
+        tmp_path, monkeypatch):
+    """summary.json gives each result file relative to its own folder (as summary.csv does),
+    so a summary moved with its folder, or read from another directory by a plain json.load,
+    still finds every result; summaries written before (paths as the batch saw them, relative
+    to its current folder) are still read right, subfolders included."""
+    work = tmp_path / "work"
+    make_tree(work / "specs")
+    monkeypatch.chdir(work)
+    r = run("batch", "specs", "--mesh", MESH, "--out", "res", "--json")
+    assert r.exit_code == 0, r.output
+    doc = json.loads((work / "res" / "summary.json").read_text())
+    assert doc["result_paths"] == "relative to this file's folder"
+    assert [row["result"] for row in doc["specimens"]] == [
+        "example1/S1.4.result.h5", "example2/S2.1.result.h5"]
+    # the --json on stdout, for the shell that ran the batch: as the batch saw them
+    printed = json.loads(r.stdout)
+    assert "result_paths" not in printed and [row["result"] for row in printed["specimens"]] \
+        == ["res/example1/S1.4.result.h5", "res/example2/S2.1.result.h5"]
+    # moved with its folder and read from another directory
+    shutil.move(work / "res", tmp_path / "archive")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    summary = Path("..") / "archive" / "summary.json"
+    doc = json.loads(summary.read_text())
+    for row in doc["specimens"]:
+        with h5py.File(summary.parent / row["result"], "r") as f:
+            assert f.attrs["batch_name"] == row["name"]
+    rows = read_summary(summary)
+    assert [Path(row["result"]).resolve() for row in rows] == [
+        (tmp_path / "archive" / rel).resolve()
+        for rel in ("example1/S1.4.result.h5", "example2/S2.1.result.h5")]
+    # a summary of the earlier layout: paths relative to the batch's current folder
+    old = json.loads(summary.read_text())
+    old.pop("result_paths", None)
+    for row in old["specimens"]:
+        row["result"] = "res/" + row["result"]
+    old["out"] = "res"
+    (tmp_path / "archive" / "old.json").write_text(json.dumps(old))
+    rows = read_summary(Path("..") / "archive" / "old.json")
+    assert [Path(row["result"]).resolve() for row in rows] == [
+        (tmp_path / "archive" / rel).resolve()
+        for rel in ("example1/S1.4.result.h5", "example2/S2.1.result.h5")]
+    # ... and from the folder the batch ran in, where its paths are right as they are
+    old["out"] = "archive"
+    for row in old["specimens"]:
+        row["result"] = "archive/" + row["result"][len("res/"):]
+    (tmp_path / "archive" / "old.json").write_text(json.dumps(old))
+    monkeypatch.chdir(tmp_path)
+    assert [row["result"] for row in read_summary(Path("archive") / "old.json")] == [
+        "archive/example1/S1.4.result.h5", "archive/example2/S2.1.result.h5"]
