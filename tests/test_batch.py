@@ -253,7 +253,7 @@ def test_usage_errors_exit_2(tmp_path):
     assert r.exit_code == 2 and "mesh '0x3' not understood" in r.output
     assert not (tmp_path / "o").exists()
     r = run("batch", tmp_path / "missing")
-    assert r.exit_code == 2 and "does not exist" in r.output
+    assert r.exit_code == 2 and "missing: no such file or folder" in r.output
     (tmp_path / "file").write_text("x")
     r = run("batch", SPECS["example2/S2.1.yaml"], "--out", tmp_path / "file")
     assert r.exit_code == 2

@@ -9,10 +9,10 @@ from laminid_cli.commands._common import (echo_json, fit_options, json_option,
 
 
 @click.command(short_help="Identify many specimens in parallel, with a summary table.")
-@click.argument("inputs", nargs=-1, required=True, type=click.Path(exists=True))
+@click.argument("inputs", nargs=-1, required=True, type=click.Path())
 @click.option("-j", "--jobs", "n_jobs", type=click.IntRange(min=1), default=1, show_default=True,
               help="Worker processes (Dask workers with --scheduler local).")
-@click.option("--out", "out_dir", type=click.Path(file_okay=False), default="laminid-results",
+@click.option("--out", "out_dir", type=click.Path(), default="laminid-results",
               show_default=True, help="Folder of the result files and summary.csv/.json.")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run on Dask: 'local' starts a local cluster of -j workers, "

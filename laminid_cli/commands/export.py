@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import click
 
-from laminid_cli.commands._common import check_output_path, echo_json, force_option, json_option
+from laminid_cli.commands._common import (OUTPUT_FILE, InputFile, check_output_path, echo_json,
+                                          force_option, json_option)
 
 
 def _is_result(path) -> bool:
@@ -22,8 +23,8 @@ def _is_result(path) -> bool:
 
 
 @click.command("export")
-@click.argument("input_file", type=click.Path(dir_okay=False))
-@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
+@click.argument("input_file", type=InputFile())
+@click.option("-o", "--output", required=True, type=OUTPUT_FILE,
               help="Universal File to write (.uff or .unv).")
 @click.option("--ascii", "ascii_", is_flag=True,
               help="FRFs: write ASCII UFF 58 (12 significant digits) instead of binary 58b "

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import click
 
-from laminid_cli.commands._common import (echo_json, fit_options, force_option, json_option,
-                                          pass_run_options, result_output,
-                                          uncertainty_options)
+from laminid_cli.commands._common import (OUTPUT_FILE, InputFile, echo_json, fit_options,
+                                          force_option, json_option, pass_run_options,
+                                          result_output, uncertainty_options)
 from laminid_cli.commands.text import (format_damping, format_identify_report,
                                        format_joint_report)
 
@@ -25,7 +25,7 @@ def default_joint_output(specs) -> Path:
 
 
 @click.command(short_help="Identify ply elastic constants from measured frequencies.")
-@click.argument("specs", nargs=-1, required=True, type=click.Path(dir_okay=False),
+@click.argument("specs", nargs=-1, required=True, type=InputFile(),
                 metavar="SPEC...")
 @fit_options
 @click.option("--joint", is_flag=True,
@@ -36,7 +36,7 @@ def default_joint_output(specs) -> Path:
 @click.option("-j", "--jobs", type=click.IntRange(min=1), default=None,
               help="Processes for the Monte Carlo trials [default: the number of cores].")
 @json_option
-@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
+@click.option("-o", "--output", type=OUTPUT_FILE, default=None,
               help="HDF5 result file, never overwritten without --force [default: SPEC's "
                    "folder, <name>.result.h5; with --joint the first SPEC's folder, "
                    "<name1>+<name2>+....joint.result.h5; a derived file, replaced by each "
