@@ -264,3 +264,30 @@ def test_a_laminid_result_given_as_frfs_is_named_for_what_it_is(modes_file):
     r = run(["fit-frf", str(modes_file)])
     assert r.exit_code == 2
     assert "a laminid-modes file (results of laminid), not FRFs" in r.output
+
+
+@pytest.mark.parametrize("ordinate, denominator, units", [
+    ("m/s^2", "N", "m/s^2/N"),          # another tool: the response over the force
+    ("Pa", "N", "Pa/N"),
+    ("Pa/N", "NONE", "Pa/N"),           # laminid's own export: the whole unit, no denominator
+    ("Pa/N", "", "Pa/N"),
+    ("m/s^2/N", "N", "m/s^2/N"),        # the whole unit and the denominator again
+])
+def test_uff58_units_are_the_ordinate_over_its_denominator(tmp_path, case, ordinate,
+                                                           denominator, units):
+    """A UFF 58 FRF's unit is its ordinate's over its denominator's (record 10 and 11 of the
+    header): an accelerance of another tool, "m/s^2" over "N", is m/s^2/N, not m/s^2."""
+    import pyuff
+
+    sets = [pyuff.prepare_58(binary=0, func_type=4, rsp_node=k + 1, rsp_dir=3, ref_node=1,
+                             ref_dir=3, x=case.freq, data=case.frf[k], id1="FRF",
+                             abscissa_spec_data_type=18, ordinate_spec_data_type=12,
+                             orddenom_spec_data_type=13, ordinate_axis_units_lab=ordinate,
+                             orddenom_axis_units_lab=denominator, abscissa_axis_units_lab="Hz")
+            for k in range(2)]
+    p = tmp_path / "other.uff"
+    pyuff.UFF(str(p)).write_sets(sets, mode="add")
+    assert io.read_frf(p).units == units
+    r = run(["fit-frf", str(p), "--json"])
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["units"] == units

@@ -239,10 +239,22 @@ def read_frf_uff(path) -> FrfSet:
         coherence = np.array([coh_by_dof.get(dof(d), np.full(freq.size, np.nan)) for d in frfs])
     labels = tuple(f"{d.get('rsp_node', k + 1)}{_dir(d.get('rsp_dir', 0))}"
                    for k, d in enumerate(frfs))
-    units = str(frfs[0].get("ordinate_axis_units_lab", "") or "1").strip() or "1"
+    units = _uff_units(frfs[0])
     freq, frf, coherence = check_frf_arrays(freq, frf, coherence, source=str(path))
     return FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels, units=units,
                   source=str(path), meta={"uff_ids": [str(d.get("id1", "")) for d in frfs]})
+
+
+def _uff_units(d) -> str:
+    """The FRF unit of a type-58 record: its ordinate's unit label over its denominator's
+    ("m/s^2" over "N": "m/s^2/N"); the ordinate's alone where the denominator has none
+    ("NONE", pyuff's default) or the ordinate's already ends with it (laminid's own files
+    write the whole unit there)."""
+    ordinate = str(d.get("ordinate_axis_units_lab", "") or "").strip() or "1"
+    denominator = str(d.get("orddenom_axis_units_lab", "") or "").strip()
+    if denominator.upper() in ("", "NONE") or ordinate.endswith("/" + denominator):
+        return ordinate
+    return f"{ordinate}/{denominator}"
 
 
 def _check_uff_record(path, k: int, d) -> None:
