@@ -139,7 +139,8 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
     ----------
     inputs : files and folders; folders are searched recursively for ``*.yaml``/``*.yml``
         (hidden files and folders skipped), files are taken whatever their suffix
-    exclude : folders not to search (the output folder)
+    exclude : folders not to search (the output folder) where they lie below an input folder
+        (an input folder inside one, or itself one, is searched: results beside specimens)
 
     Returns
     -------
@@ -155,11 +156,12 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
         p = Path(item)
         if p.is_dir():
             roots.append(p.resolve())
+            below = [e for e in exclude if not _inside(p.resolve(), e)]
             for f in sorted(p.rglob("*")):
                 rel = f.relative_to(p)
                 if (f.suffix.lower() in SPECIMEN_SUFFIXES and f.is_file()
                         and not any(part.startswith(".") for part in rel.parts)
-                        and not any(_inside(f.resolve(), e) for e in exclude)):
+                        and not any(_inside(f.resolve(), e) for e in below)):
                     found.setdefault(f.resolve(), f)
         elif p.exists():
             roots.append(p.resolve().parent)

@@ -658,3 +658,27 @@ def test_summary_json_finds_its_results_after_the_folder_moves_and_from_elsewher
     monkeypatch.chdir(tmp_path)
     assert [row["result"] for row in read_summary(Path("archive") / "old.json")] == [
         "archive/example1/S1.4.result.h5", "archive/example2/S2.1.result.h5"]
+
+
+def test_out_may_be_the_specimens_own_folder(tmp_path, monkeypatch):
+    """--out naming the input folder itself (results beside the specimens, as identify writes
+    them) identifies its specimens; it said "no specimen file found" (the output folder's
+    files are not read as specimens, and that folder was the input). A yaml inside an --out
+    below the inputs is still not taken for a specimen."""
+    specs = make_tree(tmp_path / "specs")
+    r = run("batch", specs, "--mesh", MESH, "--out", specs)
+    assert r.exit_code == 0, r.output
+    assert "2 specimens, 0 up to date, 2 to identify" in r.output
+    for rel in SPECS:
+        with h5py.File(specs / rel.replace(".yaml", ".result.h5"), "r") as f:
+            assert f.attrs["batch_name"] == rel[:-5]
+    monkeypatch.chdir(specs / "example1")
+    r = run("batch", ".", "--mesh", MESH, "--out", ".")
+    assert r.exit_code == 0, r.output
+    assert "1 specimen, 1 up to date, 0 to identify" in r.output     # the same file
+    assert (specs / "example1" / "S1.4.result.h5").is_file()
+    # an --out below the inputs: a yaml there is not a specimen
+    (specs / "res").mkdir()
+    shutil.copy(specs / "example2" / "S2.1.yaml", specs / "res" / "copy.yaml")
+    assert [name for _, name in discover_specimens([specs], exclude=[specs / "res"])] == [
+        "example1/S1.4", "example2/S2.1"]
