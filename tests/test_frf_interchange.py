@@ -250,6 +250,10 @@ def test_export_one_plate_of_a_joint_result(tmp_path):
     r = run(["export", str(path), "-o", str(out)])
     assert r.exit_code == 2 and "a joint result of 2 plates; choose one with --specimen (A, B)" \
         in r.output
+    r = run(["export", str(path), "-o", str(out), "--specimen", "C"])
+    assert r.exit_code == 2 and r.output == (
+        f"laminid: error: {path}: a joint result of 2 plates, none named 'C'; choose one with "
+        "--specimen (A, B)\n")
     r = run(["export", str(path), "-o", str(out), "--specimen", "B", "--json"])
     assert r.exit_code == 0, r.output
     import pyuff
@@ -291,3 +295,17 @@ def test_uff58_units_are_the_ordinate_over_its_denominator(tmp_path, case, ordin
     r = run(["fit-frf", str(p), "--json"])
     assert r.exit_code == 0, r.output
     assert json.loads(r.stdout)["units"] == units
+
+
+@pytest.mark.parametrize("name", ["plate.csv", "plate.h5", "plate.txt", "plate"])
+def test_export_refuses_an_output_it_would_not_write_as_named(tmp_path, numbered, modes_file,
+                                                              name):
+    """export writes Universal Files only: an output named .csv or .h5 got a binary UFF under
+    that name (which no CSV reader, nor laminid itself by its suffix, reads as such)."""
+    for source in (numbered, modes_file):
+        out = tmp_path / name
+        r = run(["export", str(source), "-o", str(out)])
+        assert r.exit_code == 2
+        assert r.output == (f"laminid: error: {out}: export writes Universal Files; name the "
+                            "output .uff or .unv (-o)\n")
+        assert not out.exists()

@@ -5,7 +5,10 @@ from __future__ import annotations
 import click
 
 from laminid_cli.commands._common import (OUTPUT_FILE, InputFile, check_output_path, echo_json,
-                                          force_option, json_option)
+                                          force_option, json_option, writable_target)
+
+#: the suffixes of the Universal Files export writes (those the FRF reader takes for UFF)
+UFF_SUFFIXES = (".uff", ".unv")
 
 
 def _is_result(path) -> bool:
@@ -60,6 +63,12 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
     """
     from pathlib import Path
 
+    from laminid_cli.errors import OutputExistsError
+
+    writable_target(output)                # a folder...: said first
+    if Path(output).suffix.lower() not in UFF_SUFFIXES:
+        raise OutputExistsError(f"{output}: export writes Universal Files; name the output "
+                                f"{' or '.join(UFF_SUFFIXES)} (-o)")
     out = check_output_path(output, force)
     if Path(input_file).is_file() and _is_result(input_file):
         from laminid_cli.export import read_shapes, write_shapes_uff
