@@ -149,7 +149,12 @@ def test_export_frfs_as_uff58_keeps_numbers_units_and_point_numbering(tmp_path, 
     assert [s["type"] for s in sets] == [58] * 5
     for k, s in enumerate(sets):
         assert s["func_type"] == 4 and s["rsp_node"] == int(LABELS[k]) and s["rsp_dir"] == 3
-        assert s["ordinate_axis_units_lab"].strip() == "Pa/N"
+        # the response over the force, each with its unit and UFF specific data type (15
+        # pressure, 13 excitation force; it said 12 acceleration with the whole unit "Pa/N"
+        # as the ordinate's and no denominator)
+        assert s["ordinate_axis_units_lab"].strip() == "Pa"
+        assert s["orddenom_axis_units_lab"].strip() == "N"
+        assert s["ordinate_spec_data_type"] == 15 and s["orddenom_spec_data_type"] == 13
         assert s["abscissa_axis_units_lab"].strip() == "Hz"
         np.testing.assert_array_equal(s["data"], case.frf[k])     # binary 58b: lossless
         np.testing.assert_array_equal(s["x"], case.freq)
@@ -309,3 +314,25 @@ def test_export_refuses_an_output_it_would_not_write_as_named(tmp_path, numbered
         assert r.output == (f"laminid: error: {out}: export writes Universal Files; name the "
                             "output .uff or .unv (-o)\n")
         assert not out.exists()
+
+
+@pytest.mark.parametrize("units, ordinate, ord_type, denominator, den_type", [
+    ("m/s^2/N", "m/s^2", 12, "N", 13),
+    ("m/s/N", "m/s", 11, "N", 13),
+    ("m/N", "m", 8, "N", 13),
+    ("Pa/N", "Pa", 15, "N", 13),
+    ("V/V", "V", 0, "V", 0),               # an analyser's voltage ratio: types unknown
+    ("1", "1", 0, "NONE", 0),
+])
+def test_uff58_export_writes_the_response_and_force_units_apart(tmp_path, case, units,
+                                                                ordinate, ord_type,
+                                                                denominator, den_type):
+    import pyuff
+
+    fs = FrfSet(freq=case.freq, frf=case.frf[:1], labels=("1",), units=units)
+    out = io.write_frf_uff(tmp_path / "x.uff", fs)
+    s = pyuff.UFF(str(out)).read_sets(0)
+    assert (s["ordinate_axis_units_lab"].strip(), s["ordinate_spec_data_type"],
+            s["orddenom_axis_units_lab"].strip(), s["orddenom_spec_data_type"]) == (
+        ordinate, ord_type, denominator, den_type)
+    assert io.read_frf(out).units == units                 # and laminid reads it back

@@ -43,6 +43,11 @@ SUFFIXES = {".h5": "hdf5", ".hdf5": "hdf5", ".hdf": "hdf5", ".uff": "uff", ".unv
 #: UFF 58 function types, and the abscissa's specific data type for frequency (Hz)
 UFF_FRF, UFF_COHERENCE = 4, 6
 UFF_ABSCISSA_FREQUENCY = 18
+#: UFF 58 specific data types (record 9/10 of the header) of the response units laminid
+#: writes, and of the force; any other unit is written as 0 (unknown)
+UFF_RESPONSE_TYPES = {"m": 8, "mm": 8, "m/s": 11, "mm/s": 11, "m/s^2": 12, "m/s2": 12,
+                      "g": 12, "Pa": 15, "kPa": 15}
+UFF_FORCE_TYPES = {"N": 13, "kN": 13, "lbf": 13}
 #: text FRF files (UFF, CSV) larger than this are refused before they are read (1 GB: the
 #: 50 million values of MAX_FRF_VALUES at ~20 characters each)
 MAX_TEXT_FILE_BYTES = 1_000_000_000
@@ -301,11 +306,23 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
             rsp_node=node, rsp_dir=rsp_dir, ref_node=ref_node, ref_dir=ref_dir,
             ord_data_type=6,  # complex double
             abscissa_spacing=1 if np.allclose(np.diff(fs.freq), fs.freq[1] - fs.freq[0]) else 0,
-            abscissa_spec_data_type=UFF_ABSCISSA_FREQUENCY, ordinate_spec_data_type=12,
-            orddenom_spec_data_type=13, ordinate_axis_units_lab=fs.units,
+            abscissa_spec_data_type=UFF_ABSCISSA_FREQUENCY, **_uff_axes(fs.units),
             abscissa_axis_units_lab="Hz",
             data=np.asarray(fs.frf[k], dtype=complex), x=np.asarray(fs.freq, dtype=float)))
     return write_uff_sets(path, sets)
+
+
+def _uff_axes(units: str) -> dict:
+    """The ordinate and denominator fields of a type-58 record of an FRF in ``units``: the
+    response's unit and type over the force's ("Pa/N": Pa, 15 pressure over N, 13 excitation
+    force), split at the last '/'; a unit that is no ratio is the ordinate's, over none. The
+    reader (:func:`_uff_units`) joins them back."""
+    response, sep, force = units.rpartition("/")
+    if not sep or not response or not force:
+        response, force = units, "NONE"
+    return {"ordinate_axis_units_lab": response, "orddenom_axis_units_lab": force,
+            "ordinate_spec_data_type": UFF_RESPONSE_TYPES.get(response, 0),
+            "orddenom_spec_data_type": UFF_FORCE_TYPES.get(force, 0)}
 
 
 def write_uff_sets(path: Path, sets, error: type[LaminidError] = FrfError) -> Path:
