@@ -682,3 +682,15 @@ def test_out_may_be_the_specimens_own_folder(tmp_path, monkeypatch):
     shutil.copy(specs / "example2" / "S2.1.yaml", specs / "res" / "copy.yaml")
     assert [name for _, name in discover_specimens([specs], exclude=[specs / "res"])] == [
         "example1/S1.4", "example2/S2.1"]
+
+
+def test_quiet_batch_writes_nothing_but_errors_on_stderr(tmp_path):
+    """laminid -q: "only errors on stderr"; the batch still wrote its count line and its
+    progress label there. The table stays on stdout, a failing specimen's line too."""
+    specs = make_tree(tmp_path / "specs")
+    r = run("-q", "batch", specs, "--mesh", MESH, "--out", tmp_path / "out")
+    assert r.exit_code == 0, r.output
+    assert r.stderr == ""
+    assert "0 ok, 2 check (0 not converged), 0 failed" in r.stdout
+    r = run("batch", specs, "--mesh", MESH, "--out", tmp_path / "out")
+    assert r.stderr == "2 specimens, 2 up to date, 0 to identify\n"          # without -q

@@ -57,6 +57,12 @@ class InputFile(click.Path):
 OUTPUT_FILE = click.Path()
 
 
+def quiet() -> bool:
+    """True under ``laminid -q`` (only errors on stderr: no count lines, no progress)."""
+    ctx = click.get_current_context(silent=True)
+    return bool(ctx is not None and ctx.find_root().params.get("quiet"))
+
+
 json_option = click.option(
     "--json", "as_json", is_flag=True,
     help="Print the results as JSON on stdout (SI units, frequencies in Hz) instead of tables.")

@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from laminid_cli.commands._common import (OUTPUT_FILE, InputFile, echo_json, fit_options,
-                                          force_option, json_option, pass_run_options,
+                                          force_option, json_option, pass_run_options, quiet,
                                           result_output, uncertainty_options)
 from laminid_cli.commands.text import (format_damping, format_identify_report,
                                        format_joint_report)
@@ -104,7 +104,7 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force):
     default = default_joint_output(specs) if joint else default_output(specs[0])
     out, replacing = ((None, False) if no_output else
                       result_output(output, default, force, None if joint else specs[0]))
-    show_progress = not as_json and sys.stderr.isatty()
+    show_progress = not as_json and sys.stderr.isatty() and not quiet()
 
     def progress(n, objective, rms):
         if show_progress:
@@ -130,7 +130,7 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force):
             bar.__exit__(None, None, None)
     if show_progress:
         click.echo("", err=True)
-    for note in run.notes:
+    for note in run.notes if not quiet() else ():     # -q: only errors on stderr
         click.echo(f"laminid: note: {note}", err=True)
     summary = dict(run.summary)
     if out is not None:
