@@ -650,10 +650,19 @@ def test_summary_json_finds_its_results_after_the_folder_moves_and_from_elsewher
     assert [Path(row["result"]).resolve() for row in rows] == [
         (tmp_path / "archive" / rel).resolve()
         for rel in ("example1/S1.4.result.h5", "example2/S2.1.result.h5")]
+    # ... absolute, the folder moved since
+    old["out"] = str(work / "res")
+    for row in old["specimens"]:
+        row["result"] = str(work / row["result"])
+    (tmp_path / "archive" / "old.json").write_text(json.dumps(old))
+    rows = read_summary(Path("..") / "archive" / "old.json")
+    assert [Path(row["result"]).resolve() for row in rows] == [
+        (tmp_path / "archive" / rel).resolve()
+        for rel in ("example1/S1.4.result.h5", "example2/S2.1.result.h5")]
     # ... and from the folder the batch ran in, where its paths are right as they are
     old["out"] = "archive"
     for row in old["specimens"]:
-        row["result"] = "archive/" + row["result"][len("res/"):]
+        row["result"] = "archive" + row["result"][len(str(work / "res")):]
     (tmp_path / "archive" / "old.json").write_text(json.dumps(old))
     monkeypatch.chdir(tmp_path)
     assert [row["result"] for row in read_summary(Path("archive") / "old.json")] == [
