@@ -336,3 +336,31 @@ def test_uff58_export_writes_the_response_and_force_units_apart(tmp_path, case, 
             s["orddenom_axis_units_lab"].strip(), s["orddenom_spec_data_type"]) == (
         ordinate, ord_type, denominator, den_type)
     assert io.read_frf(out).units == units                 # and laminid reads it back
+
+
+def test_uff58_re_exported_keeps_its_nodes_and_directions(tmp_path, case):
+    """A UFF of another tool, points 10..13 (one measured in -Z), exported again: the same
+    response nodes and directions (it renumbered them 1..4, all +Z: point 1 then stood on the
+    reference node 1, a driving point it is not)."""
+    import pyuff
+
+    nodes, dirs = (10, 11, 12, 13), (3, 3, -3, 3)
+    sets = [pyuff.prepare_58(binary=0, func_type=4, rsp_node=n, rsp_dir=d, ref_node=1,
+                             ref_dir=3, x=case.freq, data=case.frf[k], id1="FRF",
+                             abscissa_spec_data_type=18, ordinate_spec_data_type=12,
+                             orddenom_spec_data_type=13, ordinate_axis_units_lab="m/s^2",
+                             orddenom_axis_units_lab="N")
+            for k, (n, d) in enumerate(zip(nodes, dirs))]
+    src = tmp_path / "other.uff"
+    pyuff.UFF(str(src)).write_sets(sets, mode="add")
+    out = tmp_path / "again.uff"
+    r = run(["export", str(src), "-o", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["points"] == {"10+Z": 10, "11+Z": 11, "12-Z": 12, "13+Z": 13}
+    back = [s for s in pyuff.UFF(str(out)).read_sets() if s["type"] == 58]
+    assert [(s["rsp_node"], s["rsp_dir"], s["ref_node"], s["ref_dir"]) for s in back] == [
+        (n, d, 1, 3) for n, d in zip(nodes, dirs)]
+    read = [s for s in pyuff.UFF(str(src)).read_sets() if s["type"] == 58]
+    for s, t in zip(back, read):
+        np.testing.assert_array_equal(s["data"], t["data"])           # binary 58b: lossless
+    assert io.read_frf(out).labels == ("10+Z", "11+Z", "12-Z", "13+Z")

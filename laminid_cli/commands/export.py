@@ -49,8 +49,8 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
     \b
     INPUT_FILE is either
       - FRFs (laminid acquire file, plain HDF5, UFF 58 or CSV): written as one UFF 58 record
-        per measurement point, response node = point number (label), direction +Z, reference
-        node 1 +Z, abscissa Hz, the file's units as the response's over the force's
+        per measurement point, response node = point number (label), direction +Z (a UFF
+        label such as 12-Z: its node and direction), reference node 1 +Z, abscissa Hz, the file's units as the response's over the force's
         (Pa/N: ordinate Pa, pressure, over N, excitation force);
       - a result of identify/batch/modes: the plate mesh as UFF 15 nodes (metres, UFF 164
         units SI) and each mode as a UFF 55 normal-mode record (0, 0, w0) at the nodes,
@@ -83,12 +83,12 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
         text = (f"{out}: {summary['n_modes']} mode shapes of {shapes.specimen} (UFF 55) on "
                 f"{summary['n_nodes']} nodes (UFF 15, metres; UFF 164 SI)")
     else:
-        from laminid_cli.frf.io import read_frf, write_frf_uff
+        from laminid_cli.frf.io import read_frf, uff_point, write_frf_uff
 
         fs = read_frf(input_file, fmt, freq_dataset=freq_dataset, frf_dataset=frf_dataset)
         write_frf_uff(out, fs, overwrite=force, binary=not ascii_)
         labels = list(fs.labels) or [str(i + 1) for i in range(fs.n_points)]
-        nodes = [int(lab) if lab.isdigit() else i + 1 for i, lab in enumerate(labels)]
+        nodes = [uff_point(lab, i)[0] for i, lab in enumerate(labels)]
         summary = {"input": str(input_file), "output": str(out), "kind": "FRF",
                    "datasets": {"58": fs.n_points}, "binary": not ascii_, "units": fs.units,
                    "n_lines": int(fs.freq.size), "points": dict(zip(labels, nodes))}

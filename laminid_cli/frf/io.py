@@ -284,10 +284,25 @@ def _check_uff_record(path, k: int, d) -> None:
                        f"values, {x.size} abscissa values, header says {n})")
 
 
+_DIRECTIONS = {1: "+X", 2: "+Y", 3: "+Z", -1: "-X", -2: "-Y", -3: "-Z"}
+
+
 def _dir(code) -> str:
     code = int(code)
-    names = {1: "+X", 2: "+Y", 3: "+Z", -1: "-X", -2: "-Y", -3: "-Z"}
-    return names.get(code, f"/{code}" if code else "")
+    return _DIRECTIONS.get(code, f"/{code}" if code else "")
+
+
+def uff_point(label: str, k: int, rsp_dir: int = 3) -> tuple[int, int]:
+    """(response node, direction code) of the FRF labelled ``label``, the ``k``-th (0-based):
+    a point number ("12") on ``rsp_dir``, a UFF label as :func:`read_frf_uff` makes it
+    ("12+Z", "12-Z") on its own, anything else node k + 1 on ``rsp_dir``."""
+    import re
+
+    m = re.fullmatch(r"\s*(\d+)\s*([+-][XYZ])?\s*", label)
+    if m is None:
+        return k + 1, rsp_dir
+    codes = {name: code for code, name in _DIRECTIONS.items()}
+    return int(m.group(1)), codes[m.group(2)] if m.group(2) else rsp_dir
 
 
 def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 1,
@@ -300,10 +315,10 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
     sets = []
     for k in range(fs.n_points):
         label = fs.labels[k] if k < len(fs.labels) else str(k + 1)
-        node = int(label) if label.isdigit() else k + 1
+        node, direction = uff_point(label, k, rsp_dir)
         sets.append(pyuff.prepare_58(
             binary=int(binary), id1=f"FRF {label}", id2="laminid", func_type=UFF_FRF,
-            rsp_node=node, rsp_dir=rsp_dir, ref_node=ref_node, ref_dir=ref_dir,
+            rsp_node=node, rsp_dir=direction, ref_node=ref_node, ref_dir=ref_dir,
             ord_data_type=6,  # complex double
             abscissa_spacing=1 if np.allclose(np.diff(fs.freq), fs.freq[1] - fs.freq[0]) else 0,
             abscissa_spec_data_type=UFF_ABSCISSA_FREQUENCY, **_uff_axes(fs.units),
