@@ -364,3 +364,28 @@ def test_uff58_re_exported_keeps_its_nodes_and_directions(tmp_path, case):
     for s, t in zip(back, read):
         np.testing.assert_array_equal(s["data"], t["data"])           # binary 58b: lossless
     assert io.read_frf(out).labels == ("10+Z", "11+Z", "12-Z", "13+Z")
+
+
+def test_roving_hammer_uff_keeps_its_reference_nodes(tmp_path, case):
+    """A roving-hammer test: one response node (the sensor), the reference (hammer) node
+    changing. Each FRF was labelled by its response alone, all "5+Z", and export wrote them
+    all as 5 over reference 1: the hammer points were lost. The label now names the
+    reference too where the references differ, and export keeps both."""
+    import pyuff
+
+    sets = [pyuff.prepare_58(binary=0, func_type=4, rsp_node=5, rsp_dir=3, ref_node=k + 1,
+                             ref_dir=3 if k else -3, x=case.freq, data=case.frf[k], id1="FRF",
+                             abscissa_spec_data_type=18, ordinate_spec_data_type=12,
+                             orddenom_spec_data_type=13)
+            for k in range(3)]
+    src = tmp_path / "roving.uff"
+    pyuff.UFF(str(src)).write_sets(sets, mode="add")
+    fs = io.read_frf(src)
+    assert fs.labels == ("5+Z:1-Z", "5+Z:2+Z", "5+Z:3+Z")
+    out = tmp_path / "again.uff"
+    r = run(["export", str(src), "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    back = [s for s in pyuff.UFF(str(out)).read_sets() if s["type"] == 58]
+    assert [(s["rsp_node"], s["rsp_dir"], s["ref_node"], s["ref_dir"]) for s in back] == [
+        (5, 3, 1, -3), (5, 3, 2, 3), (5, 3, 3, 3)]
+    assert io.read_frf(out).labels == fs.labels

@@ -49,8 +49,9 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
     \b
     INPUT_FILE is either
       - FRFs (laminid acquire file, plain HDF5, UFF 58 or CSV): written as one UFF 58 record
-        per measurement point, response node = point number (label), direction +Z (a UFF
-        label such as 12-Z: its node and direction), reference node 1 +Z, abscissa Hz, the file's units as the response's over the force's
+        per measurement point, response node = point number (label), direction +Z,
+        reference node 1 +Z (a UFF label such as 12-Z, or 5+Z:2+Z of a roving hammer: its
+        nodes and directions), abscissa Hz, the file's units as the response's over the force's
         (Pa/N: ordinate Pa, pressure, over N, excitation force);
       - a result of identify/batch/modes: the plate mesh as UFF 15 nodes (metres, UFF 164
         units SI) and each mode as a UFF 55 normal-mode record (0, 0, w0) at the nodes,

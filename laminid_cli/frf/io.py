@@ -242,7 +242,10 @@ def read_frf_uff(path) -> FrfSet:
     coherence = None
     if coh_by_dof:
         coherence = np.array([coh_by_dof.get(dof(d), np.full(freq.size, np.nan)) for d in frfs])
+    # the response DOF, and the reference's where they differ (a roving hammer: "5+Z:2+Z")
+    roving = len({dof(d)[2:] for d in frfs}) > 1
     labels = tuple(f"{d.get('rsp_node', k + 1)}{_dir(d.get('rsp_dir', 0))}"
+                   + (f":{d.get('ref_node', 0)}{_dir(d.get('ref_dir', 0))}" if roving else "")
                    for k, d in enumerate(frfs))
     units = _uff_units(frfs[0])
     freq, frf, coherence = check_frf_arrays(freq, frf, coherence, source=str(path))
@@ -292,17 +295,21 @@ def _dir(code) -> str:
     return _DIRECTIONS.get(code, f"/{code}" if code else "")
 
 
-def uff_point(label: str, k: int, rsp_dir: int = 3) -> tuple[int, int]:
-    """(response node, direction code) of the FRF labelled ``label``, the ``k``-th (0-based):
-    a point number ("12") on ``rsp_dir``, a UFF label as :func:`read_frf_uff` makes it
-    ("12+Z", "12-Z") on its own, anything else node k + 1 on ``rsp_dir``."""
+def uff_point(label: str, k: int, rsp_dir: int = 3, ref: tuple[int, int] = (1, 3)
+              ) -> tuple[int, int, int, int]:
+    """(response node, direction code, reference node, direction code) of the FRF labelled
+    ``label``, the ``k``-th (0-based): a point number ("12") on ``rsp_dir``, a UFF label as
+    :func:`read_frf_uff` makes it ("12+Z", "12-Z", with a roving reference "5+Z:2+Z") on its
+    own DOFs, anything else node k + 1 on ``rsp_dir``; the reference ``ref`` where the label
+    names none."""
     import re
 
-    m = re.fullmatch(r"\s*(\d+)\s*([+-][XYZ])?\s*", label)
+    m = re.fullmatch(r"\s*(\d+)\s*([+-][XYZ])?\s*(?::\s*(\d+)\s*([+-][XYZ])\s*)?", label)
     if m is None:
-        return k + 1, rsp_dir
+        return k + 1, rsp_dir, *ref
     codes = {name: code for code, name in _DIRECTIONS.items()}
-    return int(m.group(1)), codes[m.group(2)] if m.group(2) else rsp_dir
+    node = int(m.group(1)), codes[m.group(2)] if m.group(2) else rsp_dir
+    return (*node, int(m.group(3)), codes[m.group(4)]) if m.group(3) else (*node, *ref)
 
 
 def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 1,
@@ -315,10 +322,10 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
     sets = []
     for k in range(fs.n_points):
         label = fs.labels[k] if k < len(fs.labels) else str(k + 1)
-        node, direction = uff_point(label, k, rsp_dir)
+        node, direction, ref, ref_direction = uff_point(label, k, rsp_dir, (ref_node, ref_dir))
         sets.append(pyuff.prepare_58(
             binary=int(binary), id1=f"FRF {label}", id2="laminid", func_type=UFF_FRF,
-            rsp_node=node, rsp_dir=direction, ref_node=ref_node, ref_dir=ref_dir,
+            rsp_node=node, rsp_dir=direction, ref_node=ref, ref_dir=ref_direction,
             ord_data_type=6,  # complex double
             abscissa_spacing=1 if np.allclose(np.diff(fs.freq), fs.freq[1] - fs.freq[0]) else 0,
             abscissa_spec_data_type=UFF_ABSCISSA_FREQUENCY, **_uff_axes(fs.units),
