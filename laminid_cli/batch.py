@@ -139,7 +139,8 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
     ----------
     inputs : files and folders; folders are searched recursively for ``*.yaml``/``*.yml``
         (hidden files and folders skipped), files are taken whatever their suffix
-    exclude : folders not to search (the output folder)
+    exclude : folders not to search (the output folder) where they lie below an input folder
+        (an input folder inside one, or itself one, is searched: results beside specimens)
 
     Returns
     -------
@@ -155,11 +156,12 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
         p = Path(item)
         if p.is_dir():
             roots.append(p.resolve())
+            below = [e for e in exclude if not _inside(p.resolve(), e)]
             for f in sorted(p.rglob("*")):
                 rel = f.relative_to(p)
                 if (f.suffix.lower() in SPECIMEN_SUFFIXES and f.is_file()
                         and not any(part.startswith(".") for part in rel.parts)
-                        and not any(_inside(f.resolve(), e) for e in exclude)):
+                        and not any(_inside(f.resolve(), e) for e in below)):
                     found.setdefault(f.resolve(), f)
         elif p.exists():
             roots.append(p.resolve().parent)
@@ -840,8 +842,48 @@ def failed(rows) -> bool:
                for r in rows)
 
 
+#: the ``result_paths`` of a summary.json whose result files are given relative to its own
+#: folder (as in summary.csv); a summary without it (written before, or the ``--json`` of the
+#: batch on stdout) gives them as the batch saw them: relative to its current folder or absolute
+RESULT_PATHS = "relative to this file's folder"
+
+
+def _relative_to(result: str, folder: Path) -> str:
+    try:
+        return Path(os.path.relpath(result, folder)).as_posix()
+    except ValueError:                     # another drive (Windows): kept absolute
+        return str(Path(result).absolute())
+
+
 def write_summary_json(path, report: dict) -> Path:
-    return _write_text(Path(path), json.dumps(json_safe(report), indent=2) + "\n")
+    """``report`` (:func:`batch_report`) as summary.json, its result files relative to the
+    summary's folder (``result_paths``), so that the folder can be moved and read from
+    anywhere."""
+    path = Path(path)
+    doc = dict(report, result_paths=RESULT_PATHS, specimens=[
+        dict(r, result=_relative_to(r["result"], path.parent)) if r.get("result") else r
+        for r in report["specimens"]])
+    return _write_text(path, json.dumps(json_safe(doc), indent=2) + "\n")
+
+
+def _result_of_json(result: str, path: Path, doc: dict) -> str:
+    """The result file of a summary.json row, as a path from the current folder: relative to
+    the summary's folder (``result_paths``), or, in a summary without it, as the batch saw it
+    where that file exists, else at its place below ``out`` taken from the summary's folder
+    (the summary is written into ``out``)."""
+    if doc.get("result_paths") == RESULT_PATHS:
+        return str(path.parent / result)   # (an absolute result stays itself)
+    if Path(result).exists():
+        return result
+    out = doc.get("out")
+    if isinstance(out, str) and out:
+        try:
+            below = os.path.relpath(result, out)
+        except ValueError:
+            below = None
+        if below is not None and not below.startswith(".."):
+            return str(path.parent / below)
+    return str(path.parent / Path(result).name)
 
 
 def json_safe(obj):
@@ -877,9 +919,8 @@ def read_summary(path) -> list[dict]:
                              "'laminid-batch-summary')")
         rows = doc["specimens"]
         for r in rows:
-            if r.get("result") and not Path(r["result"]).is_absolute() \
-                    and not Path(r["result"]).exists():
-                r["result"] = str(path.parent / Path(r["result"]).name)
+            if r.get("result"):
+                r["result"] = _result_of_json(r["result"], path, doc)
         return rows
     try:
         with open(path, newline="", encoding="utf-8") as fh:

@@ -69,4 +69,10 @@ class InstrumentError(LaminidError):
 
 
 class OutputExistsError(LaminidError):
-    """An output file exists and overwriting was not asked for."""
+    """An output file cannot be written at the name given: it exists and overwriting was not
+    asked for, it is a folder or another non-regular file, its folder is missing or cannot be
+    written to, or its type is not one laminid writes."""
+
+
+class InputFileError(LaminidError):
+    """A file named on the command line to be read is missing or is a folder."""

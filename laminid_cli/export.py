@@ -67,8 +67,9 @@ def read_shapes(path, specimen: str | None = None) -> PlateShapes:
     if fmt == "laminid-joint-result":
         names = sorted(k for k in plates if not k.startswith("@"))
         if specimen not in names:
-            raise ExportError(f"{path}: a joint result of {len(names)} plates; choose one with "
-                              f"--specimen ({', '.join(names)})")
+            which = "" if specimen is None else f", none named {specimen!r}"
+            raise ExportError(f"{path}: a joint result of {len(names)} plates{which}; choose "
+                              f"one with --specimen ({', '.join(names)})")
         data = plates[specimen]
     elif specimen is not None and specimen != data["specimen"]["@attrs"].get("name"):
         raise ExportError(f"{path}: holds specimen {data['specimen']['@attrs'].get('name')!r}, "

@@ -253,7 +253,7 @@ def test_usage_errors_exit_2(tmp_path):
     assert r.exit_code == 2 and "mesh '0x3' not understood" in r.output
     assert not (tmp_path / "o").exists()
     r = run("batch", tmp_path / "missing")
-    assert r.exit_code == 2 and "does not exist" in r.output
+    assert r.exit_code == 2 and "missing: no such file or folder" in r.output
     (tmp_path / "file").write_text("x")
     r = run("batch", SPECS["example2/S2.1.yaml"], "--out", tmp_path / "file")
     assert r.exit_code == 2
@@ -604,3 +604,102 @@ def test_table_marks_fixed_bound_and_undetermined_values():
     legend = [ln for ln in format_table([row]).splitlines() if "not identified" in ln]
     assert legend == ["= fixed at its initial value — not identified (--fix, --fix-undetermined "
                       "or the file's 'fixed')"]
+
+
+def test_summary_json_finds_its_results_after_the_folder_moves_and_from_elsewhere(
+        tmp_path, monkeypatch):
+    """summary.json gives each result file relative to its own folder (as summary.csv does),
+    so a summary moved with its folder, or read from another directory by a plain json.load,
+    still finds every result; summaries written before (paths as the batch saw them, relative
+    to its current folder) are still read right, subfolders included."""
+    work = tmp_path / "work"
+    make_tree(work / "specs")
+    monkeypatch.chdir(work)
+    r = run("batch", "specs", "--mesh", MESH, "--out", "res", "--json")
+    assert r.exit_code == 0, r.output
+    doc = json.loads((work / "res" / "summary.json").read_text())
+    assert doc["result_paths"] == "relative to this file's folder"
+    assert [row["result"] for row in doc["specimens"]] == [
+        "example1/S1.4.result.h5", "example2/S2.1.result.h5"]
+    # the --json on stdout, for the shell that ran the batch: as the batch saw them
+    printed = json.loads(r.stdout)
+    assert "result_paths" not in printed and [row["result"] for row in printed["specimens"]] \
+        == ["res/example1/S1.4.result.h5", "res/example2/S2.1.result.h5"]
+    # moved with its folder and read from another directory
+    shutil.move(work / "res", tmp_path / "archive")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    summary = Path("..") / "archive" / "summary.json"
+    doc = json.loads(summary.read_text())
+    for row in doc["specimens"]:
+        with h5py.File(summary.parent / row["result"], "r") as f:
+            assert f.attrs["batch_name"] == row["name"]
+    rows = read_summary(summary)
+    assert [Path(row["result"]).resolve() for row in rows] == [
+        (tmp_path / "archive" / rel).resolve()
+        for rel in ("example1/S1.4.result.h5", "example2/S2.1.result.h5")]
+    # a summary of the earlier layout: paths relative to the batch's current folder
+    old = json.loads(summary.read_text())
+    old.pop("result_paths", None)
+    for row in old["specimens"]:
+        row["result"] = "res/" + row["result"]
+    old["out"] = "res"
+    (tmp_path / "archive" / "old.json").write_text(json.dumps(old))
+    rows = read_summary(Path("..") / "archive" / "old.json")
+    assert [Path(row["result"]).resolve() for row in rows] == [
+        (tmp_path / "archive" / rel).resolve()
+        for rel in ("example1/S1.4.result.h5", "example2/S2.1.result.h5")]
+    # ... absolute, the folder moved since
+    old["out"] = str(work / "res")
+    for row in old["specimens"]:
+        row["result"] = str(work / row["result"])
+    (tmp_path / "archive" / "old.json").write_text(json.dumps(old))
+    rows = read_summary(Path("..") / "archive" / "old.json")
+    assert [Path(row["result"]).resolve() for row in rows] == [
+        (tmp_path / "archive" / rel).resolve()
+        for rel in ("example1/S1.4.result.h5", "example2/S2.1.result.h5")]
+    # ... and from the folder the batch ran in, where its paths are right as they are
+    old["out"] = "archive"
+    for row in old["specimens"]:
+        row["result"] = "archive" + row["result"][len(str(work / "res")):]
+    (tmp_path / "archive" / "old.json").write_text(json.dumps(old))
+    monkeypatch.chdir(tmp_path)
+    assert [row["result"] for row in read_summary(Path("archive") / "old.json")] == [
+        "archive/example1/S1.4.result.h5", "archive/example2/S2.1.result.h5"]
+
+
+def test_out_may_be_the_specimens_own_folder(tmp_path, monkeypatch):
+    """--out naming the input folder itself (results beside the specimens, as identify writes
+    them) identifies its specimens; it said "no specimen file found" (the output folder's
+    files are not read as specimens, and that folder was the input). A yaml inside an --out
+    below the inputs is still not taken for a specimen."""
+    specs = make_tree(tmp_path / "specs")
+    r = run("batch", specs, "--mesh", MESH, "--out", specs)
+    assert r.exit_code == 0, r.output
+    assert "2 specimens, 0 up to date, 2 to identify" in r.output
+    for rel in SPECS:
+        with h5py.File(specs / rel.replace(".yaml", ".result.h5"), "r") as f:
+            assert f.attrs["batch_name"] == rel[:-5]
+    monkeypatch.chdir(specs / "example1")
+    r = run("batch", ".", "--mesh", MESH, "--out", ".")
+    assert r.exit_code == 0, r.output
+    assert "1 specimen, 1 up to date, 0 to identify" in r.output     # the same file
+    assert (specs / "example1" / "S1.4.result.h5").is_file()
+    # an --out below the inputs: a yaml there is not a specimen
+    (specs / "res").mkdir()
+    shutil.copy(specs / "example2" / "S2.1.yaml", specs / "res" / "copy.yaml")
+    assert [name for _, name in discover_specimens([specs], exclude=[specs / "res"])] == [
+        "example1/S1.4", "example2/S2.1"]
+
+
+def test_quiet_batch_writes_nothing_but_errors_on_stderr(tmp_path):
+    """laminid -q: "only errors on stderr"; the batch still wrote its count line and its
+    progress label there. The table stays on stdout, a failing specimen's line too."""
+    specs = make_tree(tmp_path / "specs")
+    r = run("-q", "batch", specs, "--mesh", MESH, "--out", tmp_path / "out")
+    assert r.exit_code == 0, r.output
+    assert r.stderr == ""
+    assert "0 ok, 2 check (0 not converged), 0 failed" in r.stdout
+    r = run("batch", specs, "--mesh", MESH, "--out", tmp_path / "out")
+    assert r.stderr == "2 specimens, 2 up to date, 0 to identify\n"          # without -q

@@ -149,7 +149,12 @@ def test_export_frfs_as_uff58_keeps_numbers_units_and_point_numbering(tmp_path, 
     assert [s["type"] for s in sets] == [58] * 5
     for k, s in enumerate(sets):
         assert s["func_type"] == 4 and s["rsp_node"] == int(LABELS[k]) and s["rsp_dir"] == 3
-        assert s["ordinate_axis_units_lab"].strip() == "Pa/N"
+        # the response over the force, each with its unit and UFF specific data type (15
+        # pressure, 13 excitation force; it said 12 acceleration with the whole unit "Pa/N"
+        # as the ordinate's and no denominator)
+        assert s["ordinate_axis_units_lab"].strip() == "Pa"
+        assert s["orddenom_axis_units_lab"].strip() == "N"
+        assert s["ordinate_spec_data_type"] == 15 and s["orddenom_spec_data_type"] == 13
         assert s["abscissa_axis_units_lab"].strip() == "Hz"
         np.testing.assert_array_equal(s["data"], case.frf[k])     # binary 58b: lossless
         np.testing.assert_array_equal(s["x"], case.freq)
@@ -250,6 +255,10 @@ def test_export_one_plate_of_a_joint_result(tmp_path):
     r = run(["export", str(path), "-o", str(out)])
     assert r.exit_code == 2 and "a joint result of 2 plates; choose one with --specimen (A, B)" \
         in r.output
+    r = run(["export", str(path), "-o", str(out), "--specimen", "C"])
+    assert r.exit_code == 2 and r.output == (
+        f"laminid: error: {path}: a joint result of 2 plates, none named 'C'; choose one with "
+        "--specimen (A, B)\n")
     r = run(["export", str(path), "-o", str(out), "--specimen", "B", "--json"])
     assert r.exit_code == 0, r.output
     import pyuff
@@ -264,3 +273,119 @@ def test_a_laminid_result_given_as_frfs_is_named_for_what_it_is(modes_file):
     r = run(["fit-frf", str(modes_file)])
     assert r.exit_code == 2
     assert "a laminid-modes file (results of laminid), not FRFs" in r.output
+
+
+@pytest.mark.parametrize("ordinate, denominator, units", [
+    ("m/s^2", "N", "m/s^2/N"),          # another tool: the response over the force
+    ("Pa", "N", "Pa/N"),
+    ("Pa/N", "NONE", "Pa/N"),           # laminid's own export: the whole unit, no denominator
+    ("Pa/N", "", "Pa/N"),
+    ("m/s^2/N", "N", "m/s^2/N"),        # the whole unit and the denominator again
+])
+def test_uff58_units_are_the_ordinate_over_its_denominator(tmp_path, case, ordinate,
+                                                           denominator, units):
+    """A UFF 58 FRF's unit is its ordinate's over its denominator's (record 10 and 11 of the
+    header): an accelerance of another tool, "m/s^2" over "N", is m/s^2/N, not m/s^2."""
+    import pyuff
+
+    sets = [pyuff.prepare_58(binary=0, func_type=4, rsp_node=k + 1, rsp_dir=3, ref_node=1,
+                             ref_dir=3, x=case.freq, data=case.frf[k], id1="FRF",
+                             abscissa_spec_data_type=18, ordinate_spec_data_type=12,
+                             orddenom_spec_data_type=13, ordinate_axis_units_lab=ordinate,
+                             orddenom_axis_units_lab=denominator, abscissa_axis_units_lab="Hz")
+            for k in range(2)]
+    p = tmp_path / "other.uff"
+    pyuff.UFF(str(p)).write_sets(sets, mode="add")
+    assert io.read_frf(p).units == units
+    r = run(["fit-frf", str(p), "--json"])
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["units"] == units
+
+
+@pytest.mark.parametrize("name", ["plate.csv", "plate.h5", "plate.txt", "plate"])
+def test_export_refuses_an_output_it_would_not_write_as_named(tmp_path, numbered, modes_file,
+                                                              name):
+    """export writes Universal Files only: an output named .csv or .h5 got a binary UFF under
+    that name (which no CSV reader, nor laminid itself by its suffix, reads as such)."""
+    for source in (numbered, modes_file):
+        out = tmp_path / name
+        r = run(["export", str(source), "-o", str(out)])
+        assert r.exit_code == 2
+        assert r.output == (f"laminid: error: {out}: export writes Universal Files; name the "
+                            "output .uff or .unv (-o)\n")
+        assert not out.exists()
+
+
+@pytest.mark.parametrize("units, ordinate, ord_type, denominator, den_type", [
+    ("m/s^2/N", "m/s^2", 12, "N", 13),
+    ("m/s/N", "m/s", 11, "N", 13),
+    ("m/N", "m", 8, "N", 13),
+    ("Pa/N", "Pa", 15, "N", 13),
+    ("V/V", "V", 0, "V", 0),               # an analyser's voltage ratio: types unknown
+    ("1", "1", 0, "NONE", 0),
+])
+def test_uff58_export_writes_the_response_and_force_units_apart(tmp_path, case, units,
+                                                                ordinate, ord_type,
+                                                                denominator, den_type):
+    import pyuff
+
+    fs = FrfSet(freq=case.freq, frf=case.frf[:1], labels=("1",), units=units)
+    out = io.write_frf_uff(tmp_path / "x.uff", fs)
+    s = pyuff.UFF(str(out)).read_sets(0)
+    assert (s["ordinate_axis_units_lab"].strip(), s["ordinate_spec_data_type"],
+            s["orddenom_axis_units_lab"].strip(), s["orddenom_spec_data_type"]) == (
+        ordinate, ord_type, denominator, den_type)
+    assert io.read_frf(out).units == units                 # and laminid reads it back
+
+
+def test_uff58_re_exported_keeps_its_nodes_and_directions(tmp_path, case):
+    """A UFF of another tool, points 10..13 (one measured in -Z), exported again: the same
+    response nodes and directions (it renumbered them 1..4, all +Z: point 1 then stood on the
+    reference node 1, a driving point it is not)."""
+    import pyuff
+
+    nodes, dirs = (10, 11, 12, 13), (3, 3, -3, 3)
+    sets = [pyuff.prepare_58(binary=0, func_type=4, rsp_node=n, rsp_dir=d, ref_node=1,
+                             ref_dir=3, x=case.freq, data=case.frf[k], id1="FRF",
+                             abscissa_spec_data_type=18, ordinate_spec_data_type=12,
+                             orddenom_spec_data_type=13, ordinate_axis_units_lab="m/s^2",
+                             orddenom_axis_units_lab="N")
+            for k, (n, d) in enumerate(zip(nodes, dirs))]
+    src = tmp_path / "other.uff"
+    pyuff.UFF(str(src)).write_sets(sets, mode="add")
+    out = tmp_path / "again.uff"
+    r = run(["export", str(src), "-o", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["points"] == {"10+Z": 10, "11+Z": 11, "12-Z": 12, "13+Z": 13}
+    back = [s for s in pyuff.UFF(str(out)).read_sets() if s["type"] == 58]
+    assert [(s["rsp_node"], s["rsp_dir"], s["ref_node"], s["ref_dir"]) for s in back] == [
+        (n, d, 1, 3) for n, d in zip(nodes, dirs)]
+    read = [s for s in pyuff.UFF(str(src)).read_sets() if s["type"] == 58]
+    for s, t in zip(back, read):
+        np.testing.assert_array_equal(s["data"], t["data"])           # binary 58b: lossless
+    assert io.read_frf(out).labels == ("10+Z", "11+Z", "12-Z", "13+Z")
+
+
+def test_roving_hammer_uff_keeps_its_reference_nodes(tmp_path, case):
+    """A roving-hammer test: one response node (the sensor), the reference (hammer) node
+    changing. Each FRF was labelled by its response alone, all "5+Z", and export wrote them
+    all as 5 over reference 1: the hammer points were lost. The label now names the
+    reference too where the references differ, and export keeps both."""
+    import pyuff
+
+    sets = [pyuff.prepare_58(binary=0, func_type=4, rsp_node=5, rsp_dir=3, ref_node=k + 1,
+                             ref_dir=3 if k else -3, x=case.freq, data=case.frf[k], id1="FRF",
+                             abscissa_spec_data_type=18, ordinate_spec_data_type=12,
+                             orddenom_spec_data_type=13)
+            for k in range(3)]
+    src = tmp_path / "roving.uff"
+    pyuff.UFF(str(src)).write_sets(sets, mode="add")
+    fs = io.read_frf(src)
+    assert fs.labels == ("5+Z:1-Z", "5+Z:2+Z", "5+Z:3+Z")
+    out = tmp_path / "again.uff"
+    r = run(["export", str(src), "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    back = [s for s in pyuff.UFF(str(out)).read_sets() if s["type"] == 58]
+    assert [(s["rsp_node"], s["rsp_dir"], s["ref_node"], s["ref_dir"]) for s in back] == [
+        (5, 3, 1, -3), (5, 3, 2, 3), (5, 3, 3, 3)]
+    assert io.read_frf(out).labels == fs.labels

@@ -704,12 +704,54 @@ def test_output_that_is_not_a_regular_file_is_never_replaced(tmp_path):
     assert r.exit_code == 2 and "is a named pipe (FIFO), not a file" in r.output
     assert stat.S_ISFIFO(fifo.stat().st_mode)
     r = run("modes", S11, "--mesh", "6x6", "-o", tmp_path, "--force")
-    assert r.exit_code == 2 and "is a directory" in r.output     # click's own check
+    assert r.exit_code == 2 and f"{tmp_path}: is a folder, not a file" in r.output
     r = run("identify", S11, "-o", "")
     assert r.exit_code == 2 and "-o: the file name is empty" in r.output
     r = run("identify", S11, "-o", Path(S11) / "out.h5")
     assert r.exit_code == 2 and f"{S11} is not a folder" in r.output
     assert "Traceback" not in r.output
+
+
+@pytest.mark.parametrize("args, option", [
+    (["modes", S11, "-o", "{folder}"], "-o"),
+    (["identify", S11, "-o", "{folder}"], "-o"),
+    (["export", S11, "-o", "{folder}"], "-o"),
+    (["report", S11, "-o", "{folder}"], "-o"),
+    (["fit-frf", S11, "--plot", "{folder}"], "--plot"),
+    (["acquire", "--analyser", "GPIB0::5", "-o", "{folder}"], "-o"),
+])
+def test_output_naming_a_folder_is_refused_in_laminids_format(tmp_path, args, option):
+    """A folder named as the output file: laminid's one line (the file, what is wrong, the
+    option to change), exit 2, before any work; not click's usage text ("Invalid value")."""
+    folder = tmp_path / "out"
+    folder.mkdir()
+    r = run(*[str(a).format(folder=folder) for a in args])
+    assert r.exit_code == 2
+    assert r.stderr == (f"laminid: error: {folder}: is a folder, not a file: laminid writes its "
+                        f"results to regular files only; choose another name with {option}\n")
+    assert r.stdout == "" and folder.is_dir() and not any(folder.iterdir())
+
+
+@pytest.mark.parametrize("args, line", [
+    (["modes", "{folder}"], "{folder}: is a folder, not a file"),
+    (["identify", "{folder}", "--no-output"], "{folder}: is a folder, not a file"),
+    (["fit-frf", "{folder}"], "{folder}: is a folder, not a file"),
+    (["export", "{folder}", "-o", "{tmp}/x.uff"], "{folder}: is a folder, not a file"),
+    (["report", "{folder}"], "{folder}: is a folder, not a file"),
+    (["report", "{tmp}/missing.h5"], "{tmp}/missing.h5: file not found"),
+    (["fit-frf", S11, "--into", "{folder}"],
+     "{folder}: is a folder, not a specimen file (--into needs an existing specimen file)"),
+    (["batch", "{tmp}/missing"], "{tmp}/missing: no such file or folder"),
+    (["batch", S11, "--out", S11], f"--out {S11}: exists and is not a folder"),
+])
+def test_input_file_that_is_a_folder_or_missing_is_refused_in_laminids_format(tmp_path, args,
+                                                                               line):
+    folder = tmp_path / "in"
+    folder.mkdir()
+    r = run(*[str(a).format(folder=folder, tmp=tmp_path) for a in args])
+    assert r.exit_code == 2
+    assert r.stderr == f"laminid: error: {line.format(folder=folder, tmp=tmp_path)}\n"
+    assert r.stdout == ""
 
 
 def test_output_through_a_symbolic_link_writes_its_target(tmp_path):

@@ -210,3 +210,23 @@ def test_max_evaluations_holds_across_re_anchoring_passes(solver):
             "--max-evaluations", "30", "--json", "--no-output")
     d = json.loads(r.stdout)
     assert d["evaluations"] <= 30 and d["converged"] is False and r.exit_code == 1
+
+
+def test_quiet_identify_keeps_its_notes_off_stderr(tmp_path):
+    """laminid -q: only errors on stderr; identify's notes (here: the measured damping is not
+    used with --joint) still went there. Without -q they do."""
+    specs = []
+    for name in ("S1.1", "S1.2"):
+        text = open(f"specimens/example1/{name}.yaml", encoding="utf-8").read()
+        n = len(re.search(r"frequencies: \[([^\]]*)\]", text).group(1).split(","))
+        text = text.replace("measured:\n", "measured:\n  damping: [" +
+                            ", ".join(["0.01"] * n) + "]\n", 1)
+        specs.append(tmp_path / f"{name}.yaml")
+        specs[-1].write_text(text, encoding="utf-8")
+    args = ["identify", *specs, "--joint", "--mesh", "4x4", "--no-output"]
+    r = run(*args)
+    assert r.exit_code == 0, r.output
+    assert "laminid: note: the measured damping is not used with --joint" in r.stderr
+    r = run("-q", *args)
+    assert r.exit_code == 0, r.output
+    assert r.stderr == "" and "E1" in r.stdout

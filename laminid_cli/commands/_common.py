@@ -57,6 +57,39 @@ class TrialCount(click.IntRange):
 SIGMA_REL = FiniteFloat(min=0, max=0.5, min_open=True, max_open=True)
 
 
+class InputFile(click.Path):
+    """A file to read, named on the command line: refused in laminid's one-line format
+    (``laminid: error: <file>: ...``, exit 2) when it is a folder, or (``must_exist``) missing,
+    not with click's usage text. (Without ``must_exist`` the reader says "file not found",
+    after what it can tell from the name alone.)"""
+
+    def __init__(self, must_exist: bool = False):
+        super().__init__()
+        self.must_exist = must_exist
+
+    def convert(self, value, param, ctx):
+        from laminid_cli.errors import InputFileError
+
+        value = super().convert(value, param, ctx)
+        path = Path(value)
+        if path.is_dir():
+            raise InputFileError(f"{value}: is a folder, not a file")
+        if self.must_exist and not path.exists():
+            raise InputFileError(f"{value}: file not found")
+        return value
+
+
+#: a file to write, named on the command line: click checks nothing, the command refuses a
+#: folder or a file it must not replace in laminid's format (:func:`check_output_path`)
+OUTPUT_FILE = click.Path()
+
+
+def quiet() -> bool:
+    """True under ``laminid -q`` (only errors on stderr: no count lines, no progress)."""
+    ctx = click.get_current_context(silent=True)
+    return bool(ctx is not None and ctx.find_root().params.get("quiet"))
+
+
 json_option = click.option(
     "--json", "as_json", is_flag=True,
     help="Print the results as JSON on stdout (SI units, frequencies in Hz) instead of tables.")

@@ -15,7 +15,8 @@ from pathlib import Path
 
 import click
 
-from laminid_cli.commands._common import FiniteFloat, check_output_path, force_option
+from laminid_cli.commands._common import (OUTPUT_FILE, FiniteFloat, check_output_path,
+                                          force_option, writable_target)
 
 
 class _ClickUI:
@@ -154,7 +155,7 @@ def _resume_command(params: dict, output: Path) -> str:
               help="Print a JSON summary on stdout (file, points saved and missing, the "
                    "quality of each point measured in this run); the quality lines go to "
                    "stderr. Printed also when points are missing (exit 3).")
-@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
+@click.option("-o", "--output", required=True, type=OUTPUT_FILE,
               help="FRF HDF5 file to write (point by point).")
 @click.pass_context
 def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, averages,
@@ -192,6 +193,7 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
         raise AnalyserSetupError("--visa-backend: empty; give @py, @ivi or file.yaml@sim, or "
                                  "leave the option out")
     out = Path(output)
+    writable_target(out)                   # a folder is refused, --resume or not
     units = units or "V/V"
     if resume and not out.exists():
         # scripts may pass --resume every time: a new file, said so (not silently)

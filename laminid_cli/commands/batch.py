@@ -5,14 +5,14 @@ from __future__ import annotations
 import click
 
 from laminid_cli.commands._common import (echo_json, fit_options, json_option,
-                                          pass_run_options, uncertainty_options)
+                                          pass_run_options, quiet, uncertainty_options)
 
 
 @click.command(short_help="Identify many specimens in parallel, with a summary table.")
-@click.argument("inputs", nargs=-1, required=True, type=click.Path(exists=True))
+@click.argument("inputs", nargs=-1, required=True, type=click.Path())
 @click.option("-j", "--jobs", "n_jobs", type=click.IntRange(min=1), default=1, show_default=True,
               help="Worker processes (Dask workers with --scheduler local).")
-@click.option("--out", "out_dir", type=click.Path(file_okay=False), default="laminid-results",
+@click.option("--out", "out_dir", type=click.Path(), default="laminid-results",
               show_default=True, help="Folder of the result files and summary.csv/.json.")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run on Dask: 'local' starts a local cluster of -j workers, "
@@ -81,7 +81,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
     todo = [j for j in jobs if not j.up_to_date]
     rows = {j.name: result_row(j, cached=True) for j in jobs
             if j.up_to_date}
-    if not as_json:
+    shown = not quiet()                    # -q: only errors on stderr
+    if not as_json and shown:
         unit = "worker" if scheduler else "process"
         unit = unit if n_jobs == 1 else unit + ("s" if scheduler else "es")
         click.echo(f"{len(jobs)} specimen{'' if len(jobs) == 1 else 's'}, "
@@ -101,16 +102,17 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
     finished = 0
     refused = False
     try:
-        # no bar (not even its label) when every result is up to date
+        # no bar (not even its label) when every result is up to date, nor under -q
         with click.progressbar(length=len(todo), label="identifying", file=sys.stderr,
-                               item_show_func=show, show_pos=True) if todo else \
+                               item_show_func=show, show_pos=True) if todo and shown else \
                 contextlib.nullcontext() as bar:
             for job, outcome in run_jobs(todo, options, n_jobs=n_jobs, scheduler=scheduler):
                 if outcome.data is not None:
                     write_bytes_atomic(job.output, outcome.data, parents=True)
                 rows[job.name] = result_row(job, outcome)
                 finished += 1
-                bar.update(1, printable(f"{job.name}: {outcome.status}"))
+                if bar is not None:
+                    bar.update(1, printable(f"{job.name}: {outcome.status}"))
     except BatchError:   # e.g. --scheduler unreachable: nothing ran, so nothing is written
         refused = finished == 0
         raise

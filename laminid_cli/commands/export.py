@@ -4,7 +4,11 @@ from __future__ import annotations
 
 import click
 
-from laminid_cli.commands._common import check_output_path, echo_json, force_option, json_option
+from laminid_cli.commands._common import (OUTPUT_FILE, InputFile, check_output_path, echo_json,
+                                          force_option, json_option, writable_target)
+
+#: the suffixes of the Universal Files export writes (those the FRF reader takes for UFF)
+UFF_SUFFIXES = (".uff", ".unv")
 
 
 def _shape_format(path) -> str | None:
@@ -24,8 +28,8 @@ def _shape_format(path) -> str | None:
 
 
 @click.command("export")
-@click.argument("input_file", type=click.Path(dir_okay=False))
-@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
+@click.argument("input_file", type=InputFile())
+@click.option("-o", "--output", required=True, type=OUTPUT_FILE,
               help="Universal File to write (.uff or .unv).")
 @click.option("--ascii", "ascii_", is_flag=True,
               help="FRFs: write ASCII UFF 58 (12 significant digits) instead of binary 58b "
@@ -47,8 +51,10 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
     \b
     INPUT_FILE is either
       - FRFs (laminid acquire file, plain HDF5, UFF 58 or CSV): written as one UFF 58 record
-        per measurement point, response node = point number (label), direction +Z, reference
-        node 1 +Z, abscissa Hz, ordinate units as in the file (e.g. Pa/N);
+        per measurement point, response node = point number (label), direction +Z,
+        reference node 1 +Z (a UFF label such as 12-Z, or 5+Z:2+Z of a roving hammer: its
+        nodes and directions), abscissa Hz, the file's units as the response's over the force's
+        (Pa/N: ordinate Pa, pressure, over N, excitation force);
       - a result of identify/batch/modes: the plate mesh as UFF 15 nodes (metres, UFF 164
         units SI) and each mode as a UFF 55 normal-mode record (0, 0, w0) at the nodes,
         w0 of the mass-normalised mode in m/sqrt(kg), with its natural frequency.
@@ -61,8 +67,13 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
     """
     from pathlib import Path
 
+    from laminid_cli.errors import OutputExistsError
     from laminid_cli.export import ExportError
 
+    writable_target(output)                # a folder...: said first
+    if Path(output).suffix.lower() not in UFF_SUFFIXES:
+        raise OutputExistsError(f"{output}: export writes Universal Files; name the output "
+                                f"{' or '.join(UFF_SUFFIXES)} (-o)")
     out = check_output_path(output, force, inputs=[input_file])
     shape_format = _shape_format(input_file) if Path(input_file).is_file() else None
     # an option that does not apply to this input is a mistake, not something to ignore
@@ -71,10 +82,10 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
                               (frf_dataset, "--frf-dataset")):
             if given is not None:
                 raise ExportError(f"{input_file}: holds mode shapes (a {shape_format} file); "
-                                   f"{option} applies to FRF input only")
+                                  f"{option} applies to FRF input only")
     elif specimen is not None:
         raise ExportError(f"{input_file}: holds FRFs; --specimen picks the plate of a joint "
-                           "result (mode shapes)")
+                          "result (mode shapes)")
     if shape_format is not None:
         from laminid_cli.export import read_shapes, write_shapes_uff
 
@@ -87,12 +98,12 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
         text = (f"{out}: {summary['n_modes']} mode shapes of {shapes.specimen} (UFF 55) on "
                 f"{summary['n_nodes']} nodes (UFF 15, metres; UFF 164 SI)")
     else:
-        from laminid_cli.frf.io import read_frf, write_frf_uff
+        from laminid_cli.frf.io import read_frf, uff_point, write_frf_uff
 
         fs = read_frf(input_file, fmt, freq_dataset=freq_dataset, frf_dataset=frf_dataset)
         write_frf_uff(out, fs, overwrite=force, binary=not ascii_)
         labels = list(fs.labels) or [str(i + 1) for i in range(fs.n_points)]
-        nodes = [int(lab) if lab.isdigit() else i + 1 for i, lab in enumerate(labels)]
+        nodes = [uff_point(lab, i)[0] for i, lab in enumerate(labels)]
         summary = {"input": str(input_file), "output": str(out), "kind": "FRF",
                    "datasets": {"58": fs.n_points}, "binary": not ascii_, "units": fs.units,
                    "n_lines": int(fs.freq.size), "points": dict(zip(labels, nodes))}

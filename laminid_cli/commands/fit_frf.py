@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import click
 
-from laminid_cli.commands._common import (SIGMA_REL, check_output_path, echo_json,
-                                          force_option, json_option)
+from laminid_cli.commands._common import (OUTPUT_FILE, SIGMA_REL, InputFile, check_output_path,
+                                          echo_json, force_option, json_option,
+                                          writable_target)
 
 
 def _parse_bands(ctx, param, values):
@@ -23,7 +24,7 @@ def _parse_bands(ctx, param, values):
 
 
 @click.command("fit-frf")
-@click.argument("frf_file", type=click.Path(dir_okay=False))
+@click.argument("frf_file", type=InputFile())
 @click.option("--band", "bands", multiple=True, callback=_parse_bands, metavar="LO:HI",
               help="Frequency band in Hz to fit (repeatable). Default: bands around the peaks "
                    "of the summed FRF magnitude.")
@@ -36,9 +37,9 @@ def _parse_bands(ctx, param, values):
 @click.option("--frf-dataset", default=None, metavar="PATH",
               help="Plain HDF5 file: the complex FRF dataset (n_points x n_freq or its "
                    "transpose). Default: found by name, shape and units attributes.")
-@click.option("--plot", "plot_path", type=click.Path(dir_okay=False), default=None,
+@click.option("--plot", "plot_path", type=OUTPUT_FILE, default=None,
               help="Write a figure (PNG/PDF/SVG): FRFs with the fit, poles, stabilisation chart.")
-@click.option("--into", "spec_path", type=click.Path(dir_okay=False), default=None,
+@click.option("--into", "spec_path", type=click.Path(), default=None,
               help="Write the frequencies, their sigmas, the damping ratios (the exponential "
                    "window's damping removed) and their sigmas into this specimen file's "
                    "'measured:' entry (comments kept; the previous version goes to a new "
@@ -82,18 +83,22 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
 
     import numpy as np
 
-    from laminid_cli.errors import SpecimenError
+    from laminid_cli.errors import OutputExistsError, SpecimenError
     from laminid_cli.frf import rfp
     from laminid_cli.frf.io import read_frf
 
     if plot_path is not None:
         from laminid_cli.frf.plot import PLOT_SUFFIXES
 
+        writable_target(plot_path, option="--plot")     # a folder...: said first
         if Path(plot_path).suffix.lower() not in PLOT_SUFFIXES:
-            raise click.BadParameter(f"{plot_path}: plot file type {Path(plot_path).suffix!r} "
-                                     f"not supported; use one of {', '.join(PLOT_SUFFIXES)}",
-                                     param_hint="'--plot'")
+            raise OutputExistsError(f"{plot_path}: plot file type "
+                                    f"{Path(plot_path).suffix!r} not supported; use one of "
+                                    f"{', '.join(PLOT_SUFFIXES)} (--plot)")
         plot_path = check_output_path(plot_path, force, option="--plot")
+    if spec_path is not None and Path(spec_path).is_dir():
+        raise SpecimenError("is a folder, not a specimen file (--into needs an existing "
+                            "specimen file)", path=spec_path)
     if spec_path is not None and not Path(spec_path).is_file():
         raise SpecimenError("file not found (--into needs an existing specimen file)",
                             path=spec_path)

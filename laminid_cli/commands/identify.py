@@ -6,9 +6,9 @@ from pathlib import Path
 
 import click
 
-from laminid_cli.commands._common import (echo_json, fit_options, force_option, json_option,
-                                          pass_run_options, result_output,
-                                          uncertainty_options)
+from laminid_cli.commands._common import (OUTPUT_FILE, InputFile, echo_json, fit_options,
+                                          force_option, json_option, pass_run_options, quiet,
+                                          result_output, uncertainty_options)
 from laminid_cli.commands.text import (format_damping, format_identify_report,
                                        format_joint_report)
 
@@ -25,7 +25,7 @@ def default_joint_output(specs) -> Path:
 
 
 @click.command(short_help="Identify ply elastic constants from measured frequencies.")
-@click.argument("specs", nargs=-1, required=True, type=click.Path(dir_okay=False),
+@click.argument("specs", nargs=-1, required=True, type=InputFile(),
                 metavar="SPEC...")
 @fit_options
 @click.option("--joint", is_flag=True,
@@ -36,7 +36,7 @@ def default_joint_output(specs) -> Path:
 @click.option("-j", "--jobs", type=click.IntRange(min=1), default=None,
               help="Processes for the Monte Carlo trials [default: the number of cores].")
 @json_option
-@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
+@click.option("-o", "--output", type=OUTPUT_FILE, default=None,
               help="HDF5 result file, never overwritten without --force [default: SPEC's "
                    "folder, <name>.result.h5; with --joint the first SPEC's folder, "
                    "<name1>+<name2>+....joint.result.h5; a derived file, replaced by each "
@@ -107,7 +107,7 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force):
     out, replacing = ((None, False) if no_output else
                       result_output(output, default, force, None if joint else specs[0],
                                     inputs=specs))
-    show_progress = not as_json and sys.stderr.isatty()
+    show_progress = not as_json and sys.stderr.isatty() and not quiet()
 
     def progress(n, objective, rms):
         if show_progress:
@@ -133,7 +133,7 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force):
             bar.__exit__(None, None, None)
     if show_progress:
         click.echo("", err=True)
-    for note in run.notes:
+    for note in run.notes if not quiet() else ():     # -q: only errors on stderr
         click.echo(f"laminid: note: {note}", err=True)
     summary = dict(run.summary)
     if out is not None:

@@ -6,12 +6,13 @@ import time
 
 import click
 
-from laminid_cli.commands._common import check_output_path, echo_json, force_option, json_option
+from laminid_cli.commands._common import (OUTPUT_FILE, InputFile, check_output_path, echo_json,
+                                          force_option, json_option)
 from laminid_cli.commands.text import format_modes_report
 
 
 @click.command(short_help="Natural frequencies of the plate model vs the measured ones.")
-@click.argument("spec", type=click.Path(dir_okay=False))
+@click.argument("spec", type=InputFile())
 @click.option("--mesh", default="12x12", show_default=True, metavar="NXxNY",
               help="Elements along x (side a) and y (side b).")
 @click.option("--modes", "n_modes", type=click.IntRange(1, 200), default=None,
@@ -20,7 +21,7 @@ from laminid_cli.commands.text import format_modes_report
               help="Override the specimen's boundary: free, simply-supported, clamped, or a "
                    "code of F/S/C for the edges x=0, y=0, x=a, y=b (e.g. SFSF).")
 @json_option
-@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
+@click.option("-o", "--output", type=OUTPUT_FILE, default=None,
               help="Write frequencies and mode shapes to this HDF5 file.")
 @force_option
 def modes(spec, mesh, n_modes, boundary, as_json, output, force):

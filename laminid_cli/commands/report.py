@@ -6,7 +6,8 @@ from pathlib import Path
 
 import click
 
-from laminid_cli.commands._common import check_output_path, force_option, writable_target
+from laminid_cli.commands._common import (OUTPUT_FILE, InputFile, check_output_path,
+                                          force_option, writable_target)
 
 #: what write_pages puts in a PDF's information dictionary
 _CREATOR = b"/Creator (laminid)"
@@ -43,12 +44,12 @@ def derived_report(source: str) -> tuple[Path, bool]:
 
 
 @click.command(short_help="PDF/PNG report of a result file or a batch summary.")
-@click.argument("source", type=click.Path(exists=True, dir_okay=False))
-@click.option("-o", "--output", type=click.Path(dir_okay=False), default=None,
+@click.argument("source", type=InputFile(must_exist=True))
+@click.option("-o", "--output", type=OUTPUT_FILE, default=None,
               help="report.pdf (all pages in one file) or report.png (one PNG per page: "
                    "report-1.png, report-2.png...), never overwritten without --force "
                    "[default: next to SOURCE, <name>.report.pdf, replaced on a re-run].")
-@click.option("--frf", "frf_path", type=click.Path(exists=True, dir_okay=False), default=None,
+@click.option("--frf", "frf_path", type=InputFile(must_exist=True), default=None,
               help="FRF file to draw with its RFP fit (default: the specimen's "
                    "measured.frf_file, when it has one).")
 @click.option("--dpi", type=click.IntRange(50, 600), default=110, show_default=True,
@@ -86,10 +87,12 @@ def report(source, output, frf_path, dpi, force):
     """
     from laminid_cli.report import REPORT_SUFFIXES, ReportError, report_pages, write_pages
 
+    if output:
+        writable_target(output)            # a folder, a missing folder: said first
     out = Path(output) if output else default_output(source)
     if out.suffix.lower() not in REPORT_SUFFIXES:
-        raise click.BadParameter(f"{out}: report type {out.suffix!r} not supported; use .pdf "
-                                 "or .png", param_hint="'-o'")
+        raise ReportError(f"{out}: report type {out.suffix!r} not supported; use .pdf or .png "
+                          "(-o)")
     replacing = False
     if output:
         out = check_output_path(out, force)

@@ -43,6 +43,11 @@ SUFFIXES = {".h5": "hdf5", ".hdf5": "hdf5", ".hdf": "hdf5", ".uff": "uff", ".unv
 #: UFF 58 function types, and the abscissa's specific data type for frequency (Hz)
 UFF_FRF, UFF_COHERENCE = 4, 6
 UFF_ABSCISSA_FREQUENCY = 18
+#: UFF 58 specific data types (record 9/10 of the header) of the response units laminid
+#: writes, and of the force; any other unit is written as 0 (unknown)
+UFF_RESPONSE_TYPES = {"m": 8, "mm": 8, "m/s": 11, "mm/s": 11, "m/s^2": 12, "m/s2": 12,
+                      "g": 12, "Pa": 15, "kPa": 15}
+UFF_FORCE_TYPES = {"N": 13, "kN": 13, "lbf": 13}
 #: text FRF files (UFF, CSV) larger than this are refused before they are read (1 GB: the
 #: 50 million values of MAX_FRF_VALUES at ~20 characters each)
 MAX_TEXT_FILE_BYTES = 1_000_000_000
@@ -237,12 +242,27 @@ def read_frf_uff(path) -> FrfSet:
     coherence = None
     if coh_by_dof:
         coherence = np.array([coh_by_dof.get(dof(d), np.full(freq.size, np.nan)) for d in frfs])
+    # the response DOF, and the reference's where they differ (a roving hammer: "5+Z:2+Z")
+    roving = len({dof(d)[2:] for d in frfs}) > 1
     labels = tuple(f"{d.get('rsp_node', k + 1)}{_dir(d.get('rsp_dir', 0))}"
+                   + (f":{d.get('ref_node', 0)}{_dir(d.get('ref_dir', 0))}" if roving else "")
                    for k, d in enumerate(frfs))
-    units = str(frfs[0].get("ordinate_axis_units_lab", "") or "1").strip() or "1"
+    units = _uff_units(frfs[0])
     freq, frf, coherence = check_frf_arrays(freq, frf, coherence, source=str(path))
     return FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels, units=units,
                   source=str(path), meta={"uff_ids": [str(d.get("id1", "")) for d in frfs]})
+
+
+def _uff_units(d) -> str:
+    """The FRF unit of a type-58 record: its ordinate's unit label over its denominator's
+    ("m/s^2" over "N": "m/s^2/N"); the ordinate's alone where the denominator has none
+    ("NONE", pyuff's default) or the ordinate's already ends with it (laminid's own files
+    write the whole unit there)."""
+    ordinate = str(d.get("ordinate_axis_units_lab", "") or "").strip() or "1"
+    denominator = str(d.get("orddenom_axis_units_lab", "") or "").strip()
+    if denominator.upper() in ("", "NONE") or ordinate.endswith("/" + denominator):
+        return ordinate
+    return f"{ordinate}/{denominator}"
 
 
 def _check_uff_record(path, k: int, d) -> None:
@@ -267,10 +287,29 @@ def _check_uff_record(path, k: int, d) -> None:
                        f"values, {x.size} abscissa values, header says {n})")
 
 
+_DIRECTIONS = {1: "+X", 2: "+Y", 3: "+Z", -1: "-X", -2: "-Y", -3: "-Z"}
+
+
 def _dir(code) -> str:
     code = int(code)
-    names = {1: "+X", 2: "+Y", 3: "+Z", -1: "-X", -2: "-Y", -3: "-Z"}
-    return names.get(code, f"/{code}" if code else "")
+    return _DIRECTIONS.get(code, f"/{code}" if code else "")
+
+
+def uff_point(label: str, k: int, rsp_dir: int = 3, ref: tuple[int, int] = (1, 3)
+              ) -> tuple[int, int, int, int]:
+    """(response node, direction code, reference node, direction code) of the FRF labelled
+    ``label``, the ``k``-th (0-based): a point number ("12") on ``rsp_dir``, a UFF label as
+    :func:`read_frf_uff` makes it ("12+Z", "12-Z", with a roving reference "5+Z:2+Z") on its
+    own DOFs, anything else node k + 1 on ``rsp_dir``; the reference ``ref`` where the label
+    names none."""
+    import re
+
+    m = re.fullmatch(r"\s*(\d+)\s*([+-][XYZ])?\s*(?::\s*(\d+)\s*([+-][XYZ])\s*)?", label)
+    if m is None:
+        return k + 1, rsp_dir, *ref
+    codes = {name: code for code, name in _DIRECTIONS.items()}
+    node = int(m.group(1)), codes[m.group(2)] if m.group(2) else rsp_dir
+    return (*node, int(m.group(3)), codes[m.group(4)]) if m.group(3) else (*node, *ref)
 
 
 def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 1,
@@ -283,17 +322,29 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
     sets = []
     for k in range(fs.n_points):
         label = fs.labels[k] if k < len(fs.labels) else str(k + 1)
-        node = int(label) if label.isdigit() else k + 1
+        node, direction, ref, ref_direction = uff_point(label, k, rsp_dir, (ref_node, ref_dir))
         sets.append(pyuff.prepare_58(
             binary=int(binary), id1=f"FRF {label}", id2="laminid", func_type=UFF_FRF,
-            rsp_node=node, rsp_dir=rsp_dir, ref_node=ref_node, ref_dir=ref_dir,
+            rsp_node=node, rsp_dir=direction, ref_node=ref, ref_dir=ref_direction,
             ord_data_type=6,  # complex double
             abscissa_spacing=1 if np.allclose(np.diff(fs.freq), fs.freq[1] - fs.freq[0]) else 0,
-            abscissa_spec_data_type=UFF_ABSCISSA_FREQUENCY, ordinate_spec_data_type=12,
-            orddenom_spec_data_type=13, ordinate_axis_units_lab=fs.units,
+            abscissa_spec_data_type=UFF_ABSCISSA_FREQUENCY, **_uff_axes(fs.units),
             abscissa_axis_units_lab="Hz",
             data=np.asarray(fs.frf[k], dtype=complex), x=np.asarray(fs.freq, dtype=float)))
     return write_uff_sets(path, sets)
+
+
+def _uff_axes(units: str) -> dict:
+    """The ordinate and denominator fields of a type-58 record of an FRF in ``units``: the
+    response's unit and type over the force's ("Pa/N": Pa, 15 pressure over N, 13 excitation
+    force), split at the last '/'; a unit that is no ratio is the ordinate's, over none. The
+    reader (:func:`_uff_units`) joins them back."""
+    response, sep, force = units.rpartition("/")
+    if not sep or not response or not force:
+        response, force = units, "NONE"
+    return {"ordinate_axis_units_lab": response, "orddenom_axis_units_lab": force,
+            "ordinate_spec_data_type": UFF_RESPONSE_TYPES.get(response, 0),
+            "orddenom_spec_data_type": UFF_FORCE_TYPES.get(force, 0)}
 
 
 def write_uff_sets(path: Path, sets, error: type[LaminidError] = FrfError) -> Path:
