@@ -71,10 +71,10 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
     from laminid_cli.export import ExportError
 
     writable_target(output)                # a folder...: said first
+    out = check_output_path(output, force, inputs=[input_file])     # the input itself: next
     if Path(output).suffix.lower() not in UFF_SUFFIXES:
         raise OutputExistsError(f"{output}: export writes Universal Files; name the output "
                                 f"{' or '.join(UFF_SUFFIXES)} (-o)")
-    out = check_output_path(output, force, inputs=[input_file])
     shape_format = _shape_format(input_file) if Path(input_file).is_file() else None
     # an option that does not apply to this input is a mistake, not something to ignore
     if shape_format is not None:
