@@ -492,3 +492,15 @@ def test_output_through_a_symbolic_link_keeps_the_link(tmp_path, hp):
     r = acquire(hp, link, "--no-prompt")
     assert r.exit_code == 0, r.output
     assert link.is_symlink() and read_frf_h5(target).n_points == read_frf_h5(link).n_points > 0
+
+
+def test_an_exponential_window_that_would_zero_the_response_is_refused(tmp_path, hp):
+    """--exp-window 1e-9 s on a 0.5 s record (800 lines / 1600 Hz) was accepted and zeroed
+    the response (fit-frf then found no peak); under a thousandth of the record it is refused
+    before any point is measured, naming the record."""
+    out = tmp_path / "w.h5"
+    r = acquire(hp, out, "--no-prompt", "--exp-window", "1e-9")
+    assert r.exit_code == 2, r.output
+    assert "exp window 1e-09 s is under a thousandth of the time record (0.5 s" in r.stderr
+    assert not out.exists()
+    assert acquire(hp, out, "--no-prompt", "--exp-window", "0.0005").exit_code == 0

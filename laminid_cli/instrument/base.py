@@ -174,6 +174,14 @@ class Analyser:
                 raise AnalyserSetupError(f"{name.replace('_s', '').replace('_', ' ')} "
                                          f"{v:g} s must be within the time record "
                                          f"(0-{s.record_s:g} s = lines/span)")
+        # a time constant under a thousandth of the record multiplies its end by e^-1000 and
+        # the response's first millisecond by e^-1 already: the FRF is zeroed, and the
+        # window's damping 1/(2 pi f tau) buries every mode (fit-frf then finds no peak)
+        if s.exp_window_s < s.record_s / 1000:
+            raise AnalyserSetupError(
+                f"exp window {s.exp_window_s:g} s is under a thousandth of the time record "
+                f"({s.record_s:g} s = lines/span): it would zero the response; typical time "
+                f"constants are a quarter of the record or more ({s.record_s / 4:g} s)")
 
     # ------------------------------------------------------------------ actions
     def configure(self, settings: AcquisitionSettings) -> None:  # pragma: no cover
