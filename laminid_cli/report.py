@@ -610,14 +610,16 @@ def _panel_limits(v, lo, hi, ref, weak, nu: bool):
     return ymin, ymax
 
 
-def _bound_limits(v, side: str, ref, nu: bool):
+def _bound_limits(v, side: str, ref, nu: bool, profile=np.nan):
     """(ymin, ymax) of the panel of a constant at its bound: room on the side the data push
-    it to (where the one-sided statement points), and the reference in view."""
+    it to (where the one-sided statement points), the reference and the profile's bound (where
+    the fit rejects it, display unit) in view."""
     half = max(0.6 * abs(v), 0.1 if nu else 1e-12)
     ymin, ymax = (v - half, v + 0.35 * half) if side == "lower" else (v - 0.35 * half, v + half)
-    if ref is not None and np.isfinite(ref):
-        pad = 0.1 * max(abs(ref - v), half)
-        ymin, ymax = min(ymin, ref - pad), max(ymax, ref + pad)
+    for other in (ref, profile):
+        if other is not None and np.isfinite(other):
+            pad = 0.1 * max(abs(other - v), half)
+            ymin, ymax = min(ymin, other - pad), max(ymax, other + pad)
     if not nu and (ymin < 0 or side == "lower"):   # a modulus below its limit: 0 .. limit
         ymin = 0.0
     return ymin, ymax
@@ -639,7 +641,13 @@ def _bound_panel(ax, k, v, iv, x, ymin, ymax):
     words = f"stopped on the {side} search limit: no interval"
     pb = getattr(iv, "profile_bound", np.nan)
     if np.isfinite(pb):
-        words += f"; profile: {'<' if side == 'lower' else '>'} {fmt_value(k, pb)}"
+        # the values the fit does not reject: from the limit to the profile's bound
+        y = _gpa(k, pb)
+        ax.plot([x, x], [v, y], ls=(0, (1, 1.5)), color=INTERVAL_COLOR, lw=2.5, gid="profile")
+        ax.plot([x], [y], "_", ms=14, mew=2.5, color=INTERVAL_COLOR, gid="profile-cap")
+        ax.annotate(f"profile\n{'<' if y > v else '>'} {fmt_value(k, pb)}", (x, y),
+                    xytext=(6, 0), textcoords="offset points", fontsize=6.5, va="center",
+                    ha="left", color=INTERVAL_COLOR, gid="profile-label")
     elif getattr(iv, "profile_text", "").startswith("the fit is as good"):
         words += "; profile: flat to the other limit"
     ax.annotate("\n".join(textwrap.wrap(words, 12)), (x, (v + edge) / 2), xytext=(5, 0),
@@ -692,7 +700,8 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
     nu = k == "nu12"
     gref = None if ref is None else g(ref)
     if iv is not None and iv.at_bound:
-        ymin, ymax = _bound_limits(g(v), iv.bound_side, gref, nu)
+        ymin, ymax = _bound_limits(g(v), iv.bound_side, gref, nu,
+                                   g(getattr(iv, "profile_bound", np.nan)))
     else:
         ymin, ymax = _panel_limits(g(v), g(lo), g(hi), gref, u.weak, nu)
     # verdict bands about an identified value only (none at a bound, none for a fixed value)
@@ -762,6 +771,9 @@ def _interval_legend(r: ResultFile) -> tuple[list, list[str]]:
         items.append(((Line2D([], [], ls="none", marker="v", ms=7, color="k", mfc="w"),
                        Line2D([], [], ls="none", marker="^", ms=7, color="k", mfc="w")),
                       "stopped on a search limit: not identified"))
+    if any(np.isfinite(getattr(iv, "profile_bound", np.nan)) for iv in ivs):
+        items.append((Line2D([], [], color=INTERVAL_COLOR, lw=2.5, ls=(0, (1, 1.5)), marker="_", ms=10,
+                             mew=2.5), "values the fit does not reject (profile)"))
     why = {fixed_words(r, m, k) for m in r.materials for k in CONSTANTS} - {None}
     if why:
         only = next(iter(why)) if len(why) == 1 else ""

@@ -100,3 +100,38 @@ def test_s21_g13_is_flat_in_json_hdf5_terminal_and_report(tmp_path):
     text = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8",
                                     "--no-output"]).output
     assert "none: flat to 18.50" in text and "profile: the fit is as good" in text
+
+
+def test_a_bounded_profile_in_status_json_hdf5_and_report(tmp_path):
+    """The thick plate through the command line (G13's initial value 24.8 GPa, limit 4.96 GPa
+    = initial / 5 with --parametrization constants): G13 stops on its limit and the fit
+    rejects it above a value; the status, --json, the HDF5 reader and the report's panel (a
+    dotted line from the limit to that value, in GPa) agree."""
+    from laminid_cli.report import report_pages
+    from laminid_cli.resultfile import read_result
+    from tests.test_identify import scaled, specimen_text
+
+    off = {k: 1.0 for k in OFF_THICK} | {"G13": 1.8, "E2": 0.7}
+    fm, _ = synthetic(THICK, {"cf": CARBON}, 8, off, noise=0.002, seed=4)
+    guess = scaled({"cf": CARBON}, off)
+    guess["cf"]["G13"] = 24.8e9
+    spec = tmp_path / "thick.yaml"
+    spec.write_text(specimen_text(THICK, guess, fm.specimen.measured.freq))
+    out = tmp_path / "thick.h5"
+    res = CliRunner().invoke(cli, ["identify", str(spec), "--mesh", "6x6", "--parametrization",
+                                   "constants", "--fix", "nu12", "--json", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    d = json.loads(res.output)
+    g13 = d["uncertainty"]["constants"]["cf"]["G13"]
+    assert g13["at_bound"] and g13["bound_limit"] == pytest.approx(4.96e9, rel=1e-9)
+    bound = g13["profile"]["bound"]
+    assert 4.96e9 * 1.01 < bound < 24.8e9
+    at = next(r["text"] for r in d["reasons"] if r["code"] == "at_bound")
+    assert f"the fit rejects G13 above {bound / 1e9:.3g} GPa" in at
+    iv = read_result(out).uncertainty.get("cf", "G13")
+    assert iv.profile_bound == pytest.approx(bound, rel=1e-12)
+    fig = {p.name: p.figure for p in report_pages(out)}["intervals"]
+    panel = next(a for a in fig.axes if a.get_gid() == "interval-cf.G13")
+    line = next(ln for ln in panel.get_lines() if ln.get_gid() == "profile")
+    np.testing.assert_allclose(line.get_ydata(), [4.96, bound / 1e9], rtol=1e-6)
+    assert panel.get_ylim()[1] > bound / 1e9
