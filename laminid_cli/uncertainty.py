@@ -2051,15 +2051,24 @@ def _show(k: str, v: float) -> str:
 
 
 def _profile_far(k: str, side: str, limit: float, initial: float, nu_max: float,
-                 bound_factor: float) -> float:
+                 bound_factor: float, initial_c=None) -> float:
     """The other end of the profile's scan: for a modulus on its lower limit the search's
     upper factor limit (at least 10 times the limit), on an upper one its lower factor limit;
-    for nu12 zero (a Poisson ratio beyond that is not a composite's)."""
+    for nu12 zero (a Poisson ratio beyond that is not a composite's). E2 <= E1 (paper Eq. 22)
+    with ``initial_c`` (the material's initial ElasticConstants): a held E2 goes no higher
+    than the initial E1, a held E1 no lower than the initial E2 (the identifications of the
+    profile start from a specimen with the held value, which must keep E2 <= E1)."""
     if k == "nu12":
         return 0.0
     if side == "lower":
-        return max(abs(initial) * bound_factor, 10 * abs(limit))
-    return min(abs(initial) / bound_factor, 0.1 * abs(limit))
+        far = max(abs(initial) * bound_factor, 10 * abs(limit))
+        if k == "E2" and initial_c is not None:
+            far = min(far, float(initial_c.E1))
+        return far
+    far = min(abs(initial) / bound_factor, 0.1 * abs(limit))
+    if k == "E1" and initial_c is not None:
+        far = max(far, float(initial_c.E2))
+    return far
 
 
 def profile_bound(label: str, side: str, limit: float, far: float, delta, threshold: float,
@@ -2173,7 +2182,8 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
 
         limit = float(u.bound_limit[j]) if u.bound_limit is not None else float(u.value[j])
         side = u.bound_side[j] if u.bound_side else ""
-        far = _profile_far(k, side, limit, initial, options.nu_max, options.bound_factor)
+        far = _profile_far(k, side, limit, initial, options.nu_max, options.bound_factor,
+                           result.initial[m])
         try:
             out[lab] = profile_bound(lab, side, limit, far, delta, threshold, u.confidence)
         except (FitError, FitInputError) as exc:

@@ -100,3 +100,27 @@ def test_s21_g13_is_flat_in_json_hdf5_terminal_and_report(tmp_path):
     text = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8",
                                     "--no-output"]).output
     assert "none: flat to 18.50" in text and "profile: the fit is as good" in text
+
+
+def test_e2_on_its_lower_limit_gets_a_profile_below_e1():
+    """E2 on its lower factor limit where the scan's far end (10 x the limit here, or the
+    factor limit bound_factor x initial E2) lies above the initial E1: holding E2 there made
+    every identification of the profile refuse its specimen ("initial E2 > E1; direction 1
+    must be the fibre direction") and the constant got no profile. The scan now ends at the
+    initial E1 (E2 <= E1), and the profile is made."""
+    from laminid_cli.forward import build_forward_model
+    from laminid_cli.specimen import read_specimen
+
+    spec = read_specimen("specimens/example2/S2.1.yaml")
+    (name, m), = spec.materials.items()
+    m = dataclasses.replace(m, constants=dataclasses.replace(m.constants, E1=30e9, E2=12e9,
+                                                             G12=2.8e9))
+    fm = build_forward_model(dataclasses.replace(spec, materials={name: m}), (8, 8))
+    a = assess(fm, IdentifyOptions(bound_factor=1.3, fix=("G13", "G23")), UncertaintyOptions())
+    u = a.uncertainty
+    lab = f"{name}.E2"
+    assert [x for x, b in zip(u.labels, u.at_bound) if b] == [lab]
+    p = u.profiles[lab]
+    assert not p.error, p.text
+    assert p.limit < p.far <= 30e9
+    assert np.isfinite(p.bound) or p.text.startswith("the fit is as good")
