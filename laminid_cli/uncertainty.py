@@ -108,7 +108,7 @@ from typing import NamedTuple
 import numpy as np
 import scipy.linalg as sla
 
-from laminid_cli.errors import FitError, FitInputError
+from laminid_cli.errors import FitError, FitInputError, ModelError, SolverError
 # thresholds, scalings and verdicts shared with the damping fit (re-exported here)
 from laminid_cli.intervals import (SCALINGS, VERDICT_AT_BOUND, VERDICT_FIXED,  # noqa: F401
                                    VERDICT_NOT, VERDICT_WEAK, VERDICT_WELL, WEAK, WELL_DETERMINED,
@@ -2186,7 +2186,7 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
                            result.initial[m])
         try:
             out[lab] = profile_bound(lab, side, limit, far, delta, threshold, u.confidence)
-        except (FitError, FitInputError) as exc:
+        except (FitError, ModelError, SolverError) as exc:
             out[lab] = Profile(lab, side, limit, np.nan, far, np.nan, threshold, 0,
                                f"no profile: {exc}", str(exc))
     return dataclasses.replace(u, profiles=out)

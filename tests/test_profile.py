@@ -124,3 +124,27 @@ def test_e2_on_its_lower_limit_gets_a_profile_below_e1():
     assert not p.error, p.text
     assert p.limit < p.far <= 30e9
     assert np.isfinite(p.bound) or p.text.startswith("the fit is as good")
+
+
+def test_a_profile_whose_identification_fails_in_the_solver_does_not_end_the_run(monkeypatch):
+    """An identification of the profile that fails in the model or the eigen solver (a
+    SolverError, not a FitError) gave a traceback and lost the result already made; now that
+    constant gets 'no profile' with the reason, like a profile whose fit did not converge."""
+    import laminid_cli.identify as ident
+    from laminid_cli.errors import SolverError
+    from laminid_cli.forward import build_forward_model
+    from laminid_cli.specimen import read_specimen
+
+    real = ident.identify
+
+    def failing(fm, options, *args, **kw):
+        if any(str(f).endswith("G13") for f in options.fix):
+            raise SolverError("the stiffness matrix is not positive definite")
+        return real(fm, options, *args, **kw)
+
+    monkeypatch.setattr(ident, "identify", failing)
+    fm = build_forward_model(read_specimen("specimens/example2/S2.1.yaml"), (8, 8))
+    u = assess(fm, IdentifyOptions(), UncertaintyOptions()).uncertainty
+    p = u.profiles["E-glass/R368.G13"]
+    assert np.isnan(p.bound) and "not positive definite" in p.error
+    assert p.text.startswith("no profile:")
