@@ -1918,6 +1918,15 @@ def counting_fixed_spread(u: Uncertainty, before: Uncertainty, obs, materials,
     std_u = np.asarray(u.std, float)
     with np.errstate(invalid="ignore"):
         std = np.where(np.isfinite(std_u), np.sqrt(np.clip(np.diag(cov), 0, None)), std_u)
+    # the same from the stated frequency sigma alone (each run's covariance without its own
+    # variance factor), as std_stated is without the spread
+    f_u = float(u.variance_factor) if u.variance_factor > 0 else 1.0
+    f_b = float(before.variance_factor) if before.variance_factor > 0 else 1.0
+    var_stated = np.diag(np.asarray(u.covariance, float)) / f_u + np.where(
+        inner, np.einsum("ij,jk,ik->i", dP_df, Cf / f_b, dP_df), 0.0)
+    st_u = np.asarray(u.std_stated, float)
+    with np.errstate(invalid="ignore"):
+        std_stated = np.where(np.isfinite(st_u), np.sqrt(np.clip(var_stated, 0, None)), st_u)
     q = float(u.quantile)
     half = q * std
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
@@ -1938,8 +1947,8 @@ def counting_fixed_spread(u: Uncertainty, before: Uncertainty, obs, materials,
             if not rel[j] <= u.thresholds["max_rel_interval"]:
                 flagged.add(lab)
     return dataclasses.replace(
-        u, std=std, half_width=half, lower=lower, upper=upper, rel_half_width=rel,
-        covariance=cov, correlation=corr, verdict=tuple(verdict),
+        u, std=std, std_stated=std_stated, half_width=half, lower=lower, upper=upper,
+        rel_half_width=rel, covariance=cov, correlation=corr, verdict=tuple(verdict),
         flagged=tuple(lab for lab in labels if lab in flagged), notes=notes,
         rel_half_width_given_fixed=np.asarray(u.rel_half_width, float),
         spread_counted=tuple(counted), spread_cross=cross, spread_covariance=Cf,
