@@ -177,7 +177,8 @@ def test_fixed_spread_in_json_hdf5_terminal_and_report(tmp_path):
         assert r.uncertainty.get("IM7/977-2", k).rel_half_width == pytest.approx(
             c[k]["rel_half_width"], rel=1e-12)
     note = [n for n in table_notes(r) if n.startswith("the intervals count the spread")]
-    assert note and "given the fixed values alone: E1 ±1 %" in note[0]
+    # as the terminal writes them (one decimal: a width of 0.4 % is no "±0 %")
+    assert note and "given the fixed values alone: E1 ±1.3 %, E2 ±10.6 %, G12 ±12.9 %" in note[0]
     text = CliRunner().invoke(cli, ["identify", S11, "--fix-undetermined", "--no-output"])
     assert ("count the spread G13, G23, nu12 had before they were fixed" in text.output
             and "given the fixed values alone: E1 ±1.3 %" in text.output), text.output
