@@ -2142,6 +2142,7 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
     factor = float(u.variance_factor) if u.variance_factor > 0 else 1.0
     names = tuple(result.material_names)
     bases = result.basis
+    prior = {ms.name: dict(ms.prior) for ms in material_states(result)}
     out = {}
     for j, lab in enumerate(u.labels):
         if not u.at_bound[j]:
@@ -2150,7 +2151,7 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
         m = names.index(name)
         initial = float(getattr(result.initial[m], k))
 
-        def delta(v, name=name, k=k, lab=lab, m=m):
+        def delta(v, name=name, k=k, lab=lab, m=m, initial=initial):
             fms_v = []
             for fm in fms:
                 spec = fm.specimen
@@ -2187,7 +2188,13 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
                                f"converge in {opts.max_evaluations} evaluations")
             uc = uncertainty_of(r, fms_v if joint else fms_v[0],
                                 sigmas if joint else sigmas[0], **kw)
-            return (uc.chi2 - u.chi2) / factor
+            chi2 = uc.chi2
+            if prior.get(name, {}).get(k, 0.0) > 0:
+                # held, the constant has no prior row in that fit; u.chi2 counted it (free):
+                # its row as linearized_uncertainty counts one, (v - P0) / P0 over sigma_unit
+                ref = initial if initial != 0 else 1.0
+                chi2 += ((v - initial) / ref / uc.sigma_unit) ** 2
+            return (chi2 - u.chi2) / factor
 
         limit = float(u.bound_limit[j]) if u.bound_limit is not None else float(u.value[j])
         side = u.bound_side[j] if u.bound_side else ""

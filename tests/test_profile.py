@@ -148,3 +148,34 @@ def test_a_profile_whose_identification_fails_in_the_solver_does_not_end_the_run
     p = u.profiles["E-glass/R368.G13"]
     assert np.isnan(p.bound) and "not positive definite" in p.error
     assert p.text.startswith("no profile:")
+
+
+def test_the_rise_is_zero_at_the_limit_with_a_prior_on_the_held_constant(tmp_path,
+                                                                         monkeypatch):
+    """chi2 (paper Eq. 17 + Eq. 15) counts a prior row of each free constant. Holding a
+    constant with a prior dropped its row from the profile's fits, so the rise left out the
+    prior's part: at the limit itself it was minus that part instead of 0 (S2.1 6x6, prior on
+    G13 at its lower factor limit: -40000 before scaling), and the fit looked better than the
+    optimum wherever the constant was held. The held value's prior row is counted now."""
+    import laminid_cli.uncertainty as unc
+    from laminid_cli.forward import build_forward_model
+    from laminid_cli.specimen import read_specimen
+
+    text = open("specimens/example2/S2.1.yaml").read().replace(
+        "    nu12: 0.28\n", "    nu12: 0.28\n    prior: {G13: 0.000001}\n")
+    path = tmp_path / "S2.1-prior.yaml"
+    path.write_text(text)
+    seen = {}
+    real = unc.profile_bound
+
+    def spy(label, side, limit, far, delta, threshold, confidence=0.95):
+        seen[label] = (limit, delta)
+        return real(label, side, limit, far, delta, threshold, confidence)
+
+    monkeypatch.setattr(unc, "profile_bound", spy)
+    fm = build_forward_model(read_specimen(path), (6, 6))
+    u = assess(fm, IdentifyOptions(), UncertaintyOptions()).uncertainty
+    lab = "E-glass/R368.G13"
+    assert u.at_bound[u.labels.index(lab)]
+    limit, delta = seen[lab]
+    assert abs(delta(limit)) < 0.05 * u.profiles[lab].threshold
