@@ -525,7 +525,10 @@ def table_notes(r: ResultFile) -> list[str]:
         names = [lab.rsplit(".", 1)[1] if len(r.materials) == 1 else lab
                  for lab in u.spread_counted]
         given = [(iv, u.given_fixed.get(iv.label, np.nan)) for iv in u.intervals]
-        given = ", ".join(f"{iv.constant if len(r.materials) == 1 else iv.label} {_pct(w)}"
+        # as the terminal writes them (commands.text): one decimal, so that a width of 0.4 %
+        # is not "±0 %"
+        given = ", ".join(f"{iv.constant if len(r.materials) == 1 else iv.label} "
+                          + (f"±{100 * w:.1f} %" if w < 10 else f"±{w:.0f}x")
                           for iv, w in given if np.isfinite(w))
         notes.append("the intervals count the spread " + ", ".join(names) + " had before "
                      + ("it was" if len(names) == 1 else "they were") + " fixed (a fixed value "

@@ -108,7 +108,7 @@ from typing import NamedTuple
 import numpy as np
 import scipy.linalg as sla
 
-from laminid_cli.errors import FitError, FitInputError
+from laminid_cli.errors import FitError, FitInputError, ModelError, SolverError
 # thresholds, scalings and verdicts shared with the damping fit (re-exported here)
 from laminid_cli.intervals import (SCALINGS, VERDICT_AT_BOUND, VERDICT_FIXED,  # noqa: F401
                                    VERDICT_NOT, VERDICT_WEAK, VERDICT_WELL, WEAK, WELL_DETERMINED,
@@ -1918,6 +1918,15 @@ def counting_fixed_spread(u: Uncertainty, before: Uncertainty, obs, materials,
     std_u = np.asarray(u.std, float)
     with np.errstate(invalid="ignore"):
         std = np.where(np.isfinite(std_u), np.sqrt(np.clip(np.diag(cov), 0, None)), std_u)
+    # the same from the stated frequency sigma alone (each run's covariance without its own
+    # variance factor), as std_stated is without the spread
+    f_u = float(u.variance_factor) if u.variance_factor > 0 else 1.0
+    f_b = float(before.variance_factor) if before.variance_factor > 0 else 1.0
+    var_stated = np.diag(np.asarray(u.covariance, float)) / f_u + np.where(
+        inner, np.einsum("ij,jk,ik->i", dP_df, Cf / f_b, dP_df), 0.0)
+    st_u = np.asarray(u.std_stated, float)
+    with np.errstate(invalid="ignore"):
+        std_stated = np.where(np.isfinite(st_u), np.sqrt(np.clip(var_stated, 0, None)), st_u)
     q = float(u.quantile)
     half = q * std
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
@@ -1938,8 +1947,8 @@ def counting_fixed_spread(u: Uncertainty, before: Uncertainty, obs, materials,
             if not rel[j] <= u.thresholds["max_rel_interval"]:
                 flagged.add(lab)
     return dataclasses.replace(
-        u, std=std, half_width=half, lower=lower, upper=upper, rel_half_width=rel,
-        covariance=cov, correlation=corr, verdict=tuple(verdict),
+        u, std=std, std_stated=std_stated, half_width=half, lower=lower, upper=upper,
+        rel_half_width=rel, covariance=cov, correlation=corr, verdict=tuple(verdict),
         flagged=tuple(lab for lab in labels if lab in flagged), notes=notes,
         rel_half_width_given_fixed=np.asarray(u.rel_half_width, float),
         spread_counted=tuple(counted), spread_cross=cross, spread_covariance=Cf,
@@ -2051,15 +2060,24 @@ def _show(k: str, v: float) -> str:
 
 
 def _profile_far(k: str, side: str, limit: float, initial: float, nu_max: float,
-                 bound_factor: float) -> float:
+                 bound_factor: float, initial_c=None) -> float:
     """The other end of the profile's scan: for a modulus on its lower limit the search's
     upper factor limit (at least 10 times the limit), on an upper one its lower factor limit;
-    for nu12 zero (a Poisson ratio beyond that is not a composite's)."""
+    for nu12 zero (a Poisson ratio beyond that is not a composite's). E2 <= E1 (paper Eq. 22)
+    with ``initial_c`` (the material's initial ElasticConstants): a held E2 goes no higher
+    than the initial E1, a held E1 no lower than the initial E2 (the identifications of the
+    profile start from a specimen with the held value, which must keep E2 <= E1)."""
     if k == "nu12":
         return 0.0
     if side == "lower":
-        return max(abs(initial) * bound_factor, 10 * abs(limit))
-    return min(abs(initial) / bound_factor, 0.1 * abs(limit))
+        far = max(abs(initial) * bound_factor, 10 * abs(limit))
+        if k == "E2" and initial_c is not None:
+            far = min(far, float(initial_c.E1))
+        return far
+    far = min(abs(initial) / bound_factor, 0.1 * abs(limit))
+    if k == "E1" and initial_c is not None:
+        far = max(far, float(initial_c.E2))
+    return far
 
 
 def profile_bound(label: str, side: str, limit: float, far: float, delta, threshold: float,
@@ -2124,6 +2142,7 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
     factor = float(u.variance_factor) if u.variance_factor > 0 else 1.0
     names = tuple(result.material_names)
     bases = result.basis
+    prior = {ms.name: dict(ms.prior) for ms in material_states(result)}
     out = {}
     for j, lab in enumerate(u.labels):
         if not u.at_bound[j]:
@@ -2132,7 +2151,7 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
         m = names.index(name)
         initial = float(getattr(result.initial[m], k))
 
-        def delta(v, name=name, k=k, lab=lab, m=m):
+        def delta(v, name=name, k=k, lab=lab, m=m, initial=initial):
             fms_v = []
             for fm in fms:
                 spec = fm.specimen
@@ -2169,14 +2188,21 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
                                f"converge in {opts.max_evaluations} evaluations")
             uc = uncertainty_of(r, fms_v if joint else fms_v[0],
                                 sigmas if joint else sigmas[0], **kw)
-            return (uc.chi2 - u.chi2) / factor
+            chi2 = uc.chi2
+            if prior.get(name, {}).get(k, 0.0) > 0:
+                # held, the constant has no prior row in that fit; u.chi2 counted it (free):
+                # its row as linearized_uncertainty counts one, (v - P0) / P0 over sigma_unit
+                ref = initial if initial != 0 else 1.0
+                chi2 += ((v - initial) / ref / uc.sigma_unit) ** 2
+            return (chi2 - u.chi2) / factor
 
         limit = float(u.bound_limit[j]) if u.bound_limit is not None else float(u.value[j])
         side = u.bound_side[j] if u.bound_side else ""
-        far = _profile_far(k, side, limit, initial, options.nu_max, options.bound_factor)
+        far = _profile_far(k, side, limit, initial, options.nu_max, options.bound_factor,
+                           result.initial[m])
         try:
             out[lab] = profile_bound(lab, side, limit, far, delta, threshold, u.confidence)
-        except (FitError, FitInputError) as exc:
+        except (FitError, ModelError, SolverError) as exc:
             out[lab] = Profile(lab, side, limit, np.nan, far, np.nan, threshold, 0,
                                f"no profile: {exc}", str(exc))
     return dataclasses.replace(u, profiles=out)

@@ -177,7 +177,30 @@ def test_fixed_spread_in_json_hdf5_terminal_and_report(tmp_path):
         assert r.uncertainty.get("IM7/977-2", k).rel_half_width == pytest.approx(
             c[k]["rel_half_width"], rel=1e-12)
     note = [n for n in table_notes(r) if n.startswith("the intervals count the spread")]
-    assert note and "given the fixed values alone: E1 ±1 %" in note[0]
+    # as the terminal writes them (one decimal: a width of 0.4 % is no "±0 %")
+    assert note and "given the fixed values alone: E1 ±1.3 %, E2 ±10.6 %, G12 ±12.9 %" in note[0]
     text = CliRunner().invoke(cli, ["identify", S11, "--fix-undetermined", "--no-output"])
     assert ("count the spread G13, G23, nu12 had before they were fixed" in text.output
             and "given the fixed values alone: E1 ±1.3 %" in text.output), text.output
+
+
+def test_std_stated_counts_the_spread_as_std_does():
+    """std_stated is the standard error from the stated frequency sigma alone: with the
+    stated scaling it is std. Counting the fixed values' spread replaced std and kept
+    std_stated given the fixed values (the linear problem: E1 0.47 % of its value against
+    0.83 %), so the file's std and std_stated disagreed on what they were of."""
+    obs, state = _linear_problem()
+    before = linearized_uncertainty([obs], [state(CONSTANT_NAMES)], scaling="stated")
+    free = ("E1", "E2", "G12")
+    after = linearized_uncertainty([dataclasses.replace(obs, dlam_dP=obs.dlam_dP[:, :3])],
+                                   [state(free)], scaling="stated")
+    total = counting_fixed_spread(after, before, [obs], [state(free)])
+    np.testing.assert_allclose(total.std_stated, total.std, rtol=1e-12)
+    np.testing.assert_allclose(total.std_stated, before.std_stated[:3], rtol=1e-9)
+    # with the residuals' scaling, each part is divided by its own run's variance factor
+    before_r = dataclasses.replace(before, covariance=before.covariance * 3.0,
+                                   std=before.std * np.sqrt(3.0), variance_factor=3.0)
+    after_r = dataclasses.replace(after, covariance=after.covariance * 2.0,
+                                  std=after.std * np.sqrt(2.0), variance_factor=2.0)
+    total_r = counting_fixed_spread(after_r, before_r, [obs], [state(free)])
+    np.testing.assert_allclose(total_r.std_stated, total.std_stated, rtol=1e-9)

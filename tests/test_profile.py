@@ -135,3 +135,82 @@ def test_a_bounded_profile_in_status_json_hdf5_and_report(tmp_path):
     line = next(ln for ln in panel.get_lines() if ln.get_gid() == "profile")
     np.testing.assert_allclose(line.get_ydata(), [4.96, bound / 1e9], rtol=1e-6)
     assert panel.get_ylim()[1] > bound / 1e9
+
+
+def test_e2_on_its_lower_limit_gets_a_profile_below_e1():
+    """E2 on its lower factor limit where the scan's far end (10 x the limit here, or the
+    factor limit bound_factor x initial E2) lies above the initial E1: holding E2 there made
+    every identification of the profile refuse its specimen ("initial E2 > E1; direction 1
+    must be the fibre direction") and the constant got no profile. The scan now ends at the
+    initial E1 (E2 <= E1), and the profile is made."""
+    from laminid_cli.forward import build_forward_model
+    from laminid_cli.specimen import read_specimen
+
+    spec = read_specimen("specimens/example2/S2.1.yaml")
+    (name, m), = spec.materials.items()
+    m = dataclasses.replace(m, constants=dataclasses.replace(m.constants, E1=30e9, E2=12e9,
+                                                             G12=2.8e9))
+    fm = build_forward_model(dataclasses.replace(spec, materials={name: m}), (8, 8))
+    a = assess(fm, IdentifyOptions(bound_factor=1.3, fix=("G13", "G23")), UncertaintyOptions())
+    u = a.uncertainty
+    lab = f"{name}.E2"
+    assert [x for x, b in zip(u.labels, u.at_bound) if b] == [lab]
+    p = u.profiles[lab]
+    assert not p.error, p.text
+    assert p.limit < p.far <= 30e9
+    assert np.isfinite(p.bound) or p.text.startswith("the fit is as good")
+
+
+def test_a_profile_whose_identification_fails_in_the_solver_does_not_end_the_run(monkeypatch):
+    """An identification of the profile that fails in the model or the eigen solver (a
+    SolverError, not a FitError) gave a traceback and lost the result already made; now that
+    constant gets 'no profile' with the reason, like a profile whose fit did not converge."""
+    import laminid_cli.identify as ident
+    from laminid_cli.errors import SolverError
+    from laminid_cli.forward import build_forward_model
+    from laminid_cli.specimen import read_specimen
+
+    real = ident.identify
+
+    def failing(fm, options, *args, **kw):
+        if any(str(f).endswith("G13") for f in options.fix):
+            raise SolverError("the stiffness matrix is not positive definite")
+        return real(fm, options, *args, **kw)
+
+    monkeypatch.setattr(ident, "identify", failing)
+    fm = build_forward_model(read_specimen("specimens/example2/S2.1.yaml"), (8, 8))
+    u = assess(fm, IdentifyOptions(), UncertaintyOptions()).uncertainty
+    p = u.profiles["E-glass/R368.G13"]
+    assert np.isnan(p.bound) and "not positive definite" in p.error
+    assert p.text.startswith("no profile:")
+
+
+def test_the_rise_is_zero_at_the_limit_with_a_prior_on_the_held_constant(tmp_path,
+                                                                         monkeypatch):
+    """chi2 (paper Eq. 17 + Eq. 15) counts a prior row of each free constant. Holding a
+    constant with a prior dropped its row from the profile's fits, so the rise left out the
+    prior's part: at the limit itself it was minus that part instead of 0 (S2.1 6x6, prior on
+    G13 at its lower factor limit: -40000 before scaling), and the fit looked better than the
+    optimum wherever the constant was held. The held value's prior row is counted now."""
+    import laminid_cli.uncertainty as unc
+    from laminid_cli.forward import build_forward_model
+    from laminid_cli.specimen import read_specimen
+
+    text = open("specimens/example2/S2.1.yaml").read().replace(
+        "    nu12: 0.28\n", "    nu12: 0.28\n    prior: {G13: 0.000001}\n")
+    path = tmp_path / "S2.1-prior.yaml"
+    path.write_text(text)
+    seen = {}
+    real = unc.profile_bound
+
+    def spy(label, side, limit, far, delta, threshold, confidence=0.95):
+        seen[label] = (limit, delta)
+        return real(label, side, limit, far, delta, threshold, confidence)
+
+    monkeypatch.setattr(unc, "profile_bound", spy)
+    fm = build_forward_model(read_specimen(path), (6, 6))
+    u = assess(fm, IdentifyOptions(), UncertaintyOptions()).uncertainty
+    lab = "E-glass/R368.G13"
+    assert u.at_bound[u.labels.index(lab)]
+    limit, delta = seen[lab]
+    assert abs(delta(limit)) < 0.05 * u.profiles[lab].threshold
