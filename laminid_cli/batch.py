@@ -16,7 +16,10 @@ The flow of ``laminid batch`` as library functions:
    for a specimen's fault (bad YAML, infeasible start, no convergence);
 4. the file is written atomically (laminid_cli.atomic: temporary name in the target folder,
    fsync, rename) by the pool worker, or by the client from the bytes. Killing the batch at
-   any instant leaves either no file or a complete one;
+   any instant leaves either no file or a complete one. A specimen that fails gets no file,
+   and :func:`set_aside_result` renames the one an earlier input left at its name out of the
+   ``*.result.h5`` pattern (``<name>.result.stale.h5``), so that no result beside this run's
+   summary is older than it;
 5. :func:`result_row` reads the numbers of the summary back from each result file with the
    typed reader (laminid_cli.resultfile: values, intervals, verdicts, the status and its
    reasons); :func:`write_summary_csv` (long form: one
@@ -78,7 +81,7 @@ UNITS = {**CONSTANT_UNITS, "lower": "unit of the constant", "upper": "unit of th
 #: on a limit of the search set (the search's end, not the data's)
 LONG_COLUMNS = ("name", "specimen", "material", "constant", "value", "lower", "upper", "verdict",
                 "bound_side", "bound_limit", "mc_lower", "mc_upper", "mc_search_limit", "unit",
-                "status", "reasons", "rms_residual [%]", "result")
+                "status", "reasons", "rms_residual [%]", "result", "stale_result")
 SPECIMEN_SUFFIXES = (".yaml", ".yml")
 RESULT_SUFFIX = ".result.h5"
 SUMMARY_CSV = "summary.csv"
@@ -238,6 +241,56 @@ def stored_hash(path) -> str | None:
 
 def result_path(out_dir, name: str) -> Path:
     return Path(out_dir) / (name + RESULT_SUFFIX)
+
+
+#: suffix of a result set aside because its specimen failed in a later run (out of the
+#: ``*.result.h5`` pattern); numbered ``.result.stale1.h5``, ... when that exists
+STALE_SUFFIX = ".result.stale.h5"
+#: most numbered stale names looked for (.stale, .stale1 ... .stale<N>)
+MAX_STALE = 9999
+
+
+def set_aside_result(job: Job) -> tuple[Path | None, str]:
+    """Rename the result file of a specimen that failed in this run out of the
+    ``*.result.h5`` pattern; returns ``(new path, "")``, ``(None, "")`` when there is none,
+    or ``(None, why)`` when it could not be moved.
+
+    The file at ``job.output`` was made from an earlier input (this run wrote nothing there:
+    a failing specimen gets no result), so beside this run's summary a script globbing
+    ``*.result.h5`` would take it for the current one. Nothing is deleted: it becomes
+    ``<name>.result.stale.h5``, else ``<name>.result.stale1.h5``, ... (a hard link taken
+    exclusively, then the old name removed, so an earlier stale file is never overwritten;
+    a plain rename where the file system has no hard links).
+    """
+    out = Path(job.output)
+    if not out.is_file() or out.is_symlink():
+        # a symbolic link at the result's name is the user's own arrangement: left as it is
+        return (None, f"{out} is a symbolic link, left in place") if out.is_symlink() \
+            else (None, "")
+    stem = out.name[: -len(RESULT_SUFFIX)] if out.name.endswith(RESULT_SUFFIX) else out.name
+    names = [out.with_name(stem + STALE_SUFFIX)] + [
+        out.with_name(f"{stem}.result.stale{k}.h5") for k in range(1, MAX_STALE + 1)]
+    for name in names:
+        try:
+            os.link(out, name)
+        except FileExistsError:
+            continue
+        except OSError:                   # no hard links here (some network/FAT file systems)
+            if name.exists():
+                continue
+            try:
+                os.rename(out, name)
+            except OSError as exc:
+                return None, f"cannot rename {out} ({exc})"
+            return name, ""
+        try:
+            out.unlink()
+        except OSError as exc:
+            with contextlib.suppress(OSError):
+                name.unlink()
+            return None, f"cannot remove {out} ({exc})"
+        return name, ""
+    return None, f"{MAX_STALE + 1} stale results of {stem} exist already; move some away"
 
 
 def plan_batch(specimens, out_dir, options: BatchOptions, force: bool = False) -> list[Job]:
@@ -606,7 +659,8 @@ def _run_dask(jobs, options, n_jobs, scheduler):
 # summary
 
 
-def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False) -> dict:
+def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False,
+               stale: tuple[Path | None, str] = (None, "")) -> dict:
     """One summary row (SI units), with the numbers read back from the job's result file
     (:func:`laminid_cli.resultfile.read_result`, one read).
 
@@ -620,13 +674,21 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False) -
     rms_residual_percent, evaluations, time_s, result, damping ({material: {eta11: {value,
     lower, upper, verdict}}}, empty without measured damping).
     ``flagged`` (not determined) is the file's own flag (the run's --max-rel-interval).
+    stale_result: where a failing specimen's earlier result was moved in this run
+    (:func:`set_aside_result`, given as ``stale``), else None; when it could not be moved the
+    reason says so.
     """
     row = {"name": job.name, "specimen": "", "path": str(job.spec), "status": "not run",
            "reasons": [], "reason": "", "converged": None, "optimizer_status": "",
            "cached": cached, "materials": {}, "intervals": {}, "rms_residual_percent": None,
-           "evaluations": None, "time_s": None, "result": None, "damping": {}}
+           "evaluations": None, "time_s": None, "result": None, "damping": {},
+           "stale_result": None if stale[0] is None else str(stale[0])}
     if outcome is not None and outcome.status == "error":
-        row.update(status="error", reason=outcome.reason, time_s=outcome.time_s)
+        reason = outcome.reason
+        if stale[1]:
+            reason += (f"; its earlier result {job.output} is not this input's and could not "
+                       f"be set aside: {stale[1]}")
+        row.update(status="error", reason=reason, time_s=outcome.time_s)
         return row
     if outcome is None and not cached:
         return row
@@ -740,7 +802,8 @@ def csv_header(materials) -> list[str]:
     """Columns of the wide summary (one row per specimen), SI units in the headers."""
     cols = ["name", "specimen", "path", "status", "reasons"]
     cols += [f"{m} {k} [{CONSTANT_UNITS[k]}]" for m in materials for k in CONSTANTS]
-    return cols + ["rms_residual [%]", "evaluations", "time [s]", "cached", "result"]
+    return cols + ["rms_residual [%]", "evaluations", "time [s]", "cached", "result",
+                   "stale_result"]
 
 
 def _num(v) -> str:
@@ -762,8 +825,8 @@ def long_rows(rows, folder=None) -> list[list[str]]:
                   "reasons": reasons,
                   "rms_residual [%]": "" if r["rms_residual_percent"] is None
                   else f"{r['rms_residual_percent']:.6g}",
-                  "result": "" if not r["result"] else
-                  os.path.relpath(r["result"], folder) if folder is not None else r["result"]}
+                  "result": _path_text(r["result"], folder),
+                  "stale_result": _path_text(r.get("stale_result"), folder)}
         cells = []
         for m, consts in r["materials"].items():
             for k in CONSTANTS:
@@ -786,6 +849,13 @@ def long_rows(rows, folder=None) -> list[list[str]]:
             row = common | cell
             out.append([row.get(col, "") for col in LONG_COLUMNS])
     return out
+
+
+def _path_text(path, folder) -> str:
+    """A file of a summary row as a CSV cell: relative to ``folder`` (None: as given)."""
+    if not path:
+        return ""
+    return os.path.relpath(path, folder) if folder is not None else str(path)
 
 
 def search_limit_text(iv: dict) -> str:
@@ -821,7 +891,8 @@ def write_summary_csv(path, rows, wide: bool = False) -> Path:
                    "" if r["evaluations"] is None else r["evaluations"],
                    "" if r["time_s"] is None else f"{r['time_s']:.3f}",
                    "yes" if r["cached"] else "no",
-                   "" if not r["result"] else os.path.relpath(r["result"], path.parent)]
+                   _path_text(r["result"], path.parent),
+                   _path_text(r.get("stale_result"), path.parent)]
         w.writerow(values)
     return _write_text(path, buf.getvalue())
 
@@ -830,6 +901,7 @@ def batch_report(rows, options: BatchOptions, out_dir) -> dict:
     """The summary as plain data (SI), as written to summary.json and printed by --json."""
     counts = {s: sum(r["status"] == s for r in rows) for s in STATUSES}
     counts["not converged"] = sum(r.get("converged") is False for r in rows)
+    counts["set aside"] = sum(bool(r.get("stale_result")) for r in rows)
     return {"format": "laminid-batch-summary", "laminid_version": __version__,
             "out": str(out_dir), "options": options.as_dict(), "units": dict(UNITS),
             "n_specimens": len(rows), "counts": counts,
@@ -861,7 +933,8 @@ def write_summary_json(path, report: dict) -> Path:
     anywhere."""
     path = Path(path)
     doc = dict(report, result_paths=RESULT_PATHS, specimens=[
-        dict(r, result=_relative_to(r["result"], path.parent)) if r.get("result") else r
+        dict(r, **{key: _relative_to(r[key], path.parent)
+                   for key in ("result", "stale_result") if r.get(key)})
         for r in report["specimens"]])
     return _write_text(path, json.dumps(json_safe(doc), indent=2) + "\n")
 
@@ -919,8 +992,9 @@ def read_summary(path) -> list[dict]:
                              "'laminid-batch-summary')")
         rows = doc["specimens"]
         for r in rows:
-            if r.get("result"):
-                r["result"] = _result_of_json(r["result"], path, doc)
+            for key in ("result", "stale_result"):
+                if r.get(key):
+                    r[key] = _result_of_json(r[key], path, doc)
         return rows
     try:
         with open(path, newline="", encoding="utf-8") as fh:
@@ -949,7 +1023,8 @@ def read_summary(path) -> list[dict]:
                      "rms_residual_percent": _float(rec.get("rms_residual [%]")),
                      "evaluations": _float(rec.get("evaluations")),
                      "time_s": _float(rec.get("time [s]")),
-                     "result": str(path.parent / res) if res else None})
+                     "result": str(path.parent / res) if res else None,
+                     "stale_result": _path_of_csv(rec, "stale_result", path)})
     return rows
 
 
@@ -966,7 +1041,8 @@ def _rows_of_long(records, path: Path) -> list[dict]:
                 "materials": {}, "intervals": {},
                 "rms_residual_percent": _float(rec.get("rms_residual [%]")),
                 "evaluations": None, "time_s": None,
-                "result": str(path.parent / res) if res else None}
+                "result": str(path.parent / res) if res else None,
+                "stale_result": _path_of_csv(rec, "stale_result", path)}
         m, k = rec.get("material"), rec.get("constant")
         if m and k in CONSTANTS and rec.get("value") not in ("", None):
             r["materials"].setdefault(m, {})[k] = float(rec["value"])
@@ -987,6 +1063,13 @@ def _rows_of_long(records, path: Path) -> list[dict]:
                 "value": float(rec["value"]), "lower": _float(rec.get("lower")),
                 "upper": _float(rec.get("upper")), "verdict": rec.get("verdict", "")}
     return list(rows.values())
+
+
+def _path_of_csv(rec: dict, column: str, path: Path) -> str | None:
+    """A file named in a summary.csv column, relative to the CSV's folder (None: empty or a
+    summary written before the column)."""
+    text = rec.get(column) or None
+    return str(path.parent / text) if text else None
 
 
 def _float(text):
@@ -1079,6 +1162,9 @@ def format_table(rows) -> str:
             text = reason if reason.startswith(r["status"]) else \
                 f"{r['status']}: {reason}" if reason else r["status"]
             lines.append(f"  {r['name']}: {text}")
+            if r.get("stale_result"):
+                lines.append(f"    its earlier result (of another input) moved to "
+                             f"{r['stale_result']}")
     return printable("\n".join(lines).rstrip() + "\n")
 
 

@@ -78,7 +78,8 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
     assert list(rows[0]) == ["name", "specimen", "material", "constant", "value", "lower",
                              "upper", "verdict", "bound_side", "bound_limit", "mc_lower",
                              "mc_upper", "mc_search_limit", "unit", "status", "reasons",
-                             "rms_residual [%]", "result"]
+                             "rms_residual [%]", "result", "stale_result"]
+    assert all(row["stale_result"] == "" for row in rows)      # nothing set aside
     assert all(row["mc_lower"] == row["mc_upper"] == row["mc_search_limit"] == ""
                for row in rows)                          # no --monte-carlo
     assert [(row["name"], row["constant"]) for row in rows] == [
@@ -703,3 +704,83 @@ def test_quiet_batch_writes_nothing_but_errors_on_stderr(tmp_path):
     assert "0 ok, 2 check (0 not converged), 0 failed" in r.stdout
     r = run("batch", specs, "--mesh", MESH, "--out", tmp_path / "out")
     assert r.stderr == "2 specimens, 2 up to date, 0 to identify\n"          # without -q
+
+
+def test_a_result_whose_specimen_now_fails_is_set_aside_out_of_the_result_pattern(tmp_path):
+    """A specimen that once succeeded and now fails (its file edited into an error) left its
+    old S2.1.result.h5 in --out beside the new summary: a script globbing *.result.h5 took it
+    for current. It is renamed S2.1.result.stale.h5 (then .stale1, ...: never over an earlier
+    one), bytes unchanged, and the terminal, --json, summary.csv and summary.json name it."""
+    specs = make_tree(tmp_path / "in", {"S2.1.yaml": SPECS["example2/S2.1.yaml"]})
+    good = (specs / "S2.1.yaml").read_text()
+    out = tmp_path / "out"
+    assert run("batch", specs, "--mesh", MESH, "--out", out).exit_code == 0
+    first = (out / "S2.1.result.h5").read_bytes()
+    (specs / "S2.1.yaml").write_text("geometry: [1\n")
+    r = run("batch", specs, "--mesh", MESH, "--out", out, "--json")
+    assert r.exit_code == 1, r.output
+    assert sorted(p.name for p in out.iterdir()) == [
+        "S2.1.result.stale.h5", "summary.csv", "summary.json"]
+    assert not list(out.glob("*.result.h5"))
+    assert (out / "S2.1.result.stale.h5").read_bytes() == first
+    row = json.loads(r.stdout)["specimens"][0]
+    assert row["status"] == "error" and row["result"] is None
+    assert row["stale_result"] == str(out / "S2.1.result.stale.h5")
+    doc = json.loads((out / "summary.json").read_text())
+    assert doc["specimens"][0]["stale_result"] == "S2.1.result.stale.h5"
+    with open(out / "summary.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [(x["status"], x["result"], x["stale_result"]) for x in rows] == [
+        ("error", "", "S2.1.result.stale.h5")]
+    assert read_summary(out / "summary.csv")[0]["stale_result"] == str(
+        out / "S2.1.result.stale.h5")
+    assert read_summary(out / "summary.json")[0]["stale_result"] == str(
+        out / "S2.1.result.stale.h5")
+    # fixed, identified again, broken again: the next stale name, the first one untouched
+    (specs / "S2.1.yaml").write_text(good)
+    r = run("batch", specs, "--mesh", MESH, "--out", out, "--wide")
+    assert r.exit_code == 0, r.output
+    second = (out / "S2.1.result.h5").read_bytes()
+    (specs / "S2.1.yaml").write_text("mass: [\n")
+    r = run("batch", specs, "--mesh", MESH, "--out", out, "--wide")
+    assert r.exit_code == 1
+    assert (out / "S2.1.result.stale.h5").read_bytes() == first
+    assert (out / "S2.1.result.stale1.h5").read_bytes() == second
+    assert not list(out.glob("*.result.h5"))
+    lines = r.stdout.splitlines()
+    k = lines.index("not identified:")
+    assert lines[k + 1].startswith("  S2.1: error: ") and "not valid YAML" in lines[k + 1]
+    assert lines[k + 2] == (f"    its earlier result (of another input) moved to "
+                            f"{out / 'S2.1.result.stale1.h5'}")
+    assert "1 earlier result set aside" in r.stdout
+    with open(out / "summary.csv", newline="") as fh:
+        wide = list(csv.DictReader(fh))
+    assert wide[0]["stale_result"] == "S2.1.result.stale1.h5"
+    # failing once more: nothing left to set aside, nothing renamed
+    r = run("batch", specs, "--mesh", MESH, "--out", out, "--json")
+    assert json.loads(r.stdout)["specimens"][0]["stale_result"] is None
+    assert sorted(p.name for p in out.glob("*.h5")) == [
+        "S2.1.result.stale.h5", "S2.1.result.stale1.h5"]
+
+
+def test_set_aside_result_never_overwrites_and_leaves_a_symbolic_link(tmp_path, monkeypatch):
+    from laminid_cli.batch import Job, set_aside_result
+
+    job = Job(spec="p.yaml", name="p", output=str(tmp_path / "p.result.h5"), key="k")
+    assert set_aside_result(job) == (None, "")                 # nothing there
+    (tmp_path / "p.result.stale.h5").write_bytes(b"older")
+    (tmp_path / "p.result.h5").write_bytes(b"old")
+    # a file system without hard links: a plain rename to the first free name
+    monkeypatch.setattr("os.link", lambda *a: (_ for _ in ()).throw(PermissionError("no")))
+    assert set_aside_result(job) == (tmp_path / "p.result.stale1.h5", "")
+    assert (tmp_path / "p.result.stale1.h5").read_bytes() == b"old"
+    assert (tmp_path / "p.result.stale.h5").read_bytes() == b"older"
+    assert not (tmp_path / "p.result.h5").exists()
+    monkeypatch.undo()
+    (tmp_path / "target.h5").write_bytes(b"kept")
+    (tmp_path / "p.result.h5").symlink_to(tmp_path / "target.h5")
+    path, why = set_aside_result(job)
+    assert path is None and why == f"{tmp_path / 'p.result.h5'} is a symbolic link, left in place"
+    assert (tmp_path / "p.result.h5").is_symlink()
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "p.result.h5", "p.result.stale.h5", "p.result.stale1.h5", "target.h5"]

@@ -304,3 +304,44 @@ def test_into_through_a_symbolic_link_edits_the_file_it_points_to(tmp_path, h5):
     assert link.is_symlink() and link.resolve() == real.resolve()
     assert real.read_text() != SPEC and "frequencies:" in real.read_text()
     assert (real.parent / "real.yaml.bak").read_text() == SPEC
+
+
+def test_into_leaves_every_other_line_byte_for_byte_and_no_stale_comment(tmp_path, h5, case):
+    """--into kept the comment of the replaced line ('# Hz, Table 1': the paper's data, now
+    beside frequencies fitted from FRFs) and rewrote S1.1's two-line reference.source and a
+    'description: |' block onto one line each. Now only the measured entries it writes
+    change: the frequencies line says where they came from, and every other line is the
+    file's own, in order, byte for byte (line endings too)."""
+    text = _S11.read_text().replace(
+        "description: IM7/977-2 carbon/epoxy plate [45_3/0_3/-45_3/90_3]s, Araujo et al. 2000, "
+        "Example 1\n",
+        "description: |\n  IM7/977-2 carbon/epoxy plate\n    [45_3/0_3/-45_3/90_3]s\n\n"
+        "  Araujo et al. 2000   # not a comment\n")
+    assert "description: |" in text and "    (E1 170 ± 1 GPa" in text
+    for newline in ("\n", "\r\n"):
+        spec = tmp_path / f"S1.1{len(newline)}.yaml"
+        spec.write_bytes(text.replace("\n", newline).encode())
+        r = run(["fit-frf", str(h5), "--into", str(spec)])
+        assert r.exit_code == 0, r.output
+        old = text.split("\n")
+        new = spec.read_bytes().decode().split(newline)
+        assert all("\r" not in line for line in new)
+        k = next(i for i, line in enumerate(old) if line.startswith("  frequencies:"))
+        added = len(new) - len(old) + 1
+        assert new[:k] == old[:k] and new[k + added:] == old[k + 1:]
+        written = new[k:k + added]
+        assert [line.split(":")[0] for line in written] == [
+            "  frequencies", "  sigma", "  sigma_source", "  damping", "  damping_sigma"]
+        assert "Table 1" not in "".join(written)
+        assert written[0].endswith("]   # Hz, laminid fit-frf of plate.frf.h5")
+        assert all("#" not in line for line in written[1:])
+        measured = yaml.safe_load(spec.read_text())["measured"]
+        assert np.allclose(measured["frequencies"], case.freq_hz, rtol=1e-3)
+        assert measured["sigma_source"].startswith("plate.frf.h5: ")
+        before = yaml.safe_load(text)
+        after = yaml.safe_load(spec.read_text())
+        assert after["description"] == before["description"] == (
+            "IM7/977-2 carbon/epoxy plate\n  [45_3/0_3/-45_3/90_3]s\n\n"
+            "Araujo et al. 2000   # not a comment\n")
+        before.pop("measured"), after.pop("measured")
+        assert before == after

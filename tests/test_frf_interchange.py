@@ -389,3 +389,55 @@ def test_roving_hammer_uff_keeps_its_reference_nodes(tmp_path, case):
     assert [(s["rsp_node"], s["rsp_dir"], s["ref_node"], s["ref_dir"]) for s in back] == [
         (5, 3, 1, -3), (5, 3, 2, 3), (5, 3, 3, 3)]
     assert io.read_frf(out).labels == fs.labels
+
+
+@pytest.mark.parametrize("binary", [True, False], ids=["58b", "ascii"])
+def test_export_writes_the_coherence_as_uff58_function_type_6_and_reads_it_back(
+        tmp_path, case, binary):
+    """The coherence that acquire files (and UFF files read in) carry was dropped by export.
+    Now each point with a coherence at every line gets a second type-58 record right after its
+    FRF: function type 6 (coherence), real double data, the same DOFs. pyuff reads them, and
+    laminid's reader (fit-frf) pairs them with their FRF again. A point whose coherence is
+    unknown (NaN) at some line gets none: UFF has no 'unknown', and a 0 would be a value."""
+    import pyuff
+
+    rng = np.random.default_rng(5)
+    coh = 1.0 - 0.3 * rng.random(case.frf.shape)
+    coh[1] = np.nan                         # point 7: no coherence recorded
+    coh[3, 100:110] = np.nan                # point 15: unknown at 10 lines
+    src = io.write_frf(tmp_path / "coh.frf.h5", FrfSet(freq=case.freq, frf=case.frf,
+                                                       coherence=coh, labels=LABELS,
+                                                       units="Pa/N"))
+    out = tmp_path / "coh.uff"
+    r = run(["export", str(src), "-o", str(out), "--json"] + ([] if binary else ["--ascii"]))
+    assert r.exit_code == 0, r.output
+    summary = json.loads(r.output)
+    assert summary["datasets"] == {"58": 8}
+    assert summary["coherence_points"] == ["3", "12", "21"]
+    assert summary["notes"] == ["point 15: coherence unknown at 10 of 1601 lines; not written"]
+    sets = pyuff.UFF(str(out)).read_sets()
+    assert [(s["func_type"], s["rsp_node"]) for s in sets] == [
+        (4, 3), (6, 3), (4, 7), (4, 12), (6, 12), (4, 15), (4, 21), (6, 21)]
+    for s, k in zip([sets[1], sets[4], sets[7]], (0, 2, 4)):
+        assert s["ord_data_type"] == 4 and not np.iscomplexobj(s["data"])
+        assert (s["rsp_dir"], s["ref_node"], s["ref_dir"]) == (3, 1, 3)
+        assert s["ordinate_spec_data_type"] == 0 and s["abscissa_spec_data_type"] == 18
+        np.testing.assert_array_equal(s["x"], case.freq)
+        if binary:
+            np.testing.assert_array_equal(s["data"], coh[k])
+        else:
+            np.testing.assert_allclose(s["data"], coh[k], rtol=1e-11, atol=0)
+    back = io.read_frf(out)
+    assert back.labels == ("3+Z", "7+Z", "12+Z", "15+Z", "21+Z")
+    expect = coh.copy()
+    expect[3] = np.nan
+    assert np.array_equal(np.isnan(back.coherence), np.isnan(expect))
+    ok = ~np.isnan(expect)
+    if binary:
+        np.testing.assert_array_equal(back.coherence[ok], expect[ok])
+    else:
+        np.testing.assert_allclose(back.coherence[ok], expect[ok], rtol=1e-11, atol=0)
+    # the text output says it too; a file without coherence writes FRF records only
+    r = run(["export", str(src), "-o", str(tmp_path / "c2.uff")])
+    assert "and the coherence of 3 (UFF 58 function type 6)" in r.output
+    assert "note: point 15: coherence unknown at 10 of 1601 lines; not written" in r.output

@@ -130,9 +130,13 @@ def test_into_replaces_measured_and_keeps_everything_else(tmp_path):
     spec.write_text(SPEC)
     write_measured(spec, [125.1, 203.4, 300.2, None, 580.0], [0.01, 0.02, 0.03, None, 0.05], validate=False)
     text = spec.read_text()
-    for comment in ("# plate P1 (comments must survive)", "# id", "# Hz; null = not detected",
-                    "# optional, in [0,1]", "# frf_file: plate.frf.h5", "# keep"):
-        assert comment in text
+    # only the lines written change: the frequencies' and sigmas' comments described the values
+    # replaced; the weights are the user's, carried to the new modes, and keep theirs
+    old = SPEC.splitlines()
+    assert text.splitlines() == old[:5] + [
+        "  frequencies: [125.1, 203.4, 300.2, null, 580.0]",
+        "  weights: [1, 1, 1, 0, 1]          # optional, in [0,1]",
+        "  sigma: [0.01, 0.02, 0.03, null, 0.05]"] + old[8:]
     data = yaml.safe_load(text)
     assert data["measured"]["frequencies"] == [125.1, 203.4, 300.2, None, 580.0]
     assert data["measured"]["sigma"] == [0.01, 0.02, 0.03, None, 0.05]
@@ -188,3 +192,56 @@ def test_uff_coherence_records_are_matched_to_their_frf(tmp_path):
     fs = io.read_frf(p)
     assert fs.labels == ("7+Z",)
     assert np.allclose(fs.frf[0], H) and np.allclose(fs.coherence[0], coh)
+
+
+@pytest.mark.parametrize("before, after", [
+    # block sequences: the whole old entry, comments between its items too, becomes one line;
+    # the comment lines after it and the other entries stay
+    ("a: 1\nmeasured:\n  frequencies:\n    - 1.0   # old\n    # gone\n    - 2.0\n\n"
+     "  # after\n  sigma_source: old rule  # c\n  damping: [0.1, 0.2]\nb: |\n  x\n   y\n",
+     "a: 1\nmeasured:\n  frequencies: [3.5]   # Hz, fit\n\n  # after\n"
+     "  damping: [0.1, 0.2]\n  sigma: [0.25]\nb: |\n  x\n   y\n"),
+    # the last entry removed: the new ones take its lines
+    ("measured:\n  frequencies: [1.0]\n  sigma_source: old  # c\nb: 2\n",
+     "measured:\n  frequencies: [3.5]   # Hz, fit\n  sigma: [0.25]\nb: 2\n"),
+    ("measured:\n  frequencies: [1.0]\n  sigma: [1]\n  sigma_source: old\n",
+     "measured:\n  frequencies: [3.5]   # Hz, fit\n  sigma: [0.25]\n"),
+    # an empty measured, and a null one written out
+    ("a: 1\nmeasured:   # to do\nb: 2\n",
+     "a: 1\nmeasured:   # to do\n  frequencies: [3.5]   # Hz, fit\n  sigma: [0.25]\nb: 2\n"),
+    ("a: 1\nmeasured: ~\nb: 2\n",
+     "a: 1\nmeasured:\n  frequencies: [3.5]   # Hz, fit\n  sigma: [0.25]\nb: 2\n"),
+    # a flow mapping: written again as a block, its other entries with the same values
+    ("a: 1\nmeasured: {frequencies: [1, 2], frf_note: x}  # Table 1\nb: 2\n",
+     "a: 1\nmeasured:\n  frequencies: [3.5]   # Hz, fit\n  frf_note: x\n  sigma: [0.25]\nb: 2\n"),
+    # absent: after the root's last entry, before the comments that end the file
+    ("a: 1\nb: >\n  folded\n  text\n# end\n",
+     "a: 1\nb: >\n  folded\n  text\nmeasured:\n  frequencies: [3.5]   # Hz, fit\n"
+     "  sigma: [0.25]\n# end\n"),
+    # CRLF line endings stay CRLF, the new lines too
+    ("a: 1\r\nmeasured:\r\n  frequencies: [1.0]  # Table 1\r\nb: 2\r\n",
+     "a: 1\r\nmeasured:\r\n  frequencies: [3.5]   # Hz, fit\r\n  sigma: [0.25]\r\nb: 2\r\n"),
+])
+def test_splice_measured_changes_only_the_lines_it_writes(before, after):
+    from laminid_cli.frf.into import splice_measured
+
+    out = splice_measured(before, {"frequencies": [3.5], "sigma": [0.25]}, ["sigma_source"],
+                          comments={"frequencies": "Hz, fit"})
+    assert out == after
+    expect = yaml.safe_load(before)
+    expect["measured"] = {k: v for k, v in (expect.get("measured") or {}).items()
+                          if k != "sigma_source"} | {"frequencies": [3.5], "sigma": [0.25]}
+    assert yaml.safe_load(out) == expect
+
+
+def test_into_keeps_a_byte_order_mark_and_refuses_a_flow_root(tmp_path):
+    spec = tmp_path / "p.yaml"
+    spec.write_bytes(b"\xef\xbb\xbfname: X\nmeasured:\n  frequencies: [1.0]\n")
+    write_measured(spec, [100.0], [0.1], validate=False, comment="Hz, fit-frf of f.h5")
+    assert spec.read_bytes() == (b"\xef\xbb\xbfname: X\nmeasured:\n  frequencies: [100.0]   "
+                                 b"# Hz, fit-frf of f.h5\n  sigma: [0.1]\n")
+    spec.write_text("{name: X, measured: {frequencies: [1.0]}}\n")
+    with pytest.raises(SpecimenError, match=r"one flow mapping \(\{\.\.\.\}\); --into edits a "
+                                            "specimen written in block style"):
+        write_measured(spec, [100.0], [0.1], validate=False)
+    assert spec.read_text() == "{name: X, measured: {frequencies: [1.0]}}\n"

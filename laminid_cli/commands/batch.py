@@ -39,7 +39,10 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
 
     A result whose input has not changed (sha256 of the specimen and its FRF file, the
     options and the laminid version, stored in the file) is not redone unless --force. A
-    failing specimen is listed with its reason and the others go on. Exit code 0 when all
+    failing specimen is listed with its reason and the others go on; a result it still has
+    in OUT (an earlier input's) is renamed <name>.result.stale.h5 (.stale1.h5, ... when that
+    exists), out of the *.result.h5 pattern, and named in the table and the summaries
+    (stale_result). Exit code 0 when all
     converged (status ok or check), 1 when any failed or did not converge, 2 for bad usage
     (no specimen found).
 
@@ -57,7 +60,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
     from laminid_cli.batch import (BatchError, batch_report, check_scheduler,
                                    discover_specimens, failed, format_table, plan_batch,
                                    printable, remove_stale_parts, result_row, run_jobs,
-                                   stored_hash, write_summary_csv, write_summary_json,
+                                   set_aside_result, stored_hash, write_summary_csv, write_summary_json,
                                    SUMMARY_CSV, SUMMARY_JSON)
 
     # bad --mesh, --sigma-rel...: exit 2 at once (remote Dask workers check their own memory);
@@ -109,7 +112,9 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
             for job, outcome in run_jobs(todo, options, n_jobs=n_jobs, scheduler=scheduler):
                 if outcome.data is not None:
                     write_bytes_atomic(job.output, outcome.data, parents=True)
-                rows[job.name] = result_row(job, outcome)
+                # a failing specimen gets no result: one at its name is an earlier input's
+                stale = set_aside_result(job) if outcome.status == "error" else (None, "")
+                rows[job.name] = result_row(job, outcome, stale=stale)
                 finished += 1
                 if bar is not None:
                     bar.update(1, printable(f"{job.name}: {outcome.status}"))
@@ -137,7 +142,9 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
         click.echo(format_table(ordered), nl=False)
         c = report["counts"]
         click.echo(f"\n{c['ok']} ok, {c['check']} check ({c['not converged']} not converged), "
-                   f"{c['error']} failed ({report['n_cached']} up to date); summary: "
-                   f"{out / SUMMARY_CSV}")
+                   f"{c['error']} failed ({report['n_cached']} up to date"
+                   + (f"; {c['set aside']} earlier result{'' if c['set aside'] == 1 else 's'}"
+                      " set aside" if c["set aside"] else "")
+                   + f"); summary: {out / SUMMARY_CSV}")
     if failed(ordered):
         sys.exit(1)

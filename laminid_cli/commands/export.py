@@ -54,7 +54,8 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
         per measurement point, response node = point number (label), direction +Z,
         reference node 1 +Z (a UFF label such as 12-Z, or 5+Z:2+Z of a roving hammer: its
         nodes and directions), abscissa Hz, the file's units as the response's over the force's
-        (Pa/N: ordinate Pa, pressure, over N, excitation force);
+        (Pa/N: ordinate Pa, pressure, over N, excitation force), each followed by the
+        point's coherence where the file has it (a UFF 58 record of function type 6);
       - a result of identify/batch/modes: the plate mesh as UFF 15 nodes (metres, UFF 164
         units SI) and each mode as a UFF 55 normal-mode record (0, 0, w0) at the nodes,
         w0 of the mass-normalised mode in m/sqrt(kg), with its natural frequency.
@@ -98,18 +99,26 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
         text = (f"{out}: {summary['n_modes']} mode shapes of {shapes.specimen} (UFF 55) on "
                 f"{summary['n_nodes']} nodes (UFF 15, metres; UFF 164 SI)")
     else:
-        from laminid_cli.frf.io import read_frf, uff_point, write_frf_uff
+        from laminid_cli.frf.io import (read_frf, uff_coherence_points, uff_point,
+                                        write_frf_uff)
 
         fs = read_frf(input_file, fmt, freq_dataset=freq_dataset, frf_dataset=frf_dataset)
         write_frf_uff(out, fs, overwrite=force, binary=not ascii_)
         labels = list(fs.labels) or [str(i + 1) for i in range(fs.n_points)]
         nodes = [uff_point(lab, i)[0] for i, lab in enumerate(labels)]
+        coherent, notes = uff_coherence_points(fs)
         summary = {"input": str(input_file), "output": str(out), "kind": "FRF",
-                   "datasets": {"58": fs.n_points}, "binary": not ascii_, "units": fs.units,
-                   "n_lines": int(fs.freq.size), "points": dict(zip(labels, nodes))}
+                   "datasets": {"58": fs.n_points + len(coherent)}, "binary": not ascii_,
+                   "units": fs.units, "n_lines": int(fs.freq.size),
+                   "points": dict(zip(labels, nodes)),
+                   "coherence_points": [labels[k] for k in coherent], "notes": notes}
         text = (f"{out}: {fs.n_points} FRFs (UFF 58{'' if ascii_ else 'b'}, {fs.units}, "
-                f"{fs.freq.size} lines {fs.freq[0]:g}-{fs.freq[-1]:g} Hz), point -> node: "
-                + ", ".join(f"{lab}->{n}" for lab, n in zip(labels, nodes)))
+                f"{fs.freq.size} lines {fs.freq[0]:g}-{fs.freq[-1]:g} Hz)"
+                + (f" and the coherence of {len(coherent)} (UFF 58 function type 6)"
+                   if coherent else "")
+                + ", point -> node: "
+                + ", ".join(f"{lab}->{n}" for lab, n in zip(labels, nodes))
+                + "".join(f"\nnote: {note}" for note in notes))
     if as_json:
         echo_json(summary)
     else:

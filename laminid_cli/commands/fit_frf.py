@@ -42,8 +42,9 @@ def _parse_bands(ctx, param, values):
 @click.option("--into", "spec_path", type=click.Path(), default=None,
               help="Write the frequencies, their sigmas, the damping ratios (the exponential "
                    "window's damping removed) and their sigmas into this specimen file's "
-                   "'measured:' entry (comments kept; the previous version goes to a new "
-                   "backup SPEC.bak, SPEC.bak1, ...; weights follow their modes by frequency).")
+                   "'measured:' entry (only those lines change, and lose their old comments; "
+                   "the previous version goes to a new backup SPEC.bak, SPEC.bak1, ...; "
+                   "weights follow their modes by frequency).")
 @click.option("--sigma-rel", type=SIGMA_REL, default=0.002, show_default=True, metavar="FRACTION",
               help="Floor of each frequency's standard deviation, as a fraction of it "
                    "(supports, temperature, repeatability: what the FRF cannot show).")
@@ -132,7 +133,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
 
         into = write_measured(spec_path, fit.freq_hz.tolist(), sigma.tolist(),
                               damping=wc.damping.tolist(), damping_sigma=wc.sigma.tolist(),
-                              sigma_source=f"{Path(frf_file).name}: {msig.summary()}")
+                              sigma_source=f"{Path(frf_file).name}: {msig.summary()}",
+                              comment=f"Hz, laminid fit-frf of {Path(frf_file).name}")
     if as_json:
         def damping_fields(i):
             return {"damping_ratio": float(wc.damping[i]), "damping_sigma": float(wc.sigma[i]),

@@ -3,8 +3,12 @@
 Only ``measured.frequencies`` (Hz, ``null`` for a mode not found), ``measured.sigma`` (Hz,
 standard deviations), ``measured.sigma_source`` (how the sigmas were made),
 ``measured.damping`` and ``measured.damping_sigma`` (viscous damping ratios and their standard
-deviations, when given) and, when asked or already present, ``measured.weights`` change; every
-comment, every other key and their order are kept (ruamel.yaml round trip). The file is never
+deviations, when given) and, when asked or already present, ``measured.weights`` change, and
+only the lines of those entries (:func:`splice_measured`, on the text: every other byte of the
+file stays as it was, comments, block scalars, line endings included). A replaced line loses
+its comment, which described the values replaced (``# Hz, Table 1`` beside frequencies now
+fitted from FRFs); the frequencies line gets the comment the caller gives (``laminid fit-frf``:
+``# Hz, laminid fit-frf of plate.frf.h5``); carried weights keep theirs. The file is never
 left half-written or invalid:
 
 0. the specimen file is read and validated first (:func:`laminid_cli.specimen.read_specimen`,
@@ -21,7 +25,7 @@ left half-written or invalid:
 
 from __future__ import annotations
 
-import io
+import codecs
 import math
 import os
 import shutil
@@ -31,6 +35,8 @@ from pathlib import Path
 from laminid_cli.errors import SpecimenError
 
 KEYS = ("frequencies", "sigma", "weights", "damping", "damping_sigma")
+#: longest line a written entry may have before PyYAML would fold it (never: one line each)
+_WIDTH = 10**9
 #: a user's weight follows its mode to the new fit when their frequencies are within this
 #: relative distance (one to one, nearest first)
 WEIGHT_MATCH_REL = 0.01
@@ -168,6 +174,158 @@ def _next_backup(spec_path: Path, text: bytes) -> tuple[Path, bool]:
                         path=str(spec_path))
 
 
+def _content_end(node) -> int:
+    """Index just past the last character of ``node``'s own text: PyYAML ends a block
+    collection (and may end a block scalar) at the next token, after the blank and comment
+    lines between; those belong to what follows."""
+    import yaml
+
+    if isinstance(node, yaml.SequenceNode) and not node.flow_style and node.value:
+        return _content_end(node.value[-1])
+    if isinstance(node, yaml.MappingNode) and not node.flow_style and node.value:
+        return _content_end(node.value[-1][1])
+    return node.end_mark.index
+
+
+def _line_end(text: str, index: int) -> int:
+    """Index of the line break ending the line that holds ``text[index - 1]`` (len at EOF)."""
+    k = index
+    while k > 0 and text[k - 1] in " \t\r\n":   # back onto the content's last character
+        k -= 1
+    end = text.find("\n", k)
+    if end < 0:
+        return len(text)
+    return end - 1 if end > 0 and text[end - 1] == "\r" else end
+
+
+def _line_start(text: str, index: int) -> int:
+    return text.rfind("\n", 0, index) + 1
+
+
+def _entry_text(key: str, value, comment: str | None = None) -> str:
+    """``key: value`` on one line (a list in flow style), PyYAML's plain-safe spelling (so
+    that it reads back as the same value), with ``# comment`` after it."""
+    import yaml
+
+    # None: the list in flow style, the mapping around it in block style (a scalar alone
+    # would make that mapping a flow one)
+    line = yaml.safe_dump({key: value}, width=_WIDTH, allow_unicode=True, sort_keys=False,
+                          default_flow_style=None if isinstance(value, list) else False
+                          ).rstrip("\n")
+    if "\n" in line:                   # pragma: no cover - lists of scalars, one-line strings
+        raise ValueError(f"{key}: not a one-line value")
+    if comment:
+        # one line of printable text: a file name may hold anything
+        comment = "".join(c if c.isprintable() else "?" for c in " ".join(comment.split()))
+        line += f"   # {comment}"
+    return line
+
+
+def splice_measured(text: str, updates: dict, removals=(), comments: dict | None = None,
+                    keep_comments=(), path: str = "<string>") -> str:
+    """``text`` with the ``measured:`` entries ``updates`` written and ``removals`` removed,
+    and not one other character changed.
+
+    Parameters
+    ----------
+    text : YAML whose root is a block mapping (a specimen file)
+    updates : {key: value} of ``measured``; each is written on one line, ``key: [..]``, over
+        the lines the key's old entry had (its comments there go with it: they described the
+        old values) or, for a new key, on a new line after the mapping's last entry
+    removals : keys of ``measured`` whose lines are removed
+    comments : {key: text} comments of written lines
+    keep_comments : keys whose entry keeps the comment after its old value (the user's weights,
+        carried to the new modes, keep what the user said of them)
+
+    A ``measured`` that is absent is added after the root mapping's last entry; one that is
+    empty (null) gets its entries below it; one written as a flow mapping
+    (``measured: {...}``) is written again as a block mapping (its other entries re-spelt,
+    same values). The caller checks that the result reads back as intended.
+    """
+    import yaml
+
+    comments = comments or {}
+    try:
+        root = yaml.compose(text, Loader=yaml.SafeLoader)
+    except yaml.YAMLError as exc:
+        raise SpecimenError(f"not valid YAML ({exc}); file left unchanged", path=path) from exc
+    if not isinstance(root, yaml.MappingNode):
+        raise SpecimenError("the specimen file must be a YAML mapping; file left unchanged",
+                            path=path)
+    if root.flow_style:
+        raise SpecimenError("the file is one flow mapping ({...}); --into edits a specimen "
+                            "written in block style (one 'key: value' per line); file left "
+                            "unchanged", path=path)
+    nl = "\r\n" if "\r\n" in text else "\n"
+    edits: list[tuple[int, int, str]] = []          # (start, end, new text), disjoint
+
+    entry = next(((k, v) for k, v in root.value
+                  if isinstance(k, yaml.ScalarNode) and k.value == "measured"), None)
+    if entry is None or not isinstance(entry[1], yaml.MappingNode) or entry[1].flow_style:
+        # a whole block of its own: after the root's last entry, or over the old value
+        values = {}
+        if entry is not None and isinstance(entry[1], yaml.MappingNode):
+            values = yaml.safe_load(text[entry[1].start_mark.index:entry[1].end_mark.index])
+            values = {k: v for k, v in (values or {}).items() if k not in removals}
+        elif entry is not None and not (isinstance(entry[1], yaml.ScalarNode)
+                                        and entry[1].tag == "tag:yaml.org,2002:null"):
+            raise SpecimenError("'measured' must be a mapping; file left unchanged",
+                                path=path, field="measured")
+        values.update(updates)
+        indent = " " * root.value[0][0].start_mark.column
+        lines = [indent + "  " + _entry_text(k, v, comments.get(k)) for k, v in values.items()]
+        if entry is None:
+            at = _line_end(text, _content_end(root.value[-1][1]))
+            edits.append((at, at, nl + indent + "measured:" + nl + nl.join(lines)))
+        elif isinstance(entry[1], yaml.MappingNode):
+            # the flow mapping's lines, with their comments (of the values replaced)
+            colon = text.index(":", entry[0].end_mark.index) + 1
+            edits.append((colon, _line_end(text, entry[1].end_mark.index),
+                          nl + nl.join(lines)))
+        else:
+            # null: a "~" or "null" written out goes, the line's comment stays
+            value = entry[1]
+            if value.end_mark.index > value.start_mark.index:
+                colon = text.index(":", entry[0].end_mark.index) + 1
+                edits.append((colon, value.end_mark.index, ""))
+            at = _line_end(text, entry[0].end_mark.index)
+            edits.append((at, at, nl + nl.join(lines)))
+    else:
+        measured = entry[1]
+        indent = " " * measured.value[0][0].start_mark.column
+        spans = {k.value: (k.start_mark.index, _line_end(text, _content_end(v)),
+                           _content_end(v))
+                 for k, v in measured.value if isinstance(k, yaml.ScalarNode)}
+        for key, value in updates.items():
+            if key in spans:
+                start, end, value_end = spans[key]
+                piece = _entry_text(key, value, comments.get(key))
+                tail = text[value_end:end]
+                if key in keep_comments and tail.lstrip(" \t").startswith("#"):
+                    piece += tail
+                edits.append((start, end, piece))
+        new = [indent + _entry_text(k, v, comments.get(k)) for k, v in updates.items()
+               if k not in spans]
+        last = measured.value[-1][0].value
+        for key in removals:
+            if key in spans:
+                start, end, _ = spans[key]
+                if key == last and new:      # its lines become the new entries
+                    edits.append((_line_start(text, start), end, nl.join(new)))
+                    new = []
+                    continue
+                # the whole lines, with their line break
+                stop = end + len(nl) if text.startswith(nl, end) else end
+                edits.append((_line_start(text, start), stop, ""))
+        if new:
+            at = _line_end(text, _content_end(measured.value[-1][1]))
+            edits.append((at, at, nl + nl.join(new)))
+    out = text
+    for start, end, piece in sorted(edits, reverse=True):
+        out = out[:start] + piece + out[end:]
+    return out
+
+
 def _round(x: float | None, digits: int) -> float | None:
     if x is None or not math.isfinite(x):
         return None
@@ -183,7 +341,8 @@ def _sig(x, digits: int = 6) -> float | None:
 
 def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=None,
                    damping_sigma=None, backup: bool = True,
-                   validate: bool = True, sigma_source: str | None = None) -> MeasuredEdit:
+                   validate: bool = True, sigma_source: str | None = None,
+                   comment: str | None = None) -> MeasuredEdit:
     """Replace/insert the measured frequencies (and sigma, weights) of a specimen YAML file.
 
     Parameters
@@ -205,12 +364,16 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
         fit-frf --into``); without it only the YAML checks (bounded size, depth, aliases, no
         tags) and the structure of ``measured`` are required (any YAML mapping is edited)
     sigma_source : written as ``measured.sigma_source`` (shown by identify), with ``sigma_hz``
+    comment : the comment of the new ``frequencies`` line (where they came from); the lines
+        replaced lose theirs, which spoke of the values replaced
+
+    Only the lines of the entries written or removed change; every other byte of the file
+    (comments, block and multi-line scalars, line endings, a byte-order mark) is kept
+    (:func:`splice_measured`).
 
     Returns a :class:`MeasuredEdit` (the backup's path, the notes on the weights).
     """
     import yaml
-    from ruamel.yaml import YAML
-    from ruamel.yaml.comments import CommentedMap, CommentedSeq
 
     from laminid_cli.specimen import check_yaml_text, load_specimen_text, read_specimen
 
@@ -220,15 +383,16 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
     parsed = None
     if validate:   # the whole specimen must be valid before anything is edited
         parsed = read_specimen(spec_path)
-        text = parsed.source_text
-    else:
-        try:
-            text = spec_path.read_text(encoding="utf-8")
-        except FileNotFoundError as exc:
-            raise SpecimenError("file not found", path=str(spec_path)) from exc
-        except (OSError, UnicodeDecodeError) as exc:
-            raise SpecimenError(f"cannot read the file ({exc})", path=str(spec_path)) from exc
-    # bounded before ruamel or PyYAML builds anything from it (aliases, depth, tags, size)
+    try:
+        # bytes as they are: line endings and a byte-order mark are kept
+        raw = spec_path.read_bytes()
+        text = raw.decode("utf-8-sig")
+    except FileNotFoundError as exc:
+        raise SpecimenError("file not found", path=str(spec_path)) from exc
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SpecimenError(f"cannot read the file ({exc})", path=str(spec_path)) from exc
+    bom = codecs.BOM_UTF8 if raw.startswith(codecs.BOM_UTF8) else b""
+    # bounded before PyYAML builds anything from it (aliases, depth, tags, size)
     check_yaml_text(text, str(spec_path))
     try:
         original = yaml.safe_load(text)
@@ -263,23 +427,14 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
     else:
         wts = None
 
-    rt = YAML()
-    rt.preserve_quotes = True
-    rt.width = 4096
-    try:
-        doc = rt.load(text)
-    except Exception as exc:  # ruamel's error classes vary by version
-        raise SpecimenError(f"cannot parse for editing ({exc}); file left unchanged",
-                            path=str(spec_path)) from exc
-    measured = doc.get("measured")
-    if measured is None:
-        measured = CommentedMap()
-        doc["measured"] = measured
-    elif not isinstance(measured, dict):
+    measured = original.get("measured")
+    if measured is not None and not isinstance(measured, dict):
         raise SpecimenError("'measured' must be a mapping; file left unchanged",
                             path=str(spec_path), field="measured")
+    measured = measured or {}
     weight_notes: list[str] = []
-    if wts is None and "weights" in measured:
+    carried = wts is None and "weights" in measured
+    if carried:
         old = measured["weights"]
         old_f = measured.get("frequencies")
         if parsed is not None and parsed.measured is not None:   # values with units read
@@ -293,40 +448,32 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
             weight_notes = ["the file's weights did not pair with its frequencies; rewritten "
                             "as 1 for the modes found and 0 for the others"]
 
-    def put(key, values):
-        old = measured.get(key)
-        if isinstance(old, CommentedSeq):   # edit in place: keeps the flow style and comments
-            old[:] = values
-        else:
-            seq = CommentedSeq(values)
-            seq.fa.set_flow_style()
-            measured[key] = seq
-
-    put("frequencies", freq)
+    updates: dict = {"frequencies": freq}
+    removals = []
     if sig is not None:
-        put("sigma", sig)
+        updates["sigma"] = sig
         if sigma_source:
-            measured["sigma_source"] = str(sigma_source)
+            updates["sigma_source"] = str(sigma_source)
         elif "sigma_source" in measured:
-            del measured["sigma_source"]               # it described the previous sigmas
+            removals.append("sigma_source")            # it described the previous sigmas
     if wts is not None:
-        put("weights", wts)
-    for key, values in extra.items():
-        put(key, values)
+        updates["weights"] = wts
+    updates.update(extra)
     damping_notes = []
     if drop_damping:
         for key in ("damping", "damping_sigma"):
             if key in measured:
-                del measured[key]
+                removals.append(key)
                 damping_notes.append(f"measured.{key} removed (it described an earlier fit)")
+    new_text = splice_measured(text, updates, removals,
+                               comments={"frequencies": comment} if comment else None,
+                               keep_comments=("weights",) if carried else (),
+                               path=str(spec_path))
 
-    buf = io.StringIO()
-    rt.dump(doc, buf)
-    new_text = buf.getvalue()
     # re-validate: plain parse; only the measured lists may differ
     try:
         check = yaml.safe_load(new_text)
-    except yaml.YAMLError as exc:  # pragma: no cover - would be a ruamel bug
+    except yaml.YAMLError as exc:  # pragma: no cover - would be a bug of splice_measured
         raise SpecimenError(f"edited file would not parse ({exc}); file left unchanged",
                             path=str(spec_path)) from exc
     expect = dict(original)
@@ -366,8 +513,8 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
         bak, bak_new = _next_backup(spec_path, current)
     tmp = spec_path.with_name(f".{spec_path.name}.tmp-{os.getpid()}")
     try:
-        with open(tmp, "w", encoding="utf-8") as fh:
-            fh.write(new_text)
+        with open(tmp, "wb") as fh:
+            fh.write(bom + new_text.encode("utf-8"))
             fh.flush()
             os.fsync(fh.fileno())
         shutil.copymode(spec_path, tmp)

@@ -40,7 +40,11 @@ FORMATS = ("hdf5", "uff", "csv")
 SUFFIXES = {".h5": "hdf5", ".hdf5": "hdf5", ".hdf": "hdf5", ".uff": "uff", ".unv": "uff",
             ".csv": "csv", ".txt": "csv"}
 
-#: UFF 58 function types, and the abscissa's specific data type for frequency (Hz)
+#: UFF 58 function types (record 6, field 1: 4 frequency response function, 6 coherence), and
+#: the abscissa's specific data type for frequency (Hz; record 8, field 1: 18). Source: the
+#: dataset 58 definition of the I-DEAS Universal File format, as reproduced in the docstring
+#: of pyuff's ``pyuff/datasets/dataset_58.py`` (pyuff 2.5.8, whose ``_write58`` writes function
+#: types 0-4, 6 and 9); record 7, field 1 (ordinate data type): 4 real double, 6 complex double
 UFF_FRF, UFF_COHERENCE = 4, 6
 UFF_ABSCISSA_FREQUENCY = 18
 #: UFF 58 specific data types (record 9/10 of the header) of the response units laminid
@@ -312,25 +316,59 @@ def uff_point(label: str, k: int, rsp_dir: int = 3, ref: tuple[int, int] = (1, 3
     return (*node, int(m.group(3)), codes[m.group(4)]) if m.group(3) else (*node, *ref)
 
 
+def uff_coherence_points(fs: FrfSet) -> tuple[list[int], list[str]]:
+    """Which points' coherence :func:`write_frf_uff` writes: ``(indices, notes)``.
+
+    A point gets a coherence record when its coherence is known (finite) at every line; one
+    unknown (NaN) at every line has none, silently (nothing was recorded); one unknown at some
+    lines has none either, and a note names it: UFF has no "unknown", and 0 would be read as a
+    measured coherence of 0.
+    """
+    if fs.coherence is None:
+        return [], []
+    rows, notes = [], []
+    for k in range(fs.n_points):
+        known = np.isfinite(fs.coherence[k])
+        if known.all():
+            rows.append(k)
+        elif known.any():
+            label = fs.labels[k] if k < len(fs.labels) else str(k + 1)
+            notes.append(f"point {label}: coherence unknown at {int((~known).sum())} of "
+                         f"{known.size} lines; not written")
+    return rows, notes
+
+
 def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 1,
                   rsp_dir: int = 3, ref_dir: int = 3, binary: bool = False) -> Path:
-    """Write one type-58 FRF record per point (response node = point number); ASCII, or
-    binary 58b (lossless doubles) with ``binary=True``."""
+    """Write one type-58 FRF record per point (response node = point number), each followed by
+    the point's coherence when known (function type 6, real double, same DOFs, unit "NONE";
+    :func:`uff_coherence_points`); ASCII, or binary 58b (lossless doubles) with
+    ``binary=True``. :func:`read_frf_uff` pairs the coherence with its FRF by the DOFs."""
     import pyuff
 
     path = _new_target(path, overwrite)
+    with_coherence, _ = uff_coherence_points(fs)
     sets = []
     for k in range(fs.n_points):
         label = fs.labels[k] if k < len(fs.labels) else str(k + 1)
         node, direction, ref, ref_direction = uff_point(label, k, rsp_dir, (ref_node, ref_dir))
-        sets.append(pyuff.prepare_58(
-            binary=int(binary), id1=f"FRF {label}", id2="laminid", func_type=UFF_FRF,
+        common = dict(
+            binary=int(binary), id2="laminid",
             rsp_node=node, rsp_dir=direction, ref_node=ref, ref_dir=ref_direction,
-            ord_data_type=6,  # complex double
             abscissa_spacing=1 if np.allclose(np.diff(fs.freq), fs.freq[1] - fs.freq[0]) else 0,
-            abscissa_spec_data_type=UFF_ABSCISSA_FREQUENCY, **_uff_axes(fs.units),
-            abscissa_axis_units_lab="Hz",
-            data=np.asarray(fs.frf[k], dtype=complex), x=np.asarray(fs.freq, dtype=float)))
+            abscissa_spec_data_type=UFF_ABSCISSA_FREQUENCY, abscissa_axis_units_lab="Hz",
+            x=np.asarray(fs.freq, dtype=float))
+        sets.append(pyuff.prepare_58(
+            id1=f"FRF {label}", func_type=UFF_FRF, ord_data_type=6,  # complex double
+            **_uff_axes(fs.units), data=np.asarray(fs.frf[k], dtype=complex), **common))
+        if k in with_coherence:
+            sets.append(pyuff.prepare_58(
+                id1=f"Coherence {label}", func_type=UFF_COHERENCE,
+                ord_data_type=4,  # real double
+                # a dimensionless ratio: specific data types 0 (unknown), no units
+                ordinate_spec_data_type=0, orddenom_spec_data_type=0,
+                ordinate_axis_units_lab="NONE", orddenom_axis_units_lab="NONE",
+                data=np.asarray(fs.coherence[k], dtype=float), **common))
     return write_uff_sets(path, sets)
 
 
