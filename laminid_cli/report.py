@@ -521,6 +521,8 @@ def table_notes(r: ResultFile) -> list[str]:
         notes.append("fixed: held at its initial value, not identified (its value is an "
                      "assumption, not a result; no comparison with the reference)")
     u = r.uncertainty
+    for lab, text in (getattr(u, "fixed_ranges", None) or {}).items():
+        notes.append(f"{lab} (fixed on a search limit): {text}")
     if u is not None and getattr(u, "spread_counted", ()):
         names = [lab.rsplit(".", 1)[1] if len(r.materials) == 1 else lab
                  for lab in u.spread_counted]

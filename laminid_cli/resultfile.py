@@ -97,6 +97,9 @@ class Uncertainty:
     #: intervals were given the fixed values
     spread_counted: tuple[str, ...] = ()
     given_fixed: dict = field(default_factory=dict)
+    #: {label: statement} of the constants fixed on a limit of the search, checked across it
+    #: (/uncertainty/fixed_ranges; {} in older files)
+    fixed_ranges: dict = field(default_factory=dict)
 
     def get(self, material: str, constant: str) -> Interval | None:
         return next((iv for iv in self.intervals
@@ -459,6 +462,9 @@ def _uncertainty(f) -> Uncertainty | None:
         fixed=_label_list(a.get("fixed")), fixed_undetermined=_label_list(
             a.get("fixed_undetermined")), before_fixing=_before_fixing(u),
         fixed_widths=_fixed_widths(u), spread_counted=_label_list(a.get("spread_counted")),
+        fixed_ranges=({lab: text for lab, text in zip(_strings(u["fixed_ranges"]["labels"]),
+                                                      _strings(u["fixed_ranges"]["text"]))}
+                      if "fixed_ranges" in u else {}),
         given_fixed=({lab: float(w) for lab, w in zip(
             labels, np.ravel(u["rel_half_width_given_fixed"][()]))}
             if "rel_half_width_given_fixed" in u else {}))

@@ -87,6 +87,10 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
                           profile_text   per label, of a constant at its bound: where the fit
                           rejects it (profile of the fit; NaN: nowhere within the search up to
                           profile_far), and the statement (laminid_cli.uncertainty.Profile)
+    /uncertainty/fixed_ranges  labels, low, high, ratio_to_half_width, text: each constant
+                          --fix-undetermined fixed on a limit of the search, the others
+                          identified again with it at the search's two ends
+                          (laminid_cli.uncertainty.FixedRange)
     /uncertainty/spread_counted  labels, covariance (of the fixed values counted),
                           cross_covariance (free constants x those)
     /uncertainty/before_fixing  labels, rel_half_width, verdict of the first run when
@@ -528,6 +532,19 @@ def write_uncertainty(f, a, plate_names) -> None:
         put(gs, "cross_covariance", u.spread_cross, "Pa^2 (nu12: Pa, 1)",
             description="covariance of the free constants (rows: /uncertainty/labels) with the "
             "fixed values counted (columns: labels)")
+    if u.fixed_ranges:
+        gr = g.create_group("fixed_ranges")
+        labels = list(u.fixed_ranges)
+        data, dt = _strings(labels)
+        gr.create_dataset("labels", data=data, dtype=dt)
+        for key in ("low", "high"):
+            put(gr, key, np.array([getattr(u.fixed_ranges[x], key) for x in labels]),
+                "Pa (nu12: 1)", description="end of the search the constant was held at")
+        put(gr, "ratio_to_half_width", np.array([u.fixed_ranges[x].ratio for x in labels]),
+            "1", description="largest move of a free constant between the ends, over its "
+            "half-width (> 1: its interval is given a value that is not known)")
+        data, dt = _strings([u.fixed_ranges[x].text for x in labels])
+        gr.create_dataset("text", data=data, dtype=dt)
     g.attrs["spread_counted"] = ",".join(u.spread_counted)
     g.attrs["spread_not_counted"] = ",".join(u.spread_not_counted)
     g.attrs["chi2_limit_99"] = u.chi2_limit

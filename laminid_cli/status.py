@@ -201,6 +201,9 @@ def result_status(result, uncertainty=None, damping=None) -> ResultStatus:
             add("undetermined", f"not determined by these modes ({u.confidence * 100:.0f} % "
                                 f"half-width above {u.thresholds['max_rel_interval'] * 100:.0f} %"
                                 f" of the value): {words}")
+        for fr in getattr(u, "fixed_ranges", {}).values():
+            if fr.moves:
+                add("undetermined", f"{fr.label}: {fr.text}")
         if u.dof > 0 and np.isfinite(u.chi2_limit) and u.chi2 > u.chi2_limit:
             joint = len(_plates(result)) > 1
             add("poor_fit", f"the fit misses the data by more than the stated frequency noise: "

@@ -318,6 +318,9 @@ class Uncertainty:
     spread_not_counted: tuple[str, ...] = ()
     #: {label: Profile} of the constants at a limit of the search (:func:`with_profiles`)
     profiles: dict = field(default_factory=dict)
+    #: {label: FixedRange} of the constants fixed on a limit of the search
+    #: (:func:`with_fixed_ranges`)
+    fixed_ranges: dict = field(default_factory=dict)
 
     def as_dict(self) -> dict:
         """Plain data for JSON (per material and constant) and the report."""
@@ -371,6 +374,7 @@ class Uncertainty:
             "fixed": list(self.fixed),
             "spread_counted": list(self.spread_counted),
             "spread_not_counted": list(self.spread_not_counted),
+            "fixed_ranges": {lab: r.as_dict() for lab, r in self.fixed_ranges.items()},
             "sigma_source": self.sigma_source,
             "thresholds": dict(self.thresholds),
             "notes": list(self.notes),
@@ -2128,20 +2132,64 @@ def profile_bound(label: str, side: str, limit: float, far: float, delta, thresh
     return Profile(label, side, limit, bound, far, d_far, threshold, runs, text)
 
 
+def refit_held(result, fms, sigmas, kw: dict, joint: bool, label: str, value: float,
+               max_evaluations: int = PROFILE_EVALUATIONS):
+    """(result, uncertainty) of the others identified again with the constant ``label`` held
+    at ``value`` (SI): from ``result``'s optimum (a short walk; where other constants sit on
+    a limit a run may not start from, E2 = E1 exactly, a little towards the initial values),
+    its basis, at most ``max_evaluations``. FitError when that fit does not converge."""
+    from laminid_cli.identify import identify
+    from laminid_cli.joint import identify_joint
+
+    options = result.options
+    name, k = label.rsplit(".", 1)
+    m = tuple(result.material_names).index(name)
+    bases = result.basis
+    fms_v = []
+    for fm in fms:
+        spec = fm.specimen
+        if name in spec.materials:
+            mat = spec.materials[name]
+            mat = dataclasses.replace(mat, constants=dataclasses.replace(mat.constants,
+                                                                         **{k: value}))
+            spec = dataclasses.replace(spec, materials={**spec.materials, name: mat})
+        fms_v.append(dataclasses.replace(fm, specimen=spec))
+    opts = dataclasses.replace(options, fix=tuple(options.fix) + (label,),
+                               max_evaluations=min(options.max_evaluations, max_evaluations))
+
+    def run(start):
+        if joint:
+            return identify_joint(fms_v, opts, start=start,
+                                  basis=None if bases is None else [b.copy() for b in bases])
+        return identify(fms_v[0], opts, start=start,
+                        basis=None if bases is None else bases.copy())
+
+    for step in PROFILE_STEPS:
+        start = [_between(c, c0, step) for c, c0 in zip(result.constants, result.initial)]
+        start[m] = dataclasses.replace(start[m], **{k: value})
+        try:
+            r = run(start)
+            break
+        except FitInputError:
+            if step == PROFILE_STEPS[-1]:
+                raise
+    if not r.converged:
+        raise FitError(f"the identification with {k} held at {_show(k, value)} did not "
+                       f"converge in {opts.max_evaluations} evaluations")
+    uc = uncertainty_of(r, fms_v if joint else fms_v[0], sigmas if joint else sigmas[0], **kw)
+    return r, uc
+
+
 def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) -> Uncertainty:
     """``u`` with a :class:`Profile` of each constant that stopped on a limit of the search
     (``profiles``; {} when none did). ``fms``/``sigmas``: the plates' forward models and
     frequency sigmas (lists); ``kw``: the interval settings of :func:`uncertainty_of`."""
-    from laminid_cli.identify import identify
-    from laminid_cli.joint import identify_joint
-
     if u.at_bound is None or not np.any(u.at_bound):
         return u
     options = result.options
     threshold = float(u.quantile) ** 2
     factor = float(u.variance_factor) if u.variance_factor > 0 else 1.0
     names = tuple(result.material_names)
-    bases = result.basis
     prior = {ms.name: dict(ms.prior) for ms in material_states(result)}
     out = {}
     for j, lab in enumerate(u.labels):
@@ -2151,43 +2199,8 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
         m = names.index(name)
         initial = float(getattr(result.initial[m], k))
 
-        def delta(v, name=name, k=k, lab=lab, m=m, initial=initial):
-            fms_v = []
-            for fm in fms:
-                spec = fm.specimen
-                if name in spec.materials:
-                    mat = spec.materials[name]
-                    mat = dataclasses.replace(mat, constants=dataclasses.replace(
-                        mat.constants, **{k: v}))
-                    spec = dataclasses.replace(spec, materials={**spec.materials, name: mat})
-                fms_v.append(dataclasses.replace(fm, specimen=spec))
-            opts = dataclasses.replace(options, fix=tuple(options.fix) + (lab,),
-                                       max_evaluations=min(options.max_evaluations,
-                                                           PROFILE_EVALUATIONS))
-
-            def run(start):
-                if joint:
-                    return identify_joint(fms_v, opts, start=start, basis=None if bases is None
-                                          else [b.copy() for b in bases])
-                return identify(fms_v[0], opts, start=start,
-                                basis=None if bases is None else bases.copy())
-
-            # from the optimum (a short walk); where other constants sit on a limit there that
-            # a run may not start from (E2 = E1 exactly), a little towards the initial values
-            for step in PROFILE_STEPS:
-                start = [_between(c, c0, step) for c, c0 in zip(result.constants, result.initial)]
-                start[m] = dataclasses.replace(start[m], **{k: v})
-                try:
-                    r = run(start)
-                    break
-                except FitInputError:
-                    if step == PROFILE_STEPS[-1]:
-                        raise
-            if not r.converged:
-                raise FitError(f"the identification with {k} held at {_show(k, v)} did not "
-                               f"converge in {opts.max_evaluations} evaluations")
-            uc = uncertainty_of(r, fms_v if joint else fms_v[0],
-                                sigmas if joint else sigmas[0], **kw)
+        def delta(v, name=name, k=k, lab=lab, initial=initial):
+            r, uc = refit_held(result, fms, sigmas, kw, joint, lab, v)
             chi2 = uc.chi2
             if prior.get(name, {}).get(k, 0.0) > 0:
                 # held, the constant has no prior row in that fit; u.chi2 counted it (free):
@@ -2206,6 +2219,85 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
             out[lab] = Profile(lab, side, limit, np.nan, far, np.nan, threshold, 0,
                                f"no profile: {exc}", str(exc))
     return dataclasses.replace(u, profiles=out)
+
+
+@dataclass(frozen=True)
+class FixedRange:
+    """What a constant fixed by ``--fix-undetermined`` while it was on a limit of the search
+    (its doubt unknown: not counted in the intervals) does to the others: they are identified
+    again with it held at each end of the search (``low``, ``high``, SI), and the largest move
+    of a free constant is compared with its half-width. ``moves``: some constant moves by more
+    than its half-width (``worst``, ``ratio`` = move / half-width): its interval is given the
+    fixed value, which is not known. ``error``: why the check could not be made."""
+
+    label: str
+    low: float
+    high: float
+    moves: bool
+    worst: str
+    ratio: float
+    text: str
+    error: str = ""
+
+    def as_dict(self) -> dict:
+        return {"low": self.low, "high": self.high, "moves": self.moves, "worst": self.worst,
+                "ratio_to_half_width": self.ratio, "text": self.text, "error": self.error}
+
+
+def with_fixed_ranges(u: Uncertainty, before: Uncertainty, result, fms, sigmas, kw: dict,
+                      joint: bool) -> Uncertainty:
+    """``u`` with a :class:`FixedRange` of each constant fixed at a limit of the search
+    (``u.spread_not_counted``: its doubt is not known, so :func:`counting_fixed_spread` could
+    not count it): the others identified again with it at the search's two ends (the limit it
+    was on before fixing, and :func:`_profile_far`)."""
+    if not u.spread_not_counted:
+        return u
+    options = result.options
+    names = tuple(result.material_names)
+    half = np.asarray(u.half_width, float)
+    value = np.asarray(u.value, float)
+    out = {}
+    for lab in u.spread_not_counted:
+        name, k = lab.rsplit(".", 1)
+        m = names.index(name)
+        j = list(before.labels).index(lab)
+        side = before.bound_side[j] if before.bound_side else ""
+        limit = (float(before.bound_limit[j]) if before.bound_limit is not None
+                 else float(before.value[j]))
+        initial = float(getattr(result.initial[m], k))
+        far = _profile_far(k, side, limit, initial, options.nu_max, options.bound_factor,
+                           result.initial[m])
+        low, high = sorted((limit, far))
+        span = f"anywhere from {_show(k, low)} to {_show(k, high)}"
+        try:
+            moved = []
+            for end in (low, high):
+                r, _ = refit_held(result, fms, sigmas, kw, joint, lab, end)
+                vals = {f"{n}.{c}": float(getattr(cs, c)) for n, cs in
+                        zip(r.material_names, r.constants) for c in CONSTANT_NAMES}
+                moved.append(np.array([abs(vals[x] - v) for x, v in zip(u.labels, value)]))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ratio = np.where(half > 0, np.maximum(*moved) / half, np.nan)
+            ok = np.isfinite(ratio)
+            if not ok.any():
+                out[lab] = FixedRange(lab, low, high, False, "", np.nan,
+                                      f"not checked: no free constant has an interval")
+                continue
+            w = int(np.nanargmax(np.where(ok, ratio, -1.0)))
+            worst, r_w = u.labels[w], float(ratio[w])
+            rel = float(np.maximum(*moved)[w] / abs(value[w])) if value[w] else np.nan
+            if r_w > 1:
+                text = (f"{worst} moves by {rel * 100:.3g} % ({r_w:.1f} times its half-width) "
+                        f"with {k} {span}: {k} was fixed on a limit of the search, its value "
+                        f"is not known, and the intervals are given it")
+            else:
+                text = (f"with {k} {span} the others stay within their intervals ({worst} "
+                        f"moves most: {r_w:.2g} of its half-width)")
+            out[lab] = FixedRange(lab, low, high, r_w > 1, worst, r_w, text)
+        except (FitError, FitInputError, ModelError, SolverError) as exc:
+            out[lab] = FixedRange(lab, low, high, False, "", np.nan,
+                                  f"not checked: {exc}", str(exc))
+    return dataclasses.replace(u, fixed_ranges=out)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -2377,6 +2469,8 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
         # how far the fit lets a constant on a search limit go (identifications of the
         # others with it held): only for the result that stands
         unc = with_profiles(unc, result, fm_list, sigmas, kw, joint)
+        if fixed:
+            unc = with_fixed_ranges(unc, first, result, fm_list, sigmas, kw, joint)
     return Assessment(result=result, uncertainty=unc, sigmas=sigmas,
                       fixed_undetermined=tuple(fixed), before_fixing=first if fixed else None,
                       monte_carlo=mc, runs=runs, earlier_results=tuple(earlier),

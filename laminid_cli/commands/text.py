@@ -312,7 +312,9 @@ def format_uncertainty(u: dict) -> list[str]:
             if w is not None:
                 run = f" in run {w['run']}" if w.get("run", 1) > 1 else ""
                 if str(w.get("verdict", "")).startswith("at bound"):
-                    lines.append(f"    {lab}: was at a limit of the search (not identified){run}")
+                    fr = (u.get("fixed_ranges") or {}).get(lab)
+                    lines.append(f"    {lab}: was at a limit of the search (not identified){run}"
+                                 + (f"; {fr['text']}" if fr else ""))
                 else:
                     lines.append(f"    {lab}: {conf:.0f} % half-width was "
                                  f"{_pct(w['rel_half_width'])} of its value{run}")
