@@ -373,6 +373,8 @@ class Uncertainty:
             "verdict_from_monte_carlo": list(self.verdict_from_monte_carlo),
             "fixed": list(self.fixed),
             "spread_counted": list(self.spread_counted),
+            "spread_covariance": self.spread_covariance,
+            "spread_cross_covariance": self.spread_cross,
             "spread_not_counted": list(self.spread_not_counted),
             "fixed_ranges": {lab: r.as_dict() for lab, r in self.fixed_ranges.items()},
             "sigma_source": self.sigma_source,
@@ -2018,6 +2020,15 @@ PROFILE_RUNS = 8
 #: the most model evaluations of one identification of a profile (it starts at the optimum;
 #: one that needs more gives no profile, since an unfinished fit would overstate the rise)
 PROFILE_EVALUATIONS = 300
+#: a profile's fit whose chi2 is below the limit's by more than this share of the threshold
+#: (scaled) shows that the search stopped short of a better fit: no profile
+PROFILE_BETTER = 0.05
+
+
+class ProfileError(Exception):
+    """Why a profile cannot be drawn (its statement, after "no profile: ")."""
+
+
 #: where the optimum is no start (constants on other limits), a profile's identifications
 #: start these fractions of the way to the initial values
 PROFILE_STEPS = (0.0, 1e-3, 1e-2, 0.1, 1.0)
@@ -2099,23 +2110,52 @@ def profile_bound(label: str, side: str, limit: float, far: float, delta, thresh
 
     to = (lambda t: limit + t * (far - limit)) if nu else (
         lambda t: limit * np.exp(t * np.log(far / limit)))
-    d_far = float(delta(far))
-    runs = 1
     direction = "above" if far > limit else "below"
-    if not d_far >= threshold:
-        text = (f"the fit is as good with {k} anywhere {direction} the limit "
-                f"{'up' if far > limit else 'down'} to {show(far)}"
-                f" (chi2 rises by {d_far:.2g}; {threshold:.3g} would reject it at "
-                f"{confidence * 100:.0f} %): the modes do not determine {k}")
-        return Profile(label, side, limit, np.nan, far, d_far, threshold, runs, text)
+    runs = 0
+
+    def rise(v):
+        # a fit better than the one on the limit: the search stopped short of it, and the
+        # limit is no place to measure a rise from
+        nonlocal runs
+        d = float(delta(v))
+        runs += 1
+        if d < -PROFILE_BETTER * threshold:
+            raise ProfileError(
+                f"the fit is better with {k} = {show(v)} than on the limit (chi2 lower by "
+                f"{-d:.3g}, scaled): the search stopped short of it; identify again from "
+                "other initial values")
+        return d
+
+    try:
+        d_far = rise(far)
+        if not d_far >= threshold:
+            # one fit in between too: a rise that is not monotonic (a second valley) is no
+            # profile
+            d_mid = rise(to(0.5))
+            if d_mid >= threshold:
+                raise ProfileError(
+                    f"chi2 rises by {d_mid:.3g} at {k} = {show(to(0.5))} but by {d_far:.3g} at "
+                    f"{show(far)} (scaled; {threshold:.3g} rejects): the fit has a second "
+                    "valley there")
+            text = (f"the fit is as good with {k} anywhere {direction} the limit "
+                    f"{'up' if far > limit else 'down'} to {show(far)}"
+                    f" (chi2 rises by {max(d_far, d_mid):.2g}; {threshold:.3g} would reject it "
+                    f"at {confidence * 100:.0f} %): the modes do not determine {k}")
+            return Profile(label, side, limit, np.nan, far, d_far, threshold, runs, text)
+    except ProfileError as exc:
+        return Profile(label, side, limit, np.nan, far, np.nan, threshold, runs,
+                       f"no profile: {exc}", str(exc))
     a, ga, b, gb = 0.0, -threshold, 1.0, d_far - threshold
     last = 0
     span = 1.0 if nu else abs(np.log(far / limit))
     while runs < PROFILE_RUNS + 1 and (b - a) * span > PROFILE_TOL:
         t = (a * gb - b * ga) / (gb - ga)
         t = min(max(t, a + 0.05 * (b - a)), b - 0.05 * (b - a))
-        g = float(delta(to(t))) - threshold
-        runs += 1
+        try:
+            g = rise(to(t)) - threshold
+        except ProfileError as exc:
+            return Profile(label, side, limit, np.nan, far, d_far, threshold, runs,
+                           f"no profile: {exc}", str(exc))
         if g > 0:
             b, gb = t, g
             if last == 1:
@@ -2186,6 +2226,16 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
     frequency sigmas (lists); ``kw``: the interval settings of :func:`uncertainty_of`."""
     if u.at_bound is None or not np.any(u.at_bound):
         return u
+    if not result.converged:
+        # the rise would be measured from a point that is no optimum
+        return dataclasses.replace(u, profiles={
+            lab: Profile(lab, side, float(lim), np.nan, np.nan, np.nan, float(u.quantile) ** 2,
+                         0, "no profile: the identification did not converge",
+                         "not converged")
+            for lab, b, side, lim in zip(u.labels, u.at_bound, u.bound_side or
+                                         ("",) * len(u.labels),
+                                         u.bound_limit if u.bound_limit is not None
+                                         else u.value) if b})
     options = result.options
     threshold = float(u.quantile) ** 2
     factor = float(u.variance_factor) if u.variance_factor > 0 else 1.0

@@ -23,7 +23,9 @@ def test_bisection_against_closed_forms():
     """A chi2 rise quadratic in ln G (standard error 0.3 in ln G): the bound is
     L exp(0.3 q), within the bisection's 2 % in ln G and never below it (the returned end
     is rejected); a rise quadratic in nu12 (0.1) from 0.95 down: 0.95 - 0.196 within 0.02; a
-    rise that stays below q^2 up to the far end: no bound, and the statement says so."""
+    rise that stays below q^2 up to the far end and in the middle: no bound, and the statement
+    says so; a rise above q^2 in the middle but not at the far end (a second valley), or a
+    fit better than on the limit (a rise below zero): no profile, and why."""
     L, far = 3e9, 30e9
     calls = []
 
@@ -39,9 +41,16 @@ def test_bisection_against_closed_forms():
     assert p.bound == pytest.approx(0.95 - 0.1 * np.sqrt(Q2), abs=0.02)
     assert p.bound <= 0.95 - 0.1 * np.sqrt(Q2) and f"below {p.bound:.3g}" in p.text
     p = profile_bound("m.G13", "lower", L, far, lambda v: 0.1 * np.log(v / L), Q2)
-    assert np.isnan(p.bound) and p.runs == 1
+    assert np.isnan(p.bound) and p.runs == 2               # the far end and the middle
     assert p.delta_far == pytest.approx(0.1 * np.log(10)) and "up to 30 GPa" in p.text
     assert "the modes do not determine G13" in p.text
+    # a second valley (rejected in the middle, not at the far end) is no profile
+    p = profile_bound("m.G13", "lower", L, far,
+                      lambda v: 10 * np.sin(np.pi * np.log(v / L) / np.log(far / L)) ** 2, Q2)
+    assert np.isnan(p.bound) and p.error and "second valley" in p.text
+    # a fit better than on the limit: the search stopped short of it
+    p = profile_bound("m.G13", "lower", L, far, lambda v: -1.0 if v > 2 * L else 0.0, Q2)
+    assert np.isnan(p.bound) and "the fit is better with G13 = 30 GPa" in p.text
 
 
 def test_a_thick_plate_whose_g13_stops_above_its_truth():
