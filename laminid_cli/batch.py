@@ -70,17 +70,19 @@ CONSTANTS = ("E1", "E2", "G12", "G13", "G23", "nu12")
 CONSTANT_UNITS = {"E1": "Pa", "E2": "Pa", "G12": "Pa", "G13": "Pa", "G23": "Pa", "nu12": "1"}
 #: the ``units`` map of summary.json
 UNITS = {**CONSTANT_UNITS, "lower": "unit of the constant", "upper": "unit of the constant",
-         "bound_limit": "unit of the constant",
+         "bound_limit": "unit of the constant", "profile_bound": "unit of the constant",
          "mc_lower": "unit of the constant", "mc_upper": "unit of the constant",
          "rms_residual_percent": "%", "time_s": "s",
          **{f"eta{k}": "1 (loss factor, eta = 2 zeta)" for k in ("11", "22", "12", "13", "23")}}
 #: the columns of the long summary.csv: lower/upper the linearised interval (empty for a
 #: constant at its bound), bound_side/bound_limit of a constant at its bound (the data push it
-#: below a "lower" limit, above an "upper" one; no interval), mc_lower/mc_upper the Monte Carlo
+#: below a "lower" limit, above an "upper" one; no interval) and profile_bound where the fit
+#: rejects it (uncertainty.Profile; empty: flat within the search), mc_lower/mc_upper the Monte Carlo
 #: range (--monte-carlo), mc_search_limit which of its ends ("lower", "upper", "both") trials
 #: on a limit of the search set (the search's end, not the data's)
 LONG_COLUMNS = ("name", "specimen", "material", "constant", "value", "lower", "upper", "verdict",
-                "bound_side", "bound_limit", "mc_lower", "mc_upper", "mc_search_limit", "unit",
+                "bound_side", "bound_limit", "profile_bound", "mc_lower", "mc_upper",
+                "mc_search_limit", "unit",
                 "status", "reasons", "rms_residual [%]", "result", "stale_result")
 SPECIMEN_SUFFIXES = (".yaml", ".yml")
 RESULT_SUFFIX = ".result.h5"
@@ -730,7 +732,9 @@ def _row_of_result(res) -> dict:
         entry = intervals.setdefault(iv.material, {})[iv.constant] = {
             "lower": iv.lower, "upper": iv.upper, "verdict": iv.verdict,
             "at_bound": iv.at_bound, "bound_side": iv.bound_side,
-            "bound_limit": iv.bound_limit, "flagged": iv.flagged}
+            "bound_limit": iv.bound_limit, "flagged": iv.flagged,
+            "profile_bound": (float(iv.profile_bound) if np.isfinite(iv.profile_bound)
+                              else None)}
         if mc is not None:               # the Monte Carlo's constants are the intervals'
             entry["mc_lower"] = float(np.ravel(mc["lower"])[j])
             entry["mc_upper"] = float(np.ravel(mc["upper"])[j])
@@ -836,6 +840,7 @@ def long_rows(rows, folder=None) -> list[list[str]]:
                               "verdict": iv.get("verdict", ""),
                               "bound_side": iv.get("bound_side") or "",
                               "bound_limit": _num(iv.get("bound_limit")),
+                              "profile_bound": _num(iv.get("profile_bound")),
                               "mc_lower": _num(iv.get("mc_lower")),
                               "mc_upper": _num(iv.get("mc_upper")),
                               "mc_search_limit": search_limit_text(iv),
@@ -1052,7 +1057,8 @@ def _rows_of_long(records, path: Path) -> list[dict]:
                 "verdict": rec.get("verdict", ""),
                 # (summaries written before the bound columns: the verdict says it)
                 "at_bound": bool(side) or rec.get("verdict", "") == VERDICT_AT_BOUND,
-                "bound_side": side, "bound_limit": _float(rec.get("bound_limit"))}
+                "bound_side": side, "bound_limit": _float(rec.get("bound_limit")),
+                "profile_bound": _float(rec.get("profile_bound"))}
             if rec.get("mc_lower") not in ("", None):
                 limit = rec.get("mc_search_limit") or ""
                 iv.update(mc_lower=_float(rec["mc_lower"]), mc_upper=_float(rec.get("mc_upper")),
