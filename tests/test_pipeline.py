@@ -72,7 +72,8 @@ def test_every_option_field_changes_the_batch_hash(tmp_path):
 
 
 @pytest.mark.parametrize("options, message", [
-    (RunOptions(mesh="0x3"), "mesh '0x3' not understood"),
+    (RunOptions(mesh="0x3"), "mesh '0x3' is degenerate: at least 2 elements per side"),
+    (RunOptions(mesh="-2x3"), "mesh '-2x3' not understood"),
     (RunOptions(uncertainty=UncertaintyOptions(sigma_rel=-0.1)),
      "relative frequency uncertainty must be positive"),
     (RunOptions(uncertainty=UncertaintyOptions(max_rel_interval=0.0)),

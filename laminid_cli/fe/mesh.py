@@ -97,7 +97,7 @@ def parse_mesh(text: str, copies: int = 1, factors: float = FACTORS_IDENTIFY,
         nums = []
     if len(nums) == 1:
         nums = nums * 2
-    if len(nums) != 2 or min(nums) < 1:
+    if len(nums) != 2 or min(nums) < 0:
         raise ModelError(f"mesh '{text}' not understood: give elements along x and y as NXxNY, "
                          "e.g. 12x12")
     if min(nums) < MIN_ELEMENTS_PER_SIDE:
