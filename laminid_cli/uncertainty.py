@@ -63,9 +63,13 @@ Constants at a bound
 Constants fixed because undetermined
     ``--fix-undetermined`` (:func:`assess`) fixes a flagged constant at its initial value: an
     assumption, known no better than the modes left it. The final intervals count that
-    (:func:`counting_fixed_spread`): ``C + S C_f S^T`` with ``S = -G_P^+ G_f`` the free
-    constants' first-order change per change of the fixed ones and C_f their covariance before
-    fixing; ``rel_half_width_given_fixed`` keeps the widths given the fixed values alone. The
+    (:func:`counting_fixed_spread`): to first order ``C + S C_f S^T`` with
+    ``S = -G_P^+ G_f`` the free constants' change per change of the fixed ones and C_f their
+    covariance before fixing; as identify counts it, by secants: the others identified again
+    with the fixed values one standard deviation along each principal axis of C_f either way
+    (:func:`fixed_spread_moves`; a step kept within the search's factor range), since an
+    undetermined constant's spread is wide enough for the constants' response to bend.
+    ``rel_half_width_given_fixed`` keeps the widths given the fixed values alone. The
     flags that decide what to fix are judged given the fixed values (counting their spread
     would otherwise fix more and more).
 
@@ -1866,7 +1870,7 @@ def with_monte_carlo(u: Uncertainty, mc: MonteCarlo) -> Uncertainty:
 
 
 def counting_fixed_spread(u: Uncertainty, before: Uncertainty, obs, materials,
-                          nu_max: float = 0.95) -> Uncertainty:
+                          nu_max: float = 0.95, moves=None) -> Uncertainty:
     """``u`` (the uncertainty of a run with constants fixed because undetermined) with the
     doubt of those fixed values counted (a "consider" covariance).
 
@@ -1876,7 +1880,9 @@ def counting_fixed_spread(u: Uncertainty, before: Uncertainty, obs, materials,
     free there).
 
     The free constants' estimate depends on the fixed values f: to first order
-    ``dP = S df`` (:func:`fixed_value_regression`). A fixed value is as uncertain as the modes
+    ``dP = S df`` (:func:`fixed_value_regression`); with ``moves`` = (DP, DF) from
+    :func:`fixed_spread_moves` (what :func:`assess` uses) the count is made of secants
+    instead, ``C + DP DP^T``, cross-covariance ``DP DF^T``, C_f ``DF DF^T``. A fixed value is as uncertain as the modes
     left it before it was fixed: its covariance C_f is ``before``'s, relative for moduli (their
     intervals are on ln P: the relative spread is kept at the fixed value), absolute for
     nu12. The free constants' covariance becomes ``C + S C_f S^T``; they share ``S C_f`` with
@@ -1891,15 +1897,9 @@ def counting_fixed_spread(u: Uncertainty, before: Uncertainty, obs, materials,
     given its value). Constants fixed by the user are not counted either: their values are
     the user's statement.
     """
-    bi = {lab: k for k, lab in enumerate(before.labels)}
-    fixed = [lab for lab in u.fixed if lab in bi]
-    if not fixed:
+    if not any(lab in before.labels for lab in u.fixed):
         return u
-    b_at = (np.zeros(len(before.labels), bool) if before.at_bound is None
-            else np.asarray(before.at_bound, bool))
-    b_std = np.asarray(before.std, float)
-    counted = [lab for lab in fixed if not b_at[bi[lab]] and np.isfinite(b_std[bi[lab]])]
-    missing = tuple(lab for lab in fixed if lab not in counted)
+    counted, missing, _, Cf = _fixed_spread(u, before, materials)
     notes = u.notes + ((_not_counted_note(missing),) if missing else ())
     if not counted:
         return dataclasses.replace(u, spread_not_counted=missing, notes=notes)
@@ -1910,26 +1910,27 @@ def counting_fixed_spread(u: Uncertainty, before: Uncertainty, obs, materials,
     inner = ~(np.zeros(p, bool) if u.at_bound is None else np.asarray(u.at_bound, bool))
     dP_df = fixed_value_regression(obs, materials, labels,
                                    [p + list(u.fixed).index(lab) for lab in counted], inner)
-    mat_of = {m.name: m for m in materials}
-    fval = np.array([float(getattr(mat_of[lab.rsplit(".", 1)[0]].constants,
-                                   lab.rsplit(".", 1)[1])) for lab in counted])
-    kb = [bi[lab] for lab in counted]
-    ratio = np.where([lab.endswith(".nu12") for lab in counted], 1.0,
-                     np.abs(fval / np.asarray(before.value, float)[kb]))
-    Cf = (np.nan_to_num(np.asarray(before.covariance, float)[np.ix_(kb, kb)])
-          * np.outer(ratio, ratio))
-    cross = dP_df @ Cf                                     # Cov(P, f), SI
-    cov = np.asarray(u.covariance, float) + np.where(np.outer(inner, inner),
-                                                     cross @ dP_df.T, 0.0)
+    if moves is None:
+        cross = dP_df @ Cf                                 # Cov(P, f), SI
+        add = cross @ dP_df.T
+        add_stated = dP_df @ (Cf / (float(before.variance_factor)
+                                    if before.variance_factor > 0 else 1.0)) @ dP_df.T
+    else:
+        # the moves along the fixed values' principal axes (fixed_spread_moves): secants of
+        # identifications, not a tangent
+        DP, DF = (np.asarray(x, float) for x in moves)
+        cross, add, Cf = DP @ DF.T, DP @ DP.T, DF @ DF.T
+        add_stated = add / (float(before.variance_factor) if before.variance_factor > 0
+                            else 1.0)
+    cov = np.asarray(u.covariance, float) + np.where(np.outer(inner, inner), add, 0.0)
     std_u = np.asarray(u.std, float)
     with np.errstate(invalid="ignore"):
         std = np.where(np.isfinite(std_u), np.sqrt(np.clip(np.diag(cov), 0, None)), std_u)
     # the same from the stated frequency sigma alone (each run's covariance without its own
     # variance factor), as std_stated is without the spread
     f_u = float(u.variance_factor) if u.variance_factor > 0 else 1.0
-    f_b = float(before.variance_factor) if before.variance_factor > 0 else 1.0
     var_stated = np.diag(np.asarray(u.covariance, float)) / f_u + np.where(
-        inner, np.einsum("ij,jk,ik->i", dP_df, Cf / f_b, dP_df), 0.0)
+        inner, np.diag(add_stated), 0.0)
     st_u = np.asarray(u.std_stated, float)
     with np.errstate(invalid="ignore"):
         std_stated = np.where(np.isfinite(st_u), np.sqrt(np.clip(var_stated, 0, None)), st_u)
@@ -1959,6 +1960,90 @@ def counting_fixed_spread(u: Uncertainty, before: Uncertainty, obs, materials,
         rel_half_width_given_fixed=np.asarray(u.rel_half_width, float),
         spread_counted=tuple(counted), spread_cross=cross, spread_covariance=Cf,
         spread_not_counted=missing)
+
+
+def _fixed_spread(u: Uncertainty, before: Uncertainty, materials):
+    """(counted, not counted, values, C_f) of the constants fixed because undetermined
+    (:func:`counting_fixed_spread`): the labels whose spread before fixing is finite and their
+    covariance then (SI; moduli's relative spread kept at the fixed value, nu12's absolute),
+    the labels without one (at a limit of the search, or unseen), the fixed values (SI)."""
+    bi = {lab: k for k, lab in enumerate(before.labels)}
+    fixed = [lab for lab in u.fixed if lab in bi]
+    b_at = (np.zeros(len(before.labels), bool) if before.at_bound is None
+            else np.asarray(before.at_bound, bool))
+    b_std = np.asarray(before.std, float)
+    counted = [lab for lab in fixed if not b_at[bi[lab]] and np.isfinite(b_std[bi[lab]])]
+    missing = tuple(lab for lab in fixed if lab not in counted)
+    mat_of = {m.name: m for m in materials}
+    fval = np.array([float(getattr(mat_of[lab.rsplit(".", 1)[0]].constants,
+                                   lab.rsplit(".", 1)[1])) for lab in counted])
+    kb = [bi[lab] for lab in counted]
+    ratio = np.where([lab.endswith(".nu12") for lab in counted], 1.0,
+                     np.abs(fval / np.asarray(before.value, float)[kb])) if kb else np.zeros(0)
+    Cf = (np.nan_to_num(np.asarray(before.covariance, float)[np.ix_(kb, kb)])
+          * np.outer(ratio, ratio))
+    return counted, missing, fval, Cf
+
+
+#: the fixed values' principal axes shorter than this share of the longest are not moved along
+SPREAD_AXIS_MIN = 1e-6
+
+
+def fixed_spread_moves(u: Uncertainty, before: Uncertainty, result, fms, sigmas, kw: dict,
+                       joint: bool):
+    """(DP, DF): the moves of the free constants (p, a) and of the fixed values (k, a), SI,
+    along each principal axis of the fixed values' spread before fixing (C_f of
+    :func:`_fixed_spread`, on ln P for moduli): the others identified again with the fixed
+    values at +- one standard deviation along the axis, the secant's half. A step that would
+    leave the search's factor range (initial / bound_factor .. initial x bound_factor for a
+    modulus, +-nu_max for nu12) is shortened to stay in it: an undetermined constant's
+    spread (S1.3's G13: +-60 times in ln G) counts only as far as the search would go. The
+    secants, not the tangent of :func:`fixed_value_regression`: over such spreads the
+    constants' response bends (E1 does not fall without end as G13 grows). None where an
+    identification fails (the first-order count is used then)."""
+    materials = material_states(result)
+    counted, _, fval, Cf = _fixed_spread(u, before, materials)
+    if not counted:
+        return None
+    options = result.options
+    nu = np.array([lab.endswith(".nu12") for lab in counted], bool)
+    sc = np.where(nu, 1.0, np.abs(fval))                   # SI per scaled unit at the value
+    Cz = Cf / np.outer(sc, sc)
+    z0 = np.where(nu, fval, np.log(np.abs(fval)))
+    mat_of = {m.name: m for m in materials}
+    init = np.array([float(getattr(mat_of[lab.rsplit(".", 1)[0]].initial,
+                                   lab.rsplit(".", 1)[1])) for lab in counted])
+    bf = options.bound_factor
+    lo = np.where(nu, -options.nu_max, np.log(np.abs(init) / bf))
+    hi = np.where(nu, options.nu_max, np.log(np.abs(init) * bf))
+    lam, V = np.linalg.eigh((Cz + Cz.T) / 2)
+    DP, DF = [], []
+    for i in np.flatnonzero(lam > SPREAD_AXIS_MIN * max(lam.max(), 0.0)):
+        d = np.sqrt(lam[i]) * V[:, i]
+        room = [((hi[j] - z0[j]) if d[j] > 0 else (z0[j] - lo[j])) / abs(d[j])
+                for j in range(d.size) if d[j] != 0]
+        room += [((z0[j] - lo[j]) if d[j] > 0 else (hi[j] - z0[j])) / abs(d[j])
+                 for j in range(d.size) if d[j] != 0]
+        alpha = min([1.0] + room)
+        if not alpha > 0:
+            continue
+        ends = []
+        for sign in (1.0, -1.0):
+            z = z0 + sign * alpha * d
+            f = np.where(nu, z, np.sign(fval) * np.exp(z))
+            try:
+                r, _ = refit_held(result, fms, sigmas, kw, joint,
+                                  {lab: float(v) for lab, v in zip(counted, f)})
+            except (FitError, FitInputError, ModelError, SolverError):
+                return None
+            vals = {f"{n}.{c}": float(getattr(cs, c)) for n, cs in
+                    zip(r.material_names, r.constants) for c in CONSTANT_NAMES}
+            ends.append((np.array([vals[x] for x in u.labels]), f))
+        DP.append((ends[0][0] - ends[1][0]) / 2)
+        DF.append((ends[0][1] - ends[1][1]) / 2)
+    if not DP:
+        return None
+    return np.column_stack(DP), np.column_stack(DF)
 
 
 def fixed_value_regression(obs, materials, labels, fixed_cols, inner=None) -> np.ndarray:
@@ -2172,29 +2257,32 @@ def profile_bound(label: str, side: str, limit: float, far: float, delta, thresh
     return Profile(label, side, limit, bound, far, d_far, threshold, runs, text)
 
 
-def refit_held(result, fms, sigmas, kw: dict, joint: bool, label: str, value: float,
+def refit_held(result, fms, sigmas, kw: dict, joint: bool, label, value=None,
                max_evaluations: int = PROFILE_EVALUATIONS):
     """(result, uncertainty) of the others identified again with the constant ``label`` held
-    at ``value`` (SI): from ``result``'s optimum (a short walk; where other constants sit on
-    a limit a run may not start from, E2 = E1 exactly, a little towards the initial values),
-    its basis, at most ``max_evaluations``. FitError when that fit does not converge."""
+    at ``value`` (SI; or ``label`` a {label: value} of several): from ``result``'s optimum (a
+    short walk; where other constants sit on a limit a run may not start from, E2 = E1
+    exactly, a little towards the initial values), its basis, at most ``max_evaluations``.
+    FitError when that fit does not converge."""
     from laminid_cli.identify import identify
     from laminid_cli.joint import identify_joint
 
+    held = dict(label) if isinstance(label, dict) else {label: value}
     options = result.options
-    name, k = label.rsplit(".", 1)
-    m = tuple(result.material_names).index(name)
+    names = tuple(result.material_names)
     bases = result.basis
     fms_v = []
     for fm in fms:
         spec = fm.specimen
-        if name in spec.materials:
-            mat = spec.materials[name]
-            mat = dataclasses.replace(mat, constants=dataclasses.replace(mat.constants,
-                                                                         **{k: value}))
-            spec = dataclasses.replace(spec, materials={**spec.materials, name: mat})
+        for lab, v in held.items():
+            name, k = lab.rsplit(".", 1)
+            if name in spec.materials:
+                mat = spec.materials[name]
+                mat = dataclasses.replace(mat, constants=dataclasses.replace(mat.constants,
+                                                                             **{k: v}))
+                spec = dataclasses.replace(spec, materials={**spec.materials, name: mat})
         fms_v.append(dataclasses.replace(fm, specimen=spec))
-    opts = dataclasses.replace(options, fix=tuple(options.fix) + (label,),
+    opts = dataclasses.replace(options, fix=tuple(options.fix) + tuple(held),
                                max_evaluations=min(options.max_evaluations, max_evaluations))
 
     def run(start):
@@ -2206,7 +2294,10 @@ def refit_held(result, fms, sigmas, kw: dict, joint: bool, label: str, value: fl
 
     for step in PROFILE_STEPS:
         start = [_between(c, c0, step) for c, c0 in zip(result.constants, result.initial)]
-        start[m] = dataclasses.replace(start[m], **{k: value})
+        for lab, v in held.items():
+            name, k = lab.rsplit(".", 1)
+            m = names.index(name)
+            start[m] = dataclasses.replace(start[m], **{k: v})
         try:
             r = run(start)
             break
@@ -2214,8 +2305,10 @@ def refit_held(result, fms, sigmas, kw: dict, joint: bool, label: str, value: fl
             if step == PROFILE_STEPS[-1]:
                 raise
     if not r.converged:
-        raise FitError(f"the identification with {k} held at {_show(k, value)} did not "
-                       f"converge in {opts.max_evaluations} evaluations")
+        where = ", ".join(f"{lab.rsplit('.', 1)[1]} = {_show(lab.rsplit('.', 1)[1], v)}"
+                          for lab, v in held.items())
+        raise FitError(f"the identification with {where} held did not converge in "
+                       f"{opts.max_evaluations} evaluations")
     uc = uncertainty_of(r, fms_v if joint else fms_v[0], sigmas if joint else sigmas[0], **kw)
     return r, uc
 
@@ -2507,8 +2600,9 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
         u0 = unc if mc is None else linearised
         obs = [observations(fm, plate, s, u0.labels + u0.fixed)
                for (fm, plate), s in zip(_parts(result, fms_arg), sigmas)]
+        moves = fixed_spread_moves(u0, first, result, fm_list, sigmas, kw, joint)
         unc = counting_fixed_spread(u0, first, obs, material_states(result),
-                                    result.options.nu_max)
+                                    result.options.nu_max, moves)
         if mc is not None:
             unc = with_monte_carlo(unc, mc)
             if unc.spread_counted:
