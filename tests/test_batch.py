@@ -256,7 +256,7 @@ def test_usage_errors_exit_2(tmp_path):
     r = run("batch", tmp_path)
     assert r.exit_code == 2 and "no specimen file (*.yaml, *.yml) found" in r.output
     r = run("batch", SPECS["example2/S2.1.yaml"], "--mesh", "0x3", "--out", tmp_path / "o")
-    assert r.exit_code == 2 and "mesh '0x3' not understood" in r.output
+    assert r.exit_code == 2 and "mesh '0x3' is degenerate" in r.output
     assert not (tmp_path / "o").exists()
     r = run("batch", tmp_path / "missing")
     assert r.exit_code == 2 and "missing: no such file or folder" in r.output
