@@ -399,6 +399,10 @@ def format_uncertainty(u: dict) -> list[str]:
                       for side in ("lower", "upper") if v.get(f"trials_at_{side}_bound")]
                 if at:
                     limits.append(f"{lab} ({', '.join(at)})")
+        if u.get("spread_counted"):
+            # the intervals above count the fixed values' spread; the trials do not
+            lines.append("  linearised std and ratio: given the fixed values (the trials hold "
+                         "them); the intervals above count their spread")
         if limits:
             lines.append(f"  trials that ended on a limit of the search, of {mc['converged']}: "
                          + "; ".join(limits))
