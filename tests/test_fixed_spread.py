@@ -221,3 +221,23 @@ def test_monte_carlo_table_says_its_linearised_std_is_given_the_fixed_values():
     plain = CliRunner().invoke(cli, ["identify", S11, "--monte-carlo", "8", "-j", "1",
                                      "--no-output"])
     assert plain.exit_code == 0 and "linearised std and ratio: given" not in plain.output
+
+
+def test_a_constant_flagged_by_the_counted_spread_is_not_told_to_use_fix_undetermined():
+    """S1.3 --fix-undetermined: E1 is within +-2.2 % given the fixed values alone and +-91 %
+    counting their spread, so it is flagged; the flag line told the user to "fix them
+    (--fix-undetermined)", the option this run was made with (which judges its flags given
+    the fixed values, so it fixes nothing more). It now says the spread of the fixed values
+    makes it so, and to --fix values the lab knows."""
+    res = CliRunner().invoke(cli, ["identify", "specimens/example1/S1.3.yaml",
+                                   "--fix-undetermined", "--no-output"])
+    assert res.exit_code == 0, res.output
+    line = next(x for x in res.output.splitlines() if x.startswith("  flagged (half-width"))
+    assert "IM7/977-2.E1" in line and "(--fix-undetermined)" not in line
+    assert ("IM7/977-2.E1 within ±2.2 % given the fixed values alone: their spread before "
+            "fixing makes it so" in line), line
+    assert "put values you know in the specimen file and --fix them" in line
+    # without --fix-undetermined the advice stays
+    plain = CliRunner().invoke(cli, ["identify", "specimens/example1/S1.3.yaml", "--no-output"])
+    line = next(x for x in plain.output.splitlines() if x.startswith("  flagged (half-width"))
+    assert "fix them (--fix-undetermined)" in line
