@@ -35,7 +35,8 @@ from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from laminid_cli.errors import ModelError, SolverError
 
-#: a mode is rigid when |lambda| < RIGID_TOL * (largest |lambda| found)
+#: a mode is rigid (a mechanism) when |lambda| < RIGID_TOL * |sigma| (the shift, of the first
+#: elastic eigenvalue's order; :func:`solve_modes`)
 RIGID_TOL = 1e-6
 
 #: work done by this process: banded factorisations, solve pairs (one right-hand side through

@@ -245,3 +245,40 @@ def test_a_huge_spread_counts_only_as_far_as_the_search_goes():
     obs = [observations(fm, a.result, sigma, cond.labels + cond.fixed)]
     tangent = counting_fixed_spread(cond, a.before_fixing, obs, material_states(a.result))
     assert tangent.rel_half_width[k] > 0.5
+
+
+def test_monte_carlo_table_says_its_linearised_std_is_given_the_fixed_values():
+    """S1.1 --fix-undetermined --monte-carlo: the intervals count the fixed values' spread
+    (E1 +-3.2 %, std 2.26 GPa) while the Monte Carlo table's "linearised std" (0.95 GPa) and
+    ratio are given the fixed values, as its trials hold them. Two different E1 standard
+    deviations called "linearised" with nothing beside the table to tell them apart read as a
+    contradiction; the table now says what its column is of."""
+    res = CliRunner().invoke(cli, ["identify", S11, "--fix-undetermined", "--monte-carlo", "8",
+                                   "-j", "1", "--no-output"])
+    assert res.exit_code == 0, res.output
+    table = res.output[res.output.index("Monte Carlo check:"):]
+    assert ("linearised std and ratio: given the fixed values (the trials hold them); the "
+            "intervals above count their spread" in " ".join(table.split()))
+    plain = CliRunner().invoke(cli, ["identify", S11, "--monte-carlo", "8", "-j", "1",
+                                     "--no-output"])
+    assert plain.exit_code == 0 and "linearised std and ratio: given" not in plain.output
+
+
+def test_a_constant_flagged_by_the_counted_spread_is_not_told_to_use_fix_undetermined():
+    """S1.2 --fix-undetermined: G12 is within +-9.4 % given the fixed values alone and +-31 %
+    counting their spread, so it is flagged; the flag line told the user to "fix them
+    (--fix-undetermined)", the option this run was made with (which judges its flags given
+    the fixed values, so it fixes nothing more). It now says the spread of the fixed values
+    makes it so, and to --fix values the lab knows."""
+    res = CliRunner().invoke(cli, ["identify", "specimens/example1/S1.2.yaml",
+                                   "--fix-undetermined", "--no-output"])
+    assert res.exit_code == 0, res.output
+    line = next(x for x in res.output.splitlines() if x.startswith("  flagged (half-width"))
+    assert "IM7/977-2.G12" in line and "(--fix-undetermined)" not in line
+    assert ("IM7/977-2.G12 within ±9.4 % given the fixed values alone: their spread before "
+            "fixing makes it so" in line), line
+    assert "put values you know in the specimen file and --fix them" in line
+    # without --fix-undetermined the advice stays
+    plain = CliRunner().invoke(cli, ["identify", "specimens/example1/S1.2.yaml", "--no-output"])
+    line = next(x for x in plain.output.splitlines() if x.startswith("  flagged (half-width"))
+    assert "fix them (--fix-undetermined)" in line

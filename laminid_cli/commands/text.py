@@ -339,10 +339,22 @@ def format_uncertainty(u: dict) -> list[str]:
     if wide:
         mc_too = " of the interval or the Monte Carlo range" if u.get(
             "verdict_from_monte_carlo") else ""
+        advice = ("fix them (--fix-undetermined) or measure a thicker plate / more modes")
+        if u.get("fixed_undetermined"):
+            # this run fixed what it could (its flags are judged given the fixed values): a
+            # constant flagged now is so by the fixed values' spread, or was kept free
+            given = {f"{m}.{k}": v.get("rel_half_width_given_fixed")
+                     for m, per in (u.get("constants") or {}).items() for k, v in per.items()}
+            by_spread = [f"{lab} within ±{_pct(given[lab])} given the fixed values alone"
+                         for lab in wide if given.get(lab) is not None
+                         and given[lab] <= th["max_rel_interval"]]
+            advice = (("; ".join(by_spread) + ": their spread before fixing makes it so; "
+                       if by_spread else "")
+                      + "put values you know in the specimen file and --fix them, or measure "
+                        "a thicker plate / more modes")
         lines.append(f"  flagged (half-width{mc_too} > {th['max_rel_interval'] * 100:.0f} % of "
                      "the value):"
-                     f" {', '.join(wide)} — not determined by these modes; fix them "
-                     "(--fix-undetermined) or measure a thicker plate / more modes")
+                     f" {', '.join(wide)} — not determined by these modes; {advice}")
     bound = [lab for lab in u["flagged"] if lab in at_bound]
     if bound:
         lines.append(f"  flagged (at a limit of the search, no interval): {', '.join(bound)} — "
@@ -399,6 +411,10 @@ def format_uncertainty(u: dict) -> list[str]:
                       for side in ("lower", "upper") if v.get(f"trials_at_{side}_bound")]
                 if at:
                     limits.append(f"{lab} ({', '.join(at)})")
+        if u.get("spread_counted"):
+            # the intervals above count the fixed values' spread; the trials do not
+            lines.append("  linearised std and ratio: given the fixed values (the trials hold "
+                         "them); the intervals above count their spread")
         if limits:
             lines.append(f"  trials that ended on a limit of the search, of {mc['converged']}: "
                          + "; ".join(limits))
