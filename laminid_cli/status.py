@@ -202,8 +202,12 @@ def result_status(result, uncertainty=None, damping=None) -> ResultStatus:
                                 f"half-width above {u.thresholds['max_rel_interval'] * 100:.0f} %"
                                 f" of the value): {words}")
         for fr in getattr(u, "fixed_ranges", {}).values():
-            if fr.moves:
-                add("undetermined", f"{fr.label}: {fr.text}")
+            if fr.moves or fr.error:
+                # moved beyond a half-width, or could not be checked: the intervals are given
+                # a value that is not known
+                add("undetermined", f"{fr.label}: {fr.text}" + (
+                    f" ({fr.label.rsplit('.', 1)[1]} was fixed on a limit of the search: the "
+                    "intervals are given its value, which is not known)" if fr.error else ""))
         if u.dof > 0 and np.isfinite(u.chi2_limit) and u.chi2 > u.chi2_limit:
             joint = len(_plates(result)) > 1
             add("poor_fit", f"the fit misses the data by more than the stated frequency noise: "

@@ -2603,6 +2603,11 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
         moves = fixed_spread_moves(u0, first, result, fm_list, sigmas, kw, joint)
         unc = counting_fixed_spread(u0, first, obs, material_states(result),
                                     result.options.nu_max, moves)
+        if moves is None and unc.spread_counted:
+            unc = dataclasses.replace(unc, notes=unc.notes + (
+                "the fixed values' spread is counted to first order (a tangent): an "
+                "identification with them moved along it failed; over a wide spread the "
+                "tangent overstates it",))
         if mc is not None:
             unc = with_monte_carlo(unc, mc)
             if unc.spread_counted:

@@ -239,3 +239,23 @@ def test_a_modulus_beyond_a_factor_limit_the_alphas_do_not_impose_is_not_at_a_bo
     hits = bounds_reached([MaterialState("m", c, c0, ("E1", "E2", "G12", "G13", "G23", "nu12"),
                                          {})])
     assert hits == {}
+
+
+def test_a_fixed_range_not_checked_is_a_reason(monkeypatch):
+    """S2.1 (8x8) --fix-undetermined fixes G13, which was on its lower limit; its check across
+    the search is made to fail (its identifications raise): the intervals are then given an
+    unknown value, so the status says so (was: ok)."""
+    import laminid_cli.uncertainty as unc
+    from laminid_cli.errors import FitError
+
+    def fail(*args, **kwargs):
+        raise FitError("did not converge in 300 evaluations")
+
+    monkeypatch.setattr(unc, "refit_held", fail)
+    r = run("identify", S21, "--mesh", "8x8", "--fix-undetermined", "--json", "--no-output")
+    d = json.loads(r.output)
+    fr = d["uncertainty"]["fixed_ranges"][f"{MAT}.G13"]
+    assert fr["error"] and fr["text"].startswith("not checked: did not converge")
+    texts = [x["text"] for x in d["reasons"] if x["code"] == "undetermined"]
+    assert any(t.startswith(f"{MAT}.G13: not checked: did not converge") and
+               "the intervals are given its value, which is not known" in t for t in texts), d

@@ -16,7 +16,7 @@ from pathlib import Path
 import click
 
 from laminid_cli.commands._common import (OUTPUT_FILE, FiniteFloat, check_output_path,
-                                          force_option, writable_target)
+                                          force_option, quiet, writable_target)
 
 
 class _ClickUI:
@@ -195,7 +195,7 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
     out = Path(output)
     writable_target(out)                   # a folder is refused, --resume or not
     units = units or "V/V"
-    if resume and not out.exists():
+    if resume and not out.exists() and not quiet():
         # scripts may pass --resume every time: a new file, said so (not silently)
         click.echo(f"laminid: note: {out}: no file to resume; starting a new one", err=True)
     resume = resume and out.exists()
