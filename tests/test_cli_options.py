@@ -166,8 +166,7 @@ def test_sigma_rel_outside_0_to_half_is_refused_naming_the_option(tmp_path, comm
     if command == "fit-frf":
         args = ["fit-frf", frf_file(tmp_path / "plate.frf.h5")]
     else:
-        args = [command, S11, "--mesh", "4x4"] + (["--out", tmp_path / "out"]
-                                                  if command == "batch" else ["--no-output"])
+        args = _run_args(command, tmp_path)
     r = run(*args, "--sigma-rel", value)
     no_traceback(r)
     assert r.exit_code == 2
@@ -179,9 +178,7 @@ def test_sigma_rel_outside_0_to_half_is_refused_naming_the_option(tmp_path, comm
 @pytest.mark.parametrize("command", ["identify", "batch"])
 @pytest.mark.parametrize("value", ["0", "-1"])
 def test_max_rel_interval_not_positive_is_refused_by_the_parser(tmp_path, command, value):
-    args = [command, S11, "--mesh", "4x4"] + (["--out", tmp_path / "out"]
-                                              if command == "batch" else ["--no-output"])
-    r = run(*args, "--max-rel-interval", value)
+    r = run(*_run_args(command, tmp_path), "--max-rel-interval", value)
     no_traceback(r)
     assert r.exit_code == 2
     assert (f"Invalid value for '--max-rel-interval': {float(value)} is not in the range x>0."
@@ -267,3 +264,9 @@ def test_export_of_mode_shapes_still_takes_specimen_of_its_plate(tmp_path, modes
     d = json.loads(r.output)
     assert d["specimen"] == "S1.1" and d["datasets"] == {"164": 1, "15": 1, "55": 3}
     assert out.stat().st_size > 0
+
+
+def _run_args(command, tmp_path) -> list:
+    """identify or batch of S1.1 on a 4x4 mesh, writing nothing but into tmp_path/out."""
+    return [command, S11, "--mesh", "4x4"] + (["--out", tmp_path / "out"]
+                                              if command == "batch" else ["--no-output"])
