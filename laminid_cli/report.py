@@ -857,7 +857,12 @@ def interval_page(r: ResultFile):
                   title=f"{how}; arrow: the interval or range runs off the panel to the value "
                         "written" + (";\ndashed arrow: the way the fit pushes a constant stopped "
                                      "on a search limit (the value drawn is that limit)"
-                                     if any(iv.at_bound for iv in u.intervals) else ""),
+                                     if any(iv.at_bound for iv in u.intervals) else "")
+                        + (";\nthe intervals count the spread the fixed "
+                           + ", ".join(lab.rsplit(".", 1)[1] if len(r.materials) == 1 else lab
+                                       for lab in u.spread_counted)
+                           + " had before fixing (see page 1 for the widths given them)"
+                           if getattr(u, "spread_counted", ()) else ""),
                   title_fontsize=8)
     _status_banner(fig, r)
     return fig

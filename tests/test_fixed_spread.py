@@ -194,6 +194,12 @@ def test_fixed_spread_in_json_hdf5_terminal_and_report(tmp_path):
             c[k]["rel_half_width_given_fixed"], rel=1e-12)
         assert r.uncertainty.get("IM7/977-2", k).rel_half_width == pytest.approx(
             c[k]["rel_half_width"], rel=1e-12)
+    from laminid_cli.report import report_pages
+
+    fig = {p.name: p.figure for p in report_pages(out)}["intervals"]
+    titles = [a.get_legend().get_title().get_text() for a in fig.axes if a.get_legend()]
+    assert any("the intervals count the spread the fixed G13, G23, nu12 had before fixing" in t
+               for t in titles), titles
     note = [n for n in table_notes(r) if n.startswith("the intervals count the spread")]
     # as the terminal writes them (one decimal: a width of 0.4 % is no "±0 %")
     assert note and "given the fixed values alone: E1 ±1.3 %, E2 ±10.6 %, G12 ±12.9 %" in note[0]
