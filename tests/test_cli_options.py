@@ -270,3 +270,22 @@ def _run_args(command, tmp_path) -> list:
     """identify or batch of S1.1 on a 4x4 mesh, writing nothing but into tmp_path/out."""
     return [command, S11, "--mesh", "4x4"] + (["--out", tmp_path / "out"]
                                               if command == "batch" else ["--no-output"])
+
+
+@pytest.mark.parametrize("command, name, hint", [
+    ("identify", "r.json", "--json prints JSON on stdout"),
+    ("identify", "r.csv", "laminid batch writes summary.csv"),
+    ("modes", "m.uff", "laminid export writes UFF"),
+    ("modes", "m.txt", ""),
+])
+def test_an_hdf5_output_named_like_another_format_is_refused(tmp_path, command, name, hint):
+    """identify -o result.json wrote HDF5 under a .json name (a JSON reader then fails on it,
+    and a user expecting JSON gets none); now refused before the work, with where that format
+    comes from; no file written."""
+    out = tmp_path / name
+    r = run(command, S11, "--mesh", "4x4", "-o", out)
+    no_traceback(r)
+    assert r.exit_code == 2
+    assert f"{out}: {command} writes" in r.output and "as HDF5; name it .h5 (-o)" in r.output
+    assert hint in r.output
+    assert not out.exists()

@@ -185,6 +185,30 @@ def check_output_path(path: str | Path | None, force: bool, option: str = "-o",
     return path
 
 
+#: suffixes of formats other programs (and laminid's own readers) take for something else than
+#: HDF5: an HDF5 file written under one of them would be misread (a name without a suffix, or
+#: any other, stays the user's choice)
+NOT_HDF5_SUFFIXES = (".json", ".csv", ".txt", ".yaml", ".yml", ".pdf", ".png", ".uff", ".unv",
+                     ".xls", ".xlsx", ".mat")
+
+
+def check_hdf5_name(path, what: str, option: str = "-o") -> None:
+    """Refuse an output named like another format (:data:`NOT_HDF5_SUFFIXES`): ``what`` the
+    command writes HDF5 there ("identify writes its result"), said with the way to get the
+    other format when there is one."""
+    from laminid_cli.errors import OutputExistsError
+
+    if path is None:
+        return
+    suffix = Path(path).suffix.lower()
+    if suffix in NOT_HDF5_SUFFIXES:
+        hint = {".json": "; --json prints JSON on stdout", ".uff": "; laminid export writes UFF",
+                ".unv": "; laminid export writes UFF", ".pdf": "; laminid report writes PDF",
+                ".png": "; laminid report writes PNG",
+                ".csv": "; laminid batch writes summary.csv"}.get(suffix, "")
+        raise OutputExistsError(f"{path}: {what} as HDF5; name it .h5 ({option}){hint}")
+
+
 RESULT_FORMATS = ("laminid-result", "laminid-joint-result")
 
 
@@ -228,7 +252,9 @@ def result_output(output, default, force: bool, specimen=None, inputs=()
     (:func:`derived_output_path`; a result of another ``specimen`` file is refused). Returns
     (path, replacing an earlier result)."""
     if output is not None:
-        return check_output_path(output, force, inputs=inputs), False
+        out = check_output_path(output, force, inputs=inputs)    # the input itself: first
+        check_hdf5_name(output, "identify writes its result")
+        return out, False
     return derived_output_path(default, specimen)
 
 

@@ -15,8 +15,9 @@ from pathlib import Path
 
 import click
 
-from laminid_cli.commands._common import (OUTPUT_FILE, FiniteFloat, check_output_path,
-                                          force_option, quiet, writable_target)
+from laminid_cli.commands._common import (OUTPUT_FILE, FiniteFloat, check_hdf5_name,
+                                          check_output_path, force_option, quiet,
+                                          writable_target)
 
 
 class _ClickUI:
@@ -198,6 +199,7 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
     if resume and not out.exists() and not quiet():
         # scripts may pass --resume every time: a new file, said so (not silently)
         click.echo(f"laminid: note: {out}: no file to resume; starting a new one", err=True)
+    check_hdf5_name(out, "acquire writes the FRFs")
     resume = resume and out.exists()
     if not resume:
         out = check_output_path(out, force)          # a symbolic link: its target

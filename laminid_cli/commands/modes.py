@@ -6,7 +6,8 @@ import time
 
 import click
 
-from laminid_cli.commands._common import (OUTPUT_FILE, InputFile, check_output_path, echo_json,
+from laminid_cli.commands._common import (OUTPUT_FILE, InputFile, check_hdf5_name,
+                                          check_output_path, echo_json,
                                           force_option, json_option)
 from laminid_cli.commands.text import format_modes_report
 
@@ -43,6 +44,7 @@ def modes(spec, mesh, n_modes, boundary, as_json, output, force):
     from laminid_cli.specimen import read_specimen
 
     out = check_output_path(output, force, inputs=[spec])
+    check_hdf5_name(output, "modes writes the modes")
     specimen = read_specimen(spec)
     t0 = time.perf_counter()
     fm = build_forward_model(specimen, parse_mesh(mesh), boundary=boundary)
