@@ -348,7 +348,10 @@ uncertainty_options = _apply([
                   help="Fix the flagged constants at their initial values and identify again "
                        "(until nothing new is flagged, by the intervals or the Monte Carlo); a "
                        "constant whose initial value would move another out of its 95 % "
-                       "interval stays free (the output says why)."),
+                       "interval stays free (the output says why). The others' intervals count "
+                       "the spread the fixed values had before fixing (the widths given them "
+                       "alone are printed too); one fixed on a search limit is checked by "
+                       "identifying again at both ends of the search."),
     click.option("--monte-carlo", "monte_carlo", type=TrialCount(), default=0,
                   show_default=True, metavar="N", help="Re-identify N times from frequencies perturbed by their "
                                     "uncertainties (and prior values by the noise the "
