@@ -66,9 +66,10 @@ from laminid_cli.material import ElasticConstants, c_basis, ply_stiffness
 from laminid_cli.intervals import (SCALINGS, VERDICT_AT_BOUND, VERDICT_FIXED,  # noqa: F401
                                    VERDICT_NOT, interval_scale, verdict as verdict_of)
 
-#: a loss factor the modal damping does not determine (the advice: fix it with a value)
-VERDICT_NOT_DAMPING = ("not determined by the measured damping — fix it (--fix eta13=0.01) or "
-                       "measure more modes")
+#: a loss factor the modal damping does not determine (the advice: fix it with a value);
+#: ``{term}`` is the loss factor's own name (eta11 ...), so the advice names the right one
+VERDICT_NOT_DAMPING = ("not determined by the measured damping — fix it (--fix {term}=<value>) "
+                       "or measure more modes")
 
 #: stress-strain terms in material axes (module docstring)
 TERMS = ("11", "22", "12", "13", "23")
@@ -427,9 +428,10 @@ def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
         rel = np.where(x > 0, half / x, np.inf)
     # the damping's own words: it is the measured damping, not the modes' frequencies, that
     # does not determine a loss factor
-    verdict = [verdict_of(rel[k], at_bound[k]).replace(VERDICT_NOT, VERDICT_NOT_DAMPING)
-               for k in range(p)]
     free_labels = tuple(labels[j] for j in free)
+    verdict = [verdict_of(rel[k], at_bound[k]).replace(
+                   VERDICT_NOT, VERDICT_NOT_DAMPING.format(term=free_labels[k].rsplit(".", 1)[-1]))
+               for k in range(p)]
     top = A_all[used].max(axis=0) if n else np.zeros(len(labels))
     small = [labels[j] for j in free if top[j] < SMALL_SHARE]
     if small:

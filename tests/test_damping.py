@@ -227,3 +227,14 @@ def test_damping_and_frf_file_together_are_refused(tmp_path):
                         "  frf_file: p.frf.h5\n  damping: [0.01]\n")
     with pytest.raises(SpecimenError, match=r"measured.damping.*comes from the fit of 'frf_file'"):
         load_specimen_text(text, str(tmp_path / "p.yaml"))
+
+
+def test_the_advice_of_an_undetermined_loss_factor_names_that_loss_factor():
+    # eta22 is ±60 % (sigma 10 % of each modal loss factor on shares that barely separate the
+    # two terms); its advice must name eta22, not another loss factor
+    shares = np.array([[0.9, 0.1], [0.8, 0.2], [0.85, 0.15]])
+    y = shares @ np.array([0.002, 0.012])
+    fit = D.fit_loss_factors(shares, y, 0.1 * y, ("m.eta11", "m.eta22"))
+    assert fit.rel_half_width[1] > 0.3
+    assert fit.verdict[1].startswith("not determined by the measured damping")
+    assert "--fix eta22=" in fit.verdict[1] and "eta13" not in fit.verdict[1]
