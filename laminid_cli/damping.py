@@ -177,9 +177,12 @@ def split_fix(items) -> tuple[tuple[str, ...], tuple[str, ...]]:
 def parse_loss_fix(items, material_names) -> dict[str, float]:
     """--fix loss-factor items -> {"material.eta13": value}; "eta13=0.01" fixes every material.
 
-    A value is required (there is no initial value to hold); it must be >= 0.
+    A value is required (there is no initial value to hold); it must be >= 0. A material's
+    own item ("carbon.eta13=0.02") holds over one for every material, in either order; the
+    same loss factor given two values at the same level is refused.
     """
     out: dict[str, float] = {}
+    given: dict[str, tuple[bool, float, str]] = {}   # label: (material's own, value, item)
     for item in items:
         if "=" not in item:
             raise FitInputError(f"--fix {item}: a loss factor needs a value, e.g. "
@@ -202,8 +205,19 @@ def parse_loss_fix(items, material_names) -> dict[str, float]:
         if const not in LOSS_NAMES:
             raise FitInputError(f"--fix {item}: '{const}' is not a loss factor; choose from "
                                 f"{', '.join(LOSS_NAMES)}")
+        own = "." in name
         for t in targets:
-            out[f"{t}.{const}"] = value
+            label = f"{t}.{const}"
+            if label in given:
+                was_own, was, was_item = given[label]
+                if was_own != own:
+                    if was_own:
+                        continue              # the material's own value stands
+                elif was != value:
+                    raise FitInputError(f"--fix {item}: {label} is already fixed at {was:g} "
+                                        f"(--fix {was_item}); give each loss factor one value")
+            given[label] = (own, value, item)
+            out[label] = value
     return out
 
 

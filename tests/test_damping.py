@@ -164,6 +164,20 @@ def test_fix_items_are_split_and_parsed():
         D.parse_loss_fix(["eta11=-0.1"], ("carbon",))
 
 
+def test_a_loss_factor_fixed_twice_at_different_values_is_refused():
+    """"eta13=0.01,eta13=0.02" held eta13 at the last value given, silently; a material's own
+    item holds it over one for every material, in either order."""
+    with pytest.raises(FitInputError, match=r"--fix eta13=0\.02: carbon\.eta13 is already "
+                                            r"fixed at 0\.01"):
+        D.parse_loss_fix(["eta13=0.01", "eta13=0.02"], ("carbon",))
+    with pytest.raises(FitInputError, match="already fixed at 0.01"):
+        D.parse_loss_fix(["carbon.eta13=0.01", "carbon.eta13=0.02"], ("carbon", "glass"))
+    want = {"carbon.eta13": 0.02, "glass.eta13": 0.01}
+    for items in (["eta13=0.01", "carbon.eta13=0.02"], ["carbon.eta13=0.02", "eta13=0.01"]):
+        assert D.parse_loss_fix(items, ("carbon", "glass")) == want, items
+    assert D.parse_loss_fix(["eta13=0.01", "eta13=0.01"], ("carbon",)) == {"carbon.eta13": 0.01}
+
+
 def test_too_few_modes_for_the_free_loss_factors():
     shares = np.full((2, 5), 0.2)
     with pytest.raises(FitInputError, match="2 modes with measured damping for 5 free"):
