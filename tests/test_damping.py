@@ -224,6 +224,10 @@ def test_specimen_damping_ratios_and_sigmas():
     ("  damping: [0.002, 3 Hz, null, null]\n", r"plain number"),
     ("  damping_sigma: [0.1, 0.1, 0.1, 0.1]\n", r"'damping_sigma' without 'damping'"),
     ("  damping: [null, null, 0.01, null]\n", r"every damping ratio is null"),
+    # a standard deviation is not "a damping ratio": its message says what it is
+    ("  damping: [0.002, 0.003, null, null]\n  damping_sigma: [0, 0.0001, null, null]\n",
+     r"measured.damping_sigma\[1\].*a standard deviation of a damping ratio must be between 0 "
+     r"and 0.5, got 0"),
 ])
 def test_specimen_damping_errors_name_the_field(extra, words):
     from laminid_cli.errors import SpecimenError
