@@ -214,7 +214,7 @@ def parse_loss_fix(items, material_names) -> dict[str, float]:
                     if was_own:
                         continue              # the material's own value stands
                 elif was != value:
-                    raise FitInputError(f"--fix {item}: {label} is already fixed at {was:g} "
+                    raise FitInputError(f"--fix {item}: {name} is already fixed at {was:g} "
                                         f"(--fix {was_item}); give each loss factor one value")
             given[label] = (own, value, item)
             out[label] = value

@@ -167,10 +167,10 @@ def test_fix_items_are_split_and_parsed():
 def test_a_loss_factor_fixed_twice_at_different_values_is_refused():
     """"eta13=0.01,eta13=0.02" held eta13 at the last value given, silently; a material's own
     item holds it over one for every material, in either order."""
-    with pytest.raises(FitInputError, match=r"--fix eta13=0\.02: carbon\.eta13 is already "
-                                            r"fixed at 0\.01"):
+    with pytest.raises(FitInputError, match=r"--fix eta13=0\.02: eta13 is already fixed at "
+                                            r"0\.01 \(--fix eta13=0\.01\)"):
         D.parse_loss_fix(["eta13=0.01", "eta13=0.02"], ("carbon",))
-    with pytest.raises(FitInputError, match="already fixed at 0.01"):
+    with pytest.raises(FitInputError, match="carbon.eta13 is already fixed at 0.01"):
         D.parse_loss_fix(["carbon.eta13=0.01", "carbon.eta13=0.02"], ("carbon", "glass"))
     want = {"carbon.eta13": 0.02, "glass.eta13": 0.01}
     for items in (["eta13=0.01", "carbon.eta13=0.02"], ["carbon.eta13=0.02", "eta13=0.01"]):
