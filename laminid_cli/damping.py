@@ -66,9 +66,10 @@ from laminid_cli.material import ElasticConstants, c_basis, ply_stiffness
 from laminid_cli.intervals import (SCALINGS, VERDICT_AT_BOUND, VERDICT_FIXED,  # noqa: F401
                                    VERDICT_NOT, interval_scale, verdict as verdict_of)
 
-#: a loss factor the modal damping does not determine (the advice: fix it with a value)
-VERDICT_NOT_DAMPING = ("not determined by the measured damping — fix it (--fix eta13=0.01) or "
-                       "measure more modes")
+#: a loss factor the modal damping does not determine (the advice: fix it with a value);
+#: ``{term}`` is the loss factor's own name (eta11 ...), so the advice names the right one
+VERDICT_NOT_DAMPING = ("not determined by the measured damping — fix it (--fix {term}=<value>) "
+                       "or measure more modes")
 
 #: stress-strain terms in material axes (module docstring)
 TERMS = ("11", "22", "12", "13", "23")
@@ -176,9 +177,12 @@ def split_fix(items) -> tuple[tuple[str, ...], tuple[str, ...]]:
 def parse_loss_fix(items, material_names) -> dict[str, float]:
     """--fix loss-factor items -> {"material.eta13": value}; "eta13=0.01" fixes every material.
 
-    A value is required (there is no initial value to hold); it must be >= 0.
+    A value is required (there is no initial value to hold); it must be >= 0. A material's
+    own item ("carbon.eta13=0.02") holds over one for every material, in either order; the
+    same loss factor given two values at the same level is refused.
     """
     out: dict[str, float] = {}
+    given: dict[str, tuple[bool, float, str]] = {}   # label: (material's own, value, item)
     for item in items:
         if "=" not in item:
             raise FitInputError(f"--fix {item}: a loss factor needs a value, e.g. "
@@ -201,8 +205,19 @@ def parse_loss_fix(items, material_names) -> dict[str, float]:
         if const not in LOSS_NAMES:
             raise FitInputError(f"--fix {item}: '{const}' is not a loss factor; choose from "
                                 f"{', '.join(LOSS_NAMES)}")
+        own = "." in name
         for t in targets:
-            out[f"{t}.{const}"] = value
+            label = f"{t}.{const}"
+            if label in given:
+                was_own, was, was_item = given[label]
+                if was_own != own:
+                    if was_own:
+                        continue              # the material's own value stands
+                elif was != value:
+                    raise FitInputError(f"--fix {item}: {name} is already fixed at {was:g} "
+                                        f"(--fix {was_item}); give each loss factor one value")
+            given[label] = (own, value, item)
+            out[label] = value
     return out
 
 
@@ -427,9 +442,10 @@ def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
         rel = np.where(x > 0, half / x, np.inf)
     # the damping's own words: it is the measured damping, not the modes' frequencies, that
     # does not determine a loss factor
-    verdict = [verdict_of(rel[k], at_bound[k]).replace(VERDICT_NOT, VERDICT_NOT_DAMPING)
-               for k in range(p)]
     free_labels = tuple(labels[j] for j in free)
+    verdict = [verdict_of(rel[k], at_bound[k]).replace(
+                   VERDICT_NOT, VERDICT_NOT_DAMPING.format(term=free_labels[k].rsplit(".", 1)[-1]))
+               for k in range(p)]
     top = A_all[used].max(axis=0) if n else np.zeros(len(labels))
     small = [labels[j] for j in free if top[j] < SMALL_SHARE]
     if small:

@@ -86,6 +86,22 @@ class RunOptions:
                                 f"{u.max_rel_interval:g}")
         return nxny
 
+    def check_fix(self) -> None:
+        """Refuse the --fix items that are wrong whatever the specimen (an unknown constant or
+        loss factor, a bad value, one loss factor given two values), for batch: it would
+        otherwise fail every specimen on them (identify says the same naming its specimen
+        file). A material named by an item is checked per specimen."""
+        from laminid_cli.damping import parse_loss_fix
+        from laminid_cli.identify import _parse_fix
+
+        def named(items):                 # the materials the items name ("carbon.G13")
+            return {i.split("=", 1)[0].strip().rsplit(".", 1)[0]
+                    for i in items if "." in i.split("=", 1)[0]}
+        # the "<every material>" stands for a specimen's materials that no item names
+        _parse_fix(self.identify.fix, tuple(named(self.identify.fix)) + ("<every material>",),
+                   "the specimen file")
+        parse_loss_fix(self.fix_loss, tuple(named(self.fix_loss)) + ("<every material>",))
+
     def as_dict(self) -> dict:
         """Every setting as JSON-safe plain data (lists for tuples): the batch's input hash and
         summary. A field added to IdentifyOptions or UncertaintyOptions is in it at once."""

@@ -106,9 +106,14 @@ def short_verdict(text: str) -> str:
         return "at bound, not identified"
     if text.startswith("not determined"):
         # VERDICT_NOT "<phrase> — <advice>", with " (Monte Carlo)" after the phrase and
-        # " (held by the prior)" after the advice where they apply
+        # " (held by the prior)" after the advice where they apply; a loss factor's verdict
+        # (damping.VERDICT_NOT_DAMPING) has its own phrase and advice
+        from laminid_cli.damping import VERDICT_NOT_DAMPING
+
         phrase, _, advice = VERDICT_NOT.partition(" — ")
         head, _, tail = text.partition(" — ")
+        if not head.startswith(phrase):
+            phrase = VERDICT_NOT_DAMPING.partition(" — ")[0]
         return (UNDETERMINED + head[len(phrase):]
                 + (tail[len(advice):] if tail.startswith(advice) else ""))
     return text

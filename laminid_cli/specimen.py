@@ -954,8 +954,10 @@ def _damping_list(r: _Reader, m: dict, key: str, n: int, what: str) -> np.ndarra
         else:
             value = r.quantity(item, "dimensionless")
         if not 0 < value < 0.5:
-            raise r.error(item, f"a damping ratio (viscous, zeta = eta / 2) must be between 0 "
-                                f"and 0.5, got {item.value!r}; write 0.004 or '0.4 %'")
+            what_one = ("a standard deviation of a damping ratio" if key == "damping_sigma"
+                        else "a damping ratio (viscous, zeta = eta / 2)")
+            raise r.error(item, f"{what_one} must be between 0 and 0.5, got {item.value!r}; "
+                                "write 0.004 or '0.4 %'")
         out[k] = value
     return out
 

@@ -2535,6 +2535,7 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
     fixed: list[str] = []
     fixed_widths: dict = {}
     kept_free: dict = {}
+    kept_run: dict = {}                   # the run whose values judged each of kept_free
     earlier = []
     runs = 1
     def to_fix(unc):
@@ -2549,6 +2550,7 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
             why = _initial_rejected(result, unc, lab, fixing=set(unc.flagged) | set(fixed))
             if why:
                 kept_free[lab] = why
+                kept_run[lab] = runs
             else:
                 out.append(lab)
         return out
@@ -2620,6 +2622,9 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
         unc = with_profiles(unc, result, fm_list, sigmas, kw, joint)
         if fixed:
             unc = with_fixed_ranges(unc, first, result, fm_list, sigmas, kw, joint)
+    # a constant judged in an earlier run was judged on that run's values, not the ones shown
+    kept_free = {lab: why if kept_run[lab] == runs else _judged_in_run(why, kept_run[lab])
+                 for lab, why in kept_free.items()}
     return Assessment(result=result, uncertainty=unc, sigmas=sigmas,
                       fixed_undetermined=tuple(fixed), before_fixing=first if fixed else None,
                       monte_carlo=mc, runs=runs, earlier_results=tuple(earlier),
@@ -2661,6 +2666,18 @@ def _initial_rejected(result, u: Uncertainty, label: str, fixing=()) -> str:
             f"{u.labels[j]} by {shift:.1f} of its own standard deviations, out of its "
             f"{u.confidence * 100:.0f} % interval: put a value you know in the specimen file "
             "and --fix it")
+
+
+def _judged_in_run(why: str, run: int) -> str:
+    """:func:`_initial_rejected`'s words for a judgement made in an earlier ``run`` than the
+    result shown: its value and standard deviations are that run's ("not fixed in run 1: ...
+    from the 5.99 GPa identified in that run")."""
+    head, sep, rest = why.partition(" standard deviations from the identified ")
+    if not sep:
+        return why
+    value, sep2, tail = rest.partition(", ")
+    return (head.replace("not fixed:", f"not fixed in run {run}:", 1)
+            + f" standard deviations from the {value} identified in that run" + sep2 + tail)
 
 
 def _flagging_width(u: Uncertainty, label: str, run: int) -> tuple[float, str, int]:

@@ -265,6 +265,27 @@ def test_usage_errors_exit_2(tmp_path):
     assert r.exit_code == 2
 
 
+@pytest.mark.parametrize("fix, words", [
+    ("eta13=0.01,eta13=0.02", "--fix eta13=0.02: eta13 is already fixed at 0.01"),
+    ("eta13=-1", "--fix eta13=-1: a loss factor must be a number >= 0"),
+    ("E7", "--fix E7: 'E7' is not a constant"),
+    ("G13=3e9", "--fix G13=3e9: an elastic constant is fixed at its initial value"),
+])
+def test_a_bad_fix_is_a_usage_error_before_any_specimen(tmp_path, fix, words):
+    """A --fix that is wrong whatever the specimen (name, value, a loss factor given two
+    values) is refused at once (exit 2): it made every specimen 'failed' (exit 1) and set each
+    earlier result aside as 'of another input'."""
+    out = tmp_path / "o"
+    out.mkdir()
+    earlier = out / "S2.1.result.h5"
+    earlier.write_bytes(b"an earlier result")
+    r = run("batch", SPECS["example2/S2.1.yaml"], "--mesh", MESH, "--out", out, "--fix", fix)
+    assert r.exit_code == 2, r.output
+    assert words in r.output, r.output
+    assert sorted(p.name for p in out.iterdir()) == ["S2.1.result.h5"]
+    assert earlier.read_bytes() == b"an earlier result"
+
+
 def test_names_are_relative_to_the_common_root_and_never_collide(tmp_path):
     for sub in ("labA", "labB/deep"):
         (tmp_path / sub).mkdir(parents=True)

@@ -164,6 +164,20 @@ def test_fix_items_are_split_and_parsed():
         D.parse_loss_fix(["eta11=-0.1"], ("carbon",))
 
 
+def test_a_loss_factor_fixed_twice_at_different_values_is_refused():
+    """"eta13=0.01,eta13=0.02" held eta13 at the last value given, silently; a material's own
+    item holds it over one for every material, in either order."""
+    with pytest.raises(FitInputError, match=r"--fix eta13=0\.02: eta13 is already fixed at "
+                                            r"0\.01 \(--fix eta13=0\.01\)"):
+        D.parse_loss_fix(["eta13=0.01", "eta13=0.02"], ("carbon",))
+    with pytest.raises(FitInputError, match="carbon.eta13 is already fixed at 0.01"):
+        D.parse_loss_fix(["carbon.eta13=0.01", "carbon.eta13=0.02"], ("carbon", "glass"))
+    want = {"carbon.eta13": 0.02, "glass.eta13": 0.01}
+    for items in (["eta13=0.01", "carbon.eta13=0.02"], ["carbon.eta13=0.02", "eta13=0.01"]):
+        assert D.parse_loss_fix(items, ("carbon", "glass")) == want, items
+    assert D.parse_loss_fix(["eta13=0.01", "eta13=0.01"], ("carbon",)) == {"carbon.eta13": 0.01}
+
+
 def test_too_few_modes_for_the_free_loss_factors():
     shares = np.full((2, 5), 0.2)
     with pytest.raises(FitInputError, match="2 modes with measured damping for 5 free"):
@@ -210,6 +224,10 @@ def test_specimen_damping_ratios_and_sigmas():
     ("  damping: [0.002, 3 Hz, null, null]\n", r"plain number"),
     ("  damping_sigma: [0.1, 0.1, 0.1, 0.1]\n", r"'damping_sigma' without 'damping'"),
     ("  damping: [null, null, 0.01, null]\n", r"every damping ratio is null"),
+    # a standard deviation is not "a damping ratio": its message says what it is
+    ("  damping: [0.002, 0.003, null, null]\n  damping_sigma: [0, 0.0001, null, null]\n",
+     r"measured.damping_sigma\[1\].*a standard deviation of a damping ratio must be between 0 "
+     r"and 0.5, got 0"),
 ])
 def test_specimen_damping_errors_name_the_field(extra, words):
     from laminid_cli.errors import SpecimenError
@@ -227,3 +245,14 @@ def test_damping_and_frf_file_together_are_refused(tmp_path):
                         "  frf_file: p.frf.h5\n  damping: [0.01]\n")
     with pytest.raises(SpecimenError, match=r"measured.damping.*comes from the fit of 'frf_file'"):
         load_specimen_text(text, str(tmp_path / "p.yaml"))
+
+
+def test_the_advice_of_an_undetermined_loss_factor_names_that_loss_factor():
+    # eta22 is ±60 % (sigma 10 % of each modal loss factor on shares that barely separate the
+    # two terms); its advice must name eta22, not another loss factor
+    shares = np.array([[0.9, 0.1], [0.8, 0.2], [0.85, 0.15]])
+    y = shares @ np.array([0.002, 0.012])
+    fit = D.fit_loss_factors(shares, y, 0.1 * y, ("m.eta11", "m.eta22"))
+    assert fit.rel_half_width[1] > 0.3
+    assert fit.verdict[1].startswith("not determined by the measured damping")
+    assert "--fix eta22=" in fit.verdict[1] and "eta13" not in fit.verdict[1]

@@ -993,3 +993,13 @@ def test_status_on_top_of_the_first_page_at_the_foot_of_the_others(checked):
     for name in ("intervals", "damping") if "damping" in pages else ("intervals",):
         foot = status_text(pages[name])
         assert foot in pages[name].texts and foot.get_position()[1] < 0.05
+
+
+def test_short_verdict_of_a_loss_factor_not_determined_by_the_damping():
+    """The damping's verdict has its own phrase ("by the measured damping"); the table shows
+    "not determined", not the phrase cut at the length of the modes' one."""
+    from laminid_cli.damping import VERDICT_NOT_DAMPING
+    from laminid_cli.intervals import VERDICT_NOT
+
+    assert short_verdict(VERDICT_NOT_DAMPING.format(term="eta22")) == "not determined"
+    assert short_verdict(VERDICT_NOT) == "not determined"

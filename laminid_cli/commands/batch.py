@@ -66,6 +66,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
     # bad --mesh, --sigma-rel...: exit 2 at once (remote Dask workers check their own memory);
     # the options are those of identify, with the Monte Carlo trials in each specimen's worker
     options.check(copies=n_jobs if scheduler in (None, "local") else 1)
+    options.check_fix()           # a --fix wrong for every specimen: not each one 'failed'
     if scheduler is not None:
         check_scheduler(scheduler)
     if not str(out_dir).strip():        # Path("") is the current folder
