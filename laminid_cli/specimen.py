@@ -929,11 +929,25 @@ def _read_measured(r: _Reader, y: _Y) -> Measured:
             damping_sigma[np.isnan(damping)] = np.nan
         if not np.isfinite(damping).any():
             raise r.error(m["damping"], "every damping ratio is null (or its frequency is)")
+        given = damping[np.isfinite(damping)]
+        if given.size >= 2 and given.min() >= DAMPING_PERCENT_SUSPECT:
+            # a free composite plate's modes damp at 0.1-2 %: 10 % and more on every mode is
+            # the percentage written as a plain number
+            log.warning("%s: measured.damping (line %s): every damping ratio is %.0f %% or more "
+                        "(zeta %s ... %s); a plain number is the ratio itself (0.004 = 0.4 %%): "
+                        "if these are percent, write '%s %%'", r.path, m["damping"].line,
+                        100 * DAMPING_PERCENT_SUSPECT, f"{given.min():g}", f"{given.max():g}",
+                        f"{given.min():g}")
     for array in (freq, weight, sigma, damping, damping_sigma):
         if array is not None:
             array.flags.writeable = False
     return Measured(freq=freq, weight=weight, sigma=sigma, damping=damping,
                     damping_sigma=damping_sigma, sigma_source=source)
+
+
+#: damping ratios all at least this large are suspected of being percentages written as plain
+#: numbers (a warning)
+DAMPING_PERCENT_SUSPECT = 0.1
 
 
 def _damping_list(r: _Reader, m: dict, key: str, n: int, what: str) -> np.ndarray:

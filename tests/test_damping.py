@@ -236,6 +236,25 @@ def test_specimen_damping_errors_name_the_field(extra, words):
         _spec(extra)
 
 
+def test_damping_ratios_written_as_percent_numbers_are_warned(caplog):
+    """'damping: [0.365, 0.41, 0.28]' meant percent (a free plate damps at 0.1-2 %): read as
+    zeta = 36.5 % (eta22 came out 121 %) without a word; now a warning names the file, the line
+    (the third ratio, of a mode not measured, is dropped with its frequency)
+    and how to write percent. Ratios of a few tenths of a percent get none."""
+    import logging
+
+    with caplog.at_level(logging.WARNING, logger="laminid_cli.specimen"):
+        s = _spec("  damping: [0.365, 0.41, 0.28, null]\n")
+    assert s.measured.damping[0] == 0.365
+    msg = [r.getMessage() for r in caplog.records if "damping" in r.getMessage()]
+    assert len(msg) == 1 and "every damping ratio is 10 % or more (zeta 0.365 ... 0.41)" in msg[0]
+    assert "write '0.365 %'" in msg[0] and "(line " in msg[0]
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="laminid_cli.specimen"):
+        _spec("  damping: [0.00365, 0.0041, 0.0028, null]\n")
+    assert not [r for r in caplog.records if "damping" in r.getMessage()]
+
+
 def test_damping_and_frf_file_together_are_refused(tmp_path):
     from laminid_cli.errors import SpecimenError
     from laminid_cli.specimen import load_specimen_text
