@@ -57,6 +57,7 @@ No click, no h5py: pure library code. Shapes: ``shares`` (n_modes, n_materials *
 from __future__ import annotations
 
 import math
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -506,8 +507,40 @@ def damping_of(fm, assessment, fix=()) -> DampingFit | None:
     if d is None:
         return None
     u = assessment.uncertainty
-    return identify_damping(fm, assessment.result, d, fix=fix, scaling=u.scaling,
-                            confidence=u.confidence)
+    fit = identify_damping(fm, assessment.result, d, fix=fix, scaling=u.scaling,
+                           confidence=u.confidence)
+    note = stiffness_doubt_note(fit, u, assessment.fixed_undetermined)
+    return fit if not note else dataclasses.replace(fit, notes=fit.notes + (note,))
+
+
+#: the loss factor whose strain-energy share each elastic constant sets (nu12 couples 11, 22)
+TERMS_OF = {"E1": ("11",), "E2": ("22",), "G12": ("12",), "G13": ("13",), "G23": ("23",),
+            "nu12": ("11", "22")}
+
+
+def stiffness_doubt_note(fit, u, fixed_undetermined=()) -> str:
+    """A note when free loss factors lean on elastic constants the modes did not determine
+    (flagged, at a limit, or fixed by --fix-undetermined): the loss factors' intervals take
+    the constants as identified (the energy shares are computed with them), so those loss
+    factors are known less well than their intervals say. "" when none does."""
+    doubtful = set(u.flagged) | set(fixed_undetermined)
+    if u.at_bound is not None:
+        doubtful |= {lab for lab, b in zip(u.labels, u.at_bound) if b}
+    free = set(fit.labels)
+    hit, why = [], []
+    for lab in sorted(doubtful):
+        name, k = lab.rsplit(".", 1)
+        terms = [f"{name}.eta{t}" for t in TERMS_OF.get(k, ()) if f"{name}.eta{t}" in free]
+        if terms:
+            why.append(lab)
+            hit += [t for t in terms if t not in hit]
+    if not hit:
+        return ""
+    return (", ".join(hit) + ": the loss factors' intervals take the elastic constants as "
+            "identified, and " + ", ".join(why) + (" is" if len(why) == 1 else " are")
+            + " not determined by the modes (or fixed because of it): "
+            + ("this loss factor is" if len(hit) == 1 else "these loss factors are")
+            + " known less well than the interval says")
 
 
 # ----------------------------------------------------------------------------------------------

@@ -249,3 +249,25 @@ def test_joint_says_the_damping_is_not_used(frf_case, tmp_path):
     r = run("identify", tmp_path / "a.yaml", tmp_path / "b.yaml", "--joint", "--mesh", "4x4",
             "--fix", "nu12,eta13=0.01", "--no-output")
     assert r.exit_code == 2 and "single plates only, not with --joint" in r.output
+
+
+def test_loss_factors_leaning_on_undetermined_constants_say_so(frf_case):
+    """S2.1 (6x6) with only nu12 fixed: G13 stops on its limit and G23 is not determined, so
+    the strain-energy shares of eta13 and eta23 rest on values the modes do not give; their
+    intervals take them as identified, and the damping notes now say so (before: nothing).
+    With G13 and G23 fixed by the user (the fixture's run) there is no such note."""
+    tmp = frf_case[0]
+    r = run("identify", tmp / "plate.yaml", "--mesh", "6x6", "--fix", "nu12", "--json",
+            "--no-output")
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output)["damping"]
+    note = [n for n in d["notes"] if "take the elastic constants as identified" in n]
+    assert len(note) == 1, d["notes"]
+    head, _, tail = note[0].partition(": the loss factors")
+    assert {"E-glass/R368.eta13", "E-glass/R368.eta23"} <= set(head.split(", "))
+    assert "E-glass/R368.G13" in tail and "E-glass/R368.G23" in tail
+    assert tail.endswith("known less well than the interval says")
+    fixed = run("identify", tmp / "plate.yaml", "--mesh", "6x6", "--fix", FIX, "--json",
+                "--no-output")
+    assert not [n for n in json.loads(fixed.output)["damping"]["notes"]
+                if "take the elastic constants as identified" in n]
