@@ -56,8 +56,8 @@ No click, no h5py: pure library code. Shapes: ``shares`` (n_modes, n_materials *
 
 from __future__ import annotations
 
-import math
 import dataclasses
+import math
 from dataclasses import dataclass, field
 
 import numpy as np

@@ -103,6 +103,7 @@ No click, no h5py here: pure library code (DESIGN.md section 1).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import os
 import time
@@ -502,6 +503,14 @@ def free_labels(materials) -> tuple[str, ...]:
     return tuple(f"{m.name}.{k}" for m in materials for k in CONSTANT_NAMES if k in m.free)
 
 
+def _label_values(materials, labels, which: str = "constants") -> np.ndarray:
+    """(len(labels),) the ``which`` ("constants" or "initial") value of each label
+    "material.constant" of the :class:`MaterialState` s ``materials`` (SI)."""
+    mat_of = {m.name: m for m in materials}
+    return np.array([float(getattr(getattr(mat_of[lab.rsplit(".", 1)[0]], which),
+                                   lab.rsplit(".", 1)[1])) for lab in labels])
+
+
 def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
                            max_rel_interval: float = WEAK, confidence: float = 0.95,
                            sigma_source: str = "", notes=(), nu_max: float = 0.95,
@@ -525,8 +534,7 @@ def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
     fixed = tuple(f"{m.name}.{k}" for m in materials for k in CONSTANT_NAMES if k not in m.free)
     p = len(labels)
     mat_of = {m.name: m for m in materials}
-    value = np.array([getattr(mat_of[lab.rsplit(".", 1)[0]].constants, lab.rsplit(".", 1)[1])
-                      for lab in labels], float)
+    value = _label_values(materials, labels)
     is_nu = np.array([lab.endswith(".nu12") for lab in labels], bool)
     hits = bounds_reached(materials, nu_max, bound_factor)
     at_bound = np.array([lab in hits for lab in labels], bool)
@@ -1882,8 +1890,8 @@ def counting_fixed_spread(u: Uncertainty, before: Uncertainty, obs, materials,
     The free constants' estimate depends on the fixed values f: to first order
     ``dP = S df`` (:func:`fixed_value_regression`); with ``moves`` = (DP, DF) from
     :func:`fixed_spread_moves` (what :func:`assess` uses) the count is made of secants
-    instead, ``C + DP DP^T``, cross-covariance ``DP DF^T``, C_f ``DF DF^T``. A fixed value is as uncertain as the modes
-    left it before it was fixed: its covariance C_f is ``before``'s, relative for moduli (their
+    instead, ``C + DP DP^T``, cross-covariance ``DP DF^T``, C_f ``DF DF^T``. A fixed value is
+    as uncertain as the modes left it before it was fixed: its covariance C_f is ``before``'s, relative for moduli (their
     intervals are on ln P: the relative spread is kept at the fixed value), absolute for
     nu12. The free constants' covariance becomes ``C + S C_f S^T``; they share ``S C_f`` with
     the fixed ones (``spread_cross``, which the laminate properties use). For a linear model
@@ -1908,9 +1916,9 @@ def counting_fixed_spread(u: Uncertainty, before: Uncertainty, obs, materials,
     value = np.asarray(u.value, float)
     is_nu = np.array([lab.endswith(".nu12") for lab in labels], bool)
     inner = ~(np.zeros(p, bool) if u.at_bound is None else np.asarray(u.at_bound, bool))
-    dP_df = fixed_value_regression(obs, materials, labels,
-                                   [p + list(u.fixed).index(lab) for lab in counted], inner)
     if moves is None:
+        dP_df = fixed_value_regression(obs, materials, labels,
+                                       [p + list(u.fixed).index(lab) for lab in counted], inner)
         cross = dP_df @ Cf                                 # Cov(P, f), SI
         add = cross @ dP_df.T
         add_stated = dP_df @ (Cf / (float(before.variance_factor)
@@ -1974,9 +1982,7 @@ def _fixed_spread(u: Uncertainty, before: Uncertainty, materials):
     b_std = np.asarray(before.std, float)
     counted = [lab for lab in fixed if not b_at[bi[lab]] and np.isfinite(b_std[bi[lab]])]
     missing = tuple(lab for lab in fixed if lab not in counted)
-    mat_of = {m.name: m for m in materials}
-    fval = np.array([float(getattr(mat_of[lab.rsplit(".", 1)[0]].constants,
-                                   lab.rsplit(".", 1)[1])) for lab in counted])
+    fval = _label_values(materials, counted)
     kb = [bi[lab] for lab in counted]
     ratio = np.where([lab.endswith(".nu12") for lab in counted], 1.0,
                      np.abs(fval / np.asarray(before.value, float)[kb])) if kb else np.zeros(0)
@@ -2010,9 +2016,7 @@ def fixed_spread_moves(u: Uncertainty, before: Uncertainty, result, fms, sigmas,
     sc = np.where(nu, 1.0, np.abs(fval))                   # SI per scaled unit at the value
     Cz = Cf / np.outer(sc, sc)
     z0 = np.where(nu, fval, np.log(np.abs(fval)))
-    mat_of = {m.name: m for m in materials}
-    init = np.array([float(getattr(mat_of[lab.rsplit(".", 1)[0]].initial,
-                                   lab.rsplit(".", 1)[1])) for lab in counted])
+    init = _label_values(materials, counted, "initial")
     bf = options.bound_factor
     lo = np.where(nu, -options.nu_max, np.log(np.abs(init) / bf))
     hi = np.where(nu, options.nu_max, np.log(np.abs(init) * bf))
@@ -2020,11 +2024,9 @@ def fixed_spread_moves(u: Uncertainty, before: Uncertainty, result, fms, sigmas,
     DP, DF = [], []
     for i in np.flatnonzero(lam > SPREAD_AXIS_MIN * max(lam.max(), 0.0)):
         d = np.sqrt(lam[i]) * V[:, i]
-        room = [((hi[j] - z0[j]) if d[j] > 0 else (z0[j] - lo[j])) / abs(d[j])
-                for j in range(d.size) if d[j] != 0]
-        room += [((z0[j] - lo[j]) if d[j] > 0 else (hi[j] - z0[j])) / abs(d[j])
-                 for j in range(d.size) if d[j] != 0]
-        alpha = min([1.0] + room)
+        # the step is taken either way: each component needs room on both of its sides
+        nz = d != 0
+        alpha = min(1.0, float(np.min(np.minimum(hi - z0, z0 - lo)[nz] / np.abs(d[nz]))))
         if not alpha > 0:
             continue
         ends = []
@@ -2036,9 +2038,7 @@ def fixed_spread_moves(u: Uncertainty, before: Uncertainty, result, fms, sigmas,
                                   {lab: float(v) for lab, v in zip(counted, f)})
             except (FitError, FitInputError, ModelError, SolverError):
                 return None
-            vals = {f"{n}.{c}": float(getattr(cs, c)) for n, cs in
-                    zip(r.material_names, r.constants) for c in CONSTANT_NAMES}
-            ends.append((np.array([vals[x] for x in u.labels]), f))
+            ends.append((_label_values(material_states(r), u.labels), f))
         DP.append((ends[0][0] - ends[1][0]) / 2)
         DF.append((ends[0][1] - ends[1][1]) / 2)
     if not DP:
@@ -2066,8 +2066,7 @@ def fixed_value_regression(obs, materials, labels, fixed_cols, inner=None) -> np
         rows.append((np.sqrt(o.weight[ok]) / lam_m)[:, None] * o.dlam_dP[ok][:, cols])
     A = np.vstack(rows)
     mat_of = {m.name: m for m in materials}
-    value = np.array([float(getattr(mat_of[lab.rsplit(".", 1)[0]].constants,
-                                    lab.rsplit(".", 1)[1])) for lab in labels])
+    value = _label_values(materials, labels)
     for j, lab in enumerate(labels):
         name, const = lab.rsplit(".", 1)
         wp = float(mat_of[name].prior.get(const, 0.0))
@@ -2159,25 +2158,29 @@ def _show(k: str, v: float) -> str:
     return f"{v:.3g}" if k == "nu12" else _gpa(v)
 
 
-def _profile_far(k: str, side: str, limit: float, initial: float, nu_max: float,
-                 bound_factor: float, initial_c=None) -> float:
+def _profile_far(k: str, side: str, limit: float, options, initial_c) -> float:
     """The other end of the profile's scan: for a modulus on its lower limit the search's
     upper factor limit (at least 10 times the limit), on an upper one its lower factor limit;
-    for nu12 zero (a Poisson ratio beyond that is not a composite's). E2 <= E1 (paper Eq. 22)
-    with ``initial_c`` (the material's initial ElasticConstants): a held E2 goes no higher
-    than the initial E1, a held E1 no lower than the initial E2 (the identifications of the
-    profile start from a specimen with the held value, which must keep E2 <= E1)."""
+    for nu12 zero (a Poisson ratio beyond that is not a composite's). ``options``: the
+    identification's (bound_factor); ``initial_c``: the material's initial ElasticConstants.
+    E2 <= E1 (paper Eq. 22): a held E2 goes no higher than the initial E1, a held E1 no lower
+    than the initial E2 (the identifications of the profile start from a specimen with the
+    held value, which must keep E2 <= E1)."""
     if k == "nu12":
         return 0.0
+    initial = abs(float(getattr(initial_c, k)))
     if side == "lower":
-        far = max(abs(initial) * bound_factor, 10 * abs(limit))
-        if k == "E2" and initial_c is not None:
-            far = min(far, float(initial_c.E1))
-        return far
-    far = min(abs(initial) / bound_factor, 0.1 * abs(limit))
-    if k == "E1" and initial_c is not None:
-        far = max(far, float(initial_c.E2))
-    return far
+        far = max(initial * options.bound_factor, 10 * abs(limit))
+        return min(far, float(initial_c.E1)) if k == "E2" else far
+    far = min(initial / options.bound_factor, 0.1 * abs(limit))
+    return max(far, float(initial_c.E2)) if k == "E1" else far
+
+
+def _limit(u: Uncertainty, j: int) -> tuple[str, float]:
+    """(side, limit) of the search that constant ``j`` of ``u`` ended on (its value where the
+    uncertainty does not store the limit)."""
+    side = u.bound_side[j] if u.bound_side else ""
+    return side, float(u.bound_limit[j]) if u.bound_limit is not None else float(u.value[j])
 
 
 def profile_bound(label: str, side: str, limit: float, far: float, delta, threshold: float,
@@ -2189,10 +2192,7 @@ def profile_bound(label: str, side: str, limit: float, far: float, delta, thresh
     the far end, on ln P for a modulus and nu12 itself, to :data:`PROFILE_TOL`."""
     k = label.rsplit(".", 1)[1]
     nu = k == "nu12"
-
-    def show(v):
-        return _show(k, v)
-
+    show = functools.partial(_show, k)
     to = (lambda t: limit + t * (far - limit)) if nu else (
         lambda t: limit * np.exp(t * np.log(far / limit)))
     direction = "above" if far > limit else "below"
@@ -2322,13 +2322,10 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
     if not result.converged:
         # the rise would be measured from a point that is no optimum
         return dataclasses.replace(u, profiles={
-            lab: Profile(lab, side, float(lim), np.nan, np.nan, np.nan, float(u.quantile) ** 2,
+            lab: Profile(lab, *_limit(u, j), np.nan, np.nan, np.nan, float(u.quantile) ** 2,
                          0, "no profile: the identification did not converge",
                          "not converged")
-            for lab, b, side, lim in zip(u.labels, u.at_bound, u.bound_side or
-                                         ("",) * len(u.labels),
-                                         u.bound_limit if u.bound_limit is not None
-                                         else u.value) if b})
+            for j, lab in enumerate(u.labels) if u.at_bound[j]})
     options = result.options
     threshold = float(u.quantile) ** 2
     factor = float(u.variance_factor) if u.variance_factor > 0 else 1.0
@@ -2352,10 +2349,8 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
                 chi2 += ((v - initial) / ref / uc.sigma_unit) ** 2
             return (chi2 - u.chi2) / factor
 
-        limit = float(u.bound_limit[j]) if u.bound_limit is not None else float(u.value[j])
-        side = u.bound_side[j] if u.bound_side else ""
-        far = _profile_far(k, side, limit, initial, options.nu_max, options.bound_factor,
-                           result.initial[m])
+        side, limit = _limit(u, j)
+        far = _profile_far(k, side, limit, options, result.initial[m])
         try:
             out[lab] = profile_bound(lab, side, limit, far, delta, threshold, u.confidence)
         except (FitError, ModelError, SolverError) as exc:
@@ -2403,28 +2398,21 @@ def with_fixed_ranges(u: Uncertainty, before: Uncertainty, result, fms, sigmas, 
     for lab in u.spread_not_counted:
         name, k = lab.rsplit(".", 1)
         m = names.index(name)
-        j = list(before.labels).index(lab)
-        side = before.bound_side[j] if before.bound_side else ""
-        limit = (float(before.bound_limit[j]) if before.bound_limit is not None
-                 else float(before.value[j]))
-        initial = float(getattr(result.initial[m], k))
-        far = _profile_far(k, side, limit, initial, options.nu_max, options.bound_factor,
-                           result.initial[m])
+        side, limit = _limit(before, list(before.labels).index(lab))
+        far = _profile_far(k, side, limit, options, result.initial[m])
         low, high = sorted((limit, far))
         span = f"anywhere from {_show(k, low)} to {_show(k, high)}"
         try:
             moved = []
             for end in (low, high):
                 r, _ = refit_held(result, fms, sigmas, kw, joint, lab, end)
-                vals = {f"{n}.{c}": float(getattr(cs, c)) for n, cs in
-                        zip(r.material_names, r.constants) for c in CONSTANT_NAMES}
-                moved.append(np.array([abs(vals[x] - v) for x, v in zip(u.labels, value)]))
+                moved.append(np.abs(_label_values(material_states(r), u.labels) - value))
             with np.errstate(divide="ignore", invalid="ignore"):
                 ratio = np.where(half > 0, np.maximum(*moved) / half, np.nan)
             ok = np.isfinite(ratio)
             if not ok.any():
                 out[lab] = FixedRange(lab, low, high, False, "", np.nan,
-                                      f"not checked: no free constant has an interval")
+                                      "not checked: no free constant has an interval")
                 continue
             w = int(np.nanargmax(np.where(ok, ratio, -1.0)))
             worst, r_w = u.labels[w], float(ratio[w])
