@@ -58,3 +58,20 @@ def verdict(rel: float, at_bound: bool) -> str:
     if rel < WEAK:
         return VERDICT_WEAK
     return VERDICT_NOT                    # also a NaN half-width
+
+
+def width_text(rel: float) -> str:
+    """A relative half-width as the terminal and the report write it: "1.3 %" (one decimal,
+    so that 0.4 % is not "0 %"), "60x" from ten times the value on."""
+    return f"{rel * 100:.1f} %" if rel < 10 else f"{rel:.0f}x"
+
+
+def spread_sentence(counted, given, what: str = "the intervals") -> str:
+    """The statement that ``what`` count the spread the ``counted`` fixed values (names as
+    shown) had before --fix-undetermined fixed them, with the widths ``given`` ((name, relative
+    half-width) pairs, finite) they have given the fixed values alone."""
+    return (f"{what} count the spread " + ", ".join(counted) + " had before "
+            + ("it was" if len(counted) == 1 else "they were")
+            + " fixed (a fixed value is not known better than that)"
+            + ("; given the fixed values alone: " + ", ".join(
+                f"{name} ±{width_text(w)}" for name, w in given) if given else ""))

@@ -41,7 +41,7 @@ import numpy as np
 
 from laminid_cli.atomic import atomic_path
 from laminid_cli.errors import LaminidError
-from laminid_cli.intervals import VERDICT_NOT, WEAK
+from laminid_cli.intervals import VERDICT_NOT, WEAK, spread_sentence
 from laminid_cli.resultfile import CONSTANTS, ResultFile, bound_statement, read_result
 
 log = logging.getLogger(__name__)
@@ -531,16 +531,9 @@ def table_notes(r: ResultFile) -> list[str]:
     if u is not None and getattr(u, "spread_counted", ()):
         names = [lab.rsplit(".", 1)[1] if len(r.materials) == 1 else lab
                  for lab in u.spread_counted]
-        given = [(iv, u.given_fixed.get(iv.label, np.nan)) for iv in u.intervals]
-        # as the terminal writes them (commands.text): one decimal, so that a width of 0.4 %
-        # is not "±0 %"
-        given = ", ".join(f"{iv.constant if len(r.materials) == 1 else iv.label} "
-                          + (f"±{100 * w:.1f} %" if w < 10 else f"±{w:.0f}x")
-                          for iv, w in given if np.isfinite(w))
-        notes.append("the intervals count the spread " + ", ".join(names) + " had before "
-                     + ("it was" if len(names) == 1 else "they were") + " fixed (a fixed value "
-                     "is not known better than that)"
-                     + (f"; given the fixed values alone: {given}" if given else ""))
+        given = [(iv.constant if len(r.materials) == 1 else iv.label,
+                  u.given_fixed.get(iv.label, np.nan)) for iv in u.intervals]
+        notes.append(spread_sentence(names, [(n, w) for n, w in given if np.isfinite(w)]))
     return notes
 
 

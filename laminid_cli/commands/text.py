@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import re
 
-from laminid_cli.intervals import VERDICT_NOT
+from laminid_cli.intervals import VERDICT_NOT, spread_sentence, width_text
 
 #: the advice that ends the verdict "not determined by these modes — fix it or ..." (shown
 #: once in the constants' table, not again for the laminate's properties)
@@ -269,7 +269,7 @@ def _material_tables(s: dict, ref: dict) -> list[str]:
 def _pct(rel) -> str:
     if rel is None or not math.isfinite(rel):
         return "inf"
-    return f"{rel * 100:.1f} %" if rel < 10 else f"{rel:.0f}x"
+    return width_text(rel)
 
 
 def _short(labels) -> list[str]:
@@ -324,13 +324,9 @@ def format_uncertainty(u: dict) -> list[str]:
                      for m, per in (u.get("constants") or {}).items() for k, v in per.items()]
             given = [(lab, w) for lab, w in given if w is not None and math.isfinite(w)]
             names = _short(list(counted) + [lab for lab, _ in given])
-            given = [f"{n} ±{_pct(w)}" for n, (_, w) in zip(names[len(counted):], given)]
-            lines.append(f"  the {conf:.0f} % intervals count the spread "
-                         + ", ".join(names[:len(counted)])
-                         + " had before " + ("it was" if len(counted) == 1 else "they were")
-                         + " fixed (a fixed value is not known better than that)"
-                         + ("; given the fixed values alone: " + ", ".join(given)
-                            if given else ""))
+            lines.append("  " + spread_sentence(
+                names[:len(counted)], [(n, w) for n, (_, w) in zip(names[len(counted):], given)],
+                f"the {conf:.0f} % intervals"))
     for lab, why in (u.get("kept_free") or {}).items():
         lines.append(f"  --fix-undetermined: {lab} {why}")
     at_bound = {f"{m}.{k}" for m, per in (u.get("constants") or {}).items()
