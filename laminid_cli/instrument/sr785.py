@@ -14,9 +14,13 @@ commands with comments giving each code; "pySR785" = a public pyvisa SR785 drive
 (``SR785.FFT`` class, ``_param_map`` and ``measure``); "pyHegel SR780" = ``lupien/pyHegel``
 ``pyHegel/instruments/srs.py`` class ``sr780_analyzer`` (the SR780, the SR785's predecessor with
 the same command set and status words; its docstrings give the bit layouts of ``DSPS?``,
-``INPS?``, ``ERRS?`` and ``*ESR?``). The SR785 manual (SRS, *Operating Manual and Programming
-Reference*, ch. 5) was not found in the searchable corpus: commands resting on it alone are
-marked **unconfirmed**.
+``INPS?``, ``ERRS?`` and ``*ESR?``); "Roy SR785" = ``AvirupRoy/research``
+``Visa/SR785_New/SR785.py`` (commit ffba586), a PyQt SR785 driver whose settings give the command,
+its values and, in tooltips, the page of the SR785 User Manual pdf they come from; "Labber SR785" =
+``Labber-software/Drivers`` ``Stanford_SR785/Stanford_SR785.py`` (commit 94ab48c), value tables of
+the queries it decodes. The SR785 manual itself (SRS, *Operating Manual and Programming
+Reference*, ch. 5) was not found as text (``AvirupRoy/research`` stores ``SR785m.pdf`` only as
+binary): commands no public source gives are marked **unconfirmed**, with where we looked.
 
 ``*IDN?`` ``*CLS``
     IEEE 488.2; LIGO script (``*CLS``, IDN check "Stanford_Research_Systems,SR785")
@@ -28,7 +32,9 @@ marked **unconfirmed**.
 ``MGRP 2,0``
     LIGO script ``MGRP2,0`` "Measurement Group = FFT"; pySR785
 ``MEAS 0,11`` ``MEAS 1,9``
-    LIGO script: 11 = "Frequency Resp", 9 = "Coherence"
+    LIGO script: 11 = "Frequency Resp", 9 = "Coherence"; Roy SR785 ``measurementSelect`` and
+    Labber SR785 (``MEAS ? 0`` table): 9 = coherence, 11 = frequency response in the FFT group
+    (pyHegel's SR780 list has no power-spectrum entries and other indices: SR780 only)
 ``FBAS 2,1``
     LIGO script ``FBAS2,1`` "Base Frequency = 102.4kHz"; pySR785 ``_fft_base_freq_map`` (0 = 100
     kHz, 1 = 102.4 kHz); pyHegel SR780 ``freq_baseline`` (``FBAS 2,{val}``, index of [100e3,
@@ -36,45 +42,74 @@ marked **unconfirmed**.
 ``FSPN 2,<Hz>``
     LIGO script ``FSPN2,``; pySR785 ``stop_Hz`` (spans 102.4 kHz/2^k)
 ``FLIN 2,<i>``
-    LIGO script / pySR785: 0..3 = 100, 200, 400, 800 lines
+    LIGO script / pySR785: 0..3 = 100, 200, 400, 800 lines; Roy SR785 ``lines`` (``FLIN 2,``,
+    manual pdf p. 205); Labber SR785 ``FLIN ? 0`` table
 ``FSTR 2,<Hz>``
     pySR785 ``start_Hz`` (``FSTR 2,``)
 ``FAVG 2,1``
     LIGO script "Averaging On"
 ``FAVM 2,2``
-    LIGO script ``avgModDict``: 2 = RMS
+    LIGO script ``avgModDict``: 2 = RMS; Roy SR785 ``averageType`` (0 none, 1 vector, 2 rms,
+    3 peak hold; manual pdf pp. 305-307); Labber SR785 ``FAVM ? 0`` table
 ``FAVT 2,0``
-    LIGO script "Averaging Type = Linear"; pySR785
+    LIGO script "Averaging Type = Linear"; pySR785; Roy SR785 ``fftAverageType`` (0 =
+    linear/fixed length, 1 = exponential/continuous; manual pdf p. 304)
 ``FAVN 2,<n>``
-    LIGO script "Number of Averaging"
+    LIGO script "Number of Averaging"; range 2-32767: Roy SR785 ``numberOfAverages`` (manual
+    pdf p. 305) and pyHegel SR780 ``average_count_requested`` (min 2, max 32767), so
+    :meth:`SR785.validate` refuses one average before sending anything
 ``FWIN 2,5``
-    LIGO script ``winFuncDict``: 5 = "Force/Exponential"
+    LIGO script ``winFuncDict``: 5 = "Force/Exponential"; Roy SR785 ``windowType`` (``FWIN 2,``,
+    5 = force/exponential; manual pdf pp. 327-328)
+``W1FE 0`` ``W2FE 1``
+    Roy SR785 ``forceOrExponential1``/``forceOrExponential2`` (``W1FE``/``W2FE`` with no
+    display argument, 0 = force window, 1 = exponential window, "only applicable when
+    windowType is force/exponential"; manual pdf pp. 328-329): the force/exponential window
+    is chosen per channel, so channel 1 (hammer) is set to force and channel 2 to exponential.
+    Until this branch the driver did not send them and the channels kept whatever the
+    analyser had
 ``FWFL 2,<s>``
-    **unconfirmed** (manual, Window commands: force length)
+    Roy SR785 ``forceLength`` (``FWFL 2,``; "points in the time record up to the Force Length
+    are unmodified, points past it are zeroed; the maximum ... is the length of the FFT time
+    record"; manual pdf p. 329) confirms the command; its unit (seconds) is **unconfirmed**
+    (the source gives none)
 ``FWTC 2,<%>``
-    **unconfirmed** (manual: exponential time constant, % of record)
+    Roy SR785 ``expoWindowTimeConstant`` (``FWTC 2,``, unit %, 5-1000; "the percentage of the
+    FFT time record where the window function reaches 1/e"; manual pdf p. 329): so
+    ``100 tau / T`` with w(tau) = 1/e is the convention, and :meth:`SR785.validate` refuses a
+    time constant under 5 % of the record before sending anything
 ``TSRC 1``
     LIGO script: 1 = "Ch1" (single argument)
 ``TMOD 0``
     LIGO script "Auto trigger arming"
 ``TSLP 0``
-    **unconfirmed** (manual, Trigger commands: rising slope)
+    **unconfirmed** (0 = rising slope). Looked in: code search for ``TSLP`` (only the SR620
+    counter's ``TSLP n,slope``, another instrument), pyHegel SR780 (no trigger devices), Roy
+    SR785 (trigger: ``TMAN`` only), Labber SR785 (``TAVM`` only), ``awade/netgpibdata``
+    ``SR785.py``, the docs and pages corpora (no SR785 manual page)
 ``TLVL <pct>``
     LIGO script "Sets trigger level in percent"
 ``TDLA <s>`` ``TDLB <s>``
     LIGO script "Delay for channel 1/2 in s"
 ``VIEW 0,7`` ``VIEW 1,1``
-    LIGO script view table: 7 = Nyquist, 1 = Linear Magnitude; Nyquist Y-then-X order per bin
-    **unconfirmed**
+    LIGO script view table: 7 = Nyquist, 1 = Linear Magnitude; same table in Roy SR785 ``view``,
+    Labber SR785 ``VIEW ? 0`` and pyHegel SR780 ``meas_view``. A Nyquist view returns two values
+    per bin (pyHegel SR780 ``_fetch_getdev``: "nyquist and nichols plot ... return 2 values
+    per datapoint"); their order, Y (imag) then X (real), is **unconfirmed** (looked in the
+    same sources; none reads a Nyquist display)
 ``STRT``
     LIGO script "Start measurement"; pySR785
 ``DSPS?`` ``DSPS? 1``
     LIGO script ``DSPS?1`` (loop until averaging done); pySR785 "read AVGA (averaging complete)";
-    pyHegel SR780 ``get_display_status``: bit 1 = display A linear average complete
+    pyHegel SR780 ``get_display_status``: bit 1 = display A linear average complete; Roy SR785
+    ``Display.AVGA = 2**1``
 ``NAVG? 0``
     LIGO script (averages done)
 ``DSPN? d`` ``DSPB? d``
-    LIGO script and pySR785 (4-byte floats, no header)
+    LIGO script and pySR785 (4-byte floats, no header); Roy SR785 ``retrieveData`` (``DSPB? %d``,
+    a length that is not a multiple of 4 is refused, unpacked as 4-byte floats) and pyHegel
+    SR780 (``DSPB?`` read raw as float32). Least significant byte first: both unpack in the
+    host's native order (little-endian on the PCs they run on); no source states the order
 ``FSPN? 0`` ``FLIN? 0`` ``FSTR? 0`` ``FAVN? 0`` ``TLVL?``
     LIGO script / pySR785 queries
 ``INPS?``
@@ -101,6 +136,7 @@ import numpy as np
 
 from laminid_cli.errors import InstrumentError
 from laminid_cli.instrument.base import AcquisitionSettings, Analyser, format_number
+from laminid_cli.instrument.transport import AnalyserSetupError
 
 #: spans with the 102.4 kHz base frequency (FBAS 1): 102.4 kHz / 2**k (Frequency commands)
 SPANS_HZ = tuple(102400.0 / 2 ** k for k in range(20))
@@ -114,6 +150,13 @@ VIEW_LINEAR_MAG = 1
 VIEW_NYQUIST = 7
 #: Window commands: FWIN index of the force/exponential window
 FWIN_FORCE_EXP = 5
+#: W1FE/W2FE: which of the two a channel gets in the force/exponential window
+WFE_FORCE = 0
+WFE_EXPONENTIAL = 1
+#: FWTC range, percent of the time record (Roy SR785 ``expoWindowTimeConstant``)
+FWTC_MIN_PCT = 5.0
+#: FAVN range (Roy SR785 ``numberOfAverages``, pyHegel SR780): at least two averages
+FAVN_MIN = 2
 #: Average commands: FAVM 2 = RMS, FAVT 0 = linear (fixed length)
 FAVM_RMS = 2
 FAVT_LINEAR = 0
@@ -171,6 +214,21 @@ class SR785(Analyser):
         return len(fields) >= 2 and fields[1] == "SR785"
 
     # ------------------------------------------------------------------ set-up
+    def validate(self, settings: AcquisitionSettings) -> None:
+        """The shared checks, then the SR785's own ranges: ``FAVN`` takes 2-32767 averages and
+        ``FWTC`` at least 5 % of the record (module docstring)."""
+        super().validate(settings)
+        s = settings
+        if s.averages < FAVN_MIN:
+            raise AnalyserSetupError(f"{self.MODEL} averages at least {FAVN_MIN} records "
+                                     f"(FAVN 2-32767; got {s.averages})")
+        pct = 100.0 * s.exp_window_s / s.record_s
+        if pct < FWTC_MIN_PCT * (1 - 1e-9):
+            raise AnalyserSetupError(
+                f"{self.MODEL}: exp window {s.exp_window_s:g} s is {pct:.3g} % of the time "
+                f"record ({s.record_s:g} s); its FWTC takes at least {FWTC_MIN_PCT:g} % "
+                f"({FWTC_MIN_PCT / 100 * s.record_s:g} s)")
+
     def configure(self, settings: AcquisitionSettings) -> None:
         """Send the impact-test set-up; ``*ESR?`` after each command names a rejected one."""
         self.validate(settings)
@@ -191,6 +249,8 @@ class SR785(Analyser):
             f"FAVT 2,{FAVT_LINEAR}",                     # linear, fixed length
             f"FAVN 2,{s.averages}",                      # number of averages
             f"FWIN 2,{FWIN_FORCE_EXP}",                  # force/exponential window
+            f"W1FE {WFE_FORCE}",                         # ch1 (hammer): force window
+            f"W2FE {WFE_EXPONENTIAL}",                   # ch2 (response): exponential
             f"FWFL 2,{format_number(s.force_window_s)}",  # force length, s
             f"FWTC 2,{format_number(pct)}",              # expo time constant, % of record
             f"TSRC {TSRC_CH1}",                          # trigger source channel 1

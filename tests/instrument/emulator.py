@@ -512,9 +512,13 @@ class SR785Emulator(EmulatorBase):
         self.dsps = 0
         self.meas = {0: 0, 1: 0}
         self.view = {0: 0, 1: 0}
+        # per-channel choice in the force/exponential window (0 force, 1 exponential); the
+        # real power-on value is not known, so the emulator starts with force on both and the
+        # response is windowed only when the driver sets W2FE 1
+        self.wfe = {1: 0, 2: 0}
 
     def exp_tau_s(self):
-        if self.settings.get("FWIN") != 5:
+        if self.settings.get("FWIN") != 5 or self.wfe[2] != 1:
             return 0.0
         return float(self.settings.get("FWTC", 0.0)) / 100.0 * self.lines / self.span_hz
 
@@ -567,6 +571,11 @@ class SR785Emulator(EmulatorBase):
             self.settings[header] = int(args[1])
         elif header in ("FWFL", "FWTC"):
             self.settings[header] = float(args[1])
+        elif header in ("W1FE", "W2FE"):
+            if len(args) != 1 or args[0] not in ("0", "1"):
+                exe_error = True
+            else:
+                self.wfe[int(header[1])] = int(args[0])
         elif header == "FSPN":
             v = float(args[1])
             if any(math.isclose(v, s, rel_tol=1e-9) for s in self.SPANS):

@@ -36,7 +36,7 @@ SR_COMMANDS = [
     "MGRP 2,0", "MEAS 0,11", "MEAS 1,9",
     "FBAS 2,1", "FSPN 2,1600", "FLIN 2,3", "FSTR 2,0",
     "FAVG 2,1", "FAVM 2,2", "FAVT 2,0", "FAVN 2,5",
-    "FWIN 2,5", "FWFL 2,0.01", "FWTC 2,20",
+    "FWIN 2,5", "W1FE 0", "W2FE 1", "FWFL 2,0.01", "FWTC 2,20",
     "TSRC 1", "TMOD 0", "TSLP 0", "TLVL 10", "TDLA -0.005", "TDLB -0.005",
     "VIEW 0,7", "VIEW 1,1",
 ]
@@ -145,6 +145,27 @@ def test_sr785_configure_sends_the_evidenced_setup_and_checks_esr_after_each_com
     assert "FBAS 2,1" in dsa.transport.sent   # base frequency 102.4 kHz, both displays
 
 
+def test_sr785_force_exponential_window_is_chosen_per_channel():
+    """Roy SR785 driver (W1FE/W2FE: 0 force, 1 exponential): ch1 force, ch2 exponential, right
+    after the force/exponential window is selected."""
+    with expected_protocol(SR785, SR_CONFIGURE) as dsa:
+        dsa.configure(SETTINGS)
+    sent = [c for c in dsa.transport.sent if c != "*ESR?"]
+    i = sent.index("FWIN 2,5")
+    assert sent[i + 1:i + 3] == ["W1FE 0", "W2FE 1"]
+
+
+def test_sr785_emulator_windows_the_response_only_when_ch2_is_exponential():
+    from tests.instrument.emulator import SR785Emulator
+
+    emu = SR785Emulator()
+    for command in ("FSPN 2,1600", "FLIN 2,3", "FWIN 2,5", "FWTC 2,20"):
+        emu.dispatch(command)
+    assert emu.exp_tau_s() == 0.0            # both channels still on force
+    emu.dispatch("W2FE 1")
+    assert emu.exp_tau_s() == pytest.approx(0.1)   # 20 % of 800 lines / 1600 Hz
+
+
 def test_sr785_rejected_command_is_named_with_the_esr_bits():
     steps = [("*CLS", None)] + _with_answers(SR_COMMANDS, {"FWTC 2,20": [("*ESR?", "32")]},
                                              SR_OK)
@@ -198,7 +219,13 @@ def test_sr785_abort_pauses():
     (SR785, AcquisitionSettings(lines=1600), "1600 lines; lines: 100, 200, 400, 800"),
     (SR785, AcquisitionSettings(exp_window_s=2.0),
      r"exp window 2 s must be within the time record \(0-0.5 s"),
-], ids=["hp-span", "hp-lines", "sr785-lines", "window-longer-than-the-record"])
+    (SR785, AcquisitionSettings(averages=1), r"SR785 averages at least 2 records \(FAVN "
+     r"2-32767; got 1\)$"),
+    (SR785, AcquisitionSettings(exp_window_s=0.02),
+     r"SR785: exp window 0.02 s is 4 % of the time record \(0.5 s\); its FWTC takes at "
+     r"least 5 % \(0.025 s\)$"),
+], ids=["hp-span", "hp-lines", "sr785-lines", "window-longer-than-the-record",
+        "sr785-one-average", "sr785-fwtc-under-5-percent"])
 def test_settings_the_analyser_does_not_offer_are_refused_before_sending_anything(
         driver, settings, message):
     with expected_protocol(driver, []) as dsa:
