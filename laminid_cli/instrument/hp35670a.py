@@ -49,7 +49,10 @@ cited by the attribute that defines the command; IEEE 488.2 = the common command
 ``TRIG:LEV <pct> PCT``
     pymeasure ``trigger_level`` confirms TRIGger:LEVel %g, not its unit: the ``PCT`` suffix
     (percent of input range) is **unconfirmed**; chosen so that a firmware without it rejects
-    the command by name (SCPI suffix error) instead of triggering at 10 V
+    the command by name (SCPI suffix error) instead of triggering at 10 V. Looked in (branch
+    instrument-evidence): pymeasure ``trigger_level`` ("Control the trigger level.", range
+    +-9.9e37, no unit), code search for ``TRIGger:LEVel``/``TRIG:LEV`` (other instruments only),
+    the docs and pages corpora (no 35670A manual page)
 ``TRIG:STAR1 <s>`` ``TRIG:STAR2 <s>``
     pymeasure ``trigger_start1``/``trigger_start2`` ("channel 1 trigger start delay in
     seconds"); negative = pre-trigger; there is no TRIGger:DELay node
@@ -63,10 +66,14 @@ cited by the attribute that defines the command; IEEE 488.2 = the common command
 ``FORM:DATA REAL,64``
     pymeasure ``data_format`` (FORMat:DATA ASC|REAL; its reply parser drops a ``,<length>``):
     the ``,64`` and the big-endian byte order are **unconfirmed** (checked by the opt-in
-    hardware test)
+    hardware test). Looked in: pymeasure (``DATA_FORMAT_VALUES`` ASC/REAL only, no
+    FORMat:BORDer property), code search for ``FORMat:DATA REAL,64`` (other SCPI instruments,
+    some of which send ``FORMat:BORDer SWAPped`` to get little-endian, i.e. big-endian is the
+    SCPI default ``NORMal``: a hint, not 35670A evidence)
 ``CALC1:FORM NYQ`` ``CALC2:FORM MLIN``
     pymeasure ``Keysight35670ATrace.display_format``, ``TRACE_DISPLAY_FORMATS`` nyquist = NYQ,
-    linear_magnitude = MLIN; the (real, imag) order of NYQ blocks is **unconfirmed**
+    linear_magnitude = MLIN; the (real, imag) order of NYQ blocks is **unconfirmed** (pymeasure
+    reads CALC:DATA? as one flat list and says nothing of pairs; no other 35670A reader found)
 ``SYST:ERR?``
     pymeasure ``_raise_if_errors`` (SYSTem:ERRor? read until code 0 "No error")
 ``ABOR``
@@ -104,7 +111,8 @@ from laminid_cli.errors import InstrumentError
 from laminid_cli.instrument.base import AcquisitionSettings, Analyser, format_number
 
 #: two-channel FFT spans: 51.2 kHz / 2**k. Unconfirmed list (pymeasure's ``frequency_span``
-#: only bounds the value, 0.015625-102400 Hz); an odd span is refused before sending anything.
+#: only bounds the value, 0.015625-102400 Hz; no 35670A span table found in the code, docs or
+#: pages corpora); an odd span is refused before sending anything.
 SPANS_HZ = tuple(51200.0 / 2 ** k for k in range(19))
 #: FFT resolution lines offered in two-channel mode (qkit's 35670A driver, see FREQ:RES above)
 LINES = (100, 200, 400, 800)
