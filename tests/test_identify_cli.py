@@ -3,6 +3,7 @@
 import json
 import re
 import shutil
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -230,3 +231,13 @@ def test_quiet_identify_keeps_its_notes_off_stderr(tmp_path):
     r = run("-q", *args)
     assert r.exit_code == 0, r.output
     assert r.stderr == "" and "E1" in r.stdout
+
+
+def test_joint_refuses_a_copy_of_a_specimen_file_under_another_name(tmp_path):
+    copy = tmp_path / "S2.1-copy.yaml"
+    copy.write_text(Path(S21).read_text().replace("name: S2.1", "name: S2.1b"))
+    r = run("identify", S21, copy, "--joint", "--no-output")
+    assert r.exit_code == 2
+    assert r.output.startswith(f"laminid: error: {copy}: the same plate data as {S21} (the same "
+                               "measured frequencies, geometry, mass and layup")
+    assert "Traceback" not in r.output
