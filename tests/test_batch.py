@@ -919,3 +919,11 @@ def test_an_interrupted_forced_batch_keeps_the_results_of_the_same_input(batch_r
     assert [(x["status"], x["cached"], x["stale_result"]) for x in rows] == [
         ("check", True, None), ("check", True, None)]
 
+
+def test_batch_force_help_says_it_redoes_every_specimen():
+    r = run("batch", "--help")
+    assert r.exit_code == 0
+    text = " ".join(r.output.split())
+    assert ("--force Identify every specimen again, also those whose result in OUT is up to "
+            "date (same specimen and FRF file, options and laminid version).") in text
+    assert "Not 'overwrite the output' as in identify -o, modes, export, acquire." in text

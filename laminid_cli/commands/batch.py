@@ -20,7 +20,12 @@ from laminid_cli.commands._common import (echo_json, fit_options, json_option,
                    "Workers must see the specimen files at the same paths.")
 @fit_options
 @uncertainty_options
-@click.option("--force", is_flag=True, help="Redo specimens whose result is up to date.")
+@click.option("--force", is_flag=True,
+              help="Identify every specimen again, also those whose result in OUT is up to "
+                   "date (same specimen and FRF file, options and laminid version). Without "
+                   "it only new and changed specimens run; their results are replaced either "
+                   "way (a batch's results are derived files). Not 'overwrite the output' as "
+                   "in identify -o, modes, export, acquire.")
 @click.option("--wide", is_flag=True,
               help="summary.csv with one row per specimen (a column per constant) instead of "
                    "one row per specimen, material and constant.")
@@ -38,12 +43,12 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
     status, ok or check with its reasons, shown in the table.
 
     A result whose input has not changed (sha256 of the specimen and its FRF file, the
-    options and the laminid version, stored in the file) is not redone unless --force. A
-    failing specimen is listed with its reason and the others go on; a result it still has
-    in OUT (an earlier input's) is renamed <name>.result.stale.h5 (.stale1.h5, ... when that
-    exists), out of the *.result.h5 pattern, and named in the table and the summaries
-    (stale_result); so is that of a specimen an interrupted batch (Ctrl-C) did not reach,
-    while every finished result stays.
+    options and the laminid version, stored in the file) is not redone unless --force (which
+    redoes every specimen). A failing specimen is listed with its reason and the others go
+    on; a result it still has in OUT (an earlier input's) is renamed
+    <name>.result.stale.h5 (.stale1.h5, ... when that exists), out of the *.result.h5
+    pattern, and named in the table and the summaries (stale_result); so is that of a
+    specimen an interrupted batch (Ctrl-C) did not reach, while every finished result stays.
     Result files in OUT that no specimen of the inputs has (its file removed, or another
     batch's) are kept and listed as 'not from this batch'. Exit code 0 when all
     converged (status ok or check), 1 when any failed or did not converge, 2 for bad usage
