@@ -19,7 +19,9 @@ The flow of ``laminid batch`` as library functions:
    any instant leaves either no file or a complete one. A specimen that fails gets no file,
    and :func:`set_aside_result` renames the one an earlier input left at its name out of the
    ``*.result.h5`` pattern (``<name>.result.stale.h5``), so that no result beside this run's
-   summary is older than it;
+   summary is older than it; so does a specimen an interrupted run did not reach (its file
+   kept when it is this input's: --force redoing it). Result files in the output folder that
+   no job has (:func:`foreign_results`) get a row "not from this batch" and are not moved;
 5. :func:`result_row` reads the numbers of the summary back from each result file with the
    typed reader (laminid_cli.resultfile: values, intervals, verdicts, the status and its
    reasons); :func:`write_summary_csv` (long form: one
@@ -32,8 +34,9 @@ a ``unit`` column, the wide CSV the unit in each header ("IM7/977-2 E1 [Pa]"). T
 table shows GPa.
 
 Status of a row: "ok" or "check" (the result's status, laminid_cli.status; a run that did not
-converge is "check" with reason ``not_converged``), "error" (no result: bad input, crash) or
-"not run" (interrupted batch).
+converge is "check" with reason ``not_converged``), "error" (no result: bad input, crash),
+"not run" (interrupted batch) or "not from this batch" (a result file in the output folder of a
+specimen not among the inputs; its path in ``stale_result``).
 
 h5py and the solver are imported where they are used (the option classes bring numpy in).
 """
@@ -89,9 +92,14 @@ RESULT_SUFFIX = ".result.h5"
 SUMMARY_CSV = "summary.csv"
 SUMMARY_JSON = "summary.json"
 HASH_ATTR = "batch_input_sha256"
+#: status of a row naming a result file in --out that no specimen of this batch has (its
+#: specimen removed from the inputs, or one of another batch into the same --out): kept as it
+#: is, named so that it is not taken for this batch's
+NOT_FROM_BATCH = "not from this batch"
 #: statuses of a summary row; "error", "not run" and a run that did not converge make the
-#: batch exit with 1 ("check" alone does not: the reasons say what to look at)
-STATUSES = ("ok", "check", "error", "not run")
+#: batch exit with 1 ("check" alone does not: the reasons say what to look at; nor does a file
+#: not from this batch)
+STATUSES = ("ok", "check", "error", "not run", NOT_FROM_BATCH)
 
 
 class BatchError(LaminidError):
@@ -254,18 +262,26 @@ MAX_STALE = 9999
 
 
 def set_aside_result(job: Job) -> tuple[Path | None, str]:
-    """Rename the result file of a specimen that failed in this run out of the
-    ``*.result.h5`` pattern; returns ``(new path, "")``, ``(None, "")`` when there is none,
-    or ``(None, why)`` when it could not be moved.
+    """Rename the result file of a specimen that failed in this run, or that an interrupted
+    run did not reach while its file there is another input's, out of the ``*.result.h5``
+    pattern (:func:`set_aside`)."""
+    return set_aside(job.output)
 
-    The file at ``job.output`` was made from an earlier input (this run wrote nothing there:
-    a failing specimen gets no result), so beside this run's summary a script globbing
-    ``*.result.h5`` would take it for the current one. Nothing is deleted: it becomes
+
+def set_aside(path) -> tuple[Path | None, str]:
+    """Rename the result file ``path`` out of the ``*.result.h5`` pattern; returns
+    ``(new path, "")``, ``(None, "")`` when there is none, or ``(None, why)`` when it could
+    not be moved.
+
+    The file was made from an earlier input (this run wrote nothing there: a failing specimen
+    gets no result, nor one the run did not reach), so beside this run's summary a script
+    globbing ``*.result.h5`` would take it for the current one. Nothing is deleted: it becomes
     ``<name>.result.stale.h5``, else ``<name>.result.stale1.h5``, ... (a hard link taken
     exclusively, then the old name removed, so an earlier stale file is never overwritten;
-    a plain rename where the file system has no hard links).
+    a plain rename where the file system has no hard links). Also used by ``identify`` for
+    the default result of a specimen that now fails.
     """
-    out = Path(job.output)
+    out = Path(path)
     if not out.is_file() or out.is_symlink():
         # a symbolic link at the result's name is the user's own arrangement: left as it is
         return (None, f"{out} is a symbolic link, left in place") if out.is_symlink() \
@@ -677,9 +693,9 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False,
     rms_residual_percent, evaluations, time_s, result, damping ({material: {eta11: {value,
     lower, upper, verdict}}}, empty without measured damping).
     ``flagged`` (not determined) is the file's own flag (the run's --max-rel-interval).
-    stale_result: where a failing specimen's earlier result was moved in this run
-    (:func:`set_aside_result`, given as ``stale``), else None; when it could not be moved the
-    reason says so.
+    stale_result: where the earlier result of a failing specimen, or of one not run (an
+    interrupted batch), was moved in this run (:func:`set_aside_result`, given as ``stale``),
+    else None; when it could not be moved the reason says so.
     """
     row = {"name": job.name, "specimen": "", "path": str(job.spec), "status": "not run",
            "reasons": [], "reason": "", "converged": None, "optimizer_status": "",
@@ -694,6 +710,9 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False,
         row.update(status="error", reason=reason, time_s=outcome.time_s)
         return row
     if outcome is None and not cached:
+        if stale[1]:
+            row["reason"] = (f"its result file {job.output} is an earlier input's, not this "
+                             f"batch's, and could not be set aside: {stale[1]}")
         return row
     try:
         res = read_result(job.output)
@@ -703,6 +722,38 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False,
     row.update(_row_of_result(res))
     row["result"] = str(job.output)
     return row
+
+
+def foreign_results(out_dir, jobs) -> list[Path]:
+    """The ``*.result.h5`` files below ``out_dir`` that are no job's result file (hidden
+    files and folders and temporaries skipped), sorted: results of specimens not among this
+    batch's inputs (their file removed, or another batch's inputs written into the same
+    folder). Which of the two cannot be told, so they are named, never moved."""
+    out_dir = Path(out_dir)
+    ours = {os.path.normcase(os.path.abspath(j.output)) for j in jobs}
+    found = []
+    for p in out_dir.rglob("*" + RESULT_SUFFIX):
+        rel = p.relative_to(out_dir)
+        if any(part.startswith(".") for part in rel.parts) or not (p.is_file()
+                                                                  or p.is_symlink()):
+            continue
+        if os.path.normcase(os.path.abspath(p)) not in ours:
+            found.append(p)
+    return sorted(found)
+
+
+def foreign_row(path, out_dir) -> dict:
+    """The summary row of a result file in --out that this batch did not write
+    (:func:`foreign_results`): status :data:`NOT_FROM_BATCH`, no result, the file in
+    ``stale_result`` (where it lies, untouched)."""
+    rel = Path(os.path.relpath(path, out_dir)).as_posix()
+    return {"name": rel[: -len(RESULT_SUFFIX)], "specimen": "", "path": "",
+            "status": NOT_FROM_BATCH, "reasons": [],
+            "reason": "no specimen of this batch has this result file (its specimen file is not "
+                      "among the inputs: removed, or given to another batch); kept as it is",
+            "converged": None, "optimizer_status": "", "cached": False, "materials": {},
+            "intervals": {}, "rms_residual_percent": None, "evaluations": None,
+            "time_s": None, "result": None, "damping": {}, "stale_result": str(path)}
 
 
 def _row_of_result(res) -> dict:
@@ -824,7 +875,7 @@ def long_rows(rows, folder=None) -> list[list[str]]:
     out = []
     for r in rows:
         # the codes (the words are in summary.json and the result file); an error's message
-        reasons = r["reason"] if r["status"] in ("error", "not run") else \
+        reasons = r["reason"] if r["status"] in ("error", "not run", NOT_FROM_BATCH) else \
             ", ".join(x["code"] for x in r.get("reasons", []))
         common = {"name": r["name"], "specimen": r["specimen"], "status": r["status"],
                   "reasons": reasons,
@@ -907,10 +958,11 @@ def batch_report(rows, options: BatchOptions, out_dir) -> dict:
     """The summary as plain data (SI), as written to summary.json and printed by --json."""
     counts = {s: sum(r["status"] == s for r in rows) for s in STATUSES}
     counts["not converged"] = sum(r.get("converged") is False for r in rows)
-    counts["set aside"] = sum(bool(r.get("stale_result")) for r in rows)
+    counts["set aside"] = sum(bool(r.get("stale_result")) for r in rows
+                              if r["status"] != NOT_FROM_BATCH)
     return {"format": "laminid-batch-summary", "laminid_version": __version__,
             "out": str(out_dir), "options": options.as_dict(), "units": dict(UNITS),
-            "n_specimens": len(rows), "counts": counts,
+            "n_specimens": len(rows) - counts[NOT_FROM_BATCH], "counts": counts,
             "n_cached": sum(bool(r["cached"]) for r in rows), "specimens": rows}
 
 
@@ -1172,6 +1224,11 @@ def format_table(rows) -> str:
             if r.get("stale_result"):
                 lines.append(f"    its earlier result (of another input) moved to "
                              f"{r['stale_result']}")
+    others = [r for r in rows if r["status"] == NOT_FROM_BATCH]
+    if others:
+        lines.append("not from this batch (no specimen of its inputs has them; kept as they "
+                     "are):")
+        lines += [f"  {r['stale_result']}" for r in others]
     return printable("\n".join(lines).rstrip() + "\n")
 
 

@@ -89,6 +89,41 @@ class JointIdentification:
         return unique_names([r.specimen.name for r in self.specimens])
 
 
+def same_plate_data(a, b) -> bool:
+    """True when specimens ``a`` and ``b`` (laminid_cli.specimen.Specimen) hold the data of
+    one plate: the same measured frequencies, bit for bit (NaN for the same missing modes), and
+    the same geometry a, b, h, mass, boundary and plies (material, angle, thickness).
+
+    Names, descriptions, comments, weights, sigmas, damping and initial constants are not
+    compared: a copy of a file with those edited is still the same measurement. Two different
+    plates, even cut from one panel with one layup, do not give the same measured frequencies
+    to every recorded digit (thickness, density and fibre content scatter shift them far more
+    than the last digit), so equal frequencies with equal geometry and layup mean one plate's
+    data given twice. A specimen without measured frequencies is never taken for a copy.
+    """
+    ma, mb = a.measured, b.measured
+    if ma is None or mb is None or ma.freq.shape != mb.freq.shape:
+        return False
+    return (bool(np.array_equal(ma.freq, mb.freq, equal_nan=True))
+            and (a.a, a.b, a.h, a.mass, a.boundary) == (b.a, b.b, b.h, b.mass, b.boundary)
+            and tuple(a.plies) == tuple(b.plies))
+
+
+def check_distinct_plates(specimens) -> None:
+    """Refuse one plate's data given twice to a joint identification (two files that are
+    copies, :func:`same_plate_data`): counted twice, its modes would weigh double and narrow
+    every interval by sqrt(2). FitInputError naming both files."""
+    specimens = list(specimens)
+    for j, b in enumerate(specimens):
+        for a in specimens[:j]:
+            if same_plate_data(a, b):
+                raise FitInputError(
+                    f"{b.path}: the same plate data as {a.path} (the same measured frequencies, "
+                    "geometry, mass and layup; a copy under another name?): a plate measured "
+                    "once counts once in a joint identification (twice would narrow the "
+                    "intervals by sqrt(2)); give each plate's file once")
+
+
 def unique_names(names) -> tuple[str, ...]:
     """Specimen names made unique with a suffix (two files may carry the same name)."""
     seen: dict[str, int] = {}

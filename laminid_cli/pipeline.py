@@ -181,6 +181,10 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
     joint = len(specimens) > 1
     nxny = options.check()
     specimens = [read_specimen(s) if isinstance(s, (str, Path)) else s for s in specimens]
+    if joint:
+        from laminid_cli.joint import check_distinct_plates
+
+        check_distinct_plates(specimens)    # a copy of one file under another name
     # a symmetric laminate is identified on its bending equations alone when its membrane
     # modes lie well above the measured ones (forward.bending_model; checked at the answer)
     fms = tuple(bending_model(build_forward_model(sp, nxny)) for sp in specimens)

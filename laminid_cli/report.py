@@ -1340,9 +1340,10 @@ def summary_pages(path) -> list[Page]:
     every constant (interval, verdict, at a bound, fixed, Monte Carlo range) is the summary's
     own; the result files, where found, add the reference values (and the doubt for a wide
     CSV, which has none)."""
-    from laminid_cli.batch import read_summary
+    from laminid_cli.batch import NOT_FROM_BATCH, read_summary
 
-    rows = read_summary(path)
+    # a result file the batch found in its folder but did not make is no specimen of it
+    rows = [r for r in read_summary(path) if r.get("status") != NOT_FROM_BATCH]
     done = []
     for row in rows:
         res = row.get("result")

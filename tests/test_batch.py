@@ -810,3 +810,120 @@ def test_set_aside_result_never_overwrites_and_leaves_a_symbolic_link(tmp_path, 
     assert (tmp_path / "p.result.h5").is_symlink()
     assert sorted(p.name for p in tmp_path.iterdir()) == [
         "p.result.h5", "p.result.stale.h5", "p.result.stale1.h5", "target.h5"]
+
+
+def test_results_of_specimens_not_in_this_batch_are_named_and_kept(batch_run, tmp_path):
+    """A specimen file removed from the inputs left its result in --out, where a glob of
+    *.result.h5 took it for one of this batch. It is not moved (another batch may write into
+    the same --out: which of the two cannot be told), but the table, --json and both
+    summaries name it "not from this batch", and it makes no failure."""
+    specs, out, _ = batch_run
+    work, inputs = tmp_path / "out", tmp_path / "specs"
+    shutil.copytree(out, work)
+    shutil.copytree(specs, inputs)
+    (inputs / "example1" / "S1.4.yaml").unlink()
+    orphan = work / "example1" / "S1.4.result.h5"
+    before = orphan.read_bytes()
+    r = run("batch", inputs, "--mesh", MESH, "--out", work)
+    assert r.exit_code == 0, r.output
+    assert orphan.read_bytes() == before                        # kept as it is
+    lines = r.stdout.splitlines()
+    k = lines.index("not from this batch (no specimen of its inputs has them; kept as they "
+                    "are):")
+    assert lines[k + 1] == f"  {orphan}"
+    assert "0 ok, 1 check (0 not converged), 0 failed (1 up to date; 1 result file is not " \
+           "from this batch)" in r.stdout
+    r = run("batch", inputs, "--mesh", MESH, "--out", work, "--json")
+    d = json.loads(r.stdout)
+    assert d["n_specimens"] == 1 and d["counts"]["not from this batch"] == 1
+    assert d["counts"]["set aside"] == 0
+    row = d["specimens"][-1]
+    assert (row["name"], row["status"], row["result"], row["stale_result"]) == (
+        "example1/S1.4", "not from this batch", None, str(orphan))
+    assert row["reason"].startswith("no specimen of this batch has this result file")
+    doc = json.loads((work / "summary.json").read_text())
+    assert doc["specimens"][-1]["stale_result"] == "example1/S1.4.result.h5"
+    with open(work / "summary.csv", newline="") as fh:
+        rows = [x for x in csv.DictReader(fh) if x["name"] == "example1/S1.4"]
+    assert [(x["status"], x["result"], x["stale_result"]) for x in rows] == [
+        ("not from this batch", "", "example1/S1.4.result.h5")]
+    assert "kept as it is" in rows[0]["reasons"]
+    assert {r["name"]: r["status"] for r in read_summary(work / "summary.json")} == {
+        "example2/S2.1": "check", "example1/S1.4": "not from this batch"}
+
+
+def test_an_interrupted_batch_sets_aside_the_results_it_did_not_reach_and_keeps_the_rest(
+        batch_run, tmp_path, monkeypatch):
+    """Ctrl-C after the first of two specimens whose options changed: the finished result
+    stays; the other specimen's file is an earlier input's (other options), so it is renamed
+    out of the *.result.h5 pattern, bytes unchanged, and the summaries name it."""
+    import laminid_cli.batch as batch_mod
+
+    specs, out, _ = batch_run
+    work = tmp_path / "out"
+    shutil.copytree(out, work)
+    old = (work / "example2" / "S2.1.result.h5").read_bytes()
+    real = batch_mod.run_jobs
+
+    def first_then_ctrl_c(jobs, options, **kw):
+        yield from real(jobs[:1], options)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(batch_mod, "run_jobs", first_then_ctrl_c)
+    r = run("batch", specs, "--mesh", "5x5", "--out", work)
+    assert r.exit_code == 130, r.output
+    with h5py.File(out / "example1" / "S1.4.result.h5", "r") as f:
+        first_key = f.attrs["batch_input_sha256"]
+    with h5py.File(work / "example1" / "S1.4.result.h5", "r") as f:   # finished: in place
+        assert f.attrs["batch_input_sha256"] != first_key                # (the 5x5 input's)
+    assert sorted(p.relative_to(work).as_posix() for p in work.rglob("*.h5")) == [
+        "example1/S1.4.result.h5", "example2/S2.1.result.stale.h5"]
+    assert (work / "example2" / "S2.1.result.stale.h5").read_bytes() == old
+    rows = {x["name"]: x for x in read_summary(work / "summary.json")}
+    assert rows["example2/S2.1"]["status"] == "not run"
+    assert rows["example2/S2.1"]["stale_result"] == str(work / "example2" /
+                                                        "S2.1.result.stale.h5")
+    assert rows["example1/S1.4"]["status"] in ("ok", "check")
+    with open(work / "summary.csv", newline="") as fh:
+        csv_rows = [x for x in csv.DictReader(fh) if x["name"] == "example2/S2.1"]
+    assert [(x["status"], x["result"], x["stale_result"]) for x in csv_rows] == [
+        ("not run", "", "example2/S2.1.result.stale.h5")]
+    # the re-run identifies it again; the set-aside file is left alone
+    monkeypatch.undo()
+    r = run("batch", specs, "--mesh", "5x5", "--out", work, "--json")
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["n_cached"] == 1
+    assert (work / "example2" / "S2.1.result.stale.h5").read_bytes() == old
+
+
+def test_an_interrupted_forced_batch_keeps_the_results_of_the_same_input(batch_run, tmp_path,
+                                                                        monkeypatch):
+    """--force redoes up-to-date results: one the interrupted run did not reach is still this
+    input's result, so it stays where it is (a cached row, not set aside)."""
+    import laminid_cli.batch as batch_mod
+
+    specs, out, _ = batch_run
+    work = tmp_path / "out"
+    shutil.copytree(out, work)
+    before = {p: p.read_bytes() for p in work.rglob("*.h5")}
+
+    def ctrl_c(jobs, options, **kw):
+        raise KeyboardInterrupt
+        yield                                   # a generator, as run_jobs
+
+    monkeypatch.setattr(batch_mod, "run_jobs", ctrl_c)
+    r = run("batch", specs, "--mesh", MESH, "--out", work, "--force")
+    assert r.exit_code == 130, r.output
+    assert {p: p.read_bytes() for p in work.rglob("*.h5")} == before
+    rows = read_summary(work / "summary.json")
+    assert [(x["status"], x["cached"], x["stale_result"]) for x in rows] == [
+        ("check", True, None), ("check", True, None)]
+
+
+def test_batch_force_help_says_it_redoes_every_specimen():
+    r = run("batch", "--help")
+    assert r.exit_code == 0
+    text = " ".join(r.output.split())
+    assert ("--force Identify every specimen again, also those whose result in OUT is up to "
+            "date (same specimen and FRF file, options and laminid version).") in text
+    assert "Not 'overwrite the output' as in identify -o, modes, export, acquire." in text

@@ -441,3 +441,50 @@ def test_export_writes_the_coherence_as_uff58_function_type_6_and_reads_it_back(
     r = run(["export", str(src), "-o", str(tmp_path / "c2.uff")])
     assert "and the coherence of 3 (UFF 58 function type 6)" in r.output
     assert "note: point 15: coherence unknown at 10 of 1601 lines; not written" in r.output
+
+
+#: units laminid writes: acquire's default V/V and its --units examples, the response types of
+#: UFF_RESPONSE_TYPES over each force, a ratio of ratios (N/N/N read back as N/N: the reader
+#: took an ordinate "N/N" ending in its denominator "N" for the whole unit), non-ASCII
+ROUND_TRIP_UNITS = ["V/V", "1", "Pa/N", "kPa/N", "m/s^2/N", "(m/s^2)/N", "m/s2/N", "m/s/N",
+                    "mm/s/N", "m/N", "mm/N", "g/N", "m/s^2/kN", "Pa/lbf", "N/N/N", "Pa/N/N",
+                    "m/s²/N", "1/N"]
+
+
+@pytest.mark.parametrize("units", ROUND_TRIP_UNITS)
+def test_every_unit_laminid_writes_reads_back_the_same(tmp_path, case, units):
+    """Through export (UFF 58b and ASCII, from an acquire-style HDF5 file) and the CSV and
+    HDF5 writers, the FRF unit reads back as written."""
+    fs = FrfSet(freq=case.freq, frf=case.frf[:2], labels=("1", "2"), units=units)
+    h5 = io.write_frf(tmp_path / "in.frf.h5", fs)
+    assert io.read_frf(h5).units == units
+    assert io.read_frf(io.write_frf(tmp_path / "in.csv", fs)).units == units
+    for extra in ([], ["--ascii"]):
+        out = tmp_path / f"out{len(extra)}.uff"
+        r = run(["export", str(h5), "-o", str(out), "--json", *extra])
+        assert r.exit_code == 0, r.output
+        assert json.loads(r.output)["units"] == units
+        assert io.read_frf(out).units == units
+        r = run(["fit-frf", str(out), "--json"])
+        assert r.exit_code == 0, r.output
+        assert json.loads(r.stdout)["units"] == units
+
+
+def test_uff58_unit_labels_drop_spaces_and_a_label_too_long_is_refused(tmp_path, case):
+    """A UFF units label has no surrounding spaces and 20 characters: "m/s^2 / N" reads back
+    "m/s^2/N" (the same unit; CSV and HDF5 keep the text as written, the CSV reader took the
+    first word, "m/s^2"), and a unit pyuff would cut is refused, naming the file and the
+    label, instead of reading back as another."""
+    fs = FrfSet(freq=case.freq, frf=case.frf[:1], labels=("1",), units="m/s^2 / N")
+    assert io.read_frf(io.write_frf_uff(tmp_path / "s.uff", fs)).units == "m/s^2/N"
+    assert io.read_frf(io.write_frf(tmp_path / "s.csv", fs)).units == "m/s^2 / N"
+    long = FrfSet(freq=case.freq, frf=case.frf[:1], labels=("1",),
+                  units="microphone_channel_3_Pa/N")
+    h5 = io.write_frf(tmp_path / "long.frf.h5", long)
+    out = tmp_path / "long.uff"
+    r = run(["export", str(h5), "-o", str(out)])
+    assert r.exit_code == 2
+    assert r.output == (f"laminid: error: {h5}: FRF unit 'microphone_channel_3_Pa/N' does not "
+                        "fit a UFF 58 record: 'microphone_channel_3_Pa' has 23 characters, a "
+                        "units label holds 20\n")
+    assert not out.exists()

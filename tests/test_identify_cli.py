@@ -3,6 +3,7 @@
 import json
 import re
 import shutil
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -230,3 +231,40 @@ def test_quiet_identify_keeps_its_notes_off_stderr(tmp_path):
     r = run("-q", *args)
     assert r.exit_code == 0, r.output
     assert r.stderr == "" and "E1" in r.stdout
+
+
+def test_joint_refuses_a_copy_of_a_specimen_file_under_another_name(tmp_path):
+    copy = tmp_path / "S2.1-copy.yaml"
+    copy.write_text(Path(S21).read_text().replace("name: S2.1", "name: S2.1b"))
+    r = run("identify", S21, copy, "--joint", "--no-output")
+    assert r.exit_code == 2
+    assert r.output.startswith(f"laminid: error: {copy}: the same plate data as {S21} (the same "
+                               "measured frequencies, geometry, mass and layup")
+    assert "Traceback" not in r.output
+
+
+def test_a_specimen_that_now_fails_has_its_earlier_default_result_set_aside(tmp_path):
+    """identify failing on a specimen left its earlier default result beside it, a
+    *.result.h5 of another input; it is renamed out of the pattern as batch does (bytes kept,
+    never over an earlier stale file), and a file named with -o is left alone."""
+    spec = tmp_path / "plate.yaml"
+    good = Path(S21).read_text()
+    spec.write_text(good)
+    assert run("identify", spec, "--mesh", "6x6").exit_code == 0
+    first = (tmp_path / "plate.result.h5").read_bytes()
+    (tmp_path / "plate.result.stale.h5").write_bytes(b"older")
+    spec.write_text(good.replace("mass: 0.2571 kg", "mass: [0.2571 kg"))
+    r = run("identify", spec, "--mesh", "6x6")
+    assert r.exit_code == 2
+    lines = r.output.splitlines()
+    assert lines[0] == (f"laminid: {tmp_path / 'plate.result.h5'}: the earlier result of "
+                        f"another input moved to {tmp_path / 'plate.result.stale1.h5'}")
+    assert lines[1].startswith(f"laminid: error: {spec}") and len(lines) == 2
+    assert not (tmp_path / "plate.result.h5").exists()
+    assert (tmp_path / "plate.result.stale1.h5").read_bytes() == first
+    assert (tmp_path / "plate.result.stale.h5").read_bytes() == b"older"
+    mine = tmp_path / "mine.h5"
+    mine.write_bytes(first)
+    r = run("identify", spec, "--mesh", "6x6", "-o", mine, "--force")
+    assert r.exit_code == 2 and "moved" not in r.output
+    assert mine.read_bytes() == first

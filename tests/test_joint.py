@@ -115,3 +115,32 @@ def test_joint_needs_two_plates_that_share_a_material(plates):
     glass = build_forward_model(read_specimen(S21), (4, 4))
     with pytest.raises(FitInputError, match="share no material"):
         identify_joint([plates[0], glass])
+
+
+def test_one_plates_data_under_two_names_is_refused_naming_both_files(tmp_path):
+    """A copy of a specimen file under another name (its name and comments edited) was a
+    second plate to --joint: the same measured frequencies counted twice. The data are
+    compared, not the names; a frequency differing in its last digit is another plate."""
+    from laminid_cli.joint import check_distinct_plates
+    from laminid_cli.pipeline import run_identification
+
+    text = open(S11).read()
+    a, b = tmp_path / "S1.1.yaml", tmp_path / "S1.1-copy.yaml"
+    a.write_text(text)
+    b.write_text("# copied\n" + text.replace("name: S1.1", "name: S1.1 again"))
+    with pytest.raises(FitInputError) as err:
+        run_identification([a, b])
+    assert str(err.value) == (
+        f"{b}: the same plate data as {a} (the same measured frequencies, geometry, mass and "
+        "layup; a copy under another name?): a plate measured once counts once in a joint "
+        "identification (twice would narrow the intervals by sqrt(2)); give each plate's file "
+        "once")
+    sa = read_specimen(a)
+    f = sa.measured.freq.copy()
+    f[-1] = np.nextafter(f[-1], np.inf)
+    other = dataclasses.replace(sa, path="other.yaml",
+                                measured=dataclasses.replace(sa.measured, freq=f))
+    check_distinct_plates([sa, other])                     # no error: another measurement
+    thicker = dataclasses.replace(sa, path="thick.yaml", h=sa.h * 1.001)
+    check_distinct_plates([sa, thicker])
+    check_distinct_plates([sa, read_specimen(S13)])

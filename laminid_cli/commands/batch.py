@@ -20,7 +20,12 @@ from laminid_cli.commands._common import (echo_json, fit_options, json_option,
                    "Workers must see the specimen files at the same paths.")
 @fit_options
 @uncertainty_options
-@click.option("--force", is_flag=True, help="Redo specimens whose result is up to date.")
+@click.option("--force", is_flag=True,
+              help="Identify every specimen again, also those whose result in OUT is up to "
+                   "date (same specimen and FRF file, options and laminid version). Without "
+                   "it only new and changed specimens run; their results are replaced either "
+                   "way (a batch's results are derived files). Not 'overwrite the output' as "
+                   "in identify -o, modes, export, acquire.")
 @click.option("--wide", is_flag=True,
               help="summary.csv with one row per specimen (a column per constant) instead of "
                    "one row per specimen, material and constant.")
@@ -38,11 +43,14 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
     status, ok or check with its reasons, shown in the table.
 
     A result whose input has not changed (sha256 of the specimen and its FRF file, the
-    options and the laminid version, stored in the file) is not redone unless --force. A
-    failing specimen is listed with its reason and the others go on; a result it still has
-    in OUT (an earlier input's) is renamed <name>.result.stale.h5 (.stale1.h5, ... when that
-    exists), out of the *.result.h5 pattern, and named in the table and the summaries
-    (stale_result). Exit code 0 when all
+    options and the laminid version, stored in the file) is not redone unless --force (which
+    redoes every specimen). A failing specimen is listed with its reason and the others go
+    on; a result it still has in OUT (an earlier input's) is renamed
+    <name>.result.stale.h5 (.stale1.h5, ... when that exists), out of the *.result.h5
+    pattern, and named in the table and the summaries (stale_result); so is that of a
+    specimen an interrupted batch (Ctrl-C) did not reach, while every finished result stays.
+    Result files in OUT that no specimen of the inputs has (its file removed, or another
+    batch's) are kept and listed as 'not from this batch'. Exit code 0 when all
     converged (status ok or check), 1 when any failed or did not converge, 2 for bad usage
     (no specimen found).
 
@@ -57,11 +65,18 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
     from pathlib import Path
 
     from laminid_cli.atomic import write_bytes_atomic
-    from laminid_cli.batch import (BatchError, batch_report, check_scheduler,
-                                   discover_specimens, failed, format_table, plan_batch,
+    from laminid_cli.batch import (NOT_FROM_BATCH, SUMMARY_CSV, SUMMARY_JSON, BatchError,
+                                   batch_report, check_scheduler, discover_specimens, failed,
+                                   foreign_results, foreign_row, format_table, plan_batch,
                                    printable, remove_stale_parts, result_row, run_jobs,
-                                   set_aside_result, stored_hash, write_summary_csv, write_summary_json,
-                                   SUMMARY_CSV, SUMMARY_JSON)
+                                   set_aside_result, stored_hash, write_summary_csv,
+                                   write_summary_json)
+
+    def _unfinished_row(job):
+        """The row of a job this run did not finish (Ctrl-C, a lost scheduler)."""
+        if stored_hash(job.output) == job.key:
+            return result_row(job, cached=True)
+        return result_row(job, stale=set_aside_result(job))
 
     # bad --mesh, --sigma-rel...: exit 2 at once (remote Dask workers check their own memory);
     # the options are those of identify, with the Monte Carlo trials in each specimen's worker
@@ -128,9 +143,13 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
                 with contextlib.suppress(OSError):
                     out.rmdir()
         else:
-            # also on Ctrl-C: the summary lists what was done ('not run' for the rest)
-            ordered = [rows.get(j.name) or result_row(
-                j, cached=stored_hash(j.output) == j.key) for j in jobs]
+            # also on Ctrl-C: the summary lists what was done ('not run' for the rest). A
+            # result this run did not reach is kept when it is this input's (--force redoing
+            # it); another input's is set aside as a failing specimen's, so that no
+            # *.result.h5 beside this summary is older than its input. Results of specimens
+            # not in this batch are named, not moved (another batch's may share --out).
+            ordered = [rows.get(j.name) or _unfinished_row(j) for j in jobs]
+            ordered += [foreign_row(p, out) for p in foreign_results(out, jobs)]
             report = batch_report(ordered, options, out)
             write_summary_csv(out / SUMMARY_CSV, ordered, wide=wide)
             write_summary_json(out / SUMMARY_JSON, report)
@@ -146,6 +165,9 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
                    f"{c['error']} failed ({report['n_cached']} up to date"
                    + (f"; {c['set aside']} earlier result{'' if c['set aside'] == 1 else 's'}"
                       " set aside" if c["set aside"] else "")
+                   + (f"; {c[NOT_FROM_BATCH]} result file"
+                      f"{' is' if c[NOT_FROM_BATCH] == 1 else 's are'} not from this batch"
+                      if c[NOT_FROM_BATCH] else "")
                    + f"); summary: {out / SUMMARY_CSV}")
     if failed(ordered):
         sys.exit(1)

@@ -61,7 +61,9 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force):
     input.
 
     Run it again after editing SPEC: the default result file beside SPEC is derived from it
-    and is replaced (the output says so); a file named with -o is kept unless --force.
+    and is replaced (the output says so); a file named with -o is kept unless --force. When
+    SPEC now fails, its earlier default result is renamed <name>.result.stale.h5 (.stale1.h5,
+    ... when that exists), out of the *.result.h5 pattern, as batch does.
 
     A symmetric laminate is fitted on its bending equations alone (its bending modes are the
     same), where its membrane modes lie well above the measured ones; the run line and the
@@ -84,7 +86,7 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force):
     """
     import sys
 
-    from laminid_cli.errors import FitInputError
+    from laminid_cli.errors import FitInputError, LaminidError
     from laminid_cli.pipeline import run_identification, write_result
 
     if no_output and output is not None:
@@ -128,6 +130,20 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force):
 
     try:
         run = run_identification(specs, options, progress=progress, mc_progress=mc_progress)
+    except LaminidError:
+        if replacing:
+            # this input fails, so the default result beside it is an earlier input's: set
+            # aside out of the *.result.h5 pattern, as batch does (a file named with -o is the
+            # user's, and left alone)
+            from laminid_cli.batch import set_aside
+
+            moved, why = set_aside(out)
+            if show_progress:
+                click.echo("", err=True)
+            click.echo(f"laminid: {out}: the earlier result of another input " + (
+                f"moved to {moved}" if moved is not None else f"left in place ({why})"),
+                err=True)
+        raise
     finally:
         if bar is not None:
             bar.__exit__(None, None, None)

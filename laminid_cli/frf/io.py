@@ -52,6 +52,10 @@ UFF_ABSCISSA_FREQUENCY = 18
 UFF_RESPONSE_TYPES = {"m": 8, "mm": 8, "m/s": 11, "mm/s": 11, "m/s^2": 12, "m/s2": 12,
                       "g": 12, "Pa": 15, "kPa": 15}
 UFF_FORCE_TYPES = {"N": 13, "kN": 13, "lbf": 13}
+#: ``id2`` of every UFF 58 record laminid writes: the reader knows its own records by it
+UFF_WRITER = "laminid"
+#: characters of a UFF 58 units label (records 8-11, field 6: A20); a longer one is cut
+UFF_UNITS_CHARS = 20
 #: text FRF files (UFF, CSV) larger than this are refused before they are read (1 GB: the
 #: 50 million values of MAX_FRF_VALUES at ~20 characters each)
 MAX_TEXT_FILE_BYTES = 1_000_000_000
@@ -130,7 +134,8 @@ def read_frf_csv(path) -> FrfSet:
 
     units = "1"
     for ln in text.splitlines():
-        hit = re.match(r"\s*#.*\bunits\s+(\S+)", ln)
+        # the rest of the line: a unit may hold spaces ("m/s^2 / N")
+        hit = re.match(r"\s*#.*?\bunits\s+(\S.*?)\s*\Z", ln)
         if hit:
             units = hit.group(1)
             break
@@ -260,11 +265,20 @@ def read_frf_uff(path) -> FrfSet:
 def _uff_units(d) -> str:
     """The FRF unit of a type-58 record: its ordinate's unit label over its denominator's
     ("m/s^2" over "N": "m/s^2/N"); the ordinate's alone where the denominator has none
-    ("NONE", pyuff's default) or the ordinate's already ends with it (laminid's own files
-    write the whole unit there)."""
+    ("NONE", pyuff's default).
+
+    A record laminid wrote (``id2`` "laminid") is joined exactly so: :func:`_uff_axes` split
+    the unit at its last '/', so "N/N/N" is "N/N" over "N" and reads back "N/N/N" (laminid's
+    files before that split wrote the whole unit over "NONE", also read right). Another tool's
+    ordinate that already ends with its denominator ("m/s^2/N" over "N") is taken as the whole
+    unit, not "m/s^2/N/N"; that guess is never applied to laminid's own records, where it
+    turned "N/N/N" into "N/N"."""
     ordinate = str(d.get("ordinate_axis_units_lab", "") or "").strip() or "1"
     denominator = str(d.get("orddenom_axis_units_lab", "") or "").strip()
-    if denominator.upper() in ("", "NONE") or ordinate.endswith("/" + denominator):
+    if denominator.upper() in ("", "NONE"):
+        return ordinate
+    ours = str(d.get("id2", "") or "").strip() == UFF_WRITER
+    if not ours and ordinate.endswith("/" + denominator):
         return ordinate
     return f"{ordinate}/{denominator}"
 
@@ -347,20 +361,27 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
     import pyuff
 
     path = _new_target(path, overwrite)
+    axes = _uff_axes(fs.units)
+    for key in ("ordinate_axis_units_lab", "orddenom_axis_units_lab"):
+        if len(axes[key]) > UFF_UNITS_CHARS:
+            # pyuff would cut the label to its field: the unit would read back as another
+            raise FrfError(f"{fs.source or path}: FRF unit {fs.units!r} does not fit a UFF 58 "
+                           f"record: {axes[key]!r} has {len(axes[key])} characters, a units "
+                           f"label holds {UFF_UNITS_CHARS}")
     with_coherence, _ = uff_coherence_points(fs)
     sets = []
     for k in range(fs.n_points):
         label = fs.labels[k] if k < len(fs.labels) else str(k + 1)
         node, direction, ref, ref_direction = uff_point(label, k, rsp_dir, (ref_node, ref_dir))
         common = dict(
-            binary=int(binary), id2="laminid",
+            binary=int(binary), id2=UFF_WRITER,
             rsp_node=node, rsp_dir=direction, ref_node=ref, ref_dir=ref_direction,
             abscissa_spacing=1 if np.allclose(np.diff(fs.freq), fs.freq[1] - fs.freq[0]) else 0,
             abscissa_spec_data_type=UFF_ABSCISSA_FREQUENCY, abscissa_axis_units_lab="Hz",
             x=np.asarray(fs.freq, dtype=float))
         sets.append(pyuff.prepare_58(
             id1=f"FRF {label}", func_type=UFF_FRF, ord_data_type=6,  # complex double
-            **_uff_axes(fs.units), data=np.asarray(fs.frf[k], dtype=complex), **common))
+            **axes, data=np.asarray(fs.frf[k], dtype=complex), **common))
         if k in with_coherence:
             sets.append(pyuff.prepare_58(
                 id1=f"Coherence {label}", func_type=UFF_COHERENCE,
@@ -378,8 +399,11 @@ def _uff_axes(units: str) -> dict:
     force), split at the last '/'; a unit that is no ratio is the ordinate's, over none. The
     reader (:func:`_uff_units`) joins them back."""
     response, sep, force = units.rpartition("/")
+    # a label holds no surrounding spaces (the reader strips them): "m/s^2 / N" is
+    # "m/s^2" over "N", and reads back "m/s^2/N"
+    response, force = response.strip(), force.strip()
     if not sep or not response or not force:
-        response, force = units, "NONE"
+        response, force = units.strip(), "NONE"
     return {"ordinate_axis_units_lab": response, "orddenom_axis_units_lab": force,
             "ordinate_spec_data_type": UFF_RESPONSE_TYPES.get(response, 0),
             "orddenom_spec_data_type": UFF_FORCE_TYPES.get(force, 0)}
