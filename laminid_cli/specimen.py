@@ -55,7 +55,7 @@ import yaml
 
 from laminid_cli.errors import SpecimenError
 from laminid_cli.material import CONSTANT_NAMES, ElasticConstants, infeasibility_reasons
-from laminid_cli.units import Where, parse_quantity
+from laminid_cli.units import Where, parse_fraction, parse_quantity
 
 log = logging.getLogger(__name__)
 
@@ -961,12 +961,9 @@ def _damping_list(r: _Reader, m: dict, key: str, n: int, what: str) -> np.ndarra
     for k, item in enumerate(items):
         if item.value is None:
             continue
-        text = item.value
-        if isinstance(text, str) and text.strip().endswith("%"):
-            value = r.quantity(_Y(text.strip()[:-1].strip(), item.line, item.field),
-                               "dimensionless") / 100
-        else:
-            value = r.quantity(item, "dimensionless")
+        if isinstance(item.value, (dict, list)):
+            r.quantity(item, "dimensionless")          # refused: "expected a single ..."
+        value = parse_fraction(item.value, where=r.where(item))
         if not 0 < value < 0.5:
             what_one = ("a standard deviation of a damping ratio" if key == "damping_sigma"
                         else "a damping ratio (viscous, zeta = eta / 2)")

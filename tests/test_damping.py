@@ -160,8 +160,30 @@ def test_fix_items_are_split_and_parsed():
         D.parse_loss_fix(["eta33=0.1"], ("carbon",))
     with pytest.raises(FitInputError, match="no material 'steel'"):
         D.parse_loss_fix(["steel.eta11=0.1"], ("carbon",))
-    with pytest.raises(FitInputError, match=">= 0"):
+    with pytest.raises(FitInputError, match=r"--fix eta11=-0.1: eta11 must be between 0 and 1"):
         D.parse_loss_fix(["eta11=-0.1"], ("carbon",))
+
+
+def test_fixed_loss_factors_take_the_specimen_files_percent_form():
+    """'--fix eta13=1%' was refused ("'1%' is not a number") while the specimen file reads
+    '0.4 %': both now go through units.parse_fraction, a loss factor in [0, 1) (eta = 2 zeta,
+    the file's zeta < 0.5); a wrong value names the option, the item and the value."""
+    got = D.parse_loss_fix(["eta13=1%", "carbon.eta23=0.4 %", "eta11=0.002", "eta12=0"],
+                           ("carbon",))
+    assert got == {"carbon.eta13": 0.01, "carbon.eta23": 0.004, "carbon.eta11": 0.002,
+                   "carbon.eta12": 0.0}
+    # the same value written both ways is one value, not a conflict
+    assert D.parse_loss_fix(["eta13=1 %", "eta13=0.01"], ("carbon",)) == {"carbon.eta13": 0.01}
+    for item, words in [
+            ("eta13=150%", r"--fix eta13=150%: eta13 must be between 0 and 1 .*got 150%"),
+            ("eta13=-1 %", r"--fix eta13=-1 %: eta13 must be between 0 and 1"),
+            ("eta13=1", r"--fix eta13=1: eta13 must be between 0 and 1"),
+            ("eta13=1x", r"--fix eta13=1x: eta13 = '1x': unknown unit 'x' in '1x'; expected a "
+                         r"plain number or a percentage \(0.004 or '0.4 %'\)"),
+            ("eta13=nan", r"--fix eta13=nan: eta13 = 'nan': .*plain number or a percentage"),
+            ("eta13=3 Hz", r"'3 Hz' is a frequency, not a plain number")]:
+        with pytest.raises(FitInputError, match=words):
+            D.parse_loss_fix([item], ("carbon",))
 
 
 def test_a_loss_factor_fixed_twice_at_different_values_is_refused():
