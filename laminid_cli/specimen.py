@@ -929,6 +929,9 @@ def _read_measured(r: _Reader, y: _Y) -> Measured:
             damping_sigma[np.isnan(damping)] = np.nan
         if not np.isfinite(damping).any():
             raise r.error(m["damping"], "every damping ratio is null (or its frequency is)")
+        if damping_sigma is not None:
+            warn_loose_damping_sigma(r.path, f"measured.damping_sigma (line "
+                                     f"{m['damping_sigma'].line})", freq, damping, damping_sigma)
         given = damping[np.isfinite(damping)]
         if given.size >= 2 and given.min() >= DAMPING_PERCENT_SUSPECT:
             # a free composite plate's modes damp at 0.1-2 %: 10 % and more on every mode is
@@ -948,6 +951,34 @@ def _read_measured(r: _Reader, y: _Y) -> Measured:
 #: damping ratios all at least this large are suspected of being percentages written as plain
 #: numbers (a warning)
 DAMPING_PERCENT_SUSPECT = 0.1
+
+
+#: a damping ratio whose standard deviation exceeds this multiple of the ratio is warned of:
+#: at sigma > zeta the +-1 sd range of zeta already reaches 0 (no damping), i.e. the measurement
+#: does not tell the ratio from zero -- the ratio is not measured at all. The fit weighs the mode
+#: by 1/sigma^2, so it hardly counts; far more often the sigma is a slip (a percentage written
+#: as a plain number, 0.3 for 0.3 %, or the list shifted by a mode). An RFP fit's spread is at
+#: least 2 % of the ratio and typically 5-30 %: 1 leaves honest measurements alone.
+DAMPING_SIGMA_SUSPECT = 1.0
+
+
+def warn_loose_damping_sigma(path, where: str, freq, zeta, sigma) -> list[int]:
+    """Warn (log, not an error) of the modes whose damping ratio's standard deviation is
+    larger than :data:`DAMPING_SIGMA_SUSPECT` times the ratio; returns their 0-based indices.
+    ``where``: the field (and line) the sigmas came from."""
+    zeta, sigma = np.asarray(zeta, float), np.asarray(sigma, float)
+    with np.errstate(invalid="ignore"):
+        loose = np.flatnonzero(np.isfinite(zeta) & np.isfinite(sigma)
+                               & (sigma > DAMPING_SIGMA_SUSPECT * zeta))
+    if loose.size:
+        modes = "; ".join(f"mode {k + 1} ({freq[k]:g} Hz): sigma {sigma[k]:g} > zeta {zeta[k]:g}"
+                          for k in loose)
+        log.warning("%s: %s: the standard deviation of a damping ratio is larger than the ratio "
+                    "itself (%s): such a ratio is not measured at all (its +-1 sd range reaches "
+                    "0) and the fit gives it almost no weight; check the value (a percentage "
+                    "written as a plain number? write '%s %%')", path, where, modes,
+                    f"{sigma[loose[0]]:g}")
+    return [int(k) for k in loose]
 
 
 def _damping_list(r: _Reader, m: dict, key: str, n: int, what: str) -> np.ndarray:
@@ -1026,6 +1057,8 @@ def _measured_from_frf(r: _Reader, m: dict) -> Measured:
     sigma = np.asarray(sigma, float)
     damping = np.asarray(damping, float)
     damping_sigma = np.asarray(damping_sigma, float)
+    warn_loose_damping_sigma(r.path, f"the damping of the fit of {name}", freq, damping,
+                             damping_sigma)
     for array in (freq, weight, sigma, damping, damping_sigma):
         array.flags.writeable = False
     return Measured(freq=freq, weight=weight, sigma=sigma, damping=damping,

@@ -297,3 +297,29 @@ def test_the_advice_of_an_undetermined_loss_factor_names_that_loss_factor():
     assert fit.rel_half_width[1] > 0.3
     assert fit.verdict[1].startswith("not determined by the measured damping")
     assert "--fix eta22=" in fit.verdict[1] and "eta13" not in fit.verdict[1]
+
+
+def test_a_damping_sigma_larger_than_its_ratio_is_warned(caplog):
+    """'damping_sigma: [0.3, ...]' for zeta = 0.002 (0.3 % meant) passed without a word; now a
+    warning names the file, the field, the mode and both values. A sigma below its ratio, and
+    the modes without a sigma, get none; the values are read unchanged (not an error)."""
+    import logging
+
+    from laminid_cli.specimen import DAMPING_SIGMA_SUSPECT
+
+    assert DAMPING_SIGMA_SUSPECT == 1.0
+    with caplog.at_level(logging.WARNING, logger="laminid_cli.specimen"):
+        s = _spec("  damping: [0.002, 0.4 %, 0.003, null]\n"
+                  "  damping_sigma: [0.3, 0.0041, null, null]\n")
+    assert s.measured.damping_sigma[0] == 0.3
+    msg = [r.getMessage() for r in caplog.records if "standard deviation" in r.getMessage()]
+    assert len(msg) == 1, msg
+    assert msg[0].startswith("p.yaml: measured.damping_sigma (line 10): ")
+    assert "mode 1 (100 Hz): sigma 0.3 > zeta 0.002; mode 2 (200 Hz): sigma 0.0041 > zeta " \
+           "0.004)" in msg[0]
+    assert "not measured at all" in msg[0] and "write '0.3 %'" in msg[0]
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="laminid_cli.specimen"):
+        _spec("  damping: [0.002, 0.4 %, 0.003, null]\n"
+              "  damping_sigma: [0.002, 0.0003, null, null]\n")      # sigma = zeta: no warning
+    assert not [r for r in caplog.records if "standard deviation" in r.getMessage()]
