@@ -57,13 +57,13 @@ No click, no h5py: pure library code. Shapes: ``shares`` (n_modes, n_materials *
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from laminid_cli.errors import FitInputError
+from laminid_cli.errors import FitInputError, SpecimenError
 from laminid_cli.material import ElasticConstants, c_basis, ply_stiffness
+from laminid_cli.units import parse_fraction
 from laminid_cli.intervals import (SCALINGS, VERDICT_AT_BOUND, VERDICT_FIXED,  # noqa: F401
                                    VERDICT_NOT, interval_scale, verdict as verdict_of)
 
@@ -77,6 +77,8 @@ TERMS = ("11", "22", "12", "13", "23")
 #: loss-factor names of the terms
 LOSS_NAMES = tuple(f"eta{k}" for k in TERMS)
 METHOD = "modal strain energy"
+#: a loss factor is below this: twice the specimen file's largest damping ratio zeta (0.5)
+MAX_LOSS_FACTOR = 1.0
 #: relative standard deviation of a measured damping ratio where none is given (5 %)
 DEFAULT_DAMPING_SIGMA_REL = 0.05
 #: a term whose largest energy share over the fitted modes is below this is called out
@@ -178,7 +180,9 @@ def split_fix(items) -> tuple[tuple[str, ...], tuple[str, ...]]:
 def parse_loss_fix(items, material_names) -> dict[str, float]:
     """--fix loss-factor items -> {"material.eta13": value}; "eta13=0.01" fixes every material.
 
-    A value is required (there is no initial value to hold); it must be >= 0. A material's
+    A value is required (there is no initial value to hold), written as in the specimen file
+    (0.01 or "1 %", :func:`laminid_cli.units.parse_fraction`), 0 <= value <
+    :data:`MAX_LOSS_FACTOR`. A material's
     own item ("carbon.eta13=0.02") holds over one for every material, in either order; the
     same loss factor given two values at the same level is refused.
     """
@@ -190,11 +194,16 @@ def parse_loss_fix(items, material_names) -> dict[str, float]:
                                 f"--fix {item.strip()}=0.01")
         name, text = (s.strip() for s in item.split("=", 1))
         try:
-            value = float(text)
-        except ValueError:
-            raise FitInputError(f"--fix {item}: '{text}' is not a number") from None
-        if not (math.isfinite(value) and value >= 0):
-            raise FitInputError(f"--fix {item}: a loss factor must be a number >= 0, got {text}")
+            value = parse_fraction(text)      # the specimen file's reader: 0.01 or '1 %'
+        except SpecimenError as exc:
+            raise FitInputError(f"--fix {item}: {name} = {text!r}: {exc}") from None
+        # the specimen file takes a damping ratio zeta in (0, 0.5), i.e. eta = 2 zeta < 1; a
+        # held loss factor may be 0 (the term taken as undamped), as the fit's own bound
+        if not 0 <= value < MAX_LOSS_FACTOR:
+            raise FitInputError(f"--fix {item}: {name} must be between 0 and "
+                                f"{MAX_LOSS_FACTOR:g} (a loss factor eta = 2 zeta, the "
+                                f"specimen file's damping ratios zeta < 0.5), got {text}; "
+                                "write 0.01 or 1%")
         if "." in name:
             mat, const = name.rsplit(".", 1)
             if mat not in material_names:

@@ -1358,8 +1358,17 @@ def summary_pages(path) -> list[Page]:
             done.append((row, mats, r))
     if not done:
         raise ReportError(f"{path}: no identified specimen in the summary")
-    return [Page("constants", constants_across_page(done, Path(path).name)),
-            Page("residuals", residuals_across_page(rows, Path(path).name))]
+    pages = [Page("constants", constants_across_page(done, Path(path).name)),
+             Page("residuals", residuals_across_page(rows, Path(path).name))]
+    if any(row.get("damping") for row in rows):
+        from laminid_cli.report_damping import summary_damping_pages
+
+        # the summary holds no confidence level: the result files' (one level for all)
+        levels = {float(r.damping.attrs["confidence"]) for _, _, r in done
+                  if r is not None and r.damping is not None and "confidence" in r.damping.attrs}
+        pages += [Page(name, fig) for name, fig in summary_damping_pages(
+            rows, Path(path).name, levels.pop() if len(levels) == 1 else None)]
+    return pages
 
 
 @dataclass

@@ -78,6 +78,38 @@ def loss_factor_rows(d: dict) -> list[list[str]]:
     return rows
 
 
+#: under a loss-factor table with a loss factor the damping does not determine
+NOT_DETERMINED_ADVICE = ("not determined: the measured damping does not pin this loss factor "
+                         "down — fix it (--fix eta13=0.01 ...) or measure more modes / a thicker "
+                         "plate")
+
+
+def loss_factor_table(ax, head, rows, col_widths):
+    """Draw the loss-factor table (rows of :func:`loss_factor_rows`, possibly with columns in
+    front; the verdict is the last column, coloured as in the other report tables) on ``ax``.
+    Returns :data:`NOT_DETERMINED_ADVICE` when a loss factor is not determined, else "": the
+    caller puts it where the table cannot run over it (a long table overflows its axes)."""
+    from laminid_cli.report import _verdict_color
+
+    ax.axis("off")
+    ax.set_gid("loss-factors")
+    table = ax.table(cellText=rows, colLabels=head, loc="upper center", cellLoc="center",
+                     colLoc="center", colWidths=col_widths)
+    table.auto_set_font_size(False)
+    table.set_fontsize(8)
+    last = len(head) - 1
+    for (i, j), cell in table.get_celld().items():    # the look of the other report tables
+        cell.set_linewidth(0.3)
+        if i == 0:
+            cell.set_text_props(weight="bold")
+            cell.set_facecolor("0.92")
+        elif j == last:
+            cell.set_facecolor(_verdict_color(rows[i - 1][last].replace("held at 0",
+                                                                         "at bound")))
+    return (NOT_DETERMINED_ADVICE if any(row[last].startswith("not determined")
+                                         for row in rows) else "")
+
+
 def damping_page(d: dict):
     import matplotlib
 
@@ -141,34 +173,222 @@ def damping_page(d: dict):
                 frameon=False)
 
     # table of loss factors
-    ax_t.axis("off")
     conf = float(d.get("confidence", 0.95)) * 100
     rows = loss_factor_rows(d)
-    table = ax_t.table(cellText=rows, colLabels=["loss factor", "value (%)",
-                                                 f"{conf:.0f} % interval (%)", "verdict"],
-                       loc="upper center", cellLoc="center", colLoc="center",
-                       colWidths=[0.28, 0.14, 0.22, 0.36])
-    ax_t.set_gid("loss-factors")
-    table.auto_set_font_size(False)
-    table.set_fontsize(8)
-    from laminid_cli.report import _verdict_color
-
-    for (i, j), cell in table.get_celld().items():    # the look of the other report tables
-        cell.set_linewidth(0.3)
-        if i == 0:
-            cell.set_text_props(weight="bold")
-            cell.set_facecolor("0.92")
-        elif j == 3:
-            cell.set_facecolor(_verdict_color(rows[i - 1][3].replace("held at 0", "at bound")))
-    if any(row[3].startswith("not determined") for row in rows):
-        ax_t.text(0.5, 0.0, "not determined: the measured damping does not pin this loss factor "
-                  "down — fix it (--fix eta13=0.01 ...) or measure more modes / a thicker plate",
-                  transform=ax_t.transAxes, ha="center", va="bottom", fontsize=8,
-                  gid="loss-factor-note")
+    advice = loss_factor_table(ax_t, ["loss factor", "value (%)", f"{conf:.0f} % interval (%)",
+                                      "verdict"], rows, [0.28, 0.14, 0.22, 0.36])
     s2 = float(d.get("s2", np.nan))
     ax_t.set_title(f"ply loss factors, modal strain energy method (s\u00b2 = {s2:.3g}, "
                    f"{int(d.get('dof', 0))} degrees of freedom; damping sigma: "
                    f"{d.get('sigma_source', '') or '-'})", fontsize=9)
+    if advice:      # above the table: under it, a table of two materials ran over the words
+        ax_t.text(0.5, 1.0, advice, transform=ax_t.transAxes, ha="center", va="bottom",
+                  fontsize=8, gid="loss-factor-note")
+        ax_t.set_title(ax_t.get_title() + "\n", fontsize=9)
     name = d.get("specimen", "")
     fig.suptitle(f"{name}: damping (modal strain energy)" if name else "damping", fontsize=11)
     return fig
+
+
+# ----------------------------------------------------------------------------------------------
+# batch summary: the loss factors across specimens
+
+#: rows of the loss-factor table of a batch summary on one page
+SUMMARY_TABLE_ROWS = 26
+
+
+def summary_loss_factors(row) -> dict | None:
+    """The loss factors of one batch-summary row (its ``damping``, SI, as
+    :func:`laminid_cli.batch.damping_of_file` writes it and ``read_summary`` reads it back) as
+    the dict :func:`loss_factor_rows` draws; None when the row has none."""
+    from laminid_cli.damping import LOSS_NAMES
+
+    per = row.get("damping") or {}
+    d: dict = {"labels": [], "value": [], "lower": [], "upper": [], "at_bound": [],
+               "verdict": []}
+    fixed = []
+    for mat, terms in per.items():
+        for name in LOSS_NAMES:
+            e = terms.get(name)
+            if e is None:
+                continue
+            verdict = str(e.get("verdict") or "")
+            if verdict == "fixed":
+                fixed.append(f"{mat}.{name}={float(e['value'])!r}")
+                continue
+            d["labels"].append(f"{mat}.{name}")
+            d["verdict"].append(verdict)
+            # (a long summary.csv written before the bound columns: the verdict says it)
+            d["at_bound"].append(bool(e.get("at_bound")) or verdict.startswith("at bound"))
+            for key in ("value", "lower", "upper"):
+                d[key].append(np.nan if e.get(key) is None else float(e[key]))
+    if not d["labels"] and not fixed:
+        return None
+    for key in ("value", "lower", "upper"):
+        d[key] = np.asarray(d[key], float)
+    d["at_bound"] = np.asarray(d["at_bound"], bool)
+    d["fixed"] = ",".join(fixed)
+    return d
+
+
+def _confidence_words(confidence) -> str:
+    return f"{100 * confidence:.0f} % " if confidence else ""
+
+
+def loss_factors_across_page(rows, title: str, confidence: float | None = None):
+    """One panel per loss factor (eta11 ... eta23, %): each specimen of the summary on the x
+    axis, the materials of one specimen side by side, each with the doubt the summary gives
+    it, in the marks of the constants' page: interval bar, hollow "?" when not determined by
+    the damping, a hollow triangle at 0 with its one-sided bar 0 .. upper when held at 0 by
+    eta >= 0, a grey square when fixed (--fix)."""
+    from matplotlib.lines import Line2D
+
+    from laminid_cli.damping import TERMS
+    from laminid_cli.report import (FIXED_COLOR, _clipped_bar, _figure, _footer,
+                                    specimen_labels)
+
+    rows = [row for row in rows if row.get("damping")]
+    names = specimen_labels(rows)
+    materials: list[str] = []
+    for row in rows:
+        materials += [m for m in row["damping"] if m not in materials]
+    fig = _figure()
+    fig.suptitle(f"{title}: ply loss factors across specimens (modal strain energy method)",
+                 fontsize=11)
+    gs = fig.add_gridspec(2, 3)
+    axes = [fig.add_subplot(gs[i, j]) for i, j in ((0, 0), (0, 1), (0, 2), (1, 0), (1, 1))]
+    x = np.arange(len(rows))
+    nm = len(materials)
+    width = min(0.22, 0.7 / max(nm, 1))
+    offsets = {m: (c - (nm - 1) / 2) * width for c, m in enumerate(materials)}
+    kinds: set[str] = set()
+    on_top = dict(zorder=6, clip_on=False)
+    for ax, k in zip(axes, TERMS):
+        name = f"eta{k}"
+        ax.set_gid(f"across-{name}")
+        vals, loose, bars = [], [], []
+        for c, m in enumerate(materials):
+            color = f"C{c % 10}"
+            for i, (label, row) in enumerate(zip(names, rows)):
+                e = row["damping"].get(m, {}).get(name)
+                if e is None:
+                    continue
+                xi = i + offsets[m]
+                v = 100 * float(e["value"])
+                verdict = str(e.get("verdict") or "")
+                lo = np.nan if e.get("lower") is None else 100 * float(e["lower"])
+                hi = np.nan if e.get("upper") is None else 100 * float(e["upper"])
+                tag = f"{label}-{m}"
+                if verdict == "fixed":
+                    ax.plot([xi], [v], "s", ms=6, color=FIXED_COLOR, mfc="w", mew=1.3,
+                            gid=f"fixed-{tag}", **on_top)
+                    kinds.add("fixed")
+                    vals.append(v)
+                    continue
+                if bool(e.get("at_bound")) or verdict.startswith("at bound"):
+                    ax.plot([xi], [0.0], "v", ms=7, color=color, mfc="w", mew=1.3,
+                            gid=f"at-bound-{tag}", **on_top)
+                    kinds.add("at bound")
+                    loose.append(hi)
+                    bars.append((xi, 0.0, hi, color, f"one-sided-{tag}"))
+                    continue
+                undetermined = verdict.startswith("not")
+                ax.plot([xi], [v], "o", ms=6, color=color, mfc="w" if undetermined else color,
+                        gid=f"value-{tag}", **on_top)
+                vals.append(v)
+                if undetermined:
+                    ax.annotate("?", (xi, v), xytext=(4, 2), textcoords="offset points",
+                                fontsize=9, color=color, weight="bold")
+                    kinds.add("undetermined")
+                    loose.append(hi)
+                else:
+                    kinds.add("identified")
+                    vals += [lo, hi]
+                if np.isfinite(lo) or np.isfinite(hi):
+                    bars.append((xi, lo, hi, color, f"interval-{tag}"))
+        # the panel spans the identified values and their intervals; an interval of a loss
+        # factor not determined (or one-sided) runs off it with an arrow rather than squash
+        # the others (as on the constants' page); from 0: a loss factor is >= 0
+        finite = [t for t in vals if np.isfinite(t)]
+        top = max(finite) if finite and max(finite) > 0 else \
+            max([t for t in loose if np.isfinite(t)], default=1.0)
+        ymax = 1.15 * top if top > 0 else 1.0
+        ax.set_ylim(0.0, ymax)
+        for xi, lo, hi, color, gid in bars:
+            _clipped_bar(ax, name, xi, lo, hi, 0.0, ymax, color, lw=1.2, gid=gid)
+        ax.set_title(f"\u03b7{k} (%)", fontsize=10)
+        ax.set_ylabel("loss factor (%)", fontsize=8)
+        ax.set_xticks(x, names, rotation=45, ha="right", fontsize=7)
+        ax.set_xlim(-0.6, len(rows) - 0.4)
+        ax.grid(axis="y", lw=0.3)
+        ax.tick_params(axis="y", labelsize=7)
+    handles = {m: Line2D([], [], ls="none", marker="o", ms=6, color=f"C{c % 10}")
+               for c, m in enumerate(materials)}
+    grey = "0.3"
+    marks = {
+        "identified": (Line2D([], [], ls="-", marker="o", ms=6, color=grey, lw=1.2),
+                       "identified (well determined / weak), with its interval"),
+        "undetermined": (Line2D([], [], ls="-", marker="o", ms=6, color=grey, mfc="w", lw=1.2),
+                         "?: not determined by the damping (interval too wide)"),
+        "at bound": (Line2D([], [], ls="-", marker="v", ms=7, color=grey, mfc="w", lw=1.2),
+                     "held at 0 by \u03b7 \u2265 0: not identified; bar: \u03b7 \u2264 upper"),
+        "fixed": (Line2D([], [], ls="none", marker="s", ms=6, color=FIXED_COLOR, mfc="w"),
+                  "fixed at the value given (--fix): not identified")}
+    for kind in ("identified", "undetermined", "at bound", "fixed"):
+        if kind in kinds:
+            h, text = marks[kind]
+            handles[text] = h
+    ax_leg = fig.add_subplot(gs[1, 2])             # the sixth cell: clear of the panels
+    ax_leg.axis("off")
+    ax_leg.set_gid("legend")
+    ax_leg.legend(list(handles.values()), list(handles), loc="center", fontsize=8,
+                  title=f"colour: material; bars: {_confidence_words(confidence)}confidence "
+                        "interval\nof the summary (arrow: runs off the panel)",
+                  title_fontsize=8, frameon=False)
+    _footer(fig, "The intervals count the noise of the measured modal damping; the strain-"
+            "energy shares are computed with the identified elastic constants, taken as exact. "
+            "Measured vs model damping of each mode and the energy shares: the damping page of "
+            "each result's report (laminid report <result>.h5).", color="0.25")
+    return fig
+
+
+def loss_factor_table_pages(rows, title: str, confidence: float | None = None) -> list:
+    """The loss factors of every specimen of a summary as the table of a result's damping
+    page (:func:`loss_factor_rows`, verdicts in the same words and colours), a specimen
+    column in front; :data:`SUMMARY_TABLE_ROWS` rows a page."""
+    from laminid_cli.report import _figure, _footer, specimen_labels
+
+    rows = [row for row in rows if row.get("damping")]
+    table = []
+    for label, row in zip(specimen_labels(rows), rows):
+        d = summary_loss_factors(row)
+        if d is not None:
+            table += [[label] + r for r in loss_factor_rows(d)]
+    head = ["specimen", "loss factor", "value (%)",
+            f"{_confidence_words(confidence)}interval (%)".capitalize()
+            if not confidence else f"{100 * confidence:.0f} % interval (%)", "verdict"]
+    chunks = [table[i:i + SUMMARY_TABLE_ROWS] for i in range(0, len(table),
+                                                            SUMMARY_TABLE_ROWS)]
+    figs = []
+    for n, chunk in enumerate(chunks, start=1):
+        fig = _figure()
+        more = f" ({n}/{len(chunks)})" if len(chunks) > 1 else ""
+        fig.suptitle(f"{title}: ply loss factors of each specimen{more}", fontsize=11)
+        ax = fig.subplots()
+        advice = loss_factor_table(ax, head, chunk, [0.14, 0.26, 0.1, 0.16, 0.34])
+        if advice:
+            _footer(fig, advice, gid="loss-factor-note")
+        figs.append(fig)
+    return figs
+
+
+def summary_damping_pages(rows, title: str, confidence: float | None = None) -> list:
+    """[(name, Figure)] of the loss factors of a batch summary: across specimens, then the
+    table; [] when no row has loss factors."""
+    if not any(row.get("damping") for row in rows):
+        return []
+    pages = [("loss-factors", loss_factors_across_page(rows, title, confidence))]
+    figs = loss_factor_table_pages(rows, title, confidence)
+    pages += [(f"loss-factor-table{'' if k == 0 else f'-{k + 1}'}", f)
+              for k, f in enumerate(figs)]
+    return pages

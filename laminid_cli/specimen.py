@@ -55,7 +55,7 @@ import yaml
 
 from laminid_cli.errors import SpecimenError
 from laminid_cli.material import CONSTANT_NAMES, ElasticConstants, infeasibility_reasons
-from laminid_cli.units import Where, parse_quantity
+from laminid_cli.units import Where, parse_fraction, parse_quantity
 
 log = logging.getLogger(__name__)
 
@@ -929,6 +929,9 @@ def _read_measured(r: _Reader, y: _Y) -> Measured:
             damping_sigma[np.isnan(damping)] = np.nan
         if not np.isfinite(damping).any():
             raise r.error(m["damping"], "every damping ratio is null (or its frequency is)")
+        if damping_sigma is not None:
+            warn_loose_damping_sigma(r.path, f"measured.damping_sigma (line "
+                                     f"{m['damping_sigma'].line})", freq, damping, damping_sigma)
         given = damping[np.isfinite(damping)]
         if given.size >= 2 and given.min() >= DAMPING_PERCENT_SUSPECT:
             # a free composite plate's modes damp at 0.1-2 %: 10 % and more on every mode is
@@ -950,6 +953,34 @@ def _read_measured(r: _Reader, y: _Y) -> Measured:
 DAMPING_PERCENT_SUSPECT = 0.1
 
 
+#: a damping ratio whose standard deviation exceeds this multiple of the ratio is warned of:
+#: at sigma > zeta the +-1 sd range of zeta already reaches 0 (no damping), i.e. the measurement
+#: does not tell the ratio from zero -- the ratio is not measured at all. The fit weighs the mode
+#: by 1/sigma^2, so it hardly counts; far more often the sigma is a slip (a percentage written
+#: as a plain number, 0.3 for 0.3 %, or the list shifted by a mode). An RFP fit's spread is at
+#: least 2 % of the ratio and typically 5-30 %: 1 leaves honest measurements alone.
+DAMPING_SIGMA_SUSPECT = 1.0
+
+
+def warn_loose_damping_sigma(path, where: str, freq, zeta, sigma) -> list[int]:
+    """Warn (log, not an error) of the modes whose damping ratio's standard deviation is
+    larger than :data:`DAMPING_SIGMA_SUSPECT` times the ratio; returns their 0-based indices.
+    ``where``: the field (and line) the sigmas came from."""
+    zeta, sigma = np.asarray(zeta, float), np.asarray(sigma, float)
+    with np.errstate(invalid="ignore"):
+        loose = np.flatnonzero(np.isfinite(zeta) & np.isfinite(sigma)
+                               & (sigma > DAMPING_SIGMA_SUSPECT * zeta))
+    if loose.size:
+        modes = "; ".join(f"mode {k + 1} ({freq[k]:g} Hz): sigma {sigma[k]:g} > zeta {zeta[k]:g}"
+                          for k in loose)
+        log.warning("%s: %s: the standard deviation of a damping ratio is larger than the ratio "
+                    "itself (%s): such a ratio is not measured at all (its +-1 sd range reaches "
+                    "0) and the fit gives it almost no weight; check the value (a percentage "
+                    "written as a plain number? write '%s %%')", path, where, modes,
+                    f"{sigma[loose[0]]:g}")
+    return [int(k) for k in loose]
+
+
 def _damping_list(r: _Reader, m: dict, key: str, n: int, what: str) -> np.ndarray:
     """``measured.damping`` / ``damping_sigma``: one dimensionless ratio per frequency (a plain
     number or a percentage "0.4 %"), null where not measured; each in (0, 0.5)."""
@@ -961,12 +992,9 @@ def _damping_list(r: _Reader, m: dict, key: str, n: int, what: str) -> np.ndarra
     for k, item in enumerate(items):
         if item.value is None:
             continue
-        text = item.value
-        if isinstance(text, str) and text.strip().endswith("%"):
-            value = r.quantity(_Y(text.strip()[:-1].strip(), item.line, item.field),
-                               "dimensionless") / 100
-        else:
-            value = r.quantity(item, "dimensionless")
+        if isinstance(item.value, (dict, list)):
+            r.quantity(item, "dimensionless")          # refused: "expected a single ..."
+        value = parse_fraction(item.value, where=r.where(item))
         if not 0 < value < 0.5:
             what_one = ("a standard deviation of a damping ratio" if key == "damping_sigma"
                         else "a damping ratio (viscous, zeta = eta / 2)")
@@ -1029,6 +1057,8 @@ def _measured_from_frf(r: _Reader, m: dict) -> Measured:
     sigma = np.asarray(sigma, float)
     damping = np.asarray(damping, float)
     damping_sigma = np.asarray(damping_sigma, float)
+    warn_loose_damping_sigma(r.path, f"the damping of the fit of {name}", freq, damping,
+                             damping_sigma)
     for array in (freq, weight, sigma, damping, damping_sigma):
         array.flags.writeable = False
     return Measured(freq=freq, weight=weight, sigma=sigma, damping=damping,

@@ -119,7 +119,8 @@ def _kind_of_unit(unit: str) -> str | None:
     return None
 
 
-def parse_quantity(value, kind: str, *, where: Where | None = None) -> float:
+def parse_quantity(value, kind: str, *, where: Where | None = None,
+                   expected: str | None = None) -> float:
     """Convert a number or a ``"<number> <unit>"`` string to the base unit of ``kind``.
 
     Parameters
@@ -132,6 +133,8 @@ def parse_quantity(value, kind: str, *, where: Where | None = None) -> float:
         ``angle`` (returns degrees) or ``dimensionless``.
     where : Where, optional
         File, field and line quoted in the error message.
+    expected : str, optional
+        What an error message says was expected (default: the kind and its units).
 
     Returns
     -------
@@ -154,9 +157,10 @@ def parse_quantity(value, kind: str, *, where: Where | None = None) -> float:
     """
     kind = canonical_kind(kind)
     where = where or Where()
-    expected = f"expected a {kind} in {accepted_units(kind)}"
+    expected_text, expected = expected, f"expected a {kind} in {accepted_units(kind)}"
     if kind == "dimensionless":
         expected = "expected a plain number (no unit)"
+    expected = expected_text or expected
     if isinstance(value, bool) or value is None:
         what = "nothing" if value is None else f"the boolean {value}"
         raise where.error(f"got {what}; {expected}")
@@ -191,6 +195,26 @@ def parse_quantity(value, kind: str, *, where: Where | None = None) -> float:
         raise where.error(f"{_show(value)} is too large a number; {expected}")
     check_plausible(si, kind, where=where, text=value)
     return si
+
+
+def parse_fraction(value, *, where: Where | None = None) -> float:
+    """A dimensionless ratio written as a plain number or as a percentage: the ratio.
+
+    The one reader of the specimen file's damping ratios and of loss factors given on the
+    command line (``--fix eta13=1%``); range checks are the caller's (a damping ratio and a
+    loss factor have different ones). Errors as :func:`parse_quantity` (SpecimenError naming
+    ``where``).
+
+    >>> parse_fraction("0.4 %")
+    0.004
+    >>> parse_fraction(0.004)
+    0.004
+    """
+    expected = "expected a plain number or a percentage (0.004 or '0.4 %')"
+    if isinstance(value, str) and value.strip().endswith("%"):
+        return parse_quantity(value.strip()[:-1].strip(), "dimensionless", where=where,
+                              expected=expected) / 100
+    return parse_quantity(value, "dimensionless", where=where, expected=expected)
 
 
 def check_plausible(value: float, kind: str, *, where: Where | None = None, text=None) -> None:

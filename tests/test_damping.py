@@ -160,8 +160,30 @@ def test_fix_items_are_split_and_parsed():
         D.parse_loss_fix(["eta33=0.1"], ("carbon",))
     with pytest.raises(FitInputError, match="no material 'steel'"):
         D.parse_loss_fix(["steel.eta11=0.1"], ("carbon",))
-    with pytest.raises(FitInputError, match=">= 0"):
+    with pytest.raises(FitInputError, match=r"--fix eta11=-0.1: eta11 must be between 0 and 1"):
         D.parse_loss_fix(["eta11=-0.1"], ("carbon",))
+
+
+def test_fixed_loss_factors_take_the_specimen_files_percent_form():
+    """'--fix eta13=1%' was refused ("'1%' is not a number") while the specimen file reads
+    '0.4 %': both now go through units.parse_fraction, a loss factor in [0, 1) (eta = 2 zeta,
+    the file's zeta < 0.5); a wrong value names the option, the item and the value."""
+    got = D.parse_loss_fix(["eta13=1%", "carbon.eta23=0.4 %", "eta11=0.002", "eta12=0"],
+                           ("carbon",))
+    assert got == {"carbon.eta13": 0.01, "carbon.eta23": 0.004, "carbon.eta11": 0.002,
+                   "carbon.eta12": 0.0}
+    # the same value written both ways is one value, not a conflict
+    assert D.parse_loss_fix(["eta13=1 %", "eta13=0.01"], ("carbon",)) == {"carbon.eta13": 0.01}
+    for item, words in [
+            ("eta13=150%", r"--fix eta13=150%: eta13 must be between 0 and 1 .*got 150%"),
+            ("eta13=-1 %", r"--fix eta13=-1 %: eta13 must be between 0 and 1"),
+            ("eta13=1", r"--fix eta13=1: eta13 must be between 0 and 1"),
+            ("eta13=1x", r"--fix eta13=1x: eta13 = '1x': unknown unit 'x' in '1x'; expected a "
+                         r"plain number or a percentage \(0.004 or '0.4 %'\)"),
+            ("eta13=nan", r"--fix eta13=nan: eta13 = 'nan': .*plain number or a percentage"),
+            ("eta13=3 Hz", r"'3 Hz' is a frequency, not a plain number")]:
+        with pytest.raises(FitInputError, match=words):
+            D.parse_loss_fix([item], ("carbon",))
 
 
 def test_a_loss_factor_fixed_twice_at_different_values_is_refused():
@@ -275,3 +297,29 @@ def test_the_advice_of_an_undetermined_loss_factor_names_that_loss_factor():
     assert fit.rel_half_width[1] > 0.3
     assert fit.verdict[1].startswith("not determined by the measured damping")
     assert "--fix eta22=" in fit.verdict[1] and "eta13" not in fit.verdict[1]
+
+
+def test_a_damping_sigma_larger_than_its_ratio_is_warned(caplog):
+    """'damping_sigma: [0.3, ...]' for zeta = 0.002 (0.3 % meant) passed without a word; now a
+    warning names the file, the field, the mode and both values. A sigma below its ratio, and
+    the modes without a sigma, get none; the values are read unchanged (not an error)."""
+    import logging
+
+    from laminid_cli.specimen import DAMPING_SIGMA_SUSPECT
+
+    assert DAMPING_SIGMA_SUSPECT == 1.0
+    with caplog.at_level(logging.WARNING, logger="laminid_cli.specimen"):
+        s = _spec("  damping: [0.002, 0.4 %, 0.003, null]\n"
+                  "  damping_sigma: [0.3, 0.0041, null, null]\n")
+    assert s.measured.damping_sigma[0] == 0.3
+    msg = [r.getMessage() for r in caplog.records if "standard deviation" in r.getMessage()]
+    assert len(msg) == 1, msg
+    assert msg[0].startswith("p.yaml: measured.damping_sigma (line 10): ")
+    assert "mode 1 (100 Hz): sigma 0.3 > zeta 0.002; mode 2 (200 Hz): sigma 0.0041 > zeta " \
+           "0.004)" in msg[0]
+    assert "not measured at all" in msg[0] and "write '0.3 %'" in msg[0]
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="laminid_cli.specimen"):
+        _spec("  damping: [0.002, 0.4 %, 0.003, null]\n"
+              "  damping_sigma: [0.002, 0.0003, null, null]\n")      # sigma = zeta: no warning
+    assert not [r for r in caplog.records if "standard deviation" in r.getMessage()]

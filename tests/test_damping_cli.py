@@ -271,3 +271,20 @@ def test_loss_factors_leaning_on_undetermined_constants_say_so(frf_case):
                 "--no-output")
     assert not [n for n in json.loads(fixed.output)["damping"]["notes"]
                 if "take the elastic constants as identified" in n]
+
+
+def test_fix_takes_loss_factors_in_percent_on_the_command_line(frf_case):
+    """'--fix eta13=1.2%' is read as the specimen file reads '1.2 %' (before: refused); a bad
+    value is refused before the fit, in one line naming the option, the item and the value."""
+    tmp = frf_case[0]
+    r = run("identify", tmp / "plate.yaml", "--mesh", "4x4", "--fix",
+            "nu12,G13,G23,eta13=1.2%,eta23=1.2 %", "--json", "--no-output")
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.output)["damping"]["fixed"] == {"E-glass/R368.eta13": 0.012,
+                                                         "E-glass/R368.eta23": 0.012}
+    r = run("identify", tmp / "plate.yaml", "--mesh", "4x4", "--fix", "nu12,eta13=12x",
+            "--no-output")
+    assert r.exit_code == 2
+    assert ("laminid: error: --fix eta13=12x: eta13 = '12x': unknown unit 'x' in '12x'; "
+            "expected a plain number or a percentage (0.004 or '0.4 %')") in r.output
+    assert "Traceback" not in r.output

@@ -1003,3 +1003,80 @@ def test_short_verdict_of_a_loss_factor_not_determined_by_the_damping():
 
     assert short_verdict(VERDICT_NOT_DAMPING.format(term="eta22")) == "not determined"
     assert short_verdict(VERDICT_NOT) == "not determined"
+
+
+@pytest.mark.parametrize("kind", ["csv", "json"])
+def test_summary_with_loss_factors_has_a_loss_factor_page(tmp_path, kind):
+    """A batch summary holding loss factors had no page of them; now one panel per loss
+    factor (%) in the marks of the constants' page -- interval bar, hollow "?" for not
+    determined by the damping, a hollow triangle at 0 with its one-sided bar 0 .. upper for
+    one held at 0 by eta >= 0, a grey square for a fixed one -- and the table of a result's
+    damping page, verdicts in the same words, a specimen column in front. A specimen without
+    loss factors (Q) is in neither; a summary without any has no such pages."""
+    import json
+
+    from laminid_cli.batch import write_summary_csv
+    from laminid_cli.damping import VERDICT_NOT_DAMPING
+    from laminid_cli.report import FIXED_COLOR
+
+    rows = _summary_rows()
+    path = tmp_path / f"summary.{kind}"
+    if kind == "csv":
+        write_summary_csv(path, rows)
+    else:
+        path.write_text(json.dumps({"format": "laminid-batch-summary", "specimens": rows}))
+    assert [p.name for p in report_pages(path)] == ["constants", "residuals"]
+    free = {"at_bound": False, "bound_side": "", "bound_limit": None}
+    rows[0]["damping"] = {"glass": {
+        "eta11": {"value": 0.002, "lower": 0.0017, "upper": 0.0023, "verdict": "weak"} | free,
+        "eta22": {"value": 0.0, "lower": 0.0, "upper": 0.03, "verdict":
+                  "at bound — not identified", "at_bound": True, "bound_side": "lower",
+                  "bound_limit": 0.0},
+        "eta13": {"value": 0.02, "lower": 0.0, "upper": 0.09,
+                  "verdict": VERDICT_NOT_DAMPING.format(term="eta13")} | free,
+        "eta23": {"value": 0.012, "lower": None, "upper": None, "verdict": "fixed"}}}
+    if kind == "csv":
+        write_summary_csv(path, rows)
+    else:
+        path.write_text(json.dumps({"format": "laminid-batch-summary", "specimens": rows}))
+    pages = {p.name: p.figure for p in report_pages(path)}
+    assert list(pages) == ["constants", "residuals", "loss-factors", "loss-factor-table"]
+    fig = pages["loss-factors"]
+    a = ax(fig, "across-eta11")
+    v = _line(a, "value-H-glass")
+    assert v.get_ydata()[0] == pytest.approx(0.2) and v.get_markerfacecolor() == v.get_color()
+    assert np.allclose(_line(a, "interval-H-glass").get_ydata(), [0.17, 0.23], rtol=1e-12)
+    assert a.get_title() == "\u03b711 (%)" and a.get_ylim()[0] == 0
+    a = ax(fig, "across-eta22")
+    mark = _line(a, "at-bound-H-glass")
+    assert mark.get_marker() == "v" and mark.get_markerfacecolor() == "w"
+    assert mark.get_ydata()[0] == 0.0
+    assert np.allclose(_line(a, "one-sided-H-glass").get_ydata(), [0.0, 3.0], rtol=1e-12)
+    assert "value-H-glass" not in [ln.get_gid() for ln in a.get_lines()]
+    a = ax(fig, "across-eta13")
+    assert _line(a, "value-H-glass").get_markerfacecolor() == "w"
+    assert [t.get_text() for t in a.texts].count("?") == 1
+    a = ax(fig, "across-eta23")
+    mark = _line(a, "fixed-H-glass")
+    assert mark.get_marker() == "s" and mark.get_color() == FIXED_COLOR
+    assert mark.get_ydata()[0] == pytest.approx(1.2)
+    assert not [ln for ln in a.get_lines() if "Q" in str(ln.get_gid())]
+    legend = [t.get_text() for t in ax(fig, "legend").get_legend().get_texts()]
+    assert "held at 0 by \u03b7 \u2265 0: not identified; bar: \u03b7 \u2264 upper" in legend
+    assert "?: not determined by the damping (interval too wide)" in legend
+    assert any("taken as exact" in t.get_text() for t in fig.texts)
+    # the table: the words of a result's damping page
+    table = ax(pages["loss-factor-table"], "loss-factors").tables[0]
+    cells = {(i, j): c.get_text().get_text() for (i, j), c in table.get_celld().items()}
+    body = [[cells[i, j] for j in range(5)] for i in range(1, 5)]
+    assert body == [["H", "glass.eta11", "0.200", "[0.17, 0.23]", "weak"],
+                    ["H", "glass.eta22", "0.000", "[0, 3]",
+                     "held at 0 by \u03b7 \u2265 0: not identified"],
+                    ["H", "glass.eta13", "2.000", "[0, 9]", "not determined"],
+                    ["H", "glass.eta23", "1.200", "none — fixed",
+                     "fixed at the value given (not identified)"]]
+    assert (5, 0) not in cells                                  # Q has no loss factors
+    r = run("report", path, "-o", tmp_path / "s.png", "--dpi", "50")
+    assert r.exit_code == 0, r.output
+    assert "loss-factors, loss-factor-table" in r.output
+    assert (tmp_path / "s-4.png").read_bytes()[:8] == PNG

@@ -77,7 +77,9 @@ def report(source, output, frf_path, dpi, force):
     A joint result gives the shared constants first (summary, intervals, history), then
     per plate its frequencies, mode shapes and sensitivities. A batch summary gives the
     constants across specimens (materials of a specimen side by side, intervals, reference
-    values, undetermined values marked) and the RMS residuals.
+    values, undetermined values marked) and the RMS residuals; when it holds loss factors,
+    also the ply loss factors across specimens (%, intervals, verdict marks) and their table
+    in the words of the damping page.
 
     \b
     Examples:
