@@ -267,7 +267,7 @@ def test_usage_errors_exit_2(tmp_path):
 
 @pytest.mark.parametrize("fix, words", [
     ("eta13=0.01,eta13=0.02", "--fix eta13=0.02: eta13 is already fixed at 0.01"),
-    ("eta13=-1", "--fix eta13=-1: a loss factor must be a number >= 0"),
+    ("eta13=-1", "--fix eta13=-1: eta13 must be between 0 and 1"),
     ("E7", "--fix E7: 'E7' is not a constant"),
     ("G13=3e9", "--fix G13=3e9: an elastic constant is fixed at its initial value"),
 ])
