@@ -74,17 +74,23 @@ CONSTANT_UNITS = {"E1": "Pa", "E2": "Pa", "G12": "Pa", "G13": "Pa", "G23": "Pa",
 #: the ``units`` map of summary.json
 UNITS = {**CONSTANT_UNITS, "lower": "unit of the constant", "upper": "unit of the constant",
          "bound_limit": "unit of the constant", "profile_bound": "unit of the constant",
+         "profile_far": "unit of the constant",
          "mc_lower": "unit of the constant", "mc_upper": "unit of the constant",
          "rms_residual_percent": "%", "time_s": "s",
          **{f"eta{k}": "1 (loss factor, eta = 2 zeta)" for k in ("11", "22", "12", "13", "23")}}
 #: the columns of the long summary.csv: lower/upper the linearised interval (empty for a
 #: constant at its bound), bound_side/bound_limit of a constant at its bound (the data push it
-#: below a "lower" limit, above an "upper" one; no interval) and profile_bound where the fit
-#: rejects it (uncertainty.Profile; empty: flat within the search), mc_lower/mc_upper the Monte Carlo
+#: below a "lower" limit, above an "upper" one; no interval), profile_bound where the fit
+#: rejects it (uncertainty.Profile) and profile what its profile says ("bound": the fit
+#: rejects it beyond profile_bound; "flat": nowhere within the search, the modes do not
+#: determine it; "none": no profile could be made, its result file says why; resultfile.
+#: profile_kind) and profile_far the other end of its scan (the search's other limit: a flat
+#: profile does not reject any value from the limit to there), mc_lower/mc_upper the Monte Carlo
 #: range (--monte-carlo), mc_search_limit which of its ends ("lower", "upper", "both") trials
 #: on a limit of the search set (the search's end, not the data's)
 LONG_COLUMNS = ("name", "specimen", "material", "constant", "value", "lower", "upper", "verdict",
-                "bound_side", "bound_limit", "profile_bound", "mc_lower", "mc_upper",
+                "bound_side", "bound_limit", "profile_bound", "profile", "profile_far",
+                "mc_lower", "mc_upper",
                 "mc_search_limit", "unit",
                 "status", "reasons", "rms_residual [%]", "result", "stale_result")
 SPECIMEN_SUFFIXES = (".yaml", ".yml")
@@ -687,8 +693,8 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False,
     reasons ([{code, text}], laminid_cli.status), reason (one line: the error, or the codes),
     converged, optimizer_status, cached, materials ({material: {E1.. nu12}}), intervals
     ({material: {constant: {lower, upper, verdict, at_bound, bound_side, bound_limit,
-    flagged}}} for the free constants (bound_side "" and bound_limit None when not at a
-    bound), with mc_lower, mc_upper and mc_lower_at_limit, mc_upper_at_limit (None: the file
+    flagged, profile_bound, profile, profile_text, profile_far}}} for the free constants (bound_side "" and
+    bound_limit None when not at a bound; profile: LONG_COLUMNS), with mc_lower, mc_upper and mc_lower_at_limit, mc_upper_at_limit (None: the file
     does not say) after a Monte Carlo; fixed ones {verdict: "fixed"}),
     rms_residual_percent, evaluations, time_s, result, damping ({material: {eta11: {value,
     lower, upper, verdict}}}, empty without measured damping).
@@ -786,7 +792,9 @@ def _row_of_result(res) -> dict:
             "at_bound": iv.at_bound, "bound_side": iv.bound_side,
             "bound_limit": iv.bound_limit, "flagged": iv.flagged,
             "profile_bound": (float(iv.profile_bound) if np.isfinite(iv.profile_bound)
-                              else None)}
+                              else None),
+            "profile": iv.profile_kind, "profile_text": iv.profile_text,
+            "profile_far": float(iv.profile_far) if np.isfinite(iv.profile_far) else None}
         if mc is not None:               # the Monte Carlo's constants are the intervals'
             entry["mc_lower"] = float(np.ravel(mc["lower"])[j])
             entry["mc_upper"] = float(np.ravel(mc["upper"])[j])
@@ -893,6 +901,8 @@ def long_rows(rows, folder=None) -> list[list[str]]:
                               "bound_side": iv.get("bound_side") or "",
                               "bound_limit": _num(iv.get("bound_limit")),
                               "profile_bound": _num(iv.get("profile_bound")),
+                              "profile": iv.get("profile") or "",
+                              "profile_far": _num(iv.get("profile_far")),
                               "mc_lower": _num(iv.get("mc_lower")),
                               "mc_upper": _num(iv.get("mc_upper")),
                               "mc_search_limit": search_limit_text(iv),
@@ -1111,7 +1121,9 @@ def _rows_of_long(records, path: Path) -> list[dict]:
                 # (summaries written before the bound columns: the verdict says it)
                 "at_bound": bool(side) or rec.get("verdict", "") == VERDICT_AT_BOUND,
                 "bound_side": side, "bound_limit": _float(rec.get("bound_limit")),
-                "profile_bound": _float(rec.get("profile_bound"))}
+                "profile_bound": _float(rec.get("profile_bound")),
+                "profile": rec.get("profile") or "",
+                "profile_far": _float(rec.get("profile_far"))}
             if rec.get("mc_lower") not in ("", None):
                 limit = rec.get("mc_search_limit") or ""
                 iv.update(mc_lower=_float(rec["mc_lower"]), mc_upper=_float(rec.get("mc_upper")),

@@ -14,6 +14,12 @@ from __future__ import annotations
 
 import math
 
+#: the start of a flat profile's statement (uncertainty.profile_bound: no value rejected
+#: within the search); one that could not be made starts with PROFILE_NONE
+#: (resultfile.profile_kind reads them back)
+PROFILE_FLAT = "the fit is as good"
+PROFILE_NONE = "no profile:"
+
 #: relative 95 % half-width below which a constant is "well determined"
 WELL_DETERMINED = 0.05
 #: relative 95 % half-width below which a constant is "weak" (above: not determined)

@@ -42,7 +42,8 @@ import numpy as np
 from laminid_cli.atomic import atomic_path
 from laminid_cli.errors import LaminidError
 from laminid_cli.intervals import VERDICT_NOT, WEAK, spread_sentence
-from laminid_cli.resultfile import CONSTANTS, ResultFile, bound_statement, read_result
+from laminid_cli.resultfile import (CONSTANTS, ResultFile, bound_statement, profile_kind,
+                                   read_result)
 
 log = logging.getLogger(__name__)
 
@@ -134,7 +135,7 @@ def bound_words(iv) -> str:
     if np.isfinite(pb):
         sign = "<" if pb > iv.bound_limit or side == "lower" else ">"
         words += f"\nprofile: {sign} {fmt_value(iv.constant, pb)}"
-    elif getattr(iv, "profile_text", "").startswith("the fit is as good"):
+    elif iv.profile_kind == "flat":
         words += "\nprofile: flat"
     return words
 
@@ -651,7 +652,7 @@ def _bound_panel(ax, k, v, iv, x, ymin, ymax):
         ax.annotate(f"profile\n{'<' if y > v else '>'} {fmt_value(k, pb)}", (x, y),
                     xytext=(6, 0), textcoords="offset points", fontsize=6.5, va="center",
                     ha="left", color=INTERVAL_COLOR, gid="profile-label")
-    elif getattr(iv, "profile_text", "").startswith("the fit is as good"):
+    elif iv.profile_kind == "flat":
         words += "; profile: flat to the other limit"
     ax.annotate("\n".join(textwrap.wrap(words, 12)), (x, (v + edge) / 2), xytext=(5, 0),
                 textcoords="offset points", fontsize=6.5, va="center", ha="left",
@@ -1375,7 +1376,8 @@ def summary_pages(path) -> list[Page]:
 class Doubt:
     """What is known of one constant of one specimen in a batch summary (SI): its interval
     (NaN where it has none), verdict, whether it stopped on a search limit (side, limit) or
-    was fixed, and its Monte Carlo range (NaN without one)."""
+    was fixed, and its Monte Carlo range (NaN without one); of a constant at its bound the
+    profile's kind ("bound", "flat", "none", "": resultfile.profile_kind) and bound (SI)."""
 
     lower: float = np.nan
     upper: float = np.nan
@@ -1388,6 +1390,9 @@ class Doubt:
     mc_upper: float = np.nan
     mc_lower_at_limit: bool = False
     mc_upper_at_limit: bool = False
+    profile: str = ""
+    profile_bound: float = np.nan
+    profile_far: float = np.nan
 
     @property
     def undetermined(self) -> bool:
@@ -1412,7 +1417,9 @@ def doubt_of_row(row, m: str, k: str, r: ResultFile | None = None) -> Doubt | No
             fixed=verdict == "fixed", mc_lower=_si(e.get("mc_lower")),
             mc_upper=_si(e.get("mc_upper")),
             mc_lower_at_limit=bool(e.get("mc_lower_at_limit")),
-            mc_upper_at_limit=bool(e.get("mc_upper_at_limit")))
+            mc_upper_at_limit=bool(e.get("mc_upper_at_limit")),
+            profile=profile_kind(e.get("profile_bound"), "") or str(e.get("profile") or ""),
+            profile_bound=_si(e.get("profile_bound")), profile_far=_si(e.get("profile_far")))
     if r is None or m not in r.materials:
         return None
     if fixed_words(r, m, k) is not None:
@@ -1420,7 +1427,9 @@ def doubt_of_row(row, m: str, k: str, r: ResultFile | None = None) -> Doubt | No
     iv = r.uncertainty.get(m, k) if r.uncertainty is not None else None
     if iv is None:
         return None
-    d = Doubt(iv.lower, iv.upper, iv.verdict, iv.at_bound, iv.bound_side, iv.bound_limit)
+    d = Doubt(iv.lower, iv.upper, iv.verdict, iv.at_bound, iv.bound_side, iv.bound_limit,
+              profile=iv.profile_kind, profile_bound=iv.profile_bound,
+              profile_far=iv.profile_far)
     rng = monte_carlo_range(r.uncertainty, iv)
     if rng is not None:
         d.mc_lower, d.mc_upper = rng.lower, rng.upper
@@ -1480,13 +1489,13 @@ def _across_point(ax, k, xi, v, d: Doubt | None, color, tag):
 
 
 def _clipped_bar(ax, k, xi, lo, hi, ymin, ymax, color, *, lw, gid, marks=(False, False),
-                 arrow=True):
+                 arrow=True, ls="-"):
     """A vertical bar lo..hi (display unit) clipped to the panel, with an arrow where it runs
     off and a "*" at an end set on a search limit (``marks``: lower, upper)."""
     a, b = max(lo, ymin) if np.isfinite(lo) else ymin, min(hi, ymax) if np.isfinite(hi) else ymax
     if a > b:
         return
-    ax.plot([xi, xi], [a, b], "-", color=color, lw=lw, alpha=0.85, gid=gid,
+    ax.plot([xi, xi], [a, b], ls=ls, color=color, lw=lw, alpha=0.85, gid=gid,
             solid_capstyle="butt")
     span = ymax - ymin
     for end, edge, up in ((hi, ymax, True), (lo, ymin, False)):
@@ -1522,7 +1531,7 @@ def constants_across_page(done, title: str):
     width = min(0.22, 0.7 / max(nm, 1))
     offsets = {m: (c - (nm - 1) / 2) * width for c, m in enumerate(materials)}
     kinds: set[str] = set()
-    has_mc = has_mc_limit = has_ref = False
+    has_mc = has_mc_limit = has_ref = has_profile = False
     for ax, k in zip(axes, CONSTANTS):
         ax.set_gid(f"across-{k}")
         vals, ends, bars = [], [], []
@@ -1540,13 +1549,25 @@ def constants_across_page(done, title: str):
                     lo, hi = _gpa(k, d.lower), _gpa(k, d.upper)
                     if not d.undetermined and abs(hi - lo) < abs(v):
                         ends += [lo, hi]
-                    bars.append((xi, lo, hi, color, 1.2, "interval", (False, False)))
+                    bars.append((xi, lo, hi, color, 1.2, "interval", (False, False), "-"))
                 if d is not None and np.isfinite(d.mc_lower) and np.isfinite(d.mc_upper):
                     has_mc = True
                     marks = (d.mc_lower_at_limit, d.mc_upper_at_limit)
                     has_mc_limit |= any(marks)
                     bars.append((xi + 0.55 * width, _gpa(k, d.mc_lower), _gpa(k, d.mc_upper),
-                                 MC_COLOR, 2.2, "monte-carlo", marks))
+                                 MC_COLOR, 2.2, "monte-carlo", marks, "-"))
+                if d is not None and d.at_bound and d.profile in ("bound", "flat"):
+                    # the values the fit does not reject: from the limit to the profile's
+                    # bound, or (flat) to the other end of its scan (an arrow where that is
+                    # off the panel; off it when a summary does not say where)
+                    has_profile = True
+                    far = d.profile_bound if d.profile == "bound" else d.profile_far
+                    far = _gpa(k, far) if np.isfinite(far) else (
+                        -np.inf if d.bound_side == "upper" else np.inf)
+                    if d.profile == "bound" or (k == "nu12" and np.isfinite(far)):
+                        ends.append(far)
+                    bars.append((xi, min(v, far), max(v, far), color, 1.6, "profile",
+                                 (False, False), (0, (1, 1.5))))
                 ref = r.reference.get(m, {}).get(k) if r is not None else None
                 if ref is not None:
                     has_ref = True
@@ -1560,9 +1581,9 @@ def constants_across_page(done, title: str):
             if k != "nu12" and ymin < 0 <= lo:
                 ymin = 0.0
             ax.set_ylim(ymin, ymax)
-            for xi, blo, bhi, color, lw, gid, marks in bars:
+            for xi, blo, bhi, color, lw, gid, marks, ls in bars:
                 _clipped_bar(ax, k, xi, blo, bhi, ymin, ymax, color, lw=lw, gid=gid,
-                             marks=marks)
+                             marks=marks, ls=ls)
         ax.set_title(f"{k} ({_unit(k)})", fontsize=10)
         ax.set_xticks(x, names, rotation=45, ha="right", fontsize=7)
         ax.set_xlim(-0.6, len(done) - 0.4)
@@ -1591,6 +1612,9 @@ def constants_across_page(done, title: str):
         handles["Monte Carlo range" + (" (*: end set by trials on a search limit)"
                                        if has_mc_limit else "")] = Line2D([], [], color=MC_COLOR,
                                                                           lw=2.2)
+    if has_profile:
+        handles["values the fit does not reject (profile of a constant on a search limit)"] = \
+            Line2D([], [], ls=(0, (1, 1.5)), color=grey, lw=1.6)
     if has_ref:
         handles["reference value"] = Line2D([], [], ls="none", marker="_", ms=14, mew=2.2,
                                             color="k")

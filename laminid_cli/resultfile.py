@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from laminid_cli.errors import LaminidError
+from laminid_cli.intervals import PROFILE_FLAT, PROFILE_NONE
 from laminid_cli.status import Reason, ResultStatus
 
 CONSTANTS = ("E1", "E2", "G12", "G13", "G23", "nu12")
@@ -34,6 +35,16 @@ class ResultFileError(LaminidError):
 
 #: the result's status ("ok" | "check") and its reasons, as :mod:`laminid_cli.status` makes it
 Status = ResultStatus
+
+
+def profile_kind(bound, text) -> str:
+    """:attr:`Interval.profile_kind` of a profile's bound (SI, NaN or None: none) and
+    statement."""
+    if bound is not None and np.isfinite(bound):
+        return "bound"
+    text = text or ""
+    return ("flat" if text.startswith(PROFILE_FLAT) else
+            "none" if text.startswith(PROFILE_NONE) else "")
 
 
 @dataclass(frozen=True)
@@ -66,6 +77,16 @@ class Interval:
     #: 30 have none: "")
     profile_bound: float = np.nan
     profile_text: str = ""
+    #: the other end of the profile's scan (the search's other limit, SI; NaN: no profile)
+    profile_far: float = np.nan
+
+    @property
+    def profile_kind(self) -> str:
+        """What the profile of a constant at its bound says, in a word: "bound" (the fit
+        rejects it beyond ``profile_bound``), "flat" (nowhere within the search: the modes do
+        not determine it), "none" (no profile could be made: ``profile_text`` says why), ""
+        (not at a bound, or a file without profiles)."""
+        return profile_kind(self.profile_bound, self.profile_text)
 
 
 @dataclass(frozen=True)
@@ -438,6 +459,7 @@ def _uncertainty(f) -> Uncertainty | None:
         bound_side = tuple(s for s, _ in parsed)
         bound_limit = np.array([v for _, v in parsed], float)
     profile_bound, profile_text = arr("profile_bound"), strs("profile_text")
+    profile_far = arr("profile_far")
     flagged = set(filter(None, str(a.get("flagged", "")).split(",")))
     from_mc = set(filter(None, str(a.get("verdict_from_monte_carlo", "")).split(",")))
     intervals = []
@@ -447,7 +469,7 @@ def _uncertainty(f) -> Uncertainty | None:
                                   verdict[j], float(rel[j]), scale[j], bool(at_bound[j]),
                                   bound_text[j], bound_side[j], float(bound_limit[j]),
                                   lab in flagged, lab in from_mc, float(profile_bound[j]),
-                                  profile_text[j]))
+                                  profile_text[j], float(profile_far[j])))
     mc = None
     if "monte_carlo" in u:
         g = u["monte_carlo"]

@@ -115,9 +115,10 @@ import scipy.linalg as sla
 
 from laminid_cli.errors import FitError, FitInputError, ModelError, SolverError
 # thresholds, scalings and verdicts shared with the damping fit (re-exported here)
-from laminid_cli.intervals import (SCALINGS, VERDICT_AT_BOUND, VERDICT_FIXED,  # noqa: F401
-                                   VERDICT_NOT, VERDICT_WEAK, VERDICT_WELL, WEAK, WELL_DETERMINED,
-                                   interval_scale, verdict as verdict_of)
+from laminid_cli.intervals import (PROFILE_FLAT, PROFILE_NONE, SCALINGS,  # noqa: F401
+                                   VERDICT_AT_BOUND, VERDICT_FIXED, VERDICT_NOT, VERDICT_WEAK,
+                                   VERDICT_WELL, WEAK, WELL_DETERMINED, interval_scale,
+                                   verdict as verdict_of)
 from laminid_cli.material import CONSTANT_NAMES
 from laminid_cli.objective import VariableSet, max_assignment, residual_rows
 from laminid_cli.parametrization import coefficients_and_jacobian
@@ -2222,14 +2223,14 @@ def profile_bound(label: str, side: str, limit: float, far: float, delta, thresh
                     f"chi2 rises by {d_mid:.3g} at {k} = {show(to(0.5))} but by {d_far:.3g} at "
                     f"{show(far)} (scaled; {threshold:.3g} rejects): the fit has a second "
                     "valley there")
-            text = (f"the fit is as good with {k} anywhere {direction} the limit "
+            text = (f"{PROFILE_FLAT} with {k} anywhere {direction} the limit "
                     f"{'up' if far > limit else 'down'} to {show(far)}"
                     f" (chi2 rises by {max(d_far, d_mid):.2g}; {threshold:.3g} would reject it "
                     f"at {confidence * 100:.0f} %): the modes do not determine {k}")
             return Profile(label, side, limit, np.nan, far, d_far, threshold, runs, text)
     except ProfileError as exc:
         return Profile(label, side, limit, np.nan, far, np.nan, threshold, runs,
-                       f"no profile: {exc}", str(exc))
+                       f"{PROFILE_NONE} {exc}", str(exc))
     a, ga, b, gb = 0.0, -threshold, 1.0, d_far - threshold
     last = 0
     span = 1.0 if nu else abs(np.log(far / limit))
@@ -2240,7 +2241,7 @@ def profile_bound(label: str, side: str, limit: float, far: float, delta, thresh
             g = rise(to(t)) - threshold
         except ProfileError as exc:
             return Profile(label, side, limit, np.nan, far, d_far, threshold, runs,
-                           f"no profile: {exc}", str(exc))
+                           f"{PROFILE_NONE} {exc}", str(exc))
         if g > 0:
             b, gb = t, g
             if last == 1:
@@ -2323,7 +2324,7 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
         # the rise would be measured from a point that is no optimum
         return dataclasses.replace(u, profiles={
             lab: Profile(lab, *_limit(u, j), np.nan, np.nan, np.nan, float(u.quantile) ** 2,
-                         0, "no profile: the identification did not converge",
+                         0, f"{PROFILE_NONE} the identification did not converge",
                          "not converged")
             for j, lab in enumerate(u.labels) if u.at_bound[j]})
     options = result.options
@@ -2355,7 +2356,7 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
             out[lab] = profile_bound(lab, side, limit, far, delta, threshold, u.confidence)
         except (FitError, ModelError, SolverError) as exc:
             out[lab] = Profile(lab, side, limit, np.nan, far, np.nan, threshold, 0,
-                               f"no profile: {exc}", str(exc))
+                               f"{PROFILE_NONE} {exc}", str(exc))
     return dataclasses.replace(u, profiles=out)
 
 

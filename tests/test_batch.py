@@ -77,7 +77,7 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
     # long form: one row per specimen, material and constant, SI, the unit in its column
     assert list(rows[0]) == ["name", "specimen", "material", "constant", "value", "lower",
                              "upper", "verdict", "bound_side", "bound_limit",
-                             "profile_bound", "mc_lower",
+                             "profile_bound", "profile", "profile_far", "mc_lower",
                              "mc_upper", "mc_search_limit", "unit", "status", "reasons",
                              "rms_residual [%]", "result", "stale_result"]
     assert all(row["stale_result"] == "" for row in rows)      # nothing set aside
@@ -117,9 +117,10 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
     assert g13["bound_side"] == "lower" and float(g13["bound_limit"]) == g13_limit
     # where the fit rejects it (the profile; on this coarse mesh it does, at about 1.5 GPa)
     assert float(g13["profile_bound"]) == g13_profile and 0.1e9 < g13_profile < 18.5e9
+    assert g13["profile"] == "bound"
     assert 0 < g13_limit < 0.01e9                           # 0.0001 E1 at the optimum
-    assert all(row["bound_side"] == row["bound_limit"] == row["profile_bound"] == ""
-               for key, row in by.items()
+    assert all(row["bound_side"] == row["bound_limit"] == row["profile_bound"]
+               == row["profile"] == "" for key, row in by.items()
                if key != ("example2/S2.1", "G13"))
     assert g13["status"] == "check"
     assert g13["reasons"] == "at_bound, undetermined, poor_fit"

@@ -423,6 +423,23 @@ def test_report_of_a_batch_summary(batch_dir, tmp_path):
     g = ax(pages["constants"], "across-G13")
     m = next(ln for ln in g.get_lines() if ln.get_gid() == f"value-S1.4-{MAT}")
     assert m.get_markerfacecolor() == "w" and any(t.get_text() == "?" for t in g.texts)
+    # G13 of S2.1 (6x6) stopped on its lower limit and its profile bounds it (< ~1.5 GPa):
+    # the values the fit does not reject, dotted from the limit up to the profile's bound,
+    # from both summaries alike, in the legend
+    s21 = read_result(batch_dir / "S2.1.result.h5").uncertainty.get("E-glass/R368", "G13")
+    assert s21.profile_kind == "bound" and 0.1e9 < s21.profile_bound < 18.5e9
+    for src in ("summary.csv", "summary.json"):
+        pages = {p.name: p.figure for p in report_pages(batch_dir / src)}
+        g = ax(pages["constants"], "across-G13")
+        prof = [ln for ln in g.get_lines() if ln.get_gid() == "profile"]
+        assert len(prof) == 1 and prof[0].get_linestyle() != "-"          # dotted
+        assert np.allclose(sorted(prof[0].get_ydata()),
+                           [s21.bound_limit / 1e9, s21.profile_bound / 1e9], rtol=1e-12)
+        legend = [t.get_text() for t in pages["constants"].legends[0].get_texts()] if \
+            pages["constants"].legends else [t.get_text() for a in pages["constants"].axes
+                                            if a.get_legend() for t in a.get_legend().get_texts()]
+        assert "values the fit does not reject (profile of a constant on a search limit)" \
+            in legend
 
 
 def test_summary_puts_the_materials_of_one_specimen_side_by_side(tmp_path):
@@ -438,6 +455,29 @@ def test_summary_puts_the_materials_of_one_specimen_side_by_side(tmp_path):
     assert xs["value-H1-glass"] < 0 < xs["value-H1-carbon"] < 1
     assert xs["value-H2-glass"] < 1 < xs["value-H2-carbon"]
     write_pages([type("P", (), {"name": "x", "figure": fig})()], tmp_path / "x.png")
+
+
+def test_summary_draws_a_flat_profile_to_the_other_end_of_its_scan():
+    """A constant on a search limit whose profile is flat (the fit rejects no value up to the
+    search's other end): dotted from the limit to that end (G13: 0.003 -> 18.5 GPa, off the
+    panel, clipped at its top; nu12: 0.95 -> 0 within the panel), not a bound."""
+    from laminid_cli.report import constants_across_page
+
+    mats = {"glass": {"E1": 45e9, "E2": 9e9, "G12": 3e9, "G13": 3e6, "G23": 3e9, "nu12": 0.95}}
+    flat = dict(verdict="at bound — not identified", at_bound=True, profile="flat",
+                profile_bound=None)
+    row = {"name": "H1", "status": "check", "intervals": {"glass": {
+        "G13": dict(flat, bound_side="lower", bound_limit=3e6, profile_far=18.5e9),
+        "nu12": dict(flat, bound_side="upper", bound_limit=0.95, profile_far=0.0)}}}
+    fig = constants_across_page([(row, mats, None)], "t")
+    g = ax(fig, "across-G13")
+    (line,) = [ln for ln in g.get_lines() if ln.get_gid() == "profile"]
+    lo, hi = sorted(line.get_ydata())
+    assert lo == pytest.approx(0.003) and hi == pytest.approx(g.get_ylim()[1]) and hi < 18.5
+    n = ax(fig, "across-nu12")
+    (line,) = [ln for ln in n.get_lines() if ln.get_gid() == "profile"]
+    assert sorted(line.get_ydata()) == pytest.approx([0.0, 0.95])
+    assert n.get_ylim()[0] <= 0.0
 
 
 def test_report_errors(batch_dir, tmp_path):
