@@ -13,11 +13,14 @@ the identified constants, noise-free), eta13 and eta23 fixed:
   their own constants are not.
 """
 
+import json
+
+import h5py
 import numpy as np
 import pytest
 
 from laminid_cli import damping as D
-from laminid_cli.pipeline import RunOptions, run_identification
+from laminid_cli.pipeline import RunOptions, run_identification, write_result
 from laminid_cli.uncertainty import UncertaintyOptions
 from tests.dampspec import damped_copy
 
@@ -83,6 +86,49 @@ def test_with_the_stiffness_exact_the_spread_is_the_intervals(exact):
     assert all("(Monte Carlo)" not in v for v in fit.verdict)
 
 
+def test_a_loss_factor_leaning_on_undetermined_constants_gets_the_worse_verdict(leaning):
+    """(b) S1.1's modes leave nu12, G13 and G23 undetermined; eta22 leans on nu12 (its share
+    of the Q12 term): its interval (+-4.0 %, the constants taken as exact) says "well
+    determined", the trials' refits at their own constants spread it over more than 5 % for
+    sure: "weak (Monte Carlo)", and the note says why. (Seed 0, 40 trials: eta22 +-9.5 %,
+    at least +-7.1 %.)"""
+    _, run = leaning
+    fit = run.damping
+    k = fit.labels.index("IM7/977-2.eta22")
+    assert fit.rel_half_width[k] < 0.05
+    dmc = fit.monte_carlo
+    assert dmc.std[k] > 1.5 * fit.std[k]
+    sure = fit.mc_rel_half_width_lower[k]
+    assert sure > 0.05 and fit.mc_rel_half_width[k] > sure
+    assert fit.verdict[k] == "weak (Monte Carlo)"
+    assert "IM7/977-2.eta22" in fit.verdict_from_monte_carlo
+    note = [n for n in fit.notes if n.startswith("verdict set by the Monte Carlo range")]
+    assert len(note) == 1
+    width = D._pct
+    assert (f"IM7/977-2.eta22 (Monte Carlo ±{width(fit.mc_rel_half_width[k])}, at least "
+            f"±{width(sure)}; interval ±{width(fit.rel_half_width[k])})") in note[0]
+    assert note[0].endswith("(the width its trials show with 90 % confidence): the interval "
+                            "takes the elastic constants as exact, each trial refits the loss "
+                            "factors at its own identified constants, so the range counts "
+                            "their doubt")
+    doubt = [n for n in fit.notes if "take the elastic constants as identified" in n]
+    assert doubt and doubt[0].endswith("the Monte Carlo range counts the free constants' "
+                                       "doubt (each trial refits the loss factors at its own "
+                                       "constants)")
+    # the JSON block and the terminal
+    d = json.loads(json.dumps(run.summary["damping"], default=lambda a: np.asarray(a).tolist()))
+    assert d["loss_factors"]["IM7/977-2"]["eta22"]["verdict_from"] == "monte_carlo"
+    assert d["monte_carlo"]["loss_factors"]["IM7/977-2"]["eta22"]["lower"] == dmc.lower[k]
+    from laminid_cli.commands.text import format_damping
+
+    text = "\n".join(format_damping(d))
+    assert "eta22            1.200         1.15 .. 1.25  weak (Monte Carlo)" in text
+    assert ("Monte Carlo: 40 of 40 trials refitted the loss factors at their own constants "
+            "(measured damping perturbed by sigma x 1") in text
+    row = [x for x in text.splitlines() if x.startswith("  eta22 ") and ".." in x][-1]
+    assert f"{100 * dmc.lower[k]:.3g} .. {100 * dmc.upper[k]:.3g}" in row
+
+
 def test_a_trials_refit_is_the_main_fit_at_its_constants_and_damping(leaning):
     """(c) One trial (the 7th converged) against the main damping fit run directly at the
     trial's identified constants and its draw of the measured damping: with the trial's own
@@ -113,3 +159,41 @@ def test_a_trials_refit_is_the_main_fit_at_its_constants_and_damping(leaning):
     assert np.abs(full - mc.energy_shares[k]).max() < 1e-4
     refit = D.fit_loss_factors(full, eta, sig, labels, fixed=fit.fixed).value
     assert np.allclose(refit, fit.monte_carlo.samples[k], rtol=2e-4, atol=0)
+
+
+def test_hdf5_round_trip_and_an_older_file_without_it(leaning):
+    """(d) /damping/monte_carlo and the new /damping datasets read back as written; a file
+    without them (as written before) still reads, its damping page drawn."""
+    from laminid_cli.report_damping import damping_figures, read_damping
+    from laminid_cli.resultfile import read_result
+
+    tmp, run = leaning
+    path = write_result(tmp / "r.h5", run)
+    fit, dmc = run.damping, run.damping.monte_carlo
+    r = read_result(path)
+    m = r.damping.monte_carlo
+    for key in ("samples", "mean", "std", "lower", "upper", "inner_lower", "inner_upper",
+                "linearized_std"):
+        assert np.array_equal(m[key], getattr(dmc, key), equal_nan=True), key
+    assert np.array_equal(m["trials_at_zero"], dmc.trials_at_zero)
+    assert m["refits"] == 40 and m["trials"] == 40 and m["seed"] == 0
+    assert m["stream"] == D.DAMPING_STREAM
+    assert np.array_equal(r.damping.data["monte_carlo_rel_half_width_lower"],
+                          fit.mc_rel_half_width_lower)
+    assert r.damping.attrs["verdict_from_monte_carlo"] == ",".join(fit.verdict_from_monte_carlo)
+    assert list(r.damping.data["verdict"]) == list(fit.verdict)
+    d = read_damping(r)
+    assert d["verdict_from_monte_carlo"] == list(fit.verdict_from_monte_carlo)
+    # an older file: no Monte Carlo group, datasets or attribute
+    old = tmp / "old.h5"
+    old.write_bytes(path.read_bytes())
+    with h5py.File(old, "a") as f:
+        g = f["damping"]
+        del g["monte_carlo"], g["monte_carlo_rel_half_width"]
+        del g["monte_carlo_rel_half_width_lower"]
+        del g.attrs["verdict_from_monte_carlo"]
+    r = read_result(old)
+    assert r.damping.monte_carlo is None
+    d = read_damping(r)
+    assert d["monte_carlo"] is None and d["verdict_from_monte_carlo"] == []
+    assert damping_figures(r)[0][0] == "damping"
