@@ -145,7 +145,16 @@ def term_energies(plate, constants, phi) -> np.ndarray:
 
 def energy_shares(plate, constants, phi) -> np.ndarray:
     """U_mik / U_i, (n_modes, n_materials * 5), columns material-major (m, k); rows sum to 1."""
-    U = term_energies(plate, constants, phi)
+    return shares_of_energies(plate.basis_energies(np.asarray(phi, float)), constants)
+
+
+def shares_of_energies(E, constants) -> np.ndarray:
+    """:func:`energy_shares` from the basis strain energies ``E = phi_i^T K_basis[m, j] phi_i``
+    (n_materials, 6, n_modes) of the modes: PlateModel.basis_energies, or a reduced model's
+    ``y^T Kr_mj y`` (the same quadratic form of the Ritz vector V y; the Monte Carlo trials',
+    laminid_cli.uncertainty.TrialModes.energies)."""
+    X = np.array([term_coefficients(c) for c in constants])         # (n_mat, 5, 6)
+    U = np.einsum("mkj,mji->mki", X, np.asarray(E, float))
     U = U.reshape(-1, U.shape[-1]).T                                # (n_modes, n_mat * 5)
     return U / U.sum(axis=1, keepdims=True)
 
@@ -330,6 +339,16 @@ class DampingFit:
     sigma_source: str
     notes: tuple[str, ...] = ()
     method: str = METHOD
+    #: the variance factor of the intervals (s2 where they are scaled by the residuals, else 1)
+    variance_factor: float = 1.0
+    #: the loss factors refitted in each Monte Carlo trial (:func:`with_monte_carlo_damping`)
+    monte_carlo: "DampingMonteCarlo | None" = None
+    #: per free loss factor: the Monte Carlo range's half-width / value, and the width for
+    #: sure that the verdicts use (NaN: too few trials); None without a Monte Carlo
+    mc_rel_half_width: np.ndarray | None = None
+    mc_rel_half_width_lower: np.ndarray | None = None
+    #: the loss factors whose verdict the Monte Carlo range made worse
+    verdict_from_monte_carlo: tuple[str, ...] = ()
 
     def loss_factors(self) -> dict[str, float]:
         """Every loss factor (free and fixed), "material.etaXY" -> value."""
@@ -349,10 +368,16 @@ class DampingFit:
                 "at_bound": bool(self.at_bound[k]),
                 "bound_side": "lower" if self.at_bound[k] else "",
                 "bound_limit": 0.0 if self.at_bound[k] else None}
+            if self.mc_rel_half_width is not None:
+                per[mat][name].update(
+                    monte_carlo_rel_half_width=float(self.mc_rel_half_width[k]),
+                    monte_carlo_rel_half_width_lower=float(self.mc_rel_half_width_lower[k]),
+                    verdict_from=("monte_carlo" if lab in self.verdict_from_monte_carlo
+                                  else "interval"))
         for lab, v in self.fixed.items():
             mat, name = lab.rsplit(".", 1)
             per.setdefault(mat, {})[name] = {"value": float(v), "verdict": VERDICT_FIXED}
-        return {
+        out = {
             "method": self.method, "terms": ",".join(TERMS), "unit": "1",
             "loss_factors": per,
             "labels": list(self.labels), "value": self.value, "std": self.std,
@@ -369,6 +394,31 @@ class DampingFit:
             "scaling": {"requested": self.scaling, "used": self.scale_used},
             "sigma_source": self.sigma_source, "notes": list(self.notes),
         }
+        if self.monte_carlo is not None:
+            out["monte_carlo"] = self.monte_carlo.as_dict()
+            out["verdict_from_monte_carlo"] = list(self.verdict_from_monte_carlo)
+        return out
+
+
+def _bounded_solve(A_all, y_all, s_all, used, eta_fixed, free):
+    """The fit's bounded weighted least squares (eta >= 0, the ``eta_fixed`` columns held):
+    (x of the free columns, at_bound, weighted design Aw, weighted data b, column scale).
+    :func:`fit_loss_factors` and the Monte Carlo refits (:func:`monte_carlo_loss_factors`)
+    both solve with it."""
+    from scipy.optimize import lsq_linear
+
+    A = A_all[used][:, free]
+    w = 1.0 / s_all[used]
+    b = (y_all[used] - A_all[used] @ eta_fixed) * w
+    Aw = A * w[:, None]
+    scale = np.linalg.norm(Aw, axis=0)
+    scale[scale == 0] = 1.0
+    sol = lsq_linear(Aw / scale, b, bounds=(0.0, np.inf), method="bvls", tol=1e-14,
+                     lsmr_tol=None)
+    x = np.maximum(sol.x / scale, 0.0)
+    at_bound = np.asarray(sol.active_mask) == -1          # held at eta = 0 by the bound
+    x[at_bound] = 0.0
+    return x, at_bound, Aw, b, scale
 
 
 def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
@@ -381,7 +431,6 @@ def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
     "material.etaXY"; fixed : {label: value} columns held.
     """
     from laminid_cli.quantiles import chi2_ppf
-    from scipy.optimize import lsq_linear
 
     if scaling not in SCALINGS:
         raise FitInputError(f"covariance scaling '{scaling}' unknown: choose {', '.join(SCALINGS)}")
@@ -404,17 +453,7 @@ def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
                             "measure the damping of more modes or fix loss factors "
                             "(--fix eta13=0.01,eta23=0.01)")
     eta_fixed = np.array([fixed.get(lab, 0.0) for lab in labels])
-    A = A_all[used][:, free]
-    w = 1.0 / s_all[used]
-    b = (y_all[used] - A_all[used] @ eta_fixed) * w
-    Aw = A * w[:, None]
-    scale = np.linalg.norm(Aw, axis=0)
-    scale[scale == 0] = 1.0
-    sol = lsq_linear(Aw / scale, b, bounds=(0.0, np.inf), method="bvls", tol=1e-14,
-                     lsmr_tol=None)
-    x = np.maximum(sol.x / scale, 0.0)
-    at_bound = np.asarray(sol.active_mask) == -1          # held at eta = 0 by the bound
-    x[at_bound] = 0.0
+    x, at_bound, Aw, b, scale = _bounded_solve(A_all, y_all, s_all, used, eta_fixed, free)
     inner = ~at_bound
 
     # covariance of the interior loss factors (pseudo-inverse: null directions get inf)
@@ -473,7 +512,7 @@ def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
         model_loss_factor=A_all @ eta_all, used=used, energy_shares=A_all,
         share_labels=(), s2=float(s2), chi2=chi2, dof=int(dof), confidence=confidence,
         quantile=q, scaling=scaling, scale_used=used_scale, sigma_source=sigma_source,
-        notes=tuple(notes))
+        notes=tuple(notes), variance_factor=float(factor))
 
 
 def loss_labels(material_names) -> tuple[str, ...]:
@@ -511,15 +550,23 @@ def identify_damping(fm, result, damping: MeasuredDamping, *, fix=(), scaling: s
 
 def damping_of(fm, assessment, fix=()) -> DampingFit | None:
     """The damping step of ``identify``/``batch``: loss factors when the specimen has measured
-    damping, else None. ``assessment``: laminid_cli.uncertainty.Assessment of ``fm``."""
+    damping, else None. ``assessment``: laminid_cli.uncertainty.Assessment of ``fm``; when it
+    has a Monte Carlo whose trials kept their energy shares, each trial refits the loss
+    factors (:func:`monte_carlo_loss_factors`, :func:`with_monte_carlo_damping`)."""
     d = measured_damping(fm.specimen.measured)
     if d is None:
         return None
     u = assessment.uncertainty
     fit = identify_damping(fm, assessment.result, d, fix=fix, scaling=u.scaling,
                            confidence=u.confidence)
-    note = stiffness_doubt_note(fit, u, assessment.fixed_undetermined)
-    return fit if not note else dataclasses.replace(fit, notes=fit.notes + (note,))
+    mc = getattr(assessment, "monte_carlo", None)
+    counted = mc is not None and mc.energy_shares is not None
+    note = stiffness_doubt_note(fit, u, assessment.fixed_undetermined, counted)
+    if note:
+        fit = dataclasses.replace(fit, notes=fit.notes + (note,))
+    if counted:
+        fit = with_monte_carlo_damping(fit, monte_carlo_loss_factors(fit, mc))
+    return fit
 
 
 #: the loss factor whose strain-energy share each elastic constant sets (nu12 couples 11, 22)
@@ -527,11 +574,14 @@ TERMS_OF = {"E1": ("11",), "E2": ("22",), "G12": ("12",), "G13": ("13",), "G23":
             "nu12": ("11", "22")}
 
 
-def stiffness_doubt_note(fit, u, fixed_undetermined=()) -> str:
+def stiffness_doubt_note(fit, u, fixed_undetermined=(), monte_carlo: bool = False) -> str:
     """A note when free loss factors lean on elastic constants the modes did not determine
     (flagged, at a limit, or fixed by --fix-undetermined): the loss factors' intervals take
     the constants as identified (the energy shares are computed with them), so those loss
-    factors are known less well than their intervals say. "" when none does."""
+    factors are known less well than their intervals say. "" when none does. With
+    ``monte_carlo`` (each trial refitted the loss factors at its own constants) the note
+    says that the Monte Carlo ranges count it (a constant fixed by --fix-undetermined is
+    held by the trials too, so its doubt is not in them)."""
     doubtful = set(u.flagged) | set(fixed_undetermined)
     if u.at_bound is not None:
         doubtful |= {lab for lab, b in zip(u.labels, u.at_bound) if b}
@@ -549,7 +599,173 @@ def stiffness_doubt_note(fit, u, fixed_undetermined=()) -> str:
             "identified, and " + ", ".join(why) + (" is" if len(why) == 1 else " are")
             + " not determined by the modes (or fixed because of it): "
             + ("this loss factor is" if len(hit) == 1 else "these loss factors are")
-            + " known less well than the interval says")
+            + " known less well than the interval says"
+            + ("; the Monte Carlo range counts the free constants' doubt (each trial refits "
+               "the loss factors at its own constants)" if monte_carlo else ""))
+
+
+# ----------------------------------------------------------------------------------------------
+# Monte Carlo: each trial refits the loss factors at its own constants
+
+#: the stream of the measured damping's draws: ``numpy.random.default_rng([seed, 16])``, of
+#: its own, so that the frequencies (stream ``seed``) and the priors' draws (``[seed, 15]``)
+#: are what they are without damping
+DAMPING_STREAM = 16
+
+
+@dataclass(frozen=True)
+class DampingMonteCarlo:
+    """The free loss factors refitted in each converged Monte Carlo trial.
+
+    Trial t (0-based, in the order the frequencies were drawn) takes its modes' strain-energy
+    shares at its own identified constants (laminid_cli.uncertainty.MonteCarlo.energy_shares)
+    and the measured modal loss factors perturbed by ``eta_sigma_i * sigma_factor *
+    N(0, 1)`` (row t of :data:`DAMPING_STREAM`'s (n_trials, n_modes) draws), and solves the
+    main fit's bounded least squares (eta >= 0, the fixed loss factors held, the same modes).
+
+    labels : the free loss factors; samples (n_refits, p); mean, std, lower, upper (the
+    (1 - confidence)/2 quantiles), inner_lower, inner_upper (the range for sure,
+    laminid_cli.uncertainty.inner_range_of) per label; trials_at_zero : refits that held
+    the loss factor at 0; lower_at_zero : that end of the range is the bound's, not the
+    data's (laminid_cli.uncertainty.range_ends_at_bound); linearized_std : the fit's std;
+    sigma_factor : sqrt of the fit's variance factor (so both describe the same noise);
+    time_s : the refits' time (the energy shares came with the trials)
+    """
+
+    labels: tuple[str, ...]
+    n_trials: int
+    n_refits: int
+    samples: np.ndarray
+    mean: np.ndarray
+    std: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    inner_lower: np.ndarray
+    inner_upper: np.ndarray
+    trials_at_zero: np.ndarray
+    lower_at_zero: np.ndarray
+    linearized_std: np.ndarray
+    sigma_factor: float
+    seed: int | None
+    confidence: float
+    evidence_level: float
+    time_s: float
+
+    def as_dict(self) -> dict:
+        per: dict[str, dict] = {}
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = self.std / self.linearized_std
+        for k, lab in enumerate(self.labels):
+            mat, name = lab.rsplit(".", 1)
+            per.setdefault(mat, {})[name] = {
+                "mean": float(self.mean[k]), "std": float(self.std[k]),
+                "lower": float(self.lower[k]), "upper": float(self.upper[k]),
+                "inner_lower": float(self.inner_lower[k]),
+                "inner_upper": float(self.inner_upper[k]),
+                "linearized_std": float(self.linearized_std[k]), "ratio": float(ratio[k]),
+                "trials_at_zero": int(self.trials_at_zero[k]),
+                "lower_at_zero": bool(self.lower_at_zero[k])}
+        return {"trials": self.n_trials, "refits": self.n_refits, "loss_factors": per,
+                "sigma_factor": self.sigma_factor, "seed": self.seed,
+                "confidence": self.confidence, "evidence_level": self.evidence_level,
+                "time_s": self.time_s, "stream": DAMPING_STREAM}
+
+
+def trial_damping(fit: DampingFit, n_trials: int, seed) -> np.ndarray:
+    """The measured modal loss factors of every Monte Carlo trial, (n_trials, n_modes): the
+    fit's measured ones plus ``measured_sigma * sqrt(variance_factor) * N(0, 1)`` from
+    :data:`DAMPING_STREAM` (NaN where the fit uses no mode)."""
+    rng = np.random.default_rng(None if seed is None else [int(seed), DAMPING_STREAM])
+    y = np.where(fit.used, fit.measured_loss_factor, np.nan)
+    noise = rng.standard_normal((int(n_trials), y.size))
+    return y + noise * np.nan_to_num(fit.measured_sigma) * np.sqrt(fit.variance_factor)
+
+
+def monte_carlo_loss_factors(fit: DampingFit, mc) -> DampingMonteCarlo:
+    """Refit the free loss factors of ``fit`` in each converged trial of ``mc`` (a
+    laminid_cli.uncertainty.MonteCarlo with ``energy_shares``): :class:`DampingMonteCarlo`.
+    One small bounded least squares per trial (:func:`_bounded_solve`, the main fit's)."""
+    import time
+
+    from laminid_cli.uncertainty import MC_EVIDENCE, inner_range_of, range_ends_at_bound
+
+    t0 = time.perf_counter()
+    all_labels = tuple(lab.rsplit(".", 1)[0] + ".eta" + lab.rsplit(".", 1)[1]
+                       for lab in fit.share_labels)
+    free = [j for j, lab in enumerate(all_labels) if lab not in fit.fixed]
+    eta_fixed = np.array([fit.fixed.get(lab, 0.0) for lab in all_labels])
+    y_all = trial_damping(fit, mc.n_trials, mc.seed)
+    s_all = np.where(fit.used, fit.measured_sigma, np.nan)
+    rows, zero = [], np.zeros(len(free), int)
+    for t, A in zip(np.asarray(mc.trials, int), np.asarray(mc.energy_shares, float)):
+        x, at_bound = _bounded_solve(A, y_all[t], s_all, fit.used, eta_fixed, free)[:2]
+        rows.append(x)
+        zero += at_bound
+    p = len(free)
+    samples = np.array(rows) if rows else np.zeros((0, p))
+    conf = fit.confidence
+    if samples.shape[0] >= 2:
+        mean, std = samples.mean(axis=0), samples.std(axis=0, ddof=1)
+        lower, upper = np.quantile(samples, [(1 - conf) / 2, (1 + conf) / 2], axis=0)
+    else:
+        mean = std = lower = upper = np.full(p, np.nan)
+    in_lo, in_hi = inner_range_of(samples, p, conf, MC_EVIDENCE)
+    lower_at_zero = range_ends_at_bound(zero, np.zeros(p, int), samples.shape[0], conf)[0]
+    return DampingMonteCarlo(
+        labels=fit.labels, n_trials=mc.n_trials, n_refits=samples.shape[0], samples=samples,
+        mean=mean, std=std, lower=lower, upper=upper, inner_lower=in_lo, inner_upper=in_hi,
+        trials_at_zero=zero, lower_at_zero=lower_at_zero, linearized_std=fit.std,
+        sigma_factor=float(np.sqrt(fit.variance_factor)), seed=mc.seed, confidence=conf,
+        evidence_level=MC_EVIDENCE, time_s=time.perf_counter() - t0)
+
+
+def _pct(rel: float) -> str:
+    from laminid_cli.intervals import width_text
+
+    return width_text(rel) if np.isfinite(rel) else "inf"
+
+
+def with_monte_carlo_damping(fit: DampingFit, dmc: DampingMonteCarlo) -> DampingFit:
+    """``fit`` with its Monte Carlo (:func:`monte_carlo_loss_factors`) and the verdicts the
+    Monte Carlo makes worse, by the rule of the elastic constants'
+    (laminid_cli.uncertainty.with_monte_carlo): the range's width for sure
+    (``inner_upper - inner_lower``, half of it over the value) in a worse band than the
+    interval's gives that band's verdict marked "(Monte Carlo)", and a note says why (the
+    interval takes the constants as exact; the trials refit at their own). Never better;
+    a loss factor held at 0 keeps its verdict. The intervals stay the linearised ones."""
+    from laminid_cli.uncertainty import MC_MARK, _verdict_rank
+
+    p = len(fit.labels)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel_mc = np.where(fit.value > 0, 0.5 * (dmc.upper - dmc.lower) / fit.value, np.inf)
+        rel_lo = np.where(fit.value > 0, 0.5 * (dmc.inner_upper - dmc.inner_lower)
+                          / fit.value, np.inf)
+    rel_mc = np.where(np.isfinite(dmc.upper), rel_mc, np.nan)
+    rel_lo = np.where(np.isfinite(dmc.inner_upper), rel_lo, np.nan)
+    verdict, changed, why = list(fit.verdict), [], []
+    for k, lab in enumerate(fit.labels):
+        if fit.at_bound[k] or not np.isfinite(rel_lo[k]):
+            continue
+        if _verdict_rank(rel_lo[k]) > _verdict_rank(fit.rel_half_width[k]):
+            # the damping's own words for "not determined" (as fit_loss_factors)
+            head, _, tail = verdict_of(rel_lo[k], False).replace(
+                VERDICT_NOT, VERDICT_NOT_DAMPING.format(term=lab.rsplit(".", 1)[-1])
+            ).partition(" — ")
+            verdict[k] = head + MC_MARK + (" — " + tail if tail else "")
+            changed.append(lab)
+            why.append(f"{lab} (Monte Carlo ±{_pct(rel_mc[k])}, at least ±{_pct(rel_lo[k])}; "
+                       f"interval ±{_pct(fit.rel_half_width[k])})")
+    notes = fit.notes
+    if changed:
+        sure = 100 * (2 * dmc.evidence_level - 1)
+        notes = notes + (
+            "verdict set by the Monte Carlo range, wider than the interval: " + ", ".join(why)
+            + f" (the width its trials show with {sure:.0f} % confidence): the interval takes "
+            "the elastic constants as exact, each trial refits the loss factors at its own "
+            "identified constants, so the range counts their doubt",)
+    return dataclasses.replace(fit, verdict=tuple(verdict), notes=notes, monte_carlo=dmc,
+                               mc_rel_half_width=rel_mc, mc_rel_half_width_lower=rel_lo,
+                               verdict_from_monte_carlo=tuple(changed))
 
 
 # ----------------------------------------------------------------------------------------------

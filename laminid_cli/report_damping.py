@@ -7,7 +7,9 @@ One page (A4 landscape):
   fit (frequency weight 0) hollow;
 - the strain-energy shares U_mik / U_i of each mode (%) as stacked bars, one colour per
   material term (11, 22, 12, 13, 23);
-- the identified loss factors with their intervals and verdicts, fixed ones marked.
+- the identified loss factors with their intervals and verdicts, fixed ones marked; with
+  --monte-carlo, each free one's Monte Carlo range under its interval (each trial refitted
+  the loss factors at its own constants) and, where that range set the verdict, its widths.
 
 Every number drawn is read from the result file by the typed reader. ``laminid_cli.report`` adds the page when the
 file has ``/damping`` (one-line hook); matplotlib is imported inside the functions.
@@ -40,6 +42,10 @@ def read_damping(result) -> dict | None:
     d["verdict"] = list(g.data["verdict"])
     d["share_labels"] = str(g.dataset_attrs["energy_shares"]["labels"]).split(",")
     d["specimen"] = r.plates[0].name if r.plates else ""
+    # the loss factors' Monte Carlo (files before it have none)
+    d["monte_carlo"] = g.monte_carlo
+    d["verdict_from_monte_carlo"] = [x for x in str(g.attrs.get("verdict_from_monte_carlo",
+                                                                "")).split(",") if x]
     return d
 
 
@@ -65,11 +71,25 @@ def loss_factor_rows(d: dict) -> list[list[str]]:
     from laminid_cli.report import short_verdict
 
     rows = []
+    mc = d.get("monte_carlo") or {}
+    from_mc = set(d.get("verdict_from_monte_carlo") or ())
     for k, lab in enumerate(d["labels"]):
         lo = 0.0 if d["at_bound"][k] else 100 * d["lower"][k]
         interval = f"[{lo:.3g}, {100 * d['upper'][k]:.3g}]"
         verdict = ("held at 0 by η ≥ 0: not identified" if d["at_bound"][k]
                    else short_verdict(d["verdict"][k]))
+        if "lower" in mc:
+            # the range of the loss factor refitted in each trial at its own constants
+            mlo, mhi = np.ravel(mc["lower"])[k], np.ravel(mc["upper"])[k]
+            zero = "*" if bool(np.ravel(mc.get("lower_at_zero", [0] * (k + 1)))[k]) else ""
+            interval += f"\nMonte Carlo {100 * mlo:.3g}{zero}–{100 * mhi:.3g}"
+            if lab in from_mc:
+                value = d["value"][k]
+                rel = 0.5 * (mhi - mlo) / value
+                sure = 0.5 * (np.ravel(mc["inner_upper"])[k]
+                              - np.ravel(mc["inner_lower"])[k]) / value
+                verdict = verdict.replace(" (Monte Carlo)", "") + (
+                    f" (Monte Carlo\n±{100 * rel:.0f} %, ±{100 * sure:.0f} % for sure)")
         rows.append([lab, f"{100 * d['value'][k]:.3f}", interval, verdict])
     for item in filter(None, str(d.get("fixed", "")).split(",")):
         lab, value = item.rsplit("=", 1)
@@ -98,7 +118,10 @@ def loss_factor_table(ax, head, rows, col_widths):
     table.auto_set_font_size(False)
     table.set_fontsize(8)
     last = len(head) - 1
+    # a row with a second line (the Monte Carlo range under an interval) is that much taller
+    lines = [1] + [max(str(c).count("\n") + 1 for c in row) for row in rows]
     for (i, j), cell in table.get_celld().items():    # the look of the other report tables
+        cell.set_height(cell.get_height() * lines[i])
         cell.set_linewidth(0.3)
         if i == 0:
             cell.set_text_props(weight="bold")
@@ -178,9 +201,13 @@ def damping_page(d: dict):
     advice = loss_factor_table(ax_t, ["loss factor", "value (%)", f"{conf:.0f} % interval (%)",
                                       "verdict"], rows, [0.28, 0.14, 0.22, 0.36])
     s2 = float(d.get("s2", np.nan))
+    mc = d.get("monte_carlo") or {}
     ax_t.set_title(f"ply loss factors, modal strain energy method (s\u00b2 = {s2:.3g}, "
                    f"{int(d.get('dof', 0))} degrees of freedom; damping sigma: "
-                   f"{d.get('sigma_source', '') or '-'})", fontsize=9)
+                   f"{d.get('sigma_source', '') or '-'})"
+                   + (f"\nMonte Carlo: {int(mc['refits'])} trials refitted the loss factors at "
+                      f"their own constants ({conf:.0f} % of them in the range; * an end at "
+                      "the bound 0)" if "refits" in mc else ""), fontsize=9)
     if advice:      # above the table: under it, a table of two materials ran over the words
         ax_t.text(0.5, 1.0, advice, transform=ax_t.transAxes, ha="center", va="bottom",
                   fontsize=8, gid="loss-factor-note")

@@ -135,6 +135,9 @@ class Damping:
     attrs: dict
     data: dict
     dataset_attrs: dict = field(default_factory=dict)    # {dataset: {attribute: value}}
+    #: /damping/monte_carlo: its datasets (arrays) and attributes in one dict; None in files
+    #: without (no --monte-carlo, or written before the loss factors' Monte Carlo)
+    monte_carlo: dict | None = None
 
 
 @dataclass(frozen=True)
@@ -551,7 +554,12 @@ def _damping(f) -> Damping | None:
         x = v[()]
         data[k] = _strings(v) if v.dtype.kind in "OSU" else np.asarray(x)
         ds_attrs[k] = {a: decode(y) for a, y in v.attrs.items()}
-    return Damping({k: decode(v) for k, v in g.attrs.items()}, data, ds_attrs)
+    mc = None
+    if "monte_carlo" in g:
+        m = g["monte_carlo"]
+        mc = {k: np.asarray(v[()]) for k, v in m.items()} | {
+            k: decode(v) for k, v in m.attrs.items()}
+    return Damping({k: decode(v) for k, v in g.attrs.items()}, data, ds_attrs, mc)
 
 
 def read_result(path) -> ResultFile:

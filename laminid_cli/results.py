@@ -113,7 +113,18 @@ With measured damping (``measured.damping`` or an FRF file; laminid_cli.damping)
                           measured_loss_factor (2 zeta), measured_sigma, model_loss_factor,
                           used (bool) per measured mode (NaN where not measured);
                           energy_shares (n_modes, n_materials * 5) with attr labels
-                          ("material.k" columns, k = 11, 22, 12, 13, 23)
+                          ("material.k" columns, k = 11, 22, 12, 13, 23);
+                          with --monte-carlo: attr verdict_from_monte_carlo (labels, comma-
+                          separated) and monte_carlo_rel_half_width,
+                          monte_carlo_rel_half_width_lower (1, per label; the width for sure
+                          that the verdicts use; NaN: too few trials)
+    /damping/monte_carlo  with --monte-carlo (each trial refitted the loss factors at its own
+                          constants, laminid_cli.damping.monte_carlo_loss_factors): attrs
+                          trials, refits, sigma_factor, seed, confidence, evidence_level,
+                          time_s, stream; samples (n_refits, p), mean, std, lower, upper,
+                          inner_lower, inner_upper, linearized_std (1, per label of /damping),
+                          trials_at_zero, lower_at_zero (0/1: that end is the bound eta >= 0)
+                          (files before it have neither: the reader gives None)
 
 Joint identifications ("laminid-joint-result", several plates sharing materials): root attrs as
 above plus specimens (names, comma-separated); /materials/<name> and /initial/<name> once
@@ -764,3 +775,36 @@ def write_damping(f, d) -> None:
     put(g, "energy_shares", d.energy_shares, "1", labels=",".join(d.share_labels),
         description="U_mik / U_i: strain energy of mode i in term k of material m (material "
         "axes; the nu12 coupling split equally between 11 and 22)")
+    mc = getattr(d, "monte_carlo", None)
+    if mc is None:
+        return
+    g.attrs["verdict_from_monte_carlo"] = ",".join(d.verdict_from_monte_carlo)
+    put(g, "monte_carlo_rel_half_width", np.asarray(d.mc_rel_half_width, float), "1",
+        description="the loss factors' Monte Carlo range half-width / value")
+    put(g, "monte_carlo_rel_half_width_lower", np.asarray(d.mc_rel_half_width_lower, float),
+        "1", description="half-width / value of the range its trials show for sure "
+        "(monte_carlo/@evidence_level): the width its verdicts use; NaN: too few trials")
+    gm = g.create_group("monte_carlo")
+    for key, value in (("trials", mc.n_trials), ("refits", mc.n_refits),
+                       ("sigma_factor", mc.sigma_factor),
+                       ("seed", -1 if mc.seed is None else mc.seed),
+                       ("confidence", mc.confidence), ("evidence_level", mc.evidence_level),
+                       ("time_s", mc.time_s), ("stream", _damping_stream())):
+        gm.attrs[key] = value
+    gm.attrs["description"] = ("each converged trial refitted the free loss factors at its own "
+                               "identified constants (its modes' strain-energy shares) from the "
+                               "measured damping perturbed by its sigma x sigma_factor")
+    for key in ("samples", "mean", "std", "lower", "upper", "inner_lower", "inner_upper",
+                "linearized_std"):
+        put(gm, key, np.asarray(getattr(mc, key), float), "1")
+    put(gm, "trials_at_zero", np.asarray(mc.trials_at_zero, int), "1",
+        description="refits that held the loss factor at its bound 0")
+    put(gm, "lower_at_zero", np.asarray(mc.lower_at_zero, np.int8), "1",
+        description="1: the range's lower end is set by refits at the bound 0 (the bound's "
+        "end, not the data's)")
+
+
+def _damping_stream() -> int:
+    from laminid_cli.damping import DAMPING_STREAM
+
+    return DAMPING_STREAM

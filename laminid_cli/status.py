@@ -233,7 +233,8 @@ def result_status(result, uncertainty=None, damping=None) -> ResultStatus:
 def damping_reasons(damping, max_rel_interval: float | None = None) -> list[tuple[str, str]]:
     """(code, text) of the ply loss factors' fit (module docstring): free loss factors held at
     0 (``at_bound``), with a 95 % half-width above ``max_rel_interval`` of their value
-    (default :data:`laminid_cli.intervals.WEAK`; ``undetermined``), and a fit whose chi2 is
+    (default :data:`laminid_cli.intervals.WEAK`; ``undetermined``; or whose Monte Carlo range
+    shows that much for sure), and a fit whose chi2 is
     above its 99 % quantile (``poor_fit``)."""
     from laminid_cli.intervals import WEAK
     from laminid_cli.quantiles import chi2_ppf
@@ -245,11 +246,22 @@ def damping_reasons(damping, max_rel_interval: float | None = None) -> list[tupl
     if at:
         out.append(("at_bound", "loss factors held at their lower limit 0 (the measured damping "
                                 "asks for less than none in these terms): " + ", ".join(at)))
-    und = [(lab, rel) for lab, rel, b in zip(damping.labels, damping.rel_half_width,
-                                             damping.at_bound)
-           if not b and not rel <= limit]
+    sure = getattr(damping, "mc_rel_half_width_lower", None)
+    sure = np.full(len(damping.labels), np.nan) if sure is None else np.asarray(sure, float)
+    mc = getattr(damping, "mc_rel_half_width", None)
+
+    def width(k, rel):
+        # flagged by the Monte Carlo range (each trial refitted the loss factors at its own
+        # constants; the width its trials show for sure) where the interval was narrower
+        if rel <= limit and sure[k] > limit:
+            return (f"Monte Carlo ±{_pct(mc[k])}, at least ±{_pct(sure[k])}; "
+                    f"interval ±{_pct(rel)}")
+        return f"±{_pct(rel)}"
+    und = [(lab, width(k, rel)) for k, (lab, rel, b) in enumerate(zip(
+               damping.labels, damping.rel_half_width, damping.at_bound))
+           if not b and (not rel <= limit or sure[k] > limit)]
     if und:
-        words = ", ".join(f"{lab} (±{_pct(rel)})" for lab, rel in und)
+        words = ", ".join(f"{lab} ({w})" for lab, w in und)
         out.append(("undetermined", f"loss factors not determined by the measured damping "
                                     f"({conf} half-width above {limit * 100:.0f} % of the "
                                     f"value): {words}"))

@@ -774,13 +774,19 @@ TRIAL_RITZ = 2
 
 class TrialModes(NamedTuple):
     """The trial model at one point: the paired Ritz values ``lam`` (rad^2/s^2), the pairing
-    (model mode of each measured one), the reduced eigenvectors ``Y`` (all computed modes)
-    and ``dlam_dx``, d lambda / d x of the paired modes."""
+    (model mode of each measured one), the reduced eigenvectors ``Y`` (all computed modes),
+    ``dlam_dx``, d lambda / d x of the paired modes, and ``energies``, the basis strain
+    energies ``phi_i^T K_basis[m, j] phi_i`` (n_materials, 6, n_measured) of the paired modes
+    that ``dlam_dx`` is made of: ``y^T Kr_mj y`` with ``Kr_mj = V^T K_mj V``, the same
+    quadratic form as with the full-size Ritz vector ``V y``, so no full-size product. The ply
+    loss factors' Monte Carlo refits take a trial's strain-energy shares from them
+    (laminid_cli.damping.shares_of_energies): kept, they cost the trial nothing."""
 
     lam: np.ndarray
     pairing: np.ndarray
     Y: np.ndarray
     dlam_dx: np.ndarray
+    energies: np.ndarray | None = None
 
 
 class TrialModel(VariableSet):
@@ -1015,8 +1021,9 @@ class TrialModel(VariableSet):
         A trial that reaches the accepted bound here is done: what :meth:`trial` would do
         with it (its first round on the shared basis as it is then, checked with the kept
         factorisation nearest to its answer or one at its answer) is already done, and its
-        (constants, bound, rounds) is kept in ``self.pilot`` (by position in ``freqs``)
-        instead of running it again."""
+        (constants, bound, rounds, energies) is kept in ``self.pilot`` (by position in ``freqs``)
+        instead of running it again (with :attr:`TrialModes.energies` at its answer, as
+        :meth:`trial` returns it)."""
         added = 0
         self.pilot = {}
         for i, f in enumerate(freqs):
@@ -1033,14 +1040,14 @@ class TrialModel(VariableSet):
             bound = (self.check(self.basis, x, Y, pairing, near, mu)[1] if mu >= TRIAL_MU
                      else np.inf)
             if bound <= self.bound:
-                self.pilot[i] = (self.constants(x), bound, 1)
+                self.pilot[i] = (self.constants(x), bound, 1, model.energies)
                 continue
             coef = self.coefficients(x)[0]
             ref = self.factor_at(x, self.basis.eig(coef, 1)[0][0])
             self.refs.append(ref)
             _, bound, S = self.check(self.basis, x, Y, pairing, ref)
             if bound <= self.bound:
-                self.pilot[i] = (self.constants(x), bound, 1)
+                self.pilot[i] = (self.constants(x), bound, 1, model.energies)
             else:
                 k = self.basis.add(S())
                 added += k
@@ -1110,9 +1117,8 @@ class TrialModel(VariableSet):
         coef, jacs = self.coefficients(x)
         theta, Y = basis.eig(coef, self.n_model)
         pairing = max_assignment((Y_ref.T @ (basis.Mr @ Y)) ** 2)
-        Yp = Y[:, pairing]
-        return TrialModes(theta[pairing], pairing, Y,
-                          self.eigenvalue_jacobian(basis.energies(Yp), jacs))
+        E = basis.energies(Y[:, pairing])
+        return TrialModes(theta[pairing], pairing, Y, self.eigenvalue_jacobian(E, jacs), E)
 
     def rows(self, x, model, lam_meas, w):
         """Residual rows of paper Eq. 17 (+ Eq. 15) at ``x`` from its ``model`` (:meth:`modes`)
@@ -1320,7 +1326,8 @@ class TrialModel(VariableSet):
     def trial(self, freq_hz, weight, prior_shift=None):
         """Identify from ``freq_hz`` (and the prior's pseudo-measurements drawn as
         ``prior_shift``, :attr:`laminid_cli.objective.VariableSet.prior_shift`): (constants,
-        relative eigenvalue bound, rounds) or raises _TrialFailed."""
+        relative eigenvalue bound, rounds, :attr:`TrialModes.energies` of the model at the
+        answer) or raises _TrialFailed."""
         self.prior_shift = prior_shift or {}
         lam_meas = (2 * np.pi * np.nan_to_num(freq_hz, nan=1.0)) ** 2
         w = np.where(np.isfinite(freq_hz), weight, 0.0)
@@ -1359,7 +1366,7 @@ class TrialModel(VariableSet):
                 theta, bound, S = self.check(basis, x, Y, pairing, ref)
             log.debug("trial round %d bound %.2e", rounds, bound)
             if bound <= self.bound:
-                return self.constants(x), bound, rounds
+                return self.constants(x), bound, rounds, model.energies
             if rounds == TRIAL_ROUNDS or S is None:
                 break
             basis = basis.copy()
@@ -1475,6 +1482,13 @@ class MonteCarlo:
     #: relative standard deviation with which each trial drew the prior's values (paper Eq.
     #: 15: P0 of a constant given a prior weight), 0 without a prior
     prior_sigma: float = 0.0
+    #: (n_converged,) the trial (0-based, in the order drawn) of each row of ``samples``
+    trials: np.ndarray | None = None
+    #: (n_converged, n_measured, n_materials * 5) strain-energy shares of each converged
+    #: trial's paired modes at its constants (laminid_cli.damping.energy_shares), for a single
+    #: plate with measured damping (None otherwise): the loss factors' refits
+    #: (laminid_cli.damping.monte_carlo_loss_factors)
+    energy_shares: np.ndarray | None = None
 
     def bound_counts(self) -> tuple[np.ndarray, np.ndarray]:
         """(lower, upper) trials at a limit of the search per constant (p,), zeros where not
@@ -1491,16 +1505,7 @@ class MonteCarlo:
         >= 2 level - 1. With 40 trials (95 % range, level 0.95) the 4th smallest and the 4th
         largest sample; with 200 the 10th; with 5 the 2nd. NaN where the trials bound no width
         (a single trial)."""
-        from laminid_cli.quantiles import order_statistic_below
-
-        n = int(self.samples.shape[0]) if self.samples is not None else 0
-        p = len(self.labels)
-        k = order_statistic_below(n, 0.5 + self.confidence / 2, level) if n else 0
-        m = n + 1 - k                       # the lower quantile's bound, by symmetry
-        if k < 1 or m >= k:
-            return np.full(p, np.nan), np.full(p, np.nan)
-        x = np.sort(np.asarray(self.samples, float), axis=0)
-        return x[m - 1].copy(), x[k - 1].copy()
+        return inner_range_of(self.samples, len(self.labels), self.confidence, level)
 
     def ends_at_bound(self) -> tuple[np.ndarray, np.ndarray]:
         """(lower, upper) flags (p,): the end of the range is set by trials at a limit of the
@@ -1528,6 +1533,21 @@ class MonteCarlo:
                 "trial_eigenvalue_bound_limit": self.trial_bound_limit,
                 "reidentified": self.n_reidentified, "prior_sigma": self.prior_sigma,
                 "evidence_level": MC_EVIDENCE}
+
+
+def inner_range_of(samples, p: int, confidence: float, level: float = MC_EVIDENCE
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """:meth:`MonteCarlo.inner_range` of ``samples`` (n, p) with a ``confidence`` range (also
+    the loss factors' Monte Carlo, laminid_cli.damping)."""
+    from laminid_cli.quantiles import order_statistic_below
+
+    n = int(samples.shape[0]) if samples is not None else 0
+    k = order_statistic_below(n, 0.5 + confidence / 2, level) if n else 0
+    m = n + 1 - k                       # the lower quantile's bound, by symmetry
+    if k < 1 or m >= k:
+        return np.full(p, np.nan), np.full(p, np.nan)
+    x = np.sort(np.asarray(samples, float), axis=0)
+    return x[m - 1].copy(), x[k - 1].copy()
 
 
 def range_ends_at_bound(at_lower, at_upper, n: int, confidence: float
@@ -1570,17 +1590,19 @@ def trials_at_bounds(result, labels, samples) -> tuple[np.ndarray, np.ndarray]:
 _WORKER: dict = {}
 
 
-def _init_worker(fms, options, start, start_pairing, joint, basis_vectors=None, model=None):
+def _init_worker(fms, options, start, start_pairing, joint, basis_vectors=None, model=None,
+                 damping=False):
     """Per process: the plates' forward models, the identify() route's bases (rebuilt here from
     their vectors, copied per trial) or the reduced trial model (shared by the trials: an
-    enrichment copies it; its factorisation is redone once per process)."""
+    enrichment copies it; its factorisation is redone once per process); ``damping``: the
+    trials return their modes' energy shares (:func:`_run_trial`)."""
     from laminid_cli.reduced import ReducedBasis
 
     bases = (None if basis_vectors is None else
              [ReducedBasis.from_vectors(fm, V) for fm, V in zip(fms, basis_vectors)])
     _WORKER.clear()
     _WORKER.update(fms=list(fms), options=options, start=start, start_pairing=start_pairing,
-                   joint=joint, bases=bases, model=model)
+                   joint=joint, bases=bases, model=model, damping=bool(damping))
 
 
 def _trial_fms(freqs):
@@ -1612,18 +1634,25 @@ def _identify_trial(freqs, bases, prior_shift=None):
 
 def _run_trial(args):
     """One re-identification from perturbed frequencies: (index, values or None, message,
-    relative eigenvalue bound of the trial's model or NaN, route)."""
+    relative eigenvalue bound of the trial's model or NaN, route, energy shares or None).
+
+    The energy shares (n_measured, n_materials * 5; laminid_cli.damping.energy_shares) of
+    the trial's paired modes at its constants are returned when the worker was told to
+    (``damping``: a single plate with measured damping, whose loss factors each trial
+    refits): from the trial model's basis energies of its accepted Ritz vectors
+    (:attr:`TrialModes.energies`), or, for a trial re-identified with identify(), from its
+    result's paired modes."""
     from laminid_cli.errors import LaminidError
 
     index, freqs, labels, shift = args
     model = _WORKER.get("model")
     route, bound = "identify", float("nan")
-    consts = None
+    consts, energies = None, None
     try:
         if model is not None:
             try:
                 done = model.pilot.get(index)
-                c, bound, _ = done if done is not None else model.trial(
+                c, bound, _, energies = done if done is not None else model.trial(
                     np.asarray(freqs[0], float),
                     np.asarray(model.fm.specimen.measured.weight, float), shift)
                 consts = dict(zip(model.names, c))
@@ -1636,14 +1665,22 @@ def _run_trial(args):
                 bases = [model.basis]          # it holds the first-order mode changes
             r = _identify_trial(freqs, bases, shift)
             if not r.converged:
-                return index, None, r.status, bound, route
+                return index, None, r.status, bound, route, None
             consts = {n: c for n, c in zip(r.material_names, r.constants)}
             eb = getattr(r, "error_bound", None)
             bound = float(np.max(eb)) if eb is not None and np.size(eb) else float("nan")
+            if _WORKER.get("damping"):
+                energies = _WORKER["fms"][0].plate.basis_energies(r.phi_paired)
     except LaminidError as exc:
-        return index, None, str(exc), bound, route
+        return index, None, str(exc), bound, route, None
     vals = [getattr(consts[lab.rsplit(".", 1)[0]], lab.rsplit(".", 1)[1]) for lab in labels]
-    return index, np.array(vals), "", bound, route
+    shares = None
+    if _WORKER.get("damping") and energies is not None:
+        from laminid_cli.damping import shares_of_energies
+
+        names = _WORKER["fms"][0].material_names
+        shares = shares_of_energies(energies, [consts[n] for n in names])
+    return index, np.array(vals), "", bound, route, shares
 
 
 def _run_chunk(chunk):
@@ -1676,7 +1713,9 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
 
     Each trial draws f_i + sigma_f,i * sigma_factor * N(0, 1) for every measured mode of every
     plate (sigma_factor = sqrt(uncertainty.variance_factor)), starts at the optimum of
-    ``result`` with its mode pairing, and keeps the free constants of converged runs. Trials run
+    ``result`` with its mode pairing, and keeps the free constants of converged runs (and,
+    for a single plate with measured damping, the strain-energy shares of its paired modes
+    at its constants: :attr:`MonteCarlo.energy_shares`). Trials run
     in ``jobs`` processes (default: the number of cores), in chunks; ``progress(done, total)``
     after each chunk. The perturbations come from ``numpy.random.default_rng(seed)`` in the
     calling process, so a result does not depend on ``jobs``.
@@ -1731,9 +1770,13 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
         model.prepare([np.asarray(t[1][0], float) for t in trials[:TRIAL_PILOT]],
                       np.asarray(fm.specimen.measured.weight, float),
                       [t[3] for t in trials[:TRIAL_PILOT]])
+    # a single plate with measured damping: each trial returns its modes' energy shares, for
+    # the loss factors' refits (laminid_cli.damping.monte_carlo_loss_factors)
+    damped = (not joint and getattr(parts[0][0].specimen.measured, "damping", None)
+              is not None)
     init = ([fm for fm, _ in parts], result.options, tuple(result.constants),
             [np.asarray(plate.pairing) for _, plate in parts], joint,
-            None if model is not None else _basis_vectors(result), model)
+            None if model is not None else _basis_vectors(result), model, damped)
     jobs = max(1, min(int(jobs or os.cpu_count() or 1), n_trials))
     # the trials that the model's preparation finished (TrialModel.prepare) are collected
     # here, the others in the processes (all here with one job)
@@ -1746,13 +1789,14 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
     failures = []
     bounds = np.full(n_trials, np.nan)
     routes: list = [""] * n_trials
+    shares: list = [None] * n_trials
     done = 0
 
     def collect(results):
         nonlocal done
-        for i, vals, msg, bound, route in results:
+        for i, vals, msg, bound, route, sh in results:
             out[i] = vals
-            bounds[i], routes[i] = bound, route
+            bounds[i], routes[i], shares[i] = bound, route, sh
             if vals is None:
                 failures.append(f"trial {i + 1}: {msg}")
             done += 1
@@ -1783,6 +1827,9 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
                     fut.cancel()
                 raise
     ok = [v for v in out if v is not None]
+    converged = np.array([i for i, v in enumerate(out) if v is not None], int)
+    trial_shares = (np.array([shares[i] for i in converged]) if damped and converged.size
+                    and all(shares[i] is not None for i in converged) else None)
     p = len(uncertainty.labels)
     samples = np.array(ok) if ok else np.zeros((0, p))
     conf = uncertainty.confidence
@@ -1809,7 +1856,8 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
                       else 0,
                       trial_bound_limit=model.bound if model is not None else float("nan"),
                       prior_sigma=shift_sd if priors else 0.0,
-                      at_lower_bound=at_lower, at_upper_bound=at_upper, confidence=conf)
+                      at_lower_bound=at_lower, at_upper_bound=at_upper, confidence=conf,
+                      trials=converged, energy_shares=trial_shares)
 
 
 #: the verdict of a constant whose Monte Carlo range is worse than its linearised interval

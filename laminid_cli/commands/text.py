@@ -483,6 +483,7 @@ def format_damping(d: dict) -> list[str]:
                  f"{used}; s2 = {fmt(s2, '.3g')} ({d['dof']} degrees of freedom)")
     for note in d.get("notes", []):
         lines.append(f"  note: {note}")
+    lines += format_damping_monte_carlo(d)
     lines.append("")
     labels = d["energy_share_labels"]
     short = [lab.rsplit(".", 1)[1] if not many else lab for lab in labels]
@@ -497,4 +498,45 @@ def format_damping(d: dict) -> list[str]:
         skip = "" if d["used"][i] or m == "-" else "  (not fitted: weight 0)"
         lines.append(f"  {i + 1:>4} {m:>9} {sig:>7} {fmt(100 * d['model_loss_factor'][i], '7.3f')}"
                      + "".join(f"{100 * x:>{width}.1f}" for x in d["energy_shares"][i]) + skip)
+    return lines
+
+
+def format_damping_monte_carlo(d: dict) -> list[str]:
+    """The loss factors' Monte Carlo (the JSON block "damping" / "monte_carlo": each trial
+    refitted them at its own constants, laminid_cli.damping.monte_carlo_loss_factors) beside
+    their intervals; [] without one."""
+    mc = d.get("monte_carlo")
+    if not mc:
+        return []
+    conf = d["confidence"] * 100
+    many = len(mc["loss_factors"]) > 1
+    w = 24 if many else 12
+    lines = ["", f"  Monte Carlo: {mc['refits']} of {mc['trials']} trials refitted the loss "
+             "factors at their own constants (measured damping perturbed by sigma x "
+             f"{mc['sigma_factor']:.3g}, {mc['time_s']:.2f} s)",
+             f"  {'loss factor':<{w}} {'interval std %':>14} {'Monte Carlo std %':>17} "
+             f"{'ratio':>6}  {'Monte Carlo ' + format(conf, '.0f') + ' % range %':>26}"]
+    zero = []
+    for mat, per in mc["loss_factors"].items():
+        for name, v in per.items():
+            lab = f"{mat}.{name}" if many else name
+            lo = fmt(100 * v["lower"], ".3g") + ("*" if v.get("lower_at_zero") else "")
+            hi = fmt(100 * v["upper"], ".3g")
+            lines.append(f"  {lab:<{w}} {fmt(100 * v['linearized_std'], '14.3g'):>14} "
+                         f"{fmt(100 * v['std'], '17.3g'):>17} {fmt(v['ratio'], '6.2f'):>6}  "
+                         f"{lo:>12} .. {hi:<12}")
+            if v.get("trials_at_zero"):
+                zero.append(f"{lab} {v['trials_at_zero']}")
+    if zero:
+        lines.append(f"  trials that held the loss factor at 0, of {mc['refits']}: "
+                     + ", ".join(zero) + ("; * that end of the range is the bound eta >= 0, "
+                                          "not the data's" if any(
+                                              v.get("lower_at_zero") for per in
+                                              mc["loss_factors"].values()
+                                              for v in per.values()) else ""))
+    sure = 100 * (2 * mc.get("evidence_level", 0.95) - 1)
+    inner = [v.get("inner_lower") for per in mc["loss_factors"].values() for v in per.values()]
+    if inner and all(x is None or not math.isfinite(x) for x in inner):
+        lines.append(f"  {mc['refits']} refit(s) do not bound the range's width with "
+                     f"{sure:.0f} % confidence: the verdicts stay the intervals'")
     return lines
