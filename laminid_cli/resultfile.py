@@ -66,6 +66,9 @@ class Interval:
     #: 30 have none: "")
     profile_bound: float = np.nan
     profile_text: str = ""
+    #: the value the profile reached at the search's other limit (SI; NaN: no profile, or a
+    #: file before /uncertainty/profile_far)
+    profile_far: float = np.nan
 
 
 @dataclass(frozen=True)
@@ -438,6 +441,7 @@ def _uncertainty(f) -> Uncertainty | None:
         bound_side = tuple(s for s, _ in parsed)
         bound_limit = np.array([v for _, v in parsed], float)
     profile_bound, profile_text = arr("profile_bound"), strs("profile_text")
+    profile_far = arr("profile_far")
     flagged = set(filter(None, str(a.get("flagged", "")).split(",")))
     from_mc = set(filter(None, str(a.get("verdict_from_monte_carlo", "")).split(",")))
     intervals = []
@@ -447,7 +451,7 @@ def _uncertainty(f) -> Uncertainty | None:
                                   verdict[j], float(rel[j]), scale[j], bool(at_bound[j]),
                                   bound_text[j], bound_side[j], float(bound_limit[j]),
                                   lab in flagged, lab in from_mc, float(profile_bound[j]),
-                                  profile_text[j]))
+                                  profile_text[j], float(profile_far[j])))
     mc = None
     if "monte_carlo" in u:
         g = u["monte_carlo"]
