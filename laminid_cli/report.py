@@ -869,6 +869,9 @@ def interval_page(r: ResultFile):
                            + ", ".join(lab.rsplit(".", 1)[1] if len(r.materials) == 1 else lab
                                        for lab in u.spread_counted)
                            + " had before fixing (see page 1 for the widths given them)"
+                           + (";\nthe Monte Carlo trials hold them fixed: their range is "
+                              "the width given them" if u.monte_carlo and "lower" in
+                              u.monte_carlo else "")
                            if getattr(u, "spread_counted", ()) else ""),
                   title_fontsize=8)
     _status_banner(fig, r)
