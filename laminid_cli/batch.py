@@ -649,6 +649,9 @@ def _run_dask(jobs, options, n_jobs, scheduler):
         from distributed import Client, LocalCluster, as_completed
     except ImportError as exc:
         raise BatchError("--scheduler needs Dask: pip install 'laminid[dask]'") from exc
+    # distributed sets its loggers to INFO when imported (its own configuration): at laminid's
+    # verbosity (WARNING unless -v) its start-up and shutdown lines (some 40 per batch) are noise
+    logging.getLogger("distributed").setLevel(logging.getLogger().getEffectiveLevel())
     cluster = None
     futures: dict = {}
     try:

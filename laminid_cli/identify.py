@@ -61,8 +61,8 @@ FINAL_ROUNDS = 12
 #: damping of the Gauss-Newton scaling, relative to its largest diagonal term
 DAMPING = 1e-2
 #: default cap on an identification's model evaluations in all (full and reduced; the paper
-#: plates take 46-272, hybrid CM 1067 along its flat valley; each re-run of --fix-undetermined
-#: and each Monte Carlo trial has its own)
+#: plates take 37-269 at 12x12, hybrid CM 1164-1197 along its flat valley (CHOLMOD / banded
+#: Cholesky); each re-run of --fix-undetermined and each Monte Carlo trial has its own)
 MAX_EVALUATIONS = 3000
 
 

@@ -86,11 +86,13 @@ class RunOptions:
                                 f"{u.max_rel_interval:g}")
         return nxny
 
-    def check_fix(self) -> None:
+    def check_fix(self, where: str = "the specimen file") -> None:
         """Refuse the --fix items that are wrong whatever the specimen (an unknown constant or
-        loss factor, a bad value, one loss factor given two values), for batch: it would
-        otherwise fail every specimen on them (identify says the same naming its specimen
-        file). A material named by an item is checked per specimen."""
+        loss factor, a bad value, one loss factor given two values) before any work: batch
+        would otherwise fail every specimen on them, and identify would take a mistyped
+        option for a failing specimen and set its earlier result aside. ``where`` names the
+        specimen file(s) in the messages. A material named by an item is checked per
+        specimen."""
         from laminid_cli.damping import parse_loss_fix
         from laminid_cli.identify import _parse_fix
 
@@ -99,7 +101,7 @@ class RunOptions:
                     for i in items if "." in i.split("=", 1)[0]}
         # the "<every material>" stands for a specimen's materials that no item names
         _parse_fix(self.identify.fix, tuple(named(self.identify.fix)) + ("<every material>",),
-                   "the specimen file")
+                   where)
         parse_loss_fix(self.fix_loss, tuple(named(self.fix_loss)) + ("<every material>",))
 
     def as_dict(self) -> dict:

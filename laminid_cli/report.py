@@ -136,8 +136,15 @@ def bound_words(iv) -> str:
         sign = "<" if pb > iv.bound_limit or side == "lower" else ">"
         words += f"\nprofile: {sign} {fmt_value(iv.constant, pb)}"
     elif iv.profile_kind == "flat":
-        words += "\nprofile: flat"
+        words += "\nprofile: flat" + _flat_to(iv)
     return words
+
+
+def _flat_to(iv) -> str:
+    """Where a flat profile ended, the search's other limit, in the display unit
+    (" to 18.50"); empty for a file that does not record it."""
+    far = getattr(iv, "profile_far", np.nan)
+    return f" to {fmt_value(iv.constant, far)}" if np.isfinite(far) else ""
 
 
 def is_uninformative(k: str, lo: float, hi: float) -> bool:
@@ -653,7 +660,9 @@ def _bound_panel(ax, k, v, iv, x, ymin, ymax):
                     xytext=(6, 0), textcoords="offset points", fontsize=6.5, va="center",
                     ha="left", color=INTERVAL_COLOR, gid="profile-label")
     elif iv.profile_kind == "flat":
-        words += "; profile: flat to the other limit"
+        far = getattr(iv, "profile_far", np.nan)
+        words += "; profile: flat to the other limit" + (
+            f" ({fmt_value(k, far)})" if np.isfinite(far) else "")
     ax.annotate("\n".join(textwrap.wrap(words, 12)), (x, (v + edge) / 2), xytext=(5, 0),
                 textcoords="offset points", fontsize=6.5, va="center", ha="left",
                 color=INTERVAL_COLOR, gid="bound-statement")
@@ -861,6 +870,9 @@ def interval_page(r: ResultFile):
                            + ", ".join(lab.rsplit(".", 1)[1] if len(r.materials) == 1 else lab
                                        for lab in u.spread_counted)
                            + " had before fixing (see page 1 for the widths given them)"
+                           + (";\nthe Monte Carlo trials hold them fixed: their range is "
+                              "the width given them" if u.monte_carlo and "lower" in
+                              u.monte_carlo else "")
                            if getattr(u, "spread_counted", ()) else ""),
                   title_fontsize=8)
     _status_banner(fig, r)

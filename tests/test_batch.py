@@ -561,6 +561,25 @@ def test_dask_local_cluster_gives_the_same_constants(batch_run, tmp_path):
         assert constants_bytes(tmp_path / "dask" / name) == constants_bytes(out / name)
 
 
+def test_a_dask_local_batch_prints_no_cluster_log_lines_unless_verbose(tmp_path):
+    """distributed sets its loggers to INFO on import: a plain `--scheduler local` batch printed
+    some 40 'INFO distributed.scheduler: ...' lines on stderr around the batch's own."""
+    pytest.importorskip("distributed")
+    specs = make_tree(tmp_path / "in", {"S1.4.yaml": "specimens/example1/S1.4.yaml"})
+    cmd = [sys.executable, "-m", "laminid_cli", "batch", str(specs), "--mesh", "4x4",
+           "--scheduler", "local", "-j", "1", "--out", str(tmp_path / "out")]
+    root = str(Path(__file__).resolve().parents[1])
+    env = dict(os.environ, PYTHONPATH=root + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    p = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=env, cwd=root)
+    assert p.returncode == 0, p.stderr
+    assert "distributed" not in p.stderr, p.stderr
+    assert p.stderr.splitlines()[0] == "1 specimen, 0 up to date, 1 to identify on 1 worker"
+    assert (tmp_path / "out" / "S1.4.result.h5").is_file()
+    p = subprocess.run(cmd[:3] + ["-v"] + cmd[3:] + ["--force"], capture_output=True, text=True,
+                       timeout=300, env=env, cwd=root)
+    assert p.returncode == 0 and "INFO distributed.scheduler" in p.stderr, p.stderr
+
+
 def test_a_killed_workers_temporary_file_is_removed_at_the_end_if_it_was_exiting_at_the_start(
         tmp_path, monkeypatch):
     """A worker killed just before the re-run may still be exiting when the re-run starts: its

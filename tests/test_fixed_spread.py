@@ -200,6 +200,18 @@ def test_fixed_spread_in_json_hdf5_terminal_and_report(tmp_path):
     titles = [a.get_legend().get_title().get_text() for a in fig.axes if a.get_legend()]
     assert any("the intervals count the spread the fixed G13, G23, nu12 had before fixing" in t
                for t in titles), titles
+    assert not any("Monte Carlo" in t for t in titles), titles
+    # with a Monte Carlo, its range (trials holding the fixed values) is the narrower width
+    # given them, not the intervals' drawn beside it: the legend says so
+    out2 = tmp_path / "mc.h5"
+    res2 = CliRunner().invoke(cli, ["identify", S11, "--fix-undetermined", "--monte-carlo", "8",
+                                    "-j", "1", "--json", "-o", str(out2)])
+    assert res2.exit_code == 0, res2.output
+    fig = {p.name: p.figure for p in report_pages(out2)}["intervals"]
+    titles = [a.get_legend().get_title().get_text() for a in fig.axes if a.get_legend()]
+    assert any("had before fixing (see page 1 for the widths given them);\nthe Monte Carlo "
+               "trials hold them fixed: their range is the width given them" in t
+               for t in titles), titles
     note = [n for n in table_notes(r) if n.startswith("the intervals count the spread")]
     # as the terminal writes them (one decimal: a width of 0.4 % is no "±0 %")
     assert note and "given the fixed values alone: E1 ±1.3 %, E2 ±10.6 %, G12 ±12.9 %" in note[0]

@@ -268,3 +268,23 @@ def test_a_specimen_that_now_fails_has_its_earlier_default_result_set_aside(tmp_
     r = run("identify", spec, "--mesh", "6x6", "-o", mine, "--force")
     assert r.exit_code == 2 and "moved" not in r.output
     assert mine.read_bytes() == first
+
+
+def test_a_mistyped_fix_is_refused_before_any_work_and_leaves_the_earlier_result(tmp_path):
+    """--fix G14 is a usage error, not a specimen that now fails: it is refused before the
+    run, and the default result of the (unchanged) specimen stays where it is (it was set
+    aside as 'the earlier result of another input')."""
+    spec = tmp_path / "plate.yaml"
+    spec.write_text(Path(S21).read_text())
+    assert run("identify", spec, "--mesh", "6x6").exit_code == 0
+    first = (tmp_path / "plate.result.h5").read_bytes()
+    for fix, words in (("G14", "--fix G14: 'G14' is not a constant; choose from E1, E2, G12"),
+                       ("E1=3", f"--fix E1=3: an elastic constant is fixed at its initial "
+                                f"value in {spec}; write '--fix E1'"),
+                       ("eta13=2", "--fix eta13=2")):
+        r = run("identify", spec, "--mesh", "6x6", "--fix", fix)
+        assert r.exit_code == 2, r.output
+        assert r.output.startswith(f"laminid: error: {words}"), r.output
+        assert len(r.output.splitlines()) == 1 and "moved" not in r.output
+        assert (tmp_path / "plate.result.h5").read_bytes() == first
+        assert not list(tmp_path.glob("*.stale*"))

@@ -90,7 +90,7 @@ def test_s21_g13_is_flat_in_json_hdf5_terminal_and_report(tmp_path):
     other end, 5 x 3.7 = 18.5 GPa (chi2 rises by 3.9 where 5.59 would reject it; 0.4 at
     12x12, the identify default): the
     same statement in --json, the HDF5 reader, the terminal and the report's cell."""
-    from laminid_cli.report import interval_text
+    from laminid_cli.report import interval_text, report_pages
     from laminid_cli.resultfile import read_result
 
     out = tmp_path / "r.h5"
@@ -105,7 +105,12 @@ def test_s21_g13_is_flat_in_json_hdf5_terminal_and_report(tmp_path):
                                    "to 18.5 GPa")
     iv = read_result(out).uncertainty.get("E-glass/R368", "G13")
     assert iv.profile_text == prof["text"] and np.isnan(iv.profile_bound)
-    assert interval_text("G13", iv).endswith("profile: flat")
+    assert iv.profile_far == pytest.approx(18.5e9)
+    assert interval_text("G13", iv).endswith("profile: flat to 18.50")       # as the terminal
+    fig = {p.name: p.figure for p in report_pages(out)}["intervals"]
+    a = next(x for x in fig.axes if x.get_gid() == "interval-E-glass/R368.G13")
+    stmt = next(t for t in a.texts if t.get_gid() == "bound-statement").get_text()
+    assert stmt.replace("\n", " ").endswith("profile: flat to the other limit (18.50)"), stmt
     text = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8",
                                     "--no-output"]).output
     assert "none: flat to 18.50" in text and "profile: the fit is as good" in text

@@ -678,6 +678,11 @@ def test_fit_frf_figure_reads_back_the_frf_file(tmp_path):
     assert _no_overlap(fig, a, a.get_legend())                  # legend clear of the curves
     s = ax(fig, "stabilisation")
     assert _no_overlap(fig, s, s.get_legend())
+    for lim in ((0.5, 18.5), (0.1, 18.9), (0.2, 19.6)):   # orders 1-18 as in S1.1's example
+        s.set_ylim(*lim)                                   # FRFs, whose ticks were 2.5, 7.5...
+        fig.canvas.draw()                                  # orders are whole numbers
+        ticks = [t for t in s.get_yticks() if lim[0] <= t <= lim[1]]
+        assert len(ticks) >= 3 and all(float(t).is_integer() for t in ticks), (lim, ticks)
     coh_ax = next(x for x in fig.axes if x.get_ylabel() == "coherence (–)")
     coh_lines = [ln for ln in coh_ax.get_lines() if ln.get_gid() == "coherence"]
     assert len(coh_lines) == 2

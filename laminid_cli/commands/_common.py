@@ -316,7 +316,7 @@ fit_options = _apply([
                   show_default=True, help="Most model evaluations of the identification in all "
                   "(full and reduced-model ones, every stage; the answer's final check may add "
                   "a few) before giving up: then 'not converged', exit 1. The paper's plates "
-                  "take 46-272, the hybrid CM about 1070."),
+                  "take about 40-270 (12x12), the hybrid CM about 1200."),
     click.option("--pairing", type=click.Choice(["track", "sorted"]), default="track",
                   show_default=True,
                   help="Mode pairing: track = sorted order at the start, then each mode followed "

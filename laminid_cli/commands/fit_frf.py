@@ -26,8 +26,10 @@ def _parse_bands(ctx, param, values):
 @click.command("fit-frf")
 @click.argument("frf_file", type=InputFile())
 @click.option("--band", "bands", multiple=True, callback=_parse_bands, metavar="LO:HI",
-              help="Frequency band in Hz to fit (repeatable). Default: bands around the peaks "
-                   "of the summed FRF magnitude.")
+              help="Frequency band in Hz to fit (repeatable); a band with more than six "
+                   "resonance peaks is fitted as overlapping sub-bands (the first line lists "
+                   "the bands fitted). Default: bands around the peaks of the summed FRF "
+                   "magnitude.")
 @click.option("--modes", "n_modes", type=click.IntRange(min=1), default=None,
               help="Report the N lowest modes (error if fewer are found).")
 @click.option("--format", "fmt", type=click.Choice(["hdf5", "uff", "csv"]), default=None,

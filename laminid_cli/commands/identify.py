@@ -105,6 +105,9 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force):
                                 "sqrt(2))")
         seen[key] = sp
     options.check()
+    # a mistyped --fix is a usage error, refused before any work (and before the default
+    # result of the specimen could be taken for an earlier input's and set aside below)
+    options.check_fix(", ".join(str(sp) for sp in specs))
     default = default_joint_output(specs) if joint else default_output(specs[0])
     out, replacing = ((None, False) if no_output else
                       result_output(output, default, force, None if joint else specs[0],

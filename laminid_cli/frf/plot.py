@@ -166,6 +166,8 @@ def fit_figure(freq, frf, fit, *, title: str = "", units: str = "", coherence=No
     ax_s.set_zorder(ax_s2.get_zorder() + 1)
     ax_s.patch.set_visible(False)
     ax_s.set_ylabel("model order N (modes)")
+    from matplotlib.ticker import MaxNLocator
+    ax_s.yaxis.set_major_locator(MaxNLocator(integer=True))     # orders are whole numbers
     ax_s.set_xlabel("frequency (Hz)")
     ax_s.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=3, fontsize=8,
                 frameon=False, title="stabilisation chart (grey: summed |H|)",
