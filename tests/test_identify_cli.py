@@ -281,7 +281,11 @@ def test_a_mistyped_fix_is_refused_before_any_work_and_leaves_the_earlier_result
     for fix, words in (("G14", "--fix G14: 'G14' is not a constant; choose from E1, E2, G12"),
                        ("E1=3", f"--fix E1=3: an elastic constant is fixed at its initial "
                                 f"value in {spec}; write '--fix E1'"),
-                       ("eta13=2", "--fix eta13=2")):
+                       ("eta13=2", "--fix eta13=2"),
+                       # options that do not fit this specimen: still not a new input
+                       ("glass.nu12", "--fix glass.nu12: no material 'glass' in"),
+                       ("E1,E2,G12,G13,G23,nu12", f"{spec}: every constant is fixed; "
+                                                  "nothing to identify")):
         r = run("identify", spec, "--mesh", "6x6", "--fix", fix)
         assert r.exit_code == 2, r.output
         assert r.output.startswith(f"laminid: error: {words}"), r.output

@@ -133,11 +133,13 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force):
 
     try:
         run = run_identification(specs, options, progress=progress, mc_progress=mc_progress)
-    except LaminidError:
-        if replacing:
+    except LaminidError as exc:
+        if replacing and not isinstance(exc, FitInputError):
             # this input fails, so the default result beside it is an earlier input's: set
             # aside out of the *.result.h5 pattern, as batch does (a file named with -o is the
-            # user's, and left alone)
+            # user's, and left alone). Not for options that do not fit the specimen (--fix of
+            # a material it does not have, every constant fixed, one plate given twice): a
+            # mistyped command is not a new input, its earlier result stays
             from laminid_cli.batch import set_aside
 
             moved, why = set_aside(out)
