@@ -813,10 +813,16 @@ def _row_of_result(res) -> dict:
 def damping_of_file(d) -> dict:
     """{material: {etaXY: {value, lower, upper, verdict, at_bound, bound_side, bound_limit}}}
     of a result's /damping (:class:`laminid_cli.resultfile.Damping`: free loss factors with
-    their interval, fixed ones with verdict "fixed")."""
+    their interval, fixed ones with verdict "fixed"); with the loss factors' Monte Carlo
+    (/damping/monte_carlo: each trial refitted them at its own constants) also mc_lower,
+    mc_upper, its range, as the constants have it."""
+    import numpy as np
+
     out: dict[str, dict] = {}
     g = d.data
     at = g.get("at_bound")
+    mc = getattr(d, "monte_carlo", None)
+    mc = mc if mc is not None and "lower" in mc and "upper" in mc else None
     for k, lab in enumerate(g["labels"]):
         mat, name = _str(lab).rsplit(".", 1)
         hit = at is not None and bool(at[k])
@@ -827,6 +833,9 @@ def damping_of_file(d) -> dict:
             "upper": float(g["upper"][k]), "verdict": _str(g["verdict"][k]),
             "at_bound": hit, "bound_side": "lower" if hit else "",
             "bound_limit": 0.0 if hit else None}
+        if mc is not None:
+            out[mat][name].update(mc_lower=float(np.ravel(mc["lower"])[k]),
+                                  mc_upper=float(np.ravel(mc["upper"])[k]))
     fixed = _str(d.attrs.get("fixed", ""))
     for item in filter(None, fixed.split(",")):
         lab, value = item.rsplit("=", 1)
@@ -847,7 +856,8 @@ def damping_long_rows(row) -> list[dict]:
                         "constant": name, "value": v["value"], "lower": v["lower"],
                         "upper": v["upper"], "verdict": v["verdict"], "unit": "1",
                         "status": row["status"], "bound_side": v.get("bound_side") or "",
-                        "bound_limit": v.get("bound_limit")})
+                        "bound_limit": v.get("bound_limit"), "mc_lower": v.get("mc_lower"),
+                        "mc_upper": v.get("mc_upper")})
     return out
 
 
@@ -914,7 +924,8 @@ def long_rows(rows, folder=None) -> list[list[str]]:
             cells.append({"material": d["material"], "constant": d["constant"],
                           "value": _num(d["value"]), "lower": _num(d["lower"]),
                           "upper": _num(d["upper"]), "verdict": d["verdict"], "unit": d["unit"],
-                          "bound_side": d["bound_side"], "bound_limit": _num(d["bound_limit"])})
+                          "bound_side": d["bound_side"], "bound_limit": _num(d["bound_limit"]),
+                          "mc_lower": _num(d["mc_lower"]), "mc_upper": _num(d["mc_upper"])})
         for cell in cells or [{}]:
             row = common | cell
             out.append([row.get(col, "") for col in LONG_COLUMNS])
@@ -1133,9 +1144,14 @@ def _rows_of_long(records, path: Path) -> list[dict]:
                           mc_lower_at_limit=limit in ("lower", "both"),
                           mc_upper_at_limit=limit in ("upper", "both"))
         elif m and k and k.startswith("eta") and rec.get("value") not in ("", None):
-            r.setdefault("damping", {}).setdefault(m, {})[k] = {
+            side = rec.get("bound_side") or ""
+            eta = r.setdefault("damping", {}).setdefault(m, {})[k] = {
                 "value": float(rec["value"]), "lower": _float(rec.get("lower")),
-                "upper": _float(rec.get("upper")), "verdict": rec.get("verdict", "")}
+                "upper": _float(rec.get("upper")), "verdict": rec.get("verdict", ""),
+                "at_bound": bool(side), "bound_side": side,
+                "bound_limit": _float(rec.get("bound_limit"))}
+            if rec.get("mc_lower") not in ("", None):
+                eta.update(mc_lower=_float(rec["mc_lower"]), mc_upper=_float(rec.get("mc_upper")))
     return list(rows.values())
 
 

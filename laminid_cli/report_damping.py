@@ -267,11 +267,12 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
     axis, the materials of one specimen side by side, each with the doubt the summary gives
     it, in the marks of the constants' page: interval bar, hollow "?" when not determined by
     the damping, a hollow triangle at 0 with its one-sided bar 0 .. upper when held at 0 by
-    eta >= 0, a grey square when fixed (--fix)."""
+    eta >= 0, a grey square when fixed (--fix); with a Monte Carlo (each trial refitted the
+    loss factors at its own constants) its range in grey beside the interval."""
     from matplotlib.lines import Line2D
 
     from laminid_cli.damping import TERMS
-    from laminid_cli.report import (FIXED_COLOR, _clipped_bar, _figure, _footer,
+    from laminid_cli.report import (FIXED_COLOR, MC_COLOR, _clipped_bar, _figure, _footer,
                                     specimen_labels)
 
     rows = [row for row in rows if row.get("damping")]
@@ -289,6 +290,7 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
     width = min(0.22, 0.7 / max(nm, 1))
     offsets = {m: (c - (nm - 1) / 2) * width for c, m in enumerate(materials)}
     kinds: set[str] = set()
+    has_mc = False
     on_top = dict(zorder=6, clip_on=False)
     for ax, k in zip(axes, TERMS):
         name = f"eta{k}"
@@ -306,6 +308,12 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                 lo = np.nan if e.get("lower") is None else 100 * float(e["lower"])
                 hi = np.nan if e.get("upper") is None else 100 * float(e["upper"])
                 tag = f"{label}-{m}"
+                mlo, mhi = (100 * float(e[key]) if e.get(key) is not None else np.nan
+                            for key in ("mc_lower", "mc_upper"))
+                if verdict != "fixed" and np.isfinite(mlo) and np.isfinite(mhi):
+                    has_mc = True
+                    bars.append((xi + 0.55 * width, mlo, mhi, MC_COLOR, f"monte-carlo-{tag}"))
+                    loose.append(mhi)
                 if verdict == "fixed":
                     ax.plot([xi], [v], "s", ms=6, color=FIXED_COLOR, mfc="w", mew=1.3,
                             gid=f"fixed-{tag}", **on_top)
@@ -330,7 +338,7 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                     loose.append(hi)
                 else:
                     kinds.add("identified")
-                    vals += [lo, hi]
+                    vals += [lo, hi, mlo, mhi]           # (the Monte Carlo's NaN: none)
                 if np.isfinite(lo) or np.isfinite(hi):
                     bars.append((xi, lo, hi, color, f"interval-{tag}"))
         # the panel spans the identified values and their intervals; an interval of a loss
@@ -342,7 +350,8 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
         ymax = 1.15 * top if top > 0 else 1.0
         ax.set_ylim(0.0, ymax)
         for xi, lo, hi, color, gid in bars:
-            _clipped_bar(ax, name, xi, lo, hi, 0.0, ymax, color, lw=1.2, gid=gid)
+            _clipped_bar(ax, name, xi, lo, hi, 0.0, ymax, color,
+                         lw=2.2 if color == MC_COLOR else 1.2, gid=gid)
         ax.set_title(f"\u03b7{k} (%)", fontsize=10)
         ax.set_ylabel("loss factor (%)", fontsize=8)
         ax.set_xticks(x, names, rotation=45, ha="right", fontsize=7)
@@ -365,6 +374,9 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
         if kind in kinds:
             h, text = marks[kind]
             handles[text] = h
+    if has_mc:
+        handles["Monte Carlo range (each trial refits\nthe loss factors at its own constants)"] = \
+            Line2D([], [], color=MC_COLOR, lw=2.2)
     ax_leg = fig.add_subplot(gs[1, 2])             # the sixth cell: clear of the panels
     ax_leg.axis("off")
     ax_leg.set_gid("legend")
@@ -373,8 +385,9 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                         "interval\nof the summary (arrow: runs off the panel)",
                   title_fontsize=8, frameon=False)
     _footer(fig, "The intervals count the noise of the measured modal damping; the strain-"
-            "energy shares are computed with the identified elastic constants, taken as exact. "
-            "Measured vs model damping of each mode and the energy shares: the damping page of "
+            "energy shares are computed with the identified elastic constants, taken as exact"
+            + (" (the Monte Carlo ranges count the free constants' doubt too)" if has_mc
+               else "") + ". Measured vs model damping of each mode and the energy shares: the damping page of "
             "each result's report (laminid report <result>.h5).", color="0.25")
     return fig
 

@@ -1040,6 +1040,45 @@ def test_status_on_top_of_the_first_page_at_the_foot_of_the_others(checked):
         assert foot in pages[name].texts and foot.get_position()[1] < 0.05
 
 
+@pytest.mark.parametrize("kind", ["csv", "json"])
+def test_summary_loss_factor_page_draws_their_monte_carlo_range(tmp_path, kind):
+    """With --monte-carlo each trial refits the loss factors at its own constants: the range
+    goes into both summaries (mc_lower, mc_upper of the loss factor's row, as a constant's),
+    reads back, and is drawn in grey beside the interval, named in the legend and the footer;
+    a loss factor held at 0 keeps its side and limit through summary.csv."""
+    import json
+
+    from laminid_cli.batch import read_summary, write_summary_csv
+    from laminid_cli.report import MC_COLOR
+
+    rows = _summary_rows()
+    free = {"at_bound": False, "bound_side": "", "bound_limit": None}
+    rows[0]["damping"] = {"glass": {
+        "eta11": {"value": 0.002, "lower": 0.0017, "upper": 0.0023, "verdict": "weak",
+                  "mc_lower": 0.0012, "mc_upper": 0.0031} | free,
+        "eta22": {"value": 0.0, "lower": 0.0, "upper": 0.03, "verdict":
+                  "at bound — not identified", "at_bound": True, "bound_side": "lower",
+                  "bound_limit": 0.0}}}
+    path = tmp_path / f"summary.{kind}"
+    if kind == "csv":
+        write_summary_csv(path, rows)
+    else:
+        path.write_text(json.dumps({"format": "laminid-batch-summary", "specimens": rows}))
+    back = {r["name"]: r for r in read_summary(path)}["H"]["damping"]["glass"]
+    assert back["eta11"]["mc_lower"] == 0.0012 and back["eta11"]["mc_upper"] == 0.0031
+    assert back["eta22"]["bound_side"] == "lower" and back["eta22"]["bound_limit"] == 0.0
+    assert "mc_lower" not in back["eta22"] or back["eta22"]["mc_lower"] is None
+    fig = {p.name: p.figure for p in report_pages(path)}["loss-factors"]
+    a = ax(fig, "across-eta11")
+    mc = _line(a, "monte-carlo-H-glass")
+    assert np.allclose(mc.get_ydata(), [0.12, 0.31], rtol=1e-12) and mc.get_color() == MC_COLOR
+    assert mc.get_xdata()[0] > _line(a, "interval-H-glass").get_xdata()[0]
+    legend = [t.get_text() for t in ax(fig, "legend").get_legend().get_texts()]
+    assert any(t.startswith("Monte Carlo range (each trial refits") for t in legend)
+    assert any("the Monte Carlo ranges count the free constants' doubt too"
+               in " ".join(t.get_text().split()) for t in fig.texts)
+
+
 def test_short_verdict_of_a_loss_factor_not_determined_by_the_damping():
     """The damping's verdict has its own phrase ("by the measured damping"); the table shows
     "not determined", not the phrase cut at the length of the modes' one."""
