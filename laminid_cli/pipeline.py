@@ -93,7 +93,6 @@ class RunOptions:
         option for a failing specimen and set its earlier result aside. ``where`` names the
         specimen file(s) in the messages. A material named by an item is checked per
         specimen."""
-        from laminid_cli.damping import parse_loss_fix
         from laminid_cli.identify import _parse_fix
 
         def named(items):                 # the materials the items name ("carbon.G13")
@@ -102,7 +101,10 @@ class RunOptions:
         # the "<every material>" stands for a specimen's materials that no item names
         _parse_fix(self.identify.fix, tuple(named(self.identify.fix)) + ("<every material>",),
                    where)
-        parse_loss_fix(self.fix_loss, tuple(named(self.fix_loss)) + ("<every material>",))
+        if self.fix_loss:                 # (no loss factor fixed: no need of the damping module)
+            from laminid_cli.damping import parse_loss_fix
+
+            parse_loss_fix(self.fix_loss, tuple(named(self.fix_loss)) + ("<every material>",))
 
     def as_dict(self) -> dict:
         """Every setting as JSON-safe plain data (lists for tuples): the batch's input hash and
