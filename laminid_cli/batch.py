@@ -696,8 +696,9 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False,
     reasons ([{code, text}], laminid_cli.status), reason (one line: the error, or the codes),
     converged, optimizer_status, cached, materials ({material: {E1.. nu12}}), intervals
     ({material: {constant: {lower, upper, verdict, at_bound, bound_side, bound_limit,
-    flagged, profile_bound, profile, profile_text, profile_far}}} for the free constants (bound_side "" and
-    bound_limit None when not at a bound; profile: LONG_COLUMNS), with mc_lower, mc_upper and mc_lower_at_limit, mc_upper_at_limit (None: the file
+    flagged, profile_bound, profile, profile_text, profile_far}}} for the free constants
+    (bound_side "" and bound_limit None when not at a bound; profile: LONG_COLUMNS), with
+    mc_lower, mc_upper and mc_lower_at_limit, mc_upper_at_limit (None: the file
     does not say) after a Monte Carlo; fixed ones {verdict: "fixed"}),
     rms_residual_percent, evaluations, time_s, result, damping ({material: {eta11: {value,
     lower, upper, verdict}}}, empty without measured damping).

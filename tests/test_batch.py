@@ -548,6 +548,27 @@ def test_killed_batch_leaves_only_complete_files_and_a_rerun_finishes(tmp_path, 
     assert not [p for p in out.rglob("*") if ".part-" in p.name or ".tmp-" in p.name]
 
 
+def test_a_remote_scheduler_is_named_not_a_worker_count(tmp_path, monkeypatch):
+    """With a running Dask scheduler the workers are the cluster's (-j does not apply): the
+    start line said "on 1 worker" and nothing while the connection waited (up to 20 s); it
+    names the scheduler and says it is connecting, then the one-line error when it cannot."""
+    from laminid_cli import batch as B
+
+    def refused(jobs, options, n_jobs, scheduler):
+        raise B.BatchError(f"--scheduler {scheduler}: cannot connect (refused)")
+        yield                                             # (a generator, as _run_dask)
+
+    monkeypatch.setattr(B, "_run_dask", refused)
+    r = run("batch", SPECS["example2/S2.1.yaml"], "--mesh", MESH, "--out", tmp_path / "o",
+            "--scheduler", "tcp://10.0.0.5:8786")
+    assert r.exit_code != 0
+    assert ("1 specimen, 0 up to date, 1 to identify on the Dask scheduler "
+            "tcp://10.0.0.5:8786 (connecting)") in r.output, r.output
+    assert "on 1 worker" not in r.output
+    assert "laminid: error: --scheduler tcp://10.0.0.5:8786: cannot connect (refused)" \
+        in r.output
+
+
 def test_dask_local_cluster_gives_the_same_constants(batch_run, tmp_path):
     pytest.importorskip("distributed")
     specs, out, _ = batch_run

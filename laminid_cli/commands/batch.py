@@ -104,9 +104,13 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
     if not as_json and shown:
         unit = "worker" if scheduler else "process"
         unit = unit if n_jobs == 1 else unit + ("s" if scheduler else "es")
+        # a running Dask scheduler has the workers it has (-j does not apply to it): say
+        # where the jobs go, and that connecting may take its time (up to 20 s)
+        where = (f" on the Dask scheduler {scheduler} (connecting)"
+                 if scheduler and scheduler != "local" else f" on {n_jobs} {unit}")
         click.echo(f"{len(jobs)} specimen{'' if len(jobs) == 1 else 's'}, "
                    f"{len(jobs) - len(todo)} up to date, {len(todo)} to identify"
-                   + (f" on {n_jobs} {unit}" if todo else ""), err=True)
+                   + (where if todo else ""), err=True)
 
     def show(item):
         return item or ""
