@@ -687,7 +687,8 @@ def monte_carlo_loss_factors(fit: DampingFit, mc) -> DampingMonteCarlo:
     One small bounded least squares per trial (:func:`_bounded_solve`, the main fit's)."""
     import time
 
-    from laminid_cli.uncertainty import MC_EVIDENCE, inner_range_of, range_ends_at_bound
+    from laminid_cli.uncertainty import (MC_EVIDENCE, inner_range_of, range_ends_at_bound,
+                                         sample_spread)
 
     t0 = time.perf_counter()
     all_labels = tuple(lab.rsplit(".", 1)[0] + ".eta" + lab.rsplit(".", 1)[1]
@@ -704,11 +705,7 @@ def monte_carlo_loss_factors(fit: DampingFit, mc) -> DampingMonteCarlo:
     p = len(free)
     samples = np.array(rows) if rows else np.zeros((0, p))
     conf = fit.confidence
-    if samples.shape[0] >= 2:
-        mean, std = samples.mean(axis=0), samples.std(axis=0, ddof=1)
-        lower, upper = np.quantile(samples, [(1 - conf) / 2, (1 + conf) / 2], axis=0)
-    else:
-        mean = std = lower = upper = np.full(p, np.nan)
+    mean, std, lower, upper = sample_spread(samples, p, conf)
     in_lo, in_hi = inner_range_of(samples, p, conf, MC_EVIDENCE)
     lower_at_zero = range_ends_at_bound(zero, np.zeros(p, int), samples.shape[0], conf)[0]
     return DampingMonteCarlo(

@@ -1521,6 +1521,16 @@ def _clipped_bar(ax, k, xi, lo, hi, ymin, ymax, color, *, lw, gid, marks=(False,
                         fontsize=9, color=color, weight="bold", gid=f"{gid}-search-limit")
 
 
+def style_across_panel(ax, title: str, names) -> None:
+    """Title, specimen ticks and grid of a panel across specimens (the constants' and the
+    loss factors' pages)."""
+    ax.set_title(title, fontsize=10)
+    ax.set_xticks(np.arange(len(names)), names, rotation=45, ha="right", fontsize=7)
+    ax.set_xlim(-0.6, len(names) - 0.4)
+    ax.grid(axis="y", lw=0.3)
+    ax.tick_params(axis="y", labelsize=7)
+
+
 def constants_across_page(done, title: str):
     """One panel per constant: each specimen on the x axis, the materials of one specimen side
     by side, each with the doubt the summary gives it: interval bar, hollow "?" when not
@@ -1538,7 +1548,6 @@ def constants_across_page(done, title: str):
     gs = fig.add_gridspec(3, 3, height_ratios=[1, 1, 0.2])
     axes = np.array([fig.add_subplot(gs[i, j]) for i in range(2) for j in range(3)])
     names = specimen_labels([row for row, _, _ in done])
-    x = np.arange(len(done))
     nm = len(materials)
     width = min(0.22, 0.7 / max(nm, 1))
     offsets = {m: (c - (nm - 1) / 2) * width for c, m in enumerate(materials)}
@@ -1596,11 +1605,7 @@ def constants_across_page(done, title: str):
             for xi, blo, bhi, color, lw, gid, marks, ls in bars:
                 _clipped_bar(ax, k, xi, blo, bhi, ymin, ymax, color, lw=lw, gid=gid,
                              marks=marks, ls=ls)
-        ax.set_title(f"{k} ({_unit(k)})", fontsize=10)
-        ax.set_xticks(x, names, rotation=45, ha="right", fontsize=7)
-        ax.set_xlim(-0.6, len(done) - 0.4)
-        ax.grid(axis="y", lw=0.3)
-        ax.tick_params(axis="y", labelsize=7)
+        style_across_panel(ax, f"{k} ({_unit(k)})", names)
     handles = {m: Line2D([], [], ls="none", marker="o", ms=6, color=f"C{c % 10}")
                for c, m in enumerate(materials)}
     grey = "0.3"

@@ -273,7 +273,7 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
 
     from laminid_cli.damping import TERMS
     from laminid_cli.report import (FIXED_COLOR, MC_COLOR, _clipped_bar, _figure, _footer,
-                                    specimen_labels)
+                                    specimen_labels, style_across_panel)
 
     rows = [row for row in rows if row.get("damping")]
     names = specimen_labels(rows)
@@ -285,7 +285,6 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                  fontsize=11)
     gs = fig.add_gridspec(2, 3)
     axes = [fig.add_subplot(gs[i, j]) for i, j in ((0, 0), (0, 1), (0, 2), (1, 0), (1, 1))]
-    x = np.arange(len(rows))
     nm = len(materials)
     width = min(0.22, 0.7 / max(nm, 1))
     offsets = {m: (c - (nm - 1) / 2) * width for c, m in enumerate(materials)}
@@ -352,12 +351,8 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
         for xi, lo, hi, color, gid in bars:
             _clipped_bar(ax, name, xi, lo, hi, 0.0, ymax, color,
                          lw=2.2 if color == MC_COLOR else 1.2, gid=gid)
-        ax.set_title(f"\u03b7{k} (%)", fontsize=10)
+        style_across_panel(ax, f"\u03b7{k} (%)", names)
         ax.set_ylabel("loss factor (%)", fontsize=8)
-        ax.set_xticks(x, names, rotation=45, ha="right", fontsize=7)
-        ax.set_xlim(-0.6, len(rows) - 0.4)
-        ax.grid(axis="y", lw=0.3)
-        ax.tick_params(axis="y", labelsize=7)
     handles = {m: Line2D([], [], ls="none", marker="o", ms=6, color=f"C{c % 10}")
                for c, m in enumerate(materials)}
     grey = "0.3"

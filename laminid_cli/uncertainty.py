@@ -1535,6 +1535,19 @@ class MonteCarlo:
                 "evidence_level": MC_EVIDENCE}
 
 
+def sample_spread(samples, p: int, confidence: float):
+    """(mean, std, lower, upper) (p,) of Monte Carlo ``samples`` (n, p): the empirical std
+    (n - 1) and the (1 -+ confidence) / 2 quantiles; NaN with fewer than two samples (also the
+    loss factors' Monte Carlo, laminid_cli.damping)."""
+    if samples.shape[0] >= 2:
+        mean, std = samples.mean(axis=0), samples.std(axis=0, ddof=1)
+        lower, upper = np.quantile(samples, [(1 - confidence) / 2, (1 + confidence) / 2],
+                                   axis=0)
+        return mean, std, lower, upper
+    nan = np.full(p, np.nan)
+    return nan, nan.copy(), nan.copy(), nan.copy()
+
+
 def inner_range_of(samples, p: int, confidence: float, level: float = MC_EVIDENCE
                    ) -> tuple[np.ndarray, np.ndarray]:
     """:meth:`MonteCarlo.inner_range` of ``samples`` (n, p) with a ``confidence`` range (also
@@ -1833,11 +1846,7 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
     p = len(uncertainty.labels)
     samples = np.array(ok) if ok else np.zeros((0, p))
     conf = uncertainty.confidence
-    if samples.shape[0] >= 2:
-        mean, std = samples.mean(axis=0), samples.std(axis=0, ddof=1)
-        lower, upper = np.quantile(samples, [(1 - conf) / 2, (1 + conf) / 2], axis=0)
-    else:
-        mean = std = lower = upper = np.full(p, np.nan)
+    mean, std, lower, upper = sample_spread(samples, p, conf)
     lin = uncertainty.std
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = std / lin

@@ -852,6 +852,19 @@ def test_an_interval_without_information_shows_its_ends_in_words(checked):
         "[-0.950, 0.950]"
 
 
+def _write_summary(path, rows):
+    """``rows`` (laminid batch's summary rows) as a summary.csv (long) or summary.json, by
+    ``path``'s suffix."""
+    import json
+
+    from laminid_cli.batch import write_summary_csv
+
+    if path.suffix == ".csv":
+        write_summary_csv(path, rows)
+    else:
+        path.write_text(json.dumps({"format": "laminid-batch-summary", "specimens": rows}))
+
+
 def _summary_rows():
     """Two specimens as `laminid batch` rows (SI): H (glass and carbon, as hybrid CM at 8x8
     with 40 trials: glass E2 and nu12 on upper limits, glass G12 on a lower one, glass G13
@@ -905,15 +918,11 @@ def test_summary_pages_take_the_doubt_from_the_summary_itself(tmp_path, kind):
     range with its search-limit end starred; the legend tells them apart."""
     import json
 
-    from laminid_cli.batch import write_summary_csv
     from laminid_cli.report import FIXED_COLOR
 
     rows = _summary_rows()
     path = tmp_path / f"summary.{kind}"
-    if kind == "csv":
-        write_summary_csv(path, rows)
-    else:
-        path.write_text(json.dumps({"format": "laminid-batch-summary", "specimens": rows}))
+    _write_summary(path, rows)
     fig = {p.name: p.figure for p in report_pages(path)}["constants"]
     for k, marker, y in (("E2", "^", 58.47), ("G12", "v", 5.949e-3), ("nu12", "^", 0.95)):
         a = ax(fig, f"across-{k}")
@@ -1046,9 +1055,7 @@ def test_summary_loss_factor_page_draws_their_monte_carlo_range(tmp_path, kind):
     goes into both summaries (mc_lower, mc_upper of the loss factor's row, as a constant's),
     reads back, and is drawn in grey beside the interval, named in the legend and the footer;
     a loss factor held at 0 keeps its side and limit through summary.csv."""
-    import json
-
-    from laminid_cli.batch import read_summary, write_summary_csv
+    from laminid_cli.batch import read_summary
     from laminid_cli.report import MC_COLOR
 
     rows = _summary_rows()
@@ -1060,10 +1067,7 @@ def test_summary_loss_factor_page_draws_their_monte_carlo_range(tmp_path, kind):
                   "at bound — not identified", "at_bound": True, "bound_side": "lower",
                   "bound_limit": 0.0}}}
     path = tmp_path / f"summary.{kind}"
-    if kind == "csv":
-        write_summary_csv(path, rows)
-    else:
-        path.write_text(json.dumps({"format": "laminid-batch-summary", "specimens": rows}))
+    _write_summary(path, rows)
     back = {r["name"]: r for r in read_summary(path)}["H"]["damping"]["glass"]
     assert back["eta11"]["mc_lower"] == 0.0012 and back["eta11"]["mc_upper"] == 0.0031
     assert back["eta22"]["bound_side"] == "lower" and back["eta22"]["bound_limit"] == 0.0
@@ -1097,18 +1101,12 @@ def test_summary_with_loss_factors_has_a_loss_factor_page(tmp_path, kind):
     one held at 0 by eta >= 0, a grey square for a fixed one -- and the table of a result's
     damping page, verdicts in the same words, a specimen column in front. A specimen without
     loss factors (Q) is in neither; a summary without any has no such pages."""
-    import json
-
-    from laminid_cli.batch import write_summary_csv
     from laminid_cli.damping import VERDICT_NOT_DAMPING
     from laminid_cli.report import FIXED_COLOR
 
     rows = _summary_rows()
     path = tmp_path / f"summary.{kind}"
-    if kind == "csv":
-        write_summary_csv(path, rows)
-    else:
-        path.write_text(json.dumps({"format": "laminid-batch-summary", "specimens": rows}))
+    _write_summary(path, rows)
     assert [p.name for p in report_pages(path)] == ["constants", "residuals"]
     free = {"at_bound": False, "bound_side": "", "bound_limit": None}
     rows[0]["damping"] = {"glass": {
@@ -1119,10 +1117,7 @@ def test_summary_with_loss_factors_has_a_loss_factor_page(tmp_path, kind):
         "eta13": {"value": 0.02, "lower": 0.0, "upper": 0.09,
                   "verdict": VERDICT_NOT_DAMPING.format(term="eta13")} | free,
         "eta23": {"value": 0.012, "lower": None, "upper": None, "verdict": "fixed"}}}
-    if kind == "csv":
-        write_summary_csv(path, rows)
-    else:
-        path.write_text(json.dumps({"format": "laminid-batch-summary", "specimens": rows}))
+    _write_summary(path, rows)
     pages = {p.name: p.figure for p in report_pages(path)}
     assert list(pages) == ["constants", "residuals", "loss-factors", "loss-factor-table"]
     fig = pages["loss-factors"]
