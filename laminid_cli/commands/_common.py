@@ -361,7 +361,9 @@ uncertainty_options = _apply([
                                     "report). A range wider than the linearised interval "
                                     "for sure (90 % confidence from the trials' order "
                                     "statistics) sets a worse verdict, marked '(Monte "
-                                    "Carlo)'."),
+                                    "Carlo)'. With measured damping each trial also "
+                                    "refits the ply loss factors at its own constants "
+                                    "(their range counts the free constants' doubt)."),
     # numpy's generators take no negative seed, the result file no seed above int64
     click.option("--seed", type=click.IntRange(0, 2**63 - 1), default=0, show_default=True,
                   help="Random seed of the Monte Carlo perturbations (a whole number >= 0)."),
