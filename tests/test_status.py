@@ -259,3 +259,25 @@ def test_a_fixed_range_not_checked_is_a_reason(monkeypatch):
     texts = [x["text"] for x in d["reasons"] if x["code"] == "undetermined"]
     assert any(t.startswith(f"{MAT}.G13: not checked: did not converge") and
                "the intervals are given its value, which is not known" in t for t in texts), d
+
+
+def test_a_tighter_max_rel_interval_says_what_the_lab_asked_for():
+    """S1.1 (6x6, all free) with --max-rel-interval 0.1: E2 and G12 (about ±11 %, verdict
+    "weak") are flagged; the reason said "not determined by these modes" beside a verdict
+    "weak". It now says they are known less well than the lab asked; the constants beyond the
+    verdicts' 30 % band keep "not determined" in their verdict column."""
+    s11 = "specimens/example1/S1.1.yaml"
+    r = run("identify", s11, "--mesh", "6x6", "--max-rel-interval", "0.1", "--no-output",
+            "--json")
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.stdout)
+    (reason,) = [x for x in d["reasons"] if x["code"] == "undetermined"]
+    assert reason["text"].startswith("known less well than --max-rel-interval 10 % asks (95 % "
+                                     "half-width above 10 % of the value): "), reason["text"]
+    e2 = d["uncertainty"]["constants"]["IM7/977-2"]["E2"]
+    assert e2["verdict"] == "weak" and e2["flagged"] and 0.1 < e2["rel_half_width"] < 0.3
+    assert "IM7/977-2.E2 (" in reason["text"]
+    r = run("identify", s11, "--mesh", "6x6", "--no-output", "--json")
+    (reason,) = [x for x in json.loads(r.stdout)["reasons"] if x["code"] == "undetermined"]
+    assert reason["text"].startswith("not determined by these modes (95 % half-width above "
+                                     "30 % of the value): ")
