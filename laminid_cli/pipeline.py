@@ -72,6 +72,7 @@ class RunOptions:
         (``copies`` models in memory at once, one per worker), the frequency sigma and the
         interval threshold. Returns the mesh (nx, ny)."""
         from laminid_cli.fe.mesh import monte_carlo_factors, parse_mesh
+        from laminid_cli.intervals import WEAK
         from laminid_cli.uncertainty import check_sigma_rel
 
         u = self.uncertainty
@@ -81,9 +82,10 @@ class RunOptions:
         else:
             nxny = parse_mesh(self.mesh, copies=copies)
         check_sigma_rel(u.sigma_rel)
-        if not u.max_rel_interval > 0:
-            raise FitInputError(f"--max-rel-interval must be positive (0.3 = 30 %), got "
-                                f"{u.max_rel_interval:g}")
+        if not 0 < u.max_rel_interval <= WEAK:
+            raise FitInputError(f"--max-rel-interval must be above 0 and at most {WEAK:g} "
+                                f"(0.3 = 30 %: a wider interval's verdict is 'not determined', "
+                                f"always flagged), got {u.max_rel_interval:g}")
         return nxny
 
     def check_fix(self, where: str = "the specimen file") -> None:

@@ -527,8 +527,10 @@ def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
 
     if scaling not in SCALINGS:
         raise FitInputError(f"covariance scaling '{scaling}' unknown: choose {', '.join(SCALINGS)}")
-    if not max_rel_interval > 0:
-        raise FitInputError(f"the interval threshold must be positive, got {max_rel_interval:g}")
+    if not 0 < max_rel_interval <= WEAK:
+        raise FitInputError(f"the interval threshold must be in (0, {WEAK:g}] (above it a "
+                            f"verdict is 'not determined', always flagged), got "
+                            f"{max_rel_interval:g}")
     if not 0 < confidence < 1:
         raise FitInputError(f"confidence must be in (0, 1), got {confidence:g}")
     labels = free_labels(materials)

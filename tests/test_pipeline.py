@@ -77,7 +77,10 @@ def test_every_option_field_changes_the_batch_hash(tmp_path):
     (RunOptions(uncertainty=UncertaintyOptions(sigma_rel=-0.1)),
      "relative frequency uncertainty must be positive"),
     (RunOptions(uncertainty=UncertaintyOptions(max_rel_interval=0.0)),
-     "--max-rel-interval must be positive (0.3 = 30 %), got 0"),
+     "--max-rel-interval must be above 0 and at most 0.3 (0.3 = 30 %: a wider interval's "
+     "verdict is 'not determined', always flagged), got 0"),
+    (RunOptions(uncertainty=UncertaintyOptions(max_rel_interval=0.5)),
+     "--max-rel-interval must be above 0 and at most 0.3"),
 ])
 def test_bad_settings_are_refused_before_any_work(options, message):
     with pytest.raises(LaminidError) as err:

@@ -116,6 +116,9 @@ def test_verdicts_thresholds_and_flags():
     assert 0.05 < u.rel_half_width[1] < 0.3 and u.verdict[1] == VERDICT_WEAK
     assert u.flagged == ("m.E2",)                      # the user's threshold, tighter than 30 %
     assert u.condition > 10 and u.weakest[0][0] == "m.E2"
+    # a looser threshold than the "not determined" band is refused (ok beside it would mislead)
+    with pytest.raises(FitInputError, match=r"in \(0, 0.3\]"):
+        linearized_uncertainty([obs], [mat], scaling="stated", max_rel_interval=0.31)
 
 
 def test_a_posteriori_factor_and_covariance_scaling_choices():

@@ -341,9 +341,12 @@ uncertainty_options = _apply([
                   default="larger", show_default=True,
                   help="Intervals from the stated frequency sigma, from the residuals at the "
                        "optimum (s2 = chi2/(n-p), Student t), or the larger of the two."),
-    click.option("--max-rel-interval", type=FiniteFloat(min=0, min_open=True), default=0.30, show_default=True,
-                  metavar="FRACTION",
-                  help="Flag a constant whose 95 % half-width exceeds this fraction of its value."),
+    click.option("--max-rel-interval", type=FiniteFloat(min=0, min_open=True, max=0.30),
+                  default=0.30, show_default=True, metavar="FRACTION",
+                  help="Flag a constant whose 95 % half-width exceeds this fraction of its value. "
+                       "At most 0.30: above it a constant's verdict is 'not determined', and "
+                       "such a constant is always flagged (a status of ok beside it would "
+                       "mislead)."),
     click.option("--fix-undetermined", is_flag=True,
                   help="Fix the flagged constants at their initial values and identify again "
                        "(until nothing new is flagged, by the intervals or the Monte Carlo); a "
