@@ -979,8 +979,10 @@ def write_summary_csv(path, rows, wide: bool = False) -> Path:
     return _write_text(path, buf.getvalue())
 
 
-def batch_report(rows, options: BatchOptions, out_dir) -> dict:
-    """The summary as plain data (SI), as written to summary.json and printed by --json."""
+def batch_report(rows, options: BatchOptions, out_dir, interrupted: bool = False) -> dict:
+    """The summary as plain data (SI), as written to summary.json and printed by --json;
+    ``interrupted``: the run was stopped (Ctrl-C) before every specimen was done (those rows
+    are "not run")."""
     counts = {s: sum(r["status"] == s for r in rows) for s in STATUSES}
     counts["not converged"] = sum(r.get("converged") is False for r in rows)
     counts["set aside"] = sum(bool(r.get("stale_result")) for r in rows
@@ -988,7 +990,8 @@ def batch_report(rows, options: BatchOptions, out_dir) -> dict:
     return {"format": "laminid-batch-summary", "laminid_version": __version__,
             "out": str(out_dir), "options": options.as_dict(), "units": dict(UNITS),
             "n_specimens": len(rows) - counts[NOT_FROM_BATCH], "counts": counts,
-            "n_cached": sum(bool(r["cached"]) for r in rows), "specimens": rows}
+            "n_cached": sum(bool(r["cached"]) for r in rows), "interrupted": bool(interrupted),
+            "specimens": rows}
 
 
 def failed(rows) -> bool:

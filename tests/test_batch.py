@@ -524,7 +524,8 @@ def test_killed_batch_leaves_only_complete_files_and_a_rerun_finishes(tmp_path, 
                                         "specimens/example1/S1.1.yaml", "example1/S1.2.yaml":
                                         "specimens/example1/S1.2.yaml"})
     out = tmp_path / "out"
-    proc = _start_batch(specs, out, jobs)
+    as_json = sig == signal.SIGINT and jobs == "1"
+    proc = _start_batch(specs, out, jobs, *(["--json"] if as_json else []))
     _wait_first_result(proc, out)
     os.killpg(proc.pid, sig)
     t0 = time.time()
@@ -532,9 +533,20 @@ def test_killed_batch_leaves_only_complete_files_and_a_rerun_finishes(tmp_path, 
     assert time.time() - t0 < 5                          # Ctrl-C stops the workers at once
     if sig == signal.SIGINT:
         assert proc.returncode == 130, _e.decode()[-2000:]
+        assert _e.decode().rstrip().endswith("laminid: interrupted")
         rows = read_summary(out / "summary.csv")              # the summary of what was done
         assert {r["status"] for r in rows} <= {"ok", "check", "not run"}
-        assert sum(r["status"] in ("ok", "check") for r in rows) >= 1
+        n_done = sum(r["status"] in ("ok", "check") for r in rows)
+        assert n_done >= 1
+        # ... and printed as on a finished run, so a shell batch has it on stdout
+        if as_json:
+            d = json.loads(_o)
+            assert d["interrupted"] is True and d["counts"]["not run"] == 4 - n_done
+            assert json.loads((out / "summary.json").read_text())["interrupted"] is True
+        else:
+            text = _o.decode()
+            assert text.count("not run") >= 4 - n_done
+            assert f"; {4 - n_done} not run: interrupted); summary: " in text, text
     done = sorted(out.rglob("*.h5"))
     assert 1 <= len(done) < 4
     for p in done:                                             # every file opens, is complete

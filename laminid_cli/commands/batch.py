@@ -124,6 +124,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
 
     finished = 0
     refused = False
+    interrupted = False
     try:
         # no bar (not even its label) when every result is up to date, nor under -q
         with click.progressbar(length=len(todo), label="identifying", file=sys.stderr,
@@ -141,6 +142,9 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
     except BatchError:   # e.g. --scheduler unreachable: nothing ran, so nothing is written
         refused = finished == 0
         raise
+    except KeyboardInterrupt:
+        # Ctrl-C: the summaries, the table (or --json) of what was done, then exit 130
+        interrupted = True
     finally:
         if refused:
             if created:
@@ -154,7 +158,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
             # not in this batch are named, not moved (another batch's may share --out).
             ordered = [rows.get(j.name) or _unfinished_row(j) for j in jobs]
             ordered += [foreign_row(p, out) for p in foreign_results(out, jobs)]
-            report = batch_report(ordered, options, out)
+            report = batch_report(ordered, options, out, interrupted=interrupted)
             write_summary_csv(out / SUMMARY_CSV, ordered, wide=wide)
             write_summary_json(out / SUMMARY_JSON, report)
             # once more at the end: a killed run's worker may still have been exiting at the
@@ -172,6 +176,9 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
                    + (f"; {c[NOT_FROM_BATCH]} result file"
                       f"{' is' if c[NOT_FROM_BATCH] == 1 else 's are'} not from this batch"
                       if c[NOT_FROM_BATCH] else "")
+                   + (f"; {c['not run']} not run: interrupted" if interrupted else "")
                    + f"); summary: {out / SUMMARY_CSV}")
+    if interrupted:
+        raise KeyboardInterrupt
     if failed(ordered):
         sys.exit(1)
