@@ -24,6 +24,7 @@ COMMANDS = {
     "acquire": "laminid_cli.commands.acquire:acquire",
     "batch": "laminid_cli.commands.batch:batch",
     "report": "laminid_cli.commands.report:report",
+    "show": "laminid_cli.commands.show:show",
     "export": "laminid_cli.commands.export:export",
 }
 
@@ -34,6 +35,7 @@ SHORT_HELP = {
     "acquire": "Acquire impact-test FRFs from a dynamic signal analyser (VISA).",
     "batch": "Identify every specimen of folders/files in parallel; summary table (Table 2).",
     "report": "PDF/PNG report of a result (frequencies, modes, history...) or a batch summary.",
+    "show": "Print a result file as identify printed it (--json: as identify --json).",
     "export": "FRFs (UFF 58) or identified mode shapes (UFF 15 + 55) for other modal software.",
 }
 

@@ -598,6 +598,41 @@ def read_result(path) -> ResultFile:
             raise ResultFileError(f"{path}: incomplete result file ({exc})") from exc
 
 
+def read_stored_summary(path) -> tuple[dict, dict]:
+    """(summary, written) of a result file: the run's summary as ``identify --json`` printed
+    it (/summary_json), and ``written`` = {created, laminid_version, command, format}.
+
+    Raises
+    ------
+    ResultFileError
+        As :func:`read_result` (which checks the file first); also a file written before
+        results kept their summary, or whose /summary_json is not readable JSON.
+    """
+    import json
+
+    from laminid_cli.h5open import open_h5
+
+    path = Path(path)
+    r = read_result(path)
+    with open_h5(path, ResultFileError, "not an HDF5 file") as f:
+        a = f.attrs
+        written = {"created": _s(a.get("created", "")),
+                   "laminid_version": _s(a.get("laminid_version", "")),
+                   "command": _s(a.get("command", "")), "format": r.format}
+        if "summary_json" not in f:
+            raise ResultFileError(
+                f"{path}: written by laminid {written['laminid_version'] or '(unknown)'} "
+                "before result files kept what identify printed (no /summary_json); "
+                f"'laminid report {path}' draws it, or identify the specimen again")
+        try:
+            summary = json.loads(decode(f["summary_json"][()]))
+        except (ValueError, TypeError, OSError) as exc:
+            raise ResultFileError(f"{path}: /summary_json is not readable JSON ({exc})") from exc
+    if not isinstance(summary, dict):
+        raise ResultFileError(f"{path}: /summary_json is not a summary (a JSON object)")
+    return summary, written
+
+
 def _read(f, path, fmt, version) -> ResultFile:
     joint = fmt == "laminid-joint-result"
     a = f.attrs

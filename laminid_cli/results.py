@@ -28,7 +28,9 @@ equations); /materials/<name> attrs parametrization, free; /initial/<name>
 (the starting constants, same keys); /frequencies/model_mode (pairing) and attrs rms_residual_percent;
 /history (evaluation, objective, rms_residual_percent, x, constants, error_bound per evaluation;
 error_bound: 0 full model, NaN a reduced-model prediction, else the bound where enriched);
-/sensitivities (dlnf_dlnP: d ln f_i / d ln P_j, dlambda_dx); /swaps and /warnings (strings).
+/sensitivities (dlnf_dlnP: d ln f_i / d ln P_j, dlambda_dx); /swaps and /warnings (strings);
+/summary_json (what ``identify --json`` printed when the file was written, JSON text; read by
+``laminid show``; the typed datasets stay the reference for other programs).
 
 Status (schema version 2; laminid_cli.status)::
 
@@ -197,6 +199,24 @@ def put(group, name: str, value, units: str, *, compression: str | None = None, 
     for k, v in attrs.items():
         d.attrs[k] = v
     return d
+
+
+#: the dataset holding what ``laminid identify --json`` printed when the file was written
+SUMMARY_JSON = "summary_json"
+
+
+def put_summary(f, summary: dict) -> None:
+    """/summary_json: the run's summary as ``identify --json`` printed it (JSON text), so that
+    ``laminid show`` prints the file as identify did; the typed datasets stay the reference
+    for other programs."""
+    import json
+
+    from laminid_cli.jsonsafe import json_safe
+
+    d = f.create_dataset(SUMMARY_JSON, data=json.dumps(json_safe(summary),
+                                                       separators=(",", ":")))
+    d.attrs["description"] = ("what 'laminid identify --json' printed when this file was "
+                              "written (JSON, SI units); read by 'laminid show'")
 
 
 def put_error_bound(h, history: dict) -> None:
@@ -406,6 +426,7 @@ def write_identification_file(path, fm, r, summary: dict, command: str = "lamini
                 write_global_uncertainty(f, summary["global_uncertainty"])
         if damping is not None:
             write_damping(f, damping)
+        put_summary(f, summary)
 
 
 def _write_material_settings(f, r) -> None:
@@ -719,6 +740,7 @@ def write_joint_identification_file(path, fms, r, summary: dict, assessment=None
                 write_global_uncertainty(g, summary["specimens"][name]["global_uncertainty"])
         if assessment is not None:
             write_uncertainty(f, assessment, names)
+        put_summary(f, summary)
 
 
 def write_global_uncertainty(g, unc: dict) -> None:

@@ -13,7 +13,7 @@ COMMANDS = cli.list_commands(click.Context(cli))
 
 
 def test_the_commands_are_listed():
-    assert set(COMMANDS) == {"modes", "identify", "fit-frf", "acquire", "batch", "report",
+    assert set(COMMANDS) == {"modes", "identify", "fit-frf", "acquire", "batch", "report", "show",
                              "export"}
 
 

@@ -259,24 +259,10 @@ def result_output(output, default, force: bool, specimen=None, inputs=()
 
 
 def _clean(obj):
-    """JSON-safe copy: numpy scalars/arrays to Python, NaN/inf to None."""
-    try:
-        import numpy as np
-    except ImportError:  # pragma: no cover
-        np = None
-    if isinstance(obj, dict):
-        return {str(k): _clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
-    if np is not None and isinstance(obj, np.ndarray):
-        return _clean(obj.tolist())
-    if np is not None and isinstance(obj, np.generic):
-        return _clean(obj.item())
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    if isinstance(obj, Path):
-        return str(obj)
-    return obj
+    """JSON-safe copy (:func:`laminid_cli.jsonsafe.json_safe`)."""
+    from laminid_cli.jsonsafe import json_safe
+
+    return json_safe(obj)
 
 
 def echo_json(obj) -> None:

@@ -1,0 +1,45 @@
+"""``laminid show``: print a result file as ``laminid identify`` printed it."""
+
+from __future__ import annotations
+
+import click
+
+from laminid_cli.commands._common import InputFile, echo_json, json_option
+
+
+@click.command(short_help="Print a result file as identify printed it (or --json).")
+@click.argument("result", type=InputFile(must_exist=True))
+@json_option
+def show(result, as_json):
+    """Print RESULT, a result file of 'laminid identify' (single or --joint) or 'laminid
+    batch', as 'laminid identify' printed it when the file was written: the status and its
+    reasons, the constants with their intervals and verdicts, the measured and model
+    frequencies, the uncertainty assessment (Monte Carlo, fixed constants, profiles) and the
+    ply loss factors. Nothing is computed again; with --json, what 'identify --json' printed,
+    plus "file" and "written" (when, by which laminid and command).
+
+    A file written by an earlier laminid (no /summary_json) is refused with a pointer to
+    'laminid report', which draws any readable result.
+
+    \b
+    Examples:
+      laminid show specimens/example1/S1.1.result.h5
+      laminid show results/example2/S2.1.result.h5 --json | jq .status
+    """
+    from laminid_cli.commands.text import (format_damping, format_identify_report,
+                                           format_joint_report)
+    from laminid_cli.resultfile import read_stored_summary
+
+    summary, written = read_stored_summary(result)
+    if as_json:
+        echo_json({**summary, "file": str(result), "written": written})
+        return
+    click.echo(f"{result}: written {written['created'] or '(date not recorded)'} by "
+               f"laminid {written['laminid_version'] or '?'}"
+               + (f" ({written['command']})" if written["command"] else "") + "\n")
+    joint = written["format"] == "laminid-joint-result"
+    click.echo(format_joint_report(summary) if joint else format_identify_report(summary))
+    if "damping" in summary:
+        click.echo("\n" + "\n".join(format_damping(summary["damping"])))
+    for note in summary.get("notes") or ():
+        click.echo(f"note: {note}")

@@ -1,0 +1,134 @@
+"""`laminid show`: a result file printed as identify printed it (text and --json), for single,
+joint, batch and damped results; files it cannot show are refused in one line (exit 2)."""
+
+import json
+
+import h5py
+import numpy as np
+import pytest
+
+from tests.clihelp import run
+from tests.dampspec import damped_copy
+
+S11 = "specimens/example1/S1.1.yaml"
+S12 = "specimens/example1/S1.2.yaml"
+MESH = "6x6"
+
+
+def _identify(*args):
+    r = run("identify", *args)
+    assert r.exit_code == 0, r.output
+    return r.stdout
+
+
+def _without_written_line(text: str) -> str:
+    # identify's last line names the file it wrote; show names it in its first line
+    head, sep, _tail = text.rpartition("\nwritten: ")
+    assert sep, text
+    return head.rstrip("\n")
+
+
+@pytest.fixture(scope="module")
+def single(tmp_path_factory):
+    out = tmp_path_factory.mktemp("show") / "s11.result.h5"
+    text = _identify(S11, "--mesh", MESH, "-o", out)
+    return out, text
+
+
+def test_show_prints_what_identify_printed(single):
+    out, text = single
+    r = run("show", out)
+    assert r.exit_code == 0, r.output
+    first, body = r.stdout.split("\n", 1)
+    assert first.startswith(f"{out}: written 20") and first.endswith(
+        "by laminid 0.2.0 (laminid identify)")
+    assert body.strip("\n") == _without_written_line(text)
+    # the numbers a lab reads are there: E1 with its interval and verdict, the status
+    assert "status:" in body and "E1" in body
+
+
+def test_show_json_is_identify_json_plus_file_and_written(tmp_path):
+    out = tmp_path / "s11.h5"
+    d = json.loads(_identify(S11, "--mesh", MESH, "--json", "-o", out))
+    r = run("show", out, "--json")
+    assert r.exit_code == 0, r.output
+    s = json.loads(r.stdout)
+    assert s.pop("file") == str(out)
+    written = s.pop("written")
+    assert written["command"] == "laminid identify" and written["format"] == "laminid-result"
+    assert written["laminid_version"] == "0.2.0" and written["created"].startswith("20")
+    d.pop("output"), d.pop("output_replaced")
+    assert s == d                                   # bit for bit: nothing is computed again
+    # and the typed datasets agree with it (the file's reference for other programs)
+    with h5py.File(out, "r") as f:
+        e1 = f["materials"][next(iter(f["materials"]))]["E1"][()]
+    assert s["materials"]["IM7/977-2"]["E1"] == pytest.approx(float(e1), rel=1e-12)
+
+
+def test_show_of_a_joint_result(tmp_path):
+    out = tmp_path / "joint.h5"
+    text = _identify(S11, S12, "--joint", "--mesh", MESH, "-o", out)
+    r = run("show", out)
+    assert r.exit_code == 0, r.output
+    first, body = r.stdout.split("\n", 1)
+    assert first.endswith("(laminid identify --joint)")
+    assert body.strip("\n") == _without_written_line(text)
+    assert "S1.1" in body and "S1.2" in body
+
+
+def test_show_of_a_batch_result_matches_the_batch_summary(tmp_path):
+    out = tmp_path / "out"
+    r = run("batch", S11, "--mesh", MESH, "--out", out, "--json")
+    assert r.exit_code == 0, r.output
+    row = json.loads(r.stdout)["specimens"][0]
+    r = run("show", row["result"], "--json")
+    assert r.exit_code == 0, r.output
+    s = json.loads(r.stdout)
+    assert s["written"]["command"] == "laminid batch"
+    for k, v in row["materials"]["IM7/977-2"].items():
+        assert s["materials"]["IM7/977-2"][k] == pytest.approx(v, rel=1e-12), k
+    assert s["status"] == row["status"]
+
+
+def test_show_of_a_damped_result_prints_the_loss_factors(tmp_path):
+    spec = tmp_path / "damped.yaml"
+    damped_copy(S11, spec, np.array([0.002, 0.012, 0.018, 0.012, 0.012]), sigma_rel=0.03,
+                mesh=MESH)
+    out = tmp_path / "damped.h5"
+    text = _identify(spec, "--mesh", MESH, "-o", out)
+    r = run("show", out)
+    assert r.exit_code == 0, r.output
+    assert r.stdout.split("\n", 1)[1].strip("\n") == _without_written_line(text)
+    assert "eta22" in r.stdout or "η22" in r.stdout
+
+
+def test_files_show_cannot_print_are_refused_in_one_line(single, tmp_path):
+    out, _ = single
+    old = tmp_path / "old.h5"
+    old.write_bytes(out.read_bytes())
+    with h5py.File(old, "a") as f:                  # as written before /summary_json
+        del f["summary_json"]
+    r = run("show", old)
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert (f"{old}: written by laminid 0.2.0 before result files kept what identify printed "
+            f"(no /summary_json); 'laminid report {old}' draws it") in r.output
+    bad = tmp_path / "bad.h5"
+    bad.write_bytes(out.read_bytes())
+    with h5py.File(bad, "a") as f:
+        del f["summary_json"]
+        f["summary_json"] = "{not json"
+    r = run("show", bad)
+    assert r.exit_code == 2 and f"{bad}: /summary_json is not readable JSON" in r.output
+    text = tmp_path / "notes.txt"
+    text.write_text("E1 = 117 GPa\n")
+    r = run("show", text)
+    assert r.exit_code == 2 and "not a laminid identification result" in r.output
+    r = run("show", tmp_path / "missing.h5")
+    assert r.exit_code == 2 and "missing.h5" in r.output and "Traceback" not in r.output
+
+
+def test_show_help_names_json_and_the_report():
+    r = run("show", "--help")
+    assert r.exit_code == 0
+    text = " ".join(r.output.split())
+    assert "--json" in text and "laminid report" in text and "Nothing is computed again" in text
