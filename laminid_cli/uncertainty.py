@@ -2318,12 +2318,13 @@ def profile_bound(label: str, side: str, limit: float, far: float, delta, thresh
 
 
 def refit_held(result, fms, sigmas, kw: dict, joint: bool, label, value=None,
-               max_evaluations: int = PROFILE_EVALUATIONS):
+               max_evaluations: int = PROFILE_EVALUATIONS, unconverged: bool = False):
     """(result, uncertainty) of the others identified again with the constant ``label`` held
     at ``value`` (SI; or ``label`` a {label: value} of several): from ``result``'s optimum (a
     short walk; where other constants sit on a limit a run may not start from, E2 = E1
     exactly, a little towards the initial values), its basis, at most ``max_evaluations``.
-    FitError when that fit does not converge."""
+    FitError when that fit does not converge, unless ``unconverged``: then its best point is
+    returned (``result.converged`` False), whose chi2 is an upper bound of the fit's."""
     from laminid_cli.identify import identify
     from laminid_cli.joint import identify_joint
 
@@ -2364,13 +2365,17 @@ def refit_held(result, fms, sigmas, kw: dict, joint: bool, label, value=None,
         except FitInputError:
             if step == PROFILE_STEPS[-1]:
                 raise
-    if not r.converged:
-        where = ", ".join(f"{lab.rsplit('.', 1)[1]} = {_show(lab.rsplit('.', 1)[1], v)}"
-                          for lab, v in held.items())
-        raise FitError(f"the identification with {where} held did not converge in "
-                       f"{opts.max_evaluations} evaluations")
+    if not r.converged and not unconverged:
+        raise FitError(_not_converged(held, opts.max_evaluations))
     uc = uncertainty_of(r, fms_v if joint else fms_v[0], sigmas if joint else sigmas[0], **kw)
     return r, uc
+
+
+def _not_converged(held: dict, max_evaluations: int) -> str:
+    where = ", ".join(f"{lab.rsplit('.', 1)[1]} = {_show(lab.rsplit('.', 1)[1], v)}"
+                      for lab, v in held.items())
+    return (f"the identification with {where} held did not converge in {max_evaluations} "
+            "evaluations")
 
 
 def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) -> Uncertainty:
@@ -2399,23 +2404,44 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
         m = names.index(name)
         initial = float(getattr(result.initial[m], k))
 
-        def delta(v, name=name, k=k, lab=lab, initial=initial):
-            r, uc = refit_held(result, fms, sigmas, kw, joint, lab, v)
+        unfinished, max_evals = [], [PROFILE_EVALUATIONS]
+
+        def delta(v, name=name, k=k, lab=lab, initial=initial, unfinished=unfinished,
+                  max_evals=max_evals):
+            r, uc = refit_held(result, fms, sigmas, kw, joint, lab, v, unconverged=True)
             chi2 = uc.chi2
             if prior.get(name, {}).get(k, 0.0) > 0:
                 # held, the constant has no prior row in that fit; u.chi2 counted it (free):
                 # its row as linearized_uncertainty counts one, (v - P0) / P0 over sigma_unit
                 ref = initial if initial != 0 else 1.0
                 chi2 += ((v - initial) / ref / uc.sigma_unit) ** 2
-            return (chi2 - u.chi2) / factor
+            d = (chi2 - u.chi2) / factor
+            if not r.converged:
+                # its best point's chi2 bounds the fit's from above: a rise below the
+                # threshold says "not rejected" for sure (a better fit too); only a rise
+                # above it needs the fit's end
+                if d >= threshold:
+                    raise FitError(_not_converged({lab: v}, r.options.max_evaluations)
+                                   + f" (chi2 had risen by {d:.3g} when it stopped, scaled; "
+                                   f"{threshold:.3g} rejects)")
+                unfinished.append(v)
+                max_evals[:] = [r.options.max_evaluations]
+            return d
 
         side, limit = _limit(u, j)
         far = _profile_far(k, side, limit, options, result.initial[m])
         try:
-            out[lab] = profile_bound(lab, side, limit, far, delta, threshold, u.confidence)
+            p = profile_bound(lab, side, limit, far, delta, threshold, u.confidence)
         except (FitError, ModelError, SolverError) as exc:
-            out[lab] = Profile(lab, side, limit, np.nan, far, np.nan, threshold, 0,
-                               f"{PROFILE_NONE} {exc}", str(exc))
+            p = Profile(lab, side, limit, np.nan, far, np.nan, threshold, 0,
+                        f"{PROFILE_NONE} {exc}", str(exc))
+        if unfinished and not p.error:
+            n = len(unfinished)
+            p = dataclasses.replace(p, text=p.text + (
+                f" ({n} of its {p.runs} identifications stopped at {max_evals[0]} "
+                f"evaluations: {'its' if n == 1 else 'their'} rise is an upper bound, enough "
+                f"to say the fit does not reject {'that value' if n == 1 else 'those values'})"))
+        out[lab] = p
     return dataclasses.replace(u, profiles=out)
 
 
