@@ -661,8 +661,25 @@ def _bound_panel(ax, k, v, iv, x, ymin, ymax):
                     ha="left", color=INTERVAL_COLOR, gid="profile-label")
     elif iv.profile_kind == "flat":
         far = getattr(iv, "profile_far", np.nan)
-        words += "; profile: flat to the other limit" + (
-            f" ({fmt_value(k, far)})" if np.isfinite(far) else "")
+        if not np.isfinite(far):
+            words += "; profile: flat to the other limit"
+        else:
+            # the values the fit does not reject: from the limit to the search's other end,
+            # off the panel (an arrow head on its edge) when that end is out of view
+            y = _gpa(k, far)
+            up = y > v
+            end = min(y, ymax) if up else max(y, ymin)
+            ax.plot([x, x], [v, end], ls=(0, (1, 1.5)), color=INTERVAL_COLOR, lw=2.5,
+                    gid="profile")
+            if end == y:
+                ax.plot([x], [y], "_", ms=14, mew=2.5, color=INTERVAL_COLOR, gid="profile-cap")
+            else:
+                ax.plot([x], [end], "^" if up else "v", ms=6, color=INTERVAL_COLOR,
+                        clip_on=False, gid="profile-cap")
+            ax.annotate(f"profile:\nflat to\n{fmt_value(k, far)}", (x, end),
+                        xytext=(-6, -3 if up else 3), textcoords="offset points", fontsize=6.5,
+                        va="top" if up else "bottom", ha="right", color=INTERVAL_COLOR,
+                        gid="profile-label")
     ax.annotate("\n".join(textwrap.wrap(words, 12)), (x, (v + edge) / 2), xytext=(5, 0),
                 textcoords="offset points", fontsize=6.5, va="center", ha="left",
                 color=INTERVAL_COLOR, gid="bound-statement")
@@ -715,6 +732,11 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
     if iv is not None and iv.at_bound:
         ymin, ymax = _bound_limits(g(v), iv.bound_side, gref, nu,
                                    g(getattr(iv, "profile_bound", np.nan)))
+        far = g(getattr(iv, "profile_far", np.nan))
+        if iv.profile_kind == "flat" and np.isfinite(far) and abs(far - g(v)) <= 2 * abs(g(v)):
+            # a flat profile's other end in view where it is of the value's size (E2 55.5 ->
+            # 0.9 GPa, nu12 0.95 -> 0); far beyond (G13 0.003 -> 18.5 GPa) it runs off
+            ymin, ymax = _bound_limits(g(v), iv.bound_side, gref, nu, far)
     else:
         ymin, ymax = _panel_limits(g(v), g(lo), g(hi), gref, u.weak, nu)
     # verdict bands about an identified value only (none at a bound, none for a fixed value)
@@ -784,9 +806,11 @@ def _interval_legend(r: ResultFile) -> tuple[list, list[str]]:
         items.append(((Line2D([], [], ls="none", marker="v", ms=7, color="k", mfc="w"),
                        Line2D([], [], ls="none", marker="^", ms=7, color="k", mfc="w")),
                       "stopped on a search limit: not identified"))
-    if any(np.isfinite(getattr(iv, "profile_bound", np.nan)) for iv in ivs):
-        items.append((Line2D([], [], color=INTERVAL_COLOR, lw=2.5, ls=(0, (1, 1.5)), marker="_", ms=10,
-                             mew=2.5), "values the fit does not reject (profile)"))
+    if any(np.isfinite(getattr(iv, "profile_bound", np.nan))
+           or (iv.at_bound and iv.profile_kind == "flat") for iv in ivs):
+        # dotted, without the end's cap (the cap hid the dots at a legend handle's length)
+        items.append((Line2D([], [], color=INTERVAL_COLOR, lw=2.5, ls=(0, (1, 1.5))),
+                      "values the fit does not reject (profile)"))
     why = {fixed_words(r, m, k) for m in r.materials for k in CONSTANTS} - {None}
     if why:
         only = next(iter(why)) if len(why) == 1 else ""

@@ -110,7 +110,17 @@ def test_s21_g13_is_flat_in_json_hdf5_terminal_and_report(tmp_path):
     fig = {p.name: p.figure for p in report_pages(out)}["intervals"]
     a = next(x for x in fig.axes if x.get_gid() == "interval-E-glass/R368.G13")
     stmt = next(t for t in a.texts if t.get_gid() == "bound-statement").get_text()
-    assert stmt.replace("\n", " ").endswith("profile: flat to the other limit (18.50)"), stmt
+    assert stmt.replace("\n", " ") == "stopped on the lower search limit: no interval", stmt
+    # the values the fit does not reject: dotted from the limit up, off the panel (18.5 GPa
+    # is far above it), an arrow head on the edge and the far end's value beside it
+    line = next(x for x in a.lines if x.get_gid() == "profile")
+    (x0, x1), (y0, y1) = line.get_data()
+    ymin, ymax = a.get_ylim()
+    assert y0 == pytest.approx(prof_limit := iv.value / 1e9, rel=1e-9) and y1 == ymax
+    cap = next(x for x in a.lines if x.get_gid() == "profile-cap")
+    assert cap.get_marker() == "^" and cap.get_ydata()[0] == ymax
+    label = next(t for t in a.texts if t.get_gid() == "profile-label").get_text()
+    assert label == "profile:\nflat to\n18.50" and prof_limit < ymax < 1.0
     text = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8",
                                     "--no-output"]).output
     assert "none: flat to 18.50" in text and "profile: the fit is as good" in text
@@ -354,3 +364,42 @@ def test_an_unfinished_fit_above_the_threshold_gives_no_profile(monkeypatch):
     assert p.text.startswith("no profile: the identification with G13 = ") and np.isnan(p.bound)
     assert "held did not converge in 2 evaluations (chi2 had risen by " in p.text
     assert f"scaled; {p.threshold:.3g} rejects)" in p.text and p.threshold > 3.84  # Student t
+
+
+def test_a_flat_profile_of_the_values_size_is_drawn_to_its_end(tmp_path):
+    """A flat profile whose far end is of the value's size (hybrid CM's glass E2: 55.5 GPa on
+    its upper limit, flat down to 0.9 GPa; carbon nu12 0.95 down to 0) is drawn to that end,
+    with a cap and its value, the panel widened to show it; a far end beyond twice the value
+    runs off the panel (the S2.1 test above). S2.1's G13 (6x6) with its far end moved to
+    2.9 x the limit stands in for it."""
+    import dataclasses as dc
+
+    import matplotlib.pyplot as plt
+
+    from laminid_cli.report import interval_panel
+    from laminid_cli.resultfile import read_result
+
+    out = tmp_path / "r.h5"
+    res = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "6x6",
+                                   "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    r = read_result(out)
+    m = "E-glass/R368"
+    iv = r.uncertainty.get(m, "G13")
+    assert iv.at_bound and iv.bound_side == "lower"
+    far = 2.9 * iv.value                                   # within 2 x the value above it
+    flat = dc.replace(iv, profile_bound=np.nan, profile_far=far,
+                      profile_text="the fit is as good with G13 anywhere above the limit")
+    u = dc.replace(r.uncertainty, intervals=tuple(flat if x is iv else x
+                                                  for x in r.uncertainty.intervals))
+    fig, ax = plt.subplots()
+    interval_panel(ax, dc.replace(r, uncertainty=u), m, "G13")
+    ymin, ymax = ax.get_ylim()
+    line = next(x for x in ax.lines if x.get_gid() == "profile")
+    assert line.get_ydata()[0] == pytest.approx(iv.value / 1e9)
+    assert line.get_ydata()[1] == pytest.approx(far / 1e9) and far / 1e9 < ymax
+    cap = next(x for x in ax.lines if x.get_gid() == "profile-cap")
+    assert cap.get_marker() == "_" and cap.get_ydata()[0] == pytest.approx(far / 1e9)
+    label = next(t for t in ax.texts if t.get_gid() == "profile-label").get_text()
+    assert label.split("\n")[:2] == ["profile:", "flat to"]
+    plt.close(fig)
