@@ -634,8 +634,14 @@ def run_optimizer(prob, progress=None):
             "may be missing from the measured list (give it as null) or the modes are too close "
             "to order reliably"]
     if prob.n_refused:
-        warnings = list(warnings) + [f"{prob.n_refused} trial point(s) outside the feasible "
-                                     "region were refused without evaluating the model"]
+        # the optimiser's own points (not Monte Carlo trials); a constant the search ends on
+        # a limit of is flagged by the status, not here
+        n = prob.n_refused
+        warnings = list(warnings) + [
+            f"the optimiser proposed {n} point{'' if n == 1 else 's'} outside the feasible "
+            f"region of Eq. 22 (E2 <= E1, |nu12| < {prob.options.nu_max:g}, positive moduli); "
+            f"{'it was' if n == 1 else 'each was'} refused without evaluating the model and "
+            "the search went on inside the region"]
     if prob.reduced:
         ev = _finish_reduced(prob, ev)
     return ev, converged, status, warnings, initial_rms
