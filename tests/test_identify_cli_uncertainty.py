@@ -249,7 +249,7 @@ def test_bad_input_is_refused_with_a_clear_message(tmp_path):
                                      "the range 0<x<0.5.") in r.output
     r = run("identify", S1[0], "--max-rel-interval", "0", "--no-output")
     assert r.exit_code == 2 and ("Invalid value for '--max-rel-interval': 0.0 is not in the "
-                                 "range x>0.") in r.output
+                                 "range 0<x<=0.3.") in r.output
     r = run("identify", S1[0], S1[1], "--no-output")
     assert r.exit_code == 2 and "add --joint" in r.output
     r = run("identify", S1[0], "--joint", "--no-output")
