@@ -71,7 +71,10 @@ Constants fixed because undetermined
     undetermined constant's spread is wide enough for the constants' response to bend.
     ``rel_half_width_given_fixed`` keeps the widths given the fixed values alone. The
     flags that decide what to fix are judged given the fixed values (counting their spread
-    would otherwise fix more and more).
+    would otherwise fix more and more). The Monte Carlo shown counts the spread as well: its
+    trials draw the fixed values from it (:class:`FixedDraw`, :func:`fixed_draw_of`), after
+    a Monte Carlo holding them, whose flags the fixing judges
+    (``Assessment.monte_carlo_given_fixed``).
 
 Identifiability
     Normalised sensitivities d ln f_i / d ln P_j (:attr:`Identification.sensitivity`), the
@@ -95,7 +98,10 @@ Monte Carlo
     constant then moves by at most about 1 % of its standard error, far below the sampling
     error of the quantiles (about 20 % of a standard error for the 2.5 % quantile of 200
     trials). The largest bound is reported (``trial_eigenvalue_bound``).
-    Joint results and the full solver's go through identify() for every trial.
+    Joint results and the full solver's go through identify() for every trial. With values
+    fixed because undetermined, each trial also draws them (``fixed_draw``): the trial model
+    moves them per trial (:meth:`TrialModel.hold`), identify() holds them in the trial's
+    specimen (:func:`_holding`).
 
 No click, no h5py here: pure library code (DESIGN.md section 1).
 """
