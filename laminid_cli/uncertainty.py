@@ -1575,7 +1575,8 @@ class MonteCarlo:
     #: with constants fixed because undetermined (:class:`FixedDraw`): the labels of those
     #: each trial drew from their spread before fixing, the values drawn (n_converged, k; SI,
     #: rows as ``samples``), the converged trials whose draw was shortened to the search's
-    #: range (:meth:`FixedDraw.draw`), and the labels of those held (fixed on a limit of the search: doubt unknown)
+    #: range (:meth:`FixedDraw.draw`), and the labels of those held (fixed on a limit of the
+    #: search: doubt unknown)
     fixed_labels: tuple[str, ...] = ()
     fixed_samples: np.ndarray | None = None
     fixed_clipped: int = 0
@@ -2368,10 +2369,14 @@ def fixed_value_regression(obs, materials, labels, fixed_cols, inner=None) -> np
 def drawn_fixed_note(mc: MonteCarlo, fixed, draw: FixedDraw, options) -> str:
     """The note of a Monte Carlo whose trials drew the values --fix-undetermined fixed
     (:class:`FixedDraw`): what was drawn, how, what was clipped, what stayed held."""
-    short = ", ".join(lab.rsplit(".", 1)[1] if len({x.rsplit(".", 1)[0] for x in fixed}) == 1
-                      else lab for lab in draw.labels)
-    text = (f"each Monte Carlo trial drew the fixed {short} from the spread they had before "
-            "fixing (ln G for the moduli, linear for nu12, correlations included) and "
+    one = len({x.rsplit(".", 1)[0] for x in fixed}) == 1
+
+    def names(labels):
+        return ", ".join(lab.rsplit(".", 1)[1] if one else lab for lab in labels)
+
+    they = "they" if len(draw.labels) > 1 else "it"
+    text = (f"each Monte Carlo trial drew the fixed {names(draw.labels)} from the spread {they} "
+            "had before fixing (ln G for the moduli, linear for nu12, correlations included) and "
             "identified the others again at them: its ranges count that spread, as the "
             f"intervals do; a draw beyond the search's range (initial / "
             f"{options.bound_factor:g} .. x {options.bound_factor:g}, |nu12| <= "
@@ -2379,11 +2384,11 @@ def drawn_fixed_note(mc: MonteCarlo, fixed, draw: FixedDraw, options) -> str:
             f"({mc.fixed_clipped} of {mc.n_converged} trials)")
     held = [lab for lab in fixed if lab not in draw.labels]
     if draw.held:
-        text += ("; " + ", ".join(draw.held) + " (fixed on a limit of the search, its doubt "
-                 "not known) stayed held")
+        text += ("; " + names(draw.held) + " (fixed on a limit of the search, doubt not "
+                 "known) stayed held")
     user = [lab for lab in held if lab not in draw.held]
     if user:
-        text += "; " + ", ".join(user) + " (fixed with --fix) stayed held"
+        text += "; " + names(user) + " (fixed with --fix) stayed held"
     return text
 
 

@@ -220,6 +220,27 @@ def test_user_fixed_values_stay_held_and_the_trials_are_as_before():
     assert np.all(b.monte_carlo.samples[:, 0] != b.monte_carlo_given_fixed.samples[:, 0])
 
 
+def test_a_value_fixed_on_a_search_limit_and_one_fixed_by_the_user_stay_held():
+    """S1.1 8x8 --fix nu12 --fix-undetermined: G13 and G23 are fixed because undetermined,
+    G23 while on its lower limit (1e-4 E1: its doubt is not known, FixedRange checks it): the
+    trials draw G13 alone (its spread before fixing: +-50.5 %, 0.26 in ln G; the 4 trials'
+    draws 0.32, asserted within 0.1-0.6) and the note says which stayed held and why."""
+    fm = build_forward_model(read_specimen(S11), (8, 8))
+    a = assess(fm, IdentifyOptions(fix=("nu12",)),
+               UncertaintyOptions(fix_undetermined=True, monte_carlo=4, jobs=1, seed=0))
+    assert set(a.fixed_undetermined) == {f"{MAT}.G13", f"{MAT}.G23"}
+    mc = a.monte_carlo
+    assert mc.fixed_labels == (f"{MAT}.G13",) and mc.fixed_held == (f"{MAT}.G23",)
+    assert mc.fixed_samples.shape == (4, 1)
+    assert 0.1 < np.std(np.log(mc.fixed_samples[:, 0]), ddof=1) < 0.6
+    assert f"{MAT}.G23" in a.uncertainty.fixed_ranges
+    note = next(n for n in a.uncertainty.notes if n.startswith("each Monte Carlo trial"))
+    assert note.startswith("each Monte Carlo trial drew the fixed G13 from the spread it had "
+                           "before fixing")
+    assert note.endswith("; G23 (fixed on a limit of the search, doubt not known) stayed held; "
+                         "nu12 (fixed with --fix) stayed held")
+
+
 def test_hdf5_round_trip_of_the_drawn_fixed_values_and_an_older_file(tmp_path):
     """/uncertainty/monte_carlo/fixed_samples (n_converged, 3) and the attributes fixed_drawn,
     fixed_held, fixed_clipped read back as written (8x8, 8 trials); a file without them (as

@@ -390,8 +390,8 @@ def format_uncertainty(u: dict) -> list[str]:
                  "(their pseudo-measurements' noise)" if mc.get("prior_sigma") else "")
         drawn = mc.get("fixed_drawn") or []
         if drawn:
-            prior += ("; the fixed " + ", ".join(_short(drawn)) + " drawn from their spread "
-                      "before fixing")
+            prior += ("; the fixed " + ", ".join(_short(drawn)) + " drawn from "
+                      + ("their" if len(drawn) > 1 else "its") + " spread before fixing")
         lines.append(f"Monte Carlo check: {mc['converged']} of {mc['trials']} re-identifications "
                      f"converged (frequencies perturbed by sigma x {mc['sigma_factor']:.3g}"
                      f"{prior}, {procs}, {mc['time_s']:.1f} s)")
