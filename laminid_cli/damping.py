@@ -561,7 +561,8 @@ def damping_of(fm, assessment, fix=()) -> DampingFit | None:
                            confidence=u.confidence)
     mc = getattr(assessment, "monte_carlo", None)
     counted = mc is not None and mc.energy_shares is not None
-    note = stiffness_doubt_note(fit, u, assessment.fixed_undetermined, counted)
+    note = stiffness_doubt_note(fit, u, assessment.fixed_undetermined, counted,
+                                tuple(getattr(mc, "fixed_labels", ()) or ()) if counted else ())
     if note:
         fit = dataclasses.replace(fit, notes=fit.notes + (note,))
     if counted:
@@ -574,14 +575,17 @@ TERMS_OF = {"E1": ("11",), "E2": ("22",), "G12": ("12",), "G13": ("13",), "G23":
             "nu12": ("11", "22")}
 
 
-def stiffness_doubt_note(fit, u, fixed_undetermined=(), monte_carlo: bool = False) -> str:
+def stiffness_doubt_note(fit, u, fixed_undetermined=(), monte_carlo: bool = False,
+                         drawn=()) -> str:
     """A note when free loss factors lean on elastic constants the modes did not determine
     (flagged, at a limit, or fixed by --fix-undetermined): the loss factors' intervals take
     the constants as identified (the energy shares are computed with them), so those loss
     factors are known less well than their intervals say. "" when none does. With
     ``monte_carlo`` (each trial refitted the loss factors at its own constants) the note
-    says that the Monte Carlo ranges count it (a constant fixed by --fix-undetermined is
-    held by the trials too, so its doubt is not in them)."""
+    says that the Monte Carlo ranges count it: the free constants' doubt, and that of the
+    constants fixed by --fix-undetermined that the trials drew from their spread before
+    fixing (``drawn``, laminid_cli.uncertainty.FixedDraw; one fixed on a limit of the
+    search is held by the trials, its doubt not in them)."""
     doubtful = set(u.flagged) | set(fixed_undetermined)
     if u.at_bound is not None:
         doubtful |= {lab for lab, b in zip(u.labels, u.at_bound) if b}
@@ -600,8 +604,10 @@ def stiffness_doubt_note(fit, u, fixed_undetermined=(), monte_carlo: bool = Fals
             + " not determined by the modes (or fixed because of it): "
             + ("this loss factor is" if len(hit) == 1 else "these loss factors are")
             + " known less well than the interval says"
-            + ("; the Monte Carlo range counts the free constants' doubt (each trial refits "
-               "the loss factors at its own constants)" if monte_carlo else ""))
+            + ("; the Monte Carlo range counts the free constants' doubt"
+               + (" and that of the fixed " + ", ".join(drawn) + " (each trial draws them "
+                  "from their spread before fixing and" if drawn else " (each trial")
+               + " refits the loss factors at its own constants)" if monte_carlo else ""))
 
 
 # ----------------------------------------------------------------------------------------------

@@ -894,13 +894,24 @@ def interval_page(r: ResultFile):
                            + ", ".join(lab.rsplit(".", 1)[1] if len(r.materials) == 1 else lab
                                        for lab in u.spread_counted)
                            + " had before fixing (see page 1 for the widths given them)"
-                           + (";\nthe Monte Carlo trials hold them fixed: their range is "
-                              "the width given them" if u.monte_carlo and "lower" in
-                              u.monte_carlo else "")
+                           + _mc_fixed_legend(u)
                            if getattr(u, "spread_counted", ()) else ""),
                   title_fontsize=8)
     _status_banner(fig, r)
     return fig
+
+
+def _mc_fixed_legend(u) -> str:
+    """The interval page's words on what the Monte Carlo trials did with the values
+    --fix-undetermined fixed: drew them from their spread before fixing (attr fixed_drawn of
+    /uncertainty/monte_carlo), or, in older files, held them."""
+    mc = u.monte_carlo
+    if not mc or "lower" not in mc:
+        return ""
+    if str(mc.get("fixed_drawn", "") or ""):
+        return (";\nthe Monte Carlo trials drew them from that spread too (shortened to the "
+                "search's range): their range counts it")
+    return ";\nthe Monte Carlo trials hold them fixed: their range is the width given them"
 
 
 # ----------------------------------------------------------------------------------------------

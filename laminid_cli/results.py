@@ -76,7 +76,14 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
                           range's quantiles with probability >= attr evidence_level each: the
                           width the Monte Carlo verdicts use); attrs trials, converged,
                           sigma_factor, seed, jobs, evidence_level,
-                          prior_sigma (relative sd of the prior values' draws; 0: no prior)
+                          prior_sigma (relative sd of the prior values' draws; 0: no prior);
+                          with --fix-undetermined: attr fixed_drawn (labels, comma-separated:
+                          the fixed values each trial drew from their spread before fixing;
+                          "" or absent: the trials held every fixed value, as in older
+                          files), fixed_held (fixed on a limit of the search: held),
+                          fixed_clipped (trials whose draw was shortened to the search's
+                          range) and fixed_samples (n_converged, k; Pa, nu12: 1), the values
+                          drawn
     /uncertainty/monte_carlo_rel_half_width, monte_carlo_rel_half_width_lower   per label (with
                           a Monte Carlo): its range's half-width / |value|, and the one it has
                           for sure (what its verdicts use)
@@ -613,6 +620,16 @@ def write_uncertainty(f, a, plate_names) -> None:
                 "range's quantile with probability >= evidence_level (NaN: too few trials); "
                 "the Monte Carlo verdicts use the width inner_upper - inner_lower")
         gm.attrs["evidence_level"] = MC_EVIDENCE
+        # the values --fix-undetermined fixed that each trial drew (uncertainty.FixedDraw)
+        gm.attrs["fixed_drawn"] = ",".join(mc.fixed_labels)
+        gm.attrs["fixed_held"] = ",".join(mc.fixed_held)
+        gm.attrs["fixed_clipped"] = int(mc.fixed_clipped)
+        if mc.fixed_samples is not None:
+            put(gm, "fixed_samples", mc.fixed_samples, "Pa (nu12: 1)",
+                description="per converged trial (rows of samples), the values of the "
+                "constants in attr fixed_drawn it drew from their spread before fixing (ln G "
+                "for moduli, linear for nu12; shortened to the search's range: attr "
+                "fixed_clipped trials)")
         for side, count, flag in zip(("lower", "upper"), mc.bound_counts(), mc.ends_at_bound()):
             put(gm, f"at_{side}_bound", count, "1",
                 description=f"converged trials whose answer has the constant on a {side} limit "
@@ -667,6 +684,21 @@ def uncertainty_summary(a) -> dict:
             for k, lab in enumerate(a.before_fixing.labels)}
     if a.monte_carlo is not None:
         out["monte_carlo"] = a.monte_carlo.as_dict()
+        held = getattr(a, "monte_carlo_given_fixed", None)
+        if held is not None and a.monte_carlo.fixed_labels:
+            # the trials that held the fixed values (their flags decided what to fix): the
+            # range given them, beside rel_half_width_given_fixed
+            per: dict = {}
+            for k, lab in enumerate(held.labels):
+                mat, const = lab.rsplit(".", 1)
+                v = float(a.uncertainty.value[list(a.uncertainty.labels).index(lab)])
+                per.setdefault(mat, {})[const] = {
+                    "std": float(held.std[k]), "lower": float(held.lower[k]),
+                    "upper": float(held.upper[k]),
+                    "rel_half_width": float(0.5 * (held.upper[k] - held.lower[k]) / abs(v))
+                    if v else float("inf")}
+            out["monte_carlo"]["given_fixed"] = {"converged": held.n_converged,
+                                                 "time_s": held.time_s, "constants": per}
     return out
 
 

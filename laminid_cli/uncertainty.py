@@ -71,7 +71,10 @@ Constants fixed because undetermined
     undetermined constant's spread is wide enough for the constants' response to bend.
     ``rel_half_width_given_fixed`` keeps the widths given the fixed values alone. The
     flags that decide what to fix are judged given the fixed values (counting their spread
-    would otherwise fix more and more).
+    would otherwise fix more and more). The Monte Carlo shown counts the spread as well: its
+    trials draw the fixed values from it (:class:`FixedDraw`, :func:`fixed_draw_of`), after
+    a Monte Carlo holding them, whose flags the fixing judges
+    (``Assessment.monte_carlo_given_fixed``).
 
 Identifiability
     Normalised sensitivities d ln f_i / d ln P_j (:attr:`Identification.sensitivity`), the
@@ -95,7 +98,10 @@ Monte Carlo
     constant then moves by at most about 1 % of its standard error, far below the sampling
     error of the quantiles (about 20 % of a standard error for the 2.5 % quantile of 200
     trials). The largest bound is reported (``trial_eigenvalue_bound``).
-    Joint results and the full solver's go through identify() for every trial.
+    Joint results and the full solver's go through identify() for every trial. With values
+    fixed because undetermined, each trial also draws them (``fixed_draw``): the trial model
+    moves them per trial (:meth:`TrialModel.hold`), identify() holds them in the trial's
+    specimen (:func:`_holding`).
 
 No click, no h5py here: pure library code (DESIGN.md section 1).
 """
@@ -825,7 +831,7 @@ class TrialModel(VariableSet):
     further enrichment.
     """
 
-    def __init__(self, fm, result, tau2: float, bound: float = TRIAL_BOUND):
+    def __init__(self, fm, result, tau2: float, bound: float = TRIAL_BOUND, moved=()):
         from laminid_cli.parametrization import make_parameters
         from laminid_cli.reduced import ReducedBasis
 
@@ -835,6 +841,10 @@ class TrialModel(VariableSet):
         self.fm = fm
         self.pilot: dict = {}                    # trials finished by prepare(), by position
         self.names = tuple(result.material_names)
+        #: labels of fixed constants that the trials move (:meth:`hold`; a Monte Carlo that
+        #: draws the values --fix-undetermined fixed, :class:`FixedDraw`)
+        self.moved = tuple(moved)
+        self._held: dict = {}
         params = []
         for name, c0 in zip(self.names, fm.initial_constants):
             free = result.free[name]
@@ -844,6 +854,7 @@ class TrialModel(VariableSet):
                 prior=bool(spec.materials[name].prior), nu_max=opts.nu_max,
                 bound_factor=opts.bound_factor))
         self._set_params(params)
+        self._params0 = list(self.params)
         self._log_shear_variables()
         self.prior = [{k: float(w) for k, w in spec.materials[p.name].prior.items()
                        if k in p.free} for p in self.params]
@@ -882,16 +893,57 @@ class TrialModel(VariableSet):
         H += np.diag(1e-10 * max(d.max(), 1e-300) + 1e-12 * d)
         self.L = np.linalg.cholesky(H / self.tau2)
         self.T = np.linalg.inv(self.L.T)
-        self.lo, self.hi = self.bounds()
-        self.A, self.b = self.linear_constraints()
+        self._set_limits()
         self.refs = [(self.coef_opt, self.sigma, self._solve)]     # factorisations kept
         self._enrich_cloud()
-        self._A_all = np.vstack([self.A, np.eye(self.n_vars), -np.eye(self.n_vars)])
-        self._b_all = np.concatenate([self.b, self.hi, -self.lo])
-        self._exact_rows = self._exact_log_rows()
         theta, Y = self.basis.eig(self.coef_opt, self.n_model)
         self.Y_ref = Y[:, self.pairing]
         self._shared_basis_changed()
+
+    def _set_limits(self):
+        """The search's bounds and linear constraints at the current parametrisation (they
+        depend on a fixed E1 or E2's value: :meth:`hold`)."""
+        self.lo, self.hi = self.bounds()
+        self.A, self.b = self.linear_constraints()
+        self._A_all = np.vstack([self.A, np.eye(self.n_vars), -np.eye(self.n_vars)])
+        self._b_all = np.concatenate([self.b, self.hi, -self.lo])
+        self._exact_rows = self._exact_log_rows()
+
+    def hold(self, values=None) -> None:
+        """Hold the fixed constants of ``values`` ({label: SI}, labels of :attr:`moved`) there
+        instead of at the result's values (None or {}: the result's), for the trials that
+        follow (as :attr:`prior_shift`, a per-trial setting: :meth:`trial` sets both). The
+        design variables stay those of the free constants (scaled by their own initial
+        values), so ``x_opt`` is the optimum's free constants with the moved fixed ones."""
+        values = dict(values or {})
+        if values == self._held:
+            return
+        params = []
+        for p in self._params0:
+            upd = {lab.rsplit(".", 1)[1]: float(v) for lab, v in values.items()
+                   if lab.rsplit(".", 1)[0] == p.name}
+            params.append(dataclasses.replace(
+                p, initial=dataclasses.replace(p.initial, **upd)) if upd else p)
+        self._set_params(params)
+        self._set_limits()
+        self._held = values
+
+    def _moved_jacobian(self) -> np.ndarray:
+        """d coef / d (moved fixed constant) (n_b, n_moved) at the optimum, one column per
+        label of :attr:`moved` (moduli per relative change, nu12 per unit)."""
+        from laminid_cli.parametrization import coefficients_and_jacobian
+
+        n_b = 6 * len(self.params)
+        out = np.zeros((n_b, len(self.moved)))
+        consts = self.constants(self.x_opt)
+        for j, lab in enumerate(self.moved):
+            name, k = lab.rsplit(".", 1)
+            m = self.names.index(name)
+            _, Jc = coefficients_and_jacobian(consts[m])
+            i = CONSTANT_NAMES.index(k)
+            scale = 1.0 if k == "nu12" else float(getattr(consts[m], k))
+            out[6 * m:6 * m + 6, j] = Jc[:, i] * scale
+        return out
 
     def _log_shear_variables(self):
         """Where the trials' Levenberg-Marquardt steps take the transverse shear moduli in
@@ -990,17 +1042,23 @@ class TrialModel(VariableSet):
         ``K(x) phi - K(x*) phi`` exactly at every x; otherwise to first order, and the trials'
         check adds what is missing. With G13, G23 and nu12 fixed on S1.1 (12x12) the shared
         basis has 104 instead of 137 vectors and 200 trials take 1.26 instead of 1.85 s
-        (-j 1), each trial's constants the same to 3e-8 relative."""
+        (-j 1), each trial's constants the same to 3e-8 relative. Fixed constants that the
+        trials move (:attr:`moved`: a Monte Carlo drawing the values --fix-undetermined fixed)
+        add their own directions ``dK/df phi``: with G13, G23, nu12 moved on S1.1, all six
+        basis products again."""
         plate = self.fm.plate
         P = plate.basis_products(phi)
         n_b = P.shape[1] // phi.shape[1]
-        if self.n_vars >= n_b:
+        if self.n_vars + len(self.moved) >= n_b:
             return P
         Jc = self.coefficient_jacobian(self.x_opt)[1]
+        if self.moved:
+            # the fixed constants the trials move change the stiffness too
+            Jc = np.hstack([Jc, self._moved_jacobian()])
         k = phi.shape[1]
         Jc /= np.maximum(np.abs(Jc).max(axis=0), 1e-300)
         W = np.einsum("nbk,bv->nvk", P.reshape(P.shape[0], n_b, k), Jc)
-        return W.reshape(P.shape[0], self.n_vars * k)
+        return W.reshape(P.shape[0], Jc.shape[1] * k)
 
     def _shared_basis_changed(self):
         """After a change of the shared basis: the optimum's reduced vectors extended by zeros
@@ -1008,11 +1066,26 @@ class TrialModel(VariableSet):
         basis keeps its reduced eigenproblem in standard form itself, ReducedBasis.eig)."""
         extra = self.basis.size - self.Y_ref.shape[0]
         self.Y_ref = np.vstack([self.Y_ref, np.zeros((extra, self.Y_ref.shape[1]))])
+        held = self._held
+        self.hold(None)                          # the optimum's own fixed values
         self.model_opt = self.modes(self.basis, self.x_opt, self.Y_ref)
+        self.hold(held)
 
-    def prepare(self, freqs, weight, prior_shifts=None) -> int:
+    def _start(self):
+        """(x, model) where a trial starts: the optimum, at the fixed values held now
+        (:meth:`hold`; the model there computed again when they are not the result's);
+        None when the optimum's free constants are outside the search's limits there (a
+        fixed E2 drawn above the optimum's E1)."""
+        if not self._held:
+            return self.x_opt, self.model_opt
+        if not self.feasible(self.x_opt):
+            return None
+        return self.x_opt, self.modes(self.basis, self.x_opt, self.Y_ref)
+
+    def prepare(self, freqs, weight, prior_shifts=None, held=None) -> int:
         """Enrich the shared basis where the first trials (``freqs``: their frequencies, in
-        order; ``prior_shifts``: their draws of the prior, :meth:`trial`) need it, before the
+        order; ``prior_shifts``: their draws of the prior, ``held``: their fixed values,
+        :meth:`trial`) need it, before the
         trials run: each is optimised on the shared basis and
         checked (:meth:`trial`'s first round); where the check misses the accepted bound, A
         is factorised at its answer (kept for the later checks) and, if still missed, the
@@ -1030,10 +1103,12 @@ class TrialModel(VariableSet):
         self.pilot = {}
         for i, f in enumerate(freqs):
             self.prior_shift = prior_shifts[i] if prior_shifts else {}
+            self.hold(held[i] if held else None)
             lam_meas = (2 * np.pi * np.nan_to_num(f, nan=1.0)) ** 2
             w = np.where(np.isfinite(f), weight, 0.0)
-            gn = self._gauss_newton(self.basis, self.x_opt, lam_meas, w, self.Y_ref,
-                                    self.model_opt)
+            start = self._start()
+            gn = None if start is None else self._gauss_newton(
+                self.basis, start[0], lam_meas, w, self.Y_ref, start[1])
             if gn is None:
                 continue
             x, model = gn
@@ -1055,6 +1130,7 @@ class TrialModel(VariableSet):
                 added += k
                 if k:
                     self._shared_basis_changed()
+        self.hold(None)
         return added
 
     def _enrich_cloud(self):
@@ -1325,19 +1401,26 @@ class TrialModel(VariableSet):
             raise _TrialFailed("the trial model was not evaluated")
         return best[1], best[2]
 
-    def trial(self, freq_hz, weight, prior_shift=None):
+    def trial(self, freq_hz, weight, prior_shift=None, held=None):
         """Identify from ``freq_hz`` (and the prior's pseudo-measurements drawn as
-        ``prior_shift``, :attr:`laminid_cli.objective.VariableSet.prior_shift`): (constants,
+        ``prior_shift``, :attr:`laminid_cli.objective.VariableSet.prior_shift`; the fixed
+        constants of ``held`` at those values, :meth:`hold`): (constants,
         relative eigenvalue bound, rounds, :attr:`TrialModes.energies` of the model at the
         answer) or raises _TrialFailed."""
         self.prior_shift = prior_shift or {}
+        self.hold(held)
         lam_meas = (2 * np.pi * np.nan_to_num(freq_hz, nan=1.0)) ** 2
         w = np.where(np.isfinite(freq_hz), weight, 0.0)
-        basis, Y_ref, x0, L = self.basis, self.Y_ref, self.x_opt, self.L
+        start = self._start()
+        if start is None:
+            raise _TrialFailed("the optimum is outside the search's limits at the drawn "
+                               "fixed values")
+        basis, Y_ref, L = self.basis, self.Y_ref, self.L
+        x0, model0 = start
         ref = None
         for rounds in range(1, TRIAL_ROUNDS + 1):
             gn = self._gauss_newton(basis, x0, lam_meas, w, Y_ref,
-                                    self.model_opt if rounds == 1 else None)
+                                    model0 if rounds == 1 else None)
             # else SLSQP, restarted from its answer while that moves (its quasi-Newton model
             # starts from the Gauss-Newton scaling again: flat valleys are followed to the end)
             for _ in range(0 if gn is not None else TRIAL_RESTARTS):
@@ -1491,6 +1574,15 @@ class MonteCarlo:
     #: plate with measured damping (None otherwise): the loss factors' refits
     #: (laminid_cli.damping.monte_carlo_loss_factors)
     energy_shares: np.ndarray | None = None
+    #: with constants fixed because undetermined (:class:`FixedDraw`): the labels of those
+    #: each trial drew from their spread before fixing, the values drawn (n_converged, k; SI,
+    #: rows as ``samples``), the converged trials whose draw was shortened to the search's
+    #: range (:meth:`FixedDraw.draw`), and the labels of those held (fixed on a limit of the
+    #: search: doubt unknown)
+    fixed_labels: tuple[str, ...] = ()
+    fixed_samples: np.ndarray | None = None
+    fixed_clipped: int = 0
+    fixed_held: tuple[str, ...] = ()
 
     def bound_counts(self) -> tuple[np.ndarray, np.ndarray]:
         """(lower, upper) trials at a limit of the search per constant (p,), zeros where not
@@ -1534,7 +1626,8 @@ class MonteCarlo:
                 "method": self.method, "trial_eigenvalue_bound": self.trial_bound,
                 "trial_eigenvalue_bound_limit": self.trial_bound_limit,
                 "reidentified": self.n_reidentified, "prior_sigma": self.prior_sigma,
-                "evidence_level": MC_EVIDENCE}
+                "evidence_level": MC_EVIDENCE, "fixed_drawn": list(self.fixed_labels),
+                "fixed_clipped": self.fixed_clipped, "fixed_held": list(self.fixed_held)}
 
 
 def sample_spread(samples, p: int, confidence: float):
@@ -1617,7 +1710,17 @@ def _init_worker(fms, options, start, start_pairing, joint, basis_vectors=None, 
              [ReducedBasis.from_vectors(fm, V) for fm, V in zip(fms, basis_vectors)])
     _WORKER.clear()
     _WORKER.update(fms=list(fms), options=options, start=start, start_pairing=start_pairing,
-                   joint=joint, bases=bases, model=model, damping=bool(damping))
+                   joint=joint, bases=bases, model=model, damping=bool(damping),
+                   names=_material_names(fms))
+
+
+def _material_names(fms) -> tuple[str, ...]:
+    """The distinct materials of the plates ``fms`` in first-appearance order (the order of
+    identify()'s and identify_joint()'s constants)."""
+    names: list[str] = []
+    for fm in fms:
+        names += [n for n in fm.material_names if n not in names]
+    return tuple(names)
 
 
 def _trial_fms(freqs):
@@ -1629,22 +1732,47 @@ def _trial_fms(freqs):
     return fms
 
 
-def _identify_trial(freqs, bases, prior_shift=None):
+def _identify_trial(freqs, bases, prior_shift=None, held=None):
     """A trial through identify() / identify_joint() from the optimum with its basis (and the
-    trial's draw of the prior, ``prior_shift``)."""
+    trial's draw of the prior, ``prior_shift``; its fixed constants at ``held``, {label: SI},
+    instead of their values in the specimen file, as :func:`refit_held` holds them)."""
     from laminid_cli.identify import identify
     from laminid_cli.joint import identify_joint
 
     fms = _trial_fms(freqs)
+    start = _WORKER["start"]
+    if held:
+        fms = [_holding(fm, held) for fm in fms]
+        start = list(start)
+        for m, c in enumerate(start):
+            name = _WORKER["names"][m]
+            upd = {lab.rsplit(".", 1)[1]: float(v) for lab, v in held.items()
+                   if lab.rsplit(".", 1)[0] == name}
+            if upd:
+                start[m] = dataclasses.replace(c, **upd)
     if bases is not None:                  # the bases hold the plate, not its frequencies
         bases = [b.copy() for b in bases]
     if _WORKER["joint"]:
-        return identify_joint(fms, _WORKER["options"], start=_WORKER["start"],
+        return identify_joint(fms, _WORKER["options"], start=start,
                               start_pairing=_WORKER["start_pairing"], basis=bases,
                               prior_shift=prior_shift)
-    return identify(fms[0], _WORKER["options"], start=_WORKER["start"],
+    return identify(fms[0], _WORKER["options"], start=start,
                     start_pairing=_WORKER["start_pairing"][0],
                     basis=None if bases is None else bases[0], prior_shift=prior_shift)
+
+
+def _holding(fm, held: dict):
+    """``fm`` whose specimen has the constants of ``held`` ({label: SI}) as their values (a
+    fixed constant is held at the specimen's value)."""
+    spec = fm.specimen
+    for lab, v in held.items():
+        name, k = lab.rsplit(".", 1)
+        if name in spec.materials:
+            mat = spec.materials[name]
+            mat = dataclasses.replace(mat, constants=dataclasses.replace(mat.constants,
+                                                                         **{k: float(v)}))
+            spec = dataclasses.replace(spec, materials={**spec.materials, name: mat})
+    return dataclasses.replace(fm, specimen=spec)
 
 
 def _run_trial(args):
@@ -1659,7 +1787,7 @@ def _run_trial(args):
     result's paired modes."""
     from laminid_cli.errors import LaminidError
 
-    index, freqs, labels, shift = args
+    index, freqs, labels, shift, held = args
     model = _WORKER.get("model")
     route, bound = "identify", float("nan")
     consts, energies = None, None
@@ -1669,7 +1797,7 @@ def _run_trial(args):
                 done = model.pilot.get(index)
                 c, bound, _, energies = done if done is not None else model.trial(
                     np.asarray(freqs[0], float),
-                    np.asarray(model.fm.specimen.measured.weight, float), shift)
+                    np.asarray(model.fm.specimen.measured.weight, float), shift, held)
                 consts = dict(zip(model.names, c))
                 route = "reduced"
             except _TrialFailed as exc:
@@ -1678,7 +1806,7 @@ def _run_trial(args):
             bases = _WORKER["bases"]
             if bases is None and model is not None:
                 bases = [model.basis]          # it holds the first-order mode changes
-            r = _identify_trial(freqs, bases, shift)
+            r = _identify_trial(freqs, bases, shift, held)
             if not r.converged:
                 return index, None, r.status, bound, route, None
             consts = {n: c for n, c in zip(r.material_names, r.constants)}
@@ -1723,7 +1851,7 @@ def _basis_vectors(result):
 
 def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
                 jobs: int | None = None, seed: int = 0, progress=None,
-                method: str = "auto") -> MonteCarlo:
+                method: str = "auto", fixed_draw: FixedDraw | None = None) -> MonteCarlo:
     """Re-identify ``n_trials`` times from frequencies perturbed by their uncertainties.
 
     Each trial draws f_i + sigma_f,i * sigma_factor * N(0, 1) for every measured mode of every
@@ -1740,6 +1868,12 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
     identify_joint() from the optimum with its basis, "auto" (default) the first where it
     applies. A reduced trial whose model does not reach its bound is run through
     identify().
+
+    ``fixed_draw`` (:func:`fixed_draw_of`, with constants fixed because undetermined): each
+    trial also draws those fixed values from the spread they had before fixing (row t of
+    :meth:`FixedDraw.draw`, a random stream of its own, so the frequencies drawn are those
+    of a Monte Carlo without it) and identifies the free constants at them
+    (:attr:`MonteCarlo.fixed_samples`).
     """
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
@@ -1768,7 +1902,12 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
             freqs.append(np.where(np.isfinite(f), f + noise, np.nan))
         shift = {m.name: {c: float(prng.standard_normal() * shift_sd)
                           for c in m.prior if c in m.free} for m in priors}
-        trials.append((i, freqs, uncertainty.labels, shift))
+        trials.append((i, freqs, uncertainty.labels, shift, None))
+    drawn, clipped = None, None
+    if fixed_draw is not None and fixed_draw.labels:
+        drawn, clipped = fixed_draw.draw(n_trials, seed)
+        trials = [t[:4] + (dict(zip(fixed_draw.labels, map(float, drawn[t[0]]))),)
+                  for t in trials]
     reducible = not joint and getattr(result, "basis", None) is not None
     if method == "reduced" and not reducible:
         raise FitInputError("the reduced Monte Carlo trials need a single-plate result of the "
@@ -1781,10 +1920,12 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
         rel = 2 * np.nan_to_num(sigmas[0].sigma_hz) * factor / np.nan_to_num(f, nan=1.0)
         tau2 = w * rel**2
         limit = min(TRIAL_BOUND, TRIAL_SHARE * float(np.min(rel[w > 0])))
-        model = TrialModel(fm, result, float(np.mean(tau2[w > 0])), limit)
+        model = TrialModel(fm, result, float(np.mean(tau2[w > 0])), limit,
+                           moved=() if drawn is None else fixed_draw.labels)
         model.prepare([np.asarray(t[1][0], float) for t in trials[:TRIAL_PILOT]],
                       np.asarray(fm.specimen.measured.weight, float),
-                      [t[3] for t in trials[:TRIAL_PILOT]])
+                      [t[3] for t in trials[:TRIAL_PILOT]],
+                      [t[4] for t in trials[:TRIAL_PILOT]])
     # a single plate with measured damping: each trial returns its modes' energy shares, for
     # the loss factors' refits (laminid_cli.damping.monte_carlo_loss_factors)
     damped = (not joint and getattr(parts[0][0].specimen.measured, "damping", None)
@@ -1868,7 +2009,11 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
                       trial_bound_limit=model.bound if model is not None else float("nan"),
                       prior_sigma=shift_sd if priors else 0.0,
                       at_lower_bound=at_lower, at_upper_bound=at_upper, confidence=conf,
-                      trials=converged, energy_shares=trial_shares)
+                      trials=converged, energy_shares=trial_shares,
+                      fixed_labels=() if drawn is None else fixed_draw.labels,
+                      fixed_samples=None if drawn is None else drawn[converged],
+                      fixed_clipped=0 if drawn is None else int(np.sum(clipped[converged])),
+                      fixed_held=() if fixed_draw is None else fixed_draw.held)
 
 
 #: the verdict of a constant whose Monte Carlo range is worse than its linearised interval
@@ -2051,6 +2196,83 @@ def _fixed_spread(u: Uncertainty, before: Uncertainty, materials):
     return counted, missing, fval, Cf
 
 
+#: the random stream of the fixed values' draws in a Monte Carlo (:meth:`FixedDraw.draw`):
+#: ``numpy.random.default_rng([seed, FIXED_STREAM])``, of its own, so that the frequencies
+#: (stream ``seed``), the priors' (``[seed, 15]``) and the measured damping's (``[seed, 16]``)
+#: draws are what they are without it
+FIXED_STREAM = 17
+
+
+@dataclass(frozen=True)
+class FixedDraw:
+    """How the Monte Carlo trials draw the values --fix-undetermined fixed (:func:`fixed_draw_of`).
+
+    labels : the fixed constants drawn (``spread_counted`` of :func:`counting_fixed_spread`)
+    value : (k,) their fixed values, SI
+    covariance : (k, k) their covariance before fixing (C_f of :func:`_fixed_spread`, SI:
+        moduli's relative spread kept at the fixed value, nu12's absolute)
+    lower, upper : (k,) the search's range, SI (initial / bound_factor .. x bound_factor for a
+        modulus, +-nu_max for nu12): a draw beyond it is shortened to it (:meth:`draw`)
+    held : the constants fixed because undetermined that are not drawn (fixed on a limit of
+        the search: their doubt is not known)
+    """
+
+    labels: tuple[str, ...]
+    value: np.ndarray
+    covariance: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    held: tuple[str, ...] = ()
+
+    def draw(self, n: int, seed) -> tuple[np.ndarray, np.ndarray]:
+        """(values (n, k) SI, clipped (n,) bool): ``n`` draws of the fixed values in the
+        variables the secant count uses (:func:`fixed_spread_moves`): z = ln P for a modulus,
+        nu12 itself, z ~ N(z0, C_z) with C_z = C_f over the values (correlations included;
+        its square root from the eigen-decomposition, so a singular C_f draws along its
+        range). A draw z0 + dz that would leave the search's range is shortened to its edge
+        along dz, as the secant count shortens its steps (``clipped``: the row was): clipping
+        each value on its own would break their correlation. On S1.1 (12x12) ln G13 and ln
+        G23 have standard deviations 0.79 and 1.42 before fixing, correlation -0.94, and the
+        range is +-ln 5 = 1.61: a quarter of the draws leave it, and E1's share of their
+        spread (E1 linear in the draws) is 1.68 GPa shortened, 1.45 GPa clipped one by one
+        (2.10 GPa unbounded; the secant count: 1.82 GPa).
+        Row t depends on the seed and t only (stream ``[seed, FIXED_STREAM]``)."""
+        nu = np.array([lab.endswith(".nu12") for lab in self.labels], bool)
+        v = np.asarray(self.value, float)
+        sc = np.where(nu, 1.0, np.abs(v))
+        Cz = np.asarray(self.covariance, float) / np.outer(sc, sc)
+        lam, V = np.linalg.eigh((Cz + Cz.T) / 2)
+        root = V * np.sqrt(np.clip(lam, 0.0, None))
+        z0 = np.where(nu, v, np.log(np.abs(v)))
+        lo = np.where(nu, self.lower, np.log(np.abs(self.lower)))
+        hi = np.where(nu, self.upper, np.log(np.abs(self.upper)))
+        rng = np.random.default_rng(None if seed is None else [int(seed), FIXED_STREAM])
+        dz = rng.standard_normal((int(n), v.size)) @ root.T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            room = np.where(dz > 0, (hi - z0) / dz, np.where(dz < 0, (lo - z0) / dz, np.inf))
+        alpha = np.clip(np.min(room, axis=1, initial=np.inf), 0.0, 1.0)
+        z = np.clip(z0 + alpha[:, None] * dz, lo, hi)        # (the clip: round-off only)
+        return np.where(nu, z, np.sign(v) * np.exp(z)), alpha < 1
+
+
+def fixed_draw_of(u: Uncertainty, before: Uncertainty, result) -> FixedDraw | None:
+    """The :class:`FixedDraw` of the constants --fix-undetermined fixed in ``result`` (``u``
+    its uncertainty given the fixed values, ``before`` the run's before fixing), with the
+    C_f and the range of the secant count (:func:`_fixed_spread`,
+    :func:`fixed_spread_moves`); None when no fixed value has a spread to draw."""
+    materials = material_states(result)
+    counted, missing, fval, Cf = _fixed_spread(u, before, materials)
+    if not counted:
+        return None
+    options = result.options
+    nu = np.array([lab.endswith(".nu12") for lab in counted], bool)
+    init = np.abs(_label_values(materials, counted, "initial"))
+    bf = options.bound_factor
+    lower = np.where(nu, -options.nu_max, init / bf)
+    upper = np.where(nu, options.nu_max, init * bf)
+    return FixedDraw(tuple(counted), np.asarray(fval, float), Cf, lower, upper, tuple(missing))
+
+
 #: the fixed values' principal axes shorter than this share of the longest are not moved along
 SPREAD_AXIS_MIN = 1e-6
 
@@ -2144,6 +2366,32 @@ def fixed_value_regression(obs, materials, labels, fixed_cols, inner=None) -> np
         out[idx] = -(np.linalg.pinv(A[:, idx] * D[idx], rcond=NULL_TOL) @ A[:, p:]) \
             * D[idx][:, None]
     return out
+
+
+def drawn_fixed_note(mc: MonteCarlo, fixed, draw: FixedDraw, options) -> str:
+    """The note of a Monte Carlo whose trials drew the values --fix-undetermined fixed
+    (:class:`FixedDraw`): what was drawn, how, what was clipped, what stayed held."""
+    one = len({x.rsplit(".", 1)[0] for x in fixed}) == 1
+
+    def names(labels):
+        return ", ".join(lab.rsplit(".", 1)[1] if one else lab for lab in labels)
+
+    they = "they" if len(draw.labels) > 1 else "it"
+    text = (f"each Monte Carlo trial drew the fixed {names(draw.labels)} from the spread {they} "
+            "had before fixing (ln G for the moduli, linear for nu12, correlations included) and "
+            "identified the others again at them: its ranges count that spread, as the "
+            f"intervals do; a draw beyond the search's range (initial / "
+            f"{options.bound_factor:g} .. x {options.bound_factor:g}, |nu12| <= "
+            f"{options.nu_max:g}) was shortened to its edge, as the secant count's steps are "
+            f"({mc.fixed_clipped} of {mc.n_converged} trials)")
+    held = [lab for lab in fixed if lab not in draw.labels]
+    if draw.held:
+        text += ("; " + names(draw.held) + " (fixed on a limit of the search, doubt not "
+                 "known) stayed held")
+    user = [lab for lab in held if lab not in draw.held]
+    if user:
+        text += "; " + names(user) + " (fixed with --fix) stayed held"
+    return text
 
 
 def _not_counted_note(missing) -> str:
@@ -2567,6 +2815,11 @@ class Assessment:
     #: per label flagged but not fixed by ``fix_undetermined``: why (fixing it at its initial
     #: value would move the others beyond their spread, :func:`_initial_rejected`)
     kept_free: dict = field(default_factory=dict)
+    #: with constants fixed because undetermined whose spread is counted: the Monte Carlo
+    #: whose trials held them (its flags decided what to fix, judged given the fixed values
+    #: as the linearised flags are); ``monte_carlo`` is then the one whose trials drew them
+    #: (:class:`FixedDraw`), with the same frequency draws. Not written to the result file.
+    monte_carlo_given_fixed: MonteCarlo | None = None
 
 
 def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
@@ -2629,7 +2882,7 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
                 out.append(lab)
         return out
 
-    mc = None
+    mc = mc_given = None
     accepted = True
     while True:
         fixed_before = len(fixed)
@@ -2672,7 +2925,7 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
     if fixed:
         # the fixed values are as uncertain as the modes left them: the final intervals count
         # that (the flags above were judged given the fixed values, so counting it does not
-        # fix more constants); the Monte Carlo's trials hold the fixed values
+        # fix more constants); so does the Monte Carlo shown
         u0 = unc if mc is None else linearised
         obs = [observations(fm, plate, s, u0.labels + u0.fixed)
                for (fm, plate), s in zip(_parts(result, fms_arg), sigmas)]
@@ -2685,11 +2938,20 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
                 "identification with them moved along it failed; over a wide spread the "
                 "tangent overstates it",))
         if mc is not None:
+            draw = fixed_draw_of(u0, first, result) if unc.spread_counted else None
+            if draw is not None:
+                # the trials above held the fixed values (their flags decide what to fix,
+                # judged given them as the intervals' are); the Monte Carlo shown draws
+                # them from their spread before fixing (the same frequency draws), so that
+                # its ranges count that spread as the intervals do
+                mc_given = mc
+                mc = monte_carlo(result, fms_arg, sig_arg, unc, uopts.monte_carlo,
+                                 jobs=uopts.jobs, seed=uopts.seed, progress=mc_progress,
+                                 fixed_draw=draw)
             unc = with_monte_carlo(unc, mc)
-            if unc.spread_counted:
+            if draw is not None:
                 unc = dataclasses.replace(unc, notes=unc.notes + (
-                    "the Monte Carlo trials hold the fixed values: its ranges are given them, "
-                    "like the intervals given the fixed values alone",))
+                    drawn_fixed_note(mc, u0.fixed, draw, result.options),))
     if accepted:
         # how far the fit lets a constant on a search limit go (identifications of the
         # others with it held): only for the result that stands
@@ -2702,7 +2964,8 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
     return Assessment(result=result, uncertainty=unc, sigmas=sigmas,
                       fixed_undetermined=tuple(fixed), before_fixing=first if fixed else None,
                       monte_carlo=mc, runs=runs, earlier_results=tuple(earlier),
-                      fixed_widths=fixed_widths, kept_free=kept_free)
+                      fixed_widths=fixed_widths, kept_free=kept_free,
+                      monte_carlo_given_fixed=mc_given)
 
 
 def _initial_rejected(result, u: Uncertainty, label: str, fixing=()) -> str:

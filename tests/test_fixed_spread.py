@@ -201,8 +201,8 @@ def test_fixed_spread_in_json_hdf5_terminal_and_report(tmp_path):
     assert any("the intervals count the spread the fixed G13, G23, nu12 had before fixing" in t
                for t in titles), titles
     assert not any("Monte Carlo" in t for t in titles), titles
-    # with a Monte Carlo, its range (trials holding the fixed values) is the narrower width
-    # given them, not the intervals' drawn beside it: the legend says so
+    # with a Monte Carlo, its trials draw the fixed values from that spread too, so its range
+    # counts it as the intervals drawn beside it do: the legend says so
     out2 = tmp_path / "mc.h5"
     res2 = CliRunner().invoke(cli, ["identify", S11, "--fix-undetermined", "--monte-carlo", "8",
                                     "-j", "1", "--json", "-o", str(out2)])
@@ -210,8 +210,8 @@ def test_fixed_spread_in_json_hdf5_terminal_and_report(tmp_path):
     fig = {p.name: p.figure for p in report_pages(out2)}["intervals"]
     titles = [a.get_legend().get_title().get_text() for a in fig.axes if a.get_legend()]
     assert any("had before fixing (see page 1 for the widths given them);\nthe Monte Carlo "
-               "trials hold them fixed: their range is the width given them" in t
-               for t in titles), titles
+               "trials drew them from that spread too (shortened to the search's range): "
+               "their range counts it" in t for t in titles), titles
     note = [n for n in table_notes(r) if n.startswith("the intervals count the spread")]
     # as the terminal writes them (one decimal: a width of 0.4 % is no "±0 %")
     assert note and "given the fixed values alone: E1 ±1.3 %, E2 ±10.6 %, G12 ±12.9 %" in note[0]
@@ -265,21 +265,29 @@ def test_a_huge_spread_counts_only_as_far_as_the_search_goes():
     assert tangent.rel_half_width[k] > 0.5
 
 
-def test_monte_carlo_table_says_its_linearised_std_is_given_the_fixed_values():
-    """S1.1 --fix-undetermined --monte-carlo: the intervals count the fixed values' spread
-    (E1 +-3.2 %, std 2.26 GPa) while the Monte Carlo table's "linearised std" (0.95 GPa) and
-    ratio are given the fixed values, as its trials hold them. Two different E1 standard
-    deviations called "linearised" with nothing beside the table to tell them apart read as a
-    contradiction; the table now says what its column is of."""
+def test_monte_carlo_table_counts_the_fixed_values_spread_as_the_intervals_do():
+    """S1.1 --fix-undetermined --monte-carlo 8: the intervals count the fixed values' spread
+    (E1 +-2.9 %, std 2.05 GPa), and so do the Monte Carlo trials, which draw the fixed G13,
+    G23, nu12 from it: the table's "linearised std" is the one the intervals use (2.05 GPa,
+    not 0.95 GPa given the fixed values), and a line under the table says so, with the range
+    of the trials that held the fixed values instead (what --fix-undetermined judges its flags
+    on). Until the trials drew them, they held them, and the table said its column was given
+    the fixed values."""
     res = CliRunner().invoke(cli, ["identify", S11, "--fix-undetermined", "--monte-carlo", "8",
                                    "-j", "1", "--no-output"])
     assert res.exit_code == 0, res.output
     table = res.output[res.output.index("Monte Carlo check:"):]
-    assert ("linearised std and ratio: given the fixed values (the trials hold them); the "
-            "intervals above count their spread" in " ".join(table.split()))
+    flat = " ".join(table.split())
+    assert "the fixed G13, G23, nu12 drawn from their spread before fixing" in flat
+    row = next(x for x in table.splitlines() if x.startswith("  E1 "))
+    assert row.split()[1:3] == ["2.05", "GPa"], row
+    assert ("linearised std and ratio: counting the fixed values' spread, as the intervals "
+            "above; the trials holding the fixed values instead (what --fix-undetermined judges "
+            "its flags on" in flat)
+    assert "(the trials hold them)" not in flat
     plain = CliRunner().invoke(cli, ["identify", S11, "--monte-carlo", "8", "-j", "1",
                                      "--no-output"])
-    assert plain.exit_code == 0 and "linearised std and ratio: given" not in plain.output
+    assert plain.exit_code == 0 and "linearised std and ratio" not in plain.output
 
 
 def test_a_constant_flagged_by_the_counted_spread_is_not_told_to_use_fix_undetermined():

@@ -839,8 +839,10 @@ def test_fix_undetermined_also_fixes_what_the_monte_carlo_flags(monkeypatch):
     stand-in for monte_carlo: 40 samples of _mc_range, for sure ±38 %, above the 30 % limit;
     the others within half their intervals), nu12 is fixed as well and the assessment runs
     again from there, its Monte Carlo included (on E1, E2, G12: nothing flagged): status ok,
-    three identifications, two Monte Carlos. (S1.4's real trials spread nu12 over ±24-32 %
-    depending on the seed, for sure ±18-24 %: not enough to flag it.)"""
+    three identifications, two Monte Carlos holding the fixed values (their flags decide what
+    to fix), then the one shown, whose trials draw the fixed G13, G23, nu12 from their spread
+    before fixing. (S1.4's real trials spread nu12 over ±24-32 % depending on the seed, for
+    sure ±18-24 %: not enough to flag it.)"""
     import laminid_cli.uncertainty as unc_mod
     from laminid_cli.status import result_status
 
@@ -852,7 +854,8 @@ def test_fix_undetermined_also_fixes_what_the_monte_carlo_flags(monkeypatch):
     calls = []
 
     def fake_monte_carlo(result, fms, sigmas, u, n_trials, **kw):
-        calls.append(u.labels)
+        draw = kw.get("fixed_draw")
+        calls.append((u.labels, () if draw is None else draw.labels))
         rel = [0.5 / 1.79 if lab.endswith("nu12") else 0.5 * r / 1.79
                for lab, r in zip(u.labels, u.rel_half_width)]
         return _mc_range(u, rel)
@@ -862,7 +865,9 @@ def test_fix_undetermined_also_fixes_what_the_monte_carlo_flags(monkeypatch):
                                                         jobs=1, seed=0))
     assert a.fixed_undetermined == ("IM7/977-2.G13", "IM7/977-2.G23", "IM7/977-2.nu12")
     first = ("IM7/977-2.E1", "IM7/977-2.E2", "IM7/977-2.G12")
-    assert a.runs == 3 and calls == [first + ("IM7/977-2.nu12",), first]
+    fixed = ("IM7/977-2.G13", "IM7/977-2.G23", "IM7/977-2.nu12")
+    assert a.runs == 3 and calls == [(first + ("IM7/977-2.nu12",), ()), (first, ()),
+                                     (first, fixed)]
     assert a.monte_carlo.labels == first
     assert not a.uncertainty.flagged and a.uncertainty.verdict_from_monte_carlo == ()
     assert result_status(a.result, a.uncertainty).status == "ok"

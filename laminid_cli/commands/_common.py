@@ -352,7 +352,11 @@ uncertainty_options = _apply([
                                     "statistics) sets a worse verdict, marked '(Monte "
                                     "Carlo)'. With measured damping each trial also "
                                     "refits the ply loss factors at its own constants "
-                                    "(their range counts the free constants' doubt)."),
+                                    "(their range counts the free constants' doubt). With "
+                                    "--fix-undetermined each trial also draws the values "
+                                    "fixed because undetermined from their spread before "
+                                    "fixing (shortened to the search's range), so the "
+                                    "range counts that spread as the intervals do."),
     # numpy's generators take no negative seed, the result file no seed above int64
     click.option("--seed", type=click.IntRange(0, 2**63 - 1), default=0, show_default=True,
                   help="Random seed of the Monte Carlo perturbations (a whole number >= 0)."),

@@ -120,16 +120,24 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force):
                        f"{rms:8.4f} %", err=True, nl=False)
 
     bar = None
+    last = [0]
 
     def mc_progress(done, total):
         nonlocal bar
         if not show_progress:
             return
+        if bar is not None and done <= last[0]:
+            # another Monte Carlo (--fix-undetermined: one holding the fixed values, whose
+            # flags decide what to fix, then the one shown, drawing them): a bar of its own
+            bar.__exit__(None, None, None)
+            bar = None
         if bar is None:
             click.echo("", err=True)
             bar = click.progressbar(length=total, label="Monte Carlo", file=sys.stderr)
             bar.__enter__()
-        bar.update(1)
+            last[0] = 0
+        bar.update(done - last[0])          # (a chunk of trials at a time)
+        last[0] = done
 
     try:
         run = run_identification(specs, options, progress=progress, mc_progress=mc_progress)

@@ -388,6 +388,10 @@ def format_uncertainty(u: dict) -> list[str]:
         procs = f"{mc['jobs']} process" + ("es" if mc["jobs"] != 1 else "")
         prior = (f"; the priors' values by {100 * mc['prior_sigma']:.2g} % "
                  "(their pseudo-measurements' noise)" if mc.get("prior_sigma") else "")
+        drawn = mc.get("fixed_drawn") or []
+        if drawn:
+            prior += ("; the fixed " + ", ".join(_short(drawn)) + " drawn from "
+                      + ("their" if len(drawn) > 1 else "its") + " spread before fixing")
         lines.append(f"Monte Carlo check: {mc['converged']} of {mc['trials']} re-identifications "
                      f"converged (frequencies perturbed by sigma x {mc['sigma_factor']:.3g}"
                      f"{prior}, {procs}, {mc['time_s']:.1f} s)")
@@ -407,8 +411,19 @@ def format_uncertainty(u: dict) -> list[str]:
                       for side in ("lower", "upper") if v.get(f"trials_at_{side}_bound")]
                 if at:
                     limits.append(f"{lab} ({', '.join(at)})")
-        if u.get("spread_counted"):
-            # the intervals above count the fixed values' spread; the trials do not
+        given = mc.get("given_fixed")
+        if drawn and given:
+            # the trials drew the fixed values: the table counts their spread, as the
+            # intervals do; the trials that held them (for the flags) give the narrower width
+            widths = [f"{k if len(given['constants']) == 1 else f'{m}.{k}'} "
+                      f"±{_pct(g['rel_half_width'])}"
+                      for m, per in given["constants"].items() for k, g in per.items()]
+            lines.append("  linearised std and ratio: counting the fixed values' spread, as the "
+                         "intervals above; the trials holding the fixed values instead "
+                         f"(what --fix-undetermined judges its flags on, {given['time_s']:.1f} "
+                         "s): " + ", ".join(widths))
+        elif u.get("spread_counted") and not drawn:
+            # a file written before the trials drew the fixed values: they held them
             lines.append("  linearised std and ratio: given the fixed values (the trials hold "
                          "them); the intervals above count their spread")
         if limits:
