@@ -2580,17 +2580,7 @@ def refit_held(result, fms, sigmas, kw: dict, joint: bool, label, value=None,
     options = result.options
     names = tuple(result.material_names)
     bases = result.basis
-    fms_v = []
-    for fm in fms:
-        spec = fm.specimen
-        for lab, v in held.items():
-            name, k = lab.rsplit(".", 1)
-            if name in spec.materials:
-                mat = spec.materials[name]
-                mat = dataclasses.replace(mat, constants=dataclasses.replace(mat.constants,
-                                                                             **{k: v}))
-                spec = dataclasses.replace(spec, materials={**spec.materials, name: mat})
-        fms_v.append(dataclasses.replace(fm, specimen=spec))
+    fms_v = [_holding(fm, held) for fm in fms]
     opts = dataclasses.replace(options, fix=tuple(options.fix) + tuple(held),
                                max_evaluations=min(options.max_evaluations, max_evaluations))
 
