@@ -342,6 +342,27 @@ def test_ctrl_c_keeps_the_file_and_prints_the_resume_command(tmp_path, hp, monke
     assert hp.log[-1] == "ABOR"
 
 
+def test_raw_socket_sends_each_command_at_once(hp):
+    """TCPIP SOCKET through pyvisa-py: Nagle's algorithm is off (TCP_NODELAY, NI-VISA's
+    default), so a query after a command with no answer is not held back ~40 ms waiting for
+    the analyser's delayed ACK."""
+    import socket
+
+    import pyvisa
+
+    from laminid_cli.instrument.transport import open_transport
+
+    t = open_transport(hp.resource, timeout=0.5)
+    try:
+        assert t._inst.get_visa_attribute(pyvisa.constants.VI_ATTR_TCPIP_NODELAY)
+        sock = t._rm.visalib.sessions[t._inst.session].interface
+        assert sock.getsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY) == 1
+        t.write("FORM:DATA REAL,64")
+        assert t.query("*ESR?") == "+0"
+    finally:
+        t.close()
+
+
 # --------------------------------------------------------------------------- bad input
 def test_unknown_resource_string_exits_2(tmp_path):
     r = run(["acquire", "--analyser", "NOT-A-RESOURCE", "-o", str(tmp_path / "x.h5")])
