@@ -115,7 +115,7 @@ def test_pdf_report_of_a_result(batch_dir, tmp_path):
     assert r.exit_code == 2 and "file exists" in r.output
 
 
-def test_png_pages_and_default_name(batch_dir, tmp_path):
+def test_png_pages(batch_dir, tmp_path):
     src = tmp_path / "S2.1.result.h5"
     shutil.copy(batch_dir / "S2.1.result.h5", src)
     r = run("report", src, "-o", tmp_path / "rep.png", "--dpi", "60")
@@ -123,6 +123,15 @@ def test_png_pages_and_default_name(batch_dir, tmp_path):
     pngs = sorted(tmp_path.glob("rep-*.png"))
     assert [p.name for p in pngs] == [f"rep-{k}.png" for k in range(1, 6)]
     assert all(p.read_bytes()[:8] == PNG and p.stat().st_size > 10_000 for p in pngs)
+
+
+@pytest.mark.slow
+def test_default_name_beside_a_copied_result(batch_dir, tmp_path):
+    """Without -o: <name>.report.pdf beside the result (S2.1 copied away from its batch). The
+    default run checks the same on S1.1 in test_report_output.py (the default report, then
+    replaced on a re-run); this variant renders a whole PDF again (~5 s)."""
+    src = tmp_path / "S2.1.result.h5"
+    shutil.copy(batch_dir / "S2.1.result.h5", src)
     r = run("report", src)
     assert r.exit_code == 0 and (tmp_path / "S2.1.report.pdf").stat().st_size > 0
 
