@@ -67,6 +67,19 @@ def joint(tmp_path_factory):
     return out
 
 
+# Pages built once per module for the tests that only read them (~1-2 s a build). A test that
+# draws a figure (canvas.draw, write_pages) builds its own pages, so that no test reads a
+# figure another test has laid out.
+@pytest.fixture(scope="module")
+def checked_pages(checked):
+    return {p.name: p.figure for p in report_pages(checked)}
+
+
+@pytest.fixture(scope="module")
+def joint_pages(joint):
+    return report_pages(joint)
+
+
 def status_text(fig):
     """The one status text of a page (the page's own text, or in an axes of its own)."""
     found = [t for t in list(fig.texts) + [t for a in fig.axes for t in a.texts]
@@ -102,7 +115,7 @@ def test_pdf_report_of_a_result(batch_dir, tmp_path):
     assert r.exit_code == 2 and "file exists" in r.output
 
 
-def test_png_pages_and_default_name(batch_dir, tmp_path):
+def test_png_pages(batch_dir, tmp_path):
     src = tmp_path / "S2.1.result.h5"
     shutil.copy(batch_dir / "S2.1.result.h5", src)
     r = run("report", src, "-o", tmp_path / "rep.png", "--dpi", "60")
@@ -110,15 +123,24 @@ def test_png_pages_and_default_name(batch_dir, tmp_path):
     pngs = sorted(tmp_path.glob("rep-*.png"))
     assert [p.name for p in pngs] == [f"rep-{k}.png" for k in range(1, 6)]
     assert all(p.read_bytes()[:8] == PNG and p.stat().st_size > 10_000 for p in pngs)
+
+
+@pytest.mark.slow
+def test_default_name_beside_a_copied_result(batch_dir, tmp_path):
+    """Without -o: <name>.report.pdf beside the result (S2.1 copied away from its batch). The
+    default run checks the same on S1.1 in test_report_output.py (the default report, then
+    replaced on a re-run); this variant renders a whole PDF again (~5 s)."""
+    src = tmp_path / "S2.1.result.h5"
+    shutil.copy(batch_dir / "S2.1.result.h5", src)
     r = run("report", src)
     assert r.exit_code == 0 and (tmp_path / "S2.1.report.pdf").stat().st_size > 0
 
 
-def test_summary_page_tables_and_residuals_read_back(checked, tmp_path):
+def test_summary_page_tables_and_residuals_read_back(checked, checked_pages, tmp_path):
     res = read_result(checked)
     plate = res.plates[0]
     fr = plate.frequencies
-    pages = {p.name: p.figure for p in report_pages(checked)}
+    pages = checked_pages
     fig = pages["summary"]
     # measured vs model table: one row per mode, numbers of the file
     t = cells(ax(fig, "frequency-table"))
@@ -161,9 +183,9 @@ def test_summary_page_tables_and_residuals_read_back(checked, tmp_path):
     assert (tmp_path / "s.png").read_bytes()[:8] == PNG
 
 
-def test_interval_panels_each_in_their_unit_with_reference_and_arrows(checked):
+def test_interval_panels_each_in_their_unit_with_reference_and_arrows(checked, checked_pages):
     res = read_result(checked)
-    fig = {p.name: p.figure for p in report_pages(checked)}["intervals"]
+    fig = checked_pages["intervals"]
     u = res.uncertainty
     for k in ("E1", "E2", "G12", "G13", "nu12"):
         a = ax(fig, f"interval-{MAT}.{k}")
@@ -272,9 +294,9 @@ def test_mode_shapes_with_mac_against_the_initial_model(batch_dir, tmp_path):
     assert len(sizes) == 1
 
 
-def test_history_on_log_scales_with_bound_hits(checked):
+def test_history_on_log_scales_with_bound_hits(checked, checked_pages):
     res = read_result(checked)
-    fig = {p.name: p.figure for p in report_pages(checked)}["history"]
+    fig = checked_pages["history"]
     a = ax(fig, "objective")
     assert a.get_yscale() == "log"
     # the line: every evaluation but the earlier points evaluated again (drawn apart)
@@ -339,9 +361,9 @@ def test_version_1_file_says_status_not_recorded(batch_dir, tmp_path):
     assert np.allclose(line.get_ydata(), [e1.lower / 1e9, e1.upper / 1e9], rtol=1e-12)
 
 
-def test_joint_report_shared_constants_then_each_plate(joint, tmp_path):
+def test_joint_report_shared_constants_then_each_plate(joint, joint_pages, tmp_path):
     res = read_result(joint)
-    pages = report_pages(joint)
+    pages = joint_pages
     names = [p.name for p in pages]
     assert names[:3] == ["shared", "intervals", "history"]
     assert names.index("S1.1-frequencies") < names.index("S1.2-frequencies")
@@ -409,7 +431,8 @@ def test_report_of_a_batch_summary(batch_dir, tmp_path):
         r = run("report", batch_dir / src, "-o", out, "--dpi", "50")
         assert r.exit_code == 0, r.output
         assert len(list(tmp_path.glob(src + "-*.png"))) == 2
-    pages = {p.name: p.figure for p in report_pages(batch_dir / "summary.csv")}
+    built = {"summary.csv": {p.name: p.figure for p in report_pages(batch_dir / "summary.csv")}}
+    pages = built["summary.csv"]
     a = ax(pages["constants"], "across-E1")
     res = read_result(batch_dir / "S1.4.result.h5")
     v = next(ln for ln in a.get_lines() if ln.get_gid() == f"value-S1.4-{MAT}")
@@ -429,7 +452,7 @@ def test_report_of_a_batch_summary(batch_dir, tmp_path):
     s21 = read_result(batch_dir / "S2.1.result.h5").uncertainty.get("E-glass/R368", "G13")
     assert s21.profile_kind == "bound" and 0.1e9 < s21.profile_bound < 18.5e9
     for src in ("summary.csv", "summary.json"):
-        pages = {p.name: p.figure for p in report_pages(batch_dir / src)}
+        pages = built.get(src) or {p.name: p.figure for p in report_pages(batch_dir / src)}
         g = ax(pages["constants"], "across-G13")
         prof = [ln for ln in g.get_lines() if ln.get_gid() == "profile"]
         assert len(prof) == 1 and prof[0].get_linestyle() != "-"          # dotted
@@ -593,10 +616,16 @@ def damped(tmp_path_factory):
     return out
 
 
-def test_damping_page_numbers_read_back(damped, tmp_path):
+@pytest.fixture(scope="module")
+def damped_pages(damped):
+    """The damped result's pages, for the tests that only read them (see checked_pages)."""
+    return {p.name: p.figure for p in report_pages(damped)}
+
+
+def test_damping_page_numbers_read_back(damped, damped_pages, tmp_path):
     res = read_result(damped)
     d = res.damping.data
-    pages = {p.name: p.figure for p in report_pages(damped)}
+    pages = damped_pages
     fig = pages["damping"]
     a = ax(fig, "modal-loss-factors")
     meas = next(ln for ln in a.get_lines() if ln.get_gid() == "measured")
@@ -617,9 +646,9 @@ def test_damping_page_numbers_read_back(damped, tmp_path):
     assert (tmp_path / "d.png").read_bytes()[:8] == PNG
 
 
-def test_joint_interval_panels_read_back(joint):
+def test_joint_interval_panels_read_back(joint, joint_pages):
     res = read_result(joint)
-    fig = {p.name: p.figure for p in report_pages(joint)}["intervals"]
+    fig = {p.name: p.figure for p in joint_pages}["intervals"]
     for iv in res.uncertainty.intervals:
         a = ax(fig, f"interval-{iv.label}")
         scale = 1 if iv.constant == "nu12" else 1e9
@@ -772,10 +801,10 @@ def _gpa_(k, v):
     return v if k == "nu12" else v / 1e9
 
 
-def test_constants_fixed_by_fix_say_so(damped):
+def test_constants_fixed_by_fix_say_so(damped, damped_pages):
     """--fix nu12,G13,G23: "fixed at its initial value (not identified)" in the table and in
     the interval page's legend."""
-    pages = {p.name: p.figure for p in report_pages(damped)}
+    pages = damped_pages
     mat = "E-glass/R368"
     rows = {row[0].split(" ")[0]: row for row in cells(ax(pages["summary"], "constants"))[1:]}
     for k in ("nu12", "G13", "G23"):

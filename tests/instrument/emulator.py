@@ -160,6 +160,7 @@ class EmulatorBase:
         self.port = self._sock.getsockname()[1]
         self._hits_final = 0
         self._stop = threading.Event()
+        self._conns: set = set()
         self._thread = threading.Thread(target=self._serve, daemon=True)
         self.reset()
 
@@ -173,7 +174,14 @@ class EmulatorBase:
         return self
 
     def stop(self):
+        """Stop serving at once: shutting the sockets down wakes the server thread's accept()
+        or recv() now instead of at its next 0.2 s timeout."""
         self._stop.set()
+        for sock in (self._sock, *self._conns):
+            try:
+                sock.shutdown(socket.SHUT_RDWR)
+            except OSError:
+                pass
         self._thread.join(timeout=2)
         self._sock.close()
 
@@ -192,7 +200,11 @@ class EmulatorBase:
                 continue
             with conn:
                 conn.settimeout(0.2)
-                self._handle(conn)
+                self._conns.add(conn)
+                try:
+                    self._handle(conn)
+                finally:
+                    self._conns.discard(conn)
 
     def _handle(self, conn):
         buf = b""

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from laminid_cli.errors import InstrumentError
-from laminid_cli.frf.store import FrfWriter, read_frf_h5
+from laminid_cli.frf.store import FrfWriter
+from laminid_cli.frf.store import read_frf_h5 as _read_frf_h5
 from laminid_cli.instrument.base import AcquisitionSettings, Measurement
 from laminid_cli.instrument.session import (AcquisitionInterrupted, SessionOptions,
                                             assess_point, run_session)
@@ -56,6 +57,12 @@ class ScriptUI:
 
 
 SETTINGS = AcquisitionSettings(averages=4)
+
+
+def read_frf_h5(path):
+    """Read back the file the session has just written, in this process (no child-process
+    probe: that guards against files of unknown origin, and costs ~0.3 s per read)."""
+    return _read_frf_h5(path, probe=False)
 
 
 def writer(tmp_path, **kw):
