@@ -16,6 +16,18 @@ def run(*args):
     return CliRunner().invoke(cli, [str(a) for a in args])
 
 
+@pytest.fixture
+def one_page(monkeypatch):
+    """The report of the result's first page only: these tests check where the report is
+    written and what is protected, not its pages (drawn and checked in test_report.py); the
+    PDF is still written by write_pages, with its Creator, as the command writes it."""
+    import laminid_cli.report as rep
+
+    real = rep.report_pages
+    monkeypatch.setattr(rep, "report_pages",
+                        lambda source, frf_path=None: real(source, frf_path=frf_path)[:1])
+
+
 @pytest.fixture(scope="module")
 def result(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("rep") / "S1.1.result.h5"
@@ -24,7 +36,7 @@ def result(tmp_path_factory) -> Path:
     return out
 
 
-def test_the_default_report_is_replaced_on_a_rerun(result):
+def test_the_default_report_is_replaced_on_a_rerun(result, one_page):
     pdf = result.with_name("S1.1.report.pdf")
     pdf.unlink(missing_ok=True)
     r = run("report", result)
@@ -47,7 +59,7 @@ def test_a_foreign_file_at_the_default_name_is_kept(result):
     pdf.unlink()
 
 
-def test_an_explicit_output_is_protected(result, tmp_path):
+def test_an_explicit_output_is_protected(result, tmp_path, one_page):
     out = tmp_path / "mine.pdf"
     assert run("report", result, "-o", out).exit_code == 0
     r = run("report", result, "-o", out)
