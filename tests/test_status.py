@@ -281,3 +281,15 @@ def test_a_tighter_max_rel_interval_says_what_the_lab_asked_for():
     (reason,) = [x for x in json.loads(r.stdout)["reasons"] if x["code"] == "undetermined"]
     assert reason["text"].startswith("not determined by these modes (95 % half-width above "
                                      "30 % of the value): ")
+    # the terminal's flag line said "— not determined by these modes" beside E2's "weak"
+    # (±10.8 % at 12x12, ±11 % here): it says what the lab asked for, as the status does
+    t = run("identify", s11, "--mesh", "6x6", "--max-rel-interval", "0.1", "--no-output")
+    e2_row = next(ln for ln in t.output.splitlines() if ln.startswith("  E2 [GPa]"))
+    assert e2_row.rstrip().endswith("weak [!]"), e2_row
+    flag = next(ln for ln in t.output.splitlines() if ln.startswith("  flagged (half-width"))
+    assert flag.startswith("  flagged (half-width > 10 % of the value): IM7/977-2.E2, "), flag
+    assert "— known less well than --max-rel-interval 10 % asks; " in flag, flag
+    assert "not determined by these modes" not in flag, flag
+    t = run("identify", s11, "--mesh", "6x6", "--no-output")
+    flag = next(ln for ln in t.output.splitlines() if ln.startswith("  flagged (half-width"))
+    assert "— not determined by these modes; " in flag, flag
