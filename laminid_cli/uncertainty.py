@@ -2230,12 +2230,14 @@ class FixedDraw:
         nu12 itself, z ~ N(z0, C_z) with C_z = C_f over the values (correlations included;
         its square root from the eigen-decomposition, so a singular C_f draws along its
         range). A draw z0 + dz that would leave the search's range is shortened to its edge
-        along dz, as the secant count shortens its steps (``clipped``: the row was): clipping
-        each value on its own would break their correlation. On S1.1 (12x12) ln G13 and ln
-        G23 have standard deviations 0.79 and 1.42 before fixing, correlation -0.94, and the
-        range is +-ln 5 = 1.61: a quarter of the draws leave it, and E1's share of their
-        spread (E1 linear in the draws) is 1.68 GPa shortened, 1.45 GPa clipped one by one
-        (2.10 GPa unbounded; the secant count: 1.82 GPa).
+        along dz, as the secant count shortens its steps (``clipped``: the row was); clipping
+        each value on its own would move a draw off its direction (it keeps the correlation
+        no worse). On S1.1 (12x12) ln G13 and ln G23 have standard deviations 0.79 and 1.42
+        before fixing, correlation -0.94, and the range is +-ln 5 = 1.61: a quarter of the
+        draws leave it, and the correlation of the draws is -0.91 shortened or clipped one
+        by one; E1's share of their spread (E1 linear in the draws, the tangent) is 1.66 GPa
+        shortened, 1.44 GPa clipped one by one (2.05 GPa unbounded; the secant count: 1.82
+        GPa), E2's 0.24 and 0.31 GPa (0.25 unbounded).
         Row t depends on the seed and t only (stream ``[seed, FIXED_STREAM]``)."""
         nu = np.array([lab.endswith(".nu12") for lab in self.labels], bool)
         v = np.asarray(self.value, float)

@@ -317,3 +317,40 @@ def test_cli_json_shows_the_range_counting_the_fixed_values_spread(tmp_path):
     assert v.shape == (20, 3)
     assert np.all((v[:, :2] >= 3.1e9 / 5 * (1 - 1e-12)) & (v[:, :2] <= 3.1e9 * 5 * (1 + 1e-12)))
     assert np.all(np.abs(v[:, 2]) <= 0.95)
+
+
+def test_shortening_against_clipping_each_value_on_s11s_spread():
+    """S1.1 12x12's spread before fixing (C_z of ln G13, ln G23, nu12: sd 0.79, 1.42, 0.081,
+    correlation of the logs -0.94) and the tangent of E1, E2 in those variables (GPa per
+    unit, fixed_value_regression at the optimum), 200000 draws (seed 0): shortened along the
+    draw or clipped value by value, the logs' correlation is -0.91 either way (clipping does
+    not break it); what differs is the direction of the draws, hence E1's share of their
+    spread, 1.66 GPa shortened and 1.44 clipped (2.05 unbounded), and E2's, 0.24 and 0.31
+    (0.25 unbounded). The docstring and README say this; they said clipping breaks the
+    correlation."""
+    Cz = np.array([[0.625817, -1.057484, 0.048611],
+                   [-1.057484, 2.030596, -0.094192],
+                   [0.048611, -0.094192, 0.006502]])
+    M = np.array([[-3.161654, -3.172321, -4.897233],           # E1, GPa per unit of z
+                  [-0.771707, -0.57804, -2.827683]])            # E2
+    value = np.array([3.1e9, 3.1e9, 0.35])
+    sc = np.array([3.1e9, 3.1e9, 1.0])
+    d = FixedDraw(FIXED, value, Cz * np.outer(sc, sc), np.array([6.2e8, 6.2e8, -0.95]),
+                  np.array([1.55e10, 1.55e10, 0.95]))
+    n = 200000
+    v, short = d.draw(n, 0)
+    z0 = np.array([np.log(3.1e9), np.log(3.1e9), 0.35])
+    zs = np.column_stack([np.log(v[:, 0]), np.log(v[:, 1]), v[:, 2]]) - z0
+    lam, V = np.linalg.eigh(Cz)
+    raw = np.random.default_rng([0, 17]).standard_normal((n, 3)) @ (V * np.sqrt(lam)).T
+    lo, hi = np.array([-np.log(5), -np.log(5), -1.3]), np.array([np.log(5), np.log(5), 0.6])
+    zc = np.clip(raw, lo, hi)
+    assert 0.24 < short.mean() < 0.28                                  # measured 0.259
+    corr = [np.corrcoef(z[:, 0], z[:, 1])[0, 1] for z in (raw, zs, zc)]
+    assert corr[0] == pytest.approx(-0.938, abs=0.005)
+    assert corr[1] == pytest.approx(-0.91, abs=0.01) and corr[2] == pytest.approx(-0.91,
+                                                                                 abs=0.01)
+    e1 = [np.std(z @ M[0]) for z in (raw, zs, zc)]
+    e2 = [np.std(z @ M[1]) for z in (raw, zs, zc)]
+    np.testing.assert_allclose(e1, [2.05, 1.66, 1.44], atol=0.02)
+    np.testing.assert_allclose(e2, [0.25, 0.24, 0.31], atol=0.01)
