@@ -2810,7 +2810,8 @@ class Assessment:
     #: with constants fixed because undetermined whose spread is counted: the Monte Carlo
     #: whose trials held them (its flags decided what to fix, judged given the fixed values
     #: as the linearised flags are); ``monte_carlo`` is then the one whose trials drew them
-    #: (:class:`FixedDraw`), with the same frequency draws. Not written to the result file.
+    #: (:class:`FixedDraw`), with the same frequency draws. Its widths are in the summary
+    #: (``monte_carlo.given_fixed``: --json and /summary_json), not in the typed datasets.
     monte_carlo_given_fixed: MonteCarlo | None = None
 
 
