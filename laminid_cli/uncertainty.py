@@ -2388,8 +2388,8 @@ def drawn_fixed_note(mc: MonteCarlo, fixed, draw: FixedDraw, options) -> str:
             f"({mc.fixed_clipped} of {mc.n_converged} trials)")
     held = [lab for lab in fixed if lab not in draw.labels]
     if draw.held:
-        text += ("; " + names(draw.held) + " (fixed on a limit of the search, doubt not "
-                 "known) stayed held")
+        text += ("; " + names(draw.held) + " (fixed on a limit of the search, or in a "
+                 "direction the modes do not see: doubt not known) stayed held")
     user = [lab for lab in held if lab not in draw.held]
     if user:
         text += "; " + names(user) + " (fixed with --fix) stayed held"

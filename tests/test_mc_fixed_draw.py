@@ -237,7 +237,8 @@ def test_a_value_fixed_on_a_search_limit_and_one_fixed_by_the_user_stay_held():
     note = next(n for n in a.uncertainty.notes if n.startswith("each Monte Carlo trial"))
     assert note.startswith("each Monte Carlo trial drew the fixed G13 from the spread it had "
                            "before fixing")
-    assert note.endswith("; G23 (fixed on a limit of the search, doubt not known) stayed held; "
+    assert note.endswith("; G23 (fixed on a limit of the search, or in a direction the "
+                         "modes do not see: doubt not known) stayed held; "
                          "nu12 (fixed with --fix) stayed held")
 
 
