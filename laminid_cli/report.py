@@ -406,11 +406,32 @@ def _table(ax, head, rows, *, fontsize=8, col_widths=None, colors=None):
     return t
 
 
+#: a table row's height per extra line of text, in rows (a two-line cell needs 1.7 rows)
+EXTRA_LINE = 0.7
+
+
+def row_lines(row) -> int:
+    """The lines of a table row's tallest cell."""
+    return max(str(c).count("\n") + 1 for c in row)
+
+
+def table_units(head, rows) -> float:
+    """The height of a table in single-line rows, its two-line rows (an interval with "no
+    information", a profile, a Monte Carlo range) counted taller (:data:`EXTRA_LINE`)."""
+    return sum(1 + EXTRA_LINE * (row_lines(x) - 1) for x in [head, *rows])
+
+
 def constants_table(ax, r: ResultFile) -> None:
     head, rows = constants_rows(r)
     colors = [["w", "w", "w", _verdict_color(row[3]), "w", "w"] for row in rows]
-    _table(ax, head, rows, fontsize=7.5, col_widths=[0.16, 0.09, 0.26, 0.25, 0.08, 0.16],
-           colors=colors)
+    t = _table(ax, head, rows, fontsize=7.5, col_widths=[0.16, 0.09, 0.26, 0.25, 0.08, 0.16],
+               colors=colors)
+    if t is not None:
+        # rows as tall as their lines (all the same height, two-line cells ran over their
+        # borders); the table's bbox scales them together
+        heights = [1 + EXTRA_LINE * (row_lines(x) - 1) for x in [head, *rows]]
+        for (i, _), cell in t.get_celld().items():
+            cell.set_height(heights[i] / sum(heights))
     ax.set_gid("constants")
     ax.set_title("identified constants", fontsize=9, loc="left")
 
@@ -557,14 +578,15 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
     width = _wrap_width(fig, 9, bold=True)
     lines = [ln for para in text.split("\n")
              for ln in textwrap.wrap(para, width, break_on_hyphens=False, subsequent_indent="    ")]
-    h = min(0.35, 0.025 * len(lines) + 0.01)
+    # a 9-point bold line is ~0.15 in, 1.8 % of the A4 page's height (0.025 left a gap)
+    h = min(0.35, 0.0195 * len(lines) + 0.015)
     outer = fig.add_gridspec(2, 1, height_ratios=[h, 1 - h])
     ax_s = fig.add_subplot(outer[0, 0])
     ax_s.axis("off")
     ax_s.text(0, 1, "\n".join(lines), transform=ax_s.transAxes, ha="left", va="top",
               fontsize=9, weight="bold", color=color, gid="status")
     gs = outer[1, 0].subgridspec(1, 2, width_ratios=[1.5, 1])
-    f = table_fraction(sum(len(c) for c in r.materials.values()))
+    f = min(1.0, table_units(*constants_rows(r)) / TABLE_ROWS)
     left = gs[0, 0].subgridspec(2, 1, height_ratios=[f, 1.001 - f])
     ax_c = fig.add_subplot(left[0, 0])
     constants_table(ax_c, r)
@@ -594,9 +616,22 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
         notes.append(f"uncertainty: {u.confidence:.0%} intervals, s² = {u.s2:.3g}, "
                      f"condition number {u.condition_number:.3g}, σ from {u.sigma_source}")
         notes += table_notes(r)
-    ax_n.text(0, 0.97, "\n".join("\n".join(textwrap.wrap(t, 110, break_on_hyphens=False))
-                                  for t in notes),
-              fontsize=7.5, va="top", ha="left", transform=ax_n.transAxes, linespacing=1.5)
+    # the notes in the room left under the table: smaller type, wrapped wider, where there are
+    # many (a two-material result with profiles and a Monte Carlo ran off the page)
+    room = fig.get_figheight() * (1 - h) * (1.001 - f) * 0.9           # inches
+    size, spacing = 7.5, 1.5
+    while True:
+        text = "\n".join("\n".join(textwrap.wrap(t, int(110 * 7.5 / size),
+                                                 break_on_hyphens=False)) for t in notes)
+        n = text.count("\n") + 1
+        if n * size * spacing / 72 <= room or (size <= 6 and spacing < 1.5):
+            break
+        if size > 6:
+            size -= 0.5
+        else:
+            spacing = 1.3
+    ax_n.text(0, 0.97, text, fontsize=size, va="top", ha="left", transform=ax_n.transAxes,
+              linespacing=spacing, gid="notes")
     return fig
 
 

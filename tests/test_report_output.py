@@ -98,3 +98,41 @@ def test_an_earlier_point_evaluated_again_is_drawn_off_the_history_line():
     a, b, c, d = ([1.0, 2.0], [1.5, 2.0], [1.6, 2.1], [1.7, 2.2])
     C = np.array([a, b, c, a, d, d, c])
     assert revisits(C).tolist() == [False, False, False, True, False, False, True]
+
+
+def test_page_one_fits_two_line_cells_and_many_notes(tmp_path, monkeypatch):
+    """Page 1's constants table gave every row one line's height, so two-line cells (S2.1's
+    G13: "none — on lower search limit" / "profile: < 1.47") ran over their borders; and a
+    result with many notes (hybrid CM with profiles and a Monte Carlo) ran off the page. Rows
+    now take the height of their lines, and the notes shrink to the room left."""
+    import laminid_cli.report as rep
+    from laminid_cli.resultfile import read_result
+
+    out = tmp_path / "s21.h5"
+    r = run("identify", "specimens/example2/S2.1.yaml", "--mesh", "6x6", "-o", out)
+    assert r.exit_code == 0, r.output
+    res = read_result(out)
+    real = rep.table_notes
+    monkeypatch.setattr(rep, "table_notes", lambda rr: real(rr) + [
+        f"note {k}: " + "a long explanation of what a mark in the table means " * 3
+        for k in range(14)])
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = rep.summary_page(res)
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    ax = next(a for a in fig.axes if a.get_gid() == "constants")
+    table = ax.tables[0]
+    two_line = 0
+    for cell in table.get_celld().values():
+        text = cell.get_text()
+        if not text.get_text():
+            continue
+        t, c = text.get_window_extent(renderer), cell.get_window_extent(renderer)
+        assert t.height <= c.height + 0.5, text.get_text()
+        two_line += "\n" in text.get_text()
+    assert two_line >= 1                     # the case the fix is for is on the page
+    notes = next(t for a in fig.axes for t in a.texts if t.get_gid() == "notes")
+    box = notes.get_window_extent(renderer)
+    assert box.y0 >= 0 and notes.get_fontsize() < 7.5      # shrunk, and still on the page
