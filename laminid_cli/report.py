@@ -572,8 +572,8 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
     fig = _figure()
     fig.suptitle(_title(r, plate if plate is not None else (r.plates[0] if not r.joint
                                                              else None), what), fontsize=11)
-    # the status first, under the title: what a lab reads before any number (the other pages
-    # repeat it at their foot)
+    # the status first, under the title: what a lab reads before any number (the intervals
+    # and damping pages repeat it at their foot, the others with its codes at their top right)
     text, color = status_line(r)
     width = _wrap_width(fig, 9, bold=True)
     lines = [ln for para in text.split("\n")

@@ -123,6 +123,11 @@ def test_files_show_cannot_print_are_refused_in_one_line(single, tmp_path):
     text.write_text("E1 = 117 GPa\n")
     r = run("show", text)
     assert r.exit_code == 2 and "not a laminid identification result" in r.output
+    summary = tmp_path / "summary.csv"
+    summary.write_text("name,status\nS1.1,ok\n")
+    r = run("show", summary)
+    assert r.exit_code == 2 and (f"{summary}: a batch summary is text already (a spreadsheet, "
+                                 f"jq); 'laminid report {summary}' draws it") in r.output
     r = run("show", tmp_path / "missing.h5")
     assert r.exit_code == 2 and "missing.h5" in r.output and "Traceback" not in r.output
 

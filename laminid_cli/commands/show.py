@@ -28,8 +28,15 @@ def show(result, as_json):
     """
     from laminid_cli.commands.text import (format_damping, format_identify_report,
                                            format_joint_report)
-    from laminid_cli.resultfile import read_stored_summary
+    from pathlib import Path
 
+    from laminid_cli.resultfile import ResultFileError, read_stored_summary
+
+    if Path(result).suffix.lower() in (".csv", ".json"):
+        # summary.csv / summary.json of a batch: text already, and report draws them
+        raise ResultFileError(f"{result}: a batch summary is text already (a spreadsheet, "
+                              f"jq); 'laminid report {result}' draws it, 'laminid show' "
+                              "prints a result file (*.result.h5)")
     summary, written = read_stored_summary(result)
     if as_json:
         echo_json({**summary, "file": str(result), "written": written})
