@@ -221,9 +221,9 @@ def test_the_rise_is_zero_at_the_limit_with_a_prior_on_the_held_constant(tmp_pat
     seen = {}
     real = unc.profile_bound
 
-    def spy(label, side, limit, far, delta, threshold, confidence=0.95):
+    def spy(label, side, limit, far, delta, threshold, confidence=0.95, quick=None):
         seen[label] = (limit, delta)
-        return real(label, side, limit, far, delta, threshold, confidence)
+        return real(label, side, limit, far, delta, threshold, confidence, quick)
 
     monkeypatch.setattr(unc, "profile_bound", spy)
     fm = build_forward_model(read_specimen(path), (6, 6))
@@ -403,3 +403,30 @@ def test_a_flat_profile_of_the_values_size_is_drawn_to_its_end(tmp_path):
     label = next(t for t in ax.texts if t.get_gid() == "profile-label").get_text()
     assert label.split("\n")[:2] == ["profile:", "flat to"]
     plt.close(fig)
+
+
+def test_the_check_between_the_limit_and_a_flat_far_end_uses_the_quick_fit():
+    """Where the far end is not rejected, one fit in between checks for a second valley; only
+    its rise below q^2 is needed, which a fit cut at PROFILE_MID_EVALUATIONS proves as well
+    (an upper bound), so profile_bound calls ``quick`` there and ``delta`` everywhere else."""
+    from laminid_cli.uncertainty import PROFILE_MID_EVALUATIONS
+
+    assert PROFILE_MID_EVALUATIONS < 300
+    calls = {"delta": [], "quick": []}
+
+    def make(name, rise):
+        def f(v):
+            calls[name].append(v)
+            return rise(v)
+        return f
+
+    flat = lambda v: 0.1 * abs(np.log(v / 1e9))            # noqa: E731 - well below Q2
+    p = profile_bound("m.G13", "lower", 1e9, 20e9, make("delta", flat), Q2,
+                      quick=make("quick", flat))
+    assert np.isnan(p.bound) and not p.error
+    assert calls["delta"] == [20e9] and calls["quick"] == [pytest.approx(np.sqrt(20) * 1e9)]
+    calls = {"delta": [], "quick": []}
+    steep = lambda v: 4 * np.log(v / 1e9) ** 2              # noqa: E731 - rejects above e^0.98
+    p = profile_bound("m.G13", "lower", 1e9, 20e9, make("delta", steep), Q2,
+                      quick=make("quick", steep))
+    assert np.isfinite(p.bound) and not calls["quick"] and len(calls["delta"]) >= 2
