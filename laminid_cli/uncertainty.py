@@ -2498,15 +2498,17 @@ def _limit(u: Uncertainty, j: int) -> tuple[str, float]:
 
 
 def profile_bound(label: str, side: str, limit: float, far: float, delta, threshold: float,
-                  confidence: float = 0.95, quick=None) -> Profile:
+                  confidence: float = 0.95, quick=None, lenient=None) -> Profile:
     """The :class:`Profile` of ``label`` from ``delta(value)``: the scaled increase of chi2
     with the constant held at ``value`` (one identification of the others per call). First
     the far end: below ``threshold`` there, the fit does not bound the constant within the
-    search (``quick``, default ``delta``, checks one point in between: a cheaper fit where an
-    upper bound of the rise is enough). Otherwise a bisection (regula falsi, Illinois) between
-    the limit (increase 0) and the far end, on ln P for a modulus and nu12 itself, to
-    :data:`PROFILE_TOL`."""
+    search (``quick`` checks one point in between). Otherwise a bisection (regula falsi,
+    Illinois) between the limit (increase 0) and the far end, on ln P for a modulus and nu12
+    itself, to :data:`PROFILE_TOL`. ``lenient`` (the far end) and ``quick`` (the point in
+    between) may accept a fit that stopped unfinished below the threshold (an upper bound of
+    the rise); both default to ``delta``, which the bisection uses."""
     quick = delta if quick is None else quick
+    lenient = delta if lenient is None else lenient
     k = label.rsplit(".", 1)[1]
     nu = k == "nu12"
     show = functools.partial(_show, k)
@@ -2529,7 +2531,7 @@ def profile_bound(label: str, side: str, limit: float, far: float, delta, thresh
         return d
 
     try:
-        d_far = rise(far)
+        d_far = rise(far, lenient)
         if not d_far >= threshold:
             # one fit in between too: a rise that is not monotonic (a second valley) is no
             # profile
@@ -2654,8 +2656,8 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
         unfinished = []
 
         def delta(v, name=name, k=k, lab=lab, initial=initial, unfinished=unfinished,
-                  max_evaluations=PROFILE_EVALUATIONS):
-            r, uc = refit_held(result, fms, sigmas, kw, joint, lab, v, unconverged=True,
+                  max_evaluations=PROFILE_EVALUATIONS, lenient=False):
+            r, uc = refit_held(result, fms, sigmas, kw, joint, lab, v, unconverged=lenient,
                                max_evaluations=max_evaluations)
             chi2 = uc.chi2
             if prior.get(name, {}).get(k, 0.0) > 0:
@@ -2678,9 +2680,13 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
         side, limit = _limit(u, j)
         far = _profile_far(k, side, limit, options, result.initial[m])
         try:
+            # the bisection needs finished fits (an unfinished one there ended the profile
+            # anyway, after up to eight more fits: hybrid CM's glass G13, 15 s for "no
+            # profile"); the far end and the point in between decide "flat" with one or two
             p = profile_bound(lab, side, limit, far, delta, threshold, u.confidence,
                               quick=functools.partial(
-                                  delta, max_evaluations=PROFILE_MID_EVALUATIONS))
+                                  delta, max_evaluations=PROFILE_MID_EVALUATIONS, lenient=True),
+                              lenient=functools.partial(delta, lenient=True))
         except (FitError, ModelError, SolverError) as exc:
             p = Profile(lab, side, limit, np.nan, far, np.nan, threshold, 0,
                         f"{PROFILE_NONE} {exc}", str(exc))

@@ -221,9 +221,10 @@ def test_the_rise_is_zero_at_the_limit_with_a_prior_on_the_held_constant(tmp_pat
     seen = {}
     real = unc.profile_bound
 
-    def spy(label, side, limit, far, delta, threshold, confidence=0.95, quick=None):
+    def spy(label, side, limit, far, delta, threshold, confidence=0.95, quick=None,
+            lenient=None):
         seen[label] = (limit, delta)
-        return real(label, side, limit, far, delta, threshold, confidence, quick)
+        return real(label, side, limit, far, delta, threshold, confidence, quick, lenient)
 
     monkeypatch.setattr(unc, "profile_bound", spy)
     fm = build_forward_model(read_specimen(path), (6, 6))
@@ -412,7 +413,7 @@ def test_the_check_between_the_limit_and_a_flat_far_end_uses_the_quick_fit():
     from laminid_cli.uncertainty import PROFILE_MID_EVALUATIONS
 
     assert PROFILE_MID_EVALUATIONS < 300
-    calls = {"delta": [], "quick": []}
+    calls = {"delta": [], "quick": [], "lenient": []}
 
     def make(name, rise):
         def f(v):
@@ -422,11 +423,13 @@ def test_the_check_between_the_limit_and_a_flat_far_end_uses_the_quick_fit():
 
     flat = lambda v: 0.1 * abs(np.log(v / 1e9))            # noqa: E731 - well below Q2
     p = profile_bound("m.G13", "lower", 1e9, 20e9, make("delta", flat), Q2,
-                      quick=make("quick", flat))
-    assert np.isnan(p.bound) and not p.error
-    assert calls["delta"] == [20e9] and calls["quick"] == [pytest.approx(np.sqrt(20) * 1e9)]
-    calls = {"delta": [], "quick": []}
+                      quick=make("quick", flat), lenient=make("lenient", flat))
+    assert np.isnan(p.bound) and not p.error and not calls["delta"]
+    assert calls["lenient"] == [20e9] and calls["quick"] == [pytest.approx(np.sqrt(20) * 1e9)]
+    # the bisection's fits are the strict ones (an unfinished fit there ends the profile)
+    calls = {"delta": [], "quick": [], "lenient": []}
     steep = lambda v: 4 * np.log(v / 1e9) ** 2              # noqa: E731 - rejects above e^0.98
     p = profile_bound("m.G13", "lower", 1e9, 20e9, make("delta", steep), Q2,
-                      quick=make("quick", steep))
-    assert np.isfinite(p.bound) and not calls["quick"] and len(calls["delta"]) >= 2
+                      quick=make("quick", steep), lenient=make("lenient", steep))
+    assert np.isfinite(p.bound) and not calls["quick"] and calls["lenient"] == [20e9]
+    assert len(calls["delta"]) >= 2
