@@ -171,7 +171,8 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
 
     Exit status: 0 when every point is saved; 3 when the session ended with points missing
     (quit or skipped; the file is valid, continue with --resume); 1 on an analyser fault
-    (finished points kept); 130 on Ctrl-C; 2 for bad input.
+    (finished points kept); 130 on Ctrl-C; 2 for bad input (options, the output file, no
+    analyser answering at --analyser: nothing measured).
 
     \b
     Example:
