@@ -533,3 +533,36 @@ def test_an_exponential_window_that_would_zero_the_response_is_refused(tmp_path,
     assert "exp window 1e-09 s is under a thousandth of the time record (0.5 s" in r.stderr
     assert not out.exists()
     assert acquire(hp, out, "--no-prompt", "--exp-window", "0.0005").exit_code == 0
+
+
+@pytest.mark.parametrize("model", ["35670a", "sr785"])
+def test_the_emulator_script_serves_an_acquire_and_stops_on_sigint(tmp_path, model):
+    """scripts/analyser_emulator.py (README: trying acquire without an analyser) prints the
+    address and the commands to try; acquire from it gives the emulated plate's modes, and
+    SIGINT stops it at once (also when started in the background, SIGINT ignored)."""
+    import json
+    import re
+    import signal
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen([sys.executable, "scripts/analyser_emulator.py", "--model", model,
+                             "--hit-interval", "0.01"], stdout=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    try:
+        first = proc.stdout.readline()
+        m = re.match(rf"emulated {model.upper()} at (TCPIP::127\.0\.0\.1::\d+::SOCKET) ", first)
+        assert m, first
+        assert f"try:  laminid acquire --analyser {m.group(1)} --points 3" in proc.stdout.readline()
+        out = tmp_path / "try.frf.h5"
+        r = run(["acquire", "--analyser", m.group(1), "--points", "1", "--no-prompt",
+                 "--averages", "2", "-o", str(out)])
+        assert r.exit_code == 0, r.output
+        r = run(["fit-frf", str(out), "--json"])
+        assert r.exit_code == 0, r.output
+        found = [x["freq_hz"] for x in json.loads(r.stdout)["modes"]]
+        for f, _ in PLATE_MODES:
+            assert min(abs(np.array(found) - f)) / f < 2e-3, (f, found)
+    finally:
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=5) == 0

@@ -1,0 +1,57 @@
+"""An emulated dynamic signal analyser on this computer, to try `laminid acquire` without one.
+
+    python scripts/analyser_emulator.py                 # an HP/Agilent/Keysight 35670A
+    python scripts/analyser_emulator.py --model sr785   # a Stanford Research SR785
+
+It prints the VISA address to give `laminid acquire --analyser` and serves until Ctrl-C. The
+emulator is the one the tests use (tests/instrument/emulator.py): a TCP server on 127.0.0.1
+that understands the commands laminid's drivers send, "hits" a simulated free plate a fixed
+time after each start (no hammer needed) and serves its averaged FRF and coherence in the
+analyser's own binary format. Its plate has the modes ``PLATE_MODES`` of that module: what
+`laminid fit-frf` of the acquired file should find. Not an analyser: a way to see the
+acquisition, the file it writes and the next steps work, before the lab's own is connected.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def main(argv=None) -> int:
+    from tests.instrument.emulator import PLATE_MODES, HP35670AEmulator, SR785Emulator
+
+    models = {"35670a": HP35670AEmulator, "sr785": SR785Emulator}
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--model", choices=sorted(models), default="35670a",
+                   help="the analyser to emulate (default: 35670a)")
+    p.add_argument("--hit-interval", type=float, default=0.3, metavar="S",
+                   help="seconds between the simulated hammer hits (default 0.3)")
+    a = p.parse_args(argv)
+    # Ctrl-C even where the shell started it in the background (SIGINT ignored), and kill
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
+    emulator = models[a.model](hit_interval_s=a.hit_interval).start()
+    modes = ", ".join(f"{f:g} Hz" for f, _ in PLATE_MODES)
+    print(f"emulated {a.model.upper()} at {emulator.resource} (its plate's modes: {modes})\n"
+          f"try:  laminid acquire --analyser {emulator.resource} --points 3 --no-prompt "
+          f"-o try.frf.h5\n"
+          f"then: laminid fit-frf try.frf.h5\n"
+          "Ctrl-C stops the emulator.", flush=True)
+    try:
+        while True:
+            time.sleep(1)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        emulator.stop()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
