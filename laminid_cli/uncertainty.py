@@ -918,12 +918,9 @@ class TrialModel(VariableSet):
         values = dict(values or {})
         if values == self._held:
             return
-        params = []
-        for p in self._params0:
-            upd = {lab.rsplit(".", 1)[1]: float(v) for lab, v in values.items()
-                   if lab.rsplit(".", 1)[0] == p.name}
-            params.append(dataclasses.replace(
-                p, initial=dataclasses.replace(p.initial, **upd)) if upd else p)
+        by = _by_material(values)
+        params = [dataclasses.replace(p, initial=dataclasses.replace(p.initial, **by[p.name]))
+                  if p.name in by else p for p in self._params0]
         self._set_params(params)
         self._set_limits()
         self._held = values
@@ -1699,11 +1696,12 @@ _WORKER: dict = {}
 
 
 def _init_worker(fms, options, start, start_pairing, joint, basis_vectors=None, model=None,
-                 damping=False):
+                 damping=False, names=()):
     """Per process: the plates' forward models, the identify() route's bases (rebuilt here from
     their vectors, copied per trial) or the reduced trial model (shared by the trials: an
     enrichment copies it; its factorisation is redone once per process); ``damping``: the
-    trials return their modes' energy shares (:func:`_run_trial`)."""
+    trials return their modes' energy shares (:func:`_run_trial`); ``names``: the materials
+    of ``start`` (the result's material_names)."""
     from laminid_cli.reduced import ReducedBasis
 
     bases = (None if basis_vectors is None else
@@ -1711,16 +1709,7 @@ def _init_worker(fms, options, start, start_pairing, joint, basis_vectors=None, 
     _WORKER.clear()
     _WORKER.update(fms=list(fms), options=options, start=start, start_pairing=start_pairing,
                    joint=joint, bases=bases, model=model, damping=bool(damping),
-                   names=_material_names(fms))
-
-
-def _material_names(fms) -> tuple[str, ...]:
-    """The distinct materials of the plates ``fms`` in first-appearance order (the order of
-    identify()'s and identify_joint()'s constants)."""
-    names: list[str] = []
-    for fm in fms:
-        names += [n for n in fm.material_names if n not in names]
-    return tuple(names)
+                   names=tuple(names))
 
 
 def _trial_fms(freqs):
@@ -1743,13 +1732,9 @@ def _identify_trial(freqs, bases, prior_shift=None, held=None):
     start = _WORKER["start"]
     if held:
         fms = [_holding(fm, held) for fm in fms]
-        start = list(start)
-        for m, c in enumerate(start):
-            name = _WORKER["names"][m]
-            upd = {lab.rsplit(".", 1)[1]: float(v) for lab, v in held.items()
-                   if lab.rsplit(".", 1)[0] == name}
-            if upd:
-                start[m] = dataclasses.replace(c, **upd)
+        by = _by_material(held)
+        start = [dataclasses.replace(c, **by[name]) if name in by else c
+                 for name, c in zip(_WORKER["names"], start)]
     if bases is not None:                  # the bases hold the plate, not its frequencies
         bases = [b.copy() for b in bases]
     if _WORKER["joint"]:
@@ -1761,17 +1746,25 @@ def _identify_trial(freqs, bases, prior_shift=None, held=None):
                     basis=None if bases is None else bases[0], prior_shift=prior_shift)
 
 
+def _by_material(values) -> dict[str, dict[str, float]]:
+    """{label "material.constant": SI} -> {material: {constant: SI}}: the updates of each
+    material's constants (the trial model's, a start's, a specimen's)."""
+    out: dict[str, dict[str, float]] = {}
+    for lab, v in values.items():
+        name, k = lab.rsplit(".", 1)
+        out.setdefault(name, {})[k] = float(v)
+    return out
+
+
 def _holding(fm, held: dict):
     """``fm`` whose specimen has the constants of ``held`` ({label: SI}) as their values (a
     fixed constant is held at the specimen's value)."""
     spec = fm.specimen
-    for lab, v in held.items():
-        name, k = lab.rsplit(".", 1)
-        if name in spec.materials:
-            mat = spec.materials[name]
-            mat = dataclasses.replace(mat, constants=dataclasses.replace(mat.constants,
-                                                                         **{k: float(v)}))
-            spec = dataclasses.replace(spec, materials={**spec.materials, name: mat})
+    mats = {name: dataclasses.replace(mat, constants=dataclasses.replace(mat.constants, **upd))
+            for name, upd in _by_material(held).items()
+            if (mat := spec.materials.get(name)) is not None}
+    if mats:
+        spec = dataclasses.replace(spec, materials={**spec.materials, **mats})
     return dataclasses.replace(fm, specimen=spec)
 
 
@@ -1932,7 +1925,8 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
               is not None)
     init = ([fm for fm, _ in parts], result.options, tuple(result.constants),
             [np.asarray(plate.pairing) for _, plate in parts], joint,
-            None if model is not None else _basis_vectors(result), model, damped)
+            None if model is not None else _basis_vectors(result), model, damped,
+            tuple(result.material_names))
     jobs = max(1, min(int(jobs or os.cpu_count() or 1), n_trials))
     # the trials that the model's preparation finished (TrialModel.prepare) are collected
     # here, the others in the processes (all here with one job)
@@ -2239,22 +2233,38 @@ class FixedDraw:
         shortened, 1.44 GPa clipped one by one (2.05 GPa unbounded; the secant count: 1.82
         GPa), E2's 0.24 and 0.31 GPa (0.25 unbounded).
         Row t depends on the seed and t only (stream ``[seed, FIXED_STREAM]``)."""
-        nu = np.array([lab.endswith(".nu12") for lab in self.labels], bool)
-        v = np.asarray(self.value, float)
-        sc = np.where(nu, 1.0, np.abs(v))
-        Cz = np.asarray(self.covariance, float) / np.outer(sc, sc)
-        lam, V = np.linalg.eigh((Cz + Cz.T) / 2)
+        z0, lo, hi, lam, V = self.z_space()
         root = V * np.sqrt(np.clip(lam, 0.0, None))
-        z0 = np.where(nu, v, np.log(np.abs(v)))
-        lo = np.where(nu, self.lower, np.log(np.abs(self.lower)))
-        hi = np.where(nu, self.upper, np.log(np.abs(self.upper)))
         rng = np.random.default_rng(None if seed is None else [int(seed), FIXED_STREAM])
-        dz = rng.standard_normal((int(n), v.size)) @ root.T
+        dz = rng.standard_normal((int(n), z0.size)) @ root.T
         with np.errstate(divide="ignore", invalid="ignore"):
             room = np.where(dz > 0, (hi - z0) / dz, np.where(dz < 0, (lo - z0) / dz, np.inf))
         alpha = np.clip(np.min(room, axis=1, initial=np.inf), 0.0, 1.0)
         z = np.clip(z0 + alpha[:, None] * dz, lo, hi)        # (the clip: round-off only)
-        return np.where(nu, z, np.sign(v) * np.exp(z)), alpha < 1
+        return self.values(z), alpha < 1
+
+    @property
+    def nu(self) -> np.ndarray:
+        """(k,) True for a Poisson ratio (linear), False for a modulus (ln P)."""
+        return np.array([lab.endswith(".nu12") for lab in self.labels], bool)
+
+    def z_space(self):
+        """(z0, lo, hi, lam, V): the fixed values, the search's range and the eigen-
+        decomposition C_z = V diag(lam) V^T of their covariance in the variables z of the
+        draws and of the secant count (:func:`fixed_spread_moves`): ln P for a modulus (C_f
+        over the values), nu12 itself."""
+        nu, v = self.nu, np.asarray(self.value, float)
+        sc = np.where(nu, 1.0, np.abs(v))                  # SI per unit of z at the value
+        Cz = np.asarray(self.covariance, float) / np.outer(sc, sc)
+        lam, V = np.linalg.eigh((Cz + Cz.T) / 2)
+        z0 = np.where(nu, v, np.log(np.abs(v)))
+        lo = np.where(nu, self.lower, np.log(np.abs(self.lower)))
+        hi = np.where(nu, self.upper, np.log(np.abs(self.upper)))
+        return z0, lo, hi, lam, V
+
+    def values(self, z) -> np.ndarray:
+        """The fixed values (SI) at ``z`` (:meth:`z_space`'s variables; rows or one point)."""
+        return np.where(self.nu, z, np.sign(self.value) * np.exp(z))
 
 
 def fixed_draw_of(u: Uncertainty, before: Uncertainty, result) -> FixedDraw | None:
@@ -2291,20 +2301,10 @@ def fixed_spread_moves(u: Uncertainty, before: Uncertainty, result, fms, sigmas,
     secants, not the tangent of :func:`fixed_value_regression`: over such spreads the
     constants' response bends (E1 does not fall without end as G13 grows). None where an
     identification fails (the first-order count is used then)."""
-    materials = material_states(result)
-    counted, _, fval, Cf = _fixed_spread(u, before, materials)
-    if not counted:
+    draw = fixed_draw_of(u, before, result)
+    if draw is None:
         return None
-    options = result.options
-    nu = np.array([lab.endswith(".nu12") for lab in counted], bool)
-    sc = np.where(nu, 1.0, np.abs(fval))                   # SI per scaled unit at the value
-    Cz = Cf / np.outer(sc, sc)
-    z0 = np.where(nu, fval, np.log(np.abs(fval)))
-    init = _label_values(materials, counted, "initial")
-    bf = options.bound_factor
-    lo = np.where(nu, -options.nu_max, np.log(np.abs(init) / bf))
-    hi = np.where(nu, options.nu_max, np.log(np.abs(init) * bf))
-    lam, V = np.linalg.eigh((Cz + Cz.T) / 2)
+    z0, lo, hi, lam, V = draw.z_space()
     DP, DF = [], []
     for i in np.flatnonzero(lam > SPREAD_AXIS_MIN * max(lam.max(), 0.0)):
         d = np.sqrt(lam[i]) * V[:, i]
@@ -2315,11 +2315,10 @@ def fixed_spread_moves(u: Uncertainty, before: Uncertainty, result, fms, sigmas,
             continue
         ends = []
         for sign in (1.0, -1.0):
-            z = z0 + sign * alpha * d
-            f = np.where(nu, z, np.sign(fval) * np.exp(z))
+            f = draw.values(z0 + sign * alpha * d)
             try:
                 r, _ = refit_held(result, fms, sigmas, kw, joint,
-                                  {lab: float(v) for lab, v in zip(counted, f)})
+                                  {lab: float(v) for lab, v in zip(draw.labels, f)})
             except (FitError, FitInputError, ModelError, SolverError):
                 return None
             ends.append((_label_values(material_states(r), u.labels), f))
