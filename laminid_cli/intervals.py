@@ -66,6 +66,16 @@ def verdict(rel: float, at_bound: bool) -> str:
     return VERDICT_NOT                    # also a NaN half-width
 
 
+def flag_words(max_rel_interval: float) -> str:
+    """What a constant flagged by ``--max-rel-interval`` is, in the status and the terminal's
+    flag line: "not determined by these modes" at the verdicts' band (:data:`WEAK`); below it
+    (a tighter threshold) the flagged constant may read "weak", so the words say what the lab
+    asked for."""
+    if max_rel_interval >= WEAK:
+        return "not determined by these modes"
+    return f"known less well than --max-rel-interval {max_rel_interval * 100:.0f} % asks"
+
+
 def width_text(rel: float) -> str:
     """A relative half-width as the terminal and the report write it: "1.3 %" (one decimal,
     so that 0.4 % is not "0 %"), "60x" from ten times the value on."""

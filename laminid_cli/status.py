@@ -198,13 +198,9 @@ def result_status(result, uncertainty=None, damping=None) -> ResultStatus:
                 return f"±{_pct(rel[lab])}"
 
             words = ", ".join(f"{lab} ({width(lab)})" for lab in und)
-            # below the verdicts' "not determined" band (a tighter --max-rel-interval) a
-            # flagged constant may read "weak": the reason says what the lab asked for
-            from laminid_cli.intervals import WEAK
+            from laminid_cli.intervals import flag_words
 
-            what = ("not determined by these modes" if limit >= WEAK else
-                    f"known less well than --max-rel-interval {limit * 100:.0f} % asks")
-            add("undetermined", f"{what} ({u.confidence * 100:.0f} % "
+            add("undetermined", f"{flag_words(limit)} ({u.confidence * 100:.0f} % "
                                 f"half-width above {u.thresholds['max_rel_interval'] * 100:.0f} %"
                                 f" of the value): {words}")
         for fr in getattr(u, "fixed_ranges", {}).values():

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import re
 
-from laminid_cli.intervals import VERDICT_NOT, WEAK, spread_sentence, width_text
+from laminid_cli.intervals import VERDICT_NOT, flag_words, spread_sentence, width_text
 
 #: the advice that ends the verdict "not determined by these modes — fix it or ..." (shown
 #: once in the constants' table, not again for the laminate's properties)
@@ -348,14 +348,10 @@ def format_uncertainty(u: dict) -> list[str]:
                        if by_spread else "")
                       + "put values you know in the specimen file and --fix them, or measure "
                         "a thicker plate / more modes")
-        # below the verdicts' "not determined" band (a tighter --max-rel-interval) a flagged
-        # constant may read "weak" in the table: say what the lab asked for, as the status does
         limit = th["max_rel_interval"]
-        what = ("not determined by these modes" if limit >= WEAK else
-                f"known less well than --max-rel-interval {limit * 100:.0f} % asks")
         lines.append(f"  flagged (half-width{mc_too} > {limit * 100:.0f} % of "
                      "the value):"
-                     f" {', '.join(wide)} — {what}; {advice}")
+                     f" {', '.join(wide)} — {flag_words(limit)}; {advice}")
     bound = [lab for lab in u["flagged"] if lab in at_bound]
     if bound:
         lines.append(f"  flagged (at a limit of the search, no interval): {', '.join(bound)} — "
