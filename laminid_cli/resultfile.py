@@ -12,6 +12,7 @@ Everything is in SI (Pa, Hz, m, kg; nu12 and loss factors: 1), as stored.
 
 from __future__ import annotations
 
+import contextlib
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -571,9 +572,25 @@ def read_result(path) -> ResultFile:
         The file is missing, not HDF5, not an identification result (the message names the
         command that makes one), of a newer schema version, or lacks a required group.
     """
+    path = Path(path)
+    with _open_result(path) as (f, fmt, version):
+        return _read_complete(f, path, fmt, version)
+
+
+def _read_complete(f, path, fmt, version) -> ResultFile:
+    """:func:`_read`, a missing group or attribute a ResultFileError naming it."""
+    try:
+        return _read(f, path, fmt, version)
+    except KeyError as exc:
+        raise ResultFileError(f"{path}: incomplete result file ({exc})") from exc
+
+
+@contextlib.contextmanager
+def _open_result(path: Path):
+    """(open file, format, schema version) of a result file whose format and version this
+    laminid reads; ResultFileError otherwise (:func:`read_result`'s messages)."""
     from laminid_cli.h5open import open_h5
 
-    path = Path(path)
     f = open_h5(path, ResultFileError, "not an HDF5 file, so not a laminid identification "
                 f"result; make one with {MAKES_A_RESULT}")
     with f:
@@ -592,10 +609,7 @@ def read_result(path) -> ResultFile:
             raise ResultFileError(f"{path}: schema_version {version} is not readable by this "
                                   f"laminid (reads {', '.join(map(str, READABLE_VERSIONS))}); "
                                   "update laminid")
-        try:
-            return _read(f, path, fmt, version)
-        except KeyError as exc:
-            raise ResultFileError(f"{path}: incomplete result file ({exc})") from exc
+        yield f, fmt, version
 
 
 def read_stored_summary(path) -> tuple[dict, dict]:
@@ -605,20 +619,19 @@ def read_stored_summary(path) -> tuple[dict, dict]:
     Raises
     ------
     ResultFileError
-        As :func:`read_result` (which checks the file first); also a file written before
-        results kept their summary, or whose /summary_json is not readable JSON.
+        As :func:`read_result` (the file read as it reads it, in the same opening); also a
+        file written before results kept their summary, or whose /summary_json is not
+        readable JSON.
     """
     import json
 
-    from laminid_cli.h5open import open_h5
-
     path = Path(path)
-    r = read_result(path)
-    with open_h5(path, ResultFileError, "not an HDF5 file") as f:
+    with _open_result(path) as (f, fmt, version):
+        _read_complete(f, path, fmt, version)     # a complete result, as read_result checks
         a = f.attrs
         written = {"created": _s(a.get("created", "")),
                    "laminid_version": _s(a.get("laminid_version", "")),
-                   "command": _s(a.get("command", "")), "format": r.format}
+                   "command": _s(a.get("command", "")), "format": fmt}
         if "summary_json" not in f:
             raise ResultFileError(
                 f"{path}: written by laminid {written['laminid_version'] or '(unknown)'} "
