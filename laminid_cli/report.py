@@ -415,21 +415,24 @@ def row_lines(row) -> int:
     return max(str(c).count("\n") + 1 for c in row)
 
 
-def table_units(head, rows) -> float:
-    """The height of a table in single-line rows, its two-line rows (an interval with "no
-    information", a profile, a Monte Carlo range) counted taller (:data:`EXTRA_LINE`)."""
-    return sum(1 + EXTRA_LINE * (row_lines(x) - 1) for x in [head, *rows])
+def row_heights(head, rows) -> list[float]:
+    """The heights of a table's rows (header first) in single-line rows, its two-line rows
+    (an interval with "no information", a profile, a Monte Carlo range) counted taller
+    (:data:`EXTRA_LINE`); their sum is the table's height."""
+    return [1 + EXTRA_LINE * (row_lines(x) - 1) for x in [head, *rows]]
 
 
-def constants_table(ax, r: ResultFile) -> None:
-    head, rows = constants_rows(r)
+def constants_table(ax, r: ResultFile, table=None) -> None:
+    """The constants' table of page 1 (``table``: :func:`constants_rows` of ``r``, when the
+    caller has it)."""
+    head, rows = table if table is not None else constants_rows(r)
     colors = [["w", "w", "w", _verdict_color(row[3]), "w", "w"] for row in rows]
     t = _table(ax, head, rows, fontsize=7.5, col_widths=[0.16, 0.09, 0.26, 0.25, 0.08, 0.16],
                colors=colors)
     if t is not None:
         # rows as tall as their lines (all the same height, two-line cells ran over their
         # borders); the table's bbox scales them together
-        heights = [1 + EXTRA_LINE * (row_lines(x) - 1) for x in [head, *rows]]
+        heights = row_heights(head, rows)
         for (i, _), cell in t.get_celld().items():
             cell.set_height(heights[i] / sum(heights))
     ax.set_gid("constants")
@@ -586,10 +589,11 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
     ax_s.text(0, 1, "\n".join(lines), transform=ax_s.transAxes, ha="left", va="top",
               fontsize=9, weight="bold", color=color, gid="status")
     gs = outer[1, 0].subgridspec(1, 2, width_ratios=[1.5, 1])
-    f = min(1.0, table_units(*constants_rows(r)) / TABLE_ROWS)
+    table = constants_rows(r)
+    f = min(1.0, sum(row_heights(*table)) / TABLE_ROWS)
     left = gs[0, 0].subgridspec(2, 1, height_ratios=[f, 1.001 - f])
     ax_c = fig.add_subplot(left[0, 0])
-    constants_table(ax_c, r)
+    constants_table(ax_c, r, table)
     plate = plate if plate is not None else (None if r.joint else r.plates[0])
     if plate is not None:
         frequency_block(fig, gs[0, 1], plate)
@@ -687,37 +691,40 @@ def _bound_panel(ax, k, v, iv, x, ymin, ymax):
     words = f"stopped on the {side} search limit: no interval"
     pb = getattr(iv, "profile_bound", np.nan)
     if np.isfinite(pb):
-        # the values the fit does not reject: from the limit to the profile's bound
+        # the values the fit does not reject: from the limit to the profile's bound (in view)
         y = _gpa(k, pb)
-        ax.plot([x, x], [v, y], ls=(0, (1, 1.5)), color=INTERVAL_COLOR, lw=2.5, gid="profile")
-        ax.plot([x], [y], "_", ms=14, mew=2.5, color=INTERVAL_COLOR, gid="profile-cap")
-        ax.annotate(f"profile\n{'<' if y > v else '>'} {fmt_value(k, pb)}", (x, y),
-                    xytext=(6, 0), textcoords="offset points", fontsize=6.5, va="center",
-                    ha="left", color=INTERVAL_COLOR, gid="profile-label")
+        _profile_line(ax, x, v, y, ymin, ymax, f"profile\n{'<' if y > v else '>'} "
+                      f"{fmt_value(k, pb)}", xytext=(6, 0), va="center", ha="left")
     elif iv.profile_kind == "flat":
         far = getattr(iv, "profile_far", np.nan)
         if not np.isfinite(far):
             words += "; profile: flat to the other limit"
         else:
             # the values the fit does not reject: from the limit to the search's other end,
-            # off the panel (an arrow head on its edge) when that end is out of view
+            # off the panel when that end is out of view
             y = _gpa(k, far)
-            up = y > v
-            end = min(y, ymax) if up else max(y, ymin)
-            ax.plot([x, x], [v, end], ls=(0, (1, 1.5)), color=INTERVAL_COLOR, lw=2.5,
-                    gid="profile")
-            if end == y:
-                ax.plot([x], [y], "_", ms=14, mew=2.5, color=INTERVAL_COLOR, gid="profile-cap")
-            else:
-                ax.plot([x], [end], "^" if up else "v", ms=6, color=INTERVAL_COLOR,
-                        clip_on=False, gid="profile-cap")
-            ax.annotate(f"profile:\nflat to\n{fmt_value(k, far)}", (x, end),
-                        xytext=(-6, -3 if up else 3), textcoords="offset points", fontsize=6.5,
-                        va="top" if up else "bottom", ha="right", color=INTERVAL_COLOR,
-                        gid="profile-label")
+            _profile_line(ax, x, v, y, ymin, ymax, f"profile:\nflat to\n{fmt_value(k, far)}",
+                          xytext=(-6, -3 if y > v else 3), va="top" if y > v else "bottom",
+                          ha="right")
     ax.annotate("\n".join(textwrap.wrap(words, 12)), (x, (v + edge) / 2), xytext=(5, 0),
                 textcoords="offset points", fontsize=6.5, va="center", ha="left",
                 color=INTERVAL_COLOR, gid="bound-statement")
+
+
+def _profile_line(ax, x, v, y, ymin, ymax, label, **label_kw):
+    """A profile's values the fit does not reject, dotted from the limit ``v`` to ``y``
+    (display unit) with a cap there, or to the panel's edge with an arrow head where ``y`` is
+    out of view; ``label`` at that end (``label_kw``: its placement)."""
+    up = y > v
+    end = min(y, ymax) if up else max(y, ymin)
+    ax.plot([x, x], [v, end], ls=(0, (1, 1.5)), color=INTERVAL_COLOR, lw=2.5, gid="profile")
+    if end == y:
+        ax.plot([x], [y], "_", ms=14, mew=2.5, color=INTERVAL_COLOR, gid="profile-cap")
+    else:
+        ax.plot([x], [end], "^" if up else "v", ms=6, color=INTERVAL_COLOR, clip_on=False,
+                gid="profile-cap")
+    ax.annotate(label, (x, end), textcoords="offset points", fontsize=6.5,
+                color=INTERVAL_COLOR, gid="profile-label", **label_kw)
 
 
 def _mc_end_label(ax, k, x, y, end_si, up, at_limit, gid):

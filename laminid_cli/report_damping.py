@@ -109,7 +109,7 @@ def loss_factor_table(ax, head, rows, col_widths):
     front; the verdict is the last column, coloured as in the other report tables) on ``ax``.
     Returns :data:`NOT_DETERMINED_ADVICE` when a loss factor is not determined, else "": the
     caller puts it where the table cannot run over it (a long table overflows its axes)."""
-    from laminid_cli.report import _verdict_color
+    from laminid_cli.report import _verdict_color, row_lines
 
     ax.axis("off")
     ax.set_gid("loss-factors")
@@ -119,7 +119,7 @@ def loss_factor_table(ax, head, rows, col_widths):
     table.set_fontsize(8)
     last = len(head) - 1
     # a row with a second line (the Monte Carlo range under an interval) is that much taller
-    lines = [1] + [max(str(c).count("\n") + 1 for c in row) for row in rows]
+    lines = [1] + [row_lines(row) for row in rows]
     for (i, j), cell in table.get_celld().items():    # the look of the other report tables
         cell.set_height(cell.get_height() * lines[i])
         cell.set_linewidth(0.3)
