@@ -832,6 +832,8 @@ def write_damping(f, d) -> None:
     mc = getattr(d, "monte_carlo", None)
     if mc is None:
         return
+    from laminid_cli.damping import DAMPING_STREAM
+
     g.attrs["verdict_from_monte_carlo"] = ",".join(d.verdict_from_monte_carlo)
     put(g, "monte_carlo_rel_half_width", np.asarray(d.mc_rel_half_width, float), "1",
         description="the loss factors' Monte Carlo range half-width / value")
@@ -843,7 +845,7 @@ def write_damping(f, d) -> None:
                        ("sigma_factor", mc.sigma_factor),
                        ("seed", -1 if mc.seed is None else mc.seed),
                        ("confidence", mc.confidence), ("evidence_level", mc.evidence_level),
-                       ("time_s", mc.time_s), ("stream", _damping_stream())):
+                       ("time_s", mc.time_s), ("stream", DAMPING_STREAM)):
         gm.attrs[key] = value
     gm.attrs["description"] = ("each converged trial refitted the free loss factors at its own "
                                "identified constants (its modes' strain-energy shares) from the "
@@ -857,8 +859,3 @@ def write_damping(f, d) -> None:
         description="1: the range's lower end is set by refits at the bound 0 (the bound's "
         "end, not the data's)")
 
-
-def _damping_stream() -> int:
-    from laminid_cli.damping import DAMPING_STREAM
-
-    return DAMPING_STREAM

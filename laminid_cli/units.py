@@ -157,10 +157,9 @@ def parse_quantity(value, kind: str, *, where: Where | None = None,
     """
     kind = canonical_kind(kind)
     where = where or Where()
-    expected_text, expected = expected, f"expected a {kind} in {accepted_units(kind)}"
-    if kind == "dimensionless":
-        expected = "expected a plain number (no unit)"
-    expected = expected_text or expected
+    if expected is None:
+        expected = ("expected a plain number (no unit)" if kind == "dimensionless"
+                    else f"expected a {kind} in {accepted_units(kind)}")
     if isinstance(value, bool) or value is None:
         what = "nothing" if value is None else f"the boolean {value}"
         raise where.error(f"got {what}; {expected}")

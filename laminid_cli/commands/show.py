@@ -26,10 +26,10 @@ def show(result, as_json):
       laminid show specimens/example1/S1.1.result.h5
       laminid show results/example2/S2.1.result.h5 --json | jq .status
     """
-    from laminid_cli.commands.text import (format_damping, format_identify_report,
-                                           format_joint_report)
     from pathlib import Path
 
+    from laminid_cli.commands.text import (format_damping, format_identify_report,
+                                           format_joint_report)
     from laminid_cli.resultfile import ResultFileError, read_stored_summary
 
     if Path(result).suffix.lower() in (".csv", ".json"):
