@@ -233,8 +233,9 @@ def input_hash(spec, options: BatchOptions) -> str:
     # "verdicts 2": the Monte Carlo range enters the verdicts and --fix-undetermined (stop 27);
     # "verdicts 3": with the width its trials show for sure (stop 28); "verdicts 4": profiles of
     # constants at a limit, the fixed values' spread counted, fixed ranges (stop 30);
-    # "verdicts 5": the Monte Carlo trials of --fix-undetermined draw the fixed values
-    h.update(f"laminid {__version__} schema {SCHEMA_VERSION} options 2 verdicts 5\0".encode())
+    # "verdicts 5": the Monte Carlo trials of --fix-undetermined draw the fixed values;
+    # "verdicts 6": the test whether the modes reject the fixed values (status fixed_rejected)
+    h.update(f"laminid {__version__} schema {SCHEMA_VERSION} options 2 verdicts 6\0".encode())
     h.update(json.dumps(options.as_dict(), sort_keys=True).encode() + b"\0")
     h.update(spec.read_bytes())
     frf = _frf_file(spec)

@@ -9,7 +9,9 @@ So each quantile is the root of its distribution function, written with ``math``
 * Student t with nu degrees of freedom: upper tail S(t) = I_y(nu/2, 1/2) / 2 for t >= 0, with
   y = nu / (nu + t^2) and I the regularised incomplete beta function (continued fraction);
 * chi-square with k degrees of freedom: upper tail Q(k/2, c/2), the regularised upper incomplete
-  gamma function (series below c/2 < k/2 + 1, continued fraction above).
+  gamma function (series below c/2 < k/2 + 1, continued fraction above);
+* F with (m, n) degrees of freedom: I_x(m/2, n/2), x = m F / (m F + n) (the test of values
+  fixed together against a fit with them free, when its variance factor is estimated).
 
 The tail that is solved is the smaller one (no cancellation in 1 - q). Newton's method from the
 classical approximations (Abramowitz & Stegun 26.2.23, Cornish-Fisher, Wilson-Hilferty), kept
@@ -92,6 +94,32 @@ def chi2_ppf(q: float, dof: float) -> float:
     while (f(hi) > 0) if upper else (f(hi) < 0):
         hi *= 4.0
     return _newton(f, df, min(c0, hi), lo, hi, increasing=not upper)
+
+
+def f_ppf(q: float, dfn: float, dfd: float) -> float:
+    """F quantile with ``dfn`` and ``dfd`` degrees of freedom (scipy.stats.f.ppf): the
+    distribution function is I_x(dfn/2, dfd/2) with x = dfn F / (dfn F + dfd); the smaller
+    tail is solved for x (or for y = 1 - x, the upper tail I_y(dfd/2, dfn/2)), so that F =
+    dfd x / (dfn y) keeps its digits."""
+    bad = _bad(q, min(dfn, dfd))
+    if bad is not None:
+        return bad
+    a, b = 0.5 * float(dfn), 0.5 * float(dfd)
+    upper = q > 0.5
+    p, (a_s, b_s) = (1.0 - q, (b, a)) if upper else (q, (a, b))
+    log_b = _log_beta(a_s, b_s)
+
+    def f(x):                          # the solved tail at x, minus p (increasing in x)
+        return _beta_inc(a_s, b_s, x, 1.0 - x) - p
+
+    def df(x):
+        if not 0.0 < x < 1.0:
+            return 0.0
+        return math.exp((a_s - 1.0) * math.log(x) + (b_s - 1.0) * math.log1p(-x) - log_b)
+
+    x = _newton(f, df, 0.5, 0.0, 1.0, increasing=True)
+    x, y = (1.0 - x, x) if upper else (x, 1.0 - x)   # x: the lower tail's variable
+    return float(dfd) * x / (float(dfn) * y) if y > 0 else math.inf
 
 
 # --- distribution functions ------------------------------------------------------------------

@@ -122,6 +122,10 @@ class Uncertainty:
     #: {label: statement} of the constants fixed on a limit of the search, checked across it
     #: (/uncertainty/fixed_ranges; {} in older files)
     fixed_ranges: dict = field(default_factory=dict)
+    #: whether the modes reject the values --fix-undetermined fixed, taken together: the
+    #: statement (/uncertainty/fixed_check attr text; "" in older files) and its verdict
+    fixed_check: str = ""
+    fixed_rejected: bool = False
 
     def get(self, material: str, constant: str) -> Interval | None:
         return next((iv for iv in self.intervals
@@ -491,6 +495,10 @@ def _uncertainty(f) -> Uncertainty | None:
         fixed_ranges=({lab: text for lab, text in zip(_strings(u["fixed_ranges"]["labels"]),
                                                       _strings(u["fixed_ranges"]["text"]))}
                       if "fixed_ranges" in u else {}),
+        fixed_check=(decode(u["fixed_check"].attrs.get("text", ""))
+                     if "fixed_check" in u else ""),
+        fixed_rejected=(bool(u["fixed_check"].attrs.get("rejected", False))
+                        if "fixed_check" in u else False),
         given_fixed=({lab: float(w) for lab, w in zip(
             labels, np.ravel(u["rel_half_width_given_fixed"][()]))}
             if "rel_half_width_given_fixed" in u else {}))

@@ -36,8 +36,9 @@ Status (schema version 2; laminid_cli.status)::
 
     /                     attrs: status ("ok" | "check")
     /status               codes, texts (UTF-8 strings, same length, empty when ok): the
-                          reasons, codes not_converged | at_bound | undetermined | poor_fit |
-                          implausible | modes_swapped (laminid_cli.status.CODES)
+                          reasons, codes not_converged | at_bound | undetermined |
+                          fixed_rejected | poor_fit | implausible | modes_swapped
+                          (laminid_cli.status.CODES)
 
 JSON (``--json``, batch summary rows): top-level ``status``, ``reasons`` ([{code, text}]) and
 ``optimizer_status``.
@@ -100,6 +101,12 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
                           --fix-undetermined fixed on a limit of the search, the others
                           identified again with it at the search's two ends
                           (laminid_cli.uncertainty.FixedRange)
+    /uncertainty/fixed_check  attrs of the test whether the modes reject the values
+                          --fix-undetermined fixed, taken together (labels, values, k,
+                          chi2_before, chi2, test "chi2" | "F", variance_factor_before,
+                          statistic, limit, confidence, rejected, worst, moved_in_half_widths,
+                          release, release_chi2, release_ok, text;
+                          laminid_cli.uncertainty.FixedCheck)
     /uncertainty/spread_counted  labels, covariance (of the fixed values counted),
                           cross_covariance (free constants x those)
     /uncertainty/before_fixing  labels, rel_half_width, verdict of the first run when
@@ -584,6 +591,16 @@ def write_uncertainty(f, a, plate_names) -> None:
             "half-width (> 1: its interval is given a value that is not known)")
         data, dt = _strings([u.fixed_ranges[x].text for x in labels])
         gr.create_dataset("text", data=data, dtype=dt)
+    fc = getattr(u, "fixed_check", None)
+    if fc is not None:
+        gc = g.create_group("fixed_check")
+        for key, v in fc.as_dict().items():
+            if key == "labels":
+                v = ",".join(v)
+            elif key == "values":
+                v = np.asarray(v, float)
+            gc.attrs[key] = v
+        gc.attrs["values_unit"] = "Pa (nu12: 1), in the order of labels"
     g.attrs["spread_counted"] = ",".join(u.spread_counted)
     g.attrs["spread_not_counted"] = ",".join(u.spread_not_counted)
     g.attrs["chi2_limit_99"] = u.chi2_limit

@@ -16,6 +16,12 @@ reasons (stable lowercase codes, one entry per code, the words name the constant
     width its 95 % range has for sure (90 % confidence from the trials' order statistics)
     counts too (:func:`laminid_cli.uncertainty.with_monte_carlo`). So does a free ply loss
     factor whose 95 % half-width exceeds the same fraction of its value.
+``fixed_rejected``
+    the modes reject the values ``--fix-undetermined`` fixed, taken together (each was
+    undetermined on its own): fixing them raised chi2 beyond the test of nested fits
+    (:class:`laminid_cli.uncertainty.FixedCheck`). The constants left free are identified
+    under an assumption the data contradict; the words name the value whose release lowers
+    chi2 most.
 ``poor_fit``
     chi2 of the residuals is above its 99 % quantile for the degrees of freedom (s2 beyond
     its 99 % limit): the model misses the data by more than the stated frequency noise —
@@ -53,8 +59,8 @@ import numpy as np
 OK = "ok"
 CHECK = "check"
 #: reason codes, in the order they are listed
-CODES = ("not_converged", "at_bound", "undetermined", "poor_fit", "implausible",
-         "modes_swapped")
+CODES = ("not_converged", "at_bound", "undetermined", "fixed_rejected", "poor_fit",
+         "implausible", "modes_swapped")
 #: a transverse shear modulus above this multiple of G12 is implausible (module docstring)
 SHEAR_RATIO_LIMIT = 2.0
 
@@ -210,6 +216,9 @@ def result_status(result, uncertainty=None, damping=None) -> ResultStatus:
                 add("undetermined", f"{fr.label}: {fr.text}" + (
                     f" ({fr.label.rsplit('.', 1)[1]} was fixed on a limit of the search: the "
                     "intervals are given its value, which is not known)" if fr.error else ""))
+        fc = getattr(u, "fixed_check", None)
+        if fc is not None and fc.rejected:
+            add("fixed_rejected", fc.text)
         if u.dof > 0 and np.isfinite(u.chi2_limit) and u.chi2 > u.chi2_limit:
             joint = len(_plates(result)) > 1
             add("poor_fit", f"the fit misses the data by more than the stated frequency noise: "

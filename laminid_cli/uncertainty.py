@@ -333,6 +333,9 @@ class Uncertainty:
     #: {label: FixedRange} of the constants fixed on a limit of the search
     #: (:func:`with_fixed_ranges`)
     fixed_ranges: dict = field(default_factory=dict)
+    #: with constants fixed by --fix-undetermined: do the modes reject those values together?
+    #: (:func:`with_fixed_check`)
+    fixed_check: "FixedCheck | None" = None
 
     def as_dict(self) -> dict:
         """Plain data for JSON (per material and constant) and the report."""
@@ -389,6 +392,7 @@ class Uncertainty:
             "spread_cross_covariance": self.spread_cross,
             "spread_not_counted": list(self.spread_not_counted),
             "fixed_ranges": {lab: r.as_dict() for lab, r in self.fixed_ranges.items()},
+            "fixed_check": None if self.fixed_check is None else self.fixed_check.as_dict(),
             "sigma_source": self.sigma_source,
             "thresholds": dict(self.thresholds),
             "notes": list(self.notes),
@@ -2772,6 +2776,168 @@ def with_fixed_ranges(u: Uncertainty, before: Uncertainty, result, fms, sigmas, 
     return dataclasses.replace(u, fixed_ranges=out)
 
 
+@dataclass(frozen=True)
+class FixedCheck:
+    """Do the modes reject the values ``--fix-undetermined`` fixed, taken together?
+
+    Each fixed value is undetermined on its own, but together they may still be rejected: on
+    S1.1, G13 = G23 = 3.10 GPa and nu12 = 0.35 raise chi2 from 2.21 to 18.2, where G13 and G23
+    alone give 3.08 (nu12, free with them, goes to 0.17). The test is that of nested fits: the
+    rise of chi2 from the run before fixing (``chi2_before``) to the final one (``chi2``), with
+    k = the number of values fixed, against the chi-square quantile of k degrees of freedom
+    (``test`` "chi2", the intervals of the run before fixing on the stated sigma) or k times
+    the F quantile of (k, dof before) in units of that run's variance factor ("F", its s2
+    estimated from the residuals, as Student's t replaces the normal quantile in its
+    intervals), at the intervals' confidence. ``statistic`` is the rise in those units and
+    ``limit`` the quantile; ``rejected``: statistic > limit.
+
+    ``worst``/``moved``: the free constant that moved most between the two runs, in units of
+    its half-width before fixing (above 1: out of that interval). ``release``: when rejected
+    and k > 1, the fixed value whose release alone lowers chi2 most (the others identified
+    again with it free), ``release_chi2`` that fit's chi2 and ``release_ok`` whether the
+    others are then within their own limit (k - 1 values).
+    """
+
+    labels: tuple[str, ...]
+    values: tuple[float, ...]
+    k: int
+    chi2_before: float
+    chi2: float
+    test: str
+    scale: float
+    statistic: float
+    limit: float
+    confidence: float
+    rejected: bool
+    worst: str = ""
+    moved: float = float("nan")
+    release: str = ""
+    release_chi2: float = float("nan")
+    release_ok: bool = False
+    text: str = ""
+
+    def as_dict(self) -> dict:
+        return {"labels": list(self.labels), "values": list(self.values), "k": self.k,
+                "chi2_before": self.chi2_before, "chi2": self.chi2, "test": self.test,
+                "variance_factor_before": self.scale, "statistic": self.statistic,
+                "limit": self.limit, "confidence": self.confidence,
+                "rejected": self.rejected, "worst": self.worst,
+                "moved_in_half_widths": self.moved, "release": self.release,
+                "release_chi2": self.release_chi2, "release_ok": self.release_ok,
+                "text": self.text}
+
+
+def _rise_test(before: Uncertainty, k: int) -> tuple[str, float, float]:
+    """(test, scale, limit) of a rise of chi2 over ``k`` values fixed (:class:`FixedCheck`)."""
+    from laminid_cli.quantiles import chi2_ppf, f_ppf
+
+    conf = float(before.confidence)
+    if before.scale_used == "residuals" and before.dof > 0:
+        return "F", float(before.variance_factor), k * f_ppf(conf, k, before.dof)
+    return "chi2", 1.0, chi2_ppf(conf, k)
+
+
+def with_fixed_check(u: Uncertainty, before: Uncertainty, fixed, result, fms, sigmas,
+                     kw: dict, joint: bool) -> Uncertainty:
+    """``u`` (the final run of ``--fix-undetermined``) with its :class:`FixedCheck`: do the
+    modes reject the ``fixed`` values together? ``before``: the uncertainty of the run before
+    fixing. ``fms``/``sigmas``/``kw``/``joint`` as :func:`with_profiles` (for the releases)."""
+    fixed = tuple(fixed)
+    k = len(fixed)
+    if not k or not (np.isfinite(u.chi2) and np.isfinite(before.chi2)):
+        return u
+    names = tuple(result.material_names)
+    values = tuple(float(getattr(result.constants[names.index(lab.rsplit(".", 1)[0])],
+                                 lab.rsplit(".", 1)[1])) for lab in fixed)
+    test, scale, limit = _rise_test(before, k)
+    stat = (float(u.chi2) - float(before.chi2)) / scale
+    rejected = bool(stat > limit)
+    # how far the free constants moved, in their half-widths before fixing
+    worst, moved = "", float("nan")
+    for j, lab in enumerate(u.labels):
+        if lab not in before.labels:
+            continue
+        i = list(before.labels).index(lab)
+        h = float(before.half_width[i])
+        if not (np.isfinite(h) and h > 0):
+            continue
+        m = abs(float(u.value[j]) - float(before.value[i])) / h
+        if not m <= moved:
+            worst, moved = lab, m
+    release, release_chi2, release_ok = "", float("nan"), False
+    if rejected and k > 1:
+        for lab in fixed:
+            try:
+                r = _refit_releasing(result, fms, lab, joint)
+            except (FitError, FitInputError, ModelError, SolverError):
+                continue
+            if not r.converged:
+                continue
+            c = float(uncertainty_of(r, fms if joint else fms[0],
+                                     sigmas if joint else sigmas[0], **kw).chi2)
+            if not c >= release_chi2:
+                release, release_chi2 = lab, c
+        if release:
+            t1, s1, l1 = _rise_test(before, k - 1)
+            release_ok = bool((release_chi2 - float(before.chi2)) / s1 <= l1)
+    check = FixedCheck(fixed, values, k, float(before.chi2), float(u.chi2), test, scale,
+                       stat, limit, float(before.confidence), rejected, worst, moved,
+                       release, release_chi2, release_ok)
+    return dataclasses.replace(u, fixed_check=dataclasses.replace(
+        check, text=fixed_check_text(check)))
+
+
+def _refit_releasing(result, fms, label: str, joint: bool):
+    """``result`` identified again with its fixed constant ``label`` free (from its optimum
+    and basis; at most :data:`PROFILE_EVALUATIONS` evaluations)."""
+    from laminid_cli.identify import identify
+    from laminid_cli.joint import identify_joint
+
+    options = result.options
+    opts = dataclasses.replace(options, fix=tuple(x for x in options.fix if x != label),
+                               max_evaluations=min(options.max_evaluations,
+                                                   PROFILE_EVALUATIONS))
+    bases = result.basis
+    start = list(result.constants)
+    if joint:
+        return identify_joint(list(fms), opts, start=start,
+                              basis=None if bases is None else [b.copy() for b in bases])
+    return identify(fms[0], opts, start=start, basis=None if bases is None else bases.copy())
+
+
+def fixed_check_text(c: FixedCheck) -> str:
+    """The words of a :class:`FixedCheck` (the terminal, the status, the report)."""
+    def short(lab):
+        return lab.rsplit(".", 1)[1]
+
+    vals = ", ".join(f"{short(lab)} = {_show(short(lab), v)}"
+                     for lab, v in zip(c.labels, c.values))
+    units = ("" if c.test == "chi2" else
+             f" ({c.statistic:.3g} times s2 = {c.scale:.3g} of the run before fixing)")
+    law = (f"chi-square, {c.k} degree{'s' if c.k > 1 else ''} of freedom" if c.test == "chi2"
+           else f"{c.k} times the F quantile of {c.k} and the run's degrees of freedom")
+    what = ("the values --fix-undetermined fixed, taken together" if c.k > 1 else
+            "the value --fix-undetermined fixed")
+    head = f"the modes {'reject' if c.rejected else 'do not reject'} {what}"
+    text = (f"{head} ({vals}): fixing {'them' if c.k > 1 else 'it'} raised chi2 from "
+            f"{c.chi2_before:.3g} to "
+            f"{c.chi2:.3g}{units}; the {c.confidence * 100:.0f} % limit is {c.limit:.3g} "
+            f"({law})")
+    if c.worst:
+        text += (f"; {short(c.worst)} moved {'out of' if c.moved > 1 else 'within'} its "
+                 f"interval before fixing ({c.moved:.2g} of its half-width)")
+    if c.rejected:
+        if c.release:
+            text += (f"; with {short(c.release)} free again chi2 is {c.release_chi2:.3g}"
+                     + (" and the others are not rejected" if c.release_ok else ""))
+        text += ": put values you know in the specimen file and --fix them"
+        if c.release and c.release_ok:
+            others = ",".join(lab for lab in c.labels if lab != c.release)
+            text += (f", or identify with --fix {others} in place of --fix-undetermined "
+                     f"({short(c.release)} free)")
+    return text
+
+
 # ----------------------------------------------------------------------------------------------
 # the whole assessment
 
@@ -2966,6 +3132,7 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
         unc = with_profiles(unc, result, fm_list, sigmas, kw, joint)
         if fixed:
             unc = with_fixed_ranges(unc, first, result, fm_list, sigmas, kw, joint)
+            unc = with_fixed_check(unc, first, fixed, result, fm_list, sigmas, kw, joint)
     # a constant judged in an earlier run was judged on that run's values, not the ones shown
     kept_free = {lab: why if kept_run[lab] == runs else _judged_in_run(why, kept_run[lab])
                  for lab, why in kept_free.items()}

@@ -838,8 +838,8 @@ def test_fix_undetermined_also_fixes_what_the_monte_carlo_flags(monkeypatch):
     nu12 weak (linearised ±29 %). With a Monte Carlo whose trials spread nu12 over ±50 % (a
     stand-in for monte_carlo: 40 samples of _mc_range, for sure ±38 %, above the 30 % limit;
     the others within half their intervals), nu12 is fixed as well and the assessment runs
-    again from there, its Monte Carlo included (on E1, E2, G12: nothing flagged): status ok,
-    three identifications, two Monte Carlos holding the fixed values (their flags decide what
+    again from there, its Monte Carlo included (on E1, E2, G12: nothing flagged): three
+    identifications, two Monte Carlos holding the fixed values (their flags decide what
     to fix), then the one shown, whose trials draw the fixed G13, G23, nu12 from their spread
     before fixing. (S1.4's real trials spread nu12 over ±24-32 % depending on the seed, for
     sure ±18-24 %: not enough to flag it.)"""
@@ -870,4 +870,9 @@ def test_fix_undetermined_also_fixes_what_the_monte_carlo_flags(monkeypatch):
                                      (first, fixed)]
     assert a.monte_carlo.labels == first
     assert not a.uncertainty.flagged and a.uncertainty.verdict_from_monte_carlo == ()
-    assert result_status(a.result, a.uncertainty).status == "ok"
+    # fixing nu12 at 0.35 (0.28 +-24 % with G13, G23 fixed) is what the modes reject: the
+    # status says so, and releasing nu12 gives back the run with G13, G23 fixed
+    fc = a.uncertainty.fixed_check
+    assert fc.rejected and fc.release == "IM7/977-2.nu12" and fc.release_ok
+    assert fc.release_chi2 == pytest.approx(lin.uncertainty.chi2, rel=1e-6)
+    assert result_status(a.result, a.uncertainty).codes == ("fixed_rejected",)

@@ -327,6 +327,9 @@ def format_uncertainty(u: dict) -> list[str]:
             lines.append("  " + spread_sentence(
                 names[:len(counted)], [(n, w) for n, (_, w) in zip(names[len(counted):], given)],
                 f"the {conf:.0f} % intervals"))
+        fc = u.get("fixed_check")
+        if fc and fc.get("text") and not fc.get("rejected"):
+            lines.append("  " + fc["text"])          # a rejection is in the status
     for lab, why in (u.get("kept_free") or {}).items():
         lines.append(f"  --fix-undetermined: {lab} {why}")
     at_bound = {f"{m}.{k}" for m, per in (u.get("constants") or {}).items()
