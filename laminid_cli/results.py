@@ -69,7 +69,8 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
                           sigma_rel, note (how the file's sigmas were made:
                           measured.sigma_source, e.g. by fit-frf)
     /uncertainty/monte_carlo   samples (n_converged, p), mean, std, lower, upper (quantiles
-                          (1 -/+ confidence)/2 of the samples), linearized_std, ratio;
+                          (1 -/+ confidence)/2 of the samples), linearized_std, ratio (std /
+                          (linearized_std sqrt(nu / (nu - 2))), nu = attr variance_dof);
                           at_lower_bound, at_upper_bound (trials whose answer has the constant
                           on a limit of the search), lower_at_bound, upper_at_bound (0/1: that
                           end of the range is set by such trials: the search's end, not the
@@ -77,7 +78,10 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
                           range's quantiles with probability >= attr evidence_level each: the
                           width the Monte Carlo verdicts use); attrs trials, converged,
                           sigma_factor, seed, jobs, evidence_level,
-                          prior_sigma (relative sd of the prior values' draws; 0: no prior);
+                          prior_sigma (relative sd of the prior values' draws; 0: no prior),
+                          variance_dof (> 0: each trial drew its variance factor, s2 nu / X,
+                          X chi-square with nu = variance_dof: Student t as the intervals;
+                          0: the stated sigma; absent in older files);
                           with --fix-undetermined: attr fixed_drawn (labels, comma-separated:
                           the fixed values each trial drew from their spread before fixing;
                           "" or absent: the trials held every fixed value, as in older
@@ -625,7 +629,7 @@ def write_uncertainty(f, a, plate_names) -> None:
         mc = a.monte_carlo
         gm = g.create_group("monte_carlo")
         for key in ("trials", "converged", "sigma_factor", "seed", "jobs", "time_s",
-                    "prior_sigma"):
+                    "prior_sigma", "variance_dof"):
             gm.attrs[key] = {"trials": mc.n_trials, "converged": mc.n_converged}.get(
                 key, getattr(mc, key, None))
         for key in ("samples", "mean", "std", "lower", "upper", "linearized_std"):

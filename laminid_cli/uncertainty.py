@@ -1528,9 +1528,12 @@ class MonteCarlo:
     samples : (n_converged, p) identified free constants (SI) over ``labels``
     std, mean, lower, upper : (p,) empirical; lower/upper the (1-confidence)/2 quantiles
     linearized_std : (p,) the linearised standard errors they are compared with
-    ratio : std / linearized_std
+    ratio : std / (linearized_std * t_std), t_std = sqrt(nu / (nu - 2)) the standard
+        deviation of Student's t with nu = ``variance_dof`` (1 when 0; NaN for nu <= 2, whose
+        t has no variance): 1 for a linear model
     sigma_factor : the frequencies were perturbed by sigma_f * sigma_factor (sqrt of the
-        variance factor used for the linearised intervals, so both describe the same noise)
+        variance factor used for the linearised intervals, so both describe the same noise;
+        with ``variance_dof`` > 0, times each trial's draw of :func:`variance_draws`)
     method : how the trials ran: "reduced" (the optimum's TrialModel) or "identify"
     trial_bound : largest relative eigenvalue error bound, against the full FE model, of the
         converged trials' paired modes (and two beyond) where the trials computed it (NaN
@@ -1584,6 +1587,9 @@ class MonteCarlo:
     fixed_samples: np.ndarray | None = None
     fixed_clipped: int = 0
     fixed_held: tuple[str, ...] = ()
+    #: degrees of freedom of the variance factor each trial drew (the linearised intervals
+    #: scaled by s2, Student t: :func:`variance_draws`); 0 when the stated sigma was used
+    variance_dof: int = 0
 
     def bound_counts(self) -> tuple[np.ndarray, np.ndarray]:
         """(lower, upper) trials at a limit of the search per constant (p,), zeros where not
@@ -1628,7 +1634,42 @@ class MonteCarlo:
                 "trial_eigenvalue_bound_limit": self.trial_bound_limit,
                 "reidentified": self.n_reidentified, "prior_sigma": self.prior_sigma,
                 "evidence_level": MC_EVIDENCE, "fixed_drawn": list(self.fixed_labels),
-                "fixed_clipped": self.fixed_clipped, "fixed_held": list(self.fixed_held)}
+                "fixed_clipped": self.fixed_clipped, "fixed_held": list(self.fixed_held),
+                "variance_dof": self.variance_dof}
+
+
+#: the stream of the trials' variance factors: ``numpy.random.default_rng([seed, 19])``, of
+#: its own, so that the frequencies (stream ``seed``), the priors' ([seed, 15]), the measured
+#: damping's ([seed, 16]) and the fixed values' ([seed, 17]) draws are those of a Monte Carlo
+#: on the stated sigma
+VARIANCE_STREAM = 19
+
+
+def variance_draws(uncertainty, n_trials: int, seed) -> tuple[np.ndarray, int]:
+    """(g (n_trials,), nu): each trial's noise multiplier, and the degrees of freedom drawn.
+
+    Intervals scaled by the a-posteriori variance factor s2 (``scale_used`` "residuals") use
+    Student's t with nu = dof degrees of freedom, because s2 is itself an estimate. A Monte
+    Carlo that perturbed every trial by sigma s would give the normal quantile's range,
+    narrower by t/z (dof 9: 2.26 / 1.96, dof 6: 2.45 / 1.96), and its verdicts would miss what
+    the intervals see. So each trial draws its variance as the data leave it,
+    sigma_t^2 = s2 nu / X with X ~ chi-square(nu), and its noise is the stated one times
+    s g with g = sqrt(nu / X): for a linear model the trials' constants are then Student t
+    about the optimum (a normal over a chi-square's root), and their 2.5-97.5 % range is the
+    t interval. On the stated sigma (nu = 0), g = 1."""
+    if uncertainty.scale_used != "residuals" or not uncertainty.dof > 0:
+        return np.ones(n_trials), 0
+    nu = int(uncertainty.dof)
+    rng = np.random.default_rng(None if seed is None else [int(seed), VARIANCE_STREAM])
+    return np.sqrt(nu / rng.chisquare(nu, n_trials)), nu
+
+
+def t_std(nu: int) -> float:
+    """Standard deviation of Student's t with ``nu`` degrees of freedom (1 for nu = 0: the
+    normal; NaN for nu <= 2)."""
+    if nu == 0:
+        return 1.0
+    return float(np.sqrt(nu / (nu - 2))) if nu > 2 else float("nan")
 
 
 def sample_spread(samples, p: int, confidence: float):
@@ -1891,13 +1932,15 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
     shift_sd = float(uncertainty.sigma_unit) * factor
     priors = [m for m in material_states(result) if m.prior] if shift_sd > 0 else []
     prng = np.random.default_rng(None if seed is None else [int(seed), 15])
+    # with intervals on s2 (Student t), each trial also draws its variance factor
+    g, nu = variance_draws(uncertainty, n_trials, seed)
     trials = []
     for i in range(n_trials):
         freqs = []
         for f, s in zip(base, sigmas):
-            noise = rng.standard_normal(f.size) * np.nan_to_num(s.sigma_hz) * factor
+            noise = rng.standard_normal(f.size) * np.nan_to_num(s.sigma_hz) * (factor * g[i])
             freqs.append(np.where(np.isfinite(f), f + noise, np.nan))
-        shift = {m.name: {c: float(prng.standard_normal() * shift_sd)
+        shift = {m.name: {c: float(prng.standard_normal() * shift_sd * g[i])
                           for c in m.prior if c in m.free} for m in priors}
         trials.append((i, freqs, uncertainty.labels, shift, None))
     drawn, clipped = None, None
@@ -1990,7 +2033,7 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
     mean, std, lower, upper = sample_spread(samples, p, conf)
     lin = uncertainty.std
     with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = std / lin
+        ratio = std / (lin * t_std(nu))
     if failures:
         log.info("Monte Carlo: %d of %d trials failed (%s)", len(failures), n_trials, failures[0])
     conv = np.array([v is not None for v in out])
@@ -2007,7 +2050,7 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
                       trial_bound_limit=model.bound if model is not None else float("nan"),
                       prior_sigma=shift_sd if priors else 0.0,
                       at_lower_bound=at_lower, at_upper_bound=at_upper, confidence=conf,
-                      trials=converged, energy_shares=trial_shares,
+                      trials=converged, energy_shares=trial_shares, variance_dof=nu,
                       fixed_labels=() if drawn is None else fixed_draw.labels,
                       fixed_samples=None if drawn is None else drawn[converged],
                       fixed_clipped=0 if drawn is None else int(np.sum(clipped[converged])),

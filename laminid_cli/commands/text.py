@@ -396,9 +396,12 @@ def format_uncertainty(u: dict) -> list[str]:
         if drawn:
             prior += ("; the fixed " + ", ".join(_short(drawn)) + " drawn from "
                       + ("their" if len(drawn) > 1 else "its") + " spread before fixing")
+        nu = mc.get("variance_dof") or 0
+        drawn_var = (f", each trial's variance factor drawn as s2 x {nu} / chi-square({nu}): "
+                     "Student t, as the intervals" if nu else "")
         lines.append(f"Monte Carlo check: {mc['converged']} of {mc['trials']} re-identifications "
                      f"converged (frequencies perturbed by sigma x {mc['sigma_factor']:.3g}"
-                     f"{prior}, {procs}, {mc['time_s']:.1f} s)")
+                     f"{drawn_var}{prior}, {procs}, {mc['time_s']:.1f} s)")
         lines.append(f"  {'constant':<18} {'linearised std':>15} {'Monte Carlo std':>16} "
                      f"{'ratio':>6}  {'Monte Carlo ' + format(conf, '.0f') + ' % range':>26}")
         limits, marked = [], False
@@ -415,6 +418,12 @@ def format_uncertainty(u: dict) -> list[str]:
                       for side in ("lower", "upper") if v.get(f"trials_at_{side}_bound")]
                 if at:
                     limits.append(f"{lab} ({', '.join(at)})")
+        if nu:
+            lines.append(f"  ratio: Monte Carlo std over the linearised std times "
+                         f"{fmt(math.sqrt(nu / (nu - 2)) if nu > 2 else math.nan, '.3g')}, "
+                         f"the std of Student t with {nu} degrees of freedom (1 for a linear "
+                         "model" + ("" if nu > 2 else "; none below 3 degrees of freedom")
+                         + ")")
         given = mc.get("given_fixed")
         if drawn and given:
             # the trials drew the fixed values: the table counts their spread, as the
