@@ -340,11 +340,17 @@ uncertainty_options = _apply([
                        "interval stays free (the output says why). The others' intervals count "
                        "the spread the fixed values had before fixing (the widths given them "
                        "alone are printed too); one fixed on a search limit is checked by "
-                       "identifying again at both ends of the search."),
+                       "identifying again at both ends of the search. If the modes reject the "
+                       "fixed values taken together (the rise of chi2 against the chi-square "
+                       "or F limit, 95 %), the status is 'fixed_rejected' and names the value "
+                       "to leave free."),
     click.option("--monte-carlo", "monte_carlo", type=TrialCount(), default=0,
                   show_default=True, metavar="N", help="Re-identify N times from frequencies perturbed by their "
                                     "uncertainties (and prior values by the noise the "
-                                    "intervals count for them) and report the spread (0: "
+                                    "intervals count for them; where the intervals are "
+                                    "scaled by s2, each trial also draws its variance "
+                                    "factor, so that the range is Student t as the "
+                                    "intervals) and report the spread (0: "
                                     "off); a range end set by trials on a limit of the "
                                     "search is marked as such (terminal *, JSON, HDF5, "
                                     "report). A range wider than the linearised interval "
