@@ -3175,7 +3175,9 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
         unc = with_profiles(unc, result, fm_list, sigmas, kw, joint)
         if fixed:
             unc = with_fixed_ranges(unc, first, result, fm_list, sigmas, kw, joint)
-            unc = with_fixed_check(unc, first, fixed, result, fm_list, sigmas, kw, joint)
+            if result.converged and (earlier[0].converged if earlier else True):
+                # an unfinished fit's chi2 is only an upper bound of its minimum
+                unc = with_fixed_check(unc, first, fixed, result, fm_list, sigmas, kw, joint)
     # a constant judged in an earlier run was judged on that run's values, not the ones shown
     kept_free = {lab: why if kept_run[lab] == runs else _judged_in_run(why, kept_run[lab])
                  for lab, why in kept_free.items()}
