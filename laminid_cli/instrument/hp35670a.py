@@ -10,7 +10,13 @@ root; numbers without a unit suffix are in the SCPI default units (Hz, s).
 
 Evidence for every command string (issue 12). "pymeasure" = the public driver
 ``pymeasure/pymeasure`` ``pymeasure/instruments/keysight/keysight35670A.py`` (commit b68e0af),
-cited by the attribute that defines the command; IEEE 488.2 = the common commands standard.
+cited by the attribute that defines the command; "fft_dev" = the PyPI package ``fft_dev``
+0.4.1a0 ("Driver and UI for 3562A and 35670A FFT analyzer", B. Dubois, FEMTO-ST, LGPL,
+https://gitlab.com/bendub/fft_dev), file ``fft_dev/fft35670a/fft35670a_dev_prologix.py``, a
+working 35670A driver over a Prologix GPIB-Ethernet adapter on Linux whose docstrings cite the
+pages of *GPIB Programming with the Agilent 35670A* (stored as ``pypi-data/pypi-mirror-48``
+``packages/fft-dev/fft_dev-0.4.1a0-py3-none-any.whl/...``, commit f0c7712); IEEE 488.2 = the
+common commands standard.
 
 ``*IDN?`` ``*CLS`` ``*OPC``
     IEEE 488.2 common commands; pymeasure ``SCPIMixin``
@@ -33,8 +39,10 @@ cited by the attribute that defines the command; IEEE 488.2 = the common command
     pymeasure ``frequency_resolution`` (SENSe:FREQuency:RESolution %g) confirms the command;
     qkit ``qkitgroup/qkit`` ``qkit/drivers/Keysight_35670A.py`` (commit 34c7e1b)
     ``do_set_frequency_resolution`` that the number is the FFT line count ("sets the frequency
-    resolution in lines (unitless)", 100 / 200 / 400 / 800 allowed, lines + 1 points); still
-    ``acquire`` checks the axis length after configuring (``Analyser.check_axis``)
+    resolution in lines (unitless)", 100 / 200 / 400 / 800 allowed, lines + 1 points) and
+    fft_dev ``set_freq_resolution`` (``SENS:FREQ:RES``, "p.18-31", FFT mode table: 100, 200,
+    400, 800 lines give 101, 201, 401, 801 frequency points); still ``acquire`` checks the
+    axis length after configuring (``Analyser.check_axis``)
 ``AVER:STAT 1``
     pymeasure ``averaging_enabled`` (SENSe:AVERage:STATe %d)
 ``AVER:TYPE RMS``
@@ -52,7 +60,13 @@ cited by the attribute that defines the command; IEEE 488.2 = the common command
     the command by name (SCPI suffix error) instead of triggering at 10 V. Looked in (branch
     instrument-evidence): pymeasure ``trigger_level`` ("Control the trigger level.", range
     +-9.9e37, no unit), code search for ``TRIGger:LEVel``/``TRIG:LEV`` (other instruments only),
-    the docs and pages corpora (no 35670A manual page)
+    the docs and pages corpora (no 35670A manual page). Looked in (branch instr-evidence):
+    fft_dev (no trigger commands), qkit ``Keysight_35670A.py`` (none), the pages corpus: the
+    35670A Operator's Guide at https://www.easymanua.ls/agilent-technologies/35670a/manual
+    (p. I-13 "Triggering" lists the trigger types only) and the *Supplemental Operator's
+    Guide* (Seattle Sound and Vibration, Agilent part 35670-90059) at
+    http://audio.manualsonline.com/manuals/mfg/agilent_technologies/agilent_35670a.html (its
+    hammer-test pages are stored, not the trigger set-up page)
 ``TRIG:STAR1 <s>`` ``TRIG:STAR2 <s>``
     pymeasure ``trigger_start1``/``trigger_start2`` ("channel 1 trigger start delay in
     seconds"); negative = pre-trigger; there is no TRIGger:DELay node
@@ -64,16 +78,24 @@ cited by the attribute that defines the command; IEEE 488.2 = the common command
 ``WIND2:EXP <s>``
     pymeasure ``exponential_window_time_constant`` (seconds)
 ``FORM:DATA REAL,64``
-    pymeasure ``data_format`` (FORMat:DATA ASC|REAL; its reply parser drops a ``,<length>``):
-    the ``,64`` and the big-endian byte order are **unconfirmed** (checked by the opt-in
-    hardware test). Looked in: pymeasure (``DATA_FORMAT_VALUES`` ASC/REAL only, no
-    FORMat:BORDer property), code search for ``FORMat:DATA REAL,64`` (other SCPI instruments,
-    some of which send ``FORMat:BORDer SWAPped`` to get little-endian, i.e. big-endian is the
-    SCPI default ``NORMal``: a hint, not 35670A evidence)
+    pymeasure ``data_format`` (FORMat:DATA ASC|REAL; its reply parser drops a ``,<length>``);
+    the ``,64`` and the big-endian byte order: fft_dev ``get_ydata``/``get_xdata`` send
+    ``FORM:DATA REAL, 64`` before ``CALC<n>:DATA?``/``CALC<n>:X:DATA?``, and ``_get_bin_data``
+    reads the ``#<n><count>`` header, drops the final byte (the terminator) and converts with
+    ``array.array("d", ...)`` followed by ``data.byteswap()``, i.e. the doubles arrive most
+    significant byte first and the little-endian PC has to swap them (``>f8`` here). Also
+    hinted by other SCPI instruments, where big-endian is the default ``FORMat:BORDer
+    NORMal``
 ``CALC1:FORM NYQ`` ``CALC2:FORM MLIN``
     pymeasure ``Keysight35670ATrace.display_format``, ``TRACE_DISPLAY_FORMATS`` nyquist = NYQ,
     linear_magnitude = MLIN; the (real, imag) order of NYQ blocks is **unconfirmed** (pymeasure
-    reads CALC:DATA? as one flat list and says nothing of pairs; no other 35670A reader found)
+    reads CALC:DATA? as one flat list and says nothing of pairs; no other 35670A reader found).
+    Looked in (branch instr-evidence): fft_dev (``YAXIS_FORMAT_MAP`` has "Nyquist diagram":
+    NYQ, but its readers return the block as one flat array), qkit ``Keysight_35670A.py``
+    (``set_trace_format`` lists NYQuist, ``get_single_trace`` parses one flat ASCII list), code
+    search for ``CALC1:FORM NYQ`` (none), the pages corpus (Operator's Guide p. 5-17 "To display
+    a Nyquist diagram": real part on X, "Imag" on Y, marker read as "R: ... I: ..." -- a screen,
+    not the order of the data block)
 ``SYST:ERR?``
     pymeasure ``_raise_if_errors`` (SYSTem:ERRor? read until code 0 "No error")
 ``ABOR``
@@ -110,9 +132,12 @@ import numpy as np
 from laminid_cli.errors import InstrumentError
 from laminid_cli.instrument.base import AcquisitionSettings, Analyser, format_number
 
-#: two-channel FFT spans: 51.2 kHz / 2**k. Unconfirmed list (pymeasure's ``frequency_span``
-#: only bounds the value, 0.015625-102400 Hz; no 35670A span table found in the code, docs or
-#: pages corpora); an odd span is refused before sending anything.
+#: two-channel FFT spans: 51.2 kHz / 2**k. The top value is confirmed by qkit's 35670A driver
+#: (``span`` and ``startfreq``/``stopfreq`` bounded at 51.2e3 Hz; ``set_input_channels``: with
+#: one channel "the highest possible frequency, i.e., 102.4kHz"); the 2**k steps below it are
+#: unconfirmed (pymeasure's ``frequency_span`` only bounds the value, 0.015625-102400 Hz;
+#: fft_dev gives the log-sweep start/stop tables only; no 35670A span table found in the
+#: code, docs or pages corpora); an odd span is refused before sending anything.
 SPANS_HZ = tuple(51200.0 / 2 ** k for k in range(19))
 #: FFT resolution lines offered in two-channel mode (qkit's 35670A driver, see FREQ:RES above)
 LINES = (100, 200, 400, 800)

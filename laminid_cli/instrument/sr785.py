@@ -18,9 +18,13 @@ the same command set and status words; its docstrings give the bit layouts of ``
 ``Visa/SR785_New/SR785.py`` (commit ffba586), a PyQt SR785 driver whose settings give the command,
 its values and, in tooltips, the page of the SR785 User Manual pdf they come from; "Labber SR785" =
 ``Labber-software/Drivers`` ``Stanford_SR785/Stanford_SR785.py`` (commit 94ab48c), value tables of
-the queries it decodes. The SR785 manual itself (SRS, *Operating Manual and Programming
-Reference*, ch. 5) was not found as text (``AvirupRoy/research`` stores ``SR785m.pdf`` only as
-binary): commands no public source gives are marked **unconfirmed**, with where we looked.
+the queries it decodes. "SR785 manual p. 5-n" = SRS, *Model SR785 Dynamic Signal Analyzer,
+Operating Manual and Programming Reference*, ch. 5, as stored page by page at
+https://manualshive.com/en/manual/stanford-research-systems/sr785/1359464?page=<400+n> (only
+some pages are stored there; ``AvirupRoy/research`` has ``SR785m.pdf`` only as binary); "RunPSD"
+= ``i-oo/sR785_PSD`` ``RunPSD.c`` (commit eab6fba), a C program for a Prologix GPIB-USB adapter
+whose ``DataDump`` sends ``DSPB? 0`` and reads the bytes straight into a C ``float`` array.
+Commands no public source gives are marked **unconfirmed**, with where we looked.
 
 ``*IDN?`` ``*CLS``
     IEEE 488.2; LIGO script (``*CLS``, IDN check "Stanford_Research_Systems,SR785")
@@ -72,7 +76,16 @@ binary): commands no public source gives are marked **unconfirmed**, with where 
     Roy SR785 ``forceLength`` (``FWFL 2,``; "points in the time record up to the Force Length
     are unmodified, points past it are zeroed; the maximum ... is the length of the FFT time
     record"; manual pdf p. 329) confirms the command; its unit (seconds) is **unconfirmed**
-    (the source gives none)
+    (the source gives none; its setting has no unit, range 0-1e5). A hint the other way, for
+    the SR780: ``gitpan/Lab-Instrument`` ``lib/Lab/Instrument/SR780.pm`` (© 2006 D. Schröer),
+    whose synopsis lists a set-up as ``'FWFL 0,100',# Force 100%`` next to ``'FWTC 0,50',#
+    Expo 50%`` (so on that SR780 the force length may be a percentage of the record, like
+    FWTC). Looked in (branch instr-evidence): the pages corpus for the SR785/SR780 Window menu
+    and Window commands pages (manual pdf p. 329 not stored), Labber SR785 ``.ini`` (no
+    window settings), ``ilw/sr785_rs232`` ``SR785.py`` (``FWIN`` only). To settle it on a
+    real SR785, send ``FWFL 2,10 ms`` and read ``*ESR?`` and ``FWFL? 0`` (manual pp. 5-25 and
+    5-26: a command takes a unit string when its entry field offers a choice of units; a
+    percentage field offers none, so the time unit should then be refused, bit 5)
 ``FWTC 2,<%>``
     Roy SR785 ``expoWindowTimeConstant`` (``FWTC 2,``, unit %, 5-1000; "the percentage of the
     FFT time record where the window function reaches 1/e"; manual pdf p. 329): so
@@ -85,8 +98,12 @@ binary): commands no public source gives are marked **unconfirmed**, with where 
 ``TSLP 0``
     **unconfirmed** (0 = rising slope). Looked in: code search for ``TSLP`` (only the SR620
     counter's ``TSLP n,slope``, another instrument), pyHegel SR780 (no trigger devices), Roy
-    SR785 (trigger: ``TMAN`` only), Labber SR785 (``TAVM`` only), ``awade/netgpibdata``
-    ``SR785.py``, the docs and pages corpora (no SR785 manual page)
+    SR785 (trigger: ``TMAN`` only; ``SR785_Menus.py`` has the Trigger menu's soft-key labels
+    only, no values), Labber SR785 (``TAVM`` only; its ``.ini`` has no trigger settings),
+    ``awade/netgpibdata`` ``SR785.py``, ``ilw/sr785_rs232`` ``SR785.py`` (no trigger
+    commands), RunPSD (none), ``gitpan/Lab-Instrument`` ``SR780.pm`` (no trigger commands),
+    the docs corpus, and the pages corpus (SR785 manual pages 5-25, 5-26, 5-71, 5-107 to 5-110
+    and 5-124 are stored, the Trigger commands and Trigger menu pages are not)
 ``TLVL <pct>``
     LIGO script "Sets trigger level in percent"
 ``TDLA <s>`` ``TDLB <s>``
@@ -94,9 +111,11 @@ binary): commands no public source gives are marked **unconfirmed**, with where 
 ``VIEW 0,7`` ``VIEW 1,1``
     LIGO script view table: 7 = Nyquist, 1 = Linear Magnitude; same table in Roy SR785 ``view``,
     Labber SR785 ``VIEW ? 0`` and pyHegel SR780 ``meas_view``. A Nyquist view returns two values
-    per bin (pyHegel SR780 ``_fetch_getdev``: "nyquist and nichols plot ... return 2 values
-    per datapoint"); their order, Y (imag) then X (real), is **unconfirmed** (looked in the
-    same sources; none reads a Nyquist display)
+    per bin, Y (imag) then X (real): SR785 manual p. 5-108 (``DSPB?``): "In the case of a 2-D
+    view (Nyquist or Nichols), two values per bin are returned (8 bytes per bin). The first
+    value is the Y axis value and the second is the X axis value." (a Nyquist diagram has the
+    real part on X and the imaginary part on Y); also pyHegel SR780 ``_fetch_getdev``
+    ("nyquist and nichols plot ... return 2 values per datapoint")
 ``STRT``
     LIGO script "Start measurement"; pySR785
 ``DSPS?`` ``DSPS? 1``
@@ -106,19 +125,35 @@ binary): commands no public source gives are marked **unconfirmed**, with where 
 ``NAVG? 0``
     LIGO script (averages done)
 ``DSPN? d`` ``DSPB? d``
-    LIGO script and pySR785 (4-byte floats, no header); Roy SR785 ``retrieveData`` (``DSPB? %d``,
-    a length that is not a multiple of 4 is refused, unpacked as 4-byte floats) and pyHegel
-    SR780 (``DSPB?`` read raw as float32). Least significant byte first: both unpack in the
-    host's native order (little-endian on the PCs they run on); no source states the order
+    SR785 manual p. 5-107 (``DSPN?``: "Always use the DSPN ? command to determine the display
+    length before reading all of the data from a display") and p. 5-108 (``DSPB?``: "This
+    command is only available with the GPIB interface"; "returns 4 bytes per bin starting with
+    bin 0 ... There is no separation between data points. No line-feed follows the last data
+    point, instead, EOI is asserted with the last byte. The 4 bytes are an IEEE floating point
+    number"); LIGO script and pySR785 (4-byte floats, no header); Roy SR785 ``retrieveData``
+    (``DSPB? %d``, a length that is not a multiple of 4 is refused, unpacked as 4-byte floats)
+    and pyHegel SR780 (``DSPB?`` read raw as float32). Least significant byte first: the
+    manual's one statement of the byte order of its 4-byte IEEE floats is in the same Data
+    Transfer Commands section, p. 5-109 (``TLOD``, host to analyser): "Each 4-byte float is
+    transmitted least significant byte first" (the ``DSPB?`` entry itself does not repeat
+    it); RunPSD, Roy SR785 and pyHegel SR780 all read ``DSPB?`` in the little-endian PC's
+    native order
 ``FSPN? 0`` ``FLIN? 0`` ``FSTR? 0`` ``FAVN? 0`` ``TLVL?``
     LIGO script / pySR785 queries
 ``INPS?``
     pyHegel SR780 ``get_input_status``: bit 2 = input 1 exceeded full scale, bit 10 = input 2
-    exceeded full scale (:data:`INPS_OVERLOAD_BITS`); same word on the SR785 unconfirmed
+    exceeded full scale (:data:`INPS_OVERLOAD_BITS`); same word on the SR785 **unconfirmed**
 ``ERRS?``
     pyHegel SR780 ``get_error`` (``ERRS?``: bit 0 output error, 1 disk error, 2 math error, 3-12
     memory/calibration test failures, :data:`ERRS_BITS`); the same layout on the SR785 is
-    unconfirmed, so any non-zero word counts as an error and is printed with its bits
+    **unconfirmed**, so any non-zero word counts as an error and is printed with its bits.
+    For both: SR785 manual p. 5-124 names the same six status words as the SR780 manual
+    (p. 5-107, same manualshive site, manual 1359462): "the Serial Poll, Standard Event,
+    Instrument, Display, Input and Error status words" -- a hint that the words match, not
+    their bit tables, which are on the following pages (not stored). Looked in (branch
+    instr-evidence): the pages corpus (SR785 and SR780 status-word pages), code search for
+    ``INPS?``/``ERRS?`` (no SR785 reader), Roy SR785 (``Display`` bits only), Labber SR785,
+    ``ilw/sr785_rs232``
 ``PAUS``
     pyHegel SR780 (``PAUS`` "make sure we are not scanning anymore")
 

@@ -206,6 +206,21 @@ def test_sr785_short_dspb_transfer_is_an_instrument_error():
             dsa.read_coherence()
 
 
+def test_binary_transfers_decode_the_documented_byte_patterns():
+    """Literal bytes, not the ``floats_le``/``doubles_be`` helpers (which share the drivers'
+    assumption): SR785 manual p. 5-108/5-109, 4-byte IEEE floats sent least significant byte
+    first, a Nyquist bin as Y (imag) then X (real); 35670A ``REAL,64`` doubles most significant
+    byte first (fft_dev byte-swaps them on a little-endian PC)."""
+    f2, f1, f0, fm2 = (b"\x00\x00\x00\x40", b"\x00\x00\x80\x3f", bytes(4),
+                       b"\x00\x00\x00\xc0")                      # 2.0f, 1.0f, 0.0f, -2.0f
+    dump = f2 + f1 + f0 + fm2                                    # bins 1+2j, -2+0j as (Y, X)
+    with expected_protocol(SR785, [("DSPN? 0", "2"), ("DSPB? 0", dump)]) as dsa:
+        np.testing.assert_array_equal(dsa.read_frf(), [1 + 2j, -2 + 0j])
+    one, two = b"\x3f\xf0" + bytes(6), b"\x40\x00" + bytes(6)          # 1.0, 2.0 MSB first
+    with expected_protocol(HP35670A, [("CALC2:DATA?", ieee_block(one + two))]) as dsa:
+        np.testing.assert_array_equal(dsa.read_coherence(), [1.0, 2.0])
+
+
 def test_sr785_abort_pauses():
     with expected_protocol(SR785, [("PAUS", None)]) as dsa:
         dsa.abort()
