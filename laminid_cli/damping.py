@@ -736,7 +736,7 @@ def with_monte_carlo_damping(fit: DampingFit, dmc: DampingMonteCarlo) -> Damping
     interval's gives that band's verdict marked "(Monte Carlo)", and a note says why (the
     interval takes the constants as exact; the trials refit at their own). Never better;
     a loss factor held at 0 keeps its verdict. The intervals stay the linearised ones."""
-    from laminid_cli.uncertainty import MC_MARK, _verdict_rank
+    from laminid_cli.uncertainty import monte_carlo_verdict
 
     p = len(fit.labels)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -749,12 +749,11 @@ def with_monte_carlo_damping(fit: DampingFit, dmc: DampingMonteCarlo) -> Damping
     for k, lab in enumerate(fit.labels):
         if fit.at_bound[k] or not np.isfinite(rel_lo[k]):
             continue
-        if _verdict_rank(rel_lo[k]) > _verdict_rank(fit.rel_half_width[k]):
-            # the damping's own words for "not determined" (as fit_loss_factors)
-            head, _, tail = verdict_of(rel_lo[k], False).replace(
-                VERDICT_NOT, VERDICT_NOT_DAMPING.format(term=lab.rsplit(".", 1)[-1])
-            ).partition(" — ")
-            verdict[k] = head + MC_MARK + (" — " + tail if tail else "")
+        # the damping's own words for "not determined" (as fit_loss_factors)
+        worse = monte_carlo_verdict(rel_lo[k], fit.rel_half_width[k], VERDICT_NOT_DAMPING.format(
+            term=lab.rsplit(".", 1)[-1]))
+        if worse:
+            verdict[k] = worse
             changed.append(lab)
             why.append(f"{lab} (Monte Carlo ±{_pct(rel_mc[k])}, at least ±{_pct(rel_lo[k])}; "
                        f"interval ±{_pct(fit.rel_half_width[k])})")

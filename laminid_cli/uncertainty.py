@@ -2067,6 +2067,22 @@ def _verdict_rank(rel: float) -> int:
     return (VERDICT_WELL, VERDICT_WEAK, VERDICT_NOT).index(verdict_of(rel, False))
 
 
+def monte_carlo_verdict(rel_sure: float, rel_interval: float, not_words: str = "") -> str:
+    """The verdict that the Monte Carlo range's width for sure ``rel_sure`` sets when it falls
+    in a worse band than the interval's ``rel_interval`` ("" when it does not): that band's
+    words marked :data:`MC_MARK` ("weak (Monte Carlo)", "not determined by these modes (Monte
+    Carlo) — fix it ..."). ``not_words`` replaces :data:`VERDICT_NOT`'s head (the loss
+    factors' own words). The rule of :func:`with_monte_carlo` and
+    :func:`laminid_cli.damping.with_monte_carlo_damping`."""
+    if not np.isfinite(rel_sure) or _verdict_rank(rel_sure) <= _verdict_rank(rel_interval):
+        return ""
+    words = verdict_of(rel_sure, False)
+    if not_words:
+        words = words.replace(VERDICT_NOT, not_words)
+    head, _, tail = words.partition(" — ")
+    return head + MC_MARK + (" — " + tail if tail else "")
+
+
 def with_monte_carlo(u: Uncertainty, mc: MonteCarlo) -> Uncertainty:
     """``u`` with the verdicts the Monte Carlo makes worse. The linearised interval assumes
     the frequencies are linear in the constants over it; where the trials show a wider spread
@@ -2106,10 +2122,10 @@ def with_monte_carlo(u: Uncertainty, mc: MonteCarlo) -> Uncertainty:
     for k, lab in enumerate(u.labels):
         if at_bound[k] or not np.isfinite(rel_lo[k]):
             continue
-        if _verdict_rank(rel_lo[k]) > _verdict_rank(u.rel_half_width[k]):
-            head, _, tail = verdict_of(rel_lo[k], False).partition(" — ")
+        worse = monte_carlo_verdict(rel_lo[k], u.rel_half_width[k])
+        if worse:
             prior = HELD_BY_PRIOR if verdict[k].endswith(HELD_BY_PRIOR) else ""
-            verdict[k] = head + MC_MARK + (" — " + tail if tail else "") + prior
+            verdict[k] = worse + prior
             changed.append(lab)
         if rel_lo[k] > limit and lab not in flagged:
             flagged.append(lab)

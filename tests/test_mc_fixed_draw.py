@@ -188,8 +188,8 @@ def test_reduced_trials_with_drawn_fixed_values_equal_the_identify_route(s11_8x8
 
 #: S1.1 8x8, --fix G13,G23,nu12 (and --fix-undetermined, which then fixes nothing more),
 #: --monte-carlo 6 --seed 7 -j 1: the trials' E1, E2, G12 as recorded when the trials began
-#: to draw their variance factor (stop 33, laminid_cli.uncertainty.VARIANCE_STREAM; first recorded at 7174abc,
-#: before the trials drew fixed values: the fixed values' draws did not change them)
+#: to draw their variance factor (stop 33, laminid_cli.uncertainty.VARIANCE_STREAM; first
+#: recorded at 7174abc, before the trials drew fixed values: those draws did not change them)
 USER_FIXED_TRIALS = [
     [159038741035.22058, 8084988057.286918, 7680381647.396456],
     [155692993081.06906, 7462506518.311708, 8574095507.14137],
