@@ -194,16 +194,9 @@ def result_status(result, uncertainty=None, damping=None) -> ResultStatus:
             sure = (dict(zip(u.labels, u.mc_rel_half_width_lower))
                     if u.mc_rel_half_width_lower is not None else {})
             limit = u.thresholds["max_rel_interval"]
-
-            def width(lab):
-                # flagged by the Monte Carlo range (the width its trials show for sure) where
-                # the linearised interval was narrower
-                if not rel[lab] > limit and sure.get(lab, 0.0) > limit:
-                    return (f"Monte Carlo ±{_pct(mc[lab])}, at least ±{_pct(sure[lab])}; "
-                            f"linearised ±{_pct(rel[lab])}")
-                return f"±{_pct(rel[lab])}"
-
-            words = ", ".join(f"{lab} ({width(lab)})" for lab in und)
+            words = ", ".join(
+                f"{lab} ({_width(rel[lab], mc.get(lab), sure.get(lab), limit, 'linearised')})"
+                for lab in und)
             from laminid_cli.intervals import flag_words
 
             add("undetermined", f"{flag_words(limit)} ({u.confidence * 100:.0f} % "
@@ -261,14 +254,10 @@ def damping_reasons(damping, max_rel_interval: float | None = None) -> list[tupl
     sure = np.full(len(damping.labels), np.nan) if sure is None else np.asarray(sure, float)
     mc = getattr(damping, "mc_rel_half_width", None)
 
-    def width(k, rel):
-        # flagged by the Monte Carlo range (each trial refitted the loss factors at its own
-        # constants; the width its trials show for sure) where the interval was narrower
-        if rel <= limit and sure[k] > limit:
-            return (f"Monte Carlo ±{_pct(mc[k])}, at least ±{_pct(sure[k])}; "
-                    f"interval ±{_pct(rel)}")
-        return f"±{_pct(rel)}"
-    und = [(lab, width(k, rel)) for k, (lab, rel, b) in enumerate(zip(
+    # flagged by the Monte Carlo range too (each trial refitted the loss factors at its own
+    # constants)
+    und = [(lab, _width(rel, None if mc is None else mc[k], sure[k], limit, "interval"))
+           for k, (lab, rel, b) in enumerate(zip(
                damping.labels, damping.rel_half_width, damping.at_bound))
            if not b and (not rel <= limit or sure[k] > limit)]
     if und:
@@ -284,6 +273,15 @@ def damping_reasons(damping, max_rel_interval: float | None = None) -> list[tupl
                                 f"{limit99:.3g}): damping that is not the "
                                 "ply materials' (air, supports), or damping sigmas too small"))
     return out
+
+
+def _width(rel, mc, sure, limit, interval: str) -> str:
+    """How wide a flagged constant (or loss factor) is: "±34 %", or, where the Monte Carlo's
+    width for sure flagged it and the ``interval`` (its word: "linearised", "interval") did
+    not (narrower, or none), "Monte Carlo ±59 %, at least ±52 %; linearised ±22 %"."""
+    if not rel > limit and sure is not None and sure > limit:
+        return f"Monte Carlo ±{_pct(mc)}, at least ±{_pct(sure)}; {interval} ±{_pct(rel)}"
+    return f"±{_pct(rel)}"
 
 
 def _pct(rel) -> str:

@@ -293,3 +293,18 @@ def test_a_tighter_max_rel_interval_says_what_the_lab_asked_for():
     t = run("identify", s11, "--mesh", "6x6", "--no-output")
     flag = next(ln for ln in t.output.splitlines() if ln.startswith("  flagged (half-width"))
     assert "— not determined by these modes; " in flag, flag
+
+
+def test_flagged_width_words_are_the_same_for_constants_and_loss_factors():
+    """One rule for how wide a flagged constant or loss factor is: the Monte Carlo's widths
+    where its width for sure flagged it and the interval did not (narrower, or none: a NaN
+    interval, which the loss factors' words used to print as "±inf" alone)."""
+    from laminid_cli.status import _width
+
+    assert _width(0.34, None, None, 0.30, "linearised") == "±34 %"
+    assert _width(0.22, 0.59, 0.52, 0.30, "linearised") == \
+        "Monte Carlo ±59 %, at least ±52 %; linearised ±22 %"
+    assert _width(float("nan"), 0.59, 0.52, 0.30, "interval") == \
+        "Monte Carlo ±59 %, at least ±52 %; interval ±inf"
+    assert _width(0.22, 0.59, float("nan"), 0.30, "interval") == "±22 %"
+    assert _width(12.0, None, None, 0.30, "interval") == "±12x"
