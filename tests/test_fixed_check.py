@@ -103,8 +103,9 @@ def test_s11_fixed_values_rejected_together_and_the_release_named(tmp_path):
     shown = CliRunner().invoke(cli, ["show", str(out), "--json"])
     assert shown.exit_code == 0, shown.output
     assert json.loads(shown.output)["uncertainty"]["fixed_check"] == fc
-    # the terminal: in the status, not repeated in the uncertainty block
-    t = CliRunner().invoke(cli, ["identify", S11, "--fix-undetermined", "--no-output"])
+    # the terminal (show prints what identify printed, bit for bit: test_show_cli.py): in the
+    # status, not repeated in the uncertainty block
+    t = CliRunner().invoke(cli, ["show", str(out)])
     assert t.exit_code == 0, t.output
     assert t.output.count("the modes reject the values --fix-undetermined fixed") == 1
     assert "  fixed_rejected: the modes reject" in t.output
@@ -142,7 +143,7 @@ def test_s14_fixed_values_not_rejected(tmp_path):
     assert not fc["rejected"] and fc["release"] == "" and fc["release_chi2"] is None  # NaN
     assert "fixed_rejected" not in [r["code"] for r in d["reasons"]]
     assert fc["text"].startswith("the modes do not reject the values --fix-undetermined fixed")
-    t = CliRunner().invoke(cli, ["identify", S14, "--fix-undetermined", "--no-output"])
+    t = CliRunner().invoke(cli, ["show", str(out)])
     assert "  the modes do not reject the values --fix-undetermined fixed" in t.output
     from laminid_cli.report import table_notes
     from laminid_cli.resultfile import read_result
