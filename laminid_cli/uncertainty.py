@@ -2937,7 +2937,7 @@ def with_fixed_check(u: Uncertainty, before: Uncertainty, fixed, result, fms, si
             if not c >= release_chi2:
                 release, release_chi2 = lab, c
         if release:
-            t1, s1, l1 = _rise_test(before, k - 1)
+            _, s1, l1 = _rise_test(before, k - 1)
             release_ok = bool((release_chi2 - float(before.chi2)) / s1 <= l1)
     check = FixedCheck(fixed, values, k, float(before.chi2), float(u.chi2), test, scale,
                        stat, limit, float(before.confidence), rejected, worst, moved,
