@@ -705,10 +705,12 @@ def _bound_panel(ax, k, v, iv, x, ymin, ymax):
         else:
             # the values the fit does not reject: from the limit to the search's other end,
             # off the panel when that end is out of view
+            # (its words right of the line, as the bounded profile's: the left holds the
+            # Monte Carlo bar's end words)
             y = _gpa(k, far)
             _profile_line(ax, x, v, y, ymin, ymax, f"profile:\nflat to\n{fmt_value(k, far)}",
-                          xytext=(-6, -3 if y > v else 3), va="top" if y > v else "bottom",
-                          ha="right")
+                          xytext=(6, -3 if y > v else 3), va="top" if y > v else "bottom",
+                          ha="left")
     ax.annotate("\n".join(textwrap.wrap(words, 12)), (x, (v + edge) / 2), xytext=(5, 0),
                 textcoords="offset points", fontsize=6.5, va="center", ha="left",
                 color=INTERVAL_COLOR, gid="bound-statement")

@@ -433,3 +433,46 @@ def test_the_check_between_the_limit_and_a_flat_far_end_uses_the_quick_fit():
                       quick=make("quick", steep), lenient=make("lenient", steep))
     assert np.isfinite(p.bound) and not calls["quick"] and calls["lenient"] == [20e9]
     assert len(calls["delta"]) >= 2
+
+
+def test_a_flat_profile_and_a_monte_carlo_range_off_the_panel_keep_their_words_apart(tmp_path):
+    """S2.1's G13 (8x8) on its lower limit, flat to 18.5 GPa, with a Monte Carlo range from
+    the limit (trials on it) to 11.66 GPa, as a 100-trial run at 12x12 gave: both run off the
+    top of the panel. The range's words ("to 11.66") sit left of its bar, the profile's
+    ("profile: flat to 18.50") right of its line; they overlapped when both were on the left
+    (drawn figure, display coordinates)."""
+    import dataclasses as dc
+
+    import matplotlib.pyplot as plt
+
+    from laminid_cli.report import interval_panel
+    from laminid_cli.resultfile import read_result
+
+    out = tmp_path / "r.h5"
+    res = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8",
+                                   "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    r = read_result(out)
+    m = "E-glass/R368"
+    u = r.uncertainty
+    labels = [x.label for x in u.intervals]
+    j = labels.index(f"{m}.G13")
+    iv = u.intervals[j]
+    assert iv.at_bound and iv.profile_kind == "flat" and iv.profile_far == pytest.approx(18.5e9)
+    values = np.array([x.value for x in u.intervals])
+    lower, upper = values * 0.97, values * 1.03
+    lower[j], upper[j] = iv.value, 11.66e9
+    at_lower = np.zeros(len(labels), np.int8)
+    at_lower[j] = 1
+    mc = {"lower": lower, "upper": upper, "inner_lower": lower, "inner_upper": upper,
+          "lower_at_bound": at_lower}
+    fig, ax = plt.subplots(figsize=(1.6, 5))
+    interval_panel(ax, dc.replace(r, uncertainty=dc.replace(u, monte_carlo=mc)), m, "G13")
+    ax.set_xlim(-0.75, 0.75)                       # as the intervals page (interval_page)
+    fig.canvas.draw()
+    texts = {t.get_gid(): t for t in ax.texts}
+    prof, end = texts["profile-label"], texts["monte-carlo-upper-end"]
+    assert end.get_text() == "to\n11.66" and prof.get_text() == "profile:\nflat to\n18.50"
+    a, b = prof.get_window_extent(), end.get_window_extent()
+    assert a.x0 >= b.x1 or a.x1 <= b.x0 or a.y0 >= b.y1 or a.y1 <= b.y0, (a, b)
+    plt.close(fig)
