@@ -235,8 +235,10 @@ def input_hash(spec, options: BatchOptions) -> str:
     # constants at a limit, the fixed values' spread counted, fixed ranges (stop 30);
     # "verdicts 5": the Monte Carlo trials of --fix-undetermined draw the fixed values;
     # "verdicts 6": the test whether the modes reject the fixed values (status fixed_rejected),
-    # and the Monte Carlo trials' variance factors drawn where the intervals are Student t
-    h.update(f"laminid {__version__} schema {SCHEMA_VERSION} options 2 verdicts 6\0".encode())
+    # and the Monte Carlo trials' variance factors drawn where the intervals are Student t;
+    # "verdicts 7": the intervals counting the fixed values' spread on Welch-Satterthwaite's
+    # quantiles
+    h.update(f"laminid {__version__} schema {SCHEMA_VERSION} options 2 verdicts 7\0".encode())
     h.update(json.dumps(options.as_dict(), sort_keys=True).encode() + b"\0")
     h.update(spec.read_bytes())
     frf = _frf_file(spec)

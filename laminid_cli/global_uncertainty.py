@@ -154,7 +154,18 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
             X = np.asarray(u.spread_cross, float)[np.ix_(keep, ks)]
             var = var + 2 * np.einsum("ij,jk,ik->i", Jf, X, Jc)
     std = np.sqrt(np.maximum(var, 0.0))
-    q = float(u.quantile)
+    q = np.full(len(KEYS), float(u.quantile))
+    spread_free = getattr(u, "spread_free", None)
+    if spread and spread_free is not None:
+        # the spread's part is known with the run before fixing's degrees of freedom, the
+        # rest with the final run's: Welch-Satterthwaite per property, as for the constants
+        from laminid_cli.intervals import effective_dof, quantile_of, variance_dof
+
+        noise = cov - np.nan_to_num(np.asarray(spread_free, float))
+        v_n = (np.einsum("ij,jk,ik->i", Jf, noise[np.ix_(keep, keep)], Jf) if keep
+               else np.zeros(len(KEYS)))
+        nu = effective_dof(v_n, variance_dof(u), np.maximum(var - v_n, 0.0), u.spread_dof)
+        q = np.array([quantile_of(float(u.confidence), float(n)) for n in nu])
     # fixed because it was at a limit of the search in the run before (no spread to count)
     was_at_limit = set()
     if before is not None and getattr(before, "at_bound", None) is not None:
@@ -171,7 +182,7 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
         counted = tuple(lab for lab in und if lab in spread)
         und = tuple(lab for lab in und if lab not in spread)
         given = tuple(lab for lab in deps if lab not in free and lab not in undetermined)
-        half = q * float(std[i])
+        half = float(q[i]) * float(std[i])
         rel = half / abs(g) if g != 0 else np.inf
         from_free = [lab for lab in deps if lab in free]
         if given and not from_free and not counted:

@@ -54,6 +54,36 @@ def interval_scale(scaling: str, dof: int, s2: float, confidence: float, counts:
     return "stated", 1.0, z, None
 
 
+def effective_dof(v1, nu1: float, v2, nu2: float):
+    """Welch-Satterthwaite's effective degrees of freedom of a variance v1 + v2 whose parts
+    are known with nu1 and nu2 degrees of freedom (GUM, JCGM 100 G.4.1): (v1 + v2)^2 /
+    (v1^2 / nu1 + v2^2 / nu2); an infinite nu (a stated sigma) adds nothing below; inf where
+    both parts are exact. Arrays elementwise."""
+    import numpy as np
+
+    v1, v2 = np.asarray(v1, float), np.asarray(v2, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        den = (np.where(np.isfinite(nu1), v1 ** 2 / nu1, 0.0)
+               + np.where(np.isfinite(nu2), v2 ** 2 / nu2, 0.0))
+        return np.where(den > 0, (v1 + v2) ** 2 / den, np.inf)
+
+
+def quantile_of(confidence: float, nu: float) -> float:
+    """The two-sided ``confidence`` quantile of Student t with ``nu`` degrees of freedom, the
+    normal's where nu is infinite (or NaN)."""
+    from laminid_cli.quantiles import norm_ppf, t_ppf
+
+    if not math.isfinite(nu):
+        return norm_ppf(0.5 + confidence / 2)
+    return t_ppf(0.5 + confidence / 2, float(nu))
+
+
+def variance_dof(u) -> float:
+    """The degrees of freedom of an uncertainty's variance factor: its residuals' where its
+    intervals are scaled by s2 (Student t), infinite on the stated sigma."""
+    return float(u.dof) if u.scale_used == "residuals" and u.dof > 0 else math.inf
+
+
 def verdict(rel: float, at_bound: bool) -> str:
     """Verdict of one constant from its relative half-width (:data:`WELL_DETERMINED`,
     :data:`WEAK`)."""

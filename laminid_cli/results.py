@@ -111,6 +111,11 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
                           statistic, limit, confidence, rejected, worst, moved_in_half_widths,
                           release, release_chi2, release_ok, text;
                           laminid_cli.uncertainty.FixedCheck)
+    /uncertainty/quantile, effective_dof  per label, with --fix-undetermined's spread
+                          counted: each interval's quantile, Student t with the Welch-
+                          Satterthwaite degrees of freedom of the final run's noise and the
+                          spread (attr spread_dof: the run before fixing's; inf on the stated
+                          sigma)
     /uncertainty/spread_counted  labels, covariance (of the fixed values counted),
                           cross_covariance (free constants x those)
     /uncertainty/before_fixing  labels, rel_half_width, verdict of the first run when
@@ -573,6 +578,13 @@ def write_uncertainty(f, a, plate_names) -> None:
         put(g, "rel_half_width_given_fixed", u.rel_half_width_given_fixed, "1",
             description="95 % half-width / |value| given the values --fix-undetermined fixed "
             "(rel_half_width counts their spread before fixing: attr spread_counted)")
+    if getattr(u, "quantile_per_label", None) is not None:
+        put(g, "quantile", u.quantile_per_label, "1",
+            description="the quantile of each interval counting the fixed values' spread: "
+            "Student t with effective_dof degrees of freedom (Welch-Satterthwaite of the "
+            "final run's noise and the spread; attr spread_dof, inf: the stated sigma)")
+        put(g, "effective_dof", u.effective_dof, "1")
+        g.attrs["spread_dof"] = float(u.spread_dof)
     if u.spread_counted:
         data, dt = _strings(u.spread_counted)
         gs = g.create_group("spread_counted")

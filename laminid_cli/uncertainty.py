@@ -328,6 +328,15 @@ class Uncertainty:
     spread_cross: np.ndarray | None = None
     spread_covariance: np.ndarray | None = None
     spread_not_counted: tuple[str, ...] = ()
+    #: with the spread counted: what it added to the free constants' covariance (p, p; SI),
+    #: the degrees of freedom it is known with (the run before fixing's variance factor:
+    #: infinite on the stated sigma), and per label the effective degrees of freedom of the
+    #: total variance and the quantile its interval uses (Welch-Satterthwaite:
+    #: :func:`laminid_cli.intervals.effective_dof`); None without a spread counted
+    spread_free: np.ndarray | None = None
+    spread_dof: float = float("inf")
+    effective_dof: np.ndarray | None = None
+    quantile_per_label: np.ndarray | None = None
     #: {label: Profile} of the constants at a limit of the search (:func:`with_profiles`)
     profiles: dict = field(default_factory=dict)
     #: {label: FixedRange} of the constants fixed on a limit of the search
@@ -368,6 +377,9 @@ class Uncertainty:
             if self.rel_half_width_given_fixed is not None:
                 per[mat][const]["rel_half_width_given_fixed"] = float(
                     self.rel_half_width_given_fixed[k])
+            if self.quantile_per_label is not None:
+                per[mat][const]["quantile"] = float(self.quantile_per_label[k])
+                per[mat][const]["effective_dof"] = float(self.effective_dof[k])
         for lab in self.fixed:
             mat, const = lab.rsplit(".", 1)
             per.setdefault(mat, {})[const] = {"verdict": VERDICT_FIXED, "flagged": False}
@@ -391,6 +403,7 @@ class Uncertainty:
             "spread_covariance": self.spread_covariance,
             "spread_cross_covariance": self.spread_cross,
             "spread_not_counted": list(self.spread_not_counted),
+            "spread_dof": self.spread_dof,
             "fixed_ranges": {lab: r.as_dict() for lab, r in self.fixed_ranges.items()},
             "fixed_check": None if self.fixed_check is None else self.fixed_check.as_dict(),
             "sigma_source": self.sigma_source,
@@ -2204,7 +2217,16 @@ def counting_fixed_spread(u: Uncertainty, before: Uncertainty, obs, materials,
     st_u = np.asarray(u.std_stated, float)
     with np.errstate(invalid="ignore"):
         std_stated = np.where(np.isfinite(st_u), np.sqrt(np.clip(var_stated, 0, None)), st_u)
-    q = float(u.quantile)
+    # the two parts are known with different degrees of freedom: the final run's noise with
+    # its own (Student t where scaled by its s2), the spread with the run before fixing's;
+    # each constant's quantile is Student t with their Welch-Satterthwaite combination
+    from laminid_cli.intervals import effective_dof, quantile_of, variance_dof
+
+    added = np.where(np.outer(inner, inner), add, 0.0)
+    nu_s = variance_dof(before)
+    nu_eff = effective_dof(np.diag(np.asarray(u.covariance, float)), variance_dof(u),
+                           np.diag(added), nu_s)
+    q = np.array([quantile_of(float(u.confidence), float(n)) for n in nu_eff])
     half = q * std
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         rel = np.where(value != 0, half / np.abs(value), np.inf)
@@ -2229,7 +2251,8 @@ def counting_fixed_spread(u: Uncertainty, before: Uncertainty, obs, materials,
         flagged=tuple(lab for lab in labels if lab in flagged), notes=notes,
         rel_half_width_given_fixed=np.asarray(u.rel_half_width, float),
         spread_counted=tuple(counted), spread_cross=cross, spread_covariance=Cf,
-        spread_not_counted=missing)
+        spread_not_counted=missing, spread_free=added, spread_dof=nu_s,
+        effective_dof=np.asarray(nu_eff, float), quantile_per_label=q)
 
 
 def _fixed_spread(u: Uncertainty, before: Uncertainty, materials):

@@ -166,9 +166,15 @@ def _assess_s11():
 
 
 def test_fixed_spread_in_json_hdf5_terminal_and_report(tmp_path):
-    """S1.1 --fix-undetermined: E1 +-2.9 % counting the fixed values' spread, +-1.3 % given
+    """S1.1 --fix-undetermined: E1 +-2.5 % counting the fixed values' spread, +-1.3 % given
     them (tolerances: the factorizers' round-off is far below); the same numbers in --json,
-    the reader of the HDF5 file, the terminal line and the report's note."""
+    the reader of the HDF5 file, the terminal line and the report's note. Each interval's
+    quantile is Student t with the Welch-Satterthwaite degrees of freedom of its two parts,
+    recomputed here from the JSON's std and given-fixed width (the noise's 9 degrees of
+    freedom, the spread's infinitely many: the run before fixing used the stated sigma):
+    E1 t(197) = 1.97 where the final run's t(9) = 2.26 gave +-2.9 %; Gxz, all spread, the
+    normal quantile."""
+    from scipy import stats
     from laminid_cli.report import table_notes
     from laminid_cli.resultfile import read_result
 
@@ -179,14 +185,30 @@ def test_fixed_spread_in_json_hdf5_terminal_and_report(tmp_path):
     u = json.loads(res.output)["uncertainty"]
     assert u["spread_counted"] == [f"IM7/977-2.{k}" for k in ("G13", "G23", "nu12")]
     c = u["constants"]["IM7/977-2"]
-    assert c["E1"]["rel_half_width"] == pytest.approx(0.029, abs=0.0015)
+    assert c["E1"]["rel_half_width"] == pytest.approx(0.0251, abs=0.0015)
     assert c["E1"]["rel_half_width_given_fixed"] == pytest.approx(0.0133, abs=0.0005)
+    nu_n = u["a_posteriori"]["dof"]
+    assert u["scaling"]["used"] == "residuals" and nu_n == 9 and u["spread_dof"] is None  # inf
     for k in ("E1", "E2", "G12"):
-        assert c[k]["rel_half_width"] > c[k]["rel_half_width_given_fixed"], k
+        v = c[k]
+        assert v["rel_half_width"] > v["rel_half_width_given_fixed"], k
+        # Welch-Satterthwaite from the parts: the noise's variance from the width given the
+        # fixed values (its quantile the final run's t(9)), the spread's the rest
+        v_tot = v["std"] ** 2
+        v_n = (v["rel_half_width_given_fixed"] * abs(v["value"]) / u["quantile"]) ** 2
+        nu = v_tot ** 2 / (v_n ** 2 / nu_n)
+        assert v["effective_dof"] == pytest.approx(nu, rel=1e-6), k
+        assert v["quantile"] == pytest.approx(stats.t.ppf(0.975, nu), rel=1e-10), k
+        assert v["rel_half_width"] == pytest.approx(
+            v["quantile"] * v["std"] / abs(v["value"]), rel=1e-10), k
+    assert c["E1"]["effective_dof"] == pytest.approx(197, abs=15)
     g = json.loads(res.output)["global_uncertainty"]["Gxz"]
     # Gxz = (G13 + G23) / 2 here: the fixed values' moves are secants, G sinh(+-sd in ln G)
-    # along their principal axes (0.83 with the tangent G sd, stop 30's first count)
-    assert g["rel_half_width"] == pytest.approx(1.31, abs=0.05)
+    # along their principal axes (0.83 with the tangent G sd, stop 30's first count); all of
+    # it spread, known on the stated sigma: the normal quantile (t(9) gave 1.31)
+    assert g["rel_half_width"] == pytest.approx(1.136, abs=0.05)
+    assert g["rel_half_width"] == pytest.approx(
+        stats.norm.ppf(0.975) * g["std"] / abs(g["value"]), rel=1e-9)
     r = read_result(out)
     assert r.uncertainty.spread_counted == tuple(u["spread_counted"])
     for k in ("E1", "E2", "G12"):
@@ -246,7 +268,7 @@ def test_a_huge_spread_counts_only_as_far_as_the_search_goes():
     """S1.3 --fix-undetermined fixes E2, G13, G23, nu12; G13's spread before fixing was +-60
     times (in ln G). The tangent count takes E1 to +-91 % (E1 leans on G13 one for one at
     3.1 GPa, times e^+-59); the secants along the fixed values' principal axes, each step kept
-    within the search's factor range (3.1 / 5 .. 3.1 x 5 GPa), give +-6.0 % (the interval
+    within the search's factor range (3.1 / 5 .. 3.1 x 5 GPa), give +-6.3 % (the interval
     given the fixed values alone: +-2.2 %)."""
     from laminid_cli.uncertainty import UncertaintyOptions, assess, material_states
 
@@ -291,13 +313,15 @@ def test_monte_carlo_table_counts_the_fixed_values_spread_as_the_intervals_do():
 
 
 def test_a_constant_flagged_by_the_counted_spread_is_not_told_to_use_fix_undetermined():
-    """S1.2 --fix-undetermined: G12 is within +-9.4 % given the fixed values alone and +-31 %
-    counting their spread, so it is flagged; the flag line told the user to "fix them
-    (--fix-undetermined)", the option this run was made with (which judges its flags given
-    the fixed values, so it fixes nothing more). It now says the spread of the fixed values
-    makes it so, and to --fix values the lab knows."""
+    """S1.2 --fix-undetermined --max-rel-interval 0.25: G12 is within +-9.4 % given the fixed
+    values alone and +-27.7 % counting their spread, so it is flagged; the flag line told the
+    user to "fix them (--fix-undetermined)", the option this run was made with (which judges
+    its flags given the fixed values, so it fixes nothing more). It now says the spread of
+    the fixed values makes it so, and to --fix values the lab knows. (At the default 0.30 it
+    was flagged at +-31 %, before its quantile was Welch-Satterthwaite's.)"""
     res = CliRunner().invoke(cli, ["identify", "specimens/example1/S1.2.yaml",
-                                   "--fix-undetermined", "--no-output"])
+                                   "--fix-undetermined", "--max-rel-interval", "0.25",
+                                   "--no-output"])
     assert res.exit_code == 0, res.output
     line = next(x for x in res.output.splitlines() if x.startswith("  flagged (half-width"))
     assert "IM7/977-2.G12" in line and "(--fix-undetermined)" not in line
@@ -308,3 +332,22 @@ def test_a_constant_flagged_by_the_counted_spread_is_not_told_to_use_fix_undeter
     plain = CliRunner().invoke(cli, ["identify", "specimens/example1/S1.2.yaml", "--no-output"])
     line = next(x for x in plain.output.splitlines() if x.startswith("  flagged (half-width"))
     assert "fix them (--fix-undetermined)" in line
+
+
+def test_welch_satterthwaite_closed_forms():
+    """effective_dof against its closed forms: two equal parts with nu each give 2 nu; a part
+    of zero leaves the other's; an exact part (nu infinite) adds nothing below, so a variance
+    that is 80 % exact has nu / 0.2^2 = 25 nu; both exact give infinity (the normal quantile,
+    1.95996)."""
+    from laminid_cli.intervals import effective_dof, quantile_of
+
+    inf = float("inf")
+    assert effective_dof(1.0, 9, 1.0, 9) == pytest.approx(18.0, rel=1e-14)
+    assert effective_dof(2.0, 9, 0.0, 6) == pytest.approx(9.0, rel=1e-14)
+    assert effective_dof(0.0, 9, 2.0, 6) == pytest.approx(6.0, rel=1e-14)
+    assert effective_dof(0.2, 9, 0.8, inf) == pytest.approx(9 / 0.2 ** 2, rel=1e-12)
+    assert effective_dof(1.0, inf, 1.0, inf) == inf
+    np.testing.assert_allclose(effective_dof([1.0, 0.2], 9, [1.0, 0.8], inf),
+                               [36.0, 225.0], rtol=1e-12)
+    assert quantile_of(0.95, inf) == pytest.approx(1.959963984540054, rel=1e-14)
+    assert quantile_of(0.95, 9) == pytest.approx(2.2621571627982036, rel=1e-12)

@@ -327,6 +327,20 @@ def format_uncertainty(u: dict) -> list[str]:
             lines.append("  " + spread_sentence(
                 names[:len(counted)], [(n, w) for n, (_, w) in zip(names[len(counted):], given)],
                 f"the {conf:.0f} % intervals"))
+        eff = [(f"{m}.{k}", v["effective_dof"], v["quantile"])
+               for m, per in (u.get("constants") or {}).items() for k, v in per.items()
+               if v.get("quantile") is not None and v.get("rel_half_width") is not None]
+        if counted and eff:
+            nu_n = ap["dof"] if sc["used"] == "residuals" else None
+            nu_s = u.get("spread_dof")
+
+            def dof(n):
+                return "∞" if n is None or not math.isfinite(n) else f"{n:.0f}"
+            lines.append(
+                f"  their quantiles combine the noise's {dof(nu_n)} degrees of freedom and the "
+                f"spread's {dof(nu_s)} (Welch-Satterthwaite): " + ", ".join(
+                    f"{name} t({dof(n)}) {q:.3g}" for name, (_, n, q) in
+                    zip(_short([e[0] for e in eff]), eff)))
         fc = u.get("fixed_check")
         if fc and fc.get("text") and not fc.get("rejected"):
             lines.append("  " + fc["text"])          # a rejection is in the status
