@@ -84,6 +84,14 @@ def variance_dof(u) -> float:
     return float(u.dof) if u.scale_used == "residuals" and u.dof > 0 else math.inf
 
 
+def t_std(nu: float) -> float:
+    """Standard deviation of Student's t with ``nu`` degrees of freedom (1 for nu = 0: the
+    normal; NaN for nu <= 2, whose t has no variance)."""
+    if nu == 0:
+        return 1.0
+    return math.sqrt(nu / (nu - 2)) if nu > 2 else math.nan
+
+
 def verdict(rel: float, at_bound: bool) -> str:
     """Verdict of one constant from its relative half-width (:data:`WELL_DETERMINED`,
     :data:`WEAK`)."""

@@ -483,6 +483,7 @@ def _uncertainty(f) -> Uncertainty | None:
         g = u["monte_carlo"]
         mc = {k: np.asarray(v[()]) for k, v in g.items()} | {
             k: decode(v) for k, v in g.attrs.items()}
+    fc = u["fixed_check"].attrs if "fixed_check" in u else {}    # older files: none
     return Uncertainty(
         confidence=float(a.get("confidence", 0.95)), s2=float(a.get("s2", np.nan)),
         dof=float(a.get("dof", np.nan)), condition_number=float(a.get("condition_number", np.nan)),
@@ -495,10 +496,7 @@ def _uncertainty(f) -> Uncertainty | None:
         fixed_ranges=({lab: text for lab, text in zip(_strings(u["fixed_ranges"]["labels"]),
                                                       _strings(u["fixed_ranges"]["text"]))}
                       if "fixed_ranges" in u else {}),
-        fixed_check=(decode(u["fixed_check"].attrs.get("text", ""))
-                     if "fixed_check" in u else ""),
-        fixed_rejected=(bool(u["fixed_check"].attrs.get("rejected", False))
-                        if "fixed_check" in u else False),
+        fixed_check=decode(fc.get("text", "")), fixed_rejected=bool(fc.get("rejected", False)),
         given_fixed=({lab: float(w) for lab, w in zip(
             labels, np.ravel(u["rel_half_width_given_fixed"][()]))}
             if "rel_half_width_given_fixed" in u else {}))

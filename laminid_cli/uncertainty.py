@@ -124,7 +124,7 @@ from laminid_cli.errors import FitError, FitInputError, ModelError, SolverError
 from laminid_cli.intervals import (PROFILE_FLAT, PROFILE_NONE, SCALINGS,  # noqa: F401
                                    VERDICT_AT_BOUND, VERDICT_FIXED, VERDICT_NOT, VERDICT_WEAK,
                                    VERDICT_WELL, WEAK, WELL_DETERMINED, interval_scale,
-                                   verdict as verdict_of)
+                                   t_std, variance_dof, verdict as verdict_of)
 from laminid_cli.material import CONSTANT_NAMES
 from laminid_cli.objective import VariableSet, max_assignment, residual_rows
 from laminid_cli.parametrization import coefficients_and_jacobian
@@ -1670,19 +1670,12 @@ def variance_draws(uncertainty, n_trials: int, seed) -> tuple[np.ndarray, int]:
     s g with g = sqrt(nu / X): for a linear model the trials' constants are then Student t
     about the optimum (a normal over a chi-square's root), and their 2.5-97.5 % range is the
     t interval. On the stated sigma (nu = 0), g = 1."""
-    if uncertainty.scale_used != "residuals" or not uncertainty.dof > 0:
+    nu = variance_dof(uncertainty)
+    if not np.isfinite(nu):
         return np.ones(n_trials), 0
-    nu = int(uncertainty.dof)
+    nu = int(nu)
     rng = np.random.default_rng(None if seed is None else [int(seed), VARIANCE_STREAM])
     return np.sqrt(nu / rng.chisquare(nu, n_trials)), nu
-
-
-def t_std(nu: int) -> float:
-    """Standard deviation of Student's t with ``nu`` degrees of freedom (1 for nu = 0: the
-    normal; NaN for nu <= 2)."""
-    if nu == 0:
-        return 1.0
-    return float(np.sqrt(nu / (nu - 2))) if nu > 2 else float("nan")
 
 
 def sample_spread(samples, p: int, confidence: float):
@@ -2205,7 +2198,8 @@ def counting_fixed_spread(u: Uncertainty, before: Uncertainty, obs, materials,
         cross, add, Cf = DP @ DF.T, DP @ DP.T, DF @ DF.T
         add_stated = add / (float(before.variance_factor) if before.variance_factor > 0
                             else 1.0)
-    cov = np.asarray(u.covariance, float) + np.where(np.outer(inner, inner), add, 0.0)
+    added = np.where(np.outer(inner, inner), add, 0.0)
+    cov = np.asarray(u.covariance, float) + added
     std_u = np.asarray(u.std, float)
     with np.errstate(invalid="ignore"):
         std = np.where(np.isfinite(std_u), np.sqrt(np.clip(np.diag(cov), 0, None)), std_u)
@@ -2220,9 +2214,8 @@ def counting_fixed_spread(u: Uncertainty, before: Uncertainty, obs, materials,
     # the two parts are known with different degrees of freedom: the final run's noise with
     # its own (Student t where scaled by its s2), the spread with the run before fixing's;
     # each constant's quantile is Student t with their Welch-Satterthwaite combination
-    from laminid_cli.intervals import effective_dof, quantile_of, variance_dof
+    from laminid_cli.intervals import effective_dof, quantile_of
 
-    added = np.where(np.outer(inner, inner), add, 0.0)
     nu_s = variance_dof(before)
     nu_eff = effective_dof(np.diag(np.asarray(u.covariance, float)), variance_dof(u),
                            np.diag(added), nu_s)
@@ -2661,6 +2654,20 @@ def profile_bound(label: str, side: str, limit: float, far: float, delta, thresh
     return Profile(label, side, limit, bound, far, d_far, threshold, runs, text)
 
 
+def _identify_again(result, fms, opts, start, joint: bool):
+    """The plate(s) of ``fms`` identified with ``opts`` from ``start``, on a copy of
+    ``result``'s reduced basis (one per plate when ``joint``): the refits of the profiles
+    (:func:`refit_held`) and of the fixed values' check (:func:`_refit_releasing`)."""
+    from laminid_cli.identify import identify
+    from laminid_cli.joint import identify_joint
+
+    bases = result.basis
+    if joint:
+        return identify_joint(list(fms), opts, start=start,
+                              basis=None if bases is None else [b.copy() for b in bases])
+    return identify(fms[0], opts, start=start, basis=None if bases is None else bases.copy())
+
+
 def refit_held(result, fms, sigmas, kw: dict, joint: bool, label, value=None,
                max_evaluations: int = PROFILE_EVALUATIONS, unconverged: bool = False):
     """(result, uncertainty) of the others identified again with the constant ``label`` held
@@ -2669,24 +2676,12 @@ def refit_held(result, fms, sigmas, kw: dict, joint: bool, label, value=None,
     exactly, a little towards the initial values), its basis, at most ``max_evaluations``.
     FitError when that fit does not converge, unless ``unconverged``: then its best point is
     returned (``result.converged`` False), whose chi2 is an upper bound of the fit's."""
-    from laminid_cli.identify import identify
-    from laminid_cli.joint import identify_joint
-
     held = dict(label) if isinstance(label, dict) else {label: value}
     options = result.options
     names = tuple(result.material_names)
-    bases = result.basis
     fms_v = [_holding(fm, held) for fm in fms]
     opts = dataclasses.replace(options, fix=tuple(options.fix) + tuple(held),
                                max_evaluations=min(options.max_evaluations, max_evaluations))
-
-    def run(start):
-        if joint:
-            return identify_joint(fms_v, opts, start=start,
-                                  basis=None if bases is None else [b.copy() for b in bases])
-        return identify(fms_v[0], opts, start=start,
-                        basis=None if bases is None else bases.copy())
-
     for step in PROFILE_STEPS:
         start = [_between(c, c0, step) for c, c0 in zip(result.constants, result.initial)]
         for lab, v in held.items():
@@ -2694,7 +2689,7 @@ def refit_held(result, fms, sigmas, kw: dict, joint: bool, label, value=None,
             m = names.index(name)
             start[m] = dataclasses.replace(start[m], **{k: v})
         try:
-            r = run(start)
+            r = _identify_again(result, fms_v, opts, start, joint)
             break
         except FitInputError:
             if step == PROFILE_STEPS[-1]:
@@ -2882,7 +2877,6 @@ class FixedCheck:
 
     labels: tuple[str, ...]
     values: tuple[float, ...]
-    k: int
     chi2_before: float
     chi2: float
     test: str
@@ -2896,7 +2890,14 @@ class FixedCheck:
     release: str = ""
     release_chi2: float = float("nan")
     release_ok: bool = False
-    text: str = ""
+
+    @property
+    def k(self) -> int:
+        return len(self.labels)
+
+    @property
+    def text(self) -> str:
+        return fixed_check_text(self)
 
     def as_dict(self) -> dict:
         return {"labels": list(self.labels), "values": list(self.values), "k": self.k,
@@ -2914,8 +2915,9 @@ def _rise_test(before: Uncertainty, k: int) -> tuple[str, float, float]:
     from laminid_cli.quantiles import chi2_ppf, f_ppf
 
     conf = float(before.confidence)
-    if before.scale_used == "residuals" and before.dof > 0:
-        return "F", float(before.variance_factor), k * f_ppf(conf, k, before.dof)
+    nu = variance_dof(before)
+    if np.isfinite(nu):
+        return "F", float(before.variance_factor), k * f_ppf(conf, k, nu)
     return "chi2", 1.0, chi2_ppf(conf, k)
 
 
@@ -2962,29 +2964,19 @@ def with_fixed_check(u: Uncertainty, before: Uncertainty, fixed, result, fms, si
         if release:
             _, s1, l1 = _rise_test(before, k - 1)
             release_ok = bool((release_chi2 - float(before.chi2)) / s1 <= l1)
-    check = FixedCheck(fixed, values, k, float(before.chi2), float(u.chi2), test, scale,
-                       stat, limit, float(before.confidence), rejected, worst, moved,
-                       release, release_chi2, release_ok)
-    return dataclasses.replace(u, fixed_check=dataclasses.replace(
-        check, text=fixed_check_text(check)))
+    return dataclasses.replace(u, fixed_check=FixedCheck(
+        fixed, values, float(before.chi2), float(u.chi2), test, scale, stat, limit,
+        float(before.confidence), rejected, worst, moved, release, release_chi2, release_ok))
 
 
 def _refit_releasing(result, fms, label: str, joint: bool):
     """``result`` identified again with its fixed constant ``label`` free (from its optimum
     and basis; at most :data:`PROFILE_EVALUATIONS` evaluations)."""
-    from laminid_cli.identify import identify
-    from laminid_cli.joint import identify_joint
-
     options = result.options
     opts = dataclasses.replace(options, fix=tuple(x for x in options.fix if x != label),
                                max_evaluations=min(options.max_evaluations,
                                                    PROFILE_EVALUATIONS))
-    bases = result.basis
-    start = list(result.constants)
-    if joint:
-        return identify_joint(list(fms), opts, start=start,
-                              basis=None if bases is None else [b.copy() for b in bases])
-    return identify(fms[0], opts, start=start, basis=None if bases is None else bases.copy())
+    return _identify_again(result, fms, opts, list(result.constants), joint)
 
 
 def fixed_check_text(c: FixedCheck) -> str:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import re
 
-from laminid_cli.intervals import VERDICT_NOT, flag_words, spread_sentence, width_text
+from laminid_cli.intervals import VERDICT_NOT, flag_words, spread_sentence, t_std, width_text
 
 #: the advice that ends the verdict "not determined by these modes — fix it or ..." (shown
 #: once in the constants' table, not again for the laminate's properties)
@@ -434,7 +434,7 @@ def format_uncertainty(u: dict) -> list[str]:
                     limits.append(f"{lab} ({', '.join(at)})")
         if nu:
             lines.append(f"  ratio: Monte Carlo std over the linearised std times "
-                         f"{fmt(math.sqrt(nu / (nu - 2)) if nu > 2 else math.nan, '.3g')}, "
+                         f"{fmt(t_std(nu), '.3g')}, "
                          f"the std of Student t with {nu} degrees of freedom (1 for a linear "
                          "model" + ("" if nu > 2 else "; none below 3 degrees of freedom")
                          + ")")
