@@ -375,6 +375,7 @@ def test_hdf5_with_flipped_bits_is_a_clear_error_or_reads(frf_files, tmp_path):
     assert codes == {0, 2}
 
 
+@pytest.mark.parametrize("route", ["fork", "new interpreter"])
 @pytest.mark.parametrize("pos, timeout, words", [
     (1065, 3.0, "the HDF5 library crashed reading the file (SIGSEGV); the file is damaged"),
     # the loop never ends, so the probe's whole timeout is waited: 1 s (was 3 s) is as good;
@@ -382,12 +383,17 @@ def test_hdf5_with_flipped_bits_is_a_clear_error_or_reads(frf_files, tmp_path):
     (2400, 1.0, "the HDF5 library did not finish reading the file in 1 s; the file is damaged"),
 ])
 def test_hdf5_file_that_crashes_or_hangs_libhdf5_is_refused(frf_files, tmp_path, monkeypatch,
-                                                           pos, timeout, words):
+                                                           pos, timeout, words, route):
     # one flipped bit that makes libhdf5 1.14 segfault, one that makes it loop (found by the
-    # fuzz test); the child process of probe_hdf5_file takes the risk
+    # fuzz test); the child process of probe_hdf5_file takes the risk, a fork of this process
+    # or (where a fork is not safe) a new interpreter
     import laminid_cli.frf.store as store
 
     monkeypatch.setattr(store, "H5_PROBE_TIMEOUT_S", timeout)
+    if route == "fork":
+        assert store._fork_is_safe()        # Linux, one Python thread: what CI runs
+    else:
+        monkeypatch.setattr(store, "_fork_is_safe", lambda: False)
     data = bytearray(Path(frf_files["h5"]).read_bytes())
     data[pos] ^= 0xFF
     path = tmp_path / "damaged.h5"
@@ -395,6 +401,73 @@ def test_hdf5_file_that_crashes_or_hangs_libhdf5_is_refused(frf_files, tmp_path,
     code, out = fit_error(path)
     assert code == 2
     assert f"{path}: {words}" in out, out
+
+
+def _count_calls(monkeypatch, module, name):
+    calls = []
+    fn = getattr(module, name)
+
+    def counted(*args, **kwargs):
+        calls.append(args)
+        return fn(*args, **kwargs)
+
+    monkeypatch.setattr(module, name, counted)
+    return calls
+
+
+def test_hdf5_probe_forks_unless_another_python_thread_runs(frf_files, monkeypatch):
+    """The probe's child is a fork (~10 ms) while this process runs one Python thread, a new
+    interpreter (~0.3 s) while another runs (a lock it holds would stay held in a fork); a
+    good file reads either way."""
+    import threading
+
+    import laminid_cli.frf.store as store
+    from laminid_cli.frf.io import read_frf
+
+    forked = _count_calls(monkeypatch, store, "_probe_forked")
+    spawned = _count_calls(monkeypatch, store, "_probe_spawned")
+    assert read_frf(frf_files["h5"]).frf.shape == (3, 801)
+    assert (len(forked), len(spawned)) == (1, 0)
+    stop = threading.Event()
+    other = threading.Thread(target=stop.wait)
+    other.start()
+    try:
+        assert read_frf(frf_files["h5"]).frf.shape == (3, 801)
+    finally:
+        stop.set()
+        other.join()
+    assert (len(forked), len(spawned)) == (1, 1)
+
+
+def test_a_forked_probe_out_of_time_is_confirmed_by_a_new_interpreter(frf_files, monkeypatch):
+    """A fork that does not finish (a native thread's lock held at the fork could do that) is
+    not taken for a damaged file: the new interpreter reads the good file, and it reads."""
+    import laminid_cli.frf.store as store
+    from laminid_cli.frf.io import read_frf
+
+    monkeypatch.setattr(store, "_probe_forked", lambda *a: "timeout")
+    spawned = _count_calls(monkeypatch, store, "_probe_spawned")
+    assert read_frf(frf_files["h5"]).frf.shape == (3, 801)
+    assert len(spawned) == 1
+
+
+def _raise_in_reader(path, probe=False):
+    raise KeyError(f"no reader for {path}")
+
+
+def test_a_forked_probe_reports_an_unexpected_error_and_keeps_the_parents_streams(
+        frf_files, capfd):
+    """An exception other than a LaminidError in the child names the file and the reason; the
+    child writes nothing to this process's stdout or stderr."""
+    import laminid_cli.frf.store as store
+    from laminid_cli.errors import FrfError
+
+    with pytest.raises(FrfError) as err:
+        store.probe_hdf5_file(frf_files["h5"], reader="_raise_in_reader",
+                              module="tests.test_hostile_input")
+    assert str(err.value) == (f"{frf_files['h5']}: the file cannot be read (KeyError: 'no "
+                              f"reader for {frf_files['h5']}')")
+    assert capfd.readouterr() == ("", "")
 
 
 def test_hdf5_dangling_soft_link_is_named(frf_files, tmp_path):
