@@ -159,13 +159,13 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
     if spread and spread_free is not None:
         # the spread's part is known with the run before fixing's degrees of freedom, the
         # rest with the final run's: Welch-Satterthwaite per property, as for the constants
-        from laminid_cli.intervals import effective_dof, quantile_of, variance_dof
+        from laminid_cli.intervals import effective_dof, quantiles_of, variance_dof
 
         noise = cov - np.nan_to_num(np.asarray(spread_free, float))
         v_n = (np.einsum("ij,jk,ik->i", Jf, noise[np.ix_(keep, keep)], Jf) if keep
                else np.zeros(len(KEYS)))
         nu = effective_dof(v_n, variance_dof(u), np.maximum(var - v_n, 0.0), u.spread_dof)
-        q = np.array([quantile_of(float(u.confidence), float(n)) for n in nu])
+        q = quantiles_of(u.confidence, nu)
     # fixed because it was at a limit of the search in the run before (no spread to count)
     was_at_limit = set()
     if before is not None and getattr(before, "at_bound", None) is not None:

@@ -78,6 +78,14 @@ def quantile_of(confidence: float, nu: float) -> float:
     return t_ppf(0.5 + confidence / 2, float(nu))
 
 
+def quantiles_of(confidence: float, nus):
+    """:func:`quantile_of` for each of the degrees of freedom ``nus`` (per constant, per
+    laminate property)."""
+    import numpy as np
+
+    return np.array([quantile_of(float(confidence), float(n)) for n in np.ravel(nus)])
+
+
 def variance_dof(u) -> float:
     """The degrees of freedom of an uncertainty's variance factor: its residuals' where its
     intervals are scaled by s2 (Student t), infinite on the stated sigma."""

@@ -2214,12 +2214,12 @@ def counting_fixed_spread(u: Uncertainty, before: Uncertainty, obs, materials,
     # the two parts are known with different degrees of freedom: the final run's noise with
     # its own (Student t where scaled by its s2), the spread with the run before fixing's;
     # each constant's quantile is Student t with their Welch-Satterthwaite combination
-    from laminid_cli.intervals import effective_dof, quantile_of
+    from laminid_cli.intervals import effective_dof, quantiles_of
 
     nu_s = variance_dof(before)
     nu_eff = effective_dof(np.diag(np.asarray(u.covariance, float)), variance_dof(u),
                            np.diag(added), nu_s)
-    q = np.array([quantile_of(float(u.confidence), float(n)) for n in nu_eff])
+    q = quantiles_of(u.confidence, nu_eff)
     half = q * std
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         rel = np.where(value != 0, half / np.abs(value), np.inf)
