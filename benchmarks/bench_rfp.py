@@ -5,6 +5,9 @@ Run: .venv/bin/python benchmarks/bench_rfp.py   (median of REPEAT runs, single-t
 Cases: the full axis with automatic bands, the full axis given as one band (split internally
 into overlapping sub-bands), and the same without the output-error pole refinement; 3 %
 proportional noise. Exits 1 if the default case takes 1 s or more.
+
+Also the read of the same FRFs from laminid's HDF5 file, whose damaged-file probe (a child
+process reads the file first: frf/store.py) is a fork of this process or a new interpreter.
 """
 
 from _timing import median_time as _median_time  # first: sets single-threaded BLAS
@@ -42,7 +45,28 @@ def main() -> int:
               f"max error {100 * err:.4f} %")
         if name == "auto bands" and t >= LIMIT_S:
             status = 1
+    read_times(case)
     return status
+
+
+def read_times(case) -> None:
+    """Median time of reading the FRF HDF5 file with each probe route, and without one."""
+    import tempfile
+    from unittest import mock
+
+    from laminid_cli.frf import io, store
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = io.write_frf(Path(tmp) / "plate.frf.h5",
+                               store.FrfSet(freq=case.freq, frf=case.frf, units="m/N"))
+        routes = {"probe in a fork": lambda: True, "probe in a new interpreter": lambda: False}
+        print(f"read {path.name} ({path.stat().st_size / 1e6:.1f} MB):")
+        for name, fork in routes.items():
+            with mock.patch.object(store, "_fork_is_safe", fork):
+                t, _ = median_time(lambda: store.read_frf_h5(path))
+            print(f"  {name:28s} {t * 1e3:7.1f} ms")
+        t, _ = median_time(lambda: store.read_frf_h5(path, probe=False))
+        print(f"  {'no probe':28s} {t * 1e3:7.1f} ms")
 
 
 if __name__ == "__main__":
