@@ -126,6 +126,20 @@ def cli(verbose: int, quiet: bool):
     """
     level = logging.ERROR if quiet else (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)]
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    if not verbose:
+        for handler in logging.getLogger().handlers:
+            if type(handler.formatter) is logging.Formatter:     # basicConfig's own
+                handler.setFormatter(_UserFormatter(handler.formatter._fmt))
+
+
+class _UserFormatter(logging.Formatter):
+    """laminid's own warnings and errors as the commands write theirs ("warning: ..."); other
+    libraries' records, and every record with -v, name their logger."""
+
+    def format(self, record):
+        if record.name.split(".")[0] == "laminid_cli":
+            return f"{record.levelname.lower()}: {record.getMessage()}"
+        return super().format(record)
 
 
 def main():  # kept for callers of the old entry point: laminid_cli.__main__.main

@@ -249,6 +249,10 @@ def monte_carlo_text(k: str, rng: MonteCarloRange, value: float) -> tuple[str, s
     return ends, widths
 
 
+#: the colour of a CHECK status and of other warnings drawn on a page
+CHECK_COLOR = "#b35900"
+
+
 def status_line(r: ResultFile) -> tuple[str, str]:
     """(headline, colour) of the result's status; files without one say so."""
     if r.status is None:
@@ -257,9 +261,9 @@ def status_line(r: ResultFile) -> tuple[str, str]:
     if r.status.status == "ok":
         return "status: OK", "#1a7f37"
     if not r.status.reasons:
-        return "status: CHECK — no reason given", "#b35900"
+        return "status: CHECK — no reason given", CHECK_COLOR
     lines = [f"[{x.code}] {x.text}" for x in r.status.reasons]
-    return "status: CHECK — " + "\n".join(lines), "#b35900"
+    return "status: CHECK — " + "\n".join(lines), CHECK_COLOR
 
 
 def _title(r: ResultFile, plate=None, what: str = "") -> str:
@@ -1238,7 +1242,7 @@ def history_page(r: ResultFile):
             ax.yaxis.set_minor_formatter(NullFormatter())
     if hits:
         _footer(fig, "X: constant that ended at a bound of the feasible set (not identified): "
-                + ", ".join(sorted(hits)), color="#b35900")
+                + ", ".join(sorted(hits)), color=CHECK_COLOR)
     return fig
 
 
@@ -1311,6 +1315,31 @@ def frf_source(plate, frf_path=None):
     return p, bands, n_modes
 
 
+#: relative difference of an RFP frequency from the one the identification used above which
+#: the FRF file is not the one identified from (the same file fits the same to ~1e-15; a point
+#: added or a record replaced moves the frequencies by 1e-5 and more)
+FRF_CHANGED_REL = 1e-9
+
+
+def frf_fit_changed(fit_hz, measured_hz) -> str | None:
+    """None when the RFP frequencies of an FRF file, fitted now, are those the identification
+    used (``measured_hz``, the result's measured frequencies); else what differs, in words."""
+    fit_hz = np.asarray(fit_hz, float)
+    measured_hz = np.asarray(measured_hz, float)
+    if fit_hz.shape != measured_hz.shape:
+        return (f"its fit now gives {fit_hz.size} modes, the identification used "
+                f"{measured_hz.size} frequencies: not the FRFs identified from (the file "
+                "changed since, or other bands or modes were given)")
+    rel = np.abs(fit_hz - measured_hz) / np.abs(measured_hz)
+    rel = np.where(np.isnan(measured_hz), 0.0, rel)
+    i = int(np.argmax(rel))
+    if not rel[i] > FRF_CHANGED_REL:
+        return None
+    return (f"its fit now gives mode {i + 1} at {fit_hz[i]:.6g} Hz, the identification used "
+            f"{measured_hz[i]:.6g} Hz ({rel[i] * 100:.2g} %): not the FRFs identified from "
+            "(the file changed since, or other bands or modes were given)")
+
+
 def frf_page(r: ResultFile, plate, frf_path, bands=None, n_modes=None):
     """Measured FRFs (over the RFP fit), phase, coherence, RFP and model frequencies."""
     from laminid_cli.frf import rfp
@@ -1321,6 +1350,11 @@ def frf_page(r: ResultFile, plate, frf_path, bands=None, n_modes=None):
     fit = rfp.find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes)
     fig = _figure()
     fig.suptitle(f"{plate.name}: FRFs of {Path(frf_path).name} with the RFP fit", fontsize=11)
+    changed = frf_fit_changed(fit.freq_hz, plate.frequencies.measured)
+    if changed:
+        log.warning("%s: %s", frf_path, changed)
+        _footer(fig, f"{Path(frf_path).name}: {changed}", color=CHECK_COLOR,
+                weight="bold", gid="frf-changed")
     coh = has_coherence(fs.coherence)
     ratios = [3, 1.4] + ([0.9] if coh else [])
     axes = fig.subplots(len(ratios), 1, sharex=True, height_ratios=ratios)
@@ -1738,7 +1772,7 @@ def constants_across_page(done, title: str):
                         "not found: a value at a search limit or not determined looks like any "
                         "other here; use the long summary.csv or summary.json")
     if notes:
-        _footer(fig, "\n".join(notes), color="#b35900")
+        _footer(fig, "\n".join(notes), color=CHECK_COLOR)
     return fig
 
 

@@ -88,3 +88,39 @@ def test_a_mode_not_measured_keeps_the_columns():
     ends = [m.end() for m in re.finditer(r"\S+", head)]            # right-aligned columns
     assert [m.end() for m in re.finditer(r"\S+", missing)] == [ends[0], ends[2], ends[4],
                                                                 ends[6], ends[7]]
+
+
+HEAVY = """\
+name: T
+geometry: {a: 200 mm, b: 300 mm, h: 3 mm}
+mass: 0.5 kg
+materials:
+  CFRP: {E1: 117.2 GPa, E2: 8.8 GPa, G12: 3.1 GPa, G13: 3.1 GPa, G23: 3.1 GPa, nu12: 0.35,
+         density: 1550 kg/m^3}
+layup: "[0/90]s"
+measured:
+  frequencies: [100, 200, 300]
+"""
+
+
+def test_warnings_read_as_the_commands_own_and_name_their_module_with_v(tmp_path):
+    """laminid's logged warnings come out as "warning: ..." (as the commands write theirs), not
+    "WARNING laminid_cli.specimen: ..."; -v names the module. The model mass of this plate,
+    1550 kg/m^3 x 0.2 x 0.3 x 0.003 m^3 = 0.279 kg, is 44.2 % below the 0.5 kg weighed."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    spec = tmp_path / "heavy.yaml"
+    spec.write_text(HEAVY)
+    root = Path(__file__).resolve().parents[1]
+    words = (f"{spec}: the model mass 0.279 kg differs from the measured mass 0.5 kg by "
+             "-44.2 %")
+    for flags, line in (([], f"warning: {words}"),
+                        (["-v"], f"WARNING laminid_cli.specimen: {words}")):
+        p = subprocess.run([sys.executable, "-m", "laminid_cli", *flags, "modes", str(spec),
+                            "--mesh", "4x4", "--json"], capture_output=True, text=True,
+                           cwd=root, timeout=120)
+        assert p.returncode == 0, p.stderr
+        assert line in p.stderr.splitlines(), p.stderr
+        json.loads(p.stdout)

@@ -420,9 +420,60 @@ def test_frf_page_for_a_specimen_fitted_from_an_frf_file(tmp_path):
     coh = next(x for x in fig.axes if x.get_ylabel() == "coherence (–)")
     lines = [ln for ln in coh.get_lines() if ln.get_gid() == "coherence"]
     assert len(lines) == 3 and np.array_equal(lines[0].get_ydata(), coherence[0])
+    assert not [t for t in fig.texts if t.get_gid() == "frf-changed"]   # the file identified
     r = run("report", res, "-o", tmp_path / "plate.png", "--dpi", "50")
     assert r.exit_code == 0 and "frf" in r.output
     assert (tmp_path / "plate-6.png").read_bytes()[:8] == PNG
+
+
+def test_frf_page_of_an_frf_file_changed_since_the_identification_says_so(tmp_path, caplog):
+    """The FRF page draws the specimen's FRF file as it is when the report is made: where its
+    fit no longer gives the frequencies the identification used (a record replaced, points
+    added), the page and a warning say so, naming the mode that moved most."""
+    import logging
+
+    spec = read_specimen(S21)
+    fm = build_forward_model(spec, (6, 6))
+    f_true = fm.solve([fm.initial_constants[0]], 6).freq
+    freq = np.arange(0.5, 560.0, 0.5)
+    rng = np.random.default_rng(3)
+    constants = rng.choice([-1, 1], size=(2, 6)) * rng.uniform(0.3, 1.0, size=(2, 6))
+
+    def write(shift):
+        frf = synth_frf(freq, np.column_stack([f_true * shift, np.full(6, 0.008)]), constants,
+                        kind="accelerance", noise=0.0, seed=4)
+        path = tmp_path / "plate.frf.h5"
+        path.unlink(missing_ok=True)
+        write_frf_h5(path, freq, frf, units="(m/s^2)/N")
+
+    write(np.ones(6))
+    text = open(S21).read().replace(MEASURED_BLOCK, "  frf_file: plate.frf.h5\n  modes: 6")
+    (tmp_path / "plate.yaml").write_text(text)
+    res = tmp_path / "plate.result.h5"
+    r = run("identify", tmp_path / "plate.yaml", "--mesh", "6x6", "--fix", "nu12,G13,G23",
+            "-o", res)
+    assert r.exit_code == 0, r.output
+    used = read_result(res).plates[0].frequencies.measured
+    write(np.r_[1, 1, 1.003, 1, 1, 1])                 # mode 3 now 0.3 % higher
+    with caplog.at_level(logging.WARNING, logger="laminid_cli.report"):
+        fig = {p.name: p.figure for p in report_pages(res)}["frf"]
+    note = [t.get_text() for t in fig.texts if t.get_gid() == "frf-changed"]
+    assert len(note) == 1 and note[0].startswith("plate.frf.h5: its fit now gives mode 3 at ")
+    now = float(note[0].split("mode 3 at ")[1].split(" Hz")[0])
+    assert now == pytest.approx(used[2] * 1.003, rel=1e-5)
+    assert (f"the identification used {used[2]:.6g} Hz (0.3 %): not the FRFs identified from"
+            in " ".join(note[0].split()))
+    assert [m for m in caplog.messages if "its fit now gives mode 3" in m]
+
+
+def test_frf_fit_changed_words():
+    from laminid_cli.report import frf_fit_changed
+
+    assert frf_fit_changed([100.0, 200.0], [100.0, 200.0 * (1 + 1e-12)]) is None
+    assert frf_fit_changed([100.0, 201.0], [100.0, 200.0]).startswith(
+        "its fit now gives mode 2 at 201 Hz, the identification used 200 Hz (0.5 %)")
+    assert frf_fit_changed([100.0, 200.0, 300.0], [100.0, 200.0]).startswith(
+        "its fit now gives 3 modes, the identification used 2 frequencies")
 
 
 def test_report_of_a_batch_summary(batch_dir, tmp_path):
