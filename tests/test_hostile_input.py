@@ -451,6 +451,24 @@ def test_a_forked_probe_out_of_time_is_confirmed_by_a_new_interpreter(frf_files,
     assert len(spawned) == 1
 
 
+def test_a_forked_probe_that_fails_before_reading_hands_over_to_a_new_interpreter(
+        frf_files, monkeypatch):
+    """A fork whose own set-up fails (before it reads the file) says nothing of the file: the
+    new interpreter reads it, and the good file reads."""
+    import laminid_cli.frf.store as store
+    from laminid_cli.frf.io import read_frf
+
+    def broken():
+        raise OSError("no /dev/null")
+
+    monkeypatch.setattr(store, "_quiet_child", broken)
+    assert store._probe_forked(frf_files["h5"], "read_frf_h5", "laminid_cli.frf.store",
+                               30.0) == "no fork"
+    spawned = _count_calls(monkeypatch, store, "_probe_spawned")
+    assert read_frf(frf_files["h5"]).frf.shape == (3, 801)
+    assert len(spawned) == 1
+
+
 def _raise_in_reader(path, probe=False):
     raise KeyError(f"no reader for {path}")
 

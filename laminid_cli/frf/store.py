@@ -282,12 +282,13 @@ def _probe_forked(path, reader: str, module: str, timeout: float):
         log.debug("HDF5 probe not forked: %s", exc)
         return "no fork"            # the caller reads it in a new interpreter instead
     if pid == 0:                    # the child: never returns
-        code = 1
+        code = _PROBE_NOT_RUN       # until the file is being read
         try:
             os.close(read_end)
             _quiet_child()
             from laminid_cli.errors import LaminidError
 
+            code = 1
             try:
                 getattr(importlib.import_module(module), reader)(path, probe=False)
                 code = 0
@@ -325,7 +326,13 @@ def _probe_forked(path, reader: str, module: str, timeout: float):
     returncode = os.waitstatus_to_exitcode(status)
     if returncode == 0:
         return None
+    if returncode == _PROBE_NOT_RUN and not reason:
+        return "no fork"            # the child failed before reading: not the file's doing
     return returncode, reason.decode("utf-8", "replace")
+
+
+#: exit code of a forked probe that failed before it began to read the file
+_PROBE_NOT_RUN = 3
 
 
 def _quiet_child() -> None:
