@@ -210,8 +210,10 @@ HELD_TRIALS = [
 
 def test_user_fixed_values_stay_held_and_the_trials_are_as_before():
     """Values fixed with --fix have no stated doubt: the trials hold them, and are the ones
-    recorded above (equal to the last bit on the machine that recorded them, rtol 1e-12 for
-    other BLAS builds; the fixed values' draws, added later, did not change them). With
+    recorded above (rtol 1e-8: a trial ends within its convergence tolerance, and the two
+    routes' answers below differ by 3e-10, so the banded Cholesky where CHOLMOD does not
+    install, or another BLAS build, moves the last digits by ~3e-11; a changed draw moves
+    them by ~1e-2; the fixed values' draws, added later, did not change them). With
     --fix-undetermined the trials that hold the fixed values (their flags decide what to
     fix) are the recorded ones as well: the fixed values' draws have a stream of their own,
     the frequency draws are unchanged."""
@@ -221,12 +223,12 @@ def test_user_fixed_values_stay_held_and_the_trials_are_as_before():
     assert a.fixed_undetermined == () and a.monte_carlo_given_fixed is None
     mc = a.monte_carlo
     assert mc.fixed_labels == () and mc.fixed_samples is None and mc.labels == FREE
-    np.testing.assert_allclose(mc.samples, USER_FIXED_TRIALS, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(mc.samples, USER_FIXED_TRIALS, rtol=1e-8, atol=0)
     assert not any("Monte Carlo trial drew" in n for n in a.uncertainty.notes)
     b = assess(fm, IdentifyOptions(),
                UncertaintyOptions(fix_undetermined=True, monte_carlo=6, jobs=1, seed=7))
     assert b.fixed_undetermined == FIXED
-    np.testing.assert_allclose(b.monte_carlo_given_fixed.samples, HELD_TRIALS, rtol=1e-12,
+    np.testing.assert_allclose(b.monte_carlo_given_fixed.samples, HELD_TRIALS, rtol=1e-8,
                                atol=0)
     assert b.monte_carlo.fixed_labels == FIXED
     # the same frequency draws with the fixed values drawn: other answers
