@@ -375,68 +375,87 @@ def test_hdf5_with_flipped_bits_is_a_clear_error_or_reads(frf_files, tmp_path):
     assert codes == {0, 2}
 
 
+def _count_calls(monkeypatch, module, name):
+    calls = []
+    fn = getattr(module, name)
+
+    def counted(*args, **kwargs):
+        out = fn(*args, **kwargs)
+        calls.append(out)
+        return out
+
+    monkeypatch.setattr(module, name, counted)
+    return calls
+
+
 @pytest.mark.parametrize("route", ["fork", "new interpreter"])
 @pytest.mark.parametrize("pos, timeout, words", [
-    (1065, 3.0, "the HDF5 library crashed reading the file (SIGSEGV); the file is damaged"),
+    (1065, 3.0, "the HDF5 library crashed reading the file (SIGSEGV)"),
     # the loop never ends, so the probe's whole timeout is waited: 1 s (was 3 s) is as good;
     # the crash keeps 3 s, room for the child to start and reach it on a loaded machine
-    (2400, 1.0, "the HDF5 library did not finish reading the file in 1 s; the file is damaged"),
+    (2400, 1.0, "the HDF5 library did not finish reading the file in 1 s"),
 ])
 def test_hdf5_file_that_crashes_or_hangs_libhdf5_is_refused(frf_files, tmp_path, monkeypatch,
                                                            pos, timeout, words, route):
-    # one flipped bit that makes libhdf5 1.14 segfault, one that makes it loop (found by the
-    # fuzz test); the child process of probe_hdf5_file takes the risk, a fork of this process
-    # or (where a fork is not safe) a new interpreter
+    """One flipped bit that makes libhdf5 1.14 segfault, one that makes it loop (found by the
+    fuzz test): the child process of probe_hdf5_file takes the risk. A fork decides a crash
+    alone; its time running out is confirmed by a new interpreter (two tries)."""
     import laminid_cli.frf.store as store
 
     monkeypatch.setattr(store, "H5_PROBE_TIMEOUT_S", timeout)
-    if route == "fork":
-        assert store._fork_is_safe()        # Linux, one Python thread: what CI runs
-    else:
-        monkeypatch.setattr(store, "_fork_is_safe", lambda: False)
+    # the route chosen here: whether a fork is safe depends on the threads this test
+    # process runs (another test may have left one), which test_hdf5_probe_forks_... checks
+    monkeypatch.setattr(store, "_fork_is_safe", lambda: route == "fork")
+    forked = _count_calls(monkeypatch, store, "_probe_forked")
+    spawned = _count_calls(monkeypatch, store, "_probe_spawned")
     data = bytearray(Path(frf_files["h5"]).read_bytes())
     data[pos] ^= 0xFF
     path = tmp_path / "damaged.h5"
     path.write_bytes(data)
     code, out = fit_error(path)
     assert code == 2
-    assert f"{path}: {words}" in out, out
-
-
-def _count_calls(monkeypatch, module, name):
-    calls = []
-    fn = getattr(module, name)
-
-    def counted(*args, **kwargs):
-        calls.append(args)
-        return fn(*args, **kwargs)
-
-    monkeypatch.setattr(module, name, counted)
-    return calls
+    hang = pos == 2400
+    tries = " (two tries)" if hang and route == "fork" else ""
+    assert f"{path}: {words}{tries}; the file is damaged" in out, out
+    if route == "fork":
+        assert forked == [store._TIMEOUT if hang else (-11, "")]
+        assert len(spawned) == (1 if hang else 0)
+    else:
+        assert forked == [] and len(spawned) == 1
 
 
 def test_hdf5_probe_forks_unless_another_python_thread_runs(frf_files, monkeypatch):
-    """The probe's child is a fork (~10 ms) while this process runs one Python thread, a new
-    interpreter (~0.3 s) while another runs (a lock it holds would stay held in a fork); a
-    good file reads either way."""
+    """The probe's child is a fork (20-30 ms) while this process runs one thread of the
+    threading module, a new interpreter (0.2-0.3 s) while another runs (a lock it holds would
+    stay held in a fork) or while SIGCHLD is ignored; a good file reads either way."""
+    import signal
     import threading
 
     import laminid_cli.frf.store as store
     from laminid_cli.frf.io import read_frf
 
+    monkeypatch.setattr(threading, "active_count", lambda: 1)
+    assert store._fork_is_safe()
     forked = _count_calls(monkeypatch, store, "_probe_forked")
     spawned = _count_calls(monkeypatch, store, "_probe_spawned")
     assert read_frf(frf_files["h5"]).frf.shape == (3, 801)
-    assert (len(forked), len(spawned)) == (1, 0)
+    assert (forked, len(spawned)) == ([None], 0)
+    monkeypatch.undo()
     stop = threading.Event()
     other = threading.Thread(target=stop.wait)
     other.start()
     try:
+        assert not store._fork_is_safe()
+        spawned = _count_calls(monkeypatch, store, "_probe_spawned")
         assert read_frf(frf_files["h5"]).frf.shape == (3, 801)
+        assert spawned == [None]
     finally:
         stop.set()
         other.join()
-    assert (len(forked), len(spawned)) == (1, 1)
+    monkeypatch.setattr(threading, "active_count", lambda: 1)
+    monkeypatch.setattr(signal, "getsignal",
+                        lambda sig: signal.SIG_IGN if sig == signal.SIGCHLD else None)
+    assert not store._fork_is_safe()
 
 
 def test_a_forked_probe_out_of_time_is_confirmed_by_a_new_interpreter(frf_files, monkeypatch):
@@ -445,47 +464,126 @@ def test_a_forked_probe_out_of_time_is_confirmed_by_a_new_interpreter(frf_files,
     import laminid_cli.frf.store as store
     from laminid_cli.frf.io import read_frf
 
-    monkeypatch.setattr(store, "_probe_forked", lambda *a: "timeout")
+    monkeypatch.setattr(store, "_fork_is_safe", lambda: True)
+    monkeypatch.setattr(store, "_probe_forked", lambda *a: store._TIMEOUT)
     spawned = _count_calls(monkeypatch, store, "_probe_spawned")
     assert read_frf(frf_files["h5"]).frf.shape == (3, 801)
-    assert len(spawned) == 1
+    assert spawned == [None]
 
 
 def test_a_forked_probe_that_fails_before_reading_hands_over_to_a_new_interpreter(
         frf_files, monkeypatch):
     """A fork whose own set-up fails (before it reads the file) says nothing of the file: the
     new interpreter reads it, and the good file reads."""
+    import faulthandler
+
     import laminid_cli.frf.store as store
     from laminid_cli.frf.io import read_frf
 
-    def broken():
-        raise OSError("no /dev/null")
+    def broken(*args):
+        raise RuntimeError("set-up failed")
 
-    monkeypatch.setattr(store, "_quiet_child", broken)
-    assert store._probe_forked(frf_files["h5"], "read_frf_h5", "laminid_cli.frf.store",
-                               30.0) == "no fork"
+    monkeypatch.setattr(store, "_fork_is_safe", lambda: True)
+    monkeypatch.setattr(faulthandler, "disable", broken)     # called in the child only
+    forked = _count_calls(monkeypatch, store, "_probe_forked")
     spawned = _count_calls(monkeypatch, store, "_probe_spawned")
     assert read_frf(frf_files["h5"]).frf.shape == (3, 801)
-    assert len(spawned) == 1
+    assert forked == [store._UNSURE] and spawned == [None]
+
+
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM", "SIGKILL"])
+def test_a_forked_probe_killed_by_a_signal_that_is_no_crash_leaves_the_file_to_a_new_interpreter(
+        frf_files, monkeypatch, sig):
+    """Ctrl-C meant for the child alone (the parent ignores it), or a kill from outside, says
+    nothing of the file: no "crashed reading the file (SIGINT)"; a new interpreter reads it."""
+    import os
+    import signal
+
+    import laminid_cli.frf.store as store
+    from laminid_cli.frf.io import read_frf
+
+    def child(*args):                 # in the fork: killed by ``sig`` before it reads
+        try:
+            number = getattr(signal, sig)
+            if number != signal.SIGKILL:
+                signal.signal(number, signal.SIG_DFL)
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, {number})
+            os.kill(os.getpid(), number)
+            time.sleep(10)
+        finally:
+            os._exit(0)
+
+    monkeypatch.setattr(store, "_fork_is_safe", lambda: True)
+    monkeypatch.setattr(store, "_probe_child", child)
+    forked = _count_calls(monkeypatch, store, "_probe_forked")
+    spawned = _count_calls(monkeypatch, store, "_probe_spawned")
+    assert read_frf(frf_files["h5"]).frf.shape == (3, 801)
+    assert forked == [store._UNSURE] and spawned == [None]
 
 
 def _raise_in_reader(path, probe=False):
+    import os
+
+    os.write(1, b"from the reader: fd 1\n")
+    os.write(2, b"from the reader: fd 2\n")
     raise KeyError(f"no reader for {path}")
 
 
 def test_a_forked_probe_reports_an_unexpected_error_and_keeps_the_parents_streams(
-        frf_files, capfd):
-    """An exception other than a LaminidError in the child names the file and the reason; the
-    child writes nothing to this process's stdout or stderr."""
+        frf_files, capfd, monkeypatch):
+    """An exception other than a LaminidError in the child names the file and the reason;
+    what the child writes to its standard streams does not reach this process's."""
     import laminid_cli.frf.store as store
     from laminid_cli.errors import FrfError
 
+    monkeypatch.setattr(store, "_fork_is_safe", lambda: True)
     with pytest.raises(FrfError) as err:
         store.probe_hdf5_file(frf_files["h5"], reader="_raise_in_reader",
                               module="tests.test_hostile_input")
     assert str(err.value) == (f"{frf_files['h5']}: the file cannot be read (KeyError: 'no "
                               f"reader for {frf_files['h5']}')")
     assert capfd.readouterr() == ("", "")
+
+
+def test_a_forked_probe_works_with_the_standard_streams_closed(frf_files, tmp_path):
+    """With stdout and stderr closed (cron, a daemon), os.pipe gives 1 and 2: the child moves
+    its end of the pipe above them before /dev/null goes there, so a crash is still decided
+    and a reader's words still arrive (before, the child's pipe was /dev/null, and the
+    parent waited for its exit without a limit)."""
+    import subprocess
+    import sys
+
+    data = bytearray(Path(frf_files["h5"]).read_bytes())
+    data[1065] ^= 0xFF
+    bad = tmp_path / "damaged.h5"
+    bad.write_bytes(data)
+    code = f"""
+import sys, os
+sys.path.insert(0, {str(Path(__file__).resolve().parents[1])!r})
+import laminid_cli.frf.store as store
+assert store._fork_is_safe()
+out = os.open({str(tmp_path / "out.txt")!r}, os.O_WRONLY | os.O_CREAT)
+os.close(1); os.close(2)
+r, w = os.pipe(); os.close(r); os.close(w)
+results = []
+for path, reader, module in (({str(frf_files["h5"])!r}, "read_frf_h5", "laminid_cli.frf.store"),
+                             ({str(bad)!r}, "read_frf_h5", "laminid_cli.frf.store"),
+                             ({str(frf_files["h5"])!r}, "_raise_in_reader",
+                              "tests.test_hostile_input")):
+    try:
+        store.probe_hdf5_file(path, reader=reader, module=module, timeout=20)
+        results.append("read")
+    except Exception as exc:
+        results.append(str(exc))
+os.write(out, repr(results).encode())
+"""
+    p = subprocess.run([sys.executable, "-c", code], timeout=120, capture_output=True)
+    assert p.returncode == 0
+    got = (tmp_path / "out.txt").read_text()
+    good = frf_files["h5"]
+    assert got == repr(["read", f"{bad}: the HDF5 library crashed reading the file (SIGSEGV); "
+                                "the file is damaged",
+                        f"{good}: the file cannot be read (KeyError: 'no reader for {good}')"])
 
 
 def test_hdf5_dangling_soft_link_is_named(frf_files, tmp_path):

@@ -210,26 +210,29 @@ def probe_hdf5_file(path, reader: str = "read_frf_h5",
 
     libhdf5 can crash (segmentation fault) or loop on a damaged file (seen on files with one
     flipped bit in an object header or a heap), which no Python ``except`` can catch; the
-    child takes that risk. Raises :class:`FrfError` when the child dies by a signal, fails
-    without a LaminidError, or does not finish within ``timeout`` seconds (default
+    child takes that risk. Raises :class:`FrfError` when the child dies by a crash signal,
+    fails without a LaminidError, or does not finish within ``timeout`` seconds (default
     :data:`H5_PROBE_TIMEOUT_S`). ``reader`` names a function of ``module`` taking
     ``(path, probe=False)``.
 
-    The child is a fork of this process where that is safe (:func:`_fork_is_safe`: Linux, no
-    other Python thread), ~10 ms with the modules already imported; elsewhere a new
-    interpreter (~0.3 s). A forked child that does not finish in time is confirmed by a new
-    interpreter before the file is called damaged, so that a lock a native thread held at the
-    fork can never make a good file look damaged.
+    The child is a fork of this process where that is safe (:func:`_fork_is_safe`), 20–30 ms
+    with the modules already imported; elsewhere a new interpreter (0.2–0.3 s). Whatever a
+    fork leaves in doubt (out of time: a lock another thread held at the fork could do that;
+    killed by a signal that is no crash, such as Ctrl-C; a failure before it read) is decided
+    by a new interpreter, so that a good file is never called damaged for the fork's sake.
     """
     timeout = H5_PROBE_TIMEOUT_S if timeout is None else timeout
-    outcome = _probe_forked(path, reader, module, timeout) if _fork_is_safe() else "no fork"
-    if outcome in ("no fork", "timeout"):
+    outcome = _probe_forked(path, reader, module, timeout) if _fork_is_safe() else _UNSURE
+    tries = 1
+    if outcome in (_UNSURE, _TIMEOUT):
+        tries += outcome == _TIMEOUT
         outcome = _probe_spawned(path, reader, module, timeout)
     if outcome is None:
         return
-    if outcome == "timeout":
+    if outcome == _TIMEOUT:
         raise FrfError(f"{path}: the HDF5 library did not finish reading the file in "
-                       f"{timeout:g} s; the file is damaged")
+                       f"{timeout:g} s{' (two tries)' if tries > 1 else ''}; the file is "
+                       "damaged")
     returncode, tail = outcome
     if returncode < 0:
         import signal
@@ -245,110 +248,162 @@ def probe_hdf5_file(path, reader: str = "read_frf_h5",
                        f"({tail[:200] or 'exit code ' + str(returncode)})")
 
 
-def _fork_is_safe() -> bool:
-    """A fork may read the file: Linux (macOS frameworks are not fork-safe; Windows has no
-    fork) and no Python thread besides this one, so that no Python-level lock (h5py's, the
-    logging module's) can be held by a thread the child does not have. Native threads
-    (OpenBLAS's pool) do not take part in reading a file."""
-    import os
-    import sys
-    import threading
-
-    return (sys.platform.startswith("linux") and hasattr(os, "fork")
-            and threading.active_count() == 1)
-
-
-def _probe_forked(path, reader: str, module: str, timeout: float):
-    """Read ``path`` in a fork of this process. Returns None when it read (or failed with a
-    LaminidError, which this process then gives itself), ``"timeout"``, ``"no fork"`` when
-    the fork failed, or ``(returncode, reason)`` when the child died by a signal (negative) or
-    by another exception (1)."""
-    import importlib
-    import os
-    import select
-    import time
-    import warnings
-
-    read_end, write_end = os.pipe()
-    try:
-        with warnings.catch_warnings():
-            # Python >= 3.12 warns on a fork with native threads (OpenBLAS's pool); the child
-            # below uses none of them (see _fork_is_safe)
-            warnings.simplefilter("ignore", DeprecationWarning)
-            pid = os.fork()
-    except OSError as exc:
-        os.close(read_end)
-        os.close(write_end)
-        log.debug("HDF5 probe not forked: %s", exc)
-        return "no fork"            # the caller reads it in a new interpreter instead
-    if pid == 0:                    # the child: never returns
-        code = _PROBE_NOT_RUN       # until the file is being read
-        try:
-            os.close(read_end)
-            _quiet_child()
-            from laminid_cli.errors import LaminidError
-
-            code = 1
-            try:
-                getattr(importlib.import_module(module), reader)(path, probe=False)
-                code = 0
-            except LaminidError:
-                code = 0
-            except BaseException as exc:    # noqa: BLE001 - reported to the parent
-                os.write(write_end, f"{type(exc).__name__}: {_reason(exc)}".encode())
-        finally:
-            os._exit(code)          # no atexit handlers, no flush of the parent's files
-    os.close(write_end)
-    reason = b""
-    reaped = False
-    try:
-        deadline = time.monotonic() + timeout
-        while True:
-            left = deadline - time.monotonic()
-            if left <= 0 or not select.select([read_end], [], [], left)[0]:
-                return "timeout"
-            chunk = os.read(read_end, 4096)
-            if not chunk:           # the child has exited (or closed the pipe)
-                break
-            reason += chunk
-        _, status = os.waitpid(pid, 0)
-        reaped = True
-    finally:
-        os.close(read_end)
-        if not reaped:
-            import signal
-
-            try:
-                os.kill(pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
-            os.waitpid(pid, 0)
-    returncode = os.waitstatus_to_exitcode(status)
-    if returncode == 0:
-        return None
-    if returncode == _PROBE_NOT_RUN and not reason:
-        return "no fork"            # the child failed before reading: not the file's doing
-    return returncode, reason.decode("utf-8", "replace")
-
+#: outcomes of a probe other than None (read) and (returncode, reason)
+_TIMEOUT = "timeout"
+_UNSURE = "unsure"      # the fork cannot say: a new interpreter decides
 
 #: exit code of a forked probe that failed before it began to read the file
 _PROBE_NOT_RUN = 3
 
 
-def _quiet_child() -> None:
-    """In a forked probe: standard streams to /dev/null, no faulthandler dump, and the
-    default action for SIGINT and SIGTERM (the parent's handlers belong to the parent)."""
-    import faulthandler
+def _fork_is_safe() -> bool:
+    """A fork may read the file: Linux (macOS frameworks are not fork-safe; Windows has no
+    fork), no other thread of the ``threading`` module (a Python-level lock one holds, h5py's
+    or the logging module's, would stay held in the child), and SIGCHLD not ignored (the
+    child could not be waited for). Threads started otherwise (OpenBLAS's pool; execnet's
+    receiver under pytest-xdist) are not seen: a fork that waits on a lock of theirs runs out
+    of time, and a new interpreter then decides (:func:`probe_hdf5_file`)."""
     import os
     import signal
+    import sys
+    import threading
 
-    faulthandler.disable()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, signal.SIG_DFL)
-    null = os.open(os.devnull, os.O_RDWR)
-    for fd in (0, 1, 2):
-        os.dup2(null, fd)
-    os.close(null)
+    return (sys.platform.startswith("linux") and hasattr(os, "fork")
+            and threading.active_count() == 1
+            and signal.getsignal(signal.SIGCHLD) != signal.SIG_IGN)
+
+
+#: signals by which a reading child says the file is damaged; another (SIGINT, SIGTERM,
+#: SIGKILL from outside) says nothing of the file
+_CRASH_SIGNALS = ("SIGSEGV", "SIGBUS", "SIGABRT", "SIGILL", "SIGFPE")
+
+
+def _probe_forked(path, reader: str, module: str, timeout: float):
+    """Read ``path`` in a fork of this process. Returns None when it read (or failed with a
+    LaminidError, which this process then gives itself); ``(returncode, reason)`` when it
+    died by a crash signal (negative) or by another exception (1); :data:`_TIMEOUT`; or
+    :data:`_UNSURE` where the fork cannot say (no fork, another signal, a failure before it
+    read, a child that cannot be waited for)."""
+    import os
+    import select
+    import signal
+    import time
+    import warnings
+
+    read_end, write_end = os.pipe()
+    # no KeyboardInterrupt between the fork and the child's try (it would run this process's
+    # code in the child): SIGINT and SIGTERM wait until each side has its handlers
+    blocked = {signal.SIGINT, signal.SIGTERM}
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, blocked)
+    try:
+        with warnings.catch_warnings():
+            # Python >= 3.12 warns on a fork with native threads (OpenBLAS's pool); the child
+            # uses none of them (see _fork_is_safe)
+            warnings.simplefilter("ignore", DeprecationWarning)
+            pid = os.fork()
+    except OSError as exc:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+        os.close(read_end)
+        os.close(write_end)
+        log.debug("HDF5 probe not forked: %s", exc)
+        return _UNSURE
+    if pid == 0:
+        _probe_child(path, reader, module, read_end, write_end, mask)    # never returns
+    os.close(write_end)
+    reason = b""
+    status = None
+    try:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)   # a Ctrl-C now: the child is reaped
+        poller = select.poll()                             # any fd number, unlike select()
+        poller.register(read_end, select.POLLIN)
+        deadline = time.monotonic() + timeout
+        while True:                                        # the child's words, up to its exit
+            left = deadline - time.monotonic()
+            if left <= 0 or not poller.poll(left * 1e3):
+                return _TIMEOUT
+            chunk = os.read(read_end, 4096)
+            if not chunk:
+                break
+            reason += chunk
+        while True:                                        # its exit, within the same time
+            done, st = os.waitpid(pid, os.WNOHANG)
+            if done:
+                status = st
+                break
+            if time.monotonic() > deadline:
+                return _TIMEOUT
+            time.sleep(0.001)
+    except ChildProcessError:                              # reaped elsewhere: no status
+        status = -1
+        return _UNSURE
+    finally:
+        os.close(read_end)
+        if status is None:
+            try:
+                os.kill(pid, signal.SIGKILL)
+                os.waitpid(pid, 0)
+            except (ProcessLookupError, ChildProcessError):
+                pass
+    returncode = os.waitstatus_to_exitcode(status)
+    if returncode == 0:
+        return None
+    if returncode < 0:
+        try:
+            crash = signal.Signals(-returncode).name in _CRASH_SIGNALS
+        except ValueError:
+            crash = False
+        return (returncode, "") if crash else _UNSURE
+    if returncode == _PROBE_NOT_RUN and not reason:
+        return _UNSURE
+    return returncode, reason.decode("utf-8", "replace")
+
+
+def _probe_child(path, reader: str, module: str, read_end: int, write_end: int, mask) -> None:
+    """The forked probe: reads the file, writes an unexpected exception's words to
+    ``write_end``, and leaves by ``os._exit`` whatever happens (no atexit handler, no flush of
+    this process's buffers or files)."""
+    import os
+
+    code = _PROBE_NOT_RUN           # until the file is being read
+    try:
+        import fcntl
+        import gc
+        import importlib
+        import signal
+
+        gc.disable()                # no collection of the parent's objects (an h5py File open
+        os.close(read_end)          # for writing would be closed, and flushed, from here)
+        # the pipe above the standard streams (they may have been closed in the parent, and
+        # os.pipe then gave 1 and 2), before /dev/null goes over them
+        high = fcntl.fcntl(write_end, fcntl.F_DUPFD, 3)
+        os.close(write_end)
+        write_end = high
+        null = os.open(os.devnull, os.O_RDWR)
+        for fd in (0, 1, 2):
+            os.dup2(null, fd)
+        if null > 2:
+            os.close(null)
+        import faulthandler
+
+        faulthandler.disable()      # a crash is the parent's to report, without a dump
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            # the default action (the parent's handlers are the parent's), or ignored as in
+            # the parent (`laminid ... &` in a script ignores Ctrl-C)
+            if signal.getsignal(sig) != signal.SIG_IGN:
+                signal.signal(sig, signal.SIG_DFL)
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
+        from laminid_cli.errors import LaminidError
+
+        code = 1
+        try:
+            getattr(importlib.import_module(module), reader)(path, probe=False)
+            code = 0
+        except LaminidError:
+            code = 0
+        except BaseException as exc:    # noqa: BLE001 - reported to the parent
+            os.write(write_end, f"{type(exc).__name__}: {_reason(exc)}".encode())
+    finally:
+        os._exit(code)
 
 
 def _probe_spawned(path, reader: str, module: str, timeout: float):
@@ -362,7 +417,7 @@ def _probe_spawned(path, reader: str, module: str, timeout: float):
         done = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True,
                               timeout=timeout, stdin=subprocess.DEVNULL)
     except subprocess.TimeoutExpired:
-        return "timeout"
+        return _TIMEOUT
     except OSError as exc:   # cannot start a process: read in-process as before
         log.debug("HDF5 probe not run: %s", exc)
         return None
