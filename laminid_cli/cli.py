@@ -125,20 +125,29 @@ def cli(verbose: int, quiet: bool):
       laminid identify plate.yaml                              # E1, E2, G12, nu12, G13, G23
     """
     level = logging.ERROR if quiet else (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)]
-    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    root = logging.getLogger()
+    before = list(root.handlers)
+    logging.basicConfig(level=level, format=_LOG_FORMAT)
     if not verbose:
-        for handler in logging.getLogger().handlers:
-            if type(handler.formatter) is logging.Formatter:     # basicConfig's own
-                handler.setFormatter(_UserFormatter(handler.formatter._fmt))
+        # only the handler basicConfig just added: a program that configured logging itself
+        # (laminid as a library, a test runner) keeps its own format
+        for handler in root.handlers:
+            if handler not in before:
+                handler.setFormatter(_UserFormatter(_LOG_FORMAT))
+
+
+_LOG_FORMAT = "%(levelname)s %(name)s: %(message)s"
 
 
 class _UserFormatter(logging.Formatter):
-    """laminid's own warnings and errors as the commands write theirs ("warning: ..."); other
-    libraries' records, and every record with -v, name their logger."""
+    """laminid's own warnings and errors as the commands write theirs ("warning: ..."), with
+    a traceback where the record has one; other libraries' records name their logger."""
+
+    _own = logging.Formatter("%(message)s")
 
     def format(self, record):
         if record.name.split(".")[0] == "laminid_cli":
-            return f"{record.levelname.lower()}: {record.getMessage()}"
+            return f"{record.levelname.lower()}: {self._own.format(record)}"
         return super().format(record)
 
 

@@ -124,3 +124,45 @@ def test_warnings_read_as_the_commands_own_and_name_their_module_with_v(tmp_path
         assert p.returncode == 0, p.stderr
         assert line in p.stderr.splitlines(), p.stderr
         json.loads(p.stdout)
+
+
+def test_logging_configured_by_the_caller_keeps_its_format(tmp_path):
+    """laminid used in-process by a program that set up logging itself (here a "{"-style
+    format): the command runs, and the program's handler keeps its formatter (before, every
+    plain formatter on the root logger was replaced, and a "{" format made the command fail)."""
+    import logging
+
+    spec = tmp_path / "heavy.yaml"
+    spec.write_text(HEAVY)
+    root = logging.getLogger()
+    fmt = logging.Formatter("{levelname} {name}: {message}", style="{")
+    handler = logging.StreamHandler()
+    handler.setFormatter(fmt)
+    root.addHandler(handler)
+    try:
+        r = run("modes", str(spec), "--mesh", "4x4", "--json")
+    finally:
+        root.removeHandler(handler)
+    assert r.exit_code == 0, r.output
+    assert handler.formatter is fmt
+
+
+def test_laminid_warnings_keep_their_traceback_and_other_loggers_their_name():
+    import logging
+
+    from laminid_cli.cli import _UserFormatter
+
+    f = _UserFormatter("%(levelname)s %(name)s: %(message)s")
+    try:
+        1 / 0
+    except ZeroDivisionError:
+        import sys
+
+        exc = sys.exc_info()
+    own = logging.LogRecord("laminid_cli.batch", logging.ERROR, __file__, 1, "job %s failed",
+                            ("S1.1",), exc)
+    text = f.format(own).splitlines()
+    assert text[0] == "error: job S1.1 failed" and text[-1] == "ZeroDivisionError: division by zero"
+    other = logging.LogRecord("distributed.scheduler", logging.WARNING, __file__, 1, "busy", (),
+                              None)
+    assert f.format(other) == "WARNING distributed.scheduler: busy"
