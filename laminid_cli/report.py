@@ -1285,7 +1285,8 @@ def sensitivity_page(r: ResultFile, plate):
 
 
 def frf_source(plate, frf_path=None):
-    """(path, bands, n_modes) of the FRF file the plate was fitted from, or None.
+    """(path, bands, n_modes, own) of the FRF file the plate was fitted from, or None; ``own``
+    False for ``frf_path``.
 
     ``frf_path`` overrides; otherwise ``measured.frf_file`` of the stored specimen YAML,
     relative to the specimen's folder.
@@ -1305,14 +1306,14 @@ def frf_source(plate, frf_path=None):
             bands = None
     n_modes = int(m["modes"]) if isinstance(m, dict) and m.get("modes") else None
     if frf_path is not None:
-        return Path(frf_path), bands, n_modes
+        return Path(frf_path), bands, n_modes, False
     if not isinstance(m, dict) or not m.get("frf_file"):
         return None
     p = Path(plate.path or ".").parent / str(m["frf_file"])
     if not p.exists():
         log.warning("FRF file %s of the specimen not found: no FRF page", p)
         return None
-    return p, bands, n_modes
+    return p, bands, n_modes, True
 
 
 #: relative difference of an RFP frequency from the one the identification used above which
@@ -1327,22 +1328,30 @@ def frf_fit_changed(fit_hz, measured_hz) -> str | None:
     used (``measured_hz``, the result's measured frequencies); else what differs, in words."""
     fit_hz = np.asarray(fit_hz, float)
     measured_hz = np.asarray(measured_hz, float)
+    why = "not the FRFs identified from (the file changed since)"
     if fit_hz.shape != measured_hz.shape:
         return (f"its fit now gives {fit_hz.size} modes, the identification used "
-                f"{measured_hz.size} frequencies: not the FRFs identified from (the file "
-                "changed since, or other bands or modes were given)")
-    rel = np.abs(fit_hz - measured_hz) / np.abs(measured_hz)
-    rel = np.where(np.isnan(measured_hz), 0.0, rel)
+                f"{measured_hz.size} frequencies: {why}")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel = np.abs(fit_hz - measured_hz) / np.abs(measured_hz)
+    # a mode the fit no longer finds (NaN) where the identification had one: changed
+    rel = np.where(np.isnan(measured_hz), 0.0, np.where(np.isnan(fit_hz), np.inf, rel))
     i = int(np.argmax(rel))
     if not rel[i] > FRF_CHANGED_REL:
         return None
-    return (f"its fit now gives mode {i + 1} at {fit_hz[i]:.6g} Hz, the identification used "
-            f"{measured_hz[i]:.6g} Hz ({rel[i] * 100:.2g} %): not the FRFs identified from "
-            "(the file changed since, or other bands or modes were given)")
+    if np.isnan(fit_hz[i]):
+        return (f"its fit now finds no mode {i + 1}, the identification used "
+                f"{measured_hz[i]:.10g} Hz: {why}")
+    return (f"its fit now gives mode {i + 1} at {fit_hz[i]:.10g} Hz, the identification used "
+            f"{measured_hz[i]:.10g} Hz ({fit_hz[i] - measured_hz[i]:+.2g} Hz, "
+            f"{rel[i] * 100:.2g} %): {why}")
 
 
-def frf_page(r: ResultFile, plate, frf_path, bands=None, n_modes=None):
-    """Measured FRFs (over the RFP fit), phase, coherence, RFP and model frequencies."""
+def frf_page(r: ResultFile, plate, frf_path, bands=None, n_modes=None, own: bool = True):
+    """Measured FRFs (over the RFP fit), phase, coherence, RFP and model frequencies. ``own``:
+    the specimen's ``measured.frf_file``, whose fit gave the frequencies identified from (the
+    page says when it no longer does); a file given with ``report --frf`` may have been
+    fitted with other bands (``fit-frf --band ... --into``), and is drawn as it is."""
     from laminid_cli.frf import rfp
     from laminid_cli.frf.io import read_frf
     from laminid_cli.frf.plot import draw_frf, has_coherence
@@ -1351,7 +1360,7 @@ def frf_page(r: ResultFile, plate, frf_path, bands=None, n_modes=None):
     fit = rfp.find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes)
     fig = _figure()
     fig.suptitle(f"{plate.name}: FRFs of {Path(frf_path).name} with the RFP fit", fontsize=11)
-    changed = frf_fit_changed(fit.freq_hz, plate.frequencies.measured)
+    changed = frf_fit_changed(fit.freq_hz, plate.frequencies.measured) if own else None
     if changed:
         log.warning("%s: %s", frf_path, changed)
         _footer(fig, f"{Path(frf_path).name}: {changed}", color=CHECK_COLOR,

@@ -461,19 +461,32 @@ def test_frf_page_of_an_frf_file_changed_since_the_identification_says_so(tmp_pa
     assert len(note) == 1 and note[0].startswith("plate.frf.h5: its fit now gives mode 3 at ")
     now = float(note[0].split("mode 3 at ")[1].split(" Hz")[0])
     assert now == pytest.approx(used[2] * 1.003, rel=1e-5)
-    assert (f"the identification used {used[2]:.6g} Hz (0.3 %): not the FRFs identified from"
-            in " ".join(note[0].split()))
+    words = " ".join(note[0].split())
+    assert (f"the identification used {used[2]:.10g} Hz (+{now - used[2]:.2g} Hz, 0.3 %): not "
+            "the FRFs identified from (the file changed since)") in words
     assert [m for m in caplog.messages if "its fit now gives mode 3" in m]
+    # the same file given with --frf (which may have been fitted with other bands, fit-frf
+    # --band ... --into): drawn as it is, without the claim
+    fig = {p.name: p.figure for p in report_pages(res, frf_path=tmp_path / "plate.frf.h5")}
+    assert not [t for t in fig["frf"].texts if t.get_gid() == "frf-changed"]
 
 
 def test_frf_fit_changed_words():
     from laminid_cli.report import frf_fit_changed
 
     assert frf_fit_changed([100.0, 200.0], [100.0, 200.0 * (1 + 1e-7)]) is None
-    assert frf_fit_changed([100.0, 201.0], [100.0, 200.0]).startswith(
-        "its fit now gives mode 2 at 201 Hz, the identification used 200 Hz (0.5 %)")
+    assert frf_fit_changed([100.0, 201.0], [100.0, 200.0]) == (
+        "its fit now gives mode 2 at 201 Hz, the identification used 200 Hz (+1 Hz, 0.5 %): "
+        "not the FRFs identified from (the file changed since)")
+    # digits enough to show the difference
+    assert frf_fit_changed([23.45674, 101.2], [23.4567, 101.2]).startswith(
+        "its fit now gives mode 1 at 23.45674 Hz, the identification used 23.4567 Hz (+4e-05 "
+        "Hz, 0.00017 %)")
     assert frf_fit_changed([100.0, 200.0, 300.0], [100.0, 200.0]).startswith(
         "its fit now gives 3 modes, the identification used 2 frequencies")
+    assert frf_fit_changed([np.nan, 250.0], [100.0, 250.0]).startswith(
+        "its fit now finds no mode 1, the identification used 100 Hz")
+    assert frf_fit_changed([100.0, 250.0], [np.nan, 250.0]) is None      # not measured
 
 
 def test_report_of_a_batch_summary(batch_dir, tmp_path):
