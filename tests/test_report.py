@@ -384,23 +384,37 @@ def test_joint_report_shared_constants_then_each_plate(joint, joint_pages, tmp_p
     assert len(list(tmp_path.glob("j-*.png"))) == len(pages)
 
 
-def test_frf_page_for_a_specimen_fitted_from_an_frf_file(tmp_path):
-    spec = read_specimen(S21)
-    fm = build_forward_model(spec, (6, 6))
-    f_true = fm.solve([fm.initial_constants[0]], 8).freq
-    freq = np.arange(0.5, 700.0, 0.5)
+def _s21_modes(n_modes: int, n_points: int):
+    """S2.1's first ``n_modes`` frequencies (6x6, initial constants) and modal constants of
+    ``n_points`` points (seeded), to synthesise its FRFs; with the generator, for more draws."""
+    fm = build_forward_model(read_specimen(S21), (6, 6))
+    f_true = fm.solve([fm.initial_constants[0]], n_modes).freq
     rng = np.random.default_rng(3)
-    constants = rng.choice([-1, 1], size=(3, 8)) * rng.uniform(0.3, 1.0, size=(3, 8))
+    shape = (n_points, n_modes)
+    return f_true, rng.choice([-1, 1], size=shape) * rng.uniform(0.3, 1.0, size=shape), rng
+
+
+def _identify_from_frf_file(folder, n_modes: int):
+    """S2.1 identified (6x6, E1, E2, G12) from the lowest ``n_modes`` of ``folder``'s
+    plate.frf.h5 (``measured.frf_file``); the result file's path."""
+    text = open(S21).read().replace(MEASURED_BLOCK,
+                                    f"  frf_file: plate.frf.h5\n  modes: {n_modes}")
+    (folder / "plate.yaml").write_text(text)
+    res = folder / "plate.result.h5"
+    r = run("identify", folder / "plate.yaml", "--mesh", "6x6", "--fix", "nu12,G13,G23",
+            "-o", res)
+    assert r.exit_code == 0, r.output
+    return res
+
+
+def test_frf_page_for_a_specimen_fitted_from_an_frf_file(tmp_path):
+    f_true, constants, rng = _s21_modes(8, 3)
+    freq = np.arange(0.5, 700.0, 0.5)
     frf = synth_frf(freq, np.column_stack([f_true, np.full(8, 0.008)]), constants,
                     kind="accelerance", noise=0.005, seed=4)
     coherence = np.clip(1 - 0.05 * rng.random(frf.shape), 0, 1)
     write_frf_h5(tmp_path / "plate.frf.h5", freq, frf, coherence, units="(m/s^2)/N")
-    text = open(S21).read().replace(MEASURED_BLOCK, "  frf_file: plate.frf.h5\n  modes: 8")
-    (tmp_path / "plate.yaml").write_text(text)
-    res = tmp_path / "plate.result.h5"
-    r = run("identify", tmp_path / "plate.yaml", "--mesh", "6x6", "--fix", "nu12,G13,G23",
-            "-o", res)
-    assert r.exit_code == 0, r.output
+    res = _identify_from_frf_file(tmp_path, 8)
     fig = {p.name: p.figure for p in report_pages(res)}["frf"]
     a = ax(fig, "frf")
     dashed = [ln.get_xdata()[0] for ln in a.get_lines() if ln.get_linestyle() == "--"]
@@ -432,12 +446,8 @@ def test_frf_page_of_an_frf_file_changed_since_the_identification_says_so(tmp_pa
     added), the page and a warning say so, naming the mode that moved most."""
     import logging
 
-    spec = read_specimen(S21)
-    fm = build_forward_model(spec, (6, 6))
-    f_true = fm.solve([fm.initial_constants[0]], 6).freq
+    f_true, constants, _ = _s21_modes(6, 2)
     freq = np.arange(0.5, 560.0, 0.5)
-    rng = np.random.default_rng(3)
-    constants = rng.choice([-1, 1], size=(2, 6)) * rng.uniform(0.3, 1.0, size=(2, 6))
 
     def write(shift):
         frf = synth_frf(freq, np.column_stack([f_true * shift, np.full(6, 0.008)]), constants,
@@ -447,12 +457,7 @@ def test_frf_page_of_an_frf_file_changed_since_the_identification_says_so(tmp_pa
         write_frf_h5(path, freq, frf, units="(m/s^2)/N")
 
     write(np.ones(6))
-    text = open(S21).read().replace(MEASURED_BLOCK, "  frf_file: plate.frf.h5\n  modes: 6")
-    (tmp_path / "plate.yaml").write_text(text)
-    res = tmp_path / "plate.result.h5"
-    r = run("identify", tmp_path / "plate.yaml", "--mesh", "6x6", "--fix", "nu12,G13,G23",
-            "-o", res)
-    assert r.exit_code == 0, r.output
+    res = _identify_from_frf_file(tmp_path, 6)
     used = read_result(res).plates[0].frequencies.measured
     write(np.r_[1, 1, 1.003, 1, 1, 1])                 # mode 3 now 0.3 % higher
     with caplog.at_level(logging.WARNING, logger="laminid_cli.report"):
