@@ -1746,6 +1746,19 @@ def trials_at_bounds(result, labels, samples) -> tuple[np.ndarray, np.ndarray]:
 _WORKER: dict = {}
 
 
+def _trial_pool_context():
+    """The start method of the trials' worker processes: fork on Linux, where the workers
+    inherit the model and its basis without pickling them (what every test and benchmark has
+    run; Python 3.14 makes forkserver the default there), the platform's default elsewhere
+    (spawn on macOS and Windows)."""
+    import multiprocessing
+    import sys
+
+    if sys.platform.startswith("linux"):
+        return multiprocessing.get_context("fork")
+    return None
+
+
 def _init_worker(fms, options, start, start_pairing, joint, basis_vectors=None, model=None,
                  damping=False, names=()):
     """Per process: the plates' forward models, the identify() route's bases (rebuilt here from
@@ -2019,8 +2032,8 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
         # chunks: a few per process and round, so that a slow trial does not leave one idle
         size = max(1, min(16, len(trials) // (4 * jobs)))
         chunks = [trials[k:k + size] for k in range(0, len(trials), size)]
-        with ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker,
-                                 initargs=init) as pool:
+        with ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker, initargs=init,
+                                 mp_context=_trial_pool_context()) as pool:
             futures = [pool.submit(_run_chunk, c) for c in chunks]
             try:
                 for fut in as_completed(futures):

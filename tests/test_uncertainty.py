@@ -876,3 +876,17 @@ def test_fix_undetermined_also_fixes_what_the_monte_carlo_flags(monkeypatch):
     assert fc.rejected and fc.release == "IM7/977-2.nu12" and fc.release_ok
     assert fc.release_chi2 == pytest.approx(lin.uncertainty.chi2, rel=1e-6)
     assert result_status(a.result, a.uncertainty).codes == ("fixed_rejected",)
+
+
+def test_trial_workers_start_by_fork_on_linux_whatever_the_pythons_default():
+    """Python 3.14 makes forkserver the default start method on Linux; the trials' workers
+    keep fork there (they inherit the model and basis without pickling), as every test ran."""
+    import sys
+
+    from laminid_cli.uncertainty import _trial_pool_context
+
+    ctx = _trial_pool_context()
+    if sys.platform.startswith("linux"):
+        assert ctx.get_start_method() == "fork"
+    else:
+        assert ctx is None
