@@ -19,6 +19,17 @@ from tests.test_identify import CARBON, OFF_THICK, THICK, synthetic
 Q2 = 1.959963984540054 ** 2
 
 
+@pytest.fixture(scope="module")
+def s21_8x8(tmp_path_factory):
+    """S2.1 identified at 8x8 (``--json -o``): (the result file, its JSON output); the tests
+    only read them."""
+    out = tmp_path_factory.mktemp("s21") / "r.h5"
+    res = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8",
+                                   "--json", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    return out, json.loads(res.output)
+
+
 def test_bisection_against_closed_forms():
     """A chi2 rise quadratic in ln G (standard error 0.3 in ln G): the bound is
     L exp(0.3 q), within the bisection's 2 % in ln G and never below it (the returned end
@@ -85,7 +96,7 @@ def test_a_thick_plate_whose_g13_stops_above_its_truth():
     assert "the fit rejects G13 above" in p.text
 
 
-def test_s21_g13_is_flat_in_json_hdf5_terminal_and_report(tmp_path):
+def test_s21_g13_is_flat_in_json_hdf5_terminal_and_report(s21_8x8):
     """S2.1 (8x8): G13 stops on its lower limit, and the fit is as good up to the search's
     other end, 5 x 3.7 = 18.5 GPa (chi2 rises by 3.9 where 5.59 would reject it; 0.4 at
     12x12, the identify default): the
@@ -93,11 +104,8 @@ def test_s21_g13_is_flat_in_json_hdf5_terminal_and_report(tmp_path):
     from laminid_cli.report import interval_text, report_pages
     from laminid_cli.resultfile import read_result
 
-    out = tmp_path / "r.h5"
-    res = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8",
-                                   "--json", "-o", str(out)])
-    assert res.exit_code == 0, res.output
-    g13 = json.loads(res.output)["uncertainty"]["constants"]["E-glass/R368"]["G13"]
+    out, doc = s21_8x8
+    g13 = doc["uncertainty"]["constants"]["E-glass/R368"]["G13"]
     prof = g13["profile"]
     assert g13["at_bound"] and prof["bound"] is None and prof["far"] == pytest.approx(18.5e9)
     assert prof["delta_chi2_far"] == pytest.approx(3.9, abs=0.4)      # of 5.59: flat
@@ -367,11 +375,11 @@ def test_an_unfinished_fit_above_the_threshold_gives_no_profile(monkeypatch):
     assert f"scaled; {p.threshold:.3g} rejects)" in p.text and p.threshold > 3.84  # Student t
 
 
-def test_a_flat_profile_of_the_values_size_is_drawn_to_its_end(tmp_path):
+def test_a_flat_profile_of_the_values_size_is_drawn_to_its_end(s21_8x8):
     """A flat profile whose far end is of the value's size (hybrid CM's glass E2: 55.5 GPa on
     its upper limit, flat down to 0.9 GPa; carbon nu12 0.95 down to 0) is drawn to that end,
     with a cap and its value, the panel widened to show it; a far end beyond twice the value
-    runs off the panel (the S2.1 test above). S2.1's G13 (6x6) with its far end moved to
+    runs off the panel (the S2.1 test above). S2.1's G13 (8x8) with its far end moved to
     2.9 x the limit stands in for it."""
     import dataclasses as dc
 
@@ -380,11 +388,7 @@ def test_a_flat_profile_of_the_values_size_is_drawn_to_its_end(tmp_path):
     from laminid_cli.report import interval_panel
     from laminid_cli.resultfile import read_result
 
-    out = tmp_path / "r.h5"
-    res = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "6x6",
-                                   "-o", str(out)])
-    assert res.exit_code == 0, res.output
-    r = read_result(out)
+    r = read_result(s21_8x8[0])
     m = "E-glass/R368"
     iv = r.uncertainty.get(m, "G13")
     assert iv.at_bound and iv.bound_side == "lower"
@@ -435,7 +439,7 @@ def test_the_check_between_the_limit_and_a_flat_far_end_uses_the_quick_fit():
     assert len(calls["delta"]) >= 2
 
 
-def test_a_flat_profile_and_a_monte_carlo_range_off_the_panel_keep_their_words_apart(tmp_path):
+def test_a_flat_profile_and_a_monte_carlo_range_off_the_panel_keep_their_words_apart(s21_8x8):
     """S2.1's G13 (8x8) on its lower limit, flat to 18.5 GPa, with a Monte Carlo range from
     the limit (trials on it) to 11.66 GPa, as a 100-trial run at 12x12 gave: both run off the
     top of the panel. The range's words ("to 11.66") sit left of its bar, the profile's
@@ -448,11 +452,7 @@ def test_a_flat_profile_and_a_monte_carlo_range_off_the_panel_keep_their_words_a
     from laminid_cli.report import interval_panel
     from laminid_cli.resultfile import read_result
 
-    out = tmp_path / "r.h5"
-    res = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8",
-                                   "-o", str(out)])
-    assert res.exit_code == 0, res.output
-    r = read_result(out)
+    r = read_result(s21_8x8[0])
     m = "E-glass/R368"
     u = r.uncertainty
     labels = [x.label for x in u.intervals]
