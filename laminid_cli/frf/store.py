@@ -235,14 +235,8 @@ def probe_hdf5_file(path, reader: str = "read_frf_h5",
                        "damaged")
     returncode, tail = outcome
     if returncode < 0:
-        import signal
-
-        try:
-            name = signal.Signals(-returncode).name
-        except ValueError:
-            name = f"signal {-returncode}"
-        raise FrfError(f"{path}: the HDF5 library crashed reading the file ({name}); the file "
-                       "is damaged")
+        raise FrfError(f"{path}: the HDF5 library crashed reading the file "
+                       f"({_signal_name(-returncode)}); the file is damaged")
     if returncode != 0:
         raise FrfError(f"{path}: the file cannot be read "
                        f"({tail[:200] or 'exit code ' + str(returncode)})")
@@ -278,6 +272,16 @@ def _fork_is_safe() -> bool:
 _CRASH_SIGNALS = ("SIGSEGV", "SIGBUS", "SIGABRT", "SIGILL", "SIGFPE")
 
 
+def _signal_name(number: int) -> str:
+    """"SIGSEGV" for 11; "signal 99" for a number the platform does not name."""
+    import signal
+
+    try:
+        return signal.Signals(number).name
+    except ValueError:
+        return f"signal {number}"
+
+
 def _probe_forked(path, reader: str, module: str, timeout: float):
     """Read ``path`` in a fork of this process. Returns None when it read (or failed with a
     LaminidError, which this process then gives itself); ``(returncode, reason)`` when it
@@ -311,7 +315,7 @@ def _probe_forked(path, reader: str, module: str, timeout: float):
         _probe_child(path, reader, module, read_end, write_end, mask)    # never returns
     os.close(write_end)
     reason = b""
-    status = None
+    reaped = False                  # the child waited for (or by someone else): not killed
     try:
         signal.pthread_sigmask(signal.SIG_SETMASK, mask)   # a Ctrl-C now: the child is reaped
         poller = select.poll()                             # any fd number, unlike select()
@@ -326,19 +330,19 @@ def _probe_forked(path, reader: str, module: str, timeout: float):
                 break
             reason += chunk
         while True:                                        # its exit, within the same time
-            done, st = os.waitpid(pid, os.WNOHANG)
+            done, status = os.waitpid(pid, os.WNOHANG)
             if done:
-                status = st
+                reaped = True
                 break
             if time.monotonic() > deadline:
                 return _TIMEOUT
             time.sleep(0.001)
     except ChildProcessError:                              # reaped elsewhere: no status
-        status = -1
+        reaped = True
         return _UNSURE
     finally:
         os.close(read_end)
-        if status is None:
+        if not reaped:
             try:
                 os.kill(pid, signal.SIGKILL)
                 os.waitpid(pid, 0)
@@ -348,11 +352,7 @@ def _probe_forked(path, reader: str, module: str, timeout: float):
     if returncode == 0:
         return None
     if returncode < 0:
-        try:
-            crash = signal.Signals(-returncode).name in _CRASH_SIGNALS
-        except ValueError:
-            crash = False
-        return (returncode, "") if crash else _UNSURE
+        return (returncode, "") if _signal_name(-returncode) in _CRASH_SIGNALS else _UNSURE
     if returncode == _PROBE_NOT_RUN and not reason:
         return _UNSURE
     return returncode, reason.decode("utf-8", "replace")
