@@ -72,6 +72,14 @@ from laminid_cli.intervals import (SCALINGS, VERDICT_AT_BOUND, VERDICT_FIXED,  #
 VERDICT_NOT_DAMPING = ("not determined by the measured damping — fix it (--fix {term}=<value>) "
                        "or measure more modes")
 
+
+def not_determined(label: str) -> str:
+    """:data:`VERDICT_NOT_DAMPING` for the loss factor ``label`` ("material.eta13"): the
+    words that replace :data:`VERDICT_NOT` in its verdicts (the interval's and the Monte
+    Carlo's)."""
+    return VERDICT_NOT_DAMPING.format(term=label.rsplit(".", 1)[-1])
+
+
 #: stress-strain terms in material axes (module docstring)
 TERMS = ("11", "22", "12", "13", "23")
 #: loss-factor names of the terms
@@ -492,8 +500,7 @@ def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
     # the damping's own words: it is the measured damping, not the modes' frequencies, that
     # does not determine a loss factor
     free_labels = tuple(labels[j] for j in free)
-    verdict = [verdict_of(rel[k], at_bound[k]).replace(
-                   VERDICT_NOT, VERDICT_NOT_DAMPING.format(term=free_labels[k].rsplit(".", 1)[-1]))
+    verdict = [verdict_of(rel[k], at_bound[k]).replace(VERDICT_NOT, not_determined(free_labels[k]))
                for k in range(p)]
     top = A_all[used].max(axis=0) if n else np.zeros(len(labels))
     small = [labels[j] for j in free if top[j] < SMALL_SHARE]
@@ -750,8 +757,7 @@ def with_monte_carlo_damping(fit: DampingFit, dmc: DampingMonteCarlo) -> Damping
         if fit.at_bound[k] or not np.isfinite(rel_lo[k]):
             continue
         # the damping's own words for "not determined" (as fit_loss_factors)
-        worse = monte_carlo_verdict(rel_lo[k], fit.rel_half_width[k], VERDICT_NOT_DAMPING.format(
-            term=lab.rsplit(".", 1)[-1]))
+        worse = monte_carlo_verdict(rel_lo[k], fit.rel_half_width[k], not_determined(lab))
         if worse:
             verdict[k] = worse
             changed.append(lab)
