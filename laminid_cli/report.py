@@ -570,7 +570,7 @@ def table_notes(r: ResultFile) -> list[str]:
         given = [(iv.constant if len(r.materials) == 1 else iv.label,
                   u.given_fixed.get(iv.label, np.nan)) for iv in u.intervals]
         notes.append(spread_sentence(names, [(n, w) for n, w in given if np.isfinite(w)]))
-    if u is not None and getattr(u, "fixed_check", "") and not u.fixed_rejected:
+    if u is not None and u.fixed_check and not u.fixed_rejected:
         # a rejection is in the status, at the top of the page
         notes.append(u.fixed_check[0].upper() + u.fixed_check[1:])
     return notes
