@@ -461,21 +461,47 @@ ROUND_TRIP_UNITS = ["V/V", "1", "Pa/N", "kPa/N", "m/s^2/N", "(m/s^2)/N", "m/s2/N
 @pytest.mark.parametrize("units", ROUND_TRIP_UNITS)
 def test_every_unit_laminid_writes_reads_back_the_same(tmp_path, case, units):
     """Through export (UFF 58b and ASCII, from an acquire-style HDF5 file) and the CSV and
-    HDF5 writers, the FRF unit reads back as written."""
+    HDF5 writers, the FRF unit reads back as written; in a Universal File (ASCII) "m/s²/N" is
+    written and reads back "m/s^2/N", the same unit, on every pyuff (2.5.3 dropped the "²")."""
     fs = FrfSet(freq=case.freq[:UNIT_LINES], frf=case.frf[:2, :UNIT_LINES], labels=("1", "2"),
                 units=units)
     h5 = io.write_frf(tmp_path / "in.frf.h5", fs)
     assert io.read_frf(h5).units == units
     assert io.read_frf(io.write_frf(tmp_path / "in.csv", fs)).units == units
+    in_uff = units.replace("²", "^2")
     for extra in ([], ["--ascii"]):
         out = tmp_path / f"out{len(extra)}.uff"
         r = run(["export", str(h5), "-o", str(out), "--json", *extra])
         assert r.exit_code == 0, r.output
-        assert json.loads(r.output)["units"] == units
-        assert io.read_frf(out).units == units
+        assert json.loads(r.output)["units"] == in_uff
+        assert io.read_frf(out).units == in_uff
         r = run(["fit-frf", str(out), "--json"])
         assert r.exit_code == 0, r.output
-        assert json.loads(r.stdout)["units"] == units
+        assert json.loads(r.stdout)["units"] == in_uff
+
+
+def test_a_universal_file_is_written_in_ascii(tmp_path, case):
+    """Text that is not ASCII never reaches the Universal File as such: the unit "m/s²/N" is
+    written "m/s^2" over "N" with the acceleration's specific data type (12), a point label
+    "Prüfpunkt 1" in the record's id as "Prufpunkt 1", every byte of the ASCII file below 128
+    (pyuff 2.5.8 wrote UTF-8, shifting the fixed columns; 2.5.3 dropped the characters, and
+    "m/s²" read back "m/s", a velocity); a unit with a character that has no ASCII spelling
+    is refused, naming it, and no file is left."""
+    import pyuff
+
+    fs = FrfSet(freq=case.freq[:UNIT_LINES], frf=case.frf[:1, :UNIT_LINES],
+                labels=("Prüfpunkt 1",), units="m/s²/N")
+    out = io.write_frf_uff(tmp_path / "a.uff", fs)
+    raw = out.read_bytes()
+    assert max(raw) < 128
+    d = pyuff.UFF(str(out)).read_sets(0)
+    assert (d["ordinate_axis_units_lab"], d["orddenom_axis_units_lab"]) == ("m/s^2", "N")
+    assert (d["ordinate_spec_data_type"], d["orddenom_spec_data_type"]) == (12, 13)
+    assert d["id1"].strip() == "FRF Prufpunkt 1"
+    bad = FrfSet(freq=fs.freq, frf=fs.frf, labels=("1",), units="Pa/N\u2192", source="in.h5")
+    with pytest.raises(FrfError, match=r"in.h5: FRF unit .* '\u2192' has no ASCII spelling"):
+        io.write_frf_uff(tmp_path / "b.uff", bad)
+    assert not (tmp_path / "b.uff").exists()
 
 
 def test_uff58_unit_labels_drop_spaces_and_a_label_too_long_is_refused(tmp_path, case):

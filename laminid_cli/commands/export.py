@@ -99,20 +99,22 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
         text = (f"{out}: {summary['n_modes']} mode shapes of {shapes.specimen} (UFF 55) on "
                 f"{summary['n_nodes']} nodes (UFF 15, metres; UFF 164 SI)")
     else:
-        from laminid_cli.frf.io import (read_frf, uff_coherence_points, uff_point,
+        from laminid_cli.frf.io import (read_frf, uff_coherence_points, uff_point, uff_units,
                                         write_frf_uff)
 
         fs = read_frf(input_file, fmt, freq_dataset=freq_dataset, frf_dataset=frf_dataset)
         write_frf_uff(out, fs, overwrite=force, binary=not ascii_)
+        # as written: a Universal File is ASCII ("m/s²/N" is written "m/s^2/N")
+        units = uff_units(fs.units, input_file)
         labels = list(fs.labels) or [str(i + 1) for i in range(fs.n_points)]
         nodes = [uff_point(lab, i)[0] for i, lab in enumerate(labels)]
         coherent, notes = uff_coherence_points(fs)
         summary = {"input": str(input_file), "output": str(out), "kind": "FRF",
                    "datasets": {"58": fs.n_points + len(coherent)}, "binary": not ascii_,
-                   "units": fs.units, "n_lines": int(fs.freq.size),
+                   "units": units, "n_lines": int(fs.freq.size),
                    "points": dict(zip(labels, nodes)),
                    "coherence_points": [labels[k] for k in coherent], "notes": notes}
-        text = (f"{out}: {fs.n_points} FRFs (UFF 58{'' if ascii_ else 'b'}, {fs.units}, "
+        text = (f"{out}: {fs.n_points} FRFs (UFF 58{'' if ascii_ else 'b'}, {units}, "
                 f"{fs.freq.size} lines {fs.freq[0]:g}-{fs.freq[-1]:g} Hz)"
                 + (f" and the coherence of {len(coherent)} (UFF 58 function type 6)"
                    if coherent else "")

@@ -56,6 +56,12 @@ UFF_FORCE_TYPES = {"N": 13, "kN": 13, "lbf": 13}
 UFF_WRITER = "laminid"
 #: characters of a UFF 58 units label (records 8-11, field 6: A20); a longer one is cut
 UFF_UNITS_CHARS = 20
+#: a Universal File is ASCII in fixed columns: laminid's text written there in ASCII, these
+#: characters by their ASCII spelling (pyuff 2.5.3 drops any other character silently, so
+#: "m/s²" became "m/s", a velocity; pyuff 2.5.8 writes UTF-8, whose two-byte characters shift
+#: the fixed columns for other readers)
+UFF_ASCII = str.maketrans({"²": "^2", "³": "^3", "µ": "u", "μ": "u", "°": "deg", "·": "*",
+                           "−": "-", "–": "-", "—": "-", "×": "x"})
 #: text FRF files (UFF, CSV) larger than this are refused before they are read (1 GB: the
 #: 50 million values of MAX_FRF_VALUES at ~20 characters each)
 MAX_TEXT_FILE_BYTES = 1_000_000_000
@@ -361,7 +367,7 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
     import pyuff
 
     path = _new_target(path, overwrite)
-    axes = _uff_axes(fs.units)
+    axes = _uff_axes(uff_units(fs.units, fs.source or path))
     for key in ("ordinate_axis_units_lab", "orddenom_axis_units_lab"):
         if len(axes[key]) > UFF_UNITS_CHARS:
             # pyuff would cut the label to its field: the unit would read back as another
@@ -393,6 +399,29 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
     return write_uff_sets(path, sets)
 
 
+def uff_ascii(text: str) -> str:
+    """``text`` as a Universal File holds it: :data:`UFF_ASCII`'s spellings, accents dropped
+    ("ä" "a"), "?" for any other character outside ASCII."""
+    import unicodedata
+
+    s = unicodedata.normalize("NFKD", str(text).translate(UFF_ASCII))
+    s = "".join(ch for ch in s if not unicodedata.combining(ch))
+    return s.encode("ascii", "replace").decode("ascii")
+
+
+def uff_units(units: str, source) -> str:
+    """The FRF unit ``units`` as laminid writes it to a Universal File: in ASCII ("m/s²/N"
+    "m/s^2/N", the same unit); FrfError naming ``source`` where a character has no ASCII
+    spelling (the unit would read back as another)."""
+    ascii_ = uff_ascii(units)
+    lost = [ch for ch in units if uff_ascii(ch) == "?" and ch != "?"]
+    if lost:
+        raise FrfError(f"{source}: FRF unit {units!r} cannot be written to a Universal File "
+                       f"(ASCII): {', '.join(repr(ch) for ch in dict.fromkeys(lost))} has no "
+                       "ASCII spelling; give the unit in ASCII (e.g. 'm/s^2/N')")
+    return ascii_
+
+
 def _uff_axes(units: str) -> dict:
     """The ordinate and denominator fields of a type-58 record of an FRF in ``units``: the
     response's unit and type over the force's ("Pa/N": Pa, 15 pressure over N, 13 excitation
@@ -415,6 +444,7 @@ def write_uff_sets(path: Path, sets, error: type[LaminidError] = FrfError) -> Pa
     target untouched. Shared by the FRF (UFF 58) and the mode-shape (UFF 15/55/164) writers."""
     import pyuff
 
+    sets = [{k: uff_ascii(v) if isinstance(v, str) else v for k, v in d.items()} for d in sets]
     try:
         with atomic_path(path) as tmp:
             # "add" to the fresh temporary file: pyuff's "overwrite" truncates the header of a
