@@ -35,14 +35,21 @@ def chi2_of(d) -> float:
 
 
 def test_f_quantile_against_scipy():
-    """f_ppf within 1e-11 of scipy.stats.f.ppf over both tails and small to large degrees of
-    freedom (the nested-fit test uses 1-6 and 1-100)."""
-    worst = 0.0
+    """f_ppf over both tails and small to large degrees of freedom (the nested-fit test uses
+    1-6 and 1-100): the F distribution function gives back the solved tail (q, or 1 - q above
+    the median) within 1e-11 relative, and scipy.stats.f.ppf agrees within 1e-10. scipy's own
+    quantile moved between releases: 1.15.3 differs from f_ppf by 5.8e-11 at q = 1e-6, 1 and
+    1000 degrees of freedom (F = 1.57e-12), where its distribution function returns q from
+    f_ppf's value to 5e-13; 1.17.1 agrees within 4e-13 everywhere."""
+    worst_tail = worst_scipy = 0.0
     for q in (1e-6, 0.01, 0.05, 0.3, 0.5, 0.7, 0.95, 0.99, 1 - 1e-6):
         for m in (1, 2, 3, 4, 6, 10, 30):
             for n in (1, 2, 3, 6, 9, 20, 100, 1000):
-                worst = max(worst, abs(f_ppf(q, m, n) / stats.f.ppf(q, m, n) - 1))
-    assert worst < 1e-11
+                x = f_ppf(q, m, n)
+                tail = stats.f.sf(x, m, n) / (1 - q) if q > 0.5 else stats.f.cdf(x, m, n) / q
+                worst_tail = max(worst_tail, abs(tail - 1))
+                worst_scipy = max(worst_scipy, abs(x / stats.f.ppf(q, m, n) - 1))
+    assert worst_tail < 1e-11 and worst_scipy < 1e-10
     assert np.isnan(f_ppf(1.5, 2, 3)) and f_ppf(1.0, 2, 3) == np.inf
 
 
