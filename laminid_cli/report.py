@@ -141,7 +141,7 @@ def bound_words(iv) -> str:
 
 
 def _flat_to(iv) -> str:
-    """Where a flat profile ended, the search's other limit, in the display unit
+    """Where a flat profile ended, the end of its scan, in the display unit
     (" to 18.50"); empty for a file that does not record it."""
     far = getattr(iv, "profile_far", np.nan)
     return f" to {fmt_value(iv.constant, far)}" if np.isfinite(far) else ""
@@ -549,8 +549,8 @@ def table_notes(r: ResultFile) -> list[str]:
     if any("profile:" in c for c in cells):
         notes.append("profile: < x: the fit rejects values beyond x at the intervals' level "
                      "(the other constants identified again with it held there); flat: it "
-                     "rejects none up to the search's other limit (the modes do not "
-                     "determine it)")
+                     "rejects none up to the end of its scan (the modes do not determine "
+                     "it there; nothing beyond was tried)")
     if any("Monte Carlo" in c for c in cells):
         notes.append("(Monte Carlo): the verdict is set by the Monte Carlo range (the constant "
                      "re-identified from perturbed frequencies), wider than the linearised "
@@ -705,9 +705,9 @@ def _bound_panel(ax, k, v, iv, x, ymin, ymax):
     elif iv.profile_kind == "flat":
         far = getattr(iv, "profile_far", np.nan)
         if not np.isfinite(far):
-            words += "; profile: flat to the other limit"
+            words += "; profile: flat to the end of its scan"
         else:
-            # the values the fit does not reject: from the limit to the search's other end,
+            # the values the fit does not reject: from the limit to the end of the scan,
             # off the panel when that end is out of view
             # (its words right of the line, as the bounded profile's: the left holds the
             # Monte Carlo bar's end words)

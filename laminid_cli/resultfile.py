@@ -78,7 +78,7 @@ class Interval:
     #: 30 have none: "")
     profile_bound: float = np.nan
     profile_text: str = ""
-    #: the other end of the profile's scan (the search's other limit, SI; NaN: no profile)
+    #: the other end of the profile's scan (SI; NaN: no profile)
     profile_far: float = np.nan
 
     @property

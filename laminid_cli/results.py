@@ -565,7 +565,7 @@ def write_uncertainty(f, a, plate_names) -> None:
             "not at a bound, or the fit does not reject it within the search (profile_text)")
         put(g, "profile_far", np.array([u.profiles[lab].far if lab in u.profiles else np.nan
                                         for lab in u.labels]), unit,
-            description="the other end of the profile's scan (the search's other limit)")
+            description="the other end of the profile's scan (where a flat profile stops)")
         put(g, "profile_delta_chi2_far", np.array(
             [u.profiles[lab].delta_far if lab in u.profiles else np.nan for lab in u.labels]),
             "1", description="rise of chi2 (scaled as the intervals) at profile_far; "

@@ -2565,7 +2565,9 @@ def _show(k: str, v: float) -> str:
 
 def _profile_far(k: str, side: str, limit: float, options, initial_c) -> float:
     """The other end of the profile's scan: for a modulus on its lower limit the search's
-    upper factor limit (at least 10 times the limit), on an upper one its lower factor limit;
+    upper factor limit (at least 10 times the limit), on an upper one its lower factor limit
+    (limits of the search in the 'constants' parametrisation; the alphas bound only E1 so, and
+    the others may go beyond: :func:`_profile_far_words`);
     for nu12 zero (a Poisson ratio beyond that is not a composite's). ``options``: the
     identification's (bound_factor); ``initial_c``: the material's initial ElasticConstants.
     E2 <= E1 (paper Eq. 22): a held E2 goes no higher than the initial E1, a held E1 no lower
@@ -2581,6 +2583,24 @@ def _profile_far(k: str, side: str, limit: float, options, initial_c) -> float:
     return max(far, float(initial_c.E2)) if k == "E1" else far
 
 
+def _profile_far_words(k: str, side: str, limit: float, far: float, options,
+                       initial_c) -> str:
+    """Why the profile's scan of ``k`` ends at ``far`` (:func:`_profile_far`), for its
+    statement: the scan is no search limit (the alphas bound only E1 by the factor: the
+    others, and a Monte Carlo trial, may go further)."""
+    if k == "nu12":
+        return "a negative nu12 is no fibre ply's"
+    initial = abs(float(getattr(initial_c, k)))
+    f = options.bound_factor
+    if k == "E2" and side == "lower" and far == float(initial_c.E1) and far < initial * f:
+        return "the initial E1: E2 <= E1"
+    if k == "E1" and side == "upper" and far == float(initial_c.E2) and far > initial / f:
+        return "the initial E2: E2 <= E1"
+    if side == "lower":
+        return (f"{f:g} x the initial value" if far == initial * f else "10 x the limit")
+    return f"the initial value / {f:g}" if far == initial / f else "the limit / 10"
+
+
 def _limit(u: Uncertainty, j: int) -> tuple[str, float]:
     """(side, limit) of the search that constant ``j`` of ``u`` ended on (its value where the
     uncertainty does not store the limit)."""
@@ -2589,7 +2609,8 @@ def _limit(u: Uncertainty, j: int) -> tuple[str, float]:
 
 
 def profile_bound(label: str, side: str, limit: float, far: float, delta, threshold: float,
-                  confidence: float = 0.95, quick=None, lenient=None) -> Profile:
+                  confidence: float = 0.95, quick=None, lenient=None,
+                  far_words: str = "") -> Profile:
     """The :class:`Profile` of ``label`` from ``delta(value)``: the scaled increase of chi2
     with the constant held at ``value`` (one identification of the others per call). First
     the far end: below ``threshold`` there, the fit does not bound the constant within the
@@ -2597,7 +2618,9 @@ def profile_bound(label: str, side: str, limit: float, far: float, delta, thresh
     Illinois) between the limit (increase 0) and the far end, on ln P for a modulus and nu12
     itself, to :data:`PROFILE_TOL`. ``lenient`` (the far end) and ``quick`` (the point in
     between) may accept a fit that stopped unfinished below the threshold (an upper bound of
-    the rise); both default to ``delta``, which the bisection uses."""
+    the rise); both default to ``delta``, which the bisection uses. ``far_words``: why the
+    scan ends at ``far`` (:func:`_profile_far_words`), in a flat profile's statement: nothing
+    beyond it was tried."""
     quick = delta if quick is None else quick
     lenient = delta if lenient is None else lenient
     k = label.rsplit(".", 1)[1]
@@ -2632,10 +2655,12 @@ def profile_bound(label: str, side: str, limit: float, far: float, delta, thresh
                     f"chi2 rises by {d_mid:.3g} at {k} = {show(to(0.5))} but by {d_far:.3g} at "
                     f"{show(far)} (scaled; {threshold:.3g} rejects): the fit has a second "
                     "valley there")
+            why = f": {far_words}" if far_words else ""
             text = (f"{PROFILE_FLAT} with {k} anywhere {direction} the limit "
-                    f"{'up' if far > limit else 'down'} to {show(far)}"
-                    f" (chi2 rises by {max(d_far, d_mid):.2g}; {threshold:.3g} would reject it "
-                    f"at {confidence * 100:.0f} %): the modes do not determine {k}")
+                    f"{'up' if far > limit else 'down'} to {show(far)}, the end of the "
+                    f"scan{why} (chi2 rises by {max(d_far, d_mid):.2g}; {threshold:.3g} would "
+                    f"reject it at {confidence * 100:.0f} %; not tried beyond): the modes do "
+                    f"not determine {k} there")
             return Profile(label, side, limit, np.nan, far, d_far, threshold, runs, text)
     except ProfileError as exc:
         return Profile(label, side, limit, np.nan, far, np.nan, threshold, runs,
@@ -2777,6 +2802,8 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
             # anyway, after up to eight more fits: hybrid CM's glass G13, 15 s for "no
             # profile"); the far end and the point in between decide "flat" with one or two
             p = profile_bound(lab, side, limit, far, delta, threshold, u.confidence,
+                              far_words=_profile_far_words(k, side, limit, far, options,
+                                                           result.initial[m]),
                               quick=functools.partial(
                                   delta, max_evaluations=PROFILE_MID_EVALUATIONS, lenient=True),
                               lenient=functools.partial(delta, lenient=True))
@@ -2821,8 +2848,8 @@ def with_fixed_ranges(u: Uncertainty, before: Uncertainty, result, fms, sigmas, 
                       joint: bool) -> Uncertainty:
     """``u`` with a :class:`FixedRange` of each constant fixed at a limit of the search
     (``u.spread_not_counted``: its doubt is not known, so :func:`counting_fixed_spread` could
-    not count it): the others identified again with it at the search's two ends (the limit it
-    was on before fixing, and :func:`_profile_far`)."""
+    not count it): the others identified again with it at the two ends of its profile's scan
+    (the limit it was on before fixing, and :func:`_profile_far`)."""
     if not u.spread_not_counted:
         return u
     options = result.options

@@ -110,7 +110,9 @@ def test_s21_g13_is_flat_in_json_hdf5_terminal_and_report(s21_8x8):
     assert g13["at_bound"] and prof["bound"] is None and prof["far"] == pytest.approx(18.5e9)
     assert prof["delta_chi2_far"] == pytest.approx(3.9, abs=0.4)      # of 5.59: flat
     assert prof["text"].startswith("the fit is as good with G13 anywhere above the limit up "
-                                   "to 18.5 GPa")
+                                   "to 18.5 GPa, the end of the scan: 5 x the initial value "
+                                   "(chi2 rises by")
+    assert "not tried beyond): the modes do not determine G13 there" in prof["text"]
     iv = read_result(out).uncertainty.get("E-glass/R368", "G13")
     assert iv.profile_text == prof["text"] and np.isnan(iv.profile_bound)
     assert iv.profile_far == pytest.approx(18.5e9)
@@ -229,10 +231,9 @@ def test_the_rise_is_zero_at_the_limit_with_a_prior_on_the_held_constant(tmp_pat
     seen = {}
     real = unc.profile_bound
 
-    def spy(label, side, limit, far, delta, threshold, confidence=0.95, quick=None,
-            lenient=None):
+    def spy(label, side, limit, far, delta, threshold, confidence=0.95, **kw):
         seen[label] = (limit, delta)
-        return real(label, side, limit, far, delta, threshold, confidence, quick, lenient)
+        return real(label, side, limit, far, delta, threshold, confidence, **kw)
 
     monkeypatch.setattr(unc, "profile_bound", spy)
     fm = build_forward_model(read_specimen(path), (6, 6))
@@ -476,3 +477,28 @@ def test_a_flat_profile_and_a_monte_carlo_range_off_the_panel_keep_their_words_a
     a, b = prof.get_window_extent(), end.get_window_extent()
     assert a.x0 >= b.x1 or a.x1 <= b.x0 or a.y0 >= b.y1 or a.y1 <= b.y0, (a, b)
     plt.close(fig)
+
+
+def test_the_flat_profiles_words_say_why_its_scan_ends_there():
+    """A flat profile's scan end is no limit of the search (the alphas bound only E1 by the
+    factor; a new user saw Monte Carlo trials of G13 at 76 GPa beside "flat up to the search's
+    other limit", 25 GPa): its statement names the scan's end, for each rule of _profile_far."""
+    from types import SimpleNamespace
+
+    from laminid_cli.material import ElasticConstants
+    from laminid_cli.uncertainty import _profile_far, _profile_far_words
+
+    c0 = ElasticConstants(E1=40e9, E2=10e9, G12=4e9, G13=4e9, G23=3e9, nu12=0.3)
+    opts = SimpleNamespace(bound_factor=5.0)
+
+    def words(k, side, limit):
+        far = _profile_far(k, side, limit, opts, c0)
+        return far, _profile_far_words(k, side, limit, far, opts, c0)
+
+    assert words("G13", "lower", 4e6) == (20e9, "5 x the initial value")
+    assert words("G13", "lower", 3e9) == (30e9, "10 x the limit")
+    assert words("E2", "lower", 1e9) == (40e9, "the initial E1: E2 <= E1")     # not 50 GPa
+    assert words("G12", "upper", 20e9) == pytest.approx((0.8e9, "the initial value / 5"))
+    assert words("G12", "upper", 5e9) == (0.5e9, "the limit / 10")
+    assert words("E1", "upper", 200e9) == (10e9, "the initial E2: E2 <= E1")   # not 8 GPa
+    assert words("nu12", "upper", 0.95) == (0.0, "a negative nu12 is no fibre ply's")
