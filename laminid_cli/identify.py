@@ -29,6 +29,7 @@ identification (laminid_cli.joint) the same over several.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from dataclasses import dataclass, field
@@ -233,6 +234,16 @@ class Problem(VariableSet):
                                     for k, _ in mine]).astype(int)
             plates.append(PlateTerm(fm, d, [p for _, p in mine], index,
                                     d.n + options.extra_modes))
+        self.solver_note = ""
+        small = [(fm.plate.n_dofs, pt.n_model) for fm, pt in zip(fms, plates)
+                 if fm.plate.n_dofs < REDUCED_MIN_EQUATIONS_PER_MODE * pt.n_model]
+        if options.solver == "reduced" and small:
+            n, k = small[0]
+            options = self.options = dataclasses.replace(options, solver="full")
+            self.solver_note = (
+                f"full solver: the model has {n} equations for {k} modes, fewer than "
+                f"{REDUCED_MIN_EQUATIONS_PER_MODE} per mode, too few for a reduced model (a "
+                "mesh this coarse is itself suspect)")
         self.objective = Objective(plates, params, prior, pairing=options.pairing)
         obj = self.objective
         if prior_shift:
@@ -578,6 +589,13 @@ def work_since(work0: dict, prob) -> dict:
     return out
 
 
+#: the reduced solver needs a model of at least this many equations per mode computed: its basis
+#: grows to ~7-11 vectors per mode (S1.1), so below that it is half the model or more, gains
+#: nothing, and its Gram matrix comes near singular. Seen on S1.1 at 2x2 (189 equations, 14
+#: modes): an error ("lost its M-orthogonality") with one BLAS build, with another an optimum
+#: 29 % above the full solver's; 3x3 (360) and finer agree with the full solver to 1e-9
+REDUCED_MIN_EQUATIONS_PER_MODE = 20
+
 #: a tracked pairing that ends out of sorted order is re-anchored at most this many times
 MAX_REANCHOR = 2
 
@@ -598,6 +616,8 @@ def run_optimizer(prob, progress=None):
         prob.start_reduced(None, prob.given_basis)
     ev0 = prob.evaluate(x0)
     warnings = prob.check_start(ev0)
+    if getattr(prob, "solver_note", ""):
+        warnings = [prob.solver_note, *warnings]
     initial_rms = prob.history[0].rms_residual_percent
     if options.solver == "reduced" and not prob.reduced:
         prob.start_reduced(ev0)

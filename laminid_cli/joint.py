@@ -196,5 +196,5 @@ def identify_joint(fms, options: IdentifyOptions = IdentifyOptions(), progress=N
         initial_rms_residual_percent=initial_rms, specimens=tuple(per_plate),
         history=history_arrays(hist),
         swaps=swaps, warnings=tuple(list(warnings) + notes + bounds),
-        merged_fixed=dict(prob.merged_fixed), options=options, work=work,
+        merged_fixed=dict(prob.merged_fixed), options=prob.options, work=work,
         basis=prob.last_basis if prob.options.solver == "reduced" else None)
