@@ -1408,8 +1408,9 @@ def _read(path) -> ResultFile:
 
 
 def result_pages(path, *, frf_path=None) -> list[Page]:
-    """All pages of the report of one result file (single or joint)."""
-    r = _read(path)
+    """All pages of the report of one result file (single or joint): ``path`` to it, or the
+    :class:`ResultFile` read from it."""
+    r = path if isinstance(path, ResultFile) else _read(path)
     if r.joint:
         return joint_pages(r, frf_path=frf_path)
     plate = r.plates[0]
