@@ -290,7 +290,9 @@ def _footer(fig, text: str, *, color="k", weight="normal", fontsize=8.5, gid=Non
              for ln in textwrap.wrap(para, width, break_on_hyphens=False,
                                      subsequent_indent="    ")]
     h = (0.006 + 0.021 * len(lines)) * fontsize / 8.5
-    fig.get_layout_engine().set(rect=(0, h, 1, 1 - h))
+    engine = fig.get_layout_engine()
+    _, bottom, _, height = engine.get()["rect"]
+    engine.set(rect=(0, h, 1, bottom + height - h))      # the top as set (_title_under)
     fig.text(0.01, 0.004, "\n".join(lines), fontsize=fontsize, color=color, ha="left",
              va="bottom", weight=weight, gid=gid)
 
@@ -302,7 +304,8 @@ def _status_banner(fig, r: ResultFile) -> None:
 
 def status_corner(fig, r: ResultFile) -> None:
     """The status in one short line at the page's top right, for a page without the status
-    text (its codes; the words are on page 1)."""
+    text (its codes; the words are on page 1). Where the page's title would reach under it,
+    the title moves down a line (:func:`_title_under`)."""
     if any(t.get_gid() == "status" for t in [*fig.texts, *(t for a in fig.axes
                                                            for t in a.texts)]):
         return
@@ -312,8 +315,45 @@ def status_corner(fig, r: ResultFile) -> None:
     elif r.status.status != "ok":
         codes = ", ".join(x.code for x in r.status.reasons) or "no reason given"
         text = f"status: CHECK ({codes}; see page 1)"
-    fig.text(0.995, 0.995, text, ha="right", va="top", fontsize=8, color=color,
-             weight="bold", gid="status")
+    # wider than the page (a narrow figure, never A4 with every code): lines of codes
+    text = "\n".join(textwrap.wrap(text, _wrap_width(fig, 8, bold=True),
+                                   break_on_hyphens=False))
+    status = fig.text(0.995, 0.995, text, ha="right", va="top", fontsize=8, color=color,
+                      weight="bold", gid="status")
+    _title_under(fig, status)
+
+
+def _title_under(fig, status) -> None:
+    """Give ``status`` (a text at the page's top right) a band of its own where the page's
+    title would reach under it: the title is set under it, and the layout under the title.
+
+    The status keeps its corner on every page (a reader finds it in the same place whether or
+    not the title is long) and a title that leaves room for it stays where it was. The title
+    (suptitle, centred on the page) is measured with the renderer: constrained layout sets its
+    height only, so its width, and whether it comes within 1 em of the status, is known
+    before the page is laid out. A suptitle given a height is no longer in constrained
+    layout's margins, hence the layout's top edge set under it. A page without a suptitle
+    keeps the band in every case (its axes titles are placed by the layout)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
+    renderer = canvas.get_renderer()
+    box = status.get_window_extent(renderer)
+    gap = renderer.points_to_pixels(status.get_fontsize())
+    title = fig._suptitle              # matplotlib's only handle on the suptitle's Text
+    if title is not None and title.get_text():
+        t = title.get_window_extent(renderer)
+        if t.x1 + gap <= box.x0 or box.x1 + gap <= t.x0:
+            return
+    engine = fig.get_layout_engine()
+    pad = engine.get()["h_pad"] / fig.get_figheight()           # inches -> figure fraction
+    top = status.get_position()[1] - box.height / fig.bbox.height - pad
+    if title is not None and title.get_text():
+        fig.suptitle(title.get_text(), y=top, fontsize=title.get_fontsize(),
+                     fontweight=title.get_fontweight(), color=title.get_color())
+        top -= t.height / fig.bbox.height + pad
+    left, bottom, width, height = engine.get()["rect"]
+    engine.set(rect=(left, bottom, width, min(bottom + height, top) - bottom))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -1408,8 +1448,9 @@ def _read(path) -> ResultFile:
 
 
 def result_pages(path, *, frf_path=None) -> list[Page]:
-    """All pages of the report of one result file (single or joint)."""
-    r = _read(path)
+    """All pages of the report of one result file (single or joint): ``path`` to it, or the
+    :class:`ResultFile` read from it."""
+    r = path if isinstance(path, ResultFile) else _read(path)
     if r.joint:
         return joint_pages(r, frf_path=frf_path)
     plate = r.plates[0]

@@ -1,5 +1,6 @@
 """`laminid report`: every page rendered, and the numbers drawn are those of the result file."""
 
+import dataclasses
 import re
 import shutil
 
@@ -20,6 +21,7 @@ from tests.resultfix import drop_bound_data, make_version_1, mark_at_bound
 
 S11 = "specimens/example1/S1.1.yaml"
 S12 = "specimens/example1/S1.2.yaml"
+S13 = "specimens/example1/S1.3.yaml"
 S14 = "specimens/example1/S1.4.yaml"
 S21 = "specimens/example2/S2.1.yaml"
 MAT = "IM7/977-2"
@@ -1145,6 +1147,87 @@ def test_status_on_top_of_the_first_page_at_the_foot_of_the_others(checked):
     for name in ("intervals", "damping") if "damping" in pages else ("intervals",):
         foot = status_text(pages[name])
         assert foot in pages[name].texts and foot.get_position()[1] < 0.05
+
+
+@pytest.fixture(scope="module")
+def s13(tmp_path_factory):
+    """S1.3 as identified (its default mesh): status check with three reasons (undetermined,
+    poor_fit, implausible), which ran the top-right status into the titles."""
+    out = tmp_path_factory.mktemp("s13") / "S1.3.result.h5"
+    r = run("identify", S13, "-o", out)
+    assert r.exit_code == 0, r.output
+    return out
+
+
+@pytest.fixture(scope="module")
+def frf_result(tmp_path_factory):
+    """S2.1 fitted from an FRF file (the report has an FRF page)."""
+    tmp = tmp_path_factory.mktemp("frfres")
+    f_true, constants, _ = _s21_modes(8, 3)
+    freq = np.arange(0.5, 700.0, 0.5)
+    frf = synth_frf(freq, np.column_stack([f_true, np.full(8, 0.008)]), constants,
+                    kind="accelerance", noise=0.005, seed=4)
+    write_frf_h5(tmp / "plate.frf.h5", freq, frf, units="(m/s^2)/N")
+    return _identify_from_frf_file(tmp, 8)
+
+
+#: a long specimen name: 60 characters, so that a title carrying it (and "A + B" of a joint
+#: result's two such names) still fits the page's width
+LONG_NAME = "IM7/977-2 [0/90/+45/-45]s panel P-0042, plate 07 (recut 2nd)"
+
+
+def worst_case(path):
+    """The result at ``path`` read back with every reason code laminid_cli.status defines and
+    long plate names (the two things that widen the status and the titles)."""
+    from laminid_cli.status import CODES, Reason, ResultStatus
+
+    res = read_result(path)
+    status = ResultStatus("check", tuple(Reason(c, f"{c} (synthetic)") for c in CODES))
+    many = len(res.plates) > 1
+    names = [LONG_NAME[:28] + f" #{k + 1}" if many else LONG_NAME
+             for k in range(len(res.plates))]
+    return dataclasses.replace(res, status=status, plates=tuple(
+        dataclasses.replace(p, name=n) for p, n in zip(res.plates, names)))
+
+
+@pytest.mark.parametrize("case", ["s13", "s13-worst", "joint-worst", "damped-worst",
+                                  "frf-worst"])
+def test_status_clear_of_the_titles_on_every_page(case, request):
+    """Wherever a page carries the status (under the first page's title, at the foot, at the
+    top right), its drawn box meets neither the page's title nor an axes' title and stays
+    inside the page: with S1.3's three reasons and with all reason codes and long names, on
+    single, joint, damping and FRF pages."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from laminid_cli.report import result_pages
+
+    fixture, _, worst = case.partition("-")
+    path = request.getfixturevalue({"s13": "s13", "joint": "joint", "damped": "damped",
+                                    "frf": "frf_result"}[fixture])
+    pages = result_pages(worst_case(path) if worst else path)
+    names = {p.name for p in pages}
+    assert {"modes-1", "sensitivities", "history"} <= names or "shared" in names
+    assert fixture != "damped" or "damping" in names
+    assert fixture != "frf" or "frf" in names
+    bad = []
+    for page in pages:
+        fig = page.figure
+        renderer = FigureCanvasAgg(fig).get_renderer()
+        fig.draw(renderer)
+        status = status_text(fig)
+        if worst and status.get_text().startswith("status: CHECK ("):
+            assert "modes_swapped; see page 1)" in status.get_text()
+        box = status.get_window_extent(renderer)
+        titles = [fig._suptitle] if fig._suptitle is not None else []
+        titles += [t for a in fig.axes for t in (a.title, a._left_title, a._right_title)
+                   if t.get_text()]
+        for t in titles:
+            if box.overlaps(t.get_window_extent(renderer)):
+                bad.append(f"{page.name}: status over {t.get_text()[:40]!r}")
+        if not fig.bbox.containsx(box.x0) or not fig.bbox.containsx(box.x1) \
+                or not fig.bbox.containsy(box.y0) or not fig.bbox.containsy(box.y1):
+            bad.append(f"{page.name}: status outside the page {box.bounds}")
+    assert not bad
 
 
 @pytest.mark.parametrize("kind", ["csv", "json"])
