@@ -348,6 +348,25 @@ def parse_global_reference(text: str) -> dict:
     return out
 
 
+def restate_reference_ranges(ref: dict, yaml_text: str) -> None:
+    """Put the specimen's reference ranges into a stored summary's ``reference`` block (in
+    place): files written before laminid kept ranges stored a range's midpoint there, a
+    value nobody wrote; the specimen YAML in the file has the range. Single values and
+    summaries that have the range already are left as they are."""
+    if not isinstance(ref, dict):
+        return
+    mats, _ = parse_reference(yaml_text)
+    blocks = [(ref.get("materials"), m, consts) for m, consts in mats.items()]
+    blocks.append((ref, "global", parse_global_reference(yaml_text)))
+    for parent, key, pairs in blocks:
+        stored = parent.get(key) if isinstance(parent, dict) else None
+        if not isinstance(stored, dict):
+            continue
+        for k, (low, high) in pairs.items():
+            if low != high and isinstance(stored.get(k), (int, float)):
+                stored[k] = [low, high]
+
+
 def _plate(g, name: str | None = None) -> Plate:
     sp = g["specimen"]
     fr = g["frequencies"]
@@ -658,8 +677,18 @@ def read_stored_summary(path) -> tuple[dict, dict]:
             summary = json.loads(decode(f["summary_json"][()]))
         except (ValueError, TypeError, OSError) as exc:
             raise ResultFileError(f"{path}: /summary_json is not readable JSON ({exc})") from exc
-    if not isinstance(summary, dict):
-        raise ResultFileError(f"{path}: /summary_json is not a summary (a JSON object)")
+        if not isinstance(summary, dict):
+            raise ResultFileError(f"{path}: /summary_json is not a summary (a JSON object)")
+        # a reference range an earlier laminid stored as its midpoint: the range again
+        if fmt == "laminid-joint-result":
+            plates = summary.get("specimens")
+            for key, g in f["specimens"].items():
+                if isinstance(plates, dict) and isinstance(plates.get(_name(key, g)), dict) \
+                        and "yaml" in g["specimen"]:
+                    restate_reference_ranges(plates[_name(key, g)].get("reference"),
+                                             _s(g["specimen"]["yaml"][()]))
+        elif "yaml" in f["specimen"]:
+            restate_reference_ranges(summary.get("reference"), _s(f["specimen"]["yaml"][()]))
     return summary, written
 
 
