@@ -100,6 +100,26 @@ def fmt_value(key: str, value) -> str:
     return f"{v:.0f}" if a >= 1000 else f"{v:#.4g}"
 
 
+def fmt_reference(key: str, ref) -> str:
+    """A reference ``(low, high)`` (SI, as :attr:`ResultFile.reference` holds it) in the
+    display unit: one value when low == high, else the range "120.0–150.0"."""
+    low, high = ref
+    if low == high:
+        return fmt_value(key, low)
+    return f"{fmt_value(key, low)}–{fmt_value(key, high)}"
+
+
+def reference_diff(value: float, ref) -> float | None:
+    """(value − reference) / |reference| of an identified value against a reference ``(low,
+    high)``: for a range, 0 inside it and else against its nearer end (how far the value is
+    from what the other test allows); None where that end is 0 (no relative difference)."""
+    low, high = ref
+    if low < high and low <= value <= high:
+        return 0.0
+    end = low if value < low else high
+    return (value - end) / abs(end) if end else None
+
+
 def short_verdict(text: str) -> str:
     """The verdict in a few words ("not determined by these modes — fix it ..." -> "not
     determined"; "at bound — not identified" -> "at bound, not identified")."""
@@ -398,13 +418,19 @@ def constants_rows(r: ResultFile) -> tuple[list[str], list[list[str]]]:
             else:
                 verdict = short_verdict(iv.verdict)
             rv = ref.get(m, {}).get(k)
+            diff = None if rv is None else reference_diff(c[k], rv)
             if rv is None:
                 rtext = ""
-            elif fixed is not None or (iv is not None and iv.at_bound) or not rv:
-                rtext = fmt_value(k, rv) + ("\n(fixed: not\ncompared)" if fixed is not None else
-                                            "\n(not compared)" if rv else "")
-            else:
-                rtext = f"{fmt_value(k, rv)} ({round((c[k] - rv) / abs(rv) * 100) + 0:+d} %)"
+            elif fixed is not None or (iv is not None and iv.at_bound) or diff is None:
+                rtext = fmt_reference(k, rv) + (
+                    "\n(fixed: not\ncompared)" if fixed is not None else
+                    "\n(not compared)" if rv != (0.0, 0.0) else "")
+            elif rv[0] == rv[1]:
+                rtext = f"{fmt_reference(k, rv)} ({round(diff * 100) + 0:+d} %)"
+            else:        # a range: inside it, or the distance to its nearer end
+                rtext = fmt_reference(k, rv) + ("\n(inside)" if diff == 0 else
+                                                f"\n({round(diff * 100) + 0:+d} % "
+                                                f"{'above' if diff > 0 else 'below'})")
             rows.append([f"{m} {k} ({_unit(k)})" if multi else f"{k} ({_unit(k)})",
                          fmt_value(k, c[k]), interval, verdict,
                          fmt_value(k, r.initial.get(m, {}).get(k)), rtext])
@@ -598,6 +624,9 @@ def table_notes(r: ResultFile) -> list[str]:
                      "has for sure" + ("; *: an end set by trials that stopped on a search "
                                       "limit (the search's end, not the data's)"
                                       if any("*" in c for c in cells) else ""))
+    if any("–" in row[5] for row in rows):
+        notes.append("reference low–high: a range given by the specimen file; (inside): the "
+                     "value is within it, else the difference from its nearer end")
     if any(c.startswith("fixed") for c in cells):
         notes.append("fixed: held at its initial value, not identified (its value is an "
                      "assumption, not a result; no comparison with the reference)")
@@ -690,13 +719,15 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
 # intervals
 
 
-def _panel_limits(v, lo, hi, ref, weak, nu: bool):
-    """(ymin, ymax) of a constant's panel: its value with the weak band and the reference in
-    view; an interval end only when it stays within a value's width (else it gets an arrow)."""
+def _panel_limits(v, lo, hi, refs, weak, nu: bool):
+    """(ymin, ymax) of a constant's panel: its value with the weak band and the reference
+    (``refs``: its ends, both of a range) in view; an interval end only when it stays within
+    a value's width (else it gets an arrow)."""
     a = abs(v) if v else max(abs(lo), abs(hi), 1e-12)
     need = [1.35 * weak * a]
-    if ref is not None and np.isfinite(ref):
-        need.append(1.15 * abs(ref - v))
+    for ref in refs:
+        if np.isfinite(ref):
+            need.append(1.15 * abs(ref - v))
     for e in (lo, hi):
         if np.isfinite(e) and abs(e - v) <= 1.0 * a:
             need.append(1.1 * abs(e - v))
@@ -707,13 +738,13 @@ def _panel_limits(v, lo, hi, ref, weak, nu: bool):
     return ymin, ymax
 
 
-def _bound_limits(v, side: str, ref, nu: bool, profile=np.nan):
+def _bound_limits(v, side: str, refs, nu: bool, profile=np.nan):
     """(ymin, ymax) of the panel of a constant at its bound: room on the side the data push
-    it to (where the one-sided statement points), the reference and the profile's bound (where
-    the fit rejects it, display unit) in view."""
+    it to (where the one-sided statement points), the reference (``refs``: its ends) and the
+    profile's bound (where the fit rejects it, display unit) in view."""
     half = max(0.6 * abs(v), 0.1 if nu else 1e-12)
     ymin, ymax = (v - half, v + 0.35 * half) if side == "lower" else (v - 0.35 * half, v + half)
-    for other in (ref, profile):
+    for other in (*refs, profile):
         if other is not None and np.isfinite(other):
             pad = 0.1 * max(abs(other - v), half)
             ymin, ymax = min(ymin, other - pad), max(ymax, other + pad)
@@ -819,7 +850,8 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
     lo, hi = (iv.lower, iv.upper) if iv is not None else (np.nan, np.nan)
     g = (lambda z: _gpa(k, z))
     nu = k == "nu12"
-    gref = None if ref is None else g(ref)
+    # the reference's ends in the display unit: one value twice, or a range's low and high
+    gref = () if ref is None else tuple(g(e) for e in ref)
     if iv is not None and iv.at_bound:
         ymin, ymax = _bound_limits(g(v), iv.bound_side, gref, nu,
                                    g(getattr(iv, "profile_bound", np.nan)))
@@ -868,11 +900,15 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
         hollow = iv is not None and iv.verdict.startswith("not")
         ax.plot([x], [g(v)], "o", ms=7, color="k", mfc="w" if hollow else "k", zorder=5,
                 gid="value")
-    if ref is not None:
-        ax.plot([x + 0.25], [gref], "D", ms=6, color="C3", zorder=5, gid="reference")
-        if not ymin <= gref <= ymax:
-            ax.annotate(f"reference {fmt_value(k, ref)} off scale", (0.5, 0.02),
-                        xycoords="axes fraction", ha="center", fontsize=6.5, color="C3")
+    if ref is not None and gref[0] == gref[1]:
+        ax.plot([x + 0.25], [gref[0]], "D", ms=6, color="C3", zorder=5, gid="reference")
+    elif ref is not None:
+        # a range from low to high, not a point: what the other test allows
+        ax.plot([x + 0.25] * 2, [max(gref[0], ymin), min(gref[1], ymax)], "-", color="C3",
+                lw=4, solid_capstyle="butt", zorder=4, gid="reference-range")
+    if ref is not None and not ymin <= gref[0] <= gref[1] <= ymax:
+        ax.annotate(f"reference {fmt_reference(k, ref)} off scale", (0.5, 0.02),
+                    xycoords="axes fraction", ha="center", fontsize=6.5, color="C3")
     ax.set_ylim(ymin, ymax)
     return iv
 
@@ -911,8 +947,12 @@ def _interval_legend(r: ResultFile) -> tuple[list, list[str]]:
                  "fixed (not identified; why: below the panel)")
         items.append((Line2D([], [], ls="none", marker="s", ms=7, color=FIXED_COLOR, mfc="w",
                              mew=1.5), label))
-    if any(r.reference.get(m, {}).get(k) is not None for m in r.materials for k in CONSTANTS):
+    refs = [r.reference.get(m, {}).get(k) for m in r.materials for k in CONSTANTS]
+    if any(ref is not None and ref[0] == ref[1] for ref in refs):
         items.append((Line2D([], [], ls="none", marker="D", ms=6, color="C3"), "reference"))
+    if any(ref is not None and ref[0] < ref[1] for ref in refs):
+        items.append((Line2D([], [], color="C3", lw=4, solid_capstyle="butt"),
+                      "reference range"))
     if u.monte_carlo and "lower" in u.monte_carlo:
         items.append((Line2D([], [], color="0.45", lw=2),
                       f"Monte Carlo range ({u.confidence:.0%} of the trials)"))
@@ -1719,7 +1759,7 @@ def constants_across_page(done, title: str):
     width = min(0.22, 0.7 / max(nm, 1))
     offsets = {m: (c - (nm - 1) / 2) * width for c, m in enumerate(materials)}
     kinds: set[str] = set()
-    has_mc = has_mc_limit = has_ref = has_profile = False
+    has_mc = has_mc_limit = has_ref = has_ref_range = has_profile = False
     for ax, k in zip(axes, CONSTANTS):
         ax.set_gid(f"across-{k}")
         vals, ends, bars = [], [], []
@@ -1757,11 +1797,19 @@ def constants_across_page(done, title: str):
                     bars.append((xi, min(v, far), max(v, far), color, 1.6, "profile",
                                  (False, False), (0, (1, 1.5))))
                 ref = r.reference.get(m, {}).get(k) if r is not None else None
-                if ref is not None:
+                if ref is not None and ref[0] == ref[1]:
                     has_ref = True
-                    ax.plot([xi], [_gpa(k, ref)], "_", ms=14, mew=2.2, color="k",
+                    ax.plot([xi], [_gpa(k, ref[0])], "_", ms=14, mew=2.2, color="k",
                             gid=f"reference-{name}-{m}")
-                    vals.append(_gpa(k, ref))
+                    vals.append(_gpa(k, ref[0]))
+                elif ref is not None:
+                    # a range: a black bar from low to high, left of the interval (which is
+                    # on the value, the Monte Carlo range on its right)
+                    has_ref_range = True
+                    ax.plot([xi - 0.55 * width] * 2, [_gpa(k, e) for e in ref], "_-", lw=1.5,
+                            ms=8, mew=1.5, color="k", solid_capstyle="butt",
+                            gid=f"reference-range-{name}-{m}")
+                    vals += [_gpa(k, e) for e in ref]
         if vals:
             lo, hi = min(vals + ends), max(vals + ends)
             pad = 0.15 * (hi - lo) if hi > lo else 0.1 * abs(hi) or 1.0
@@ -1802,6 +1850,10 @@ def constants_across_page(done, title: str):
     if has_ref:
         handles["reference value"] = Line2D([], [], ls="none", marker="_", ms=14, mew=2.2,
                                             color="k")
+    if has_ref_range:
+        # a capped vertical bar, as drawn (a line would look like the reference value's tick)
+        handles["reference range (left of the value)"] = Line2D(
+            [], [], ls="none", marker=r"$\mathrm{I}$", ms=10, color="k")
     ax_leg = fig.add_subplot(gs[2, :])                 # a row of its own: clear of the panels
     ax_leg.axis("off")
     ax_leg.legend(list(handles.values()), list(handles), loc="center",

@@ -191,7 +191,8 @@ class Plate:
     history: History | None
     swaps: tuple[str, ...]
     warnings: tuple[str, ...]
-    reference: dict            # {material: {constant: value SI}} from the specimen's YAML
+    reference: dict            # {material: {constant: (low, high) SI}} from the specimen's
+                               # YAML (low == high: one value; else the range written)
     reference_source: str = ""
     reference_global: dict = field(default_factory=dict)   # {Ex...: (low, high) SI}
     #: {Ex...: {"value", "std", "lower", "upper", "rel_half_width", "verdict"}} (SI; NaN
@@ -229,7 +230,8 @@ class ResultFile:
 
     @property
     def reference(self) -> dict:
-        """{material: {constant: value}}: the plates' reference values (first plate wins)."""
+        """{material: {constant: (low, high)}}: the plates' reference values, low == high for
+        one value (first plate wins)."""
         out: dict = {}
         for p in self.plates:
             for m, consts in p.reference.items():
@@ -289,12 +291,24 @@ def _history(f) -> History | None:
                    np.asarray(h["constants"][()], float), _labels(h["constants"]), bound)
 
 
-def parse_reference(text: str) -> tuple[dict, str]:
-    """({material: {constant: value SI}}, source) of a specimen YAML's ``reference`` block;
-    values that cannot be read (ranges, typos) are left out."""
-    import yaml
-
+def _reference_pair(v, kind: str) -> tuple[float, float]:
+    """(low, high) SI of a reference value as the YAML writes it: one value (low == high) or
+    a range [low, high]; ValueError (or a units error) when it cannot be read."""
     from laminid_cli.units import parse_quantity
+
+    if isinstance(v, dict) or (isinstance(v, list) and len(v) != 2):
+        raise ValueError(f"not a reference value: {v!r}")
+    low, high = (float(parse_quantity(x, kind)) for x in (v if isinstance(v, list) else [v, v]))
+    if not low <= high:
+        raise ValueError(f"range [{low:g}, {high:g}] has low > high")
+    return low, high
+
+
+def parse_reference(text: str) -> tuple[dict, str]:
+    """({material: {constant: (low, high) SI}}, source) of a specimen YAML's ``reference``
+    block: low == high for one value, a range as written (``E1: [120 GPa, 150 GPa]``);
+    values that cannot be read (typos) are left out."""
+    import yaml
 
     try:
         doc = yaml.safe_load(text)
@@ -305,11 +319,11 @@ def parse_reference(text: str) -> tuple[dict, str]:
     out: dict[str, dict] = {}
     for m, consts in mats.items() if isinstance(mats, dict) else ():
         for k, v in (consts or {}).items() if isinstance(consts, dict) else ():
-            if k not in CONSTANTS or isinstance(v, (list, dict)):
+            if k not in CONSTANTS:
                 continue
             try:
-                out.setdefault(str(m), {})[k] = float(
-                    parse_quantity(v, "dimensionless" if k == "nu12" else "modulus"))
+                out.setdefault(str(m), {})[k] = _reference_pair(
+                    v, "dimensionless" if k == "nu12" else "modulus")
             except Exception:  # noqa: BLE001 - a reference we cannot read is not shown
                 continue
     return out, str(ref.get("source", "") or "")
@@ -320,21 +334,37 @@ def parse_global_reference(text: str) -> dict:
     ``reference.global`` block (laminate properties of Appendix A: Ex, nu_xy...)."""
     import yaml
 
-    from laminid_cli.units import parse_quantity
-
     try:
         glob = yaml.safe_load(text)["reference"]["global"] or {}
     except (KeyError, TypeError, AttributeError, yaml.YAMLError):
         return {}
     out = {}
     for k, v in glob.items() if isinstance(glob, dict) else ():
-        kind = "dimensionless" if str(k).startswith("nu") else "modulus"
-        vals = v if isinstance(v, list) and len(v) == 2 else [v, v]
         try:
-            out[str(k)] = tuple(float(parse_quantity(x, kind)) for x in vals)
+            out[str(k)] = _reference_pair(
+                v, "dimensionless" if str(k).startswith("nu") else "modulus")
         except Exception:  # noqa: BLE001 - a reference we cannot read is not shown
             continue
     return out
+
+
+def restate_reference_ranges(ref: dict, yaml_text: str) -> None:
+    """Put the specimen's reference ranges into a stored summary's ``reference`` block (in
+    place): files written before laminid kept ranges stored a range's midpoint there, a
+    value nobody wrote; the specimen YAML in the file has the range. Single values and
+    summaries that have the range already are left as they are."""
+    if not isinstance(ref, dict):
+        return
+    mats, _ = parse_reference(yaml_text)
+    blocks = [(ref.get("materials"), m, consts) for m, consts in mats.items()]
+    blocks.append((ref, "global", parse_global_reference(yaml_text)))
+    for parent, key, pairs in blocks:
+        stored = parent.get(key) if isinstance(parent, dict) else None
+        if not isinstance(stored, dict):
+            continue
+        for k, (low, high) in pairs.items():
+            if low != high and isinstance(stored.get(k), (int, float)):
+                stored[k] = [low, high]
 
 
 def _plate(g, name: str | None = None) -> Plate:
@@ -647,8 +677,18 @@ def read_stored_summary(path) -> tuple[dict, dict]:
             summary = json.loads(decode(f["summary_json"][()]))
         except (ValueError, TypeError, OSError) as exc:
             raise ResultFileError(f"{path}: /summary_json is not readable JSON ({exc})") from exc
-    if not isinstance(summary, dict):
-        raise ResultFileError(f"{path}: /summary_json is not a summary (a JSON object)")
+        if not isinstance(summary, dict):
+            raise ResultFileError(f"{path}: /summary_json is not a summary (a JSON object)")
+        # a reference range an earlier laminid stored as its midpoint: the range again
+        if fmt == "laminid-joint-result":
+            plates = summary.get("specimens")
+            for key, g in f["specimens"].items():
+                if isinstance(plates, dict) and isinstance(plates.get(_name(key, g)), dict) \
+                        and "yaml" in g["specimen"]:
+                    restate_reference_ranges(plates[_name(key, g)].get("reference"),
+                                             _s(g["specimen"]["yaml"][()]))
+        elif "yaml" in f["specimen"]:
+            restate_reference_ranges(summary.get("reference"), _s(f["specimen"]["yaml"][()]))
     return summary, written
 
 

@@ -416,6 +416,7 @@ def identification_summary(r) -> dict:
         "initial": {n: c.as_dict() for n, c in zip(r.material_names, r.initial)},
         "free": {n: list(v) for n, v in r.free.items()},
         "parametrization": dict(r.parametrization),
+        # a value as the specimen gives it: a number, or [low, high] for a range
         "reference": {"source": ref.get("source", ""), "materials": ref.get("materials", {}),
                       "global": ref.get("global", {})},
         "frequencies": {"measured": r.measured_hz, "model": r.model_hz,

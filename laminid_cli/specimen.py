@@ -21,8 +21,8 @@ values from other tests. The full format is documented in ``specimens/README.md`
       damping_sigma: [0.0002, 0.0003, null, 0.0004]   # optional, their standard deviations
     reference:
       source: strain gauge
-      materials: {IM7/977-2: {E1: 170 GPa}}
-      global: {Ex: 77 GPa, nu_xy: [0.15, 0.17]}     # a [low, high] pair is a range
+      materials: {IM7/977-2: {E1: 170 GPa, E2: [9 GPa, 11 GPa]}}   # [low, high]: a range
+      global: {Ex: 77 GPa, nu_xy: [0.15, 0.17]}
 
 Stacking codes (:func:`expand_layup`): plies bottom first separated by ``/`` (or ``,``);
 ``45_3`` three plies; ``(0/90)_2`` a repeated group; ``[...]s`` symmetric, ``[...]2s`` or
@@ -139,9 +139,10 @@ class Specimen:
     """A plate specimen read from a YAML file; SI units (angles in degrees).
 
     ``source_text`` is the YAML verbatim (stored in result files). ``reference`` always has the
-    keys ``source`` (str), ``materials`` ({material: {constant: value}}), ``global``
-    ({property: value}) and ``intervals`` ({"global.nu_xy": (low, high)} for values given as a
-    range, whose entry in ``materials``/``global`` is then the midpoint).
+    keys ``source`` (str), ``materials`` ({material: {constant: value}}) and ``global``
+    ({property: value}); a value is a float, or a ``(low, high)`` tuple where the file gives
+    a range (``E1: [120 GPa, 150 GPa]``): the range as written, never its midpoint, which
+    nobody measured (SI; a range with low == high is the one value).
     """
 
     name: str
@@ -1067,7 +1068,9 @@ def _measured_from_frf(r: _Reader, m: dict) -> Measured:
                                  "0.2 % of f")
 
 
-def _reference_value(r: _Reader, y: _Y, kind: str, intervals: dict, key: str) -> float:
+def _reference_value(r: _Reader, y: _Y, kind: str) -> float | tuple[float, float]:
+    """A reference value, or ``(low, high)`` for a range ``[low, high]`` (kept as a range:
+    its midpoint is no value anyone measured)."""
     if isinstance(y.value, list):
         if len(y.value) != 2:
             raise r.error(y, "a range is written [low, high]")
@@ -1076,8 +1079,7 @@ def _reference_value(r: _Reader, y: _Y, kind: str, intervals: dict, key: str) ->
             raise r.error(y, f"range [{low:g}, {high:g}] has low > high")
         if kind == "modulus" and low <= 0:
             raise r.error(y, f"a reference modulus must be positive, got {low:g} Pa")
-        intervals[key] = (low, high)
-        return 0.5 * (low + high)
+        return low if low == high else (low, high)
     value = r.quantity(y, kind)
     if kind == "modulus" and value <= 0:
         raise r.error(y, f"a reference modulus must be positive, got {y.value!r}")
@@ -1085,7 +1087,7 @@ def _reference_value(r: _Reader, y: _Y, kind: str, intervals: dict, key: str) ->
 
 
 def _read_reference(r: _Reader, y: _Y, materials: dict[str, Material]) -> dict:
-    ref = {"source": "", "materials": {}, "global": {}, "intervals": {}}
+    ref = {"source": "", "materials": {}, "global": {}}
     m = r.mapping(y, optional=("source", "materials", "global"))
     if "source" in m:
         ref["source"] = r.string(m["source"])
@@ -1094,14 +1096,12 @@ def _read_reference(r: _Reader, y: _Y, materials: dict[str, Material]) -> dict:
             values = {}
             for key, item in r.mapping(entry, optional=CONSTANT_NAMES).items():
                 kind = "dimensionless" if key == "nu12" else "modulus"
-                values[key] = _reference_value(r, item, kind, ref["intervals"],
-                                               f"materials.{name}.{key}")
+                values[key] = _reference_value(r, item, kind)
             ref["materials"][name] = values
     if "global" in m:
         for key, item in r.mapping(m["global"], optional=GLOBAL_NAMES).items():
             kind = "dimensionless" if key.startswith("nu") else "modulus"
-            ref["global"][key] = _reference_value(r, item, kind, ref["intervals"],
-                                                  f"global.{key}")
+            ref["global"][key] = _reference_value(r, item, kind)
     return ref
 
 
@@ -1153,7 +1153,7 @@ def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
     _check_derived_densities(r, top, root, densities, materials)
     measured = _read_measured(r, top["measured"]) if "measured" in top else None
     reference = (_read_reference(r, top["reference"], materials) if "reference" in top else
-                 {"source": "", "materials": {}, "global": {}, "intervals": {}})
+                 {"source": "", "materials": {}, "global": {}})
 
     specimen = Specimen(name=name, path=path, source_text=text, a=a, b=b, h=h, mass=mass,
                         materials=materials, plies=plies, densities=densities,

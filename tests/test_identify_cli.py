@@ -11,7 +11,7 @@ import pytest
 
 from laminid_cli.modal import default_factorizer
 from laminid_cli.results import read_h5
-from tests.clihelp import identify_json, run
+from tests.clihelp import identify_json, run, write_s14_with_ranges
 
 S21 = "specimens/example2/S2.1.yaml"
 
@@ -85,6 +85,29 @@ def test_report_and_default_output_next_to_the_specimen(tmp_path):
     r = run("identify", str(spec), "--mesh", "6x6")
     assert r.exit_code == 2 and "not a laminid result file" in r.output
     assert (tmp_path / "S2.1.result.h5").read_text() == "my notes"
+
+
+def test_a_reference_range_is_shown_as_the_range_on_the_terminal_and_in_json(tmp_path):
+    """E1: [120 GPa, 150 GPa] and global nu_xy: [0.05, 0.07] in the specimen: the terminal
+    gives both ends in the interval columns' form (once it gave the midpoint, 135.00 and
+    0.060, as if measured); --json gives [low, high] where a single value stays a number."""
+    spec = write_s14_with_ranges(tmp_path)
+    r = run("identify", spec, "--mesh", "6x6", "--no-output")
+    assert r.exit_code == 0, r.output
+    rows = {ln.split()[0]: ln for ln in r.output.splitlines() if " [GPa] " in ln}
+    assert re.match(r"  E1 \[GPa\] +117\.20 +\d+\.\d\d  120\.00 \.\. 150\.00   ", rows["E1"])
+    assert re.match(r"  E2 \[GPa\] +8\.80 +\d+\.\d\d +10\.00   ", rows["E2"])
+    # the reference column is as wide as the range: the header's word ends above its end
+    head = next(ln for ln in r.output.splitlines() if ln.startswith("  constant"))
+    assert head.index("reference") + len("reference") == rows["E1"].index("150.00") + 6
+    assert "    reference: nu_xy 0.050 .. 0.070" in r.output.splitlines()
+    assert "135.00" not in r.output and "0.060" not in r.output
+    r = run("identify", spec, "--mesh", "6x6", "--no-output", "--json")
+    assert r.exit_code == 0, r.output
+    ref = json.loads(r.output)["reference"]
+    assert ref["materials"]["IM7/977-2"] == {"E1": [120e9, 150e9], "E2": 10e9, "G12": 5.8e9,
+                                             "nu12": 0.35}
+    assert ref["global"] == {"nu_xy": [0.05, 0.07]}
 
 
 def test_non_convergence_exits_1_with_message_and_keeps_a_complete_file(tmp_path):

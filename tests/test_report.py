@@ -12,10 +12,11 @@ from click.testing import CliRunner
 from laminid_cli.cli import cli
 from laminid_cli.forward import build_forward_model
 from laminid_cli.frf.store import write_frf_h5
-from laminid_cli.report import (fmt_value, interval_text, mac, report_pages, short_verdict,
-                                write_pages)
+from laminid_cli.report import (fmt_reference, fmt_value, interval_text, mac, reference_diff,
+                                report_pages, short_verdict, write_pages)
 from laminid_cli.resultfile import read_result
 from laminid_cli.specimen import read_specimen
+from tests.clihelp import write_s14_with_ranges
 from tests.frf_synth import synth_frf
 from tests.resultfix import drop_bound_data, make_version_1, mark_at_bound
 
@@ -208,9 +209,10 @@ def test_interval_panels_each_in_their_unit_with_reference_and_arrows(checked, c
         assert k == "nu12" or ymin >= 0
         arrows = [t for t in a.texts if t.get_text().startswith(("to", "from"))]
         assert bool(arrows) == (iv.upper / scale > ymax or iv.lower / scale < ymin)
-        ref = res.reference[MAT].get(k)
+        ref = res.reference[MAT].get(k)               # (low, high): single values here
         refs = [ln for ln in a.get_lines() if ln.get_gid() == "reference"]
-        assert (len(refs) == 1 and refs[0].get_ydata()[0] == ref / scale) if ref else not refs
+        assert (len(refs) == 1 and ref[0] == ref[1] and refs[0].get_ydata()[0] == ref[0] / scale
+                ) if ref else not refs
         assert a.get_title() == f"{k} ({'–' if k == 'nu12' else 'GPa'})"
     # G23 at its bound: no interval, no verdict band, a dashed arrow from the value down to 0
     # (the way the fit pushes it), the limit drawn as a hollow triangle pointing down
@@ -663,6 +665,72 @@ def test_laminate_reference_values_on_the_summary_page(batch_dir):
     ey = res.plates[0].global_properties["Ey"] / 1e9
     rel = res.plates[0].global_uncertainty["Ey"]["rel_half_width"]       # its doubt, then the
     assert f"Ey {ey:.2f} GPa ±{rel * 100:.2g} % (reference 22.5 GPa)" in text   # reference
+
+
+def test_reference_range_words_and_difference():
+    """A range is written low–high and compared by its nearer end (0 inside it); one value
+    is a range of no width, so its difference is the usual one."""
+    assert fmt_reference("E1", (120e9, 150e9)) == "120.0–150.0"
+    assert fmt_reference("E1", (170e9, 170e9)) == "170.0"
+    assert fmt_reference("nu12", (0.3, 0.4)) == "0.300–0.400"
+    assert reference_diff(130e9, (120e9, 150e9)) == 0.0
+    assert reference_diff(150e9, (120e9, 150e9)) == 0.0
+    assert reference_diff(165e9, (120e9, 150e9)) == pytest.approx(0.10, rel=1e-12)
+    assert reference_diff(108e9, (120e9, 150e9)) == pytest.approx(-0.10, rel=1e-12)
+    assert reference_diff(187e9, (170e9, 170e9)) == pytest.approx(0.10, rel=1e-12)
+    assert reference_diff(-0.1, (0.0, 0.3)) is None        # no relative difference from 0
+
+
+@pytest.fixture(scope="module")
+def ranged_batch(tmp_path_factory):
+    """A batch of S1.4 with E1's reference [120 GPa, 150 GPa] and nu_xy's [0.05, 0.07]
+    (clihelp.S14_RANGES), 6x6: its output folder."""
+    tmp = tmp_path_factory.mktemp("ranged")
+    write_s14_with_ranges(tmp)
+    r = run("batch", tmp, "--mesh", "6x6", "--out", tmp / "out")
+    assert r.exit_code == 0, r.output
+    return tmp / "out"
+
+
+def test_a_reference_range_in_the_table_the_panels_and_across_specimens(ranged_batch):
+    """E1's reference range: "120.0–150.0" and the difference from its nearer end in the
+    table (once an empty cell), a red bar from 120 to 150 on its panel (a single value stays
+    a diamond), a capped black bar across specimens; nu_xy's range beside the laminate."""
+    path = ranged_batch / "S1.4r.result.h5"
+    res = read_result(path)
+    e1 = res.materials[MAT]["E1"]
+    assert e1 > 150e9                         # the 6x6 S1.4 lands above the range (~162 GPa)
+    pages = {p.name: p.figure for p in report_pages(path)}
+    rows = {row[0].split(" ")[0]: row for row in cells(ax(pages["summary"], "constants"))[1:]}
+    assert rows["E1"][5] == f"120.0–150.0\n(+{round((e1 / 150e9 - 1) * 100)} % above)"
+    e2 = res.materials[MAT]["E2"]
+    assert rows["E2"][5] == f"10.00 ({round((e2 / 10e9 - 1) * 100):+d} %)"
+    text = " ".join(t.get_text() for a in pages["summary"].axes
+                    for t in a.texts).replace("\n", " ")
+    assert "nu_xy" in text and "(reference 0.05–0.07)" in text
+    assert ("reference low–high: a range given by the specimen file; (inside): the value is "
+            "within it, else the difference from its nearer end") in text
+    fig = pages["intervals"]
+    a = ax(fig, f"interval-{MAT}.E1")
+    bar = next(ln for ln in a.get_lines() if ln.get_gid() == "reference-range")
+    assert list(bar.get_xdata()) == [0.25, 0.25] and list(bar.get_ydata()) == [120.0, 150.0]
+    assert not [ln for ln in a.get_lines() if ln.get_gid() == "reference"]
+    assert a.get_ylim()[0] < 120.0 and 150.0 < a.get_ylim()[1]
+    d = next(ln for ln in ax(fig, f"interval-{MAT}.E2").get_lines()
+             if ln.get_gid() == "reference")
+    assert d.get_marker() == "D" and list(d.get_ydata()) == [10.0]
+    legend = [t.get_text() for t in ax(fig, None).get_legend().get_texts()]
+    assert "reference" in legend and "reference range" in legend
+    across = {p.name: p.figure for p in report_pages(ranged_batch / "summary.json")}
+    a = ax(across["constants"], "across-E1")
+    bar = next(ln for ln in a.get_lines()
+               if (ln.get_gid() or "").startswith("reference-range-"))
+    assert list(bar.get_ydata()) == [120.0, 150.0] and bar.get_marker() == "_"
+    assert not [ln for ln in a.get_lines()
+                if (ln.get_gid() or "").startswith("reference-") and ln is not bar]
+    legend = [t.get_text() for x in across["constants"].axes if x.get_legend() is not None
+              for t in x.get_legend().get_texts()]
+    assert "reference range (left of the value)" in legend
 
 
 def _no_overlap(fig, axis, legend) -> bool:

@@ -12,6 +12,7 @@ from laminid_cli.cli import cli
 from laminid_cli.modal import default_factorizer
 from laminid_cli.resultfile import ResultFileError, read_result
 from laminid_cli.results import SCHEMA_VERSION, safe_keys
+from tests.clihelp import S14, write_s14_with_ranges
 from tests.resultfix import drop_bound_data, make_version_1
 
 S21 = "specimens/example2/S2.1.yaml"
@@ -198,6 +199,40 @@ def test_version_1_file(checked, tmp_path):
     e1 = r.uncertainty.get(name, "E1")
     assert e1.scale == "linear" and not e1.at_bound
     assert e1.upper - e1.value == pytest.approx(e1.value - e1.lower, rel=1e-9)
+
+
+@pytest.fixture(scope="module")
+def ranged(tmp_path_factory):
+    """S1.4 with a reference range for E1 and for nu_xy (clihelp.S14_RANGES), 6x6."""
+    tmp = tmp_path_factory.mktemp("rr")
+    out = tmp / "r.result.h5"
+    r = run("identify", write_s14_with_ranges(tmp), "--mesh", "6x6", "-o", out)
+    assert r.exit_code == 0, r.output
+    return out
+
+
+def test_reference_ranges_read_back_and_an_old_file_with_single_values(ranged, tmp_path):
+    """The reader gives every reference as (low, high): a range as written in the specimen
+    (once it was left out), one value as low == high. A schema 1 file whose specimen has
+    single values (as every file before ranges were kept) reads the same way."""
+    r = read_result(ranged)
+    mat = "IM7/977-2"
+    assert r.reference == {mat: {"E1": (120e9, 150e9), "E2": (10e9, 10e9),
+                                 "G12": (5.8e9, 5.8e9), "nu12": (0.35, 0.35)}}
+    assert r.plates[0].reference_global == {"nu_xy": (0.05, 0.07)}
+    old = tmp_path / "v1.result.h5"
+    shutil.copy(ranged, old)
+    make_version_1(old)
+    with h5py.File(old, "r+") as f:
+        del f["specimen"]["yaml"]
+        f["specimen"].create_dataset("yaml", data=open(S14, encoding="utf-8").read(),
+                                     dtype=h5py.string_dtype("utf-8"))
+    r = read_result(old)
+    assert r.schema_version == 1
+    assert r.reference == {mat: {"E1": (170e9, 170e9), "E2": (10e9, 10e9),
+                                 "G12": (5.8e9, 5.8e9), "nu12": (0.35, 0.35)}}
+    assert r.plates[0].reference_global == {}
+    assert r.plates[0].reference_source.startswith("strain gauge tests")
 
 
 def test_not_a_result_and_future_versions(tmp_path, result):

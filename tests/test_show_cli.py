@@ -7,7 +7,7 @@ import h5py
 import numpy as np
 import pytest
 
-from tests.clihelp import run
+from tests.clihelp import run, write_s14_with_ranges
 from tests.dampspec import damped_copy
 
 S11 = "specimens/example1/S1.1.yaml"
@@ -63,6 +63,33 @@ def test_show_json_is_identify_json_plus_file_and_written(tmp_path):
     with h5py.File(out, "r") as f:
         e1 = f["materials"][next(iter(f["materials"]))]["E1"][()]
     assert s["materials"]["IM7/977-2"]["E1"] == pytest.approx(float(e1), rel=1e-12)
+
+
+def test_show_of_a_reference_range_and_of_an_old_file_that_stored_its_midpoint(tmp_path):
+    """A reference range is shown as identify shows it ([low, high] in --json, "low .. high"
+    on the terminal). A file of an earlier laminid stored the range's midpoint in its summary
+    (E1 135 GPa for [120 GPa, 150 GPa]): show gives the range of the specimen the file holds,
+    and leaves its single values as stored."""
+    spec = write_s14_with_ranges(tmp_path)
+    out = tmp_path / "r.h5"
+    d = json.loads(_identify(spec, "--mesh", MESH, "--json", "-o", out))
+    s = json.loads(run("show", out, "--json").stdout)
+    assert s["reference"] == d["reference"]
+    assert s["reference"]["materials"]["IM7/977-2"]["E1"] == [120e9, 150e9]
+    with h5py.File(out, "r+") as f:                  # as laminid before ranges were kept
+        old = json.loads(f["summary_json"][()])
+        old["reference"]["materials"]["IM7/977-2"]["E1"] = 135e9
+        old["reference"]["global"]["nu_xy"] = 0.06
+        del f["summary_json"]
+        f.create_dataset("summary_json", data=json.dumps(old))
+    r = run("show", out)
+    assert r.exit_code == 0, r.output
+    e1 = next(ln for ln in r.stdout.splitlines() if ln.startswith("  E1 [GPa]"))
+    assert "  120.00 .. 150.00   " in e1 and "135.00" not in r.stdout
+    assert "    reference: nu_xy 0.050 .. 0.070" in r.stdout.splitlines()
+    s = json.loads(run("show", out, "--json").stdout)
+    assert s["reference"] == d["reference"]          # the range again; E2 10 GPa as stored
+    assert s["reference"]["materials"]["IM7/977-2"]["E2"] == 10e9
 
 
 def test_show_of_a_joint_result(tmp_path):

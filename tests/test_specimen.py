@@ -199,9 +199,8 @@ def test_paper_specimens_load(rel):
     for name, values in ref.get("materials", {}).items():
         assert spec.reference["materials"][name] == pytest.approx(values, rel=1e-12)
     for key, value in ref.get("global", {}).items():
-        if isinstance(value, tuple):
-            assert spec.reference["intervals"][f"global.{key}"] == pytest.approx(value)
-            value = 0.5 * sum(value)
+        # a range is kept as (low, high), as written: never its midpoint
+        assert type(spec.reference["global"][key]) is type(value)
         assert spec.reference["global"][key] == pytest.approx(value, rel=1e-12)
     # the identified materials of Tables 2, 3, 6, 7 are the materials of the file
     assert set(paper.IDENTIFIED[rel]) == set(spec.materials)
@@ -255,7 +254,7 @@ def test_hybrid_complete_model():
     assert spec.model_mass == pytest.approx(0.3369, rel=1e-12)
     assert spec.densities["glass"] / spec.densities["carbon"] == pytest.approx(1.95 / 1.55)
     assert 1300 < spec.densities["carbon"] < 1600 < spec.densities["glass"] < 2000
-    assert spec.reference["intervals"] == {"global.nu_xy": (0.15, 0.17)}
+    assert spec.reference["global"] == {"Ex": 77e9, "nu_xy": (0.15, 0.17)}
 
 
 def test_hybrid_paper_shorthand_equals_explicit_tags():
@@ -467,11 +466,21 @@ reference:
     assert spec.materials["CFRP"].prior == {"nu12": 0.1}
     assert spec.boundary == "simply-supported"
     assert spec.reference == {"source": "tension test",
-                              "materials": {"CFRP": {"E1": 170e9, "nu12": pytest.approx(0.35)}},
-                              "global": {"Ex": 60e9},
-                              "intervals": {"materials.CFRP.nu12": (0.3, 0.4)}}
+                              "materials": {"CFRP": {"E1": 170e9, "nu12": (0.3, 0.4)}},
+                              "global": {"Ex": 60e9}}
     with pytest.raises(ValueError):
         m.freq[0] = 1.0
+
+
+def test_reference_range_of_a_material_kept_as_written():
+    """A material's reference given as a range is (low, high) in SI, not its midpoint (the
+    terminal once showed 135.00 for [120 GPa, 150 GPa]); [x, x] is the one value x."""
+    spec = load_specimen_text(edit(BASE, "frequencies: [100, 200, 300]",
+                                   "frequencies: [100, 200, 300]\nreference:\n  materials: "
+                                   "{CFRP: {E1: [120 GPa, 150 GPa], E2: [10 GPa, 10 GPa], "
+                                   "G12: 5 GPa}}"))
+    assert spec.reference["materials"] == {"CFRP": {"E1": (120e9, 150e9), "E2": 10e9,
+                                                    "G12": 5e9}}
 
 
 def test_layup_as_a_yaml_list_of_angles():

@@ -16,7 +16,8 @@ def show(result, as_json):
     reasons, the constants with their intervals and verdicts, the measured and model
     frequencies, the uncertainty assessment (Monte Carlo, fixed constants, profiles) and the
     ply loss factors. Nothing is computed again; with --json, what 'identify --json' printed,
-    plus "file" and "written" (when, by which laminid and command).
+    plus "file" and "written" (when, by which laminid and command). A reference range that an
+    earlier laminid stored as its midpoint is given as the range of the specimen in the file.
 
     A file written by an earlier laminid (no /summary_json) is refused with a pointer to
     'laminid report', which draws any readable result.

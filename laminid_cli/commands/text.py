@@ -179,7 +179,7 @@ def format_identify_report(s: dict) -> str:
     gref = ref.get("global") or {}
     if gref:
         lines.append("    reference: " + ", ".join(
-            f"{k} {v / 1e9:.2f} GPa" if not k.startswith("nu") else f"{k} {v:.3f}"
+            f"{k} {_ref('nu12', v)}" if k.startswith("nu") else f"{k} {_ref('Ex', v)} GPa"
             for k, v in gref.items()))
     lines += _closing_lines(s)
     return "\n".join(lines)
@@ -221,13 +221,15 @@ def _material_tables(s: dict, ref: dict) -> list[str]:
                      + ("paper Eq. 14, E1/E1_0 and alphas" if param == "alpha"
                         else "free constants / initial values") + ")")
         rm = ref_mats.get(name, {})
+        # as wide as a range "120.00 .. 150.00" needs
+        rw = max([10, *(len(_ref(k, v)) for k, v in rm.items())])
         mu = unc.get(name, {})
         # a run that did not converge stopped at a point that is not an optimum: its values
         # and intervals are that point's
         done = s.get("converged", True) is not False
         lines.append(f"  {'constant':<10} {'initial':>12} "
                      f"{'identified' if done else 'last point':>12}  "
-                     f"{'reference' if rm else '':>10}"
+                     f"{'reference' if rm else '':>{rw}}"
                      + (f"  {'95 % interval':>17} {'± of value':>10}  verdict" if mu else ""))
         if not done:
             lines.append("  (NOT CONVERGED: the values, intervals and verdicts are those of the "
@@ -236,7 +238,7 @@ def _material_tables(s: dict, ref: dict) -> list[str]:
             note = "" if k in free else "  (fixed)"
             row = (f"  {k + (' [GPa]' if k != 'nu12' else ''):<10} "
                    f"{_num(k, init[k]):>12} {_num(k, ident[k]):>12}  "
-                   f"{_num(k, rm.get(k)) if k in rm else '':>10}")
+                   f"{_ref(k, rm.get(k)) if k in rm else '':>{rw}}")
             u = mu.get(k)
             if u is not None and u.get("at_bound"):
                 # no interval (a limit of the search is no confidence bound: a Monte Carlo has
@@ -481,6 +483,15 @@ def _val(name: str, value, digits: int = 3) -> str:
     if value is None or not math.isfinite(value):
         return "-"
     return f"{value:.{digits}g}" if name == "nu12" else f"{value / 1e9:.{digits}g} GPa"
+
+
+def _ref(name: str, value) -> str:
+    """A reference value as _num writes it, or a range [low, high] as "low .. high" (the
+    interval columns' form): the range the specimen gives, not its midpoint."""
+    if isinstance(value, (list, tuple)):
+        low, high = value
+        return f"{_num(name, low)} .. {_num(name, high)}"
+    return _num(name, value)
 
 
 def _num(name: str, value) -> str:
