@@ -317,19 +317,35 @@ def test_a_mistyped_fix_is_refused_before_any_work_and_leaves_the_earlier_result
         assert not list(tmp_path.glob("*.stale*"))
 
 
-def test_refused_optimiser_points_are_named_as_the_optimisers_not_trials():
-    """S2.2 (6x6): SLSQP proposes points outside Eq. 22's region (1 with CHOLMOD; 3 or 8 with
-    the banded Cholesky, whose last digits differ, depending on the library builds). The
-    warning said "1 trial point(s) outside the feasible region were refused", which a lab
-    reads as a Monte Carlo trial lost; it names the optimiser, the region's conditions and
-    that the search went on."""
+def test_refused_optimiser_points_are_named_as_the_optimisers_not_trials(monkeypatch):
+    """S2.2 (6x6): SLSQP proposes points outside Eq. 22's region (1 with CHOLMOD and numpy
+    2.4; 3 or 8 with the banded Cholesky; none with numpy 2.5 on Python 3.13: the count
+    depends on the library builds' last digits), so the optimiser's first two proposals are
+    refused here as such a point is, whatever the build. The warning said "1 trial point(s)
+    outside the feasible region were refused", which a lab reads as a Monte Carlo trial lost;
+    it names the optimiser, the region's conditions and that the search went on."""
+    import dataclasses
+
+    from laminid_cli.objective import Objective
+
+    real, calls = Objective.evaluate, []
+
+    def refusing(self, x, *args, **kwargs):
+        ev = real(self, x, *args, **kwargs)
+        calls.append(ev.objective)
+        if len(calls) in (2, 3):
+            return dataclasses.replace(ev, objective=float("nan"), refused=True,
+                                       reasons=("forced by the test",), phi=None, modes=None)
+        return ev
+
+    monkeypatch.setattr(Objective, "evaluate", refusing)
     r = run("identify", "specimens/example2/S2.2.yaml", "--mesh", "6x6", "--json",
             "--no-output")
     assert r.exit_code == 0, r.output
     w = [x for x in json.loads(r.stdout)["warnings"] if "feasible region" in x]
     assert len(w) == 1
     n = int(w[0].split("proposed ")[1].split(" ")[0])
-    assert n >= 1
+    assert n >= 2
     assert w[0] == (f"the optimiser proposed {n} point{'s' * (n > 1)} outside the feasible "
                     "region of Eq. 22 (E2 <= E1, |nu12| < 0.95, positive moduli); "
                     f"{'it was' if n == 1 else 'each was'} refused without evaluating the "
