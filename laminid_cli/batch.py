@@ -462,14 +462,26 @@ def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None
                 raise KeyboardInterrupt
         complete = True
     finally:
-        if not complete:
-            # Ctrl-C or an error in the consumer: the workers would finish the jobs already
-            # queued to them; stop them now (a worker removes its partial file on SIGTERM)
-            for proc in list(getattr(pool, "_processes", {}).values()):
-                with contextlib.suppress(Exception):
-                    proc.terminate()
-        pool.shutdown(wait=complete, cancel_futures=True)
-        restore()
+        try:
+            if not complete:
+                # Ctrl-C or an error in the consumer: the workers would finish the jobs
+                # already queued to them; stop them now (a worker removes its partial file on
+                # SIGTERM)
+                for proc in list(getattr(pool, "_processes", {}).values()):
+                    with contextlib.suppress(Exception):
+                        proc.terminate()
+            # wait=True on Ctrl-C too (as the Monte Carlo's `with` pool): the pool's manager
+            # thread joins the stopped workers, then drops the queues, whose semaphores the
+            # resource tracker holds (forkserver). Not waited for, it did that while this
+            # process ran its exit handlers (which also release them) and os._exit: a
+            # semaphore unlinked but not yet unregistered when the process ended made the
+            # tracker warn "1 leaked semaphore objects" and "[Errno 2] No such file or
+            # directory" after "laminid: interrupted" (2 of 30 interrupted batches). The
+            # wait is the workers' exit after SIGTERM, which the exit handlers waited for
+            # anyway.
+            pool.shutdown(wait=True, cancel_futures=True)
+        finally:
+            restore()
 
 
 #: seconds between two looks at a noted Ctrl-C while the pool's workers run
