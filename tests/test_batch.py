@@ -489,6 +489,95 @@ def test_a_noted_ctrl_c_stops_the_pool_run_even_when_its_exception_was_swallowed
     assert done < len(jobs) and time.time() - t0 < 5      # (as the killed-batch test)
 
 
+@pytest.fixture
+def ctrl_c():
+    """SIGINT raises KeyboardInterrupt in the test, as in a terminal (a test run started as a
+    background job has it ignored)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+@pytest.mark.parametrize("twice", [False, True])
+def test_an_interrupted_pool_run_is_shut_down_before_the_interrupt_leaves_it(
+        tmp_path, monkeypatch, ctrl_c, twice):
+    """Ctrl-C during a pool run: when run_jobs lets the KeyboardInterrupt out, no thread of the
+    pool runs any more and its semaphores are released, also when a second Ctrl-C comes while
+    the pool shuts down (``twice``; `timeout -s INT` at times delivers two). The pool's manager
+    thread, left running, released them while the batch process ran its exit handlers and
+    os._exit, and a semaphore unlinked but not yet unregistered then made the resource tracker
+    print "1 leaked semaphore objects" and "[Errno 2] No such file or directory" after
+    "laminid: interrupted" (about 1 interrupted batch in 25; here the thread is still there
+    every time). Nothing is printed as "Exception ignored" (an interrupt raised in the
+    generator's close)."""
+    import concurrent.futures
+    import multiprocessing.synchronize
+    import multiprocessing.util
+    import threading
+
+    import laminid_cli.batch as B
+
+    if twice:
+        shutdown = concurrent.futures.ProcessPoolExecutor.shutdown
+
+        def interrupted_shutdown(self, *args, **kwargs):
+            signal.raise_signal(signal.SIGINT)
+            return shutdown(self, *args, **kwargs)
+
+        monkeypatch.setattr(concurrent.futures.ProcessPoolExecutor, "shutdown",
+                            interrupted_shutdown)
+    unraisable: list = []
+    monkeypatch.setattr(sys, "unraisablehook", unraisable.append)
+    specs = make_tree(tmp_path / "in", {**SPECS, "example1/S1.1.yaml":
+                                        "specimens/example1/S1.1.yaml", "example1/S1.2.yaml":
+                                        "specimens/example1/S1.2.yaml"})
+    options = BatchOptions(mesh=MESH)
+    jobs = B.plan_batch(discover_specimens([specs]), tmp_path / "out", options)
+    threads = set(threading.enumerate())
+    finalizers = set(multiprocessing.util._finalizer_registry)
+    done = 0
+    with pytest.raises(KeyboardInterrupt):
+        for _job, _outcome in B.run_jobs(jobs, options, n_jobs=2):
+            done += 1
+            signal.raise_signal(signal.SIGINT)             # Ctrl-C after the first result
+    assert done == 1
+    assert [t for t in threading.enumerate() if t not in threads] == []
+    semaphores = [f for key, f in multiprocessing.util._finalizer_registry.items()
+                  if key not in finalizers
+                  and getattr(f, "_callback", None) is multiprocessing.synchronize.SemLock._cleanup]
+    assert semaphores == []
+    assert unraisable == []
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def _ignore_sigterm(ready):
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    ready.set()
+    time.sleep(60)
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="fork start method")
+def test_a_worker_that_ignores_sigterm_is_killed_after_the_grace_time(monkeypatch):
+    """batch._stop_workers: a worker still there STOP_GRACE_S after SIGTERM (inside a long
+    compiled call, Python runs no signal handler) is killed, so that the pool's shutdown after
+    a Ctrl-C, which waits for the workers, stays short."""
+    import multiprocessing
+
+    import laminid_cli.batch as B
+
+    monkeypatch.setattr(B, "STOP_GRACE_S", 0.3)
+    ctx = multiprocessing.get_context("fork")
+    ready = ctx.Event()
+    proc = ctx.Process(target=_ignore_sigterm, args=(ready,))
+    proc.start()
+    assert ready.wait(30)
+    t0 = time.monotonic()
+    B._stop_workers([proc])
+    proc.join(10)
+    assert proc.exitcode == -signal.SIGKILL
+    assert 0.3 <= time.monotonic() - t0 < 5
+
+
 def _interactive_sigint():
     """In the child: Ctrl-C as in a terminal. A test run started as a background job has
     SIGINT ignored, which its children inherit (and the batch then rightly ignores it)."""
