@@ -171,3 +171,15 @@ def test_check_mesh_needs_no_cli(s11_6):
     # the library function alone, on the run's model and assessment: the same numbers
     mc = check_mesh(s11_6.forward_models[0], s11_6.assessment)
     assert np.allclose(mc.shift, s11_6.mesh_check.shift, rtol=1e-9, equal_nan=True)
+
+
+def test_report_summary_line(tmp_path):
+    from laminid_cli.report import mesh_check_note
+
+    out = tmp_path / "s11.h5"
+    assert run("identify", S11, "--mesh", "6x6", "--mesh-check", "-o", out).exit_code == 0
+    note = mesh_check_note(read_result(out).mesh_check)
+    # mode 12: -2.003 % at 6x6 against 12x12, 10.06 sigma of 0.2 %; E1 0.82 half-width
+    assert note.startswith("mesh check, 6x6 against 12x12: largest frequency change -2.003 % "
+                           "(10.06 σ, mode 12); the constants move by at most 0.82 of their "
+                           "95 % half-width (E1): too coarse")

@@ -206,16 +206,15 @@ def format_mesh_check(mc: dict) -> list[str]:
                      f"  {fmt(md['change_sigma'][i], '+12.2f')}")
     labels = mc["labels"]
     one = len({lab.rsplit(".", 1)[0] for lab in labels}) == 1
+    names = [lab.rsplit(".", 1)[1] if one else lab for lab in labels]
+    w = max([8] + [len(n) for n in names])
     lines.append(f"constants on {fine} (first order: the weighted least-squares step of the "
                  "frequency changes)")
-    lines.append(f"  {'constant':<{max(8, *(len(x) for x in labels)) if not one else 8}}  "
-                 f"{'shift %':>8}  {'/half-width':>11}")
-    for lab in labels:
+    lines.append(f"  {'constant':<{w}}  {'shift %':>8}  {'/half-width':>11}")
+    for lab, name in zip(labels, names):
         mat, const = lab.rsplit(".", 1)
         c = mc["constants"][mat][const]
-        name = const if one else lab
-        lines.append(f"  {name:<{8 if one else max(8, *(len(x) for x in labels))}}  "
-                     f"{fmt(c['shift_percent'], '+8.3f', 'at bound')}  "
+        lines.append(f"  {name:<{w}}  {fmt(c['shift_percent'], '+8.3f', 'at bound')}  "
                      f"{fmt(c['shift_half_width'], '+11.3f')}")
     if mc["text"]:
         lines.append(f"warning: {mc['text']}")
