@@ -40,12 +40,15 @@ class RunOptions:
     identify : the optimisation (its ``fix`` holds the elastic constants fixed by ``--fix``)
     uncertainty : intervals, --fix-undetermined, Monte Carlo
     fix_loss : loss factors held by ``--fix``, e.g. ("carbon.eta13=0.01",)
+    mesh_check : after the identification, compare with a mesh twice as fine
+        (laminid_cli.meshcheck; one plate only)
     """
 
     mesh: str = "12x12"
     identify: IdentifyOptions = IdentifyOptions()
     uncertainty: UncertaintyOptions = UncertaintyOptions()
     fix_loss: tuple[str, ...] = ()
+    mesh_check: bool = False
 
     @classmethod
     def with_fix(cls, fix="", **kw) -> "RunOptions":
@@ -81,6 +84,11 @@ class RunOptions:
                               what=" with the Monte Carlo trials")
         else:
             nxny = parse_mesh(self.mesh, copies=copies)
+        if self.mesh_check:
+            from laminid_cli.meshcheck import fine_mesh_size
+
+            fx, fy = fine_mesh_size(nxny)
+            parse_mesh(f"{fx}x{fy}", what=f" for --mesh-check (twice as fine as {self.mesh})")
         check_sigma_rel(u.sigma_rel)
         if not 0 < u.max_rel_interval <= WEAK:
             raise FitInputError(f"--max-rel-interval must be above 0 and at most {WEAK:g} "
@@ -126,7 +134,8 @@ class IdentificationRun:
     ``result`` the final Identification or JointIdentification); status :
     laminid_cli.status.ResultStatus; damping : laminid_cli.damping.DampingFit or None;
     summary : plain data, SI (``identify --json``); notes : things the user should be told
-    (one line each, e.g. measured damping not used by a joint fit)
+    (one line each, e.g. measured damping not used by a joint fit); mesh_check :
+    laminid_cli.meshcheck.MeshCheck with ``RunOptions.mesh_check``, else None
     """
 
     options: RunOptions
@@ -136,6 +145,7 @@ class IdentificationRun:
     damping: object | None
     summary: dict = field(repr=False)
     notes: tuple[str, ...] = ()
+    mesh_check: object | None = None
 
     @property
     def joint(self) -> bool:
@@ -185,6 +195,10 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
     if not specimens:
         raise FitInputError("no specimen to identify")
     joint = len(specimens) > 1
+    if joint and options.mesh_check:
+        raise FitInputError("--mesh-check checks one plate's identification: run it on each "
+                            "specimen alone (laminid identify SPEC --mesh-check), then "
+                            "identify jointly on the mesh it asks for")
     nxny = options.check()
     specimens = [read_specimen(s) if isinstance(s, (str, Path)) else s for s in specimens]
     if joint:
@@ -246,12 +260,19 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
                      "alone for its loss factors)")
     if damping is not None:
         summary["damping"] = damping.as_dict()
-    status = status_of(result, a, damping)
+    mesh_check = None
+    if options.mesh_check:
+        from laminid_cli.meshcheck import check_mesh
+
+        mesh_check = check_mesh(fms[0], a)
+    summary["mesh_check"] = None if mesh_check is None else mesh_check.as_dict()
+    status = status_of(result, a, damping, mesh_check)
     summary.update(status.as_dict())
     if notes:
         summary["notes"] = list(notes)
     return IdentificationRun(options=options, forward_models=fms, assessment=a, status=status,
-                             damping=damping, summary=summary, notes=tuple(notes))
+                             damping=damping, summary=summary, notes=tuple(notes),
+                             mesh_check=mesh_check)
 
 
 def _membrane_in_band(fms, result) -> list[str]:
@@ -307,5 +328,5 @@ def write_result(path, run: IdentificationRun, *, command: str | None = None,
         write_identification_file(
             path, run.forward_models[0], run.result, run.summary,
             command=command or "laminid identify", assessment=run.assessment,
-            damping=run.damping, status=run.status, attrs=attrs)
+            damping=run.damping, status=run.status, attrs=attrs, mesh_check=run.mesh_check)
     return path

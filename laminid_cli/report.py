@@ -645,6 +645,25 @@ def table_notes(r: ResultFile) -> list[str]:
     return notes
 
 
+def mesh_check_note(mc: dict) -> str:
+    """One line of ``identify --mesh-check`` (ResultFile.mesh_check) for the summary page."""
+    m, f = mc["mesh"], mc["fine_mesh"]
+    md = mc["modes"]
+    sig = np.abs(np.asarray(md["change_sigma"], float))
+    i = int(np.nanargmax(sig))
+    hw = np.abs([c["shift_half_width"] for per in mc["constants"].values()
+                 for c in per.values()], dtype=float)
+    k = int(np.nanargmax(hw))
+    lab = mc["labels"][k]
+    lab = lab.rsplit(".", 1)[1] if len(mc["constants"]) == 1 else lab
+    head = (f"mesh check, {m['nx']}x{m['ny']} against {f['nx']}x{f['ny']}: largest frequency "
+            f"change {md['change_percent'][i]:+.3f} % ({sig[i]:.2f} σ, mode "
+            f"{int(md['measured_mode'][i])}); the constants move by at most {hw[k]:.2f} of "
+            f"their 95 % half-width ({lab})")
+    return head + (f": too coarse — identify with --mesh {f['nx']}x{f['ny']}"
+                   if mc["too_coarse"] else ": fine enough for these modes")
+
+
 def summary_page(r: ResultFile, plate=None, what: str = ""):
     """Page 1: status, constants table, and (single plate, or ``plate`` given) the
     frequencies. A joint result without ``plate`` gets the RMS of each plate instead."""
@@ -696,6 +715,8 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
         notes.append(f"uncertainty: {u.confidence:.0%} intervals, s² = {u.s2:.3g}, "
                      f"condition number {u.condition_number:.3g}, σ from {u.sigma_source}")
         notes += table_notes(r)
+    if getattr(r, "mesh_check", None):
+        notes.append(mesh_check_note(r.mesh_check))
     # the notes in the room left under the table: smaller type, wrapped wider, where there are
     # many (a two-material result with profiles and a Monte Carlo ran off the page)
     room = fig.get_figheight() * (1 - h) * (1.001 - f) * 0.9           # inches

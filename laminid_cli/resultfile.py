@@ -223,6 +223,10 @@ class ResultFile:
     uncertainty: Uncertainty | None = None
     damping: Damping | None = None
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    #: /mesh_check of ``identify --mesh-check`` as plain data (MeshCheck.as_dict's keys:
+    #: mesh, fine_mesh, modes, constants, labels, limit, too_coarse, text, time_s); None when
+    #: the file has none (without the flag, or written before it existed)
+    mesh_check: dict | None = None
 
     @property
     def confidence(self) -> float | None:
@@ -599,6 +603,29 @@ def _damping(f) -> Damping | None:
     return Damping({k: decode(v) for k, v in g.attrs.items()}, data, ds_attrs, mc)
 
 
+def _mesh_check(f) -> dict | None:
+    """/mesh_check as MeshCheck.as_dict's plain data; None when the file has none."""
+    if "mesh_check" not in f:
+        return None
+    g = f["mesh_check"]
+    a = g.attrs
+    labels = _strings(g["labels"])
+    per: dict = {}
+    for k, lab in enumerate(labels):
+        mat, const = lab.rsplit(".", 1)
+        per.setdefault(mat, {})[const] = {
+            key: float(g[key][k]) for key in ("shift", "shift_percent", "shift_half_width")}
+    modes = {key: np.asarray(g[key][()]) for key in (
+        "measured_mode", "model_mode", "fine_mode", "mac", "freq_hz", "fine_hz",
+        "change_percent", "change_sigma")}
+    return {"mesh": {"nx": int(a["nx"]), "ny": int(a["ny"])},
+            "fine_mesh": {"nx": int(a["fine_nx"]), "ny": int(a["fine_ny"])},
+            "modes": modes, "constants": per, "labels": list(labels),
+            "limit": float(a["limit"]),
+            "too_coarse": [x for x in _s(a.get("too_coarse", "")).split(",") if x],
+            "text": _s(a.get("text", "")), "time_s": float(a.get("time_s", np.nan))}
+
+
 def read_result(path) -> ResultFile:
     """Read an identification result (single or joint) into a :class:`ResultFile`.
 
@@ -726,4 +753,5 @@ def _read(f, path, fmt, version) -> ResultFile:
         initial=ordered(_materials(f, "initial")), free=ordered(free), history=history,
         rms_residual_percent=rms, plates=plates, status=status,
         uncertainty=_uncertainty(f), damping=_damping(f),
-        warnings=_strings(f["warnings"]) if "warnings" in f else ())
+        warnings=_strings(f["warnings"]) if "warnings" in f else (),
+        mesh_check=_mesh_check(f))

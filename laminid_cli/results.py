@@ -37,7 +37,8 @@ Status (schema version 2; laminid_cli.status)::
     /                     attrs: status ("ok" | "check")
     /status               codes, texts (UTF-8 strings, same length, empty when ok): the
                           reasons, codes not_converged | at_bound | undetermined |
-                          fixed_rejected | poor_fit | implausible | modes_swapped
+                          fixed_rejected | poor_fit | coarse_mesh | implausible |
+                          modes_swapped
                           (laminid_cli.status.CODES)
 
 JSON (``--json``, batch summary rows): top-level ``status``, ``reasons`` ([{code, text}]) and
@@ -150,6 +151,21 @@ With measured damping (``measured.damping`` or an FRF file; laminid_cli.damping)
                           inner_lower, inner_upper, linearized_std (1, per label of /damping),
                           trials_at_zero, lower_at_zero (0/1: that end is the bound eta >= 0)
                           (files before it have neither: the reader gives None)
+
+With ``identify --mesh-check`` (laminid_cli.meshcheck; files without it have none: the reader
+gives None)::
+
+    /mesh_check           attrs: nx, ny (this mesh), fine_nx, fine_ny (twice as fine), limit
+                          (0.3: a shift beyond it, in half-widths, makes the mesh too coarse),
+                          too_coarse (labels, comma-separated), text (the warning or ""),
+                          time_s;
+                          per checked measured mode: measured_mode, model_mode, fine_mode
+                          (1-based), mac (of w0 at the common nodes), freq_hz, fine_hz (Hz:
+                          both models at the identified constants), change_percent,
+                          change_sigma (in units of the mode's frequency sigma);
+                          per free constant: labels ("material.constant"), shift (Pa; nu12:
+                          1; the first-order change on the fine mesh, NaN at a bound),
+                          shift_percent (%), shift_half_width (in units of its 95 % half-width)
 
 Joint identifications ("laminid-joint-result", several plates sharing materials): root attrs as
 above plus specimens (names, comma-separated); /materials/<name> and /initial/<name> once
@@ -391,13 +407,14 @@ def write_status(f, status) -> None:
         g.create_dataset(key, data=np.array(list(values), dtype=object), dtype=dt)
 
 
-def status_of(r, assessment=None, damping=None):
+def status_of(r, assessment=None, damping=None, mesh_check=None):
     """The ResultStatus of a result: the assessment's when given, else from ``r`` alone; with
-    the ply loss factors' fit ``damping`` when there is one."""
+    the ply loss factors' fit ``damping`` when there is one, and the MeshCheck of
+    ``identify --mesh-check``."""
     from laminid_cli.status import result_status
 
     if assessment is not None:
-        return result_status(assessment.result, assessment.uncertainty, damping)
+        return result_status(assessment.result, assessment.uncertainty, damping, mesh_check)
     return result_status(r, damping=damping)
 
 
@@ -433,15 +450,20 @@ def identification_summary(r) -> dict:
 
 def write_identification_file(path, fm, r, summary: dict, command: str = "laminid identify",
                               assessment=None, damping=None, status=None,
-                              attrs: dict | None = None) -> None:
+                              attrs: dict | None = None, mesh_check=None) -> None:
     """Write an identification result (format "laminid-result", layout in the module docstring
     plus /history, /sensitivities and the initial constants; /uncertainty when ``assessment``,
     a :class:`laminid_cli.uncertainty.Assessment`, is given; /damping when ``damping``, a
     :class:`laminid_cli.damping.DampingFit`, is given). ``status``: the ResultStatus when the
-    caller has it already (else :func:`status_of`); ``attrs``: extra root attributes."""
+    caller has it already (else :func:`status_of`); ``attrs``: extra root attributes;
+    ``mesh_check``: the :class:`laminid_cli.meshcheck.MeshCheck` of ``--mesh-check``
+    (/mesh_check)."""
     with atomic_h5(path, "laminid-result", command=command) as f:
         _write_identification(f, fm, r, summary)
-        write_status(f, status if status is not None else status_of(r, assessment, damping))
+        write_status(f, status if status is not None
+                     else status_of(r, assessment, damping, mesh_check))
+        if mesh_check is not None:
+            write_mesh_check(f, mesh_check)
         for key, value in (attrs or {}).items():
             f.attrs[key] = value
         if assessment is not None:
@@ -451,6 +473,33 @@ def write_identification_file(path, fm, r, summary: dict, command: str = "lamini
         if damping is not None:
             write_damping(f, damping)
         put_summary(f, summary)
+
+
+def write_mesh_check(f, mc) -> None:
+    """Write a :class:`laminid_cli.meshcheck.MeshCheck` as /mesh_check (module docstring)."""
+    g = f.create_group("mesh_check")
+    g.attrs["nx"], g.attrs["ny"] = mc.mesh
+    g.attrs["fine_nx"], g.attrs["fine_ny"] = mc.fine_mesh
+    g.attrs["limit"] = mc.limit
+    g.attrs["too_coarse"] = ",".join(mc.too_coarse)
+    g.attrs["text"] = mc.text
+    g.attrs["time_s"] = mc.time_s
+    for key in ("measured_mode", "model_mode", "fine_mode"):
+        put(g, key, getattr(mc, key), "1")
+    put(g, "mac", mc.mac, "1", description="MAC of w0 at the common nodes")
+    put(g, "freq_hz", mc.freq_hz, "Hz", description="this mesh's model at the identified "
+        "constants")
+    put(g, "fine_hz", mc.fine_hz, "Hz", description="the fine mesh's model, same constants")
+    put(g, "change_percent", mc.change_percent, "%")
+    put(g, "change_sigma", mc.change_sigma, "1",
+        description="frequency change in units of the mode's frequency sigma")
+    data, dt = _strings(mc.labels)
+    g.create_dataset("labels", data=data, dtype=dt)
+    put(g, "shift", mc.shift, "Pa (nu12: 1)",
+        description="first-order change of the constants on the fine mesh")
+    put(g, "shift_percent", mc.shift_percent, "%")
+    put(g, "shift_half_width", mc.shift_half_width, "1",
+        description="the shift in units of the constant's 95 % half-width")
 
 
 def _write_material_settings(f, r) -> None:

@@ -43,6 +43,11 @@ reasons (stable lowercase codes, one entry per code, the words name the constant
       cannot produce a negative in-plane nu_xy either: A12 = sum t_k Q12(theta_k) with
       Q12(theta) = Q12 (c^4 + s^4) + (Q11 + Q22 - 4 Q66) s^2 c^2 > 0 whenever Q12 > 0 and
       Q11 + Q22 > 4 Q66 (fibre plies), so nu_xy = A12 / A22 > 0.
+``coarse_mesh``
+    ``identify --mesh-check`` only: on a mesh twice as fine, some constant would move by more
+    than 0.3 of its 95 % half-width (laminid_cli.meshcheck): the discretisation error biases
+    the constants beyond what the frequency noise allows; the words name the constants and the
+    finer mesh.
 ``modes_swapped``
     the final pairing of measured and model modes is not in sorted order (MAC tracking
     re-ordered them): check the mode identification against the mode shapes.
@@ -60,7 +65,7 @@ OK = "ok"
 CHECK = "check"
 #: reason codes, in the order they are listed
 CODES = ("not_converged", "at_bound", "undetermined", "fixed_rejected", "poor_fit",
-         "implausible", "modes_swapped")
+         "coarse_mesh", "implausible", "modes_swapped")
 #: a transverse shear modulus above this multiple of G12 is implausible (module docstring)
 SHEAR_RATIO_LIMIT = 2.0
 
@@ -151,13 +156,14 @@ def swapped_modes(result) -> list[str]:
     return out
 
 
-def result_status(result, uncertainty=None, damping=None) -> ResultStatus:
+def result_status(result, uncertainty=None, damping=None, mesh_check=None) -> ResultStatus:
     """Status and reasons of an Identification or JointIdentification (module docstring).
 
     ``uncertainty``: its :class:`laminid_cli.uncertainty.Uncertainty` (None: the reasons that
     need it — at_bound per constant, undetermined, poor_fit — are judged without it: only the
     optimiser's bound hits count). ``damping``: the ply loss factors'
     :class:`laminid_cli.damping.DampingFit`, when the specimen has measured damping.
+    ``mesh_check``: the :class:`laminid_cli.meshcheck.MeshCheck` of ``identify --mesh-check``.
     """
     found: dict[str, list[str]] = {}
 
@@ -224,6 +230,8 @@ def result_status(result, uncertainty=None, damping=None) -> ResultStatus:
         limit = (u.thresholds["max_rel_interval"] if u is not None else None)
         for code, text in damping_reasons(damping, limit):
             add(code, text)
+    if mesh_check is not None and mesh_check.too_coarse:
+        add("coarse_mesh", mesh_check.text)
     for text in implausible_combinations(result, u):
         add("implausible", text)
     sw = swapped_modes(result)

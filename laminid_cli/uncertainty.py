@@ -535,42 +535,47 @@ def _label_values(materials, labels, which: str = "constants") -> np.ndarray:
                                    lab.rsplit(".", 1)[1])) for lab in labels])
 
 
-def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
-                           max_rel_interval: float = WEAK, confidence: float = 0.95,
-                           sigma_source: str = "", notes=(), nu_max: float = 0.95,
-                           bound_factor: float = 5.0) -> Uncertainty:
-    """Covariance, intervals, correlation, condition and verdicts (module docstring).
+@dataclass(frozen=True)
+class DesignRows:
+    """The rows of the linearised estimate (module docstring), over the free constants scaled
+    to relative ones (moduli per ln P, nu12 per max(|nu12|, NU_SCALE)): data rows of every
+    plate's weighted measured modes, then one row per prior.
 
-    obs : sequence of :class:`Observations` (one per plate, columns = ``free_labels``)
-    materials : sequence of :class:`MaterialState`
-    nu_max, bound_factor : the search limits of the identification (IdentifyOptions), for the
-        nu12 interval's clipping and :func:`bounds_reached`
+    G : (n_rows, p) d r / d scaled constant; tau : (n_rows,) each row's noise standard
+    deviation; resid : (n_rows,) the rows r at the optimum; scale : (p,) the column scale
+    (SI: a constant's change is ``scale`` times its scaled one); G_data, tau_data : the data
+    rows alone; used : per plate, (n,) bool, the measured modes that make its data rows (in
+    order); sigma_unit : RMS relative eigenvalue standard deviation; prior_rows, prior_tau :
+    the prior rows and their noise.
     """
-    from laminid_cli.quantiles import chi2_ppf
 
-    if scaling not in SCALINGS:
-        raise FitInputError(f"covariance scaling '{scaling}' unknown: choose {', '.join(SCALINGS)}")
-    if not 0 < max_rel_interval <= WEAK:
-        raise FitInputError(f"the interval threshold must be in (0, {WEAK:g}] (above it a "
-                            f"verdict is 'not determined', always flagged), got "
-                            f"{max_rel_interval:g}")
-    if not 0 < confidence < 1:
-        raise FitInputError(f"confidence must be in (0, 1), got {confidence:g}")
-    labels = free_labels(materials)
-    fixed = tuple(f"{m.name}.{k}" for m in materials for k in CONSTANT_NAMES if k not in m.free)
+    G: np.ndarray
+    tau: np.ndarray
+    resid: np.ndarray
+    scale: np.ndarray
+    G_data: np.ndarray
+    tau_data: np.ndarray
+    used: tuple
+    sigma_unit: float
+    prior_rows: list
+    prior_tau: list
+
+
+def design_rows(obs, materials, labels) -> DesignRows:
+    """The rows of :func:`linearized_uncertainty` (paper Eq. 17 + Eq. 15 linearised at the
+    optimum): ``obs`` sequence of :class:`Observations`, ``materials`` of
+    :class:`MaterialState`, ``labels`` the free constants (:func:`free_labels`)."""
     p = len(labels)
     mat_of = {m.name: m for m in materials}
     value = _label_values(materials, labels)
     is_nu = np.array([lab.endswith(".nu12") for lab in labels], bool)
-    hits = bounds_reached(materials, nu_max, bound_factor)
-    at_bound = np.array([lab in hits for lab in labels], bool)
-    inner = ~at_bound                      # constants at a bound are held there (module doc)
     # column scale: relative constants (moduli per ln P, nu12 per max(|nu12|, NU_SCALE))
     D = np.where(is_nu, np.maximum(np.abs(value), NU_SCALE), np.abs(value))
-    rows, tau, resid = [], [], []
+    rows, tau, resid, used = [], [], [], []
     rel_sd = []
     for o in obs:
         ok = (np.asarray(o.weight) > 0) & np.isfinite(o.freq_hz)
+        used.append(ok)
         f = o.freq_hz[ok]
         lam_m = (2 * np.pi * f) ** 2
         sw = np.sqrt(o.weight[ok])
@@ -599,16 +604,60 @@ def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
     G = np.vstack([G_data] + ([np.array(prior_rows)] if prior_rows else []))
     t = np.concatenate([tau_data, np.array(prior_tau)])
     r = np.concatenate(resid + [np.array(prior_res)])
+    return DesignRows(G=G, tau=t, resid=r, scale=D, G_data=G_data, tau_data=tau_data,
+                      used=tuple(used), sigma_unit=sigma_unit, prior_rows=prior_rows,
+                      prior_tau=prior_tau)
+
+
+def _pseudo_inverse(Gi: np.ndarray):
+    """Rank-safe pseudo-inverse of the rows ``Gi`` (n, p) through its SVD: (p, n), the null
+    singular values (bool (k,)) and V^T (k, p)."""
+    U, S, Vt = np.linalg.svd(Gi, full_matrices=False)
+    null = S <= NULL_TOL * (S[0] if S.size else 1.0)
+    S_inv = np.where(null, 0.0, 1.0 / np.where(null, 1.0, S))
+    return (Vt.T * S_inv) @ U.T, null, Vt
+
+
+def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
+                           max_rel_interval: float = WEAK, confidence: float = 0.95,
+                           sigma_source: str = "", notes=(), nu_max: float = 0.95,
+                           bound_factor: float = 5.0) -> Uncertainty:
+    """Covariance, intervals, correlation, condition and verdicts (module docstring).
+
+    obs : sequence of :class:`Observations` (one per plate, columns = ``free_labels``)
+    materials : sequence of :class:`MaterialState`
+    nu_max, bound_factor : the search limits of the identification (IdentifyOptions), for the
+        nu12 interval's clipping and :func:`bounds_reached`
+    """
+    from laminid_cli.quantiles import chi2_ppf
+
+    if scaling not in SCALINGS:
+        raise FitInputError(f"covariance scaling '{scaling}' unknown: choose {', '.join(SCALINGS)}")
+    if not 0 < max_rel_interval <= WEAK:
+        raise FitInputError(f"the interval threshold must be in (0, {WEAK:g}] (above it a "
+                            f"verdict is 'not determined', always flagged), got "
+                            f"{max_rel_interval:g}")
+    if not 0 < confidence < 1:
+        raise FitInputError(f"confidence must be in (0, 1), got {confidence:g}")
+    labels = free_labels(materials)
+    fixed = tuple(f"{m.name}.{k}" for m in materials for k in CONSTANT_NAMES if k not in m.free)
+    p = len(labels)
+    value = _label_values(materials, labels)
+    is_nu = np.array([lab.endswith(".nu12") for lab in labels], bool)
+    hits = bounds_reached(materials, nu_max, bound_factor)
+    at_bound = np.array([lab in hits for lab in labels], bool)
+    inner = ~at_bound                      # constants at a bound are held there (module doc)
+    rows = design_rows(obs, materials, labels)
+    D, G, G_data, tau_data = rows.scale, rows.G, rows.G_data, rows.tau_data
+    t, r, sigma_unit = rows.tau, rows.resid, rows.sigma_unit
+    prior_rows, prior_tau = rows.prior_rows, rows.prior_tau
     n_rows = G.shape[0]
     idx = np.flatnonzero(inner)
     p_in = idx.size
     # sandwich covariance in scaled variables, through the SVD of G (rank-safe), over the
     # constants not at a bound
     Gi = G[:, idx]
-    U, S, Vt = np.linalg.svd(Gi, full_matrices=False)
-    null = S <= NULL_TOL * (S[0] if S.size else 1.0)
-    S_inv = np.where(null, 0.0, 1.0 / np.where(null, 1.0, S))
-    Ginv = (Vt.T * S_inv) @ U.T                                      # pseudo-inverse (p_in, n)
+    Ginv, null, Vt = _pseudo_inverse(Gi)                              # (p_in, n)
     cov_s = np.full((p, p), np.nan)
     cov_s[np.ix_(idx, idx)] = Ginv @ np.diag(t**2) @ Ginv.T
     in_null = np.zeros(p, bool)
@@ -695,6 +744,36 @@ def linearized_uncertainty(obs, materials, *, scaling: str = "larger",
         bound_side=tuple(hits[lab].side if lab in hits else "" for lab in labels),
         bound_limit=np.array([hits[lab].limit if lab in hits else np.nan for lab in labels]),
         chi2_limit=chi2_limit, sigma_unit=sigma_unit)
+
+
+def model_change_shift(obs, materials, rel_change, *, nu_max: float = 0.95,
+                       bound_factor: float = 5.0) -> np.ndarray:
+    """First-order change of the free constants (SI, (p,) over :func:`free_labels`) when the
+    model's eigenvalues change, at the same constants, by the relative amounts ``rel_change``
+    (one (n,) array per plate of ``obs``, over its measured modes; e.g. a finer mesh's).
+
+    The estimate minimises the rows r_i = sqrt(w_i) (lt_i - l_i(P)) / lt_i (module docstring);
+    a model whose eigenvalues become l_i (1 + e_i) changes them by -sqrt(w_i) e_i l_i / lt_i,
+    so the constants move by the least-squares step ``G^+ (sqrt(w) e l / lt)`` on the same
+    rows (:func:`design_rows`, priors unchanged) and the same pseudo-inverse as the
+    covariance. A model too stiff by e_i is thus read as a measured eigenvalue too low by e_i.
+    Constants at a bound are held there (NaN).
+    """
+    labels = free_labels(materials)
+    rows = design_rows(obs, materials, labels)
+    hits = bounds_reached(materials, nu_max, bound_factor)
+    idx = np.array([k for k, lab in enumerate(labels) if lab not in hits], int)
+    dr = []
+    for o, e, ok in zip(obs, rel_change, rows.used):
+        e = np.asarray(e, float)[ok]
+        lam_m = (2 * np.pi * o.freq_hz[ok]) ** 2
+        dr.append(np.sqrt(o.weight[ok]) * e * o.lam[ok] / lam_m)
+    dr = np.concatenate(dr + [np.zeros(len(rows.prior_rows))])
+    shift = np.full(len(labels), np.nan)
+    if idx.size:
+        Ginv = _pseudo_inverse(rows.G[:, idx])[0]
+        shift[idx] = rows.scale[idx] * (Ginv @ dr)
+    return shift
 
 
 def _parts(result, fms):

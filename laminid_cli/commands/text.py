@@ -173,6 +173,9 @@ def format_identify_report(s: dict) -> str:
     lines.append(f"RMS residual {s['rms_residual_percent']:.3f} % "
                  f"(initial guess {s['initial_rms_residual_percent']:.2f} %), objective "
                  f"{s['objective']:.4g}")
+    if s.get("mesh_check"):
+        lines.append("")
+        lines += format_mesh_check(s["mesh_check"])
     lines.append("")
     lines += format_global(s["global_properties"], s.get("global_uncertainty"))
     ref = s.get("reference") or {}
@@ -183,6 +186,42 @@ def format_identify_report(s: dict) -> str:
             for k, v in gref.items()))
     lines += _closing_lines(s)
     return "\n".join(lines)
+
+
+def format_mesh_check(mc: dict) -> list[str]:
+    """``--mesh-check`` (laminid_cli.meshcheck.MeshCheck.as_dict): per paired mode this mesh's
+    and the finer mesh's frequency at the identified constants, the change in percent and in
+    units of the mode's frequency sigma; per free constant its first-order shift on the finer
+    mesh, in percent and in units of its 95 % half-width; then the verdict."""
+    m, f = mc["mesh"], mc["fine_mesh"]
+    this, fine = f"{m['nx']}x{m['ny']}", f"{f['nx']}x{f['ny']}"
+    md = mc["modes"]
+    lines = [f"mesh check: {this} against {fine} (both at the identified constants, modes "
+             f"paired by MAC of w0, lowest {min(md['mac']):.4f}; {mc['time_s']:.1f} s)",
+             f"{'mode':>4}  {this + ' Hz':>12}  {fine + ' Hz':>12}  {'change %':>8}  "
+             f"{'change/sigma':>12}"]
+    for i in range(len(md["measured_mode"])):
+        lines.append(f"{int(md['measured_mode'][i]):>4}  {fmt(md['freq_hz'][i], '12.2f')}  "
+                     f"{fmt(md['fine_hz'][i], '12.2f')}  {fmt(md['change_percent'][i], '+8.3f')}"
+                     f"  {fmt(md['change_sigma'][i], '+12.2f')}")
+    labels = mc["labels"]
+    one = len({lab.rsplit(".", 1)[0] for lab in labels}) == 1
+    names = [lab.rsplit(".", 1)[1] if one else lab for lab in labels]
+    w = max([8] + [len(n) for n in names])
+    lines.append(f"constants on {fine} (first order: the weighted least-squares step of the "
+                 "frequency changes)")
+    lines.append(f"  {'constant':<{w}}  {'shift %':>8}  {'/half-width':>11}")
+    for lab, name in zip(labels, names):
+        mat, const = lab.rsplit(".", 1)
+        c = mc["constants"][mat][const]
+        lines.append(f"  {name:<{w}}  {fmt(c['shift_percent'], '+8.3f', 'at bound')}  "
+                     f"{fmt(c['shift_half_width'], '+11.3f')}")
+    if mc["text"]:
+        lines.append(f"warning: {mc['text']}")
+    else:
+        lines.append(f"the mesh is fine enough for these modes: no constant moves by more "
+                     f"than {mc['limit']:g} of its 95 % half-width on {fine}")
+    return lines
 
 
 def format_joint_report(s: dict) -> str:
