@@ -590,11 +590,13 @@ def work_since(work0: dict, prob) -> dict:
 
 
 #: the reduced solver needs a model of at least this many equations per mode computed: its basis
-#: grows to ~7-11 vectors per mode (S1.1), so below that it is half the model or more, gains
-#: nothing, and its Gram matrix comes near singular. Seen on S1.1 at 2x2 (189 equations, 14
-#: modes): an error ("lost its M-orthogonality") with one BLAS build, with another an optimum
-#: 29 % above the full solver's; 3x3 (360) and finer agree with the full solver to 1e-9
-REDUCED_MIN_EQUATIONS_PER_MODE = 20
+#: grows to ~6-11 vectors per mode, most of a smaller model, and its Gram matrix comes near
+#: singular. Seen on S1.1 at 2x2 (105 bending equations, 16 modes: 6.6 per mode): an error
+#: ("lost its M-orthogonality") with one BLAS build (numpy 2.4), with another (numpy 2.5) an
+#: optimum 29 % above the full solver's; at 3x3 (200 equations, 12.5 per mode, a basis of
+#: 119-144 vectors) S1.1, S1.2, S1.3, S2.1 and S2.2 agree with the full solver's objective to
+#: 3e-10 on both builds
+REDUCED_MIN_EQUATIONS_PER_MODE = 10
 
 #: a tracked pairing that ends out of sorted order is re-anchored at most this many times
 MAX_REANCHOR = 2

@@ -1050,7 +1050,7 @@ def test_a_block_gets_a_warning_and_a_too_coarse_mesh_says_so(tmp_path):
     assert r.exit_code == 0, r.output
     doc = json.loads(r.stdout)
     assert doc["solver"] == "full" and doc["warnings"][0] == (
-        "full solver: the model has 105 equations for 16 modes, fewer than 20 per mode, too "
+        "full solver: the model has 105 equations for 16 modes, fewer than 10 per mode, too "
         "few for a reduced model (a mesh this coarse is itself suspect)")
     full = json.loads(run("identify", S11, "--mesh", "2x2", "--solver", "full", "--json",
                           "--no-output").stdout)
