@@ -70,10 +70,11 @@ class RunOptions:
         """All ``--fix`` items: the elastic constants, then the loss factors."""
         return tuple(self.identify.fix) + tuple(self.fix_loss)
 
-    def check(self, copies: int = 1) -> tuple[int, int]:
+    def check(self, copies: int = 1, plates: int = 1) -> tuple[int, int]:
         """Refuse bad settings before any work (a one-line LaminidError, exit code 2): the mesh
-        (``copies`` models in memory at once, one per worker), the frequency sigma and the
-        interval threshold. Returns the mesh (nx, ny)."""
+        (``copies`` models in memory at once, one per worker), --mesh-check with ``plates``
+        identified jointly, the frequency sigma and the interval threshold. Returns the mesh
+        (nx, ny)."""
         from laminid_cli.fe.mesh import monte_carlo_factors, parse_mesh
         from laminid_cli.intervals import WEAK
         from laminid_cli.uncertainty import check_sigma_rel
@@ -84,6 +85,10 @@ class RunOptions:
                               what=" with the Monte Carlo trials")
         else:
             nxny = parse_mesh(self.mesh, copies=copies)
+        if self.mesh_check and plates > 1:
+            raise FitInputError("--mesh-check checks one plate's identification, not a joint "
+                                "one: run laminid identify SPEC --mesh-check on each specimen, "
+                                "then identify jointly on the mesh it asks for")
         if self.mesh_check:
             from laminid_cli.meshcheck import fine_mesh_size
 
@@ -195,11 +200,7 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
     if not specimens:
         raise FitInputError("no specimen to identify")
     joint = len(specimens) > 1
-    if joint and options.mesh_check:
-        raise FitInputError("--mesh-check checks one plate's identification: run it on each "
-                            "specimen alone (laminid identify SPEC --mesh-check), then "
-                            "identify jointly on the mesh it asks for")
-    nxny = options.check()
+    nxny = options.check(plates=len(specimens))
     specimens = [read_specimen(s) if isinstance(s, (str, Path)) else s for s in specimens]
     if joint:
         from laminid_cli.joint import check_distinct_plates

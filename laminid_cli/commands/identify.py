@@ -105,10 +105,6 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
                             "together (one set of constants per shared material)")
     if joint and len(specs) < 2:
         raise FitInputError("--joint needs two or more specimen files")
-    if joint and mesh_check:
-        raise FitInputError("--mesh-check checks one plate's identification, not a joint one: "
-                            "run laminid identify SPEC --mesh-check on each specimen, then "
-                            "identify jointly on the mesh it asks for")
     options = dataclasses.replace(options, mesh_check=mesh_check)
     seen: dict = {}
     for sp in specs:
@@ -118,7 +114,7 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
                                 "once counts once (twice would narrow the intervals by "
                                 "sqrt(2))")
         seen[key] = sp
-    options.check()
+    options.check(plates=len(specs))
     # a mistyped --fix is a usage error, refused before any work (and before the default
     # result of the specimen could be taken for an earlier input's and set aside below)
     options.check_fix(", ".join(str(sp) for sp in specs))
