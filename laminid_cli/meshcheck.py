@@ -135,15 +135,13 @@ def common_nodes(coarse, fine) -> np.ndarray:
 def pair_modes(w_coarse: np.ndarray, w_fine: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """One-to-one pairing of the coarse modes with fine ones by the MAC of w0 at the common
     nodes: w_coarse (n_nodes, n), w_fine (n_nodes, m >= n). Returns (fine index (n,), MAC
-    (n,)) maximising the summed MAC (Hungarian assignment)."""
-    from scipy.optimize import linear_sum_assignment
-
+    (n,)) maximising the summed MAC (:func:`laminid_cli.objective.max_assignment`, the
+    identification's own pairing)."""
     from laminid_cli.modal import mac
+    from laminid_cli.objective import max_assignment
 
     M = mac(w_coarse, w_fine)
-    rows, cols = linear_sum_assignment(-M)
-    fine = np.empty(w_coarse.shape[1], int)
-    fine[rows] = cols
+    fine = max_assignment(M)
     return fine, M[np.arange(fine.size), fine]
 
 
