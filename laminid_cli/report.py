@@ -715,7 +715,7 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
         notes.append(f"uncertainty: {u.confidence:.0%} intervals, s² = {u.s2:.3g}, "
                      f"condition number {u.condition_number:.3g}, σ from {u.sigma_source}")
         notes += table_notes(r)
-    if getattr(r, "mesh_check", None):
+    if r.mesh_check:
         notes.append(mesh_check_note(r.mesh_check))
     # the notes in the room left under the table: smaller type, wrapped wider, where there are
     # many (a two-material result with profiles and a Monte Carlo ran off the page)

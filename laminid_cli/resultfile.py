@@ -604,26 +604,21 @@ def _damping(f) -> Damping | None:
 
 
 def _mesh_check(f) -> dict | None:
-    """/mesh_check as MeshCheck.as_dict's plain data; None when the file has none."""
+    """/mesh_check as MeshCheck.as_dict's plain data (the warning and the constants beyond the
+    limit derived from the stored shifts, as when written); None when the file has none."""
     if "mesh_check" not in f:
         return None
+    from laminid_cli.meshcheck import MeshCheck
+
     g = f["mesh_check"]
     a = g.attrs
-    labels = _strings(g["labels"])
-    per: dict = {}
-    for k, lab in enumerate(labels):
-        mat, const = lab.rsplit(".", 1)
-        per.setdefault(mat, {})[const] = {
-            key: float(g[key][k]) for key in ("shift", "shift_percent", "shift_half_width")}
-    modes = {key: np.asarray(g[key][()]) for key in (
+    arrays = {key: np.asarray(g[key][()]) for key in (
         "measured_mode", "model_mode", "fine_mode", "mac", "freq_hz", "fine_hz",
-        "change_percent", "change_sigma")}
-    return {"mesh": {"nx": int(a["nx"]), "ny": int(a["ny"])},
-            "fine_mesh": {"nx": int(a["fine_nx"]), "ny": int(a["fine_ny"])},
-            "modes": modes, "constants": per, "labels": list(labels),
-            "limit": float(a["limit"]),
-            "too_coarse": [x for x in _s(a.get("too_coarse", "")).split(",") if x],
-            "text": _s(a.get("text", "")), "time_s": float(a.get("time_s", np.nan))}
+        "change_percent", "change_sigma", "shift", "shift_percent", "shift_half_width")}
+    return MeshCheck(mesh=(int(a["nx"]), int(a["ny"])),
+                     fine_mesh=(int(a["fine_nx"]), int(a["fine_ny"])),
+                     labels=tuple(_strings(g["labels"])), limit=float(a["limit"]),
+                     time_s=float(a.get("time_s", np.nan)), **arrays).as_dict()
 
 
 def read_result(path) -> ResultFile:
