@@ -453,9 +453,8 @@ def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None
             futures = {pool.submit(run_job, job, options, True): i for i, job in enumerate(jobs)}
         pending = set(futures)
         while pending:
-            # woken at least every SIGINT_POLL s: a Ctrl-C whose KeyboardInterrupt was
-            # swallowed (raised inside a weakref callback or a finaliser, where Python only
-            # prints "Exception ignored") is acted on here instead of lost
+            # woken at least every SIGINT_POLL s to act on a noted Ctrl-C (the handler above
+            # only notes it)
             done, pending = wait(pending, timeout=SIGINT_POLL, return_when=FIRST_COMPLETED)
             for fut in sorted(done, key=futures.get):
                 if seen:
@@ -467,27 +466,26 @@ def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None
         complete = True
     finally:
         # a further Ctrl-C (an impatient user; `timeout -s INT`, which signals the batch and then
-        # its process group, at times delivered twice) is only noted while the pool shuts
-        # down: raised, it cut the wait short and left the pool's manager thread running into
-        # this process's exit (below), or, raised in the generator's close, was printed as
-        # "Exception ignored"
+        # its process group, at times delivered twice) is still only noted while the pool shuts
+        # down (the handler above): raised, it cut the wait short and left the pool's manager
+        # thread running into this process's exit (below), or, raised in the generator's
+        # close, was printed as "Exception ignored"
         try:
-            with _sigint_only_noted() as again:
-                if not complete:
-                    # Ctrl-C or an error in the consumer: the workers would finish the jobs
-                    # already queued to them; stop them now
-                    _stop_workers(list(getattr(pool, "_processes", {}).values()))
-                # wait=True on Ctrl-C too (as the Monte Carlo's `with` pool): the manager
-                # thread joins the stopped workers, then drops the queues, whose semaphores
-                # the resource tracker holds (forkserver). Not waited for, it did that while
-                # this process ran its exit handlers (which also release them) and os._exit: a
-                # semaphore unlinked but not yet unregistered when the process ended made the
-                # tracker warn "1 leaked semaphore objects" and "[Errno 2] No such file or
-                # directory" after "laminid: interrupted" (2 of 30 interrupted batches)
-                pool.shutdown(wait=True, cancel_futures=True)
+            if not complete:
+                # Ctrl-C or an error in the consumer: the workers would finish the jobs already
+                # queued to them; stop them now
+                _stop_workers(list(getattr(pool, "_processes", {}).values()))
+            # wait=True on Ctrl-C too (as the Monte Carlo's `with` pool): the manager thread
+            # joins the stopped workers, then drops the queues, whose semaphores the resource
+            # tracker holds (forkserver). Not waited for, it did that while this process ran
+            # its exit handlers (which also release them) and os._exit: a semaphore unlinked
+            # but not yet unregistered when the process ended made the tracker warn "1 leaked
+            # semaphore objects" and "[Errno 2] No such file or directory" after "laminid:
+            # interrupted" (2 of 30 interrupted batches)
+            pool.shutdown(wait=True, cancel_futures=True)
         finally:
             restore()
-        if again and complete:
+        if seen and complete:
             raise KeyboardInterrupt          # as the last job finished: a Ctrl-C like any other
 
 
@@ -513,27 +511,6 @@ def _stop_workers(procs) -> None:
     for proc in running.values():
         with contextlib.suppress(Exception):
             proc.kill()
-
-
-@contextlib.contextmanager
-def _sigint_only_noted():
-    """In the block, SIGINT raises nothing: it is noted in the list yielded; the previous
-    handler is back after it. A no-op (nothing noted) outside the main thread or where Python
-    does not handle SIGINT (ignored: a background job; default)."""
-    import signal
-    import threading
-
-    noted: list = []
-    previous = (signal.getsignal(signal.SIGINT)
-                if threading.current_thread() is threading.main_thread() else None)
-    if not callable(previous):
-        yield noted
-        return
-    signal.signal(signal.SIGINT, lambda signum, frame: noted.append(signum))
-    try:
-        yield noted
-    finally:
-        signal.signal(signal.SIGINT, previous)
 
 
 #: seconds between two looks at a noted Ctrl-C while the pool's workers run
