@@ -178,6 +178,31 @@ def test_resume_refuses_other_windows_before_touching_the_analyser(tmp_path, hp)
     assert s.meta["settings"]["exp_window_s"] == 0.1
 
 
+def test_resume_refuses_other_units_before_touching_the_analyser(tmp_path, hp):
+    """A Pa/N file resumed with --units V/V (or without --units: V/V) is refused like a
+    different window: exit 2, naming the file, the recorded and the requested unit and the
+    option that resumes it; before anything is sent to the analyser (it used to configure the
+    analyser first, then say only "FRF units differ (Pa/N vs V/V)"), --keep-setup too."""
+    out = tmp_path / "u.h5"
+    assert acquire(hp, out, "--no-prompt", "--units", "Pa/N", points=1).exit_code == 0
+    before = out.read_bytes()
+    hp.settings.clear()
+    for extra in ([], ["--units", "(m/s^2)/N"], ["--keep-setup"]):
+        r = acquire(hp, out, "--no-prompt", "--resume", *extra, points=2)
+        assert r.exit_code == 2, r.output
+        requested = "(m/s^2)/N" if extra[:1] == ["--units"] else "V/V"
+        assert (f"{out}: cannot resume, its points were measured with other settings than "
+                f"this run's (units: recorded Pa/N, requested {requested} (--units))") \
+            in r.output
+        assert "resume with the recorded values (--units Pa/N" in r.output
+        assert "35670A at" not in r.output        # the analyser was not even opened
+        assert hp.settings == {}
+    assert out.read_bytes() == before
+    r = acquire(hp, out, "--no-prompt", "--resume", "--units", "Pa/N", points=2)
+    assert r.exit_code == 0, r.output
+    assert read_frf_h5(out).labels == ("1", "2")
+
+
 def test_resume_with_keep_setup_of_a_configured_file_is_refused(tmp_path, hp):
     """--keep-setup cannot read the windows back: resuming a file whose windows are recorded
     would record them as unknown for every point; refused, naming the options to use."""

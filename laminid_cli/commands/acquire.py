@@ -208,11 +208,14 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
         span_hz=span, start_hz=start, lines=lines, averages=averages,
         trigger_level_pct=trigger_level, pretrigger_s=pretrigger, force_window_s=force_window,
         exp_window_s=exp_window)
-    if resume and configure:   # refused before the analyser is touched (again when writing)
+    if resume:   # refused before the analyser is touched (again when writing)
         from laminid_cli.frf.store import check_resume_settings, read_frf_h5
 
-        check_resume_settings(out, read_frf_h5(out).meta.get("settings") or {},
-                              settings.as_attrs())
+        old = read_frf_h5(out)
+        # --keep-setup reads the set-up back from the analyser, later: units only then
+        check_resume_settings(out, old.meta.get("settings") or {},
+                              settings.as_attrs() if configure else {},
+                              units=(old.units, units))
     params = dict(ctx.params)
     hint = _resume_command(params, out)
     options = SessionOptions(n_points=points, coherence_min=coherence_min, prompt=not no_prompt,

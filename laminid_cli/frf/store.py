@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import logging
+import shlex
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -582,14 +583,20 @@ def _setting_value(v) -> float | None:
     return x if np.isfinite(x) else None
 
 
-def check_resume_settings(path, recorded: dict, requested: dict) -> None:
+def check_resume_settings(path, recorded: dict, requested: dict, *,
+                          units: tuple[str, str] | None = None) -> None:
     """Raise :class:`FrfError` when ``requested`` settings differ from those ``path`` records
-    for any of :data:`RESUME_SETTINGS` (keys absent from ``requested`` are not checked).
+    for any of :data:`RESUME_SETTINGS` (keys absent from ``requested`` are not checked), or
+    when ``units`` = (recorded, requested) FRF units differ (Pa/N points and V/V points in one
+    file would not be one measurement either).
 
     The message names the file, each differing setting with its recorded and requested value,
     and the options that would resume the file as it was measured.
     """
     diffs, keep = [], []
+    if units is not None and units[0] != units[1]:
+        diffs.append(f"units: recorded {units[0]}, requested {units[1]} (--units)")
+        keep.append(f"--units {shlex.quote(units[0])}")
     for key, (flag, unit) in RESUME_SETTINGS.items():
         if key not in requested:
             continue
@@ -667,10 +674,8 @@ class FrfWriter:
                            f"({old.freq.size} lines, {old.freq[0]:g}-{old.freq[-1]:g} Hz) differs "
                            f"from the analyser's ({self.freq.size} lines, "
                            f"{self.freq[0]:g}-{self.freq[-1]:g} Hz)")
-        if old.units != self.units:
-            raise FrfError(f"{self.path}: cannot resume, FRF units differ ({old.units} vs {self.units})")
         recorded = dict(old.meta.get("settings") or {})
-        check_resume_settings(self.path, recorded, self.settings)
+        check_resume_settings(self.path, recorded, self.settings, units=(old.units, self.units))
         # what this run does not state stays as recorded (never dropped by a resume)
         self.settings = {**recorded, **self.settings}
         self.frf = list(old.frf)
