@@ -203,6 +203,26 @@ def test_resume_refuses_other_units_before_touching_the_analyser(tmp_path, hp):
     assert read_frf_h5(out).labels == ("1", "2")
 
 
+def test_resume_with_fewer_points_than_saved_is_refused(tmp_path, hp):
+    """--resume --points 2 on a file of 3 points measures nothing: refused (exit 2) naming the
+    file, its points and the least --points that resumes it; the file is left as it was (it
+    was marked complete with n_points 2 while holding 3 points, after "resuming, 3 of 2
+    point(s) already measured")."""
+    out = tmp_path / "n.h5"
+    assert acquire(hp, out, "--no-prompt", points=3).exit_code == 0
+    before = out.read_bytes()
+    hp.settings.clear()
+    r = acquire(hp, out, "--no-prompt", "--resume", points=2)
+    assert r.exit_code == 2, r.output
+    assert (f"laminid: error: {out}: cannot resume, the file already holds 3 points (1, 2, 3) "
+            "and --points 2 asks for fewer: nothing to measure; give the session's number of "
+            "points (at least --points 3) to measure the rest") in r.output
+    assert "of 2 point(s) already measured" not in r.output
+    assert out.read_bytes() == before and hp.settings == {}
+    s = read_frf_h5(out)
+    assert s.meta["settings"]["n_points"] == 3 and s.labels == ("1", "2", "3")
+
+
 def test_resume_with_keep_setup_of_a_configured_file_is_refused(tmp_path, hp):
     """--keep-setup cannot read the windows back: resuming a file whose windows are recorded
     would record them as unknown for every point; refused, naming the options to use."""

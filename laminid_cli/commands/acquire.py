@@ -180,6 +180,7 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
           --points 12 --units Pa/N -o plate.frf.h5
       laminid fit-frf plate.frf.h5 --into plate.yaml
     """
+    from laminid_cli.errors import FrfError
     from laminid_cli.frf.store import FrfWriter
     from laminid_cli.instrument.base import AcquisitionSettings
     from laminid_cli.instrument.registry import open_analyser
@@ -216,6 +217,11 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
         check_resume_settings(out, old.meta.get("settings") or {},
                               settings.as_attrs() if configure else {},
                               units=(old.units, units))
+        if old.n_points > points:
+            raise FrfError(f"{out}: cannot resume, the file already holds {old.n_points} "
+                           f"points ({', '.join(old.labels)}) and --points {points} asks for "
+                           f"fewer: nothing to measure; give the session's number of points "
+                           f"(at least --points {old.n_points}) to measure the rest")
     params = dict(ctx.params)
     hint = _resume_command(params, out)
     options = SessionOptions(n_points=points, coherence_min=coherence_min, prompt=not no_prompt,
