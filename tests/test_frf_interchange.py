@@ -325,6 +325,9 @@ def test_export_refuses_an_output_it_would_not_write_as_named(tmp_path, numbered
 
 @pytest.mark.parametrize("units, ordinate, ord_type, denominator, den_type", [
     ("m/s^2/N", "m/s^2", 12, "N", 13),
+    # acquire --help's spelling, and example_frf.py's: an acceleration (it was 0, unknown)
+    ("(m/s^2)/N", "(m/s^2)", 12, "N", 13),
+    ("(m/s)/N", "(m/s)", 11, "N", 13),
     ("m/s/N", "m/s", 11, "N", 13),
     ("m/N", "m", 8, "N", 13),
     ("Pa/N", "Pa", 15, "N", 13),

@@ -434,8 +434,16 @@ def _uff_axes(units: str) -> dict:
     if not sep or not response or not force:
         response, force = units.strip(), "NONE"
     return {"ordinate_axis_units_lab": response, "orddenom_axis_units_lab": force,
-            "ordinate_spec_data_type": UFF_RESPONSE_TYPES.get(response, 0),
-            "orddenom_spec_data_type": UFF_FORCE_TYPES.get(force, 0)}
+            "ordinate_spec_data_type": UFF_RESPONSE_TYPES.get(_unbracketed(response), 0),
+            "orddenom_spec_data_type": UFF_FORCE_TYPES.get(_unbracketed(force), 0)}
+
+
+def _unbracketed(unit: str) -> str:
+    """``unit`` without one pair of enclosing parentheses: "(m/s^2)" of "(m/s^2)/N", the
+    spelling acquire's --help gives, is the acceleration "m/s^2" (the label keeps them)."""
+    if unit.startswith("(") and unit.endswith(")"):
+        return unit[1:-1].strip()
+    return unit
 
 
 def write_uff_sets(path: Path, sets, error: type[LaminidError] = FrfError) -> Path:
