@@ -230,3 +230,38 @@ def test_measured_frf_file_in_a_specimen_gets_the_corrected_damping(tmp_path):
     f, s, z, zs = rfp.measured_from_frf_file(tmp_path / "plate.frf.h5", with_damping_sigma=True)
     np.testing.assert_allclose(z, [zt for _, zt in MODES], rtol=1e-6)
     assert np.all(zs > 0)
+
+
+@pytest.mark.parametrize("ascii_", [False, True])
+def test_window_survives_export_to_uff(tmp_path, ascii_):
+    """export of a windowed acquire file (tau = 0.1 s) writes tau in each FRF record's id3,
+    and fit-frf of the UFF removes it as of the HDF5 file: the same damping ratios (the UFF
+    used to lose it: every ratio came back with 1/(tau omega_n) added, 1.38-3.7x the truth
+    here); the export says so. A window recorded as unknown (--keep-setup) stays unknown."""
+    import pyuff
+
+    freq, H = windowed_record_frf(TAU)
+    h5 = h5_file(tmp_path / "w.h5", freq, H, {"exp_window_s": TAU, "span_hz": 1000.0})
+    uff = tmp_path / "w.uff"
+    r = run(["export", str(h5), "-o", str(uff)] + (["--ascii"] if ascii_ else []))
+    assert r.exit_code == 0, r.output
+    assert ("note: the FRFs carry the analyser's exponential window (tau = 0.1 s), written in "
+            "each record's id3: laminid fit-frf of the Universal File removes it") in r.output
+    ids = [d["id3"].strip() for d in pyuff.UFF(str(uff)).read_sets() if d["func_type"] == 4]
+    assert ids == ["exponential window tau = 0.1 s"] * 4
+    assert io.read_frf(uff).meta["settings"] == {"exp_window_s": 0.1}
+    from_h5 = json.loads(run(["fit-frf", str(h5), "--json"]).output)
+    from_uff = json.loads(run(["fit-frf", str(uff), "--json"]).output)
+    assert from_uff["exp_window_s"] == TAU
+    zeta = np.array([z for _, z in MODES])
+    got = np.array([m["damping_ratio"] for m in from_uff["modes"]])
+    np.testing.assert_allclose(got, zeta, rtol=1e-6)
+    np.testing.assert_allclose(got, [m["damping_ratio"] for m in from_h5["modes"]],
+                               rtol=1e-5 if ascii_ else 1e-12)
+    # --keep-setup: the window's tau unknown, and said so after the round trip too
+    h5k = h5_file(tmp_path / "k.h5", freq, H, {"exp_window_s": float("nan")})
+    uffk = tmp_path / "k.uff"
+    assert run(["export", str(h5k), "-o", str(uffk)]).exit_code == 0
+    assert np.isnan(io.read_frf(uffk).meta["settings"]["exp_window_s"])
+    r = run(["fit-frf", str(uffk)])
+    assert "does not record the exponential window's time constant" in r.output

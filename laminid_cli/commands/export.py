@@ -109,6 +109,17 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
         labels = list(fs.labels) or [str(i + 1) for i in range(fs.n_points)]
         nodes = [uff_point(lab, i)[0] for i, lab in enumerate(labels)]
         coherent, notes = uff_coherence_points(fs)
+        if "exp_window_s" in (fs.meta.get("settings") or {}):
+            from laminid_cli.frf.rfp import window_time_constant
+
+            tau = window_time_constant(fs)
+            notes.append(
+                (f"the FRFs carry the analyser's exponential window (tau = {tau:g} s), "
+                 if tau is not None else
+                 "the FRFs carry the analyser's exponential window (tau unknown, --keep-setup), ")
+                + "written in each record's id3: laminid fit-frf of the Universal File removes "
+                  "it as of the acquire file; another tool's damping ratios include it "
+                  "(about 1/(tau*omega_n) added)")
         summary = {"input": str(input_file), "output": str(out), "kind": "FRF",
                    "datasets": {"58": fs.n_points + len(coherent)}, "binary": not ascii_,
                    "units": units, "n_lines": int(fs.freq.size),

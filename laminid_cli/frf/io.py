@@ -54,6 +54,12 @@ UFF_RESPONSE_TYPES = {"m": 8, "mm": 8, "m/s": 11, "mm/s": 11, "m/s^2": 12, "m/s2
 UFF_FORCE_TYPES = {"N": 13, "kN": 13, "lbf": 13}
 #: ``id2`` of every UFF 58 record laminid writes: the reader knows its own records by it
 UFF_WRITER = "laminid"
+#: ``id3`` of laminid's FRF records from a file that records the exponential window the
+#: analyser applied to the response (``exp_window_s``, acquire): its time constant in seconds
+#: (repr of the float, exact), or "unknown" (--keep-setup). UFF 58 has no field for it; without
+#: it the window's 1/tau was lost and fit-frf of the UFF gave every damping ratio with
+#: 1/(tau omega_n) added (2x the truth on the emulators' plate)
+UFF_WINDOW_ID = "exponential window tau = {} s"
 #: characters of a UFF 58 units label (records 8-11, field 6: A20); a longer one is cut
 UFF_UNITS_CHARS = 20
 #: a Universal File is ASCII in fixed columns: laminid's text written there in ASCII, these
@@ -264,8 +270,46 @@ def read_frf_uff(path) -> FrfSet:
                    for k, d in enumerate(frfs))
     units = _uff_units(frfs[0])
     freq, frf, coherence = check_frf_arrays(freq, frf, coherence, source=str(path))
+    meta = {"uff_ids": [str(d.get("id1", "")) for d in frfs]}
+    tau = _uff_window(frfs)
+    if tau is not None:
+        meta["settings"] = {"exp_window_s": tau}
     return FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels, units=units,
-                  source=str(path), meta={"uff_ids": [str(d.get("id1", "")) for d in frfs]})
+                  source=str(path), meta=meta)
+
+
+def _uff_window(frfs) -> float | None:
+    """The exponential window's time constant (s; NaN: unknown) that laminid wrote in the
+    ``id3`` of every FRF record (:data:`UFF_WINDOW_ID`); None where any record is another
+    tool's or does not say it."""
+    import re
+
+    pattern = re.escape(UFF_WINDOW_ID).replace(r"\{\}", r"(\S+)")
+    values = set()
+    for d in frfs:
+        m = re.fullmatch(pattern, str(d.get("id3", "") or "").strip())
+        if str(d.get("id2", "") or "").strip() != UFF_WRITER or m is None:
+            return None
+        values.add(m.group(1))
+    if len(values) != 1:
+        return None
+    try:
+        return float(values.pop())          # "unknown" -> ValueError
+    except ValueError:
+        return float("nan")
+
+
+def _window_id(fs) -> str:
+    """``id3`` of an FRF record of ``fs``: :data:`UFF_WINDOW_ID` where its settings record the
+    exponential window (``exp_window_s``), else pyuff's default "NONE"."""
+    settings = fs.meta.get("settings") or {}
+    if "exp_window_s" not in settings:
+        return "NONE"
+    try:
+        tau = float(settings["exp_window_s"])
+    except (TypeError, ValueError):
+        tau = float("nan")
+    return UFF_WINDOW_ID.format(repr(tau) if np.isfinite(tau) and tau > 0 else "unknown")
 
 
 def _uff_units(d) -> str:
@@ -386,7 +430,8 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
             abscissa_spec_data_type=UFF_ABSCISSA_FREQUENCY, abscissa_axis_units_lab="Hz",
             x=np.asarray(fs.freq, dtype=float))
         sets.append(pyuff.prepare_58(
-            id1=f"FRF {label}", func_type=UFF_FRF, ord_data_type=6,  # complex double
+            id1=f"FRF {label}", id3=_window_id(fs), func_type=UFF_FRF,
+            ord_data_type=6,  # complex double
             **axes, data=np.asarray(fs.frf[k], dtype=complex), **common))
         if k in with_coherence:
             sets.append(pyuff.prepare_58(
