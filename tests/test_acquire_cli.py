@@ -395,6 +395,44 @@ def test_ctrl_c_keeps_the_file_and_prints_the_resume_command(tmp_path, hp, monke
     assert hp.log[-1] == "ABOR"
 
 
+def test_json_summary_also_when_the_session_is_interrupted(tmp_path, hp, monkeypatch):
+    """--json with Ctrl-C during point 2 (saved, then interrupted): stdout still holds the
+    summary (it held nothing, exit 130): point 1 measured and saved in this run, 2 in the
+    file, the resume command and why it stopped; likewise a closed stdin at the prompt of
+    point 2 (exit 2)."""
+    import json
+
+    import laminid_cli.instrument.session as session
+
+    real = session.assess_point
+    calls = []
+
+    def interrupt_on_second(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(session, "assess_point", interrupt_on_second)
+    out = tmp_path / "c.h5"
+    r = acquire(hp, out, "--no-prompt", "--json")
+    assert r.exit_code == 130
+    d = json.loads(r.stdout)
+    assert d["complete"] is False and d["points_requested"] == 3
+    assert d["points_saved"] == 2 == read_frf_h5(out).n_points
+    assert d["measured"] == ["1"] and [p["label"] for p in d["points"]] == ["1"]
+    assert d["stopped"].startswith("interrupted; 2 point(s) saved in")
+    assert d["resume"].endswith("--resume") and "--json" in d["resume"]
+    assert "laminid: stopped: interrupted" in r.stderr
+    monkeypatch.setattr(session, "assess_point", real)
+    out2 = tmp_path / "s.h5"
+    r = acquire(hp, out2, "--json", input="\n")       # Enter for point 1, then end of input
+    assert r.exit_code == 2
+    d = json.loads(r.stdout)
+    assert d["points_saved"] == 1 and d["measured"] == ["1"] and d["complete"] is False
+    assert "standard input is closed" in d["stopped"] and "--resume" in d["resume"]
+
+
 def test_raw_socket_sends_each_command_at_once(hp):
     """TCPIP SOCKET through pyvisa-py: Nagle's algorithm is off (TCP_NODELAY, NI-VISA's
     default), so a query after a command with no answer is not held back ~40 ms waiting for

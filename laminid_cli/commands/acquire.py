@@ -155,7 +155,8 @@ def _resume_command(params: dict, output: Path) -> str:
 @click.option("--json", "as_json", is_flag=True,
               help="Print a JSON summary on stdout (file, points saved and missing, the "
                    "quality of each point measured in this run); the quality lines go to "
-                   "stderr. Printed also when points are missing (exit 3).")
+                   "stderr. Printed also when points are missing (exit 3) or the session "
+                   "stopped early (Ctrl-C, analyser fault, closed stdin: 'stopped' says why).")
 @click.option("-o", "--output", required=True, type=OUTPUT_FILE,
               help="FRF HDF5 file to write (point by point).")
 @click.pass_context
@@ -180,7 +181,7 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
           --points 12 --units Pa/N -o plate.frf.h5
       laminid fit-frf plate.frf.h5 --into plate.yaml
     """
-    from laminid_cli.errors import FrfError
+    from laminid_cli.errors import FrfError, LaminidError
     from laminid_cli.frf.store import FrfWriter
     from laminid_cli.instrument.base import AcquisitionSettings
     from laminid_cli.instrument.registry import open_analyser
@@ -247,22 +248,34 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
         if resume:
             click.echo(f"{out}: resuming, {writer.n_points} of {points} point(s) already "
                        "measured", err=True)
-        result = run_session(dsa, writer, settings, options, ui)
         identity = dsa.identity()
 
+        def summary(result, stopped=None):
+            """The --json document: also when the session stopped early (Ctrl-C, an analyser
+            fault, a closed stdin), with what was saved before and the resume command."""
+            from dataclasses import asdict
+
+            from laminid_cli.commands._common import echo_json
+
+            echo_json({
+                "file": str(out), "complete": result.complete, "points_requested": points,
+                "points_saved": result.n_saved, "measured": result.measured,
+                "skipped": result.skipped, "repeated": result.repeated, "quit": result.quit,
+                "units": units, "lines": int(freq.size), "f_start_hz": float(freq[0]),
+                "f_stop_hz": float(freq[-1]), "instrument": identity,
+                "points": [asdict(q) | {"ok": q.ok} for q in ui.qualities.values()],
+                "resume": None if result.complete or not out.exists() else hint,
+                "stopped": stopped})
+
+        try:
+            result = run_session(dsa, writer, settings, options, ui)
+        except LaminidError as exc:
+            if as_json and getattr(exc, "result", None) is not None:
+                summary(exc.result, stopped=str(exc))
+            raise
+
     if as_json:
-        from dataclasses import asdict
-
-        from laminid_cli.commands._common import echo_json
-
-        echo_json({
-            "file": str(out), "complete": result.complete, "points_requested": points,
-            "points_saved": result.n_saved, "measured": result.measured,
-            "skipped": result.skipped, "repeated": result.repeated, "quit": result.quit,
-            "units": units, "lines": int(freq.size), "f_start_hz": float(freq[0]),
-            "f_stop_hz": float(freq[-1]), "instrument": identity,
-            "points": [asdict(q) | {"ok": q.ok} for q in ui.qualities.values()],
-            "resume": None if result.complete else hint})
+        summary(result)
     if not result.complete:
         from laminid_cli.instrument.session import SessionIncomplete
 

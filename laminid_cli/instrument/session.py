@@ -201,18 +201,29 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
             result.measured.append(label)
     except KeyboardInterrupt:
         _stop(analyser)
-        raise AcquisitionInterrupted(_saved_message("interrupted", writer, options)) from None
+        raise _stopped(AcquisitionInterrupted(_saved_message("interrupted", writer, options)),
+                       result, writer) from None
     except NoOperatorInput as exc:
         _stop(analyser)
-        raise NoOperatorInput(_saved_message(str(exc), writer, options)) from None
+        raise _stopped(NoOperatorInput(_saved_message(str(exc), writer, options)),
+                       result, writer) from None
     except InstrumentError as exc:
         _stop(analyser)
-        raise InstrumentError(_saved_message(str(exc), writer, options)) from exc
+        raise _stopped(InstrumentError(_saved_message(str(exc), writer, options)),
+                       result, writer) from exc
     result.n_saved = writer.n_points
     result.complete = all(label in writer.labels for label in labels)
     if result.complete:
         writer.close()
     return result
+
+
+def _stopped(exc: LaminidError, result: SessionResult, writer) -> LaminidError:
+    """``exc`` carrying the session so far (``exc.result``: points measured, skipped and
+    repeated before it stopped, ``n_saved`` those in the file), for the command's --json."""
+    result.n_saved = writer.n_points
+    exc.result = result
+    return exc
 
 
 def _stop(analyser: Analyser) -> None:
