@@ -807,9 +807,12 @@ def _bound_panel(ax, k, v, iv, x, ymin, ymax):
             _profile_line(ax, x, v, y, ymin, ymax, f"profile:\nflat to\n{fmt_value(k, far)}",
                           xytext=(6, -3 if y > v else 3), va="top" if y > v else "bottom",
                           ha="left")
+    # from the arrow's middle into the panel (centred there, the words of a limit at the
+    # panel's edge ran out of it, over the value written under the panel)
     ax.annotate("\n".join(textwrap.wrap(words, 12)), (x, (v + edge) / 2), xytext=(5, 0),
-                textcoords="offset points", fontsize=6.5, va="center", ha="left",
-                color=INTERVAL_COLOR, gid="bound-statement")
+                textcoords="offset points", fontsize=6.5, ha="left",
+                va="bottom" if side == "lower" else "top", color=INTERVAL_COLOR,
+                gid="bound-statement")
 
 
 def _profile_line(ax, x, v, y, ymin, ymax, label, **label_kw):
