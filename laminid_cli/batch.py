@@ -221,6 +221,35 @@ def _frf_file(spec: Path) -> Path | None:
     return spec.parent / str(name) if name else None
 
 
+def _material_names(spec: Path) -> tuple[str, ...] | None:
+    """The material names of a specimen file (``materials``' keys); None when it cannot be
+    read (its error is the specimen's own, reported when it runs)."""
+    import yaml
+
+    try:
+        doc = yaml.safe_load(spec.read_text(encoding="utf-8-sig"))
+        return tuple(str(k) for k in doc["materials"])
+    except (OSError, UnicodeDecodeError, yaml.YAMLError, KeyError, TypeError):
+        return None
+
+
+def check_fix_materials(specs, options: BatchOptions) -> None:
+    """Refuse a --fix item naming a material (``carbon.G13``, ``carbon.eta13=0.01``) that no
+    readable specimen of the batch has: a mistyped option, not a failure of each specimen
+    (which would set their earlier results aside as another input's). A material some of the
+    specimens have applies to those; the others fail with the reason."""
+    names = [n for n in (_material_names(Path(s)) for s in specs) if n is not None]
+    if not names:
+        return
+    have = {m for n in names for m in n}
+    for item in (*options.identify.fix, *options.fix_loss):
+        key = item.split("=", 1)[0].strip()
+        mat = key.rsplit(".", 1)[0] if "." in key else None
+        if mat is not None and mat not in have:
+            raise BatchError(f"--fix {item.strip()}: no specimen of the batch has a material "
+                             f"'{mat}' (materials: {', '.join(sorted(have))})")
+
+
 def input_hash(spec, options: BatchOptions) -> str:
     """sha256 (hex) of everything a result depends on: the laminid version, the options, the
     specimen file's bytes and those of its FRF file (``measured.frf_file``) when it has one."""

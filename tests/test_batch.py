@@ -271,6 +271,11 @@ def test_usage_errors_exit_2(tmp_path):
     ("eta13=-1", "--fix eta13=-1: eta13 must be between 0 and 1"),
     ("E7", "--fix E7: 'E7' is not a constant"),
     ("G13=3e9", "--fix G13=3e9: an elastic constant is fixed at its initial value"),
+    # a material no specimen of the batch has (S2.1's is E-glass/R368): a mistyped name
+    ("IM7.nu12", "--fix IM7.nu12: no specimen of the batch has a material 'IM7' "
+                 "(materials: E-glass/R368)"),
+    ("E-glass.eta13=0.01", "--fix E-glass.eta13=0.01: no specimen of the batch has a "
+                           "material 'E-glass'"),
 ])
 def test_a_bad_fix_is_a_usage_error_before_any_specimen(tmp_path, fix, words):
     """A --fix that is wrong whatever the specimen (name, value, a loss factor given two
