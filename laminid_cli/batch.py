@@ -958,7 +958,20 @@ def csv_header(materials) -> list[str]:
     cols = ["name", "specimen", "path", "status", "reasons"]
     cols += [f"{m} {k} [{CONSTANT_UNITS[k]}]" for m in materials for k in CONSTANTS]
     return cols + ["rms_residual [%]", "evaluations", "time [s]", "cached", "result",
-                   "stale_result"]
+                   "stale_result", "flagged"]
+
+
+#: the words of the wide summary's ``flagged`` column for each mark of the terminal table
+FLAG_WORDS = {"!": "at_bound", "?": "undetermined", "=": "fixed"}
+
+
+def flagged_text(row: dict) -> str:
+    """The constants of a row that are not plain identified values, with why, as the terminal
+    table marks them ("E-glass/R368.G13 at_bound; E-glass/R368.G23 undetermined"): the wide
+    summary's values carry no verdict of their own."""
+    return "; ".join(f"{m}.{k} {FLAG_WORDS[mark]}" for m, consts in row["materials"].items()
+                     for k in CONSTANTS if k in consts
+                     and (mark := _mark(row, m, k)) in FLAG_WORDS)
 
 
 def _num(v) -> str:
@@ -1051,7 +1064,7 @@ def write_summary_csv(path, rows, wide: bool = False) -> Path:
                    "" if r["time_s"] is None else f"{r['time_s']:.3f}",
                    "yes" if r["cached"] else "no",
                    _path_text(r["result"], path.parent),
-                   _path_text(r.get("stale_result"), path.parent)]
+                   _path_text(r.get("stale_result"), path.parent), flagged_text(r)]
         w.writerow(values)
     return _write_text(path, buf.getvalue())
 

@@ -28,7 +28,8 @@ from laminid_cli.commands._common import (echo_json, fit_options, json_option,
                    "in identify -o, modes, export, acquire.")
 @click.option("--wide", is_flag=True,
               help="summary.csv with one row per specimen (a column per constant) instead of "
-                   "one row per specimen, material and constant.")
+                   "one row per specimen, material and constant; its column 'flagged' names "
+                   "the constants at a bound, undetermined or fixed.")
 @json_option
 @pass_run_options()
 def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
