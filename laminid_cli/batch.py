@@ -221,6 +221,35 @@ def _frf_file(spec: Path) -> Path | None:
     return spec.parent / str(name) if name else None
 
 
+def _material_names(spec: Path) -> tuple[str, ...] | None:
+    """The material names of a specimen file (``materials``' keys); None when it cannot be
+    read (its error is the specimen's own, reported when it runs)."""
+    import yaml
+
+    try:
+        doc = yaml.safe_load(spec.read_text(encoding="utf-8-sig"))
+        return tuple(str(k) for k in doc["materials"])
+    except (OSError, UnicodeDecodeError, yaml.YAMLError, KeyError, TypeError):
+        return None
+
+
+def check_fix_materials(specs, options: BatchOptions) -> None:
+    """Refuse a --fix item naming a material (``carbon.G13``, ``carbon.eta13=0.01``) that no
+    readable specimen of the batch has: a mistyped option, not a failure of each specimen
+    (which would set their earlier results aside as another input's). A material some of the
+    specimens have applies to those; the others fail with the reason."""
+    names = [n for n in (_material_names(Path(s)) for s in specs) if n is not None]
+    if not names:
+        return
+    have = {m for n in names for m in n}
+    for item in (*options.identify.fix, *options.fix_loss):
+        key = item.split("=", 1)[0].strip()
+        mat = key.rsplit(".", 1)[0] if "." in key else None
+        if mat is not None and mat not in have:
+            raise BatchError(f"--fix {item.strip()}: no specimen of the batch has a material "
+                             f"'{mat}' (materials: {', '.join(sorted(have))})")
+
+
 def input_hash(spec, options: BatchOptions) -> str:
     """sha256 (hex) of everything a result depends on: the laminid version, the options, the
     specimen file's bytes and those of its FRF file (``measured.frf_file``) when it has one."""
@@ -929,7 +958,20 @@ def csv_header(materials) -> list[str]:
     cols = ["name", "specimen", "path", "status", "reasons"]
     cols += [f"{m} {k} [{CONSTANT_UNITS[k]}]" for m in materials for k in CONSTANTS]
     return cols + ["rms_residual [%]", "evaluations", "time [s]", "cached", "result",
-                   "stale_result"]
+                   "stale_result", "flagged"]
+
+
+#: the words of the wide summary's ``flagged`` column for each mark of the terminal table
+FLAG_WORDS = {"!": "at_bound", "?": "undetermined", "=": "fixed"}
+
+
+def flagged_text(row: dict) -> str:
+    """The constants of a row that are not plain identified values, with why, as the terminal
+    table marks them ("E-glass/R368.G13 at_bound; E-glass/R368.G23 undetermined"): the wide
+    summary's values carry no verdict of their own."""
+    return "; ".join(f"{m}.{k} {FLAG_WORDS[mark]}" for m, consts in row["materials"].items()
+                     for k in CONSTANTS if k in consts
+                     and (mark := _mark(row, m, k)) in FLAG_WORDS)
 
 
 def _num(v) -> str:
@@ -1022,7 +1064,7 @@ def write_summary_csv(path, rows, wide: bool = False) -> Path:
                    "" if r["time_s"] is None else f"{r['time_s']:.3f}",
                    "yes" if r["cached"] else "no",
                    _path_text(r["result"], path.parent),
-                   _path_text(r.get("stale_result"), path.parent)]
+                   _path_text(r.get("stale_result"), path.parent), flagged_text(r)]
         w.writerow(values)
     return _write_text(path, buf.getvalue())
 

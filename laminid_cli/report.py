@@ -807,9 +807,12 @@ def _bound_panel(ax, k, v, iv, x, ymin, ymax):
             _profile_line(ax, x, v, y, ymin, ymax, f"profile:\nflat to\n{fmt_value(k, far)}",
                           xytext=(6, -3 if y > v else 3), va="top" if y > v else "bottom",
                           ha="left")
+    # from the arrow's middle into the panel (centred there, the words of a limit at the
+    # panel's edge ran out of it, over the value written under the panel)
     ax.annotate("\n".join(textwrap.wrap(words, 12)), (x, (v + edge) / 2), xytext=(5, 0),
-                textcoords="offset points", fontsize=6.5, va="center", ha="left",
-                color=INTERVAL_COLOR, gid="bound-statement")
+                textcoords="offset points", fontsize=6.5, ha="left",
+                va="bottom" if side == "lower" else "top", color=INTERVAL_COLOR,
+                gid="bound-statement")
 
 
 def _profile_line(ax, x, v, y, ymin, ymax, label, **label_kw):
@@ -947,9 +950,14 @@ def _interval_legend(r: ResultFile) -> tuple[list, list[str]]:
               f"{u.confidence:.0%} interval"),
              (Line2D([], [], ls="none", marker="o", ms=7, color="k"), "identified")]
     ivs = u.intervals
-    if any(not iv.at_bound and iv.verdict.startswith("not") for iv in ivs):
+    hollow = [iv for iv in ivs if not iv.at_bound and iv.verdict.startswith("not")]
+    if hollow:
+        # a Monte Carlo verdict's interval may be narrow: its range is what is too wide
         items.append((Line2D([], [], ls="none", marker="o", ms=7, color="k", mfc="w"),
-                      "not determined (interval too wide)"))
+                      "not determined (interval" + (
+                          " or Monte Carlo range" if any(iv.verdict_from_monte_carlo
+                                                         for iv in hollow) else "")
+                      + " too wide)"))
     if any(iv.at_bound for iv in ivs):
         items.append(((Line2D([], [], ls="none", marker="v", ms=7, color="k", mfc="w"),
                        Line2D([], [], ls="none", marker="^", ms=7, color="k", mfc="w")),
@@ -1703,7 +1711,8 @@ MC_COLOR = "0.62"
 
 def _across_point(ax, k, xi, v, d: Doubt | None, color, tag):
     """One specimen's constant on a panel of the page across specimens; returns what it draws
-    by kind ("identified", "undetermined", "at bound", "fixed", "no interval")."""
+    by kind ("identified", "undetermined", "undetermined (Monte Carlo)", "at bound", "fixed",
+    "no interval")."""
     # markers above the bars and the reference ticks, and not clipped by the axes (a value at
     # a lower limit of a few MPa sits on the panel's edge)
     on_top = dict(zorder=6, clip_on=False)
@@ -1724,7 +1733,7 @@ def _across_point(ax, k, xi, v, d: Doubt | None, color, tag):
     if d.undetermined:
         ax.annotate("?", (xi, v), xytext=(4, 2), textcoords="offset points", fontsize=9,
                     color=color, weight="bold")
-        return "undetermined"
+        return "undetermined (Monte Carlo)" if "(Monte Carlo)" in d.verdict else "undetermined"
     return "identified"
 
 
@@ -1857,6 +1866,12 @@ def constants_across_page(done, title: str):
                   "fixed at its initial value: not identified"),
         "no interval": (Line2D([], [], ls="none", marker="d", ms=6, color=grey, mfc="w"),
                         "no interval in this summary (wide CSV, result file not found)")}
+    if "undetermined (Monte Carlo)" in kinds:
+        # a Monte Carlo verdict's interval may be narrow: its range is what is too wide
+        kinds.add("undetermined")
+        h, _ = marks["undetermined"]
+        marks["undetermined"] = (h, "?: not determined (interval or Monte Carlo range too "
+                                    "wide)")
     for kind in ("identified", "undetermined", "at bound", "fixed", "no interval"):
         if kind in kinds:
             h, text = marks[kind]

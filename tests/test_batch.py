@@ -161,6 +161,12 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
         w = list(csv.DictReader(fh))
     assert float(w[0]["IM7/977-2 E1 [Pa]"]) == pytest.approx(E1, rel=1e-14)
     assert w[1]["status"] == "check" and w[1]["reasons"] == "at_bound, undetermined, poor_fit"
+    # a value at its bound or not determined is a plain number in its column: the row says
+    # which constants those are, as the terminal table's marks do
+    assert w[1]["flagged"] == "E-glass/R368.G13 at_bound; E-glass/R368.G23 undetermined"
+    assert w[0]["flagged"] == "; ".join(f"IM7/977-2.{k} undetermined" for k, iv in
+                                        j["specimens"][0]["intervals"]["IM7/977-2"].items()
+                                        if iv["flagged"])
     assert read_summary(wide / "summary.csv")[0]["materials"]["IM7/977-2"]["E1"] == \
         pytest.approx(E1, rel=1e-14)
 
@@ -271,6 +277,11 @@ def test_usage_errors_exit_2(tmp_path):
     ("eta13=-1", "--fix eta13=-1: eta13 must be between 0 and 1"),
     ("E7", "--fix E7: 'E7' is not a constant"),
     ("G13=3e9", "--fix G13=3e9: an elastic constant is fixed at its initial value"),
+    # a material no specimen of the batch has (S2.1's is E-glass/R368): a mistyped name
+    ("IM7.nu12", "--fix IM7.nu12: no specimen of the batch has a material 'IM7' "
+                 "(materials: E-glass/R368)"),
+    ("E-glass.eta13=0.01", "--fix E-glass.eta13=0.01: no specimen of the batch has a "
+                           "material 'E-glass'"),
 ])
 def test_a_bad_fix_is_a_usage_error_before_any_specimen(tmp_path, fix, words):
     """A --fix that is wrong whatever the specimen (name, value, a loss factor given two

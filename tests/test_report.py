@@ -1408,3 +1408,64 @@ def test_summary_with_loss_factors_has_a_loss_factor_page(tmp_path, kind):
     assert r.exit_code == 0, r.output
     assert "loss-factors, loss-factor-table" in r.output
     assert (tmp_path / "s-4.png").read_bytes()[:8] == PNG
+
+
+def test_bound_statement_stays_inside_its_panel(checked, tmp_path):
+    """The words "stopped on the lower search limit: no interval" beside a constant at its
+    lower limit stay inside the panel: with a profile bound far above the limit (the panel
+    from 0 to it), centred on the limit at the panel's foot, they ran below the axis over the
+    value and the words under it (S1.2, 8x8: G13 at 0.0164 GPa, rejected above 5.36 GPa)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    path = tmp_path / "S1.4.result.h5"
+    shutil.copy(checked, path)
+    with h5py.File(path, "r+") as f:
+        u = f["uncertainty"]
+        j = [s.decode() for s in u["labels"][()]].index(f"{MAT}.G23")
+        bound = np.full(len(u["labels"]), np.nan)
+        bound[j] = 5.36e9
+        u.create_dataset("profile_bound", data=bound).attrs["units"] = "Pa (nu12: 1)"
+        f["materials/IM7_977-2/G23"][()] = 0.0160e9     # the limit it stopped on
+    fig = next(p.figure for p in report_pages(path) if p.name == "intervals")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    a = ax(fig, f"interval-{MAT}.G23")
+    words = next(t for t in a.texts if t.get_gid() == "bound-statement")
+    box, panel = words.get_window_extent(renderer), a.get_window_extent(renderer)
+    assert panel.y0 <= box.y0 and box.y1 <= panel.y1, (box.bounds, panel.bounds)
+    assert not box.overlaps(a.xaxis.label.get_window_extent(renderer))
+
+
+@pytest.mark.parametrize("kind", ["csv", "json"])
+def test_legend_of_a_monte_carlo_verdict_names_the_range(tmp_path, kind):
+    """A constant "not determined (Monte Carlo)" may have a narrow interval (hybrid ESL's G13,
+    8x8, 40 trials: ±27 %, range ±39 %): the hollow "?" of the page across specimens says the
+    interval *or the Monte Carlo range* is too wide, where "interval too wide" contradicted the
+    bar drawn; the result's interval page likewise."""
+    rows = _summary_rows()
+    q = rows[1]["intervals"]["carbon"]["G13"]
+    q.update(verdict="not determined by these modes (Monte Carlo) — fix it or measure a "
+                     "thicker plate / more modes", flagged=True, mc_lower=2.0e9, mc_upper=5.6e9)
+    path = tmp_path / f"summary.{kind}"
+    _write_summary(path, rows)
+    fig = {p.name: p.figure for p in report_pages(path)}["constants"]
+    legend = [t.get_text() for a in fig.axes if a.get_legend() is not None
+              for t in a.get_legend().get_texts()]
+    assert "?: not determined (interval or Monte Carlo range too wide)" in legend
+    assert "?: not determined (interval too wide)" not in legend
+    # without a Monte Carlo verdict the words stay those of the interval
+    _write_summary(path, _summary_rows())
+    fig = {p.name: p.figure for p in report_pages(path)}["constants"]
+    legend = [t.get_text() for a in fig.axes if a.get_legend() is not None
+              for t in a.get_legend().get_texts()]
+    assert "?: not determined (interval too wide)" in legend
+
+
+def test_interval_legend_of_a_monte_carlo_verdict_names_the_range(checked, tmp_path):
+    path = _with_monte_carlo(checked, tmp_path)
+    with h5py.File(path, "r+") as f:
+        f["uncertainty"].attrs["verdict_from_monte_carlo"] = f"{MAT}.G13"
+    fig = {p.name: p.figure for p in report_pages(path)}["intervals"]
+    texts = [t.get_text() for a_ in fig.axes if a_.get_legend() is not None
+             for t in a_.get_legend().get_texts()]
+    assert "not determined (interval or Monte Carlo range too wide)" in texts

@@ -28,7 +28,8 @@ from laminid_cli.commands._common import (echo_json, fit_options, json_option,
                    "in identify -o, modes, export, acquire.")
 @click.option("--wide", is_flag=True,
               help="summary.csv with one row per specimen (a column per constant) instead of "
-                   "one row per specimen, material and constant.")
+                   "one row per specimen, material and constant; its column 'flagged' names "
+                   "the constants at a bound, undetermined or fixed.")
 @json_option
 @pass_run_options()
 def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
@@ -66,11 +67,11 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
 
     from laminid_cli.atomic import write_bytes_atomic
     from laminid_cli.batch import (NOT_FROM_BATCH, SUMMARY_CSV, SUMMARY_JSON, BatchError,
-                                   batch_report, check_scheduler, discover_specimens, failed,
-                                   foreign_results, foreign_row, format_table, plan_batch,
-                                   printable, remove_stale_parts, result_row, run_jobs,
-                                   set_aside_result, stored_hash, write_summary_csv,
-                                   write_summary_json)
+                                   batch_report, check_fix_materials, check_scheduler,
+                                   discover_specimens, failed, foreign_results, foreign_row,
+                                   format_table, plan_batch, printable, remove_stale_parts,
+                                   result_row, run_jobs, set_aside_result, stored_hash,
+                                   write_summary_csv, write_summary_json)
 
     def _unfinished_row(job):
         """The row of a job this run did not finish (Ctrl-C, a lost scheduler)."""
@@ -93,6 +94,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
     specimens = discover_specimens(inputs, exclude=[out])
     if not specimens:
         raise BatchError(f"no specimen file (*.yaml, *.yml) found in {', '.join(inputs)}")
+    check_fix_materials([p for p, _ in specimens], options)   # before anything is touched
     created = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     remove_stale_parts(out)
