@@ -625,8 +625,10 @@ def table_notes(r: ResultFile) -> list[str]:
                                       "limit (the search's end, not the data's)"
                                       if any("*" in c for c in cells) else ""))
     if any("–" in row[5] for row in rows):
-        notes.append("reference low–high: a range given by the specimen file; (inside): the "
-                     "value is within it, else the difference from its nearer end")
+        notes.append("reference low–high: a range given by the specimen file"
+                     + (" or the plates' different values" if r.reference_notes else "")
+                     + "; (inside): the value is within it, else the difference from its "
+                     "nearer end")
     if any(c.startswith("fixed") for c in cells):
         notes.append("fixed: held at its initial value, not identified (its value is an "
                      "assumption, not a result; no comparison with the reference)")
@@ -707,9 +709,10 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
     ax_n = fig.add_subplot(left[1, 0])
     ax_n.axis("off")
     notes = [t for t in (_laminate_text(plate) if plate is not None else "",) if t]
-    src = r.plates[0].reference_source
+    src = r.reference_source
     notes.append(textwrap.shorten("reference: " + src, 200) if src else
                  "no reference values in the specimen file")
+    notes += r.reference_notes
     if r.uncertainty is not None:
         u = r.uncertainty
         notes.append(f"uncertainty: {u.confidence:.0%} intervals, s² = {u.s2:.3g}, "

@@ -235,13 +235,50 @@ class ResultFile:
     @property
     def reference(self) -> dict:
         """{material: {constant: (low, high)}}: the plates' reference values, low == high for
-        one value (first plate wins)."""
-        out: dict = {}
-        for p in self.plates:
-            for m, consts in p.reference.items():
-                for k, v in consts.items():
-                    out.setdefault(m, {}).setdefault(k, v)
-        return out
+        one value; where the plates of a joint result give different ones, the range from the
+        lowest to the highest (:func:`combined_reference`, :attr:`reference_notes` says so)."""
+        return combined_reference((p.name, p.reference) for p in self.plates)[0]
+
+    @property
+    def reference_notes(self) -> list[str]:
+        """Where the plates' reference values of a constant differ, one line naming each
+        plate's (empty for one plate, or plates that agree)."""
+        return combined_reference((p.name, p.reference) for p in self.plates)[1]
+
+    @property
+    def reference_source(self) -> str:
+        """The plates' reference sources, each once, in plate order ("; " between them)."""
+        return "; ".join(dict.fromkeys(p.reference_source for p in self.plates
+                                       if p.reference_source))
+
+
+def combined_reference(plates) -> tuple[dict, list[str]]:
+    """({material: {constant: (low, high)}}, notes) of the shared constants of plates fitted
+    together, from ``plates`` = (name, {material: {constant: value}}) with a value a number or
+    (low, high). A constant whose reference is the same in every plate that gives one keeps
+    it; where the plates give different ones, the reference is the range from the lowest to
+    the highest, and a note names each plate's value (a joint result compared with one plate's
+    reference alone hid the others')."""
+    seen: dict = {}
+    for name, ref in plates:
+        for m, consts in (ref or {}).items():
+            for k, v in consts.items():
+                low, high = (v, v) if np.isscalar(v) else v
+                seen.setdefault(m, {}).setdefault(k, []).append((name, float(low), float(high)))
+    out: dict = {}
+    notes = []
+    for m, consts in seen.items():
+        for k, vals in consts.items():
+            pairs = {(lo, hi) for _, lo, hi in vals}
+            out.setdefault(m, {})[k] = (min(lo for lo, _ in pairs), max(hi for _, hi in pairs))
+            if len(pairs) > 1:
+                scale, unit = (1.0, "") if k == "nu12" else (1e-9, " GPa")
+                each = ", ".join(f"{n} {lo * scale:g}" + (f"–{hi * scale:g}" if hi != lo else "")
+                                 for n, lo, hi in vals)
+                label = f"{m}.{k}" if len(seen) > 1 else k
+                notes.append(f"reference {label} differs between the plates ({each}{unit}): "
+                             "the range from the lowest to the highest is shown")
+    return out, notes
 
 
 # ----------------------------------------------------------------------------------------------

@@ -1469,3 +1469,61 @@ def test_interval_legend_of_a_monte_carlo_verdict_names_the_range(checked, tmp_p
     texts = [t.get_text() for a_ in fig.axes if a_.get_legend() is not None
              for t in a_.get_legend().get_texts()]
     assert "not determined (interval or Monte Carlo range too wide)" in texts
+
+
+def test_joint_reference_that_differs_between_plates_is_their_range_and_said(joint, tmp_path):
+    """Plates fitted together whose specimen files give different references for a shared
+    constant (E1 170 GPa in S1.1, 160 GPa here for S1.2): the summary compares with the range
+    160.0–170.0 and a note names each plate's value (the first plate's alone was shown); a
+    constant they agree on (E2 10 GPa) stays one value, without a note."""
+    from laminid_cli.resultfile import combined_reference
+
+    res = read_result(joint)
+    p1, p2 = res.plates
+    ref2 = {MAT: {**p2.reference[MAT], "E1": (160e9, 160e9)}}
+    res = dataclasses.replace(res, plates=(p1, dataclasses.replace(p2, reference=ref2)))
+    assert res.reference[MAT]["E1"] == (160e9, 170e9)
+    assert res.reference[MAT]["E2"] == (10e9, 10e9)
+    assert res.reference_notes == [
+        "reference E1 differs between the plates (S1.1 170, S1.2 160 GPa): the range from the "
+        "lowest to the highest is shown"]
+    from laminid_cli.report import result_pages
+
+    pages = {p.name: p.figure for p in result_pages(res)}
+    rows = {row[0].split(" ")[0]: row for row in cells(ax(pages["shared"], "constants"))[1:]}
+    e1 = res.materials[MAT]["E1"]
+    assert rows["E1"][5].startswith("160.0–170.0\n")
+    assert rows["E1"][5] == "160.0–170.0\n" + (
+        "(inside)" if 160e9 <= e1 <= 170e9 else
+        f"({round((e1 / 160e9 - 1) * 100):+d} % below)" if e1 < 160e9 else
+        f"(+{round((e1 / 170e9 - 1) * 100)} % above)")
+    text = " ".join(t.get_text() for a in pages["shared"].axes for t in a.texts)
+    assert "reference E1 differs between the plates (S1.1 170, S1.2 160 GPa)" \
+        in text.replace("\n", " ")
+    assert "reference low–high: a range given by the specimen file or the plates' different " \
+        "values;" in text.replace("\n", " ")
+    # a range in one plate, a value in the other; the materials named with two of them
+    refs, notes = combined_reference([("A", {"glass": {"G12": (4e9, 5e9)}, "carbon": {}}),
+                                      ("B", {"glass": {"G12": 6e9}}),
+                                      ("C", {"glass": {"nu12": 0.3}})])
+    assert refs == {"glass": {"G12": (4e9, 6e9), "nu12": (0.3, 0.3)}}
+    assert notes == ["reference G12 differs between the plates (A 4–5, B 6 GPa): the range "
+                     "from the lowest to the highest is shown"]
+
+
+def test_joint_terminal_table_gives_the_plates_reference_range(tmp_path):
+    """The terminal report of identify --joint: the shared constants' reference from every
+    plate (the range where they differ, with the note), not the first plate's alone."""
+    s12 = tmp_path / "S1.2.yaml"
+    s12.write_text(open(S12).read().replace("{E1: 170 GPa, E2: 10 GPa", "{E1: 160 GPa, "
+                                            "E2: 10 GPa"))
+    r = run("identify", S11, s12, "--joint", "--mesh", "4x4", "--no-output")
+    assert r.exit_code == 0, r.output
+    e1 = next(ln for ln in r.output.splitlines() if ln.startswith("  E1 [GPa]"))
+    assert "160.00 .. 170.00" in e1
+    assert ("  note: reference E1 differs between the plates (S1.1 170, S1.2 160 GPa): the "
+            "range from the lowest to the highest is shown") in r.output.splitlines()
+    same = run("identify", S11, S12, "--joint", "--mesh", "4x4", "--no-output")
+    e1 = next(ln for ln in same.output.splitlines() if ln.startswith("  E1 [GPa]"))
+    assert "170.00" in e1 and ".." not in e1.split("170.00")[0] and "note: reference" \
+        not in same.output

@@ -229,9 +229,7 @@ def format_joint_report(s: dict) -> str:
     names = s["specimen_names"]
     lines = [f"joint identification of {len(names)} plates: {', '.join(names)}", _run_line(s)]
     lines += format_status(s)
-    first_ref = next((p.get("reference") for p in s["specimens"].values()
-                      if (p.get("reference") or {}).get("materials")), {}) or {}
-    lines += _material_tables(s, first_ref)
+    lines += _material_tables(s, _joint_reference(s))
     for name, p in s["specimens"].items():
         lines.append("")
         lines += _plate_header({**p["specimen"], "name": name})
@@ -244,6 +242,21 @@ def format_joint_report(s: dict) -> str:
                  f"{s['initial_rms_residual_percent']:.2f} %), objective {s['objective']:.4g}")
     lines += _closing_lines(s)
     return "\n".join(lines)
+
+
+def _joint_reference(s: dict) -> dict:
+    """The reference block of a joint summary's shared constants: each constant's reference
+    where the plates agree, the range lowest–highest where they differ (with ``notes`` naming
+    each plate's value), the plates' sources each once."""
+    from laminid_cli.resultfile import combined_reference
+
+    refs = {name: p.get("reference") or {} for name, p in s["specimens"].items()}
+    mats, notes = combined_reference((n, r.get("materials") or {}) for n, r in refs.items())
+    return {"source": "; ".join(dict.fromkeys(str(r["source"]) for r in refs.values()
+                                              if r.get("source"))),
+            "materials": {m: {k: lo if lo == hi else [lo, hi] for k, (lo, hi) in c.items()}
+                          for m, c in mats.items()},
+            "notes": notes}
 
 
 def _material_tables(s: dict, ref: dict) -> list[str]:
@@ -304,6 +317,7 @@ def _material_tables(s: dict, ref: dict) -> list[str]:
                 lines.append(row + note)
     if ref.get("source") and (ref_mats or ref.get("global")):
         lines.append(f"  reference: {' '.join(str(ref['source']).split())}")
+    lines += [f"  note: {n}" for n in ref.get("notes", ())]
     return lines
 
 
