@@ -85,7 +85,8 @@ UNITS = {**CONSTANT_UNITS, "lower": "unit of the constant", "upper": "unit of th
 #: rejects it beyond profile_bound; "flat": nowhere within its scan, the modes do not
 #: determine it there; "none": no profile could be made, its result file says why; resultfile.
 #: profile_kind) and profile_far the other end of its scan (a flat profile does not reject any
-#: value from the limit to there; nothing beyond was tried), mc_lower/mc_upper the Monte Carlo
+#: value from the limit to there; nothing beyond was tried; empty where no profile was made,
+#: its scan reached nowhere), mc_lower/mc_upper the Monte Carlo
 #: range (--monte-carlo), mc_search_limit which of its ends ("lower", "upper", "both") trials
 #: on a limit of the search set (the search's end, not the data's)
 LONG_COLUMNS = ("name", "specimen", "material", "constant", "value", "lower", "upper", "verdict",

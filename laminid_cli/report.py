@@ -1658,6 +1658,7 @@ def doubt_of_row(row, m: str, k: str, r: ResultFile | None = None) -> Doubt | No
     e = (row.get("intervals") or {}).get(m, {}).get(k)
     if e is not None:
         verdict = str(e.get("verdict") or "")
+        profile = profile_kind(e.get("profile_bound"), "") or str(e.get("profile") or "")
         return Doubt(
             lower=_si(e.get("lower")), upper=_si(e.get("upper")), verdict=verdict,
             at_bound=bool(e.get("at_bound")) or verdict.startswith("at bound"),
@@ -1666,8 +1667,10 @@ def doubt_of_row(row, m: str, k: str, r: ResultFile | None = None) -> Doubt | No
             mc_upper=_si(e.get("mc_upper")),
             mc_lower_at_limit=bool(e.get("mc_lower_at_limit")),
             mc_upper_at_limit=bool(e.get("mc_upper_at_limit")),
-            profile=profile_kind(e.get("profile_bound"), "") or str(e.get("profile") or ""),
-            profile_bound=_si(e.get("profile_bound")), profile_far=_si(e.get("profile_far")))
+            profile=profile,
+            profile_bound=_si(e.get("profile_bound")),
+            # no profile reached no end (summaries before that fix gave the planned one)
+            profile_far=np.nan if profile == "none" else _si(e.get("profile_far")))
     if r is None or m not in r.materials:
         return None
     if fixed_words(r, m, k) is not None:

@@ -101,7 +101,9 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
     /uncertainty/profile_bound, profile_far, profile_delta_chi2_far (attr threshold),
                           profile_text   per label, of a constant at its bound: where the fit
                           rejects it (profile of the fit; NaN: nowhere within the search up to
-                          profile_far), and the statement (laminid_cli.uncertainty.Profile)
+                          profile_far), the other end of its scan (NaN where no profile could
+                          be made: it reached no stated end), and the statement
+                          (laminid_cli.uncertainty.Profile)
     /uncertainty/fixed_ranges  labels, low, high, ratio_to_half_width, text: each constant
                           --fix-undetermined fixed on a limit of the search, the others
                           identified again with it at the search's two ends
@@ -615,11 +617,13 @@ def write_uncertainty(f, a, plate_names) -> None:
             "not at a bound, or the fit does not reject it within the search (profile_text)")
         put(g, "profile_far", np.array([u.profiles[lab].far if lab in u.profiles else np.nan
                                         for lab in u.labels]), unit,
-            description="the other end of the profile's scan (where a flat profile stops)")
+            description="the other end of the profile's scan (where a flat profile stops); "
+            "NaN: not at a bound, or no profile could be made (profile_text says why; its "
+            "scan reached no stated end)")
         put(g, "profile_delta_chi2_far", np.array(
             [u.profiles[lab].delta_far if lab in u.profiles else np.nan for lab in u.labels]),
             "1", description="rise of chi2 (scaled as the intervals) at profile_far; "
-            "threshold q^2 in the attribute")
+            "threshold q^2 in the attribute; NaN where profile_far is")
         g["profile_delta_chi2_far"].attrs["threshold"] = float(u.quantile) ** 2
         data, dt = _strings([u.profiles[lab].text if lab in u.profiles else ""
                              for lab in u.labels])
