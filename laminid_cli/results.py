@@ -70,7 +70,8 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
                           sigma_rel, note (how the file's sigmas were made:
                           measured.sigma_source, e.g. by fit-frf)
     /uncertainty/monte_carlo   samples (n_converged, p), mean, std, lower, upper (quantiles
-                          (1 -/+ confidence)/2 of the samples), linearized_std, ratio (std /
+                          (1 -/+ confidence)/2 of the samples), linearized_std (the
+                          linearised std; the name keeps its z: programs read it), ratio (std /
                           (linearized_std sqrt(nu / (nu - 2))), nu = attr variance_dof);
                           at_lower_bound, at_upper_bound (trials whose answer has the constant
                           on a limit of the search), lower_at_bound, upper_at_bound (0/1: that
@@ -231,6 +232,13 @@ def atomic_h5(path, fmt: str, command: str = ""):
         f.attrs["created"] = now_iso()
         f.attrs["command"] = command
         yield f
+
+
+#: the description of the Monte Carlo groups' ``linearized_std``: the name keeps its z (files
+#: since the Monte Carlo have it and programs read it by name; every text says "linearised")
+LINEARISED_STD = ("the linearised standard error of each label (the std of its interval), "
+                  "to compare the trials' std with; the dataset's name keeps the spelling "
+                  "'linearized' of the files programs already read")
 
 
 def put(group, name: str, value, units: str, *, compression: str | None = None, **attrs):
@@ -698,8 +706,9 @@ def write_uncertainty(f, a, plate_names) -> None:
                     "prior_sigma", "variance_dof"):
             gm.attrs[key] = {"trials": mc.n_trials, "converged": mc.n_converged}.get(
                 key, getattr(mc, key, None))
-        for key in ("samples", "mean", "std", "lower", "upper", "linearized_std"):
+        for key in ("samples", "mean", "std", "lower", "upper"):
             put(gm, key, getattr(mc, key), unit)
+        put(gm, "linearized_std", mc.linearized_std, unit, description=LINEARISED_STD)
         put(gm, "ratio", mc.ratio, "1", description="Monte Carlo std / linearised std")
         inner_lo, inner_hi = mc.inner_range()
         for key, value in (("inner_lower", inner_lo), ("inner_upper", inner_hi)):
@@ -719,8 +728,8 @@ def write_uncertainty(f, a, plate_names) -> None:
                 "fixed_clipped trials)")
         for side, count, flag in zip(("lower", "upper"), mc.bound_counts(), mc.ends_at_bound()):
             put(gm, f"at_{side}_bound", count, "1",
-                description=f"converged trials whose answer has the constant on a {side} limit "
-                "of the search")
+                description=f"converged trials whose answer has the constant on "
+                f"{'an' if side == 'upper' else 'a'} {side} limit of the search")
             put(gm, f"{side}_at_bound", np.asarray(flag, np.int8), "1",
                 description=f"1: the {side} end of the range is set by trials at a limit of the "
                 "search (the search's end, not the data's)")
@@ -937,9 +946,10 @@ def write_damping(f, d) -> None:
     gm.attrs["description"] = ("each converged trial refitted the free loss factors at its own "
                                "identified constants (its modes' strain-energy shares) from the "
                                "measured damping perturbed by its sigma x sigma_factor")
-    for key in ("samples", "mean", "std", "lower", "upper", "inner_lower", "inner_upper",
-                "linearized_std"):
+    for key in ("samples", "mean", "std", "lower", "upper", "inner_lower", "inner_upper"):
         put(gm, key, np.asarray(getattr(mc, key), float), "1")
+    put(gm, "linearized_std", np.asarray(mc.linearized_std, float), "1",
+        description=LINEARISED_STD)
     put(gm, "trials_at_zero", np.asarray(mc.trials_at_zero, int), "1",
         description="refits that held the loss factor at its bound 0")
     put(gm, "lower_at_zero", np.asarray(mc.lower_at_zero, np.int8), "1",
