@@ -975,6 +975,19 @@ def flagged_text(row: dict) -> str:
                      and (mark := _mark(row, m, k)) in FLAG_WORDS)
 
 
+def parse_flagged(text: str | None) -> dict:
+    """{material: {constant: word}} of a wide summary's ``flagged`` cell (:func:`flagged_text`;
+    words: the values of :data:`FLAG_WORDS`); {} for an empty cell. Items that are not
+    "material.constant word" are skipped."""
+    out: dict[str, dict] = {}
+    for item in filter(None, (x.strip() for x in (text or "").split(";"))):
+        label, _, word = item.rpartition(" ")
+        m, _, k = label.rpartition(".")
+        if m and k in CONSTANTS and word in FLAG_WORDS.values():
+            out.setdefault(m, {})[k] = word
+    return out
+
+
 def _num(v) -> str:
     import math
 
@@ -1193,7 +1206,10 @@ def read_summary(path) -> list[dict]:
                     m, k = head.rsplit(" ", 1)
                     mats.setdefault(m, {})[k] = float(val) * (1e9 if unit == "GPa" else 1.0)
         res = rec.get("result") or None
-        rows.append({"name": rec["name"], "specimen": rec.get("specimen", ""),
+        # the constants --wide flags (at a bound, undetermined, fixed); summaries before the
+        # column have no key: nothing is known of their doubt
+        flags = {} if "flagged" not in rec else {"flagged": parse_flagged(rec["flagged"])}
+        rows.append(flags | {"name": rec["name"], "specimen": rec.get("specimen", ""),
                      "path": rec.get("path", ""), "status": rec["status"],
                      "reason": rec.get("reasons", rec.get("reason", "")),
                      "cached": rec.get("cached") == "yes", "materials": mats,
