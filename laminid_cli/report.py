@@ -1987,8 +1987,12 @@ def residuals_across_page(rows, title: str):
            for r in rows]
     colors = ["0.45" if r["status"] == "ok" else "0.8" for r in rows]
     ax.bar(np.arange(len(rows)), rms, color=colors)
+    meshes = [r.get("mesh_check") or {} for r in rows]
     for i, r in enumerate(rows):
         text = (f"{rms[i]:.3f} %" if r["rms_residual_percent"] is not None else "no result")
+        if meshes[i].get("max_shift_half_width") is not None:
+            # batch --mesh-check: how far the constants would move on the finer mesh
+            text += f"\nmesh shift {meshes[i]['max_shift_half_width']:.2f} hw"
         check = _row_check(r, None)
         if check:
             text += "\n" + "\n".join(textwrap.wrap(check, 18, break_on_hyphens=False))
@@ -2001,6 +2005,13 @@ def residuals_across_page(rows, title: str):
     ax.legend(handles=[Patch(color="0.45"), Patch(color="0.8")],
               labels=["status ok", "status not ok (reason codes above the bar)"],
               loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0, fontsize=8)
+    if any(m.get("max_shift_half_width") is not None for m in meshes):
+        from laminid_cli.meshcheck import SHIFT_LIMIT
+
+        _footer(fig, "mesh shift (hw: 95 % half-widths): the largest first-order shift of a constant on a mesh twice "
+                     "as fine (batch --mesh-check), in units of its 95 % half-width; beyond "
+                     f"{SHIFT_LIMIT:g} the mesh is too coarse for the modes (coarse_mesh)",
+                gid="mesh-check-note")
     return fig
 
 
