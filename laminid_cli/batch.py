@@ -1459,7 +1459,7 @@ def format_table(rows) -> str:
     if checks:
         lines.append("check:")
         for r in checks:
-            lines.append(f"  {r['name']}:")
+            lines.append(f"  {_who(r)}:")
             lines += [f"    {x['code']}: {x['text']}" for x in r.get("reasons", [])]
     failed_rows = [r for r in rows if r["status"] in ("error", "not run")]
     if failed_rows:
@@ -1468,7 +1468,7 @@ def format_table(rows) -> str:
             reason = r["reason"] or ""
             text = reason if reason.startswith(r["status"]) else \
                 f"{r['status']}: {reason}" if reason else r["status"]
-            lines.append(f"  {r['name']}: {text}")
+            lines.append(f"  {_who(r)}: {text}")
             if r.get("stale_result"):
                 lines.append(f"    its earlier result (of another input) moved to "
                              f"{r['stale_result']}")
@@ -1478,6 +1478,14 @@ def format_table(rows) -> str:
                      "are):")
         lines += [f"  {r['stale_result']}" for r in others]
     return printable("\n".join(lines).rstrip() + "\n")
+
+
+def _who(row: dict) -> str:
+    """A row's name in the table's lists of reasons and errors: the batch name (file path
+    without suffix, as in the summaries), with the specimen's ``name:`` field first where the
+    table's column shows that and it differs ("S1.4 (good)"), so that the two can be tied."""
+    name, spec = row["name"], row.get("specimen") or ""
+    return name if not spec or spec in (name, name.rsplit("/", 1)[-1]) else f"{spec} ({name})"
 
 
 def _mesh_text(row: dict, key: str) -> str:

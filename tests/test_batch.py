@@ -1186,3 +1186,21 @@ def test_batch_mesh_check_is_in_help_and_refuses_a_too_fine_mesh(tmp_path):
     assert r.exit_code == one.exit_code == 2 and r.output == one.output, (r.output, one.output)
     assert r.output.startswith("laminid: error: mesh ")          # (160x160 or 80x80 too big)
     assert not (tmp_path / "o").exists()
+
+
+def test_the_table_ties_a_column_to_its_reasons_when_name_and_file_differ(tmp_path):
+    """good.yaml has 'name: S1.4': its column said "S1.4" and its reasons "good:", with
+    nothing to tie them; the reasons now say "S1.4 (good):". A file named as its specimen
+    keeps one name."""
+    text = open("specimens/example1/S1.4.yaml").read()
+    assert "name: S1.4" in text
+    specs = tmp_path / "in"
+    specs.mkdir()
+    (specs / "good.yaml").write_text(text)
+    shutil.copy("specimens/example1/S1.1.yaml", specs / "S1.1.yaml")
+    r = run("batch", specs, "--mesh", "6x6", "--out", tmp_path / "out")
+    assert r.exit_code == 0, r.output
+    lines = r.stdout.splitlines()
+    assert lines[0].split()[1:] == ["S1.1", "S1.4"]
+    assert "  S1.4 (good):" in lines and "  S1.1:" in lines
+    assert "  good:" not in lines
