@@ -77,6 +77,9 @@ UNITS = {**CONSTANT_UNITS, "lower": "unit of the constant", "upper": "unit of th
          "profile_far": "unit of the constant",
          "mc_lower": "unit of the constant", "mc_upper": "unit of the constant",
          "rms_residual_percent": "%", "time_s": "s",
+         "max_change_percent": "%", "max_change_sigma": "frequency sigma of the mode",
+         "max_shift_half_width": "95 % half-width of the constant",
+         "mesh_shift_half_width": "95 % half-width of the constant",
          **{f"eta{k}": "1 (loss factor, eta = 2 zeta)" for k in ("11", "22", "12", "13", "23")}}
 #: the columns of the long summary.csv: lower/upper the linearised interval (empty for a
 #: constant at its bound), bound_side/bound_limit of a constant at its bound (the data push it
@@ -85,7 +88,8 @@ UNITS = {**CONSTANT_UNITS, "lower": "unit of the constant", "upper": "unit of th
 #: rejects it beyond profile_bound; "flat": nowhere within its scan, the modes do not
 #: determine it there; "none": no profile could be made, its result file says why; resultfile.
 #: profile_kind) and profile_far the other end of its scan (a flat profile does not reject any
-#: value from the limit to there; nothing beyond was tried), mc_lower/mc_upper the Monte Carlo
+#: value from the limit to there; nothing beyond was tried; empty where no profile was made,
+#: its scan reached nowhere), mc_lower/mc_upper the Monte Carlo
 #: range (--monte-carlo), mc_search_limit which of its ends ("lower", "upper", "both") trials
 #: on a limit of the search set (the search's end, not the data's)
 LONG_COLUMNS = ("name", "specimen", "material", "constant", "value", "lower", "upper", "verdict",
@@ -93,6 +97,16 @@ LONG_COLUMNS = ("name", "specimen", "material", "constant", "value", "lower", "u
                 "mc_lower", "mc_upper",
                 "mc_search_limit", "unit",
                 "status", "reasons", "rms_residual [%]", "result", "stale_result")
+#: the columns a summary.csv gets after those above (long) or before ``flagged`` (wide) when
+#: the batch ran with --mesh-check (a summary without it keeps its columns):
+#: mesh_shift_half_width (long only) the constant's first-order shift on the mesh twice as fine
+#: in units of its 95 % half-width (signed; laminid_cli.meshcheck), mesh_max_change_sigma the
+#: specimen's largest |frequency change| there in units of the mode's sigma,
+#: mesh_max_shift_half_width its largest |shift| in half-widths (beyond meshcheck.SHIFT_LIMIT:
+#: the reason coarse_mesh in status/reasons)
+MESH_LONG_COLUMNS = ("mesh_shift_half_width", "mesh_max_change_sigma",
+                     "mesh_max_shift_half_width")
+MESH_WIDE_COLUMNS = ("mesh_max_change_sigma", "mesh_max_shift_half_width")
 SPECIMEN_SUFFIXES = (".yaml", ".yml")
 RESULT_SUFFIX = ".result.h5"
 SUMMARY_CSV = "summary.csv"
@@ -268,7 +282,11 @@ def input_hash(spec, options: BatchOptions) -> str:
     # "verdicts 7": the intervals counting the fixed values' spread on Welch-Satterthwaite's
     # quantiles
     h.update(f"laminid {__version__} schema {SCHEMA_VERSION} options 2 verdicts 7\0".encode())
-    h.update(json.dumps(options.as_dict(), sort_keys=True).encode() + b"\0")
+    settings = options.as_dict()
+    if not settings.get("mesh_check"):
+        # results of batches before --mesh-check (none checked) stay up to date
+        settings.pop("mesh_check", None)
+    h.update(json.dumps(settings, sort_keys=True).encode() + b"\0")
     h.update(spec.read_bytes())
     frf = _frf_file(spec)
     if frf is not None:
@@ -778,7 +796,8 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False,
     mc_lower, mc_upper and mc_lower_at_limit, mc_upper_at_limit (None: the file
     does not say) after a Monte Carlo; fixed ones {verdict: "fixed"}),
     rms_residual_percent, evaluations, time_s, result, damping ({material: {eta11: {value,
-    lower, upper, verdict}}}, empty without measured damping).
+    lower, upper, verdict}}}, empty without measured damping), mesh_check (with --mesh-check:
+    :func:`mesh_summary`, and mesh_shift_half_width in each interval; else None).
     ``flagged`` (not determined) is the file's own flag (the run's --max-rel-interval).
     stale_result: where the earlier result of a failing specimen, or of one not run (an
     interrupted batch), was moved in this run (:func:`set_aside_result`, given as ``stale``),
@@ -788,6 +807,7 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False,
            "reasons": [], "reason": "", "converged": None, "optimizer_status": "",
            "cached": cached, "materials": {}, "intervals": {}, "rms_residual_percent": None,
            "evaluations": None, "time_s": None, "result": None, "damping": {},
+           "mesh_check": None,
            "stale_result": None if stale[0] is None else str(stale[0])}
     if outcome is not None and outcome.status == "error":
         reason = outcome.reason
@@ -840,7 +860,8 @@ def foreign_row(path, out_dir) -> dict:
                       "among the inputs: removed, or given to another batch); kept as it is",
             "converged": None, "optimizer_status": "", "cached": False, "materials": {},
             "intervals": {}, "rms_residual_percent": None, "evaluations": None,
-            "time_s": None, "result": None, "damping": {}, "stale_result": str(path)}
+            "time_s": None, "result": None, "damping": {}, "mesh_check": None,
+            "stale_result": str(path)}
 
 
 def _row_of_result(res) -> dict:
@@ -885,7 +906,43 @@ def _row_of_result(res) -> dict:
                     bool(np.ravel(flag)[j])
     row["intervals"] = intervals
     row["damping"] = damping_of_file(res.damping) if res.damping is not None else {}
+    row["mesh_check"] = mesh_summary(res.mesh_check)
+    for m, per in (res.mesh_check or {}).get("constants", {}).items():
+        for k, v in per.items():
+            if k in intervals.get(m, {}):
+                intervals[m][k]["mesh_shift_half_width"] = v["shift_half_width"]
     return row
+
+
+def mesh_summary(mc: dict | None) -> dict | None:
+    """The summary's ``mesh_check`` of a result's /mesh_check (MeshCheck.as_dict's plain
+    data; None: checked without it): fine_mesh ("24x24"), max_change_percent and
+    max_change_sigma (the largest |frequency change| on the fine mesh, in percent and in units
+    of the mode's sigma), max_shift_half_width (the largest |first-order shift| of a free
+    constant in units of its 95 % half-width, NaN shifts skipped), worst (its label), limit,
+    coarse_mesh (some shift beyond the limit: the status reason) and text (its words)."""
+    import numpy as np
+
+    if mc is None:
+        return None
+    modes = mc.get("modes") or {}
+    labels = list(mc.get("labels") or [])
+    shifts = [abs(mc["constants"][lab.rsplit(".", 1)[0]][lab.rsplit(".", 1)[1]]
+                  ["shift_half_width"]) for lab in labels]
+    finite = [(v, lab) for v, lab in zip(shifts, labels) if np.isfinite(v)]
+    worst = max(finite) if finite else (None, "")
+
+    def largest(key):
+        a = np.abs(np.asarray(modes.get(key, []), float))
+        return float(np.nanmax(a)) if a.size and np.isfinite(a).any() else None
+
+    fine = mc.get("fine_mesh") or {}
+    return {"fine_mesh": f"{fine.get('nx')}x{fine.get('ny')}",
+            "max_change_percent": largest("change_percent"),
+            "max_change_sigma": largest("change_sigma"),
+            "max_shift_half_width": None if worst[0] is None else float(worst[0]),
+            "worst": worst[1], "limit": float(mc.get("limit", np.nan)),
+            "coarse_mesh": bool(mc.get("too_coarse")), "text": str(mc.get("text") or "")}
 
 
 def damping_of_file(d) -> dict:
@@ -953,12 +1010,13 @@ def material_names(rows) -> list[str]:
     return names
 
 
-def csv_header(materials) -> list[str]:
-    """Columns of the wide summary (one row per specimen), SI units in the headers."""
+def csv_header(materials, mesh_check: bool = False) -> list[str]:
+    """Columns of the wide summary (one row per specimen), SI units in the headers;
+    ``mesh_check``: with MESH_WIDE_COLUMNS before the last, ``flagged``."""
     cols = ["name", "specimen", "path", "status", "reasons"]
     cols += [f"{m} {k} [{CONSTANT_UNITS[k]}]" for m in materials for k in CONSTANTS]
     return cols + ["rms_residual [%]", "evaluations", "time [s]", "cached", "result",
-                   "stale_result", "flagged"]
+                   "stale_result", *(MESH_WIDE_COLUMNS if mesh_check else ()), "flagged"]
 
 
 #: the words of the wide summary's ``flagged`` column for each mark of the terminal table
@@ -974,16 +1032,30 @@ def flagged_text(row: dict) -> str:
                      and (mark := _mark(row, m, k)) in FLAG_WORDS)
 
 
+def parse_flagged(text: str | None) -> dict:
+    """{material: {constant: word}} of a wide summary's ``flagged`` cell (:func:`flagged_text`;
+    words: the values of :data:`FLAG_WORDS`); {} for an empty cell. Items that are not
+    "material.constant word" are skipped."""
+    out: dict[str, dict] = {}
+    for item in filter(None, (x.strip() for x in (text or "").split(";"))):
+        label, _, word = item.rpartition(" ")
+        m, _, k = label.rpartition(".")
+        if m and k in CONSTANTS and word in FLAG_WORDS.values():
+            out.setdefault(m, {})[k] = word
+    return out
+
+
 def _num(v) -> str:
     import math
 
     return "" if v is None or not math.isfinite(v) else repr(float(v))
 
 
-def long_rows(rows, folder=None) -> list[list[str]]:
-    """The long summary: one row per specimen, material and constant (LONG_COLUMNS), SI, then
-    its loss factors (:func:`damping_long_rows`); a specimen without a result has one row with
-    its status and reason."""
+def long_rows(rows, folder=None, columns=LONG_COLUMNS) -> list[list[str]]:
+    """The long summary: one row per specimen, material and constant (``columns``:
+    LONG_COLUMNS, :func:`long_columns`), SI, then its loss factors
+    (:func:`damping_long_rows`); a specimen without a result has one row with its status and
+    reason."""
     out = []
     for r in rows:
         # the codes (the words are in summary.json and the result file); an error's message
@@ -994,7 +1066,8 @@ def long_rows(rows, folder=None) -> list[list[str]]:
                   "rms_residual [%]": "" if r["rms_residual_percent"] is None
                   else f"{r['rms_residual_percent']:.6g}",
                   "result": _path_text(r["result"], folder),
-                  "stale_result": _path_text(r.get("stale_result"), folder)}
+                  "stale_result": _path_text(r.get("stale_result"), folder),
+                  **_mesh_cells(r)}
         cells = []
         for m, consts in r["materials"].items():
             for k in CONSTANTS:
@@ -1010,6 +1083,7 @@ def long_rows(rows, folder=None) -> list[list[str]]:
                               "mc_lower": _num(iv.get("mc_lower")),
                               "mc_upper": _num(iv.get("mc_upper")),
                               "mc_search_limit": search_limit_text(iv),
+                              "mesh_shift_half_width": _num(iv.get("mesh_shift_half_width")),
                               "unit": CONSTANT_UNITS[k]})
         for d in damping_long_rows(r):
             cells.append({"material": d["material"], "constant": d["constant"],
@@ -1019,8 +1093,25 @@ def long_rows(rows, folder=None) -> list[list[str]]:
                           "mc_lower": _num(d["mc_lower"]), "mc_upper": _num(d["mc_upper"])})
         for cell in cells or [{}]:
             row = common | cell
-            out.append([row.get(col, "") for col in LONG_COLUMNS])
+            out.append([row.get(col, "") for col in columns])
     return out
+
+
+def checked_mesh(rows) -> bool:
+    """Whether some row has a mesh check (the batch ran with --mesh-check)."""
+    return any(r.get("mesh_check") for r in rows)
+
+
+def long_columns(rows) -> tuple[str, ...]:
+    """LONG_COLUMNS, with MESH_LONG_COLUMNS after them when some row has a mesh check."""
+    return LONG_COLUMNS + (MESH_LONG_COLUMNS if checked_mesh(rows) else ())
+
+
+def _mesh_cells(row) -> dict:
+    """The per-specimen mesh-check cells of a summary.csv row ("" without a check)."""
+    mc = row.get("mesh_check") or {}
+    return {"mesh_max_change_sigma": _num(mc.get("max_change_sigma")),
+            "mesh_max_shift_half_width": _num(mc.get("max_shift_half_width"))}
 
 
 def _path_text(path, folder) -> str:
@@ -1049,11 +1140,13 @@ def write_summary_csv(path, rows, wide: bool = False) -> Path:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     if not wide:
-        w.writerow(LONG_COLUMNS)
-        w.writerows(long_rows(rows, path.parent))
+        columns = long_columns(rows)
+        w.writerow(columns)
+        w.writerows(long_rows(rows, path.parent, columns))
         return _write_text(path, buf.getvalue())
     mats = material_names(rows)
-    w.writerow(csv_header(mats))
+    mesh = checked_mesh(rows)
+    w.writerow(csv_header(mats, mesh))
     for r in rows:
         values = [r["name"], r["specimen"], r["path"], r["status"], r["reason"]]
         for m in mats:
@@ -1064,7 +1157,11 @@ def write_summary_csv(path, rows, wide: bool = False) -> Path:
                    "" if r["time_s"] is None else f"{r['time_s']:.3f}",
                    "yes" if r["cached"] else "no",
                    _path_text(r["result"], path.parent),
-                   _path_text(r.get("stale_result"), path.parent), flagged_text(r)]
+                   _path_text(r.get("stale_result"), path.parent)]
+        if mesh:
+            cells = _mesh_cells(r)
+            values += [cells[c] for c in MESH_WIDE_COLUMNS]
+        values.append(flagged_text(r))
         w.writerow(values)
     return _write_text(path, buf.getvalue())
 
@@ -1192,7 +1289,11 @@ def read_summary(path) -> list[dict]:
                     m, k = head.rsplit(" ", 1)
                     mats.setdefault(m, {})[k] = float(val) * (1e9 if unit == "GPa" else 1.0)
         res = rec.get("result") or None
-        rows.append({"name": rec["name"], "specimen": rec.get("specimen", ""),
+        # the constants --wide flags (at a bound, undetermined, fixed); summaries before the
+        # column have no key: nothing is known of their doubt
+        flags = {} if "flagged" not in rec else {"flagged": parse_flagged(rec["flagged"])}
+        rows.append(flags | {"mesh_check": _mesh_of_csv(rec),
+                             "name": rec["name"], "specimen": rec.get("specimen", ""),
                      "path": rec.get("path", ""), "status": rec["status"],
                      "reason": rec.get("reasons", rec.get("reason", "")),
                      "cached": rec.get("cached") == "yes", "materials": mats,
@@ -1216,7 +1317,7 @@ def _rows_of_long(records, path: Path) -> list[dict]:
                 "status": rec["status"], "reason": rec.get("reasons", ""), "cached": False,
                 "materials": {}, "intervals": {},
                 "rms_residual_percent": _float(rec.get("rms_residual [%]")),
-                "evaluations": None, "time_s": None,
+                "evaluations": None, "time_s": None, "mesh_check": _mesh_of_csv(rec),
                 "result": str(path.parent / res) if res else None,
                 "stale_result": _path_of_csv(rec, "stale_result", path)}
         m, k = rec.get("material"), rec.get("constant")
@@ -1247,6 +1348,17 @@ def _rows_of_long(records, path: Path) -> list[dict]:
             if rec.get("mc_lower") not in ("", None):
                 eta.update(mc_lower=_float(rec["mc_lower"]), mc_upper=_float(rec.get("mc_upper")))
     return list(rows.values())
+
+
+def _mesh_of_csv(rec: dict) -> dict | None:
+    """The row's ``mesh_check`` as far as a summary.csv gives it (max_change_sigma,
+    max_shift_half_width, coarse_mesh from its reasons); None without a check."""
+    if rec.get("mesh_max_shift_half_width") in ("", None) and \
+            rec.get("mesh_max_change_sigma") in ("", None):
+        return None
+    return {"max_change_sigma": _float(rec.get("mesh_max_change_sigma")),
+            "max_shift_half_width": _float(rec.get("mesh_max_shift_half_width")),
+            "coarse_mesh": "coarse_mesh" in (rec.get("reasons") or "")}
 
 
 def _path_of_csv(rec: dict, column: str, path: Path) -> str | None:
@@ -1296,8 +1408,10 @@ def format_table(rows) -> str:
             [r["name"] for r in members]
         status_w = [len(r['status'] + (' (cached)' if r['cached'] else '')) for r in members]
         width = max(9, *(len(s) for s in labels), *status_w)
-        label_w = max(18, *(len(f"{m} {k} [GPa]") for m in mats for k in CONSTANTS)) \
-            if len(mats) > 1 else 18
+        mesh = checked_mesh(members)
+        label_w = max(19 if mesh else 18,
+                      *(len(f"{m} {k} [GPa]") for m in mats for k in CONSTANTS)) \
+            if len(mats) > 1 else 19 if mesh else 18
         head = ", ".join(mats)
         lines.append(f"{head:<{label_w}}" + "".join(f"  {s:>{width}} " for s in labels))
         for m in mats:
@@ -1319,6 +1433,11 @@ def format_table(rows) -> str:
             f"  {r['rms_residual_percent']:>{width}.3f} " for r in members))
         lines.append(f"{'evaluations':<{label_w}}" + "".join(
             f"  {int(r['evaluations']):>{width}d} " for r in members))
+        if mesh:
+            for label, key in (("mesh change [sigma]", "max_change_sigma"),
+                               ("mesh shift [hw]", "max_shift_half_width")):
+                lines.append(f"{label:<{label_w}}" + "".join(
+                    f"  {_mesh_text(r, key):>{width}} " for r in members))
         lines.append(f"{'status':<{label_w}}" + "".join(
             f"  {(r['status'] + (' (cached)' if r['cached'] else '')):>{width}} "
             for r in members))
@@ -1329,6 +1448,10 @@ def format_table(rows) -> str:
                             "than --max-rel-interval)"),
         (MARK_FIXED, f"{MARK_FIXED} fixed at its initial value — not identified (--fix, "
                      "--fix-undetermined or the file's 'fixed')")) if mark in marked]
+    if any(checked_mesh(g) for g in groups.values()):
+        legend.append("mesh change/shift: on a mesh twice as fine (--mesh-check), the largest "
+                      "frequency change in the mode's sigmas and the largest shift of a constant "
+                      f"in its 95 % half-widths (beyond {_shift_limit():g}: coarse_mesh)")
     if legend:
         lines.append("; ".join(legend))
         lines.append("")
@@ -1336,7 +1459,7 @@ def format_table(rows) -> str:
     if checks:
         lines.append("check:")
         for r in checks:
-            lines.append(f"  {r['name']}:")
+            lines.append(f"  {_who(r)}:")
             lines += [f"    {x['code']}: {x['text']}" for x in r.get("reasons", [])]
     failed_rows = [r for r in rows if r["status"] in ("error", "not run")]
     if failed_rows:
@@ -1345,7 +1468,7 @@ def format_table(rows) -> str:
             reason = r["reason"] or ""
             text = reason if reason.startswith(r["status"]) else \
                 f"{r['status']}: {reason}" if reason else r["status"]
-            lines.append(f"  {r['name']}: {text}")
+            lines.append(f"  {_who(r)}: {text}")
             if r.get("stale_result"):
                 lines.append(f"    its earlier result (of another input) moved to "
                              f"{r['stale_result']}")
@@ -1355,6 +1478,26 @@ def format_table(rows) -> str:
                      "are):")
         lines += [f"  {r['stale_result']}" for r in others]
     return printable("\n".join(lines).rstrip() + "\n")
+
+
+def _who(row: dict) -> str:
+    """A row's name in the table's lists of reasons and errors: the batch name (file path
+    without suffix, as in the summaries), with the specimen's ``name:`` field first where the
+    table's column shows that and it differs ("S1.4 (good)"), so that the two can be tied."""
+    name, spec = row["name"], row.get("specimen") or ""
+    return name if not spec or spec in (name, name.rsplit("/", 1)[-1]) else f"{spec} ({name})"
+
+
+def _mesh_text(row: dict, key: str) -> str:
+    """A mesh-check cell of the terminal table ("—" for a specimen without a check)."""
+    v = (row.get("mesh_check") or {}).get(key)
+    return "—" if v is None else f"{v:.2f}"
+
+
+def _shift_limit() -> float:
+    from laminid_cli.meshcheck import SHIFT_LIMIT
+
+    return SHIFT_LIMIT
 
 
 def printable(text: str) -> str:

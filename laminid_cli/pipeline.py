@@ -128,7 +128,8 @@ class RunOptions:
             "mesh": self.mesh, "fix": list(self.fix),
             "identify": dataclasses.asdict(self.identify),
             "uncertainty": dataclasses.asdict(self.uncertainty),
-            "fix_loss": list(self.fix_loss)}, default=str))
+            "fix_loss": list(self.fix_loss), "mesh_check": bool(self.mesh_check)},
+            default=str))
 
 
 @dataclass(frozen=True)

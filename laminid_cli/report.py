@@ -41,7 +41,8 @@ import numpy as np
 
 from laminid_cli.atomic import atomic_path
 from laminid_cli.errors import LaminidError
-from laminid_cli.intervals import VERDICT_NOT, WEAK, spread_sentence
+from laminid_cli.intervals import (VERDICT_AT_BOUND, VERDICT_FIXED, VERDICT_NOT, WEAK,
+                                   spread_sentence)
 from laminid_cli.resultfile import (CONSTANTS, ResultFile, bound_statement, profile_kind,
                                    read_result)
 
@@ -1644,6 +1645,9 @@ class Doubt:
     profile: str = ""
     profile_bound: float = np.nan
     profile_far: float = np.nan
+    #: all that is known is a --wide summary.csv's ``flagged`` column (its result file not
+    #: found): at a bound (side not stated), undetermined, fixed, or none of them; no interval
+    flag_only: bool = False
 
     @property
     def undetermined(self) -> bool:
@@ -1654,6 +1658,21 @@ def _si(v) -> float:
     return np.nan if v is None else float(v)
 
 
+def _doubt_of_flag(row, m: str, k: str) -> Doubt | None:
+    """The :class:`Doubt` a --wide summary.csv's ``flagged`` column gives constant ``k`` of
+    material ``m`` (``flag_only``: no interval, no side of a bound); None for a row without the
+    column (a wide summary written before it)."""
+    flags = row.get("flagged")
+    if not isinstance(flags, dict) or m not in (row.get("materials") or {}):
+        return None
+    word = flags.get(m, {}).get(k, "")
+    if word == "fixed":
+        return Doubt(verdict=VERDICT_FIXED, fixed=True, flag_only=True)
+    if word == "at_bound":
+        return Doubt(verdict=VERDICT_AT_BOUND, at_bound=True, flag_only=True)
+    return Doubt(verdict=VERDICT_NOT if word == "undetermined" else "", flag_only=True)
+
+
 def doubt_of_row(row, m: str, k: str, r: ResultFile | None = None) -> Doubt | None:
     """The :class:`Doubt` of constant ``k`` of material ``m`` from the summary row's own
     columns (summary.json, long summary.csv); from the result file ``r`` only when the row has
@@ -1661,6 +1680,7 @@ def doubt_of_row(row, m: str, k: str, r: ResultFile | None = None) -> Doubt | No
     e = (row.get("intervals") or {}).get(m, {}).get(k)
     if e is not None:
         verdict = str(e.get("verdict") or "")
+        profile = profile_kind(e.get("profile_bound"), "") or str(e.get("profile") or "")
         return Doubt(
             lower=_si(e.get("lower")), upper=_si(e.get("upper")), verdict=verdict,
             at_bound=bool(e.get("at_bound")) or verdict.startswith("at bound"),
@@ -1669,10 +1689,12 @@ def doubt_of_row(row, m: str, k: str, r: ResultFile | None = None) -> Doubt | No
             mc_upper=_si(e.get("mc_upper")),
             mc_lower_at_limit=bool(e.get("mc_lower_at_limit")),
             mc_upper_at_limit=bool(e.get("mc_upper_at_limit")),
-            profile=profile_kind(e.get("profile_bound"), "") or str(e.get("profile") or ""),
-            profile_bound=_si(e.get("profile_bound")), profile_far=_si(e.get("profile_far")))
+            profile=profile,
+            profile_bound=_si(e.get("profile_bound")),
+            # no profile reached no end (summaries before that fix gave the planned one)
+            profile_far=np.nan if profile == "none" else _si(e.get("profile_far")))
     if r is None or m not in r.materials:
-        return None
+        return _doubt_of_flag(row, m, k)
     if fixed_words(r, m, k) is not None:
         return Doubt(verdict="fixed", fixed=True)
     iv = r.uncertainty.get(m, k) if r.uncertainty is not None else None
@@ -1712,6 +1734,16 @@ def specimen_labels(rows) -> list[str]:
 MC_COLOR = "0.62"
 
 
+def _either_limit():
+    """The marker of a constant on a search limit whose side is not known: the lower limit's
+    and the upper limit's triangles ("v", "^") drawn over each other."""
+    from matplotlib.path import Path as MplPath
+
+    up, down = [(0, 1), (-1, -1), (1, -1), (0, 1)], [(0, -1), (-1, 1), (1, 1), (0, -1)]
+    codes = [MplPath.MOVETO, MplPath.LINETO, MplPath.LINETO, MplPath.CLOSEPOLY]
+    return MplPath(up + down, codes * 2)
+
+
 def _across_point(ax, k, xi, v, d: Doubt | None, color, tag):
     """One specimen's constant on a panel of the page across specimens; returns what it draws
     by kind ("identified", "undetermined", "undetermined (Monte Carlo)", "at bound", "fixed",
@@ -1723,10 +1755,25 @@ def _across_point(ax, k, xi, v, d: Doubt | None, color, tag):
         ax.plot([xi], [v], "s", ms=6, color=FIXED_COLOR, mfc="w", mew=1.3, gid=f"fixed-{tag}",
                 **on_top)
         return "fixed"
+    if d is not None and d.at_bound and d.bound_side not in ("lower", "upper"):
+        # which limit the summary does not say (a --wide summary.csv): both triangles, so
+        # that neither direction is claimed
+        ax.plot([xi], [v], ls="none", marker=_either_limit(), ms=8, color=color, mfc="none",
+                mew=1.1, gid=f"at-bound-{tag}", **on_top)
+        return "at bound (side not stated)"
     if d is not None and d.at_bound:
         ax.plot([xi], [v], "^" if d.bound_side == "upper" else "v", ms=7, color=color, mfc="w",
                 mew=1.3, gid=f"at-bound-{tag}", **on_top)
         return "at bound"
+    if d is not None and d.flag_only:
+        # a --wide summary's flag: determined or not, without the interval
+        ax.plot([xi], [v], "o", ms=6, color=color, mfc="w" if d.undetermined else color,
+                gid=f"value-{tag}", **on_top)
+        if d.undetermined:
+            ax.annotate("?", (xi, v), xytext=(4, 2), textcoords="offset points", fontsize=9,
+                        color=color, weight="bold")
+            return "undetermined"
+        return "not flagged"
     if d is None or (np.isnan(d.lower) and np.isnan(d.upper)):
         ax.plot([xi], [v], "d", ms=6, color=color, mfc="w", mew=1.0, gid=f"value-{tag}",
                 **on_top)
@@ -1868,14 +1915,20 @@ def constants_across_page(done, title: str):
         "fixed": (Line2D([], [], ls="none", marker="s", ms=6, color=FIXED_COLOR, mfc="w"),
                   "fixed at its initial value: not identified"),
         "no interval": (Line2D([], [], ls="none", marker="d", ms=6, color=grey, mfc="w"),
-                        "no interval in this summary (wide CSV, result file not found)")}
+                        "no interval in this summary (wide CSV, result file not found)"),
+        "not flagged": (Line2D([], [], ls="none", marker="o", ms=6, color=grey),
+                        "identified, not flagged (--wide: no interval)"),
+        "at bound (side not stated)": (
+            Line2D([], [], ls="none", marker=_either_limit(), ms=8, color=grey, mfc="none"),
+            "on a search limit, not identified (--wide: which one not said)")}
     if "undetermined (Monte Carlo)" in kinds:
         # a Monte Carlo verdict's interval may be narrow: its range is what is too wide
         kinds.add("undetermined")
         h, _ = marks["undetermined"]
         marks["undetermined"] = (h, "?: not determined (interval or Monte Carlo range too "
                                     "wide)")
-    for kind in ("identified", "undetermined", "at bound", "fixed", "no interval"):
+    for kind in ("identified", "not flagged", "undetermined", "at bound",
+                 "at bound (side not stated)", "fixed", "no interval"):
         if kind in kinds:
             h, text = marks[kind]
             handles[text] = h
@@ -1913,6 +1966,12 @@ def constants_across_page(done, title: str):
                         "no intervals, verdicts or search limits, and their result files were "
                         "not found: a value at a search limit or not determined looks like any "
                         "other here; use the long summary.csv or summary.json")
+    elif any(d is not None and d.flag_only for row, mats, r in done for m in mats
+             for k in mats[m] if (d := doubt_of_row(row, m, k, r)) is not None):
+        notes.insert(0, "no intervals: a --wide summary.csv gives only which constants are at a "
+                        "search limit (not which one), not determined or fixed (its column "
+                        "flagged), and their result files were not found; the intervals are in "
+                        "the long summary.csv or summary.json")
     if notes:
         _footer(fig, "\n".join(notes), color=CHECK_COLOR)
     return fig
@@ -1931,8 +1990,12 @@ def residuals_across_page(rows, title: str):
            for r in rows]
     colors = ["0.45" if r["status"] == "ok" else "0.8" for r in rows]
     ax.bar(np.arange(len(rows)), rms, color=colors)
+    meshes = [r.get("mesh_check") or {} for r in rows]
     for i, r in enumerate(rows):
         text = (f"{rms[i]:.3f} %" if r["rms_residual_percent"] is not None else "no result")
+        if meshes[i].get("max_shift_half_width") is not None:
+            # batch --mesh-check: how far the constants would move on the finer mesh
+            text += f"\nmesh shift {meshes[i]['max_shift_half_width']:.2f} hw"
         check = _row_check(r, None)
         if check:
             text += "\n" + "\n".join(textwrap.wrap(check, 18, break_on_hyphens=False))
@@ -1945,6 +2008,13 @@ def residuals_across_page(rows, title: str):
     ax.legend(handles=[Patch(color="0.45"), Patch(color="0.8")],
               labels=["status ok", "status not ok (reason codes above the bar)"],
               loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0, fontsize=8)
+    if any(m.get("max_shift_half_width") is not None for m in meshes):
+        from laminid_cli.meshcheck import SHIFT_LIMIT
+
+        _footer(fig, "mesh shift (hw: 95 % half-widths): the largest first-order shift of a constant on a mesh twice "
+                     "as fine (batch --mesh-check), in units of its 95 % half-width; beyond "
+                     f"{SHIFT_LIMIT:g} the mesh is too coarse for the modes (coarse_mesh)",
+                gid="mesh-check-note")
     return fig
 
 

@@ -78,7 +78,9 @@ class Interval:
     #: 30 have none: "")
     profile_bound: float = np.nan
     profile_text: str = ""
-    #: the other end of the profile's scan (SI; NaN: no profile)
+    #: the other end of the profile's scan (SI; NaN: no profile, or one that could not be
+    #: made: profile_kind "none", whose scan reached nowhere; files before that fix stored
+    #: the planned end there, read as NaN)
     profile_far: float = np.nan
 
     @property
@@ -538,7 +540,10 @@ def _uncertainty(f) -> Uncertainty | None:
         bound_side = tuple(s for s, _ in parsed)
         bound_limit = np.array([v for _, v in parsed], float)
     profile_bound, profile_text = arr("profile_bound"), strs("profile_text")
-    profile_far = arr("profile_far")
+    # a profile that could not be made reached no end: files written before the fix stored
+    # the scan's planned end there (hybrid CM's glass G13: 18.5 GPa), read as none
+    profile_far = np.array([np.nan if profile_kind(b, t) == "none" else f for b, t, f in
+                            zip(profile_bound, profile_text, arr("profile_far"))], float)
     flagged = set(filter(None, str(a.get("flagged", "")).split(",")))
     from_mc = set(filter(None, str(a.get("verdict_from_monte_carlo", "")).split(",")))
     intervals = []

@@ -70,7 +70,8 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
                           sigma_rel, note (how the file's sigmas were made:
                           measured.sigma_source, e.g. by fit-frf)
     /uncertainty/monte_carlo   samples (n_converged, p), mean, std, lower, upper (quantiles
-                          (1 -/+ confidence)/2 of the samples), linearized_std, ratio (std /
+                          (1 -/+ confidence)/2 of the samples), linearized_std (the
+                          linearised std; the name keeps its z: programs read it), ratio (std /
                           (linearized_std sqrt(nu / (nu - 2))), nu = attr variance_dof);
                           at_lower_bound, at_upper_bound (trials whose answer has the constant
                           on a limit of the search), lower_at_bound, upper_at_bound (0/1: that
@@ -101,7 +102,9 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
     /uncertainty/profile_bound, profile_far, profile_delta_chi2_far (attr threshold),
                           profile_text   per label, of a constant at its bound: where the fit
                           rejects it (profile of the fit; NaN: nowhere within the search up to
-                          profile_far), and the statement (laminid_cli.uncertainty.Profile)
+                          profile_far), the other end of its scan (NaN where no profile could
+                          be made: it reached no stated end), and the statement
+                          (laminid_cli.uncertainty.Profile)
     /uncertainty/fixed_ranges  labels, low, high, ratio_to_half_width, text: each constant
                           --fix-undetermined fixed on a limit of the search, the others
                           identified again with it at the search's two ends
@@ -229,6 +232,13 @@ def atomic_h5(path, fmt: str, command: str = ""):
         f.attrs["created"] = now_iso()
         f.attrs["command"] = command
         yield f
+
+
+#: the description of the Monte Carlo groups' ``linearized_std``: the name keeps its z (files
+#: since the Monte Carlo have it and programs read it by name; every text says "linearised")
+LINEARISED_STD = ("the linearised standard error of each label (the std of its interval), "
+                  "to compare the trials' std with; the dataset's name keeps the spelling "
+                  "'linearized' of the files programs already read")
 
 
 def put(group, name: str, value, units: str, *, compression: str | None = None, **attrs):
@@ -615,11 +625,13 @@ def write_uncertainty(f, a, plate_names) -> None:
             "not at a bound, or the fit does not reject it within the search (profile_text)")
         put(g, "profile_far", np.array([u.profiles[lab].far if lab in u.profiles else np.nan
                                         for lab in u.labels]), unit,
-            description="the other end of the profile's scan (where a flat profile stops)")
+            description="the other end of the profile's scan (where a flat profile stops); "
+            "NaN: not at a bound, or no profile could be made (profile_text says why; its "
+            "scan reached no stated end)")
         put(g, "profile_delta_chi2_far", np.array(
             [u.profiles[lab].delta_far if lab in u.profiles else np.nan for lab in u.labels]),
             "1", description="rise of chi2 (scaled as the intervals) at profile_far; "
-            "threshold q^2 in the attribute")
+            "threshold q^2 in the attribute; NaN where profile_far is")
         g["profile_delta_chi2_far"].attrs["threshold"] = float(u.quantile) ** 2
         data, dt = _strings([u.profiles[lab].text if lab in u.profiles else ""
                              for lab in u.labels])
@@ -694,8 +706,9 @@ def write_uncertainty(f, a, plate_names) -> None:
                     "prior_sigma", "variance_dof"):
             gm.attrs[key] = {"trials": mc.n_trials, "converged": mc.n_converged}.get(
                 key, getattr(mc, key, None))
-        for key in ("samples", "mean", "std", "lower", "upper", "linearized_std"):
+        for key in ("samples", "mean", "std", "lower", "upper"):
             put(gm, key, getattr(mc, key), unit)
+        put(gm, "linearized_std", mc.linearized_std, unit, description=LINEARISED_STD)
         put(gm, "ratio", mc.ratio, "1", description="Monte Carlo std / linearised std")
         inner_lo, inner_hi = mc.inner_range()
         for key, value in (("inner_lower", inner_lo), ("inner_upper", inner_hi)):
@@ -715,8 +728,8 @@ def write_uncertainty(f, a, plate_names) -> None:
                 "fixed_clipped trials)")
         for side, count, flag in zip(("lower", "upper"), mc.bound_counts(), mc.ends_at_bound()):
             put(gm, f"at_{side}_bound", count, "1",
-                description=f"converged trials whose answer has the constant on a {side} limit "
-                "of the search")
+                description=f"converged trials whose answer has the constant on "
+                f"{'an' if side == 'upper' else 'a'} {side} limit of the search")
             put(gm, f"{side}_at_bound", np.asarray(flag, np.int8), "1",
                 description=f"1: the {side} end of the range is set by trials at a limit of the "
                 "search (the search's end, not the data's)")
@@ -933,9 +946,10 @@ def write_damping(f, d) -> None:
     gm.attrs["description"] = ("each converged trial refitted the free loss factors at its own "
                                "identified constants (its modes' strain-energy shares) from the "
                                "measured damping perturbed by its sigma x sigma_factor")
-    for key in ("samples", "mean", "std", "lower", "upper", "inner_lower", "inner_upper",
-                "linearized_std"):
+    for key in ("samples", "mean", "std", "lower", "upper", "inner_lower", "inner_upper"):
         put(gm, key, np.asarray(getattr(mc, key), float), "1")
+    put(gm, "linearized_std", np.asarray(mc.linearized_std, float), "1",
+        description=LINEARISED_STD)
     put(gm, "trials_at_zero", np.asarray(mc.trials_at_zero, int), "1",
         description="refits that held the loss factor at its bound 0")
     put(gm, "lower_at_zero", np.asarray(mc.lower_at_zero, np.int8), "1",

@@ -2611,7 +2611,10 @@ class Profile:
     ``threshold`` = q^2 (q the intervals' quantile: the same level as their ends), SI; NaN
     when it stays below that up to ``far``, the other end of the search (the modes do not
     determine the constant there). ``delta_far``: the increase at ``far``. ``text``: the
-    statement. ``error``: why the profile could not be made ("" when it was)."""
+    statement. ``error``: why the profile could not be made ("" when it was); ``far`` and
+    ``delta_far`` are NaN then: a profile that was not made reached no end (hybrid CM's
+    glass G13 had ``far`` 18.5 GPa, the scan's planned end, where its bisection's fit
+    failed at 0.00865 GPa)."""
 
     label: str
     side: str
@@ -2628,6 +2631,14 @@ class Profile:
         return {"bound": self.bound, "far": self.far, "delta_chi2_far": self.delta_far,
                 "threshold": self.threshold, "runs": self.runs, "text": self.text,
                 "error": self.error}
+
+
+def _no_profile(label: str, side: str, limit: float, threshold: float, runs: int,
+                error: str) -> Profile:
+    """The :class:`Profile` of a constant whose profile could not be made (``error`` why): no
+    bound and no far end (NaN: its scan reached nowhere that can be stated)."""
+    return Profile(label, side, limit, np.nan, np.nan, np.nan, threshold, runs,
+                   f"{PROFILE_NONE} {error}", error)
 
 
 def _between(c, c0, step: float):
@@ -2742,8 +2753,7 @@ def profile_bound(label: str, side: str, limit: float, far: float, delta, thresh
                     f"not determine {k} there")
             return Profile(label, side, limit, np.nan, far, d_far, threshold, runs, text)
     except ProfileError as exc:
-        return Profile(label, side, limit, np.nan, far, np.nan, threshold, runs,
-                       f"{PROFILE_NONE} {exc}", str(exc))
+        return _no_profile(label, side, limit, threshold, runs, str(exc))
     a, ga, b, gb = 0.0, -threshold, 1.0, d_far - threshold
     last = 0
     span = 1.0 if nu else abs(np.log(far / limit))
@@ -2753,8 +2763,7 @@ def profile_bound(label: str, side: str, limit: float, far: float, delta, thresh
         try:
             g = rise(to(t)) - threshold
         except ProfileError as exc:
-            return Profile(label, side, limit, np.nan, far, d_far, threshold, runs,
-                           f"{PROFILE_NONE} {exc}", str(exc))
+            return _no_profile(label, side, limit, threshold, runs, str(exc))
         if g > 0:
             b, gb = t, g
             if last == 1:
@@ -2887,8 +2896,7 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
                                   delta, max_evaluations=PROFILE_MID_EVALUATIONS, lenient=True),
                               lenient=functools.partial(delta, lenient=True))
         except (FitError, ModelError, SolverError) as exc:
-            p = Profile(lab, side, limit, np.nan, far, np.nan, threshold, 0,
-                        f"{PROFILE_NONE} {exc}", str(exc))
+            p = _no_profile(lab, side, limit, threshold, 0, str(exc))
         if unfinished and not p.error:
             n = len(unfinished)
             caps = " and ".join(str(c) for c in dict.fromkeys(unfinished))

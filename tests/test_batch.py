@@ -1088,3 +1088,119 @@ def test_batch_force_help_says_it_redoes_every_specimen():
     assert ("--force Identify every specimen again, also those whose result in OUT is up to "
             "date (same specimen and FRF file, options and laminid version).") in text
     assert "Not 'overwrite the output' as in identify -o, modes, export, acquire." in text
+
+
+def test_batch_mesh_check_is_identify_mesh_check_per_specimen(tmp_path):
+    """batch --mesh-check checks each specimen alone, as identify --mesh-check: S1.1 at 6x6
+    moves E1 by -0.82 of its half-width on 12x12 (coarse_mesh), and the batch's result file,
+    summary.json, --json, summary.csv (long and wide) and table carry exactly identify's
+    numbers; at 12x12 (0.17 half-width at most) it is fine. A batch up to date without the
+    check is redone with it; without the flag the summaries keep their columns."""
+    from laminid_cli.batch import LONG_COLUMNS, MESH_LONG_COLUMNS, csv_header
+    from laminid_cli.report import report_pages
+    from laminid_cli.resultfile import read_result
+
+    specs = make_tree(tmp_path / "in", {"S1.1.yaml": "specimens/example1/S1.1.yaml"})
+    out = tmp_path / "out"
+    plain = run("batch", specs, "--mesh", "6x6", "--out", out)
+    assert plain.exit_code == 0, plain.output
+    with open(out / "summary.csv", newline="") as fh:
+        assert tuple(next(csv.reader(fh))) == LONG_COLUMNS
+    assert json.loads((out / "summary.json").read_text())["specimens"][0]["mesh_check"] is None
+    assert read_result(out / "S1.1.result.h5").mesh_check is None
+    r = run("batch", specs, "--mesh", "6x6", "--mesh-check", "--out", out, "--json")
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout)
+    assert doc["n_cached"] == 0 and doc["options"]["mesh_check"] is True   # redone
+    row = doc["specimens"][0]
+    one = run("identify", "specimens/example1/S1.1.yaml", "--mesh", "6x6", "--mesh-check",
+              "--json", "--no-output")
+    ident = json.loads(one.stdout)
+    mc = ident["mesh_check"]
+    # the result file: identify's check, number for number
+    back = read_result(out / "S1.1.result.h5").mesh_check
+    assert back["text"] == mc["text"] != "" and back["labels"] == mc["labels"]
+    for key, v in mc["modes"].items():
+        np.testing.assert_array_equal(np.asarray(back["modes"][key]), np.asarray(v))
+    assert back["constants"] == mc["constants"]
+    assert ident["status"] == row["status"] == "check"
+    assert [x for x in row["reasons"] if x["code"] == "coarse_mesh"] == \
+        [x for x in ident["reasons"] if x["code"] == "coarse_mesh"]
+    # the summary's figures
+    s = row["mesh_check"]
+    e1 = mc["constants"]["IM7/977-2"]["E1"]["shift_half_width"]
+    assert s["worst"] == "IM7/977-2.E1" and s["max_shift_half_width"] == abs(e1)
+    assert s["max_shift_half_width"] == pytest.approx(0.82, abs=0.01) and s["coarse_mesh"]
+    assert s["max_change_sigma"] == max(abs(x) for x in mc["modes"]["change_sigma"])
+    assert s["max_change_sigma"] == pytest.approx(10.06, abs=0.05) and s["fine_mesh"] == "12x12"
+    assert json.loads((out / "summary.json").read_text())["specimens"][0]["mesh_check"] == s
+    with open(out / "summary.csv", newline="") as fh:
+        recs = list(csv.DictReader(fh))
+    assert tuple(recs[0]) == LONG_COLUMNS + MESH_LONG_COLUMNS
+    rec = next(x for x in recs if x["constant"] == "E1")
+    assert float(rec["mesh_shift_half_width"]) == e1
+    assert float(rec["mesh_max_shift_half_width"]) == s["max_shift_half_width"]
+    assert float(rec["mesh_max_change_sigma"]) == s["max_change_sigma"]
+    assert "coarse_mesh" in rec["reasons"].split(", ") and rec["status"] == "check"
+    back_rows = read_summary(out / "summary.csv")
+    assert back_rows[0]["mesh_check"]["max_shift_half_width"] == s["max_shift_half_width"]
+    # the table and the report's residuals page
+    t = run("batch", specs, "--mesh", "6x6", "--mesh-check", "--out", out)
+    assert "up to date" in t.output
+    table = t.output.splitlines()
+    assert next(ln for ln in table if ln.startswith("mesh shift [hw]")).split() == \
+        ["mesh", "shift", "[hw]", "0.82"]
+    assert next(ln for ln in table if ln.startswith("mesh change [sigma]")).split()[-1] == \
+        "10.06"
+    assert "    coarse_mesh: the mesh is too coarse for these modes: at 12x12" in t.output
+    fig = {p.name: p.figure for p in report_pages(out / "summary.csv")}["residuals"]
+    words = [x.get_text() for x in fig.axes[0].texts]
+    assert any("mesh shift 0.82 hw" in w for w in words), words
+    # the wide summary: the two specimen figures before 'flagged'
+    w = run("batch", specs, "--mesh", "6x6", "--mesh-check", "--out", out, "--wide")
+    assert w.exit_code == 0
+    with open(out / "summary.csv", newline="") as fh:
+        head = next(csv.reader(fh))
+    assert head == csv_header(["IM7/977-2"], mesh_check=True)
+    assert head[-3:] == ["mesh_max_change_sigma", "mesh_max_shift_half_width", "flagged"]
+    # 12x12: fine enough
+    r = run("batch", specs, "--mesh", "12x12", "--mesh-check", "--out", tmp_path / "o12",
+            "--json")
+    assert r.exit_code == 0, r.output
+    row = json.loads(r.stdout)["specimens"][0]
+    assert not row["mesh_check"]["coarse_mesh"] and "coarse_mesh" not in row["reason"]
+    assert 0.1 < row["mesh_check"]["max_shift_half_width"] < 0.3
+    assert row["mesh_check"]["fine_mesh"] == "24x24"
+
+
+def test_batch_mesh_check_is_in_help_and_refuses_a_too_fine_mesh(tmp_path):
+    """--help names it; a mesh whose double is refused is a usage error before any work, as
+    in identify (batch has no --joint: each specimen is checked alone)."""
+    h = run("batch", "--help")
+    words = " ".join(h.output.split())
+    assert "--mesh-check As identify --mesh-check, for each specimen alone" in words
+    specs = make_tree(tmp_path / "in", {"S1.1.yaml": "specimens/example1/S1.1.yaml"})
+    r = run("batch", specs, "--mesh", "80x80", "--mesh-check", "--out", tmp_path / "o")
+    one = run("identify", specs / "S1.1.yaml", "--mesh", "80x80", "--mesh-check",
+              "--no-output")
+    assert r.exit_code == one.exit_code == 2 and r.output == one.output, (r.output, one.output)
+    assert r.output.startswith("laminid: error: mesh ")          # (160x160 or 80x80 too big)
+    assert not (tmp_path / "o").exists()
+
+
+def test_the_table_ties_a_column_to_its_reasons_when_name_and_file_differ(tmp_path):
+    """good.yaml has 'name: S1.4': its column said "S1.4" and its reasons "good:", with
+    nothing to tie them; the reasons now say "S1.4 (good):". A file named as its specimen
+    keeps one name."""
+    text = open("specimens/example1/S1.4.yaml").read()
+    assert "name: S1.4" in text
+    specs = tmp_path / "in"
+    specs.mkdir()
+    (specs / "good.yaml").write_text(text)
+    shutil.copy("specimens/example1/S1.1.yaml", specs / "S1.1.yaml")
+    r = run("batch", specs, "--mesh", "6x6", "--out", tmp_path / "out")
+    assert r.exit_code == 0, r.output
+    lines = r.stdout.splitlines()
+    assert lines[0].split()[1:] == ["S1.1", "S1.4"]
+    assert "  S1.4 (good):" in lines and "  S1.1:" in lines
+    assert "  good:" not in lines

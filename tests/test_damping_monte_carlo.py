@@ -227,6 +227,11 @@ def test_hdf5_round_trip_and_an_older_file_without_it(leaning):
                 "linearized_std"):
         assert np.array_equal(m[key], getattr(dmc, key), equal_nan=True), key
     assert np.array_equal(m["trials_at_zero"], dmc.trials_at_zero)
+    import h5py
+
+    from laminid_cli.results import LINEARISED_STD
+    with h5py.File(path, "r") as f:     # the name keeps its z, its words say "linearised"
+        assert f["damping/monte_carlo/linearized_std"].attrs["description"] == LINEARISED_STD
     assert m["refits"] == 40 and m["trials"] == 40 and m["seed"] == 0
     assert m["stream"] == D.DAMPING_STREAM
     assert np.array_equal(r.damping.data["monte_carlo_rel_half_width_lower"],

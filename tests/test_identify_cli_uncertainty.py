@@ -491,3 +491,38 @@ def test_joint_plates_with_different_materials_each_get_their_laminate_doubt():
     for p in plates.values():
         ex = p["global_uncertainty"]["Ex"]
         assert 0 < ex["rel_half_width"] < 0.05 and ex["verdict"] == "well determined"
+
+
+def test_the_monte_carlo_datasets_describe_themselves_in_good_english(monkeypatch, tmp_path):
+    """/uncertainty/monte_carlo/at_upper_bound said "on a upper limit"; now "on an upper
+    limit" (its sibling at_lower_bound "on a lower limit"). linearized_std keeps its name
+    (programs read it) and has a description saying "linearised", as every other text, and
+    why the name has a z; its values are still the intervals' std."""
+    import h5py
+
+    import laminid_cli.uncertainty as unc_mod
+    from laminid_cli.results import LINEARISED_STD
+    from tests.mcfix import mc_range
+
+    monkeypatch.setattr(unc_mod, "monte_carlo",
+                        lambda result, fms, sigmas, u, n_trials, **kw: mc_range(
+                            u, 0.5 * np.asarray(u.rel_half_width) / 1.79))
+    out = tmp_path / "mc.h5"
+    r = run("identify", S1[3], "--mesh", "6x6", "--fix", "G13,G23", "--monte-carlo", "40",
+            "--json", "-o", str(out))
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output)["uncertainty"]
+    with h5py.File(out, "r") as f:
+        g = f["uncertainty/monte_carlo"]
+        assert g["at_upper_bound"].attrs["description"] == (
+            "converged trials whose answer has the constant on an upper limit of the search")
+        assert g["at_lower_bound"].attrs["description"] == (
+            "converged trials whose answer has the constant on a lower limit of the search")
+        assert g["linearized_std"].attrs["description"] == LINEARISED_STD
+        assert LINEARISED_STD.startswith("the linearised standard error of each label")
+        assert "linearized_std" in g and "linearised_std" not in g
+        std = [d["constants"][MAT][lab.rsplit(".", 1)[1]]["std"] for lab in d["labels"]]
+        np.testing.assert_allclose(g["linearized_std"][()], std, rtol=1e-12)
+        for name, ds in g.items():
+            text = str(ds.attrs.get("description", ""))
+            assert " a upper" not in text and " a uncertain" not in text, name

@@ -502,3 +502,68 @@ def test_the_flat_profiles_words_say_why_its_scan_ends_there():
     assert words("G12", "upper", 5e9) == (0.5e9, "the limit / 10")
     assert words("E1", "upper", 200e9) == (10e9, "the initial E2: E2 <= E1")   # not 8 GPa
     assert words("nu12", "upper", 0.95) == (0.0, "a negative nu12 is no fibre ply's")
+
+
+def test_no_profile_names_no_far_end(tmp_path, monkeypatch):
+    """A constant on its limit whose profile could not be made has no far end: hybrid CM's
+    glass G13 gave profile_far 18.5 GPa (the scan's planned end) in --json, HDF5 and the
+    summaries although its fit failed at 0.00865 GPa, which a program reads as 'flat to
+    18.5 GPa'. S2.1 (8x8) with every identification holding G13 failing in the solver
+    stands in: its far end is null in --json, NaN in the HDF5 file (whose description says
+    why), empty in summary.csv, null in summary.json; the report says nothing of a 'flat'
+    profile; an older file or summary that stored the planned end is read as none."""
+    import csv
+    import shutil
+
+    import h5py
+
+    import laminid_cli.identify as ident
+    from laminid_cli.errors import SolverError
+    from laminid_cli.report import doubt_of_row, interval_text
+    from laminid_cli.resultfile import read_result
+
+    real = ident.identify
+
+    def failing(fm, options, *args, **kw):
+        if any(str(f).endswith("G13") for f in options.fix):
+            raise SolverError("the stiffness matrix is not positive definite")
+        return real(fm, options, *args, **kw)
+
+    monkeypatch.setattr(ident, "identify", failing)
+    m, lab = "E-glass/R368", "E-glass/R368.G13"
+    out = tmp_path / "r.h5"
+    res = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8",
+                                   "--json", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    g13 = json.loads(res.output)["uncertainty"]["constants"][m]["G13"]
+    prof = g13["profile"]
+    assert g13["at_bound"] and prof["text"].startswith("no profile: the stiffness matrix")
+    assert prof["far"] is None and prof["delta_chi2_far"] is None and prof["bound"] is None
+    with h5py.File(out, "r") as f:
+        u = f["uncertainty"]
+        j = [x.decode() if isinstance(x, bytes) else x for x in u["labels"][()]].index(lab)
+        assert np.isnan(u["profile_far"][j]) and np.isnan(u["profile_delta_chi2_far"][j])
+        assert "no profile could be made" in u["profile_far"].attrs["description"]
+    iv = read_result(out).uncertainty.get(m, "G13")
+    assert iv.profile_kind == "none" and np.isnan(iv.profile_far)
+    assert interval_text("G13", iv) == "none — on lower search limit"
+    # the batch's summaries
+    folder = tmp_path / "in"
+    folder.mkdir()
+    shutil.copy("specimens/example2/S2.1.yaml", folder)
+    res = CliRunner().invoke(cli, ["batch", str(folder), "--out", str(tmp_path / "out"),
+                                   "--mesh", "8x8"])
+    assert res.exit_code == 0, res.output
+    with open(tmp_path / "out" / "summary.csv", newline="") as fh:
+        row = next(r for r in csv.DictReader(fh) if r["constant"] == "G13")
+    assert row["profile"] == "none" and row["profile_far"] == "" and row["bound_limit"]
+    doc = json.loads((tmp_path / "out" / "summary.json").read_text())
+    entry = doc["specimens"][0]["intervals"][m]["G13"]
+    assert entry["profile"] == "none" and entry["profile_far"] is None
+    # older files and summaries stored the planned end: read as none
+    with h5py.File(out, "r+") as f:
+        f["uncertainty"]["profile_far"][j] = 18.5e9
+    assert np.isnan(read_result(out).uncertainty.get(m, "G13").profile_far)
+    old = {"intervals": {m: {"G13": dict(entry, profile_far=18.5e9)}}}
+    d = doubt_of_row(old, m, "G13")
+    assert d.profile == "none" and np.isnan(d.profile_far)

@@ -1127,11 +1127,61 @@ def test_summary_pages_take_the_doubt_from_the_summary_itself(tmp_path, kind):
     assert "H: check: at_bound" in footer and "Q:" not in footer
 
 
+def test_a_wide_summary_alone_draws_its_flagged_column(tmp_path):
+    """A --wide summary.csv without its result files: its column 'flagged' ("glass.E2
+    at_bound; glass.G12 at_bound; glass.G13 fixed; glass.G23 undetermined; glass.nu12
+    at_bound") is drawn as the long summary draws them: the fixed one a grey square, the
+    undetermined one hollow with "?", those at a bound a hollow triangle (both, "^" over "v":
+    the column does not say which limit), the others filled (identified, not flagged). They
+    were all hollow diamonds with "values without their doubt"."""
+    from laminid_cli.batch import read_summary, write_summary_csv
+    from laminid_cli.report import FIXED_COLOR
+
+    path = tmp_path / "wide.csv"
+    write_summary_csv(path, _summary_rows(), wide=True)
+    assert read_summary(path)[0]["flagged"] == {"glass": {
+        "E2": "at_bound", "G12": "at_bound", "G13": "fixed", "G23": "undetermined",
+        "nu12": "at_bound"}}
+    fig = {p.name: p.figure for p in report_pages(path)}["constants"]
+    for k, y in (("E2", 58.47), ("G12", 5.949e-3), ("nu12", 0.95)):
+        a = ax(fig, f"across-{k}")
+        mark = _line(a, "at-bound-H-glass")
+        verts = mark.get_marker().vertices
+        assert {tuple(v) for v in verts} == {(0, 1), (-1, -1), (1, -1), (0, -1), (-1, 1),
+                                             (1, 1)}
+        assert mark.get_markerfacecolor() == "none"                        # hollow
+        assert mark.get_ydata()[0] == pytest.approx(y, rel=1e-12)
+        assert "value-H-glass" not in [ln.get_gid() for ln in a.get_lines()]
+    a = ax(fig, "across-G13")
+    mark = _line(a, "fixed-H-glass")
+    assert mark.get_marker() == "s" and mark.get_color() == FIXED_COLOR
+    a = ax(fig, "across-G23")
+    v = _line(a, "value-H-glass")
+    assert v.get_marker() == "o" and v.get_markerfacecolor() == "w"
+    assert [t.get_text() for t in a.texts].count("?") == 1
+    for k in ("E1", "G12"):                         # glass E1, carbon G12: not flagged
+        a = ax(fig, f"across-{k}")
+        for tag in (["H-glass"] if k == "E1" else []) + ["H-carbon", "Q-carbon"]:
+            v = _line(a, f"value-{tag}")
+            assert v.get_marker() == "o" and v.get_markerfacecolor() == v.get_color(), tag
+        assert not [ln for ln in a.get_lines() if ln.get_gid() == "interval"]
+    legend = [t.get_text() for a in fig.axes if a.get_legend() is not None
+              for t in a.get_legend().get_texts()]
+    assert "identified, not flagged (--wide: no interval)" in legend
+    assert "on a search limit, not identified (--wide: which one not said)" in legend
+    assert "?: not determined (interval too wide)" in legend
+    assert "fixed at its initial value: not identified" in legend
+    assert "no interval in this summary (wide CSV, result file not found)" not in legend
+    foot = " ".join(t.get_text() for t in fig.texts).replace("\n", " ")
+    assert "values without their doubt" not in foot
+    assert "no intervals: a --wide summary.csv gives only which constants" in foot
+
+
 def test_batch_summary_alone_keeps_its_verdicts(batch_dir, tmp_path):
     """The batch's own summary.csv copied away from its result files: S1.4's G13 is still
     drawn not determined (hollow, "?") with its interval; a wide CSV alone (no intervals in
-    it) draws its values as "no interval in this summary", and with its result files beside
-    it takes their doubt."""
+    it, written before its column 'flagged') draws its values as "no interval in this
+    summary", and with its result files beside it takes their doubt."""
     from laminid_cli.batch import read_summary, write_summary_csv
 
     shutil.copy(batch_dir / "summary.csv", tmp_path / "summary.csv")
@@ -1148,7 +1198,15 @@ def test_batch_summary_alone_keeps_its_verdicts(batch_dir, tmp_path):
     assert _line(g, "value-S1.4-IM7/977-2").get_markerfacecolor() == "w"
     (tmp_path / "x").mkdir()
     alone = tmp_path / "x" / "wide.csv"
-    shutil.copy(wide, alone)
+    # a wide summary written before its column 'flagged': the present note
+    import csv
+
+    with open(wide, newline="") as fh:
+        recs = list(csv.DictReader(fh))
+    with open(alone, "w", newline="") as fh:
+        w = csv.DictWriter(fh, [c for c in recs[0] if c != "flagged"], extrasaction="ignore")
+        w.writeheader()
+        w.writerows(recs)
     fig = {p.name: p.figure for p in report_pages(alone)}["constants"]
     g = ax(fig, "across-E1")
     assert _line(g, "value-S1.4-IM7/977-2").get_marker() == "d"

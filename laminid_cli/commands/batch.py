@@ -30,9 +30,17 @@ from laminid_cli.commands._common import (echo_json, fit_options, json_option,
               help="summary.csv with one row per specimen (a column per constant) instead of "
                    "one row per specimen, material and constant; its column 'flagged' names "
                    "the constants at a bound, undetermined or fixed.")
+@click.option("--mesh-check", is_flag=True,
+              help="As identify --mesh-check, for each specimen alone: after its "
+                   "identification, solve its model on a mesh twice as fine at the identified "
+                   "constants; its result file gets /mesh_check, a constant shifted beyond 0.3 "
+                   "of its 95 % half-width makes it 'check' (coarse_mesh), and the summaries "
+                   "get the largest frequency change in sigmas and the largest shift in "
+                   "half-widths (mesh_max_change_sigma, mesh_max_shift_half_width; the long "
+                   "summary.csv also each constant's mesh_shift_half_width).")
 @json_option
 @pass_run_options()
-def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
+def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, as_json):
     """Identify every specimen in INPUTS (folders searched recursively for *.yaml/*.yml,
     or files) as 'laminid identify' does (same options, same uncertainty assessment),
     writing OUT/<folder>/<name>.result.h5 per specimen
@@ -59,6 +67,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
     Examples:
       laminid batch specimens/ -j 2
       laminid batch plates/*.yaml --out results --fix nu12,G13,G23
+      laminid batch plates/ --mesh 8x8 --mesh-check
       laminid batch study/ --scheduler tcp://10.0.0.5:8786 -j 64
     """
     import contextlib
@@ -79,8 +88,12 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, as_json):
             return result_row(job, cached=True)
         return result_row(job, stale=set_aside_result(job))
 
+    import dataclasses
+
     # bad --mesh, --sigma-rel...: exit 2 at once (remote Dask workers check their own memory);
     # the options are those of identify, with the Monte Carlo trials in each specimen's worker
+    # (and its mesh check: one plate each, as identify without --joint)
+    options = dataclasses.replace(options, mesh_check=mesh_check)
     options.check(copies=n_jobs if scheduler in (None, "local") else 1)
     options.check_fix()           # a --fix wrong for every specimen: not each one 'failed'
     if scheduler is not None:
