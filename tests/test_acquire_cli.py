@@ -239,6 +239,56 @@ def test_resume_with_keep_setup_of_a_configured_file_is_refused(tmp_path, hp):
     assert read_frf_h5(out).n_points == 1
 
 
+def test_resuming_a_file_that_does_not_record_its_window_says_so_and_why(tmp_path, hp):
+    """A file written by another program (here as scripts/example_frf.py writes one: span and
+    lines only) said 'exp window: recorded not recorded (--keep-setup)', blaming an option its
+    maker never had. It now says the file does not record its window, why that matters and
+    that only another file (-o) takes the new points; nothing is sent to the analyser."""
+    out = tmp_path / "synthetic.frf.h5"
+    freq = np.arange(801) * 2.0
+    store.write_frf_h5(out, freq, np.ones((2, freq.size), complex), units="V/V",
+                       instrument={"model": "synthetic (scripts/example_frf.py)"},
+                       settings={"span_hz": 1600.0, "lines": 800})
+    r = acquire(hp, out, "--no-prompt", "--resume")
+    assert r.exit_code == 2, r.output
+    text = " ".join(r.output.split())
+    assert "recorded not recorded" not in text and "(--keep-setup)" not in text
+    assert (f"laminid: error: {out}: cannot resume, the file does not record its start, "
+            "pretrigger, force window and exp window (it was not measured by laminid acquire, "
+            "which records its set-up; its instrument: synthetic (scripts/example_frf.py)), so "
+            "this run's --start 0 Hz, --pretrigger 0.005 s, --force-window 0.01 s, "
+            "--exp-window 0.1 s cannot be checked against what its points measured; an "
+            "exponential window's 1/tau is in every pole's damping, so points of unknown "
+            "windows would not compare; write the new points to another file (-o)") in text
+    assert hp.log == []
+    assert read_frf_h5(out).n_points == 2
+
+
+def test_resuming_a_keep_setup_file_with_a_set_up_says_keep_setup_resumes_it(tmp_path, hp):
+    """A file measured with --keep-setup (its windows NaN) resumed with a set-up: the message
+    says the windows were the analyser's own, not read back, and that --keep-setup resumes
+    it; which it does."""
+    out = tmp_path / "k.h5"
+    keep = ["--keep-setup", "--no-prompt", "--timeout", "0.5"]
+    assert acquire(hp, tmp_path / "setup.h5", "--no-prompt", points=1).exit_code == 0
+    assert run(["acquire", "--analyser", hp.resource, *keep, "--points", "1",
+                "-o", str(out)]).exit_code == 0
+    r = acquire(hp, out, "--no-prompt", "--resume")
+    assert r.exit_code == 2, r.output
+    text = " ".join(r.output.split())
+    assert (f"laminid: error: {out}: cannot resume, the file does not record its pretrigger, "
+            "force window and exp window (it was measured with --keep-setup, the analyser's "
+            "own set-up, whose windows and pre-trigger laminid cannot read back), so this "
+            "run's --pretrigger 0.005 s, --force-window 0.01 s, --exp-window 0.1 s cannot be "
+            "checked against what its points measured;") in text
+    assert text.endswith("resume it with --keep-setup and the analyser's set-up unchanged, or "
+                         "write the new points to another file (-o)")
+    r = run(["acquire", "--analyser", hp.resource, *keep, "--points", "2", "--resume",
+             "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    assert read_frf_h5(out).n_points == 2
+
+
 def test_frf_writer_resume_keeps_settings_the_run_does_not_state(tmp_path):
     from laminid_cli.frf.store import FrfWriter
 

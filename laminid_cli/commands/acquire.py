@@ -299,7 +299,8 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
         # --keep-setup reads the set-up back from the analyser, later: units only then
         check_resume_settings(out, old.meta.get("settings") or {},
                               settings.as_attrs() if configure else {},
-                              units=(old.units, units))
+                              units=(old.units, units),
+                              instrument=old.meta.get("instrument"))
         if old.n_points > points:
             raise FrfError(f"{out}: cannot resume, the file already holds {old.n_points} "
                            f"points ({', '.join(old.labels)}) and --points {points} asks for "
