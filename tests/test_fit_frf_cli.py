@@ -345,3 +345,38 @@ def test_into_leaves_every_other_line_byte_for_byte_and_no_stale_comment(tmp_pat
             "Araujo et al. 2000   # not a comment\n")
         before.pop("measured"), after.pop("measured")
         assert before == after
+
+
+@pytest.mark.parametrize("name, content, looks", [
+    ("plate.frf.h5", None, "it looks like an HDF5 file (laminid acquire's FRF file or another "
+                           "tool's); read it with --format hdf5 or without --format (its "
+                           "suffix .h5 says hdf5)"),
+    ("plate.csv", "freq_Hz,1_re,1_im\n1,2,3\n",
+     "it looks like text in columns, as a CSV FRF file is (first line 'freq_Hz,1_re,1_im'); "
+     "read it with --format csv or without --format (its suffix .csv says csv)"),
+    ("notes.uff", "", "it looks like an empty file (0 bytes)"),
+    ("truth.uff", '{"modes": [1, 2]}\n', "it looks like JSON text (first line "
+                                        "'{\"modes\": [1, 2]}')"),
+])
+def test_format_uff_on_another_kind_of_file_says_what_it_looks_like(tmp_path, h5, name,
+                                                                      content, looks):
+    """`fit-frf plate.frf.h5 --format uff` said 'no type-58 record; dataset types found:
+    none', as if it were a Universal File without FRFs; it now says the file is not a
+    Universal File and what it looks like (and the --format that reads it)."""
+    path = h5 if content is None else tmp_path / name
+    if content is not None:
+        path.write_text(content)
+    r = run(["fit-frf", str(path), "--format", "uff"])
+    assert r.exit_code == 2, r.output
+    assert "types found: none" not in r.output
+    assert r.output.strip() == (f"laminid: error: {path}: not a Universal File (no dataset "
+                                "between '    -1' lines, as UFF 58 FRF records are); " + looks)
+
+
+def test_format_csv_on_an_hdf5_file_says_it_is_hdf5(h5):
+    r = run(["fit-frf", str(h5), "--format", "csv"])
+    assert r.exit_code == 2, r.output
+    assert r.output.strip() == (f"laminid: error: {h5}: not a text (CSV) file; it looks like "
+                                "an HDF5 file (laminid acquire's FRF file or another tool's); "
+                                "read it with --format hdf5 or without --format (its suffix .h5 "
+                                "says hdf5)")
