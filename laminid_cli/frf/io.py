@@ -192,6 +192,20 @@ def _split(line: str, sep: str | None) -> list[str]:
     return [t.strip() for t in (line.split(sep) if sep else line.split())]
 
 
+def _csv_column(header: list[str] | None, j: int) -> str:
+    """Column ``j`` (0-based) of a CSV FRF file for a message: its number and header name."""
+    name = header[j] if header and j < len(header) and header[j] else None
+    return f"column {j + 1}" + (f" ({name!r})" if name else " (no header)"
+                                if not header else "")
+
+
+def _not_a_number(cell: str) -> str:
+    """What is wrong with a cell that is not a number: quoted, cut to 40 characters."""
+    if not cell:
+        return "empty, where a number is expected"
+    return f"{cell if len(cell) <= 40 else cell[:37] + '...'!r} is not a number"
+
+
 def read_frf_csv(path) -> FrfSet:
     """Read ``freq, re_1, im_1, ...`` text columns (see module docstring)."""
     path = Path(path)
@@ -225,10 +239,15 @@ def read_frf_csv(path) -> FrfSet:
         lines = lines[1:]
     rows = []
     for lineno, ln in lines:
-        try:
-            rows.append([float(t) for t in _split(ln, sep)])
-        except ValueError as exc:
-            raise FrfError(f"{path}:{lineno}: not a number in {ln.strip()[:60]!r}") from exc
+        cells = _split(ln, sep)
+        row = []
+        for j, cell in enumerate(cells):
+            try:
+                row.append(float(cell))
+            except ValueError as exc:
+                raise FrfError(f"{path}: line {lineno}, {_csv_column(header, j)}: "
+                               f"{_not_a_number(cell)}") from exc
+        rows.append(row)
     if not rows:
         raise FrfError(f"{path}: header but no data lines")
     for i, r in enumerate(rows):
