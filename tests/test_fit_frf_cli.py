@@ -222,7 +222,8 @@ def test_into_records_the_sigma_rule_and_identify_reports_it(tmp_path, h5, case)
     assert measured["sigma_source"].startswith("plate.frf.h5: fit-frf: sqrt(RFP spread^2")
     s = read_specimen(spec)
     summary = frequency_sigma(s.measured).summary
-    assert summary.startswith("specimen file (measured.sigma; plate.frf.h5: fit-frf:")
+    assert summary.startswith("the specimen file's measured.sigma (made by: plate.frf.h5: "
+                              "fit-frf:")
     assert "dominated by" in summary
     # a second fit without a sigma rule (library call) drops the stale description
     from laminid_cli.frf.into import write_measured
