@@ -543,8 +543,11 @@ def identify_damping(fm, result, damping: MeasuredDamping, *, fix=(), scaling: s
     shares = energy_shares(fm.plate, result.constants, result.phi_paired)
     eta = np.where(np.asarray(result.weight) > 0, damping.loss_factor, np.nan)
     src = sorted({s for s in damping.source if s})
-    source = {"file": "specimen file / FRF fit", "relative":
-              f"{DEFAULT_DAMPING_SIGMA_REL:.0%} of each damping ratio (none given)"}
+    frf_file = getattr(fm.specimen.measured, "frf_file", "")
+    source = {"file": (f"the RFP fit of the specimen's measured.frf_file {frf_file} (spread "
+                       "over the stable orders, at least 2 % of the fitted ratio)" if frf_file else
+                       "the specimen file's measured.damping_sigma"),
+              "relative": f"{DEFAULT_DAMPING_SIGMA_REL:.0%} of each damping ratio (none given)"}
     fit = fit_loss_factors(shares, eta, damping.loss_sigma, loss_labels(names),
                            fixed=parse_loss_fix(fix, names), scaling=scaling,
                            confidence=confidence,

@@ -30,6 +30,18 @@ MAKES_A_RESULT = ("laminid identify SPEC.yaml (or laminid identify A.yaml B.yaml
                   "laminid batch FOLDER)")
 
 
+def not_a_result_but_frf(path) -> str:
+    """The message for an FRF file given where a result is expected (``laminid report``):
+    what draws it (``fit-frf --plot``) and what makes a result of it (``identify``)."""
+    import shlex
+
+    q = shlex.quote(str(path))
+    plot = shlex.quote(f"{Path(path).name.split('.')[0] or 'frf'}.fit.pdf")
+    return (f"{path}: an FRF file, not an identification result: laminid fit-frf {q} --plot "
+            f"{plot} draws its FRFs and their fit; a report needs a result: laminid fit-frf {q} "
+            "--into SPEC.yaml, then laminid identify SPEC.yaml")
+
+
 class ResultFileError(LaminidError):
     """Not a readable identification result (exit code 2)."""
 
@@ -695,6 +707,8 @@ def _open_result(path: Path):
                 f"result; make one with {MAKES_A_RESULT}")
     with f:
         fmt = _s(f.attrs.get("format", ""))
+        if fmt == "laminid-frf":             # laminid acquire's (or example_frf.py's) file
+            raise ResultFileError(not_a_result_but_frf(path))
         if fmt not in RESULT_FORMATS:
             what = f"a {fmt!r} file" if fmt else "no 'format' attribute"
             raise ResultFileError(f"{path}: not a laminid identification result ({what}; "

@@ -120,6 +120,8 @@ class Measured:
     damping_sigma : (n,) their standard deviations, NaN where unknown; None when none given
     sigma_source : how the sigmas were made (``measured.sigma_source``, written by
         ``fit-frf --into``; for ``frf_file`` the fit's rule), "" when not said
+    frf_file : the FRF file (``measured.frf_file``, as written) whose RFP fit gave the
+        frequencies, sigmas and damping; "" when the specimen file lists them itself
     """
 
     freq: np.ndarray
@@ -128,6 +130,7 @@ class Measured:
     damping: np.ndarray | None = None
     damping_sigma: np.ndarray | None = None
     sigma_source: str = ""
+    frf_file: str = ""
 
     @property
     def n_modes(self) -> int:
@@ -1013,7 +1016,7 @@ def _measured_from_frf(r: _Reader, m: dict) -> Measured:
     to the fitted modes in order.
     """
     from laminid_cli.errors import FrfError
-    from laminid_cli.frf.rfp import measured_from_frf_file
+    from laminid_cli.frf.rfp import DEFAULT_SIGMA_REL, measured_from_frf_file
 
     name = r.string(m["frf_file"])
     base = Path(r.path).parent if r.path and not str(r.path).startswith("<") else Path.cwd()
@@ -1063,9 +1066,9 @@ def _measured_from_frf(r: _Reader, m: dict) -> Measured:
     for array in (freq, weight, sigma, damping, damping_sigma):
         array.flags.writeable = False
     return Measured(freq=freq, weight=weight, sigma=sigma, damping=damping,
-                    damping_sigma=damping_sigma,
-                    sigma_source=f"fit of {name}: RFP spread, resolution and window, at least "
-                                 "0.2 % of f")
+                    damping_sigma=damping_sigma, frf_file=name,
+                    sigma_source="sqrt(RFP spread^2 + resolution^2 + window^2), at least "
+                                 f"{100 * DEFAULT_SIGMA_REL:g} % of f")
 
 
 def _reference_value(r: _Reader, y: _Y, kind: str) -> float | tuple[float, float]:

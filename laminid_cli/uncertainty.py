@@ -148,24 +148,38 @@ class FrequencySigma:
     """Standard deviation of each measured frequency of one plate.
 
     sigma_hz : (n_modes,) Hz, NaN where the mode is not measured
-    source : per mode, "file" (specimen ``measured.sigma``), "relative" (sigma_rel * f) or ""
+    source : per mode, "file" (the specimen's ``measured.sigma``, or the fit of its
+        ``measured.frf_file``), "relative" (sigma_rel * f) or ""
     sigma_rel : the relative default used where the file gives none
     note : how the file's sigmas were made (``measured.sigma_source``, e.g. by fit-frf)
+    origin : where the "file" sigmas come from: "specimen" (``measured.sigma`` written in the
+        specimen file), "frf_file" (an RFP fit of ``measured.frf_file`` when the specimen is
+        read) or "given" (``sigma_hz`` of :func:`frequency_sigma`)
+    frf_file : the FRF file of origin "frf_file", as the specimen names it
     """
 
     sigma_hz: np.ndarray
     source: tuple[str, ...]
     sigma_rel: float
     note: str = ""
+    origin: str = "specimen"
+    frf_file: str = ""
 
     @property
     def summary(self) -> str:
-        """One line: where the sigmas come from."""
+        """One line, read after "σ from": where the sigmas come from (the report's page 1, the
+        identify output, ``uncertainty.sigma_source``)."""
         n_file = self.source.count("file")
         n_rel = self.source.count("relative")
         rel = f"{self.sigma_rel * 100:.3g} % of each frequency (--sigma-rel)"
-        file = "specimen file (measured.sigma" + (f"; {self.note})" if self.note else
-                                                  ", origin not stated)")
+        if self.origin == "frf_file":
+            file = (f"the RFP fit of the specimen's measured.frf_file {self.frf_file}"
+                    + (f" ({self.note})" if self.note else ""))
+        elif self.origin == "given":
+            file = "the standard deviations given (sigma_hz)"
+        else:
+            file = "the specimen file's measured.sigma" + (
+                f" (made by: {self.note})" if self.note else " (how they were made: not stated)")
         if n_file and not n_rel:
             return file
         if n_rel and not n_file:
@@ -224,7 +238,10 @@ def frequency_sigma(measured, sigma_rel: float = DEFAULT_SIGMA_REL, *, sigma_hz=
         else:
             out[i], source[i] = sigma_rel * freq[i], "relative"
     note = getattr(measured, "sigma_source", "") if sigma_hz is None else ""
-    return FrequencySigma(sigma_hz=out, source=tuple(source), sigma_rel=sigma_rel, note=note)
+    frf_file = getattr(measured, "frf_file", "") if sigma_hz is None else ""
+    origin = "given" if sigma_hz is not None else ("frf_file" if frf_file else "specimen")
+    return FrequencySigma(sigma_hz=out, source=tuple(source), sigma_rel=sigma_rel, note=note,
+                          origin=origin, frf_file=frf_file)
 
 
 # ----------------------------------------------------------------------------------------------

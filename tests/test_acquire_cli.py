@@ -239,6 +239,56 @@ def test_resume_with_keep_setup_of_a_configured_file_is_refused(tmp_path, hp):
     assert read_frf_h5(out).n_points == 1
 
 
+def test_resuming_a_file_that_does_not_record_its_window_says_so_and_why(tmp_path, hp):
+    """A file written by another program (here as scripts/example_frf.py writes one: span and
+    lines only) said 'exp window: recorded not recorded (--keep-setup)', blaming an option its
+    maker never had. It now says the file does not record its window, why that matters and
+    that only another file (-o) takes the new points; nothing is sent to the analyser."""
+    out = tmp_path / "synthetic.frf.h5"
+    freq = np.arange(801) * 2.0
+    store.write_frf_h5(out, freq, np.ones((2, freq.size), complex), units="V/V",
+                       instrument={"model": "synthetic (scripts/example_frf.py)"},
+                       settings={"span_hz": 1600.0, "lines": 800})
+    r = acquire(hp, out, "--no-prompt", "--resume")
+    assert r.exit_code == 2, r.output
+    text = " ".join(r.output.split())
+    assert "recorded not recorded" not in text and "(--keep-setup)" not in text
+    assert (f"laminid: error: {out}: cannot resume, the file does not record its start, "
+            "pretrigger, force window and exp window (it was not measured by laminid acquire, "
+            "which records its set-up; its instrument: synthetic (scripts/example_frf.py)), so "
+            "this run's --start 0 Hz, --pretrigger 0.005 s, --force-window 0.01 s, "
+            "--exp-window 0.1 s cannot be checked against what its points measured; an "
+            "exponential window's 1/tau is in every pole's damping, so points of unknown "
+            "windows would not compare; write the new points to another file (-o)") in text
+    assert hp.log == []
+    assert read_frf_h5(out).n_points == 2
+
+
+def test_resuming_a_keep_setup_file_with_a_set_up_says_keep_setup_resumes_it(tmp_path, hp):
+    """A file measured with --keep-setup (its windows NaN) resumed with a set-up: the message
+    says the windows were the analyser's own, not read back, and that --keep-setup resumes
+    it; which it does."""
+    out = tmp_path / "k.h5"
+    keep = ["--keep-setup", "--no-prompt", "--timeout", "0.5"]
+    assert acquire(hp, tmp_path / "setup.h5", "--no-prompt", points=1).exit_code == 0
+    assert run(["acquire", "--analyser", hp.resource, *keep, "--points", "1",
+                "-o", str(out)]).exit_code == 0
+    r = acquire(hp, out, "--no-prompt", "--resume")
+    assert r.exit_code == 2, r.output
+    text = " ".join(r.output.split())
+    assert (f"laminid: error: {out}: cannot resume, the file does not record its pretrigger, "
+            "force window and exp window (it was measured with --keep-setup, the analyser's "
+            "own set-up, whose windows and pre-trigger laminid cannot read back), so this "
+            "run's --pretrigger 0.005 s, --force-window 0.01 s, --exp-window 0.1 s cannot be "
+            "checked against what its points measured;") in text
+    assert text.endswith("resume it with --keep-setup and the analyser's set-up unchanged, or "
+                         "write the new points to another file (-o)")
+    r = run(["acquire", "--analyser", hp.resource, *keep, "--points", "2", "--resume",
+             "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    assert read_frf_h5(out).n_points == 2
+
+
 def test_frf_writer_resume_keeps_settings_the_run_does_not_state(tmp_path):
     from laminid_cli.frf.store import FrfWriter
 
@@ -498,21 +548,66 @@ def test_unsupported_idn_exits_2(tmp_path):
            "driver supports (supported: 35670A, SR785)" in r.output
 
 
-def test_unknown_model_exits_2(tmp_path, hp):
-    r = acquire(hp, tmp_path / "x.h5", "--model", "HP3562A")
-    assert r.exit_code == 2 and "unknown analyser model 'HP3562A'" in r.output
-
-
 @pytest.mark.parametrize("emu_cls, args, message", [
-    (HP35670AEmulator, ["--span", "1000"], "35670A does not offer a span of 1000 Hz; spans (Hz)"),
-    (SR785Emulator, ["--lines", "1600"], "SR785 does not offer 1600 lines; lines: 100, 200"),
+    (HP35670AEmulator, ["--span", "102400", "--force-window", "0.001", "--pretrigger", "0",
+                        "--exp-window", "0.005"],
+     "35670A does not offer --span 102400 Hz; spans (Hz): 51200, 25600"),
+    (SR785Emulator, ["--averages", "1"],
+     "SR785 averages at least 2 records (FAVN 2-32767; got --averages 1)"),
 ])
-def test_span_or_lines_not_offered_exit_2(tmp_path, emu_cls, args, message):
+def test_settings_the_identified_analyser_does_not_offer_exit_2(tmp_path, emu_cls, args, message):
+    """--model auto: the model's own ranges are checked after *IDN?, before any set-up."""
     with emu_cls() as emu:
         r = acquire(emu, tmp_path / "x.h5", *args)
     assert r.exit_code == 2
     assert message in r.output
-    assert not any(c.startswith(("FREQ", "FSPN")) for c in emu.log)  # nothing sent
+    assert emu.log == ["*IDN?"]  # nothing sent but the identification
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--lines", "0"],
+     "Invalid value for '--lines': 0 lines: the analysers offer 100, 200, 400, 800."),
+    (["--lines", "-5"],
+     "Invalid value for '--lines': -5 lines: the analysers offer 100, 200, 400, 800."),
+    (["--lines", "1600"],
+     "Invalid value for '--lines': 1600 lines: the analysers offer 100, 200, 400, 800."),
+    (["--averages", "10000"],
+     "Invalid value for '--averages': 10000 is not in the range 1<=x<=9999."),
+    (["--span", "1000"],
+     "Invalid value for '--span': 1000 Hz is not a span the analysers offer: 102400 Hz / "
+     "2^k: 102400, 51200, 25600, 12800, 6400, 3200, 1600, 800, 400, 200, 100, 50, ... "
+     "0.195312 Hz."),
+    (["--pretrigger", "5"], "laminid: error: --pretrigger 5 s must be within the time record "
+                            "(0-0.5 s = --lines 800 / --span 1600 Hz)"),
+    (["--exp-window", "10"], "laminid: error: --exp-window 10 s must be within the time "
+                             "record (0-0.5 s = --lines 800 / --span 1600 Hz)"),
+    (["--force-window", "0.6"], "laminid: error: --force-window 0.6 s must be within the time "
+                                "record (0-0.5 s = --lines 800 / --span 1600 Hz)"),
+    (["--start", "200000"], "laminid: error: --start 200000 Hz + --span 1600 Hz is above every "
+                            "supported analyser's range (35670A 0-51200 Hz, SR785 0-102400 Hz)"),
+    (["--model", "35670a", "--start", "51200"],
+     "laminid: error: --start 51200 Hz + --span 1600 Hz is outside 35670A's range 0-51200 Hz"),
+    (["--model", "sr785", "--averages", "1"],
+     "laminid: error: SR785 averages at least 2 records (FAVN 2-32767; got --averages 1)"),
+    (["--model", "HP3562A"], "laminid: error: --model 'HP3562A': unknown analyser model; "
+                             "choose auto or one of: hp35670a"),
+    (["--model", "HP3562A", "--keep-setup"], "--model 'HP3562A': unknown analyser model"),
+], ids=["lines-0", "lines-negative", "lines-1600", "averages-10000", "span-1000",
+        "pretrigger-over-record", "exp-window-over-record", "force-window-over-record",
+        "start-over-every-range", "start-over-35670a-range", "sr785-one-average",
+        "unknown-model", "unknown-model-keep-setup"])
+def test_bad_acquire_options_are_refused_before_the_analyser_is_opened(tmp_path, hp, args,
+                                                                       message):
+    """`acquire --lines 0` (or -5) connected to the analyser and only then said '35670A does
+    not offer 0 lines'; a bad value of any numeric option, or an unknown --model, is now
+    refused before the analyser is opened (not even *IDN? sent), exit 2, naming the option
+    and the values allowed."""
+    out = tmp_path / "x.h5"
+    r = acquire(hp, out, "--no-prompt", *args)
+    assert r.exit_code == 2, r.output
+    assert message in " ".join(r.output.split()), r.output
+    assert hp.log == []                         # the analyser was never asked anything
+    assert not out.exists()
 
 
 def test_existing_output_is_not_overwritten(tmp_path, hp):
@@ -613,7 +708,7 @@ def test_an_exponential_window_that_would_zero_the_response_is_refused(tmp_path,
     out = tmp_path / "w.h5"
     r = acquire(hp, out, "--no-prompt", "--exp-window", "1e-9")
     assert r.exit_code == 2, r.output
-    assert "exp window 1e-09 s is under a thousandth of the time record (0.5 s" in r.stderr
+    assert "--exp-window 1e-09 s is under a thousandth of the time record (0.5 s" in r.stderr
     assert not out.exists()
     assert acquire(hp, out, "--no-prompt", "--exp-window", "0.0005").exit_code == 0
 

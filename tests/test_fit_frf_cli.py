@@ -222,7 +222,8 @@ def test_into_records_the_sigma_rule_and_identify_reports_it(tmp_path, h5, case)
     assert measured["sigma_source"].startswith("plate.frf.h5: fit-frf: sqrt(RFP spread^2")
     s = read_specimen(spec)
     summary = frequency_sigma(s.measured).summary
-    assert summary.startswith("specimen file (measured.sigma; plate.frf.h5: fit-frf:")
+    assert summary.startswith("the specimen file's measured.sigma (made by: plate.frf.h5: "
+                              "fit-frf:")
     assert "dominated by" in summary
     # a second fit without a sigma rule (library call) drops the stale description
     from laminid_cli.frf.into import write_measured
@@ -345,3 +346,79 @@ def test_into_leaves_every_other_line_byte_for_byte_and_no_stale_comment(tmp_pat
             "Araujo et al. 2000   # not a comment\n")
         before.pop("measured"), after.pop("measured")
         assert before == after
+
+
+@pytest.mark.parametrize("name, content, looks", [
+    ("plate.frf.h5", None, "it looks like an HDF5 file (laminid acquire's FRF file or another "
+                           "tool's); read it with --format hdf5 or without --format (its "
+                           "suffix .h5 says hdf5)"),
+    ("plate.csv", "freq_Hz,1_re,1_im\n1,2,3\n",
+     "it looks like text in columns, as a CSV FRF file is (first line 'freq_Hz,1_re,1_im'); "
+     "read it with --format csv or without --format (its suffix .csv says csv)"),
+    ("notes.uff", "", "it looks like an empty file (0 bytes)"),
+    ("truth.uff", '{"modes": [1, 2]}\n', "it looks like JSON text (first line "
+                                        "'{\"modes\": [1, 2]}')"),
+])
+def test_format_uff_on_another_kind_of_file_says_what_it_looks_like(tmp_path, h5, name,
+                                                                      content, looks):
+    """`fit-frf plate.frf.h5 --format uff` said 'no type-58 record; dataset types found:
+    none', as if it were a Universal File without FRFs; it now says the file is not a
+    Universal File and what it looks like (and the --format that reads it)."""
+    path = h5 if content is None else tmp_path / name
+    if content is not None:
+        path.write_text(content)
+    r = run(["fit-frf", str(path), "--format", "uff"])
+    assert r.exit_code == 2, r.output
+    assert "types found: none" not in r.output
+    assert r.output.strip() == (f"laminid: error: {path}: not a Universal File (no dataset "
+                                "between '    -1' lines, as UFF 58 FRF records are); " + looks)
+
+
+def test_format_csv_on_an_hdf5_file_says_it_is_hdf5(h5):
+    r = run(["fit-frf", str(h5), "--format", "csv"])
+    assert r.exit_code == 2, r.output
+    assert r.output.strip() == (f"laminid: error: {h5}: not a text (CSV) file; it looks like "
+                                "an HDF5 file (laminid acquire's FRF file or another tool's); "
+                                "read it with --format hdf5 or without --format (its suffix .h5 "
+                                "says hdf5)")
+
+
+def test_json_states_the_unit_of_the_modal_constants_and_which_spread_is_which(h5, case):
+    """--json gave modal_constants without a unit and freq_std_hz (the RFP spread only) beside
+    sigma_hz (the uncertainty identify uses) with nothing to tell them apart. It now states
+    modal_constants_unit ((FRF units)*rad/s: residues of A/(s - pole) + conj) and the unit of
+    every mode field (mode_units); --help says what each spread is. The keys stay."""
+    r = run(["fit-frf", str(h5), "--json"])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.output)
+    assert out["units"] == "Pa/N" and out["modal_constants_unit"] == "(Pa/N)*rad/s"
+    assert out["mode_units"]["modal_constants"] == "(Pa/N)*rad/s"
+    assert out["mode_units"]["sigma_hz"] == out["mode_units"]["freq_std_hz"] == "Hz"
+    counts = {"mode", "orders_stable", "sigma_dominant"}
+    for m in out["modes"]:
+        assert set(m) - counts == set(out["mode_units"])
+        # freq_std_hz is the 'rfp spread' term alone; sigma_hz is every term, floored
+        assert m["freq_std_hz"] == m["sigma_terms_hz"]["rfp spread"]
+        quad = np.sqrt(sum(v ** 2 for t, v in m["sigma_terms_hz"].items() if t != "floor"))
+        assert m["sigma_hz"] == pytest.approx(max(quad, m["sigma_terms_hz"]["floor"]))
+        assert m["sigma_hz"] >= m["freq_std_hz"]
+    assert max(m["sigma_hz"] / m["freq_std_hz"] for m in out["modes"]) > 3   # not the same
+    # the unit is right: at mode 1's natural frequency its residue term alone gives the FRF
+    # there (Pa/N) within the other modes' share (10 %)
+    m = out["modes"][0]
+    wn = 2 * np.pi * m["freq_hz"]
+    z = m["damping_ratio_fitted"]
+    pole = complex(-z * wn, wn * np.sqrt(1 - z * z))
+    k = int(np.argmin(np.abs(case.freq - m["freq_hz"])))
+    s = 1j * 2 * np.pi * case.freq[k]
+    for p, (re, im) in enumerate(m["modal_constants"]):
+        a = complex(re, im)
+        h = a / (s - pole) + a.conjugate() / (s - pole.conjugate())
+        assert abs(h - case.frf[p, k]) < 0.1 * abs(case.frf[p, k]), (p, h, case.frf[p, k])
+    r = run(["fit-frf", "--help"])
+    text = " ".join(r.output.split())
+    assert ("sigma_hz the uncertainty above, Hz: what --into writes as measured.sigma and "
+            "identify uses") in text
+    assert ("freq_std_hz the RFP spread term alone, Hz: the standard deviation of the "
+            "frequency over the stable model orders") in text
+    assert "modal_constants [re, im] residue A of each FRF, in (FRF units)*rad/s" in text

@@ -81,6 +81,27 @@ def test_bad_csv(tmp_path, text, message):
         io.read_frf(p)
 
 
+@pytest.mark.parametrize("text, where", [
+    ("# laminid FRF, units Pa/N\nfreq_Hz,p1_re,p1_im,p2_re,p2_im\n"
+     "1,2,3,4,5\n2,0.5,0.25,1.2.3,0.1\n",
+     "line 4, column 4 ('p2_re'): '1.2.3' is not a number"),
+    ("freq_Hz;1_re;1_im\n1;2;3\n2;;5\n", "line 3, column 2 ('1_re'): empty, where a "
+                                         "number is expected"),
+    ("1 2 3\n2 2 abc\n", "line 2, column 3 (no header): 'abc' is not a number"),
+    ("freq_Hz,1_re,1_im\n" + "1,2,3\n" + "2,3," + "9" * 60 + "x\n",
+     "line 3, column 3 ('1_im'): '" + "9" * 37 + "...' is not a number"),
+], ids=["header-comma", "empty-cell-semicolon", "no-header-spaces", "long-cell"])
+def test_a_bad_csv_cell_names_its_line_and_column(tmp_path, text, where):
+    """A bad cell quoted its line cut to 60 characters ("not a number in '2,0.5,0.25,1.2.3,
+    0.1'") without saying which column; it now names the line, the column's number and header
+    name, and the cell."""
+    p = tmp_path / "bad.csv"
+    p.write_text(text)
+    with pytest.raises(FrfError) as info:
+        io.read_frf(p)
+    assert str(info.value) == f"{p}: {where}"
+
+
 def test_uff_without_type_58_and_with_mismatched_axes(tmp_path, frfset):
     import pyuff
 

@@ -53,9 +53,7 @@ def test_identify_from_an_frf_file_recovers_the_constants(frf_specimen):
                                  "nu12,G13,G23", "--json", "--no-output"])
     assert r.exit_code == 0, r.output
     d = json.loads(r.output)
-    assert d["uncertainty"]["sigma_source"] == (
-        "specimen file (measured.sigma; fit of plate.frf.h5: RFP spread, resolution and "
-        "window, at least 0.2 % of f)")
+    assert d["uncertainty"]["sigma_source"] == FRF_FILE_SIGMA
     # 0.5 Hz lines: sigma >= max(0.002 f, 0.5/sqrt(12) Hz)
     sig = np.array(d["uncertainty"]["frequency_sigma"]["S2.1"]["sigma_hz"])
     f = np.array(d["frequencies"]["measured"])
@@ -64,6 +62,37 @@ def test_identify_from_an_frf_file_recovers_the_constants(frf_specimen):
     assert mat["E1"] == pytest.approx(truth.E1, rel=5e-3)
     assert mat["E2"] == pytest.approx(truth.E2, rel=2e-2)
     assert mat["G12"] == pytest.approx(truth.G12, rel=1e-2)
+
+
+#: where the sigmas of a specimen with measured.frf_file come from, as identify and the report
+#: say it after "σ from" (they said "specimen file (measured.sigma; fit of plate.frf.h5: ...)")
+FRF_FILE_SIGMA = ("the RFP fit of the specimen's measured.frf_file plate.frf.h5 (sqrt(RFP "
+                  "spread^2 + resolution^2 + window^2), at least 0.2 % of f)")
+
+
+def test_identify_and_the_report_say_the_sigmas_came_from_fitting_the_frf_file(frf_specimen,
+                                                                                tmp_path):
+    """The report's page 1 and identify's output said the sigmas came from the specimen
+    file's measured.sigma ('σ from specimen file (measured.sigma; fit of plate.frf.h5 ...)')
+    when they came from fitting its measured.frf_file; both now name the fit and the file."""
+    from laminid_cli.report import report_pages
+
+    path, _, _ = frf_specimen
+    out = tmp_path / "r.result.h5"
+    r = CliRunner().invoke(cli, ["identify", str(path), "--mesh", "6x6", "--fix",
+                                 "nu12,G13,G23", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    assert f"frequency standard deviations: {FRF_FILE_SIGMA}" in r.output
+    assert "measured.sigma" not in r.output
+    # the damping's sigmas too (they said 'specimen file / FRF fit')
+    assert ("damping standard deviations: the RFP fit of the specimen's measured.frf_file "
+            "plate.frf.h5 (spread over the stable orders, at least 2 % of the fitted ratio)"
+            in " ".join(r.output.split()))
+    page1 = report_pages(out)[0].figure
+    texts = [t.get_text() for t in list(page1.texts) + [t for a in page1.axes for t in a.texts]]
+    flat = " ".join(" ".join(texts).split())
+    assert f"σ from {FRF_FILE_SIGMA}" in flat
+    assert "specimen file (measured.sigma" not in flat
 
 
 def test_frf_file_errors_name_the_field(tmp_path):

@@ -280,8 +280,9 @@ def test_sigma_from_the_specimen_file_is_used_and_reported(tmp_path):
     fs = u["frequency_sigma"]["S1.1"]
     assert fs["source"] == ["file"] * 11 + ["relative"]
     assert fs["sigma_hz"][0] == 0.5 and fs["sigma_hz"][11] == pytest.approx(1.3438)
-    assert u["sigma_source"] == ("specimen file (measured.sigma, origin not stated) for 11 modes, 0.1 % of each "
-                                 "frequency (--sigma-rel) for 1")
+    assert u["sigma_source"] == ("the specimen file's measured.sigma (how they were made: not "
+                                 "stated) for 11 modes, 0.1 % of each frequency (--sigma-rel) "
+                                 "for 1")
 
 
 @pytest.mark.slow

@@ -576,14 +576,37 @@ def test_summary_draws_a_flat_profile_to_the_other_end_of_its_scan():
     assert n.get_ylim()[0] <= 0.0
 
 
+@pytest.mark.parametrize("name", ["plate.frf.h5", "plate.csv", "plate.uff"])
+def test_report_of_an_frf_file_suggests_fit_frf_plot_and_identify(tmp_path, name):
+    """`report plate.frf.h5` said only 'make one with laminid identify SPEC.yaml'; a CSV FRF
+    file was 'not a laminid batch summary', a UFF 'not an HDF5 file'. Each now says it is an
+    FRF file, that fit-frf --plot draws it and how a result (for a report) is made."""
+    from laminid_cli.frf import io
+    from laminid_cli.frf.store import FrfSet
+
+    freq = np.arange(1.0, 100.0, 0.25)
+    frf = synth_frf(freq, np.array([[30.0, 0.01], [70.0, 0.01]]), np.array([[1.0, -0.5]]),
+                    kind="accelerance", noise=0.001, seed=1)
+    path = io.write_frf(tmp_path / name, FrfSet(freq=freq, frf=frf))
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert r.exit_code == 2, r.output
+    assert " ".join(r.output.split()) == (
+        f"laminid: error: {path}: an FRF file, not an identification result: laminid fit-frf "
+        f"{path} --plot plate.fit.pdf draws its FRFs and their fit; a report needs a result: "
+        f"laminid fit-frf {path} --into SPEC.yaml, then laminid identify SPEC.yaml")
+    assert not (tmp_path / "r.pdf").exists()
+    # and the command it suggests draws the file
+    r = run("fit-frf", path, "--plot", tmp_path / "plate.fit.pdf")
+    assert r.exit_code == 0 and (tmp_path / "plate.fit.pdf").exists(), r.output
+
+
 def test_report_errors(batch_dir, tmp_path):
     bad = tmp_path / "x.h5"
     with h5py.File(bad, "w") as f:
         f.attrs["format"] = "laminid-frf"
     r = run("report", bad, "-o", tmp_path / "x.pdf")
     assert r.exit_code == 2
-    assert "not a laminid identification result (a 'laminid-frf' file" in r.output
-    assert "make one with laminid identify" in r.output
+    assert "an FRF file, not an identification result" in r.output
     r = run("report", batch_dir / "S1.4.result.h5", "-o", tmp_path / "x.svg")
     assert r.exit_code == 2 and "use .pdf or .png" in r.output
     (tmp_path / "s.csv").write_text("a,b\n1,2\n")

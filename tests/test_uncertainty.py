@@ -41,6 +41,40 @@ def test_sigma_from_file_where_given_else_relative_default():
     assert frequency_sigma(measured([100.0, 200.0])).summary == "0.2 % of each frequency (--sigma-rel)"
 
 
+@pytest.mark.parametrize("kw, call, summary", [
+    (dict(sigma=[0.5, 0.4], sigma_source="plate.frf.h5: fit-frf: sqrt(RFP spread^2 + ...)"),
+     {}, "the specimen file's measured.sigma (made by: plate.frf.h5: fit-frf: sqrt(RFP "
+         "spread^2 + ...))"),
+    (dict(sigma=[0.5, 0.4]), {},
+     "the specimen file's measured.sigma (how they were made: not stated)"),
+    (dict(sigma=[0.5, 0.4], frf_file="plate.frf.h5",
+          sigma_source="sqrt(RFP spread^2 + resolution^2 + window^2), at least 0.2 % of f"),
+     {}, "the RFP fit of the specimen's measured.frf_file plate.frf.h5 (sqrt(RFP spread^2 + "
+         "resolution^2 + window^2), at least 0.2 % of f)"),
+    ({}, {"sigma_rel": 0.001}, "0.1 % of each frequency (--sigma-rel)"),
+    (dict(sigma=[0.5, np.nan]), {},
+     "the specimen file's measured.sigma (how they were made: not stated) for 1 modes, "
+     "0.2 % of each frequency (--sigma-rel) for 1"),
+    (dict(sigma=[0.5, np.nan], frf_file="p.csv", sigma_source="rule"), {},
+     "the RFP fit of the specimen's measured.frf_file p.csv (rule) for 1 modes, 0.2 % of each "
+     "frequency (--sigma-rel) for 1"),
+    (dict(sigma=[0.5, 0.4], frf_file="p.csv", sigma_source="rule"),
+     {"sigma_hz": [0.3, 0.3]}, "the standard deviations given (sigma_hz)"),
+], ids=["specimen-sigma-with-source", "specimen-sigma-unstated", "frf-file-fit", "relative",
+        "specimen-and-relative", "frf-file-and-relative", "given"])
+def test_the_sigma_summary_names_where_the_sigmas_came_from(kw, call, summary):
+    """The summary (the report's 'σ from ...', identify's 'frequency standard deviations')
+    said 'specimen file (measured.sigma; ...)' for sigmas fitted from measured.frf_file too;
+    each source is now named as it is."""
+    freq = np.array([100.0, 200.0])
+    m = Measured(freq=freq, weight=np.ones(2),
+                 sigma=None if "sigma" not in kw else np.asarray(kw["sigma"], float),
+                 sigma_source=kw.get("sigma_source", ""), frf_file=kw.get("frf_file", ""))
+    sigma_rel = call.get("sigma_rel", 0.002)
+    s = frequency_sigma(m, sigma_rel, sigma_hz=call.get("sigma_hz"))
+    assert s.summary == summary
+
+
 @pytest.mark.parametrize("bad", [0.0, -0.001, float("nan")])
 def test_zero_or_negative_relative_sigma_is_refused(bad):
     with pytest.raises(FitInputError, match="must be positive"):

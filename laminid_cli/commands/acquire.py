@@ -9,6 +9,7 @@ command so ``laminid --help`` stays fast.
 
 from __future__ import annotations
 
+import math
 import shlex
 import sys
 from pathlib import Path
@@ -18,6 +19,84 @@ import click
 from laminid_cli.commands._common import (OUTPUT_FILE, FiniteFloat, check_hdf5_name,
                                           check_output_path, force_option, quiet,
                                           writable_target)
+
+
+#: acquire's option for each field of AcquisitionSettings: the checks' messages name them
+OPTION_NAMES = {"span_hz": "--span", "start_hz": "--start", "lines": "--lines",
+                "averages": "--averages", "trigger_level_pct": "--trigger-level",
+                "pretrigger_s": "--pretrigger", "force_window_s": "--force-window",
+                "exp_window_s": "--exp-window"}
+
+
+def _offered(attr: str) -> list:
+    """Sorted union of ``attr`` (``LINES``, ``SPANS_HZ``) over every analyser driver: the
+    parser refuses a value no supported analyser offers, before any analyser is opened (the
+    driver list is imported when an option is parsed, not for ``--help``)."""
+    from laminid_cli.instrument.registry import drivers
+
+    return sorted({v for d in drivers().values() for v in getattr(d, attr)})
+
+
+class OfferedLines(click.ParamType):
+    """FFT resolution lines: one of the values a supported analyser offers (100-800)."""
+
+    name = "lines"
+
+    def convert(self, value, param, ctx):
+        n = click.INT.convert(value, param, ctx)
+        offered = _offered("LINES")
+        if n not in offered:
+            self.fail(f"{n} lines: the analysers offer {', '.join(map(str, offered))}.",
+                      param, ctx)
+        return n
+
+
+class OfferedSpan(FiniteFloat):
+    """A span, Hz, that a supported analyser offers (102.4 kHz / 2**k)."""
+
+    name = "span"
+
+    def __init__(self):
+        super().__init__(min=0, min_open=True)
+
+    def convert(self, value, param, ctx):
+        span = super().convert(value, param, ctx)
+        offered = _offered("SPANS_HZ")
+        if not any(math.isclose(span, v, rel_tol=1e-6) for v in offered):
+            big = [v for v in offered if v >= 50]
+            self.fail(f"{span:g} Hz is not a span the analysers offer: 102400 Hz / 2^k: "
+                      f"{', '.join(f'{v:g}' for v in reversed(big))}, ... "
+                      f"{offered[0]:g} Hz.", param, ctx)
+        return span
+
+
+def check_settings_before_opening(settings, model: str) -> None:
+    """Refuse, naming the options, an unknown ``--model`` and settings no analyser of that
+    model could take, before any analyser is opened: the driver's own checks when ``--model``
+    names one; with ``auto`` the checks every driver shares and the widest baseband (the
+    driver's own follow *IDN?). ``settings`` None (``--keep-setup``): the model only."""
+    from laminid_cli.instrument.base import check_settings
+    from laminid_cli.instrument.registry import accepted_names, drivers, find_driver
+    from laminid_cli.instrument.transport import AnalyserSetupError
+
+    if model.lower() != "auto":
+        driver = find_driver(model)
+        if driver is None:
+            raise AnalyserSetupError(f"--model {model!r}: unknown analyser model; choose auto "
+                                     f"or one of: {', '.join(accepted_names())} "
+                                     "(case-insensitive)")
+        if settings is not None:
+            driver.validate(settings, names=OPTION_NAMES)
+        return
+    if settings is None:
+        return
+    top = max(d.MAX_FREQ_HZ for d in drivers().values())
+    if settings.start_hz + settings.span_hz > top * (1 + 1e-9):
+        ranges = ", ".join(f"{d.MODEL} 0-{d.MAX_FREQ_HZ:g} Hz" for d in drivers().values())
+        raise AnalyserSetupError(f"--start {settings.start_hz:g} Hz + --span "
+                                 f"{settings.span_hz:g} Hz is above every supported "
+                                 f"analyser's range ({ranges})")
+    check_settings(settings, names=OPTION_NAMES)
 
 
 class _ClickUI:
@@ -118,14 +197,15 @@ def _resume_command(params: dict, output: Path) -> str:
                    "file.yaml@sim. Default from $LAMINID_VISA_BACKEND.")
 @click.option("--timeout", default=5.0, show_default=True, type=FiniteFloat(min=0.01),
               help="Seconds the analyser may take to answer one query.")
-@click.option("--span", default=1600.0, show_default=True,
-              type=FiniteFloat(min=0, min_open=True), help="Span, Hz.")
+@click.option("--span", default=1600.0, show_default=True, type=OfferedSpan(),
+              help="Span, Hz: 102400 / 2^k (51200 and below on the 35670A): ... 3200, 1600, "
+                   "800, 400 ...")
 @click.option("--start", default=0.0, show_default=True, type=FiniteFloat(min=0),
               help="Start frequency, Hz.")
-@click.option("--lines", default=800, show_default=True, type=int,
-              help="FFT resolution lines.")
-@click.option("--averages", default=5, show_default=True, type=click.IntRange(min=1),
-              help="Hits averaged per point.")
+@click.option("--lines", default=800, show_default=True, type=OfferedLines(),
+              help="FFT resolution lines: 100, 200, 400 or 800.")
+@click.option("--averages", default=5, show_default=True, type=click.IntRange(1, 9999),
+              help="Hits averaged per point (the SR785 takes at least 2).")
 @click.option("--trigger-level", default=10.0, show_default=True,
               type=FiniteFloat(-100, 100),
               help="Channel-1 (hammer) trigger level, % of input range.")
@@ -210,6 +290,8 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
         span_hz=span, start_hz=start, lines=lines, averages=averages,
         trigger_level_pct=trigger_level, pretrigger_s=pretrigger, force_window_s=force_window,
         exp_window_s=exp_window)
+    # --keep-setup reads the analyser's own set-up: the model only
+    check_settings_before_opening(settings if configure else None, model)
     if resume:   # refused before the analyser is touched (again when writing)
         from laminid_cli.frf.store import check_resume_settings, read_frf_h5
 
@@ -217,7 +299,8 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
         # --keep-setup reads the set-up back from the analyser, later: units only then
         check_resume_settings(out, old.meta.get("settings") or {},
                               settings.as_attrs() if configure else {},
-                              units=(old.units, units))
+                              units=(old.units, units),
+                              instrument=old.meta.get("instrument"))
         if old.n_points > points:
             raise FrfError(f"{out}: cannot resume, the file already holds {old.n_points} "
                            f"points ({', '.join(old.labels)}) and --points {points} asks for "
@@ -232,6 +315,7 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
     with open_analyser(analyser, model=model, backend=visa_backend, timeout=timeout) as dsa:
         click.echo(f"{dsa.MODEL} at {dsa.transport.resource}: {dsa.idn}", err=True)
         if configure:
+            dsa.validate(settings, names=OPTION_NAMES)   # the model *IDN? named (auto)
             dsa.configure(settings)
         else:
             dsa.prepare_transfer()

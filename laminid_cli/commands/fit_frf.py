@@ -69,6 +69,16 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     spacing / sqrt(12); window: the shift of |pole| by an exponential window's 1/tau (when the
     FRF file records exp_window_s). The 'from' column names the term that dominated.
 
+    \b
+    --json, per mode (units of every field in mode_units):
+      sigma_hz        the uncertainty above, Hz: what --into writes as measured.sigma
+                      and identify uses
+      freq_std_hz     the RFP spread term alone, Hz: the standard deviation of the
+                      frequency over the stable model orders (the fit's own precision,
+                      not the measurement's); sigma_terms_hz holds every term
+      modal_constants [re, im] residue A of each FRF, in (FRF units)*rad/s
+                      (modal_constants_unit): H(s) = A/(s - pole) + conj(A)/(s - conj(pole))
+
     Damping: when the FRF file records the exponential window acquire applied to the response
     (exp_window_s = tau), every fitted pole decays faster by 1/tau; fit-frf removes it
     (damping = fitted - about 1/(tau*omega_n), the 'window' column) in the table, --json and
@@ -143,8 +153,15 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
                     "damping_ratio_fitted": float(wc.fitted[i]),
                     "damping_window_removed": float(wc.removed[i])}
 
+        residue_unit = _times_rad_per_s(fs.units)
         echo_json({
             "file": str(frf_file), "n_points": fs.n_points, "units": fs.units,
+            "modal_constants_unit": residue_unit,
+            "mode_units": {   # sigma_hz: the measurement's sigma; freq_std_hz: RFP spread only
+                "freq_hz": "Hz", "sigma_hz": "Hz", "freq_std_hz": "Hz", "sigma_terms_hz": "Hz",
+                "damping_ratio": "1", "damping_sigma": "1", "damping_ratio_fitted": "1",
+                "damping_window_removed": "1", "damping_std": "1", "band_hz": "Hz",
+                "snr": "1", "modal_constants": residue_unit},
             "bands_hz": [list(b.band_hz) for b in fit.bands],
             "modes": [dict(m.as_dict(), mode=i + 1, sigma_hz=float(s),
                            sigma_terms_hz={t: float(msig.terms[t][i]) for t in msig.terms},
@@ -195,3 +212,12 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
             click.echo(f"note: {note}")
         for note in into.weight_notes:
             click.echo(f"weights: {note}")
+
+
+def _times_rad_per_s(units: str) -> str:
+    """The unit of an FRF's residues: the FRF's ``units`` times rad/s (``(Pa/N)*rad/s``)."""
+    u = units.strip() or "1"
+    if u == "1":
+        return "rad/s"
+    simple = not any(c in u for c in "/*· ")
+    return f"{u}*rad/s" if simple else f"({u})*rad/s"

@@ -131,8 +131,79 @@ def _new_target(path, overwrite: bool) -> Path:
 
 
 # --------------------------------------------------------------------------- CSV
+#: leading bytes of binary files given as an FRF text file by mistake: what each is, and
+#: the --format that reads it (None: no FRF format)
+_BINARY_KINDS = (
+    (b"\x89HDF\r\n\x1a\n", "an HDF5 file (laminid acquire's FRF file or another tool's)",
+     "hdf5"),
+    (b"%PDF", "a PDF document", None),
+    (b"PK\x03\x04", "a ZIP archive (an Excel or Word file?)", None),
+    (b"\x89PNG", "a PNG image", None),
+    (b"\x1f\x8b", "a gzip archive", None),
+)
+
+
+def describe_content(path) -> tuple[str, str | None]:
+    """What ``path`` looks like from its first bytes, for a message that says the file is not
+    in the format asked for: (``"an HDF5 file (...)"``, the :data:`FORMATS` entry that reads
+    it, or None)."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+    except OSError as exc:
+        return f"an unreadable file ({exc.strerror or exc})", None
+    if not head:
+        return "an empty file (0 bytes)", None
+    for magic, what, fmt in _BINARY_KINDS:
+        if head.startswith(magic):
+            return what, fmt
+    try:
+        text = head.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        try:                       # a multi-byte character cut at the end of the block
+            text = head[:-4].decode("utf-8-sig")
+        except UnicodeDecodeError:
+            return "binary data, not text", None
+    first = next((ln.strip() for ln in text.splitlines() if ln.strip()), "")
+    if not first:
+        return "text with blank lines only", None
+    quoted = repr(first if len(first) <= 50 else first[:47] + "...")
+    if first.startswith(("{", "[")):
+        return f"JSON text (first line {quoted})", None
+    data = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    if data and any(c in data[0] for c in ",;\t"):
+        return f"text in columns, as a CSV FRF file is (first line {quoted})", "csv"
+    return f"text whose first line is {quoted}", None
+
+
+def _not_the_format(path, fmt: str) -> str:
+    """``path``: not a file of ``fmt``; what it looks like, and the --format that reads it."""
+    what, other = describe_content(path)
+    suffix = Path(path).suffix.lower()
+    hint = ""
+    if other and other != fmt:
+        hint = f"; read it with --format {other}"
+        if SUFFIXES.get(suffix) == other:
+            hint += f" or without --format (its suffix {suffix} says {other})"
+    return f"it looks like {what}{hint}"
+
+
 def _split(line: str, sep: str | None) -> list[str]:
     return [t.strip() for t in (line.split(sep) if sep else line.split())]
+
+
+def _csv_column(header: list[str] | None, j: int) -> str:
+    """Column ``j`` (0-based) of a CSV FRF file for a message: its number and header name."""
+    name = header[j] if header and j < len(header) and header[j] else None
+    return f"column {j + 1}" + (f" ({name!r})" if name else " (no header)"
+                                if not header else "")
+
+
+def _not_a_number(cell: str) -> str:
+    """What is wrong with a cell that is not a number: quoted, cut to 40 characters."""
+    if not cell:
+        return "empty, where a number is expected"
+    return f"{cell if len(cell) <= 40 else cell[:37] + '...'!r} is not a number"
 
 
 def read_frf_csv(path) -> FrfSet:
@@ -141,7 +212,8 @@ def read_frf_csv(path) -> FrfSet:
     try:
         text = path.read_text(encoding="utf-8-sig")
     except UnicodeDecodeError as exc:
-        raise FrfError(f"{path}: not a text (CSV) file") from exc
+        raise FrfError(f"{path}: not a text (CSV) file; {_not_the_format(path, 'csv')}") \
+            from exc
     import re
 
     units = "1"
@@ -167,10 +239,15 @@ def read_frf_csv(path) -> FrfSet:
         lines = lines[1:]
     rows = []
     for lineno, ln in lines:
-        try:
-            rows.append([float(t) for t in _split(ln, sep)])
-        except ValueError as exc:
-            raise FrfError(f"{path}:{lineno}: not a number in {ln.strip()[:60]!r}") from exc
+        cells = _split(ln, sep)
+        row = []
+        for j, cell in enumerate(cells):
+            try:
+                row.append(float(cell))
+            except ValueError as exc:
+                raise FrfError(f"{path}: line {lineno}, {_csv_column(header, j)}: "
+                               f"{_not_a_number(cell)}") from exc
+        rows.append(row)
     if not rows:
         raise FrfError(f"{path}: header but no data lines")
     for i, r in enumerate(rows):
@@ -223,6 +300,9 @@ def read_frf_uff(path) -> FrfSet:
     except Exception as exc:  # pyuff raises bare Exception on unreadable files
         raise FrfError(f"{path}: not a readable Universal File ({exc})") from exc
     idx = [int(i) for i in np.flatnonzero(types == 58)]
+    if not types.size:             # not one '    -1' delimited dataset: another kind of file
+        raise FrfError(f"{path}: not a Universal File (no dataset between '    -1' lines, as "
+                       f"UFF 58 FRF records are); {_not_the_format(path, 'uff')}")
     if not idx:
         found = ", ".join(str(t) for t in sorted(set(types.tolist()))) or "none"
         raise FrfError(f"{path}: no type-58 (function at nodal DOF) record; dataset types "

@@ -584,16 +584,20 @@ def _setting_value(v) -> float | None:
 
 
 def check_resume_settings(path, recorded: dict, requested: dict, *,
-                          units: tuple[str, str] | None = None) -> None:
+                          units: tuple[str, str] | None = None,
+                          instrument: dict | None = None) -> None:
     """Raise :class:`FrfError` when ``requested`` settings differ from those ``path`` records
     for any of :data:`RESUME_SETTINGS` (keys absent from ``requested`` are not checked), or
     when ``units`` = (recorded, requested) FRF units differ (Pa/N points and V/V points in one
     file would not be one measurement either).
 
     The message names the file, each differing setting with its recorded and requested value,
-    and the options that would resume the file as it was measured.
+    and the options that would resume the file as it was measured. A setting the file does
+    not record (a file measured with ``--keep-setup``, whose windows laminid cannot read back
+    from the analyser, or a file written by another program, ``instrument`` naming it) cannot
+    be matched: the message says which, why that matters and what can be done instead.
     """
-    diffs, keep = [], []
+    diffs, keep, unrecorded = [], [], []
     if units is not None and units[0] != units[1]:
         diffs.append(f"units: recorded {units[0]}, requested {units[1]} (--units)")
         keep.append(f"--units {shlex.quote(units[0])}")
@@ -607,23 +611,49 @@ def check_resume_settings(path, recorded: dict, requested: dict, *,
             continue
         name = key.rsplit("_", 1)[0].replace("_", " ")
         u = f" {unit}" if unit else ""
-        rec_txt = "not recorded (--keep-setup)" if rec is None else f"{rec:g}{u}"
+        if rec is None:
+            unrecorded.append((name, f"{flag} {req:g}{u}"))
+            continue
         req_txt = ("unknown (--keep-setup does not read it back)" if req is None
                    else f"{req:g}{u} ({flag})")
-        diffs.append(f"{name}: recorded {rec_txt}, requested {req_txt}")
-        if rec is not None:
-            keep.append(f"{flag} {rec:g}")
-    if not diffs:
+        diffs.append(f"{name}: recorded {rec:g}{u}, requested {req_txt}")
+        keep.append(f"{flag} {rec:g}")
+    if not diffs and not unrecorded:
         return
-    if keep and len(keep) == len(diffs):
+    parts = []
+    if diffs:
+        parts.append(f"its points were measured with other settings than this run's "
+                     f"({'; '.join(diffs)}): points of both kinds in one file would not be "
+                     "one measurement")
+    if unrecorded:
+        names = [n for n, _ in unrecorded]
+        listed = names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
+        keep_setup = str(recorded.get("configured", "")).lower() in ("false", "0")
+        model = (instrument or {}).get("model")
+        if keep_setup:
+            source = ("it was measured with --keep-setup, the analyser's own set-up, whose "
+                      "windows and pre-trigger laminid cannot read back")
+        else:
+            source = ("it was not measured by laminid acquire, which records its set-up"
+                      + (f"; its instrument: {model}" if model else ""))
+        windowed = any(n in ("exp window", "force window") for n in names)
+        parts.append(
+            f"the file does not record its {listed} ({source}), so this run's "
+            f"{', '.join(v for _, v in unrecorded)} cannot be checked against what its points "
+            "measured" + ("; an exponential window's 1/tau is in every pole's damping, so "
+                          "points of unknown windows would not compare" if windowed else ""))
+    if unrecorded:
+        keep_setup = str(recorded.get("configured", "")).lower() in ("false", "0")
+        how = ("resume it with --keep-setup and the analyser's set-up unchanged, or write the "
+               "new points to another file (-o)" if keep_setup and not diffs
+               else "write the new points to another file (-o)")
+    elif keep and len(keep) == len(diffs):
         how = (f"resume with the recorded values ({' '.join(keep)}, without --keep-setup) "
                "or write the new points to another file (-o)")
     else:
         how = ("resume the file the way it was measured (with or without --keep-setup, the "
                "same values) or write the new points to another file (-o)")
-    raise FrfError(f"{path}: cannot resume, its points were measured with other settings "
-                   f"than this run's ({'; '.join(diffs)}): points of both kinds in one file "
-                   f"would not be one measurement; {how}")
+    raise FrfError(f"{path}: cannot resume, {'; and '.join(parts)}; {how}")
 
 
 class FrfWriter:
@@ -675,7 +705,8 @@ class FrfWriter:
                            f"from the analyser's ({self.freq.size} lines, "
                            f"{self.freq[0]:g}-{self.freq[-1]:g} Hz)")
         recorded = dict(old.meta.get("settings") or {})
-        check_resume_settings(self.path, recorded, self.settings, units=(old.units, self.units))
+        check_resume_settings(self.path, recorded, self.settings, units=(old.units, self.units),
+                              instrument=old.meta.get("instrument"))
         # what this run does not state stays as recorded (never dropped by a resume)
         self.settings = {**recorded, **self.settings}
         self.frf = list(old.frf)

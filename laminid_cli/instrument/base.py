@@ -19,7 +19,7 @@ import logging
 import math
 import time
 from dataclasses import asdict, dataclass
-from typing import Callable, ClassVar
+from typing import Callable, ClassVar, Mapping
 
 import numpy as np
 
@@ -101,6 +101,60 @@ def format_number(x: float) -> str:
     return f"{x:.10g}"
 
 
+#: what the messages call each setting unless told otherwise (``names`` of the checks)
+SETTING_NAMES = {"span_hz": "span", "start_hz": "start", "lines": "lines",
+                 "averages": "averages", "trigger_level_pct": "trigger level",
+                 "pretrigger_s": "pretrigger", "force_window_s": "force window",
+                 "exp_window_s": "exp window"}
+
+#: averages every driver takes at most (SR785 FAVN: 32767; 35670A: 9999 assumed)
+MAX_AVERAGES = 9999
+
+
+def setting_names(names: Mapping[str, str] | None = None) -> dict[str, str]:
+    """:data:`SETTING_NAMES` with ``names`` (e.g. the CLI's option names) over it."""
+    return {**SETTING_NAMES, **(names or {})}
+
+
+def say_setting(names, field: str, value: str, before: str = "", after: str = "") -> str:
+    """``value`` named as ``names[field]`` says (``--span 1000 Hz``), else in plain words
+    (``a span of 1000 Hz``, ``3200 lines``): the drivers' own messages stay as they were."""
+    if names and field in names:
+        return f"{names[field]} {value}"
+    return " ".join(w for w in (before, value, after) if w)
+
+
+def check_settings(settings: AcquisitionSettings, names: Mapping[str, str] | None = None) -> None:
+    """The checks every analyser shares (no span/lines table): averages, trigger level, and
+    the pretrigger and windows against the time record T = lines / span. Raise
+    :class:`AnalyserSetupError` naming the setting (``names``: see :meth:`Analyser.validate`)
+    and its allowed range."""
+    s = settings
+    n = setting_names(names)
+    record = f"{s.record_s:g} s = {n['lines']} {s.lines} / {n['span_hz']} {s.span_hz:g} Hz"
+    if not 1 <= s.averages <= MAX_AVERAGES:
+        raise AnalyserSetupError(f"{n['averages']} must be 1-{MAX_AVERAGES} (got {s.averages})")
+    if not -100 <= s.trigger_level_pct <= 100:
+        raise AnalyserSetupError(f"{n['trigger_level_pct']} must be within -100..100 % of "
+                                 f"range (got {s.trigger_level_pct:g})")
+    if not 0 <= s.pretrigger_s < s.record_s:
+        raise AnalyserSetupError(f"{n['pretrigger_s']} {s.pretrigger_s:g} s must be within the "
+                                 f"time record (0-{record})")
+    for name in ("force_window_s", "exp_window_s"):
+        v = getattr(s, name)
+        if not 0 < v <= s.record_s:
+            raise AnalyserSetupError(f"{n[name]} {v:g} s must be within the time record "
+                                     f"(0-{record})")
+    # a time constant under a thousandth of the record multiplies its end by e^-1000 and
+    # the response's first millisecond by e^-1 already: the FRF is zeroed, and the
+    # window's damping 1/(2 pi f tau) buries every mode (fit-frf then finds no peak)
+    if s.exp_window_s < s.record_s / 1000:
+        raise AnalyserSetupError(
+            f"{n['exp_window_s']} {s.exp_window_s:g} s is under a thousandth of the time "
+            f"record ({record}): it would zero the response; typical time constants are a "
+            f"quarter of the record or more ({s.record_s / 4:g} s)")
+
+
 class Analyser:
     """Base class of the drivers; use as a context manager.
 
@@ -146,42 +200,31 @@ class Analyser:
                 "manual": self.MANUAL}
 
     # ---------------------------------------------------------------- validation
-    def validate(self, settings: AcquisitionSettings) -> None:
-        """Raise :class:`AnalyserSetupError` unless the analyser offers these settings."""
+    @classmethod
+    def validate(cls, settings: AcquisitionSettings,
+                 names: Mapping[str, str] | None = None) -> None:
+        """Raise :class:`AnalyserSetupError` unless the analyser offers these settings.
+
+        A class method: ``acquire`` checks a ``--model`` it was given before it opens the
+        analyser. ``names`` maps a field of :class:`AcquisitionSettings` to the name the
+        messages give it (``acquire`` passes its options, e.g. ``{"lines": "--lines"}``).
+        """
         s = settings
-        if not any(math.isclose(s.span_hz, v, rel_tol=1e-6) for v in self.SPANS_HZ):
+        n = setting_names(names)
+        if not any(math.isclose(s.span_hz, v, rel_tol=1e-6) for v in cls.SPANS_HZ):
             raise AnalyserSetupError(
-                f"{self.MODEL} does not offer a span of {s.span_hz:g} Hz; spans (Hz): "
-                f"{_fmt_list(self.SPANS_HZ)}")
-        if s.lines not in self.LINES:
-            raise AnalyserSetupError(f"{self.MODEL} does not offer {s.lines} lines; lines: "
-                                     f"{', '.join(str(v) for v in self.LINES)}")
-        if s.start_hz < 0 or s.start_hz + s.span_hz > self.MAX_FREQ_HZ * (1 + 1e-9):
+                f"{cls.MODEL} does not offer "
+                f"{say_setting(names, 'span_hz', f'{s.span_hz:g} Hz', 'a span of')}; spans (Hz): "
+                f"{_fmt_list(cls.SPANS_HZ)}")
+        if s.lines not in cls.LINES:
+            what = say_setting(names, "lines", str(s.lines), "", "lines")
+            raise AnalyserSetupError(f"{cls.MODEL} does not offer {what}; lines: "
+                                     f"{', '.join(str(v) for v in cls.LINES)}")
+        if s.start_hz < 0 or s.start_hz + s.span_hz > cls.MAX_FREQ_HZ * (1 + 1e-9):
             raise AnalyserSetupError(
-                f"start {s.start_hz:g} Hz + span {s.span_hz:g} Hz is outside {self.MODEL}'s "
-                f"range 0-{self.MAX_FREQ_HZ:g} Hz")
-        if not 1 <= s.averages <= 9999:
-            raise AnalyserSetupError(f"averages must be 1-9999 (got {s.averages})")
-        if not -100 <= s.trigger_level_pct <= 100:
-            raise AnalyserSetupError(f"trigger level must be within -100..100 % of range "
-                                     f"(got {s.trigger_level_pct:g})")
-        if not 0 <= s.pretrigger_s < s.record_s:
-            raise AnalyserSetupError(f"pretrigger {s.pretrigger_s:g} s must be within the "
-                                     f"time record (0-{s.record_s:g} s)")
-        for name in ("force_window_s", "exp_window_s"):
-            v = getattr(s, name)
-            if not 0 < v <= s.record_s:
-                raise AnalyserSetupError(f"{name.replace('_s', '').replace('_', ' ')} "
-                                         f"{v:g} s must be within the time record "
-                                         f"(0-{s.record_s:g} s = lines/span)")
-        # a time constant under a thousandth of the record multiplies its end by e^-1000 and
-        # the response's first millisecond by e^-1 already: the FRF is zeroed, and the
-        # window's damping 1/(2 pi f tau) buries every mode (fit-frf then finds no peak)
-        if s.exp_window_s < s.record_s / 1000:
-            raise AnalyserSetupError(
-                f"exp window {s.exp_window_s:g} s is under a thousandth of the time record "
-                f"({s.record_s:g} s = lines/span): it would zero the response; typical time "
-                f"constants are a quarter of the record or more ({s.record_s / 4:g} s)")
+                f"{n['start_hz']} {s.start_hz:g} Hz + {n['span_hz']} {s.span_hz:g} Hz is "
+                f"outside {cls.MODEL}'s range 0-{cls.MAX_FREQ_HZ:g} Hz")
+        check_settings(s, names)
 
     # ------------------------------------------------------------------ actions
     def configure(self, settings: AcquisitionSettings) -> None:  # pragma: no cover

@@ -170,7 +170,8 @@ import math
 import numpy as np
 
 from laminid_cli.errors import InstrumentError
-from laminid_cli.instrument.base import AcquisitionSettings, Analyser, format_number
+from laminid_cli.instrument.base import (AcquisitionSettings, Analyser, format_number,
+                                         say_setting, setting_names)
 from laminid_cli.instrument.transport import AnalyserSetupError
 
 #: spans with the 102.4 kHz base frequency (FBAS 1): 102.4 kHz / 2**k (Frequency commands)
@@ -249,19 +250,22 @@ class SR785(Analyser):
         return len(fields) >= 2 and fields[1] == "SR785"
 
     # ------------------------------------------------------------------ set-up
-    def validate(self, settings: AcquisitionSettings) -> None:
+    @classmethod
+    def validate(cls, settings: AcquisitionSettings, names=None) -> None:
         """The shared checks, then the SR785's own ranges: ``FAVN`` takes 2-32767 averages and
         ``FWTC`` at least 5 % of the record (module docstring)."""
-        super().validate(settings)
+        super().validate(settings, names)
         s = settings
+        n = setting_names(names)
         if s.averages < FAVN_MIN:
-            raise AnalyserSetupError(f"{self.MODEL} averages at least {FAVN_MIN} records "
-                                     f"(FAVN 2-32767; got {s.averages})")
+            got = say_setting(names, "averages", str(s.averages))
+            raise AnalyserSetupError(f"{cls.MODEL} averages at least {FAVN_MIN} records "
+                                     f"(FAVN 2-32767; got {got})")
         pct = 100.0 * s.exp_window_s / s.record_s
         if pct < FWTC_MIN_PCT * (1 - 1e-9):
             raise AnalyserSetupError(
-                f"{self.MODEL}: exp window {s.exp_window_s:g} s is {pct:.3g} % of the time "
-                f"record ({s.record_s:g} s); its FWTC takes at least {FWTC_MIN_PCT:g} % "
+                f"{cls.MODEL}: {n['exp_window_s']} {s.exp_window_s:g} s is {pct:.3g} % of the "
+                f"time record ({s.record_s:g} s); its FWTC takes at least {FWTC_MIN_PCT:g} % "
                 f"({FWTC_MIN_PCT / 100 * s.record_s:g} s)")
 
     def configure(self, settings: AcquisitionSettings) -> None:
