@@ -239,9 +239,15 @@ def test_not_a_result_and_future_versions(tmp_path, result):
     frf = tmp_path / "x.h5"
     with h5py.File(frf, "w") as f:
         f.attrs["format"] = "laminid-frf"
+    with pytest.raises(ResultFileError, match=r"an FRF file, not an identification result: "
+                                              r"laminid fit-frf .* --plot x.fit.pdf draws"):
+        read_result(frf)
+    other = tmp_path / "y.h5"
+    with h5py.File(other, "w") as f:
+        f.attrs["format"] = "another tool's"
     with pytest.raises(ResultFileError, match=r"not a laminid identification result .*make "
                                               r"one with laminid identify"):
-        read_result(frf)
+        read_result(other)
     with pytest.raises(ResultFileError, match="file not found"):
         read_result(tmp_path / "missing.h5")
     new = tmp_path / "new.h5"
