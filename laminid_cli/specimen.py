@@ -11,6 +11,7 @@ values from other tests. The full format is documented in ``specimens/README.md`
     materials:
       IM7/977-2: {E1: 117.2 GPa, E2: 8.8 GPa, G12: 3.1 GPa, G13: 3.1 GPa, G23: 3.1 GPa,
                   nu12: 0.35}          # optional: density, density_ratio, fixed, prior
+      # an isotropic material: {E: 70 GPa, nu: 0.3} (G optional, default E / (2 (1 + nu)))
     layup: "[45_3/0_3/-45_3/90_3]s"    # stacking code, bottom ply first (or `plies:` list)
     boundary: free                     # free | simply-supported | clamped
     measured:
@@ -75,6 +76,8 @@ _TOP_KEYS = ("name", "description", "geometry", "mass", "materials", "layup", "p
              "ply_thickness", "scale_thickness", "scale_density_to_mass", "boundary", "measured",
              "reference")
 _MATERIAL_KEYS = CONSTANT_NAMES + ("density", "density_ratio", "fixed", "prior")
+#: an isotropic material's keys instead of the six constants (G optional: E / (2 (1 + nu)))
+_ISOTROPIC_KEYS = ("E", "nu", "G") + _MATERIAL_KEYS[len(CONSTANT_NAMES):]
 _MODULI = ("E1", "E2", "G12", "G13", "G23")
 
 
@@ -636,11 +639,37 @@ def _read_geometry(r: _Reader, y: _Y) -> tuple[float, float, float]:
     return a, b, h
 
 
-def _read_material(r: _Reader, name: str, y: _Y) -> Material:
-    m = r.mapping(y, required=CONSTANT_NAMES, optional=_MATERIAL_KEYS[len(CONSTANT_NAMES):],
+def _isotropic_values(r: _Reader, name: str, y: _Y) -> dict:
+    """The six constants of an isotropic material written as ``{E: .., nu: ..}`` (``G``
+    optional, default E / (2 (1 + nu))): E1 = E2 = E, G12 = G13 = G23 = G, nu12 = nu."""
+    m = y.value
+    orthotropic = [k for k in CONSTANT_NAMES if k in m]
+    if orthotropic:
+        raise r.error(m[orthotropic[0]], f"material '{name}' gives both the isotropic E, nu and "
+                                         f"the ply constant {orthotropic[0]}: write E and nu "
+                                         "(and G) for an isotropic material, or the six "
+                                         f"{', '.join(CONSTANT_NAMES)}",
+                      _join(y.field, orthotropic[0]))
+    m = r.mapping(y, required=_ISOTROPIC_KEYS[:2], optional=_ISOTROPIC_KEYS[2:],
                   what=f"a mapping of the constants of material '{name}'")
-    values = {k: r.quantity(m[k], "modulus") for k in _MODULI}
-    values["nu12"] = r.quantity(m["nu12"], "dimensionless")
+    E = r.quantity(m["E"], "modulus")
+    nu = r.quantity(m["nu"], "dimensionless")
+    if not -1.0 < nu < 0.5:
+        raise r.error(m["nu"], f"an isotropic material's Poisson ratio must lie between -1 and "
+                               f"0.5, got {nu:g}")
+    G = r.quantity(m["G"], "modulus") if "G" in m else E / (2 * (1 + nu))
+    return {"E1": E, "E2": E, "G12": G, "G13": G, "G23": G, "nu12": nu}
+
+
+def _read_material(r: _Reader, name: str, y: _Y) -> Material:
+    if isinstance(y.value, dict) and ("E" in y.value or "nu" in y.value):
+        values = _isotropic_values(r, name, y)
+        m = y.value
+    else:
+        m = r.mapping(y, required=CONSTANT_NAMES, optional=_MATERIAL_KEYS[len(CONSTANT_NAMES):],
+                      what=f"a mapping of the constants of material '{name}'")
+        values = {k: r.quantity(m[k], "modulus") for k in _MODULI}
+        values["nu12"] = r.quantity(m["nu12"], "dimensionless")
     constants = ElasticConstants(**values)
     reasons = infeasibility_reasons(constants)
     if reasons:

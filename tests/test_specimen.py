@@ -483,6 +483,37 @@ def test_reference_range_of_a_material_kept_as_written():
                                                     "G12": 5e9}}
 
 
+ALUMINIUM = """\
+geometry: {a: 300 mm, b: 200 mm, h: 3 mm}
+mass: 486 g
+materials:
+  Al: {E: 70 GPa, nu: 0.3}
+layup: "[0]"
+"""
+
+
+def test_isotropic_material_by_e_and_nu():
+    c = load_specimen_text(ALUMINIUM).materials["Al"].constants
+    assert (c.E1, c.E2, c.nu12) == (70e9, 70e9, 0.3)
+    # G = E / (2 (1 + nu)) = 26.923 GPa for every shear modulus
+    assert c.G12 == c.G13 == c.G23 == pytest.approx(26.923077e9, rel=1e-7)
+    c = load_specimen_text(edit(ALUMINIUM, "nu: 0.3}", "nu: 0.33, G: 26 GPa, fixed: [G13]}"))\
+        .materials["Al"]
+    assert (c.constants.G12, c.constants.G23, c.fixed) == (26e9, 26e9, ("G13",))
+
+
+@pytest.mark.parametrize("old, new, field, words", [
+    ("nu: 0.3}", "nu: 0.3, E2: 3 GPa}", "materials.Al.E2", ["both the isotropic E, nu",
+                                                            "the ply constant E2"]),
+    ("E: 70 GPa, nu: 0.3", "E: 70 GPa", "materials.Al.nu", ["missing required key 'nu'"]),
+    ("nu: 0.3", "nu: 0.6", "materials.Al.nu", ["between -1 and 0.5, got 0.6"]),
+    ("nu: 0.3", "nu: 0.3, Gxy: 3 GPa", "materials.Al.Gxy", ["unknown key 'Gxy'",
+                                                        "valid keys: E, nu, G, density"]),
+])
+def test_bad_isotropic_material(tmp_path, old, new, field, words):
+    bad(tmp_path, edit(ALUMINIUM, old, new), 4, field, *words)
+
+
 def test_layup_as_a_yaml_list_of_angles():
     spec = load_specimen_text(edit(BASE, 'layup: "[0/90]s"', "layup: [0, 90, 90, 0]"))
     assert [p.angle_deg for p in spec.plies] == [0, 90, 90, 0]
