@@ -312,6 +312,12 @@ def _compose(text: str, path: str) -> _Y:
                 else ""
             if re.search(r":\s*\[[^\]]*\][^\s#,\]]", bad_line):
                 hint = " (quote a stacking code that starts with '[', e.g. layup: \"[0/90]s\")"
+            elif "'\\t'" in problem and "\t" in bad_line:
+                # PyYAML: "found character '\t' that cannot start any token"
+                where = ("is indented with a tab" if bad_line[:1].isspace() and "\t" in
+                         bad_line[:len(bad_line) - len(bad_line.lstrip())] else "has a tab")
+                problem = (f"line {line} {where}; YAML indents and separates with spaces "
+                           "only: replace the tab by spaces")
             raise SpecimenError(f"not valid YAML: {problem}{hint}", path=path, line=line) \
                 from exc
         except yaml.YAMLError as exc:
