@@ -29,7 +29,7 @@ Stacking codes (:func:`expand_layup`): plies bottom first separated by ``/`` (or
 ``45_3`` three plies; ``(0/90)_2`` a repeated group; ``[...]s`` symmetric, ``[...]2s`` or
 ``[...]_2s`` repeated twice then mirrored, ``[...]_3`` repeated; ``±45`` (also ``+-45``) is
 ``45/-45`` and ``∓45`` (``-+45``) is ``-45/45``, so ``±45_2`` is ``45/-45/45/-45``; an optional
-``°`` after an angle. A material tag follows a ply or a group, after its repeat count:
+``°`` or ``deg`` after an angle (``rad`` is refused). A material tag follows a ply or a group, after its repeat count:
 ``0:carbon``, ``90_2:glass``, ``(0/90):glass``; after a single ply angle the colon may be left
 out when the tag is letters only, as the paper writes it: ``[0c/90g/0c/90_2g/0c/90g]s``. A tag
 is a material name or an unambiguous beginning of one (``c`` for ``carbon``). A tag on a group
@@ -45,6 +45,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import logging
+import math
 import re
 import unicodedata
 from dataclasses import dataclass, field
@@ -459,6 +460,8 @@ class LayupSyntaxError(ValueError):
 _TAG_COLON = re.compile(r"[A-Za-z][A-Za-z0-9_.\-]*")
 _TAG_LETTERS = re.compile(r"[A-Za-z]+")
 _ANGLE = re.compile(r"\d+(?:\.\d*)?|\.\d+")
+#: a unit written after an angle in a stacking code (not the beginning of a material tag)
+_ANGLE_UNIT = re.compile(r"(deg|rad)(?![A-Za-z])")
 _SIGNS = (("±", (1, -1)), ("∓", (-1, 1)), ("+-", (1, -1)), ("-+", (-1, 1)), ("+", (1,)),
           ("-", (-1,)))
 
@@ -536,6 +539,12 @@ class _LayupParser:
         self.i = match.end()
         if self.peek() == "°":
             self.i += 1
+        unit = _ANGLE_UNIT.match(self.code, self.i)
+        if unit is not None and unit.group() == "deg":
+            self.i = unit.end()
+        elif unit is not None:
+            self.fail(f"ply angles in a stacking code are degrees, not radians ({angle:g} rad "
+                      f"= {angle * 180 / math.pi:.4g} deg)")
         if angle > 360:
             self.fail(f"ply angle {angle:g} is outside -360..360 degrees", start)
         plies = [(s * angle + 0.0, None) for s in signs]
@@ -751,6 +760,8 @@ def _read_plies(r: _Reader, top: dict, root: _Y, h: float,
             own_thickness.append(r.positive(p["thickness"], "length") if "thickness" in p
                                  else None)
 
+    _warn_radian_angles(r, top, [angle for angle, _, _ in raw])
+
     # materials of the plies
     ply_materials = []
     for k, (angle, tag, y) in enumerate(raw):
@@ -777,6 +788,19 @@ def _read_plies(r: _Reader, top: dict, root: _Y, h: float,
     thickness = _ply_thicknesses(r, top, root, h, ply_materials, own_thickness, names)
     return tuple(Ply(material=m, angle_deg=float(angle), thickness=float(t))
                  for (angle, _, _), m, t in zip(raw, ply_materials, thickness))
+
+
+def _warn_radian_angles(r: _Reader, top: dict, angles: list[float]) -> None:
+    """Warn when every non-zero ply angle is a fraction within ±2π: radians read as degrees
+    (``[0/0.785/1.571]``), which gives a plate of nearly parallel plies without complaint."""
+    turned = [a for a in angles if a != 0]
+    if not turned or any(abs(a) > 2 * math.pi or a == round(a) for a in turned):
+        return
+    key = "layup" if "layup" in top else "plies"
+    shown = ", ".join(f"{a:g}" for a in dict.fromkeys(turned))
+    log.warning("%s:%s, field '%s': the ply angles %s look like radians; laminid reads ply "
+                "angles in degrees (write %s)", r.path, top[key].line, key, shown,
+                ", ".join(f"{a * 180 / math.pi:.4g}" for a in dict.fromkeys(turned)))
 
 
 def _ply_thicknesses(r: _Reader, top: dict, root: _Y, h: float, ply_materials: list[str],

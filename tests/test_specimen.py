@@ -4,6 +4,7 @@ codes, units, densities, and one clear SpecimenError (file, field, line) per bad
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 from pathlib import Path
 
@@ -120,6 +121,7 @@ def angles(code):
     ("0/90/0", [0, 90, 0]),
     ("[22.5/-67.5]", [22.5, -67.5]),
     ("[-0]", [0]),
+    ("[0deg/90deg/45°]s", [0, 90, 45, 45, 90, 0]),
 ])
 def test_stacking_codes_expand(code, expected):
     assert angles(code) == expected
@@ -161,6 +163,7 @@ def test_material_tags_in_codes():
     ("[0]_99999", 5, ["more than"]),
     ("", 1, ["empty"]),
     ("[0:]", 4, ["material name after ':'"]),
+    ("[0/1.571rad]", 9, ["degrees, not radians", "1.571 rad = 90.01 deg"]),
 ])
 def test_bad_stacking_codes_say_where(code, position, words):
     with pytest.raises(LayupSyntaxError) as info:
@@ -512,6 +515,24 @@ def test_isotropic_material_by_e_and_nu():
 ])
 def test_bad_isotropic_material(tmp_path, old, new, field, words):
     bad(tmp_path, edit(ALUMINIUM, old, new), 4, field, *words)
+
+
+@pytest.mark.parametrize("old, new, warned", [
+    ('layup: "[0/90]s"', 'layup: "[0/0.785/-0.785/1.571]s"', "0.785, -0.785, 1.571"),
+    ('layup: "[0/90]s"', "plies:\n  - {angle: 0}\n  - {angle: 1.5708}", "1.5708"),
+    ('layup: "[0/90]s"', 'layup: "[0/22.5/-22.5/90]s"', None),
+    ('layup: "[0/90]s"', "plies:\n  - {angle: 0}\n  - {angle: 1.5708 rad}", None),
+])
+def test_ply_angles_that_look_like_radians_are_warned(caplog, old, new, warned):
+    with caplog.at_level(logging.WARNING, logger="laminid_cli.specimen"):
+        spec = load_specimen_text(edit(BASE, old, new), "plate.yaml")
+    msg = [r.getMessage() for r in caplog.records if "radians" in r.getMessage()]
+    if warned is None:
+        assert msg == []
+        return
+    assert len(msg) == 1 and f"plate.yaml:{L_LAYUP}" in msg[0], msg
+    assert f"the ply angles {warned} look like radians" in msg[0]
+    assert spec.plies[1].angle_deg == float(warned.split(",")[0])   # still read as degrees
 
 
 def test_layup_as_a_yaml_list_of_angles():
