@@ -47,7 +47,6 @@ import difflib
 import logging
 import math
 import re
-import unicodedata
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -57,7 +56,7 @@ import yaml
 
 from laminid_cli.errors import SpecimenError
 from laminid_cli.material import CONSTANT_NAMES, ElasticConstants, infeasibility_reasons
-from laminid_cli.units import Where, parse_fraction, parse_quantity
+from laminid_cli.units import Where, normalize_text, parse_fraction, parse_quantity
 
 log = logging.getLogger(__name__)
 
@@ -735,7 +734,7 @@ def _read_plies(r: _Reader, top: dict, root: _Y, h: float,
             code = "[" + "/".join(r.string(item) for item in y.value) + "]"
         else:
             code = r.string(y)
-        code = unicodedata.normalize("NFKC", code)   # full-width digits, slashes, brackets
+        code = normalize_text(code)   # full-width digits, slashes, brackets; '−45' (U+2212)
         try:
             expanded = expand_layup(code)
         except LayupSyntaxError as exc:

@@ -24,7 +24,8 @@ kind (``"gpa"`` is GPa, ``"kpa"`` is kPa); ``mPa`` (millipascal) and ``MPa`` dif
 so ``"mpa"`` is refused as ambiguous, and ``mPa`` is read as what it says (and then refused by the
 plausibility check of a modulus). The text is first normalised to Unicode NFKC, so full-width
 and compatibility characters read as what they look like (``"２１０ ｍｍ"`` is 210 mm, ``"㎐"`` is
-Hz); a number must be written with ASCII digits after that.
+Hz), and a minus sign or dash (U+2212, U+2013) as ``-``; a number must be written with ASCII
+digits after that.
 
 Plausible ranges (:data:`PLAUSIBLE`): a positive length, modulus, mass, density or frequency
 outside its range is refused with the value shown in a sensible unit, since it is far more
@@ -69,6 +70,20 @@ PLAUSIBLE = {"length": (1e-5, 100.0), "modulus": (1e5, 2e12), "mass": (1e-6, 1e4
 
 _NUMBER = re.compile(r"\s*([+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)\s*(.*?)\s*\Z",
                      re.S)
+
+
+#: the minus sign (U+2212) and the dashes a word processor or a PDF puts for a minus, which
+#: NFKC leaves as they are
+_MINUS = str.maketrans({"\u2212": "-", "\u2012": "-", "\u2013": "-", "\ufe63": "-"})
+
+
+def normalize_text(text: str) -> str:
+    """``text`` as read: Unicode NFKC (full-width digits, ``㎐``), minus signs as ``-``.
+
+    >>> normalize_text("\u221245 deg")
+    '-45 deg'
+    """
+    return unicodedata.normalize("NFKC", text).translate(_MINUS)
 
 
 @dataclass(frozen=True)
@@ -169,7 +184,7 @@ def parse_quantity(value, kind: str, *, where: Where | None = None,
         except OverflowError:
             raise where.error(f"{_show(value)} is too large a number; {expected}") from None
     elif isinstance(value, str):
-        match = _NUMBER.match(unicodedata.normalize("NFKC", value))
+        match = _NUMBER.match(normalize_text(value))
         if match is None:
             raise where.error(f"cannot read {_show(value)} as a number with a unit; {expected}")
         number, unit = float(match.group(1)), match.group(2)
