@@ -203,6 +203,11 @@ def parse_quantity(value, kind: str, *, where: Where | None = None,
             if any(u.lower() == unit.lower() for u in UNITS[kind]):
                 raise where.error(f"unit {unit!r} in {_show(value)} is ambiguous (its case "
                                   f"decides the prefix); {expected}")
+            comma = re.match(r",([0-9]+)((?:\s*[^,0-9\s].*)?)\Z", unit)
+            if comma is not None:
+                point = f"{match.group(1)}.{comma.group(1)}{comma.group(2)}"
+                raise where.error(f"{_show(value)} has a decimal comma; write a decimal point, "
+                                  f"{point!r}")
             raise where.error(f"unknown unit {unit!r} in {_show(value)}; {expected}")
     si = number * factor
     if not math.isfinite(si):

@@ -78,6 +78,9 @@ def test_parse_quantity(value, kind, expected):
     ([1, 2], "mass", ["list"]),
     (float("nan"), "length", ["not a finite number"]),
     ("inf mm", "length", ["cannot read"]),
+    ("0,3", "dimensionless", ["'0,3' has a decimal comma", "write a decimal point, '0.3'"]),
+    ("3,06 mm", "length", ["decimal comma", "'3.06 mm'"]),
+    ("1,2,3", "length", ["unknown unit ',2,3'"]),
 ])
 def test_parse_quantity_errors_list_accepted_units(value, kind, words):
     with pytest.raises(SpecimenError) as info:
