@@ -174,7 +174,7 @@ def parse_quantity(value, kind: str, *, where: Where | None = None,
     where = where or Where()
     if expected is None:
         expected = ("expected a plain number (no unit)" if kind == "dimensionless"
-                    else f"expected a {kind} in {accepted_units(kind)}")
+                    else f"expected {_a(kind)} in {accepted_units(kind)}")
     if isinstance(value, bool) or value is None:
         what = "nothing" if value is None else f"the boolean {value}"
         raise where.error(f"got {what}; {expected}")
@@ -199,7 +199,7 @@ def parse_quantity(value, kind: str, *, where: Where | None = None,
             other = _kind_of_unit(unit)
             if other is not None:
                 noun = "plain number" if kind == "dimensionless" else kind
-                raise where.error(f"{_show(value)} is a {other}, not a {noun}; {expected}")
+                raise where.error(f"{_show(value)} is {_a(other)}, not {_a(noun)}; {expected}")
             if any(u.lower() == unit.lower() for u in UNITS[kind]):
                 raise where.error(f"unit {unit!r} in {_show(value)} is ambiguous (its case "
                                   f"decides the prefix); {expected}")
@@ -252,6 +252,11 @@ def check_plausible(value: float, kind: str, *, where: Where | None = None, text
     raise where.error(f"{shown} = {format_quantity(value, kind)} is not a plausible {kind} "
                       f"(expected {format_quantity(low, kind)} to {format_quantity(high, kind)}); "
                       "check the number and its unit")
+
+
+def _a(noun: str) -> str:
+    """``noun`` with its indefinite article: 'a length', 'an angle'."""
+    return f"{'an' if noun[:1] in 'aeiou' else 'a'} {noun}"
 
 
 def _show(value, limit: int = 40) -> str:
