@@ -2,6 +2,7 @@
 
 import json
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -166,3 +167,21 @@ def test_laminid_warnings_keep_their_traceback_and_other_loggers_their_name():
     other = logging.LogRecord("distributed.scheduler", logging.WARNING, __file__, 1, "busy", (),
                               None)
     assert f.format(other) == "WARNING distributed.scheduler: busy"
+
+
+def test_measured_frequencies_in_khz_are_warned_with_the_values(tmp_path):
+    """S1.1's measured frequencies written in kHz as bare numbers (bare is Hz): modes said
+    nothing beside residuals of -83966 % and exit 0."""
+    text = Path(S11).read_text()
+    khz = "[0.12505, 0.20350, 0.33130, 0.44665, 0.49355, 0.60380, 0.65075, 0.81870, 0.95135, " \
+          "0.99065, 1.25675, 1.34380]"
+    spec = tmp_path / "khz.yaml"
+    spec.write_text(re.sub(r"frequencies: \[[^\]]*\]", f"frequencies: {khz}", text))
+    r = run("modes", str(spec), "--mesh", "8x8", "--json")
+    assert r.exit_code == 0, r.output
+    assert (f"warning: {spec}: measured mode 1 (0.125 Hz) is 83966 % from the model (105.1 Hz); "
+            "12 of 12 measured modes are more than 50 % off") in r.stderr
+    assert "look like kHz: write them in Hz" in r.stderr
+    json.loads(r.stdout)
+    r = run("modes", S11, "--mesh", "8x8")   # the paper's plate: no warning
+    assert r.exit_code == 0 and "warning" not in r.stderr
