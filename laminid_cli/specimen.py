@@ -29,9 +29,10 @@ Stacking codes (:func:`expand_layup`): plies bottom first separated by ``/`` (or
 ``45_3`` three plies; ``(0/90)_2`` a repeated group; ``[...]s`` symmetric, ``[...]2s`` or
 ``[...]_2s`` repeated twice then mirrored, ``[...]_3`` repeated; ``±45`` (also ``+-45``) is
 ``45/-45`` and ``∓45`` (``-+45``) is ``-45/45``, so ``±45_2`` is ``45/-45/45/-45``; an optional
-``°`` or ``deg`` after an angle (``rad`` is refused). A material tag follows a ply or a group, after its repeat count:
-``0:carbon``, ``90_2:glass``, ``(0/90):glass``; after a single ply angle the colon may be left
-out when the tag is letters only, as the paper writes it: ``[0c/90g/0c/90_2g/0c/90g]s``. A tag
+``°`` or ``deg`` after an angle (``rad`` is refused). A material tag follows a ply or a group,
+after its repeat count: ``0:carbon``, ``90_2:glass``, ``(0/90):glass``; after a single ply angle
+the colon may be left out when the tag is letters only, as the paper writes it:
+``[0c/90g/0c/90_2g/0c/90g]s``. A tag
 is a material name or an unambiguous beginning of one (``c`` for ``carbon``). A tag on a group
 applies to the plies inside that have none.
 
