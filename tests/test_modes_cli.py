@@ -185,3 +185,13 @@ def test_measured_frequencies_in_khz_are_warned_with_the_values(tmp_path):
     json.loads(r.stdout)
     r = run("modes", S11, "--mesh", "8x8")   # the paper's plate: no warning
     assert r.exit_code == 0 and "warning" not in r.stderr
+
+
+def test_a_single_ply_plate_is_one_ply(tmp_path):
+    spec = tmp_path / "alu.yaml"
+    spec.write_text("geometry: {a: 300 mm, b: 200 mm, h: 3 mm}\nmass: 486 g\n"
+                    "materials: {Al: {E: 70 GPa, nu: 0.3}}\nlayup: '[0]'\n")
+    r = run("modes", str(spec), "--mesh", "4x4")
+    assert r.exit_code == 0, r.output
+    assert "plate 300 x 200 x 3 mm, 1 ply, mass 0.486 kg (model 0.486 kg)" in r.stdout
+    assert "plies" not in r.stdout
