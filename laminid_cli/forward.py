@@ -194,6 +194,39 @@ def measured_arrays(specimen: Specimen, n_modes: int) -> tuple[np.ndarray, np.nd
     return freq, weight
 
 
+#: a weighted measured frequency further than this fraction from its model mode is warned
+#: about by ``laminid modes`` (``identify`` refuses to start from it: IdentifyOptions.far_limit)
+FAR_FROM_MODEL = 0.5
+
+
+def far_from_model(measured_hz: np.ndarray, model_hz: np.ndarray, weight: np.ndarray,
+                   limit: float = FAR_FROM_MODEL) -> str | None:
+    """Words for measured frequencies further than ``limit`` (fraction) from the model's, with
+    the first such mode's values and a likely cause; None when every weighted mode is nearer.
+
+    measured_hz, model_hz, weight : (n_modes,), Hz (NaN where not measured) and weights.
+    A measured/model ratio near 1/1000 reads as frequencies written in kHz.
+    """
+    n = min(measured_hz.size, model_hz.size)
+    x, m, w = measured_hz[:n], model_hz[:n], weight[:n]
+    ok = (w > 0) & np.isfinite(x)
+    with np.errstate(invalid="ignore"):
+        far = ok & (np.abs(x - m) > limit * x)
+    if not far.any():
+        return None
+    i = int(np.flatnonzero(far)[0])
+    ratio = float(np.median(x[ok] / m[ok]))
+    if 1 / 3000 < ratio < 1 / 300:
+        cause = ("the measured frequencies look like kHz: write them in Hz (a bare number "
+                 "is Hz) or with their unit, '0.125 kHz'")
+    else:
+        cause = "check the units, the mass/density, the geometry and the constants"
+    return (f"measured mode {i + 1} ({x[i]:.4g} Hz) is {abs(x[i] - m[i]) / x[i] * 100:.0f} % "
+            f"from the model ({m[i]:.4g} Hz); {int(far.sum())} of {int(ok.sum())} measured "
+            f"modes are more than {limit * 100:.0f} % off (identify refuses such a start): "
+            f"{cause}")
+
+
 def modes_summary(fm: ForwardModel, modes: Modes, constants=None) -> dict:
     """Everything ``laminid modes`` reports, as plain data (SI units, frequencies in Hz)."""
     spec = fm.specimen

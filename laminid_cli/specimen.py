@@ -11,6 +11,7 @@ values from other tests. The full format is documented in ``specimens/README.md`
     materials:
       IM7/977-2: {E1: 117.2 GPa, E2: 8.8 GPa, G12: 3.1 GPa, G13: 3.1 GPa, G23: 3.1 GPa,
                   nu12: 0.35}          # optional: density, density_ratio, fixed, prior
+      # an isotropic material: {E: 70 GPa, nu: 0.3} (G optional, default E / (2 (1 + nu)))
     layup: "[45_3/0_3/-45_3/90_3]s"    # stacking code, bottom ply first (or `plies:` list)
     boundary: free                     # free | simply-supported | clamped
     measured:
@@ -28,9 +29,10 @@ Stacking codes (:func:`expand_layup`): plies bottom first separated by ``/`` (or
 ``45_3`` three plies; ``(0/90)_2`` a repeated group; ``[...]s`` symmetric, ``[...]2s`` or
 ``[...]_2s`` repeated twice then mirrored, ``[...]_3`` repeated; ``±45`` (also ``+-45``) is
 ``45/-45`` and ``∓45`` (``-+45``) is ``-45/45``, so ``±45_2`` is ``45/-45/45/-45``; an optional
-``°`` after an angle. A material tag follows a ply or a group, after its repeat count:
-``0:carbon``, ``90_2:glass``, ``(0/90):glass``; after a single ply angle the colon may be left
-out when the tag is letters only, as the paper writes it: ``[0c/90g/0c/90_2g/0c/90g]s``. A tag
+``°`` or ``deg`` after an angle (``rad`` is refused). A material tag follows a ply or a group,
+after its repeat count: ``0:carbon``, ``90_2:glass``, ``(0/90):glass``; after a single ply angle
+the colon may be left out when the tag is letters only, as the paper writes it:
+``[0c/90g/0c/90_2g/0c/90g]s``. A tag
 is a material name or an unambiguous beginning of one (``c`` for ``carbon``). A tag on a group
 applies to the plies inside that have none.
 
@@ -44,8 +46,8 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import logging
+import math
 import re
-import unicodedata
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -55,7 +57,7 @@ import yaml
 
 from laminid_cli.errors import SpecimenError
 from laminid_cli.material import CONSTANT_NAMES, ElasticConstants, infeasibility_reasons
-from laminid_cli.units import Where, parse_fraction, parse_quantity
+from laminid_cli.units import Where, normalize_text, parse_fraction, parse_quantity
 
 log = logging.getLogger(__name__)
 
@@ -75,6 +77,8 @@ _TOP_KEYS = ("name", "description", "geometry", "mass", "materials", "layup", "p
              "ply_thickness", "scale_thickness", "scale_density_to_mass", "boundary", "measured",
              "reference")
 _MATERIAL_KEYS = CONSTANT_NAMES + ("density", "density_ratio", "fixed", "prior")
+#: an isotropic material's keys instead of the six constants (G optional: E / (2 (1 + nu)))
+_ISOTROPIC_KEYS = ("E", "nu", "G") + _MATERIAL_KEYS[len(CONSTANT_NAMES):]
 _MODULI = ("E1", "E2", "G12", "G13", "G23")
 
 
@@ -312,6 +316,12 @@ def _compose(text: str, path: str) -> _Y:
                 else ""
             if re.search(r":\s*\[[^\]]*\][^\s#,\]]", bad_line):
                 hint = " (quote a stacking code that starts with '[', e.g. layup: \"[0/90]s\")"
+            elif "'\\t'" in problem and "\t" in bad_line:
+                # PyYAML: "found character '\t' that cannot start any token"
+                where = ("is indented with a tab" if bad_line[:1].isspace() and "\t" in
+                         bad_line[:len(bad_line) - len(bad_line.lstrip())] else "has a tab")
+                problem = (f"line {line} {where}; YAML indents and separates with spaces "
+                           "only: replace the tab by spaces")
             raise SpecimenError(f"not valid YAML: {problem}{hint}", path=path, line=line) \
                 from exc
         except yaml.YAMLError as exc:
@@ -453,6 +463,8 @@ class LayupSyntaxError(ValueError):
 _TAG_COLON = re.compile(r"[A-Za-z][A-Za-z0-9_.\-]*")
 _TAG_LETTERS = re.compile(r"[A-Za-z]+")
 _ANGLE = re.compile(r"\d+(?:\.\d*)?|\.\d+")
+#: a unit written after an angle in a stacking code (not the beginning of a material tag)
+_ANGLE_UNIT = re.compile(r"(deg|rad)(?![A-Za-z])")
 _SIGNS = (("±", (1, -1)), ("∓", (-1, 1)), ("+-", (1, -1)), ("-+", (-1, 1)), ("+", (1,)),
           ("-", (-1,)))
 
@@ -530,6 +542,12 @@ class _LayupParser:
         self.i = match.end()
         if self.peek() == "°":
             self.i += 1
+        unit = _ANGLE_UNIT.match(self.code, self.i)
+        if unit is not None and unit.group() == "deg":
+            self.i = unit.end()
+        elif unit is not None:
+            self.fail(f"ply angles in a stacking code are degrees, not radians ({angle:g} rad "
+                      f"= {angle * 180 / math.pi:.4g} deg)")
         if angle > 360:
             self.fail(f"ply angle {angle:g} is outside -360..360 degrees", start)
         plies = [(s * angle + 0.0, None) for s in signs]
@@ -639,11 +657,37 @@ def _read_geometry(r: _Reader, y: _Y) -> tuple[float, float, float]:
     return a, b, h
 
 
-def _read_material(r: _Reader, name: str, y: _Y) -> Material:
-    m = r.mapping(y, required=CONSTANT_NAMES, optional=_MATERIAL_KEYS[len(CONSTANT_NAMES):],
+def _isotropic_values(r: _Reader, name: str, y: _Y) -> dict:
+    """The six constants of an isotropic material written as ``{E: .., nu: ..}`` (``G``
+    optional, default E / (2 (1 + nu))): E1 = E2 = E, G12 = G13 = G23 = G, nu12 = nu."""
+    m = y.value
+    orthotropic = [k for k in CONSTANT_NAMES if k in m]
+    if orthotropic:
+        raise r.error(m[orthotropic[0]], f"material '{name}' gives both the isotropic E, nu and "
+                                         f"the ply constant {orthotropic[0]}: write E and nu "
+                                         "(and G) for an isotropic material, or the six "
+                                         f"{', '.join(CONSTANT_NAMES)}",
+                      _join(y.field, orthotropic[0]))
+    m = r.mapping(y, required=_ISOTROPIC_KEYS[:2], optional=_ISOTROPIC_KEYS[2:],
                   what=f"a mapping of the constants of material '{name}'")
-    values = {k: r.quantity(m[k], "modulus") for k in _MODULI}
-    values["nu12"] = r.quantity(m["nu12"], "dimensionless")
+    E = r.quantity(m["E"], "modulus")
+    nu = r.quantity(m["nu"], "dimensionless")
+    if not -1.0 < nu < 0.5:
+        raise r.error(m["nu"], f"an isotropic material's Poisson ratio must lie between -1 and "
+                               f"0.5, got {nu:g}")
+    G = r.quantity(m["G"], "modulus") if "G" in m else E / (2 * (1 + nu))
+    return {"E1": E, "E2": E, "G12": G, "G13": G, "G23": G, "nu12": nu}
+
+
+def _read_material(r: _Reader, name: str, y: _Y) -> Material:
+    if isinstance(y.value, dict) and ("E" in y.value or "nu" in y.value):
+        values = _isotropic_values(r, name, y)
+        m = y.value
+    else:
+        m = r.mapping(y, required=CONSTANT_NAMES, optional=_MATERIAL_KEYS[len(CONSTANT_NAMES):],
+                      what=f"a mapping of the constants of material '{name}'")
+        values = {k: r.quantity(m[k], "modulus") for k in _MODULI}
+        values["nu12"] = r.quantity(m["nu12"], "dimensionless")
     constants = ElasticConstants(**values)
     reasons = infeasibility_reasons(constants)
     if reasons:
@@ -694,7 +738,7 @@ def _read_plies(r: _Reader, top: dict, root: _Y, h: float,
             code = "[" + "/".join(r.string(item) for item in y.value) + "]"
         else:
             code = r.string(y)
-        code = unicodedata.normalize("NFKC", code)   # full-width digits, slashes, brackets
+        code = normalize_text(code)   # full-width digits, slashes, brackets; '−45' (U+2212)
         try:
             expanded = expand_layup(code)
         except LayupSyntaxError as exc:
@@ -718,6 +762,8 @@ def _read_plies(r: _Reader, top: dict, root: _Y, h: float,
             raw.append((angle, tag, p.get("material", item)))
             own_thickness.append(r.positive(p["thickness"], "length") if "thickness" in p
                                  else None)
+
+    _warn_radian_angles(r, top, [angle for angle, _, _ in raw])
 
     # materials of the plies
     ply_materials = []
@@ -745,6 +791,19 @@ def _read_plies(r: _Reader, top: dict, root: _Y, h: float,
     thickness = _ply_thicknesses(r, top, root, h, ply_materials, own_thickness, names)
     return tuple(Ply(material=m, angle_deg=float(angle), thickness=float(t))
                  for (angle, _, _), m, t in zip(raw, ply_materials, thickness))
+
+
+def _warn_radian_angles(r: _Reader, top: dict, angles: list[float]) -> None:
+    """Warn when every non-zero ply angle is a fraction within ±2π: radians read as degrees
+    (``[0/0.785/1.571]``), which gives a plate of nearly parallel plies without complaint."""
+    turned = [a for a in angles if a != 0]
+    if not turned or any(abs(a) > 2 * math.pi or a == round(a) for a in turned):
+        return
+    key = "layup" if "layup" in top else "plies"
+    shown = ", ".join(f"{a:g}" for a in dict.fromkeys(turned))
+    log.warning("%s:%s, field '%s': the ply angles %s look like radians; laminid reads ply "
+                "angles in degrees (write %s)", r.path, top[key].line, key, shown,
+                ", ".join(f"{a * 180 / math.pi:.4g}" for a in dict.fromkeys(turned)))
 
 
 def _ply_thicknesses(r: _Reader, top: dict, root: _Y, h: float, ply_materials: list[str],

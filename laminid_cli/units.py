@@ -24,7 +24,8 @@ kind (``"gpa"`` is GPa, ``"kpa"`` is kPa); ``mPa`` (millipascal) and ``MPa`` dif
 so ``"mpa"`` is refused as ambiguous, and ``mPa`` is read as what it says (and then refused by the
 plausibility check of a modulus). The text is first normalised to Unicode NFKC, so full-width
 and compatibility characters read as what they look like (``"２１０ ｍｍ"`` is 210 mm, ``"㎐"`` is
-Hz); a number must be written with ASCII digits after that.
+Hz), and a minus sign or dash (U+2212, U+2013) as ``-``; a number must be written with ASCII
+digits after that.
 
 Plausible ranges (:data:`PLAUSIBLE`): a positive length, modulus, mass, density or frequency
 outside its range is refused with the value shown in a sensible unit, since it is far more
@@ -69,6 +70,20 @@ PLAUSIBLE = {"length": (1e-5, 100.0), "modulus": (1e5, 2e12), "mass": (1e-6, 1e4
 
 _NUMBER = re.compile(r"\s*([+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)\s*(.*?)\s*\Z",
                      re.S)
+
+
+#: the minus sign (U+2212) and the dashes a word processor or a PDF puts for a minus, which
+#: NFKC leaves as they are
+_MINUS = str.maketrans({"\u2212": "-", "\u2012": "-", "\u2013": "-", "\ufe63": "-"})
+
+
+def normalize_text(text: str) -> str:
+    """``text`` as read: Unicode NFKC (full-width digits, ``㎐``), minus signs as ``-``.
+
+    >>> normalize_text("\u221245 deg")
+    '-45 deg'
+    """
+    return unicodedata.normalize("NFKC", text).translate(_MINUS)
 
 
 @dataclass(frozen=True)
@@ -159,7 +174,7 @@ def parse_quantity(value, kind: str, *, where: Where | None = None,
     where = where or Where()
     if expected is None:
         expected = ("expected a plain number (no unit)" if kind == "dimensionless"
-                    else f"expected a {kind} in {accepted_units(kind)}")
+                    else f"expected {_a(kind)} in {accepted_units(kind)}")
     if isinstance(value, bool) or value is None:
         what = "nothing" if value is None else f"the boolean {value}"
         raise where.error(f"got {what}; {expected}")
@@ -169,7 +184,7 @@ def parse_quantity(value, kind: str, *, where: Where | None = None,
         except OverflowError:
             raise where.error(f"{_show(value)} is too large a number; {expected}") from None
     elif isinstance(value, str):
-        match = _NUMBER.match(unicodedata.normalize("NFKC", value))
+        match = _NUMBER.match(normalize_text(value))
         if match is None:
             raise where.error(f"cannot read {_show(value)} as a number with a unit; {expected}")
         number, unit = float(match.group(1)), match.group(2)
@@ -184,10 +199,15 @@ def parse_quantity(value, kind: str, *, where: Where | None = None,
             other = _kind_of_unit(unit)
             if other is not None:
                 noun = "plain number" if kind == "dimensionless" else kind
-                raise where.error(f"{_show(value)} is a {other}, not a {noun}; {expected}")
+                raise where.error(f"{_show(value)} is {_a(other)}, not {_a(noun)}; {expected}")
             if any(u.lower() == unit.lower() for u in UNITS[kind]):
                 raise where.error(f"unit {unit!r} in {_show(value)} is ambiguous (its case "
                                   f"decides the prefix); {expected}")
+            comma = re.match(r",([0-9]+)((?:\s*[^,0-9\s].*)?)\Z", unit)
+            if comma is not None:
+                point = f"{match.group(1)}.{comma.group(1)}{comma.group(2)}"
+                raise where.error(f"{_show(value)} has a decimal comma; write a decimal point, "
+                                  f"{point!r}")
             raise where.error(f"unknown unit {unit!r} in {_show(value)}; {expected}")
     si = number * factor
     if not math.isfinite(si):
@@ -232,6 +252,11 @@ def check_plausible(value: float, kind: str, *, where: Where | None = None, text
     raise where.error(f"{shown} = {format_quantity(value, kind)} is not a plausible {kind} "
                       f"(expected {format_quantity(low, kind)} to {format_quantity(high, kind)}); "
                       "check the number and its unit")
+
+
+def _a(noun: str) -> str:
+    """``noun`` with its indefinite article: 'a length', 'an angle'."""
+    return f"{'an' if noun[:1] in 'aeiou' else 'a'} {noun}"
 
 
 def _show(value, limit: int = 40) -> str:

@@ -126,6 +126,19 @@ def test_full_width_units_in_a_specimen_give_the_same_model(tmp_path):
     assert f1 == pytest.approx(f2, rel=1e-12)
 
 
+def test_minus_sign_of_a_word_processor_is_a_minus():
+    # copied from a PDF or Word: U+2212 MINUS SIGN, U+2013 EN DASH (NFKC keeps both)
+    from laminid_cli.specimen import load_specimen_text
+    from laminid_cli.units import parse_quantity
+
+    assert parse_quantity("\u221245 deg", "angle") == -45.0
+    assert parse_quantity("\u22120.036", "dimensionless") == -0.036
+    text = BASE.replace("[45_3/0_3/-45_3/90_3]s", "[45_3/0_3/\u221245_3/90_3]s")
+    assert [p.angle_deg for p in load_specimen_text(text).plies[6:9]] == [-45.0] * 3
+    text = BASE.replace("[45_3/0_3/-45_3/90_3]s", "[0/\u201345]")
+    assert [p.angle_deg for p in load_specimen_text(text).plies] == [0.0, -45.0]
+
+
 def test_modulus_in_millipascal_is_refused_by_plausibility(tmp_path):
     code, out, path = modes_error(tmp_path, BASE.replace("117.2 GPa", "117200 mPa"))
     assert code == 2

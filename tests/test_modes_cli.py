@@ -2,6 +2,7 @@
 
 import json
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -166,3 +167,31 @@ def test_laminid_warnings_keep_their_traceback_and_other_loggers_their_name():
     other = logging.LogRecord("distributed.scheduler", logging.WARNING, __file__, 1, "busy", (),
                               None)
     assert f.format(other) == "WARNING distributed.scheduler: busy"
+
+
+def test_measured_frequencies_in_khz_are_warned_with_the_values(tmp_path):
+    """S1.1's measured frequencies written in kHz as bare numbers (bare is Hz): modes said
+    nothing beside residuals of -83966 % and exit 0."""
+    text = Path(S11).read_text()
+    khz = "[0.12505, 0.20350, 0.33130, 0.44665, 0.49355, 0.60380, 0.65075, 0.81870, 0.95135, " \
+          "0.99065, 1.25675, 1.34380]"
+    spec = tmp_path / "khz.yaml"
+    spec.write_text(re.sub(r"frequencies: \[[^\]]*\]", f"frequencies: {khz}", text))
+    r = run("modes", str(spec), "--mesh", "8x8", "--json")
+    assert r.exit_code == 0, r.output
+    assert (f"warning: {spec}: measured mode 1 (0.125 Hz) is 83966 % from the model (105.1 Hz); "
+            "12 of 12 measured modes are more than 50 % off") in r.stderr
+    assert "look like kHz: write them in Hz" in r.stderr
+    json.loads(r.stdout)
+    r = run("modes", S11, "--mesh", "8x8")   # the paper's plate: no warning
+    assert r.exit_code == 0 and "warning" not in r.stderr
+
+
+def test_a_single_ply_plate_is_one_ply(tmp_path):
+    spec = tmp_path / "alu.yaml"
+    spec.write_text("geometry: {a: 300 mm, b: 200 mm, h: 3 mm}\nmass: 486 g\n"
+                    "materials: {Al: {E: 70 GPa, nu: 0.3}}\nlayup: '[0]'\n")
+    r = run("modes", str(spec), "--mesh", "4x4")
+    assert r.exit_code == 0, r.output
+    assert "plate 300 x 200 x 3 mm, 1 ply, mass 0.486 kg (model 0.486 kg)" in r.stdout
+    assert "plies" not in r.stdout

@@ -4,6 +4,7 @@ codes, units, densities, and one clear SpecimenError (file, field, line) per bad
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 from pathlib import Path
 
@@ -69,7 +70,8 @@ def test_parse_quantity(value, kind, expected):
     ("3 mm", "modulus", ["is a length", "GPa", "psi", "Msi"]),
     ("1 Hz", "mass", ["is a frequency", "kg, g, lb"]),
     ("1 kg", "density", ["is a mass", "kg/m^3", "g/cm^3"]),
-    ("5 deg", "frequency", ["is a angle", "Hz, kHz"]),
+    ("5 deg", "frequency", ["'5 deg' is an angle, not a frequency", "Hz, kHz"]),
+    ("5 Hz", "angle", ["is a frequency, not an angle", "expected an angle in deg, rad"]),
     ("0.3 mm", "dimensionless", ["plain number"]),
     ("abc", "length", ["cannot read 'abc'"]),
     (True, "length", ["boolean"]),
@@ -77,6 +79,9 @@ def test_parse_quantity(value, kind, expected):
     ([1, 2], "mass", ["list"]),
     (float("nan"), "length", ["not a finite number"]),
     ("inf mm", "length", ["cannot read"]),
+    ("0,3", "dimensionless", ["'0,3' has a decimal comma", "write a decimal point, '0.3'"]),
+    ("3,06 mm", "length", ["decimal comma", "'3.06 mm'"]),
+    ("1,2,3", "length", ["unknown unit ',2,3'"]),
 ])
 def test_parse_quantity_errors_list_accepted_units(value, kind, words):
     with pytest.raises(SpecimenError) as info:
@@ -120,6 +125,7 @@ def angles(code):
     ("0/90/0", [0, 90, 0]),
     ("[22.5/-67.5]", [22.5, -67.5]),
     ("[-0]", [0]),
+    ("[0deg/90deg/45°]s", [0, 90, 45, 45, 90, 0]),
 ])
 def test_stacking_codes_expand(code, expected):
     assert angles(code) == expected
@@ -161,6 +167,7 @@ def test_material_tags_in_codes():
     ("[0]_99999", 5, ["more than"]),
     ("", 1, ["empty"]),
     ("[0:]", 4, ["material name after ':'"]),
+    ("[0/1.571rad]", 9, ["degrees, not radians", "1.571 rad = 90.01 deg"]),
 ])
 def test_bad_stacking_codes_say_where(code, position, words):
     with pytest.raises(LayupSyntaxError) as info:
@@ -483,6 +490,55 @@ def test_reference_range_of_a_material_kept_as_written():
                                                     "G12": 5e9}}
 
 
+ALUMINIUM = """\
+geometry: {a: 300 mm, b: 200 mm, h: 3 mm}
+mass: 486 g
+materials:
+  Al: {E: 70 GPa, nu: 0.3}
+layup: "[0]"
+"""
+
+
+def test_isotropic_material_by_e_and_nu():
+    c = load_specimen_text(ALUMINIUM).materials["Al"].constants
+    assert (c.E1, c.E2, c.nu12) == (70e9, 70e9, 0.3)
+    # G = E / (2 (1 + nu)) = 26.923 GPa for every shear modulus
+    assert c.G12 == c.G13 == c.G23 == pytest.approx(26.923077e9, rel=1e-7)
+    c = load_specimen_text(edit(ALUMINIUM, "nu: 0.3}", "nu: 0.33, G: 26 GPa, fixed: [G13]}"))\
+        .materials["Al"]
+    assert (c.constants.G12, c.constants.G23, c.fixed) == (26e9, 26e9, ("G13",))
+
+
+@pytest.mark.parametrize("old, new, field, words", [
+    ("nu: 0.3}", "nu: 0.3, E2: 3 GPa}", "materials.Al.E2", ["both the isotropic E, nu",
+                                                            "the ply constant E2"]),
+    ("E: 70 GPa, nu: 0.3", "E: 70 GPa", "materials.Al.nu", ["missing required key 'nu'"]),
+    ("nu: 0.3", "nu: 0.6", "materials.Al.nu", ["between -1 and 0.5, got 0.6"]),
+    ("nu: 0.3", "nu: 0.3, Gxy: 3 GPa", "materials.Al.Gxy", ["unknown key 'Gxy'",
+                                                        "valid keys: E, nu, G, density"]),
+])
+def test_bad_isotropic_material(tmp_path, old, new, field, words):
+    bad(tmp_path, edit(ALUMINIUM, old, new), 4, field, *words)
+
+
+@pytest.mark.parametrize("old, new, warned", [
+    ('layup: "[0/90]s"', 'layup: "[0/0.785/-0.785/1.571]s"', "0.785, -0.785, 1.571"),
+    ('layup: "[0/90]s"', "plies:\n  - {angle: 0}\n  - {angle: 1.5708}", "1.5708"),
+    ('layup: "[0/90]s"', 'layup: "[0/22.5/-22.5/90]s"', None),
+    ('layup: "[0/90]s"', "plies:\n  - {angle: 0}\n  - {angle: 1.5708 rad}", None),
+])
+def test_ply_angles_that_look_like_radians_are_warned(caplog, old, new, warned):
+    with caplog.at_level(logging.WARNING, logger="laminid_cli.specimen"):
+        spec = load_specimen_text(edit(BASE, old, new), "plate.yaml")
+    msg = [r.getMessage() for r in caplog.records if "radians" in r.getMessage()]
+    if warned is None:
+        assert msg == []
+        return
+    assert len(msg) == 1 and f"plate.yaml:{L_LAYUP}" in msg[0], msg
+    assert f"the ply angles {warned} look like radians" in msg[0]
+    assert spec.plies[1].angle_deg == float(warned.split(",")[0])   # still read as degrees
+
+
 def test_layup_as_a_yaml_list_of_angles():
     spec = load_specimen_text(edit(BASE, 'layup: "[0/90]s"', "layup: [0, 90, 90, 0]"))
     assert [p.angle_deg for p in spec.plies] == [0, 90, 90, 0]
@@ -702,6 +758,10 @@ def test_ambiguous_tag(tmp_path):
     ("just text\n", 1, ["expected a mapping", "'just text'"]),
     ("geometry: [a\n", 2, ["not valid YAML"]),
     ("a: 1\n---\nb: 2\n", 2, ["not valid YAML"]),
+    ("geometry:\n\ta: 300 mm\n", 2, ["line 2 is indented with a tab", "replace the tab by"]),
+    ("name: T\nmeasured:\n  frequencies: [1, 2]\n\t weights: [1, 1]\n", 4,
+     ["line 4 is indented with a tab"]),
+    ("geometry: {a: 300 mm,\tb: 200 mm}\n", 1, ["line 1 has a tab", "spaces only"]),
     ("a: &x [*x]\n", None, ["recursive"]),
     ("name: !!python/object:os.system x\n", 1, ["is not allowed", "python/object"]),
     ("name: !foo x\n", 1, ["is not allowed", "!foo"]),

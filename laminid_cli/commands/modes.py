@@ -40,7 +40,10 @@ def modes(spec, mesh, n_modes, boundary, as_json, output, force):
       laminid modes plate.yaml -o plate-modes.h5
     """
     from laminid_cli.fe.mesh import parse_mesh
-    from laminid_cli.forward import build_forward_model, modes_summary
+    import numpy as np
+
+    from laminid_cli.fe.assembly import boundary_code
+    from laminid_cli.forward import build_forward_model, far_from_model, modes_summary
     from laminid_cli.specimen import read_specimen
 
     out = check_output_path(output, force, inputs=[spec])
@@ -53,6 +56,12 @@ def modes(spec, mesh, n_modes, boundary, as_json, output, force):
     result = fm.solve(n_modes=n_modes)
     summary = modes_summary(fm, result)
     summary["time_s"] = time.perf_counter() - t0
+    fr = summary["frequencies"]
+    far = far_from_model(np.asarray(fr["measured"], float), np.asarray(fr["model"], float),
+                         np.asarray(fr["weight"], float))
+    if far is not None and fm.plate.boundary == boundary_code(specimen.boundary):
+        # (measured on the specimen's boundary: another --boundary is expected to be far off)
+        click.echo(f"warning: {spec}: {far}", err=True)
     if out is not None:
         from laminid_cli.results import write_modes_file
 

@@ -16,6 +16,11 @@ GLOBAL_ORDER = (("Ex", "GPa"), ("Ey", "GPa"), ("Gxy", "GPa"), ("Gxz", "GPa"), ("
                 ("nu_xy", ""), ("nu_yx", ""))
 
 
+def _plies(n: int) -> str:
+    """'1 ply', '24 plies'."""
+    return f"{n} ply" if n == 1 else f"{n} plies"
+
+
 def fmt(value, spec: str, missing: str = "-") -> str:
     """``value`` in ``spec``; ``missing`` (None, NaN, inf) right-aligned to the spec's width,
     so a mode that was not measured keeps its table's columns."""
@@ -39,7 +44,7 @@ def format_header(s: dict) -> list[str]:
     lines = [f"{sp['name']}" + (f" — {sp['description']}" if sp.get("description") else "")]
     mass = f", mass {sp['mass']:.4g} kg (model {sp['model_mass']:.4g} kg)" if sp.get("mass") else ""
     lines.append(f"plate {sp['a'] * 1e3:.4g} x {sp['b'] * 1e3:.4g} x {sp['h'] * 1e3:.4g} mm, "
-                 f"{sp['n_plies']} plies{mass}, boundary {sp['boundary']}")
+                 f"{_plies(sp['n_plies'])}{mass}, boundary {sp['boundary']}")
     m = s["mesh"]
     lines.append(f"mesh {m['nx']}x{m['ny']} ({m['nodes']} nodes, {m['dofs']} DOF)"
                  + (f", {m['rigid_modes_dropped']} rigid-body modes dropped"
@@ -113,7 +118,7 @@ def format_modes_report(s: dict) -> str:
 def _plate_header(sp: dict) -> list[str]:
     return [f"{sp['name']}" + (f" — {sp['description']}" if sp.get("description") else ""),
             f"plate {sp['a'] * 1e3:.4g} x {sp['b'] * 1e3:.4g} x {sp['h'] * 1e3:.4g} mm, "
-            f"{sp['n_plies']} plies, boundary {sp['boundary']}"]
+            f"{_plies(sp['n_plies'])}, boundary {sp['boundary']}"]
 
 
 def _run_line(s: dict) -> str:
