@@ -525,3 +525,46 @@ def test_uff58_unit_labels_drop_spaces_and_a_label_too_long_is_refused(tmp_path,
                         "fit a UFF 58 record: 'microphone_channel_3_Pa' has 23 characters, a "
                         "units label holds 20\n")
     assert not out.exists()
+
+
+# ------------------------------------------------- FRF files written by other tools (interop)
+def _other_uff(path, freq, frf, *, x=None, binary=0, **fields):
+    """A UFF 58 file as another modal tool writes it with pyuff: one FRF record per point
+    (response node k + 1 +Z, reference 1 +Z), acceleration over force in g/N; ``fields``
+    override any record field, ``x`` the abscissa as written (default ``freq`` in Hz)."""
+    import pyuff
+
+    x = freq if x is None else x
+    sets = []
+    for k, h in enumerate(frf):
+        record = dict(binary=binary, id1=f"FRF {k + 1}", id2="OtherTool", func_type=4,
+                      rsp_node=k + 1, rsp_dir=3, ref_node=1, ref_dir=3, ord_data_type=6,
+                      abscissa_spacing=1, abscissa_spec_data_type=18,
+                      abscissa_axis_units_lab="Hz", ordinate_spec_data_type=12,
+                      ordinate_axis_units_lab="g", orddenom_spec_data_type=13,
+                      orddenom_axis_units_lab="N", data=np.asarray(h), x=np.asarray(x))
+        record.update({key: (v(k) if callable(v) else v) for key, v in fields.items()})
+        sets.append(pyuff.prepare_58(**record))
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")
+    return path
+
+
+@pytest.mark.parametrize("label, scale", [("rad/s", 2 * np.pi), ("RAD/S", 2 * np.pi),
+                                          ("kHz", 1e-3), ("Hz", 1.0), ("NONE", 1.0)])
+def test_uff_abscissa_in_rad_per_s_or_khz_is_converted_to_hz(tmp_path, case, label, scale):
+    # another tool's axis in rad/s (specific data type 18, "frequency", label rad/s) was read as
+    # Hz: every natural frequency came out 2 pi too high (785.7 Hz for the 125.05 Hz mode)
+    path = _other_uff(tmp_path / "rad.uff", case.freq, case.frf[:2], x=case.freq * scale,
+                      abscissa_axis_units_lab=label, abscissa_spacing=0, binary=1)
+    fs = io.read_frf(path)
+    assert np.allclose(fs.freq, case.freq, rtol=1e-12)
+    fit = rfp.find_modes(fs.freq, fs.frf, bands=[(100.0, 300.0)])
+    assert np.allclose(fit.freq_hz, case.freq_hz[:3], rtol=1e-4)
+
+
+def test_uff_abscissa_in_another_unit_is_refused(tmp_path, case):
+    path = _other_uff(tmp_path / "t.uff", case.freq, case.frf[:1], abscissa_axis_units_lab="s",
+                      abscissa_spec_data_type=0)
+    with pytest.raises(FrfError, match=r"record 1: abscissa unit 's' is not a frequency unit "
+                                       r"laminid reads \(hz, .*rad/s"):
+        io.read_frf(path)

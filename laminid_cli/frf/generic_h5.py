@@ -35,7 +35,8 @@ from laminid_cli.frf.store import (FORMAT, FrfSet, probe_hdf5_file, read_frf_h5,
                                    validate_frf_arrays)
 
 #: frequency units accepted in a ``units`` attribute -> factor to Hz
-FREQ_UNITS = {"hz": 1.0, "1/s": 1.0, "s^-1": 1.0, "khz": 1e3, "rad/s": 1.0 / (2.0 * math.pi)}
+FREQ_UNITS = {"hz": 1.0, "hertz": 1.0, "1/s": 1.0, "s^-1": 1.0, "khz": 1e3,
+              "rad/s": 1.0 / (2.0 * math.pi), "rad/sec": 1.0 / (2.0 * math.pi)}
 _FREQ_NAME = re.compile(r"(^|[^a-z])(f|freq|frequency|frequencies|f_?hz|freq_?hz|hz)"
                         r"([^a-z]|$)", re.I)
 

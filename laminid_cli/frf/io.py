@@ -14,7 +14,7 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     Universal File Format, dataset 58 (function at nodal DOF), ASCII or binary, read with
     pyuff. Every type-58 record of function type 4 (FRF) is one point; records of function
     type 6 (coherence) with the same response/reference DOF give the coherence. All FRFs must
-    share one abscissa.
+    share one abscissa, in the unit of its label (Hz, none, kHz, rad/s: converted to Hz).
 ``csv`` (``.csv``, ``.txt``)
     Text: first column frequency in Hz, then real and imaginary part of each FRF
     (``freq, re_1, im_1, re_2, im_2, ...``). Separator ``,`` ``;`` tab or blanks; ``#`` comment
@@ -323,9 +323,9 @@ def read_frf_uff(path) -> FrfSet:
     if absc not in (0, UFF_ABSCISSA_FREQUENCY):
         raise FrfError(f"{path}: the abscissa of the FRF records is not frequency (specific data "
                        f"type {absc}, expected {UFF_ABSCISSA_FREQUENCY} = frequency in Hz)")
-    freq = np.asarray(frfs[0]["x"], dtype=float)
+    freq = np.asarray(frfs[0]["x"], dtype=float) * _uff_abscissa_to_hz(path, 1, frfs[0])
     for k, d in enumerate(frfs[1:], start=2):
-        x = np.asarray(d["x"], dtype=float)
+        x = np.asarray(d["x"], dtype=float) * _uff_abscissa_to_hz(path, k, d)
         if x.shape != freq.shape or not np.allclose(x, freq, rtol=1e-9, atol=1e-9):
             raise FrfError(f"{path}: FRF record {k} has a different frequency axis "
                            f"({x.size} lines, {x[0]:g}-{x[-1]:g} Hz) from record 1 "
@@ -356,6 +356,23 @@ def read_frf_uff(path) -> FrfSet:
         meta["settings"] = {"exp_window_s": tau}
     return FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels, units=units,
                   source=str(path), meta=meta)
+
+
+def _uff_abscissa_to_hz(path, k: int, d) -> float:
+    """The factor from the abscissa of FRF record ``k`` to Hz, by its units label (record 8,
+    field 6): 1 for Hz or no label, 1/(2 pi) for rad/s, 1000 for kHz (the specific data type
+    18 says "frequency", not in which unit: a tool's rad/s axis read as Hz gave every natural
+    frequency 2 pi times too high). FrfError for a label that is no frequency unit."""
+    from laminid_cli.frf.generic_h5 import FREQ_UNITS
+
+    label = str(d.get("abscissa_axis_units_lab", "") or "").strip()
+    if label.upper() in ("", "NONE"):
+        return 1.0
+    factor = FREQ_UNITS.get(label.replace(" ", "").lower())
+    if factor is None:
+        raise FrfError(f"{path}: FRF record {k}: abscissa unit {label!r} is not a frequency "
+                       f"unit laminid reads ({', '.join(FREQ_UNITS)})")
+    return factor
 
 
 def _uff_window(frfs) -> float | None:
