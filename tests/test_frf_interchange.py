@@ -568,3 +568,13 @@ def test_uff_abscissa_in_another_unit_is_refused(tmp_path, case):
     with pytest.raises(FrfError, match=r"record 1: abscissa unit 's' is not a frequency unit "
                                        r"laminid reads \(hz, .*rad/s"):
         io.read_frf(path)
+
+
+def test_uff_frf_records_of_real_values_are_refused(tmp_path, case):
+    # a tool that wrote |H| as the FRF records (ordinate data type 4, real double): fit-frf said
+    # "no stable mode found" and exit 0, as if the plate had no resonance below 1601 Hz
+    path = _other_uff(tmp_path / "mag.uff", case.freq, np.abs(case.frf[:2]), ord_data_type=4)
+    r = run(["fit-frf", str(path)])
+    assert r.exit_code != 0
+    assert "FRF record 1 holds real values (ordinate data type 4; 2 of 2 FRF records are " \
+           "real)" in r.output and "needs the complex FRF" in r.output

@@ -12,8 +12,9 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     (frequency + complex FRF datasets, :mod:`laminid_cli.frf.generic_h5`).
 ``uff`` (``.uff``, ``.unv``)
     Universal File Format, dataset 58 (function at nodal DOF), ASCII or binary, read with
-    pyuff. Every type-58 record of function type 4 (FRF) is one point; records of function
-    type 6 (coherence) with the same response/reference DOF give the coherence. All FRFs must
+    pyuff. Every type-58 record of function type 4 (FRF) is one point (complex: a real FRF
+    record is refused); records of function type 6 (coherence) with the same
+    response/reference DOF give the coherence. All FRFs must
     share one abscissa, in the unit of its label (Hz, none, kHz, rad/s: converted to Hz).
 ``csv`` (``.csv``, ``.txt``)
     Text: first column frequency in Hz, then real and imaginary part of each FRF
@@ -319,6 +320,13 @@ def read_frf_uff(path) -> FrfSet:
         kinds = sorted({int(d.get("func_type", 0)) for d in sets})
         raise FrfError(f"{path}: no FRF among the type-58 records (function types {kinds}; "
                        f"{UFF_FRF} = frequency response function)")
+    real = [k for k, d in enumerate(frfs, start=1) if not np.iscomplexobj(d["data"])]
+    if real:
+        odt = int(frfs[real[0] - 1].get("ord_data_type", 0) or 0)
+        raise FrfError(f"{path}: FRF record {real[0]} holds real values (ordinate data type "
+                       f"{odt}; {len(real)} of {len(frfs)} FRF records are real): a magnitude "
+                       "or one part only, from which no pole can be fitted; the fit needs the "
+                       "complex FRF (ordinate data type 5 or 6)")
     absc = int(frfs[0].get("abscissa_spec_data_type", 0) or 0)
     if absc not in (0, UFF_ABSCISSA_FREQUENCY):
         raise FrfError(f"{path}: the abscissa of the FRF records is not frequency (specific data "
