@@ -266,3 +266,21 @@ def test_into_keeps_a_byte_order_mark_and_refuses_a_flow_root(tmp_path):
                                             "specimen written in block style"):
         write_measured(spec, [100.0], [0.1], validate=False)
     assert spec.read_text() == "{name: X, measured: {frequencies: [1.0]}}\n"
+
+
+@pytest.mark.parametrize("sep, header", [(";", True), (";", False), ("\t", True), ("\t", False)])
+def test_csv_with_a_decimal_comma_as_a_european_spreadsheet_writes_it(tmp_path, sep, header):
+    # "125,05;0,0012;..." (Excel with a German or French locale): without a header the comma was
+    # taken for the separator ("'5;0' is not a number"), with one the cells were refused
+    case = plate_case(n_points=2, noise=0.002, seed=3)
+    lines = [sep.join(["freq", "p1_re", "p1_im", "p2_re", "p2_im"])] if header else []
+    for f, h in zip(case.freq, case.frf.T):
+        cells = [f"{f:.9g}"] + [f"{v:.9g}" for z in h for v in (z.real, z.imag)]
+        lines.append(sep.join(c.replace(".", ",") for c in cells))
+    path = tmp_path / "excel.csv"
+    path.write_text("\n".join(lines) + "\n")
+    fs = io.read_frf(path)
+    assert np.allclose(fs.freq, case.freq, rtol=1e-9)
+    assert np.allclose(fs.frf, case.frf, rtol=1e-8, atol=1e-8 * np.abs(case.frf).max())
+    fit = rfp.find_modes(fs.freq, fs.frf, bands=[(100.0, 300.0)])
+    assert np.allclose(fit.freq_hz, case.freq_hz[:3], rtol=1e-4)

@@ -18,8 +18,10 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     share one abscissa, in the unit of its label (Hz, none, kHz, rad/s: converted to Hz).
 ``csv`` (``.csv``, ``.txt``)
     Text: first column frequency in Hz, then real and imaginary part of each FRF
-    (``freq, re_1, im_1, re_2, im_2, ...``). Separator ``,`` ``;`` tab or blanks; ``#`` comment
-    lines; an optional header line (its names of the real columns become the point labels).
+    (``freq, re_1, im_1, re_2, im_2, ...``). Separator ``;`` tab ``,`` (the first found in the
+    first data line) or blanks; with ``;`` or tab a decimal comma is read too (``125,05``, as a
+    European spreadsheet writes); ``#`` comment lines; an optional header line (its names of
+    the real columns become the point labels).
 """
 
 from __future__ import annotations
@@ -231,10 +233,18 @@ def read_frf_csv(path) -> FrfSet:
     if not lines:
         raise FrfError(f"{path}: no data lines (expected columns freq, re_1, im_1, ...)")
     first = lines[0][1]
-    sep = next((c for c in (",", ";", "\t") if c in first), None)
+    # ";" first: a European spreadsheet writes "125,05;0,0012" (';' between cells, ',' the
+    # decimal mark), which split at ',' was refused as "'5;0' is not a number"
+    sep = next((c for c in (";", "\t", ",") if c in first), None)
     header = None
+
+    def number(cell: str) -> float:
+        if sep in (";", "\t") and "," in cell and "." not in cell:
+            cell = cell.replace(",", ".", 1)          # the decimal comma
+        return float(cell)
+
     try:
-        [float(t) for t in _split(first, sep)]
+        [number(t) for t in _split(first, sep)]
     except ValueError:
         header = _split(first, sep)
         lines = lines[1:]
@@ -244,7 +254,7 @@ def read_frf_csv(path) -> FrfSet:
         row = []
         for j, cell in enumerate(cells):
             try:
-                row.append(float(cell))
+                row.append(number(cell))
             except ValueError as exc:
                 raise FrfError(f"{path}: line {lineno}, {_csv_column(header, j)}: "
                                f"{_not_a_number(cell)}") from exc
