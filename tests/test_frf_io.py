@@ -284,3 +284,29 @@ def test_csv_with_a_decimal_comma_as_a_european_spreadsheet_writes_it(tmp_path, 
     assert np.allclose(fs.frf, case.frf, rtol=1e-8, atol=1e-8 * np.abs(case.frf).max())
     fit = rfp.find_modes(fs.freq, fs.frf, bands=[(100.0, 300.0)])
     assert np.allclose(fit.freq_hz, case.freq_hz[:3], rtol=1e-4)
+
+
+@pytest.mark.parametrize("name, scale", [("Frequency [rad/s]", 2 * np.pi), ("f (kHz)", 1e-3),
+                                         ("omega_rad_s", 2 * np.pi), ("freq_kHz", 1e-3),
+                                         ("freq_Hz", 1.0), ("Frequency [Hz]", 1.0), ("f", 1.0)])
+def test_csv_frequency_column_in_the_unit_its_header_names(tmp_path, name, scale):
+    # the header's unit was ignored: "Frequency [rad/s]" gave the 125.05 Hz mode at 785.7 Hz,
+    # "f (kHz)" at 0.125 Hz, exit 0
+    case = plate_case(n_points=2, noise=0.002, seed=3)
+    path = tmp_path / "f.csv"
+    rows = [[repr(float(f * scale))] + [repr(float(v)) for z in h for v in (z.real, z.imag)]
+            for f, h in zip(case.freq, case.frf.T)]
+    path.write_text("\n".join([",".join([name, "a_re", "a_im", "b_re", "b_im"])]
+                              + [",".join(r) for r in rows]) + "\n")
+    fs = io.read_frf(path)
+    assert np.allclose(fs.freq, case.freq, rtol=1e-12)
+    fit = rfp.find_modes(fs.freq, fs.frf, bands=[(100.0, 300.0)])
+    assert np.allclose(fit.freq_hz, case.freq_hz[:3], rtol=1e-4)
+
+
+def test_csv_first_column_in_another_unit_is_refused(tmp_path):
+    p = tmp_path / "t.csv"
+    p.write_text("time [s],a_re,a_im\n0,1,0\n0.001,0.5,0.1\n0.002,0.2,0.1\n")
+    with pytest.raises(FrfError, match=r"column 1 \('time \[s\]'\): unit 's' is not a "
+                                       r"frequency unit laminid reads \(hz, .*rad/s"):
+        io.read_frf(p)

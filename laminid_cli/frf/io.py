@@ -17,7 +17,8 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     response/reference DOF give the coherence. All FRFs must
     share one abscissa, in the unit of its label (Hz, none, kHz, rad/s: converted to Hz).
 ``csv`` (``.csv``, ``.txt``)
-    Text: first column frequency in Hz, then real and imaginary part of each FRF
+    Text: first column frequency in Hz (kHz or rad/s when its header says so: "f [kHz]",
+    "omega_rad_s"; another bracketed unit is refused), then real and imaginary part of each FRF
     (``freq, re_1, im_1, re_2, im_2, ...``). Separator ``;`` tab ``,`` (the first found in the
     first data line) or blanks; with ``;`` or tab a decimal comma is read too (``125,05``, as a
     European spreadsheet writes); ``#`` comment lines; an optional header line (its names of
@@ -209,6 +210,31 @@ def _not_a_number(cell: str) -> str:
     return f"{cell if len(cell) <= 40 else cell[:37] + '...'!r} is not a number"
 
 
+def _csv_freq_factor(path, name: str) -> float:
+    """The factor to Hz of a CSV's frequency column by its header ``name``: the unit in
+    brackets ("Frequency [rad/s]", "f (kHz)"), else a kHz or rad/s in the name ("f_kHz",
+    "omega_rad_s"); 1 (Hz) for any other name or none. FrfError for a bracketed unit that is
+    no frequency ("time [s]")."""
+    import re
+
+    from laminid_cli.frf.generic_h5 import FREQ_UNITS
+
+    bracketed = re.search(r"[\[(]\s*([^\])]*?)\s*[\])]", name)
+    if bracketed:
+        unit = bracketed.group(1)
+        factor = FREQ_UNITS.get(unit.replace(" ", "").lower())
+        if factor is None:
+            raise FrfError(f"{path}: column 1 ({name!r}): unit {unit!r} is not a frequency "
+                           f"unit laminid reads ({', '.join(FREQ_UNITS)})")
+        return factor
+    low = name.lower()
+    if re.search(r"(?<![a-z])khz(?![a-z])", low):
+        return FREQ_UNITS["khz"]
+    if re.search(r"(?<![a-z])rad[/_ ]?(s|sec)(?![a-z])", low):
+        return FREQ_UNITS["rad/s"]
+    return 1.0
+
+
 def read_frf_csv(path) -> FrfSet:
     """Read ``freq, re_1, im_1, ...`` text columns (see module docstring)."""
     path = Path(path)
@@ -271,7 +297,7 @@ def read_frf_csv(path) -> FrfSet:
     if n < 3 or (n - 1) % 2:
         raise FrfError(f"{path}: {n} columns; expected the frequency then a real and an "
                        "imaginary column per FRF (an odd number, at least 3)")
-    freq = data[:, 0]
+    freq = data[:, 0] * _csv_freq_factor(path, header[0] if header else "")
     frf = np.empty((data.shape[0], (n - 1) // 2), dtype=complex)
     frf.real, frf.imag = data[:, 1::2], data[:, 2::2]     # no inf * 1j = nan: inf stays inf
     frf = frf.T
