@@ -578,3 +578,35 @@ def test_uff_frf_records_of_real_values_are_refused(tmp_path, case):
     assert r.exit_code != 0
     assert "FRF record 1 holds real values (ordinate data type 4; 2 of 2 FRF records are " \
            "real)" in r.output and "needs the complex FRF" in r.output
+
+
+@pytest.mark.parametrize("names, transpose", [(("frf_real", "frf_imag"), False),
+                                              (("H_re", "H_im"), True),
+                                              (("FRF/real", "FRF/imag"), False)])
+def test_plain_hdf5_frf_as_real_and_imaginary_datasets(tmp_path, case, names, transpose):
+    # a lab script's h5py file with the FRF's parts apart was refused: "no complex dataset"
+    path = tmp_path / "parts.h5"
+    with h5py.File(path, "w") as f:
+        f["freq"] = case.freq
+        f[names[0]] = (case.frf.T if transpose else case.frf).real
+        f[names[1]] = (case.frf.T if transpose else case.frf).imag
+    fs = io.read_frf(path)
+    assert np.array_equal(fs.frf, case.frf)
+    fit = rfp.find_modes(fs.freq, fs.frf, bands=[(100.0, 300.0)])
+    assert np.allclose(fit.freq_hz, case.freq_hz[:3], rtol=1e-4)
+    stem = "/" + names[0].rsplit("_", 1)[0].removesuffix("/real")
+    assert _fit_json(path, "--frf-dataset", stem, "--band", "100:300")["n_points"] == 5
+
+
+@pytest.mark.parametrize("shape", ["column", "row"])
+def test_plain_hdf5_frequency_as_a_matlab_column_or_row(tmp_path, case, shape):
+    # MATLAB writes a vector as n x 1 (or 1 x n); the frequency was not taken for an axis:
+    # "frequency candidates: none"
+    path = tmp_path / "matlab.h5"
+    with h5py.File(path, "w") as f:
+        f["freq"] = case.freq[:, None] if shape == "column" else case.freq[None, :]
+        f["frf"] = case.frf.T
+    fs = io.read_frf(path)
+    assert np.array_equal(fs.freq, case.freq) and np.array_equal(fs.frf, case.frf)
+    fit = rfp.find_modes(fs.freq, fs.frf, bands=[(100.0, 300.0)])
+    assert np.allclose(fit.freq_hz, case.freq_hz[:3], rtol=1e-4)

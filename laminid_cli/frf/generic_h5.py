@@ -4,13 +4,16 @@ Other modal tools store FRFs in HDF5 without laminid's layout: one frequency dat
 complex FRF dataset, units as attributes, names and orientation their own. This reader finds
 them:
 
-- **frequency**: a 1-D real dataset, at least 2 values, finite, strictly increasing, >= 0; its
-  ``units`` (or ``unit``) attribute, if any, must be a frequency unit (Hz, kHz, 1/s or rad/s;
-  converted to Hz). A name such as ``freq``, ``frequency``, ``f_hz`` ranks first.
+- **frequency**: a 1-D real dataset (or n x 1, 1 x n as MATLAB writes a vector), at least 2
+  values, finite, strictly increasing, >= 0; its ``units`` (or ``unit``) attribute, if any,
+  must be a frequency unit (Hz, kHz, 1/s or rad/s; converted to Hz). A name such as ``freq``,
+  ``frequency``, ``f_hz`` ranks first.
 - **FRF**: a complex dataset (HDF5 compound ``r``/``i`` as h5py and most tools write it, or
-  ``real``/``imag`` as MATLAB v7.3 does, or ``re``/``im``), 1-D of the frequency's length, or 2-D with one axis of that length:
-  ``(n_points, n_freq)`` or ``(n_freq, n_points)`` (either orientation). Its ``units``
-  attribute becomes the FRF units (default "1").
+  ``real``/``imag`` as MATLAB v7.3 does, or ``re``/``im``), or two real datasets of one shape
+  named as its parts (``frf_real`` + ``frf_imag``, ``H_re`` + ``H_im``: named ``frf``, ``H``),
+  1-D of the frequency's length, or 2-D with one axis of that length: ``(n_points, n_freq)``
+  or ``(n_freq, n_points)`` (either orientation). Its ``units`` attribute becomes the FRF
+  units (default "1").
 - **coherence** (optional): a real dataset whose name contains ``coh``, of the FRF's shape.
 
 When several frequency/FRF pairs fit, the error lists them and the options to choose
@@ -47,6 +50,8 @@ class _Dataset:
     shape: tuple[int, ...]
     kind: str          # numpy dtype kind: "f", "i", "u", "c"
     units: str | None
+    #: a complex FRF stored as two real datasets: (real part's path, imaginary part's path)
+    parts: tuple[str, str] | None = None
 
     @property
     def name(self) -> str:
@@ -55,7 +60,18 @@ class _Dataset:
     def describe(self) -> str:
         shape = " x ".join(str(n) for n in self.shape)
         units = f", units {self.units!r}" if self.units else ""
-        return f"'{self.path}' ({shape}{units})"
+        where = f"'{self.parts[0]}' + '{self.parts[1]}'" if self.parts else f"'{self.path}'"
+        return f"{where} ({shape}{units})"
+
+    @property
+    def length(self) -> int | None:
+        """The length of a vector: a 1-D dataset's, or a 2-D one's with a single row or column
+        (MATLAB writes every vector as n x 1 or 1 x n); None for a matrix."""
+        if len(self.shape) == 1:
+            return self.shape[0]
+        if len(self.shape) == 2 and 1 in self.shape:
+            return max(self.shape)
+        return None
 
 
 def _text(v) -> str:
@@ -107,7 +123,34 @@ def _datasets(f) -> list[_Dataset]:
             found.append(_Dataset("/" + name, tuple(obj.shape), kind, _units(obj)))
 
     f.visititems(visit)
-    return found
+    return found + _real_imag_pairs(found)
+
+
+#: name endings of the real and imaginary parts of a complex FRF stored as two real datasets
+#: (``frf_real`` + ``frf_imag``, ``H_re`` + ``H_im``, a group's ``real`` + ``imag``)
+_PART_SUFFIXES = (("_real", "_imag"), ("_re", "_im"), (".re", ".im"), ("real", "imag"))
+
+
+def _real_imag_pairs(found) -> list[_Dataset]:
+    """One complex candidate per pair of real datasets of one shape named as the real and
+    imaginary parts of one thing; its path is the common stem (``/frf`` of ``/frf_real`` and
+    ``/frf_imag``, the group of ``real`` and ``imag``), unless a dataset has that path."""
+    by_path = {d.path.lower(): d for d in found}
+    pairs = []
+    for d in found:
+        if d.kind not in "fiu":
+            continue
+        for re_end, im_end in _PART_SUFFIXES:
+            if not d.path.lower().endswith(re_end):
+                continue
+            stem = d.path[:-len(re_end)]
+            im = by_path.get((stem + im_end).lower())
+            path = stem.rstrip("/") or "/"
+            if im is not None and im.kind in "fiu" and im.shape == d.shape \
+                    and path.lower() not in by_path:
+                pairs.append(_Dataset(path, d.shape, "c", d.units, parts=(d.path, im.path)))
+            break
+    return pairs
 
 
 def _freq_factor(units: str | None) -> float | None:
@@ -118,9 +161,9 @@ def _freq_factor(units: str | None) -> float | None:
 
 
 def _is_axis(f, d: _Dataset) -> bool:
-    if len(d.shape) != 1 or d.shape[0] < 2 or d.kind == "c" or _freq_factor(d.units) is None:
+    if d.length is None or d.length < 2 or d.kind == "c" or _freq_factor(d.units) is None:
         return False
-    x = np.asarray(f[d.path][()], dtype=float)
+    x = np.asarray(f[d.path][()], dtype=float).reshape(-1)
     return bool(np.all(np.isfinite(x)) and x[0] >= 0 and np.all(np.diff(x) > 0))
 
 
@@ -167,7 +210,7 @@ def _choose(path: Path, f, datasets, freq_path, frf_path):
     if not frfs:
         raise FrfError(f"{path}: not a laminid FRF file and no complex dataset (FRF) in it; "
                        f"datasets: {_listing(datasets)}")
-    pairs = [(a, h) for a in axes for h in frfs if _fits(h, a.shape[0])]
+    pairs = [(a, h) for a in axes for h in frfs if _fits(h, a.length)]
     if not pairs:
         raise FrfError(
             f"{path}: no frequency axis matches an FRF dataset; frequency candidates: "
@@ -202,8 +245,13 @@ def read_generic_frf_h5(path, freq_dataset: str | None = None,
 def _read_generic(f, path: Path, freq_dataset, frf_dataset) -> FrfSet:
     datasets = _datasets(f)
     axis, frf_d = _choose(path, f, datasets, freq_dataset, frf_dataset)
-    freq = np.asarray(f[axis.path][()], dtype=float) * _freq_factor(axis.units)
-    frf = _orient(np.asarray(_read(f[frf_d.path]), dtype=complex), freq.size)
+    freq = np.asarray(f[axis.path][()], dtype=float).reshape(-1) * _freq_factor(axis.units)
+    if frf_d.parts:
+        values = np.asarray(f[frf_d.parts[0]][()], dtype=float) \
+            + 1j * np.asarray(f[frf_d.parts[1]][()], dtype=float)
+    else:
+        values = np.asarray(_read(f[frf_d.path]), dtype=complex)
+    frf = _orient(values, freq.size)
     coherence = None
     for d in datasets:
         if "coh" in d.name.lower() and d.kind in "fiu" and d.shape == frf_d.shape:
