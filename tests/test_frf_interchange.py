@@ -610,3 +610,25 @@ def test_plain_hdf5_frequency_as_a_matlab_column_or_row(tmp_path, case, shape):
     assert np.array_equal(fs.freq, case.freq) and np.array_equal(fs.frf, case.frf)
     fit = rfp.find_modes(fs.freq, fs.frf, bands=[(100.0, 300.0)])
     assert np.allclose(fit.freq_hz, case.freq_hz[:3], rtol=1e-4)
+
+
+def test_uff_record_in_a_negative_direction_names_its_modal_constants(tmp_path, case):
+    # point 2 measured in -Z (its FRF is -H): its modal constants came out with the opposite
+    # sign of the +Z truth (0.000192 -> -0.000192 on mode 1), with no word of which FRF was
+    # which direction (--json had no point labels)
+    frf = case.frf[:3] * np.array([1, -1, 1])[:, None]
+    path = _other_uff(tmp_path / "neg.uff", case.freq, frf, rsp_dir=lambda k: -3 if k == 1 else 3)
+    out = _fit_json(path, "--band", "100:300")
+    assert out["points"] == ["1+Z", "2-Z", "3+Z"]
+    assert any(n.startswith("2-Z: measured in a negative direction") for n in out["notes"])
+    f = np.array([m["freq_hz"] for m in out["modes"]])
+    assert np.allclose(f, case.freq_hz[:3], rtol=1e-4)
+    # the constants, in the recorded directions: A = C / (2 j omega_d) of the +Z truth C
+    # (a receptance of real C: A imaginary), times the direction's sign
+    a = np.array([[b for _, b in m["modal_constants"]] for m in out["modes"]]).T   # (3, 3)
+    wd = 2 * np.pi * case.freq_hz[:3] * np.sqrt(1 - case.damping_ratio[:3] ** 2)
+    expected = -case.constants[:3, :3] / (2 * wd) * np.array([[1], [-1], [1]])
+    assert np.allclose(a, expected, rtol=2e-2)
+    text = run(["fit-frf", str(path), "--band", "100:300"]).output
+    assert text.splitlines()[0].endswith("3 FRFs (g/N), 1601 lines, bands 100-300 Hz")
+    assert "note: 2-Z: measured in a negative direction" in text

@@ -78,6 +78,9 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
                       not the measurement's); sigma_terms_hz holds every term
       modal_constants [re, im] residue A of each FRF, in (FRF units)*rad/s
                       (modal_constants_unit): H(s) = A/(s - pole) + conj(A)/(s - conj(pole))
+                      of the FRF of each entry of points (its label: "12-Z", a UFF
+                      record measured in -Z, is of that direction, and so are its
+                      constants)
 
     Damping: when the FRF file records the exponential window acquire applied to the response
     (exp_window_s = tau), every fitted pole decays faster by 1/tau; fit-frf removes it
@@ -98,7 +101,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
 
     from laminid_cli.errors import OutputExistsError, SpecimenError
     from laminid_cli.frf import rfp
-    from laminid_cli.frf.io import read_frf
+    from laminid_cli.frf.io import negative_direction_points, read_frf
 
     if plot_path is not None:
         from laminid_cli.frf.plot import PLOT_SUFFIXES
@@ -130,6 +133,11 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     sigma = msig.sigma_hz
     wc = rfp.window_corrected_damping(fit, tau)
     notes = wc.below_notes(fit.freq_hz)
+    negative = negative_direction_points(fs.labels)
+    if negative:
+        notes.append(f"{', '.join(negative)}: measured in a negative direction; the FRF and its "
+                     "modal constants are as recorded, of that direction (times -1 for the "
+                     "positive one)")
     if rfp.window_unknown(fs):
         notes.append(f"{frf_file} does not record the exponential window's time constant "
                      "(acquired with --keep-setup): the damping ratios are as fitted and include "
@@ -156,6 +164,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         residue_unit = _times_rad_per_s(fs.units)
         echo_json({
             "file": str(frf_file), "n_points": fs.n_points, "units": fs.units,
+            "points": list(fs.labels),   # one per FRF: the order of modal_constants
             "modal_constants_unit": residue_unit,
             "mode_units": {   # sigma_hz: the measurement's sigma; freq_std_hz: RFP spread only
                 "freq_hz": "Hz", "sigma_hz": "Hz", "freq_std_hz": "Hz", "sigma_terms_hz": "Hz",
@@ -176,7 +185,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         })
         return
     bands_txt = ", ".join(f"{b.band_hz[0]:g}-{b.band_hz[1]:g}" for b in fit.bands)
-    click.echo(f"{frf_file}: {fs.n_points} FRFs, {fs.freq.size} lines, bands {bands_txt} Hz")
+    click.echo(f"{frf_file}: {fs.n_points} FRFs ({fs.units}), {fs.freq.size} lines, "
+               f"bands {bands_txt} Hz")
     windowed = wc.exp_window_s is not None
     if not fit.modes:
         click.echo("no stable mode found")

@@ -504,6 +504,15 @@ def _dir(code) -> str:
     return _DIRECTIONS.get(code, f"/{code}" if code else "")
 
 
+def negative_direction_points(labels) -> list[str]:
+    """The labels of :func:`read_frf_uff` ("12-Z", "5+Z:2-Y") whose response or reference
+    direction is negative: their FRF is the +direction's times -1, and so are its modal
+    constants."""
+    import re
+
+    return [lab for lab in labels if re.search(r"\d-[XYZ]", str(lab))]
+
+
 def uff_point(label: str, k: int, rsp_dir: int = 3, ref: tuple[int, int] = (1, 3)
               ) -> tuple[int, int, int, int]:
     """(response node, direction code, reference node, direction code) of the FRF labelled
