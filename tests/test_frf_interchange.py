@@ -632,3 +632,16 @@ def test_uff_record_in_a_negative_direction_names_its_modal_constants(tmp_path, 
     text = run(["fit-frf", str(path), "--band", "100:300"]).output
     assert text.splitlines()[0].endswith("3 FRFs (g/N), 1601 lines, bands 100-300 Hz")
     assert "note: 2-Z: measured in a negative direction" in text
+
+
+@pytest.mark.parametrize("ordinate, denominator, units", [
+    ("NONE", "NONE", "1"), ("", "", "1"), ("g", "N", "g/N"), ("m/s2", "N", "m/s2/N"),
+    ("(m/s^2)", "N", "(m/s^2)/N"), ("m/s^2/N", "NONE", "m/s^2/N"), ("m/s", "N", "m/s/N")])
+def test_other_tools_uff_unit_labels(tmp_path, case, ordinate, denominator, units):
+    # pyuff's default labels "NONE" over "NONE" were read as the unit "NONE" (the residues'
+    # unit "NONE*rad/s"); the frequencies do not depend on the unit
+    path = _other_uff(tmp_path / "u.uff", case.freq[:UNIT_LINES], case.frf[:2, :UNIT_LINES],
+                      ordinate_axis_units_lab=ordinate, orddenom_axis_units_lab=denominator)
+    out = _fit_json(path, "--band", "100:300")
+    assert out["units"] == units
+    assert np.allclose([m["freq_hz"] for m in out["modes"]], case.freq_hz[:3], rtol=1e-4)

@@ -465,6 +465,8 @@ def _uff_units(d) -> str:
     unit, not "m/s^2/N/N"; that guess is never applied to laminid's own records, where it
     turned "N/N/N" into "N/N"."""
     ordinate = str(d.get("ordinate_axis_units_lab", "") or "").strip() or "1"
+    if ordinate.upper() == "NONE":        # pyuff's default label: no unit given, as blank
+        ordinate = "1"
     denominator = str(d.get("orddenom_axis_units_lab", "") or "").strip()
     if denominator.upper() in ("", "NONE"):
         return ordinate
