@@ -7,7 +7,9 @@ A bare number is taken in the base unit of its kind:
 kind          base unit   accepted units
 ============  ==========  ======================================================
 length        m           m, cm, mm, um (µm), in
-modulus       Pa          Pa, kPa, MPa, GPa, psi, ksi, Msi   (alias: pressure)
+modulus       Pa          Pa, kPa, MPa, GPa, N/mm^2 (= MPa), kN/mm^2 (= GPa), MN/m^2
+                          (= MPa), psi, ksi, Msi (1 Msi = 6.894757 GPa); also N/m^2,
+                          kN/m^2, GN/m^2, and "2" or "²" for "^2"   (alias: pressure, stress)
 mass          kg          kg, g, lb
 density       kg/m^3      kg/m^3 (kg/m3, kg/m³), g/cm^3 (g/cm3, g/cm³)
 frequency     Hz          Hz, kHz
@@ -42,13 +44,26 @@ from dataclasses import dataclass
 from laminid_cli.errors import SpecimenError
 
 _PSI = 6894.757293168361  # Pa, exact from the international pound and inch
+# (1 lbf = 0.45359237 kg x 9.80665 m/s^2, 1 in = 0.0254 m: NIST SP 811, Appendix B.8;
+# 1 Msi = 6.894757 GPa, the unit US labs quote moduli in)
+#: stress units written as force per area (SI, exact: 1 N/mm^2 = 1 MPa, 1 kN/mm^2 = 1 GPa,
+#: 1 MN/m^2 = 1 MPa, 1 GN/m^2 = 1 GPa, 1 N/m^2 = 1 Pa; BIPM SI Brochure, 9th ed., Table 4),
+#: each also with "2" for "^2" (NFKC makes "²" a "2": "N/mm²" reads as "N/mm2")
+_FORCE_PER_AREA = {f"{force}/{area}{power}": factor
+                   for force, area, factor in (("N", "mm", 1e6), ("kN", "mm", 1e9),
+                                               ("N", "m", 1.0), ("kN", "m", 1e3),
+                                               ("MN", "m", 1e6), ("GN", "m", 1e9))
+                   for power in ("^2", "2")}
 
 #: unit -> factor to the base unit, per kind; the first unit of each kind is the base unit
 UNITS: dict[str, dict[str, float]] = {
     "length": {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "μm": 1e-6,
                "in": 0.0254},
-    "modulus": {"Pa": 1.0, "kPa": 1e3, "MPa": 1e6, "GPa": 1e9, "psi": _PSI, "ksi": 1e3 * _PSI,
-                "Msi": 1e6 * _PSI, "mPa": 1e-3},
+    "modulus": {"Pa": 1.0, "kPa": 1e3, "MPa": 1e6, "GPa": 1e9, **_FORCE_PER_AREA,
+                "psi": _PSI, "ksi": 1e3 * _PSI, "Msi": 1e6 * _PSI, "mPa": 1e-3,
+                # millinewton spellings, so that "mn/m^2" is ambiguous (as "mpa") rather than
+                # read as MN/m^2; refused afterwards as implausible, as mPa
+                "mN/m^2": 1e-3, "mN/m2": 1e-3},
     "mass": {"kg": 1.0, "g": 1e-3, "lb": 0.45359237},
     "density": {"kg/m^3": 1.0, "kg/m3": 1.0, "kg/m³": 1.0, "g/cm^3": 1e3, "g/cm3": 1e3,
                 "g/cm³": 1e3},
@@ -61,7 +76,9 @@ _ALIASES = {"pressure": "modulus", "stress": "modulus", "ratio": "dimensionless"
 DISPLAY_UNITS = {"length": "mm", "modulus": "GPa", "mass": "kg", "density": "kg/m^3",
                  "frequency": "Hz", "angle": "deg", "dimensionless": ""}
 # units that are spellings of another one, left out of "accepted units" lists
-_SPELLINGS = {"µm", "μm", "kg/m3", "kg/m³", "g/cm3", "g/cm³", "°", "mPa", "mHz", "MHz"}
+_SPELLINGS = {"µm", "μm", "kg/m3", "kg/m³", "g/cm3", "g/cm³", "°", "mPa", "mHz", "MHz",
+              "mN/m^2", "mN/m2", "N/m^2", "N/m2", "kN/m^2", "kN/m2", "GN/m^2", "GN/m2",
+              *(u for u in _FORCE_PER_AREA if u.endswith("/mm2") or u.endswith("/m2"))}
 
 #: (low, high) in the base unit: a positive value of these kinds outside the range is refused
 #: (plates of polymers to diamond, 10 um to 100 m, 1 mg to 10 t, aerogel to osmium, 1 uHz (a sigma) to 10 MHz)

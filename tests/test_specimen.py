@@ -43,6 +43,17 @@ def load(rel: str):
     ("10 ksi", "modulus", 68947572.93168361),
     ("1 Msi", "modulus", 6894757293.168361),
     ("1e9", "modulus", 1e9),
+    # force per area, as composites labs write moduli (exact SI factors)
+    ("117200 N/mm^2", "modulus", 117.2e9),
+    ("117200 N/mm2", "modulus", 117.2e9),
+    ("117200 N/mm²", "modulus", 117.2e9),
+    ("117200 n/mm^2", "modulus", 117.2e9),
+    ("117.2 kN/mm^2", "modulus", 117.2e9),
+    ("117200 MN/m^2", "modulus", 117.2e9),
+    ("117.2 GN/m^2", "modulus", 117.2e9),
+    ("3e6 N/m^2", "stress", 3e6),
+    ("17 Msi", "modulus", 117.2108739838621e9),
+    ("500 psi", "pressure", 3447378.6465841806),
     ("0.3225 kg", "mass", 0.3225),
     ("322.5 g", "mass", 0.3225),
     ("1 lb", "mass", 0.45359237),
@@ -68,6 +79,9 @@ def test_parse_quantity(value, kind, expected):
     ("3.06 GPa", "length", ["is a modulus, not a length", "mm", "in"]),
     ("3 furlong", "length", ["unknown unit 'furlong'", "m, cm, mm, um, in"]),
     ("3 mm", "modulus", ["is a length", "GPa", "psi", "Msi"]),
+    ("3 N/cm^2", "modulus", ["unknown unit 'N/cm^2'", "GPa, N/mm^2, kN/mm^2, MN/m^2, psi, ksi, "
+                             "Msi (a bare number is Pa)"]),
+    ("117200 mn/m^2", "modulus", ["unit 'mn/m^2' in '117200 mn/m^2' is ambiguous"]),
     ("1 Hz", "mass", ["is a frequency", "kg, g, lb"]),
     ("1 kg", "density", ["is a mass", "kg/m^3", "g/cm^3"]),
     ("5 deg", "frequency", ["'5 deg' is an angle, not a frequency", "Hz, kHz"]),
@@ -90,6 +104,20 @@ def test_parse_quantity_errors_list_accepted_units(value, kind, words):
     assert msg.startswith("plate.yaml:7, field 'geometry.a': ")
     for word in words:
         assert word in msg
+
+
+def test_a_modulus_in_n_per_mm2_reads_as_in_gpa():
+    """A ply written in N/mm^2 and kN/mm^2 (as European labs write moduli) was refused with
+    "unknown unit 'N/mm^2'"; it is the same ply as in GPa."""
+    text = (ROOT / "specimens/example1/S1.1.yaml").read_text()
+    lab = (text.replace("E1: 117.2 GPa", "E1: 117200 N/mm^2")
+           .replace("E2: 8.8 GPa", "E2: 8.8 kN/mm2").replace("G12: 3.1 GPa", "G12: 3100 N/mm²")
+           .replace("G13: 3.1 GPa", "G13: 3100 MN/m^2"))
+    assert lab.count("GPa") == text.count("GPa") - 4
+    ours = load_specimen_text(lab).materials["IM7/977-2"].constants
+    paper_ = load_specimen_text(text).materials["IM7/977-2"].constants
+    assert ours == paper_
+    assert ours.E1 == 117.2e9 and ours.E2 == 8.8e9 and ours.G12 == 3.1e9 and ours.G13 == 3.1e9
 
 
 def test_format_quantity():
