@@ -1,6 +1,7 @@
 """`laminid modes` end to end through click."""
 
 import json
+import logging
 import re
 from pathlib import Path
 
@@ -195,3 +196,27 @@ def test_a_single_ply_plate_is_one_ply(tmp_path):
     assert r.exit_code == 0, r.output
     assert "plate 300 x 200 x 3 mm, 1 ply, mass 0.486 kg (model 0.486 kg)" in r.stdout
     assert "plies" not in r.stdout
+
+
+def test_a_plate_1000_times_too_light_is_warned_not_refused(tmp_path, caplog):
+    """An aluminium plate of 486 g written 'mass: 0.486 g' (2.7 kg/m^3, inside the accepted
+    1-25000 kg/m^3): modes printed a first mode of 5192 Hz (the plate's 164.2 Hz times
+    sqrt(1000)) without a word when no frequencies were measured."""
+    spec = tmp_path / "alu.yaml"
+    spec.write_text("geometry: {a: 300 mm, b: 200 mm, h: 3 mm}\nmass: 0.486 g\n"
+                    "materials: {Al: {E: 70 GPa, nu: 0.3}}\nlayup: '[0]'\n")
+    with caplog.at_level(logging.WARNING, logger="laminid_cli"):   # (stderr: the CLI's handler)
+        r = run("modes", str(spec), "--mesh", "4x4", "--json")
+    assert r.exit_code == 0, r.output
+    assert (f"{spec}:2, field 'mass': the plate's density, mass / (a b h) = '0.486 g' = "
+            "0.000486 kg / (300 x 200 x 3 mm), is 2.7 kg/m^3, lighter than any solid plate"
+            in caplog.text), caplog.text
+    assert "1000 times it is 2700 kg/m^3" in caplog.text
+    light = json.loads(r.stdout)["frequencies"]["model"][0]
+    spec.write_text(spec.read_text().replace("0.486 g", "486 g"))
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="laminid_cli"):
+        r = run("modes", str(spec), "--mesh", "4x4", "--json")
+    assert r.exit_code == 0 and "lighter" not in caplog.text
+    real = json.loads(r.stdout)["frequencies"]["model"][0]
+    assert light / real == pytest.approx(1000 ** 0.5, rel=1e-9)
