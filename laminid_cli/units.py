@@ -292,3 +292,48 @@ def format_quantity(value: float, kind: str, digits: int = 4) -> str:
     unit = DISPLAY_UNITS[kind]
     number = value / UNITS[kind][unit] if unit else value
     return f"{number:.{digits}g} {unit}".rstrip()
+
+
+#: the unit of each numeric field of a ``--json`` document (modes, identify, show) by the
+#: field's name, wherever it appears: SI throughout (frequencies Hz, moduli Pa, lengths m, mass
+#: kg); a block's name (``frequencies``) gives the unit of its lists that have no entry of their
+#: own; the fields of a constant's, a property's or a loss factor's block (``value``,
+#: ``lower``, ...) are in the unit of that quantity. Counts, indices, flags and text have none.
+JSON_UNITS: dict[str, str] = {
+    "a": "m", "b": "m", "h": "m", "mass": "kg", "model_mass": "kg", "density": "kg/m^3",
+    **{k: "Pa" for k in ("E1", "E2", "G12", "G13", "G23", "Ex", "Ey", "Gxy", "Gxz", "Gyz")},
+    "nu12": "1", "nu_xy": "1", "nu_yx": "1",
+    **{f"eta{k}": "1 (loss factor, eta = 2 zeta)" for k in ("11", "22", "12", "13", "23")},
+    "frequencies": "Hz", "measured": "Hz", "model": "Hz", "sigma_hz": "Hz", "freq_hz": "Hz",
+    "fine_hz": "Hz",
+    "weight": "1", "residual_percent": "%", "rms_residual_percent": "%",
+    "initial_rms_residual_percent": "%", "change_percent": "%", "shift_percent": "%",
+    "change_sigma": "frequency sigma of the mode", "shift_half_width": "95 % half-width of the "
+    "constant", "error_bound": "1 (relative eigenvalue error)", "time_s": "s",
+    **{k: "unit of the quantity it belongs to" for k in (
+        "value", "std", "std_stated", "lower", "upper", "half_width", "bound_limit",
+        "profile_bound", "profile_far", "mean", "inner_lower", "inner_upper", "linearized_std",
+        "shift")},
+    "rel_half_width": "1 (fraction of the value)", "sigma_rel": "1 (fraction of the frequency)",
+    "covariance": "product of the units of its row's and column's labels (Pa^2, Pa, 1)",
+    "correlation": "1", "dlnf_dlnP": "1",
+}
+
+
+def json_units(document: dict) -> dict[str, str]:
+    """The ``units`` object of a ``--json`` document: :data:`JSON_UNITS` for the field names
+    that occur in ``document`` (at any depth), in the order of :data:`JSON_UNITS`.
+
+    >>> json_units({"frequencies": {"model": [105.5]}, "specimen": {"a": 0.21}})
+    {'a': 'm', 'frequencies': 'Hz', 'model': 'Hz'}
+    """
+    names: set[str] = set()
+    stack = [document]
+    while stack:
+        obj = stack.pop()
+        if isinstance(obj, dict):
+            names.update(str(k) for k, v in obj.items() if k != "units")
+            stack.extend(v for k, v in obj.items() if k != "units")
+        elif isinstance(obj, (list, tuple)):
+            stack.extend(v for v in obj if isinstance(v, (dict, list, tuple)))
+    return {k: u for k, u in JSON_UNITS.items() if k in names}

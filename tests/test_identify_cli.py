@@ -37,6 +37,23 @@ def test_json_has_the_documented_keys_in_si(s21_result):
     assert set(d["global_properties"]) >= {"Ex", "Ey", "Gxy", "Gxz", "Gyz", "nu_xy", "nu_yx"}
 
 
+def test_json_says_the_unit_of_every_number(s21_result):
+    """identify --json gave E1 2.87e10, a 0.2, sigma_hz, covariance 1e18 ... with no unit
+    anywhere; "units" names them by field (as modes --json and show --json)."""
+    d, _ = s21_result
+    u = d["units"]
+    assert {k: u[k] for k in ("a", "h", "mass", "E1", "G23", "nu12", "Ex", "nu_xy",
+                              "frequencies", "measured", "model", "sigma_hz",
+                              "residual_percent", "time_s")} == {
+        "a": "m", "h": "m", "mass": "kg", "E1": "Pa", "G23": "Pa", "nu12": "1", "Ex": "Pa",
+        "nu_xy": "1", "frequencies": "Hz", "measured": "Hz", "model": "Hz", "sigma_hz": "Hz",
+        "residual_percent": "%", "time_s": "s"}
+    assert u["lower"] == u["upper"] == u["std"] == "unit of the quantity it belongs to"
+    assert u["covariance"].startswith("product of the units")
+    assert "model_mass" not in u and "density" not in u       # not in identify's document
+    assert d["uncertainty"]["constants"]["E-glass/R368"]["E1"]["lower"] > 1e10   # Pa indeed
+
+
 def test_hdf5_result_is_self_describing_and_matches_json(s21_result):
     d, out = s21_result
     h = read_h5(out)

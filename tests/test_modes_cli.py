@@ -40,6 +40,25 @@ def test_json_is_machine_readable_and_consistent():
     assert d["materials"]["IM7/977-2"]["E1"] == 117.2e9
 
 
+def test_json_says_the_unit_of_every_number():
+    """modes --json gave a = 0.2105, E1 1.172e11, mass 0.3225, frequencies 105.5 ... and no
+    word of their units (a program had to know laminid is SI); "units" now names them, the
+    existing keys unchanged."""
+    r = run("modes", S11, "--mesh", "4x4", "--json")
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.stdout)
+    assert d["units"] == {
+        "a": "m", "b": "m", "h": "m", "mass": "kg", "model_mass": "kg", "density": "kg/m^3",
+        "E1": "Pa", "E2": "Pa", "G12": "Pa", "G13": "Pa", "G23": "Pa", "Ex": "Pa", "Ey": "Pa",
+        "Gxy": "Pa", "Gxz": "Pa", "Gyz": "Pa", "nu12": "1", "nu_xy": "1", "nu_yx": "1",
+        "frequencies": "Hz", "measured": "Hz", "model": "Hz", "weight": "1",
+        "residual_percent": "%", "rms_residual_percent": "%", "time_s": "s"}
+    assert list(d)[:-1] == ["specimen", "mesh", "materials", "frequencies",
+                            "rms_residual_percent", "global_properties", "time_s"]
+    assert d["specimen"]["a"] == 0.2105 and d["frequencies"]["measured"][0] == 125.05
+    assert d["materials"]["IM7/977-2"]["density"] == pytest.approx(1609.9, rel=1e-4)
+
+
 def test_hdf5_output_round_trip_and_no_silent_overwrite(tmp_path):
     out = tmp_path / "m.h5"
     r = run("modes", S11, "--mesh", "6x6", "-o", str(out), "--json")

@@ -68,7 +68,9 @@ def modes(spec, mesh, n_modes, boundary, as_json, output, force):
         write_modes_file(out, fm, result, summary)
         summary["output"] = str(out)
     if as_json:
-        echo_json(summary)
+        from laminid_cli.units import json_units
+
+        echo_json({**summary, "units": json_units(summary)})
     else:
         click.echo(format_modes_report(summary))
         if out is not None:
