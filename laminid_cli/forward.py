@@ -215,16 +215,27 @@ def far_from_model(measured_hz: np.ndarray, model_hz: np.ndarray, weight: np.nda
     if not far.any():
         return None
     i = int(np.flatnonzero(far)[0])
-    ratio = float(np.median(x[ok] / m[ok]))
-    if 1 / 3000 < ratio < 1 / 300:
-        cause = ("the measured frequencies look like kHz: write them in Hz (a bare number "
-                 "is Hz) or with their unit, '0.125 kHz'")
-    else:
-        cause = "check the units, the mass/density, the geometry and the constants"
     return (f"measured mode {i + 1} ({x[i]:.4g} Hz) is {abs(x[i] - m[i]) / x[i] * 100:.0f} % "
             f"from the model ({m[i]:.4g} Hz); {int(far.sum())} of {int(ok.sum())} measured "
             f"modes are more than {limit * 100:.0f} % off (identify refuses such a start): "
-            f"{cause}")
+            f"{far_cause(x, m, w)}")
+
+
+def far_cause(measured_hz: np.ndarray, model_hz: np.ndarray, weight: np.ndarray) -> str:
+    """The likely cause of measured frequencies far from the model's (``modes``' warning and
+    ``identify``'s refusal): a median measured/model ratio near 1/1000 (1/3000 to 1/300) reads
+    as frequencies written in kHz as bare numbers (bare is Hz); else the things to check.
+
+    measured_hz, model_hz, weight : (n_modes,), Hz (NaN where not measured) and weights.
+    """
+    n = min(measured_hz.size, model_hz.size)
+    x, m, w = measured_hz[:n], model_hz[:n], weight[:n]
+    ok = (w > 0) & np.isfinite(x) & (m > 0)
+    ratio = float(np.median(x[ok] / m[ok])) if ok.any() else np.nan
+    if 1 / 3000 < ratio < 1 / 300:
+        return ("the measured frequencies look like kHz: write them in Hz (a bare number "
+                "is Hz) or with their unit, '0.125 kHz'")
+    return "check the units, the mass/density, the geometry and the initial constants"
 
 
 def modes_summary(fm: ForwardModel, modes: Modes, constants=None) -> dict:

@@ -367,3 +367,22 @@ def test_refused_optimiser_points_are_named_as_the_optimisers_not_trials(monkeyp
                     "region of Eq. 22 (E2 <= E1, |nu12| < 0.95, positive moduli); "
                     f"{'it was' if n == 1 else 'each was'} refused without evaluating the "
                     "model and the search went on inside the region")
+
+
+def test_frequencies_in_khz_get_the_khz_hint_from_identify_as_from_modes(tmp_path):
+    """The same file for both commands: modes warned "look like kHz", identify refused it
+    naming only units, mass/density, geometry and constants."""
+    text = Path("specimens/example1/S1.1.yaml").read_text()
+    khz = "[0.12505, 0.20350, 0.33130, 0.44665, 0.49355, 0.60380, 0.65075, 0.81870, 0.95135, " \
+          "0.99065, 1.25675, 1.34380]"
+    spec = tmp_path / "khz.yaml"
+    spec.write_text(re.sub(r"frequencies: \[[^\]]*\]", f"frequencies: {khz}", text))
+    hint = ("the measured frequencies look like kHz: write them in Hz (a bare number is Hz) or "
+            "with their unit, '0.125 kHz'")
+    r = run("identify", spec, "--mesh", "4x4", "--no-output")
+    assert r.exit_code == 2, r.output
+    assert f"{spec}: measured mode 1 (0.13 Hz) is 84252 % away from the model (105.48 Hz)" \
+        in r.stderr, r.stderr
+    assert r.stderr.rstrip().endswith(f"at the initial guess (limit 50 %): {hint}"), r.stderr
+    r = run("modes", spec, "--mesh", "4x4")
+    assert r.exit_code == 0 and hint in r.stderr
