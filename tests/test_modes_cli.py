@@ -31,7 +31,8 @@ def test_table_shows_model_measured_residuals_and_global_properties():
 def test_json_is_machine_readable_and_consistent():
     r = run("modes", S11, "--mesh", "8x8", "--json", "--modes", "14")
     assert r.exit_code == 0, r.output
-    d = json.loads(r.output)
+    assert "coarse for 14 modes" in r.stderr        # 2025 equations: 145 per mode
+    d = json.loads(r.stdout)
     fr = d["frequencies"]
     assert len(fr["model"]) == 14 and fr["measured"][12] is None and fr["weight"][13] == 0
     m, x = np.array(fr["model"][:12]), np.array(fr["measured"][:12])
@@ -66,7 +67,7 @@ def test_hdf5_output_round_trip_and_no_silent_overwrite(tmp_path):
     d = read_h5(out)
     assert d["@attrs"]["format"] == "laminid-modes"
     assert d["frequencies"]["model"].shape == (12,)
-    assert np.allclose(d["frequencies"]["model"], json.loads(r.output)["frequencies"]["model"])
+    assert np.allclose(d["frequencies"]["model"], json.loads(r.stdout)["frequencies"]["model"])
     assert d["modes"]["w"].shape == (d["mesh"]["nodes"].shape[0], 12)
     assert "45_3/0_3" in d["specimen"]["yaml"]
     before = out.read_bytes()
@@ -239,3 +240,32 @@ def test_a_plate_1000_times_too_light_is_warned_not_refused(tmp_path, caplog):
     assert r.exit_code == 0 and "lighter" not in caplog.text
     real = json.loads(r.stdout)["frequencies"]["model"][0]
     assert light / real == pytest.approx(1000 ** 0.5, rel=1e-9)
+
+
+def _mode1(*args):
+    r = run("modes", S11, "--json", *args)
+    assert r.exit_code == 0, r.output
+    return r, json.loads(r.stdout)["frequencies"]["model"]
+
+
+def test_a_mesh_too_coarse_for_the_modes_asked_is_warned_with_a_finer_one():
+    """modes --mesh 2x2 said nothing although S1.1's mode 1 is 3.8 % off the 12x12 mesh's
+    (105.48 against 101.61 Hz; mode 12 50 % off); it warns now, pointing to a finer mesh and to
+    identify --mesh-check, and the default 12x12 (mode 12 0.17 % off 32x32) does not."""
+    r, coarse = _mode1("--mesh", "2x2")
+    fine_r, fine = _mode1()                                   # the default 12x12
+    assert abs(coarse[0] - fine[0]) / fine[0] > 0.03          # measured: 3.8 %
+    assert (f"warning: {S11}: the mesh 2x2 (189 equations) is coarse for 12 modes: 16 "
+            "equations per mode, fewer than 150, where the highest mode computed is typically "
+            "1 % or more off a converged mesh. Use --mesh 8x8 or finer, and check a mesh with "
+            "'laminid identify --mesh-check'") in r.stderr, r.stderr
+    assert "warning" not in fine_r.stderr
+    # one mode on 2x2 (189 equations): too few elements all the same (mode 1 3.8 % off)
+    r, _ = _mode1("--mesh", "2x2", "--modes", "1")
+    assert "coarse for 1 mode: fewer than 4 elements along a side" in r.stderr
+    assert "Use --mesh 4x4 or finer" in r.stderr
+    # the default mesh holds 28 modes (4329 equations), not 30 (S1.1's mode 30 1.5 % off)
+    assert "coarse" not in _mode1("--modes", "28")[0].stderr
+    r, _ = _mode1("--modes", "30")
+    assert "the mesh 12x12 (4329 equations) is coarse for 30 modes: 144 equations" in r.stderr
+    assert "coarse" not in _mode1("--mesh", "8x8")[0].stderr   # 169 per mode, mode 12 0.8 %
