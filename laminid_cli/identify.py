@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from laminid_cli.errors import FitInputError, LaminidError
-from laminid_cli.forward import ForwardModel, residuals_percent, weighted_rms
+from laminid_cli.forward import ForwardModel, far_cause, residuals_percent, weighted_rms
 from laminid_cli.material import CONSTANT_NAMES, ElasticConstants, alphas_from_constants
 from laminid_cli.modal import WORK, Modes
 from laminid_cli.objective import (ErrorBound, Evaluation, HistoryRow, MeasuredData,  # noqa: F401
@@ -543,8 +543,8 @@ def check_start(plate: PlateTerm, ev: Evaluation, far_limit: float) -> list[str]
         raise FitInputError(
             f"{d.source}: measured mode {i + 1} ({d.freq[i]:.2f} Hz) is "
             f"{ratio[i] * 100:.0f} % away from the model ({f_model[i]:.2f} Hz) at the initial "
-            f"guess (limit {far_limit * 100:.0f} %): check the units, the mass/"
-            "density, the geometry and the initial constants")
+            f"guess (limit {far_limit * 100:.0f} %): "
+            f"{far_cause(d.freq, f_model, d.weight)}")
     warnings = [f"measured mode {i + 1} is {ratio[i] * 100:.0f} % from the model at the start"
                 for i in np.flatnonzero(ok & (ratio > 0.25))]
     spec = plate.fm.specimen

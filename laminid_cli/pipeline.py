@@ -272,6 +272,9 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
     summary.update(status.as_dict())
     if notes:
         summary["notes"] = list(notes)
+    from laminid_cli.units import json_units
+
+    summary["units"] = json_units(summary)
     return IdentificationRun(options=options, forward_models=fms, assessment=a, status=status,
                              damping=damping, summary=summary, notes=tuple(notes),
                              mesh_check=mesh_check)

@@ -72,6 +72,19 @@ THICKNESS_TOLERANCE = 0.005
 MAX_THICKNESS_SCALE = 1.5
 #: a stacking code may not expand to more plies than this
 MAX_PLIES = 2000
+#: a plate whose mean density (model mass / (a b h), kg/m^3) is below this is warned about as
+#: a likely unit slip (it is still computed: units.PLAUSIBLE refuses only below 1 kg/m^3).
+#: Solid plates weigh 900 (polypropylene) to 19300 (tungsten) kg/m^3, composite laminates 1400-
+#: 2100; a mass 1000 times too small (grams as kg) makes them 0.9-19 kg/m^3, a side in inches
+#: for mm (25.4 times too large) 55-83 kg/m^3 for a carbon or glass laminate. A sandwich panel
+#: modelled as one plate is lighter than a laminate but seldom below 100 (2 x 0.5 mm CFRP skins
+#: on 10 mm of 48 kg/m^3 honeycomb: 184 kg/m^3); only a thick foam-cored one with very thin
+#: skins gets there (0.25 mm skins on 25 mm of 32 kg/m^3 foam: 63 kg/m^3), and is warned about
+LIGHT_PLATE_DENSITY = 100.0
+#: a ply material of a plate of several materials lighter than this (kg/m^3) is warned about:
+#: the lightest structural cores are 24 (Nomex honeycomb) and 32 (PMI foam) kg/m^3, while a ply
+#: density 1000 times too small (g/cm^3 written as kg/m^3) is 0.9-19 kg/m^3
+LIGHT_MATERIAL_DENSITY = 20.0
 
 _TOP_KEYS = ("name", "description", "geometry", "mass", "materials", "layup", "plies",
              "ply_thickness", "scale_thickness", "scale_density_to_mass", "boundary", "measured",
@@ -1226,7 +1239,76 @@ def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
         if abs(model - mass) > 0.02 * mass:
             log.warning("%s: the model mass %.4g kg differs from the measured mass %.4g kg by "
                         "%.1f %%", path, model, mass, 100 * (model - mass) / mass)
+    for line, field_name, message in light_plate_warnings(specimen, top):
+        log.warning("%s:%s, field '%s': %s", path, line, field_name, message)
     return specimen
+
+
+def light_plate_warnings(spec: Specimen, top: dict | None = None) -> list[tuple]:
+    """Densities too light for a solid plate (:data:`LIGHT_PLATE_DENSITY`,
+    :data:`LIGHT_MATERIAL_DENSITY`): (line or None, field, words) per warning, with the density,
+    the values it came from and the likely unit slip. ``top`` is the file's top-level mapping
+    (for the lines); empty when every density is plausible."""
+    top = top or {}
+    dims = f"{spec.a * 1e3:.4g} x {spec.b * 1e3:.4g} x {spec.h * 1e3:.4g} mm"
+    derived = [n for n, m in spec.materials.items() if m.density != spec.densities[n]]
+    mean = spec.model_mass / (spec.a * spec.b * spec.h)
+    out = []
+
+    def material_line(name):
+        y = top.get("materials")
+        y = y.value.get(name) if y is not None and isinstance(y.value, dict) else None
+        y = y.value.get("density") if y is not None and isinstance(y.value, dict) else None
+        return y.line if y is not None else None
+
+    if mean < LIGHT_PLATE_DENSITY:
+        limit = (f"lighter than any solid plate (below {LIGHT_PLATE_DENSITY:g} kg/m^3; only a "
+                 "foam-cored sandwich with very thin skins comes near)")
+        if derived:
+            written = top["mass"].value if "mass" in top else None
+            shown = (f"{written!r} = {spec.mass:.4g} kg" if isinstance(written, str)
+                     else f"{spec.mass:.4g} kg")
+            words = (f"the plate's density, mass / (a b h) = {shown} / ({dims}), is "
+                     f"{mean:.4g} kg/m^3, {limit}: "
+                     + _light_slip(mean, "a mass 1000 times too small (a value in kg written "
+                                         "with the unit g, or grams as kg)", "a, b or h"))
+            out.append((top["mass"].line if "mass" in top else None, "mass", words))
+        else:
+            name = min(spec.materials, key=lambda n: spec.densities[n])
+            rho = spec.densities[name]
+            plate = ("" if len(spec.materials) == 1 else
+                     f" and the plate's mean density (model mass {spec.model_mass:.4g} kg over "
+                     f"{dims}) {mean:.4g} kg/m^3")
+            words = (f"material '{name}' has a density of {rho:.4g} kg/m^3{plate}, {limit}: "
+                     + _light_slip(rho, "a density in g/cm^3 written as a bare number or as "
+                                        "kg/m^3 (a bare number is kg/m^3)", None))
+            out.append((material_line(name), f"materials.{name}.density", words))
+        return out
+    if len(spec.materials) > 1:
+        for name, rho in spec.densities.items():
+            if rho >= LIGHT_MATERIAL_DENSITY:
+                continue
+            words = (f"material '{name}' has a density of {rho:.4g} kg/m^3, lighter than any "
+                     f"ply or core material (below {LIGHT_MATERIAL_DENSITY:g} kg/m^3): "
+                     + _light_slip(rho, "a density in g/cm^3 written as a bare number or as "
+                                        "kg/m^3 (a bare number is kg/m^3)" if name not in derived
+                                   else "its density_ratio or density wrong", None))
+            field_name = f"materials.{name}.density"
+            out.append((material_line(name), field_name, words))
+    return out
+
+
+def _light_slip(rho: float, thousand: str, sides: str | None) -> str:
+    """The likely slip behind a density ``rho`` (kg/m^3) too light for a plate: ``thousand``
+    when 1000 times it is a solid's density, a side in inches for mm when 25.4 times it is
+    (``sides``: what holds the lengths, None when the density is not computed from them)."""
+    solid = (500.0, 25000.0)
+    if solid[0] <= 1000 * rho <= solid[1]:
+        also = (f", or {sides} 1000 times too large (m for mm)" if sides else "")
+        return f"{thousand}{also}? 1000 times it is {1000 * rho:.4g} kg/m^3"
+    if sides and solid[0] <= 25.4 * rho <= solid[1]:
+        return f"{sides} in inches where it is mm? 25.4 times it is {25.4 * rho:.4g} kg/m^3"
+    return "check the number and its unit"
 
 
 #: leading bytes of files a specimen path is sometimes given by mistake: what they are, and

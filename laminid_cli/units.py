@@ -7,7 +7,9 @@ A bare number is taken in the base unit of its kind:
 kind          base unit   accepted units
 ============  ==========  ======================================================
 length        m           m, cm, mm, um (µm), in
-modulus       Pa          Pa, kPa, MPa, GPa, psi, ksi, Msi   (alias: pressure)
+modulus       Pa          Pa, kPa, MPa, GPa, N/mm^2 (= MPa), kN/mm^2 (= GPa), MN/m^2
+                          (= MPa), psi, ksi, Msi (1 Msi = 6.894757 GPa); also N/m^2,
+                          kN/m^2, GN/m^2, and "2" or "²" for "^2"   (alias: pressure, stress)
 mass          kg          kg, g, lb
 density       kg/m^3      kg/m^3 (kg/m3, kg/m³), g/cm^3 (g/cm3, g/cm³)
 frequency     Hz          Hz, kHz
@@ -42,13 +44,26 @@ from dataclasses import dataclass
 from laminid_cli.errors import SpecimenError
 
 _PSI = 6894.757293168361  # Pa, exact from the international pound and inch
+# (1 lbf = 0.45359237 kg x 9.80665 m/s^2, 1 in = 0.0254 m: NIST SP 811, Appendix B.8;
+# 1 Msi = 6.894757 GPa, the unit US labs quote moduli in)
+#: stress units written as force per area (SI, exact: 1 N/mm^2 = 1 MPa, 1 kN/mm^2 = 1 GPa,
+#: 1 MN/m^2 = 1 MPa, 1 GN/m^2 = 1 GPa, 1 N/m^2 = 1 Pa; BIPM SI Brochure, 9th ed., Table 4),
+#: each also with "2" for "^2" (NFKC makes "²" a "2": "N/mm²" reads as "N/mm2")
+_FORCE_PER_AREA = {f"{force}/{area}{power}": factor
+                   for force, area, factor in (("N", "mm", 1e6), ("kN", "mm", 1e9),
+                                               ("N", "m", 1.0), ("kN", "m", 1e3),
+                                               ("MN", "m", 1e6), ("GN", "m", 1e9))
+                   for power in ("^2", "2")}
 
 #: unit -> factor to the base unit, per kind; the first unit of each kind is the base unit
 UNITS: dict[str, dict[str, float]] = {
     "length": {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "μm": 1e-6,
                "in": 0.0254},
-    "modulus": {"Pa": 1.0, "kPa": 1e3, "MPa": 1e6, "GPa": 1e9, "psi": _PSI, "ksi": 1e3 * _PSI,
-                "Msi": 1e6 * _PSI, "mPa": 1e-3},
+    "modulus": {"Pa": 1.0, "kPa": 1e3, "MPa": 1e6, "GPa": 1e9, **_FORCE_PER_AREA,
+                "psi": _PSI, "ksi": 1e3 * _PSI, "Msi": 1e6 * _PSI, "mPa": 1e-3,
+                # millinewton spellings, so that "mn/m^2" is ambiguous (as "mpa") rather than
+                # read as MN/m^2; refused afterwards as implausible, as mPa
+                "mN/m^2": 1e-3, "mN/m2": 1e-3},
     "mass": {"kg": 1.0, "g": 1e-3, "lb": 0.45359237},
     "density": {"kg/m^3": 1.0, "kg/m3": 1.0, "kg/m³": 1.0, "g/cm^3": 1e3, "g/cm3": 1e3,
                 "g/cm³": 1e3},
@@ -61,7 +76,9 @@ _ALIASES = {"pressure": "modulus", "stress": "modulus", "ratio": "dimensionless"
 DISPLAY_UNITS = {"length": "mm", "modulus": "GPa", "mass": "kg", "density": "kg/m^3",
                  "frequency": "Hz", "angle": "deg", "dimensionless": ""}
 # units that are spellings of another one, left out of "accepted units" lists
-_SPELLINGS = {"µm", "μm", "kg/m3", "kg/m³", "g/cm3", "g/cm³", "°", "mPa", "mHz", "MHz"}
+_SPELLINGS = {"µm", "μm", "kg/m3", "kg/m³", "g/cm3", "g/cm³", "°", "mPa", "mHz", "MHz",
+              "mN/m^2", "mN/m2", "N/m^2", "N/m2", "kN/m^2", "kN/m2", "GN/m^2", "GN/m2",
+              *(u for u in _FORCE_PER_AREA if u.endswith("/mm2") or u.endswith("/m2"))}
 
 #: (low, high) in the base unit: a positive value of these kinds outside the range is refused
 #: (plates of polymers to diamond, 10 um to 100 m, 1 mg to 10 t, aerogel to osmium, 1 uHz (a sigma) to 10 MHz)
@@ -275,3 +292,48 @@ def format_quantity(value: float, kind: str, digits: int = 4) -> str:
     unit = DISPLAY_UNITS[kind]
     number = value / UNITS[kind][unit] if unit else value
     return f"{number:.{digits}g} {unit}".rstrip()
+
+
+#: the unit of each numeric field of a ``--json`` document (modes, identify, show) by the
+#: field's name, wherever it appears: SI throughout (frequencies Hz, moduli Pa, lengths m, mass
+#: kg); a block's name (``frequencies``) gives the unit of its lists that have no entry of their
+#: own; the fields of a constant's, a property's or a loss factor's block (``value``,
+#: ``lower``, ...) are in the unit of that quantity. Counts, indices, flags and text have none.
+JSON_UNITS: dict[str, str] = {
+    "a": "m", "b": "m", "h": "m", "mass": "kg", "model_mass": "kg", "density": "kg/m^3",
+    **{k: "Pa" for k in ("E1", "E2", "G12", "G13", "G23", "Ex", "Ey", "Gxy", "Gxz", "Gyz")},
+    "nu12": "1", "nu_xy": "1", "nu_yx": "1",
+    **{f"eta{k}": "1 (loss factor, eta = 2 zeta)" for k in ("11", "22", "12", "13", "23")},
+    "frequencies": "Hz", "measured": "Hz", "model": "Hz", "sigma_hz": "Hz", "freq_hz": "Hz",
+    "fine_hz": "Hz",
+    "weight": "1", "residual_percent": "%", "rms_residual_percent": "%",
+    "initial_rms_residual_percent": "%", "change_percent": "%", "shift_percent": "%",
+    "change_sigma": "frequency sigma of the mode", "shift_half_width": "95 % half-width of the "
+    "constant", "error_bound": "1 (relative eigenvalue error)", "time_s": "s",
+    **{k: "unit of the quantity it belongs to" for k in (
+        "value", "std", "std_stated", "lower", "upper", "half_width", "bound_limit",
+        "profile_bound", "profile_far", "mean", "inner_lower", "inner_upper", "linearized_std",
+        "shift")},
+    "rel_half_width": "1 (fraction of the value)", "sigma_rel": "1 (fraction of the frequency)",
+    "covariance": "product of the units of its row's and column's labels (Pa^2, Pa, 1)",
+    "correlation": "1", "dlnf_dlnP": "1",
+}
+
+
+def json_units(document: dict) -> dict[str, str]:
+    """The ``units`` object of a ``--json`` document: :data:`JSON_UNITS` for the field names
+    that occur in ``document`` (at any depth), in the order of :data:`JSON_UNITS`.
+
+    >>> json_units({"frequencies": {"model": [105.5]}, "specimen": {"a": 0.21}})
+    {'a': 'm', 'frequencies': 'Hz', 'model': 'Hz'}
+    """
+    names: set[str] = set()
+    stack = [document]
+    while stack:
+        obj = stack.pop()
+        if isinstance(obj, dict):
+            names.update(str(k) for k, v in obj.items() if k != "units")
+            stack.extend(v for k, v in obj.items() if k != "units")
+        elif isinstance(obj, (list, tuple)):
+            stack.extend(v for v in obj if isinstance(v, (dict, list, tuple)))
+    return {k: u for k, u in JSON_UNITS.items() if k in names}

@@ -478,6 +478,22 @@ def test_frequencies_far_from_the_model_at_the_initial_guess():
         identify(fm)
 
 
+def test_frequencies_in_khz_are_refused_with_the_khz_hint():
+    """S1.1's frequencies written in kHz as bare numbers (bare is Hz): identify refused them
+    with "check the units, the mass/density, the geometry and the initial constants" while
+    modes said they look like kHz; both say it now (forward.far_cause)."""
+    fm = plain_specimen(freq=[f / 1000 for f in FREQ_S11])
+    with pytest.raises(FitError, match=r"measured mode 1 \(0\.13 Hz\) is 8\d{4} % away from "
+                       r"the model \(105\.\d\d Hz\) at the initial guess \(limit 50 %\): the "
+                       r"measured frequencies look like kHz: write them in Hz \(a bare number "
+                       r"is Hz\) or with their unit, '0\.125 kHz'\Z"):
+        identify(fm)
+    # 2.2 times (a wrong density, not kHz): the things to check, no kHz
+    with pytest.raises(FitError, match=r"\(limit 50 %\): check the units, the mass/density, "
+                       r"the geometry and the initial constants\Z"):
+        identify(plain_specimen(freq=[2.2 * f for f in FREQ_S11]))
+
+
 def test_unknown_constant_in_fix():
     fm = plain_specimen()
     with pytest.raises(FitError, match=r"--fix E3: 'E3' is not a constant; choose from E1, E2"):

@@ -37,6 +37,23 @@ def test_json_has_the_documented_keys_in_si(s21_result):
     assert set(d["global_properties"]) >= {"Ex", "Ey", "Gxy", "Gxz", "Gyz", "nu_xy", "nu_yx"}
 
 
+def test_json_says_the_unit_of_every_number(s21_result):
+    """identify --json gave E1 2.87e10, a 0.2, sigma_hz, covariance 1e18 ... with no unit
+    anywhere; "units" names them by field (as modes --json and show --json)."""
+    d, _ = s21_result
+    u = d["units"]
+    assert {k: u[k] for k in ("a", "h", "mass", "E1", "G23", "nu12", "Ex", "nu_xy",
+                              "frequencies", "measured", "model", "sigma_hz",
+                              "residual_percent", "time_s")} == {
+        "a": "m", "h": "m", "mass": "kg", "E1": "Pa", "G23": "Pa", "nu12": "1", "Ex": "Pa",
+        "nu_xy": "1", "frequencies": "Hz", "measured": "Hz", "model": "Hz", "sigma_hz": "Hz",
+        "residual_percent": "%", "time_s": "s"}
+    assert u["lower"] == u["upper"] == u["std"] == "unit of the quantity it belongs to"
+    assert u["covariance"].startswith("product of the units")
+    assert "model_mass" not in u and "density" not in u       # not in identify's document
+    assert d["uncertainty"]["constants"]["E-glass/R368"]["E1"]["lower"] > 1e10   # Pa indeed
+
+
 def test_hdf5_result_is_self_describing_and_matches_json(s21_result):
     d, out = s21_result
     h = read_h5(out)
@@ -350,3 +367,22 @@ def test_refused_optimiser_points_are_named_as_the_optimisers_not_trials(monkeyp
                     "region of Eq. 22 (E2 <= E1, |nu12| < 0.95, positive moduli); "
                     f"{'it was' if n == 1 else 'each was'} refused without evaluating the "
                     "model and the search went on inside the region")
+
+
+def test_frequencies_in_khz_get_the_khz_hint_from_identify_as_from_modes(tmp_path):
+    """The same file for both commands: modes warned "look like kHz", identify refused it
+    naming only units, mass/density, geometry and constants."""
+    text = Path("specimens/example1/S1.1.yaml").read_text()
+    khz = "[0.12505, 0.20350, 0.33130, 0.44665, 0.49355, 0.60380, 0.65075, 0.81870, 0.95135, " \
+          "0.99065, 1.25675, 1.34380]"
+    spec = tmp_path / "khz.yaml"
+    spec.write_text(re.sub(r"frequencies: \[[^\]]*\]", f"frequencies: {khz}", text))
+    hint = ("the measured frequencies look like kHz: write them in Hz (a bare number is Hz) or "
+            "with their unit, '0.125 kHz'")
+    r = run("identify", spec, "--mesh", "4x4", "--no-output")
+    assert r.exit_code == 2, r.output
+    assert f"{spec}: measured mode 1 (0.13 Hz) is 84252 % away from the model (105.48 Hz)" \
+        in r.stderr, r.stderr
+    assert r.stderr.rstrip().endswith(f"at the initial guess (limit 50 %): {hint}"), r.stderr
+    r = run("modes", spec, "--mesh", "4x4")
+    assert r.exit_code == 0 and hint in r.stderr

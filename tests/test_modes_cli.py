@@ -1,6 +1,7 @@
 """`laminid modes` end to end through click."""
 
 import json
+import logging
 import re
 from pathlib import Path
 
@@ -30,13 +31,33 @@ def test_table_shows_model_measured_residuals_and_global_properties():
 def test_json_is_machine_readable_and_consistent():
     r = run("modes", S11, "--mesh", "8x8", "--json", "--modes", "14")
     assert r.exit_code == 0, r.output
-    d = json.loads(r.output)
+    assert "coarse for 14 modes" in r.stderr        # 2025 equations: 145 per mode
+    d = json.loads(r.stdout)
     fr = d["frequencies"]
     assert len(fr["model"]) == 14 and fr["measured"][12] is None and fr["weight"][13] == 0
     m, x = np.array(fr["model"][:12]), np.array(fr["measured"][:12])
     assert np.allclose(fr["residual_percent"][:12], (x - m) / x * 100)
     assert d["global_properties"]["Ex"] == pytest.approx(d["global_properties"]["Ey"], rel=1e-9)
     assert d["materials"]["IM7/977-2"]["E1"] == 117.2e9
+
+
+def test_json_says_the_unit_of_every_number():
+    """modes --json gave a = 0.2105, E1 1.172e11, mass 0.3225, frequencies 105.5 ... and no
+    word of their units (a program had to know laminid is SI); "units" now names them, the
+    existing keys unchanged."""
+    r = run("modes", S11, "--mesh", "4x4", "--json")
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.stdout)
+    assert d["units"] == {
+        "a": "m", "b": "m", "h": "m", "mass": "kg", "model_mass": "kg", "density": "kg/m^3",
+        "E1": "Pa", "E2": "Pa", "G12": "Pa", "G13": "Pa", "G23": "Pa", "Ex": "Pa", "Ey": "Pa",
+        "Gxy": "Pa", "Gxz": "Pa", "Gyz": "Pa", "nu12": "1", "nu_xy": "1", "nu_yx": "1",
+        "frequencies": "Hz", "measured": "Hz", "model": "Hz", "weight": "1",
+        "residual_percent": "%", "rms_residual_percent": "%", "time_s": "s"}
+    assert list(d)[:-1] == ["specimen", "mesh", "materials", "frequencies",
+                            "rms_residual_percent", "global_properties", "time_s"]
+    assert d["specimen"]["a"] == 0.2105 and d["frequencies"]["measured"][0] == 125.05
+    assert d["materials"]["IM7/977-2"]["density"] == pytest.approx(1609.9, rel=1e-4)
 
 
 def test_hdf5_output_round_trip_and_no_silent_overwrite(tmp_path):
@@ -46,7 +67,7 @@ def test_hdf5_output_round_trip_and_no_silent_overwrite(tmp_path):
     d = read_h5(out)
     assert d["@attrs"]["format"] == "laminid-modes"
     assert d["frequencies"]["model"].shape == (12,)
-    assert np.allclose(d["frequencies"]["model"], json.loads(r.output)["frequencies"]["model"])
+    assert np.allclose(d["frequencies"]["model"], json.loads(r.stdout)["frequencies"]["model"])
     assert d["modes"]["w"].shape == (d["mesh"]["nodes"].shape[0], 12)
     assert "45_3/0_3" in d["specimen"]["yaml"]
     before = out.read_bytes()
@@ -195,3 +216,56 @@ def test_a_single_ply_plate_is_one_ply(tmp_path):
     assert r.exit_code == 0, r.output
     assert "plate 300 x 200 x 3 mm, 1 ply, mass 0.486 kg (model 0.486 kg)" in r.stdout
     assert "plies" not in r.stdout
+
+
+def test_a_plate_1000_times_too_light_is_warned_not_refused(tmp_path, caplog):
+    """An aluminium plate of 486 g written 'mass: 0.486 g' (2.7 kg/m^3, inside the accepted
+    1-25000 kg/m^3): modes printed a first mode of 5192 Hz (the plate's 164.2 Hz times
+    sqrt(1000)) without a word when no frequencies were measured."""
+    spec = tmp_path / "alu.yaml"
+    spec.write_text("geometry: {a: 300 mm, b: 200 mm, h: 3 mm}\nmass: 0.486 g\n"
+                    "materials: {Al: {E: 70 GPa, nu: 0.3}}\nlayup: '[0]'\n")
+    with caplog.at_level(logging.WARNING, logger="laminid_cli"):   # (stderr: the CLI's handler)
+        r = run("modes", str(spec), "--mesh", "4x4", "--json")
+    assert r.exit_code == 0, r.output
+    assert (f"{spec}:2, field 'mass': the plate's density, mass / (a b h) = '0.486 g' = "
+            "0.000486 kg / (300 x 200 x 3 mm), is 2.7 kg/m^3, lighter than any solid plate"
+            in caplog.text), caplog.text
+    assert "1000 times it is 2700 kg/m^3" in caplog.text
+    light = json.loads(r.stdout)["frequencies"]["model"][0]
+    spec.write_text(spec.read_text().replace("0.486 g", "486 g"))
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="laminid_cli"):
+        r = run("modes", str(spec), "--mesh", "4x4", "--json")
+    assert r.exit_code == 0 and "lighter" not in caplog.text
+    real = json.loads(r.stdout)["frequencies"]["model"][0]
+    assert light / real == pytest.approx(1000 ** 0.5, rel=1e-9)
+
+
+def _mode1(*args):
+    r = run("modes", S11, "--json", *args)
+    assert r.exit_code == 0, r.output
+    return r, json.loads(r.stdout)["frequencies"]["model"]
+
+
+def test_a_mesh_too_coarse_for_the_modes_asked_is_warned_with_a_finer_one():
+    """modes --mesh 2x2 said nothing although S1.1's mode 1 is 3.8 % off the 12x12 mesh's
+    (105.48 against 101.61 Hz; mode 12 50 % off); it warns now, pointing to a finer mesh and to
+    identify --mesh-check, and the default 12x12 (mode 12 0.17 % off 32x32) does not."""
+    r, coarse = _mode1("--mesh", "2x2")
+    fine_r, fine = _mode1()                                   # the default 12x12
+    assert abs(coarse[0] - fine[0]) / fine[0] > 0.03          # measured: 3.8 %
+    assert (f"warning: {S11}: the mesh 2x2 (189 equations) is coarse for 12 modes: 16 "
+            "equations per mode, fewer than 150, where the highest mode computed is typically "
+            "1 % or more off a converged mesh. Use --mesh 8x8 or finer, and check a mesh with "
+            "'laminid identify --mesh-check'") in r.stderr, r.stderr
+    assert "warning" not in fine_r.stderr
+    # one mode on 2x2 (189 equations): too few elements all the same (mode 1 3.8 % off)
+    r, _ = _mode1("--mesh", "2x2", "--modes", "1")
+    assert "coarse for 1 mode: fewer than 4 elements along a side" in r.stderr
+    assert "Use --mesh 4x4 or finer" in r.stderr
+    # the default mesh holds 28 modes (4329 equations), not 30 (S1.1's mode 30 1.5 % off)
+    assert "coarse" not in _mode1("--modes", "28")[0].stderr
+    r, _ = _mode1("--modes", "30")
+    assert "the mesh 12x12 (4329 equations) is coarse for 30 modes: 144 equations" in r.stderr
+    assert "coarse" not in _mode1("--mesh", "8x8")[0].stderr   # 169 per mode, mode 12 0.8 %

@@ -65,6 +65,24 @@ def test_show_json_is_identify_json_plus_file_and_written(tmp_path):
     assert s["materials"]["IM7/977-2"]["E1"] == pytest.approx(float(e1), rel=1e-12)
 
 
+def test_show_json_of_a_file_written_before_units_gets_them(single):
+    """A result written before identify --json had "units" (its /summary_json without them):
+    show --json gives them, the same as identify's now."""
+    out, _ = single
+    fresh = json.loads(run("show", out, "--json").stdout)
+    assert fresh["units"]["E1"] == "Pa" and fresh["units"]["frequencies"] == "Hz"
+    old_file = out.with_name("old.result.h5")
+    old_file.write_bytes(out.read_bytes())
+    with h5py.File(old_file, "r+") as f:
+        old = json.loads(f["summary_json"][()])
+        del old["units"]
+        del f["summary_json"]
+        f.create_dataset("summary_json", data=json.dumps(old))
+    s = json.loads(run("show", old_file, "--json").stdout)
+    assert s["units"] == fresh["units"]
+    assert list(s)[-3:] == ["units", "file", "written"]
+
+
 def test_show_of_a_reference_range_and_of_an_old_file_that_stored_its_midpoint(tmp_path):
     """A reference range is shown as identify shows it ([low, high] in --json, "low .. high"
     on the terminal). A file of an earlier laminid stored the range's midpoint in its summary

@@ -43,6 +43,17 @@ def load(rel: str):
     ("10 ksi", "modulus", 68947572.93168361),
     ("1 Msi", "modulus", 6894757293.168361),
     ("1e9", "modulus", 1e9),
+    # force per area, as composites labs write moduli (exact SI factors)
+    ("117200 N/mm^2", "modulus", 117.2e9),
+    ("117200 N/mm2", "modulus", 117.2e9),
+    ("117200 N/mm²", "modulus", 117.2e9),
+    ("117200 n/mm^2", "modulus", 117.2e9),
+    ("117.2 kN/mm^2", "modulus", 117.2e9),
+    ("117200 MN/m^2", "modulus", 117.2e9),
+    ("117.2 GN/m^2", "modulus", 117.2e9),
+    ("3e6 N/m^2", "stress", 3e6),
+    ("17 Msi", "modulus", 117.2108739838621e9),
+    ("500 psi", "pressure", 3447378.6465841806),
     ("0.3225 kg", "mass", 0.3225),
     ("322.5 g", "mass", 0.3225),
     ("1 lb", "mass", 0.45359237),
@@ -68,6 +79,9 @@ def test_parse_quantity(value, kind, expected):
     ("3.06 GPa", "length", ["is a modulus, not a length", "mm", "in"]),
     ("3 furlong", "length", ["unknown unit 'furlong'", "m, cm, mm, um, in"]),
     ("3 mm", "modulus", ["is a length", "GPa", "psi", "Msi"]),
+    ("3 N/cm^2", "modulus", ["unknown unit 'N/cm^2'", "GPa, N/mm^2, kN/mm^2, MN/m^2, psi, ksi, "
+                             "Msi (a bare number is Pa)"]),
+    ("117200 mn/m^2", "modulus", ["unit 'mn/m^2' in '117200 mn/m^2' is ambiguous"]),
     ("1 Hz", "mass", ["is a frequency", "kg, g, lb"]),
     ("1 kg", "density", ["is a mass", "kg/m^3", "g/cm^3"]),
     ("5 deg", "frequency", ["'5 deg' is an angle, not a frequency", "Hz, kHz"]),
@@ -90,6 +104,20 @@ def test_parse_quantity_errors_list_accepted_units(value, kind, words):
     assert msg.startswith("plate.yaml:7, field 'geometry.a': ")
     for word in words:
         assert word in msg
+
+
+def test_a_modulus_in_n_per_mm2_reads_as_in_gpa():
+    """A ply written in N/mm^2 and kN/mm^2 (as European labs write moduli) was refused with
+    "unknown unit 'N/mm^2'"; it is the same ply as in GPa."""
+    text = (ROOT / "specimens/example1/S1.1.yaml").read_text()
+    lab = (text.replace("E1: 117.2 GPa", "E1: 117200 N/mm^2")
+           .replace("E2: 8.8 GPa", "E2: 8.8 kN/mm2").replace("G12: 3.1 GPa", "G12: 3100 N/mm²")
+           .replace("G13: 3.1 GPa", "G13: 3100 MN/m^2"))
+    assert lab.count("GPa") == text.count("GPa") - 4
+    ours = load_specimen_text(lab).materials["IM7/977-2"].constants
+    paper_ = load_specimen_text(text).materials["IM7/977-2"].constants
+    assert ours == paper_
+    assert ours.E1 == 117.2e9 and ours.E2 == 8.8e9 and ours.G12 == 3.1e9 and ours.G13 == 3.1e9
 
 
 def test_format_quantity():
@@ -519,6 +547,60 @@ def test_isotropic_material_by_e_and_nu():
 ])
 def test_bad_isotropic_material(tmp_path, old, new, field, words):
     bad(tmp_path, edit(ALUMINIUM, old, new), 4, field, *words)
+
+
+def light_warnings(caplog, text):
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="laminid_cli.specimen"):
+        spec = load_specimen_text(text, "plate.yaml")
+    return spec, [r.getMessage() for r in caplog.records if "lighter than" in r.getMessage()]
+
+
+def test_a_mass_or_density_1000_times_too_small_is_warned_with_the_likely_slip(caplog):
+    """A 300 x 200 x 3 mm aluminium plate weighed 486 g and written 'mass: 0.486 g' gives
+    2.7 kg/m^3, inside the accepted 1-25000 kg/m^3: modes computed it without a word (frequencies
+    sqrt(1000) = 31.6 times the real plate's)."""
+    spec, msg = light_warnings(caplog, edit(ALUMINIUM, "mass: 486 g", "mass: 0.486 g"))
+    assert spec.densities["Al"] == pytest.approx(2.7, rel=1e-12)      # still computed
+    assert msg == ["plate.yaml:2, field 'mass': the plate's density, mass / (a b h) = "
+                   "'0.486 g' = 0.000486 kg / (300 x 200 x 3 mm), is 2.7 kg/m^3, lighter than "
+                   "any solid plate (below 100 kg/m^3; only a foam-cored sandwich with very "
+                   "thin skins comes near): a mass 1000 times too small (a value in kg written "
+                   "with the unit g, or grams as kg), or a, b or h 1000 times too large (m for "
+                   "mm)? 1000 times it is 2700 kg/m^3"]
+    # a bare density in g/cm^3 (a bare number is kg/m^3)
+    _, msg = light_warnings(caplog, edit(ALUMINIUM, "nu: 0.3}", "nu: 0.3, density: 2.7}")
+                            .replace("mass: 486 g\n", ""))
+    assert msg == ["plate.yaml:3, field 'materials.Al.density': material 'Al' has a density of "
+                   "2.7 kg/m^3, lighter than any solid plate (below 100 kg/m^3; only a "
+                   "foam-cored sandwich with very thin skins comes near): a density in g/cm^3 "
+                   "written as a bare number or as kg/m^3 (a bare number is kg/m^3)? 1000 times "
+                   "it is 2700 kg/m^3"]
+    # h in inches where it is mm: 25.4 times too thick, 106 kg/m^3 for aluminium (not warned)
+    # and 63.4 kg/m^3 for S1.1's carbon plate
+    s11 = (ROOT / "specimens/example1/S1.1.yaml").read_text()
+    _, msg = light_warnings(caplog, edit(s11, "h: 3.06 mm", "h: 3.06 in"))
+    assert len(msg) == 1 and "(210.5 x 311 x 77.72 mm), is 63.38 kg/m^3" in msg[0], msg
+    assert msg[0].endswith("a, b or h in inches where it is mm? 25.4 times it is 1610 kg/m^3")
+    # one material of a hybrid: the plate's mean 1300 kg/m^3 is fine, carbon's 1.55 is not
+    text = edit(edit(HYBRID, "density_ratio: 1.95", "density: 1950 kg/m^3"),
+                "density_ratio: 1.55", "density: 1.55")
+    _, msg = light_warnings(caplog, text)
+    assert msg == ["plate.yaml:7, field 'materials.carbon.density': material 'carbon' has a "
+                   "density of 1.55 kg/m^3, lighter than any ply or core material (below "
+                   "20 kg/m^3): a density in g/cm^3 written as a bare number or as kg/m^3 (a bare "
+                   "number is kg/m^3)? 1000 times it is 1550 kg/m^3"]
+
+
+@pytest.mark.parametrize("path", sorted(str(p.relative_to(ROOT)) for p in
+                                        ROOT.glob("specimens/*/*.yaml")))
+def test_shipped_specimens_and_real_plates_are_not_light(caplog, path):
+    assert light_warnings(caplog, (ROOT / path).read_text())[1] == []
+    assert light_warnings(caplog, ALUMINIUM)[1] == []          # 2700 kg/m^3
+    # a foam-core sandwich as one plate: 2 x 0.5 mm skins on 10 mm of 48 kg/m^3 core, 184 kg/m^3
+    sandwich = edit(edit(ALUMINIUM, "mass: 486 g", "mass: 121.4 g"), "h: 3 mm", "h: 11 mm")
+    spec, msg = light_warnings(caplog, sandwich)
+    assert msg == [] and spec.densities["Al"] == pytest.approx(183.9, rel=1e-3)
 
 
 @pytest.mark.parametrize("old, new, warned", [

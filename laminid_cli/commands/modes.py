@@ -43,7 +43,8 @@ def modes(spec, mesh, n_modes, boundary, as_json, output, force):
     import numpy as np
 
     from laminid_cli.fe.assembly import boundary_code
-    from laminid_cli.forward import build_forward_model, far_from_model, modes_summary
+    from laminid_cli.forward import (build_forward_model, coarse_mesh, far_from_model,
+                                     modes_summary)
     from laminid_cli.specimen import read_specimen
 
     out = check_output_path(output, force, inputs=[spec])
@@ -53,6 +54,9 @@ def modes(spec, mesh, n_modes, boundary, as_json, output, force):
     fm = build_forward_model(specimen, parse_mesh(mesh), boundary=boundary)
     if n_modes is None:
         n_modes = specimen.measured.freq.size if specimen.measured is not None else 12
+    coarse = coarse_mesh(fm, n_modes)
+    if coarse is not None:
+        click.echo(f"warning: {spec}: {coarse}", err=True)
     result = fm.solve(n_modes=n_modes)
     summary = modes_summary(fm, result)
     summary["time_s"] = time.perf_counter() - t0
@@ -68,7 +72,9 @@ def modes(spec, mesh, n_modes, boundary, as_json, output, force):
         write_modes_file(out, fm, result, summary)
         summary["output"] = str(out)
     if as_json:
-        echo_json(summary)
+        from laminid_cli.units import json_units
+
+        echo_json({**summary, "units": json_units(summary)})
     else:
         click.echo(format_modes_report(summary))
         if out is not None:

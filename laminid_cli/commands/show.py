@@ -40,7 +40,11 @@ def show(result, as_json):
                               "prints a result file (*.result.h5)")
     summary, written = read_stored_summary(result)
     if as_json:
-        echo_json({**summary, "file": str(result), "written": written})
+        from laminid_cli.units import json_units
+
+        # (a file written before identify --json had "units" gets them: the same SI numbers)
+        units = summary.get("units") or json_units(summary)
+        echo_json({**summary, "units": units, "file": str(result), "written": written})
         return
     click.echo(f"{result}: written {written['created'] or '(date not recorded)'} by "
                f"laminid {written['laminid_version'] or '?'}"
