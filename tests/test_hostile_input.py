@@ -122,7 +122,7 @@ def test_full_width_units_in_a_specimen_give_the_same_model(tmp_path):
     r1 = run("modes", spec(tmp_path, text), "--mesh", "4x4", "--json")
     r2 = run("modes", S11, "--mesh", "4x4", "--json")
     assert r1.exit_code == 0, r1.output
-    f1, f2 = (json.loads(r.output)["frequencies"]["model"] for r in (r1, r2))
+    f1, f2 = (json.loads(r.stdout)["frequencies"]["model"] for r in (r1, r2))
     assert f1 == pytest.approx(f2, rel=1e-12)
 
 
