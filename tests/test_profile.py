@@ -470,7 +470,7 @@ def test_a_flat_profile_and_a_monte_carlo_range_off_the_panel_keep_their_words_a
     fig, ax = plt.subplots(figsize=(1.6, 5))
     interval_panel(ax, dc.replace(r, uncertainty=dc.replace(u, monte_carlo=mc)), m, "G13")
     ax.set_xlim(-0.75, 0.75)                       # as the intervals page (interval_page)
-    fig.canvas.draw()
+    fig.draw_without_rendering()
     texts = {t.get_gid(): t for t in ax.texts}
     prof, end = texts["profile-label"], texts["monte-carlo-upper-end"]
     assert end.get_text() == "to\n11.66" and prof.get_text() == "profile:\nflat to\n18.50"

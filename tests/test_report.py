@@ -757,8 +757,8 @@ def test_a_reference_range_in_the_table_the_panels_and_across_specimens(ranged_b
 
 
 def _no_overlap(fig, axis, legend) -> bool:
-    """The legend's box is outside the axes' box (drawn figure, display coordinates)."""
-    fig.canvas.draw()
+    """The legend's box is outside the axes' box (laid-out figure, display coordinates)."""
+    fig.draw_without_rendering()
     a = axis.get_window_extent()
     b = legend.get_window_extent()
     return b.x0 >= a.x1 or b.x1 <= a.x0 or b.y0 >= a.y1 or b.y1 <= a.y0
@@ -871,7 +871,7 @@ def test_fit_frf_figure_reads_back_the_frf_file(tmp_path):
     assert _no_overlap(fig, s, s.get_legend())
     for lim in ((0.5, 18.5), (0.1, 18.9), (0.2, 19.6)):   # orders 1-18 as in S1.1's example
         s.set_ylim(*lim)                                   # FRFs, whose ticks were 2.5, 7.5...
-        fig.canvas.draw()                                  # orders are whole numbers
+        fig.draw_without_rendering()                       # orders are whole numbers
         ticks = [t for t in s.get_yticks() if lim[0] <= t <= lim[1]]
         assert len(ticks) >= 3 and all(float(t).is_integer() for t in ticks), (lim, ticks)
     coh_ax = next(x for x in fig.axes if x.get_ylabel() == "coherence (–)")
@@ -1263,7 +1263,7 @@ def test_damping_page_fits_the_page_and_ends_with_the_status(damped, tmp_path):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     renderer = FigureCanvasAgg(fig).get_renderer()
-    fig.draw(renderer)
+    fig.draw_without_rendering()            # lays out and places every text
     width = fig.bbox.width
     for cell in a.tables[0].get_celld().values():
         box = cell.get_window_extent(renderer)
@@ -1285,7 +1285,7 @@ def test_status_on_top_of_the_first_page_at_the_foot_of_the_others(checked):
     pages = {p.name: p.figure for p in report_pages(checked)}
     fig = pages["summary"]
     renderer = FigureCanvasAgg(fig).get_renderer()
-    fig.draw(renderer)
+    fig.draw_without_rendering()            # lays out and places every text
     status = status_text(fig)
     assert status not in fig.texts                          # not a footer
     box = status.get_window_extent(renderer)
@@ -1362,7 +1362,7 @@ def test_status_clear_of_the_titles_on_every_page(case, request):
     for page in pages:
         fig = page.figure
         renderer = FigureCanvasAgg(fig).get_renderer()
-        fig.draw(renderer)
+        fig.draw_without_rendering()        # lays out and places every text
         status = status_text(fig)
         if worst and status.get_text().startswith("status: CHECK ("):
             assert "modes_swapped; see page 1)" in status.get_text()
@@ -1509,7 +1509,7 @@ def test_bound_statement_stays_inside_its_panel(checked, tmp_path):
         f["materials/IM7_977-2/G23"][()] = 0.0160e9     # the limit it stopped on
     fig = next(p.figure for p in report_pages(path) if p.name == "intervals")
     renderer = FigureCanvasAgg(fig).get_renderer()
-    fig.draw(renderer)
+    fig.draw_without_rendering()            # lays out and places every text
     a = ax(fig, f"interval-{MAT}.G23")
     words = next(t for t in a.texts if t.get_gid() == "bound-statement")
     box, panel = words.get_window_extent(renderer), a.get_window_extent(renderer)

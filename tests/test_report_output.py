@@ -120,7 +120,7 @@ def test_page_one_fits_two_line_cells_and_many_notes(tmp_path, monkeypatch):
 
     fig = rep.summary_page(res)
     canvas = FigureCanvasAgg(fig)
-    canvas.draw()
+    fig.draw_without_rendering()                    # lays out and places every text
     renderer = canvas.get_renderer()
     ax = next(a for a in fig.axes if a.get_gid() == "constants")
     table = ax.tables[0]
