@@ -645,3 +645,25 @@ def test_other_tools_uff_unit_labels(tmp_path, case, ordinate, denominator, unit
     out = _fit_json(path, "--band", "100:300")
     assert out["units"] == units
     assert np.allclose([m["freq_hz"] for m in out["modes"]], case.freq_hz[:3], rtol=1e-4)
+
+
+def test_plain_hdf5_angular_frequency_without_units_is_refused(tmp_path, case):
+    # a dataset 'omega' in rad/s without a units attribute was read as Hz: every mode 6.28x
+    # too high (125.05 Hz found at 785.7 Hz), exit 0
+    path = tmp_path / "omega.h5"
+    with h5py.File(path, "w") as f:
+        f["omega"] = 2 * np.pi * case.freq
+        f["frf"] = case.frf.T
+    with pytest.raises(FrfError, match=r"dataset '/omega' \(no units attribute; give it one, "
+                                       r"'Hz' or 'rad/s': .*attrs\['units'\] = 'rad/s'\): the "
+                                       r"frequency 'omega' reads as an angular frequency"):
+        io.read_frf(path)
+    with h5py.File(path, "r+") as f:
+        f["omega"].attrs["units"] = "rad/s"
+    fs = io.read_frf(path)
+    assert np.allclose(fs.freq, case.freq, rtol=1e-14)
+    with h5py.File(path, "w") as f:
+        f["omega_rad_s"] = 2 * np.pi * case.freq
+        f["frf"] = case.frf.T
+    fit = rfp.find_modes(*(lambda s: (s.freq, s.frf))(io.read_frf(path)), bands=[(100.0, 300.0)])
+    assert np.allclose(fit.freq_hz, case.freq_hz[:3], rtol=1e-4)

@@ -310,3 +310,19 @@ def test_csv_first_column_in_another_unit_is_refused(tmp_path):
     with pytest.raises(FrfError, match=r"column 1 \('time \[s\]'\): unit 's' is not a "
                                        r"frequency unit laminid reads \(hz, .*rad/s"):
         io.read_frf(p)
+
+
+@pytest.mark.parametrize("name", ["omega", "w", "Omega", "angular_freq"])
+def test_csv_angular_frequency_without_its_unit_is_refused(tmp_path, name):
+    # "omega" in rad/s was read as Hz: the 125.05 Hz mode at 785.7 Hz, exit 0
+    p = tmp_path / "w.csv"
+    p.write_text(f"{name},a_re,a_im\n0,1,0\n10,0.5,0.1\n20,0.2,0.1\n")
+    with pytest.raises(FrfError, match=rf"w.csv: column 1 \('{name}'; give its unit in the "
+                                       rf"header, '{name} \[rad/s\]' or '{name} \[Hz\]'\): the "
+                                       rf"frequency '{name}' reads as an angular frequency but "
+                                       r"says no unit"):
+        io.read_frf(p)
+    for header, hz in ((f"{name} [rad/s]", 10 / (2 * np.pi)), (f"{name}_hz", 10.0),
+                       ("frequency", 10.0)):
+        p.write_text(f"{header},a_re,a_im\n0,1,0\n10,0.5,0.1\n20,0.2,0.1\n")
+        assert io.read_frf(p).freq[1] == pytest.approx(hz, rel=1e-15)

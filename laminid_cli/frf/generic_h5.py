@@ -6,8 +6,10 @@ them:
 
 - **frequency**: a 1-D real dataset (or n x 1, 1 x n as MATLAB writes a vector), at least 2
   values, finite, strictly increasing, >= 0; its ``units`` (or ``unit``) attribute, if any,
-  must be a frequency unit (Hz, kHz, 1/s or rad/s; converted to Hz). A name such as ``freq``,
-  ``frequency``, ``f_hz`` ranks first.
+  must be a frequency unit (Hz, kHz, 1/s or rad/s; converted to Hz); without one, a kHz or
+  rad/s in its name ("f_kHz", "omega_rad_s") is its unit, a name that reads as an angular
+  frequency without a unit ("omega", "w") is refused, any other is Hz. A name such as
+  ``freq``, ``frequency``, ``f_hz`` ranks first.
 - **FRF**: a complex dataset (HDF5 compound ``r``/``i`` as h5py and most tools write it, or
   ``real``/``imag`` as MATLAB v7.3 does, or ``re``/``im``), or two real datasets of one shape
   named as its parts (``frf_real`` + ``frf_imag``, ``H_re`` + ``H_im``: named ``frf``, ``H``),
@@ -153,6 +155,31 @@ def _real_imag_pairs(found) -> list[_Dataset]:
     return pairs
 
 
+#: a frequency's name that reads as an angular frequency (omega, w, "angular"): without a
+#: unit, Hz or rad/s cannot be told, and rad/s read as Hz puts every mode 2 pi too high
+_ANGULAR_NAME = re.compile(r"(?<![a-z])(omega|w|angular|ang_?freq)(?![a-z])", re.I)
+
+
+def name_freq_factor(name: str, where: str) -> float:
+    """The factor to Hz of a frequency named ``name`` with no unit given otherwise: a kHz or
+    rad/s in the name ("f_kHz", "omega_rad_s"); 1 (Hz) for any other name or none. FrfError
+    (``where`` names the dataset or column, and how to give the unit) for a name that reads as
+    an angular frequency without saying which unit ("omega", "w": read as Hz, a rad/s axis
+    put every natural frequency 2 pi = 6.28 times too high, with exit 0)."""
+    low = name.lower()
+    if re.search(r"(?<![a-z])khz(?![a-z])", low):
+        return FREQ_UNITS["khz"]
+    if re.search(r"(?<![a-z])rad[/_ ]?(s|sec)(?![a-z])", low):
+        return FREQ_UNITS["rad/s"]
+    if re.search(r"(?<![a-z])hz(?![a-z])", low):
+        return 1.0
+    if _ANGULAR_NAME.search(low):
+        raise FrfError(f"{where}: the frequency {name!r} reads as an angular frequency but "
+                       "says no unit: Hz or rad/s cannot be told (rad/s read as Hz puts every "
+                       "mode 2 pi = 6.28 times too high)")
+    return 1.0
+
+
 def _freq_factor(units: str | None) -> float | None:
     """Factor to Hz, 1 when no units attribute, None when the units are not a frequency."""
     if units is None or units == "":
@@ -245,7 +272,10 @@ def read_generic_frf_h5(path, freq_dataset: str | None = None,
 def _read_generic(f, path: Path, freq_dataset, frf_dataset) -> FrfSet:
     datasets = _datasets(f)
     axis, frf_d = _choose(path, f, datasets, freq_dataset, frf_dataset)
-    freq = np.asarray(f[axis.path][()], dtype=float).reshape(-1) * _freq_factor(axis.units)
+    factor = _freq_factor(axis.units) if axis.units else name_freq_factor(
+        axis.name, f"{path}: dataset '{axis.path}' (no units attribute; give it one, 'Hz' or "
+                   f"'rad/s': h5py.File(file, 'r+')['{axis.path}'].attrs['units'] = 'rad/s')")
+    freq = np.asarray(f[axis.path][()], dtype=float).reshape(-1) * factor
     if frf_d.parts:
         values = np.asarray(f[frf_d.parts[0]][()], dtype=float) \
             + 1j * np.asarray(f[frf_d.parts[1]][()], dtype=float)

@@ -18,7 +18,8 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     share one abscissa, in the unit of its label (Hz, none, kHz, rad/s: converted to Hz).
 ``csv`` (``.csv``, ``.txt``)
     Text: first column frequency in Hz (kHz or rad/s when its header says so: "f [kHz]",
-    "omega_rad_s"; another bracketed unit is refused), then real and imaginary part of each FRF
+    "omega_rad_s"; another bracketed unit is refused, and so is a header that reads as an
+    angular frequency without its unit, "omega"), then real and imaginary part of each FRF
     (``freq, re_1, im_1, re_2, im_2, ...``). Separator ``;`` tab ``,`` (the first found in the
     first data line) or blanks; with ``;`` or tab a decimal comma is read too (``125,05``, as a
     European spreadsheet writes); ``#`` comment lines; an optional header line (its names of
@@ -214,10 +215,11 @@ def _csv_freq_factor(path, name: str) -> float:
     """The factor to Hz of a CSV's frequency column by its header ``name``: the unit in
     brackets ("Frequency [rad/s]", "f (kHz)"), else a kHz or rad/s in the name ("f_kHz",
     "omega_rad_s"); 1 (Hz) for any other name or none. FrfError for a bracketed unit that is
-    no frequency ("time [s]")."""
+    no frequency ("time [s]") and for a name that reads as an angular frequency without a unit
+    ("omega": :func:`~laminid_cli.frf.generic_h5.name_freq_factor`)."""
     import re
 
-    from laminid_cli.frf.generic_h5 import FREQ_UNITS
+    from laminid_cli.frf.generic_h5 import FREQ_UNITS, name_freq_factor
 
     bracketed = re.search(r"[\[(]\s*([^\])]*?)\s*[\])]", name)
     if bracketed:
@@ -227,12 +229,8 @@ def _csv_freq_factor(path, name: str) -> float:
             raise FrfError(f"{path}: column 1 ({name!r}): unit {unit!r} is not a frequency "
                            f"unit laminid reads ({', '.join(FREQ_UNITS)})")
         return factor
-    low = name.lower()
-    if re.search(r"(?<![a-z])khz(?![a-z])", low):
-        return FREQ_UNITS["khz"]
-    if re.search(r"(?<![a-z])rad[/_ ]?(s|sec)(?![a-z])", low):
-        return FREQ_UNITS["rad/s"]
-    return 1.0
+    return name_freq_factor(name, f"{path}: column 1 ({name!r}; give its unit in the header, "
+                                  f"'{name} [rad/s]' or '{name} [Hz]')")
 
 
 def read_frf_csv(path) -> FrfSet:
