@@ -667,3 +667,20 @@ def test_plain_hdf5_angular_frequency_without_units_is_refused(tmp_path, case):
         f["frf"] = case.frf.T
     fit = rfp.find_modes(*(lambda s: (s.freq, s.frf))(io.read_frf(path)), bands=[(100.0, 300.0)])
     assert np.allclose(fit.freq_hz, case.freq_hz[:3], rtol=1e-4)
+
+
+def test_uff_of_mixed_response_units_says_each_points_unit(tmp_path, case):
+    # an accelerance beside a mobility: the file's unit was the first record's (g/N) for all,
+    # with no word that point 2's modal constants are in m/s/N
+    path = _other_uff(tmp_path / "mixed.uff", case.freq, case.frf[:2],
+                      ordinate_axis_units_lab=lambda k: "g" if k == 0 else "m/s",
+                      ordinate_spec_data_type=lambda k: 12 if k == 0 else 11)
+    fs = io.read_frf(path)
+    assert fs.units == "g/N" and fs.meta["point_units"] == ["g/N", "m/s/N"]
+    out = _fit_json(path, "--band", "100:300")
+    assert np.allclose([m["freq_hz"] for m in out["modes"]], case.freq_hz[:3], rtol=1e-4)
+    assert ("the FRFs are in different units (1+Z g/N; 2+Z m/s/N): the frequencies and damping "
+            "ratios are those of every FRF") in " ".join(out["notes"])
+    same = _other_uff(tmp_path / "same.uff", case.freq, case.frf[:2])
+    assert "point_units" not in io.read_frf(same).meta
+    assert not any("different units" in n for n in _fit_json(same, "--band", "100:300")["notes"])

@@ -138,6 +138,13 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         notes.append(f"{', '.join(negative)}: measured in a negative direction; the FRF and its "
                      "modal constants are as recorded, of that direction (times -1 for the "
                      "positive one)")
+    point_units = fs.meta.get("point_units")
+    if point_units:
+        notes.append("the FRFs are in different units (" + "; ".join(
+            f"{lab} {u}" for lab, u in zip(fs.labels, point_units)) + "): the frequencies and "
+            "damping ratios are those of every FRF (the poles do not depend on the response "
+            f"quantity); each point's modal constants are in its own FRF's unit, not "
+            f"{fs.units} (the first's, given as the file's)")
     if rfp.window_unknown(fs):
         notes.append(f"{frf_file} does not record the exponential window's time constant "
                      "(acquired with --keep-setup): the damping ratios are as fitted and include "

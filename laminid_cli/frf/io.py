@@ -393,6 +393,11 @@ def read_frf_uff(path) -> FrfSet:
     units = _uff_units(frfs[0])
     freq, frf, coherence = check_frf_arrays(freq, frf, coherence, source=str(path))
     meta = {"uff_ids": [str(d.get("id1", "")) for d in frfs]}
+    each = [_uff_units(d) for d in frfs]
+    if len(set(each)) > 1:
+        # accelerances beside mobilities (another tool's file): one pole set, so the modes
+        # are those of all; each FRF's modal constants are in its own unit (fit-frf says so)
+        meta["point_units"] = each
     tau = _uff_window(frfs)
     if tau is not None:
         meta["settings"] = {"exp_window_s": tau}
