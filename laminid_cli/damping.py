@@ -438,6 +438,7 @@ def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
     modal loss factors and standard deviations (NaN: mode not used); labels : (n_cols,)
     "material.etaXY"; fixed : {label: value} columns held.
     """
+    from laminid_cli.intervals import small_chi2_note
     from laminid_cli.quantiles import chi2_ppf
 
     if scaling not in SCALINGS:
@@ -487,6 +488,9 @@ def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
     used_scale, factor, q, note = interval_scale(scaling, dof, s2, confidence,
                                                  f"{n} modes for {p} loss factors")
     notes = [note] if note else []
+    overstated = small_chi2_note(chi2, dof, "damping sigma")
+    if overstated:
+        notes.append(overstated)
     if dof > 0 and chi2 > chi2_ppf(0.99, dof):
         notes.append(f"the strain-energy model misses the measured damping by more than its "
                      f"stated noise (chi2 {chi2:.3g} for {dof} degrees of freedom): damping "

@@ -54,6 +54,26 @@ def interval_scale(scaling: str, dof: int, s2: float, confidence: float, counts:
     return "stated", 1.0, z, None
 
 
+def small_chi2_note(chi2: float, dof: float, sigma: str = "sigma") -> str | None:
+    """The words for a fit whose residuals are smaller than its stated ``sigma`` implies
+    (chi2 below its 1 % quantile for ``dof``), else None: the sigmas are then likely too
+    large and the intervals made from them too wide (``--covariance-scale larger`` keeps the
+    stated sigma where the residuals' scale is smaller). A conservative interval is no error,
+    but a lab reading "residuals consistent with it" would not know its intervals overstate
+    the doubt (the synthetic impact test: chi2 8e-5 for 7 degrees of freedom)."""
+    from laminid_cli.quantiles import chi2_ppf
+
+    if not (dof > 0 and math.isfinite(chi2)):
+        return None
+    q01 = chi2_ppf(0.01, dof)
+    if not chi2 < q01:
+        return None
+    return (f"the residuals are smaller than the stated {sigma} implies (chi2 {chi2:.3g} for "
+            f"{dof:g} degrees of freedom, below its 1 % quantile {q01:.3g}): the {sigma} is "
+            "likely too large, and the intervals from it too wide (--covariance-scale "
+            "residuals takes them from the residuals' own scatter)")
+
+
 def effective_dof(v1, nu1: float, v2, nu2: float):
     """Welch-Satterthwaite's effective degrees of freedom of a variance v1 + v2 whose parts
     are known with nu1 and nu2 degrees of freedom (GUM, JCGM 100 G.4.1): (v1 + v2)^2 /

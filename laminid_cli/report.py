@@ -718,6 +718,11 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
         u = r.uncertainty
         notes.append(f"uncertainty: {u.confidence:.0%} intervals, s² = {u.s2:.3g}, "
                      f"condition number {u.condition_number:.3g}, σ from {u.sigma_source}")
+        from laminid_cli.intervals import small_chi2_note
+
+        small = small_chi2_note(u.s2 * u.dof, u.dof, "frequency sigma")
+        if small:
+            notes.append(small)
         notes += table_notes(r)
     if r.mesh_check:
         notes.append(mesh_check_note(r.mesh_check))

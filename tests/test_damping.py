@@ -427,3 +427,24 @@ def test_slender_ud_beam_bending_is_fibre_energy_and_twisting_is_in_plane_shear(
     i = int(np.argmax(corr))
     assert corr[i] > 0.99
     assert shares[i, 2] > 0.95
+
+
+def test_damping_sigmas_far_above_the_misfit_are_said():
+    """A loss-factor fit whose chi2 is below its 1 % quantile notes that the damping sigma is
+    likely too large (the synthetic impact test: s2 0.002-0.007 with fit-frf's 2 % floor on
+    the damping sigma); a fit with misfit at the stated noise does not."""
+    from laminid_cli.quantiles import chi2_ppf
+
+    rng = np.random.default_rng(1)
+    shares = rng.dirichlet(np.ones(3), size=8)
+    eta = np.array([0.002, 0.012, 0.015])
+    y = shares @ eta
+    labels = ("m.eta11", "m.eta22", "m.eta12")
+    fit = D.fit_loss_factors(shares, y * (1 + 1e-4 * rng.standard_normal(8)), 0.05 * y, labels)
+    assert fit.chi2 < chi2_ppf(0.01, fit.dof)
+    assert any(n.startswith("the residuals are smaller than the stated damping sigma implies")
+               for n in fit.notes)
+    noisy = y * (1 + 0.05 * rng.standard_normal(8))
+    fit = D.fit_loss_factors(shares, noisy, 0.05 * y, labels)
+    assert chi2_ppf(0.01, fit.dof) <= fit.chi2
+    assert not any("smaller than the stated" in n for n in fit.notes)

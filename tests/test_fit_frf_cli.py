@@ -42,7 +42,7 @@ def h5(tmp_path, case):
 def test_table(h5, case):
     r = run(["fit-frf", str(h5)])
     assert r.exit_code == 0, r.output
-    assert "freq (Hz)" in r.output and "damping (%)" in r.output and "stable orders" in r.output
+    assert "freq (Hz)" in r.output and "zeta (%)" in r.output and "stable orders" in r.output
     rows = [ln.split() for ln in r.output.splitlines() if ln.strip()[:1].isdigit()]
     assert len(rows) == 10
     assert np.allclose([float(row[1]) for row in rows], case.freq_hz, rtol=1e-3)

@@ -2,6 +2,7 @@
 and HDF5; --fix-undetermined; --monte-carlo; --joint; bad input."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -527,3 +528,29 @@ def test_the_monte_carlo_datasets_describe_themselves_in_good_english(monkeypatc
         for name, ds in g.items():
             text = str(ds.attrs.get("description", ""))
             assert " a upper" not in text and " a uncertain" not in text, name
+
+
+def test_a_stated_sigma_far_above_the_residuals_is_said_in_the_terminal_and_the_report(tmp_path):
+    """S1.1 with a 5 % frequency sigma (its residuals are ~0.3 %): chi2 far below its 1 %
+    quantile, so the terminal says the sigma is likely too large instead of "residuals
+    consistent with it", and the report's summary page says the same; 0.2 % says neither."""
+    from laminid_cli.quantiles import chi2_ppf
+    from laminid_cli.report import report_pages
+
+    out = tmp_path / "s.result.h5"
+    r = run("identify", "specimens/example1/S1.1.yaml", "--mesh", "6x6", "--sigma-rel", "0.05",
+            "-o", out)
+    assert r.exit_code == 0, r.output
+    line = next(ln for ln in r.output.splitlines() if "a-posteriori variance factor" in ln)
+    chi2, dof = (float(x) for x in re.search(r"\(chi2 (\S+), (\d+) degrees", line).groups())
+    assert chi2 < chi2_ppf(0.01, dof)
+    assert line.endswith("the residuals are smaller than the stated frequency sigma implies "
+                         f"(chi2 {chi2:.3g} for {dof:g} degrees of freedom, below its 1 % "
+                         f"quantile {chi2_ppf(0.01, dof):.3g}): the frequency sigma is likely "
+                         "too large, and the intervals from it too wide (--covariance-scale "
+                         "residuals takes them from the residuals' own scatter)")
+    page = next(p.figure for p in report_pages(out) if p.name == "summary")
+    text = " ".join(t.get_text() for a in page.axes for t in a.texts).replace("\n", " ")
+    assert "the residuals are smaller than the stated frequency sigma implies" in text
+    r = run("identify", "specimens/example1/S1.1.yaml", "--mesh", "6x6", "--no-output")
+    assert "smaller than the stated" not in r.output

@@ -46,3 +46,20 @@ def test_no_degree_of_freedom_falls_back_to_the_stated_sigma_with_a_note(scaling
 ])
 def test_verdict_thresholds(rel, at_bound, expected):
     assert verdict(rel, at_bound) == expected
+
+
+def test_residuals_smaller_than_the_stated_sigma_implies_are_said_with_the_quantile():
+    """chi2 below its 1 % quantile: the stated sigma is likely too large (the synthetic impact
+    test's elastic fit, chi2 8e-5 for 7 degrees of freedom, said "residuals consistent with
+    it"); at or above the quantile, or without a degree of freedom, nothing."""
+    from laminid_cli.intervals import small_chi2_note
+
+    q01 = stats.chi2.ppf(0.01, 7)                                   # 1.239
+    note = small_chi2_note(8e-5, 7, "frequency sigma")
+    assert note == ("the residuals are smaller than the stated frequency sigma implies (chi2 "
+                    f"8e-05 for 7 degrees of freedom, below its 1 % quantile {q01:.3g}): the "
+                    "frequency sigma is likely too large, and the intervals from it too wide "
+                    "(--covariance-scale residuals takes them from the residuals' own scatter)")
+    assert small_chi2_note(q01 * (1 - 1e-9), 7) is not None
+    assert small_chi2_note(q01 * (1 + 1e-9), 7) is None
+    assert small_chi2_note(0.0, 0) is None and small_chi2_note(float("nan"), 7) is None

@@ -199,7 +199,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         click.echo("no stable mode found")
     else:
         click.echo(f"{'mode':>4}  {'freq (Hz)':>11}  {'+/- (Hz)':>9}  {'from':>10}  "
-                   f"{'damping (%)':>11}  {'+/- (%)':>7}  "
+                   f"{'zeta (%)':>11}  {'+/- (%)':>7}  "
                    + (f"{'window (%)':>10}  " if windowed else "") + f"{'stable orders':>13}")
         for i, (m, s) in enumerate(zip(fit.modes, sigma), start=1):
             z = wc.damping[i - 1]

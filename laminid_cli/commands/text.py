@@ -350,7 +350,10 @@ def format_uncertainty(u: dict) -> list[str]:
     lines.append(f"  frequency standard deviations: {u['sigma_source']}")
     s2 = ap["s2"]
     if s2 is not None and math.isfinite(s2):
-        fit = ("residuals consistent with it" if s2 <= 2 else
+        from laminid_cli.intervals import small_chi2_note
+
+        small = small_chi2_note(ap["chi2"], ap["dof"], "frequency sigma")
+        fit = (small if small else "residuals consistent with it" if s2 <= 2 else
                "the model misses the data by more than that (model error or sigma too small)")
         lines.append(f"  a-posteriori variance factor s2 = chi2/(n-p) = {s2:.3g} (chi2 "
                      f"{ap['chi2']:.3g}, {ap['dof']} degrees of freedom): {fit}")
