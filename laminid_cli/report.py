@@ -610,7 +610,9 @@ def table_notes(r: ResultFile) -> list[str]:
         notes.append(f"no information: the interval's upper end is more than "
                      f"{UNINFORMATIVE_RATIO:.0f} times its lower end (the frequencies do not "
                      "constrain this constant)")
-    if any("search limit" in c for c in cells):
+    # (the interval cell of a constant on a limit, not the verdict of one fixed because it was
+    # on one: "fixed: it was at a search limit" has its own note)
+    if any(c.startswith("none — on") for c in cells):
         notes.append("none — on a search limit: the fit stopped on a limit of the search (its "
                      "value is that limit): not identified, no interval")
     if any("profile:" in c for c in cells):
