@@ -544,6 +544,8 @@ def frequency_block(fig, spec, plate) -> None:
     for k in np.flatnonzero(fr.weight == 0):
         bars[k].set_facecolor("0.85")
         bars[k].set_hatch("//")
+    # the key only where a hatched bar is drawn (a mode not measured has no bar)
+    hatched = bool((np.isfinite(res) & (np.asarray(fr.weight) == 0)).any())
     ax_r.set_gid("residuals")
     ax_r.axvline(0, color="k", lw=0.6)
     rms = fr.rms_residual_percent
@@ -560,7 +562,8 @@ def frequency_block(fig, spec, plate) -> None:
     from matplotlib.ticker import MaxNLocator
 
     ax_r.xaxis.set_major_locator(MaxNLocator(nbins=4, symmetric=True))
-    ax_r.set_xlabel("(measured − model)/measured (%)\nhatched: weight 0", fontsize=7)
+    ax_r.set_xlabel("(measured − model)/measured (%)" + ("\nhatched: weight 0 (not fitted)"
+                                                         if hatched else ""), fontsize=7)
     ax_r.set_title("residuals" + (f"\n(dashed: ± weighted\nRMS {rms:.3f} %)"
                                   if np.isfinite(rms) else ""), fontsize=8)
     for side in ("top", "right", "left"):

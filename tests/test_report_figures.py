@@ -52,3 +52,36 @@ def test_no_search_limit_note_where_no_constant_is_on_one(s21_fixed_at_limit):
     notes = texts(fig)
     assert "none — on a search limit" not in notes
     assert "fixed: held at its initial value, not identified" in notes
+
+
+def _frequency_figure(measured, weight):
+    """The measured-vs-model block of page 1 for a plate of four modes (no identification)."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from laminid_cli.report import _figure, frequency_block
+
+    model = np.array([100.0, 200.0, 300.0, 400.0])
+    measured = np.asarray(measured, float)
+    res = (measured - model) / measured * 100
+    fr = SimpleNamespace(model=model, measured=measured, model_mode=np.arange(1, 5),
+                         weight=np.asarray(weight, float), residual_percent=res,
+                         rms_residual_percent=0.5)
+    fig = _figure()
+    frequency_block(fig, fig.add_gridspec(1, 1)[0, 0], SimpleNamespace(frequencies=fr))
+    return ax(fig, "residuals")
+
+
+@pytest.mark.parametrize("measured, weight, key", [
+    ([100.5, 199.0, 301.0, 398.0], [1, 1, 1, 1], False),          # every mode fitted
+    ([100.5, float("nan"), 301.0, 398.0], [1, 0, 1, 1], False),   # not measured: no bar
+    ([100.5, 199.0, 301.0, 398.0], [1, 0, 1, 1], True)])          # measured, weight 0
+def test_residual_bars_key_hatched_only_where_a_bar_is(measured, weight, key):
+    """'hatched: weight 0' under the residual bars where one is hatched (every page 1 said
+    it, also with every weight 1 or a weight-0 mode that was not measured and has no bar)."""
+    a = _frequency_figure(measured, weight)
+    assert a.get_xlabel().startswith("(measured − model)/measured (%)")
+    assert ("hatched: weight 0" in a.get_xlabel()) is key
+    hatches = [b.get_hatch() for b in a.patches if b.get_hatch()]
+    assert bool(hatches) is (0 in weight)
