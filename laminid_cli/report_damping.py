@@ -208,10 +208,20 @@ def damping_page(d: dict):
                    + (f"\nMonte Carlo: {int(mc['refits'])} trials refitted the loss factors at "
                       f"their own constants ({conf:.0f} % of them in the range; * an end at "
                       "the bound 0)" if "refits" in mc else ""), fontsize=9)
-    if advice:      # above the table: under it, a table of two materials ran over the words
-        ax_t.text(0.5, 1.0, advice, transform=ax_t.transAxes, ha="center", va="bottom",
-                  fontsize=8, gid="loss-factor-note")
-        ax_t.set_title(ax_t.get_title() + "\n", fontsize=9)
+    # the result's notes on the loss factors (a free one leaning on an elastic constant the
+    # modes do not determine is known less well than its interval says: the terminal's note)
+    notes = str(d.get("notes", "") or "").strip()
+    words = [w for w in (advice, f"note: {notes}" if notes else "") if w]
+    if words:       # above the table: under it, a table of two materials ran over the words
+        import textwrap
+
+        from laminid_cli.report import _wrap_width
+
+        lines = [ln for w in words for ln in textwrap.wrap(w, _wrap_width(fig, 8),
+                                                            break_on_hyphens=False)]
+        ax_t.text(0.5, 1.0, "\n".join(lines), transform=ax_t.transAxes, ha="center",
+                  va="bottom", fontsize=8, gid="loss-factor-note")
+        ax_t.set_title(ax_t.get_title() + "\n" * len(lines), fontsize=9)
     name = d.get("specimen", "")
     fig.suptitle(f"{name}: damping (modal strain energy)" if name else "damping", fontsize=11)
     return fig

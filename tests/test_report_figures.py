@@ -85,3 +85,56 @@ def test_residual_bars_key_hatched_only_where_a_bar_is(measured, weight, key):
     assert ("hatched: weight 0" in a.get_xlabel()) is key
     hatches = [b.get_hatch() for b in a.patches if b.get_hatch()]
     assert bool(hatches) is (0 in weight)
+
+
+def _damping_data(notes: str) -> dict:
+    """The /damping data of a result as read_damping gives it: 12 modes, one material, eta13
+    and eta23 not determined by the damping; ``notes`` as the file's attribute."""
+    import numpy as np
+
+    n, labels = 12, [f"M.eta{t}" for t in ("11", "22", "12", "13", "23")]
+    shares = np.tile([0.6, 0.2, 0.15, 0.03, 0.02], (n, 1))
+    value = np.array([0.002, 0.011, 0.016, 0.012, 0.007])
+    eta = shares @ value
+    return {"measured_loss_factor": eta, "measured_sigma": 0.02 * eta, "model_loss_factor": eta,
+            "used": np.ones(n, bool), "energy_shares": shares,
+            "share_labels": [f"M.{t}" for t in ("11", "22", "12", "13", "23")],
+            "labels": labels, "value": value, "lower": 0.8 * value, "upper": 1.2 * value,
+            "at_bound": np.zeros(5, bool),
+            "verdict": ["weak"] * 3 + ["not determined by the measured damping"] * 2,
+            "confidence": 0.95, "s2": 1.0, "dof": 7, "sigma_source": "the specimen file's "
+            "measured.damping_sigma", "monte_carlo": {}, "verdict_from_monte_carlo": [],
+            "fixed": "", "notes": notes, "specimen": "P"}
+
+
+NOTE = ("M.eta13, M.eta23, M.eta11, M.eta22: the loss factors' intervals take the elastic "
+        "constants as identified, and M.G13, M.G23, M.nu12 are not determined by the modes (or "
+        "fixed because of it): these loss factors are known less well than the interval says")
+
+
+@pytest.mark.parametrize("notes", ["", NOTE])
+def test_damping_page_gives_the_results_note_on_the_loss_factors(notes):
+    """The damping page says what the result file's /damping notes say (the terminal's note:
+    loss factors leaning on elastic constants the modes do not determine are known less well
+    than their intervals say; the page showed those intervals as plain 'weak'), above the
+    table, clear of it and of the table's title, inside the page."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from laminid_cli.report_damping import NOT_DETERMINED_ADVICE, damping_page
+
+    fig = damping_page(_damping_data(notes))
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw_without_rendering()
+    a = ax(fig, "loss-factors")
+    note = next(t for t in a.texts if t.get_gid() == "loss-factor-note")
+    said = " ".join(note.get_text().split())
+    assert said.startswith(NOT_DETERMINED_ADVICE)
+    assert ("note: " + NOTE in said) is bool(notes)
+    box = note.get_window_extent(renderer)
+    table = a.tables[0].get_window_extent(renderer)
+    # the title's words: its lines above the empty ones that keep the note's room
+    title = a.title.get_window_extent(renderer)
+    lines = a.title.get_text().split("\n")
+    words_y0 = title.y1 - title.height * len([x for x in lines if x]) / len(lines)
+    assert table.y1 <= box.y0 and box.y1 <= words_y0 + 1           # between table and title
+    assert 0 <= box.x0 and box.x1 <= fig.bbox.width
