@@ -1844,7 +1844,7 @@ def constants_across_page(done, title: str):
     width = min(0.22, 0.7 / max(nm, 1))
     offsets = {m: (c - (nm - 1) / 2) * width for c, m in enumerate(materials)}
     kinds: set[str] = set()
-    has_mc = has_mc_limit = has_ref = has_ref_range = has_profile = False
+    has_mc = has_mc_limit = has_ref = has_ref_range = has_profile = has_interval = False
     for ax, k in zip(axes, CONSTANTS):
         ax.set_gid(f"across-{k}")
         vals, ends, bars = [], [], []
@@ -1863,6 +1863,7 @@ def constants_across_page(done, title: str):
                     if not d.undetermined and abs(hi - lo) < abs(v):
                         ends += [lo, hi]
                     bars.append((xi, lo, hi, color, 1.2, "interval", (False, False), "-"))
+                    has_interval = True
                 if d is not None and np.isfinite(d.mc_lower) and np.isfinite(d.mc_upper):
                     has_mc = True
                     marks = (d.mc_lower_at_limit, d.mc_upper_at_limit)
@@ -1956,8 +1957,10 @@ def constants_across_page(done, title: str):
     ax_leg.legend(list(handles.values()), list(handles), loc="center",
                   ncol=min(len(handles), 3 if len(handles) > 6 else 4), fontsize=8,
                   handler_map={tuple: HandlerTuple(ndivide=None)},
-                  title="colour: material; bars: confidence interval of the summary (arrow: "
-                        "runs off the panel)", title_fontsize=8)
+                  # (bars and arrows where there are intervals: a --wide summary has none)
+                  title="colour: material" + ("; bars: confidence interval of the summary "
+                                              "(arrow: runs off the panel)" if has_interval
+                                              else ""), title_fontsize=8)
     notes = []
     checks = [f"{name}: {w}" for name, (row, _, r) in zip(names, done)
               if (w := _row_check(row, r))]

@@ -138,3 +138,28 @@ def test_damping_page_gives_the_results_note_on_the_loss_factors(notes):
     words_y0 = title.y1 - title.height * len([x for x in lines if x]) / len(lines)
     assert table.y1 <= box.y0 and box.y1 <= words_y0 + 1           # between table and title
     assert 0 <= box.x0 and box.x1 <= fig.bbox.width
+
+
+def _legend_title(fig) -> str:
+    return next(a.get_legend().get_title().get_text() for a in fig.axes
+                if a.get_legend() is not None)
+
+
+@pytest.mark.parametrize("wide", [False, True])
+def test_constants_across_specimens_legend_speaks_of_bars_only_where_drawn(tmp_path, wide):
+    """The legend of the constants across specimens names the interval bars (and their
+    arrows) where the summary has intervals; a --wide summary.csv alone has none, and its
+    page said 'bars: confidence interval of the summary (arrow: runs off the panel)' over
+    panels without a bar or an arrow."""
+    from laminid_cli.batch import write_summary_csv
+    from tests.test_report import _summary_rows
+
+    path = tmp_path / "summary.csv"
+    write_summary_csv(path, _summary_rows(), wide=wide)
+    fig = {p.name: p.figure for p in report_pages(path)}["constants"]
+    bars = [ln for a in fig.axes for ln in a.get_lines() if ln.get_gid() == "interval"]
+    assert bool(bars) is not wide
+    title = _legend_title(fig)
+    assert title.startswith("colour: material")
+    assert ("bars: confidence interval" in title) is not wide
+    assert ("arrow" in title) is not wide
