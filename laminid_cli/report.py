@@ -1297,7 +1297,16 @@ def history_page(r: ResultFile):
     ax_o.set_ylabel("objective (Eq. 17)", fontsize=8)
     ax_o.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0)
     ax_r.set_gid("rms")
-    ax_r.semilogy(ev[on], hist.rms_residual_percent[on], pts, ms=2.5, lw=1, color="C1")
+    ax_r.semilogy(ev[on], hist.rms_residual_percent[on], pts, ms=2.5, lw=1, color="C1",
+                  label="RMS residual")
+    if not known.all():
+        # the reduced model's predictions as on the objective's panel (a prediction below
+        # the result read as a better point the fit had left)
+        pred = on & ~known
+        ax_r.semilogy(ev[pred], hist.rms_residual_percent[pred], "o", ms=3.5, color="0.75",
+                      mec="0.55", mew=0.5, zorder=3, gid="rms-predicted", ls="none",
+                      label="reduced-model prediction (error not bounded)")
+        ax_r.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0)
     ax_r.set_ylabel("RMS residual (%)", fontsize=8)
     hits = bound_hits(r)
     multi = len(r.materials) > 1

@@ -163,3 +163,28 @@ def test_constants_across_specimens_legend_speaks_of_bars_only_where_drawn(tmp_p
     assert title.startswith("colour: material")
     assert ("bars: confidence interval" in title) is not wide
     assert ("arrow" in title) is not wide
+
+
+def test_history_rms_panel_tells_predictions_from_checked_evaluations(s21_fixed_at_limit):
+    """The RMS residual panel marks the reduced model's predictions (error not bounded) as
+    the objective's panel does, with a legend: drawn alike, a prediction below the result (S1.1
+    + S1.2 joint: 0.2 % at evaluations 37-39, result 0.33 %) read as a better point the fit
+    left."""
+    import numpy as np
+
+    from laminid_cli.report import revisits
+    from laminid_cli.resultfile import read_result
+
+    res = read_result(s21_fixed_at_limit)
+    h = res.history
+    pred = ~np.isfinite(h.error_bound) & ~revisits(h.constants)
+    assert pred.any() and not pred.all()
+    fig = {p.name: p.figure for p in report_pages(s21_fixed_at_limit)}["history"]
+    a = ax(fig, "rms")
+    line = next(ln for ln in a.get_lines() if ln.get_gid() == "rms-predicted")
+    assert np.array_equal(line.get_xdata(), h.evaluation[pred])
+    assert np.array_equal(line.get_ydata(), h.rms_residual_percent[pred])
+    legend = [t.get_text() for t in a.get_legend().get_texts()]
+    assert legend == ["RMS residual", "reduced-model prediction (error not bounded)"]
+    objective = [t.get_text() for t in ax(fig, "objective").get_legend().get_texts()]
+    assert "reduced-model prediction (trial point, error not bounded)" in objective
