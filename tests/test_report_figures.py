@@ -188,3 +188,20 @@ def test_history_rms_panel_tells_predictions_from_checked_evaluations(s21_fixed_
     assert legend == ["RMS residual", "reduced-model prediction (error not bounded)"]
     objective = [t.get_text() for t in ax(fig, "objective").get_legend().get_texts()]
     assert "reduced-model prediction (trial point, error not bounded)" in objective
+
+
+@pytest.mark.parametrize("gid", ["objective", "rms"])
+def test_history_log_panels_have_a_labelled_tick_under_their_lowest_value(s21_fixed_at_limit,
+                                                                         gid):
+    """The objective's and the RMS residual's log panels reach down to a labelled tick, so
+    that the value the fit ended on is read against a number (S1.3's RMS residual panel
+    labelled 1 and 10 only, with the result at 0.244 %; S2.1's 0.5 ... 10, result 0.246 %)."""
+    import numpy as np
+
+    fig = {p.name: p.figure for p in report_pages(s21_fixed_at_limit)}["history"]
+    a = ax(fig, gid)
+    lo, hi = a.get_ylim()
+    ticks = [t for t in a.yaxis.get_majorticklocs() if lo * (1 - 1e-9) <= t <= hi]
+    lowest = min(np.nanmin(ln.get_ydata()) for ln in a.get_lines() if len(ln.get_ydata()))
+    assert min(ticks) <= lowest
+    assert len(ticks) >= 2
