@@ -205,3 +205,54 @@ def test_history_log_panels_have_a_labelled_tick_under_their_lowest_value(s21_fi
     lowest = min(np.nanmin(ln.get_ydata()) for ln in a.get_lines() if len(ln.get_ydata()))
     assert min(ticks) <= lowest
     assert len(ticks) >= 2
+
+
+def _two_band_fit():
+    """A fit of two bands as fit_figure draws it (no RFP): each band's FRF a single pole, its
+    stabilisation chart with a pole of each kind."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    def band(lo, hi, f0):
+        def synthesise(f):
+            return np.atleast_2d(1.0 / (f0 ** 2 - f ** 2 + 0.02j * f0 * f))
+        chart = SimpleNamespace(freq_hz=np.array([0.9 * f0, f0, f0]),
+                                order=np.array([2.0, 3.0, 4.0]), stable=np.array([0, 1, 2]))
+        return SimpleNamespace(band_hz=(lo, hi), synthesise=synthesise, chart=chart)
+
+    bands = [band(50.0, 150.0, 100.0), band(150.0, 300.0, 220.0)]
+    return SimpleNamespace(bands=bands, modes=[SimpleNamespace(freq_hz=100.0),
+                                               SimpleNamespace(freq_hz=220.0)])
+
+
+@pytest.mark.parametrize("n_bands", [1, 2])
+def test_stabilisation_legend_keys_the_x_of_every_band(n_bands):
+    """fit-frf --plot: the x of a pole stable in frequency and damping is in its band's
+    colour; with more than one band the legend says so and keys it in a neutral colour (it
+    keyed the first band's blue x alone, the orange and green ones of the other bands had no
+    entry). With one band: its colour, as drawn."""
+    import numpy as np
+    from matplotlib.colors import to_rgba
+
+    from laminid_cli.frf.plot import fit_figure
+
+    fit = _two_band_fit()
+    fit.bands = fit.bands[:n_bands]
+    fit.modes = fit.modes[:n_bands]
+    freq = np.arange(50.0, 300.0, 0.5)
+    frf = np.atleast_2d(1.0 / (100.0 ** 2 - freq ** 2 + 2j * freq))
+    fig = fit_figure(freq, frf, fit)
+    s = ax(fig, "stabilisation")
+    leg = s.get_legend()
+    labels = [t.get_text() for t in leg.get_texts()]
+    x = labels.index(next(t for t in labels if t.startswith("stable in f and damping")))
+    handle = leg.legend_handles[x]
+    drawn = {to_rgba(ln.get_color()) for ln in s.get_lines() if ln.get_marker() == "x"}
+    assert len(drawn) == n_bands
+    if n_bands > 1:
+        assert labels[x] == "stable in f and damping (colour: its band)"
+        assert to_rgba(handle.get_color()) not in drawn
+    else:
+        assert labels[x] == "stable in f and damping"
+        assert {to_rgba(handle.get_color())} == drawn
