@@ -256,3 +256,27 @@ def test_stabilisation_legend_keys_the_x_of_every_band(n_bands):
     else:
         assert labels[x] == "stable in f and damping"
         assert {to_rgba(handle.get_color())} == drawn
+
+
+def test_history_rms_panel_goes_down_to_the_tick_under_its_lowest_point_only(
+        s21_fixed_at_limit):
+    """The labelled tick under the lowest point, not the one under the panel's margin below
+    it: an RMS residual from 200 % down to 0.14 % (hybrid CM) went down to 0.01 %, a decade
+    of empty panel, when its margin reached under 0.1."""
+    import dataclasses
+
+    import numpy as np
+
+    from laminid_cli.report import history_page
+    from laminid_cli.resultfile import read_result
+
+    res = read_result(s21_fixed_at_limit)
+    h = res.history
+    n = h.evaluation.size
+    rms = np.geomspace(200.0, 0.14, n)
+    res = dataclasses.replace(res, history=dataclasses.replace(h, rms_residual_percent=rms))
+    a = ax(history_page(res), "rms")
+    lo, hi = a.get_ylim()
+    ticks = [t for t in a.yaxis.get_majorticklocs() if lo * (1 - 1e-9) <= t <= hi]
+    assert [t for t in ticks if t <= 0.14] == [pytest.approx(0.1)]
+    assert lo > 0.05                          # not a decade of empty panel under 0.1
