@@ -2033,8 +2033,11 @@ def residuals_across_page(rows, title: str):
     ax.set_xticks(np.arange(len(rows)), names, rotation=45, ha="right", fontsize=8)
     ax.set_ylabel("RMS residual (%)")
     ax.set_xlabel("specimen")
-    ax.legend(handles=[Patch(color="0.45"), Patch(color="0.8")],
-              labels=["status ok", "status not ok (reason codes above the bar)"],
+    # the kinds of bar drawn (a batch of which none is ok keyed a dark bar it did not have)
+    kinds = [(Patch(color=c), text) for c, text in (
+        ("0.45", "status ok"), ("0.8", "status not ok (reason codes above the bar)"))
+        if c in colors]
+    ax.legend(handles=[h for h, _ in kinds], labels=[t for _, t in kinds],
               loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0, fontsize=8)
     if any(m.get("max_shift_half_width") is not None for m in meshes):
         from laminid_cli.meshcheck import SHIFT_LIMIT

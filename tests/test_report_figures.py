@@ -280,3 +280,25 @@ def test_history_rms_panel_goes_down_to_the_tick_under_its_lowest_point_only(
     ticks = [t for t in a.yaxis.get_majorticklocs() if lo * (1 - 1e-9) <= t <= hi]
     assert [t for t in ticks if t <= 0.14] == [pytest.approx(0.1)]
     assert lo > 0.05                          # not a decade of empty panel under 0.1
+
+
+@pytest.mark.parametrize("all_check", [False, True])
+def test_residuals_across_specimens_legend_keys_the_bars_drawn(tmp_path, all_check):
+    """The RMS residual page of a batch summary keys the kinds of bar it draws: a batch none
+    of whose specimens is ok (the eight shipped specimens: all 'check') had a 'status ok'
+    entry for a dark bar the page did not have."""
+    from tests.test_report import _summary_rows, _write_summary
+
+    rows = _summary_rows()
+    if all_check:
+        rows[1] = rows[1] | {"status": "check", "reasons": [{"code": "poor_fit", "text": "."}],
+                             "reason": "poor_fit"}
+    path = tmp_path / "summary.json"
+    _write_summary(path, rows)
+    fig = {p.name: p.figure for p in report_pages(path)}["residuals"]
+    a = ax(fig, "rms")
+    drawn = {b.get_facecolor() for b in a.patches}
+    keyed = [t.get_text() for t in a.get_legend().get_texts()]
+    assert keyed == (["status not ok (reason codes above the bar)"] if all_check else
+                     ["status ok", "status not ok (reason codes above the bar)"])
+    assert len(drawn) == len(keyed)
