@@ -1053,10 +1053,12 @@ def interval_page(r: ResultFile):
     ax_leg.axis("off")
     from matplotlib.legend_handler import HandlerTuple
 
+    # the arrows of an interval or a Monte Carlo range off its panel: their words "to"/"from"
+    arrow = any(t.get_text().startswith(("to\n", "from\n")) for a in axes.flat for t in a.texts)
     ax_leg.legend(handles, labels, loc="center", ncol=4, fontsize=8,
                   handler_map={tuple: HandlerTuple(ndivide=None)},
-                  title=f"{how}; arrow: the interval or range runs off the panel to the value "
-                        "written" + (";\ndashed arrow: the way the fit pushes a constant stopped "
+                  title=how + ("; arrow: the interval or range runs off the panel to the value "
+                               "written" if arrow else "") + (";\ndashed arrow: the way the fit pushes a constant stopped "
                                      "on a search limit (the value drawn is that limit)"
                                      if any(iv.at_bound for iv in u.intervals) else "")
                         + (";\nthe intervals count the spread the fixed "

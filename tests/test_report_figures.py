@@ -302,3 +302,27 @@ def test_residuals_across_specimens_legend_keys_the_bars_drawn(tmp_path, all_che
     assert keyed == (["status not ok (reason codes above the bar)"] if all_check else
                      ["status ok", "status not ok (reason codes above the bar)"])
     assert len(drawn) == len(keyed)
+
+
+@pytest.fixture(scope="module")
+def s21(tmp_path_factory):
+    """S2.1 (8x8): G13 on its lower search limit, G23's interval off its panel (to 11 GPa)."""
+    out = tmp_path_factory.mktemp("s21") / "S2.1.result.h5"
+    r = run("identify", S21, "--mesh", "8x8", "-o", out)
+    assert r.exit_code == 0, r.output
+    return out
+
+
+@pytest.mark.parametrize("case, arrow", [("s21", True), ("s21_fixed_at_limit", False)])
+def test_interval_legend_speaks_of_arrows_only_where_drawn(case, arrow, request):
+    """The interval page's legend explains the arrow of an interval (or range) that runs off
+    its panel where one does (S2.1: G23 'to 11.00'); with every interval in view (S2.1 with
+    G13 and G23 fixed) it had the words for an arrow the page did not have."""
+    fig = {p.name: p.figure for p in report_pages(request.getfixturevalue(case))}["intervals"]
+    words = [t.get_text() for a in fig.axes if a.get_gid() and a.get_gid().startswith(
+        "interval-") for t in a.texts if t.get_text().startswith(("to\n", "from\n"))]
+    assert bool(words) is arrow
+    title = _legend_title(fig)
+    assert title.startswith("moduli: interval on ln P")
+    assert ("arrow: the interval or range runs off the panel to the value written"
+            in title) is arrow
