@@ -1976,8 +1976,19 @@ def constants_across_page(done, title: str):
             [], [], ls="none", marker=r"$\mathrm{I}$", ms=10, color="k")
     ax_leg = fig.add_subplot(gs[2, :])                 # a row of its own: clear of the panels
     ax_leg.axis("off")
-    ax_leg.legend(list(handles.values()), list(handles), loc="center",
-                  ncol=min(len(handles), 3 if len(handles) > 6 else 4), fontsize=8,
+    # as many columns as the page's width takes (four columns of five or six long entries
+    # ran off both edges of the page and squeezed the panels)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
+    renderer = canvas.get_renderer()
+    for ncol in range(min(len(handles), 3 if len(handles) > 6 else 4), 0, -1):
+        legend = ax_leg.legend(list(handles.values()), list(handles), loc="center", ncol=ncol,
+                               fontsize=8, handler_map={tuple: HandlerTuple(ndivide=None)})
+        # (within the panels' width: the y tick labels' margin is outside the legend's row)
+        if legend.get_window_extent(renderer).width <= 0.9 * fig.bbox.width:
+            break
+    ax_leg.legend(list(handles.values()), list(handles), loc="center", ncol=ncol, fontsize=8,
                   handler_map={tuple: HandlerTuple(ndivide=None)},
                   # (bars and arrows where there are intervals: a --wide summary has none)
                   title="colour: material" + ("; bars: confidence interval of the summary "

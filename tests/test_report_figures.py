@@ -326,3 +326,50 @@ def test_interval_legend_speaks_of_arrows_only_where_drawn(case, arrow, request)
     assert title.startswith("moduli: interval on ln P")
     assert ("arrow: the interval or range runs off the panel to the value written"
             in title) is arrow
+
+
+def _one_material_rows():
+    """Two carbon specimens of a batch summary (SI): Q well determined, R with G13 on its
+    lower search limit (flat profile to 5 GPa), G23 not determined, E1 with a Monte Carlo
+    range: six legend entries, as the shipped S1.x specimens with a reference."""
+    from tests.test_report import _summary_rows
+
+    q = _summary_rows()[1]
+    r = q | {"name": "R", "specimen": "R", "result": "R.result.h5", "status": "check",
+             "reason": "at_bound, undetermined"}
+    iv = {k: dict(e) for k, e in q["intervals"]["carbon"].items()}
+    iv["G13"] = {"lower": None, "upper": None, "verdict": "at bound — not identified",
+                 "at_bound": True, "bound_side": "lower", "bound_limit": 3.8e5,
+                 "flagged": False, "profile": "flat", "profile_far": 5e9}
+    iv["G23"] = iv["G23"] | {"lower": 0.3e9, "upper": 14e9, "flagged": True,
+                             "verdict": "not determined by these modes"}
+    iv["E1"] = iv["E1"] | {"mc_lower": 85e9, "mc_upper": 89e9}
+    r["intervals"] = {"carbon": iv}
+    r["materials"] = {"carbon": dict(q["materials"]["carbon"], G13=3.8e5)}
+    return [q, r]
+
+
+def test_constants_across_specimens_legend_inside_the_page(tmp_path):
+    """The legend under the panels stays inside the page: with five or six entries it was
+    set in four columns, wider than the page (the shipped S1.x specimens with the synthetic
+    one: the material's marker cut at the left edge, 'reference value' at the right, the
+    panels squeezed to the middle)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from tests.test_report import _write_summary
+
+    path = tmp_path / "summary.json"
+    _write_summary(path, _one_material_rows())
+    fig = {p.name: p.figure for p in report_pages(path)}["constants"]
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw_without_rendering()
+    legend = next(a.get_legend() for a in fig.axes if a.get_legend() is not None)
+    texts = [t.get_text() for t in legend.get_texts()]
+    assert len(texts) >= 5 and "values the fit does not reject (profile of a constant on a " \
+        "search limit)" in texts
+    box = legend.get_window_extent(renderer)
+    assert 0 <= box.x0 and box.x1 <= fig.bbox.width
+    panels = [a.get_window_extent(renderer) for a in fig.axes
+              if (a.get_gid() or "").startswith("across-")]
+    # the panels keep the page's width (not squeezed to make room for the legend's width)
+    assert max(b.x1 for b in panels) - min(b.x0 for b in panels) > 0.85 * fig.bbox.width
