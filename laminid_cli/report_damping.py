@@ -20,6 +20,8 @@ from __future__ import annotations
 import numpy as np
 
 A4_LANDSCAPE = (11.69, 8.27)
+#: the measured and model modal loss factors: colours none of the energy terms has (C0-C4)
+MEASURED_COLOR, MODEL_COLOR = "k", "0.5"
 TERM_NAMES = {"11": "11 (fibre)", "22": "22 (transverse)", "12": "12 (in-plane shear)",
               "13": "13 (transverse shear)", "23": "23 (transverse shear)"}
 
@@ -153,16 +155,18 @@ def damping_page(d: dict):
     n = meas.size
     modes = np.arange(1, n + 1)
     ok = np.isfinite(meas)
-    # measured (filled where fitted, hollow where left out), error bars +-1 sd, model beside
-    ax_m.plot(modes[ok], meas[ok], "o", color="C0", label="measured 2\u03b6 \u00b1 1 sd",
-              zorder=3, gid="measured")
-    ax_m.errorbar(modes[ok], meas[ok], yerr=sig[ok], fmt="none", ecolor="C0", capsize=4,
-                  zorder=2)
+    # measured (filled where fitted, hollow where left out), error bars +-1 sd, model beside;
+    # in black and grey: the colours of the shares' panel beside are the energy terms' (blue
+    # measured and red model read as "11 (fibre)" and "13 (transverse shear)")
+    ax_m.plot(modes[ok], meas[ok], "o", color=MEASURED_COLOR,
+              label="measured 2\u03b6 \u00b1 1 sd", zorder=3, gid="measured")
+    ax_m.errorbar(modes[ok], meas[ok], yerr=sig[ok], fmt="none", ecolor=MEASURED_COLOR,
+                  capsize=4, zorder=2)
     out = ok & ~used
     if out.any():
-        ax_m.plot(modes[out], meas[out], "o", mfc="white", color="C0", zorder=4,
+        ax_m.plot(modes[out], meas[out], "o", mfc="white", color=MEASURED_COLOR, zorder=4,
                   label="measured, not fitted (weight 0)")
-    ax_m.plot(modes, model, "s", color="C3", mfc="none", ms=8, mew=1.5,
+    ax_m.plot(modes, model, "s", color=MODEL_COLOR, mfc="none", ms=8, mew=1.5,
               label="model \u03a3 share \u00d7 ply \u03b7", zorder=5, gid="model")
     ax_m.set_xlabel("mode")
     ax_m.set_ylabel("modal loss factor \u03b7 (%)")

@@ -373,3 +373,21 @@ def test_constants_across_specimens_legend_inside_the_page(tmp_path):
               if (a.get_gid() or "").startswith("across-")]
     # the panels keep the page's width (not squeezed to make room for the legend's width)
     assert max(b.x1 for b in panels) - min(b.x0 for b in panels) > 0.85 * fig.bbox.width
+
+
+def test_damping_page_loss_factor_marks_not_in_the_colours_of_the_energy_terms():
+    """On the damping page the measured and model modal loss factors are in colours none of
+    the strain-energy terms beside them has: blue measured and red model read as '11
+    (fibre)' and '13 (transverse shear)' of the shares' legend."""
+    from matplotlib.colors import to_rgb
+
+    from laminid_cli.report_damping import damping_page
+
+    fig = damping_page(_damping_data(""))
+    a = ax(fig, "modal-loss-factors")
+    marks = {ln.get_gid(): to_rgb(ln.get_color()) for ln in a.get_lines()
+             if ln.get_gid() in ("measured", "model")}
+    assert set(marks) == {"measured", "model"} and marks["measured"] != marks["model"]
+    terms = {to_rgb(b.get_facecolor()) for b in ax(fig, "energy-shares").patches}
+    assert len(terms) == 5
+    assert not set(marks.values()) & terms
