@@ -544,6 +544,8 @@ def frequency_block(fig, spec, plate) -> None:
     for k in np.flatnonzero(fr.weight == 0):
         bars[k].set_facecolor("0.85")
         bars[k].set_hatch("//")
+    # the key only where a hatched bar is drawn (a mode not measured has no bar)
+    hatched = bool((np.isfinite(res) & (np.asarray(fr.weight) == 0)).any())
     ax_r.set_gid("residuals")
     ax_r.axvline(0, color="k", lw=0.6)
     rms = fr.rms_residual_percent
@@ -560,7 +562,8 @@ def frequency_block(fig, spec, plate) -> None:
     from matplotlib.ticker import MaxNLocator
 
     ax_r.xaxis.set_major_locator(MaxNLocator(nbins=4, symmetric=True))
-    ax_r.set_xlabel("(measured − model)/measured (%)\nhatched: weight 0", fontsize=7)
+    ax_r.set_xlabel("(measured − model)/measured (%)" + ("\nhatched: weight 0 (not fitted)"
+                                                         if hatched else ""), fontsize=7)
     ax_r.set_title("residuals" + (f"\n(dashed: ± weighted\nRMS {rms:.3f} %)"
                                   if np.isfinite(rms) else ""), fontsize=8)
     for side in ("top", "right", "left"):
@@ -610,7 +613,9 @@ def table_notes(r: ResultFile) -> list[str]:
         notes.append(f"no information: the interval's upper end is more than "
                      f"{UNINFORMATIVE_RATIO:.0f} times its lower end (the frequencies do not "
                      "constrain this constant)")
-    if any("search limit" in c for c in cells):
+    # (the interval cell of a constant on a limit, not the verdict of one fixed because it was
+    # on one: "fixed: it was at a search limit" has its own note)
+    if any(c.startswith("none — on") for c in cells):
         notes.append("none — on a search limit: the fit stopped on a limit of the search (its "
                      "value is that limit): not identified, no interval")
     if any("profile:" in c for c in cells):
@@ -1053,10 +1058,12 @@ def interval_page(r: ResultFile):
     ax_leg.axis("off")
     from matplotlib.legend_handler import HandlerTuple
 
+    # the arrows of an interval or a Monte Carlo range off its panel: their words "to"/"from"
+    arrow = any(t.get_text().startswith(("to\n", "from\n")) for a in axes.flat for t in a.texts)
     ax_leg.legend(handles, labels, loc="center", ncol=4, fontsize=8,
                   handler_map={tuple: HandlerTuple(ndivide=None)},
-                  title=f"{how}; arrow: the interval or range runs off the panel to the value "
-                        "written" + (";\ndashed arrow: the way the fit pushes a constant stopped "
+                  title=how + ("; arrow: the interval or range runs off the panel to the value "
+                               "written" if arrow else "") + (";\ndashed arrow: the way the fit pushes a constant stopped "
                                      "on a search limit (the value drawn is that limit)"
                                      if any(iv.at_bound for iv in u.intervals) else "")
                         + (";\nthe intervals count the spread the fixed "
@@ -1297,7 +1304,16 @@ def history_page(r: ResultFile):
     ax_o.set_ylabel("objective (Eq. 17)", fontsize=8)
     ax_o.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0)
     ax_r.set_gid("rms")
-    ax_r.semilogy(ev[on], hist.rms_residual_percent[on], pts, ms=2.5, lw=1, color="C1")
+    ax_r.semilogy(ev[on], hist.rms_residual_percent[on], pts, ms=2.5, lw=1, color="C1",
+                  label="RMS residual")
+    if not known.all():
+        # the reduced model's predictions as on the objective's panel (a prediction below
+        # the result read as a better point the fit had left)
+        pred = on & ~known
+        ax_r.semilogy(ev[pred], hist.rms_residual_percent[pred], "o", ms=3.5, color="0.75",
+                      mec="0.55", mew=0.5, zorder=3, gid="rms-predicted", ls="none",
+                      label="reduced-model prediction (error not bounded)")
+        ax_r.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0)
     ax_r.set_ylabel("RMS residual (%)", fontsize=8)
     hits = bound_hits(r)
     multi = len(r.materials) > 1
@@ -1358,6 +1374,17 @@ def history_page(r: ResultFile):
             else:
                 ax.yaxis.set_major_locator(LogLocator(base=10, numticks=8))
             ax.yaxis.set_minor_formatter(NullFormatter())
+            if ax in (ax_o, ax_r):
+                # down to a labelled tick under the lowest point: the value the fit ended on
+                # (the lowest, as a rule) is read against a number (S1.3's RMS 0.244 % had
+                # none under 1 %); the tick under the point, not under the margin below it
+                # (hybrid CM's 0.14 % went down to 0.01)
+                ys = np.concatenate([np.asarray(ln.get_ydata(), float) for ln in ax.get_lines()])
+                low = np.min(ys[np.isfinite(ys) & (ys > 0)], initial=hi)
+                below = [t for t in ax.yaxis.get_major_locator().tick_values(lo / 10, hi)
+                         if t <= low * (1 + 1e-9)]
+                if below and max(below) < lo:
+                    ax.set_ylim(max(below), hi)
     if hits:
         _footer(fig, "X: constant that ended at a bound of the feasible set (not identified): "
                 + ", ".join(sorted(hits)), color=CHECK_COLOR)
@@ -1844,7 +1871,7 @@ def constants_across_page(done, title: str):
     width = min(0.22, 0.7 / max(nm, 1))
     offsets = {m: (c - (nm - 1) / 2) * width for c, m in enumerate(materials)}
     kinds: set[str] = set()
-    has_mc = has_mc_limit = has_ref = has_ref_range = has_profile = False
+    has_mc = has_mc_limit = has_ref = has_ref_range = has_profile = has_interval = False
     for ax, k in zip(axes, CONSTANTS):
         ax.set_gid(f"across-{k}")
         vals, ends, bars = [], [], []
@@ -1863,6 +1890,7 @@ def constants_across_page(done, title: str):
                     if not d.undetermined and abs(hi - lo) < abs(v):
                         ends += [lo, hi]
                     bars.append((xi, lo, hi, color, 1.2, "interval", (False, False), "-"))
+                    has_interval = True
                 if d is not None and np.isfinite(d.mc_lower) and np.isfinite(d.mc_upper):
                     has_mc = True
                     marks = (d.mc_lower_at_limit, d.mc_upper_at_limit)
@@ -1953,11 +1981,24 @@ def constants_across_page(done, title: str):
             [], [], ls="none", marker=r"$\mathrm{I}$", ms=10, color="k")
     ax_leg = fig.add_subplot(gs[2, :])                 # a row of its own: clear of the panels
     ax_leg.axis("off")
-    ax_leg.legend(list(handles.values()), list(handles), loc="center",
-                  ncol=min(len(handles), 3 if len(handles) > 6 else 4), fontsize=8,
+    # as many columns as the page's width takes (four columns of five or six long entries
+    # ran off both edges of the page and squeezed the panels)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
+    renderer = canvas.get_renderer()
+    for ncol in range(min(len(handles), 3 if len(handles) > 6 else 4), 0, -1):
+        legend = ax_leg.legend(list(handles.values()), list(handles), loc="center", ncol=ncol,
+                               fontsize=8, handler_map={tuple: HandlerTuple(ndivide=None)})
+        # (within the panels' width: the y tick labels' margin is outside the legend's row)
+        if legend.get_window_extent(renderer).width <= 0.9 * fig.bbox.width:
+            break
+    ax_leg.legend(list(handles.values()), list(handles), loc="center", ncol=ncol, fontsize=8,
                   handler_map={tuple: HandlerTuple(ndivide=None)},
-                  title="colour: material; bars: confidence interval of the summary (arrow: "
-                        "runs off the panel)", title_fontsize=8)
+                  # (bars and arrows where there are intervals: a --wide summary has none)
+                  title="colour: material" + ("; bars: confidence interval of the summary "
+                                              "(arrow: runs off the panel)" if has_interval
+                                              else ""), title_fontsize=8)
     notes = []
     checks = [f"{name}: {w}" for name, (row, _, r) in zip(names, done)
               if (w := _row_check(row, r))]
@@ -2010,8 +2051,11 @@ def residuals_across_page(rows, title: str):
     ax.set_xticks(np.arange(len(rows)), names, rotation=45, ha="right", fontsize=8)
     ax.set_ylabel("RMS residual (%)")
     ax.set_xlabel("specimen")
-    ax.legend(handles=[Patch(color="0.45"), Patch(color="0.8")],
-              labels=["status ok", "status not ok (reason codes above the bar)"],
+    # the kinds of bar drawn (a batch of which none is ok keyed a dark bar it did not have)
+    kinds = [(Patch(color=c), text) for c, text in (
+        ("0.45", "status ok"), ("0.8", "status not ok (reason codes above the bar)"))
+        if c in colors]
+    ax.legend(handles=[h for h, _ in kinds], labels=[t for _, t in kinds],
               loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0, fontsize=8)
     if any(m.get("max_shift_half_width") is not None for m in meshes):
         from laminid_cli.meshcheck import SHIFT_LIMIT

@@ -20,6 +20,8 @@ from __future__ import annotations
 import numpy as np
 
 A4_LANDSCAPE = (11.69, 8.27)
+#: the measured and model modal loss factors: colours none of the energy terms has (C0-C4)
+MEASURED_COLOR, MODEL_COLOR = "k", "0.5"
 TERM_NAMES = {"11": "11 (fibre)", "22": "22 (transverse)", "12": "12 (in-plane shear)",
               "13": "13 (transverse shear)", "23": "23 (transverse shear)"}
 
@@ -153,16 +155,18 @@ def damping_page(d: dict):
     n = meas.size
     modes = np.arange(1, n + 1)
     ok = np.isfinite(meas)
-    # measured (filled where fitted, hollow where left out), error bars +-1 sd, model beside
-    ax_m.plot(modes[ok], meas[ok], "o", color="C0", label="measured 2\u03b6 \u00b1 1 sd",
-              zorder=3, gid="measured")
-    ax_m.errorbar(modes[ok], meas[ok], yerr=sig[ok], fmt="none", ecolor="C0", capsize=4,
-                  zorder=2)
+    # measured (filled where fitted, hollow where left out), error bars +-1 sd, model beside;
+    # in black and grey: the colours of the shares' panel beside are the energy terms' (blue
+    # measured and red model read as "11 (fibre)" and "13 (transverse shear)")
+    ax_m.plot(modes[ok], meas[ok], "o", color=MEASURED_COLOR,
+              label="measured 2\u03b6 \u00b1 1 sd", zorder=3, gid="measured")
+    ax_m.errorbar(modes[ok], meas[ok], yerr=sig[ok], fmt="none", ecolor=MEASURED_COLOR,
+                  capsize=4, zorder=2)
     out = ok & ~used
     if out.any():
-        ax_m.plot(modes[out], meas[out], "o", mfc="white", color="C0", zorder=4,
+        ax_m.plot(modes[out], meas[out], "o", mfc="white", color=MEASURED_COLOR, zorder=4,
                   label="measured, not fitted (weight 0)")
-    ax_m.plot(modes, model, "s", color="C3", mfc="none", ms=8, mew=1.5,
+    ax_m.plot(modes, model, "s", color=MODEL_COLOR, mfc="none", ms=8, mew=1.5,
               label="model \u03a3 share \u00d7 ply \u03b7", zorder=5, gid="model")
     ax_m.set_xlabel("mode")
     ax_m.set_ylabel("modal loss factor \u03b7 (%)")
@@ -208,10 +212,20 @@ def damping_page(d: dict):
                    + (f"\nMonte Carlo: {int(mc['refits'])} trials refitted the loss factors at "
                       f"their own constants ({conf:.0f} % of them in the range; * an end at "
                       "the bound 0)" if "refits" in mc else ""), fontsize=9)
-    if advice:      # above the table: under it, a table of two materials ran over the words
-        ax_t.text(0.5, 1.0, advice, transform=ax_t.transAxes, ha="center", va="bottom",
-                  fontsize=8, gid="loss-factor-note")
-        ax_t.set_title(ax_t.get_title() + "\n", fontsize=9)
+    # the result's notes on the loss factors (a free one leaning on an elastic constant the
+    # modes do not determine is known less well than its interval says: the terminal's note)
+    notes = str(d.get("notes", "") or "").strip()
+    words = [w for w in (advice, f"note: {notes}" if notes else "") if w]
+    if words:       # above the table: under it, a table of two materials ran over the words
+        import textwrap
+
+        from laminid_cli.report import _wrap_width
+
+        lines = [ln for w in words for ln in textwrap.wrap(w, _wrap_width(fig, 8),
+                                                            break_on_hyphens=False)]
+        ax_t.text(0.5, 1.0, "\n".join(lines), transform=ax_t.transAxes, ha="center",
+                  va="bottom", fontsize=8, gid="loss-factor-note")
+        ax_t.set_title(ax_t.get_title() + "\n" * len(lines), fontsize=9)
     name = d.get("specimen", "")
     fig.suptitle(f"{name}: damping (modal strain energy)" if name else "damping", fontsize=11)
     return fig

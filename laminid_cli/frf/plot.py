@@ -146,17 +146,25 @@ def fit_figure(freq, frf, fit, *, title: str = "", units: str = "", coherence=No
     xr = draw_frf(ax_m, ax_p, freq, frf, fit, units=units, coherence=coherence, ax_c=ax_c)
     ax_m.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=3, fontsize=8,
                 frameon=False)                  # above the panel: clear of the curves
+    from matplotlib.lines import Line2D
+
+    kinds = ((0, "o", "new pole"), (1, "+", "stable in f"),
+             (2, "x", "stable in f and damping" + (" (colour: its band)"
+                                                   if len(fit.bands) > 1 else "")))
     with np.errstate(divide="ignore", invalid="ignore"):
         for k, band in enumerate(fit.bands):
             color = f"C{k % 10}"
             ch = band.chart
-            for code, marker, label in ((0, "o", "new pole"), (1, "+", "stable in f"),
-                                        (2, "x", "stable in f and damping")):
+            for code, marker, _ in kinds:
                 s = ch.stable == code
                 ax_s.plot(ch.freq_hz[s], ch.order[s], marker, ms=3 if code == 0 else 5,
-                          mfc="none", color=color if code == 2 else "0.5",
-                          label=label if k == 0 else None, ls="none")
+                          mfc="none", color=color if code == 2 else "0.5", ls="none")
         summed = 20 * np.log10(np.abs(frf).sum(axis=0))
+    # the legend's x in the first band's colour where there is one band, else neutral (the
+    # first band's blue keyed the orange and green x of the others as something else)
+    handles = [Line2D([], [], ls="none", marker=marker, ms=3 if code == 0 else 5, mfc="none",
+                      color="0.5" if code < 2 else "C0" if len(fit.bands) <= 1 else "0.15")
+               for code, marker, _ in kinds]
     for m in fit.modes:
         ax_s.axvline(m.freq_hz, color="0.35", ls="--", lw=0.6)
     ax_s2 = ax_s.twinx()
@@ -169,9 +177,9 @@ def fit_figure(freq, frf, fit, *, title: str = "", units: str = "", coherence=No
     from matplotlib.ticker import MaxNLocator
     ax_s.yaxis.set_major_locator(MaxNLocator(integer=True))     # orders are whole numbers
     ax_s.set_xlabel("frequency (Hz)")
-    ax_s.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=3, fontsize=8,
-                frameon=False, title="stabilisation chart (grey: summed |H|)",
-                title_fontsize=9)
+    ax_s.legend(handles, [label for _, _, label in kinds], loc="lower center",
+                bbox_to_anchor=(0.5, 1.0), ncol=3, fontsize=8, frameon=False,
+                title="stabilisation chart (grey: summed |H|)", title_fontsize=9)
     if xr:
         ax_s.set_xlim(*xr)
     fig.suptitle(title or f"RFP fit: {len(fit.modes)} modes")

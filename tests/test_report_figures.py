@@ -1,0 +1,393 @@
+"""`laminid report`: what the pages' words, keys and legends say is what the page draws
+(figure review: a note, key or legend entry for a mark the page does not have misleads)."""
+
+import pytest
+from click.testing import CliRunner
+
+from laminid_cli.cli import cli
+from laminid_cli.report import report_pages
+
+S21 = "specimens/example2/S2.1.yaml"
+
+
+def run(*args):
+    return CliRunner().invoke(cli, [str(a) for a in args])
+
+
+def ax(fig, gid):
+    return next(a for a in fig.axes if a.get_gid() == gid)
+
+
+def cells(axis) -> list[list[str]]:
+    d = axis.tables[0].get_celld()
+    n_r = 1 + max(i for i, _ in d)
+    n_c = 1 + max(j for _, j in d)
+    return [[d[i, j].get_text().get_text() for j in range(n_c)] for i in range(n_r)]
+
+
+def texts(fig) -> str:
+    return " ".join(t.get_text() for a in fig.axes for t in a.texts).replace("\n", " ")
+
+
+@pytest.fixture(scope="module")
+def s21_fixed_at_limit(tmp_path_factory):
+    """S2.1 (8x8) with --fix-undetermined: G13, on its lower search limit in the first run,
+    fixed ("fixed: it was at a search limit"), G23 fixed because undetermined; no constant
+    of the answer is on a search limit."""
+    out = tmp_path_factory.mktemp("s21fix") / "S2.1.result.h5"
+    r = run("identify", S21, "--mesh", "8x8", "--fix-undetermined", "-o", out)
+    assert r.exit_code == 0, r.output
+    return out
+
+
+def test_no_search_limit_note_where_no_constant_is_on_one(s21_fixed_at_limit):
+    """The summary page's note on "none — on a search limit" belongs to a constant whose
+    interval cell says so; a constant fixed because it was on a limit says "fixed: it was at
+    a search limit" and has the note on fixed values (the limit note read as if a constant of
+    this answer had stopped on its limit)."""
+    fig = {p.name: p.figure for p in report_pages(s21_fixed_at_limit)}["summary"]
+    table = cells(ax(fig, "constants"))[1:]
+    assert any(row[3] == "fixed: it was at a search limit" for row in table)
+    assert not any(row[2].startswith("none — on") for row in table)
+    notes = texts(fig)
+    assert "none — on a search limit" not in notes
+    assert "fixed: held at its initial value, not identified" in notes
+
+
+def _frequency_figure(measured, weight):
+    """The measured-vs-model block of page 1 for a plate of four modes (no identification)."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from laminid_cli.report import _figure, frequency_block
+
+    model = np.array([100.0, 200.0, 300.0, 400.0])
+    measured = np.asarray(measured, float)
+    res = (measured - model) / measured * 100
+    fr = SimpleNamespace(model=model, measured=measured, model_mode=np.arange(1, 5),
+                         weight=np.asarray(weight, float), residual_percent=res,
+                         rms_residual_percent=0.5)
+    fig = _figure()
+    frequency_block(fig, fig.add_gridspec(1, 1)[0, 0], SimpleNamespace(frequencies=fr))
+    return ax(fig, "residuals")
+
+
+@pytest.mark.parametrize("measured, weight, key", [
+    ([100.5, 199.0, 301.0, 398.0], [1, 1, 1, 1], False),          # every mode fitted
+    ([100.5, float("nan"), 301.0, 398.0], [1, 0, 1, 1], False),   # not measured: no bar
+    ([100.5, 199.0, 301.0, 398.0], [1, 0, 1, 1], True)])          # measured, weight 0
+def test_residual_bars_key_hatched_only_where_a_bar_is(measured, weight, key):
+    """'hatched: weight 0' under the residual bars where one is hatched (every page 1 said
+    it, also with every weight 1 or a weight-0 mode that was not measured and has no bar)."""
+    a = _frequency_figure(measured, weight)
+    assert a.get_xlabel().startswith("(measured − model)/measured (%)")
+    assert ("hatched: weight 0" in a.get_xlabel()) is key
+    hatches = [b.get_hatch() for b in a.patches if b.get_hatch()]
+    assert bool(hatches) is (0 in weight)
+
+
+def _damping_data(notes: str) -> dict:
+    """The /damping data of a result as read_damping gives it: 12 modes, one material, eta13
+    and eta23 not determined by the damping; ``notes`` as the file's attribute."""
+    import numpy as np
+
+    n, labels = 12, [f"M.eta{t}" for t in ("11", "22", "12", "13", "23")]
+    shares = np.tile([0.6, 0.2, 0.15, 0.03, 0.02], (n, 1))
+    value = np.array([0.002, 0.011, 0.016, 0.012, 0.007])
+    eta = shares @ value
+    return {"measured_loss_factor": eta, "measured_sigma": 0.02 * eta, "model_loss_factor": eta,
+            "used": np.ones(n, bool), "energy_shares": shares,
+            "share_labels": [f"M.{t}" for t in ("11", "22", "12", "13", "23")],
+            "labels": labels, "value": value, "lower": 0.8 * value, "upper": 1.2 * value,
+            "at_bound": np.zeros(5, bool),
+            "verdict": ["weak"] * 3 + ["not determined by the measured damping"] * 2,
+            "confidence": 0.95, "s2": 1.0, "dof": 7, "sigma_source": "the specimen file's "
+            "measured.damping_sigma", "monte_carlo": {}, "verdict_from_monte_carlo": [],
+            "fixed": "", "notes": notes, "specimen": "P"}
+
+
+NOTE = ("M.eta13, M.eta23, M.eta11, M.eta22: the loss factors' intervals take the elastic "
+        "constants as identified, and M.G13, M.G23, M.nu12 are not determined by the modes (or "
+        "fixed because of it): these loss factors are known less well than the interval says")
+
+
+@pytest.mark.parametrize("notes", ["", NOTE])
+def test_damping_page_gives_the_results_note_on_the_loss_factors(notes):
+    """The damping page says what the result file's /damping notes say (the terminal's note:
+    loss factors leaning on elastic constants the modes do not determine are known less well
+    than their intervals say; the page showed those intervals as plain 'weak'), above the
+    table, clear of it and of the table's title, inside the page."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from laminid_cli.report_damping import NOT_DETERMINED_ADVICE, damping_page
+
+    fig = damping_page(_damping_data(notes))
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw_without_rendering()
+    a = ax(fig, "loss-factors")
+    note = next(t for t in a.texts if t.get_gid() == "loss-factor-note")
+    said = " ".join(note.get_text().split())
+    assert said.startswith(NOT_DETERMINED_ADVICE)
+    assert ("note: " + NOTE in said) is bool(notes)
+    box = note.get_window_extent(renderer)
+    table = a.tables[0].get_window_extent(renderer)
+    # the title's words: its lines above the empty ones that keep the note's room
+    title = a.title.get_window_extent(renderer)
+    lines = a.title.get_text().split("\n")
+    words_y0 = title.y1 - title.height * len([x for x in lines if x]) / len(lines)
+    assert table.y1 <= box.y0 and box.y1 <= words_y0 + 1           # between table and title
+    assert 0 <= box.x0 and box.x1 <= fig.bbox.width
+
+
+def _legend_title(fig) -> str:
+    return next(a.get_legend().get_title().get_text() for a in fig.axes
+                if a.get_legend() is not None)
+
+
+@pytest.mark.parametrize("wide", [False, True])
+def test_constants_across_specimens_legend_speaks_of_bars_only_where_drawn(tmp_path, wide):
+    """The legend of the constants across specimens names the interval bars (and their
+    arrows) where the summary has intervals; a --wide summary.csv alone has none, and its
+    page said 'bars: confidence interval of the summary (arrow: runs off the panel)' over
+    panels without a bar or an arrow."""
+    from laminid_cli.batch import write_summary_csv
+    from tests.test_report import _summary_rows
+
+    path = tmp_path / "summary.csv"
+    write_summary_csv(path, _summary_rows(), wide=wide)
+    fig = {p.name: p.figure for p in report_pages(path)}["constants"]
+    bars = [ln for a in fig.axes for ln in a.get_lines() if ln.get_gid() == "interval"]
+    assert bool(bars) is not wide
+    title = _legend_title(fig)
+    assert title.startswith("colour: material")
+    assert ("bars: confidence interval" in title) is not wide
+    assert ("arrow" in title) is not wide
+
+
+def test_history_rms_panel_tells_predictions_from_checked_evaluations(s21_fixed_at_limit):
+    """The RMS residual panel marks the reduced model's predictions (error not bounded) as
+    the objective's panel does, with a legend: drawn alike, a prediction below the result (S1.1
+    + S1.2 joint: 0.2 % at evaluations 37-39, result 0.33 %) read as a better point the fit
+    left."""
+    import numpy as np
+
+    from laminid_cli.report import revisits
+    from laminid_cli.resultfile import read_result
+
+    res = read_result(s21_fixed_at_limit)
+    h = res.history
+    pred = ~np.isfinite(h.error_bound) & ~revisits(h.constants)
+    assert pred.any() and not pred.all()
+    fig = {p.name: p.figure for p in report_pages(s21_fixed_at_limit)}["history"]
+    a = ax(fig, "rms")
+    line = next(ln for ln in a.get_lines() if ln.get_gid() == "rms-predicted")
+    assert np.array_equal(line.get_xdata(), h.evaluation[pred])
+    assert np.array_equal(line.get_ydata(), h.rms_residual_percent[pred])
+    legend = [t.get_text() for t in a.get_legend().get_texts()]
+    assert legend == ["RMS residual", "reduced-model prediction (error not bounded)"]
+    objective = [t.get_text() for t in ax(fig, "objective").get_legend().get_texts()]
+    assert "reduced-model prediction (trial point, error not bounded)" in objective
+
+
+@pytest.mark.parametrize("gid", ["objective", "rms"])
+def test_history_log_panels_have_a_labelled_tick_under_their_lowest_value(s21_fixed_at_limit,
+                                                                         gid):
+    """The objective's and the RMS residual's log panels reach down to a labelled tick, so
+    that the value the fit ended on is read against a number (S1.3's RMS residual panel
+    labelled 1 and 10 only, with the result at 0.244 %; S2.1's 0.5 ... 10, result 0.246 %)."""
+    import numpy as np
+
+    fig = {p.name: p.figure for p in report_pages(s21_fixed_at_limit)}["history"]
+    a = ax(fig, gid)
+    lo, hi = a.get_ylim()
+    ticks = [t for t in a.yaxis.get_majorticklocs() if lo * (1 - 1e-9) <= t <= hi]
+    lowest = min(np.nanmin(ln.get_ydata()) for ln in a.get_lines() if len(ln.get_ydata()))
+    assert min(ticks) <= lowest
+    assert len(ticks) >= 2
+
+
+def _two_band_fit():
+    """A fit of two bands as fit_figure draws it (no RFP): each band's FRF a single pole, its
+    stabilisation chart with a pole of each kind."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    def band(lo, hi, f0):
+        def synthesise(f):
+            return np.atleast_2d(1.0 / (f0 ** 2 - f ** 2 + 0.02j * f0 * f))
+        chart = SimpleNamespace(freq_hz=np.array([0.9 * f0, f0, f0]),
+                                order=np.array([2.0, 3.0, 4.0]), stable=np.array([0, 1, 2]))
+        return SimpleNamespace(band_hz=(lo, hi), synthesise=synthesise, chart=chart)
+
+    bands = [band(50.0, 150.0, 100.0), band(150.0, 300.0, 220.0)]
+    return SimpleNamespace(bands=bands, modes=[SimpleNamespace(freq_hz=100.0),
+                                               SimpleNamespace(freq_hz=220.0)])
+
+
+@pytest.mark.parametrize("n_bands", [1, 2])
+def test_stabilisation_legend_keys_the_x_of_every_band(n_bands):
+    """fit-frf --plot: the x of a pole stable in frequency and damping is in its band's
+    colour; with more than one band the legend says so and keys it in a neutral colour (it
+    keyed the first band's blue x alone, the orange and green ones of the other bands had no
+    entry). With one band: its colour, as drawn."""
+    import numpy as np
+    from matplotlib.colors import to_rgba
+
+    from laminid_cli.frf.plot import fit_figure
+
+    fit = _two_band_fit()
+    fit.bands = fit.bands[:n_bands]
+    fit.modes = fit.modes[:n_bands]
+    freq = np.arange(50.0, 300.0, 0.5)
+    frf = np.atleast_2d(1.0 / (100.0 ** 2 - freq ** 2 + 2j * freq))
+    fig = fit_figure(freq, frf, fit)
+    s = ax(fig, "stabilisation")
+    leg = s.get_legend()
+    labels = [t.get_text() for t in leg.get_texts()]
+    x = labels.index(next(t for t in labels if t.startswith("stable in f and damping")))
+    handle = leg.legend_handles[x]
+    drawn = {to_rgba(ln.get_color()) for ln in s.get_lines() if ln.get_marker() == "x"}
+    assert len(drawn) == n_bands
+    if n_bands > 1:
+        assert labels[x] == "stable in f and damping (colour: its band)"
+        assert to_rgba(handle.get_color()) not in drawn
+    else:
+        assert labels[x] == "stable in f and damping"
+        assert {to_rgba(handle.get_color())} == drawn
+
+
+def test_history_rms_panel_goes_down_to_the_tick_under_its_lowest_point_only(
+        s21_fixed_at_limit):
+    """The labelled tick under the lowest point, not the one under the panel's margin below
+    it: an RMS residual from 200 % down to 0.14 % (hybrid CM) went down to 0.01 %, a decade
+    of empty panel, when its margin reached under 0.1."""
+    import dataclasses
+
+    import numpy as np
+
+    from laminid_cli.report import history_page
+    from laminid_cli.resultfile import read_result
+
+    res = read_result(s21_fixed_at_limit)
+    h = res.history
+    n = h.evaluation.size
+    rms = np.geomspace(200.0, 0.14, n)
+    res = dataclasses.replace(res, history=dataclasses.replace(h, rms_residual_percent=rms))
+    a = ax(history_page(res), "rms")
+    lo, hi = a.get_ylim()
+    ticks = [t for t in a.yaxis.get_majorticklocs() if lo * (1 - 1e-9) <= t <= hi]
+    assert [t for t in ticks if t <= 0.14] == [pytest.approx(0.1)]
+    assert lo > 0.05                          # not a decade of empty panel under 0.1
+
+
+@pytest.mark.parametrize("all_check", [False, True])
+def test_residuals_across_specimens_legend_keys_the_bars_drawn(tmp_path, all_check):
+    """The RMS residual page of a batch summary keys the kinds of bar it draws: a batch none
+    of whose specimens is ok (the eight shipped specimens: all 'check') had a 'status ok'
+    entry for a dark bar the page did not have."""
+    from tests.test_report import _summary_rows, _write_summary
+
+    rows = _summary_rows()
+    if all_check:
+        rows[1] = rows[1] | {"status": "check", "reasons": [{"code": "poor_fit", "text": "."}],
+                             "reason": "poor_fit"}
+    path = tmp_path / "summary.json"
+    _write_summary(path, rows)
+    fig = {p.name: p.figure for p in report_pages(path)}["residuals"]
+    a = ax(fig, "rms")
+    drawn = {b.get_facecolor() for b in a.patches}
+    keyed = [t.get_text() for t in a.get_legend().get_texts()]
+    assert keyed == (["status not ok (reason codes above the bar)"] if all_check else
+                     ["status ok", "status not ok (reason codes above the bar)"])
+    assert len(drawn) == len(keyed)
+
+
+@pytest.fixture(scope="module")
+def s21(tmp_path_factory):
+    """S2.1 (8x8): G13 on its lower search limit, G23's interval off its panel (to 11 GPa)."""
+    out = tmp_path_factory.mktemp("s21") / "S2.1.result.h5"
+    r = run("identify", S21, "--mesh", "8x8", "-o", out)
+    assert r.exit_code == 0, r.output
+    return out
+
+
+@pytest.mark.parametrize("case, arrow", [("s21", True), ("s21_fixed_at_limit", False)])
+def test_interval_legend_speaks_of_arrows_only_where_drawn(case, arrow, request):
+    """The interval page's legend explains the arrow of an interval (or range) that runs off
+    its panel where one does (S2.1: G23 'to 11.00'); with every interval in view (S2.1 with
+    G13 and G23 fixed) it had the words for an arrow the page did not have."""
+    fig = {p.name: p.figure for p in report_pages(request.getfixturevalue(case))}["intervals"]
+    words = [t.get_text() for a in fig.axes if a.get_gid() and a.get_gid().startswith(
+        "interval-") for t in a.texts if t.get_text().startswith(("to\n", "from\n"))]
+    assert bool(words) is arrow
+    title = _legend_title(fig)
+    assert title.startswith("moduli: interval on ln P")
+    assert ("arrow: the interval or range runs off the panel to the value written"
+            in title) is arrow
+
+
+def _one_material_rows():
+    """Two carbon specimens of a batch summary (SI): Q well determined, R with G13 on its
+    lower search limit (flat profile to 5 GPa), G23 not determined, E1 with a Monte Carlo
+    range: six legend entries, as the shipped S1.x specimens with a reference."""
+    from tests.test_report import _summary_rows
+
+    q = _summary_rows()[1]
+    r = q | {"name": "R", "specimen": "R", "result": "R.result.h5", "status": "check",
+             "reason": "at_bound, undetermined"}
+    iv = {k: dict(e) for k, e in q["intervals"]["carbon"].items()}
+    iv["G13"] = {"lower": None, "upper": None, "verdict": "at bound — not identified",
+                 "at_bound": True, "bound_side": "lower", "bound_limit": 3.8e5,
+                 "flagged": False, "profile": "flat", "profile_far": 5e9}
+    iv["G23"] = iv["G23"] | {"lower": 0.3e9, "upper": 14e9, "flagged": True,
+                             "verdict": "not determined by these modes"}
+    iv["E1"] = iv["E1"] | {"mc_lower": 85e9, "mc_upper": 89e9}
+    r["intervals"] = {"carbon": iv}
+    r["materials"] = {"carbon": dict(q["materials"]["carbon"], G13=3.8e5)}
+    return [q, r]
+
+
+def test_constants_across_specimens_legend_inside_the_page(tmp_path):
+    """The legend under the panels stays inside the page: with five or six entries it was
+    set in four columns, wider than the page (the shipped S1.x specimens with the synthetic
+    one: the material's marker cut at the left edge, 'reference value' at the right, the
+    panels squeezed to the middle)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from tests.test_report import _write_summary
+
+    path = tmp_path / "summary.json"
+    _write_summary(path, _one_material_rows())
+    fig = {p.name: p.figure for p in report_pages(path)}["constants"]
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw_without_rendering()
+    legend = next(a.get_legend() for a in fig.axes if a.get_legend() is not None)
+    texts = [t.get_text() for t in legend.get_texts()]
+    assert len(texts) >= 5 and "values the fit does not reject (profile of a constant on a " \
+        "search limit)" in texts
+    box = legend.get_window_extent(renderer)
+    assert 0 <= box.x0 and box.x1 <= fig.bbox.width
+    panels = [a.get_window_extent(renderer) for a in fig.axes
+              if (a.get_gid() or "").startswith("across-")]
+    # the panels keep the page's width (not squeezed to make room for the legend's width)
+    assert max(b.x1 for b in panels) - min(b.x0 for b in panels) > 0.85 * fig.bbox.width
+
+
+def test_damping_page_loss_factor_marks_not_in_the_colours_of_the_energy_terms():
+    """On the damping page the measured and model modal loss factors are in colours none of
+    the strain-energy terms beside them has: blue measured and red model read as '11
+    (fibre)' and '13 (transverse shear)' of the shares' legend."""
+    from matplotlib.colors import to_rgb
+
+    from laminid_cli.report_damping import damping_page
+
+    fig = damping_page(_damping_data(""))
+    a = ax(fig, "modal-loss-factors")
+    marks = {ln.get_gid(): to_rgb(ln.get_color()) for ln in a.get_lines()
+             if ln.get_gid() in ("measured", "model")}
+    assert set(marks) == {"measured", "model"} and marks["measured"] != marks["model"]
+    terms = {to_rgb(b.get_facecolor()) for b in ax(fig, "energy-shares").patches}
+    assert len(terms) == 5
+    assert not set(marks.values()) & terms
