@@ -417,7 +417,8 @@ def test_error_flagged_once_is_cured_by_one_more_read(tmp_path, emu_cls, command
     assert read_frf_h5(out).labels == ("1", "2", "3")
 
 
-def test_ctrl_c_keeps_the_file_and_prints_the_resume_command(tmp_path, hp, monkeypatch):
+def _interrupt_on_second_point(monkeypatch):
+    """A Ctrl-C while point 2 is assessed (after it is saved); the real function returned."""
     import laminid_cli.instrument.session as session
 
     real = session.assess_point
@@ -430,6 +431,11 @@ def test_ctrl_c_keeps_the_file_and_prints_the_resume_command(tmp_path, hp, monke
         return real(*args, **kwargs)
 
     monkeypatch.setattr(session, "assess_point", interrupt_on_second)
+    return real
+
+
+def test_ctrl_c_keeps_the_file_and_prints_the_resume_command(tmp_path, hp, monkeypatch):
+    _interrupt_on_second_point(monkeypatch)
     out = tmp_path / "c.h5"
     r = acquire(hp, out, "--no-prompt")
     assert r.exit_code == 130
@@ -454,16 +460,7 @@ def test_json_summary_also_when_the_session_is_interrupted(tmp_path, hp, monkeyp
 
     import laminid_cli.instrument.session as session
 
-    real = session.assess_point
-    calls = []
-
-    def interrupt_on_second(*args, **kwargs):
-        calls.append(1)
-        if len(calls) == 2:
-            raise KeyboardInterrupt
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(session, "assess_point", interrupt_on_second)
+    real = _interrupt_on_second_point(monkeypatch)
     out = tmp_path / "c.h5"
     r = acquire(hp, out, "--no-prompt", "--json")
     assert r.exit_code == 130

@@ -189,14 +189,10 @@ def test_e2_on_its_lower_limit_gets_a_profile_below_e1():
     assert np.isfinite(p.bound) or p.text.startswith("the fit is as good")
 
 
-def test_a_profile_whose_identification_fails_in_the_solver_does_not_end_the_run(monkeypatch):
-    """An identification of the profile that fails in the model or the eigen solver (a
-    SolverError, not a FitError) gave a traceback and lost the result already made; now that
-    constant gets 'no profile' with the reason, like a profile whose fit did not converge."""
+def _fail_fits_holding_g13(monkeypatch):
+    """Every identification with G13 held (a profile's) fails in the eigen solver."""
     import laminid_cli.identify as ident
     from laminid_cli.errors import SolverError
-    from laminid_cli.forward import build_forward_model
-    from laminid_cli.specimen import read_specimen
 
     real = ident.identify
 
@@ -206,6 +202,16 @@ def test_a_profile_whose_identification_fails_in_the_solver_does_not_end_the_run
         return real(fm, options, *args, **kw)
 
     monkeypatch.setattr(ident, "identify", failing)
+
+
+def test_a_profile_whose_identification_fails_in_the_solver_does_not_end_the_run(monkeypatch):
+    """An identification of the profile that fails in the model or the eigen solver (a
+    SolverError, not a FitError) gave a traceback and lost the result already made; now that
+    constant gets 'no profile' with the reason, like a profile whose fit did not converge."""
+    from laminid_cli.forward import build_forward_model
+    from laminid_cli.specimen import read_specimen
+
+    _fail_fits_holding_g13(monkeypatch)
     fm = build_forward_model(read_specimen("specimens/example2/S2.1.yaml"), (8, 8))
     u = assess(fm, IdentifyOptions(), UncertaintyOptions()).uncertainty
     p = u.profiles["E-glass/R368.G13"]
@@ -517,19 +523,10 @@ def test_no_profile_names_no_far_end(tmp_path, monkeypatch):
 
     import h5py
 
-    import laminid_cli.identify as ident
-    from laminid_cli.errors import SolverError
     from laminid_cli.report import doubt_of_row, interval_text
     from laminid_cli.resultfile import read_result
 
-    real = ident.identify
-
-    def failing(fm, options, *args, **kw):
-        if any(str(f).endswith("G13") for f in options.fix):
-            raise SolverError("the stiffness matrix is not positive definite")
-        return real(fm, options, *args, **kw)
-
-    monkeypatch.setattr(ident, "identify", failing)
+    _fail_fits_holding_g13(monkeypatch)
     m, lab = "E-glass/R368", "E-glass/R368.G13"
     out = tmp_path / "r.h5"
     res = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8",

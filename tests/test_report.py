@@ -17,6 +17,7 @@ from laminid_cli.report import (fmt_reference, fmt_value, interval_text, mac, re
 from laminid_cli.resultfile import read_result
 from laminid_cli.specimen import read_specimen
 from tests.clihelp import write_s14_with_ranges
+from tests.figs import ax, cells
 from tests.frf_synth import synth_frf
 from tests.resultfix import drop_bound_data, make_version_1, mark_at_bound
 
@@ -93,18 +94,6 @@ def status_text(fig):
 
 def n_pdf_pages(path) -> int:
     return len(re.findall(rb"/Type\s*/Page\b(?!s)", path.read_bytes()))
-
-
-def ax(fig, gid):
-    return next(a for a in fig.axes if a.get_gid() == gid)
-
-
-def cells(axis) -> list[list[str]]:
-    """Text of a table drawn on ``axis``: header row first."""
-    d = axis.tables[0].get_celld()
-    n_r = 1 + max(i for i, _ in d)
-    n_c = 1 + max(j for _, j in d)
-    return [[d[i, j].get_text().get_text() for j in range(n_c)] for i in range(n_r)]
 
 
 def test_pdf_report_of_a_result(batch_dir, tmp_path):

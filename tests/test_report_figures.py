@@ -6,23 +6,13 @@ from click.testing import CliRunner
 
 from laminid_cli.cli import cli
 from laminid_cli.report import report_pages
+from tests.figs import ax, cells
 
 S21 = "specimens/example2/S2.1.yaml"
 
 
 def run(*args):
     return CliRunner().invoke(cli, [str(a) for a in args])
-
-
-def ax(fig, gid):
-    return next(a for a in fig.axes if a.get_gid() == gid)
-
-
-def cells(axis) -> list[list[str]]:
-    d = axis.tables[0].get_celld()
-    n_r = 1 + max(i for i, _ in d)
-    n_c = 1 + max(j for _, j in d)
-    return [[d[i, j].get_text().get_text() for j in range(n_c)] for i in range(n_r)]
 
 
 def texts(fig) -> str:
