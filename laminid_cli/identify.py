@@ -37,7 +37,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from laminid_cli.errors import FitInputError, LaminidError
-from laminid_cli.forward import ForwardModel, far_cause, residuals_percent, weighted_rms
+from laminid_cli.forward import (FAR_FROM_MODEL, ForwardModel, far_cause, residuals_percent,
+                                 weighted_rms)
 from laminid_cli.material import CONSTANT_NAMES, ElasticConstants, alphas_from_constants
 from laminid_cli.modal import WORK, Modes
 from laminid_cli.objective import (ErrorBound, Evaluation, HistoryRow, MeasuredData,  # noqa: F401
@@ -102,7 +103,7 @@ class IdentifyOptions:
     extra_modes: int = 4
     nu_max: float = 0.95
     bound_factor: float = 5.0
-    far_limit: float = 0.5
+    far_limit: float = FAR_FROM_MODEL
     solver: str = "reduced"
     reduced_tol: float = 1e-7
 

@@ -1280,8 +1280,7 @@ def light_plate_warnings(spec: Specimen, top: dict | None = None) -> list[tuple]
                      f" and the plate's mean density (model mass {spec.model_mass:.4g} kg over "
                      f"{dims}) {mean:.4g} kg/m^3")
             words = (f"material '{name}' has a density of {rho:.4g} kg/m^3{plate}, {limit}: "
-                     + _light_slip(rho, "a density in g/cm^3 written as a bare number or as "
-                                        "kg/m^3 (a bare number is kg/m^3)", None))
+                     + _light_slip(rho, _DENSITY_IN_G_CM3, None))
             out.append((material_line(name), f"materials.{name}.density", words))
         return out
     if len(spec.materials) > 1:
@@ -1290,12 +1289,16 @@ def light_plate_warnings(spec: Specimen, top: dict | None = None) -> list[tuple]
                 continue
             words = (f"material '{name}' has a density of {rho:.4g} kg/m^3, lighter than any "
                      f"ply or core material (below {LIGHT_MATERIAL_DENSITY:g} kg/m^3): "
-                     + _light_slip(rho, "a density in g/cm^3 written as a bare number or as "
-                                        "kg/m^3 (a bare number is kg/m^3)" if name not in derived
+                     + _light_slip(rho, _DENSITY_IN_G_CM3 if name not in derived
                                    else "its density_ratio or density wrong", None))
             field_name = f"materials.{name}.density"
             out.append((material_line(name), field_name, words))
     return out
+
+
+#: the likely slip behind a ply density 1000 times too small that the file gives itself
+_DENSITY_IN_G_CM3 = ("a density in g/cm^3 written as a bare number or as kg/m^3 (a bare number "
+                     "is kg/m^3)")
 
 
 def _light_slip(rho: float, thousand: str, sides: str | None) -> str:

@@ -180,11 +180,17 @@ def name_freq_factor(name: str, where: str) -> float:
     return 1.0
 
 
+def freq_unit_factor(unit: str) -> float | None:
+    """Factor to Hz of a frequency unit as written ("Hz", "rad/s", "k Hz"; spaces and case
+    ignored), None when it is not one of :data:`FREQ_UNITS`."""
+    return FREQ_UNITS.get(unit.replace(" ", "").lower())
+
+
 def _freq_factor(units: str | None) -> float | None:
     """Factor to Hz, 1 when no units attribute, None when the units are not a frequency."""
     if units is None or units == "":
         return 1.0
-    return FREQ_UNITS.get(units.replace(" ", "").lower())
+    return freq_unit_factor(units)
 
 
 def _is_axis(f, d: _Dataset) -> bool:

@@ -219,12 +219,12 @@ def _csv_freq_factor(path, name: str) -> float:
     ("omega": :func:`~laminid_cli.frf.generic_h5.name_freq_factor`)."""
     import re
 
-    from laminid_cli.frf.generic_h5 import FREQ_UNITS, name_freq_factor
+    from laminid_cli.frf.generic_h5 import FREQ_UNITS, freq_unit_factor, name_freq_factor
 
     bracketed = re.search(r"[\[(]\s*([^\])]*?)\s*[\])]", name)
     if bracketed:
         unit = bracketed.group(1)
-        factor = FREQ_UNITS.get(unit.replace(" ", "").lower())
+        factor = freq_unit_factor(unit)
         if factor is None:
             raise FrfError(f"{path}: column 1 ({name!r}): unit {unit!r} is not a frequency "
                            f"unit laminid reads ({', '.join(FREQ_UNITS)})")
@@ -390,10 +390,10 @@ def read_frf_uff(path) -> FrfSet:
     labels = tuple(f"{d.get('rsp_node', k + 1)}{_dir(d.get('rsp_dir', 0))}"
                    + (f":{d.get('ref_node', 0)}{_dir(d.get('ref_dir', 0))}" if roving else "")
                    for k, d in enumerate(frfs))
-    units = _uff_units(frfs[0])
+    each = [_uff_units(d) for d in frfs]
+    units = each[0]
     freq, frf, coherence = check_frf_arrays(freq, frf, coherence, source=str(path))
     meta = {"uff_ids": [str(d.get("id1", "")) for d in frfs]}
-    each = [_uff_units(d) for d in frfs]
     if len(set(each)) > 1:
         # accelerances beside mobilities (another tool's file): one pole set, so the modes
         # are those of all; each FRF's modal constants are in its own unit (fit-frf says so)
@@ -410,12 +410,12 @@ def _uff_abscissa_to_hz(path, k: int, d) -> float:
     field 6): 1 for Hz or no label, 1/(2 pi) for rad/s, 1000 for kHz (the specific data type
     18 says "frequency", not in which unit: a tool's rad/s axis read as Hz gave every natural
     frequency 2 pi times too high). FrfError for a label that is no frequency unit."""
-    from laminid_cli.frf.generic_h5 import FREQ_UNITS
+    from laminid_cli.frf.generic_h5 import FREQ_UNITS, freq_unit_factor
 
     label = str(d.get("abscissa_axis_units_lab", "") or "").strip()
     if label.upper() in ("", "NONE"):
         return 1.0
-    factor = FREQ_UNITS.get(label.replace(" ", "").lower())
+    factor = freq_unit_factor(label)
     if factor is None:
         raise FrfError(f"{path}: FRF record {k}: abscissa unit {label!r} is not a frequency "
                        f"unit laminid reads ({', '.join(FREQ_UNITS)})")
