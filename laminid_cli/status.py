@@ -225,7 +225,9 @@ def result_status(result, uncertainty=None, damping=None, mesh_check=None) -> Re
                             f"99 % limit {u.chi2_limit:.3g}): "
                             + ("plates that disagree, " if joint else "")
                             + "model error (a mesh too coarse, a wrong layup, thickness or mass, "
-                            "a mode paired with the wrong one), or frequency sigmas too small")
+                            "a mode paired with the wrong one), a local minimum of the fit "
+                            "(identify again from other initial values), or frequency sigmas "
+                            "too small")
     if damping is not None:
         limit = (u.thresholds["max_rel_interval"] if u is not None else None)
         for code, text in damping_reasons(damping, limit):
