@@ -208,6 +208,33 @@ def test_exponential_window_shift_of_the_natural_frequency():
     assert expected == pytest.approx(0.0351, abs=2e-4) and m.dominant == ("window",)
 
 
+def test_resolution_on_an_uneven_grid_is_the_spacing_at_each_mode():
+    """Another tool's logarithmic grid (10 to 1000 Hz, 401 lines, ratio 10^(1/200)): the
+    resolution term of a mode is the spacing of the two lines around it, not the median
+    spacing (that of the grid's middle, ~100 Hz: 5x too large at 20 Hz, 9x too small at
+    900 Hz)."""
+    from types import SimpleNamespace
+
+    from laminid_cli.frf import rfp
+
+    grid = 10.0 * 10 ** (np.arange(401) / 200)
+    f = np.array([20.0, 100.0, 900.0])
+    k = np.searchsorted(grid, f)                        # the first line above each mode
+    by_hand = grid[k] - grid[k - 1]
+    assert rfp.line_spacing(grid, f) == pytest.approx(by_hand, rel=1e-15)
+    assert by_hand[2] / by_hand[0] == pytest.approx(45, rel=0.05)   # ~ 900 / 20
+    fit = SimpleNamespace(modes=[1, 2, 3], freq_hz=f, freq_std_hz=np.zeros(3),
+                          damping_ratio=np.full(3, 0.01))
+    m = rfp.measurement_sigma(fit, grid, sigma_rel=1e-9)
+    assert m.terms["resolution"] == pytest.approx(by_hand / np.sqrt(12), rel=1e-15)
+    # at the ends: the first and the last interval
+    assert rfp.line_spacing(grid, [5.0, 2000.0]) == pytest.approx(
+        [grid[1] - grid[0], grid[-1] - grid[-2]], rel=1e-15)
+    # an even grid: its line spacing everywhere
+    even = np.arange(0.0, 200.0, 0.25)
+    assert rfp.line_spacing(even, [0.1, 57.3, 199.9]) == pytest.approx(0.25, rel=1e-12)
+
+
 def test_into_records_the_sigma_rule_and_identify_reports_it(tmp_path, h5, case):
     from pathlib import Path
 

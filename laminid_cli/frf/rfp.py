@@ -1320,6 +1320,16 @@ class MeasurementSigma:
                 f"(modes)")
 
 
+def line_spacing(freq, at) -> np.ndarray:
+    """The spacing (Hz) of the frequency lines ``freq`` (increasing) on either side of each
+    frequency of ``at``: of the grid interval holding it (of the first or last interval
+    outside the grid)."""
+    grid = np.asarray(freq, dtype=float)
+    at = np.asarray(at, dtype=float)
+    k = np.clip(np.searchsorted(grid, at), 1, grid.size - 1)
+    return grid[k] - grid[k - 1]
+
+
 def measurement_sigma(fit: ModalFit, freq, *, sigma_rel: float = DEFAULT_SIGMA_REL,
                       exp_window_s: float | None = None) -> MeasurementSigma:
     """What limits each fitted natural frequency, as a standard deviation (Hz).
@@ -1329,7 +1339,10 @@ def measurement_sigma(fit: ModalFit, freq, *, sigma_rel: float = DEFAULT_SIGMA_R
     - RFP spread: the standard deviation of the frequency over the stable model orders (the
       fitter's own precision);
     - resolution: ``df / sqrt(12)``, a uniform distribution over one line spacing ``df`` —
-      what the frequency grid can resolve whatever the fit interpolates;
+      what the frequency grid can resolve whatever the fit interpolates; ``df`` the spacing
+      of the lines on either side of each mode's frequency (an analyser's grid is even, and
+      this is its line spacing; another tool's may be uneven, logarithmic: there the median
+      spacing would be the wrong width, 10x too small at the top of a decade-spanning grid);
     - window: with an exponential response window of time constant ``tau`` (impact testing,
       ``exp_window_s`` in the FRF file's settings) every pole's decay rate is raised by
       ``1/tau``; the fitted ``f_n = |pole| / 2 pi`` is then above the unwindowed one by
@@ -1340,9 +1353,8 @@ def measurement_sigma(fit: ModalFit, freq, *, sigma_rel: float = DEFAULT_SIGMA_R
     """
     n = len(fit.modes)
     f = fit.freq_hz if n else np.zeros(0)
-    df = float(np.median(np.diff(np.asarray(freq, dtype=float))))
     spread = np.nan_to_num(np.asarray(fit.freq_std_hz, float)) if n else np.zeros(0)
-    resolution = np.full(n, df / np.sqrt(12.0))
+    resolution = line_spacing(freq, f) / np.sqrt(12.0)
     window = np.zeros(n)
     if exp_window_s is not None and np.isfinite(exp_window_s) and exp_window_s > 0 and n:
         wn = 2 * np.pi * f
