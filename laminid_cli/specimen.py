@@ -79,8 +79,14 @@ MAX_PLIES = 2000
 #: for mm (25.4 times too large) 55-83 kg/m^3 for a carbon or glass laminate. A sandwich panel
 #: modelled as one plate is lighter than a laminate but seldom below 100 (2 x 0.5 mm CFRP skins
 #: on 10 mm of 48 kg/m^3 honeycomb: 184 kg/m^3); only a thick foam-cored one with very thin
-#: skins gets there (0.25 mm skins on 25 mm of 32 kg/m^3 foam: 63 kg/m^3), and is warned about
+#: skins gets there (0.25 mm skins on 25 mm of 32 kg/m^3 foam: 63 kg/m^3). A plate of several
+#: materials is warned about only when its densest material is below SOLID_DENSITY as well: a
+#: sandwich given as skins and core has skins of a solid's density, while each slip above
+#: makes every material as light (skins of 1.6 kg/m^3 for grams as kg, 63 for inches)
 LIGHT_PLATE_DENSITY = 100.0
+#: the lightest solid a plate's skins or plies are made of (kg/m^3: polypropylene 900, wood
+#: veneers from ~500)
+SOLID_DENSITY = 500.0
 #: a ply material of a plate of several materials lighter than this (kg/m^3) is warned about:
 #: the lightest structural cores are 24 (Nomex honeycomb) and 32 (PMI foam) kg/m^3, while a ply
 #: density 1000 times too small (g/cm^3 written as kg/m^3) is 0.9-19 kg/m^3
@@ -1261,7 +1267,7 @@ def light_plate_warnings(spec: Specimen, top: dict | None = None) -> list[tuple]
         y = y.value.get("density") if y is not None and isinstance(y.value, dict) else None
         return y.line if y is not None else None
 
-    if mean < LIGHT_PLATE_DENSITY:
+    if mean < LIGHT_PLATE_DENSITY and max(spec.densities.values()) < SOLID_DENSITY:
         limit = (f"lighter than any solid plate (below {LIGHT_PLATE_DENSITY:g} kg/m^3; only a "
                  "foam-cored sandwich with very thin skins comes near)")
         if derived:

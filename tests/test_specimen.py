@@ -603,6 +603,39 @@ def test_shipped_specimens_and_real_plates_are_not_light(caplog, path):
     assert msg == [] and spec.densities["Al"] == pytest.approx(183.9, rel=1e-3)
 
 
+def test_a_foam_cored_sandwich_given_as_skins_and_core_is_not_light(caplog):
+    """0.25 mm CFRP skins (1600 kg/m^3) on 25 mm of PMI foam (32 kg/m^3): a mean density of
+    (2 x 0.25 x 1600 + 25 x 32) / 25.5 = 62.7 kg/m^3, below the plate's limit, is a real
+    sandwich and not warned about; the same file with the skins' density in g/cm^3 (1.6) is,
+    and a mass in g for kg, which makes the whole plate light, is refused (the foam at 0.032
+    kg/m^3)."""
+    text = """\
+geometry: {a: 400 mm, b: 300 mm, h: 25.5 mm}
+materials:
+  skin: {E1: 117.2 GPa, E2: 8.8 GPa, G12: 3.1 GPa, G13: 3.1 GPa, G23: 3.1 GPa, nu12: 0.35,
+         density: 1600 kg/m^3}
+  foam: {E: 0.07 GPa, nu: 0.3, density: 32 kg/m^3}
+plies:
+  - {angle: 0, material: skin, thickness: 0.25 mm}
+  - {angle: 0, material: foam, thickness: 25 mm}
+  - {angle: 0, material: skin, thickness: 0.25 mm}
+"""
+    spec, msg = light_warnings(caplog, text)
+    mean = spec.model_mass / (spec.a * spec.b * spec.h)
+    assert mean == pytest.approx((2 * 0.25 * 1600 + 25 * 32) / 25.5, rel=1e-12)   # 62.7
+    assert msg == []
+    _, msg = light_warnings(caplog, edit(text, "density: 1600 kg/m^3", "density: 1.6"))
+    assert len(msg) == 1 and "material 'skin' has a density of 1.6 kg/m^3" in msg[0], msg
+    # skins and core scaled to a measured mass given in g where it is kg
+    ratios = edit(edit(text, "density: 1600 kg/m^3", "density_ratio: 50"),
+                  "density: 32 kg/m^3", "density_ratio: 1")
+    with pytest.raises(SpecimenError, match="field 'mass': the mass gives material 'foam' a "
+                                            "density of 0.032 kg/m"):
+        load_specimen_text("mass: 0.192 g\n" + ratios, "plate.yaml")      # below 1: refused
+    _, msg = light_warnings(caplog, "mass: 0.192 kg\n" + ratios)       # 62.7 kg/m^3 again
+    assert msg == []
+
+
 @pytest.mark.parametrize("old, new, warned", [
     ('layup: "[0/90]s"', 'layup: "[0/0.785/-0.785/1.571]s"', "0.785, -0.785, 1.571"),
     ('layup: "[0/90]s"', "plies:\n  - {angle: 0}\n  - {angle: 1.5708}", "1.5708"),
