@@ -134,7 +134,7 @@ MAG_PHASE = {
                                    ("H1", "H2", "H3"), None),
     "no-unit-deg": ("|H{k}|", "phase{k}", np.abs, _deg, ("H1", "H2", "H3"),
                     "phase columns 'phase1', 'phase2', 'phase3' with no unit: read in "
-                    "degrees: |phase| reaches 1"),
+                    "degrees: it jumps by 359.9"),
     "no-unit-rad": ("H{k}_amp", "H{k}_phi", np.abs, np.angle, ("H1", "H2", "H3"),
                     "phase columns 'H1_phi', 'H2_phi', 'H3_phi' with no unit: read in "
                     "radians: no |phase| exceeds pi (largest 3.1"),
@@ -212,7 +212,7 @@ def test_fit_frf_says_which_phase_unit_it_assumed(tmp_path, truth):
     r = runner.invoke(cli, ["fit-frf", str(path), "--band", "80:300"], catch_exceptions=False)
     assert r.exit_code == 0, r.output
     assert ("note: phase columns 'phase1', 'phase2', 'phase3' with no unit: read in degrees: "
-            "|phase| reaches 1") in r.stdout
+            "it jumps by 359.9") in r.stdout
     r = runner.invoke(cli, ["fit-frf", str(path), "--band", "80:300", "--json"],
                       catch_exceptions=False)
     out = json.loads(r.stdout)
@@ -280,12 +280,12 @@ def test_magnitude_and_phase_columns_that_do_not_pair(tmp_path, header, problem)
      "FRF named in the header, not both"),
     ("f,H\n1,(1+0j)\n(2+1e-9j),(1+1j)\n",
      "line 3, column 1 ('f'): the frequency (2+1e-09j) has an imaginary part"),
-    ("f,|H|,phase\n1,0.5,10\n2,-0.5,20\n",
+    ("f,|H|,phase [deg]\n1,0.5,10\n2,-0.5,20\n",
      "line 3, column 2 ('|H|'): magnitude -0.5 is negative (a magnitude in dB says so in its "
      "header: '|H| [dB]')"),
     ("f,|H|,phase [grad]\n1,0.5,10\n2,0.5,20\n",
      "column 3 ('phase [grad]'): phase unit 'grad' is not one laminid reads (deg, °, rad)"),
-    ("f,|H| [dBV],phase\n1,0.5,10\n2,0.5,20\n",
+    ("f,|H| [dBV],phase [deg]\n1,0.5,10\n2,0.5,20\n",
      "column 2 ('|H| [dBV]'): a magnitude in 'dBV'; laminid reads dB re 1 of the FRF's unit "
      "('... [dB]') or a linear magnitude"),
     ("f,H1_mag,H1_phase\n1,(1+2j),3\n2,(1+2j),4\n",
@@ -314,3 +314,34 @@ def test_export_of_a_csv_says_which_phase_unit_it_assumed(tmp_path, truth):
             in r.stdout)
     back = io.read_frf(out)
     assert _rel_error(back.frf, H) <= REL
+
+
+def test_a_phase_without_unit_that_degrees_and_radians_both_explain_is_refused(tmp_path,
+                                                                              truth):
+    """A driving point's phase in degrees stays within 0..180 (never wraps), and so does a
+    phase in radians unwrapped over a few resonances: without a unit in the header the two
+    cannot be told apart, and the file is refused with the way to say it; over 180 with no
+    jump it is degrees (radians that far need 57 resonances)."""
+    freq, H = truth
+    driving = np.abs(_deg(H[0]))                   # a phase between 0 and 180, no jump > 180
+    assert driving.max() > 90 and np.abs(np.diff(driving)).max() < 180
+    rows = [[_r(f), _r(abs(H[0, i])), _r(driving[i])] for i, f in enumerate(freq)]
+    path = _write(tmp_path / "driving.csv", ["f", "H1_mag", "H1_phase"], rows)
+    with pytest.raises(FrfError) as info:
+        io.read_frf(path)
+    assert str(info.value) == (
+        f"{path}: phase column 'H1_phase' with no unit: |phase| reaches {driving.max():.6g} "
+        "without wrapping, which degrees (a phase that never crosses +-180, as a driving "
+        "point's) and radians (unwrapped over a few resonances) both give; give the unit in "
+        "the header ('H1_phase [deg]' or 'H1_phase [rad]')")
+    # the same with its unit: read
+    path = _write(tmp_path / "driving-deg.csv", ["f", "H1_mag", "H1_phase [deg]"], rows)
+    fs = io.read_frf(path)
+    assert _rel_error(fs.frf, np.abs(H[0]) * np.exp(1j * np.radians(driving))[None]) <= REL
+    # unwrapped degrees beyond 180: degrees
+    unwrapped = np.degrees(np.unwrap(np.angle(H[1]))) - 360.0
+    assert unwrapped.min() < -180 and np.abs(np.diff(unwrapped)).max() < 180
+    rows = [[_r(f), _r(abs(H[1, i])), _r(unwrapped[i])] for i, f in enumerate(freq)]
+    fs = io.read_frf(_write(tmp_path / "unwrapped.csv", ["f", "H_mag", "H_phase"], rows))
+    assert _rel_error(fs.frf, H[1:2]) <= REL
+    assert "read in degrees: |phase| reaches" in fs.meta["notes"][0]

@@ -61,8 +61,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     attributes; name them with --freq-dataset/--frf-dataset when several fit. A CSV file holds
     the frequency, then per FRF a real and an imaginary column, one column of complex numbers
     (a+bj, a+bi) or a magnitude and a phase column named in its header (H1_mag, H1_phase;
-    '[dB]', '[deg]' or '[rad]' as the header says; a phase without a unit: degrees if any
-    |phase| exceeds pi, with a note).
+    '[dB]', '[deg]' or '[rad]' as the header says; a phase without a unit: radians within
+    +-pi, degrees where it wraps at +-180 or exceeds 180, with a note; else give its unit).
 
     A global rational fraction polynomial fit (Richardson & Formenti) of all FRFs with shared
     poles, over a sweep of model orders; poles stable across orders are the modes.

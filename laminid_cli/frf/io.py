@@ -35,10 +35,12 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
       (without those words a dB unit makes a magnitude, a deg/rad unit a phase: ``H1 [dB]``).
       The magnitude is linear, or in dB when its name says so ("[dB]", "(dB)", "_dB"):
       |H| = 10^(dB/20), dB re 1 of the FRF's unit. The phase in degrees ("[deg]", "(°)",
-      "degrees", "_deg") or radians ("[rad]", "(rad)"); without a unit in degrees when any
-      |phase| exceeds pi (an FRF's phase turns by 180 degrees at each resonance), else in
-      radians, and ``meta["notes"]`` says which was assumed and why (fit-frf and export print
-      it). The labels are the magnitude names without the magnitude word (``H1_mag`` H1).
+      "degrees", "_deg") or radians ("[rad]", "(rad)"); without a unit in radians when no
+      |phase| exceeds pi (a phase in degrees turns by 180 at each resonance), in degrees when
+      it jumps by more than 180 between neighbouring lines (wrapped at +-180) or exceeds 180,
+      and ``meta["notes"]`` says which was assumed and why (fit-frf and export print it);
+      refused in between (a degree phase that never wraps and a radian one unwrapped over a
+      few resonances look alike). The labels are the magnitude names without the magnitude word (``H1_mag`` H1).
       Without a header, columns are never taken for magnitude and phase.
 
     Separator ``;`` tab ``,`` (the first found in the first line) or blanks; with ``;`` or tab
@@ -299,9 +301,16 @@ CSV_PHASE_WORDS = ("phase", "phi", "arg", "angle")
 _CSV_PART_WORDS = ("re", "real", "im", "imag", "imaginary")
 _DEGREE_WORDS = ("deg", "degree", "degrees")
 _RADIAN_WORDS = ("rad", "radian", "radians")
-#: a phase without a unit in its header is in degrees when any |phase| exceeds this (rad):
-#: an FRF's phase turns by 180 degrees at each resonance
+#: a phase without a unit in its header is in radians when no |phase| exceeds this: a phase in
+#: degrees turns by 180 at each resonance, so one that stays within +-3.14 has none in its band
 _PHASE_RADIANS_MAX = np.pi * (1 + 1e-6)
+#: ... and in degrees when it jumps by more than this between neighbouring lines (a wrapped
+#: phase in degrees jumps by 360 where it crosses +-180; one in radians by 2 pi at most) or
+#: exceeds _PHASE_DEGREES_MAX (radians unwrapped that far would need 57 resonances); between
+#: the two, without a jump, it is refused: a phase in degrees that never crosses +-180 (a
+#: driving point's, 0 to 180) and one in radians unwrapped over a few resonances look alike
+_PHASE_WRAP_JUMP = 180.0
+_PHASE_DEGREES_MAX = 180.0 * (1 + 1e-6)
 
 
 def _csv_words(name: str) -> list[str]:
@@ -416,14 +425,31 @@ def _csv_mag_phase(path, header: list[str], data: np.ndarray, lines
         values = np.abs(data[:, unknown])
         values = values[np.isfinite(values)]
         peak = float(values.max()) if values.size else 0.0
-        assumed = "deg" if peak > _PHASE_RADIANS_MAX else "rad"
+        with np.errstate(invalid="ignore"):
+            jumps = np.abs(np.diff(data[:, unknown], axis=0))
+        jump = float(np.nanmax(jumps)) if jumps.size and np.any(np.isfinite(jumps)) else 0.0
         names = ", ".join(repr(header[p]) for p in unknown)
-        why = (f"read in degrees: |phase| reaches {peak:.6g}, more than pi" if assumed == "deg"
-               else f"read in radians: no |phase| exceeds pi (largest {peak:.6g}), as a phase "
-                    "in degrees over a band with a resonance would (it turns by 180 deg there)")
-        notes.append(f"phase column{'s' if len(unknown) > 1 else ''} {names} with no unit: "
-                     f"{why}; give the unit in the header ('{header[unknown[0]]} [deg]' or "
-                     f"'{header[unknown[0]]} [rad]') to read it otherwise")
+        what = f"phase column{'s' if len(unknown) > 1 else ''} {names} with no unit"
+        give = (f"give the unit in the header ('{header[unknown[0]]} [deg]' or "
+                f"'{header[unknown[0]]} [rad]')")
+        if peak <= _PHASE_RADIANS_MAX:
+            assumed = "rad"
+            why = (f"read in radians: no |phase| exceeds pi (largest {peak:.6g}), as a phase "
+                   "in degrees over a band with a resonance would (it turns by 180 deg there)")
+        elif jump > _PHASE_WRAP_JUMP:
+            assumed = "deg"
+            why = (f"read in degrees: it jumps by {jump:.6g} between neighbouring lines, as a "
+                   "phase in degrees wrapped at +-180 does")
+        elif peak > _PHASE_DEGREES_MAX:
+            assumed = "deg"
+            why = (f"read in degrees: |phase| reaches {peak:.6g}, which in radians would take "
+                   "more than 57 resonances")
+        else:
+            raise FrfError(f"{path}: {what}: |phase| reaches {peak:.6g} without wrapping, "
+                           "which degrees (a phase that never crosses +-180, as a driving "
+                           "point's) and radians (unwrapped over a few resonances) both give; "
+                           f"{give}")
+        notes.append(f"{what}: {why}; {give} to read it otherwise")
         units.update(dict.fromkeys(unknown, assumed))
     frf = np.empty((len(pairs), data.shape[0]), dtype=complex)
     for k, (m, p) in enumerate(pairs):
