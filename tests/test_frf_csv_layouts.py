@@ -345,3 +345,21 @@ def test_a_phase_without_unit_that_degrees_and_radians_both_explain_is_refused(t
     fs = io.read_frf(_write(tmp_path / "unwrapped.csv", ["f", "H_mag", "H_phase"], rows))
     assert _rel_error(fs.frf, H[1:2]) <= REL
     assert "read in degrees: |phase| reaches" in fs.meta["notes"][0]
+
+
+def test_a_row_index_in_the_first_column_is_refused(tmp_path, truth):
+    """pandas' DataFrame.to_csv writes its row index first under an empty name: read as the
+    frequency it would put every mode at a line number (increasing, so no other check sees
+    it)."""
+    freq, H = truth
+    rows = [[str(i), _r(f), _r(H[0, i].real), _r(H[0, i].imag)] for i, f in enumerate(freq)]
+    path = _write(tmp_path / "pandas.csv", ["", "freq_Hz", "H1_re", "H1_im"], rows)
+    with pytest.raises(FrfError) as info:
+        io.read_frf(path)
+    assert str(info.value) == (f"{path}: column 1 holds 0, 1, 2 ... (line numbers): a "
+                               "row index, as pandas' to_csv writes one, not the frequency; "
+                               "write the file with index=False or delete that column")
+    # a frequency column that starts at 0 Hz with a 1 Hz spacing, under its own name: read
+    rows = [[str(i), _r(H[0, i].real), _r(H[0, i].imag)] for i in range(freq.size)]
+    fs = io.read_frf(_write(tmp_path / "one-hz.csv", ["f [Hz]", "H1_re", "H1_im"], rows))
+    assert fs.freq[1] - fs.freq[0] == 1.0

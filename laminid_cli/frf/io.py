@@ -571,6 +571,16 @@ def read_frf_csv(path) -> FrfSet:
                            f"{len(rows[0])}")
     data = np.array(rows)           # complex where any cell is
     n = data.shape[1]
+    first = data[:, 0].real
+    if (header and header[0].strip().lower() in ("", "index", "unnamed: 0") and n > 2
+            and first.size > 2 and first[0] in (0, 1)
+            and np.array_equal(first, first[0] + np.arange(first.size))):
+        # pandas' to_csv writes its row index first, under an empty name: 0, 1, 2 ... read as
+        # the frequency in Hz would put every mode at a line number
+        raise FrfError(f"{path}: {_csv_column(header, 0)} holds {first[0]:g}, {first[1]:g}, "
+                       f"{first[2]:g} ... (line numbers): a row index, as pandas' to_csv writes "
+                       "one, not the frequency; write the file with index=False or delete that "
+                       "column")
     if 0 in complex_at:             # numpy writes a complex array's frequency "(125+0j)"
         i = np.flatnonzero(data[:, 0].imag != 0)
         if i.size:
