@@ -1502,6 +1502,8 @@ def frf_page(r: ResultFile, plate, frf_path, bands=None, n_modes=None, own: bool
     from laminid_cli.frf.plot import draw_frf, has_coherence
 
     fs = read_frf(frf_path)
+    for note in fs.meta.get("notes") or ():     # the reader's (a CSV phase unit assumed)
+        log.warning("%s: %s", frf_path, note)
     fit = rfp.find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes)
     fig = _figure()
     fig.suptitle(f"{plate.name}: FRFs of {Path(frf_path).name} with the RFP fit", fontsize=11)

@@ -109,6 +109,7 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
         labels = list(fs.labels) or [str(i + 1) for i in range(fs.n_points)]
         nodes = [uff_point(lab, i)[0] for i, lab in enumerate(labels)]
         coherent, notes = uff_coherence_points(fs)
+        notes[:0] = fs.meta.get("notes") or ()    # the reader's (a CSV phase unit assumed)
         if "exp_window_s" in (fs.meta.get("settings") or {}):
             from laminid_cli.frf.rfp import window_time_constant
 

@@ -58,7 +58,11 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
 
     A plain HDF5 file of another tool is read too: a 1-D frequency dataset and a complex FRF
     dataset of matching length (either orientation), found by name, shape and units
-    attributes; name them with --freq-dataset/--frf-dataset when several fit.
+    attributes; name them with --freq-dataset/--frf-dataset when several fit. A CSV file holds
+    the frequency, then per FRF a real and an imaginary column, one column of complex numbers
+    (a+bj, a+bi) or a magnitude and a phase column named in its header (H1_mag, H1_phase;
+    '[dB]', '[deg]' or '[rad]' as the header says; a phase without a unit: radians within
+    +-pi, degrees where it wraps at +-180 or exceeds 180, with a note; else give its unit).
 
     A global rational fraction polynomial fit (Richardson & Formenti) of all FRFs with shared
     poles, over a sweep of model orders; poles stable across orders are the modes.
@@ -132,7 +136,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     msig = rfp.measurement_sigma(fit, fs.freq, sigma_rel=sigma_rel, exp_window_s=tau)
     sigma = msig.sigma_hz
     wc = rfp.window_corrected_damping(fit, tau)
-    notes = wc.below_notes(fit.freq_hz)
+    # the reader's first (a CSV phase column's assumed unit): they concern the data fitted
+    notes = list(fs.meta.get("notes") or ()) + wc.below_notes(fit.freq_hz)
     negative = negative_direction_points(fs.labels)
     if negative:
         notes.append(f"{', '.join(negative)}: measured in a negative direction; the FRF and its "

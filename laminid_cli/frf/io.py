@@ -19,16 +19,41 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
 ``csv`` (``.csv``, ``.txt``)
     Text: first column frequency in Hz (kHz or rad/s when its header says so: "f [kHz]",
     "omega_rad_s"; another bracketed unit is refused, and so is a header that reads as an
-    angular frequency without its unit, "omega"), then real and imaginary part of each FRF
-    (``freq, re_1, im_1, re_2, im_2, ...``). Separator ``;`` tab ``,`` (the first found in the
-    first data line) or blanks; with ``;`` or tab a decimal comma is read too (``125,05``, as a
-    European spreadsheet writes); ``#`` comment lines; an optional header line (its names of
-    the real columns become the point labels).
+    angular frequency without its unit, "omega"), then per FRF, in one of three layouts:
+
+    - real and imaginary part (``freq, re_1, im_1, re_2, im_2, ...``; what laminid writes);
+    - one column of complex numbers (``freq, H_1, H_2, ...``), known by its cells: Python's
+      and numpy's ``(1.2e-3+4.5e-4j)``, ``1.2e-3-4.5e-4j``, MATLAB's, Octave's and a
+      spreadsheet's ``1.2e-3+4.5e-4i``, also with blanks around the sign (in a
+      blank-separated file only a lone sign is joined: ``1.2 - 4.5i`` is one cell,
+      ``1.2 -4.5i`` two). A plain number in such a file is a + 0j, but every FRF column must
+      hold complex cells (a real/imaginary file with a stray one is refused); a frequency
+      written complex (numpy: ``(125+0j)``) must have no imaginary part;
+    - a magnitude and a phase column, by their header names only (case-insensitive whole
+      words, :data:`CSV_MAGNITUDE_WORDS` or ``|H|``; :data:`CSV_PHASE_WORDS`), in either order
+      within the pair: ``H1_mag, H1_phase``, ``|H|, phase``, ``Magnitude [dB], Phase [deg]``
+      (without those words a dB unit makes a magnitude, a deg/rad unit a phase: ``H1 [dB]``).
+      The magnitude is linear, or in dB when its name says so ("[dB]", "(dB)", "_dB"):
+      |H| = 10^(dB/20), dB re 1 of the FRF's unit. The phase in degrees ("[deg]", "(°)",
+      "degrees", "_deg") or radians ("[rad]", "(rad)"); without a unit in radians when no
+      |phase| exceeds pi (a phase in degrees turns by 180 at each resonance), in degrees when
+      it jumps by more than 180 between neighbouring lines (wrapped at +-180) or exceeds 180,
+      and ``meta["notes"]`` says which was assumed and why (fit-frf and export print it);
+      refused in between (a degree phase that never wraps and a radian one unwrapped over a
+      few resonances look alike). The labels are the magnitude names without the magnitude word (``H1_mag`` H1).
+      Without a header, columns are never taken for magnitude and phase.
+
+    Separator ``;`` tab ``,`` (the first found in the first line) or blanks; with ``;`` or tab
+    a decimal comma is read too (``125,05``, as a European spreadsheet writes); ``#`` comment
+    lines (``# ... units Pa/N`` gives the FRF unit); an optional header line, known by its
+    first cell not being a number (its names give the point labels: of the real columns, of
+    the complex columns, of the magnitude columns).
 """
 
 from __future__ import annotations
 
 import csv
+import re
 from pathlib import Path
 
 import numpy as np
@@ -194,7 +219,28 @@ def _not_the_format(path, fmt: str) -> str:
 
 
 def _split(line: str, sep: str | None) -> list[str]:
-    return [t.strip() for t in (line.split(sep) if sep else line.split())]
+    cells = [t.strip() for t in (line.split(sep) if sep else line.split())]
+    if sep is None and ("+" in cells or "-" in cells):
+        cells = _join_signs(cells)
+    return cells
+
+
+def _join_signs(cells: list[str]) -> list[str]:
+    """Blank-separated cells with a complex number written with blanks around its sign
+    ("1.2e-3 - 4.5e-4i", as MATLAB's and Octave's disp write it) joined back into one cell;
+    only a lone sign is joined, and only where the three make a complex number ("1.2 -4.5i"
+    stays two cells: a real and an imaginary column)."""
+    out: list[str] = []
+    i = 0
+    while i < len(cells):
+        if cells[i] in ("+", "-") and out and i + 1 < len(cells) \
+                and _COMPLEX_CELL.fullmatch(out[-1] + cells[i] + cells[i + 1]):
+            out[-1] += cells[i] + cells[i + 1]
+            i += 2
+        else:
+            out.append(cells[i])
+            i += 1
+    return out
 
 
 def _csv_column(header: list[str] | None, j: int) -> str:
@@ -204,11 +250,226 @@ def _csv_column(header: list[str] | None, j: int) -> str:
                                 if not header else "")
 
 
-def _not_a_number(cell: str) -> str:
-    """What is wrong with a cell that is not a number: quoted, cut to 40 characters."""
+def _quoted(cell: str) -> str:
+    return repr(cell if len(cell) <= 40 else cell[:37] + "...")
+
+
+def _not_a_number(cell: str, complex_cells: bool = False) -> str:
+    """What is wrong with a cell that is not a number: quoted, cut to 40 characters;
+    ``complex_cells``: in a file of complex numbers (the forms it reads named)."""
     if not cell:
         return "empty, where a number is expected"
-    return f"{cell if len(cell) <= 40 else cell[:37] + '...'!r} is not a number"
+    if complex_cells:
+        return (f"{_quoted(cell)} is neither a number nor a complex number (a+bj, a+bi, "
+                "(a+bj))")
+    return f"{_quoted(cell)} is not a number"
+
+
+#: a real number as Python, numpy and MATLAB write it (any case: "NaN", "Inf")
+_NUMBER = r"(?:(?:\d+\.?\d*|\.\d+)(?:e[+-]?\d+)?|nan|inf(?:inity)?)"
+#: a complex number in a cell: Python's and numpy's "(1.2e-3+4.5e-4j)", "1.2e-3-4.5e-4j",
+#: "-2j"; MATLAB's, Octave's and a spreadsheet's "1.2e-3+4.5e-4i", "1.2 - 4.5i", "i";
+#: "4.5*i"; old numpy's "+-" for a negative imaginary part
+_COMPLEX_CELL = re.compile(
+    rf"(?P<open>\()?\s*(?:(?P<re>[+-]?\s*{_NUMBER})\s*(?P<sign>[+-]\s*[+-]?)|(?P<sign1>[+-])?)"
+    rf"\s*(?:(?P<im>{_NUMBER})\s*\*?)?\s*[ij]\s*(?(open)\))", re.IGNORECASE)
+
+
+def parse_complex_cell(cell: str) -> complex:
+    """The complex number written in ``cell`` (:data:`_COMPLEX_CELL`); ValueError for any
+    other text, a real number too (``float`` reads those).
+
+    >>> parse_complex_cell("(1.5-2e-3j)"), parse_complex_cell("1.5 + 2i"), parse_complex_cell("-i")
+    ((1.5-0.002j), (1.5+2j), -1j)
+    """
+    m = _COMPLEX_CELL.fullmatch(cell.strip())
+    if m is None:
+        raise ValueError(f"not a complex number: {cell!r}")
+    sign = m["sign"] if m["re"] is not None else (m["sign1"] or "+")
+    im = float(m["im"]) if m["im"] else 1.0
+    re_ = float(m["re"].replace(" ", "").replace("\t", "")) if m["re"] is not None else 0.0
+    # complex(re, im), not re + im * 1j: inf * 1j is nan + inf j
+    return complex(re_, -im if sign.count("-") % 2 else im)
+
+
+#: whole words of a CSV column name (any case; "H1_mag", "Magnitude [dB]", "abs(H1)", "H1Mag")
+#: that make it a magnitude column, and a phase column; "|H|" is a magnitude too. Without
+#: any of them, a name with a dB unit is a magnitude, one with deg/rad a phase
+CSV_MAGNITUDE_WORDS = ("mag", "magnitude", "abs", "amp", "amplitude", "modulus")
+CSV_PHASE_WORDS = ("phase", "phi", "arg", "angle")
+#: the words of a real or an imaginary part ("amp_re", "H1_imag"): never a magnitude or phase
+_CSV_PART_WORDS = ("re", "real", "im", "imag", "imaginary")
+_DEGREE_WORDS = ("deg", "degree", "degrees")
+_RADIAN_WORDS = ("rad", "radian", "radians")
+#: a phase without a unit in its header is in radians when no |phase| exceeds this: a phase in
+#: degrees turns by 180 at each resonance, so one that stays within +-3.14 has none in its band
+_PHASE_RADIANS_MAX = np.pi * (1 + 1e-6)
+#: ... and in degrees when it jumps by more than this between neighbouring lines (a wrapped
+#: phase in degrees jumps by 360 where it crosses +-180; one in radians by 2 pi at most) or
+#: exceeds _PHASE_DEGREES_MAX (radians unwrapped that far would need 57 resonances); between
+#: the two, without a jump, it is refused: a phase in degrees that never crosses +-180 (a
+#: driving point's, 0 to 180) and one in radians unwrapped over a few resonances look alike
+_PHASE_WRAP_JUMP = 180.0
+_PHASE_DEGREES_MAX = 180.0 * (1 + 1e-6)
+
+
+def _csv_words(name: str) -> list[str]:
+    """The words of a column name, lower case: split at anything not a letter, at digits and
+    at camel case ("H1Mag" h, mag; "Imag" imag, not mag); "dB" is one word."""
+    return [w.lower() for w in re.findall(r"(?i:db)(?![A-Za-z])|[A-Z]+(?![a-z])|[A-Z]?[a-z]+",
+                                          name)]
+
+
+def _csv_part_kind(name: str) -> str | None:
+    """"magnitude", "phase" (or "magnitude and phase") where the column name says so
+    (:data:`CSV_MAGNITUDE_WORDS`, :data:`CSV_PHASE_WORDS`), else None."""
+    words = set(_csv_words(name))
+    if words & set(_CSV_PART_WORDS):
+        return None
+    mag = bool(words & set(CSV_MAGNITUDE_WORDS)) or re.search(r"\|[^|]+\|", name) is not None
+    phase = bool(words & set(CSV_PHASE_WORDS))
+    if not (mag or phase):         # "H1 [dB]", "H1 [deg]": the unit says which
+        mag = "db" in words
+        phase = bool(words & set(_DEGREE_WORDS + _RADIAN_WORDS)) or "°" in name
+    if mag and phase:
+        return "magnitude and phase"
+    return "magnitude" if mag else "phase" if phase else None
+
+
+def _csv_magnitude_in_db(path, header: list[str], j: int) -> bool:
+    """Whether magnitude column ``j`` is in dB (its name says dB: "[dB]", "(dB)", "_dB")."""
+    name = header[j]
+    if "db" in _csv_words(name):
+        return True
+    other = re.search(r"(?i)(?<![a-z])db[a-z]+", name)
+    if other:
+        raise FrfError(f"{path}: {_csv_column(header, j)}: a magnitude in {other.group()!r}; "
+                       "laminid reads dB re 1 of the FRF's unit ('... [dB]') or a linear "
+                       "magnitude")
+    return False
+
+
+def _csv_phase_unit(path, header: list[str], j: int) -> str | None:
+    """"deg" or "rad" as phase column ``j``'s name says ("[deg]", "(°)", "degrees", "_deg",
+    "[rad]", "(rad)"); None where it says no unit."""
+    name = header[j]
+    words = set(_csv_words(name))
+    deg = bool(words & set(_DEGREE_WORDS)) or "°" in name
+    rad = bool(words & set(_RADIAN_WORDS))
+    if deg and rad:
+        raise FrfError(f"{path}: {_csv_column(header, j)}: a phase in degrees and radians")
+    if deg or rad:
+        return "deg" if deg else "rad"
+    bracketed = re.search(r"\[\s*([^\]]*?)\s*\]", name)
+    if bracketed and bracketed.group(1):
+        raise FrfError(f"{path}: {_csv_column(header, j)}: phase unit {bracketed.group(1)!r} "
+                       "is not one laminid reads (deg, °, rad)")
+    return None
+
+
+def _csv_point_label(name: str) -> str:
+    """A point's label from its magnitude column's name: without the magnitude words, the dB
+    and the unit ("H1_mag" H1, "|H2|" H2, "abs(H3)" H3, "Magnitude [dB]" "")."""
+    s = re.sub(r"\[[^\]]*\]", " ", name)
+    s = re.sub(r"(?i)\(\s*(?:db|deg|degrees?|rad|radians?|°)\s*\)", " ", s)
+    drop = set(CSV_MAGNITUDE_WORDS) | {"db"}
+    for m in reversed(list(re.finditer(r"(?i:db)(?![A-Za-z])|[A-Z]+(?![a-z])|[A-Z]?[a-z]+",
+                                       s))):
+        if m.group().lower() in drop:
+            s = s[:m.start()] + " " + s[m.end():]
+    s = re.sub(r"\s+", " ", s).strip(" _.-:|,")
+    while s.startswith("(") and s.endswith(")") or s.startswith("|") and s.endswith("|"):
+        s = s[1:-1].strip(" _.-:|,")
+    return s
+
+
+def _csv_mag_phase(path, header: list[str], data: np.ndarray, lines
+                   ) -> tuple[np.ndarray, tuple[str, ...], list[str]]:
+    """The complex FRFs (n_points, n_freq) of a CSV file of magnitude and phase columns
+    (``data``: float (n_freq, n_columns), column 0 the frequency), their labels, and notes on
+    what was assumed (a phase unit)."""
+    n = data.shape[1]
+    found = ", ".join(repr(h) for h in header)
+    expected = ("expected the frequency then a magnitude and a phase column per FRF (magnitude: "
+                f"{', '.join(CSV_MAGNITUDE_WORDS)} or |H| in its name, linear or [dB]; phase: "
+                f"{', '.join(CSV_PHASE_WORDS)}, [deg] or [rad])")
+    if len(header) != n:
+        raise FrfError(f"{path}: the header names magnitude and phase columns but has "
+                       f"{len(header)} names ({found}), the data lines {n} columns; {expected}")
+    kinds = [None] + [_csv_part_kind(h) for h in header[1:]]
+    other = {"magnitude": "phase", "phase": "magnitude"}
+    pairs = []
+    for j in range(1, n, 2):
+        a, b = kinds[j], kinds[j + 1] if j + 1 < n else None
+        col, problem = _csv_column(header, j), None
+        if a is None:
+            problem = f"{col} is neither a magnitude nor a phase"
+        elif a not in other:
+            problem = f"{col} names both a magnitude and a phase"
+        elif j + 1 >= n:
+            problem = f"{col}, a {a}, has no {other[a]} column after it"
+        elif b is None or b not in other:
+            problem = (f"{col}, a {a}, is followed by {_csv_column(header, j + 1)}, "
+                       f"not its {other[a]}")
+        elif b == a:
+            problem = (f"{col}, a {a}, is followed by {_csv_column(header, j + 1)}, another "
+                       f"{a}, not its {other[a]}")
+        if problem:
+            raise FrfError(f"{path}: header {found}: {problem}; {expected}")
+        pairs.append((j, j + 1) if a == "magnitude" else (j + 1, j))
+    units = {p: _csv_phase_unit(path, header, p) for _, p in pairs}
+    unknown = [p for _, p in pairs if units[p] is None]
+    notes = []
+    if unknown:
+        # one unit for all: one tool wrote them
+        values = np.abs(data[:, unknown])
+        values = values[np.isfinite(values)]
+        peak = float(values.max()) if values.size else 0.0
+        with np.errstate(invalid="ignore"):
+            jumps = np.abs(np.diff(data[:, unknown], axis=0))
+        jump = float(np.nanmax(jumps)) if jumps.size and np.any(np.isfinite(jumps)) else 0.0
+        names = ", ".join(repr(header[p]) for p in unknown)
+        what = f"phase column{'s' if len(unknown) > 1 else ''} {names} with no unit"
+        give = (f"give the unit in the header ('{header[unknown[0]]} [deg]' or "
+                f"'{header[unknown[0]]} [rad]')")
+        if peak <= _PHASE_RADIANS_MAX:
+            assumed = "rad"
+            why = (f"read in radians: no |phase| exceeds pi (largest {peak:.6g}), as a phase "
+                   "in degrees over a band with a resonance would (it turns by 180 deg there)")
+        elif jump > _PHASE_WRAP_JUMP:
+            assumed = "deg"
+            why = (f"read in degrees: it jumps by {jump:.6g} between neighbouring lines, as a "
+                   "phase in degrees wrapped at +-180 does")
+        elif peak > _PHASE_DEGREES_MAX:
+            assumed = "deg"
+            why = (f"read in degrees: |phase| reaches {peak:.6g}, which in radians would take "
+                   "more than 57 resonances")
+        else:
+            raise FrfError(f"{path}: {what}: |phase| reaches {peak:.6g} without wrapping, "
+                           "which degrees (a phase that never crosses +-180, as a driving "
+                           "point's) and radians (unwrapped over a few resonances) both give; "
+                           f"{give}")
+        notes.append(f"{what}: {why}; {give} to read it otherwise")
+        units.update(dict.fromkeys(unknown, assumed))
+    frf = np.empty((len(pairs), data.shape[0]), dtype=complex)
+    for k, (m, p) in enumerate(pairs):
+        mag = data[:, m]
+        if _csv_magnitude_in_db(path, header, m):
+            with np.errstate(over="ignore"):        # inf: refused as such by the caller
+                mag = 10.0 ** (mag / 20.0)
+        else:
+            negative = np.flatnonzero(mag < 0)
+            if negative.size:
+                i = int(negative[0])
+                raise FrfError(f"{path}: line {lines[i][0]}, {_csv_column(header, m)}: "
+                               f"magnitude {mag[i]:g} is negative (a magnitude in dB says so "
+                               f"in its header: '{header[m]} [dB]')")
+        phase = np.deg2rad(data[:, p]) if units[p] == "deg" else data[:, p]
+        frf[k] = mag * np.exp(1j * phase)
+    labels = [_csv_point_label(header[m]) or str(k + 1) for k, (m, _) in enumerate(pairs)]
+    if len(set(labels)) < len(labels):      # "|H|, phase, |H|, phase": numbered
+        labels = [str(k + 1) for k in range(len(pairs))]
+    return frf, tuple(labels), notes
 
 
 def _csv_freq_factor(path, name: str) -> float:
@@ -234,15 +495,17 @@ def _csv_freq_factor(path, name: str) -> float:
 
 
 def read_frf_csv(path) -> FrfSet:
-    """Read ``freq, re_1, im_1, ...`` text columns (see module docstring)."""
+    """Read a CSV FRF file: ``freq, re_1, im_1, ...``, ``freq, H_1, H_2, ...`` of complex cells
+    or magnitude and phase columns named in the header (see module docstring).
+
+    A note on what was assumed (the unit of a phase column whose header gives none) is in
+    the returned set's ``meta["notes"]``."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8-sig")
     except UnicodeDecodeError as exc:
         raise FrfError(f"{path}: not a text (CSV) file; {_not_the_format(path, 'csv')}") \
             from exc
-    import re
-
     units = "1"
     for ln in text.splitlines():
         # the rest of the line: a unit may hold spaces ("m/s^2 / N")
@@ -262,26 +525,43 @@ def read_frf_csv(path) -> FrfSet:
     sep = next((c for c in (";", "\t", ",") if c in first), None)
     header = None
 
-    def number(cell: str) -> float:
+    def number(cell: str) -> float | complex:
+        """A cell's value: a float, or a complex for a cell in complex syntax."""
         if sep in (";", "\t") and "," in cell and "." not in cell:
-            cell = cell.replace(",", ".", 1)          # the decimal comma
-        return float(cell)
+            cell = cell.replace(",", ".")          # the decimal comma
+        try:
+            return float(cell)
+        except ValueError:
+            return parse_complex_cell(cell)
 
+    cells = _split(first, sep)
     try:
-        [number(t) for t in _split(first, sep)]
+        number(cells[0])
     except ValueError:
-        header = _split(first, sep)
+        # the frequency's name: a first line whose first cell is a number is data, and a bad
+        # cell in it is named as such (it was taken for the header, the line lost)
+        header = cells
         lines = lines[1:]
     rows = []
+    #: the first complex cell of each column that has one: (line, cell)
+    complex_at: dict[int, tuple[int, str]] = {}
     for lineno, ln in lines:
         cells = _split(ln, sep)
-        row = []
+        row, bad = [], None
         for j, cell in enumerate(cells):
             try:
-                row.append(number(cell))
-            except ValueError as exc:
-                raise FrfError(f"{path}: line {lineno}, {_csv_column(header, j)}: "
-                               f"{_not_a_number(cell)}") from exc
+                v = number(cell)
+            except ValueError:
+                bad = bad or (j, cell)
+                continue
+            if isinstance(v, complex) and j not in complex_at:
+                complex_at[j] = (lineno, cell)
+            row.append(v)
+        if bad is not None:
+            j, cell = bad
+            looks_complex = re.search(r"\d", cell) and re.search(r"[ij]", cell, re.I)
+            raise FrfError(f"{path}: line {lineno}, {_csv_column(header, j)}: "
+                           f"{_not_a_number(cell, bool(complex_at or looks_complex))}")
         rows.append(row)
     if not rows:
         raise FrfError(f"{path}: header but no data lines")
@@ -289,22 +569,70 @@ def read_frf_csv(path) -> FrfSet:
         if len(r) != len(rows[0]):
             raise FrfError(f"{path}:{lines[i][0]}: {len(r)} columns, the first data line has "
                            f"{len(rows[0])}")
-    data = np.array(rows)
+    data = np.array(rows)           # complex where any cell is
     n = data.shape[1]
-    check_frf_size(max((n - 1) // 2, 1), data.shape[0], str(path))
-    if n < 3 or (n - 1) % 2:
-        raise FrfError(f"{path}: {n} columns; expected the frequency then a real and an "
-                       "imaginary column per FRF (an odd number, at least 3)")
-    freq = data[:, 0] * _csv_freq_factor(path, header[0] if header else "")
-    frf = np.empty((data.shape[0], (n - 1) // 2), dtype=complex)
-    frf.real, frf.imag = data[:, 1::2], data[:, 2::2]     # no inf * 1j = nan: inf stays inf
-    frf = frf.T
-    labels = tuple(str(i + 1) for i in range(frf.shape[0]))
-    if header and len(header) == n:
-        labels = tuple(h.removesuffix("_re").removesuffix(".re").strip() or str(i + 1)
-                       for i, h in enumerate(header[1::2]))
+    first = data[:, 0].real
+    if (header and header[0].strip().lower() in ("", "index", "unnamed: 0") and n > 2
+            and first.size > 2 and first[0] in (0, 1)
+            and np.array_equal(first, first[0] + np.arange(first.size))):
+        # pandas' to_csv writes its row index first, under an empty name: 0, 1, 2 ... read as
+        # the frequency in Hz would put every mode at a line number
+        raise FrfError(f"{path}: {_csv_column(header, 0)} holds {first[0]:g}, {first[1]:g}, "
+                       f"{first[2]:g} ... (line numbers): a row index, as pandas' to_csv writes "
+                       "one, not the frequency; write the file with index=False or delete that "
+                       "column")
+    if 0 in complex_at:             # numpy writes a complex array's frequency "(125+0j)"
+        i = np.flatnonzero(data[:, 0].imag != 0)
+        if i.size:
+            raise FrfError(f"{path}: line {lines[i[0]][0]}, {_csv_column(header, 0)}: the "
+                           f"frequency {data[i[0], 0]} has an imaginary part")
+    kinds = [_csv_part_kind(h) for h in header[1:]] if header else []
+    complex_columns = sorted(j for j in complex_at if j > 0)
+    notes: list[str] = []
+    expected = ("expected the frequency, then a real and an imaginary column per FRF, or one "
+                "column of complex numbers per FRF (a+bj, a+bi), or a magnitude and a phase "
+                "column per FRF named in the header")
+    if complex_columns:
+        k = complex_columns[0]
+        at = f"{_csv_column(header, k)}, line {complex_at[k][0]}: {_quoted(complex_at[k][1])}"
+        if any(kinds):
+            raise FrfError(f"{path}: the header names magnitude and phase columns "
+                           f"({', '.join(repr(h) for h in header)}) but the cells hold "
+                           f"complex numbers ({at}); {expected}")
+        plain = [j for j in range(1, n) if j not in complex_at]
+        if plain:
+            # a real and an imaginary column with a stray complex cell is no file of complex
+            # columns: every FRF column of one holds complex numbers (a "0" in some lines)
+            raise FrfError(f"{path}: {_csv_column(header, plain[0])} holds no complex number "
+                           f"where {_csv_column(header, k)} does (line {complex_at[k][0]}: "
+                           f"{_quoted(complex_at[k][1])}); {expected}, not both")
+        check_frf_size(n - 1, data.shape[0], str(path))
+        frf = data[:, 1:].T.astype(complex)
+        labels = tuple(str(i + 1) for i in range(n - 1))
+        if header and len(header) == n:
+            labels = tuple(h or str(i + 1) for i, h in enumerate(header[1:]))
+    elif any(kinds):
+        check_frf_size(max((n - 1) // 2, 1), data.shape[0], str(path))
+        frf, labels, notes = _csv_mag_phase(path, header, data.real, lines)
+    else:
+        data = data.real
+        check_frf_size(max((n - 1) // 2, 1), data.shape[0], str(path))
+        if n < 3 or (n - 1) % 2:
+            raise FrfError(f"{path}: {n} columns; expected the frequency then a real and an "
+                           "imaginary column per FRF (an odd number, at least 3), or one "
+                           "column of complex numbers per FRF (a+bj, a+bi), or a magnitude "
+                           "and a phase column per FRF named in the header")
+        frf = np.empty((data.shape[0], (n - 1) // 2), dtype=complex)
+        frf.real, frf.imag = data[:, 1::2], data[:, 2::2]   # no inf * 1j = nan: inf stays inf
+        frf = frf.T
+        labels = tuple(str(i + 1) for i in range(frf.shape[0]))
+        if header and len(header) == n:
+            labels = tuple(h.removesuffix("_re").removesuffix(".re").strip() or str(i + 1)
+                           for i, h in enumerate(header[1::2]))
+    freq = data[:, 0].real * _csv_freq_factor(path, header[0] if header else "")
     freq, frf, _ = check_frf_arrays(freq, frf, source=str(path))
-    return FrfSet(freq=freq, frf=frf, labels=labels, units=units, source=str(path))
+    return FrfSet(freq=freq, frf=frf, labels=labels, units=units, source=str(path),
+                  meta={"notes": notes} if notes else {})
 
 
 def write_frf_csv(path, fs: FrfSet, *, overwrite: bool = False) -> Path:

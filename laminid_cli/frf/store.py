@@ -56,7 +56,9 @@ class FrfSet:
     labels : measurement point names, length n_points
     units : FRF units, e.g. ``"Pa/N"`` (microphone) or ``"m/s^2/N"`` (accelerometer)
     source : file the set was read from ("" when built in memory)
-    meta : instrument identity, settings and per-point records (free-form, JSON-able)
+    meta : instrument identity, settings and per-point records (free-form, JSON-able);
+        ``notes``: a reader's sentences on what it assumed (the unit of a CSV phase column
+        whose header gives none), printed by the commands that read the set
     """
 
     freq: np.ndarray
