@@ -6,6 +6,7 @@ every number drawn comes from it. Pages of a single-plate result, each a matplot
 1. summary: the result's status and reasons; the constants with their interval (confidence
    level from the file), verdict, initial and reference value; a table of measured vs model
    frequency per mode; the residuals (measured - model)/measured*100 as bars with the RMS;
+   notes, with the Monte Carlo's trial counts after the intervals' line where it has one;
 2. intervals (when the file has ``/uncertainty``): one panel per constant in its own unit
    (GPa, 1) and on its own scale, with the verdict bands (well determined / weak, the file's
    thresholds), the reference value, and arrows where an interval runs off the panel; a
@@ -673,6 +674,30 @@ def mesh_check_note(mc: dict) -> str:
                    if mc["too_coarse"] else ": fine enough for these modes")
 
 
+def monte_carlo_note(u) -> str | None:
+    """The summary page's line on the Monte Carlo check of ``u`` (/uncertainty/monte_carlo),
+    in the words of identify's terminal ("Monte Carlo check: 199 of 200 re-identifications
+    converged (frequencies perturbed by sigma x 1.22)") and where its ranges are drawn; None
+    without one. A file whose group lacks the counts (attrs trials, converged) says so
+    without them."""
+    mc = u.monte_carlo if u is not None else None
+    if not mc:
+        return None
+    if "trials" in mc and "converged" in mc:
+        head = (f"Monte Carlo check: {int(mc['converged'])} of {int(mc['trials'])} "
+                "re-identifications converged")
+        factor = float(mc.get("sigma_factor", np.nan))
+        if np.isfinite(factor):
+            head += f" (frequencies perturbed by σ × {factor:.3g})"
+    else:
+        head = "Monte Carlo check (its trial counts not in this file)"
+    if "lower" in mc and "upper" in mc:
+        return head + (f"; their {u.confidence:.0%} ranges: grey bars on the intervals page"
+                       + (" and in the table, where a range set the verdict"
+                          if any(iv.verdict_from_monte_carlo for iv in u.intervals) else ""))
+    return head + "; no ranges in this file"
+
+
 def summary_page(r: ResultFile, plate=None, what: str = ""):
     """Page 1: status, constants table, and (single plate, or ``plate`` given) the
     frequencies. A joint result without ``plate`` gets the RMS of each plate instead."""
@@ -724,6 +749,9 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
         u = r.uncertainty
         notes.append(f"uncertainty: {u.confidence:.0%} intervals, s² = {u.s2:.3g}, "
                      f"condition number {u.condition_number:.3g}, σ from {u.sigma_source}")
+        mc = monte_carlo_note(u)
+        if mc:
+            notes.append(mc)
         from laminid_cli.intervals import small_chi2_note
 
         small = small_chi2_note(u.s2 * u.dof, u.dof, "frequency sigma")

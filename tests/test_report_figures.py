@@ -384,7 +384,7 @@ def test_damping_page_loss_factor_marks_not_in_the_colours_of_the_energy_terms()
 
 
 # ---------------------------------------------------------------------------------------------
-# panels whose values span decades: log axes
+# panels whose values span decades: log axes; page 1 says a Monte Carlo was run
 
 S11 = "specimens/example1/S1.1.yaml"
 
@@ -527,3 +527,51 @@ def test_interval_end_at_or_below_zero_on_a_log_panel_is_clipped_and_said(s21):
     assert "(an end ≤ 0 is below any log scale)" in _legend_title(fig)
     assert "below any log scale" not in _legend_title(
         {p.name: p.figure for p in report_pages(s21)}["intervals"])
+
+
+def _notes(fig) -> str:
+    return next(t.get_text() for a in fig.axes for t in a.texts
+                if t.get_gid() == "notes").replace("\n", " ")
+
+
+def test_summary_page_says_a_monte_carlo_was_run(s21_mc, s21):
+    """Page 1 says, where it describes the intervals, that a Monte Carlo was run: its trial
+    counts from the file, in the words identify's terminal (and `show`) used, and where its
+    ranges are; a result without one has no such line."""
+    import h5py
+
+    with h5py.File(s21_mc) as f:
+        mc = f["uncertainty/monte_carlo"].attrs
+        trials, converged = int(mc["trials"]), int(mc["converged"])
+        factor = float(mc["sigma_factor"])
+    assert trials == 20
+    said = f"Monte Carlo check: {converged} of {trials} re-identifications converged"
+    shown = run("show", s21_mc)
+    assert shown.exit_code == 0 and said in shown.output
+    notes = _notes({p.name: p.figure for p in report_pages(s21_mc)}["summary"])
+    assert (f"{said} (frequencies perturbed by σ × {factor:.3g}); their 95% ranges: grey bars "
+            "on the intervals page") in notes
+    # after the intervals' own line, before the table's words
+    assert notes.index("uncertainty: 95% intervals") < notes.index(said)
+    assert "Monte Carlo" not in _notes({p.name: p.figure for p in report_pages(s21)}["summary"])
+
+
+def test_monte_carlo_note_words():
+    """199 of 200 converged, a range that set a verdict: the table is named too; a group
+    without the counts (a hand-made file) says so; no group, no line."""
+    from types import SimpleNamespace
+
+    from laminid_cli.report import monte_carlo_note
+
+    ivs = (SimpleNamespace(verdict_from_monte_carlo=True),)
+    u = SimpleNamespace(confidence=0.95, intervals=ivs, monte_carlo={
+        "trials": 200, "converged": 199, "sigma_factor": 1.2240, "lower": 0, "upper": 0})
+    assert monte_carlo_note(u) == (
+        "Monte Carlo check: 199 of 200 re-identifications converged (frequencies perturbed by "
+        "σ × 1.22); their 95% ranges: grey bars on the intervals page and in the table, where "
+        "a range set the verdict")
+    u.monte_carlo = {"lower": 0, "upper": 0}
+    assert monte_carlo_note(u).startswith("Monte Carlo check (its trial counts not in this "
+                                          "file); their 95% ranges")
+    u.monte_carlo = None
+    assert monte_carlo_note(u) is None
