@@ -6,9 +6,11 @@ every number drawn comes from it. Pages of a single-plate result, each a matplot
 1. summary: the result's status and reasons; the constants with their interval (confidence
    level from the file), verdict, initial and reference value; a table of measured vs model
    frequency per mode; the residuals (measured - model)/measured*100 as bars with the RMS;
+   notes, with the Monte Carlo's trial counts after the intervals' line where it has one;
 2. intervals (when the file has ``/uncertainty``): one panel per constant in its own unit
    (GPa, 1) and on its own scale, with the verdict bands (well determined / weak, the file's
-   thresholds), the reference value, and arrows where an interval runs off the panel;
+   thresholds), the reference value, and arrows where an interval runs off the panel; a
+   modulus whose numbers span more than a decade on a log axis (:func:`wants_log_axis`);
 3. mode shapes: w0 of each paired model mode (filled contours of w/max|w|, nodal lines), the
    same size on every page, with the MAC against the *initial* model's mode the measurement
    was first paired with (the result holds no measured shapes: frequencies only);
@@ -672,6 +674,30 @@ def mesh_check_note(mc: dict) -> str:
                    if mc["too_coarse"] else ": fine enough for these modes")
 
 
+def monte_carlo_note(u) -> str | None:
+    """The summary page's line on the Monte Carlo check of ``u`` (/uncertainty/monte_carlo),
+    in the words of identify's terminal ("Monte Carlo check: 199 of 200 re-identifications
+    converged (frequencies perturbed by sigma x 1.22)") and where its ranges are drawn; None
+    without one. A file whose group lacks the counts (attrs trials, converged) says so
+    without them."""
+    mc = u.monte_carlo if u is not None else None
+    if not mc:
+        return None
+    if "trials" in mc and "converged" in mc:
+        head = (f"Monte Carlo check: {int(mc['converged'])} of {int(mc['trials'])} "
+                "re-identifications converged")
+        factor = float(mc.get("sigma_factor", np.nan))
+        if np.isfinite(factor):
+            head += f" (frequencies perturbed by σ × {factor:.3g})"
+    else:
+        head = "Monte Carlo check (its trial counts not in this file)"
+    if "lower" in mc and "upper" in mc:
+        return head + (f"; their {u.confidence:.0%} ranges: grey bars on the intervals page"
+                       + (" and in the table, where a range set the verdict"
+                          if any(iv.verdict_from_monte_carlo for iv in u.intervals) else ""))
+    return head + "; no ranges in this file"
+
+
 def summary_page(r: ResultFile, plate=None, what: str = ""):
     """Page 1: status, constants table, and (single plate, or ``plate`` given) the
     frequencies. A joint result without ``plate`` gets the RMS of each plate instead."""
@@ -723,6 +749,9 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
         u = r.uncertainty
         notes.append(f"uncertainty: {u.confidence:.0%} intervals, s² = {u.s2:.3g}, "
                      f"condition number {u.condition_number:.3g}, σ from {u.sigma_source}")
+        mc = monte_carlo_note(u)
+        if mc:
+            notes.append(mc)
         from laminid_cli.intervals import small_chi2_note
 
         small = small_chi2_note(u.s2 * u.dof, u.dof, "frequency sigma")
@@ -752,6 +781,69 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
 
 # ----------------------------------------------------------------------------------------------
 # intervals
+
+#: a modulus' panel whose positive values (value, reference, interval, Monte Carlo range,
+#: profile) span more than this ratio is drawn on a log axis: on a linear one a constant near
+#: its search limit sat on 0 under an arrow (S2.1's G13 0.0029 GPa, flat to 18.5 GPa; across
+#: specimens S2.1's and S2.2's G13 under S1.x's 2-6 GPa)
+LOG_PANEL_RATIO = 10.0
+#: on a log panel of one constant, the ends (interval, Monte Carlo range, profile) within this
+#: factor of the value are drawn whole; one further (or <= 0) runs off with an arrow
+LOG_PANEL_REACH = 1e4
+
+
+def wants_log_axis(k: str, marks, ends=()) -> bool:
+    """Whether the panel of constant ``k`` is drawn on a log axis: a modulus whose positive
+    ``marks`` (values, reference ends: display unit, all > 0) and finite positive ``ends``
+    (interval, range and profile ends; ends <= 0 run off the panel) span more than
+    :data:`LOG_PANEL_RATIO`. nu12 stays linear (its intervals are linear, its values may be
+    <= 0), as does a panel with a mark <= 0."""
+    marks = np.asarray([x for x in marks if np.isfinite(x)], float)
+    if k == "nu12" or marks.size == 0 or (marks <= 0).any():
+        return False
+    pts = np.concatenate([marks, [e for e in ends if np.isfinite(e) and e > 0]])
+    return pts.max() / pts.min() > LOG_PANEL_RATIO
+
+
+def _log_limits(core, extra, *, pad=(0.06, 0.06)):
+    """(ymin, ymax) of a log panel: the positive values ``core`` always in view, ``extra``
+    where positive, and margins ``pad`` (below, above) as fractions of the decades spanned."""
+    pts = [x for x in (*core, *extra) if np.isfinite(x) and x > 0]
+    lo, hi = min(pts), max(pts)
+    decades = max(np.log10(hi / lo), 0.3)
+    return lo / 10 ** (pad[0] * decades), hi * 10 ** (pad[1] * decades)
+
+
+def _inward(ax, edge: float, frac: float, ymin: float, ymax: float, up: bool) -> float:
+    """The y ``frac`` of the panel's height inside its edge ``edge`` (the top where ``up``),
+    on a linear or a log axis: where an arrow onto that edge starts."""
+    sign = -1 if up else 1
+    if ax.get_yscale() == "log":
+        return edge * (ymax / ymin) ** (sign * frac)
+    return edge + sign * frac * (ymax - ymin)
+
+
+def _between(ax, a: float, b: float) -> float:
+    """Half way from ``a`` to ``b`` as drawn: the geometric mean on a log axis."""
+    return float(np.sqrt(a * b)) if ax.get_yscale() == "log" else (a + b) / 2
+
+
+def log_axis_ticks(axis, *, plain: bool = True) -> None:
+    """Ticks of a log y axis from its limits: 1, 2, 5 x 10^k (or more) over up to 2.5 decades,
+    else the decades; ``plain`` numbers (0.001, 10) or 10^k; no labels on the minor ticks."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    lo, hi = axis.get_ylim()
+    decades = np.log10(hi / lo)
+    if decades <= 2.5:                          # a narrow range: label 1, 2, 5 x 10^k or more
+        subs = (1.0, 2.0, 5.0) if decades > 1 else (1.0, 1.5, 2.0, 3.0, 5.0, 7.0)
+        axis.yaxis.set_major_locator(LogLocator(base=10, subs=subs))
+        axis.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    else:
+        axis.yaxis.set_major_locator(LogLocator(base=10, numticks=8))
+        if plain:
+            axis.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    axis.yaxis.set_minor_formatter(NullFormatter())
 
 
 def _panel_limits(v, lo, hi, refs, weak, nu: bool):
@@ -823,7 +915,7 @@ def _bound_panel(ax, k, v, iv, x, ymin, ymax):
                           ha="left")
     # from the arrow's middle into the panel (centred there, the words of a limit at the
     # panel's edge ran out of it, over the value written under the panel)
-    ax.annotate("\n".join(textwrap.wrap(words, 12)), (x, (v + edge) / 2), xytext=(5, 0),
+    ax.annotate("\n".join(textwrap.wrap(words, 12)), (x, _between(ax, v, edge)), xytext=(5, 0),
                 textcoords="offset points", fontsize=6.5, ha="left",
                 va="bottom" if side == "lower" else "top", color=INTERVAL_COLOR,
                 gid="bound-statement")
@@ -890,7 +982,27 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
     nu = k == "nu12"
     # the reference's ends in the display unit: one value twice, or a range's low and high
     gref = () if ref is None else tuple(g(e) for e in ref)
-    if iv is not None and iv.at_bound:
+    rng = monte_carlo_range(u, iv)
+    at_bound = iv is not None and iv.at_bound
+    # the ends drawn (display unit): interval, Monte Carlo range, a constant at a bound's
+    # profile (where the fit rejects it, or the end of a flat one's scan)
+    ends = [g(lo), g(hi)] + ([g(rng.lower), g(rng.upper)] if rng is not None else [])
+    if at_bound:
+        ends += [g(getattr(iv, "profile_bound", np.nan))] + (
+            [g(getattr(iv, "profile_far", np.nan))] if iv.profile_kind == "flat" else [])
+    if wants_log_axis(k, (g(v), *gref), ends):
+        # a decade and more: on a linear axis the value sat on 0 under the others
+        ax.set_yscale("log")
+        reach = [e for e in ends if g(v) / LOG_PANEL_REACH <= e <= g(v) * LOG_PANEL_REACH]
+        if at_bound:
+            # room on the side the fit pushes it (the dashed arrow's)
+            down = (iv.bound_side or bound_statement(iv.bound_text)[0]) != "upper"
+            ymin, ymax = _log_limits((g(v), *gref), reach,
+                                     pad=(0.15, 0.06) if down else (0.06, 0.15))
+        else:
+            band = (g(v) * (1 - 1.2 * u.weak), g(v) * (1 + 1.35 * u.weak))
+            ymin, ymax = _log_limits((g(v), *band, *gref), reach)
+    elif at_bound:
         ymin, ymax = _bound_limits(g(v), iv.bound_side, gref, nu,
                                    g(getattr(iv, "profile_bound", np.nan)))
         far = g(getattr(iv, "profile_far", np.nan))
@@ -915,16 +1027,18 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
             caps = [e for e, inside in ((clo, g(lo) >= ymin), (chi, g(hi) <= ymax)) if inside]
             ax.plot([x] * len(caps), caps, "_", ms=14, mew=2.5, color=INTERVAL_COLOR,
                     gid="interval-caps")
-        span = ymax - ymin
         for end, edge, up in ((hi, ymax, True), (lo, ymin, False)):
             if not np.isnan(end) and ((up and g(end) > ymax) or (not up and g(end) < ymin)):
-                tail = edge - (0.08 if up else -0.08) * span
+                tail = _inward(ax, edge, 0.08, ymin, ymax, up)
                 ax.annotate("", (x, edge), xytext=(x, tail),
                             arrowprops=dict(arrowstyle="-|>", color=INTERVAL_COLOR, lw=1.5))
+                # (an end <= 0, of a linear interval, is off a log panel's foot: said so in
+                # the legend)
+                off_log = ax.get_yscale() == "log" and g(end) <= 0
                 ax.annotate(f"{'to' if up else 'from'}\n{fmt_value(k, end)}", (x, tail),
                             xytext=(5, 0), textcoords="offset points", fontsize=7,
-                            va="center", ha="left", color=INTERVAL_COLOR)
-    rng = monte_carlo_range(u, iv)
+                            va="center", ha="left", color=INTERVAL_COLOR,
+                            gid="interval-end-below-log" if off_log else "interval-end")
     if rng is not None:
         _monte_carlo_bar(ax, k, rng, x - 0.25, ymin, ymax)
     if fixed:                       # not a result: a hollow grey square, no band, no interval
@@ -1047,7 +1161,11 @@ def interval_page(r: ResultFile):
             ax.set_xlim(-0.75, 0.75)
             ax.set_xticks([])
             ax.tick_params(labelsize=7)
-            name = f"{m}\n{k} ({_unit(k)})" if len(mats) > 1 else f"{k} ({_unit(k)})"
+            unit = _unit(k)
+            if ax.get_yscale() == "log":
+                log_axis_ticks(ax)
+                unit += ", log scale"
+            name = f"{m}\n{k} ({unit})" if len(mats) > 1 else f"{k} ({unit})"
             ax.set_title(name, fontsize=9)
             ax.set_xlabel(panel_words(r, m, k, iv), fontsize=7)
     scales = {iv.scale for iv in u.intervals}
@@ -1060,18 +1178,23 @@ def interval_page(r: ResultFile):
 
     # the arrows of an interval or a Monte Carlo range off its panel: their words "to"/"from"
     arrow = any(t.get_text().startswith(("to\n", "from\n")) for a in axes.flat for t in a.texts)
+    below = any(t.get_gid() == "interval-end-below-log" for a in axes.flat for t in a.texts)
+    title = how
+    if arrow:
+        title += "; arrow: the interval or range runs off the panel to the value written"
+    if below:
+        title += " (an end ≤ 0 is below any log scale)"
+    if any(iv.at_bound for iv in u.intervals):
+        title += (";\ndashed arrow: the way the fit pushes a constant stopped on a search limit "
+                  "(the value drawn is that limit)")
+    if getattr(u, "spread_counted", ()):
+        title += (";\nthe intervals count the spread the fixed "
+                  + ", ".join(lab.rsplit(".", 1)[1] if len(r.materials) == 1 else lab
+                              for lab in u.spread_counted)
+                  + " had before fixing (see page 1 for the widths given them)"
+                  + _mc_fixed_legend(u))
     ax_leg.legend(handles, labels, loc="center", ncol=4, fontsize=8,
-                  handler_map={tuple: HandlerTuple(ndivide=None)},
-                  title=how + ("; arrow: the interval or range runs off the panel to the value "
-                               "written" if arrow else "") + (";\ndashed arrow: the way the fit pushes a constant stopped "
-                                     "on a search limit (the value drawn is that limit)"
-                                     if any(iv.at_bound for iv in u.intervals) else "")
-                        + (";\nthe intervals count the spread the fixed "
-                           + ", ".join(lab.rsplit(".", 1)[1] if len(r.materials) == 1 else lab
-                                       for lab in u.spread_counted)
-                           + " had before fixing (see page 1 for the widths given them)"
-                           + _mc_fixed_legend(u)
-                           if getattr(u, "spread_counted", ()) else ""),
+                  handler_map={tuple: HandlerTuple(ndivide=None)}, title=title,
                   title_fontsize=8)
     _status_banner(fig, r)
     return fig
@@ -1358,7 +1481,7 @@ def history_page(r: ResultFile):
             ax.text(0.5, 0.5, title.replace(":\n", ": "), transform=ax.transAxes,
                     ha="center", va="center", fontsize=8, color=FIXED_COLOR, gid="fixed-note")
             ax.set_yticks([])
-    from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter
+    from matplotlib.ticker import MaxNLocator
 
     for ax in (ax_o, ax_r, ax_c, ax_n):
         ax.tick_params(labelsize=7)
@@ -1366,14 +1489,7 @@ def history_page(r: ResultFile):
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         if ax.get_yscale() == "log":
             lo, hi = ax.get_ylim()
-            decades = np.log10(hi / lo)
-            if decades <= 2.5:                  # a narrow range: label 1, 2, 5 x 10^k or more
-                subs = (1.0, 2.0, 5.0) if decades > 1 else (1.0, 1.5, 2.0, 3.0, 5.0, 7.0)
-                ax.yaxis.set_major_locator(LogLocator(base=10, subs=subs))
-                ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
-            else:
-                ax.yaxis.set_major_locator(LogLocator(base=10, numticks=8))
-            ax.yaxis.set_minor_formatter(NullFormatter())
+            log_axis_ticks(ax, plain=False)
             if ax in (ax_o, ax_r):
                 # down to a labelled tick under the lowest point: the value the fit ended on
                 # (the lowest, as a rule) is read against a number (S1.3's RMS 0.244 % had
@@ -1830,10 +1946,9 @@ def _clipped_bar(ax, k, xi, lo, hi, ymin, ymax, color, *, lw, gid, marks=(False,
         return
     ax.plot([xi, xi], [a, b], ls=ls, color=color, lw=lw, alpha=0.85, gid=gid,
             solid_capstyle="butt")
-    span = ymax - ymin
     for end, edge, up in ((hi, ymax, True), (lo, ymin, False)):
         if arrow and (not np.isfinite(end) or (end > ymax if up else end < ymin)):
-            ax.annotate("", (xi, edge), xytext=(xi, edge - (0.07 if up else -0.07) * span),
+            ax.annotate("", (xi, edge), xytext=(xi, _inward(ax, edge, 0.07, ymin, ymax, up)),
                         arrowprops=dict(arrowstyle="-|>", color=color, lw=1))
     for end, mark, up in ((lo, marks[0], False), (hi, marks[1], True)):
         if mark:
@@ -1925,17 +2040,27 @@ def constants_across_page(done, title: str):
                             ms=8, mew=1.5, color="k", solid_capstyle="butt",
                             gid=f"reference-range-{name}-{m}")
                     vals += [_gpa(k, e) for e in ref]
-        if vals:
+        log = bool(vals) and wants_log_axis(k, vals, ends)
+        if log:
+            # values a decade and more apart (S2.1's G13 0.0029 GPa, S1.x's 2-6 GPa): on a
+            # linear axis the small ones sat on 0; the bars as on a linear panel, in view
+            # where the panel's limits come from them, else to the edge with an arrow
+            ax.set_yscale("log")
+            ymin, ymax = _log_limits(vals, ends, pad=(0.08, 0.08))
+        elif vals:
             lo, hi = min(vals + ends), max(vals + ends)
             pad = 0.15 * (hi - lo) if hi > lo else 0.1 * abs(hi) or 1.0
             ymin, ymax = lo - pad, hi + pad
             if k != "nu12" and ymin < 0 <= lo:
                 ymin = 0.0
+        if vals:
             ax.set_ylim(ymin, ymax)
             for xi, blo, bhi, color, lw, gid, marks, ls in bars:
                 _clipped_bar(ax, k, xi, blo, bhi, ymin, ymax, color, lw=lw, gid=gid,
                              marks=marks, ls=ls)
-        style_across_panel(ax, f"{k} ({_unit(k)})", names)
+        style_across_panel(ax, f"{k} ({_unit(k)}{', log scale' if log else ''})", names)
+        if log:
+            log_axis_ticks(ax)
     handles = {m: Line2D([], [], ls="none", marker="o", ms=6, color=f"C{c % 10}")
                for c, m in enumerate(materials)}
     grey = "0.3"

@@ -121,16 +121,19 @@ def test_s21_g13_is_flat_in_json_hdf5_terminal_and_report(s21_8x8):
     a = next(x for x in fig.axes if x.get_gid() == "interval-E-glass/R368.G13")
     stmt = next(t for t in a.texts if t.get_gid() == "bound-statement").get_text()
     assert stmt.replace("\n", " ") == "stopped on the lower search limit: no interval", stmt
-    # the values the fit does not reject: dotted from the limit up, off the panel (18.5 GPa
-    # is far above it), an arrow head on the edge and the far end's value beside it
+    # the values the fit does not reject: dotted from the limit up to 18.5 GPa, 6300 x the
+    # limit, on a log panel (on a linear one, 0 .. 0.0035 GPa, it ran off the top), capped
+    # there with the far end's value beside it
+    assert a.get_yscale() == "log"
     line = next(x for x in a.lines if x.get_gid() == "profile")
     (x0, x1), (y0, y1) = line.get_data()
     ymin, ymax = a.get_ylim()
-    assert y0 == pytest.approx(prof_limit := iv.value / 1e9, rel=1e-9) and y1 == ymax
+    assert y0 == pytest.approx(prof_limit := iv.value / 1e9, rel=1e-9)
+    assert y1 == pytest.approx(18.5, rel=1e-9)
     cap = next(x for x in a.lines if x.get_gid() == "profile-cap")
-    assert cap.get_marker() == "^" and cap.get_ydata()[0] == ymax
+    assert cap.get_marker() == "_" and cap.get_ydata()[0] == y1
     label = next(t for t in a.texts if t.get_gid() == "profile-label").get_text()
-    assert label == "profile:\nflat to\n18.50" and prof_limit < ymax < 1.0
+    assert label == "profile:\nflat to\n18.50" and ymin < prof_limit and 18.5 < ymax < 40
     text = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8",
                                     "--no-output"]).output
     assert "none: flat to 18.50" in text and "profile: the fit is as good" in text
@@ -385,9 +388,9 @@ def test_an_unfinished_fit_above_the_threshold_gives_no_profile(monkeypatch):
 def test_a_flat_profile_of_the_values_size_is_drawn_to_its_end(s21_8x8):
     """A flat profile whose far end is of the value's size (hybrid CM's glass E2: 55.5 GPa on
     its upper limit, flat down to 0.9 GPa; carbon nu12 0.95 down to 0) is drawn to that end,
-    with a cap and its value, the panel widened to show it; a far end beyond twice the value
-    runs off the panel (the S2.1 test above). S2.1's G13 (8x8) with its far end moved to
-    2.9 x the limit stands in for it."""
+    with a cap and its value, the panel widened to show it, on a linear axis (within a decade
+    of the value); a far end a decade and more away is drawn on a log panel (the S2.1 test
+    above). S2.1's G13 (8x8) with its far end moved to 2.9 x the limit stands in for it."""
     import dataclasses as dc
 
     import matplotlib.pyplot as plt
@@ -410,6 +413,7 @@ def test_a_flat_profile_of_the_values_size_is_drawn_to_its_end(s21_8x8):
     line = next(x for x in ax.lines if x.get_gid() == "profile")
     assert line.get_ydata()[0] == pytest.approx(iv.value / 1e9)
     assert line.get_ydata()[1] == pytest.approx(far / 1e9) and far / 1e9 < ymax
+    assert ax.get_yscale() == "linear"
     cap = next(x for x in ax.lines if x.get_gid() == "profile-cap")
     assert cap.get_marker() == "_" and cap.get_ydata()[0] == pytest.approx(far / 1e9)
     label = next(t for t in ax.texts if t.get_gid() == "profile-label").get_text()
@@ -447,16 +451,17 @@ def test_the_check_between_the_limit_and_a_flat_far_end_uses_the_quick_fit():
 
 
 def test_a_flat_profile_and_a_monte_carlo_range_off_the_panel_keep_their_words_apart(s21_8x8):
-    """S2.1's G13 (8x8) on its lower limit, flat to 18.5 GPa, with a Monte Carlo range from
-    the limit (trials on it) to 11.66 GPa, as a 100-trial run at 12x12 gave: both run off the
-    top of the panel. The range's words ("to 11.66") sit left of its bar, the profile's
-    ("profile: flat to 18.50") right of its line; they overlapped when both were on the left
-    (drawn figure, display coordinates)."""
+    """S2.1's G13 (8x8) on its lower limit with a Monte Carlo range from the limit (trials on
+    it) and a flat profile that both run off the top of the panel: the 100-trial run at 12x12
+    gave 11.66 GPa and 18.5 GPa, off a linear panel, in view on the log panel it has now
+    (within LOG_PANEL_REACH of the limit); here moved beyond that. The range's words ("to
+    ...") sit left of its bar, the profile's ("profile: flat to ...") right of its line; they
+    overlapped when both were on the left (drawn figure, display coordinates)."""
     import dataclasses as dc
 
     import matplotlib.pyplot as plt
 
-    from laminid_cli.report import interval_panel
+    from laminid_cli.report import LOG_PANEL_REACH, fmt_value, interval_panel
     from laminid_cli.resultfile import read_result
 
     r = read_result(s21_8x8[0])
@@ -466,9 +471,12 @@ def test_a_flat_profile_and_a_monte_carlo_range_off_the_panel_keep_their_words_a
     j = labels.index(f"{m}.G13")
     iv = u.intervals[j]
     assert iv.at_bound and iv.profile_kind == "flat" and iv.profile_far == pytest.approx(18.5e9)
+    top, far = 2 * LOG_PANEL_REACH * iv.value, 3 * LOG_PANEL_REACH * iv.value
+    iv = dc.replace(iv, profile_far=far)
+    u = dc.replace(u, intervals=u.intervals[:j] + (iv,) + u.intervals[j + 1:])
     values = np.array([x.value for x in u.intervals])
     lower, upper = values * 0.97, values * 1.03
-    lower[j], upper[j] = iv.value, 11.66e9
+    lower[j], upper[j] = iv.value, top
     at_lower = np.zeros(len(labels), np.int8)
     at_lower[j] = 1
     mc = {"lower": lower, "upper": upper, "inner_lower": lower, "inner_upper": upper,
@@ -479,7 +487,8 @@ def test_a_flat_profile_and_a_monte_carlo_range_off_the_panel_keep_their_words_a
     fig.draw_without_rendering()
     texts = {t.get_gid(): t for t in ax.texts}
     prof, end = texts["profile-label"], texts["monte-carlo-upper-end"]
-    assert end.get_text() == "to\n11.66" and prof.get_text() == "profile:\nflat to\n18.50"
+    assert end.get_text() == f"to\n{fmt_value('G13', top)}"
+    assert prof.get_text() == f"profile:\nflat to\n{fmt_value('G13', far)}"
     a, b = prof.get_window_extent(), end.get_window_extent()
     assert a.x0 >= b.x1 or a.x1 <= b.x0 or a.y0 >= b.y1 or a.y1 <= b.y0, (a, b)
     plt.close(fig)

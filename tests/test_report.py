@@ -981,7 +981,9 @@ def test_monte_carlo_numbers_on_the_pages(checked, tmp_path):
         mc = u["monte_carlo"]
         v = u["value"][()]
         up, lo = mc["upper"][()], mc["lower"][()]
-        up[j13] = 30 * v[j13]                              # far above G13's panel
+        # far above G13's panel: beyond what even a log panel draws (LOG_PANEL_REACH; a
+        # range 30 x the value is drawn whole on a log axis)
+        up[j13] = 1e5 * v[j13]
         lo[j2] = 0.2 * v[j2]                               # E2: trials down to a limit
         mc["upper"][...], mc["lower"][...] = up, lo
         flags = np.zeros(v.size, np.int8)
@@ -1003,7 +1005,7 @@ def test_monte_carlo_numbers_on_the_pages(checked, tmp_path):
     a = ax(pages["intervals"], f"interval-{MAT}.G13")
     g13 = res.materials[MAT]["G13"]
     end = next(t for t in a.texts if t.get_gid() == "monte-carlo-upper-end")
-    assert end.get_text() == f"to\n{fmt_value('G13', 30 * g13)}"
+    assert end.get_text() == f"to\n{fmt_value('G13', 1e5 * g13)}"
     assert end.xy[1] == a.get_ylim()[1]
     e2 = res.materials[MAT]["E2"]
     iv = res.uncertainty.get(MAT, "E2")

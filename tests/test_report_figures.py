@@ -381,3 +381,197 @@ def test_damping_page_loss_factor_marks_not_in_the_colours_of_the_energy_terms()
     terms = {to_rgb(b.get_facecolor()) for b in ax(fig, "energy-shares").patches}
     assert len(terms) == 5
     assert not set(marks.values()) & terms
+
+
+# ---------------------------------------------------------------------------------------------
+# panels whose values span decades: log axes; page 1 says a Monte Carlo was run
+
+S11 = "specimens/example1/S1.1.yaml"
+
+
+@pytest.fixture(scope="module")
+def s21_mc(tmp_path_factory):
+    """S2.1 (8x8) with a Monte Carlo of 20 trials: G13 on its lower search limit (flat profile
+    to 18.5 GPa), its range from the limit (0.0029 GPa) to a few GPa; G23's to 0.003*."""
+    out = tmp_path_factory.mktemp("s21mc") / "S2.1.result.h5"
+    r = run("identify", S21, "--mesh", "8x8", "--monte-carlo", 20, "-j", 1, "-o", out)
+    assert r.exit_code == 0, r.output
+    return out
+
+
+@pytest.fixture(scope="module")
+def s11(tmp_path_factory):
+    """S1.1 (8x8): E1, E2, G12 within a few % to tens of %, nu12 linear; G23's interval
+    0.2 .. 6 GPa (30 x)."""
+    out = tmp_path_factory.mktemp("s11") / "S1.1.result.h5"
+    r = run("identify", S11, "--mesh", "8x8", "-o", out)
+    assert r.exit_code == 0, r.output
+    return out
+
+
+def test_interval_panel_spanning_decades_is_log_and_nothing_on_its_foot(s21_mc):
+    """S2.1's G13 stopped on its lower search limit (0.0029 GPa), the values the fit does not
+    reject up to 18.5 GPa, its Monte Carlo range up to a few GPa: on a linear panel (0 ..
+    0.0035 GPa, or 0 .. 4 with a reference) everything but the limit ran off with arrows, or
+    the limit sat on 0. On a log panel, said in its title, the limit, the reference, the range
+    and the profile's end are all in view, apart, and the panel is not much wider than them."""
+    import dataclasses
+
+    import numpy as np
+
+    from laminid_cli.report import interval_page, monte_carlo_range
+    from laminid_cli.resultfile import read_result
+
+    res = read_result(s21_mc)
+    m = next(iter(res.materials))
+    iv = res.uncertainty.get(m, "G13")
+    assert iv.at_bound and iv.bound_side == "lower"
+    ref = 3.7                               # GPa: the specimen gives none for G13
+    plate = res.plates[0]
+    plate = dataclasses.replace(plate, reference=plate.reference | {
+        m: plate.reference.get(m, {}) | {"G13": (ref * 1e9, ref * 1e9)}})
+    res = dataclasses.replace(res, plates=(plate,))
+    fig = interval_page(res)
+    fig.draw_without_rendering()
+    a = ax(fig, f"interval-{m}.G13")
+    assert a.get_yscale() == "log" and a.get_title() == "G13 (GPa, log scale)"
+    rng = monte_carlo_range(res.uncertainty, iv)
+    v = res.materials[m]["G13"] / 1e9
+    data = [v, ref, rng.lower / 1e9, rng.upper / 1e9, iv.profile_far / 1e9]
+    assert np.all(np.isfinite(data)) and max(data) / min(data) > 1e3
+    lo, hi = a.get_ylim()
+    assert lo <= min(data) and max(data) <= hi                      # all in view: no arrows
+    assert not [t for t in a.texts if t.get_text().startswith(("to\n", "from\n"))]
+    assert np.log10(hi / lo) <= 1.3 * np.log10(max(data) / min(data))
+    marks = {ln.get_gid(): ln.get_ydata()[0] for ln in a.get_lines()
+             if ln.get_gid() in ("at-bound", "reference")}
+    assert marks == {"at-bound": v, "reference": ref}
+    box = a.get_window_extent()
+
+    def y(val):                                                     # pixels above the foot
+        return a.transData.transform((0, val))[1] - box.y0
+
+    assert y(v) >= 0.05 * box.height                                # not on the panel's foot
+    assert y(ref) - y(v) >= 0.5 * box.height                        # limit and reference apart
+    assert y(rng.upper / 1e9) - y(v) >= 0.3 * box.height
+    assert box.height - y(iv.profile_far / 1e9) >= 0.02 * box.height
+
+
+def test_interval_panels_within_a_decade_stay_linear(s11):
+    """S1.1's E1, E2, G12 (and nu12, always) keep their linear panels; a modulus goes log
+    only where its value, interval and reference span more than a decade (G23 0.2 .. 6 GPa)."""
+    from laminid_cli.resultfile import CONSTANTS, read_result
+
+    res = read_result(s11)
+    fig = {p.name: p.figure for p in report_pages(s11)}["intervals"]
+    m = next(iter(res.materials))
+    log = {}
+    for k in CONSTANTS:
+        a = ax(fig, f"interval-{m}.{k}")
+        iv = res.uncertainty.get(m, k)
+        pts = [res.materials[m][k], iv.lower, iv.upper, *res.reference.get(m, {}).get(k, ())]
+        log[k] = a.get_yscale() == "log"
+        assert log[k] is (k != "nu12" and max(pts) / min(pts) > 10)
+        assert ("log scale" in a.get_title()) is log[k]
+    assert not any(log[k] for k in ("E1", "E2", "G12", "nu12"))
+    assert log["G23"]
+
+
+def test_constants_across_specimens_log_where_values_span_decades(tmp_path):
+    """Across specimens, R's G13 on its lower limit (0.00038 GPa) and Q's 3.8 GPa: a linear
+    panel put R's on 0; a log one (its title says so) keeps both in view and apart. E1 (87 GPa
+    both) stays linear."""
+    from tests.test_report import _write_summary
+
+    path = tmp_path / "summary.json"
+    _write_summary(path, _one_material_rows())
+    fig = {p.name: p.figure for p in report_pages(path)}["constants"]
+    fig.draw_without_rendering()
+    a = ax(fig, "across-G13")
+    assert a.get_yscale() == "log" and a.get_title() == "G13 (GPa, log scale)"
+    box = a.get_window_extent()
+    ys = {ln.get_gid(): a.transData.transform((0, ln.get_ydata()[0]))[1] - box.y0
+          for ln in a.get_lines() if ln.get_gid() in ("value-Q-carbon", "at-bound-R-carbon")}
+    assert len(ys) == 2 and all(0.03 * box.height <= y <= 0.97 * box.height
+                                for y in ys.values())
+    assert ys["value-Q-carbon"] - ys["at-bound-R-carbon"] >= 0.5 * box.height
+    for k in ("E1", "nu12"):
+        assert ax(fig, f"across-{k}").get_yscale() == "linear"
+        assert "log" not in ax(fig, f"across-{k}").get_title()
+
+
+def test_interval_end_at_or_below_zero_on_a_log_panel_is_clipped_and_said(s21):
+    """A linear interval (older files) whose lower end is <= 0, on a panel a decade and more
+    wide: an arrow onto the log panel's foot with the end written, and the legend says that
+    such an end is below any log scale."""
+    import dataclasses
+
+    from laminid_cli.report import interval_page
+    from laminid_cli.resultfile import read_result
+
+    res = read_result(s21)
+    m = next(iter(res.materials))
+    u = res.uncertainty
+    v = res.materials[m]["G23"]
+    ivs = tuple(dataclasses.replace(iv, lower=-5e9, upper=50 * v, scale="linear")
+                if iv.constant == "G23" else iv for iv in u.intervals)
+    fig = interval_page(dataclasses.replace(res, uncertainty=dataclasses.replace(
+        u, intervals=ivs)))
+    a = ax(fig, f"interval-{m}.G23")
+    assert a.get_yscale() == "log"
+    lo, hi = a.get_ylim()
+    end = next(t for t in a.texts if t.get_gid() == "interval-end-below-log")
+    assert end.get_text() == "from\n-5.000"
+    bar = next(ln for ln in a.get_lines() if ln.get_gid() == "interval")
+    assert list(bar.get_ydata()) == [lo, 50 * v / 1e9]               # clipped at the foot
+    assert "(an end ≤ 0 is below any log scale)" in _legend_title(fig)
+    assert "below any log scale" not in _legend_title(
+        {p.name: p.figure for p in report_pages(s21)}["intervals"])
+
+
+def _notes(fig) -> str:
+    return next(t.get_text() for a in fig.axes for t in a.texts
+                if t.get_gid() == "notes").replace("\n", " ")
+
+
+def test_summary_page_says_a_monte_carlo_was_run(s21_mc, s21):
+    """Page 1 says, where it describes the intervals, that a Monte Carlo was run: its trial
+    counts from the file, in the words identify's terminal (and `show`) used, and where its
+    ranges are; a result without one has no such line."""
+    import h5py
+
+    with h5py.File(s21_mc) as f:
+        mc = f["uncertainty/monte_carlo"].attrs
+        trials, converged = int(mc["trials"]), int(mc["converged"])
+        factor = float(mc["sigma_factor"])
+    assert trials == 20
+    said = f"Monte Carlo check: {converged} of {trials} re-identifications converged"
+    shown = run("show", s21_mc)
+    assert shown.exit_code == 0 and said in shown.output
+    notes = _notes({p.name: p.figure for p in report_pages(s21_mc)}["summary"])
+    assert (f"{said} (frequencies perturbed by σ × {factor:.3g}); their 95% ranges: grey bars "
+            "on the intervals page") in notes
+    # after the intervals' own line, before the table's words
+    assert notes.index("uncertainty: 95% intervals") < notes.index(said)
+    assert "Monte Carlo" not in _notes({p.name: p.figure for p in report_pages(s21)}["summary"])
+
+
+def test_monte_carlo_note_words():
+    """199 of 200 converged, a range that set a verdict: the table is named too; a group
+    without the counts (a hand-made file) says so; no group, no line."""
+    from types import SimpleNamespace
+
+    from laminid_cli.report import monte_carlo_note
+
+    ivs = (SimpleNamespace(verdict_from_monte_carlo=True),)
+    u = SimpleNamespace(confidence=0.95, intervals=ivs, monte_carlo={
+        "trials": 200, "converged": 199, "sigma_factor": 1.2240, "lower": 0, "upper": 0})
+    assert monte_carlo_note(u) == (
+        "Monte Carlo check: 199 of 200 re-identifications converged (frequencies perturbed by "
+        "σ × 1.22); their 95% ranges: grey bars on the intervals page and in the table, where "
+        "a range set the verdict")
+    u.monte_carlo = {"lower": 0, "upper": 0}
+    assert monte_carlo_note(u).startswith("Monte Carlo check (its trial counts not in this "
+                                          "file); their 95% ranges")
+    u.monte_carlo = None
+    assert monte_carlo_note(u) is None
