@@ -25,3 +25,30 @@ def s11_fix_undetermined_6x6(tmp_path_factory):
             "--json", "-o", out)
     assert r.exit_code == 0, r.output
     return json.loads(r.output), out
+
+
+@pytest.fixture(scope="session")
+def s21_8x8(tmp_path_factory):
+    """``laminid identify S2.1 --mesh 8x8 --json -o``: (parsed JSON, result file); G13 stops on
+    its lower search limit (a flat profile), G23's interval runs to 11 GPa. Read by
+    test_identify_cli.py, test_global_uncertainty.py, test_profile.py and
+    test_report_figures.py, which each identified it once."""
+    import json
+
+    from tests.clihelp import run
+
+    out = tmp_path_factory.mktemp("s21") / "S2.1.result.h5"
+    r = run("identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8", "--json", "-o", out)
+    assert r.exit_code == 0, r.output
+    return json.loads(r.output), out
+
+
+@pytest.fixture(scope="session")
+def s21_8x8_terminal():
+    """The terminal output of ``laminid identify S2.1 --mesh 8x8 --no-output`` (the run of
+    s21_8x8), read by test_global_uncertainty.py and test_profile.py."""
+    from tests.clihelp import run
+
+    r = run("identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8", "--no-output")
+    assert r.exit_code == 0, r.output
+    return r.output

@@ -303,12 +303,10 @@ def test_residuals_across_specimens_legend_keys_the_bars_drawn(tmp_path, all_che
 
 
 @pytest.fixture(scope="module")
-def s21(tmp_path_factory):
-    """S2.1 (8x8): G13 on its lower search limit, G23's interval off its panel (to 11 GPa)."""
-    out = tmp_path_factory.mktemp("s21") / "S2.1.result.h5"
-    r = run("identify", S21, "--mesh", "8x8", "-o", out)
-    assert r.exit_code == 0, r.output
-    return out
+def s21(s21_8x8):
+    """S2.1 (8x8, conftest.py): G13 on its lower search limit, G23's interval off its panel
+    (to 11 GPa)."""
+    return s21_8x8[1]
 
 
 @pytest.mark.parametrize("case, arrow", [("s21", True), ("s21_fixed_at_limit", False)])
