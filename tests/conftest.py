@@ -1,6 +1,54 @@
-"""Test-session set-up: single-threaded BLAS (as the CLI does) before numpy is imported."""
+"""Test-session set-up: single-threaded BLAS (as the CLI does) before numpy is imported; the
+identifications several test modules read, run once per test process."""
 
 import os
 
+import pytest
+
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
+
+
+@pytest.fixture(scope="session")
+def s11_fix_undetermined_6x6(tmp_path_factory):
+    """``laminid identify S1.1 --mesh 6x6 --fix-undetermined --json -o``: (parsed JSON,
+    result file). G13, G23, nu12 are undetermined in the first run and fixed, E2 in a later
+    round; G12 stays free (its initial value is rejected), E1 and G12 identified. Read by
+    test_identify_cli_uncertainty.py, test_report.py and test_resultfile.py (which changes a
+    copy): one run of ~1.5 s per test process instead of one per module."""
+    import json
+
+    from tests.clihelp import run
+
+    out = tmp_path_factory.mktemp("s11fixu") / "f.result.h5"
+    r = run("identify", "specimens/example1/S1.1.yaml", "--mesh", "6x6", "--fix-undetermined",
+            "--json", "-o", out)
+    assert r.exit_code == 0, r.output
+    return json.loads(r.output), out
+
+
+@pytest.fixture(scope="session")
+def s21_8x8(tmp_path_factory):
+    """``laminid identify S2.1 --mesh 8x8 --json -o``: (parsed JSON, result file); G13 stops on
+    its lower search limit (a flat profile), G23's interval runs to 11 GPa. Read by
+    test_identify_cli.py, test_global_uncertainty.py, test_profile.py and
+    test_report_figures.py, which each identified it once."""
+    import json
+
+    from tests.clihelp import run
+
+    out = tmp_path_factory.mktemp("s21") / "S2.1.result.h5"
+    r = run("identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8", "--json", "-o", out)
+    assert r.exit_code == 0, r.output
+    return json.loads(r.output), out
+
+
+@pytest.fixture(scope="session")
+def s21_8x8_terminal():
+    """The terminal output of ``laminid identify S2.1 --mesh 8x8 --no-output`` (the run of
+    s21_8x8), read by test_global_uncertainty.py and test_profile.py."""
+    from tests.clihelp import run
+
+    r = run("identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8", "--no-output")
+    assert r.exit_code == 0, r.output
+    return r.output

@@ -689,7 +689,25 @@ def test_a_remote_scheduler_is_named_not_a_worker_count(tmp_path, monkeypatch):
         in r.output
 
 
-def test_dask_local_cluster_gives_the_same_constants(batch_run, tmp_path):
+@pytest.fixture
+def no_dask_thread_left():
+    """distributed's offload thread ("Dask-Offload_0") ended after the test. A local cluster
+    run in this process starts it and it outlives the batch; while a second thread runs, a
+    fork is not safe (laminid_cli.frf.store._fork_is_safe), so every later HDF5 probe of
+    this test worker started a new interpreter (0.2-0.3 s) instead of forking (20-30 ms):
+    test_frf_interchange.py took 38 s instead of 18 s after this test in the same worker.
+    The executor is replaced by a new one, which starts its thread when first used."""
+    yield
+    from concurrent.futures import ThreadPoolExecutor
+
+    du = sys.modules.get("distributed.utils")          # None: the test skipped without Dask
+    if du is None:
+        return
+    du._offload_executor.shutdown(wait=True)
+    du._offload_executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="Dask-Offload")
+
+
+def test_dask_local_cluster_gives_the_same_constants(batch_run, tmp_path, no_dask_thread_left):
     pytest.importorskip("distributed")
     specs, out, _ = batch_run
     r = run("batch", specs, "--mesh", MESH, "--out", tmp_path / "dask", "--scheduler", "local",

@@ -165,7 +165,19 @@ def _assess_s11():
                   UncertaintyOptions(fix_undetermined=True))
 
 
-def test_fixed_spread_in_json_hdf5_terminal_and_report(tmp_path):
+@pytest.fixture(scope="module")
+def s11_monte_carlo(tmp_path_factory):
+    """``identify S1.1 --fix-undetermined --monte-carlo 8 -j 1 -o``: (its terminal output,
+    the result file), run once for the two tests that read one or the other (the output is
+    that of --no-output but for its last line, "written: ...")."""
+    out = tmp_path_factory.mktemp("mc") / "mc.h5"
+    res = CliRunner().invoke(cli, ["identify", S11, "--fix-undetermined", "--monte-carlo", "8",
+                                   "-j", "1", "-o", str(out)])
+    assert res.exit_code == 0, res.output
+    return res.output, out
+
+
+def test_fixed_spread_in_json_hdf5_terminal_and_report(tmp_path, s11_monte_carlo):
     """S1.1 --fix-undetermined: E1 +-2.5 % counting the fixed values' spread, +-1.3 % given
     them (tolerances: the factorizers' round-off is far below); the same numbers in --json,
     the reader of the HDF5 file, the terminal line and the report's note. Each interval's
@@ -225,10 +237,7 @@ def test_fixed_spread_in_json_hdf5_terminal_and_report(tmp_path):
     assert not any("Monte Carlo" in t for t in titles), titles
     # with a Monte Carlo, its trials draw the fixed values from that spread too, so its range
     # counts it as the intervals drawn beside it do: the legend says so
-    out2 = tmp_path / "mc.h5"
-    res2 = CliRunner().invoke(cli, ["identify", S11, "--fix-undetermined", "--monte-carlo", "8",
-                                    "-j", "1", "--json", "-o", str(out2)])
-    assert res2.exit_code == 0, res2.output
+    _, out2 = s11_monte_carlo
     fig = {p.name: p.figure for p in report_pages(out2)}["intervals"]
     titles = [a.get_legend().get_title().get_text() for a in fig.axes if a.get_legend()]
     assert any("had before fixing (see page 1 for the widths given them);\nthe Monte Carlo "
@@ -287,7 +296,7 @@ def test_a_huge_spread_counts_only_as_far_as_the_search_goes():
     assert tangent.rel_half_width[k] > 0.5
 
 
-def test_monte_carlo_table_counts_the_fixed_values_spread_as_the_intervals_do():
+def test_monte_carlo_table_counts_the_fixed_values_spread_as_the_intervals_do(s11_monte_carlo):
     """S1.1 --fix-undetermined --monte-carlo 8: the intervals count the fixed values' spread
     (E1 +-2.9 %, std 2.05 GPa), and so do the Monte Carlo trials, which draw the fixed G13,
     G23, nu12 from it: the table's "linearised std" is the one the intervals use (2.05 GPa,
@@ -295,10 +304,8 @@ def test_monte_carlo_table_counts_the_fixed_values_spread_as_the_intervals_do():
     of the trials that held the fixed values instead (what --fix-undetermined judges its flags
     on). Until the trials drew them, they held them, and the table said its column was given
     the fixed values."""
-    res = CliRunner().invoke(cli, ["identify", S11, "--fix-undetermined", "--monte-carlo", "8",
-                                   "-j", "1", "--no-output"])
-    assert res.exit_code == 0, res.output
-    table = res.output[res.output.index("Monte Carlo check:"):]
+    output, _ = s11_monte_carlo
+    table = output[output.index("Monte Carlo check:"):]
     flat = " ".join(table.split())
     assert "the fixed G13, G23, nu12 drawn from their spread before fixing" in flat
     row = next(x for x in table.splitlines() if x.startswith("  E1 "))

@@ -118,17 +118,14 @@ def test_dependence_on_constants_at_a_bound_fixed_or_fixed_because_undetermined(
     assert "depends on m.G23 (fixed: it was at a search limit)" in out["Gxz"].verdict
 
 
-def test_global_doubt_in_json_hdf5_terminal_and_report(tmp_path):
+def test_global_doubt_in_json_hdf5_terminal_and_report(s21_8x8, s21_8x8_terminal):
     """S2.1 (8x8): G13 ends at its bound, so Gxz and Gyz are not identified everywhere; Ex
     keeps an interval, the same in --json, HDF5 and the terminal."""
     from laminid_cli.report import _laminate_text
     from laminid_cli.resultfile import read_result
 
-    out = tmp_path / "r.h5"
-    r = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8",
-                                 "--json", "-o", str(out)])
-    assert r.exit_code == 0, r.output
-    gu = json.loads(r.output)["global_uncertainty"]
+    doc, out = s21_8x8                   # conftest.py: identify S2.1 --mesh 8x8 --json -o
+    gu = doc["global_uncertainty"]
     assert gu["Gxz"]["lower"] is None and "not identified" in gu["Gxz"]["verdict"]
     assert gu["Ex"]["rel_half_width"] < 0.05 and gu["Ex"]["verdict"] == "well determined"
     with h5py.File(out) as f:
@@ -143,9 +140,7 @@ def test_global_doubt_in_json_hdf5_terminal_and_report(tmp_path):
     assert "Gxz 2.21 GPa (not identified)" in text
     assert f"Ex {gu['Ex']['value'] / 1e9:.2f} GPa ±{gu['Ex']['rel_half_width'] * 100:.2g} %" \
         in text
-    t = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8",
-                                 "--no-output"])
-    row = next(ln for ln in t.output.splitlines() if ln.startswith("  Gxz [GPa]"))
+    row = next(ln for ln in s21_8x8_terminal.splitlines() if ln.startswith("  Gxz [GPa]"))
     assert "none" in row and "not identified: depends on E-glass/R368.G13 (at its bound)" in row
 
 

@@ -11,14 +11,14 @@ import pytest
 
 from laminid_cli.modal import default_factorizer
 from laminid_cli.results import read_h5
-from tests.clihelp import identify_json, run, write_s14_with_ranges
+from tests.clihelp import run, write_s14_with_ranges
 
 S21 = "specimens/example2/S2.1.yaml"
 
 
 @pytest.fixture(scope="module")
-def s21_result(tmp_path_factory):
-    return identify_json(tmp_path_factory, S21, "8x8", "s21.h5")
+def s21_result(s21_8x8):
+    return s21_8x8                      # conftest.py: identify S2.1 --mesh 8x8 --json -o
 
 
 def test_json_has_the_documented_keys_in_si(s21_result):

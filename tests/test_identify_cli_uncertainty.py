@@ -77,10 +77,8 @@ def test_report_shows_intervals_verdicts_and_tables(tmp_path):
     assert "a-posteriori variance factor s2" in out and "condition number" in out
 
 
-def test_fix_undetermined_fixes_g13_g23_and_reruns():
-    r = run("identify", S1[0], "--mesh", "6x6", "--fix-undetermined", "--json", "--no-output")
-    assert r.exit_code == 0, r.output
-    d = json.loads(r.output)
+def test_fix_undetermined_fixes_g13_g23_and_reruns(s11_fix_undetermined_6x6):
+    d, _ = s11_fix_undetermined_6x6         # conftest.py: identify S1.1 --mesh 6x6 --json -o
     u = d["uncertainty"]
     assert {f"{MAT}.G13", f"{MAT}.G23"} <= set(u["fixed_undetermined"]) and u["runs"] >= 2
     assert not u["flagged"]
@@ -349,7 +347,8 @@ def test_too_few_trials_to_bound_the_width_are_said_so():
     assert t.exit_code == 0 and "do not bound the range's width" not in t.output
 
 
-def test_constants_fixed_in_a_later_run_keep_the_width_that_had_them_fixed(tmp_path):
+def test_constants_fixed_in_a_later_run_keep_the_width_that_had_them_fixed(
+        s11_fix_undetermined_6x6):
     """S1.1 at 6x6 with --fix-undetermined: G13, G23, nu12 are flagged in run 1, E2 and G12 in
     run 2 (once the first three are fixed); E2 is fixed, G12 kept free (its initial value would
     move E1 out of its interval). Each fixed one keeps the half-width of the run that flagged
@@ -360,11 +359,8 @@ def test_constants_fixed_in_a_later_run_keep_the_width_that_had_them_fixed(tmp_p
     from laminid_cli.report import fixed_words
     from laminid_cli.resultfile import read_result
 
-    out = tmp_path / "f.h5"
-    r = run("identify", "specimens/example1/S1.1.yaml", "--mesh", "6x6", "--fix-undetermined",
-            "--json", "-o", str(out))
-    assert r.exit_code == 0, r.output
-    u = json.loads(r.output)["uncertainty"]
+    d, out = s11_fix_undetermined_6x6
+    u = d["uncertainty"]
     w = u["fixed_undetermined_widths"]
     assert set(w) == set(u["fixed_undetermined"])
     assert {lab: v["run"] for lab, v in w.items()} == {

@@ -19,17 +19,6 @@ from tests.test_identify import CARBON, OFF_THICK, THICK, synthetic
 Q2 = 1.959963984540054 ** 2
 
 
-@pytest.fixture(scope="module")
-def s21_8x8(tmp_path_factory):
-    """S2.1 identified at 8x8 (``--json -o``): (the result file, its JSON output); the tests
-    only read them."""
-    out = tmp_path_factory.mktemp("s21") / "r.h5"
-    res = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8",
-                                   "--json", "-o", str(out)])
-    assert res.exit_code == 0, res.output
-    return out, json.loads(res.output)
-
-
 def test_bisection_against_closed_forms():
     """A chi2 rise quadratic in ln G (standard error 0.3 in ln G): the bound is
     L exp(0.3 q), within the bisection's 2 % in ln G and never below it (the returned end
@@ -96,7 +85,7 @@ def test_a_thick_plate_whose_g13_stops_above_its_truth():
     assert "the fit rejects G13 above" in p.text
 
 
-def test_s21_g13_is_flat_in_json_hdf5_terminal_and_report(s21_8x8):
+def test_s21_g13_is_flat_in_json_hdf5_terminal_and_report(s21_8x8, s21_8x8_terminal):
     """S2.1 (8x8): G13 stops on its lower limit, and the fit is as good up to the search's
     other end, 5 x 3.7 = 18.5 GPa (chi2 rises by 3.9 where 5.59 would reject it; 0.4 at
     12x12, the identify default): the
@@ -104,7 +93,7 @@ def test_s21_g13_is_flat_in_json_hdf5_terminal_and_report(s21_8x8):
     from laminid_cli.report import interval_text, report_pages
     from laminid_cli.resultfile import read_result
 
-    out, doc = s21_8x8
+    doc, out = s21_8x8                   # conftest.py: identify S2.1 --mesh 8x8 --json -o
     g13 = doc["uncertainty"]["constants"]["E-glass/R368"]["G13"]
     prof = g13["profile"]
     assert g13["at_bound"] and prof["bound"] is None and prof["far"] == pytest.approx(18.5e9)
@@ -134,8 +123,7 @@ def test_s21_g13_is_flat_in_json_hdf5_terminal_and_report(s21_8x8):
     assert cap.get_marker() == "_" and cap.get_ydata()[0] == y1
     label = next(t for t in a.texts if t.get_gid() == "profile-label").get_text()
     assert label == "profile:\nflat to\n18.50" and ymin < prof_limit and 18.5 < ymax < 40
-    text = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8",
-                                    "--no-output"]).output
+    text = s21_8x8_terminal              # conftest.py: identify S2.1 --mesh 8x8 --no-output
     assert "none: flat to 18.50" in text and "profile: the fit is as good" in text
 
 
@@ -398,7 +386,7 @@ def test_a_flat_profile_of_the_values_size_is_drawn_to_its_end(s21_8x8):
     from laminid_cli.report import interval_panel
     from laminid_cli.resultfile import read_result
 
-    r = read_result(s21_8x8[0])
+    r = read_result(s21_8x8[1])
     m = "E-glass/R368"
     iv = r.uncertainty.get(m, "G13")
     assert iv.at_bound and iv.bound_side == "lower"
@@ -464,7 +452,7 @@ def test_a_flat_profile_and_a_monte_carlo_range_off_the_panel_keep_their_words_a
     from laminid_cli.report import LOG_PANEL_REACH, fmt_value, interval_panel
     from laminid_cli.resultfile import read_result
 
-    r = read_result(s21_8x8[0])
+    r = read_result(s21_8x8[1])
     m = "E-glass/R368"
     u = r.uncertainty
     labels = [x.label for x in u.intervals]

@@ -889,13 +889,10 @@ def test_legends_clear_of_the_lines(checked, batch_dir):
 
 
 @pytest.fixture(scope="module")
-def fixed_undetermined(tmp_path_factory):
-    """S1.1 (6x6) with --fix-undetermined: G13, G23, nu12 undetermined in the first run and
-    fixed, E2 and G12 fixed in a later round; E1 the one constant identified."""
-    out = tmp_path_factory.mktemp("fixu") / "f.result.h5"
-    r = run("identify", S11, "--mesh", "6x6", "--fix-undetermined", "-o", out)
-    assert r.exit_code == 0, r.output
-    return out
+def fixed_undetermined(s11_fix_undetermined_6x6):
+    """S1.1 (6x6) with --fix-undetermined (conftest.py): G13, G23, nu12 undetermined in the
+    first run and fixed, E2 fixed in a later round, G12 kept free; read only."""
+    return s11_fix_undetermined_6x6[1]
 
 
 def test_fixed_constants_are_not_drawn_as_identified(fixed_undetermined):

@@ -30,12 +30,19 @@ def s21_fixed_at_limit(tmp_path_factory):
     return out
 
 
-def test_no_search_limit_note_where_no_constant_is_on_one(s21_fixed_at_limit):
+@pytest.fixture(scope="module")
+def s21_fixed_pages(s21_fixed_at_limit):
+    """Its report's pages by name, built once for the tests that only read them (none draws
+    them: see test_report.py's checked_pages)."""
+    return {p.name: p.figure for p in report_pages(s21_fixed_at_limit)}
+
+
+def test_no_search_limit_note_where_no_constant_is_on_one(s21_fixed_pages):
     """The summary page's note on "none — on a search limit" belongs to a constant whose
     interval cell says so; a constant fixed because it was on a limit says "fixed: it was at
     a search limit" and has the note on fixed values (the limit note read as if a constant of
     this answer had stopped on its limit)."""
-    fig = {p.name: p.figure for p in report_pages(s21_fixed_at_limit)}["summary"]
+    fig = s21_fixed_pages["summary"]
     table = cells(ax(fig, "constants"))[1:]
     assert any(row[3] == "fixed: it was at a search limit" for row in table)
     assert not any(row[2].startswith("none — on") for row in table)
@@ -155,7 +162,8 @@ def test_constants_across_specimens_legend_speaks_of_bars_only_where_drawn(tmp_p
     assert ("arrow" in title) is not wide
 
 
-def test_history_rms_panel_tells_predictions_from_checked_evaluations(s21_fixed_at_limit):
+def test_history_rms_panel_tells_predictions_from_checked_evaluations(s21_fixed_at_limit,
+                                                                     s21_fixed_pages):
     """The RMS residual panel marks the reduced model's predictions (error not bounded) as
     the objective's panel does, with a legend: drawn alike, a prediction below the result (S1.1
     + S1.2 joint: 0.2 % at evaluations 37-39, result 0.33 %) read as a better point the fit
@@ -169,7 +177,7 @@ def test_history_rms_panel_tells_predictions_from_checked_evaluations(s21_fixed_
     h = res.history
     pred = ~np.isfinite(h.error_bound) & ~revisits(h.constants)
     assert pred.any() and not pred.all()
-    fig = {p.name: p.figure for p in report_pages(s21_fixed_at_limit)}["history"]
+    fig = s21_fixed_pages["history"]
     a = ax(fig, "rms")
     line = next(ln for ln in a.get_lines() if ln.get_gid() == "rms-predicted")
     assert np.array_equal(line.get_xdata(), h.evaluation[pred])
@@ -181,14 +189,14 @@ def test_history_rms_panel_tells_predictions_from_checked_evaluations(s21_fixed_
 
 
 @pytest.mark.parametrize("gid", ["objective", "rms"])
-def test_history_log_panels_have_a_labelled_tick_under_their_lowest_value(s21_fixed_at_limit,
+def test_history_log_panels_have_a_labelled_tick_under_their_lowest_value(s21_fixed_pages,
                                                                          gid):
     """The objective's and the RMS residual's log panels reach down to a labelled tick, so
     that the value the fit ended on is read against a number (S1.3's RMS residual panel
     labelled 1 and 10 only, with the result at 0.244 %; S2.1's 0.5 ... 10, result 0.246 %)."""
     import numpy as np
 
-    fig = {p.name: p.figure for p in report_pages(s21_fixed_at_limit)}["history"]
+    fig = s21_fixed_pages["history"]
     a = ax(fig, gid)
     lo, hi = a.get_ylim()
     ticks = [t for t in a.yaxis.get_majorticklocs() if lo * (1 - 1e-9) <= t <= hi]
@@ -295,12 +303,10 @@ def test_residuals_across_specimens_legend_keys_the_bars_drawn(tmp_path, all_che
 
 
 @pytest.fixture(scope="module")
-def s21(tmp_path_factory):
-    """S2.1 (8x8): G13 on its lower search limit, G23's interval off its panel (to 11 GPa)."""
-    out = tmp_path_factory.mktemp("s21") / "S2.1.result.h5"
-    r = run("identify", S21, "--mesh", "8x8", "-o", out)
-    assert r.exit_code == 0, r.output
-    return out
+def s21(s21_8x8):
+    """S2.1 (8x8, conftest.py): G13 on its lower search limit, G23's interval off its panel
+    (to 11 GPa)."""
+    return s21_8x8[1]
 
 
 @pytest.mark.parametrize("case, arrow", [("s21", True), ("s21_fixed_at_limit", False)])
@@ -308,7 +314,9 @@ def test_interval_legend_speaks_of_arrows_only_where_drawn(case, arrow, request)
     """The interval page's legend explains the arrow of an interval (or range) that runs off
     its panel where one does (S2.1: G23 'to 11.00'); with every interval in view (S2.1 with
     G13 and G23 fixed) it had the words for an arrow the page did not have."""
-    fig = {p.name: p.figure for p in report_pages(request.getfixturevalue(case))}["intervals"]
+    pages = (request.getfixturevalue("s21_fixed_pages") if case == "s21_fixed_at_limit" else
+             {p.name: p.figure for p in report_pages(request.getfixturevalue(case))})
+    fig = pages["intervals"]
     words = [t.get_text() for a in fig.axes if a.get_gid() and a.get_gid().startswith(
         "interval-") for t in a.texts if t.get_text().startswith(("to\n", "from\n"))]
     assert bool(words) is arrow
