@@ -19,6 +19,7 @@ from laminid_cli.specimen import read_specimen
 from laminid_cli.uncertainty import (MaterialState, Observations, counting_fixed_spread,
                                      fixed_value_regression, frequency_sigma,
                                      linearized_uncertainty, observations, uncertainty_of)
+from tests.figs import result_page
 
 S11 = "specimens/example1/S1.1.yaml"
 C = ElasticConstants(E1=150e9, E2=9e9, G12=5e9, G13=4.5e9, G23=3e9, nu12=0.3)
@@ -228,9 +229,7 @@ def test_fixed_spread_in_json_hdf5_terminal_and_report(tmp_path, s11_monte_carlo
             c[k]["rel_half_width_given_fixed"], rel=1e-12)
         assert r.uncertainty.get("IM7/977-2", k).rel_half_width == pytest.approx(
             c[k]["rel_half_width"], rel=1e-12)
-    from laminid_cli.report import report_pages
-
-    fig = {p.name: p.figure for p in report_pages(out)}["intervals"]
+    fig = result_page(out, "intervals")
     titles = [a.get_legend().get_title().get_text() for a in fig.axes if a.get_legend()]
     assert any("the intervals count the spread the fixed G13, G23, nu12 had before fixing" in t
                for t in titles), titles
@@ -238,7 +237,7 @@ def test_fixed_spread_in_json_hdf5_terminal_and_report(tmp_path, s11_monte_carlo
     # with a Monte Carlo, its trials draw the fixed values from that spread too, so its range
     # counts it as the intervals drawn beside it do: the legend says so
     _, out2 = s11_monte_carlo
-    fig = {p.name: p.figure for p in report_pages(out2)}["intervals"]
+    fig = result_page(out2, "intervals")
     titles = [a.get_legend().get_title().get_text() for a in fig.axes if a.get_legend()]
     assert any("had before fixing (see page 1 for the widths given them);\nthe Monte Carlo "
                "trials drew them from that spread too (shortened to the search's range): "

@@ -75,7 +75,7 @@ def test_identify_and_the_report_say_the_sigmas_came_from_fitting_the_frf_file(f
     """The report's page 1 and identify's output said the sigmas came from the specimen
     file's measured.sigma ('σ from specimen file (measured.sigma; fit of plate.frf.h5 ...)')
     when they came from fitting its measured.frf_file; both now name the fit and the file."""
-    from laminid_cli.report import report_pages
+    from tests.figs import result_page
 
     path, _, _ = frf_specimen
     out = tmp_path / "r.result.h5"
@@ -88,7 +88,7 @@ def test_identify_and_the_report_say_the_sigmas_came_from_fitting_the_frf_file(f
     assert ("damping standard deviations: the RFP fit of the specimen's measured.frf_file "
             "plate.frf.h5 (spread over the stable orders, at least 2 % of the fitted ratio)"
             in " ".join(r.output.split()))
-    page1 = report_pages(out)[0].figure
+    page1 = result_page(out, "summary")                    # the report's page 1
     texts = [t.get_text() for t in list(page1.texts) + [t for a in page1.axes for t in a.texts]]
     flat = " ".join(" ".join(texts).split())
     assert f"σ from {FRF_FILE_SIGMA}" in flat

@@ -531,7 +531,7 @@ def test_a_stated_sigma_far_above_the_residuals_is_said_in_the_terminal_and_the_
     quantile, so the terminal says the sigma is likely too large instead of "residuals
     consistent with it", and the report's summary page says the same; 0.2 % says neither."""
     from laminid_cli.quantiles import chi2_ppf
-    from laminid_cli.report import report_pages
+    from tests.figs import result_page
 
     out = tmp_path / "s.result.h5"
     r = run("identify", "specimens/example1/S1.1.yaml", "--mesh", "6x6", "--sigma-rel", "0.05",
@@ -545,7 +545,7 @@ def test_a_stated_sigma_far_above_the_residuals_is_said_in_the_terminal_and_the_
                          f"quantile {chi2_ppf(0.01, dof):.3g}): the frequency sigma is likely "
                          "too large, and the intervals from it too wide (--covariance-scale "
                          "residuals takes them from the residuals' own scatter)")
-    page = next(p.figure for p in report_pages(out) if p.name == "summary")
+    page = result_page(out, "summary")
     text = " ".join(t.get_text() for a in page.axes for t in a.texts).replace("\n", " ")
     assert "the residuals are smaller than the stated frequency sigma implies" in text
     r = run("identify", "specimens/example1/S1.1.yaml", "--mesh", "6x6", "--no-output")

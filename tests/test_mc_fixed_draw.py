@@ -20,6 +20,7 @@ from laminid_cli.identify import IdentifyOptions
 from laminid_cli.specimen import read_specimen
 from laminid_cli.uncertainty import (FixedDraw, UncertaintyOptions, assess, fixed_draw_of,
                                      frequency_sigma, monte_carlo, uncertainty_of)
+from tests.figs import result_page
 
 S11 = "specimens/example1/S1.1.yaml"
 MAT = "IM7/977-2"
@@ -263,7 +264,6 @@ def test_hdf5_round_trip_of_the_drawn_fixed_values_and_an_older_file(tmp_path):
     written before) still reads, its report's interval page saying that the trials held the
     fixed values, and the new file's that they drew them."""
     from laminid_cli.pipeline import RunOptions, run_identification, write_result
-    from laminid_cli.report import report_pages
     from laminid_cli.resultfile import read_result
 
     opts = RunOptions.with_fix("", mesh="8x8", uncertainty=UncertaintyOptions(
@@ -279,7 +279,7 @@ def test_hdf5_round_trip_of_the_drawn_fixed_values_and_an_older_file(tmp_path):
     np.testing.assert_array_equal(m["samples"], mc.samples)
 
     def legend(p):
-        fig = {pg.name: pg.figure for pg in report_pages(p)}["intervals"]
+        fig = result_page(p, "intervals")
         return " ".join(ax.get_legend().get_title().get_text() for ax in fig.axes
                         if ax.get_legend())
 

@@ -14,6 +14,7 @@ from laminid_cli.cli import cli
 from laminid_cli.identify import IdentifyOptions, identify
 from laminid_cli.uncertainty import (PROFILE_TOL, UncertaintyOptions, assess, frequency_sigma,
                                      profile_bound, uncertainty_of)
+from tests.figs import result_page
 from tests.test_identify import CARBON, OFF_THICK, THICK, synthetic
 
 Q2 = 1.959963984540054 ** 2
@@ -90,7 +91,7 @@ def test_s21_g13_is_flat_in_json_hdf5_terminal_and_report(s21_8x8, s21_8x8_termi
     other end, 5 x 3.7 = 18.5 GPa (chi2 rises by 3.9 where 5.59 would reject it; 0.4 at
     12x12, the identify default): the
     same statement in --json, the HDF5 reader, the terminal and the report's cell."""
-    from laminid_cli.report import interval_text, report_pages
+    from laminid_cli.report import interval_text
     from laminid_cli.resultfile import read_result
 
     doc, out = s21_8x8                   # conftest.py: identify S2.1 --mesh 8x8 --json -o
@@ -106,7 +107,7 @@ def test_s21_g13_is_flat_in_json_hdf5_terminal_and_report(s21_8x8, s21_8x8_termi
     assert iv.profile_text == prof["text"] and np.isnan(iv.profile_bound)
     assert iv.profile_far == pytest.approx(18.5e9)
     assert interval_text("G13", iv).endswith("profile: flat to 18.50")       # as the terminal
-    fig = {p.name: p.figure for p in report_pages(out)}["intervals"]
+    fig = result_page(out, "intervals")
     a = next(x for x in fig.axes if x.get_gid() == "interval-E-glass/R368.G13")
     stmt = next(t for t in a.texts if t.get_gid() == "bound-statement").get_text()
     assert stmt.replace("\n", " ") == "stopped on the lower search limit: no interval", stmt
@@ -132,7 +133,6 @@ def test_a_bounded_profile_in_status_json_hdf5_and_report(tmp_path):
     = initial / 5 with --parametrization constants): G13 stops on its limit and the fit
     rejects it above a value; the status, --json, the HDF5 reader and the report's panel (a
     dotted line from the limit to that value, in GPa) agree."""
-    from laminid_cli.report import report_pages
     from laminid_cli.resultfile import read_result
 
     spec = thick_yaml(tmp_path)
@@ -149,7 +149,7 @@ def test_a_bounded_profile_in_status_json_hdf5_and_report(tmp_path):
     assert f"the fit rejects G13 above {bound / 1e9:.3g} GPa" in at
     iv = read_result(out).uncertainty.get("cf", "G13")
     assert iv.profile_bound == pytest.approx(bound, rel=1e-12)
-    fig = {p.name: p.figure for p in report_pages(out)}["intervals"]
+    fig = result_page(out, "intervals")
     panel = next(a for a in fig.axes if a.get_gid() == "interval-cf.G13")
     line = next(ln for ln in panel.get_lines() if ln.get_gid() == "profile")
     np.testing.assert_allclose(line.get_ydata(), [4.96, bound / 1e9], rtol=1e-6)

@@ -17,7 +17,7 @@ from laminid_cli.report import (fmt_reference, fmt_value, interval_text, mac, re
 from laminid_cli.resultfile import read_result
 from laminid_cli.specimen import read_specimen
 from tests.clihelp import write_s14_with_ranges
-from tests.figs import ax, cells
+from tests.figs import ax, cells, page_signature, result_page
 from tests.frf_synth import synth_frf
 from tests.resultfix import drop_bound_data, make_version_1, mark_at_bound
 
@@ -175,6 +175,23 @@ def test_summary_page_tables_and_residuals_read_back(checked, checked_pages, tmp
     assert (tmp_path / "s.png").read_bytes()[:8] == PNG
 
 
+def test_a_page_built_alone_is_the_reports_page(checked, checked_pages, damped, damped_pages,
+                                                joint, joint_pages):
+    """tests.figs.result_page, which the tests reading one page of a result use, builds the
+    page report_pages builds: the same texts, lines, bars, images, legends and tables on
+    each page it builds (S1.4 at a bound, S2.1 with damping and fixed constants, and the
+    joint S1.1 + S1.2)."""
+    joint_named = {p.name: p.figure for p in joint_pages}
+    for path, pages, names in ((checked, checked_pages, ("summary", "intervals", "history",
+                                                         "sensitivities")),
+                               (damped, damped_pages, ("summary", "intervals", "history",
+                                                       "sensitivities")),
+                               (joint, joint_named, ("shared", "intervals", "history"))):
+        for name in names:
+            assert page_signature(result_page(path, name)) == page_signature(pages[name]), \
+                (path.name, name)
+
+
 def test_interval_panels_each_in_their_unit_with_reference_and_arrows(checked, checked_pages):
     res = read_result(checked)
     fig = checked_pages["intervals"]
@@ -321,7 +338,7 @@ def test_history_on_log_scales_with_bound_hits(checked, checked_pages):
 def test_sensitivity_page(batch_dir):
     path = batch_dir / "S1.4.result.h5"
     res = read_result(path)
-    fig = {p.name: p.figure for p in report_pages(path)}["sensitivities"]
+    fig = result_page(path, "sensitivities")
     a = ax(fig, "sensitivity")
     assert np.array_equal(a.get_images()[0].get_array(), res.plates[0].sensitivity)
     assert [t.get_text() for t in a.get_xticklabels()] == ["E1", "E2", "G12", "G13", "G23",
@@ -631,7 +648,7 @@ def _with_monte_carlo(checked, tmp_path, lower_at_bound=None, inner=False):
 def test_monte_carlo_spread_drawn_beside_the_interval(checked, tmp_path):
     path = _with_monte_carlo(checked, tmp_path)
     res = read_result(path)
-    fig = {p.name: p.figure for p in report_pages(path)}["intervals"]
+    fig = result_page(path, "intervals")
     a = ax(fig, f"interval-{MAT}.E1")
     line = next(ln for ln in a.get_lines() if ln.get_gid() == "monte-carlo")
     e1 = res.materials[MAT]["E1"] / 1e9
@@ -639,8 +656,7 @@ def test_monte_carlo_spread_drawn_beside_the_interval(checked, tmp_path):
     assert not [t for t in a.texts if "limit" in (t.get_gid() or "")]
     assert not [ln for ln in a.get_lines() if ln.get_gid() == "monte-carlo-sure"]  # older file
     # the width the trials show for sure (what the verdicts use), over the spread, in the legend
-    fig = {p.name: p.figure for p in report_pages(_with_monte_carlo(checked, tmp_path,
-                                                                    inner=True))}["intervals"]
+    fig = result_page(_with_monte_carlo(checked, tmp_path, inner=True), "intervals")
     a = ax(fig, f"interval-{MAT}.E1")
     sure = next(ln for ln in a.get_lines() if ln.get_gid() == "monte-carlo-sure")
     assert np.allclose(sure.get_ydata(), [0.98 * e1, 1.01 * e1], rtol=1e-12)
@@ -659,7 +675,7 @@ def test_monte_carlo_range_end_at_a_search_limit_is_labelled(checked, tmp_path):
     flags[1] = 1                                        # E2's lower end
     path = _with_monte_carlo(checked, tmp_path, lower_at_bound=flags)
     res = read_result(path)
-    fig = {p.name: p.figure for p in report_pages(path)}["intervals"]
+    fig = result_page(path, "intervals")
     a = ax(fig, f"interval-{MAT}.E2")
     label = next(t for t in a.texts if t.get_gid() == "monte-carlo-lower-limit")
     assert label.get_text() == "search\nlimit"
@@ -672,7 +688,7 @@ def test_laminate_reference_values_on_the_summary_page(batch_dir):
     path = batch_dir / "S2.1.result.h5"
     res = read_result(path)
     assert res.plates[0].reference_global == {"Ey": (22.5e9, 22.5e9)}    # S2.1.yaml
-    fig = {p.name: p.figure for p in report_pages(path)}["summary"]
+    fig = result_page(path, "summary")
     text = " ".join(t.get_text() for a in fig.axes for t in a.texts).replace("\n", " ")
     ey = res.plates[0].global_properties["Ey"] / 1e9
     rel = res.plates[0].global_uncertainty["Ey"]["rel_half_width"]       # its doubt, then the
@@ -712,7 +728,7 @@ def test_a_reference_range_in_the_table_the_panels_and_across_specimens(ranged_b
     res = read_result(path)
     e1 = res.materials[MAT]["E1"]
     assert e1 > 150e9                         # the 6x6 S1.4 lands above the range (~162 GPa)
-    pages = {p.name: p.figure for p in report_pages(path)}
+    pages = {name: result_page(path, name) for name in ("summary", "intervals")}
     rows = {row[0].split(" ")[0]: row for row in cells(ax(pages["summary"], "constants"))[1:]}
     assert rows["E1"][5] == f"120.0–150.0\n(+{round((e1 / 150e9 - 1) * 100)} % above)"
     e2 = res.materials[MAT]["E2"]
@@ -874,7 +890,7 @@ def test_fit_frf_figure_reads_back_the_frf_file(tmp_path):
 
 def test_legends_clear_of_the_lines(checked, batch_dir):
     """History legends right of their panels; the summary legend in a row of its own."""
-    fig = {p.name: p.figure for p in report_pages(checked)}["history"]
+    fig = result_page(checked, "history")
     for gid in ("objective",):
         a = ax(fig, gid)
         assert _no_overlap(fig, a, a.get_legend())
@@ -903,7 +919,8 @@ def test_fixed_constants_are_not_drawn_as_identified(fixed_undetermined):
     res = read_result(fixed_undetermined)
     u = res.uncertainty
     before = {lab.rsplit(".", 1)[1]: rel for lab, (rel, _) in u.before_fixing.items()}
-    pages = {p.name: p.figure for p in report_pages(fixed_undetermined)}
+    pages = {name: result_page(fixed_undetermined, name)
+             for name in ("summary", "intervals", "history")}
     rows = {row[0].split(" ")[0]: row for row in cells(ax(pages["summary"], "constants"))[1:]}
     for k in ("G13", "G23", "nu12"):
         assert rows[k][1] == fmt_value(k, res.initial[MAT][k]) == rows[k][4]
@@ -998,7 +1015,7 @@ def test_monte_carlo_numbers_on_the_pages(checked, tmp_path):
         whole = f"{100 * 0.5 * (up[j2] - lo[j2]) / abs(v[j2]):.0f}"
         sure = f"{100 * 0.5 * (mc['inner_upper'][j2] - mc['inner_lower'][j2]) / abs(v[j2]):.0f}"
     res = read_result(path)
-    pages = {p.name: p.figure for p in report_pages(path)}
+    pages = {name: result_page(path, name) for name in ("summary", "intervals")}
     a = ax(pages["intervals"], f"interval-{MAT}.G13")
     g13 = res.materials[MAT]["G13"]
     end = next(t for t in a.texts if t.get_gid() == "monte-carlo-upper-end")
@@ -1495,7 +1512,7 @@ def test_bound_statement_stays_inside_its_panel(checked, tmp_path):
         bound[j] = 5.36e9
         u.create_dataset("profile_bound", data=bound).attrs["units"] = "Pa (nu12: 1)"
         f["materials/IM7_977-2/G23"][()] = 0.0160e9     # the limit it stopped on
-    fig = next(p.figure for p in report_pages(path) if p.name == "intervals")
+    fig = result_page(path, "intervals")
     renderer = FigureCanvasAgg(fig).get_renderer()
     fig.draw_without_rendering()            # lays out and places every text
     a = ax(fig, f"interval-{MAT}.G23")
@@ -1534,7 +1551,7 @@ def test_interval_legend_of_a_monte_carlo_verdict_names_the_range(checked, tmp_p
     path = _with_monte_carlo(checked, tmp_path)
     with h5py.File(path, "r+") as f:
         f["uncertainty"].attrs["verdict_from_monte_carlo"] = f"{MAT}.G13"
-    fig = {p.name: p.figure for p in report_pages(path)}["intervals"]
+    fig = result_page(path, "intervals")
     texts = [t.get_text() for a_ in fig.axes if a_.get_legend() is not None
              for t in a_.get_legend().get_texts()]
     assert "not determined (interval or Monte Carlo range too wide)" in texts
@@ -1556,9 +1573,7 @@ def test_joint_reference_that_differs_between_plates_is_their_range_and_said(joi
     assert res.reference_notes == [
         "reference E1 differs between the plates (S1.1 170, S1.2 160 GPa): the range from the "
         "lowest to the highest is shown"]
-    from laminid_cli.report import result_pages
-
-    pages = {p.name: p.figure for p in result_pages(res)}
+    pages = {"shared": result_page(res, "shared")}
     rows = {row[0].split(" ")[0]: row for row in cells(ax(pages["shared"], "constants"))[1:]}
     e1 = res.materials[MAT]["E1"]
     assert rows["E1"][5].startswith("160.0–170.0\n")

@@ -6,7 +6,7 @@ from click.testing import CliRunner
 
 from laminid_cli.cli import cli
 from laminid_cli.report import report_pages
-from tests.figs import ax, cells
+from tests.figs import ax, cells, result_page
 
 S21 = "specimens/example2/S2.1.yaml"
 
@@ -314,9 +314,9 @@ def test_interval_legend_speaks_of_arrows_only_where_drawn(case, arrow, request)
     """The interval page's legend explains the arrow of an interval (or range) that runs off
     its panel where one does (S2.1: G23 'to 11.00'); with every interval in view (S2.1 with
     G13 and G23 fixed) it had the words for an arrow the page did not have."""
-    pages = (request.getfixturevalue("s21_fixed_pages") if case == "s21_fixed_at_limit" else
-             {p.name: p.figure for p in report_pages(request.getfixturevalue(case))})
-    fig = pages["intervals"]
+    fig = (request.getfixturevalue("s21_fixed_pages")["intervals"]
+           if case == "s21_fixed_at_limit" else result_page(request.getfixturevalue(case),
+                                                               "intervals"))
     words = [t.get_text() for a in fig.axes if a.get_gid() and a.get_gid().startswith(
         "interval-") for t in a.texts if t.get_text().startswith(("to\n", "from\n"))]
     assert bool(words) is arrow
