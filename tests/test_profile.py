@@ -343,7 +343,9 @@ def test_an_unfinished_fit_below_the_threshold_still_says_not_rejected(monkeypat
     p = u.profiles[lab]
     assert not p.error and np.isnan(p.bound) and p.far == pytest.approx(18.5e9)
     unfinished = [(v, chi2) for v, ok, chi2 in seen if not ok]
-    assert len(unfinished) == 2                          # the far end and the middle
+    # the far end and the middle, each fitted from the optimum and, unfinished there, from
+    # the initial values too (a local minimum may hide a lower chi2)
+    assert len(unfinished) == 4 and len({v for v, _ in unfinished}) == 2
     assert p.text.startswith("the fit is as good with G13 anywhere above the limit up to "
                              "18.5 GPa")
     assert p.text.endswith("2 of its 2 identifications stopped at 4 evaluations: their rise "
@@ -684,3 +686,33 @@ def test_a_terminal_is_told_the_profiles_progress():
                     "profiles of the constants on a search limit: 1 of 1 done "
                     "(E-glass/R368.G13)"]
     assert "profile: the fit rejects G13 above" in out
+
+
+def test_a_rejection_from_the_optimum_is_checked_from_the_initial_values(hybrid_cm_6x6):
+    """A profile's fit starts at the optimum; where that fit rejects the value (or stops
+    unfinished), a second fit starts from the initial values and the lower chi2 is kept: a
+    fit that rejects may have ended in a local minimum. Hybrid CM (6x6) with glass E2 held
+    at 0.9 GPa (the far end of its scan): from the optimum its fit ends at chi2 30.7, from
+    the initial values at 24.8, both finished. At 80 % (q^2 = 1.64) the first alone
+    rejected E2 there; with the second (at most 100 evaluations) the profile is flat."""
+    from laminid_cli.uncertainty import refit_held, with_profiles
+
+    fm, r, sigma, _ = hybrid_cm_6x6
+    kw = dict(confidence=0.8)
+    u = uncertainty_of(r, fm, sigma, **kw)
+    lab = "glass.E2"
+    a, ua = refit_held(r, [fm], [sigma], kw, False, lab, 0.9e9)
+    b, ub = refit_held(r, [fm], [sigma], kw, False, lab, 0.9e9, from_initial=True)
+    assert a.converged and b.converged
+    assert ub.chi2 < ua.chi2 - 5                      # a local minimum from the optimum
+    factor = max(u.variance_factor, 1e-300)
+    threshold = u.quantile ** 2
+    assert (ua.chi2 - u.chi2) / factor > threshold > (ub.chi2 - u.chi2) / factor
+    only = dataclasses.replace(u, at_bound=np.array([x == lab for x in u.labels]))
+    p = with_profiles(only, r, [fm], [sigma], kw, False, jobs=1).profiles[lab]
+    assert p.far == pytest.approx(0.9e9) and np.isnan(p.bound)
+    # the second fit stops at PROFILE_SECOND_EVALUATIONS (100): its rise bounds the finished
+    # one's from above, and is below the threshold
+    assert (ub.chi2 - u.chi2) / factor <= p.delta_far < threshold
+    assert p.text.startswith("the fit is as good with E2 anywhere below the limit down to 0.9")
+    assert "stopped at 100 evaluations" in p.text
