@@ -2727,9 +2727,10 @@ def profile_bound(label: str, side: str, limit: float, far: float, delta, thresh
     the far end: below ``threshold`` there, the fit does not bound the constant within the
     search (``quick`` checks one point in between). Otherwise a bracketing search between the
     limit (increase 0) and the far end, on ln P for a modulus and nu12 itself, to
-    :data:`PROFILE_TOL`: the secant of the increase's logarithm, safeguarded by bisection. ``lenient`` (the far end) and ``quick`` (the point in
-    between) may accept a fit that stopped unfinished below the threshold (an upper bound of
-    the rise); both default to ``delta``, which the bisection uses. ``far_words``: why the
+    :data:`PROFILE_TOL`: the secant of the increase's logarithm, safeguarded by bisection.
+    ``lenient`` (the far end) and ``quick`` (the point in between) may accept a fit that
+    stopped unfinished below the threshold (an upper bound of the rise); both default to
+    ``delta``, which the bracketing search uses. ``far_words``: why the
     scan ends at ``far`` (:func:`_profile_far_words`), in a flat profile's statement: nothing
     beyond it was tried."""
     quick = delta if quick is None else quick
@@ -2830,9 +2831,10 @@ def refit_held(result, fms, sigmas, kw: dict, joint: bool, label, value=None,
     at ``value`` (SI; or ``label`` a {label: value} of several): from ``result``'s optimum (a
     short walk; where other constants sit on a limit a run may not start from, E2 = E1
     exactly, a little towards the initial values), its basis, at most ``max_evaluations``, in
-    ``result``'s search region (``alpha_region``). FitError when that fit does not converge,
-    unless ``unconverged``: then its best point is returned (``result.converged`` False),
-    whose chi2 is an upper bound of the fit's."""
+    ``result``'s search region (``alpha_region``); from the initial values (with ``value``)
+    when ``from_initial``. FitError when that fit does not converge, unless ``unconverged``:
+    then its best point is returned (``result.converged`` False), whose chi2 is an upper
+    bound of the fit's."""
     held = dict(label) if isinstance(label, dict) else {label: value}
     options = result.options
     names = tuple(result.material_names)
