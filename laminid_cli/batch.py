@@ -280,8 +280,9 @@ def input_hash(spec, options: BatchOptions) -> str:
     # "verdicts 6": the test whether the modes reject the fixed values (status fixed_rejected),
     # and the Monte Carlo trials' variance factors drawn where the intervals are Student t;
     # "verdicts 7": the intervals counting the fixed values' spread on Welch-Satterthwaite's
-    # quantiles
-    h.update(f"laminid {__version__} schema {SCHEMA_VERSION} options 2 verdicts 7\0".encode())
+    # quantiles; "verdicts 8": the profiles' fits search the identification's own region, a
+    # rejection checked from the initial values too (stop 38)
+    h.update(f"laminid {__version__} schema {SCHEMA_VERSION} options 2 verdicts 8\0".encode())
     settings = options.as_dict()
     if not settings.get("mesh_check"):
         # results of batches before --mesh-check (none checked) stay up to date

@@ -91,6 +91,11 @@ class IdentifyOptions:
         reference)
     reduced_tol : the reduced solver stops when an enrichment changes the paired eigenvalues by
         less than this (relative)
+    alpha_region : (material, floor) pairs: materials whose constants, where some are held,
+        are searched in the region of the alphas (laminid_cli.parametrization.
+        ConstantParameters, region 'alpha', with that floor of the shear moduli) instead of
+        the box [P0 / f, P0 f]: the refits of a profile (laminid_cli.uncertainty.refit_held)
+        of an identification that searched them with the alphas
     """
 
     fix: tuple[str, ...] = ()
@@ -106,6 +111,7 @@ class IdentifyOptions:
     far_limit: float = FAR_FROM_MODEL
     solver: str = "reduced"
     reduced_tol: float = 1e-7
+    alpha_region: tuple[tuple[str, float], ...] = ()
 
 
 
@@ -214,6 +220,7 @@ class Problem(VariableSet):
                 first_mat.setdefault(name, mat)
                 first_file.setdefault(name, spec.path)
         fixed_opt = _parse_fix(options.fix, self.material_names, self.describe())
+        alpha_region = dict(options.alpha_region)
         params = []
         for name in self.material_names:
             mat = first_mat[name]
@@ -222,7 +229,9 @@ class Problem(VariableSet):
                 params.append(make_parameters(
                     name, mat.constants, fixed, kind=options.parametrization,
                     prior=bool(mat.prior), nu_max=options.nu_max,
-                    bound_factor=options.bound_factor))
+                    bound_factor=options.bound_factor,
+                    region="alpha" if name in alpha_region else "box",
+                    floor=alpha_region.get(name, 1.0)))
             except FitInputError as exc:      # an initial value the search cannot start from
                 raise FitInputError(f"{first_file[name]}: {exc}") from None
         self._set_params(params)

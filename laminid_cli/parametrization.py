@@ -134,15 +134,44 @@ class AlphaParameters:
         return s * vec, J
 
 
+#: the moduli other than E1 in a ConstantParameters of the alpha region: each at least
+#: MIN_MODULUS_RATIO E1 (the linear constraints of AlphaParameters, exactly)
+RATIO_MODULI = ("E2", "G12", "G13", "G23")
+
+#: in the alpha region, E2 and the shear moduli at most this many times the largest E1 of the
+#: search (the alphas' own upper limits, a2 >= 0, a3 >= -20, a8 <= 8, |a9| <= 8, allow E2 up
+#: to E1, G13 + G23 up to 16 s >= 2 E1 and G12 up to ~5 E1, and no fibre ply comes near them)
+ALPHA_REGION_UPPER = 2.0
+
+
 @dataclass(frozen=True)
 class ConstantParameters:
-    """The free engineering constants of one material: moduli / initial value, nu12 as is."""
+    """The free engineering constants of one material: moduli / initial value, nu12 as is.
+
+    ``region``: the search's limits. 'box' (what a run with fixed constants or a prior
+    searches): each modulus within [P0 / f, P0 f], nu12 within +-nu_max, E2 <= E1. 'alpha':
+    the region of :class:`AlphaParameters`, for the refits of a material identified with the
+    alphas whose constants are held one at a time (the profiles of
+    laminid_cli.uncertainty.refit_held, which compare their fits with that identification's:
+    the box would exclude its optimum wherever a shear modulus stopped at 1e-4 E1, and they
+    would search a different region from the initial values): E1 within [E1_0 / f, E1_0 f],
+    E2 at least MIN_MODULUS_RATIO E1 and G12, G13, G23 at least ``floor`` times that (linear
+    constraints, or bounds where E1 or the modulus is held), E2 <= E1, |nu12| <= nu_max, and
+    E2 and the shear moduli at most ALPHA_REGION_UPPER times the largest E1. The alphas' own
+    floor of a shear modulus is ``G >= 8 r s`` (r = MIN_MODULUS_RATIO, s = E1^2 / (8 (E1 -
+    nu12^2 E2))), ``r E1 / (1 - nu12^2 E2 / E1)``: not linear in the constants; with
+    ``floor = 1 / (1 - nu12^2 E2 / E1)`` at the optimum profiled it is the alphas' floor
+    there exactly (and within ~1e-3 relative near it: nu12^2 E2 / E1 is ~0.02 for a fibre
+    ply), so a refit with the optimum's own value held ends at the optimum. E2's floor (a2
+    <= 4 (1 - r)) and nu12's limits (a4 - a3 <= 2 nu_max (4 - a2)) are the alphas' exactly."""
 
     name: str
     initial: ElasticConstants
     free: tuple[str, ...] = CONSTANT_NAMES
     nu_max: float = 0.95
     bound_factor: float = 5.0
+    region: str = "box"
+    floor: float = 1.0
 
     kind = "constants"
 
@@ -161,6 +190,8 @@ class ConstantParameters:
         return self.initial.as_array()[self._index()] / self._scale()[self._index()]
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        if self.region == "alpha":
+            return self._alpha_bounds()
         f = self.bound_factor
         lo = np.array([-self.nu_max if k == "nu12" else 1 / f for k in self.free])
         hi = np.array([self.nu_max if k == "nu12" else f for k in self.free])
@@ -175,11 +206,66 @@ class ConstantParameters:
         # shear moduli above MIN_MODULUS_RATIO * E1 at the largest E1 allowed
         return lo, hi
 
+    def _alpha_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The bounds of the alpha region (class docstring)."""
+        f, r = self.bound_factor, MIN_MODULUS_RATIO
+        P0 = self.initial.as_array()
+        e1_free = "E1" in self.free
+        e1_lo, e1_hi = (P0[0] / f, P0[0] * f) if e1_free else (P0[0], P0[0])
+        lo, hi = [], []
+        for k in self.free:
+            i = CONSTANT_NAMES.index(k)
+            if k == "nu12":
+                lo.append(-self.nu_max)
+                hi.append(self.nu_max)
+            elif k == "E1":
+                # a held modulus M >= r E1 and E2 <= E1 bound E1 (held E1 bounds them instead)
+                a, b = 1 / f, f
+                for m in RATIO_MODULI:
+                    if m not in self.free:
+                        b = min(b, P0[CONSTANT_NAMES.index(m)] / (self._ratio(m) * P0[0]))
+                if "E2" not in self.free:
+                    a = max(a, P0[1] / P0[0])
+                lo.append(a)
+                hi.append(b)
+            else:
+                top = e1_hi if k == "E2" else ALPHA_REGION_UPPER * e1_hi
+                lo.append(self._ratio(k) * e1_lo / P0[i])
+                hi.append(top / P0[i])
+        return np.array(lo, float), np.array(hi, float)
+
+    def _ratio(self, k: str) -> float:
+        """The alpha region's floor of modulus ``k`` over E1."""
+        return MIN_MODULUS_RATIO * (1.0 if k == "E2" else self.floor)
+
+    def _alpha_rows(self) -> list[str]:
+        """The moduli whose ``M >= r E1`` is a linear constraint in the alpha region (E1 and M
+        free both)."""
+        if self.region != "alpha" or "E1" not in self.free:
+            return []
+        return [m for m in RATIO_MODULI if m in self.free]
+
     def constraint_labels(self) -> tuple[str, ...]:
-        return ("E2 = E1",) if "E1" in self.free and "E2" in self.free else ()
+        both = ("E2 = E1",) if "E1" in self.free and "E2" in self.free else ()
+        return both + tuple(f"{m} at its minimum ({MIN_MODULUS_RATIO:g} E1)"
+                            for m in self._alpha_rows())
 
     def linear_constraints(self) -> tuple[np.ndarray, np.ndarray]:
-        """E2 <= E1 when both are free (Eq. 22, g2)."""
+        """E2 <= E1 when both are free (Eq. 22, g2); in the alpha region also ``M >= r E1``
+        for each free modulus M of :data:`RATIO_MODULI` with E1 free."""
+        A, b = self._e2_rows()
+        rows = self._alpha_rows()
+        if not rows:
+            return A, b
+        P0 = self.initial.as_array()
+        extra = np.zeros((len(rows), len(self.free)))
+        for j, m in enumerate(rows):
+            # ratio E1_0 x_E1 - M_0 x_M <= 0, over E1_0
+            extra[j, self.free.index("E1")] = self._ratio(m)
+            extra[j, self.free.index(m)] = -P0[CONSTANT_NAMES.index(m)] / P0[0]
+        return np.vstack([A, extra]), np.concatenate([b, np.zeros(len(rows))])
+
+    def _e2_rows(self) -> tuple[np.ndarray, np.ndarray]:
         if "E1" in self.free and "E2" in self.free:
             P0 = self.initial.as_array()
             row = np.zeros(len(self.free))
@@ -201,11 +287,14 @@ class ConstantParameters:
 
 
 def make_parameters(name: str, initial: ElasticConstants, fixed=(), *, kind: str = "auto",
-                    prior: bool = False, nu_max: float = 0.95, bound_factor: float = 5.0):
+                    prior: bool = False, nu_max: float = 0.95, bound_factor: float = 5.0,
+                    region: str = "box", floor: float = 1.0):
     """Choose the parametrisation of one material.
 
     ``kind``: 'alpha' (paper Eq. 14; needs all six constants free and no prior), 'constants',
-    or 'auto' (alpha when possible).
+    or 'auto' (alpha when possible). ``region``: the search region of the constants
+    parametrisation when it is chosen (:class:`ConstantParameters`: 'box' or 'alpha', with
+    ``floor``).
     """
     fixed = tuple(fixed)
     unknown = [k for k in fixed if k not in CONSTANT_NAMES]
@@ -227,8 +316,16 @@ def make_parameters(name: str, initial: ElasticConstants, fixed=(), *, kind: str
     if initial.E2 > initial.E1:
         raise FitInputError(f"material '{name}': initial E2 > E1; direction 1 must be the fibre "
                        "(stiffer) direction")
+    if region not in ("box", "alpha"):
+        raise FitInputError(f"search region '{region}' unknown (box, alpha)")
     if not free:
-        return ConstantParameters(name, initial, (), nu_max, bound_factor)
+        return ConstantParameters(name, initial, (), nu_max, bound_factor, region, floor)
     if kind == "alpha" or (kind == "auto" and not fixed and not prior):
         return AlphaParameters(name, initial, nu_max, bound_factor)
-    return ConstantParameters(name, initial, free, nu_max, bound_factor)
+    return ConstantParameters(name, initial, free, nu_max, bound_factor, region, floor)
+
+
+def alpha_floor(c: ElasticConstants) -> float:
+    """``1 / (1 - nu12^2 E2 / E1)`` of ``c``: where the alphas' floor of a shear modulus, ``G
+    >= 8 r s``, is ``floor * r * E1`` (:class:`ConstantParameters`, region 'alpha')."""
+    return float(c.E1 / (c.E1 - c.nu12 ** 2 * c.E2))

@@ -167,7 +167,8 @@ class IdentificationRun:
 
 
 def run_identification(specimens, options: RunOptions = RunOptions(), *, progress=None,
-                       mc_progress=None, loss_fix_needs_damping: bool = True
+                       mc_progress=None, profile_progress=None,
+                       loss_fix_needs_damping: bool = True
                        ) -> IdentificationRun:
     """Identify the plate of one specimen, or the plates of several jointly (one set of
     constants per shared material), with the uncertainty assessment, the status and, for one
@@ -179,7 +180,9 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
         joint identification
     options : RunOptions
     progress : ``progress(n, objective, rms_percent)`` after each model evaluation;
-        mc_progress : ``mc_progress(done, total)`` after each Monte Carlo trial
+        mc_progress : ``mc_progress(done, total)`` after each Monte Carlo trial;
+        profile_progress : ``profile_progress(done, total, label)`` after each profile of a
+        constant on a search limit
     loss_fix_needs_damping : a loss factor in ``options.fix_loss`` for a specimen without
         measured damping is an error (``identify``); False ignores it there (``batch``, where
         one --fix serves specimens with and without damping). Bad names or values are always
@@ -226,7 +229,8 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
 
     def run(fms, accept=None):
         return assess(list(fms) if joint else fms[0], options.identify, options.uncertainty,
-                      joint=joint, progress=progress, mc_progress=mc_progress, accept=accept)
+                      joint=joint, progress=progress, mc_progress=mc_progress, accept=accept,
+                      profile_progress=profile_progress)
 
     a = run(fms, bending_holds)
     notes = []

@@ -2605,6 +2605,10 @@ PROFILE_EVALUATIONS = 300
 #: check for a second valley): only a rise below the threshold is needed there, which an
 #: unfinished fit proves as well (hybrid CM's glass E2: 283 evaluations, ~6 s, otherwise)
 PROFILE_MID_EVALUATIONS = 100
+#: the most evaluations of a profile's fit from the initial values (:func:`with_profiles`:
+#: where the fit from the optimum rejects the value, and first where it gave the lower chi2
+#: before): its rise, finished or an upper bound, mostly only needs to fall below the threshold
+PROFILE_INITIAL_EVALUATIONS = 100
 #: a profile's fit whose chi2 is below the limit's by more than this share of the threshold
 #: (scaled) shows that the search stopped short of a better fit: no profile
 PROFILE_BETTER = 0.05
@@ -2721,11 +2725,12 @@ def profile_bound(label: str, side: str, limit: float, far: float, delta, thresh
     """The :class:`Profile` of ``label`` from ``delta(value)``: the scaled increase of chi2
     with the constant held at ``value`` (one identification of the others per call). First
     the far end: below ``threshold`` there, the fit does not bound the constant within the
-    search (``quick`` checks one point in between). Otherwise a bisection (regula falsi,
-    Illinois) between the limit (increase 0) and the far end, on ln P for a modulus and nu12
-    itself, to :data:`PROFILE_TOL`. ``lenient`` (the far end) and ``quick`` (the point in
-    between) may accept a fit that stopped unfinished below the threshold (an upper bound of
-    the rise); both default to ``delta``, which the bisection uses. ``far_words``: why the
+    search (``quick`` checks one point in between). Otherwise a bracketing search between the
+    limit (increase 0) and the far end, on ln P for a modulus and nu12 itself, to
+    :data:`PROFILE_TOL`: the secant of the increase's logarithm, safeguarded by bisection.
+    ``lenient`` (the far end) and ``quick`` (the point in between) may accept a fit that
+    stopped unfinished below the threshold (an upper bound of the rise); both default to
+    ``delta``, which the bracketing search uses. ``far_words``: why the
     scan ends at ``far`` (:func:`_profile_far_words`), in a flat profile's statement: nothing
     beyond it was tried."""
     quick = delta if quick is None else quick
@@ -2771,26 +2776,34 @@ def profile_bound(label: str, side: str, limit: float, far: float, delta, thresh
             return Profile(label, side, limit, np.nan, far, d_far, threshold, runs, text)
     except ProfileError as exc:
         return _no_profile(label, side, limit, threshold, runs, str(exc))
-    a, ga, b, gb = 0.0, -threshold, 1.0, d_far - threshold
-    last = 0
+    # the bracket [a, b] in t (0: the limit, rise 0; 1: the far end), ``ra``/``rb`` the rises
+    # there. The rise is steep and convex in t where a constant held across decades barely
+    # matters over most of them (rise ~ c (P / L - 1), exponential in t): regula falsi on the
+    # rise itself crept from the flat end by its 5 % floor (its 8 fits ended 10.8 % above the
+    # crossing with c = 0.1, and at the far end itself for hybrid CM's glass G12). The secant
+    # of the rise's logarithm is near linear there and for a quadratic rise alike (ln of
+    # (t / s)^2); a bisection where one end has no positive rise (the limit) or where the
+    # bracket did not halve in two steps
+    a, ra, b, rb = 0.0, 0.0, 1.0, d_far
     span = 1.0 if nu else abs(np.log(far / limit))
+    widths = [np.inf, np.inf]                 # the bracket's width before each step
+    log_q = np.log(threshold)
     while runs < PROFILE_RUNS + 1 and (b - a) * span > PROFILE_TOL:
-        t = (a * gb - b * ga) / (gb - ga)
-        t = min(max(t, a + 0.05 * (b - a)), b - 0.05 * (b - a))
+        w = b - a
+        if w > 0.5 * widths[-2] or not ra > 0:
+            t = 0.5 * (a + b)
+        else:
+            t = a + w * (log_q - np.log(ra)) / (np.log(rb) - np.log(ra))
+            t = min(max(t, a + 0.05 * w), b - 0.05 * w)
+        widths.append(w)
         try:
-            g = rise(to(t)) - threshold
+            r = rise(to(t))
         except ProfileError as exc:
             return _no_profile(label, side, limit, threshold, runs, str(exc))
-        if g > 0:
-            b, gb = t, g
-            if last == 1:
-                ga *= 0.5
-            last = 1
+        if r >= threshold:
+            b, rb = t, r
         else:
-            a, ga = t, g
-            if last == -1:
-                gb *= 0.5
-            last = -1
+            a, ra = t, r
     bound = float(to(b))
     text = (f"the fit rejects {k} {direction} {show(bound)} ({confidence * 100:.0f} %, profile: "
             f"the other constants identified again, within the search, with {k} held there)")
@@ -2812,20 +2825,33 @@ def _identify_again(result, fms, opts, start, joint: bool):
 
 
 def refit_held(result, fms, sigmas, kw: dict, joint: bool, label, value=None,
-               max_evaluations: int = PROFILE_EVALUATIONS, unconverged: bool = False):
+               max_evaluations: int = PROFILE_EVALUATIONS, unconverged: bool = False,
+               from_initial: bool = False):
     """(result, uncertainty) of the others identified again with the constant ``label`` held
     at ``value`` (SI; or ``label`` a {label: value} of several): from ``result``'s optimum (a
     short walk; where other constants sit on a limit a run may not start from, E2 = E1
-    exactly, a little towards the initial values), its basis, at most ``max_evaluations``.
-    FitError when that fit does not converge, unless ``unconverged``: then its best point is
-    returned (``result.converged`` False), whose chi2 is an upper bound of the fit's."""
+    exactly, a little towards the initial values), its basis, at most ``max_evaluations``, in
+    ``result``'s search region (``alpha_region``); from the initial values (with ``value``)
+    when ``from_initial``. FitError when that fit does not converge, unless ``unconverged``:
+    then its best point is returned (``result.converged`` False), whose chi2 is an upper
+    bound of the fit's."""
     held = dict(label) if isinstance(label, dict) else {label: value}
     options = result.options
     names = tuple(result.material_names)
     fms_v = [_holding(fm, held) for fm in fms]
+    # a material that the result searched with the alphas is searched in their region again
+    # (held constants make it the constants parametrisation, whose box would exclude an
+    # optimum with a shear modulus at 1e-4 E1: every refit of hybrid CM's profiles started
+    # from the initial values, 300 evaluations, in a region where its glass shear moduli
+    # could not go below 0.74 GPa)
+    from laminid_cli.parametrization import alpha_floor
+
+    alpha = tuple((n, alpha_floor(c)) for n, c in zip(names, result.constants)
+                  if result.parametrization.get(n) == "alpha")
     opts = dataclasses.replace(options, fix=tuple(options.fix) + tuple(held),
-                               max_evaluations=min(options.max_evaluations, max_evaluations))
-    for step in PROFILE_STEPS:
+                               max_evaluations=min(options.max_evaluations, max_evaluations),
+                               alpha_region=tuple(options.alpha_region) + alpha)
+    for step in (1.0,) if from_initial else PROFILE_STEPS:
         start = [_between(c, c0, step) for c, c0 in zip(result.constants, result.initial)]
         for lab, v in held.items():
             name, k = lab.rsplit(".", 1)
@@ -2850,10 +2876,23 @@ def _not_converged(held: dict, max_evaluations: int) -> str:
             "evaluations")
 
 
-def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) -> Uncertainty:
+#: the profile of one constant, run in a forked worker (:func:`with_profiles`)
+_PROFILE_JOB: dict = {}
+
+
+def _profile_job(j: int):
+    return _PROFILE_JOB["run"](j)
+
+
+def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool, jobs=1,
+                  progress=None) -> Uncertainty:
     """``u`` with a :class:`Profile` of each constant that stopped on a limit of the search
     (``profiles``; {} when none did). ``fms``/``sigmas``: the plates' forward models and
-    frequency sigmas (lists); ``kw``: the interval settings of :func:`uncertainty_of`."""
+    frequency sigmas (lists); ``kw``: the interval settings of :func:`uncertainty_of`.
+    ``jobs``: processes (None: the cores), one constant's profile each at a time (forked
+    where the trials fork, :func:`_trial_pool_context`; else one after the other): hybrid
+    CM's five, 2 to 10 s each, 26 s one after the other. ``progress(done, total, label)``
+    after each profile (and ``progress(0, total, None)`` before the first)."""
     if u.at_bound is None or not np.any(u.at_bound):
         return u
     if not result.converged:
@@ -2868,27 +2907,49 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
     factor = float(u.variance_factor) if u.variance_factor > 0 else 1.0
     names = tuple(result.material_names)
     prior = {ms.name: dict(ms.prior) for ms in material_states(result)}
-    out = {}
-    for j, lab in enumerate(u.labels):
-        if not u.at_bound[j]:
-            continue
+
+    def profile_of(j: int) -> Profile:
+        lab = u.labels[j]
         name, k = lab.rsplit(".", 1)
         m = names.index(name)
         initial = float(getattr(result.initial[m], k))
 
         unfinished = []
+        # which start goes first: the optimum, until the initial values' start gives the
+        # lower chi2 at some value (hybrid CM's glass G12 from 6.8 GPa up: 300 unfinished
+        # evaluations at chi2 79-490 from the optimum, 97 at 9.6-9.8 from the initial values)
+        order = [False, True]
 
         def delta(v, name=name, k=k, lab=lab, initial=initial, unfinished=unfinished,
-                  max_evaluations=PROFILE_EVALUATIONS, lenient=False):
-            r, uc = refit_held(result, fms, sigmas, kw, joint, lab, v, unconverged=lenient,
-                               max_evaluations=max_evaluations)
-            chi2 = uc.chi2
-            if prior.get(name, {}).get(k, 0.0) > 0:
-                # held, the constant has no prior row in that fit; u.chi2 counted it (free):
-                # its row as linearized_uncertainty counts one, (v - P0) / P0 over sigma_unit
-                ref = initial if initial != 0 else 1.0
-                chi2 += ((v - initial) / ref / uc.sigma_unit) ** 2
-            d = (chi2 - u.chi2) / factor
+                  max_evaluations=PROFILE_EVALUATIONS, order=order):
+            def fit(from_initial):
+                cap = min(max_evaluations, PROFILE_INITIAL_EVALUATIONS) if from_initial \
+                    else max_evaluations
+                r, uc = refit_held(result, fms, sigmas, kw, joint, lab, v, unconverged=True,
+                                   max_evaluations=cap, from_initial=from_initial)
+                chi2 = uc.chi2
+                if prior.get(name, {}).get(k, 0.0) > 0:
+                    # held, the constant has no prior row in that fit; u.chi2 counted it
+                    # (free): its row as linearized_uncertainty counts one, (v - P0) / P0
+                    # over sigma_unit
+                    ref = initial if initial != 0 else 1.0
+                    chi2 += ((v - initial) / ref / uc.sigma_unit) ** 2
+                return r, (chi2 - u.chi2) / factor
+
+            first, second = order
+            r, d = fit(first)
+            if d >= threshold:
+                # a rejection may be a local minimum of the fit (a fit that does not reject
+                # cannot be wrong that way): hybrid CM's glass E2 held at 0.9 GPa ended at a
+                # rise of 14.6 from the optimum ("rejected"), below 0.9 from the initial values
+                # (not rejected). A fit from the other start too; the lower chi2 is kept
+                try:
+                    r2, d2 = fit(second)
+                    if d2 < d:
+                        r, d = r2, d2
+                        order.reverse()
+                except FitInputError:
+                    pass
             if not r.converged:
                 # its best point's chi2 bounds the fit's from above: a rise below the
                 # threshold says "not rejected" for sure (a better fit too); only a rise
@@ -2903,15 +2964,14 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
         side, limit = _limit(u, j)
         far = _profile_far(k, side, limit, options, result.initial[m])
         try:
-            # the bisection needs finished fits (an unfinished one there ended the profile
-            # anyway, after up to eight more fits: hybrid CM's glass G13, 15 s for "no
-            # profile"); the far end and the point in between decide "flat" with one or two
+            # an unfinished fit tells a value is not rejected (its rise, an upper bound, below
+            # the threshold) and nothing else; the point in between the limit and a far end
+            # not rejected is checked with fewer evaluations (only "not rejected" is needed)
             p = profile_bound(lab, side, limit, far, delta, threshold, u.confidence,
                               far_words=_profile_far_words(k, side, limit, far, options,
                                                            result.initial[m]),
                               quick=functools.partial(
-                                  delta, max_evaluations=PROFILE_MID_EVALUATIONS, lenient=True),
-                              lenient=functools.partial(delta, lenient=True))
+                                  delta, max_evaluations=PROFILE_MID_EVALUATIONS))
         except (FitError, ModelError, SolverError) as exc:
             p = _no_profile(lab, side, limit, threshold, 0, str(exc))
         if unfinished and not p.error:
@@ -2921,8 +2981,37 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool) ->
                 f" ({n} of its {p.runs} identifications stopped at {caps} "
                 f"evaluations: {'its' if n == 1 else 'their'} rise is an upper bound, enough "
                 f"to say the fit does not reject {'that value' if n == 1 else 'those values'})"))
-        out[lab] = p
-    return dataclasses.replace(u, profiles=out)
+        return p
+
+    todo = [j for j, b in enumerate(u.at_bound) if b]
+    out = {}
+
+    def done(j, p):
+        out[u.labels[j]] = p
+        if progress is not None:
+            progress(len(out), len(todo), u.labels[j])
+
+    if progress is not None and todo:
+        progress(0, len(todo), None)
+    jobs = max(1, min(int(jobs or os.cpu_count() or 1), len(todo)))
+    context = _trial_pool_context() if jobs > 1 else None
+    if context is None:
+        for j in todo:
+            done(j, profile_of(j))
+    else:
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
+        # forked workers inherit the result, models and this closure (no pickling)
+        _PROFILE_JOB["run"] = profile_of
+        try:
+            with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
+                futures = {pool.submit(_profile_job, j): j for j in todo}
+                for fut in as_completed(futures):
+                    done(futures[fut], fut.result())
+        finally:
+            _PROFILE_JOB.clear()
+    # in the constants' order, whichever finished first
+    return dataclasses.replace(u, profiles={u.labels[j]: out[u.labels[j]] for j in todo})
 
 
 @dataclass(frozen=True)
@@ -3215,14 +3304,16 @@ class Assessment:
 
 
 def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
-           joint: bool = False, progress=None, mc_progress=None, accept=None) -> Assessment:
+           joint: bool = False, progress=None, mc_progress=None, accept=None,
+           profile_progress=None) -> Assessment:
     """Identify (one plate, or several jointly), then compute the uncertainty; optionally fix
     the flagged constants and identify again (until nothing new is flagged), and run the
     Monte Carlo check on the final result (with ``fix_undetermined``, the constants its range
     flags (:func:`with_monte_carlo`) are fixed as well, and the assessment goes on from there).
 
     ``fms``: a ForwardModel, or a sequence of them with ``joint=True``. ``progress`` is passed to
-    the identification, ``mc_progress(done, total)`` to :func:`monte_carlo`. ``accept(result)``
+    the identification, ``mc_progress(done, total)`` to :func:`monte_carlo`,
+    ``profile_progress(done, total, label)`` to :func:`with_profiles`. ``accept(result)``
     is asked about the final result, before the Monte Carlo: False returns the assessment
     without it (``monte_carlo`` None), for a caller that will identify again (the pipeline,
     when the bending equations alone no longer describe the plate at the answer).
@@ -3347,7 +3438,8 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
     if accepted:
         # how far the fit lets a constant on a search limit go (identifications of the
         # others with it held): only for the result that stands
-        unc = with_profiles(unc, result, fm_list, sigmas, kw, joint)
+        unc = with_profiles(unc, result, fm_list, sigmas, kw, joint, jobs=uopts.jobs,
+                            progress=profile_progress)
         if fixed:
             unc = with_fixed_ranges(unc, first, result, fm_list, sigmas, kw, joint)
             if result.converged and (earlier[0].converged if earlier else True):

@@ -149,8 +149,16 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
         bar.update(done - last[0])          # (a chunk of trials at a time)
         last[0] = done
 
+    def profile_progress(done, total, label):
+        # the profiles of constants on a search limit (a few to 10 s each): which finished
+        if show_progress:
+            line = (f"  profiles of the constants on a search limit: {done} of {total} done"
+                    + (f" ({label})" if label else ""))
+            click.echo("\r" + line.ljust(78), err=True, nl=False)
+
     try:
-        run = run_identification(specs, options, progress=progress, mc_progress=mc_progress)
+        run = run_identification(specs, options, progress=progress, mc_progress=mc_progress,
+                                 profile_progress=profile_progress)
     except LaminidError as exc:
         if replacing and not isinstance(exc, FitInputError):
             # this input fails, so the default result beside it is an earlier input's: set
