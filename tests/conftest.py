@@ -28,6 +28,23 @@ def s11_fix_undetermined_6x6(tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
+def s11_fix_undetermined(tmp_path_factory):
+    """``laminid identify S1.1 --fix-undetermined --json -o`` (its 12x12 mesh): (parsed JSON,
+    result file). G13, G23, nu12 fixed together, which the modes reject (fixed_rejected,
+    nu12 to release); the intervals count the spread they had before fixing. Read by
+    test_fixed_check.py and test_fixed_spread.py, which each ran it (~1.5 s)."""
+    import json
+
+    from tests.clihelp import run
+
+    out = tmp_path_factory.mktemp("s11fixu12") / "r.h5"
+    r = run("identify", "specimens/example1/S1.1.yaml", "--fix-undetermined", "--json", "-o",
+            out)
+    assert r.exit_code == 0, r.output
+    return json.loads(r.output), out
+
+
+@pytest.fixture(scope="session")
 def s21_8x8(tmp_path_factory):
     """``laminid identify S2.1 --mesh 8x8 --json -o``: (parsed JSON, result file); G13 stops on
     its lower search limit (a flat profile), G23's interval runs to 11 GPa. Read by
