@@ -761,9 +761,11 @@ def test_a_reference_range_in_the_table_the_panels_and_across_specimens(ranged_b
     assert "reference range (left of the value)" in legend
 
 
-def _no_overlap(fig, axis, legend) -> bool:
-    """The legend's box is outside the axes' box (laid-out figure, display coordinates)."""
-    fig.draw_without_rendering()
+def _no_overlap(fig, axis, legend, *, draw=True) -> bool:
+    """The legend's box is outside the axes' box (laid-out figure, display coordinates);
+    ``draw=False`` where the caller laid the figure out and changed nothing since."""
+    if draw:
+        fig.draw_without_rendering()
     a = axis.get_window_extent()
     b = legend.get_window_extent()
     return b.x0 >= a.x1 or b.x1 <= a.x0 or b.y0 >= a.y1 or b.y1 <= a.y0
@@ -873,7 +875,7 @@ def test_fit_frf_figure_reads_back_the_frf_file(tmp_path):
     assert a.get_ylabel() == "|H| (dB re 1 (m/s^2)/N)"
     assert _no_overlap(fig, a, a.get_legend())                  # legend clear of the curves
     s = ax(fig, "stabilisation")
-    assert _no_overlap(fig, s, s.get_legend())
+    assert _no_overlap(fig, s, s.get_legend(), draw=False)      # (laid out by the line above)
     for lim in ((0.5, 18.5), (0.1, 18.9), (0.2, 19.6)):   # orders 1-18 as in S1.1's example
         s.set_ylim(*lim)                                   # FRFs, whose ticks were 2.5, 7.5...
         fig.draw_without_rendering()                       # orders are whole numbers
@@ -891,17 +893,19 @@ def test_fit_frf_figure_reads_back_the_frf_file(tmp_path):
 def test_legends_clear_of_the_lines(checked, batch_dir):
     """History legends right of their panels; the summary legend in a row of its own."""
     fig = result_page(checked, "history")
+    fig.draw_without_rendering()            # laid out once: the checks below change nothing
     for gid in ("objective",):
         a = ax(fig, gid)
-        assert _no_overlap(fig, a, a.get_legend())
+        assert _no_overlap(fig, a, a.get_legend(), draw=False)
     for a in fig.axes:
         if a.get_legend() is not None:
-            assert _no_overlap(fig, a, a.get_legend())
+            assert _no_overlap(fig, a, a.get_legend(), draw=False)
     fig = {p.name: p.figure for p in report_pages(batch_dir / "summary.csv")}["constants"]
+    fig.draw_without_rendering()
     leg = next(a for a in fig.axes if a.get_legend() is not None).get_legend()
     for a in fig.axes:
         if (a.get_gid() or "").startswith("across-"):
-            assert _no_overlap(fig, a, leg)
+            assert _no_overlap(fig, a, leg, draw=False)
 
 
 @pytest.fixture(scope="module")
