@@ -2,11 +2,28 @@
 identifications several test modules read, run once per test process."""
 
 import os
+import sys
 
 import pytest
 
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_make_collect_report(collector):
+    """Where PYTHONDONTWRITEBYTECODE is set (as on CI), pytest rewrote the asserts of every
+    test module again in every test process, ~4.5 s of each worker's collection (6.8 s
+    against 2.3 s once written): the rewritten modules are cached in tests/__pycache__ as
+    ``make bytecode`` caches the package's, while a test module is collected. pytest reads
+    that cache whether or not it may write it; nothing else changes."""
+    if not (isinstance(collector, pytest.Module) and sys.dont_write_bytecode):
+        return (yield)
+    sys.dont_write_bytecode = False
+    try:
+        return (yield)
+    finally:
+        sys.dont_write_bytecode = True
 
 
 @pytest.fixture(scope="session")
