@@ -62,6 +62,20 @@ def s11_fix_undetermined(tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
+def s21_6x6(tmp_path_factory):
+    """``laminid identify S2.1 --mesh 6x6 -o --json`` and ``... --no-output``: (the --json
+    run's click Result, the terminal run's Result, the result file). Status check: G13 at
+    its lower search limit (a feasibility bound), G23 undetermined, a poor fit. Read by
+    test_status.py, test_identify_cli.py and test_report_output.py, which each ran it."""
+    from tests.clihelp import run
+
+    out = tmp_path_factory.mktemp("s21_6x6") / "s21.h5"
+    j = run("identify", "specimens/example2/S2.1.yaml", "--mesh", "6x6", "-o", out, "--json")
+    t = run("identify", "specimens/example2/S2.1.yaml", "--mesh", "6x6", "--no-output")
+    return j, t, out
+
+
+@pytest.fixture(scope="session")
 def s21_8x8(tmp_path_factory):
     """``laminid identify S2.1 --mesh 8x8 --json -o``: (parsed JSON, result file); G13 stops on
     its lower search limit (a flat profile), G23's interval runs to 11 GPa. Read by

@@ -105,7 +105,7 @@ def test_an_earlier_point_evaluated_again_is_drawn_off_the_history_line():
     assert revisits(C).tolist() == [False, False, False, True, False, False, True]
 
 
-def test_page_one_fits_two_line_cells_and_many_notes(tmp_path, monkeypatch):
+def test_page_one_fits_two_line_cells_and_many_notes(s21_6x6, monkeypatch):
     """Page 1's constants table gave every row one line's height, so two-line cells (S2.1's
     G13: "none — on lower search limit" / "profile: < 1.47") ran over their borders; and a
     result with many notes (hybrid CM with profiles and a Monte Carlo) ran off the page. Rows
@@ -113,8 +113,7 @@ def test_page_one_fits_two_line_cells_and_many_notes(tmp_path, monkeypatch):
     import laminid_cli.report as rep
     from laminid_cli.resultfile import read_result
 
-    out = tmp_path / "s21.h5"
-    r = run("identify", "specimens/example2/S2.1.yaml", "--mesh", "6x6", "-o", out)
+    r, _, out = s21_6x6                    # identify S2.1 --mesh 6x6 -o (conftest.py)
     assert r.exit_code == 0, r.output
     res = read_result(out)
     real = rep.table_notes
