@@ -39,19 +39,12 @@ demo: bytecode
 example-frf: setup
 	$(BIN)/python scripts/example_frf.py --out out/example-frf
 
-# --dist worksteal: each worker starts on one half of the tests in their order (a module's tests
-# together) and takes half of the other's queue when it runs out. Under the default 'load' the
-# tests of a module alternated between the two workers from the start, so that both computed
-# every module- and session-scoped fixture (identifications, batches, report pages: ~9 s for
-# tests/test_report.py alone); with worksteal only the modules cut by the split or a steal do.
-# (pytest-xdist >= 3.2; --dist loadgroup would group by xdist_group marks, but xdist 3.8 sets
-# the private Node._nodeid that pytest 9 no longer reads, so it groups nothing)
 test: bytecode
-	$(BIN)/python -m pytest -q -n 2 --dist worksteal
+	$(BIN)/python -m pytest -q -n 2
 
 # LAMINID_FUZZ_SCALE: the fuzz tests (tests/test_fuzz.py) run 10 times their default cases
 test-all: bytecode
-	LAMINID_FUZZ_SCALE=10 $(BIN)/python -m pytest -q -n 2 --dist worksteal -m 'not hardware'
+	LAMINID_FUZZ_SCALE=10 $(BIN)/python -m pytest -q -n 2 -m 'not hardware'
 
 bench: setup
 	for f in benchmarks/bench_*.py; do $(BIN)/python $$f || exit 1; done
