@@ -92,6 +92,24 @@ def s21_8x8(tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
+def s21_8x8_fix_undetermined(tmp_path_factory):
+    """``laminid identify S2.1 --mesh 8x8 --fix-undetermined --json -o``: (parsed JSON,
+    result file). G13, on its lower search limit in the first run, fixed ("fixed: it was at
+    a search limit", checked across the search's range), G23 fixed because undetermined; no
+    constant of the answer on a search limit. Read by test_profile.py and
+    test_report_figures.py, which each ran it."""
+    import json
+
+    from tests.clihelp import run
+
+    out = tmp_path_factory.mktemp("s21fixu") / "S2.1.result.h5"
+    r = run("identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8", "--fix-undetermined",
+            "--json", "-o", out)
+    assert r.exit_code == 0, r.output
+    return json.loads(r.output), out
+
+
+@pytest.fixture(scope="session")
 def s21_8x8_terminal():
     """The terminal output of ``laminid identify S2.1 --mesh 8x8 --no-output`` (the run of
     s21_8x8), read by test_global_uncertainty.py and test_profile.py."""
