@@ -14,9 +14,13 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 def pytest_make_collect_report(collector):
     """Where PYTHONDONTWRITEBYTECODE is set (as on CI), pytest rewrote the asserts of every
     test module again in every test process, ~4.5 s of each worker's collection (6.8 s
-    against 2.3 s once written): the rewritten modules are cached in tests/__pycache__ as
-    ``make bytecode`` caches the package's, while a test module is collected. pytest reads
-    that cache whether or not it may write it; nothing else changes."""
+    against 2.3 s once written). While a test module is collected, Python may write bytecode
+    as it does without the variable: pytest's rewritten test module to tests/__pycache__
+    (hash-checked; pytest reads it whether or not it may write it), as ``make bytecode``
+    writes the package's; and the .pyc of a module first imported then that has none (the
+    package's and the tests' helpers have theirs from make bytecode; a virtualenv's packages
+    installed without theirs get them, among them scipy.stats' _bws_test and
+    _page_trend_test, which pytest rewrites for their names)."""
     if not (isinstance(collector, pytest.Module) and sys.dont_write_bytecode):
         return (yield)
     sys.dont_write_bytecode = False
