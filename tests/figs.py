@@ -19,8 +19,9 @@ def cells(axis) -> list[list[str]]:
 
 def result_page(path, name: str):
     """The figure of page ``name`` of the report of one result file (``path`` to it, or the
-    ResultFile read from it): summary, intervals, history or sensitivities of a single plate;
-    shared, intervals or history of a joint result. Built alone as
+    ResultFile read from it): summary, intervals, modes-<k>, history, sensitivities or damping
+    (or another page of report.EXTRA_PAGES) of a single plate; shared, intervals or history of
+    a joint result. Built alone as
     laminid_cli.report.result_pages (joint_pages) builds that page (its builder, then the
     status corner), for tests that read one page: report_pages builds every page (the mode
     shapes rebuild the initial model; an FRF page fits the FRF file again), 0.5-1 s a result
@@ -34,10 +35,16 @@ def result_page(path, name: str):
         build = {"shared": lambda r: report.summary_page(
                      r, what=f"joint identification of {len(r.plates)} plates, shared constants"),
                  "intervals": report.interval_page, "history": report.history_page}[name]
-    else:
+    elif name.startswith("modes-"):
+        def build(r):
+            return report.mode_shape_pages(r, r.plates[0])[int(name.split("-")[1]) - 1]
+    elif name in ("summary", "intervals", "history", "sensitivities"):
         build = {"summary": report.summary_page, "intervals": report.interval_page,
                  "history": report.history_page,
                  "sensitivities": lambda r: report.sensitivity_page(r, r.plates[0])}[name]
+    else:
+        def build(r):
+            return next(p.figure for fn in report.EXTRA_PAGES for p in fn(r) if p.name == name)
     fig = build(r)
     report.status_corner(fig, r)
     return fig

@@ -64,7 +64,7 @@ def test_t_quantile_for_huge_degrees_of_freedom():
             assert t_ppf(q, nu) == pytest.approx(stats.t.ppf(q, nu), rel=1e-10), (q, nu)
 
 
-def test_s11_fixed_values_rejected_together_and_the_release_named(tmp_path):
+def test_s11_fixed_values_rejected_together_and_the_release_named(s11_fix_undetermined):
     """S1.1 12x12: G13 = G23 = 3.10 GPa and nu12 = 0.35 are each undetermined, but together
     they raise chi2 from 2.21 (all free) to 18.2, beyond the chi-square 95 % limit 7.81 of
     3 values (the run before fixing used the stated sigma: s2 0.37 < 1). Freeing nu12 alone
@@ -74,8 +74,7 @@ def test_s11_fixed_values_rejected_together_and_the_release_named(tmp_path):
     free = identify_json(S11)
     fixed3 = identify_json(S11, "--fix", f"{MAT}.G13,{MAT}.G23,{MAT}.nu12")
     fixed2 = identify_json(S11, "--fix", f"{MAT}.G13,{MAT}.G23")
-    out = tmp_path / "r.h5"
-    d = identify_json(S11, "--fix-undetermined", out=out)
+    d, out = s11_fix_undetermined           # identify S1.1 --fix-undetermined --json -o
     fc = d["uncertainty"]["fixed_check"]
     assert fc["labels"] == [f"{MAT}.G13", f"{MAT}.G23", f"{MAT}.nu12"]
     assert fc["values"] == pytest.approx([3.1e9, 3.1e9, 0.35], rel=1e-12)

@@ -178,7 +178,7 @@ def s11_monte_carlo(tmp_path_factory):
     return res.output, out
 
 
-def test_fixed_spread_in_json_hdf5_terminal_and_report(tmp_path, s11_monte_carlo):
+def test_fixed_spread_in_json_hdf5_terminal_and_report(s11_fix_undetermined, s11_monte_carlo):
     """S1.1 --fix-undetermined: E1 +-2.5 % counting the fixed values' spread, +-1.3 % given
     them (tolerances: the factorizers' round-off is far below); the same numbers in --json,
     the reader of the HDF5 file, the terminal line and the report's note. Each interval's
@@ -191,11 +191,8 @@ def test_fixed_spread_in_json_hdf5_terminal_and_report(tmp_path, s11_monte_carlo
     from laminid_cli.report import table_notes
     from laminid_cli.resultfile import read_result
 
-    out = tmp_path / "r.h5"
-    res = CliRunner().invoke(cli, ["identify", S11, "--fix-undetermined", "--json", "-o",
-                                   str(out)])
-    assert res.exit_code == 0, res.output
-    u = json.loads(res.output)["uncertainty"]
+    doc, out = s11_fix_undetermined          # identify S1.1 --fix-undetermined --json -o
+    u = doc["uncertainty"]
     assert u["spread_counted"] == [f"IM7/977-2.{k}" for k in ("G13", "G23", "nu12")]
     c = u["constants"]["IM7/977-2"]
     assert c["E1"]["rel_half_width"] == pytest.approx(0.0251, abs=0.0015)
@@ -215,7 +212,7 @@ def test_fixed_spread_in_json_hdf5_terminal_and_report(tmp_path, s11_monte_carlo
         assert v["rel_half_width"] == pytest.approx(
             v["quantile"] * v["std"] / abs(v["value"]), rel=1e-10), k
     assert c["E1"]["effective_dof"] == pytest.approx(197, abs=15)
-    g = json.loads(res.output)["global_uncertainty"]["Gxz"]
+    g = doc["global_uncertainty"]["Gxz"]
     # Gxz = (G13 + G23) / 2 here: the fixed values' moves are secants, G sinh(+-sd in ln G)
     # along their principal axes (0.83 with the tangent G sd, stop 30's first count); all of
     # it spread, known on the stated sigma: the normal quantile (t(9) gave 1.31)

@@ -465,8 +465,10 @@ def test_hostile_inputs_in_a_real_process_are_bounded(tmp_path, case):
         f = np.linspace(1.0, 8000.0, 600_000)
         h = 1 / (400.0 ** 2 - f ** 2 + 2j * 0.01 * 400 * f)
         spec = tmp_path / "long.csv"
-        np.savetxt(spec, np.column_stack([f, h.real, h.imag, h.real, h.imag]), delimiter=",",
-                   fmt="%.6g")
+        rows = np.column_stack([f, h.real, h.imag, h.real, h.imag])
+        # np.savetxt's bytes (fmt "%.6g", delimiter ","), formatted in one operation: 1.3 s
+        # against savetxt's 2.5 s, a row at a time
+        spec.write_text(("%.6g,%.6g,%.6g,%.6g,%.6g\n" * len(rows)) % tuple(rows.ravel()))
         args = ["fit-frf", spec, "--band", "1:8000"]
     before = snapshot(tmp_path)
     t0 = time.perf_counter()

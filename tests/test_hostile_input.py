@@ -691,7 +691,10 @@ def test_fit_needing_more_memory_than_available_is_refused_with_the_estimate(mon
     f = np.linspace(1.0, 8000.0, 300_000)
     h = 1 / (400.0 ** 2 - f ** 2 + 2j * 0.01 * 400 * f)
     path = tmp_path / "long.csv"
-    np.savetxt(path, np.column_stack([f, h.real, h.imag]), delimiter=",", fmt="%.9g")
+    rows = np.column_stack([f, h.real, h.imag])
+    # np.savetxt's bytes (fmt "%.9g", delimiter ","), formatted in one operation (0.4 s
+    # against 0.7 s)
+    path.write_text(("%.9g,%.9g,%.9g\n" * len(rows)) % tuple(rows.ravel()))
     monkeypatch.setattr(memory, "available_memory_bytes", lambda: 0.5e9)
     r = run("fit-frf", path, "--band", "1:8000")
     assert r.exit_code == 2, r.output

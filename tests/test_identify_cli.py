@@ -184,9 +184,10 @@ def test_bad_input_exit_2_with_clear_message(tmp_path):
     assert not list(tmp_path.glob("*.h5"))
 
 
-def test_an_optimum_on_a_feasibility_bound_names_the_constraint():
-    """S2.1 (thin glass plate) drives G13 to its floor: the warning says which constraint holds."""
-    r = run("identify", S21, "--mesh", "6x6", "--json", "--no-output")
+def test_an_optimum_on_a_feasibility_bound_names_the_constraint(s21_6x6):
+    """S2.1 (thin glass plate) drives G13 to its floor: the warning says which constraint holds
+    (identify S2.1 --mesh 6x6 --json, conftest.py)."""
+    r = s21_6x6[0]
     assert r.exit_code == 0, r.output
     warnings = " ".join(json.loads(r.output)["warnings"])
     assert "runs into a bound" in warnings and "G13 at its minimum (0.0001 E1)" in warnings

@@ -242,7 +242,8 @@ def test_the_rise_is_zero_at_the_limit_with_a_prior_on_the_held_constant(tmp_pat
     assert abs(delta(limit)) < 0.05 * u.profiles[lab].threshold
 
 
-def test_a_constant_fixed_on_a_limit_is_checked_across_the_search(tmp_path):
+def test_a_constant_fixed_on_a_limit_is_checked_across_the_search(tmp_path,
+                                                                  s21_8x8_fix_undetermined):
     """S2.1 (8x8) --fix-undetermined fixes G13, which was on its lower limit (its doubt is not
     known, so the intervals cannot count it): the others are identified again with G13 at
     the search's two ends, 0.0001 E1 and 5 x 3.7 = 18.5 GPa; G12 moves most, 0.6 of its
@@ -252,11 +253,7 @@ def test_a_constant_fixed_on_a_limit_is_checked_across_the_search(tmp_path):
     on their limits: E1 moves by about three half-widths, an 'undetermined' reason."""
     from laminid_cli.resultfile import read_result
 
-    out = tmp_path / "s21.h5"
-    res = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8",
-                                   "--fix-undetermined", "--json", "-o", str(out)])
-    assert res.exit_code == 0, res.output
-    d = json.loads(res.output)
+    d, out = s21_8x8_fix_undetermined       # identify S2.1 --mesh 8x8 --fix-undetermined
     fr = d["uncertainty"]["fixed_ranges"]["E-glass/R368.G13"]
     assert read_result(out).uncertainty.fixed_ranges == {"E-glass/R368.G13": fr["text"]}
     assert fr["high"] == pytest.approx(18.5e9) and 2e6 < fr["low"] < 4e6

@@ -12,8 +12,8 @@ from click.testing import CliRunner
 from laminid_cli.cli import cli
 from laminid_cli.forward import build_forward_model
 from laminid_cli.frf.store import write_frf_h5
-from laminid_cli.report import (fmt_reference, fmt_value, interval_text, mac, reference_diff,
-                                report_pages, short_verdict, write_pages)
+from laminid_cli.report import (Page, fmt_reference, fmt_value, interval_text, mac,
+                                reference_diff, report_pages, short_verdict, write_pages)
 from laminid_cli.resultfile import read_result
 from laminid_cli.specimen import read_specimen
 from tests.clihelp import write_s14_with_ranges
@@ -171,7 +171,7 @@ def test_summary_page_tables_and_residuals_read_back(checked, checked_pages, tmp
     status = status_text(fig).get_text()
     assert status.startswith("status: CHECK") and "[at_bound]" in status \
         and "G13 not determined" in status.replace("\n", " ")
-    write_pages([p for p in report_pages(checked) if p.name == "summary"], tmp_path / "s.png")
+    write_pages([Page("summary", result_page(checked, "summary"))], tmp_path / "s.png")
     assert (tmp_path / "s.png").read_bytes()[:8] == PNG
 
 
@@ -182,10 +182,10 @@ def test_a_page_built_alone_is_the_reports_page(checked, checked_pages, damped, 
     each page it builds (S1.4 at a bound, S2.1 with damping and fixed constants, and the
     joint S1.1 + S1.2)."""
     joint_named = {p.name: p.figure for p in joint_pages}
-    for path, pages, names in ((checked, checked_pages, ("summary", "intervals", "history",
-                                                         "sensitivities")),
-                               (damped, damped_pages, ("summary", "intervals", "history",
-                                                       "sensitivities")),
+    for path, pages, names in ((checked, checked_pages, ("summary", "intervals", "modes-1",
+                                                         "history", "sensitivities")),
+                               (damped, damped_pages, ("summary", "intervals", "modes-1",
+                                                       "history", "sensitivities", "damping")),
                                (joint, joint_named, ("shared", "intervals", "history"))):
         for name in names:
             assert page_signature(result_page(path, name)) == page_signature(pages[name]), \
@@ -285,7 +285,7 @@ def test_mode_shapes_with_mac_against_the_initial_model(batch_dir, tmp_path):
     w0 = fm.plate.w_shape(modes.phi)
     with h5py.File(path, "r+") as f:
         f["modes"]["w"][...] = w0
-    pages = {p.name: p.figure for p in report_pages(path)}
+    pages = {"modes-1": result_page(path, "modes-1")}
     for k in range(fr.model.size):
         t = ax(pages["modes-1"], f"mode-{k + 1}").get_title()
         assert f"{fr.model[k]:.1f} Hz" in t and f"meas. {fr.measured[k]:.1f} Hz" in t
@@ -293,7 +293,7 @@ def test_mode_shapes_with_mac_against_the_initial_model(batch_dir, tmp_path):
     # a mode replaced by another one: MAC of two different mode shapes is small
     with h5py.File(path, "r+") as f:
         f["modes"]["w"][:, 0] = w0[:, 1]
-    t = ax({p.name: p.figure for p in report_pages(path)}["modes-1"], "mode-1").get_title()
+    t = ax(result_page(path, "modes-1"), "mode-1").get_title()
     assert f"MAC vs initial {mac(w0[:, 1], w0[:, 0]):.2f}" in t
     assert mac(w0[:, 1], w0[:, 0]) < 0.1
     assert mac([1, 2, 3], [-2, -4, -6]) == pytest.approx(1.0, abs=1e-15)
@@ -761,9 +761,11 @@ def test_a_reference_range_in_the_table_the_panels_and_across_specimens(ranged_b
     assert "reference range (left of the value)" in legend
 
 
-def _no_overlap(fig, axis, legend) -> bool:
-    """The legend's box is outside the axes' box (laid-out figure, display coordinates)."""
-    fig.draw_without_rendering()
+def _no_overlap(fig, axis, legend, *, draw=True) -> bool:
+    """The legend's box is outside the axes' box (laid-out figure, display coordinates);
+    ``draw=False`` where the caller laid the figure out and changed nothing since."""
+    if draw:
+        fig.draw_without_rendering()
     a = axis.get_window_extent()
     b = legend.get_window_extent()
     return b.x0 >= a.x1 or b.x1 <= a.x0 or b.y0 >= a.y1 or b.y1 <= a.y0
@@ -809,7 +811,7 @@ def test_damping_page_numbers_read_back(damped, damped_pages, tmp_path):
     assert [row[0] for row in t[1:4]] == list(d["labels"])
     assert [float(row[1]) for row in t[1:4]] == pytest.approx(100 * d["value"], abs=5e-4)
     assert fig._suptitle.get_text() == f"{res.plates[0].name}: damping (modal strain energy)"
-    write_pages([p for p in report_pages(damped) if p.name == "damping"], tmp_path / "d.png")
+    write_pages([Page("damping", result_page(damped, "damping"))], tmp_path / "d.png")
     assert (tmp_path / "d.png").read_bytes()[:8] == PNG
 
 
@@ -873,7 +875,7 @@ def test_fit_frf_figure_reads_back_the_frf_file(tmp_path):
     assert a.get_ylabel() == "|H| (dB re 1 (m/s^2)/N)"
     assert _no_overlap(fig, a, a.get_legend())                  # legend clear of the curves
     s = ax(fig, "stabilisation")
-    assert _no_overlap(fig, s, s.get_legend())
+    assert _no_overlap(fig, s, s.get_legend(), draw=False)      # (laid out by the line above)
     for lim in ((0.5, 18.5), (0.1, 18.9), (0.2, 19.6)):   # orders 1-18 as in S1.1's example
         s.set_ylim(*lim)                                   # FRFs, whose ticks were 2.5, 7.5...
         fig.draw_without_rendering()                       # orders are whole numbers
@@ -891,17 +893,19 @@ def test_fit_frf_figure_reads_back_the_frf_file(tmp_path):
 def test_legends_clear_of_the_lines(checked, batch_dir):
     """History legends right of their panels; the summary legend in a row of its own."""
     fig = result_page(checked, "history")
+    fig.draw_without_rendering()            # laid out once: the checks below change nothing
     for gid in ("objective",):
         a = ax(fig, gid)
-        assert _no_overlap(fig, a, a.get_legend())
+        assert _no_overlap(fig, a, a.get_legend(), draw=False)
     for a in fig.axes:
         if a.get_legend() is not None:
-            assert _no_overlap(fig, a, a.get_legend())
+            assert _no_overlap(fig, a, a.get_legend(), draw=False)
     fig = {p.name: p.figure for p in report_pages(batch_dir / "summary.csv")}["constants"]
+    fig.draw_without_rendering()
     leg = next(a for a in fig.axes if a.get_legend() is not None).get_legend()
     for a in fig.axes:
         if (a.get_gid() or "").startswith("across-"):
-            assert _no_overlap(fig, a, leg)
+            assert _no_overlap(fig, a, leg, draw=False)
 
 
 @pytest.fixture(scope="module")
@@ -1255,7 +1259,7 @@ def test_damping_page_fits_the_page_and_ends_with_the_status(damped, tmp_path):
     from laminid_cli.report_damping import loss_factor_rows, read_damping
 
     res = read_result(damped)
-    fig = {p.name: p.figure for p in report_pages(damped)}["damping"]
+    fig = result_page(damped, "damping")
     status = next(t for t in fig.texts if t.get_gid() == "status").get_text()
     head, _ = status_line(res)
     assert status.replace("\n    ", " ").replace("\n", " ") == head.replace("\n", " ")
@@ -1287,7 +1291,9 @@ def test_status_on_top_of_the_first_page_at_the_foot_of_the_others(checked):
     the first page, above the constants); every other page repeats it at its foot."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-    pages = {p.name: p.figure for p in report_pages(checked)}
+    names = ("summary", "intervals") + (("damping",) if read_result(checked).damping is not None
+                                        else ())
+    pages = {name: result_page(checked, name) for name in names}
     fig = pages["summary"]
     renderer = FigureCanvasAgg(fig).get_renderer()
     fig.draw_without_rendering()            # lays out and places every text

@@ -20,14 +20,11 @@ def texts(fig) -> str:
 
 
 @pytest.fixture(scope="module")
-def s21_fixed_at_limit(tmp_path_factory):
-    """S2.1 (8x8) with --fix-undetermined: G13, on its lower search limit in the first run,
-    fixed ("fixed: it was at a search limit"), G23 fixed because undetermined; no constant
-    of the answer is on a search limit."""
-    out = tmp_path_factory.mktemp("s21fix") / "S2.1.result.h5"
-    r = run("identify", S21, "--mesh", "8x8", "--fix-undetermined", "-o", out)
-    assert r.exit_code == 0, r.output
-    return out
+def s21_fixed_at_limit(s21_8x8_fix_undetermined):
+    """S2.1 (8x8) with --fix-undetermined (conftest.py): G13, on its lower search limit in the
+    first run, fixed ("fixed: it was at a search limit"), G23 fixed because undetermined; no
+    constant of the answer is on a search limit. Read only."""
+    return s21_8x8_fix_undetermined[1]
 
 
 @pytest.fixture(scope="module")

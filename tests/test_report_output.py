@@ -20,12 +20,17 @@ def run(*args):
 def one_page(monkeypatch):
     """The report of the result's first page only: these tests check where the report is
     written and what is protected, not its pages (drawn and checked in test_report.py); the
-    PDF is still written by write_pages, with its Creator, as the command writes it."""
+    PDF is still written by write_pages, with its Creator, as the command writes it. The page
+    is built alone (tests.figs.result_page, held to report_pages' own in test_report.py), not
+    the whole report cut to its first page: ~0.1 s a run instead of ~1 s."""
     import laminid_cli.report as rep
+    from tests.figs import result_page
 
-    real = rep.report_pages
-    monkeypatch.setattr(rep, "report_pages",
-                        lambda source, frf_path=None: real(source, frf_path=frf_path)[:1])
+    def first_page(source, frf_path=None):
+        assert frf_path is None
+        return [rep.Page("summary", result_page(source, "summary"))]
+
+    monkeypatch.setattr(rep, "report_pages", first_page)
 
 
 @pytest.fixture(scope="module")
@@ -100,7 +105,7 @@ def test_an_earlier_point_evaluated_again_is_drawn_off_the_history_line():
     assert revisits(C).tolist() == [False, False, False, True, False, False, True]
 
 
-def test_page_one_fits_two_line_cells_and_many_notes(tmp_path, monkeypatch):
+def test_page_one_fits_two_line_cells_and_many_notes(s21_6x6, monkeypatch):
     """Page 1's constants table gave every row one line's height, so two-line cells (S2.1's
     G13: "none — on lower search limit" / "profile: < 1.47") ran over their borders; and a
     result with many notes (hybrid CM with profiles and a Monte Carlo) ran off the page. Rows
@@ -108,8 +113,7 @@ def test_page_one_fits_two_line_cells_and_many_notes(tmp_path, monkeypatch):
     import laminid_cli.report as rep
     from laminid_cli.resultfile import read_result
 
-    out = tmp_path / "s21.h5"
-    r = run("identify", "specimens/example2/S2.1.yaml", "--mesh", "6x6", "-o", out)
+    r, _, out = s21_6x6                    # identify S2.1 --mesh 6x6 -o (conftest.py)
     assert r.exit_code == 0, r.output
     res = read_result(out)
     real = rep.table_notes

@@ -138,12 +138,10 @@ def test_noise_free_synthetic_data_with_the_weak_constants_fixed_are_ok():
 # --- the same status everywhere -----------------------------------------------------------------
 
 @pytest.fixture(scope="module")
-def s21_check(tmp_path_factory):
-    """S2.1 on a 6x6 mesh: G13 ends at its bound, G23 undetermined, s2 above its 99 % limit."""
-    out = tmp_path_factory.mktemp("status") / "s21.h5"
-    j = run("identify", S21, "--mesh", "6x6", "-o", out, "--json")
-    t = run("identify", S21, "--mesh", "6x6", "--no-output")
-    return j, t, out
+def s21_check(s21_6x6):
+    """S2.1 on a 6x6 mesh (conftest.py: -o --json, and --no-output): G13 ends at its bound,
+    G23 undetermined, s2 above its 99 % limit."""
+    return s21_6x6
 
 
 def test_single_result_status_in_json_hdf5_and_terminal(s21_check):
