@@ -2609,6 +2609,9 @@ PROFILE_MID_EVALUATIONS = 100
 #: where the fit from the optimum rejects the value, and first where it gave the lower chi2
 #: before): its rise, finished or an upper bound, mostly only needs to fall below the threshold
 PROFILE_INITIAL_EVALUATIONS = 100
+#: two fits of a profile's value from its two starts end in one valley when their rises agree
+#: to this share of the threshold (finished both): its later rejections are not checked again
+PROFILE_SAME = 1e-3
 #: a profile's fit whose chi2 is below the limit's by more than this share of the threshold
 #: (scaled) shows that the search stopped short of a better fit: no profile
 PROFILE_BETTER = 0.05
@@ -2919,9 +2922,13 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool, jo
         # lower chi2 at some value (hybrid CM's glass G12 from 6.8 GPa up: 300 unfinished
         # evaluations at chi2 79-490 from the optimum, 97 at 9.6-9.8 from the initial values)
         order = [False, True]
+        # whether a rejection is checked from the other start: until both starts, finished,
+        # end at the same chi2 (one valley: S2.1's G13 at every value; hybrid CM's glass
+        # constants never)
+        check = [True]
 
         def delta(v, name=name, k=k, lab=lab, initial=initial, unfinished=unfinished,
-                  max_evaluations=PROFILE_EVALUATIONS, order=order):
+                  max_evaluations=PROFILE_EVALUATIONS, order=order, check=check):
             def fit(from_initial):
                 cap = min(max_evaluations, PROFILE_INITIAL_EVALUATIONS) if from_initial \
                     else max_evaluations
@@ -2938,14 +2945,16 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool, jo
 
             first, second = order
             r, d = fit(first)
-            if d >= threshold:
+            if d >= threshold and check[0]:
                 # a rejection may be a local minimum of the fit (a fit that does not reject
                 # cannot be wrong that way): hybrid CM's glass E2 held at 0.9 GPa ended at a
                 # rise of 14.6 from the optimum ("rejected"), below 0.9 from the initial values
                 # (not rejected). A fit from the other start too; the lower chi2 is kept
                 try:
                     r2, d2 = fit(second)
-                    if d2 < d:
+                    if r.converged and r2.converged and abs(d2 - d) <= PROFILE_SAME * threshold:
+                        check[0] = False
+                    elif d2 < d:
                         r, d = r2, d2
                         order.reverse()
                 except FitInputError:
