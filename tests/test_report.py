@@ -446,8 +446,12 @@ def test_frf_page_for_a_specimen_fitted_from_an_frf_file(tmp_path):
     assert len(lines) == 3 and np.array_equal(lines[0].get_ydata(), coherence[0])
     assert not [t for t in fig.texts if t.get_gid() == "frf-changed"]   # the file identified
     r = run("report", res, "-o", tmp_path / "plate.png", "--dpi", "50")
-    assert r.exit_code == 0 and "frf" in r.output
-    assert (tmp_path / "plate-6.png").read_bytes()[:8] == PNG
+    assert r.exit_code == 0, r.output
+    # "N pages (summary, ..., frf, ...) written to plate-1.png, ...": the FRF page's own file
+    names = r.output.split("(", 1)[1].split(")", 1)[0].split(", ")
+    k = names.index("frf") + 1
+    assert f"plate-{k}.png" in r.output
+    assert (tmp_path / f"plate-{k}.png").read_bytes()[:8] == PNG
 
 
 def test_frf_page_of_an_frf_file_changed_since_the_identification_says_so(tmp_path, caplog):
