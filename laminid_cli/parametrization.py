@@ -208,10 +208,9 @@ class ConstantParameters:
 
     def _alpha_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """The bounds of the alpha region (class docstring)."""
-        f, r = self.bound_factor, MIN_MODULUS_RATIO
+        f = self.bound_factor
         P0 = self.initial.as_array()
-        e1_free = "E1" in self.free
-        e1_lo, e1_hi = (P0[0] / f, P0[0] * f) if e1_free else (P0[0], P0[0])
+        e1_lo, e1_hi = (P0[0] / f, P0[0] * f) if "E1" in self.free else (P0[0], P0[0])
         lo, hi = [], []
         for k in self.free:
             i = CONSTANT_NAMES.index(k)
