@@ -1842,6 +1842,12 @@ def trials_at_bounds(result, labels, samples) -> tuple[np.ndarray, np.ndarray]:
 _WORKER: dict = {}
 
 
+def _processes(jobs, n_tasks: int) -> int:
+    """Worker processes for ``n_tasks`` tasks: ``jobs`` (None or 0: the cores), at most one
+    per task, at least one."""
+    return max(1, min(int(jobs or os.cpu_count() or 1), n_tasks))
+
+
 def _trial_pool_context():
     """The start method of the trials' worker processes: fork on Linux, where the workers
     inherit the model and its basis without pickling them (what every test and benchmark has
@@ -2089,7 +2095,7 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
             [np.asarray(plate.pairing) for _, plate in parts], joint,
             None if model is not None else _basis_vectors(result), model, damped,
             tuple(result.material_names))
-    jobs = max(1, min(int(jobs or os.cpu_count() or 1), n_trials))
+    jobs = _processes(jobs, n_trials)
     # the trials that the model's preparation finished (TrialModel.prepare) are collected
     # here, the others in the processes (all here with one job)
     pilot = model.pilot if model is not None else {}
@@ -3002,7 +3008,7 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool, jo
 
     if progress is not None and todo:
         progress(0, len(todo), None)
-    jobs = max(1, min(int(jobs or os.cpu_count() or 1), len(todo)))
+    jobs = _processes(jobs, len(todo))
     context = _trial_pool_context() if jobs > 1 else None
     if context is None:
         for j in todo:
