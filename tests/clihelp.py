@@ -14,11 +14,13 @@ def run(*args):
     return CliRunner().invoke(cli, [str(a) for a in args])
 
 
-def identify_json(tmp_path_factory, specimen: str, mesh: str, name: str):
-    """(parsed --json output, result file) of ``laminid identify specimen --mesh mesh``,
-    asserting exit code 0; for module-scoped fixtures."""
+def identify_json(tmp_path_factory, specimen: str, mesh: str | None, name: str, *args):
+    """(parsed --json output, result file) of ``laminid identify specimen --mesh mesh [args]``
+    (mesh None: the default's), asserting exit code 0; for module- and session-scoped
+    fixtures."""
     out = tmp_path_factory.mktemp("id") / name
-    r = run("identify", specimen, "--mesh", mesh, "--json", "-o", str(out))
+    r = run("identify", specimen, *(("--mesh", mesh) if mesh else ()), *args, "--json", "-o",
+            str(out))
     assert r.exit_code == 0, r.output
     return json.loads(r.output), out
 

@@ -37,15 +37,10 @@ def s11_fix_undetermined_6x6(tmp_path_factory):
     round; G12 stays free (its initial value is rejected), E1 and G12 identified. Read by
     test_identify_cli_uncertainty.py, test_report.py and test_resultfile.py (which changes a
     copy): one run of ~1.5 s per test process instead of one per module."""
-    import json
+    from tests.clihelp import identify_json
 
-    from tests.clihelp import run
-
-    out = tmp_path_factory.mktemp("s11fixu") / "f.result.h5"
-    r = run("identify", "specimens/example1/S1.1.yaml", "--mesh", "6x6", "--fix-undetermined",
-            "--json", "-o", out)
-    assert r.exit_code == 0, r.output
-    return json.loads(r.output), out
+    return identify_json(tmp_path_factory, "specimens/example1/S1.1.yaml", "6x6", "f.result.h5",
+                         "--fix-undetermined")
 
 
 @pytest.fixture(scope="session")
@@ -54,15 +49,10 @@ def s11_fix_undetermined(tmp_path_factory):
     result file). G13, G23, nu12 fixed together, which the modes reject (fixed_rejected,
     nu12 to release); the intervals count the spread they had before fixing. Read by
     test_fixed_check.py and test_fixed_spread.py, which each ran it (~1.5 s)."""
-    import json
+    from tests.clihelp import identify_json
 
-    from tests.clihelp import run
-
-    out = tmp_path_factory.mktemp("s11fixu12") / "r.h5"
-    r = run("identify", "specimens/example1/S1.1.yaml", "--fix-undetermined", "--json", "-o",
-            out)
-    assert r.exit_code == 0, r.output
-    return json.loads(r.output), out
+    return identify_json(tmp_path_factory, "specimens/example1/S1.1.yaml", None, "r.h5",
+                         "--fix-undetermined")
 
 
 @pytest.fixture(scope="session")
@@ -85,14 +75,10 @@ def s21_8x8(tmp_path_factory):
     its lower search limit (a flat profile), G23's interval runs to 11 GPa. Read by
     test_identify_cli.py, test_global_uncertainty.py, test_profile.py and
     test_report_figures.py, which each identified it once."""
-    import json
+    from tests.clihelp import identify_json
 
-    from tests.clihelp import run
-
-    out = tmp_path_factory.mktemp("s21") / "S2.1.result.h5"
-    r = run("identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8", "--json", "-o", out)
-    assert r.exit_code == 0, r.output
-    return json.loads(r.output), out
+    return identify_json(tmp_path_factory, "specimens/example2/S2.1.yaml", "8x8",
+                         "S2.1.result.h5")
 
 
 @pytest.fixture(scope="session")
@@ -102,15 +88,10 @@ def s21_8x8_fix_undetermined(tmp_path_factory):
     a search limit", checked across the search's range), G23 fixed because undetermined; no
     constant of the answer on a search limit. Read by test_profile.py and
     test_report_figures.py, which each ran it."""
-    import json
+    from tests.clihelp import identify_json
 
-    from tests.clihelp import run
-
-    out = tmp_path_factory.mktemp("s21fixu") / "S2.1.result.h5"
-    r = run("identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8", "--fix-undetermined",
-            "--json", "-o", out)
-    assert r.exit_code == 0, r.output
-    return json.loads(r.output), out
+    return identify_json(tmp_path_factory, "specimens/example2/S2.1.yaml", "8x8",
+                         "S2.1.result.h5", "--fix-undetermined")
 
 
 @pytest.fixture(scope="session")
