@@ -540,6 +540,26 @@ def _parse_fix(fix, names, path) -> dict:
     return out
 
 
+class FarStartError(FitInputError):
+    """A measured mode too far from the model where a fit starts (:func:`check_start`). Its
+    parts are kept, so that a fit that starts elsewhere than at the specimen's initial values
+    says where (:meth:`where`: a profile's fit with a constant held,
+    :func:`laminid_cli.uncertainty.refit_held`)."""
+
+    def __init__(self, source, mode: int, measured: float, model: float, ratio: float,
+                 limit: float, cause: str, at: str = "at the initial guess"):
+        self.parts = (source, mode, measured, model, ratio, limit, cause)
+        super().__init__(f"{source}: measured mode {mode + 1} ({measured:.2f} Hz) is "
+                         f"{ratio * 100:.0f} % away from the model ({model:.2f} Hz) {at} "
+                         f"(limit {limit * 100:.0f} %): {cause}")
+
+    def where(self, at: str, cause: str | None = None) -> "FarStartError":
+        """The same refusal, saying ``at`` what start instead of "at the initial guess" (and
+        ``cause`` instead of the likely input mistakes, where given)."""
+        parts = self.parts if cause is None else self.parts[:-1] + (cause,)
+        return FarStartError(*parts, at=at)
+
+
 def check_start(plate: PlateTerm, ev: Evaluation, far_limit: float) -> list[str]:
     """Refuse a hopeless start of one plate (its evaluation ``ev``); return warnings for
     doubtful ones."""
@@ -550,11 +570,8 @@ def check_start(plate: PlateTerm, ev: Evaluation, far_limit: float) -> list[str]
     far = ok & (ratio > far_limit)
     if far.any():
         i = int(np.flatnonzero(far)[0])
-        raise FitInputError(
-            f"{d.source}: measured mode {i + 1} ({d.freq[i]:.2f} Hz) is "
-            f"{ratio[i] * 100:.0f} % away from the model ({f_model[i]:.2f} Hz) at the initial "
-            f"guess (limit {far_limit * 100:.0f} %): "
-            f"{far_cause(d.freq, f_model, d.weight)}")
+        raise FarStartError(d.source, i, float(d.freq[i]), float(f_model[i]), float(ratio[i]),
+                            far_limit, far_cause(d.freq, f_model, d.weight))
     warnings = [f"measured mode {i + 1} is {ratio[i] * 100:.0f} % from the model at the start"
                 for i in np.flatnonzero(ok & (ratio > 0.25))]
     spec = plate.fm.specimen

@@ -2860,6 +2860,8 @@ def refit_held(result, fms, sigmas, kw: dict, joint: bool, label, value=None,
     opts = dataclasses.replace(options, fix=tuple(options.fix) + tuple(held),
                                max_evaluations=min(options.max_evaluations, max_evaluations),
                                alpha_region=tuple(options.alpha_region) + alpha)
+    from laminid_cli.identify import FarStartError
+
     for step in (1.0,) if from_initial else PROFILE_STEPS:
         start = [_between(c, c0, step) for c, c0 in zip(result.constants, result.initial)]
         for lab, v in held.items():
@@ -2869,9 +2871,19 @@ def refit_held(result, fms, sigmas, kw: dict, joint: bool, label, value=None,
         try:
             r = _identify_again(result, fms_v, opts, start, joint)
             break
-        except FitInputError:
-            if step == PROFILE_STEPS[-1]:
-                raise
+        except FitInputError as exc:
+            if step != PROFILE_STEPS[-1]:
+                continue
+            if isinstance(exc, FarStartError):
+                # not the user's initial guess: the fit's own starts, with the value held
+                where = ", ".join(f"{lab.rsplit('.', 1)[1]} = "
+                                  f"{_show(lab.rsplit('.', 1)[1], v)}" for lab, v in held.items())
+                raise exc.where(
+                    f"with {where} held, at the initial values" if from_initial else
+                    f"with {where} held, at every start tried from the optimum to the initial "
+                    "values", f"the modes are too far from {where} for a fit to start there"
+                ) from None
+            raise
     if not r.converged and not unconverged:
         raise FitError(_not_converged(held, opts.max_evaluations))
     uc = uncertainty_of(r, fms_v if joint else fms_v[0], sigmas if joint else sigmas[0], **kw)

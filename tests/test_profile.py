@@ -725,3 +725,25 @@ def test_a_rejection_from_the_optimum_is_checked_from_the_initial_values(hybrid_
     assert (ub.chi2 - u.chi2) / factor <= p.delta_far < threshold
     assert p.text.startswith("the fit is as good with E2 anywhere below the limit down to 0.9")
     assert "stopped at 100 evaluations" in p.text
+
+
+def test_a_profile_fit_refused_at_its_starts_says_where_it_started(hybrid_cm_6x6):
+    """A profile's fit whose held value puts a measured mode beyond the start's limit (50 %)
+    at every start says so with the value held and where the fit started, not "at the initial
+    guess" and the input mistakes to check (the specimen's own start is fine): carbon E1
+    held at 30 times its optimum, 2620 GPa, moves mode 4 from 392.70 Hz to 963 Hz."""
+    from laminid_cli.identify import FarStartError
+    from laminid_cli.uncertainty import refit_held
+
+    fm, r, sigma, _ = hybrid_cm_6x6
+    e1 = 30 * r.constants[1].E1
+    for from_initial, at in ((False, "at every start tried from the optimum to the initial "
+                                     "values"), (True, "at the initial values")):
+        with pytest.raises(FarStartError) as exc:
+            refit_held(r, [fm], [sigma], {}, False, "carbon.E1", e1, from_initial=from_initial)
+        text = str(exc.value)
+        assert text.startswith("specimens/example3/hybrid-cm.yaml: measured mode 4 "
+                               "(392.70 Hz) is 145 % away from the model (963.")
+        assert text.endswith(f"Hz) with E1 = 2.62e+03 GPa held, {at} (limit 50 %): the modes "
+                             "are too far from E1 = 2.62e+03 GPa for a fit to start there")
+        assert "initial guess" not in text and "units" not in text
