@@ -88,3 +88,40 @@ def process_alive(pid: int) -> bool:
     except OSError:
         return True
     return stat.rsplit(")", 1)[-1].split()[0] != "Z"
+
+
+#: seconds between two checks that the process that started a worker is still alive
+#: (fallback of PR_SET_PDEATHSIG)
+PARENT_POLL_S = 0.5
+
+
+def stop_with_parent(terminate, client_pid: int | None = None) -> None:
+    """Make this worker process call ``terminate()`` when the process that started it dies
+    (even by SIGKILL, which runs no clean-up): Linux's ``prctl(PR_SET_PDEATHSIG, SIGTERM)``
+    signals the worker when its parent dies (``terminate`` should be its SIGTERM handler), and
+    a daemon thread checks every :data:`PARENT_POLL_S` s that the parent, and ``client_pid``
+    (the batch process, where the parent is a forkserver) when given, are still there (other
+    systems have no prctl). Without it a forked pool worker (a batch's, the Monte Carlo
+    trials', the profiles') of a killed process waits for work forever."""
+    import signal
+    import threading
+    import time
+
+    parent = os.getppid()
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        PR_SET_PDEATHSIG = 1
+        libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0)
+    except (OSError, AttributeError, TypeError):
+        pass
+
+    def watch():
+        while True:
+            time.sleep(PARENT_POLL_S)
+            if os.getppid() != parent or (client_pid is not None
+                                          and not process_alive(client_pid)):
+                terminate()
+
+    threading.Thread(target=watch, name="laminid-parent-watch", daemon=True).start()

@@ -57,7 +57,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from laminid_cli import __version__
-from laminid_cli.atomic import (process_alive, remove_stale_temporaries, temporary_name,
+from laminid_cli.atomic import (remove_stale_temporaries, stop_with_parent, temporary_name,
                                 write_bytes_atomic)
 from laminid_cli.errors import LaminidError
 from laminid_cli.intervals import VERDICT_AT_BOUND
@@ -128,8 +128,9 @@ class BatchError(LaminidError):
 
 #: The settings every specimen of a batch is identified with: those of ``laminid identify``
 #: (laminid_cli.pipeline.RunOptions: the mesh, IdentifyOptions, UncertaintyOptions and the
-#: loss factors held by --fix). The command gives ``uncertainty.jobs = 1``: a specimen's Monte
-#: Carlo trials run in its worker, the batch being parallel over specimens already.
+#: loss factors held by --fix). The command gives ``uncertainty.jobs = 1`` with several workers:
+#: a specimen's Monte Carlo trials and profiles run in its worker, the batch being parallel over
+#: specimens already; with one (``-j 1``, in the command's process) they get the cores.
 BatchOptions = RunOptions
 
 
@@ -284,6 +285,10 @@ def input_hash(spec, options: BatchOptions) -> str:
     # rejection checked from the initial values too (stop 38)
     h.update(f"laminid {__version__} schema {SCHEMA_VERSION} options 2 verdicts 8\0".encode())
     settings = options.as_dict()
+    # the processes of a specimen's profiles and Monte Carlo trials do not change its result
+    # (batch -j 1 gives them the cores, a pool of workers one each): hashed as the 1 that
+    # every batch gave them before, so that a result stays up to date whatever -j
+    settings["uncertainty"]["jobs"] = 1
     if not settings.get("mesh_check"):
         # results of batches before --mesh-check (none checked) stay up to date
         settings.pop("mesh_check", None)
@@ -637,41 +642,7 @@ def _worker_signals() -> None:
     if hasattr(signal, "pthread_sigmask"):      # started with it blocked (_sigint_blocked)
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     signal.signal(signal.SIGTERM, terminate)
-    _stop_with_parent(terminate)
-
-
-#: seconds between two checks that the batch process is still alive (fallback of
-#: PR_SET_PDEATHSIG)
-PARENT_POLL_S = 0.5
-
-
-def _stop_with_parent(terminate, client_pid: int | None = None) -> None:
-    """Make this worker stop when the batch process that started it dies (even by SIGKILL,
-    which runs no clean-up): Linux's ``prctl(PR_SET_PDEATHSIG, SIGTERM)`` signals the worker
-    when its parent dies, and a daemon thread checks every :data:`PARENT_POLL_S` s that the
-    parent and the batch process are still there (the parent is the forkserver, not the batch
-    process, under the forkserver start method; other systems have no prctl)."""
-    import signal
-    import threading
-
-    parent = os.getppid()
-    client = client_pid if client_pid is not None else _CLIENT_PID.get("pid")
-    try:
-        import ctypes
-
-        libc = ctypes.CDLL(None, use_errno=True)
-        PR_SET_PDEATHSIG = 1
-        libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0)
-    except (OSError, AttributeError, TypeError):
-        pass
-
-    def watch():
-        while True:
-            time.sleep(PARENT_POLL_S)
-            if os.getppid() != parent or (client is not None and not process_alive(client)):
-                terminate()
-
-    threading.Thread(target=watch, name="laminid-parent-watch", daemon=True).start()
+    stop_with_parent(terminate, _CLIENT_PID.get("pid"))
 
 
 #: pid of the batch process, given to the pool workers through their initializer

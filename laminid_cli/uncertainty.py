@@ -1861,6 +1861,19 @@ def _trial_pool_context():
     return None
 
 
+def _stops_with_parent() -> None:
+    """Pool worker set-up (the Monte Carlo trials', the profiles'): SIGTERM ends the worker at
+    once, and so does the death of the process that started it (atomic.stop_with_parent):
+    an identify or batch -j 1 killed with SIGKILL during hybrid CM's profiles left both
+    workers waiting for work, for ever."""
+    import signal
+
+    from laminid_cli.atomic import stop_with_parent
+
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    stop_with_parent(functools.partial(os._exit, 143))
+
+
 def _init_worker(fms, options, start, start_pairing, joint, basis_vectors=None, model=None,
                  damping=False, names=()):
     """Per process: the plates' forward models, the identify() route's bases (rebuilt here from
@@ -1870,6 +1883,7 @@ def _init_worker(fms, options, start, start_pairing, joint, basis_vectors=None, 
     of ``start`` (the result's material_names)."""
     from laminid_cli.reduced import ReducedBasis
 
+    _stops_with_parent()
     bases = (None if basis_vectors is None else
              [ReducedBasis.from_vectors(fm, V) for fm, V in zip(fms, basis_vectors)])
     _WORKER.clear()
@@ -3031,7 +3045,8 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool, jo
         # forked workers inherit the result, models and this closure (no pickling)
         _PROFILE_JOB["run"] = profile_of
         try:
-            with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
+            with ProcessPoolExecutor(max_workers=jobs, mp_context=context,
+                                     initializer=_stops_with_parent) as pool:
                 futures = {pool.submit(_profile_job, j): j for j in todo}
                 for fut in as_completed(futures):
                     done(futures[fut], fut.result())

@@ -1,6 +1,7 @@
 """`laminid batch`: same numbers as one-by-one runs, re-runs, failures, kills, Dask."""
 
 import csv
+import dataclasses
 import json
 import os
 import shutil
@@ -326,6 +327,34 @@ def test_hash_covers_the_specimen_its_frf_file_and_the_options(tmp_path):
     assert h2 != h1
     spec.write_text("measured:\n  frf_file: p.frf.h5\n# note\n")
     assert input_hash(spec, o) not in (h1, h2)
+
+
+@pytest.mark.parametrize("n_jobs, expected", [("1", None), ("2", 1)])
+def test_one_process_gives_a_specimens_profiles_and_trials_the_cores(tmp_path, monkeypatch,
+                                                                      n_jobs, expected):
+    """batch -j 1 identifies in its own process, one specimen at a time: the specimen's
+    profiles and Monte Carlo trials get the cores (jobs None), as in identify; with a pool of
+    workers, one process each. The result's input hash is the same either way (the processes
+    do not change a result; hashed as the 1 every batch gave them before)."""
+    from laminid_cli import batch as B
+    from laminid_cli.pipeline import RunOptions
+
+    seen = []
+
+    def capture(jobs, options, n_jobs=1, scheduler=None):
+        seen.append(options)
+        yield from ()
+
+    monkeypatch.setattr(B, "run_jobs", capture)
+    r = run("batch", SPECS["example2/S2.1.yaml"], "--mesh", MESH, "--out", tmp_path / "o",
+            "-j", n_jobs)
+    assert "1 to identify" in r.output        # (and nothing done: exit 1, one not run)
+    assert [o.uncertainty.jobs for o in seen] == [expected]
+    spec = SPECS["example2/S2.1.yaml"]
+    o = seen[0]
+    one = dataclasses.replace(o, uncertainty=dataclasses.replace(o.uncertainty, jobs=1))
+    assert input_hash(spec, o) == input_hash(spec, one) == input_hash(spec, RunOptions(
+        mesh=MESH, uncertainty=one.uncertainty, identify=one.identify))
 
 
 def test_a_summary_row_reads_its_result_file_once(batch_run, monkeypatch):
