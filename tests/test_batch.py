@@ -662,7 +662,10 @@ def test_killed_batch_leaves_only_complete_files_and_a_rerun_finishes(tmp_path, 
                                         "specimens/example1/S1.2.yaml"})
     out = tmp_path / "out"
     as_json = sig == signal.SIGINT and jobs == "1"
-    proc = _start_batch(specs, out, jobs, *(["--json"] if as_json else []))
+    # with -j 1 a specimen's Monte Carlo trials run in forked workers of the batch process
+    # (on the cores): a Ctrl-C reaches them too
+    mc = ["--monte-carlo", "20"] if jobs == "1" else []
+    proc = _start_batch(specs, out, jobs, *(["--json"] if as_json else []), *mc)
     _wait_first_result(proc, out)
     os.killpg(proc.pid, sig)
     t0 = time.time()
@@ -690,7 +693,7 @@ def test_killed_batch_leaves_only_complete_files_and_a_rerun_finishes(tmp_path, 
         with h5py.File(p, "r") as f:
             assert f.attrs["format"] == "laminid-result" and "batch_input_sha256" in f.attrs
             assert np.isfinite(f["materials"][next(iter(f["materials"]))]["E1"][()])
-    r = run("batch", specs, "--mesh", MESH, "--out", out, "--json")
+    r = run("batch", specs, "--mesh", MESH, "--out", out, "--json", *mc)
     assert r.exit_code == 0, r.output
     d = json.loads(r.stdout)
     assert d["counts"]["ok"] + d["counts"]["check"] == 4 and d["n_cached"] == len(done)

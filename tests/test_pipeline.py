@@ -46,7 +46,9 @@ def _other(value):
 
 def test_every_option_field_changes_the_batch_hash(tmp_path):
     """The batch options are the identify and uncertainty option classes themselves, so a
-    field added to either is hashed without being declared again."""
+    field added to either is hashed without being declared again; all but the processes of
+    the profiles and Monte Carlo trials (``uncertainty.jobs``), which do not change a result
+    (batch -j 1 gives them the cores, a pool of workers one each)."""
     spec = tmp_path / "p.yaml"
     spec.write_text("x: 1\n")
     base = BatchOptions(mesh=MESH)
@@ -54,17 +56,24 @@ def test_every_option_field_changes_the_batch_hash(tmp_path):
     seen = {h0}
     variants = [dataclasses.replace(base, mesh="7x7"),
                 dataclasses.replace(base, fix_loss=("eta13=0.01",))]
+    same = []
     for part in ("identify", "uncertainty"):
         opts = getattr(base, part)
         for f in dataclasses.fields(opts):
             changed = dataclasses.replace(opts, **{f.name: _other(getattr(opts, f.name))})
-            variants.append(dataclasses.replace(base, **{part: changed}))
+            (same if (part, f.name) == ("uncertainty", "jobs") else variants).append(
+                dataclasses.replace(base, **{part: changed}))
     for v in variants:
         h = input_hash(spec, v)
         assert h not in seen, v
         seen.add(h)
-    assert len(seen) == 3 + len(dataclasses.fields(IdentifyOptions)) + \
+    assert len(seen) == 2 + len(dataclasses.fields(IdentifyOptions)) + \
         len(dataclasses.fields(UncertaintyOptions))
+    assert len(same) == 1
+    for jobs in (None, 2, 1):
+        v = dataclasses.replace(base, uncertainty=dataclasses.replace(base.uncertainty,
+                                                                      jobs=jobs))
+        assert input_hash(spec, v) == h0
     # JSON-safe and stable
     d = base.as_dict()
     assert json.loads(json.dumps(d)) == d and input_hash(spec, BatchOptions(mesh=MESH)) == h0
