@@ -222,9 +222,10 @@ def test_damping_report_page(frf_case, identified, tmp_path):
         tops = np.maximum(tops, [b.get_y() + b.get_height() for b in bars])
     assert np.allclose(tops, 100, atol=1e-9)
     fig.savefig(tmp_path / "damping.png", dpi=80)
-    r = run("report", out, "-o", tmp_path / "r.pdf")
-    assert r.exit_code == 0, r.output
-    assert "damping" in r.output
+    # among the report's pages (the command writing them all: test_report.py, ~7 s here)
+    from laminid_cli.report import report_pages
+
+    assert "damping" in [p.name for p in report_pages(out)]
 
 
 def test_result_without_damping_has_no_damping_group(tmp_path):
