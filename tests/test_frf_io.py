@@ -304,6 +304,43 @@ def test_csv_frequency_column_in_the_unit_its_header_names(tmp_path, name, scale
     assert np.allclose(fit.freq_hz, case.freq_hz[:3], rtol=1e-4)
 
 
+@pytest.mark.parametrize("delimiter", [",", " ", "\t"])
+def test_csv_written_by_numpy_savetxt_with_its_header_in_a_comment(tmp_path, delimiter):
+    """numpy's savetxt writes ``header=`` as a comment line ("# f (kHz),a_real,a_imag"): it was
+    ignored, so its kHz was lost (the 125.05 Hz mode read at 0.125 Hz, exit 0) and its names
+    too. The comment line just above the data, with as many cells as the data, names the
+    columns (and a note says it was read); a comment line above it, or one with another
+    number of cells, does not (laminid's own '# laminid FRF, units m/N' keeps its meaning)."""
+    case = plate_case(n_points=2, noise=0.002, seed=3)
+    data = np.column_stack([case.freq * 1e-3, case.frf.T.real[:, 0], case.frf.T.imag[:, 0],
+                            case.frf.T.real[:, 1], case.frf.T.imag[:, 1]])
+    names = ["f (kHz)", "a_real", "a_imag", "b_re", "b_im"] if delimiter != " " else \
+        ["f_kHz", "a_real", "a_imag", "b_re", "b_im"]
+    path = tmp_path / "np.csv"
+    np.savetxt(path, data, delimiter=delimiter, header=delimiter.join(names),
+               fmt="%.17g")
+    assert path.read_text().startswith("# " + delimiter.join(names) + "\n")
+    fs = io.read_frf(path)
+    assert np.allclose(fs.freq, case.freq, rtol=1e-12)          # kHz, not Hz
+    assert fs.labels == ("a", "b")
+    assert fs.meta["notes"] == [
+        "column names read from the comment line just above the data (line 1, as numpy's "
+        f"savetxt writes a header): {', '.join(names)}"]
+    fit = rfp.find_modes(fs.freq, fs.frf, bands=[(100.0, 300.0)])
+    assert np.allclose(fit.freq_hz, case.freq_hz[:3], rtol=1e-4)
+    # not a header: a comment with another number of cells; laminid's unit comment is read
+    # as before, and a comment above the line above the data names nothing
+    for head, labels in (("# laminid FRF, units m/N\n# f (kHz), a\n", ("1", "2")),
+                         ("# f (kHz),a_real,a_imag,b_re,b_im\n# laminid FRF, units m/N\n",
+                          ("1", "2"))):
+        body = path.read_text().split("\n", 1)[1]
+        other = tmp_path / "other.csv"
+        other.write_text(head + body)
+        fs = io.read_frf(other)
+        assert fs.labels == labels and np.allclose(fs.freq, case.freq * 1e-3, rtol=1e-12)
+        assert fs.units == "m/N" and not fs.meta.get("notes")
+
+
 def test_csv_first_column_in_another_unit_is_refused(tmp_path):
     p = tmp_path / "t.csv"
     p.write_text("time [s],a_re,a_im\n0,1,0\n0.001,0.5,0.1\n0.002,0.2,0.1\n")

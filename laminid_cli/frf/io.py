@@ -46,7 +46,9 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     Separator ``;`` tab ``,`` (the first found in the first line) or blanks; with ``;`` or tab
     a decimal comma is read too (``125,05``, as a European spreadsheet writes); ``#`` comment
     lines (``# ... units Pa/N`` gives the FRF unit); an optional header line, known by its
-    first cell not being a number (its names give the point labels: of the real columns, of
+    first cell not being a number (or, above a first line of data, the comment line just
+    above it, numpy's ``savetxt(header=...)``, when it has as many cells as the data and its
+    first is not a number: :func:`_commented_header`, with a note) (its names give the point labels: of the real columns, of
     the complex columns, of the magnitude columns).
 """
 
@@ -216,6 +218,37 @@ def _not_the_format(path, fmt: str) -> str:
         if SUFFIXES.get(suffix) == other:
             hint += f" or without --format (its suffix {suffix} says {other})"
     return f"it looks like {what}{hint}"
+
+
+def _real_part_label(name: str) -> str:
+    """The point label of a real-part column name: without "_re", ".re", "_real", ".real"."""
+    for suffix in ("_real", ".real", "_re", ".re"):
+        if name.endswith(suffix):
+            return name[:-len(suffix)].strip()
+    return name.strip()
+
+
+def _commented_header(text: str, first_data: int, sep: str | None, n: int
+                      ) -> list[str] | None:
+    """The column names of a CSV file whose header is a comment line, as numpy's ``savetxt``
+    writes ``header=`` ("# f (kHz),H1_re,H1_im" above the data): the comment line just above
+    the first data line (``first_data``, 1-based), when it splits into the data's ``n``
+    cells and its first names no number; else None. Ignored, its unit was lost ("f (kHz)"
+    read as Hz: every mode 1000 times too low)."""
+    lines = text.splitlines()
+    if first_data < 2:
+        return None
+    above = lines[first_data - 2].strip()
+    if not above.startswith("#"):
+        return None
+    cells = _split(above.lstrip("#").strip(), sep)
+    if len(cells) != n or not cells[0]:
+        return None
+    try:
+        float(cells[0])
+    except ValueError:
+        return cells
+    return None
 
 
 def _split(line: str, sep: str | None) -> list[str]:
@@ -535,6 +568,7 @@ def read_frf_csv(path) -> FrfSet:
             return parse_complex_cell(cell)
 
     cells = _split(first, sep)
+    notes: list[str] = []
     try:
         number(cells[0])
     except ValueError:
@@ -542,6 +576,12 @@ def read_frf_csv(path) -> FrfSet:
         # cell in it is named as such (it was taken for the header, the line lost)
         header = cells
         lines = lines[1:]
+    else:
+        header = _commented_header(text, lines[0][0], sep, len(cells))
+        if header is not None:
+            notes.append(f"column names read from the comment line just above the data (line "
+                         f"{lines[0][0] - 1}, as numpy's savetxt writes a header): "
+                         f"{', '.join(header)}")
     rows = []
     #: the first complex cell of each column that has one: (line, cell)
     complex_at: dict[int, tuple[int, str]] = {}
@@ -588,7 +628,6 @@ def read_frf_csv(path) -> FrfSet:
                            f"frequency {data[i[0], 0]} has an imaginary part")
     kinds = [_csv_part_kind(h) for h in header[1:]] if header else []
     complex_columns = sorted(j for j in complex_at if j > 0)
-    notes: list[str] = []
     expected = ("expected the frequency, then a real and an imaginary column per FRF, or one "
                 "column of complex numbers per FRF (a+bj, a+bi), or a magnitude and a phase "
                 "column per FRF named in the header")
@@ -613,7 +652,8 @@ def read_frf_csv(path) -> FrfSet:
             labels = tuple(h or str(i + 1) for i, h in enumerate(header[1:]))
     elif any(kinds):
         check_frf_size(max((n - 1) // 2, 1), data.shape[0], str(path))
-        frf, labels, notes = _csv_mag_phase(path, header, data.real, lines)
+        frf, labels, more = _csv_mag_phase(path, header, data.real, lines)
+        notes += more
     else:
         data = data.real
         check_frf_size(max((n - 1) // 2, 1), data.shape[0], str(path))
@@ -627,7 +667,7 @@ def read_frf_csv(path) -> FrfSet:
         frf = frf.T
         labels = tuple(str(i + 1) for i in range(frf.shape[0]))
         if header and len(header) == n:
-            labels = tuple(h.removesuffix("_re").removesuffix(".re").strip() or str(i + 1)
+            labels = tuple(_real_part_label(h) or str(i + 1)
                            for i, h in enumerate(header[1::2]))
     freq = data[:, 0].real * _csv_freq_factor(path, header[0] if header else "")
     freq, frf, _ = check_frf_arrays(freq, frf, source=str(path))
