@@ -841,9 +841,23 @@ def log_axis_ticks(axis, *, plain: bool = True) -> None:
         axis.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     else:
         axis.yaxis.set_major_locator(LogLocator(base=10, numticks=8))
-        if plain:
-            axis.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+        axis.yaxis.set_major_formatter(FuncFormatter(
+            (lambda v, _: f"{v:g}") if plain else (lambda v, _: power_of_ten(v))))
     axis.yaxis.set_minor_formatter(NullFormatter())
+
+
+_SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
+
+
+def power_of_ten(v: float) -> str:
+    """A log axis' tick label: "10⁻³" for a power of ten, in plain text (matplotlib's default
+    writes it in mathtext, whose parser took ~0.8 s of the history page's 3.2 s under cProfile),
+    else the number ("2e-05")."""
+    if v > 0:
+        k = np.log10(v)
+        if abs(k - round(k)) < 1e-9:
+            return "10" + str(int(round(k))).translate(_SUPERSCRIPT)
+    return f"{v:g}"
 
 
 def _panel_limits(v, lo, hi, refs, weak, nu: bool):

@@ -305,10 +305,16 @@ def test_mode_shapes_with_mac_against_the_initial_model(batch_dir, tmp_path):
 
 
 def test_history_on_log_scales_with_bound_hits(checked, checked_pages):
+    from laminid_cli.report import power_of_ten
+
     res = read_result(checked)
     fig = checked_pages["history"]
     a = ax(fig, "objective")
     assert a.get_yscale() == "log"
+    # its decades in plain text, not mathtext (whose parser was a quarter of the page's time)
+    fmt = a.yaxis.get_major_formatter()
+    assert [fmt(v, 0) for v in (1e-6, 1e-1, 1.0, 100.0)] == ["10⁻⁶", "10⁻¹", "10⁰", "10²"]
+    assert power_of_ten(2e-5) == "2e-05" and power_of_ten(0.0) == "0"
     # the line: every evaluation but the earlier points evaluated again (drawn apart)
     from laminid_cli.report import revisits
 
