@@ -48,7 +48,9 @@ def _write(path, header, rows, sep=","):
 @pytest.mark.parametrize("delimiter", [" ", ","])
 def test_complex_cells_as_numpy_savetxt_writes_them(tmp_path, truth, delimiter):
     """np.savetxt of a complex array: every cell "(a+bj)", the frequency too ("(20+0j)"),
-    the header a '#' comment (so the points are numbered)."""
+    the header a '#' comment: its names label the points where it splits as the data do
+    (blanks), with a note; written with blanks above comma-separated data, it names nothing
+    (the points are numbered)."""
     freq, H = truth
     path = tmp_path / "numpy.csv"
     np.savetxt(path, np.column_stack([freq, H.T]), delimiter=delimiter, header="f H1 H2 H3")
@@ -56,8 +58,14 @@ def test_complex_cells_as_numpy_savetxt_writes_them(tmp_path, truth, delimiter):
     fs = io.read_frf(path)
     assert np.array_equal(fs.freq, freq)
     assert _rel_error(fs.frf, H) <= REL
-    assert fs.labels == ("1", "2", "3")
-    assert fs.meta == {}
+    if delimiter == " ":
+        assert fs.labels == ("H1", "H2", "H3")
+        assert fs.meta == {"notes": [
+            "column names read from the comment line just above the data (line 1, as numpy's "
+            "savetxt writes a header): f, H1, H2, H3"]}
+    else:
+        assert fs.labels == ("1", "2", "3")
+        assert fs.meta == {}
 
 
 def test_complex_cells_as_python_writes_them(tmp_path, truth):
