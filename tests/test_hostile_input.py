@@ -994,6 +994,36 @@ def test_unwritable_output_folder_is_refused_before_the_work(tmp_path, monkeypat
         assert r.exit_code == 2 and "folder /proc cannot be written to" in r.output
 
 
+def test_batch_out_folder_that_cannot_be_written_is_refused_before_any_specimen(tmp_path,
+                                                                                monkeypatch):
+    """batch --out into a folder it cannot write to (a read-only mount; here os.access says
+    so, as the tests may run as root) is refused up front naming --out, exit 2: it identified
+    the first specimen, failed on its result, then again on the summaries, and the one line
+    left named their temporary file (.summary.csv.tmp-PID: Read-only file system)."""
+    import os
+
+    out = tmp_path / "results"
+    out.mkdir()
+    real = os.access
+    monkeypatch.setattr(os, "access", lambda p, mode, **kw: False
+                        if Path(p) == out and mode & os.W_OK else real(p, mode, **kw))
+    r = run("batch", S11, "--mesh", "4x4", "--out", out)
+    assert r.exit_code == 2, r.output
+    assert r.stderr == (f"laminid: error: --out {out}: the folder cannot be written to "
+                        "(permissions, a read-only or special file system); choose another "
+                        "place with --out\n")
+    assert r.stdout == "" and list(out.iterdir()) == []
+    if Path("/proc/self").is_dir():        # Linux: root passes os.access, /proc takes no file
+        monkeypatch.setattr(os, "access", real)
+        r = run("batch", S11, "--mesh", "4x4", "--out", "/proc")
+        assert r.exit_code == 2
+        assert r.stderr.startswith("laminid: error: --out /proc: the folder cannot be written")
+        r = run("batch", S11, "--mesh", "4x4", "--out", "/proc/laminid-results")
+        assert r.exit_code == 2
+        assert r.stderr.startswith("laminid: error: --out /proc/laminid-results: cannot create "
+                                   "the folder (")
+
+
 def test_a_file_system_error_while_writing_is_one_line(tmp_path, monkeypatch):
     """An error of the file system that escapes a command (a disk that fills up, a folder made
     read-only during the run) is one line naming the file, exit 2, no traceback."""
