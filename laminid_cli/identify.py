@@ -540,6 +540,12 @@ def _parse_fix(fix, names, path) -> dict:
     return out
 
 
+def _hz(f: float) -> str:
+    """A frequency with two decimals, and below 1 Hz with 3 significant digits: kHz written as
+    a bare number, 0.12505 (Hz), showed as 0.13 Hz."""
+    return f"{f:.2f}" if abs(f) >= 1 else f"{f:.3g}"
+
+
 class FarStartError(FitInputError):
     """A measured mode too far from the model where a fit starts (:func:`check_start`). Its
     parts are kept, so that a fit that starts elsewhere than at the specimen's initial values
@@ -549,8 +555,8 @@ class FarStartError(FitInputError):
     def __init__(self, source, mode: int, measured: float, model: float, ratio: float,
                  limit: float, cause: str, at: str = "at the initial guess"):
         self.parts = (source, mode, measured, model, ratio, limit, cause)
-        super().__init__(f"{source}: measured mode {mode + 1} ({measured:.2f} Hz) is "
-                         f"{ratio * 100:.0f} % away from the model ({model:.2f} Hz) {at} "
+        super().__init__(f"{source}: measured mode {mode + 1} ({_hz(measured)} Hz) is "
+                         f"{ratio * 100:.0f} % away from the model ({_hz(model)} Hz) {at} "
                          f"(limit {limit * 100:.0f} %): {cause}")
 
     def where(self, at: str, cause: str | None = None) -> "FarStartError":

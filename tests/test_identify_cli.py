@@ -382,8 +382,28 @@ def test_frequencies_in_khz_get_the_khz_hint_from_identify_as_from_modes(tmp_pat
             "with their unit, '0.125 kHz'")
     r = run("identify", spec, "--mesh", "4x4", "--no-output")
     assert r.exit_code == 2, r.output
-    assert f"{spec}: measured mode 1 (0.13 Hz) is 84252 % away from the model (105.48 Hz)" \
-        in r.stderr, r.stderr
+    assert f"{spec}: measured mode 1 (0.125 Hz) is 84252 % away from the model (105.48 Hz)" \
+        in r.stderr, r.stderr                   # 0.12505 Hz was shown as 0.13 Hz
     assert r.stderr.rstrip().endswith(f"at the initial guess (limit 50 %): {hint}"), r.stderr
+    r = run("modes", spec, "--mesh", "4x4")
+    assert r.exit_code == 0 and hint in r.stderr
+
+
+def test_moduli_written_in_mpa_are_refused_with_the_unit_hint(tmp_path):
+    """S1.1 with its moduli written in MPa (every one: each alone is a plausible modulus, and
+    the six are admissible): identify refused the start naming 'the units, the mass/density,
+    the geometry and the initial constants'; the model's frequencies 1/37 of the measured ones
+    now point at the moduli's units, in identify's refusal and modes' warning alike."""
+    spec = tmp_path / "mpa.yaml"
+    spec.write_text(re.sub(r" GPa$", " MPa", Path("specimens/example1/S1.1.yaml").read_text(),
+                           flags=re.M))
+    hint = ("the model's frequencies are 1/36 of the measured ones, as with moduli 1000 times "
+            "too small (frequency goes as sqrt(modulus/density)): check the moduli's units "
+            "(MPa written where GPa is meant?), then the mass/density")     # 1/37 at 12x12
+    r = run("identify", spec, "--mesh", "4x4")
+    assert r.exit_code == 2, r.output
+    assert r.stderr == (f"laminid: error: {spec}: measured mode 1 (125.05 Hz) is 97 % away from "
+                        f"the model (3.34 Hz) at the initial guess (limit 50 %): {hint}\n")
+    assert r.stdout == "" and not (tmp_path / "mpa.result.h5").exists()
     r = run("modes", spec, "--mesh", "4x4")
     assert r.exit_code == 0 and hint in r.stderr
