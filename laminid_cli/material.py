@@ -197,7 +197,7 @@ def infeasibility_reasons(c: ElasticConstants) -> list[str]:
     if reasons:
         return reasons
     if c.E2 > c.E1:
-        reasons.append(f"E2 ({c.E2:.4g} Pa) must not exceed E1 ({c.E1:.4g} Pa): "
+        reasons.append(f"E2 ({c.E2 / 1e9:.4g} GPa) must not exceed E1 ({c.E1 / 1e9:.4g} GPa): "
                        "direction 1 is the fibre (stiffer) direction")
     limit = np.sqrt(c.E1 / c.E2)
     if abs(c.nu12) >= limit:

@@ -1067,6 +1067,28 @@ def test_initial_nu12_outside_the_search_names_the_file(tmp_path):
             "identification's range |nu12| <= 0.95") in r.output
 
 
+def test_one_modulus_in_another_unit_breaking_eq22_is_named_at_its_line(tmp_path):
+    """E1: 117 MPa for a carbon ply (the others in GPa): the message named the material's line
+    and gave the moduli in Pa (E2 (8.8e+09 Pa) must not exceed E1 (1.17e+08 Pa)); it names E1's
+    line, its unit against the others', and the moduli in GPa. modes and identify alike."""
+    text = Path(S11).read_text()
+    line = next(k for k, t in enumerate(text.splitlines(), 1) if t.strip().startswith("E1:"))
+    bad = tmp_path / "e.yaml"
+    bad.write_text(text.replace("E1: 117.2 GPa", "E1: 117 MPa"))
+    for cmd in ("modes", "identify"):
+        r = run(cmd, bad, "--mesh", "4x4")
+        assert r.exit_code == 2, r.output
+        assert r.stderr == (f"laminid: error: {bad}:{line}, field 'materials.IM7/977-2.E1': "
+                            "'117 MPa' is in MPa where the material's other moduli are in GPa: "
+                            "a unit slip? With it the constants are not physically admissible "
+                            "(paper Eq. 22): E2 (8.8 GPa) must not exceed E1 (0.117 GPa): "
+                            "direction 1 is the fibre (stiffer) direction; |nu12| = 0.35 must "
+                            "be below sqrt(E1/E2) = 0.1153 (constitutive matrix not positive "
+                            "definite)\n")
+        assert r.stdout == ""
+    assert not (tmp_path / "e.result.h5").exists()
+
+
 def test_a_block_gets_a_warning_and_a_too_coarse_mesh_says_so(tmp_path):
     """h = 150 mm on a 210 x 311 mm plate (min(a, b)/h = 1.4), with the frequencies its own
     model gives: identified, with a warning that the plate theory describes a plate, not a
