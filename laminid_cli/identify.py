@@ -646,7 +646,8 @@ def run_optimizer(prob, progress=None):
     if not prob.feasible(x0):
         raise FitInputError(f"{prob.describe()}: the initial constants (with the fixed ones) are "
                        "outside the feasible region of Eq. 22 (E2 <= E1, |nu12| < "
-                       f"{options.nu_max}, positive moduli)")
+                       f"{options.nu_max}, positive moduli, and with the paper's alphas E2 and "
+                       "the shear moduli at least 1e-4 E1)")
     if options.solver == "reduced" and prob.given_basis is not None:
         prob.start_reduced(None, prob.given_basis)
     ev0 = prob.evaluate(x0)

@@ -1067,6 +1067,22 @@ def test_initial_nu12_outside_the_search_names_the_file(tmp_path):
             "identification's range |nu12| <= 0.95") in r.output
 
 
+def test_initial_modulus_below_the_searchs_floor_names_the_file_and_the_field(tmp_path):
+    """G12: 3.1 MPa among moduli in GPa (admissible, but below the alphas' floor 1e-4 E1): was
+    refused as "outside the feasible region of Eq. 22 (E2 <= E1, |nu12| < 0.95, positive
+    moduli)", which named neither the constant nor a condition it breaks."""
+    bad = tmp_path / "g.yaml"
+    bad.write_text(Path(S11).read_text().replace("G12: 3.1 GPa", "G12: 3.1 MPa"))
+    r = run("identify", bad, "--mesh", "4x4")
+    assert r.exit_code == 2, r.output
+    assert r.stderr == (f"laminid: error: {bad}: material 'IM7/977-2', field 'G12': the initial "
+                        "G12 = 0.0031 GPa is below the identification's limit 0.0001 E1 = "
+                        "0.01183 GPa (E1 = 117.2 GPa): a unit slip (MPa for GPa?), or a material "
+                        "whose G12 is not that small beside E1; the search starts at the file's "
+                        "values\n")
+    assert r.stdout == "" and not (tmp_path / "g.result.h5").exists()
+
+
 def test_one_modulus_in_another_unit_breaking_eq22_is_named_at_its_line(tmp_path):
     """E1: 117 MPa for a carbon ply (the others in GPa): the message named the material's line
     and gave the moduli in Pa (E2 (8.8e+09 Pa) must not exceed E1 (1.17e+08 Pa)); it names E1's
