@@ -961,6 +961,26 @@ def test_input_file_that_is_a_folder_or_missing_is_refused_in_laminids_format(tm
     assert r.stdout == ""
 
 
+@pytest.mark.parametrize("command", [["fit-frf"], ["export", "-o", "{tmp}/x.uff"]])
+@pytest.mark.parametrize("header", [
+    "name,specimen,material,constant,value,lower,upper,verdict",      # the long form
+    "name,specimen,path,status,reasons,IM7/977-2 E1 [Pa]",            # --wide
+], ids=["long", "wide"])
+def test_a_batch_summary_given_as_frfs_is_named_as_such(tmp_path, command, header):
+    """fit-frf or export of a batch's summary.csv (a CSV, so read as FRF columns) said
+    "line 2, column 1 ('name'): 'example1/S1.1' is not a number"; it says what the file is and
+    which command draws it."""
+    summary = tmp_path / "summary.csv"
+    summary.write_text(header + "\nexample1/S1.1,S1.1,IM7/977-2,E1,1.6e11,1.5e11,1.7e11,weak\n")
+    r = run(*[c.format(tmp=tmp_path) for c in command[:1]], summary,
+            *[c.format(tmp=tmp_path) for c in command[1:]])
+    assert r.exit_code == 2, r.output
+    assert r.stderr == (f"laminid: error: {summary}: a laminid batch summary, not FRFs: "
+                        f"'laminid report {summary}' draws it; FRFs are what laminid acquire "
+                        "writes (.frf.h5), UFF 58 or a CSV of frequency and FRF columns\n")
+    assert not (tmp_path / "x.uff").exists()
+
+
 def test_output_through_a_symbolic_link_writes_its_target(tmp_path):
     """--force on a symbolic link replaces the file it points to; the link stays a link."""
     import h5py
