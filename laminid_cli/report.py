@@ -2219,32 +2219,11 @@ def is_summary(path) -> bool:
     return p.suffix.lower() in (".csv", ".json")
 
 
-def _is_frf_text_file(path) -> bool:
-    """A Universal File (.uff/.unv) or a CSV FRF file (first column the frequency, or a
-    '# laminid FRF' comment), given to ``report`` instead of a result or summary."""
-    p = Path(path)
-    suffix = p.suffix.lower()
-    if suffix in (".uff", ".unv"):
-        return True
-    if suffix != ".csv":
-        return False
-    try:
-        with open(p, encoding="utf-8-sig", errors="replace") as fh:
-            head = [fh.readline() for _ in range(5)]
-    except OSError:
-        return False
-    if any(ln.lstrip().startswith("# laminid FRF") for ln in head):
-        return True
-    first = next((ln.strip() for ln in head if ln.strip() and not ln.lstrip().startswith("#")),
-                 "")
-    return first.split(",")[0].split(";")[0].strip().lower().startswith(("freq", "f_hz"))
-
-
 def report_pages(path, *, frf_path=None) -> list[Page]:
     """Pages of a result file or a batch summary (by the suffix: .csv/.json = summary)."""
-    if _is_frf_text_file(path):
-        from laminid_cli.resultfile import ResultFileError, not_a_result_but_frf
+    from laminid_cli.resultfile import ResultFileError, is_frf_text_file, not_a_result_but_frf
 
+    if is_frf_text_file(path):
         raise ResultFileError(not_a_result_but_frf(path))
     if is_summary(path):
         return summary_pages(path)
