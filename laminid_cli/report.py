@@ -911,9 +911,12 @@ def _bound_panel(ax, k, v, iv, x, ymin, ymax):
     pb = getattr(iv, "profile_bound", np.nan)
     if np.isfinite(pb):
         # the values the fit does not reject: from the limit to the profile's bound (in view)
+        # (its words from the cap towards the limit, as the flat profile's: centred on a cap
+        # at the panel's edge, the first line ran out of the panel)
         y = _gpa(k, pb)
         _profile_line(ax, x, v, y, ymin, ymax, f"profile\n{'<' if y > v else '>'} "
-                      f"{fmt_value(k, pb)}", xytext=(6, 0), va="center", ha="left")
+                      f"{fmt_value(k, pb)}", xytext=(6, -1 if y > v else 1),
+                      va="top" if y > v else "bottom", ha="left")
     elif iv.profile_kind == "flat":
         far = getattr(iv, "profile_far", np.nan)
         if not np.isfinite(far):
