@@ -614,3 +614,20 @@ def test_a_bounded_profiles_words_stay_inside_their_panel(s21_8x8):
     box, panel = label.get_window_extent(), a.get_window_extent()
     assert panel.y0 <= box.y0 and box.y1 <= panel.y1, (box, panel)
     plt.close(fig)
+
+
+def test_frequency_table_headers_fit_their_cells(s21_8x8):
+    """The measured-vs-model table of page 1: its bold headers 'measured (Hz)', 'model mode'
+    and 'weight' ran over their cells' borders (into the next header) on the A4 page."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = result_page(s21_8x8[1], "summary")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    table = ax(fig, "frequency-table").tables[0]
+    for (i, j), cell in table.get_celld().items():
+        if i:
+            continue
+        text, box = cell.get_text(), cell.get_window_extent(renderer)
+        inner = text.get_window_extent(renderer)
+        assert box.x0 < inner.x0 and inner.x1 < box.x1, (text.get_text(), inner, box)
