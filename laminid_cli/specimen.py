@@ -1181,10 +1181,12 @@ def _reference_value(r: _Reader, y: _Y, kind: str) -> float | tuple[float, float
         if len(y.value) != 2:
             raise r.error(y, "a range is written [low, high]")
         low, high = (r.quantity(item, kind) for item in y.value)
+        # the ends as written ('170 GPa'), not in Pa (1.7e+11)
+        ends = [item.value for item in y.value]
         if low > high:
-            raise r.error(y, f"range [{low:g}, {high:g}] has low > high")
+            raise r.error(y, f"range [{ends[0]}, {ends[1]}] has low > high: write [low, high]")
         if kind == "modulus" and low <= 0:
-            raise r.error(y, f"a reference modulus must be positive, got {low:g} Pa")
+            raise r.error(y, f"a reference modulus must be positive, got {ends[0]!r}")
         return low if low == high else (low, high)
     value = r.quantity(y, kind)
     if kind == "modulus" and value <= 0:

@@ -1103,6 +1103,30 @@ def test_initial_modulus_below_the_searchs_floor_names_the_file_and_the_field(tm
     assert r.stdout == "" and not (tmp_path / "g.result.h5").exists()
 
 
+@pytest.mark.parametrize("old, new, said", [
+    ("E1: 170 GPa", "E1: [170 GPa, 150 GPa]",
+     "field 'reference.materials.IM7/977-2.E1': range [170 GPa, 150 GPa] has low > high: "
+     "write [low, high]"),
+    ("nu12: 0.35}", "nu12: [0.4, 0.3]}",
+     "field 'reference.materials.IM7/977-2.nu12': range [0.4, 0.3] has low > high: "
+     "write [low, high]"),
+    ("E1: 170 GPa", "E1: [-1 GPa, 150 GPa]",
+     "field 'reference.materials.IM7/977-2.E1': a reference modulus must be positive, "
+     "got '-1 GPa'"),
+], ids=["modulus", "nu12", "negative end"])
+def test_a_reference_range_written_wrongly_is_quoted_as_written(tmp_path, old, new, said):
+    """A reference range high end first was refused as "range [1.7e+11, 1.5e+11] has low >
+    high" (Pa, whatever the file wrote), and a negative end as "got -1e+09 Pa"."""
+    text = Path(S11).read_text()
+    line = next(k for k, t in enumerate(text.splitlines(), 1) if "IM7/977-2: {E1: 170" in t)
+    bad = tmp_path / "r.yaml"
+    bad.write_text(text.replace(old, new))
+    r = run("identify", bad, "--mesh", "4x4")
+    assert r.exit_code == 2, r.output
+    assert r.stderr == f"laminid: error: {bad}:{line}, {said}\n"
+    assert r.stdout == "" and not (tmp_path / "r.result.h5").exists()
+
+
 def test_one_modulus_in_another_unit_breaking_eq22_is_named_at_its_line(tmp_path):
     """E1: 117 MPa for a carbon ply (the others in GPa): the message named the material's line
     and gave the moduli in Pa (E2 (8.8e+09 Pa) must not exceed E1 (1.17e+08 Pa)); it names E1's
