@@ -191,7 +191,7 @@ def infeasibility_reasons(c: ElasticConstants) -> list[str]:
     for name in ("E1", "E2", "G12", "G13", "G23"):
         value = getattr(c, name)
         if not np.isfinite(value) or value <= 0:
-            reasons.append(f"{name} must be positive (got {value:g} Pa)")
+            reasons.append(f"{name} must be positive (got {value / 1e9:.4g} GPa)")
     if not np.isfinite(c.nu12):
         reasons.append(f"nu12 must be a finite number (got {c.nu12})")
     if reasons:

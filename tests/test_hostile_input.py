@@ -1103,6 +1103,19 @@ def test_initial_modulus_below_the_searchs_floor_names_the_file_and_the_field(tm
     assert r.stdout == "" and not (tmp_path / "g.result.h5").exists()
 
 
+def test_a_negative_modulus_is_said_in_gpa(tmp_path):
+    """G12: -3.1 GPa was refused with "G12 must be positive (got -3.1e+09 Pa)"."""
+    text = Path(S11).read_text()
+    line = next(k for k, t in enumerate(text.splitlines(), 1) if t.strip() == "IM7/977-2:")
+    bad = tmp_path / "g.yaml"
+    bad.write_text(text.replace("G12: 3.1 GPa", "G12: -3.1 GPa"))
+    r = run("modes", bad, "--mesh", "4x4")
+    assert r.exit_code == 2, r.output
+    assert r.stderr == (f"laminid: error: {bad}:{line}, field 'materials.IM7/977-2': constants "
+                        "not physically admissible (paper Eq. 22): G12 must be positive (got "
+                        "-3.1 GPa)\n")
+
+
 @pytest.mark.parametrize("old, new, said", [
     ("E1: 170 GPa", "E1: [170 GPa, 150 GPa]",
      "field 'reference.materials.IM7/977-2.E1': range [170 GPa, 150 GPa] has low > high: "
