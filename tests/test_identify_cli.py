@@ -407,3 +407,25 @@ def test_moduli_written_in_mpa_are_refused_with_the_unit_hint(tmp_path):
     assert r.stdout == "" and not (tmp_path / "mpa.result.h5").exists()
     r = run("modes", spec, "--mesh", "4x4")
     assert r.exit_code == 0 and hint in r.stderr
+
+
+def test_a_mesh_too_coarse_for_the_measured_modes_is_warned_as_modes_warns(tmp_path):
+    """identify --mesh 3x3 on S1.1 (360 equations for 12 modes) said nothing of the mesh
+    (modes warned of it): its status was poor_fit, naming 'a mesh too coarse' among five
+    causes. The result's warnings (terminal, --json, the file) now carry modes' words; the
+    count is the whole plate's equations, not the bending model's the fit runs on."""
+    spec = "specimens/example1/S1.1.yaml"
+    words = ("the mesh 3x3 (360 equations) is coarse for 12 modes: 30 equations per mode, "
+             "fewer than 150, where the highest mode computed is typically 1 % or more off a "
+             "converged mesh. Use --mesh 8x8 or finer, and check a mesh with 'laminid "
+             "identify --mesh-check'")
+    r = run("identify", spec, "--mesh", "3x3", "--fix", "nu12,G13,G23", "--json", "--no-output")
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout)
+    assert doc["equations"] == "bending" and f"{spec}: {words}" in doc["warnings"]
+    r = run("modes", spec, "--mesh", "3x3")
+    assert r.exit_code == 0 and f"warning: {spec}: {words}" in r.stderr
+    r = run("identify", spec, "--mesh", "8x8", "--fix", "nu12,G13,G23", "--json",
+            "--no-output")                              # 2025 equations: 169 per mode
+    assert r.exit_code == 0, r.output
+    assert not any("coarse" in w for w in json.loads(r.stdout)["warnings"])
