@@ -981,6 +981,18 @@ def test_a_batch_summary_given_as_frfs_is_named_as_such(tmp_path, command, heade
     assert not (tmp_path / "x.uff").exists()
 
 
+@pytest.mark.parametrize("command", [["fit-frf"], ["export", "-o", "{tmp}/x.uff"]])
+def test_an_empty_hdf5_frf_file_is_said_to_be_empty(tmp_path, command):
+    """A 0-byte plate.frf.h5 (a copy that failed, a file created and never written) was "not a
+    readable HDF5 file (Unable to synchronously open file (file signature not found))"."""
+    empty = tmp_path / "plate.frf.h5"
+    empty.write_bytes(b"")
+    r = run(command[0], empty, *[c.format(tmp=tmp_path) for c in command[1:]])
+    assert r.exit_code == 2, r.output
+    assert r.stderr == f"laminid: error: {empty}: the file is empty (0 bytes), not an HDF5 file\n"
+    assert r.stdout == "" and not (tmp_path / "x.uff").exists()
+
+
 def test_output_through_a_symbolic_link_writes_its_target(tmp_path):
     """--force on a symbolic link replaces the file it points to; the link stays a link."""
     import h5py
