@@ -225,7 +225,11 @@ def far_from_model(measured_hz: np.ndarray, model_hz: np.ndarray, weight: np.nda
 def far_cause(measured_hz: np.ndarray, model_hz: np.ndarray, weight: np.ndarray) -> str:
     """The likely cause of measured frequencies far from the model's (``modes``' warning and
     ``identify``'s refusal): a median measured/model ratio near 1/1000 (1/3000 to 1/300) reads
-    as frequencies written in kHz as bare numbers (bare is Hz); else the things to check.
+    as frequencies written in kHz as bare numbers (bare is Hz); near sqrt(1000) = 31.6 (15 to
+    70: an initial guess 2.2 times off in frequency either way) as moduli 1000 times too small,
+    MPa written where GPa is meant (or a density 1000 times too large); near 1/31.6 as the
+    reverse (a mass in g written as kg is refused as an implausible density before, and one in
+    kg written as g is warned of as too light); else the things to check.
 
     measured_hz, model_hz, weight : (n_modes,), Hz (NaN where not measured) and weights.
     """
@@ -236,6 +240,15 @@ def far_cause(measured_hz: np.ndarray, model_hz: np.ndarray, weight: np.ndarray)
     if 1 / 3000 < ratio < 1 / 300:
         return ("the measured frequencies look like kHz: write them in Hz (a bare number "
                 "is Hz) or with their unit, '0.125 kHz'")
+    if 15 < ratio < 70:
+        return (f"the model's frequencies are 1/{ratio:.0f} of the measured ones, as with "
+                "moduli 1000 times too small (frequency goes as sqrt(modulus/density)): check "
+                "the moduli's units (MPa written where GPa is meant?), then the mass/density")
+    if 1 / 70 < ratio < 1 / 15:
+        return (f"the model's frequencies are {1 / ratio:.0f} times the measured ones, as with "
+                "moduli 1000 times too large or a density 1000 times too small (frequency goes "
+                "as sqrt(modulus/density)): check the units of the moduli, the mass and the "
+                "density")
     return "check the units, the mass/density, the geometry and the initial constants"
 
 

@@ -191,13 +191,13 @@ def infeasibility_reasons(c: ElasticConstants) -> list[str]:
     for name in ("E1", "E2", "G12", "G13", "G23"):
         value = getattr(c, name)
         if not np.isfinite(value) or value <= 0:
-            reasons.append(f"{name} must be positive (got {value:g} Pa)")
+            reasons.append(f"{name} must be positive (got {value / 1e9:.4g} GPa)")
     if not np.isfinite(c.nu12):
         reasons.append(f"nu12 must be a finite number (got {c.nu12})")
     if reasons:
         return reasons
     if c.E2 > c.E1:
-        reasons.append(f"E2 ({c.E2:.4g} Pa) must not exceed E1 ({c.E1:.4g} Pa): "
+        reasons.append(f"E2 ({c.E2 / 1e9:.4g} GPa) must not exceed E1 ({c.E1 / 1e9:.4g} GPa): "
                        "direction 1 is the fibre (stiffer) direction")
     limit = np.sqrt(c.E1 / c.E2)
     if abs(c.nu12) >= limit:

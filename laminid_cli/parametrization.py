@@ -320,8 +320,27 @@ def make_parameters(name: str, initial: ElasticConstants, fixed=(), *, kind: str
     if not free:
         return ConstantParameters(name, initial, (), nu_max, bound_factor, region, floor)
     if kind == "alpha" or (kind == "auto" and not fixed and not prior):
+        _check_alpha_floor(name, initial)
         return AlphaParameters(name, initial, nu_max, bound_factor)
     return ConstantParameters(name, initial, free, nu_max, bound_factor, region, floor)
+
+
+def _check_alpha_floor(name: str, initial: ElasticConstants) -> None:
+    """Refuse initial constants below the alphas' floor (E2 >= r E1, a shear modulus >= r E1
+    / (1 - nu12^2 E2 / E1), r = MIN_MODULUS_RATIO), naming the modulus: a start there is
+    outside the search (a shear modulus written in MPa among GPa was refused as "outside the
+    feasible region of Eq. 22 (E2 <= E1, |nu12| < 0.95, positive moduli)", none of which it
+    is)."""
+    r = MIN_MODULUS_RATIO
+    for k in RATIO_MODULI:
+        value = getattr(initial, k)
+        limit = r * initial.E1 * (1.0 if k == "E2" else alpha_floor(initial))
+        if value < limit * (1 - 1e-9):
+            raise FitInputError(
+                f"material '{name}', field '{k}': the initial {k} = {value / 1e9:.4g} GPa is "
+                f"below the identification's limit {r:g} E1 = {limit / 1e9:.4g} GPa (E1 = "
+                f"{initial.E1 / 1e9:.4g} GPa): a unit slip (MPa for GPa?), or a material "
+                f"whose {k} is not that small beside E1; the search starts at the file's values")
 
 
 def alpha_floor(c: ElasticConstants) -> float:

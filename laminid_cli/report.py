@@ -463,7 +463,9 @@ def table_fraction(n_rows: int) -> float:
     return min(1.0, (n_rows + 1) / TABLE_ROWS)
 
 
-def _table(ax, head, rows, *, fontsize=8, col_widths=None, colors=None):
+def _table(ax, head, rows, *, fontsize=8, col_widths=None, colors=None, head_fontsize=None):
+    """A table of ``rows`` under bold ``head`` cells filling ``ax`` (``head_fontsize``: the
+    header's, where its words are wider than the columns' values)."""
     ax.axis("off")
     if not rows:
         return None
@@ -474,7 +476,7 @@ def _table(ax, head, rows, *, fontsize=8, col_widths=None, colors=None):
     for (i, _), cell in t.get_celld().items():
         cell.set_linewidth(0.3)
         if i == 0:
-            cell.set_text_props(weight="bold")
+            cell.set_text_props(weight="bold", fontsize=head_fontsize or fontsize)
             cell.set_facecolor("0.92")
     return t
 
@@ -534,8 +536,10 @@ def frequency_block(fig, spec, plate) -> None:
                            wspace=0.0)
     ax_t = fig.add_subplot(sub[0, 0])
     ax_r = fig.add_subplot(sub[0, 1])
-    _table(ax_t, head, rows, fontsize=7.5,
-           col_widths=[0.12, 0.13, 0.21, 0.2, 0.2, 0.14])
+    # the bold two-line headers smaller than the values: at 7.5 pt 'measured', 'model' of
+    # 'model mode' and 'weight' ran over their cells' borders on the A4 page
+    _table(ax_t, head, rows, fontsize=7.5, head_fontsize=6.5,
+           col_widths=[0.11, 0.13, 0.21, 0.2, 0.2, 0.15])
     ax_t.set_gid("frequency-table")
     ax_t.set_title("measured vs model frequencies", fontsize=9, loc="left")
     fr = plate.frequencies
@@ -911,9 +915,12 @@ def _bound_panel(ax, k, v, iv, x, ymin, ymax):
     pb = getattr(iv, "profile_bound", np.nan)
     if np.isfinite(pb):
         # the values the fit does not reject: from the limit to the profile's bound (in view)
+        # (its words from the cap towards the limit, as the flat profile's: centred on a cap
+        # at the panel's edge, the first line ran out of the panel)
         y = _gpa(k, pb)
         _profile_line(ax, x, v, y, ymin, ymax, f"profile\n{'<' if y > v else '>'} "
-                      f"{fmt_value(k, pb)}", xytext=(6, 0), va="center", ha="left")
+                      f"{fmt_value(k, pb)}", xytext=(6, -1 if y > v else 1),
+                      va="top" if y > v else "bottom", ha="left")
     elif iv.profile_kind == "flat":
         far = getattr(iv, "profile_far", np.nan)
         if not np.isfinite(far):
@@ -2219,32 +2226,11 @@ def is_summary(path) -> bool:
     return p.suffix.lower() in (".csv", ".json")
 
 
-def _is_frf_text_file(path) -> bool:
-    """A Universal File (.uff/.unv) or a CSV FRF file (first column the frequency, or a
-    '# laminid FRF' comment), given to ``report`` instead of a result or summary."""
-    p = Path(path)
-    suffix = p.suffix.lower()
-    if suffix in (".uff", ".unv"):
-        return True
-    if suffix != ".csv":
-        return False
-    try:
-        with open(p, encoding="utf-8-sig", errors="replace") as fh:
-            head = [fh.readline() for _ in range(5)]
-    except OSError:
-        return False
-    if any(ln.lstrip().startswith("# laminid FRF") for ln in head):
-        return True
-    first = next((ln.strip() for ln in head if ln.strip() and not ln.lstrip().startswith("#")),
-                 "")
-    return first.split(",")[0].split(";")[0].strip().lower().startswith(("freq", "f_hz"))
-
-
 def report_pages(path, *, frf_path=None) -> list[Page]:
     """Pages of a result file or a batch summary (by the suffix: .csv/.json = summary)."""
-    if _is_frf_text_file(path):
-        from laminid_cli.resultfile import ResultFileError, not_a_result_but_frf
+    from laminid_cli.resultfile import ResultFileError, is_frf_text_file, not_a_result_but_frf
 
+    if is_frf_text_file(path):
         raise ResultFileError(not_a_result_but_frf(path))
     if is_summary(path):
         return summary_pages(path)

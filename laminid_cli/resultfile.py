@@ -31,15 +31,37 @@ MAKES_A_RESULT = ("laminid identify SPEC.yaml (or laminid identify A.yaml B.yaml
 
 
 def not_a_result_but_frf(path) -> str:
-    """The message for an FRF file given where a result is expected (``laminid report``):
-    what draws it (``fit-frf --plot``) and what makes a result of it (``identify``)."""
+    """The message for an FRF file given where a result is expected (``laminid report``,
+    ``laminid show``): what draws it (``fit-frf --plot``) and what makes a result of it
+    (``identify``)."""
     import shlex
 
     q = shlex.quote(str(path))
     plot = shlex.quote(f"{Path(path).name.split('.')[0] or 'frf'}.fit.pdf")
     return (f"{path}: an FRF file, not an identification result: laminid fit-frf {q} --plot "
-            f"{plot} draws its FRFs and their fit; a report needs a result: laminid fit-frf {q} "
+            f"{plot} draws its FRFs and their fit; a result is made from it by laminid fit-frf {q} "
             "--into SPEC.yaml, then laminid identify SPEC.yaml")
+
+
+def is_frf_text_file(path) -> bool:
+    """A Universal File (.uff/.unv) or a CSV FRF file (first column the frequency, or a
+    '# laminid FRF' comment), given to ``report`` or ``show`` instead of a result or summary."""
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if suffix in (".uff", ".unv"):
+        return True
+    if suffix != ".csv":
+        return False
+    try:
+        with open(p, encoding="utf-8-sig", errors="replace") as fh:
+            head = [fh.readline() for _ in range(5)]
+    except OSError:
+        return False
+    if any(ln.lstrip().startswith("# laminid FRF") for ln in head):
+        return True
+    first = next((ln.strip() for ln in head if ln.strip() and not ln.lstrip().startswith("#")),
+                 "")
+    return first.split(",")[0].split(";")[0].strip().lower().startswith(("freq", "f_hz"))
 
 
 class ResultFileError(LaminidError):

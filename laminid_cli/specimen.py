@@ -698,6 +698,23 @@ def _isotropic_values(r: _Reader, name: str, y: _Y) -> dict:
     return {"E1": E, "E2": E, "G12": G, "G13": G, "G23": G, "nu12": nu}
 
 
+def _odd_unit(m: dict) -> tuple[str, str, str] | None:
+    """The one modulus of a material written in another unit than the four others, which
+    share theirs (by its factor: GPa and kN/mm^2 are one unit): (key, its unit as written,
+    the others' unit); None when there is no such one."""
+    from laminid_cli.units import written_unit
+
+    units = {k: written_unit(m[k].value, "modulus") for k in _MODULI}
+    if any(u is None for u in units.values()):
+        return None
+    for key in _MODULI:
+        others = {units[k][1] for k in _MODULI if k != key}
+        if len(others) == 1 and units[key][1] not in others:
+            other = next(units[k][0] for k in _MODULI if k != key)
+            return key, units[key][0], other or "Pa (bare numbers)"
+    return None
+
+
 def _read_material(r: _Reader, name: str, y: _Y) -> Material:
     if isinstance(y.value, dict) and ("E" in y.value or "nu" in y.value):
         values = _isotropic_values(r, name, y)
@@ -710,6 +727,14 @@ def _read_material(r: _Reader, name: str, y: _Y) -> Material:
     constants = ElasticConstants(**values)
     reasons = infeasibility_reasons(constants)
     if reasons:
+        odd = None if "E" in m or "nu" in m else _odd_unit(m)
+        if odd is not None:
+            # E1: 117 MPa among moduli in GPa: the line of the value in the odd unit, and why
+            key, unit, others = odd
+            raise r.error(m[key], f"'{m[key].value}' is in {unit or 'Pa (a bare number)'} where "
+                                  f"the material's other moduli are in {others}: a unit slip? "
+                                  "With it the constants are not physically admissible (paper "
+                                  "Eq. 22): " + "; ".join(reasons))
         raise r.error(y, "constants not physically admissible (paper Eq. 22): "
                          + "; ".join(reasons))
     density = r.positive(m["density"], "density") if "density" in m else None
@@ -1156,10 +1181,12 @@ def _reference_value(r: _Reader, y: _Y, kind: str) -> float | tuple[float, float
         if len(y.value) != 2:
             raise r.error(y, "a range is written [low, high]")
         low, high = (r.quantity(item, kind) for item in y.value)
+        # the ends as written ('170 GPa'), not in Pa (1.7e+11)
+        ends = [item.value for item in y.value]
         if low > high:
-            raise r.error(y, f"range [{low:g}, {high:g}] has low > high")
+            raise r.error(y, f"range [{ends[0]}, {ends[1]}] has low > high: write [low, high]")
         if kind == "modulus" and low <= 0:
-            raise r.error(y, f"a reference modulus must be positive, got {low:g} Pa")
+            raise r.error(y, f"a reference modulus must be positive, got {ends[0]!r}")
         return low if low == high else (low, high)
     value = r.quantity(y, kind)
     if kind == "modulus" and value <= 0:

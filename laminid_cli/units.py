@@ -233,6 +233,30 @@ def parse_quantity(value, kind: str, *, where: Where | None = None,
     return si
 
 
+def written_unit(value, kind: str) -> tuple[str, float] | None:
+    """The unit a quantity was written in and its factor to the base unit: ``("MPa", 1e6)``
+    for ``"117 MPa"``, ``("", 1.0)`` for a bare number; None when ``value`` does not read as a
+    ``kind`` (:func:`parse_quantity` says why). Tells a value written in another unit than its
+    neighbours (E1 in MPa among moduli in GPa).
+
+    >>> written_unit("117.2 gpa", "modulus")
+    ('gpa', 1000000000.0)
+    """
+    kind = canonical_kind(kind)
+    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+        return None
+    if not isinstance(value, str):
+        return "", 1.0
+    match = _NUMBER.match(normalize_text(value))
+    if match is None:
+        return None
+    unit = match.group(2)
+    if not unit:
+        return "", 1.0
+    factor = _lookup_unit(unit, kind)
+    return None if factor is None else (unit, factor)
+
+
 def parse_fraction(value, *, where: Where | None = None) -> float:
     """A dimensionless ratio written as a plain number or as a percentage: the ratio.
 

@@ -961,6 +961,38 @@ def test_input_file_that_is_a_folder_or_missing_is_refused_in_laminids_format(tm
     assert r.stdout == ""
 
 
+@pytest.mark.parametrize("command", [["fit-frf"], ["export", "-o", "{tmp}/x.uff"]])
+@pytest.mark.parametrize("header", [
+    "name,specimen,material,constant,value,lower,upper,verdict",      # the long form
+    "name,specimen,path,status,reasons,IM7/977-2 E1 [Pa]",            # --wide
+], ids=["long", "wide"])
+def test_a_batch_summary_given_as_frfs_is_named_as_such(tmp_path, command, header):
+    """fit-frf or export of a batch's summary.csv (a CSV, so read as FRF columns) said
+    "line 2, column 1 ('name'): 'example1/S1.1' is not a number"; it says what the file is and
+    which command draws it."""
+    summary = tmp_path / "summary.csv"
+    summary.write_text(header + "\nexample1/S1.1,S1.1,IM7/977-2,E1,1.6e11,1.5e11,1.7e11,weak\n")
+    r = run(*[c.format(tmp=tmp_path) for c in command[:1]], summary,
+            *[c.format(tmp=tmp_path) for c in command[1:]])
+    assert r.exit_code == 2, r.output
+    assert r.stderr == (f"laminid: error: {summary}: a laminid batch summary, not FRFs: "
+                        f"'laminid report {summary}' draws it; FRFs are what laminid acquire "
+                        "writes (.frf.h5), UFF 58 or a CSV of frequency and FRF columns\n")
+    assert not (tmp_path / "x.uff").exists()
+
+
+@pytest.mark.parametrize("command", [["fit-frf"], ["export", "-o", "{tmp}/x.uff"]])
+def test_an_empty_hdf5_frf_file_is_said_to_be_empty(tmp_path, command):
+    """A 0-byte plate.frf.h5 (a copy that failed, a file created and never written) was "not a
+    readable HDF5 file (Unable to synchronously open file (file signature not found))"."""
+    empty = tmp_path / "plate.frf.h5"
+    empty.write_bytes(b"")
+    r = run(command[0], empty, *[c.format(tmp=tmp_path) for c in command[1:]])
+    assert r.exit_code == 2, r.output
+    assert r.stderr == f"laminid: error: {empty}: the file is empty (0 bytes), not an HDF5 file\n"
+    assert r.stdout == "" and not (tmp_path / "x.uff").exists()
+
+
 def test_output_through_a_symbolic_link_writes_its_target(tmp_path):
     """--force on a symbolic link replaces the file it points to; the link stays a link."""
     import h5py
@@ -992,6 +1024,36 @@ def test_unwritable_output_folder_is_refused_before_the_work(tmp_path, monkeypat
         monkeypatch.setattr(os, "access", real)
         r = run("identify", S11, "--mesh", "6x6", "-o", "/proc/laminid-x.h5")
         assert r.exit_code == 2 and "folder /proc cannot be written to" in r.output
+
+
+def test_batch_out_folder_that_cannot_be_written_is_refused_before_any_specimen(tmp_path,
+                                                                                monkeypatch):
+    """batch --out into a folder it cannot write to (a read-only mount; here os.access says
+    so, as the tests may run as root) is refused up front naming --out, exit 2: it identified
+    the first specimen, failed on its result, then again on the summaries, and the one line
+    left named their temporary file (.summary.csv.tmp-PID: Read-only file system)."""
+    import os
+
+    out = tmp_path / "results"
+    out.mkdir()
+    real = os.access
+    monkeypatch.setattr(os, "access", lambda p, mode, **kw: False
+                        if Path(p) == out and mode & os.W_OK else real(p, mode, **kw))
+    r = run("batch", S11, "--mesh", "4x4", "--out", out)
+    assert r.exit_code == 2, r.output
+    assert r.stderr == (f"laminid: error: --out {out}: the folder cannot be written to "
+                        "(permissions, a read-only or special file system); choose another "
+                        "place with --out\n")
+    assert r.stdout == "" and list(out.iterdir()) == []
+    if Path("/proc/self").is_dir():        # Linux: root passes os.access, /proc takes no file
+        monkeypatch.setattr(os, "access", real)
+        r = run("batch", S11, "--mesh", "4x4", "--out", "/proc")
+        assert r.exit_code == 2
+        assert r.stderr.startswith("laminid: error: --out /proc: the folder cannot be written")
+        r = run("batch", S11, "--mesh", "4x4", "--out", "/proc/laminid-results")
+        assert r.exit_code == 2
+        assert r.stderr.startswith("laminid: error: --out /proc/laminid-results: cannot create "
+                                   "the folder (")
 
 
 def test_a_file_system_error_while_writing_is_one_line(tmp_path, monkeypatch):
@@ -1035,6 +1097,81 @@ def test_initial_nu12_outside_the_search_names_the_file(tmp_path):
     assert r.exit_code == 2
     assert (f"{bad}: material 'IM7/977-2', field 'nu12': the initial nu12 = 3.5 is outside the "
             "identification's range |nu12| <= 0.95") in r.output
+
+
+def test_initial_modulus_below_the_searchs_floor_names_the_file_and_the_field(tmp_path):
+    """G12: 3.1 MPa among moduli in GPa (admissible, but below the alphas' floor 1e-4 E1): was
+    refused as "outside the feasible region of Eq. 22 (E2 <= E1, |nu12| < 0.95, positive
+    moduli)", which named neither the constant nor a condition it breaks."""
+    bad = tmp_path / "g.yaml"
+    bad.write_text(Path(S11).read_text().replace("G12: 3.1 GPa", "G12: 3.1 MPa"))
+    r = run("identify", bad, "--mesh", "4x4")
+    assert r.exit_code == 2, r.output
+    assert r.stderr == (f"laminid: error: {bad}: material 'IM7/977-2', field 'G12': the initial "
+                        "G12 = 0.0031 GPa is below the identification's limit 0.0001 E1 = "
+                        "0.01183 GPa (E1 = 117.2 GPa): a unit slip (MPa for GPa?), or a material "
+                        "whose G12 is not that small beside E1; the search starts at the file's "
+                        "values\n")
+    assert r.stdout == "" and not (tmp_path / "g.result.h5").exists()
+
+
+def test_a_negative_modulus_is_said_in_gpa(tmp_path):
+    """G12: -3.1 GPa was refused with "G12 must be positive (got -3.1e+09 Pa)"."""
+    text = Path(S11).read_text()
+    line = next(k for k, t in enumerate(text.splitlines(), 1) if t.strip() == "IM7/977-2:")
+    bad = tmp_path / "g.yaml"
+    bad.write_text(text.replace("G12: 3.1 GPa", "G12: -3.1 GPa"))
+    r = run("modes", bad, "--mesh", "4x4")
+    assert r.exit_code == 2, r.output
+    assert r.stderr == (f"laminid: error: {bad}:{line}, field 'materials.IM7/977-2': constants "
+                        "not physically admissible (paper Eq. 22): G12 must be positive (got "
+                        "-3.1 GPa)\n")
+
+
+@pytest.mark.parametrize("old, new, said", [
+    ("E1: 170 GPa", "E1: [170 GPa, 150 GPa]",
+     "field 'reference.materials.IM7/977-2.E1': range [170 GPa, 150 GPa] has low > high: "
+     "write [low, high]"),
+    ("nu12: 0.35}", "nu12: [0.4, 0.3]}",
+     "field 'reference.materials.IM7/977-2.nu12': range [0.4, 0.3] has low > high: "
+     "write [low, high]"),
+    ("E1: 170 GPa", "E1: [-1 GPa, 150 GPa]",
+     "field 'reference.materials.IM7/977-2.E1': a reference modulus must be positive, "
+     "got '-1 GPa'"),
+], ids=["modulus", "nu12", "negative end"])
+def test_a_reference_range_written_wrongly_is_quoted_as_written(tmp_path, old, new, said):
+    """A reference range high end first was refused as "range [1.7e+11, 1.5e+11] has low >
+    high" (Pa, whatever the file wrote), and a negative end as "got -1e+09 Pa"."""
+    text = Path(S11).read_text()
+    line = next(k for k, t in enumerate(text.splitlines(), 1) if "IM7/977-2: {E1: 170" in t)
+    bad = tmp_path / "r.yaml"
+    bad.write_text(text.replace(old, new))
+    r = run("identify", bad, "--mesh", "4x4")
+    assert r.exit_code == 2, r.output
+    assert r.stderr == f"laminid: error: {bad}:{line}, {said}\n"
+    assert r.stdout == "" and not (tmp_path / "r.result.h5").exists()
+
+
+def test_one_modulus_in_another_unit_breaking_eq22_is_named_at_its_line(tmp_path):
+    """E1: 117 MPa for a carbon ply (the others in GPa): the message named the material's line
+    and gave the moduli in Pa (E2 (8.8e+09 Pa) must not exceed E1 (1.17e+08 Pa)); it names E1's
+    line, its unit against the others', and the moduli in GPa. modes and identify alike."""
+    text = Path(S11).read_text()
+    line = next(k for k, t in enumerate(text.splitlines(), 1) if t.strip().startswith("E1:"))
+    bad = tmp_path / "e.yaml"
+    bad.write_text(text.replace("E1: 117.2 GPa", "E1: 117 MPa"))
+    for cmd in ("modes", "identify"):
+        r = run(cmd, bad, "--mesh", "4x4")
+        assert r.exit_code == 2, r.output
+        assert r.stderr == (f"laminid: error: {bad}:{line}, field 'materials.IM7/977-2.E1': "
+                            "'117 MPa' is in MPa where the material's other moduli are in GPa: "
+                            "a unit slip? With it the constants are not physically admissible "
+                            "(paper Eq. 22): E2 (8.8 GPa) must not exceed E1 (0.117 GPa): "
+                            "direction 1 is the fibre (stiffer) direction; |nu12| = 0.35 must "
+                            "be below sqrt(E1/E2) = 0.1153 (constitutive matrix not positive "
+                            "definite)\n")
+        assert r.stdout == ""
+    assert not (tmp_path / "e.result.h5").exists()
 
 
 def test_a_block_gets_a_warning_and_a_too_coarse_mesh_says_so(tmp_path):

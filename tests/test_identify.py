@@ -483,7 +483,7 @@ def test_frequencies_in_khz_are_refused_with_the_khz_hint():
     with "check the units, the mass/density, the geometry and the initial constants" while
     modes said they look like kHz; both say it now (forward.far_cause)."""
     fm = plain_specimen(freq=[f / 1000 for f in FREQ_S11])
-    with pytest.raises(FitError, match=r"measured mode 1 \(0\.13 Hz\) is 8\d{4} % away from "
+    with pytest.raises(FitError, match=r"measured mode 1 \(0\.125 Hz\) is 8\d{4} % away from "
                        r"the model \(105\.\d\d Hz\) at the initial guess \(limit 50 %\): the "
                        r"measured frequencies look like kHz: write them in Hz \(a bare number "
                        r"is Hz\) or with their unit, '0\.125 kHz'\Z"):
@@ -492,6 +492,21 @@ def test_frequencies_in_khz_are_refused_with_the_khz_hint():
     with pytest.raises(FitError, match=r"\(limit 50 %\): check the units, the mass/density, "
                        r"the geometry and the initial constants\Z"):
         identify(plain_specimen(freq=[2.2 * f for f in FREQ_S11]))
+
+
+@pytest.mark.parametrize("factor, cause", [
+    (31.6, r"the model's frequencies are 1/\d\d of the measured ones, as with moduli 1000 times "
+           r"too small \(frequency goes as sqrt\(modulus/density\)\): check the moduli's units "
+           r"\(MPa written where GPa is meant\?\), then the mass/density\Z"),
+    (1 / 31.6, r"the model's frequencies are \d\d times the measured ones, as with moduli 1000 "
+               r"times too large or a density 1000 times too small"),
+], ids=["moduli 1000 times too small", "moduli 1000 times too large"])
+def test_frequencies_sqrt_1000_off_point_at_the_units_of_the_moduli(factor, cause):
+    """Frequencies sqrt(1000) times the model's (moduli written in MPa where GPa is meant)
+    or 1/sqrt(1000) of them: the refusal names that cause (forward.far_cause), not only the
+    list of things to check."""
+    with pytest.raises(FitError, match=r"at the initial guess \(limit 50 %\): " + cause):
+        identify(plain_specimen(freq=[factor * f for f in FREQ_S11]))
 
 
 def test_unknown_constant_in_fix():

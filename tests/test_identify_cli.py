@@ -382,8 +382,50 @@ def test_frequencies_in_khz_get_the_khz_hint_from_identify_as_from_modes(tmp_pat
             "with their unit, '0.125 kHz'")
     r = run("identify", spec, "--mesh", "4x4", "--no-output")
     assert r.exit_code == 2, r.output
-    assert f"{spec}: measured mode 1 (0.13 Hz) is 84252 % away from the model (105.48 Hz)" \
-        in r.stderr, r.stderr
+    assert f"{spec}: measured mode 1 (0.125 Hz) is 84252 % away from the model (105.48 Hz)" \
+        in r.stderr, r.stderr                   # 0.12505 Hz was shown as 0.13 Hz
     assert r.stderr.rstrip().endswith(f"at the initial guess (limit 50 %): {hint}"), r.stderr
     r = run("modes", spec, "--mesh", "4x4")
     assert r.exit_code == 0 and hint in r.stderr
+
+
+def test_moduli_written_in_mpa_are_refused_with_the_unit_hint(tmp_path):
+    """S1.1 with its moduli written in MPa (every one: each alone is a plausible modulus, and
+    the six are admissible): identify refused the start naming 'the units, the mass/density,
+    the geometry and the initial constants'; the model's frequencies 1/37 of the measured ones
+    now point at the moduli's units, in identify's refusal and modes' warning alike."""
+    spec = tmp_path / "mpa.yaml"
+    spec.write_text(re.sub(r" GPa$", " MPa", Path("specimens/example1/S1.1.yaml").read_text(),
+                           flags=re.M))
+    hint = ("the model's frequencies are 1/36 of the measured ones, as with moduli 1000 times "
+            "too small (frequency goes as sqrt(modulus/density)): check the moduli's units "
+            "(MPa written where GPa is meant?), then the mass/density")     # 1/37 at 12x12
+    r = run("identify", spec, "--mesh", "4x4")
+    assert r.exit_code == 2, r.output
+    assert r.stderr == (f"laminid: error: {spec}: measured mode 1 (125.05 Hz) is 97 % away from "
+                        f"the model (3.34 Hz) at the initial guess (limit 50 %): {hint}\n")
+    assert r.stdout == "" and not (tmp_path / "mpa.result.h5").exists()
+    r = run("modes", spec, "--mesh", "4x4")
+    assert r.exit_code == 0 and hint in r.stderr
+
+
+def test_a_mesh_too_coarse_for_the_measured_modes_is_warned_as_modes_warns(tmp_path):
+    """identify --mesh 3x3 on S1.1 (360 equations for 12 modes) said nothing of the mesh
+    (modes warned of it): its status was poor_fit, naming 'a mesh too coarse' among five
+    causes. The result's warnings (terminal, --json, the file) now carry modes' words; the
+    count is the whole plate's equations, not the bending model's the fit runs on."""
+    spec = "specimens/example1/S1.1.yaml"
+    words = ("the mesh 3x3 (360 equations) is coarse for 12 modes: 30 equations per mode, "
+             "fewer than 150, where the highest mode computed is typically 1 % or more off a "
+             "converged mesh. Use --mesh 8x8 or finer, and check a mesh with 'laminid "
+             "identify --mesh-check'")
+    r = run("identify", spec, "--mesh", "3x3", "--fix", "nu12,G13,G23", "--json", "--no-output")
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout)
+    assert doc["equations"] == "bending" and f"{spec}: {words}" in doc["warnings"]
+    r = run("modes", spec, "--mesh", "3x3")
+    assert r.exit_code == 0 and f"warning: {spec}: {words}" in r.stderr
+    r = run("identify", spec, "--mesh", "8x8", "--fix", "nu12,G13,G23", "--json",
+            "--no-output")                              # 2025 equations: 169 per mode
+    assert r.exit_code == 0, r.output
+    assert not any("coarse" in w for w in json.loads(r.stdout)["warnings"])

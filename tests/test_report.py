@@ -625,9 +625,17 @@ def test_report_of_an_frf_file_suggests_fit_frf_plot_and_identify(tmp_path, name
     assert r.exit_code == 2, r.output
     assert " ".join(r.output.split()) == (
         f"laminid: error: {path}: an FRF file, not an identification result: laminid fit-frf "
-        f"{path} --plot plate.fit.pdf draws its FRFs and their fit; a report needs a result: "
-        f"laminid fit-frf {path} --into SPEC.yaml, then laminid identify SPEC.yaml")
+        f"{path} --plot plate.fit.pdf draws its FRFs and their fit; a result is made from it "
+        f"by laminid fit-frf {path} --into SPEC.yaml, then laminid identify SPEC.yaml")
     assert not (tmp_path / "r.pdf").exists()
+    # show says the same (a CSV of FRFs was "a batch summary is text already", a UFF "not an
+    # HDF5 file, so not a laminid identification result"; "a report needs" fits no show)
+    r = run("show", path)
+    assert r.exit_code == 2 and r.stdout == ""
+    assert " ".join(r.stderr.split()) == (
+        f"laminid: error: {path}: an FRF file, not an identification result: laminid fit-frf "
+        f"{path} --plot plate.fit.pdf draws its FRFs and their fit; a result is made from it "
+        f"by laminid fit-frf {path} --into SPEC.yaml, then laminid identify SPEC.yaml")
     # and the command it suggests draws the file
     r = run("fit-frf", path, "--plot", tmp_path / "plate.fit.pdf")
     assert r.exit_code == 0 and (tmp_path / "plate.fit.pdf").exists(), r.output

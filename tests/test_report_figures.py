@@ -580,3 +580,54 @@ def test_monte_carlo_note_words():
                                           "file); their 95% ranges")
     u.monte_carlo = None
     assert monte_carlo_note(u) is None
+
+
+def test_a_bounded_profiles_words_stay_inside_their_panel(s21_8x8):
+    """Hybrid CM's glass G13 (on its lower limit, 0.0056 GPa; the fit rejects it above
+    10.1 GPa, the top of its log panel): "profile\\n< 10.10" was centred on the cap and its
+    first line ran out of the panel, over the top frame. S2.1's G13 (8x8) with such a bound
+    (3450 times its value) stands in for it."""
+    import dataclasses as dc
+
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from laminid_cli.report import interval_panel
+    from laminid_cli.resultfile import read_result
+
+    r = read_result(s21_8x8[1])
+    m = "E-glass/R368"
+    iv = r.uncertainty.get(m, "G13")
+    assert iv.at_bound and iv.bound_side == "lower"
+    bound = dc.replace(iv, profile_bound=3450 * iv.value, profile_far=np.nan,
+                       profile_text="the fit rejects G13 above 10.1 GPa")
+    assert bound.profile_kind == "bound"
+    u = dc.replace(r.uncertainty, intervals=tuple(bound if x is iv else x
+                                                  for x in r.uncertainty.intervals))
+    # a panel 1.4 inch tall, as on hybrid CM's page of two materials (one row each)
+    fig, a = plt.subplots(figsize=(1.6, 1.8))
+    interval_panel(a, dc.replace(r, uncertainty=u), m, "G13")
+    a.set_xlim(-0.75, 0.75)                        # as the intervals page (interval_page)
+    fig.draw_without_rendering()
+    label = next(t for t in a.texts if t.get_gid() == "profile-label")
+    assert label.get_text().startswith("profile\n< ")
+    box, panel = label.get_window_extent(), a.get_window_extent()
+    assert panel.y0 <= box.y0 and box.y1 <= panel.y1, (box, panel)
+    plt.close(fig)
+
+
+def test_frequency_table_headers_fit_their_cells(s21_8x8):
+    """The measured-vs-model table of page 1: its bold headers 'measured (Hz)', 'model mode'
+    and 'weight' ran over their cells' borders (into the next header) on the A4 page."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = result_page(s21_8x8[1], "summary")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    table = ax(fig, "frequency-table").tables[0]
+    for (i, j), cell in table.get_celld().items():
+        if i:
+            continue
+        text, box = cell.get_text(), cell.get_window_extent(renderer)
+        inner = text.get_window_extent(renderer)
+        assert box.x0 < inner.x0 and inner.x1 < box.x1, (text.get_text(), inner, box)

@@ -16,7 +16,7 @@ from laminid_cli.laminate import laminate_from_specimen
 from laminid_cli.material import ElasticConstants
 from laminid_cli.specimen import (LayupSyntaxError, expand_layup, load_specimen_text,
                                   read_specimen)
-from laminid_cli.units import Where, format_quantity, parse_quantity
+from laminid_cli.units import Where, format_quantity, parse_quantity, written_unit
 from tests.data import paper
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -104,6 +104,16 @@ def test_parse_quantity_errors_list_accepted_units(value, kind, words):
     assert msg.startswith("plate.yaml:7, field 'geometry.a': ")
     for word in words:
         assert word in msg
+
+
+@pytest.mark.parametrize("value, unit", [
+    ("117 MPa", ("MPa", 1e6)), ("117.2 gpa", ("gpa", 1e9)), ("3100 N/mm²", ("N/mm2", 1e6)),
+    (8.8e9, ("", 1.0)), ("8.8e9", ("", 1.0)), ("8.8 mm", None), ("wide", None), (True, None),
+])
+def test_written_unit_gives_the_unit_as_written_and_its_factor(value, unit):
+    """What tells E1: 117 MPa among moduli in GPa (units.written_unit): the unit as written
+    (after NFKC) and its factor; a bare number is the base unit; None where it does not read."""
+    assert written_unit(value, "modulus") == unit
 
 
 def test_a_modulus_in_n_per_mm2_reads_as_in_gpa():

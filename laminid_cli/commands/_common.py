@@ -133,24 +133,31 @@ def writable_target(path: str | Path, option: str = "-o") -> Path:
         raise OutputExistsError(f"{path}: folder {parent} does not exist")
     if not parent.is_dir():
         raise OutputExistsError(f"{path}: {parent} is not a folder")
-    unwritable = OutputExistsError(f"{path}: folder {parent} cannot be written to (permissions, "
-                                   "a read-only or special file system); choose another place "
-                                   f"with {option}")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise unwritable
-    # the file system has the last word (root passes os.access; /proc refuses new files)
+    if not folder_writable(parent):
+        raise OutputExistsError(f"{path}: folder {parent} cannot be written to (permissions, "
+                                "a read-only or special file system); choose another place "
+                                f"with {option}")
+    return path
+
+
+def folder_writable(folder: str | Path) -> bool:
+    """True when a file can be created in the existing ``folder``: its permissions, then a
+    probe file (root passes os.access; a read-only mount or /proc refuses new files)."""
+    import os
     import tempfile
 
+    if not os.access(folder, os.W_OK | os.X_OK):
+        return False
     try:
-        fd, probe = tempfile.mkstemp(prefix=".laminid-probe-", dir=parent)
+        fd, probe = tempfile.mkstemp(prefix=".laminid-probe-", dir=folder)
     except OSError:
-        raise unwritable from None
+        return False
     os.close(fd)
     try:
         os.unlink(probe)
     except OSError:
         pass
-    return path
+    return True
 
 
 def _same_file(a: Path, b) -> bool:

@@ -5,7 +5,8 @@ from __future__ import annotations
 import click
 
 from laminid_cli.commands._common import (echo_json, fit_options, json_option,
-                                          pass_run_options, quiet, uncertainty_options)
+                                          folder_writable, pass_run_options, quiet,
+                                          uncertainty_options)
 
 
 @click.command(short_help="Identify many specimens in parallel, with a summary table.")
@@ -118,7 +119,16 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
         raise BatchError(f"no specimen file (*.yaml, *.yml) found in {', '.join(inputs)}")
     check_fix_materials([p for p, _ in specimens], options)   # before anything is touched
     created = not out.exists()
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise BatchError(f"--out {out}: cannot create the folder ({exc.strerror or exc}); "
+                         "choose another place with --out") from None
+    # a folder the results cannot be written to: refused before any specimen runs (it failed
+    # at the first result, and then again on the summaries, naming their temporary file)
+    if not folder_writable(out):
+        raise BatchError(f"--out {out}: the folder cannot be written to (permissions, a "
+                         "read-only or special file system); choose another place with --out")
     remove_stale_parts(out)
     jobs = plan_batch(specimens, out, options, force=force)
     todo = [j for j in jobs if not j.up_to_date]

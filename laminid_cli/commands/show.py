@@ -31,8 +31,12 @@ def show(result, as_json):
 
     from laminid_cli.commands.text import (format_damping, format_identify_report,
                                            format_joint_report)
-    from laminid_cli.resultfile import ResultFileError, read_stored_summary
+    from laminid_cli.resultfile import (ResultFileError, is_frf_text_file, not_a_result_but_frf,
+                                        read_stored_summary)
 
+    if is_frf_text_file(result):
+        # a CSV of FRFs was called a batch summary, a UFF not an HDF5 result
+        raise ResultFileError(not_a_result_but_frf(result))
     if Path(result).suffix.lower() in (".csv", ".json"):
         # summary.csv / summary.json of a batch: text already, and report draws them
         raise ResultFileError(f"{result}: a batch summary is text already (a spreadsheet, "

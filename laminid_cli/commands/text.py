@@ -36,7 +36,7 @@ def format_constant(name: str, value) -> str:
         return "-"
     if name.startswith("nu"):
         return f"{value:.3f}"
-    return f"{value / 1e9:.2f} GPa"
+    return f"{_num(name, value)} GPa"          # a modulus below 0.1 GPa: 0.0031, not 0.00
 
 
 def format_header(s: dict) -> list[str]:
@@ -94,7 +94,7 @@ def format_global(props: dict, unc: dict | None = None) -> list[str]:
     parts = []
     for key, unit in GLOBAL_ORDER:
         v = props.get(key)
-        parts.append(f"{key} {v / 1e9:.2f} GPa" if unit == "GPa" else f"{key} {v:.3f}")
+        parts.append(f"{key} {format_constant(key, v)}")
     return ["global laminate properties (Appendix A): " + ", ".join(parts[:5]),
             "    " + ", ".join(parts[5:])]
 

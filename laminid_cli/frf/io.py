@@ -576,6 +576,12 @@ def read_frf_csv(path) -> FrfSet:
         # cell in it is named as such (it was taken for the header, the line lost)
         header = cells
         lines = lines[1:]
+        if [c.strip().lower() for c in cells[:2]] == ["name", "specimen"]:
+            # laminid batch's summary.csv (long or --wide): was "line 2, column 1 ('name'):
+            # 'example1/S1.1' is not a number"
+            raise FrfError(f"{path}: a laminid batch summary, not FRFs: 'laminid report {path}' "
+                           "draws it; FRFs are what laminid acquire writes (.frf.h5), UFF 58 or "
+                           "a CSV of frequency and FRF columns")
     else:
         header = _commented_header(text, lines[0][0], sep, len(cells))
         if header is not None:

@@ -463,6 +463,9 @@ def read_hdf5(path: Path, read, what: str):
     except FileNotFoundError as exc:
         raise FrfError(f"{path}: file not found") from exc
     except (OSError, RuntimeError, ValueError) as exc:
+        if path.is_file() and path.stat().st_size == 0:
+            # (libhdf5 said "Unable to synchronously open file (file signature not found)")
+            raise FrfError(f"{path}: the file is empty (0 bytes), not an HDF5 file") from exc
         raise FrfError(f"{path}: not a readable HDF5 file ({_reason(exc)})") from exc
     try:
         with f:
