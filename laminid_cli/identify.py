@@ -45,7 +45,9 @@ from laminid_cli.objective import (ErrorBound, Evaluation, HistoryRow, MeasuredD
                                    Objective, PlateTerm, RunLog, VariableSet,
                                    check_shared_materials, history_arrays, max_assignment,
                                    residual_rows)
-from laminid_cli.parametrization import coefficients_and_jacobian, make_parameters
+from laminid_cli.parametrization import (InitialValueError, coefficients_and_jacobian,
+                                         make_parameters)
+from laminid_cli.specimen import constant_line
 
 log = logging.getLogger(__name__)
 
@@ -214,11 +216,11 @@ class Problem(VariableSet):
                                       if not all(k in s.materials[n].fixed
                                                  for s in specimens if n in s.materials))
                              for n in merged}
-        first_mat, first_file = {}, {}
+        first_mat, first_spec = {}, {}
         for spec in specimens:
             for name, mat in spec.materials.items():
                 first_mat.setdefault(name, mat)
-                first_file.setdefault(name, spec.path)
+                first_spec.setdefault(name, spec)
         fixed_opt = _parse_fix(options.fix, self.material_names, self.describe())
         alpha_region = dict(options.alpha_region)
         params = []
@@ -232,8 +234,13 @@ class Problem(VariableSet):
                     bound_factor=options.bound_factor,
                     region="alpha" if name in alpha_region else "box",
                     floor=alpha_region.get(name, 1.0)))
-            except FitInputError as exc:      # an initial value the search cannot start from
-                raise FitInputError(f"{first_file[name]}: {exc}") from None
+            except InitialValueError as exc:  # an initial value the search cannot start from
+                spec = first_spec[name]
+                line = constant_line(spec, name, exc.constant)
+                raise FitInputError(f"{spec.path}{f':{line}' if line else ''}, field "
+                                    f"'materials.{name}.{exc.constant}': {exc.words}") from None
+            except FitInputError as exc:
+                raise FitInputError(f"{first_spec[name].path}: {exc}") from None
         self._set_params(params)
         prior = [{k: float(w) for k, w in first_mat[p.name].prior.items()} for p in params]
         by_name = {p.name: (k, p) for k, p in enumerate(params)}

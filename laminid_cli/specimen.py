@@ -1277,6 +1277,33 @@ def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
     return specimen
 
 
+#: the isotropic keys a ply constant is read from ({E: .., nu: .., G: ..})
+_ISOTROPIC_SOURCE = {"E1": ("E",), "E2": ("E",), "nu12": ("nu",), "G12": ("G", "E"),
+                     "G13": ("G", "E"), "G23": ("G", "E")}
+
+
+def constant_line(spec: Specimen, material: str, constant: str) -> int | None:
+    """The line (1-based) of ``constant`` of ``material`` in the specimen's YAML (of ``nu``,
+    ``E`` or ``G`` for an isotropic material): for messages about a value read from the file
+    after it was validated (an initial value the identification cannot start from). None when
+    the text does not have it."""
+    try:
+        root = _compose(spec.source_text, spec.path)
+    except SpecimenError:
+        return None
+    y = root
+    for key in ("materials", material):
+        if not isinstance(y.value, dict) or key not in y.value:
+            return None
+        y = y.value[key]
+    if not isinstance(y.value, dict):
+        return None
+    for key in (constant,) + _ISOTROPIC_SOURCE.get(constant, ()):
+        if key in y.value:
+            return y.value[key].line
+    return y.line
+
+
 def light_plate_warnings(spec: Specimen, top: dict | None = None) -> list[tuple]:
     """Densities too light for a solid plate (:data:`LIGHT_PLATE_DENSITY`,
     :data:`LIGHT_MATERIAL_DENSITY`): (line or None, field, words) per warning, with the density,
