@@ -1282,26 +1282,30 @@ _ISOTROPIC_SOURCE = {"E1": ("E",), "E2": ("E",), "nu12": ("nu",), "G12": ("G", "
                      "G13": ("G", "E"), "G23": ("G", "E")}
 
 
-def constant_line(spec: Specimen, material: str, constant: str) -> int | None:
-    """The line (1-based) of ``constant`` of ``material`` in the specimen's YAML (of ``nu``,
-    ``E`` or ``G`` for an isotropic material): for messages about a value read from the file
-    after it was validated (an initial value the identification cannot start from). None when
-    the text does not have it."""
+def field_line(spec: Specimen, *keys: str) -> int | None:
+    """The line (1-based) of the field ``keys[0].keys[1]...`` in the specimen's YAML, for
+    messages about a value judged after the file was read (an initial value or a count of
+    frequencies the identification cannot start from); None when the text does not have it."""
     try:
-        root = _compose(spec.source_text, spec.path)
+        y = _compose(spec.source_text, spec.path)
     except SpecimenError:
         return None
-    y = root
-    for key in ("materials", material):
+    for key in keys:
         if not isinstance(y.value, dict) or key not in y.value:
             return None
         y = y.value[key]
-    if not isinstance(y.value, dict):
-        return None
-    for key in (constant,) + _ISOTROPIC_SOURCE.get(constant, ()):
-        if key in y.value:
-            return y.value[key].line
     return y.line
+
+
+def constant_line(spec: Specimen, material: str, constant: str) -> int | None:
+    """The line of ``constant`` of ``material`` in the specimen's YAML (of ``nu``, ``E`` or
+    ``G`` for an isotropic material: the key the constant was read from), else the material's
+    line; None when the text does not have the material (:func:`field_line`)."""
+    for key in (constant,) + _ISOTROPIC_SOURCE.get(constant, ()):
+        line = field_line(spec, "materials", material, key)
+        if line is not None:
+            return line
+    return field_line(spec, "materials", material)
 
 
 def light_plate_warnings(spec: Specimen, top: dict | None = None) -> list[tuple]:
