@@ -385,8 +385,9 @@ def _title_under(fig, status) -> None:
 
 def constants_rows(r: ResultFile) -> tuple[list[str], list[list[str]]]:
     """Header and rows of the constants table (strings as drawn). A fixed constant says why
-    (and gets no "% against the reference": its value is the initial one, not a result); a
-    verdict set by the Monte Carlo gives the range and its widths."""
+    (and gets no "% against the reference": its value is the initial one, not a result), as
+    one not determined or on a search limit says "not compared"; a verdict set by the Monte
+    Carlo gives the range and its widths."""
     conf = r.confidence
     head = ["constant", "value",
             f"{conf:.0%} interval" if conf is not None else "interval", "verdict", "initial",
@@ -422,9 +423,13 @@ def constants_rows(r: ResultFile) -> tuple[list[str], list[list[str]]]:
                 verdict = short_verdict(iv.verdict)
             rv = ref.get(m, {}).get(k)
             diff = None if rv is None else reference_diff(c[k], rv)
+            # a value the modes do not determine is no measurement of the constant: its
+            # difference from the reference (S1.1's nu12 "0.350 (-35 %)") means nothing
+            undetermined = verdict.startswith("not determined")
             if rv is None:
                 rtext = ""
-            elif fixed is not None or (iv is not None and iv.at_bound) or diff is None:
+            elif (fixed is not None or (iv is not None and iv.at_bound) or undetermined
+                  or diff is None):
                 rtext = fmt_reference(k, rv) + (
                     "\n(fixed: not\ncompared)" if fixed is not None else
                     "\n(not compared)" if rv != (0.0, 0.0) else "")
@@ -644,6 +649,10 @@ def table_notes(r: ResultFile) -> list[str]:
     if any(c.startswith("fixed") for c in cells):
         notes.append("fixed: held at its initial value, not identified (its value is an "
                      "assumption, not a result; no comparison with the reference)")
+    if any("(not compared)" in row[5] for row in rows):
+        notes.append("reference (not compared): the value is not determined by these modes or "
+                     "is on a search limit, so its difference from the reference would mean "
+                     "nothing")
     u = r.uncertainty
     for lab, text in (getattr(u, "fixed_ranges", None) or {}).items():
         notes.append(f"{lab} (fixed on a search limit): {text}")

@@ -631,3 +631,31 @@ def test_frequency_table_headers_fit_their_cells(s21_8x8):
         text, box = cell.get_text(), cell.get_window_extent(renderer)
         inner = text.get_window_extent(renderer)
         assert box.x0 < inner.x0 and inner.x1 < box.x1, (text.get_text(), inner, box)
+
+
+def test_an_undetermined_value_is_not_compared_with_its_reference(s11):
+    """S1.1's nu12, "not determined by these modes", showed its reference as "0.350 (-35 %)",
+    a difference a reader may act on: the cell gives the reference and "(not compared)", inside
+    its cell, and the notes say why; a determined constant keeps its difference."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from laminid_cli.resultfile import read_result
+
+    fig = result_page(s11, "summary")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    rows = {row[0].split(" ")[0]: row for row in cells(ax(fig, "constants"))[1:]}
+    assert rows["nu12"][3] == "not determined"
+    assert rows["nu12"][5] == "0.350\n(not compared)"
+    e1 = read_result(s11).materials["IM7/977-2"]["E1"]
+    assert rows["E1"][3] != "not determined"
+    assert rows["E1"][5] == f"170.0 ({round((e1 / 170e9 - 1) * 100):+d} %)"
+    assert ("reference (not compared): the value is not determined by these modes or is on a "
+            "search limit, so its difference from the reference would mean nothing") \
+        in " ".join(_notes(fig).split())
+    table = ax(fig, "constants").tables[0]
+    row = 1 + [k for k, r in enumerate(cells(ax(fig, "constants"))[1:])
+               if r[0].startswith("nu12")][0]
+    cell = table.get_celld()[row, 5]
+    box, inner = cell.get_window_extent(renderer), cell.get_text().get_window_extent(renderer)
+    assert box.x0 < inner.x0 and inner.x1 < box.x1 and box.y0 < inner.y0 and inner.y1 < box.y1
