@@ -659,3 +659,65 @@ def test_an_undetermined_value_is_not_compared_with_its_reference(s11):
     cell = table.get_celld()[row, 5]
     box, inner = cell.get_window_extent(renderer), cell.get_text().get_window_extent(renderer)
     assert box.x0 < inner.x0 and inner.x1 < box.x1 and box.y0 < inner.y0 and inner.y1 < box.y1
+
+
+def _labelled_ticks(a, renderer):
+    """(value, label, window extent) of the y axis' labelled major ticks in view."""
+    lo, hi = a.get_ylim()
+    out = []
+    for tick in a.yaxis.get_major_ticks():
+        v, label = tick.get_loc(), tick.label1
+        if lo * (1 - 1e-9) <= v <= hi * (1 + 1e-9) and label.get_visible() and label.get_text():
+            out.append((v, label.get_text(), label.get_window_extent(renderer)))
+    return out
+
+
+def test_history_modulus_panel_labels_the_range_it_shows(s21):
+    """S2.1's "modulus / initial value" (0.0008 to 1.9 at 8x8, 4 at 12x12, on a log axis) labelled only its decades,
+    none above 1, so that values 1 to 4 could not be read: its labels are at most 0.4 decade
+    apart and from the panel's ends, plain text (no mathtext), not overlapping."""
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = result_page(s21, "history")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    a = ax(fig, "moduli")
+    assert a.get_yscale() == "log"
+    lo, hi = a.get_ylim()
+    ys = np.concatenate([ln.get_ydata() for ln in a.get_lines()
+                         if (ln.get_gid() or "").startswith("history-")])
+    assert ys.max() > 1.5 and ys.min() < 0.01       # the case: values above 1, decades below
+    ticks = _labelled_ticks(a, renderer)
+    values = [v for v, _, _ in ticks]
+    assert any(v > 1 for v in values), [t for _, t, _ in ticks]
+    gaps = np.diff(np.log10([lo] + values + [hi]))
+    assert gaps.max() <= 0.41, [t for _, t, _ in ticks]
+    labels = [t for _, t, _ in ticks]
+    assert "1" in labels and "2" in labels and not [t for t in labels if "$" in t]
+    boxes = [b for _, _, b in ticks]
+    assert all(b1.y1 < b0.y0 or b0.y1 < b1.y0 for b0, b1 in zip(boxes, boxes[1:]))
+
+
+def test_a_squeezed_log_axis_labels_a_wide_partial_decade_at_its_end():
+    """A log axis too short for 2 and 5 in each decade labels the decades, and a 2, 3 or 5
+    x 10^k in a partial decade at an end when it has room (1 to 4.5: "3"), in plain text
+    ("2×10⁻⁹", not "2e-09")."""
+    from laminid_cli.report import _figure, log_axis_ticks, plain_number
+
+    def labels(height, lim):
+        fig = _figure((6, height + 0.5))
+        a = fig.add_axes([0.1, 0.25 / (height + 0.5), 0.8, height / (height + 0.5)])
+        a.set_yscale("log")
+        a.set_ylim(*lim)
+        log_axis_ticks(a, plain=False)
+        fmt = a.yaxis.get_major_formatter()
+        return [fmt(v, 0) for v in a.yaxis.get_majorticklocs() if lim[0] <= v <= lim[1]]
+
+    assert labels(1.2, (1e-3, 4.5)) == ["10⁻³", "10⁻²", "10⁻¹", "10⁰", "3"]
+    assert labels(2.4, (1e-3, 4.5)) == ["0.001", "0.002", "0.005", "0.01", "0.02", "0.05",
+                                        "0.1", "0.2", "0.5", "1", "2"]
+    assert labels(1.6, (1e-9, 1.0))[0] == "2×10⁻⁹"
+    assert labels(0.8, (0.3, 40)) == ["0.5", "1", "2", "5", "10", "20"]
+    assert [plain_number(v) for v in (2e-5, 1e-5, 0.0002, 3.0, 2e5, 1.5e-7)] == [
+        "2×10⁻⁵", "10⁻⁵", "0.0002", "3", "2×10⁵", "1.5e-07"]
