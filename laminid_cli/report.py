@@ -591,7 +591,9 @@ def _laminate_text(plate) -> str:
 
     def one(k, v):
         nu = k.startswith("nu")
-        text = f"{k} {v:.3f}" if nu else f"{k} {v / 1e9:.2f} GPa"
+        # below 1 GPa 3 digits, as the terminal's tables (0.0031 GPa, not 0.00 GPa)
+        text = (f"{k} {v:.3f}" if nu else f"{k} {v / 1e9:.3g} GPa" if 0 < abs(v) < 1e9
+                else f"{k} {v / 1e9:.2f} GPa")
         u = unc.get(k)
         if u is not None:                 # its doubt, from the constants' covariance
             rel = u["rel_half_width"]

@@ -730,6 +730,20 @@ def test_laminate_reference_values_on_the_summary_page(batch_dir):
     assert f"Ey {ey:.2f} GPa ±{rel * 100:.2g} % (reference 22.5 GPa)" in text   # reference
 
 
+def test_laminate_moduli_below_a_gpa_keep_their_digits():
+    """Page 1's laminate line: a modulus below 1 GPa with 3 digits, as the terminal's
+    tables (Gxz of moduli written in MPa showed "0.00 GPa")."""
+    from types import SimpleNamespace
+
+    from laminid_cli.report import _laminate_text
+
+    plate = SimpleNamespace(global_properties={"Ex": 0.0445e9, "Gxy": 0.1672e9, "Gxz": 3.1e6,
+                                               "Ey": 62.43e9, "nu_xy": 0.333},
+                            reference_global={}, global_uncertainty={})
+    assert _laminate_text(plate) == ("laminate (Appendix A): Ex 0.0445 GPa, Gxy 0.167 GPa, "
+                                     "Gxz 0.0031 GPa, Ey 62.43 GPa, nu_xy 0.333")
+
+
 def test_reference_range_words_and_difference():
     """A range is written low–high and compared by its nearer end (0 inside it); one value
     is a range of no width, so its difference is the usual one."""
