@@ -65,6 +65,19 @@ class LazyGroup(click.Group):
             raise
         return getattr(module, attr)
 
+    def resolve_command(self, ctx, args):
+        # a misspelt command: the nearest one, as a misspelt key of a specimen file gets
+        # (click matches against the group's loaded commands, none in a lazy group)
+        name = click.utils.make_str(args[0])
+        if (not ctx.resilient_parsing and not name.startswith("-")
+                and name not in COMMANDS):
+            import difflib
+
+            guess = difflib.get_close_matches(name.lower(), list(COMMANDS), n=1, cutoff=0.6)
+            hint = f"; did you mean '{guess[0]}'?" if guess else ""
+            ctx.fail(f"No such command '{name}'{hint} (commands: {', '.join(COMMANDS)})")
+        return super().resolve_command(ctx, args)
+
     def format_commands(self, ctx, formatter):
         rows = [(name, SHORT_HELP.get(name, "")) for name in self.list_commands(ctx)]
         if rows:

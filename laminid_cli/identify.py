@@ -45,9 +45,16 @@ from laminid_cli.objective import (ErrorBound, Evaluation, HistoryRow, MeasuredD
                                    Objective, PlateTerm, RunLog, VariableSet,
                                    check_shared_materials, history_arrays, max_assignment,
                                    residual_rows)
-from laminid_cli.parametrization import coefficients_and_jacobian, make_parameters
+from laminid_cli.parametrization import (InitialValueError, coefficients_and_jacobian,
+                                         make_parameters)
+from laminid_cli.specimen import constant_line, field_line
 
 log = logging.getLogger(__name__)
+
+
+def _plural(n: int, one: str, many: str | None = None) -> str:
+    """``1 weighted frequency``, ``3 weighted frequencies``."""
+    return f"{n} {one if n == 1 else (many or one + 's')}"
 
 OPTIMIZERS = ("slsqp", "mma")
 PAIRINGS = ("track", "sorted")
@@ -214,11 +221,11 @@ class Problem(VariableSet):
                                       if not all(k in s.materials[n].fixed
                                                  for s in specimens if n in s.materials))
                              for n in merged}
-        first_mat, first_file = {}, {}
+        first_mat, first_spec = {}, {}
         for spec in specimens:
             for name, mat in spec.materials.items():
                 first_mat.setdefault(name, mat)
-                first_file.setdefault(name, spec.path)
+                first_spec.setdefault(name, spec)
         fixed_opt = _parse_fix(options.fix, self.material_names, self.describe())
         alpha_region = dict(options.alpha_region)
         params = []
@@ -232,8 +239,13 @@ class Problem(VariableSet):
                     bound_factor=options.bound_factor,
                     region="alpha" if name in alpha_region else "box",
                     floor=alpha_region.get(name, 1.0)))
-            except FitInputError as exc:      # an initial value the search cannot start from
-                raise FitInputError(f"{first_file[name]}: {exc}") from None
+            except InitialValueError as exc:  # an initial value the search cannot start from
+                spec = first_spec[name]
+                line = constant_line(spec, name, exc.constant)
+                raise FitInputError(f"{spec.path}{f':{line}' if line else ''}, field "
+                                    f"'materials.{name}.{exc.constant}': {exc.words}") from None
+            except FitInputError as exc:
+                raise FitInputError(f"{first_spec[name].path}: {exc}") from None
         self._set_params(params)
         prior = [{k: float(w) for k, w in first_mat[p.name].prior.items()} for p in params]
         by_name = {p.name: (k, p) for k, p in enumerate(params)}
@@ -265,9 +277,7 @@ class Problem(VariableSet):
         if self.n_vars == 0:
             raise FitInputError(f"{self.describe()}: every constant is fixed; nothing to identify")
         if check_count and n_active < self.n_vars and not any(self.prior):
-            raise FitInputError(f"{self.describe()}: {n_active} weighted frequencies for "
-                                f"{self.n_vars} free constants; measure more modes or fix "
-                                "constants (--fix nu12,G13,G23)")
+            raise FitInputError(self._too_few_frequencies(n_active))
         self.start = None if start is None else tuple(start)
         if self.start is not None and len(self.start) != len(params):
             raise FitInputError(f"{self.describe()}: {len(self.start)} start constants for "
@@ -326,6 +336,38 @@ class Problem(VariableSet):
         if self.single:
             return str(self.fms[0].specimen.path)
         return "joint identification of " + ", ".join(str(fm.specimen.path) for fm in self.fms)
+
+    def _too_few_frequencies(self, n_active: int) -> str:
+        """Why fewer weighted frequencies than free constants cannot be fitted: the file, its
+        field (measured.frequencies, measured.weights where some of them have weight 0, or
+        measured.frf_file) and what to do."""
+        need = self.n_vars - n_active
+        todo = (f"measure more modes, or fix {need} or more of the constants (--fix, e.g. --fix "
+                "nu12,G13,G23, which a thin plate's modes determine worst, or the material's "
+                "'fixed:' list)")
+        count = (f"{_plural(n_active, 'weighted frequency', 'weighted frequencies')} for "
+                 f"{_plural(self.n_vars, 'free constant')}")
+        needs = "the fit needs at least one per constant"
+        if not self.single:
+            each = ", ".join(f"{fm.specimen.path}: {int((pt.data.weight > 0).sum())}"
+                             for fm, pt in zip(self.fms, self.plates))
+            return f"{self.describe()}: {count} ({each}; {needs}): {todo}"
+        spec = self.fms[0].specimen
+        data = self.plates[0].data
+        n_given = int(np.isfinite(data.freq).sum())
+        if spec.measured is not None and spec.measured.frf_file:
+            key, given = "frf_file", f"the fit of {spec.measured.frf_file} gave {n_given}; "
+        elif n_given > n_active:
+            key = "weights"
+            given = f"{n_given - n_active} of the {n_given} measured have weight 0; "
+            todo = "give more of them a weight above 0, " + todo
+        else:
+            key, given = "frequencies", ""
+        if field_line(spec, "measured", key) is None:
+            key = "frequencies"
+        line = field_line(spec, "measured", key)
+        where = f"{spec.path}{f':{line}' if line else ''}, field 'measured.{key}'"
+        return f"{where}: {count} ({given}{needs}): {todo}"
 
     def check_start(self, ev: Evaluation) -> list[str]:
         """Refuse hopeless starts; return warnings for doubtful ones."""

@@ -30,6 +30,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from laminid_cli.errors import FitInputError
+
+
+class InitialValueError(FitInputError):
+    """An initial constant of a material the search cannot start from: ``material``,
+    ``constant`` (one of CONSTANT_NAMES) and ``words`` (what is wrong, without where) let the
+    caller name the specimen file and the constant's line."""
+
+    def __init__(self, material: str, constant: str, words: str):
+        super().__init__(f"material '{material}', field '{constant}': {words}")
+        self.material, self.constant, self.words = material, constant, words
 from laminid_cli.material import (CONSTANT_NAMES, ElasticConstants, alphas_from_constants,
                                   constants_from_alphas)
 
@@ -309,9 +319,9 @@ def make_parameters(name: str, initial: ElasticConstants, fixed=(), *, kind: str
     if not 0 < nu_max < 1:
         raise FitInputError(f"nu_max must be in (0, 1) (got {nu_max})")
     if abs(initial.nu12) > nu_max:
-        raise FitInputError(f"material '{name}', field 'nu12': the initial nu12 = {initial.nu12} is "
-                            f"outside the identification's range |nu12| <= {nu_max} (fibre "
-                            "plies have about 0.2 to 0.4)")
+        raise InitialValueError(name, "nu12", f"the initial nu12 = {initial.nu12:g} is outside "
+                                f"the identification's range |nu12| <= {nu_max:g} (fibre plies "
+                                "have about 0.2 to 0.4)")
     if initial.E2 > initial.E1:
         raise FitInputError(f"material '{name}': initial E2 > E1; direction 1 must be the fibre "
                        "(stiffer) direction")
@@ -336,9 +346,9 @@ def _check_alpha_floor(name: str, initial: ElasticConstants) -> None:
         value = getattr(initial, k)
         limit = r * initial.E1 * (1.0 if k == "E2" else alpha_floor(initial))
         if value < limit * (1 - 1e-9):
-            raise FitInputError(
-                f"material '{name}', field '{k}': the initial {k} = {value / 1e9:.4g} GPa is "
-                f"below the identification's limit {r:g} E1 = {limit / 1e9:.4g} GPa (E1 = "
+            raise InitialValueError(
+                name, k, f"the initial {k} = {value / 1e9:.4g} GPa is below the "
+                f"identification's limit {r:g} E1 = {limit / 1e9:.4g} GPa (E1 = "
                 f"{initial.E1 / 1e9:.4g} GPa): a unit slip (MPa for GPa?), or a material "
                 f"whose {k} is not that small beside E1; the search starts at the file's values")
 

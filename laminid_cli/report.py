@@ -385,8 +385,9 @@ def _title_under(fig, status) -> None:
 
 def constants_rows(r: ResultFile) -> tuple[list[str], list[list[str]]]:
     """Header and rows of the constants table (strings as drawn). A fixed constant says why
-    (and gets no "% against the reference": its value is the initial one, not a result); a
-    verdict set by the Monte Carlo gives the range and its widths."""
+    (and gets no "% against the reference": its value is the initial one, not a result), as
+    one not determined or on a search limit says "not compared"; a verdict set by the Monte
+    Carlo gives the range and its widths."""
     conf = r.confidence
     head = ["constant", "value",
             f"{conf:.0%} interval" if conf is not None else "interval", "verdict", "initial",
@@ -422,9 +423,13 @@ def constants_rows(r: ResultFile) -> tuple[list[str], list[list[str]]]:
                 verdict = short_verdict(iv.verdict)
             rv = ref.get(m, {}).get(k)
             diff = None if rv is None else reference_diff(c[k], rv)
+            # a value the modes do not determine is no measurement of the constant: its
+            # difference from the reference (S1.1's nu12 "0.350 (-35 %)") means nothing
+            undetermined = verdict.startswith("not determined")
             if rv is None:
                 rtext = ""
-            elif fixed is not None or (iv is not None and iv.at_bound) or diff is None:
+            elif (fixed is not None or (iv is not None and iv.at_bound) or undetermined
+                  or diff is None):
                 rtext = fmt_reference(k, rv) + (
                     "\n(fixed: not\ncompared)" if fixed is not None else
                     "\n(not compared)" if rv != (0.0, 0.0) else "")
@@ -586,7 +591,9 @@ def _laminate_text(plate) -> str:
 
     def one(k, v):
         nu = k.startswith("nu")
-        text = f"{k} {v:.3f}" if nu else f"{k} {v / 1e9:.2f} GPa"
+        # below 1 GPa 3 digits, as the terminal's tables (0.0031 GPa, not 0.00 GPa)
+        text = (f"{k} {v:.3f}" if nu else f"{k} {v / 1e9:.3g} GPa" if 0 < abs(v) < 1e9
+                else f"{k} {v / 1e9:.2f} GPa")
         u = unc.get(k)
         if u is not None:                 # its doubt, from the constants' covariance
             rel = u["rel_half_width"]
@@ -644,6 +651,10 @@ def table_notes(r: ResultFile) -> list[str]:
     if any(c.startswith("fixed") for c in cells):
         notes.append("fixed: held at its initial value, not identified (its value is an "
                      "assumption, not a result; no comparison with the reference)")
+    if any("(not compared)" in row[5] for row in rows):
+        notes.append("reference (not compared): the value is not determined by these modes or "
+                     "is on a search limit, so its difference from the reference would mean "
+                     "nothing")
     u = r.uncertainty
     for lab, text in (getattr(u, "fixed_ranges", None) or {}).items():
         notes.append(f"{lab} (fixed on a search limit): {text}")
@@ -832,22 +843,121 @@ def _between(ax, a: float, b: float) -> float:
     return float(np.sqrt(a * b)) if ax.get_yscale() == "log" else (a + b) / 2
 
 
-def log_axis_ticks(axis, *, plain: bool = True) -> None:
-    """Ticks of a log y axis from its limits: 1, 2, 5 x 10^k (or more) over up to 2.5 decades,
-    else the decades; ``plain`` numbers (0.001, 10) or 10^k; no labels on the minor ticks."""
-    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+#: a log axis over more than 2.5 decades labels 2 and 5 x 10^k too where a decade is at least
+#: this tall (inches): 7-pt labels 0.3 decade apart (1 to 2) stay clear of each other
+LOG_125_DECADE_INCHES = 0.5
+#: the least gap (inches) between a decade's label and the 2, 3 or 5 x 10^k labelled in a
+#: partial decade at an end of a log axis that labels only decades
+LOG_LABEL_GAP_INCHES = 0.12
 
-    lo, hi = axis.get_ylim()
-    decades = np.log10(hi / lo)
-    if decades <= 2.5:                          # a narrow range: label 1, 2, 5 x 10^k or more
-        subs = (1.0, 2.0, 5.0) if decades > 1 else (1.0, 1.5, 2.0, 3.0, 5.0, 7.0)
-        axis.yaxis.set_major_locator(LogLocator(base=10, subs=subs))
-        axis.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
-    else:
-        axis.yaxis.set_major_locator(LogLocator(base=10, numticks=8))
-        axis.yaxis.set_major_formatter(FuncFormatter(
-            (lambda v, _: f"{v:g}") if plain else (lambda v, _: power_of_ten(v))))
+
+def log_axis_ticks(axis, *, plain: bool = True) -> None:
+    """Ticks of a log y axis from its limits (:class:`_LogTicks`): 1, 2, 5 x 10^k (or more)
+    over up to 2.5 decades or where a decade is tall enough to label them, else the decades
+    and a 2, 3 or 5 x 10^k in a partial decade at an end (the history's "modulus / initial value" up
+    to 4.5 labelled nothing above 1); ``plain`` numbers (0.001, 10) or decades as 10^k; no
+    labels on the minor ticks."""
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+
+    ticks = _LogTicks()
+    axis.yaxis.set_major_locator(ticks)
+    axis.yaxis.set_major_formatter(FuncFormatter(
+        lambda v, _: (plain_number(v) if plain or ticks.labels_between() or not _decade(v)
+                      else power_of_ten(v))))
     axis.yaxis.set_minor_formatter(NullFormatter())
+
+
+def _log_ticks_class():
+    from matplotlib.ticker import LogLocator
+
+    class LogTicks(LogLocator):
+        """Major ticks of a log axis, chosen at draw time from its view and its height: 1, 1.5,
+        2, 3, 5, 7 x 10^k within a decade; 1, 2, 5 x 10^k over up to 2.5 decades or where a
+        decade is at least :data:`LOG_125_DECADE_INCHES` tall; else the decades (at most 8),
+        with a 2, 3 or 5 x 10^k in a partial decade at either end, clear of the decade's label
+        (:data:`LOG_LABEL_GAP_INCHES`), so that values at the ends are read against a
+        number."""
+
+        def __init__(self):
+            super().__init__(base=10, numticks=8)
+
+        def _decade_inches(self, lo: float, hi: float) -> float:
+            if self.axis is None or self.axis.axes is None:
+                return np.inf
+            a = self.axis.axes
+            return a.get_position().height * a.figure.get_figheight() / np.log10(hi / lo)
+
+        def _subs_for(self, lo: float, hi: float) -> tuple:
+            decades = np.log10(hi / lo)
+            if decades <= 1:
+                return (1.0, 1.5, 2.0, 3.0, 5.0, 7.0)
+            if decades <= 2.5 or self._decade_inches(lo, hi) >= LOG_125_DECADE_INCHES:
+                return (1.0, 2.0, 5.0)
+            return (1.0,)
+
+        def labels_between(self) -> bool:
+            """Whether the axis now labels values between its decades (then in plain numbers
+            throughout: "0.002, 0.005, 0.01", not "0.002, 0.005, 10⁻²")."""
+            if self.axis is None:
+                return False
+            lo, hi = sorted(self.axis.get_view_interval())
+            return lo > 0 and self._subs_for(lo, hi) != (1.0,)
+
+        def tick_values(self, vmin, vmax):
+            lo, hi = sorted((float(vmin), float(vmax)))
+            if not (lo > 0 and np.isfinite(hi) and hi > lo):
+                return super().tick_values(vmin, vmax)
+            subs = self._subs_for(lo, hi)
+            self.set_params(subs=subs)
+            ticks = np.asarray(super().tick_values(lo, hi), float)
+            if subs != (1.0,):
+                return ticks
+            inside = ticks[(ticks >= lo * (1 - 1e-9)) & (ticks <= hi * (1 + 1e-9))]
+            if inside.size == 0:
+                return ticks
+            per_decade = self._decade_inches(lo, hi)
+            extra = []
+            top, bottom = inside.max(), inside.min()
+            # the highest 5, 3 or 2 x 10^k above the top decade, the lowest below the bottom
+            up = [c * top for c in (5.0, 3.0, 2.0) if c * top <= hi * (1 + 1e-9)
+                  and np.log10(c) * per_decade >= LOG_LABEL_GAP_INCHES]
+            down = [c * bottom / 10 for c in (2.0, 3.0, 5.0) if c * bottom / 10 >= lo * (1 - 1e-9)
+                    and np.log10(10 / c) * per_decade >= LOG_LABEL_GAP_INCHES]
+            extra += up[:1] + down[:1]
+            return np.sort(np.concatenate([ticks, extra]))
+
+    return LogTicks
+
+
+def _decade(v: float) -> bool:
+    """Whether ``v`` is a power of ten."""
+    return v > 0 and abs(np.log10(v) - round(np.log10(v))) < 1e-9
+
+
+def _LogTicks():
+    """A :class:`LogTicks` locator (its class built on first use: matplotlib is imported by
+    the report's pages only)."""
+    global _LOG_TICKS
+    if _LOG_TICKS is None:
+        _LOG_TICKS = _log_ticks_class()
+    return _LOG_TICKS()
+
+
+_LOG_TICKS = None
+
+
+def plain_number(v: float) -> str:
+    """A log axis' tick label as a plain number ("0.002", "5", "20") between 1e-4 and 1e5,
+    else in powers of ten ("10⁻⁵", "2×10⁻⁵") rather than "2e-05"."""
+    a = abs(v)
+    if a == 0 or 1e-4 <= a * (1 + 1e-12) < 1e5:
+        return f"{v:g}"
+    k = int(np.floor(np.log10(a) + 1e-9))
+    m = v / 10.0 ** k
+    if abs(m - round(m)) < 1e-6:
+        sup = "10" + str(k).translate(_SUPERSCRIPT)
+        return sup if round(m) == 1 else f"{int(round(m))}×{sup}"
+    return f"{v:g}"
 
 
 _SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
@@ -1414,6 +1524,8 @@ def history_page(r: ResultFile):
                  fontsize=11)
     ax_o, ax_r, ax_c, ax_n = fig.subplots(4, 1, sharex=True, height_ratios=[1, 1, 1.6, 0.8])
     ax_o.set_gid("objective")
+    ax_c.set_gid("moduli")
+    ax_n.set_gid("nu12")
     pts = "o-" if ev.size <= 200 else "-"             # points only while they stay apart
     # the reduced solver evaluates an earlier point again after enriching its basis (the
     # trust region's ratio): drawn apart, off the line (else it looks like a restart)

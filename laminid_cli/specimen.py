@@ -1277,6 +1277,37 @@ def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
     return specimen
 
 
+#: the isotropic keys a ply constant is read from ({E: .., nu: .., G: ..})
+_ISOTROPIC_SOURCE = {"E1": ("E",), "E2": ("E",), "nu12": ("nu",), "G12": ("G", "E"),
+                     "G13": ("G", "E"), "G23": ("G", "E")}
+
+
+def field_line(spec: Specimen, *keys: str) -> int | None:
+    """The line (1-based) of the field ``keys[0].keys[1]...`` in the specimen's YAML, for
+    messages about a value judged after the file was read (an initial value or a count of
+    frequencies the identification cannot start from); None when the text does not have it."""
+    try:
+        y = _compose(spec.source_text, spec.path)
+    except SpecimenError:
+        return None
+    for key in keys:
+        if not isinstance(y.value, dict) or key not in y.value:
+            return None
+        y = y.value[key]
+    return y.line
+
+
+def constant_line(spec: Specimen, material: str, constant: str) -> int | None:
+    """The line of ``constant`` of ``material`` in the specimen's YAML (of ``nu``, ``E`` or
+    ``G`` for an isotropic material: the key the constant was read from), else the material's
+    line; None when the text does not have the material (:func:`field_line`)."""
+    for key in (constant,) + _ISOTROPIC_SOURCE.get(constant, ()):
+        line = field_line(spec, "materials", material, key)
+        if line is not None:
+            return line
+    return field_line(spec, "materials", material)
+
+
 def light_plate_warnings(spec: Specimen, top: dict | None = None) -> list[tuple]:
     """Densities too light for a solid plate (:data:`LIGHT_PLATE_DENSITY`,
     :data:`LIGHT_MATERIAL_DENSITY`): (line or None, field, words) per warning, with the density,

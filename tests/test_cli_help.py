@@ -50,3 +50,22 @@ def test_acquire_refuses_an_impossible_setting_before_it_opens_the_analyser(tmp_
     assert r.exit_code == 2, r.output
     assert option in r.output and "cannot open" not in r.output
     assert not out.exists()
+
+
+@pytest.mark.parametrize("typed, words", [
+    ("identfy", "No such command 'identfy'; did you mean 'identify'?"),
+    ("Identify", "No such command 'Identify'; did you mean 'identify'?"),
+    ("fitfrf", "No such command 'fitfrf'; did you mean 'fit-frf'?"),
+    ("frobnicate", "No such command 'frobnicate' (commands: "),
+])
+def test_a_misspelt_command_gets_the_nearest_one(typed, words):
+    """`laminid identfy` said only "No such command 'identfy'" (click suggests among a group's
+    loaded commands, none in laminid's lazy group): the nearest command, and the list; a usage
+    error, exit 2."""
+    r = run(typed, "specimens/example1/S1.1.yaml")
+    assert r.exit_code == 2, r.output
+    assert f"Error: {words}" in r.output
+    assert r.output.rstrip().endswith("(commands: modes, identify, fit-frf, acquire, batch, "
+                                      "report, show, export)")
+    if typed == "frobnicate":                   # nothing near: no guess
+        assert "did you mean" not in r.output

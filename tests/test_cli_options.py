@@ -266,6 +266,9 @@ def test_export_of_mode_shapes_still_takes_specimen_of_its_plate(tmp_path, modes
     assert r.exit_code == 0, r.output
     d = json.loads(r.output)
     assert d["specimen"] == "S1.1" and d["datasets"] == {"164": 1, "15": 1, "55": 3}
+    # the frequency range of the modes written, in Hz
+    assert d["freq_range_hz"] == [min(d["freq_hz"]), max(d["freq_hz"])]
+    assert 0 < d["freq_range_hz"][0] < d["freq_range_hz"][1]
     assert out.stat().st_size > 0
 
 

@@ -112,3 +112,58 @@ def test_ctrl_c_during_start_up_exits_130_without_traceback(module, how, tmp_pat
     assert r.returncode == 130, r.stderr[-2000:]
     assert "laminid: interrupted" in r.stderr
     assert "Traceback" not in r.stderr and r.stdout == ""
+
+
+S21 = ROOT / "specimens" / "example2" / "S2.1.yaml"
+
+
+def _laminid_into_closed_pipe(*args, both=False):
+    """``laminid ARGS`` (``python -m laminid_cli``) with stdout (and stderr, ``both``) a pipe
+    whose reader has gone, as ``laminid ... | head`` once head has its lines: every write
+    meets EPIPE. Returns (exit code, stderr)."""
+    read, write = os.pipe()
+    os.close(read)
+    try:
+        r = subprocess.run([sys.executable, "-m", "laminid_cli", *map(str, args)],
+                           stdout=write, stderr=write if both else subprocess.PIPE, cwd=ROOT,
+                           timeout=300, text=True)
+    finally:
+        os.close(write)
+    return r.returncode, r.stderr or ""
+
+
+def test_a_reader_that_closes_the_pipe_early_is_no_failure(tmp_path):
+    """``laminid identify S.yaml -o R | head`` (with or without --json): exit 0, nothing on
+    stderr and the result file whole (was exit 1, silently: click's broken-pipe handling);
+    show after it likewise. A shell batch with ``set -o pipefail`` takes 0 for success."""
+    from laminid_cli.results import read_h5
+
+    for fmt in ((), ("--json",)):
+        out = tmp_path / f"r{len(fmt)}.h5"
+        code, err = _laminid_into_closed_pipe("identify", S21, "--mesh", "4x4", "-o", out, *fmt)
+        assert (code, err) == (0, "")
+        assert read_h5(out)["frequencies"]["model"].shape == (12,)
+        code, err = _laminid_into_closed_pipe("show", out, *fmt)
+        assert (code, err) == (0, "")
+    # stderr into the same closed pipe (2>&1 | head): its message is dropped, not a traceback
+    code, _ = _laminid_into_closed_pipe("show", out, "--json", both=True)
+    assert code == 0
+
+
+def test_a_closed_pipe_keeps_the_commands_own_exit_code(tmp_path):
+    """A run that did not converge still exits 1 with its message on stderr, its result
+    written, when stdout's reader has gone (the command runs to its end; a BrokenPipeError
+    caught at the entry point would have cut it short before its exit code was decided)."""
+    from laminid_cli.results import read_h5
+
+    out = tmp_path / "n.h5"
+    code, err = _laminid_into_closed_pipe("identify", S21, "--mesh", "4x4", "-o", out,
+                                          "--max-evaluations", "3")
+    assert code == 1
+    assert err.startswith("laminid: identification did not converge: not converged: the "
+                          "budget of --max-evaluations 3 evaluations ran out"), err
+    assert "Traceback" not in err
+    assert read_h5(out)["frequencies"]["model"].shape == (12,)
+    # a usage error: exit 2 and its message, as without the pipe
+    code, err = _laminid_into_closed_pipe("identify", tmp_path / "missing.yaml")
+    assert code == 2 and "file not found" in err, err

@@ -150,7 +150,11 @@ def test_export_frfs_as_uff58_keeps_numbers_units_and_point_numbering(tmp_path, 
     out = tmp_path / "plate.uff"
     r = run(["export", str(numbered), "-o", str(out), "--json"])
     assert r.exit_code == 0, r.output
-    assert json.loads(r.output)["points"] == {lab: int(lab) for lab in LABELS}
+    summary = json.loads(r.output)
+    assert summary["points"] == {lab: int(lab) for lab in LABELS}
+    # the frequency range written, in Hz (the --json output gave only the number of lines)
+    assert summary["freq_range_hz"] == [case.freq[0], case.freq[-1]]
+    assert summary["n_lines"] == case.freq.size
     sets = pyuff.UFF(str(out)).read_sets()
     assert [s["type"] for s in sets] == [58] * 5
     for k, s in enumerate(sets):

@@ -1090,28 +1090,41 @@ def test_density_derived_from_a_mass_in_the_wrong_unit_is_refused(tmp_path):
             in r.output
 
 
-def test_initial_nu12_outside_the_search_names_the_file(tmp_path):
+def _line_of(text: str, start: str) -> int:
+    return next(k for k, t in enumerate(text.splitlines(), 1) if t.strip().startswith(start))
+
+
+def test_initial_nu12_outside_the_search_names_the_file_line_and_field(tmp_path):
+    """nu12: 3.5 (admissible by Eq. 22, outside the search's |nu12| <= 0.95) is refused at its
+    line, as the specimen's other field errors are (was "n.yaml: material 'IM7/977-2', field
+    'nu12': ..." without the line)."""
     bad = tmp_path / "n.yaml"
-    bad.write_text(Path(S11).read_text().replace("nu12: 0.35", "nu12: 3.5"))
+    text = Path(S11).read_text().replace("nu12: 0.35\n", "nu12: 3.5\n", 1)
+    bad.write_text(text)
     r = run("identify", bad, "--mesh", "6x6", "--no-output")
-    assert r.exit_code == 2
-    assert (f"{bad}: material 'IM7/977-2', field 'nu12': the initial nu12 = 3.5 is outside the "
-            "identification's range |nu12| <= 0.95") in r.output
+    assert r.exit_code == 2, r.output
+    assert r.stderr == (f"laminid: error: {bad}:{_line_of(text, 'nu12: 3.5')}, field "
+                        "'materials.IM7/977-2.nu12': the initial nu12 = 3.5 is outside the "
+                        "identification's range |nu12| <= 0.95 (fibre plies have about 0.2 to "
+                        "0.4)\n")
+    assert r.stdout == ""
 
 
 def test_initial_modulus_below_the_searchs_floor_names_the_file_and_the_field(tmp_path):
     """G12: 3.1 MPa among moduli in GPa (admissible, but below the alphas' floor 1e-4 E1): was
     refused as "outside the feasible region of Eq. 22 (E2 <= E1, |nu12| < 0.95, positive
-    moduli)", which named neither the constant nor a condition it breaks."""
+    moduli)", which named neither the constant nor a condition it breaks. At its line, as the
+    specimen's field errors."""
     bad = tmp_path / "g.yaml"
-    bad.write_text(Path(S11).read_text().replace("G12: 3.1 GPa", "G12: 3.1 MPa"))
+    text = Path(S11).read_text().replace("G12: 3.1 GPa", "G12: 3.1 MPa")
+    bad.write_text(text)
     r = run("identify", bad, "--mesh", "4x4")
     assert r.exit_code == 2, r.output
-    assert r.stderr == (f"laminid: error: {bad}: material 'IM7/977-2', field 'G12': the initial "
-                        "G12 = 0.0031 GPa is below the identification's limit 0.0001 E1 = "
-                        "0.01183 GPa (E1 = 117.2 GPa): a unit slip (MPa for GPa?), or a material "
-                        "whose G12 is not that small beside E1; the search starts at the file's "
-                        "values\n")
+    assert r.stderr == (f"laminid: error: {bad}:{_line_of(text, 'G12: 3.1 MPa')}, field "
+                        "'materials.IM7/977-2.G12': the initial G12 = 0.0031 GPa is below the "
+                        "identification's limit 0.0001 E1 = 0.01183 GPa (E1 = 117.2 GPa): a "
+                        "unit slip (MPa for GPa?), or a material whose G12 is not that small "
+                        "beside E1; the search starts at the file's values\n")
     assert r.stdout == "" and not (tmp_path / "g.result.h5").exists()
 
 

@@ -457,9 +457,21 @@ def plain_specimen(freq=FREQ_S11, weights=None, materials=None):
 
 
 def test_fewer_weighted_frequencies_than_free_constants():
+    """Names the file, the weights' line and field (8 measured, 3 with weight 0) and what to
+    do (was "plate.yaml: 5 weighted frequencies for 6 free constants; measure more modes or
+    fix constants (--fix nu12,G13,G23)")."""
     fm = plain_specimen(weights=[1, 1, 1, 0, 0, 1, 0, 1])
-    with pytest.raises(FitError, match=r"plate.yaml: 5 weighted frequencies for 6 free constants"):
+    line = fm.specimen.source_text.splitlines().index(
+        "  weights: [1.0, 1.0, 1.0, 0.0, 0.0, 1.0, 0.0, 1.0]") + 1
+    with pytest.raises(FitError) as info:
         Problem(fm, IdentifyOptions())
+    assert str(info.value) == (
+        f"plate.yaml:{line}, field 'measured.weights': 5 weighted frequencies for 6 free "
+        "constants (3 of the 8 measured have weight 0; the fit needs at least one per "
+        "constant): give more of them a weight above 0, measure more modes, or fix 1 or more of "
+        "the constants (--fix, e.g. --fix nu12,G13,G23, which a thin plate's modes determine "
+        "worst, or the material's 'fixed:' list)")
+    assert info.value.exit_code == 2
     # fixing two of them makes it solvable
     assert Problem(fm, IdentifyOptions(fix=("G13", "G23"))).n_vars == 4
 

@@ -159,6 +159,23 @@ def write_variant(tmp_path, old, new):
     return str(p)
 
 
+def test_one_frequency_for_six_constants_names_the_field_and_what_to_do(tmp_path):
+    """One measured mode for six free constants: "1 weighted frequency" (was "1 weighted
+    frequencies for 6 free constants" with no field, line or count to fix)."""
+    few = write_variant(tmp_path, "[72.78, 121.00, 191.38, 286.78, 315.12, 340.40, 400.12, "
+                        "433.84, 634.81, 653.56, 712.43, 789.97]", "[72.78]")
+    line = next(k for k, t in enumerate(open(few).read().splitlines(), 1)
+                if t.strip().startswith("frequencies:"))
+    r = run("identify", few, "--mesh", "6x6", "--no-output")
+    assert r.exit_code == 2, r.output
+    assert r.stderr == (
+        f"laminid: error: {few}:{line}, field 'measured.frequencies': 1 weighted frequency for "
+        "6 free constants (the fit needs at least one per constant): measure more modes, or fix "
+        "5 or more of the constants (--fix, e.g. --fix nu12,G13,G23, which a thin plate's modes "
+        "determine worst, or the material's 'fixed:' list)\n")
+    assert r.stdout == ""
+
+
 def test_bad_input_exit_2_with_clear_message(tmp_path):
     r = run("identify", S21, "--fix", "nu13")
     assert r.exit_code == 2 and "'nu13' is not a constant" in r.output
@@ -176,6 +193,7 @@ def test_bad_input_exit_2_with_clear_message(tmp_path):
                         "433.84, 634.81, 653.56, 712.43, 789.97]", "[72.78, 121.00, 191.38]")
     r = run("identify", few, "--mesh", "6x6", "--no-output")
     assert r.exit_code == 2 and "3 weighted frequencies for 6 free constants" in r.output
+    assert "field 'measured.frequencies'" in r.output
     # every weight zero
     zero = write_variant(tmp_path, "789.97]   # Hz, Table 5",
                          "789.97]\n  weights: [0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0]")

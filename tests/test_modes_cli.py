@@ -208,19 +208,27 @@ def test_measured_frequencies_in_khz_are_warned_with_the_values(tmp_path):
     assert r.exit_code == 0 and "warning" not in r.stderr
 
 
-def test_moduli_below_a_tenth_of_a_gpa_keep_their_digits(tmp_path):
+def test_moduli_below_a_gpa_keep_their_digits(tmp_path):
     """S1.1's moduli written in MPa (a unit slip): the material line and the laminate's
-    properties showed 'G12 0.00 GPa', a value the file does not hold; they show the digits
-    as identify's tables do, and the measured modes are warned about (exit 0: modes computes)."""
+    properties showed 'G12 0.00 GPa', then (below 0.1 GPa fixed) 'E1 0.12 GPa', values the
+    file does not hold; they show 3 digits as identify's tables do, and the measured modes
+    are warned about (exit 0: modes computes)."""
+    from laminid_cli.commands.text import _num, format_constant
+
     spec = tmp_path / "mpa.yaml"
     spec.write_text(re.sub(r" GPa$", " MPa", Path(S11).read_text(), flags=re.M))
     r = run("modes", str(spec), "--mesh", "4x4")
     assert r.exit_code == 0, r.output
-    assert ("material IM7/977-2: E1 0.12 GPa, E2 0.0088 GPa, G12 0.0031 GPa, G13 0.0031 GPa, "
+    assert ("material IM7/977-2: E1 0.117 GPa, E2 0.0088 GPa, G12 0.0031 GPa, G13 0.0031 GPa, "
             "G23 0.0031 GPa, nu12 0.350") in r.stdout
-    assert "Gxz 0.0031 GPa, Gyz 0.0031 GPa" in r.stdout
-    assert "0.00 GPa" not in r.stdout
+    assert ("global laminate properties (Appendix A): Ex 0.0445 GPa, Ey 0.0445 GPa, Gxy 0.0167 "
+            "GPa, Gxz 0.0031 GPa, Gyz 0.0031 GPa") in r.stdout
+    assert "0.00 GPa" not in r.stdout and "0.12 GPa" not in r.stdout
     assert f"warning: {spec}: measured mode 1 (125 Hz) is 97 % from the model" in r.stderr
+    # identify's tables (their cells) by the same rule; from 1 GPa two decimals
+    assert [_num("E1", v) for v in (0.1172e9, 0.5e9, 0.00293e9, 1.172e9, 117.2e9)] == [
+        "0.117", "0.5", "0.00293", "1.17", "117.20"]
+    assert format_constant("G12", 0.1172e9) == "0.117 GPa"
 
 
 def test_a_single_ply_plate_is_one_ply(tmp_path):

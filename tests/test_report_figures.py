@@ -213,12 +213,17 @@ def _two_band_fit():
         def synthesise(f):
             return np.atleast_2d(1.0 / (f0 ** 2 - f ** 2 + 0.02j * f0 * f))
         chart = SimpleNamespace(freq_hz=np.array([0.9 * f0, f0, f0]),
-                                order=np.array([2.0, 3.0, 4.0]), stable=np.array([0, 1, 2]))
+                                order=np.array([2.0, 3.0, 4.0]), stable=np.array([0, 1, 2]),
+                                damping_ratio=np.full(3, 0.01), track=np.array([0, 1, 1]),
+                                band_hz=(lo, hi))
         return SimpleNamespace(band_hz=(lo, hi), synthesise=synthesise, chart=chart)
+
+    from laminid_cli.frf.rfp import PoleCriteria
 
     bands = [band(50.0, 150.0, 100.0), band(150.0, 300.0, 220.0)]
     return SimpleNamespace(bands=bands, modes=[SimpleNamespace(freq_hz=100.0),
-                                               SimpleNamespace(freq_hz=220.0)])
+                                               SimpleNamespace(freq_hz=220.0)],
+                           freq_hz=np.array([100.0, 220.0]), criteria=PoleCriteria())
 
 
 @pytest.mark.parametrize("n_bands", [1, 2])
@@ -235,6 +240,7 @@ def test_stabilisation_legend_keys_the_x_of_every_band(n_bands):
     fit = _two_band_fit()
     fit.bands = fit.bands[:n_bands]
     fit.modes = fit.modes[:n_bands]
+    fit.freq_hz = fit.freq_hz[:n_bands]
     freq = np.arange(50.0, 300.0, 0.5)
     frf = np.atleast_2d(1.0 / (100.0 ** 2 - freq ** 2 + 2j * freq))
     fig = fit_figure(freq, frf, fit)
@@ -631,3 +637,178 @@ def test_frequency_table_headers_fit_their_cells(s21_8x8):
         text, box = cell.get_text(), cell.get_window_extent(renderer)
         inner = text.get_window_extent(renderer)
         assert box.x0 < inner.x0 and inner.x1 < box.x1, (text.get_text(), inner, box)
+
+
+def test_an_undetermined_value_is_not_compared_with_its_reference(s11):
+    """S1.1's nu12, "not determined by these modes", showed its reference as "0.350 (-35 %)",
+    a difference a reader may act on: the cell gives the reference and "(not compared)", inside
+    its cell, and the notes say why; a determined constant keeps its difference."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from laminid_cli.resultfile import read_result
+
+    fig = result_page(s11, "summary")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    rows = {row[0].split(" ")[0]: row for row in cells(ax(fig, "constants"))[1:]}
+    assert rows["nu12"][3] == "not determined"
+    assert rows["nu12"][5] == "0.350\n(not compared)"
+    e1 = read_result(s11).materials["IM7/977-2"]["E1"]
+    assert rows["E1"][3] != "not determined"
+    assert rows["E1"][5] == f"170.0 ({round((e1 / 170e9 - 1) * 100):+d} %)"
+    assert ("reference (not compared): the value is not determined by these modes or is on a "
+            "search limit, so its difference from the reference would mean nothing") \
+        in " ".join(_notes(fig).split())
+    table = ax(fig, "constants").tables[0]
+    row = 1 + [k for k, r in enumerate(cells(ax(fig, "constants"))[1:])
+               if r[0].startswith("nu12")][0]
+    cell = table.get_celld()[row, 5]
+    box, inner = cell.get_window_extent(renderer), cell.get_text().get_window_extent(renderer)
+    assert box.x0 < inner.x0 and inner.x1 < box.x1 and box.y0 < inner.y0 and inner.y1 < box.y1
+
+
+def _labelled_ticks(a, renderer):
+    """(value, label, window extent) of the y axis' labelled major ticks in view."""
+    lo, hi = a.get_ylim()
+    out = []
+    for tick in a.yaxis.get_major_ticks():
+        v, label = tick.get_loc(), tick.label1
+        if lo * (1 - 1e-9) <= v <= hi * (1 + 1e-9) and label.get_visible() and label.get_text():
+            out.append((v, label.get_text(), label.get_window_extent(renderer)))
+    return out
+
+
+def test_history_modulus_panel_labels_the_range_it_shows(s21):
+    """S2.1's "modulus / initial value" (0.0008 to 1.9 at 8x8, 4 at 12x12, on a log axis) labelled only its decades,
+    none above 1, so that values 1 to 4 could not be read: its labels are at most 0.4 decade
+    apart and from the panel's ends, plain text (no mathtext), not overlapping."""
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = result_page(s21, "history")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    a = ax(fig, "moduli")
+    assert a.get_yscale() == "log"
+    lo, hi = a.get_ylim()
+    ys = np.concatenate([ln.get_ydata() for ln in a.get_lines()
+                         if (ln.get_gid() or "").startswith("history-")])
+    assert ys.max() > 1.5 and ys.min() < 0.01       # the case: values above 1, decades below
+    ticks = _labelled_ticks(a, renderer)
+    values = [v for v, _, _ in ticks]
+    assert any(v > 1 for v in values), [t for _, t, _ in ticks]
+    gaps = np.diff(np.log10([lo] + values + [hi]))
+    assert gaps.max() <= 0.41, [t for _, t, _ in ticks]
+    labels = [t for _, t, _ in ticks]
+    assert "1" in labels and "2" in labels and not [t for t in labels if "$" in t]
+    boxes = [b for _, _, b in ticks]
+    assert all(b1.y1 < b0.y0 or b0.y1 < b1.y0 for b0, b1 in zip(boxes, boxes[1:]))
+
+
+def test_a_squeezed_log_axis_labels_a_wide_partial_decade_at_its_end():
+    """A log axis too short for 2 and 5 in each decade labels the decades, and a 2, 3 or 5
+    x 10^k in a partial decade at an end when it has room (1 to 4.5: "3"), in plain text
+    ("2×10⁻⁹", not "2e-09")."""
+    from laminid_cli.report import _figure, log_axis_ticks, plain_number
+
+    def labels(height, lim):
+        fig = _figure((6, height + 0.5))
+        a = fig.add_axes([0.1, 0.25 / (height + 0.5), 0.8, height / (height + 0.5)])
+        a.set_yscale("log")
+        a.set_ylim(*lim)
+        log_axis_ticks(a, plain=False)
+        fmt = a.yaxis.get_major_formatter()
+        return [fmt(v, 0) for v in a.yaxis.get_majorticklocs() if lim[0] <= v <= lim[1]]
+
+    assert labels(1.2, (1e-3, 4.5)) == ["10⁻³", "10⁻²", "10⁻¹", "10⁰", "3"]
+    assert labels(2.4, (1e-3, 4.5)) == ["0.001", "0.002", "0.005", "0.01", "0.02", "0.05",
+                                        "0.1", "0.2", "0.5", "1", "2"]
+    assert labels(1.6, (1e-9, 1.0))[0] == "2×10⁻⁹"
+    assert labels(0.8, (0.3, 40)) == ["0.5", "1", "2", "5", "10", "20"]
+    assert [plain_number(v) for v in (2e-5, 1e-5, 0.0002, 3.0, 2e5, 1.5e-7)] == [
+        "2×10⁻⁵", "10⁻⁵", "0.0002", "3", "2×10⁵", "1.5e-07"]
+
+
+@pytest.fixture(scope="module")
+def example_frf_fit(tmp_path_factory):
+    """scripts/example_frf.py's synthetic impact test of S1.1 (make example-frf) and its RFP
+    fit: 13 modes; two poles stable in frequency and damping that are none of them, near
+    the third band's edges (1112 Hz at order 14; 1405-1406 Hz at orders 13-14, the band
+    ending at 1410 Hz)."""
+    import importlib.util
+
+    from laminid_cli.frf.io import read_frf
+    from laminid_cli.frf.rfp import find_modes
+
+    out = tmp_path_factory.mktemp("exfrf")
+    spec = importlib.util.spec_from_file_location("example_frf", "scripts/example_frf.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    assert mod.main(["--out", str(out)]) == 0
+    fs = read_frf(out / "plate.frf.h5")
+    return out / "plate.frf.h5", fs, find_modes(fs.freq, fs.frf)
+
+
+def test_stabilisation_chart_says_why_a_stable_pole_is_not_a_mode(example_frf_fit):
+    """fit-frf --plot: stable poles (x) near a band's edge that are not in the mode list were
+    drawn as the modes' x, with no word why. They are boxed, the legend keys the box, and a
+    note under the chart gives each one's frequencies, orders and the rule that left it out
+    (here: stable at too few orders, a computational pole near the band edge), inside the
+    figure."""
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from laminid_cli.frf.plot import fit_figure
+    from laminid_cli.frf.rfp import unlisted_stable_poles
+
+    _, fs, fit = example_frf_fit
+    unlisted = unlisted_stable_poles(fit, fs.freq)
+    assert [(round(u.freq_hz[0]), round(u.freq_hz[1]), u.orders, u.reason, u.edge_hz)
+            for u in unlisted] == [(1112, 1112, (14, 14), "few", 1105.5),
+                                   (1405, 1406, (13, 14), "few", 1410.0)]
+    listed = fit.freq_hz
+    for u in unlisted:
+        assert np.min(np.abs(listed - u.freq_hz[0])) > 20
+    fig = fit_figure(fs.freq, fs.frf, fit, units=fs.units)
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    s = ax(fig, "stabilisation")
+    boxed = [ln for ln in s.get_lines() if ln.get_gid() == "unlisted"]
+    assert len(boxed) == 1 and sorted(np.round(boxed[0].get_xdata())) == [1112, 1405, 1406]
+    labels = [t.get_text() for t in s.get_legend().get_texts()]
+    assert "boxed: stable, not a mode (why: below)" in labels
+    note = next(t for t in s.texts if t.get_gid() == "unlisted-note")
+    words = " ".join(note.get_text().split())
+    assert words == (
+        "boxed, stable but not a mode: 1112 Hz (order 14): stable at 1 order, fewer than the 5 "
+        "a mode needs: a computational pole, near the band edge 1105.5 Hz, where the fit places "
+        "poles for the modes beyond it; 1405–1406 Hz (orders 13–14): stable at 2 orders, fewer "
+        "than the 5 a mode needs: a computational pole, near the band edge 1410 Hz, where the "
+        "fit places poles for the modes beyond it")
+    box, page = note.get_window_extent(renderer), fig.bbox
+    assert page.x0 <= box.x0 and box.x1 <= page.x1 and page.y0 <= box.y0
+    assert box.y1 < s.get_window_extent(renderer).y0          # under the chart, clear of it
+
+
+def test_unlisted_pole_words_for_each_rule():
+    """The note's words for the other rules: at the band's edge, damping out of range, below
+    the noise; no band edge named far from one."""
+    import numpy as np
+
+    from laminid_cli.frf.plot import unlisted_note
+    from laminid_cli.frf.rfp import PoleCriteria, UnlistedPoles
+
+    def u(reason, edge=None, n=6):
+        return UnlistedPoles(band=0, rows=np.array([0]), freq_hz=(1589.6, 1590.2),
+                             orders=(8, 16), n_stable=n, reason=reason, edge_hz=edge)
+
+    c = PoleCriteria()
+    assert " ".join(unlisted_note([u("edge", 1590.5)], c).split()) == (
+        "boxed, stable but not a mode: 1590 Hz (orders 8–16): within 2 lines of the band edge "
+        "1590.5 Hz: not taken from that band (a pole there stands for the modes beyond it)")
+    assert unlisted_note([u("damping")], c).endswith("damping outside 0–10%: not a physical "
+                                                     "mode")
+    assert " ".join(unlisted_note([u("noise")], c).split()).endswith(
+        "its contribution does not rise above the fit's residual (5 x): dropped as noise")
+    assert unlisted_note([u("few", n=3)], c).endswith(
+        "stable at 3 orders, fewer than the 5 a mode needs: a computational pole")

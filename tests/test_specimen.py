@@ -14,8 +14,8 @@ import pytest
 from laminid_cli.errors import SpecimenError
 from laminid_cli.laminate import laminate_from_specimen
 from laminid_cli.material import ElasticConstants
-from laminid_cli.specimen import (LayupSyntaxError, expand_layup, load_specimen_text,
-                                  read_specimen)
+from laminid_cli.specimen import (LayupSyntaxError, constant_line, expand_layup,
+                                  load_specimen_text, read_specimen)
 from laminid_cli.units import Where, format_quantity, parse_quantity, written_unit
 from tests.data import paper
 
@@ -930,3 +930,26 @@ def test_a_file_that_is_not_text_is_named_for_what_it_is(tmp_path, head, what):
     assert "UTF-8" not in str(info.value)
     r = CliRunner().invoke(cli, ["identify", str(path), "--no-output"])
     assert r.exit_code == 2 and f"is {what}" in r.output and "Traceback" not in r.output
+
+
+def test_constant_line_finds_a_ply_constant_or_its_isotropic_key():
+    """constant_line: the line of a material's constant in the YAML, for messages about an
+    initial value the identification refuses after the file was read (nu, E or G of an
+    isotropic material: the key the constant came from)."""
+    text = ("geometry: {a: 200 mm, b: 300 mm, h: 2 mm}\n"
+            "materials:\n"
+            "  cfrp:\n"
+            "    E1: 117 GPa\n    E2: 8.8 GPa\n    G12: 3.1 GPa\n"
+            "    G13: 3.1 GPa\n    G23: 3.1 GPa\n    nu12: 0.35\n"
+            "    density: 1600 kg/m^3\n"
+            "  alu:\n"
+            "    E: 70 GPa\n"
+            "    nu: 0.33\n"
+            "    density: 2700 kg/m^3\n"
+            "plies: [{angle: 0, material: cfrp}, {angle: 0, material: alu}]\n")
+    spec = load_specimen_text(text, "t.yaml")
+    assert constant_line(spec, "cfrp", "nu12") == 9
+    assert constant_line(spec, "cfrp", "G12") == 6
+    assert constant_line(spec, "alu", "nu12") == 13
+    assert constant_line(spec, "alu", "G23") == 12     # G = E / (2 (1 + nu)) when not given
+    assert constant_line(spec, "steel", "E1") is None

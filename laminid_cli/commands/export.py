@@ -27,6 +27,16 @@ def _shape_format(path) -> str | None:
     return fmt if fmt in SHAPE_FORMATS else None
 
 
+def _span(freq) -> list:
+    """[lowest, highest] of the frequencies written (Hz), for --json (``freq_range_hz``);
+    [] when there are none."""
+    import numpy as np
+
+    f = np.asarray(freq, float)
+    f = f[np.isfinite(f)]
+    return [float(f.min()), float(f.max())] if f.size else []
+
+
 @click.command("export")
 @click.argument("input_file", type=InputFile())
 @click.option("-o", "--output", required=True, type=OUTPUT_FILE,
@@ -95,7 +105,8 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
         summary = {"input": str(input_file), "output": str(out), "kind": "mode shapes",
                    "datasets": {"164": 1, "15": 1, "55": int(shapes.w.shape[1])},
                    "specimen": shapes.specimen, "n_nodes": int(shapes.nodes.shape[0]),
-                   "n_modes": int(shapes.w.shape[1]), "freq_hz": shapes.freq_hz.tolist()}
+                   "n_modes": int(shapes.w.shape[1]), "freq_hz": shapes.freq_hz.tolist(),
+                   "freq_range_hz": _span(shapes.freq_hz)}
         text = (f"{out}: {summary['n_modes']} mode shapes of {shapes.specimen} (UFF 55) on "
                 f"{summary['n_nodes']} nodes (UFF 15, metres; UFF 164 SI)")
     else:
@@ -124,6 +135,7 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
         summary = {"input": str(input_file), "output": str(out), "kind": "FRF",
                    "datasets": {"58": fs.n_points + len(coherent)}, "binary": not ascii_,
                    "units": units, "n_lines": int(fs.freq.size),
+                   "freq_range_hz": _span(fs.freq),
                    "points": dict(zip(labels, nodes)),
                    "coherence_points": [labels[k] for k in coherent], "notes": notes}
         text = (f"{out}: {fs.n_points} FRFs (UFF 58{'' if ascii_ else 'b'}, {units}, "

@@ -36,7 +36,7 @@ def format_constant(name: str, value) -> str:
         return "-"
     if name.startswith("nu"):
         return f"{value:.3f}"
-    return f"{_num(name, value)} GPa"          # a modulus below 0.1 GPa: 0.0031, not 0.00
+    return f"{_num(name, value)} GPa"          # a modulus below 1 GPa: 0.0031, not 0.00
 
 
 def format_header(s: dict) -> list[str]:
@@ -565,8 +565,10 @@ def _num(name: str, value) -> str:
     v = value if name == "nu12" else value / 1e9
     if abs(v) >= 1e5:                    # an undetermined constant's interval end: no 26 digits
         return f"{v:.2e}"
-    if name != "nu12" and 0 < abs(v) < 0.1:
-        return f"{v:.3g}"                # a modulus at its floor: 0.00299, not 0.00
+    if name != "nu12" and 0 < abs(v) < 1:
+        # at least 3 digits: a modulus at its floor 0.00299, not 0.00; moduli written in MPa
+        # 0.117 (E1 117.2 MPa), not 0.12
+        return f"{v:.3g}"
     return f"{v:.3f}" if name == "nu12" else f"{v:.2f}"
 
 

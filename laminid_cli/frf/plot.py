@@ -15,6 +15,8 @@ from laminid_cli.errors import FrfError
 
 PLOT_SUFFIXES = (".png", ".pdf", ".svg")
 MEASURED_COLOR = "k"
+#: the box around the stable poles of a stabilisation chart that are none of the modes
+UNLISTED_COLOR = "k"
 
 
 def has_coherence(coherence) -> bool:
@@ -119,6 +121,40 @@ def plot_fit(path, freq, frf, fit, *, title: str = "", units: str = "", coherenc
     return path
 
 
+def unlisted_note(unlisted, criteria, width: int = 150) -> str:
+    """Why each group of stable poles that is none of the modes was left out (the chart's
+    note; :func:`~laminid_cli.frf.rfp.unlisted_stable_poles`), e.g. "1405-1406 Hz (orders
+    13-14): stable at 2 orders, fewer than the 5 a mode needs: a computational pole, near the
+    band edge 1410 Hz, where the fit places poles for the modes beyond it"."""
+    import textwrap
+
+    from laminid_cli.frf.rfp import EDGE_LINES
+
+    parts = []
+    for u in unlisted:
+        lo, hi = u.freq_hz
+        where = f"{lo:.0f} Hz" if round(lo) == round(hi) else f"{lo:.0f}–{hi:.0f} Hz"
+        o_lo, o_hi = u.orders
+        orders = f"order {o_lo}" if o_lo == o_hi else f"orders {o_lo}–{o_hi}"
+        edge = f"{u.edge_hz:g} Hz" if u.edge_hz is not None else ""
+        if u.reason == "few":
+            why = (f"stable at {u.n_stable} order{'s' if u.n_stable != 1 else ''}, fewer than "
+                   f"the {criteria.min_stable} a mode needs: a computational pole"
+                   + (f", near the band edge {edge}, where the fit places poles for the modes "
+                      "beyond it" if edge else ""))
+        elif u.reason == "edge":
+            why = (f"within {EDGE_LINES} lines of the band edge {edge}: not taken from that "
+                   "band (a pole there stands for the modes beyond it)")
+        elif u.reason == "damping":
+            why = (f"damping outside 0–{criteria.max_damping:.0%}: not a physical mode")
+        else:
+            why = (f"its contribution does not rise above the fit's residual ({criteria.min_snr:g}"
+                   " x): dropped as noise")
+        parts.append(f"{where} ({orders}): {why}")
+    text = "boxed, stable but not a mode: " + "; ".join(parts)
+    return "\n".join(textwrap.wrap(text, width))
+
+
 def fit_figure(freq, frf, fit, *, title: str = "", units: str = "", coherence=None):
     """The figure of a :class:`~laminid_cli.frf.rfp.ModalFit` (``fit-frf --plot``).
 
@@ -148,23 +184,40 @@ def fit_figure(freq, frf, fit, *, title: str = "", units: str = "", coherence=No
                 frameon=False)                  # above the panel: clear of the curves
     from matplotlib.lines import Line2D
 
+    from laminid_cli.frf.rfp import unlisted_stable_poles
+
     kinds = ((0, "o", "new pole"), (1, "+", "stable in f"),
              (2, "x", "stable in f and damping" + (" (colour: its band)"
                                                    if len(fit.bands) > 1 else "")))
+    # stable poles that are none of the modes: drawn apart and said why below the chart (a
+    # stable x at a band's edge, not in the list, was left for the reader to guess)
+    unlisted = unlisted_stable_poles(fit, freq)
     with np.errstate(divide="ignore", invalid="ignore"):
         for k, band in enumerate(fit.bands):
             color = f"C{k % 10}"
             ch = band.chart
+            apart = np.zeros(ch.order.size, bool)
+            for u in unlisted:
+                if u.band == k:
+                    apart[u.rows] = True
             for code, marker, _ in kinds:
                 s = ch.stable == code
                 ax_s.plot(ch.freq_hz[s], ch.order[s], marker, ms=3 if code == 0 else 5,
                           mfc="none", color=color if code == 2 else "0.5", ls="none")
+            if apart.any():     # boxed: a shape no band's colour can be mistaken for
+                ax_s.plot(ch.freq_hz[apart], ch.order[apart], "s", ms=9, mfc="none",
+                          mew=0.9, color=UNLISTED_COLOR, ls="none", gid="unlisted")
         summed = 20 * np.log10(np.abs(frf).sum(axis=0))
     # the legend's x in the first band's colour where there is one band, else neutral (the
     # first band's blue keyed the orange and green x of the others as something else)
     handles = [Line2D([], [], ls="none", marker=marker, ms=3 if code == 0 else 5, mfc="none",
                       color="0.5" if code < 2 else "C0" if len(fit.bands) <= 1 else "0.15")
                for code, marker, _ in kinds]
+    labels = [label for _, _, label in kinds]
+    if unlisted:
+        handles.append(Line2D([], [], ls="none", marker="s", ms=9, mfc="none", mew=0.9,
+                              color=UNLISTED_COLOR))
+        labels.append("boxed: stable, not a mode (why: below)")
     for m in fit.modes:
         ax_s.axvline(m.freq_hz, color="0.35", ls="--", lw=0.6)
     ax_s2 = ax_s.twinx()
@@ -177,9 +230,14 @@ def fit_figure(freq, frf, fit, *, title: str = "", units: str = "", coherence=No
     from matplotlib.ticker import MaxNLocator
     ax_s.yaxis.set_major_locator(MaxNLocator(integer=True))     # orders are whole numbers
     ax_s.set_xlabel("frequency (Hz)")
-    ax_s.legend(handles, [label for _, _, label in kinds], loc="lower center",
-                bbox_to_anchor=(0.5, 1.0), ncol=3, fontsize=8, frameon=False,
+    ax_s.legend(handles, labels, loc="lower center",
+                bbox_to_anchor=(0.5, 1.0), ncol=len(labels), fontsize=8, frameon=False,
                 title="stabilisation chart (grey: summed |H|)", title_fontsize=9)
+    if unlisted:
+        note = unlisted_note(unlisted, fit.criteria)
+        ax_s.annotate(note, (0, 0), xycoords="axes fraction", xytext=(0, -32),
+                      textcoords="offset points", va="top", ha="left", fontsize=7.5,
+                      color="0.2", gid="unlisted-note")
     if xr:
         ax_s.set_xlim(*xr)
     fig.suptitle(title or f"RFP fit: {len(fit.modes)} modes")

@@ -66,6 +66,9 @@ FIT_TOP_FREQ_HZ = (1e-6, 1e12)
 #: range of the largest FRF magnitude the fit accepts (any units): outside it the squared
 #: magnitudes of the least-squares fit underflow or overflow
 FIT_FRF_MAGNITUDE = (1e-100, 1e100)
+#: a band's pole within this many line spacings of its edges is not taken from that band (a
+#: pole at the edge stands for the modes beyond it; an overlapping band sees it inside)
+EDGE_LINES = 2
 
 
 # --------------------------------------------------------------------------- data classes
@@ -607,6 +610,7 @@ class _Candidate:
     damping_std: float
     orders_stable: int
     top_order: int
+    tracks: tuple = ()          # the chart's track ids it was made of
 
 
 def select_poles(chart: Stabilisation, *, criteria: PoleCriteria = PoleCriteria()
@@ -657,8 +661,74 @@ def select_poles(chart: Stabilisation, *, criteria: PoleCriteria = PoleCriteria(
             damping_ratio=float(np.median(chart.damping_ratio[top])),
             freq_std_hz=float(np.std(f_all, ddof=1)) if f_all.size > 1 else 0.0,
             damping_std=float(np.std(z, ddof=1)) if z.size > 1 else 0.0,
-            orders_stable=int(stab.size), top_order=int(orders.max())))
+            orders_stable=int(stab.size), top_order=int(orders.max()),
+            tracks=tuple(int(t) for t in np.unique(chart.track[g]))))
     out.sort(key=lambda c: c.freq_hz)
+    return out
+
+
+@dataclass(frozen=True)
+class UnlistedPoles:
+    """Poles of a band's stabilisation chart that are stable in frequency and damping but
+    are none of the fit's modes, and why (:func:`unlisted_stable_poles`).
+
+    band : index of the band in ``ModalFit.bands``; rows : indices into its chart's arrays;
+    freq_hz : (low, high) of their frequencies; orders : (low, high) model orders;
+    n_stable : orders at which their track is stable in frequency and damping; reason :
+    'few' (fewer than ``min_stable``: a computational pole), 'edge' (within
+    :data:`EDGE_LINES` lines of the band's edge), 'damping' (outside (0, max_damping]) or
+    'noise' (its contribution did not rise above the fit residual, ``min_snr``); edge_hz :
+    the band edge it lies near (within 5 % of the band's width), or None
+    """
+
+    band: int
+    rows: np.ndarray
+    freq_hz: tuple[float, float]
+    orders: tuple[int, int]
+    n_stable: int
+    reason: str
+    edge_hz: float | None
+
+
+def unlisted_stable_poles(fit: ModalFit, freq) -> list[UnlistedPoles]:
+    """The poles of ``fit``'s stabilisation charts stable in frequency and damping (the
+    chart's x) that lie on none of its modes (within 1 % or two lines), grouped by track,
+    with the rule that left each out: what a reader of the chart otherwise has to guess.
+    ``freq`` : the FRF's lines, Hz (the edge margin is :data:`EDGE_LINES` of their spacing).
+    """
+    crit = fit.criteria
+    df = float(np.median(np.diff(np.asarray(freq, float))))
+    margin = EDGE_LINES * df
+    listed = fit.freq_hz
+    out = []
+    for k, band in enumerate(fit.bands):
+        ch = band.chart
+        lo, hi = ch.band_hz
+        qualified = {t: c for c in select_poles(ch, criteria=crit) for t in c.tracks}
+        rows = np.flatnonzero(ch.stable == 2)
+        if listed.size:
+            near = np.min(np.abs(ch.freq_hz[rows, None] - listed[None, :]), axis=1)
+            rows = rows[near > np.maximum(0.01 * ch.freq_hz[rows], 2 * df)]
+        for t in np.unique(ch.track[rows]):
+            mine = rows[ch.track[rows] == t]
+            track = np.flatnonzero((ch.track == t) & (ch.stable == 2))
+            c = qualified.get(int(t))
+            if c is None:
+                zmed = float(np.median(ch.damping_ratio[track]))
+                reason = ("damping" if track.size >= crit.min_stable
+                          and not 0 < zmed <= crit.max_damping else "few")
+                n_stable = int(track.size)
+            else:
+                reason = ("noise" if lo + margin <= c.freq_hz <= hi - margin else "edge")
+                n_stable = c.orders_stable
+            f = ch.freq_hz[mine]
+            near_edge = [e for e in (lo, hi) if abs(np.median(f) - e) <= 0.05 * (hi - lo)]
+            out.append(UnlistedPoles(
+                band=k, rows=mine, freq_hz=(float(f.min()), float(f.max())),
+                orders=(int(ch.order[mine].min()), int(ch.order[mine].max())),
+                n_stable=n_stable, reason=reason,
+                edge_hz=float(near_edge[0]) if near_edge else None))
+    out.sort(key=lambda u: u.freq_hz[0])
     return out
 
 
@@ -953,7 +1023,7 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
                            "widen it")
         sweeps.append((rng, n_max))
     check_fit_memory(freq, frf, sweeps, criteria.n_extra)
-    margin = 2 * float(np.median(np.diff(freq)))
+    margin = EDGE_LINES * float(np.median(np.diff(freq)))
 
     def sweep(ref=None):
         charts, cands = [], []
