@@ -492,6 +492,24 @@ def _check_arrays(freq, frf):
     return freq, frf.astype(complex)
 
 
+def lines_needed(n_modes: int, n_extra: int, n_points: int) -> int:
+    """Fewest lines of a band for a global RFP fit of ``n_modes`` modes to ``n_points`` FRFs.
+
+    Real unknowns: 2N + n_extra numerator coefficients per FRF and 2N shared denominator ones,
+    against 2 n_lines real equations per FRF, and one line more (strictly overdetermined).
+    """
+    return int(np.ceil((2 * n_modes + n_extra + 2 * n_modes / max(n_points, 1)) / 2)) + 1
+
+
+def max_band_modes(n_lines: int, n_extra: int, n_points: int) -> int:
+    """Most modes a band of ``n_lines`` lines can be fitted with (:func:`lines_needed`); the
+    order sweep stops there, so it never asks the band for more than it holds."""
+    n = max(int(n_lines * n_points / (n_points + 1)) + 2, 0)    # need(N) > N (1 + 1/n_points)
+    while n > 0 and lines_needed(n, n_extra, n_points) > n_lines:
+        n -= 1
+    return n
+
+
 def _check_band(freq, band, n_modes: int, n_extra: int, n_points: int):
     lo, hi = float(band[0]), float(band[1])
     if not (np.isfinite(lo) and np.isfinite(hi)) or hi <= lo:
@@ -502,9 +520,7 @@ def _check_band(freq, band, n_modes: int, n_extra: int, n_points: int):
         raise FrfError(f"band {lo:g}:{hi:g} Hz holds {n_lines} frequency lines of the FRF axis "
                        f"({freq[0]:g}-{freq[-1]:g} Hz, {freq[1] - freq[0]:g} Hz step); at least "
                        f"{MIN_BAND_LINES} are needed")
-    # real unknowns: 2N + n_extra numerator coefficients per FRF and 2N shared denominator ones,
-    # against 2 n_lines real equations per FRF
-    need = int(np.ceil((2 * n_modes + n_extra + 2 * n_modes / max(n_points, 1)) / 2)) + 1
+    need = lines_needed(n_modes, n_extra, n_points)
     if n_lines < need:
         raise FrfError(f"band {lo:g}:{hi:g} Hz holds {n_lines} lines, too few for {n_modes} "
                        f"modes (at least {need} lines needed); widen the band or ask fewer modes")
@@ -1010,9 +1026,10 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
         n_max = criteria.max_modes or max(2 * n_pk + 8, 12)
         if n_modes is not None and bands is not None:
             n_max = max(n_max, n_modes + 6)
-        # keep the linearised system overdetermined: 2 N shared + (2 N + n_extra) per FRF
-        # unknowns against 2 n_lines real equations per FRF
-        n_cap = (2 * n_lines * n_p - criteria.n_extra * n_p) // (2 * n_p + 2)
+        # keep the linearised system overdetermined, by the rule the sweep's fits check (the
+        # cap was one mode above it for 2 FRFs: an automatic band of 18 lines was refused,
+        # "too few for 11 modes ... ask fewer modes", of a user who asked for none)
+        n_cap = max_band_modes(n_lines, criteria.n_extra, n_p)
         if n_modes is not None and bands is not None and len(plan) == 1 and n_modes > n_cap:
             raise FrfError(f"band {rng[0]:g}:{rng[1]:g} Hz holds {n_lines} lines, too few to "
                            f"fit {n_modes} modes; widen the band or ask fewer modes")
