@@ -741,3 +741,57 @@ def test_the_emulator_script_serves_an_acquire_and_stops_on_sigint(tmp_path, mod
     finally:
         proc.send_signal(signal.SIGINT)
         assert proc.wait(timeout=5) == 0
+
+
+class _OverloadOnPoint2:
+    """An emulator whose input status flags ``word`` during measurement 2 (the hammer hit
+    too hard, or the response over range)."""
+
+    word = 0
+
+    def begin_measurement(self):
+        super().begin_measurement()
+        if self.measurement == 2:
+            self.overload_word = self.word
+
+
+@pytest.mark.parametrize("emu_cls, word, channels, names", [
+    (HP35670AEmulator, 1, [1], "ch1 hammer"),              # STAT:QUES:VOLT bit 0
+    (HP35670AEmulator, 3, [1, 2], "ch1 hammer, ch2 response"),
+    (SR785Emulator, 1 << 10, [2], "ch2 response")])        # INPS? bit 10
+def test_an_overloaded_point_names_its_channel_and_every_fault(tmp_path, emu_cls, word,
+                                                               channels, names):
+    """The quality line's 'overloads 2' was a count of channels that a reader took for hits,
+    without saying which input (the hammer hit too hard, or the response's range), and a
+    point both poorly coherent and overloaded said only 'POOR coherence'. --json gives the
+    channels (1 hammer, 2 response)."""
+    import json
+
+    emu = type("Emu", (_OverloadOnPoint2, emu_cls), {"word": word})()
+    with emu:
+        r = acquire(emu, tmp_path / "o.h5", "--no-prompt", "--json", points=2)
+        assert r.exit_code == 0, r.output
+        assert "point 1: 3 hits" in r.stderr and "overloads 0 - ok\n" in r.stderr
+        assert (f"Hz), overloads {len(channels)} ({names}) - OVERLOAD\n") in r.stderr
+        d = json.loads(r.stdout)
+        assert [(p["overloads"], p["overloaded_channels"], p["ok"]) for p in d["points"]] == [
+            (0, [], True), (len(channels), channels, False)]
+        r = acquire(emu, tmp_path / "p.h5", "--no-prompt", "--coherence-min", "1.0", points=1)
+        assert r.exit_code == 0, r.output     # measurement 3 of the emulator: no overload
+        assert "overloads 0 - POOR coherence\n" in r.output
+    assert read_frf_h5(tmp_path / "o.h5").meta["points"]["overloads"] == [0, len(channels)]
+
+
+def test_overloads_an_analyser_cannot_tell_are_null_in_json(tmp_path, hp, monkeypatch):
+    """An analyser that cannot report its overloads: '?' in the quality line, null in --json
+    (was -1, a count)."""
+    import json
+
+    from laminid_cli.instrument.hp35670a import HP35670A
+
+    monkeypatch.setattr(HP35670A, "overloaded_channels", lambda self: None)
+    r = acquire(hp, tmp_path / "u.h5", "--no-prompt", "--json", points=1)
+    assert r.exit_code == 0, r.output
+    assert "overloads ? - ok\n" in r.stderr
+    p = json.loads(r.stdout)["points"][0]
+    assert p["overloads"] is None and p["overloaded_channels"] is None and p["ok"] is True

@@ -347,7 +347,11 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
                 "skipped": result.skipped, "repeated": result.repeated, "quit": result.quit,
                 "units": units, "lines": int(freq.size), "f_start_hz": float(freq[0]),
                 "f_stop_hz": float(freq[-1]), "instrument": identity,
-                "points": [asdict(q) | {"ok": q.ok} for q in ui.qualities.values()],
+                # an analyser that cannot tell its overloads: null, not a count of -1
+                "points": [asdict(q) | {"ok": q.ok} | (
+                    {"overloads": None, "overloaded_channels": None} if q.overloads < 0 else
+                    {"overloaded_channels": list(q.overloaded_channels)})
+                    for q in ui.qualities.values()],
                 "resume": None if result.complete or not out.exists() else hint,
                 "stopped": stopped})
 

@@ -11,7 +11,8 @@ Layout (schema_version 1)::
     /points/label           str (n_points,)   measurement point names ("1", "2", ... or user's)
     /points/timestamp       str (n_points,)   ISO 8601 UTC time the point was read
     /points/n_averages      int64 (n_points,) hits averaged
-    /points/overloads       int64 (n_points,) overloaded hits seen (rejected or not)
+    /points/overloads       int64 (n_points,) input channels over range during the point's
+                            averages (0-2: ch1 hammer, ch2 response; -1 unknown)
     /instrument             attrs: idn, model, resource (empty group when not from an analyser)
     /settings               attrs: one per acquisition setting, unit in the name (span_hz...)
 
