@@ -795,3 +795,36 @@ def test_overloads_an_analyser_cannot_tell_are_null_in_json(tmp_path, hp, monkey
     assert "overloads ? - ok\n" in r.stderr
     p = json.loads(r.stdout)["points"][0]
     assert p["overloads"] is None and p["overloaded_channels"] is None and p["ok"] is True
+
+
+def test_the_acquire_file_reads_with_h5py_alone_every_number_with_its_unit(tmp_path, hp):
+    """Another tool reads the FRF file as README's acquire section lays it out: named
+    datasets, each number with a units attribute (the per-point counts had none), settings
+    with the unit in their names, the values --json reported."""
+    import json
+
+    import h5py
+
+    out = tmp_path / "plate.frf.h5"
+    r = acquire(hp, out, "--no-prompt", "--json", "--units", "Pa/N", points=2)
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.stdout)
+    with h5py.File(out, "r") as f:
+        assert f.attrs["format"] == "laminid-frf" and f.attrs["schema_version"] == 1
+        assert bool(f.attrs["complete"]) is True
+        freq, frf, coh = f["frequency"], f["frf"], f["coherence"]
+        assert freq.shape == (801,) and frf.shape == coh.shape == (2, 801)
+        assert frf.dtype == np.complex128
+        assert (freq.attrs["units"], frf.attrs["units"], frf.attrs["quantity"],
+                coh.attrs["units"]) == ("Hz", "Pa/N", "response/force", "1")
+        assert (freq[0], freq[-1]) == (d["f_start_hz"], d["f_stop_hz"])
+        pts = f["points"]
+        assert [x.decode() for x in pts["label"][()]] == d["measured"] == ["1", "2"]
+        for key in ("n_averages", "overloads"):
+            assert pts[key].attrs["units"] == "1"
+        assert pts["n_averages"][()].tolist() == [p["n_averages"] for p in d["points"]]
+        assert pts["overloads"][()].tolist() == [p["overloads"] for p in d["points"]]
+        s = f["settings"].attrs
+        assert (s["span_hz"], s["lines"], s["averages"], s["exp_window_s"]) == (1600.0, 800, 3,
+                                                                                0.1)
+        assert f["instrument"].attrs["model"] == d["instrument"]["model"] == "35670A"
