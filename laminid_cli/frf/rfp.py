@@ -1077,7 +1077,8 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
 
     band_fits, modes = constants(cands)
     if criteria.gap_search:
-        found = _gap_search(freq, frf, modes, charts, criteria)
+        found = _new_poles(_gap_search(freq, frf, modes, charts, criteria),
+                           [c for _, c, _ in cands], criteria)
         if found:
             log.info("gap search: %d more pole(s) at %s Hz", len(found),
                      ", ".join(f"{c.freq_hz:.2f}" for c in found))
@@ -1127,6 +1128,22 @@ def _gap_search(freq, frf, modes, charts, criteria) -> list:
         out.extend(c for c in select_poles(chart, criteria=crit)
                    if b_lo + 2 * df <= c.freq_hz <= b_hi - 2 * df)
     return out
+
+
+def _new_poles(found, known, criteria) -> list:
+    """The gap search's poles that are none of ``known`` (within ``freq_tol``), one per pole.
+
+    A gaps' pole can be a band's candidate that its LSFD dropped as noise (the gaps lie between
+    the modes kept), or be found by two tracks of one gap's chart: appended as it was, it sat
+    beside its twin, the refinement moved both onto one pole, and the mode was listed twice
+    (420.46 Hz twice, from a record windowed with tau = 1 % of it)."""
+    out = []
+    for c in sorted(found, key=lambda c: -c.orders_stable):
+        if any(abs(c.freq_hz - k.freq_hz) < criteria.freq_tol * k.freq_hz
+               for k in (*known, *out)):
+            continue
+        out.append(c)
+    return sorted(out, key=lambda c: c.freq_hz)
 
 
 def _dedupe(cands, criteria):
