@@ -150,6 +150,14 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
             "damping ratios are those of every FRF (the poles do not depend on the response "
             f"quantity); each point's modal constants are in its own FRF's unit, not "
             f"{fs.units} (the first's, given as the file's)")
+    settings = fs.meta.get("settings") or {}
+    try:
+        record_s = float(settings["lines"]) / float(settings["span_hz"])
+    except (KeyError, TypeError, ValueError, ZeroDivisionError):
+        record_s = None
+    limit = rfp.window_limit_note(fit, fs.freq, tau, record_s)
+    if limit is not None:
+        notes.append(limit)
     if rfp.window_unknown(fs):
         notes.append(f"{frf_file} does not record the exponential window's time constant "
                      "(acquired with --keep-setup): the damping ratios are as fitted and include "

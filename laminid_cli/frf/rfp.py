@@ -1375,6 +1375,50 @@ def window_corrected_damping(fit: ModalFit, exp_window_s: float | None) -> Windo
         below=tuple(int(i) for i in np.flatnonzero(below)))
 
 
+#: a mode below the window's damping limit is named as possibly missed when that limit is
+#: above this fraction of the lowest mode found (a free plate's lowest modes lie within a
+#: factor 2-3 of each other, S1.1 125 and 203 Hz: a mode far below the lowest found is not
+#: to be expected, one near it is)
+WINDOW_LIMIT_NOTE_RATIO = 0.25
+
+
+def window_damping_limit_hz(exp_window_s: float, max_damping: float) -> float:
+    """Frequency (Hz) below which an exponential window of time constant ``exp_window_s`` (s)
+    alone adds more than ``max_damping`` to a pole's damping ratio, 1/(tau omega) >
+    max_damping: below it no pole passes :class:`PoleCriteria`'s damping rule (0 < zeta <=
+    max_damping, applied to the fitted, windowed poles) and no mode can be found."""
+    return 1.0 / (2 * np.pi * exp_window_s * max_damping)
+
+
+def window_limit_note(fit: ModalFit, freq, exp_window_s: float | None,
+                      record_s: float | None = None) -> str | None:
+    """A note when the window's damping limit (:func:`window_damping_limit_hz`) lies on the
+    FRF axis and close enough under the lowest mode found (:data:`WINDOW_LIMIT_NOTE_RATIO`)
+    that a mode there may have been missed: the list would then start with the plate's second
+    mode, and identify pair every measured mode with the model mode below it. None otherwise.
+    ``record_s``: the time record (lines / span), to suggest a time constant."""
+    if exp_window_s is None:
+        return None
+    f_lim = window_damping_limit_hz(exp_window_s, fit.criteria.max_damping)
+    freq = np.asarray(freq, float)
+    first = freq[freq > 0]
+    if not first.size or f_lim <= first[0]:
+        return None
+    lowest = float(np.min(fit.freq_hz)) if len(fit.modes) else None
+    if lowest is not None and f_lim < WINDOW_LIMIT_NOTE_RATIO * lowest:
+        return None
+    found = (f"the lowest mode found is at {lowest:.1f} Hz" if lowest is not None
+             else "no mode was found")
+    advice = "measure again with a longer --exp-window"
+    if record_s is not None and np.isfinite(record_s) and record_s > 0:
+        advice += f" (a quarter of the time record or more: {record_s / 4:g} s)"
+    return (f"below {f_lim:.0f} Hz the exponential window (tau = {exp_window_s:g} s) alone "
+            f"adds more than {fit.criteria.max_damping:.0%} damping, the most a mode may "
+            f"have: no mode can be found there, and {found}. If the plate has a mode below "
+            f"{f_lim:.0f} Hz, this list lacks it, and identify would pair each mode with the "
+            f"model mode below it; {advice}")
+
+
 def window_unknown(fs) -> bool:
     """True when the FRF file's settings name an exponential window but not its time constant
     (``exp_window_s`` NaN or empty: acquired with ``--keep-setup``, which cannot read it)."""
