@@ -270,6 +270,9 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
     from laminid_cli.instrument.transport import AnalyserSetupError
 
     # a blank text is a mistake, not a request for the default
+    if not analyser.strip():         # was "Could not parse : unknown interface type"
+        raise AnalyserSetupError("--analyser: empty; give the analyser's VISA resource, e.g. "
+                                 "GPIB0::5 or TCPIP::192.168.0.7::5025::SOCKET")
     if units is not None and not units.strip():
         raise AnalyserSetupError("--units: empty; give the FRF's engineering units, e.g. Pa/N "
                                  "or (m/s^2)/N, or leave the option out for V/V")
