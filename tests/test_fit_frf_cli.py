@@ -471,3 +471,17 @@ def test_a_narrow_band_is_swept_up_to_the_order_its_lines_hold(tmp_path, n_point
     assert r.exit_code == 2
     assert r.output.startswith("laminid: error: ") and "band 110:144 Hz holds 18 lines, too " \
         "few to fit 12 modes; widen the band or ask fewer modes" in r.output
+
+
+def test_into_with_no_mode_found_names_the_fit_not_the_specimen(tmp_path, h5):
+    """A band with no resonance and --into: the message blamed the specimen ('the edited file
+    would not be a valid specimen (...: the list of frequencies is empty)'); it says the fit
+    found no mode in the band, the file is unchanged (exit 2)."""
+    spec = tmp_path / "p.yaml"
+    spec.write_text(SPEC)
+    r = run(["fit-frf", str(h5), "--band", "20:60", "--into", str(spec)])
+    assert r.exit_code == 2
+    assert r.output == (f"laminid: error: {h5}: no stable mode found (band(s) 20:60 Hz): "
+                        f"nothing to write into {spec}, left unchanged; fit other bands "
+                        "(--band LO:HI)\n")
+    assert spec.read_text() == SPEC and not list(tmp_path.glob("p.yaml.bak*"))

@@ -168,6 +168,14 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         plot_fit(plot_path, fs.freq, fs.frf, fit, units=fs.units, coherence=fs.coherence,
                  title=f"{Path(frf_file).name}: {len(fit.modes)} modes")
     into = None
+    if spec_path is not None and not fit.modes:
+        from laminid_cli.errors import FrfError
+
+        # was: "the edited file would not be a valid specimen (...: the list of frequencies
+        # is empty)", the specimen blamed for the fit's empty list
+        bands_txt = ", ".join(f"{b.band_hz[0]:g}:{b.band_hz[1]:g}" for b in fit.bands)
+        raise FrfError(f"{frf_file}: no stable mode found (band(s) {bands_txt} Hz): nothing to "
+                       f"write into {spec_path}, left unchanged; fit other bands (--band LO:HI)")
     if spec_path is not None:
         from laminid_cli.frf.into import write_measured
 
