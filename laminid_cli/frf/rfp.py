@@ -998,7 +998,8 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
     if n_modes is not None and n_modes < 1:
         raise FrfError(f"--modes must be at least 1 (got {n_modes})")
     if bands is None:
-        plan = [(rng, n_pk) for _core, rng, n_pk in auto_bands(freq, frf)]
+        plan = _merge_narrow([(rng, n_pk) for _core, rng, n_pk in auto_bands(freq, frf)],
+                             freq, frf.shape[0], criteria)
     else:
         plan = []
         for b in bands:
@@ -1096,6 +1097,32 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
                            + "; widen the bands or ask fewer modes")
         modes = modes[:n_modes]
     return ModalFit(modes=tuple(modes), bands=tuple(band_fits), criteria=criteria)
+
+
+def _merge_narrow(plan, freq, n_points: int, criteria) -> list:
+    """Automatic bands (``[((lo, hi) Hz, n_peaks)]``) with too few lines for a stabilisation
+    sweep over ``min_stable + 1`` orders (:func:`max_band_modes`) joined to their neighbour
+    (the lower one where there is one). The peaks of noisy FRFs made a band of 9 lines at the
+    axis' end, 1582-1598 Hz, and the fit stopped: 'too narrow ...; widen it', to a user who
+    gave no band."""
+    plan = list(plan)
+
+    def too_narrow(rng):
+        n_lines = int(((freq >= rng[0]) & (freq <= rng[1]) & (freq > 0)).sum())
+        return max_band_modes(n_lines, criteria.n_extra, n_points) < criteria.min_stable + 1
+
+    k = 0
+    while len(plan) > 1 and k < len(plan):
+        if not too_narrow(plan[k][0]):
+            k += 1
+            continue
+        j = k - 1 if k > 0 else k + 1
+        (lo_a, hi_a), n_a = plan[min(j, k)]
+        (lo_b, hi_b), n_b = plan[max(j, k)]
+        plan[min(j, k)] = ((min(lo_a, lo_b), max(hi_a, hi_b)), n_a + n_b)
+        del plan[max(j, k)]
+        k = max(min(j, k), 0)
+    return plan
 
 
 def _gap_search(freq, frf, modes, charts, criteria) -> list:
