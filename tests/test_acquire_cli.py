@@ -828,3 +828,34 @@ def test_the_acquire_file_reads_with_h5py_alone_every_number_with_its_unit(tmp_p
         assert (s["span_hz"], s["lines"], s["averages"], s["exp_window_s"]) == (1600.0, 800, 3,
                                                                                 0.1)
         assert f["instrument"].attrs["model"] == d["instrument"]["model"] == "35670A"
+
+
+def test_fit_frf_of_noisy_or_overloaded_points_says_so(tmp_path):
+    """An acquire run with --no-prompt keeps its poor points (coherence 0.7 at the resonances,
+    an overload on point 2): fit-frf then found 2 of the plate's 7 modes, exit 0, without a
+    word on the data. It names the points, their coherence against the file's
+    --coherence-min, and the overloaded one."""
+    import json
+
+    emu = type("Emu", (_OverloadOnPoint2, HP35670AEmulator), {"word": 2})(
+        plate=PlateSimulator(noise=0.3))
+    out = tmp_path / "noisy.frf.h5"
+    with emu:
+        r = acquire(emu, out, "--no-prompt", points=3)
+    assert r.exit_code == 0 and r.output.count("POOR coherence") == 3
+    coh = [float(line.split("coherence at resonances ")[1].split()[0])
+           for line in r.output.splitlines() if "coherence at resonances" in line]
+    r = run(["fit-frf", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    notes = json.loads(r.output)["notes"]
+    assert notes[:2] == [
+        f"points 1, 2, 3 of 3: coherence at the resonances {min(coh):.2f}-{max(coh):.2f}, "
+        "below 0.9, the acquisition's --coherence-min: noisy FRFs, in which the fit misses "
+        "modes or takes noise for them; measure them again",
+        "point 2: an input went over range while averaging (the hammer hit too hard, or the "
+        "response's range too small): the FRF is distorted; measure again"]
+    # a good file: no such note
+    with HP35670AEmulator() as good:
+        assert acquire(good, tmp_path / "good.h5", "--no-prompt", points=2).exit_code == 0
+    assert json.loads(run(["fit-frf", str(tmp_path / "good.h5"), "--json"]).output)["notes"] \
+        == []

@@ -105,7 +105,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
 
     from laminid_cli.errors import OutputExistsError, SpecimenError
     from laminid_cli.frf import rfp
-    from laminid_cli.frf.io import negative_direction_points, read_frf
+    from laminid_cli.frf.io import negative_direction_points, point_quality_notes, read_frf
 
     if plot_path is not None:
         from laminid_cli.frf.plot import PLOT_SUFFIXES
@@ -137,7 +137,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     sigma = msig.sigma_hz
     wc = rfp.window_corrected_damping(fit, tau)
     # the reader's first (a CSV phase column's assumed unit): they concern the data fitted
-    notes = list(fs.meta.get("notes") or ()) + wc.below_notes(fit.freq_hz)
+    notes = (list(fs.meta.get("notes") or ()) + point_quality_notes(fs)
+             + wc.below_notes(fit.freq_hz))
     negative = negative_direction_points(fs.labels)
     if negative:
         notes.append(f"{', '.join(negative)}: measured in a negative direction; the FRF and its "
