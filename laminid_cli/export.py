@@ -13,6 +13,9 @@ modes`` ("laminid-modes") or one plate of a joint identification ("laminid-joint
   normal mode, data characteristic 2 = 3 DOF translation, specific data type 8 displacement,
   real data): (0, 0, w0) at each node, w0 = transverse displacement of the mass-normalised
   mode in m/sqrt(kg), modal mass 1, the model's natural frequency in Hz, mode number 1..m.
+  An identification's result keeps the shapes of the model modes paired with the measured
+  ones, in the measured modes' order: each record gets its paired mode's frequency
+  (/frequencies/model_mode), and its id1 names the model mode where the two orders differ.
 
 pyuff is imported inside the writer so importing this module stays cheap.
 """
@@ -39,7 +42,10 @@ class PlateShapes:
     """Mode shapes of one plate model, as stored in a result file.
 
     nodes : (n_nodes, 2) x, y in m; w : (n_nodes, n_modes) transverse displacement of the
-    mass-normalised modes, m/sqrt(kg); freq_hz : (n_modes,) model natural frequencies, Hz
+    mass-normalised modes, m/sqrt(kg); freq_hz : (n_modes,) the model natural frequency of each
+    column of ``w``, Hz; model_mode : (n_modes,) 1-based index of each column's mode among the
+    sorted model modes (an identification's pairing: its columns follow the measured modes,
+    and a tracked pair that swapped order is not the sorted one)
     """
 
     specimen: str
@@ -47,6 +53,7 @@ class PlateShapes:
     w: np.ndarray
     freq_hz: np.ndarray
     source: str
+    model_mode: np.ndarray | None = None
 
 
 def read_shapes(path, specimen: str | None = None) -> PlateShapes:
@@ -81,8 +88,26 @@ def read_shapes(path, specimen: str | None = None) -> PlateShapes:
     except KeyError as exc:
         raise ExportError(f"{path}: dataset {exc} missing (mesh/nodes, modes/w, "
                           "modes/frequency)") from None
+    # an identification keeps the shapes of the paired modes only, in the measured modes'
+    # order, and /modes/frequency lists every computed mode, sorted: each shape's frequency is
+    # that of its paired model mode (/frequencies/model_mode), not the k-th sorted one
+    model_mode = (data.get("frequencies") or {}).get("model_mode")
+    if model_mode is not None:
+        model_mode = np.asarray(model_mode, dtype=int).ravel()
+        if model_mode.size != w.shape[1] or model_mode.min(initial=1) < 1 \
+                or model_mode.max(initial=1) > freq.size:
+            raise ExportError(f"{path}: frequencies/model_mode ({model_mode.size} modes) does "
+                              f"not match modes/w ({w.shape[1]} shapes) and modes/frequency "
+                              f"({freq.size} modes)")
+        freq = freq[model_mode - 1]
+    elif freq.size < w.shape[1]:
+        raise ExportError(f"{path}: modes/frequency has {freq.size} modes for {w.shape[1]} "
+                          "shapes in modes/w")
+    else:
+        freq = freq[:w.shape[1]]
     name = specimen or str(data["specimen"]["@attrs"].get("name", path.stem))
-    return PlateShapes(specimen=name, nodes=nodes, w=w, freq_hz=freq, source=str(path))
+    return PlateShapes(specimen=name, nodes=nodes, w=w, freq_hz=freq, source=str(path),
+                       model_mode=model_mode)
 
 
 def write_shapes_uff(path, shapes: PlateShapes, *, overwrite: bool = False) -> Path:
@@ -106,7 +131,9 @@ def write_shapes_uff(path, shapes: PlateShapes, *, overwrite: bool = False) -> P
     zeros = np.zeros(n)
     for k in range(shapes.w.shape[1]):
         sets.append(pyuff.prepare_55(
-            id1=f"laminid mode {k + 1}: {shapes.freq_hz[k]:.6g} Hz",
+            id1=f"laminid mode {k + 1}: {shapes.freq_hz[k]:.6g} Hz"
+                + ("" if shapes.model_mode is None or shapes.model_mode[k] == k + 1
+                   else f" (model mode {shapes.model_mode[k]})"),
             id2=f"specimen {shapes.specimen}",
             id3="w0 of the mass-normalised mode, m/sqrt(kg)",
             id4=f"from {Path(shapes.source).name}", id5="NONE",

@@ -168,6 +168,10 @@ def damping_page(d: dict):
                   label="measured, not fitted (weight 0)")
     ax_m.plot(modes, model, "s", color=MODEL_COLOR, mfc="none", ms=8, mew=1.5,
               label="model \u03a3 share \u00d7 ply \u03b7", zorder=5, gid="model")
+    if not ok.all():   # null in the specimen (fit-frf: not above the window's): said, not blank
+        ax_m.plot(modes[~ok], np.zeros((~ok).sum()), "x", color=MEASURED_COLOR, ms=8, mew=1.5,
+                  clip_on=False, zorder=6, gid="not-measured",
+                  label="no measured damping (null)")
     ax_m.set_xlabel("mode")
     ax_m.set_ylabel("modal loss factor \u03b7 (%)")
     ax_m.set_xticks(modes)

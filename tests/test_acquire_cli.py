@@ -741,3 +741,121 @@ def test_the_emulator_script_serves_an_acquire_and_stops_on_sigint(tmp_path, mod
     finally:
         proc.send_signal(signal.SIGINT)
         assert proc.wait(timeout=5) == 0
+
+
+class _OverloadOnPoint2:
+    """An emulator whose input status flags ``word`` during measurement 2 (the hammer hit
+    too hard, or the response over range)."""
+
+    word = 0
+
+    def begin_measurement(self):
+        super().begin_measurement()
+        if self.measurement == 2:
+            self.overload_word = self.word
+
+
+@pytest.mark.parametrize("emu_cls, word, channels, names", [
+    (HP35670AEmulator, 1, [1], "ch1 hammer"),              # STAT:QUES:VOLT bit 0
+    (HP35670AEmulator, 3, [1, 2], "ch1 hammer, ch2 response"),
+    (SR785Emulator, 1 << 10, [2], "ch2 response")])        # INPS? bit 10
+def test_an_overloaded_point_names_its_channel_and_every_fault(tmp_path, emu_cls, word,
+                                                               channels, names):
+    """The quality line's 'overloads 2' was a count of channels that a reader took for hits,
+    without saying which input (the hammer hit too hard, or the response's range), and a
+    point both poorly coherent and overloaded said only 'POOR coherence'. --json gives the
+    channels (1 hammer, 2 response)."""
+    import json
+
+    emu = type("Emu", (_OverloadOnPoint2, emu_cls), {"word": word})()
+    with emu:
+        r = acquire(emu, tmp_path / "o.h5", "--no-prompt", "--json", points=2)
+        assert r.exit_code == 0, r.output
+        assert "point 1: 3 hits" in r.stderr and "overloads 0 - ok\n" in r.stderr
+        assert (f"Hz), overloads {len(channels)} ({names}) - OVERLOAD\n") in r.stderr
+        d = json.loads(r.stdout)
+        assert [(p["overloads"], p["overloaded_channels"], p["ok"]) for p in d["points"]] == [
+            (0, [], True), (len(channels), channels, False)]
+        r = acquire(emu, tmp_path / "p.h5", "--no-prompt", "--coherence-min", "1.0", points=1)
+        assert r.exit_code == 0, r.output     # measurement 3 of the emulator: no overload
+        assert "overloads 0 - POOR coherence\n" in r.output
+    assert read_frf_h5(tmp_path / "o.h5").meta["points"]["overloads"] == [0, len(channels)]
+
+
+def test_overloads_an_analyser_cannot_tell_are_null_in_json(tmp_path, hp, monkeypatch):
+    """An analyser that cannot report its overloads: '?' in the quality line, null in --json
+    (was -1, a count)."""
+    import json
+
+    from laminid_cli.instrument.hp35670a import HP35670A
+
+    monkeypatch.setattr(HP35670A, "overloaded_channels", lambda self: None)
+    r = acquire(hp, tmp_path / "u.h5", "--no-prompt", "--json", points=1)
+    assert r.exit_code == 0, r.output
+    assert "overloads ? - ok\n" in r.stderr
+    p = json.loads(r.stdout)["points"][0]
+    assert p["overloads"] is None and p["overloaded_channels"] is None and p["ok"] is True
+
+
+def test_the_acquire_file_reads_with_h5py_alone_every_number_with_its_unit(tmp_path, hp):
+    """Another tool reads the FRF file as README's acquire section lays it out: named
+    datasets, each number with a units attribute (the per-point counts had none), settings
+    with the unit in their names, the values --json reported."""
+    import json
+
+    import h5py
+
+    out = tmp_path / "plate.frf.h5"
+    r = acquire(hp, out, "--no-prompt", "--json", "--units", "Pa/N", points=2)
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.stdout)
+    with h5py.File(out, "r") as f:
+        assert f.attrs["format"] == "laminid-frf" and f.attrs["schema_version"] == 1
+        assert bool(f.attrs["complete"]) is True
+        freq, frf, coh = f["frequency"], f["frf"], f["coherence"]
+        assert freq.shape == (801,) and frf.shape == coh.shape == (2, 801)
+        assert frf.dtype == np.complex128
+        assert (freq.attrs["units"], frf.attrs["units"], frf.attrs["quantity"],
+                coh.attrs["units"]) == ("Hz", "Pa/N", "response/force", "1")
+        assert (freq[0], freq[-1]) == (d["f_start_hz"], d["f_stop_hz"])
+        pts = f["points"]
+        assert [x.decode() for x in pts["label"][()]] == d["measured"] == ["1", "2"]
+        for key in ("n_averages", "overloads"):
+            assert pts[key].attrs["units"] == "1"
+        assert pts["n_averages"][()].tolist() == [p["n_averages"] for p in d["points"]]
+        assert pts["overloads"][()].tolist() == [p["overloads"] for p in d["points"]]
+        s = f["settings"].attrs
+        assert (s["span_hz"], s["lines"], s["averages"], s["exp_window_s"]) == (1600.0, 800, 3,
+                                                                                0.1)
+        assert f["instrument"].attrs["model"] == d["instrument"]["model"] == "35670A"
+
+
+def test_fit_frf_of_noisy_or_overloaded_points_says_so(tmp_path):
+    """An acquire run with --no-prompt keeps its poor points (coherence 0.7 at the resonances,
+    an overload on point 2): fit-frf then found 2 of the plate's 7 modes, exit 0, without a
+    word on the data. It names the points, their coherence against the file's
+    --coherence-min, and the overloaded one."""
+    import json
+
+    emu = type("Emu", (_OverloadOnPoint2, HP35670AEmulator), {"word": 2})(
+        plate=PlateSimulator(noise=0.3))
+    out = tmp_path / "noisy.frf.h5"
+    with emu:
+        r = acquire(emu, out, "--no-prompt", points=3)
+    assert r.exit_code == 0 and r.output.count("POOR coherence") == 3
+    coh = [float(line.split("coherence at resonances ")[1].split()[0])
+           for line in r.output.splitlines() if "coherence at resonances" in line]
+    r = run(["fit-frf", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    notes = json.loads(r.output)["notes"]
+    assert notes[:2] == [
+        f"points 1, 2, 3 of 3: coherence at the resonances {min(coh):.2f}-{max(coh):.2f}, "
+        "below 0.9, the acquisition's --coherence-min: noisy FRFs, in which the fit misses "
+        "modes or takes noise for them; measure them again",
+        "point 2: an input went over range while averaging (the hammer hit too hard, or the "
+        "response's range too small): the FRF is distorted; measure again"]
+    # a good file: no such note
+    with HP35670AEmulator() as good:
+        assert acquire(good, tmp_path / "good.h5", "--no-prompt", points=2).exit_code == 0
+    assert json.loads(run(["fit-frf", str(tmp_path / "good.h5"), "--json"]).output)["notes"] \
+        == []

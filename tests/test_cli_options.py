@@ -212,6 +212,11 @@ NOWHERE = "TCPIP::127.0.0.1::1::SOCKET"
     # was: "" silently the default backend
     ("--visa-backend", "", "--visa-backend: empty; give @py, @ivi or file.yaml@sim, or leave "
                            "the option out"),
+    # was: "analyser resource '' is not a VISA resource string (Could not parse : unknown
+    # interface type); ..."
+    ("--analyser", " ", "--analyser: empty; give the analyser's VISA resource, e.g. GPIB0::5 "
+                        "or TCPIP::192.168.0.7::5025::SOCKET"),
+    ("--analyser", "", "--analyser: empty; give the analyser's VISA resource"),
 ])
 def test_acquire_blank_text_options_are_refused_before_connecting(tmp_path, option, value,
                                                                   words):

@@ -449,3 +449,39 @@ def test_json_states_the_unit_of_the_modal_constants_and_which_spread_is_which(h
     assert ("freq_std_hz the RFP spread term alone, Hz: the standard deviation of the "
             "frequency over the stable model orders") in text
     assert "modal_constants [re, im] residue A of each FRF, in (FRF units)*rad/s" in text
+
+
+@pytest.mark.parametrize("n_points", [1, 2])
+def test_a_narrow_band_is_swept_up_to_the_order_its_lines_hold(tmp_path, n_points):
+    """The order sweep of a band stops at the most modes its lines can be fitted with; the cap
+    was one mode above the fits' own rule for 1 or 2 FRFs, so a band of 18 lines (2 FRFs; an
+    automatic band around noise peaks of a poorly coherent acquire file) was refused with
+    exit 2: 'band 110:144 Hz holds 18 lines, too few for 11 modes (at least 19 lines needed);
+    widen the band or ask fewer modes', to a user who asked for no number of modes."""
+    case = plate_case(n_points=n_points, resolution_hz=2.0, n_lines=800, f_start=2.0)
+    path = io.write_frf(tmp_path / "narrow.frf.h5",
+                        FrfSet(freq=case.freq, frf=case.frf, units="Pa/N"))
+    lines = int(((case.freq >= 110) & (case.freq <= 144)).sum())
+    assert lines == 18
+    r = run(["fit-frf", str(path), "--band", "110:144", "--json"])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.output)
+    assert [m["freq_hz"] for m in out["modes"]] == pytest.approx([125.05], rel=1e-5)
+    r = run(["fit-frf", str(path), "--band", "110:144", "--modes", "12"])
+    assert r.exit_code == 2
+    assert r.output.startswith("laminid: error: ") and "band 110:144 Hz holds 18 lines, too " \
+        "few to fit 12 modes; widen the band or ask fewer modes" in r.output
+
+
+def test_into_with_no_mode_found_names_the_fit_not_the_specimen(tmp_path, h5):
+    """A band with no resonance and --into: the message blamed the specimen ('the edited file
+    would not be a valid specimen (...: the list of frequencies is empty)'); it says the fit
+    found no mode in the band, the file is unchanged (exit 2)."""
+    spec = tmp_path / "p.yaml"
+    spec.write_text(SPEC)
+    r = run(["fit-frf", str(h5), "--band", "20:60", "--into", str(spec)])
+    assert r.exit_code == 2
+    assert r.output == (f"laminid: error: {h5}: no stable mode found (band(s) 20:60 Hz): "
+                        f"nothing to write into {spec}, left unchanged; fit other bands "
+                        "(--band LO:HI)\n")
+    assert spec.read_text() == SPEC and not list(tmp_path.glob("p.yaml.bak*"))

@@ -688,3 +688,41 @@ def test_uff_of_mixed_response_units_says_each_points_unit(tmp_path, case):
     same = _other_uff(tmp_path / "same.uff", case.freq, case.frf[:2])
     assert "point_units" not in io.read_frf(same).meta
     assert not any("different units" in n for n in _fit_json(same, "--band", "100:300")["notes"])
+
+
+def test_export_of_an_identification_gives_each_shape_its_paired_modes_frequency(
+        tmp_path, s11_fix_undetermined_6x6):
+    """An identify result keeps the shapes of the paired model modes, in the measured modes'
+    order, while /modes/frequency lists every computed mode, sorted: the UFF 55 record of each
+    shape has its paired mode's frequency. Was /modes/frequency[k] for shape k: --json's
+    freq_hz listed 14 frequencies for 12 shapes, and after a tracked swap two records carried
+    each other's frequency."""
+    import shutil
+
+    import pyuff
+
+    path = tmp_path / "swapped.h5"
+    shutil.copy(s11_fix_undetermined_6x6[1], path)
+    with h5py.File(path, "r+") as f:            # modes 3 and 4 paired the other way round
+        pairing = f["frequencies/model_mode"][()]
+        all_hz = f["modes/frequency"][()]
+        assert all_hz.size > pairing.size and np.array_equal(pairing, np.arange(1, 13))
+        pairing[[2, 3]] = pairing[[3, 2]]
+        f["frequencies/model_mode"][...] = pairing
+        f["frequencies/model"][...] = all_hz[pairing - 1]
+        w = f["modes/w"][()]
+        f["modes/w"][...] = w[:, [0, 1, 3, 2] + list(range(4, w.shape[1]))]
+        paired_hz = all_hz[pairing - 1]
+    out = tmp_path / "swapped.unv"
+    r = run(["export", str(path), "-o", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.output)
+    assert doc["n_modes"] == 12 and len(doc["freq_hz"]) == 12
+    np.testing.assert_allclose(doc["freq_hz"], paired_hz, rtol=1e-12)
+    assert doc["model_mode"] == pairing.tolist()
+    assert doc["freq_range_hz"] == [paired_hz.min(), paired_hz.max()]
+    shapes = [s for s in pyuff.UFF(str(out)).read_sets() if s["type"] == 55]
+    assert [s["freq"] for s in shapes] == pytest.approx(paired_hz, rel=5e-6)
+    assert [s["mode_n"] for s in shapes] == list(range(1, 13))
+    assert shapes[2]["id1"] == f"laminid mode 3: {paired_hz[2]:.6g} Hz (model mode 4)"
+    assert shapes[4]["id1"] == f"laminid mode 5: {paired_hz[4]:.6g} Hz"

@@ -812,3 +812,46 @@ def test_unlisted_pole_words_for_each_rule():
         "its contribution does not rise above the fit's residual (5 x): dropped as noise")
     assert unlisted_note([u("few", n=3)], c).endswith(
         "stable at 3 orders, fewer than the 5 a mode needs: a computational pole")
+
+
+def test_many_unlisted_pole_groups_are_counted_by_rule_inside_the_page(example_frf_fit,
+                                                                       monkeypatch):
+    """Noisy FRFs (an acquire file of coherence 0.7 at its resonances) left 100 groups of
+    stable poles that are none of the modes: the note named each, 12 lines run off the page's
+    foot, and matplotlib's layout gave up ('constrained_layout not applied', on stderr). More
+    than MAX_NOTE_GROUPS groups are counted by rule, in at most three lines under the chart."""
+    import warnings
+
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from laminid_cli.frf import rfp
+    from laminid_cli.frf.plot import MAX_NOTE_GROUPS, fit_figure
+
+    _, fs, fit = example_frf_fit
+    reasons = ["few"] * 30 + ["edge"] * 6 + ["damping"] * 4 + ["noise"] * 2
+    many = [rfp.UnlistedPoles(band=0, rows=np.array([0]), freq_hz=(70.0 + 30 * i, 71.0 + 30 * i),
+                              orders=(6, 7), n_stable=2, reason=r,
+                              edge_hz=62.5 if r == "few" and i < 10 else None)
+            for i, r in enumerate(reasons)]
+    assert len(many) > MAX_NOTE_GROUPS
+    monkeypatch.setattr(rfp, "unlisted_stable_poles", lambda fit, freq: many)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                    # no layout warning
+        fig = fit_figure(fs.freq, fs.frf, fit, units=fs.units)
+        renderer = FigureCanvasAgg(fig).get_renderer()
+        fig.draw(renderer)
+    s = ax(fig, "stabilisation")
+    note = next(t for t in s.texts if t.get_gid() == "unlisted-note")
+    assert len(note.get_text().splitlines()) <= 3
+    assert " ".join(note.get_text().split()) == (
+        "boxed, stable but not a mode: 42 groups of poles, 70–1301 Hz: 30 stable at fewer "
+        "orders than the 5 a mode needs (computational poles, 10 near a band edge); 6 within 2 "
+        "lines of a band edge (not taken from that band); 4 damping outside 0–10% (not "
+        "physical modes); 2 not above the fit's residual (5 x; dropped as noise). So many: noisy "
+        "FRFs (see the coherence) or too wide bands; try --band LO:HI")
+    box, page = note.get_window_extent(renderer), fig.bbox
+    assert page.x0 <= box.x0 and box.x1 <= page.x1 and page.y0 <= box.y0
+    assert box.y1 < s.get_window_extent(renderer).y0
+    # the panels keep their height: the chart no lower than with the two groups of the example
+    assert s.get_window_extent(renderer).height > 0.2 * page.height

@@ -275,3 +275,19 @@ def test_relative_weighting_is_exact_on_clean_data():
     assert np.allclose(fit.freq_hz, case.freq_hz[:6], rtol=FREQ_TOL_CLEAN)
     with pytest.raises(FrfError, match="weighting 'x'"):
         rfp.find_modes(case.freq, case.frf, criteria=rfp.PoleCriteria(weighting="x"))
+
+
+def test_an_automatic_band_too_narrow_for_a_sweep_joins_its_neighbour():
+    """The peaks of noisy FRFs (an acquire file of coherence 0.7) made an automatic band of 9
+    lines at the axis' end, 1582-1598 Hz, and find_modes stopped: 'band 1582:1598 Hz holds 9
+    lines, too narrow for a stabilisation sweep over 6 orders; widen it', to a user who gave
+    no band. It joins its neighbour (the lower one; the first band the next one)."""
+    from laminid_cli.frf.rfp import PoleCriteria, _merge_narrow
+
+    freq = np.arange(0.0, 1601.0, 2.0)
+    c = PoleCriteria()
+    plan = [((2.0, 12.0), 1), ((10.0, 500.0), 4), ((480.0, 1584.0), 4), ((1582.0, 1598.0), 1)]
+    assert _merge_narrow(plan, freq, 3, c) == [((2.0, 500.0), 5), ((480.0, 1598.0), 5)]
+    wide = [((10.0, 500.0), 4), ((480.0, 1584.0), 4)]
+    assert _merge_narrow(wide, freq, 3, c) == wide
+    assert _merge_narrow([((1582.0, 1598.0), 1)], freq, 3, c) == [((1582.0, 1598.0), 1)]

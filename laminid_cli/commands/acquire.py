@@ -270,6 +270,9 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
     from laminid_cli.instrument.transport import AnalyserSetupError
 
     # a blank text is a mistake, not a request for the default
+    if not analyser.strip():         # was "Could not parse : unknown interface type"
+        raise AnalyserSetupError("--analyser: empty; give the analyser's VISA resource, e.g. "
+                                 "GPIB0::5 or TCPIP::192.168.0.7::5025::SOCKET")
     if units is not None and not units.strip():
         raise AnalyserSetupError("--units: empty; give the FRF's engineering units, e.g. Pa/N "
                                  "or (m/s^2)/N, or leave the option out for V/V")
@@ -347,7 +350,11 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
                 "skipped": result.skipped, "repeated": result.repeated, "quit": result.quit,
                 "units": units, "lines": int(freq.size), "f_start_hz": float(freq[0]),
                 "f_stop_hz": float(freq[-1]), "instrument": identity,
-                "points": [asdict(q) | {"ok": q.ok} for q in ui.qualities.values()],
+                # an analyser that cannot tell its overloads: null, not a count of -1
+                "points": [asdict(q) | {"ok": q.ok} | (
+                    {"overloads": None, "overloaded_channels": None} if q.overloads < 0 else
+                    {"overloaded_channels": list(q.overloaded_channels)})
+                    for q in ui.qualities.values()],
                 "resume": None if result.complete or not out.exists() else hint,
                 "stopped": stopped})
 

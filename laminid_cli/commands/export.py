@@ -107,6 +107,8 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
                    "specimen": shapes.specimen, "n_nodes": int(shapes.nodes.shape[0]),
                    "n_modes": int(shapes.w.shape[1]), "freq_hz": shapes.freq_hz.tolist(),
                    "freq_range_hz": _span(shapes.freq_hz)}
+        if shapes.model_mode is not None:
+            summary["model_mode"] = shapes.model_mode.tolist()
         text = (f"{out}: {summary['n_modes']} mode shapes of {shapes.specimen} (UFF 55) on "
                 f"{summary['n_nodes']} nodes (UFF 15, metres; UFF 164 SI)")
     else:

@@ -105,7 +105,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
 
     from laminid_cli.errors import OutputExistsError, SpecimenError
     from laminid_cli.frf import rfp
-    from laminid_cli.frf.io import negative_direction_points, read_frf
+    from laminid_cli.frf.io import negative_direction_points, point_quality_notes, read_frf
 
     if plot_path is not None:
         from laminid_cli.frf.plot import PLOT_SUFFIXES
@@ -137,7 +137,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     sigma = msig.sigma_hz
     wc = rfp.window_corrected_damping(fit, tau)
     # the reader's first (a CSV phase column's assumed unit): they concern the data fitted
-    notes = list(fs.meta.get("notes") or ()) + wc.below_notes(fit.freq_hz)
+    notes = (list(fs.meta.get("notes") or ()) + point_quality_notes(fs)
+             + wc.below_notes(fit.freq_hz))
     negative = negative_direction_points(fs.labels)
     if negative:
         notes.append(f"{', '.join(negative)}: measured in a negative direction; the FRF and its "
@@ -150,6 +151,14 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
             "damping ratios are those of every FRF (the poles do not depend on the response "
             f"quantity); each point's modal constants are in its own FRF's unit, not "
             f"{fs.units} (the first's, given as the file's)")
+    settings = fs.meta.get("settings") or {}
+    try:
+        record_s = float(settings["lines"]) / float(settings["span_hz"])
+    except (KeyError, TypeError, ValueError, ZeroDivisionError):
+        record_s = None
+    limit = rfp.window_limit_note(fit, fs.freq, tau, record_s)
+    if limit is not None:
+        notes.append(limit)
     if rfp.window_unknown(fs):
         notes.append(f"{frf_file} does not record the exponential window's time constant "
                      "(acquired with --keep-setup): the damping ratios are as fitted and include "
@@ -160,6 +169,14 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         plot_fit(plot_path, fs.freq, fs.frf, fit, units=fs.units, coherence=fs.coherence,
                  title=f"{Path(frf_file).name}: {len(fit.modes)} modes")
     into = None
+    if spec_path is not None and not fit.modes:
+        from laminid_cli.errors import FrfError
+
+        # was: "the edited file would not be a valid specimen (...: the list of frequencies
+        # is empty)", the specimen blamed for the fit's empty list
+        bands_txt = ", ".join(f"{b.band_hz[0]:g}:{b.band_hz[1]:g}" for b in fit.bands)
+        raise FrfError(f"{frf_file}: no stable mode found (band(s) {bands_txt} Hz): nothing to "
+                       f"write into {spec_path}, left unchanged; fit other bands (--band LO:HI)")
     if spec_path is not None:
         from laminid_cli.frf.into import write_measured
 

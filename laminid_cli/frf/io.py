@@ -892,6 +892,67 @@ def negative_direction_points(labels) -> list[str]:
     return [lab for lab in labels if re.search(r"\d-[XYZ]", str(lab))]
 
 
+#: coherence at the resonances below which a point's FRF is called noisy when the file does
+#: not record acquire's --coherence-min (its default)
+DEFAULT_COHERENCE_MIN = 0.9
+
+
+def coherence_at_resonances(freq, frf, coherence) -> np.ndarray:
+    """Mean coherence of each FRF over its lines where |H| is in its top quarter (the
+    resonances; the dips at anti-resonances are normal), as acquire's quality line computes
+    it (laminid_cli.instrument.session.assess_point). NaN where the coherence is unknown.
+
+    freq : (n_freq,) Hz; frf : complex (n_points, n_freq); coherence : (n_points, n_freq), 1
+    """
+    freq = np.asarray(freq, float)
+    out = np.full(np.shape(frf)[0], np.nan)
+    use = freq > 0
+    for p, (H, c) in enumerate(zip(np.atleast_2d(frf), np.atleast_2d(coherence))):
+        mag = np.abs(H)
+        top = use & (mag >= np.quantile(mag[use], 0.75)) & np.isfinite(c)
+        if top.any():
+            out[p] = float(np.mean(c[top]))
+    return out
+
+
+def point_quality_notes(fs) -> list[str]:
+    """Notes on the FRFs a fit should not be trusted blindly with: points whose coherence at
+    the resonances is below the file's ``coherence_min`` (acquire's --coherence-min, else
+    :data:`DEFAULT_COHERENCE_MIN`) and points whose inputs went over range (``overloads`` of
+    an acquire file). A file acquired with --no-prompt keeps such points as measured; its fit
+    then misses modes or lists noise without a word."""
+    notes = []
+    labels = list(fs.labels) or [str(i + 1) for i in range(fs.n_points)]
+    if fs.coherence is not None and np.isfinite(fs.coherence).any():
+        settings = fs.meta.get("settings") or {}
+        try:
+            c_min = float(settings["coherence_min"])
+        except (KeyError, TypeError, ValueError):
+            c_min, said = DEFAULT_COHERENCE_MIN, f"{DEFAULT_COHERENCE_MIN:g}"
+        else:
+            said = f"{c_min:g}, the acquisition's --coherence-min"
+        coh = coherence_at_resonances(fs.freq, fs.frf, fs.coherence)
+        poor = [k for k in range(coh.size) if np.isfinite(coh[k]) and coh[k] < c_min]
+        if poor:
+            lo, hi = float(np.min(coh[poor])), float(np.max(coh[poor]))
+            level = f"{lo:.2f}" if f"{lo:.2f}" == f"{hi:.2f}" else f"{lo:.2f}-{hi:.2f}"
+            notes.append(
+                f"{'point' if len(poor) == 1 else 'points'} "
+                f"{', '.join(labels[k] for k in poor)} of {fs.n_points}: coherence at the "
+                f"resonances {level}, below {said}: noisy FRFs, in which the fit misses modes "
+                "or takes noise for them; measure them again")
+    overloads = (fs.meta.get("points") or {}).get("overloads")
+    if overloads is not None:
+        over = [k for k, n in enumerate(list(overloads)[:len(labels)])
+                if isinstance(n, (int, np.integer)) and n > 0]
+        if over:
+            notes.append(f"{'point' if len(over) == 1 else 'points'} "
+                         f"{', '.join(labels[k] for k in over)}: an input went over range "
+                         "while averaging (the hammer hit too hard, or the response's range too "
+                         "small): the FRF is distorted; measure again")
+    return notes
+
+
 def uff_point(label: str, k: int, rsp_dir: int = 3, ref: tuple[int, int] = (1, 3)
               ) -> tuple[int, int, int, int]:
     """(response node, direction code, reference node, direction code) of the FRF labelled

@@ -121,15 +121,44 @@ def plot_fit(path, freq, frf, fit, *, title: str = "", units: str = "", coherenc
     return path
 
 
+#: most groups of unlisted stable poles the chart's note names one by one; above it the note
+#: counts them by rule (noisy FRFs gave 60 groups: 12 lines of note clipped at the page's
+#: foot, and the figure's other panels squeezed)
+MAX_NOTE_GROUPS = 6
+
+
 def unlisted_note(unlisted, criteria, width: int = 150) -> str:
     """Why each group of stable poles that is none of the modes was left out (the chart's
     note; :func:`~laminid_cli.frf.rfp.unlisted_stable_poles`), e.g. "1405-1406 Hz (orders
     13-14): stable at 2 orders, fewer than the 5 a mode needs: a computational pole, near the
-    band edge 1410 Hz, where the fit places poles for the modes beyond it"."""
+    band edge 1410 Hz, where the fit places poles for the modes beyond it". More than
+    :data:`MAX_NOTE_GROUPS` groups are counted by rule instead, in at most three lines."""
     import textwrap
 
     from laminid_cli.frf.rfp import EDGE_LINES
 
+    if len(unlisted) > MAX_NOTE_GROUPS:
+        def count(reason):
+            return sum(1 for u in unlisted if u.reason == reason)
+
+        few = count("few")
+        near = sum(1 for u in unlisted if u.reason == "few" and u.edge_hz is not None)
+        rules = [
+            (few, f"stable at fewer orders than the {criteria.min_stable} a mode needs "
+                  "(computational poles" + (f", {near} near a band edge)" if near else ")")),
+            (count("edge"), f"within {EDGE_LINES} lines of a band edge (not taken from that "
+                            "band)"),
+            (count("damping"), f"damping outside 0–{criteria.max_damping:.0%} (not physical "
+                               "modes)"),
+            (count("noise"), f"not above the fit's residual ({criteria.min_snr:g} x; dropped "
+                             "as noise)")]
+        lo = min(u.freq_hz[0] for u in unlisted)
+        hi = max(u.freq_hz[1] for u in unlisted)
+        text = (f"boxed, stable but not a mode: {len(unlisted)} groups of poles, "
+                f"{lo:.0f}–{hi:.0f} Hz: " + "; ".join(f"{n} {why}" for n, why in rules if n)
+                + ". So many: noisy FRFs (see the coherence) or too wide bands; try --band "
+                  "LO:HI")
+        return "\n".join(textwrap.wrap(text, width))
     parts = []
     for u in unlisted:
         lo, hi = u.freq_hz

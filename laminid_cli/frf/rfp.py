@@ -492,6 +492,24 @@ def _check_arrays(freq, frf):
     return freq, frf.astype(complex)
 
 
+def lines_needed(n_modes: int, n_extra: int, n_points: int) -> int:
+    """Fewest lines of a band for a global RFP fit of ``n_modes`` modes to ``n_points`` FRFs.
+
+    Real unknowns: 2N + n_extra numerator coefficients per FRF and 2N shared denominator ones,
+    against 2 n_lines real equations per FRF, and one line more (strictly overdetermined).
+    """
+    return int(np.ceil((2 * n_modes + n_extra + 2 * n_modes / max(n_points, 1)) / 2)) + 1
+
+
+def max_band_modes(n_lines: int, n_extra: int, n_points: int) -> int:
+    """Most modes a band of ``n_lines`` lines can be fitted with (:func:`lines_needed`); the
+    order sweep stops there, so it never asks the band for more than it holds."""
+    n = max(int(n_lines * n_points / (n_points + 1)) + 2, 0)    # need(N) > N (1 + 1/n_points)
+    while n > 0 and lines_needed(n, n_extra, n_points) > n_lines:
+        n -= 1
+    return n
+
+
 def _check_band(freq, band, n_modes: int, n_extra: int, n_points: int):
     lo, hi = float(band[0]), float(band[1])
     if not (np.isfinite(lo) and np.isfinite(hi)) or hi <= lo:
@@ -502,9 +520,7 @@ def _check_band(freq, band, n_modes: int, n_extra: int, n_points: int):
         raise FrfError(f"band {lo:g}:{hi:g} Hz holds {n_lines} frequency lines of the FRF axis "
                        f"({freq[0]:g}-{freq[-1]:g} Hz, {freq[1] - freq[0]:g} Hz step); at least "
                        f"{MIN_BAND_LINES} are needed")
-    # real unknowns: 2N + n_extra numerator coefficients per FRF and 2N shared denominator ones,
-    # against 2 n_lines real equations per FRF
-    need = int(np.ceil((2 * n_modes + n_extra + 2 * n_modes / max(n_points, 1)) / 2)) + 1
+    need = lines_needed(n_modes, n_extra, n_points)
     if n_lines < need:
         raise FrfError(f"band {lo:g}:{hi:g} Hz holds {n_lines} lines, too few for {n_modes} "
                        f"modes (at least {need} lines needed); widen the band or ask fewer modes")
@@ -982,7 +998,8 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
     if n_modes is not None and n_modes < 1:
         raise FrfError(f"--modes must be at least 1 (got {n_modes})")
     if bands is None:
-        plan = [(rng, n_pk) for _core, rng, n_pk in auto_bands(freq, frf)]
+        plan = _merge_narrow([(rng, n_pk) for _core, rng, n_pk in auto_bands(freq, frf)],
+                             freq, frf.shape[0], criteria)
     else:
         plan = []
         for b in bands:
@@ -1010,9 +1027,10 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
         n_max = criteria.max_modes or max(2 * n_pk + 8, 12)
         if n_modes is not None and bands is not None:
             n_max = max(n_max, n_modes + 6)
-        # keep the linearised system overdetermined: 2 N shared + (2 N + n_extra) per FRF
-        # unknowns against 2 n_lines real equations per FRF
-        n_cap = (2 * n_lines * n_p - criteria.n_extra * n_p) // (2 * n_p + 2)
+        # keep the linearised system overdetermined, by the rule the sweep's fits check (the
+        # cap was one mode above it for 2 FRFs: an automatic band of 18 lines was refused,
+        # "too few for 11 modes ... ask fewer modes", of a user who asked for none)
+        n_cap = max_band_modes(n_lines, criteria.n_extra, n_p)
         if n_modes is not None and bands is not None and len(plan) == 1 and n_modes > n_cap:
             raise FrfError(f"band {rng[0]:g}:{rng[1]:g} Hz holds {n_lines} lines, too few to "
                            f"fit {n_modes} modes; widen the band or ask fewer modes")
@@ -1060,7 +1078,8 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
 
     band_fits, modes = constants(cands)
     if criteria.gap_search:
-        found = _gap_search(freq, frf, modes, charts, criteria)
+        found = _new_poles(_gap_search(freq, frf, modes, charts, criteria),
+                           [c for _, c, _ in cands], criteria)
         if found:
             log.info("gap search: %d more pole(s) at %s Hz", len(found),
                      ", ".join(f"{c.freq_hz:.2f}" for c in found))
@@ -1078,6 +1097,32 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
                            + "; widen the bands or ask fewer modes")
         modes = modes[:n_modes]
     return ModalFit(modes=tuple(modes), bands=tuple(band_fits), criteria=criteria)
+
+
+def _merge_narrow(plan, freq, n_points: int, criteria) -> list:
+    """Automatic bands (``[((lo, hi) Hz, n_peaks)]``) with too few lines for a stabilisation
+    sweep over ``min_stable + 1`` orders (:func:`max_band_modes`) joined to their neighbour
+    (the lower one where there is one). The peaks of noisy FRFs made a band of 9 lines at the
+    axis' end, 1582-1598 Hz, and the fit stopped: 'too narrow ...; widen it', to a user who
+    gave no band."""
+    plan = list(plan)
+
+    def too_narrow(rng):
+        n_lines = int(((freq >= rng[0]) & (freq <= rng[1]) & (freq > 0)).sum())
+        return max_band_modes(n_lines, criteria.n_extra, n_points) < criteria.min_stable + 1
+
+    k = 0
+    while len(plan) > 1 and k < len(plan):
+        if not too_narrow(plan[k][0]):
+            k += 1
+            continue
+        j = k - 1 if k > 0 else k + 1
+        (lo_a, hi_a), n_a = plan[min(j, k)]
+        (lo_b, hi_b), n_b = plan[max(j, k)]
+        plan[min(j, k)] = ((min(lo_a, lo_b), max(hi_a, hi_b)), n_a + n_b)
+        del plan[max(j, k)]
+        k = max(min(j, k), 0)
+    return plan
 
 
 def _gap_search(freq, frf, modes, charts, criteria) -> list:
@@ -1110,6 +1155,22 @@ def _gap_search(freq, frf, modes, charts, criteria) -> list:
         out.extend(c for c in select_poles(chart, criteria=crit)
                    if b_lo + 2 * df <= c.freq_hz <= b_hi - 2 * df)
     return out
+
+
+def _new_poles(found, known, criteria) -> list:
+    """The gap search's poles that are none of ``known`` (within ``freq_tol``), one per pole.
+
+    A gaps' pole can be a band's candidate that its LSFD dropped as noise (the gaps lie between
+    the modes kept), or be found by two tracks of one gap's chart: appended as it was, it sat
+    beside its twin, the refinement moved both onto one pole, and the mode was listed twice
+    (420.46 Hz twice, from a record windowed with tau = 1 % of it)."""
+    out = []
+    for c in sorted(found, key=lambda c: -c.orders_stable):
+        if any(abs(c.freq_hz - k.freq_hz) < criteria.freq_tol * k.freq_hz
+               for k in (*known, *out)):
+            continue
+        out.append(c)
+    return sorted(out, key=lambda c: c.freq_hz)
 
 
 def _dedupe(cands, criteria):
@@ -1339,6 +1400,50 @@ def window_corrected_damping(fit: ModalFit, exp_window_s: float | None) -> Windo
         exp_window_s=float(exp_window_s), fitted=fitted, removed=fitted - zeta,
         window=1.0 / (exp_window_s * wn), damping=zeta, sigma=np.where(below, np.nan, sig),
         below=tuple(int(i) for i in np.flatnonzero(below)))
+
+
+#: a mode below the window's damping limit is named as possibly missed when that limit is
+#: above this fraction of the lowest mode found (a free plate's lowest modes lie within a
+#: factor 2-3 of each other, S1.1 125 and 203 Hz: a mode far below the lowest found is not
+#: to be expected, one near it is)
+WINDOW_LIMIT_NOTE_RATIO = 0.25
+
+
+def window_damping_limit_hz(exp_window_s: float, max_damping: float) -> float:
+    """Frequency (Hz) below which an exponential window of time constant ``exp_window_s`` (s)
+    alone adds more than ``max_damping`` to a pole's damping ratio, 1/(tau omega) >
+    max_damping: below it no pole passes :class:`PoleCriteria`'s damping rule (0 < zeta <=
+    max_damping, applied to the fitted, windowed poles) and no mode can be found."""
+    return 1.0 / (2 * np.pi * exp_window_s * max_damping)
+
+
+def window_limit_note(fit: ModalFit, freq, exp_window_s: float | None,
+                      record_s: float | None = None) -> str | None:
+    """A note when the window's damping limit (:func:`window_damping_limit_hz`) lies on the
+    FRF axis and close enough under the lowest mode found (:data:`WINDOW_LIMIT_NOTE_RATIO`)
+    that a mode there may have been missed: the list would then start with the plate's second
+    mode, and identify pair every measured mode with the model mode below it. None otherwise.
+    ``record_s``: the time record (lines / span), to suggest a time constant."""
+    if exp_window_s is None:
+        return None
+    f_lim = window_damping_limit_hz(exp_window_s, fit.criteria.max_damping)
+    freq = np.asarray(freq, float)
+    first = freq[freq > 0]
+    if not first.size or f_lim <= first[0]:
+        return None
+    lowest = float(np.min(fit.freq_hz)) if len(fit.modes) else None
+    if lowest is not None and f_lim < WINDOW_LIMIT_NOTE_RATIO * lowest:
+        return None
+    found = (f"the lowest mode found is at {lowest:.1f} Hz" if lowest is not None
+             else "no mode was found")
+    advice = "measure again with a longer --exp-window"
+    if record_s is not None and np.isfinite(record_s) and record_s > 0:
+        advice += f" (a quarter of the time record or more: {record_s / 4:g} s)"
+    return (f"below {f_lim:.0f} Hz the exponential window (tau = {exp_window_s:g} s) alone "
+            f"adds more than {fit.criteria.max_damping:.0%} damping, the most a mode may "
+            f"have: no mode can be found there, and {found}. If the plate has a mode below "
+            f"{f_lim:.0f} Hz, this list lacks it, and identify would pair each mode with the "
+            f"model mode below it; {advice}")
 
 
 def window_unknown(fs) -> bool:

@@ -10,8 +10,10 @@ Layout (schema_version 1)::
     /coherence              float64 (n_points, n_freq)   attrs: units="1" (NaN where unknown)
     /points/label           str (n_points,)   measurement point names ("1", "2", ... or user's)
     /points/timestamp       str (n_points,)   ISO 8601 UTC time the point was read
-    /points/n_averages      int64 (n_points,) hits averaged
-    /points/overloads       int64 (n_points,) overloaded hits seen (rejected or not)
+    /points/n_averages      int64 (n_points,) hits averaged       attrs: units="1"
+    /points/overloads       int64 (n_points,) input channels over range during the point's
+                            averages (0-2: ch1 hammer, ch2 response; -1 unknown),
+                            attrs: units="1"
     /instrument             attrs: idn, model, resource (empty group when not from an analyser)
     /settings               attrs: one per acquisition setting, unit in the name (span_hz...)
 
@@ -811,7 +813,9 @@ def write_frf_h5(path, freq, frf, coherence=None, *, units: str = "1", labels=No
         for key, values in points.items():
             values = list(values)
             if values and all(isinstance(v, (int, np.integer)) for v in values):
-                g.create_dataset(key, data=np.asarray(values, dtype=np.int64))
+                # counts (hits, channels): unit 1, as every number of the file has its unit
+                d = g.create_dataset(key, data=np.asarray(values, dtype=np.int64))
+                d.attrs["units"] = "1"
             elif values and all(isinstance(v, (int, float, np.number)) for v in values):
                 g.create_dataset(key, data=np.asarray(values, dtype=float))
             else:

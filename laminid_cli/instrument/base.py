@@ -68,7 +68,9 @@ class Measurement:
     """One averaged point read from the analyser.
 
     freq : float (n_freq,), Hz; frf : complex (n_freq,), FRF units; coherence : float
-    (n_freq,), 1; n_averages : hits averaged; overloads : overloaded records seen (-1 unknown)
+    (n_freq,), 1; n_averages : hits averaged; overloads : number of channels that went over
+    range during the averages (0-2, -1 unknown); overloaded_channels : which (1 = hammer
+    force, 2 = response)
     """
 
     freq: np.ndarray
@@ -76,6 +78,7 @@ class Measurement:
     coherence: np.ndarray
     n_averages: int
     overloads: int
+    overloaded_channels: tuple[int, ...] = ()
 
 
 ProgressCallback = Callable[[int, int], None]  # (hits done, hits wanted); hits done -1 = unknown
@@ -274,8 +277,15 @@ class Analyser:
     def read_coherence(self) -> np.ndarray:  # pragma: no cover
         raise NotImplementedError
 
+    def overloaded_channels(self) -> tuple[int, ...] | None:
+        """Channels (1 = hammer force, 2 = response) that went over range during the last
+        averages; None when the analyser cannot tell."""
+        return None
+
     def overloads(self) -> int:
-        return -1
+        """Number of :meth:`overloaded_channels` (-1 unknown)."""
+        channels = self.overloaded_channels()
+        return -1 if channels is None else len(channels)
 
     def command_errors(self) -> list[str]:  # pragma: no cover
         """Errors the analyser raised since the last check (its text, one entry each); clears
@@ -320,7 +330,7 @@ class Analyser:
         """Start, wait for ``n_averages`` hits, read FRF + coherence of one point."""
         self.start()
         self.wait_until_done(n_averages, progress)
-        overloads = self.overloads()
+        channels = self.overloaded_channels()
         freq = self.read_frequency() if freq is None else freq
         frf = self._read_checked("FRF", self.read_frf)
         coh = self._read_checked("coherence", self.read_coherence)
@@ -329,7 +339,9 @@ class Analyser:
                 raise InstrumentError(f"{self.MODEL}: {name} has {arr.size} lines but the "
                                       f"frequency axis has {freq.size}")
         return Measurement(freq=freq, frf=frf, coherence=np.clip(coh, 0.0, 1.0),
-                           n_averages=n_averages, overloads=overloads)
+                           n_averages=n_averages,
+                           overloads=-1 if channels is None else len(channels),
+                           overloaded_channels=tuple(channels or ()))
 
     def _read_checked(self, trace: str, read):
         """Read one trace, then the analyser's error state; an error raised during the transfer

@@ -241,10 +241,10 @@ class HP35670A(Analyser):
     def is_done(self) -> bool:
         return bool(int(self.transport.query("*ESR?")) & 1)
 
-    def overloads(self) -> int:
+    def overloaded_channels(self) -> tuple[int, ...]:
         """Channels that went over range during the average (STATus:QUEStionable:VOLTage)."""
         word = int(self.transport.query("STAT:QUES:VOLT:EVEN?"))
-        return sum(1 for bit in OVERLOAD_BITS if word & bit)
+        return tuple(ch for ch, bit in enumerate(OVERLOAD_BITS, 1) if word & bit)
 
     def _read_doubles(self, command: str) -> np.ndarray:
         self.transport.write(command)

@@ -63,6 +63,10 @@ class SessionOptions:
         return self.labels if self.labels else tuple(str(i + 1) for i in range(self.n_points))
 
 
+#: the input channels of the impact test (paper section 3), as the quality line names them
+CHANNEL_NAMES = {1: "ch1 hammer", 2: "ch2 response"}
+
+
 @dataclass(frozen=True)
 class PointQuality:
     """One-line quality of a measured point.
@@ -70,6 +74,8 @@ class PointQuality:
     coherence_resonance : mean coherence over the lines where |H| is in its top quarter
         (the resonances; coherence dips at anti-resonances are normal and ignored)
     peak_freq_hz, peak_coherence : frequency of max |H| and the coherence there
+    overloads : number of channels over range during the averages (-1: the analyser cannot
+        tell); overloaded_channels : which, 1 = hammer force, 2 = response
     """
 
     label: str
@@ -79,6 +85,7 @@ class PointQuality:
     peak_coherence: float
     overloads: int
     coherence_min: float
+    overloaded_channels: tuple[int, ...] = ()
 
     @property
     def ok(self) -> bool:
@@ -86,11 +93,15 @@ class PointQuality:
 
     def line(self) -> str:
         ovl = "?" if self.overloads < 0 else str(self.overloads)
-        verdict = "ok" if self.ok else (
-            "POOR coherence" if self.coherence_resonance < self.coherence_min else "OVERLOAD")
+        if self.overloaded_channels:   # which input: the hammer hit too hard, or the response
+            ovl += " (" + ", ".join(CHANNEL_NAMES.get(ch, f"ch{ch}")
+                                    for ch in self.overloaded_channels) + ")"
+        faults = ([] if self.coherence_resonance >= self.coherence_min else ["POOR coherence"]) \
+            + ([] if self.overloads <= 0 else ["OVERLOAD"])
         return (f"point {self.label}: {self.n_averages} hits, coherence at resonances "
                 f"{self.coherence_resonance:.3f} (peak {self.peak_coherence:.3f} at "
-                f"{self.peak_freq_hz:.1f} Hz), overloads {ovl} - {verdict}")
+                f"{self.peak_freq_hz:.1f} Hz), overloads {ovl} - "
+                f"{', '.join(faults) if faults else 'ok'}")
 
 
 def assess_point(label: str, m: Measurement, coherence_min: float) -> PointQuality:
@@ -105,7 +116,8 @@ def assess_point(label: str, m: Measurement, coherence_min: float) -> PointQuali
     return PointQuality(label=label, n_averages=m.n_averages,
                         coherence_resonance=float(coh[top].mean()),
                         peak_freq_hz=float(m.freq[k]), peak_coherence=float(coh[k]),
-                        overloads=int(m.overloads), coherence_min=coherence_min)
+                        overloads=int(m.overloads), coherence_min=coherence_min,
+                        overloaded_channels=tuple(int(c) for c in m.overloaded_channels))
 
 
 class SessionUI(Protocol):

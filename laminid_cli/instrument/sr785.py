@@ -342,9 +342,10 @@ class SR785(Analyser):
     def hits_done(self) -> int:
         return int(float(self.transport.query("NAVG? 0")))
 
-    def overloads(self) -> int:
+    def overloaded_channels(self) -> tuple[int, ...]:
+        """Channels over full scale during the average (INPS?, :data:`INPS_OVERLOAD_BITS`)."""
         word = int(self.transport.query("INPS?"))
-        return sum(1 for bit in INPS_OVERLOAD_BITS if word & bit)
+        return tuple(ch for ch, bit in enumerate(INPS_OVERLOAD_BITS, 1) if word & bit)
 
     def _display_length(self, display: int) -> int:
         n = int(self.transport.query(f"DSPN? {display}"))
