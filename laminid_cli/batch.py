@@ -726,6 +726,13 @@ def _run_dask(jobs, options, n_jobs, scheduler):
             cluster = LocalCluster(n_workers=max(1, n_jobs), threads_per_worker=1,
                                    processes=True, dashboard_address=None)
             client = Client(cluster)
+            # the cluster's workers leave Ctrl-C to this process (a remote cluster's are its
+            # own: a `dask worker` stops on it)
+            from laminid_cli.dask_worker import LocalWorkerSetup
+
+            level = logging.getLogger().getEffectiveLevel()
+            client.register_plugin(LocalWorkerSetup(
+                logging.ERROR if level >= logging.WARNING else level))
         else:
             client = Client(scheduler, timeout="20s")
     except Exception as exc:  # noqa: BLE001 - distributed raises OSError, TimeoutError,

@@ -771,6 +771,32 @@ def test_a_dask_local_batch_prints_no_cluster_log_lines_unless_verbose(tmp_path)
     assert p.returncode == 0 and "INFO distributed.scheduler" in p.stderr, p.stderr
 
 
+def test_ctrl_c_on_a_dask_local_batch_prints_no_worker_tracebacks(tmp_path):
+    """Ctrl-C reaches the whole process group, the local cluster's worker processes too: each
+    one printed its tracebacks ("Process Dask Worker process (from Nanny)", CancelledError,
+    KeyboardInterrupt; some 300 lines in all) and the cluster warned of cancelled tasks before
+    "laminid: interrupted". The workers leave it to the batch, as the process pool's do: one
+    line, exit 130, the finished results kept and the rest done by a re-run."""
+    pytest.importorskip("distributed")
+    specs = make_tree(tmp_path / "in", {**SPECS, "example1/S1.1.yaml":
+                                        "specimens/example1/S1.1.yaml", "example1/S1.2.yaml":
+                                        "specimens/example1/S1.2.yaml"})
+    out = tmp_path / "out"
+    proc = _start_batch(specs, out, "2", "--scheduler", "local")
+    _wait_first_result(proc, out)
+    os.killpg(proc.pid, signal.SIGINT)
+    _o, err = proc.communicate(timeout=60)
+    err = err.decode()
+    assert proc.returncode == 130, err[-3000:]
+    assert "Traceback" not in err and "distributed" not in err, err[-3000:]
+    assert err.splitlines()[-1] == "laminid: interrupted", err[-3000:]
+    done = sorted(out.rglob("*.result.h5"))
+    assert 1 <= len(done) <= 4
+    r = run("batch", specs, "--mesh", MESH, "--out", out, "--json")
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["n_cached"] == len(done)
+
+
 def test_a_killed_workers_temporary_file_is_removed_at_the_end_if_it_was_exiting_at_the_start(
         tmp_path, monkeypatch):
     """A worker killed just before the re-run may still be exiting when the re-run starts: its
