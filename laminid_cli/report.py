@@ -44,7 +44,7 @@ import numpy as np
 from laminid_cli.atomic import atomic_path
 from laminid_cli.errors import LaminidError
 from laminid_cli.intervals import (VERDICT_AT_BOUND, VERDICT_FIXED, VERDICT_NOT, WEAK,
-                                   spread_sentence)
+                                   WELL_DETERMINED, spread_sentence)
 from laminid_cli.resultfile import (CONSTANTS, ResultFile, bound_statement, profile_kind,
                                    read_result)
 
@@ -2017,6 +2017,10 @@ def specimen_labels(rows) -> list[str]:
 
 
 MC_COLOR = "0.62"
+#: the least span of a linear panel across specimens, as a fraction of its largest value: the
+#: width of the verdicts' "well determined" band (a 95 % half-width of 5 %, either way), so
+#: that differences well inside it are not drawn as if they were apart
+ACROSS_MIN_SPAN = 2 * WELL_DETERMINED
 
 
 def _either_limit():
@@ -2185,6 +2189,12 @@ def constants_across_page(done, title: str):
         elif vals:
             lo, hi = min(vals + ends), max(vals + ends)
             pad = 0.15 * (hi - lo) if hi > lo else 0.1 * abs(hi) or 1.0
+            # at least ACROSS_MIN_SPAN of the values (nu12: of 0.1, as it may be near 0):
+            # values a hair apart with no interval in view (one plate identified twice from
+            # two starts, its G13 undetermined: 6.01761 and 6.01778 GPa) were magnified to
+            # their last digits, ticks 0.00060-0.00080 under an offset '+6.017'
+            least = ACROSS_MIN_SPAN * max(abs(lo), abs(hi), 0.1 if k == "nu12" else 0.0)
+            pad = max(pad, (least - (hi - lo)) / 2)
             ymin, ymax = lo - pad, hi + pad
             if k != "nu12" and ymin < 0 <= lo:
                 ymin = 0.0

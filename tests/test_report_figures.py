@@ -511,6 +511,39 @@ def test_constants_across_specimens_log_where_values_span_decades(tmp_path):
         assert "log" not in ax(fig, f"across-{k}").get_title()
 
 
+def test_constants_across_specimens_do_not_magnify_values_a_hair_apart(tmp_path):
+    """One plate identified twice (two starts, the same optimum), its G13 and nu12 not
+    determined: their intervals run off the panel, whose span came from the two values alone,
+    6.01761 and 6.01778 GPa: ticks 0.00060-0.00080 under an offset '+6.017', as if the two
+    were far apart. The panel spans at least the "well determined" band's width (10 % of the
+    value), labelled in plain GPa."""
+    from tests.test_report import _write_summary
+
+    q = _one_material_rows()[0]
+    nd = "not determined by these modes — fix it or measure a thicker plate / more modes"
+    rows = []
+    for name, g13, nu in (("A", 6.01761e9, 0.22605), ("B", 6.01778e9, 0.22611)):
+        iv = {k: dict(e) for k, e in q["intervals"]["carbon"].items()}
+        iv["G13"] = iv["G13"] | {"lower": 1.28e9, "upper": 28.4e9, "flagged": True,
+                                 "verdict": nd}
+        iv["nu12"] = iv["nu12"] | {"lower": 0.068, "upper": 0.384, "flagged": True,
+                                   "verdict": nd}
+        rows.append(q | {"name": name, "specimen": name, "result": None,
+                         "intervals": {"carbon": iv},
+                         "materials": {"carbon": dict(q["materials"]["carbon"], G13=g13,
+                                                      nu12=nu)}})
+    path = tmp_path / "summary.json"
+    _write_summary(path, rows)
+    fig = {p.name: p.figure for p in report_pages(path)}["constants"]
+    fig.draw_without_rendering()
+    for k, v in (("G13", 6.01778), ("nu12", 0.22611)):
+        a = ax(fig, f"across-{k}")
+        lo, hi = a.get_ylim()
+        assert a.get_yscale() == "linear" and hi - lo >= 0.1 * v * (1 - 1e-9), (k, lo, hi)
+        assert lo < v < hi
+        assert a.yaxis.get_offset_text().get_text() == "", k
+
+
 def test_interval_end_at_or_below_zero_on_a_log_panel_is_clipped_and_said(s21):
     """A linear interval (older files) whose lower end is <= 0, on a panel a decade and more
     wide: an arrow onto the log panel's foot with the end written, and the legend says that
