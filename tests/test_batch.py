@@ -77,7 +77,7 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
         rows = list(csv.DictReader(fh))
     # long form: one row per specimen, material and constant, SI, the unit in its column
     assert list(rows[0]) == ["name", "specimen", "material", "constant", "value", "lower",
-                             "upper", "verdict", "bound_side", "bound_limit",
+                             "upper", "verdict", "flag", "bound_side", "bound_limit",
                              "profile_bound", "profile", "profile_far", "mc_lower",
                              "mc_upper", "mc_search_limit", "unit", "status", "reasons",
                              "rms_residual [%]", "result", "stale_result"]
@@ -125,6 +125,9 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
                if key != ("example2/S2.1", "G13"))
     assert g13["status"] == "check"
     assert g13["reasons"] == "at_bound, undetermined, poor_fit"
+    # ... and what each value is, in a word a script can test (the verdict is for a reader)
+    assert g13["flag"] == "at_bound" and by["example2/S2.1", "G23"]["flag"] == "undetermined"
+    assert e1["flag"] == ""
     # terminal: one block per material set, specimens as columns, constants as rows, marks
     lines = r.output.splitlines()
     head = next(line for line in lines if line.startswith("IM7/977-2"))
@@ -170,6 +173,47 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
                                         if iv["flagged"])
     assert read_summary(wide / "summary.csv")[0]["materials"]["IM7/977-2"]["E1"] == \
         pytest.approx(E1, rel=1e-14)
+
+
+def test_summaries_say_in_a_word_which_values_are_no_identified_ones(tmp_path):
+    """A script reading summary.csv or summary.json had to parse the verdict's words ("at
+    bound — not identified", "not determined by these modes — fix it or ...", "fixed") to
+    leave out the values that are no measurement, and summary.json's fixed constants were
+    {"verdict": "fixed"} alone (no 'flagged', no interval keys: iv.get("flagged") is None,
+    falsy, for a value held at its initial guess). Both give each value's `flag`: at_bound,
+    undetermined, fixed, or "" for an identified one; a fixed entry has a free one's keys."""
+    specs = make_tree(tmp_path / "in", {"S2.1.yaml": "specimens/example2/S2.1.yaml"})
+    text = Path("specimens/example1/S1.4.yaml").read_text()
+    (specs / "S1.4-fixed.yaml").write_text(
+        text.replace("    nu12: 0.35\n", "    nu12: 0.35\n    fixed: [G13, G23]\n", 1))
+    out = tmp_path / "out"
+    r = run("batch", specs, "--mesh", MESH, "--out", out)
+    assert r.exit_code == 0, r.output
+    with open(out / "summary.csv", newline="") as fh:
+        rows = {(row["specimen"], row["constant"]): row for row in csv.DictReader(fh)}
+    flags = {key: row["flag"] for key, row in rows.items()}
+    assert flags["S1.4", "G13"] == flags["S1.4", "G23"] == "fixed"
+    assert rows["S1.4", "G13"]["lower"] == rows["S1.4", "G13"]["upper"] == ""
+    assert flags["S2.1", "G13"] == "at_bound" and flags["S2.1", "G23"] == "undetermined"
+    # the values a script keeps with `flag == ""` are identified ones, each with its interval
+    kept = [row for row in rows.values() if row["flag"] == ""]
+    assert kept and all(float(row["lower"]) < float(row["value"]) < float(row["upper"])
+                        and not row["verdict"].startswith(("not", "at bound", "fixed"))
+                        for row in kept)
+    doc = json.loads((out / "summary.json").read_text())
+    keys = {"lower", "upper", "verdict", "flag", "at_bound", "bound_side", "bound_limit",
+            "flagged"}
+    for spec in doc["specimens"]:
+        for m, per in spec["intervals"].items():
+            for k, iv in per.items():
+                assert keys <= set(iv), (spec["specimen"], k, iv)
+                assert iv["flag"] == flags[spec["specimen"], k]
+    fixed = doc["specimens"][0]["intervals"]["IM7/977-2"]["G13"]
+    assert fixed | {"flag": "fixed", "verdict": "fixed", "lower": None, "upper": None,
+                    "flagged": False, "at_bound": False} == fixed
+    # the terminal table marks the same values
+    g13 = next(line for line in r.output.splitlines() if line.startswith("G13 [GPa]"))
+    assert g13.split()[-1].endswith("=")
 
 
 def test_summary_carries_the_monte_carlo_range_and_its_search_limit_ends(tmp_path):

@@ -50,7 +50,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     writing OUT/<folder>/<name>.result.h5 per specimen
     (folders relative to the inputs' common root) and OUT/summary.csv and summary.json
     (SI units: summary.csv has one row per specimen, material and constant with value,
-    interval, verdict, the Monte Carlo range with --monte-carlo (mc_search_limit: its ends set
+    interval, verdict, flag (at_bound, undetermined or fixed: no plain identified value),
+    the Monte Carlo range with --monte-carlo (mc_search_limit: its ends set
     by trials on a search limit), unit and status, then the ply loss factors where damping
     was measured; --wide one row per specimen; summary.json a units map). Every result has a
     status, ok or check with its reasons, shown in the table.
