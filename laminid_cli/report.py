@@ -43,8 +43,8 @@ import numpy as np
 
 from laminid_cli.atomic import atomic_path
 from laminid_cli.errors import LaminidError
-from laminid_cli.intervals import (VERDICT_AT_BOUND, VERDICT_FIXED, VERDICT_NOT, WEAK,
-                                   WELL_DETERMINED, spread_sentence)
+from laminid_cli.intervals import (HELD_BY_PRIOR, VERDICT_AT_BOUND, VERDICT_FIXED,
+                                   VERDICT_NOT, WEAK, WELL_DETERMINED, spread_sentence)
 from laminid_cli.resultfile import (CONSTANTS, ResultFile, bound_statement, profile_kind,
                                    read_result)
 
@@ -421,15 +421,22 @@ def constants_rows(r: ResultFile) -> tuple[list[str], list[list[str]]]:
                     verdict += "\n(Monte Carlo)"
             else:
                 verdict = short_verdict(iv.verdict)
+            # held by the prior: on a line of its own ("well determined (held by the prior)"
+            # ran over the cell's borders on both sides)
+            held = iv is not None and fixed is None and iv.verdict.endswith(HELD_BY_PRIOR)
+            if held:
+                verdict = verdict.replace(HELD_BY_PRIOR, "") + "\n" + HELD_BY_PRIOR.strip()
             rv = ref.get(m, {}).get(k)
             diff = None if rv is None else reference_diff(c[k], rv)
             # a value the modes do not determine is no measurement of the constant: its
-            # difference from the reference (S1.1's nu12 "0.350 (-35 %)") means nothing
+            # difference from the reference (S1.1's nu12 "0.350 (-35 %)") means nothing; nor
+            # does that of a value held by its prior, mostly the prior's (S1.2 with prior
+            # {nu12: 1.0}: "0.350 (+0 %)", its initial value against a reference equal to it)
             undetermined = verdict.startswith("not determined")
             if rv is None:
                 rtext = ""
             elif (fixed is not None or (iv is not None and iv.at_bound) or undetermined
-                  or diff is None):
+                  or held or diff is None):
                 rtext = fmt_reference(k, rv) + (
                     "\n(fixed: not\ncompared)" if fixed is not None else
                     "\n(not compared)" if rv != (0.0, 0.0) else "")
@@ -652,9 +659,13 @@ def table_notes(r: ResultFile) -> list[str]:
         notes.append("fixed: held at its initial value, not identified (its value is an "
                      "assumption, not a result; no comparison with the reference)")
     if any("(not compared)" in row[5] for row in rows):
-        notes.append("reference (not compared): the value is not determined by these modes or "
-                     "is on a search limit, so its difference from the reference would mean "
-                     "nothing")
+        held = any("(not compared)" in row[5] and HELD_BY_PRIOR.strip() in row[3]
+                   for row in rows)
+        notes.append("reference (not compared): the value is not determined by these modes"
+                     + (", is held by its prior (the file's prior gives more than half of what "
+                        "is known of it, paper Eq. 15)," if held else "")
+                     + " or is on a search limit, so its difference from the reference would "
+                     "mean nothing")
     u = r.uncertainty
     for lab, text in (getattr(u, "fixed_ranges", None) or {}).items():
         notes.append(f"{lab} (fixed on a search limit): {text}")

@@ -700,6 +700,50 @@ def test_an_undetermined_value_is_not_compared_with_its_reference(s11):
     assert box.x0 < inner.x0 and inner.x1 < box.x1 and box.y0 < inner.y0 and inner.y1 < box.y1
 
 
+@pytest.fixture(scope="module")
+def s12_prior(tmp_path_factory):
+    """S1.2 (6x6) with ``prior: {nu12: 1.0}`` in its file: nu12 "well determined (held by the
+    prior)" at its initial 0.350, the reference's value."""
+    from pathlib import Path
+
+    tmp = tmp_path_factory.mktemp("s12_prior")
+    spec = tmp / "S1.2-prior.yaml"
+    spec.write_text(Path("specimens/example1/S1.2.yaml").read_text().replace(
+        "    nu12: 0.35\n", "    nu12: 0.35\n    prior: {nu12: 1.0}\n", 1))
+    out = tmp / "S1.2-prior.result.h5"
+    r = run("identify", spec, "--mesh", "6x6", "-o", out)
+    assert r.exit_code == 0, r.output
+    return out
+
+
+def test_a_value_held_by_its_prior_is_said_inside_its_cell_and_not_compared(s12_prior):
+    """S1.2 with a prior on nu12: its verdict 'well determined (held by the prior)' ran over
+    the verdict cell's borders on both sides, and its reference cell said '0.350 (+0 %)': the
+    prior's value (the initial one) against a reference equal to it, an agreement the modes
+    did not make. The words on two lines inside the cell, the reference '(not compared)' and
+    the note says why."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = result_page(s12_prior, "summary")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    rows = cells(ax(fig, "constants"))[1:]
+    k = next(i for i, row in enumerate(rows) if row[0].startswith("nu12"))
+    assert rows[k][3] == "well determined\n(held by the prior)"
+    assert rows[k][5] == "0.350\n(not compared)"
+    assert "is held by its prior (the file's prior gives more than half of what is known of " \
+        "it, paper Eq. 15)" in " ".join(_notes(fig).split())
+    e1 = next(row for row in rows if row[0].startswith("E1"))
+    assert e1[5].startswith("170.0 (") and "%" in e1[5]            # still compared
+    table = ax(fig, "constants").tables[0]
+    for col in (3, 5):
+        cell = table.get_celld()[k + 1, col]
+        box, inner = cell.get_window_extent(renderer), \
+            cell.get_text().get_window_extent(renderer)
+        assert box.x0 < inner.x0 and inner.x1 < box.x1 and box.y0 < inner.y0 \
+            and inner.y1 < box.y1, (col, inner, box)
+
+
 def _labelled_ticks(a, renderer):
     """(value, label, window extent) of the y axis' labelled major ticks in view."""
     lo, hi = a.get_ylim()
