@@ -60,7 +60,7 @@ from laminid_cli import __version__
 from laminid_cli.atomic import (remove_stale_temporaries, stop_with_parent, temporary_name,
                                 write_bytes_atomic)
 from laminid_cli.errors import LaminidError
-from laminid_cli.intervals import VERDICT_AT_BOUND, VERDICT_FIXED
+from laminid_cli.intervals import HELD_BY_PRIOR, VERDICT_AT_BOUND, VERDICT_FIXED
 from laminid_cli.pipeline import RunOptions
 # imported here, not on the first summary row: a Ctrl-C landing in an import (in the code
 # a dataclass definition executes) can turn the exit code 130 into a kill by SIGINT (-2)
@@ -83,8 +83,8 @@ UNITS = {**CONSTANT_UNITS, "lower": "unit of the constant", "upper": "unit of th
          **{f"eta{k}": "1 (loss factor, eta = 2 zeta)" for k in ("11", "22", "12", "13", "23")}}
 #: the columns of the long summary.csv: lower/upper the linearised interval (empty for a
 #: constant at its bound), flag what the value is when it is no plain identified one, in a
-#: word a script can test (:func:`flag_word`: at_bound, undetermined, fixed; empty for an
-#: identified value), bound_side/bound_limit of a constant at its bound (the data push it
+#: word a script can test (:func:`flag_word`: at_bound, undetermined, fixed, prior; empty
+#: for an identified value), bound_side/bound_limit of a constant at its bound (the data push it
 #: below a "lower" limit, above an "upper" one; no interval), profile_bound where the fit
 #: rejects it (uncertainty.Profile) and profile what its profile says ("bound": the fit
 #: rejects it beyond profile_bound; "flat": nowhere within its scan, the modes do not
@@ -1009,8 +1009,9 @@ def csv_header(materials, mesh_check: bool = False) -> list[str]:
 
 #: the words of the summaries' ``flag`` (long summary.csv, summary.json) and of the wide
 #: summary's ``flagged`` column for each mark of the terminal table
-FLAG_AT_BOUND, FLAG_UNDETERMINED, FLAG_FIXED = "at_bound", "undetermined", "fixed"
-FLAG_WORDS = {"!": FLAG_AT_BOUND, "?": FLAG_UNDETERMINED, "=": FLAG_FIXED}
+FLAG_AT_BOUND, FLAG_UNDETERMINED, FLAG_FIXED, FLAG_PRIOR = \
+    "at_bound", "undetermined", "fixed", "prior"
+FLAG_WORDS = {"!": FLAG_AT_BOUND, "?": FLAG_UNDETERMINED, "=": FLAG_FIXED, "~": FLAG_PRIOR}
 
 
 def flag_word(iv: dict) -> str:
@@ -1018,7 +1019,9 @@ def flag_word(iv: dict) -> str:
     test (the verdict is words for a reader): "fixed" (held at its initial value: --fix, the
     file's ``fixed``, --fix-undetermined), "at_bound" (stopped on a limit of the search: the
     value is that limit), "undetermined" (flagged: its interval wider than --max-rel-interval;
-    a loss factor's verdict "not determined"), else "" (identified, with its interval).
+    a loss factor's verdict "not determined"), "prior" (held by the prior: the file's prior
+    gives more than half of what is known of it, paper Eq. 15; its value is mostly the
+    prior's), else "" (identified, with its interval).
     ``iv``: an entry of a summary row's ``intervals`` (or a loss factor's of ``damping``)."""
     verdict = str(iv.get("verdict") or "")
     if verdict == VERDICT_FIXED:
@@ -1027,6 +1030,8 @@ def flag_word(iv: dict) -> str:
         return FLAG_AT_BOUND
     if iv.get("flagged") or ("flagged" not in iv and verdict.startswith("not determined")):
         return FLAG_UNDETERMINED
+    if verdict.endswith(HELD_BY_PRIOR):
+        return FLAG_PRIOR
     return ""
 
 
@@ -1385,8 +1390,8 @@ def _float(text):
 
 
 #: markers of the terminal table: value at a bound (not identified), value not determined,
-#: value held fixed (the initial value, not identified)
-MARK_BOUND, MARK_UNDETERMINED, MARK_FIXED = "!", "?", "="
+#: value held fixed (the initial value, not identified), value held by its prior
+MARK_BOUND, MARK_UNDETERMINED, MARK_FIXED, MARK_PRIOR = "!", "?", "=", "~"
 
 
 def _mark(row: dict, material: str, constant: str) -> str:
@@ -1398,7 +1403,8 @@ def _mark(row: dict, material: str, constant: str) -> str:
 def format_table(rows) -> str:
     """The constants across specimens as text, shaped like the paper's Table 2: one block per
     set of materials, specimens as columns, constants as rows (GPa; a value at its bound
-    marked "!", one not determined by the modes "?", a fixed one "="), a status row; then the
+    marked "!", one not determined by the modes "?", a fixed one "=", one held by its prior
+    "~"), a status row; then the
     reasons of every "check" and the specimens without a result."""
     lines = []
     groups: dict[tuple, list] = {}
@@ -1451,7 +1457,10 @@ def format_table(rows) -> str:
         (MARK_UNDETERMINED, f"{MARK_UNDETERMINED} not determined by these modes (interval wider "
                             "than --max-rel-interval)"),
         (MARK_FIXED, f"{MARK_FIXED} fixed at its initial value — not identified (--fix, "
-                     "--fix-undetermined or the file's 'fixed')")) if mark in marked]
+                     "--fix-undetermined or the file's 'fixed')"),
+        (MARK_PRIOR, f"{MARK_PRIOR} held by the prior — mostly the file's prior value, not "
+                     "the modes' (the prior gives more than half of what is known of it, "
+                     "paper Eq. 15)")) if mark in marked]
     if any(checked_mesh(g) for g in groups.values()):
         legend.append("mesh change/shift: on a mesh twice as fine (--mesh-check), the largest "
                       "frequency change in the mode's sigmas and the largest shift of a constant "

@@ -1949,6 +1949,13 @@ class Doubt:
     def undetermined(self) -> bool:
         return not self.at_bound and not self.fixed and self.verdict.startswith("not")
 
+    @property
+    def held_by_prior(self) -> bool:
+        """Determined, but mostly by the file's prior (its verdict "... (held by the prior)"),
+        not by the modes."""
+        return (not self.at_bound and not self.fixed and not self.undetermined
+                and self.verdict.endswith(HELD_BY_PRIOR.strip()))
+
 
 def _si(v) -> float:
     return np.nan if v is None else float(v)
@@ -1966,6 +1973,8 @@ def _doubt_of_flag(row, m: str, k: str) -> Doubt | None:
         return Doubt(verdict=VERDICT_FIXED, fixed=True, flag_only=True)
     if word == "at_bound":
         return Doubt(verdict=VERDICT_AT_BOUND, at_bound=True, flag_only=True)
+    if word == "prior":
+        return Doubt(verdict=HELD_BY_PRIOR.strip(), flag_only=True)
     return Doubt(verdict=VERDICT_NOT if word == "undetermined" else "", flag_only=True)
 
 
@@ -2073,6 +2082,9 @@ def _across_point(ax, k, xi, v, d: Doubt | None, color, tag):
             ax.annotate("?", (xi, v), xytext=(4, 2), textcoords="offset points", fontsize=9,
                         color=color, weight="bold")
             return "undetermined"
+        if d.held_by_prior:
+            _prior_mark(ax, xi, v, color, tag)
+            return "held by prior"
         return "not flagged"
     if d is None or (np.isnan(d.lower) and np.isnan(d.upper)):
         ax.plot([xi], [v], "d", ms=6, color=color, mfc="w", mew=1.0, gid=f"value-{tag}",
@@ -2084,7 +2096,23 @@ def _across_point(ax, k, xi, v, d: Doubt | None, color, tag):
         ax.annotate("?", (xi, v), xytext=(4, 2), textcoords="offset points", fontsize=9,
                     color=color, weight="bold")
         return "undetermined (Monte Carlo)" if "(Monte Carlo)" in d.verdict else "undetermined"
+    if d.held_by_prior:
+        _prior_mark(ax, xi, v, color, tag)
+        return "held by prior"
     return "identified"
+
+
+#: the mark beside a value held by its prior on the page across specimens (the terminal
+#: table's, batch.MARK_PRIOR)
+PRIOR_MARK = "~"
+
+
+def _prior_mark(ax, xi, v, color, tag) -> None:
+    """The "~" beside a value held by its prior (as the "?" of one not determined): a dot on
+    a reference line, with a narrow interval, read as the modes confirming the reference when
+    the value is mostly the prior's (S1.2 with prior {nu12: 1.0} at its initial 0.35)."""
+    ax.annotate(PRIOR_MARK, (xi, v), xytext=(4, 2), textcoords="offset points", fontsize=10,
+                color=color, weight="bold", gid=f"prior-{tag}")
 
 
 def _clipped_bar(ax, k, xi, lo, hi, ymin, ymax, color, *, lw, gid, marks=(False, False),
@@ -2230,6 +2258,9 @@ def constants_across_page(done, title: str):
                      "stopped on a lower / upper search limit: not identified, no interval"),
         "fixed": (Line2D([], [], ls="none", marker="s", ms=6, color=FIXED_COLOR, mfc="w"),
                   "fixed at its initial value: not identified"),
+        "held by prior": (Line2D([], [], ls="none", marker=r"$\sim$", ms=8, color=grey),
+                          "~: held by its prior (mostly the file's prior value, not the "
+                          "modes')"),
         "no interval": (Line2D([], [], ls="none", marker="d", ms=6, color=grey, mfc="w"),
                         "no interval in this summary (wide CSV, result file not found)"),
         "not flagged": (Line2D([], [], ls="none", marker="o", ms=6, color=grey),
@@ -2237,13 +2268,15 @@ def constants_across_page(done, title: str):
         "at bound (side not stated)": (
             Line2D([], [], ls="none", marker=_either_limit(), ms=8, color=grey, mfc="none"),
             "on a search limit, not identified (--wide: which one not said)")}
+    if "held by prior" in kinds and has_interval:
+        kinds.add("identified")           # its dot and interval bar are an identified one's
     if "undetermined (Monte Carlo)" in kinds:
         # a Monte Carlo verdict's interval may be narrow: its range is what is too wide
         kinds.add("undetermined")
         h, _ = marks["undetermined"]
         marks["undetermined"] = (h, "?: not determined (interval or Monte Carlo range too "
                                     "wide)")
-    for kind in ("identified", "not flagged", "undetermined", "at bound",
+    for kind in ("identified", "not flagged", "undetermined", "held by prior", "at bound",
                  "at bound (side not stated)", "fixed", "no interval"):
         if kind in kinds:
             h, text = marks[kind]

@@ -216,6 +216,38 @@ def test_summaries_say_in_a_word_which_values_are_no_identified_ones(tmp_path):
     assert g13.split()[-1].endswith("=")
 
 
+def test_a_value_held_by_its_prior_is_marked_in_the_table_and_the_summaries(tmp_path):
+    """S1.2 with `prior: {nu12: 1.0}`: nu12 ends at its initial 0.350, "well determined (held
+    by the prior)", and the table showed it as a plain '0.350' beside the measured values, the
+    summaries as an identified value (a script averaging nu12 over the campaign took the
+    prior's value for a measurement). It is marked '~' with its legend, flagged 'prior' in
+    summary.csv and summary.json, and named in the wide summary's 'flagged'."""
+    specs = tmp_path / "in"
+    specs.mkdir()
+    (specs / "S1.2-prior.yaml").write_text(Path("specimens/example1/S1.2.yaml").read_text()
+                                           .replace("    nu12: 0.35\n",
+                                                    "    nu12: 0.35\n    prior: {nu12: 1.0}\n",
+                                                    1))
+    out = tmp_path / "out"
+    r = run("batch", specs, "--mesh", MESH, "--out", out)
+    assert r.exit_code == 0, r.output
+    nu12 = next(line for line in r.output.splitlines() if line.startswith("nu12"))
+    assert nu12.split()[-1] == "0.350~"
+    assert ("~ held by the prior — mostly the file's prior value, not the modes' (the prior "
+            "gives more than half of what is known of it, paper Eq. 15)") in r.output
+    with open(out / "summary.csv", newline="") as fh:
+        rows = {row["constant"]: row for row in csv.DictReader(fh)}
+    assert rows["nu12"]["verdict"] == "well determined (held by the prior)"
+    assert rows["nu12"]["flag"] == "prior" and rows["E1"]["flag"] == ""
+    doc = json.loads((out / "summary.json").read_text())
+    assert doc["specimens"][0]["intervals"]["IM7/977-2"]["nu12"]["flag"] == "prior"
+    r = run("batch", specs, "--mesh", MESH, "--out", out, "--wide")
+    assert r.exit_code == 0, r.output
+    with open(out / "summary.csv", newline="") as fh:
+        wide = next(csv.DictReader(fh))
+    assert "IM7/977-2.nu12 prior" in wide["flagged"].split("; ")
+
+
 def test_summary_carries_the_monte_carlo_range_and_its_search_limit_ends(tmp_path):
     """S1.1 (12x12, --monte-carlo 40, seed 0): the long CSV's mc_lower/mc_upper are the result
     file's /uncertainty/monte_carlo range, and mc_search_limit names the ends the file flags

@@ -544,6 +544,35 @@ def test_constants_across_specimens_do_not_magnify_values_a_hair_apart(tmp_path)
         assert a.yaxis.get_offset_text().get_text() == "", k
 
 
+@pytest.mark.parametrize("wide", [False, True])
+def test_constants_across_specimens_mark_a_value_held_by_its_prior(tmp_path, wide):
+    """A value held by its prior (its file's prior gives more than half of what is known of
+    it) was drawn as an identified one: S1.2's nu12 with prior {nu12: 1.0}, a filled dot with
+    a narrow interval on the reference's line, read as the modes confirming the reference. It
+    gets a '~' beside it, as the terminal table's mark, and the legend says what it means; a
+    --wide summary alone (its column 'flagged') too."""
+    from laminid_cli.batch import write_summary_csv
+    from tests.test_report import _write_summary
+
+    q, r = _one_material_rows()
+    iv = {k: dict(e) for k, e in q["intervals"]["carbon"].items()}
+    iv["nu12"] = iv["nu12"] | {"verdict": "well determined (held by the prior)"}
+    q = q | {"intervals": {"carbon": iv}, "result": None}
+    r = r | {"result": None}
+    path = tmp_path / ("summary.csv" if wide else "summary.json")
+    if wide:
+        write_summary_csv(path, [q, r], wide=True)
+    else:
+        _write_summary(path, [q, r])
+    fig = {p.name: p.figure for p in report_pages(path)}["constants"]
+    marks = [(a.get_gid(), t.get_gid()) for a in fig.axes for t in a.texts
+             if t.get_text() == "~"]
+    assert marks == [("across-nu12", "prior-Q-carbon")]
+    legend = next(a.get_legend() for a in fig.axes if a.get_legend() is not None)
+    assert "~: held by its prior (mostly the file's prior value, not the modes')" in [
+        t.get_text() for t in legend.get_texts()]
+
+
 def test_interval_end_at_or_below_zero_on_a_log_panel_is_clipped_and_said(s21):
     """A linear interval (older files) whose lower end is <= 0, on a panel a decade and more
     wide: an arrow onto the log panel's foot with the end written, and the legend says that
