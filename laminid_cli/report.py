@@ -1907,7 +1907,12 @@ def summary_pages(path) -> list[Page]:
             done.append((row, mats, r))
     if not done:
         raise ReportError(f"{path}: no identified specimen in the summary")
-    pages = [Page("constants", constants_across_page(done, Path(path).name)),
+    # the specimens of the summary without a result (failed, not run): named under the
+    # constants, which cannot draw them (page 2 gives their reasons)
+    drawn = {id(row) for row, _, _ in done}
+    absent = [f"{row['name']} ({row.get('status') or 'no result'})" for row in rows
+              if id(row) not in drawn]
+    pages = [Page("constants", constants_across_page(done, Path(path).name, absent)),
              Page("residuals", residuals_across_page(rows, Path(path).name))]
     if any(row.get("damping") for row in rows):
         from laminid_cli.report_damping import summary_damping_pages
@@ -2145,12 +2150,13 @@ def style_across_panel(ax, title: str, names) -> None:
     ax.tick_params(axis="y", labelsize=7)
 
 
-def constants_across_page(done, title: str):
+def constants_across_page(done, title: str, absent=()):
     """One panel per constant: each specimen on the x axis, the materials of one specimen side
     by side, each with the doubt the summary gives it: interval bar, hollow "?" when not
     determined, a triangle when it stopped on a search limit (no interval), a grey square when
     fixed, the Monte Carlo range in grey beside the interval; reference values from the result
-    files where found."""
+    files where found. ``absent``: the summary's specimens without a result ("name (status)"),
+    named in the notes."""
     from matplotlib.legend_handler import HandlerTuple
     from matplotlib.lines import Line2D
 
@@ -2320,6 +2326,8 @@ def constants_across_page(done, title: str):
               if (w := _row_check(row, r))]
     if checks:
         notes.append("status not ok — " + "; ".join(checks))
+    if absent:
+        notes.append(f"no result, not drawn (page 2 says why): {', '.join(absent)}")
     missing = [name for name, (row, _, r) in zip(names, done) if r is None]
     if missing:
         notes.append("result file not found (no reference values): " + ", ".join(missing))

@@ -544,6 +544,32 @@ def test_constants_across_specimens_do_not_magnify_values_a_hair_apart(tmp_path)
         assert a.yaxis.get_offset_text().get_text() == "", k
 
 
+@pytest.mark.parametrize("name", ["summary.csv", "summary.json"])
+def test_constants_across_specimens_name_the_specimens_without_a_result(tmp_path, name):
+    """A campaign of three specimens, one of them failed (a broken file): the constants'
+    page drew two and said nothing of the third (only the residuals' page, after it, did),
+    so a reader of page 1 took the campaign for two plates. Its notes name it, with its
+    status; a summary where every specimen has a result says nothing of the kind."""
+    from tests.test_report import _write_summary
+
+    q, r = _one_material_rows()
+    broken = {"name": "broken/S1.3", "specimen": "", "path": "", "status": "error",
+              "reasons": [], "reason": "S1.3.yaml:22, field 'materials.IM7/977-2.G21': unknown "
+              "key 'G21'", "converged": None, "optimizer_status": "", "cached": False,
+              "materials": {}, "intervals": {}, "rms_residual_percent": None,
+              "evaluations": None, "time_s": 0.0, "result": None, "damping": {},
+              "mesh_check": None, "stale_result": None}
+    path = tmp_path / name
+    _write_summary(path, [q, broken, r])
+    fig = {p.name: p.figure for p in report_pages(path)}["constants"]
+    words = " ".join(" ".join(t.get_text() for t in fig.texts).split())
+    assert "no result, not drawn (page 2 says why): broken/S1.3 (error)" in words
+    assert [t.get_text() for t in ax(fig, "across-E1").get_xticklabels()] == ["Q", "R"]
+    _write_summary(path, [q, r])
+    fig = {p.name: p.figure for p in report_pages(path)}["constants"]
+    assert "not drawn" not in " ".join(t.get_text() for t in fig.texts)
+
+
 @pytest.mark.parametrize("wide", [False, True])
 def test_constants_across_specimens_mark_a_value_held_by_its_prior(tmp_path, wide):
     """A value held by its prior (its file's prior gives more than half of what is known of
