@@ -544,6 +544,48 @@ def test_constants_across_specimens_do_not_magnify_values_a_hair_apart(tmp_path)
         assert a.yaxis.get_offset_text().get_text() == "", k
 
 
+def test_residuals_across_specimens_labels_do_not_run_into_each_other(tmp_path):
+    """Eleven specimens of a batch --mesh-check, most of them 'check', one failed: each bar's
+    label (residual, mesh shift, status and reason codes) ran into its neighbours'
+    ("0.265 %mesh shift 0.10 hw"), the failed one's reason across the next bar's label. The
+    labels are as narrow as the bars leave room for, none overlaps the next, the reason codes
+    stay whole, and the tallest is inside the axes."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from tests.test_report import _write_summary
+
+    q = _one_material_rows()[0]
+    rows = [{"name": "broken/S1.3-broken", "specimen": "", "path": "", "status": "error",
+             "reasons": [], "reason": "camp/broken/S1.3-broken.yaml:22, field "
+             "'materials.IM7/977-2.G21': unknown key 'G21'; did you mean 'G23'? (valid keys: "
+             "E1, E2, G12, G13, G23, nu12, density, density_ratio, fixed, prior)",
+             "materials": {}, "intervals": {}, "rms_residual_percent": None, "result": None,
+             "damping": {}, "mesh_check": None}]
+    for i in range(10):
+        rows.append(q | {"name": f"plates/S{i}", "specimen": f"S{i}", "result": None,
+                         "status": "check" if i % 3 else "ok",
+                         "reason": "fixed_rejected, coarse_mesh" if i % 3 else "",
+                         "rms_residual_percent": (0.88 if i == 5 else 0.1 + 0.03 * i),
+                         "mesh_check": {"max_shift_half_width": 0.1 + 0.02 * i,
+                                        "max_change_sigma": 0.7, "coarse_mesh": False}})
+    path = tmp_path / "summary.json"
+    _write_summary(path, rows)
+    fig = {p.name: p.figure for p in report_pages(path)}["residuals"]
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    a = ax(fig, "rms")
+    labels = sorted((t for t in a.texts if t.get_text().startswith(("no result", "0."))),
+                    key=lambda t: t.xy[0])
+    assert len(labels) == 11
+    boxes = [t.get_window_extent(renderer) for t in labels]
+    for (p, t), (q_, u) in zip(zip(boxes, labels), zip(boxes[1:], labels[1:])):
+        assert not (p.x1 > q_.x0 and p.y1 > q_.y0 and q_.y1 > p.y0), \
+            (t.get_text(), u.get_text())
+    assert all("fixed_rejected," in t.get_text().split("\n") for t in labels[1:]
+               if "check" in t.get_text())
+    assert max(b.y1 for b in boxes) <= a.get_window_extent(renderer).y1
+
+
 @pytest.mark.parametrize("name", ["summary.csv", "summary.json"])
 def test_constants_across_specimens_name_the_specimens_without_a_result(tmp_path, name):
     """A campaign of three specimens, one of them failed (a broken file): the constants'
