@@ -725,8 +725,13 @@ def _run_dask(jobs, options, n_jobs, scheduler):
     futures: dict = {}
     try:
         if scheduler == "local":
+            # no dashboard; the scheduler's HTTP server (which it starts anyway) on a free
+            # port of this machine's loopback: on its default 8787, a second batch running
+            # at the same time printed distributed's "UserWarning: Port 8787 is already in
+            # use. Perhaps you already have a cluster running? ..." (4 lines)
             cluster = LocalCluster(n_workers=max(1, n_jobs), threads_per_worker=1,
-                                   processes=True, dashboard_address=None)
+                                   processes=True, dashboard_address=None,
+                                   scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})
             client = Client(cluster)
             # the cluster's workers leave Ctrl-C to this process (a remote cluster's are its
             # own: a `dask worker` stops on it)

@@ -847,6 +847,35 @@ def test_a_dask_local_batch_prints_no_cluster_log_lines_unless_verbose(tmp_path)
     assert p.returncode == 0 and "INFO distributed.scheduler" in p.stderr, p.stderr
 
 
+def test_a_dask_local_batch_beside_another_cluster_prints_nothing_of_its_port(tmp_path):
+    """The local cluster's scheduler starts an HTTP server whatever the dashboard, on port
+    8787 by default: a second batch running at the same time (or anything else on 8787)
+    printed distributed's 'UserWarning: Port 8787 is already in use. Perhaps you already have
+    a cluster running? Hosting the HTTP server on port ... instead' (4 lines). It takes a
+    free port of the loopback."""
+    import socket
+
+    pytest.importorskip("distributed")
+    busy = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    try:
+        busy.bind(("0.0.0.0", 8787))               # (taken already: as good for the test)
+        busy.listen(1)
+    except OSError:
+        pass
+    try:
+        specs = make_tree(tmp_path / "in", {"S1.4.yaml": "specimens/example1/S1.4.yaml"})
+        cmd = [sys.executable, "-m", "laminid_cli", "batch", str(specs), "--mesh", "4x4",
+               "--scheduler", "local", "-j", "1", "--out", str(tmp_path / "out")]
+        root = str(Path(__file__).resolve().parents[1])
+        env = dict(os.environ, PYTHONPATH=root + os.pathsep + os.environ.get("PYTHONPATH", ""))
+        p = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=env, cwd=root)
+    finally:
+        busy.close()
+    assert p.returncode == 0, p.stderr
+    assert p.stderr.splitlines() == ["1 specimen, 0 up to date, 1 to identify on 1 worker",
+                                     "identifying"], p.stderr
+
+
 def test_ctrl_c_on_a_dask_local_batch_prints_no_worker_tracebacks(tmp_path):
     """Ctrl-C reaches the whole process group, the local cluster's worker processes too: each
     one printed its tracebacks ("Process Dask Worker process (from Nanny)", CancelledError,
