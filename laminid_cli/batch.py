@@ -60,7 +60,7 @@ from laminid_cli import __version__
 from laminid_cli.atomic import (remove_stale_temporaries, stop_with_parent, temporary_name,
                                 write_bytes_atomic)
 from laminid_cli.errors import LaminidError
-from laminid_cli.intervals import VERDICT_AT_BOUND
+from laminid_cli.intervals import HELD_BY_PRIOR, VERDICT_AT_BOUND, VERDICT_FIXED
 from laminid_cli.pipeline import RunOptions
 # imported here, not on the first summary row: a Ctrl-C landing in an import (in the code
 # a dataclass definition executes) can turn the exit code 130 into a kill by SIGINT (-2)
@@ -82,7 +82,9 @@ UNITS = {**CONSTANT_UNITS, "lower": "unit of the constant", "upper": "unit of th
          "mesh_shift_half_width": "95 % half-width of the constant",
          **{f"eta{k}": "1 (loss factor, eta = 2 zeta)" for k in ("11", "22", "12", "13", "23")}}
 #: the columns of the long summary.csv: lower/upper the linearised interval (empty for a
-#: constant at its bound), bound_side/bound_limit of a constant at its bound (the data push it
+#: constant at its bound), flag what the value is when it is no plain identified one, in a
+#: word a script can test (:func:`flag_word`: at_bound, undetermined, fixed, prior; empty
+#: for an identified value), bound_side/bound_limit of a constant at its bound (the data push it
 #: below a "lower" limit, above an "upper" one; no interval), profile_bound where the fit
 #: rejects it (uncertainty.Profile) and profile what its profile says ("bound": the fit
 #: rejects it beyond profile_bound; "flat": nowhere within its scan, the modes do not
@@ -93,7 +95,7 @@ UNITS = {**CONSTANT_UNITS, "lower": "unit of the constant", "upper": "unit of th
 #: range (--monte-carlo), mc_search_limit which of its ends ("lower", "upper", "both") trials
 #: on a limit of the search set (the search's end, not the data's)
 LONG_COLUMNS = ("name", "specimen", "material", "constant", "value", "lower", "upper", "verdict",
-                "bound_side", "bound_limit", "profile_bound", "profile", "profile_far",
+                "flag", "bound_side", "bound_limit", "profile_bound", "profile", "profile_far",
                 "mc_lower", "mc_upper",
                 "mc_search_limit", "unit",
                 "status", "reasons", "rms_residual [%]", "result", "stale_result")
@@ -723,9 +725,21 @@ def _run_dask(jobs, options, n_jobs, scheduler):
     futures: dict = {}
     try:
         if scheduler == "local":
+            # no dashboard; the scheduler's HTTP server (which it starts anyway) on a free
+            # port of this machine's loopback: on its default 8787, a second batch running
+            # at the same time printed distributed's "UserWarning: Port 8787 is already in
+            # use. Perhaps you already have a cluster running? ..." (4 lines)
             cluster = LocalCluster(n_workers=max(1, n_jobs), threads_per_worker=1,
-                                   processes=True, dashboard_address=None)
+                                   processes=True, dashboard_address=None,
+                                   scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})
             client = Client(cluster)
+            # the cluster's workers leave Ctrl-C to this process (a remote cluster's are its
+            # own: a `dask worker` stops on it)
+            from laminid_cli.dask_worker import LocalWorkerSetup
+
+            level = logging.getLogger().getEffectiveLevel()
+            client.register_plugin(LocalWorkerSetup(
+                logging.ERROR if level >= logging.WARNING else level))
         else:
             client = Client(scheduler, timeout="20s")
     except Exception as exc:  # noqa: BLE001 - distributed raises OSError, TimeoutError,
@@ -734,20 +748,41 @@ def _run_dask(jobs, options, n_jobs, scheduler):
             cluster.close()
         reason = " ".join(str(exc).split()) or type(exc).__name__
         raise BatchError(f"--scheduler {scheduler}: cannot connect ({reason})") from exc
+    # a Ctrl-C is noted and acted on at the loop's next look, as with the process pool
+    # (run_jobs): raised at once it could land in a weakref callback of distributed's, where
+    # Python prints "Exception ignored ... KeyboardInterrupt" and drops it; the batch then
+    # went on to its end and exited 0 (1 in 6 interrupted local-cluster batches)
+    seen, restore = _note_sigint(raise_=False)
     try:
         # remote workers have their own working folder: give them absolute paths
         remote = [Job(str(Path(j.spec).resolve()), j.name, j.output, j.key) for j in jobs]
         futures = {client.submit(run_job, r, options, key=f"laminid-{j.name}-{j.key[:12]}",
                                  pure=False): j for j, r in zip(jobs, remote)}
-        for fut in as_completed(list(futures)):
-            yield futures[fut], _outcome_of(fut, futures[fut])
+        pending = as_completed(list(futures))
+        while not pending.is_empty():
+            ready = pending.next_batch(block=False)
+            for fut in ready:
+                if seen:
+                    raise KeyboardInterrupt
+                yield futures[fut], _outcome_of(fut, futures[fut])
+            if seen:
+                raise KeyboardInterrupt
+            if not ready:
+                time.sleep(SIGINT_POLL)
     finally:
-        if futures:
-            with contextlib.suppress(Exception):
-                client.cancel(list(futures))
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        # (a further Ctrl-C while the cluster closes is only noted: raised, it cut the close
+        # short and left its workers to the parent watch)
+        try:
+            if futures:
+                with contextlib.suppress(Exception):
+                    client.cancel(list(futures))
+            client.close()
+            if cluster is not None:
+                cluster.close()
+        finally:
+            restore()
+    if seen:
+        raise KeyboardInterrupt          # noted while the cluster closed after the last job
 
 
 # ----------------------------------------------------------------------------------------------
@@ -763,10 +798,11 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False,
     reasons ([{code, text}], laminid_cli.status), reason (one line: the error, or the codes),
     converged, optimizer_status, cached, materials ({material: {E1.. nu12}}), intervals
     ({material: {constant: {lower, upper, verdict, at_bound, bound_side, bound_limit,
-    flagged, profile_bound, profile, profile_text, profile_far}}} for the free constants
-    (bound_side "" and bound_limit None when not at a bound; profile: LONG_COLUMNS), with
-    mc_lower, mc_upper and mc_lower_at_limit, mc_upper_at_limit (None: the file
-    does not say) after a Monte Carlo; fixed ones {verdict: "fixed"}),
+    flagged, flag, profile_bound, profile, profile_text, profile_far}}} for the free constants
+    (bound_side "" and bound_limit None when not at a bound; profile: LONG_COLUMNS; flag:
+    :func:`flag_word`), with mc_lower, mc_upper and mc_lower_at_limit, mc_upper_at_limit (None:
+    the file does not say) after a Monte Carlo; fixed ones the same keys but the profile's,
+    no interval, verdict and flag "fixed"),
     rms_residual_percent, evaluations, time_s, result, damping ({material: {eta11: {value,
     lower, upper, verdict}}}, empty without measured damping), mesh_check (with --mesh-check:
     :func:`mesh_summary`, and mesh_shift_half_width in each interval; else None).
@@ -856,7 +892,12 @@ def _row_of_result(res) -> dict:
     row["time_s"] = res.time_s
     row["rms_residual_percent"] = res.rms_residual_percent
     row["materials"] = {m: {k: c[k] for k in CONSTANTS} for m, c in res.materials.items()}
-    intervals: dict = {m: {k: {"verdict": "fixed"} for k in CONSTANTS} for m in res.materials}
+    # a fixed constant's entry has the keys of a free one's (no interval, not flagged as
+    # undetermined), so that a script reading them all finds each; its flag says "fixed"
+    intervals: dict = {m: {k: {"lower": None, "upper": None, "verdict": "fixed",
+                               "flag": FLAG_FIXED, "at_bound": False, "bound_side": "",
+                               "bound_limit": None, "flagged": False}
+                           for k in CONSTANTS} for m in res.materials}
     u = res.uncertainty
     mc = u.monte_carlo if u is not None and u.monte_carlo and "lower" in u.monte_carlo \
         else None
@@ -869,6 +910,7 @@ def _row_of_result(res) -> dict:
                               else None),
             "profile": iv.profile_kind, "profile_text": iv.profile_text,
             "profile_far": float(iv.profile_far) if np.isfinite(iv.profile_far) else None}
+        entry["flag"] = flag_word(entry)
         if mc is not None:               # the Monte Carlo's constants are the intervals'
             entry["mc_lower"] = float(np.ravel(mc["lower"])[j])
             entry["mc_upper"] = float(np.ravel(mc["upper"])[j])
@@ -991,8 +1033,32 @@ def csv_header(materials, mesh_check: bool = False) -> list[str]:
                    "stale_result", *(MESH_WIDE_COLUMNS if mesh_check else ()), "flagged"]
 
 
-#: the words of the wide summary's ``flagged`` column for each mark of the terminal table
-FLAG_WORDS = {"!": "at_bound", "?": "undetermined", "=": "fixed"}
+#: the words of the summaries' ``flag`` (long summary.csv, summary.json) and of the wide
+#: summary's ``flagged`` column for each mark of the terminal table
+FLAG_AT_BOUND, FLAG_UNDETERMINED, FLAG_FIXED, FLAG_PRIOR = \
+    "at_bound", "undetermined", "fixed", "prior"
+FLAG_WORDS = {"!": FLAG_AT_BOUND, "?": FLAG_UNDETERMINED, "=": FLAG_FIXED, "~": FLAG_PRIOR}
+
+
+def flag_word(iv: dict) -> str:
+    """What a summary's value is when it is no plain identified one, as a word a script can
+    test (the verdict is words for a reader): "fixed" (held at its initial value: --fix, the
+    file's ``fixed``, --fix-undetermined), "at_bound" (stopped on a limit of the search: the
+    value is that limit), "undetermined" (flagged: its interval wider than --max-rel-interval;
+    a loss factor's verdict "not determined"), "prior" (held by the prior: the file's prior
+    gives more than half of what is known of it, paper Eq. 15; its value is mostly the
+    prior's), else "" (identified, with its interval).
+    ``iv``: an entry of a summary row's ``intervals`` (or a loss factor's of ``damping``)."""
+    verdict = str(iv.get("verdict") or "")
+    if verdict == VERDICT_FIXED:
+        return FLAG_FIXED
+    if iv.get("at_bound") or verdict == VERDICT_AT_BOUND:
+        return FLAG_AT_BOUND
+    if iv.get("flagged") or ("flagged" not in iv and verdict.startswith("not determined")):
+        return FLAG_UNDETERMINED
+    if verdict.endswith(HELD_BY_PRIOR):
+        return FLAG_PRIOR
+    return ""
 
 
 def flagged_text(row: dict) -> str:
@@ -1047,6 +1113,7 @@ def long_rows(rows, folder=None, columns=LONG_COLUMNS) -> list[list[str]]:
                 cells.append({"material": m, "constant": k, "value": _num(consts[k]),
                               "lower": _num(iv.get("lower")), "upper": _num(iv.get("upper")),
                               "verdict": iv.get("verdict", ""),
+                              "flag": flag_word(iv),
                               "bound_side": iv.get("bound_side") or "",
                               "bound_limit": _num(iv.get("bound_limit")),
                               "profile_bound": _num(iv.get("profile_bound")),
@@ -1060,7 +1127,8 @@ def long_rows(rows, folder=None, columns=LONG_COLUMNS) -> list[list[str]]:
         for d in damping_long_rows(r):
             cells.append({"material": d["material"], "constant": d["constant"],
                           "value": _num(d["value"]), "lower": _num(d["lower"]),
-                          "upper": _num(d["upper"]), "verdict": d["verdict"], "unit": d["unit"],
+                          "upper": _num(d["upper"]), "verdict": d["verdict"],
+                          "flag": flag_word(d), "unit": d["unit"],
                           "bound_side": d["bound_side"], "bound_limit": _num(d["bound_limit"]),
                           "mc_lower": _num(d["mc_lower"]), "mc_upper": _num(d["mc_upper"])})
         for cell in cells or [{}]:
@@ -1348,25 +1416,21 @@ def _float(text):
 
 
 #: markers of the terminal table: value at a bound (not identified), value not determined,
-#: value held fixed (the initial value, not identified)
-MARK_BOUND, MARK_UNDETERMINED, MARK_FIXED = "!", "?", "="
+#: value held fixed (the initial value, not identified), value held by its prior
+MARK_BOUND, MARK_UNDETERMINED, MARK_FIXED, MARK_PRIOR = "!", "?", "=", "~"
 
 
 def _mark(row: dict, material: str, constant: str) -> str:
     iv = (row.get("intervals") or {}).get(material, {}).get(constant, {})
-    if iv.get("verdict") == "fixed":
-        return MARK_FIXED
-    if iv.get("at_bound"):
-        return MARK_BOUND
-    if iv.get("flagged"):
-        return MARK_UNDETERMINED
-    return " "
+    word = flag_word(iv) if iv else ""
+    return next((mark for mark, w in FLAG_WORDS.items() if w == word), " ")
 
 
 def format_table(rows) -> str:
     """The constants across specimens as text, shaped like the paper's Table 2: one block per
     set of materials, specimens as columns, constants as rows (GPa; a value at its bound
-    marked "!", one not determined by the modes "?", a fixed one "="), a status row; then the
+    marked "!", one not determined by the modes "?", a fixed one "=", one held by its prior
+    "~"), a status row; then the
     reasons of every "check" and the specimens without a result."""
     lines = []
     groups: dict[tuple, list] = {}
@@ -1419,7 +1483,10 @@ def format_table(rows) -> str:
         (MARK_UNDETERMINED, f"{MARK_UNDETERMINED} not determined by these modes (interval wider "
                             "than --max-rel-interval)"),
         (MARK_FIXED, f"{MARK_FIXED} fixed at its initial value — not identified (--fix, "
-                     "--fix-undetermined or the file's 'fixed')")) if mark in marked]
+                     "--fix-undetermined or the file's 'fixed')"),
+        (MARK_PRIOR, f"{MARK_PRIOR} held by the prior — mostly the file's prior value, not "
+                     "the modes' (the prior gives more than half of what is known of it, "
+                     "paper Eq. 15)")) if mark in marked]
     if any(checked_mesh(g) for g in groups.values()):
         legend.append("mesh change/shift: on a mesh twice as fine (--mesh-check), the largest "
                       "frequency change in the mode's sigmas and the largest shift of a constant "

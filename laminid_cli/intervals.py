@@ -31,6 +31,9 @@ VERDICT_WEAK = "weak"
 VERDICT_NOT = "not determined by these modes — fix it or measure a thicker plate / more modes"
 VERDICT_FIXED = "fixed"
 VERDICT_AT_BOUND = "at bound — not identified"
+#: the note after a verdict whose constant gets most of its information from the prior
+#: (uncertainty.linearized_uncertainty: more than half, paper Eq. 15)
+HELD_BY_PRIOR = " (held by the prior)"
 
 
 def interval_scale(scaling: str, dof: int, s2: float, confidence: float, counts: str

@@ -43,8 +43,8 @@ import numpy as np
 
 from laminid_cli.atomic import atomic_path
 from laminid_cli.errors import LaminidError
-from laminid_cli.intervals import (VERDICT_AT_BOUND, VERDICT_FIXED, VERDICT_NOT, WEAK,
-                                   spread_sentence)
+from laminid_cli.intervals import (HELD_BY_PRIOR, VERDICT_AT_BOUND, VERDICT_FIXED,
+                                   VERDICT_NOT, WEAK, WELL_DETERMINED, spread_sentence)
 from laminid_cli.resultfile import (CONSTANTS, ResultFile, bound_statement, profile_kind,
                                    read_result)
 
@@ -421,15 +421,22 @@ def constants_rows(r: ResultFile) -> tuple[list[str], list[list[str]]]:
                     verdict += "\n(Monte Carlo)"
             else:
                 verdict = short_verdict(iv.verdict)
+            # held by the prior: on a line of its own ("well determined (held by the prior)"
+            # ran over the cell's borders on both sides)
+            held = iv is not None and fixed is None and iv.verdict.endswith(HELD_BY_PRIOR)
+            if held:
+                verdict = verdict.replace(HELD_BY_PRIOR, "") + "\n" + HELD_BY_PRIOR.strip()
             rv = ref.get(m, {}).get(k)
             diff = None if rv is None else reference_diff(c[k], rv)
             # a value the modes do not determine is no measurement of the constant: its
-            # difference from the reference (S1.1's nu12 "0.350 (-35 %)") means nothing
+            # difference from the reference (S1.1's nu12 "0.350 (-35 %)") means nothing; nor
+            # does that of a value held by its prior, mostly the prior's (S1.2 with prior
+            # {nu12: 1.0}: "0.350 (+0 %)", its initial value against a reference equal to it)
             undetermined = verdict.startswith("not determined")
             if rv is None:
                 rtext = ""
             elif (fixed is not None or (iv is not None and iv.at_bound) or undetermined
-                  or diff is None):
+                  or held or diff is None):
                 rtext = fmt_reference(k, rv) + (
                     "\n(fixed: not\ncompared)" if fixed is not None else
                     "\n(not compared)" if rv != (0.0, 0.0) else "")
@@ -652,9 +659,13 @@ def table_notes(r: ResultFile) -> list[str]:
         notes.append("fixed: held at its initial value, not identified (its value is an "
                      "assumption, not a result; no comparison with the reference)")
     if any("(not compared)" in row[5] for row in rows):
-        notes.append("reference (not compared): the value is not determined by these modes or "
-                     "is on a search limit, so its difference from the reference would mean "
-                     "nothing")
+        held = any("(not compared)" in row[5] and HELD_BY_PRIOR.strip() in row[3]
+                   for row in rows)
+        notes.append("reference (not compared): the value is not determined by these modes"
+                     + (", is held by its prior (the file's prior gives more than half of what "
+                        "is known of it, paper Eq. 15)," if held else "")
+                     + " or is on a search limit, so its difference from the reference would "
+                     "mean nothing")
     u = r.uncertainty
     for lab, text in (getattr(u, "fixed_ranges", None) or {}).items():
         notes.append(f"{lab} (fixed on a search limit): {text}")
@@ -1896,7 +1907,12 @@ def summary_pages(path) -> list[Page]:
             done.append((row, mats, r))
     if not done:
         raise ReportError(f"{path}: no identified specimen in the summary")
-    pages = [Page("constants", constants_across_page(done, Path(path).name)),
+    # the specimens of the summary without a result (failed, not run): named under the
+    # constants, which cannot draw them (page 2 gives their reasons)
+    drawn = {id(row) for row, _, _ in done}
+    absent = [f"{row['name']} ({row.get('status') or 'no result'})" for row in rows
+              if id(row) not in drawn]
+    pages = [Page("constants", constants_across_page(done, Path(path).name, absent)),
              Page("residuals", residuals_across_page(rows, Path(path).name))]
     if any(row.get("damping") for row in rows):
         from laminid_cli.report_damping import summary_damping_pages
@@ -1938,6 +1954,13 @@ class Doubt:
     def undetermined(self) -> bool:
         return not self.at_bound and not self.fixed and self.verdict.startswith("not")
 
+    @property
+    def held_by_prior(self) -> bool:
+        """Determined, but mostly by the file's prior (its verdict "... (held by the prior)"),
+        not by the modes."""
+        return (not self.at_bound and not self.fixed and not self.undetermined
+                and self.verdict.endswith(HELD_BY_PRIOR.strip()))
+
 
 def _si(v) -> float:
     return np.nan if v is None else float(v)
@@ -1955,6 +1978,8 @@ def _doubt_of_flag(row, m: str, k: str) -> Doubt | None:
         return Doubt(verdict=VERDICT_FIXED, fixed=True, flag_only=True)
     if word == "at_bound":
         return Doubt(verdict=VERDICT_AT_BOUND, at_bound=True, flag_only=True)
+    if word == "prior":
+        return Doubt(verdict=HELD_BY_PRIOR.strip(), flag_only=True)
     return Doubt(verdict=VERDICT_NOT if word == "undetermined" else "", flag_only=True)
 
 
@@ -2017,6 +2042,10 @@ def specimen_labels(rows) -> list[str]:
 
 
 MC_COLOR = "0.62"
+#: the least span of a linear panel across specimens, as a fraction of its largest value: the
+#: width of the verdicts' "well determined" band (a 95 % half-width of 5 %, either way), so
+#: that differences well inside it are not drawn as if they were apart
+ACROSS_MIN_SPAN = 2 * WELL_DETERMINED
 
 
 def _either_limit():
@@ -2058,6 +2087,9 @@ def _across_point(ax, k, xi, v, d: Doubt | None, color, tag):
             ax.annotate("?", (xi, v), xytext=(4, 2), textcoords="offset points", fontsize=9,
                         color=color, weight="bold")
             return "undetermined"
+        if d.held_by_prior:
+            _prior_mark(ax, xi, v, color, tag)
+            return "held by prior"
         return "not flagged"
     if d is None or (np.isnan(d.lower) and np.isnan(d.upper)):
         ax.plot([xi], [v], "d", ms=6, color=color, mfc="w", mew=1.0, gid=f"value-{tag}",
@@ -2069,7 +2101,23 @@ def _across_point(ax, k, xi, v, d: Doubt | None, color, tag):
         ax.annotate("?", (xi, v), xytext=(4, 2), textcoords="offset points", fontsize=9,
                     color=color, weight="bold")
         return "undetermined (Monte Carlo)" if "(Monte Carlo)" in d.verdict else "undetermined"
+    if d.held_by_prior:
+        _prior_mark(ax, xi, v, color, tag)
+        return "held by prior"
     return "identified"
+
+
+#: the mark beside a value held by its prior on the page across specimens (the terminal
+#: table's, batch.MARK_PRIOR)
+PRIOR_MARK = "~"
+
+
+def _prior_mark(ax, xi, v, color, tag) -> None:
+    """The "~" beside a value held by its prior (as the "?" of one not determined): a dot on
+    a reference line, with a narrow interval, read as the modes confirming the reference when
+    the value is mostly the prior's (S1.2 with prior {nu12: 1.0} at its initial 0.35)."""
+    ax.annotate(PRIOR_MARK, (xi, v), xytext=(4, 2), textcoords="offset points", fontsize=10,
+                color=color, weight="bold", gid=f"prior-{tag}")
 
 
 def _clipped_bar(ax, k, xi, lo, hi, ymin, ymax, color, *, lw, gid, marks=(False, False),
@@ -2102,12 +2150,13 @@ def style_across_panel(ax, title: str, names) -> None:
     ax.tick_params(axis="y", labelsize=7)
 
 
-def constants_across_page(done, title: str):
+def constants_across_page(done, title: str, absent=()):
     """One panel per constant: each specimen on the x axis, the materials of one specimen side
     by side, each with the doubt the summary gives it: interval bar, hollow "?" when not
     determined, a triangle when it stopped on a search limit (no interval), a grey square when
     fixed, the Monte Carlo range in grey beside the interval; reference values from the result
-    files where found."""
+    files where found. ``absent``: the summary's specimens without a result ("name (status)"),
+    named in the notes."""
     from matplotlib.legend_handler import HandlerTuple
     from matplotlib.lines import Line2D
 
@@ -2185,6 +2234,12 @@ def constants_across_page(done, title: str):
         elif vals:
             lo, hi = min(vals + ends), max(vals + ends)
             pad = 0.15 * (hi - lo) if hi > lo else 0.1 * abs(hi) or 1.0
+            # at least ACROSS_MIN_SPAN of the values (nu12: of 0.1, as it may be near 0):
+            # values a hair apart with no interval in view (one plate identified twice from
+            # two starts, its G13 undetermined: 6.01761 and 6.01778 GPa) were magnified to
+            # their last digits, ticks 0.00060-0.00080 under an offset '+6.017'
+            least = ACROSS_MIN_SPAN * max(abs(lo), abs(hi), 0.1 if k == "nu12" else 0.0)
+            pad = max(pad, (least - (hi - lo)) / 2)
             ymin, ymax = lo - pad, hi + pad
             if k != "nu12" and ymin < 0 <= lo:
                 ymin = 0.0
@@ -2209,6 +2264,9 @@ def constants_across_page(done, title: str):
                      "stopped on a lower / upper search limit: not identified, no interval"),
         "fixed": (Line2D([], [], ls="none", marker="s", ms=6, color=FIXED_COLOR, mfc="w"),
                   "fixed at its initial value: not identified"),
+        "held by prior": (Line2D([], [], ls="none", marker=r"$\sim$", ms=8, color=grey),
+                          "~: held by its prior (mostly the file's prior value, not the "
+                          "modes')"),
         "no interval": (Line2D([], [], ls="none", marker="d", ms=6, color=grey, mfc="w"),
                         "no interval in this summary (wide CSV, result file not found)"),
         "not flagged": (Line2D([], [], ls="none", marker="o", ms=6, color=grey),
@@ -2216,13 +2274,15 @@ def constants_across_page(done, title: str):
         "at bound (side not stated)": (
             Line2D([], [], ls="none", marker=_either_limit(), ms=8, color=grey, mfc="none"),
             "on a search limit, not identified (--wide: which one not said)")}
+    if "held by prior" in kinds and has_interval:
+        kinds.add("identified")           # its dot and interval bar are an identified one's
     if "undetermined (Monte Carlo)" in kinds:
         # a Monte Carlo verdict's interval may be narrow: its range is what is too wide
         kinds.add("undetermined")
         h, _ = marks["undetermined"]
         marks["undetermined"] = (h, "?: not determined (interval or Monte Carlo range too "
                                     "wide)")
-    for kind in ("identified", "not flagged", "undetermined", "at bound",
+    for kind in ("identified", "not flagged", "undetermined", "held by prior", "at bound",
                  "at bound (side not stated)", "fixed", "no interval"):
         if kind in kinds:
             h, text = marks[kind]
@@ -2266,6 +2326,8 @@ def constants_across_page(done, title: str):
               if (w := _row_check(row, r))]
     if checks:
         notes.append("status not ok — " + "; ".join(checks))
+    if absent:
+        notes.append(f"no result, not drawn (page 2 says why): {', '.join(absent)}")
     missing = [name for name, (row, _, r) in zip(names, done) if r is None]
     if missing:
         notes.append("result file not found (no reference values): " + ", ".join(missing))
@@ -2299,16 +2361,19 @@ def residuals_across_page(rows, title: str):
     colors = ["0.45" if r["status"] == "ok" else "0.8" for r in rows]
     ax.bar(np.arange(len(rows)), rms, color=colors)
     meshes = [r.get("mesh_check") or {} for r in rows]
+    labels = []
     for i, r in enumerate(rows):
-        text = (f"{rms[i]:.3f} %" if r["rms_residual_percent"] is not None else "no result")
+        parts = [f"{rms[i]:.3f} %" if r["rms_residual_percent"] is not None else "no result"]
         if meshes[i].get("max_shift_half_width") is not None:
             # batch --mesh-check: how far the constants would move on the finer mesh
-            text += f"\nmesh shift {meshes[i]['max_shift_half_width']:.2f} hw"
+            parts.append(f"mesh shift {meshes[i]['max_shift_half_width']:.2f} hw")
         check = _row_check(r, None)
         if check:
-            text += "\n" + "\n".join(textwrap.wrap(check, 18, break_on_hyphens=False))
-        ax.annotate(text, (i, rms[i]), xytext=(0, 3), textcoords="offset points",
-                    ha="center", fontsize=7.5, va="bottom")
+            parts.append(check)
+        labels.append(parts)
+    # a failed specimen's reason may hold long file names and fields, broken anywhere; the
+    # reason codes and numbers are not (a code cut in two, "fixe d_rejected", reads as two)
+    breakable = [r["rms_residual_percent"] is None for r in rows]
     ax.set_ylim(0, 1.3 * max(max(rms), 1e-3))          # room for the labels above the bars
     ax.set_xticks(np.arange(len(rows)), names, rotation=45, ha="right", fontsize=8)
     ax.set_ylabel("RMS residual (%)")
@@ -2326,7 +2391,50 @@ def residuals_across_page(rows, title: str):
                      "as fine (batch --mesh-check), in units of its 95 % half-width; beyond "
                      f"{SHIFT_LIMIT:g} the mesh is too coarse for the modes (coarse_mesh)",
                 gid="mesh-check-note")
+    _bar_labels(fig, ax, labels, rms, breakable)
     return fig
+
+
+#: (characters per line, font size) of the labels above the residual bars, widest first: the
+#: first whose neighbouring labels do not overlap is used
+BAR_LABEL_FITS = ((18, 7.5), (14, 7.0), (11, 6.5), (9, 6.0), (7, 5.5))
+
+
+def _bar_labels(fig, ax, labels, heights, breakable) -> None:
+    """Each bar's label (``labels``: its parts, each wrapped on its own; words longer than a
+    line broken only where ``breakable``) above it, as wide as the bars leave room for: eleven
+    specimens with --mesh-check had each label run into its neighbours' ("0.265 %mesh shift
+    0.10 hw", a failed specimen's reason across the next bar's). The axis is raised to hold
+    the tallest label under its top."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)                       # the constrained layout: the axes' final width
+    anns: list = []
+    for width, size in BAR_LABEL_FITS:
+        for a in anns:
+            a.remove()
+        anns = [ax.annotate("\n".join(line for part in parts for line in textwrap.wrap(
+                    part, width, break_on_hyphens=False, break_long_words=brk)), (i, h),
+                    xytext=(0, 3), textcoords="offset points", ha="center", va="bottom",
+                    fontsize=size, gid=f"bar-label-{i}")
+                for i, (parts, h, brk) in enumerate(zip(labels, heights, breakable))]
+        boxes = [a.get_window_extent(renderer) for a in anns]
+        if not any(p.x1 > q.x0 and p.y1 > q.y0 and q.y1 > p.y0
+                   for p, q in zip(boxes, boxes[1:])):
+            break
+    # the tallest label's top inside the axes (it ran over the page's title)
+    for _ in range(3):
+        top = max(a.get_window_extent(renderer).y1 for a in anns)
+        box = ax.get_window_extent(renderer)
+        if top <= box.y1 - 4:
+            break
+        lo, hi = ax.get_ylim()
+        # the labels keep their height in points: the data above the bars shrinks by the
+        # ratio of the room needed to the room there is
+        over = (top - box.y1 + 8) / box.height
+        ax.set_ylim(lo, hi + over * (hi - lo) / max(1e-3, 1 - over))
+        fig.draw(renderer)
 
 
 # ----------------------------------------------------------------------------------------------

@@ -743,7 +743,9 @@ def write_uncertainty(f, a, plate_names) -> None:
             "Carlo's for-sure width where that flagged it)")
         data, dt = _strings([a.fixed_widths[x][1] for x in labels])
         gf.create_dataset("verdict", data=data, dtype=dt)
-        gf.create_dataset("run", data=np.array([a.fixed_widths[x][2] for x in labels], int))
+        put(gf, "run", np.array([a.fixed_widths[x][2] for x in labels], int), "1",
+            description="the run of --fix-undetermined whose assessment flagged it (1: the "
+            "first identification, before anything was fixed)")
     if a.before_fixing is not None:
         b = a.before_fixing
         gb = g.create_group("before_fixing")

@@ -121,10 +121,10 @@ import scipy.linalg as sla
 
 from laminid_cli.errors import FitError, FitInputError, ModelError, SolverError
 # thresholds, scalings and verdicts shared with the damping fit (re-exported here)
-from laminid_cli.intervals import (PROFILE_FLAT, PROFILE_NONE, SCALINGS,  # noqa: F401
-                                   VERDICT_AT_BOUND, VERDICT_FIXED, VERDICT_NOT, VERDICT_WEAK,
-                                   VERDICT_WELL, WEAK, WELL_DETERMINED, interval_scale,
-                                   t_std, variance_dof, verdict as verdict_of)
+from laminid_cli.intervals import (HELD_BY_PRIOR, PROFILE_FLAT, PROFILE_NONE,  # noqa: F401
+                                   SCALINGS, VERDICT_AT_BOUND, VERDICT_FIXED, VERDICT_NOT,
+                                   VERDICT_WEAK, VERDICT_WELL, WEAK, WELL_DETERMINED,
+                                   interval_scale, t_std, variance_dof, verdict as verdict_of)
 from laminid_cli.material import CONSTANT_NAMES
 from laminid_cli.objective import VariableSet, max_assignment, residual_rows
 from laminid_cli.parametrization import coefficients_and_jacobian
@@ -276,8 +276,8 @@ class MaterialState:
     prior: dict
 
 
-#: the note on a verdict whose constant gets most of its information from the prior
-HELD_BY_PRIOR = " (held by the prior)"
+# HELD_BY_PRIOR, the note on a verdict whose constant gets most of its information from the
+# prior: laminid_cli.intervals (the report and the batch summaries read it too)
 
 
 @dataclass(frozen=True)

@@ -77,7 +77,7 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
         rows = list(csv.DictReader(fh))
     # long form: one row per specimen, material and constant, SI, the unit in its column
     assert list(rows[0]) == ["name", "specimen", "material", "constant", "value", "lower",
-                             "upper", "verdict", "bound_side", "bound_limit",
+                             "upper", "verdict", "flag", "bound_side", "bound_limit",
                              "profile_bound", "profile", "profile_far", "mc_lower",
                              "mc_upper", "mc_search_limit", "unit", "status", "reasons",
                              "rms_residual [%]", "result", "stale_result"]
@@ -125,6 +125,9 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
                if key != ("example2/S2.1", "G13"))
     assert g13["status"] == "check"
     assert g13["reasons"] == "at_bound, undetermined, poor_fit"
+    # ... and what each value is, in a word a script can test (the verdict is for a reader)
+    assert g13["flag"] == "at_bound" and by["example2/S2.1", "G23"]["flag"] == "undetermined"
+    assert e1["flag"] == ""
     # terminal: one block per material set, specimens as columns, constants as rows, marks
     lines = r.output.splitlines()
     head = next(line for line in lines if line.startswith("IM7/977-2"))
@@ -170,6 +173,79 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
                                         if iv["flagged"])
     assert read_summary(wide / "summary.csv")[0]["materials"]["IM7/977-2"]["E1"] == \
         pytest.approx(E1, rel=1e-14)
+
+
+def test_summaries_say_in_a_word_which_values_are_no_identified_ones(tmp_path):
+    """A script reading summary.csv or summary.json had to parse the verdict's words ("at
+    bound — not identified", "not determined by these modes — fix it or ...", "fixed") to
+    leave out the values that are no measurement, and summary.json's fixed constants were
+    {"verdict": "fixed"} alone (no 'flagged', no interval keys: iv.get("flagged") is None,
+    falsy, for a value held at its initial guess). Both give each value's `flag`: at_bound,
+    undetermined, fixed, or "" for an identified one; a fixed entry has a free one's keys."""
+    specs = make_tree(tmp_path / "in", {"S2.1.yaml": "specimens/example2/S2.1.yaml"})
+    text = Path("specimens/example1/S1.4.yaml").read_text()
+    (specs / "S1.4-fixed.yaml").write_text(
+        text.replace("    nu12: 0.35\n", "    nu12: 0.35\n    fixed: [G13, G23]\n", 1))
+    out = tmp_path / "out"
+    r = run("batch", specs, "--mesh", MESH, "--out", out)
+    assert r.exit_code == 0, r.output
+    with open(out / "summary.csv", newline="") as fh:
+        rows = {(row["specimen"], row["constant"]): row for row in csv.DictReader(fh)}
+    flags = {key: row["flag"] for key, row in rows.items()}
+    assert flags["S1.4", "G13"] == flags["S1.4", "G23"] == "fixed"
+    assert rows["S1.4", "G13"]["lower"] == rows["S1.4", "G13"]["upper"] == ""
+    assert flags["S2.1", "G13"] == "at_bound" and flags["S2.1", "G23"] == "undetermined"
+    # the values a script keeps with `flag == ""` are identified ones, each with its interval
+    kept = [row for row in rows.values() if row["flag"] == ""]
+    assert kept and all(float(row["lower"]) < float(row["value"]) < float(row["upper"])
+                        and not row["verdict"].startswith(("not", "at bound", "fixed"))
+                        for row in kept)
+    doc = json.loads((out / "summary.json").read_text())
+    keys = {"lower", "upper", "verdict", "flag", "at_bound", "bound_side", "bound_limit",
+            "flagged"}
+    for spec in doc["specimens"]:
+        for m, per in spec["intervals"].items():
+            for k, iv in per.items():
+                assert keys <= set(iv), (spec["specimen"], k, iv)
+                assert iv["flag"] == flags[spec["specimen"], k]
+    fixed = doc["specimens"][0]["intervals"]["IM7/977-2"]["G13"]
+    assert fixed | {"flag": "fixed", "verdict": "fixed", "lower": None, "upper": None,
+                    "flagged": False, "at_bound": False} == fixed
+    # the terminal table marks the same values
+    g13 = next(line for line in r.output.splitlines() if line.startswith("G13 [GPa]"))
+    assert g13.split()[-1].endswith("=")
+
+
+def test_a_value_held_by_its_prior_is_marked_in_the_table_and_the_summaries(tmp_path):
+    """S1.2 with `prior: {nu12: 1.0}`: nu12 ends at its initial 0.350, "well determined (held
+    by the prior)", and the table showed it as a plain '0.350' beside the measured values, the
+    summaries as an identified value (a script averaging nu12 over the campaign took the
+    prior's value for a measurement). It is marked '~' with its legend, flagged 'prior' in
+    summary.csv and summary.json, and named in the wide summary's 'flagged'."""
+    specs = tmp_path / "in"
+    specs.mkdir()
+    (specs / "S1.2-prior.yaml").write_text(Path("specimens/example1/S1.2.yaml").read_text()
+                                           .replace("    nu12: 0.35\n",
+                                                    "    nu12: 0.35\n    prior: {nu12: 1.0}\n",
+                                                    1))
+    out = tmp_path / "out"
+    r = run("batch", specs, "--mesh", MESH, "--out", out)
+    assert r.exit_code == 0, r.output
+    nu12 = next(line for line in r.output.splitlines() if line.startswith("nu12"))
+    assert nu12.split()[-1] == "0.350~"
+    assert ("~ held by the prior — mostly the file's prior value, not the modes' (the prior "
+            "gives more than half of what is known of it, paper Eq. 15)") in r.output
+    with open(out / "summary.csv", newline="") as fh:
+        rows = {row["constant"]: row for row in csv.DictReader(fh)}
+    assert rows["nu12"]["verdict"] == "well determined (held by the prior)"
+    assert rows["nu12"]["flag"] == "prior" and rows["E1"]["flag"] == ""
+    doc = json.loads((out / "summary.json").read_text())
+    assert doc["specimens"][0]["intervals"]["IM7/977-2"]["nu12"]["flag"] == "prior"
+    r = run("batch", specs, "--mesh", MESH, "--out", out, "--wide")
+    assert r.exit_code == 0, r.output
+    with open(out / "summary.csv", newline="") as fh:
+        wide = next(csv.DictReader(fh))
+    assert "IM7/977-2.nu12 prior" in wide["flagged"].split("; ")
 
 
 def test_summary_carries_the_monte_carlo_range_and_its_search_limit_ends(tmp_path):
@@ -769,6 +845,61 @@ def test_a_dask_local_batch_prints_no_cluster_log_lines_unless_verbose(tmp_path)
     p = subprocess.run(cmd[:3] + ["-v"] + cmd[3:] + ["--force"], capture_output=True, text=True,
                        timeout=300, env=env, cwd=root)
     assert p.returncode == 0 and "INFO distributed.scheduler" in p.stderr, p.stderr
+
+
+def test_a_dask_local_batch_beside_another_cluster_prints_nothing_of_its_port(tmp_path):
+    """The local cluster's scheduler starts an HTTP server whatever the dashboard, on port
+    8787 by default: a second batch running at the same time (or anything else on 8787)
+    printed distributed's 'UserWarning: Port 8787 is already in use. Perhaps you already have
+    a cluster running? Hosting the HTTP server on port ... instead' (4 lines). It takes a
+    free port of the loopback."""
+    import socket
+
+    pytest.importorskip("distributed")
+    busy = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    try:
+        busy.bind(("0.0.0.0", 8787))               # (taken already: as good for the test)
+        busy.listen(1)
+    except OSError:
+        pass
+    try:
+        specs = make_tree(tmp_path / "in", {"S1.4.yaml": "specimens/example1/S1.4.yaml"})
+        cmd = [sys.executable, "-m", "laminid_cli", "batch", str(specs), "--mesh", "4x4",
+               "--scheduler", "local", "-j", "1", "--out", str(tmp_path / "out")]
+        root = str(Path(__file__).resolve().parents[1])
+        env = dict(os.environ, PYTHONPATH=root + os.pathsep + os.environ.get("PYTHONPATH", ""))
+        p = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=env, cwd=root)
+    finally:
+        busy.close()
+    assert p.returncode == 0, p.stderr
+    assert p.stderr.splitlines() == ["1 specimen, 0 up to date, 1 to identify on 1 worker",
+                                     "identifying"], p.stderr
+
+
+def test_ctrl_c_on_a_dask_local_batch_prints_no_worker_tracebacks(tmp_path):
+    """Ctrl-C reaches the whole process group, the local cluster's worker processes too: each
+    one printed its tracebacks ("Process Dask Worker process (from Nanny)", CancelledError,
+    KeyboardInterrupt; some 300 lines in all) and the cluster warned of cancelled tasks before
+    "laminid: interrupted". The workers leave it to the batch, as the process pool's do: one
+    line, exit 130, the finished results kept and the rest done by a re-run."""
+    pytest.importorskip("distributed")
+    specs = make_tree(tmp_path / "in", {**SPECS, "example1/S1.1.yaml":
+                                        "specimens/example1/S1.1.yaml", "example1/S1.2.yaml":
+                                        "specimens/example1/S1.2.yaml"})
+    out = tmp_path / "out"
+    proc = _start_batch(specs, out, "2", "--scheduler", "local")
+    _wait_first_result(proc, out)
+    os.killpg(proc.pid, signal.SIGINT)
+    _o, err = proc.communicate(timeout=60)
+    err = err.decode()
+    assert proc.returncode == 130, err[-3000:]
+    assert "Traceback" not in err and "distributed" not in err, err[-3000:]
+    assert err.splitlines()[-1] == "laminid: interrupted", err[-3000:]
+    done = sorted(out.rglob("*.result.h5"))
+    assert 1 <= len(done) <= 4
+    r = run("batch", specs, "--mesh", MESH, "--out", out, "--json")
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["n_cached"] == len(done)
 
 
 def test_a_killed_workers_temporary_file_is_removed_at_the_end_if_it_was_exiting_at_the_start(

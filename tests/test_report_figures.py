@@ -511,6 +511,136 @@ def test_constants_across_specimens_log_where_values_span_decades(tmp_path):
         assert "log" not in ax(fig, f"across-{k}").get_title()
 
 
+def test_constants_across_specimens_do_not_magnify_values_a_hair_apart(tmp_path):
+    """One plate identified twice (two starts, the same optimum), its G13 and nu12 not
+    determined: their intervals run off the panel, whose span came from the two values alone,
+    6.01761 and 6.01778 GPa: ticks 0.00060-0.00080 under an offset '+6.017', as if the two
+    were far apart. The panel spans at least the "well determined" band's width (10 % of the
+    value), labelled in plain GPa."""
+    from tests.test_report import _write_summary
+
+    q = _one_material_rows()[0]
+    nd = "not determined by these modes — fix it or measure a thicker plate / more modes"
+    rows = []
+    for name, g13, nu in (("A", 6.01761e9, 0.22605), ("B", 6.01778e9, 0.22611)):
+        iv = {k: dict(e) for k, e in q["intervals"]["carbon"].items()}
+        iv["G13"] = iv["G13"] | {"lower": 1.28e9, "upper": 28.4e9, "flagged": True,
+                                 "verdict": nd}
+        iv["nu12"] = iv["nu12"] | {"lower": 0.068, "upper": 0.384, "flagged": True,
+                                   "verdict": nd}
+        rows.append(q | {"name": name, "specimen": name, "result": None,
+                         "intervals": {"carbon": iv},
+                         "materials": {"carbon": dict(q["materials"]["carbon"], G13=g13,
+                                                      nu12=nu)}})
+    path = tmp_path / "summary.json"
+    _write_summary(path, rows)
+    fig = {p.name: p.figure for p in report_pages(path)}["constants"]
+    fig.draw_without_rendering()
+    for k, v in (("G13", 6.01778), ("nu12", 0.22611)):
+        a = ax(fig, f"across-{k}")
+        lo, hi = a.get_ylim()
+        assert a.get_yscale() == "linear" and hi - lo >= 0.1 * v * (1 - 1e-9), (k, lo, hi)
+        assert lo < v < hi
+        assert a.yaxis.get_offset_text().get_text() == "", k
+
+
+def test_residuals_across_specimens_labels_do_not_run_into_each_other(tmp_path):
+    """Eleven specimens of a batch --mesh-check, most of them 'check', one failed: each bar's
+    label (residual, mesh shift, status and reason codes) ran into its neighbours'
+    ("0.265 %mesh shift 0.10 hw"), the failed one's reason across the next bar's label. The
+    labels are as narrow as the bars leave room for, none overlaps the next, the reason codes
+    stay whole, and the tallest is inside the axes."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from tests.test_report import _write_summary
+
+    q = _one_material_rows()[0]
+    rows = [{"name": "broken/S1.3-broken", "specimen": "", "path": "", "status": "error",
+             "reasons": [], "reason": "camp/broken/S1.3-broken.yaml:22, field "
+             "'materials.IM7/977-2.G21': unknown key 'G21'; did you mean 'G23'? (valid keys: "
+             "E1, E2, G12, G13, G23, nu12, density, density_ratio, fixed, prior)",
+             "materials": {}, "intervals": {}, "rms_residual_percent": None, "result": None,
+             "damping": {}, "mesh_check": None}]
+    for i in range(10):
+        rows.append(q | {"name": f"plates/S{i}", "specimen": f"S{i}", "result": None,
+                         "status": "check" if i % 3 else "ok",
+                         "reason": "fixed_rejected, coarse_mesh" if i % 3 else "",
+                         "rms_residual_percent": (0.88 if i == 5 else 0.1 + 0.03 * i),
+                         "mesh_check": {"max_shift_half_width": 0.1 + 0.02 * i,
+                                        "max_change_sigma": 0.7, "coarse_mesh": False}})
+    path = tmp_path / "summary.json"
+    _write_summary(path, rows)
+    fig = {p.name: p.figure for p in report_pages(path)}["residuals"]
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    a = ax(fig, "rms")
+    labels = sorted((t for t in a.texts if t.get_text().startswith(("no result", "0."))),
+                    key=lambda t: t.xy[0])
+    assert len(labels) == 11
+    boxes = [t.get_window_extent(renderer) for t in labels]
+    for (p, t), (q_, u) in zip(zip(boxes, labels), zip(boxes[1:], labels[1:])):
+        assert not (p.x1 > q_.x0 and p.y1 > q_.y0 and q_.y1 > p.y0), \
+            (t.get_text(), u.get_text())
+    assert all("fixed_rejected," in t.get_text().split("\n") for t in labels[1:]
+               if "check" in t.get_text())
+    assert max(b.y1 for b in boxes) <= a.get_window_extent(renderer).y1
+
+
+@pytest.mark.parametrize("name", ["summary.csv", "summary.json"])
+def test_constants_across_specimens_name_the_specimens_without_a_result(tmp_path, name):
+    """A campaign of three specimens, one of them failed (a broken file): the constants'
+    page drew two and said nothing of the third (only the residuals' page, after it, did),
+    so a reader of page 1 took the campaign for two plates. Its notes name it, with its
+    status; a summary where every specimen has a result says nothing of the kind."""
+    from tests.test_report import _write_summary
+
+    q, r = _one_material_rows()
+    broken = {"name": "broken/S1.3", "specimen": "", "path": "", "status": "error",
+              "reasons": [], "reason": "S1.3.yaml:22, field 'materials.IM7/977-2.G21': unknown "
+              "key 'G21'", "converged": None, "optimizer_status": "", "cached": False,
+              "materials": {}, "intervals": {}, "rms_residual_percent": None,
+              "evaluations": None, "time_s": 0.0, "result": None, "damping": {},
+              "mesh_check": None, "stale_result": None}
+    path = tmp_path / name
+    _write_summary(path, [q, broken, r])
+    fig = {p.name: p.figure for p in report_pages(path)}["constants"]
+    words = " ".join(" ".join(t.get_text() for t in fig.texts).split())
+    assert "no result, not drawn (page 2 says why): broken/S1.3 (error)" in words
+    assert [t.get_text() for t in ax(fig, "across-E1").get_xticklabels()] == ["Q", "R"]
+    _write_summary(path, [q, r])
+    fig = {p.name: p.figure for p in report_pages(path)}["constants"]
+    assert "not drawn" not in " ".join(t.get_text() for t in fig.texts)
+
+
+@pytest.mark.parametrize("wide", [False, True])
+def test_constants_across_specimens_mark_a_value_held_by_its_prior(tmp_path, wide):
+    """A value held by its prior (its file's prior gives more than half of what is known of
+    it) was drawn as an identified one: S1.2's nu12 with prior {nu12: 1.0}, a filled dot with
+    a narrow interval on the reference's line, read as the modes confirming the reference. It
+    gets a '~' beside it, as the terminal table's mark, and the legend says what it means; a
+    --wide summary alone (its column 'flagged') too."""
+    from laminid_cli.batch import write_summary_csv
+    from tests.test_report import _write_summary
+
+    q, r = _one_material_rows()
+    iv = {k: dict(e) for k, e in q["intervals"]["carbon"].items()}
+    iv["nu12"] = iv["nu12"] | {"verdict": "well determined (held by the prior)"}
+    q = q | {"intervals": {"carbon": iv}, "result": None}
+    r = r | {"result": None}
+    path = tmp_path / ("summary.csv" if wide else "summary.json")
+    if wide:
+        write_summary_csv(path, [q, r], wide=True)
+    else:
+        _write_summary(path, [q, r])
+    fig = {p.name: p.figure for p in report_pages(path)}["constants"]
+    marks = [(a.get_gid(), t.get_gid()) for a in fig.axes for t in a.texts
+             if t.get_text() == "~"]
+    assert marks == [("across-nu12", "prior-Q-carbon")]
+    legend = next(a.get_legend() for a in fig.axes if a.get_legend() is not None)
+    assert "~: held by its prior (mostly the file's prior value, not the modes')" in [
+        t.get_text() for t in legend.get_texts()]
+
+
 def test_interval_end_at_or_below_zero_on_a_log_panel_is_clipped_and_said(s21):
     """A linear interval (older files) whose lower end is <= 0, on a panel a decade and more
     wide: an arrow onto the log panel's foot with the end written, and the legend says that
@@ -665,6 +795,50 @@ def test_an_undetermined_value_is_not_compared_with_its_reference(s11):
     cell = table.get_celld()[row, 5]
     box, inner = cell.get_window_extent(renderer), cell.get_text().get_window_extent(renderer)
     assert box.x0 < inner.x0 and inner.x1 < box.x1 and box.y0 < inner.y0 and inner.y1 < box.y1
+
+
+@pytest.fixture(scope="module")
+def s12_prior(tmp_path_factory):
+    """S1.2 (6x6) with ``prior: {nu12: 1.0}`` in its file: nu12 "well determined (held by the
+    prior)" at its initial 0.350, the reference's value."""
+    from pathlib import Path
+
+    tmp = tmp_path_factory.mktemp("s12_prior")
+    spec = tmp / "S1.2-prior.yaml"
+    spec.write_text(Path("specimens/example1/S1.2.yaml").read_text().replace(
+        "    nu12: 0.35\n", "    nu12: 0.35\n    prior: {nu12: 1.0}\n", 1))
+    out = tmp / "S1.2-prior.result.h5"
+    r = run("identify", spec, "--mesh", "6x6", "-o", out)
+    assert r.exit_code == 0, r.output
+    return out
+
+
+def test_a_value_held_by_its_prior_is_said_inside_its_cell_and_not_compared(s12_prior):
+    """S1.2 with a prior on nu12: its verdict 'well determined (held by the prior)' ran over
+    the verdict cell's borders on both sides, and its reference cell said '0.350 (+0 %)': the
+    prior's value (the initial one) against a reference equal to it, an agreement the modes
+    did not make. The words on two lines inside the cell, the reference '(not compared)' and
+    the note says why."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = result_page(s12_prior, "summary")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    rows = cells(ax(fig, "constants"))[1:]
+    k = next(i for i, row in enumerate(rows) if row[0].startswith("nu12"))
+    assert rows[k][3] == "well determined\n(held by the prior)"
+    assert rows[k][5] == "0.350\n(not compared)"
+    assert "is held by its prior (the file's prior gives more than half of what is known of " \
+        "it, paper Eq. 15)" in " ".join(_notes(fig).split())
+    e1 = next(row for row in rows if row[0].startswith("E1"))
+    assert e1[5].startswith("170.0 (") and "%" in e1[5]            # still compared
+    table = ax(fig, "constants").tables[0]
+    for col in (3, 5):
+        cell = table.get_celld()[k + 1, col]
+        box, inner = cell.get_window_extent(renderer), \
+            cell.get_text().get_window_extent(renderer)
+        assert box.x0 < inner.x0 and inner.x1 < box.x1 and box.y0 < inner.y0 \
+            and inner.y1 < box.y1, (col, inner, box)
 
 
 def _labelled_ticks(a, renderer):

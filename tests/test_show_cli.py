@@ -41,7 +41,7 @@ def test_show_prints_what_identify_printed(single):
     assert r.exit_code == 0, r.output
     first, body = r.stdout.split("\n", 1)
     assert first.startswith(f"{out}: written 20") and first.endswith(
-        "by laminid 0.2.0 (laminid identify)")
+        f"by laminid 0.2.0 (laminid identify), mesh {MESH}")
     assert body.strip("\n") == _without_written_line(text)
     # the numbers a lab reads are there: E1 with its interval and verdict, the status
     assert "status:" in body and "E1" in body
@@ -116,7 +116,7 @@ def test_show_of_a_joint_result(tmp_path):
     r = run("show", out)
     assert r.exit_code == 0, r.output
     first, body = r.stdout.split("\n", 1)
-    assert first.endswith("(laminid identify --joint)")
+    assert first.endswith(f"(laminid identify --joint), mesh {MESH}")
     assert body.strip("\n") == _without_written_line(text)
     assert "S1.1" in body and "S1.2" in body
 
@@ -133,6 +133,11 @@ def test_show_of_a_batch_result_matches_the_batch_summary(tmp_path):
     for k, v in row["materials"]["IM7/977-2"].items():
         assert s["materials"]["IM7/977-2"][k] == pytest.approx(v, rel=1e-12), k
     assert s["status"] == row["status"]
+    # the terminal form names the batch and the mesh it ran on, which nothing else in the
+    # output said (identify's own output leaves it to its command line)
+    r = run("show", row["result"])
+    assert r.exit_code == 0, r.output
+    assert r.stdout.split("\n", 1)[0].endswith(f"(laminid batch), mesh {MESH}")
 
 
 def test_show_of_a_damped_result_prints_the_loss_factors(tmp_path):

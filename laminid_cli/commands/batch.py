@@ -33,7 +33,7 @@ from laminid_cli.commands._common import (echo_json, fit_options, json_option,
 @click.option("--wide", is_flag=True,
               help="summary.csv with one row per specimen (a column per constant) instead of "
                    "one row per specimen, material and constant; its column 'flagged' names "
-                   "the constants at a bound, undetermined or fixed.")
+                   "the constants at a bound, undetermined, fixed or held by their prior.")
 @click.option("--mesh-check", is_flag=True,
               help="As identify --mesh-check, for each specimen alone: after its "
                    "identification, solve its model on a mesh twice as fine at the identified "
@@ -50,8 +50,9 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     writing OUT/<folder>/<name>.result.h5 per specimen
     (folders relative to the inputs' common root) and OUT/summary.csv and summary.json
     (SI units: summary.csv has one row per specimen, material and constant with value,
-    interval, verdict, the Monte Carlo range with --monte-carlo (mc_search_limit: its ends set
-    by trials on a search limit), unit and status, then the ply loss factors where damping
+    interval, verdict, flag (at_bound, undetermined, fixed or prior: no plain identified
+    value), the Monte Carlo range with --monte-carlo (mc_search_limit: its ends set by
+    trials on a search limit), unit and status, then the ply loss factors where damping
     was measured; --wide one row per specimen; summary.json a units map). Every result has a
     status, ok or check with its reasons, shown in the table.
 

@@ -15,7 +15,8 @@ def show(result, as_json):
     batch', as 'laminid identify' printed it when the file was written: the status and its
     reasons, the constants with their intervals and verdicts, the measured and model
     frequencies, the uncertainty assessment (Monte Carlo, fixed constants, profiles) and the
-    ply loss factors. Nothing is computed again; with --json, what 'identify --json' printed,
+    ply loss factors, after a line naming when, by which command and on which mesh it was
+    written. Nothing is computed again; with --json, what 'identify --json' printed,
     plus "file" and "written" (when, by which laminid and command). A reference range that an
     earlier laminid stored as its midpoint is given as the range of the specimen in the file.
 
@@ -50,9 +51,14 @@ def show(result, as_json):
         units = summary.get("units") or json_units(summary)
         echo_json({**summary, "units": units, "file": str(result), "written": written})
         return
+    # the mesh, which identify's own output leaves to the command line that gave it: a
+    # batch's result (or one made by somebody else) did not say whether it was 12x12 or 6x6
+    mesh = summary.get("mesh") or {}
     click.echo(f"{result}: written {written['created'] or '(date not recorded)'} by "
                f"laminid {written['laminid_version'] or '?'}"
-               + (f" ({written['command']})" if written["command"] else "") + "\n")
+               + (f" ({written['command']})" if written["command"] else "")
+               + (f", mesh {mesh['nx']}x{mesh['ny']}" if mesh.get("nx") and mesh.get("ny")
+                  else "") + "\n")
     joint = written["format"] == "laminid-joint-result"
     click.echo(format_joint_report(summary) if joint else format_identify_report(summary))
     if "damping" in summary:

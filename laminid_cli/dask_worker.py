@@ -1,0 +1,37 @@
+"""Set-up of the worker processes of ``laminid batch --scheduler local`` (a local Dask cluster).
+
+Imported only by :func:`laminid_cli.batch._run_dask` (it needs distributed): the workers
+import it again when they unpickle the plugin.
+"""
+
+from __future__ import annotations
+
+import logging
+import signal
+
+from distributed.diagnostics.plugin import WorkerPlugin
+
+
+class LocalWorkerSetup(WorkerPlugin):
+    """Ctrl-C is the client's business, as for the process pool's workers
+    (batch._worker_signals): a terminal sends SIGINT to the whole process group, the local
+    cluster's worker processes included, and each one interrupted in its event loop printed
+    its tracebacks ("Process Dask Worker process (from Nanny)", CancelledError,
+    KeyboardInterrupt; some 300 lines) before the batch's "laminid: interrupted". They ignore
+    it; the client cancels the jobs and closes the cluster. Their loggers get laminid's
+    verbosity: the warnings of that close ("Async instruction ... ended with CancelledError")
+    only with -v.
+
+    log_level : the level of the workers' ``distributed`` loggers (logging.ERROR unless -v)
+    """
+
+    idempotent = True
+    name = "laminid-local-worker-setup"
+
+    def __init__(self, log_level: int = logging.ERROR):
+        self.log_level = log_level
+
+    def setup(self, worker) -> None:
+        # (a worker plugin runs in the worker process' main thread, where signals are set)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        logging.getLogger("distributed").setLevel(self.log_level)
