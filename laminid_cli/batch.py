@@ -83,9 +83,9 @@ UNITS = {**CONSTANT_UNITS, "lower": "unit of the constant", "upper": "unit of th
          **{f"eta{k}": "1 (loss factor, eta = 2 zeta)" for k in ("11", "22", "12", "13", "23")}}
 #: the columns of the long summary.csv: lower/upper the linearised interval (empty for a
 #: constant at its bound), flag what the value is when it is no plain identified one, in a
-#: word a script can test (:func:`flag_word`: at_bound, undetermined, fixed, prior; empty
-#: for an identified value), bound_side/bound_limit of a constant at its bound (the data push it
-#: below a "lower" limit, above an "upper" one; no interval), profile_bound where the fit
+#: word a script can test (:func:`flag_word`: at_bound, undetermined, fixed, assumed, prior;
+#: empty for an identified value), bound_side/bound_limit of a constant at its bound (the data
+#: push it below a "lower" limit, above an "upper" one; no interval), profile_bound where the fit
 #: rejects it (uncertainty.Profile) and profile what its profile says ("bound": the fit
 #: rejects it beyond profile_bound; "flat": nowhere within its scan, the modes do not
 #: determine it there; "none": no profile could be made, its result file says why; resultfile.
@@ -893,12 +893,16 @@ def _row_of_result(res) -> dict:
     row["rms_residual_percent"] = res.rms_residual_percent
     row["materials"] = {m: {k: c[k] for k in CONSTANTS} for m, c in res.materials.items()}
     # a fixed constant's entry has the keys of a free one's (no interval, not flagged as
-    # undetermined), so that a script reading them all finds each; its flag says "fixed"
-    intervals: dict = {m: {k: {"lower": None, "upper": None, "verdict": "fixed",
-                               "flag": FLAG_FIXED, "at_bound": False, "bound_side": "",
-                               "bound_limit": None, "flagged": False}
-                           for k in CONSTANTS} for m in res.materials}
+    # undetermined), so that a script reading them all finds each; its flag says "fixed", or
+    # "assumed" where --fix-undetermined fixed it (its initial guess, held because the modes
+    # did not determine it: not a value known from elsewhere)
     u = res.uncertainty
+    assumed = set(getattr(u, "fixed_undetermined", ()) or ()) if u is not None else set()
+    intervals: dict = {m: {k: {"lower": None, "upper": None, "verdict": "fixed",
+                               "flag": FLAG_ASSUMED if f"{m}.{k}" in assumed else FLAG_FIXED,
+                               "assumed": f"{m}.{k}" in assumed, "at_bound": False,
+                               "bound_side": "", "bound_limit": None, "flagged": False}
+                           for k in CONSTANTS} for m in res.materials}
     mc = u.monte_carlo if u is not None and u.monte_carlo and "lower" in u.monte_carlo \
         else None
     for j, iv in enumerate(u.intervals if u is not None else ()):
@@ -1035,15 +1039,18 @@ def csv_header(materials, mesh_check: bool = False) -> list[str]:
 
 #: the words of the summaries' ``flag`` (long summary.csv, summary.json) and of the wide
 #: summary's ``flagged`` column for each mark of the terminal table
-FLAG_AT_BOUND, FLAG_UNDETERMINED, FLAG_FIXED, FLAG_PRIOR = \
-    "at_bound", "undetermined", "fixed", "prior"
-FLAG_WORDS = {"!": FLAG_AT_BOUND, "?": FLAG_UNDETERMINED, "=": FLAG_FIXED, "~": FLAG_PRIOR}
+FLAG_AT_BOUND, FLAG_UNDETERMINED, FLAG_FIXED, FLAG_PRIOR, FLAG_ASSUMED = \
+    "at_bound", "undetermined", "fixed", "prior", "assumed"
+FLAG_WORDS = {"!": FLAG_AT_BOUND, "?": FLAG_UNDETERMINED, "=": FLAG_FIXED, "~": FLAG_PRIOR,
+              "#": FLAG_ASSUMED}
 
 
 def flag_word(iv: dict) -> str:
     """What a summary's value is when it is no plain identified one, as a word a script can
     test (the verdict is words for a reader): "fixed" (held at its initial value: --fix, the
-    file's ``fixed``, --fix-undetermined), "at_bound" (stopped on a limit of the search: the
+    file's ``fixed``), "assumed" (held at its initial guess by --fix-undetermined, because the
+    modes did not determine it: an assumption, where "fixed" is a value the user gave as
+    known), "at_bound" (stopped on a limit of the search: the
     value is that limit), "undetermined" (flagged: its interval wider than --max-rel-interval;
     a loss factor's verdict "not determined"), "prior" (held by the prior: the file's prior
     gives more than half of what is known of it, paper Eq. 15; its value is mostly the
@@ -1051,7 +1058,8 @@ def flag_word(iv: dict) -> str:
     ``iv``: an entry of a summary row's ``intervals`` (or a loss factor's of ``damping``)."""
     verdict = str(iv.get("verdict") or "")
     if verdict == VERDICT_FIXED:
-        return FLAG_FIXED
+        return FLAG_ASSUMED if iv.get("assumed") or iv.get("flag") == FLAG_ASSUMED \
+            else FLAG_FIXED
     if iv.get("at_bound") or verdict == VERDICT_AT_BOUND:
         return FLAG_AT_BOUND
     if iv.get("flagged") or ("flagged" not in iv and verdict.startswith("not determined")):
@@ -1372,7 +1380,9 @@ def _rows_of_long(records, path: Path) -> list[dict]:
                 "bound_side": side, "bound_limit": _float(rec.get("bound_limit")),
                 "profile_bound": _float(rec.get("profile_bound")),
                 "profile": rec.get("profile") or "",
-                "profile_far": _float(rec.get("profile_far"))}
+                "profile_far": _float(rec.get("profile_far")),
+                # a value --fix-undetermined held (its verdict is "fixed" as a known one's)
+                "assumed": rec.get("flag") == FLAG_ASSUMED}
             if rec.get("mc_lower") not in ("", None):
                 limit = rec.get("mc_search_limit") or ""
                 iv.update(mc_lower=_float(rec["mc_lower"]), mc_upper=_float(rec.get("mc_upper")),
@@ -1417,7 +1427,7 @@ def _float(text):
 
 #: markers of the terminal table: value at a bound (not identified), value not determined,
 #: value held fixed (the initial value, not identified), value held by its prior
-MARK_BOUND, MARK_UNDETERMINED, MARK_FIXED, MARK_PRIOR = "!", "?", "=", "~"
+MARK_BOUND, MARK_UNDETERMINED, MARK_FIXED, MARK_PRIOR, MARK_ASSUMED = "!", "?", "=", "~", "#"
 
 
 def _mark(row: dict, material: str, constant: str) -> str:
@@ -1429,8 +1439,8 @@ def _mark(row: dict, material: str, constant: str) -> str:
 def format_table(rows) -> str:
     """The constants across specimens as text, shaped like the paper's Table 2: one block per
     set of materials, specimens as columns, constants as rows (GPa; a value at its bound
-    marked "!", one not determined by the modes "?", a fixed one "=", one held by its prior
-    "~"), a status row; then the
+    marked "!", one not determined by the modes "?", a fixed one "=", one assumed by
+    --fix-undetermined "#", one held by its prior "~"), a status row; then the
     reasons of every "check" and the specimens without a result."""
     lines = []
     groups: dict[tuple, list] = {}
@@ -1482,8 +1492,10 @@ def format_table(rows) -> str:
         (MARK_BOUND, f"{MARK_BOUND} at its bound — not identified"),
         (MARK_UNDETERMINED, f"{MARK_UNDETERMINED} not determined by these modes (interval wider "
                             "than --max-rel-interval)"),
-        (MARK_FIXED, f"{MARK_FIXED} fixed at its initial value — not identified (--fix, "
-                     "--fix-undetermined or the file's 'fixed')"),
+        (MARK_FIXED, f"{MARK_FIXED} fixed at its initial value — not identified (--fix or "
+                     "the file's 'fixed')"),
+        (MARK_ASSUMED, f"{MARK_ASSUMED} assumed: fixed at its initial guess because the modes "
+                       "did not determine it (--fix-undetermined) — not identified, not known"),
         (MARK_PRIOR, f"{MARK_PRIOR} held by the prior — mostly the file's prior value, not "
                      "the modes' (the prior gives more than half of what is known of it, "
                      "paper Eq. 15)")) if mark in marked]

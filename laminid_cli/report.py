@@ -1974,7 +1974,7 @@ def _doubt_of_flag(row, m: str, k: str) -> Doubt | None:
     if not isinstance(flags, dict) or m not in (row.get("materials") or {}):
         return None
     word = flags.get(m, {}).get(k, "")
-    if word == "fixed":
+    if word in ("fixed", "assumed"):                   # assumed: fixed by --fix-undetermined
         return Doubt(verdict=VERDICT_FIXED, fixed=True, flag_only=True)
     if word == "at_bound":
         return Doubt(verdict=VERDICT_AT_BOUND, at_bound=True, flag_only=True)

@@ -216,6 +216,61 @@ def test_summaries_say_in_a_word_which_values_are_no_identified_ones(tmp_path):
     assert g13.split()[-1].endswith("=")
 
 
+def test_values_fixed_because_undetermined_are_flagged_assumed_not_fixed(tmp_path):
+    """--fix-undetermined holds S1.1's G13, G23 and nu12 at their initial guesses because the
+    modes do not determine them: assumptions, where a constant the file fixes is a value the
+    user knows. Both were flag 'fixed' (summary.csv, summary.json), '=' in the table and
+    '(fixed)' in identify's table, so a script could not keep the known ones apart. Now:
+    'assumed', '#' with its legend, '(assumed: fixed because undetermined)'; the long summary
+    reads back with the same flag."""
+    from laminid_cli.batch import flag_word
+
+    specs = make_tree(tmp_path / "in", {"S1.1.yaml": "specimens/example1/S1.1.yaml"})
+    text = Path("specimens/example1/S1.4.yaml").read_text()
+    (specs / "S1.4-fixed.yaml").write_text(
+        text.replace("    nu12: 0.35\n", "    nu12: 0.35\n    fixed: [G13, G23]\n", 1))
+    out = tmp_path / "out"
+    r = run("batch", specs, "--mesh", MESH, "--out", out, "--fix-undetermined")
+    assert r.exit_code == 0, r.output
+    with open(out / "summary.csv", newline="") as fh:
+        rows = {(row["specimen"], row["constant"]): row for row in csv.DictReader(fh)}
+    # S1.4's file fixes G13 and G23 (known values); --fix-undetermined holds S1.1's three
+    assert rows["S1.4", "G13"]["flag"] == rows["S1.4", "G23"]["flag"] == "fixed"
+    assert [rows["S1.1", k]["flag"] for k in ("G13", "G23", "nu12")] == ["assumed"] * 3
+    assert all(rows["S1.1", k]["verdict"] == "fixed" for k in ("G13", "G23", "nu12"))
+    assert rows["S1.1", "E1"]["flag"] == ""                   # identified, with its interval
+    doc = json.loads((out / "summary.json").read_text())
+    s11 = next(sp for sp in doc["specimens"] if sp["specimen"] == "S1.1")
+    ivs = s11["intervals"]["IM7/977-2"]
+    assert [ivs[k]["flag"] for k in ("G13", "G23", "nu12")] == ["assumed"] * 3
+    assert ivs["G13"]["assumed"] is True and ivs["G13"]["lower"] is None
+    back = {row["specimen"]: row for row in read_summary(out / "summary.csv")}
+    assert flag_word(back["S1.1"]["intervals"]["IM7/977-2"]["G23"]) == "assumed"
+    assert flag_word(back["S1.4"]["intervals"]["IM7/977-2"]["G23"]) == "fixed"
+    # the terminal table: '#' on the assumed values, '=' on the known ones, each legend once
+    g13 = next(line for line in r.output.splitlines() if line.startswith("G13 [GPa]"))
+    assert sorted(c[-1] for c in g13.split()[2:]) == ["#", "="]
+    assert "# assumed: fixed at its initial guess because the modes did not determine it " \
+           "(--fix-undetermined)" in r.output
+    assert "= fixed at its initial value — not identified (--fix or the file's 'fixed')" \
+           in r.output
+
+
+def test_identify_says_which_fixed_values_are_assumed(tmp_path):
+    """identify's constants table: a value --fix-undetermined held reads '(assumed: fixed
+    because undetermined)', one the file fixes '(fixed)'."""
+    text = Path("specimens/example1/S1.1.yaml").read_text()
+    spec = tmp_path / "S.yaml"
+    spec.write_text(text.replace("    nu12: 0.35\n", "    nu12: 0.35\n    fixed: [nu12]\n", 1))
+    r = run("identify", spec, "--mesh", MESH, "--fix-undetermined", "--no-output")
+    assert r.exit_code == 0, r.output
+    lines = {ln.split()[0]: ln for ln in r.output.splitlines()
+             if ln.startswith(("  G13", "  G23", "  nu12"))}
+    assert lines["nu12"].rstrip().endswith("(fixed)")
+    assert lines["G13"].rstrip().endswith("(assumed: fixed because undetermined)")
+    assert lines["G23"].rstrip().endswith("(assumed: fixed because undetermined)")
+
+
 def test_a_value_held_by_its_prior_is_marked_in_the_table_and_the_summaries(tmp_path):
     """S1.2 with `prior: {nu12: 1.0}`: nu12 ends at its initial 0.350, "well determined (held
     by the prior)", and the table showed it as a plain '0.350' beside the measured values, the
@@ -971,8 +1026,8 @@ def test_table_marks_fixed_bound_and_undetermined_values():
     assert legend.count(";") == 2 and "= fixed at its initial value — not identified" in legend
     row["intervals"] = {"m": {k: {"verdict": "fixed"} if k == "nu12" else {} for k in consts}}
     legend = [ln for ln in format_table([row]).splitlines() if "not identified" in ln]
-    assert legend == ["= fixed at its initial value — not identified (--fix, --fix-undetermined "
-                      "or the file's 'fixed')"]
+    assert legend == ["= fixed at its initial value — not identified (--fix or the file's "
+                      "'fixed')"]
 
 
 def test_summary_json_finds_its_results_after_the_folder_moves_and_from_elsewhere(

@@ -291,8 +291,11 @@ def _material_tables(s: dict, ref: dict) -> list[str]:
         if not done:
             lines.append("  (NOT CONVERGED: the values, intervals and verdicts are those of the "
                          "last point, not of an optimum)")
+        assumed = set((s.get("uncertainty") or {}).get("fixed_undetermined") or ())
         for k in (*MODULI, "nu12"):
-            note = "" if k in free else "  (fixed)"
+            # a value --fix-undetermined held is the initial guess, assumed, not a known one
+            note = "" if k in free else "  (assumed: fixed because undetermined)" \
+                if f"{name}.{k}" in assumed else "  (fixed)"
             row = (f"  {k + (' [GPa]' if k != 'nu12' else ''):<10} "
                    f"{_num(k, init[k]):>12} {_num(k, ident[k]):>12}  "
                    f"{_ref(k, rm.get(k)) if k in rm else '':>{rw}}")
