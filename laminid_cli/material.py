@@ -7,7 +7,7 @@ strains). ``c`` is *affine* in the five alpha parameters of Eq. 4, so
     c(theta) = C0(theta) + a2 C2(theta) + a3 C3(theta) + a4 C4(theta) + a8 C8(theta) + a9 C9(theta)
 
 and :func:`c_basis` returns the six matrices ``[C0, C2, C3, C4, C8, C9]``; the finite-element
-stiffness is assembled once per basis matrix (DESIGN.md section 3).
+stiffness is assembled once per basis matrix (fe.assembly; README, "Reduced-order solver").
 
 Angles: theta in radians in the x-y plane from x towards y (fibre direction 1 at +theta).
 Moduli in Pa. Everything here is a pure function on floats or numpy arrays.

@@ -1,4 +1,5 @@
-"""HDF5 result files (DESIGN.md section 7): self-describing, units on every dataset, atomic.
+"""HDF5 result files: self-describing, units on every dataset, atomic (README: "Reading a
+result file without laminid").
 
 Every file is written to a temporary name in the target folder and renamed over the target
 only when complete, so an interrupted run never leaves a half-written result.

@@ -103,7 +103,8 @@ Monte Carlo
     moves them per trial (:meth:`TrialModel.hold`), identify() holds them in the trial's
     specimen (:func:`_holding`).
 
-No click, no h5py here: pure library code (DESIGN.md section 1).
+No click, no h5py here: pure library code (README, "Development": only commands/ prints
+or exits).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Assembly of the parametric plate model (DESIGN.md section 3).
+"""Assembly of the parametric plate model (README, "Reduced-order solver (design notes)").
 
 The stiffness is linear in the coefficients ``coef[m, j] = s_m * [1, a2, a3, a4, a8, a9][j]``
 (``s_m = E1_m / (8 alpha0_m)``) of each material m::

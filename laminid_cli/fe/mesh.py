@@ -8,7 +8,7 @@ Node order inside an element (counter-clockwise, as in most FE texts)::
     |           |
     0 --- 4 --- 1
 
-x runs along side a, y along side b (DESIGN.md section 2).
+x runs along side a, y along side b (README, "Conventions").
 """
 
 from __future__ import annotations

@@ -1,7 +1,8 @@
 """Navier closed-form frequencies of the nine-variable third-order theory (test oracle).
 
 Independent reference for the finite-element model: the same plate theory (paper section 2,
-Eq. 1; DESIGN.md section 5) solved exactly for a simply supported cross-ply rectangular plate.
+Eq. 1; README, "How we know it is right") solved exactly for a simply supported cross-ply
+rectangular plate.
 Pure numpy; imports nothing from ``laminid_cli`` so that a mistake there cannot hide here.
 
 Theory
@@ -31,7 +32,7 @@ the short names ``cs = cos(al x) sin(be y)``, ``sc = sin(al x) cos(be y)``, ``ss
     (u0, tx, u0*, tx*) = (U0, Tx, U0s, Txs) cs      (v0, ty, v0*, ty*) = (V0, Ty, V0s, Tys) sc
     w0 = W ss
 
-The amplitude vector, in the finite-element node DOF order (DESIGN.md section 4), is::
+The amplitude vector, in the finite-element node DOF order (laminid_cli/fe/element.py), is::
 
     q = [U0, V0, W, Tx, Ty, U0s, V0s, Txs, Tys]          (9,), units m, 1, 1/m, 1/m^2
 
