@@ -1214,10 +1214,12 @@ def write_summary_csv(path, rows, wide: bool = False) -> Path:
     return _write_text(path, buf.getvalue())
 
 
-def batch_report(rows, options: BatchOptions, out_dir, interrupted: bool = False) -> dict:
+def batch_report(rows, options: BatchOptions, out_dir, interrupted: bool = False,
+                 running: bool = False) -> dict:
     """The summary as plain data (SI), as written to summary.json and printed by --json;
     ``interrupted``: the run was stopped (Ctrl-C) before every specimen was done (those rows
-    are "not run")."""
+    are "not run"); ``running``: written while the batch runs (:func:`pending_row` for the
+    specimens it has not finished), replaced when it ends."""
     counts = {s: sum(r["status"] == s for r in rows) for s in STATUSES}
     counts["not converged"] = sum(r.get("converged") is False for r in rows)
     counts["set aside"] = sum(bool(r.get("stale_result")) for r in rows
@@ -1226,7 +1228,27 @@ def batch_report(rows, options: BatchOptions, out_dir, interrupted: bool = False
             "out": str(out_dir), "options": options.as_dict(), "units": dict(UNITS),
             "n_specimens": len(rows) - counts[NOT_FROM_BATCH], "counts": counts,
             "n_cached": sum(bool(r["cached"]) for r in rows), "interrupted": bool(interrupted),
-            "specimens": rows}
+            "running": bool(running), "specimens": rows}
+
+
+#: while a batch runs, its summaries are written again at most this often (s) as specimens
+#: finish (and at its start, and when it ends)
+SUMMARY_EVERY = 2.0
+#: the reason of a specimen's row in a summary written while the batch runs
+PENDING_REASON = ("not finished when this summary was written, while the batch ran (a batch "
+                  "that ends, or is stopped with Ctrl-C, writes its own; this one remains "
+                  "where the batch was killed: run it again)")
+
+
+def pending_row(job: Job) -> dict:
+    """The row of a specimen the running batch has not finished, in the summaries written
+    while it runs (:func:`batch_report` ``running``): "not run" with :data:`PENDING_REASON`.
+    A batch killed (SIGKILL, power loss) left the summaries of the run before it, which named
+    as "ok", with their old values, specimens whose result files it had replaced or set
+    aside."""
+    row = result_row(job)
+    row["reason"] = PENDING_REASON
+    return row
 
 
 def failed(rows) -> bool:

@@ -831,6 +831,49 @@ def test_killed_batch_leaves_only_complete_files_and_a_rerun_finishes(tmp_path, 
     assert not [p for p in out.rglob("*") if ".part-" in p.name or ".tmp-" in p.name]
 
 
+def test_a_killed_rerun_leaves_summaries_that_agree_with_its_results(tmp_path):
+    """A batch killed (SIGKILL) mid-run left the summaries of the run before it: they named
+    as "ok", with the old values, specimens whose result files the killed run had already
+    replaced. The summaries are written when a run with work starts and again as specimens
+    finish: every "ok" or "check" row of what a killed run leaves has its result file's
+    values, the others are "not run" as not finished, and summary.json says it was running."""
+    from laminid_cli.batch import PENDING_REASON
+
+    specs = make_tree(tmp_path / "in", {**SPECS, "example1/S1.1.yaml":
+                                        "specimens/example1/S1.1.yaml", "example1/S1.2.yaml":
+                                        "specimens/example1/S1.2.yaml"})
+    out = tmp_path / "out"
+    first = run("batch", specs, "--mesh", MESH, "--out", out, "--json")
+    assert first.exit_code == 0, first.output
+    # the run before: another mesh, so that every value differs from the next run's
+    old = {p: p.stat().st_mtime_ns for p in out.rglob("*.h5")}
+    proc = _start_batch(specs, out, "1", "--mesh", "4x4")
+    t0 = time.time()
+    while not any(p.stat().st_mtime_ns != m for p, m in old.items() if p.exists()):
+        assert proc.poll() is None, proc.communicate()
+        assert time.time() - t0 < 120, "no result was replaced"
+        time.sleep(0.02)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.communicate(timeout=60)
+    doc = json.loads((out / "summary.json").read_text())
+    assert doc["running"] is True and doc["options"]["mesh"] == "4x4"
+    rows = read_summary(out / "summary.csv")
+    assert len(rows) == 4
+    for r in rows:
+        if r["status"] in ("ok", "check"):
+            with h5py.File(out / r["result"], "r") as f:
+                m = next(iter(f["materials"]))
+                assert r["materials"][m]["E1"] == pytest.approx(f["materials"][m]["E1"][()],
+                                                                rel=1e-12)
+        else:
+            assert r["status"] == "not run" and r["reason"] == PENDING_REASON, r
+    assert sum(r["status"] == "not run" for r in rows) >= 1
+    # the run again finishes, and its summary is no running one
+    again = run("batch", specs, "--mesh", "4x4", "--out", out, "--json")
+    assert again.exit_code == 0, again.output
+    assert json.loads((out / "summary.json").read_text())["running"] is False
+
+
 def test_a_remote_scheduler_is_named_not_a_worker_count(tmp_path, monkeypatch):
     """With a running Dask scheduler the workers are the cluster's (-j does not apply): the
     start line said "on 1 worker" and nothing while the connection waited (up to 20 s); it

@@ -80,12 +80,14 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     from pathlib import Path
 
     from laminid_cli.atomic import write_bytes_atomic
-    from laminid_cli.batch import (NOT_FROM_BATCH, SUMMARY_CSV, SUMMARY_JSON, BatchError,
-                                   batch_report, check_fix_materials, check_scheduler,
-                                   discover_specimens, failed, foreign_results, foreign_row,
-                                   format_table, plan_batch, printable, remove_stale_parts,
-                                   result_row, run_jobs, set_aside_result, stored_hash,
-                                   write_summary_csv, write_summary_json)
+    import time
+
+    from laminid_cli.batch import (NOT_FROM_BATCH, SUMMARY_CSV, SUMMARY_EVERY, SUMMARY_JSON,
+                                   BatchError, batch_report, check_fix_materials,
+                                   check_scheduler, discover_specimens, failed, foreign_results,
+                                   foreign_row, format_table, pending_row, plan_batch, printable,
+                                   remove_stale_parts, result_row, run_jobs, set_aside_result,
+                                   stored_hash, write_summary_csv, write_summary_json)
 
     def _unfinished_row(job):
         """The row of a job this run did not finish (Ctrl-C, a lost scheduler)."""
@@ -160,7 +162,25 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     finished = 0
     refused = False
     interrupted = False
+    written = [0.0]                        # when the summaries were last written while running
+
+    def write_running(force: bool = False):
+        """The summaries of the run so far (finished specimens, up-to-date ones, the others
+        pending_row), written at its start and at most every SUMMARY_EVERY seconds after a
+        specimen finishes: a batch killed mid-run leaves summaries that agree with its result
+        files (those it replaced show as not finished), not the run before it's."""
+        now = time.monotonic()
+        if not force and now - written[0] < SUMMARY_EVERY:
+            return
+        current = [rows.get(j.name) or pending_row(j) for j in jobs]
+        write_summary_csv(out / SUMMARY_CSV, current, wide=wide)
+        write_summary_json(out / SUMMARY_JSON,
+                           batch_report(current, options, out, running=True))
+        written[0] = time.monotonic()
+
     try:
+        if todo:
+            write_running(force=True)
         # no bar (not even its label) when every result is up to date, nor under -q
         with click.progressbar(length=len(todo), label="identifying", file=sys.stderr,
                                item_show_func=show, show_pos=True) if todo and shown else \
@@ -172,6 +192,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
                 stale = set_aside_result(job) if outcome.status == "error" else (None, "")
                 rows[job.name] = result_row(job, outcome, stale=stale)
                 finished += 1
+                write_running()
                 if bar is not None:
                     bar.update(1, printable(f"{job.name}: {outcome.status}"))
     except BatchError:   # e.g. --scheduler unreachable: nothing ran, so nothing is written
