@@ -1232,7 +1232,7 @@ def batch_report(rows, options: BatchOptions, out_dir, interrupted: bool = False
 
 
 #: while a batch runs, its summaries are written again at most this often (s) as specimens
-#: finish (and at its start, and when it ends)
+#: finish (and before its first result file, and when it ends)
 SUMMARY_EVERY = 2.0
 #: the reason of a specimen's row in a summary written while the batch runs
 PENDING_REASON = ("not finished when this summary was written, while the batch ran (a batch "

@@ -930,19 +930,27 @@ def test_a_dask_local_batch_prints_no_cluster_log_lines_unless_verbose(tmp_path)
     """distributed sets its loggers to INFO on import: a plain `--scheduler local` batch printed
     some 40 'INFO distributed.scheduler: ...' lines on stderr around the batch's own."""
     pytest.importorskip("distributed")
-    specs = make_tree(tmp_path / "in", {"S1.4.yaml": "specimens/example1/S1.4.yaml"})
-    cmd = [sys.executable, "-m", "laminid_cli", "batch", str(specs), "--mesh", "4x4",
-           "--scheduler", "local", "-j", "1", "--out", str(tmp_path / "out")]
-    root = str(Path(__file__).resolve().parents[1])
-    env = dict(os.environ, PYTHONPATH=root + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    p = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=env, cwd=root)
+    p = _dask_local_batch(tmp_path)
     assert p.returncode == 0, p.stderr
     assert "distributed" not in p.stderr, p.stderr
     assert p.stderr.splitlines()[0] == "1 specimen, 0 up to date, 1 to identify on 1 worker"
     assert (tmp_path / "out" / "S1.4.result.h5").is_file()
-    p = subprocess.run(cmd[:3] + ["-v"] + cmd[3:] + ["--force"], capture_output=True, text=True,
-                       timeout=300, env=env, cwd=root)
+    p = _dask_local_batch(tmp_path, "--force", verbose=True)
     assert p.returncode == 0 and "INFO distributed.scheduler" in p.stderr, p.stderr
+
+
+def _dask_local_batch(tmp_path, *extra, verbose=False):
+    """`laminid [-v] batch` of S1.4 (4x4) on a one-worker local Dask cluster, in a new
+    process (its stderr is the subject: distributed's logging and warnings)."""
+    specs = tmp_path / "in"
+    if not specs.exists():
+        make_tree(specs, {"S1.4.yaml": "specimens/example1/S1.4.yaml"})
+    cmd = [sys.executable, "-m", "laminid_cli", *(["-v"] if verbose else []), "batch",
+           str(specs), "--mesh", "4x4", "--scheduler", "local", "-j", "1", "--out",
+           str(tmp_path / "out"), *extra]
+    root = str(Path(__file__).resolve().parents[1])
+    env = dict(os.environ, PYTHONPATH=root + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=env, cwd=root)
 
 
 def test_a_dask_local_batch_beside_another_cluster_prints_nothing_of_its_port(tmp_path):
@@ -961,12 +969,7 @@ def test_a_dask_local_batch_beside_another_cluster_prints_nothing_of_its_port(tm
     except OSError:
         pass
     try:
-        specs = make_tree(tmp_path / "in", {"S1.4.yaml": "specimens/example1/S1.4.yaml"})
-        cmd = [sys.executable, "-m", "laminid_cli", "batch", str(specs), "--mesh", "4x4",
-               "--scheduler", "local", "-j", "1", "--out", str(tmp_path / "out")]
-        root = str(Path(__file__).resolve().parents[1])
-        env = dict(os.environ, PYTHONPATH=root + os.pathsep + os.environ.get("PYTHONPATH", ""))
-        p = subprocess.run(cmd, capture_output=True, text=True, timeout=300, env=env, cwd=root)
+        p = _dask_local_batch(tmp_path)
     finally:
         busy.close()
     assert p.returncode == 0, p.stderr

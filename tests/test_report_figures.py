@@ -959,9 +959,7 @@ def test_stabilisation_chart_says_why_a_stable_pole_is_not_a_mode(example_frf_fi
         "poles for the modes beyond it; 1405–1406 Hz (orders 13–14): stable at 2 orders, fewer "
         "than the 5 a mode needs: a computational pole, near the band edge 1410 Hz, where the "
         "fit places poles for the modes beyond it")
-    box, page = note.get_window_extent(renderer), fig.bbox
-    assert page.x0 <= box.x0 and box.x1 <= page.x1 and page.y0 <= box.y0
-    assert box.y1 < s.get_window_extent(renderer).y0          # under the chart, clear of it
+    _assert_under_chart_in_page(note, s, fig, renderer)
 
 
 def test_unlisted_pole_words_for_each_rule():
@@ -1024,8 +1022,13 @@ def test_many_unlisted_pole_groups_are_counted_by_rule_inside_the_page(example_f
         "lines of a band edge (not taken from that band); 4 damping outside 0–10% (not "
         "physical modes); 2 not above the fit's residual (5 x; dropped as noise). So many: noisy "
         "FRFs (see the coherence) or too wide bands; try --band LO:HI")
+    _assert_under_chart_in_page(note, s, fig, renderer)
+    # the panels keep their height: the chart no lower than with the two groups of the example
+    assert s.get_window_extent(renderer).height > 0.2 * fig.bbox.height
+
+
+def _assert_under_chart_in_page(note, chart, fig, renderer):
+    """The stabilisation chart's note lies inside the page, under the chart and clear of it."""
     box, page = note.get_window_extent(renderer), fig.bbox
     assert page.x0 <= box.x0 and box.x1 <= page.x1 and page.y0 <= box.y0
-    assert box.y1 < s.get_window_extent(renderer).y0
-    # the panels keep their height: the chart no lower than with the two groups of the example
-    assert s.get_window_extent(renderer).height > 0.2 * page.height
+    assert box.y1 < chart.get_window_extent(renderer).y0

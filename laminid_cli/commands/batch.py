@@ -166,9 +166,10 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
 
     def write_running(force: bool = False):
         """The summaries of the run so far (finished specimens, up-to-date ones, the others
-        pending_row), written at its start and at most every SUMMARY_EVERY seconds after a
-        specimen finishes: a batch killed mid-run leaves summaries that agree with its result
-        files (those it replaced show as not finished), not the run before it's."""
+        pending_row), written before the run's first result file and at most every
+        SUMMARY_EVERY seconds after a specimen finishes: a batch killed mid-run leaves
+        summaries that agree with its result files (those it replaced since show as not
+        finished), not the run before it's."""
         now = time.monotonic()
         if not force and now - written[0] < SUMMARY_EVERY:
             return
@@ -179,13 +180,15 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
         written[0] = time.monotonic()
 
     try:
-        if todo:
-            write_running(force=True)
         # no bar (not even its label) when every result is up to date, nor under -q
         with click.progressbar(length=len(todo), label="identifying", file=sys.stderr,
                                item_show_func=show, show_pos=True) if todo and shown else \
                 contextlib.nullcontext() as bar:
             for job, outcome in run_jobs(todo, options, n_jobs=n_jobs, scheduler=scheduler):
+                if not written[0]:
+                    # before this run changes a result file (none changes before: a refused
+                    # scheduler leaves the folder as it was)
+                    write_running(force=True)
                 if outcome.data is not None:
                     write_bytes_atomic(job.output, outcome.data, parents=True)
                 # a failing specimen gets no result: one at its name is an earlier input's
