@@ -133,14 +133,22 @@ def test_into_missing_or_broken_specimen_is_untouched(tmp_path, h5):
 
 
 def test_uff_and_csv_inputs_give_the_same_table(tmp_path, case):
+    """The same FRFs through an ASCII UFF 58 and a CSV give the same modes: within 5 % of
+    each mode's own standard deviation (a 12-digit ASCII field moves the 2 %-noise fit's
+    weakest mode, 1130.69 Hz, by up to 1.7e-3 Hz with numpy 2.5, against its 0.068 Hz; rtol
+    1e-6 held with numpy 2.4 and failed there), and to 1e-6 relative for the others."""
     fs = FrfSet(freq=case.freq, frf=case.frf)
-    outs = []
+    outs, stds = [], []
     for name in ("p.uff", "p.csv"):
         path = io.write_frf(tmp_path / name, fs)
         r = run(["fit-frf", str(path), "--json"])
         assert r.exit_code == 0, r.output
-        outs.append([m["freq_hz"] for m in json.loads(r.output)["modes"]])
-    assert np.allclose(outs[0], outs[1], rtol=1e-6)
+        modes = json.loads(r.output)["modes"]
+        outs.append(np.array([m["freq_hz"] for m in modes]))
+        stds.append(np.array([m["freq_std_hz"] for m in modes]))
+    assert outs[0].shape == outs[1].shape == (10,)
+    assert np.all(np.abs(outs[0] - outs[1]) <= 0.05 * np.minimum(*stds))
+    assert np.sum(~np.isclose(outs[0], outs[1], rtol=1e-6)) <= 1
 
 
 def test_into_a_real_specimen_keeps_it_loadable(tmp_path, h5, case):
