@@ -927,6 +927,35 @@ def example_frf_fit(tmp_path_factory):
     return out / "plate.frf.h5", fs, find_modes(fs.freq, fs.frf)
 
 
+def test_the_frf_figure_says_what_its_zoom_on_the_bands_leaves_out(example_frf_fit):
+    """fit-frf --plot and the report's FRF page zoom on the fitted bands (59.4-1438 Hz of the
+    example's 0.5-1424 Hz): a peak outside them (a mode the bands missed, one an exponential
+    window damped past the rule) was out of sight without a word. A note in the magnitude
+    panel names the measured frequencies not shown."""
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from laminid_cli.frf.plot import HIDDEN_LINES, fit_figure, hidden_note
+
+    axis = np.arange(0.0, 1424.5, 0.5)
+    assert hidden_note(axis, (59.4, 1438.2)) == (
+        "not shown: 0.5–59.4 Hz of the measured FRFs (no band fitted there)")
+    assert hidden_note(axis, (59.4, 1200.0)) == (
+        "not shown: 0.5–59.4 Hz and 1200–1424 Hz of the measured FRFs (no band fitted there)")
+    # a few lines past a view's end are no part of the data left out
+    assert hidden_note(axis, (0.5 * (HIDDEN_LINES + 1), 1500.0)) == ""
+    _, fs, fit = example_frf_fit
+    fig = fit_figure(fs.freq, fs.frf, fit, units=fs.units)
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    notes = [t for a in fig.axes for t in a.texts if t.get_gid() == "view-note"]
+    assert len(notes) == 1
+    lo = min(b.band_hz[0] for b in fit.bands) * 0.95
+    assert notes[0].get_text() == (f"not shown: {fs.freq[fs.freq > 0].min():.3g}–{lo:.3g} Hz "
+                                   "of the measured FRFs (no band fitted there)")
+    box, panel = notes[0].get_window_extent(renderer), notes[0].axes.get_window_extent(renderer)
+    assert panel.x0 <= box.x0 and box.x1 <= panel.x1 and panel.y0 <= box.y0 <= box.y1 <= panel.y1
+
+
 def test_stabilisation_chart_says_why_a_stable_pole_is_not_a_mode(example_frf_fit):
     """fit-frf --plot: stable poles (x) near a band's edge that are not in the mode list were
     drawn as the modes' x, with no word why. They are boxed, the legend keys the box, and a

@@ -44,6 +44,31 @@ def _phase(freq, H):
     return np.insert(freq, jumps, np.nan), np.insert(ph, jumps, np.nan)
 
 
+#: lines of the measured axis outside the fitted bands' view from which the FRF figure says
+#: what it does not show
+HIDDEN_LINES = 5
+
+
+def hidden_note(freq, view) -> str:
+    """What an FRF figure zoomed on the fitted bands (``view`` = (lo, hi) Hz) leaves out of
+    the measured axis ``freq`` (Hz): "not shown: 0.875–59.3 Hz of the measured FRFs (no band
+    fitted there)"; "" when at most :data:`HIDDEN_LINES` lines are out of view at either end."""
+    def hz(v: float) -> str:
+        return f"{v:.3g}" if abs(v) < 100 else f"{v:.0f}"
+
+    measured = np.asarray(freq, float)
+    measured = measured[measured > 0]
+    parts = []
+    below, above = measured[measured < view[0]], measured[measured > view[1]]
+    if below.size > HIDDEN_LINES:
+        parts.append(f"{hz(below.min())}–{hz(view[0])} Hz")
+    if above.size > HIDDEN_LINES:
+        parts.append(f"{hz(view[1])}–{hz(above.max())} Hz")
+    if not parts:
+        return ""
+    return f"not shown: {' and '.join(parts)} of the measured FRFs (no band fitted there)"
+
+
 def draw_frf(ax_m, ax_p, freq, frf, fit, *, units: str = "", coherence=None, ax_c=None,
              decimals: int = 2):
     """Draw measured FRFs (black, on top), the RFP fit per band (coloured, below), the RFP
@@ -98,6 +123,14 @@ def draw_frf(ax_m, ax_p, freq, frf, fit, *, units: str = "", coherence=None, ax_
         ax_c.grid(axis="y", lw=0.3)
     if xr:
         ax_m.set_xlim(*xr)
+        note = hidden_note(freq, xr)
+        if note:
+            # the view is the bands': a peak outside them (a mode the bands missed: one the
+            # exponential window damped below the rule, or below the first peak picked) would
+            # be out of sight without a word
+            ax_m.text(0.005, 0.02, note, transform=ax_m.transAxes, fontsize=6.5, color="0.3",
+                      ha="left", va="bottom", gid="view-note", zorder=7,
+                      bbox=dict(fc="w", ec="none", pad=0.5, alpha=0.85))
     sel = (freq >= lo) & (freq <= hi)
     with np.errstate(divide="ignore"):
         db = 20 * np.log10(np.abs(frf[:, sel]))
