@@ -7,6 +7,8 @@
 ``noise=0``) and the loss factors' doubt is what the stated sigmas and the constants' give.
 """
 
+from pathlib import Path
+
 import numpy as np
 
 from laminid_cli import damping as D
@@ -20,13 +22,13 @@ def damped_copy(src, dst, eta, *, sigma_rel: float, mesh="8x8", noise: float = 0
     ``noise`` N(0, 1)). Returns zeta (noise-free)."""
     from laminid_cli.pipeline import RunOptions, run_identification
 
-    text = open(src).read()
+    text = Path(src).read_text()
     if freq is not None:
         lines = text.splitlines(keepends=True)
         k = next(i for i, x in enumerate(lines) if x.strip().startswith("frequencies:"))
         lines[k] = "  frequencies: [" + ", ".join(f"{f:.10g}" for f in freq) + "]\n"
         text = "".join(lines)
-        open(dst, "w").write(text)
+        Path(dst).write_text(text)
         src = dst
     run = run_identification([src], RunOptions(mesh=mesh))
     r = run.result
@@ -38,6 +40,6 @@ def damped_copy(src, dst, eta, *, sigma_rel: float, mesh="8x8", noise: float = 0
     lines.insert(k + 1, "  damping: [" + ", ".join(f"{v:.12g}" for v in z) + "]\n"
                  "  damping_sigma: [" + ", ".join(f"{sigma_rel * v:.12g}" for v in zeta)
                  + "]\n")
-    open(dst, "w").write("".join(lines))
+    Path(dst).write_text("".join(lines))
     return zeta
 

@@ -1474,7 +1474,7 @@ def test_the_table_ties_a_column_to_its_reasons_when_name_and_file_differ(tmp_pa
     """good.yaml has 'name: S1.4': its column said "S1.4" and its reasons "good:", with
     nothing to tie them; the reasons now say "S1.4 (good):". A file named as its specimen
     keeps one name."""
-    text = open("specimens/example1/S1.4.yaml").read()
+    text = Path("specimens/example1/S1.4.yaml").read_text()
     assert "name: S1.4" in text
     specs = tmp_path / "in"
     specs.mkdir()

@@ -3,6 +3,7 @@ factors; the HDF5 /damping group, --json "damping", batch rows and the report pa
 
 import csv
 import json
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -45,7 +46,7 @@ def frf_case(tmp_path_factory):
     frf = synth_frf(freq, np.column_stack([modes.freq, zeta]), constants, kind="accelerance",
                     noise=0.01, seed=4)
     write_frf_h5(tmp / "plate.frf.h5", freq, frf, units="(m/s^2)/N")
-    (tmp / "plate.yaml").write_text(open(S21).read())
+    (tmp / "plate.yaml").write_text(Path(S21).read_text())
     r = run("fit-frf", tmp / "plate.frf.h5", "--modes", "8", "--into", tmp / "plate.yaml")
     assert r.exit_code == 0, r.output
     return tmp, zeta, truth

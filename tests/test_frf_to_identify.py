@@ -1,6 +1,7 @@
 """FRF file -> specimen (measured.frf_file) -> identification: the whole chain in one test."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -33,7 +34,7 @@ def frf_specimen(tmp_path_factory):
     modes = np.column_stack([f_true, np.full(8, 0.008)])
     frf = synth_frf(freq, modes, constants, kind="accelerance", noise=0.01, seed=4)
     write_frf_h5(tmp / "plate.frf.h5", freq, frf, units="(m/s^2)/N")
-    text = open(S21).read().replace(MEASURED_BLOCK, "  frf_file: plate.frf.h5\n  modes: 8")
+    text = Path(S21).read_text().replace(MEASURED_BLOCK, "  frf_file: plate.frf.h5\n  modes: 8")
     assert "frf_file" in text
     (tmp / "plate.yaml").write_text(text)
     return tmp / "plate.yaml", f_true, truth
@@ -96,7 +97,7 @@ def test_identify_and_the_report_say_the_sigmas_came_from_fitting_the_frf_file(f
 
 
 def test_frf_file_errors_name_the_field(tmp_path):
-    text = open(S21).read()
+    text = Path(S21).read_text()
     bad = text.replace(MEASURED_BLOCK, "  frf_file: nothere.h5")
     with pytest.raises(SpecimenError, match=r"measured.frf_file.*not found"):
         load_specimen_text(bad, str(tmp_path / "x.yaml"))

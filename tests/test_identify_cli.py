@@ -153,7 +153,7 @@ def test_fix_and_mma_options(tmp_path):
 
 def write_variant(tmp_path, old, new):
     p = tmp_path / "v.yaml"
-    text = open(S21).read()
+    text = Path(S21).read_text()
     assert old in text
     p.write_text(text.replace(old, new))
     return str(p)
@@ -164,7 +164,7 @@ def test_one_frequency_for_six_constants_names_the_field_and_what_to_do(tmp_path
     frequencies for 6 free constants" with no field, line or count to fix)."""
     few = write_variant(tmp_path, "[72.78, 121.00, 191.38, 286.78, 315.12, 340.40, 400.12, "
                         "433.84, 634.81, 653.56, 712.43, 789.97]", "[72.78]")
-    line = next(k for k, t in enumerate(open(few).read().splitlines(), 1)
+    line = next(k for k, t in enumerate(Path(few).read_text().splitlines(), 1)
                 if t.strip().startswith("frequencies:"))
     r = run("identify", few, "--mesh", "6x6", "--no-output")
     assert r.exit_code == 2, r.output
@@ -277,7 +277,7 @@ def test_quiet_identify_keeps_its_notes_off_stderr(tmp_path):
     used with --joint) still went there. Without -q they do."""
     specs = []
     for name in ("S1.1", "S1.2"):
-        text = open(f"specimens/example1/{name}.yaml", encoding="utf-8").read()
+        text = Path(f"specimens/example1/{name}.yaml").read_text(encoding="utf-8")
         n = len(re.search(r"frequencies: \[([^\]]*)\]", text).group(1).split(","))
         text = text.replace("measured:\n", "measured:\n  damping: [" +
                             ", ".join(["0.01"] * n) + "]\n", 1)

@@ -3,6 +3,7 @@ and HDF5; --fix-undetermined; --monte-carlo; --joint; bad input."""
 
 import json
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -234,7 +235,7 @@ def test_joint_default_output_name(tmp_path):
 
 
 def write_variant(tmp_path, src, old, new, name="v.yaml"):
-    text = open(src).read()
+    text = Path(src).read_text()
     assert old in text
     p = tmp_path / name
     p.write_text(text.replace(old, new))

@@ -2,6 +2,7 @@
 truth, sharper intervals, refused inconsistent inputs."""
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -124,7 +125,7 @@ def test_one_plates_data_under_two_names_is_refused_naming_both_files(tmp_path):
     from laminid_cli.joint import check_distinct_plates
     from laminid_cli.pipeline import run_identification
 
-    text = open(S11).read()
+    text = Path(S11).read_text()
     a, b = tmp_path / "S1.1.yaml", tmp_path / "S1.1-copy.yaml"
     a.write_text(text)
     b.write_text("# copied\n" + text.replace("name: S1.1", "name: S1.1 again"))

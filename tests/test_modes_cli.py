@@ -81,7 +81,7 @@ def test_bad_input_gives_message_and_exit_2(tmp_path):
     r = run("modes", str(tmp_path / "missing.yaml"))
     assert r.exit_code == 2 and "missing.yaml" in r.output and "not found" in r.output
     bad = tmp_path / "bad.yaml"
-    bad.write_text(open(S11).read().replace("h: 3.06 mm", "h: 3.06 GPa"))
+    bad.write_text(Path(S11).read_text().replace("h: 3.06 mm", "h: 3.06 GPa"))
     r = run("modes", str(bad))
     assert r.exit_code == 2 and "geometry.h" in r.output and "Traceback" not in r.output
     r = run("modes", S11, "--mesh", "abc")

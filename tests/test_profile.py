@@ -6,6 +6,7 @@ HDF5 file, the terminal and the report."""
 import dataclasses
 import json
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -222,7 +223,7 @@ def test_the_rise_is_zero_at_the_limit_with_a_prior_on_the_held_constant(tmp_pat
     from laminid_cli.forward import build_forward_model
     from laminid_cli.specimen import read_specimen
 
-    text = open("specimens/example2/S2.1.yaml").read().replace(
+    text = Path("specimens/example2/S2.1.yaml").read_text().replace(
         "    nu12: 0.28\n", "    nu12: 0.28\n    prior: {G13: 0.000001}\n")
     path = tmp_path / "S2.1-prior.yaml"
     path.write_text(text)
@@ -262,7 +263,7 @@ def test_a_constant_fixed_on_a_limit_is_checked_across_the_search(tmp_path,
     assert fr["ratio_to_half_width"] == pytest.approx(0.6, abs=0.1)
     assert not any("moves by" in r["text"] for r in d["reasons"])
     g12 = d["uncertainty"]["constants"]["E-glass/R368"]["G12"]
-    text = open("specimens/example2/S2.1.yaml").read()
+    text = Path("specimens/example2/S2.1.yaml").read_text()
     assert "    G13: 3.7 GPa\n" in text
     spec = tmp_path / "S2.1-G13.yaml"
     spec.write_text(text.replace("    G13: 3.7 GPa\n", "    G13: 18.5 GPa\n"))

@@ -3,6 +3,7 @@
 import dataclasses
 import re
 import shutil
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -430,7 +431,7 @@ def _s21_modes(n_modes: int, n_points: int):
 def _identify_from_frf_file(folder, n_modes: int):
     """S2.1 identified (6x6, E1, E2, G12) from the lowest ``n_modes`` of ``folder``'s
     plate.frf.h5 (``measured.frf_file``); the result file's path."""
-    text = open(S21).read().replace(MEASURED_BLOCK,
+    text = Path(S21).read_text().replace(MEASURED_BLOCK,
                                     f"  frf_file: plate.frf.h5\n  modes: {n_modes}")
     (folder / "plate.yaml").write_text(text)
     res = folder / "plate.result.h5"
@@ -827,7 +828,7 @@ def damped(tmp_path_factory):
     """S2.1 (6x6) with measured damping ratios: a result with /damping."""
     tmp = tmp_path_factory.mktemp("damped")
     zeta = "[" + ", ".join(f"{0.002 + 0.0004 * k:.4f}" for k in range(12)) + "]"
-    text = open(S21).read().replace("  frequencies:", f"  damping: {zeta}\n  frequencies:", 1)
+    text = Path(S21).read_text().replace("  frequencies:", f"  damping: {zeta}\n  frequencies:", 1)
     (tmp / "d.yaml").write_text(text)
     out = tmp / "d.result.h5"
     r = run("identify", tmp / "d.yaml", "--mesh", "6x6", "--fix",
@@ -1656,7 +1657,7 @@ def test_joint_terminal_table_gives_the_plates_reference_range(tmp_path):
     """The terminal report of identify --joint: the shared constants' reference from every
     plate (the range where they differ, with the note), not the first plate's alone."""
     s12 = tmp_path / "S1.2.yaml"
-    s12.write_text(open(S12).read().replace("{E1: 170 GPa, E2: 10 GPa", "{E1: 160 GPa, "
+    s12.write_text(Path(S12).read_text().replace("{E1: 170 GPa, E2: 10 GPa", "{E1: 160 GPa, "
                                             "E2: 10 GPa"))
     r = run("identify", S11, s12, "--joint", "--mesh", "4x4", "--no-output")
     assert r.exit_code == 0, r.output

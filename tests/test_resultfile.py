@@ -2,6 +2,7 @@
 
 import json
 import shutil
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -28,7 +29,7 @@ def result(tmp_path_factory):
     """S2.1 identified on a 6x6 mesh, with a UTF-8 material name that needs a safe key:
     (path, the --json output)."""
     tmp = tmp_path_factory.mktemp("rf")
-    text = open(S21, encoding="utf-8").read()
+    text = Path(S21).read_text(encoding="utf-8")
     assert MAT in text
     text = text.replace(MAT, "Glas/Epoxid µ-Lage")
     (tmp / "s.yaml").write_text(text, encoding="utf-8")
@@ -93,7 +94,7 @@ def checked(tmp_path_factory):
     """S2.1 with every constant free on a 6x6 mesh (G13 ends at its bound: status "check") and
     measured damping ratios, the UTF-8 material name: (path, the --json output)."""
     tmp = tmp_path_factory.mktemp("rfc")
-    text = open(S21, encoding="utf-8").read().replace(MAT, "Glas/Epoxid µ-Lage")
+    text = Path(S21).read_text(encoding="utf-8").replace(MAT, "Glas/Epoxid µ-Lage")
     zeta = "[" + ", ".join(f"{0.002 + 0.0004 * k:.4f}" for k in range(12)) + "]"
     text = text.replace("  frequencies:", f"  damping: {zeta}\n  frequencies:", 1)
     (tmp / "s.yaml").write_text(text, encoding="utf-8")
@@ -225,7 +226,7 @@ def test_reference_ranges_read_back_and_an_old_file_with_single_values(ranged, t
     make_version_1(old)
     with h5py.File(old, "r+") as f:
         del f["specimen"]["yaml"]
-        f["specimen"].create_dataset("yaml", data=open(S14, encoding="utf-8").read(),
+        f["specimen"].create_dataset("yaml", data=Path(S14).read_text(encoding="utf-8"),
                                      dtype=h5py.string_dtype("utf-8"))
     r = read_result(old)
     assert r.schema_version == 1
@@ -266,9 +267,9 @@ def test_not_a_result_and_future_versions(tmp_path, result):
 def test_joint_groups_have_safe_keys_and_names(tmp_path):
     a = tmp_path / "a.yaml"
     b = tmp_path / "b.yaml"
-    text = open("specimens/example1/S1.1.yaml", encoding="utf-8").read()
+    text = Path("specimens/example1/S1.1.yaml").read_text(encoding="utf-8")
     a.write_text(text.replace("name: S1.1", "name: plate A/1"), encoding="utf-8")
-    b.write_text(open("specimens/example1/S1.2.yaml", encoding="utf-8").read(),
+    b.write_text(Path("specimens/example1/S1.2.yaml").read_text(encoding="utf-8"),
                  encoding="utf-8")
     out = tmp_path / "j.h5"
     r = run("identify", a, b, "--joint", "--mesh", "6x6", "-o", out)
