@@ -30,6 +30,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from laminid_cli.errors import FitInputError
+from laminid_cli.material import (CONSTANT_NAMES, ElasticConstants, alphas_from_constants,
+                                  constants_from_alphas)
 
 
 class InitialValueError(FitInputError):
@@ -40,8 +42,7 @@ class InitialValueError(FitInputError):
     def __init__(self, material: str, constant: str, words: str):
         super().__init__(f"material '{material}', field '{constant}': {words}")
         self.material, self.constant, self.words = material, constant, words
-from laminid_cli.material import (CONSTANT_NAMES, ElasticConstants, alphas_from_constants,
-                                  constants_from_alphas)
+
 
 #: smallest modulus allowed, as a fraction of E1 (keeps Q safely positive definite)
 MIN_MODULUS_RATIO = 1e-4
