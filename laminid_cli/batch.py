@@ -839,6 +839,15 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False,
     return row
 
 
+def _fixed_entry(assumed: bool) -> dict:
+    """A fixed constant's entry of a summary row's ``intervals``: a free one's keys, no
+    interval, verdict "fixed", ``assumed`` where --fix-undetermined held it, its flag."""
+    entry = {"lower": None, "upper": None, "verdict": VERDICT_FIXED, "assumed": assumed,
+             "at_bound": False, "bound_side": "", "bound_limit": None, "flagged": False}
+    entry["flag"] = flag_word(entry)
+    return entry
+
+
 def foreign_results(out_dir, jobs) -> list[Path]:
     """The ``*.result.h5`` files below ``out_dir`` that are no job's result file (hidden
     files and folders and temporaries skipped), sorted: results of specimens not among this
@@ -898,11 +907,8 @@ def _row_of_result(res) -> dict:
     # did not determine it: not a value known from elsewhere)
     u = res.uncertainty
     assumed = set(getattr(u, "fixed_undetermined", ()) or ()) if u is not None else set()
-    intervals: dict = {m: {k: {"lower": None, "upper": None, "verdict": "fixed",
-                               "flag": FLAG_ASSUMED if f"{m}.{k}" in assumed else FLAG_FIXED,
-                               "assumed": f"{m}.{k}" in assumed, "at_bound": False,
-                               "bound_side": "", "bound_limit": None, "flagged": False}
-                           for k in CONSTANTS} for m in res.materials}
+    intervals: dict = {m: {k: _fixed_entry(f"{m}.{k}" in assumed) for k in CONSTANTS}
+                       for m in res.materials}
     mc = u.monte_carlo if u is not None and u.monte_carlo and "lower" in u.monte_carlo \
         else None
     for j, iv in enumerate(u.intervals if u is not None else ()):
@@ -1041,8 +1047,12 @@ def csv_header(materials, mesh_check: bool = False) -> list[str]:
 #: summary's ``flagged`` column for each mark of the terminal table
 FLAG_AT_BOUND, FLAG_UNDETERMINED, FLAG_FIXED, FLAG_PRIOR, FLAG_ASSUMED = \
     "at_bound", "undetermined", "fixed", "prior", "assumed"
-FLAG_WORDS = {"!": FLAG_AT_BOUND, "?": FLAG_UNDETERMINED, "=": FLAG_FIXED, "~": FLAG_PRIOR,
-              "#": FLAG_ASSUMED}
+#: markers of the terminal table: value at a bound (not identified), value not determined,
+#: value held fixed (the initial value, not identified), value held by its prior, value
+#: assumed (held at its initial guess by --fix-undetermined)
+MARK_BOUND, MARK_UNDETERMINED, MARK_FIXED, MARK_PRIOR, MARK_ASSUMED = "!", "?", "=", "~", "#"
+FLAG_WORDS = {MARK_BOUND: FLAG_AT_BOUND, MARK_UNDETERMINED: FLAG_UNDETERMINED,
+              MARK_FIXED: FLAG_FIXED, MARK_PRIOR: FLAG_PRIOR, MARK_ASSUMED: FLAG_ASSUMED}
 
 
 def flag_word(iv: dict) -> str:
@@ -1058,8 +1068,7 @@ def flag_word(iv: dict) -> str:
     ``iv``: an entry of a summary row's ``intervals`` (or a loss factor's of ``damping``)."""
     verdict = str(iv.get("verdict") or "")
     if verdict == VERDICT_FIXED:
-        return FLAG_ASSUMED if iv.get("assumed") or iv.get("flag") == FLAG_ASSUMED \
-            else FLAG_FIXED
+        return FLAG_ASSUMED if iv.get("assumed") else FLAG_FIXED
     if iv.get("at_bound") or verdict == VERDICT_AT_BOUND:
         return FLAG_AT_BOUND
     if iv.get("flagged") or ("flagged" not in iv and verdict.startswith("not determined")):
@@ -1445,11 +1454,6 @@ def _float(text):
         return float(text)
     except (TypeError, ValueError):
         return None
-
-
-#: markers of the terminal table: value at a bound (not identified), value not determined,
-#: value held fixed (the initial value, not identified), value held by its prior
-MARK_BOUND, MARK_UNDETERMINED, MARK_FIXED, MARK_PRIOR, MARK_ASSUMED = "!", "?", "=", "~", "#"
 
 
 def _mark(row: dict, material: str, constant: str) -> str:

@@ -77,11 +77,10 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     """
     import contextlib
     import sys
+    import time
     from pathlib import Path
 
     from laminid_cli.atomic import write_bytes_atomic
-    import time
-
     from laminid_cli.batch import (NOT_FROM_BATCH, SUMMARY_CSV, SUMMARY_EVERY, SUMMARY_JSON,
                                    BatchError, batch_report, check_fix_materials,
                                    check_scheduler, discover_specimens, failed, foreign_results,
