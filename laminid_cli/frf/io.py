@@ -63,7 +63,7 @@ import numpy as np
 from laminid_cli.atomic import atomic_path
 from laminid_cli.errors import FrfError, LaminidError, OutputExistsError
 from laminid_cli.frf.store import (FrfSet, check_frf_arrays, check_frf_size, read_frf_h5,
-                                   validate_frf_arrays, write_frf_h5)
+                                   resonance_lines, validate_frf_arrays, write_frf_h5)
 
 __all__ = ["FORMATS", "SUFFIXES", "check_frf_arrays", "check_frf_size", "frf_format", "read_frf",
            "read_frf_csv", "read_frf_uff", "validate_frf_arrays", "write_frf"]
@@ -898,18 +898,15 @@ DEFAULT_COHERENCE_MIN = 0.9
 
 
 def coherence_at_resonances(freq, frf, coherence) -> np.ndarray:
-    """Mean coherence of each FRF over its lines where |H| is in its top quarter (the
-    resonances; the dips at anti-resonances are normal), as acquire's quality line computes
-    it (laminid_cli.instrument.session.assess_point). NaN where the coherence is unknown.
+    """Mean coherence of each FRF over its resonances (:func:`~laminid_cli.frf.store.
+    resonance_lines`, as acquire's quality line takes them), the lines of unknown coherence
+    left out; NaN where it is unknown at all of them.
 
     freq : (n_freq,) Hz; frf : complex (n_points, n_freq); coherence : (n_points, n_freq), 1
     """
-    freq = np.asarray(freq, float)
     out = np.full(np.shape(frf)[0], np.nan)
-    use = freq > 0
     for p, (H, c) in enumerate(zip(np.atleast_2d(frf), np.atleast_2d(coherence))):
-        mag = np.abs(H)
-        top = use & (mag >= np.quantile(mag[use], 0.75)) & np.isfinite(c)
+        top = resonance_lines(freq, H) & np.isfinite(c)
         if top.any():
             out[p] = float(np.mean(c[top]))
     return out

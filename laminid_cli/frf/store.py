@@ -46,6 +46,21 @@ FORMAT = "laminid-frf"
 SCHEMA_VERSION = 1
 
 
+def resonance_lines(freq, frf) -> np.ndarray:
+    """Mask (n_freq,) of the lines where |H| of one FRF is in its top quarter: the resonances,
+    where its coherence tells the measurement's quality (the dips at anti-resonances are
+    normal). Among the positive frequencies (an impact FRF's DC line is meaningless; all
+    lines where none is). Acquire's quality line (instrument.session.assess_point) and
+    fit-frf's notes on the points of a file (frf.io.coherence_at_resonances) judge by it.
+
+    freq : (n_freq,) Hz; frf : complex (n_freq,)"""
+    mag = np.abs(frf)
+    use = np.asarray(freq, float) > 0
+    if not use.any():
+        use = np.ones_like(mag, dtype=bool)
+    return use & (mag >= np.quantile(mag[use], 0.75))
+
+
 @dataclass(frozen=True)
 class FrfSet:
     """A set of FRFs on one frequency axis.

@@ -16,6 +16,7 @@ from typing import Protocol
 import numpy as np
 
 from laminid_cli.errors import InstrumentError, LaminidError
+from laminid_cli.frf.store import resonance_lines
 from laminid_cli.instrument.base import AcquisitionSettings, Analyser, Measurement
 
 log = logging.getLogger(__name__)
@@ -112,7 +113,7 @@ def assess_point(label: str, m: Measurement, coherence_min: float) -> PointQuali
         use = np.ones_like(mag, dtype=bool)
     k = int(np.argmax(np.where(use, mag, -np.inf)))
     coh = np.nan_to_num(m.coherence, nan=0.0)
-    top = use & (mag >= np.quantile(mag[use], 0.75))
+    top = resonance_lines(m.freq, m.frf)
     return PointQuality(label=label, n_averages=m.n_averages,
                         coherence_resonance=float(coh[top].mean()),
                         peak_freq_hz=float(m.freq[k]), peak_coherence=float(coh[k]),
