@@ -716,6 +716,8 @@ def _run_dask(jobs, options, n_jobs, scheduler):
     scheduler = check_scheduler(scheduler)
     try:
         from distributed import Client, LocalCluster, as_completed
+
+        from laminid_cli.dask_worker import worker_log_level
     except ImportError as exc:
         raise BatchError("--scheduler needs Dask: pip install 'laminid[dask]'") from exc
     # distributed sets its loggers to INFO when imported (its own configuration): at laminid's
@@ -737,9 +739,8 @@ def _run_dask(jobs, options, n_jobs, scheduler):
             # own: a `dask worker` stops on it)
             from laminid_cli.dask_worker import LocalWorkerSetup
 
-            level = logging.getLogger().getEffectiveLevel()
             client.register_plugin(LocalWorkerSetup(
-                logging.ERROR if level >= logging.WARNING else level))
+                worker_log_level(logging.getLogger().getEffectiveLevel())))
         else:
             client = Client(scheduler, timeout="20s")
     except Exception as exc:  # noqa: BLE001 - distributed raises OSError, TimeoutError,
@@ -772,6 +773,11 @@ def _run_dask(jobs, options, n_jobs, scheduler):
     finally:
         # (a further Ctrl-C while the cluster closes is only noted: raised, it cut the close
         # short and left its workers to the parent watch)
+        if seen:
+            # (the scheduler's and nannies' complaints of a close cut short are as much an
+            # artefact as the workers': dask_worker.worker_log_level)
+            logging.getLogger("distributed").setLevel(
+                worker_log_level(logging.getLogger().getEffectiveLevel()))
         try:
             if futures:
                 with contextlib.suppress(Exception):

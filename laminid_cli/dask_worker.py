@@ -19,19 +19,33 @@ class LocalWorkerSetup(WorkerPlugin):
     its tracebacks ("Process Dask Worker process (from Nanny)", CancelledError,
     KeyboardInterrupt; some 300 lines) before the batch's "laminid: interrupted". They ignore
     it; the client cancels the jobs and closes the cluster. Their loggers get laminid's
-    verbosity: the warnings of that close ("Async instruction ... ended with CancelledError")
-    only with -v.
+    verbosity (:func:`worker_log_level`): the messages of that close only with -v.
 
-    log_level : the level of the workers' ``distributed`` loggers (logging.ERROR unless -v)
+    log_level : the level of the workers' ``distributed`` loggers (logging.CRITICAL unless -v)
     """
 
     idempotent = True
     name = "laminid-local-worker-setup"
 
-    def __init__(self, log_level: int = logging.ERROR):
+    def __init__(self, log_level: int = logging.CRITICAL):
         self.log_level = log_level
 
     def setup(self, worker) -> None:
         # (a worker plugin runs in the worker process' main thread, where signals are set)
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         logging.getLogger("distributed").setLevel(self.log_level)
+
+
+def worker_log_level(level: int) -> int:
+    """The level of a local worker's ``distributed`` loggers at laminid's level ``level``
+    (WARNING, or INFO/DEBUG with -v).
+
+    Without -v, CRITICAL: what a worker logs as the cluster closes is an artefact of the
+    close, not news, and the batch reports every job's outcome itself (a job's exception, a
+    killed worker) through its future. Even ERROR was too much: a worker whose heartbeat
+    found the scheduler already closed after a Ctrl-C printed "distributed.worker - ERROR -
+    Failed to communicate with scheduler during heartbeat" and a 30-line traceback before
+    "laminid: interrupted" (once, in CI, on a loaded 2-core machine). With -v, laminid's
+    level: the user asked to see it.
+    """
+    return logging.CRITICAL if level >= logging.WARNING else level

@@ -977,6 +977,34 @@ def test_a_dask_local_batch_beside_another_cluster_prints_nothing_of_its_port(tm
                                      "identifying"], p.stderr
 
 
+def test_a_local_workers_shutdown_errors_are_muted_without_v():
+    """After a Ctrl-C a worker whose heartbeat found the scheduler already closed logged
+    "distributed.worker - ERROR - Failed to communicate with scheduler during heartbeat" and
+    a 30-line traceback before "laminid: interrupted" (CI, a loaded 2-core machine): the
+    workers' loggers were at ERROR. Without -v they are at CRITICAL; with -v at laminid's
+    level."""
+    pytest.importorskip("distributed")
+    import logging
+
+    from laminid_cli.dask_worker import LocalWorkerSetup, worker_log_level
+
+    assert worker_log_level(logging.WARNING) == logging.CRITICAL
+    assert worker_log_level(logging.INFO) == logging.INFO
+    assert worker_log_level(logging.DEBUG) == logging.DEBUG
+    dist = logging.getLogger("distributed")
+    before_level, before_sigint = dist.level, signal.getsignal(signal.SIGINT)
+    try:
+        LocalWorkerSetup(worker_log_level(logging.WARNING)).setup(worker=None)
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+        assert dist.level == logging.CRITICAL
+        assert not logging.getLogger("distributed.worker").isEnabledFor(logging.ERROR)
+        LocalWorkerSetup(worker_log_level(logging.INFO)).setup(worker=None)
+        assert logging.getLogger("distributed.worker").isEnabledFor(logging.INFO)
+    finally:
+        dist.setLevel(before_level)
+        signal.signal(signal.SIGINT, before_sigint)
+
+
 def test_ctrl_c_on_a_dask_local_batch_prints_no_worker_tracebacks(tmp_path):
     """Ctrl-C reaches the whole process group, the local cluster's worker processes too: each
     one printed its tracebacks ("Process Dask Worker process (from Nanny)", CancelledError,
