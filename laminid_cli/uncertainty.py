@@ -2004,6 +2004,28 @@ def _run_chunk(chunk):
     return [_run_trial(t) for t in chunk]
 
 
+#: the largest chunk of trials sent to a worker at once
+CHUNK_MAX = 16
+
+
+def trial_chunks(trials: list, jobs: int) -> list:
+    """``trials`` in chunks for ``jobs`` worker processes, in order, shrinking as they go
+    (guided self-scheduling): each chunk a third of an equal share of what is left,
+    ``len(left) // (3 jobs)``, between 1 and CHUNK_MAX. Large chunks first keep the traffic
+    between the processes low; single trials at the end let the workers finish together.
+
+    (Chunks of one size, min(16, n // (4 jobs)), left one worker idle at the end while the
+    other finished its last chunk: 200 trials of S1.1, -j 2, one worker done at 3.33 s, the
+    other at 3.50 s; one slow trial, ~70 ms with an enrichment, ends the run with this.)"""
+    chunks = []
+    k = 0
+    while k < len(trials):
+        size = max(1, min(CHUNK_MAX, (len(trials) - k) // (3 * max(1, jobs))))
+        chunks.append(trials[k:k + size])
+        k += size
+    return chunks
+
+
 def _basis_vectors(result):
     """The reduced basis vectors of each plate of ``result`` with the first-order mode changes
     at the optimum (None with the full solver): one factorisation per plate here for all
@@ -2146,9 +2168,7 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
             _WORKER.clear()
             _WORKER.update(saved)
     if trials:
-        # chunks: a few per process and round, so that a slow trial does not leave one idle
-        size = max(1, min(16, len(trials) // (4 * jobs)))
-        chunks = [trials[k:k + size] for k in range(0, len(trials), size)]
+        chunks = trial_chunks(trials, jobs)
         with ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker, initargs=init,
                                  mp_context=_trial_pool_context()) as pool:
             futures = [pool.submit(_run_chunk, c) for c in chunks]

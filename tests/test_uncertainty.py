@@ -924,3 +924,27 @@ def test_trial_workers_start_by_fork_on_linux_whatever_the_pythons_default():
         assert ctx.get_start_method() == "fork"
     else:
         assert ctx is None
+
+
+def test_trial_chunks_shrink_to_single_trials_and_keep_every_trial_once_in_order():
+    """Guided chunks: 194 trials on 2 workers start at CHUNK_MAX (16) and end in single
+    trials (one worker no longer waits ~0.2 s for the other's last chunk of 16); every
+    trial is sent once, in order; one worker's chunks are as large as the cap allows."""
+    from laminid_cli.uncertainty import CHUNK_MAX, trial_chunks
+
+    trials = list(range(194))
+    chunks = trial_chunks(trials, 2)
+    assert [t for c in chunks for t in c] == trials
+    sizes = [len(c) for c in chunks]
+    assert sizes[0] == CHUNK_MAX == 16
+    assert sizes == sorted(sizes, reverse=True)
+    assert sizes[-6:] == [1] * 6
+    assert len(chunks) == 30
+    # each chunk at most a third of an equal share of what is left after the ones before it
+    left = 194
+    for s in sizes:
+        assert s == max(1, min(16, left // 6))
+        left -= s
+    assert [len(c) for c in trial_chunks(list(range(40)), 1)] == [13, 9, 6, 4, 2, 2, 1, 1, 1, 1]
+    assert trial_chunks([], 2) == []
+    assert [len(c) for c in trial_chunks([0, 1, 2], 8)] == [1, 1, 1]
