@@ -743,6 +743,56 @@ def test_the_emulator_script_serves_an_acquire_and_stops_on_sigint(tmp_path, mod
         assert proc.wait(timeout=5) == 0
 
 
+@pytest.mark.parametrize("model", ["35670a", "sr785"])
+def test_the_emulator_scripts_noise_and_overloads_show_as_acquire_reports_them(tmp_path, model):
+    """scripts/analyser_emulator.py --noise 0.2 --overload 2 --overload 3:2 (a lab trying
+    what a bad point looks like before a real test): point 2's hammer input and point 3's
+    response go over range on the emulated analyser's own status word, and the noise takes
+    the coherence at the weakest resonance below acquire's 0.9 (about 0.8 with 5 hits)."""
+    import json
+    import re
+    import signal
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen([sys.executable, "scripts/analyser_emulator.py", "--model", model,
+                             "--hit-interval", "0.01", "--noise", "0.2", "--overload", "2",
+                             "--overload", "3:2"], stdout=subprocess.PIPE, text=True)
+    try:
+        lines = [proc.stdout.readline() for _ in range(5)]
+        resource = re.match(r"emulated \S+ at (\S+) ", lines[0]).group(1)
+        assert lines[3:5] == ["point 2: hammer input over range\n",
+                              "point 3: response input over range\n"], lines
+        r = run(["acquire", "--analyser", resource, "--points", "3", "--no-prompt",
+                 "--averages", "5", "--json", "-o", str(tmp_path / "bad.frf.h5")])
+        assert r.exit_code == 0, r.output
+        points = json.loads(r.stdout)["points"]
+        assert [p["overloaded_channels"] for p in points] == [[], [1], [2]]
+        assert [p["ok"] for p in points] == [False, False, False]
+        assert all(0.6 < p["coherence_resonance"] < 0.9 for p in points), points
+        assert "overloads 1 (ch1 hammer) - POOR coherence, OVERLOAD" in r.stderr, r.stderr
+    finally:
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=5) == 0
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--overload", "x"], "--overload 'x': give POINT or POINT:CHANNEL, e.g. 2 or 3:2"),
+    (["--overload", "2:3"], "--overload '2:3': the point is 1 or more, the channel 1 (hammer) "
+                            "or 2 (response)"),
+    (["--overload", "0"], "--overload '0': the point is 1 or more"),
+    (["--noise", "-1"], "--noise -1: must be 0 or more"),
+    (["--hit-interval", "0"], "--hit-interval 0: must be above 0 s")])
+def test_the_emulator_script_refuses_bad_options_in_one_line(args, message):
+    import subprocess
+    import sys
+
+    p = subprocess.run([sys.executable, "scripts/analyser_emulator.py", *args],
+                       capture_output=True, text=True, timeout=60)
+    assert p.returncode == 2, p.stderr
+    assert message in p.stderr and "Traceback" not in p.stderr, p.stderr
+
+
 class _OverloadOnPoint2:
     """An emulator whose input status flags ``word`` during measurement 2 (the hammer hit
     too hard, or the response over range)."""

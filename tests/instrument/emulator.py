@@ -139,11 +139,18 @@ class EmulatorBase:
 
     IDN = ""
 
+    #: the status-word bits of an input over range, (channel 1, channel 2): the instrument's
+    #: own (each emulator sets them from its manual)
+    OVERLOAD_BITS = (0, 0)
+
     def __init__(self, plate: PlateSimulator | None = None, hit_interval_s: float = 0.01,
-                 faults=(), idn: str | None = None):
+                 faults=(), idn: str | None = None, overloads=None):
         self.plate = plate or PlateSimulator()
         self.hit_interval_s = hit_interval_s
         self.faults = list(faults)
+        # {measurement number: channels over range during it} (1 hammer, 2 response): the
+        # input status word flags them until it is read
+        self.overloads = {int(k): tuple(v) for k, v in (overloads or {}).items()}
         self.idn = idn or self.IDN
         self.log: list[str] = []
         self.measurement = 0          # number of starts seen
@@ -273,6 +280,8 @@ class EmulatorBase:
         self.measuring = True
         self._hits_final = 0
         self.t_start = time.monotonic()
+        for channel in self.overloads.get(self.measurement, ()):
+            self.overload_word |= self.OVERLOAD_BITS[channel - 1]
 
     def end_measurement(self):
         if self.measuring:
@@ -324,6 +333,9 @@ class HP35670AEmulator(EmulatorBase):
     """The 35670A subset the driver uses (SCPI, error queue, REAL,64 blocks)."""
 
     IDN = "HEWLETT-PACKARD,35670A,0,A.02.01"
+    # STATus:QUEStionable:VOLTage: bit 0 channel 1 over range, bit 1 channel 2 (the manual's
+    # Questionable Voltage Register Set, as laminid_cli.instrument.hp35670a.OVERLOAD_BITS)
+    OVERLOAD_BITS = (1 << 0, 1 << 1)
     SPANS = tuple(51200.0 / 2 ** k for k in range(19))
     LINES = (100, 200, 400, 800)
     # enumerated values (pymeasure Keysight35670A tables)
@@ -527,6 +539,9 @@ class SR785Emulator(EmulatorBase):
     """The SR785 subset the driver uses (four-letter commands, ESR bits, DSPB raw floats)."""
 
     IDN = "Stanford_Research_Systems,SR785,s/n00001,ver116"
+    # INPS? input status word: bit 2 channel 1 overload, bit 10 channel 2 (as
+    # laminid_cli.instrument.sr785.INPS_OVERLOAD_BITS; on the SR785 unconfirmed, see there)
+    OVERLOAD_BITS = (1 << 2, 1 << 10)
     SPANS = tuple(102400.0 / 2 ** k for k in range(20))
     LINES = (100, 200, 400, 800)
 
