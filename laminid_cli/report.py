@@ -47,6 +47,7 @@ from laminid_cli.intervals import (HELD_BY_PRIOR, VERDICT_AT_BOUND, VERDICT_FIXE
                                    VERDICT_NOT, WEAK, WELL_DETERMINED, spread_sentence)
 from laminid_cli.resultfile import (CONSTANTS, ResultFile, bound_statement, profile_kind,
                                    read_result)
+from laminid_cli.units import gpa_text
 
 log = logging.getLogger(__name__)
 
@@ -598,9 +599,8 @@ def _laminate_text(plate) -> str:
 
     def one(k, v):
         nu = k.startswith("nu")
-        # below 1 GPa 3 digits, as the terminal's tables (0.0031 GPa, not 0.00 GPa)
-        text = (f"{k} {v:.3f}" if nu else f"{k} {v / 1e9:.3g} GPa" if 0 < abs(v) < 1e9
-                else f"{k} {v / 1e9:.2f} GPa")
+        # the terminal's digits (below 1 GPa 3 significant: 0.0031 GPa, not 0.00 GPa)
+        text = f"{k} {v:.3f}" if nu else f"{k} {gpa_text(v)} GPa"
         u = unc.get(k)
         if u is not None:                 # its doubt, from the constants' covariance
             rel = u["rel_half_width"]

@@ -318,6 +318,24 @@ def format_quantity(value: float, kind: str, digits: int = 4) -> str:
     return f"{number:.{digits}g} {unit}".rstrip()
 
 
+def gpa_text(value: float) -> str:
+    """A modulus (Pa) as the number of GPa every table shows: 2 decimals ('117.20'); 3
+    significant digits below 1 GPa, so a modulus at its floor reads 0.00299, not 0.00, and one
+    written in MPa by mistake 0.117 (E1 117.2 MPa), not 0.12; from 1e5 GPa (an undetermined
+    constant's interval end) in exponent form, not 26 digits. The terminal's tables
+    (commands/text.py) and the report's laminate line both write moduli by it.
+
+    >>> gpa_text(117.2e9), gpa_text(2.99e6), gpa_text(3.1e20)
+    ('117.20', '0.00299', '3.10e+11')
+    """
+    v = value / 1e9
+    if abs(v) >= 1e5:
+        return f"{v:.2e}"
+    if 0 < abs(v) < 1:
+        return f"{v:.3g}"
+    return f"{v:.2f}"
+
+
 #: the unit of each numeric field of a ``--json`` document (modes, identify, show) by the
 #: field's name, wherever it appears: SI throughout (frequencies Hz, moduli Pa, lengths m, mass
 #: kg); a block's name (``frequencies``) gives the unit of its lists that have no entry of their

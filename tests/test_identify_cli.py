@@ -224,6 +224,26 @@ def test_huge_interval_ends_print_in_exponent_form():
     assert _num("G13", 2.9936e6) == "0.00299" and _num("G23", 0.0) == "0.00"
 
 
+def test_the_report_laminate_line_writes_moduli_with_the_terminals_digits():
+    """The report's laminate line repeated the terminal's digit rule by hand (3 significant
+    below 1 GPa) and wrote an undetermined interval end of 1e5 GPa and more with all its
+    digits; both now write moduli through laminid_cli.units.gpa_text."""
+    from types import SimpleNamespace
+
+    from laminid_cli.commands.text import _num
+    from laminid_cli.report import _laminate_text
+    from laminid_cli.units import gpa_text
+
+    assert [gpa_text(v) for v in (117.2e9, 2.9936e6, 0.0, 3.1e20, -5e8)] == [
+        "117.20", "0.00299", "0.00", "3.10e+11", "-0.5"]
+    plate = SimpleNamespace(global_properties={"Ex": 2.9936e6, "Gxz": 3.1e20, "nu_xy": 0.31},
+                            reference_global={}, global_uncertainty={})
+    text = _laminate_text(plate)
+    for k, v in (("Ex", 2.9936e6), ("Gxz", 3.1e20)):
+        assert f"{k} {_num('G13', v)} GPa" in text, text
+    assert "Ex 0.00299 GPa" in text and "Gxz 3.10e+11 GPa" in text and "nu_xy 0.310" in text
+
+
 def test_default_result_of_another_specimen_file_is_not_replaced(tmp_path):
     """plate.yaml and plate.yml derive the same plate.result.h5: the second identify refuses
     to replace the first one's result (exit 2) and says how to name its own."""

@@ -6,6 +6,7 @@ import math
 import re
 
 from laminid_cli.intervals import VERDICT_NOT, flag_words, spread_sentence, t_std, width_text
+from laminid_cli.units import gpa_text
 
 #: the advice that ends the verdict "not determined by these modes — fix it or ..." (shown
 #: once in the constants' table, not again for the laminate's properties)
@@ -565,14 +566,11 @@ def _num(name: str, value) -> str:
         return "inf"
     if not math.isfinite(value):
         return "-"
-    v = value if name == "nu12" else value / 1e9
-    if abs(v) >= 1e5:                    # an undetermined constant's interval end: no 26 digits
-        return f"{v:.2e}"
-    if name != "nu12" and 0 < abs(v) < 1:
-        # at least 3 digits: a modulus at its floor 0.00299, not 0.00; moduli written in MPa
-        # 0.117 (E1 117.2 MPa), not 0.12
-        return f"{v:.3g}"
-    return f"{v:.3f}" if name == "nu12" else f"{v:.2f}"
+    if name != "nu12":
+        return gpa_text(value)           # (its digits: laminid_cli.units.gpa_text)
+    if abs(value) >= 1e5:                # an undetermined ratio's interval end: no 26 digits
+        return f"{value:.2e}"
+    return f"{value:.3f}"
 
 
 def format_damping(d: dict) -> list[str]:
