@@ -352,6 +352,10 @@ JSON_UNITS: dict[str, str] = {
     "initial_rms_residual_percent": "%", "change_percent": "%", "shift_percent": "%",
     "change_sigma": "frequency sigma of the mode", "shift_half_width": "95 % half-width of the "
     "constant", "error_bound": "1 (relative eigenvalue error)", "time_s": "s",
+    "trial_eigenvalue_bound": "1 (relative eigenvalue error)",
+    "trial_eigenvalue_bound_limit": "1 (relative eigenvalue error)",
+    "trial_shift_bound": "standard errors of a constant (first order)",
+    "trial_shift_limit": "standard errors of a constant (first order)",
     **{k: "unit of the quantity it belongs to" for k in (
         "value", "std", "std_stated", "lower", "upper", "half_width", "bound_limit",
         "profile_bound", "profile_far", "mean", "inner_lower", "inner_upper", "linearized_std",
