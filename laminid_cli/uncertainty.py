@@ -999,7 +999,7 @@ class TrialModel(VariableSet):
         lam1 = float(result.modes.eigenvalues[0])
         self.sigma = -0.5 * lam1
         self._solve = fm.factorizer.factor(K0.data - self.sigma * plate.M_on_K)
-        basis = ReducedBasis(fm)
+        basis = ReducedBasis(fm, split=True)
         if getattr(result, "basis", None) is not None:
             # the identification's basis holds every direction its optimiser went through
             # (~200 vectors): its lowest Ritz vectors at the optimum carry what the trials

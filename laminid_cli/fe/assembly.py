@@ -292,6 +292,65 @@ class PlateModel:
         # one family of a decoupled plate (restrict) keeps the motions in its variables
         return R[:, np.abs(R).max(axis=0) > 0]
 
+    def rotation_symmetry(self):
+        """The plate's half-turn about its normal through its centre on its equations, as
+        ``(perm, sign)``: ``(S W)[perm] = sign[:, None] * W`` (``rotate``); None where the
+        model is not invariant under it (a supported edge whose opposite edge is not, a mesh
+        that the turn does not map onto itself).
+
+        Any laminate is invariant: the turn reverses every in-plane direction, and each
+        stiffness component has an even number of in-plane indices (Q_ij of the plies, the
+        transverse shear Q44, Q45, Q55), so K_b = S K_b S^T for every basis matrix and
+        M = S M S^T; w0 keeps its sign, every in-plane variable (u0, v0, the rotations psi,
+        U, V, Psi) changes it. Checked here on one random combination of the basis matrices
+        and on M (relative 1e-12: round-off is ~3e-16). Its use: a basis of vectors even or
+        odd under the turn splits the reduced eigenproblem in two
+        (laminid_cli.reduced.ReducedBasis). Computed once per model."""
+        cached = self.__dict__.get("_rotation", False)
+        if cached is not False:
+            return cached
+        out = self._rotation_symmetry()
+        object.__setattr__(self, "_rotation", out)
+        return out
+
+    def _rotation_symmetry(self):
+        mesh = self.mesh
+        ij = np.rint(mesh.nodes[:, :2] * np.array([2 * mesh.nx / mesh.a, 2 * mesh.ny / mesh.b])
+                     ).astype(np.int64)
+        key = ij[:, 0] * (2 * mesh.ny + 1) + ij[:, 1]
+        turned = (2 * mesh.nx - ij[:, 0]) * (2 * mesh.ny + 1) + (2 * mesh.ny - ij[:, 1])
+        order = np.argsort(key)
+        where = np.searchsorted(key[order], turned)
+        if np.any(where >= key.size) or np.any(key[order][np.minimum(where, key.size - 1)]
+                                              != turned):
+            return None
+        node_map = order[where]                           # node -> its turned node
+        var = self.dofs % 9
+        n_all = mesh.n_nodes * 9
+        position = -np.ones(n_all, dtype=np.int64)
+        position[self.dofs] = np.arange(self.n_dofs)
+        perm = position[node_map[self.dofs // 9] * 9 + var]
+        if np.any(perm < 0):                              # a turned equation is fixed
+            return None
+        sign = np.where(var == 2, 1.0, -1.0)
+        n = self.n_dofs
+        S = sp.csr_matrix((sign, (perm, np.arange(n))), shape=(n, n))
+        coef = np.random.default_rng(0).uniform(0.5, 1.5, self.K_data.shape[:2])
+        K = self.stiffness(coef=coef)
+        for A in (K, self.M):
+            scale = abs(A).max()
+            if not abs(S @ A @ S.T - A).max() <= 1e-12 * scale:
+                return None
+        return perm, sign
+
+    @staticmethod
+    def rotate(symmetry, W: np.ndarray) -> np.ndarray:
+        """``S W`` for ``symmetry = (perm, sign)`` of :meth:`rotation_symmetry`."""
+        perm, sign = symmetry
+        out = np.empty_like(W)
+        out[perm] = sign.reshape((-1,) + (1,) * (W.ndim - 1)) * W
+        return out
+
     def basis_matrix(self, m: int, j: int) -> sp.csr_matrix:
         """Basis stiffness matrix K_basis[m, j] (Pa coefficient units)."""
         return sp.csr_matrix((self.K_data[m, j], self.indices, self.indptr),
