@@ -1191,16 +1191,48 @@ def search_limit_text(iv: dict) -> str:
     return "both" if len(ends) == 2 else ends[0] if ends else ""
 
 
-def write_summary_csv(path, rows, wide: bool = False) -> Path:
+#: the first line of a summary.csv's options block; every line of the block starts with
+#: CSV_COMMENT, so that ``pandas.read_csv(path, comment="#")`` and :func:`read_summary` skip it
+CSV_COMMENT = "#"
+CSV_OPTIONS_TITLE = ('# laminid {version} batch summary; run options as in summary.json '
+                     '"options" (one a line, JSON values):')
+
+
+def options_comment_lines(options: dict) -> list[str]:
+    """The options block of a summary.csv: the title, then one ``# key: value`` line per run
+    option of ``options`` (RunOptions.as_dict(): nested settings as dotted keys,
+    ``uncertainty.monte_carlo: 200``), the value in JSON.
+
+    Why: summary.json had the options, the CSV not, so a CSV read alone (a spreadsheet,
+    pandas) could not tell the mesh, the solver or the Monte Carlo trials its numbers were made
+    with. Comment lines above the header leave the table itself as it was. JSON values keep
+    ``"6x6"``, ``null`` and ``["nu12", "G13"]`` apart, and JSON escapes every line break."""
+    lines = [CSV_OPTIONS_TITLE.format(version=__version__)]
+
+    def add(prefix: str, value) -> None:
+        if isinstance(value, dict):
+            for key, v in value.items():
+                add(f"{prefix}{key}.", v)
+        else:
+            lines.append(f"{CSV_COMMENT} {prefix[:-1]}: {json.dumps(value)}")
+
+    add("", options)
+    return lines
+
+
+def write_summary_csv(path, rows, wide: bool = False, options: dict | None = None) -> Path:
     """The summary as CSV, SI units, written atomically.
 
     Long form (default): LONG_COLUMNS, one row per specimen, material and constant, the unit
     in the ``unit`` column. ``wide``: one row per specimen, the unit in each header; its result
-    column is relative to the CSV's folder."""
+    column is relative to the CSV's folder. ``options`` (RunOptions.as_dict()): written above
+    the header as ``#`` comment lines (:func:`options_comment_lines`)."""
     import io
 
     path = Path(path)
     buf = io.StringIO()
+    if options is not None:
+        buf.write("".join(line + "\n" for line in options_comment_lines(options)))
     w = csv.writer(buf, lineterminator="\n")
     if not wide:
         columns = long_columns(rows)
@@ -1356,7 +1388,7 @@ def read_summary(path) -> list[dict]:
         return rows
     try:
         with open(path, newline="", encoding="utf-8") as fh:
-            records = list(csv.DictReader(fh))
+            records = list(csv.DictReader(_after_comments(fh)))
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise BatchError(f"{path}: not a readable batch summary ({exc})") from exc
     if not records or "status" not in records[0] or "name" not in records[0]:
@@ -1388,6 +1420,47 @@ def read_summary(path) -> list[dict]:
                      "result": str(path.parent / res) if res else None,
                      "stale_result": _path_of_csv(rec, "stale_result", path)})
     return rows
+
+
+def _after_comments(lines):
+    """The lines of a summary.csv from its header on: the ``#`` lines above it (the options
+    block of :func:`options_comment_lines`; none in a summary written before it) skipped. Only
+    those above the header: a data line may start with ``#`` (a folder named ``#2``)."""
+    lines = iter(lines)
+    for line in lines:
+        if not line.startswith(CSV_COMMENT):
+            yield line
+            break
+    yield from lines
+
+
+def read_summary_options(path) -> dict | None:
+    """The run options a summary.csv records above its header (RunOptions.as_dict(), as
+    summary.json's ``options``); None for a summary written before they were recorded."""
+    options: dict = {}
+    found = False
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            for line in fh:
+                if not line.startswith(CSV_COMMENT):
+                    break
+                key, sep, value = line[len(CSV_COMMENT):].strip().partition(": ")
+                if not sep or key.startswith("laminid "):
+                    continue                          # the title line
+                try:
+                    parsed = json.loads(value)
+                except ValueError as exc:
+                    raise BatchError(f"{path}: option line {line.strip()!r}: the value is not "
+                                     f"JSON ({exc})") from exc
+                *heads, last = key.split(".")
+                d = options
+                for head in heads:
+                    d = d.setdefault(head, {})
+                d[last] = parsed
+                found = True
+    except (OSError, UnicodeDecodeError) as exc:
+        raise BatchError(f"{path}: not a readable batch summary ({exc})") from exc
+    return options if found else None
 
 
 def _rows_of_long(records, path: Path) -> list[dict]:

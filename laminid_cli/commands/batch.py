@@ -53,7 +53,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     interval, verdict, flag (at_bound, undetermined, fixed or prior: no plain identified
     value), the Monte Carlo range with --monte-carlo (mc_search_limit: its ends set by
     trials on a search limit), unit and status, then the ply loss factors where damping
-    was measured; --wide one row per specimen; summary.json a units map). Every result has a
+    was measured; --wide one row per specimen; both forms the run options, as summary.json's
+    "options", in '#' lines above the header; summary.json a units map). Every result has a
     status, ok or check with its reasons, shown in the table.
 
     A result whose input has not changed (sha256 of the specimen and its FRF file, the
@@ -173,7 +174,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
         if not force and now - written[0] < SUMMARY_EVERY:
             return
         current = [rows.get(j.name) or pending_row(j) for j in jobs]
-        write_summary_csv(out / SUMMARY_CSV, current, wide=wide)
+        write_summary_csv(out / SUMMARY_CSV, current, wide=wide,
+                          options=options.as_dict())
         write_summary_json(out / SUMMARY_JSON,
                            batch_report(current, options, out, running=True))
         written[0] = time.monotonic()
@@ -217,7 +219,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
             ordered = [rows.get(j.name) or _unfinished_row(j) for j in jobs]
             ordered += [foreign_row(p, out) for p in foreign_results(out, jobs)]
             report = batch_report(ordered, options, out, interrupted=interrupted)
-            write_summary_csv(out / SUMMARY_CSV, ordered, wide=wide)
+            write_summary_csv(out / SUMMARY_CSV, ordered, wide=wide,
+                              options=options.as_dict())
             write_summary_json(out / SUMMARY_JSON, report)
             # once more at the end: a killed run's worker may still have been exiting at the
             # start (its temporary file then counted as a live process's)
