@@ -221,6 +221,66 @@ def test_summary_csv_records_the_run_options_above_its_unchanged_table(tmp_path)
     assert [w["name"] for w in wide] == ["S1.4"] and float(wide[0]["IM7/977-2 nu12 [1]"]) == 0.35
 
 
+def test_a_specimen_copied_under_another_name_is_warned_of_once_and_recorded(tmp_path):
+    """Two files holding one plate's measured data (a copy under another name) were identified
+    as two specimens without a word, one plate counted twice across the batch. Now a warning
+    names the files, once per group, and summary.json and --json list the group; the batch
+    still runs both (exit code unchanged). Only exact copies of the data: a file written in
+    other units and with another name and start is one; a frequency 0.01 Hz off is none."""
+    text = Path(SPECS["example1/S1.4.yaml"]).read_text()
+    specs = tmp_path / "specs"
+    (specs / "sub").mkdir(parents=True)
+    (specs / "a.yaml").write_text(text)
+    shutil.copy(specs / "a.yaml", specs / "sub" / "b.yaml")
+    assert "  h: 3.09 mm\n" in text and "[137.65, " in text and "E2: 8.8 GPa" in text
+    (specs / "c.yaml").write_text(text.replace("[137.65, ", "[137.66, "))      # another plate
+    (specs / "d.yaml").write_text(text.replace("name: S1.4", "name: S1.4-again")
+                                  .replace("  h: 3.09 mm", "  h: 0.00309 m")
+                                  .replace("E2: 8.8 GPa", "E2: 9.5 GPa"))   # the same plate
+    out = tmp_path / "out"
+    r = run("batch", specs, "--mesh", MESH, "--out", out)
+    assert r.exit_code == 0, r.output
+    warnings = [line for line in r.stderr.splitlines() if line.startswith("warning:")]
+    assert warnings == [f"warning: specimens {specs / 'a.yaml'}, {specs / 'd.yaml'} and "
+                        f"{specs / 'sub' / 'b.yaml'} hold the same measured frequencies and plate "
+                        "(geometry, layup, mass): one plate counted 3 times?"]
+    doc = json.loads((out / "summary.json").read_text())
+    assert doc["duplicates"] == [["a", "d", "sub/b"]]
+    assert [row["status"] for row in doc["specimens"]] == ["check"] * 4     # all four ran
+    # two of a kind, said as a pair; -q: no warning, the summary still lists them
+    (specs / "d.yaml").unlink()
+    r = run("-q", "batch", specs, "--mesh", MESH, "--out", out, "--json")
+    assert r.exit_code == 0 and r.stderr == "", r.stderr
+    assert json.loads(r.stdout)["duplicates"] == [["a", "sub/b"]]
+    r = run("batch", specs, "--mesh", MESH, "--out", out)
+    assert f"warning: specimens {specs / 'a.yaml'} and {specs / 'sub' / 'b.yaml'} hold the " \
+        "same measured frequencies and plate (geometry, layup, mass): one plate counted twice?\n" \
+        in r.stderr
+    (specs / "sub" / "b.yaml").unlink()
+    run("batch", specs, "--mesh", MESH, "--out", out)
+    assert json.loads((out / "summary.json").read_text())["duplicates"] == []
+
+
+def test_specimens_of_one_frf_file_are_duplicates_only_with_the_same_bytes(tmp_path):
+    """Specimens measured through an FRF file (measured.frf_file) are the same plate when
+    their files hold the same bytes (a copied FRF file too) with the same bands: the FRF
+    files are compared only there, not read for every specimen."""
+    from laminid_cli.batch import duplicate_specimens, load_specimen_docs
+
+    text = Path(SPECS["example1/S1.4.yaml"]).read_text()
+    head, _ = text.split("measured:")
+    for name, frf in (("a", "a.frf.h5"), ("b", "b.frf.h5"), ("c", "c.frf.h5"), ("d", "a.frf.h5")):
+        (tmp_path / f"{name}.yaml").write_text(f"{head}measured:\n  frf_file: {frf}\n")
+    (tmp_path / "a.frf.h5").write_bytes(b"FRF" * 100)
+    (tmp_path / "b.frf.h5").write_bytes(b"FRF" * 100)                 # a copy of a's
+    (tmp_path / "c.frf.h5").write_bytes(b"FRF" * 99 + b"frf")         # another measurement
+    specs = [tmp_path / f"{name}.yaml" for name in "abcd"]
+    assert duplicate_specimens(specs, load_specimen_docs(specs)) == [[0, 1, 3]]
+    # the same file in other bands: another fit, not a copy
+    specs[3].write_text(f"{head}measured:\n  frf_file: a.frf.h5\n  bands: [[100, 500]]\n")
+    assert duplicate_specimens(specs, load_specimen_docs(specs)) == [[0, 1]]
+
+
 def test_summaries_say_in_a_word_which_values_are_no_identified_ones(tmp_path):
     """A script reading summary.csv or summary.json had to parse the verdict's words ("at
     bound — not identified", "not determined by these modes — fix it or ...", "fixed") to
