@@ -238,24 +238,38 @@ def _frf_file(spec: Path) -> Path | None:
     return spec.parent / str(name) if name else None
 
 
-def _material_names(spec: Path) -> tuple[str, ...] | None:
-    """The material names of a specimen file (``materials``' keys); None when it cannot be
-    read (its error is the specimen's own, reported when it runs)."""
+def load_specimen_docs(specs) -> list:
+    """Each specimen file as plain YAML data (None where it cannot be read or parsed: its
+    error is the specimen's own, reported when it runs), read once for the checks the batch
+    makes before it runs (:func:`check_fix_materials`, :func:`duplicate_specimens`)."""
     import yaml
 
+    docs = []
+    for spec in specs:
+        try:
+            docs.append(yaml.safe_load(Path(spec).read_text(encoding="utf-8-sig")))
+        except (OSError, UnicodeDecodeError, yaml.YAMLError, ValueError):
+            docs.append(None)
+    return docs
+
+
+def _material_names(doc) -> tuple[str, ...] | None:
+    """The material names of a specimen's YAML data (``materials``' keys); None when it has
+    none readable (its error is the specimen's own, reported when it runs)."""
     try:
-        doc = yaml.safe_load(spec.read_text(encoding="utf-8-sig"))
         return tuple(str(k) for k in doc["materials"])
-    except (OSError, UnicodeDecodeError, yaml.YAMLError, KeyError, TypeError):
+    except (KeyError, TypeError):
         return None
 
 
-def check_fix_materials(specs, options: BatchOptions) -> None:
+def check_fix_materials(specs, options: BatchOptions, docs=None) -> None:
     """Refuse a --fix item naming a material (``carbon.G13``, ``carbon.eta13=0.01``) that no
     readable specimen of the batch has: a mistyped option, not a failure of each specimen
     (which would set their earlier results aside as another input's). A material some of the
-    specimens have applies to those; the others fail with the reason."""
-    names = [n for n in (_material_names(Path(s)) for s in specs) if n is not None]
+    specimens have applies to those; the others fail with the reason. ``docs``: the files'
+    :func:`load_specimen_docs`, read here when not given."""
+    docs = load_specimen_docs(specs) if docs is None else docs
+    names = [n for n in map(_material_names, docs) if n is not None]
     if not names:
         return
     have = {m for n in names for m in n}
@@ -265,6 +279,95 @@ def check_fix_materials(specs, options: BatchOptions) -> None:
         if mat is not None and mat not in have:
             raise BatchError(f"--fix {item.strip()}: no specimen of the batch has a material "
                              f"'{mat}' (materials: {', '.join(sorted(have))})")
+
+
+def _measured_plate(doc):
+    """What a specimen's YAML data say of the plate that was measured, comparable across
+    files: the sides and thickness and the mass in SI, the layup expanded (``[0/90]s`` and
+    ``[0/90/90/0]`` alike) or the plies as written, and the measured frequencies in Hz with
+    their weights (1 where not given, 0 for a mode not detected), or for an ``frf_file`` its
+    ``bands`` and ``modes`` (the file's bytes are compared by :func:`duplicate_specimens`).
+    None where these cannot be read (the specimen
+    fails on its own when it runs) or the file has no measured data. The initial constants,
+    priors, sigmas, damping and reference are left out: another start on the same data is
+    still the same plate."""
+    from laminid_cli.specimen import LayupSyntaxError, expand_layup
+    from laminid_cli.units import normalize_text, parse_quantity
+
+    try:
+        g = doc["geometry"]
+        geometry = tuple(parse_quantity(g[k], "length") for k in ("a", "b", "h"))
+        mass = None if doc.get("mass") is None else parse_quantity(doc["mass"], "mass")
+        if "layup" in doc:
+            lay = doc["layup"]
+            code = "[" + "/".join(map(str, lay)) + "]" if isinstance(lay, list) else str(lay)
+            layup = ("layup", tuple(expand_layup(normalize_text(code))))
+        else:
+            layup = ("plies", json.dumps(doc["plies"], sort_keys=True, default=str))
+        m = doc["measured"]
+        if m.get("frf_file"):
+            # the same FRF file (its content is compared only within a group: see
+            # duplicate_specimens) fitted in the same bands to the same modes
+            data = ("frf", json.dumps([m.get("bands"), m.get("modes")], sort_keys=True,
+                                      default=str))
+        else:
+            freq = tuple(None if f is None else parse_quantity(f, "frequency")
+                         for f in m["frequencies"])
+            w = m.get("weights")
+            w = [1.0] * len(freq) if w is None else [parse_quantity(x, "dimensionless")
+                                                       for x in w]
+            data = ("frequencies", freq,
+                    tuple(0.0 if f is None else x for f, x in zip(freq, w, strict=True)))
+    except (LaminidError, LayupSyntaxError, KeyError, TypeError, ValueError, AttributeError):
+        return None
+    return geometry, mass, layup, data
+
+
+def duplicate_specimens(specs, docs) -> list[list[int]]:
+    """Groups of specimens of the batch that hold the same plate's measured data (indices
+    into ``specs``, each group in their order): :func:`_measured_plate` equal, and for
+    specimens measured through an ``frf_file`` the same bytes in it (compared only for the
+    few whose other data agree).
+
+    Why: a specimen file copied under another name (or twice into a study's folders) was
+    identified twice and reported as two specimens of the material, one plate counted twice in
+    the spread across specimens. Exact equality only: two plates never give the same twelve
+    frequencies to the digits written, so nothing a lab measured twice is taken for a copy.
+
+    ``docs``: :func:`load_specimen_docs` of ``specs`` (the files are not read again, except
+    the FRF files of candidate duplicates)."""
+    groups: dict = collections.defaultdict(list)
+    for i, doc in enumerate(docs):
+        key = _measured_plate(doc) if isinstance(doc, dict) else None
+        if key is not None:
+            groups[key].append(i)
+    out = []
+    for key, members in groups.items():
+        if len(members) < 2:
+            continue
+        if key[3][0] == "frf":
+            by_bytes: dict = collections.defaultdict(list)
+            for i in members:
+                frf = _frf_file(Path(specs[i]))
+                try:
+                    digest = hashlib.sha256(frf.read_bytes()).hexdigest()
+                except (OSError, AttributeError):
+                    continue                    # unreadable: the specimen's own error
+                by_bytes[digest].append(i)
+            out += [g for g in by_bytes.values() if len(g) > 1]
+        else:
+            out.append(members)
+    return sorted(out)
+
+
+def duplicate_text(files) -> str:
+    """The warning of one group of :func:`duplicate_specimens` (``files`` as given)."""
+    names = [str(f) for f in files]
+    listed = (" and ".join(names) if len(names) == 2
+              else ", ".join(names[:-1]) + " and " + names[-1])
+    times = "twice" if len(names) == 2 else f"{len(names)} times"
+    return (f"specimens {listed} hold the same measured frequencies and plate (geometry, "
+            f"layup, mass): one plate counted {times}?")
 
 
 def input_hash(spec, options: BatchOptions) -> str:
@@ -1191,16 +1294,48 @@ def search_limit_text(iv: dict) -> str:
     return "both" if len(ends) == 2 else ends[0] if ends else ""
 
 
-def write_summary_csv(path, rows, wide: bool = False) -> Path:
+#: the first line of a summary.csv's options block; every line of the block starts with
+#: CSV_COMMENT, so that ``pandas.read_csv(path, comment="#")`` and :func:`read_summary` skip it
+CSV_COMMENT = "#"
+CSV_OPTIONS_TITLE = ('# laminid {version} batch summary; run options as in summary.json '
+                     '"options" (one a line, JSON values):')
+
+
+def options_comment_lines(options: dict) -> list[str]:
+    """The options block of a summary.csv: the title, then one ``# key: value`` line per run
+    option of ``options`` (RunOptions.as_dict(): nested settings as dotted keys,
+    ``uncertainty.monte_carlo: 200``), the value in JSON.
+
+    Why: summary.json had the options, the CSV not, so a CSV read alone (a spreadsheet,
+    pandas) could not tell the mesh, the solver or the Monte Carlo trials its numbers were made
+    with. Comment lines above the header leave the table itself as it was. JSON values keep
+    ``"6x6"``, ``null`` and ``["nu12", "G13"]`` apart, and JSON escapes every line break."""
+    lines = [CSV_OPTIONS_TITLE.format(version=__version__)]
+
+    def add(prefix: str, value) -> None:
+        if isinstance(value, dict):
+            for key, v in value.items():
+                add(f"{prefix}{key}.", v)
+        else:
+            lines.append(f"{CSV_COMMENT} {prefix[:-1]}: {json.dumps(value)}")
+
+    add("", options)
+    return lines
+
+
+def write_summary_csv(path, rows, wide: bool = False, options: dict | None = None) -> Path:
     """The summary as CSV, SI units, written atomically.
 
     Long form (default): LONG_COLUMNS, one row per specimen, material and constant, the unit
     in the ``unit`` column. ``wide``: one row per specimen, the unit in each header; its result
-    column is relative to the CSV's folder."""
+    column is relative to the CSV's folder. ``options`` (RunOptions.as_dict()): written above
+    the header as ``#`` comment lines (:func:`options_comment_lines`)."""
     import io
 
     path = Path(path)
     buf = io.StringIO()
+    if options is not None:
+        buf.write("".join(line + "\n" for line in options_comment_lines(options)))
     w = csv.writer(buf, lineterminator="\n")
     if not wide:
         columns = long_columns(rows)
@@ -1230,11 +1365,13 @@ def write_summary_csv(path, rows, wide: bool = False) -> Path:
 
 
 def batch_report(rows, options: BatchOptions, out_dir, interrupted: bool = False,
-                 running: bool = False) -> dict:
+                 running: bool = False, duplicates=()) -> dict:
     """The summary as plain data (SI), as written to summary.json and printed by --json;
     ``interrupted``: the run was stopped (Ctrl-C) before every specimen was done (those rows
     are "not run"); ``running``: written while the batch runs (:func:`pending_row` for the
-    specimens it has not finished), replaced when it ends."""
+    specimens it has not finished), replaced when it ends; ``duplicates``: the groups of
+    specimens holding the same plate's measured data (:func:`duplicate_specimens`), each a
+    list of their rows' ``name``."""
     counts = {s: sum(r["status"] == s for r in rows) for s in STATUSES}
     counts["not converged"] = sum(r.get("converged") is False for r in rows)
     counts["set aside"] = sum(bool(r.get("stale_result")) for r in rows
@@ -1243,7 +1380,8 @@ def batch_report(rows, options: BatchOptions, out_dir, interrupted: bool = False
             "out": str(out_dir), "options": options.as_dict(), "units": dict(UNITS),
             "n_specimens": len(rows) - counts[NOT_FROM_BATCH], "counts": counts,
             "n_cached": sum(bool(r["cached"]) for r in rows), "interrupted": bool(interrupted),
-            "running": bool(running), "specimens": rows}
+            "running": bool(running), "duplicates": [list(g) for g in duplicates],
+            "specimens": rows}
 
 
 #: while a batch runs, its summaries are written again at most this often (s) as specimens
@@ -1356,7 +1494,7 @@ def read_summary(path) -> list[dict]:
         return rows
     try:
         with open(path, newline="", encoding="utf-8") as fh:
-            records = list(csv.DictReader(fh))
+            records = list(csv.DictReader(_after_comments(fh)))
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise BatchError(f"{path}: not a readable batch summary ({exc})") from exc
     if not records or "status" not in records[0] or "name" not in records[0]:
@@ -1388,6 +1526,47 @@ def read_summary(path) -> list[dict]:
                      "result": str(path.parent / res) if res else None,
                      "stale_result": _path_of_csv(rec, "stale_result", path)})
     return rows
+
+
+def _after_comments(lines):
+    """The lines of a summary.csv from its header on: the ``#`` lines above it (the options
+    block of :func:`options_comment_lines`; none in a summary written before it) skipped. Only
+    those above the header: a data line may start with ``#`` (a folder named ``#2``)."""
+    lines = iter(lines)
+    for line in lines:
+        if not line.startswith(CSV_COMMENT):
+            yield line
+            break
+    yield from lines
+
+
+def read_summary_options(path) -> dict | None:
+    """The run options a summary.csv records above its header (RunOptions.as_dict(), as
+    summary.json's ``options``); None for a summary written before they were recorded."""
+    options: dict = {}
+    found = False
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            for line in fh:
+                if not line.startswith(CSV_COMMENT):
+                    break
+                key, sep, value = line[len(CSV_COMMENT):].strip().partition(": ")
+                if not sep or key.startswith("laminid "):
+                    continue                          # the title line
+                try:
+                    parsed = json.loads(value)
+                except ValueError as exc:
+                    raise BatchError(f"{path}: option line {line.strip()!r}: the value is not "
+                                     f"JSON ({exc})") from exc
+                *heads, last = key.split(".")
+                d = options
+                for head in heads:
+                    d = d.setdefault(head, {})
+                d[last] = parsed
+                found = True
+    except (OSError, UnicodeDecodeError) as exc:
+        raise BatchError(f"{path}: not a readable batch summary ({exc})") from exc
+    return options if found else None
 
 
 def _rows_of_long(records, path: Path) -> list[dict]:

@@ -61,9 +61,7 @@ def damping_figures(result) -> list[tuple[str, object]]:
     d = read_damping(r)
     if d is None:
         return []
-    fig = damping_page(d)
-    _status_banner(fig, r)
-    return [("damping", fig)]
+    return [("damping", damping_page(d, banner=lambda fig: _status_banner(fig, r)))]
 
 
 def loss_factor_rows(d: dict) -> list[list[str]]:
@@ -106,24 +104,30 @@ NOT_DETERMINED_ADVICE = ("not determined: the measured damping does not pin this
                          "plate")
 
 
-def loss_factor_table(ax, head, rows, col_widths):
+def loss_factor_table(ax, head, rows, col_widths, fill: bool = False):
     """Draw the loss-factor table (rows of :func:`loss_factor_rows`, possibly with columns in
-    front; the verdict is the last column, coloured as in the other report tables) on ``ax``.
+    front; the verdict is the last column, coloured as in the other report tables) on ``ax``:
+    from its top, rows at the height of their lines, or with ``fill`` filling ``ax`` (its
+    rows as tall as their lines, laminid_cli.report.row_heights, in their share of it).
     Returns :data:`NOT_DETERMINED_ADVICE` when a loss factor is not determined, else "": the
     caller puts it where the table cannot run over it (a long table overflows its axes)."""
-    from laminid_cli.report import _verdict_color, row_lines
+    from laminid_cli.report import _verdict_color, row_heights, row_lines
 
     ax.axis("off")
     ax.set_gid("loss-factors")
     table = ax.table(cellText=rows, colLabels=head, loc="upper center", cellLoc="center",
-                     colLoc="center", colWidths=col_widths)
+                     colLoc="center", colWidths=col_widths,
+                     bbox=[0, 0, 1, 1] if fill else None)
     table.auto_set_font_size(False)
     table.set_fontsize(8)
     last = len(head) - 1
     # a row with a second line (the Monte Carlo range under an interval) is that much taller
     lines = [1] + [row_lines(row) for row in rows]
+    heights = row_heights(head, rows)
     for (i, j), cell in table.get_celld().items():    # the look of the other report tables
-        cell.set_height(cell.get_height() * lines[i])
+        # filling the axes: each row its share of it (the rows of a table sized to them
+        # by damping_page come out at TABLE_ROW_IN a line); else a row of n lines n rows tall
+        cell.set_height(heights[i] / sum(heights) if fill else cell.get_height() * lines[i])
         cell.set_linewidth(0.3)
         if i == 0:
             cell.set_text_props(weight="bold")
@@ -135,11 +139,65 @@ def loss_factor_table(ax, head, rows, col_widths):
                                          for row in rows) else "")
 
 
-def damping_page(d: dict):
+#: height of a one-line row of the damping page's loss-factor table (in): 8-point text with
+#: the air of the other report tables (a two-line row is row_heights' 1.7 of it)
+TABLE_ROW_IN = 0.17
+#: the most of the height of the panels and the table together that the table takes, its
+#: rows squeezed beyond (hybrid-CM's two materials with Monte Carlo ranges under a status of
+#: 14 lines: a page too full, whose table ran over the status before)
+TABLE_MAX_SHARE = 0.6
+
+
+#: how far under a panel's bottom edge its legend starts (points): under the tick labels and
+#: the axis label ("mode") at the default 10-point type
+LEGEND_DROP_PT = 34
+
+
+def _below_xlabel(fig, ax):
+    """The transform of a legend anchored :data:`LEGEND_DROP_PT` under ``ax``'s bottom edge.
+
+    Why: anchored at -0.1 of the panel's height, a legend ran into the axis label "mode" of a
+    shorter panel (S2.1 with Monte Carlo ranges in its table: 3 px over it), and the layout's
+    margins changed with the panels' height."""
+    from matplotlib.transforms import ScaledTranslation
+
+    return ax.transAxes + ScaledTranslation(0, -LEGEND_DROP_PT / 72, fig.dpi_scale_trans)
+
+
+def fit_table_row(fig, gs, ax_top, ax_table, table_in: float) -> None:
+    """Set the heights of the rows of ``gs`` (the panels' ``ax_top`` over the table's
+    ``ax_table``) so that the table's axes is ``table_in`` inches tall (at most
+    :data:`TABLE_MAX_SHARE` of the two) and the panels take the rest of the page.
+
+    Why: the table's row had a fixed share of the page (1.25 of 4.25) while the table is as
+    tall as its rows; a table of a single material (5 rows) filled 0.11 of the page's height
+    of the 0.18 its row got, and left a white band of 0.09 of the page between it and the
+    status under it. Constrained layout keeps the
+    ratio of the rows' axes heights exactly, but their sum is only known once the page is
+    laid out (the margins of titles, labels, the legends under the panels, the status at the
+    foot): so it is laid out once (0.15 s), measured and given the ratio that makes the
+    table's height ``table_in`` (the margins do not depend on the ratio: the legends under
+    the panels hang a fixed distance under them, :func:`_below_xlabel`)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    if not isinstance(fig.canvas, FigureCanvasAgg):
+        FigureCanvasAgg(fig)
+    fig.draw_without_rendering()                      # lays the page out
+    both = ax_top.get_position().height + ax_table.get_position().height
+    want = min(table_in / fig.get_figheight(), TABLE_MAX_SHARE * both)
+    gs.set_height_ratios([both - want, want])
+
+
+def damping_page(d: dict, banner=None):
+    """The damping page of :func:`read_damping`'s ``d``; ``banner(fig)`` puts the result's
+    status at its foot (laminid_cli.report._status_banner) before the page's rows are sized
+    to the room that leaves (:func:`fit_table_row`)."""
     import matplotlib
 
     matplotlib.use("Agg", force=True)
     from matplotlib.figure import Figure
+
+    from laminid_cli.report import row_heights
 
     fig = Figure(figsize=A4_LANDSCAPE, layout="constrained")
     gs = fig.add_gridspec(2, 2, height_ratios=[3, 1.25])
@@ -178,8 +236,8 @@ def damping_page(d: dict):
     top = np.nanmax(np.concatenate([meas + np.nan_to_num(sig), model]))
     ax_m.set_ylim(0, 1.25 * top if np.isfinite(top) and top > 0 else 1)
     ax_m.grid(alpha=0.3)
-    ax_m.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=3, fontsize=8,
-                frameon=False)                   # below the panel: clear of the points
+    ax_m.legend(loc="upper center", bbox_to_anchor=(0.5, 0), ncol=3, fontsize=8,   # below
+                frameon=False, bbox_transform=_below_xlabel(fig, ax_m))  # clear of the points
     ax_m.set_title("measured vs model modal loss factor")
 
     # stacked energy shares
@@ -200,14 +258,14 @@ def damping_page(d: dict):
     ax_s.set_xticks(modes)
     ax_s.set_ylim(0, 100)
     ax_s.set_title("strain-energy shares U\u2098\u1d62\u2096 / U\u1d62 (material axes)")
-    ax_s.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=3, fontsize=8,
-                frameon=False)
+    ax_s.legend(loc="upper center", bbox_to_anchor=(0.5, 0), ncol=3, fontsize=8,
+                frameon=False, bbox_transform=_below_xlabel(fig, ax_s))
 
     # table of loss factors
     conf = float(d.get("confidence", 0.95)) * 100
     rows = loss_factor_rows(d)
-    advice = loss_factor_table(ax_t, ["loss factor", "value (%)", f"{conf:.0f} % interval (%)",
-                                      "verdict"], rows, [0.28, 0.14, 0.22, 0.36])
+    head = ["loss factor", "value (%)", f"{conf:.0f} % interval (%)", "verdict"]
+    advice = loss_factor_table(ax_t, head, rows, [0.28, 0.14, 0.22, 0.36], fill=True)
     s2 = float(d.get("s2", np.nan))
     mc = d.get("monte_carlo") or {}
     ax_t.set_title(f"ply loss factors, modal strain energy method (s\u00b2 = {s2:.3g}, "
@@ -227,11 +285,16 @@ def damping_page(d: dict):
 
         lines = [ln for w in words for ln in textwrap.wrap(w, _wrap_width(fig, 8),
                                                             break_on_hyphens=False)]
-        ax_t.text(0.5, 1.0, "\n".join(lines), transform=ax_t.transAxes, ha="center",
-                  va="bottom", fontsize=8, gid="loss-factor-note")
+        # 2 points over the table, which fills its axes up to their top
+        ax_t.annotate("\n".join(lines), (0.5, 1.0), xycoords="axes fraction",
+                      xytext=(0, 2), textcoords="offset points", ha="center", va="bottom",
+                      fontsize=8, gid="loss-factor-note")
         ax_t.set_title(ax_t.get_title() + "\n" * len(lines), fontsize=9)
     name = d.get("specimen", "")
     fig.suptitle(f"{name}: damping (modal strain energy)" if name else "damping", fontsize=11)
+    if banner is not None:
+        banner(fig)
+    fit_table_row(fig, gs, ax_m, ax_t, TABLE_ROW_IN * sum(row_heights(head, rows)))
     return fig
 
 

@@ -14,6 +14,12 @@ def run(*args):
     return CliRunner().invoke(cli, [str(a) for a in args])
 
 
+def without_comments(lines):
+    """The lines of a summary.csv without its ``#`` lines (the run options above the header),
+    as ``pandas.read_csv(path, comment="#")`` reads it: ``csv.DictReader(without_comments(fh))``."""
+    return (line for line in lines if not line.startswith("#"))
+
+
 def identify_json(tmp_path_factory, specimen: str, mesh: str | None, name: str, *args):
     """(parsed --json output, result file) of ``laminid identify specimen --mesh mesh [args]``
     (mesh None: the default's), asserting exit code 0; for module- and session-scoped

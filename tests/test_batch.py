@@ -18,6 +18,7 @@ from click.testing import CliRunner
 
 from laminid_cli.batch import BatchOptions, discover_specimens, input_hash, read_summary
 from laminid_cli.cli import cli
+from tests.clihelp import without_comments
 
 SPECS = {"example1/S1.4.yaml": "specimens/example1/S1.4.yaml",
          "example2/S2.1.yaml": "specimens/example2/S2.1.yaml"}
@@ -74,7 +75,7 @@ def test_batch_gives_the_constants_of_one_by_one_runs_byte_for_byte(batch_run, t
 def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
     specs, out, r = batch_run
     with open(out / "summary.csv", newline="") as fh:
-        rows = list(csv.DictReader(fh))
+        rows = list(csv.DictReader(without_comments(fh)))
     # long form: one row per specimen, material and constant, SI, the unit in its column
     assert list(rows[0]) == ["name", "specimen", "material", "constant", "value", "lower",
                              "upper", "verdict", "flag", "bound_side", "bound_limit",
@@ -162,7 +163,7 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
     shutil.copytree(out, wide)
     r = run("batch", specs, "--mesh", MESH, "--out", wide, "--wide")
     with open(wide / "summary.csv", newline="") as fh:
-        w = list(csv.DictReader(fh))
+        w = list(csv.DictReader(without_comments(fh)))
     assert float(w[0]["IM7/977-2 E1 [Pa]"]) == pytest.approx(E1, rel=1e-14)
     assert w[1]["status"] == "check" and w[1]["reasons"] == "at_bound, undetermined, poor_fit"
     # a value at its bound or not determined is a plain number in its column: the row says
@@ -173,6 +174,111 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
                                         if iv["flagged"])
     assert read_summary(wide / "summary.csv")[0]["materials"]["IM7/977-2"]["E1"] == \
         pytest.approx(E1, rel=1e-14)
+
+
+def test_summary_csv_records_the_run_options_above_its_unchanged_table(tmp_path):
+    """summary.csv did not say how its numbers were made (summary.json did: "options"): a CSV
+    read alone could not tell a 6x6 mesh from 12x12, or whether a Monte Carlo ran. The options
+    are now '#' lines above the header, the same as summary.json's; without them the file is
+    byte for byte what laminid wrote before (pandas.read_csv(path, comment="#") drops exactly
+    those lines), and read_summary reads both."""
+    specs = make_tree(tmp_path / "specs", {"S1.4.yaml": SPECS["example1/S1.4.yaml"]})
+    out = tmp_path / "out"
+    r = run("batch", specs, "--mesh", MESH, "--out", out, "--monte-carlo", "3",
+            "--solver", "full", "--fix", "nu12")
+    assert r.exit_code == 0, r.output
+    lines = (out / "summary.csv").read_text().splitlines(keepends=True)
+    n = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    assert lines[n].startswith("name,specimen,material,constant,value,")
+    assert lines[0].startswith("# laminid ") and "batch summary; run options" in lines[0]
+    block = [line.rstrip("\n") for line in lines[1:n]]
+    assert '# mesh: "6x6"' in block and '# identify.solver: "full"' in block
+    assert "# uncertainty.monte_carlo: 3" in block and '# fix: ["nu12"]' in block
+    from laminid_cli.batch import BatchError, read_summary_options
+
+    options = json.loads((out / "summary.json").read_text())["options"]
+    assert read_summary_options(out / "summary.csv") == options
+    assert len(block) == sum(len(v) if isinstance(v, dict) else 1 for v in options.values())
+    # the table below is what a summary without the block (laminid before it) holds
+    old = tmp_path / "old" / "summary.csv"
+    old.parent.mkdir()
+    old.write_text("".join(lines[n:]))
+    assert read_summary(out / "summary.csv") == [
+        dict(row, result=str(out / "S1.4.result.h5")) for row in read_summary(old)]
+    assert read_summary(out / "summary.csv")[0]["materials"]["IM7/977-2"]["nu12"] == 0.35
+    assert read_summary_options(old) is None
+    # a hand-edited value that is no JSON: named, not a traceback
+    (tmp_path / "edited.csv").write_text("".join(lines).replace('"6x6"', "6x6"))
+    with pytest.raises(BatchError, match=r"option line '# mesh: 6x6': the value is not JSON"):
+        read_summary_options(tmp_path / "edited.csv")
+    # the wide summary has the same block
+    r = run("batch", specs, "--mesh", MESH, "--out", out, "--monte-carlo", "3",
+            "--solver", "full", "--fix", "nu12", "--wide")
+    assert r.exit_code == 0 and "1 up to date" in r.output, r.output
+    assert read_summary_options(out / "summary.csv") == options
+    with open(out / "summary.csv", newline="") as fh:
+        wide = list(csv.DictReader(without_comments(fh)))
+    assert [w["name"] for w in wide] == ["S1.4"] and float(wide[0]["IM7/977-2 nu12 [1]"]) == 0.35
+
+
+def test_a_specimen_copied_under_another_name_is_warned_of_once_and_recorded(tmp_path):
+    """Two files holding one plate's measured data (a copy under another name) were identified
+    as two specimens without a word, one plate counted twice across the batch. Now a warning
+    names the files, once per group, and summary.json and --json list the group; the batch
+    still runs both (exit code unchanged). Only exact copies of the data: a file written in
+    other units and with another name and start is one; a frequency 0.01 Hz off is none."""
+    text = Path(SPECS["example1/S1.4.yaml"]).read_text()
+    specs = tmp_path / "specs"
+    (specs / "sub").mkdir(parents=True)
+    (specs / "a.yaml").write_text(text)
+    shutil.copy(specs / "a.yaml", specs / "sub" / "b.yaml")
+    assert "  h: 3.09 mm\n" in text and "[137.65, " in text and "E2: 8.8 GPa" in text
+    (specs / "c.yaml").write_text(text.replace("[137.65, ", "[137.66, "))      # another plate
+    (specs / "d.yaml").write_text(text.replace("name: S1.4", "name: S1.4-again")
+                                  .replace("  h: 3.09 mm", "  h: 0.00309 m")
+                                  .replace("E2: 8.8 GPa", "E2: 9.5 GPa"))   # the same plate
+    out = tmp_path / "out"
+    r = run("batch", specs, "--mesh", MESH, "--out", out)
+    assert r.exit_code == 0, r.output
+    warnings = [line for line in r.stderr.splitlines() if line.startswith("warning:")]
+    assert warnings == [f"warning: specimens {specs / 'a.yaml'}, {specs / 'd.yaml'} and "
+                        f"{specs / 'sub' / 'b.yaml'} hold the same measured frequencies and plate "
+                        "(geometry, layup, mass): one plate counted 3 times?"]
+    doc = json.loads((out / "summary.json").read_text())
+    assert doc["duplicates"] == [["a", "d", "sub/b"]]
+    assert [row["status"] for row in doc["specimens"]] == ["check"] * 4     # all four ran
+    # two of a kind, said as a pair; -q: no warning, the summary still lists them
+    (specs / "d.yaml").unlink()
+    r = run("-q", "batch", specs, "--mesh", MESH, "--out", out, "--json")
+    assert r.exit_code == 0 and r.stderr == "", r.stderr
+    assert json.loads(r.stdout)["duplicates"] == [["a", "sub/b"]]
+    r = run("batch", specs, "--mesh", MESH, "--out", out)
+    assert f"warning: specimens {specs / 'a.yaml'} and {specs / 'sub' / 'b.yaml'} hold the " \
+        "same measured frequencies and plate (geometry, layup, mass): one plate counted twice?\n" \
+        in r.stderr
+    (specs / "sub" / "b.yaml").unlink()
+    run("batch", specs, "--mesh", MESH, "--out", out)
+    assert json.loads((out / "summary.json").read_text())["duplicates"] == []
+
+
+def test_specimens_of_one_frf_file_are_duplicates_only_with_the_same_bytes(tmp_path):
+    """Specimens measured through an FRF file (measured.frf_file) are the same plate when
+    their files hold the same bytes (a copied FRF file too) with the same bands: the FRF
+    files are compared only there, not read for every specimen."""
+    from laminid_cli.batch import duplicate_specimens, load_specimen_docs
+
+    text = Path(SPECS["example1/S1.4.yaml"]).read_text()
+    head, _ = text.split("measured:")
+    for name, frf in (("a", "a.frf.h5"), ("b", "b.frf.h5"), ("c", "c.frf.h5"), ("d", "a.frf.h5")):
+        (tmp_path / f"{name}.yaml").write_text(f"{head}measured:\n  frf_file: {frf}\n")
+    (tmp_path / "a.frf.h5").write_bytes(b"FRF" * 100)
+    (tmp_path / "b.frf.h5").write_bytes(b"FRF" * 100)                 # a copy of a's
+    (tmp_path / "c.frf.h5").write_bytes(b"FRF" * 99 + b"frf")         # another measurement
+    specs = [tmp_path / f"{name}.yaml" for name in "abcd"]
+    assert duplicate_specimens(specs, load_specimen_docs(specs)) == [[0, 1, 3]]
+    # the same file in other bands: another fit, not a copy
+    specs[3].write_text(f"{head}measured:\n  frf_file: a.frf.h5\n  bands: [[100, 500]]\n")
+    assert duplicate_specimens(specs, load_specimen_docs(specs)) == [[0, 1]]
 
 
 def test_summaries_say_in_a_word_which_values_are_no_identified_ones(tmp_path):
@@ -190,7 +296,8 @@ def test_summaries_say_in_a_word_which_values_are_no_identified_ones(tmp_path):
     r = run("batch", specs, "--mesh", MESH, "--out", out)
     assert r.exit_code == 0, r.output
     with open(out / "summary.csv", newline="") as fh:
-        rows = {(row["specimen"], row["constant"]): row for row in csv.DictReader(fh)}
+        rows = {(row["specimen"], row["constant"]): row
+                for row in csv.DictReader(without_comments(fh))}
     flags = {key: row["flag"] for key, row in rows.items()}
     assert flags["S1.4", "G13"] == flags["S1.4", "G23"] == "fixed"
     assert rows["S1.4", "G13"]["lower"] == rows["S1.4", "G13"]["upper"] == ""
@@ -233,7 +340,8 @@ def test_values_fixed_because_undetermined_are_flagged_assumed_not_fixed(tmp_pat
     r = run("batch", specs, "--mesh", MESH, "--out", out, "--fix-undetermined")
     assert r.exit_code == 0, r.output
     with open(out / "summary.csv", newline="") as fh:
-        rows = {(row["specimen"], row["constant"]): row for row in csv.DictReader(fh)}
+        rows = {(row["specimen"], row["constant"]): row
+                for row in csv.DictReader(without_comments(fh))}
     # S1.4's file fixes G13 and G23 (known values); --fix-undetermined holds S1.1's three
     assert rows["S1.4", "G13"]["flag"] == rows["S1.4", "G23"]["flag"] == "fixed"
     assert [rows["S1.1", k]["flag"] for k in ("G13", "G23", "nu12")] == ["assumed"] * 3
@@ -291,7 +399,7 @@ def test_a_value_held_by_its_prior_is_marked_in_the_table_and_the_summaries(tmp_
     assert ("~ held by the prior — mostly the file's prior value, not the modes' (the prior "
             "gives more than half of what is known of it, paper Eq. 15)") in r.output
     with open(out / "summary.csv", newline="") as fh:
-        rows = {row["constant"]: row for row in csv.DictReader(fh)}
+        rows = {row["constant"]: row for row in csv.DictReader(without_comments(fh))}
     assert rows["nu12"]["verdict"] == "well determined (held by the prior)"
     assert rows["nu12"]["flag"] == "prior" and rows["E1"]["flag"] == ""
     doc = json.loads((out / "summary.json").read_text())
@@ -299,7 +407,7 @@ def test_a_value_held_by_its_prior_is_marked_in_the_table_and_the_summaries(tmp_
     r = run("batch", specs, "--mesh", MESH, "--out", out, "--wide")
     assert r.exit_code == 0, r.output
     with open(out / "summary.csv", newline="") as fh:
-        wide = next(csv.DictReader(fh))
+        wide = next(csv.DictReader(without_comments(fh)))
     assert "IM7/977-2.nu12 prior" in wide["flagged"].split("; ")
 
 
@@ -313,7 +421,7 @@ def test_summary_carries_the_monte_carlo_range_and_its_search_limit_ends(tmp_pat
     r = run("batch", specs, "--mesh", "12x12", "--monte-carlo", "40", "--out", out)
     assert r.exit_code == 0, r.output
     with open(out / "summary.csv", newline="") as fh:
-        by = {row["constant"]: row for row in csv.DictReader(fh)}
+        by = {row["constant"]: row for row in csv.DictReader(without_comments(fh))}
     with h5py.File(out / "S1.1.result.h5") as f:
         u = f["uncertainty"]
         labels = [x.decode().rsplit(".", 1)[1] for x in u["labels"][()]]
@@ -1226,7 +1334,7 @@ def test_a_result_whose_specimen_now_fails_is_set_aside_out_of_the_result_patter
     doc = json.loads((out / "summary.json").read_text())
     assert doc["specimens"][0]["stale_result"] == "S2.1.result.stale.h5"
     with open(out / "summary.csv", newline="") as fh:
-        rows = list(csv.DictReader(fh))
+        rows = list(csv.DictReader(without_comments(fh)))
     assert [(x["status"], x["result"], x["stale_result"]) for x in rows] == [
         ("error", "", "S2.1.result.stale.h5")]
     assert read_summary(out / "summary.csv")[0]["stale_result"] == str(
@@ -1251,7 +1359,7 @@ def test_a_result_whose_specimen_now_fails_is_set_aside_out_of_the_result_patter
                             f"{out / 'S2.1.result.stale1.h5'}")
     assert "1 earlier result set aside" in r.stdout
     with open(out / "summary.csv", newline="") as fh:
-        wide = list(csv.DictReader(fh))
+        wide = list(csv.DictReader(without_comments(fh)))
     assert wide[0]["stale_result"] == "S2.1.result.stale1.h5"
     # failing once more: nothing left to set aside, nothing renamed
     r = run("batch", specs, "--mesh", MESH, "--out", out, "--json")
@@ -1315,7 +1423,7 @@ def test_results_of_specimens_not_in_this_batch_are_named_and_kept(batch_run, tm
     doc = json.loads((work / "summary.json").read_text())
     assert doc["specimens"][-1]["stale_result"] == "example1/S1.4.result.h5"
     with open(work / "summary.csv", newline="") as fh:
-        rows = [x for x in csv.DictReader(fh) if x["name"] == "example1/S1.4"]
+        rows = [x for x in csv.DictReader(without_comments(fh)) if x["name"] == "example1/S1.4"]
     assert [(x["status"], x["result"], x["stale_result"]) for x in rows] == [
         ("not from this batch", "", "example1/S1.4.result.h5")]
     assert "kept as it is" in rows[0]["reasons"]
@@ -1356,7 +1464,7 @@ def test_an_interrupted_batch_sets_aside_the_results_it_did_not_reach_and_keeps_
                                                         "S2.1.result.stale.h5")
     assert rows["example1/S1.4"]["status"] in ("ok", "check")
     with open(work / "summary.csv", newline="") as fh:
-        csv_rows = [x for x in csv.DictReader(fh) if x["name"] == "example2/S2.1"]
+        csv_rows = [x for x in csv.DictReader(without_comments(fh)) if x["name"] == "example2/S2.1"]
     assert [(x["status"], x["result"], x["stale_result"]) for x in csv_rows] == [
         ("not run", "", "example2/S2.1.result.stale.h5")]
     # the re-run identifies it again; the set-aside file is left alone
@@ -1415,7 +1523,7 @@ def test_batch_mesh_check_is_identify_mesh_check_per_specimen(tmp_path):
     plain = run("batch", specs, "--mesh", "6x6", "--out", out)
     assert plain.exit_code == 0, plain.output
     with open(out / "summary.csv", newline="") as fh:
-        assert tuple(next(csv.reader(fh))) == LONG_COLUMNS
+        assert tuple(next(csv.reader(without_comments(fh)))) == LONG_COLUMNS
     assert json.loads((out / "summary.json").read_text())["specimens"][0]["mesh_check"] is None
     assert read_result(out / "S1.1.result.h5").mesh_check is None
     r = run("batch", specs, "--mesh", "6x6", "--mesh-check", "--out", out, "--json")
@@ -1445,7 +1553,7 @@ def test_batch_mesh_check_is_identify_mesh_check_per_specimen(tmp_path):
     assert s["max_change_sigma"] == pytest.approx(10.06, abs=0.05) and s["fine_mesh"] == "12x12"
     assert json.loads((out / "summary.json").read_text())["specimens"][0]["mesh_check"] == s
     with open(out / "summary.csv", newline="") as fh:
-        recs = list(csv.DictReader(fh))
+        recs = list(csv.DictReader(without_comments(fh)))
     assert tuple(recs[0]) == LONG_COLUMNS + MESH_LONG_COLUMNS
     rec = next(x for x in recs if x["constant"] == "E1")
     assert float(rec["mesh_shift_half_width"]) == e1
@@ -1470,7 +1578,7 @@ def test_batch_mesh_check_is_identify_mesh_check_per_specimen(tmp_path):
     w = run("batch", specs, "--mesh", "6x6", "--mesh-check", "--out", out, "--wide")
     assert w.exit_code == 0
     with open(out / "summary.csv", newline="") as fh:
-        head = next(csv.reader(fh))
+        head = next(csv.reader(without_comments(fh)))
     assert head == csv_header(["IM7/977-2"], mesh_check=True)
     assert head[-3:] == ["mesh_max_change_sigma", "mesh_max_shift_half_width", "flagged"]
     # 12x12: fine enough

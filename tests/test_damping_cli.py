@@ -15,6 +15,7 @@ from laminid_cli.cli import cli
 from laminid_cli.forward import build_forward_model
 from laminid_cli.frf.store import write_frf_h5
 from laminid_cli.specimen import read_specimen
+from tests.clihelp import without_comments
 from tests.frf_synth import synth_frf
 
 S21 = "specimens/example2/S2.1.yaml"
@@ -166,7 +167,7 @@ def test_batch_rows_carry_the_loss_factors(frf_case, tmp_path):
     assert rows[0]["value"] == pytest.approx(eta["eta11"]["value"])
     # the long summary.csv has them after the elastic constants, and reads them back
     with open(tmp_path / "out" / "summary.csv", newline="") as fh:
-        recs = list(csv.DictReader(fh))
+        recs = list(csv.DictReader(without_comments(fh)))
     assert [x["constant"] for x in recs] == ["E1", "E2", "G12", "G13", "G23", "nu12", "eta11",
                                              "eta22", "eta12", "eta13", "eta23"]
     e11 = recs[6]

@@ -16,6 +16,7 @@ from laminid_cli.cli import cli
 from laminid_cli.identify import IdentifyOptions, identify
 from laminid_cli.uncertainty import (PROFILE_TOL, UncertaintyOptions, assess, frequency_sigma,
                                      profile_bound, uncertainty_of)
+from tests.clihelp import without_comments
 from tests.figs import result_page
 from tests.test_identify import CARBON, OFF_THICK, THICK, synthetic
 
@@ -551,7 +552,7 @@ def test_no_profile_names_no_far_end(tmp_path, monkeypatch):
                                    "--mesh", "8x8"])
     assert res.exit_code == 0, res.output
     with open(tmp_path / "out" / "summary.csv", newline="") as fh:
-        row = next(r for r in csv.DictReader(fh) if r["constant"] == "G13")
+        row = next(r for r in csv.DictReader(without_comments(fh)) if r["constant"] == "G13")
     assert row["profile"] == "none" and row["profile_far"] == "" and row["bound_limit"]
     doc = json.loads((tmp_path / "out" / "summary.json").read_text())
     entry = doc["specimens"][0]["intervals"][m]["G13"]

@@ -1694,3 +1694,85 @@ def test_a_mode_without_measured_damping_is_marked_on_the_damping_page(damped):
     assert not any(ln.get_gid() == "not-measured" for ln in a.get_lines())
     assert "no measured damping (null)" not in [t.get_text()
                                                 for t in a.get_legend().get_texts()]
+
+
+#: the largest band across the damping page that nothing is drawn in, as a fraction of the
+#: page's height: two lines of 9-point text (a single material's table left 0.093 blank
+#: between it and the status)
+DAMPING_PAGE_MAX_BLANK = 0.04
+
+
+def _drawn_bands(fig):
+    """{what: (y0, y1)} of what the page draws, in fractions of its height, once laid out:
+    each panel with its labels, legend and title, the loss-factor table, the texts above it
+    (its title, the advice and notes), the page's title and the status at its foot."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer = (fig.canvas if isinstance(fig.canvas, FigureCanvasAgg)
+                else FigureCanvasAgg(fig)).get_renderer()
+    fig.draw_without_rendering()
+    height = fig.bbox.height
+    boxes = {}
+    for a in fig.axes:
+        if a.axison:
+            boxes[a.get_gid()] = a.get_tightbbox(renderer)
+        for k, t in enumerate([*a.tables, a.title, *a.texts]):
+            if not hasattr(t, "get_text") or t.get_text().strip():
+                boxes[f"{a.get_gid()}-{t.get_gid() or k}"] = t.get_window_extent(renderer)
+    for k, t in enumerate([*fig.texts, fig._suptitle]):
+        if t is not None and t.get_text().strip():
+            boxes[f"page-{t.get_gid() or k}"] = t.get_window_extent(renderer)
+    return {key: (b.y0 / height, b.y1 / height) for key, b in boxes.items()}
+
+
+def _largest_blank(bands) -> float:
+    """The tallest band of the page (0 to 1) that none of ``bands`` covers."""
+    edges, blank = 0.0, 0.0
+    for y0, y1 in sorted(bands.values()):
+        blank = max(blank, y0 - edges)
+        edges = max(edges, y1)
+    return max(blank, 1.0 - edges)
+
+
+@pytest.mark.parametrize("monte_carlo", [False, True], ids=["plain", "monte-carlo"])
+def test_the_damping_page_has_no_blank_band_and_its_table_fits_its_rows(damped, monte_carlo,
+                                                                        monkeypatch):
+    """The damping page's table got a fixed 1.25 of 4.25 of the panels' and table's height
+    whatever its rows; a single material's 5 rows (S2.1) filled 0.11 of the page's height of
+    the 0.18 given, and a white band of 0.093 of the page stayed between the table and the
+    status. Now the table's row is sized to its rows: no band of the page is blank beyond
+    DAMPING_PAGE_MAX_BLANK, nothing overlaps (panels, the table's title and notes, the table,
+    the status; the legends under the panels and their axis label "mode", which met where the
+    panels were shorter) and every row is as tall as its text, a Monte Carlo range's two
+    lines too."""
+    from laminid_cli import report_damping
+
+    r = read_result(damped)
+    if monte_carlo:   # each free loss factor's range under its interval: two-line rows
+        d = dict(report_damping.read_damping(r))
+        d["monte_carlo"] = {"lower": 0.8 * d["value"], "upper": 1.3 * d["value"],
+                            "lower_at_zero": np.zeros(len(d["value"]), bool), "refits": 40}
+        monkeypatch.setattr(report_damping, "read_damping", lambda _: d)
+    [(_, fig)] = report_damping.damping_figures(r)
+    bands = _drawn_bands(fig)
+    assert _largest_blank(bands) < DAMPING_PAGE_MAX_BLANK, bands
+    panels = min(bands["modal-loss-factors"][0], bands["energy-shares"][0])
+    table = bands["loss-factors-0"]
+    title = bands["loss-factors-1"]
+    note = bands["loss-factors-loss-factor-note"]
+    status = bands["page-status"]
+    assert 0 < status[1] <= table[0] < table[1] <= note[0] < note[1] <= title[1] <= panels
+    assert bands["page-2"][1] <= 1.0                                       # the title
+    renderer = fig.canvas.get_renderer()
+    for gid in ("modal-loss-factors", "energy-shares"):    # the legend under the axis label
+        a = ax(fig, gid)
+        assert a.get_legend().get_window_extent(renderer).y1 < \
+            a.xaxis.label.get_window_extent(renderer).y0
+    t = ax(fig, "loss-factors").tables[0]
+    for cell in t.get_celld().values():
+        box, text = cell.get_window_extent(renderer), cell.get_text().get_window_extent(renderer)
+        assert box.y0 <= text.y0 and text.y1 <= box.y1, cell.get_text().get_text()
+        assert 0 <= box.x0 and box.x1 <= fig.bbox.width
+    intervals = [row[2] for row in cells(ax(fig, "loss-factors"))[1:]]
+    assert sum(x.count("\n") for x in intervals) == (len(r.damping.data["labels"])
+                                                     if monte_carlo else 0)

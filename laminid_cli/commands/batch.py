@@ -53,7 +53,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     interval, verdict, flag (at_bound, undetermined, fixed or prior: no plain identified
     value), the Monte Carlo range with --monte-carlo (mc_search_limit: its ends set by
     trials on a search limit), unit and status, then the ply loss factors where damping
-    was measured; --wide one row per specimen; summary.json a units map). Every result has a
+    was measured; --wide one row per specimen; both forms the run options, as summary.json's
+    "options", in '#' lines above the header; summary.json a units map). Every result has a
     status, ok or check with its reasons, shown in the table.
 
     A result whose input has not changed (sha256 of the specimen and its FRF file, the
@@ -64,7 +65,9 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     pattern, and named in the table and the summaries (stale_result); so is that of a
     specimen an interrupted batch (Ctrl-C) did not reach, while every finished result stays.
     Result files in OUT that no specimen of the inputs has (its file removed, or another
-    batch's) are kept and listed as 'not from this batch'. Exit code 0 when all
+    batch's) are kept and listed as 'not from this batch'. Specimen files that hold one
+    plate's measured data (a file copied under another name) are warned of, once per group,
+    and listed in summary.json ('duplicates'); both still run. Exit code 0 when all
     converged (status ok or check), 1 when any failed or did not converge, 2 for bad usage
     (no specimen found).
 
@@ -83,10 +86,12 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     from laminid_cli.atomic import write_bytes_atomic
     from laminid_cli.batch import (NOT_FROM_BATCH, SUMMARY_CSV, SUMMARY_EVERY, SUMMARY_JSON,
                                    BatchError, batch_report, check_fix_materials,
-                                   check_scheduler, discover_specimens, failed, foreign_results,
-                                   foreign_row, format_table, pending_row, plan_batch, printable,
-                                   remove_stale_parts, result_row, run_jobs, set_aside_result,
-                                   stored_hash, write_summary_csv, write_summary_json)
+                                   check_scheduler, discover_specimens, duplicate_specimens,
+                                   duplicate_text, failed, foreign_results, foreign_row,
+                                   format_table, load_specimen_docs, pending_row, plan_batch,
+                                   printable, remove_stale_parts, result_row, run_jobs,
+                                   set_aside_result, stored_hash, write_summary_csv,
+                                   write_summary_json)
 
     def _unfinished_row(job):
         """The row of a job this run did not finish (Ctrl-C, a lost scheduler)."""
@@ -119,7 +124,15 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     specimens = discover_specimens(inputs, exclude=[out])
     if not specimens:
         raise BatchError(f"no specimen file (*.yaml, *.yml) found in {', '.join(inputs)}")
-    check_fix_materials([p for p, _ in specimens], options)   # before anything is touched
+    docs = load_specimen_docs(p for p, _ in specimens)        # read once for both checks
+    check_fix_materials([p for p, _ in specimens], options, docs)  # before anything is touched
+    # one plate's data in two files (a copy under another name): said, recorded, still run
+    duplicates = [[specimens[i] for i in g]
+                  for g in duplicate_specimens([p for p, _ in specimens], docs)]
+    if not quiet():
+        for group in duplicates:
+            click.echo(f"warning: {duplicate_text(p for p, _ in group)}", err=True)
+    duplicates = [[name for _, name in group] for group in duplicates]
     created = not out.exists()
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -173,9 +186,11 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
         if not force and now - written[0] < SUMMARY_EVERY:
             return
         current = [rows.get(j.name) or pending_row(j) for j in jobs]
-        write_summary_csv(out / SUMMARY_CSV, current, wide=wide)
+        write_summary_csv(out / SUMMARY_CSV, current, wide=wide,
+                          options=options.as_dict())
         write_summary_json(out / SUMMARY_JSON,
-                           batch_report(current, options, out, running=True))
+                           batch_report(current, options, out, running=True,
+                                        duplicates=duplicates))
         written[0] = time.monotonic()
 
     try:
@@ -216,8 +231,10 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
             # not in this batch are named, not moved (another batch's may share --out).
             ordered = [rows.get(j.name) or _unfinished_row(j) for j in jobs]
             ordered += [foreign_row(p, out) for p in foreign_results(out, jobs)]
-            report = batch_report(ordered, options, out, interrupted=interrupted)
-            write_summary_csv(out / SUMMARY_CSV, ordered, wide=wide)
+            report = batch_report(ordered, options, out, interrupted=interrupted,
+                                  duplicates=duplicates)
+            write_summary_csv(out / SUMMARY_CSV, ordered, wide=wide,
+                              options=options.as_dict())
             write_summary_json(out / SUMMARY_JSON, report)
             # once more at the end: a killed run's worker may still have been exiting at the
             # start (its temporary file then counted as a live process's)
