@@ -233,7 +233,10 @@ def _frf_file(spec: Path) -> Path | None:
     try:
         doc = yaml.safe_load(spec.read_text(encoding="utf-8-sig"))
         name = doc["measured"]["frf_file"]
-    except (OSError, UnicodeDecodeError, yaml.YAMLError, KeyError, TypeError):
+    except (OSError, UnicodeDecodeError, yaml.YAMLError, KeyError, TypeError, ValueError,
+            OverflowError):
+        # (ValueError: a YAML value its constructor refuses, e.g. the date 2024-13-45: the
+        # specimen's own error, reported with its line when it runs)
         return None
     return spec.parent / str(name) if name else None
 
@@ -248,7 +251,7 @@ def load_specimen_docs(specs) -> list:
     for spec in specs:
         try:
             docs.append(yaml.safe_load(Path(spec).read_text(encoding="utf-8-sig")))
-        except (OSError, UnicodeDecodeError, yaml.YAMLError, ValueError):
+        except (OSError, UnicodeDecodeError, yaml.YAMLError, ValueError, OverflowError):
             docs.append(None)
     return docs
 

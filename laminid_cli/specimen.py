@@ -365,6 +365,12 @@ def _convert(node, loader, name: str, path: str, active: set) -> _Y:
             problem = getattr(exc, "problem", None) or " ".join(str(exc).split())
             raise SpecimenError(f"cannot read the value: {problem}", path=path,
                                 field=name or None, line=line) from exc
+        except (ValueError, OverflowError) as exc:
+            # PyYAML's constructors of implicit types raise these: a date that is not one
+            # (2024-13-45: "month must be in 1..12"), read as a date because it looks like one
+            raise SpecimenError(f"cannot read the value '{node.value}': {exc} (YAML reads it "
+                                "as a date or time; quote it to keep it as text)", path=path,
+                                field=name or None, line=line) from exc
         return _Y(value, line, name)
     active = active | {id(node)}
     if isinstance(node, yaml.SequenceNode):
@@ -376,7 +382,12 @@ def _convert(node, loader, name: str, path: str, active: set) -> _Y:
         if not isinstance(key_node, yaml.ScalarNode):
             raise SpecimenError("a key must be a plain name, not a list or mapping", path=path,
                                 field=name or None, line=key_line)
-        key = loader.construct_object(key_node, deep=True)
+        try:
+            key = loader.construct_object(key_node, deep=True)
+        except (yaml.YAMLError, ValueError, OverflowError) as exc:
+            raise SpecimenError(f"cannot read the key '{key_node.value}': "
+                                f"{getattr(exc, 'problem', None) or exc}", path=path,
+                                field=name or None, line=key_line) from exc
         key = "null" if key is None else str(key)
         if key in out:
             raise SpecimenError(f"key '{key}' appears twice (first on line {out[key].line})",

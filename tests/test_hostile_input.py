@@ -87,6 +87,25 @@ def test_yaml_tags_are_refused(tmp_path, value, shown):
     assert code == 2 and f"{path}:{line}: YAML tag '{shown}' is not allowed" in out
 
 
+@pytest.mark.parametrize("text, where", [
+    ("date: 2024-13-45\n", "field 'date': cannot read the value '2024-13-45': month must be "
+                            "in 1..12 (YAML reads it as a date or time; quote it"),
+    ("2024-02-30: x\n", "cannot read the key '2024-02-30': day is out of range")])
+def test_a_date_yaml_cannot_make_is_refused_with_its_line_not_a_traceback(tmp_path, text,
+                                                                          where):
+    """A value that looks like a YAML date but is none (month 13, 30 February) made PyYAML's
+    constructor raise ValueError: identify, modes and batch printed a Python traceback."""
+    code, out, path = modes_error(tmp_path, text + BASE)
+    assert code == 2 and f"{path}:1" in out and where in out, out
+    d = tmp_path / "batch"
+    d.mkdir()
+    (d / "plate.yaml").write_text(text + BASE, encoding="utf-8")
+    r = run("batch", d, "--mesh", "4x4", "--out", tmp_path / "out", "--json")
+    assert "Traceback" not in r.output, r.output
+    assert r.exception is None or isinstance(r.exception, SystemExit), repr(r.exception)
+    assert r.exit_code == 1 and where in r.output, r.output
+
+
 def test_huge_integer_frequency_is_refused_not_overflow_error(tmp_path):
     code, out, path = modes_error(tmp_path, BASE.replace("125.05,", "1" + "0" * 400 + ","))
     assert code == 2
