@@ -16,13 +16,22 @@ triangular solve counts as half a solve pair). Single-threaded BLAS, as the CLI.
 identified with them fixed, from the first identification's basis (as assess() does); the
 ratio is still to the one identification with every constant free.
 
+``--cli N``: also the whole commands as a user runs them, N times each, alternated:
+``laminid identify SPEC --json --no-output`` against ``laminid identify SPEC --monte-carlo
+TRIALS -j 2 --json --no-output`` (from bytecode; the mesh the specimen file gives), their
+median wall times and ratio.
+
 Run: .venv/bin/python benchmarks/bench_uncertainty.py [--trials 200] [--mesh 12x12]
-     [--routes reduced,identify] [--jobs 1,2] [--fix LIST] [SPEC]
+     [--routes reduced,identify] [--jobs 1,2] [--fix LIST] [--cli N] [SPEC]
 """
 
 from _timing import median_time  # first: sets single-threaded BLAS
 
 import argparse  # noqa: E402
+import os  # noqa: E402
+import statistics  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
@@ -46,7 +55,11 @@ def main():
                     help="trials of the (slow) identify route; the ratio is scaled to --trials")
     ap.add_argument("--jobs", default="1,2")
     ap.add_argument("--fix", default="", help="constants fixed for the trials, e.g. G13,G23,nu12")
+    ap.add_argument("--cli", type=int, default=0, metavar="N",
+                    help="also time the whole commands N times each, alternated")
     a = ap.parse_args()
+    if a.cli:
+        cli_ratio(a.spec, a.trials, a.cli)
     mesh = tuple(int(v) for v in a.mesh.split("x"))
     spec = read_specimen(a.spec)
     fm = bending_model(build_forward_model(spec, mesh))
@@ -90,6 +103,26 @@ def main():
                   f"{scaled / t_id:6.1f} x one identification; converged "
                   f"{mc.n_converged}, re-identified {mc.n_reidentified}, eigenvalue bound "
                   f"{mc.trial_bound:.1e}{per}", flush=True)
+
+
+def cli_ratio(spec, trials: int, repeat: int):
+    """The whole commands, alternated, from bytecode (as bench_identify.cli_ratio)."""
+    subprocess.run([sys.executable, "-m", "compileall", "-q", str(ROOT / "laminid_cli")],
+                   check=True, stdout=subprocess.DEVNULL)
+    base = [sys.executable, "-m", "laminid_cli", "identify", str(spec), "--json",
+            "--no-output"]
+    cmds = {"identify": base, "monte-carlo": base + ["--monte-carlo", str(trials), "-j", "2"]}
+    times = {k: [] for k in cmds}
+    for _ in range(repeat):
+        for k, c in cmds.items():
+            t = time.perf_counter()
+            subprocess.run(c, check=True, stdout=subprocess.DEVNULL, env=dict(os.environ),
+                           cwd=ROOT)
+            times[k].append(time.perf_counter() - t)
+    ti, tm = (statistics.median(times[k]) for k in cmds)
+    print(f"CLI: identify --json --no-output {ti:.2f} s, with --monte-carlo {trials} -j 2 "
+          f"{tm:.2f} s: {tm / ti:.2f} x (median of {repeat}, alternated; each run: "
+          + ", ".join(f"{a:.2f}/{b:.2f}" for a, b in zip(*times.values())) + ")", flush=True)
 
 
 if __name__ == "__main__":
