@@ -205,9 +205,9 @@ class ReducedBasis:
         # V is then even (+1) or odd (-1) under it, and the reduced eigenproblem splits into
         # the two classes (eig); None: no split (parity 0). For the Monte Carlo trials'
         # basis (uncertainty.TrialModel), whose ~1600 eigenproblems per 200 trials it makes
-        # ~40 % cheaper (200 trials of S1.1 12x12: CPU -20 %); not for an identification's,
-        # whose ~90 eigenproblems gain less than its enrichments' parity split costs
-        # (S1.1 12x12: 0.21-0.23 against 0.19-0.20 s)
+        # ~40 % cheaper (200 trials of S1.1 12x12: CPU -17 %); not for an identification's,
+        # whose ~90 eigenproblems gain less than the split costs its additions (S1.1 12x12:
+        # 0.22-0.24 against 0.19-0.22 s)
         self.symmetry = plate.rotation_symmetry() if split else None
         self.parity = np.zeros(0)
         #: identity of the vectors: the basis only grows (its first columns stay) until a
@@ -312,18 +312,19 @@ class ReducedBasis:
             kept = [self._independent(W[:, c], MW[:, c]) for c in classes]
             parity = np.concatenate([np.full(w.shape[1], parity[c][0])
                                      for w, c in zip(kept, classes)])
-            W = self._purified(np.hstack(kept), parity)
+            W = np.hstack(kept)
         if W.shape[1] == 0:
             return 0
+        W = self._purified(W, parity)
         MW = self.M @ W
         classes = [parity == c for c in np.unique(parity)]
         for _ in range(2):                                   # clean up once more
             self._project_out(W, MW)
             if len(classes) == 1:
                 W, MW = self._orthonormalised(W, MW)
-                continue
-            for c in classes:
-                W[:, c], MW[:, c] = self._orthonormalised(W[:, c], MW[:, c])
+            else:
+                for c in classes:
+                    W[:, c], MW[:, c] = self._orthonormalised(W[:, c], MW[:, c])
             W, MW = self._purified(W, parity), self._purified(MW, parity)
         k = W.shape[1]
         r = self.size
@@ -351,8 +352,9 @@ class ReducedBasis:
         return k
 
     def _purified(self, W: np.ndarray, parity: np.ndarray) -> np.ndarray:
-        """Each column of W projected on its class, ``(w + p S w) / 2`` (p its parity; the
-        columns of parity 0 as they are); also right for M W, since M commutes with S.
+        """Each column of W projected on its class, ``(w + p S w) / 2`` (p its parity, +1 or
+        -1 in a split basis); also right for M W, since M commutes with S. W itself where the
+        basis is not split (:attr:`symmetry` None, parity 0).
 
         The steps of :meth:`_add` that scale nearly dependent directions up (the Gram
         matrix's small eigenvalues, down to DROP_TOL^2) scale their round-off of the other
