@@ -1,6 +1,7 @@
 """Report page of the ply loss factors (the ``/damping`` group of a result file).
 
-One page (A4 landscape):
+One page (A4 landscape), and a second where the table does not fit under the panels (two
+materials with Monte Carlo ranges under a long status: :func:`damping_pages`):
 
 - measured modal loss factor eta_i = 2 zeta_i of each mode (%) with +-1 standard deviation
   error bars, beside the model's sum of energy share x ply loss factor; modes left out of the
@@ -52,8 +53,9 @@ def read_damping(result) -> dict | None:
 
 
 def damping_figures(result) -> list[tuple[str, object]]:
-    """[("damping", Figure)] for a result (path or ResultFile) with /damping, else []; the
-    page ends with the result's status line, as every other page of the report."""
+    """[("damping", Figure)] for a result (path or ResultFile) with /damping, else []; with
+    ("damping-2", Figure) ... where the loss-factor table continues (:func:`damping_pages`).
+    Each page ends with the result's status line, as every other page of the report."""
     from laminid_cli.report import _status_banner
     from laminid_cli.resultfile import ResultFile, read_result
 
@@ -61,7 +63,8 @@ def damping_figures(result) -> list[tuple[str, object]]:
     d = read_damping(r)
     if d is None:
         return []
-    return [("damping", damping_page(d, banner=lambda fig: _status_banner(fig, r)))]
+    figs = damping_pages(d, banner=lambda fig: _status_banner(fig, r))
+    return [("damping" if k == 0 else f"damping-{k + 1}", fig) for k, fig in enumerate(figs)]
 
 
 def loss_factor_rows(d: dict) -> list[list[str]]:
@@ -126,7 +129,7 @@ def loss_factor_table(ax, head, rows, col_widths, fill: bool = False):
     heights = row_heights(head, rows)
     for (i, j), cell in table.get_celld().items():    # the look of the other report tables
         # filling the axes: each row its share of it (the rows of a table sized to them
-        # by damping_page come out at TABLE_ROW_IN a line); else a row of n lines n rows tall
+        # by damping_pages come out at TABLE_ROW_IN a line); else a row of n lines n rows tall
         cell.set_height(heights[i] / sum(heights) if fill else cell.get_height() * lines[i])
         cell.set_linewidth(0.3)
         if i == 0:
@@ -135,17 +138,26 @@ def loss_factor_table(ax, head, rows, col_widths, fill: bool = False):
         elif j == last:
             cell.set_facecolor(_verdict_color(rows[i - 1][last].replace("held at 0",
                                                                          "at bound")))
-    return (NOT_DETERMINED_ADVICE if any(row[last].startswith("not determined")
+    return _advice(head, rows)
+
+
+def _advice(head, rows) -> str:
+    """:data:`NOT_DETERMINED_ADVICE` when a row's verdict (the last column) says a loss
+    factor is not determined, else ""."""
+    return (NOT_DETERMINED_ADVICE if any(row[len(head) - 1].startswith("not determined")
                                          for row in rows) else "")
 
 
 #: height of a one-line row of the damping page's loss-factor table (in): 8-point text with
 #: the air of the other report tables (a two-line row is row_heights' 1.7 of it)
 TABLE_ROW_IN = 0.17
-#: the most of the height of the panels and the table together that the table takes, its
-#: rows squeezed beyond (hybrid-CM's two materials with Monte Carlo ranges under a status of
-#: 14 lines: a page too full, whose table ran over the status before)
-TABLE_MAX_SHARE = 0.6
+#: how much taller than its y-label a panel of the damping page is at the least (in): the
+#: label ("share of the mode's strain energy (%)", 2.65 in at 10 points) stays within the
+#: panel's height. Rows of the table that would leave the panels less continue on the next
+#: page (hybrid-CM's two materials with Monte Carlo ranges under a status of 14 lines: their
+#: rows, squeezed to 0.55 of their text's height, ran over each other, and the label of a
+#: 1.1 in panel ran 0.3 in off the top of the page)
+PANEL_AIR_IN = 0.2
 
 
 #: how far under a panel's bottom edge its legend starts (points): under the tick labels and
@@ -164,46 +176,71 @@ def _below_xlabel(fig, ax):
     return ax.transAxes + ScaledTranslation(0, -LEGEND_DROP_PT / 72, fig.dpi_scale_trans)
 
 
-def fit_table_row(fig, gs, ax_top, ax_table, table_in: float) -> None:
-    """Set the heights of the rows of ``gs`` (the panels' ``ax_top`` over the table's
-    ``ax_table``) so that the table's axes is ``table_in`` inches tall (at most
-    :data:`TABLE_MAX_SHARE` of the two) and the panels take the rest of the page.
+class _Sheet:
+    """A damping page laid out once before its table is drawn: its two grid rows' axes
+    (``first`` over ``second``; the table's axes is one of them, or None on a page of panels
+    alone) and ``room``, the height (in) the table's row can take.
 
-    Why: the table's row had a fixed share of the page (1.25 of 4.25) while the table is as
-    tall as its rows; a table of a single material (5 rows) filled 0.11 of the page's height
-    of the 0.18 its row got, and left a white band of 0.09 of the page between it and the
-    status under it. Constrained layout keeps the
-    ratio of the rows' axes heights exactly, but their sum is only known once the page is
-    laid out (the margins of titles, labels, the legends under the panels, the status at the
-    foot): so it is laid out once (0.15 s), measured and given the ratio that makes the
-    table's height ``table_in`` (the margins do not depend on the ratio: the legends under
-    the panels hang a fixed distance under them, :func:`_below_xlabel`)."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    Why laid out first: the table is as tall as its rows (:data:`TABLE_ROW_IN` a line) and
+    the page's margins (titles, labels, the legends under the panels, the notes over the
+    table, the status at the foot) are only known once the page is laid out; constrained
+    layout then keeps the ratio of the rows' axes heights exactly and their sum (the
+    margins do not depend on the ratio: the legends hang a fixed distance under the panels,
+    :func:`_below_xlabel`). So the page is laid out (0.15 s), measured, and the rows given
+    the ratio that makes the table's axes as tall as its rows (:meth:`fit`). Before, the
+    table's row had a fixed 1.25 of 4.25 of the height (a single material's 5 rows left a
+    white band of 0.09 of the page), then at most 0.6 of it with its rows squeezed beyond."""
 
-    if not isinstance(fig.canvas, FigureCanvasAgg):
-        FigureCanvasAgg(fig)
-    fig.draw_without_rendering()                      # lays the page out
-    both = ax_top.get_position().height + ax_table.get_position().height
-    want = min(table_in / fig.get_figheight(), TABLE_MAX_SHARE * both)
-    gs.set_height_ratios([both - want, want])
+    def __init__(self, fig, gs, first, second, table_ax, panels=()):
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+        self.fig, self.gs, self.first, self.second = fig, gs, first, second
+        self.table_ax = table_ax
+        if table_ax is None:
+            self.room = 0.0
+            return
+        if not isinstance(fig.canvas, FigureCanvasAgg):
+            FigureCanvasAgg(fig)
+        fig.draw_without_rendering()                  # lays the page out
+        self.both = first.get_position().height + second.get_position().height
+        # the panels at least as tall as their y-labels (the longest), with some air
+        renderer = fig.canvas.get_renderer()
+        least = max((a.yaxis.label.get_window_extent(renderer).height / fig.dpi + PANEL_AIR_IN
+                     for a in panels), default=0.0)
+        self.room = self.both * fig.get_figheight() - least
+
+    def fit(self, table_in: float) -> None:
+        """Give the table's row ``table_in`` inches, the other row the rest."""
+        want = table_in / self.fig.get_figheight()
+        ratios = [self.both - want, want]
+        self.gs.set_height_ratios(ratios if self.table_ax is self.second else ratios[::-1])
 
 
-def damping_page(d: dict, banner=None):
-    """The damping page of :func:`read_damping`'s ``d``; ``banner(fig)`` puts the result's
-    status at its foot (laminid_cli.report._status_banner) before the page's rows are sized
-    to the room that leaves (:func:`fit_table_row`)."""
-    import matplotlib
+def _table_words(fig, ax_t, title: str, words):
+    """The title of the loss-factor table on ``ax_t`` and, over the table, ``words`` (the
+    advice and the result's notes on the loss factors), wrapped to the page's width: their
+    text, or None without words."""
+    import textwrap
 
-    matplotlib.use("Agg", force=True)
-    from matplotlib.figure import Figure
+    from laminid_cli.report import _wrap_width
 
-    from laminid_cli.report import row_heights
+    ax_t.set_title(title, fontsize=9)
+    if not words:
+        return None
+    # above the table: under it, a table of two materials ran over the words
+    lines = [ln for w in words for ln in textwrap.wrap(w, _wrap_width(fig, 8),
+                                                        break_on_hyphens=False)]
+    # 2 points over the table, which fills its axes up to their top
+    note = ax_t.annotate("\n".join(lines), (0.5, 1.0), xycoords="axes fraction",
+                         xytext=(0, 2), textcoords="offset points", ha="center",
+                         va="bottom", fontsize=8, gid="loss-factor-note")
+    ax_t.set_title(title + "\n" * len(lines), fontsize=9)
+    return note
 
-    fig = Figure(figsize=A4_LANDSCAPE, layout="constrained")
-    gs = fig.add_gridspec(2, 2, height_ratios=[3, 1.25])
-    ax_m = fig.add_subplot(gs[0, 0])
-    ax_s = fig.add_subplot(gs[0, 1])
-    ax_t = fig.add_subplot(gs[1, :])
+
+def _panels(fig, ax_m, ax_s, d) -> None:
+    """The two panels of the damping page: measured vs model modal loss factor of each mode
+    on ``ax_m``, the strain-energy shares on ``ax_s``."""
     ax_m.set_gid("modal-loss-factors")
     ax_s.set_gid("energy-shares")
     meas = np.asarray(d["measured_loss_factor"], float) * 100
@@ -261,41 +298,151 @@ def damping_page(d: dict, banner=None):
     ax_s.legend(loc="upper center", bbox_to_anchor=(0.5, 0), ncol=3, fontsize=8,
                 frameon=False, bbox_transform=_below_xlabel(fig, ax_s))
 
-    # table of loss factors
+
+def _page_title(d: dict, more: str = "") -> str:
+    name = d.get("specimen", "")
+    return (f"{name}: damping (modal strain energy)" if name else "damping") + more
+
+
+def _panels_sheet(d, banner, table_title=None, words=()) -> _Sheet:
+    """The damping page's panels over the loss-factor table's axes (titled ``table_title``,
+    with ``words`` over it), laid out; without ``table_title`` the panels alone, the table
+    on the next page."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=A4_LANDSCAPE, layout="constrained")
+    if table_title is None:
+        gs = fig.add_gridspec(1, 2)
+        ax_m, ax_s = fig.add_subplot(gs[0, 0]), fig.add_subplot(gs[0, 1])
+        ax_t = None
+    else:
+        gs = fig.add_gridspec(2, 2, height_ratios=[3, 1.25])
+        ax_m, ax_s = fig.add_subplot(gs[0, 0]), fig.add_subplot(gs[0, 1])
+        ax_t = fig.add_subplot(gs[1, :])
+        ax_t.axis("off")
+        ax_t.set_gid("loss-factors")
+    _panels(fig, ax_m, ax_s, d)
+    if ax_t is not None:
+        _table_words(fig, ax_t, table_title, words)
+    fig.suptitle(_page_title(d, "" if ax_t is not None else
+                             "; the ply loss factors on the next page"), fontsize=11)
+    if banner is not None:
+        banner(fig)
+    return _Sheet(fig, gs, ax_m, ax_t, ax_t, panels=(ax_m, ax_s))
+
+
+#: the left and right margins of the table on a page of the table alone (fraction of the
+#: page's width): about those of the table under the panels (0.037 and 0.06 on hybrid-CM's)
+TABLE_PAGE_INSET = 0.04
+
+
+def _table_sheet(d, banner, table_title: str, words=()) -> _Sheet:
+    """A page of the loss-factor table alone (the rows the damping page has no room for):
+    the table's axes at the top (titled ``table_title``, ``words`` over it), an empty row
+    under it, laid out."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=A4_LANDSCAPE, layout="constrained")
+    gs = fig.add_gridspec(2, 1, height_ratios=[1, 1])
+    ax_t = fig.add_subplot(gs[0])
+    ax_t.axis("off")
+    ax_t.set_gid("loss-factors")
+    rest = fig.add_subplot(gs[1], xticks=[], yticks=[])
+    rest.axis("off")
+    rest.set_gid("under-the-table")
+    note = _table_words(fig, ax_t, table_title, words)
+    if note is not None:    # as wide as the page: the layout narrowed the table to it
+        note.set_in_layout(False)        # (the title's empty lines keep its height)
+    fig.suptitle(_page_title(d, ", continued"), fontsize=11)
+    if banner is not None:
+        banner(fig)
+    # the table inset from the page's edges as under the panels (an axes without its axis
+    # lines gets no margin: the table ran from edge to edge)
+    engine = fig.get_layout_engine()
+    _, bottom, _, height = engine.get()["rect"]
+    engine.set(rect=(TABLE_PAGE_INSET, bottom, 1 - 2 * TABLE_PAGE_INSET, height))
+    return _Sheet(fig, gs, ax_t, rest, ax_t)
+
+
+def _material_ends(rows) -> list[int]:
+    """The numbers of rows after which the material of the rows' labels changes, and the
+    last: where the table may continue on the next page without splitting a material."""
+    mats = [row[0].rsplit(".", 1)[0] for row in rows]
+    return [k for k in range(1, len(rows) + 1) if k == len(rows) or mats[k] != mats[k - 1]]
+
+
+def damping_pages(d: dict, banner=None) -> list:
+    """The damping page of :func:`read_damping`'s ``d`` and, when its loss-factor table does
+    not fit under the panels with its rows as tall as their lines (:data:`TABLE_ROW_IN`) and
+    the panels as tall as their y-labels (:data:`PANEL_AIR_IN`), the pages it continues on
+    ("ply loss factors (continued)", the header repeated; a page takes whole materials where
+    it can, and the page of the table's end the advice and notes over the table; when not one
+    material fits under the panels, the whole table is on the next page). ``banner(fig)``
+    puts the result's status at the foot of each (laminid_cli.report._status_banner) before
+    its rows are sized to the room that leaves."""
+    from laminid_cli.report import row_heights
+
     conf = float(d.get("confidence", 0.95)) * 100
     rows = loss_factor_rows(d)
     head = ["loss factor", "value (%)", f"{conf:.0f} % interval (%)", "verdict"]
-    advice = loss_factor_table(ax_t, head, rows, [0.28, 0.14, 0.22, 0.36], fill=True)
+    widths = [0.28, 0.14, 0.22, 0.36]
     s2 = float(d.get("s2", np.nan))
     mc = d.get("monte_carlo") or {}
-    ax_t.set_title(f"ply loss factors, modal strain energy method (s\u00b2 = {s2:.3g}, "
-                   f"{int(d.get('dof', 0))} degrees of freedom; damping sigma: "
-                   f"{d.get('sigma_source', '') or '-'})"
-                   + (f"\nMonte Carlo: {int(mc['refits'])} trials refitted the loss factors at "
-                      f"their own constants ({conf:.0f} % of them in the range; * an end at "
-                      "the bound 0)" if "refits" in mc else ""), fontsize=9)
+    key = (f"\nMonte Carlo: {int(mc['refits'])} trials refitted the loss factors at their own "
+           f"constants ({conf:.0f} % of them in the range; * an end at the bound 0)"
+           if "refits" in mc else "")
+    title = (f"ply loss factors, modal strain energy method (s\u00b2 = {s2:.3g}, "
+             f"{int(d.get('dof', 0))} degrees of freedom; damping sigma: "
+             f"{d.get('sigma_source', '') or '-'})" + key)
     # the result's notes on the loss factors (a free one leaning on an elastic constant the
     # modes do not determine is known less well than its interval says: the terminal's note)
     notes = str(d.get("notes", "") or "").strip()
-    words = [w for w in (advice, f"note: {notes}" if notes else "") if w]
-    if words:       # above the table: under it, a table of two materials ran over the words
-        import textwrap
+    words = [w for w in (_advice(head, rows), f"note: {notes}" if notes else "") if w]
 
-        from laminid_cli.report import _wrap_width
+    def height(part):
+        return TABLE_ROW_IN * sum(row_heights(head, part))
 
-        lines = [ln for w in words for ln in textwrap.wrap(w, _wrap_width(fig, 8),
-                                                            break_on_hyphens=False)]
-        # 2 points over the table, which fills its axes up to their top
-        ax_t.annotate("\n".join(lines), (0.5, 1.0), xycoords="axes fraction",
-                      xytext=(0, 2), textcoords="offset points", ha="center", va="bottom",
-                      fontsize=8, gid="loss-factor-note")
-        ax_t.set_title(ax_t.get_title() + "\n" * len(lines), fontsize=9)
-    name = d.get("specimen", "")
-    fig.suptitle(f"{name}: damping (modal strain energy)" if name else "damping", fontsize=11)
-    if banner is not None:
-        banner(fig)
-    fit_table_row(fig, gs, ax_m, ax_t, TABLE_ROW_IN * sum(row_heights(head, rows)))
-    return fig
+    def draw(sheet, part):
+        loss_factor_table(sheet.table_ax, head, part, widths, fill=True)
+        sheet.fit(height(part))
+        return sheet.fig
+
+    sheet = _panels_sheet(d, banner, title, words)
+    if height(rows) <= sheet.room:                   # the page as it always was
+        return [draw(sheet, rows)]
+    nxt = "\ncontinued on the next page" + (", with the notes on the loss factors" if words
+                                             else "")
+    sheet = _panels_sheet(d, banner, title + nxt)
+    k = max((e for e in _material_ends(rows)[:-1] if height(rows[:e]) <= sheet.room),
+            default=0)
+    if k == 0:
+        figs = [_panels_sheet(d, banner).fig]
+    else:
+        figs = [draw(sheet, rows[:k])]
+    rest = rows[k:]
+    while rest:
+        top = title if k == 0 and len(figs) == 1 else "ply loss factors (continued)" + key
+        sheet = _table_sheet(d, banner, top, words)
+        if height(rest) <= sheet.room:
+            figs.append(draw(sheet, rest))
+            break
+        sheet = _table_sheet(d, banner, top + nxt)
+        ends = [e for e in _material_ends(rest)[:-1] if height(rest[:e]) <= sheet.room] or \
+            [e for e in range(1, len(rest)) if height(rest[:e]) <= sheet.room] or [1]
+        figs.append(draw(sheet, rest[:max(ends)]))
+        rest = rest[max(ends):]
+    return figs
+
+
+def damping_page(d: dict, banner=None):
+    """The (first) damping page of :func:`read_damping`'s ``d`` (:func:`damping_pages`)."""
+    return damping_pages(d, banner)[0]
 
 
 # ----------------------------------------------------------------------------------------------

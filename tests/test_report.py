@@ -1776,3 +1776,168 @@ def test_the_damping_page_has_no_blank_band_and_its_table_fits_its_rows(damped, 
     intervals = [row[2] for row in cells(ax(fig, "loss-factors"))[1:]]
     assert sum(x.count("\n") for x in intervals) == (len(r.damping.data["labels"])
                                                      if monte_carlo else 0)
+
+
+#: the status of hybrid-CM (6x6, --monte-carlo 20, synthetic damping): three constants at their
+#: search limits, eight undetermined, loss factors held at 0 and not determined; 14 lines at the
+#: foot of the page
+HYBRID_STATUS = (
+    ("at_bound", "glass.E2: at its bound — not identified: stopped on the search's upper "
+     "limit, E2 = E1 (59.9 GPa); the fit is as good with E2 anywhere below the limit down to "
+     "0.9 GPa, the end of the scan: the initial value / 5 (chi2 rises by 2.8; 4.84 would "
+     "reject it at 95 %; not tried beyond): the modes do not determine E2 there (1 of its 2 "
+     "identifications stopped at 100 evaluations: its rise is an upper bound, enough to say "
+     "the fit does not reject that value); glass.G12: at its bound — not identified: stopped "
+     "on the search's lower limit, G12 = 0.0001 E1 (0.00614 GPa at the optimum); carbon.nu12: "
+     "at its bound — not identified: stopped on the search's upper limit, nu12 = 0.95; the fit "
+     "is as good with nu12 anywhere below the limit down to 0, the end of the scan: a negative "
+     "nu12 is no fibre ply's (chi2 rises by 0.02; 4.84 would reject it at 95 %; not tried "
+     "beyond): the modes do not determine nu12 there; loss factors held at their lower limit "
+     "0 (the measured damping asks for less than none in these terms): glass.eta12, "
+     "glass.eta23, carbon.eta22, carbon.eta23"),
+    ("undetermined", "not determined by these modes (95 % half-width above 30 % of the value): "
+     "glass.E1 (±12x), glass.G13 (±21x), glass.G23 (±20x), glass.nu12 (±93x), carbon.E1 "
+     "(±203 %), carbon.E2 (±242x), carbon.G13 (±369x), carbon.G23 (±104x); loss factors not "
+     "determined by the measured damping (95 % half-width above 30 % of the value): "
+     "glass.eta22 (±183 %), glass.eta13 (Monte Carlo ±273x, at least ±157x; interval ±19 %), "
+     "carbon.eta11 (±138 %), carbon.eta12 (Monte Carlo ±54 %, at least ±53 %; interval "
+     "±13 %), carbon.eta13 (Monte Carlo ±244 %, at least ±39 %; interval ±18 %)"))
+
+
+def _hybrid_damping(n_modes: int = 20) -> dict:
+    """read_damping's dict of a two-material plate (hybrid-CM's glass and carbon, 20 modes)
+    with a Monte Carlo of 20 trials: ten free loss factors, each row two lines (its range under
+    its interval), three verdicts set by the range (two-line verdicts), the result's long
+    note on the loss factors."""
+    mats, terms = ("glass", "carbon"), ("11", "22", "12", "13", "23")
+    labels = [f"{m}.eta{t}" for m in mats for t in terms]
+    value = np.array([0.0063, 0.0155, 0.0, 0.105, 0.0, 0.0044, 0.0, 0.0048, 1.46, 0.0])
+    at_bound = value == 0
+    upper = np.array([0.0072, 0.044, 1.0e4, 0.125, 2.5, 0.0104, 52.6, 0.0054, 1.73, 16.2])
+    shares = np.random.default_rng(3).dirichlet(np.ones(10), n_modes)
+    eta = np.linspace(0.006, 0.0136, n_modes)
+    verdict = ["weak", "not determined by the measured damping", "at bound — not identified",
+               "not determined by the measured damping (Monte Carlo)",
+               "at bound — not identified", "not determined by the measured damping",
+               "at bound — not identified",
+               "not determined by the measured damping (Monte Carlo)",
+               "not determined by the measured damping (Monte Carlo)",
+               "at bound — not identified"]
+    notes = ("glass.eta13, carbon.eta13: less than 1% of any fitted mode's strain energy is in "
+             "these terms (transverse shear of a thin plate), so the modal damping cannot "
+             "determine them; fix them (--fix eta13=0.01,eta23=0.01) to free the others; "
+             + ", ".join(labels) + ": the loss factors' intervals take the elastic constants "
+             "as identified, and carbon.E1, carbon.E2, carbon.G13, carbon.G23, carbon.nu12, "
+             "glass.E1, glass.E2, glass.G12, glass.G13, glass.G23, glass.nu12 are not "
+             "determined by the modes (or fixed because of it): these loss factors are known "
+             "less well than the interval says; the Monte Carlo range counts the free "
+             "constants' doubt (each trial refits the loss factors at its own constants)")
+    return {"measured_loss_factor": eta, "measured_sigma": 0.05 * eta,
+            "model_loss_factor": 1.02 * eta, "used": np.ones(n_modes, bool),
+            "energy_shares": shares, "share_labels": [f"{m}.{t}" for m in mats for t in terms],
+            "labels": labels, "value": value, "lower": 0.85 * value, "upper": upper,
+            "at_bound": at_bound, "verdict": verdict, "confidence": 0.95, "s2": 0.917,
+            "dof": 14, "sigma_source": "5% of each damping ratio (none given)",
+            "monte_carlo": {"lower": 0.0 * value, "upper": 1.2 * upper,
+                            "lower_at_zero": np.ones(10, bool), "refits": 20,
+                            "inner_lower": 0.0 * value, "inner_upper": 0.9 * upper},
+            "verdict_from_monte_carlo": ["glass.eta13", "carbon.eta12", "carbon.eta13"],
+            "fixed": "", "notes": notes, "specimen": "hybrid-CM"}
+
+
+def _drawn_texts(fig):
+    """The texts ``fig`` draws: visible, not empty, not the tick labels of an axes drawn
+    without its axis (a table's)."""
+    from matplotlib.axis import Axis
+    from matplotlib.text import Text
+
+    def walk(artist, axis_off):
+        for child in artist.get_children():
+            if not child.get_visible() or (axis_off and isinstance(child, Axis)):
+                continue
+            if isinstance(child, Text) and child.get_text().strip():
+                yield child
+            yield from walk(child, axis_off or not getattr(child, "axison", True))
+
+    return list(walk(fig, False))
+
+
+@pytest.mark.parametrize("reasons", [2, 1], ids=["hybrid-status", "one-reason"])
+def test_a_damping_table_too_long_for_its_page_continues_on_the_next(damped, reasons,
+                                                                     monkeypatch, tmp_path):
+    """hybrid-CM (two materials, 20 modes) with a Monte Carlo of 20 trials under its 14-line status
+    (6x6): the table's ten two-line rows got at most 0.6 of the panels' and table's height and
+    were squeezed (their text 1.82 times as tall as their rows: the Monte Carlo ranges ran over
+    the next row's intervals), and the energy shares' panel, 1.08 in tall, had its 2.65 in
+    y-label run 0.30 in off the top of the page (this copy of its table and status over S2.1's
+    result: 1.64 times, a 1.20 in panel, 0.24 in). Now the rows that do not fit at their height
+    under panels as tall as their y-labels continue on a second damping page, a material's rows
+    together: with that status the whole table (page 1 is the panels, its title saying where the
+    table is), with one of its reasons carbon's rows ("ply loss factors (continued)", the header
+    and the key to the ranges' "*" repeated). On every page every row is as tall as its text,
+    every text is inside the page, the table is between the titles and the status, each panel is
+    as tall as its y-label, the legends are clear of the axis labels, the two pages list every
+    row once, in order, and the advice and notes on the loss factors are over the table's end."""
+    from laminid_cli import report_damping
+    from laminid_cli.status import Reason, ResultStatus
+
+    d = _hybrid_damping()
+    r = dataclasses.replace(read_result(damped), status=ResultStatus(
+        "check", tuple(Reason(code, text) for code, text in HYBRID_STATUS[-reasons:])))
+    monkeypatch.setattr(report_damping, "read_damping", lambda _: d)
+    pages = report_damping.damping_figures(r)
+    assert [name for name, _ in pages] == ["damping", "damping-2"]
+    drawn = []
+    for name, fig in pages:
+        bands = _drawn_bands(fig)                  # lays the page out
+        renderer = fig.canvas.get_renderer()
+        page = fig.bbox
+        for t in _drawn_texts(fig):                # every word inside the page
+            box = t.get_window_extent(renderer)
+            assert page.x0 - 1 <= box.x0 and box.x1 <= page.x1 + 1 \
+                and page.y0 - 1 <= box.y0 and box.y1 <= page.y1 + 1, (name, t.get_text())
+        if reasons == 2 and name == "damping":      # the panels alone
+            assert not any(a.tables for a in fig.axes)
+            continue
+        table = bands["loss-factors-0"]
+        title = bands["loss-factors-1"]
+        assert bands["page-status"][1] <= table[0] < table[1] <= title[1] <= \
+            min(bands["page-2"][0],                                        # the page's title
+                bands.get("modal-loss-factors", (1, 1))[0],
+                bands.get("energy-shares", (1, 1))[0])
+        t = ax(fig, "loss-factors").tables[0]
+        for cell in t.get_celld().values():       # each row as tall as its text
+            box = cell.get_window_extent(renderer)
+            text = cell.get_text().get_window_extent(renderer)
+            assert box.y0 <= text.y0 and text.y1 <= box.y1, (name, cell.get_text().get_text())
+            assert box.x0 >= 0 and box.x1 <= page.x1
+        rows = cells(ax(fig, "loss-factors"))
+        assert rows[0] == ["loss factor", "value (%)", "95 % interval (%)", "verdict"]
+        drawn += rows[1:]
+    assert drawn == report_damping.loss_factor_rows(d)        # every row once, in order
+    first, second = (fig for _, fig in pages)
+    renderer = first.canvas.get_renderer()
+    for gid in ("modal-loss-factors", "energy-shares"):    # each panel as tall as its label
+        a = ax(first, gid)
+        label = a.yaxis.label.get_window_extent(renderer)
+        panel = a.get_window_extent(renderer)
+        assert panel.y0 <= label.y0 and label.y1 <= panel.y1
+        assert a.get_legend().get_window_extent(renderer).y1 < \
+            a.xaxis.label.get_window_extent(renderer).y0
+    title = ax(second, "loss-factors").get_title()
+    assert "Monte Carlo: 20 trials" in title         # the key to the rows' "*" with them
+    if reasons == 2:
+        assert first._suptitle.get_text().endswith("the ply loss factors on the next page")
+        assert title.startswith("ply loss factors, modal strain energy method")
+    else:
+        assert "continued on the next page, with the notes on the loss factors" in \
+            ax(first, "loss-factors").get_title()
+        assert title.startswith("ply loss factors (continued)")
+        assert [row[0] for row in cells(ax(second, "loss-factors"))[1:]] == \
+            [f"carbon.eta{k}" for k in ("11", "22", "12", "13", "23")]
+        assert not [x for x in ax(first, "loss-factors").texts
+                    if x.get_gid() == "loss-factor-note"]
+    note = next(x for x in ax(second, "loss-factors").texts if x.get_gid() == "loss-factor-note")
+    assert " ".join(note.get_text().split()).startswith(report_damping.NOT_DETERMINED_ADVICE)
+    assert status_text(first).get_text() == status_text(second).get_text()
+    write_pages([Page(name, fig) for name, fig in pages], tmp_path / "d.png")

@@ -73,7 +73,8 @@ def report(source, output, frf_path, dpi, force):
       FRF            FRFs over their RFP fit, phase, coherence (specimens with
                      measured.frf_file, or --frf)
       damping        measured vs model modal loss factors, strain-energy shares, ply loss
-                     factors (when the specimen has measured damping)
+                     factors (when the specimen has measured damping); a table too
+                     long for the page continues on a second damping page
     A joint result gives the shared constants first (summary, intervals, history), then
     per plate its frequencies, mode shapes and sensitivities. A batch summary gives the
     constants across specimens (materials of a specimen side by side, intervals, reference
