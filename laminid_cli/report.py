@@ -828,7 +828,10 @@ def wants_log_axis(k: str, marks, ends=()) -> bool:
     if k == "nu12" or marks.size == 0 or (marks <= 0).any():
         return False
     pts = np.concatenate([marks, [e for e in ends if np.isfinite(e) and e > 0]])
-    return pts.max() / pts.min() > LOG_PANEL_RATIO
+    # (a mark near 0, e.g. a loss factor's interval end of 1e-310, overflows the ratio to
+    # inf, which is the answer; numpy's "overflow encountered" warning reached the terminal)
+    with np.errstate(over="ignore"):
+        return bool(pts.max() / pts.min() > LOG_PANEL_RATIO)
 
 
 def _log_limits(core, extra, *, pad=(0.06, 0.06)):

@@ -71,6 +71,7 @@ def loss_factor_rows(d: dict) -> list[list[str]]:
     """Rows of the loss-factor table (strings as drawn, %): label, value, interval, verdict
     in a few words (the advice is under the table). A loss factor held at 0 by eta >= 0
     keeps its one-sided interval 0 .. upper; a fixed one has none."""
+    from laminid_cli.intervals import width_text
     from laminid_cli.report import short_verdict
 
     rows = []
@@ -91,8 +92,9 @@ def loss_factor_rows(d: dict) -> list[list[str]]:
                 rel = 0.5 * (mhi - mlo) / value
                 sure = 0.5 * (np.ravel(mc["inner_upper"])[k]
                               - np.ravel(mc["inner_lower"])[k]) / value
+                # (the widths as the status and the terminal write them: 273x, not 27339 %)
                 verdict = verdict.replace(" (Monte Carlo)", "") + (
-                    f" (Monte Carlo\n±{100 * rel:.0f} %, ±{100 * sure:.0f} % for sure)")
+                    f" (Monte Carlo\n±{width_text(rel)}, ±{width_text(sure)} for sure)")
         rows.append([lab, f"{100 * d['value'][k]:.3f}", interval, verdict])
     for item in filter(None, str(d.get("fixed", "")).split(",")):
         lab, value = item.rsplit("=", 1)

@@ -1335,6 +1335,14 @@ def test_damping_page_fits_the_page_and_ends_with_the_status(damped, tmp_path):
     row = loss_factor_rows(held)[0]
     assert row[2] == f"[0, {100 * d['upper'][0]:.3g}]"
     assert row[3] == "held at 0 by η ≥ 0: not identified"
+    # a Monte Carlo range hundreds of times the value: its widths as the note under the table
+    # and the terminal write them (was "±27339 %", beside the note's "±273x")
+    n = len(d["labels"])
+    wide = dict(d, verdict_from_monte_carlo=[d["labels"][0]], monte_carlo={
+        "lower": np.zeros(n), "upper": np.full(n, 546.8 * d["value"][0]),
+        "inner_lower": np.zeros(n), "inner_upper": np.full(n, 0.8 * d["value"][0]),
+        "lower_at_zero": np.ones(n, bool)})
+    assert loss_factor_rows(wide)[0][3].endswith("(Monte Carlo\n±273x, ±40.0 % for sure)")
     write_pages([type("P", (), {"name": "d", "figure": fig})()], tmp_path / "d.png")
 
 
@@ -1941,3 +1949,18 @@ def test_a_damping_table_too_long_for_its_page_continues_on_the_next(damped, rea
     assert " ".join(note.get_text().split()).startswith(report_damping.NOT_DETERMINED_ADVICE)
     assert status_text(first).get_text() == status_text(second).get_text()
     write_pages([Page(name, fig) for name, fig in pages], tmp_path / "d.png")
+
+
+def test_a_log_panel_choice_with_a_mark_near_zero_warns_nothing():
+    """report.wants_log_axis: marks 1e-310 and 1 (a loss factor's interval end near 0) span
+    more than LOG_PANEL_RATIO: a log axis, without numpy's "RuntimeWarning: overflow
+    encountered in scalar divide" that the hybrid-CM damping report printed."""
+    import warnings
+
+    from laminid_cli.report import wants_log_axis
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert wants_log_axis("E2", [1e-310, 1.0]) is True
+        assert wants_log_axis("E2", [1.0, 2.0], ends=[5.0]) is False
+        assert wants_log_axis("nu12", [1e-310, 1.0]) is False
