@@ -509,10 +509,7 @@ def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
     top = A_all[used].max(axis=0) if n else np.zeros(len(labels))
     small = [labels[j] for j in free if top[j] < SMALL_SHARE]
     if small:
-        notes.append(", ".join(small) + f": less than {SMALL_SHARE:.0%} of any fitted mode's "
-                     "strain energy is in these terms (transverse shear of a thin plate), so "
-                     "the modal damping cannot determine them; fix them (--fix "
-                     "eta13=0.01,eta23=0.01) to free the others")
+        notes.append(small_terms_note(small))
     eta_all = eta_fixed.copy()
     eta_all[free] = x
     meas = np.where(np.isfinite(y_all), y_all, np.nan)
@@ -734,6 +731,24 @@ def monte_carlo_loss_factors(fit: DampingFit, mc) -> DampingMonteCarlo:
         trials_at_zero=zero, lower_at_zero=lower_at_zero, linearized_std=fit.std,
         sigma_factor=float(np.sqrt(fit.variance_factor)), seed=mc.seed, confidence=conf,
         evidence_level=MC_EVIDENCE, time_s=time.perf_counter() - t0)
+
+
+def small_terms_note(small) -> str:
+    """The note on the loss factors ``small`` ("material.etaXY") that no fitted mode strains
+    by SMALL_SHARE: why (transverse shear, which a thin plate's bending hardly strains, only
+    where every one of them is eta13 or eta23: hybrid CM's glass.eta12 is in-plane shear of a
+    ply its modes hardly strain) and the --fix that frees the others, naming them (by term
+    alone where the plate has one material)."""
+    terms = [lab.rsplit(".", 1)[-1] for lab in small]
+    shear = all(t in ("eta13", "eta23") for t in terms)
+    one_material = len({lab.rsplit(".", 1)[0] for lab in small}) == 1 and "." in small[0]
+    items = sorted(set(terms)) if one_material else list(small)
+    return (", ".join(small) + f": less than {SMALL_SHARE:.0%} of any fitted mode's strain "
+            "energy is in these terms"
+            + (" (transverse shear, which a thin plate's bending hardly strains)" if shear
+               else "")
+            + ", so the modal damping cannot determine them; fix them (--fix "
+            + ",".join(f"{i}=0.01" for i in items) + ") to free the others")
 
 
 def _pct(rel: float) -> str:

@@ -448,3 +448,23 @@ def test_damping_sigmas_far_above_the_misfit_are_said():
     fit = D.fit_loss_factors(shares, noisy, 0.05 * y, labels)
     assert chi2_ppf(0.01, fit.dof) <= fit.chi2
     assert not any("smaller than the stated" in n for n in fit.notes)
+
+
+def test_the_note_on_unstrained_terms_says_transverse_shear_only_of_transverse_shear():
+    """damping.small_terms_note: hybrid CM's glass.eta12 (in-plane shear of a ply its modes
+    hardly strain) was listed under "(transverse shear of a thin plate)", and the --fix given
+    (eta13=0.01,eta23=0.01) did not fix it. The reason is given only where every term is
+    eta13 or eta23, and the --fix names the terms (by term alone on one material)."""
+    from laminid_cli.damping import parse_loss_fix, small_terms_note
+
+    mixed = small_terms_note(["glass.eta12", "carbon.eta13"])
+    assert "transverse shear" not in mixed
+    assert mixed.endswith("fix them (--fix glass.eta12=0.01,carbon.eta13=0.01) to free the "
+                          "others")
+    shear = small_terms_note(["IM7/977-2.eta23", "IM7/977-2.eta13"])
+    assert "(transverse shear, which a thin plate's bending hardly strains)" in shear
+    assert "(--fix eta13=0.01,eta23=0.01)" in shear
+    # the --fix given is one laminid reads, naming those loss factors
+    fix = mixed.split("--fix ")[1].split(")")[0]
+    assert parse_loss_fix(fix.split(","), ["glass", "carbon"]) == {
+        "glass.eta12": 0.01, "carbon.eta13": 0.01}
