@@ -1231,6 +1231,7 @@ class TrialModel(VariableSet):
             self.hold(held[i] if held else None)
             lam_meas = (2 * np.pi * np.nan_to_num(f, nan=1.0)) ** 2
             w = np.where(np.isfinite(f), weight, 0.0)
+            self.basis.reset_class_counts()  # (as trial() starts)
             start = self._start()
             gn = None if start is None else self._gauss_newton(
                 self.basis, start[0], lam_meas, w, self.Y_ref, start[1])
@@ -1574,6 +1575,7 @@ class TrialModel(VariableSet):
         self.hold(held)
         lam_meas = (2 * np.pi * np.nan_to_num(freq_hz, nan=1.0)) ** 2
         w = np.where(np.isfinite(freq_hz), weight, 0.0)
+        self.basis.reset_class_counts()      # (the same trial in any process: -j 1 = -j 2)
         start = self._start()
         if start is None:
             raise _TrialFailed("the optimum is outside the search's limits at the drawn "
