@@ -616,6 +616,28 @@ def test_existing_output_is_not_overwritten(tmp_path, hp):
     assert hp.log == []  # checked before talking to the analyser
 
 
+def test_an_unfinished_acquisition_named_again_without_resume_points_at_resume(tmp_path, hp):
+    """The same acquire command run again on a session that was interrupted or quit (the
+    file marked not complete) said "file exists; use --force to overwrite it or choose
+    another name with -o": the option that throws the measured points away. It names the
+    saved points and --resume; the file is left as it was, the analyser not asked."""
+    out = tmp_path / "p.h5"
+    r = acquire(hp, out, input="\nq\n")                     # point 1 saved, then quit
+    assert r.exit_code == 3, r.output
+    before = out.read_bytes()
+    n_log = len(hp.log)
+    r = acquire(hp, out, "--no-prompt")
+    assert r.exit_code == 2, r.output
+    assert r.output.splitlines()[-1] == (
+        f"laminid: error: {out}: an unfinished acquisition (saved: point 1); add --resume to "
+        "measure the rest, or choose another name with -o (--force would start it again and "
+        "lose the saved points)")
+    assert out.read_bytes() == before and len(hp.log) == n_log
+    r = acquire(hp, out, "--no-prompt", "--resume")            # what it says works
+    assert r.exit_code == 0, r.output
+    assert read_frf_h5(out).labels == ("1", "2", "3")
+
+
 # ------------------------------------------------------------------ acquire -> fit-frf
 #: the issue's acceptance tolerance on the natural frequencies
 FREQ_TOL = 5e-4
