@@ -1185,6 +1185,23 @@ def test_initial_shear_modulus_just_under_the_ceiling_starts(tmp_path):
     assert "feasible region" not in r.stderr and "ceiling" not in r.stderr
 
 
+def test_a_thickness_in_cm_is_among_the_causes_of_a_model_far_above_the_data(tmp_path):
+    """h: 3.06 cm (mm meant): the density comes from the mass, so the model's frequencies go
+    as h^1.5 (31.6 times for 10 times h) and the start was refused as "moduli 1000 times too
+    large or a density 1000 times too small ...: check the units of the moduli, the mass and
+    the density", which sent the lab to every unit but the slipped one."""
+    bad = tmp_path / "h.yaml"
+    bad.write_text(Path(S11).read_text().replace("h: 3.06 mm", "h: 3.06 cm"))
+    r = run("identify", bad, "--no-output")
+    assert r.exit_code == 2, r.output
+    assert r.stderr.endswith(
+        "the model's frequencies are 19 times the measured ones, as with moduli 1000 times too "
+        "large or a density 1000 times too small (frequency goes as sqrt(modulus/density)), or a "
+        "thickness 10 times too large (as h^1.5 where the mass gives the density: h in cm where "
+        "mm is meant?): check the units of the moduli, the mass, the density and the "
+        "thickness\n"), r.stderr
+
+
 def test_a_negative_modulus_is_said_in_gpa(tmp_path):
     """G12: -3.1 GPa was refused with "G12 must be positive (got -3.1e+09 Pa)"."""
     text = Path(S11).read_text()
