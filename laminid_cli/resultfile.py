@@ -725,6 +725,12 @@ def _open_result(path: Path):
     laminid reads; ResultFileError otherwise (:func:`read_result`'s messages)."""
     from laminid_cli.h5open import open_h5
 
+    if Path(path).suffix.lower() in (".yaml", ".yml") and Path(path).is_file():
+        # a newcomer's slip: the specimen given where its result is meant ("not an HDF5 file
+        # ... make one with laminid identify SPEC.yaml" left the lab to see it was the SPEC)
+        raise ResultFileError(f"{path}: a specimen file, not an identification result; "
+                              f"laminid identify {path} makes its result "
+                              f"({Path(path).with_suffix('.result.h5')})")
     f = open_h5(path, ResultFileError, "not an HDF5 file, so not a laminid identification "
                 f"result; make one with {MAKES_A_RESULT}")
     with f:
