@@ -737,6 +737,12 @@ def _open_result(path: Path):
         fmt = _s(f.attrs.get("format", ""))
         if fmt == "laminid-frf":             # laminid acquire's (or example_frf.py's) file
             raise ResultFileError(not_a_result_but_frf(path))
+        if fmt == "laminid-modes":          # laminid modes -o: the model's modes only
+            raise ResultFileError(
+                f"{path}: a file of 'laminid modes' (the model's modes at the specimen's "
+                "constants), not an identification result: 'laminid modes SPEC.yaml' prints "
+                f"its table again, 'laminid export {path} -o modes.unv' writes its mode shapes; "
+                f"a result is made with {MAKES_A_RESULT}")
         if fmt not in RESULT_FORMATS:
             what = f"a {fmt!r} file" if fmt else "no 'format' attribute"
             raise ResultFileError(f"{path}: not a laminid identification result ({what}; "
