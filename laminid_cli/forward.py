@@ -229,7 +229,9 @@ def far_cause(measured_hz: np.ndarray, model_hz: np.ndarray, weight: np.ndarray)
     70: an initial guess 2.2 times off in frequency either way) as moduli 1000 times too small,
     MPa written where GPa is meant (or a density 1000 times too large); near 1/31.6 as the
     reverse (a mass in g written as kg is refused as an implausible density before, and one in
-    kg written as g is warned of as too light); else the things to check.
+    kg written as g is warned of as too light), or a thickness 10 times too large: with the
+    density from the mass, frequency goes as h^1.5 (S1.1 with ``h: 3.06 cm`` read 1/25 and was
+    told of the moduli and the density only); else the things to check.
 
     measured_hz, model_hz, weight : (n_modes,), Hz (NaN where not measured) and weights.
     """
@@ -247,8 +249,9 @@ def far_cause(measured_hz: np.ndarray, model_hz: np.ndarray, weight: np.ndarray)
     if 1 / 70 < ratio < 1 / 15:
         return (f"the model's frequencies are {1 / ratio:.0f} times the measured ones, as with "
                 "moduli 1000 times too large or a density 1000 times too small (frequency goes "
-                "as sqrt(modulus/density)): check the units of the moduli, the mass and the "
-                "density")
+                "as sqrt(modulus/density)), or a thickness 10 times too large (as h^1.5 where "
+                "the mass gives the density: h in cm where mm is meant?): check the units of "
+                "the moduli, the mass, the density and the thickness")
     return "check the units, the mass/density, the geometry and the initial constants"
 
 

@@ -576,10 +576,20 @@ def _parse_fix(fix, names, path) -> dict:
             const, targets = item, list(names)
         if const not in CONSTANT_NAMES:
             raise FitInputError(f"--fix {item}: '{const}' is not a constant; choose from "
-                           f"{', '.join(CONSTANT_NAMES)}")
+                           f"{', '.join(CONSTANT_NAMES)}{_fix_case_hint(item)}")
         for t in targets:
             out[t] = out.get(t, ()) + (const,)
     return out
+
+
+def _fix_case_hint(item: str) -> str:
+    """"; did you mean 'G13'?" for ``--fix g13`` (or 'carbon.G13' for carbon.g13): the
+    constants' names are case-sensitive (nu12 and NU12 alike would pass, G12 and g12 not)."""
+    by_case = {c.lower(): c for c in CONSTANT_NAMES}
+    mat, _, const = item.rpartition(".")
+    if const.lower() in by_case:
+        return f"; did you mean '{mat + '.' if mat else ''}{by_case[const.lower()]}'?"
+    return ""
 
 
 def _hz(f: float) -> str:

@@ -332,6 +332,7 @@ def make_parameters(name: str, initial: ElasticConstants, fixed=(), *, kind: str
         return ConstantParameters(name, initial, (), nu_max, bound_factor, region, floor)
     if kind == "alpha" or (kind == "auto" and not fixed and not prior):
         _check_alpha_floor(name, initial)
+        _check_alpha_ceiling(name, initial)
         return AlphaParameters(name, initial, nu_max, bound_factor)
     return ConstantParameters(name, initial, free, nu_max, bound_factor, region, floor)
 
@@ -352,6 +353,32 @@ def _check_alpha_floor(name: str, initial: ElasticConstants) -> None:
                 f"identification's limit {r:g} E1 = {limit / 1e9:.4g} GPa (E1 = "
                 f"{initial.E1 / 1e9:.4g} GPa): a unit slip (MPa for GPa?), or a material "
                 f"whose {k} is not that small beside E1; the search starts at the file's values")
+
+
+def _check_alpha_ceiling(name: str, initial: ElasticConstants) -> None:
+    """Refuse initial shear moduli above the alphas' upper bounds (:meth:`AlphaParameters.bounds`:
+    alpha8 <= 8 and |alpha9| <= 8, i.e. G13 + G23 and |G13 - G23| <= 2 E1 f; alpha3, alpha4 >=
+    -20, i.e. G12 <= (21 + min(1 - 2 nu12, 1 + 6 nu12) E2/E1) E1 f / 4, f = :func:`alpha_floor`), naming the
+    modulus and E1: E1 and E2 written in MPa among shear moduli in GPa were refused as "outside
+    the feasible region of Eq. 22 (E2 <= E1, |nu12| < 0.95, positive moduli, ...)", none of
+    which they are."""
+    f = alpha_floor(initial)
+    E1 = initial.E1
+    checks = [("G13", initial.G13 + initial.G23, 2 * E1 * f,
+               f"G13 + G23 = {(initial.G13 + initial.G23) / 1e9:.4g} GPa"),
+              ("G13" if initial.G13 >= initial.G23 else "G23",
+               abs(initial.G13 - initial.G23), 2 * E1 * f,
+               f"|G13 - G23| = {abs(initial.G13 - initial.G23) / 1e9:.4g} GPa"),
+              ("G12", initial.G12,
+               (21 + min(1 - 2 * initial.nu12, 1 + 6 * initial.nu12) * initial.E2 / E1) * E1 * f / 4,
+               f"G12 = {initial.G12 / 1e9:.4g} GPa")]
+    for k, value, limit, said in checks:
+        if value > limit * (1 + 1e-9):
+            raise InitialValueError(
+                name, k, f"the initial {said} is above the identification's limit "
+                f"{limit / E1:.3g} E1 = {limit / 1e9:.4g} GPa (E1 = {E1 / 1e9:.4g} GPa): a "
+                f"unit slip in E1 or {k} (E1 in MPa where GPa is meant?); the search starts "
+                "at the file's values")
 
 
 def alpha_floor(c: ElasticConstants) -> float:

@@ -725,12 +725,24 @@ def _open_result(path: Path):
     laminid reads; ResultFileError otherwise (:func:`read_result`'s messages)."""
     from laminid_cli.h5open import open_h5
 
+    if Path(path).suffix.lower() in (".yaml", ".yml") and Path(path).is_file():
+        # a newcomer's slip: the specimen given where its result is meant ("not an HDF5 file
+        # ... make one with laminid identify SPEC.yaml" left the lab to see it was the SPEC)
+        raise ResultFileError(f"{path}: a specimen file, not an identification result; "
+                              f"laminid identify {path} makes its result "
+                              f"({Path(path).with_suffix('.result.h5')})")
     f = open_h5(path, ResultFileError, "not an HDF5 file, so not a laminid identification "
                 f"result; make one with {MAKES_A_RESULT}")
     with f:
         fmt = _s(f.attrs.get("format", ""))
         if fmt == "laminid-frf":             # laminid acquire's (or example_frf.py's) file
             raise ResultFileError(not_a_result_but_frf(path))
+        if fmt == "laminid-modes":          # laminid modes -o: the model's modes only
+            raise ResultFileError(
+                f"{path}: a file of 'laminid modes' (the model's modes at the specimen's "
+                "constants), not an identification result: 'laminid modes SPEC.yaml' prints "
+                f"its table again, 'laminid export {path} -o modes.unv' writes its mode shapes; "
+                f"a result is made with {MAKES_A_RESULT}")
         if fmt not in RESULT_FORMATS:
             what = f"a {fmt!r} file" if fmt else "no 'format' attribute"
             raise ResultFileError(f"{path}: not a laminid identification result ({what}; "

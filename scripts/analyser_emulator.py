@@ -42,8 +42,10 @@ def main(argv=None) -> int:
                         "0.002; with 5 hits, 0.2 takes the coherence at the weakest resonance "
                         "to ~0.8, below acquire's --coherence-min 0.9)")
     p.add_argument("--overload", action="append", default=[], metavar="POINT[:CHANNEL]",
-                   help="make an input go over range during that measurement point (1 = the "
-                        "first): channel 1 the hammer (the default), 2 the response; "
+                   help="make an input go over range during the POINT-th measurement since "
+                        "the emulator started (1 = the first: point POINT of the first "
+                        "acquire; a later acquire measures cleanly: restart the emulator to "
+                        "see it again): channel 1 the hammer (the default), 2 the response; "
                         "repeat for more, e.g. --overload 2 --overload 3:2")
     a = p.parse_args(argv)
     if not a.noise >= 0:
@@ -73,6 +75,8 @@ def main(argv=None) -> int:
           f"then: laminid fit-frf try.frf.h5\n"
           + "".join(f"point {k}: {' and '.join(('hammer', 'response')[c - 1] for c in v)} "
                     "input over range\n" for k, v in sorted(overloads.items()))
+          + ("(the emulator's measurements since it started: the points of the first acquire "
+             "only; restart the emulator to see them again)\n" if overloads else "")
           + "Ctrl-C stops the emulator.", flush=True)
     try:
         while True:

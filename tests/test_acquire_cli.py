@@ -616,6 +616,28 @@ def test_existing_output_is_not_overwritten(tmp_path, hp):
     assert hp.log == []  # checked before talking to the analyser
 
 
+def test_an_unfinished_acquisition_named_again_without_resume_points_at_resume(tmp_path, hp):
+    """The same acquire command run again on a session that was interrupted or quit (the
+    file marked not complete) said "file exists; use --force to overwrite it or choose
+    another name with -o": the option that throws the measured points away. It names the
+    saved points and --resume; the file is left as it was, the analyser not asked."""
+    out = tmp_path / "p.h5"
+    r = acquire(hp, out, input="\nq\n")                     # point 1 saved, then quit
+    assert r.exit_code == 3, r.output
+    before = out.read_bytes()
+    n_log = len(hp.log)
+    r = acquire(hp, out, "--no-prompt")
+    assert r.exit_code == 2, r.output
+    assert r.output.splitlines()[-1] == (
+        f"laminid: error: {out}: an unfinished acquisition (saved: point 1); add --resume to "
+        "measure the rest, or choose another name with -o (--force would start it again and "
+        "lose the saved points)")
+    assert out.read_bytes() == before and len(hp.log) == n_log
+    r = acquire(hp, out, "--no-prompt", "--resume")            # what it says works
+    assert r.exit_code == 0, r.output
+    assert read_frf_h5(out).labels == ("1", "2", "3")
+
+
 # ------------------------------------------------------------------ acquire -> fit-frf
 #: the issue's acceptance tolerance on the natural frequencies
 FREQ_TOL = 5e-4
@@ -759,10 +781,15 @@ def test_the_emulator_scripts_noise_and_overloads_show_as_acquire_reports_them(t
                              "--hit-interval", "0.01", "--noise", "0.2", "--overload", "2",
                              "--overload", "3:2"], stdout=subprocess.PIPE, text=True)
     try:
-        lines = [proc.stdout.readline() for _ in range(5)]
+        lines = [proc.stdout.readline() for _ in range(6)]
         resource = re.match(r"emulated \S+ at (\S+) ", lines[0]).group(1)
-        assert lines[3:5] == ["point 2: hammer input over range\n",
-                              "point 3: response input over range\n"], lines
+        # the points are the emulator's measurements since it started: said (it printed
+        # "point 2" alone, and a second acquire's point 2 measured cleanly)
+        assert lines[3:6] == ["point 2: hammer input over range\n",
+                              "point 3: response input over range\n",
+                              "(the emulator's measurements since it started: the points of "
+                              "the first acquire only; restart the emulator to see them "
+                              "again)\n"], lines
         r = run(["acquire", "--analyser", resource, "--points", "3", "--no-prompt",
                  "--averages", "5", "--json", "-o", str(tmp_path / "bad.frf.h5")])
         assert r.exit_code == 0, r.output
@@ -771,6 +798,10 @@ def test_the_emulator_scripts_noise_and_overloads_show_as_acquire_reports_them(t
         assert [p["ok"] for p in points] == [False, False, False]
         assert all(0.6 < p["coherence_resonance"] < 0.9 for p in points), points
         assert "overloads 1 (ch1 hammer) - POOR coherence, OVERLOAD" in r.stderr, r.stderr
+        r = run(["acquire", "--analyser", resource, "--points", "3", "--no-prompt",
+                 "--averages", "5", "--json", "-o", str(tmp_path / "again.frf.h5")])
+        assert r.exit_code == 0, r.output
+        assert [p["overloaded_channels"] for p in json.loads(r.stdout)["points"]] == [[]] * 3
     finally:
         proc.send_signal(signal.SIGINT)
         assert proc.wait(timeout=5) == 0

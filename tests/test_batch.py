@@ -1082,7 +1082,7 @@ def test_a_dask_local_batch_beside_another_cluster_prints_nothing_of_its_port(tm
         busy.close()
     assert p.returncode == 0, p.stderr
     assert p.stderr.splitlines() == ["1 specimen, 0 up to date, 1 to identify on 1 worker",
-                                     "identifying"], p.stderr
+                                     "identified 1/1: S1.4: check"], p.stderr
 
 
 def test_a_local_workers_shutdown_errors_are_muted_without_v():
@@ -1309,6 +1309,18 @@ def test_quiet_batch_writes_nothing_but_errors_on_stderr(tmp_path):
     assert "0 ok, 2 check (0 not converged), 0 failed" in r.stdout
     r = run("batch", specs, "--mesh", MESH, "--out", tmp_path / "out")
     assert r.stderr == "2 specimens, 2 up to date, 0 to identify\n"          # without -q
+
+
+def test_a_batch_logged_to_a_file_says_each_specimen_as_it_finishes(tmp_path):
+    """stderr on a log or pipe (no terminal): click's progress bar wrote its label
+    "identifying" and nothing more until the table, so a long batch's log said nothing of
+    its progress. A line per finished specimen, with its status, instead of the bar."""
+    specs = make_tree(tmp_path / "specs")
+    r = run("batch", specs, "--mesh", MESH, "--out", tmp_path / "out")
+    assert r.exit_code == 0, r.output
+    assert r.stderr.splitlines() == ["2 specimens, 0 up to date, 2 to identify on 1 process",
+                                     "identified 1/2: example1/S1.4: check",
+                                     "identified 2/2: example2/S2.1: check"], r.stderr
 
 
 def test_a_result_whose_specimen_now_fails_is_set_aside_out_of_the_result_pattern(tmp_path):

@@ -118,6 +118,18 @@ def test_bad_files_exit_2(tmp_path):
     assert r.exit_code == 2 and "unknown FRF file type" in r.output
 
 
+def test_a_specimen_given_for_the_frfs_is_named_as_such(tmp_path):
+    """fit-frf plate.yaml (the specimen where its FRF file is meant) said "unknown FRF file
+    type '.yaml'; expected one of .csv, .h5, ...", as if YAML were a format it lacked."""
+    spec = tmp_path / "plate.yaml"
+    spec.write_text("name: p\n")
+    r = CliRunner().invoke(cli, ["fit-frf", str(spec)])
+    assert r.exit_code == 2
+    assert r.stderr == (f"laminid: error: {spec}: a specimen file (YAML), not FRFs; give the "
+                        "FRF file (laminid HDF5 .frf.h5, UFF 58 .uff/.unv, CSV): 'laminid "
+                        f"fit-frf FRFS --into {spec}' writes their frequencies into it\n")
+
+
 def test_into_missing_or_broken_specimen_is_untouched(tmp_path, h5):
     r = CliRunner().invoke(cli, ["fit-frf", str(h5), "--into", str(tmp_path / "no.yaml")])
     assert r.exit_code == 2 and "file not found" in r.output

@@ -1147,6 +1147,61 @@ def test_initial_modulus_below_the_searchs_floor_names_the_file_and_the_field(tm
     assert r.stdout == "" and not (tmp_path / "g.result.h5").exists()
 
 
+@pytest.mark.parametrize("old, new, field, said", [
+    ("E1: 117.2 GPa\n    E2: 8.8 GPa", "E1: 117.2 MPa\n    E2: 8.8 MPa", "G13",
+     "the initial G13 + G23 = 6.2 GPa is above the identification's limit 2.02 E1 = 0.2366 GPa "
+     "(E1 = 0.1172 GPa): a unit slip in E1 or G13 (E1 in MPa where GPa is meant?)"),
+    ("G12: 3.1 GPa", "G12: 640 GPa", "G12",
+     "the initial G12 = 640 GPa is above the identification's limit 5.3 E1 = 621.7 GPa "
+     "(E1 = 117.2 GPa): a unit slip in E1 or G12 (E1 in MPa where GPa is meant?)"),
+], ids=["E1 and E2 in MPa", "G12 above 5.3 E1"])
+def test_initial_shear_modulus_above_the_searchs_ceiling_names_the_field(tmp_path, old, new,
+                                                                          field, said):
+    """E1 and E2 in MPa beside shear moduli in GPa (admissible by Eq. 22, outside the alphas'
+    bounds alpha8 <= 8, alpha3 >= -20) were refused as "the initial constants (with the fixed
+    ones) are outside the feasible region of Eq. 22 (E2 <= E1, |nu12| < 0.95, positive moduli,
+    ...)", naming no constant and conditions they all meet. At the shear modulus's line, with
+    E1."""
+    bad = tmp_path / "u.yaml"
+    text = Path(S11).read_text().replace(old, new)
+    assert text != Path(S11).read_text()
+    bad.write_text(text)
+    r = run("identify", bad, "--mesh", "4x4")
+    assert r.exit_code == 2, r.output
+    line = _line_of(text, f"{field}:")
+    assert r.stderr == (f"laminid: error: {bad}:{line}, field 'materials.IM7/977-2.{field}': "
+                        f"{said}; the search starts at the file's values\n")
+    assert r.stdout == "" and not (tmp_path / "u.result.h5").exists()
+
+
+def test_initial_shear_modulus_just_under_the_ceiling_starts(tmp_path):
+    """G12 = 600 GPa (under the ceiling 621.7 GPa at E1 = 117.2 GPa) is inside the search: it
+    is refused by the start's frequency check, not by the ceiling."""
+    bad = tmp_path / "u.yaml"
+    bad.write_text(Path(S11).read_text().replace("G12: 3.1 GPa", "G12: 600 GPa"))
+    r = run("identify", bad, "--mesh", "4x4", "--no-output")
+    assert r.exit_code == 2, r.output
+    assert "away from the model" in r.stderr and "limit" in r.stderr
+    assert "feasible region" not in r.stderr and "ceiling" not in r.stderr
+
+
+def test_a_thickness_in_cm_is_among_the_causes_of_a_model_far_above_the_data(tmp_path):
+    """h: 3.06 cm (mm meant): the density comes from the mass, so the model's frequencies go
+    as h^1.5 (31.6 times for 10 times h) and the start was refused as "moduli 1000 times too
+    large or a density 1000 times too small ...: check the units of the moduli, the mass and
+    the density", which sent the lab to every unit but the slipped one."""
+    bad = tmp_path / "h.yaml"
+    bad.write_text(Path(S11).read_text().replace("h: 3.06 mm", "h: 3.06 cm"))
+    r = run("identify", bad, "--no-output")
+    assert r.exit_code == 2, r.output
+    assert r.stderr.endswith(
+        "the model's frequencies are 19 times the measured ones, as with moduli 1000 times too "
+        "large or a density 1000 times too small (frequency goes as sqrt(modulus/density)), or a "
+        "thickness 10 times too large (as h^1.5 where the mass gives the density: h in cm where "
+        "mm is meant?): check the units of the moduli, the mass, the density and the "
+        "thickness\n"), r.stderr
+
+
 def test_a_negative_modulus_is_said_in_gpa(tmp_path):
     """G12: -3.1 GPa was refused with "G12 must be positive (got -3.1e+09 Pa)"."""
     text = Path(S11).read_text()

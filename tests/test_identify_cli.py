@@ -349,6 +349,24 @@ def test_a_specimen_that_now_fails_has_its_earlier_default_result_set_aside(tmp_
     assert mine.read_bytes() == first
 
 
+@pytest.mark.parametrize("fix, said", [
+    ("g13", "--fix g13: 'g13' is not a constant; choose from E1, E2, G12, G13, G23, nu12; did "
+            "you mean 'G13'?"),
+    ("IM7/977-2.g23", "--fix IM7/977-2.g23: 'IM7/977-2.g23' is not a constant; choose from E1, "
+                      "E2, G12, G13, G23, nu12; did you mean 'IM7/977-2.G23'?"),
+    ("NU12", "--fix NU12: 'NU12' is not a constant; choose from E1, E2, G12, G13, G23, nu12; "
+             "did you mean 'nu12'?"),
+    ("G14", "--fix G14: 'G14' is not a constant; choose from E1, E2, G12, G13, G23, nu12"),
+], ids=["g13", "material.g23", "NU12", "no guess"])
+def test_a_fix_in_the_wrong_case_names_the_constant_meant(fix, said):
+    """--fix g13 was refused with the list of constants only, G13 among them, leaving the lab
+    to see that the names are case-sensitive: the constant meant is named."""
+    r = run("identify", "specimens/example1/S1.1.yaml", "--mesh", "4x4", "--fix", fix,
+            "--no-output")
+    assert r.exit_code == 2, r.output
+    assert r.stderr == f"laminid: error: {said}\n"
+
+
 def test_a_mistyped_fix_is_refused_before_any_work_and_leaves_the_earlier_result(tmp_path):
     """--fix G14 is a usage error, not a specimen that now fails: it is refused before the
     run, and the default result of the (unchanged) specimen stays where it is (it was set

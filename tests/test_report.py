@@ -642,6 +642,21 @@ def test_report_of_an_frf_file_suggests_fit_frf_plot_and_identify(tmp_path, name
     assert r.exit_code == 0 and (tmp_path / "plate.fit.pdf").exists(), r.output
 
 
+def test_report_and_show_of_a_specimen_file_name_it_and_the_command(tmp_path):
+    """`report S1.1.yaml` / `show S1.1.yaml` (the specimen where its result is meant) said
+    "not an HDF5 file, so not a laminid identification result; make one with laminid identify
+    SPEC.yaml": it names the file a specimen and the identify command that makes its result."""
+    spec = tmp_path / "S1.1.yaml"
+    spec.write_text(Path("specimens/example1/S1.1.yaml").read_text())
+    said = (f"laminid: error: {spec}: a specimen file, not an identification result; laminid "
+            f"identify {spec} makes its result ({tmp_path / 'S1.1.result.h5'})")
+    for command in ("report", "show"):
+        r = run(command, spec)
+        assert r.exit_code == 2 and r.stdout == "", r.output
+        assert " ".join(r.stderr.split()) == said, r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["S1.1.yaml"]
+
+
 def test_report_errors(batch_dir, tmp_path):
     bad = tmp_path / "x.h5"
     with h5py.File(bad, "w") as f:

@@ -187,3 +187,22 @@ def test_show_help_names_json_and_the_report():
     assert r.exit_code == 0
     text = " ".join(r.output.split())
     assert "--json" in text and "laminid report" in text and "Nothing is computed again" in text
+
+
+def test_show_and_report_of_a_modes_file_say_what_it_is_and_what_reads_it(tmp_path):
+    """`laminid modes S1.1.yaml -o m.h5` then `show m.h5` (or `report`) said "not a laminid
+    identification result (a 'laminid-modes' file; expected format 'laminid-result')": it
+    names the command that wrote it and the ones that read it (modes again, export)."""
+    m = tmp_path / "m.h5"
+    assert run("modes", S11, "--mesh", "4x4", "-o", m).exit_code == 0
+    for command in ("show", "report"):
+        r = run(command, m)
+        assert r.exit_code == 2 and r.stdout == "", r.output
+        assert " ".join(r.stderr.split()) == (
+            f"laminid: error: {m}: a file of 'laminid modes' (the model's modes at the "
+            "specimen's constants), not an identification result: 'laminid modes SPEC.yaml' "
+            f"prints its table again, 'laminid export {m} -o modes.unv' writes its mode shapes; "
+            "a result is made with laminid identify SPEC.yaml (or laminid identify A.yaml "
+            "B.yaml --joint, laminid batch FOLDER)")
+    # and what it names reads it
+    assert run("export", m, "-o", tmp_path / "modes.unv").exit_code == 0

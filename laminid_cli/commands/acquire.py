@@ -165,6 +165,28 @@ class _ClickUI:
                 return False
 
 
+def _refuse_unfinished(out: Path) -> None:
+    """An unfinished acquisition at ``-o`` (an FRF file marked not complete: an interrupted or
+    quit session) named again without --resume: refused naming its points and --resume. The
+    generic "file exists; use --force to overwrite it" pointed at the option that throws the
+    measured points away. Any other file: left to check_output_path."""
+    from laminid_cli.errors import LaminidError, OutputExistsError
+    from laminid_cli.frf.store import read_frf_h5
+
+    try:
+        old = read_frf_h5(out)              # probed: a file of unknown origin cannot crash us
+    except (LaminidError, OSError, ValueError):
+        return
+    if old.meta.get("complete", True):
+        return
+    labels = list(old.labels)
+    saved = (f"saved: point{'s' if len(labels) > 1 else ''} {', '.join(labels)}" if labels
+             else "no point saved")
+    raise OutputExistsError(
+        f"{out}: an unfinished acquisition ({saved}); add --resume to measure the rest, or "
+        "choose another name with -o (--force would start it again and lose the saved points)")
+
+
 def _resume_command(params: dict, output: Path) -> str:
     args = ["laminid", "acquire", "--analyser", params["analyser"]]
     for name, flag in (("model", "--model"), ("visa_backend", "--visa-backend"),
@@ -287,6 +309,8 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
         click.echo(f"laminid: note: {out}: no file to resume; starting a new one", err=True)
     check_hdf5_name(out, "acquire writes the FRFs")
     resume = resume and out.exists()
+    if not resume and not force and out.is_file():
+        _refuse_unfinished(out)
     if not resume:
         out = check_output_path(out, force)          # a symbolic link: its target
     settings = AcquisitionSettings(

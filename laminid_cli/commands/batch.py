@@ -194,10 +194,13 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
         written[0] = time.monotonic()
 
     try:
-        # no bar (not even its label) when every result is up to date, nor under -q
+        # no bar (not even its label) when every result is up to date, nor under -q; on a
+        # log or pipe (no terminal) a line per finished specimen instead: click's bar writes
+        # only its label there ("identifying", then nothing until the table)
+        logged = bool(todo and shown and not sys.stderr.isatty())
         with click.progressbar(length=len(todo), label="identifying", file=sys.stderr,
-                               item_show_func=show, show_pos=True) if todo and shown else \
-                contextlib.nullcontext() as bar:
+                               item_show_func=show, show_pos=True) \
+                if todo and shown and not logged else contextlib.nullcontext() as bar:
             for job, outcome in run_jobs(todo, options, n_jobs=n_jobs, scheduler=scheduler):
                 if not written[0]:
                     # before this run changes a result file (none changes before: a refused
@@ -212,6 +215,9 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
                 write_running()
                 if bar is not None:
                     bar.update(1, printable(f"{job.name}: {outcome.status}"))
+                elif logged:
+                    click.echo(printable(f"identified {finished}/{len(todo)}: {job.name}: "
+                                         f"{outcome.status}"), err=True)
     except BatchError:   # e.g. --scheduler unreachable: nothing ran, so nothing is written
         refused = finished == 0
         raise

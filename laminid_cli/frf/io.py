@@ -112,6 +112,11 @@ def frf_format(path, fmt: str | None = None) -> str:
             raise FrfError(f"FRF format {fmt!r}: expected one of {', '.join(FORMATS)}")
         return fmt
     suffix = Path(path).suffix.lower()
+    if suffix in (".yaml", ".yml"):
+        # a newcomer's slip: the specimen given where its FRFs are meant
+        raise FrfError(f"{path}: a specimen file (YAML), not FRFs; give the FRF file (laminid "
+                       "HDF5 .frf.h5, UFF 58 .uff/.unv, CSV): 'laminid fit-frf FRFS --into "
+                       f"{path}' writes their frequencies into it")
     if suffix not in SUFFIXES:
         raise FrfError(f"{path}: unknown FRF file type {suffix!r}; expected one of "
                        f"{', '.join(sorted(SUFFIXES))} (laminid HDF5, UFF 58, CSV)")
