@@ -802,6 +802,18 @@ def test_the_emulator_scripts_noise_and_overloads_show_as_acquire_reports_them(t
                  "--averages", "5", "--json", "-o", str(tmp_path / "again.frf.h5")])
         assert r.exit_code == 0, r.output
         assert [p["overloaded_channels"] for p in json.loads(r.stdout)["points"]] == [[]] * 3
+        # the noise hides the plate's 212.4 Hz mode from fit-frf's automatic bands: named in a
+        # note with the band that finds it (before: six modes from 318.9 Hz, no word)
+        r = run(["fit-frf", str(tmp_path / "bad.frf.h5"), "--json"])
+        assert r.exit_code == 0, r.output
+        doc = json.loads(r.stdout)
+        assert all(abs(m["freq_hz"] - 212.4) > 4 for m in doc["modes"]), doc["modes"]
+        missed = [n for n in doc["notes"] if n.startswith("the summed |H| peaks at 212.0 Hz (2")]
+        assert len(missed) == 1, doc["notes"]
+        assert "(--band 170:254)" in missed[0]
+        r = run(["fit-frf", str(tmp_path / "bad.frf.h5"), "--band", "170:254", "--json"])
+        assert r.exit_code == 0, r.output
+        assert [round(m["freq_hz"]) for m in json.loads(r.stdout)["modes"]] == [212]
     finally:
         proc.send_signal(signal.SIGINT)
         assert proc.wait(timeout=5) == 0

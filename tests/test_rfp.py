@@ -291,3 +291,28 @@ def test_an_automatic_band_too_narrow_for_a_sweep_joins_its_neighbour():
     wide = [((10.0, 500.0), 4), ((480.0, 1584.0), 4)]
     assert _merge_narrow(wide, freq, 3, c) == wide
     assert _merge_narrow([((1582.0, 1598.0), 1)], freq, 3, c) == [((1582.0, 1598.0), 1)]
+
+
+def test_a_strong_peak_without_a_mode_is_named_and_a_clean_fit_has_none():
+    """rfp.missed_peak_notes: a peak of the summed |H| at least MISSED_PEAK_DB (20 dB)
+    prominent, inside the bands fitted, with no mode within 2 % of it, is named with the band
+    to fit alone. The emulated plate at --noise 0.2 hid its 212.4 Hz mode (a 21.9 dB peak)
+    from the fit without a word, and --into would have written every mode above it one place
+    too low. A clean plate's fit (ten modes, 0.1 % noise) has no such note; with its first
+    mode taken out of the fit, the note names that mode's peak."""
+    import dataclasses
+
+    case = plate_case(noise=1e-3)
+    fit = rfp.find_modes(case.freq, case.frf)
+    assert len(fit.modes) == len(case.freq_hz)
+    assert rfp.missed_peak_notes(fit, case.freq, case.frf) == []
+    missing = dataclasses.replace(fit, modes=fit.modes[1:])
+    notes = rfp.missed_peak_notes(missing, case.freq, case.frf)
+    assert len(notes) == 1, notes
+    assert notes[0].startswith("the summed |H| peaks at 125.0 Hz (")
+    assert "no mode was found within 2 % of it" in notes[0]
+    assert "(--band 100:150)" in notes[0]
+    # a peak outside the bands fitted (--band elsewhere) is not the fit's to find
+    elsewhere = dataclasses.replace(missing, bands=tuple(
+        b for b in fit.bands if b.band_hz[0] > 200))
+    assert rfp.missed_peak_notes(elsewhere, case.freq, case.frf) == []

@@ -138,7 +138,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     wc = rfp.window_corrected_damping(fit, tau)
     # the reader's first (a CSV phase column's assumed unit): they concern the data fitted
     notes = (list(fs.meta.get("notes") or ()) + point_quality_notes(fs)
-             + wc.below_notes(fit.freq_hz))
+             + wc.below_notes(fit.freq_hz) + rfp.missed_peak_notes(fit, fs.freq, fs.frf))
     negative = negative_direction_points(fs.labels)
     if negative:
         notes.append(f"{', '.join(negative)}: measured in a negative direction; the FRF and its "
