@@ -485,3 +485,28 @@ def test_a_mesh_too_coarse_for_the_measured_modes_is_warned_as_modes_warns(tmp_p
             "--no-output")                              # 2025 equations: 169 per mode
     assert r.exit_code == 0, r.output
     assert not any("coarse" in w for w in json.loads(r.stdout)["warnings"])
+
+
+def test_ctrl_c_during_the_monte_carlo_says_nothing_was_written(tmp_path, monkeypatch):
+    """The result file is written whole when every step has finished: a Ctrl-C during the
+    Monte Carlo (or the profiles) left no file and said only "laminid: interrupted". It now
+    says nothing was written to -o, and that an earlier result there is left as it was."""
+    import laminid_cli.uncertainty as uncertainty
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    out = tmp_path / "r.h5"
+    monkeypatch.setattr(uncertainty, "monte_carlo", interrupted)
+    r = run("identify", "specimens/example1/S1.4.yaml", "--mesh", "4x4", "--monte-carlo", "10",
+            "-o", out)
+    assert r.exit_code == 130, r.output
+    assert (f"laminid: nothing written to {out}: the result is written when every step has "
+            "finished\n") in r.stderr
+    assert not out.exists()
+    out.write_bytes(b"an earlier result")
+    r = run("identify", "specimens/example1/S1.4.yaml", "--mesh", "4x4", "--monte-carlo", "10",
+            "-o", out, "--force")
+    assert r.exit_code == 130, r.output
+    assert "finished (an earlier result there is left as it was)" in r.stderr
+    assert out.read_bytes() == b"an earlier result"

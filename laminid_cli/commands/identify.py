@@ -175,6 +175,16 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
                 f"moved to {moved}" if moved is not None else f"left in place ({why})"),
                 err=True)
         raise
+    except KeyboardInterrupt:
+        # (before "laminid: interrupted"): the result is written whole at the end, so a Ctrl-C
+        # during the Monte Carlo or the profiles left no file and said nothing of it
+        if show_progress:
+            click.echo("", err=True)
+        if out is not None:
+            click.echo(f"laminid: nothing written to {out}: the result is written when every "
+                       "step has finished" + (" (an earlier result there is left as it was)"
+                                              if out.exists() else ""), err=True)
+        raise
     finally:
         if bar is not None:
             bar.__exit__(None, None, None)
