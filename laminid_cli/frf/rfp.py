@@ -880,8 +880,7 @@ def auto_bands(freq, frf, *, max_peaks: int = 4, prominence_db: float = 6.0
     from scipy.signal import find_peaks
 
     freq, frf = _check_arrays(freq, frf)
-    with np.errstate(divide="ignore"):
-        db = 20 * np.log10(np.abs(frf).sum(axis=0) + 1e-300)
+    db = summed_db(frf)
     peaks, _ = find_peaks(db, prominence=prominence_db)
     peaks = peaks[freq[peaks] > 0]
     if peaks.size == 0:
@@ -910,13 +909,19 @@ def auto_bands(freq, frf, *, max_peaks: int = 4, prominence_db: float = 6.0
     return out
 
 
+def summed_db(frf) -> np.ndarray:
+    """``20 log10(sum_p |H_p|)`` of FRFs ``frf`` (n_points, n_freq): the summed magnitude
+    whose peaks place the bands (:func:`auto_bands`) and the notes on peaks without a mode
+    (:func:`missed_peak_notes`)."""
+    with np.errstate(divide="ignore"):
+        return 20 * np.log10(np.abs(np.atleast_2d(frf)).sum(axis=0) + 1e-300)
+
+
 def _count_peaks(freq, frf, band, prominence_db=6.0) -> int:
     from scipy.signal import find_peaks
 
     sel = (freq >= band[0]) & (freq <= band[1])
-    with np.errstate(divide="ignore"):
-        db = 20 * np.log10(np.abs(frf[:, sel]).sum(axis=0) + 1e-300)
-    return int(find_peaks(db, prominence=prominence_db)[0].size)
+    return int(find_peaks(summed_db(frf[:, sel]), prominence=prominence_db)[0].size)
 
 
 # --------------------------------------------------------------------------- the whole chain
@@ -1435,9 +1440,7 @@ def missed_peak_notes(fit: ModalFit, freq, frf) -> list[str]:
     from scipy.signal import find_peaks
 
     freq = np.asarray(freq, float)
-    with np.errstate(divide="ignore"):
-        db = 20 * np.log10(np.abs(np.atleast_2d(frf)).sum(axis=0) + 1e-300)
-    peaks, props = find_peaks(db, prominence=MISSED_PEAK_DB)
+    peaks, props = find_peaks(summed_db(frf), prominence=MISSED_PEAK_DB)
     found = fit.freq_hz
     step = float(np.median(np.diff(freq))) if freq.size > 1 else 0.0
     notes = []
