@@ -248,11 +248,12 @@ class ReducedBasis:
         MW -= MZ @ C
 
     def _m_normalised(self, W: np.ndarray):
-        """(W, M W) with every column of W M-normalised; zero columns dropped."""
+        """(W, M W, kept) with every column of W M-normalised; zero columns dropped (``kept``:
+        the columns of the given W that remain)."""
         MW = self.M @ W
         norm = np.sqrt(np.einsum("ij,ij->j", W, MW))
         ok = norm > 0
-        return W[:, ok] / norm[ok], MW[:, ok] / norm[ok]
+        return W[:, ok] / norm[ok], MW[:, ok] / norm[ok], ok
 
     @staticmethod
     def _independent(W: np.ndarray, MW: np.ndarray) -> np.ndarray:
@@ -275,12 +276,17 @@ class ReducedBasis:
             W = W[:, None]
         if self.symmetry is None:
             return self._add(W, np.zeros(W.shape[1]))
-        SW = self.fm.plate.rotate(self.symmetry, W)
-        norm = np.sqrt(np.einsum("ij,ij->j", W, self.M @ W))
+        rotate = self.fm.plate.rotate
+        SW = rotate(self.symmetry, W)
+        # (M commutes with the turn: M P is made of M W and its turn, one product with M)
+        MW = self.M @ W
+        SMW = rotate(self.symmetry, MW)
+        norm = np.sqrt(np.einsum("ij,ij->j", W, MW))
         parts, labels = [], []
         for parity in (1, -1):
             P = 0.5 * (W + parity * SW)
-            part = np.sqrt(np.maximum(np.einsum("ij,ij->j", P, self.M @ P), 0.0))
+            MP = 0.5 * (MW + parity * SMW)
+            part = np.sqrt(np.maximum(np.einsum("ij,ij->j", P, MP), 0.0))
             keep = part > PARITY_TOL * norm
             parts.append(P[:, keep])
             labels.append(np.full(int(keep.sum()), float(parity)))
@@ -298,10 +304,8 @@ class ReducedBasis:
         more with an M-orthonormalisation for round-off. M W is formed twice (at the start and
         after the eigen decomposition, whose scaling amplifies round-off in the directions it
         keeps) and otherwise carried along by the same combinations as W."""
-        MW = self.M @ W
-        norm = np.sqrt(np.einsum("ij,ij->j", W, MW))
-        ok = norm > 0
-        W, MW, parity = W[:, ok] / norm[ok], MW[:, ok] / norm[ok], parity[ok]
+        W, MW, kept = self._m_normalised(W)
+        parity = parity[kept]
         for _ in range(2):                                   # classical Gram-Schmidt, twice
             self._project_out(W, MW)
         classes = [parity == c for c in np.unique(parity)]
@@ -775,7 +779,7 @@ class ReducedBasis:
         Rayleigh-Ritz step takes its Gram matrix as it is."""
         if W.shape[1] == 0:
             return W, W.copy()
-        W, MW = self._m_normalised(W)
+        W, MW, _ = self._m_normalised(W)
         self._project_out(W, MW, Z, MZ)
         W = self._independent(W, MW)
         return W, self.M @ W
