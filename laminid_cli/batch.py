@@ -226,34 +226,35 @@ def _inside(path: Path, folder: Path) -> bool:
         return False
 
 
-def _frf_file(spec: Path) -> Path | None:
-    """The FRF file a specimen takes its frequencies from (``measured.frf_file``), if any."""
+def _specimen_doc(spec):
+    """A specimen file as plain YAML data; None where it cannot be read or parsed (its error
+    is the specimen's own, reported with its line when it runs; ValueError and OverflowError:
+    a value PyYAML's constructor refuses, e.g. the date 2024-13-45)."""
     import yaml
 
     try:
-        doc = yaml.safe_load(spec.read_text(encoding="utf-8-sig"))
+        return yaml.safe_load(Path(spec).read_text(encoding="utf-8-sig"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError, ValueError, OverflowError):
+        return None
+
+
+def _frf_file(spec: Path, doc=None) -> Path | None:
+    """The FRF file a specimen takes its frequencies from (``measured.frf_file``), if any;
+    ``doc``: the file's YAML data when already read (:func:`load_specimen_docs`)."""
+    if doc is None:
+        doc = _specimen_doc(spec)
+    try:
         name = doc["measured"]["frf_file"]
-    except (OSError, UnicodeDecodeError, yaml.YAMLError, KeyError, TypeError, ValueError,
-            OverflowError):
-        # (ValueError: a YAML value its constructor refuses, e.g. the date 2024-13-45: the
-        # specimen's own error, reported with its line when it runs)
+    except (KeyError, TypeError):
         return None
     return spec.parent / str(name) if name else None
 
 
 def load_specimen_docs(specs) -> list:
-    """Each specimen file as plain YAML data (None where it cannot be read or parsed: its
-    error is the specimen's own, reported when it runs), read once for the checks the batch
-    makes before it runs (:func:`check_fix_materials`, :func:`duplicate_specimens`)."""
-    import yaml
-
-    docs = []
-    for spec in specs:
-        try:
-            docs.append(yaml.safe_load(Path(spec).read_text(encoding="utf-8-sig")))
-        except (OSError, UnicodeDecodeError, yaml.YAMLError, ValueError, OverflowError):
-            docs.append(None)
-    return docs
+    """Each specimen file as plain YAML data (None where it cannot be read or parsed:
+    :func:`_specimen_doc`), read once for the checks the batch makes before it runs
+    (:func:`check_fix_materials`, :func:`duplicate_specimens`)."""
+    return [_specimen_doc(spec) for spec in specs]
 
 
 def _material_names(doc) -> tuple[str, ...] | None:
@@ -351,7 +352,7 @@ def duplicate_specimens(specs, docs) -> list[list[int]]:
         if key[3][0] == "frf":
             by_bytes: dict = collections.defaultdict(list)
             for i in members:
-                frf = _frf_file(Path(specs[i]))
+                frf = _frf_file(Path(specs[i]), docs[i])
                 try:
                     digest = hashlib.sha256(frf.read_bytes()).hexdigest()
                 except (OSError, AttributeError):
