@@ -6,6 +6,7 @@ timeouts are short so the fault tests stay fast.
 
 from __future__ import annotations
 
+import json
 
 import numpy as np
 import pytest
@@ -204,12 +205,13 @@ def test_resume_refuses_other_units_before_touching_the_analyser(tmp_path, hp):
 
 
 def test_resume_with_fewer_points_than_saved_is_refused(tmp_path, hp):
-    """--resume --points 2 on a file of 3 points measures nothing: refused (exit 2) naming the
-    file, its points and the least --points that resumes it; the file is left as it was (it
-    was marked complete with n_points 2 while holding 3 points, after "resuming, 3 of 2
-    point(s) already measured")."""
+    """--resume --points 2 on an unfinished file of 3 points (a session of 5, quit at point
+    4) measures nothing: refused (exit 2) naming the file, its points and the least --points
+    that resumes it; the file is left as it was (it was marked complete with n_points 2 while
+    holding 3 points, after "resuming, 3 of 2 point(s) already measured"). A complete file:
+    test_resume_of_a_complete_file_..."""
     out = tmp_path / "n.h5"
-    assert acquire(hp, out, "--no-prompt", points=3).exit_code == 0
+    assert acquire(hp, out, points=5, input="\n\n\nq\n").exit_code == 3
     before = out.read_bytes()
     hp.settings.clear()
     r = acquire(hp, out, "--no-prompt", "--resume", points=2)
@@ -220,7 +222,80 @@ def test_resume_with_fewer_points_than_saved_is_refused(tmp_path, hp):
     assert "of 2 point(s) already measured" not in r.output
     assert out.read_bytes() == before and hp.settings == {}
     s = read_frf_h5(out)
-    assert s.meta["settings"]["n_points"] == 3 and s.labels == ("1", "2", "3")
+    assert s.meta["settings"]["n_points"] == 5 and s.labels == ("1", "2", "3")
+    assert s.meta["complete"] is False
+
+
+def _free_port_resource() -> str:
+    """A VISA resource on a local port nobody listens on: opening it fails."""
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return f"TCPIP::127.0.0.1::{s.getsockname()[1]}::SOCKET"
+
+
+def test_resume_of_a_complete_file_says_so_without_opening_the_analyser(tmp_path, hp):
+    """--resume of a file that has every point: exit 0, saying it is complete (its points,
+    axis and units) and what to do next (fit-frf; another -o or --force to measure again;
+    more --points to add some), without opening the analyser (none at --analyser: it failed
+    with "no analyser at ..."; one there was opened, and the file rewritten) and with the
+    file unchanged byte for byte."""
+    out = tmp_path / "done.frf.h5"
+    assert acquire(hp, out, "--no-prompt", "--units", "Pa/N", points=3).exit_code == 0
+    before = out.read_bytes()
+    r = run(["acquire", "--analyser", _free_port_resource(), *FAST, "--points", "3",
+             "--units", "Pa/N", "--no-prompt", "--resume", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    assert "no analyser at" not in r.output and "Traceback" not in r.output
+    assert (f"{out}: already complete: 3 points (1, 2, 3), 801 lines 0-1600 Hz, Pa/N; "
+            "nothing to measure: the analyser was not opened and the file is unchanged"
+            ) in r.stderr
+    assert (f"next: laminid fit-frf {out} --into specimen.yaml; to measure the plate again "
+            "write another file (-o NEW.frf.h5) or replace this one (--force, without "
+            "--resume: its 3 points would be lost); to add points --resume --points 4 or "
+            "more") in r.stderr
+    assert out.read_bytes() == before
+    # with the analyser there: not a command sent to it; --json the summary, nothing measured
+    n_log = len(hp.log)
+    r = acquire(hp, out, "--no-prompt", "--units", "Pa/N", "--resume", "--json", points=3)
+    assert r.exit_code == 0, r.output
+    assert len(hp.log) == n_log and "35670A at" not in r.stderr
+    d = json.loads(r.stdout)
+    assert d["already_complete"] is True and d["complete"] is True
+    assert d["points_saved"] == 3 and d["points_requested"] == 3 and d["measured"] == []
+    assert d["units"] == "Pa/N" and d["lines"] == 801 and d["f_stop_hz"] == 1600.0
+    assert d["instrument"]["model"] == "35670A" and d["resume"] is None
+    assert out.read_bytes() == before
+    # fewer --points than the complete file holds: complete too, and said
+    r = acquire(hp, out, "--no-prompt", "--units", "Pa/N", "--resume", points=2)
+    assert r.exit_code == 0, r.output
+    assert "it holds more points than --points 2 asks for" in r.stderr
+    assert len(hp.log) == n_log and out.read_bytes() == before
+    # more --points: the rest is measured as before
+    r = acquire(hp, out, "--no-prompt", "--units", "Pa/N", "--resume", points=4)
+    assert r.exit_code == 0, r.output
+    assert "resuming, 3 of 4 point(s) already measured" in r.stderr
+    assert read_frf_h5(out).labels == ("1", "2", "3", "4")
+
+
+def test_resume_of_a_file_with_every_point_not_marked_complete_leaves_it_alone(tmp_path):
+    """A session that saved its last point and stopped before marking the file complete: its
+    --resume has nothing to measure either; said so, nothing opened, the file unchanged."""
+    out = tmp_path / "all.frf.h5"
+    freq = np.linspace(0, 1600, 801)
+    w = store.FrfWriter(out, freq, units="V/V", settings={"n_points": 2})
+    for label in ("1", "2"):
+        w.add_point(label, np.ones(freq.size, complex), np.ones(freq.size))
+    assert read_frf_h5(out).meta["complete"] is False
+    before = out.read_bytes()
+    r = run(["acquire", "--analyser", _free_port_resource(), "--points", "2", "--keep-setup",
+             "--resume", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    assert (f"{out}: every point measured (the file is not marked complete: its session "
+            "stopped after saving the last point): 2 points (1, 2), 801 lines 0-1600 Hz, V/V; "
+            "nothing to measure") in r.stderr
+    assert out.read_bytes() == before
 
 
 def test_resume_with_keep_setup_of_a_configured_file_is_refused(tmp_path, hp):

@@ -187,6 +187,52 @@ def _refuse_unfinished(out: Path) -> None:
         "choose another name with -o (--force would start it again and lose the saved points)")
 
 
+def _nothing_to_measure(old, points: int) -> bool:
+    """``--resume`` of ``old`` (the FRF file read) with ``--points points`` measures nothing:
+    every point label 1..points is in the file, and the file is marked complete or holds
+    exactly those points (a session that saved its last point and stopped before marking the
+    file complete). A file not marked complete that holds more points than asked for is left
+    to the "asks for fewer" refusal: its session may have more to measure."""
+    labels = set(old.labels)
+    if not all(str(i + 1) in labels for i in range(points)):
+        return False
+    return bool(old.meta.get("complete", True)) or old.n_points == points
+
+
+def _say_complete(out: Path, old, points: int, as_json: bool) -> None:
+    """Say that ``out`` (read as ``old``) has every point ``--resume --points points`` asks
+    for and what to do next, on stderr (``--json``: the summary document on stdout too, with
+    nothing measured); exit status 0. Nothing is opened or written."""
+    import shlex
+
+    from laminid_cli.commands._common import echo_json
+
+    n = old.n_points
+    labels = ", ".join(old.labels)
+    freq = old.freq
+    q = shlex.quote(str(out))
+    marked = bool(old.meta.get("complete", True))
+    more = (f"; it holds more points than --points {points} asks for" if n > points else "")
+    state = ("already complete" if marked else
+             "every point measured (the file is not marked complete: its session stopped "
+             "after saving the last point)")
+    click.echo(f"{out}: {state}: {n} point{'s' if n != 1 else ''} ({labels}), {freq.size} "
+               f"lines {freq[0]:g}-{freq[-1]:g} Hz, {old.units}{more}; nothing to measure: "
+               "the analyser was not opened and the file is unchanged", err=True)
+    click.echo(f"next: laminid fit-frf {q} --into specimen.yaml; to measure the plate again "
+               f"write another file (-o NEW.frf.h5) or replace this one (--force, without "
+               f"--resume: its {n} point{'s' if n != 1 else ''} would be lost); to add points "
+               f"--resume --points {n + 1} or more", err=True)
+    if as_json:
+        echo_json({
+            "file": str(out), "complete": True, "already_complete": True,
+            "points_requested": points, "points_saved": n, "measured": [], "skipped": [],
+            "repeated": 0, "quit": False, "units": old.units,
+            "lines": int(freq.size), "f_start_hz": float(freq[0]),
+            "f_stop_hz": float(freq[-1]), "instrument": old.meta.get("instrument") or {},
+            "points": [], "resume": None, "stopped": None})
+
+
 def _resume_command(params: dict, output: Path) -> str:
     args = ["laminid", "acquire", "--analyser", params["analyser"]]
     for name, flag in (("model", "--model"), ("visa_backend", "--visa-backend"),
@@ -252,13 +298,17 @@ def _resume_command(params: dict, output: Path) -> str:
 @click.option("--configure/--keep-setup", default=True, show_default=True,
               help="Send the set-up to the analyser, or keep the one on its front panel.")
 @click.option("--resume", is_flag=True, help="Continue an interrupted file: measure the "
-                                             "points it does not have yet.")
+                                             "points it does not have yet. A file that has "
+                                             "every point is said so (exit 0) without opening "
+                                             "the analyser or changing the file.")
 @force_option
 @click.option("--json", "as_json", is_flag=True,
               help="Print a JSON summary on stdout (file, points saved and missing, the "
                    "quality of each point measured in this run); the quality lines go to "
                    "stderr. Printed also when points are missing (exit 3) or the session "
-                   "stopped early (Ctrl-C, analyser fault, closed stdin: 'stopped' says why).")
+                   "stopped early (Ctrl-C, analyser fault, closed stdin: 'stopped' says why), "
+                   "and for a --resume of a file that has every point ('already_complete': "
+                   "true, nothing measured).")
 @click.option("-o", "--output", required=True, type=OUTPUT_FILE,
               help="FRF HDF5 file to write (point by point).")
 @click.pass_context
@@ -272,7 +322,8 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
     prints a one-line quality summary and saves the point at once: an interrupted session
     keeps every finished point, and --resume continues it.
 
-    Exit status: 0 when every point is saved; 3 when the session ended with points missing
+    Exit status: 0 when every point is saved (also for --resume of a file that already has
+    them all: said so, the analyser not opened, the file unchanged); 3 when the session ended with points missing
     (quit or skipped; the file is valid, continue with --resume); 1 on an analyser fault
     (finished points kept); 130 on Ctrl-C; 2 for bad input (options, the output file, no
     analyser answering at --analyser: nothing measured).
@@ -323,6 +374,12 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
         from laminid_cli.frf.store import check_resume_settings, read_frf_h5
 
         old = read_frf_h5(out)
+        if _nothing_to_measure(old, points):
+            # every point asked for is in the file: the analyser is not opened and the file
+            # not rewritten (it was, marked complete again, after a connection to the
+            # analyser; with none at --analyser the command failed)
+            _say_complete(out, old, points, as_json)
+            return
         # --keep-setup reads the set-up back from the analyser, later: units only then
         check_resume_settings(out, old.meta.get("settings") or {},
                               settings.as_attrs() if configure else {},
@@ -369,7 +426,8 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
             from laminid_cli.commands._common import echo_json
 
             echo_json({
-                "file": str(out), "complete": result.complete, "points_requested": points,
+                "file": str(out), "complete": result.complete, "already_complete": False,
+                "points_requested": points,
                 "points_saved": result.n_saved, "measured": result.measured,
                 "skipped": result.skipped, "repeated": result.repeated, "quit": result.quit,
                 "units": units, "lines": int(freq.size), "f_start_hz": float(freq[0]),
