@@ -226,6 +226,105 @@ def _inside(path: Path, folder: Path) -> bool:
         return False
 
 
+#: what a laminid HDF5 file of each ``format`` is, and what takes it ({q}: its quoted name),
+#: for a file given to batch as a specimen
+_HDF5_KINDS = {
+    "laminid-result": ("a laminid identification result (of laminid identify or batch)",
+                       "'laminid show {q}' prints it, 'laminid report {q}' draws it"),
+    "laminid-joint-result": ("a laminid joint identification result (of laminid identify "
+                             "--joint)",
+                             "'laminid show {q}' prints it, 'laminid report {q}' draws it"),
+    "laminid-frf": ("an FRF file (of laminid acquire)",
+                    "'laminid fit-frf {q} --into SPEC.yaml' writes its modes into a specimen "
+                    "(or name it in the specimen's measured.frf_file), which batch identifies"),
+    "laminid-modes": ("a file of 'laminid modes' (a model's modes at a specimen's initial "
+                      "constants)", "'laminid export {q} -o modes.unv' writes its mode shapes"),
+}
+#: what batch takes, for the messages on files it does not
+BATCH_TAKES = ("batch identifies specimen files (YAML text), named or found in folders "
+               "(*.yaml, *.yml)")
+
+
+def hdf5_format(path, probe: bool = True) -> str:
+    """The root attribute ``format`` of the HDF5 file ``path`` ("laminid-result",
+    "laminid-frf", ...; "" when it has none). With ``probe`` the file is read in a child
+    process first (:func:`laminid_cli.frf.store.probe_hdf5_file`): one that would crash or
+    hang libhdf5 is an FrfError, as is one h5py cannot open."""
+    import h5py
+
+    from laminid_cli.errors import FrfError
+    from laminid_cli.frf.store import H5_DAMAGE_ERRORS, probe_hdf5_file
+
+    if probe:
+        probe_hdf5_file(path, reader="hdf5_format", module="laminid_cli.batch")
+    try:
+        with h5py.File(path, "r") as f:
+            fmt = f.attrs.get("format", "")
+    except H5_DAMAGE_ERRORS as exc:
+        raise FrfError(f"{path}: {exc}") from exc
+    return fmt.decode("utf-8", "replace") if isinstance(fmt, bytes) else str(fmt)
+
+
+def non_specimen_text(path) -> str | None:
+    """What ``path`` is, in words with what takes it, when it can be no specimen file: by its
+    first bytes (:func:`laminid_cli.specimen.not_a_specimen`: PDF, ZIP, ...) and an HDF5 file
+    by its ``format`` (a laminid result, FRF or modes file, another tool's file). None for a
+    file that may be one: its faults are its own, reported when it runs."""
+    import shlex
+
+    from laminid_cli.specimen import HDF5_MAGIC, not_a_specimen
+
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(8)
+    except OSError:
+        return None
+    if not head.startswith(HDF5_MAGIC):
+        return not_a_specimen(head)
+    try:
+        fmt = hdf5_format(path)
+    except LaminidError as exc:
+        reason = str(exc).removeprefix(f"{path}: ")
+        return f"a damaged HDF5 file ({reason}), not a specimen file (YAML text)"
+    if fmt in _HDF5_KINDS:
+        what, hint = _HDF5_KINDS[fmt]
+        return f"{what}, not a specimen file (YAML text); {hint.format(q=shlex.quote(str(path)))}"
+    kind = f"format {fmt!r}" if fmt else "not a laminid file"
+    return (f"an HDF5 file ({kind}), not a specimen file (YAML text); FRFs of another tool go "
+            f"through 'laminid fit-frf {shlex.quote(str(path))} --into SPEC.yaml'")
+
+
+def sort_out_non_specimens(specimens, inputs) -> tuple[list, list, list]:
+    """(specimens, named, found): the (path, name) of :func:`discover_specimens` that may be
+    specimen files, and those that can be none (:func:`non_specimen_text`) as (path, what):
+    ``named`` those the ``inputs`` name (the command refuses them: a result or FRF file among
+    the files given is a slip to be told before anything runs), ``found`` those found in an
+    input folder (a ``*.yaml`` that is none: skipped with a warning)."""
+    named_inputs = {Path(i).resolve() for i in inputs if Path(i).is_file()}
+    kept, named, found = [], [], []
+    for path, name in specimens:
+        what = non_specimen_text(path)
+        if what is None:
+            kept.append((path, name))
+        elif Path(path).resolve() in named_inputs:
+            named.append((path, what))
+        else:
+            found.append((path, what))
+    return kept, named, found
+
+
+def non_specimens_message(named) -> str:
+    """The refusal of input files that are no specimen files ((path, what) each)."""
+    if len(named) == 1:
+        path, what = named[0]
+        return f"{path}: {what}; {BATCH_TAKES}: leave it out of the inputs"
+    lines = [f"{len(named)} of the inputs are not specimen files; {BATCH_TAKES}: leave them "
+             "out of the inputs (a folder given is searched for *.yaml, *.yml only: laminid batch "
+             "FOLDER)"]
+    lines += [f"  {path}: {what}" for path, what in named]
+    return "\n".join(lines)
+
+
 def _specimen_doc(spec):
     """A specimen file as plain YAML data; None where it cannot be read or parsed (its error
     is the specimen's own, reported with its line when it runs; ValueError and OverflowError:

@@ -1389,10 +1389,14 @@ def _light_slip(rho: float, thousand: str, sides: str | None) -> str:
     return "check the number and its unit"
 
 
+#: leading bytes of an HDF5 file (an FRF, result or modes file of laminid, or another tool's)
+HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
+
+
 #: leading bytes of files a specimen path is sometimes given by mistake: what they are, and
 #: what takes them
 _NOT_A_SPECIMEN = (
-    (b"\x89HDF\r\n\x1a\n", "an HDF5 file (an FRF or result file?), not a specimen file (YAML "
+    (HDF5_MAGIC, "an HDF5 file (an FRF or result file?), not a specimen file (YAML "
      "text): FRFs go through 'laminid fit-frf FILE --into SPECIMEN.yaml' (or measured.frf_file "
      "in the specimen), a result through 'laminid report FILE'"),
     (b"%PDF", "a PDF document, not a specimen file (YAML text)"),
@@ -1403,6 +1407,17 @@ _NOT_A_SPECIMEN = (
 )
 
 
+def not_a_specimen(head: bytes) -> str | None:
+    """What a file whose first bytes are ``head`` is when those bytes say it can be no
+    specimen file (HDF5, PDF, ZIP, PNG, gzip), in words with what takes it ("an HDF5 file
+    (an FRF or result file?), not a specimen file (YAML text): ..."); None otherwise.
+
+    >>> not_a_specimen(b"%PDF-1.7")
+    'a PDF document, not a specimen file (YAML text)'
+    """
+    return next((what for magic, what in _NOT_A_SPECIMEN if head.startswith(magic)), None)
+
+
 def read_specimen(path) -> Specimen:
     """Read a specimen YAML file (UTF-8) and validate it; see :func:`load_specimen_text`."""
     name = str(path)
@@ -1411,9 +1426,9 @@ def read_specimen(path) -> Specimen:
         if p.is_file():
             with open(p, "rb") as fh:
                 head = fh.read(8)
-            for magic, what in _NOT_A_SPECIMEN:
-                if head.startswith(magic):
-                    raise SpecimenError(f"is {what}", path=name)
+            what = not_a_specimen(head)
+            if what is not None:
+                raise SpecimenError(f"is {what}", path=name)
         size = p.stat().st_size if p.is_file() else 0
         if size > 4 * MAX_SPECIMEN_CHARS:   # refused before it is read into memory
             raise SpecimenError(f"the file has {size} bytes, more than a specimen file can have "

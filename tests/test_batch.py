@@ -512,6 +512,84 @@ def test_usage_errors_exit_2(tmp_path):
     assert r.exit_code == 2
 
 
+def _hdf5_with_format(path: Path, fmt: str) -> Path:
+    """An HDF5 file whose root attribute ``format`` is ``fmt`` (what batch looks at)."""
+    with h5py.File(path, "w") as f:
+        f.attrs["format"] = fmt
+        f.attrs["schema_version"] = 2
+    return path
+
+
+def test_a_result_frf_or_modes_file_named_as_an_input_is_refused_before_anything_runs(tmp_path):
+    """A result file among the files given (laminid batch plates/* with results beside the
+    specimens) ran as a specimen and failed as one ("is an HDF5 file (an FRF or result
+    file?)", exit 1, a row 'S1.result: error' in the summaries). Now refused at once (exit 2,
+    --out not created), naming each file, what it is (its HDF5 'format', whatever its name),
+    what takes it and what batch takes."""
+    from laminid_cli.frf.store import write_frf_h5
+
+    shutil.copy(SPECS["example2/S2.1.yaml"], tmp_path / "S2.1.yaml")
+    result = _hdf5_with_format(tmp_path / "plate.h5", "laminid-result")   # any name
+    out = tmp_path / "out"
+    r = run("batch", tmp_path / "S2.1.yaml", result, "--mesh", MESH, "--out", out)
+    assert r.exit_code == 2, r.output
+    assert r.stderr == (
+        f"laminid: error: {result}: a laminid identification result (of laminid identify or "
+        f"batch), not a specimen file (YAML text); 'laminid show {result}' prints it, "
+        f"'laminid report {result}' draws it; batch identifies specimen files (YAML text), "
+        "named or found in folders (*.yaml, *.yml): leave it out of the inputs\n")
+    assert not out.exists()
+    frf = write_frf_h5(tmp_path / "plate.frf.h5", np.linspace(0, 100, 11),
+                       np.ones((1, 11), complex), units="Pa/N")
+    modes = _hdf5_with_format(tmp_path / "plate-modes.h5", "laminid-modes")
+    joint = _hdf5_with_format(tmp_path / "a+b.joint.result.h5", "laminid-joint-result")
+    (tmp_path / "notes.pdf").write_bytes(b"%PDF-1.7 ...")
+    r = run("batch", *sorted(tmp_path.iterdir()), "--mesh", MESH, "--out", out)
+    assert r.exit_code == 2, r.output
+    lines = r.stderr.splitlines()
+    assert lines[0] == (
+        "laminid: error: 5 of the inputs are not specimen files; batch identifies specimen "
+        "files (YAML text), named or found in folders (*.yaml, *.yml): leave them out of the "
+        "inputs (a folder given is searched for *.yaml, *.yml only: laminid batch FOLDER)")
+    assert lines[1:] == [
+        f"  {joint}: a laminid joint identification result (of laminid identify --joint), "
+        f"not a specimen file (YAML text); 'laminid show {joint}' prints it, 'laminid report "
+        f"{joint}' draws it",
+        f"  {tmp_path / 'notes.pdf'}: a PDF document, not a specimen file (YAML text)",
+        f"  {result}: a laminid identification result (of laminid identify or batch), not a "
+        f"specimen file (YAML text); 'laminid show {result}' prints it, 'laminid report "
+        f"{result}' draws it",
+        f"  {modes}: a file of 'laminid modes' (a model's modes at a specimen's initial "
+        f"constants), not a specimen file (YAML text); 'laminid export {modes} -o modes.unv' "
+        "writes its mode shapes",
+        f"  {frf}: an FRF file (of laminid acquire), not a specimen file (YAML text); 'laminid "
+        f"fit-frf {frf} --into SPEC.yaml' writes its modes into a specimen (or name it in the "
+        "specimen's measured.frf_file), which batch identifies"]
+    assert not out.exists() and "Traceback" not in r.output
+
+
+def test_a_yaml_file_in_a_folder_that_is_no_specimen_is_skipped_with_a_warning(tmp_path):
+    """A folder searched for *.yaml holding a result file under that name, and a damaged
+    HDF5 file: each skipped with a warning naming it and what it is; the specimens run, and
+    the summaries have no row for them (they had an 'error' row each, exit 1)."""
+    specs = make_tree(tmp_path / "in", {"S2.1.yaml": SPECS["example2/S2.1.yaml"]})
+    _hdf5_with_format(specs / "old.yaml", "laminid-result")
+    (specs / "broken.yml").write_bytes(b"\x89HDF\r\n\x1a\n" + b"\0" * 40)
+    r = run("batch", specs, "--mesh", MESH, "--out", tmp_path / "out")
+    assert r.exit_code == 0, r.output
+    assert (f"warning: {specs / 'old.yaml'}: a laminid identification result (of laminid "
+            f"identify or batch), not a specimen file (YAML text); 'laminid show "
+            f"{specs / 'old.yaml'}' prints it, 'laminid report {specs / 'old.yaml'}' draws "
+            "it; skipped\n") in r.stderr
+    assert f"warning: {specs / 'broken.yml'}: a damaged HDF5 file (" in r.stderr
+    assert "not a specimen file (YAML text); skipped" in r.stderr
+    assert "1 specimen, 0 up to date, 1 to identify" in r.stderr
+    assert [row["name"] for row in read_summary(tmp_path / "out" / "summary.csv")] == ["S2.1"]
+    assert "0 ok, 1 check (0 not converged), 0 failed" in r.stdout
+    r = run("-q", "batch", specs, "--mesh", MESH, "--out", tmp_path / "out")
+    assert r.exit_code == 0 and r.stderr == ""                   # -q: only errors
+
+
 @pytest.mark.parametrize("fix, words", [
     ("eta13=0.01,eta13=0.02", "--fix eta13=0.02: eta13 is already fixed at 0.01"),
     ("eta13=-1", "--fix eta13=-1: eta13 must be between 0 and 1"),

@@ -67,9 +67,12 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     Result files in OUT that no specimen of the inputs has (its file removed, or another
     batch's) are kept and listed as 'not from this batch'. Specimen files that hold one
     plate's measured data (a file copied under another name) are warned of, once per group,
-    and listed in summary.json ('duplicates'); both still run. Exit code 0 when all
-    converged (status ok or check), 1 when any failed or did not converge, 2 for bad usage
-    (no specimen found).
+    and listed in summary.json ('duplicates'); both still run. A file that can be no
+    specimen (a result, FRF or modes file: HDF5; a PDF, ...) is refused when named among
+    INPUTS, before anything runs (exit 2, naming each and what it is), and skipped with a
+    warning when a folder holds it as *.yaml. Exit code 0 when all converged (status ok or
+    check), 1 when any failed or did not converge, 2 for bad usage (no specimen found, a
+    file named that is no specimen).
 
     \b
     Examples:
@@ -88,9 +91,10 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
                                    BatchError, batch_report, check_fix_materials,
                                    check_scheduler, discover_specimens, duplicate_specimens,
                                    duplicate_text, failed, foreign_results, foreign_row,
-                                   format_table, load_specimen_docs, pending_row, plan_batch,
-                                   printable, remove_stale_parts, result_row, run_jobs,
-                                   set_aside_result, stored_hash, write_summary_csv,
+                                   format_table, load_specimen_docs, non_specimens_message,
+                                   pending_row, plan_batch, printable, remove_stale_parts,
+                                   result_row, run_jobs, set_aside_result,
+                                   sort_out_non_specimens, stored_hash, write_summary_csv,
                                    write_summary_json)
 
     def _unfinished_row(job):
@@ -122,6 +126,14 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     if out.exists() and not out.is_dir():
         raise BatchError(f"--out {out}: exists and is not a folder")
     specimens = discover_specimens(inputs, exclude=[out])
+    # a result, FRF or modes file (HDF5), a PDF... ran as a specimen and failed as one: one
+    # named is refused before anything runs, one a folder holds as *.yaml is skipped, said
+    specimens, named, found = sort_out_non_specimens(specimens, inputs)
+    if named:
+        raise BatchError(printable(non_specimens_message(named)))
+    if not quiet():
+        for path, what in found:
+            click.echo(printable(f"warning: {path}: {what}; skipped"), err=True)
     if not specimens:
         raise BatchError(f"no specimen file (*.yaml, *.yml) found in {', '.join(inputs)}")
     docs = load_specimen_docs(p for p, _ in specimens)        # read once for both checks
