@@ -510,3 +510,33 @@ def test_ctrl_c_during_the_monte_carlo_says_nothing_was_written(tmp_path, monkey
     assert r.exit_code == 130, r.output
     assert "finished (an earlier result there is left as it was)" in r.stderr
     assert out.read_bytes() == b"an earlier result"
+
+
+def test_jobs_sets_the_processes_of_the_profiles_and_the_monte_carlo_as_its_help_says(
+        tmp_path, monkeypatch):
+    """-j's help said "Processes for the Monte Carlo trials" only; the profiles of the
+    constants on a search limit (S2.1: G13) run in -j processes too. The help names both, and
+    both get the -j given."""
+    import click
+
+    import laminid_cli.uncertainty as uncertainty
+    from laminid_cli.cli import cli
+
+    cmd = cli.get_command(click.Context(cli), "identify")
+    help_text = next(p.help for p in cmd.params if p.name == "jobs")
+    assert help_text.startswith("Processes for the Monte Carlo trials (--monte-carlo) and for "
+                                "the profiles of the constants that stop on a search limit")
+    seen = {}
+    profiles, monte_carlo = uncertainty.with_profiles, uncertainty.monte_carlo
+
+    def recording(original, name):
+        def call(*args, jobs=None, **kwargs):
+            seen.setdefault(name, []).append(jobs)
+            return original(*args, jobs=1, **kwargs)        # one process here
+        return call
+
+    monkeypatch.setattr(uncertainty, "with_profiles", recording(profiles, "profiles"))
+    monkeypatch.setattr(uncertainty, "monte_carlo", recording(monte_carlo, "monte_carlo"))
+    r = run("identify", S21, "--mesh", "4x4", "--monte-carlo", "4", "-j", "3", "--no-output")
+    assert r.exit_code == 0, r.output
+    assert seen == {"monte_carlo": [3], "profiles": [3]}, seen

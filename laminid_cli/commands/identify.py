@@ -34,7 +34,10 @@ def default_joint_output(specs) -> Path:
                    "geometry, mass and frequencies.")
 @uncertainty_options
 @click.option("-j", "--jobs", type=click.IntRange(min=1), default=None,
-              help="Processes for the Monte Carlo trials [default: the number of cores].")
+              help="Processes for the Monte Carlo trials (--monte-carlo) and for the "
+                   "profiles of the constants that stop on a search limit (one constant "
+                   "each; on Linux, elsewhere they run one after the other); the results do "
+                   "not depend on it [default: the number of cores].")
 @json_option
 @click.option("-o", "--output", type=OUTPUT_FILE, default=None,
               help="HDF5 result file, never overwritten without --force [default: SPEC's "
