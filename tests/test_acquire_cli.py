@@ -104,7 +104,8 @@ def test_json_summary_on_stdout_for_shell_batches(tmp_path, hp):
     s = read_frf_h5(out)
     assert d["file"] == str(out) and d["complete"] is True and d["resume"] is None
     assert d["points_requested"] == d["points_saved"] == 2 and d["measured"] == ["1", "2"]
-    assert d["units"] == "Pa/N" and d["lines"] == s.freq.size == 801
+    assert d["frf_unit"] == "Pa/N" and d["lines"] == s.freq.size == 801
+    assert d["units"] == "Pa/N"            # frf_unit's old name, kept for 0.2.x
     assert (d["f_start_hz"], d["f_stop_hz"]) == (s.freq[0], s.freq[-1])
     assert d["instrument"]["model"] == "35670A"
     assert [p["label"] for p in d["points"]] == list(s.labels)
@@ -264,7 +265,8 @@ def test_resume_of_a_complete_file_says_so_without_opening_the_analyser(tmp_path
     d = json.loads(r.stdout)
     assert d["already_complete"] is True and d["complete"] is True
     assert d["points_saved"] == 3 and d["points_requested"] == 3 and d["measured"] == []
-    assert d["units"] == "Pa/N" and d["lines"] == 801 and d["f_stop_hz"] == 1600.0
+    assert d["frf_unit"] == d["units"] == "Pa/N"
+    assert d["lines"] == 801 and d["f_stop_hz"] == 1600.0
     assert d["instrument"]["model"] == "35670A" and d["resume"] is None
     assert out.read_bytes() == before
     # fewer --points than the complete file holds: complete too, and said

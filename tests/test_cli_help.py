@@ -69,3 +69,20 @@ def test_a_misspelt_command_gets_the_nearest_one(typed, words):
                                       "report, show, export)")
     if typed == "frobnicate":                   # nothing near: no guess
         assert "did you mean" not in r.output
+
+
+@pytest.mark.parametrize("name", ["modes", "identify", "show", "batch", "fit-frf", "export",
+                                  "acquire"])
+def test_json_help_says_what_units_means(name):
+    """'units' in --json was a map of each field's unit (modes, identify, show, batch) or the
+    FRF's engineering unit as text (acquire, fit-frf, export), and no help said which. The
+    FRF commands name that one 'frf_unit' ('units' kept as the same text for one release);
+    each --json help says what its keys hold."""
+    cmd = cli.get_command(click.Context(cli), name)
+    text = next(p.help for p in cmd.params if p.name == "as_json")
+    if name in ("fit-frf", "export", "acquire"):
+        assert text.endswith("'frf_unit' is the FRF's engineering unit (\"Pa/N\"); 'units', "
+                             "its old name, holds the same text in this release only "
+                             "(elsewhere 'units' maps each field to its unit)."), text
+    else:
+        assert text.endswith("its 'units' maps each field name to its unit (\"E1\": \"Pa\")."), text

@@ -438,7 +438,8 @@ def test_json_states_the_unit_of_the_modal_constants_and_which_spread_is_which(h
     r = run(["fit-frf", str(h5), "--json"])
     assert r.exit_code == 0, r.output
     out = json.loads(r.output)
-    assert out["units"] == "Pa/N" and out["modal_constants_unit"] == "(Pa/N)*rad/s"
+    assert out["frf_unit"] == "Pa/N" and out["modal_constants_unit"] == "(Pa/N)*rad/s"
+    assert out["units"] == "Pa/N"          # frf_unit's old name, kept for 0.2.x
     assert out["mode_units"]["modal_constants"] == "(Pa/N)*rad/s"
     assert out["mode_units"]["sigma_hz"] == out["mode_units"]["freq_std_hz"] == "Hz"
     counts = {"mode", "orders_stable", "sigma_dominant"}

@@ -92,7 +92,20 @@ def quiet() -> bool:
 
 json_option = click.option(
     "--json", "as_json", is_flag=True,
-    help="Print the results as JSON on stdout (SI units, frequencies in Hz) instead of tables.")
+    help="Print the results as JSON on stdout (SI units, frequencies in Hz) instead of tables; "
+         "its 'units' maps each field name to its unit (\"E1\": \"Pa\").")
+
+#: the FRF commands' JSON names the FRF's engineering unit ``frf_unit``: ``units``, which
+#: held it, is the field -> unit map in the other commands' JSON (modes, identify, show,
+#: batch); kept as the same text for one release (0.2.x), then dropped
+FRF_UNIT_NOTE = ("'frf_unit' is the FRF's engineering unit (\"Pa/N\"); 'units', its old name, "
+                 "holds the same text in this release only (elsewhere 'units' maps each field "
+                 "to its unit)")
+
+frf_json_option = click.option(
+    "--json", "as_json", is_flag=True,
+    help="Print the results as JSON on stdout (SI units, frequencies in Hz) instead of tables; "
+         + FRF_UNIT_NOTE + ".")
 
 force_option = click.option(
     "--force", is_flag=True, help="Overwrite an existing output file.")

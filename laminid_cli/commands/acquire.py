@@ -16,9 +16,9 @@ from pathlib import Path
 
 import click
 
-from laminid_cli.commands._common import (OUTPUT_FILE, FiniteFloat, check_hdf5_name,
-                                          check_output_path, force_option, quiet,
-                                          writable_target)
+from laminid_cli.commands._common import (FRF_UNIT_NOTE, OUTPUT_FILE, FiniteFloat,
+                                          check_hdf5_name, check_output_path, force_option,
+                                          quiet, writable_target)
 
 
 #: acquire's option for each field of AcquisitionSettings: the checks' messages name them
@@ -227,7 +227,8 @@ def _say_complete(out: Path, old, points: int, as_json: bool) -> None:
         echo_json({
             "file": str(out), "complete": True, "already_complete": True,
             "points_requested": points, "points_saved": n, "measured": [], "skipped": [],
-            "repeated": 0, "quit": False, "units": old.units,
+            "repeated": 0, "quit": False, "frf_unit": old.units,
+            "units": old.units,      # frf_unit's old name, kept for 0.2.x (--json help)
             "lines": int(freq.size), "f_start_hz": float(freq[0]),
             "f_stop_hz": float(freq[-1]), "instrument": old.meta.get("instrument") or {},
             "points": [], "resume": None, "stopped": None})
@@ -308,7 +309,7 @@ def _resume_command(params: dict, output: Path) -> str:
                    "stderr. Printed also when points are missing (exit 3) or the session "
                    "stopped early (Ctrl-C, analyser fault, closed stdin: 'stopped' says why), "
                    "and for a --resume of a file that has every point ('already_complete': "
-                   "true, nothing measured).")
+                   "true, nothing measured). " + FRF_UNIT_NOTE + ".")
 @click.option("-o", "--output", required=True, type=OUTPUT_FILE,
               help="FRF HDF5 file to write (point by point).")
 @click.pass_context
@@ -430,7 +431,9 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
                 "points_requested": points,
                 "points_saved": result.n_saved, "measured": result.measured,
                 "skipped": result.skipped, "repeated": result.repeated, "quit": result.quit,
-                "units": units, "lines": int(freq.size), "f_start_hz": float(freq[0]),
+                "frf_unit": units,
+                "units": units,        # frf_unit's old name, kept for 0.2.x (--json help)
+                "lines": int(freq.size), "f_start_hz": float(freq[0]),
                 "f_stop_hz": float(freq[-1]), "instrument": identity,
                 # an analyser that cannot tell its overloads: null, not a count of -1
                 "points": [asdict(q) | {"ok": q.ok} | (

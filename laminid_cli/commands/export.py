@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from laminid_cli.commands._common import (OUTPUT_FILE, InputFile, check_output_path, echo_json,
-                                          force_option, json_option, writable_target)
+                                          force_option, frf_json_option, writable_target)
 
 #: the suffixes of the Universal Files export writes (those the FRF reader takes for UFF)
 UFF_SUFFIXES = (".uff", ".unv")
@@ -53,7 +53,7 @@ def _span(freq) -> list:
 @click.option("--specimen", default=None, metavar="NAME",
               help="Joint result: the plate whose mode shapes to write.")
 @force_option
-@json_option
+@frf_json_option
 def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen, force,
            as_json):
     """Write FRFs or identified mode shapes as a Universal File for other modal software.
@@ -136,7 +136,9 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
                   "(about 1/(tau*omega_n) added)")
         summary = {"input": str(input_file), "output": str(out), "kind": "FRF",
                    "datasets": {"58": fs.n_points + len(coherent)}, "binary": not ascii_,
-                   "units": units, "n_lines": int(fs.freq.size),
+                   "frf_unit": units,
+                   "units": units,      # frf_unit's old name, kept for 0.2.x (--json help)
+                   "n_lines": int(fs.freq.size),
                    "freq_range_hz": _span(fs.freq),
                    "points": dict(zip(labels, nodes)),
                    "coherence_points": [labels[k] for k in coherent], "notes": notes}

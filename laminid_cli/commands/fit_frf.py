@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from laminid_cli.commands._common import (OUTPUT_FILE, SIGMA_REL, InputFile, check_output_path,
-                                          echo_json, force_option, json_option,
+                                          echo_json, force_option, frf_json_option,
                                           writable_target)
 
 
@@ -51,7 +51,7 @@ def _parse_bands(ctx, param, values):
               help="Floor of each frequency's standard deviation, as a fraction of it "
                    "(supports, temperature, repeatability: what the FRF cannot show).")
 @force_option
-@json_option
+@frf_json_option
 def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path, spec_path,
             sigma_rel, force, as_json):
     """Fit the FRFs in FRF_FILE (laminid HDF5, UFF 58 or CSV) and list the natural frequencies.
@@ -192,7 +192,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
 
         residue_unit = _times_rad_per_s(fs.units)
         echo_json({
-            "file": str(frf_file), "n_points": fs.n_points, "units": fs.units,
+            "file": str(frf_file), "n_points": fs.n_points, "frf_unit": fs.units,
+            "units": fs.units,             # frf_unit's old name, kept for 0.2.x (--json help)
             "points": list(fs.labels),   # one per FRF: the order of modal_constants
             "modal_constants_unit": residue_unit,
             "mode_units": {   # sigma_hz: the measurement's sigma; freq_std_hz: RFP spread only
