@@ -324,10 +324,10 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
     keeps every finished point, and --resume continues it.
 
     Exit status: 0 when every point is saved (also for --resume of a file that already has
-    them all: said so, the analyser not opened, the file unchanged); 3 when the session ended with points missing
-    (quit or skipped; the file is valid, continue with --resume); 1 on an analyser fault
-    (finished points kept); 130 on Ctrl-C; 2 for bad input (options, the output file, no
-    analyser answering at --analyser: nothing measured).
+    them all: said so, the analyser not opened, the file unchanged); 3 when the session ended
+    with points missing (quit or skipped; the file is valid, continue with --resume); 1 on an
+    analyser fault (finished points kept); 130 on Ctrl-C; 2 for bad input (options, the
+    output file, no analyser answering at --analyser: nothing measured).
 
     \b
     Example:
