@@ -67,10 +67,16 @@ def damping_figures(result) -> list[tuple[str, object]]:
     return [("damping" if k == 0 else f"damping-{k + 1}", fig) for k, fig in enumerate(figs)]
 
 
+#: the interval cell of a loss factor held at 0 by eta >= 0 (as "none — fixed" of a fixed one)
+HELD_INTERVAL = "none — held at 0"
+
+
 def loss_factor_rows(d: dict) -> list[list[str]]:
     """Rows of the loss-factor table (strings as drawn, %): label, value, interval, verdict
-    in a few words (the advice is under the table). A loss factor held at 0 by eta >= 0
-    keeps its one-sided interval 0 .. upper; a fixed one has none."""
+    in a few words (the advice is under the table). A loss factor held at 0 by eta >= 0 has
+    no interval (:data:`HELD_INTERVAL`; a file written before kept 0 .. a one-sided upper,
+    1e+06 % where the damping does not determine it: not shown either), nor has a fixed
+    one."""
     from laminid_cli.intervals import width_text
     from laminid_cli.report import short_verdict
 
@@ -78,8 +84,8 @@ def loss_factor_rows(d: dict) -> list[list[str]]:
     mc = d.get("monte_carlo") or {}
     from_mc = set(d.get("verdict_from_monte_carlo") or ())
     for k, lab in enumerate(d["labels"]):
-        lo = 0.0 if d["at_bound"][k] else 100 * d["lower"][k]
-        interval = f"[{lo:.3g}, {100 * d['upper'][k]:.3g}]"
+        interval = (HELD_INTERVAL if d["at_bound"][k]
+                    else f"[{100 * d['lower'][k]:.3g}, {100 * d['upper'][k]:.3g}]")
         verdict = ("held at 0 by η ≥ 0: not identified" if d["at_bound"][k]
                    else short_verdict(d["verdict"][k]))
         if "lower" in mc:
@@ -496,9 +502,10 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
     """One panel per loss factor (eta11 ... eta23, %): each specimen of the summary on the x
     axis, the materials of one specimen side by side, each with the doubt the summary gives
     it, in the marks of the constants' page: interval bar, hollow "?" when not determined by
-    the damping, a hollow triangle at 0 with its one-sided bar 0 .. upper when held at 0 by
-    eta >= 0, a grey square when fixed (--fix); with a Monte Carlo (each trial refitted the
-    loss factors at its own constants) its range in grey beside the interval."""
+    the damping, a hollow triangle at 0 without a bar when held at 0 by eta >= 0 (no
+    interval: :func:`loss_factor_rows`), a grey square when fixed (--fix); with a Monte Carlo
+    (each trial refitted the loss factors at its own constants) its range in grey beside the
+    interval."""
     from matplotlib.lines import Line2D
 
     from laminid_cli.damping import TERMS
@@ -553,8 +560,6 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                     ax.plot([xi], [0.0], "v", ms=7, color=color, mfc="w", mew=1.3,
                             gid=f"at-bound-{tag}", **on_top)
                     kinds.add("at bound")
-                    loose.append(hi)
-                    bars.append((xi, 0.0, hi, color, f"one-sided-{tag}"))
                     continue
                 undetermined = verdict.startswith("not")
                 ax.plot([xi], [v], "o", ms=6, color=color, mfc="w" if undetermined else color,
@@ -571,7 +576,7 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                 if np.isfinite(lo) or np.isfinite(hi):
                     bars.append((xi, lo, hi, color, f"interval-{tag}"))
         # the panel spans the identified values and their intervals; an interval of a loss
-        # factor not determined (or one-sided) runs off it with an arrow rather than squash
+        # factor not determined runs off it with an arrow rather than squash
         # the others (as on the constants' page); from 0: a loss factor is >= 0
         finite = [t for t in vals if np.isfinite(t)]
         top = max(finite) if finite and max(finite) > 0 else \
@@ -591,8 +596,8 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                        "identified (well determined / weak), with its interval"),
         "undetermined": (Line2D([], [], ls="-", marker="o", ms=6, color=grey, mfc="w", lw=1.2),
                          "?: not determined by the damping (interval too wide)"),
-        "at bound": (Line2D([], [], ls="-", marker="v", ms=7, color=grey, mfc="w", lw=1.2),
-                     "held at 0 by \u03b7 \u2265 0: not identified; bar: \u03b7 \u2264 upper"),
+        "at bound": (Line2D([], [], ls="none", marker="v", ms=7, color=grey, mfc="w"),
+                     "held at 0 by \u03b7 \u2265 0: not identified, no interval"),
         "fixed": (Line2D([], [], ls="none", marker="s", ms=6, color=FIXED_COLOR, mfc="w"),
                   "fixed at the value given (--fix): not identified")}
     for kind in ("identified", "undetermined", "at bound", "fixed"):

@@ -1320,8 +1320,9 @@ def test_batch_summary_alone_keeps_its_verdicts(batch_dir, tmp_path):
 
 def test_damping_page_fits_the_page_and_ends_with_the_status(damped, tmp_path):
     """The loss-factor table stays inside the page (short verdicts, the advice once under the
-    table), fixed loss factors say they were given, one held at 0 keeps its one-sided
-    interval, and the page ends with the result's status like the others."""
+    table), fixed loss factors say they were given, one held at 0 has no interval (it showed
+    the one-sided 0 .. upper a file written before keeps: hybrid-CM's "[0, 1e+06]"), and the
+    page ends with the result's status like the others."""
     from laminid_cli.report import status_line
     from laminid_cli.report_damping import loss_factor_rows, read_damping
 
@@ -1348,8 +1349,9 @@ def test_damping_page_fits_the_page_and_ends_with_the_status(damped, tmp_path):
         assert box.x0 <= text.x0 and text.x1 <= box.x1 + 1          # no text past its cell
     held = dict(d, at_bound=np.array([True] + [False] * (len(d["labels"]) - 1)))
     row = loss_factor_rows(held)[0]
-    assert row[2] == f"[0, {100 * d['upper'][0]:.3g}]"
+    assert row[2] == "none — held at 0"
     assert row[3] == "held at 0 by η ≥ 0: not identified"
+    assert loss_factor_rows(held)[1][2] == f"[{100 * d['lower'][1]:.3g}, {100 * d['upper'][1]:.3g}]"
     # a Monte Carlo range hundreds of times the value: its widths as the note under the table
     # and the terminal write them (was "±27339 %", beside the note's "±273x")
     n = len(d["labels"])
@@ -1513,8 +1515,9 @@ def test_short_verdict_of_a_loss_factor_not_determined_by_the_damping():
 def test_summary_with_loss_factors_has_a_loss_factor_page(tmp_path, kind):
     """A batch summary holding loss factors had no page of them; now one panel per loss
     factor (%) in the marks of the constants' page -- interval bar, hollow "?" for not
-    determined by the damping, a hollow triangle at 0 with its one-sided bar 0 .. upper for
-    one held at 0 by eta >= 0, a grey square for a fixed one -- and the table of a result's
+    determined by the damping, a hollow triangle at 0 for one held at 0 by eta >= 0 (no
+    interval: it had a one-sided bar 0 .. upper), a grey square for a fixed one -- and the
+    table of a result's
     damping page, verdicts in the same words, a specimen column in front. A specimen without
     loss factors (Q) is in neither; a summary without any has no such pages."""
     from laminid_cli.damping import VERDICT_NOT_DAMPING
@@ -1546,8 +1549,9 @@ def test_summary_with_loss_factors_has_a_loss_factor_page(tmp_path, kind):
     mark = _line(a, "at-bound-H-glass")
     assert mark.get_marker() == "v" and mark.get_markerfacecolor() == "w"
     assert mark.get_ydata()[0] == 0.0
-    assert np.allclose(_line(a, "one-sided-H-glass").get_ydata(), [0.0, 3.0], rtol=1e-12)
-    assert "value-H-glass" not in [ln.get_gid() for ln in a.get_lines()]
+    assert [ln.get_gid() for ln in a.get_lines()] == ["at-bound-H-glass"]     # no bar
+    assert not a.texts                            # (nor the arrow of a bar off the panel)
+    assert a.get_ylim() == (0.0, 1.15)            # nothing but the mark at 0 to show
     a = ax(fig, "across-eta13")
     assert _line(a, "value-H-glass").get_markerfacecolor() == "w"
     assert [t.get_text() for t in a.texts].count("?") == 1
@@ -1557,7 +1561,10 @@ def test_summary_with_loss_factors_has_a_loss_factor_page(tmp_path, kind):
     assert mark.get_ydata()[0] == pytest.approx(1.2)
     assert not [ln for ln in a.get_lines() if "Q" in str(ln.get_gid())]
     legend = [t.get_text() for t in ax(fig, "legend").get_legend().get_texts()]
-    assert "held at 0 by \u03b7 \u2265 0: not identified; bar: \u03b7 \u2264 upper" in legend
+    assert "held at 0 by \u03b7 \u2265 0: not identified, no interval" in legend
+    keys = dict(zip(legend, ax(fig, "legend").get_legend().legend_handles))
+    assert keys["held at 0 by \u03b7 \u2265 0: not identified, no interval"].get_linestyle() \
+        == "None"                                                 # its key: no bar either
     assert "?: not determined by the damping (interval too wide)" in legend
     assert any("taken as exact" in t.get_text() for t in fig.texts)
     # the table: the words of a result's damping page
@@ -1565,7 +1572,7 @@ def test_summary_with_loss_factors_has_a_loss_factor_page(tmp_path, kind):
     cells = {(i, j): c.get_text().get_text() for (i, j), c in table.get_celld().items()}
     body = [[cells[i, j] for j in range(5)] for i in range(1, 5)]
     assert body == [["H", "glass.eta11", "0.200", "[0.17, 0.23]", "weak"],
-                    ["H", "glass.eta22", "0.000", "[0, 3]",
+                    ["H", "glass.eta22", "0.000", "none — held at 0",
                      "held at 0 by \u03b7 \u2265 0: not identified"],
                     ["H", "glass.eta13", "2.000", "[0, 9]", "not determined"],
                     ["H", "glass.eta23", "1.200", "none — fixed",
