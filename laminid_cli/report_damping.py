@@ -159,6 +159,10 @@ def _advice(head, rows) -> str:
 #: height of a one-line row of the damping page's loss-factor table (in): 8-point text with
 #: the air of the other report tables (a two-line row is row_heights' 1.7 of it)
 TABLE_ROW_IN = 0.17
+#: how much taller than their lines the rows of a page of the loss-factor table alone may
+#: be to fill the page down to the status (the rows under the panels are as tall as their
+#: lines)
+TABLE_PAGE_STRETCH = 2.0
 #: how much taller than its y-label a panel of the damping page is at the least (in): the
 #: label ("share of the mode's strain energy (%)", 2.65 in at 10 points) stays within the
 #: panel's height. Rows of the table that would leave the panels less continue on the next
@@ -204,6 +208,8 @@ class _Sheet:
 
         self.fig, self.gs, self.first, self.second = fig, gs, first, second
         self.table_ax = table_ax
+        #: a page of the table alone (its axes the first row, an empty one under it)
+        self.alone = table_ax is first
         if table_ax is None:
             self.room = 0.0
             return
@@ -216,6 +222,12 @@ class _Sheet:
         least = max((a.yaxis.label.get_window_extent(renderer).height / fig.dpi + PANEL_AIR_IN
                      for a in panels), default=0.0)
         self.room = self.both * fig.get_figheight() - least
+
+    def fill(self) -> None:
+        """Give the table's axes both rows (a page of the table alone, ``table_ax`` over an
+        empty row): down to the status at the page's foot."""
+        self.table_ax.set_subplotspec(self.gs[:, :])
+        self.fig.delaxes(self.second)
 
     def fit(self, table_in: float) -> None:
         """Give the table's row ``table_in`` inches, the other row the rest."""
@@ -388,12 +400,15 @@ def _material_ends(rows) -> list[int]:
 def damping_pages(d: dict, banner=None) -> list:
     """The damping page of :func:`read_damping`'s ``d`` and, when its loss-factor table does
     not fit under the panels with its rows as tall as their lines (:data:`TABLE_ROW_IN`) and
-    the panels as tall as their y-labels (:data:`PANEL_AIR_IN`), the pages it continues on
-    ("ply loss factors (continued)", the header repeated; a page takes whole materials where
-    it can, and the page of the table's end the advice and notes over the table; when not one
-    material fits under the panels, the whole table is on the next page). ``banner(fig)``
-    puts the result's status at the foot of each (laminid_cli.report._status_banner) before
-    its rows are sized to the room that leaves."""
+    the panels as tall as their y-labels (:data:`PANEL_AIR_IN`), the table on the next page,
+    whole where it fits on a page of its own (the first page the panels alone); else the
+    pages it continues on ("ply loss factors (continued)", the header repeated; a page takes
+    whole materials where it can, and the page of the table's end the advice and notes over
+    the table; when not one material fits under the panels, the table starts on the next
+    page). On a page of the table alone its rows take the room down to the status, up to
+    :data:`TABLE_PAGE_STRETCH` times their lines' height. ``banner(fig)`` puts the result's
+    status at the foot of each (laminid_cli.report._status_banner) before its rows are sized
+    to the room that leaves."""
     from laminid_cli.report import row_heights
 
     conf = float(d.get("confidence", 0.95)) * 100
@@ -418,12 +433,26 @@ def damping_pages(d: dict, banner=None) -> list:
 
     def draw(sheet, part):
         loss_factor_table(sheet.table_ax, head, part, widths, fill=True)
-        sheet.fit(height(part))
+        # on a page of the table alone its rows take the room down to the status, up to
+        # TABLE_PAGE_STRETCH times their lines' height (at that height they left 0.22 of the
+        # page blank under hybrid-CM's 14-line status)
+        if not sheet.alone:                            # under the panels
+            sheet.fit(height(part))
+        elif TABLE_PAGE_STRETCH * height(part) < sheet.room:
+            sheet.fit(TABLE_PAGE_STRETCH * height(part))
+        else:
+            sheet.fill()
         return sheet.fig
 
     sheet = _panels_sheet(d, banner, title, words)
     if height(rows) <= sheet.room:                   # the page as it always was
         return [draw(sheet, rows)]
+    # too long for the room under the panels: whole on a page of its own where it fits there,
+    # the panels alone on the first page (split there, hybrid-CM's carbon rows left 0.54 of
+    # their page blank even at TABLE_PAGE_STRETCH; a table is one table to read)
+    alone = _table_sheet(d, banner, title, words)
+    if height(rows) <= alone.room:
+        return [_panels_sheet(d, banner).fig, draw(alone, rows)]
     nxt = "\ncontinued on the next page" + (", with the notes on the loss factors" if words
                                              else "")
     sheet = _panels_sheet(d, banner, title + nxt)
