@@ -324,33 +324,45 @@ def _page_title(d: dict, more: str = "") -> str:
     return (f"{name}: damping (modal strain energy)" if name else "damping") + more
 
 
-def _panels_sheet(d, banner, table_title=None, words=()) -> _Sheet:
-    """The damping page's panels over the loss-factor table's axes (titled ``table_title``,
-    with ``words`` over it), laid out; without ``table_title`` the panels alone, the table
-    on the next page."""
+def _page_frame(d, banner, more: str, nrows: int, ncols: int, height_ratios=None):
+    """A damping page's figure (A4 landscape, constrained layout) with its title
+    (:func:`_page_title` + ``more``) and the result's status at its foot (``banner(fig)``),
+    and the grid (``nrows`` x ``ncols``) its axes go in: (figure, gridspec)."""
     import matplotlib
 
     matplotlib.use("Agg", force=True)
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=A4_LANDSCAPE, layout="constrained")
+    gs = fig.add_gridspec(nrows, ncols, height_ratios=height_ratios)
+    fig.suptitle(_page_title(d, more), fontsize=11)
+    if banner is not None:
+        banner(fig)
+    return fig, gs
+
+
+def _table_axes(fig, spec):
+    """The loss-factor table's axes in ``spec`` of the grid: no axis lines, gid
+    "loss-factors"."""
+    ax_t = fig.add_subplot(spec)
+    ax_t.axis("off")
+    ax_t.set_gid("loss-factors")
+    return ax_t
+
+
+def _panels_sheet(d, banner, table_title=None, words=()) -> _Sheet:
+    """The damping page's panels over the loss-factor table's axes (titled ``table_title``,
+    with ``words`` over it), laid out; without ``table_title`` the panels alone, the table
+    on the next page."""
     if table_title is None:
-        gs = fig.add_gridspec(1, 2)
-        ax_m, ax_s = fig.add_subplot(gs[0, 0]), fig.add_subplot(gs[0, 1])
-        ax_t = None
+        fig, gs = _page_frame(d, banner, "; the ply loss factors on the next page", 1, 2)
     else:
-        gs = fig.add_gridspec(2, 2, height_ratios=[3, 1.25])
-        ax_m, ax_s = fig.add_subplot(gs[0, 0]), fig.add_subplot(gs[0, 1])
-        ax_t = fig.add_subplot(gs[1, :])
-        ax_t.axis("off")
-        ax_t.set_gid("loss-factors")
+        fig, gs = _page_frame(d, banner, "", 2, 2, height_ratios=[3, 1.25])
+    ax_m, ax_s = fig.add_subplot(gs[0, 0]), fig.add_subplot(gs[0, 1])    # fig.axes[:2]
+    ax_t = None if table_title is None else _table_axes(fig, gs[1, :])
     _panels(fig, ax_m, ax_s, d)
     if ax_t is not None:
         _table_words(fig, ax_t, table_title, words)
-    fig.suptitle(_page_title(d, "" if ax_t is not None else
-                             "; the ply loss factors on the next page"), fontsize=11)
-    if banner is not None:
-        banner(fig)
     return _Sheet(fig, gs, ax_m, ax_t, ax_t, panels=(ax_m, ax_s))
 
 
@@ -363,25 +375,14 @@ def _table_sheet(d, banner, table_title: str, words=()) -> _Sheet:
     """A page of the loss-factor table alone (the rows the damping page has no room for):
     the table's axes at the top (titled ``table_title``, ``words`` over it), an empty row
     under it, laid out."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=True)
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=A4_LANDSCAPE, layout="constrained")
-    gs = fig.add_gridspec(2, 1, height_ratios=[1, 1])
-    ax_t = fig.add_subplot(gs[0])
-    ax_t.axis("off")
-    ax_t.set_gid("loss-factors")
+    fig, gs = _page_frame(d, banner, ", continued", 2, 1, height_ratios=[1, 1])
+    ax_t = _table_axes(fig, gs[0])
     rest = fig.add_subplot(gs[1], xticks=[], yticks=[])
     rest.axis("off")
     rest.set_gid("under-the-table")
     note = _table_words(fig, ax_t, table_title, words)
     if note is not None:    # as wide as the page: the layout narrowed the table to it
         note.set_in_layout(False)        # (the title's empty lines keep its height)
-    fig.suptitle(_page_title(d, ", continued"), fontsize=11)
-    if banner is not None:
-        banner(fig)
     # the table inset from the page's edges as under the panels (an axes without its axis
     # lines gets no margin: the table ran from edge to edge)
     engine = fig.get_layout_engine()
