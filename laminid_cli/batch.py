@@ -1184,7 +1184,8 @@ def mesh_summary(mc: dict | None) -> dict | None:
 def damping_of_file(d) -> dict:
     """{material: {etaXY: {value, lower, upper, verdict, at_bound, bound_side, bound_limit}}}
     of a result's /damping (:class:`laminid_cli.resultfile.Damping`: free loss factors with
-    their interval, fixed ones with verdict "fixed"); with the loss factors' Monte Carlo
+    their interval, held at 0 and fixed ones with lower = upper = None, fixed ones with
+    verdict "fixed"); with the loss factors' Monte Carlo
     (/damping/monte_carlo: each trial refitted them at its own constants) also mc_lower,
     mc_upper, its range, as the constants have it."""
     import numpy as np
@@ -1197,11 +1198,13 @@ def damping_of_file(d) -> dict:
     for k, lab in enumerate(g["labels"]):
         mat, name = _str(lab).rsplit(".", 1)
         hit = at is not None and bool(at[k])
-        # a loss factor at its bound is held at 0 by eta >= 0 (the data push it below): its
-        # one-sided interval 0 .. upper stays, with the side and limit as for the constants
+        # a loss factor at its bound is held at 0 by eta >= 0 (the data push it below): no
+        # interval (a file written before kept a one-sided 0 .. upper: left out too), the
+        # side and limit as for the constants
         out.setdefault(mat, {})[name] = {
-            "value": float(g["value"][k]), "lower": float(g["lower"][k]),
-            "upper": float(g["upper"][k]), "verdict": _str(g["verdict"][k]),
+            "value": float(g["value"][k]),
+            "lower": None if hit else float(g["lower"][k]),
+            "upper": None if hit else float(g["upper"][k]), "verdict": _str(g["verdict"][k]),
             "at_bound": hit, "bound_side": "lower" if hit else "",
             "bound_limit": 0.0 if hit else None}
         if mc is not None:

@@ -43,7 +43,10 @@ verdicts follow laminid_cli.uncertainty: covariance (A^T W A)^-1 of the free, no
 factors, a-posteriori factor s2 = chi2/(n - p), the same scaling choices (stated / residuals /
 larger), normal or Student-t quantile, verdict from the relative half-width (5 % well
 determined, 30 % weak). Intervals are linear and clipped at 0. A loss factor that ends on its
-bound eta = 0 is "at bound — not identified", with the one-sided statement eta <= upper.
+bound eta = 0 is "at bound — not identified" and gets no interval (``lower``/``upper`` NaN),
+as an elastic constant on a search limit (laminid_cli.uncertainty): the one-sided
+0 .. q std of the unconstrained spread it had ran to 1e+06 % where the damping does not
+determine it, a number no lab can act on.
 
 On thin plates the transverse-shear terms 13 and 23 hold a tiny share of every mode's energy
 (first 12 modes of S1.1, a/h = 69: at most 1.5 %; of S2.1: at most 0.5 %), so their loss
@@ -315,7 +318,8 @@ class DampingFit:
     """Identified ply loss factors with their intervals (module docstring).
 
     labels : free loss factors "material.eta11", ...; value, std, lower, upper, rel_half_width,
-        verdict, at_bound : per label
+        verdict, at_bound : per label (lower, upper NaN and rel_half_width inf where at_bound:
+        held at 0, no interval)
     fixed : {"material.eta13": value} held by --fix
     measured_loss_factor, measured_sigma, model_loss_factor : (n_modes,) over the measured
         modes (NaN where not measured); used : (n_modes,) bool, the modes in the fit
@@ -479,7 +483,7 @@ def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
     var = np.full(p, np.nan)
     if inner.any():
         var[inner] = cov_of(np.flatnonzero(inner))
-    if at_bound.any():                    # one-sided statement from the unconstrained spread
+    if at_bound.any():                    # their std: the unconstrained spread (no interval)
         var[at_bound] = cov_of(np.arange(p))[at_bound]
     r = Aw @ x - b
     chi2 = float(r @ r)
@@ -497,8 +501,9 @@ def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
                      "not of the ply materials (air, supports, joints) or sigma too small")
     std = np.sqrt(var * factor)
     half = q * std
-    lower = np.where(at_bound, 0.0, np.maximum(x - half, 0.0))
-    upper = x + half
+    # held at 0: no interval (module docstring); std stays the unconstrained spread
+    lower = np.where(at_bound, np.nan, np.maximum(x - half, 0.0))
+    upper = np.where(at_bound, np.nan, x + half)
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.where(x > 0, half / x, np.inf)
     # the damping's own words: it is the measured damping, not the modes' frequencies, that

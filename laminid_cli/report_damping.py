@@ -67,10 +67,16 @@ def damping_figures(result) -> list[tuple[str, object]]:
     return [("damping" if k == 0 else f"damping-{k + 1}", fig) for k, fig in enumerate(figs)]
 
 
+#: the interval cell of a loss factor held at 0 by eta >= 0 (as "none — fixed" of a fixed one)
+HELD_INTERVAL = "none — held at 0"
+
+
 def loss_factor_rows(d: dict) -> list[list[str]]:
     """Rows of the loss-factor table (strings as drawn, %): label, value, interval, verdict
-    in a few words (the advice is under the table). A loss factor held at 0 by eta >= 0
-    keeps its one-sided interval 0 .. upper; a fixed one has none."""
+    in a few words (the advice is under the table). A loss factor held at 0 by eta >= 0 has
+    no interval (:data:`HELD_INTERVAL`; a file written before kept 0 .. a one-sided upper,
+    1e+06 % where the damping does not determine it: not shown either), nor has a fixed
+    one."""
     from laminid_cli.intervals import width_text
     from laminid_cli.report import short_verdict
 
@@ -78,8 +84,8 @@ def loss_factor_rows(d: dict) -> list[list[str]]:
     mc = d.get("monte_carlo") or {}
     from_mc = set(d.get("verdict_from_monte_carlo") or ())
     for k, lab in enumerate(d["labels"]):
-        lo = 0.0 if d["at_bound"][k] else 100 * d["lower"][k]
-        interval = f"[{lo:.3g}, {100 * d['upper'][k]:.3g}]"
+        interval = (HELD_INTERVAL if d["at_bound"][k]
+                    else f"[{100 * d['lower'][k]:.3g}, {100 * d['upper'][k]:.3g}]")
         verdict = ("held at 0 by η ≥ 0: not identified" if d["at_bound"][k]
                    else short_verdict(d["verdict"][k]))
         if "lower" in mc:
@@ -153,6 +159,10 @@ def _advice(head, rows) -> str:
 #: height of a one-line row of the damping page's loss-factor table (in): 8-point text with
 #: the air of the other report tables (a two-line row is row_heights' 1.7 of it)
 TABLE_ROW_IN = 0.17
+#: how much taller than their lines the rows of a page of the loss-factor table alone may
+#: be to fill the page down to the status (the rows under the panels are as tall as their
+#: lines)
+TABLE_PAGE_STRETCH = 2.0
 #: how much taller than its y-label a panel of the damping page is at the least (in): the
 #: label ("share of the mode's strain energy (%)", 2.65 in at 10 points) stays within the
 #: panel's height. Rows of the table that would leave the panels less continue on the next
@@ -198,6 +208,8 @@ class _Sheet:
 
         self.fig, self.gs, self.first, self.second = fig, gs, first, second
         self.table_ax = table_ax
+        #: a page of the table alone (its axes the first row, an empty one under it)
+        self.alone = table_ax is first
         if table_ax is None:
             self.room = 0.0
             return
@@ -210,6 +222,12 @@ class _Sheet:
         least = max((a.yaxis.label.get_window_extent(renderer).height / fig.dpi + PANEL_AIR_IN
                      for a in panels), default=0.0)
         self.room = self.both * fig.get_figheight() - least
+
+    def fill(self) -> None:
+        """Give the table's axes both rows (a page of the table alone, ``table_ax`` over an
+        empty row): down to the status at the page's foot."""
+        self.table_ax.set_subplotspec(self.gs[:, :])
+        self.fig.delaxes(self.second)
 
     def fit(self, table_in: float) -> None:
         """Give the table's row ``table_in`` inches, the other row the rest."""
@@ -306,33 +324,45 @@ def _page_title(d: dict, more: str = "") -> str:
     return (f"{name}: damping (modal strain energy)" if name else "damping") + more
 
 
-def _panels_sheet(d, banner, table_title=None, words=()) -> _Sheet:
-    """The damping page's panels over the loss-factor table's axes (titled ``table_title``,
-    with ``words`` over it), laid out; without ``table_title`` the panels alone, the table
-    on the next page."""
+def _page_frame(d, banner, more: str, nrows: int, ncols: int, height_ratios=None):
+    """A damping page's figure (A4 landscape, constrained layout) with its title
+    (:func:`_page_title` + ``more``) and the result's status at its foot (``banner(fig)``),
+    and the grid (``nrows`` x ``ncols``) its axes go in: (figure, gridspec)."""
     import matplotlib
 
     matplotlib.use("Agg", force=True)
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=A4_LANDSCAPE, layout="constrained")
+    gs = fig.add_gridspec(nrows, ncols, height_ratios=height_ratios)
+    fig.suptitle(_page_title(d, more), fontsize=11)
+    if banner is not None:
+        banner(fig)
+    return fig, gs
+
+
+def _table_axes(fig, spec):
+    """The loss-factor table's axes in ``spec`` of the grid: no axis lines, gid
+    "loss-factors"."""
+    ax_t = fig.add_subplot(spec)
+    ax_t.axis("off")
+    ax_t.set_gid("loss-factors")
+    return ax_t
+
+
+def _panels_sheet(d, banner, table_title=None, words=()) -> _Sheet:
+    """The damping page's panels over the loss-factor table's axes (titled ``table_title``,
+    with ``words`` over it), laid out; without ``table_title`` the panels alone, the table
+    on the next page."""
     if table_title is None:
-        gs = fig.add_gridspec(1, 2)
-        ax_m, ax_s = fig.add_subplot(gs[0, 0]), fig.add_subplot(gs[0, 1])
-        ax_t = None
+        fig, gs = _page_frame(d, banner, "; the ply loss factors on the next page", 1, 2)
     else:
-        gs = fig.add_gridspec(2, 2, height_ratios=[3, 1.25])
-        ax_m, ax_s = fig.add_subplot(gs[0, 0]), fig.add_subplot(gs[0, 1])
-        ax_t = fig.add_subplot(gs[1, :])
-        ax_t.axis("off")
-        ax_t.set_gid("loss-factors")
+        fig, gs = _page_frame(d, banner, "", 2, 2, height_ratios=[3, 1.25])
+    ax_m, ax_s = fig.add_subplot(gs[0, 0]), fig.add_subplot(gs[0, 1])    # fig.axes[:2]
+    ax_t = None if table_title is None else _table_axes(fig, gs[1, :])
     _panels(fig, ax_m, ax_s, d)
     if ax_t is not None:
         _table_words(fig, ax_t, table_title, words)
-    fig.suptitle(_page_title(d, "" if ax_t is not None else
-                             "; the ply loss factors on the next page"), fontsize=11)
-    if banner is not None:
-        banner(fig)
     return _Sheet(fig, gs, ax_m, ax_t, ax_t, panels=(ax_m, ax_s))
 
 
@@ -345,25 +375,14 @@ def _table_sheet(d, banner, table_title: str, words=()) -> _Sheet:
     """A page of the loss-factor table alone (the rows the damping page has no room for):
     the table's axes at the top (titled ``table_title``, ``words`` over it), an empty row
     under it, laid out."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=True)
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=A4_LANDSCAPE, layout="constrained")
-    gs = fig.add_gridspec(2, 1, height_ratios=[1, 1])
-    ax_t = fig.add_subplot(gs[0])
-    ax_t.axis("off")
-    ax_t.set_gid("loss-factors")
+    fig, gs = _page_frame(d, banner, ", continued", 2, 1, height_ratios=[1, 1])
+    ax_t = _table_axes(fig, gs[0])
     rest = fig.add_subplot(gs[1], xticks=[], yticks=[])
     rest.axis("off")
     rest.set_gid("under-the-table")
     note = _table_words(fig, ax_t, table_title, words)
     if note is not None:    # as wide as the page: the layout narrowed the table to it
         note.set_in_layout(False)        # (the title's empty lines keep its height)
-    fig.suptitle(_page_title(d, ", continued"), fontsize=11)
-    if banner is not None:
-        banner(fig)
     # the table inset from the page's edges as under the panels (an axes without its axis
     # lines gets no margin: the table ran from edge to edge)
     engine = fig.get_layout_engine()
@@ -382,12 +401,15 @@ def _material_ends(rows) -> list[int]:
 def damping_pages(d: dict, banner=None) -> list:
     """The damping page of :func:`read_damping`'s ``d`` and, when its loss-factor table does
     not fit under the panels with its rows as tall as their lines (:data:`TABLE_ROW_IN`) and
-    the panels as tall as their y-labels (:data:`PANEL_AIR_IN`), the pages it continues on
-    ("ply loss factors (continued)", the header repeated; a page takes whole materials where
-    it can, and the page of the table's end the advice and notes over the table; when not one
-    material fits under the panels, the whole table is on the next page). ``banner(fig)``
-    puts the result's status at the foot of each (laminid_cli.report._status_banner) before
-    its rows are sized to the room that leaves."""
+    the panels as tall as their y-labels (:data:`PANEL_AIR_IN`), the table on the next page,
+    whole where it fits on a page of its own (the first page the panels alone); else the
+    pages it continues on ("ply loss factors (continued)", the header repeated; a page takes
+    whole materials where it can, and the page of the table's end the advice and notes over
+    the table; when not one material fits under the panels, the table starts on the next
+    page). On a page of the table alone its rows take the room down to the status, up to
+    :data:`TABLE_PAGE_STRETCH` times their lines' height. ``banner(fig)`` puts the result's
+    status at the foot of each (laminid_cli.report._status_banner) before its rows are sized
+    to the room that leaves."""
     from laminid_cli.report import row_heights
 
     conf = float(d.get("confidence", 0.95)) * 100
@@ -412,12 +434,26 @@ def damping_pages(d: dict, banner=None) -> list:
 
     def draw(sheet, part):
         loss_factor_table(sheet.table_ax, head, part, widths, fill=True)
-        sheet.fit(height(part))
+        # on a page of the table alone its rows take the room down to the status, up to
+        # TABLE_PAGE_STRETCH times their lines' height (at that height they left 0.22 of the
+        # page blank under hybrid-CM's 14-line status)
+        if not sheet.alone:                            # under the panels
+            sheet.fit(height(part))
+        elif TABLE_PAGE_STRETCH * height(part) < sheet.room:
+            sheet.fit(TABLE_PAGE_STRETCH * height(part))
+        else:
+            sheet.fill()
         return sheet.fig
 
     sheet = _panels_sheet(d, banner, title, words)
     if height(rows) <= sheet.room:                   # the page as it always was
         return [draw(sheet, rows)]
+    # too long for the room under the panels: whole on a page of its own where it fits there,
+    # the panels alone on the first page (split there, hybrid-CM's carbon rows left 0.54 of
+    # their page blank even at TABLE_PAGE_STRETCH; a table is one table to read)
+    alone = _table_sheet(d, banner, title, words)
+    if height(rows) <= alone.room:
+        return [_panels_sheet(d, banner).fig, draw(alone, rows)]
     nxt = "\ncontinued on the next page" + (", with the notes on the loss factors" if words
                                              else "")
     sheet = _panels_sheet(d, banner, title + nxt)
@@ -496,9 +532,10 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
     """One panel per loss factor (eta11 ... eta23, %): each specimen of the summary on the x
     axis, the materials of one specimen side by side, each with the doubt the summary gives
     it, in the marks of the constants' page: interval bar, hollow "?" when not determined by
-    the damping, a hollow triangle at 0 with its one-sided bar 0 .. upper when held at 0 by
-    eta >= 0, a grey square when fixed (--fix); with a Monte Carlo (each trial refitted the
-    loss factors at its own constants) its range in grey beside the interval."""
+    the damping, a hollow triangle at 0 without a bar when held at 0 by eta >= 0 (no
+    interval: :func:`loss_factor_rows`), a grey square when fixed (--fix); with a Monte Carlo
+    (each trial refitted the loss factors at its own constants) its range in grey beside the
+    interval."""
     from matplotlib.lines import Line2D
 
     from laminid_cli.damping import TERMS
@@ -553,8 +590,6 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                     ax.plot([xi], [0.0], "v", ms=7, color=color, mfc="w", mew=1.3,
                             gid=f"at-bound-{tag}", **on_top)
                     kinds.add("at bound")
-                    loose.append(hi)
-                    bars.append((xi, 0.0, hi, color, f"one-sided-{tag}"))
                     continue
                 undetermined = verdict.startswith("not")
                 ax.plot([xi], [v], "o", ms=6, color=color, mfc="w" if undetermined else color,
@@ -571,7 +606,7 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                 if np.isfinite(lo) or np.isfinite(hi):
                     bars.append((xi, lo, hi, color, f"interval-{tag}"))
         # the panel spans the identified values and their intervals; an interval of a loss
-        # factor not determined (or one-sided) runs off it with an arrow rather than squash
+        # factor not determined runs off it with an arrow rather than squash
         # the others (as on the constants' page); from 0: a loss factor is >= 0
         finite = [t for t in vals if np.isfinite(t)]
         top = max(finite) if finite and max(finite) > 0 else \
@@ -591,8 +626,8 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                        "identified (well determined / weak), with its interval"),
         "undetermined": (Line2D([], [], ls="-", marker="o", ms=6, color=grey, mfc="w", lw=1.2),
                          "?: not determined by the damping (interval too wide)"),
-        "at bound": (Line2D([], [], ls="-", marker="v", ms=7, color=grey, mfc="w", lw=1.2),
-                     "held at 0 by \u03b7 \u2265 0: not identified; bar: \u03b7 \u2264 upper"),
+        "at bound": (Line2D([], [], ls="none", marker="v", ms=7, color=grey, mfc="w"),
+                     "held at 0 by \u03b7 \u2265 0: not identified, no interval"),
         "fixed": (Line2D([], [], ls="none", marker="s", ms=6, color=FIXED_COLOR, mfc="w"),
                   "fixed at the value given (--fix): not identified")}
     for kind in ("identified", "undetermined", "at bound", "fixed"):

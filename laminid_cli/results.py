@@ -137,7 +137,9 @@ With measured damping (``measured.damping`` or an FRF file; laminid_cli.damping)
                                  chi2, dof, confidence, quantile, scaling, scale_used,
                                  sigma_source, fixed ("material.eta13=0.01,..."), notes
                           labels ("material.eta11", ... the free loss factors), value, std,
-                          lower, upper (1), rel_half_width (inf: held at 0), verdict
+                          lower, upper (1; NaN: held at 0, no interval; files before
+                          wrote 0 .. a one-sided upper there), rel_half_width (inf: held at
+                          0), verdict
                           (strings), at_bound (bool), bound_side ("lower" or ""), bound_limit
                           (0, NaN when not at it);
                           measured_loss_factor (2 zeta), measured_sigma, model_loss_factor,
@@ -906,8 +908,12 @@ def write_damping(f, d) -> None:
         g.attrs[key] = value
     data, dt = _strings(d.labels)
     g.create_dataset("labels", data=data, dtype=dt)
-    for key in ("value", "std", "lower", "upper"):
+    for key in ("value", "std"):
         put(g, key, np.asarray(getattr(d, key), float), "1")
+    for key in ("lower", "upper"):
+        put(g, key, np.asarray(getattr(d, key), float), "1",
+            description=f"{key} end of the interval; NaN for a loss factor held at 0 (no "
+            "interval)")
     put(g, "rel_half_width", np.asarray(d.rel_half_width, float), "1",
         description="95 % half-width / value (inf for a loss factor held at 0)")
     data, dt = _strings(d.verdict)

@@ -114,7 +114,11 @@ def test_a_loss_factor_driven_below_zero_is_at_its_bound():
     fit = D.fit_loss_factors(shares, y, np.full(3, 1e-4), ("m.eta11", "m.eta22"))
     assert fit.value[1] == 0.0 and fit.at_bound[1] and not fit.at_bound[0]
     assert fit.verdict[1] == D.VERDICT_AT_BOUND
-    assert fit.lower[1] == 0.0 and fit.upper[1] > 0
+    # held at 0: no interval (it had the one-sided 0 .. q std), the std of the free spread
+    assert np.isnan(fit.lower[1]) and np.isnan(fit.upper[1]) and fit.std[1] > 0
+    assert 0 < fit.lower[0] < fit.value[0] < fit.upper[0]
+    per = fit.as_dict()["loss_factors"]["m"]
+    assert np.isnan(per["eta22"]["lower"]) and np.isnan(per["eta22"]["upper"])
 
 
 def test_strain_energy_agrees_with_complex_eigenvalues(plate):

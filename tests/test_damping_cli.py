@@ -181,9 +181,10 @@ def test_batch_rows_carry_the_loss_factors(frf_case, tmp_path):
 
 
 def test_a_loss_factor_at_its_bound_in_the_summary_rows():
-    """A loss factor held at 0 by eta >= 0 (/damping/at_bound) keeps its one-sided interval
-    0 .. upper in summary.csv and gets bound_side "lower", bound_limit 0, as an elastic
-    constant at its bound does; the others leave both columns empty."""
+    """A loss factor held at 0 by eta >= 0 (/damping/at_bound) has no interval in summary.csv
+    (it kept the one-sided 0 .. upper of a file written before: this file's numbers) and gets
+    bound_side "lower", bound_limit 0, as an elastic constant at its bound does; the others
+    keep their interval and leave both bound columns empty."""
     from laminid_cli.batch import LONG_COLUMNS, damping_of_file, long_rows
     from laminid_cli.resultfile import Damping
 
@@ -195,15 +196,80 @@ def test_a_loss_factor_at_its_bound_in_the_summary_rows():
     per = damping_of_file(d)["m"]
     assert (per["eta12"]["at_bound"], per["eta12"]["bound_side"], per["eta12"]["bound_limit"]) \
         == (True, "lower", 0.0)
+    assert (per["eta12"]["lower"], per["eta12"]["upper"]) == (None, None)
+    assert (per["eta11"]["lower"], per["eta11"]["upper"]) == (0.009, 0.013)
     assert per["eta11"]["bound_side"] == "" and per["eta11"]["bound_limit"] is None
     row = {"name": "p", "specimen": "p", "status": "ok", "reason": "", "reasons": [],
            "rms_residual_percent": None, "result": None, "materials": {}, "damping": {"m": per}}
     recs = {r[LONG_COLUMNS.index("constant")]: dict(zip(LONG_COLUMNS, r))
             for r in long_rows([row])}
     assert (recs["eta12"]["bound_side"], recs["eta12"]["bound_limit"]) == ("lower", "0.0")
-    assert (recs["eta12"]["lower"], recs["eta12"]["upper"]) == ("0.0", "0.062")
+    assert (recs["eta12"]["lower"], recs["eta12"]["upper"]) == ("", "")
+    assert (recs["eta11"]["lower"], recs["eta11"]["upper"]) == ("0.009", "0.013")
     assert recs["eta11"]["bound_side"] == recs["eta11"]["bound_limit"] == ""
     assert recs["eta23"]["verdict"] == "fixed" and recs["eta23"]["bound_side"] == ""
+
+
+def test_a_loss_factor_held_at_0_has_no_interval_anywhere(tmp_path):
+    """S2.1 (6x6) with damping from eta12 = eta23 = 0 plus 3 % noise: the fit holds both at
+    0 by eta >= 0 ("at bound — not identified"). They showed the one-sided 0 .. q std of the
+    unconstrained spread as their interval (the terminal "<= 0.0092", --json and the file
+    0 and that upper, the report "[0, 0.0092]"; hybrid-CM's glass.eta12 "[0, 1e+06] %"), a
+    number no lab can act on. Now none, in every place, as an elastic constant on a search
+    limit: the terminal "none: held at 0", --json null, the file NaN (its datasets say so),
+    the batch row None, the report's table "none — held at 0"; the free ones keep theirs."""
+    from laminid_cli.batch import damping_of_file
+    from laminid_cli.report_damping import loss_factor_rows, read_damping
+    from laminid_cli.resultfile import read_result
+    from tests.dampspec import damped_copy
+
+    damped_copy(S21, tmp_path / "held.yaml", np.array([0.002, 0.012, 0.0, 0.012, 0.0]),
+                sigma_rel=0.03, mesh="6x6", noise=0.03, seed=1)
+    out = tmp_path / "held.result.h5"
+    args = ("identify", tmp_path / "held.yaml", "--mesh", "6x6", "--fix",
+            "nu12,G13,G23,eta13=0.01")
+    r = run(*args, "--json", "-o", out)
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output)["damping"]
+    assert d["labels"] == [f"E-glass/R368.eta{k}" for k in ("11", "22", "12", "23")]
+    assert d["at_bound"] == [False, False, True, True]
+    assert d["lower"][2:] == d["upper"][2:] == [None, None]
+    per = d["loss_factors"]["E-glass/R368"]
+    for name in ("eta12", "eta23"):
+        e = per[name]
+        assert (e["value"], e["lower"], e["upper"], e["rel_half_width"]) == (0.0, None, None,
+                                                                               None)
+        assert e["verdict"] == D.VERDICT_AT_BOUND and e["std"] > 0
+    for k, name in enumerate(("eta11", "eta22")):
+        e = per[name]
+        assert 0 < e["lower"] < e["value"] < e["upper"] < 0.02
+        assert (d["lower"][k], d["upper"][k]) == (e["lower"], e["upper"])
+    with h5py.File(out, "r") as f:
+        g = f["damping"]
+        assert np.isnan(g["lower"][2:]).all() and np.isnan(g["upper"][2:]).all()
+        assert np.isfinite(g["lower"][:2]).all() and np.isfinite(g["upper"][:2]).all()
+        assert "NaN for a loss factor held at 0" in g["upper"].attrs["description"]
+    lines = {ln.split()[0]: ln for ln in run(*args, "--no-output").output.splitlines()
+             if ln.startswith("  eta")}
+    for name in ("eta12", "eta23"):
+        assert "none: held at 0  at bound — not identified" in lines[name]
+        assert "<=" not in lines[name]
+    assert f"{100 * per['eta11']['lower']:.3g} .. {100 * per['eta11']['upper']:.3g}" \
+        in lines["eta11"]
+    # a file written before stored 0 .. upper in its summary: laminid show prints none either
+    from laminid_cli.commands.text import format_damping
+
+    before = json.loads(r.output)["damping"]
+    before["loss_factors"]["E-glass/R368"]["eta12"].update(lower=0.0, upper=9.2e-5)
+    shown = [ln for ln in format_damping(before) if ln.startswith("  eta12")]
+    assert len(shown) == 1 and "none: held at 0" in shown[0] and "0.0092" not in shown[0]
+    rows = {row[0]: row for row in loss_factor_rows(read_damping(out))}
+    assert rows["E-glass/R368.eta12"][2] == rows["E-glass/R368.eta23"][2] == "none — held at 0"
+    assert rows["E-glass/R368.eta11"][2] == (f"[{100 * per['eta11']['lower']:.3g}, "
+                                             f"{100 * per['eta11']['upper']:.3g}]")
+    batch = damping_of_file(read_result(out).damping)["E-glass/R368"]
+    assert (batch["eta12"]["lower"], batch["eta12"]["upper"]) == (None, None)
+    assert batch["eta11"]["lower"] == per["eta11"]["lower"]
 
 
 def test_damping_report_page(frf_case, identified, tmp_path):

@@ -1320,8 +1320,9 @@ def test_batch_summary_alone_keeps_its_verdicts(batch_dir, tmp_path):
 
 def test_damping_page_fits_the_page_and_ends_with_the_status(damped, tmp_path):
     """The loss-factor table stays inside the page (short verdicts, the advice once under the
-    table), fixed loss factors say they were given, one held at 0 keeps its one-sided
-    interval, and the page ends with the result's status like the others."""
+    table), fixed loss factors say they were given, one held at 0 has no interval (it showed
+    the one-sided 0 .. upper a file written before keeps: hybrid-CM's "[0, 1e+06]"), and the
+    page ends with the result's status like the others."""
     from laminid_cli.report import status_line
     from laminid_cli.report_damping import loss_factor_rows, read_damping
 
@@ -1348,8 +1349,9 @@ def test_damping_page_fits_the_page_and_ends_with_the_status(damped, tmp_path):
         assert box.x0 <= text.x0 and text.x1 <= box.x1 + 1          # no text past its cell
     held = dict(d, at_bound=np.array([True] + [False] * (len(d["labels"]) - 1)))
     row = loss_factor_rows(held)[0]
-    assert row[2] == f"[0, {100 * d['upper'][0]:.3g}]"
+    assert row[2] == "none — held at 0"
     assert row[3] == "held at 0 by η ≥ 0: not identified"
+    assert loss_factor_rows(held)[1][2] == f"[{100 * d['lower'][1]:.3g}, {100 * d['upper'][1]:.3g}]"
     # a Monte Carlo range hundreds of times the value: its widths as the note under the table
     # and the terminal write them (was "±27339 %", beside the note's "±273x")
     n = len(d["labels"])
@@ -1513,8 +1515,9 @@ def test_short_verdict_of_a_loss_factor_not_determined_by_the_damping():
 def test_summary_with_loss_factors_has_a_loss_factor_page(tmp_path, kind):
     """A batch summary holding loss factors had no page of them; now one panel per loss
     factor (%) in the marks of the constants' page -- interval bar, hollow "?" for not
-    determined by the damping, a hollow triangle at 0 with its one-sided bar 0 .. upper for
-    one held at 0 by eta >= 0, a grey square for a fixed one -- and the table of a result's
+    determined by the damping, a hollow triangle at 0 for one held at 0 by eta >= 0 (no
+    interval: it had a one-sided bar 0 .. upper), a grey square for a fixed one -- and the
+    table of a result's
     damping page, verdicts in the same words, a specimen column in front. A specimen without
     loss factors (Q) is in neither; a summary without any has no such pages."""
     from laminid_cli.damping import VERDICT_NOT_DAMPING
@@ -1546,8 +1549,9 @@ def test_summary_with_loss_factors_has_a_loss_factor_page(tmp_path, kind):
     mark = _line(a, "at-bound-H-glass")
     assert mark.get_marker() == "v" and mark.get_markerfacecolor() == "w"
     assert mark.get_ydata()[0] == 0.0
-    assert np.allclose(_line(a, "one-sided-H-glass").get_ydata(), [0.0, 3.0], rtol=1e-12)
-    assert "value-H-glass" not in [ln.get_gid() for ln in a.get_lines()]
+    assert [ln.get_gid() for ln in a.get_lines()] == ["at-bound-H-glass"]     # no bar
+    assert not a.texts                            # (nor the arrow of a bar off the panel)
+    assert a.get_ylim() == (0.0, 1.15)            # nothing but the mark at 0 to show
     a = ax(fig, "across-eta13")
     assert _line(a, "value-H-glass").get_markerfacecolor() == "w"
     assert [t.get_text() for t in a.texts].count("?") == 1
@@ -1557,7 +1561,10 @@ def test_summary_with_loss_factors_has_a_loss_factor_page(tmp_path, kind):
     assert mark.get_ydata()[0] == pytest.approx(1.2)
     assert not [ln for ln in a.get_lines() if "Q" in str(ln.get_gid())]
     legend = [t.get_text() for t in ax(fig, "legend").get_legend().get_texts()]
-    assert "held at 0 by \u03b7 \u2265 0: not identified; bar: \u03b7 \u2264 upper" in legend
+    assert "held at 0 by \u03b7 \u2265 0: not identified, no interval" in legend
+    keys = dict(zip(legend, ax(fig, "legend").get_legend().legend_handles))
+    assert keys["held at 0 by \u03b7 \u2265 0: not identified, no interval"].get_linestyle() \
+        == "None"                                                 # its key: no bar either
     assert "?: not determined by the damping (interval too wide)" in legend
     assert any("taken as exact" in t.get_text() for t in fig.texts)
     # the table: the words of a result's damping page
@@ -1565,7 +1572,7 @@ def test_summary_with_loss_factors_has_a_loss_factor_page(tmp_path, kind):
     cells = {(i, j): c.get_text().get_text() for (i, j), c in table.get_celld().items()}
     body = [[cells[i, j] for j in range(5)] for i in range(1, 5)]
     assert body == [["H", "glass.eta11", "0.200", "[0.17, 0.23]", "weak"],
-                    ["H", "glass.eta22", "0.000", "[0, 3]",
+                    ["H", "glass.eta22", "0.000", "none — held at 0",
                      "held at 0 by \u03b7 \u2265 0: not identified"],
                     ["H", "glass.eta13", "2.000", "[0, 9]", "not determined"],
                     ["H", "glass.eta23", "1.200", "none — fixed",
@@ -1827,17 +1834,18 @@ HYBRID_STATUS = (
      "±13 %), carbon.eta13 (Monte Carlo ±244 %, at least ±39 %; interval ±18 %)"))
 
 
-def _hybrid_damping(n_modes: int = 20) -> dict:
+def _hybrid_damping(n_modes: int = 20, mats=("glass", "carbon")) -> dict:
     """read_damping's dict of a two-material plate (hybrid-CM's glass and carbon, 20 modes)
     with a Monte Carlo of 20 trials: ten free loss factors, each row two lines (its range under
     its interval), three verdicts set by the range (two-line verdicts), the result's long
-    note on the loss factors."""
-    mats, terms = ("glass", "carbon"), ("11", "22", "12", "13", "23")
+    note on the loss factors. More ``mats``: their rows those of glass and carbon again."""
+    terms = ("11", "22", "12", "13", "23")
     labels = [f"{m}.eta{t}" for m in mats for t in terms]
-    value = np.array([0.0063, 0.0155, 0.0, 0.105, 0.0, 0.0044, 0.0, 0.0048, 1.46, 0.0])
+    n = len(labels)
+    value = np.resize([0.0063, 0.0155, 0.0, 0.105, 0.0, 0.0044, 0.0, 0.0048, 1.46, 0.0], n)
     at_bound = value == 0
-    upper = np.array([0.0072, 0.044, 1.0e4, 0.125, 2.5, 0.0104, 52.6, 0.0054, 1.73, 16.2])
-    shares = np.random.default_rng(3).dirichlet(np.ones(10), n_modes)
+    upper = np.resize([0.0072, 0.044, 1.0e4, 0.125, 2.5, 0.0104, 52.6, 0.0054, 1.73, 16.2], n)
+    shares = np.random.default_rng(3).dirichlet(np.ones(n), n_modes)
     eta = np.linspace(0.006, 0.0136, n_modes)
     verdict = ["weak", "not determined by the measured damping", "at bound — not identified",
                "not determined by the measured damping (Monte Carlo)",
@@ -1845,7 +1853,8 @@ def _hybrid_damping(n_modes: int = 20) -> dict:
                "at bound — not identified",
                "not determined by the measured damping (Monte Carlo)",
                "not determined by the measured damping (Monte Carlo)",
-               "at bound — not identified"]
+               "at bound — not identified"] * (n // 10 + 1)
+    verdict = verdict[:n]
     notes = ("glass.eta13, carbon.eta13: less than 1% of any fitted mode's strain energy is in "
              "these terms (transverse shear of a thin plate), so the modal damping cannot "
              "determine them; fix them (--fix eta13=0.01,eta23=0.01) to free the others; "
@@ -1862,7 +1871,7 @@ def _hybrid_damping(n_modes: int = 20) -> dict:
             "at_bound": at_bound, "verdict": verdict, "confidence": 0.95, "s2": 0.917,
             "dof": 14, "sigma_source": "5% of each damping ratio (none given)",
             "monte_carlo": {"lower": 0.0 * value, "upper": 1.2 * upper,
-                            "lower_at_zero": np.ones(10, bool), "refits": 20,
+                            "lower_at_zero": np.ones(n, bool), "refits": 20,
                             "inner_lower": 0.0 * value, "inner_upper": 0.9 * upper},
             "verdict_from_monte_carlo": ["glass.eta13", "carbon.eta12", "carbon.eta13"],
             "fixed": "", "notes": notes, "specimen": "hybrid-CM"}
@@ -1885,30 +1894,47 @@ def _drawn_texts(fig):
     return list(walk(fig, False))
 
 
-@pytest.mark.parametrize("reasons", [2, 1], ids=["hybrid-status", "one-reason"])
-def test_a_damping_table_too_long_for_its_page_continues_on_the_next(damped, reasons,
+#: hybrid-CM's table under its 14-line status (two reasons), under one reason, and four
+#: materials' under one reason (too long for a page of its own)
+TABLE_CASES = {"hybrid-status": (2, ("glass", "carbon")), "one-reason": (1, ("glass", "carbon")),
+               "four-materials": (1, ("glass", "carbon", "aramid", "basalt"))}
+
+
+def _damping_pages_of(case, damped, monkeypatch):
+    """The damping pages of :data:`TABLE_CASES`' ``case`` over the damped result."""
+    from laminid_cli import report_damping
+    from laminid_cli.status import Reason, ResultStatus
+
+    reasons, mats = TABLE_CASES[case]
+    d = _hybrid_damping(mats=mats)
+    r = dataclasses.replace(read_result(damped), status=ResultStatus(
+        "check", tuple(Reason(code, text) for code, text in HYBRID_STATUS[-reasons:])))
+    monkeypatch.setattr(report_damping, "read_damping", lambda _: d)
+    return d, report_damping.damping_figures(r)
+
+
+@pytest.mark.parametrize("case", list(TABLE_CASES))
+def test_a_damping_table_too_long_for_its_page_continues_on_the_next(damped, case,
                                                                      monkeypatch, tmp_path):
     """hybrid-CM (two materials, 20 modes) with a Monte Carlo of 20 trials under its 14-line status
     (6x6): the table's ten two-line rows got at most 0.6 of the panels' and table's height and
     were squeezed (their text 1.82 times as tall as their rows: the Monte Carlo ranges ran over
     the next row's intervals), and the energy shares' panel, 1.08 in tall, had its 2.65 in
     y-label run 0.30 in off the top of the page (this copy of its table and status over S2.1's
-    result: 1.64 times, a 1.20 in panel, 0.24 in). Now the rows that do not fit at their height
-    under panels as tall as their y-labels continue on a second damping page, a material's rows
-    together: with that status the whole table (page 1 is the panels, its title saying where the
-    table is), with one of its reasons carbon's rows ("ply loss factors (continued)", the header
-    and the key to the ranges' "*" repeated). On every page every row is as tall as its text,
-    every text is inside the page, the table is between the titles and the status, each panel is
-    as tall as its y-label, the legends are clear of the axis labels, the two pages list every
-    row once, in order, and the advice and notes on the loss factors are over the table's end."""
+    result: 1.64 times, a 1.20 in panel, 0.24 in). Now a table that does not fit at its rows'
+    height under panels as tall as their y-labels is on the next page, whole where it fits there
+    (page 1 the panels, its title saying where the table is): with that status and with one of
+    its reasons (which split it, carbon's rows alone on a page 0.54 blank). Four materials' do
+    not fit on a page: they continue, a material's rows together, glass's under the panels and
+    the others' on the next page ("ply loss factors (continued)", the header and the key to the
+    ranges' "*" repeated). On every page every row is as tall as its text, every text is inside
+    the page, the table is between the titles and the status, each panel is as tall as its
+    y-label, the legends are clear of the axis labels, the pages list every row once, in
+    order, and the advice and notes on the loss factors are over the table's end."""
     from laminid_cli import report_damping
-    from laminid_cli.status import Reason, ResultStatus
 
-    d = _hybrid_damping()
-    r = dataclasses.replace(read_result(damped), status=ResultStatus(
-        "check", tuple(Reason(code, text) for code, text in HYBRID_STATUS[-reasons:])))
-    monkeypatch.setattr(report_damping, "read_damping", lambda _: d)
-    pages = report_damping.damping_figures(r)
+    d, pages = _damping_pages_of(case, damped, monkeypatch)
+    whole = case != "four-materials"
     assert [name for name, _ in pages] == ["damping", "damping-2"]
     drawn = []
     for name, fig in pages:
@@ -1919,7 +1945,7 @@ def test_a_damping_table_too_long_for_its_page_continues_on_the_next(damped, rea
             box = t.get_window_extent(renderer)
             assert page.x0 - 1 <= box.x0 and box.x1 <= page.x1 + 1 \
                 and page.y0 - 1 <= box.y0 and box.y1 <= page.y1 + 1, (name, t.get_text())
-        if reasons == 2 and name == "damping":      # the panels alone
+        if whole and name == "damping":             # the panels alone
             assert not any(a.tables for a in fig.axes)
             continue
         table = bands["loss-factors-0"]
@@ -1949,21 +1975,60 @@ def test_a_damping_table_too_long_for_its_page_continues_on_the_next(damped, rea
             a.xaxis.label.get_window_extent(renderer).y0
     title = ax(second, "loss-factors").get_title()
     assert "Monte Carlo: 20 trials" in title         # the key to the rows' "*" with them
-    if reasons == 2:
+    if whole:
         assert first._suptitle.get_text().endswith("the ply loss factors on the next page")
         assert title.startswith("ply loss factors, modal strain energy method")
+        assert len(drawn) == 10
     else:
         assert "continued on the next page, with the notes on the loss factors" in \
             ax(first, "loss-factors").get_title()
         assert title.startswith("ply loss factors (continued)")
-        assert [row[0] for row in cells(ax(second, "loss-factors"))[1:]] == \
-            [f"carbon.eta{k}" for k in ("11", "22", "12", "13", "23")]
+        assert [row[0] for row in cells(ax(first, "loss-factors"))[1:]] == \
+            [f"glass.eta{k}" for k in ("11", "22", "12", "13", "23")]
+        assert [row[0].split(".")[0] for row in cells(ax(second, "loss-factors"))[1:]] == \
+            ["carbon"] * 5 + ["aramid"] * 5 + ["basalt"] * 5
         assert not [x for x in ax(first, "loss-factors").texts
                     if x.get_gid() == "loss-factor-note"]
     note = next(x for x in ax(second, "loss-factors").texts if x.get_gid() == "loss-factor-note")
     assert " ".join(note.get_text().split()).startswith(report_damping.NOT_DETERMINED_ADVICE)
     assert status_text(first).get_text() == status_text(second).get_text()
     write_pages([Page(name, fig) for name, fig in pages], tmp_path / "d.png")
+
+
+@pytest.mark.parametrize("case", list(TABLE_CASES))
+def test_a_page_of_the_damping_table_alone_has_no_blank_band(damped, case, monkeypatch):
+    """The page of the loss-factor table alone (damping-2) put the table at its rows' height
+    at the top and left the rest blank down to the status at its foot: 0.216 of the page with
+    hybrid-CM's 14-line status, 0.539 with one reason (carbon's five rows alone). Now its rows
+    take the room down to the status, up to TABLE_PAGE_STRETCH times their lines' height, and
+    the table is whole there where it fits: no band of the page is blank beyond
+    DAMPING_PAGE_MAX_BLANK (the damping page's own), nothing overlaps (the table's title and
+    notes, the table, the status), every row is as tall as its text and at most
+    TABLE_PAGE_STRETCH times its lines, all rows stretched alike."""
+    from laminid_cli.report import row_heights
+    from laminid_cli.report_damping import TABLE_PAGE_STRETCH, TABLE_ROW_IN
+
+    _, pages = _damping_pages_of(case, damped, monkeypatch)
+    name, fig = pages[-1]
+    assert name == "damping-2" and not any(a.get_gid() == "energy-shares" for a in fig.axes)
+    bands = _drawn_bands(fig)
+    assert _largest_blank(bands) < DAMPING_PAGE_MAX_BLANK, bands
+    status, table = bands["page-status"], bands["loss-factors-0"]
+    note, title = bands["loss-factors-loss-factor-note"], bands["loss-factors-1"]
+    assert 0 < status[1] <= table[0] < table[1] <= note[0] < note[1] <= title[1] \
+        <= bands["page-2"][0]
+    renderer = fig.canvas.get_renderer()
+    t = ax(fig, "loss-factors").tables[0]
+    rows = cells(ax(fig, "loss-factors"))
+    lines = row_heights(rows[0], rows[1:])
+    stretch = []
+    for (i, _), cell in t.get_celld().items():
+        box = cell.get_window_extent(renderer)
+        text = cell.get_text().get_window_extent(renderer)
+        assert box.y0 <= text.y0 and text.y1 <= box.y1, cell.get_text().get_text()
+        stretch.append(box.height / fig.dpi / (TABLE_ROW_IN * lines[i]))
+    assert 1 <= min(stretch) and max(stretch) <= TABLE_PAGE_STRETCH + 1e-6
+    assert max(stretch) - min(stretch) < 1e-6                  # all rows alike
 
 
 def test_a_log_panel_choice_with_a_mark_near_zero_warns_nothing():

@@ -588,7 +588,9 @@ def format_damping(d: dict) -> list[str]:
             if v["verdict"] == "fixed":
                 cell = ""
             elif v.get("at_bound"):
-                cell = f"<= {fmt(100 * v['upper'], '.3g')}"
+                # held at 0 by eta >= 0: no interval, as a constant on a search limit (a file
+                # written before kept 0 .. a one-sided upper: not shown either)
+                cell = "none: held at 0"
             else:
                 cell = f"{fmt(100 * v['lower'], '.3g')} .. {fmt(100 * v['upper'], '.3g')}"
             lines.append(f"  {lab:<{24 if many else 12}} {fmt(100 * v['value'], '9.3f')} "
