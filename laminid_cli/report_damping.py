@@ -88,7 +88,14 @@ def loss_factor_rows(d: dict) -> list[list[str]]:
                     else f"[{100 * d['lower'][k]:.3g}, {100 * d['upper'][k]:.3g}]")
         verdict = ("held at 0 by η ≥ 0: not identified" if d["at_bound"][k]
                    else short_verdict(d["verdict"][k]))
-        if "lower" in mc:
+        if "lower" in mc and d["at_bound"][k]:
+            # held at 0: its trials' range (0 up to 1e+06 % where the damping does not
+            # determine it) is no more a range than its interval is; how often they held it
+            # too is what they tell
+            z = np.ravel(mc.get("trials_at_zero", []))
+            if z.size > k and "refits" in mc:
+                interval += f"\nMonte Carlo: held in {int(z[k])} of {int(mc['refits'])}"
+        elif "lower" in mc:
             # the range of the loss factor refitted in each trial at its own constants
             mlo, mhi = np.ravel(mc["lower"])[k], np.ravel(mc["upper"])[k]
             zero = "*" if bool(np.ravel(mc.get("lower_at_zero", [0] * (k + 1)))[k]) else ""

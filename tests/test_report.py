@@ -1360,6 +1360,14 @@ def test_damping_page_fits_the_page_and_ends_with_the_status(damped, tmp_path):
         "inner_lower": np.zeros(n), "inner_upper": np.full(n, 0.8 * d["value"][0]),
         "lower_at_zero": np.ones(n, bool)})
     assert loss_factor_rows(wide)[0][3].endswith("(Monte Carlo\n±273x, ±40.0 % for sure)")
+    # held at 0 with a Monte Carlo: how many refits held it too, not the refits' range (it
+    # showed "Monte Carlo 0*–1.2e+06" under "none — held at 0" on hybrid CM)
+    held_mc = dict(wide, at_bound=held["at_bound"],
+                   monte_carlo=dict(wide["monte_carlo"], trials_at_zero=np.full(n, 13),
+                                    refits=20))
+    rows = loss_factor_rows(held_mc)
+    assert rows[0][2] == "none — held at 0\nMonte Carlo: held in 13 of 20"
+    assert rows[1][2].startswith(f"[{100 * d['lower'][1]:.3g}, ") and "Monte Carlo 0*–" in rows[1][2]
     write_pages([type("P", (), {"name": "d", "figure": fig})()], tmp_path / "d.png")
 
 
@@ -1872,6 +1880,7 @@ def _hybrid_damping(n_modes: int = 20, mats=("glass", "carbon")) -> dict:
             "dof": 14, "sigma_source": "5% of each damping ratio (none given)",
             "monte_carlo": {"lower": 0.0 * value, "upper": 1.2 * upper,
                             "lower_at_zero": np.ones(n, bool), "refits": 20,
+                            "trials_at_zero": np.full(n, 12),
                             "inner_lower": 0.0 * value, "inner_upper": 0.9 * upper},
             "verdict_from_monte_carlo": ["glass.eta13", "carbon.eta12", "carbon.eta13"],
             "fixed": "", "notes": notes, "specimen": "hybrid-CM"}
