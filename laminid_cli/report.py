@@ -47,7 +47,7 @@ from laminid_cli.intervals import (HELD_BY_PRIOR, VERDICT_AT_BOUND, VERDICT_FIXE
                                    VERDICT_NOT, WEAK, WELL_DETERMINED, spread_sentence)
 from laminid_cli.resultfile import (CONSTANTS, ResultFile, bound_statement, profile_kind,
                                    read_result)
-from laminid_cli.units import gpa_text
+from laminid_cli.units import gpa_text, number_text
 
 log = logging.getLogger(__name__)
 
@@ -536,7 +536,8 @@ def frequency_rows(plate) -> tuple[list[str], list[list[str]]]:
         rows.append([str(k + 1), str(fr.model_mode[k]),
                      f"{meas:.2f}" if np.isfinite(meas) else "not\nmeasured",
                      f"{fr.model[k]:.2f}",
-                     f"{fr.residual_percent[k]:+.3f}" if np.isfinite(fr.residual_percent[k])
+                     number_text(fr.residual_percent[k], "+.3f")
+                     if np.isfinite(fr.residual_percent[k])
                      else "—", f"{fr.weight[k]:g}"])
     return head, rows
 
