@@ -430,6 +430,35 @@ def test_format_csv_on_an_hdf5_file_says_it_is_hdf5(h5):
                                 "says hdf5)")
 
 
+def test_a_csv_that_states_no_unit_is_said_so_not_called_dimensionless(tmp_path, case):
+    """A CSV file without a '# units' line was reported in unit "1" (table, --json: "units":
+    "1", modal constants in "rad/s"), as if its FRFs were dimensionless: now "unit not stated
+    in file" on the terminal, null in --json, and a note naming the file and how to state it;
+    a file that declares "# units 1" keeps "1"."""
+    names = ["freq_Hz"] + [f"{k}_{p}" for k in range(1, 6) for p in ("re", "im")]
+    data = np.column_stack([case.freq] + [c for H in case.frf for c in (H.real, H.imag)])
+    path = tmp_path / "lab.csv"
+    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
+    note = (f"{path}: the FRF unit is not stated in the file (a comment line '# units Pa/N' "
+            "above the data states it): the FRFs and their modal constants are given without "
+            "a unit (null in --json)")
+    r = run(["fit-frf", str(path), "--band", "100:300"])
+    assert r.exit_code == 0, r.output
+    first = r.stdout.splitlines()[0]
+    assert first == (f"{path}: 5 FRFs (unit not stated in file), {case.freq.size} lines, "
+                     "bands 100-300 Hz")
+    assert f"note: {note}" in r.stdout.splitlines()
+    out = json.loads(run(["fit-frf", str(path), "--band", "100:300", "--json"]).stdout)
+    assert out["units"] is None and out["modal_constants_unit"] is None
+    assert out["mode_units"]["modal_constants"] is None
+    assert note in out["notes"]
+    declared = tmp_path / "ratio.csv"
+    declared.write_text("# units 1\n" + path.read_text())
+    out = json.loads(run(["fit-frf", str(declared), "--band", "100:300", "--json"]).stdout)
+    assert out["units"] == "1" and out["modal_constants_unit"] == "rad/s"
+    assert not any("not stated" in n for n in out["notes"])
+
+
 def test_json_states_the_unit_of_the_modal_constants_and_which_spread_is_which(h5, case):
     """--json gave modal_constants without a unit and freq_std_hz (the RFP spread only) beside
     sigma_hz (the uncertainty identify uses) with nothing to tell them apart. It now states

@@ -114,6 +114,7 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
     else:
         from laminid_cli.frf.io import (read_frf, uff_coherence_points, uff_point, uff_units,
                                         write_frf_uff)
+        from laminid_cli.frf.store import units_text
 
         fs = read_frf(input_file, fmt, freq_dataset=freq_dataset, frf_dataset=frf_dataset)
         write_frf_uff(out, fs, overwrite=force, binary=not ascii_)
@@ -142,7 +143,7 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
                    "freq_range_hz": _span(fs.freq),
                    "points": dict(zip(labels, nodes)),
                    "coherence_points": [labels[k] for k in coherent], "notes": notes}
-        text = (f"{out}: {fs.n_points} FRFs (UFF 58{'' if ascii_ else 'b'}, {units}, "
+        text = (f"{out}: {fs.n_points} FRFs (UFF 58{'' if ascii_ else 'b'}, {units_text(units)}, "
                 f"{fs.freq.size} lines {fs.freq[0]:g}-{fs.freq[-1]:g} Hz)"
                 + (f" and the coherence of {len(coherent)} (UFF 58 function type 6)"
                    if coherent else "")

@@ -15,7 +15,7 @@ them:
   named as its parts (``frf_real`` + ``frf_imag``, ``H_re`` + ``H_im``: named ``frf``, ``H``),
   1-D of the frequency's length, or 2-D with one axis of that length: ``(n_points, n_freq)``
   or ``(n_freq, n_points)`` (either orientation). Its ``units`` attribute becomes the FRF
-  units (default "1").
+  units (without one: not stated, None, with a note).
 - **coherence** (optional): a real dataset whose name contains ``coh``, of the FRF's shape.
 
 When several frequency/FRF pairs fit, the error lists them and the options to choose
@@ -37,7 +37,7 @@ import numpy as np
 
 from laminid_cli.errors import FrfError
 from laminid_cli.frf.store import (FORMAT, FrfSet, probe_hdf5_file, read_frf_h5, read_hdf5,
-                                   validate_frf_arrays)
+                                   unit_not_stated_note, validate_frf_arrays)
 
 #: frequency units accepted in a ``units`` attribute -> factor to Hz
 FREQ_UNITS = {"hz": 1.0, "hertz": 1.0, "1/s": 1.0, "s^-1": 1.0, "khz": 1e3,
@@ -293,12 +293,15 @@ def _read_generic(f, path: Path, freq_dataset, frf_dataset) -> FrfSet:
         if "coh" in d.name.lower() and d.kind in "fiu" and d.shape == frf_d.shape:
             coherence = _orient(np.asarray(f[d.path][()], dtype=float), freq.size)
             break
-    units = frf_d.units or "1"
+    units = frf_d.units or None
     validate_frf_arrays(freq, frf, coherence, source=str(path))
     labels = tuple(str(i + 1) for i in range(frf.shape[0]))
+    meta = {"frequency_dataset": axis.path, "frf_dataset": frf_d.path}
+    if units is None:
+        where = frf_d.parts[0] if frf_d.parts else frf_d.path
+        meta["notes"] = [unit_not_stated_note(path, f"no 'units' attribute on '{where}'")]
     return FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels, units=units,
-                  source=str(path), meta={"frequency_dataset": axis.path,
-                                          "frf_dataset": frf_d.path})
+                  source=str(path), meta=meta)
 
 
 def read_any_frf_h5(path, freq_dataset: str | None = None,

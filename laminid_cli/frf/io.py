@@ -15,7 +15,8 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     pyuff. Every type-58 record of function type 4 (FRF) is one point (complex: a real FRF
     record is refused); records of function type 6 (coherence) with the same
     response/reference DOF give the coherence. All FRFs must
-    share one abscissa, in the unit of its label (Hz, none, kHz, rad/s: converted to Hz).
+    share one abscissa, in the unit of its label (Hz, none, kHz, rad/s: converted to Hz). An
+    ordinate units label blank or "NONE" (pyuff's default) states no FRF unit (``units`` None).
 ``csv`` (``.csv``, ``.txt``)
     Text: first column frequency in Hz (kHz or rad/s when its header says so: "f [kHz]",
     "omega_rad_s"; another bracketed unit is refused, and so is a header that reads as an
@@ -45,7 +46,9 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
 
     Separator ``;`` tab ``,`` (the first found in the first line) or blanks; with ``;`` or tab
     a decimal comma is read too (``125,05``, as a European spreadsheet writes); ``#`` comment
-    lines (``# ... units Pa/N`` gives the FRF unit); an optional header line, known by its
+    lines (``# ... units Pa/N`` gives the FRF unit; without one the unit is not stated:
+    ``units`` None and a note, never "1", which declares the FRFs dimensionless); an optional
+    header line, known by its
     first cell not being a number (or, above a first line of data, the comment line just
     above it, numpy's ``savetxt(header=...)``, when it has as many cells as the data and its
     first is not a number: :func:`_commented_header`, with a note) (its names give the point labels: of the real columns, of
@@ -63,7 +66,8 @@ import numpy as np
 from laminid_cli.atomic import atomic_path
 from laminid_cli.errors import FrfError, LaminidError, OutputExistsError
 from laminid_cli.frf.store import (FrfSet, check_frf_arrays, check_frf_size, read_frf_h5,
-                                   resonance_lines, validate_frf_arrays, write_frf_h5)
+                                   resonance_lines, unit_not_stated_note, validate_frf_arrays,
+                                   write_frf_h5)
 
 __all__ = ["FORMATS", "SUFFIXES", "check_frf_arrays", "check_frf_size", "frf_format", "read_frf",
            "read_frf_csv", "read_frf_uff", "validate_frf_arrays", "write_frf"]
@@ -544,7 +548,7 @@ def read_frf_csv(path) -> FrfSet:
     except UnicodeDecodeError as exc:
         raise FrfError(f"{path}: not a text (CSV) file; {_not_the_format(path, 'csv')}") \
             from exc
-    units = "1"
+    units = None                   # not stated: not "1", which declares FRFs dimensionless
     for ln in text.splitlines():
         # the rest of the line: a unit may hold spaces ("m/s^2 / N")
         hit = re.match(r"\s*#.*?\bunits\s+(\S.*?)\s*\Z", ln)
@@ -682,6 +686,9 @@ def read_frf_csv(path) -> FrfSet:
                            for i, h in enumerate(header[1::2]))
     freq = data[:, 0].real * _csv_freq_factor(path, header[0] if header else "")
     freq, frf, _ = check_frf_arrays(freq, frf, source=str(path))
+    if units is None:
+        notes.append(unit_not_stated_note(path, "a comment line '# units Pa/N' above the data "
+                                                "states it"))
     return FrfSet(freq=freq, frf=frf, labels=labels, units=units, source=str(path),
                   meta={"notes": notes} if notes else {})
 
@@ -695,7 +702,9 @@ def write_frf_csv(path, fs: FrfSet, *, overwrite: bool = False) -> Path:
     data[:, 1::2] = fs.frf.real.T
     data[:, 2::2] = fs.frf.imag.T
     with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
-        fh.write(f"# laminid FRF, units {fs.units}\n")
+        # a unit not known is written as such: "units 1" would declare the FRFs dimensionless
+        fh.write(f"# laminid FRF, units {fs.units}\n" if fs.units is not None else
+                 "# laminid FRF, unit not stated in the source file\n")
         w = csv.writer(fh)
         w.writerow(["freq_Hz"] + [f"{lab}_{part}" for lab in labels for part in ("re", "im")])
         w.writerows([[repr(float(v)) for v in row] for row in data])
@@ -773,6 +782,12 @@ def read_frf_uff(path) -> FrfSet:
     units = each[0]
     freq, frf, coherence = check_frf_arrays(freq, frf, coherence, source=str(path))
     meta = {"uff_ids": [str(d.get("id1", "")) for d in frfs]}
+    if units is None and len(set(each)) == 1:
+        d = frfs[0]
+        meta["notes"] = [unit_not_stated_note(
+            path, "FRF records' ordinate units label "
+                  f"{str(d.get('ordinate_axis_units_lab', '') or '').strip()!r} over "
+                  f"{str(d.get('orddenom_axis_units_lab', '') or '').strip()!r}")]
     if len(set(each)) > 1:
         # accelerances beside mobilities (another tool's file): one pole set, so the modes
         # are those of all; each FRF's modal constants are in its own unit (fit-frf says so)
@@ -835,10 +850,11 @@ def _window_id(fs) -> str:
     return UFF_WINDOW_ID.format(repr(tau) if np.isfinite(tau) and tau > 0 else "unknown")
 
 
-def _uff_units(d) -> str:
+def _uff_units(d) -> str | None:
     """The FRF unit of a type-58 record: its ordinate's unit label over its denominator's
     ("m/s^2" over "N": "m/s^2/N"); the ordinate's alone where the denominator has none
-    ("NONE", pyuff's default).
+    ("NONE", pyuff's default); None where the ordinate has none (blank or "NONE": not stated,
+    whatever the denominator says; a stated dimensionless ordinate is "1").
 
     A record laminid wrote (``id2`` "laminid") is joined exactly so: :func:`_uff_axes` split
     the unit at its last '/', so "N/N/N" is "N/N" over "N" and reads back "N/N/N" (laminid's
@@ -846,9 +862,9 @@ def _uff_units(d) -> str:
     ordinate that already ends with its denominator ("m/s^2/N" over "N") is taken as the whole
     unit, not "m/s^2/N/N"; that guess is never applied to laminid's own records, where it
     turned "N/N/N" into "N/N"."""
-    ordinate = str(d.get("ordinate_axis_units_lab", "") or "").strip() or "1"
-    if ordinate.upper() == "NONE":        # pyuff's default label: no unit given, as blank
-        ordinate = "1"
+    ordinate = str(d.get("ordinate_axis_units_lab", "") or "").strip()
+    if ordinate.upper() in ("", "NONE"):  # pyuff's default label: no unit given, as blank
+        return None
     denominator = str(d.get("orddenom_axis_units_lab", "") or "").strip()
     if denominator.upper() in ("", "NONE"):
         return ordinate
@@ -1046,10 +1062,13 @@ def uff_ascii(text: str) -> str:
     return s.encode("ascii", "replace").decode("ascii")
 
 
-def uff_units(units: str, source) -> str:
+def uff_units(units: str | None, source) -> str | None:
     """The FRF unit ``units`` as laminid writes it to a Universal File: in ASCII ("m/s²/N"
-    "m/s^2/N", the same unit); FrfError naming ``source`` where a character has no ASCII
-    spelling (the unit would read back as another)."""
+    "m/s^2/N", the same unit); None for a unit not known (written "NONE"); FrfError naming
+    ``source`` where a character has no ASCII spelling (the unit would read back as
+    another)."""
+    if units is None:
+        return None
     ascii_ = uff_ascii(units)
     lost = [ch for ch in units if uff_ascii(ch) == "?" and ch != "?"]
     if lost:
@@ -1059,11 +1078,14 @@ def uff_units(units: str, source) -> str:
     return ascii_
 
 
-def _uff_axes(units: str) -> dict:
+def _uff_axes(units: str | None) -> dict:
     """The ordinate and denominator fields of a type-58 record of an FRF in ``units``: the
     response's unit and type over the force's ("Pa/N": Pa, 15 pressure over N, 13 excitation
-    force), split at the last '/'; a unit that is no ratio is the ordinate's, over none. The
-    reader (:func:`_uff_units`) joins them back."""
+    force), split at the last '/'; a unit that is no ratio is the ordinate's, over none; no
+    unit (None) "NONE" over "NONE". The reader (:func:`_uff_units`) joins them back."""
+    if units is None:
+        return {"ordinate_axis_units_lab": "NONE", "orddenom_axis_units_lab": "NONE",
+                "ordinate_spec_data_type": 0, "orddenom_spec_data_type": 0}
     response, sep, force = units.rpartition("/")
     # a label holds no surrounding spaces (the reader strips them): "m/s^2 / N" is
     # "m/s^2" over "N", and reads back "m/s^2/N"
