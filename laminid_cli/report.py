@@ -1768,8 +1768,12 @@ def frf_page(r: ResultFile, plate, frf_path, bands=None, n_modes=None, own: bool
     from laminid_cli.frf.plot import draw_frf, has_coherence
 
     fs = read_frf(frf_path)
+    for warning in fs.meta.get("warnings") or ():   # each names the file
+        log.warning("%s", warning)
     for note in fs.meta.get("notes") or ():     # the reader's (a CSV phase unit assumed)
-        log.warning("%s: %s", frf_path, note)
+        # (a note that names the file already, as the unit's, is not prefixed twice)
+        named = note.startswith(f"{Path(frf_path)}: ")
+        log.warning("%s", note if named else f"{frf_path}: {note}")
     fit = rfp.find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes)
     fig = _figure()
     fig.suptitle(f"{plate.name}: FRFs of {Path(frf_path).name} with the RFP fit", fontsize=11)

@@ -526,6 +526,34 @@ def test_a_unit_not_stated_stays_not_stated_through_every_writer(tmp_path, case)
         "the FRFs and their modal constants are given without a unit (null in --json)"]
 
 
+def test_export_of_a_csv_whose_frequency_states_no_unit(tmp_path, case):
+    """export reads a CSV as fit-frf does: a column headed "f" is written as Hz with the
+    reader's warning on stderr and in --json; in kHz (values below 100) it is refused, and
+    no Universal File is written."""
+    rows = "\n".join(f"{f:.17g},{h.real:.17g},{h.imag:.17g}"
+                     for f, h in zip(case.freq, case.frf[0]))
+    hz = tmp_path / "hz.csv"
+    hz.write_text("f,1_re,1_im\n" + rows + "\n")
+    r = run(["export", str(hz), "-o", str(tmp_path / "hz.uff"), "--json"])
+    assert r.exit_code == 0, r.output
+    warning = (f"{hz}: column 1 ('f'): the frequency states no unit; its values "
+               f"{case.freq[0]:g} to {case.freq[-1]:g} are read as Hz")
+    assert r.stderr.startswith(f"warning: {warning}") and r.stderr.count("\n") == 1
+    out = json.loads(r.stdout)
+    assert len(out["warnings"]) == 1 and out["warnings"][0].startswith(warning)
+    assert np.array_equal(io.read_frf(tmp_path / "hz.uff").freq, case.freq)
+    khz = tmp_path / "khz.csv"
+    khz.write_text("f,1_re,1_im\n" + "\n".join(
+        f"{f / 1e3:.17g},{h.real:.17g},{h.imag:.17g}" for f, h in zip(case.freq, case.frf[0]))
+        + "\n")
+    r = run(["export", str(khz), "-o", str(tmp_path / "khz.uff")])
+    assert r.exit_code == 2
+    assert r.stderr.startswith(f"laminid: error: {khz}: column 1 ('f'): the frequency states "
+                               f"no unit, and its values {case.freq[0] / 1e3:g} to "
+                               f"{case.freq[-1] / 1e3:g} read as Hz would end below 100 Hz")
+    assert not (tmp_path / "khz.uff").exists()
+
+
 def test_a_universal_file_is_written_in_ascii(tmp_path, case):
     """Text that is not ASCII never reaches the Universal File as such: the unit "m/s²/N" is
     written "m/s^2" over "N" with the acceleration's specific data type (12), a point label

@@ -59,7 +59,9 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     A plain HDF5 file of another tool is read too: a 1-D frequency dataset and a complex FRF
     dataset of matching length (either orientation), found by name, shape and units
     attributes; name them with --freq-dataset/--frf-dataset when several fit. A CSV file holds
-    the frequency, then per FRF a real and an imaginary column, one column of complex numbers
+    the frequency (its unit in the header, 'f [kHz]', 'f [Hz]', 'f [rad/s]': a header that
+    states none is read as Hz with a warning, and refused where its values end below 100),
+    then per FRF a real and an imaginary column, one column of complex numbers
     (a+bj, a+bi) or a magnitude and a phase column named in its header (H1_mag, H1_phase;
     '[dB]', '[deg]' or '[rad]' as the header says; a phase without a unit: radians within
     +-pi, degrees where it wraps at +-180 or exceeds 180, with a note; else give its unit).
@@ -132,6 +134,10 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
 
         read_specimen(spec_path)
     fs = read_frf(frf_file, fmt, freq_dataset=freq_dataset, frf_dataset=frf_dataset)
+    # the reader's doubts (a frequency column whose unit the file does not state), first
+    warnings = list(fs.meta.get("warnings") or ())
+    for warning in warnings:
+        click.echo(f"warning: {warning}", err=True)
     fit = rfp.find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes,
                          source=str(frf_file))
     tau = rfp.window_time_constant(fs)
@@ -210,6 +216,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
                       for i, (m, s) in enumerate(zip(fit.modes, sigma))],
             "sigma_rule": msig.summary(), "sigma_rel": sigma_rel,
             "exp_window_s": tau, "damping_rule": wc.summary() or None, "notes": notes,
+            "warnings": warnings,
             "plot": plot_path, "into": spec_path,
             "backup": None if into is None else into.backup_text,
             "weights": None if into is None else list(into.weight_notes),

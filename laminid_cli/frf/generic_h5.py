@@ -166,18 +166,26 @@ def name_freq_factor(name: str, where: str) -> float:
     (``where`` names the dataset or column, and how to give the unit) for a name that reads as
     an angular frequency without saying which unit ("omega", "w": read as Hz, a rad/s axis
     put every natural frequency 2 pi = 6.28 times too high, with exit 0)."""
+    unit = name_freq_unit(name, where)
+    return 1.0 if unit is None else FREQ_UNITS[unit]
+
+
+def name_freq_unit(name: str, where: str) -> str | None:
+    """The frequency unit a name states (:data:`FREQ_UNITS` key: "khz" in "f_kHz", "rad/s" in
+    "omega_rad_s", "hz" in "freq_Hz"); None where it states none ("f", "freq"); FrfError as
+    :func:`name_freq_factor` says."""
     low = name.lower()
     if re.search(r"(?<![a-z])khz(?![a-z])", low):
-        return FREQ_UNITS["khz"]
+        return "khz"
     if re.search(r"(?<![a-z])rad[/_ ]?(s|sec)(?![a-z])", low):
-        return FREQ_UNITS["rad/s"]
+        return "rad/s"
     if re.search(r"(?<![a-z])hz(?![a-z])", low):
-        return 1.0
+        return "hz"
     if _ANGULAR_NAME.search(low):
         raise FrfError(f"{where}: the frequency {name!r} reads as an angular frequency but "
                        "says no unit: Hz or rad/s cannot be told (rad/s read as Hz puts every "
                        "mode 2 pi = 6.28 times too high)")
-    return 1.0
+    return None
 
 
 def freq_unit_factor(unit: str) -> float | None:

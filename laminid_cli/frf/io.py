@@ -19,8 +19,11 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     ordinate units label blank or "NONE" (pyuff's default) states no FRF unit (``units`` None).
 ``csv`` (``.csv``, ``.txt``)
     Text: first column frequency in Hz (kHz or rad/s when its header says so: "f [kHz]",
-    "omega_rad_s"; another bracketed unit is refused, and so is a header that reads as an
-    angular frequency without its unit, "omega"), then per FRF, in one of three layouts:
+    "f (kHz)", "omega_rad_s"; another bracketed unit is refused, and so is a header that reads
+    as an angular frequency without its unit, "omega"; a header that states no unit, "f", or
+    none is read as Hz with a warning, and refused where the values end below
+    :data:`UNSTATED_FREQ_MIN_SPAN_HZ`, Hz implausible for a plate), then per FRF, in one of
+    three layouts:
 
     - real and imaginary part (``freq, re_1, im_1, re_2, im_2, ...``; what laminid writes);
     - one column of complex numbers (``freq, H_1, H_2, ...``), known by its cells: Python's
@@ -514,15 +517,16 @@ def _csv_mag_phase(path, header: list[str], data: np.ndarray, lines
     return frf, tuple(labels), notes
 
 
-def _csv_freq_factor(path, name: str) -> float:
-    """The factor to Hz of a CSV's frequency column by its header ``name``: the unit in
-    brackets ("Frequency [rad/s]", "f (kHz)"), else a kHz or rad/s in the name ("f_kHz",
-    "omega_rad_s"); 1 (Hz) for any other name or none. FrfError for a bracketed unit that is
-    no frequency ("time [s]") and for a name that reads as an angular frequency without a unit
-    ("omega": :func:`~laminid_cli.frf.generic_h5.name_freq_factor`)."""
-    import re
-
-    from laminid_cli.frf.generic_h5 import FREQ_UNITS, freq_unit_factor, name_freq_factor
+def _csv_freq_factor(path, name: str) -> tuple[float, bool]:
+    """The factor to Hz of a CSV's frequency column by its header ``name``, and whether the
+    header states the unit: the unit in brackets ("Frequency [rad/s]", "f (kHz)"), else a kHz,
+    rad/s or Hz in the name ("f_kHz", "omega_rad_s", "freq_Hz"); (1, False), Hz not stated,
+    for any other name or none (:func:`_unstated_freq_warning` then judges the values).
+    FrfError for a bracketed unit that is no frequency ("time [s]") and for a name that reads
+    as an angular frequency without a unit ("omega":
+    :func:`~laminid_cli.frf.generic_h5.name_freq_factor`)."""
+    from laminid_cli.frf.generic_h5 import (FREQ_UNITS, freq_unit_factor, name_freq_factor,
+                                            name_freq_unit)
 
     bracketed = re.search(r"[\[(]\s*([^\])]*?)\s*[\])]", name)
     if bracketed:
@@ -531,9 +535,49 @@ def _csv_freq_factor(path, name: str) -> float:
         if factor is None:
             raise FrfError(f"{path}: column 1 ({name!r}): unit {unit!r} is not a frequency "
                            f"unit laminid reads ({', '.join(FREQ_UNITS)})")
-        return factor
-    return name_freq_factor(name, f"{path}: column 1 ({name!r}; give its unit in the header, "
-                                  f"'{name} [rad/s]' or '{name} [Hz]')")
+        return factor, True
+    where = (f"{path}: column 1 ({name!r}; give its unit in the header, '{name} [rad/s]' or "
+             f"'{name} [Hz]')")
+    return name_freq_factor(name, where), name_freq_unit(name, where) is not None
+
+
+#: a CSV frequency column whose header states no unit is read as Hz; when its largest value
+#: is below this (Hz) it is refused instead. A free plate's modes lie at about 20 Hz - 20 kHz
+#: and an analyser's span starts at 0, so a span that ends below 100 "Hz" is far more likely
+#: kHz (125.05 Hz written 0.12505: every mode 1000 times too low, exit 0) than a plate test
+UNSTATED_FREQ_MIN_SPAN_HZ = 100.0
+
+
+def _unstated_freq_warning(path, header: list[str] | None, sep: str | None,
+                           freq: np.ndarray) -> str:
+    """The warning on a CSV frequency column whose header states no unit, read as Hz
+    (``freq``, Hz): the file, the column, the range read and how to state the unit (in a
+    blank-separated file (``sep`` None) without a blank: "f_kHz"). FrfError, the same said,
+    where the range ends below :data:`UNSTATED_FREQ_MIN_SPAN_HZ`: nothing is rescaled on a
+    guess."""
+    column = _csv_column(header, 0)
+    name = header[0].strip() if header and header[0].strip() else "f"
+    if sep is None:                # "f [kHz]" would be two cells
+        khz, hz, rad, more = f"{name}_kHz", f"{name}_Hz", f"{name}_rad_s", ""
+    else:
+        khz, hz, rad = f"{name} [kHz]", f"{name} [Hz]", f"{name} [rad/s]"
+        more = f" (also '{name} (kHz)' or '{name}_kHz')"
+    if header:
+        how = f"state it in the header: '{khz}', '{hz}' or '{rad}'{more}"
+    else:
+        how = (f"add a header line above the data, one name per column, the first stating the "
+               f"unit: '{khz}', '{hz}' or '{rad}'")
+    lo, hi = float(freq[0]), float(freq[-1])
+    if hi < UNSTATED_FREQ_MIN_SPAN_HZ:
+        raise FrfError(
+            f"{path}: {column}: the frequency states no unit, and its values {lo:g} to {hi:g} "
+            f"read as Hz would end below {UNSTATED_FREQ_MIN_SPAN_HZ:g} Hz, where a free plate "
+            "has hardly a mode (they lie at about 20 Hz to 20 kHz): very likely kHz, not Hz; "
+            f"{how}")
+    return (f"{path}: {column}: the frequency states no unit; its values {lo:g} to {hi:g} are "
+            "read as Hz (were they kHz, every mode would be 1000 times too low; rad/s, 6.28 "
+            f"times too high); if they are not Hz, {how}; '{hz}' confirms Hz and silences "
+            "this warning")
 
 
 def read_frf_csv(path) -> FrfSet:
@@ -541,7 +585,9 @@ def read_frf_csv(path) -> FrfSet:
     or magnitude and phase columns named in the header (see module docstring).
 
     A note on what was assumed (the unit of a phase column whose header gives none) is in
-    the returned set's ``meta["notes"]``."""
+    the returned set's ``meta["notes"]``; a warning where the frequency's header states no
+    unit (read as Hz; refused, FrfError, where it ends below
+    :data:`UNSTATED_FREQ_MIN_SPAN_HZ`) in its ``meta["warnings"]``."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8-sig")
@@ -684,13 +730,17 @@ def read_frf_csv(path) -> FrfSet:
         if header and len(header) == n:
             labels = tuple(_real_part_label(h) or str(i + 1)
                            for i, h in enumerate(header[1::2]))
-    freq = data[:, 0].real * _csv_freq_factor(path, header[0] if header else "")
-    freq, frf, _ = check_frf_arrays(freq, frf, source=str(path))
+    factor, stated = _csv_freq_factor(path, header[0] if header else "")
+    freq, frf, _ = check_frf_arrays(data[:, 0].real * factor, frf, source=str(path))
+    meta: dict = {}
+    if not stated:
+        meta["warnings"] = [_unstated_freq_warning(path, header, sep, freq)]
     if units is None:
         notes.append(unit_not_stated_note(path, "a comment line '# units Pa/N' above the data "
                                                 "states it"))
-    return FrfSet(freq=freq, frf=frf, labels=labels, units=units, source=str(path),
-                  meta={"notes": notes} if notes else {})
+    if notes:
+        meta["notes"] = notes
+    return FrfSet(freq=freq, frf=frf, labels=labels, units=units, source=str(path), meta=meta)
 
 
 def write_frf_csv(path, fs: FrfSet, *, overwrite: bool = False) -> Path:

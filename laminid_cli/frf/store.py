@@ -78,7 +78,9 @@ class FrfSet:
     source : file the set was read from ("" when built in memory)
     meta : instrument identity, settings and per-point records (free-form, JSON-able);
         ``notes``: a reader's sentences on what it assumed (the unit of a CSV phase column
-        whose header gives none), printed by the commands that read the set
+        whose header gives none), printed by the commands that read the set; ``warnings``:
+        its sentences on an assumption that may well be wrong (a CSV frequency column whose
+        header states no unit, read as Hz), each naming the file, printed as warnings
     """
 
     freq: np.ndarray
