@@ -480,9 +480,10 @@ def test_a_khz_frequency_column_headed_without_unit_is_refused_not_read_as_hz(tm
     assert r.exit_code == 2, r.output
     assert r.stderr == (
         f"laminid: error: {path}: column 1 ('f'): the frequency states no unit, and its values "
-        f"{case.freq[0] * 1e-3:g} to {case.freq[-1] * 1e-3:g} read as Hz would end below 100 Hz, where a free plate "
-        "has hardly a mode (they lie at about 20 Hz to 20 kHz): very likely kHz, not Hz; state "
-        "it in the header: 'f [kHz]', 'f [Hz]' or 'f [rad/s]' (also 'f (kHz)' or 'f_kHz')\n")
+        f"{case.freq[0] * 1e-3:g} to {case.freq[-1] * 1e-3:g} read as Hz would end below 100 "
+        "Hz, where a free plate has hardly a mode (they lie at about 20 Hz to 20 kHz): very "
+        "likely kHz, not Hz; state it in the header: 'f [kHz]', 'f [Hz]' or 'f [rad/s]' (also "
+        "'f (kHz)' or 'f_kHz')\n")
     assert spec.read_text() == SPEC
     for header in ("f [kHz]", "f (kHz)", "f_kHz"):
         out = json.loads(run(["fit-frf", str(_csv(path, case, header, 1e-3)), "--json"]).stdout)
@@ -496,10 +497,10 @@ def test_a_hz_frequency_column_headed_without_unit_is_read_as_hz_with_a_warning(
     "f [Hz]" or "freq_Hz" (laminid's own CSV) it is read the same, without one."""
     path = _csv(tmp_path / "hz.csv", case, "f")
     warning = (f"{path}: column 1 ('f'): the frequency states no unit; its values "
-               f"{case.freq[0]:g} to {case.freq[-1]:g} are read as Hz (were they kHz, every mode would be 1000 times "
-               "too low; rad/s, 6.28 times too high); if they are not Hz, state it in the "
-               "header: 'f [kHz]', 'f [Hz]' or 'f [rad/s]' (also 'f (kHz)' or 'f_kHz'); "
-               "'f [Hz]' confirms Hz and silences this warning")
+               f"{case.freq[0]:g} to {case.freq[-1]:g} are read as Hz (were they kHz, every "
+               "mode would be 1000 times too low; rad/s, 6.28 times too high); if they are not "
+               "Hz, state it in the header: 'f [kHz]', 'f [Hz]' or 'f [rad/s]' (also 'f (kHz)' "
+               "or 'f_kHz'); 'f [Hz]' confirms Hz and silences this warning")
     r = run(["fit-frf", str(path)])
     assert r.exit_code == 0, r.output
     assert r.stderr == f"warning: {warning}\n"

@@ -499,7 +499,8 @@ def test_a_unit_not_stated_stays_not_stated_through_every_writer(tmp_path, case)
     with h5py.File(h5, "r") as f:
         assert "units" not in f["frf"].attrs
     csv_path = io.write_frf(tmp_path / "in.csv", fs)
-    assert csv_path.read_text().splitlines()[0] == "# laminid FRF, unit not stated in the source file"
+    first = csv_path.read_text().splitlines()[0]
+    assert first == "# laminid FRF, unit not stated in the source file"
     uff = io.write_frf(tmp_path / "in.uff", fs)
     hows = {h5: "no 'units' attribute on '/frf'; acquire --units records it",
             csv_path: "a comment line '# units Pa/N' above the data states it",
@@ -706,7 +707,8 @@ def test_uff_record_in_a_negative_direction_names_its_modal_constants(tmp_path, 
 
 
 @pytest.mark.parametrize("ordinate, denominator, units", [
-    ("NONE", "NONE", None), ("", "", None), ("NONE", "N", None), ("g", "N", "g/N"), ("m/s2", "N", "m/s2/N"),
+    ("NONE", "NONE", None), ("", "", None), ("NONE", "N", None), ("g", "N", "g/N"),
+    ("m/s2", "N", "m/s2/N"),
     ("(m/s^2)", "N", "(m/s^2)/N"), ("m/s^2/N", "NONE", "m/s^2/N"), ("m/s", "N", "m/s/N")])
 def test_other_tools_uff_unit_labels(tmp_path, case, ordinate, denominator, units):
     # pyuff's default labels "NONE" over "NONE" were read as the unit "NONE" (the residues'

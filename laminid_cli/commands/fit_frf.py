@@ -84,7 +84,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
                       not the measurement's); sigma_terms_hz holds every term
       modal_constants [re, im] residue A of each FRF, in (FRF units)*rad/s
                       (modal_constants_unit; units and it null where the file
-                      states no FRF unit, with a note): H(s) = A/(s - pole) + conj(A)/(s - conj(pole))
+                      states no FRF unit, with a note):
+                      H(s) = A/(s - pole) + conj(A)/(s - conj(pole))
                       of the FRF of each entry of points (its label: "12-Z", a UFF
                       record measured in -Z, is of that direction, and so are its
                       constants)
