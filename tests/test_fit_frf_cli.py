@@ -433,8 +433,8 @@ def test_format_csv_on_an_hdf5_file_says_it_is_hdf5(h5):
 def test_a_csv_that_states_no_unit_is_said_so_not_called_dimensionless(tmp_path, case):
     """A CSV file without a '# units' line was reported in unit "1" (table, --json: "units":
     "1", modal constants in "rad/s"), as if its FRFs were dimensionless: now "unit not stated
-    in file" on the terminal, null in --json, and a note naming the file and how to state it;
-    a file that declares "# units 1" keeps "1"."""
+    in file" on the terminal, null in --json (frf_unit), and a note naming the file and how to
+    state it; a file that declares "# units 1" keeps "1"."""
     names = ["freq_Hz"] + [f"{k}_{p}" for k in range(1, 6) for p in ("re", "im")]
     data = np.column_stack([case.freq] + [c for H in case.frf for c in (H.real, H.imag)])
     path = tmp_path / "lab.csv"
@@ -449,13 +449,14 @@ def test_a_csv_that_states_no_unit_is_said_so_not_called_dimensionless(tmp_path,
                      "bands 100-300 Hz")
     assert f"note: {note}" in r.stdout.splitlines()
     out = json.loads(run(["fit-frf", str(path), "--band", "100:300", "--json"]).stdout)
-    assert out["units"] is None and out["modal_constants_unit"] is None
+    assert out["frf_unit"] is None and out["units"] is None
+    assert out["modal_constants_unit"] is None
     assert out["mode_units"]["modal_constants"] is None
     assert note in out["notes"]
     declared = tmp_path / "ratio.csv"
     declared.write_text("# units 1\n" + path.read_text())
     out = json.loads(run(["fit-frf", str(declared), "--band", "100:300", "--json"]).stdout)
-    assert out["units"] == "1" and out["modal_constants_unit"] == "rad/s"
+    assert out["frf_unit"] == "1" and out["modal_constants_unit"] == "rad/s"
     assert not any("not stated" in n for n in out["notes"])
 
 

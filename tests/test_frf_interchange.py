@@ -513,7 +513,8 @@ def test_a_unit_not_stated_stays_not_stated_through_every_writer(tmp_path, case)
             "constants are given without a unit (null in --json)"]
     r = run(["export", str(h5), "-o", str(tmp_path / "out.uff"), "--json"])
     assert r.exit_code == 0, r.output
-    assert json.loads(r.output)["units"] is None
+    out = json.loads(r.output)
+    assert out["frf_unit"] is None and out["units"] is None
     r = run(["export", str(h5), "-o", str(tmp_path / "out2.uff")])
     assert "FRFs (UFF 58b, unit not stated in file, " in r.output
     plain = tmp_path / "plain.h5"
@@ -717,7 +718,7 @@ def test_other_tools_uff_unit_labels(tmp_path, case, ordinate, denominator, unit
     path = _other_uff(tmp_path / "u.uff", case.freq[:UNIT_LINES], case.frf[:2, :UNIT_LINES],
                       ordinate_axis_units_lab=ordinate, orddenom_axis_units_lab=denominator)
     out = _fit_json(path, "--band", "100:300")
-    assert out["units"] == units
+    assert out["frf_unit"] == units
     note = (f"{path}: the FRF unit is not stated in the file (FRF records' ordinate units "
             f"label {ordinate!r} over {denominator!r}): the FRFs and their modal constants are "
             "given without a unit (null in --json)")
