@@ -47,7 +47,7 @@ from laminid_cli.intervals import (HELD_BY_PRIOR, VERDICT_AT_BOUND, VERDICT_FIXE
                                    VERDICT_NOT, WEAK, WELL_DETERMINED, spread_sentence)
 from laminid_cli.resultfile import (CONSTANTS, ResultFile, bound_statement, profile_kind,
                                    read_result)
-from laminid_cli.units import gpa_text
+from laminid_cli.units import gpa_text, number_text
 
 log = logging.getLogger(__name__)
 
@@ -536,7 +536,8 @@ def frequency_rows(plate) -> tuple[list[str], list[list[str]]]:
         rows.append([str(k + 1), str(fr.model_mode[k]),
                      f"{meas:.2f}" if np.isfinite(meas) else "not\nmeasured",
                      f"{fr.model[k]:.2f}",
-                     f"{fr.residual_percent[k]:+.3f}" if np.isfinite(fr.residual_percent[k])
+                     number_text(fr.residual_percent[k], "+.3f")
+                     if np.isfinite(fr.residual_percent[k])
                      else "—", f"{fr.weight[k]:g}"])
     return head, rows
 
@@ -1767,8 +1768,12 @@ def frf_page(r: ResultFile, plate, frf_path, bands=None, n_modes=None, own: bool
     from laminid_cli.frf.plot import draw_frf, has_coherence
 
     fs = read_frf(frf_path)
+    for warning in fs.meta.get("warnings") or ():   # each names the file
+        log.warning("%s", warning)
     for note in fs.meta.get("notes") or ():     # the reader's (a CSV phase unit assumed)
-        log.warning("%s: %s", frf_path, note)
+        # (a note that names the file already, as the unit's, is not prefixed twice)
+        named = note.startswith(f"{Path(frf_path)}: ")
+        log.warning("%s", note if named else f"{frf_path}: {note}")
     fit = rfp.find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes)
     fig = _figure()
     fig.suptitle(f"{plate.name}: FRFs of {Path(frf_path).name} with the RFP fit", fontsize=11)

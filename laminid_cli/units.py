@@ -318,6 +318,36 @@ def format_quantity(value: float, kind: str, digits: int = 4) -> str:
     return f"{number:.{digits}g} {unit}".rstrip()
 
 
+#: the parts of a format spec (Python's mini-language) that decide how number_text writes a
+#: zero without its minus: alignment, sign, width
+_SPEC = re.compile(r"(?:.?([<>=^]))?([+\- ]?)z?#?0?(\d*)")
+#: a minus before a number whose digits are all zeros ("-0.00", "-0.000e+00", "-0 %")
+_NEGATIVE_ZERO = re.compile(r"-(?=[0.,_]*0[0.,_]*(?:[eE][+-]?\d+)?\s*%?\s*\Z)")
+
+
+def number_text(value, spec: str) -> str:
+    """``format(value, spec)`` as every table writes a number: a value that rounds to zero in
+    ``spec`` without a minus ("0.00", not "-0.00" for a residual of -0.001 %, nor for IEEE's
+    -0.0), "+0.000" where ``spec`` asks for a sign, in the spec's width. Python's "z" option
+    does this from 3.11 only (laminid runs on 3.10).
+
+    >>> number_text(-0.001, "6.2f"), number_text(-4e-4, "+.3f"), number_text(-0.02, ".2f")
+    ('  0.00', '+0.000', '-0.02')
+    """
+    text = format(value, spec)
+    m = _NEGATIVE_ZERO.search(text)
+    if m is None:
+        return text
+    align, sign, width = _SPEC.match(spec).groups()
+    head, tail = text[:m.start()], text[m.end():]
+    if sign in ("+", " "):
+        return head + sign + tail
+    text = head + tail
+    if width and len(text) < int(width):          # the column keeps its width
+        text = text + " " if align == "<" else " " + text
+    return text
+
+
 def gpa_text(value: float) -> str:
     """A modulus (Pa) as the number of GPa every table shows: 2 decimals ('117.20'); 3
     significant digits below 1 GPa, so a modulus at its floor reads 0.00299, not 0.00, and one
@@ -333,7 +363,7 @@ def gpa_text(value: float) -> str:
         return f"{v:.2e}"
     if 0 < abs(v) < 1:
         return f"{v:.3g}"
-    return f"{v:.2f}"
+    return number_text(v, ".2f")
 
 
 #: the unit of each numeric field of a ``--json`` document (modes, identify, show) by the

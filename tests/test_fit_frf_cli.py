@@ -430,6 +430,93 @@ def test_format_csv_on_an_hdf5_file_says_it_is_hdf5(h5):
                                 "says hdf5)")
 
 
+def test_a_csv_that_states_no_unit_is_said_so_not_called_dimensionless(tmp_path, case):
+    """A CSV file without a '# units' line was reported in unit "1" (table, --json: "units":
+    "1", modal constants in "rad/s"), as if its FRFs were dimensionless: now "unit not stated
+    in file" on the terminal, null in --json (frf_unit), and a note naming the file and how to
+    state it; a file that declares "# units 1" keeps "1"."""
+    names = ["freq_Hz"] + [f"{k}_{p}" for k in range(1, 6) for p in ("re", "im")]
+    data = np.column_stack([case.freq] + [c for H in case.frf for c in (H.real, H.imag)])
+    path = tmp_path / "lab.csv"
+    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
+    note = (f"{path}: the FRF unit is not stated in the file (a comment line '# units Pa/N' "
+            "above the data states it): the FRFs and their modal constants are given without "
+            "a unit (null in --json)")
+    r = run(["fit-frf", str(path), "--band", "100:300"])
+    assert r.exit_code == 0, r.output
+    first = r.stdout.splitlines()[0]
+    assert first == (f"{path}: 5 FRFs (unit not stated in file), {case.freq.size} lines, "
+                     "bands 100-300 Hz")
+    assert f"note: {note}" in r.stdout.splitlines()
+    out = json.loads(run(["fit-frf", str(path), "--band", "100:300", "--json"]).stdout)
+    assert out["frf_unit"] is None and out["units"] is None
+    assert out["modal_constants_unit"] is None
+    assert out["mode_units"]["modal_constants"] is None
+    assert note in out["notes"]
+    declared = tmp_path / "ratio.csv"
+    declared.write_text("# units 1\n" + path.read_text())
+    out = json.loads(run(["fit-frf", str(declared), "--band", "100:300", "--json"]).stdout)
+    assert out["frf_unit"] == "1" and out["modal_constants_unit"] == "rad/s"
+    assert not any("not stated" in n for n in out["notes"])
+
+
+def _csv(path, case, first: str, scale: float = 1.0):
+    """``case``'s FRFs as a lab's CSV: header ``first`` then re/im columns, the frequency
+    times ``scale`` (1e-3: in kHz), no '# units' line."""
+    names = [first] + [f"{k}_{p}" for k in range(1, 6) for p in ("re", "im")]
+    data = np.column_stack([case.freq * scale] + [c for H in case.frf for c in (H.real, H.imag)])
+    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
+    return path
+
+
+def test_a_khz_frequency_column_headed_without_unit_is_refused_not_read_as_hz(tmp_path, case):
+    """A kHz column headed just "f" was read as Hz without a word (125.05 Hz found at 0.125,
+    exit 0, and --into wrote it): its values end below 100 Hz, where a free plate has hardly a
+    mode; now refused, naming the file, the column, the range read and the header that states
+    the unit; the specimen of --into is left as it was. Headed "f [kHz]" it reads right."""
+    path = _csv(tmp_path / "khz.csv", case, "f", 1e-3)
+    spec = tmp_path / "plate.yaml"
+    spec.write_text(SPEC)
+    r = run(["fit-frf", str(path), "--into", str(spec)])
+    assert r.exit_code == 2, r.output
+    assert r.stderr == (
+        f"laminid: error: {path}: column 1 ('f'): the frequency states no unit, and its values "
+        f"{case.freq[0] * 1e-3:g} to {case.freq[-1] * 1e-3:g} read as Hz would end below 100 "
+        "Hz, where a free plate has hardly a mode (they lie at about 20 Hz to 20 kHz): very "
+        "likely kHz, not Hz; state it in the header: 'f [kHz]', 'f [Hz]' or 'f [rad/s]' (also "
+        "'f (kHz)' or 'f_kHz')\n")
+    assert spec.read_text() == SPEC
+    for header in ("f [kHz]", "f (kHz)", "f_kHz"):
+        out = json.loads(run(["fit-frf", str(_csv(path, case, header, 1e-3)), "--json"]).stdout)
+        assert np.allclose([m["freq_hz"] for m in out["modes"]], case.freq_hz, rtol=1e-3)
+        assert out["warnings"] == []
+
+
+def test_a_hz_frequency_column_headed_without_unit_is_read_as_hz_with_a_warning(tmp_path, case):
+    """A plausible axis (1-1601 Hz) headed "f" is read as Hz, with a warning on stderr (and in
+    --json) naming the file, the column, the range read and how to state the unit; headed
+    "f [Hz]" or "freq_Hz" (laminid's own CSV) it is read the same, without one."""
+    path = _csv(tmp_path / "hz.csv", case, "f")
+    warning = (f"{path}: column 1 ('f'): the frequency states no unit; its values "
+               f"{case.freq[0]:g} to {case.freq[-1]:g} are read as Hz (were they kHz, every "
+               "mode would be 1000 times too low; rad/s, 6.28 times too high); if they are not "
+               "Hz, state it in the header: 'f [kHz]', 'f [Hz]' or 'f [rad/s]' (also 'f (kHz)' "
+               "or 'f_kHz'); 'f [Hz]' confirms Hz and silences this warning")
+    r = run(["fit-frf", str(path)])
+    assert r.exit_code == 0, r.output
+    assert r.stderr == f"warning: {warning}\n"
+    rows = [ln.split() for ln in r.stdout.splitlines() if ln.strip()[:1].isdigit()]
+    assert np.allclose([float(row[1]) for row in rows], case.freq_hz, rtol=1e-3)
+    r = run(["fit-frf", str(path), "--json"])
+    assert json.loads(r.stdout)["warnings"] == [warning]
+    for header in ("f [Hz]", "freq_Hz"):
+        r = run(["fit-frf", str(_csv(path, case, header)), "--json"])
+        assert r.exit_code == 0 and r.stderr == "", r.output
+        out = json.loads(r.stdout)
+        assert out["warnings"] == []
+        assert np.allclose([m["freq_hz"] for m in out["modes"]], case.freq_hz, rtol=1e-3)
+
+
 def test_json_states_the_unit_of_the_modal_constants_and_which_spread_is_which(h5, case):
     """--json gave modal_constants without a unit and freq_std_hz (the RFP spread only) beside
     sigma_hz (the uncertainty identify uses) with nothing to tell them apart. It now states

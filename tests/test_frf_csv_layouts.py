@@ -30,6 +30,33 @@ def truth():
     return freq, synth_frf(freq, MODES, C)
 
 
+def _unit_note(path) -> str:
+    """The reader's note on a file that states no FRF unit (none of these files has a
+    '# units' line)."""
+    return (f"{path}: the FRF unit is not stated in the file (a comment line '# units Pa/N' "
+            "above the data states it): the FRFs and their modal constants are given without "
+            "a unit (null in --json)")
+
+
+#: how a file without a header is told to state its frequency's unit
+NO_HEADER_HOW = ("add a header line above the data, one name per column, the first stating "
+                 "the unit: 'f [kHz]', 'f [Hz]' or 'f [rad/s]'")
+
+
+def _freq_warning(path, column: str, values: str, how: str, hz: str) -> str:
+    """The reader's warning on a frequency column whose header states no unit (``hz``: the
+    header that would state Hz)."""
+    return (f"{path}: {column}: the frequency states no unit; its values {values} are read as "
+            "Hz (were they kHz, every mode would be 1000 times too low; rad/s, 6.28 times too "
+            f"high); if they are not Hz, {how}; '{hz}' confirms Hz and silences this "
+            "warning")
+
+
+def _other_notes(notes) -> list[str]:
+    """``notes`` without the reader's note on the FRF unit (:func:`_unit_note`)."""
+    return [n for n in notes if "the FRF unit is not stated in the file" not in n]
+
+
 def _rel_error(got, want) -> float:
     return float(np.max(np.abs(got - want) / np.abs(want)))
 
@@ -62,10 +89,14 @@ def test_complex_cells_as_numpy_savetxt_writes_them(tmp_path, truth, delimiter):
         assert fs.labels == ("H1", "H2", "H3")
         assert fs.meta == {"notes": [
             "column names read from the comment line just above the data (line 1, as numpy's "
-            "savetxt writes a header): f, H1, H2, H3"]}
+            "savetxt writes a header): f, H1, H2, H3", _unit_note(path)],
+            "warnings": [_freq_warning(path, "column 1 ('f')", "20 to 600",
+                                       "state it in the header: 'f_kHz', 'f_Hz' or 'f_rad_s'",
+                                       "f_Hz")]}
     else:
         assert fs.labels == ("1", "2", "3")
-        assert fs.meta == {}
+        assert fs.meta == {"notes": [_unit_note(path)], "warnings": [_freq_warning(
+            path, "column 1 (no header)", "20 to 600", NO_HEADER_HOW, "f [Hz]")]}
 
 
 def test_complex_cells_as_python_writes_them(tmp_path, truth):
@@ -171,7 +202,7 @@ def test_magnitude_and_phase_columns(tmp_path, truth, case):
     assert np.array_equal(fs.freq, freq)
     assert _rel_error(fs.frf, H) <= REL
     assert fs.labels == labels
-    notes = fs.meta.get("notes", [])
+    notes = _other_notes(fs.meta.get("notes", []))
     if note is None:
         assert notes == []
     else:
@@ -192,10 +223,11 @@ def test_one_point_of_magnitude_and_phase_with_blanks_in_the_header(tmp_path, tr
 
 def test_without_a_header_columns_are_real_and_imaginary_parts(tmp_path):
     """No header: no guessing magnitude/phase from the numbers; the pairs are re/im."""
-    path = _write(tmp_path / "plain.csv", None, [["1", "0.5", "90"], ["2", "0.25", "-45"]])
+    path = _write(tmp_path / "plain.csv", None, [["100", "0.5", "90"], ["200", "0.25", "-45"]])
     fs = io.read_frf(path)
     assert np.array_equal(fs.frf, [[0.5 + 90j, 0.25 - 45j]])
-    assert fs.meta == {}
+    assert fs.meta == {"notes": [_unit_note(path)], "warnings": [_freq_warning(
+        path, "column 1 (no header)", "100 to 200", NO_HEADER_HOW, "f [Hz]")]}
 
 
 # ------------------------------------------------------------------------------ fit-frf end to end
@@ -211,7 +243,8 @@ def test_fit_frf_of_a_db_magnitude_and_degree_phase_file(tmp_path, truth):
     zeta = np.array([m["damping_ratio"] for m in out["modes"]])
     assert np.allclose(zeta, [m[1] for m in MODES], rtol=1e-3)
     assert out["points"] == ["H1", "H2", "H3"]
-    assert out["notes"] == []
+    assert out["notes"] == [_unit_note(path)]
+    assert out["units"] is None and out["modal_constants_unit"] is None
 
 
 def test_fit_frf_says_which_phase_unit_it_assumed(tmp_path, truth):

@@ -488,6 +488,74 @@ def test_every_unit_laminid_writes_reads_back_the_same(tmp_path, case, units):
         assert json.loads(r.stdout)["units"] == in_uff
 
 
+def test_a_unit_not_stated_stays_not_stated_through_every_writer(tmp_path, case):
+    """FRFs of no stated unit (units None) were written as "1" (HDF5 attribute, CSV
+    '# ... units 1', UFF ordinate "1"), read back as dimensionless: now written as not stated
+    (no attribute, no units line, "NONE" over "NONE") and read back None, with the reader's
+    note; a laminid HDF5 file or a plain one without a units attribute reads None too."""
+    fs = FrfSet(freq=case.freq[:UNIT_LINES], frf=case.frf[:2, :UNIT_LINES], labels=("1", "2"))
+    assert fs.units is None
+    h5 = io.write_frf(tmp_path / "in.frf.h5", fs)
+    with h5py.File(h5, "r") as f:
+        assert "units" not in f["frf"].attrs
+    csv_path = io.write_frf(tmp_path / "in.csv", fs)
+    first = csv_path.read_text().splitlines()[0]
+    assert first == "# laminid FRF, unit not stated in the source file"
+    uff = io.write_frf(tmp_path / "in.uff", fs)
+    hows = {h5: "no 'units' attribute on '/frf'; acquire --units records it",
+            csv_path: "a comment line '# units Pa/N' above the data states it",
+            uff: "FRF records' ordinate units label 'NONE' over 'NONE'"}
+    for path, how in hows.items():
+        back = io.read_frf(path)
+        assert back.units is None, path
+        assert back.meta["notes"] == [
+            f"{path}: the FRF unit is not stated in the file ({how}): the FRFs and their modal "
+            "constants are given without a unit (null in --json)"]
+    r = run(["export", str(h5), "-o", str(tmp_path / "out.uff"), "--json"])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.output)
+    assert out["frf_unit"] is None and out["units"] is None
+    r = run(["export", str(h5), "-o", str(tmp_path / "out2.uff")])
+    assert "FRFs (UFF 58b, unit not stated in file, " in r.output
+    plain = tmp_path / "plain.h5"
+    with h5py.File(plain, "w") as f:
+        f["freq"] = case.freq
+        f["frf"] = case.frf
+    back = io.read_frf(plain)
+    assert back.units is None
+    assert back.meta["notes"] == [
+        f"{plain}: the FRF unit is not stated in the file (no 'units' attribute on '/frf'): "
+        "the FRFs and their modal constants are given without a unit (null in --json)"]
+
+
+def test_export_of_a_csv_whose_frequency_states_no_unit(tmp_path, case):
+    """export reads a CSV as fit-frf does: a column headed "f" is written as Hz with the
+    reader's warning on stderr and in --json; in kHz (values below 100) it is refused, and
+    no Universal File is written."""
+    rows = "\n".join(f"{f:.17g},{h.real:.17g},{h.imag:.17g}"
+                     for f, h in zip(case.freq, case.frf[0]))
+    hz = tmp_path / "hz.csv"
+    hz.write_text("f,1_re,1_im\n" + rows + "\n")
+    r = run(["export", str(hz), "-o", str(tmp_path / "hz.uff"), "--json"])
+    assert r.exit_code == 0, r.output
+    warning = (f"{hz}: column 1 ('f'): the frequency states no unit; its values "
+               f"{case.freq[0]:g} to {case.freq[-1]:g} are read as Hz")
+    assert r.stderr.startswith(f"warning: {warning}") and r.stderr.count("\n") == 1
+    out = json.loads(r.stdout)
+    assert len(out["warnings"]) == 1 and out["warnings"][0].startswith(warning)
+    assert np.array_equal(io.read_frf(tmp_path / "hz.uff").freq, case.freq)
+    khz = tmp_path / "khz.csv"
+    khz.write_text("f,1_re,1_im\n" + "\n".join(
+        f"{f / 1e3:.17g},{h.real:.17g},{h.imag:.17g}" for f, h in zip(case.freq, case.frf[0]))
+        + "\n")
+    r = run(["export", str(khz), "-o", str(tmp_path / "khz.uff")])
+    assert r.exit_code == 2
+    assert r.stderr.startswith(f"laminid: error: {khz}: column 1 ('f'): the frequency states "
+                               f"no unit, and its values {case.freq[0] / 1e3:g} to "
+                               f"{case.freq[-1] / 1e3:g} read as Hz would end below 100 Hz")
+    assert not (tmp_path / "khz.uff").exists()
+
+
 def test_a_universal_file_is_written_in_ascii(tmp_path, case):
     """Text that is not ASCII never reaches the Universal File as such: the unit "m/s²/N" is
     written "m/s^2" over "N" with the acceleration's specific data type (12), a point label
@@ -640,15 +708,23 @@ def test_uff_record_in_a_negative_direction_names_its_modal_constants(tmp_path, 
 
 
 @pytest.mark.parametrize("ordinate, denominator, units", [
-    ("NONE", "NONE", "1"), ("", "", "1"), ("g", "N", "g/N"), ("m/s2", "N", "m/s2/N"),
+    ("NONE", "NONE", None), ("", "", None), ("NONE", "N", None), ("g", "N", "g/N"),
+    ("m/s2", "N", "m/s2/N"),
     ("(m/s^2)", "N", "(m/s^2)/N"), ("m/s^2/N", "NONE", "m/s^2/N"), ("m/s", "N", "m/s/N")])
 def test_other_tools_uff_unit_labels(tmp_path, case, ordinate, denominator, units):
     # pyuff's default labels "NONE" over "NONE" were read as the unit "NONE" (the residues'
-    # unit "NONE*rad/s"); the frequencies do not depend on the unit
+    # unit "NONE*rad/s"), then as "1", as if the FRFs were dimensionless: now not stated
+    # (null), with a note; the frequencies do not depend on the unit
     path = _other_uff(tmp_path / "u.uff", case.freq[:UNIT_LINES], case.frf[:2, :UNIT_LINES],
                       ordinate_axis_units_lab=ordinate, orddenom_axis_units_lab=denominator)
     out = _fit_json(path, "--band", "100:300")
-    assert out["units"] == units
+    assert out["frf_unit"] == units
+    note = (f"{path}: the FRF unit is not stated in the file (FRF records' ordinate units "
+            f"label {ordinate!r} over {denominator!r}): the FRFs and their modal constants are "
+            "given without a unit (null in --json)")
+    assert (note in out["notes"]) == (units is None)
+    if units is None:
+        assert out["modal_constants_unit"] is None
     assert np.allclose([m["freq_hz"] for m in out["modes"]], case.freq_hz[:3], rtol=1e-4)
 
 

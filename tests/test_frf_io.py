@@ -47,6 +47,31 @@ def test_same_answer_from_hdf5_uff_and_csv(tmp_path, frfset):
         assert np.allclose(s, s0, rtol=1e-3, atol=1e-4)
 
 
+def test_a_specimens_frf_file_without_a_frequency_unit(tmp_path, frfset, caplog):
+    """A specimen's measured.frf_file (identify, batch) reads the CSV as fit-frf does: a
+    column headed "f" in kHz is refused (was read as Hz: every mode 1000 times too low), one
+    in Hz is read with the reader's warning logged, naming the file and the column."""
+    laminid = io.write_frf(tmp_path / "lab.csv", frfset).read_text().splitlines()
+    assert laminid[1].startswith("freq_Hz,")             # laminid's own CSV states Hz
+    body = "\n".join(laminid[2:]) + "\n"
+    khz = tmp_path / "khz.csv"
+    khz.write_text("f,1_re,1_im,2_re,2_im,3_re,3_im,4_re,4_im,5_re,5_im\n" + "\n".join(
+        ",".join([repr(float(row.split(",")[0]) / 1e3)] + row.split(",")[1:])
+        for row in laminid[2:]) + "\n")
+    with pytest.raises(FrfError, match=rf"{khz}: column 1 \('f'\): the frequency states no "
+                                       r"unit, and its values 0\.001 to 1\.601 read as Hz"):
+        rfp.measured_from_frf_file(khz)
+    hz = tmp_path / "hz.csv"
+    hz.write_text("f,1_re,1_im,2_re,2_im,3_re,3_im,4_re,4_im,5_re,5_im\n" + body)
+    with caplog.at_level("WARNING", logger="laminid_cli.frf.rfp"):
+        f, _, _ = rfp.measured_from_frf_file(hz)
+    assert f.size == 10
+    messages = [r.getMessage() for r in caplog.records]
+    assert len(messages) == 1 and messages[0].startswith(
+        f"{hz}: column 1 ('f'): the frequency states no unit; its values 1 to 1601 are read as "
+        "Hz"), messages
+
+
 def test_write_refuses_to_overwrite(tmp_path, frfset):
     path = io.write_frf(tmp_path / "a.csv", frfset)
     with pytest.raises(OutputExistsError):
@@ -56,11 +81,11 @@ def test_write_refuses_to_overwrite(tmp_path, frfset):
 
 def test_csv_variants(tmp_path):
     p = tmp_path / "x.csv"
-    p.write_text("# exported\nf;a.re;a.im\n1;1;0\n2;0.5;-0.5\n3;0.2;-0.1\n")
+    p.write_text("# exported\nf [Hz];a.re;a.im\n1;1;0\n2;0.5;-0.5\n3;0.2;-0.1\n")
     fs = io.read_frf(p)
     assert fs.frf.shape == (1, 3)
     assert fs.frf[0, 1] == 0.5 - 0.5j
-    p.write_text("1 1 0 2 0\n2 1 1 2 2\n")
+    p.write_text("100 1 0 2 0\n200 1 1 2 2\n")
     assert io.read_frf(p).frf.shape == (2, 2)
 
 
@@ -325,20 +350,33 @@ def test_csv_written_by_numpy_savetxt_with_its_header_in_a_comment(tmp_path, del
     assert fs.labels == ("a", "b")
     assert fs.meta["notes"] == [
         "column names read from the comment line just above the data (line 1, as numpy's "
-        f"savetxt writes a header): {', '.join(names)}"]
+        f"savetxt writes a header): {', '.join(names)}",
+        f"{path}: the FRF unit is not stated in the file (a comment line '# units Pa/N' above "
+        "the data states it): the FRFs and their modal constants are given without a unit "
+        "(null in --json)"]
+    assert fs.units is None
     fit = rfp.find_modes(fs.freq, fs.frf, bands=[(100.0, 300.0)])
     assert np.allclose(fit.freq_hz, case.freq_hz[:3], rtol=1e-4)
     # not a header: a comment with another number of cells; laminid's unit comment is read
-    # as before, and a comment above the line above the data names nothing
-    for head, labels in (("# laminid FRF, units m/N\n# f (kHz), a\n", ("1", "2")),
-                         ("# f (kHz),a_real,a_imag,b_re,b_im\n# laminid FRF, units m/N\n",
-                          ("1", "2"))):
+    # as before, and a comment above the line above the data names nothing: its kHz lost,
+    # the data has no header, and 0.001-1.601 "Hz" is refused (was read, every mode 1000
+    # times too low)
+    for head in ("# laminid FRF, units m/N\n# f (kHz), a\n",
+                 "# f (kHz),a_real,a_imag,b_re,b_im\n# laminid FRF, units m/N\n"):
         body = path.read_text().split("\n", 1)[1]
         other = tmp_path / "other.csv"
         other.write_text(head + body)
+        with pytest.raises(FrfError, match=r"other.csv: column 1 \(no header\): the frequency "
+                                           r"states no unit, and its values 0.001 to 1.601 "):
+            io.read_frf(other)
+        # ... and read with a header line that states it (the unit's name in brackets holds
+        # a blank: "f [kHz]" only where blanks do not separate the cells)
+        first = "f [kHz]" if delimiter != " " else "f_kHz"
+        other.write_text(head + delimiter.join([first, "a_re", "a_im", "b_re", "b_im"]) + "\n"
+                         + body)
         fs = io.read_frf(other)
-        assert fs.labels == labels and np.allclose(fs.freq, case.freq * 1e-3, rtol=1e-12)
-        assert fs.units == "m/N" and not fs.meta.get("notes")
+        assert fs.labels == ("a", "b") and np.allclose(fs.freq, case.freq, rtol=1e-12)
+        assert fs.units == "m/N" and not fs.meta.get("notes") and not fs.meta.get("warnings")
 
 
 def test_csv_first_column_in_another_unit_is_refused(tmp_path):
@@ -359,7 +397,7 @@ def test_csv_angular_frequency_without_its_unit_is_refused(tmp_path, name):
                                        rf"frequency '{name}' reads as an angular frequency but "
                                        r"says no unit"):
         io.read_frf(p)
-    for header, hz in ((f"{name} [rad/s]", 10 / (2 * np.pi)), (f"{name}_hz", 10.0),
-                       ("frequency", 10.0)):
-        p.write_text(f"{header},a_re,a_im\n0,1,0\n10,0.5,0.1\n20,0.2,0.1\n")
+    for header, hz in ((f"{name} [rad/s]", 1000 / (2 * np.pi)), (f"{name}_hz", 1000.0),
+                       ("frequency", 1000.0)):
+        p.write_text(f"{header},a_re,a_im\n0,1,0\n1000,0.5,0.1\n2000,0.2,0.1\n")
         assert io.read_frf(p).freq[1] == pytest.approx(hz, rel=1e-15)

@@ -112,6 +112,24 @@ def test_a_mode_not_measured_keeps_the_columns():
                                                                 ends[6], ends[7]]
 
 
+def test_a_residual_that_rounds_to_zero_has_no_minus():
+    """A very good fit's residual of -0.001 % printed "-0.00" (identify, show, modes): now
+    "0.00", in the column's width; a residual that does not round to zero keeps its sign, and
+    so does the mesh check's signed change ("+0.000", not "-0.000")."""
+    from laminid_cli.commands.text import fmt, format_frequency_table
+
+    lines = format_frequency_table({"model": [105.12, 374.66, 500.0],
+                                    "measured": [105.12, 374.65, 500.03],
+                                    "residual_percent": [-0.001, -0.0049, -0.006],
+                                    "weight": [1.0, 1.0, 1.0]})
+    head, *rows = lines
+    assert [r.split()[3] for r in rows] == ["0.00", "0.00", "-0.01"]
+    assert all(len(r) == len(head) for r in rows)
+    assert "-0.00" not in "\n".join(lines)
+    assert fmt(-4e-4, "+8.3f") == "  +0.000" and fmt(-0.0, ".2f") == "0.00"
+    assert fmt(-0.02, "10.2f") == "     -0.02"
+
+
 HEAVY = """\
 name: T
 geometry: {a: 200 mm, b: 300 mm, h: 3 mm}

@@ -2053,3 +2053,17 @@ def test_a_log_panel_choice_with_a_mark_near_zero_warns_nothing():
         assert wants_log_axis("E2", [1e-310, 1.0]) is True
         assert wants_log_axis("E2", [1.0, 2.0], ends=[5.0]) is False
         assert wants_log_axis("nu12", [1e-310, 1.0]) is False
+
+
+def test_the_reports_frequency_table_writes_a_residual_that_rounds_to_zero_as_plus_zero():
+    """The report's table wrote a residual of -0.0004 % as "-0.000": now "+0.000" (its column
+    is signed), through laminid_cli.units.number_text as the terminal's tables."""
+    from types import SimpleNamespace
+
+    from laminid_cli.report import frequency_rows
+
+    fr = SimpleNamespace(model=np.array([105.0, 200.0]), measured=np.array([105.0, 201.0]),
+                         residual_percent=np.array([-4e-4, 0.498]), weight=np.ones(2),
+                         model_mode=np.array([1, 2]))
+    _, rows = frequency_rows(SimpleNamespace(frequencies=fr))
+    assert [row[4] for row in rows] == ["+0.000", "+0.498"]

@@ -83,6 +83,24 @@ def test_show_json_of_a_file_written_before_units_gets_them(single):
     assert list(s)[-3:] == ["units", "file", "written"]
 
 
+def test_show_prints_a_residual_that_rounds_to_zero_without_minus(single, tmp_path):
+    """A mode fitted to -0.001 % was shown "-0.00" in the residual column: now "0.00"."""
+    out, _ = single
+    edited = tmp_path / "tiny.result.h5"
+    edited.write_bytes(out.read_bytes())
+    with h5py.File(edited, "r+") as f:
+        s = json.loads(f["summary_json"][()])
+        s["frequencies"]["residual_percent"][:2] = [-0.001, -0.0042]
+        del f["summary_json"]
+        f.create_dataset("summary_json", data=json.dumps(s))
+    r = run("show", edited)
+    assert r.exit_code == 0, r.output
+    lines = r.stdout.splitlines()
+    head = next(i for i, ln in enumerate(lines) if "residual %" in ln)
+    assert [lines[head + k].split()[3] for k in (1, 2)] == ["0.00", "0.00"]
+    assert "-0.00 " not in r.stdout and not r.stdout.rstrip().endswith("-0.00")
+
+
 def test_show_of_a_reference_range_and_of_an_old_file_that_stored_its_midpoint(tmp_path):
     """A reference range is shown as identify shows it ([low, high] in --json, "low .. high"
     on the terminal). A file of an earlier laminid stored the range's midpoint in its summary

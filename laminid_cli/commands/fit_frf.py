@@ -59,7 +59,9 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     A plain HDF5 file of another tool is read too: a 1-D frequency dataset and a complex FRF
     dataset of matching length (either orientation), found by name, shape and units
     attributes; name them with --freq-dataset/--frf-dataset when several fit. A CSV file holds
-    the frequency, then per FRF a real and an imaginary column, one column of complex numbers
+    the frequency (its unit in the header, 'f [kHz]', 'f [Hz]', 'f [rad/s]': a header that
+    states none is read as Hz with a warning, and refused where its values end below 100),
+    then per FRF a real and an imaginary column, one column of complex numbers
     (a+bj, a+bi) or a magnitude and a phase column named in its header (H1_mag, H1_phase;
     '[dB]', '[deg]' or '[rad]' as the header says; a phase without a unit: radians within
     +-pi, degrees where it wraps at +-180 or exceeds 180, with a note; else give its unit).
@@ -81,7 +83,9 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
                       frequency over the stable model orders (the fit's own precision,
                       not the measurement's); sigma_terms_hz holds every term
       modal_constants [re, im] residue A of each FRF, in (FRF units)*rad/s
-                      (modal_constants_unit): H(s) = A/(s - pole) + conj(A)/(s - conj(pole))
+                      (modal_constants_unit; units and it null where the file
+                      states no FRF unit, with a note):
+                      H(s) = A/(s - pole) + conj(A)/(s - conj(pole))
                       of the FRF of each entry of points (its label: "12-Z", a UFF
                       record measured in -Z, is of that direction, and so are its
                       constants)
@@ -106,6 +110,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     from laminid_cli.errors import OutputExistsError, SpecimenError
     from laminid_cli.frf import rfp
     from laminid_cli.frf.io import negative_direction_points, point_quality_notes, read_frf
+    from laminid_cli.frf.store import units_text
 
     if plot_path is not None:
         from laminid_cli.frf.plot import PLOT_SUFFIXES
@@ -130,6 +135,10 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
 
         read_specimen(spec_path)
     fs = read_frf(frf_file, fmt, freq_dataset=freq_dataset, frf_dataset=frf_dataset)
+    # the reader's doubts (a frequency column whose unit the file does not state), first
+    warnings = list(fs.meta.get("warnings") or ())
+    for warning in warnings:
+        click.echo(f"warning: {warning}", err=True)
     fit = rfp.find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes,
                          source=str(frf_file))
     tau = rfp.window_time_constant(fs)
@@ -147,10 +156,10 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     point_units = fs.meta.get("point_units")
     if point_units:
         notes.append("the FRFs are in different units (" + "; ".join(
-            f"{lab} {u}" for lab, u in zip(fs.labels, point_units)) + "): the frequencies and "
-            "damping ratios are those of every FRF (the poles do not depend on the response "
-            f"quantity); each point's modal constants are in its own FRF's unit, not "
-            f"{fs.units} (the first's, given as the file's)")
+            f"{lab} {units_text(u)}" for lab, u in zip(fs.labels, point_units)) + "): the "
+            "frequencies and damping ratios are those of every FRF (the poles do not depend on "
+            f"the response quantity); each point's modal constants are in its own FRF's unit, "
+            f"not {units_text(fs.units)} (the first's, given as the file's)")
     settings = fs.meta.get("settings") or {}
     try:
         record_s = float(settings["lines"]) / float(settings["span_hz"])
@@ -208,6 +217,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
                       for i, (m, s) in enumerate(zip(fit.modes, sigma))],
             "sigma_rule": msig.summary(), "sigma_rel": sigma_rel,
             "exp_window_s": tau, "damping_rule": wc.summary() or None, "notes": notes,
+            "warnings": warnings,
             "plot": plot_path, "into": spec_path,
             "backup": None if into is None else into.backup_text,
             "weights": None if into is None else list(into.weight_notes),
@@ -215,7 +225,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         })
         return
     bands_txt = ", ".join(f"{b.band_hz[0]:g}-{b.band_hz[1]:g}" for b in fit.bands)
-    click.echo(f"{frf_file}: {fs.n_points} FRFs ({fs.units}), {fs.freq.size} lines, "
+    click.echo(f"{frf_file}: {fs.n_points} FRFs ({units_text(fs.units)}), {fs.freq.size} lines, "
                f"bands {bands_txt} Hz")
     windowed = wc.exp_window_s is not None
     if not fit.modes:
@@ -254,8 +264,11 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
             click.echo(f"weights: {note}")
 
 
-def _times_rad_per_s(units: str) -> str:
-    """The unit of an FRF's residues: the FRF's ``units`` times rad/s (``(Pa/N)*rad/s``)."""
+def _times_rad_per_s(units: str | None) -> str | None:
+    """The unit of an FRF's residues: the FRF's ``units`` times rad/s (``(Pa/N)*rad/s``);
+    None where the FRF's unit is not known (not "rad/s", the residues of dimensionless FRFs)."""
+    if units is None:
+        return None
     u = units.strip() or "1"
     if u == "1":
         return "rad/s"

@@ -6,7 +6,7 @@ import math
 import re
 
 from laminid_cli.intervals import VERDICT_NOT, flag_words, spread_sentence, t_std, width_text
-from laminid_cli.units import gpa_text
+from laminid_cli.units import gpa_text, number_text
 
 #: the advice that ends the verdict "not determined by these modes — fix it or ..." (shown
 #: once in the constants' table, not again for the laminate's properties)
@@ -24,11 +24,12 @@ def _plies(n: int) -> str:
 
 def fmt(value, spec: str, missing: str = "-") -> str:
     """``value`` in ``spec``; ``missing`` (None, NaN, inf) right-aligned to the spec's width,
-    so a mode that was not measured keeps its table's columns."""
+    so a mode that was not measured keeps its table's columns; a value that rounds to zero
+    without a minus (:func:`~laminid_cli.units.number_text`: a residual "0.00", not "-0.00")."""
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
         width = re.match(r"\d*", spec.lstrip("<>^=+- ")).group()
         return missing.rjust(int(width)) if width else missing
-    return format(value, spec)
+    return number_text(value, spec)
 
 
 def format_constant(name: str, value) -> str:
@@ -36,7 +37,7 @@ def format_constant(name: str, value) -> str:
     if value is None or not math.isfinite(value):
         return "-"
     if name.startswith("nu"):
-        return f"{value:.3f}"
+        return number_text(value, ".3f")
     return f"{_num(name, value)} GPa"          # a modulus below 1 GPa: 0.0031, not 0.00
 
 
@@ -365,7 +366,7 @@ def format_uncertainty(u: dict) -> list[str]:
             f"covariance scaled by s2 = {sc['variance_factor']:.3g} (Student t quantile)")
     lines.append(f"  intervals from: {used}; --covariance-scale {sc['requested']}")
     cond = u["condition_number"]
-    weakest = " ".join(f"{c:+.2f} {lab}" for lab, c in
+    weakest = " ".join(f"{number_text(c, '+.2f')} {lab}" for lab, c in
                        zip(_short([w[0] for w in u["weakest_combination"]]),
                            [w[1] for w in u["weakest_combination"]]))
     lines.append(f"  condition number {fmt(cond, '.3g', 'inf')} (whitened Jacobian, relative "
@@ -570,7 +571,7 @@ def _num(name: str, value) -> str:
         return gpa_text(value)           # (its digits: laminid_cli.units.gpa_text)
     if abs(value) >= 1e5:                # an undetermined ratio's interval end: no 26 digits
         return f"{value:.2e}"
-    return f"{value:.3f}"
+    return number_text(value, ".3f")
 
 
 def format_damping(d: dict) -> list[str]:

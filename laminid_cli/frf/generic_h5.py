@@ -15,7 +15,7 @@ them:
   named as its parts (``frf_real`` + ``frf_imag``, ``H_re`` + ``H_im``: named ``frf``, ``H``),
   1-D of the frequency's length, or 2-D with one axis of that length: ``(n_points, n_freq)``
   or ``(n_freq, n_points)`` (either orientation). Its ``units`` attribute becomes the FRF
-  units (default "1").
+  units (without one: not stated, None, with a note).
 - **coherence** (optional): a real dataset whose name contains ``coh``, of the FRF's shape.
 
 When several frequency/FRF pairs fit, the error lists them and the options to choose
@@ -37,7 +37,7 @@ import numpy as np
 
 from laminid_cli.errors import FrfError
 from laminid_cli.frf.store import (FORMAT, FrfSet, probe_hdf5_file, read_frf_h5, read_hdf5,
-                                   validate_frf_arrays)
+                                   unit_not_stated_note, validate_frf_arrays)
 
 #: frequency units accepted in a ``units`` attribute -> factor to Hz
 FREQ_UNITS = {"hz": 1.0, "hertz": 1.0, "1/s": 1.0, "s^-1": 1.0, "khz": 1e3,
@@ -166,18 +166,26 @@ def name_freq_factor(name: str, where: str) -> float:
     (``where`` names the dataset or column, and how to give the unit) for a name that reads as
     an angular frequency without saying which unit ("omega", "w": read as Hz, a rad/s axis
     put every natural frequency 2 pi = 6.28 times too high, with exit 0)."""
+    unit = name_freq_unit(name, where)
+    return 1.0 if unit is None else FREQ_UNITS[unit]
+
+
+def name_freq_unit(name: str, where: str) -> str | None:
+    """The frequency unit a name states (:data:`FREQ_UNITS` key: "khz" in "f_kHz", "rad/s" in
+    "omega_rad_s", "hz" in "freq_Hz"); None where it states none ("f", "freq"); FrfError as
+    :func:`name_freq_factor` says."""
     low = name.lower()
     if re.search(r"(?<![a-z])khz(?![a-z])", low):
-        return FREQ_UNITS["khz"]
+        return "khz"
     if re.search(r"(?<![a-z])rad[/_ ]?(s|sec)(?![a-z])", low):
-        return FREQ_UNITS["rad/s"]
+        return "rad/s"
     if re.search(r"(?<![a-z])hz(?![a-z])", low):
-        return 1.0
+        return "hz"
     if _ANGULAR_NAME.search(low):
         raise FrfError(f"{where}: the frequency {name!r} reads as an angular frequency but "
                        "says no unit: Hz or rad/s cannot be told (rad/s read as Hz puts every "
                        "mode 2 pi = 6.28 times too high)")
-    return 1.0
+    return None
 
 
 def freq_unit_factor(unit: str) -> float | None:
@@ -293,12 +301,15 @@ def _read_generic(f, path: Path, freq_dataset, frf_dataset) -> FrfSet:
         if "coh" in d.name.lower() and d.kind in "fiu" and d.shape == frf_d.shape:
             coherence = _orient(np.asarray(f[d.path][()], dtype=float), freq.size)
             break
-    units = frf_d.units or "1"
+    units = frf_d.units or None
     validate_frf_arrays(freq, frf, coherence, source=str(path))
     labels = tuple(str(i + 1) for i in range(frf.shape[0]))
+    meta = {"frequency_dataset": axis.path, "frf_dataset": frf_d.path}
+    if units is None:
+        where = frf_d.parts[0] if frf_d.parts else frf_d.path
+        meta["notes"] = [unit_not_stated_note(path, f"no 'units' attribute on '{where}'")]
     return FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels, units=units,
-                  source=str(path), meta={"frequency_dataset": axis.path,
-                                          "frf_dataset": frf_d.path})
+                  source=str(path), meta=meta)
 
 
 def read_any_frf_h5(path, freq_dataset: str | None = None,

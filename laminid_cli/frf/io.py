@@ -15,11 +15,15 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     pyuff. Every type-58 record of function type 4 (FRF) is one point (complex: a real FRF
     record is refused); records of function type 6 (coherence) with the same
     response/reference DOF give the coherence. All FRFs must
-    share one abscissa, in the unit of its label (Hz, none, kHz, rad/s: converted to Hz).
+    share one abscissa, in the unit of its label (Hz, none, kHz, rad/s: converted to Hz). An
+    ordinate units label blank or "NONE" (pyuff's default) states no FRF unit (``units`` None).
 ``csv`` (``.csv``, ``.txt``)
     Text: first column frequency in Hz (kHz or rad/s when its header says so: "f [kHz]",
-    "omega_rad_s"; another bracketed unit is refused, and so is a header that reads as an
-    angular frequency without its unit, "omega"), then per FRF, in one of three layouts:
+    "f (kHz)", "omega_rad_s"; another bracketed unit is refused, and so is a header that reads
+    as an angular frequency without its unit, "omega"; a header that states no unit, "f", or
+    none is read as Hz with a warning, and refused where the values end below
+    :data:`UNSTATED_FREQ_MIN_SPAN_HZ`, Hz implausible for a plate), then per FRF, in one of
+    three layouts:
 
     - real and imaginary part (``freq, re_1, im_1, re_2, im_2, ...``; what laminid writes);
     - one column of complex numbers (``freq, H_1, H_2, ...``), known by its cells: Python's
@@ -45,7 +49,9 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
 
     Separator ``;`` tab ``,`` (the first found in the first line) or blanks; with ``;`` or tab
     a decimal comma is read too (``125,05``, as a European spreadsheet writes); ``#`` comment
-    lines (``# ... units Pa/N`` gives the FRF unit); an optional header line, known by its
+    lines (``# ... units Pa/N`` gives the FRF unit; without one the unit is not stated:
+    ``units`` None and a note, never "1", which declares the FRFs dimensionless); an optional
+    header line, known by its
     first cell not being a number (or, above a first line of data, the comment line just
     above it, numpy's ``savetxt(header=...)``, when it has as many cells as the data and its
     first is not a number: :func:`_commented_header`, with a note) (its names give the point labels: of the real columns, of
@@ -63,7 +69,8 @@ import numpy as np
 from laminid_cli.atomic import atomic_path
 from laminid_cli.errors import FrfError, LaminidError, OutputExistsError
 from laminid_cli.frf.store import (FrfSet, check_frf_arrays, check_frf_size, read_frf_h5,
-                                   resonance_lines, validate_frf_arrays, write_frf_h5)
+                                   resonance_lines, unit_not_stated_note, validate_frf_arrays,
+                                   write_frf_h5)
 
 __all__ = ["FORMATS", "SUFFIXES", "check_frf_arrays", "check_frf_size", "frf_format", "read_frf",
            "read_frf_csv", "read_frf_uff", "validate_frf_arrays", "write_frf"]
@@ -510,15 +517,16 @@ def _csv_mag_phase(path, header: list[str], data: np.ndarray, lines
     return frf, tuple(labels), notes
 
 
-def _csv_freq_factor(path, name: str) -> float:
-    """The factor to Hz of a CSV's frequency column by its header ``name``: the unit in
-    brackets ("Frequency [rad/s]", "f (kHz)"), else a kHz or rad/s in the name ("f_kHz",
-    "omega_rad_s"); 1 (Hz) for any other name or none. FrfError for a bracketed unit that is
-    no frequency ("time [s]") and for a name that reads as an angular frequency without a unit
-    ("omega": :func:`~laminid_cli.frf.generic_h5.name_freq_factor`)."""
-    import re
-
-    from laminid_cli.frf.generic_h5 import FREQ_UNITS, freq_unit_factor, name_freq_factor
+def _csv_freq_factor(path, name: str) -> tuple[float, bool]:
+    """The factor to Hz of a CSV's frequency column by its header ``name``, and whether the
+    header states the unit: the unit in brackets ("Frequency [rad/s]", "f (kHz)"), else a kHz,
+    rad/s or Hz in the name ("f_kHz", "omega_rad_s", "freq_Hz"); (1, False), Hz not stated,
+    for any other name or none (:func:`_unstated_freq_warning` then judges the values).
+    FrfError for a bracketed unit that is no frequency ("time [s]") and for a name that reads
+    as an angular frequency without a unit ("omega":
+    :func:`~laminid_cli.frf.generic_h5.name_freq_factor`)."""
+    from laminid_cli.frf.generic_h5 import (FREQ_UNITS, freq_unit_factor, name_freq_factor,
+                                            name_freq_unit)
 
     bracketed = re.search(r"[\[(]\s*([^\])]*?)\s*[\])]", name)
     if bracketed:
@@ -527,9 +535,49 @@ def _csv_freq_factor(path, name: str) -> float:
         if factor is None:
             raise FrfError(f"{path}: column 1 ({name!r}): unit {unit!r} is not a frequency "
                            f"unit laminid reads ({', '.join(FREQ_UNITS)})")
-        return factor
-    return name_freq_factor(name, f"{path}: column 1 ({name!r}; give its unit in the header, "
-                                  f"'{name} [rad/s]' or '{name} [Hz]')")
+        return factor, True
+    where = (f"{path}: column 1 ({name!r}; give its unit in the header, '{name} [rad/s]' or "
+             f"'{name} [Hz]')")
+    return name_freq_factor(name, where), name_freq_unit(name, where) is not None
+
+
+#: a CSV frequency column whose header states no unit is read as Hz; when its largest value
+#: is below this (Hz) it is refused instead. A free plate's modes lie at about 20 Hz - 20 kHz
+#: and an analyser's span starts at 0, so a span that ends below 100 "Hz" is far more likely
+#: kHz (125.05 Hz written 0.12505: every mode 1000 times too low, exit 0) than a plate test
+UNSTATED_FREQ_MIN_SPAN_HZ = 100.0
+
+
+def _unstated_freq_warning(path, header: list[str] | None, sep: str | None,
+                           freq: np.ndarray) -> str:
+    """The warning on a CSV frequency column whose header states no unit, read as Hz
+    (``freq``, Hz): the file, the column, the range read and how to state the unit (in a
+    blank-separated file (``sep`` None) without a blank: "f_kHz"). FrfError, the same said,
+    where the range ends below :data:`UNSTATED_FREQ_MIN_SPAN_HZ`: nothing is rescaled on a
+    guess."""
+    column = _csv_column(header, 0)
+    name = header[0].strip() if header and header[0].strip() else "f"
+    if sep is None:                # "f [kHz]" would be two cells
+        khz, hz, rad, more = f"{name}_kHz", f"{name}_Hz", f"{name}_rad_s", ""
+    else:
+        khz, hz, rad = f"{name} [kHz]", f"{name} [Hz]", f"{name} [rad/s]"
+        more = f" (also '{name} (kHz)' or '{name}_kHz')"
+    if header:
+        how = f"state it in the header: '{khz}', '{hz}' or '{rad}'{more}"
+    else:
+        how = (f"add a header line above the data, one name per column, the first stating the "
+               f"unit: '{khz}', '{hz}' or '{rad}'")
+    lo, hi = float(freq[0]), float(freq[-1])
+    if hi < UNSTATED_FREQ_MIN_SPAN_HZ:
+        raise FrfError(
+            f"{path}: {column}: the frequency states no unit, and its values {lo:g} to {hi:g} "
+            f"read as Hz would end below {UNSTATED_FREQ_MIN_SPAN_HZ:g} Hz, where a free plate "
+            "has hardly a mode (they lie at about 20 Hz to 20 kHz): very likely kHz, not Hz; "
+            f"{how}")
+    return (f"{path}: {column}: the frequency states no unit; its values {lo:g} to {hi:g} are "
+            "read as Hz (were they kHz, every mode would be 1000 times too low; rad/s, 6.28 "
+            f"times too high); if they are not Hz, {how}; '{hz}' confirms Hz and silences "
+            "this warning")
 
 
 def read_frf_csv(path) -> FrfSet:
@@ -537,14 +585,16 @@ def read_frf_csv(path) -> FrfSet:
     or magnitude and phase columns named in the header (see module docstring).
 
     A note on what was assumed (the unit of a phase column whose header gives none) is in
-    the returned set's ``meta["notes"]``."""
+    the returned set's ``meta["notes"]``; a warning where the frequency's header states no
+    unit (read as Hz; refused, FrfError, where it ends below
+    :data:`UNSTATED_FREQ_MIN_SPAN_HZ`) in its ``meta["warnings"]``."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8-sig")
     except UnicodeDecodeError as exc:
         raise FrfError(f"{path}: not a text (CSV) file; {_not_the_format(path, 'csv')}") \
             from exc
-    units = "1"
+    units = None                   # not stated: not "1", which declares FRFs dimensionless
     for ln in text.splitlines():
         # the rest of the line: a unit may hold spaces ("m/s^2 / N")
         hit = re.match(r"\s*#.*?\bunits\s+(\S.*?)\s*\Z", ln)
@@ -680,10 +730,17 @@ def read_frf_csv(path) -> FrfSet:
         if header and len(header) == n:
             labels = tuple(_real_part_label(h) or str(i + 1)
                            for i, h in enumerate(header[1::2]))
-    freq = data[:, 0].real * _csv_freq_factor(path, header[0] if header else "")
-    freq, frf, _ = check_frf_arrays(freq, frf, source=str(path))
-    return FrfSet(freq=freq, frf=frf, labels=labels, units=units, source=str(path),
-                  meta={"notes": notes} if notes else {})
+    factor, stated = _csv_freq_factor(path, header[0] if header else "")
+    freq, frf, _ = check_frf_arrays(data[:, 0].real * factor, frf, source=str(path))
+    meta: dict = {}
+    if not stated:
+        meta["warnings"] = [_unstated_freq_warning(path, header, sep, freq)]
+    if units is None:
+        notes.append(unit_not_stated_note(path, "a comment line '# units Pa/N' above the data "
+                                                "states it"))
+    if notes:
+        meta["notes"] = notes
+    return FrfSet(freq=freq, frf=frf, labels=labels, units=units, source=str(path), meta=meta)
 
 
 def write_frf_csv(path, fs: FrfSet, *, overwrite: bool = False) -> Path:
@@ -695,7 +752,9 @@ def write_frf_csv(path, fs: FrfSet, *, overwrite: bool = False) -> Path:
     data[:, 1::2] = fs.frf.real.T
     data[:, 2::2] = fs.frf.imag.T
     with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
-        fh.write(f"# laminid FRF, units {fs.units}\n")
+        # a unit not known is written as such: "units 1" would declare the FRFs dimensionless
+        fh.write(f"# laminid FRF, units {fs.units}\n" if fs.units is not None else
+                 "# laminid FRF, unit not stated in the source file\n")
         w = csv.writer(fh)
         w.writerow(["freq_Hz"] + [f"{lab}_{part}" for lab in labels for part in ("re", "im")])
         w.writerows([[repr(float(v)) for v in row] for row in data])
@@ -773,6 +832,12 @@ def read_frf_uff(path) -> FrfSet:
     units = each[0]
     freq, frf, coherence = check_frf_arrays(freq, frf, coherence, source=str(path))
     meta = {"uff_ids": [str(d.get("id1", "")) for d in frfs]}
+    if units is None and len(set(each)) == 1:
+        d = frfs[0]
+        meta["notes"] = [unit_not_stated_note(
+            path, "FRF records' ordinate units label "
+                  f"{str(d.get('ordinate_axis_units_lab', '') or '').strip()!r} over "
+                  f"{str(d.get('orddenom_axis_units_lab', '') or '').strip()!r}")]
     if len(set(each)) > 1:
         # accelerances beside mobilities (another tool's file): one pole set, so the modes
         # are those of all; each FRF's modal constants are in its own unit (fit-frf says so)
@@ -835,10 +900,11 @@ def _window_id(fs) -> str:
     return UFF_WINDOW_ID.format(repr(tau) if np.isfinite(tau) and tau > 0 else "unknown")
 
 
-def _uff_units(d) -> str:
+def _uff_units(d) -> str | None:
     """The FRF unit of a type-58 record: its ordinate's unit label over its denominator's
     ("m/s^2" over "N": "m/s^2/N"); the ordinate's alone where the denominator has none
-    ("NONE", pyuff's default).
+    ("NONE", pyuff's default); None where the ordinate has none (blank or "NONE": not stated,
+    whatever the denominator says; a stated dimensionless ordinate is "1").
 
     A record laminid wrote (``id2`` "laminid") is joined exactly so: :func:`_uff_axes` split
     the unit at its last '/', so "N/N/N" is "N/N" over "N" and reads back "N/N/N" (laminid's
@@ -846,9 +912,9 @@ def _uff_units(d) -> str:
     ordinate that already ends with its denominator ("m/s^2/N" over "N") is taken as the whole
     unit, not "m/s^2/N/N"; that guess is never applied to laminid's own records, where it
     turned "N/N/N" into "N/N"."""
-    ordinate = str(d.get("ordinate_axis_units_lab", "") or "").strip() or "1"
-    if ordinate.upper() == "NONE":        # pyuff's default label: no unit given, as blank
-        ordinate = "1"
+    ordinate = str(d.get("ordinate_axis_units_lab", "") or "").strip()
+    if ordinate.upper() in ("", "NONE"):  # pyuff's default label: no unit given, as blank
+        return None
     denominator = str(d.get("orddenom_axis_units_lab", "") or "").strip()
     if denominator.upper() in ("", "NONE"):
         return ordinate
@@ -1046,10 +1112,13 @@ def uff_ascii(text: str) -> str:
     return s.encode("ascii", "replace").decode("ascii")
 
 
-def uff_units(units: str, source) -> str:
+def uff_units(units: str | None, source) -> str | None:
     """The FRF unit ``units`` as laminid writes it to a Universal File: in ASCII ("m/s²/N"
-    "m/s^2/N", the same unit); FrfError naming ``source`` where a character has no ASCII
-    spelling (the unit would read back as another)."""
+    "m/s^2/N", the same unit); None for a unit not known (written "NONE"); FrfError naming
+    ``source`` where a character has no ASCII spelling (the unit would read back as
+    another)."""
+    if units is None:
+        return None
     ascii_ = uff_ascii(units)
     lost = [ch for ch in units if uff_ascii(ch) == "?" and ch != "?"]
     if lost:
@@ -1059,11 +1128,14 @@ def uff_units(units: str, source) -> str:
     return ascii_
 
 
-def _uff_axes(units: str) -> dict:
+def _uff_axes(units: str | None) -> dict:
     """The ordinate and denominator fields of a type-58 record of an FRF in ``units``: the
     response's unit and type over the force's ("Pa/N": Pa, 15 pressure over N, 13 excitation
-    force), split at the last '/'; a unit that is no ratio is the ordinate's, over none. The
-    reader (:func:`_uff_units`) joins them back."""
+    force), split at the last '/'; a unit that is no ratio is the ordinate's, over none; no
+    unit (None) "NONE" over "NONE". The reader (:func:`_uff_units`) joins them back."""
+    if units is None:
+        return {"ordinate_axis_units_lab": "NONE", "orddenom_axis_units_lab": "NONE",
+                "ordinate_spec_data_type": 0, "orddenom_spec_data_type": 0}
     response, sep, force = units.rpartition("/")
     # a label holds no surrounding spaces (the reader strips them): "m/s^2 / N" is
     # "m/s^2" over "N", and reads back "m/s^2/N"

@@ -1265,6 +1265,8 @@ def measured_from_frf_file(path, *, bands=None, n_modes: int | None = None,
     from laminid_cli.frf.io import read_frf
 
     fs = read_frf(path)
+    for warning in fs.meta.get("warnings") or ():     # each names the file
+        log.warning("%s", warning)
     fit = find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes, criteria=criteria,
                      source=str(path))
     tau = window_time_constant(fs)

@@ -5,7 +5,8 @@ Layout (schema_version 1)::
     /                       attrs: format="laminid-frf", schema_version=1, laminid_version,
                                    created, modified (ISO 8601, UTC), complete (bool)
     /frequency              float64 (n_freq,)            attrs: units="Hz"
-    /frf                    complex128 (n_points, n_freq) attrs: units (e.g. "Pa/N"),
+    /frf                    complex128 (n_points, n_freq) attrs: units (e.g. "Pa/N"; absent
+                                                                 when the unit is not known),
                                                                  quantity (e.g. "response/force")
     /coherence              float64 (n_points, n_freq)   attrs: units="1" (NaN where unknown)
     /points/label           str (n_points,)   measurement point names ("1", "2", ... or user's)
@@ -71,24 +72,45 @@ class FrfSet:
     frf : complex (n_points, n_freq), in ``units``
     coherence : float (n_points, n_freq) or None, dimensionless
     labels : measurement point names, length n_points
-    units : FRF units, e.g. ``"Pa/N"`` (microphone) or ``"m/s^2/N"`` (accelerometer)
+    units : FRF units, e.g. ``"Pa/N"`` (microphone) or ``"m/s^2/N"`` (accelerometer); None
+        where the file states none (:func:`units_text` writes it for a reader): "1" only for
+        FRFs declared dimensionless
     source : file the set was read from ("" when built in memory)
     meta : instrument identity, settings and per-point records (free-form, JSON-able);
         ``notes``: a reader's sentences on what it assumed (the unit of a CSV phase column
-        whose header gives none), printed by the commands that read the set
+        whose header gives none), printed by the commands that read the set; ``warnings``:
+        its sentences on an assumption that may well be wrong (a CSV frequency column whose
+        header states no unit, read as Hz), each naming the file, printed as warnings
     """
 
     freq: np.ndarray
     frf: np.ndarray
     coherence: np.ndarray | None = None
     labels: tuple[str, ...] = ()
-    units: str = "1"
+    units: str | None = None
     source: str = ""
     meta: dict = field(default_factory=dict)
 
     @property
     def n_points(self) -> int:
         return int(self.frf.shape[0])
+
+
+#: how laminid writes the FRF unit of a file that states none (its :attr:`FrfSet.units` None;
+#: in --json ``units`` null): "1" read as if the FRFs were dimensionless
+UNIT_NOT_STATED = "unit not stated in file"
+
+
+def units_text(units: str | None) -> str:
+    """An FRF unit for a sentence or a table: ``units``, or :data:`UNIT_NOT_STATED`."""
+    return UNIT_NOT_STATED if units is None else units
+
+
+def unit_not_stated_note(source, how: str) -> str:
+    """The note of a reader whose file states no FRF unit: ``source`` named, ``how`` the file
+    would state it; the FRFs and their modal constants are then given without a unit."""
+    return (f"{source}: the FRF unit is not stated in the file ({how}): the FRFs and their "
+            "modal constants are given without a unit (null in --json)")
 
 
 def _now() -> str:
@@ -548,10 +570,14 @@ def _read_open_h5(f, path: Path) -> FrfSet:
         "created": str(_attr(f.attrs.get("created", ""))),
         "complete": bool(_attr(f.attrs.get("complete", True))),
     }
-    units = _attr(d_frf.attrs.get("units", "1"))
-    if not isinstance(units, str):
+    units = _attr(d_frf.attrs.get("units"))
+    if units is not None and not isinstance(units, str):
         raise FrfError(f"{path}: attribute 'units' of '/frf' is {units!r}; expected text "
                        "(e.g. 'm/s^2/N')")
+    if units is None or not units.strip():
+        units = None
+        meta["notes"] = [unit_not_stated_note(path, "no 'units' attribute on '/frf'; "
+                                                    "acquire --units records it")]
     if frf.shape[0]:
         freq, frf, coherence = check_frf_arrays(freq, frf, coherence, source=str(path))
     return FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels, units=units,
@@ -606,7 +632,7 @@ def _setting_value(v) -> float | None:
 
 
 def check_resume_settings(path, recorded: dict, requested: dict, *,
-                          units: tuple[str, str] | None = None,
+                          units: tuple[str | None, str | None] | None = None,
                           instrument: dict | None = None) -> None:
     """Raise :class:`FrfError` when ``requested`` settings differ from those ``path`` records
     for any of :data:`RESUME_SETTINGS` (keys absent from ``requested`` are not checked), or
@@ -621,8 +647,10 @@ def check_resume_settings(path, recorded: dict, requested: dict, *,
     """
     diffs, keep, unrecorded = [], [], []
     if units is not None and units[0] != units[1]:
-        diffs.append(f"units: recorded {units[0]}, requested {units[1]} (--units)")
-        keep.append(f"--units {shlex.quote(units[0])}")
+        diffs.append(f"units: recorded {units_text(units[0])}, requested "
+                     f"{units_text(units[1])} (--units)")
+        if units[0] is not None:
+            keep.append(f"--units {shlex.quote(units[0])}")
     for key, (flag, unit) in RESUME_SETTINGS.items():
         if key not in requested:
             continue
@@ -685,7 +713,7 @@ class FrfWriter:
     ----------
     path : output file
     freq : float (n_freq,), Hz
-    units : FRF units, e.g. "Pa/N"
+    units : FRF units, e.g. "Pa/N" (None: not known, no attribute written)
     settings : acquisition settings (name -> number/str; put the unit in the name: ``span_hz``)
     instrument : identity (``idn``, ``model``, ``resource``)
     resume : continue an existing file (its axis, units and the :data:`RESUME_SETTINGS` must
@@ -697,7 +725,7 @@ class FrfWriter:
     :meth:`close` marks the file complete.
     """
 
-    def __init__(self, path, freq, *, units: str = "1", settings: dict | None = None,
+    def __init__(self, path, freq, *, units: str | None = None, settings: dict | None = None,
                  instrument: dict | None = None, resume: bool = False, overwrite: bool = False,
                  quantity: str = "response/force"):
         self.path = Path(path)
@@ -787,7 +815,7 @@ class FrfWriter:
                      quantity=self.quantity, overwrite=True)
 
 
-def write_frf_h5(path, freq, frf, coherence=None, *, units: str = "1", labels=None,
+def write_frf_h5(path, freq, frf, coherence=None, *, units: str | None = None, labels=None,
                  points: dict | None = None, settings: dict | None = None,
                  instrument: dict | None = None, created: str | None = None,
                  complete: bool = True, quantity: str = "response/force",
@@ -819,7 +847,8 @@ def write_frf_h5(path, freq, frf, coherence=None, *, units: str = "1", labels=No
         d = f.create_dataset("frequency", data=freq)
         d.attrs["units"] = "Hz"
         d = f.create_dataset("frf", data=frf)
-        d.attrs["units"] = units
+        if units is not None:          # not known: no attribute, read back as None
+            d.attrs["units"] = units
         d.attrs["quantity"] = quantity
         d = f.create_dataset("coherence", data=np.asarray(coherence, dtype=float).reshape(frf.shape))
         d.attrs["units"] = "1"
