@@ -1654,6 +1654,23 @@ def history_page(r: ResultFile):
     return fig
 
 
+#: the text of a mode the fit did not use, on the sensitivity page
+UNUSED_COLOR = "0.5"
+
+
+def unused_modes(plate) -> dict[int, str]:
+    """{row (0-based): why} of the modes of ``plate`` the fit did not use: "not measured" (no
+    measured frequency) or "weight 0, not fitted"."""
+    fr = plate.frequencies
+    out = {}
+    for i in range(np.size(fr.model)):
+        if not np.isfinite(fr.measured[i]):
+            out[i] = "not measured"
+        elif fr.weight[i] == 0:
+            out[i] = "weight 0, not fitted"
+    return out
+
+
 def sensitivity_page(r: ResultFile, plate):
     """Heat map of the normalised sensitivities d ln f_i / d ln P_j at the optimum."""
     S = plate.sensitivity
@@ -1672,14 +1689,25 @@ def sensitivity_page(r: ResultFile, plate):
     rot = S.shape[1] > 6
     ax.set_xticks(range(S.shape[1]), labels, rotation=30 if rot else 0,
                   ha="right" if rot else "center", fontsize=8)
-    ax.set_yticks(range(S.shape[0]), [f"mode {i + 1}: {f:.1f} Hz" for i, f in enumerate(model)],
-                  fontsize=8)
+    # a mode the fit did not use (not measured, or weight 0) determines nothing: its row is
+    # said and faded, as the terminal's table says "(weight 0)" (the page drew it as a
+    # measured mode's: S1.2's mode 5, not measured, looked as if it pinned E1)
+    unused = unused_modes(plate)
+    ax.set_yticks(range(S.shape[0]), [f"mode {i + 1}: {f:.1f} Hz" + (f"\n({unused[i]})"
+                                                                       if i in unused else "")
+                                      for i, f in enumerate(model)], fontsize=8)
+    for i, t in enumerate(ax.get_yticklabels()):
+        if i in unused:
+            t.set_color(UNUSED_COLOR)
     fs = 8 if S.size <= 150 else 6
     for i in range(S.shape[0]):
+        if i in unused:
+            ax.axhspan(i - 0.5, i + 0.5, color="w", alpha=0.7, lw=0, gid=f"unused-{i + 1}")
         for j in range(S.shape[1]):
             v = S[i, j]
             ax.text(j, i, f"{v + 0.0:.3f}" if abs(v) >= 5e-4 else "0", ha="center",
-                    va="center", fontsize=fs, color="w" if abs(v) > 0.6 * vmax else "k")
+                    va="center", fontsize=fs, color=UNUSED_COLOR if i in unused else
+                    "w" if abs(v) > 0.6 * vmax else "k")
     # (plain text, no mathtext: its parser is the one thing of this page a report built
     # nowhere else, ~0.3 s of every report command)
     ax.set_xlabel("ply constant Pⱼ" + (f" ({next(iter(r.materials))})"

@@ -1065,3 +1065,33 @@ def _assert_under_chart_in_page(note, chart, fig, renderer):
     box, page = note.get_window_extent(renderer), fig.bbox
     assert page.x0 <= box.x0 and box.x1 <= page.x1 and page.y0 <= box.y0
     assert box.y1 < chart.get_window_extent(renderer).y0
+
+
+def test_sensitivity_rows_of_modes_the_fit_did_not_use_say_so():
+    """A mode not measured, or measured with weight 0, determines no constant: its row on the
+    sensitivity page says why and is faded, as the terminal's table says "(weight 0)" (the
+    page drew it as a measured mode's: S1.2's mode 5 in the joint fit of S1.1-S1.4)."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from laminid_cli.report import UNUSED_COLOR, sensitivity_page
+
+    S = np.array([[0.4, 0.1], [0.3, 0.05], [0.2, 0.02], [0.35, 0.0002]])
+    fr = SimpleNamespace(model=np.array([100.0, 200.0, 300.0, 400.0]),
+                         measured=np.array([100.2, np.nan, 299.0, 401.0]),
+                         weight=np.array([1.0, 0.0, 0.0, 1.0]))
+    plate = SimpleNamespace(name="P", sensitivity=S, sensitivity_labels=("M.E1", "M.E2"),
+                            frequencies=fr)
+    fig = sensitivity_page(SimpleNamespace(materials={"M": {}}), plate)
+    a = ax(fig, "sensitivity")
+    labels = [t.get_text() for t in a.get_yticklabels()]
+    assert labels == ["mode 1: 100.0 Hz", "mode 2: 200.0 Hz\n(not measured)",
+                      "mode 3: 300.0 Hz\n(weight 0, not fitted)", "mode 4: 400.0 Hz"]
+    assert [t.get_color() == UNUSED_COLOR for t in a.get_yticklabels()] == [
+        False, True, True, False]
+    faded = sorted(p.get_gid() for p in a.patches if (p.get_gid() or "").startswith("unused"))
+    assert faded == ["unused-2", "unused-3"]
+    greyed = {(round(t.get_position()[1]), t.get_text()) for t in a.texts
+              if t.get_color() == UNUSED_COLOR}
+    assert greyed == {(1, "0.300"), (1, "0.050"), (2, "0.200"), (2, "0.020")}
