@@ -700,6 +700,36 @@ def mesh_check_note(mc: dict) -> str:
                    if mc["too_coarse"] else ": fine enough for these modes")
 
 
+def widening(u) -> float:
+    """How many times wider the intervals of ``u`` are than the stated frequency sigma alone
+    gives (normal quantile): sqrt(s2) times the Student t quantile over the normal one where
+    the covariance was scaled by the residuals; NaN where the file does not say."""
+    from statistics import NormalDist
+
+    if u.scale_used != "residuals" or not (np.isfinite(u.variance_factor)
+                                            and np.isfinite(u.quantile)):
+        return np.nan
+    z = NormalDist().inv_cdf(0.5 + u.confidence / 2)
+    return float(np.sqrt(u.variance_factor) * u.quantile / z)
+
+
+def interval_basis(u) -> str:
+    """What the intervals of ``u`` come from, in the terminal's words ("intervals from:
+    covariance scaled by s2 = 8.53 (Student t quantile)"), with how much wider that made them:
+    "from the residuals (covariance scaled by s² = 8.53, Student t): 3.0 × as wide as the
+    stated σ gives", or "from the stated frequency σ (normal quantile)"; "" for a file that
+    does not record it. Page 1 said "95% intervals, s² = 8.53" either way, so that intervals
+    widened three times by a poor fit read as the stated noise's."""
+    if u.scale_used == "stated":
+        return "from the stated frequency σ (normal quantile)"
+    if u.scale_used == "residuals":
+        w = widening(u)
+        return ("from the residuals (covariance scaled by s² = "
+                f"{u.variance_factor:.3g}, Student t)"
+                + (f": {w:.1f} × as wide as the stated σ gives" if np.isfinite(w) else ""))
+    return ""
+
+
 def monte_carlo_note(u) -> str | None:
     """The summary page's line on the Monte Carlo check of ``u`` (/uncertainty/monte_carlo),
     in the words of identify's terminal ("Monte Carlo check: 199 of 200 re-identifications
@@ -773,8 +803,12 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
     notes += r.reference_notes
     if r.uncertainty is not None:
         u = r.uncertainty
-        notes.append(f"uncertainty: {u.confidence:.0%} intervals, s² = {u.s2:.3g}, "
-                     f"condition number {u.condition_number:.3g}, σ from {u.sigma_source}")
+        basis = interval_basis(u)
+        # (s² once: in the basis where the covariance was scaled by it)
+        notes.append(f"uncertainty: {u.confidence:.0%} intervals"
+                     + (f" {basis}; " if u.scale_used == "residuals" else
+                        f" {basis}, s² = {u.s2:.3g}, " if basis else f", s² = {u.s2:.3g}, ")
+                     + f"condition number {u.condition_number:.3g}, σ from {u.sigma_source}")
         mc = monte_carlo_note(u)
         if mc:
             notes.append(mc)
@@ -1332,6 +1366,9 @@ def interval_page(r: ResultFile):
     if any(iv.at_bound for iv in u.intervals):
         title += (";\ndashed arrow: the way the fit pushes a constant stopped on a search limit "
                   "(the value drawn is that limit)")
+    if u.scale_used == "residuals":
+        # the residuals' scatter, not the stated noise, set these widths (page 1 says so too)
+        title += ";\nintervals " + interval_basis(u)
     if getattr(u, "spread_counted", ()):
         title += (";\nthe intervals count the spread the fixed "
                   + ", ".join(lab.rsplit(".", 1)[1] if len(r.materials) == 1 else lab

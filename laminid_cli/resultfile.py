@@ -162,6 +162,12 @@ class Uncertainty:
     #: statement (/uncertainty/fixed_check attr text; "" in older files) and its verdict
     fixed_check: str = ""
     fixed_rejected: bool = False
+    #: how the intervals were made (attrs scale_used, variance_factor, quantile): "stated"
+    #: (the stated frequency sigma, normal quantile) or "residuals" (covariance scaled by
+    #: variance_factor = s2, Student t ``quantile``); "" and NaN in files without them
+    scale_used: str = ""
+    variance_factor: float = np.nan
+    quantile: float = np.nan
 
     def get(self, material: str, constant: str) -> Interval | None:
         return next((iv for iv in self.intervals
@@ -607,6 +613,9 @@ def _uncertainty(f) -> Uncertainty | None:
                                                       _strings(u["fixed_ranges"]["text"]))}
                       if "fixed_ranges" in u else {}),
         fixed_check=decode(fc.get("text", "")), fixed_rejected=bool(fc.get("rejected", False)),
+        scale_used=decode(a.get("scale_used", "")),
+        variance_factor=float(a.get("variance_factor", np.nan)),
+        quantile=float(a.get("quantile", np.nan)),
         given_fixed=({lab: float(w) for lab, w in zip(
             labels, np.ravel(u["rel_half_width_given_fixed"][()]))}
             if "rel_half_width_given_fixed" in u else {}))

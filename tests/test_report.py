@@ -897,6 +897,33 @@ def test_joint_interval_panels_read_back(joint, joint_pages):
     assert fig._suptitle.get_text().startswith("S1.1 + S1.2: 95% confidence intervals")
 
 
+def test_intervals_widened_by_the_residuals_say_so_and_by_how_much(joint, joint_pages):
+    """S1.1 + S1.2 (joint, 6x6) fit worse than their stated noise (s2 ~ 6): the intervals are
+    the covariance scaled by s2 with a Student t quantile, about 2.7 times as wide as the stated
+    sigma gives. Page 1 said "95% intervals, s² = 6.15" as for any fit, and the intervals page
+    nothing, so that they read as the stated noise's; both now say where they come from and
+    the widening, that of the file's own std over std_stated."""
+    from statistics import NormalDist
+
+    res = read_result(joint)
+    u = res.uncertainty
+    assert u.scale_used == "residuals" and u.variance_factor > 2
+    with h5py.File(joint) as f:
+        g = f["uncertainty"]
+        ratio = g["std"][()] / g["std_stated"][()]
+    assert np.allclose(ratio, np.sqrt(u.variance_factor), rtol=1e-9)
+    wider = np.sqrt(u.variance_factor) * u.quantile / NormalDist().inv_cdf(0.975)
+    words = (f"95% intervals from the residuals (covariance scaled by s² = "
+             f"{u.variance_factor:.3g}, Student t): {wider:.1f} × as wide as the stated σ gives")
+    figs = {p.name: p.figure for p in joint_pages}
+    notes = next(t.get_text() for a in figs["shared"].axes for t in a.texts
+                 if t.get_gid() == "notes").replace("\n", " ")
+    assert words in notes
+    assert notes.count("s² =") == 1                 # once, in the basis
+    legend = next(a.get_legend() for a in figs["intervals"].axes if a.get_legend())
+    assert words.split("95% ", 1)[1] in legend.get_title().get_text().replace("\n", " ")
+
+
 def test_residuals_page_reads_back_the_result_files(batch_dir):
     from laminid_cli.batch import read_summary
 

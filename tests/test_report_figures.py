@@ -1095,3 +1095,21 @@ def test_sensitivity_rows_of_modes_the_fit_did_not_use_say_so():
     greyed = {(round(t.get_position()[1]), t.get_text()) for t in a.texts
               if t.get_color() == UNUSED_COLOR}
     assert greyed == {(1, "0.300"), (1, "0.050"), (2, "0.200"), (2, "0.020")}
+
+
+def test_intervals_from_the_stated_sigma_say_so(s11):
+    """S1.1 (8x8) fits within its stated noise (s2 ~ 0.5): its intervals are from the stated
+    frequency sigma (normal quantile), which page 1 now says beside s² (it gave s² alone, as
+    for intervals widened by it); the intervals page, whose legend speaks of a widening only
+    where there is one, says nothing of it."""
+    from laminid_cli.resultfile import read_result
+
+    u = read_result(s11).uncertainty
+    assert u.scale_used == "stated" and u.s2 < 1
+    notes = next(t.get_text() for a in result_page(s11, "summary").axes for t in a.texts
+                 if t.get_gid() == "notes").replace("\n", " ")
+    assert (f"95% intervals from the stated frequency σ (normal quantile), s² = {u.s2:.3g}, "
+            "condition number") in notes
+    legend = next(a.get_legend() for a in result_page(s11, "intervals").axes
+                  if a.get_legend())
+    assert "residuals" not in legend.get_title().get_text()
