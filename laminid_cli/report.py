@@ -541,6 +541,20 @@ def frequency_rows(plate) -> tuple[list[str], list[list[str]]]:
     return head, rows
 
 
+#: the shade of a measured frequency's ± 1 sd behind its residual bar
+SIGMA_COLOR = "#cfe3f3"
+
+
+def sigma_percent(fr) -> np.ndarray:
+    """Each measured frequency's standard deviation in % of it (NaN: not measured, or a file
+    without /uncertainty/frequency_sigma)."""
+    sigma = getattr(fr, "sigma_hz", None)
+    if sigma is None or np.size(sigma) != np.size(fr.measured):
+        return np.full(np.size(fr.measured), np.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return 100 * np.asarray(sigma, float) / np.asarray(fr.measured, float)
+
+
 def frequency_block(fig, spec, plate) -> None:
     """Measured-vs-model table (left) and the residual bars aligned with its rows (right)."""
     head, rows = frequency_rows(plate)
@@ -571,8 +585,20 @@ def frequency_block(fig, spec, plate) -> None:
     if np.isfinite(rms):
         for s in (1, -1):
             ax_r.axvline(s * rms, color="C0", ls="--", lw=0.9)
+    # each mode's stated frequency sigma, in % of it, behind its bar: whether a residual is
+    # within the noise the fit and its intervals assume (the page showed residuals without it:
+    # S1.2's -0.5 to -0.9 % in the joint fit of S1.1-S1.4 against its 0.2 % read as small)
+    sig = sigma_percent(fr)
+    if np.isfinite(sig).any():
+        from matplotlib.collections import PolyCollection
+
+        boxes = [[(-s, k - 0.4), (s, k - 0.4), (s, k + 0.4), (-s, k + 0.4)]
+                 for k, s in enumerate(sig) if np.isfinite(s)]
+        ax_r.add_collection(PolyCollection(boxes, facecolors=SIGMA_COLOR, edgecolors="none",
+                                           zorder=0.5, gid="frequency-sigma"))
     lim = np.nanmax(np.abs(res)) if np.isfinite(res).any() else 1.0
-    lim = max(lim, rms if np.isfinite(rms) else 0, 1e-3)
+    lim = max(lim, rms if np.isfinite(rms) else 0, 1e-3,
+              np.nanmax(sig) if np.isfinite(sig).any() else 0)
     ax_r.set_xlim(-1.2 * lim, 1.2 * lim)
     ax_r.set_ylim(n - 0.5, -1.5)               # row k of the table is y = k, the header y = -1
     ax_r.set_yticks([])
@@ -581,8 +607,10 @@ def frequency_block(fig, spec, plate) -> None:
     from matplotlib.ticker import MaxNLocator
 
     ax_r.xaxis.set_major_locator(MaxNLocator(nbins=4, symmetric=True))
-    ax_r.set_xlabel("(measured − model)/measured (%)" + ("\nhatched: weight 0 (not fitted)"
-                                                         if hatched else ""), fontsize=7)
+    ax_r.set_xlabel("(measured − model)/measured (%)"
+                    + ("\nshaded: ± 1 sd of the\nmeasured frequency" if np.isfinite(sig).any()
+                       else "")
+                    + ("\nhatched: weight 0 (not fitted)" if hatched else ""), fontsize=7)
     ax_r.set_title("residuals" + (f"\n(dashed: ± weighted\nRMS {rms:.3f} %)"
                                   if np.isfinite(rms) else ""), fontsize=8)
     for side in ("top", "right", "left"):

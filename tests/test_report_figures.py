@@ -1113,3 +1113,39 @@ def test_intervals_from_the_stated_sigma_say_so(s11):
     legend = next(a.get_legend() for a in result_page(s11, "intervals").axes
                   if a.get_legend())
     assert "residuals" not in legend.get_title().get_text()
+
+
+def test_residual_bars_drawn_over_each_frequencys_stated_sigma(s11):
+    """The residual bars of page 1 stand over each measured frequency's ± 1 sd (the file's
+    /uncertainty/frequency_sigma, in % of the frequency), said under the panel, inside the
+    page: the page showed residuals without the noise the fit assumes (S1.2's -0.5 to -0.9 %
+    in the joint fit of S1.1-S1.4 against its 0.2 % read as small). A file or a plate without
+    those sigmas draws no shade and says none."""
+    import h5py
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    with h5py.File(s11) as f:
+        (d,) = f["uncertainty/frequency_sigma"].values()
+        sigma = d[()]
+        measured = f["frequencies/measured"][()]
+    fig = result_page(s11, "summary")
+    a = ax(fig, "residuals")
+    (shade,) = [c for c in a.collections if c.get_gid() == "frequency-sigma"]
+    boxes = [p.vertices for p in shade.get_paths()]
+    assert len(boxes) == np.isfinite(measured).sum() == 12
+    half = np.array([b[:, 0].max() for b in boxes])
+    assert np.allclose(half, 100 * sigma / measured, rtol=1e-12)
+    assert np.allclose([b[:, 0].min() for b in boxes], -half)
+    assert np.allclose([(b[:, 1].min() + b[:, 1].max()) / 2 for b in boxes], np.arange(12))
+    lo, hi = a.get_xlim()
+    assert lo <= -half.max() and hi >= half.max()
+    assert "shaded: ± 1 sd of the measured frequency" in a.get_xlabel().replace("\n", " ")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    box = a.xaxis.label.get_window_extent(renderer)
+    page = fig.bbox
+    assert page.x0 <= box.x0 and box.x1 <= page.x1 and page.y0 <= box.y0
+    # no sigmas (an older file): no shade, no words
+    b = _frequency_figure([100.5, 199.0, 301.0, 398.0], [1, 1, 1, 1])
+    assert "shaded" not in b.get_xlabel() and not b.collections
