@@ -932,15 +932,57 @@ def log_axis_ticks(axis, *, plain: bool = True) -> None:
     over up to 2.5 decades or where a decade is tall enough to label them, else the decades
     and a 2, 3 or 5 x 10^k in a partial decade at an end (the history's "modulus / initial value" up
     to 4.5 labelled nothing above 1); ``plain`` numbers (0.001, 10) or decades as 10^k; no
-    labels on the minor ticks."""
-    from matplotlib.ticker import FuncFormatter, NullFormatter
+    labels on the minor ticks. One form on an axis (:func:`log_tick_labels`)."""
+    from matplotlib.ticker import Formatter, NullFormatter
 
     ticks = _LogTicks()
+
+    class OneForm(Formatter):
+        """The labels of the ticks in view, all in one form (:func:`log_tick_labels`)."""
+
+        locs: list = []
+
+        def set_locs(self, locs):
+            lo, hi = sorted(axis.yaxis.get_view_interval())
+            self.locs = [v for v in locs if lo * (1 - 1e-9) <= v <= hi * (1 + 1e-9)]
+
+        def __call__(self, v, pos=None):
+            # called alone (no set_locs: a figure not drawn), a decade as 10^k unless plain
+            locs = self.locs or [v]
+            return log_tick_labels(list(locs) + [v], plain=plain or ticks.labels_between())[-1]
+
     axis.yaxis.set_major_locator(ticks)
-    axis.yaxis.set_major_formatter(FuncFormatter(
-        lambda v, _: (plain_number(v) if plain or ticks.labels_between() or not _decade(v)
-                      else power_of_ten(v))))
+    axis.yaxis.set_major_formatter(OneForm())
     axis.yaxis.set_minor_formatter(NullFormatter())
+
+
+def log_tick_labels(values, *, plain: bool) -> list[str]:
+    """Labels of a log axis' ticks ``values``, all in one form: plain numbers ("0.001", "1",
+    "3") where ``plain`` or some value is no power of ten, and every value is between 1e-4 and
+    1e5; else powers of ten ("10⁻³", "10⁰", "3×10⁰"). An axis mixed them: "200" over "10²"
+    (the history's RMS residual of the hybrid plate), "5" over "10⁰", "10000" under "10⁶"
+    (an interval panel of 8 decades)."""
+    values = [float(v) for v in values]
+    if not values:
+        return []
+    inside = all(v == 0 or 1e-4 <= abs(v) * (1 + 1e-12) < 1e5 for v in values)
+    if inside and (plain or not all(_decade(v) for v in values)):
+        return [f"{v:g}" for v in values]
+    return [power_text(v) for v in values]
+
+
+def power_text(v: float) -> str:
+    """``v`` as a power of ten in plain text, "10⁻³" or "3×10⁰" ("1.5×10⁻⁷" where its
+    mantissa is not whole; f"{v:g}" for 0 and non-finite values)."""
+    if not (np.isfinite(v) and v != 0):
+        return f"{v:g}"
+    k = int(np.floor(np.log10(abs(v)) + 1e-9))
+    m = v / 10.0 ** k
+    sup = "10" + str(k).translate(_SUPERSCRIPT)
+    if abs(m - round(m)) < 1e-6:
+        m = int(round(m))
+        return sup if m == 1 else ("-" + sup if m == -1 else f"{m}×{sup}")
+    return f"{m:.3g}×{sup}"
 
 
 def _log_ticks_class():

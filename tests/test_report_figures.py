@@ -891,17 +891,19 @@ def test_a_squeezed_log_axis_labels_a_wide_partial_decade_at_its_end():
         a.set_yscale("log")
         a.set_ylim(*lim)
         log_axis_ticks(a, plain=False)
-        fmt = a.yaxis.get_major_formatter()
-        return [fmt(v, 0) for v in a.yaxis.get_majorticklocs() if lim[0] <= v <= lim[1]]
+        locs = a.yaxis.get_majorticklocs()
+        text = a.yaxis.get_major_formatter().format_ticks(locs)      # as the axis draws them
+        return [t for v, t in zip(locs, text) if lim[0] <= v <= lim[1]]
 
-    assert labels(1.2, (1e-3, 4.5)) == ["10⁻³", "10⁻²", "10⁻¹", "10⁰", "3"]
+    # (one form on the axis: test_a_log_axis_labels_its_ticks_in_one_form)
+    assert labels(1.2, (1e-3, 4.5)) == ["0.001", "0.01", "0.1", "1", "3"]
     assert labels(2.4, (1e-3, 4.5)) == ["0.001", "0.002", "0.005", "0.01", "0.02", "0.05",
                                         "0.1", "0.2", "0.5", "1", "2"]
     # nine decades, every other one ticked: from 10⁻⁸ with matplotlib 3.11 (2×10⁻⁹ labels the
     # partial stretch below it), from 10⁻⁹ with 3.10 (0.5 labels the one above 10⁻¹)
     nine = labels(1.6, (1e-9, 1.0))
     assert nine in (["2×10⁻⁹", "10⁻⁸", "10⁻⁶", "10⁻⁴", "10⁻²", "10⁰"],
-                    ["10⁻⁹", "10⁻⁷", "10⁻⁵", "10⁻³", "10⁻¹", "0.5"]), nine
+                    ["10⁻⁹", "10⁻⁷", "10⁻⁵", "10⁻³", "10⁻¹", "5×10⁻¹"]), nine
     assert labels(0.8, (0.3, 40)) == ["0.5", "1", "2", "5", "10", "20"]
     assert [plain_number(v) for v in (2e-5, 1e-5, 0.0002, 3.0, 2e5, 1.5e-7)] == [
         "2×10⁻⁵", "10⁻⁵", "0.0002", "3", "2×10⁵", "1.5e-07"]
@@ -1149,3 +1151,40 @@ def test_residual_bars_drawn_over_each_frequencys_stated_sigma(s11):
     # no sigmas (an older file): no shade, no words
     b = _frequency_figure([100.5, 199.0, 301.0, 398.0], [1, 1, 1, 1])
     assert "shaded" not in b.get_xlabel() and not b.collections
+
+
+@pytest.mark.parametrize("height, lim, plain, drawn", [
+    # decades and a partial decade's 3 (the history's modulus / initial value up to 4.5):
+    # "10⁻³ ... 10⁰" beside a plain "3" before
+    (1.2, (1e-3, 4.5), False, ["0.001", "0.01", "0.1", "1", "3"]),
+    # the hybrid plate's RMS residual, 0.1 to 250 %: "200" over "10²"
+    (1.5, (0.09, 250.0), False, ["0.1", "1", "10", "100", "200"]),
+    # the hybrid plate's glass E1 interval, 0.0087 to 3.9e5 GPa: "10000" under "10⁶"
+    (2.2, (0.005, 2e6), True, ["10⁻²", "10⁰", "10²", "10⁴", "10⁶"]),
+    # decades beyond 1e-4 with a partial one's 5 below 1: powers throughout
+    (1.6, (1e-7, 0.8), False, None),
+])
+def test_a_log_axis_labels_its_ticks_in_one_form(height, lim, plain, drawn):
+    """The labels a log axis draws are all plain numbers or all powers of ten (an axis mixed
+    them: the hybrid plate's history had "200" over "10²", "5" over "10⁰" in the joint fit's,
+    an interval panel "10000" under "10⁶"): plain where every label is between 1e-4 and 1e5
+    and the axis is plain or labels more than decades, else powers throughout ("3×10⁰")."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from laminid_cli.report import _figure, log_axis_ticks
+
+    fig = _figure((6, height + 0.5))
+    fig.set_layout_engine("none")             # the axes placed by hand, as the page's height
+    a = fig.add_axes([0.1, 0.25 / (height + 0.5), 0.8, height / (height + 0.5)])
+    a.set_yscale("log")
+    a.set_ylim(*lim)
+    log_axis_ticks(a, plain=plain)
+    FigureCanvasAgg(fig).draw()
+    labels = [t.get_text() for t in a.get_yticklabels()
+              if lim[0] <= t.get_position()[1] <= lim[1] and t.get_text()]
+    powers = ["10" in t and any(c in t for c in "⁰¹²³⁴⁵⁶⁷⁸⁹") for t in labels]
+    assert all(powers) or not any(powers), labels
+    if drawn is not None:
+        assert labels == drawn
+    else:
+        assert all(powers) and any("×" in t for t in labels), labels
