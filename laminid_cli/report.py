@@ -1812,7 +1812,9 @@ def sensitivity_page(r: ResultFile, plate):
             ax.axhspan(i - 0.5, i + 0.5, color="w", alpha=0.7, lw=0, gid=f"unused-{i + 1}")
         for j in range(S.shape[1]):
             v = S[i, j]
-            ax.text(j, i, f"{v + 0.0:.3f}" if abs(v) >= 5e-4 else "0", ha="center",
+            # the terminal's 3 decimals, a value that rounds to 0 without its minus ("0" read
+            # as exactly none beside 0.001)
+            ax.text(j, i, f"{v if abs(v) >= 5e-4 else 0.0:.3f}", ha="center",
                     va="center", fontsize=fs, color=UNUSED_COLOR if i in unused else
                     "w" if abs(v) > 0.6 * vmax else "k")
     # (plain text, no mathtext: its parser is the one thing of this page a report built

@@ -1079,7 +1079,7 @@ def test_sensitivity_rows_of_modes_the_fit_did_not_use_say_so():
 
     from laminid_cli.report import UNUSED_COLOR, sensitivity_page
 
-    S = np.array([[0.4, 0.1], [0.3, 0.05], [0.2, 0.02], [0.35, 0.0002]])
+    S = np.array([[0.4, 0.1], [0.3, 0.05], [0.2, 0.02], [0.35, -0.0002]])
     fr = SimpleNamespace(model=np.array([100.0, 200.0, 300.0, 400.0]),
                          measured=np.array([100.2, np.nan, 299.0, 401.0]),
                          weight=np.array([1.0, 0.0, 0.0, 1.0]))
@@ -1188,3 +1188,25 @@ def test_a_log_axis_labels_its_ticks_in_one_form(height, lim, plain, drawn):
         assert labels == drawn
     else:
         assert all(powers) and any("×" in t for t in labels), labels
+
+
+def test_sensitivity_cells_in_the_terminals_digits():
+    """Each cell of the sensitivity page in the terminal table's 3 decimals: a value that
+    rounds to zero is "0.000", without a minus (the page wrote "0", read as exactly none beside
+    0.001; the terminal "0.000" or "-0.000")."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from laminid_cli.report import sensitivity_page
+
+    S = np.array([[0.41234, -0.0004], [0.0004999, -0.0042], [0.0, -0.0005001]])
+    fr = SimpleNamespace(model=np.array([100.0, 200.0, 300.0]),
+                         measured=np.array([100.0, 200.0, 300.0]), weight=np.ones(3))
+    plate = SimpleNamespace(name="P", sensitivity=S, sensitivity_labels=("M.E1", "M.E2"),
+                            frequencies=fr)
+    a = ax(sensitivity_page(SimpleNamespace(materials={"M": {}}), plate), "sensitivity")
+    cell = {(round(t.get_position()[1]), round(t.get_position()[0])): t.get_text()
+            for t in a.texts}
+    assert cell == {(0, 0): "0.412", (0, 1): "0.000", (1, 0): "0.000", (1, 1): "-0.004",
+                    (2, 0): "0.000", (2, 1): "-0.001"}
