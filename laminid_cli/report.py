@@ -555,8 +555,9 @@ def sigma_percent(fr) -> np.ndarray:
         return 100 * np.asarray(sigma, float) / np.asarray(fr.measured, float)
 
 
-def frequency_block(fig, spec, plate) -> None:
-    """Measured-vs-model table (left) and the residual bars aligned with its rows (right)."""
+def frequency_block(fig, spec, plate):
+    """Measured-vs-model table (left) and the residual bars aligned with its rows (right); the
+    SubplotSpec of the room under them."""
     head, rows = frequency_rows(plate)
     f = table_fraction(len(rows))
     sub = spec.subgridspec(2, 2, width_ratios=[1.5, 1], height_ratios=[f, 1.001 - f],
@@ -615,6 +616,7 @@ def frequency_block(fig, spec, plate) -> None:
                                   if np.isfinite(rms) else ""), fontsize=8)
     for side in ("top", "right", "left"):
         ax_r.spines[side].set_visible(False)
+    return sub[1, :]
 
 
 def _laminate_text(plate) -> str:
@@ -2011,11 +2013,13 @@ def plate_frequency_page(r: ResultFile, plate):
     """One plate of a joint result: frequency table and residuals, laminate properties."""
     fig = _figure()
     fig.suptitle(_title(r, plate, "measured vs model (joint fit)"), fontsize=11)
-    gs = fig.add_gridspec(2, 1, height_ratios=[1, 0.06])
-    frequency_block(fig, gs[0, 0], plate)
-    ax = fig.add_subplot(gs[1, 0])
+    # the laminate's properties under the table (they stood at the foot of the page, some
+    # 3 inches of blank under a 12-mode table)
+    below = frequency_block(fig, fig.add_gridspec(1, 1)[0, 0], plate)
+    ax = fig.add_subplot(below)
     ax.axis("off")
-    ax.text(0, 1, _laminate_text(plate), fontsize=7.5, va="top", transform=ax.transAxes)
+    ax.text(0, 1, "\n".join(textwrap.wrap(_laminate_text(plate), 150)), fontsize=7.5,
+            va="top", transform=ax.transAxes, gid="laminate")
     _status_banner(fig, r)
     return fig
 

@@ -924,6 +924,30 @@ def test_intervals_widened_by_the_residuals_say_so_and_by_how_much(joint, joint_
     assert words.split("95% ", 1)[1] in legend.get_title().get_text().replace("\n", " ")
 
 
+def test_joint_plate_page_has_its_laminate_under_its_table(joint):
+    """A plate's page of a joint result gives the laminate's properties just under its
+    frequency table, clear of the residual panel's words and inside the page; they stood at the
+    foot of the page, under some 3 inches of blank."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from laminid_cli.report import plate_frequency_page
+
+    res = read_result(joint)
+    fig = plate_frequency_page(res, res.plates[1])
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    table = ax(fig, "frequency-table")
+    (text,) = [t for a in fig.axes for t in a.texts if t.get_gid() == "laminate"]
+    assert text.get_text().replace("\n", " ").startswith("laminate (Appendix A): Ex ")
+    box = text.get_window_extent(renderer)
+    bottom = table.get_window_extent(renderer).y0
+    gap = (bottom - box.y1) / fig.dpi                                     # inches
+    assert 0 <= gap < 1.0, gap          # the residual panel's words between (about 0.7 in)
+    label = ax(fig, "residuals").xaxis.label.get_window_extent(renderer)
+    assert not box.overlaps(label)
+    assert fig.bbox.x0 <= box.x0 and box.x1 <= fig.bbox.x1
+
+
 def test_residuals_page_reads_back_the_result_files(batch_dir):
     from laminid_cli.batch import read_summary
 
