@@ -1584,11 +1584,15 @@ def mode_shape_pages(r: ResultFile, plate) -> list:
             ax.set_xlim(0, plate.a * 1e3)
             ax.set_ylim(0, plate.b * 1e3)
             ax.set_gid(f"mode-{k + 1}")
-            paired = f" (model mode {fr.model_mode[k]})" if fr.model_mode[k] != k + 1 else ""
-            meas = (f"meas. {fr.measured[k]:.1f} Hz" if np.isfinite(fr.measured[k])
+            # the model mode paired with it on a line of its own: "mode 1 (model mode 11):
+            # 1124.8 Hz" ran into the next panel's title, the first off the page
+            paired = f"\n(model mode {fr.model_mode[k]})" if fr.model_mode[k] != k + 1 else ""
+            # the frequencies in page 1's digits (1 decimal put 125.05 measured beside 124.84
+            # as "125.0" and "124.8", 203.50 beside 203.55 as the same "203.5")
+            meas = (f"meas. {fr.measured[k]:.2f} Hz" if np.isfinite(fr.measured[k])
                     else "not measured")
             mac_t = f"\nMAC vs initial {macs[k]:.2f}" if macs is not None else ""
-            ax.set_title(f"mode {k + 1}{paired}: {fr.model[k]:.1f} Hz\n{meas}{mac_t}",
+            ax.set_title(f"mode {k + 1}: {fr.model[k]:.2f} Hz{paired}\n{meas}{mac_t}",
                          fontsize=8)
             ax.xaxis.set_major_locator(MaxNLocator(3))
             ax.yaxis.set_major_locator(MaxNLocator(4))

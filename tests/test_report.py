@@ -289,7 +289,8 @@ def test_mode_shapes_with_mac_against_the_initial_model(batch_dir, tmp_path):
     pages = {"modes-1": result_page(path, "modes-1")}
     for k in range(fr.model.size):
         t = ax(pages["modes-1"], f"mode-{k + 1}").get_title()
-        assert f"{fr.model[k]:.1f} Hz" in t and f"meas. {fr.measured[k]:.1f} Hz" in t
+        # page 1's digits (1 decimal: 125.05 measured, 124.84 model read "125.0", "124.8")
+        assert f": {fr.model[k]:.2f} Hz" in t and f"meas. {fr.measured[k]:.2f} Hz" in t
         assert "MAC vs initial 1.00" in t
     # a mode replaced by another one: MAC of two different mode shapes is small
     with h5py.File(path, "r+") as f:
@@ -303,6 +304,24 @@ def test_mode_shapes_with_mac_against_the_initial_model(batch_dir, tmp_path):
     sizes = {tuple(np.round(a.get_position().size, 4)) for a in pages["modes-1"].axes
              if (a.get_gid() or "").startswith("mode-")}
     assert len(sizes) == 1
+    # the longest titles, every mode paired with another model mode at 4-digit frequencies,
+    # clear of each other
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    with h5py.File(path, "r+") as f:
+        g = f["frequencies"]
+        g["model_mode"][...] = g["model_mode"][()] + 10
+        g["model"][...] = g["model"][()] + 1000
+        g["measured"][...] = g["measured"][()] + 1000
+    fig = result_page(path, "modes-1")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    titles = [a.title for a in fig.axes if (a.get_gid() or "").startswith("mode-")]
+    assert all("(model mode " in t.get_text() for t in titles)
+    boxes = [t.get_window_extent(renderer) for t in titles]
+    assert not [(i, j) for i, a in enumerate(boxes) for j, b in enumerate(boxes[:i])
+                if a.overlaps(b)]
+    assert all(fig.bbox.x0 <= b.x0 and b.x1 <= fig.bbox.x1 for b in boxes)
 
 
 def test_no_page_of_a_result_needs_mathtext(checked, checked_pages):
