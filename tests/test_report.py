@@ -472,6 +472,12 @@ def test_frf_page_for_a_specimen_fitted_from_an_frf_file(tmp_path):
     a = ax(fig, "frf")
     dashed = [ln.get_xdata()[0] for ln in a.get_lines() if ln.get_linestyle() == "--"]
     assert np.allclose(sorted(dashed), f_true, rtol=1e-3)                # RFP modes
+    # labelled in page 1's digits: the measured column of its table, fitted from this file
+    from laminid_cli.report import frequency_rows
+
+    tags = sorted((t.xy[0], t.get_text()) for t in a.texts if t.get_gid() != "view-note")
+    page1 = [row[2] for row in frequency_rows(read_result(res).plates[0])[1]]
+    assert [t for _, t in tags] == page1, (tags, page1)
     dotted = [ln.get_xdata()[0] for ln in a.get_lines() if ln.get_linestyle() == ":"]
     assert np.array_equal(dotted, read_result(res).plates[0].frequencies.model)
     measured = [ln for ln in a.get_lines() if ln.get_color() == "k"]
