@@ -542,8 +542,23 @@ def frequency_rows(plate) -> tuple[list[str], list[list[str]]]:
     return head, rows
 
 
-def frequency_block(fig, spec, plate) -> None:
-    """Measured-vs-model table (left) and the residual bars aligned with its rows (right)."""
+#: the shade of a measured frequency's ± 1 sd behind its residual bar
+SIGMA_COLOR = "#cfe3f3"
+
+
+def sigma_percent(fr) -> np.ndarray:
+    """Each measured frequency's standard deviation in % of it (NaN: not measured, or a file
+    without /uncertainty/frequency_sigma)."""
+    sigma = getattr(fr, "sigma_hz", None)
+    if sigma is None or np.size(sigma) != np.size(fr.measured):
+        return np.full(np.size(fr.measured), np.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return 100 * np.asarray(sigma, float) / np.asarray(fr.measured, float)
+
+
+def frequency_block(fig, spec, plate):
+    """Measured-vs-model table (left) and the residual bars aligned with its rows (right); the
+    SubplotSpec of the room under them."""
     head, rows = frequency_rows(plate)
     f = table_fraction(len(rows))
     sub = spec.subgridspec(2, 2, width_ratios=[1.5, 1], height_ratios=[f, 1.001 - f],
@@ -572,8 +587,20 @@ def frequency_block(fig, spec, plate) -> None:
     if np.isfinite(rms):
         for s in (1, -1):
             ax_r.axvline(s * rms, color="C0", ls="--", lw=0.9)
+    # each mode's stated frequency sigma, in % of it, behind its bar: whether a residual is
+    # within the noise the fit and its intervals assume (the page showed residuals without it:
+    # S1.2's -0.5 to -0.9 % in the joint fit of S1.1-S1.4 against its 0.2 % read as small)
+    sig = sigma_percent(fr)
+    if np.isfinite(sig).any():
+        from matplotlib.collections import PolyCollection
+
+        boxes = [[(-s, k - 0.4), (s, k - 0.4), (s, k + 0.4), (-s, k + 0.4)]
+                 for k, s in enumerate(sig) if np.isfinite(s)]
+        ax_r.add_collection(PolyCollection(boxes, facecolors=SIGMA_COLOR, edgecolors="none",
+                                           zorder=0.5, gid="frequency-sigma"))
     lim = np.nanmax(np.abs(res)) if np.isfinite(res).any() else 1.0
-    lim = max(lim, rms if np.isfinite(rms) else 0, 1e-3)
+    lim = max(lim, rms if np.isfinite(rms) else 0, 1e-3,
+              np.nanmax(sig) if np.isfinite(sig).any() else 0)
     ax_r.set_xlim(-1.2 * lim, 1.2 * lim)
     ax_r.set_ylim(n - 0.5, -1.5)               # row k of the table is y = k, the header y = -1
     ax_r.set_yticks([])
@@ -582,12 +609,15 @@ def frequency_block(fig, spec, plate) -> None:
     from matplotlib.ticker import MaxNLocator
 
     ax_r.xaxis.set_major_locator(MaxNLocator(nbins=4, symmetric=True))
-    ax_r.set_xlabel("(measured − model)/measured (%)" + ("\nhatched: weight 0 (not fitted)"
-                                                         if hatched else ""), fontsize=7)
+    ax_r.set_xlabel("(measured − model)/measured (%)"
+                    + ("\nshaded: ± 1 sd of the\nmeasured frequency" if np.isfinite(sig).any()
+                       else "")
+                    + ("\nhatched: weight 0 (not fitted)" if hatched else ""), fontsize=7)
     ax_r.set_title("residuals" + (f"\n(dashed: ± weighted\nRMS {rms:.3f} %)"
                                   if np.isfinite(rms) else ""), fontsize=8)
     for side in ("top", "right", "left"):
         ax_r.spines[side].set_visible(False)
+    return sub[1, :]
 
 
 def _laminate_text(plate) -> str:
@@ -701,6 +731,36 @@ def mesh_check_note(mc: dict) -> str:
                    if mc["too_coarse"] else ": fine enough for these modes")
 
 
+def widening(u) -> float:
+    """How many times wider the intervals of ``u`` are than the stated frequency sigma alone
+    gives (normal quantile): sqrt(s2) times the Student t quantile over the normal one where
+    the covariance was scaled by the residuals; NaN where the file does not say."""
+    from statistics import NormalDist
+
+    if u.scale_used != "residuals" or not (np.isfinite(u.variance_factor)
+                                            and np.isfinite(u.quantile)):
+        return np.nan
+    z = NormalDist().inv_cdf(0.5 + u.confidence / 2)
+    return float(np.sqrt(u.variance_factor) * u.quantile / z)
+
+
+def interval_basis(u) -> str:
+    """What the intervals of ``u`` come from, in the terminal's words ("intervals from:
+    covariance scaled by s2 = 8.53 (Student t quantile)"), with how much wider that made them:
+    "from the residuals (covariance scaled by s² = 8.53, Student t): 3.0 × as wide as the
+    stated σ gives", or "from the stated frequency σ (normal quantile)"; "" for a file that
+    does not record it. Page 1 said "95% intervals, s² = 8.53" either way, so that intervals
+    widened three times by a poor fit read as the stated noise's."""
+    if u.scale_used == "stated":
+        return "from the stated frequency σ (normal quantile)"
+    if u.scale_used == "residuals":
+        w = widening(u)
+        return ("from the residuals (covariance scaled by s² = "
+                f"{u.variance_factor:.3g}, Student t)"
+                + (f": {w:.1f} × as wide as the stated σ gives" if np.isfinite(w) else ""))
+    return ""
+
+
 def monte_carlo_note(u) -> str | None:
     """The summary page's line on the Monte Carlo check of ``u`` (/uncertainty/monte_carlo),
     in the words of identify's terminal ("Monte Carlo check: 199 of 200 re-identifications
@@ -774,8 +834,12 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
     notes += r.reference_notes
     if r.uncertainty is not None:
         u = r.uncertainty
-        notes.append(f"uncertainty: {u.confidence:.0%} intervals, s² = {u.s2:.3g}, "
-                     f"condition number {u.condition_number:.3g}, σ from {u.sigma_source}")
+        basis = interval_basis(u)
+        # (s² once: in the basis where the covariance was scaled by it)
+        notes.append(f"uncertainty: {u.confidence:.0%} intervals"
+                     + (f" {basis}; " if u.scale_used == "residuals" else
+                        f" {basis}, s² = {u.s2:.3g}, " if basis else f", s² = {u.s2:.3g}, ")
+                     + f"condition number {u.condition_number:.3g}, σ from {u.sigma_source}")
         mc = monte_carlo_note(u)
         if mc:
             notes.append(mc)
@@ -871,15 +935,57 @@ def log_axis_ticks(axis, *, plain: bool = True) -> None:
     over up to 2.5 decades or where a decade is tall enough to label them, else the decades
     and a 2, 3 or 5 x 10^k in a partial decade at an end (the history's "modulus / initial value" up
     to 4.5 labelled nothing above 1); ``plain`` numbers (0.001, 10) or decades as 10^k; no
-    labels on the minor ticks."""
-    from matplotlib.ticker import FuncFormatter, NullFormatter
+    labels on the minor ticks. One form on an axis (:func:`log_tick_labels`)."""
+    from matplotlib.ticker import Formatter, NullFormatter
 
     ticks = _LogTicks()
+
+    class OneForm(Formatter):
+        """The labels of the ticks in view, all in one form (:func:`log_tick_labels`)."""
+
+        locs: list = []
+
+        def set_locs(self, locs):
+            lo, hi = sorted(axis.yaxis.get_view_interval())
+            self.locs = [v for v in locs if lo * (1 - 1e-9) <= v <= hi * (1 + 1e-9)]
+
+        def __call__(self, v, pos=None):
+            # called alone (no set_locs: a figure not drawn), a decade as 10^k unless plain
+            locs = self.locs or [v]
+            return log_tick_labels(list(locs) + [v], plain=plain or ticks.labels_between())[-1]
+
     axis.yaxis.set_major_locator(ticks)
-    axis.yaxis.set_major_formatter(FuncFormatter(
-        lambda v, _: (plain_number(v) if plain or ticks.labels_between() or not _decade(v)
-                      else power_of_ten(v))))
+    axis.yaxis.set_major_formatter(OneForm())
     axis.yaxis.set_minor_formatter(NullFormatter())
+
+
+def log_tick_labels(values, *, plain: bool) -> list[str]:
+    """Labels of a log axis' ticks ``values``, all in one form: plain numbers ("0.001", "1",
+    "3") where ``plain`` or some value is no power of ten, and every value is between 1e-4 and
+    1e5; else powers of ten ("10⁻³", "10⁰", "3×10⁰"). An axis mixed them: "200" over "10²"
+    (the history's RMS residual of the hybrid plate), "5" over "10⁰", "10000" under "10⁶"
+    (an interval panel of 8 decades)."""
+    values = [float(v) for v in values]
+    if not values:
+        return []
+    inside = all(v == 0 or 1e-4 <= abs(v) * (1 + 1e-12) < 1e5 for v in values)
+    if inside and (plain or not all(_decade(v) for v in values)):
+        return [f"{v:g}" for v in values]
+    return [power_text(v) for v in values]
+
+
+def power_text(v: float) -> str:
+    """``v`` as a power of ten in plain text, "10⁻³" or "3×10⁰" ("1.5×10⁻⁷" where its
+    mantissa is not whole; f"{v:g}" for 0 and non-finite values)."""
+    if not (np.isfinite(v) and v != 0):
+        return f"{v:g}"
+    k = int(np.floor(np.log10(abs(v)) + 1e-9))
+    m = v / 10.0 ** k
+    sup = "10" + str(k).translate(_SUPERSCRIPT)
+    if abs(m - round(m)) < 1e-6:
+        m = int(round(m))
+        return sup if m == 1 else ("-" + sup if m == -1 else f"{m}×{sup}")
+    return f"{m:.3g}×{sup}"
 
 
 def _log_ticks_class():
@@ -1333,6 +1439,9 @@ def interval_page(r: ResultFile):
     if any(iv.at_bound for iv in u.intervals):
         title += (";\ndashed arrow: the way the fit pushes a constant stopped on a search limit "
                   "(the value drawn is that limit)")
+    if u.scale_used == "residuals":
+        # the residuals' scatter, not the stated noise, set these widths (page 1 says so too)
+        title += ";\nintervals " + interval_basis(u)
     if getattr(u, "spread_counted", ()):
         title += (";\nthe intervals count the spread the fixed "
                   + ", ".join(lab.rsplit(".", 1)[1] if len(r.materials) == 1 else lab
@@ -1476,11 +1585,15 @@ def mode_shape_pages(r: ResultFile, plate) -> list:
             ax.set_xlim(0, plate.a * 1e3)
             ax.set_ylim(0, plate.b * 1e3)
             ax.set_gid(f"mode-{k + 1}")
-            paired = f" (model mode {fr.model_mode[k]})" if fr.model_mode[k] != k + 1 else ""
-            meas = (f"meas. {fr.measured[k]:.1f} Hz" if np.isfinite(fr.measured[k])
+            # the model mode paired with it on a line of its own: "mode 1 (model mode 11):
+            # 1124.8 Hz" ran into the next panel's title, the first off the page
+            paired = f"\n(model mode {fr.model_mode[k]})" if fr.model_mode[k] != k + 1 else ""
+            # the frequencies in page 1's digits (1 decimal put 125.05 measured beside 124.84
+            # as "125.0" and "124.8", 203.50 beside 203.55 as the same "203.5")
+            meas = (f"meas. {fr.measured[k]:.2f} Hz" if np.isfinite(fr.measured[k])
                     else "not measured")
             mac_t = f"\nMAC vs initial {macs[k]:.2f}" if macs is not None else ""
-            ax.set_title(f"mode {k + 1}{paired}: {fr.model[k]:.1f} Hz\n{meas}{mac_t}",
+            ax.set_title(f"mode {k + 1}: {fr.model[k]:.2f} Hz{paired}\n{meas}{mac_t}",
                          fontsize=8)
             ax.xaxis.set_major_locator(MaxNLocator(3))
             ax.yaxis.set_major_locator(MaxNLocator(4))
@@ -1655,6 +1768,23 @@ def history_page(r: ResultFile):
     return fig
 
 
+#: the text of a mode the fit did not use, on the sensitivity page
+UNUSED_COLOR = "0.5"
+
+
+def unused_modes(plate) -> dict[int, str]:
+    """{row (0-based): why} of the modes of ``plate`` the fit did not use: "not measured" (no
+    measured frequency) or "weight 0, not fitted"."""
+    fr = plate.frequencies
+    out = {}
+    for i in range(np.size(fr.model)):
+        if not np.isfinite(fr.measured[i]):
+            out[i] = "not measured"
+        elif fr.weight[i] == 0:
+            out[i] = "weight 0, not fitted"
+    return out
+
+
 def sensitivity_page(r: ResultFile, plate):
     """Heat map of the normalised sensitivities d ln f_i / d ln P_j at the optimum."""
     S = plate.sensitivity
@@ -1673,14 +1803,27 @@ def sensitivity_page(r: ResultFile, plate):
     rot = S.shape[1] > 6
     ax.set_xticks(range(S.shape[1]), labels, rotation=30 if rot else 0,
                   ha="right" if rot else "center", fontsize=8)
-    ax.set_yticks(range(S.shape[0]), [f"mode {i + 1}: {f:.1f} Hz" for i, f in enumerate(model)],
-                  fontsize=8)
+    # a mode the fit did not use (not measured, or weight 0) determines nothing: its row is
+    # said and faded, as the terminal's table says "(weight 0)" (the page drew it as a
+    # measured mode's: S1.2's mode 5, not measured, looked as if it pinned E1)
+    unused = unused_modes(plate)
+    ax.set_yticks(range(S.shape[0]), [f"mode {i + 1}: {f:.1f} Hz" + (f"\n({unused[i]})"
+                                                                       if i in unused else "")
+                                      for i, f in enumerate(model)], fontsize=8)
+    for i, t in enumerate(ax.get_yticklabels()):
+        if i in unused:
+            t.set_color(UNUSED_COLOR)
     fs = 8 if S.size <= 150 else 6
     for i in range(S.shape[0]):
+        if i in unused:
+            ax.axhspan(i - 0.5, i + 0.5, color="w", alpha=0.7, lw=0, gid=f"unused-{i + 1}")
         for j in range(S.shape[1]):
             v = S[i, j]
-            ax.text(j, i, f"{v + 0.0:.3f}" if abs(v) >= 5e-4 else "0", ha="center",
-                    va="center", fontsize=fs, color="w" if abs(v) > 0.6 * vmax else "k")
+            # the terminal's 3 decimals, a value that rounds to 0 without its minus ("0" read
+            # as exactly none beside 0.001)
+            ax.text(j, i, f"{v if abs(v) >= 5e-4 else 0.0:.3f}", ha="center",
+                    va="center", fontsize=fs, color=UNUSED_COLOR if i in unused else
+                    "w" if abs(v) > 0.6 * vmax else "k")
     # (plain text, no mathtext: its parser is the one thing of this page a report built
     # nowhere else, ~0.3 s of every report command)
     ax.set_xlabel("ply constant Pⱼ" + (f" ({next(iter(r.materials))})"
@@ -1787,8 +1930,9 @@ def frf_page(r: ResultFile, plate, frf_path, bands=None, n_modes=None, own: bool
     axes = fig.subplots(len(ratios), 1, sharex=True, height_ratios=ratios)
     ax_m, ax_p = axes[0], axes[1]
     ax_m.set_gid("frf")
+    # the RFP frequencies in page 1's digits (1 decimal labelled its 124.98 Hz "125.0")
     draw_frf(ax_m, ax_p, fs.freq, fs.frf, fit, units=fs.units, coherence=fs.coherence,
-             ax_c=axes[2] if coh else None, decimals=1)
+             ax_c=axes[2] if coh else None, decimals=2)
     for i, f in enumerate(plate.frequencies.model):
         ax_m.axvline(f, color="C3", ls=":", lw=1.2, label="model (identified)" if i == 0
                      else None)
@@ -1879,11 +2023,13 @@ def plate_frequency_page(r: ResultFile, plate):
     """One plate of a joint result: frequency table and residuals, laminate properties."""
     fig = _figure()
     fig.suptitle(_title(r, plate, "measured vs model (joint fit)"), fontsize=11)
-    gs = fig.add_gridspec(2, 1, height_ratios=[1, 0.06])
-    frequency_block(fig, gs[0, 0], plate)
-    ax = fig.add_subplot(gs[1, 0])
+    # the laminate's properties under the table (they stood at the foot of the page, some
+    # 3 inches of blank under a 12-mode table)
+    below = frequency_block(fig, fig.add_gridspec(1, 1)[0, 0], plate)
+    ax = fig.add_subplot(below)
     ax.axis("off")
-    ax.text(0, 1, _laminate_text(plate), fontsize=7.5, va="top", transform=ax.transAxes)
+    ax.text(0, 1, "\n".join(textwrap.wrap(_laminate_text(plate), 150)), fontsize=7.5,
+            va="top", transform=ax.transAxes, gid="laminate")
     _status_banner(fig, r)
     return fig
 

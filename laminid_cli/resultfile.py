@@ -13,6 +13,7 @@ Everything is in SI (Pa, Hz, m, kg; nu12 and loss factors: 1), as stored.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -162,6 +163,12 @@ class Uncertainty:
     #: statement (/uncertainty/fixed_check attr text; "" in older files) and its verdict
     fixed_check: str = ""
     fixed_rejected: bool = False
+    #: how the intervals were made (attrs scale_used, variance_factor, quantile): "stated"
+    #: (the stated frequency sigma, normal quantile) or "residuals" (covariance scaled by
+    #: variance_factor = s2, Student t ``quantile``); "" and NaN in files without them
+    scale_used: str = ""
+    variance_factor: float = np.nan
+    quantile: float = np.nan
 
     def get(self, material: str, constant: str) -> Interval | None:
         return next((iv for iv in self.intervals
@@ -190,6 +197,9 @@ class Frequencies:
     model_mode: np.ndarray     # 1-based index of the sorted model mode paired with each
     rms_residual_percent: float
     initial_rms_residual_percent: float
+    #: Hz, the standard deviation of each measured frequency the fit and its intervals used
+    #: (/uncertainty/frequency_sigma; NaN: not measured); None in files without it
+    sigma_hz: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -487,6 +497,20 @@ def _plate(g, name: str | None = None) -> Plate:
         global_uncertainty=_global_uncertainty(g))
 
 
+def _frequency_sigmas(f) -> dict:
+    """{plate name: sigma (Hz per measured mode)} from /uncertainty/frequency_sigma (each
+    dataset's attr name: the specimen's), the only one under None too for a single plate; {}
+    in files without it."""
+    if "uncertainty" not in f or "frequency_sigma" not in f["uncertainty"]:
+        return {}
+    g = f["uncertainty"]["frequency_sigma"]
+    out = {_s(d.attrs.get("name", key)): np.asarray(d[()], float).ravel()
+           for key, d in g.items()}
+    if len(out) == 1:
+        out[None] = next(iter(out.values()))
+    return out
+
+
 def _global_uncertainty(g) -> dict:
     """The plate group's global_properties_uncertainty ({} in files before stop 29)."""
     if "global_properties_uncertainty" not in g:
@@ -607,6 +631,9 @@ def _uncertainty(f) -> Uncertainty | None:
                                                       _strings(u["fixed_ranges"]["text"]))}
                       if "fixed_ranges" in u else {}),
         fixed_check=decode(fc.get("text", "")), fixed_rejected=bool(fc.get("rejected", False)),
+        scale_used=decode(a.get("scale_used", "")),
+        variance_factor=float(a.get("variance_factor", np.nan)),
+        quantile=float(a.get("quantile", np.nan)),
         given_fixed=({lab: float(w) for lab, w in zip(
             labels, np.ravel(u["rel_half_width_given_fixed"][()]))}
             if "rel_half_width_given_fixed" in u else {}))
@@ -816,6 +843,9 @@ def _read(f, path, fmt, version) -> ResultFile:
     else:
         plates = (_plate(f),)
         rms = plates[0].frequencies.rms_residual_percent
+    sigmas = _frequency_sigmas(f)
+    plates = tuple(dataclasses.replace(p, frequencies=dataclasses.replace(
+        p.frequencies, sigma_hz=sigmas.get(p.name if joint else None))) for p in plates)
     status, opt_status = _status(f)
     free = {}
     for key, g in f["materials"].items():

@@ -289,7 +289,8 @@ def test_mode_shapes_with_mac_against_the_initial_model(batch_dir, tmp_path):
     pages = {"modes-1": result_page(path, "modes-1")}
     for k in range(fr.model.size):
         t = ax(pages["modes-1"], f"mode-{k + 1}").get_title()
-        assert f"{fr.model[k]:.1f} Hz" in t and f"meas. {fr.measured[k]:.1f} Hz" in t
+        # page 1's digits (1 decimal: 125.05 measured, 124.84 model read "125.0", "124.8")
+        assert f": {fr.model[k]:.2f} Hz" in t and f"meas. {fr.measured[k]:.2f} Hz" in t
         assert "MAC vs initial 1.00" in t
     # a mode replaced by another one: MAC of two different mode shapes is small
     with h5py.File(path, "r+") as f:
@@ -303,6 +304,24 @@ def test_mode_shapes_with_mac_against_the_initial_model(batch_dir, tmp_path):
     sizes = {tuple(np.round(a.get_position().size, 4)) for a in pages["modes-1"].axes
              if (a.get_gid() or "").startswith("mode-")}
     assert len(sizes) == 1
+    # the longest titles, every mode paired with another model mode at 4-digit frequencies,
+    # clear of each other
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    with h5py.File(path, "r+") as f:
+        g = f["frequencies"]
+        g["model_mode"][...] = g["model_mode"][()] + 10
+        g["model"][...] = g["model"][()] + 1000
+        g["measured"][...] = g["measured"][()] + 1000
+    fig = result_page(path, "modes-1")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    titles = [a.title for a in fig.axes if (a.get_gid() or "").startswith("mode-")]
+    assert all("(model mode " in t.get_text() for t in titles)
+    boxes = [t.get_window_extent(renderer) for t in titles]
+    assert not [(i, j) for i, a in enumerate(boxes) for j, b in enumerate(boxes[:i])
+                if a.overlaps(b)]
+    assert all(fig.bbox.x0 <= b.x0 and b.x1 <= fig.bbox.x1 for b in boxes)
 
 
 def test_no_page_of_a_result_needs_mathtext(checked, checked_pages):
@@ -453,6 +472,12 @@ def test_frf_page_for_a_specimen_fitted_from_an_frf_file(tmp_path):
     a = ax(fig, "frf")
     dashed = [ln.get_xdata()[0] for ln in a.get_lines() if ln.get_linestyle() == "--"]
     assert np.allclose(sorted(dashed), f_true, rtol=1e-3)                # RFP modes
+    # labelled in page 1's digits: the measured column of its table, fitted from this file
+    from laminid_cli.report import frequency_rows
+
+    tags = sorted((t.xy[0], t.get_text()) for t in a.texts if t.get_gid() != "view-note")
+    page1 = [row[2] for row in frequency_rows(read_result(res).plates[0])[1]]
+    assert [t for _, t in tags] == page1, (tags, page1)
     dotted = [ln.get_xdata()[0] for ln in a.get_lines() if ln.get_linestyle() == ":"]
     assert np.array_equal(dotted, read_result(res).plates[0].frequencies.model)
     measured = [ln for ln in a.get_lines() if ln.get_color() == "k"]
@@ -895,6 +920,57 @@ def test_joint_interval_panels_read_back(joint, joint_pages):
         assert np.allclose(line.get_ydata(), [max(iv.lower / scale, lo),
                                               min(iv.upper / scale, hi)], rtol=1e-12)
     assert fig._suptitle.get_text().startswith("S1.1 + S1.2: 95% confidence intervals")
+
+
+def test_intervals_widened_by_the_residuals_say_so_and_by_how_much(joint, joint_pages):
+    """S1.1 + S1.2 (joint, 6x6) fit worse than their stated noise (s2 ~ 6): the intervals are
+    the covariance scaled by s2 with a Student t quantile, about 2.7 times as wide as the stated
+    sigma gives. Page 1 said "95% intervals, s² = 6.15" as for any fit, and the intervals page
+    nothing, so that they read as the stated noise's; both now say where they come from and
+    the widening, that of the file's own std over std_stated."""
+    from statistics import NormalDist
+
+    res = read_result(joint)
+    u = res.uncertainty
+    assert u.scale_used == "residuals" and u.variance_factor > 2
+    with h5py.File(joint) as f:
+        g = f["uncertainty"]
+        ratio = g["std"][()] / g["std_stated"][()]
+    assert np.allclose(ratio, np.sqrt(u.variance_factor), rtol=1e-9)
+    wider = np.sqrt(u.variance_factor) * u.quantile / NormalDist().inv_cdf(0.975)
+    words = (f"95% intervals from the residuals (covariance scaled by s² = "
+             f"{u.variance_factor:.3g}, Student t): {wider:.1f} × as wide as the stated σ gives")
+    figs = {p.name: p.figure for p in joint_pages}
+    notes = next(t.get_text() for a in figs["shared"].axes for t in a.texts
+                 if t.get_gid() == "notes").replace("\n", " ")
+    assert words in notes
+    assert notes.count("s² =") == 1                 # once, in the basis
+    legend = next(a.get_legend() for a in figs["intervals"].axes if a.get_legend())
+    assert words.split("95% ", 1)[1] in legend.get_title().get_text().replace("\n", " ")
+
+
+def test_joint_plate_page_has_its_laminate_under_its_table(joint):
+    """A plate's page of a joint result gives the laminate's properties just under its
+    frequency table, clear of the residual panel's words and inside the page; they stood at the
+    foot of the page, under some 3 inches of blank."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from laminid_cli.report import plate_frequency_page
+
+    res = read_result(joint)
+    fig = plate_frequency_page(res, res.plates[1])
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    table = ax(fig, "frequency-table")
+    (text,) = [t for a in fig.axes for t in a.texts if t.get_gid() == "laminate"]
+    assert text.get_text().replace("\n", " ").startswith("laminate (Appendix A): Ex ")
+    box = text.get_window_extent(renderer)
+    bottom = table.get_window_extent(renderer).y0
+    gap = (bottom - box.y1) / fig.dpi                                     # inches
+    assert 0 <= gap < 1.0, gap          # the residual panel's words between (about 0.7 in)
+    label = ax(fig, "residuals").xaxis.label.get_window_extent(renderer)
+    assert not box.overlaps(label)
+    assert fig.bbox.x0 <= box.x0 and box.x1 <= fig.bbox.x1
 
 
 def test_residuals_page_reads_back_the_result_files(batch_dir):

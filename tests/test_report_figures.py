@@ -891,17 +891,19 @@ def test_a_squeezed_log_axis_labels_a_wide_partial_decade_at_its_end():
         a.set_yscale("log")
         a.set_ylim(*lim)
         log_axis_ticks(a, plain=False)
-        fmt = a.yaxis.get_major_formatter()
-        return [fmt(v, 0) for v in a.yaxis.get_majorticklocs() if lim[0] <= v <= lim[1]]
+        locs = a.yaxis.get_majorticklocs()
+        text = a.yaxis.get_major_formatter().format_ticks(locs)      # as the axis draws them
+        return [t for v, t in zip(locs, text) if lim[0] <= v <= lim[1]]
 
-    assert labels(1.2, (1e-3, 4.5)) == ["10⁻³", "10⁻²", "10⁻¹", "10⁰", "3"]
+    # (one form on the axis: test_a_log_axis_labels_its_ticks_in_one_form)
+    assert labels(1.2, (1e-3, 4.5)) == ["0.001", "0.01", "0.1", "1", "3"]
     assert labels(2.4, (1e-3, 4.5)) == ["0.001", "0.002", "0.005", "0.01", "0.02", "0.05",
                                         "0.1", "0.2", "0.5", "1", "2"]
     # nine decades, every other one ticked: from 10⁻⁸ with matplotlib 3.11 (2×10⁻⁹ labels the
     # partial stretch below it), from 10⁻⁹ with 3.10 (0.5 labels the one above 10⁻¹)
     nine = labels(1.6, (1e-9, 1.0))
     assert nine in (["2×10⁻⁹", "10⁻⁸", "10⁻⁶", "10⁻⁴", "10⁻²", "10⁰"],
-                    ["10⁻⁹", "10⁻⁷", "10⁻⁵", "10⁻³", "10⁻¹", "0.5"]), nine
+                    ["10⁻⁹", "10⁻⁷", "10⁻⁵", "10⁻³", "10⁻¹", "5×10⁻¹"]), nine
     assert labels(0.8, (0.3, 40)) == ["0.5", "1", "2", "5", "10", "20"]
     assert [plain_number(v) for v in (2e-5, 1e-5, 0.0002, 3.0, 2e5, 1.5e-7)] == [
         "2×10⁻⁵", "10⁻⁵", "0.0002", "3", "2×10⁵", "1.5e-07"]
@@ -1065,3 +1067,146 @@ def _assert_under_chart_in_page(note, chart, fig, renderer):
     box, page = note.get_window_extent(renderer), fig.bbox
     assert page.x0 <= box.x0 and box.x1 <= page.x1 and page.y0 <= box.y0
     assert box.y1 < chart.get_window_extent(renderer).y0
+
+
+def test_sensitivity_rows_of_modes_the_fit_did_not_use_say_so():
+    """A mode not measured, or measured with weight 0, determines no constant: its row on the
+    sensitivity page says why and is faded, as the terminal's table says "(weight 0)" (the
+    page drew it as a measured mode's: S1.2's mode 5 in the joint fit of S1.1-S1.4)."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from laminid_cli.report import UNUSED_COLOR, sensitivity_page
+
+    S = np.array([[0.4, 0.1], [0.3, 0.05], [0.2, 0.02], [0.35, -0.0002]])
+    fr = SimpleNamespace(model=np.array([100.0, 200.0, 300.0, 400.0]),
+                         measured=np.array([100.2, np.nan, 299.0, 401.0]),
+                         weight=np.array([1.0, 0.0, 0.0, 1.0]))
+    plate = SimpleNamespace(name="P", sensitivity=S, sensitivity_labels=("M.E1", "M.E2"),
+                            frequencies=fr)
+    fig = sensitivity_page(SimpleNamespace(materials={"M": {}}), plate)
+    a = ax(fig, "sensitivity")
+    labels = [t.get_text() for t in a.get_yticklabels()]
+    assert labels == ["mode 1: 100.0 Hz", "mode 2: 200.0 Hz\n(not measured)",
+                      "mode 3: 300.0 Hz\n(weight 0, not fitted)", "mode 4: 400.0 Hz"]
+    assert [t.get_color() == UNUSED_COLOR for t in a.get_yticklabels()] == [
+        False, True, True, False]
+    faded = sorted(p.get_gid() for p in a.patches if (p.get_gid() or "").startswith("unused"))
+    assert faded == ["unused-2", "unused-3"]
+    greyed = {(round(t.get_position()[1]), t.get_text()) for t in a.texts
+              if t.get_color() == UNUSED_COLOR}
+    assert greyed == {(1, "0.300"), (1, "0.050"), (2, "0.200"), (2, "0.020")}
+
+
+def test_intervals_from_the_stated_sigma_say_so(s11):
+    """S1.1 (8x8) fits within its stated noise (s2 ~ 0.5): its intervals are from the stated
+    frequency sigma (normal quantile), which page 1 now says beside s² (it gave s² alone, as
+    for intervals widened by it); the intervals page, whose legend speaks of a widening only
+    where there is one, says nothing of it."""
+    from laminid_cli.resultfile import read_result
+
+    u = read_result(s11).uncertainty
+    assert u.scale_used == "stated" and u.s2 < 1
+    notes = next(t.get_text() for a in result_page(s11, "summary").axes for t in a.texts
+                 if t.get_gid() == "notes").replace("\n", " ")
+    assert (f"95% intervals from the stated frequency σ (normal quantile), s² = {u.s2:.3g}, "
+            "condition number") in notes
+    legend = next(a.get_legend() for a in result_page(s11, "intervals").axes
+                  if a.get_legend())
+    assert "residuals" not in legend.get_title().get_text()
+
+
+def test_residual_bars_drawn_over_each_frequencys_stated_sigma(s11):
+    """The residual bars of page 1 stand over each measured frequency's ± 1 sd (the file's
+    /uncertainty/frequency_sigma, in % of the frequency), said under the panel, inside the
+    page: the page showed residuals without the noise the fit assumes (S1.2's -0.5 to -0.9 %
+    in the joint fit of S1.1-S1.4 against its 0.2 % read as small). A file or a plate without
+    those sigmas draws no shade and says none."""
+    import h5py
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    with h5py.File(s11) as f:
+        (d,) = f["uncertainty/frequency_sigma"].values()
+        sigma = d[()]
+        measured = f["frequencies/measured"][()]
+    fig = result_page(s11, "summary")
+    a = ax(fig, "residuals")
+    (shade,) = [c for c in a.collections if c.get_gid() == "frequency-sigma"]
+    boxes = [p.vertices for p in shade.get_paths()]
+    assert len(boxes) == np.isfinite(measured).sum() == 12
+    half = np.array([b[:, 0].max() for b in boxes])
+    assert np.allclose(half, 100 * sigma / measured, rtol=1e-12)
+    assert np.allclose([b[:, 0].min() for b in boxes], -half)
+    assert np.allclose([(b[:, 1].min() + b[:, 1].max()) / 2 for b in boxes], np.arange(12))
+    lo, hi = a.get_xlim()
+    assert lo <= -half.max() and hi >= half.max()
+    assert "shaded: ± 1 sd of the measured frequency" in a.get_xlabel().replace("\n", " ")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    box = a.xaxis.label.get_window_extent(renderer)
+    page = fig.bbox
+    assert page.x0 <= box.x0 and box.x1 <= page.x1 and page.y0 <= box.y0
+    # no sigmas (an older file): no shade, no words
+    b = _frequency_figure([100.5, 199.0, 301.0, 398.0], [1, 1, 1, 1])
+    assert "shaded" not in b.get_xlabel() and not b.collections
+
+
+@pytest.mark.parametrize("height, lim, plain, drawn", [
+    # decades and a partial decade's 3 (the history's modulus / initial value up to 4.5):
+    # "10⁻³ ... 10⁰" beside a plain "3" before
+    (1.2, (1e-3, 4.5), False, ["0.001", "0.01", "0.1", "1", "3"]),
+    # the hybrid plate's RMS residual, 0.1 to 250 %: "200" over "10²"
+    (1.5, (0.09, 250.0), False, ["0.1", "1", "10", "100", "200"]),
+    # the hybrid plate's glass E1 interval, 0.0087 to 3.9e5 GPa: "10000" under "10⁶"
+    (2.2, (0.005, 2e6), True, ["10⁻²", "10⁰", "10²", "10⁴", "10⁶"]),
+    # decades beyond 1e-4 with a partial one's 5 below 1: powers throughout
+    (1.6, (1e-7, 0.8), False, None),
+])
+def test_a_log_axis_labels_its_ticks_in_one_form(height, lim, plain, drawn):
+    """The labels a log axis draws are all plain numbers or all powers of ten (an axis mixed
+    them: the hybrid plate's history had "200" over "10²", "5" over "10⁰" in the joint fit's,
+    an interval panel "10000" under "10⁶"): plain where every label is between 1e-4 and 1e5
+    and the axis is plain or labels more than decades, else powers throughout ("3×10⁰")."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from laminid_cli.report import _figure, log_axis_ticks
+
+    fig = _figure((6, height + 0.5))
+    fig.set_layout_engine("none")             # the axes placed by hand, as the page's height
+    a = fig.add_axes([0.1, 0.25 / (height + 0.5), 0.8, height / (height + 0.5)])
+    a.set_yscale("log")
+    a.set_ylim(*lim)
+    log_axis_ticks(a, plain=plain)
+    FigureCanvasAgg(fig).draw()
+    labels = [t.get_text() for t in a.get_yticklabels()
+              if lim[0] <= t.get_position()[1] <= lim[1] and t.get_text()]
+    powers = ["10" in t and any(c in t for c in "⁰¹²³⁴⁵⁶⁷⁸⁹") for t in labels]
+    assert all(powers) or not any(powers), labels
+    if drawn is not None:
+        assert labels == drawn
+    else:
+        assert all(powers) and any("×" in t for t in labels), labels
+
+
+def test_sensitivity_cells_in_the_terminals_digits():
+    """Each cell of the sensitivity page in the terminal table's 3 decimals: a value that
+    rounds to zero is "0.000", without a minus (the page wrote "0", read as exactly none beside
+    0.001; the terminal "0.000" or "-0.000")."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from laminid_cli.report import sensitivity_page
+
+    S = np.array([[0.41234, -0.0004], [0.0004999, -0.0042], [0.0, -0.0005001]])
+    fr = SimpleNamespace(model=np.array([100.0, 200.0, 300.0]),
+                         measured=np.array([100.0, 200.0, 300.0]), weight=np.ones(3))
+    plate = SimpleNamespace(name="P", sensitivity=S, sensitivity_labels=("M.E1", "M.E2"),
+                            frequencies=fr)
+    a = ax(sensitivity_page(SimpleNamespace(materials={"M": {}}), plate), "sensitivity")
+    cell = {(round(t.get_position()[1]), round(t.get_position()[0])): t.get_text()
+            for t in a.texts}
+    assert cell == {(0, 0): "0.412", (0, 1): "0.000", (1, 0): "0.000", (1, 1): "-0.004",
+                    (2, 0): "0.000", (2, 1): "-0.001"}
