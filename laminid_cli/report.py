@@ -47,7 +47,7 @@ from laminid_cli.intervals import (HELD_BY_PRIOR, VERDICT_AT_BOUND, VERDICT_FIXE
                                    VERDICT_NOT, WEAK, WELL_DETERMINED, spread_sentence)
 from laminid_cli.resultfile import (CONSTANTS, ResultFile, bound_statement, profile_kind,
                                    read_result)
-from laminid_cli.units import gpa_text, number_text
+from laminid_cli.units import constant_text, gpa_text, number_text
 
 log = logging.getLogger(__name__)
 
@@ -89,19 +89,15 @@ def _unit(key: str) -> str:
 
 
 def fmt_value(key: str, value) -> str:
-    """A constant in its display unit (GPa for moduli, plain nu12): 4 significant digits
-    (3 beyond 1e4 or below 1e-3, in exponent form), "∞", or "—" for NaN/None."""
+    """A constant in its display unit (GPa for moduli, plain nu12) in the terminal's digits
+    (:func:`laminid_cli.units.constant_text`: "162.92", "0.00595", "0.177", "2.01e+54"), so a
+    number reads the same on the page as in ``laminid identify``/``show``; "∞", or "—" for
+    NaN/None."""
     if value is None or np.isnan(value):
         return "—"
     if np.isinf(value):
         return "∞" if value > 0 else "−∞"
-    v = _gpa(key, value)
-    if key == "nu12":
-        return f"{v:.3f}" if abs(v) < 100 else f"{v:.3g}"
-    a = abs(v)
-    if a >= 1e4 or 0 < a < 1e-3:
-        return f"{v:.3g}"
-    return f"{v:.0f}" if a >= 1000 else f"{v:#.4g}"
+    return constant_text(key, value)
 
 
 def fmt_reference(key: str, ref) -> str:
@@ -536,7 +532,7 @@ def frequency_rows(plate) -> tuple[list[str], list[list[str]]]:
         rows.append([str(k + 1), str(fr.model_mode[k]),
                      f"{meas:.2f}" if np.isfinite(meas) else "not\nmeasured",
                      f"{fr.model[k]:.2f}",
-                     number_text(fr.residual_percent[k], "+.3f")
+                     number_text(fr.residual_percent[k], "+.2f")
                      if np.isfinite(fr.residual_percent[k])
                      else "—", f"{fr.weight[k]:g}"])
     return head, rows

@@ -353,7 +353,7 @@ def gpa_text(value: float) -> str:
     significant digits below 1 GPa, so a modulus at its floor reads 0.00299, not 0.00, and one
     written in MPa by mistake 0.117 (E1 117.2 MPa), not 0.12; from 1e5 GPa (an undetermined
     constant's interval end) in exponent form, not 26 digits. The terminal's tables
-    (commands/text.py) and the report's laminate line both write moduli by it.
+    (commands/text.py) and the report's pages (through constant_text) write moduli by it.
 
     >>> gpa_text(117.2e9), gpa_text(2.99e6), gpa_text(3.1e20)
     ('117.20', '0.00299', '3.10e+11')
@@ -364,6 +364,22 @@ def gpa_text(value: float) -> str:
     if 0 < abs(v) < 1:
         return f"{v:.3g}"
     return number_text(v, ".2f")
+
+
+def constant_text(name: str, value: float) -> str:
+    """A finite elastic constant as the terminal's tables and the report's pages both write
+    it: a modulus (``name`` not ``nu12``; Pa) as :func:`gpa_text` writes its GPa, a Poisson
+    ratio to 3 decimals, from 1e5 (an undetermined ratio's interval end) in exponent form.
+    One number reads the same on the terminal and on the page ("0.00595", not "0.005950").
+
+    >>> constant_text("G12", 5.95e6), constant_text("E2", 0.9e9), constant_text("nu12", 0.9)
+    ('0.00595', '0.9', '0.900')
+    """
+    if name != "nu12":
+        return gpa_text(value)
+    if abs(value) >= 1e5:
+        return f"{value:.2e}"
+    return number_text(value, ".3f")
 
 
 #: the unit of each numeric field of a ``--json`` document (modes, identify, show) by the

@@ -11,12 +11,14 @@ import pytest
 from click.testing import CliRunner
 
 from laminid_cli.cli import cli
+from laminid_cli.commands.text import fmt
 from laminid_cli.forward import build_forward_model
 from laminid_cli.frf.store import write_frf_h5
 from laminid_cli.report import (Page, fmt_reference, fmt_value, interval_text, mac,
                                 reference_diff, report_pages, short_verdict, write_pages)
 from laminid_cli.resultfile import read_result
 from laminid_cli.specimen import read_specimen
+from laminid_cli.units import gpa_text
 from tests.clihelp import write_s14_with_ranges
 from tests.figs import ax, cells, page_signature, result_page
 from tests.frf_synth import synth_frf
@@ -142,7 +144,9 @@ def test_summary_page_tables_and_residuals_read_back(checked, checked_pages, tmp
         assert row[0] == str(k + 1) and row[1] == str(fr.model_mode[k])
         assert float(row[2]) == pytest.approx(fr.measured[k], abs=0.005)
         assert float(row[3]) == pytest.approx(fr.model[k], abs=0.005)
-        assert float(row[4]) == pytest.approx(fr.residual_percent[k], abs=0.0005)
+        assert float(row[4]) == pytest.approx(fr.residual_percent[k], abs=0.005)
+        # the terminal's digits (2 decimals; the page adds the sign of a signed column)
+        assert row[4].lstrip("+") == fmt(fr.residual_percent[k], "10.2f").strip()
     # residual bars: exact values, one neutral colour (no sign coding)
     bars = ax(fig, "residuals").patches
     assert np.array_equal([b.get_width() for b in bars], fr.residual_percent)
@@ -166,7 +170,7 @@ def test_summary_page_tables_and_residuals_read_back(checked, checked_pages, tmp
     assert rows["G23"][3] == "at bound, not identified"
     assert rows["G23"][2] == "none — on lower search limit"
     assert rows["G23"][1] == fmt_value("G23", res.materials[MAT]["G23"])
-    assert rows["E1"][5] == f"170.0 ({round((res.materials[MAT]['E1'] / 170e9 - 1) * 100):+d} %)"
+    assert rows["E1"][5] == f"170.00 ({round((res.materials[MAT]['E1'] / 170e9 - 1) * 100):+d} %)"
     assert rows["G13"][5] == ""                         # no reference value for G13
     # status line with the reasons
     status = status_text(fig).get_text()
@@ -236,7 +240,8 @@ def test_interval_panels_each_in_their_unit_with_reference_and_arrows(checked, c
     mark = next(ln for ln in a.get_lines() if ln.get_gid() == "at-bound")
     assert mark.get_marker() == "v" and mark.get_markerfacecolor() == "w"
     assert mark.get_ydata()[0] == g23
-    assert a.get_xlabel() == f"{g23:#.4g}\non lower search limit:\nnot identified"
+    assert a.get_xlabel() == (f"{gpa_text(res.materials[MAT]['G23'])}\non lower search limit:\n"
+                              "not identified")
     # E1 (well determined) is not squashed by G23's (undetermined) interval: its panel spans
     # a few tens of % of its value, not the width of G23's interval
     lo, hi = ax(fig, f"interval-{MAT}.E1").get_ylim()
@@ -788,8 +793,8 @@ def test_laminate_moduli_below_a_gpa_keep_their_digits():
 def test_reference_range_words_and_difference():
     """A range is written low–high and compared by its nearer end (0 inside it); one value
     is a range of no width, so its difference is the usual one."""
-    assert fmt_reference("E1", (120e9, 150e9)) == "120.0–150.0"
-    assert fmt_reference("E1", (170e9, 170e9)) == "170.0"
+    assert fmt_reference("E1", (120e9, 150e9)) == "120.00–150.00"
+    assert fmt_reference("E1", (170e9, 170e9)) == "170.00"
     assert fmt_reference("nu12", (0.3, 0.4)) == "0.300–0.400"
     assert reference_diff(130e9, (120e9, 150e9)) == 0.0
     assert reference_diff(150e9, (120e9, 150e9)) == 0.0
@@ -820,9 +825,9 @@ def test_a_reference_range_in_the_table_the_panels_and_across_specimens(ranged_b
     assert e1 > 150e9                         # the 6x6 S1.4 lands above the range (~162 GPa)
     pages = {name: result_page(path, name) for name in ("summary", "intervals")}
     rows = {row[0].split(" ")[0]: row for row in cells(ax(pages["summary"], "constants"))[1:]}
-    assert rows["E1"][5] == f"120.0–150.0\n(+{round((e1 / 150e9 - 1) * 100)} % above)"
+    assert rows["E1"][5] == f"120.00–150.00\n(+{round((e1 / 150e9 - 1) * 100)} % above)"
     g12 = res.materials[MAT]["G12"]
-    assert rows["G12"][5] == f"5.800 ({round((g12 / 5.8e9 - 1) * 100):+d} %)"
+    assert rows["G12"][5] == f"5.80 ({round((g12 / 5.8e9 - 1) * 100):+d} %)"
     # (E2, not determined by S1.4's modes at 6x6: its reference not compared)
     assert rows["E2"][3] == "not determined" and rows["E2"][5] == "10.00\n(not compared)"
     text = " ".join(t.get_text() for a in pages["summary"].axes
@@ -1081,7 +1086,7 @@ def test_fixed_constants_are_not_drawn_as_identified(fixed_undetermined):
                              "in run 2)")
     assert rows["nu12"][5] == "0.350\n(fixed: not\ncompared)"
     e1 = res.materials[MAT]["E1"]
-    assert rows["E1"][5] == f"170.0 ({round((e1 / 170e9 - 1) * 100):+d} %)"
+    assert rows["E1"][5] == f"170.00 ({round((e1 / 170e9 - 1) * 100):+d} %)"
     assert rows["E1"][3] == short_verdict(u.get(MAT, "E1").verdict)
     notes = " ".join(t.get_text() for a in pages["summary"].axes for t in a.texts)
     assert "fixed: held at its initial value, not identified" in notes.replace("\n", " ")
@@ -1181,6 +1186,38 @@ def test_monte_carlo_numbers_on_the_pages(checked, tmp_path):
     assert "*: an end set by trials that stopped on a search limit" in notes.replace("\n", " ")
 
 
+def test_the_intervals_page_writes_numbers_in_the_terminals_digits(checked):
+    """Hybrid CM's glass G12 (on its lower limit, 0.00595 GPa) read "0.005950" on the
+    intervals page and "0.00595" in `laminid identify`/`show`; glass E2's flat profile
+    "flat to 0.9000" against the terminal's "flat to 0.9". Every number of a panel's words
+    is now the terminal's (commands/text.py's _num, laminid_cli.units.constant_text)."""
+    from laminid_cli.commands.text import _num
+    from laminid_cli.intervals import PROFILE_FLAT
+    from laminid_cli.report import interval_page
+
+    r = read_result(checked)
+    iv = r.uncertainty.get(MAT, "G23")
+    assert iv.at_bound
+    flat = dataclasses.replace(iv, profile_bound=np.nan, profile_far=0.9e9,
+                               profile_text=PROFILE_FLAT + " with G23 anywhere up to 0.9 GPa")
+    assert flat.profile_kind == "flat"
+    mats = {m: dict(c) for m, c in r.materials.items()}
+    mats[MAT]["G23"] = 5.95e6
+    r = dataclasses.replace(r, materials=mats, uncertainty=dataclasses.replace(
+        r.uncertainty, intervals=tuple(flat if x is iv else x for x in r.uncertainty.intervals)))
+    fig = interval_page(r)
+    words = ax(fig, f"interval-{MAT}.G23").get_xlabel().split("\n")
+    assert words[0] == _num("G23", 5.95e6) == "0.00595"
+    assert "profile: flat to " + _num("G23", 0.9e9) in words and _num("G23", 0.9e9) == "0.9"
+    label = next(t for t in ax(fig, f"interval-{MAT}.G23").texts
+                 if t.get_text().startswith("profile:"))
+    assert label.get_text() == "profile:\nflat to\n0.9"
+    # an interval's ends and value: as the terminal's table ("162.92", "160.33 .. 165.55")
+    e1 = r.uncertainty.get(MAT, "E1")
+    assert ax(fig, f"interval-{MAT}.E1").get_xlabel().split("\n")[0] == (
+        f"{_num('E1', r.materials[MAT]['E1'])} [{_num('E1', e1.lower)}, {_num('E1', e1.upper)}]")
+
+
 def test_an_interval_without_information_shows_its_ends_in_words(checked):
     """A modulus interval whose ends are more than 1000 x apart shows both ends and says it
     carries no information (no "×5e+07" code), and the summary page says what that means."""
@@ -1188,9 +1225,9 @@ def test_an_interval_without_information_shows_its_ends_in_words(checked):
 
     iv = read_result(checked).uncertainty.get(MAT, "E2")
     wide = dataclasses.replace(iv, lower=1e7, upper=5e14)
-    assert interval_text("E2", wide) == "[0.01000, 5e+05]\nno information"
+    assert interval_text("E2", wide) == "[0.01, 5.00e+05]\nno information"
     assert interval_text("E2", dataclasses.replace(iv, lower=1e9, upper=9e11)) == \
-        "[1.000, 900.0]"                                   # 900 x apart: an interval
+        "[1.00, 900.00]"                                   # 900 x apart: an interval
     assert interval_text("nu12", dataclasses.replace(iv, lower=-0.95, upper=0.95)) == \
         "[-0.950, 0.950]"
 
@@ -1748,8 +1785,8 @@ def test_joint_reference_that_differs_between_plates_is_their_range_and_said(joi
     pages = {"shared": result_page(res, "shared")}
     rows = {row[0].split(" ")[0]: row for row in cells(ax(pages["shared"], "constants"))[1:]}
     e1 = res.materials[MAT]["E1"]
-    assert rows["E1"][5].startswith("160.0–170.0\n")
-    assert rows["E1"][5] == "160.0–170.0\n" + (
+    assert rows["E1"][5].startswith("160.00–170.00\n")
+    assert rows["E1"][5] == "160.00–170.00\n" + (
         "(inside)" if 160e9 <= e1 <= 170e9 else
         f"({round((e1 / 160e9 - 1) * 100):+d} % below)" if e1 < 160e9 else
         f"(+{round((e1 / 170e9 - 1) * 100)} % above)")
@@ -2132,8 +2169,9 @@ def test_a_log_panel_choice_with_a_mark_near_zero_warns_nothing():
 
 
 def test_the_reports_frequency_table_writes_a_residual_that_rounds_to_zero_as_plus_zero():
-    """The report's table wrote a residual of -0.0004 % as "-0.000": now "+0.000" (its column
-    is signed), through laminid_cli.units.number_text as the terminal's tables."""
+    """The report's table wrote a residual of -0.0004 % as "-0.000": now "+0.00" (its column
+    is signed; 2 decimals as the terminal's), through laminid_cli.units.number_text as the
+    terminal's tables."""
     from types import SimpleNamespace
 
     from laminid_cli.report import frequency_rows
@@ -2142,4 +2180,4 @@ def test_the_reports_frequency_table_writes_a_residual_that_rounds_to_zero_as_pl
                          residual_percent=np.array([-4e-4, 0.498]), weight=np.ones(2),
                          model_mode=np.array([1, 2]))
     _, rows = frequency_rows(SimpleNamespace(frequencies=fr))
-    assert [row[4] for row in rows] == ["+0.000", "+0.498"]
+    assert [row[4] for row in rows] == ["+0.00", "+0.50"]

@@ -662,7 +662,7 @@ def test_interval_end_at_or_below_zero_on_a_log_panel_is_clipped_and_said(s21):
     assert a.get_yscale() == "log"
     lo, hi = a.get_ylim()
     end = next(t for t in a.texts if t.get_gid() == "interval-end-below-log")
-    assert end.get_text() == "from\n-5.000"
+    assert end.get_text() == "from\n-5.00"
     bar = next(ln for ln in a.get_lines() if ln.get_gid() == "interval")
     assert list(bar.get_ydata()) == [lo, 50 * v / 1e9]               # clipped at the foot
     assert "(an end ≤ 0 is below any log scale)" in _legend_title(fig)
@@ -785,7 +785,7 @@ def test_an_undetermined_value_is_not_compared_with_its_reference(s11):
     assert rows["nu12"][5] == "0.350\n(not compared)"
     e1 = read_result(s11).materials["IM7/977-2"]["E1"]
     assert rows["E1"][3] != "not determined"
-    assert rows["E1"][5] == f"170.0 ({round((e1 / 170e9 - 1) * 100):+d} %)"
+    assert rows["E1"][5] == f"170.00 ({round((e1 / 170e9 - 1) * 100):+d} %)"
     assert ("reference (not compared): the value is not determined by these modes or is on a "
             "search limit, so its difference from the reference would mean nothing") \
         in " ".join(_notes(fig).split())
@@ -831,7 +831,7 @@ def test_a_value_held_by_its_prior_is_said_inside_its_cell_and_not_compared(s12_
     assert "is held by its prior (the file's prior gives more than half of what is known of " \
         "it, paper Eq. 15)" in " ".join(_notes(fig).split())
     e1 = next(row for row in rows if row[0].startswith("E1"))
-    assert e1[5].startswith("170.0 (") and "%" in e1[5]            # still compared
+    assert e1[5].startswith("170.00 (") and "%" in e1[5]            # still compared
     table = ax(fig, "constants").tables[0]
     for col in (3, 5):
         cell = table.get_celld()[k + 1, col]

@@ -6,7 +6,7 @@ import math
 import re
 
 from laminid_cli.intervals import VERDICT_NOT, flag_words, spread_sentence, t_std, width_text
-from laminid_cli.units import gpa_text, number_text
+from laminid_cli.units import constant_text, number_text
 
 #: the advice that ends the verdict "not determined by these modes — fix it or ..." (shown
 #: once in the constants' table, not again for the laminate's properties)
@@ -567,11 +567,7 @@ def _num(name: str, value) -> str:
         return "inf"
     if not math.isfinite(value):
         return "-"
-    if name != "nu12":
-        return gpa_text(value)           # (its digits: laminid_cli.units.gpa_text)
-    if abs(value) >= 1e5:                # an undetermined ratio's interval end: no 26 digits
-        return f"{value:.2e}"
-    return number_text(value, ".3f")
+    return constant_text(name, value)    # (its digits: laminid_cli.units; the report's too)
 
 
 def format_damping(d: dict) -> list[str]:
