@@ -47,7 +47,7 @@ from laminid_cli.intervals import (HELD_BY_PRIOR, VERDICT_AT_BOUND, VERDICT_FIXE
                                    VERDICT_NOT, WEAK, WELL_DETERMINED, spread_sentence)
 from laminid_cli.resultfile import (CONSTANTS, ResultFile, bound_statement, profile_kind,
                                    read_result)
-from laminid_cli.units import constant_text, gpa_text, number_text
+from laminid_cli.units import constant_text, gpa_text, number_text, significant_text
 
 log = logging.getLogger(__name__)
 
@@ -259,11 +259,17 @@ def monte_carlo_range(u, iv) -> MonteCarloRange | None:
                            bool(at("upper_at_bound", 0)))
 
 
+def mc_end_text(k: str, value: float) -> str:
+    """An end of a Monte Carlo range in the display unit, in the digits of the terminal's
+    Monte Carlo table (4 significant: "8.685", "0.01025"; units.significant_text)."""
+    return fmt_value(k, value) if not np.isfinite(value) else significant_text(k, value, 4)
+
+
 def monte_carlo_text(k: str, rng: MonteCarloRange, value: float) -> tuple[str, str]:
     """("0.01025*–4.894", "±50 %, ±11 % for sure") of a Monte Carlo range about ``value``
     (display unit; "*": an end set by trials on a search limit)."""
-    ends = (f"{fmt_value(k, rng.lower)}{'*' if rng.lower_at_limit else ''}–"
-            f"{fmt_value(k, rng.upper)}{'*' if rng.upper_at_limit else ''}")
+    ends = (f"{mc_end_text(k, rng.lower)}{'*' if rng.lower_at_limit else ''}–"
+            f"{mc_end_text(k, rng.upper)}{'*' if rng.upper_at_limit else ''}")
     rel, sure = rng.rel(value)
     widths = _pct(rel) + (f", {_pct(sure)} for sure" if np.isfinite(sure) else "")
     return ends, widths
@@ -1185,34 +1191,55 @@ def _profile_line(ax, x, v, y, ymin, ymax, label, **label_kw):
                 color=INTERVAL_COLOR, gid="profile-label", **label_kw)
 
 
-def _mc_end_label(ax, k, x, y, end_si, up, at_limit, gid):
+def _mc_end_label(ax, k, x, y, end_si, up, at_limit, gid, sure_si=None):
     """The words at an end of the Monte Carlo bar (left of it): its value where the bar runs
-    off the panel, "search limit" where trials on a limit of the search set it."""
-    text = f"{'to' if up else 'from'}\n{fmt_value(k, end_si)}" if end_si is not None else ""
+    off the panel, and the end of the width for sure where that runs off too ("(for
+    sure\n6.708)"); "search limit" where trials on a limit of the search set it."""
+    text = f"{'to' if up else 'from'}\n{mc_end_text(k, end_si)}" if end_si is not None else ""
+    if sure_si is not None:
+        text += f"\n(for sure\n{mc_end_text(k, sure_si)})"
     if at_limit:
         text += ("\n" if text else "") + "search\nlimit"
     ax.annotate(text, (x, y), xytext=(-4, -3 if up else 3), textcoords="offset points",
                 fontsize=6.5, va="top" if up else "bottom", ha="right", color="0.35", gid=gid)
 
 
+#: the grey of the Monte Carlo range's bar and arrows
+MC_COLOR = "0.45"
+
+
 def _monte_carlo_bar(ax, k, rng: MonteCarloRange, x, ymin, ymax) -> None:
+    """The Monte Carlo range at ``x``, its width for sure over it; an end off the panel
+    stops at an arrow onto the panel's edge (its head inside the frame, as the interval's),
+    with the end's value, and the width for sure's where that is off too, written beside."""
     g = (lambda z: _gpa(k, z))
     lo, hi = g(rng.lower), g(rng.upper)
-    ax.plot([x] * 2, [min(max(lo, ymin), ymax), max(min(hi, ymax), ymin)], "-",
-            color="0.45", lw=2, solid_capstyle="butt", gid="monte-carlo")
+    # where a bar running off the panel stops: the foot of the arrow onto that edge
+    stop = {True: _inward(ax, ymax, 0.08, ymin, ymax, True),
+            False: _inward(ax, ymin, 0.08, ymin, ymax, False)}
+
+    def clipped(a, b):
+        return [stop[False] if a < ymin else min(max(a, ymin), ymax),
+                stop[True] if b > ymax else max(min(b, ymax), ymin)]
+    ax.plot([x] * 2, clipped(lo, hi), "-", color=MC_COLOR, lw=2, solid_capstyle="butt",
+            gid="monte-carlo")
     # the width the trials show for sure, which the verdicts use (files since stop 28)
-    if np.isfinite(rng.inner_lower) and np.isfinite(rng.inner_upper):
-        ax.plot([x] * 2, [min(max(g(rng.inner_lower), ymin), ymax),
-                          max(min(g(rng.inner_upper), ymax), ymin)], "-",
+    sure = np.isfinite(rng.inner_lower) and np.isfinite(rng.inner_upper)
+    if sure:
+        ax.plot([x] * 2, clipped(g(rng.inner_lower), g(rng.inner_upper)), "-",
                 color="0.2", lw=4.5, solid_capstyle="butt", gid="monte-carlo-sure")
-    for side, end, end_si, at_limit in (("upper", hi, rng.upper, rng.upper_at_limit),
-                                        ("lower", lo, rng.lower, rng.lower_at_limit)):
+    for side, end, end_si, inner_si, at_limit in (
+            ("upper", hi, rng.upper, rng.inner_upper, rng.upper_at_limit),
+            ("lower", lo, rng.lower, rng.inner_lower, rng.lower_at_limit)):
         up = side == "upper"
         off = (end > ymax) if up else (end < ymin)
-        if off:                     # an arrow head on the edge and the end's value beside it
+        if off:                     # an arrow onto the edge and the end's value beside it
             edge = ymax if up else ymin
-            ax.plot([x], [edge], "^" if up else "v", color="0.45", ms=6, clip_on=False)
-            _mc_end_label(ax, k, x, edge, end_si, up, at_limit, f"monte-carlo-{side}-end")
+            ax.annotate("", (x, edge), xytext=(x, stop[up]), gid=f"monte-carlo-{side}-arrow",
+                        arrowprops=dict(arrowstyle="-|>", color=MC_COLOR, lw=1.5))
+            inner_off = sure and ((g(inner_si) > ymax) if up else (g(inner_si) < ymin))
+            _mc_end_label(ax, k, x, edge, end_si, up, at_limit, f"monte-carlo-{side}-end",
+                          inner_si if inner_off else None)
         elif at_limit:
             # an end set by trials on a limit of the search is the search's, not the data's
             _mc_end_label(ax, k, x, end, None, up, True, f"monte-carlo-{side}-limit")

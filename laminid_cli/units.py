@@ -382,6 +382,17 @@ def constant_text(name: str, value: float) -> str:
     return number_text(value, ".3f")
 
 
+def significant_text(name: str, value: float, digits: int = 3) -> str:
+    """A constant (``name``; SI, a modulus written in GPa) to ``digits`` significant digits,
+    as the terminal's Monte Carlo table writes its stds (3) and its range ends (4: "8.685",
+    "0.01025"), and the report its Monte Carlo range ends.
+
+    >>> significant_text("G13", 8.684992e9, 4), significant_text("nu12", 0.0552771, 4)
+    ('8.685', '0.05528')
+    """
+    return f"{(value if name == 'nu12' else value / 1e9):.{digits}g}"
+
+
 #: the unit of each numeric field of a ``--json`` document (modes, identify, show) by the
 #: field's name, wherever it appears: SI throughout (frequencies Hz, moduli Pa, lengths m, mass
 #: kg); a block's name (``frequencies``) gives the unit of its lists that have no entry of their

@@ -15,6 +15,7 @@ from laminid_cli.commands.text import fmt
 from laminid_cli.forward import build_forward_model
 from laminid_cli.frf.store import write_frf_h5
 from laminid_cli.report import (Page, fmt_reference, fmt_value, interval_text, mac,
+                                mc_end_text,
                                 reference_diff, report_pages, short_verdict, write_pages)
 from laminid_cli.resultfile import read_result
 from laminid_cli.specimen import read_specimen
@@ -1171,19 +1172,56 @@ def test_monte_carlo_numbers_on_the_pages(checked, tmp_path):
     a = ax(pages["intervals"], f"interval-{MAT}.G13")
     g13 = res.materials[MAT]["G13"]
     end = next(t for t in a.texts if t.get_gid() == "monte-carlo-upper-end")
-    assert end.get_text() == f"to\n{fmt_value('G13', 1e5 * g13)}"
+    assert end.get_text() == f"to\n{mc_end_text('G13', 1e5 * g13)}"
     assert end.xy[1] == a.get_ylim()[1]
     e2 = res.materials[MAT]["E2"]
     iv = res.uncertainty.get(MAT, "E2")
     rows = {row[0].split(" ")[0]: row for row in cells(ax(pages["summary"], "constants"))[1:]}
     assert rows["E2"][2] == (f"[{fmt_value('E2', iv.lower)}, {fmt_value('E2', iv.upper)}]\n"
-                             f"Monte Carlo {fmt_value('E2', 0.2 * e2)}*–"
-                             f"{fmt_value('E2', 1.02 * e2)}")
+                             f"Monte Carlo {mc_end_text('E2', 0.2 * e2)}*–"
+                             f"{mc_end_text('E2', 1.02 * e2)}")
     assert rows["E2"][3] == f"weak (Monte Carlo\n±{whole} %, ±{sure} % for sure)"
     label = ax(pages["intervals"], f"interval-{MAT}.E2").get_xlabel().replace("\n", " ")
     assert label.endswith(f"weak (Monte Carlo ±{whole} %, ±{sure} % for sure)")
     notes = " ".join(t.get_text() for a in pages["summary"].axes for t in a.texts)
     assert "*: an end set by trials that stopped on a search limit" in notes.replace("\n", " ")
+
+
+def test_a_monte_carlo_range_off_its_panel_keeps_its_arrow_inside_and_writes_its_ends(
+        checked, tmp_path):
+    """S1.1's G13 with a Monte Carlo (range to 8.685 GPa, 6.708 for sure, panel to 6): the
+    grey arrow head was a marker centred on the panel's top edge, half over the frame, and
+    the dark bar for sure ran to the edge under it with no value written. The arrow's head
+    now ends inside the panel (as the interval's), the bars stop at its foot, and the words
+    give both ends, in the terminal's Monte Carlo digits."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    path = _with_monte_carlo(checked, tmp_path, inner=True)
+    with h5py.File(path, "r+") as f:
+        u = f["uncertainty"]
+        j13 = [x.decode() for x in u["labels"][()]].index(f"{MAT}.G13")
+        v = u["value"][()]
+        mc = u["monte_carlo"]
+        for key, factor in (("upper", 1e5), ("inner_upper", 3e4)):
+            a = mc[key][()]
+            a[j13] = factor * v[j13]
+            mc[key][...] = a
+    g13 = read_result(path).materials[MAT]["G13"]
+    fig = result_page(path, "intervals")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    a = ax(fig, f"interval-{MAT}.G13")
+    top = a.get_ylim()[1]
+    assert 3e4 * g13 / 1e9 > top                         # both ends off the panel
+    end = next(t for t in a.texts if t.get_gid() == "monte-carlo-upper-end")
+    assert end.get_text() == (f"to\n{mc_end_text('G13', 1e5 * g13)}\n"
+                              f"(for sure\n{mc_end_text('G13', 3e4 * g13)})")
+    arrow = next(t for t in a.texts if t.get_gid() == "monte-carlo-upper-arrow")
+    head, panel = arrow.arrow_patch.get_window_extent(renderer), a.get_window_extent(renderer)
+    assert head.y1 <= panel.y1 and head.y0 >= panel.y0, (head, panel)
+    for gid in ("monte-carlo", "monte-carlo-sure"):     # stop at the arrow's foot
+        line = next(ln for ln in a.get_lines() if ln.get_gid() == gid)
+        assert max(line.get_ydata()) == pytest.approx(arrow.xyann[1]) and arrow.xyann[1] < top
 
 
 def test_the_intervals_page_writes_numbers_in_the_terminals_digits(checked):

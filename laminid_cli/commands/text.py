@@ -6,7 +6,7 @@ import math
 import re
 
 from laminid_cli.intervals import VERDICT_NOT, flag_words, spread_sentence, t_std, width_text
-from laminid_cli.units import constant_text, number_text
+from laminid_cli.units import constant_text, number_text, significant_text
 
 #: the advice that ends the verdict "not determined by these modes — fix it or ..." (shown
 #: once in the constants' table, not again for the laminate's properties)
@@ -548,7 +548,7 @@ def format_uncertainty(u: dict) -> list[str]:
 def _val(name: str, value, digits: int = 3) -> str:
     if value is None or not math.isfinite(value):
         return "-"
-    return f"{value:.{digits}g}" if name == "nu12" else f"{value / 1e9:.{digits}g} GPa"
+    return significant_text(name, value, digits) + ("" if name == "nu12" else " GPa")
 
 
 def _ref(name: str, value) -> str:
