@@ -23,6 +23,11 @@ import numpy as np
 A4_LANDSCAPE = (11.69, 8.27)
 #: the measured and model modal loss factors: colours none of the energy terms has (C0-C4)
 MEASURED_COLOR, MODEL_COLOR = "k", "0.5"
+#: measured and model drawn this far (in modes) left and right of their mode, apart
+MODE_OFFSET = 0.2
+#: marker sizes (points) of the measured dot and the model's hollow square, and the half
+#: width of the error bars' caps: wider than the dot so the bar's ends show
+MEASURED_MS, MODEL_MS, ERROR_CAP_PT = 5.0, 7.0, 4.5
 TERM_NAMES = {"11": "11 (fibre)", "22": "22 (transverse)", "12": "12 (in-plane shear)",
               "13": "13 (transverse shear)", "23": "23 (transverse shear)"}
 
@@ -268,6 +273,8 @@ def _table_words(fig, ax_t, title: str, words):
 def _panels(fig, ax_m, ax_s, d) -> None:
     """The two panels of the damping page: measured vs model modal loss factor of each mode
     on ``ax_m``, the strain-energy shares on ``ax_s``."""
+    from matplotlib.legend_handler import HandlerTuple
+
     ax_m.set_gid("modal-loss-factors")
     ax_s.set_gid("energy-shares")
     meas = np.asarray(d["measured_loss_factor"], float) * 100
@@ -279,16 +286,22 @@ def _panels(fig, ax_m, ax_s, d) -> None:
     ok = np.isfinite(meas)
     # measured (filled where fitted, hollow where left out), error bars +-1 sd, model beside;
     # in black and grey: the colours of the shares' panel beside are the energy terms' (blue
-    # measured and red model read as "11 (fibre)" and "13 (transverse shear)")
-    ax_m.plot(modes[ok], meas[ok], "o", color=MEASURED_COLOR,
-              label="measured 2\u03b6 \u00b1 1 sd", zorder=3, gid="measured")
-    ax_m.errorbar(modes[ok], meas[ok], yerr=sig[ok], fmt="none", ecolor=MEASURED_COLOR,
-                  capsize=4, zorder=2)
+    # measured and red model read as "11 (fibre)" and "13 (transverse shear)"). The two
+    # series sit MODE_OFFSET either side of the mode (the model's squares covered the
+    # measured dots, a model that fits drawn right over them) and the error bars over the
+    # dots, their caps wider than a dot (a 2 % sd is about a dot's size: under the dot it
+    # did not show)
+    xm, xs = modes - MODE_OFFSET, modes + MODE_OFFSET
+    dot = ax_m.plot(xm[ok], meas[ok], "o", color=MEASURED_COLOR, ms=MEASURED_MS,
+                    label="measured 2\u03b6 \u00b1 1 sd", zorder=3, gid="measured")[0]
+    bars = ax_m.errorbar(xm[ok], meas[ok], yerr=sig[ok], fmt="none", ecolor=MEASURED_COLOR,
+                         elinewidth=1.2, capsize=ERROR_CAP_PT, capthick=1.2, zorder=4)
+    bars.lines[2][0].set_gid("measured-sd")
     out = ok & ~used
     if out.any():
-        ax_m.plot(modes[out], meas[out], "o", mfc="white", color=MEASURED_COLOR, zorder=4,
-                  label="measured, not fitted (weight 0)")
-    ax_m.plot(modes, model, "s", color=MODEL_COLOR, mfc="none", ms=8, mew=1.5,
+        ax_m.plot(xm[out], meas[out], "o", mfc="white", color=MEASURED_COLOR, ms=MEASURED_MS,
+                  zorder=3.5, label="measured, not fitted (weight 0)", gid="measured-unused")
+    ax_m.plot(xs, model, "s", color=MODEL_COLOR, mfc="none", ms=MODEL_MS, mew=1.5,
               label="model \u03a3 share \u00d7 ply \u03b7", zorder=5, gid="model")
     if not ok.all():   # null in the specimen (fit-frf: not above the window's): said, not blank
         ax_m.plot(modes[~ok], np.zeros((~ok).sum()), "x", color=MEASURED_COLOR, ms=8, mew=1.5,
@@ -300,8 +313,12 @@ def _panels(fig, ax_m, ax_s, d) -> None:
     top = np.nanmax(np.concatenate([meas + np.nan_to_num(sig), model]))
     ax_m.set_ylim(0, 1.25 * top if np.isfinite(top) and top > 0 else 1)
     ax_m.grid(alpha=0.3)
-    ax_m.legend(loc="upper center", bbox_to_anchor=(0.5, 0), ncol=3, fontsize=8,   # below
-                frameon=False, bbox_transform=_below_xlabel(fig, ax_m))  # clear of the points
+    # the measured entry as drawn: the dot with its error bar
+    handles, labels = ax_m.get_legend_handles_labels()
+    handles = [(dot, bars) if h is dot else h for h in handles]
+    ax_m.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, 0), ncol=3,
+                fontsize=8, frameon=False, handler_map={tuple: HandlerTuple(ndivide=1)},
+                bbox_transform=_below_xlabel(fig, ax_m))  # below, clear of the points
     ax_m.set_title("measured vs model modal loss factor")
 
     # stacked energy shares

@@ -913,6 +913,40 @@ def test_damping_page_numbers_read_back(damped, damped_pages, tmp_path):
     assert (tmp_path / "d.png").read_bytes()[:8] == PNG
 
 
+def test_damping_page_measured_and_model_loss_factors_do_not_hide_each_other(damped_pages):
+    """The measured dots, their +-1 sd bars and the model's hollow squares were drawn at the
+    same x: the squares (ms 8) covered the dots and the bars (under the dots, a 2 % sd about
+    a dot's size) did not show. The two series now sit either side of their mode, apart by
+    more than a dot and a square (in points on the page), the bars over the dots with caps
+    wider than a dot; the legend's marks are the drawn ones, the measured one with its bar."""
+    from matplotlib.collections import LineCollection
+
+    fig = damped_pages["damping"]
+    a = ax(fig, "modal-loss-factors")
+    lines = {ln.get_gid(): ln for ln in a.get_lines()}
+    meas, model = lines["measured"], lines["model"]
+    n = model.get_xdata().size
+    modes = np.arange(1, n + 1)
+    assert np.all(meas.get_xdata() < modes) and np.all(model.get_xdata() > modes)
+    # centre to centre in points, against half a dot + half a square (and its edge)
+    to_pt = 72 / fig.dpi
+    xm = a.transData.transform(np.c_[meas.get_xdata(), meas.get_ydata()])[:, 0] * to_pt
+    xs = a.transData.transform(np.c_[model.get_xdata(), model.get_ydata()])[:, 0] * to_pt
+    assert np.all(xs - xm > meas.get_markersize() / 2 + model.get_markersize() / 2
+                  + model.get_markeredgewidth())
+    (bars,) = [c for c in a.collections if isinstance(c, LineCollection)]
+    assert bars.get_gid() == "measured-sd" and bars.get_zorder() > meas.get_zorder()
+    caps = [ln for ln in a.get_lines() if ln.get_marker() == "_"]
+    assert caps and all(c.get_zorder() > meas.get_zorder()
+                        and c.get_markersize() > meas.get_markersize() for c in caps)
+    leg = a.get_legend()
+    assert [t.get_text() for t in leg.get_texts()][:2] == ["measured 2\u03b6 \u00b1 1 sd",
+                                                            "model \u03a3 share \u00d7 ply \u03b7"]
+    marks = [(h.get_marker(), h.get_markersize()) for h in leg.legend_handles[:2]]
+    assert marks == [("o", meas.get_markersize()), ("s", model.get_markersize())]
+    assert leg.findobj(LineCollection)                  # the measured entry's error bar
+
+
 def test_joint_interval_panels_read_back(joint, joint_pages):
     res = read_result(joint)
     fig = {p.name: p.figure for p in joint_pages}["intervals"]
