@@ -1720,6 +1720,12 @@ def history_page(r: ResultFile):
         ax_r.semilogy(ev[pred], hist.rms_residual_percent[pred], "o", ms=3.5, color="0.75",
                       mec="0.55", mew=0.5, zorder=3, gid="rms-predicted", ls="none",
                       label="reduced-model prediction (error not bounded)")
+        # and the checked evaluations as there (dark-edged), keyed: a small orange dot of
+        # the line alone, unkeyed, left the reader to guess what the others were
+        chk = on & known
+        ax_r.semilogy(ev[chk], hist.rms_residual_percent[chk], "o", ms=4.5, color="C1",
+                      mec="k", mew=0.6, zorder=4, gid="rms-checked", ls="none",
+                      label="checked (error bounded)")
         ax_r.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0)
     ax_r.set_ylabel("RMS residual (%)", fontsize=8)
     hits = bound_hits(r)
@@ -1753,7 +1759,7 @@ def history_page(r: ResultFile):
     ax_c.axhline(1, color="k", lw=0.5)
     ax_c.set_ylabel("modulus / initial value", fontsize=8)
     ax_n.set_ylabel("nu12 (–)", fontsize=8)
-    ax_n.set_xlabel("evaluation")
+    ax_n.set_xlabel("evaluation", fontsize=8)       # as the panels' y labels
     for ax, which in ((ax_c, "mod"), (ax_n, "nu")):
         title = ("fixed, not identified:\n" + "\n".join(textwrap.wrap(
             ", ".join(fixed[which]), 30))) if fixed[which] else None

@@ -180,9 +180,42 @@ def test_history_rms_panel_tells_predictions_from_checked_evaluations(s21_fixed_
     assert np.array_equal(line.get_xdata(), h.evaluation[pred])
     assert np.array_equal(line.get_ydata(), h.rms_residual_percent[pred])
     legend = [t.get_text() for t in a.get_legend().get_texts()]
-    assert legend == ["RMS residual", "reduced-model prediction (error not bounded)"]
+    assert legend == ["RMS residual", "reduced-model prediction (error not bounded)",
+                      "checked (error bounded)"]
     objective = [t.get_text() for t in ax(fig, "objective").get_legend().get_texts()]
     assert "reduced-model prediction (trial point, error not bounded)" in objective
+
+
+def test_history_rms_panels_checked_evaluations_are_drawn_and_keyed(s21_fixed_at_limit,
+                                                                    s21_fixed_pages):
+    """The RMS panel's checked evaluations (error bounded) were the line's own small dots,
+    not in its legend beside the keyed predictions; they are now marked as on the objective's
+    panel (dark edge) and keyed, the legend's mark the drawn one. The history page's
+    "evaluation" axis label was at matplotlib's 10 pt, the panels' y labels at 8 pt: all 8."""
+    import numpy as np
+
+    from laminid_cli.report import revisits
+    from laminid_cli.resultfile import read_result
+
+    h = read_result(s21_fixed_at_limit).history
+    chk = np.isfinite(h.error_bound) & ~revisits(h.constants)
+    assert chk.any()
+    fig = s21_fixed_pages["history"]
+    a = ax(fig, "rms")
+    line = next(ln for ln in a.get_lines() if ln.get_gid() == "rms-checked")
+    assert np.array_equal(line.get_xdata(), h.evaluation[chk])
+    assert np.array_equal(line.get_ydata(), h.rms_residual_percent[chk])
+    leg = a.get_legend()
+    i = [t.get_text() for t in leg.get_texts()].index("checked (error bounded)")
+    key = leg.legend_handles[i]
+    assert (key.get_marker(), key.get_markersize(), key.get_markeredgecolor(),
+            key.get_markerfacecolor()) == (line.get_marker(), line.get_markersize(),
+                                           line.get_markeredgecolor(),
+                                           line.get_markerfacecolor())
+    sizes = {a_.get_gid(): (a_.xaxis.label.get_fontsize(), a_.yaxis.label.get_fontsize())
+             for a_ in fig.axes if a_.get_gid() in ("objective", "rms", "moduli", "nu12")}
+    assert ax(fig, "nu12").get_xlabel() == "evaluation"
+    assert {s[1] for s in sizes.values()} == {sizes["nu12"][0]} == {8}
 
 
 @pytest.mark.parametrize("gid", ["objective", "rms"])
