@@ -1196,7 +1196,9 @@ def _mc_end_label(ax, k, x, y, end_si, up, at_limit, gid, sure_si=None):
     off the panel, and the end of the width for sure where that runs off too ("(for
     sure\n6.708)"); "search limit" where trials on a limit of the search set it."""
     text = f"{'to' if up else 'from'}\n{mc_end_text(k, end_si)}" if end_si is not None else ""
-    if sure_si is not None:
+    if sure_si is not None and (end_si is None
+                                or mc_end_text(k, sure_si) != mc_end_text(k, end_si)):
+        # (an end for sure that reads as the range's own is not written twice)
         text += f"\n(for sure\n{mc_end_text(k, sure_si)})"
     if at_limit:
         text += ("\n" if text else "") + "search\nlimit"

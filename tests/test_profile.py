@@ -478,6 +478,7 @@ def test_a_flat_profile_and_a_monte_carlo_range_off_the_panel_keep_their_words_a
     fig.draw_without_rendering()
     texts = {t.get_gid(): t for t in ax.texts}
     prof, end = texts["profile-label"], texts["monte-carlo-upper-end"]
+    # (its end for sure is the range's own here: written once)
     assert end.get_text() == f"to\n{fmt_value('G13', top)}"
     assert prof.get_text() == f"profile:\nflat to\n{fmt_value('G13', far)}"
     a, b = prof.get_window_extent(), end.get_window_extent()
