@@ -191,8 +191,17 @@ class FrequencySigma:
         return f"{file} for {n_file} modes, {rel} for {n_rel}"
 
 
+#: the smallest relative standard deviation of a frequency taken (--sigma-rel, a specimen's
+#: sigma over its frequency): the model's own frequencies are exact to about this (the
+#: solvers' eigenvalues to ~1e-9 relative), so a smaller one would weigh round-off; no impact
+#: test comes near it (an analyser's line spacing is ~1e-4 of a mode's frequency). 1e-200
+#: made chi2 overflow to inf, with numpy's RuntimeWarnings on the terminal
+SIGMA_REL_MIN = 1e-9
+
+
 def check_sigma_rel(sigma_rel: float) -> float:
-    """A relative standard deviation must be a finite number > 0 (FitInputError otherwise)."""
+    """A relative standard deviation must be a finite number in [SIGMA_REL_MIN, 0.5)
+    (FitInputError otherwise)."""
     try:
         value = float(sigma_rel)
     except (TypeError, ValueError):
@@ -200,6 +209,10 @@ def check_sigma_rel(sigma_rel: float) -> float:
     if not np.isfinite(value) or value <= 0:
         raise FitInputError(f"relative frequency uncertainty must be positive (e.g. 0.002 for "
                             f"0.2 %), got {sigma_rel:g}")
+    if value < SIGMA_REL_MIN:
+        raise FitInputError(f"relative frequency uncertainty {value:g} is below {SIGMA_REL_MIN:g} "
+                            "of each frequency, finer than the model's own frequencies are exact "
+                            "(and than any impact test resolves); give a fraction (0.002 = 0.2 %)")
     if value >= 0.5:
         raise FitInputError(f"relative frequency uncertainty {value:g} is 50 % or more of each "
                             "frequency; give a fraction (0.002 = 0.2 %)")
@@ -234,6 +247,15 @@ def frequency_sigma(measured, sigma_rel: float = DEFAULT_SIGMA_REL, *, sigma_hz=
             i = int(bad[0])
             raise FitInputError(f"{where}: standard deviation of mode {i + 1} is {given[i]:g} Hz;"
                                 " it must be positive (null where unknown)")
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tiny = np.flatnonzero(np.isfinite(given) & np.isfinite(freq)
+                                  & (given < SIGMA_REL_MIN * np.abs(freq)))
+        if tiny.size:
+            i = int(tiny[0])
+            raise FitInputError(f"{where}: standard deviation of mode {i + 1} is {given[i]:g} Hz, "
+                                f"below {SIGMA_REL_MIN:g} of its {freq[i]:g} Hz, finer than the "
+                                "model's own frequencies are exact: give it in Hz (0.2 for "
+                                "0.2 Hz; null where unknown)")
     for i in range(n):
         if not np.isfinite(freq[i]):
             continue

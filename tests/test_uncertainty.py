@@ -81,6 +81,22 @@ def test_zero_or_negative_relative_sigma_is_refused(bad):
         frequency_sigma(measured([100.0]), bad)
 
 
+def test_a_sigma_below_the_models_own_precision_is_refused():
+    """A relative sigma of 1e-200 was taken: chi2 overflowed to inf (numpy's RuntimeWarnings on
+    the terminal, 's2 = inf'); below SIGMA_REL_MIN = 1e-9 of a frequency is round-off of the
+    model's own frequencies, given relative or in Hz in the specimen file."""
+    from laminid_cli.uncertainty import SIGMA_REL_MIN
+
+    assert SIGMA_REL_MIN == 1e-9
+    with pytest.raises(FitInputError, match="1e-200 is below 1e-09 of each frequency"):
+        frequency_sigma(measured([100.0]), 1e-200)
+    assert frequency_sigma(measured([100.0]), 1e-9).sigma_hz[0] == pytest.approx(1e-7)
+    with pytest.raises(FitInputError, match="plate.yaml: standard deviation of mode 2 is 1e-08 "
+                                            "Hz, below 1e-09 of its 200 Hz"):
+        frequency_sigma(measured([100.0, 200.0], [0.1, 1e-8]), where="plate.yaml")
+    assert frequency_sigma(measured([100.0, 200.0], [0.1, 3e-7])).sigma_hz[1] == 3e-7
+
+
 def test_zero_or_negative_given_sigma_is_refused():
     with pytest.raises(FitInputError, match="plate.yaml: standard deviation of mode 2 is 0 Hz"):
         frequency_sigma(measured([100.0, 200.0], [0.1, 0.0]), where="plate.yaml")

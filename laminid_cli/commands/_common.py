@@ -53,8 +53,9 @@ class TrialCount(click.IntRange):
         return f"0 (off) or 2<=N<={self.MAX_TRIALS}"
 
 
-#: a relative standard deviation of a frequency (--sigma-rel): a fraction, 0 < x < 0.5
-SIGMA_REL = FiniteFloat(min=0, max=0.5, min_open=True, max_open=True)
+#: a relative standard deviation of a frequency (--sigma-rel): a fraction, 1e-9 <= x < 0.5
+#: (uncertainty.SIGMA_REL_MIN: below it the model's own round-off)
+SIGMA_REL = FiniteFloat(min=1e-9, max=0.5, max_open=True)
 
 
 class InputFile(click.Path):
