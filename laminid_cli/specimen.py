@@ -1048,6 +1048,17 @@ def _read_measured(r: _Reader, y: _Y) -> Measured:
         if not np.isfinite(damping).any():
             raise r.error(m["damping"], "every damping ratio is null (or its frequency is)")
         if damping_sigma is not None:
+            with np.errstate(invalid="ignore"):
+                tiny = np.flatnonzero(damping_sigma < DAMPING_SIGMA_REL_MIN * damping)
+            if tiny.size:
+                # 1e-250 of each ratio was taken: the loss factors' chi2 overflowed to inf,
+                # with numpy's RuntimeWarnings on the terminal
+                i = int(tiny[0])
+                raise r.error(m["damping_sigma"], f"mode {i + 1}'s {damping_sigma[i]:.3g} is "
+                              f"below {DAMPING_SIGMA_REL_MIN:g} of its damping ratio "
+                              f"{damping[i]:.3g}: no damping estimate is that exact (half-power "
+                              "or RFP ratios are known to a few %); give the standard deviation "
+                              f"of the ratio (5 % of it: {0.05 * damping[i]:.2g})")
             warn_loose_damping_sigma(r.path, f"measured.damping_sigma (line "
                                      f"{m['damping_sigma'].line})", freq, damping, damping_sigma)
         given = damping[np.isfinite(damping)]
@@ -1097,6 +1108,11 @@ def warn_loose_damping_sigma(path, where: str, freq, zeta, sigma) -> list[int]:
                     "written as a plain number? write '%s %%')", path, where, modes,
                     f"{sigma[loose[0]]:g}")
     return [int(k) for k in loose]
+
+
+#: the smallest standard deviation of a damping ratio taken, relative to the ratio
+#: (measured.damping_sigma): far below what any damping estimate resolves, above round-off
+DAMPING_SIGMA_REL_MIN = 1e-6
 
 
 def _damping_list(r: _Reader, m: dict, key: str, n: int, what: str) -> np.ndarray:

@@ -254,6 +254,11 @@ def test_specimen_damping_ratios_and_sigmas():
     ("  damping: [0.002, 0.003, null, null]\n  damping_sigma: [0, 0.0001, null, null]\n",
      r"measured.damping_sigma\[1\].*a standard deviation of a damping ratio must be between 0 "
      r"and 0.5, got 0"),
+    # 1e-250 of each ratio was taken: the loss factors' chi2 overflowed to inf (numpy's
+    # RuntimeWarnings on the terminal)
+    ("  damping: [0.002, 0.003, null, null]\n  damping_sigma: [0.0001, 3e-253, null, null]\n",
+     r"measured.damping_sigma.*mode 2's 3e-253 is below 1e-06 of its damping ratio 0.003: no "
+     r"damping estimate is that exact .* \(5 % of it: 0.00015\)"),
 ])
 def test_specimen_damping_errors_name_the_field(extra, words):
     from laminid_cli.errors import SpecimenError
