@@ -221,6 +221,16 @@ def parse_quantity(value, kind: str, *, where: Where | None = None,
                 raise where.error(f"unit {unit!r} in {_show(value)} is ambiguous (its case "
                                   f"decides the prefix); {expected}")
             comma = re.match(r",([0-9]+)((?:\s*[^,0-9\s].*)?)\Z", unit)
+            if comma is not None and "." in match.group(1):
+                # '1.250,3': a point and a comma; the comma as a point gives '1.250.3', no
+                # number. Where the point groups thousands (three digits after it, as a
+                # European spreadsheet writes 1.250,3) that is 1250.3; else it cannot be told
+                grouped = re.fullmatch(r"([+-]?[0-9]{1,3})\.([0-9]{3})", match.group(1))
+                hint = (f" ({grouped.group(1)}{grouped.group(2)}.{comma.group(1)}"
+                        f"{comma.group(2)} if the point groups thousands)" if grouped else "")
+                raise where.error(f"{_show(value)} has both a point and a comma; write the "
+                                  f"number with one decimal point and no thousands separator"
+                                  f"{hint}")
             if comma is not None:
                 point = f"{match.group(1)}.{comma.group(1)}{comma.group(2)}"
                 raise where.error(f"{_show(value)} has a decimal comma; write a decimal point, "

@@ -96,6 +96,10 @@ def test_parse_quantity(value, kind, expected):
     ("0,3", "dimensionless", ["'0,3' has a decimal comma", "write a decimal point, '0.3'"]),
     ("3,06 mm", "length", ["decimal comma", "'3.06 mm'"]),
     ("1,2,3", "length", ["unknown unit ',2,3'"]),
+    # a point and a comma: the comma made a point gave '1.250.3', no number
+    ("1.250,3", "frequency", ["'1.250,3' has both a point and a comma", "one decimal point",
+                              "(1250.3 if the point groups thousands)"]),
+    ("12.5,3 mm", "length", ["'12.5,3 mm' has both a point and a comma"]),
 ])
 def test_parse_quantity_errors_list_accepted_units(value, kind, words):
     with pytest.raises(SpecimenError) as info:
