@@ -98,6 +98,23 @@ _TOP_KEYS = ("name", "description", "geometry", "mass", "materials", "layup", "p
 _MATERIAL_KEYS = CONSTANT_NAMES + ("density", "density_ratio", "fixed", "prior")
 #: an isotropic material's keys instead of the six constants (G optional: E / (2 (1 + nu)))
 _ISOTROPIC_KEYS = ("E", "nu", "G") + _MATERIAL_KEYS[len(CONSTANT_NAMES):]
+
+#: keys a user puts in the wrong block, and where they belong (said by the "unknown key"
+#: message: a top-level ``density:`` was answered with the top level's valid keys alone)
+_MATERIAL_PLACE = "to a ply material, under materials.<material name> (materials: {CF: {..., %s: ...}})"
+_TOP_ELSEWHERE = {
+    **{k: _MATERIAL_PLACE % k for k in _MATERIAL_KEYS + ("E", "nu", "G")},
+    "density": (_MATERIAL_PLACE % "density") + ", or give the plate's mass here (mass: "
+               "0.3225 kg), from which the density is m/(a b h)",
+    **{k: f"under measured: (measured: {{{k}: [...]}})"
+       for k in ("frequencies", "weights", "sigma", "damping", "damping_sigma", "frf_file")},
+    **{k: f"under geometry: (geometry: {{a: ..., b: ..., h: ...}})" for k in ("a", "b", "h")},
+}
+_MATERIAL_ELSEWHERE = {
+    "mass": "to the plate, at the top level of the file (mass: 0.3225 kg), not to a material",
+    **{k: "to the plate, under geometry: (geometry: {a: ..., b: ..., h: ...})"
+       for k in ("a", "b", "h", "thickness")},
+}
 _MODULI = ("E1", "E2", "G12", "G13", "G23")
 
 
@@ -421,14 +438,20 @@ class _Reader:
         return self.where(y, field_name).error(message)
 
     def mapping(self, y: _Y, required=(), optional=(), what: str = "a mapping",
-                any_key: bool = False) -> dict:
+                any_key: bool = False, elsewhere: dict | None = None) -> dict:
+        """``elsewhere``: keys that belong to another block of the file, with where they go
+        (a plate's ``density:`` at the top level: a material's key), said instead of a guess
+        among this block's keys."""
         if not isinstance(y.value, dict):
             raise self.error(y, f"expected {what} (key: value lines), got {_describe(y.value)}")
         valid = list(required) + list(optional)
         for key, child in y.value.items():
             if not any_key and key not in valid:
-                guess = _closest(key, valid)
+                place = (elsewhere or {}).get(key)
+                guess = None if place else _closest(key, valid)
                 hint = f"; did you mean '{guess}'?" if guess else ""
+                if place:
+                    hint = f": it belongs {place}"
                 raise self.error(child, f"unknown key '{key}'{hint} (valid keys: "
                                         f"{', '.join(valid)})")
         for key in required:
@@ -699,7 +722,8 @@ def _isotropic_values(r: _Reader, name: str, y: _Y) -> dict:
                                          f"{', '.join(CONSTANT_NAMES)}",
                       _join(y.field, orthotropic[0]))
     m = r.mapping(y, required=_ISOTROPIC_KEYS[:2], optional=_ISOTROPIC_KEYS[2:],
-                  what=f"a mapping of the constants of material '{name}'")
+                  what=f"a mapping of the constants of material '{name}'",
+                  elsewhere=_MATERIAL_ELSEWHERE)
     E = r.quantity(m["E"], "modulus")
     nu = r.quantity(m["nu"], "dimensionless")
     if not -1.0 < nu < 0.5:
@@ -732,7 +756,8 @@ def _read_material(r: _Reader, name: str, y: _Y) -> Material:
         m = y.value
     else:
         m = r.mapping(y, required=CONSTANT_NAMES, optional=_MATERIAL_KEYS[len(CONSTANT_NAMES):],
-                      what=f"a mapping of the constants of material '{name}'")
+                      what=f"a mapping of the constants of material '{name}'",
+                      elsewhere=_MATERIAL_ELSEWHERE)
         values = {k: r.quantity(m[k], "modulus") for k in _MODULI}
         values["nu12"] = r.quantity(m["nu12"], "dimensionless")
     constants = ElasticConstants(**values)
@@ -1240,7 +1265,7 @@ def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
     root = _compose(text, path)
     r = _Reader(path)
     top = r.mapping(root, required=("geometry", "materials"), optional=[
-        k for k in _TOP_KEYS if k not in ("geometry", "materials")],
+        k for k in _TOP_KEYS if k not in ("geometry", "materials")], elsewhere=_TOP_ELSEWHERE,
         what="a mapping with name, geometry, materials, layup, measured, ... at the top level")
 
     name = r.string(top["name"]) if "name" in top else Path(path).stem

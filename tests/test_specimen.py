@@ -709,6 +709,17 @@ BAD_CASES = {
                          "unknown key 'geomtry'", "did you mean 'geometry'"),
     "unknown top key": ("name: T", "colour: red", 1, "colour", "unknown key 'colour'",
                         "valid keys: geometry"),
+    # a key written in the wrong block: where it belongs, not only this block's valid keys
+    # (a top-level density was answered with "valid keys: geometry, materials, ..." alone)
+    "density at the top level": ("mass: 0.3 kg", "density: 1600 kg/m^3", L_MASS, "density",
+                                 "unknown key 'density': it belongs to a ply material, under "
+                                 "materials.<material name>", "or give the plate's mass here"),
+    "mass in a material": ("    nu12: 0.35", "    nu12: 0.35\n    mass: 0.3 kg", L_NU12 + 1,
+                           "materials.CFRP.mass", "unknown key 'mass': it belongs to the plate, "
+                           "at the top level of the file"),
+    "frequencies at the top level": ("measured:\n  frequencies:", "frequencies:", L_FREQ - 1,
+                                     "frequencies", "unknown key 'frequencies': it belongs "
+                                     "under measured:"),
     "missing geometry key": ("  h: 3 mm\n", "", L_GEOMETRY, "geometry.h",
                              "missing required key 'h'"),
     "missing materials": ("materials:", "materialz:", L_CFRP - 1, "materialz",
