@@ -555,6 +555,13 @@ class _LayupParser:
             plies = self.sequence()
         self.skip_space()
         if self.i < len(self.code):
+            # '[0/90]s2', '[0/90]S_2': the count after the s, where the code reads it before
+            after_s = re.fullmatch(r"(\[.*\])\s*([sS])\s*_?(\d+)\s*", self.code.strip())
+            if after_s is not None:
+                body, s, n = after_s.groups()
+                self.fail(f"a repeat count after the s is not read: write it before the s, "
+                          f"{body}{n}{s} (the plies {n} times, then mirrored), or repeat the "
+                          f"mirrored group, [({body[1:-1]}){s}]{n}")
             self.fail("unexpected text after the end of the code")
         return plies
 

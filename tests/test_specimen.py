@@ -210,6 +210,11 @@ def test_material_tags_in_codes():
     ("", 1, ["empty"]),
     ("[0:]", 4, ["material name after ':'"]),
     ("[0/1.571rad]", 9, ["degrees, not radians", "1.571 rad = 90.01 deg"]),
+    # the repeat count after the s ('unexpected text ... found 's'' did not say what was wrong)
+    ("[0/90]s2", 7, ["a repeat count after the s is not read: write it before the s, "
+                     "[0/90]2s (the plies 2 times, then mirrored), or repeat the mirrored "
+                     "group, [(0/90)s]2"]),
+    ("[45_3/0_3]S_3", 12, ["write it before the s, [45_3/0_3]3S", "[(45_3/0_3)S]3"]),
 ])
 def test_bad_stacking_codes_say_where(code, position, words):
     with pytest.raises(LayupSyntaxError) as info:
@@ -218,6 +223,12 @@ def test_bad_stacking_codes_say_where(code, position, words):
     assert f"at character {position}" in msg
     for word in words:
         assert word in msg
+
+
+def test_the_codes_offered_for_a_count_after_the_s_read():
+    """Both codes the message offers for '[0/90]s2' are stacking codes: 8 plies each."""
+    assert [a for a, _ in expand_layup("[0/90]2s")] == [0, 90, 0, 90, 90, 0, 90, 0]
+    assert [a for a, _ in expand_layup("[(0/90)s]2")] == [0, 90, 90, 0, 0, 90, 90, 0]
 
 
 # ============================================================================= paper specimens
