@@ -767,6 +767,18 @@ def run_optimizer(prob, progress=None):
 SORTED_GAIN = 1e-9
 
 
+def objective_change(before: float, after: float) -> str:
+    """``'0.205571 -> 0.205569'``: two objectives with as many significant digits (6 to 12)
+    as tell them apart, where 6 wrote a fit kept for being better as '0.205571 -> 0.205571'
+    (SORTED_GAIN is 1e-9 relative); the relative change after them where 12 digits do not
+    tell them apart."""
+    for digits in range(6, 13):
+        a, b = f"{before:.{digits}g}", f"{after:.{digits}g}"
+        if a != b:
+            return f"{a} -> {b}"
+    return f"{a} -> {b}, {(after - before) / before:+.1e} relative" if before else f"{a} -> {b}"
+
+
 def _sorted_from_start(prob, x0, ev, converged, status, progress=None):
     """A second opinion for a tracked pairing that needed re-anchoring: the paper's plain
     sorted pairing, from the same start. Returns the better of the two answers.
@@ -796,8 +808,8 @@ def _sorted_from_start(prob, x0, ev, converged, status, progress=None):
     if ev_s.objective < ev.objective * (1 - SORTED_GAIN):
         prob.log.swaps.append(
             f"evaluation {prob.n_eval}: the plain sorted pairing from the start fits better than "
-            f"the tracked one (objective {ev.objective:.6g} -> {ev_s.objective:.6g}); its "
-            "answer is kept")
+            f"the tracked one (objective {objective_change(ev.objective, ev_s.objective)}); "
+            "its answer is kept")
         return ev_s, converged_s, status_s
     prob.restore_run_state(saved)
     prob.adopt(ev)

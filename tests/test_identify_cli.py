@@ -540,3 +540,39 @@ def test_jobs_sets_the_processes_of_the_profiles_and_the_monte_carlo_as_its_help
     r = run("identify", S21, "--mesh", "4x4", "--monte-carlo", "4", "-j", "3", "--no-output")
     assert r.exit_code == 0, r.output
     assert seen == {"monte_carlo": [3], "profiles": [3]}, seen
+
+
+#: the plate of the analyser emulator's modes (tests/instrument/emulator.py PLATE_MODES), as a
+#: newcomer describes it: a start whose modes 4 and 5 swap, re-anchored, then kept sorted
+EMULATOR_PLATE = """\
+name: EMU
+geometry: {a: 200 mm, b: 200 mm, h: 3.33 mm}
+materials:
+  CF: {E1: 120 GPa, E2: 9 GPa, G12: 4 GPa, G13: 4 GPa, G23: 3 GPa, nu12: 0.3,
+       density: 1600 kg/m^3}
+layup: "[45/-45]2s"
+measured:
+  frequencies: [212.4188, 318.9141, 497.3129, 633.8092, 841.2167, 1120.6103, 1388.2148]
+"""
+
+
+def test_a_sorted_pairing_kept_for_a_lower_objective_shows_two_different_numbers(tmp_path):
+    """The note of a plain sorted pairing kept because it fits better gave both objectives to
+    6 digits: 'fits better than the tracked one (objective 0.205571 -> 0.205571)', a gain of
+    5e-8 that read as none. The digits now tell them apart, and the kept one is the lower."""
+    spec = tmp_path / "emu.yaml"
+    spec.write_text(EMULATOR_PLATE)
+    r = run("identify", spec, "--json", "--no-output")
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output[r.output.index("{"):])
+    notes = [s for s in d["swaps"] if "plain sorted pairing from the start fits better" in s]
+    assert len(notes) == 1, d["swaps"]
+    before, after = re.search(r"objective (\S+) -> ([^)]+)\)", notes[0]).groups()
+    assert before != after and float(after) < float(before), notes[0]
+    assert float(after) == pytest.approx(d["objective"], rel=1e-7)
+    from laminid_cli.identify import objective_change
+
+    # the rule itself: 6 digits where they differ, more where not, the relative change last
+    assert objective_change(2.443e-4, 1.536e-4) == "0.0002443 -> 0.0001536"
+    assert objective_change(0.20557062, 0.20557061) == "0.20557062 -> 0.20557061"
+    assert objective_change(0.1, 0.1 * (1 - 2e-14)) == "0.1 -> 0.1, -2.0e-14 relative"
