@@ -353,7 +353,8 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
     Exit status: 0 when every point is saved (also for --resume of a file that already has
     them all: said so, the analyser not opened, the file unchanged); 3 when the session ended
     with points missing (quit or skipped; the file is valid, continue with --resume); 1 on an
-    analyser fault (finished points kept); 130 on Ctrl-C; 2 for bad input (options, the
+    analyser fault (finished points kept); 130 on Ctrl-C, 143 on SIGTERM (kill; both keep
+    the finished points and print the --resume command); 2 for bad input (options, the
     output file, no analyser answering at --analyser: nothing measured).
 
     \b
