@@ -428,6 +428,14 @@ JSON_UNITS: dict[str, str] = {
         "profile_bound", "profile_far", "mean", "inner_lower", "inner_upper", "linearized_std",
         "shift")},
     "rel_half_width": "1 (fraction of the value)", "sigma_rel": "1 (fraction of the frequency)",
+    # the Monte Carlo's and the verdicts' relative widths, fractions as rel_half_width (0.0113
+    # is +-1.13 %), not percent: they had no unit and sit beside *_percent fields
+    "monte_carlo_rel_half_width": "1 (fraction of the value)",
+    "monte_carlo_rel_half_width_lower": "1 (fraction of the value)",
+    "well_determined": "1 (fraction of the value: rel_half_width below it)",
+    "weak": "1 (fraction of the value: rel_half_width below it)",
+    "max_rel_interval": "1 (fraction of the value: rel_half_width above it is flagged)",
+    "information_from_prior": "1 (fraction of what is known of the constant)",
     "covariance": "product of the units of its row's and column's labels (Pa^2, Pa, 1)",
     "correlation": "1", "dlnf_dlnP": "1",
 }

@@ -576,3 +576,22 @@ def test_a_sorted_pairing_kept_for_a_lower_objective_shows_two_different_numbers
     assert objective_change(2.443e-4, 1.536e-4) == "0.0002443 -> 0.0001536"
     assert objective_change(0.20557062, 0.20557061) == "0.20557062 -> 0.20557061"
     assert objective_change(0.1, 0.1 * (1 - 2e-14)) == "0.1 -> 0.1, -2.0e-14 relative"
+
+
+def test_json_gives_the_unit_of_the_relative_widths_and_thresholds(tmp_path):
+    """monte_carlo_rel_half_width (0.0113 for +-1.13 %), the verdicts' thresholds (0.05, 0.3)
+    and information_from_prior had no unit in identify --json, where rel_half_width beside
+    them has '1 (fraction of the value)' and *_percent fields are percent."""
+    r = run("identify", S21, "--mesh", "6x6", "--monte-carlo", "4", "--json", "--no-output")
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output[r.output.index("{"):])
+    u = d["uncertainty"]
+    e1 = u["constants"]["E-glass/R368"]["E1"]
+    assert 0 < e1["monte_carlo_rel_half_width"] < 0.2 and u["thresholds"]["weak"] == 0.3
+    units = d["units"]
+    for key in ("monte_carlo_rel_half_width", "monte_carlo_rel_half_width_lower"):
+        assert units[key] == "1 (fraction of the value)" == units["rel_half_width"]
+    assert units["well_determined"].startswith("1 (fraction of the value")
+    assert units["weak"].startswith("1 (fraction of the value")
+    assert units["max_rel_interval"].startswith("1 (fraction of the value")
+    assert units["information_from_prior"] == "1 (fraction of what is known of the constant)"
