@@ -382,7 +382,11 @@ def test_into_leaves_every_other_line_byte_for_byte_and_no_stale_comment(tmp_pat
             "  frequencies", "  sigma", "  sigma_source", "  damping", "  damping_sigma"]
         assert "Table 1" not in "".join(written)
         assert written[0].endswith("]   # Hz, laminid fit-frf of plate.frf.h5")
-        assert all("#" not in line for line in written[1:])
+        # the damping line says what its numbers are: 0.008 beside the table's 'zeta (%)
+        # 0.800' read as a loss factor as well (identify takes zeta, eta = 2 zeta)
+        assert written[3].endswith("]   # viscous damping ratios zeta, fractions (0.008 = "
+                                   "0.8 %); loss factor eta = 2 zeta")
+        assert all("#" not in line for line in written[1:3] + written[4:])
         measured = yaml.safe_load(spec.read_text())["measured"]
         assert np.allclose(measured["frequencies"], case.freq_hz, rtol=1e-3)
         assert measured["sigma_source"].startswith("plate.frf.h5: ")
