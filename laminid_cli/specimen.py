@@ -981,17 +981,32 @@ def _resolve_densities(r: _Reader, top: dict, root: _Y, a: float, b: float, h: f
     return {n: relative[n] * factor for n in materials}
 
 
+#: kg/m^3: the densities of fibre-reinforced plies (carbon/epoxy ~1550-1600, glass/epoxy
+#: ~1900-2100, aramid ~1350) with room for the odd resin or core
+PLY_DENSITY = (1000.0, 2600.0)
+
+
 def _check_derived_densities(r: _Reader, top: dict, root: _Y, densities: dict,
-                             materials: dict[str, Material]) -> None:
+                             materials: dict[str, Material], h: float | None = None,
+                             n_plies: int = 0) -> None:
     """A density computed from the mass (not written in the file, where the unit check has
     seen it already) must be plausible too (units.PLAUSIBLE): a mass or a dimension in the
-    wrong unit shows there."""
+    wrong unit shows there. One n_plies times too high, a fibre ply's (PLY_DENSITY) once
+    divided by them, is h written as one ply's thickness: said so, on h's line."""
     from laminid_cli.units import PLAUSIBLE
 
     low, high = PLAUSIBLE["density"]
     for name, rho in densities.items():
         if low <= rho <= high or materials[name].density == rho:
             continue
+        if (h is not None and n_plies > 1 and rho > high
+                and PLY_DENSITY[0] <= rho / n_plies <= PLY_DENSITY[1]):
+            g = top["geometry"].value
+            node = g["h"] if isinstance(g, dict) and "h" in g else top["geometry"]
+            raise r.error(node, f"h = {h * 1e3:.4g} mm looks like one ply's thickness: h is the "
+                                f"whole laminate's ({n_plies} plies of {h * 1e3:.4g} mm are "
+                                f"{n_plies * h * 1e3:.4g} mm; with this h the mass gives "
+                                f"'{name}' a density of {rho:.4g} kg/m^3)", "geometry.h")
         node = top.get("mass", root)
         raise r.error(node, f"the mass gives material '{name}' a density of {rho:.4g} kg/m^3, "
                             f"not a plausible one ({low:g} to {high:g} kg/m^3): check the units "
@@ -1301,7 +1316,7 @@ def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
 
     plies = _read_plies(r, top, root, h, materials)
     densities = _resolve_densities(r, top, root, a, b, h, mass, materials, plies)
-    _check_derived_densities(r, top, root, densities, materials)
+    _check_derived_densities(r, top, root, densities, materials, h=h, n_plies=len(plies))
     measured = _read_measured(r, top["measured"]) if "measured" in top else None
     reference = (_read_reference(r, top["reference"], materials) if "reference" in top else
                  {"source": "", "materials": {}, "global": {}})

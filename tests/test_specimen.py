@@ -844,6 +844,19 @@ def test_bad_input_is_reported_with_file_field_and_line(tmp_path, case):
     bad(tmp_path, edit(BASE, old, new), line, field, *words)
 
 
+def test_h_written_as_one_plys_thickness_is_named_on_hs_line(tmp_path):
+    """h = one ply's 0.1875 mm of a 16-ply plate: the mass then gives 26667 kg/m^3, refused
+    as 'check the units of mass, a, b, h and the ply thicknesses' on the mass's line; it is
+    16 times a carbon ply's 1667 kg/m^3, and the message now says h looks like a ply's."""
+    text = edit(edit(BASE, 'layup: "[0/90]s"', 'layup: "[0/90]4s"'), "h: 3 mm", "h: 0.1875 mm")
+    bad(tmp_path, text, L_H, "geometry.h",
+        "h = 0.1875 mm looks like one ply's thickness: h is the whole laminate's (16 plies of "
+        "0.1875 mm are 3 mm; with this h the mass gives 'CFRP' a density of 2.667e+04 kg/m^3)")
+    # a mass 1000 times too large is no ply thickness: the message of the mass as before
+    bad(tmp_path, edit(BASE, "mass: 0.3 kg", "mass: 300 kg"), L_MASS, "mass",
+        "check the units of mass, a, b, h and the ply thicknesses")
+
+
 PLY_LIST = 'plies:\n  - {angle: 0, thickness: 1.5 mm}\n  - {angle: 90, thickness: 1.5 mm}'
 
 
