@@ -1036,7 +1036,9 @@ def _read_measured(r: _Reader, y: _Y) -> Measured:
                          "or 'frf_file' (an FRF file to fit)")
     items = r.sequence(m["frequencies"], "a list of frequencies in Hz (null where not detected)")
     if not items:
-        raise r.error(m["frequencies"], "the list of frequencies is empty")
+        raise r.error(m["frequencies"], "the list of frequencies is empty: give the measured "
+                      "frequencies in Hz, or leave out measured: to compute the model alone "
+                      "(laminid modes), before the plate is measured")
     freq = np.full(len(items), np.nan)
     previous = None
     for k, item in enumerate(items):

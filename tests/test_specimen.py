@@ -728,6 +728,11 @@ BAD_CASES = {
     "mass in a material": ("    nu12: 0.35", "    nu12: 0.35\n    mass: 0.3 kg", L_NU12 + 1,
                            "materials.CFRP.mass", "unknown key 'mass': it belongs to the plate, "
                            "at the top level of the file"),
+    # 'frequencies: []' before the plate is measured: modes computes without measured:
+    "empty frequencies": ("frequencies: [100, 200, 300]", "frequencies: []", L_FREQ,
+                          "measured.frequencies", "the list of frequencies is empty: give the "
+                          "measured frequencies in Hz, or leave out measured: to compute the "
+                          "model alone (laminid modes)"),
     "frequencies at the top level": ("measured:\n  frequencies:", "frequencies:", L_FREQ - 1,
                                      "frequencies", "unknown key 'frequencies': it belongs "
                                      "under measured:"),
