@@ -767,6 +767,16 @@ def run_optimizer(prob, progress=None):
 SORTED_GAIN = 1e-9
 
 
+def nlopt_failures(nlopt) -> tuple:
+    """The exceptions of an nlopt run that failed (besides RoundoffLimited and ForcedStop):
+    RuntimeError and ValueError up to nlopt 2.7; since (2.11 here) its own ``nlopt.exception``
+    classes, ``nlopt.runtime_error`` for NLOPT_FAILURE, which subclass neither: such a run
+    went past ``except RuntimeError`` as a traceback (the emulator's plate, -j 1), and through
+    a worker process as "cannot pickle 'SwigPyObject'"."""
+    extra = getattr(nlopt, "exception", None)
+    return (RuntimeError, ValueError) + ((extra,) if isinstance(extra, type) else ())
+
+
 def objective_change(before: float, after: float) -> str:
     """``'0.205571 -> 0.205569'``: two objectives with as many significant digits (6 to 12)
     as tell them apart, where 6 wrote a fit kept for being better as '0.205571 -> 0.205571'
@@ -1076,7 +1086,7 @@ def _optimize_from(prob, ev0, progress=None, radius=None, ftol_rel=None, xtol=No
                   if converged else "not converged: stopped by round-off errors")
     except LaminidError:
         raise
-    except (RuntimeError, ValueError) as exc:
+    except nlopt_failures(nlopt) as exc:
         x_best = _best_x(prob, first)
         converged = False
         status = f"not converged: optimiser failure ({exc})"

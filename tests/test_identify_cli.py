@@ -595,3 +595,30 @@ def test_json_gives_the_unit_of_the_relative_widths_and_thresholds(tmp_path):
     assert units["weak"].startswith("1 (fraction of the value")
     assert units["max_rel_interval"].startswith("1 (fraction of the value")
     assert units["information_from_prior"] == "1 (fraction of what is known of the constant)"
+
+
+def test_an_nlopt_failure_is_a_run_that_did_not_converge_not_a_traceback(monkeypatch):
+    """nlopt 2.11 raises its own nlopt.runtime_error (no RuntimeError) for NLOPT_FAILURE:
+    identify's 'except (RuntimeError, ValueError)' let it through as a traceback. It is the
+    optimiser's failure: status not_converged, the reason in optimizer_status, exit code 1."""
+    import nlopt
+
+    if not hasattr(nlopt, "runtime_error"):
+        pytest.skip("this nlopt raises RuntimeError itself")
+    assert not issubclass(nlopt.runtime_error, RuntimeError)      # what let it through
+
+    def fail(self, *args):
+        raise nlopt.runtime_error("nlopt failure")
+
+    monkeypatch.setattr(nlopt.opt, "optimize", fail)
+    r = run("identify", "specimens/example1/S1.1.yaml", "--mesh", "4x4", "--json",
+            "--no-output")
+    assert r.exit_code == 1, r.output
+    assert r.exception is None or isinstance(r.exception, SystemExit), r.exception
+    d = json.loads(r.stdout)
+    assert d["optimizer_status"] == "not converged: optimiser failure (nlopt failure)"
+    assert d["status"] == "check" and "not_converged" in [x["code"] for x in d["reasons"]]
+    from laminid_cli.identify import nlopt_failures
+
+    assert issubclass(nlopt.runtime_error, nlopt_failures(nlopt))
+    assert RuntimeError in nlopt_failures(nlopt)
