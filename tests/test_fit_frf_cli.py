@@ -533,6 +533,10 @@ def test_json_states_the_unit_of_the_modal_constants_and_which_spread_is_which(h
     assert out["units"] == "Pa/N"          # frf_unit's old name, kept for 0.2.x
     assert out["mode_units"]["modal_constants"] == "(Pa/N)*rad/s"
     assert out["mode_units"]["sigma_hz"] == out["mode_units"]["freq_std_hz"] == "Hz"
+    # snr (895 for the emulator's mode 1) was '1': a signal-to-noise ratio reads as dB
+    assert out["mode_units"]["snr"] == ("1 (linear, not dB: the mode's peak contribution over "
+                                        "the RMS of the fit's residual around it)")
+    assert all(m["snr"] > 5 for m in out["modes"])           # rfp's min_snr, linear
     counts = {"mode", "orders_stable", "sigma_dominant"}
     for m in out["modes"]:
         assert set(m) - counts == set(out["mode_units"])
