@@ -767,6 +767,28 @@ def run_optimizer(prob, progress=None):
 SORTED_GAIN = 1e-9
 
 
+def nlopt_failures(nlopt) -> tuple:
+    """The exceptions of an nlopt run that failed (besides RoundoffLimited and ForcedStop):
+    RuntimeError and ValueError up to nlopt 2.7; since (2.11 here) its own ``nlopt.exception``
+    classes, ``nlopt.runtime_error`` for NLOPT_FAILURE, which subclass neither: such a run
+    went past ``except RuntimeError`` as a traceback (the emulator's plate, -j 1), and through
+    a worker process as "cannot pickle 'SwigPyObject'"."""
+    extra = getattr(nlopt, "exception", None)
+    return (RuntimeError, ValueError) + ((extra,) if isinstance(extra, type) else ())
+
+
+def objective_change(before: float, after: float) -> str:
+    """``'0.205571 -> 0.205569'``: two objectives with as many significant digits (6 to 12)
+    as tell them apart, where 6 wrote a fit kept for being better as '0.205571 -> 0.205571'
+    (SORTED_GAIN is 1e-9 relative); the relative change after them where 12 digits do not
+    tell them apart."""
+    for digits in range(6, 13):
+        a, b = f"{before:.{digits}g}", f"{after:.{digits}g}"
+        if a != b:
+            return f"{a} -> {b}"
+    return f"{a} -> {b}, {(after - before) / before:+.1e} relative" if before else f"{a} -> {b}"
+
+
 def _sorted_from_start(prob, x0, ev, converged, status, progress=None):
     """A second opinion for a tracked pairing that needed re-anchoring: the paper's plain
     sorted pairing, from the same start. Returns the better of the two answers.
@@ -796,8 +818,8 @@ def _sorted_from_start(prob, x0, ev, converged, status, progress=None):
     if ev_s.objective < ev.objective * (1 - SORTED_GAIN):
         prob.log.swaps.append(
             f"evaluation {prob.n_eval}: the plain sorted pairing from the start fits better than "
-            f"the tracked one (objective {ev.objective:.6g} -> {ev_s.objective:.6g}); its "
-            "answer is kept")
+            f"the tracked one (objective {objective_change(ev.objective, ev_s.objective)}); "
+            "its answer is kept")
         return ev_s, converged_s, status_s
     prob.restore_run_state(saved)
     prob.adopt(ev)
@@ -1064,7 +1086,7 @@ def _optimize_from(prob, ev0, progress=None, radius=None, ftol_rel=None, xtol=No
                   if converged else "not converged: stopped by round-off errors")
     except LaminidError:
         raise
-    except (RuntimeError, ValueError) as exc:
+    except nlopt_failures(nlopt) as exc:
         x_best = _best_x(prob, first)
         converged = False
         status = f"not converged: optimiser failure ({exc})"

@@ -98,6 +98,23 @@ _TOP_KEYS = ("name", "description", "geometry", "mass", "materials", "layup", "p
 _MATERIAL_KEYS = CONSTANT_NAMES + ("density", "density_ratio", "fixed", "prior")
 #: an isotropic material's keys instead of the six constants (G optional: E / (2 (1 + nu)))
 _ISOTROPIC_KEYS = ("E", "nu", "G") + _MATERIAL_KEYS[len(CONSTANT_NAMES):]
+
+#: keys a user puts in the wrong block, and where they belong (said by the "unknown key"
+#: message: a top-level ``density:`` was answered with the top level's valid keys alone)
+_MATERIAL_PLACE = "to a ply material, under materials.<material name> (materials: {CF: {..., %s: ...}})"
+_TOP_ELSEWHERE = {
+    **{k: _MATERIAL_PLACE % k for k in _MATERIAL_KEYS + ("E", "nu", "G")},
+    "density": (_MATERIAL_PLACE % "density") + ", or give the plate's mass here (mass: "
+               "0.3225 kg), from which the density is m/(a b h)",
+    **{k: f"under measured: (measured: {{{k}: [...]}})"
+       for k in ("frequencies", "weights", "sigma", "damping", "damping_sigma", "frf_file")},
+    **{k: f"under geometry: (geometry: {{a: ..., b: ..., h: ...}})" for k in ("a", "b", "h")},
+}
+_MATERIAL_ELSEWHERE = {
+    "mass": "to the plate, at the top level of the file (mass: 0.3225 kg), not to a material",
+    **{k: "to the plate, under geometry: (geometry: {a: ..., b: ..., h: ...})"
+       for k in ("a", "b", "h", "thickness")},
+}
 _MODULI = ("E1", "E2", "G12", "G13", "G23")
 
 
@@ -421,14 +438,20 @@ class _Reader:
         return self.where(y, field_name).error(message)
 
     def mapping(self, y: _Y, required=(), optional=(), what: str = "a mapping",
-                any_key: bool = False) -> dict:
+                any_key: bool = False, elsewhere: dict | None = None) -> dict:
+        """``elsewhere``: keys that belong to another block of the file, with where they go
+        (a plate's ``density:`` at the top level: a material's key), said instead of a guess
+        among this block's keys."""
         if not isinstance(y.value, dict):
             raise self.error(y, f"expected {what} (key: value lines), got {_describe(y.value)}")
         valid = list(required) + list(optional)
         for key, child in y.value.items():
             if not any_key and key not in valid:
-                guess = _closest(key, valid)
+                place = (elsewhere or {}).get(key)
+                guess = None if place else _closest(key, valid)
                 hint = f"; did you mean '{guess}'?" if guess else ""
+                if place:
+                    hint = f": it belongs {place}"
                 raise self.error(child, f"unknown key '{key}'{hint} (valid keys: "
                                         f"{', '.join(valid)})")
         for key in required:
@@ -532,6 +555,13 @@ class _LayupParser:
             plies = self.sequence()
         self.skip_space()
         if self.i < len(self.code):
+            # '[0/90]s2', '[0/90]S_2': the count after the s, where the code reads it before
+            after_s = re.fullmatch(r"(\[.*\])\s*([sS])\s*_?(\d+)\s*", self.code.strip())
+            if after_s is not None:
+                body, s, n = after_s.groups()
+                self.fail(f"a repeat count after the s is not read: write it before the s, "
+                          f"{body}{n}{s} (the plies {n} times, then mirrored), or repeat the "
+                          f"mirrored group, [({body[1:-1]}){s}]{n}")
             self.fail("unexpected text after the end of the code")
         return plies
 
@@ -699,7 +729,8 @@ def _isotropic_values(r: _Reader, name: str, y: _Y) -> dict:
                                          f"{', '.join(CONSTANT_NAMES)}",
                       _join(y.field, orthotropic[0]))
     m = r.mapping(y, required=_ISOTROPIC_KEYS[:2], optional=_ISOTROPIC_KEYS[2:],
-                  what=f"a mapping of the constants of material '{name}'")
+                  what=f"a mapping of the constants of material '{name}'",
+                  elsewhere=_MATERIAL_ELSEWHERE)
     E = r.quantity(m["E"], "modulus")
     nu = r.quantity(m["nu"], "dimensionless")
     if not -1.0 < nu < 0.5:
@@ -732,7 +763,8 @@ def _read_material(r: _Reader, name: str, y: _Y) -> Material:
         m = y.value
     else:
         m = r.mapping(y, required=CONSTANT_NAMES, optional=_MATERIAL_KEYS[len(CONSTANT_NAMES):],
-                      what=f"a mapping of the constants of material '{name}'")
+                      what=f"a mapping of the constants of material '{name}'",
+                      elsewhere=_MATERIAL_ELSEWHERE)
         values = {k: r.quantity(m[k], "modulus") for k in _MODULI}
         values["nu12"] = r.quantity(m["nu12"], "dimensionless")
     constants = ElasticConstants(**values)
@@ -949,17 +981,32 @@ def _resolve_densities(r: _Reader, top: dict, root: _Y, a: float, b: float, h: f
     return {n: relative[n] * factor for n in materials}
 
 
+#: kg/m^3: the densities of fibre-reinforced plies (carbon/epoxy ~1550-1600, glass/epoxy
+#: ~1900-2100, aramid ~1350) with room for the odd resin or core
+PLY_DENSITY = (1000.0, 2600.0)
+
+
 def _check_derived_densities(r: _Reader, top: dict, root: _Y, densities: dict,
-                             materials: dict[str, Material]) -> None:
+                             materials: dict[str, Material], h: float | None = None,
+                             n_plies: int = 0) -> None:
     """A density computed from the mass (not written in the file, where the unit check has
     seen it already) must be plausible too (units.PLAUSIBLE): a mass or a dimension in the
-    wrong unit shows there."""
+    wrong unit shows there. One n_plies times too high, a fibre ply's (PLY_DENSITY) once
+    divided by them, is h written as one ply's thickness: said so, on h's line."""
     from laminid_cli.units import PLAUSIBLE
 
     low, high = PLAUSIBLE["density"]
     for name, rho in densities.items():
         if low <= rho <= high or materials[name].density == rho:
             continue
+        if (h is not None and n_plies > 1 and rho > high
+                and PLY_DENSITY[0] <= rho / n_plies <= PLY_DENSITY[1]):
+            g = top["geometry"].value
+            node = g["h"] if isinstance(g, dict) and "h" in g else top["geometry"]
+            raise r.error(node, f"h = {h * 1e3:.4g} mm looks like one ply's thickness: h is the "
+                                f"whole laminate's ({n_plies} plies of {h * 1e3:.4g} mm are "
+                                f"{n_plies * h * 1e3:.4g} mm; with this h the mass gives "
+                                f"'{name}' a density of {rho:.4g} kg/m^3)", "geometry.h")
         node = top.get("mass", root)
         raise r.error(node, f"the mass gives material '{name}' a density of {rho:.4g} kg/m^3, "
                             f"not a plausible one ({low:g} to {high:g} kg/m^3): check the units "
@@ -989,7 +1036,9 @@ def _read_measured(r: _Reader, y: _Y) -> Measured:
                          "or 'frf_file' (an FRF file to fit)")
     items = r.sequence(m["frequencies"], "a list of frequencies in Hz (null where not detected)")
     if not items:
-        raise r.error(m["frequencies"], "the list of frequencies is empty")
+        raise r.error(m["frequencies"], "the list of frequencies is empty: give the measured "
+                      "frequencies in Hz, or leave out measured: to compute the model alone "
+                      "(laminid modes), before the plate is measured")
     freq = np.full(len(items), np.nan)
     previous = None
     for k, item in enumerate(items):
@@ -1256,7 +1305,7 @@ def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
     root = _compose(text, path)
     r = _Reader(path)
     top = r.mapping(root, required=("geometry", "materials"), optional=[
-        k for k in _TOP_KEYS if k not in ("geometry", "materials")],
+        k for k in _TOP_KEYS if k not in ("geometry", "materials")], elsewhere=_TOP_ELSEWHERE,
         what="a mapping with name, geometry, materials, layup, measured, ... at the top level")
 
     name = r.string(top["name"]) if "name" in top else Path(path).stem
@@ -1285,7 +1334,7 @@ def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
 
     plies = _read_plies(r, top, root, h, materials)
     densities = _resolve_densities(r, top, root, a, b, h, mass, materials, plies)
-    _check_derived_densities(r, top, root, densities, materials)
+    _check_derived_densities(r, top, root, densities, materials, h=h, n_plies=len(plies))
     measured = _read_measured(r, top["measured"]) if "measured" in top else None
     reference = (_read_reference(r, top["reference"], materials) if "reference" in top else
                  {"source": "", "materials": {}, "global": {}})

@@ -221,6 +221,16 @@ def parse_quantity(value, kind: str, *, where: Where | None = None,
                 raise where.error(f"unit {unit!r} in {_show(value)} is ambiguous (its case "
                                   f"decides the prefix); {expected}")
             comma = re.match(r",([0-9]+)((?:\s*[^,0-9\s].*)?)\Z", unit)
+            if comma is not None and "." in match.group(1):
+                # '1.250,3': a point and a comma; the comma as a point gives '1.250.3', no
+                # number. Where the point groups thousands (three digits after it, as a
+                # European spreadsheet writes 1.250,3) that is 1250.3; else it cannot be told
+                grouped = re.fullmatch(r"([+-]?[0-9]{1,3})\.([0-9]{3})", match.group(1))
+                hint = (f" ({grouped.group(1)}{grouped.group(2)}.{comma.group(1)}"
+                        f"{comma.group(2)} if the point groups thousands)" if grouped else "")
+                raise where.error(f"{_show(value)} has both a point and a comma; write the "
+                                  f"number with one decimal point and no thousands separator"
+                                  f"{hint}")
             if comma is not None:
                 point = f"{match.group(1)}.{comma.group(1)}{comma.group(2)}"
                 raise where.error(f"{_show(value)} has a decimal comma; write a decimal point, "
@@ -418,6 +428,14 @@ JSON_UNITS: dict[str, str] = {
         "profile_bound", "profile_far", "mean", "inner_lower", "inner_upper", "linearized_std",
         "shift")},
     "rel_half_width": "1 (fraction of the value)", "sigma_rel": "1 (fraction of the frequency)",
+    # the Monte Carlo's and the verdicts' relative widths, fractions as rel_half_width (0.0113
+    # is +-1.13 %), not percent: they had no unit and sit beside *_percent fields
+    "monte_carlo_rel_half_width": "1 (fraction of the value)",
+    "monte_carlo_rel_half_width_lower": "1 (fraction of the value)",
+    "well_determined": "1 (fraction of the value: rel_half_width below it)",
+    "weak": "1 (fraction of the value: rel_half_width below it)",
+    "max_rel_interval": "1 (fraction of the value: rel_half_width above it is flagged)",
+    "information_from_prior": "1 (fraction of what is known of the constant)",
     "covariance": "product of the units of its row's and column's labels (Pa^2, Pa, 1)",
     "correlation": "1", "dlnf_dlnP": "1",
 }

@@ -1029,3 +1029,42 @@ def test_fit_frf_of_noisy_or_overloaded_points_says_so(tmp_path):
         assert acquire(good, tmp_path / "good.h5", "--no-prompt", points=2).exit_code == 0
     assert json.loads(run(["fit-frf", str(tmp_path / "good.h5"), "--json"]).output)["notes"] \
         == []
+
+
+def test_sigterm_stops_the_session_as_ctrl_c_does_with_the_resume_command(tmp_path, hp):
+    """`kill PID` (SIGTERM: `timeout`, a job scheduler) of an acquire killed the process at
+    once: exit 143 by the signal, nothing on stderr, an empty stdout under --json, no resume
+    command, where Ctrl-C says all three. Now it stops the session as Ctrl-C does: the points
+    finished before it kept, the message and the --json summary with the resume command,
+    exit 143; and --resume completes the file."""
+    import signal
+    import subprocess
+    import sys
+
+    out = tmp_path / "k.frf.h5"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "laminid_cli", "acquire", "--analyser", hp.resource, *FAST,
+         "--points", "40", "--no-prompt", "--json", "-o", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        seen = []
+        for line in proc.stderr:               # quality lines go to stderr under --json
+            seen.append(line)
+            if line.startswith("point 2:"):    # point 2 saved and assessed
+                proc.send_signal(signal.SIGTERM)
+                break
+        stdout, stderr = proc.communicate(timeout=20)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 143, "".join(seen) + stderr
+    assert "laminid: stopped: terminated (SIGTERM);" in stderr
+    d = json.loads(stdout)
+    n = read_frf_h5(out).n_points
+    assert 2 <= n < 40 and d["points_saved"] == n and d["complete"] is False
+    assert d["stopped"].startswith(f"terminated (SIGTERM); {n} point(s) saved in")
+    assert d["resume"].endswith("--resume")
+    r = run(["acquire", "--analyser", hp.resource, *FAST, "--points", str(n + 1),
+             "--no-prompt", "-o", str(out), "--resume"])
+    assert r.exit_code == 0, r.output
+    assert read_frf_h5(out).n_points == n + 1

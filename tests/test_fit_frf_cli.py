@@ -382,7 +382,11 @@ def test_into_leaves_every_other_line_byte_for_byte_and_no_stale_comment(tmp_pat
             "  frequencies", "  sigma", "  sigma_source", "  damping", "  damping_sigma"]
         assert "Table 1" not in "".join(written)
         assert written[0].endswith("]   # Hz, laminid fit-frf of plate.frf.h5")
-        assert all("#" not in line for line in written[1:])
+        # the damping line says what its numbers are: 0.008 beside the table's 'zeta (%)
+        # 0.800' read as a loss factor as well (identify takes zeta, eta = 2 zeta)
+        assert written[3].endswith("]   # viscous damping ratios zeta, fractions (0.008 = "
+                                   "0.8 %); loss factor eta = 2 zeta")
+        assert all("#" not in line for line in written[1:3] + written[4:])
         measured = yaml.safe_load(spec.read_text())["measured"]
         assert np.allclose(measured["frequencies"], case.freq_hz, rtol=1e-3)
         assert measured["sigma_source"].startswith("plate.frf.h5: ")
@@ -529,6 +533,10 @@ def test_json_states_the_unit_of_the_modal_constants_and_which_spread_is_which(h
     assert out["units"] == "Pa/N"          # frf_unit's old name, kept for 0.2.x
     assert out["mode_units"]["modal_constants"] == "(Pa/N)*rad/s"
     assert out["mode_units"]["sigma_hz"] == out["mode_units"]["freq_std_hz"] == "Hz"
+    # snr (895 for the emulator's mode 1) was '1': a signal-to-noise ratio reads as dB
+    assert out["mode_units"]["snr"] == ("1 (linear, not dB: the mode's peak contribution over "
+                                        "the RMS of the fit's residual around it)")
+    assert all(m["snr"] > 5 for m in out["modes"])           # rfp's min_snr, linear
     counts = {"mode", "orders_stable", "sigma_dominant"}
     for m in out["modes"]:
         assert set(m) - counts == set(out["mode_units"])

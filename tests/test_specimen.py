@@ -96,6 +96,10 @@ def test_parse_quantity(value, kind, expected):
     ("0,3", "dimensionless", ["'0,3' has a decimal comma", "write a decimal point, '0.3'"]),
     ("3,06 mm", "length", ["decimal comma", "'3.06 mm'"]),
     ("1,2,3", "length", ["unknown unit ',2,3'"]),
+    # a point and a comma: the comma made a point gave '1.250.3', no number
+    ("1.250,3", "frequency", ["'1.250,3' has both a point and a comma", "one decimal point",
+                              "(1250.3 if the point groups thousands)"]),
+    ("12.5,3 mm", "length", ["'12.5,3 mm' has both a point and a comma"]),
 ])
 def test_parse_quantity_errors_list_accepted_units(value, kind, words):
     with pytest.raises(SpecimenError) as info:
@@ -206,6 +210,11 @@ def test_material_tags_in_codes():
     ("", 1, ["empty"]),
     ("[0:]", 4, ["material name after ':'"]),
     ("[0/1.571rad]", 9, ["degrees, not radians", "1.571 rad = 90.01 deg"]),
+    # the repeat count after the s ('unexpected text ... found 's'' did not say what was wrong)
+    ("[0/90]s2", 7, ["a repeat count after the s is not read: write it before the s, "
+                     "[0/90]2s (the plies 2 times, then mirrored), or repeat the mirrored "
+                     "group, [(0/90)s]2"]),
+    ("[45_3/0_3]S_3", 12, ["write it before the s, [45_3/0_3]3S", "[(45_3/0_3)S]3"]),
 ])
 def test_bad_stacking_codes_say_where(code, position, words):
     with pytest.raises(LayupSyntaxError) as info:
@@ -214,6 +223,12 @@ def test_bad_stacking_codes_say_where(code, position, words):
     assert f"at character {position}" in msg
     for word in words:
         assert word in msg
+
+
+def test_the_codes_offered_for_a_count_after_the_s_read():
+    """Both codes the message offers for '[0/90]s2' are stacking codes: 8 plies each."""
+    assert [a for a, _ in expand_layup("[0/90]2s")] == [0, 90, 0, 90, 90, 0, 90, 0]
+    assert [a for a, _ in expand_layup("[(0/90)s]2")] == [0, 90, 90, 0, 0, 90, 90, 0]
 
 
 # ============================================================================= paper specimens
@@ -705,6 +720,22 @@ BAD_CASES = {
                          "unknown key 'geomtry'", "did you mean 'geometry'"),
     "unknown top key": ("name: T", "colour: red", 1, "colour", "unknown key 'colour'",
                         "valid keys: geometry"),
+    # a key written in the wrong block: where it belongs, not only this block's valid keys
+    # (a top-level density was answered with "valid keys: geometry, materials, ..." alone)
+    "density at the top level": ("mass: 0.3 kg", "density: 1600 kg/m^3", L_MASS, "density",
+                                 "unknown key 'density': it belongs to a ply material, under "
+                                 "materials.<material name>", "or give the plate's mass here"),
+    "mass in a material": ("    nu12: 0.35", "    nu12: 0.35\n    mass: 0.3 kg", L_NU12 + 1,
+                           "materials.CFRP.mass", "unknown key 'mass': it belongs to the plate, "
+                           "at the top level of the file"),
+    # 'frequencies: []' before the plate is measured: modes computes without measured:
+    "empty frequencies": ("frequencies: [100, 200, 300]", "frequencies: []", L_FREQ,
+                          "measured.frequencies", "the list of frequencies is empty: give the "
+                          "measured frequencies in Hz, or leave out measured: to compute the "
+                          "model alone (laminid modes)"),
+    "frequencies at the top level": ("measured:\n  frequencies:", "frequencies:", L_FREQ - 1,
+                                     "frequencies", "unknown key 'frequencies': it belongs "
+                                     "under measured:"),
     "missing geometry key": ("  h: 3 mm\n", "", L_GEOMETRY, "geometry.h",
                              "missing required key 'h'"),
     "missing materials": ("materials:", "materialz:", L_CFRP - 1, "materialz",
@@ -816,6 +847,19 @@ BAD_CASES = {
 def test_bad_input_is_reported_with_file_field_and_line(tmp_path, case):
     old, new, line, field, *words = BAD_CASES[case]
     bad(tmp_path, edit(BASE, old, new), line, field, *words)
+
+
+def test_h_written_as_one_plys_thickness_is_named_on_hs_line(tmp_path):
+    """h = one ply's 0.1875 mm of a 16-ply plate: the mass then gives 26667 kg/m^3, refused
+    as 'check the units of mass, a, b, h and the ply thicknesses' on the mass's line; it is
+    16 times a carbon ply's 1667 kg/m^3, and the message now says h looks like a ply's."""
+    text = edit(edit(BASE, 'layup: "[0/90]s"', 'layup: "[0/90]4s"'), "h: 3 mm", "h: 0.1875 mm")
+    bad(tmp_path, text, L_H, "geometry.h",
+        "h = 0.1875 mm looks like one ply's thickness: h is the whole laminate's (16 plies of "
+        "0.1875 mm are 3 mm; with this h the mass gives 'CFRP' a density of 2.667e+04 kg/m^3)")
+    # a mass 1000 times too large is no ply thickness: the message of the mass as before
+    bad(tmp_path, edit(BASE, "mass: 0.3 kg", "mass: 300 kg"), L_MASS, "mass",
+        "check the units of mass, a, b, h and the ply thicknesses")
 
 
 PLY_LIST = 'plies:\n  - {angle: 0, thickness: 1.5 mm}\n  - {angle: 90, thickness: 1.5 mm}'

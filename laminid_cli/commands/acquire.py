@@ -9,6 +9,8 @@ command so ``laminid --help`` stays fast.
 
 from __future__ import annotations
 
+import contextlib
+
 import math
 import shlex
 import sys
@@ -255,6 +257,31 @@ def _resume_command(params: dict, output: Path) -> str:
     return shlex.join(args)
 
 
+@contextlib.contextmanager
+def _sigterm_stops_the_session():
+    """SIGTERM (``kill PID``, ``timeout``, a scheduler) ends the session as Ctrl-C does: the
+    analyser stopped, the finished points kept, the message and --json with the resume
+    command (exit 143). Without it the process died by the signal, saying nothing. Only in
+    the main thread, where Python runs signal handlers."""
+    import signal
+    import threading
+
+    from laminid_cli.instrument.session import Terminated
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def on_sigterm(signum, frame):
+        raise Terminated
+
+    previous = signal.signal(signal.SIGTERM, on_sigterm)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 @click.command(short_help="Acquire impact-test FRFs from a dynamic signal analyser (VISA).")
 @click.option("--analyser", "analyser", required=True, metavar="RESOURCE",
               help="VISA resource: GPIB0::5, GPIB0::5::INSTR, TCPIP::host::5025::SOCKET, ...")
@@ -326,7 +353,8 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
     Exit status: 0 when every point is saved (also for --resume of a file that already has
     them all: said so, the analyser not opened, the file unchanged); 3 when the session ended
     with points missing (quit or skipped; the file is valid, continue with --resume); 1 on an
-    analyser fault (finished points kept); 130 on Ctrl-C; 2 for bad input (options, the
+    analyser fault (finished points kept); 130 on Ctrl-C, 143 on SIGTERM (kill; both keep
+    the finished points and print the --resume command); 2 for bad input (options, the
     output file, no analyser answering at --analyser: nothing measured).
 
     \b
@@ -444,7 +472,8 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
                 "stopped": stopped})
 
         try:
-            result = run_session(dsa, writer, settings, options, ui)
+            with _sigterm_stops_the_session():
+                result = run_session(dsa, writer, settings, options, ui)
         except LaminidError as exc:
             if as_json and getattr(exc, "result", None) is not None:
                 summary(exc.result, stopped=str(exc))

@@ -23,6 +23,12 @@ def _parse_bands(ctx, param, values):
     return bands or None
 
 
+#: mode_units' entry for snr: what it is a ratio of, and that it is linear (a signal-to-noise
+#: ratio is read in dB where none is said)
+SNR_UNIT = ("1 (linear, not dB: the mode's peak contribution over the RMS of the fit's "
+            "residual around it)")
+
+
 @click.command("fit-frf")
 @click.argument("frf_file", type=InputFile())
 @click.option("--band", "bands", multiple=True, callback=_parse_bands, metavar="LO:HI",
@@ -209,7 +215,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
                 "freq_hz": "Hz", "sigma_hz": "Hz", "freq_std_hz": "Hz", "sigma_terms_hz": "Hz",
                 "damping_ratio": "1", "damping_sigma": "1", "damping_ratio_fitted": "1",
                 "damping_window_removed": "1", "damping_std": "1", "band_hz": "Hz",
-                "snr": "1", "modal_constants": residue_unit},
+                # a linear ratio (895, not dB), which "1" alone did not say
+                "snr": SNR_UNIT, "modal_constants": residue_unit},
             "bands_hz": [list(b.band_hz) for b in fit.bands],
             "modes": [dict(m.as_dict(), mode=i + 1, sigma_hz=float(s),
                            sigma_terms_hz={t: float(msig.terms[t][i]) for t in msig.terms},

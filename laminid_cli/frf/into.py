@@ -339,6 +339,10 @@ def _sig(x, digits: int = 6) -> float | None:
     return float(f"{float(x):.{digits - 1}e}")
 
 
+#: the comment of a written ``measured.damping`` line: ratios, not percent, not loss factors
+DAMPING_COMMENT = "viscous damping ratios zeta, fractions (0.008 = 0.8 %); loss factor eta = 2 zeta"
+
+
 def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=None,
                    damping_sigma=None, backup: bool = True,
                    validate: bool = True, sigma_source: str | None = None,
@@ -465,8 +469,11 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
             if key in measured:
                 removals.append(key)
                 damping_notes.append(f"measured.{key} removed (it described an earlier fit)")
-    new_text = splice_measured(text, updates, removals,
-                               comments={"frequencies": comment} if comment else None,
+    comments = {"frequencies": comment} if comment else {}
+    if "damping" in updates:
+        # 0.008 beside a table's 'zeta (%) 0.800' reads as a loss factor as well: say which
+        comments["damping"] = DAMPING_COMMENT
+    new_text = splice_measured(text, updates, removals, comments=comments or None,
                                keep_comments=("weights",) if carried else (),
                                path=str(spec_path))
 

@@ -29,6 +29,19 @@ class AcquisitionInterrupted(LaminidError):
     label = "stopped"
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM during a session (``kill PID``, ``timeout``, a job scheduler): stopped as by
+    Ctrl-C, the finished points kept, and said so with the resume command (the process
+    died by the signal before, with no word, no --json and no resume command)."""
+
+
+class AcquisitionTerminated(AcquisitionInterrupted):
+    """The session was ended by SIGTERM; the finished points are in the file (exit 143,
+    128 + SIGTERM, what a shell reports for a command ended by it)."""
+
+    exit_code = 143
+
+
 class SessionIncomplete(LaminidError):
     """The session ended (quit or skipped points) with points missing: the file is valid and
     ``--resume`` completes it (exit 3, so a script never takes a partial file for a full one)."""
@@ -212,6 +225,11 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
                 replace = True
                 result.repeated += 1
             result.measured.append(label)
+    except Terminated:
+        _stop(analyser)
+        raise _stopped(AcquisitionTerminated(_saved_message("terminated (SIGTERM)", writer,
+                                                            options)),
+                       result, writer) from None
     except KeyboardInterrupt:
         _stop(analyser)
         raise _stopped(AcquisitionInterrupted(_saved_message("interrupted", writer, options)),
