@@ -1534,6 +1534,8 @@ class TrialModel(VariableSet):
         linearised standard errors); returns (best x, the model there (:meth:`modes`))."""
         import nlopt
 
+        from laminid_cli.identify import nlopt_failures
+
         # scaled by the Gauss-Newton Hessian at x0 (far from the optimum the valley turns)
         J = self.evaluate(basis, x0, lam_meas, w, Y_ref)[3]
         H = J.T @ J / self.tau2
@@ -1580,7 +1582,9 @@ class TrialModel(VariableSet):
                 raise _TrialFailed(f"optimiser stopped ({code})")
         except nlopt.RoundoffLimited:
             pass                             # at the round-off floor: the best point is kept
-        except (RuntimeError, ValueError) as exc:
+        except nlopt_failures(nlopt) as exc:
+            # (nlopt 2.11's own runtime_error subclasses no RuntimeError: it went past this as
+            # a traceback with -j 1, and from a worker as "cannot pickle 'SwigPyObject'")
             raise _TrialFailed(f"optimiser failure ({exc})") from None
         if best[1] is None:
             raise _TrialFailed("the trial model was not evaluated")
