@@ -1401,6 +1401,20 @@ def test_a_batch_logged_to_a_file_says_each_specimen_as_it_finishes(tmp_path):
                                      "identified 2/2: example2/S2.1: check"], r.stderr
 
 
+def test_the_count_line_says_the_processes_the_batch_starts(tmp_path):
+    """-j 2 with one specimen to identify said "1 to identify on 2 processes"; run_jobs starts
+    no more processes than specimens (the walkthrough)."""
+    specs = make_tree(tmp_path / "specs")
+    r = run("batch", specs, "--mesh", MESH, "--out", tmp_path / "out", "-j", "2")
+    assert r.exit_code == 0, r.output
+    assert r.stderr.splitlines()[0] == "2 specimens, 0 up to date, 2 to identify on 2 processes"
+    (specs / "example1" / "S1.4.yaml").write_text(
+        (specs / "example1" / "S1.4.yaml").read_text().replace("name: ", "name: edited ", 1))
+    r = run("batch", specs, "--mesh", MESH, "--out", tmp_path / "out", "-j", "2")
+    assert r.exit_code == 0, r.output
+    assert r.stderr.splitlines()[0] == "2 specimens, 1 up to date, 1 to identify on 1 process"
+
+
 def test_a_result_whose_specimen_now_fails_is_set_aside_out_of_the_result_pattern(tmp_path):
     """A specimen that once succeeded and now fails (its file edited into an error) left its
     old S2.1.result.h5 in --out beside the new summary: a script globbing *.result.h5 took it

@@ -164,11 +164,14 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     shown = not quiet()                    # -q: only errors on stderr
     if not as_json and shown:
         unit = "worker" if scheduler else "process"
-        unit = unit if n_jobs == 1 else unit + ("s" if scheduler else "es")
+        # (local processes: no more than the specimens to identify, as run_jobs starts them;
+        # '1 to identify on 2 processes' said otherwise)
+        used = n_jobs if scheduler else max(1, min(n_jobs, len(todo)))
+        unit = unit if used == 1 else unit + ("s" if scheduler else "es")
         # a running Dask scheduler has the workers it has (-j does not apply to it): say
         # where the jobs go, and that connecting may take its time (up to 20 s)
         where = (f" on the Dask scheduler {scheduler} (connecting)"
-                 if scheduler and scheduler != "local" else f" on {n_jobs} {unit}")
+                 if scheduler and scheduler != "local" else f" on {used} {unit}")
         click.echo(f"{len(jobs)} specimen{'' if len(jobs) == 1 else 's'}, "
                    f"{len(jobs) - len(todo)} up to date, {len(todo)} to identify"
                    + (where if todo else ""), err=True)
