@@ -246,7 +246,7 @@ def test_bad_input_is_refused_with_a_clear_message(tmp_path):
     for bad in ("0", "-0.01"):
         r = run("identify", S1[0], "--sigma-rel", bad, "--no-output")
         assert r.exit_code == 2 and (f"Invalid value for '--sigma-rel': {float(bad)} is not in "
-                                     "the range 0<x<0.5.") in r.output
+                                     "the range 1e-09<=x<0.5.") in r.output
     r = run("identify", S1[0], "--max-rel-interval", "0", "--no-output")
     assert r.exit_code == 2 and ("Invalid value for '--max-rel-interval': 0.0 is not in the "
                                  "range 0<x<=0.3.") in r.output
