@@ -1801,6 +1801,8 @@ def history_page(r: ResultFile):
 
 #: the text of a mode the fit did not use, on the sensitivity page
 UNUSED_COLOR = "0.5"
+#: the header, hatching and key of a constant on a search limit, on the sensitivity page
+LIMIT_COLOR = "#b35900"
 
 
 def unused_modes(plate) -> dict[int, str]:
@@ -1819,9 +1821,14 @@ def unused_modes(plate) -> dict[int, str]:
 def sensitivity_page(r: ResultFile, plate):
     """Heat map of the normalised sensitivities d ln f_i / d ln P_j at the optimum."""
     S = plate.sensitivity
-    labels = list(plate.sensitivity_labels) or [f"P{j + 1}" for j in range(S.shape[1])]
-    if len(r.materials) == 1:
-        labels = [lab.rsplit(".", 1)[-1] for lab in labels]
+    full = list(plate.sensitivity_labels) or [f"P{j + 1}" for j in range(S.shape[1])]
+    labels = [lab.rsplit(".", 1)[-1] for lab in full] if len(r.materials) == 1 else list(full)
+    # a constant that stopped on a search limit is not identified: its column is the
+    # sensitivity at the limit value, said in its header and hatched (drawn as an identified
+    # one's, hybrid CM's glass G12, G13, G23 and E2 at their limits read as determined)
+    hits = bound_hits(r) if hasattr(r, "warnings") else set()
+    on_limit = [j for j, lab in enumerate(full) if lab in hits]
+    labels = [lab + ("\n(on limit)" if j in on_limit else "") for j, lab in enumerate(labels)]
     model = plate.frequencies.model
     fig = _figure()
     fig.suptitle(f"{plate.name}: normalised sensitivity ∂ ln fᵢ / ∂ ln Pⱼ at the optimum\n"
@@ -1844,6 +1851,13 @@ def sensitivity_page(r: ResultFile, plate):
     for i, t in enumerate(ax.get_yticklabels()):
         if i in unused:
             t.set_color(UNUSED_COLOR)
+    from matplotlib.patches import Rectangle
+
+    for j in on_limit:
+        ax.get_xticklabels()[j].set_color(LIMIT_COLOR)
+        ax.add_patch(Rectangle((j - 0.5, -0.5), 1, S.shape[0], facecolor="w", alpha=0.55,
+                               hatch="//", edgecolor=LIMIT_COLOR, lw=0,
+                               gid=f"on-limit-{full[j]}"))
     fs = 8 if S.size <= 150 else 6
     for i in range(S.shape[0]):
         if i in unused:
@@ -1862,6 +1876,14 @@ def sensitivity_page(r: ResultFile, plate):
     ax.set_ylabel("measured mode i (model frequency)")
     cb = fig.colorbar(im, ax=ax, shrink=0.8)
     cb.set_label("∂ ln fᵢ / ∂ ln Pⱼ")
+    if on_limit:
+        names = ", ".join(labels[j].split("\n")[0] for j in on_limit)
+        key = (f"hatched, \"(on limit)\": {names} stopped on a search limit, not "
+               "identified; its column is the sensitivity at that limit value, not a "
+               "determined constant's (see the intervals page)")
+        # (a figure label: the constrained layout keeps room for it under the axes' label)
+        fig.supxlabel("\n".join(textwrap.wrap(key, _wrap_width(fig, 8))), fontsize=8,
+                      color=LIMIT_COLOR).set_gid("on-limit-key")
     return fig
 
 

@@ -1132,6 +1132,46 @@ def test_sensitivity_rows_of_modes_the_fit_did_not_use_say_so():
     assert greyed == {(1, "0.300"), (1, "0.050"), (2, "0.200"), (2, "0.020")}
 
 
+def test_sensitivity_columns_of_constants_on_a_search_limit_are_marked():
+    """A constant that stopped on a search limit (``at_bound`` of its interval) is not
+    identified: its sensitivity column says "(on limit)" in its header, is hatched, and a key
+    under the map names it (hybrid CM's glass G12, G13, G23, E2 and carbon nu12 were drawn as
+    identified constants' columns)."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from laminid_cli.report import LIMIT_COLOR, sensitivity_page
+
+    S = np.array([[0.4, 0.0, 0.1], [0.3, 0.001, 0.05]])
+    fr = SimpleNamespace(model=np.array([100.0, 200.0]), measured=np.array([100.2, 199.0]),
+                         weight=np.array([1.0, 1.0]))
+    plate = SimpleNamespace(name="P", sensitivity=S, frequencies=fr, warnings=(),
+                            sensitivity_labels=("glass.E1", "glass.G12", "carbon.E1"))
+    ivs = [SimpleNamespace(label="glass.E1", at_bound=False),
+           SimpleNamespace(label="glass.G12", at_bound=True),
+           SimpleNamespace(label="carbon.E1", at_bound=False)]
+    r = SimpleNamespace(materials={"glass": {}, "carbon": {}}, warnings=(), plates=(plate,),
+                        uncertainty=SimpleNamespace(intervals=ivs))
+    fig = sensitivity_page(r, plate)
+    a = ax(fig, "sensitivity")
+    assert [t.get_text() for t in a.get_xticklabels()] == [
+        "glass.E1", "glass.G12\n(on limit)", "carbon.E1"]
+    assert [t.get_color() == LIMIT_COLOR for t in a.get_xticklabels()] == [False, True, False]
+    hatched = [p for p in a.patches if (p.get_gid() or "").startswith("on-limit")]
+    assert [p.get_gid() for p in hatched] == ["on-limit-glass.G12"]
+    assert hatched[0].get_hatch() and hatched[0].get_x() == 0.5 and hatched[0].get_width() == 1
+    key = next(t for t in fig.texts if t.get_gid() == "on-limit-key").get_text()
+    assert "glass.G12 stopped on a search limit" in key.replace("\n", " ")
+    # none on a limit: no mark, no key
+    r0 = SimpleNamespace(materials=r.materials, warnings=(), plates=(plate,),
+                         uncertainty=SimpleNamespace(intervals=ivs[:1]))
+    fig0 = sensitivity_page(r0, plate)
+    assert "(on limit)" not in " ".join(t.get_text() for t in
+                                        ax(fig0, "sensitivity").get_xticklabels())
+    assert not [t for t in fig0.texts if t.get_gid() == "on-limit-key"]
+
+
 def test_intervals_from_the_stated_sigma_say_so(s11):
     """S1.1 (8x8) fits within its stated noise (s2 ~ 0.5): its intervals are from the stated
     frequency sigma (normal quantile), which page 1 now says beside s² (it gave s² alone, as
