@@ -787,6 +787,20 @@ def monte_carlo_note(u) -> str | None:
     return head + "; no ranges in this file"
 
 
+def plate_chi2(plate) -> tuple[float | None, int]:
+    """(chi2, n) of one plate of a fit: n its fitted modes (measured, weight > 0), chi2 the
+    sum over them of ((f² − f_model²) / (2 f σ))², the uncertainty's eigenvalue residual over
+    its σ (/uncertainty/frequency_sigma; the weight cancels), so that the plates' add up to
+    the result's chi2 = s2 · dof (prior terms aside); chi2 None in files without σ."""
+    fr = plate.frequencies
+    ok = np.isfinite(fr.measured) & (np.asarray(fr.weight) > 0)
+    n = int(ok.sum())
+    if fr.sigma_hz is None or np.size(fr.sigma_hz) != np.size(fr.measured):
+        return None, n
+    f, fm, sd = fr.measured[ok], fr.model[ok], np.asarray(fr.sigma_hz, float)[ok]
+    return float(np.sum(((f**2 - fm**2) / (2 * f * sd)) ** 2)), n
+
+
 def summary_page(r: ResultFile, plate=None, what: str = ""):
     """Page 1: status, constants table, and (single plate, or ``plate`` given) the
     frequencies. A joint result without ``plate`` gets the RMS of each plate instead."""
@@ -819,14 +833,32 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
         right = gs[0, 1].subgridspec(2, 1, height_ratios=[table_fraction(len(r.plates)),
                                                            1.001 - table_fraction(len(r.plates))])
         ax = fig.add_subplot(right[0, 0])
-        head = ["plate", "RMS residual (%)", "modes measured", "mesh"]
+        # each plate's share of the misfit beside its RMS: which plate disagrees with the
+        # others (S1.1-S1.4's joint s² = 8.53 did not say; S1.3 is 191 of chi2 358)
+        shares = [plate_chi2(p) for p in r.plates]
+        head = ["plate", "RMS residual (%)", "chi2 (n)", "modes measured", "mesh"]
         rows = [[p.name, f"{p.frequencies.rms_residual_percent:.3f}",
+                 f"{c:.3g} ({n})" if c is not None else "–",
                  str(int(np.isfinite(p.frequencies.measured).sum())),
-                 f"{p.mesh[0]}x{p.mesh[1]}"] for p in r.plates]
-        _table(ax, head, rows, fontsize=8)
+                 f"{p.mesh[0]}x{p.mesh[1]}"] for p, (c, n) in zip(r.plates, shares)]
+        _table(ax, head, rows, fontsize=8, col_widths=[0.13, 0.25, 0.21, 0.24, 0.17])
         ax.set_gid("plates")
         ax.set_title(f"{len(r.plates)} plates fitted together (their pages follow)", fontsize=9,
                      loc="left")
+        if all(c is not None for c, _ in shares):
+            total = sum(c for c, _ in shares)
+            note = (f"chi2 (n): the plate's share of the fit's chi2 {total:.3g}, "
+                    "Σ\u00a0((f²\u00a0−\u00a0f_model²)\u00a0/\u00a0(2\u00a0f\u00a0σ))² over its n fitted modes (σ the intervals'); "
+                    "about n each when the plates agree, one far above its n disagrees with "
+                    "the others")
+            if r.uncertainty is not None and not np.isclose(total, r.uncertainty.s2
+                                                            * r.uncertainty.dof, rtol=1e-6):
+                note += (f"; the result's chi2 {r.uncertainty.s2 * r.uncertainty.dof:.3g} "
+                         "adds the prior terms")
+            ax_p = fig.add_subplot(right[1, 0])
+            ax_p.axis("off")
+            ax_p.text(0, 0.97, "\n".join(textwrap.wrap(note, 80)), fontsize=7.5, va="top",
+                      ha="left", transform=ax_p.transAxes, gid="plates-note")
     ax_n = fig.add_subplot(left[1, 0])
     ax_n.axis("off")
     notes = [t for t in (_laminate_text(plate) if plate is not None else "",) if t]

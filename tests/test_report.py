@@ -443,6 +443,34 @@ def test_joint_report_shared_constants_then_each_plate(joint, joint_pages, tmp_p
     # test_status_clear_of_the_titles_on_every_page[joint-worst])
 
 
+def test_joint_shared_page_gives_each_plates_chi2_summing_to_the_results(joint, joint_pages):
+    """The "plates fitted together" table gives each plate's chi2 and fitted modes, "chi2
+    (n)", so that a plate that disagrees with the others shows (the RMS alone did not: S1.1-S1.4
+    joint, s² = 8.53, S1.3 191 of chi2 358): the plates' chi2, from the file's
+    /uncertainty/frequency_sigma, add up to the result's stored chi2 within rtol 1e-9 (the
+    uncertainty's residuals, not a near form of them), and a note under the table says the
+    total and how to read it."""
+    from laminid_cli.report import plate_chi2
+
+    res = read_result(joint)
+    with h5py.File(joint, "r") as f:
+        stored = float(f["uncertainty"].attrs["chi2"])
+    shares = [plate_chi2(p) for p in res.plates]
+    fitted = [int((np.isfinite(p.frequencies.measured) & (p.frequencies.weight > 0)).sum())
+              for p in res.plates]
+    assert [n for _, n in shares] == fitted and all(n > 0 for n in fitted)
+    assert all(c is not None and c > 0 for c, _ in shares)
+    assert np.isclose(sum(c for c, _ in shares), stored, rtol=1e-9, atol=0)
+    assert np.isclose(stored, res.uncertainty.s2 * res.uncertainty.dof, rtol=1e-12)
+    shared = next(p.figure for p in joint_pages if p.name == "shared")
+    table = cells(ax(shared, "plates"))
+    col = table[0].index("chi2 (n)")
+    assert [row[col] for row in table[1:]] == [f"{c:.3g} ({n})" for c, n in shares]
+    note = next(t for a in shared.axes for t in a.texts if t.get_gid() == "plates-note")
+    text = note.get_text().replace("\n", " ")
+    assert f"chi2 {stored:.3g}" in text and "disagrees with the others" in text
+
+
 def _s21_modes(n_modes: int, n_points: int):
     """S2.1's first ``n_modes`` frequencies (6x6, initial constants) and modal constants of
     ``n_points`` points (seeded), to synthesise its FRFs; with the generator, for more draws."""
