@@ -356,21 +356,23 @@ def _check_alpha_floor(name: str, initial: ElasticConstants) -> None:
 
 
 def _check_alpha_ceiling(name: str, initial: ElasticConstants) -> None:
-    """Refuse initial shear moduli above the alphas' upper bounds (:meth:`AlphaParameters.bounds`:
-    alpha8 <= 8 and |alpha9| <= 8, i.e. G13 + G23 and |G13 - G23| <= 2 E1 f; alpha3, alpha4 >=
-    -20, i.e. G12 <= (21 + min(1 - 2 nu12, 1 + 6 nu12) E2/E1) E1 f / 4, f = :func:`alpha_floor`), naming the
-    modulus and E1: E1 and E2 written in MPa among shear moduli in GPa were refused as "outside
-    the feasible region of Eq. 22 (E2 <= E1, |nu12| < 0.95, positive moduli, ...)", none of
-    which they are."""
-    f = alpha_floor(initial)
-    E1 = initial.E1
-    checks = [("G13", initial.G13 + initial.G23, 2 * E1 * f,
+    """Refuse initial shear moduli above the alphas' limits (:meth:`AlphaParameters.bounds`,
+    in terms of the constants with ``s = E1 f / 8``, f = :func:`alpha_floor`: alpha8 <= hi8
+    and |alpha9| <= hi9 are G13 + G23 <= 2 s hi8 and |G13 - G23| <= 2 s hi9; alpha3 >= lo3
+    and alpha4 >= lo4 are G12 <= 2 s (1 - lo3 + (1 - 2 nu12) E2/E1) and 2 s (1 - lo4 + (1 +
+    6 nu12) E2/E1)), naming the modulus and E1: E1 and E2 written in MPa among shear moduli
+    in GPa were refused as "outside the feasible region of Eq. 22 (E2 <= E1, |nu12| < 0.95,
+    positive moduli, ...)", none of which they are."""
+    lo, hi = AlphaParameters(name, initial).bounds()
+    E1, nu, ratio = initial.E1, initial.nu12, initial.E2 / initial.E1
+    s = E1 * alpha_floor(initial) / 8
+    checks = [("G13", initial.G13 + initial.G23, 2 * s * hi[4],
                f"G13 + G23 = {(initial.G13 + initial.G23) / 1e9:.4g} GPa"),
               ("G13" if initial.G13 >= initial.G23 else "G23",
-               abs(initial.G13 - initial.G23), 2 * E1 * f,
+               abs(initial.G13 - initial.G23), 2 * s * hi[5],
                f"|G13 - G23| = {abs(initial.G13 - initial.G23) / 1e9:.4g} GPa"),
               ("G12", initial.G12,
-               (21 + min(1 - 2 * initial.nu12, 1 + 6 * initial.nu12) * initial.E2 / E1) * E1 * f / 4,
+               2 * s * min(1 - lo[2] + (1 - 2 * nu) * ratio, 1 - lo[3] + (1 + 6 * nu) * ratio),
                f"G12 = {initial.G12 / 1e9:.4g} GPa")]
     for k, value, limit, said in checks:
         if value > limit * (1 + 1e-9):
