@@ -737,12 +737,12 @@ def widening(u) -> float:
     """How many times wider the intervals of ``u`` are than the stated frequency sigma alone
     gives (normal quantile): sqrt(s2) times the Student t quantile over the normal one where
     the covariance was scaled by the residuals; NaN where the file does not say."""
-    from statistics import NormalDist
+    from laminid_cli.quantiles import norm_ppf
 
     if u.scale_used != "residuals" or not (np.isfinite(u.variance_factor)
                                             and np.isfinite(u.quantile)):
         return np.nan
-    z = NormalDist().inv_cdf(0.5 + u.confidence / 2)
+    z = norm_ppf(0.5 + u.confidence / 2)
     return float(np.sqrt(u.variance_factor) * u.quantile / z)
 
 
