@@ -226,14 +226,25 @@ def _say_complete(out: Path, old, points: int, as_json: bool) -> None:
                f"--resume: its {n} point{'s' if n != 1 else ''} would be lost); to add points "
                f"--resume --points {n + 1} or more", err=True)
     if as_json:
-        echo_json({
-            "file": str(out), "complete": True, "already_complete": True,
-            "points_requested": points, "points_saved": n, "measured": [], "skipped": [],
-            "repeated": 0, "quit": False, "frf_unit": old.units,
-            "units": old.units,      # frf_unit's old name, kept for 0.2.x (--json help)
-            "lines": int(freq.size), "f_start_hz": float(freq[0]),
-            "f_stop_hz": float(freq[-1]), "instrument": old.meta.get("instrument") or {},
-            "points": [], "resume": None, "stopped": None})
+        echo_json(_json_summary(out, points, old.units, freq, old.meta.get("instrument") or {},
+                                complete=True, already_complete=True, points_saved=n))
+
+
+def _json_summary(out: Path, points: int, units, freq, instrument, *, complete: bool,
+                  already_complete: bool = False, points_saved: int = 0, measured=(),
+                  skipped=(), repeated: int = 0, quit: bool = False, qualities=(),
+                  resume=None, stopped=None) -> dict:
+    """The --json document of a session (``qualities``: its points' as the ``points``
+    entries) or of a --resume that found every point saved (nothing measured): one key list
+    for both."""
+    return {
+        "file": str(out), "complete": complete, "already_complete": already_complete,
+        "points_requested": points, "points_saved": points_saved, "measured": list(measured),
+        "skipped": list(skipped), "repeated": repeated, "quit": quit, "frf_unit": units,
+        "units": units,            # frf_unit's old name, kept for 0.2.x (--json help)
+        "lines": int(freq.size), "f_start_hz": float(freq[0]), "f_stop_hz": float(freq[-1]),
+        "instrument": instrument, "points": list(qualities), "resume": resume,
+        "stopped": stopped}
 
 
 def _resume_command(params: dict, output: Path) -> str:
@@ -454,22 +465,17 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
 
             from laminid_cli.commands._common import echo_json
 
-            echo_json({
-                "file": str(out), "complete": result.complete, "already_complete": False,
-                "points_requested": points,
-                "points_saved": result.n_saved, "measured": result.measured,
-                "skipped": result.skipped, "repeated": result.repeated, "quit": result.quit,
-                "frf_unit": units,
-                "units": units,        # frf_unit's old name, kept for 0.2.x (--json help)
-                "lines": int(freq.size), "f_start_hz": float(freq[0]),
-                "f_stop_hz": float(freq[-1]), "instrument": identity,
+            echo_json(_json_summary(
+                out, points, units, freq, identity, complete=result.complete,
+                points_saved=result.n_saved, measured=result.measured,
+                skipped=result.skipped, repeated=result.repeated, quit=result.quit,
                 # an analyser that cannot tell its overloads: null, not a count of -1
-                "points": [asdict(q) | {"ok": q.ok} | (
+                qualities=[asdict(q) | {"ok": q.ok} | (
                     {"overloads": None, "overloaded_channels": None} if q.overloads < 0 else
                     {"overloaded_channels": list(q.overloaded_channels)})
                     for q in ui.qualities.values()],
-                "resume": None if result.complete or not out.exists() else hint,
-                "stopped": stopped})
+                resume=None if result.complete or not out.exists() else hint,
+                stopped=stopped))
 
         try:
             with _sigterm_stops_the_session():
