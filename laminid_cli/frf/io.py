@@ -524,9 +524,8 @@ def _csv_freq_factor(path, name: str) -> tuple[float, bool]:
     for any other name or none (:func:`_unstated_freq_warning` then judges the values).
     FrfError for a bracketed unit that is no frequency ("time [s]") and for a name that reads
     as an angular frequency without a unit ("omega":
-    :func:`~laminid_cli.frf.generic_h5.name_freq_factor`)."""
-    from laminid_cli.frf.generic_h5 import (FREQ_UNITS, freq_unit_factor, name_freq_factor,
-                                            name_freq_unit)
+    :func:`~laminid_cli.frf.generic_h5.name_freq_unit`)."""
+    from laminid_cli.frf.generic_h5 import FREQ_UNITS, freq_unit_factor, name_freq_unit
 
     bracketed = re.search(r"[\[(]\s*([^\])]*?)\s*[\])]", name)
     if bracketed:
@@ -538,7 +537,8 @@ def _csv_freq_factor(path, name: str) -> tuple[float, bool]:
         return factor, True
     where = (f"{path}: column 1 ({name!r}; give its unit in the header, '{name} [rad/s]' or "
              f"'{name} [Hz]')")
-    return name_freq_factor(name, where), name_freq_unit(name, where) is not None
+    unit = name_freq_unit(name, where)            # (name_freq_factor's own reading)
+    return (1.0 if unit is None else FREQ_UNITS[unit]), unit is not None
 
 
 #: a CSV frequency column whose header states no unit is read as Hz; when its largest value
