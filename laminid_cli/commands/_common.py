@@ -103,6 +103,16 @@ FRF_UNIT_NOTE = ("'frf_unit' is the FRF's engineering unit (\"Pa/N\"); 'units', 
                  "holds the same text in this release only (elsewhere 'units' maps each field "
                  "to its unit)")
 
+def echo_frf_warnings(fs) -> list[str]:
+    """The warnings the reader of the FRF set ``fs`` left in its ``meta`` (a frequency unit
+    not stated: laminid_cli.frf.io), each on stderr as ``warning: ...``; returned for --json's
+    ``warnings``."""
+    warnings = list(fs.meta.get("warnings") or ())
+    for warning in warnings:
+        click.echo(f"warning: {warning}", err=True)
+    return warnings
+
+
 frf_json_option = click.option(
     "--json", "as_json", is_flag=True,
     help="Print the results as JSON on stdout (SI units, frequencies in Hz) instead of tables; "

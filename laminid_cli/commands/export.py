@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import click
 
-from laminid_cli.commands._common import (OUTPUT_FILE, InputFile, check_output_path, echo_json,
-                                          force_option, frf_json_option, writable_target)
+from laminid_cli.commands._common import (OUTPUT_FILE, InputFile, check_output_path,
+                                          echo_frf_warnings, echo_json, force_option,
+                                          frf_json_option, writable_target)
 
 #: the suffixes of the Universal Files export writes (those the FRF reader takes for UFF)
 UFF_SUFFIXES = (".uff", ".unv")
@@ -117,9 +118,7 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
         from laminid_cli.frf.store import units_text
 
         fs = read_frf(input_file, fmt, freq_dataset=freq_dataset, frf_dataset=frf_dataset)
-        warnings = list(fs.meta.get("warnings") or ())   # a frequency unit not stated
-        for warning in warnings:
-            click.echo(f"warning: {warning}", err=True)
+        warnings = echo_frf_warnings(fs)                 # a frequency unit not stated
         write_frf_uff(out, fs, overwrite=force, binary=not ascii_)
         # as written: a Universal File is ASCII ("m/s²/N" is written "m/s^2/N")
         units = uff_units(fs.units, input_file)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import click
 
 from laminid_cli.commands._common import (OUTPUT_FILE, SIGMA_REL, InputFile, check_output_path,
-                                          echo_json, force_option, frf_json_option,
-                                          writable_target)
+                                          echo_frf_warnings, echo_json, force_option,
+                                          frf_json_option, writable_target)
 
 
 def _parse_bands(ctx, param, values):
@@ -142,9 +142,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         read_specimen(spec_path)
     fs = read_frf(frf_file, fmt, freq_dataset=freq_dataset, frf_dataset=frf_dataset)
     # the reader's doubts (a frequency column whose unit the file does not state), first
-    warnings = list(fs.meta.get("warnings") or ())
-    for warning in warnings:
-        click.echo(f"warning: {warning}", err=True)
+    warnings = echo_frf_warnings(fs)
     fit = rfp.find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes,
                          source=str(frf_file))
     tau = rfp.window_time_constant(fs)
