@@ -502,11 +502,6 @@ def damping_pages(d: dict, banner=None) -> list:
     return figs
 
 
-def damping_page(d: dict, banner=None):
-    """The (first) damping page of :func:`read_damping`'s ``d`` (:func:`damping_pages`)."""
-    return damping_pages(d, banner)[0]
-
-
 # ----------------------------------------------------------------------------------------------
 # batch summary: the loss factors across specimens
 

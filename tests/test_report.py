@@ -1926,21 +1926,21 @@ def test_a_mode_without_measured_damping_is_marked_on_the_damping_page(damped):
     """A mode whose damping the specimen gives as null (fit-frf: not above the exponential
     window's) had only its model square on the page, and the legend's 'measured 2 zeta' left
     the reader to guess why the dot was missing; it is marked x on the axis and keyed."""
-    from laminid_cli.report_damping import damping_page, read_damping
+    from laminid_cli.report_damping import damping_pages, read_damping
 
     d = dict(read_damping(read_result(damped)))
     meas = np.array(d["measured_loss_factor"], float)
     meas[[0, 4]] = np.nan
     d["measured_loss_factor"] = meas
     d["measured_sigma"] = np.where(np.isnan(meas), np.nan, d["measured_sigma"])
-    fig = damping_page(d)
+    fig = damping_pages(d)[0]
     a = ax(fig, "modal-loss-factors")
     x = next(ln for ln in a.get_lines() if ln.get_gid() == "not-measured")
     assert list(x.get_xdata()) == [1, 5] and list(x.get_ydata()) == [0, 0]
     dots = next(ln for ln in a.get_lines() if ln.get_gid() == "measured")
     assert 1 not in dots.get_xdata() and 5 not in dots.get_xdata()
     assert "no measured damping (null)" in [t.get_text() for t in a.get_legend().get_texts()]
-    fig = damping_page(dict(read_damping(read_result(damped))))        # all measured: no key
+    fig = damping_pages(dict(read_damping(read_result(damped))))[0]        # all measured: no key
     a = ax(fig, "modal-loss-factors")
     assert not any(ln.get_gid() == "not-measured" for ln in a.get_lines())
     assert "no measured damping (null)" not in [t.get_text()

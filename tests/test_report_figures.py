@@ -114,9 +114,9 @@ def test_damping_page_gives_the_results_note_on_the_loss_factors(notes):
     table, clear of it and of the table's title, inside the page."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-    from laminid_cli.report_damping import NOT_DETERMINED_ADVICE, damping_page
+    from laminid_cli.report_damping import NOT_DETERMINED_ADVICE, damping_pages
 
-    fig = damping_page(_damping_data(notes))
+    fig = damping_pages(_damping_data(notes))[0]
     renderer = FigureCanvasAgg(fig).get_renderer()
     fig.draw_without_rendering()
     a = ax(fig, "loss-factors")
@@ -415,9 +415,9 @@ def test_damping_page_loss_factor_marks_not_in_the_colours_of_the_energy_terms()
     (fibre)' and '13 (transverse shear)' of the shares' legend."""
     from matplotlib.colors import to_rgb
 
-    from laminid_cli.report_damping import damping_page
+    from laminid_cli.report_damping import damping_pages
 
-    fig = damping_page(_damping_data(""))
+    fig = damping_pages(_damping_data(""))[0]
     a = ax(fig, "modal-loss-factors")
     marks = {ln.get_gid(): to_rgb(ln.get_color()) for ln in a.get_lines()
              if ln.get_gid() in ("measured", "model")}
