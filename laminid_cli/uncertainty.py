@@ -3149,7 +3149,8 @@ def refit_reduced(model, result, fms, sigmas, kw: dict, held: dict,
     answer, for refit_held's identify() to take over: the optimum outside the search's limits
     with the value held, a measured mode more than the start's limit (``far_limit``) from
     the model there (identify() refuses such a start and says so), or a fit that does not
-    converge or that the check does not accept."""
+    converge or that the check does not accept. The result holds what the profile and
+    uncertainty_of read: no modes, sensitivities, history or global properties (None, empty)."""
     from laminid_cli.forward import residuals_percent, weighted_rms
 
     t0 = time.perf_counter()
@@ -3228,7 +3229,11 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool, jo
     ``jobs``: processes (None: the cores), one constant's profile each at a time (forked
     where the trials fork, :func:`_trial_pool_context`; else one after the other): hybrid
     CM's five, 2 to 10 s each, 26 s one after the other. ``progress(done, total, label)``
-    after each profile (and ``progress(0, total, None)`` before the first)."""
+    after each profile (and ``progress(0, total, None)`` before the first). A single plate
+    of the reduced solver makes each profile's fits from the optimum on a reduced model of its
+    own (:func:`profile_model`, :func:`refit_reduced`: Levenberg-Marquardt, its answers checked
+    against the full model), identify() where that gives no answer; the fits from the initial
+    values go through identify()."""
     if u.at_bound is None or not np.any(u.at_bound):
         return u
     if not result.converged:
