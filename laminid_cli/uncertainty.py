@@ -1561,7 +1561,8 @@ class TrialModel(VariableSet):
                 if step <= TRIAL_XTOL and damp <= 0.1:     # (not a step cut by damping)
                     return x, model, True
                 taken.append(f)
-                if len(taken) > GN_STALL and taken[-GN_STALL - 1] - f <= self.ftol:
+                if self.ftol > 0 and len(taken) > GN_STALL \
+                        and taken[-GN_STALL - 1] - f <= self.ftol:
                     return x, model, False      # a flat valley: SLSQP goes on (solve())
                 damp = max(damp * max(1 / 3, 1 - (2 * rho - 1) ** 3), 1e-9)
                 nu = 4.0
