@@ -1528,7 +1528,7 @@ class TrialModel(VariableSet):
                                    *self._step_constraints(x, y, D),
                                    max_iter=self.step_iterations)
             if dy is None:
-                return None
+                return self._unfinished(x, model)
             if prev is not None:
                 # linear convergence (GN on non-zero residuals): when this step is the last
                 # one shortened by a ratio q, the steps to come sum to dy / (1 - q) (Aitken)
@@ -1545,7 +1545,7 @@ class TrialModel(VariableSet):
                         break
                 dy = 0.5 * dy                  # (the constraints are linear in x, not in y)
             else:
-                return None
+                return self._unfinished(x, model)
             step = float(np.max(np.abs(self.L.T @ (x_new - x))))
             if step <= TRIAL_XTOL and damp <= 0.1:
                 return x, model, True           # the next step is within the tolerance
@@ -1574,8 +1574,14 @@ class TrialModel(VariableSet):
                 damp, nu = max(damp * nu, 1e-2), 2 * nu
                 prev = None
                 if damp > 1e3:
-                    return None
-        return None
+                    return self._unfinished(x, model)
+        return self._unfinished(x, model)
+
+    def _unfinished(self, x, model):
+        """What :meth:`_gauss_newton` returns where it does not get to its end at ``x``: None
+        (SLSQP starts again where it started: the trials), or, with an :attr:`ftol` (a
+        profile's fits), (x, model, False) as after a stall: SLSQP goes on from there."""
+        return (x, model, False) if self.ftol > 0 else None
 
     def _minimise(self, basis, x0, lam_meas, w, Y_ref):
         """One SLSQP run on the reduced model from ``x0`` (variables y = L^T (x - x0), in
