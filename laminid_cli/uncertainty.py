@@ -1505,7 +1505,9 @@ class TrialModel(VariableSet):
         trial, 200 trials of S1.1 10.9 -> 10.1 s, answers within 1e-3 standard errors), is
         below TRIAL_XTOL standard errors, None when it does not get there; (x, model,
         finished): finished False where its last GN_STALL steps lowered the objective by at
-        most :attr:`ftol` in all (a flat, curved valley that its steps follow slowly)."""
+        most :attr:`ftol` in all (a flat, curved valley that its steps follow slowly), and,
+        with an ftol, where it does not get there (:meth:`_unfinished`): SLSQP goes on from
+        x (:meth:`solve`)."""
         x = np.asarray(x0, float)
         y = self.trial_variables(x)
         D = self.design_variables(y)[1]
