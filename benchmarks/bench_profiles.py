@@ -4,9 +4,14 @@
 with the profiles made in this process one after the other (``jobs=1``: their work, not the
 pool's wall). Per fit (laminid_cli.uncertainty.refit_held): the constant and the value held,
 where the fit started (the optimum, or the initial values: the check of a rejection), its
-model evaluations (reduced ones included) against its cap, whether it finished, its chi2 rise
-(scaled, as the profile measures it) and its wall time; per profile: fits, evaluations, time
-and its statement. Hybrid CM (the default) is the one paper specimen whose profiles cost
+identify() evaluations (reduced ones included) against its cap and the evaluations of the
+profile's reduced model (laminid_cli.uncertainty.refit_reduced: a fit from the optimum tries
+it first; ``reduced`` where its answer was taken, ``identify`` where identify() made the fit,
+the reduced model's evaluations then spent on an answer it refused), whether it finished,
+its chi2 rise (scaled, as the profile measures it) and its wall time; per profile: fits,
+evaluations, time and its statement; in all, wall and CPU time of the fits. The code before
+the reduced refits runs it too (``cd`` to its checkout, ``PYTHONPATH=.``): its fits are all
+``identify``. Hybrid CM (the default) is the one paper specimen whose profiles cost
 more than its identification; S2.1's one profile takes two fits.
 
 ``--budget N`` raises the three evaluation caps of a profile's fits (PROFILE_EVALUATIONS,
@@ -49,12 +54,20 @@ def main():
 
     def counted_refit(result, fms, sigmas, kw, joint, label, value=None, **k):
         t = time.perf_counter()
+        c = time.process_time()
+        model = k.get("model")
+        n0 = model.n_evaluations if model is not None else 0
         r, uc = refit(result, fms, sigmas, kw, joint, label, value, **k)
         u = made["u"]
+        # the reduced model's evaluations (laminid_cli.uncertainty.refit_reduced), those of a
+        # fit it refused included (identify() then made the fit)
+        reduced = model.n_evaluations - n0 if model is not None else 0
+        route = "reduced" if "reduced_evaluations" in r.work else "identify"
         fits.append((label, value, "initial" if k.get("from_initial") else "optimum",
-                     r.evaluations, r.options.max_evaluations, r.converged,
+                     r.evaluations if route == "identify" else 0, r.options.max_evaluations,
+                     r.converged,
                      (uc.chi2 - u.chi2) / (u.variance_factor if u.variance_factor > 0 else 1.0),
-                     time.perf_counter() - t))
+                     time.perf_counter() - t, reduced, time.process_time() - c, route))
         return r, uc
 
     def timed_profiles(u, *args, **kw):
@@ -66,24 +79,29 @@ def main():
 
     unc.refit_held, unc.with_profiles = counted_refit, timed_profiles
     t = time.perf_counter()
+    cpu = time.process_time()
     a_ = unc.assess(fm, IdentifyOptions(), unc.UncertaintyOptions(jobs=1))
     total = time.perf_counter() - t
+    cpu = time.process_time() - cpu
     r = a_.result
-    print(f"{spec.name} {a.mesh}: assessment {total:.2f} s, identification {r.time_s:.2f} s "
+    print(f"{spec.name} {a.mesh}: assessment {total:.2f} s ({cpu:.2f} s CPU), "
+          f"identification {r.time_s:.2f} s "
           f"({r.evaluations} evaluations), profiles {made.get('t', 0.0):.2f} s, one process"
           + (f"; every profile fit capped at {a.budget} evaluations" if a.budget else ""))
     print("  (the rise omits a prior row of the constant held; a finished fit's rise is its "
           "minimum's, an unfinished one's an upper bound)")
     for lab, p in (a_.uncertainty.profiles or {}).items():
         mine = [f for f in fits if f[0] == lab]
-        print(f"{lab}: {len(mine)} fits, {sum(f[3] for f in mine)} evaluations, "
-              f"{sum(f[7] for f in mine):.2f} s")
-        for _, v, start, n, cap, done, rise, dt in mine:
+        print(f"{lab}: {len(mine)} fits, {sum(f[3] for f in mine)} evaluations + "
+              f"{sum(f[8] for f in mine)} reduced, {sum(f[7] for f in mine):.2f} s")
+        for _, v, start, n, cap, done, rise, dt, nr, cpu, route in mine:
             print(f"    held {v:10.4g} from the {start:7s} {n:4d} / {cap:4d} evaluations "
+                  f"+ {nr:4d} reduced ({route:8s}) "
                   f"{'finished  ' if done else 'unfinished'} rise {rise:9.3f}  {dt:5.2f} s")
         print(f"    -> {p.text}")
-    print(f"all profiles: {len(fits)} fits, {sum(f[3] for f in fits)} evaluations, "
-          f"{sum(f[7] for f in fits):.2f} s")
+    print(f"all profiles: {len(fits)} fits, {sum(f[3] for f in fits)} evaluations of "
+          f"identify() + {sum(f[8] for f in fits)} of the profiles' reduced models, "
+          f"{sum(f[7] for f in fits):.2f} s wall, {sum(f[9] for f in fits):.2f} s CPU")
 
 
 if __name__ == "__main__":

@@ -895,6 +895,24 @@ CLOUD_CHANGE = 0.05
 CLOUD_ROUNDS = 1
 #: Levenberg-Marquardt iterations of a trial before SLSQP takes over
 TRIAL_GN_ITERATIONS = 30
+#: the same for a profile's fit (:func:`refit_reduced`), whose held value goes far from the
+#: optimum: hybrid CM (6x6) with glass E2 held at 0.9 GPa, 52 iterations, 0.32 s; with 30,
+#: 30 iterations and 168 evaluations of SLSQP to the same answer, 1.2 s (at 12 GPa, SLSQP's
+#: 200 evaluations ended unfinished)
+PROFILE_GN_ITERATIONS = 100
+#: steps over which a Levenberg-Marquardt fit's decrease is measured against its ``ftol``
+#: (TrialModel)
+GN_STALL = 5
+#: a profile's Levenberg-Marquardt fit hands over to SLSQP (from where it is) where its last
+#: GN_STALL steps lowered chi2 (scaled: about objective / tau2) by at most this share of the
+#: threshold in all: a flat, curved valley, which its short steps follow slowly (hybrid CM,
+#: 12x12, carbon nu12 held at 0: such steps stopped there left chi2 0.26 above the valley's
+#: end, which SLSQP reached, 0.035)
+PROFILE_FTOL = 1e-3
+#: active-set iterations of a profile fit's constrained step (the trials' 50 did not finish
+#: hybrid CM's first step with carbon nu12 held at 0 from its 0.95, five constraints active
+#: at the start, which took ~100: SLSQP took over, 159 evaluations instead of ~50)
+PROFILE_STEP_ITERATIONS = 200
 #: SLSQP runs of a trial, each restarted from the last answer, and evaluations of each
 TRIAL_RESTARTS = 4
 TRIAL_MAXEVAL = 200
@@ -971,8 +989,10 @@ class TrialModel(VariableSet):
     """
 
     def __init__(self, fm, result, tau2: float, bound: float = TRIAL_BOUND, moved=(),
-                 rel_sd=None):
-        from laminid_cli.parametrization import make_parameters
+                 rel_sd=None, profiled: str = "", iterations: int = TRIAL_GN_ITERATIONS,
+                 ftol: float = 0.0, step_iterations: int = 50):
+        from laminid_cli.identify import variables_of
+        from laminid_cli.parametrization import alpha_floor, make_parameters
         from laminid_cli.reduced import ReducedBasis
 
         plate = fm.plate
@@ -981,24 +1001,54 @@ class TrialModel(VariableSet):
         self.fm = fm
         self.pilot: dict = {}                    # trials finished by prepare(), by position
         self.names = tuple(result.material_names)
+        #: the free constant of the result that this model holds, a profile's (:func:`
+        #: refit_reduced`): not free here, moved like :attr:`moved`, its material searched
+        #: as :func:`refit_held` searches it (the constants parametrisation, in the alphas'
+        #: region where the result searched it with the alphas); "" for the trials
+        self.profiled = profiled
+        held_name, _, held_k = profiled.rpartition(".")
         #: labels of fixed constants that the trials move (:meth:`hold`; a Monte Carlo that
-        #: draws the values --fix-undetermined fixed, :class:`FixedDraw`)
-        self.moved = tuple(moved)
+        #: draws the values --fix-undetermined fixed, :class:`FixedDraw`; a profile's)
+        self.moved = ((profiled,) if profiled else ()) + tuple(moved)
         self._held: dict = {}
+        self.n_evaluations = 0                   # reduced eigenproblems solved (:meth:`modes`)
+        #: Levenberg-Marquardt iterations of a fit before SLSQP takes over (:meth:`solve`)
+        self.iterations = int(iterations)
+        #: a Levenberg-Marquardt fit also ends where its last GN_STALL steps lowered the
+        #: objective by at most ``ftol`` in all (0: never; :meth:`_gauss_newton`)
+        self.ftol = float(ftol)
+        #: active-set iterations of each constrained step (:func:`_constrained_step`)
+        self.step_iterations = int(step_iterations)
         params = []
-        for name, c0 in zip(self.names, fm.initial_constants):
+        for m, (name, c0) in enumerate(zip(self.names, fm.initial_constants)):
             free = result.free[name]
             fixed = tuple(k for k in CONSTANT_NAMES if k not in free)
-            params.append(make_parameters(
-                name, c0, fixed, kind=result.parametrization[name],
-                prior=bool(spec.materials[name].prior), nu_max=opts.nu_max,
-                bound_factor=opts.bound_factor))
+            kind, region, floor = result.parametrization[name], "box", 1.0
+            if name == held_name:
+                fixed += (held_k,)
+                if kind == "alpha":
+                    region, floor = "alpha", alpha_floor(result.constants[m])
+                kind = "constants"
+            p = make_parameters(name, c0, fixed, kind=kind,
+                                prior=bool(spec.materials[name].prior), nu_max=opts.nu_max,
+                                bound_factor=opts.bound_factor, region=region, floor=floor)
+            if name == held_name:
+                # held at the optimum's value until :meth:`hold` says otherwise (as hold()
+                # does it: glass E2 = E1 on hybrid CM's optimum is above its initial E1,
+                # which make_parameters refuses of an initial E2)
+                p = dataclasses.replace(p, initial=dataclasses.replace(
+                    p.initial, **{held_k: getattr(result.constants[m], held_k)}))
+            params.append(p)
         self._set_params(params)
         self._params0 = list(self.params)
         self._log_shear_variables()
         self.prior = [{k: float(w) for k, w in spec.materials[p.name].prior.items()
                        if k in p.free} for p in self.params]
-        self.x_opt = np.asarray(result.x, float)
+        if profiled:
+            self.x_opt = np.concatenate([variables_of(p, c)
+                                         for p, c in zip(self.params, result.constants)])
+        else:
+            self.x_opt = np.asarray(result.x, float)
         self.pairing = np.asarray(result.pairing, int)
         self.n_model = int(result.modes.n_modes)
         self.n_check = int(min(self.n_model, np.max(self.pairing) + 3))
@@ -1036,7 +1086,13 @@ class TrialModel(VariableSet):
         w = np.asarray(result.weight, float)
         lam_meas = (2 * np.pi * np.nan_to_num(np.asarray(result.measured_hz, float), nan=1.0))**2
         lam = (2 * np.pi * np.asarray(result.model_hz, float)) ** 2
-        Jr = residual_rows(lam_meas, w, lam, np.asarray(result.dlam_dx, float)).jacobian
+        if profiled:
+            # the result's d lambda / d x is over its own design variables
+            dlam_dx = self.eigenvalue_jacobian(plate.basis_energies(result.phi_paired),
+                                               self.coefficients(self.x_opt)[1])
+        else:
+            dlam_dx = np.asarray(result.dlam_dx, float)
+        Jr = residual_rows(lam_meas, w, lam, dlam_dx).jacobian
         Jp = self.prior_rows(self.x_opt)[1]
         H = Jr.T @ Jr + Jp.T @ Jp
         d = np.diag(H).copy()
@@ -1259,7 +1315,7 @@ class TrialModel(VariableSet):
                 self.basis, start[0], lam_meas, w, self.Y_ref, start[1])
             if gn is None:
                 continue
-            x, model = gn
+            x, model, _ = gn
             pairing, Y = model.pairing, model.Y
             mu, near = self.nearest_ref(x)
             bound, shift = (self.check(self.basis, x, Y, pairing, near, mu)[1::2]
@@ -1291,8 +1347,13 @@ class TrialModel(VariableSet):
         standard error (where that change exceeds CLOUD_CHANGE), shrunk into the feasible
         set; one factorisation and CLOUD_ROUNDS block solves of the Ritz residuals each."""
         c, J = self.coefficient_jacobian(self.x_opt)
-        rel = (J @ self.T) / np.maximum(np.abs(c), 1e-300)[:, None]
-        _, sv, Wt = np.linalg.svd(rel, full_matrices=False)
+        # a coefficient that is 0 at the optimum (alpha2 = 0: hybrid CM's glass E2 = E1)
+        # makes the relative changes infinite, and the SVD's directions NaN: no point of
+        # the cloud is then feasible, and none is added (as before its profiles' models
+        # made this warning visible)
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            rel = (J @ self.T) / np.maximum(np.abs(c), 1e-300)[:, None]
+            _, sv, Wt = np.linalg.svd(rel, full_matrices=False)
         for k in range(min(CLOUD_DIRECTIONS, sv.size)):
             if sv[k] * CLOUD_RADIUS < CLOUD_CHANGE:
                 break
@@ -1346,6 +1407,7 @@ class TrialModel(VariableSet):
         (the optimum's)."""
         coef, jacs = self.coefficients(x)
         theta, Y = basis.eig(coef, self.n_model)
+        self.n_evaluations += 1
         pairing = max_assignment((Y_ref.T @ (basis.Mr @ Y)) ** 2)
         E = basis.energies(Y[:, pairing])
         return TrialModes(theta[pairing], pairing, Y, self.eigenvalue_jacobian(E, jacs), E)
@@ -1463,7 +1525,11 @@ class TrialModel(VariableSet):
         where the last steps shrink by a steady ratio q; returns (x, model there) when the
         step taken, or the next one computed there (not evaluated: one evaluation fewer per
         trial, 200 trials of S1.1 10.9 -> 10.1 s, answers within 1e-3 standard errors), is
-        below TRIAL_XTOL standard errors, None when it does not get there."""
+        below TRIAL_XTOL standard errors, None when it does not get there; (x, model,
+        finished): finished False where its last GN_STALL steps lowered the objective by at
+        most :attr:`ftol` in all (a flat, curved valley that its steps follow slowly), and,
+        with an ftol, where it does not get there (:meth:`_unfinished`): SLSQP goes on from
+        x (:meth:`solve`)."""
         x = np.asarray(x0, float)
         y = self.trial_variables(x)
         D = self.design_variables(y)[1]
@@ -1477,14 +1543,16 @@ class TrialModel(VariableSet):
         # raises the damping to at least 1e-2 at once: the first steps of far trials overshoot)
         damp, nu = 1e-6, 4.0
         prev = None                             # the last step taken
-        for _ in range(TRIAL_GN_ITERATIONS):
+        taken = [f]                             # the objective after each step taken
+        for _ in range(self.iterations):
             H = J.T @ J
             d = np.diag(H)
             g = J.T @ res
             dy = _constrained_step(H + damp * np.diag(d) + 1e-14 * d.max() * np.eye(d.size), g,
-                                   *self._step_constraints(x, y, D))
+                                   *self._step_constraints(x, y, D),
+                                   max_iter=self.step_iterations)
             if dy is None:
-                return None
+                return self._unfinished(x, model)
             if prev is not None:
                 # linear convergence (GN on non-zero residuals): when this step is the last
                 # one shortened by a ratio q, the steps to come sum to dy / (1 - q) (Aitken)
@@ -1492,7 +1560,7 @@ class TrialModel(VariableSet):
                 if abs(q) < 0.8 and np.linalg.norm(dy - q * prev) <= 0.1 * np.linalg.norm(dy):
                     if float(np.max(np.abs(self.L.T @ (D @ dy)))) <= TRIAL_XTOL \
                             and damp <= 0.1:
-                        return x, model
+                        return x, model, True
                     dy = dy / (1.0 - q)
             for _ in range(30):
                 with np.errstate(over="ignore", invalid="ignore"):  # exp of a far step
@@ -1501,10 +1569,10 @@ class TrialModel(VariableSet):
                         break
                 dy = 0.5 * dy                  # (the constraints are linear in x, not in y)
             else:
-                return None
+                return self._unfinished(x, model)
             step = float(np.max(np.abs(self.L.T @ (x_new - x))))
             if step <= TRIAL_XTOL and damp <= 0.1:
-                return x, model                 # the next step is within the tolerance
+                return x, model, True           # the next step is within the tolerance
             model_n = self.modes(basis, x_new, Y_ref)
             res_n, J_n = self.rows(x_new, model_n, lam_meas, w)
             f_new = float(res_n @ res_n)
@@ -1515,19 +1583,29 @@ class TrialModel(VariableSet):
                     model_n
                 prev = dy
                 if step <= TRIAL_XTOL and damp <= 0.1:     # (not a step cut by damping)
-                    return x, model
+                    return x, model, True
+                taken.append(f)
+                if self.ftol > 0 and len(taken) > GN_STALL \
+                        and taken[-GN_STALL - 1] - f <= self.ftol:
+                    return x, model, False      # a flat valley: SLSQP goes on (solve())
                 damp = max(damp * max(1 / 3, 1 - (2 * rho - 1) ** 3), 1e-9)
                 nu = 4.0
             elif step <= 10 * TRIAL_XTOL:
                 # a step this small gives no decrease: the reduced objective's round-off floor
                 # (about 1e-9 relative) is reached
-                return x, model
+                return x, model, True
             else:
                 damp, nu = max(damp * nu, 1e-2), 2 * nu
                 prev = None
                 if damp > 1e3:
-                    return None
-        return None
+                    return self._unfinished(x, model)
+        return self._unfinished(x, model)
+
+    def _unfinished(self, x, model):
+        """What :meth:`_gauss_newton` returns where it does not get to its end at ``x``: None
+        (SLSQP starts again where it started: the trials), or, with an :attr:`ftol` (a
+        profile's fits), (x, model, False) as after a stall: SLSQP goes on from there."""
+        return (x, model, False) if self.ftol > 0 else None
 
     def _minimise(self, basis, x0, lam_meas, w, Y_ref):
         """One SLSQP run on the reduced model from ``x0`` (variables y = L^T (x - x0), in
@@ -1596,13 +1674,19 @@ class TrialModel(VariableSet):
         constants of ``held`` at those values, :meth:`hold`): (constants,
         relative eigenvalue bound, first-order shift bound of the constants in standard errors
         (:meth:`shift_of`), rounds, :attr:`TrialModes.energies` of the model at the answer),
-        accepted by :meth:`accepts`, or raises _TrialFailed."""
+        accepted by :meth:`accepts`, or raises _TrialFailed (:meth:`solve`)."""
+        a = self.solve(freq_hz, weight, prior_shift, held)
+        return self.constants(a.x), a.bound, a.shift, a.rounds, a.model.energies
+
+    def solve(self, freq_hz, weight, prior_shift=None, held=None, start=None) -> "TrialAnswer":
+        """:meth:`trial`'s fit, its answer whole (:class:`TrialAnswer`): from ``start`` (x,
+        model there; default :meth:`_start`, the optimum at the values held)."""
         self.prior_shift = prior_shift or {}
         self.hold(held)
         lam_meas = (2 * np.pi * np.nan_to_num(freq_hz, nan=1.0)) ** 2
         w = np.where(np.isfinite(freq_hz), weight, 0.0)
         self.basis.reset_class_counts()      # (the same trial in any process: -j 1 = -j 2)
-        start = self._start()
+        start = self._start() if start is None else start
         if start is None:
             raise _TrialFailed("the optimum is outside the search's limits at the drawn "
                                "fixed values")
@@ -1612,6 +1696,8 @@ class TrialModel(VariableSet):
         for rounds in range(1, TRIAL_ROUNDS + 1):
             gn = self._gauss_newton(basis, x0, lam_meas, w, Y_ref,
                                     model0 if rounds == 1 else None)
+            if gn is not None and not gn[2]:
+                x0, gn = gn[0], None             # stalled: SLSQP from where it stopped
             # else SLSQP, restarted from its answer while that moves (its quasi-Newton model
             # starts from the Gauss-Newton scaling again: flat valleys are followed to the end)
             for _ in range(0 if gn is not None else TRIAL_RESTARTS):
@@ -1621,7 +1707,7 @@ class TrialModel(VariableSet):
                 if step <= 10 * TRIAL_XTOL:
                     break
             if gn is not None:
-                x, model = gn
+                x, model, _ = gn
             pairing, Y = model.pairing, model.Y
             if ref is None:
                 # the kept factorisation nearest to the answer, if near enough
@@ -1642,7 +1728,7 @@ class TrialModel(VariableSet):
                 theta, bound, S, shift = self.check(basis, x, Y, pairing, ref)
             log.debug("trial round %d bound %.2e shift %.2e", rounds, bound, shift)
             if self.accepts(bound, shift):
-                return self.constants(x), bound, shift, rounds, model.energies
+                return TrialAnswer(x, model, basis, Y_ref, ref, bound, shift, rounds)
             if rounds == TRIAL_ROUNDS or S is None:
                 break
             basis = basis.copy()
@@ -1655,6 +1741,24 @@ class TrialModel(VariableSet):
                            f"{self.bound:.0e}"
                            + (f" (first-order shift {shift:.2g} standard errors, above "
                               f"{self.shift_limit:.2g})" if self.rel_sd is not None else ""))
+
+
+class TrialAnswer(NamedTuple):
+    """A fit of the trial model accepted by :meth:`TrialModel.accepts`: its design variables
+    ``x``, the model there (:class:`TrialModes`) on ``basis`` (the shared one, or a copy
+    enriched for it) with the optimum's reduced vectors ``Y_ref`` on that basis, the
+    factorisation made at the answer (None when a kept one did), the largest relative
+    eigenvalue bound of its paired modes, the first-order shift bound of its constants
+    (:meth:`TrialModel.shift_of`) and its rounds."""
+
+    x: np.ndarray
+    model: TrialModes
+    basis: object
+    Y_ref: np.ndarray
+    ref: tuple | None
+    bound: float
+    shift: float
+    rounds: int
 
 
 class _TrialFailed(Exception):
@@ -2137,6 +2241,20 @@ def _basis_vectors(result):
     return out
 
 
+def _trial_scale(plate, sigma: FrequencySigma, factor: float) -> tuple[float, float, np.ndarray]:
+    """(tau2, bound, rel_sd) of a :class:`TrialModel` of ``plate`` (an Identification of one
+    plate) with frequency sigmas ``sigma`` scaled by ``factor``: the mean squared weighted
+    relative eigenvalue standard deviation (its Gauss-Newton scaling), the accepted relative
+    eigenvalue bound (TRIAL_SHARE of the smallest, at most TRIAL_BOUND) and each mode's
+    relative eigenvalue standard deviation 2 sigma_f / f."""
+    w = np.asarray(plate.weight, float)
+    f = np.asarray(plate.measured_hz, float)
+    rel = 2 * np.nan_to_num(sigma.sigma_hz) * factor / np.nan_to_num(f, nan=1.0)
+    tau2 = w * rel**2
+    bound = min(TRIAL_BOUND, TRIAL_SHARE * float(np.min(rel[w > 0])))
+    return float(np.mean(tau2[w > 0])), bound, rel
+
+
 def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
                 jobs: int | None = None, seed: int = 0, progress=None,
                 method: str = "auto", fixed_draw: FixedDraw | None = None) -> MonteCarlo:
@@ -2205,12 +2323,8 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
     model = None
     if reducible and method != "identify":
         fm, plate = parts[0]
-        w = np.asarray(plate.weight, float)
-        f = np.asarray(plate.measured_hz, float)
-        rel = 2 * np.nan_to_num(sigmas[0].sigma_hz) * factor / np.nan_to_num(f, nan=1.0)
-        tau2 = w * rel**2
-        limit = min(TRIAL_BOUND, TRIAL_SHARE * float(np.min(rel[w > 0])))
-        model = TrialModel(fm, result, float(np.mean(tau2[w > 0])), limit,
+        tau2, limit, rel = _trial_scale(plate, sigmas[0], factor)
+        model = TrialModel(fm, result, tau2, limit,
                            moved=() if drawn is None else fixed_draw.labels, rel_sd=rel)
         model.prepare([np.asarray(t[1][0], float) for t in trials[:TRIAL_PILOT]],
                       np.asarray(fm.specimen.measured.weight, float),
@@ -2965,9 +3079,26 @@ def _identify_again(result, fms, opts, start, joint: bool):
     return identify(fms[0], opts, start=start, basis=None if bases is None else bases.copy())
 
 
+def _held_options(result, held: dict, max_evaluations: int):
+    """The IdentifyOptions of ``result``'s refits with the constants of ``held`` held: fixed,
+    at most ``max_evaluations``, a material that the result searched with the alphas searched
+    in their region again (held constants make it the constants parametrisation, whose box
+    would exclude an optimum with a shear modulus at 1e-4 E1: every refit of hybrid CM's
+    profiles started from the initial values, 300 evaluations, in a region where its glass
+    shear moduli could not go below 0.74 GPa)."""
+    from laminid_cli.parametrization import alpha_floor
+
+    options = result.options
+    alpha = tuple((n, alpha_floor(c)) for n, c in zip(result.material_names, result.constants)
+                  if result.parametrization.get(n) == "alpha")
+    return dataclasses.replace(options, fix=tuple(options.fix) + tuple(held),
+                               max_evaluations=min(options.max_evaluations, max_evaluations),
+                               alpha_region=tuple(options.alpha_region) + alpha)
+
+
 def refit_held(result, fms, sigmas, kw: dict, joint: bool, label, value=None,
                max_evaluations: int = PROFILE_EVALUATIONS, unconverged: bool = False,
-               from_initial: bool = False):
+               from_initial: bool = False, model=None):
     """(result, uncertainty) of the others identified again with the constant ``label`` held
     at ``value`` (SI; or ``label`` a {label: value} of several): from ``result``'s optimum (a
     short walk; where other constants sit on a limit a run may not start from, E2 = E1
@@ -2975,23 +3106,17 @@ def refit_held(result, fms, sigmas, kw: dict, joint: bool, label, value=None,
     ``result``'s search region (``alpha_region``); from the initial values (with ``value``)
     when ``from_initial``. FitError when that fit does not converge, unless ``unconverged``:
     then its best point is returned (``result.converged`` False), whose chi2 is an upper
-    bound of the fit's."""
+    bound of the fit's. ``model``: the profile's reduced model (:func:`profile_model`), which
+    a fit from the optimum tries first (:func:`refit_reduced`); identify() where it gives no
+    answer."""
     held = dict(label) if isinstance(label, dict) else {label: value}
-    options = result.options
+    if model is not None and not from_initial:
+        out = refit_reduced(model, result, fms, sigmas, kw, held, max_evaluations)
+        if out is not None:
+            return out
     names = tuple(result.material_names)
     fms_v = [_holding(fm, held) for fm in fms]
-    # a material that the result searched with the alphas is searched in their region again
-    # (held constants make it the constants parametrisation, whose box would exclude an
-    # optimum with a shear modulus at 1e-4 E1: every refit of hybrid CM's profiles started
-    # from the initial values, 300 evaluations, in a region where its glass shear moduli
-    # could not go below 0.74 GPa)
-    from laminid_cli.parametrization import alpha_floor
-
-    alpha = tuple((n, alpha_floor(c)) for n, c in zip(names, result.constants)
-                  if result.parametrization.get(n) == "alpha")
-    opts = dataclasses.replace(options, fix=tuple(options.fix) + tuple(held),
-                               max_evaluations=min(options.max_evaluations, max_evaluations),
-                               alpha_region=tuple(options.alpha_region) + alpha)
+    opts = _held_options(result, held, max_evaluations)
     from laminid_cli.identify import FarStartError
 
     for step in (1.0,) if from_initial else PROFILE_STEPS:
@@ -3022,6 +3147,100 @@ def refit_held(result, fms, sigmas, kw: dict, joint: bool, label, value=None,
     return r, uc
 
 
+def profile_model(result, fms, sigmas, u: Uncertainty, label: str):
+    """The reduced model of the refits of ``label``'s profile from the optimum (a
+    :class:`TrialModel` holding ``label``, ``profiled``), built as the Monte Carlo trials'
+    (the same accepted eigenvalue bound and shift, from the frequency sigmas scaled by the
+    variance factor of ``u``); None where there is none: a joint result or the full solver's
+    (no reduced basis), or a model that cannot be made there (the refits then all go through
+    identify())."""
+    if hasattr(result, "specimens") or getattr(result, "basis", None) is None:
+        return None
+    fm, sigma = fms[0], sigmas[0]
+    factor = float(u.variance_factor) if u.variance_factor > 0 else 1.0   # (as the profile)
+    tau2, bound, rel = _trial_scale(result, sigma, float(np.sqrt(factor)))
+    try:
+        return TrialModel(fm, result, tau2, bound, rel_sd=rel, profiled=label,
+                          iterations=PROFILE_GN_ITERATIONS,
+                          ftol=PROFILE_FTOL * float(u.quantile) ** 2 * tau2,
+                          step_iterations=PROFILE_STEP_ITERATIONS)
+    except (FitError, ModelError, SolverError, np.linalg.LinAlgError) as exc:
+        log.info("profile of %s: no reduced model (%s); its fits go through identify()",
+                 label, exc)
+        return None
+
+
+def refit_reduced(model, result, fms, sigmas, kw: dict, held: dict,
+                  max_evaluations: int = PROFILE_EVALUATIONS):
+    """:func:`refit_held` from the optimum on the profile's reduced model (:func:`
+    profile_model`; ``held`` its one constant, {label: SI}): Levenberg-Marquardt on the
+    objective's residual rows (:meth:`TrialModel.solve`, as a Monte Carlo trial, the held
+    value in place of the perturbed frequencies), accepted only where the full model's
+    eigenvalue bound at its answer passes :meth:`TrialModel.accepts` (the basis enriched
+    where it does not, and kept enriched for the profile's later values). Returns (result,
+    uncertainty) as refit_held does, the result converged (its ``evaluations`` the reduced
+    eigenproblems, ``error_bound`` the largest bound of its paired modes), the uncertainty
+    from :func:`uncertainty_of` (its chi2 the profile's); or None where the fit gives no
+    answer, for refit_held's identify() to take over: the optimum outside the search's limits
+    with the value held, a measured mode more than the start's limit (``far_limit``) from
+    the model there (identify() refuses such a start and says so), or a fit that does not
+    converge or that the check does not accept. The result holds what the profile and
+    uncertainty_of read: no modes, sensitivities, history or global properties (None, empty)."""
+    from laminid_cli.forward import residuals_percent, weighted_rms
+
+    t0 = time.perf_counter()
+    (label, value), = held.items()
+    fm = _holding(fms[0], held)
+    freq = np.asarray(result.measured_hz, float)
+    weight = np.where(np.isfinite(freq), np.asarray(result.weight, float), 0.0)
+    opts = _held_options(result, held, max_evaluations)
+    n0 = model.n_evaluations
+    try:
+        model.hold(held)
+        start = model._start()
+        if start is None:
+            log.info("profile of %s at %.6g: the optimum is outside the search's limits there",
+                     label, value)
+            return None
+        f0 = np.sqrt(start[1].lam) / (2 * np.pi)
+        ok = weight > 0
+        if np.any(np.abs(freq[ok] - f0[ok]) > opts.far_limit * freq[ok]):
+            return None
+        a = model.solve(freq, weight, None, held, start)
+    except (_TrialFailed, np.linalg.LinAlgError) as exc:
+        log.info("profile of %s at %.6g: %s; identified again with identify()", label, value,
+                 exc)
+        return None
+    n = model.n_evaluations - n0
+    x, tm = a.x, a.model
+    lam_meas = (2 * np.pi * np.nan_to_num(freq, nan=1.0)) ** 2
+    res = model.rows(x, tm, lam_meas, weight)[0]
+    U = a.basis.V @ tm.Y[:, tm.pairing]
+    U /= np.sqrt(np.einsum("ij,ij->j", U, a.basis.M @ U))
+    # the enriched basis and the factorisation made are kept: the profile's next values
+    # are near this one
+    if a.basis is not model.basis:
+        model.basis = a.basis
+        model._shared_basis_changed()
+    if a.ref is not None and model.refs is not None:
+        model.refs.append(a.ref)
+    f_model = np.sqrt(tm.lam) / (2 * np.pi)
+    residual = residuals_percent(freq, f_model)
+    r = dataclasses.replace(
+        result, specimen=fm.specimen, initial=fm.initial_constants,
+        constants=model.constants(x), free={p.name: tuple(p.free) for p in model.params},
+        parametrization={p.name: p.kind for p in model.params},
+        variable_labels=model.labels, x=x, objective=float(res @ res), evaluations=n,
+        converged=True, status=f"converged on the reduced model (eigenvalue bound "
+        f"{a.bound:.1e}, {a.rounds} round{'s' if a.rounds > 1 else ''})",
+        time_s=time.perf_counter() - t0, model_hz=f_model, pairing=tm.pairing,
+        residual_percent=residual, rms_residual_percent=weighted_rms(residual, weight),
+        modes=None, phi_paired=U, dlam_dx=tm.dlam_dx, sensitivity=None, history={},
+        swaps=(), bounds_hit=(), warnings=(), global_properties={}, options=opts,
+        error_bound=np.full(freq.size, a.bound), work={"reduced_evaluations": n}, basis=None)
+    return r, uncertainty_of(r, fm, sigmas[0], **kw)
+
+
 def _not_converged(held: dict, max_evaluations: int) -> str:
     where = ", ".join(f"{lab.rsplit('.', 1)[1]} = {_show(lab.rsplit('.', 1)[1], v)}"
                       for lab, v in held.items())
@@ -3045,7 +3264,11 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool, jo
     ``jobs``: processes (None: the cores), one constant's profile each at a time (forked
     where the trials fork, :func:`_trial_pool_context`; else one after the other): hybrid
     CM's five, 2 to 10 s each, 26 s one after the other. ``progress(done, total, label)``
-    after each profile (and ``progress(0, total, None)`` before the first)."""
+    after each profile (and ``progress(0, total, None)`` before the first). A single plate
+    of the reduced solver makes each profile's fits from the optimum on a reduced model of its
+    own (:func:`profile_model`, :func:`refit_reduced`: Levenberg-Marquardt, its answers checked
+    against the full model), identify() where that gives no answer; the fits from the initial
+    values go through identify()."""
     if u.at_bound is None or not np.any(u.at_bound):
         return u
     if not result.converged:
@@ -3068,6 +3291,9 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool, jo
         initial = float(getattr(result.initial[m], k))
 
         unfinished = []
+        # the reduced model of the fits from the optimum (:func:`refit_reduced`), made at the
+        # first of them; [None] where none can be made
+        reduced = []
         # which start goes first: the optimum, until the initial values' start gives the
         # lower chi2 at some value (hybrid CM's glass G12 from 6.8 GPa up: 300 unfinished
         # evaluations at chi2 79-490 from the optimum, 97 at 9.6-9.8 from the initial values)
@@ -3078,12 +3304,16 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool, jo
         check = [True]
 
         def delta(v, name=name, k=k, lab=lab, initial=initial, unfinished=unfinished,
-                  max_evaluations=PROFILE_EVALUATIONS, order=order, check=check):
+                  max_evaluations=PROFILE_EVALUATIONS, order=order, check=check,
+                  reduced=reduced):
             def fit(from_initial):
                 cap = min(max_evaluations, PROFILE_INITIAL_EVALUATIONS) if from_initial \
                     else max_evaluations
+                if not from_initial and not reduced:
+                    reduced.append(profile_model(result, fms, sigmas, u, lab))
                 r, uc = refit_held(result, fms, sigmas, kw, joint, lab, v, unconverged=True,
-                                   max_evaluations=cap, from_initial=from_initial)
+                                   max_evaluations=cap, from_initial=from_initial,
+                                   model=reduced[0] if reduced else None)
                 chi2 = uc.chi2
                 if prior.get(name, {}).get(k, 0.0) > 0:
                     # held, the constant has no prior row in that fit; u.chi2 counted it

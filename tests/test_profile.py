@@ -14,8 +14,8 @@ from click.testing import CliRunner
 
 from laminid_cli.cli import cli
 from laminid_cli.identify import IdentifyOptions, identify
-from laminid_cli.uncertainty import (PROFILE_TOL, UncertaintyOptions, assess, frequency_sigma,
-                                     profile_bound, uncertainty_of)
+from laminid_cli.uncertainty import (PROFILE_SAME, PROFILE_TOL, UncertaintyOptions, assess,
+                                     frequency_sigma, profile_bound, uncertainty_of)
 from tests.clihelp import without_comments
 from tests.figs import result_page
 from tests.test_identify import CARBON, OFF_THICK, THICK, synthetic
@@ -184,18 +184,27 @@ def test_e2_on_its_lower_limit_gets_a_profile_below_e1():
 
 
 def _fail_fits_holding_g13(monkeypatch):
-    """Every identification with G13 held (a profile's) fails in the eigen solver."""
+    """Every identification with G13 held (a profile's) fails in the eigen solver: identify()'s
+    and the reduced model's from the optimum (uncertainty.refit_reduced)."""
     import laminid_cli.identify as ident
+    import laminid_cli.uncertainty as unc
     from laminid_cli.errors import SolverError
 
     real = ident.identify
+    real_reduced = unc.refit_reduced
 
     def failing(fm, options, *args, **kw):
         if any(str(f).endswith("G13") for f in options.fix):
             raise SolverError("the stiffness matrix is not positive definite")
         return real(fm, options, *args, **kw)
 
+    def failing_reduced(model, result, fms, sigmas, kw, held, *args, **k):
+        if any(lab.endswith("G13") for lab in held):
+            raise SolverError("the stiffness matrix is not positive definite")
+        return real_reduced(model, result, fms, sigmas, kw, held, *args, **k)
+
     monkeypatch.setattr(ident, "identify", failing)
+    monkeypatch.setattr(unc, "refit_reduced", failing_reduced)
 
 
 def test_a_profile_whose_identification_fails_in_the_solver_does_not_end_the_run(monkeypatch):
@@ -301,9 +310,14 @@ def thick_yaml(tmp_path):
 
 def _capped_profile_runs(monkeypatch, held: str, max_evaluations: int):
     """identify() of the profile's fits (``held`` among the fixed constants) stopped after
-    ``max_evaluations``: as a fit on a flat valley that the profile's 300 do not finish."""
+    ``max_evaluations``: as a fit on a flat valley that the profile's 300 do not finish. The
+    fits from the optimum on the profile's reduced model (uncertainty.refit_reduced, which
+    finish) are refused here, so that identify() makes every fit, as where the reduced fit
+    gives no answer."""
     import laminid_cli.identify as ident
+    import laminid_cli.uncertainty as unc
 
+    monkeypatch.setattr(unc, "refit_reduced", lambda *args, **kw: None)
     real = ident.identify
 
     def capped(fm, options, *args, **kw):
@@ -709,13 +723,18 @@ def test_a_terminal_is_told_the_profiles_progress():
     assert "profile: the fit rejects G13 above" in out
 
 
-def test_a_rejection_from_the_optimum_is_checked_from_the_initial_values(hybrid_cm_6x6):
+def test_a_rejection_from_the_optimum_is_checked_from_the_initial_values(hybrid_cm_6x6,
+                                                                         monkeypatch):
     """A profile's fit starts at the optimum; where that fit rejects the value (or stops
     unfinished), a second fit starts from the initial values and the lower chi2 is kept: a
     fit that rejects may have ended in a local minimum. Hybrid CM (6x6) with glass E2 held
-    at 0.9 GPa (the far end of its scan): from the optimum its fit ends at chi2 30.7, from
-    the initial values at 24.8, both finished. At 80 % (q^2 = 1.64) the first alone
-    rejected E2 there; with the second (at most 100 evaluations) the profile is flat."""
+    at 0.9 GPa (the far end of its scan): from the optimum identify()'s fit ends at chi2
+    30.7, from the initial values at 24.8, both finished. At 80 % (q^2 = 1.64) the first
+    alone rejected E2 there; with the second (at most 100 evaluations) the profile is flat.
+    The profile's own fit from the optimum, on its reduced model (refit_reduced), ends in the
+    initial values' valley, a little lower still (chi2 24.77 against 24.77 + 3e-4): flat at
+    once, no second fit; the two starts are checked here with identify() making every fit."""
+    import laminid_cli.uncertainty as unc
     from laminid_cli.uncertainty import refit_held, with_profiles
 
     fm, r, sigma, _ = hybrid_cm_6x6
@@ -735,6 +754,12 @@ def test_a_rejection_from_the_optimum_is_checked_from_the_initial_values(hybrid_
     threshold = u.quantile ** 2
     assert (ua.chi2 - u.chi2) / factor > threshold > (ub.chi2 - u.chi2) / factor
     only = dataclasses.replace(u, at_bound=np.array([x == lab for x in u.labels]))
+    # the reduced model's fit from the optimum: the lower valley, not rejected, one fit
+    p = with_profiles(only, r, [fm], [sigma], kw, False, jobs=1).profiles[lab]
+    assert p.far == pytest.approx(0.9e9) and np.isnan(p.bound) and p.runs == 2
+    assert p.delta_far <= (ub.chi2 - u.chi2) / factor + 1e-3 * threshold
+    assert "stopped at" not in p.text
+    monkeypatch.setattr(unc, "refit_reduced", lambda *args, **k: None)   # identify() only
     p = with_profiles(only, r, [fm], [sigma], kw, False, jobs=1).profiles[lab]
     assert p.far == pytest.approx(0.9e9) and np.isnan(p.bound)
     # the second fit stops at PROFILE_INITIAL_EVALUATIONS (100): its rise bounds the finished
@@ -767,3 +792,89 @@ def test_a_profile_fit_refused_at_its_starts_says_where_it_started(hybrid_cm_6x6
         assert text.endswith(f"Hz) with E1 = 2.62e+03 GPa held, {at} (limit 50 %): the modes "
                              "are too far from E1 = 2.62e+03 GPa for a fit to start there")
         assert "initial guess" not in text and "units" not in text
+
+
+@pytest.fixture(scope="module")
+def s21_6x6():
+    """S2.1 on 6x6 (the alphas, E-glass G13 stops on its floor 1e-4 E1): forward model,
+    result, sigma and uncertainty (~0.3 s)."""
+    from laminid_cli.forward import build_forward_model
+    from laminid_cli.specimen import read_specimen
+
+    fm = build_forward_model(read_specimen("specimens/example2/S2.1.yaml"), (6, 6))
+    r = identify(fm)
+    sigma = frequency_sigma(fm.specimen.measured)
+    return fm, r, sigma, uncertainty_of(r, fm, sigma)
+
+
+def test_a_reduced_refit_ends_where_a_converged_identify_refit_ends(s21_6x6, hybrid_cm_6x6):
+    """A profile's fit from the optimum runs on the profile's reduced model (Levenberg-
+    Marquardt, refit_reduced), its answer checked against the full model. S2.1 (6x6), G13
+    (an alpha-parametrised shear modulus on its floor) held at 1.7, 5 and 18.5 GPa: chi2
+    within PROFILE_SAME (1e-3) of the threshold (scaled) of identify()'s fit run to its end
+    (3000 evaluations; 4.7e-4, 3.0e-4, 1.7e-3 against 5.6e-3), every other constant within
+    0.01 of its standard error (6.4e-4 at most), in 8-10 reduced evaluations (identify():
+    15-33). Hybrid CM (6x6), glass G12 on the alphas' floor held at 1.5 times it, the same
+    (its material in the constants parametrisation, in the alphas' region)."""
+    import laminid_cli.uncertainty as unc
+
+    for (fm, r, sigma, u), lab, values in (
+            (s21_6x6, "E-glass/R368.G13", (1.7e9, 5e9, 18.5e9)),
+            (hybrid_cm_6x6, "glass.G12", (1.5 * hybrid_cm_6x6[1].constants[0].G12,))):
+        model = unc.profile_model(r, [fm], [sigma], u, lab)
+        threshold, factor = u.quantile ** 2, u.variance_factor
+        name, k = lab.rsplit(".", 1)
+        for v in values:
+            rr, ur = unc.refit_held(r, [fm], [sigma], {}, False, lab, v, model=model)
+            assert rr.converged and 0 < rr.work["reduced_evaluations"] <= 20, rr.status
+            assert k not in rr.free[name] and rr.parametrization[name] == "constants"
+            assert rr.constants[rr.material_names.index(name)].as_array()[
+                ["E1", "E2", "G12", "G13", "G23", "nu12"].index(k)] == v
+            ri, ui = unc.refit_held(r, [fm], [sigma], {}, False, lab, v, max_evaluations=3000)
+            assert ri.converged and "reduced_evaluations" not in ri.work
+            assert abs(ur.chi2 - ui.chi2) / factor <= PROFILE_SAME * threshold, (v, ur.chi2,
+                                                                                 ui.chi2)
+            assert ur.labels == ui.labels
+            ok = np.isfinite(ui.std)
+            np.testing.assert_array_less(np.abs(ur.value - ui.value)[ok] / ui.std[ok], 0.01)
+
+
+def test_a_refit_the_reduced_model_refuses_is_made_by_identify(s21_6x6, monkeypatch):
+    """Where the reduced model's answer fails its check against the full model (here: every
+    answer, the accepted eigenvalue bound and shift set to 0), the fit falls back to
+    identify() from the optimum (refit_held), and the profile is the same: S2.1 (6x6), G13
+    rejected above 1.55 GPa either way (within PROFILE_TOL), each fit identify()'s."""
+    import laminid_cli.uncertainty as unc
+
+    fm, r, sigma, u = s21_6x6
+    lab = "E-glass/R368.G13"
+    only = dataclasses.replace(u, at_bound=np.array([x == lab for x in u.labels]))
+    p = unc.with_profiles(only, r, [fm], [sigma], {}, False, jobs=1).profiles[lab]
+    assert p.text.startswith("the fit rejects G13 above 1.5")
+    real = unc.profile_model
+    routes = []
+
+    def strict(*args, **kw):
+        model = real(*args, **kw)
+        model.bound = model.shift_limit = 0.0        # no answer passes TrialModel.accepts
+        return model
+
+    def spy(*args, **kw):
+        out = real_refit(*args, **kw)
+        routes.append("reduced_evaluations" in out[0].work)
+        return out
+
+    real_refit = unc.refit_held
+    monkeypatch.setattr(unc, "profile_model", strict)
+    monkeypatch.setattr(unc, "refit_held", spy)
+    q = unc.with_profiles(only, r, [fm], [sigma], {}, False, jobs=1).profiles[lab]
+    assert routes and not any(routes)
+    assert q.text.startswith("the fit rejects G13 above 1.5") and not q.error
+    assert abs(np.log(q.bound / p.bound)) <= PROFILE_TOL
+    # one such fit against identify()'s own
+    model = strict(r, [fm], [sigma], u, lab)
+    n0 = model.n_evaluations
+    rr, ur = real_refit(r, [fm], [sigma], {}, False, lab, 1.7e9, model=model)
+    ri, ui = real_refit(r, [fm], [sigma], {}, False, lab, 1.7e9)
+    assert model.n_evaluations > n0 and "reduced_evaluations" not in rr.work
+    assert rr.evaluations == ri.evaluations and ur.chi2 == pytest.approx(ui.chi2, rel=1e-12)
