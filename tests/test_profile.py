@@ -57,6 +57,34 @@ def test_bisection_against_closed_forms():
     assert np.isnan(p.bound) and "the fit is better with G13 = 30 GPa" in p.text
 
 
+def test_a_cliff_the_fits_do_not_narrow_is_stated_as_a_bracket():
+    """A rise flat (0.3) up to a cliff just below the far end and 700 beyond it, as hybrid
+    CM's glass G12 on 12x12 (0.30 at 16.7 GPa, 326 at 18.0, limit 0.0056, far end 18.5):
+    every fit but the far end's is below q^2, each halves the bracket's log width (8.1), and
+    its PROFILE_RUNS + 1 fits end before 2 %. The bound is the far side of the last bracket
+    (rejected there: true) and the statement gives its near side, not rejected, and says the
+    crossing between them was not narrowed further; a smooth rise there, which the secant
+    narrows, says neither."""
+    L, far, cliff = 0.0056e9, 18.5e9, 17.5e9
+
+    def step(v):
+        return 700.0 if v >= cliff else 0.3
+
+    p = profile_bound("glass.G12", "lower", L, far, step, Q2)
+    assert p.bound == pytest.approx(far, rel=1e-12) and p.runs == 9
+    near = float(re.search(r"not rejected at ([\d.]+) GPa", p.text).group(1)) * 1e9
+    assert near < cliff <= p.bound and np.log(far / near) > PROFILE_TOL
+    assert p.text.startswith("the fit rejects G12 above 18.5 GPa") and \
+        "the crossing between the two not narrowed further in 9 fits" in p.text
+    # a steep but smooth rise over the same scan (0.3, then quadratic in ln G, standard error
+    # 0.02, from 17.5 GPa):
+    # the secant narrows it to 2 %, and the words give no bracket
+    p = profile_bound("glass.G12", "lower", L, far,
+                      lambda v: 0.3 + (max(np.log(v / 17.5e9), 0.0) / 0.02) ** 2, Q2)
+    assert 0 <= np.log(p.bound / (17.5e9 * np.exp(0.02 * np.sqrt(Q2 - 0.3)))) <= PROFILE_TOL
+    assert "not narrowed" not in p.text
+
+
 def test_a_thick_plate_whose_g13_stops_above_its_truth():
     """a/h = 10 cross-ply, 8 modes with 0.2 % noise, true G13 3.1 GPa, initial 5.58 GPa and
     a search factor of 1.5 (lower limit 3.72 GPa): G13 stops on that limit. Its profile bound
