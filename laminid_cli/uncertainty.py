@@ -1320,24 +1320,24 @@ class TrialModel(VariableSet):
             mu, near = self.nearest_ref(x)
             bound, shift = (self.check(self.basis, x, Y, pairing, near, mu)[1::2]
                             if mu >= TRIAL_MU else (np.inf, np.inf))
-            if bound <= self.bound:
+            done = bound <= self.bound
+            if not done:
+                coef = self.coefficients(x)[0]
+                ref = self.factor_at(x, self.basis.eig(coef, 1)[0][0])
+                self.refs.append(ref)
+                _, bound, S, shift = self.check(self.basis, x, Y, pairing, ref)
+                done = bound <= self.bound
+                if not done:
+                    # the shared basis is enriched where the stricter bound is missed (the
+                    # trials after these find it so); a pilot accepted by its shift
+                    # (:meth:`accepts`) is done
+                    done = self.accepts(bound, shift)
+                    k = self.basis.add(S())
+                    added += k
+                    if k:
+                        self._shared_basis_changed()
+            if done:
                 self.pilot[i] = (self.constants(x), bound, shift, 1, model.energies)
-                continue
-            coef = self.coefficients(x)[0]
-            ref = self.factor_at(x, self.basis.eig(coef, 1)[0][0])
-            self.refs.append(ref)
-            _, bound, S, shift = self.check(self.basis, x, Y, pairing, ref)
-            if bound <= self.bound:
-                self.pilot[i] = (self.constants(x), bound, shift, 1, model.energies)
-                continue
-            # the shared basis is enriched where the stricter bound is missed (the trials
-            # after these find it so); a pilot accepted by its shift (:meth:`accepts`) is done
-            if self.accepts(bound, shift):
-                self.pilot[i] = (self.constants(x), bound, shift, 1, model.energies)
-            k = self.basis.add(S())
-            added += k
-            if k:
-                self._shared_basis_changed()
         self.hold(None)
         return added
 
