@@ -490,8 +490,10 @@ def input_hash(spec, options: BatchOptions) -> str:
     # and the Monte Carlo trials' variance factors drawn where the intervals are Student t;
     # "verdicts 7": the intervals counting the fixed values' spread on Welch-Satterthwaite's
     # quantiles; "verdicts 8": the profiles' fits search the identification's own region, a
-    # rejection checked from the initial values too (stop 38)
-    h.update(f"laminid {__version__} schema {SCHEMA_VERSION} options 2 verdicts 8\0".encode())
+    # rejection checked from the initial values too (stop 38); "verdicts 9": the profiles'
+    # fits from the optimum on the profile's reduced model, converged where identify()'s capped
+    # fits were not (hybrid CM's glass G12 and G23: bounds instead of no profile; stop 43)
+    h.update(f"laminid {__version__} schema {SCHEMA_VERSION} options 2 verdicts 9\0".encode())
     settings = options.as_dict()
     # the processes of a specimen's profiles and Monte Carlo trials do not change its result
     # (batch -j 1 gives them the cores, a pool of workers one each): hashed as the 1 that
