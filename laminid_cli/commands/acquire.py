@@ -368,7 +368,9 @@ def _sigint_stops_it_even_in_the_background():
                    "stderr. Printed also when points are missing (exit 3) or the session "
                    "stopped early (Ctrl-C, analyser fault, closed stdin: 'stopped' says why), "
                    "and for a --resume of a file that has every point ('already_complete': "
-                   "true, nothing measured). " + FRF_UNIT_NOTE + ".")
+                   "true, nothing measured). " + FRF_UNIT_NOTE + "; a command that fails "
+                   "before the session prints {\"error\": {\"kind\", \"message\", \"file\", "
+                   "\"field\", \"line\", \"exit_code\"}} instead.")
 @click.option("-o", "--output", required=True, type=OUTPUT_FILE,
               help="FRF HDF5 file to write (point by point).")
 @click.pass_context
