@@ -46,15 +46,17 @@ def error_of(r) -> dict:
     return doc["error"]
 
 
-def assert_same_failure(plain, as_json, kind, file=None, field=None, line=None):
+def assert_same_failure(plain, as_json, kind, file=None, field=None, line=None,
+                        exit_code=2):
     """--json changes stdout only: the same exit code and stderr, no traceback; stdout the
     error's document, its message stderr's line without 'laminid: error: '."""
-    assert plain.exit_code == as_json.exit_code == 2, as_json.output
+    assert plain.exit_code == as_json.exit_code == exit_code, as_json.output
     assert plain.stdout == ""
     assert as_json.stderr == plain.stderr and "Traceback" not in plain.stderr
     e = error_of(as_json)
     assert e == {"kind": kind, "message": e["message"], "file": file, "field": field,
-                 "line": line, "exit_code": 2}
+                 "line": line, "exit_code": exit_code}
+    assert plain.stderr.endswith(f"laminid: error: {e['message']}\n")
     return e
 
 
@@ -195,6 +197,29 @@ def test_a_refused_file_system_operation_gives_the_document(tmp_path, monkeypatc
     e = assert_same_failure(plain, as_json, "PermissionError", file=str(result))
     assert e["message"] == f"{result}: Permission denied"
     assert plain.stderr == f"laminid: error: {result}: Permission denied\n"
+
+
+def test_an_analyser_fault_before_the_session_exit_1(tmp_path):
+    """The analyser refuses a set-up command (the emulator's error queue after WIND2:EXP):
+    InstrumentError, exit 1, nothing measured; under --json its document with exit_code 1."""
+    from tests.instrument.emulator import Fault, HP35670AEmulator
+
+    runs = []
+    for extra in ([], ["--json"]):
+        with HP35670AEmulator(faults=[Fault("WIND2:EXP", "error", 0)]) as hp:
+            runs.append(run(["acquire", "--analyser", hp.resource, "--timeout", "0.5",
+                             "--no-prompt", "-o", str(tmp_path / "e.frf.h5"), *extra]))
+    plain, as_json = runs
+    # stderr's first line names the analyser, with the emulator's port: the same otherwise
+    assert plain.stderr.split("\n", 1)[1] == as_json.stderr.split("\n", 1)[1]
+    assert plain.exit_code == as_json.exit_code == 1 and plain.stdout == ""
+    e = error_of(as_json)
+    assert e == {"kind": "InstrumentError", "message": e["message"], "file": None,
+                 "field": None, "line": None, "exit_code": 1}
+    assert e["message"].startswith("35670A rejected 1 command(s) while configuring: "
+                                   "'WIND2:EXP 0.1' -> -222,\"Data out of range\"")
+    assert as_json.stderr.endswith(f"laminid: error: {e['message']}\n")
+    assert not (tmp_path / "e.frf.h5").exists()
 
 
 def test_acquire_stopped_after_its_summary_adds_no_second_document(tmp_path):
