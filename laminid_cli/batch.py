@@ -203,7 +203,7 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
             roots.append(p.resolve().parent)
             found.setdefault(p.resolve(), p)
         else:
-            raise BatchError(f"{p}: no such file or folder")
+            raise BatchError(f"{p}: no such file or folder", path=p)
     if not found:
         return []
     root = Path(os.path.commonpath([str(r) for r in roots]))

@@ -2,7 +2,8 @@
 
 The group loads each command's module only when that command runs, so ``laminid --help`` and
 shell batches start fast (no numpy/scipy/h5py import before they are needed). This module is the
-only place that turns a :class:`~laminid_cli.errors.LaminidError` into a message and exit code.
+only place that turns a :class:`~laminid_cli.errors.LaminidError` into a message and exit code
+(under ``--json`` also a JSON document on stdout: :func:`_echo_json_error`).
 """
 
 from __future__ import annotations
@@ -66,6 +67,12 @@ class LazyGroup(click.Group):
         return getattr(module, attr)
 
     def resolve_command(self, ctx, args):
+        cmd_name, cmd, rest = self._resolve_command(ctx, args)
+        # the command and its arguments, for an error's --json document (invoke)
+        ctx.meta[_INVOKED] = (cmd_name, cmd, tuple(rest))
+        return cmd_name, cmd, rest
+
+    def _resolve_command(self, ctx, args):
         # a misspelt command: the nearest one, as a misspelt key of a specimen file gets
         # (click matches against the group's loaded commands, none in a lazy group)
         name = click.utils.make_str(args[0])
@@ -90,8 +97,15 @@ class LazyGroup(click.Group):
         try:
             return super().invoke(ctx)
         except LaminidError as exc:
+            _echo_json_error(ctx, _error_document(exc, str(exc), exc.exit_code, file=exc.path,
+                                                  field=exc.field, line=exc.line))
             click.echo(f"laminid: {getattr(exc, 'label', 'error')}: {exc}", err=True)
             ctx.exit(exc.exit_code)
+        except click.UsageError as exc:
+            # click says it (usage, "Error: ...") and exits 2 once this returns
+            _echo_json_error(ctx, _error_document(exc, exc.format_message(), exc.exit_code,
+                                                  kind="UsageError", field=_option_of(exc)))
+            raise
         except KeyboardInterrupt:
             click.echo("laminid: interrupted", err=True)
             ctx.exit(EXIT_INTERRUPTED)
@@ -101,7 +115,10 @@ class LazyGroup(click.Group):
             if exc.errno not in _FILE_SYSTEM_ERRNOS:
                 raise
             what = f"{exc.filename}: " if exc.filename else ""
-            click.echo(f"laminid: error: {what}{exc.strerror or exc}", err=True)
+            message = f"{what}{exc.strerror or exc}"
+            _echo_json_error(ctx, _error_document(
+                exc, message, 2, file=None if exc.filename is None else str(exc.filename)))
+            click.echo(f"laminid: error: {message}", err=True)
             ctx.exit(2)
 
     def make_context(self, info_name, args, parent=None, **extra):
@@ -112,6 +129,58 @@ class LazyGroup(click.Group):
         except KeyboardInterrupt:
             click.echo("laminid: interrupted", err=True)
             raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
+
+
+#: key of the click context's ``meta``: (name, command, arguments) of the command invoked
+_INVOKED = "laminid.invoked"
+
+
+def _error_document(exc: BaseException, message: str, exit_code: int, *, kind: str | None = None,
+                    file=None, field=None, line=None) -> dict:
+    """The --json document of an error: what stderr says of it (``message``, without
+    "laminid: error: "), the exception's class (``kind``: SpecimenError, FrfError...;
+    UsageError for click's), the file, field and line it names where it carries them (a
+    specimen's error), else None, and the exit code."""
+    return {"error": {"kind": kind or type(exc).__name__, "message": message,
+                      "file": None if file is None else str(file), "field": field,
+                      "line": line, "exit_code": exit_code}}
+
+
+def _option_of(exc: click.UsageError) -> str | None:
+    """The option or argument a usage error is about (``--sigma-rel``, ``SPEC``), or None."""
+    param = getattr(exc, "param", None)
+    if param is not None:
+        opts = [o for o in getattr(param, "opts", ()) if o.startswith("--")]
+        return opts[0] if opts else param.human_readable_name.rstrip(".")   # SPEC...
+    return getattr(exc, "option_name", None)
+
+
+def _json_requested(ctx) -> bool:
+    """Whether the command invoked (:data:`_INVOKED`) has ``--json`` and its command line asks
+    for it. Read with the command's own parser, leniently (unknown options skipped, parsing
+    stopped at a mistake): ``--fix --json`` is --fix's value, ``-- --json`` an argument; the
+    values are not converted, so a bad value elsewhere does not hide it."""
+    name, cmd, args = ctx.meta.get(_INVOKED, (None, None, ()))
+    if cmd is None or not any(p.name == "as_json" for p in cmd.params):
+        return False
+    lenient = cmd.context_class(cmd, info_name=name, resilient_parsing=True,
+                                ignore_unknown_options=True)
+    opts, _, _ = cmd.make_parser(lenient).parse_args(args=list(args))
+    return bool(opts.get("as_json"))
+
+
+def _echo_json_error(ctx, document: dict) -> None:
+    """``document`` on stdout when the command was asked for --json and has not written its
+    own document already (acquire's summary of a session that stopped: its ``stopped`` says
+    why): a program reading stdout (``| jq``) gets one document, never none or two."""
+    import json
+
+    from laminid_cli.commands._common import JSON_WRITTEN
+
+    if ctx.meta.get(JSON_WRITTEN) or not _json_requested(ctx):
+        return
+    ctx.meta[JSON_WRITTEN] = True
+    click.echo(json.dumps(document, indent=2))
 
 
 def _module_exists(target: str) -> bool:

@@ -8,17 +8,31 @@ instrument fault).
 
 from __future__ import annotations
 
+import contextlib
+
 #: exit code of a command interrupted by Ctrl-C (128 + SIGINT)
 EXIT_INTERRUPTED = 130
 
 
 class LaminidError(Exception):
-    """Base class of all errors laminid reports to a user."""
+    """Base class of all errors laminid reports to a user.
+
+    ``path``: the file the error is about, where the code that raises it knows it (the
+    message names it anyway); ``field`` and ``line`` where a specimen's error has them. The
+    CLI's --json error document gives them (null when not known)."""
 
     exit_code = 2
     #: how the one-line message begins ("laminid: error: ..."); an outcome that is not an
     #: error (a session the operator ended early) says what it is instead
     label = "error"
+    path: str | None = None
+    field: str | None = None
+    line: int | None = None
+
+    def __init__(self, *args, path=None):
+        super().__init__(*args)
+        if path is not None:
+            self.path = str(path)
 
 
 class SpecimenError(LaminidError):
@@ -34,6 +48,19 @@ class SpecimenError(LaminidError):
         prefix = ", ".join(where)
         super().__init__(f"{prefix}: {message}" if prefix else message)
         self.path, self.field, self.line = path, field, line
+
+
+@contextlib.contextmanager
+def about_file(path, *kinds: type[LaminidError]):
+    """An error of ``kinds`` raised inside the block that does not say which file it is about
+    (``path`` None: a reader's many checks name the file in their messages only) gets
+    ``path``; for the --json error document."""
+    try:
+        yield
+    except kinds as exc:
+        if exc.path is None:
+            exc.path = str(path)
+        raise
 
 
 class ModelError(LaminidError):

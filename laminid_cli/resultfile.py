@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from laminid_cli.errors import LaminidError
+from laminid_cli.errors import LaminidError, about_file
 from laminid_cli.intervals import PROFILE_FLAT, PROFILE_NONE
 from laminid_cli.status import Reason, ResultStatus
 
@@ -734,7 +734,7 @@ def read_result(path) -> ResultFile:
         command that makes one), of a newer schema version, or lacks a required group.
     """
     path = Path(path)
-    with _open_result(path) as (f, fmt, version):
+    with about_file(path, ResultFileError), _open_result(path) as (f, fmt, version):
         return _read_complete(f, path, fmt, version)
 
 
@@ -801,7 +801,7 @@ def read_stored_summary(path) -> tuple[dict, dict]:
     import json
 
     path = Path(path)
-    with _open_result(path) as (f, fmt, version):
+    with about_file(path, ResultFileError), _open_result(path) as (f, fmt, version):
         _read_complete(f, path, fmt, version)     # a complete result, as read_result checks
         a = f.attrs
         written = {"created": _s(a.get("created", "")),

@@ -1068,3 +1068,42 @@ def test_sigterm_stops_the_session_as_ctrl_c_does_with_the_resume_command(tmp_pa
              "--no-prompt", "-o", str(out), "--resume"])
     assert r.exit_code == 0, r.output
     assert read_frf_h5(out).n_points == n + 1
+
+
+def test_kill_int_stops_a_session_started_with_sigint_ignored_as_ctrl_c_does(tmp_path, hp):
+    """`laminid acquire ... &` from a script: the shell starts it with SIGINT ignored, and
+    Python kept it ignored, so `kill -INT PID` did nothing (the session ran on to its last
+    point) where SIGTERM stopped it. acquire now takes SIGINT as Ctrl-C there too: the points
+    finished before it kept, 'laminid: stopped: interrupted' with the resume command, the
+    --json summary, exit 130."""
+    import signal
+    import subprocess
+    import sys
+
+    out = tmp_path / "i.frf.h5"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "laminid_cli", "acquire", "--analyser", hp.resource, *FAST,
+         "--points", "40", "--no-prompt", "--json", "-o", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    try:
+        seen = []
+        for line in proc.stderr:               # quality lines go to stderr under --json
+            seen.append(line)
+            if line.startswith("point 2:"):    # point 2 saved and assessed
+                proc.send_signal(signal.SIGINT)
+                break
+        stdout, stderr = proc.communicate(timeout=20)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, "".join(seen) + stderr
+    assert "laminid: stopped: interrupted;" in stderr
+    n = read_frf_h5(out).n_points
+    assert 2 <= n < 40
+    assert f"interrupted; {n} point(s) saved in {out}" in stderr
+    d = json.loads(stdout)
+    assert d["points_saved"] == n and d["complete"] is False
+    assert d["stopped"].startswith(f"interrupted; {n} point(s) saved in")
+    assert d["resume"].endswith("--resume") and "--points 40" in d["resume"]
+    assert d["resume"] in stderr

@@ -81,8 +81,11 @@ def test_json_help_says_what_units_means(name):
     cmd = cli.get_command(click.Context(cli), name)
     text = next(p.help for p in cmd.params if p.name == "as_json")
     if name in ("fit-frf", "export", "acquire"):
-        assert text.endswith("'frf_unit' is the FRF's engineering unit (\"Pa/N\"); 'units', "
-                             "its old name, holds the same text in this release only "
-                             "(elsewhere 'units' maps each field to its unit)."), text
+        assert ("'frf_unit' is the FRF's engineering unit (\"Pa/N\"); 'units', its old name, "
+                "holds the same text in this release only (elsewhere 'units' maps each field "
+                "to its unit)") in text, text
     else:
-        assert text.endswith("its 'units' maps each field name to its unit (\"E1\": \"Pa\")."), text
+        assert "its 'units' maps each field name to its unit (\"E1\": \"Pa\")" in text, text
+    # and what it prints when the command fails (tests/test_cli_json_errors.py)
+    assert text.endswith('prints {"error": {"kind", "message", "file", "field", "line", '
+                         '"exit_code"}} instead.'), text

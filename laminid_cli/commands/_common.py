@@ -74,9 +74,9 @@ class InputFile(click.Path):
         value = super().convert(value, param, ctx)
         path = Path(value)
         if path.is_dir():
-            raise InputFileError(f"{value}: is a folder, not a file")
+            raise InputFileError(f"{value}: is a folder, not a file", path=value)
         if self.must_exist and not path.exists():
-            raise InputFileError(f"{value}: file not found")
+            raise InputFileError(f"{value}: file not found", path=value)
         return value
 
 
@@ -91,10 +91,15 @@ def quiet() -> bool:
     return bool(ctx is not None and ctx.find_root().params.get("quiet"))
 
 
+#: what --json prints when the command fails (laminid_cli.cli: the error's document)
+JSON_ERROR_NOTE = ("a command that fails prints {\"error\": {\"kind\", \"message\", \"file\", "
+                   "\"field\", \"line\", \"exit_code\"}} instead")
+
 json_option = click.option(
     "--json", "as_json", is_flag=True,
     help="Print the results as JSON on stdout (SI units, frequencies in Hz) instead of tables; "
-         "its 'units' maps each field name to its unit (\"E1\": \"Pa\").")
+         "its 'units' maps each field name to its unit (\"E1\": \"Pa\"); "
+         + JSON_ERROR_NOTE + ".")
 
 #: the FRF commands' JSON names the FRF's engineering unit ``frf_unit``: ``units``, which
 #: held it, is the field -> unit map in the other commands' JSON (modes, identify, show,
@@ -116,7 +121,7 @@ def echo_frf_warnings(fs) -> list[str]:
 frf_json_option = click.option(
     "--json", "as_json", is_flag=True,
     help="Print the results as JSON on stdout (SI units, frequencies in Hz) instead of tables; "
-         + FRF_UNIT_NOTE + ".")
+         + FRF_UNIT_NOTE + "; " + JSON_ERROR_NOTE + ".")
 
 force_option = click.option(
     "--force", is_flag=True, help="Overwrite an existing output file.")
@@ -151,16 +156,17 @@ def writable_target(path: str | Path, option: str = "-o") -> Path:
         path = Path(os.path.realpath(path))
     if path.exists() and not path.is_file():
         raise OutputExistsError(f"{path}: is {_kind(path)}, not a file: laminid writes its results "
-                                f"to regular files only; choose another name with {option}")
+                                f"to regular files only; choose another name with {option}",
+                                path=path)
     parent = path.parent
     if not parent.exists():
-        raise OutputExistsError(f"{path}: folder {parent} does not exist")
+        raise OutputExistsError(f"{path}: folder {parent} does not exist", path=path)
     if not parent.is_dir():
-        raise OutputExistsError(f"{path}: {parent} is not a folder")
+        raise OutputExistsError(f"{path}: {parent} is not a folder", path=path)
     if not folder_writable(parent):
         raise OutputExistsError(f"{path}: folder {parent} cannot be written to (permissions, "
                                 "a read-only or special file system); choose another place "
-                                f"with {option}")
+                                f"with {option}", path=path)
     return path
 
 
@@ -209,10 +215,11 @@ def check_output_path(path: str | Path | None, force: bool, option: str = "-o",
     path = writable_target(path, option)
     if path.exists() and any(_same_file(path, i) for i in inputs):
         raise OutputExistsError(f"{given}: is the input file; {option} must name another file "
-                                "(--force overwrites an earlier output, never an input)")
+                                "(--force overwrites an earlier output, never an input)",
+                                path=given)
     if path.exists() and not force:
         raise OutputExistsError(f"{given}: file exists; use --force to overwrite it or choose "
-                                f"another name with {option}")
+                                f"another name with {option}", path=given)
     return path
 
 
@@ -237,7 +244,8 @@ def check_hdf5_name(path, what: str, option: str = "-o") -> None:
                 ".unv": "; laminid export writes UFF", ".pdf": "; laminid report writes PDF",
                 ".png": "; laminid report writes PNG",
                 ".csv": "; laminid batch writes summary.csv"}.get(suffix, "")
-        raise OutputExistsError(f"{path}: {what} as HDF5; name it .h5 ({option}){hint}")
+        raise OutputExistsError(f"{path}: {what} as HDF5; name it .h5 ({option}){hint}",
+                                path=path)
 
 
 RESULT_FORMATS = ("laminid-result", "laminid-joint-result")
@@ -268,11 +276,12 @@ def derived_output_path(path: str | Path, specimen: str | Path | None = None
     source = source.decode() if isinstance(source, bytes) else source
     if fmt not in RESULT_FORMATS:
         raise OutputExistsError(f"{path}: exists and is not a laminid result file; move it or "
-                                "name the result with -o")
+                                "name the result with -o", path=path)
     if specimen is not None and isinstance(source, str) and source \
             and Path(source).name != Path(specimen).name:
         raise OutputExistsError(f"{path}: exists and holds the result of another specimen file "
-                                f"({Path(source).name}); name this one's result with -o")
+                                f"({Path(source).name}); name this one's result with -o",
+                                path=path)
     return path, True
 
 
@@ -296,9 +305,20 @@ def _clean(obj):
     return json_safe(obj)
 
 
+#: key of the click context's ``meta`` (shared by the group's and the command's contexts) set
+#: when a command has written its --json document: an error after it (acquire's session that
+#: stopped early) adds no second document (laminid_cli.cli)
+JSON_WRITTEN = "laminid.json_written"
+
+
 def echo_json(obj) -> None:
-    """Print ``obj`` as indented JSON on stdout (NaN written as null)."""
-    click.echo(json.dumps(_clean(obj), indent=2))
+    """Print ``obj`` as indented JSON on stdout (NaN written as null), the command's one
+    document (:data:`JSON_WRITTEN`)."""
+    text = json.dumps(_clean(obj), indent=2)
+    ctx = click.get_current_context(silent=True)
+    if ctx is not None:
+        ctx.meta[JSON_WRITTEN] = True
+    click.echo(text)
 
 
 def _apply(options):

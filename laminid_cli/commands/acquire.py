@@ -293,6 +293,27 @@ def _sigterm_stops_the_session():
         signal.signal(signal.SIGTERM, previous)
 
 
+@contextlib.contextmanager
+def _sigint_stops_it_even_in_the_background():
+    """SIGINT (``kill -INT PID``) stops acquire as Ctrl-C does also where it started with
+    SIGINT ignored: a shell without job control (a script) starts ``laminid acquire ... &``
+    so, and Python keeps an ignored SIGINT ignored, so that ``kill -INT`` did nothing. Python's
+    own handler (KeyboardInterrupt) is installed for the command and the ignoring restored
+    after it. Only in the main thread, where Python runs signal handlers."""
+    import signal
+    import threading
+
+    if (threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGINT) is not signal.SIG_IGN):
+        yield
+        return
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 @click.command(short_help="Acquire impact-test FRFs from a dynamic signal analyser (VISA).")
 @click.option("--analyser", "analyser", required=True, metavar="RESOURCE",
               help="VISA resource: GPIB0::5, GPIB0::5::INSTR, TCPIP::host::5025::SOCKET, ...")
@@ -347,7 +368,9 @@ def _sigterm_stops_the_session():
                    "stderr. Printed also when points are missing (exit 3) or the session "
                    "stopped early (Ctrl-C, analyser fault, closed stdin: 'stopped' says why), "
                    "and for a --resume of a file that has every point ('already_complete': "
-                   "true, nothing measured). " + FRF_UNIT_NOTE + ".")
+                   "true, nothing measured). " + FRF_UNIT_NOTE + "; a command that fails "
+                   "before the session prints {\"error\": {\"kind\", \"message\", \"file\", "
+                   "\"field\", \"line\", \"exit_code\"}} instead.")
 @click.option("-o", "--output", required=True, type=OUTPUT_FILE,
               help="FRF HDF5 file to write (point by point).")
 @click.pass_context
@@ -364,8 +387,9 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
     Exit status: 0 when every point is saved (also for --resume of a file that already has
     them all: said so, the analyser not opened, the file unchanged); 3 when the session ended
     with points missing (quit or skipped; the file is valid, continue with --resume); 1 on an
-    analyser fault (finished points kept); 130 on Ctrl-C, 143 on SIGTERM (kill; both keep
-    the finished points and print the --resume command); 2 for bad input (options, the
+    analyser fault (finished points kept); 130 on Ctrl-C or SIGINT (kill -INT, also of an
+    acquire started with '&' in a script, where SIGINT is ignored), 143 on SIGTERM (kill;
+    both keep the finished points and print the --resume command); 2 for bad input (options, the
     output file, no analyser answering at --analyser: nothing measured).
 
     \b
@@ -374,6 +398,7 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
           --points 12 --units Pa/N -o plate.frf.h5
       laminid fit-frf plate.frf.h5 --into plate.yaml
     """
+    ctx.with_resource(_sigint_stops_it_even_in_the_background())
     from laminid_cli.errors import FrfError, LaminidError
     from laminid_cli.frf.store import FrfWriter
     from laminid_cli.instrument.base import AcquisitionSettings

@@ -67,7 +67,7 @@ from pathlib import Path
 import numpy as np
 
 from laminid_cli.atomic import atomic_path
-from laminid_cli.errors import FrfError, LaminidError, OutputExistsError
+from laminid_cli.errors import FrfError, LaminidError, OutputExistsError, about_file
 from laminid_cli.frf.store import (FrfSet, check_frf_arrays, check_frf_size, read_frf_h5,
                                    resonance_lines, unit_not_stated_note, validate_frf_arrays,
                                    write_frf_h5)
@@ -135,9 +135,14 @@ def read_frf(path, fmt: str | None = None, **h5_paths) -> FrfSet:
 
     ``h5_paths``: ``freq_dataset``, ``frf_dataset`` for a plain HDF5 file (see
     :func:`laminid_cli.frf.generic_h5.read_any_frf_h5`)."""
+    path = Path(path)
+    with about_file(path, FrfError):       # (its --json error document names the file)
+        return _read_frf(path, fmt, h5_paths)
+
+
+def _read_frf(path: Path, fmt: str | None, h5_paths: dict) -> FrfSet:
     from laminid_cli.frf.generic_h5 import read_any_frf_h5
 
-    path = Path(path)
     fmt = frf_format(path, fmt)
     if fmt != "hdf5" and any(v is not None for v in h5_paths.values()):
         raise FrfError(f"{path}: dataset paths apply to HDF5 files only (format {fmt})")
