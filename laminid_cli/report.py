@@ -801,6 +801,42 @@ def plate_chi2(plate) -> tuple[float | None, int]:
     return float(np.sum(((f**2 - fm**2) / (2 * f * sd)) ** 2)), n
 
 
+def prior_chi2(r: ResultFile) -> dict[str, float]:
+    """{label: term} of each free constant's prior in the fit's chi2 (paper Eq. 15, as
+    :func:`laminid_cli.uncertainty.design_rows` counts it): ((P − P0) / (P0 σ_u))², P0 the
+    initial value, σ_u the RMS of 2 σ/f over every plate's fitted modes (σ the intervals');
+    the weight wp cancels (it scales the row and its noise alike). With the plates'
+    :func:`plate_chi2` these add up to the result's chi2 = s2 · dof. {} without a prior, or in
+    a file without σ."""
+    import yaml
+
+    rel = []
+    for p in r.plates:
+        fr = p.frequencies
+        if fr.sigma_hz is None or np.size(fr.sigma_hz) != np.size(fr.measured):
+            return {}
+        ok = np.isfinite(fr.measured) & (np.asarray(fr.weight) > 0)
+        rel.append(2 * np.asarray(fr.sigma_hz, float)[ok] / fr.measured[ok])
+    try:
+        # a joint fit's plates have the same priors (identify refuses others): the first's
+        mats = yaml.safe_load(r.plates[0].yaml)["materials"]
+    except (IndexError, KeyError, TypeError, yaml.YAMLError):
+        return {}
+    sigma_unit = float(np.sqrt(np.mean(np.concatenate(rel) ** 2))) if rel else np.nan
+    fixed = set(r.uncertainty.fixed) if r.uncertainty is not None else set()
+    terms = {}
+    for m, consts in r.materials.items():
+        prior = ((mats or {}).get(m) or {}).get("prior") or {}
+        for k in CONSTANTS:
+            wp = prior.get(k, 0) if isinstance(prior, dict) else 0
+            if (not isinstance(wp, (int, float)) or wp <= 0 or k not in r.free.get(m, ())
+                    or f"{m}.{k}" in fixed):
+                continue
+            p0 = r.initial[m][k]
+            terms[f"{m}.{k}"] = float(((consts[k] - p0) / (p0 or 1.0) / sigma_unit) ** 2)
+    return terms
+
+
 def summary_page(r: ResultFile, plate=None, what: str = ""):
     """Page 1: status, constants table, and (single plate, or ``plate`` given) the
     frequencies. A joint result without ``plate`` gets the RMS of each plate instead."""
@@ -847,14 +883,28 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
                      loc="left")
         if all(c is not None for c, _ in shares):
             total = sum(c for c, _ in shares)
-            note = (f"chi2 (n): the plate's share of the fit's chi2 {total:.3g}, "
+            chi2 = r.uncertainty.s2 * r.uncertainty.dof if r.uncertainty is not None else total
+            priors = prior_chi2(r)
+            note = (f"chi2 (n): the plate's share of the fit's chi2 {chi2:.3g}, "
                     "Σ\u00a0((f²\u00a0−\u00a0f_model²)\u00a0/\u00a0(2\u00a0f\u00a0σ))² over its n fitted modes (σ the intervals'); "
                     "about n each when the plates agree, one far above its n disagrees with "
                     "the others")
-            if r.uncertainty is not None and not np.isclose(total, r.uncertainty.s2
-                                                            * r.uncertainty.dof, rtol=1e-6):
-                note += (f"; the result's chi2 {r.uncertainty.s2 * r.uncertainty.dof:.3g} "
-                         "adds the prior terms")
+            if priors:
+                # the plates' chi2 alone fall short of the fit's by the priors' terms (a
+                # joint S1.1 + S1.2 with prior {nu12: 1.0}: 71.4996 + 0.00694 = 71.5065)
+                # one count of decimals for the three, the smallest term to 3 digits, so
+                # that the sum reads by eye
+                small = min([t for t in priors.values() if t > 0] or [1.0])
+                d = int(min(8, max(1, 2 - np.floor(np.log10(small)))))
+                one = len(r.materials) == 1
+                terms = " + ".join(f"on {lab.rsplit('.', 1)[1] if one else lab} {t:.{d}f}"
+                                   for lab, t in priors.items())
+                note += (f"; the fit's chi2 {chi2:.{d}f} = the plates' {total:.{d}f} + the "
+                         f"prior's {terms} (((P\u00a0−\u00a0P0)\u00a0/\u00a0(P0\u00a0σ_u))², "
+                         "paper Eq. 15, σ_u the RMS of 2\u00a0σ/f)")
+            if not np.isclose(total + sum(priors.values()), chi2, rtol=1e-6):
+                note += (f"; the result's chi2 {chi2:.4g} is not the plates' {total:.4g}"
+                         + (" and the priors'" if priors else ""))
             ax_p = fig.add_subplot(right[1, 0])
             ax_p.axis("off")
             ax_p.text(0, 0.97, "\n".join(textwrap.wrap(note, 80)), fontsize=7.5, va="top",

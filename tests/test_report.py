@@ -471,6 +471,66 @@ def test_joint_shared_page_gives_each_plates_chi2_summing_to_the_results(joint, 
     assert f"chi2 {stored:.3g}" in text and "disagrees with the others" in text
 
 
+@pytest.fixture(scope="module")
+def joint_prior(tmp_path_factory):
+    """S1.1 + S1.2 joint (6x6), both files with ``prior: {E2: 0.001, nu12: 1.0}``: a fit
+    whose chi2 holds two prior terms beside the plates' (E2 moved off its initial 8.80 GPa:
+    a term of order 1; nu12 held at its 0.350: a term of order 0.01)."""
+    tmp = tmp_path_factory.mktemp("joint_prior")
+    specs = []
+    for src in (S11, S12):
+        spec = tmp / Path(src).name
+        spec.write_text(Path(src).read_text().replace(
+            "    nu12: 0.35\n", "    nu12: 0.35\n    prior: {E2: 0.001, nu12: 1.0}\n", 1))
+        specs.append(spec)
+    out = tmp / "jp.result.h5"
+    r = run("identify", *specs, "--joint", "--mesh", "6x6", "-o", out)
+    assert r.exit_code == 0, r.output
+    return out
+
+
+def test_joint_shared_page_with_a_prior_adds_its_terms_to_the_plates_chi2(joint_prior):
+    """With a prior (paper Eq. 15) the plates' chi2 fall short of the fit's: the note said
+    only "the result's chi2 71.5 adds the prior terms" beside "the fit's chi2 71.5" (the
+    plates' sum, S1.1 + S1.2 with prior {nu12: 1.0}: 71.4996 of 71.5065). It now gives each
+    prior's term, ((P − P0)/(P0 σ_u))² with σ_u the RMS of 2σ/f over the fitted modes, and
+    the sum: plates' + priors' = the stored chi2 within rtol 1e-9, each number written with
+    the same decimals."""
+    from laminid_cli.report import plate_chi2, prior_chi2
+
+    res = read_result(joint_prior)
+    with h5py.File(joint_prior, "r") as f:
+        stored = float(f["uncertainty"].attrs["chi2"])
+    plates = sum(plate_chi2(p)[0] for p in res.plates)
+    fitted = [np.isfinite(p.frequencies.measured) & (p.frequencies.weight > 0)
+              for p in res.plates]
+    rel = np.concatenate([(2 * p.frequencies.sigma_hz / p.frequencies.measured)[ok]
+                          for p, ok in zip(res.plates, fitted)])
+    sigma_u = np.sqrt(np.mean(rel**2))
+    assert np.isclose(sigma_u, 0.004, rtol=1e-12)         # 2 × the default 0.2 %
+    expect = {f"{MAT}.{k}": ((res.materials[MAT][k] - res.initial[MAT][k])
+                             / res.initial[MAT][k] / sigma_u) ** 2 for k in ("E2", "nu12")}
+    terms = prior_chi2(res)
+    assert terms.keys() == expect.keys()
+    assert all(np.isclose(terms[k], expect[k], rtol=1e-12) for k in expect)
+    assert terms[f"{MAT}.E2"] > 0.1 and 0 < terms[f"{MAT}.nu12"] < 0.1
+    # without the priors' terms the plates' chi2 miss the stored one by far more than 1e-9
+    assert not np.isclose(plates, stored, rtol=1e-6, atol=0)
+    assert np.isclose(plates + sum(terms.values()), stored, rtol=1e-9, atol=0)
+    shared = next(p.figure for p in report_pages(joint_prior) if p.name == "shared")
+    note = next(t for a in shared.axes for t in a.texts if t.get_gid() == "plates-note")
+    text = " ".join(note.get_text().split()).replace("\u00a0", " ")
+    d = int(2 - np.floor(np.log10(terms[f"{MAT}.nu12"])))
+    assert (f"the fit's chi2 {stored:.{d}f} = the plates' {plates:.{d}f} + the prior's on E2 "
+            f"{terms[f'{MAT}.E2']:.{d}f} + on nu12 {terms[f'{MAT}.nu12']:.{d}f}") in text
+    assert "paper Eq. 15" in text and "is not the plates'" not in text
+    # the numbers as written add up (to the last decimal written, rounding aside)
+    nums = [float(x) for x in re.search(
+        r"chi2 ([\d.]+) = the plates' ([\d.]+) \+ the prior's on E2 ([\d.]+) \+ on nu12 "
+        r"([\d.]+)", text).groups()]
+    assert abs(nums[0] - sum(nums[1:])) <= 1.5 * 10.0 ** -d
+
+
 def _s21_modes(n_modes: int, n_points: int):
     """S2.1's first ``n_modes`` frequencies (6x6, initial constants) and modal constants of
     ``n_points`` points (seeded), to synthesise its FRFs; with the generator, for more draws."""
