@@ -531,6 +531,27 @@ def test_joint_shared_page_with_a_prior_adds_its_terms_to_the_plates_chi2(joint_
     assert abs(nums[0] - sum(nums[1:])) <= 1.5 * 10.0 ** -d
 
 
+def test_joint_plates_table_header_within_its_cells(joint):
+    """The plates table's header "modes measured" (8-point bold) ran over its cell into
+    "mesh" ("modes measurec" on the PNG: 95 % of the cell's width by the font's metrics, the
+    glyphs reach further) and "RMS residual (%)" touched its borders (92 %); every header's
+    text now lies inside its cell with 5 % of its width to spare on each side."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    shared = next(p.figure for p in report_pages(joint) if p.name == "shared")
+    renderer = FigureCanvasAgg(shared).get_renderer()
+    shared.draw(renderer)
+    table = ax(shared, "plates").tables[0]
+    heads = [(c, cell) for (i, c), cell in table.get_celld().items() if i == 0]
+    assert sorted(cell.get_text().get_text() for _, cell in heads) == sorted(
+        ["plate", "RMS residual (%)", "chi2 (n)", "modes measured", "mesh"])
+    for _, cell in heads:
+        box = cell.get_window_extent(renderer)
+        inner = cell.get_text().get_window_extent(renderer)
+        pad = 0.05 * box.width
+        assert box.x0 + pad < inner.x0 and inner.x1 < box.x1 - pad, cell.get_text().get_text()
+
+
 def _s21_modes(n_modes: int, n_points: int):
     """S2.1's first ``n_modes`` frequencies (6x6, initial constants) and modal constants of
     ``n_points`` points (seeded), to synthesise its FRFs; with the generator, for more draws."""
