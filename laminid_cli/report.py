@@ -56,6 +56,12 @@ MODES_PER_PAGE = 12
 A4_LANDSCAPE = (11.69, 8.27)
 UNDETERMINED = "not determined"
 BAND_COLORS = ("#b9dfb9", "#f3e0a6")      # well determined, weak
+#: the key of a reference drawn as a point: one value, which the specimen file gave without
+#: an uncertainty (a range [low, high] is drawn as a bar); a bare point read as exact
+REFERENCE_POINT_WORDS = "reference (no uncertainty given)"
+REFERENCE_POINT_NOTE = ("reference without a range: the specimen file's reference block gives "
+                        "one value and no uncertainty (words in its source aside); a [low, "
+                        "high] there would be drawn as a range")
 
 
 class ReportError(LaminidError):
@@ -917,6 +923,9 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
     src = r.reference_source
     notes.append(textwrap.shorten("reference: " + src, 200) if src else
                  "no reference values in the specimen file")
+    if any(lo == hi for consts in r.reference.values() for lo, hi in consts.values()):
+        # (the source's words may state a scatter, "170 ± 1 GPa", that the values do not carry)
+        notes.append(REFERENCE_POINT_NOTE)
     notes += r.reference_notes
     if r.uncertainty is not None:
         u = r.uncertainty
@@ -1467,7 +1476,9 @@ def _interval_legend(r: ResultFile) -> tuple[list, list[str]]:
                              mew=1.5), label))
     refs = [r.reference.get(m, {}).get(k) for m in r.materials for k in CONSTANTS]
     if any(ref is not None and ref[0] == ref[1] for ref in refs):
-        items.append((Line2D([], [], ls="none", marker="D", ms=6, color="C3"), "reference"))
+        # a bare point reads as an exact value: say that the file gave it no uncertainty
+        items.append((Line2D([], [], ls="none", marker="D", ms=6, color="C3"),
+                      REFERENCE_POINT_WORDS))
     if any(ref is not None and ref[0] < ref[1] for ref in refs):
         items.append((Line2D([], [], color="C3", lw=4, solid_capstyle="butt"),
                       "reference range"))
@@ -2586,8 +2597,8 @@ def constants_across_page(done, title: str, absent=()):
         handles["values the fit does not reject (profile of a constant on a search limit)"] = \
             Line2D([], [], ls=(0, (1, 1.5)), color=grey, lw=1.6)
     if has_ref:
-        handles["reference value"] = Line2D([], [], ls="none", marker="_", ms=14, mew=2.2,
-                                            color="k")
+        handles["reference value " + REFERENCE_POINT_WORDS.removeprefix("reference ")] = \
+            Line2D([], [], ls="none", marker="_", ms=14, mew=2.2, color="k")
     if has_ref_range:
         # a capped vertical bar, as drawn (a line would look like the reference value's tick)
         handles["reference range (left of the value)"] = Line2D(

@@ -955,7 +955,7 @@ def test_a_reference_range_in_the_table_the_panels_and_across_specimens(ranged_b
              if ln.get_gid() == "reference")
     assert d.get_marker() == "D" and list(d.get_ydata()) == [10.0]
     legend = [t.get_text() for t in ax(fig, None).get_legend().get_texts()]
-    assert "reference" in legend and "reference range" in legend
+    assert "reference (no uncertainty given)" in legend and "reference range" in legend
     across = {p.name: p.figure for p in report_pages(ranged_batch / "summary.json")}
     a = ax(across["constants"], "across-E1")
     bar = next(ln for ln in a.get_lines()
@@ -966,6 +966,49 @@ def test_a_reference_range_in_the_table_the_panels_and_across_specimens(ranged_b
     legend = [t.get_text() for x in across["constants"].axes if x.get_legend() is not None
               for t in x.get_legend().get_texts()]
     assert "reference range (left of the value)" in legend
+    # (the single values beside it: G12 5.8 GPa, nu12 0.35, E2 10 GPa)
+    assert "reference value (no uncertainty given)" in legend
+
+
+def test_a_reference_point_is_said_to_carry_no_uncertainty(batch_dir):
+    """A reference the specimen file gives as one value was drawn as a bare point (a red
+    diamond, keyed "reference"; a black tick "reference value" across specimens), which reads
+    as an exact value: S1.4's strain-gauge E1 170, E2 10, G12 5.8 GPa, nu12 0.35, whose
+    source's words give "170 ± 1 GPa". The keys now say "no uncertainty given" and page 1's
+    notes say that the file's reference block gives none and that a [low, high] would be
+    drawn as a range; S2.1, with no material reference (a laminate Ey only), gets neither."""
+    from laminid_cli.report import REFERENCE_POINT_NOTE
+
+    path = batch_dir / "S1.4.result.h5"
+    res = read_result(path)
+    assert {k: v for k, v in res.reference[MAT].items()} == {
+        "E1": (170e9, 170e9), "E2": (10e9, 10e9), "G12": (5.8e9, 5.8e9), "nu12": (0.35, 0.35)}
+    assert "170 ± 1 GPa" in res.reference_source
+    fig = result_page(path, "intervals")
+    for k, v in (("E1", 170.0), ("E2", 10.0), ("G12", 5.8), ("nu12", 0.35)):
+        d = next(ln for ln in ax(fig, f"interval-{MAT}.{k}").get_lines()
+                 if ln.get_gid() == "reference")
+        assert d.get_marker() == "D" and np.isclose(d.get_ydata()[0], v, rtol=1e-12)
+    legend = [t.get_text() for t in ax(fig, None).get_legend().get_texts()]
+    assert "reference (no uncertainty given)" in legend and "reference" not in legend
+    assert "reference range" not in legend
+    notes = " ".join(t.get_text() for a in result_page(path, "summary").axes
+                     for t in a.texts if t.get_gid() == "notes").replace("\n", " ")
+    assert " ".join(REFERENCE_POINT_NOTE.split()) in " ".join(notes.split())
+    assert REFERENCE_POINT_NOTE.startswith("reference without a range: the specimen file's "
+                                           "reference block gives one value and no uncertainty")
+    s21 = batch_dir / "S2.1.result.h5"
+    assert read_result(s21).reference == {}
+    notes = " ".join(t.get_text() for a in result_page(s21, "summary").axes
+                     for t in a.texts if t.get_gid() == "notes")
+    assert "no uncertainty" not in notes
+    across = {p.name: p.figure for p in report_pages(batch_dir / "summary.csv")}
+    legend = [t.get_text() for x in across["constants"].axes if x.get_legend() is not None
+              for t in x.get_legend().get_texts()]
+    assert "reference value (no uncertainty given)" in legend and "reference value" not in legend
+    ticks = [ln for a in across["constants"].axes for ln in a.get_lines()
+             if (ln.get_gid() or "").startswith("reference-S1.4-")]
+    assert sorted(float(ln.get_ydata()[0]) for ln in ticks) == [0.35, 5.8, 10.0, 170.0]
 
 
 def _no_overlap(fig, axis, legend, *, draw=True) -> bool:
