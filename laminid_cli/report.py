@@ -10,7 +10,8 @@ every number drawn comes from it. Pages of a single-plate result, each a matplot
 2. intervals (when the file has ``/uncertainty``): one panel per constant in its own unit
    (GPa, 1) and on its own scale, with the verdict bands (well determined / weak, the file's
    thresholds), the reference value, and arrows where an interval runs off the panel; a
-   modulus whose numbers span more than a decade on a log axis (:func:`wants_log_axis`);
+   modulus whose numbers span more than a decade on a log axis (:func:`wants_log_axis`),
+   G13 and G23 on one scale (:func:`panel_scales`), log ones over the same decades;
 3. mode shapes: w0 of each paired model mode (filled contours of w/max|w|, nodal lines), the
    same size on every page, with the MAC against the *initial* model's mode the measurement
    was first paired with (the result holds no measured shapes: frequencies only);
@@ -1340,8 +1341,54 @@ def _monte_carlo_bar(ax, k, rng: MonteCarloRange, x, ymin, ymax) -> None:
             _mc_end_label(ax, k, x, end, None, up, True, f"monte-carlo-{side}-limit")
 
 
-def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
-    """Value, interval, verdict bands and reference of constant ``k`` of material ``m``."""
+#: constants whose panels on one intervals page share one scale: log for all where any of
+#: them wants it (:func:`panel_scales`). S1.1 (8x8) drew G13 [1.17, 10.4] GPa (8.9x) on a
+#: linear panel, its top off under an arrow, beside G23 [0.199, 5.96] GPa (30x) whole on a
+#: log one: the narrower interval (±109 % against ±170 %) looked the worse
+SAME_SCALE = ("G13", "G23")
+
+
+def _panel_marks(r: ResultFile, m: str, k: str) -> tuple[tuple, list]:
+    """(marks, ends) of the panel of constant ``k`` of material ``m`` in the display unit, as
+    :func:`wants_log_axis` takes them: the value and the reference's ends; the interval's,
+    the Monte Carlo range's and, for a constant at a bound, its profile's (where the fit
+    rejects it, or the end of a flat one's scan)."""
+    u = r.uncertainty
+    iv = u.get(m, k) if u is not None else None
+    ref = r.reference.get(m, {}).get(k)
+    g = (lambda z: _gpa(k, z))
+    lo, hi = (iv.lower, iv.upper) if iv is not None else (np.nan, np.nan)
+    rng = monte_carlo_range(u, iv)
+    ends = [g(lo), g(hi)] + ([g(rng.lower), g(rng.upper)] if rng is not None else [])
+    if iv is not None and iv.at_bound:
+        ends += [g(getattr(iv, "profile_bound", np.nan))] + (
+            [g(getattr(iv, "profile_far", np.nan))] if iv.profile_kind == "flat" else [])
+    return (g(r.materials[m][k]), *(() if ref is None else (g(e) for e in ref))), ends
+
+
+def panel_scales(r: ResultFile) -> dict[tuple[str, str], bool]:
+    """{(material, constant): log} of the intervals page's panels: each by
+    :func:`wants_log_axis`, except that the constants of :data:`SAME_SCALE` (the transverse
+    shear moduli, of every material) are all log where any of them is, so that panels a
+    reader compares side by side are on one scale (a log one can hold the narrow with the
+    wide; a linear one cannot)."""
+    log = {(m, k): wants_log_axis(k, *_panel_marks(r, m, k))
+           for m in r.materials for k in CONSTANTS}
+    if any(log[m, k] for m in r.materials for k in SAME_SCALE):
+        for m in r.materials:
+            for k in SAME_SCALE:
+                marks, _ = _panel_marks(r, m, k)
+                # (a mark <= 0 has no place on a log axis: such a panel stays linear)
+                log[m, k] = all(x > 0 for x in marks if np.isfinite(x)) and k != "nu12"
+    return log
+
+
+def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0,
+                   log: bool | None = None, decades: float | None = None):
+    """Value, interval, verdict bands and reference of constant ``k`` of material ``m``;
+    ``log``: its scale (None: :func:`wants_log_axis` of its own numbers; the page gives
+    :func:`panel_scales`'), ``decades``: on a log scale, the fewest decades its height spans
+    (the page gives the widest of the :data:`SAME_SCALE` panels')."""
     u = r.uncertainty
     v = r.materials[m][k]
     iv = u.get(m, k) if u is not None else None
@@ -1356,11 +1403,10 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
     at_bound = iv is not None and iv.at_bound
     # the ends drawn (display unit): interval, Monte Carlo range, a constant at a bound's
     # profile (where the fit rejects it, or the end of a flat one's scan)
-    ends = [g(lo), g(hi)] + ([g(rng.lower), g(rng.upper)] if rng is not None else [])
-    if at_bound:
-        ends += [g(getattr(iv, "profile_bound", np.nan))] + (
-            [g(getattr(iv, "profile_far", np.nan))] if iv.profile_kind == "flat" else [])
-    if wants_log_axis(k, (g(v), *gref), ends):
+    marks, ends = _panel_marks(r, m, k)
+    if log is None:
+        log = wants_log_axis(k, marks, ends)
+    if log:
         # a decade and more: on a linear axis the value sat on 0 under the others
         ax.set_yscale("log")
         reach = [e for e in ends if g(v) / LOG_PANEL_REACH <= e <= g(v) * LOG_PANEL_REACH]
@@ -1372,6 +1418,11 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
         else:
             band = (g(v) * (1 - 1.2 * u.weak), g(v) * (1 + 1.35 * u.weak))
             ymin, ymax = _log_limits((g(v), *band, *gref), reach)
+        d = np.log10(ymax / ymin)
+        if decades is not None and d < decades:
+            # as many decades as the panels it is compared with, about its own middle: a
+            # length on it is the same ratio as on theirs
+            ymin, ymax = ymin / 10 ** ((decades - d) / 2), ymax * 10 ** ((decades - d) / 2)
     elif at_bound:
         ymin, ymax = _bound_limits(g(v), iv.bound_side, gref, nu,
                                    g(getattr(iv, "profile_bound", np.nan)))
@@ -1516,6 +1567,15 @@ def panel_words(r: ResultFile, m: str, k: str, iv) -> str:
     return text + "\n" + "\n".join(textwrap.wrap(verdict, 24))
 
 
+def _alone(r: ResultFile, m: str, k: str) -> tuple[float, float]:
+    """(ymin, ymax) of the log panel of constant ``k`` of material ``m`` drawn alone."""
+    from matplotlib.figure import Figure
+
+    a = Figure().add_subplot()
+    interval_panel(a, r, m, k, log=True)
+    return a.get_ylim()
+
+
 def interval_page(r: ResultFile):
     """One panel per constant (rows: materials), each in its unit and on its own scale."""
     u = r.uncertainty
@@ -1525,11 +1585,19 @@ def interval_page(r: ResultFile):
                         f"{u.confidence:.0%} confidence intervals"), fontsize=11)
     gs = fig.add_gridspec(len(mats) + 1, 6, height_ratios=[1] * len(mats) + [0.1])
     axes = np.array([[fig.add_subplot(gs[i, j]) for j in range(6)] for i in range(len(mats))])
+    log_of = panel_scales(r)
+    # the SAME_SCALE panels on log scales span as many decades each, the most any of them
+    # needs (measured on panels drawn for it alone): S1.1 (8x8) drew G13 [1.17, 10.4] GPa over
+    # 1.1 decades beside G23 [0.199, 5.96] over 1.6, two bars of one length for 8.9x and 30x
+    spans = [np.log10(abs(np.divide(*_alone(r, m, k)[::-1])))
+             for m in mats for k in SAME_SCALE if log_of[m, k]]
+    decades = max(spans) if spans else None
     for i, m in enumerate(mats):
         for j, k in enumerate(CONSTANTS):
             ax = axes[i, j]
             ax.set_gid(f"interval-{m}.{k}")
-            iv = interval_panel(ax, r, m, k)
+            iv = interval_panel(ax, r, m, k, log=log_of[m, k],
+                                decades=decades if k in SAME_SCALE else None)
             ax.set_xlim(-0.75, 0.75)
             ax.set_xticks([])
             ax.tick_params(labelsize=7)
@@ -1556,6 +1624,13 @@ def interval_page(r: ResultFile):
         title += "; arrow: the interval or range runs off the panel to the value written"
     if below:
         title += " (an end ≤ 0 is below any log scale)"
+    if decades is not None and sum(log_of[m, k] for m in mats for k in SAME_SCALE) > 1:
+        # (a panel on a log scale that its own numbers, within a decade, would not need)
+        forced = any(log_of[m, k] and not wants_log_axis(k, *_panel_marks(r, m, k))
+                     for m in mats for k in SAME_SCALE)
+        title += (f";\n{' and '.join(SAME_SCALE)} on one log scale"
+                  + (", as one of them spans more than a decade" if forced else "")
+                  + ": each panel over the same decades, a bar's length the same ratio on each")
     if any(iv.at_bound for iv in u.intervals):
         title += (";\ndashed arrow: the way the fit pushes a constant stopped on a search limit "
                   "(the value drawn is that limit)")
