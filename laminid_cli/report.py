@@ -10,7 +10,8 @@ every number drawn comes from it. Pages of a single-plate result, each a matplot
 2. intervals (when the file has ``/uncertainty``): one panel per constant in its own unit
    (GPa, 1) and on its own scale, with the verdict bands (well determined / weak, the file's
    thresholds), the reference value, and arrows where an interval runs off the panel; a
-   modulus whose numbers span more than a decade on a log axis (:func:`wants_log_axis`);
+   modulus whose numbers span more than a decade on a log axis (:func:`wants_log_axis`),
+   G13 and G23 on one scale (:func:`panel_scales`), log ones over the same decades;
 3. mode shapes: w0 of each paired model mode (filled contours of w/max|w|, nodal lines), the
    same size on every page, with the MAC against the *initial* model's mode the measurement
    was first paired with (the result holds no measured shapes: frequencies only);
@@ -56,6 +57,12 @@ MODES_PER_PAGE = 12
 A4_LANDSCAPE = (11.69, 8.27)
 UNDETERMINED = "not determined"
 BAND_COLORS = ("#b9dfb9", "#f3e0a6")      # well determined, weak
+#: the key of a reference drawn as a point: one value, which the specimen file gave without
+#: an uncertainty (a range [low, high] is drawn as a bar); a bare point read as exact
+REFERENCE_POINT_WORDS = "reference (no uncertainty given)"
+REFERENCE_POINT_NOTE = ("reference without a range: the specimen file's reference block gives "
+                        "one value and no uncertainty (words in its source aside); a [low, "
+                        "high] there would be drawn as a range")
 
 
 class ReportError(LaminidError):
@@ -801,6 +808,42 @@ def plate_chi2(plate) -> tuple[float | None, int]:
     return float(np.sum(((f**2 - fm**2) / (2 * f * sd)) ** 2)), n
 
 
+def prior_chi2(r: ResultFile) -> dict[str, float]:
+    """{label: term} of each free constant's prior in the fit's chi2 (paper Eq. 15, as
+    :func:`laminid_cli.uncertainty.design_rows` counts it): ((P − P0) / (P0 σ_u))², P0 the
+    initial value, σ_u the RMS of 2 σ/f over every plate's fitted modes (σ the intervals');
+    the weight wp cancels (it scales the row and its noise alike). With the plates'
+    :func:`plate_chi2` these add up to the result's chi2 = s2 · dof. {} without a prior, or in
+    a file without σ."""
+    import yaml
+
+    rel = []
+    for p in r.plates:
+        fr = p.frequencies
+        if fr.sigma_hz is None or np.size(fr.sigma_hz) != np.size(fr.measured):
+            return {}
+        ok = np.isfinite(fr.measured) & (np.asarray(fr.weight) > 0)
+        rel.append(2 * np.asarray(fr.sigma_hz, float)[ok] / fr.measured[ok])
+    try:
+        # a joint fit's plates have the same priors (identify refuses others): the first's
+        mats = yaml.safe_load(r.plates[0].yaml)["materials"]
+    except (IndexError, KeyError, TypeError, yaml.YAMLError):
+        return {}
+    sigma_unit = float(np.sqrt(np.mean(np.concatenate(rel) ** 2))) if rel else np.nan
+    fixed = set(r.uncertainty.fixed) if r.uncertainty is not None else set()
+    terms = {}
+    for m, consts in r.materials.items():
+        prior = ((mats or {}).get(m) or {}).get("prior") or {}
+        for k in CONSTANTS:
+            wp = prior.get(k, 0) if isinstance(prior, dict) else 0
+            if (not isinstance(wp, (int, float)) or wp <= 0 or k not in r.free.get(m, ())
+                    or f"{m}.{k}" in fixed):
+                continue
+            p0 = r.initial[m][k]
+            terms[f"{m}.{k}"] = float(((consts[k] - p0) / (p0 or 1.0) / sigma_unit) ** 2)
+    return terms
+
+
 def summary_page(r: ResultFile, plate=None, what: str = ""):
     """Page 1: status, constants table, and (single plate, or ``plate`` given) the
     frequencies. A joint result without ``plate`` gets the RMS of each plate instead."""
@@ -841,20 +884,36 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
                  f"{c:.3g} ({n})" if c is not None else "–",
                  str(int(np.isfinite(p.frequencies.measured).sum())),
                  f"{p.mesh[0]}x{p.mesh[1]}"] for p, (c, n) in zip(r.plates, shares)]
-        _table(ax, head, rows, fontsize=8, col_widths=[0.13, 0.25, 0.21, 0.24, 0.17])
+        # (a 7-point header: "modes measured" in 8-point bold ran over its cell)
+        _table(ax, head, rows, fontsize=8, col_widths=[0.13, 0.25, 0.21, 0.24, 0.17],
+               head_fontsize=7)
         ax.set_gid("plates")
         ax.set_title(f"{len(r.plates)} plates fitted together (their pages follow)", fontsize=9,
                      loc="left")
         if all(c is not None for c, _ in shares):
             total = sum(c for c, _ in shares)
-            note = (f"chi2 (n): the plate's share of the fit's chi2 {total:.3g}, "
+            chi2 = r.uncertainty.s2 * r.uncertainty.dof if r.uncertainty is not None else total
+            priors = prior_chi2(r)
+            note = (f"chi2 (n): the plate's share of the fit's chi2 {chi2:.3g}, "
                     "Σ\u00a0((f²\u00a0−\u00a0f_model²)\u00a0/\u00a0(2\u00a0f\u00a0σ))² over its n fitted modes (σ the intervals'); "
                     "about n each when the plates agree, one far above its n disagrees with "
                     "the others")
-            if r.uncertainty is not None and not np.isclose(total, r.uncertainty.s2
-                                                            * r.uncertainty.dof, rtol=1e-6):
-                note += (f"; the result's chi2 {r.uncertainty.s2 * r.uncertainty.dof:.3g} "
-                         "adds the prior terms")
+            if priors:
+                # the plates' chi2 alone fall short of the fit's by the priors' terms (a
+                # joint S1.1 + S1.2 with prior {nu12: 1.0}: 71.4996 + 0.00694 = 71.5065)
+                # one count of decimals for the three, the smallest term to 3 digits, so
+                # that the sum reads by eye
+                small = min([t for t in priors.values() if t > 0] or [1.0])
+                d = int(min(8, max(1, 2 - np.floor(np.log10(small)))))
+                one = len(r.materials) == 1
+                terms = " + ".join(f"on {lab.rsplit('.', 1)[1] if one else lab} {t:.{d}f}"
+                                   for lab, t in priors.items())
+                note += (f"; the fit's chi2 {chi2:.{d}f} = the plates' {total:.{d}f} + the "
+                         f"prior's {terms} (((P\u00a0−\u00a0P0)\u00a0/\u00a0(P0\u00a0σ_u))², "
+                         "paper Eq. 15, σ_u the RMS of 2\u00a0σ/f)")
+            if not np.isclose(total + sum(priors.values()), chi2, rtol=1e-6):
+                note += (f"; the result's chi2 {chi2:.4g} is not the plates' {total:.4g}"
+                         + (" and the priors'" if priors else ""))
             ax_p = fig.add_subplot(right[1, 0])
             ax_p.axis("off")
             ax_p.text(0, 0.97, "\n".join(textwrap.wrap(note, 80)), fontsize=7.5, va="top",
@@ -865,6 +924,9 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
     src = r.reference_source
     notes.append(textwrap.shorten("reference: " + src, 200) if src else
                  "no reference values in the specimen file")
+    if any(lo == hi for consts in r.reference.values() for lo, hi in consts.values()):
+        # (the source's words may state a scatter, "170 ± 1 GPa", that the values do not carry)
+        notes.append(REFERENCE_POINT_NOTE)
     notes += r.reference_notes
     if r.uncertainty is not None:
         u = r.uncertainty
@@ -1279,8 +1341,54 @@ def _monte_carlo_bar(ax, k, rng: MonteCarloRange, x, ymin, ymax) -> None:
             _mc_end_label(ax, k, x, end, None, up, True, f"monte-carlo-{side}-limit")
 
 
-def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
-    """Value, interval, verdict bands and reference of constant ``k`` of material ``m``."""
+#: constants whose panels on one intervals page share one scale: log for all where any of
+#: them wants it (:func:`panel_scales`). S1.1 (8x8) drew G13 [1.17, 10.4] GPa (8.9x) on a
+#: linear panel, its top off under an arrow, beside G23 [0.199, 5.96] GPa (30x) whole on a
+#: log one: the narrower interval (±109 % against ±170 %) looked the worse
+SAME_SCALE = ("G13", "G23")
+
+
+def _panel_marks(r: ResultFile, m: str, k: str) -> tuple[tuple, list]:
+    """(marks, ends) of the panel of constant ``k`` of material ``m`` in the display unit, as
+    :func:`wants_log_axis` takes them: the value and the reference's ends; the interval's,
+    the Monte Carlo range's and, for a constant at a bound, its profile's (where the fit
+    rejects it, or the end of a flat one's scan)."""
+    u = r.uncertainty
+    iv = u.get(m, k) if u is not None else None
+    ref = r.reference.get(m, {}).get(k)
+    g = (lambda z: _gpa(k, z))
+    lo, hi = (iv.lower, iv.upper) if iv is not None else (np.nan, np.nan)
+    rng = monte_carlo_range(u, iv)
+    ends = [g(lo), g(hi)] + ([g(rng.lower), g(rng.upper)] if rng is not None else [])
+    if iv is not None and iv.at_bound:
+        ends += [g(getattr(iv, "profile_bound", np.nan))] + (
+            [g(getattr(iv, "profile_far", np.nan))] if iv.profile_kind == "flat" else [])
+    return (g(r.materials[m][k]), *(() if ref is None else (g(e) for e in ref))), ends
+
+
+def panel_scales(r: ResultFile) -> dict[tuple[str, str], bool]:
+    """{(material, constant): log} of the intervals page's panels: each by
+    :func:`wants_log_axis`, except that the constants of :data:`SAME_SCALE` (the transverse
+    shear moduli, of every material) are all log where any of them is, so that panels a
+    reader compares side by side are on one scale (a log one can hold the narrow with the
+    wide; a linear one cannot)."""
+    log = {(m, k): wants_log_axis(k, *_panel_marks(r, m, k))
+           for m in r.materials for k in CONSTANTS}
+    if any(log[m, k] for m in r.materials for k in SAME_SCALE):
+        for m in r.materials:
+            for k in SAME_SCALE:
+                marks, _ = _panel_marks(r, m, k)
+                # (a mark <= 0 has no place on a log axis: such a panel stays linear)
+                log[m, k] = all(x > 0 for x in marks if np.isfinite(x)) and k != "nu12"
+    return log
+
+
+def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0,
+                   log: bool | None = None, decades: float | None = None):
+    """Value, interval, verdict bands and reference of constant ``k`` of material ``m``;
+    ``log``: its scale (None: :func:`wants_log_axis` of its own numbers; the page gives
+    :func:`panel_scales`'), ``decades``: on a log scale, the fewest decades its height spans
+    (the page gives the widest of the :data:`SAME_SCALE` panels')."""
     u = r.uncertainty
     v = r.materials[m][k]
     iv = u.get(m, k) if u is not None else None
@@ -1295,11 +1403,10 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
     at_bound = iv is not None and iv.at_bound
     # the ends drawn (display unit): interval, Monte Carlo range, a constant at a bound's
     # profile (where the fit rejects it, or the end of a flat one's scan)
-    ends = [g(lo), g(hi)] + ([g(rng.lower), g(rng.upper)] if rng is not None else [])
-    if at_bound:
-        ends += [g(getattr(iv, "profile_bound", np.nan))] + (
-            [g(getattr(iv, "profile_far", np.nan))] if iv.profile_kind == "flat" else [])
-    if wants_log_axis(k, (g(v), *gref), ends):
+    marks, ends = _panel_marks(r, m, k)
+    if log is None:
+        log = wants_log_axis(k, marks, ends)
+    if log:
         # a decade and more: on a linear axis the value sat on 0 under the others
         ax.set_yscale("log")
         reach = [e for e in ends if g(v) / LOG_PANEL_REACH <= e <= g(v) * LOG_PANEL_REACH]
@@ -1311,6 +1418,11 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0):
         else:
             band = (g(v) * (1 - 1.2 * u.weak), g(v) * (1 + 1.35 * u.weak))
             ymin, ymax = _log_limits((g(v), *band, *gref), reach)
+        d = np.log10(ymax / ymin)
+        if decades is not None and d < decades:
+            # as many decades as the panels it is compared with, about its own middle: a
+            # length on it is the same ratio as on theirs
+            ymin, ymax = ymin / 10 ** ((decades - d) / 2), ymax * 10 ** ((decades - d) / 2)
     elif at_bound:
         ymin, ymax = _bound_limits(g(v), iv.bound_side, gref, nu,
                                    g(getattr(iv, "profile_bound", np.nan)))
@@ -1415,7 +1527,9 @@ def _interval_legend(r: ResultFile) -> tuple[list, list[str]]:
                              mew=1.5), label))
     refs = [r.reference.get(m, {}).get(k) for m in r.materials for k in CONSTANTS]
     if any(ref is not None and ref[0] == ref[1] for ref in refs):
-        items.append((Line2D([], [], ls="none", marker="D", ms=6, color="C3"), "reference"))
+        # a bare point reads as an exact value: say that the file gave it no uncertainty
+        items.append((Line2D([], [], ls="none", marker="D", ms=6, color="C3"),
+                      REFERENCE_POINT_WORDS))
     if any(ref is not None and ref[0] < ref[1] for ref in refs):
         items.append((Line2D([], [], color="C3", lw=4, solid_capstyle="butt"),
                       "reference range"))
@@ -1453,6 +1567,15 @@ def panel_words(r: ResultFile, m: str, k: str, iv) -> str:
     return text + "\n" + "\n".join(textwrap.wrap(verdict, 24))
 
 
+def _alone(r: ResultFile, m: str, k: str) -> tuple[float, float]:
+    """(ymin, ymax) of the log panel of constant ``k`` of material ``m`` drawn alone."""
+    from matplotlib.figure import Figure
+
+    a = Figure().add_subplot()
+    interval_panel(a, r, m, k, log=True)
+    return a.get_ylim()
+
+
 def interval_page(r: ResultFile):
     """One panel per constant (rows: materials), each in its unit and on its own scale."""
     u = r.uncertainty
@@ -1462,11 +1585,19 @@ def interval_page(r: ResultFile):
                         f"{u.confidence:.0%} confidence intervals"), fontsize=11)
     gs = fig.add_gridspec(len(mats) + 1, 6, height_ratios=[1] * len(mats) + [0.1])
     axes = np.array([[fig.add_subplot(gs[i, j]) for j in range(6)] for i in range(len(mats))])
+    log_of = panel_scales(r)
+    # the SAME_SCALE panels on log scales span as many decades each, the most any of them
+    # needs (measured on panels drawn for it alone): S1.1 (8x8) drew G13 [1.17, 10.4] GPa over
+    # 1.1 decades beside G23 [0.199, 5.96] over 1.6, two bars of one length for 8.9x and 30x
+    spans = [np.log10(abs(np.divide(*_alone(r, m, k)[::-1])))
+             for m in mats for k in SAME_SCALE if log_of[m, k]]
+    decades = max(spans) if spans else None
     for i, m in enumerate(mats):
         for j, k in enumerate(CONSTANTS):
             ax = axes[i, j]
             ax.set_gid(f"interval-{m}.{k}")
-            iv = interval_panel(ax, r, m, k)
+            iv = interval_panel(ax, r, m, k, log=log_of[m, k],
+                                decades=decades if k in SAME_SCALE else None)
             ax.set_xlim(-0.75, 0.75)
             ax.set_xticks([])
             ax.tick_params(labelsize=7)
@@ -1493,6 +1624,13 @@ def interval_page(r: ResultFile):
         title += "; arrow: the interval or range runs off the panel to the value written"
     if below:
         title += " (an end ≤ 0 is below any log scale)"
+    if decades is not None and sum(log_of[m, k] for m in mats for k in SAME_SCALE) > 1:
+        # (a panel on a log scale that its own numbers, within a decade, would not need)
+        forced = any(log_of[m, k] and not wants_log_axis(k, *_panel_marks(r, m, k))
+                     for m in mats for k in SAME_SCALE)
+        title += (f";\n{' and '.join(SAME_SCALE)} on one log scale"
+                  + (", as one of them spans more than a decade" if forced else "")
+                  + ": each panel over the same decades, a bar's length the same ratio on each")
     if any(iv.at_bound for iv in u.intervals):
         title += (";\ndashed arrow: the way the fit pushes a constant stopped on a search limit "
                   "(the value drawn is that limit)")
@@ -2534,8 +2672,8 @@ def constants_across_page(done, title: str, absent=()):
         handles["values the fit does not reject (profile of a constant on a search limit)"] = \
             Line2D([], [], ls=(0, (1, 1.5)), color=grey, lw=1.6)
     if has_ref:
-        handles["reference value"] = Line2D([], [], ls="none", marker="_", ms=14, mew=2.2,
-                                            color="k")
+        handles["reference value " + REFERENCE_POINT_WORDS.removeprefix("reference ")] = \
+            Line2D([], [], ls="none", marker="_", ms=14, mew=2.2, color="k")
     if has_ref_range:
         # a capped vertical bar, as drawn (a line would look like the reference value's tick)
         handles["reference range (left of the value)"] = Line2D(

@@ -471,6 +471,87 @@ def test_joint_shared_page_gives_each_plates_chi2_summing_to_the_results(joint, 
     assert f"chi2 {stored:.3g}" in text and "disagrees with the others" in text
 
 
+@pytest.fixture(scope="module")
+def joint_prior(tmp_path_factory):
+    """S1.1 + S1.2 joint (6x6), both files with ``prior: {E2: 0.001, nu12: 1.0}``: a fit
+    whose chi2 holds two prior terms beside the plates' (E2 moved off its initial 8.80 GPa:
+    a term of order 1; nu12 held at its 0.350: a term of order 0.01)."""
+    tmp = tmp_path_factory.mktemp("joint_prior")
+    specs = []
+    for src in (S11, S12):
+        spec = tmp / Path(src).name
+        spec.write_text(Path(src).read_text().replace(
+            "    nu12: 0.35\n", "    nu12: 0.35\n    prior: {E2: 0.001, nu12: 1.0}\n", 1))
+        specs.append(spec)
+    out = tmp / "jp.result.h5"
+    r = run("identify", *specs, "--joint", "--mesh", "6x6", "-o", out)
+    assert r.exit_code == 0, r.output
+    return out
+
+
+def test_joint_shared_page_with_a_prior_adds_its_terms_to_the_plates_chi2(joint_prior):
+    """With a prior (paper Eq. 15) the plates' chi2 fall short of the fit's: the note said
+    only "the result's chi2 71.5 adds the prior terms" beside "the fit's chi2 71.5" (the
+    plates' sum, S1.1 + S1.2 with prior {nu12: 1.0}: 71.4996 of 71.5065). It now gives each
+    prior's term, ((P − P0)/(P0 σ_u))² with σ_u the RMS of 2σ/f over the fitted modes, and
+    the sum: plates' + priors' = the stored chi2 within rtol 1e-9, each number written with
+    the same decimals."""
+    from laminid_cli.report import plate_chi2, prior_chi2
+
+    res = read_result(joint_prior)
+    with h5py.File(joint_prior, "r") as f:
+        stored = float(f["uncertainty"].attrs["chi2"])
+    plates = sum(plate_chi2(p)[0] for p in res.plates)
+    fitted = [np.isfinite(p.frequencies.measured) & (p.frequencies.weight > 0)
+              for p in res.plates]
+    rel = np.concatenate([(2 * p.frequencies.sigma_hz / p.frequencies.measured)[ok]
+                          for p, ok in zip(res.plates, fitted)])
+    sigma_u = np.sqrt(np.mean(rel**2))
+    assert np.isclose(sigma_u, 0.004, rtol=1e-12)         # 2 × the default 0.2 %
+    expect = {f"{MAT}.{k}": ((res.materials[MAT][k] - res.initial[MAT][k])
+                             / res.initial[MAT][k] / sigma_u) ** 2 for k in ("E2", "nu12")}
+    terms = prior_chi2(res)
+    assert terms.keys() == expect.keys()
+    assert all(np.isclose(terms[k], expect[k], rtol=1e-12) for k in expect)
+    assert terms[f"{MAT}.E2"] > 0.1 and 0 < terms[f"{MAT}.nu12"] < 0.1
+    # without the priors' terms the plates' chi2 miss the stored one by far more than 1e-9
+    assert not np.isclose(plates, stored, rtol=1e-6, atol=0)
+    assert np.isclose(plates + sum(terms.values()), stored, rtol=1e-9, atol=0)
+    shared = next(p.figure for p in report_pages(joint_prior) if p.name == "shared")
+    note = next(t for a in shared.axes for t in a.texts if t.get_gid() == "plates-note")
+    text = " ".join(note.get_text().split()).replace("\u00a0", " ")
+    d = int(2 - np.floor(np.log10(terms[f"{MAT}.nu12"])))
+    assert (f"the fit's chi2 {stored:.{d}f} = the plates' {plates:.{d}f} + the prior's on E2 "
+            f"{terms[f'{MAT}.E2']:.{d}f} + on nu12 {terms[f'{MAT}.nu12']:.{d}f}") in text
+    assert "paper Eq. 15" in text and "is not the plates'" not in text
+    # the numbers as written add up (to the last decimal written, rounding aside)
+    nums = [float(x) for x in re.search(
+        r"chi2 ([\d.]+) = the plates' ([\d.]+) \+ the prior's on E2 ([\d.]+) \+ on nu12 "
+        r"([\d.]+)", text).groups()]
+    assert abs(nums[0] - sum(nums[1:])) <= 1.5 * 10.0 ** -d
+
+
+def test_joint_plates_table_header_within_its_cells(joint):
+    """The plates table's header "modes measured" (8-point bold) ran over its cell into
+    "mesh" ("modes measurec" on the PNG: 95 % of the cell's width by the font's metrics, the
+    glyphs reach further) and "RMS residual (%)" touched its borders (92 %); every header's
+    text now lies inside its cell with 5 % of its width to spare on each side."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    shared = next(p.figure for p in report_pages(joint) if p.name == "shared")
+    renderer = FigureCanvasAgg(shared).get_renderer()
+    shared.draw(renderer)
+    table = ax(shared, "plates").tables[0]
+    heads = [(c, cell) for (i, c), cell in table.get_celld().items() if i == 0]
+    assert sorted(cell.get_text().get_text() for _, cell in heads) == sorted(
+        ["plate", "RMS residual (%)", "chi2 (n)", "modes measured", "mesh"])
+    for _, cell in heads:
+        box = cell.get_window_extent(renderer)
+        inner = cell.get_text().get_window_extent(renderer)
+        pad = 0.05 * box.width
+        assert box.x0 + pad < inner.x0 and inner.x1 < box.x1 - pad, cell.get_text().get_text()
+
+
 def _s21_modes(n_modes: int, n_points: int):
     """S2.1's first ``n_modes`` frequencies (6x6, initial constants) and modal constants of
     ``n_points`` points (seeded), to synthesise its FRFs; with the generator, for more draws."""
@@ -874,7 +955,7 @@ def test_a_reference_range_in_the_table_the_panels_and_across_specimens(ranged_b
              if ln.get_gid() == "reference")
     assert d.get_marker() == "D" and list(d.get_ydata()) == [10.0]
     legend = [t.get_text() for t in ax(fig, None).get_legend().get_texts()]
-    assert "reference" in legend and "reference range" in legend
+    assert "reference (no uncertainty given)" in legend and "reference range" in legend
     across = {p.name: p.figure for p in report_pages(ranged_batch / "summary.json")}
     a = ax(across["constants"], "across-E1")
     bar = next(ln for ln in a.get_lines()
@@ -885,6 +966,49 @@ def test_a_reference_range_in_the_table_the_panels_and_across_specimens(ranged_b
     legend = [t.get_text() for x in across["constants"].axes if x.get_legend() is not None
               for t in x.get_legend().get_texts()]
     assert "reference range (left of the value)" in legend
+    # (the single values beside it: G12 5.8 GPa, nu12 0.35, E2 10 GPa)
+    assert "reference value (no uncertainty given)" in legend
+
+
+def test_a_reference_point_is_said_to_carry_no_uncertainty(batch_dir):
+    """A reference the specimen file gives as one value was drawn as a bare point (a red
+    diamond, keyed "reference"; a black tick "reference value" across specimens), which reads
+    as an exact value: S1.4's strain-gauge E1 170, E2 10, G12 5.8 GPa, nu12 0.35, whose
+    source's words give "170 ± 1 GPa". The keys now say "no uncertainty given" and page 1's
+    notes say that the file's reference block gives none and that a [low, high] would be
+    drawn as a range; S2.1, with no material reference (a laminate Ey only), gets neither."""
+    from laminid_cli.report import REFERENCE_POINT_NOTE
+
+    path = batch_dir / "S1.4.result.h5"
+    res = read_result(path)
+    assert {k: v for k, v in res.reference[MAT].items()} == {
+        "E1": (170e9, 170e9), "E2": (10e9, 10e9), "G12": (5.8e9, 5.8e9), "nu12": (0.35, 0.35)}
+    assert "170 ± 1 GPa" in res.reference_source
+    fig = result_page(path, "intervals")
+    for k, v in (("E1", 170.0), ("E2", 10.0), ("G12", 5.8), ("nu12", 0.35)):
+        d = next(ln for ln in ax(fig, f"interval-{MAT}.{k}").get_lines()
+                 if ln.get_gid() == "reference")
+        assert d.get_marker() == "D" and np.isclose(d.get_ydata()[0], v, rtol=1e-12)
+    legend = [t.get_text() for t in ax(fig, None).get_legend().get_texts()]
+    assert "reference (no uncertainty given)" in legend and "reference" not in legend
+    assert "reference range" not in legend
+    notes = " ".join(t.get_text() for a in result_page(path, "summary").axes
+                     for t in a.texts if t.get_gid() == "notes").replace("\n", " ")
+    assert " ".join(REFERENCE_POINT_NOTE.split()) in " ".join(notes.split())
+    assert REFERENCE_POINT_NOTE.startswith("reference without a range: the specimen file's "
+                                           "reference block gives one value and no uncertainty")
+    s21 = batch_dir / "S2.1.result.h5"
+    assert read_result(s21).reference == {}
+    notes = " ".join(t.get_text() for a in result_page(s21, "summary").axes
+                     for t in a.texts if t.get_gid() == "notes")
+    assert "no uncertainty" not in notes
+    across = {p.name: p.figure for p in report_pages(batch_dir / "summary.csv")}
+    legend = [t.get_text() for x in across["constants"].axes if x.get_legend() is not None
+              for t in x.get_legend().get_texts()]
+    assert "reference value (no uncertainty given)" in legend and "reference value" not in legend
+    ticks = [ln for a in across["constants"].axes for ln in a.get_lines()
+             if (ln.get_gid() or "").startswith("reference-S1.4-")]
+    assert sorted(float(ln.get_ydata()[0]) for ln in ticks) == [0.35, 5.8, 10.0, 170.0]
 
 
 def _no_overlap(fig, axis, legend, *, draw=True) -> bool:

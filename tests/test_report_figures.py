@@ -345,11 +345,22 @@ def s21(s21_8x8):
     return s21_8x8[1]
 
 
-@pytest.mark.parametrize("case, arrow", [("s21", True), ("s21_fixed_at_limit", False)])
+@pytest.fixture(scope="module")
+def s14(tmp_path_factory):
+    """S1.4 (8x8): G13 and G23 on linear panels (within a decade), G23's interval off its
+    panel (to 5.5 GPa)."""
+    out = tmp_path_factory.mktemp("s14") / "S1.4.result.h5"
+    r = run("identify", "specimens/example1/S1.4.yaml", "--mesh", "8x8", "-o", out)
+    assert r.exit_code == 0, r.output
+    return out
+
+
+@pytest.mark.parametrize("case, arrow", [("s14", True), ("s21_fixed_at_limit", False)])
 def test_interval_legend_speaks_of_arrows_only_where_drawn(case, arrow, request):
     """The interval page's legend explains the arrow of an interval (or range) that runs off
-    its panel where one does (S2.1: G23 'to 11.00'); with every interval in view (S2.1 with
-    G13 and G23 fixed) it had the words for an arrow the page did not have."""
+    its panel where one does (S1.4: G23 'to 5.52'; S2.1's G23 'to 11.00' was one until G23
+    went on G13's log scale, SAME_SCALE); with every interval in view (S2.1 with G13 and G23
+    fixed) it had the words for an arrow the page did not have."""
     fig = (request.getfixturevalue("s21_fixed_pages")["intervals"]
            if case == "s21_fixed_at_limit" else result_page(request.getfixturevalue(case),
                                                                "intervals"))
@@ -503,22 +514,71 @@ def test_interval_panel_spanning_decades_is_log_and_nothing_on_its_foot(s21_mc):
 
 def test_interval_panels_within_a_decade_stay_linear(s11):
     """S1.1's E1, E2, G12 (and nu12, always) keep their linear panels; a modulus goes log
-    only where its value, interval and reference span more than a decade (G23 0.2 .. 6 GPa)."""
+    only where its value, interval and reference span more than a decade (G23 0.2 .. 6 GPa),
+    and G13 with it (SAME_SCALE: test_transverse_shear_moduli_on_one_scale)."""
     from laminid_cli.resultfile import CONSTANTS, read_result
 
     res = read_result(s11)
     fig = {p.name: p.figure for p in report_pages(s11)}["intervals"]
     m = next(iter(res.materials))
-    log = {}
+    log, own = {}, {}
     for k in CONSTANTS:
         a = ax(fig, f"interval-{m}.{k}")
         iv = res.uncertainty.get(m, k)
         pts = [res.materials[m][k], iv.lower, iv.upper, *res.reference.get(m, {}).get(k, ())]
         log[k] = a.get_yscale() == "log"
-        assert log[k] is (k != "nu12" and max(pts) / min(pts) > 10)
+        own[k] = k != "nu12" and max(pts) / min(pts) > 10
         assert ("log scale" in a.get_title()) is log[k]
-    assert not any(log[k] for k in ("E1", "E2", "G12", "nu12"))
-    assert log["G23"]
+    for k in ("E1", "E2", "G12", "nu12"):
+        assert log[k] is own[k] is False
+    assert own["G23"] and log["G23"] and log["G13"]
+
+
+def test_transverse_shear_moduli_on_one_scale(s11, s14):
+    """S1.1 (8x8) drew G13 [1.17, 10.4] GPa (8.9x: linear by its own numbers, its top off
+    the panel under an arrow "to 10.40") beside G23 [0.199, 5.96] GPa (30x) whole on a log
+    panel: the narrower interval (±109 % against ±170 %) looked the worse. G13 and G23 now
+    share one log scale, each panel over the same decades, so that a bar's length is the
+    same ratio on both: G13's bar is shorter than G23's by their ratios' logs, nothing runs
+    off, and the legend says why a panel within a decade is on a log scale. S1.4 (8x8), both
+    within a decade, keeps both linear."""
+    import numpy as np
+
+    from laminid_cli.report import LOG_PANEL_RATIO, wants_log_axis
+    from laminid_cli.resultfile import read_result
+
+    res = read_result(s11)
+    m = next(iter(res.materials))
+    fig = {p.name: p.figure for p in report_pages(s11)}["intervals"]
+    fig.draw_without_rendering()
+    ivs = {k: res.uncertainty.get(m, k) for k in ("G13", "G23")}
+    ratio = {k: iv.upper / iv.lower for k, iv in ivs.items()}
+    assert 8 < ratio["G13"] < LOG_PANEL_RATIO < 25 < ratio["G23"]
+    assert not wants_log_axis("G13", [res.materials[m]["G13"] / 1e9],
+                              [ivs["G13"].lower / 1e9, ivs["G13"].upper / 1e9])
+    span, bar = {}, {}
+    for k, iv in ivs.items():
+        a = ax(fig, f"interval-{m}.{k}")
+        assert a.get_yscale() == "log" and a.get_title() == f"{k} (GPa, log scale)"
+        lo, hi = a.get_ylim()
+        span[k] = np.log10(hi / lo)
+        assert lo < iv.lower / 1e9 and iv.upper / 1e9 < hi                   # whole in view
+        assert not [t for t in a.texts if t.get_text().startswith(("to\n", "from\n"))]
+        line = next(ln for ln in a.get_lines() if ln.get_gid() == "interval")
+        y = a.transData.transform(np.c_[[0, 0], line.get_ydata()])[:, 1]
+        bar[k] = abs(y[1] - y[0])
+    assert abs(span["G13"] - span["G23"]) <= 1e-9 * span["G23"]
+    # pixels per decade alike: the bars' lengths in the ratio of their decades (0.95, 1.48)
+    assert np.isclose(bar["G13"] / bar["G23"], np.log10(ratio["G13"]) / np.log10(ratio["G23"]),
+                      rtol=1e-6)
+    title = _legend_title(fig)
+    assert ("G13 and G23 on one log scale, as one of them spans more than a decade: each panel "
+            "over the same decades, a bar's length the same ratio on each") in title
+    # both within a decade: both linear, no word of it
+    fig = {p.name: p.figure for p in report_pages(s14)}["intervals"]
+    m = next(iter(read_result(s14).materials))
+    assert [ax(fig, f"interval-{m}.{k}").get_yscale() for k in ("G13", "G23")] == ["linear"] * 2
+    assert "one log scale" not in _legend_title(fig)
 
 
 def test_constants_across_specimens_log_where_values_span_decades(tmp_path):
