@@ -492,7 +492,8 @@ def input_hash(spec, options: BatchOptions) -> str:
     # quantiles; "verdicts 8": the profiles' fits search the identification's own region, a
     # rejection checked from the initial values too (stop 38); "verdicts 9": the profiles'
     # fits from the optimum on the profile's reduced model, converged where identify()'s capped
-    # fits were not (hybrid CM's glass G12 and G23: bounds instead of no profile; stop 43)
+    # fits were not (hybrid CM's glass G12 and G23: bounds instead of no profile), and a prior
+    # of weight wp counted as its value known to sigma_unit / sqrt(wp) (stop 43)
     h.update(f"laminid {__version__} schema {SCHEMA_VERSION} options 2 verdicts 9\0".encode())
     settings = options.as_dict()
     # the processes of a specimen's profiles and Monte Carlo trials do not change its result

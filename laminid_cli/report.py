@@ -810,9 +810,9 @@ def plate_chi2(plate) -> tuple[float | None, int]:
 
 def prior_chi2(r: ResultFile) -> dict[str, float]:
     """{label: term} of each free constant's prior in the fit's chi2 (paper Eq. 15, as
-    :func:`laminid_cli.uncertainty.design_rows` counts it): ((P − P0) / (P0 σ_u))², P0 the
-    initial value, σ_u the RMS of 2 σ/f over every plate's fitted modes (σ the intervals');
-    the weight wp cancels (it scales the row and its noise alike). With the plates'
+    :func:`laminid_cli.uncertainty.design_rows` counts it): wp ((P − P0) / P0)² / σ_u², its
+    term of Eq. 15 over the rows' noise σ_u², P0 the initial value, wp its weight, σ_u the RMS
+    of 2 σ/f over every plate's fitted modes (σ the intervals'). With the plates'
     :func:`plate_chi2` these add up to the result's chi2 = s2 · dof. {} without a prior, or in
     a file without σ."""
     import yaml
@@ -840,7 +840,7 @@ def prior_chi2(r: ResultFile) -> dict[str, float]:
                     or f"{m}.{k}" in fixed):
                 continue
             p0 = r.initial[m][k]
-            terms[f"{m}.{k}"] = float(((consts[k] - p0) / (p0 or 1.0) / sigma_unit) ** 2)
+            terms[f"{m}.{k}"] = float(wp * ((consts[k] - p0) / (p0 or 1.0) / sigma_unit) ** 2)
     return terms
 
 
@@ -909,7 +909,7 @@ def summary_page(r: ResultFile, plate=None, what: str = ""):
                 terms = " + ".join(f"on {lab.rsplit('.', 1)[1] if one else lab} {t:.{d}f}"
                                    for lab, t in priors.items())
                 note += (f"; the fit's chi2 {chi2:.{d}f} = the plates' {total:.{d}f} + the "
-                         f"prior's {terms} (((P\u00a0−\u00a0P0)\u00a0/\u00a0(P0\u00a0σ_u))², "
+                         f"prior's {terms} (wp\u00a0((P\u00a0−\u00a0P0)\u00a0/\u00a0P0)²\u00a0/\u00a0σ_u², "
                          "paper Eq. 15, σ_u the RMS of 2\u00a0σ/f)")
             if not np.isclose(total + sum(priors.values()), chi2, rtol=1e-6):
                 note += (f"; the result's chi2 {chi2:.4g} is not the plates' {total:.4g}"

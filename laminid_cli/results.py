@@ -81,7 +81,7 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
                           range's quantiles with probability >= attr evidence_level each: the
                           width the Monte Carlo verdicts use); attrs trials, converged,
                           sigma_factor, seed, jobs, evidence_level,
-                          prior_sigma (relative sd of the prior values' draws; 0: no prior),
+                          prior_sigma (the prior rows' noise: a prior of weight wp drawn with relative sd prior_sigma / sqrt(wp); 0: no prior),
                           variance_dof (> 0: each trial drew its variance factor, s2 nu / X,
                           X chi-square with nu = variance_dof: Student t as the intervals;
                           0: the stated sigma; absent in older files);

@@ -21,11 +21,17 @@ Linearised covariance (sandwich form)
     1 / sigma_lambda^2 (uniform relative sigma, unit weights: the default) and remains the right
     first-order covariance of the weighted estimate when they are not.
 
-    A prior (Eq. 15) adds a row ``sqrt(wp) (P_j - P_j0) / P_j0`` per constant. It is read as a
-    pseudo-measurement counted like a frequency of weight wp: its noise is
-    ``sqrt(wp) sigma_unit`` with sigma_unit the RMS relative eigenvalue standard deviation
-    2 sigma_f / f of the measured modes. A constant whose information comes mostly from its prior
-    is marked "(held by the prior)".
+    A prior (Eq. 15) adds a row ``sqrt(wp) (P_j - P_j0) / P_j0`` per constant. Its weight says
+    how well P_j0 is known against the measured modes (the specimen file's "relative
+    confidence"): the row's noise is ``sigma_unit``, the RMS relative eigenvalue standard
+    deviation 2 sigma_f / f of the measured modes, i.e. that of a measured mode of weight 1,
+    so that the prior value's own relative standard deviation is ``sigma_unit / sqrt(wp)``
+    (wp = 1: as well as one mode's eigenvalue; 0.01: ten times worse). With unit weights on
+    the modes this is the minimum of Eq. 15 read as a Gaussian posterior, and the prior's
+    term of chi^2 is its term of Eq. 15 over sigma_unit^2. (Before stop 43 the noise was
+    ``sqrt(wp) sigma_unit``: the weight cancelled, and every prior counted as known to
+    sigma_unit whatever its weight; a prior of 0.001 held its constant as firmly as one of 1.)
+    A constant whose information comes mostly from its prior is marked "(held by the prior)".
 
 A-posteriori variance factor
     ``s^2 = chi^2 / (n - p)``, ``chi^2 = sum (r_i / tau_i)^2`` at the optimum (n rows, p free
@@ -353,7 +359,7 @@ class Uncertainty:
     bound_limit: np.ndarray | None = None
     chi2_limit: float = float("nan")        # 99 % quantile of chi2 with dof degrees of freedom
     #: RMS relative eigenvalue standard deviation 2 sigma_f / f of the weighted modes: the
-    #: noise of a prior row is sqrt(wp) sigma_unit (module docstring)
+    #: noise of a prior row (module docstring)
     sigma_unit: float = float("nan")
     #: (p,) the Monte Carlo range's half-width / |value| (:func:`with_monte_carlo`; None
     #: without a Monte Carlo), and the labels whose verdict it set
@@ -642,7 +648,8 @@ def design_rows(obs, materials, labels) -> DesignRows:
         row = np.zeros(p)
         row[j] = np.sqrt(wp) / ref * D[j]
         prior_rows.append(row)
-        prior_tau.append(np.sqrt(wp) * sigma_unit)
+        prior_tau.append(sigma_unit)                  # (module docstring: sigma_unit / sqrt(wp)
+        #                                               on P0 / P0, times sqrt(wp) on the row)
         prior_res.append(np.sqrt(wp) * (value[j] - P0) / ref)
     G = np.vstack([G_data] + ([np.array(prior_rows)] if prior_rows else []))
     t = np.concatenate([tau_data, np.array(prior_tau)])
@@ -1870,8 +1877,9 @@ class MonteCarlo:
     at_lower_bound: np.ndarray | None = None
     at_upper_bound: np.ndarray | None = None
     confidence: float = 0.95
-    #: relative standard deviation with which each trial drew the prior's values (paper Eq.
-    #: 15: P0 of a constant given a prior weight), 0 without a prior
+    #: the prior rows' noise with which each trial drew the prior's values (paper Eq. 15: P0
+    #: of a constant given a prior weight wp drawn with relative sd prior_sigma / sqrt(wp)),
+    #: 0 without a prior
     prior_sigma: float = 0.0
     #: (n_converged,) the trial (0-based, in the order drawn) of each row of ``samples``
     trials: np.ndarray | None = None
@@ -2255,6 +2263,15 @@ def _trial_scale(plate, sigma: FrequencySigma, factor: float) -> tuple[float, fl
     return float(np.mean(tau2[w > 0])), bound, rel
 
 
+def _prior_draw(z: float, row_sd: float, wp: float) -> float:
+    """A trial's draw of a prior value's relative shift: ``z`` standard normal, the prior's
+    row noise ``row_sd`` (sigma_unit, times the trial's variance factor), weight ``wp``: the
+    value's relative standard deviation is row_sd / sqrt(wp) (module docstring); 0 for a
+    weight of 0 (no row)."""
+    wp = float(wp)
+    return float(z * row_sd / np.sqrt(wp)) if wp > 0 else 0.0
+
+
 def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
                 jobs: int | None = None, seed: int = 0, progress=None,
                 method: str = "auto", fixed_draw: FixedDraw | None = None) -> MonteCarlo:
@@ -2295,7 +2312,7 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
     rng = np.random.default_rng(seed)
     base = [np.asarray(plate.measured_hz, float) for _, plate in parts]
     # the prior's pseudo-measurements are drawn as the linearised covariance counts them
-    # (noise sqrt(wp) sigma_unit on each row: module docstring), from a stream of their own
+    # (noise sigma_unit on each row: module docstring), from a stream of their own
     # (a specimen without a prior draws the same frequencies as before)
     shift_sd = float(uncertainty.sigma_unit) * factor
     priors = [m for m in material_states(result) if m.prior] if shift_sd > 0 else []
@@ -2308,8 +2325,10 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
         for f, s in zip(base, sigmas):
             noise = rng.standard_normal(f.size) * np.nan_to_num(s.sigma_hz) * (factor * g[i])
             freqs.append(np.where(np.isfinite(f), f + noise, np.nan))
-        shift = {m.name: {c: float(prng.standard_normal() * shift_sd * g[i])
-                          for c in m.prior if c in m.free} for m in priors}
+        # each prior value drawn with its own relative sd, shift_sd / sqrt(wp) (its row's
+        # noise shift_sd: module docstring; a weight of 0 has no row, its draw no effect)
+        shift = {m.name: {c: _prior_draw(prng.standard_normal(), shift_sd * g[i], wp)
+                          for c, wp in m.prior.items() if c in m.free} for m in priors}
         trials.append((i, freqs, uncertainty.labels, shift, None))
     drawn, clipped = None, None
     if fixed_draw is not None and fixed_draw.labels:
@@ -3322,12 +3341,13 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool, jo
                                    max_evaluations=cap, from_initial=from_initial,
                                    model=reduced[0] if reduced else None)
                 chi2 = uc.chi2
-                if prior.get(name, {}).get(k, 0.0) > 0:
+                wp = prior.get(name, {}).get(k, 0.0)
+                if wp > 0:
                     # held, the constant has no prior row in that fit; u.chi2 counted it
-                    # (free): its row as linearized_uncertainty counts one, (v - P0) / P0
-                    # over sigma_unit
+                    # (free): its row as linearized_uncertainty counts one, sqrt(wp) (v -
+                    # P0) / P0 over sigma_unit (design_rows)
                     ref = initial if initial != 0 else 1.0
-                    chi2 += ((v - initial) / ref / uc.sigma_unit) ** 2
+                    chi2 += wp * ((v - initial) / ref / uc.sigma_unit) ** 2
                 return r, (chi2 - u.chi2) / factor
 
             first, second = order

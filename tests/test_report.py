@@ -474,8 +474,8 @@ def test_joint_shared_page_gives_each_plates_chi2_summing_to_the_results(joint, 
 @pytest.fixture(scope="module")
 def joint_prior(tmp_path_factory):
     """S1.1 + S1.2 joint (6x6), both files with ``prior: {E2: 0.001, nu12: 1.0}``: a fit
-    whose chi2 holds two prior terms beside the plates' (E2 moved off its initial 8.80 GPa:
-    a term of order 1; nu12 held at its 0.350: a term of order 0.01)."""
+    whose chi2 holds two prior terms beside the plates' (E2 moved 4.2 % off its initial 8.80
+    GPa, weighed 0.001: a term of 0.11; nu12 near its 0.350: 0.046)."""
     tmp = tmp_path_factory.mktemp("joint_prior")
     specs = []
     for src in (S11, S12):
@@ -493,9 +493,10 @@ def test_joint_shared_page_with_a_prior_adds_its_terms_to_the_plates_chi2(joint_
     """With a prior (paper Eq. 15) the plates' chi2 fall short of the fit's: the note said
     only "the result's chi2 71.5 adds the prior terms" beside "the fit's chi2 71.5" (the
     plates' sum, S1.1 + S1.2 with prior {nu12: 1.0}: 71.4996 of 71.5065). It now gives each
-    prior's term, ((P − P0)/(P0 σ_u))² with σ_u the RMS of 2σ/f over the fitted modes, and
-    the sum: plates' + priors' = the stored chi2 within rtol 1e-9, each number written with
-    the same decimals."""
+    prior's term, wp ((P − P0)/P0)² / σ_u² (its term of Eq. 15 over the rows' noise, σ_u the
+    RMS of 2σ/f over the fitted modes: uncertainty.design_rows), and the sum: plates' +
+    priors' = the stored chi2 within rtol 1e-9, each number written with the same decimals.
+    Prior {E2: 0.001, nu12: 1.0}: E2's term 0.001 times its unweighted 3.06."""
     from laminid_cli.report import plate_chi2, prior_chi2
 
     res = read_result(joint_prior)
@@ -508,12 +509,14 @@ def test_joint_shared_page_with_a_prior_adds_its_terms_to_the_plates_chi2(joint_
                           for p, ok in zip(res.plates, fitted)])
     sigma_u = np.sqrt(np.mean(rel**2))
     assert np.isclose(sigma_u, 0.004, rtol=1e-12)         # 2 × the default 0.2 %
-    expect = {f"{MAT}.{k}": ((res.materials[MAT][k] - res.initial[MAT][k])
-                             / res.initial[MAT][k] / sigma_u) ** 2 for k in ("E2", "nu12")}
+    expect = {f"{MAT}.{k}": wp * ((res.materials[MAT][k] - res.initial[MAT][k])
+                                  / res.initial[MAT][k] / sigma_u) ** 2
+              for k, wp in (("E2", 0.001), ("nu12", 1.0))}
     terms = prior_chi2(res)
     assert terms.keys() == expect.keys()
     assert all(np.isclose(terms[k], expect[k], rtol=1e-12) for k in expect)
-    assert terms[f"{MAT}.E2"] > 0.1 and 0 < terms[f"{MAT}.nu12"] < 0.1
+    # E2 4.2 % off its 8.80 GPa: 0.001 (0.042 / 0.004)^2 = 0.110; nu12 0.0009 off its 0.35
+    assert 0.05 < terms[f"{MAT}.E2"] < 0.5 and 0.01 < terms[f"{MAT}.nu12"] < 0.1
     # without the priors' terms the plates' chi2 miss the stored one by far more than 1e-9
     assert not np.isclose(plates, stored, rtol=1e-6, atol=0)
     assert np.isclose(plates + sum(terms.values()), stored, rtol=1e-9, atol=0)

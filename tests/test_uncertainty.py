@@ -200,6 +200,40 @@ def test_a_prior_adds_information_and_is_named():
     assert held.information_from_prior[0] < 0.01
 
 
+def test_a_priors_weight_is_how_well_its_value_is_known():
+    """A prior of weight wp counts its value as known to sigma_unit / sqrt(wp) relative
+    (sigma_unit: the modes' RMS relative eigenvalue sd, 2 x 0.2 % here), the row's noise being
+    a weight-1 mode's (module docstring). E2 seen by no mode: its standard deviation is the
+    prior's alone, 10 GPa x 0.004 / sqrt(wp) exactly: 40 MPa at wp = 1, 400 MPa at 0.01 (until
+    stop 43 the weight cancelled and both were 40 MPa). E1 seen by four modes of relative
+    sensitivity 1: information 4 / 0.004^2 from them, wp / 0.004^2 from a prior on it, so the
+    prior's share is wp / (4 + wp): 0.0025 at 0.01 (not held), 0.714 at 10 (held by the
+    prior; it was 0.2 whatever the weight). The prior's chi2 term is wp ((P - P0) / P0)^2 /
+    sigma_unit^2: 1e-4 off at weight 0.01 gives 0.01 x (1e-4 / 0.004)^2 = 6.25e-6."""
+    G = np.array([[1.0, 0.0], [1.0, 0.0], [1.0, 0.0], [1.0, 0.0]])
+    f = [100, 200, 300, 400]
+    for wp, sd in ((1.0, 40e6), (0.01, 400e6), (1e-4, 4e9)):
+        obs, mat = toy(G, f, prior={"E2": wp})
+        u = linearized_uncertainty([obs], [mat], scaling="stated")
+        assert u.std[1] == pytest.approx(sd, rel=1e-9)
+        assert u.information_from_prior[1] == pytest.approx(1.0, abs=1e-12)
+        assert u.sigma_unit == pytest.approx(0.004, rel=1e-12)
+    for wp, share in ((0.01, 0.01 / 4.01), (10.0, 10.0 / 14.0)):
+        obs, mat = toy(G, f, prior={"E1": wp, "E2": 1.0})
+        u = linearized_uncertainty([obs], [mat], scaling="stated")
+        assert u.information_from_prior[0] == pytest.approx(share, rel=1e-9)
+        assert u.verdict[0].endswith("(held by the prior)") == (share > 0.5)
+        # E1's sd: the four modes and the prior, 100 GPa x 0.004 / sqrt(4 + wp)
+        assert u.std[0] == pytest.approx(100e9 * 0.004 / np.sqrt(4 + wp), rel=1e-9)
+    # the chi2 term of a prior whose constant sits 1e-4 off its initial value
+    obs, _ = toy(G, f)
+    c0 = ElasticConstants(100e9, 10e9, 5e9, 3e9, 3e9, 0.3)
+    c = ElasticConstants(100e9, 10e9 * (1 + 1e-4), 5e9, 3e9, 3e9, 0.3)
+    u = linearized_uncertainty([obs], [MaterialState("m", c, c0, ("E1", "E2"), {"E2": 0.01})],
+                               scaling="stated")
+    assert u.chi2 == pytest.approx(0.01 * (1e-4 / 0.004) ** 2, rel=1e-9)
+
+
 # --- the plate model ------------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
@@ -549,7 +583,8 @@ def test_trials_on_a_two_material_plate_equal_the_identify_route():
 def test_monte_carlo_draws_the_prior_as_the_linearised_covariance_counts_it():
     """S1.1 (8x8) with a prior on nu12 (weight 1) and G23 (0.5), which then hold those two
     constants: the linearised covariance counts each prior row as a pseudo-measurement with
-    noise sqrt(wp) sigma_unit, so the trials draw the prior's values with that noise as well
+    noise sigma_unit (its value known to sigma_unit / sqrt(wp)), so the trials draw the
+    prior's values with that noise as well
     (until stop 26 they kept them, and the Monte Carlo spread of G23 and nu12 was 0.02 of the
     linearised one). 80 seeded trials: the ratios of the prior-held constants within 0.7-1.4;
     the reduced trials equal the identify() route's trial by trial (same draws) within 1 % of
