@@ -472,8 +472,9 @@ def format_uncertainty(u: dict) -> list[str]:
     if mc:
         lines.append("")
         procs = f"{mc['jobs']} process" + ("es" if mc["jobs"] != 1 else "")
-        prior = (f"; the priors' values by {100 * mc['prior_sigma']:.2g} % "
-                 "(their pseudo-measurements' noise)" if mc.get("prior_sigma") else "")
+        prior = (f"; the priors' values by {100 * mc['prior_sigma']:.2g} % over the square "
+                 "root of their weight (as the intervals count them)"
+                 if mc.get("prior_sigma") else "")
         drawn = mc.get("fixed_drawn") or []
         if drawn:
             prior += ("; the fixed " + ", ".join(_short(drawn)) + " drawn from "
