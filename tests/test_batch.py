@@ -191,7 +191,10 @@ def test_summary_csv_records_the_run_options_above_its_unchanged_table(tmp_path)
     n = next(i for i, line in enumerate(lines) if not line.startswith("#"))
     assert lines[n].startswith("name,specimen,material,constant,value,")
     assert lines[0].startswith("# laminid ") and "batch summary; run options" in lines[0]
+    from laminid_cli.batch import CSV_BATCH_TITLE
+
     block = [line.rstrip("\n") for line in lines[1:n]]
+    block = block[:block.index(CSV_BATCH_TITLE)]        # the batch's own settings below it
     assert '# mesh: "6x6"' in block and '# identify.solver: "full"' in block
     assert "# uncertainty.monte_carlo: 3" in block and '# fix: ["nu12"]' in block
     from laminid_cli.batch import BatchError, read_summary_options
@@ -219,6 +222,46 @@ def test_summary_csv_records_the_run_options_above_its_unchanged_table(tmp_path)
     with open(out / "summary.csv", newline="") as fh:
         wide = list(csv.DictReader(without_comments(fh)))
     assert [w["name"] for w in wide] == ["S1.4"] and float(wide[0]["IM7/977-2 nu12 [1]"]) == 0.35
+
+
+def test_the_summaries_say_the_batch_processes_apart_from_uncertainty_jobs(tmp_path):
+    """batch -j 2's summaries said only the options' 'uncertainty.jobs: 1' (each specimen's
+    Monte Carlo trials and profiles in its worker), which read as a batch run on one process.
+    They now give the batch's own settings ('batch': jobs, scheduler, what ran) and what
+    uncertainty.jobs means, in summary.json and in the CSV's second '#' block; the input hash
+    is unchanged by them, so a result of -j 2 stays up to date for -j 1."""
+    from laminid_cli.batch import (CSV_BATCH_TITLE, read_summary_batch, read_summary_options,
+                                   stored_hash)
+
+    specs = make_tree(tmp_path / "specs", {"S1.4.yaml": SPECS["example1/S1.4.yaml"]})
+    out = tmp_path / "out"
+    r = run("batch", specs, "--mesh", MESH, "--out", out, "-j", "2")
+    assert r.exit_code == 0, r.output
+    doc = json.loads((out / "summary.json").read_text())
+    assert doc["options"]["uncertainty"]["jobs"] == 1
+    assert doc["batch"]["jobs"] == 2 and doc["batch"]["scheduler"] is None
+    assert doc["batch"]["runs_on"] == "up to 2 worker processes, one specimen at a time in each"
+    assert doc["batch"]["uncertainty_jobs"].startswith(
+        "options.uncertainty.jobs: the processes of one specimen's Monte Carlo trials")
+    lines = (out / "summary.csv").read_text().splitlines()
+    k = lines.index(CSV_BATCH_TITLE)
+    assert "# uncertainty.jobs: 1" in lines[:k]
+    assert lines[k + 1:k + 4] == ["# batch.jobs: 2", "# batch.scheduler: null",
+                                  '# batch.runs_on: "up to 2 worker processes, one specimen '
+                                  'at a time in each"']
+    assert lines[k + 4].startswith("name,specimen,material,")
+    assert read_summary_options(out / "summary.csv") == doc["options"]
+    assert read_summary_batch(out / "summary.csv") == {
+        key: doc["batch"][key] for key in ("jobs", "scheduler", "runs_on")}
+    key = stored_hash(out / "S1.4.result.h5")
+    r = run("batch", specs, "--mesh", MESH, "--out", out, "-j", "1")
+    assert r.exit_code == 0 and "1 up to date, 0 to identify" in r.output, r.output
+    assert stored_hash(out / "S1.4.result.h5") == key
+    doc = json.loads((out / "summary.json").read_text())
+    assert doc["options"]["uncertainty"]["jobs"] is None
+    assert doc["batch"] == dict(doc["batch"], jobs=1, scheduler=None,
+                                runs_on="this process, one specimen after the other")
+    assert read_summary_batch(out / "summary.csv")["jobs"] == 1
 
 
 def test_a_specimen_copied_under_another_name_is_warned_of_once_and_recorded(tmp_path):
@@ -1726,3 +1769,17 @@ def test_the_table_ties_a_column_to_its_reasons_when_name_and_file_differ(tmp_pa
     assert lines[0].split()[1:] == ["S1.1", "S1.4"]
     assert "  S1.4 (good):" in lines and "  S1.1:" in lines
     assert "  good:" not in lines
+
+
+@pytest.mark.parametrize("n_jobs, scheduler, runs_on", [
+    (1, None, "this process, one specimen after the other"),
+    (4, None, "up to 4 worker processes, one specimen at a time in each"),
+    (8, "local", "a local Dask cluster of 8 single-threaded worker processes, one specimen at "
+                 "a time in each"),
+    (1, "tcp://10.0.0.5:8786", "the workers of the Dask scheduler tcp://10.0.0.5:8786 (as many "
+                               "as it has; -j does not apply), one specimen at a time in each")])
+def test_batch_settings_say_where_the_specimens_ran(n_jobs, scheduler, runs_on):
+    from laminid_cli.batch import batch_settings
+
+    s = batch_settings(n_jobs, scheduler)
+    assert (s["jobs"], s["scheduler"], s["runs_on"]) == (n_jobs, scheduler, runs_on)
