@@ -250,19 +250,16 @@ def hdf5_format(path, probe: bool = True) -> str:
     "laminid-frf", ...; "" when it has none). With ``probe`` the file is read in a child
     process first (:func:`laminid_cli.frf.store.probe_hdf5_file`): one that would crash or
     hang libhdf5 is an FrfError, as is one h5py cannot open."""
-    import h5py
-
     from laminid_cli.errors import FrfError
     from laminid_cli.frf.store import H5_DAMAGE_ERRORS, probe_hdf5_file
+    from laminid_cli.h5open import file_format
 
     if probe:
         probe_hdf5_file(path, reader="hdf5_format", module="laminid_cli.batch")
     try:
-        with h5py.File(path, "r") as f:
-            fmt = f.attrs.get("format", "")
+        return file_format(path)
     except H5_DAMAGE_ERRORS as exc:
         raise FrfError(f"{path}: {exc}") from exc
-    return fmt.decode("utf-8", "replace") if isinstance(fmt, bytes) else str(fmt)
 
 
 def non_specimen_text(path) -> str | None:

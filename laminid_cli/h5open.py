@@ -23,3 +23,21 @@ def open_h5(path, error: type[Exception], not_hdf5: str):
         raise error(f"{path}: file not found") from exc
     except OSError as exc:
         raise error(f"{path}: " + not_hdf5.format(exc=exc)) from exc
+
+
+def format_of(f) -> str:
+    """The root attribute ``format`` of the open HDF5 file ``f`` ("laminid-result", ...) as
+    text: "" when it has none, bytes decoded as UTF-8 (an undecodable byte replaced), any other
+    value (a number, an array) as ``str``, so that the callers' ``fmt in FORMATS`` is a plain
+    comparison whatever another tool wrote there."""
+    fmt = f.attrs.get("format", "")
+    return fmt.decode("utf-8", "replace") if isinstance(fmt, bytes) else str(fmt)
+
+
+def file_format(path) -> str:
+    """:func:`format_of` the HDF5 file ``path``, opened for reading; h5py's exceptions (a
+    missing file, no HDF5, a damaged one) are the caller's to turn into its own answer."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        return format_of(f)
