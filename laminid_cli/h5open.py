@@ -31,6 +31,8 @@ def format_of(f) -> str:
     value (a number, an array) as ``str``, so that the callers' ``fmt in FORMATS`` is a plain
     comparison whatever another tool wrote there."""
     fmt = f.attrs.get("format", "")
+    if getattr(fmt, "shape", None) == () and not isinstance(fmt, (str, bytes)):
+        fmt = fmt[()]                 # a 0-d array (of bytes or text): its one element
     return fmt.decode("utf-8", "replace") if isinstance(fmt, bytes) else str(fmt)
 
 
