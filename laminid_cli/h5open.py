@@ -1,8 +1,11 @@
-"""Open an HDF5 file for reading, or refuse with the caller's error class and words.
+"""Open an HDF5 file for reading, or refuse with the caller's error class and words; read its
+``format`` attribute.
 
 One place for the "file not found" / "not an HDF5 file" split that every reader of HDF5 input
 makes (result files: :mod:`laminid_cli.resultfile`; plain FRF files of other tools:
-:mod:`laminid_cli.frf.generic_h5`). h5py is imported inside the function.
+:mod:`laminid_cli.frf.generic_h5`), and one reader of the root attribute ``format`` as text
+(:func:`format_of`; batch, export, identify's derived result name, the result reader), each
+caller keeping its own answer to a file it cannot open. h5py is imported inside the functions.
 """
 
 from __future__ import annotations
