@@ -50,6 +50,7 @@ import hashlib
 import json
 import logging
 import os
+import re
 import tempfile
 import time
 import traceback
@@ -262,6 +263,19 @@ def hdf5_format(path, probe: bool = True) -> str:
         raise FrfError(f"{path}: {exc}") from exc
 
 
+def is_batch_summary(head: bytes) -> bool:
+    """Whether ``head``, the first bytes of a file (a few hundred will do), are those of a
+    summary.json or summary.csv of laminid batch: the JSON's leading ``"format":
+    "laminid-batch-summary"``, the CSV's options title (:data:`CSV_OPTIONS_TITLE`) or, in one
+    written before it, its header ``name,specimen,``."""
+    text = head.lstrip().decode("utf-8", "replace")
+    if text.startswith("{"):
+        return bool(re.match(r'\{\s*"format"\s*:\s*"laminid-batch-summary"', text))
+    first = text.split("\n", 1)[0]
+    return ((first.startswith("# laminid ") and " batch summary; " in first)
+            or first.startswith("name,specimen,"))
+
+
 def non_specimen_text(path) -> str | None:
     """What ``path`` is, in words with what takes it, when it can be no specimen file: by its
     first bytes (:func:`laminid_cli.specimen.not_a_specimen`: PDF, ZIP, ...) and an HDF5 file
@@ -273,9 +287,14 @@ def non_specimen_text(path) -> str | None:
 
     try:
         with open(path, "rb") as fh:
-            head = fh.read(8)
+            head = fh.read(512)
     except OSError:
         return None
+    if is_batch_summary(head):
+        # a YAML reader took summary.json for a specimen ("unknown key 'format'") and
+        # summary.csv for one line of text, echoed whole in its message
+        return ("a laminid batch summary, not a specimen file (YAML text); "
+                f"'laminid report {shlex.quote(str(path))}' draws it")
     if not head.startswith(HDF5_MAGIC):
         return not_a_specimen(head)
     try:

@@ -611,6 +611,36 @@ def test_a_result_frf_or_modes_file_named_as_an_input_is_refused_before_anything
     assert not out.exists() and "Traceback" not in r.output
 
 
+def test_a_batch_summary_named_as_an_input_is_refused_before_anything_runs(tmp_path):
+    """README: --out may be the specimens' own folder; 'laminid batch plates/*' after that
+    named its summary.csv and summary.json, which ran as specimens and failed ("unknown key
+    'format'"; the CSV's whole text echoed as one YAML line), exit 1. Now refused with the
+    results (exit 2), naming each as a batch summary and what draws it; --wide and a CSV
+    written before the options block (its header first) too."""
+    from laminid_cli.batch import is_batch_summary
+
+    specs = make_tree(tmp_path / "plates", {"S2.1.yaml": SPECS["example2/S2.1.yaml"]})
+    r = run("batch", specs, "--mesh", MESH, "--out", specs)
+    assert r.exit_code == 0, r.output
+    out = tmp_path / "out"
+    r = run("batch", *sorted(specs.iterdir()), "--mesh", MESH, "--out", out)
+    assert r.exit_code == 2, r.output
+    lines = r.stderr.splitlines()
+    assert lines[0].startswith("laminid: error: 3 of the inputs are not specimen files; ")
+    assert lines[2:] == [
+        f"  {specs / name}: a laminid batch summary, not a specimen file (YAML text); "
+        f"'laminid report {specs / name}' draws it" for name in ("summary.csv", "summary.json")]
+    assert not out.exists() and "Traceback" not in r.output
+    table = (specs / "summary.csv").read_text()
+    old = table[table.index("\nname,specimen,") + 1:]
+    assert is_batch_summary(table.encode()[:512]) and is_batch_summary(old.encode()[:512])
+    r = run("batch", specs / "S2.1.yaml", "--mesh", MESH, "--out", specs, "--wide")
+    assert r.exit_code == 0, r.output
+    assert is_batch_summary((specs / "summary.csv").read_bytes()[:512])
+    assert not is_batch_summary(Path(SPECS["example2/S2.1.yaml"]).read_bytes()[:512])
+    assert not is_batch_summary(b'{"name": "S2.1", "format": "laminid-batch-summary"}')
+
+
 def test_a_yaml_file_in_a_folder_that_is_no_specimen_is_skipped_with_a_warning(tmp_path):
     """A folder searched for *.yaml holding a result file under that name, and a damaged
     HDF5 file: each skipped with a warning naming it and what it is; the specimens run, and
