@@ -50,6 +50,7 @@ import hashlib
 import json
 import logging
 import os
+import re
 import tempfile
 import time
 import traceback
@@ -250,19 +251,29 @@ def hdf5_format(path, probe: bool = True) -> str:
     "laminid-frf", ...; "" when it has none). With ``probe`` the file is read in a child
     process first (:func:`laminid_cli.frf.store.probe_hdf5_file`): one that would crash or
     hang libhdf5 is an FrfError, as is one h5py cannot open."""
-    import h5py
-
     from laminid_cli.errors import FrfError
     from laminid_cli.frf.store import H5_DAMAGE_ERRORS, probe_hdf5_file
+    from laminid_cli.h5open import file_format
 
     if probe:
         probe_hdf5_file(path, reader="hdf5_format", module="laminid_cli.batch")
     try:
-        with h5py.File(path, "r") as f:
-            fmt = f.attrs.get("format", "")
+        return file_format(path)
     except H5_DAMAGE_ERRORS as exc:
         raise FrfError(f"{path}: {exc}") from exc
-    return fmt.decode("utf-8", "replace") if isinstance(fmt, bytes) else str(fmt)
+
+
+def is_batch_summary(head: bytes) -> bool:
+    """Whether ``head``, the first bytes of a file (a few hundred will do), are those of a
+    summary.json or summary.csv of laminid batch: the JSON's leading ``"format":
+    "laminid-batch-summary"``, the CSV's options title (:data:`CSV_OPTIONS_TITLE`) or, in one
+    written before it, its header ``name,specimen,``."""
+    text = head.lstrip().decode("utf-8", "replace")
+    if text.startswith("{"):
+        return bool(re.match(r'\{\s*"format"\s*:\s*"laminid-batch-summary"', text))
+    first = text.split("\n", 1)[0]
+    return ((first.startswith("# laminid ") and " batch summary; " in first)
+            or first.startswith("name,specimen,"))
 
 
 def non_specimen_text(path) -> str | None:
@@ -276,9 +287,14 @@ def non_specimen_text(path) -> str | None:
 
     try:
         with open(path, "rb") as fh:
-            head = fh.read(8)
+            head = fh.read(512)
     except OSError:
         return None
+    if is_batch_summary(head):
+        # a YAML reader took summary.json for a specimen ("unknown key 'format'") and
+        # summary.csv for one line of text, echoed whole in its message
+        return ("a laminid batch summary, not a specimen file (YAML text); "
+                f"'laminid report {shlex.quote(str(path))}' draws it")
     if not head.startswith(HDF5_MAGIC):
         return not_a_specimen(head)
     try:
@@ -1432,19 +1448,64 @@ def options_comment_lines(options: dict) -> list[str]:
     return lines
 
 
-def write_summary_csv(path, rows, wide: bool = False, options: dict | None = None) -> Path:
+#: the title of a summary.csv's second ``#`` block, after the options: the batch's own
+#: settings (:func:`batch_settings`), one ``# batch.KEY: value`` a line
+CSV_BATCH_TITLE = ('# how the batch ran, as in summary.json "batch" (the options\' '
+                   'uncertainty.jobs above are the processes of one specimen\'s Monte Carlo '
+                   'trials and profiles, not the batch\'s):')
+
+#: summary.json's ``batch`` note on the options' ``uncertainty.jobs``
+UNCERTAINTY_JOBS_NOTE = ("options.uncertainty.jobs: the processes of one specimen's Monte Carlo "
+                         "trials and profiles, inside the process identifying it (null: all "
+                         "of its cores); the batch's own processes are 'jobs' and 'scheduler'")
+
+
+def batch_settings(n_jobs: int, scheduler: str | None) -> dict:
+    """The batch's own settings, apart from the identification's options (summary.json's
+    ``batch``, the CSV's second ``#`` block): ``jobs`` (-j), ``scheduler`` (None, "local" or
+    an address), ``runs_on`` (in words) and the meaning of the options' ``uncertainty.jobs``.
+
+    Why: the options say ``uncertainty.jobs: 1`` for a batch on several processes (each
+    specimen's trials in its own worker, the batch parallel over specimens), which read as a
+    batch run on one process. None of this enters :func:`input_hash`: -j changes no result."""
+    if scheduler is None and n_jobs == 1:
+        runs_on = "this process, one specimen after the other"
+    elif scheduler is None:
+        runs_on = f"up to {n_jobs} worker processes, one specimen at a time in each"
+    elif scheduler == "local":
+        runs_on = (f"a local Dask cluster of {n_jobs} single-threaded worker processes, one "
+                   "specimen at a time in each")
+    else:
+        runs_on = (f"the workers of the Dask scheduler {scheduler} (as many as it has; -j does "
+                   "not apply), one specimen at a time in each")
+    return {"jobs": int(n_jobs), "scheduler": scheduler, "runs_on": runs_on,
+            "uncertainty_jobs": UNCERTAINTY_JOBS_NOTE}
+
+
+def batch_comment_lines(batch: dict) -> list[str]:
+    """The batch block of a summary.csv: CSV_BATCH_TITLE, then ``# batch.KEY: value`` (JSON)
+    for each key of ``batch`` (:func:`batch_settings`) but the note, which the title says."""
+    return [CSV_BATCH_TITLE] + [f"{CSV_COMMENT} batch.{key}: {json.dumps(value)}"
+                                for key, value in batch.items() if key != "uncertainty_jobs"]
+
+
+def write_summary_csv(path, rows, wide: bool = False, options: dict | None = None,
+                      batch: dict | None = None) -> Path:
     """The summary as CSV, SI units, written atomically.
 
     Long form (default): LONG_COLUMNS, one row per specimen, material and constant, the unit
     in the ``unit`` column. ``wide``: one row per specimen, the unit in each header; its result
     column is relative to the CSV's folder. ``options`` (RunOptions.as_dict()): written above
-    the header as ``#`` comment lines (:func:`options_comment_lines`)."""
+    the header as ``#`` comment lines (:func:`options_comment_lines`), then ``batch``
+    (:func:`batch_settings`) as its own block (:func:`batch_comment_lines`)."""
     import io
 
     path = Path(path)
     buf = io.StringIO()
     if options is not None:
         buf.write("".join(line + "\n" for line in options_comment_lines(options)))
+    if batch is not None:
+        buf.write("".join(line + "\n" for line in batch_comment_lines(batch)))
     w = csv.writer(buf, lineterminator="\n")
     if not wide:
         columns = long_columns(rows)
@@ -1474,19 +1535,23 @@ def write_summary_csv(path, rows, wide: bool = False, options: dict | None = Non
 
 
 def batch_report(rows, options: BatchOptions, out_dir, interrupted: bool = False,
-                 running: bool = False, duplicates=()) -> dict:
+                 running: bool = False, duplicates=(), batch: dict | None = None) -> dict:
     """The summary as plain data (SI), as written to summary.json and printed by --json;
     ``interrupted``: the run was stopped (Ctrl-C) before every specimen was done (those rows
     are "not run"); ``running``: written while the batch runs (:func:`pending_row` for the
     specimens it has not finished), replaced when it ends; ``duplicates``: the groups of
     specimens holding the same plate's measured data (:func:`duplicate_specimens`), each a
-    list of their rows' ``name``."""
+    list of their rows' ``name``; ``batch``: the batch's own settings (:func:`batch_settings`),
+    after ``options`` (left out when None)."""
     counts = {s: sum(r["status"] == s for r in rows) for s in STATUSES}
     counts["not converged"] = sum(r.get("converged") is False for r in rows)
     counts["set aside"] = sum(bool(r.get("stale_result")) for r in rows
                               if r["status"] != NOT_FROM_BATCH)
-    return {"format": "laminid-batch-summary", "laminid_version": __version__,
-            "out": str(out_dir), "options": options.as_dict(), "units": dict(UNITS),
+    head = {"format": "laminid-batch-summary", "laminid_version": __version__,
+            "out": str(out_dir), "options": options.as_dict()}
+    if batch is not None:
+        head["batch"] = dict(batch)
+    return {**head, "units": dict(UNITS),
             "n_specimens": len(rows) - counts[NOT_FROM_BATCH], "counts": counts,
             "n_cached": sum(bool(r["cached"]) for r in rows), "interrupted": bool(interrupted),
             "running": bool(running), "duplicates": [list(g) for g in duplicates],
@@ -1649,33 +1714,55 @@ def _after_comments(lines):
     yield from lines
 
 
-def read_summary_options(path) -> dict | None:
-    """The run options a summary.csv records above its header (RunOptions.as_dict(), as
-    summary.json's ``options``); None for a summary written before they were recorded."""
-    options: dict = {}
-    found = False
+def _comment_blocks(path) -> tuple[dict | None, dict | None]:
+    """The run options and the batch's settings a summary.csv records above its header
+    (:func:`options_comment_lines`, :func:`batch_comment_lines`), each None where the file has
+    no such block (a summary written before it)."""
+    blocks: dict[str, dict] = {}
+    current = None
     try:
         with open(path, newline="", encoding="utf-8") as fh:
             for line in fh:
                 if not line.startswith(CSV_COMMENT):
                     break
+                text = line.rstrip("\r\n")
+                if text == CSV_BATCH_TITLE:
+                    current = blocks.setdefault("batch", {})
+                    continue
                 key, sep, value = line[len(CSV_COMMENT):].strip().partition(": ")
                 if not sep or key.startswith("laminid "):
+                    current = blocks.setdefault("options", {})
                     continue                          # the title line
                 try:
                     parsed = json.loads(value)
                 except ValueError as exc:
                     raise BatchError(f"{path}: option line {line.strip()!r}: the value is not "
                                      f"JSON ({exc})") from exc
+                if current is None:                   # no title above it: an options line
+                    current = blocks.setdefault("options", {})
                 *heads, last = key.split(".")
-                d = options
+                if current is blocks.get("batch") and heads[:1] == ["batch"]:
+                    heads = heads[1:]
+                d = current
                 for head in heads:
                     d = d.setdefault(head, {})
                 d[last] = parsed
-                found = True
     except (OSError, UnicodeDecodeError) as exc:
         raise BatchError(f"{path}: not a readable batch summary ({exc})") from exc
-    return options if found else None
+    return blocks.get("options") or None, blocks.get("batch") or None
+
+
+def read_summary_options(path) -> dict | None:
+    """The run options a summary.csv records above its header (RunOptions.as_dict(), as
+    summary.json's ``options``); None for a summary written before they were recorded."""
+    return _comment_blocks(path)[0]
+
+
+def read_summary_batch(path) -> dict | None:
+    """The batch's own settings a summary.csv records above its header (summary.json's
+    ``batch`` without its note on uncertainty.jobs: ``jobs``, ``scheduler``, ``runs_on``);
+    None for a summary written before they were recorded."""
+    return _comment_blocks(path)[1]
 
 
 def _rows_of_long(records, path: Path) -> list[dict]:

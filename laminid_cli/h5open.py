@@ -1,8 +1,11 @@
-"""Open an HDF5 file for reading, or refuse with the caller's error class and words.
+"""Open an HDF5 file for reading, or refuse with the caller's error class and words; read its
+``format`` attribute.
 
 One place for the "file not found" / "not an HDF5 file" split that every reader of HDF5 input
 makes (result files: :mod:`laminid_cli.resultfile`; plain FRF files of other tools:
-:mod:`laminid_cli.frf.generic_h5`). h5py is imported inside the function.
+:mod:`laminid_cli.frf.generic_h5`), and one reader of the root attribute ``format`` as text
+(:func:`format_of`; batch, export, identify's derived result name, the result reader), each
+caller keeping its own answer to a file it cannot open. h5py is imported inside the functions.
 """
 
 from __future__ import annotations
@@ -23,3 +26,23 @@ def open_h5(path, error: type[Exception], not_hdf5: str):
         raise error(f"{path}: file not found") from exc
     except OSError as exc:
         raise error(f"{path}: " + not_hdf5.format(exc=exc)) from exc
+
+
+def format_of(f) -> str:
+    """The root attribute ``format`` of the open HDF5 file ``f`` ("laminid-result", ...) as
+    text: "" when it has none, bytes decoded as UTF-8 (an undecodable byte replaced), any other
+    value (a number, an array) as ``str``, so that the callers' ``fmt in FORMATS`` is a plain
+    comparison whatever another tool wrote there."""
+    fmt = f.attrs.get("format", "")
+    if getattr(fmt, "shape", None) == () and not isinstance(fmt, (str, bytes)):
+        fmt = fmt[()]                 # a 0-d array (of bytes or text): its one element
+    return fmt.decode("utf-8", "replace") if isinstance(fmt, bytes) else str(fmt)
+
+
+def file_format(path) -> str:
+    """:func:`format_of` the HDF5 file ``path``, opened for reading; h5py's exceptions (a
+    missing file, no HDF5, a damaged one) are the caller's to turn into its own answer."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        return format_of(f)

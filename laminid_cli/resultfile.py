@@ -750,7 +750,7 @@ def _read_complete(f, path, fmt, version) -> ResultFile:
 def _open_result(path: Path):
     """(open file, format, schema version) of a result file whose format and version this
     laminid reads; ResultFileError otherwise (:func:`read_result`'s messages)."""
-    from laminid_cli.h5open import open_h5
+    from laminid_cli.h5open import format_of, open_h5
 
     if Path(path).suffix.lower() in (".yaml", ".yml") and Path(path).is_file():
         # a newcomer's slip: the specimen given where its result is meant ("not an HDF5 file
@@ -761,7 +761,7 @@ def _open_result(path: Path):
     f = open_h5(path, ResultFileError, "not an HDF5 file, so not a laminid identification "
                 f"result; make one with {MAKES_A_RESULT}")
     with f:
-        fmt = _s(f.attrs.get("format", ""))
+        fmt = format_of(f)
         if fmt == "laminid-frf":             # laminid acquire's (or example_frf.py's) file
             raise ResultFileError(not_a_result_but_frf(path))
         if fmt == "laminid-modes":          # laminid modes -o: the model's modes only

@@ -191,7 +191,10 @@ def test_summary_csv_records_the_run_options_above_its_unchanged_table(tmp_path)
     n = next(i for i, line in enumerate(lines) if not line.startswith("#"))
     assert lines[n].startswith("name,specimen,material,constant,value,")
     assert lines[0].startswith("# laminid ") and "batch summary; run options" in lines[0]
+    from laminid_cli.batch import CSV_BATCH_TITLE
+
     block = [line.rstrip("\n") for line in lines[1:n]]
+    block = block[:block.index(CSV_BATCH_TITLE)]        # the batch's own settings below it
     assert '# mesh: "6x6"' in block and '# identify.solver: "full"' in block
     assert "# uncertainty.monte_carlo: 3" in block and '# fix: ["nu12"]' in block
     from laminid_cli.batch import BatchError, read_summary_options
@@ -219,6 +222,46 @@ def test_summary_csv_records_the_run_options_above_its_unchanged_table(tmp_path)
     with open(out / "summary.csv", newline="") as fh:
         wide = list(csv.DictReader(without_comments(fh)))
     assert [w["name"] for w in wide] == ["S1.4"] and float(wide[0]["IM7/977-2 nu12 [1]"]) == 0.35
+
+
+def test_the_summaries_say_the_batch_processes_apart_from_uncertainty_jobs(tmp_path):
+    """batch -j 2's summaries said only the options' 'uncertainty.jobs: 1' (each specimen's
+    Monte Carlo trials and profiles in its worker), which read as a batch run on one process.
+    They now give the batch's own settings ('batch': jobs, scheduler, what ran) and what
+    uncertainty.jobs means, in summary.json and in the CSV's second '#' block; the input hash
+    is unchanged by them, so a result of -j 2 stays up to date for -j 1."""
+    from laminid_cli.batch import (CSV_BATCH_TITLE, read_summary_batch, read_summary_options,
+                                   stored_hash)
+
+    specs = make_tree(tmp_path / "specs", {"S1.4.yaml": SPECS["example1/S1.4.yaml"]})
+    out = tmp_path / "out"
+    r = run("batch", specs, "--mesh", MESH, "--out", out, "-j", "2")
+    assert r.exit_code == 0, r.output
+    doc = json.loads((out / "summary.json").read_text())
+    assert doc["options"]["uncertainty"]["jobs"] == 1
+    assert doc["batch"]["jobs"] == 2 and doc["batch"]["scheduler"] is None
+    assert doc["batch"]["runs_on"] == "up to 2 worker processes, one specimen at a time in each"
+    assert doc["batch"]["uncertainty_jobs"].startswith(
+        "options.uncertainty.jobs: the processes of one specimen's Monte Carlo trials")
+    lines = (out / "summary.csv").read_text().splitlines()
+    k = lines.index(CSV_BATCH_TITLE)
+    assert "# uncertainty.jobs: 1" in lines[:k]
+    assert lines[k + 1:k + 4] == ["# batch.jobs: 2", "# batch.scheduler: null",
+                                  '# batch.runs_on: "up to 2 worker processes, one specimen '
+                                  'at a time in each"']
+    assert lines[k + 4].startswith("name,specimen,material,")
+    assert read_summary_options(out / "summary.csv") == doc["options"]
+    assert read_summary_batch(out / "summary.csv") == {
+        key: doc["batch"][key] for key in ("jobs", "scheduler", "runs_on")}
+    key = stored_hash(out / "S1.4.result.h5")
+    r = run("batch", specs, "--mesh", MESH, "--out", out, "-j", "1")
+    assert r.exit_code == 0 and "1 up to date, 0 to identify" in r.output, r.output
+    assert stored_hash(out / "S1.4.result.h5") == key
+    doc = json.loads((out / "summary.json").read_text())
+    assert doc["options"]["uncertainty"]["jobs"] is None
+    assert doc["batch"] == dict(doc["batch"], jobs=1, scheduler=None,
+                                runs_on="this process, one specimen after the other")
+    assert read_summary_batch(out / "summary.csv")["jobs"] == 1
 
 
 def test_a_specimen_copied_under_another_name_is_warned_of_once_and_recorded(tmp_path):
@@ -566,6 +609,36 @@ def test_a_result_frf_or_modes_file_named_as_an_input_is_refused_before_anything
         f"fit-frf {frf} --into SPEC.yaml' writes its modes into a specimen (or name it in the "
         "specimen's measured.frf_file), which batch identifies"]
     assert not out.exists() and "Traceback" not in r.output
+
+
+def test_a_batch_summary_named_as_an_input_is_refused_before_anything_runs(tmp_path):
+    """README: --out may be the specimens' own folder; 'laminid batch plates/*' after that
+    named its summary.csv and summary.json, which ran as specimens and failed ("unknown key
+    'format'"; the CSV's whole text echoed as one YAML line), exit 1. Now refused with the
+    results (exit 2), naming each as a batch summary and what draws it; --wide and a CSV
+    written before the options block (its header first) too."""
+    from laminid_cli.batch import is_batch_summary
+
+    specs = make_tree(tmp_path / "plates", {"S2.1.yaml": SPECS["example2/S2.1.yaml"]})
+    r = run("batch", specs, "--mesh", MESH, "--out", specs)
+    assert r.exit_code == 0, r.output
+    out = tmp_path / "out"
+    r = run("batch", *sorted(specs.iterdir()), "--mesh", MESH, "--out", out)
+    assert r.exit_code == 2, r.output
+    lines = r.stderr.splitlines()
+    assert lines[0].startswith("laminid: error: 3 of the inputs are not specimen files; ")
+    assert lines[2:] == [
+        f"  {specs / name}: a laminid batch summary, not a specimen file (YAML text); "
+        f"'laminid report {specs / name}' draws it" for name in ("summary.csv", "summary.json")]
+    assert not out.exists() and "Traceback" not in r.output
+    table = (specs / "summary.csv").read_text()
+    old = table[table.index("\nname,specimen,") + 1:]
+    assert is_batch_summary(table.encode()[:512]) and is_batch_summary(old.encode()[:512])
+    r = run("batch", specs / "S2.1.yaml", "--mesh", MESH, "--out", specs, "--wide")
+    assert r.exit_code == 0, r.output
+    assert is_batch_summary((specs / "summary.csv").read_bytes()[:512])
+    assert not is_batch_summary(Path(SPECS["example2/S2.1.yaml"]).read_bytes()[:512])
+    assert not is_batch_summary(b'{"name": "S2.1", "format": "laminid-batch-summary"}')
 
 
 def test_a_yaml_file_in_a_folder_that_is_no_specimen_is_skipped_with_a_warning(tmp_path):
@@ -1726,3 +1799,17 @@ def test_the_table_ties_a_column_to_its_reasons_when_name_and_file_differ(tmp_pa
     assert lines[0].split()[1:] == ["S1.1", "S1.4"]
     assert "  S1.4 (good):" in lines and "  S1.1:" in lines
     assert "  good:" not in lines
+
+
+@pytest.mark.parametrize("n_jobs, scheduler, runs_on", [
+    (1, None, "this process, one specimen after the other"),
+    (4, None, "up to 4 worker processes, one specimen at a time in each"),
+    (8, "local", "a local Dask cluster of 8 single-threaded worker processes, one specimen at "
+                 "a time in each"),
+    (1, "tcp://10.0.0.5:8786", "the workers of the Dask scheduler tcp://10.0.0.5:8786 (as many "
+                               "as it has; -j does not apply), one specimen at a time in each")])
+def test_batch_settings_say_where_the_specimens_ran(n_jobs, scheduler, runs_on):
+    from laminid_cli.batch import batch_settings
+
+    s = batch_settings(n_jobs, scheduler)
+    assert (s["jobs"], s["scheduler"], s["runs_on"]) == (n_jobs, scheduler, runs_on)

@@ -96,6 +96,20 @@ def test_boundary_override():
     assert json.loads(r.output)["mesh"]["rigid_modes_dropped"] == 0
 
 
+def test_an_edge_code_is_a_modes_boundary_not_a_specimens(tmp_path):
+    """README: the specimen's boundary is free, simply-supported or clamped; modes --boundary
+    also takes an edge code (CFFF: the cantilever), which the specimen file refuses."""
+    r = run("modes", S11, "--mesh", "4x4", "--boundary", "CFFF", "--modes", "3", "--json")
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.output)["mesh"]["rigid_modes_dropped"] == 0
+    spec = tmp_path / "cantilever.yaml"
+    spec.write_text(Path(S11).read_text().replace("boundary: free", "boundary: CFFF"))
+    r = run("modes", str(spec), "--mesh", "4x4")
+    assert r.exit_code == 2
+    assert (f"{spec}:26, field 'boundary': unknown boundary condition 'cfff' (valid: free, "
+            "simply-supported, clamped)") in r.output
+
+
 def test_a_mode_not_measured_keeps_the_columns():
     """A null frequency (mode not detected) prints "-" right-aligned in its columns, so the
     row lines up with the header and the measured rows."""

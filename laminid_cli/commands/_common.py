@@ -266,13 +266,14 @@ def derived_output_path(path: str | Path, specimen: str | Path | None = None
     try:
         import h5py
 
+        from laminid_cli.h5open import format_of
+
         with h5py.File(path, "r") as f:
-            fmt = f.attrs.get("format")
+            fmt = format_of(f)
             if "specimen" in f:
                 source = f["specimen"].attrs.get("path")
     except (OSError, ValueError):
         pass
-    fmt = fmt.decode() if isinstance(fmt, bytes) else fmt
     source = source.decode() if isinstance(source, bytes) else source
     if fmt not in RESULT_FORMATS:
         raise OutputExistsError(f"{path}: exists and is not a laminid result file; move it or "

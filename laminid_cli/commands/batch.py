@@ -88,7 +88,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
 
     from laminid_cli.atomic import write_bytes_atomic
     from laminid_cli.batch import (NOT_FROM_BATCH, SUMMARY_CSV, SUMMARY_EVERY, SUMMARY_JSON,
-                                   BatchError, batch_report, check_fix_materials,
+                                   BatchError, batch_report, batch_settings,
+                                   check_fix_materials,
                                    check_scheduler, discover_specimens, duplicate_specimens,
                                    duplicate_text, failed, foreign_results, foreign_row,
                                    format_table, load_specimen_docs, non_specimens_message,
@@ -186,6 +187,9 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     # instead of 130; seen once in test_killed_batch..., whose SIGINT follows the first result)
     import h5py  # noqa: F401
 
+    # how the batch runs (-j, --scheduler), beside the options in the summaries: their
+    # uncertainty.jobs (1 on several workers) is each specimen's, not the batch's
+    settings = batch_settings(n_jobs, scheduler)
     finished = 0
     refused = False
     interrupted = False
@@ -202,10 +206,10 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
             return
         current = [rows.get(j.name) or pending_row(j) for j in jobs]
         write_summary_csv(out / SUMMARY_CSV, current, wide=wide,
-                          options=options.as_dict())
+                          options=options.as_dict(), batch=settings)
         write_summary_json(out / SUMMARY_JSON,
                            batch_report(current, options, out, running=True,
-                                        duplicates=duplicates))
+                                        duplicates=duplicates, batch=settings))
         written[0] = time.monotonic()
 
     try:
@@ -253,9 +257,9 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
             ordered = [rows.get(j.name) or _unfinished_row(j) for j in jobs]
             ordered += [foreign_row(p, out) for p in foreign_results(out, jobs)]
             report = batch_report(ordered, options, out, interrupted=interrupted,
-                                  duplicates=duplicates)
+                                  duplicates=duplicates, batch=settings)
             write_summary_csv(out / SUMMARY_CSV, ordered, wide=wide,
-                              options=options.as_dict())
+                              options=options.as_dict(), batch=settings)
             write_summary_json(out / SUMMARY_JSON, report)
             # once more at the end: a killed run's worker may still have been exiting at the
             # start (its temporary file then counted as a live process's)

@@ -15,16 +15,13 @@ UFF_SUFFIXES = (".uff", ".unv")
 def _shape_format(path) -> str | None:
     """The format of a laminid result/modes file (mode shapes), None for anything else
     (FRFs)."""
-    try:
-        import h5py
+    from laminid_cli.export import SHAPE_FORMATS
+    from laminid_cli.h5open import file_format
 
-        with h5py.File(path, "r") as f:
-            fmt = f.attrs.get("format")
+    try:
+        fmt = file_format(path)
     except (OSError, ValueError):
         return None
-    from laminid_cli.export import SHAPE_FORMATS
-
-    fmt = fmt.decode() if isinstance(fmt, bytes) else fmt
     return fmt if fmt in SHAPE_FORMATS else None
 
 
