@@ -202,6 +202,11 @@ class Specimen:
     reference: dict
     boundary: str = "free"
     description: str = ""
+    #: the reader's warnings on the file (ply angles that look like radians, a mass that
+    #: density x volume contradicts, a plate too light to be solid), each naming the file,
+    #: line and field; logged when read, and in the --json 'warnings' of the commands that
+    #: read the specimen
+    warnings: tuple[str, ...] = ()
 
     @property
     def n_plies(self) -> int:
@@ -430,6 +435,13 @@ class _Reader:
 
     def __init__(self, path: str):
         self.path = path
+        self.warnings: list[str] = []
+
+    def warn(self, message: str) -> None:
+        """A warning on the file (``message`` names the file, line and field): logged now,
+        kept for :attr:`Specimen.warnings`."""
+        log.warning("%s", message)
+        self.warnings.append(message)
 
     def where(self, y: _Y, field_name: str | None = None) -> Where:
         return Where(self.path, field_name or y.field or None, y.line)
@@ -819,6 +831,8 @@ def _read_plies(r: _Reader, top: dict, root: _Y, h: float,
                             f"of plies); the file has {which}", "layup")
     own_thickness: list[float | None] = []
     raw: list[tuple[float, str | None, _Y]] = []   # angle, tag, where
+    bare: list[bool] = []        # each angle written without a unit
+    angle_at: list[_Y] = []      # where each angle is written
     if "layup" in top:
         y = top["layup"]
         if isinstance(y.value, list):   # layup: [0, 90, 90, 0] or an unquoted [0/90]
@@ -832,6 +846,9 @@ def _read_plies(r: _Reader, top: dict, root: _Y, h: float,
             raise r.error(y, str(exc)) from exc
         raw = [(angle, tag, y) for angle, tag in expanded]
         own_thickness = [None] * len(raw)
+        # a code that marks any angle in degrees ("45deg", "45°") states the unit
+        bare = [not re.search(r"deg|°", code)] * len(raw)
+        angle_at = [y] * len(raw)
     else:
         y = top["plies"]
         items = r.sequence(y, "a list of plies ({angle: 45, material: ..., thickness: ...})")
@@ -845,12 +862,15 @@ def _read_plies(r: _Reader, top: dict, root: _Y, h: float,
             angle = r.quantity(p["angle"], "angle")
             if abs(angle) > 360:
                 raise r.error(p["angle"], f"ply angle {angle:g} deg is outside -360..360")
+            written = p["angle"].value
+            bare.append(not isinstance(written, str) or not re.search(r"[A-Za-z°]", written))
+            angle_at.append(p["angle"])
             tag = r.string(p["material"]) if "material" in p else None
             raw.append((angle, tag, p.get("material", item)))
             own_thickness.append(r.positive(p["thickness"], "length") if "thickness" in p
                                  else None)
 
-    _warn_radian_angles(r, top, [angle for angle, _, _ in raw])
+    _check_radian_angles(r, top, [angle for angle, _, _ in raw], angle_at, bare)
 
     # materials of the plies
     ply_materials = []
@@ -880,17 +900,42 @@ def _read_plies(r: _Reader, top: dict, root: _Y, h: float,
                  for (angle, _, _), m, t in zip(raw, ply_materials, thickness))
 
 
-def _warn_radian_angles(r: _Reader, top: dict, angles: list[float]) -> None:
-    """Warn when every non-zero ply angle is a fraction within ±2π: radians read as degrees
-    (``[0/0.785/1.571]``), which gives a plate of nearly parallel plies without complaint."""
-    turned = [a for a in angles if a != 0]
-    if not turned or any(abs(a) > 2 * math.pi or a == round(a) for a in turned):
+#: ply angles written without a unit that are all, to this (rad), non-zero multiples of pi/12
+#: (15 deg) within +-pi/2 are radians, and refused: 0.785 is pi/4 to 4e-4 (3 decimals),
+#: 1.57 pi/2 to 8e-4 (2 decimals). No laminate is laid up at 0.785 degrees, and no multiple
+#: of pi/12 up to pi/2 is within 0.01 of a whole number, so a layup in degrees never meets it;
+#: a looser match (0.79, 0.8) is only warned of
+RADIAN_ANGLE_TOL = 1e-3
+
+
+def _check_radian_angles(r: _Reader, top: dict, angles: list[float], where: list[_Y],
+                         bare: list[bool]) -> None:
+    """Refuse ply angles that are radians read as degrees (``[0/0.785/-0.785/1.571]``,
+    which gave a plate of nearly parallel plies without complaint): every non-zero angle
+    written without a unit, a non-zero multiple of pi/12 to :data:`RADIAN_ANGLE_TOL` within
+    +-pi/2 (none then a whole degree). Warn (:meth:`_Reader.warn`) where every non-zero angle
+    is a fraction within +-2 pi but not that plainly radians (0.8, 1.5, or a unit given)."""
+    turned = [(a, y, b) for a, y, b in zip(angles, where, bare) if a != 0]
+    if not turned or any(abs(a) > 2 * math.pi or a == round(a) for a, _, _ in turned):
         return
     key = "layup" if "layup" in top else "plies"
-    shown = ", ".join(f"{a:g}" for a in dict.fromkeys(turned))
-    log.warning("%s:%s, field '%s': the ply angles %s look like radians; laminid reads ply "
-                "angles in degrees (write %s)", r.path, top[key].line, key, shown,
-                ", ".join(f"{a * 180 / math.pi:.4g}" for a in dict.fromkeys(turned)))
+    values = list(dict.fromkeys(a for a, _, _ in turned))
+    shown = ", ".join(f"{a:g}" for a in values)
+    step = math.pi / 12
+    k = {a: round(a / step) for a in values}
+    if all(b for _, _, b in turned) and all(
+            0 < abs(k[a]) <= 6 and abs(a - k[a] * step) <= RADIAN_ANGLE_TOL for a in values):
+        y = turned[0][1]
+        writes = ", ".join(f"{15 * k[a]} for {a:g} rad" for a in values)
+        raise r.error(y, f"the ply angles {shown} are radians, not degrees (each a multiple of "
+                         f"pi/12 = 15 deg to {RADIAN_ANGLE_TOL:g}, within +-pi/2, none a whole "
+                         "degree): read as degrees they make a plate of nearly parallel plies; "
+                         f"laminid reads ply angles in degrees: write {writes}",
+                      key if key == "layup" else y.field)
+    y = turned[0][1]
+    r.warn(f"{r.path}:{y.line}, field '{key if key == 'layup' else y.field}': the ply angles "
+           f"{shown} look like radians; laminid reads ply angles in degrees (write "
+           + ", ".join(f"{a * 180 / math.pi:.4g}" for a in values) + ")")
 
 
 def _ply_thicknesses(r: _Reader, top: dict, root: _Y, h: float, ply_materials: list[str],
@@ -1346,11 +1391,11 @@ def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
     if mass is not None:
         model = specimen.model_mass
         if abs(model - mass) > 0.02 * mass:
-            log.warning("%s: the model mass %.4g kg differs from the measured mass %.4g kg by "
-                        "%.1f %%", path, model, mass, 100 * (model - mass) / mass)
+            r.warn(f"{path}: the model mass {model:.4g} kg differs from the measured mass "
+                   f"{mass:.4g} kg by {100 * (model - mass) / mass:.1f} %")
     for line, field_name, message in light_plate_warnings(specimen, top):
-        log.warning("%s:%s, field '%s': %s", path, line, field_name, message)
-    return specimen
+        r.warn(f"{path}:{line}, field '{field_name}': {message}")
+    return dataclasses.replace(specimen, warnings=tuple(r.warnings))
 
 
 #: the isotropic keys a ply constant is read from ({E: .., nu: .., G: ..})

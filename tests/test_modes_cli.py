@@ -55,7 +55,10 @@ def test_json_says_the_unit_of_every_number():
         "frequencies": "Hz", "measured": "Hz", "model": "Hz", "weight": "1",
         "residual_percent": "%", "rms_residual_percent": "%", "time_s": "s"}
     assert list(d)[:-1] == ["specimen", "mesh", "materials", "frequencies",
-                            "rms_residual_percent", "global_properties", "time_s"]
+                            "rms_residual_percent", "global_properties", "time_s", "warnings"]
+    # S1.1 at 4x4: the mesh is coarse for its 12 modes (also on stderr), nothing else
+    assert len(d["warnings"]) == 1 and d["warnings"][0].startswith(
+        f"{S11}: the mesh 4x4 (") and f"warning: {d['warnings'][0]}\n" == r.stderr
     assert d["specimen"]["a"] == 0.2105 and d["frequencies"]["measured"][0] == 125.05
     assert d["materials"]["IM7/977-2"]["density"] == pytest.approx(1609.9, rel=1e-4)
 

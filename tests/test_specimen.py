@@ -661,21 +661,52 @@ plies:
     assert msg == []
 
 
-@pytest.mark.parametrize("old, new, warned", [
-    ('layup: "[0/90]s"', 'layup: "[0/0.785/-0.785/1.571]s"', "0.785, -0.785, 1.571"),
-    ('layup: "[0/90]s"', "plies:\n  - {angle: 0}\n  - {angle: 1.5708}", "1.5708"),
-    ('layup: "[0/90]s"', 'layup: "[0/22.5/-22.5/90]s"', None),
-    ('layup: "[0/90]s"', "plies:\n  - {angle: 0}\n  - {angle: 1.5708 rad}", None),
+@pytest.mark.parametrize("new, line, field, shown, writes", [
+    ('layup: "[0/0.785/-0.785/1.571]s"', L_LAYUP, "layup", "0.785, -0.785, 1.571",
+     "45 for 0.785 rad, -45 for -0.785 rad, 90 for 1.571 rad"),
+    ('layup: "[0/1.57/0.524]"', L_LAYUP, "layup", "1.57, 0.524",
+     "90 for 1.57 rad, 30 for 0.524 rad"),
+    ("plies:\n  - {angle: 0}\n  - {angle: 1.5708}", L_LAYUP + 2, "plies[2].angle", "1.5708",
+     "90 for 1.5708 rad"),
 ])
-def test_ply_angles_that_look_like_radians_are_warned(caplog, old, new, warned):
+def test_ply_angles_that_are_plainly_radians_are_refused(new, line, field, shown, writes):
+    # [0/0.785/-0.785/1.571] was read as degrees (a plate of nearly parallel plies) with only
+    # a log warning, and identify and batch went on to fit it: every non-zero angle without a
+    # unit a multiple of pi/12 to 1e-3 within +-pi/2 is radians, refused
+    with pytest.raises(SpecimenError) as info:
+        load_specimen_text(edit(BASE, 'layup: "[0/90]s"', new), "plate.yaml")
+    assert str(info.value) == (
+        f"plate.yaml:{line}, field '{field}': the ply angles {shown} are radians, not degrees "
+        "(each a multiple of pi/12 = 15 deg to 0.001, within +-pi/2, none a whole degree): "
+        "read as degrees they make a plate of nearly parallel plies; laminid reads ply angles "
+        f"in degrees: write {writes}")
+
+
+@pytest.mark.parametrize("new, line, field, warned, degrees", [
+    # 0.8 is 45.8 deg, pi/4 only to 0.015: maybe a radian written loosely, maybe not
+    ('layup: "[0/0.8/-0.8]s"', L_LAYUP, "layup", "0.8, -0.8", "45.84, -45.84"),
+    ("plies:\n  - {angle: 0}\n  - {angle: 1.5}", L_LAYUP + 2, "plies[2].angle", "1.5",
+     "85.94"),
+    # the unit given as degrees: said to be degrees, only warned of
+    ('layup: "[0/0.785deg]s"', L_LAYUP, "layup", "0.785", "44.98"),
+    ("plies:\n  - {angle: 0}\n  - {angle: 1.5708 deg}", L_LAYUP + 2, "plies[2].angle",
+     "1.5708", "90"),
+    ('layup: "[0/22.5/-22.5/90]s"', None, None, None, None),
+    ("plies:\n  - {angle: 0}\n  - {angle: 1.5708 rad}", None, None, None, None),
+    ('layup: "[0/15/-15]s"', None, None, None, None),
+])
+def test_ply_angles_that_look_like_radians_are_warned(caplog, new, line, field, warned,
+                                                       degrees):
     with caplog.at_level(logging.WARNING, logger="laminid_cli.specimen"):
-        spec = load_specimen_text(edit(BASE, old, new), "plate.yaml")
+        spec = load_specimen_text(edit(BASE, 'layup: "[0/90]s"', new), "plate.yaml")
     msg = [r.getMessage() for r in caplog.records if "radians" in r.getMessage()]
     if warned is None:
-        assert msg == []
+        assert msg == [] and spec.warnings == ()
         return
-    assert len(msg) == 1 and f"plate.yaml:{L_LAYUP}" in msg[0], msg
-    assert f"the ply angles {warned} look like radians" in msg[0]
+    warning = (f"plate.yaml:{line}, field '{field}': the ply angles {warned} look like "
+               f"radians; laminid reads ply angles in degrees (write {degrees})")
+    assert msg == [warning]
+    assert spec.warnings == (warning,)      # kept for the commands' --json 'warnings'
     assert spec.plies[1].angle_deg == float(warned.split(",")[0])   # still read as degrees
 
 
