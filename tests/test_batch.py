@@ -1726,3 +1726,17 @@ def test_the_table_ties_a_column_to_its_reasons_when_name_and_file_differ(tmp_pa
     assert lines[0].split()[1:] == ["S1.1", "S1.4"]
     assert "  S1.4 (good):" in lines and "  S1.1:" in lines
     assert "  good:" not in lines
+
+
+@pytest.mark.parametrize("level, stderr", [(30, "warning: plate.yaml:25, field 'layup': x\n"),
+                                           (40, "")])
+def test_a_pool_workers_warnings_read_as_the_batchs_at_its_level(level, stderr):
+    # a pool worker starts from a clean interpreter: a specimen's warning came out bare
+    # (Python's last-resort handler, no "warning: "), and under -q (ERROR) too
+    code = ("import logging; from laminid_cli.batch import _worker_init; "
+            f"_worker_init(1, {level}); logging.getLogger('laminid_cli.specimen')"
+            ".warning(\"plate.yaml:25, field 'layup': x\")")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       cwd=Path(__file__).resolve().parents[1], timeout=60)
+    assert p.returncode == 0, p.stderr
+    assert p.stderr == stderr
