@@ -1390,12 +1390,58 @@ def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
                         description=description)
     if mass is not None:
         model = specimen.model_mass
-        if abs(model - mass) > 0.02 * mass:
-            r.warn(f"{path}: the model mass {model:.4g} kg differs from the measured mass "
-                   f"{mass:.4g} kg by {100 * (model - mass) / mass:.1f} %")
+        if abs(model - mass) > MASS_TOLERANCE * mass:
+            r.warn(_mass_density_warning(specimen, top))
     for line, field_name, message in light_plate_warnings(specimen, top):
         r.warn(f"{path}:{line}, field '{field_name}': {message}")
     return dataclasses.replace(specimen, warnings=tuple(r.warnings))
+
+
+#: the model mass (density x volume, the densities as given) may differ from the measured mass
+#: by this fraction before it is warned of. A plate weighed to 0.1 g of 300 g, its sides to
+#: 0.1 mm of 200 mm and its thickness to 0.01-0.02 mm of 3 mm gives m / (a b h) to about 1 %;
+#: a datasheet's ply density is good to 1-2 % (fibre volume fraction, voids). More than 2 % is
+#: one of them wrong, and it matters: laminid uses the density, and every identified modulus
+#: scales with it (E ~ rho f^2), so the moduli carry the same percentage
+MASS_TOLERANCE = 0.02
+
+
+def _mass_density_warning(spec: Specimen, top: dict) -> str:
+    """The warning on a plate whose mass and densities (used as given, not scaled to the
+    mass) disagree by more than :data:`MASS_TOLERANCE`: both values, their ratio, which one
+    laminid uses and how to use the other."""
+    mass, model = spec.mass, spec.model_mass
+    ratio = model / mass
+    mats = top["materials"].value
+
+    def line(name):
+        node = mats.get(name)
+        node = node.value.get("density") if node is not None and isinstance(
+            node.value, dict) else None
+        return f" (line {node.line})" if node is not None else ""
+
+    sides = f"{spec.a * 1e3:.4g} x {spec.b * 1e3:.4g}"
+    if len(spec.materials) == 1:
+        (name,) = spec.materials
+        given = (f"the density {spec.densities[name]:.4g} kg/m^3{line(name)} x the volume "
+                 f"{sides} x {spec.h * 1e3:.4g} mm")
+        other = (f"leave out density (then mass / (a b h) = "
+                 f"{mass / (spec.a * spec.b * spec.h):.4g} kg/m^3) or ")
+    else:
+        given = ("the densities " + ", ".join(f"'{n}' {rho:.4g} kg/m^3{line(n)}"
+                                              for n, rho in spec.densities.items())
+                 + f" over their plies' thicknesses on {sides} mm")
+        other = ""
+    where = f"{spec.path}:{top['mass'].line}, field 'mass'" if "mass" in top else spec.path
+    return (f"{where}: the model mass {model:.4g} kg differs from the measured mass "
+            f"{mass:.4g} kg by {100 * (model - mass) / mass:.1f} %: {given} "
+            f"give{'s' if len(spec.materials) == 1 else ''} {model:.4g} "
+            f"kg, {ratio:.3g} times the mass (more than the {MASS_TOLERANCE * 100:g} % a weighed "
+            "plate and its measured sides and thickness agree to); laminid uses the density, "
+            "not the mass, and every identified modulus scales with it (E ~ rho f^2); if the "
+            f"weighing is right, {other}set scale_density_to_mass: true (the "
+            f"{'density' if len(spec.materials) == 1 else 'densities'} scaled by "
+            f"{1 / ratio:.4g} to the mass)")
 
 
 #: the isotropic keys a ply constant is read from ({E: .., nu: .., G: ..})

@@ -507,6 +507,48 @@ def test_hybrid_with_absolute_densities_is_not_scaled():
     assert scaled.model_mass == pytest.approx(0.2, rel=1e-12)
 
 
+def _mass_warnings(caplog, text):
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="laminid_cli.specimen"):
+        spec = load_specimen_text(text, "plate.yaml")
+    msg = [r.getMessage() for r in caplog.records if "measured mass" in r.getMessage()]
+    assert list(spec.warnings) == msg or msg == []
+    return spec, msg
+
+
+def test_a_mass_and_a_density_that_disagree_are_warned_of_with_both_and_which_is_used(caplog):
+    # mass 0.3 kg and density 1600 kg/m^3 on 200 x 300 x 3 mm (0.288 kg, 4 % less) gave only
+    # "the model mass 0.288 kg differs from the measured mass 0.3 kg by -4.0 %": not which
+    # density, nor that laminid fits with the density (the moduli 4 % lower than with the mass)
+    text = edit(BASE, "    nu12: 0.35\n", "    nu12: 0.35\n    density: 1600 kg/m^3\n")
+    spec, msg = _mass_warnings(caplog, text)
+    assert spec.densities == {"CFRP": 1600.0} and spec.model_mass == pytest.approx(0.288)
+    assert msg == [
+        f"plate.yaml:{L_MASS}, field 'mass': the model mass 0.288 kg differs from the measured "
+        f"mass 0.3 kg by -4.0 %: the density 1600 kg/m^3 (line {L_NU12 + 1}) x the volume 200 x "
+        "300 x 3 mm gives 0.288 kg, 0.96 times the mass (more than the 2 % a weighed plate and "
+        "its measured sides and thickness agree to); laminid uses the density, not the mass, "
+        "and every identified modulus scales with it (E ~ rho f^2); if the weighing is right, "
+        "leave out density (then mass / (a b h) = 1667 kg/m^3) or set scale_density_to_mass: "
+        "true (the density scaled by 1.042 to the mass)"]
+    # within 2 % (1650 kg/m^3: 0.297 kg, -1.0 %): nothing; scaled to the mass: nothing
+    assert _mass_warnings(caplog, edit(text, "1600 kg", "1650 kg"))[1] == []
+    spec, msg = _mass_warnings(caplog, text + "scale_density_to_mass: true\n")
+    assert msg == [] and spec.densities["CFRP"] == pytest.approx(1666.67, rel=1e-5)
+    # several materials: each density named, the laminate's sum
+    hybrid = edit(edit(HYBRID, "density_ratio: 1.95", "density: 1950 kg/m^3"),
+                  "density_ratio: 1.55", "density: 1550 kg/m^3")
+    _, msg = _mass_warnings(caplog, hybrid)
+    assert msg == [
+        "plate.yaml:2, field 'mass': the model mass 0.218 kg differs from the measured mass "
+        "0.2 kg by 9.0 %: the densities 'glass' 1950 kg/m^3 (line 5), 'carbon' 1550 kg/m^3 "
+        "(line 7) over their plies' thicknesses on 200 x 300 mm give 0.218 kg, 1.09 times the "
+        "mass (more than the 2 % a weighed plate and its measured sides and thickness agree "
+        "to); laminid uses the density, not the mass, and every identified modulus scales with "
+        "it (E ~ rho f^2); if the weighing is right, set scale_density_to_mass: true (the "
+        "densities scaled by 0.9174 to the mass)"]
+
+
 def test_options_weights_sigma_fixed_prior_reference():
     text = edit(BASE, "frequencies: [100, 200, 300]", """frequencies: [100, null, "300 Hz"]
   weights: [0.5, 1, 1]
