@@ -970,6 +970,17 @@ def _ply_thicknesses(r: _Reader, top: dict, root: _Y, h: float, ply_materials: l
             log.debug("scale_thickness without ply thicknesses: plies share h equally")
         return np.full(n, h / n)
     total = float(t.sum())
+    if n > 1 and np.all(np.abs(t - h) <= THICKNESS_TOLERANCE * h):
+        # every ply as thick as the plate: h is one ply's thickness, not the laminate's
+        # (the advice to scale the plies to h, or to fix them, was the wrong way round)
+        g = top["geometry"].value
+        node = g["h"] if isinstance(g, dict) and "h" in g else top["geometry"]
+        given = "ply_thickness" if "ply_thickness" in top else "the plies' thickness"
+        raise r.error(node, f"h = {h * 1e3:.4g} mm is one ply's thickness ({given} "
+                            f"{t[0] * 1e3:.4g} mm): h is the whole laminate's, {n} plies of "
+                            f"{t[0] * 1e3:.4g} mm are {total * 1e3:.4g} mm; give that h, or "
+                            f"each ply's own thickness ({h / n * 1e3:.4g} mm for {n} plies "
+                            f"sharing {h * 1e3:.4g} mm)", "geometry.h")
     if scale:
         if not 1 / MAX_THICKNESS_SCALE <= h / total <= MAX_THICKNESS_SCALE:
             where = top.get("ply_thickness", top.get("plies", root))
@@ -1031,20 +1042,43 @@ def _resolve_densities(r: _Reader, top: dict, root: _Y, a: float, b: float, h: f
 PLY_DENSITY = (1000.0, 2600.0)
 
 
+#: kg/m^3: no fibre-reinforced ply is denser than this. A ply cannot outweigh its fibre with
+#: its lighter resin: the densest reinforcements are E-glass (2580), boron (2570) and basalt
+#: (2700), so a glass/epoxy ply is at most ~2200; 2800 also clears the rare metal-matrix plies
+#: whose shear modulus is as low as a fibre composite's (boron/aluminium, 2650)
+FIBRE_PLY_DENSITY_MAX = 2800.0
+#: a material whose G12 is at most this fraction of its larger Young's modulus is taken for a
+#: fibre composite: carbon/epoxy 0.03, glass/epoxy 0.1, woven fabrics 0.07-0.2; a metal or any
+#: isotropic solid is E/(2 (1 + nu)), 0.37-0.39 of E (and metal-matrix plies about 0.2-0.3)
+FIBRE_SHEAR_RATIO = 0.2
+
+
+def _fibre_composite(m: Material) -> bool:
+    """Whether a material's constants are a fibre composite's (:data:`FIBRE_SHEAR_RATIO`)."""
+    c = m.constants
+    return c.G12 <= FIBRE_SHEAR_RATIO * max(c.E1, c.E2)
+
+
 def _check_derived_densities(r: _Reader, top: dict, root: _Y, densities: dict,
                              materials: dict[str, Material], h: float | None = None,
                              n_plies: int = 0) -> None:
     """A density computed from the mass (not written in the file, where the unit check has
     seen it already) must be plausible too (units.PLAUSIBLE): a mass or a dimension in the
     wrong unit shows there. One n_plies times too high, a fibre ply's (PLY_DENSITY) once
-    divided by them, is h written as one ply's thickness: said so, on h's line."""
+    divided by them, is h written as one ply's thickness: said so, on h's line; so is one
+    plausible for a solid but above :data:`FIBRE_PLY_DENSITY_MAX` for a material whose
+    constants are a fibre composite's (4 carbon plies with h = 0.25 mm, one ply's: 6667
+    kg/m^3, passed). Such a density that n_plies does not explain is warned of."""
     from laminid_cli.units import PLAUSIBLE
 
     low, high = PLAUSIBLE["density"]
     for name, rho in densities.items():
-        if low <= rho <= high or materials[name].density == rho:
+        if materials[name].density == rho:
             continue
-        if (h is not None and n_plies > 1 and rho > high
+        fibre_too_dense = _fibre_composite(materials[name]) and rho > FIBRE_PLY_DENSITY_MAX
+        if low <= rho <= high and not fibre_too_dense:
+            continue
+        if (h is not None and n_plies > 1 and (rho > high or fibre_too_dense)
                 and PLY_DENSITY[0] <= rho / n_plies <= PLY_DENSITY[1]):
             g = top["geometry"].value
             node = g["h"] if isinstance(g, dict) and "h" in g else top["geometry"]
@@ -1053,6 +1087,15 @@ def _check_derived_densities(r: _Reader, top: dict, root: _Y, densities: dict,
                                 f"{n_plies * h * 1e3:.4g} mm; with this h the mass gives "
                                 f"'{name}' a density of {rho:.4g} kg/m^3)", "geometry.h")
         node = top.get("mass", root)
+        if low <= rho <= high:
+            c = materials[name].constants
+            r.warn(f"{r.path}:{node.line}, field 'mass': the mass gives material '{name}' a "
+                   f"density of {rho:.4g} kg/m^3, denser than any fibre-reinforced ply (at "
+                   f"most {FIBRE_PLY_DENSITY_MAX:g} kg/m^3; carbon/epoxy ~1550-1600, "
+                   f"glass/epoxy ~1900-2100), which its constants are (G12 {c.G12 / 1e9:.3g} "
+                   f"GPa, {c.G12 / max(c.E1, c.E2):.2g} of E1): check the mass, a, b and h "
+                   "(h is the whole laminate's thickness)")
+            continue
         raise r.error(node, f"the mass gives material '{name}' a density of {rho:.4g} kg/m^3, "
                             f"not a plausible one ({low:g} to {high:g} kg/m^3): check the units "
                             "of mass, a, b, h and the ply thicknesses", "mass")

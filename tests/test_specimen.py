@@ -935,6 +935,50 @@ def test_h_written_as_one_plys_thickness_is_named_on_hs_line(tmp_path):
         "check the units of mass, a, b, h and the ply thicknesses")
 
 
+def test_h_of_one_ply_on_a_thin_laminate_is_refused_where_the_data_show_it(tmp_path, caplog):
+    """[0/90]s of 0.25 mm carbon plies with h = 0.25 mm (one ply's) and the 96 g weighed: the
+    mass gave a density of 6400 kg/m^3, within 1-25000, and the plate was modelled 4 times too
+    thin and too dense without a word. No fibre ply is denser than 2800 kg/m^3 and these
+    constants are a fibre composite's (G12 0.026 of E1), and 6400 / 4 plies = 1600 is a
+    carbon ply's: h is one ply's, said on h's line."""
+    text = edit(edit(BASE, "h: 3 mm", "h: 0.25 mm"), "mass: 0.3 kg", "mass: 0.096 kg")
+    bad(tmp_path, text, L_H, "geometry.h",
+        "h = 0.25 mm looks like one ply's thickness: h is the whole laminate's (4 plies of "
+        "0.25 mm are 1 mm; with this h the mass gives 'CFRP' a density of 6400 kg/m^3)")
+    assert load_specimen_text(edit(text, "h: 0.25 mm", "h: 1 mm")).densities == {
+        "CFRP": pytest.approx(1600.0)}
+    # too dense for a fibre ply but not n_plies times a ply's: a warning on the mass's line
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="laminid_cli.specimen"):
+        spec = load_specimen_text(edit(text, "h: 0.25 mm", "h: 0.5 mm"), "plate.yaml")
+    assert spec.densities == {"CFRP": pytest.approx(3200.0)}
+    assert spec.warnings == (
+        f"plate.yaml:{L_MASS}, field 'mass': the mass gives material 'CFRP' a density of 3200 "
+        "kg/m^3, denser than any fibre-reinforced ply (at most 2800 kg/m^3; carbon/epoxy "
+        "~1550-1600, glass/epoxy ~1900-2100), which its constants are (G12 3.1 GPa, 0.026 of "
+        "E1): check the mass, a, b and h (h is the whole laminate's thickness)",)
+    # an isotropic material (a steel plate of 4 "plies", 7840 kg/m^3 from its mass): no word
+    steel = edit(edit(text, "mass: 0.096 kg", "mass: 0.4704 kg"), "    E1: 117.2 GPa\n"
+                 "    E2: 8.8 GPa\n    G12: 3.1 GPa\n    G13: 3.1 GPa\n    G23: 3.1 GPa\n"
+                 "    nu12: 0.35\n", "    E: 210 GPa\n    nu: 0.3\n")
+    spec = load_specimen_text(edit(steel, "h: 0.25 mm", "h: 1 mm"))
+    assert spec.densities == {"CFRP": pytest.approx(7840.0)} and spec.warnings == ()
+
+
+def test_h_equal_to_every_given_ply_thickness_is_named_as_one_plys(tmp_path):
+    # ply_thickness 0.25 mm and h 0.25 mm on 4 plies: "the ply thicknesses add up to 1 mm
+    # but h = 0.25 mm ...; fix them or set scale_thickness: true to scale them to h" (which
+    # would make the plies 4 times too thin, and is refused beyond 1.5 times)
+    text = edit(edit(BASE, "h: 3 mm", "h: 0.25 mm"), "mass: 0.3 kg",
+                "mass: 0.096 kg") + "ply_thickness: 0.25 mm\n"
+    for extra in ("", "scale_thickness: true\n"):
+        bad(tmp_path, text + extra, L_H, "geometry.h",
+            "h = 0.25 mm is one ply's thickness (ply_thickness 0.25 mm): h is the whole "
+            "laminate's, 4 plies of 0.25 mm are 1 mm; give that h, or each ply's own thickness "
+            "(0.0625 mm for 4 plies sharing 0.25 mm)")
+    assert load_specimen_text(edit(text, "h: 0.25 mm", "h: 1 mm")).h == pytest.approx(1e-3)
+
+
 PLY_LIST = 'plies:\n  - {angle: 0, thickness: 1.5 mm}\n  - {angle: 90, thickness: 1.5 mm}'
 
 
