@@ -1308,11 +1308,14 @@ def _measured_from_frf(r: _Reader, m: dict) -> Measured:
         n_modes = int(r.quantity(m["modes"], "dimensionless"))
         if n_modes < 1:
             raise r.error(m["modes"], "the number of modes must be at least 1")
+    found: list[str] = []
     try:
         freq, sigma, damping, damping_sigma = measured_from_frf_file(
-            path, bands=bands, n_modes=n_modes, with_damping_sigma=True)
+            path, bands=bands, n_modes=n_modes, with_damping_sigma=True, warnings=found)
     except FrfError as exc:
         raise r.error(m["frf_file"], f"fitting {path}: {exc}") from exc
+    for warning in found:          # the FRF file's own (a frequency unit not stated)
+        r.warn(f"{r.path}:{m['frf_file'].line}, field 'measured.frf_file': {warning}")
     freq = np.asarray(freq, float)
     weight = np.ones(freq.size)
     if "weights" in m:
