@@ -721,7 +721,8 @@ def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None
     method = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
     pool = ProcessPoolExecutor(max_workers=min(n_jobs, len(jobs)),
                                mp_context=multiprocessing.get_context(method),
-                               initializer=_worker_init, initargs=(os.getpid(),))
+                               initializer=_worker_init,
+                               initargs=(os.getpid(), logging.getLogger().getEffectiveLevel()))
     complete = False
     # a Ctrl-C is only noted and acted on at the loop's next look (every SIGINT_POLL s, and
     # after each result the consumer took): raised at once, it could land inside Python's own
@@ -876,9 +877,19 @@ def _worker_signals() -> None:
 _CLIENT_PID: dict = {}
 
 
-def _worker_init(client_pid: int) -> None:
+def _worker_init(client_pid: int, log_level: int = logging.WARNING) -> None:
     _CLIENT_PID["pid"] = client_pid
     _worker_signals()
+    # a worker starts from a clean interpreter: its log records (a specimen's warning) went
+    # out bare through Python's last-resort handler, whatever -q said; as the batch's own
+    from laminid_cli.cli import _LOG_FORMAT, _UserFormatter
+
+    root = logging.getLogger()
+    if not root.handlers:
+        handler = logging.StreamHandler()
+        handler.setFormatter(_UserFormatter(_LOG_FORMAT))
+        root.addHandler(handler)
+    root.setLevel(log_level)
 
 
 def _run_here(jobs, options):
@@ -1046,7 +1057,7 @@ def result_row(job: Job, outcome: Outcome | None = None, cached: bool = False,
            "reasons": [], "reason": "", "converged": None, "optimizer_status": "",
            "cached": cached, "materials": {}, "intervals": {}, "rms_residual_percent": None,
            "evaluations": None, "time_s": None, "result": None, "damping": {},
-           "mesh_check": None,
+           "mesh_check": None, "warnings": [],
            "stale_result": None if stale[0] is None else str(stale[0])}
     if outcome is not None and outcome.status == "error":
         reason = outcome.reason
@@ -1109,7 +1120,7 @@ def foreign_row(path, out_dir) -> dict:
             "converged": None, "optimizer_status": "", "cached": False, "materials": {},
             "intervals": {}, "rms_residual_percent": None, "evaluations": None,
             "time_s": None, "result": None, "damping": {}, "mesh_check": None,
-            "stale_result": str(path)}
+            "warnings": [], "stale_result": str(path)}
 
 
 def _row_of_result(res) -> dict:
@@ -1127,6 +1138,9 @@ def _row_of_result(res) -> dict:
             {"code": "not_converged", "text": f"the optimiser did not converge "
                                               f"({res.optimizer_status})"}]
     row["reason"] = ", ".join(r["code"] for r in row["reasons"])
+    # the run's warnings, the specimen reader's first (ply angles that look like radians, a
+    # mass that density x volume contradicts)
+    row["warnings"] = list(res.warnings)
     row["specimen"] = res.plates[0].name
     row["evaluations"] = res.evaluations
     row["time_s"] = res.time_s

@@ -630,8 +630,11 @@ def check_start(plate: PlateTerm, ev: Evaluation, far_limit: float) -> list[str]
         i = int(np.flatnonzero(far)[0])
         raise FarStartError(d.source, i, float(d.freq[i]), float(f_model[i]), float(ratio[i]),
                             far_limit, far_cause(d.freq, f_model, d.weight))
-    warnings = [f"measured mode {i + 1} is {ratio[i] * 100:.0f} % from the model at the start"
-                for i in np.flatnonzero(ok & (ratio > 0.25))]
+    # the specimen reader's own warnings first (ply angles that look like radians, a mass
+    # that density x volume contradicts): the result, its report and --json keep them
+    warnings = list(plate.fm.specimen.warnings)
+    warnings += [f"measured mode {i + 1} is {ratio[i] * 100:.0f} % from the model at the start"
+                 for i in np.flatnonzero(ok & (ratio > 0.25))]
     # a mesh too coarse for the measured modes, as modes warns of it (identify said nothing:
     # S1.1 at 3x3 ended 'poor_fit', naming 'a mesh too coarse' among five causes); the
     # thresholds are the whole plate's equations (those of a bending model are fewer)

@@ -202,6 +202,11 @@ class Specimen:
     reference: dict
     boundary: str = "free"
     description: str = ""
+    #: the reader's warnings on the file (ply angles that look like radians, a mass that
+    #: density x volume contradicts, a plate too light to be solid), each naming the file,
+    #: line and field; logged when read, and in the --json 'warnings' of the commands that
+    #: read the specimen
+    warnings: tuple[str, ...] = ()
 
     @property
     def n_plies(self) -> int:
@@ -430,6 +435,13 @@ class _Reader:
 
     def __init__(self, path: str):
         self.path = path
+        self.warnings: list[str] = []
+
+    def warn(self, message: str) -> None:
+        """A warning on the file (``message`` names the file, line and field): logged now,
+        kept for :attr:`Specimen.warnings`."""
+        log.warning("%s", message)
+        self.warnings.append(message)
 
     def where(self, y: _Y, field_name: str | None = None) -> Where:
         return Where(self.path, field_name or y.field or None, y.line)
@@ -819,6 +831,8 @@ def _read_plies(r: _Reader, top: dict, root: _Y, h: float,
                             f"of plies); the file has {which}", "layup")
     own_thickness: list[float | None] = []
     raw: list[tuple[float, str | None, _Y]] = []   # angle, tag, where
+    bare: list[bool] = []        # each angle written without a unit
+    angle_at: list[_Y] = []      # where each angle is written
     if "layup" in top:
         y = top["layup"]
         if isinstance(y.value, list):   # layup: [0, 90, 90, 0] or an unquoted [0/90]
@@ -832,6 +846,9 @@ def _read_plies(r: _Reader, top: dict, root: _Y, h: float,
             raise r.error(y, str(exc)) from exc
         raw = [(angle, tag, y) for angle, tag in expanded]
         own_thickness = [None] * len(raw)
+        # a code that marks any angle in degrees ("45deg", "45°") states the unit
+        bare = [not re.search(r"deg|°", code)] * len(raw)
+        angle_at = [y] * len(raw)
     else:
         y = top["plies"]
         items = r.sequence(y, "a list of plies ({angle: 45, material: ..., thickness: ...})")
@@ -845,12 +862,15 @@ def _read_plies(r: _Reader, top: dict, root: _Y, h: float,
             angle = r.quantity(p["angle"], "angle")
             if abs(angle) > 360:
                 raise r.error(p["angle"], f"ply angle {angle:g} deg is outside -360..360")
+            written = p["angle"].value
+            bare.append(not isinstance(written, str) or not re.search(r"[A-Za-z°]", written))
+            angle_at.append(p["angle"])
             tag = r.string(p["material"]) if "material" in p else None
             raw.append((angle, tag, p.get("material", item)))
             own_thickness.append(r.positive(p["thickness"], "length") if "thickness" in p
                                  else None)
 
-    _warn_radian_angles(r, top, [angle for angle, _, _ in raw])
+    _check_radian_angles(r, top, [angle for angle, _, _ in raw], angle_at, bare)
 
     # materials of the plies
     ply_materials = []
@@ -880,17 +900,42 @@ def _read_plies(r: _Reader, top: dict, root: _Y, h: float,
                  for (angle, _, _), m, t in zip(raw, ply_materials, thickness))
 
 
-def _warn_radian_angles(r: _Reader, top: dict, angles: list[float]) -> None:
-    """Warn when every non-zero ply angle is a fraction within ±2π: radians read as degrees
-    (``[0/0.785/1.571]``), which gives a plate of nearly parallel plies without complaint."""
-    turned = [a for a in angles if a != 0]
-    if not turned or any(abs(a) > 2 * math.pi or a == round(a) for a in turned):
+#: ply angles written without a unit that are all, to this (rad), non-zero multiples of pi/12
+#: (15 deg) within +-pi/2 are radians, and refused: 0.785 is pi/4 to 4e-4 (3 decimals),
+#: 1.57 pi/2 to 8e-4 (2 decimals). No laminate is laid up at 0.785 degrees, and no multiple
+#: of pi/12 up to pi/2 is within 0.01 of a whole number, so a layup in degrees never meets it;
+#: a looser match (0.79, 0.8) is only warned of
+RADIAN_ANGLE_TOL = 1e-3
+
+
+def _check_radian_angles(r: _Reader, top: dict, angles: list[float], where: list[_Y],
+                         bare: list[bool]) -> None:
+    """Refuse ply angles that are radians read as degrees (``[0/0.785/-0.785/1.571]``,
+    which gave a plate of nearly parallel plies without complaint): every non-zero angle
+    written without a unit, a non-zero multiple of pi/12 to :data:`RADIAN_ANGLE_TOL` within
+    +-pi/2 (none then a whole degree). Warn (:meth:`_Reader.warn`) where every non-zero angle
+    is a fraction within +-2 pi but not that plainly radians (0.8, 1.5, or a unit given)."""
+    turned = [(a, y, b) for a, y, b in zip(angles, where, bare) if a != 0]
+    if not turned or any(abs(a) > 2 * math.pi or a == round(a) for a, _, _ in turned):
         return
     key = "layup" if "layup" in top else "plies"
-    shown = ", ".join(f"{a:g}" for a in dict.fromkeys(turned))
-    log.warning("%s:%s, field '%s': the ply angles %s look like radians; laminid reads ply "
-                "angles in degrees (write %s)", r.path, top[key].line, key, shown,
-                ", ".join(f"{a * 180 / math.pi:.4g}" for a in dict.fromkeys(turned)))
+    values = list(dict.fromkeys(a for a, _, _ in turned))
+    shown = ", ".join(f"{a:g}" for a in values)
+    step = math.pi / 12
+    k = {a: round(a / step) for a in values}
+    if all(b for _, _, b in turned) and all(
+            0 < abs(k[a]) <= 6 and abs(a - k[a] * step) <= RADIAN_ANGLE_TOL for a in values):
+        y = turned[0][1]
+        writes = ", ".join(f"{15 * k[a]} for {a:g} rad" for a in values)
+        raise r.error(y, f"the ply angles {shown} are radians, not degrees (each a multiple of "
+                         f"pi/12 = 15 deg to {RADIAN_ANGLE_TOL:g}, within +-pi/2, none a whole "
+                         "degree): read as degrees they make a plate of nearly parallel plies; "
+                         f"laminid reads ply angles in degrees: write {writes}",
+                      key if key == "layup" else y.field)
+    y = turned[0][1]
+    r.warn(f"{r.path}:{y.line}, field '{key if key == 'layup' else y.field}': the ply angles "
+           f"{shown} look like radians; laminid reads ply angles in degrees (write "
+           + ", ".join(f"{a * 180 / math.pi:.4g}" for a in values) + ")")
 
 
 def _ply_thicknesses(r: _Reader, top: dict, root: _Y, h: float, ply_materials: list[str],
@@ -925,6 +970,17 @@ def _ply_thicknesses(r: _Reader, top: dict, root: _Y, h: float, ply_materials: l
             log.debug("scale_thickness without ply thicknesses: plies share h equally")
         return np.full(n, h / n)
     total = float(t.sum())
+    if n > 1 and np.all(np.abs(t - h) <= THICKNESS_TOLERANCE * h):
+        # every ply as thick as the plate: h is one ply's thickness, not the laminate's
+        # (the advice to scale the plies to h, or to fix them, was the wrong way round)
+        g = top["geometry"].value
+        node = g["h"] if isinstance(g, dict) and "h" in g else top["geometry"]
+        given = "ply_thickness" if "ply_thickness" in top else "the plies' thickness"
+        raise r.error(node, f"h = {h * 1e3:.4g} mm is one ply's thickness ({given} "
+                            f"{t[0] * 1e3:.4g} mm): h is the whole laminate's, {n} plies of "
+                            f"{t[0] * 1e3:.4g} mm are {total * 1e3:.4g} mm; give that h, or "
+                            f"each ply's own thickness ({h / n * 1e3:.4g} mm for {n} plies "
+                            f"sharing {h * 1e3:.4g} mm)", "geometry.h")
     if scale:
         if not 1 / MAX_THICKNESS_SCALE <= h / total <= MAX_THICKNESS_SCALE:
             where = top.get("ply_thickness", top.get("plies", root))
@@ -986,21 +1042,54 @@ def _resolve_densities(r: _Reader, top: dict, root: _Y, a: float, b: float, h: f
 PLY_DENSITY = (1000.0, 2600.0)
 
 
+#: kg/m^3: no fibre-reinforced ply is denser than this. A ply cannot outweigh its fibre with
+#: its lighter resin: the densest reinforcements are E-glass (2580), boron (2570) and basalt
+#: (2700), so a glass/epoxy ply is at most ~2200; 2800 also clears the rare metal-matrix plies
+#: whose shear modulus is as low as a fibre composite's (boron/aluminium, 2650)
+FIBRE_PLY_DENSITY_MAX = 2800.0
+#: a material whose G12 is at most this fraction of its larger Young's modulus is taken for a
+#: fibre composite: carbon/epoxy 0.03, glass/epoxy 0.1, woven fabrics 0.07-0.2; a metal or any
+#: isotropic solid is E/(2 (1 + nu)), 0.37-0.39 of E (and metal-matrix plies about 0.2-0.3)
+FIBRE_SHEAR_RATIO = 0.2
+
+
+def _fibre_composite(m: Material) -> bool:
+    """Whether a material's constants are a fibre composite's (:data:`FIBRE_SHEAR_RATIO`)."""
+    c = m.constants
+    return c.G12 <= FIBRE_SHEAR_RATIO * max(c.E1, c.E2)
+
+
 def _check_derived_densities(r: _Reader, top: dict, root: _Y, densities: dict,
                              materials: dict[str, Material], h: float | None = None,
                              n_plies: int = 0) -> None:
     """A density computed from the mass (not written in the file, where the unit check has
     seen it already) must be plausible too (units.PLAUSIBLE): a mass or a dimension in the
     wrong unit shows there. One n_plies times too high, a fibre ply's (PLY_DENSITY) once
-    divided by them, is h written as one ply's thickness: said so, on h's line."""
+    divided by them, is h written as one ply's thickness: said so, on h's line; so is one
+    plausible for a solid but above :data:`FIBRE_PLY_DENSITY_MAX` for a material whose
+    constants are a fibre composite's (4 carbon plies with h = 0.25 mm, one ply's: 6667
+    kg/m^3, passed), unless a decimal slip explains it as well. Such a density that n_plies
+    does not explain alone is warned of, with the slips that would."""
     from laminid_cli.units import PLAUSIBLE
 
     low, high = PLAUSIBLE["density"]
+
+    def ply_like(value: float) -> bool:
+        return PLY_DENSITY[0] <= value <= PLY_DENSITY[1]
+
     for name, rho in densities.items():
-        if low <= rho <= high or materials[name].density == rho:
+        if materials[name].density == rho:
             continue
-        if (h is not None and n_plies > 1 and rho > high
-                and PLY_DENSITY[0] <= rho / n_plies <= PLY_DENSITY[1]):
+        fibre_too_dense = _fibre_composite(materials[name]) and rho > FIBRE_PLY_DENSITY_MAX
+        if low <= rho <= high and not fibre_too_dense:
+            continue
+        one_ply = h is not None and n_plies > 1 and ply_like(rho / n_plies)
+        # a decimal slip (mass 10 times too large, h 10 times too small) explains a density
+        # that is no solid's as well: then the data do not tell which, and only a density
+        # beyond any solid's is refused (identify then refuses a start that far off, with
+        # its cause); S2.1's 14 glass plies with 2.571 kg for 0.2571 kg: 16460 kg/m^3
+        tenfold = n_plies != 10 and ply_like(rho / 10)
+        if one_ply and (rho > high or not tenfold):
             g = top["geometry"].value
             node = g["h"] if isinstance(g, dict) and "h" in g else top["geometry"]
             raise r.error(node, f"h = {h * 1e3:.4g} mm looks like one ply's thickness: h is the "
@@ -1008,6 +1097,23 @@ def _check_derived_densities(r: _Reader, top: dict, root: _Y, densities: dict,
                                 f"{n_plies * h * 1e3:.4g} mm; with this h the mass gives "
                                 f"'{name}' a density of {rho:.4g} kg/m^3)", "geometry.h")
         node = top.get("mass", root)
+        if low <= rho <= high:
+            c = materials[name].constants
+            slips = []
+            if tenfold:
+                slips.append(f"a mass 10 times too large or h 10 times too small "
+                             f"({rho / 10:.4g} kg/m^3)")
+            if one_ply:
+                slips.append(f"h one ply's thickness ({n_plies} plies of {h * 1e3:.4g} mm: "
+                             f"{rho / n_plies:.4g} kg/m^3)")
+            likely = f"; {' or '.join(slips)}?" if slips else ""
+            r.warn(f"{r.path}:{node.line}, field 'mass': the mass gives material '{name}' a "
+                   f"density of {rho:.4g} kg/m^3, denser than any fibre-reinforced ply (at "
+                   f"most {FIBRE_PLY_DENSITY_MAX:g} kg/m^3; carbon/epoxy ~1550-1600, "
+                   f"glass/epoxy ~1900-2100), which its constants are (G12 {c.G12 / 1e9:.3g} "
+                   f"GPa, {c.G12 / max(c.E1, c.E2):.2g} of E1): check the mass, a, b and h "
+                   f"(h is the whole laminate's thickness){likely}")
+            continue
         raise r.error(node, f"the mass gives material '{name}' a density of {rho:.4g} kg/m^3, "
                             f"not a plausible one ({low:g} to {high:g} kg/m^3): check the units "
                             "of mass, a, b, h and the ply thicknesses", "mass")
@@ -1220,11 +1326,14 @@ def _measured_from_frf(r: _Reader, m: dict) -> Measured:
         n_modes = int(r.quantity(m["modes"], "dimensionless"))
         if n_modes < 1:
             raise r.error(m["modes"], "the number of modes must be at least 1")
+    found: list[str] = []
     try:
         freq, sigma, damping, damping_sigma = measured_from_frf_file(
-            path, bands=bands, n_modes=n_modes, with_damping_sigma=True)
+            path, bands=bands, n_modes=n_modes, with_damping_sigma=True, warnings=found)
     except FrfError as exc:
         raise r.error(m["frf_file"], f"fitting {path}: {exc}") from exc
+    for warning in found:          # the FRF file's own (a frequency unit not stated)
+        r.warn(f"{r.path}:{m['frf_file'].line}, field 'measured.frf_file': {warning}")
     freq = np.asarray(freq, float)
     weight = np.ones(freq.size)
     if "weights" in m:
@@ -1345,12 +1454,58 @@ def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
                         description=description)
     if mass is not None:
         model = specimen.model_mass
-        if abs(model - mass) > 0.02 * mass:
-            log.warning("%s: the model mass %.4g kg differs from the measured mass %.4g kg by "
-                        "%.1f %%", path, model, mass, 100 * (model - mass) / mass)
+        if abs(model - mass) > MASS_TOLERANCE * mass:
+            r.warn(_mass_density_warning(specimen, top))
     for line, field_name, message in light_plate_warnings(specimen, top):
-        log.warning("%s:%s, field '%s': %s", path, line, field_name, message)
-    return specimen
+        r.warn(f"{path}:{line}, field '{field_name}': {message}")
+    return dataclasses.replace(specimen, warnings=tuple(r.warnings))
+
+
+#: the model mass (density x volume, the densities as given) may differ from the measured mass
+#: by this fraction before it is warned of. A plate weighed to 0.1 g of 300 g, its sides to
+#: 0.1 mm of 200 mm and its thickness to 0.01-0.02 mm of 3 mm gives m / (a b h) to about 1 %;
+#: a datasheet's ply density is good to 1-2 % (fibre volume fraction, voids). More than 2 % is
+#: one of them wrong, and it matters: laminid uses the density, and every identified modulus
+#: scales with it (E ~ rho f^2), so the moduli carry the same percentage
+MASS_TOLERANCE = 0.02
+
+
+def _mass_density_warning(spec: Specimen, top: dict) -> str:
+    """The warning on a plate whose mass and densities (used as given, not scaled to the
+    mass) disagree by more than :data:`MASS_TOLERANCE`: both values, their ratio, which one
+    laminid uses and how to use the other."""
+    mass, model = spec.mass, spec.model_mass
+    ratio = model / mass
+    mats = top["materials"].value
+
+    def line(name):
+        node = mats.get(name)
+        node = node.value.get("density") if node is not None and isinstance(
+            node.value, dict) else None
+        return f" (line {node.line})" if node is not None else ""
+
+    sides = f"{spec.a * 1e3:.4g} x {spec.b * 1e3:.4g}"
+    if len(spec.materials) == 1:
+        (name,) = spec.materials
+        given = (f"the density {spec.densities[name]:.4g} kg/m^3{line(name)} x the volume "
+                 f"{sides} x {spec.h * 1e3:.4g} mm")
+        other = (f"leave out density (then mass / (a b h) = "
+                 f"{mass / (spec.a * spec.b * spec.h):.4g} kg/m^3) or ")
+    else:
+        given = ("the densities " + ", ".join(f"'{n}' {rho:.4g} kg/m^3{line(n)}"
+                                              for n, rho in spec.densities.items())
+                 + f" over their plies' thicknesses on {sides} mm")
+        other = ""
+    where = f"{spec.path}:{top['mass'].line}, field 'mass'" if "mass" in top else spec.path
+    return (f"{where}: the model mass {model:.4g} kg differs from the measured mass "
+            f"{mass:.4g} kg by {100 * (model - mass) / mass:.1f} %: {given} "
+            f"give{'s' if len(spec.materials) == 1 else ''} {model:.4g} "
+            f"kg, {ratio:.3g} times the mass (more than the {MASS_TOLERANCE * 100:g} % a weighed "
+            "plate and its measured sides and thickness agree to); laminid uses the density, "
+            "not the mass, and every identified modulus scales with it (E ~ rho f^2); if the "
+            f"weighing is right, {other}set scale_density_to_mass: true (the "
+            f"{'density' if len(spec.materials) == 1 else 'densities'} scaled by "
+            f"{1 / ratio:.4g} to the mass)")
 
 
 #: the isotropic keys a ply constant is read from ({E: .., nu: .., G: ..})

@@ -1813,3 +1813,17 @@ def test_batch_settings_say_where_the_specimens_ran(n_jobs, scheduler, runs_on):
 
     s = batch_settings(n_jobs, scheduler)
     assert (s["jobs"], s["scheduler"], s["runs_on"]) == (n_jobs, scheduler, runs_on)
+
+
+@pytest.mark.parametrize("level, stderr", [(30, "warning: plate.yaml:25, field 'layup': x\n"),
+                                           (40, "")])
+def test_a_pool_workers_warnings_read_as_the_batchs_at_its_level(level, stderr):
+    # a pool worker starts from a clean interpreter: a specimen's warning came out bare
+    # (Python's last-resort handler, no "warning: "), and under -q (ERROR) too
+    code = ("import logging; from laminid_cli.batch import _worker_init; "
+            f"_worker_init(1, {level}); logging.getLogger('laminid_cli.specimen')"
+            ".warning(\"plate.yaml:25, field 'layup': x\")")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       cwd=Path(__file__).resolve().parents[1], timeout=60)
+    assert p.returncode == 0, p.stderr
+    assert p.stderr == stderr

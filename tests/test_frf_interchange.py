@@ -57,7 +57,7 @@ def _plain(path, case, *, transpose: bool, names=("frequency", "H"), freq_units=
 def _fit_json(path, *extra):
     r = run(["fit-frf", str(path), "--json", *extra])
     assert r.exit_code == 0, r.output
-    return json.loads(r.output)
+    return json.loads(r.stdout)          # a reader's warning goes to stderr
 
 
 @pytest.mark.parametrize("transpose", [False, True], ids=["points x freq", "freq x points"])
@@ -803,3 +803,101 @@ def test_export_of_an_identification_gives_each_shape_its_paired_modes_frequency
     assert [s["mode_n"] for s in shapes] == list(range(1, 13))
     assert shapes[2]["id1"] == f"laminid mode 3: {paired_hz[2]:.6g} Hz (model mode 4)"
     assert shapes[4]["id1"] == f"laminid mode 5: {paired_hz[4]:.6g} Hz"
+
+
+# ------------------------------------------- a frequency axis that states no unit (HDF5, UFF)
+def _fit_cli(path, *extra):
+    """fit-frf's text and --json runs of ``path``: (stderr of the text run, the JSON)."""
+    r = run(["fit-frf", str(path), "--band", "100:300", *extra])
+    assert r.exit_code == 0, r.output
+    j = run(["fit-frf", str(path), "--band", "100:300", "--json", *extra])
+    assert j.exit_code == 0, j.output
+    return r.stderr, json.loads(j.stdout)
+
+
+def test_plain_hdf5_frequency_without_units_is_hz_with_a_warning_or_refused_below_100(
+        tmp_path, case):
+    # a dataset 'freq' with no units attribute was read as Hz without a word; in kHz (0.001 to
+    # 1.601) every mode came out 1000 times too low (125.05 Hz found at 0.125), exit 0
+    lines = slice(0, UNIT_LINES)
+    path = tmp_path / "plain.h5"
+    with h5py.File(path, "w") as f:
+        f["freq"] = case.freq[lines]
+        f["frf"] = case.frf[:2, lines].T
+    warning = (f"{path}: dataset '/freq' (no units attribute): the frequency states no unit; "
+               f"its values 1 to 400 are read as Hz (were they kHz, every mode would be 1000 "
+               "times too low; rad/s, 6.28 times too high); if they are not Hz, give it one: "
+               f"h5py.File('{path}', 'r+')['/freq'].attrs['units'] = 'kHz' (or 'rad/s'); a "
+               "units attribute 'Hz' confirms Hz and silences this warning")
+    assert io.read_frf(path).meta["warnings"] == [warning]
+    stderr, out = _fit_cli(path)
+    assert stderr == f"warning: {warning}\n" and out["warnings"] == [warning]
+    assert np.allclose([m["freq_hz"] for m in out["modes"]], case.freq_hz[:3], rtol=1e-4)
+
+    with h5py.File(path, "w") as f:
+        f["freq"] = case.freq[lines] / 1e3
+        f["frf"] = case.frf[:2, lines].T
+    r = run(["fit-frf", str(path)])
+    assert r.exit_code == 2, r.output
+    assert r.stderr == (
+        f"laminid: error: {path}: dataset '/freq' (no units attribute): the frequency states "
+        "no unit, and its values 0.001 to 0.4 read as Hz would end below 100 Hz, where a free "
+        "plate has hardly a mode (they lie at about 20 Hz to 20 kHz): very likely kHz, not Hz; "
+        f"give it one: h5py.File('{path}', 'r+')['/freq'].attrs['units'] = 'kHz' (or "
+        "'rad/s')\n")
+    # stated, by the attribute the message gives or by the name: read without a warning
+    with h5py.File(path, "r+") as f:
+        f["freq"].attrs["units"] = "kHz"
+    stderr, out = _fit_cli(path)
+    assert stderr == "" and out["warnings"] == []
+    assert np.allclose([m["freq_hz"] for m in out["modes"]], case.freq_hz[:3], rtol=1e-4)
+    with h5py.File(path, "w") as f:
+        f["f_hz"] = case.freq[lines]
+        f["frf"] = case.frf[:2, lines].T
+    assert "warnings" not in io.read_frf(path).meta
+
+
+@pytest.mark.parametrize("spec_type", [18, 0], ids=["frequency", "unknown"])
+@pytest.mark.parametrize("label", ["NONE", ""])
+def test_uff_abscissa_without_a_units_label_is_hz_with_a_warning_or_refused_below_100(
+        tmp_path, case, spec_type, label):
+    # records whose abscissa has no units label (pyuff's default "NONE") were read as Hz
+    # without a word, whatever their values; type 18 says "frequency", not in which unit
+    lines = slice(0, UNIT_LINES)
+    path = _other_uff(tmp_path / "none.uff", case.freq[lines], case.frf[:2, lines],
+                      abscissa_axis_units_lab=label, abscissa_spec_data_type=spec_type)
+    kind = "frequency" if spec_type == 18 else "unknown"
+    what = (f"{path}: the FRF records' abscissa (specific data type {spec_type}, {kind}; units "
+            f"label {label!r})")
+    warning = (f"{what}: the frequency states no unit; its values 1 to 400 are read as Hz "
+               "(were they kHz, every mode would be 1000 times too low; rad/s, 6.28 times too "
+               "high); if they are not Hz, state it in the records' abscissa units label "
+               "(record 8, field 6): 'kHz' or 'rad/s' (pyuff: abscissa_axis_units_lab='kHz'); "
+               "the label 'Hz' confirms Hz and silences this warning")
+    stderr, out = _fit_cli(path)
+    assert stderr == f"warning: {warning}\n" and out["warnings"] == [warning]
+    assert np.allclose([m["freq_hz"] for m in out["modes"]], case.freq_hz[:3], rtol=1e-4)
+
+    khz = _other_uff(tmp_path / "khz.uff", case.freq[lines], case.frf[:2, lines],
+                     x=case.freq[lines] / 1e3, abscissa_spacing=0,
+                     abscissa_axis_units_lab=label, abscissa_spec_data_type=spec_type)
+    r = run(["fit-frf", str(khz)])
+    assert r.exit_code == 2, r.output
+    assert r.stderr == (
+        f"laminid: error: {what.replace(str(path), str(khz))}: the frequency states no unit, "
+        "and its values 0.001 to 0.4 read as Hz would end below 100 Hz, where a free plate "
+        "has hardly a mode (they lie at about 20 Hz to 20 kHz): very likely kHz, not Hz; "
+        "state it in the records' abscissa units label (record 8, field 6): 'kHz' or 'rad/s' "
+        "(pyuff: abscissa_axis_units_lab='kHz')\n")
+
+
+@pytest.mark.parametrize("label, scale", [("Hz", 1.0), ("kHz", 1e-3), ("rad/s", 2 * np.pi)])
+def test_uff_abscissa_with_a_units_label_is_read_without_a_warning(tmp_path, case, label,
+                                                                    scale):
+    lines = slice(0, UNIT_LINES)
+    path = _other_uff(tmp_path / "stated.uff", case.freq[lines], case.frf[:2, lines],
+                      x=case.freq[lines] * scale, abscissa_spacing=0,
+                      abscissa_axis_units_lab=label)
+    stderr, out = _fit_cli(path)
+    assert stderr == "" and out["warnings"] == []
+    assert np.allclose([m["freq_hz"] for m in out["modes"]], case.freq_hz[:3], rtol=1e-4)

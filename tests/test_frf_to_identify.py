@@ -154,3 +154,32 @@ def test_fix_with_a_value_for_an_elastic_constant_says_how(tmp_path):
         key = item.split("=")[0]
         assert (f"--fix {item}: an elastic constant is fixed at its initial value in "
                 f"specimens/example1/S1.1.yaml; write '--fix {key}'") in r.output
+
+
+def test_an_frf_files_unstated_frequency_unit_is_in_identifys_json_warnings(frf_specimen):
+    # a CSV frf_file headed "f" (no unit): fit-frf warned of it, but identify of a specimen
+    # naming the file only logged it; the warning is now the specimen's, in --json's too
+    from laminid_cli.frf import io
+
+    path, f_true, _ = frf_specimen
+    fs = io.read_frf(path.parent / "plate.frf.h5")
+    csv = io.write_frf(path.parent / "plate.csv", fs, overwrite=True)
+    lines = csv.read_text().splitlines()
+    assert lines[1].startswith("freq_Hz,")
+    csv.write_text("\n".join([lines[0], "f" + lines[1][len("freq_Hz"):]] + lines[2:]) + "\n")
+    spec_path = path.parent / "plate_csv.yaml"
+    text = path.read_text().replace("frf_file: plate.frf.h5", "frf_file: plate.csv")
+    spec_path.write_text(text)
+    line = next(i for i, ln in enumerate(text.splitlines(), 1) if "frf_file:" in ln)
+    spec = read_specimen(spec_path)
+    assert np.allclose(spec.measured.freq, f_true, rtol=5e-4)
+    assert spec.warnings == (
+        f"{spec_path}:{line}, field 'measured.frf_file': {csv}: column 1 ('f'): the frequency "
+        f"states no unit; its values 0.5 to 699.5 are read as Hz (were they kHz, every mode "
+        "would be 1000 times too low; rad/s, 6.28 times too high); if they are not Hz, state "
+        "it in the header: 'f [kHz]', 'f [Hz]' or 'f [rad/s]' (also 'f (kHz)' or 'f_kHz'); "
+        "'f [Hz]' confirms Hz and silences this warning",)
+    r = CliRunner().invoke(cli, ["identify", str(spec_path), "--mesh", "6x6", "--fix",
+                                 "nu12,G13,G23", "--json", "--no-output"])
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["warnings"][0] == spec.warnings[0]

@@ -55,7 +55,10 @@ def test_json_says_the_unit_of_every_number():
         "frequencies": "Hz", "measured": "Hz", "model": "Hz", "weight": "1",
         "residual_percent": "%", "rms_residual_percent": "%", "time_s": "s"}
     assert list(d)[:-1] == ["specimen", "mesh", "materials", "frequencies",
-                            "rms_residual_percent", "global_properties", "time_s"]
+                            "rms_residual_percent", "global_properties", "time_s", "warnings"]
+    # S1.1 at 4x4: the mesh is coarse for its 12 modes (also on stderr), nothing else
+    assert len(d["warnings"]) == 1 and d["warnings"][0].startswith(
+        f"{S11}: the mesh 4x4 (") and f"warning: {d['warnings'][0]}\n" == r.stderr
     assert d["specimen"]["a"] == 0.2105 and d["frequencies"]["measured"][0] == 125.05
     assert d["materials"]["IM7/977-2"]["density"] == pytest.approx(1609.9, rel=1e-4)
 
@@ -168,8 +171,13 @@ def test_warnings_read_as_the_commands_own_and_name_their_module_with_v(tmp_path
     spec = tmp_path / "heavy.yaml"
     spec.write_text(HEAVY)
     root = Path(__file__).resolve().parents[1]
-    words = (f"{spec}: the model mass 0.279 kg differs from the measured mass 0.5 kg by "
-             "-44.2 %")
+    words = (f"{spec}:3, field 'mass': the model mass 0.279 kg differs from the measured "
+             "mass 0.5 kg by -44.2 %: the density 1550 kg/m^3 (line 6) x the volume 200 x 300 "
+             "x 3 mm gives 0.279 kg, 0.558 times the mass (more than the 2 % a weighed plate "
+             "and its measured sides and thickness agree to); laminid uses the density, not the "
+             "mass, and every identified modulus scales with it (E ~ rho f^2); if the weighing "
+             "is right, leave out density (then mass / (a b h) = 2778 kg/m^3) or set "
+             "scale_density_to_mass: true (the density scaled by 1.792 to the mass)")
     for flags, line in (([], f"warning: {words}"),
                         (["-v"], f"WARNING laminid_cli.specimen: {words}")):
         p = subprocess.run([sys.executable, "-m", "laminid_cli", *flags, "modes", str(spec),

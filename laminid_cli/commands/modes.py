@@ -54,9 +54,12 @@ def modes(spec, mesh, n_modes, boundary, as_json, output, force):
     fm = build_forward_model(specimen, parse_mesh(mesh), boundary=boundary)
     if n_modes is None:
         n_modes = specimen.measured.freq.size if specimen.measured is not None else 12
+    # the specimen reader's warnings are on stderr already (logged as it read the file)
+    warnings = list(specimen.warnings)
     coarse = coarse_mesh(fm, n_modes)
     if coarse is not None:
         click.echo(f"warning: {spec}: {coarse}", err=True)
+        warnings.append(f"{spec}: {coarse}")
     result = fm.solve(n_modes=n_modes)
     summary = modes_summary(fm, result)
     summary["time_s"] = time.perf_counter() - t0
@@ -66,6 +69,7 @@ def modes(spec, mesh, n_modes, boundary, as_json, output, force):
     if far is not None and fm.plate.boundary == boundary_code(specimen.boundary):
         # (measured on the specimen's boundary: another --boundary is expected to be far off)
         click.echo(f"warning: {spec}: {far}", err=True)
+        warnings.append(f"{spec}: {far}")
     if out is not None:
         from laminid_cli.results import write_modes_file
 
@@ -74,7 +78,7 @@ def modes(spec, mesh, n_modes, boundary, as_json, output, force):
     if as_json:
         from laminid_cli.units import json_units
 
-        echo_json({**summary, "units": json_units(summary)})
+        echo_json({**summary, "warnings": warnings, "units": json_units(summary)})
     else:
         click.echo(format_modes_report(summary))
         if out is not None:

@@ -8,7 +8,10 @@ them:
   values, finite, strictly increasing, >= 0; its ``units`` (or ``unit``) attribute, if any,
   must be a frequency unit (Hz, kHz, 1/s or rad/s; converted to Hz); without one, a kHz or
   rad/s in its name ("f_kHz", "omega_rad_s") is its unit, a name that reads as an angular
-  frequency without a unit ("omega", "w") is refused, any other is Hz. A name such as
+  frequency without a unit ("omega", "w") is refused, any other is Hz with a warning
+  (``meta["warnings"]``: the file, the dataset, the range read and the attribute that states
+  the unit), refused where its values end below
+  :data:`~laminid_cli.frf.store.UNSTATED_FREQ_MIN_SPAN_HZ` (very likely kHz). A name such as
   ``freq``, ``frequency``, ``f_hz`` ranks first.
 - **FRF**: a complex dataset (HDF5 compound ``r``/``i`` as h5py and most tools write it, or
   ``real``/``imag`` as MATLAB v7.3 does, or ``re``/``im``), or two real datasets of one shape
@@ -37,7 +40,8 @@ import numpy as np
 
 from laminid_cli.errors import FrfError
 from laminid_cli.frf.store import (FORMAT, FrfSet, probe_hdf5_file, read_frf_h5, read_hdf5,
-                                   unit_not_stated_note, validate_frf_arrays)
+                                   unit_not_stated_note, unstated_freq_warning,
+                                   validate_frf_arrays)
 
 #: frequency units accepted in a ``units`` attribute -> factor to Hz
 FREQ_UNITS = {"hz": 1.0, "hertz": 1.0, "1/s": 1.0, "s^-1": 1.0, "khz": 1e3,
@@ -160,20 +164,12 @@ def _real_imag_pairs(found) -> list[_Dataset]:
 _ANGULAR_NAME = re.compile(r"(?<![a-z])(omega|w|angular|ang_?freq)(?![a-z])", re.I)
 
 
-def name_freq_factor(name: str, where: str) -> float:
-    """The factor to Hz of a frequency named ``name`` with no unit given otherwise: a kHz or
-    rad/s in the name ("f_kHz", "omega_rad_s"); 1 (Hz) for any other name or none. FrfError
+def name_freq_unit(name: str, where: str) -> str | None:
+    """The frequency unit a name states (:data:`FREQ_UNITS` key: "khz" in "f_kHz", "rad/s" in
+    "omega_rad_s", "hz" in "freq_Hz"); None where it states none ("f", "freq"). FrfError
     (``where`` names the dataset or column, and how to give the unit) for a name that reads as
     an angular frequency without saying which unit ("omega", "w": read as Hz, a rad/s axis
     put every natural frequency 2 pi = 6.28 times too high, with exit 0)."""
-    unit = name_freq_unit(name, where)
-    return 1.0 if unit is None else FREQ_UNITS[unit]
-
-
-def name_freq_unit(name: str, where: str) -> str | None:
-    """The frequency unit a name states (:data:`FREQ_UNITS` key: "khz" in "f_kHz", "rad/s" in
-    "omega_rad_s", "hz" in "freq_Hz"); None where it states none ("f", "freq"); FrfError as
-    :func:`name_freq_factor` says."""
     low = name.lower()
     if re.search(r"(?<![a-z])khz(?![a-z])", low):
         return "khz"
@@ -286,9 +282,14 @@ def read_generic_frf_h5(path, freq_dataset: str | None = None,
 def _read_generic(f, path: Path, freq_dataset, frf_dataset) -> FrfSet:
     datasets = _datasets(f)
     axis, frf_d = _choose(path, f, datasets, freq_dataset, frf_dataset)
-    factor = _freq_factor(axis.units) if axis.units else name_freq_factor(
-        axis.name, f"{path}: dataset '{axis.path}' (no units attribute; give it one, 'Hz' or "
-                   f"'rad/s': h5py.File(file, 'r+')['{axis.path}'].attrs['units'] = 'rad/s')")
+    if axis.units:
+        factor, stated = _freq_factor(axis.units), True
+    else:
+        unit = name_freq_unit(
+            axis.name, f"{path}: dataset '{axis.path}' (no units attribute; give it one, 'Hz' "
+                       f"or 'rad/s': h5py.File(file, 'r+')['{axis.path}'].attrs['units'] = "
+                       "'rad/s')")
+        factor, stated = (1.0 if unit is None else FREQ_UNITS[unit]), unit is not None
     freq = np.asarray(f[axis.path][()], dtype=float).reshape(-1) * factor
     if frf_d.parts:
         values = np.asarray(f[frf_d.parts[0]][()], dtype=float) \
@@ -305,6 +306,13 @@ def _read_generic(f, path: Path, freq_dataset, frf_dataset) -> FrfSet:
     validate_frf_arrays(freq, frf, coherence, source=str(path))
     labels = tuple(str(i + 1) for i in range(frf.shape[0]))
     meta = {"frequency_dataset": axis.path, "frf_dataset": frf_d.path}
+    if not stated:
+        # neither a units attribute nor a unit in the name ("f", "freq"): Hz, said, and
+        # refused where it ends below 100 (kHz read as Hz: every mode 1000 times too low)
+        meta["warnings"] = [unstated_freq_warning(
+            f"{path}: dataset '{axis.path}' (no units attribute)", freq,
+            f"give it one: h5py.File('{path}', 'r+')['{axis.path}'].attrs['units'] = 'kHz' "
+            "(or 'rad/s')", "a units attribute 'Hz'")]
     if units is None:
         where = frf_d.parts[0] if frf_d.parts else frf_d.path
         meta["notes"] = [unit_not_stated_note(path, f"no 'units' attribute on '{where}'")]

@@ -15,7 +15,10 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     pyuff. Every type-58 record of function type 4 (FRF) is one point (complex: a real FRF
     record is refused); records of function type 6 (coherence) with the same
     response/reference DOF give the coherence. All FRFs must
-    share one abscissa, in the unit of its label (Hz, none, kHz, rad/s: converted to Hz). An
+    share one abscissa, in the unit of its label (Hz, kHz, rad/s: converted to Hz; another
+    unit refused); where no record has one (blank or "NONE", pyuff's default, whatever the
+    specific data type), read as Hz with a warning, refused where it ends below
+    :data:`UNSTATED_FREQ_MIN_SPAN_HZ`. An
     ordinate units label blank or "NONE" (pyuff's default) states no FRF unit (``units`` None).
 ``csv`` (``.csv``, ``.txt``)
     Text: first column frequency in Hz (kHz or rad/s when its header says so: "f [kHz]",
@@ -68,12 +71,14 @@ import numpy as np
 
 from laminid_cli.atomic import atomic_path
 from laminid_cli.errors import FrfError, LaminidError, OutputExistsError, about_file
-from laminid_cli.frf.store import (FrfSet, check_frf_arrays, check_frf_size, read_frf_h5,
-                                   resonance_lines, unit_not_stated_note, validate_frf_arrays,
-                                   write_frf_h5)
+from laminid_cli.frf.store import (UNSTATED_FREQ_MIN_SPAN_HZ, FrfSet, check_frf_arrays,
+                                   check_frf_size, read_frf_h5, resonance_lines,
+                                   unit_not_stated_note, unstated_freq_warning,
+                                   validate_frf_arrays, write_frf_h5)
 
-__all__ = ["FORMATS", "SUFFIXES", "check_frf_arrays", "check_frf_size", "frf_format", "read_frf",
-           "read_frf_csv", "read_frf_uff", "validate_frf_arrays", "write_frf"]
+__all__ = ["FORMATS", "SUFFIXES", "UNSTATED_FREQ_MIN_SPAN_HZ", "check_frf_arrays",
+           "check_frf_size", "frf_format", "read_frf", "read_frf_csv", "read_frf_uff",
+           "validate_frf_arrays", "write_frf"]
 
 FORMATS = ("hdf5", "uff", "csv")
 SUFFIXES = {".h5": "hdf5", ".hdf5": "hdf5", ".hdf": "hdf5", ".uff": "uff", ".unv": "uff",
@@ -542,15 +547,8 @@ def _csv_freq_factor(path, name: str) -> tuple[float, bool]:
         return factor, True
     where = (f"{path}: column 1 ({name!r}; give its unit in the header, '{name} [rad/s]' or "
              f"'{name} [Hz]')")
-    unit = name_freq_unit(name, where)            # (name_freq_factor's own reading)
+    unit = name_freq_unit(name, where)
     return (1.0 if unit is None else FREQ_UNITS[unit]), unit is not None
-
-
-#: a CSV frequency column whose header states no unit is read as Hz; when its largest value
-#: is below this (Hz) it is refused instead. A free plate's modes lie at about 20 Hz - 20 kHz
-#: and an analyser's span starts at 0, so a span that ends below 100 "Hz" is far more likely
-#: kHz (125.05 Hz written 0.12505: every mode 1000 times too low, exit 0) than a plate test
-UNSTATED_FREQ_MIN_SPAN_HZ = 100.0
 
 
 def _unstated_freq_warning(path, header: list[str] | None, sep: str | None,
@@ -558,8 +556,8 @@ def _unstated_freq_warning(path, header: list[str] | None, sep: str | None,
     """The warning on a CSV frequency column whose header states no unit, read as Hz
     (``freq``, Hz): the file, the column, the range read and how to state the unit (in a
     blank-separated file (``sep`` None) without a blank: "f_kHz"). FrfError, the same said,
-    where the range ends below :data:`UNSTATED_FREQ_MIN_SPAN_HZ`: nothing is rescaled on a
-    guess."""
+    where the range ends below :data:`UNSTATED_FREQ_MIN_SPAN_HZ`
+    (:func:`~laminid_cli.frf.store.unstated_freq_warning`)."""
     column = _csv_column(header, 0)
     name = header[0].strip() if header and header[0].strip() else "f"
     if sep is None:                # "f [kHz]" would be two cells
@@ -572,17 +570,7 @@ def _unstated_freq_warning(path, header: list[str] | None, sep: str | None,
     else:
         how = (f"add a header line above the data, one name per column, the first stating the "
                f"unit: '{khz}', '{hz}' or '{rad}'")
-    lo, hi = float(freq[0]), float(freq[-1])
-    if hi < UNSTATED_FREQ_MIN_SPAN_HZ:
-        raise FrfError(
-            f"{path}: {column}: the frequency states no unit, and its values {lo:g} to {hi:g} "
-            f"read as Hz would end below {UNSTATED_FREQ_MIN_SPAN_HZ:g} Hz, where a free plate "
-            "has hardly a mode (they lie at about 20 Hz to 20 kHz): very likely kHz, not Hz; "
-            f"{how}")
-    return (f"{path}: {column}: the frequency states no unit; its values {lo:g} to {hi:g} are "
-            "read as Hz (were they kHz, every mode would be 1000 times too low; rad/s, 6.28 "
-            f"times too high); if they are not Hz, {how}; '{hz}' confirms Hz and silences "
-            "this warning")
+    return unstated_freq_warning(f"{path}: {column}", freq, how, f"'{hz}'")
 
 
 def read_frf_csv(path) -> FrfSet:
@@ -837,6 +825,18 @@ def read_frf_uff(path) -> FrfSet:
     units = each[0]
     freq, frf, coherence = check_frf_arrays(freq, frf, coherence, source=str(path))
     meta = {"uff_ids": [str(d.get("id1", "")) for d in frfs]}
+    stated = [_uff_abscissa_label(d) for d in frfs]
+    if not any(stated):
+        # type 18 says "frequency", not in which unit (a tool's rad/s or kHz axis written
+        # with type 18 and no label reads as Hz): Hz, said, and refused where it ends below
+        # 100 (kHz read as Hz: every mode 1000 times too low)
+        label = str(frfs[0].get("abscissa_axis_units_lab", "") or "").strip()
+        kind = "frequency" if absc == UFF_ABSCISSA_FREQUENCY else "unknown"
+        meta["warnings"] = [unstated_freq_warning(
+            f"{path}: the FRF records' abscissa (specific data type {absc}, {kind}; units "
+            f"label {label!r})", freq,
+            "state it in the records' abscissa units label (record 8, field 6): 'kHz' or "
+            "'rad/s' (pyuff: abscissa_axis_units_lab='kHz')", "the label 'Hz'")]
     if units is None and len(set(each)) == 1:
         d = frfs[0]
         meta["notes"] = [unit_not_stated_note(
@@ -856,19 +856,27 @@ def read_frf_uff(path) -> FrfSet:
 
 def _uff_abscissa_to_hz(path, k: int, d) -> float:
     """The factor from the abscissa of FRF record ``k`` to Hz, by its units label (record 8,
-    field 6): 1 for Hz or no label, 1/(2 pi) for rad/s, 1000 for kHz (the specific data type
+    field 6): 1 for Hz or no label (:func:`read_frf_uff` warns where no record has one),
+    1/(2 pi) for rad/s, 1000 for kHz (the specific data type
     18 says "frequency", not in which unit: a tool's rad/s axis read as Hz gave every natural
     frequency 2 pi times too high). FrfError for a label that is no frequency unit."""
     from laminid_cli.frf.generic_h5 import FREQ_UNITS, freq_unit_factor
 
-    label = str(d.get("abscissa_axis_units_lab", "") or "").strip()
-    if label.upper() in ("", "NONE"):
+    label = _uff_abscissa_label(d)
+    if label is None:
         return 1.0
     factor = freq_unit_factor(label)
     if factor is None:
         raise FrfError(f"{path}: FRF record {k}: abscissa unit {label!r} is not a frequency "
                        f"unit laminid reads ({', '.join(FREQ_UNITS)})")
     return factor
+
+
+def _uff_abscissa_label(d) -> str | None:
+    """The abscissa units label of a type-58 record (record 8, field 6); None where blank or
+    "NONE" (the format's "not used", pyuff's default)."""
+    label = str(d.get("abscissa_axis_units_lab", "") or "").strip()
+    return None if label.upper() in ("", "NONE") else label
 
 
 def _uff_window(frfs) -> float | None:

@@ -1240,7 +1240,8 @@ def _band_constants(freq, frf, chart, own, near, criteria):
 # --------------------------------------------------------------------------- file -> specimen
 def measured_from_frf_file(path, *, bands=None, n_modes: int | None = None,
                            criteria: PoleCriteria = PoleCriteria(),
-                           with_damping_sigma: bool = False) -> tuple:
+                           with_damping_sigma: bool = False,
+                           warnings: list | None = None) -> tuple:
     """Natural frequencies of the FRFs in a file, for a specimen's ``measured.frf_file``.
 
     Parameters
@@ -1248,6 +1249,8 @@ def measured_from_frf_file(path, *, bands=None, n_modes: int | None = None,
     path : FRF file (laminid HDF5, UFF 58 or CSV; :func:`laminid_cli.frf.io.read_frf`)
     bands : list of (lo, hi) Hz, default automatic
     n_modes : the n lowest modes (FrfError if fewer found)
+    warnings : a list that takes the FRF reader's warnings (a frequency unit not stated);
+        without one they are logged
 
     Returns
     -------
@@ -1266,7 +1269,10 @@ def measured_from_frf_file(path, *, bands=None, n_modes: int | None = None,
 
     fs = read_frf(path)
     for warning in fs.meta.get("warnings") or ():     # each names the file
-        log.warning("%s", warning)
+        if warnings is None:
+            log.warning("%s", warning)
+        else:
+            warnings.append(warning)
     fit = find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes, criteria=criteria,
                      source=str(path))
     tau = window_time_constant(fs)

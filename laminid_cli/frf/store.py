@@ -113,6 +113,31 @@ def unit_not_stated_note(source, how: str) -> str:
             "modal constants are given without a unit (null in --json)")
 
 
+#: a frequency axis whose file states no unit is read as Hz; when its largest value is below
+#: this (Hz) it is refused instead. A free plate's modes lie at about 20 Hz - 20 kHz and an
+#: analyser's span starts at 0, so a span that ends below 100 "Hz" is far more likely kHz
+#: (125.05 Hz written 0.12505: every mode 1000 times too low, exit 0) than a plate test
+UNSTATED_FREQ_MIN_SPAN_HZ = 100.0
+
+
+def unstated_freq_warning(what: str, freq: np.ndarray, how: str, confirm: str) -> str:
+    """The warning of a reader whose frequency axis ``freq`` (Hz, increasing) states no unit
+    and is read as Hz: ``what`` names the file and the column, dataset or record, ``how`` says
+    how to state the unit, ``confirm`` what states Hz. FrfError, the same said, where the
+    axis ends below :data:`UNSTATED_FREQ_MIN_SPAN_HZ`: nothing is rescaled on a guess."""
+    lo, hi = float(freq[0]), float(freq[-1])
+    if hi < UNSTATED_FREQ_MIN_SPAN_HZ:
+        raise FrfError(
+            f"{what}: the frequency states no unit, and its values {lo:g} to {hi:g} read as Hz "
+            f"would end below {UNSTATED_FREQ_MIN_SPAN_HZ:g} Hz, where a free plate has hardly "
+            "a mode (they lie at about 20 Hz to 20 kHz): very likely kHz, not Hz; "
+            f"{how}")
+    return (f"{what}: the frequency states no unit; its values {lo:g} to {hi:g} are read as "
+            "Hz (were they kHz, every mode would be 1000 times too low; rad/s, 6.28 times too "
+            f"high); if they are not Hz, {how}; {confirm} confirms Hz and silences this "
+            "warning")
+
+
 def _now() -> str:
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 

@@ -1,0 +1,83 @@
+"""The specimen reader's warnings and refusals through every command that reads a specimen:
+on stderr, and in --json's 'warnings' (identify, modes, batch's rows)."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from tests.clihelp import run
+
+S21 = Path("specimens/example2/S2.1.yaml")
+#: S2.1's model frequencies (6x6 mesh) with its 90s written 1.5: a start near the answer
+FREQ_15 = "61.39, 82.25, 170.02, 178.53, 305.33, 337.99, 426.78, 456.58"
+
+
+def _specimen(tmp_path, layup: str, name: str = "plate.yaml") -> Path:
+    text = S21.read_text()
+    text = re.sub(r'(?m)^layup: .*$', f'layup: "{layup}"', text)
+    text = re.sub(r"(?m)^  frequencies: \[.*$", f"  frequencies: [{FREQ_15}]", text)
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def _line(path: Path, key: str) -> int:
+    return next(i for i, ln in enumerate(path.read_text().splitlines(), 1)
+                if ln.startswith(key + ":"))
+
+
+def test_a_layup_in_radians_is_refused_by_every_command_that_reads_it(tmp_path):
+    # [(0/1.571)_2/1.571/0/1.571]s: 1.571 is pi/2 to 2e-4; identify and batch fitted it as
+    # 1.571 degrees (a plate of nearly parallel plies), modes alone warned
+    spec = _specimen(tmp_path, "[(0/1.571)_2/1.571/0/1.571]s")
+    message = (f"{spec}:{_line(spec, 'layup')}, field 'layup': the ply angles 1.571 are "
+               "radians, not degrees (each a multiple of pi/12 = 15 deg to 0.001, within "
+               "+-pi/2, none a whole degree): read as degrees they make a plate of nearly "
+               "parallel plies; laminid reads ply angles in degrees: write 90 for 1.571 rad")
+    for args in (["identify", spec, "--mesh", "6x6", "--no-output"],
+                 ["modes", spec, "--mesh", "6x6"]):
+        r = run(*args)
+        assert r.exit_code == 2, r.output
+        assert r.stderr == f"laminid: error: {message}\n"
+    r = run("batch", spec, "--out", tmp_path / "out", "--mesh", "6x6", "--json")
+    assert r.exit_code == 1, r.output
+    row = json.loads(r.stdout)["specimens"][0]
+    assert row["status"] == "error" and row["reason"] == message
+
+
+def _logged(caplog) -> list[str]:
+    """The specimen reader's log records (on stderr as "warning: ..." outside pytest, whose
+    own handler takes them here: tests/test_modes_cli.py checks that format)."""
+    out = [r.getMessage() for r in caplog.records if r.name == "laminid_cli.specimen"]
+    caplog.clear()
+    return out
+
+
+def test_angles_that_may_be_radians_are_warned_of_in_every_commands_json(tmp_path, caplog):
+    # 1.5 is 85.9 deg, pi/2 only to 0.07: warned of, on stderr and in --json's 'warnings'
+    caplog.set_level("WARNING", logger="laminid_cli.specimen")
+    spec = _specimen(tmp_path, "[(0/1.5)_2/1.5/0/1.5]s")
+    warning = (f"{spec}:{_line(spec, 'layup')}, field 'layup': the ply angles 1.5 look like "
+               "radians; laminid reads ply angles in degrees (write 85.94)")
+    r = run("identify", spec, "--mesh", "6x6", "--no-output", "--json")
+    assert r.exit_code == 0, r.output
+    assert _logged(caplog) == [warning]
+    assert json.loads(r.stdout)["warnings"][0] == warning
+    r = run("modes", spec, "--mesh", "6x6", "--json")
+    assert r.exit_code == 0, r.output
+    assert _logged(caplog) == [warning]
+    assert json.loads(r.stdout)["warnings"][0] == warning
+    r = run("batch", spec, "--out", tmp_path / "out", "--mesh", "6x6", "--json")
+    assert r.exit_code == 0, r.output
+    assert warning in _logged(caplog)
+    row = json.loads(r.stdout)["specimens"][0]
+    assert row["status"] in ("ok", "check") and row["warnings"][0] == warning
+    # in degrees: no such warning
+    plain = _specimen(tmp_path, "[(0/90)_2/90/0/90]s", "degrees.yaml")
+    r = run("modes", plain, "--mesh", "8x8", "--json")
+    assert r.exit_code == 0 and "radians" not in r.output
+    assert not any("radians" in w for w in json.loads(r.stdout)["warnings"])
