@@ -1038,25 +1038,9 @@ def test_sigterm_stops_the_session_as_ctrl_c_does_with_the_resume_command(tmp_pa
     finished before it kept, the message and the --json summary with the resume command,
     exit 143; and --resume completes the file."""
     import signal
-    import subprocess
-    import sys
 
     out = tmp_path / "k.frf.h5"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "laminid_cli", "acquire", "--analyser", hp.resource, *FAST,
-         "--points", "40", "--no-prompt", "--json", "-o", str(out)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        seen = []
-        for line in proc.stderr:               # quality lines go to stderr under --json
-            seen.append(line)
-            if line.startswith("point 2:"):    # point 2 saved and assessed
-                proc.send_signal(signal.SIGTERM)
-                break
-        stdout, stderr = proc.communicate(timeout=20)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
+    proc, seen, stdout, stderr = _signalled_at_point_2(hp, out, signal.SIGTERM)
     assert proc.returncode == 143, "".join(seen) + stderr
     assert "laminid: stopped: terminated (SIGTERM);" in stderr
     d = json.loads(stdout)
@@ -1077,26 +1061,11 @@ def test_kill_int_stops_a_session_started_with_sigint_ignored_as_ctrl_c_does(tmp
     finished before it kept, 'laminid: stopped: interrupted' with the resume command, the
     --json summary, exit 130."""
     import signal
-    import subprocess
-    import sys
 
     out = tmp_path / "i.frf.h5"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "laminid_cli", "acquire", "--analyser", hp.resource, *FAST,
-         "--points", "40", "--no-prompt", "--json", "-o", str(out)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    proc, seen, stdout, stderr = _signalled_at_point_2(
+        hp, out, signal.SIGINT,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
-    try:
-        seen = []
-        for line in proc.stderr:               # quality lines go to stderr under --json
-            seen.append(line)
-            if line.startswith("point 2:"):    # point 2 saved and assessed
-                proc.send_signal(signal.SIGINT)
-                break
-        stdout, stderr = proc.communicate(timeout=20)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
     assert proc.returncode == 130, "".join(seen) + stderr
     assert "laminid: stopped: interrupted;" in stderr
     n = read_frf_h5(out).n_points
@@ -1107,3 +1076,28 @@ def test_kill_int_stops_a_session_started_with_sigint_ignored_as_ctrl_c_does(tmp
     assert d["stopped"].startswith(f"interrupted; {n} point(s) saved in")
     assert d["resume"].endswith("--resume") and "--points 40" in d["resume"]
     assert d["resume"] in stderr
+
+
+def _signalled_at_point_2(hp, out, sig, preexec_fn=None):
+    """A 40-point `acquire --json` session on the emulator in a subprocess, sent ``sig`` once
+    point 2 is saved and assessed: (process, its stderr lines up to then, stdout, the rest of
+    stderr)."""
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "laminid_cli", "acquire", "--analyser", hp.resource, *FAST,
+         "--points", "40", "--no-prompt", "--json", "-o", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=preexec_fn)
+    try:
+        seen = []
+        for line in proc.stderr:               # quality lines go to stderr under --json
+            seen.append(line)
+            if line.startswith("point 2:"):    # point 2 saved and assessed
+                proc.send_signal(sig)
+                break
+        stdout, stderr = proc.communicate(timeout=20)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    return proc, seen, stdout, stderr

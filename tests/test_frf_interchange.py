@@ -815,6 +815,12 @@ def _fit_cli(path, *extra):
     return r.stderr, json.loads(j.stdout)
 
 
+#: the refusal of kHz read as Hz (1 to 400 Hz written in kHz), as every FRF reader words it
+KHZ_AS_HZ = ("the frequency states no unit, and its values 0.001 to 0.4 read as Hz would end "
+             "below 100 Hz, where a free plate has hardly a mode (they lie at about 20 Hz to "
+             "20 kHz): very likely kHz, not Hz")
+
+
 def test_plain_hdf5_frequency_without_units_is_hz_with_a_warning_or_refused_below_100(
         tmp_path, case):
     # a dataset 'freq' with no units attribute was read as Hz without a word; in kHz (0.001 to
@@ -840,9 +846,7 @@ def test_plain_hdf5_frequency_without_units_is_hz_with_a_warning_or_refused_belo
     r = run(["fit-frf", str(path)])
     assert r.exit_code == 2, r.output
     assert r.stderr == (
-        f"laminid: error: {path}: dataset '/freq' (no units attribute): the frequency states "
-        "no unit, and its values 0.001 to 0.4 read as Hz would end below 100 Hz, where a free "
-        "plate has hardly a mode (they lie at about 20 Hz to 20 kHz): very likely kHz, not Hz; "
+        f"laminid: error: {path}: dataset '/freq' (no units attribute): {KHZ_AS_HZ}; "
         f"give it one: h5py.File('{path}', 'r+')['/freq'].attrs['units'] = 'kHz' (or "
         "'rad/s')\n")
     # stated, by the attribute the message gives or by the name: read without a warning
@@ -884,9 +888,7 @@ def test_uff_abscissa_without_a_units_label_is_hz_with_a_warning_or_refused_belo
     r = run(["fit-frf", str(khz)])
     assert r.exit_code == 2, r.output
     assert r.stderr == (
-        f"laminid: error: {what.replace(str(path), str(khz))}: the frequency states no unit, "
-        "and its values 0.001 to 0.4 read as Hz would end below 100 Hz, where a free plate "
-        "has hardly a mode (they lie at about 20 Hz to 20 kHz): very likely kHz, not Hz; "
+        f"laminid: error: {what.replace(str(path), str(khz))}: {KHZ_AS_HZ}; "
         "state it in the records' abscissa units label (record 8, field 6): 'kHz' or 'rad/s' "
         "(pyuff: abscissa_axis_units_lab='kHz')\n")
 
