@@ -626,10 +626,13 @@ def test_an_nlopt_failure_is_a_run_that_did_not_converge_not_a_traceback(monkeyp
 
 @pytest.mark.parametrize("jobs", ["1", "2"])
 def test_monte_carlo_of_the_emulators_plate_ends_without_a_traceback(tmp_path, jobs):
-    """identify --monte-carlo 40 of the analyser emulator's plate: a trial's SLSQP raised nlopt
+    """identify --monte-carlo of the analyser emulator's plate: a trial's SLSQP raised nlopt
     2.11's runtime_error (no RuntimeError subclass): with -j 1 a traceback, with -j 2 the worker
     could not send it back ("TypeError: cannot pickle 'swig_runtime_data5.SwigPyObject'"),
-    exit 1. Such a trial is re-identified with identify(), as any the trial model refuses."""
+    exit 1. Such a trial is re-identified with identify(), as any the trial model refuses.
+    Seed 14's first trial is one (`laminid -v` logs "trial 1: optimiser failure"; 40 trials of
+    seed 0 reach one at trial 32, 10 s a run): its re-identification starts too far off (mode 2
+    55 % from the model), so 7 of the 8 trials converge, 2 of them through identify()."""
     spec = tmp_path / "emu.yaml"
     # (as fit-frf --into writes it from the emulator's FRFs: its sigmas and damping)
     spec.write_text(EMULATOR_PLATE + (
@@ -638,10 +641,11 @@ def test_monte_carlo_of_the_emulators_plate_ends_without_a_traceback(tmp_path, j
         "0.00700205]\n"
         "  damping_sigma: [0.00030992, 0.000219664, 0.000204111, 0.000150209, 0.000217853, "
         "0.000148448, 0.000162969]\n"))
-    r = run("identify", spec, "--mesh", "8x8", "--monte-carlo", "40", "-j", jobs, "--json",
-            "--no-output")
+    r = run("identify", spec, "--mesh", "8x8", "--monte-carlo", "8", "--seed", "14", "-j", jobs,
+            "--json", "--no-output")
     assert "Traceback" not in r.output and "pickle" not in r.output, r.output
     assert r.exit_code == 0, r.output
     d = json.loads(r.output[r.output.index("{"):])
     mc = d["uncertainty"]["monte_carlo"]
-    assert mc["trials"] == 40 and 30 <= mc["converged"] <= 40, mc
+    assert (mc["trials"], mc["converged"], mc["reidentified"]) == (8, 7, 2), mc
+    assert mc["failures"][0].startswith("trial 1: ") and "55 % away" in mc["failures"][0]
