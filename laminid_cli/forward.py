@@ -288,8 +288,10 @@ def coarse_mesh(fm: ForwardModel, n_modes: int) -> str | None:
         if n_eq * _mesh_nodes(sx, sy) / _mesh_nodes(nx, ny) >= MESH_EQUATIONS_PER_MODE * n_modes:
             break
         t *= 1.05
-    why = (f"{per_mode:.0f} equations per mode, fewer than {MESH_EQUATIONS_PER_MODE}"
-           if per_mode < MESH_EQUATIONS_PER_MODE else
+    # (rounded down: 1197 equations for 8 modes are 149.6 a mode, which '.0f' wrote "150
+    # equations per mode, fewer than 150")
+    why = (f"{math.floor(per_mode * 10) / 10:g} equations per mode, fewer than "
+           f"{MESH_EQUATIONS_PER_MODE}" if per_mode < MESH_EQUATIONS_PER_MODE else
            f"fewer than {MESH_MIN_ELEMENTS} elements along a side")
     return (f"the mesh {nx}x{ny} ({n_eq} equations) is coarse for {n_modes} "
             f"mode{'s' if n_modes != 1 else ''}: {why}, where the highest mode computed is "

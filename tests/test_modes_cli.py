@@ -318,7 +318,7 @@ def test_a_mesh_too_coarse_for_the_modes_asked_is_warned_with_a_finer_one():
     r, coarse = _mode1("--mesh", "2x2")
     fine_r, fine = _mode1()                                   # the default 12x12
     assert abs(coarse[0] - fine[0]) / fine[0] > 0.03          # measured: 3.8 %
-    assert (f"warning: {S11}: the mesh 2x2 (189 equations) is coarse for 12 modes: 16 "
+    assert (f"warning: {S11}: the mesh 2x2 (189 equations) is coarse for 12 modes: 15.7 "
             "equations per mode, fewer than 150, where the highest mode computed is typically "
             "1 % or more off a converged mesh. Use --mesh 8x8 or finer, and check a mesh with "
             "'laminid identify --mesh-check'") in r.stderr, r.stderr
@@ -330,5 +330,9 @@ def test_a_mesh_too_coarse_for_the_modes_asked_is_warned_with_a_finer_one():
     # the default mesh holds 28 modes (4329 equations), not 30 (S1.1's mode 30 1.5 % off)
     assert "coarse" not in _mode1("--modes", "28")[0].stderr
     r, _ = _mode1("--modes", "30")
-    assert "the mesh 12x12 (4329 equations) is coarse for 30 modes: 144 equations" in r.stderr
+    assert "the mesh 12x12 (4329 equations) is coarse for 30 modes: 144.3 equations" in r.stderr
+    # 1197 equations for 8 modes are 149.6 a mode: rounded down, not "150 ..., fewer than 150"
+    r, _ = _mode1("--mesh", "6x6", "--modes", "8")
+    assert "(1197 equations) is coarse for 8 modes: 149.6 equations per mode, fewer than 150" \
+        in r.stderr, r.stderr
     assert "coarse" not in _mode1("--mesh", "8x8")[0].stderr   # 169 per mode, mode 12 0.8 %
