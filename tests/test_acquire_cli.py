@@ -274,6 +274,13 @@ def test_resume_of_a_complete_file_says_so_without_opening_the_analyser(tmp_path
     assert r.exit_code == 0, r.output
     assert "it holds more points than --points 2 asks for" in r.stderr
     assert len(hp.log) == n_log and out.read_bytes() == before
+    # other settings than the file's: refused as for a file with points to add (it said
+    # "already complete", exit 0, as if the file were what was asked for)
+    r = run(["acquire", "--analyser", _free_port_resource(), *FAST, "--points", "3",
+             "--units", "Pa/N", "--span", "800", "--no-prompt", "--resume", "-o", str(out)])
+    assert r.exit_code == 2 and "already complete" not in r.stderr, r.output
+    assert f"laminid: error: {out}: cannot resume" in r.stderr and "800" in r.stderr
+    assert "1600" in r.stderr and out.read_bytes() == before
     # more --points: the rest is measured as before
     r = acquire(hp, out, "--no-prompt", "--units", "Pa/N", "--resume", points=4)
     assert r.exit_code == 0, r.output

@@ -439,17 +439,19 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
         from laminid_cli.frf.store import check_resume_settings, read_frf_h5
 
         old = read_frf_h5(out)
+        # --keep-setup reads the set-up back from the analyser, later: units only then. Checked
+        # before a complete file's shortcut too: --resume --span 800 of a 1600 Hz file said
+        # "already complete", exit 0, as if the file were what was asked for
+        check_resume_settings(out, old.meta.get("settings") or {},
+                              settings.as_attrs() if configure else {},
+                              units=(old.units, units),
+                              instrument=old.meta.get("instrument"))
         if _nothing_to_measure(old, points):
             # every point asked for is in the file: the analyser is not opened and the file
             # not rewritten (it was, marked complete again, after a connection to the
             # analyser; with none at --analyser the command failed)
             _say_complete(out, old, points, as_json)
             return
-        # --keep-setup reads the set-up back from the analyser, later: units only then
-        check_resume_settings(out, old.meta.get("settings") or {},
-                              settings.as_attrs() if configure else {},
-                              units=(old.units, units),
-                              instrument=old.meta.get("instrument"))
         if old.n_points > points:
             raise FrfError(f"{out}: cannot resume, the file already holds {old.n_points} "
                            f"points ({', '.join(old.labels)}) and --points {points} asks for "
