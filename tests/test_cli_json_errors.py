@@ -148,8 +148,16 @@ def test_acquire_refusals_before_and_after_the_analyser_is_opened(tmp_path):
      "Invalid value for '--sigma-rel': 'nan' is not a finite number."),
     (["acquire", "--analyser", "GPIB0::5", "-o", "x.h5", "--lines", "3"], "--lines",
      "Invalid value for '--lines': 3 lines: the analysers offer 100, 200, 400, 800."),
+    # --mesh's words are checked as it is parsed (a ModelError "mesh 'abc' not understood"
+    # before, naming neither the option nor giving it as the document's field)
+    (["modes", str(SPEC), "--mesh", "abc"], "--mesh",
+     "Invalid value for '--mesh': mesh 'abc' not understood: give elements along x and y as "
+     "NXxNY, e.g. 12x12"),
+    (["identify", str(SPEC), "--mesh", "1x1"], "--mesh",
+     "Invalid value for '--mesh': mesh '1x1' is degenerate: at least 2 elements per side are "
+     "needed (the paper uses 12x12)"),
 ], ids=["bad-value", "missing-argument", "not-a-number", "no-such-option", "nan",
-        "acquire-lines"])
+        "acquire-lines", "mesh-words", "mesh-degenerate"])
 def test_clicks_usage_errors_give_the_document_too(args, field, message):
     """click's own refusals (a bad option value, a missing argument, an unknown option):
     kind UsageError, the option in 'field', click's message; stderr (usage, 'Error: ...')

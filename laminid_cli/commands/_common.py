@@ -322,6 +322,24 @@ def echo_json(obj) -> None:
     click.echo(text)
 
 
+def check_mesh_text(ctx, param, value):
+    """click callback of --mesh: the mesh's words checked as the option is parsed
+    (:func:`laminid_cli.fe.mesh.mesh_elements`; its memory is checked when the run knows its
+    processes), so that a mistake is click's "Invalid value for '--mesh'" as for the other
+    options (the --json error document's field "--mesh"), not a bare "mesh 'abc' not
+    understood"."""
+    from laminid_cli.errors import ModelError
+    from laminid_cli.fe.mesh import mesh_elements
+
+    if value is None:
+        return value
+    try:
+        mesh_elements(value)
+    except ModelError as exc:
+        raise click.BadParameter(str(exc), ctx=ctx, param=param) from None
+    return value
+
+
 def _apply(options):
     def decorate(f):
         for option in reversed(options):
@@ -334,6 +352,7 @@ def _apply(options):
 #: optimizer, parametrization, xtol, ftol, max_evaluations, pairing, solver)
 fit_options = _apply([
     click.option("--mesh", default="12x12", show_default=True, metavar="NXxNY",
+                  callback=check_mesh_text,
                   help="Elements along x (side a) and y (side b); the paper uses 12x12."),
     click.option("--fix", "fix", default="", metavar="LIST",
                   help="Constants held at their initial values, comma-separated: nu12,G13,G23 "

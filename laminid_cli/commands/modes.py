@@ -7,7 +7,7 @@ import time
 import click
 
 from laminid_cli.commands._common import (OUTPUT_FILE, InputFile, check_hdf5_name,
-                                          check_output_path, echo_json,
+                                          check_mesh_text, check_output_path, echo_json,
                                           force_option, json_option)
 from laminid_cli.commands.text import format_modes_report
 
@@ -15,7 +15,7 @@ from laminid_cli.commands.text import format_modes_report
 @click.command(short_help="Natural frequencies of the plate model vs the measured ones.")
 @click.argument("spec", type=InputFile())
 @click.option("--mesh", default="12x12", show_default=True, metavar="NXxNY",
-              help="Elements along x (side a) and y (side b).")
+              callback=check_mesh_text, help="Elements along x (side a) and y (side b).")
 @click.option("--modes", "n_modes", type=click.IntRange(1, 200), default=None,
               help="Elastic modes to compute [default: as many as measured, else 12].")
 @click.option("--boundary", default=None, metavar="BC",

@@ -90,6 +90,15 @@ def parse_mesh(text: str, copies: int = 1, factors: float = FACTORS_IDENTIFY,
     it, one per worker process) would not fit in the memory of this machine
     (:func:`check_mesh_memory`, with ``factors`` and ``what``; default: an identification's).
     """
+    nx, ny = mesh_elements(text)
+    check_mesh_memory(nx, ny, copies=copies, factors=factors, what=what)
+    return nx, ny
+
+
+def mesh_elements(text: str) -> tuple[int, int]:
+    """The elements (nx, ny) of a mesh written as ``text`` ("12x12", "16"), without the memory
+    check of :func:`parse_mesh`: ModelError on nonsense, a degenerate or a too fine mesh. The
+    command line's --mesh is checked with it as it is parsed (_common.mesh_option)."""
     parts = str(text).lower().replace("*", "x").split("x")
     try:
         nums = [int(p) for p in parts]
@@ -106,7 +115,6 @@ def parse_mesh(text: str, copies: int = 1, factors: float = FACTORS_IDENTIFY,
     if max(nums) > MAX_ELEMENTS_PER_SIDE:
         raise ModelError(f"mesh '{text}' is too fine (at most {MAX_ELEMENTS_PER_SIDE} elements "
                          "per side)")
-    check_mesh_memory(nums[0], nums[1], copies=copies, factors=factors, what=what)
     return nums[0], nums[1]
 
 
