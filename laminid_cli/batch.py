@@ -228,7 +228,7 @@ def _inside(path: Path, folder: Path) -> bool:
 
 
 #: what a laminid HDF5 file of each ``format`` is, and what takes it ({q}: its quoted name),
-#: for a file given to batch as a specimen
+#: for a file given to batch, identify or modes as a specimen (:func:`non_specimen_text`)
 _HDF5_KINDS = {
     "laminid-result": ("a laminid identification result (of laminid identify or batch)",
                        "'laminid show {q}' prints it, 'laminid report {q}' draws it"),
@@ -237,7 +237,8 @@ _HDF5_KINDS = {
                              "'laminid show {q}' prints it, 'laminid report {q}' draws it"),
     "laminid-frf": ("an FRF file (of laminid acquire)",
                     "'laminid fit-frf {q} --into SPEC.yaml' writes its modes into a specimen "
-                    "(or name it in the specimen's measured.frf_file), which batch identifies"),
+                    "(or name it in the specimen's measured.frf_file), which identify and "
+                    "batch fit"),
     "laminid-modes": ("a file of 'laminid modes' (a model's modes at a specimen's initial "
                       "constants)", "'laminid export {q} -o modes.unv' writes its mode shapes"),
 }

@@ -1645,10 +1645,18 @@ def read_specimen(path) -> Specimen:
     try:
         if p.is_file():
             with open(p, "rb") as fh:
-                head = fh.read(8)
+                head = fh.read(512)
             what = not_a_specimen(head)
-            if what is not None:
-                raise SpecimenError(f"is {what}", path=name)
+            if what is not None or head.lstrip().startswith((b"{", b"# laminid ",
+                                                              b"name,specimen,")):
+                from laminid_cli.batch import is_batch_summary, non_specimen_text
+
+                if what is not None or is_batch_summary(head):
+                    # a laminid file named by its format, with what reads it (a result: show,
+                    # report; an FRF file: fit-frf; a batch summary: report), as batch names
+                    # them; a summary.json was "unknown key 'format'", a result "an FRF or
+                    # result file?"
+                    raise SpecimenError(f"is {non_specimen_text(p) or what}", path=name)
         size = p.stat().st_size if p.is_file() else 0
         if size > 4 * MAX_SPECIMEN_CHARS:   # refused before it is read into memory
             raise SpecimenError(f"the file has {size} bytes, more than a specimen file can have "

@@ -607,7 +607,7 @@ def test_a_result_frf_or_modes_file_named_as_an_input_is_refused_before_anything
         "writes its mode shapes",
         f"  {frf}: an FRF file (of laminid acquire), not a specimen file (YAML text); 'laminid "
         f"fit-frf {frf} --into SPEC.yaml' writes its modes into a specimen (or name it in the "
-        "specimen's measured.frf_file), which batch identifies"]
+        "specimen's measured.frf_file), which identify and batch fit"]
     assert not out.exists() and "Traceback" not in r.output
 
 

@@ -1085,7 +1085,7 @@ def test_errors_from_text_use_the_given_name():
 
 
 @pytest.mark.parametrize("head, what", [
-    (b"\x89HDF\r\n\x1a\n\x00\x00", "an HDF5 file (an FRF or result file?)"),
+    (b"\x89HDF\r\n\x1a\n\x00\x00", "a damaged HDF5 file (Unable to synchronously open file"),
     (b"%PDF-1.7\n", "a PDF document"),
     (b"PK\x03\x04\x14\x00", "a ZIP archive (an Excel or Word file?)"),
     (b"\x89PNG\r\n\x1a\n", "a PNG image"),
@@ -1105,6 +1105,39 @@ def test_a_file_that_is_not_text_is_named_for_what_it_is(tmp_path, head, what):
     assert "UTF-8" not in str(info.value)
     r = CliRunner().invoke(cli, ["identify", str(path), "--no-output"])
     assert r.exit_code == 2 and f"is {what}" in r.output and "Traceback" not in r.output
+
+
+def test_a_laminid_file_given_as_a_specimen_is_named_with_what_reads_it(tmp_path):
+    """identify or modes given a laminid result, FRF or modes file, or a batch summary, name
+    it by its format with the command that reads it, as batch does (batch.non_specimen_text):
+    a result was "an HDF5 file (an FRF or result file?)", a summary.json "unknown key
+    'format'" (a YAML reader took its JSON for a specimen)."""
+    import h5py
+    from click.testing import CliRunner
+
+    from laminid_cli.cli import cli
+
+    cases = {"r.h5": ("laminid-result", "is a laminid identification result (of laminid "
+                      "identify or batch), not a specimen file (YAML text); 'laminid show "),
+             "f.h5": ("laminid-frf", "is an FRF file (of laminid acquire), not a specimen file "
+                      "(YAML text); 'laminid fit-frf "),
+             "m.h5": ("laminid-modes", "is a file of 'laminid modes' (a model's modes at a "
+                      "specimen's initial constants), not a specimen file (YAML text); "
+                      "'laminid export ")}
+    for name, (fmt, words) in cases.items():
+        with h5py.File(tmp_path / name, "w") as f:
+            f.attrs["format"] = fmt
+    (tmp_path / "summary.json").write_text('{\n  "format": "laminid-batch-summary",\n}\n')
+    cases["summary.json"] = (None, "is a laminid batch summary, not a specimen file (YAML "
+                                   "text); 'laminid report ")
+    for name, (_, words) in cases.items():
+        path = tmp_path / name
+        with pytest.raises(SpecimenError) as info:
+            read_specimen(path)
+        assert str(info.value).startswith(f"{path}: {words}{path}"), str(info.value)
+        for command in (["identify", str(path), "--no-output"], ["modes", str(path)]):
+            r = CliRunner().invoke(cli, command)
+            assert r.exit_code == 2 and words in r.output and "Traceback" not in r.output
 
 
 def test_constant_line_finds_a_ply_constant_or_its_isotropic_key():
