@@ -156,8 +156,12 @@ def test_acquire_refusals_before_and_after_the_analyser_is_opened(tmp_path):
     (["identify", str(SPEC), "--mesh", "1x1"], "--mesh",
      "Invalid value for '--mesh': mesh '1x1' is degenerate: at least 2 elements per side are "
      "needed (the paper uses 12x12)"),
+    (["modes", str(SPEC), "--boundary", "CFFX"], "--boundary",
+     "Invalid value for '--boundary': boundary 'CFFX' not understood: use free, "
+     "simply-supported, clamped, or a 4-letter code of F/S/C for the edges x=0, y=0, x=a, y=b "
+     "(e.g. SFSF)"),
 ], ids=["bad-value", "missing-argument", "not-a-number", "no-such-option", "nan",
-        "acquire-lines", "mesh-words", "mesh-degenerate"])
+        "acquire-lines", "mesh-words", "mesh-degenerate", "boundary"])
 def test_clicks_usage_errors_give_the_document_too(args, field, message):
     """click's own refusals (a bad option value, a missing argument, an unknown option):
     kind UsageError, the option in 'field', click's message; stderr (usage, 'Error: ...')

@@ -340,6 +340,22 @@ def check_mesh_text(ctx, param, value):
     return value
 
 
+def check_boundary_text(ctx, param, value):
+    """click callback of modes' --boundary: the code checked as the option is parsed
+    (:func:`laminid_cli.fe.assembly.boundary_code`), a mistake click's "Invalid value for
+    '--boundary'" (the --json document's field "--boundary"), as :func:`check_mesh_text`."""
+    from laminid_cli.errors import ModelError
+    from laminid_cli.fe.assembly import boundary_code
+
+    if value is None:
+        return value
+    try:
+        boundary_code(value)
+    except ModelError as exc:
+        raise click.BadParameter(str(exc), ctx=ctx, param=param) from None
+    return value
+
+
 def _apply(options):
     def decorate(f):
         for option in reversed(options):

@@ -6,9 +6,9 @@ import time
 
 import click
 
-from laminid_cli.commands._common import (OUTPUT_FILE, InputFile, check_hdf5_name,
-                                          check_mesh_text, check_output_path, echo_json,
-                                          force_option, json_option)
+from laminid_cli.commands._common import (OUTPUT_FILE, InputFile, check_boundary_text,
+                                          check_hdf5_name, check_mesh_text, check_output_path,
+                                          echo_json, force_option, json_option)
 from laminid_cli.commands.text import format_modes_report
 
 
@@ -18,7 +18,7 @@ from laminid_cli.commands.text import format_modes_report
               callback=check_mesh_text, help="Elements along x (side a) and y (side b).")
 @click.option("--modes", "n_modes", type=click.IntRange(1, 200), default=None,
               help="Elastic modes to compute [default: as many as measured, else 12].")
-@click.option("--boundary", default=None, metavar="BC",
+@click.option("--boundary", default=None, metavar="BC", callback=check_boundary_text,
               help="Override the specimen's boundary: free, simply-supported, clamped, or a "
                    "code of F/S/C for the edges x=0, y=0, x=a, y=b (e.g. SFSF).")
 @json_option
