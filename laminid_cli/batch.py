@@ -228,7 +228,8 @@ def _inside(path: Path, folder: Path) -> bool:
 
 
 #: what a laminid HDF5 file of each ``format`` is, and what takes it ({q}: its quoted name),
-#: for a file given to batch, identify or modes as a specimen (:func:`non_specimen_text`)
+#: for a file given to batch, identify or modes as a specimen (:func:`non_specimen_text`) or
+#: to fit-frf as FRFs (frf.generic_h5)
 _HDF5_KINDS = {
     "laminid-result": ("a laminid identification result (of laminid identify or batch)",
                        "'laminid show {q}' prints it, 'laminid report {q}' draws it"),

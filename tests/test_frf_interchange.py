@@ -279,10 +279,25 @@ def test_export_one_plate_of_a_joint_result(tmp_path):
     assert sets[3]["freq"] == 200.0 and sets[3]["mode_n"] == 2
 
 
-def test_a_laminid_result_given_as_frfs_is_named_for_what_it_is(modes_file):
+def test_a_laminid_result_given_as_frfs_is_named_for_what_it_is(modes_file, tmp_path):
+    """fit-frf given a laminid modes or result file names it with what reads it, as
+    identify and batch do (it said "a laminid-modes file (results of laminid)" alone)."""
+    import h5py
+
     r = run(["fit-frf", str(modes_file)])
     assert r.exit_code == 2
-    assert "a laminid-modes file (results of laminid), not FRFs" in r.output
+    assert (f"{modes_file}: a file of 'laminid modes' (a model's modes at a specimen's initial "
+            f"constants), not FRFs; 'laminid export {modes_file} -o modes.unv' writes its mode "
+            "shapes; give the file written by laminid acquire or another tool's FRF file"
+            ) in r.output
+    result = tmp_path / "r.h5"
+    with h5py.File(result, "w") as f:
+        f.attrs["format"] = "laminid-result"
+    r = run(["fit-frf", str(result)])
+    assert r.exit_code == 2
+    assert (f"{result}: a laminid identification result (of laminid identify or batch), not "
+            f"FRFs; 'laminid show {result}' prints it, 'laminid report {result}' draws it"
+            ) in r.output
 
 
 @pytest.mark.parametrize("ordinate, denominator, units", [
