@@ -322,38 +322,32 @@ def echo_json(obj) -> None:
     click.echo(text)
 
 
-def check_mesh_text(ctx, param, value):
-    """click callback of --mesh: the mesh's words checked as the option is parsed
-    (:func:`laminid_cli.fe.mesh.mesh_elements`; its memory is checked when the run knows its
-    processes), so that a mistake is click's "Invalid value for '--mesh'" as for the other
-    options (the --json error document's field "--mesh"), not a bare "mesh 'abc' not
-    understood"."""
-    from laminid_cli.errors import ModelError
-    from laminid_cli.fe.mesh import mesh_elements
+def _checked_as_parsed(module: str, name: str):
+    """A click callback that checks an option's text with ``module.name`` (a function raising
+    ModelError on a mistake) as the option is parsed, so that a mistake is click's "Invalid
+    value for '--OPTION'" as for the other options (the --json error document's field the
+    option), not a bare "mesh 'abc' not understood" naming no option. The module is imported
+    when the option is given (not for --help)."""
+    def callback(ctx, param, value):
+        import importlib
 
-    if value is None:
+        from laminid_cli.errors import ModelError
+
+        if value is None:
+            return value
+        try:
+            getattr(importlib.import_module(module), name)(value)
+        except ModelError as exc:
+            raise click.BadParameter(str(exc), ctx=ctx, param=param) from None
         return value
-    try:
-        mesh_elements(value)
-    except ModelError as exc:
-        raise click.BadParameter(str(exc), ctx=ctx, param=param) from None
-    return value
+    return callback
 
 
-def check_boundary_text(ctx, param, value):
-    """click callback of modes' --boundary: the code checked as the option is parsed
-    (:func:`laminid_cli.fe.assembly.boundary_code`), a mistake click's "Invalid value for
-    '--boundary'" (the --json document's field "--boundary"), as :func:`check_mesh_text`."""
-    from laminid_cli.errors import ModelError
-    from laminid_cli.fe.assembly import boundary_code
-
-    if value is None:
-        return value
-    try:
-        boundary_code(value)
-    except ModelError as exc:
-        raise click.BadParameter(str(exc), ctx=ctx, param=param) from None
-    return value
+#: --mesh: its words (laminid_cli.fe.mesh.mesh_elements; its memory is checked when the run
+#: knows its processes)
+check_mesh_text = _checked_as_parsed("laminid_cli.fe.mesh", "mesh_elements")
+#: modes' --boundary: the name or edge code (laminid_cli.fe.assembly.boundary_code)
+check_boundary_text = _checked_as_parsed("laminid_cli.fe.assembly", "boundary_code")
 
 
 def _apply(options):
