@@ -938,6 +938,13 @@ def _check_radian_angles(r: _Reader, top: dict, angles: list[float], where: list
            + ", ".join(f"{a * 180 / math.pi:.4g}" for a in values) + ")")
 
 
+def _h_node(top: dict) -> _Y:
+    """Where the file writes h (geometry.h), for an error about h; the geometry block where
+    it is not a mapping with h."""
+    g = top["geometry"].value
+    return g["h"] if isinstance(g, dict) and "h" in g else top["geometry"]
+
+
 def _ply_thicknesses(r: _Reader, top: dict, root: _Y, h: float, ply_materials: list[str],
                      own: list[float | None], names: list[str]) -> np.ndarray:
     n = len(ply_materials)
@@ -973,8 +980,7 @@ def _ply_thicknesses(r: _Reader, top: dict, root: _Y, h: float, ply_materials: l
     if n > 1 and np.all(np.abs(t - h) <= THICKNESS_TOLERANCE * h):
         # every ply as thick as the plate: h is one ply's thickness, not the laminate's
         # (the advice to scale the plies to h, or to fix them, was the wrong way round)
-        g = top["geometry"].value
-        node = g["h"] if isinstance(g, dict) and "h" in g else top["geometry"]
+        node = _h_node(top)
         given = "ply_thickness" if "ply_thickness" in top else "the plies' thickness"
         raise r.error(node, f"h = {h * 1e3:.4g} mm is one ply's thickness ({given} "
                             f"{t[0] * 1e3:.4g} mm): h is the whole laminate's, {n} plies of "
@@ -1090,12 +1096,10 @@ def _check_derived_densities(r: _Reader, top: dict, root: _Y, densities: dict,
         # its cause); S2.1's 14 glass plies with 2.571 kg for 0.2571 kg: 16460 kg/m^3
         tenfold = n_plies != 10 and ply_like(rho / 10)
         if one_ply and (rho > high or not tenfold):
-            g = top["geometry"].value
-            node = g["h"] if isinstance(g, dict) and "h" in g else top["geometry"]
-            raise r.error(node, f"h = {h * 1e3:.4g} mm looks like one ply's thickness: h is the "
-                                f"whole laminate's ({n_plies} plies of {h * 1e3:.4g} mm are "
-                                f"{n_plies * h * 1e3:.4g} mm; with this h the mass gives "
-                                f"'{name}' a density of {rho:.4g} kg/m^3)", "geometry.h")
+            raise r.error(_h_node(top), f"h = {h * 1e3:.4g} mm looks like one ply's "
+                          f"thickness: h is the whole laminate's ({n_plies} plies of "
+                          f"{h * 1e3:.4g} mm are {n_plies * h * 1e3:.4g} mm; with this h the "
+                          f"mass gives '{name}' a density of {rho:.4g} kg/m^3)", "geometry.h")
         node = top.get("mass", root)
         if low <= rho <= high:
             c = materials[name].constants

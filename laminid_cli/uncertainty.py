@@ -3212,7 +3212,7 @@ def refit_reduced(model, result, fms, sigmas, kw: dict, held: dict,
     the model there (identify() refuses such a start and says so), or a fit that does not
     converge or that the check does not accept. The result holds what the profile and
     uncertainty_of read: no modes, sensitivities, history or global properties (None, empty)."""
-    from laminid_cli.forward import residuals_percent, weighted_rms
+    from laminid_cli.forward import far_from_model, residuals_percent, weighted_rms
 
     t0 = time.perf_counter()
     (label, value), = held.items()
@@ -3228,9 +3228,8 @@ def refit_reduced(model, result, fms, sigmas, kw: dict, held: dict,
             log.info("profile of %s at %.6g: the optimum is outside the search's limits there",
                      label, value)
             return None
-        f0 = np.sqrt(start[1].lam) / (2 * np.pi)
-        ok = weight > 0
-        if np.any(np.abs(freq[ok] - f0[ok]) > opts.far_limit * freq[ok]):
+        if far_from_model(freq, np.sqrt(start[1].lam) / (2 * np.pi), weight,
+                          opts.far_limit) is not None:
             return None
         a = model.solve(freq, weight, None, held, start)
     except (_TrialFailed, np.linalg.LinAlgError) as exc:
