@@ -227,22 +227,6 @@ def _inside(path: Path, folder: Path) -> bool:
         return False
 
 
-#: what a laminid HDF5 file of each ``format`` is, and what takes it ({q}: its quoted name),
-#: for a file given to batch, identify or modes as a specimen (:func:`non_specimen_text`) or
-#: to fit-frf as FRFs (frf.generic_h5)
-_HDF5_KINDS = {
-    "laminid-result": ("a laminid identification result (of laminid identify or batch)",
-                       "'laminid show {q}' prints it, 'laminid report {q}' draws it"),
-    "laminid-joint-result": ("a laminid joint identification result (of laminid identify "
-                             "--joint)",
-                             "'laminid show {q}' prints it, 'laminid report {q}' draws it"),
-    "laminid-frf": ("an FRF file (of laminid acquire)",
-                    "'laminid fit-frf {q} --into SPEC.yaml' writes its modes into a specimen "
-                    "(or name it in the specimen's measured.frf_file), which identify and "
-                    "batch fit"),
-    "laminid-modes": ("a file of 'laminid modes' (a model's modes at a specimen's initial "
-                      "constants)", "'laminid export {q} -o modes.unv' writes its mode shapes"),
-}
 #: what batch takes, for the messages on files it does not
 BATCH_TAKES = ("batch identifies specimen files (YAML text), named or found in folders "
                "(*.yaml, *.yml)")
@@ -285,6 +269,7 @@ def non_specimen_text(path) -> str | None:
     file that may be one: its faults are its own, reported when it runs."""
     import shlex
 
+    from laminid_cli.h5open import laminid_kind
     from laminid_cli.specimen import HDF5_MAGIC, not_a_specimen
 
     try:
@@ -304,11 +289,11 @@ def non_specimen_text(path) -> str | None:
     except LaminidError as exc:
         reason = str(exc).removeprefix(f"{path}: ")
         return f"a damaged HDF5 file ({reason}), not a specimen file (YAML text)"
-    if fmt in _HDF5_KINDS:
-        what, hint = _HDF5_KINDS[fmt]
-        return f"{what}, not a specimen file (YAML text); {hint.format(q=shlex.quote(str(path)))}"
-    kind = f"format {fmt!r}" if fmt else "not a laminid file"
-    return (f"an HDF5 file ({kind}), not a specimen file (YAML text); FRFs of another tool go "
+    kind = laminid_kind(fmt, path)
+    if kind is not None:
+        return f"{kind[0]}, not a specimen file (YAML text); {kind[1]}"
+    which = f"format {fmt!r}" if fmt else "not a laminid file"
+    return (f"an HDF5 file ({which}), not a specimen file (YAML text); FRFs of another tool go "
             f"through 'laminid fit-frf {shlex.quote(str(path))} --into SPEC.yaml'")
 
 

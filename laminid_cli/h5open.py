@@ -5,7 +5,8 @@ One place for the "file not found" / "not an HDF5 file" split that every reader 
 makes (result files: :mod:`laminid_cli.resultfile`; plain FRF files of other tools:
 :mod:`laminid_cli.frf.generic_h5`), and one reader of the root attribute ``format`` as text
 (:func:`format_of`; batch, export, identify's derived result name, the result reader), each
-caller keeping its own answer to a file it cannot open. h5py is imported inside the functions.
+caller keeping its own answer to a file it cannot open; and the words for a laminid file given
+to the wrong command (:func:`laminid_kind`). h5py is imported inside the functions.
 """
 
 from __future__ import annotations
@@ -46,3 +47,32 @@ def file_format(path) -> str:
 
     with h5py.File(path, "r") as f:
         return format_of(f)
+
+
+#: what a laminid HDF5 file of each ``format`` is, and what takes it ({q}: its quoted name):
+#: the words for one given to the wrong command (:func:`laminid_kind`)
+LAMINID_KINDS = {
+    "laminid-result": ("a laminid identification result (of laminid identify or batch)",
+                       "'laminid show {q}' prints it, 'laminid report {q}' draws it"),
+    "laminid-joint-result": ("a laminid joint identification result (of laminid identify "
+                             "--joint)",
+                             "'laminid show {q}' prints it, 'laminid report {q}' draws it"),
+    "laminid-frf": ("an FRF file (of laminid acquire)",
+                    "'laminid fit-frf {q} --into SPEC.yaml' writes its modes into a specimen "
+                    "(or name it in the specimen's measured.frf_file), which identify and "
+                    "batch fit"),
+    "laminid-modes": ("a file of 'laminid modes' (a model's modes at a specimen's initial "
+                      "constants)", "'laminid export {q} -o modes.unv' writes its mode shapes"),
+}
+
+
+def laminid_kind(fmt: str, path) -> tuple[str, str] | None:
+    """(what the file ``path`` of ``format`` ``fmt`` is, what takes it) in words, for a file
+    given to the wrong command (batch, identify or modes as a specimen: batch.non_specimen_text;
+    fit-frf as FRFs: frf.generic_h5); None for a format laminid does not write."""
+    import shlex
+
+    kind = LAMINID_KINDS.get(fmt)
+    if kind is None:
+        return None
+    return kind[0], kind[1].format(q=shlex.quote(str(path)))

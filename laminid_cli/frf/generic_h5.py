@@ -341,14 +341,11 @@ def read_any_frf_h5(path, freq_dataset: str | None = None,
         if fmt == FORMAT:
             return read_frf_h5(path, probe=False)
         if fmt.startswith("laminid-"):
-            import shlex
-
-            from laminid_cli.batch import _HDF5_KINDS
+            from laminid_cli.h5open import laminid_kind
 
             # what it is and what reads it, as identify and batch name it (a result: show,
             # report; a modes file: export), where the format is one laminid writes
-            what, hint = _HDF5_KINDS.get(fmt, (f"a {fmt} file (results of laminid)", ""))
-            hint = hint.format(q=shlex.quote(str(path)))
+            what, hint = laminid_kind(fmt, path) or (f"a {fmt} file (results of laminid)", "")
             raise FrfError(f"{path}: {what}, not FRFs{'; ' + hint if hint else ''}; give the "
                            "file written by laminid acquire or another tool's FRF file")
     return read_generic_frf_h5(path, freq_dataset, frf_dataset)
