@@ -92,8 +92,9 @@ def quiet() -> bool:
 
 
 #: what --json prints when the command fails (laminid_cli.cli: the error's document)
-JSON_ERROR_NOTE = ("a command that fails prints {\"error\": {\"kind\", \"message\", \"file\", "
-                   "\"field\", \"line\", \"exit_code\"}} instead")
+JSON_ERROR_DOC = ("{\"error\": {\"kind\", \"message\", \"file\", \"field\", \"line\", "
+                  "\"exit_code\"}}")
+JSON_ERROR_NOTE = f"a command that fails prints {JSON_ERROR_DOC} instead"
 
 json_option = click.option(
     "--json", "as_json", is_flag=True,

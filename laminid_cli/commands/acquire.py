@@ -18,9 +18,9 @@ from pathlib import Path
 
 import click
 
-from laminid_cli.commands._common import (FRF_UNIT_NOTE, OUTPUT_FILE, FiniteFloat,
-                                          check_hdf5_name, check_output_path, force_option,
-                                          quiet, writable_target)
+from laminid_cli.commands._common import (FRF_UNIT_NOTE, JSON_ERROR_DOC, OUTPUT_FILE,
+                                          FiniteFloat, check_hdf5_name, check_output_path,
+                                          force_option, quiet, writable_target)
 
 
 #: acquire's option for each field of AcquisitionSettings: the checks' messages name them
@@ -369,8 +369,7 @@ def _sigint_stops_it_even_in_the_background():
                    "stopped early (Ctrl-C, analyser fault, closed stdin: 'stopped' says why), "
                    "and for a --resume of a file that has every point ('already_complete': "
                    "true, nothing measured). " + FRF_UNIT_NOTE + "; a command that fails "
-                   "before the session prints {\"error\": {\"kind\", \"message\", \"file\", "
-                   "\"field\", \"line\", \"exit_code\"}} instead.")
+                   f"before the session prints {JSON_ERROR_DOC} instead.")
 @click.option("-o", "--output", required=True, type=OUTPUT_FILE,
               help="FRF HDF5 file to write (point by point).")
 @click.pass_context
