@@ -869,14 +869,10 @@ def _worker_init(client_pid: int, log_level: int = logging.WARNING) -> None:
     _worker_signals()
     # a worker starts from a clean interpreter: its log records (a specimen's warning) went
     # out bare through Python's last-resort handler, whatever -q said; as the batch's own
-    from laminid_cli.cli import _LOG_FORMAT, _UserFormatter
+    from laminid_cli.cli import configure_logging
 
-    root = logging.getLogger()
-    if not root.handlers:
-        handler = logging.StreamHandler()
-        handler.setFormatter(_UserFormatter(_LOG_FORMAT))
-        root.addHandler(handler)
-    root.setLevel(log_level)
+    configure_logging(log_level)
+    logging.getLogger().setLevel(log_level)
 
 
 def _run_here(jobs, options):

@@ -206,13 +206,21 @@ def cli(verbose: int, quiet: bool):
       laminid fit-frf plate.frf.h5 --into plate.yaml           # natural frequencies
       laminid identify plate.yaml                              # E1, E2, G12, nu12, G13, G23
     """
-    level = logging.ERROR if quiet else (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)]
+    configure_logging(logging.ERROR if quiet else
+                      (logging.WARNING, logging.INFO, logging.DEBUG)[min(verbose, 2)])
+
+
+def configure_logging(level: int) -> None:
+    """Log records to stderr at ``level``, laminid's own warnings and errors written as the
+    commands write theirs (:class:`_UserFormatter`; with -v and -vv every record names its
+    logger): the command line's, and a batch's pool workers', which start from a clean
+    interpreter. A program that configured logging itself (laminid as a library, a test
+    runner) keeps its own handlers and format."""
     root = logging.getLogger()
     before = list(root.handlers)
     logging.basicConfig(level=level, format=_LOG_FORMAT)
-    if not verbose:
-        # only the handler basicConfig just added: a program that configured logging itself
-        # (laminid as a library, a test runner) keeps its own format
+    if level >= logging.WARNING:
+        # only the handler basicConfig just added
         for handler in root.handlers:
             if handler not in before:
                 handler.setFormatter(_UserFormatter(_LOG_FORMAT))
