@@ -1379,7 +1379,7 @@ def panel_scales(r: ResultFile) -> dict[tuple[str, str], bool]:
             for k in SAME_SCALE:
                 marks, _ = _panel_marks(r, m, k)
                 # (a mark <= 0 has no place on a log axis: such a panel stays linear)
-                log[m, k] = all(x > 0 for x in marks if np.isfinite(x)) and k != "nu12"
+                log[m, k] = all(x > 0 for x in marks if np.isfinite(x))
     return log
 
 
