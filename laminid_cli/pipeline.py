@@ -289,7 +289,7 @@ def _membrane_in_band(fms, result) -> list[str]:
     lowest membrane mode, at the identified constants, is not above the model's highest mode,
     or could not be computed (one line each; empty when none)."""
     from laminid_cli.errors import SolverError
-    from laminid_cli.forward import membrane_floor_hz
+    from laminid_cli.forward import membrane_floor_bound_hz, membrane_floor_hz
 
     plates = result.specimens if hasattr(result, "specimens") else [result]
     out = []
@@ -297,6 +297,8 @@ def _membrane_in_band(fms, result) -> list[str]:
         if fm.whole is None:
             continue
         top = float(np.max(plate.modes.freq))
+        if membrane_floor_bound_hz(fm, plate.constants) > top:
+            continue                    # decided by the floor at the start (no solve)
         try:
             floor = membrane_floor_hz(fm, plate.constants)
         except SolverError as exc:

@@ -107,3 +107,35 @@ def test_membrane_floor_is_the_lowest_membrane_mode_of_the_whole_plate():
                                   axis=0) > 0.5
         ref = np.sqrt(lam[membrane].min()) / (2 * np.pi)
         assert membrane_floor_hz(fm, [c]) == pytest.approx(ref, rel=1e-9)
+
+
+def test_membrane_floor_bound_is_below_the_floor_and_sqrt_mu_of_the_kept_one():
+    """membrane_floor_bound_hz: 0 before any floor of the plate is computed; after the file's
+    (bending_model computes it), at constants moved up to 40 % (every constant, hybrid CM's
+    two materials) it is sqrt(mu) times the kept floor (mu by the 5x5 matrices, computed here
+    again) and at most the floor computed there (Courant-Fischer: the bound holds); equal to
+    it at the file's constants."""
+    import dataclasses
+
+    from laminid_cli.forward import bending_model, membrane_floor_bound_hz, membrane_floor_hz
+    from laminid_cli.reduced import stiffness_ratio
+
+    fm = build_forward_model(read_specimen("specimens/example3/hybrid-cm.yaml"), (6, 6))
+    c0 = list(fm.initial_constants)
+    assert membrane_floor_bound_hz(fm, c0) == 0.0
+    fb = bending_model(fm)
+    assert fb.whole is fm
+    f0 = membrane_floor_hz(fm)
+    assert membrane_floor_bound_hz(fb, c0) == pytest.approx(f0, rel=1e-12)
+    rng = np.random.default_rng(3)
+    for _ in range(4):
+        cs = [dataclasses.replace(c, **{k: getattr(c, k) * float(rng.uniform(0.6, 1.4))
+                                        for k in ("E1", "E2", "G12", "G13", "G23")})
+              for c in c0]
+        mem_plate = fm.plate.restrict("membrane")
+        mu = stiffness_ratio(mem_plate.coefficients(cs), mem_plate.coefficients(c0))
+        bound = membrane_floor_bound_hz(fb, cs)
+        assert 0 < mu < 1 and bound == pytest.approx(np.sqrt(mu) * f0, rel=1e-12)
+        exact = membrane_floor_hz(fm, cs)
+        assert bound <= exact * (1 + 1e-12)
+        membrane_floor_hz(fm)               # the file's floor kept again for the next draw

@@ -172,6 +172,7 @@ def test_a_membrane_mode_in_band_at_the_answer_reidentifies_on_the_whole_plate(m
     real = F.membrane_floor_hz
     monkeypatch.setattr(F, "membrane_floor_hz",
                         lambda fm, constants=None: real(fm) if constants is None else 1.0)
+    monkeypatch.setattr(F, "membrane_floor_bound_hz", lambda fm, constants: 0.0)
     run = run_identification([S14], RunOptions(mesh=MESH))
     assert run.forward_models[0].whole is None
     assert run.forward_models[0].plate.family == "all"
@@ -188,6 +189,29 @@ def test_a_membrane_mode_in_band_at_the_answer_reidentifies_on_the_whole_plate(m
     assert a.objective == pytest.approx(b.objective, rel=1e-7)
 
 
+def test_the_membrane_check_at_the_answer_is_decided_by_the_floor_at_the_start(monkeypatch):
+    """S1.4: the answer's membrane floor is bounded below by sqrt(mu) times the one computed at
+    the file's constants (forward.membrane_floor_bound_hz), far above the model's highest mode:
+    the check at the answer runs no second Lanczos (membrane_floor_hz called once, at the
+    start), and the run stays on the bending equations with no note."""
+    import laminid_cli.forward as F
+
+    real, calls = F.membrane_floor_hz, []
+
+    def counted(fm, constants=None):
+        calls.append(constants)
+        return real(fm, constants)
+
+    monkeypatch.setattr(F, "membrane_floor_hz", counted)
+    run = run_identification([S14], RunOptions(mesh=MESH))
+    assert calls == [None]
+    fm, plate = run.forward_models[0], run.result
+    assert fm.plate.family == "bending" and run.notes == ()
+    bound = F.membrane_floor_bound_hz(fm, plate.constants)
+    assert bound > float(np.max(plate.modes.freq))
+    assert bound <= real(fm, plate.constants) * (1 + 1e-12)
+
+
 def test_a_membrane_mode_in_band_is_found_before_the_monte_carlo(monkeypatch):
     """The membrane check of the answer comes before the Monte Carlo (assess's ``accept``):
     a run identified again on the whole plate runs its trials once, on the whole plate, not
@@ -198,6 +222,7 @@ def test_a_membrane_mode_in_band_is_found_before_the_monte_carlo(monkeypatch):
     real_floor, real_mc = F.membrane_floor_hz, U.monte_carlo
     monkeypatch.setattr(F, "membrane_floor_hz",
                         lambda fm, constants=None: real_floor(fm) if constants is None else 1.0)
+    monkeypatch.setattr(F, "membrane_floor_bound_hz", lambda fm, constants: 0.0)
     families = []
 
     def mc(result, fm, *args, **kw):
@@ -231,6 +256,7 @@ def test_membrane_modes_not_computed_means_the_whole_plate(monkeypatch):
     assert F.bending_model(fm) is fm
     monkeypatch.setattr(F, "membrane_floor_hz",
                         lambda fm, constants=None: real(fm) if constants is None else fail(fm))
+    monkeypatch.setattr(F, "membrane_floor_bound_hz", lambda fm, constants: 0.0)
     run = run_identification([S14], RunOptions(mesh=MESH))
     assert run.forward_models[0].plate.family == "all" and run.converged
     assert len(run.notes) == 1 and "membrane modes at the answer not computed" in run.notes[0]
