@@ -244,7 +244,8 @@ class SparseCholesky:
     """Supernodal sparse Cholesky (CHOLMOD, through cvxopt) for a fixed symmetric pattern.
 
     The fill-reducing ordering (AMD) and the supernodal analysis (~6 ms at 12x12) are made
-    once for each factor alive at the same time: a factor no longer referenced returns its
+    at the first :meth:`factor` (none for a plan never used), and once for each factor alive
+    at the same time: a factor no longer referenced returns its
     analysis to a pool, and the next :meth:`factor` costs one gather of the lower triangle
     and CHOLMOD's numeric factorisation. With ``P A P^T = L L^T``, a solve is two supernodal triangular solves and
     ``r^T A^-1 r = |L^-1 P r|^2`` needs the forward one only.
@@ -272,10 +273,10 @@ class SparseCholesky:
         # the upper triangle of row i, in CSR order, is column i of the lower triangle (A is
         # symmetric): already in CHOLMOD's compressed-column order, rows ascending
         slots = np.flatnonzero(indices >= rows_csr)
-        plan = cls(n, slots, indices[slots].astype(np.int64), rows_csr[slots].astype(np.int64))
-        plan._matrix()
-        plan._pool.append(plan._analyse())
-        return plan
+        # the pattern matrix and its analysis (~8 ms at 12x12) wait for the first factor():
+        # a plan never factorised costs nothing (the whole plate's, when an identification
+        # works on its bending equations alone: forward.bending_model)
+        return cls(n, slots, indices[slots].astype(np.int64), rows_csr[slots].astype(np.int64))
 
     def __getstate__(self):                  # CHOLMOD's objects do not pickle: redone there
         return {"n": self.n, "slots": self.slots, "rows": self.rows, "cols": self.cols}
