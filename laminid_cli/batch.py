@@ -131,10 +131,20 @@ class BatchError(LaminidError):
 
 #: The settings every specimen of a batch is identified with: those of ``laminid identify``
 #: (laminid_cli.pipeline.RunOptions: the mesh, IdentifyOptions, UncertaintyOptions and the
-#: loss factors held by --fix). The command gives ``uncertainty.jobs = 1`` with several workers:
-#: a specimen's Monte Carlo trials and profiles run in its worker, the batch being parallel over
-#: specimens already; with one (``-j 1``, in the command's process) they get the cores.
+#: loss factors held by --fix). With one worker (``-j 1``, in the command's process) a
+#: specimen's Monte Carlo trials and profiles get the cores, as in identify; on several worker
+#: processes SPECIMEN_JOBS each; on Dask's workers (daemonic processes, which may start none)
+#: one, in the worker.
 BatchOptions = RunOptions
+
+#: processes of one specimen's Monte Carlo trials and profiles when the batch runs on several
+#: worker processes (``uncertainty.jobs``): 2, so that a slow specimen (hybrid CM: five
+#: profiles, ~30 s of CPU, against 1-3 s for a one-material plate) gets the cores the other
+#: workers leave as they run out of specimens. With 1, the batch of the eight paper plates at
+#: -j 2 took longer than at -j 1 (36.5 against 28.0 s: hybrid CM's profiles one after the
+#: other at the end); with every worker busy the machine runs up to twice as many processes
+#: as workers, for as long as two specimens' profiles overlap
+SPECIMEN_JOBS = 2
 
 
 @dataclass(frozen=True)

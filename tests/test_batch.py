@@ -238,14 +238,14 @@ def test_the_summaries_say_the_batch_processes_apart_from_uncertainty_jobs(tmp_p
     r = run("batch", specs, "--mesh", MESH, "--out", out, "-j", "2")
     assert r.exit_code == 0, r.output
     doc = json.loads((out / "summary.json").read_text())
-    assert doc["options"]["uncertainty"]["jobs"] == 1
+    assert doc["options"]["uncertainty"]["jobs"] == 2          # batch.SPECIMEN_JOBS
     assert doc["batch"]["jobs"] == 2 and doc["batch"]["scheduler"] is None
     assert doc["batch"]["runs_on"] == "up to 2 worker processes, one specimen at a time in each"
     assert doc["batch"]["uncertainty_jobs"].startswith(
         "options.uncertainty.jobs: the processes of one specimen's Monte Carlo trials")
     lines = (out / "summary.csv").read_text().splitlines()
     k = lines.index(CSV_BATCH_TITLE)
-    assert "# uncertainty.jobs: 1" in lines[:k]
+    assert "# uncertainty.jobs: 2" in lines[:k]
     assert lines[k + 1:k + 4] == ["# batch.jobs: 2", "# batch.scheduler: null",
                                   '# batch.runs_on: "up to 2 worker processes, one specimen '
                                   'at a time in each"']
@@ -719,13 +719,14 @@ def test_hash_covers_the_specimen_its_frf_file_and_the_options(tmp_path):
     assert input_hash(spec, o) not in (h1, h2)
 
 
-@pytest.mark.parametrize("n_jobs, expected", [("1", None), ("2", 1)])
+@pytest.mark.parametrize("n_jobs, expected", [("1", None), ("2", 2), ("3", 2)])
 def test_one_process_gives_a_specimens_profiles_and_trials_the_cores(tmp_path, monkeypatch,
                                                                       n_jobs, expected):
     """batch -j 1 identifies in its own process, one specimen at a time: the specimen's
     profiles and Monte Carlo trials get the cores (jobs None), as in identify; with a pool of
-    workers, one process each. The result's input hash is the same either way (the processes
-    do not change a result; hashed as the 1 every batch gave them before)."""
+    workers, two processes each (batch.SPECIMEN_JOBS: the cores that workers out of specimens
+    leave). The result's input hash is the same either way (the processes do not change a
+    result; hashed as the 1 every batch gave them before)."""
     from laminid_cli import batch as B
     from laminid_cli.pipeline import RunOptions
 
@@ -745,6 +746,32 @@ def test_one_process_gives_a_specimens_profiles_and_trials_the_cores(tmp_path, m
     one = dataclasses.replace(o, uncertainty=dataclasses.replace(o.uncertainty, jobs=1))
     assert input_hash(spec, o) == input_hash(spec, one) == input_hash(spec, RunOptions(
         mesh=MESH, uncertainty=one.uncertainty, identify=one.identify))
+
+
+def test_a_specimens_trials_run_in_processes_of_a_batch_worker_as_in_identify(tmp_path):
+    """batch -j 2 gives each specimen's Monte Carlo trials two processes of their own, started
+    by the batch's worker process (a daemonic worker could start none: every specimen would
+    fail): S1.4 and S2.1 with 4 trials each end 'ok'/'check', their Monte Carlo ranges in the
+    result files (the trials' samples, their ranges) byte for byte those of identify
+    --monte-carlo 4 in one process (-j 1); the files say 2 and 1 processes."""
+    specs = make_tree(tmp_path / "specs")
+    out = tmp_path / "out"
+    r = run("batch", specs, "--mesh", MESH, "--out", out, "-j", "2", "--monte-carlo", "4")
+    assert r.exit_code in (0, 1), r.output
+    doc = json.loads((out / "summary.json").read_text())
+    assert doc["counts"]["error"] == doc["counts"]["not run"] == 0, r.output
+    for rel in SPECS:
+        single = tmp_path / (Path(rel).stem + ".h5")
+        s = run("identify", specs / rel, "--mesh", MESH, "--monte-carlo", "4", "-j", "1",
+                "-o", single)
+        assert s.exit_code in (0, 1), s.output
+        with h5py.File(out / rel.replace(".yaml", ".result.h5")) as a, h5py.File(single) as b:
+            ma, mb = a["uncertainty/monte_carlo"], b["uncertainty/monte_carlo"]
+            assert ma["samples"][()].tobytes() == mb["samples"][()].tobytes(), rel
+            assert ma["lower"][()].tobytes() == mb["lower"][()].tobytes(), rel
+            assert ma["upper"][()].tobytes() == mb["upper"][()].tobytes(), rel
+            assert int(ma.attrs["converged"]) == int(ma.attrs["trials"]) >= 4
+            assert (int(ma.attrs["jobs"]), int(mb.attrs["jobs"])) == (2, 1)
 
 
 def test_a_summary_row_reads_its_result_file_once(batch_run, monkeypatch):

@@ -106,16 +106,19 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
 
     import dataclasses
 
+    from laminid_cli.batch import SPECIMEN_JOBS
+
     # bad --mesh, --sigma-rel...: exit 2 at once (remote Dask workers check their own memory);
     # the options are those of identify, with the Monte Carlo trials in each specimen's worker
     # (and its mesh check: one plate each, as identify without --joint)
     options = dataclasses.replace(options, mesh_check=mesh_check)
-    if n_jobs == 1 and scheduler is None:
+    if scheduler is None:
         # one specimen at a time, in this process: its profiles and Monte Carlo trials get
         # the cores, as in identify (hybrid CM's five profiles one after the other took 37 s
-        # of its 44 s); the results are the same either way (input_hash counts it as 1)
-        options = dataclasses.replace(
-            options, uncertainty=dataclasses.replace(options.uncertainty, jobs=None))
+        # of its 44 s); on several worker processes each specimen's get SPECIMEN_JOBS of
+        # them (below); the results are the same either way (input_hash counts it as 1)
+        options = dataclasses.replace(options, uncertainty=dataclasses.replace(
+            options.uncertainty, jobs=None if n_jobs == 1 else SPECIMEN_JOBS))
     options.check(copies=n_jobs if scheduler in (None, "local") else 1)
     options.check_fix()           # a --fix wrong for every specimen: not each one 'failed'
     if scheduler is not None:
