@@ -126,3 +126,25 @@ def test_a_joint_identify_reports_a_specimen_warning_once_on_the_terminal(tmp_pa
     assert f"warning: S2.1: {spec}: the mesh 6x6 (1197 equations) is coarse" in r.stdout
     r = run("-q", "identify", spec, other, "--joint", "--mesh", "6x6", "--no-output")
     assert f"\nwarning: S2.1: {warning}\n" in r.stdout
+
+
+def test_fit_frf_into_gives_the_specimens_warnings_in_its_json(tmp_path, caplog):
+    # on stderr only before: its --json's 'warnings' held the FRF reader's alone
+    from laminid_cli.frf import io
+    from laminid_cli.frf.store import FrfSet
+    from tests.frf_synth import plate_case
+
+    caplog.set_level("WARNING", logger="laminid_cli.specimen")
+    case = plate_case(noise=0.02, seed=8)
+    frf = io.write_frf(tmp_path / "plate.frf.h5",
+                       FrfSet(freq=case.freq, frf=case.frf, units="Pa/N"))
+    spec = _specimen(tmp_path, "[(0/1.5)_2/1.5/0/1.5]s")
+    warning = (f"{spec}:{_line(spec, 'layup')}, field 'layup': the ply angles 1.5 look like "
+               "radians; laminid reads ply angles in degrees (write 85.94)")
+    r = run("fit-frf", frf, "--into", spec, "--json")
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["warnings"] == [warning]
+    assert warning in _logged(caplog)
+    # without --into: no specimen, none of its warnings
+    r = run("fit-frf", frf, "--json")
+    assert r.exit_code == 0 and json.loads(r.stdout)["warnings"] == []
