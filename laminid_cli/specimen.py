@@ -433,14 +433,17 @@ def _closest(key: str, valid) -> str | None:
 class _Reader:
     """Typed access to ``_Y`` values, raising SpecimenError with file, field and line."""
 
-    def __init__(self, path: str):
+    def __init__(self, path: str, log_warnings: bool = True):
         self.path = path
+        self.log_warnings = log_warnings
         self.warnings: list[str] = []
 
     def warn(self, message: str) -> None:
-        """A warning on the file (``message`` names the file, line and field): logged now,
-        kept for :attr:`Specimen.warnings`."""
-        log.warning("%s", message)
+        """A warning on the file (``message`` names the file, line and field): logged now
+        (unless the reader was made with ``log_warnings=False``), kept for
+        :attr:`Specimen.warnings`."""
+        if self.log_warnings:
+            log.warning("%s", message)
         self.warnings.append(message)
 
     def where(self, y: _Y, field_name: str | None = None) -> Where:
@@ -1406,8 +1409,14 @@ def _read_reference(r: _Reader, y: _Y, materials: dict[str, Material]) -> dict:
 # entry points
 
 
-def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
+def load_specimen_text(text: str, path: str = "<string>", *,
+                       log_warnings: bool = True) -> Specimen:
     """Read and validate a specimen from YAML text (``path`` is used in messages only).
+
+    The reader's warnings (ply angles that look like radians, a mass that density x volume
+    contradicts...) are in :attr:`Specimen.warnings`, and logged as they are found unless
+    ``log_warnings`` is False: for a file read again that the user was told of already (one
+    checked again after an edit, a result's stored specimen rebuilt).
 
     Raises
     ------
@@ -1416,7 +1425,7 @@ def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
     """
     path = str(path)
     root = _compose(text, path)
-    r = _Reader(path)
+    r = _Reader(path, log_warnings)
     top = r.mapping(root, required=("geometry", "materials"), optional=[
         k for k in _TOP_KEYS if k not in ("geometry", "materials")], elsewhere=_TOP_ELSEWHERE,
         what="a mapping with name, geometry, materials, layup, measured, ... at the top level")
@@ -1642,8 +1651,9 @@ def not_a_specimen(head: bytes) -> str | None:
     return next((what for magic, what in _NOT_A_SPECIMEN if head.startswith(magic)), None)
 
 
-def read_specimen(path) -> Specimen:
-    """Read a specimen YAML file (UTF-8) and validate it; see :func:`load_specimen_text`."""
+def read_specimen(path, *, log_warnings: bool = True) -> Specimen:
+    """Read a specimen YAML file (UTF-8) and validate it; see :func:`load_specimen_text`
+    (``log_warnings`` too)."""
     name = str(path)
     p = Path(path)
     try:
@@ -1683,4 +1693,4 @@ def read_specimen(path) -> Specimen:
     if not text.strip():
         raise SpecimenError("the file is empty; expected a mapping with geometry, materials, "
                             "layup, ...", path=name)
-    return load_specimen_text(text, name)
+    return load_specimen_text(text, name, log_warnings=log_warnings)

@@ -144,7 +144,25 @@ def test_fit_frf_into_gives_the_specimens_warnings_in_its_json(tmp_path, caplog)
     r = run("fit-frf", frf, "--into", spec, "--json")
     assert r.exit_code == 0, r.output
     assert json.loads(r.stdout)["warnings"] == [warning]
-    assert warning in _logged(caplog)
+    # once on stderr: the checks before and after the edit logged it twice more
+    assert _logged(caplog) == [warning]
+    r = run("fit-frf", frf, "--into", spec)
+    assert r.exit_code == 0, r.output
+    assert _logged(caplog) == [warning]
     # without --into: no specimen, none of its warnings
     r = run("fit-frf", frf, "--json")
     assert r.exit_code == 0 and json.loads(r.stdout)["warnings"] == []
+
+
+def test_report_does_not_warn_again_of_the_stored_specimen(tmp_path, caplog):
+    # drawing the modes page rebuilt the model from the result's stored specimen, and its
+    # reader logged the warnings again on stderr; the report's pages carry the result's
+    caplog.set_level("WARNING", logger="laminid_cli.specimen")
+    spec = _specimen(tmp_path, "[(0/1.5)_2/1.5/0/1.5]s")
+    out = tmp_path / "plate.result.h5"
+    r = run("identify", spec, "--mesh", "6x6", "-o", out, "--json")
+    assert r.exit_code == 0, r.output
+    assert len(_logged(caplog)) == 1
+    r = run("report", out, "-o", tmp_path / "plate.pdf")
+    assert r.exit_code == 0, r.output
+    assert _logged(caplog) == []
