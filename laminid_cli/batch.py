@@ -270,7 +270,8 @@ def non_specimen_text(path) -> str | None:
     import shlex
 
     from laminid_cli.h5open import laminid_kind
-    from laminid_cli.specimen import HDF5_MAGIC, not_a_specimen
+    from laminid_cli.filekinds import HDF5_MAGIC
+    from laminid_cli.specimen import not_a_specimen
 
     try:
         with open(path, "rb") as fh:

@@ -56,6 +56,7 @@ import numpy as np
 import yaml
 
 from laminid_cli.errors import SpecimenError
+from laminid_cli.filekinds import binary_kind
 from laminid_cli.material import CONSTANT_NAMES, ElasticConstants, infeasibility_reasons
 from laminid_cli.units import Where, normalize_text, parse_fraction, parse_quantity
 
@@ -1622,33 +1623,31 @@ def _light_slip(rho: float, thousand: str, sides: str | None) -> str:
     return "check the number and its unit"
 
 
-#: leading bytes of an HDF5 file (an FRF, result or modes file of laminid, or another tool's)
-HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
-
-
-#: leading bytes of files a specimen path is sometimes given by mistake: what they are, and
-#: what takes them
-_NOT_A_SPECIMEN = (
-    (HDF5_MAGIC, "an HDF5 file (an FRF or result file?), not a specimen file (YAML "
-     "text): FRFs go through 'laminid fit-frf FILE --into SPECIMEN.yaml' (or measured.frf_file "
-     "in the specimen), a result through 'laminid report FILE'"),
-    (b"%PDF", "a PDF document, not a specimen file (YAML text)"),
-    (b"PK\x03\x04", "a ZIP archive (an Excel or Word file?), not a specimen file (YAML text); "
-     "write the specimen as YAML text (specimens/README.md)"),
-    (b"\x89PNG", "a PNG image, not a specimen file (YAML text)"),
-    (b"\x1f\x8b", "a gzip archive, not a specimen file (YAML text); unpack it first"),
-)
+#: what a specimen's reader says of each kind of binary file (laminid_cli.filekinds), beyond
+#: its name: (words in parentheses after it, what takes it or what to do)
+_NOT_A_SPECIMEN = {
+    "hdf5": (" (an FRF or result file?)",
+             ": FRFs go through 'laminid fit-frf FILE --into SPECIMEN.yaml' (or "
+             "measured.frf_file in the specimen), a result through 'laminid report FILE'"),
+    "zip": ("", "; write the specimen as YAML text (specimens/README.md)"),
+    "gzip": ("", "; unpack it first"),
+}
 
 
 def not_a_specimen(head: bytes) -> str | None:
     """What a file whose first bytes are ``head`` is when those bytes say it can be no
-    specimen file (HDF5, PDF, ZIP, PNG, gzip), in words with what takes it ("an HDF5 file
-    (an FRF or result file?), not a specimen file (YAML text): ..."); None otherwise.
+    specimen file (HDF5, PDF, ZIP, PNG, gzip: :data:`laminid_cli.filekinds.SIGNATURES`), in
+    words with what takes it ("an HDF5 file (an FRF or result file?), not a specimen file
+    (YAML text): ..."); None otherwise.
 
     >>> not_a_specimen(b"%PDF-1.7")
     'a PDF document, not a specimen file (YAML text)'
     """
-    return next((what for magic, what in _NOT_A_SPECIMEN if head.startswith(magic)), None)
+    kind = binary_kind(head)
+    if kind is None:
+        return None
+    aside, then = _NOT_A_SPECIMEN.get(kind[0], ("", ""))
+    return f"{kind[1]}{aside}, not a specimen file (YAML text){then}"
 
 
 def read_specimen(path, *, log_warnings: bool = True) -> Specimen:
