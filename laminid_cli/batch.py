@@ -280,7 +280,8 @@ def non_specimen_text(path) -> str | None:
     import shlex
 
     from laminid_cli.h5open import laminid_kind
-    from laminid_cli.specimen import HDF5_MAGIC, not_a_specimen
+    from laminid_cli.filekinds import HDF5_MAGIC
+    from laminid_cli.specimen import not_a_specimen
 
     try:
         with open(path, "rb") as fh:
@@ -1855,7 +1856,8 @@ def format_table(rows) -> str:
     set of materials, specimens as columns, constants as rows (GPa; a value at its bound
     marked "!", one not determined by the modes "?", a fixed one "=", one assumed by
     --fix-undetermined "#", one held by its prior "~"), a status row; then the
-    reasons of every "check" and the specimens without a result."""
+    reasons of every "check", the warnings of each result and the specimens without a
+    result."""
     lines = []
     groups: dict[tuple, list] = {}
     for r in rows:
@@ -1926,6 +1928,14 @@ def format_table(rows) -> str:
         for r in checks:
             lines.append(f"  {_who(r)}:")
             lines += [f"    {x['code']}: {x['text']}" for x in r.get("reasons", [])]
+    # each result's warnings (the specimen reader's: a mass that density x volume contradicts,
+    # ply angles that look like radians; the run's: a coarse mesh...), as summary.json has them
+    warned = [r for r in rows if r.get("warnings")]
+    if warned:
+        lines.append("warnings:")
+        for r in warned:
+            lines.append(f"  {_who(r)}:")
+            lines += [f"    {w}" for w in r["warnings"]]
     failed_rows = [r for r in rows if r["status"] in ("error", "not run")]
     if failed_rows:
         lines.append("not identified:")

@@ -1722,7 +1722,9 @@ def _initial_shapes(yaml_text: str, path: str, mesh: tuple, boundary: str, n: in
     from laminid_cli.forward import build_forward_model
     from laminid_cli.specimen import load_specimen_text
 
-    spec = load_specimen_text(yaml_text, path)
+    # the result's stored specimen: its reader's warnings are the result's, on the report's
+    # pages (they were logged on stderr as 'laminid report' drew the modes page)
+    spec = load_specimen_text(yaml_text, path, log_warnings=False)
     fm = build_forward_model(spec, mesh, boundary=boundary)
     modes = fm.solve(None, n)
     return fm.plate.mesh.nodes, fm.plate.w_shape(modes.phi)

@@ -469,15 +469,29 @@ def damping_pages(d: dict, banner=None) -> list:
             sheet.fill()
         return sheet.fig
 
+    # pages of the table alone laid out and measured but not drawn on (the table did not fit
+    # there), by (title, words): the next page of the same title and words is that one, not
+    # laid out again (the first page of a table that starts on the next page is the whole
+    # table's page measured below; each page after the first continuation is the one the
+    # page before was measured on)
+    measured: dict = {}
+
+    def table_sheet(top, words=()):
+        return measured.pop((top, tuple(words)), None) or _table_sheet(d, banner, top, words)
+
+    def spare(sheet, top, words=()):
+        measured[(top, tuple(words))] = sheet
+
     sheet = _panels_sheet(d, banner, title, words)
     if height(rows) <= sheet.room:                   # the page as it always was
         return [draw(sheet, rows)]
     # too long for the room under the panels: whole on a page of its own where it fits there,
     # the panels alone on the first page (split there, hybrid-CM's carbon rows left 0.54 of
     # their page blank even at TABLE_PAGE_STRETCH; a table is one table to read)
-    alone = _table_sheet(d, banner, title, words)
+    alone = table_sheet(title, words)
     if height(rows) <= alone.room:
         return [_panels_sheet(d, banner).fig, draw(alone, rows)]
+    spare(alone, title, words)
     nxt = "\ncontinued on the next page" + (", with the notes on the loss factors" if words
                                              else "")
     sheet = _panels_sheet(d, banner, title + nxt)
@@ -490,11 +504,12 @@ def damping_pages(d: dict, banner=None) -> list:
     rest = rows[k:]
     while rest:
         top = title if k == 0 and len(figs) == 1 else "ply loss factors (continued)" + key
-        sheet = _table_sheet(d, banner, top, words)
+        sheet = table_sheet(top, words)
         if height(rest) <= sheet.room:
             figs.append(draw(sheet, rest))
             break
-        sheet = _table_sheet(d, banner, top + nxt)
+        spare(sheet, top, words)
+        sheet = table_sheet(top + nxt)
         ends = [e for e in _material_ends(rest)[:-1] if height(rest[:e]) <= sheet.room] or \
             [e for e in range(1, len(rest)) if height(rest[:e]) <= sheet.room] or [1]
         figs.append(draw(sheet, rest[:max(ends)]))

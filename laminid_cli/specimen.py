@@ -56,6 +56,7 @@ import numpy as np
 import yaml
 
 from laminid_cli.errors import SpecimenError
+from laminid_cli.filekinds import binary_kind
 from laminid_cli.material import CONSTANT_NAMES, ElasticConstants, infeasibility_reasons
 from laminid_cli.units import Where, normalize_text, parse_fraction, parse_quantity
 
@@ -433,14 +434,17 @@ def _closest(key: str, valid) -> str | None:
 class _Reader:
     """Typed access to ``_Y`` values, raising SpecimenError with file, field and line."""
 
-    def __init__(self, path: str):
+    def __init__(self, path: str, log_warnings: bool = True):
         self.path = path
+        self.log_warnings = log_warnings
         self.warnings: list[str] = []
 
     def warn(self, message: str) -> None:
-        """A warning on the file (``message`` names the file, line and field): logged now,
-        kept for :attr:`Specimen.warnings`."""
-        log.warning("%s", message)
+        """A warning on the file (``message`` names the file, line and field): logged now
+        (unless the reader was made with ``log_warnings=False``), kept for
+        :attr:`Specimen.warnings`."""
+        if self.log_warnings:
+            log.warning("%s", message)
         self.warnings.append(message)
 
     def where(self, y: _Y, field_name: str | None = None) -> Where:
@@ -1406,8 +1410,14 @@ def _read_reference(r: _Reader, y: _Y, materials: dict[str, Material]) -> dict:
 # entry points
 
 
-def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
+def load_specimen_text(text: str, path: str = "<string>", *,
+                       log_warnings: bool = True) -> Specimen:
     """Read and validate a specimen from YAML text (``path`` is used in messages only).
+
+    The reader's warnings (ply angles that look like radians, a mass that density x volume
+    contradicts...) are in :attr:`Specimen.warnings`, and logged as they are found unless
+    ``log_warnings`` is False: for a file read again that the user was told of already (one
+    checked again after an edit, a result's stored specimen rebuilt).
 
     Raises
     ------
@@ -1416,7 +1426,7 @@ def load_specimen_text(text: str, path: str = "<string>") -> Specimen:
     """
     path = str(path)
     root = _compose(text, path)
-    r = _Reader(path)
+    r = _Reader(path, log_warnings)
     top = r.mapping(root, required=("geometry", "materials"), optional=[
         k for k in _TOP_KEYS if k not in ("geometry", "materials")], elsewhere=_TOP_ELSEWHERE,
         what="a mapping with name, geometry, materials, layup, measured, ... at the top level")
@@ -1613,37 +1623,36 @@ def _light_slip(rho: float, thousand: str, sides: str | None) -> str:
     return "check the number and its unit"
 
 
-#: leading bytes of an HDF5 file (an FRF, result or modes file of laminid, or another tool's)
-HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
-
-
-#: leading bytes of files a specimen path is sometimes given by mistake: what they are, and
-#: what takes them
-_NOT_A_SPECIMEN = (
-    (HDF5_MAGIC, "an HDF5 file (an FRF or result file?), not a specimen file (YAML "
-     "text): FRFs go through 'laminid fit-frf FILE --into SPECIMEN.yaml' (or measured.frf_file "
-     "in the specimen), a result through 'laminid report FILE'"),
-    (b"%PDF", "a PDF document, not a specimen file (YAML text)"),
-    (b"PK\x03\x04", "a ZIP archive (an Excel or Word file?), not a specimen file (YAML text); "
-     "write the specimen as YAML text (specimens/README.md)"),
-    (b"\x89PNG", "a PNG image, not a specimen file (YAML text)"),
-    (b"\x1f\x8b", "a gzip archive, not a specimen file (YAML text); unpack it first"),
-)
+#: what a specimen's reader says of each kind of binary file (laminid_cli.filekinds), beyond
+#: its name: (words in parentheses after it, what takes it or what to do)
+_NOT_A_SPECIMEN = {
+    "hdf5": (" (an FRF or result file?)",
+             ": FRFs go through 'laminid fit-frf FILE --into SPECIMEN.yaml' (or "
+             "measured.frf_file in the specimen), a result through 'laminid report FILE'"),
+    "zip": ("", "; write the specimen as YAML text (specimens/README.md)"),
+    "gzip": ("", "; unpack it first"),
+}
 
 
 def not_a_specimen(head: bytes) -> str | None:
     """What a file whose first bytes are ``head`` is when those bytes say it can be no
-    specimen file (HDF5, PDF, ZIP, PNG, gzip), in words with what takes it ("an HDF5 file
-    (an FRF or result file?), not a specimen file (YAML text): ..."); None otherwise.
+    specimen file (HDF5, PDF, ZIP, PNG, gzip: :data:`laminid_cli.filekinds.SIGNATURES`), in
+    words with what takes it ("an HDF5 file (an FRF or result file?), not a specimen file
+    (YAML text): ..."); None otherwise.
 
     >>> not_a_specimen(b"%PDF-1.7")
     'a PDF document, not a specimen file (YAML text)'
     """
-    return next((what for magic, what in _NOT_A_SPECIMEN if head.startswith(magic)), None)
+    kind = binary_kind(head)
+    if kind is None:
+        return None
+    aside, then = _NOT_A_SPECIMEN.get(kind[0], ("", ""))
+    return f"{kind[1]}{aside}, not a specimen file (YAML text){then}"
 
 
-def read_specimen(path) -> Specimen:
-    """Read a specimen YAML file (UTF-8) and validate it; see :func:`load_specimen_text`."""
+def read_specimen(path, *, log_warnings: bool = True) -> Specimen:
+    """Read a specimen YAML file (UTF-8) and validate it; see :func:`load_specimen_text`
+    (``log_warnings`` too)."""
     name = str(path)
     p = Path(path)
     try:
@@ -1683,4 +1692,4 @@ def read_specimen(path) -> Specimen:
     if not text.strip():
         raise SpecimenError("the file is empty; expected a mapping with geometry, materials, "
                             "layup, ...", path=name)
-    return load_specimen_text(text, name)
+    return load_specimen_text(text, name, log_warnings=log_warnings)

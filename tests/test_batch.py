@@ -1854,3 +1854,43 @@ def test_a_pool_workers_warnings_read_as_the_batchs_at_its_level(level, stderr):
                        cwd=Path(__file__).resolve().parents[1], timeout=60)
     assert p.returncode == 0, p.stderr
     assert p.stderr == stderr
+
+
+def test_the_table_lists_each_results_warnings_below_it():
+    """The text table said nothing of a result's warnings (summary.json has them): they follow
+    the reasons of the checks, per specimen, and the table's rows are unchanged."""
+    from laminid_cli.batch import format_table
+
+    consts = {"E1": 150e9, "E2": 9e9, "G12": 5e9, "G13": 3.1e9, "G23": 2.95e9, "nu12": 0.35}
+    row = {"name": "p", "specimen": "P", "status": "check", "cached": False, "reason": "",
+           "reasons": [{"code": "poor_fit", "text": "the fit misses"}],
+           "materials": {"m": consts}, "intervals": {"m": {k: {} for k in consts}},
+           "rms_residual_percent": 0.3, "evaluations": 40}
+    quiet = {**row, "name": "q", "specimen": "Q", "status": "ok", "reasons": [], "warnings": []}
+    before = format_table([row, quiet])
+    row["warnings"] = ["p.yaml:5, field 'mass': the model mass differs", "a coarse mesh"]
+    lines = format_table([row, quiet]).splitlines()
+    assert lines[:len(before.splitlines())] == before.splitlines()
+    assert lines[len(before.splitlines()):] == [
+        "warnings:", "  P (p):", "    p.yaml:5, field 'mass': the model mass differs",
+        "    a coarse mesh"]
+
+
+def test_batch_text_output_names_a_specimens_warning(tmp_path):
+    """End to end: the warning of a specimen whose ply angles look like radians, in the list
+    below the table (summary.json had it, the terminal did not)."""
+    import re
+
+    text = Path("specimens/example2/S2.1.yaml").read_text()
+    text = re.sub(r'(?m)^layup: .*$', 'layup: "[(0/1.5)_2/1.5/0/1.5]s"', text)
+    text = re.sub(r"(?m)^  frequencies: \[.*$", "  frequencies: [61.39, 82.25, 170.02, 178.53, "
+                  "305.33, 337.99, 426.78, 456.58]", text)
+    spec = tmp_path / "rad.yaml"
+    spec.write_text(text)
+    line = next(i for i, ln in enumerate(text.splitlines(), 1) if ln.startswith("layup:"))
+    r = run("batch", spec, "--out", tmp_path / "out", "--mesh", "8x8")
+    assert r.exit_code == 0, r.output
+    below = r.stdout.split("\nwarnings:\n", 1)[1].splitlines()
+    assert below[:2] == ["  S2.1 (rad):",
+                         f"    {spec}:{line}, field 'layup': the ply angles 1.5 look like radians; "
+                         "laminid reads ply angles in degrees (write 85.94)"]

@@ -71,3 +71,35 @@ def test_a_format_attribute_of_another_tool_is_no_traceback(tmp_path, value, tex
     r = run("batch", odd, "--out", tmp_path / "out")
     assert r.exit_code == 2
     assert f"laminid: error: {odd}: an HDF5 file (format {text!r}), not a specimen file" in r.output
+
+
+@pytest.mark.parametrize("value, text", ODD_FORMATS)
+def test_the_frf_readers_read_the_format_with_format_of(tmp_path, value, text):
+    """laminid's FRF reader (acquire --resume, fit-frf of a laminid-frf file) read the
+    attribute itself: undecodable bytes were a UnicodeDecodeError, said as a "damaged or
+    malformed laminid FRF file"; they are now a file of another format, named as format_of
+    gives it, as fit-frf's reader of other tools' files (with its own copy, _text) did."""
+    from laminid_cli.errors import FrfError
+    from laminid_cli.frf.store import read_frf_h5
+
+    odd = h5(tmp_path / "odd.h5", format=value)
+    with pytest.raises(FrfError) as err:
+        read_frf_h5(odd, probe=False)
+    assert str(err.value) == (f"{odd}: not a laminid FRF file (attribute 'format' is "
+                              f"{text!r}, expected 'laminid-frf')")
+    with pytest.raises(FrfError) as err:
+        read_frf_h5(h5(tmp_path / "none.h5"), probe=False)
+    assert str(err.value) == (f"{tmp_path / 'none.h5'}: not a laminid FRF file (no attribute "
+                              "'format', expected 'laminid-frf')")
+
+
+def test_acquire_resume_of_a_file_with_an_undecodable_format_names_it(tmp_path):
+    from tests.instrument.emulator import HP35670AEmulator
+
+    odd = h5(tmp_path / "odd.h5", format=np.bytes_(b"laminid-fr\xff"))
+    with HP35670AEmulator() as emu:
+        r = run("acquire", "--analyser", emu.resource, "--timeout", "0.5", "--points", "2",
+                "--no-prompt", "--resume", "-o", odd)
+    assert r.exit_code == 2, r.output
+    assert r.output == (f"laminid: error: {odd}: not a laminid FRF file (attribute 'format' is "
+                        "'laminid-fr\ufffd', expected 'laminid-frf')\n")

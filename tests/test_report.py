@@ -2408,3 +2408,37 @@ def test_the_reports_frequency_table_writes_a_residual_that_rounds_to_zero_as_pl
                          model_mode=np.array([1, 2]))
     _, rows = frequency_rows(SimpleNamespace(frequencies=fr))
     assert [row[4] for row in rows] == ["+0.00", "+0.50"]
+
+
+def test_a_page_of_the_damping_table_is_laid_out_once(monkeypatch):
+    """Ten materials' loss factors (fifty two-line rows): the table does not fit whole on a
+    page of its own, nor does glass's under the panels: page 1 the panels, then three pages of
+    the table. Each page of the table alone was laid out (0.15 s) once to learn that the rest
+    does not fit there, then again when the table went on: the whole table's page (measured
+    first) a second time as the table's first page, each "(continued)" page once more after
+    the page before was measured on the same. Now a page measured and not drawn on is the next
+    page of its title and words: four layouts for three pages (the whole table's only
+    measured), not six; the pages are the same (test_a_damping_table_too_long_for_its_page...
+    and test_a_page_of_the_damping_table_alone_has_no_blank_band hold their layout)."""
+    from laminid_cli import report_damping
+
+    mats = ("glass", "carbon", "aramid", "basalt", "flax", "hemp", "boron", "pbo", "uhmwpe",
+            "steel")
+    built = []
+    table_sheet = report_damping._table_sheet
+
+    def recorded(d, banner, title, words=()):
+        built.append((title.split("\n")[0], "continued on the next page" in title, len(words)))
+        return table_sheet(d, banner, title, words)
+
+    monkeypatch.setattr(report_damping, "_table_sheet", recorded)
+    d = _hybrid_damping(mats=mats)
+    figs = report_damping.damping_pages(d)
+    assert len(figs) == 4 and not any(a.tables for a in figs[0].axes)
+    whole = ("ply loss factors, modal strain energy method (s\u00b2 = 0.917, 14 degrees of "
+             "freedom; damping sigma: 5% of each damping ratio (none given))")
+    assert built == [(whole, False, 2), (whole, True, 0),
+                     ("ply loss factors (continued)", False, 2),
+                     ("ply loss factors (continued)", True, 0)]
+    drawn = [row for fig in figs[1:] for row in cells(ax(fig, "loss-factors"))[1:]]
+    assert drawn == report_damping.loss_factor_rows(d)

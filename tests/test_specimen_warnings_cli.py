@@ -1,5 +1,6 @@
 """The specimen reader's warnings and refusals through every command that reads a specimen:
-on stderr, and in --json's 'warnings' (identify, modes, batch's rows)."""
+on stderr, and in --json's 'warnings' (identify, modes, batch's rows); identify's terminal
+report leaves out those already on stderr."""
 
 from __future__ import annotations
 
@@ -81,3 +82,87 @@ def test_angles_that_may_be_radians_are_warned_of_in_every_commands_json(tmp_pat
     r = run("modes", plain, "--mesh", "8x8", "--json")
     assert r.exit_code == 0 and "radians" not in r.output
     assert not any("radians" in w for w in json.loads(r.stdout)["warnings"])
+
+
+def test_identify_reports_a_specimen_warning_once_on_the_terminal(tmp_path, caplog):
+    # it was on stderr as the file was read and again among the report's warnings on stdout;
+    # the report keeps the run's own warnings, and the reader's under -q (none on stderr)
+    caplog.set_level("WARNING", logger="laminid_cli.specimen")
+    spec = _specimen(tmp_path, "[(0/1.5)_2/1.5/0/1.5]s")
+    warning = (f"{spec}:{_line(spec, 'layup')}, field 'layup': the ply angles 1.5 look like "
+               "radians; laminid reads ply angles in degrees (write 85.94)")
+    coarse = (f"warning: {spec}: the mesh 6x6 (1197 equations) is coarse for 8 modes: 149.6 "
+              "equations per mode")
+    r = run("identify", spec, "--mesh", "6x6", "--no-output")
+    assert r.exit_code == 0, r.output
+    assert _logged(caplog) == [warning]
+    assert "radians" not in r.stdout
+    assert coarse in r.stdout
+    r = run("-q", "identify", spec, "--mesh", "6x6", "--no-output")
+    assert r.exit_code == 0, r.output
+    assert r.stdout.count("radians") == 1 and f"\nwarning: {warning}\n" in r.stdout
+    assert coarse in r.stdout
+    # --json and the result file keep it
+    out = tmp_path / "plate.result.h5"
+    r = run("identify", spec, "--mesh", "6x6", "-o", out, "--json")
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["warnings"][0] == warning
+    r = run("show", out)
+    assert r.exit_code == 0, r.output
+    assert f"\nwarning: {warning}\n" in r.stdout
+
+
+def test_a_joint_identify_reports_a_specimen_warning_once_on_the_terminal(tmp_path, caplog):
+    caplog.set_level("WARNING", logger="laminid_cli.specimen")
+    spec = _specimen(tmp_path, "[(0/1.5)_2/1.5/0/1.5]s")
+    other = tmp_path / "S2.2.yaml"
+    other.write_text(Path("specimens/example2/S2.2.yaml").read_text())
+    warning = (f"{spec}:{_line(spec, 'layup')}, field 'layup': the ply angles 1.5 look like "
+               "radians; laminid reads ply angles in degrees (write 85.94)")
+    r = run("identify", spec, other, "--joint", "--mesh", "6x6", "--no-output")
+    assert r.exit_code == 0, r.output
+    assert _logged(caplog) == [warning]
+    assert "radians" not in r.stdout
+    assert f"warning: S2.1: {spec}: the mesh 6x6 (1197 equations) is coarse" in r.stdout
+    r = run("-q", "identify", spec, other, "--joint", "--mesh", "6x6", "--no-output")
+    assert f"\nwarning: S2.1: {warning}\n" in r.stdout
+
+
+def test_fit_frf_into_gives_the_specimens_warnings_in_its_json(tmp_path, caplog):
+    # on stderr only before: its --json's 'warnings' held the FRF reader's alone
+    from laminid_cli.frf import io
+    from laminid_cli.frf.store import FrfSet
+    from tests.frf_synth import plate_case
+
+    caplog.set_level("WARNING", logger="laminid_cli.specimen")
+    case = plate_case(noise=0.02, seed=8)
+    frf = io.write_frf(tmp_path / "plate.frf.h5",
+                       FrfSet(freq=case.freq, frf=case.frf, units="Pa/N"))
+    spec = _specimen(tmp_path, "[(0/1.5)_2/1.5/0/1.5]s")
+    warning = (f"{spec}:{_line(spec, 'layup')}, field 'layup': the ply angles 1.5 look like "
+               "radians; laminid reads ply angles in degrees (write 85.94)")
+    r = run("fit-frf", frf, "--into", spec, "--json")
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["warnings"] == [warning]
+    # once on stderr: the checks before and after the edit logged it twice more
+    assert _logged(caplog) == [warning]
+    r = run("fit-frf", frf, "--into", spec)
+    assert r.exit_code == 0, r.output
+    assert _logged(caplog) == [warning]
+    # without --into: no specimen, none of its warnings
+    r = run("fit-frf", frf, "--json")
+    assert r.exit_code == 0 and json.loads(r.stdout)["warnings"] == []
+
+
+def test_report_does_not_warn_again_of_the_stored_specimen(tmp_path, caplog):
+    # drawing the modes page rebuilt the model from the result's stored specimen, and its
+    # reader logged the warnings again on stderr; the report's pages carry the result's
+    caplog.set_level("WARNING", logger="laminid_cli.specimen")
+    spec = _specimen(tmp_path, "[(0/1.5)_2/1.5/0/1.5]s")
+    out = tmp_path / "plate.result.h5"
+    r = run("identify", spec, "--mesh", "6x6", "-o", out, "--json")
+    assert r.exit_code == 0, r.output
+    assert len(_logged(caplog)) == 1
+    r = run("report", out, "-o", tmp_path / "plate.pdf")
+    assert r.exit_code == 0, r.output
+    assert _logged(caplog) == []

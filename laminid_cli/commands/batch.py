@@ -55,7 +55,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     trials on a search limit), unit and status, then the ply loss factors where damping
     was measured; --wide one row per specimen; both forms the run options, as summary.json's
     "options", in '#' lines above the header; summary.json a units map). Every result has a
-    status, ok or check with its reasons, shown in the table.
+    status, ok or check with its reasons, shown in the table, and its warnings (the specimen
+    file's, the run's) are listed below the table.
 
     A result whose input has not changed (sha256 of the specimen and its FRF file, the
     options and the laminid version, stored in the file) is not redone unless --force (which

@@ -136,13 +136,16 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     from laminid_cli.uncertainty import check_sigma_rel
 
     check_sigma_rel(sigma_rel)
+    warnings = []
     if spec_path is not None:   # an invalid specimen is refused before the fit, and untouched
         from laminid_cli.specimen import read_specimen
 
-        read_specimen(spec_path)
+        # its reader's warnings (a mass that density x volume contradicts...): logged on
+        # stderr as it read the file, and first in --json's, as identify and modes give them
+        warnings += read_specimen(spec_path).warnings
     fs = read_frf(frf_file, fmt, freq_dataset=freq_dataset, frf_dataset=frf_dataset)
-    # the reader's doubts (a frequency column whose unit the file does not state), first
-    warnings = echo_frf_warnings(fs)
+    # the FRF reader's doubts (a frequency column whose unit the file does not state)
+    warnings += echo_frf_warnings(fs)
     fit = rfp.find_modes(fs.freq, fs.frf, bands=bands, n_modes=n_modes,
                          source=str(frf_file))
     tau = rfp.window_time_constant(fs)

@@ -24,6 +24,14 @@ def default_joint_output(specs) -> Path:
     return first.with_name("+".join(Path(s).stem for s in specs) + ".joint.result.h5")
 
 
+def logged_specimen_warnings(forward_models, joint: bool) -> set[str]:
+    """The specimen reader's warnings (logged as it read each file) as the result's warnings
+    hold them: a joint result's prefixed with the plate's name
+    (laminid_cli.identify.Problem.check_start)."""
+    return {f"{fm.specimen.name}: {w}" if joint else w
+            for fm in forward_models for w in fm.specimen.warnings}
+
+
 @click.command(short_help="Identify ply elastic constants from measured frequencies.")
 @click.argument("specs", nargs=-1, required=True, type=InputFile(),
                 metavar="SPEC...")
@@ -203,7 +211,15 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
     if as_json:
         echo_json(summary)
     else:
-        click.echo(format_joint_report(summary) if joint else format_identify_report(summary))
+        report = summary
+        if not quiet():
+            # the specimen reader's warnings are on stderr already, written as it read the
+            # file (before a run that may take minutes, and also when the run then fails):
+            # not again at the report's end. Under -q they were not, so the report keeps them
+            logged = logged_specimen_warnings(run.forward_models, joint)
+            report = {**summary, "warnings": [w for w in summary.get("warnings", ())
+                                              if w not in logged]}
+        click.echo(format_joint_report(report) if joint else format_identify_report(report))
         if "damping" in summary:
             click.echo("\n" + "\n".join(format_damping(summary["damping"])))
         if out is not None:

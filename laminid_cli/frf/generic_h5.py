@@ -333,9 +333,11 @@ def read_any_frf_h5(path, freq_dataset: str | None = None,
         probe_hdf5_file(path, reader="read_any_frf_h5", module="laminid_cli.frf.generic_h5")
 
     if freq_dataset is None and frf_dataset is None:
+        from laminid_cli.h5open import format_of
+
         try:
             with h5py.File(path, "r") as f:
-                fmt = _text(f.attrs.get("format", ""))
+                fmt = format_of(f)
         except OSError:
             fmt = FORMAT    # let the laminid reader give its message (missing, unreadable)
         if fmt == FORMAT:

@@ -366,7 +366,9 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
         an existing one is never overwritten)
     validate : the file must be a valid specimen before and after the edit (``laminid
         fit-frf --into``); without it only the YAML checks (bounded size, depth, aliases, no
-        tags) and the structure of ``measured`` are required (any YAML mapping is edited)
+        tags) and the structure of ``measured`` are required (any YAML mapping is edited);
+        the specimen reader's warnings are not logged by these checks (the caller reads the
+        file first and gives them: fit-frf --into)
     sigma_source : written as ``measured.sigma_source`` (shown by identify), with ``sigma_hz``
     comment : the comment of the new ``frequencies`` line (where they came from); the lines
         replaced lose theirs, which spoke of the values replaced
@@ -386,7 +388,9 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
         spec_path = Path(os.path.realpath(spec_path))
     parsed = None
     if validate:   # the whole specimen must be valid before anything is edited
-        parsed = read_specimen(spec_path)
+        # (its warnings are the caller's to give: fit-frf --into read the file, and logged
+        # them, before the fit; here and after the edit they were said again)
+        parsed = read_specimen(spec_path, log_warnings=False)
     try:
         # bytes as they are: line endings and a byte-order mark are kept
         raw = spec_path.read_bytes()
@@ -501,7 +505,7 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
     expect["measured"] = exp_measured
     try:   # the edited file must be a valid specimen too (e.g. weights of the right length)
         if validate:
-            load_specimen_text(new_text, str(spec_path))
+            load_specimen_text(new_text, str(spec_path), log_warnings=False)
     except SpecimenError as exc:
         raise SpecimenError(f"the edited file would not be a valid specimen ({exc}); file left "
                             "unchanged", path=str(spec_path)) from exc

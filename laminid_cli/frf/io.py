@@ -71,6 +71,7 @@ import numpy as np
 
 from laminid_cli.atomic import atomic_path
 from laminid_cli.errors import FrfError, LaminidError, OutputExistsError, about_file
+from laminid_cli.filekinds import binary_kind
 from laminid_cli.frf.store import (UNSTATED_FREQ_MIN_SPAN_HZ, FrfSet, check_frf_arrays,
                                    check_frf_size, read_frf_h5, resonance_lines,
                                    unit_not_stated_note, unstated_freq_warning,
@@ -185,16 +186,10 @@ def _new_target(path, overwrite: bool) -> Path:
 
 
 # --------------------------------------------------------------------------- CSV
-#: leading bytes of binary files given as an FRF text file by mistake: what each is, and
-#: the --format that reads it (None: no FRF format)
-_BINARY_KINDS = (
-    (b"\x89HDF\r\n\x1a\n", "an HDF5 file (laminid acquire's FRF file or another tool's)",
-     "hdf5"),
-    (b"%PDF", "a PDF document", None),
-    (b"PK\x03\x04", "a ZIP archive (an Excel or Word file?)", None),
-    (b"\x89PNG", "a PNG image", None),
-    (b"\x1f\x8b", "a gzip archive", None),
-)
+#: the kinds of binary file (laminid_cli.filekinds) an FRF format reads, given as an FRF text
+#: file by mistake: (words in parentheses after the kind's name, the --format that reads it);
+#: the others are no FRF format
+_FRF_KINDS = {"hdf5": (" (laminid acquire's FRF file or another tool's)", "hdf5")}
 
 
 def describe_content(path) -> tuple[str, str | None]:
@@ -208,9 +203,10 @@ def describe_content(path) -> tuple[str, str | None]:
         return f"an unreadable file ({exc.strerror or exc})", None
     if not head:
         return "an empty file (0 bytes)", None
-    for magic, what, fmt in _BINARY_KINDS:
-        if head.startswith(magic):
-            return what, fmt
+    kind = binary_kind(head)
+    if kind is not None:
+        aside, fmt = _FRF_KINDS.get(kind[0], ("", None))
+        return kind[1] + aside, fmt
     try:
         text = head.decode("utf-8-sig")
     except UnicodeDecodeError:

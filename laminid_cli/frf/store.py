@@ -542,9 +542,14 @@ def read_hdf5(path: Path, read, what: str):
 
 
 def _read_open_h5(f, path: Path) -> FrfSet:
-    if _attr(f.attrs.get("format")) != FORMAT:
-        raise FrfError(f"{path}: not a laminid FRF file (attribute 'format' is "
-                       f"{_attr(f.attrs.get('format'))!r}, expected {FORMAT!r})")
+    from laminid_cli.h5open import format_of
+
+    # (format_of: undecodable bytes were a UnicodeDecodeError, said as a "damaged" file)
+    fmt = format_of(f)
+    if fmt != FORMAT:
+        found = f"attribute 'format' is {fmt!r}" if "format" in f.attrs else \
+            "no attribute 'format'"
+        raise FrfError(f"{path}: not a laminid FRF file ({found}, expected {FORMAT!r})")
     raw_version = _attr(f.attrs.get("schema_version", 0))
     try:
         version = int(raw_version)
