@@ -3,7 +3,9 @@
 ``laminid identify``'s assessment (laminid_cli.uncertainty.assess, the model the command uses)
 with the profiles made in this process one after the other (``jobs=1``: their work, not the
 pool's wall). Per fit (laminid_cli.uncertainty.refit_held): the constant and the value held,
-where the fit started (the optimum, or the initial values: the check of a rejection), its
+where the fit started (the optimum, or the initial values: the check of a rejection; a
+reduced fit "from the optimum" starts at the answer of the nearest value held before between
+the limit and its own where there is one), its
 identify() evaluations (reduced ones included) against its cap and the evaluations of the
 profile's reduced model (laminid_cli.uncertainty.refit_reduced: a fit from the optimum tries
 it first; ``reduced`` where its answer was taken, ``identify`` where identify() made the fit,

@@ -926,3 +926,64 @@ def test_hybrid_cm_glass_g12_and_g23_get_the_bounds_of_finished_fits():
         assert p["error"] == "" and p["bound"] is not None, (k, p["text"])
         assert p["text"].startswith(f"the fit rejects {k} above"), p["text"]
         assert abs(np.log(p["bound"] / reference)) <= PROFILE_TOL, (k, p["bound"])
+
+
+def test_a_profile_fit_goes_on_from_what_slsqp_reached_at_its_cap(s21_6x6, monkeypatch):
+    """The reduced model's SLSQP run (TrialModel._minimise, after a Levenberg-Marquardt fit
+    that stalled) has TRIAL_MAXEVAL evaluations: a Monte Carlo trial that reaches them fails
+    (identify() makes it), a profile's fit (a model with an ftol) keeps the best point it
+    reached and goes on from there (hybrid CM's glass G12 at 6.8 GPa and G13 at 18.5 GPa went
+    to identify() after 300-500 reduced evaluations). S2.1 (6x6), G13 held at 5 GPa, SLSQP
+    from the optimum capped at 3 evaluations: the profile's model returns a point below the
+    start's objective; the same model as a trial's (no ftol) refuses."""
+    import laminid_cli.uncertainty as unc
+
+    fm, r, sigma, u = s21_6x6
+    lab = "E-glass/R368.G13"
+    model = unc.profile_model(r, [fm], [sigma], u, lab)
+    assert model.ftol > 0
+    model.hold({lab: 5e9})
+    x0, _ = model._start()
+    freq = np.asarray(r.measured_hz, float)
+    w = np.where(np.isfinite(freq), np.asarray(r.weight, float), 0.0)
+    lam = (2 * np.pi * np.nan_to_num(freq, nan=1.0)) ** 2
+    f0 = model.evaluate(model.basis, x0, lam, w, model.Y_ref)[0]
+    monkeypatch.setattr(unc, "TRIAL_MAXEVAL", 3)
+    n0 = model.n_evaluations
+    x, _ = model._minimise(model.basis, x0, lam, w, model.Y_ref)
+    assert model.n_evaluations - n0 == 1 + 3             # its scaling at x0, its 3
+    f = model.evaluate(model.basis, x, lam, w, model.Y_ref)[0]
+    assert f < 0.5 * f0, (f, f0)                        # (0.23 f0)
+    model.ftol = 0.0                                       # as the trials' model
+    with pytest.raises(unc._TrialFailed, match="3 evaluations of the trial model reached"):
+        model._minimise(model.basis, x0, lam, w, model.Y_ref)
+
+
+def test_a_profile_fit_starts_at_the_answer_nearest_to_it_on_the_limits_side(s21_6x6):
+    """A profile's reduced fit starts where the fit of the nearest value held before, between
+    the limit and its own value, ended (the profile followed out from the optimum); with none
+    there, at the optimum. S2.1 (6x6), G13 held at 18.5 GPa (the far end: not between the
+    limit and the values after it) and 5 GPa, then at 5.2 GPa: it starts at 5 GPa's answer,
+    in fewer reduced evaluations than from the optimum (3 against 11), chi2 the same within
+    PROFILE_SAME of the threshold (scaled; 104.2431 against 104.2418)."""
+    import laminid_cli.uncertainty as unc
+
+    fm, r, sigma, u = s21_6x6
+    lab = "E-glass/R368.G13"
+    threshold, factor = u.quantile ** 2, u.variance_factor
+    fresh = unc.profile_model(r, [fm], [sigma], u, lab)
+    n0 = fresh.n_evaluations
+    rf, uf = unc.refit_held(r, [fm], [sigma], {}, False, lab, 5.2e9, model=fresh)
+    from_optimum = fresh.n_evaluations - n0
+    model = unc.profile_model(r, [fm], [sigma], u, lab)
+    for v in (18.5e9, 5e9):
+        unc.refit_held(r, [fm], [sigma], {}, False, lab, v, model=model)
+    assert [v for v, _ in model.answers] == [18.5e9, 5e9]
+    assert unc._nearer_answer(model, lab, 5.2e9) is model.answers[1][1]
+    assert unc._nearer_answer(model, lab, 4e9) is None        # nothing below 4 GPa
+    n0 = model.n_evaluations
+    rc, uc = unc.refit_held(r, [fm], [sigma], {}, False, lab, 5.2e9, model=model)
+    followed = model.n_evaluations - n0
+    assert rc.converged and "reduced_evaluations" in rc.work
+    assert followed < from_optimum
+    assert abs(uc.chi2 - uf.chi2) / factor <= PROFILE_SAME * threshold
