@@ -3324,7 +3324,7 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool, jo
     frequency sigmas (lists); ``kw``: the interval settings of :func:`uncertainty_of`.
     ``jobs``: processes (None: the cores), one constant's profile each at a time (forked
     where the trials fork, :func:`_trial_pool_context`; else one after the other): hybrid
-    CM's five, 2 to 10 s each, 26 s one after the other. ``progress(done, total, label)``
+    CM's five, 0.9 to 9.5 s of CPU each (stop 44), 24 s one after the other. ``progress(done, total, label)``
     after each profile (and ``progress(0, total, None)`` before the first). A single plate
     of the reduced solver makes each profile's fits from the optimum on a reduced model of its
     own (:func:`profile_model`, :func:`refit_reduced`: Levenberg-Marquardt, its answers checked
