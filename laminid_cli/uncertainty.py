@@ -2089,16 +2089,26 @@ def _stops_with_parent() -> None:
     stop_with_parent(functools.partial(os._exit, 143))
 
 
-def _init_worker(fms, options, start, start_pairing, joint, basis_vectors=None, model=None,
-                 damping=False, names=()):
-    """Per process: the plates' forward models, the identify() route's bases (rebuilt here from
-    their vectors, copied per trial) or the reduced trial model (shared by the trials: an
-    enrichment copies it; its factorisation is redone once per process); ``damping``: the
-    trials return their modes' energy shares (:func:`_run_trial`); ``names``: the materials
-    of ``start`` (the result's material_names)."""
+def _init_worker(*init) -> None:
+    """Pool worker set-up of the trials: the process's (:func:`_stops_with_parent`), then the
+    trials' state (:func:`_set_worker`)."""
+    _stops_with_parent()
+    _set_worker(*init)
+
+
+def _set_worker(fms, options, start, start_pairing, joint, basis_vectors=None, model=None,
+                damping=False, names=()):
+    """The trials' state, per process: the plates' forward models, the identify() route's bases
+    (rebuilt here from their vectors, copied per trial) or the reduced trial model (shared by
+    the trials: an enrichment copies it; its factorisation is redone once per process);
+    ``damping``: the trials return their modes' energy shares (:func:`_run_trial`); ``names``:
+    the materials of ``start`` (the result's material_names). The trials run in the calling
+    process (the pilot's, all of them with one job) set this alone: the worker's process
+    set-up there reset the caller's SIGTERM handler, made it die with its own parent and left
+    a thread watching that parent, one more each run (a later HDF5 probe then started a new
+    interpreter instead of forking: frf.store._fork_is_safe)."""
     from laminid_cli.reduced import ReducedBasis
 
-    _stops_with_parent()
     bases = (None if basis_vectors is None else
              [ReducedBasis.from_vectors(fm, V) for fm, V in zip(fms, basis_vectors)])
     _WORKER.clear()
@@ -2400,7 +2410,7 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
     if local:
         saved = dict(_WORKER)
         try:
-            _init_worker(*init)
+            _set_worker(*init)
             for t in local:
                 collect([_run_trial(t)])
         finally:
