@@ -34,7 +34,7 @@ setup: $(STAMP)
 # ~0.2 s (only the files that changed); a file that does not compile is left to the import.
 bytecode: setup
 	$(BIN)/python -m compileall -q laminid_cli tests scripts benchmarks
-	$(BIN)/python -m compileall -q \
+	$(BIN)/python -m compileall -q -j 0 \
 	  "$$($(BIN)/python -c 'import sysconfig; print(sysconfig.get_path("purelib"))')" \
 	  > /dev/null || echo "some of the venv's packages were not compiled (make test runs the same)"
 

@@ -1337,7 +1337,10 @@ class TrialModel(VariableSet):
             done = bound <= self.bound
             if not done:
                 coef = self.coefficients(x)[0]
-                ref = self.factor_at(x, self.basis.eig(coef, 1)[0][0])
+                try:
+                    ref = self.factor_at(x, self.basis.eig(coef, 1)[0][0])
+                except _TrialFailed:
+                    continue                     # (trial() makes it again, then identify())
                 self.refs.append(ref)
                 _, bound, S, shift = self.check(self.basis, x, Y, pairing, ref)
                 done = bound <= self.bound
@@ -1384,7 +1387,10 @@ class TrialModel(VariableSet):
                     continue
                 coef = self.coefficients(x)[0]
                 theta, Y = self.basis.eig(coef, self.n_model)
-                ref = self.factor_at(x, theta[0])
+                try:
+                    ref = self.factor_at(x, theta[0])
+                except _TrialFailed:
+                    continue                     # (a point inside the limits: not seen)
                 self.refs.append(ref)
                 solve = ref[2]
                 for _ in range(CLOUD_ROUNDS):
@@ -1432,6 +1438,16 @@ class TrialModel(VariableSet):
         r, J = residual_rows(lam_meas, w, model.lam, model.dlam_dx)[:2]
         pv, pr = self.prior_rows(x)
         return np.concatenate([r, pv]), np.vstack([J, pr])
+
+    def refuses(self, x) -> bool:
+        """A point outside the search's limits (beyond 1e-7, as identify() allows round-off:
+        :meth:`laminid_cli.objective.Objective.evaluate`) where some material's constitutive
+        matrix is not positive definite: not to be evaluated (its stiffness is not one)."""
+        if self.feasible(x, tol=1e-7):
+            return False
+        from laminid_cli.material import infeasibility_reasons
+
+        return any(infeasibility_reasons(c) for c in self.constants(x))
 
     def evaluate(self, basis, x, lam_meas, w, Y_ref):
         """Objective, gradient, residual rows and their Jacobian, and the model at ``x``."""
@@ -1522,11 +1538,18 @@ class TrialModel(VariableSet):
         return stiffness_ratios(self.coefficients(x)[0], coef_refs)
 
     def factor_at(self, x, theta1):
-        """(coefficients, sigma, solve) of A = K - sigma M factorised at ``x``."""
+        """(coefficients, sigma, solve) of A = K - sigma M factorised at ``x``; a factorisation
+        that fails (A not positive definite: a trial's answer where the reduced model's lowest
+        eigenvalue ``theta1`` is not positive) is the trial model's refusal (_TrialFailed: the
+        trial is identified again with identify(), as any the model refuses)."""
         plate = self.fm.plate
         coef = self.coefficients(x)[0]
         sigma = -0.5 * float(theta1)
-        solve = self.fm.factorizer.factor(plate.stiffness(coef=coef).data - sigma * plate.M_on_K)
+        try:
+            solve = self.fm.factorizer.factor(plate.stiffness(coef=coef).data
+                                              - sigma * plate.M_on_K)
+        except SolverError as exc:
+            raise _TrialFailed(f"no factorisation at its answer ({exc})") from None
         return coef, sigma, solve
 
     def _gauss_newton(self, basis, x0, lam_meas, w, Y_ref, model0=None):
@@ -1642,12 +1665,23 @@ class TrialModel(VariableSet):
         span = np.abs(L.T) @ np.maximum(self.hi - x0, x0 - self.lo)
         scale = 2 * self.tau2
         best = [np.inf, None, None]
+        worst = [0.0]
 
         def objective(y, grad):
             x = x0 + T @ y
+            if self.refuses(x):
+                # as identify() does (identify.Problem._refused): not evaluated, ten times the
+                # worst objective met, no gradient, so SLSQP steps back inside. Evaluated, the
+                # reduced model gave such points an objective, and one below the feasible
+                # ones' (the emulator's plate, seed 14: G12 = -2.7 MPa, its reduced lowest
+                # eigenvalue negative) was the trial's answer, whose factorisation then failed
+                if grad.size:
+                    grad[:] = 0.0
+                return (10.0 * worst[0] + 1.0) / scale
             f, g, _, _, model = self.evaluate(basis, x, lam_meas, w, Y_ref)
             if grad.size:
                 grad[:] = T.T @ g / scale
+            worst[0] = max(worst[0], f)
             if f < best[0]:
                 best[:] = f, x, model
             return f / scale
