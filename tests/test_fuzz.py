@@ -38,6 +38,13 @@ from laminid_cli.cli import cli
 SEED = int(os.environ.get("LAMINID_FUZZ_SEED", "13"))
 SCALE = float(os.environ.get("LAMINID_FUZZ_SCALE", "1"))
 CASE_SECONDS = 60
+#: the HDF5 probe's timeout in the FRF fuzz (laminid_cli.frf.store.H5_PROBE_TIMEOUT_S, 30 s):
+#: a flipped bit can make libhdf5 loop, and the probe then gives up after two tries (a fork,
+#: then a new interpreter), 60 s at 30 s each, which is CASE_SECONDS: such a case failed as a
+#: hang though the command ends with its message ("did not finish reading the file in 30 s
+#: (two tries); the file is damaged"), seen at 10x (seed 13 case 917). The fuzz's files are
+#: 40 kB; 5 s is far above their reading
+FUZZ_H5_PROBE_S = 5.0
 ROOT = Path(__file__).resolve().parent.parent
 SPECIMENS = sorted((ROOT / "specimens").glob("*/*.yaml"))
 
@@ -219,13 +226,22 @@ def fuzz_specimens(n_cases: int, tmp_path: Path, seed: int):
 
 
 def _base_frf(folder: Path) -> dict[str, Path]:
+    """The FRF files the fuzz mutates, the same bytes on every run: their time stamps (the
+    HDF5 file's ``created`` and its points' ``timestamp``) fixed, so that a case named by its
+    seed and number is the same file when replayed (with the clock's time a flipped bit fell
+    elsewhere in the file at each run)."""
+    import laminid_cli.frf.store as store
     from laminid_cli.frf.io import write_frf
     from laminid_cli.frf.store import FrfSet
     from tests.frf_synth import plate_case
 
     c = plate_case(n_points=2, n_lines=301, noise=0.01, seed=3)
     fs = FrfSet(freq=c.freq, frf=c.frf, units="m/N")
-    return {ext: write_frf(folder / f"base.{ext}", fs) for ext in ("h5", "uff", "csv")}
+    now, store._now = store._now, lambda: "2026-01-01T00:00:00+00:00"
+    try:
+        return {ext: write_frf(folder / f"base.{ext}", fs) for ext in ("h5", "uff", "csv")}
+    finally:
+        store._now = now
 
 
 def _mutate_h5(src: Path, dst: Path, rng: random.Random) -> list[str]:
@@ -298,6 +314,16 @@ def _mutate_h5(src: Path, dst: Path, rng: random.Random) -> list[str]:
 
 
 def fuzz_frf_files(n_cases: int, tmp_path: Path, seed: int):
+    import laminid_cli.frf.store as store
+
+    probe, store.H5_PROBE_TIMEOUT_S = store.H5_PROBE_TIMEOUT_S, FUZZ_H5_PROBE_S
+    try:
+        return _fuzz_frf_files(n_cases, tmp_path, seed)
+    finally:
+        store.H5_PROBE_TIMEOUT_S = probe
+
+
+def _fuzz_frf_files(n_cases: int, tmp_path: Path, seed: int):
     stats = Stats("frf")
     rng = random.Random(seed)
     base_dir = tmp_path / "base"
