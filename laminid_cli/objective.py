@@ -113,6 +113,17 @@ class VariableSet:
         A, b = self.linear_constraints()
         return bool(np.all(x >= lo - tol) and np.all(x <= hi + tol) and np.all(A @ x <= b + tol))
 
+    def refusal(self, x) -> tuple[str, ...]:
+        """Why ``x`` is not to be evaluated ("material: reason" each): outside the limits
+        beyond round-off (1e-7: MMA's inner iterations and SLSQP step outside the safety
+        margins) with a constitutive matrix that is not positive definite, whose stiffness is
+        no stiffness; () where it may be evaluated (:meth:`Objective.evaluate`, the Monte
+        Carlo trials' SLSQP)."""
+        if self.feasible(x, tol=1e-7):
+            return ()
+        return tuple(f"{p.name}: {r}" for p, c in zip(self.params, self.constants(x))
+                     for r in infeasibility_reasons(c))
+
     def eigenvalue_jacobian(self, E, jacs) -> np.ndarray:
         """``d lambda / d x`` (n_modes, n_vars) from the basis energies ``E`` (n_materials, 6,
         n_modes) = d lambda / d coef of some modes and each material's coefficient Jacobian
@@ -348,17 +359,13 @@ class Objective(VariableSet):
         constitutive matrices are not positive definite is not evaluated: the Evaluation is
         ``refused`` (objective NaN, ``reasons`` say why)."""
         x = np.asarray(x, float)
-        if not self.feasible(x, tol=1e-7):
-            # MMA's inner iterations and round-off can step outside the safety margins;
-            # evaluate only while the constitutive matrices stay positive definite
-            reasons = tuple(f"{p.name}: {r}" for p, c in zip(self.params, self.constants(x))
-                            for r in infeasibility_reasons(c))
-            if reasons:
-                n = self.n_meas
-                return Evaluation(x=x.copy(), objective=float("nan"),
-                                  gradient=np.zeros(self.n_vars), eigenvalues=np.full(n, np.nan),
-                                  pairing=np.arange(n), dlam_dx=np.zeros((n, self.n_vars)),
-                                  phi=None, modes=None, refused=True, reasons=reasons)
+        reasons = self.refusal(x)
+        if reasons:
+            n = self.n_meas
+            return Evaluation(x=x.copy(), objective=float("nan"),
+                              gradient=np.zeros(self.n_vars), eigenvalues=np.full(n, np.nan),
+                              pairing=np.arange(n), dlam_dx=np.zeros((n, self.n_vars)),
+                              phi=None, modes=None, refused=True, reasons=reasons)
         models = [None] * len(self.plates) if models is None else list(models)
         refs = [None] * len(self.plates) if reference is None else reference.parts
         starts = [None] * len(self.plates) if start_pairing is None else list(start_pairing)

@@ -1439,16 +1439,6 @@ class TrialModel(VariableSet):
         pv, pr = self.prior_rows(x)
         return np.concatenate([r, pv]), np.vstack([J, pr])
 
-    def refuses(self, x) -> bool:
-        """A point outside the search's limits (beyond 1e-7, as identify() allows round-off:
-        :meth:`laminid_cli.objective.Objective.evaluate`) where some material's constitutive
-        matrix is not positive definite: not to be evaluated (its stiffness is not one)."""
-        if self.feasible(x, tol=1e-7):
-            return False
-        from laminid_cli.material import infeasibility_reasons
-
-        return any(infeasibility_reasons(c) for c in self.constants(x))
-
     def evaluate(self, basis, x, lam_meas, w, Y_ref):
         """Objective, gradient, residual rows and their Jacobian, and the model at ``x``."""
         model = self.modes(basis, x, Y_ref)
@@ -1669,7 +1659,7 @@ class TrialModel(VariableSet):
 
         def objective(y, grad):
             x = x0 + T @ y
-            if self.refuses(x):
+            if self.refusal(x):
                 # as identify() does (identify.Problem._refused): not evaluated, ten times the
                 # worst objective met, no gradient, so SLSQP steps back inside. Evaluated, the
                 # reduced model gave such points an objective, and one below the feasible

@@ -666,7 +666,7 @@ def test_a_trial_model_refuses_points_whose_stiffness_is_no_stiffness(tmp_path):
     outside the search's limits with G12 = -2.7 MPa (its reduced lowest eigenvalue negative)
     and took it as its answer, whose factorisation then failed: the trial failed ("the
     factorisation of K - sigma M failed") without being identified again. The trial model now
-    refuses such points as identify() does (TrialModel.refuses: outside the limits and a
+    refuses such points as identify() does (VariableSet.refusal: outside the limits and a
     constitutive matrix not positive definite), and a factorisation that fails is its
     refusal: all 8 trials converge, 1 through identify()."""
     spec = tmp_path / "emu.yaml"
@@ -689,7 +689,7 @@ def test_a_trial_model_refuses_points_whose_stiffness_is_no_stiffness(tmp_path):
                                            (6, 6)))
     res = identify(fm)
     model = TrialModel(fm, res, 1e-6)
-    assert not model.refuses(model.x_opt)
+    assert not model.refusal(model.x_opt)
     (p,) = model.params
     c = res.constants[0]
-    assert model.refuses(variables_of(p, dataclasses.replace(c, G12=-0.001 * c.G12)))
+    assert model.refusal(variables_of(p, dataclasses.replace(c, G12=-0.001 * c.G12)))
