@@ -106,11 +106,16 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
     import dataclasses
     import sys
 
-    from laminid_cli.errors import FitInputError, LaminidError
-    from laminid_cli.pipeline import run_identification, write_result
+    from laminid_cli.errors import FitInputError, InputFileError, LaminidError
+    from laminid_cli.pipeline import fix_list_hint, run_identification, write_result
 
     if no_output and output is not None:
         raise FitInputError("--no-output and -o contradict each other: give one of them")
+    for sp in specs:
+        # a file that is not there: said before the count of specimens, which would ask for
+        # --joint where the second "specimen" is the rest of a --fix list split at a space
+        if not Path(sp).exists() and (len(specs) > 1 or fix_list_hint(sp)):
+            raise InputFileError(f"{sp}: file not found{fix_list_hint(sp)}", path=sp)
     if len(specs) > 1 and not joint:
         raise FitInputError(f"{len(specs)} specimens given: add --joint to identify them "
                             "together (one set of constants per shared material)")
