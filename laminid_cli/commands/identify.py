@@ -32,8 +32,16 @@ def logged_specimen_warnings(forward_models, joint: bool) -> set[str]:
             for fm in forward_models for w in fm.specimen.warnings}
 
 
+def batch_hint(folder: Path) -> str:
+    """What identify says of a folder given as SPEC: batch is the command for folders."""
+    import shlex
+
+    return (f"; 'laminid batch {shlex.quote(str(folder))}' identifies every specimen in a "
+            "folder")
+
+
 @click.command(short_help="Identify ply elastic constants from measured frequencies.")
-@click.argument("specs", nargs=-1, required=True, type=InputFile(),
+@click.argument("specs", nargs=-1, required=True, type=InputFile(folder_hint=batch_hint),
                 metavar="SPEC...")
 @fit_options
 @click.option("--joint", is_flag=True,
