@@ -214,7 +214,9 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
             roots.append(p.resolve().parent)
             found.setdefault(p.resolve(), p)
         else:
-            raise BatchError(f"{p}: no such file or folder", path=p)
+            from laminid_cli.pipeline import fix_list_hint
+
+            raise BatchError(f"{p}: no such file or folder{fix_list_hint(p)}", path=p)
     if not found:
         return []
     root = Path(os.path.commonpath([str(r) for r in roots]))

@@ -341,3 +341,26 @@ def write_result(path, run: IdentificationRun, *, command: str | None = None,
             command=command or "laminid identify", assessment=run.assessment,
             damping=run.damping, status=run.status, attrs=attrs, mesh_check=run.mesh_check)
     return path
+
+
+def fix_list_hint(name: str) -> str:
+    """What to add to "file not found" for a file named on the command line that reads as
+    --fix items: ``--fix G13 G23`` or ``--fix G13, G23`` (the shell splits the list at the
+    space, and the second part is taken for a specimen file; identify then asked for --joint).
+    Empty for any other name.
+
+    >>> fix_list_hint("G23").startswith("; it reads as a --fix item: --fix takes one comma-")
+    True
+    >>> fix_list_hint("plate.yaml")
+    ''
+    """
+    from laminid_cli.material import CONSTANT_NAMES
+
+    names = {n.lower() for n in CONSTANT_NAMES} | {f"eta{k}" for k in ("11", "22", "12", "13",
+                                                                         "23")}
+    items = [i.strip() for i in str(name).split(",") if i.strip()]
+    if not items or not all(i.split("=", 1)[0].rsplit(".", 1)[-1].strip().lower() in names
+                            for i in items):
+        return ""
+    return ("; it reads as a --fix item: --fix takes one comma-separated list without spaces "
+            "(--fix G13,G23)")

@@ -758,8 +758,23 @@ def _open_result(path: Path):
         raise ResultFileError(f"{path}: a specimen file, not an identification result; "
                               f"laminid identify {path} makes its result "
                               f"({Path(path).with_suffix('.result.h5')})")
-    f = open_h5(path, ResultFileError, "not an HDF5 file, so not a laminid identification "
-                f"result; make one with {MAKES_A_RESULT}")
+    from laminid_cli.filekinds import HDF5_MAGIC
+
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(len(HDF5_MAGIC))
+    except OSError:                         # (missing, unreadable: open_h5 says which)
+        head = b""
+    if head == HDF5_MAGIC:
+        # an HDF5 file h5py cannot open is damaged or cut short (a copy that did not finish),
+        # not "not an HDF5 file ... make one with laminid identify", which sent the lab to
+        # look for a wrong file rather than a broken one
+        not_hdf5 = ("an HDF5 file that cannot be read ({exc}): damaged or incomplete (a copy "
+                    "cut short?); copy it again, or make it again with " + MAKES_A_RESULT)
+    else:
+        not_hdf5 = ("not an HDF5 file, so not a laminid identification result; make one with "
+                    + MAKES_A_RESULT)
+    f = open_h5(path, ResultFileError, not_hdf5)
     with f:
         fmt = format_of(f)
         if fmt == "laminid-frf":             # laminid acquire's (or example_frf.py's) file

@@ -301,3 +301,28 @@ def test_an_hdf5_output_named_like_another_format_is_refused(tmp_path, command, 
     assert f"{out}: {command} writes" in r.output and "as HDF5; name it .h5 (-o)" in r.output
     assert hint in r.output
     assert not out.exists()
+
+
+# ------------------------------------------------------------------ --fix split at a space
+@pytest.mark.parametrize("command", ["identify", "batch"])
+@pytest.mark.parametrize("split", [["G13", "G23"], ["G13,", "nu12,g23"]])
+def test_fix_list_split_at_a_space_says_so_not_add_joint(tmp_path, command, split):
+    # was: identify "2 specimens given: add --joint to identify them together" for
+    # `--fix G13 G23` (the shell gives G23 as a second specimen), which --joint then turned
+    # into "G23: file not found"; batch "G23: no such file or folder": neither named --fix
+    where = ["-o", tmp_path / "r.h5"] if command == "identify" else ["--out", tmp_path / "out"]
+    r = run(command, S11, "--mesh", "4x4", "--fix", *split, *where)
+    no_traceback(r)
+    assert r.exit_code == 2
+    missing = "no such file or folder" if command == "batch" else "file not found"
+    assert (f"laminid: error: {split[1]}: {missing}; it reads as a --fix item: --fix takes one "
+            "comma-separated list without spaces (--fix G13,G23)") in r.output
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_identify_of_two_files_one_missing_names_it_not_add_joint(tmp_path):
+    # was: "2 specimens given: add --joint ...", though --joint could only fail on the file
+    r = run("identify", S11, tmp_path / "S1.2.yaml", "-o", tmp_path / "r.h5")
+    assert r.exit_code == 2
+    assert f"laminid: error: {tmp_path / 'S1.2.yaml'}: file not found\n" in r.output
+    assert "--joint" not in r.output and "--fix" not in r.output

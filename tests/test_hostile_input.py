@@ -960,7 +960,8 @@ def test_output_naming_a_folder_is_refused_in_laminids_format(tmp_path, args, op
 
 @pytest.mark.parametrize("args, line", [
     (["modes", "{folder}"], "{folder}: is a folder, not a file"),
-    (["identify", "{folder}", "--no-output"], "{folder}: is a folder, not a file"),
+    (["identify", "{folder}", "--no-output"], "{folder}: is a folder, not a file; "
+     "'laminid batch {folder}' identifies every specimen in a folder"),
     (["fit-frf", "{folder}"], "{folder}: is a folder, not a file"),
     (["export", "{folder}", "-o", "{tmp}/x.uff"], "{folder}: is a folder, not a file"),
     (["report", "{folder}"], "{folder}: is a folder, not a file"),
@@ -978,6 +979,17 @@ def test_input_file_that_is_a_folder_or_missing_is_refused_in_laminids_format(tm
     assert r.exit_code == 2
     assert r.stderr == f"laminid: error: {line.format(folder=folder, tmp=tmp_path)}\n"
     assert r.stdout == ""
+
+
+def test_report_of_a_batch_folder_names_its_summary(tmp_path):
+    # was: "is a folder, not a file" alone, for `laminid report results` after `laminid batch
+    # ... --out results`; an identify of a folder names batch (above)
+    (tmp_path / "summary.csv").write_text("name,specimen,material,constant,value\n")
+    r = run("report", tmp_path)
+    assert r.exit_code == 2 and r.stdout == ""
+    assert r.stderr == (f"laminid: error: {tmp_path}: is a folder, not a file; 'laminid report "
+                        f"{tmp_path / 'summary.csv'}' draws the batch summary it holds\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["summary.csv"]
 
 
 @pytest.mark.parametrize("command", [["fit-frf"], ["export", "-o", "{tmp}/x.uff"]])

@@ -224,3 +224,24 @@ def test_show_and_report_of_a_modes_file_say_what_it_is_and_what_reads_it(tmp_pa
             "B.yaml --joint, laminid batch FOLDER)")
     # and what it names reads it
     assert run("export", m, "-o", tmp_path / "modes.unv").exit_code == 0
+
+
+def test_show_and_report_of_a_cut_short_result_say_it_is_damaged_not_no_hdf5(tmp_path):
+    # was: "not an HDF5 file, so not a laminid identification result; make one with laminid
+    # identify ...": a result copied only in part (a full USB stick, a sync cut off) sent the
+    # lab to look for a wrong file, not a broken one
+    whole = tmp_path / "whole.h5"
+    with h5py.File(whole, "w") as f:
+        f.attrs["format"] = "laminid-result"
+        f["history"] = np.arange(20000.0)
+    cut = tmp_path / "S1.1.result.h5"
+    cut.write_bytes(whole.read_bytes()[:50000])
+    for command in ("show", "report"):
+        r = run(command, cut)
+        assert r.exit_code == 2 and r.stdout == "", r.output
+        assert r.stderr.startswith(f"laminid: error: {cut}: an HDF5 file that cannot be read ("), \
+            r.stderr
+        assert "truncated file" in r.stderr
+        assert "): damaged or incomplete (a copy cut short?); copy it again, or make it again " \
+               "with laminid identify SPEC.yaml" in r.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["S1.1.result.h5", "whole.h5"]

@@ -64,9 +64,12 @@ class InputFile(click.Path):
     not with click's usage text. (Without ``must_exist`` the reader says "file not found",
     after what it can tell from the name alone.)"""
 
-    def __init__(self, must_exist: bool = False):
+    def __init__(self, must_exist: bool = False, folder_hint=None):
         super().__init__()
         self.must_exist = must_exist
+        #: the words added for a folder (the command that takes it), from the folder's path;
+        #: "" where there is nothing to add
+        self.folder_hint = folder_hint
 
     def convert(self, value, param, ctx):
         from laminid_cli.errors import InputFileError
@@ -74,7 +77,8 @@ class InputFile(click.Path):
         value = super().convert(value, param, ctx)
         path = Path(value)
         if path.is_dir():
-            raise InputFileError(f"{value}: is a folder, not a file", path=value)
+            hint = self.folder_hint(path) if self.folder_hint is not None else ""
+            raise InputFileError(f"{value}: is a folder, not a file{hint}", path=value)
         if self.must_exist and not path.exists():
             raise InputFileError(f"{value}: file not found", path=value)
         return value

@@ -32,8 +32,16 @@ def logged_specimen_warnings(forward_models, joint: bool) -> set[str]:
             for fm in forward_models for w in fm.specimen.warnings}
 
 
+def batch_hint(folder: Path) -> str:
+    """What identify says of a folder given as SPEC: batch is the command for folders."""
+    import shlex
+
+    return (f"; 'laminid batch {shlex.quote(str(folder))}' identifies every specimen in a "
+            "folder")
+
+
 @click.command(short_help="Identify ply elastic constants from measured frequencies.")
-@click.argument("specs", nargs=-1, required=True, type=InputFile(),
+@click.argument("specs", nargs=-1, required=True, type=InputFile(folder_hint=batch_hint),
                 metavar="SPEC...")
 @fit_options
 @click.option("--joint", is_flag=True,
@@ -106,11 +114,16 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
     import dataclasses
     import sys
 
-    from laminid_cli.errors import FitInputError, LaminidError
-    from laminid_cli.pipeline import run_identification, write_result
+    from laminid_cli.errors import FitInputError, InputFileError, LaminidError
+    from laminid_cli.pipeline import fix_list_hint, run_identification, write_result
 
     if no_output and output is not None:
         raise FitInputError("--no-output and -o contradict each other: give one of them")
+    for sp in specs:
+        # a file that is not there: said before the count of specimens, which would ask for
+        # --joint where the second "specimen" is the rest of a --fix list split at a space
+        if not Path(sp).exists() and (len(specs) > 1 or fix_list_hint(sp)):
+            raise InputFileError(f"{sp}: file not found{fix_list_hint(sp)}", path=sp)
     if len(specs) > 1 and not joint:
         raise FitInputError(f"{len(specs)} specimens given: add --joint to identify them "
                             "together (one set of constants per shared material)")

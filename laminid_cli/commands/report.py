@@ -43,8 +43,17 @@ def derived_report(source: str) -> tuple[Path, bool]:
     return out, True
 
 
+def summary_hint(folder: Path) -> str:
+    """What report says of a folder given as SOURCE: a batch's --out folder has its summary."""
+    import shlex
+
+    found = [folder / n for n in ("summary.csv", "summary.json") if (folder / n).is_file()]
+    return (f"; 'laminid report {shlex.quote(str(found[0]))}' draws the batch summary it holds"
+            if found else "")
+
+
 @click.command(short_help="PDF/PNG report of a result file or a batch summary.")
-@click.argument("source", type=InputFile(must_exist=True))
+@click.argument("source", type=InputFile(must_exist=True, folder_hint=summary_hint))
 @click.option("-o", "--output", type=OUTPUT_FILE, default=None,
               help="report.pdf (all pages in one file) or report.png (one PNG per page: "
                    "report-1.png, report-2.png...), never overwritten without --force "
