@@ -2420,6 +2420,31 @@ def specimen_labels(rows) -> list[str]:
     return [n if names.count(n) == 1 else str(row["name"]) for n, row in zip(names, rows)]
 
 
+#: the most characters of a specimen's name under the panels across specimens: a lab's name
+#: ("S1.1 panel B-07 (autoclave batch 2026-11, edges trimmed, re-tested after drop)"), rotated
+#: there, took the page's height from the panels (squeezed to a strip) and ran off its left
+#: edge; a longer name is shortened in the middle and given whole in the page's notes
+AXIS_NAME_CHARS = 24
+
+
+def axis_names(names, limit: int = AXIS_NAME_CHARS) -> tuple[list[str], str | None]:
+    """The specimens' names as ticks under a panel (each at most ``limit`` characters: its
+    start and end kept, "…" between), and the note naming each shortened one whole (None when
+    none is). Two names shortened alike get their place in the row after them ("#2").
+
+    >>> axis_names(["S1.1", "S1.1 panel B-07 (autoclave batch 2026-11)"])[0]
+    ['S1.1', 'S1.1 panel B-07…2026-11)']
+    """
+    head = (limit - 1) * 2 // 3
+    tail = limit - 1 - head
+    short = [n if len(n) <= limit else n[:head].rstrip() + "\u2026" + n[-tail:].lstrip()
+             for n in names]
+    short = [s if short.count(s) == 1 or s == n else f"{s} #{i + 1}"
+             for i, (s, n) in enumerate(zip(short, names))]
+    pairs = [f"{s} = {n}" for s, n in zip(short, names) if s != n]
+    return short, ("names shortened under the panels: " + "; ".join(pairs)) if pairs else None
+
+
 MC_COLOR = "0.62"
 #: the least span of a linear panel across specimens, as a fraction of its largest value: the
 #: width of the verdicts' "well determined" band (a 95 % half-width of 5 %, either way), so
@@ -2547,6 +2572,7 @@ def constants_across_page(done, title: str, absent=()):
     gs = fig.add_gridspec(3, 3, height_ratios=[1, 1, 0.2])
     axes = np.array([fig.add_subplot(gs[i, j]) for i in range(2) for j in range(3)])
     names = specimen_labels([row for row, _, _ in done])
+    ticks, shortened = axis_names(names)
     nm = len(materials)
     width = min(0.22, 0.7 / max(nm, 1))
     offsets = {m: (c - (nm - 1) / 2) * width for c, m in enumerate(materials)}
@@ -2627,7 +2653,7 @@ def constants_across_page(done, title: str, absent=()):
             for xi, blo, bhi, color, lw, gid, marks, ls in bars:
                 _clipped_bar(ax, k, xi, blo, bhi, ymin, ymax, color, lw=lw, gid=gid,
                              marks=marks, ls=ls)
-        style_across_panel(ax, f"{k} ({_unit(k)}{', log scale' if log else ''})", names)
+        style_across_panel(ax, f"{k} ({_unit(k)}{', log scale' if log else ''})", ticks)
         if log:
             log_axis_ticks(ax)
     handles = {m: Line2D([], [], ls="none", marker="o", ms=6, color=f"C{c % 10}")
@@ -2721,6 +2747,8 @@ def constants_across_page(done, title: str, absent=()):
                         "search limit (not which one), not determined or fixed (its column "
                         "flagged), and their result files were not found; the intervals are in "
                         "the long summary.csv or summary.json")
+    if shortened:
+        notes.append(shortened)
     if notes:
         _footer(fig, "\n".join(notes), color=CHECK_COLOR)
     return fig
@@ -2754,7 +2782,8 @@ def residuals_across_page(rows, title: str):
     # reason codes and numbers are not (a code cut in two, "fixe d_rejected", reads as two)
     breakable = [r["rms_residual_percent"] is None for r in rows]
     ax.set_ylim(0, 1.3 * max(max(rms), 1e-3))          # room for the labels above the bars
-    ax.set_xticks(np.arange(len(rows)), names, rotation=45, ha="right", fontsize=8)
+    ticks, shortened = axis_names(names)
+    ax.set_xticks(np.arange(len(rows)), ticks, rotation=45, ha="right", fontsize=8)
     ax.set_ylabel("RMS residual (%)")
     ax.set_xlabel("specimen")
     # the kinds of bar drawn (a batch of which none is ok keyed a dark bar it did not have)
@@ -2763,13 +2792,19 @@ def residuals_across_page(rows, title: str):
         if c in colors]
     ax.legend(handles=[h for h, _ in kinds], labels=[t for _, t in kinds],
               loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0, fontsize=8)
-    if any(m.get("max_shift_half_width") is not None for m in meshes):
+    notes = []
+    checked_mesh = any(m.get("max_shift_half_width") is not None for m in meshes)
+    if checked_mesh:
         from laminid_cli.meshcheck import SHIFT_LIMIT
 
-        _footer(fig, "mesh shift (hw: 95 % half-widths): the largest first-order shift of a constant on a mesh twice "
-                     "as fine (batch --mesh-check), in units of its 95 % half-width; beyond "
-                     f"{SHIFT_LIMIT:g} the mesh is too coarse for the modes (coarse_mesh)",
-                gid="mesh-check-note")
+        notes.append("mesh shift (hw: 95 % half-widths): the largest first-order shift of a "
+                     "constant on a mesh twice as fine (batch --mesh-check), in units of its "
+                     f"95 % half-width; beyond {SHIFT_LIMIT:g} the mesh is too coarse for the "
+                     "modes (coarse_mesh)")
+    if shortened:
+        notes.append(shortened)
+    if notes:
+        _footer(fig, "\n".join(notes), gid="mesh-check-note" if checked_mesh else "names-note")
     _bar_labels(fig, ax, labels, rms, breakable)
     return fig
 

@@ -574,10 +574,11 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
 
     from laminid_cli.damping import TERMS
     from laminid_cli.report import (FIXED_COLOR, MC_COLOR, _clipped_bar, _figure, _footer,
-                                    specimen_labels, style_across_panel)
+                                    axis_names, specimen_labels, style_across_panel)
 
     rows = [row for row in rows if row.get("damping")]
     names = specimen_labels(rows)
+    ticks, shortened = axis_names(names)
     materials: list[str] = []
     for row in rows:
         materials += [m for m in row["damping"] if m not in materials]
@@ -650,7 +651,7 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
         for xi, lo, hi, color, gid in bars:
             _clipped_bar(ax, name, xi, lo, hi, 0.0, ymax, color,
                          lw=2.2 if color == MC_COLOR else 1.2, gid=gid)
-        style_across_panel(ax, f"\u03b7{k} (%)", names)
+        style_across_panel(ax, f"\u03b7{k} (%)", ticks)
         ax.set_ylabel("loss factor (%)", fontsize=8)
     handles = {m: Line2D([], [], ls="none", marker="o", ms=6, color=f"C{c % 10}")
                for c, m in enumerate(materials)}
@@ -682,7 +683,8 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
             "energy shares are computed with the identified elastic constants, taken as exact"
             + (" (the Monte Carlo ranges count the free constants' doubt too)" if has_mc
                else "") + ". Measured vs model damping of each mode and the energy shares: the damping page of "
-            "each result's report (laminid report <result>.h5).", color="0.25")
+            "each result's report (laminid report <result>.h5)."
+            + (f"\n{shortened}" if shortened else ""), color="0.25")
     return fig
 
 

@@ -1343,3 +1343,37 @@ def test_sensitivity_cells_in_the_terminals_digits():
             for t in a.texts}
     assert cell == {(0, 0): "0.412", (0, 1): "0.000", (1, 0): "0.000", (1, 1): "-0.004",
                     (2, 0): "0.000", (2, 1): "-0.001"}
+
+
+def test_long_specimen_names_are_shortened_under_the_panels_and_given_whole(tmp_path):
+    """A lab's specimen names ("S1.1 panel B-07 (autoclave batch 2026-11, ...)") as they were
+    under the panels across specimens, rotated: they took the page's height from the panels
+    (squeezed to strips of a few pixels) and ran off its left edge. Each is shortened in the
+    middle under the panels, the panels keep their height, every tick label is inside the
+    page, and the note under the panels gives each name whole."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from tests.test_report import _write_summary
+
+    q, r = _one_material_rows()
+    long_q = "S1.1 panel B-07 (autoclave batch 2026-11, edges trimmed, re-tested after drop)"
+    long_r = "S1.2 panel B-08 (autoclave batch 2026-11, edges trimmed)"
+    rows = [q | {"name": "B-07", "specimen": long_q}, r | {"name": "B-08", "specimen": long_r}]
+    path = tmp_path / "summary.json"
+    _write_summary(path, rows)
+    pages = {p.name: p.figure for p in report_pages(path)}
+    for name, gid in (("constants", "across-E1"), ("residuals", "rms")):
+        fig = pages[name]
+        renderer = FigureCanvasAgg(fig).get_renderer()
+        fig.draw(renderer)
+        a = ax(fig, gid)
+        ticks = [t for t in a.get_xticklabels() if t.get_text()]
+        assert len(ticks) == 2 and all(len(t.get_text()) <= 24 for t in ticks)
+        for t in ticks:
+            box = t.get_window_extent(renderer)
+            assert box.x0 >= 0 and box.y0 >= 0, (name, t.get_text(), box)
+        # the panels are not squeezed by their ticks
+        assert a.get_window_extent(renderer).height > 0.2 * fig.bbox.height, name
+        words = " ".join(t.get_text() for t in fig.texts).replace("\n", " ")
+        words = " ".join(words.split())
+        assert long_q in words and long_r in words, name
