@@ -1377,3 +1377,29 @@ def test_long_specimen_names_are_shortened_under_the_panels_and_given_whole(tmp_
         words = " ".join(t.get_text() for t in fig.texts).replace("\n", " ")
         words = " ".join(words.split())
         assert long_q in words and long_r in words, name
+
+
+def test_loss_factor_labels_of_a_long_material_name_stay_inside_their_cells():
+    """A loss factor of a material with a long name ("Hexcel IM7/977-2 unidirectional prepreg
+    tape 0.135 mm.eta11") ran under the next cell of the damping page's table, which hid the
+    end that says which loss factor the row is (".eta1" of every row read alike). The label is
+    wrapped to its column: each cell's text inside the cell, the loss factor's term whole."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from laminid_cli.report_damping import damping_pages
+
+    mat = "Hexcel IM7/977-2 unidirectional prepreg tape 0.135 mm"
+    d = _damping_data("")
+    d["labels"] = [lab.replace("M.", f"{mat}.") for lab in d["labels"]]
+    fig = damping_pages(d)[0]
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    table = ax(fig, "loss-factors").tables[0]
+    labels = []
+    for (i, j), cell in table.get_celld().items():
+        box, text = cell.get_window_extent(renderer), cell.get_text()
+        t = text.get_window_extent(renderer)
+        assert box.x0 - 0.5 <= t.x0 and t.x1 <= box.x1 + 0.5, text.get_text()
+        if i > 0 and j == 0:
+            labels.append(" ".join(text.get_text().split()))
+    assert sorted(labels) == sorted(d["labels"])
