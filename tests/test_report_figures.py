@@ -1403,3 +1403,70 @@ def test_loss_factor_labels_of_a_long_material_name_stay_inside_their_cells():
         if i > 0 and j == 0:
             labels.append(" ".join(text.get_text().split()))
     assert sorted(labels) == sorted(d["labels"])
+
+
+GLASS = "E-glass 7781 woven fabric / Hexcel 913 epoxy (batch 2026-11)"
+CARBON = "Toray T300 carbon / R367 epoxy UD prepreg tape (Structil CTE235)"
+
+
+@pytest.fixture(scope="module")
+def long_materials(tmp_path_factory):
+    """A two-material plate (S1.1's, its plies tagged) whose materials have a lab's long
+    names, identified at 4x4 with G13, G23, nu12 fixed (under a second). Read only."""
+    folder = tmp_path_factory.mktemp("long-materials")
+    spec = folder / "two.yaml"
+    spec.write_text(
+        "name: two\ngeometry: {a: 210.5 mm, b: 311 mm, h: 3.06 mm}\nmass: 0.3225 kg\n"
+        "materials:\n"
+        f'  "{GLASS}": {{E1: 40 GPa, E2: 10 GPa, G12: 4 GPa, G13: 3.5 GPa, G23: 3.5 GPa, '
+        "nu12: 0.28, density_ratio: 1.3, fixed: [G13, G23, nu12]}\n"
+        f'  "{CARBON}": {{E1: 117.2 GPa, E2: 8.8 GPa, G12: 3.1 GPa, G13: 3.1 GPa, '
+        "G23: 3.1 GPa, nu12: 0.35, density_ratio: 1.0, fixed: [G13, G23, nu12]}\n"
+        'layup: "[45_3:E/0_3:T/-45_3:E/90_3:T]s"\n'
+        "measured:\n  frequencies: [125.05, 203.50, 331.30, 446.65, 493.55, 603.80, 650.75, "
+        "818.70, 951.35, 990.65]\n")
+    out = folder / "two.result.h5"
+    res = run("identify", spec, "--mesh", "4x4", "-o", out)
+    assert res.exit_code == 0, res.output
+    return out
+
+
+def test_long_material_names_are_shortened_in_the_labels_and_given_whole(long_materials):
+    """A lab's material names ("E-glass 7781 woven fabric / Hexcel 913 epoxy (batch
+    2026-11)") were written whole in the labels: the constants table's first column ran under
+    the next cell, which hid the constant of each row ("...fabric / Hexcel 913 epoxy (" for
+    E1 to G23 alike), the interval panels' titles ran into each other, the history's legend
+    took two thirds of its page's width. Each name is shortened in the middle in the labels
+    (the constant whole, under it in the table), every table cell's text is inside its cell,
+    the titles do not overlap, and the notes give each name whole."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.text import Text
+
+    def drawn(name):
+        fig = result_page(long_materials, name)
+        renderer = FigureCanvasAgg(fig).get_renderer()
+        fig.draw(renderer)
+        words = " ".join(" ".join(t.get_text() for t in fig.findobj(Text)).split())
+        return fig, renderer, words
+
+    fig, renderer, words = drawn("summary")
+    table = ax(fig, "constants").tables[0]
+    firsts = []
+    for (i, j), cell in table.get_celld().items():
+        box, t = cell.get_window_extent(renderer), cell.get_text().get_window_extent(renderer)
+        assert box.x0 - 0.5 <= t.x0 and t.x1 <= box.x1 + 0.5, cell.get_text().get_text()
+        if i > 0 and j == 0:
+            firsts.append(cell.get_text().get_text().split("\n")[-1])
+    assert sorted(firsts) == sorted(f"{k} ({'–' if k == 'nu12' else 'GPa'})"
+                                    for k in ("E1", "E2", "G12", "G13", "G23", "nu12")
+                                    for _ in range(2))
+    assert GLASS in words and CARBON in words
+    fig, renderer, words = drawn("intervals")
+    titles = [a.title for a in fig.axes if (a.get_gid() or "").startswith("interval-")]
+    boxes = sorted((t.get_window_extent(renderer) for t in titles), key=lambda b: (b.y0, b.x0))
+    for p, q in zip(boxes, boxes[1:]):
+        assert not (p.x1 > q.x0 + 0.5 and abs(p.y0 - q.y0) < 1), (p, q)
+    assert GLASS in words and CARBON in words
+    fig, renderer, words = drawn("history")
+    assert ax(fig, "moduli").get_window_extent(renderer).width > 0.5 * fig.bbox.width
+    assert GLASS in words and CARBON in words
