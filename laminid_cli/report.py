@@ -1656,7 +1656,31 @@ def interval_page(r: ResultFile):
                   handler_map={tuple: HandlerTuple(ndivide=None)}, title=title,
                   title_fontsize=8)
     _status_banner(fig, r)
+    _clear_bound_statements(fig, axes.flat)
     return fig
+
+
+def _clear_bound_statements(fig, axes) -> None:
+    """Remove the words "stopped on the ... search limit: no interval" of a panel where they
+    run into its profile's words: on panels made short by a long status (hybrid CM with its
+    materials' long names, 14 lines of it) the two were written over each other, neither
+    readable. The panel's triangle, its key in the legend and the words under the panel ("on
+    upper search limit") say the same."""
+    pairs = []
+    for ax in axes:
+        said = {t.get_gid(): t for t in ax.texts if t.get_gid() in ("bound-statement",
+                                                                      "profile-label")}
+        if len(said) == 2:
+            pairs.append((ax, said["bound-statement"], said["profile-label"]))
+    if not pairs:
+        return
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)                       # the constrained layout: the panels' final size
+    for ax, statement, profile in pairs:
+        if statement.get_window_extent(renderer).overlaps(profile.get_window_extent(renderer)):
+            statement.remove()
 
 
 def _mc_fixed_legend(u) -> str:

@@ -1470,3 +1470,23 @@ def test_long_material_names_are_shortened_in_the_labels_and_given_whole(long_ma
     fig, renderer, words = drawn("history")
     assert ax(fig, "moduli").get_window_extent(renderer).width > 0.5 * fig.bbox.width
     assert GLASS in words and CARBON in words
+
+
+def test_a_bound_statement_running_into_its_profiles_words_is_left_out():
+    """On interval panels made short by a long status (hybrid CM: carbon nu12 at 12x12, every
+    glass panel on a search limit with the materials' long names), "stopped on the upper
+    search limit: no interval" and "profile: flat to 0.000" were written over each other.
+    Where they overlap the statement is left out (the triangle, the legend and the words
+    under the panel say it); where they do not, both stay."""
+    from laminid_cli.report import _clear_bound_statements, _figure
+
+    fig = _figure()
+    short, tall = fig.subplots(1, 2)
+    for a, (y_statement, y_profile) in ((short, (0.6, 0.5)), (tall, (0.95, 0.05))):
+        a.annotate("stopped on\nthe upper\nsearch\nlimit: no\ninterval", (0, y_statement),
+                   fontsize=6.5, va="top", gid="bound-statement")
+        a.annotate("profile:\nflat to\n0.000", (0, y_profile), fontsize=6.5, va="bottom",
+                   gid="profile-label")
+    _clear_bound_statements(fig, [short, tall])
+    assert [t.get_gid() for t in short.texts] == ["profile-label"]
+    assert [t.get_gid() for t in tall.texts] == ["bound-statement", "profile-label"]
