@@ -1490,3 +1490,37 @@ def test_a_bound_statement_running_into_its_profiles_words_is_left_out():
     _clear_bound_statements(fig, [short, tall])
     assert [t.get_gid() for t in short.texts] == ["profile-label"]
     assert [t.get_gid() for t in tall.texts] == ["bound-statement", "profile-label"]
+
+
+def test_a_mode_left_out_by_modes_n_is_said_so_not_noise(example_frf_fit):
+    """fit-frf --band 100:700 --modes 6 of the example: the 7th mode, 651 Hz, the band's
+    tallest peak, was found and cut by --modes 6, but the chart boxed it as "its contribution
+    does not rise above the fit's residual (5 x): dropped as noise" and the terminal asked "a
+    mode missed in noise?". It is now boxed as a mode above the lowest --modes asks for, not
+    listed, and no missed peak is said."""
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from laminid_cli.frf.plot import fit_figure
+    from laminid_cli.frf.rfp import find_modes, missed_peak_notes, unlisted_stable_poles
+
+    _, fs, _ = example_frf_fit
+    fit = find_modes(fs.freq, fs.frf, bands=[(100.0, 700.0)], n_modes=6)
+    assert len(fit.modes) == 6 and [round(m.freq_hz) for m in fit.beyond] == [651]
+    beyond = [u for u in unlisted_stable_poles(fit, fs.freq) if u.reason == "beyond"]
+    assert [round(u.freq_hz[0]) for u in beyond] == [651]
+    assert not any(round(u.freq_hz[0]) == 651 for u in unlisted_stable_poles(fit, fs.freq)
+                   if u.reason != "beyond")
+    assert not [n for n in missed_peak_notes(fit, fs.freq, fs.frf) if "651" in n]
+    fig = fit_figure(fs.freq, fs.frf, fit, units=fs.units)
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    s = ax(fig, "stabilisation")
+    note = " ".join(next(t for t in s.texts if t.get_gid() == "unlisted-note")
+                    .get_text().split())
+    assert note.startswith("boxed, stable but not listed: 651 Hz")
+    assert "a mode, above the lowest that --modes asks for: not listed" in note
+    assert "dropped as noise" not in note
+    assert "boxed: stable, not listed (why: below)" in [
+        t.get_text() for t in s.get_legend().get_texts()]
+    assert np.isfinite(fit.freq_hz).all()
