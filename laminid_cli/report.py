@@ -536,7 +536,11 @@ def constants_table(ax, r: ResultFile, table=None) -> None:
         for (i, _), cell in t.get_celld().items():
             cell.set_height(heights[i] / sum(heights))
     ax.set_gid("constants")
-    ax.set_title("identified constants", fontsize=9, loc="left")
+    # one material: its name, which no row gives (S1.1's page 1 named IM7/977-2 only in the
+    # status words, and not at all where the status is ok)
+    ax.set_title("identified constants" + (f" of {next(iter(r.materials))}"
+                                           if len(r.materials) == 1 else ""),
+                 fontsize=9, loc="left")
 
 
 def frequency_rows(plate) -> tuple[list[str], list[list[str]]]:

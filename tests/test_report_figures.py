@@ -1524,3 +1524,11 @@ def test_a_mode_left_out_by_modes_n_is_said_so_not_noise(example_frf_fit):
     assert "boxed: stable, not listed (why: below)" in [
         t.get_text() for t in s.get_legend().get_texts()]
     assert np.isfinite(fit.freq_hz).all()
+
+
+def test_the_constants_table_of_one_material_names_it(s11):
+    """S1.1's page 1: the table's rows say "E1 (GPa)" ..., and the material (IM7/977-2) was
+    named nowhere on the page but in the status's words (none where the status is ok). The
+    table's title names it."""
+    fig = result_page(s11, "summary")
+    assert ax(fig, "constants").get_title(loc="left") == "identified constants of IM7/977-2"
