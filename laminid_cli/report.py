@@ -404,6 +404,7 @@ def constants_rows(r: ResultFile) -> tuple[list[str], list[list[str]]]:
             "reference (diff.)"]
     rows = []
     multi = len(r.materials) > 1
+    names, _ = material_labels(r)
     ref = r.reference
     u = r.uncertainty
     for m, c in r.materials.items():
@@ -456,7 +457,9 @@ def constants_rows(r: ResultFile) -> tuple[list[str], list[list[str]]]:
                 rtext = fmt_reference(k, rv) + ("\n(inside)" if diff == 0 else
                                                 f"\n({round(diff * 100) + 0:+d} % "
                                                 f"{'above' if diff > 0 else 'below'})")
-            rows.append([f"{m} {k} ({_unit(k)})" if multi else f"{k} ({_unit(k)})",
+            # a material name too long for the line of its constant ("G12 (GPa)") above it
+            rows.append([(f"{names[m]}{' ' if len(names[m]) <= 10 else chr(10)}{k} "
+                          f"({_unit(k)})") if multi else f"{k} ({_unit(k)})",
                          fmt_value(k, c[k]), interval, verdict,
                          fmt_value(k, r.initial.get(m, {}).get(k)), rtext])
     return head, rows
@@ -533,7 +536,11 @@ def constants_table(ax, r: ResultFile, table=None) -> None:
         for (i, _), cell in t.get_celld().items():
             cell.set_height(heights[i] / sum(heights))
     ax.set_gid("constants")
-    ax.set_title("identified constants", fontsize=9, loc="left")
+    # one material: its name, which no row gives (S1.1's page 1 named IM7/977-2 only in the
+    # status words, and not at all where the status is ok)
+    ax.set_title("identified constants" + (f" of {next(iter(r.materials))}"
+                                           if len(r.materials) == 1 else ""),
+                 fontsize=9, loc="left")
 
 
 def frequency_rows(plate) -> tuple[list[str], list[list[str]]]:
@@ -706,6 +713,9 @@ def table_notes(r: ResultFile) -> list[str]:
                         "is known of it, paper Eq. 15)," if held else "")
                      + " or is on a search limit, so its difference from the reference would "
                      "mean nothing")
+    _, shortened = material_labels(r)
+    if shortened:
+        notes.append(shortened)
     u = r.uncertainty
     for lab, text in (getattr(u, "fixed_ranges", None) or {}).items():
         notes.append(f"{lab} (fixed on a search limit): {text}")
@@ -1580,6 +1590,7 @@ def interval_page(r: ResultFile):
     """One panel per constant (rows: materials), each in its unit and on its own scale."""
     u = r.uncertainty
     mats = list(r.materials)
+    names, shortened = material_labels(r)
     fig = _figure()
     fig.suptitle(_title(r, None if r.joint else r.plates[0],
                         f"{u.confidence:.0%} confidence intervals"), fontsize=11)
@@ -1605,7 +1616,7 @@ def interval_page(r: ResultFile):
             if ax.get_yscale() == "log":
                 log_axis_ticks(ax)
                 unit += ", log scale"
-            name = f"{m}\n{k} ({unit})" if len(mats) > 1 else f"{k} ({unit})"
+            name = f"{names[m]}\n{k} ({unit})" if len(mats) > 1 else f"{k} ({unit})"
             ax.set_title(name, fontsize=9)
             ax.set_xlabel(panel_words(r, m, k, iv), fontsize=7)
     scales = {iv.scale for iv in u.intervals}
@@ -1643,11 +1654,37 @@ def interval_page(r: ResultFile):
                               for lab in u.spread_counted)
                   + " had before fixing (see page 1 for the widths given them)"
                   + _mc_fixed_legend(u))
+    if shortened:
+        title += ";\n" + "\n".join(textwrap.wrap(shortened, _wrap_width(fig, 8) - 10))
     ax_leg.legend(handles, labels, loc="center", ncol=4, fontsize=8,
                   handler_map={tuple: HandlerTuple(ndivide=None)}, title=title,
                   title_fontsize=8)
     _status_banner(fig, r)
+    _clear_bound_statements(fig, axes.flat)
     return fig
+
+
+def _clear_bound_statements(fig, axes) -> None:
+    """Remove the words "stopped on the ... search limit: no interval" of a panel where they
+    run into its profile's words: on panels made short by a long status (hybrid CM with its
+    materials' long names, 14 lines of it) the two were written over each other, neither
+    readable. The panel's triangle, its key in the legend and the words under the panel ("on
+    upper search limit") say the same."""
+    pairs = []
+    for ax in axes:
+        said = {t.get_gid(): t for t in ax.texts if t.get_gid() in ("bound-statement",
+                                                                      "profile-label")}
+        if len(said) == 2:
+            pairs.append((ax, said["bound-statement"], said["profile-label"]))
+    if not pairs:
+        return
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)                       # the constrained layout: the panels' final size
+    for ax, statement, profile in pairs:
+        if statement.get_window_extent(renderer).overlaps(profile.get_window_extent(renderer)):
+            statement.remove()
 
 
 def _mc_fixed_legend(u) -> str:
@@ -1904,19 +1941,21 @@ def history_page(r: ResultFile):
     ax_r.set_ylabel("RMS residual (%)", fontsize=8)
     hits = bound_hits(r)
     multi = len(r.materials) > 1
+    names, shortened = material_labels(r)
     shown_mod = shown_nu = 0
     fixed = {"mod": [], "nu": []}            # fixed constants: no line, named instead
     for j, lab in enumerate(hist.labels):
         col = hist.constants[:, j]
         m, k = lab.rsplit(".", 1)
+        short = f"{names.get(m, m)}.{k}"
         if m in r.materials and fixed_words(r, m, k) is not None:
-            name = lab if multi else k
+            name = short if multi else k
             fixed["nu" if k == "nu12" else "mod"].append(
                 f"{name} = {fmt_value(k, r.materials[m][k])}" if k == "nu12" else name)
             continue
         if col[0] == 0 or np.allclose(col, col[0], rtol=1e-12):
             continue                                          # never moved: flat line
-        name = lab if multi else lab.rsplit(".", 1)[-1]
+        name = short if multi else k
         is_nu = lab.endswith(".nu12")
         ax = ax_n if is_nu else ax_c
         y = col if is_nu else col / col[0]
@@ -1965,9 +2004,14 @@ def history_page(r: ResultFile):
                          if t <= low * (1 + 1e-9)]
                 if below and max(below) < lo:
                     ax.set_ylim(max(below), hi)
+    notes = []
     if hits:
-        _footer(fig, "X: constant that ended at a bound of the feasible set (not identified): "
-                + ", ".join(sorted(hits)), color=CHECK_COLOR)
+        notes.append("X: constant that ended at a bound of the feasible set (not identified): "
+                     + ", ".join(sorted(hits)))
+    if shortened and multi:
+        notes.append(shortened)
+    if notes:
+        _footer(fig, "\n".join(notes), color=CHECK_COLOR if hits else "k")
     return fig
 
 
@@ -1994,7 +2038,9 @@ def sensitivity_page(r: ResultFile, plate):
     """Heat map of the normalised sensitivities d ln f_i / d ln P_j at the optimum."""
     S = plate.sensitivity
     full = list(plate.sensitivity_labels) or [f"P{j + 1}" for j in range(S.shape[1])]
-    labels = [lab.rsplit(".", 1)[-1] for lab in full] if len(r.materials) == 1 else list(full)
+    names, shortened = material_labels(r)
+    labels = ([lab.rsplit(".", 1)[-1] for lab in full] if len(r.materials) == 1 else
+              [f"{names.get(m, m)}.{k}" for m, k in (lab.rsplit(".", 1) for lab in full)])
     # a constant that stopped on a search limit is not identified: its column is the
     # sensitivity at the limit value, said in its header and hatched (drawn as an identified
     # one's, hybrid CM's glass G12, G13, G23 and E2 at their limits read as determined)
@@ -2048,14 +2094,20 @@ def sensitivity_page(r: ResultFile, plate):
     ax.set_ylabel("measured mode i (model frequency)")
     cb = fig.colorbar(im, ax=ax, shrink=0.8)
     cb.set_label("∂ ln fᵢ / ∂ ln Pⱼ")
+    keys = []
     if on_limit:
-        names = ", ".join(labels[j].split("\n")[0] for j in on_limit)
-        key = (f"hatched, \"(on limit)\": {names} stopped on a search limit, not "
-               "identified; its column is the sensitivity at that limit value, not a "
-               "determined constant's (see the intervals page)")
+        limited = ", ".join(labels[j].split("\n")[0] for j in on_limit)
+        keys.append(f"hatched, \"(on limit)\": {limited} stopped on a search limit, not "
+                    "identified; its column is the sensitivity at that limit value, not a "
+                    "determined constant's (see the intervals page)")
+    if shortened and len(r.materials) > 1:
+        keys.append(shortened)
+    if keys:
         # (a figure label: the constrained layout keeps room for it under the axes' label)
-        fig.supxlabel("\n".join(textwrap.wrap(key, _wrap_width(fig, 8))), fontsize=8,
-                      color=LIMIT_COLOR).set_gid("on-limit-key")
+        fig.supxlabel("\n".join(ln for key in keys for ln in textwrap.wrap(
+            key, _wrap_width(fig, 8))), fontsize=8,
+            color=LIMIT_COLOR if on_limit else "k").set_gid(
+            "on-limit-key" if on_limit else "names-key")
     return fig
 
 
@@ -2420,6 +2472,50 @@ def specimen_labels(rows) -> list[str]:
     return [n if names.count(n) == 1 else str(row["name"]) for n, row in zip(names, rows)]
 
 
+#: the most characters of a specimen's name under the panels across specimens: a lab's name
+#: ("S1.1 panel B-07 (autoclave batch 2026-11, edges trimmed, re-tested after drop)"), rotated
+#: there, took the page's height from the panels (squeezed to a strip) and ran off its left
+#: edge; a longer name is shortened in the middle and given whole in the page's notes
+AXIS_NAME_CHARS = 24
+
+
+def axis_names(names, limit: int = AXIS_NAME_CHARS) -> tuple[list[str], str | None]:
+    """The specimens' names as ticks under a panel (each at most ``limit`` characters: its
+    start and end kept, "…" between), and the note naming each shortened one whole (None when
+    none is). Two names shortened alike get their place in the row after them ("#2").
+
+    >>> axis_names(["S1.1", "S1.1 panel B-07 (autoclave batch 2026-11)"])[0]
+    ['S1.1', 'S1.1 panel B-07…2026-11)']
+    """
+    head = (limit - 1) * 2 // 3
+    tail = limit - 1 - head
+    short = [n if len(n) <= limit else n[:head].rstrip() + "\u2026" + n[-tail:].lstrip()
+             for n in names]
+    short = [s if short.count(s) == 1 or s == n else f"{s} #{i + 1}"
+             for i, (s, n) in enumerate(zip(short, names))]
+    pairs = [f"{s} = {n}" for s, n in zip(short, names) if s != n]
+    return short, ("names shortened under the panels: " + "; ".join(pairs)) if pairs else None
+
+
+#: the most characters of a material's name in the labels of a result's pages (the
+#: constants table's first column, the interval panels' titles, the sensitivity columns, the
+#: history's legend): a lab's name ("E-glass 7781 woven fabric / Hexcel 913 epoxy (batch
+#: 2026-11)") hid the constant of each table row under the next cell, ran the panels' titles
+#: into each other and squeezed the history's panels to a third of the page
+MATERIAL_LABEL_CHARS = 18
+
+
+def material_labels(r: ResultFile) -> tuple[dict[str, str], str | None]:
+    """{material: its name in the pages' labels} (shortened in the middle beyond
+    :data:`MATERIAL_LABEL_CHARS`, as :func:`axis_names`), and the note naming each shortened
+    one whole (None when none is)."""
+    mats = list(r.materials)
+    short, _ = axis_names(mats, MATERIAL_LABEL_CHARS)
+    pairs = [f"{s} = {m}" for s, m in zip(short, mats) if s != m]
+    return dict(zip(mats, short)), (("materials shortened in the labels: " + "; ".join(pairs))
+                                    if pairs else None)
+
+
 MC_COLOR = "0.62"
 #: the least span of a linear panel across specimens, as a fraction of its largest value: the
 #: width of the verdicts' "well determined" band (a 95 % half-width of 5 %, either way), so
@@ -2547,6 +2643,7 @@ def constants_across_page(done, title: str, absent=()):
     gs = fig.add_gridspec(3, 3, height_ratios=[1, 1, 0.2])
     axes = np.array([fig.add_subplot(gs[i, j]) for i in range(2) for j in range(3)])
     names = specimen_labels([row for row, _, _ in done])
+    ticks, shortened = axis_names(names)
     nm = len(materials)
     width = min(0.22, 0.7 / max(nm, 1))
     offsets = {m: (c - (nm - 1) / 2) * width for c, m in enumerate(materials)}
@@ -2627,7 +2724,7 @@ def constants_across_page(done, title: str, absent=()):
             for xi, blo, bhi, color, lw, gid, marks, ls in bars:
                 _clipped_bar(ax, k, xi, blo, bhi, ymin, ymax, color, lw=lw, gid=gid,
                              marks=marks, ls=ls)
-        style_across_panel(ax, f"{k} ({_unit(k)}{', log scale' if log else ''})", names)
+        style_across_panel(ax, f"{k} ({_unit(k)}{', log scale' if log else ''})", ticks)
         if log:
             log_axis_ticks(ax)
     handles = {m: Line2D([], [], ls="none", marker="o", ms=6, color=f"C{c % 10}")
@@ -2721,6 +2818,8 @@ def constants_across_page(done, title: str, absent=()):
                         "search limit (not which one), not determined or fixed (its column "
                         "flagged), and their result files were not found; the intervals are in "
                         "the long summary.csv or summary.json")
+    if shortened:
+        notes.append(shortened)
     if notes:
         _footer(fig, "\n".join(notes), color=CHECK_COLOR)
     return fig
@@ -2754,7 +2853,8 @@ def residuals_across_page(rows, title: str):
     # reason codes and numbers are not (a code cut in two, "fixe d_rejected", reads as two)
     breakable = [r["rms_residual_percent"] is None for r in rows]
     ax.set_ylim(0, 1.3 * max(max(rms), 1e-3))          # room for the labels above the bars
-    ax.set_xticks(np.arange(len(rows)), names, rotation=45, ha="right", fontsize=8)
+    ticks, shortened = axis_names(names)
+    ax.set_xticks(np.arange(len(rows)), ticks, rotation=45, ha="right", fontsize=8)
     ax.set_ylabel("RMS residual (%)")
     ax.set_xlabel("specimen")
     # the kinds of bar drawn (a batch of which none is ok keyed a dark bar it did not have)
@@ -2763,13 +2863,19 @@ def residuals_across_page(rows, title: str):
         if c in colors]
     ax.legend(handles=[h for h, _ in kinds], labels=[t for _, t in kinds],
               loc="upper left", bbox_to_anchor=(1.01, 1), borderaxespad=0, fontsize=8)
-    if any(m.get("max_shift_half_width") is not None for m in meshes):
+    notes = []
+    checked_mesh = any(m.get("max_shift_half_width") is not None for m in meshes)
+    if checked_mesh:
         from laminid_cli.meshcheck import SHIFT_LIMIT
 
-        _footer(fig, "mesh shift (hw: 95 % half-widths): the largest first-order shift of a constant on a mesh twice "
-                     "as fine (batch --mesh-check), in units of its 95 % half-width; beyond "
-                     f"{SHIFT_LIMIT:g} the mesh is too coarse for the modes (coarse_mesh)",
-                gid="mesh-check-note")
+        notes.append("mesh shift (hw: 95 % half-widths): the largest first-order shift of a "
+                     "constant on a mesh twice as fine (batch --mesh-check), in units of its "
+                     f"95 % half-width; beyond {SHIFT_LIMIT:g} the mesh is too coarse for the "
+                     "modes (coarse_mesh)")
+    if shortened:
+        notes.append(shortened)
+    if notes:
+        _footer(fig, "\n".join(notes), gid="mesh-check-note" if checked_mesh else "names-note")
     _bar_labels(fig, ax, labels, rms, breakable)
     return fig
 

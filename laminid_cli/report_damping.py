@@ -161,6 +161,26 @@ def loss_factor_table(ax, head, rows, col_widths, fill: bool = False):
     return _advice(head, rows)
 
 
+#: the table's width on its page (in): the damping page's and the summary's tables span the
+#: page but its margins (A4 landscape)
+TABLE_WIDTH_IN = 0.93 * 11.69
+
+
+def fit_cells(rows, col_widths, *, fontsize: float = 8.0, table_in: float = TABLE_WIDTH_IN):
+    """``rows`` with each cell's lines wrapped at spaces to its column's width (``col_widths``:
+    fractions of the table's width; an average glyph 0.55 em). A loss factor's label of a long
+    material ("Hexcel IM7/977-2 unidirectional prepreg tape 0.135 mm.eta11"), a long specimen
+    name, ran under the next cell, which hid the end that says which loss factor the row is
+    (".eta1"); wrapped, the row is as tall as its lines (laminid_cli.report.row_heights)."""
+    import textwrap
+
+    chars = [max(8, int(w * table_in * 72 / (0.55 * fontsize)) - 2) for w in col_widths]
+    return [[c if len(c) <= n and "\n" not in c else "\n".join(
+                piece for line in c.split("\n") for piece in (
+                    textwrap.wrap(line, n, break_on_hyphens=False) or [""]))
+             for c, n in zip(map(str, row), chars)] for row in rows]
+
+
 def _advice(head, rows) -> str:
     """:data:`NOT_DETERMINED_ADVICE` when a row's verdict (the last column) says a loss
     factor is not determined, else ""."""
@@ -437,9 +457,9 @@ def damping_pages(d: dict, banner=None) -> list:
     from laminid_cli.report import row_heights
 
     conf = float(d.get("confidence", 0.95)) * 100
-    rows = loss_factor_rows(d)
     head = ["loss factor", "value (%)", f"{conf:.0f} % interval (%)", "verdict"]
     widths = [0.28, 0.14, 0.22, 0.36]
+    rows = fit_cells(loss_factor_rows(d), widths)
     s2 = float(d.get("s2", np.nan))
     mc = d.get("monte_carlo") or {}
     key = (f"\nMonte Carlo: {int(mc['refits'])} trials refitted the loss factors at their own "
@@ -574,10 +594,11 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
 
     from laminid_cli.damping import TERMS
     from laminid_cli.report import (FIXED_COLOR, MC_COLOR, _clipped_bar, _figure, _footer,
-                                    specimen_labels, style_across_panel)
+                                    axis_names, specimen_labels, style_across_panel)
 
     rows = [row for row in rows if row.get("damping")]
     names = specimen_labels(rows)
+    ticks, shortened = axis_names(names)
     materials: list[str] = []
     for row in rows:
         materials += [m for m in row["damping"] if m not in materials]
@@ -650,7 +671,7 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
         for xi, lo, hi, color, gid in bars:
             _clipped_bar(ax, name, xi, lo, hi, 0.0, ymax, color,
                          lw=2.2 if color == MC_COLOR else 1.2, gid=gid)
-        style_across_panel(ax, f"\u03b7{k} (%)", names)
+        style_across_panel(ax, f"\u03b7{k} (%)", ticks)
         ax.set_ylabel("loss factor (%)", fontsize=8)
     handles = {m: Line2D([], [], ls="none", marker="o", ms=6, color=f"C{c % 10}")
                for c, m in enumerate(materials)}
@@ -682,15 +703,16 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
             "energy shares are computed with the identified elastic constants, taken as exact"
             + (" (the Monte Carlo ranges count the free constants' doubt too)" if has_mc
                else "") + ". Measured vs model damping of each mode and the energy shares: the damping page of "
-            "each result's report (laminid report <result>.h5).", color="0.25")
+            "each result's report (laminid report <result>.h5)."
+            + (f"\n{shortened}" if shortened else ""), color="0.25")
     return fig
 
 
 def loss_factor_table_pages(rows, title: str, confidence: float | None = None) -> list:
     """The loss factors of every specimen of a summary as the table of a result's damping
     page (:func:`loss_factor_rows`, verdicts in the same words and colours), a specimen
-    column in front; :data:`SUMMARY_TABLE_ROWS` rows a page."""
-    from laminid_cli.report import _figure, _footer, specimen_labels
+    column in front; :data:`SUMMARY_TABLE_ROWS` lines a page."""
+    from laminid_cli.report import _figure, _footer, row_heights, specimen_labels
 
     rows = [row for row in rows if row.get("damping")]
     table = []
@@ -701,15 +723,22 @@ def loss_factor_table_pages(rows, title: str, confidence: float | None = None) -
     head = ["specimen", "loss factor", "value (%)",
             f"{_confidence_words(confidence)}interval (%)".capitalize()
             if not confidence else f"{100 * confidence:.0f} % interval (%)", "verdict"]
-    chunks = [table[i:i + SUMMARY_TABLE_ROWS] for i in range(0, len(table),
-                                                            SUMMARY_TABLE_ROWS)]
+    widths = [0.14, 0.26, 0.1, 0.16, 0.34]
+    table = fit_cells(table, widths)
+    # SUMMARY_TABLE_ROWS one-line rows a page: a row wrapped to more lines counts as more
+    # (row_heights)
+    chunks: list[list] = [[]]
+    for row in table:
+        if chunks[-1] and sum(row_heights(head, chunks[-1] + [row])[1:]) > SUMMARY_TABLE_ROWS:
+            chunks.append([])
+        chunks[-1].append(row)
     figs = []
     for n, chunk in enumerate(chunks, start=1):
         fig = _figure()
         more = f" ({n}/{len(chunks)})" if len(chunks) > 1 else ""
         fig.suptitle(f"{title}: ply loss factors of each specimen{more}", fontsize=11)
         ax = fig.subplots()
-        advice = loss_factor_table(ax, head, chunk, [0.14, 0.26, 0.1, 0.16, 0.34])
+        advice = loss_factor_table(ax, head, chunk, widths)
         if advice:
             _footer(fig, advice, gid="loss-factor-note")
         figs.append(fig)

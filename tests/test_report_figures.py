@@ -1343,3 +1343,192 @@ def test_sensitivity_cells_in_the_terminals_digits():
             for t in a.texts}
     assert cell == {(0, 0): "0.412", (0, 1): "0.000", (1, 0): "0.000", (1, 1): "-0.004",
                     (2, 0): "0.000", (2, 1): "-0.001"}
+
+
+def test_long_specimen_names_are_shortened_under_the_panels_and_given_whole(tmp_path):
+    """A lab's specimen names ("S1.1 panel B-07 (autoclave batch 2026-11, ...)") as they were
+    under the panels across specimens, rotated: they took the page's height from the panels
+    (squeezed to strips of a few pixels) and ran off its left edge. Each is shortened in the
+    middle under the panels, the panels keep their height, every tick label is inside the
+    page, and the note under the panels gives each name whole."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from tests.test_report import _write_summary
+
+    q, r = _one_material_rows()
+    long_q = "S1.1 panel B-07 (autoclave batch 2026-11, edges trimmed, re-tested after drop)"
+    long_r = "S1.2 panel B-08 (autoclave batch 2026-11, edges trimmed)"
+    rows = [q | {"name": "B-07", "specimen": long_q}, r | {"name": "B-08", "specimen": long_r}]
+    path = tmp_path / "summary.json"
+    _write_summary(path, rows)
+    pages = {p.name: p.figure for p in report_pages(path)}
+    for name, gid in (("constants", "across-E1"), ("residuals", "rms")):
+        fig = pages[name]
+        renderer = FigureCanvasAgg(fig).get_renderer()
+        fig.draw(renderer)
+        a = ax(fig, gid)
+        ticks = [t for t in a.get_xticklabels() if t.get_text()]
+        assert len(ticks) == 2 and all(len(t.get_text()) <= 24 for t in ticks)
+        for t in ticks:
+            box = t.get_window_extent(renderer)
+            assert box.x0 >= 0 and box.y0 >= 0, (name, t.get_text(), box)
+        # the panels are not squeezed by their ticks
+        assert a.get_window_extent(renderer).height > 0.2 * fig.bbox.height, name
+        words = " ".join(t.get_text() for t in fig.texts).replace("\n", " ")
+        words = " ".join(words.split())
+        assert long_q in words and long_r in words, name
+
+
+def test_loss_factor_labels_of_a_long_material_name_stay_inside_their_cells():
+    """A loss factor of a material with a long name ("Hexcel IM7/977-2 unidirectional prepreg
+    tape 0.135 mm.eta11") ran under the next cell of the damping page's table, which hid the
+    end that says which loss factor the row is (".eta1" of every row read alike). The label is
+    wrapped to its column: each cell's text inside the cell, the loss factor's term whole."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from laminid_cli.report_damping import damping_pages
+
+    mat = "Hexcel IM7/977-2 unidirectional prepreg tape 0.135 mm"
+    d = _damping_data("")
+    d["labels"] = [lab.replace("M.", f"{mat}.") for lab in d["labels"]]
+    fig = damping_pages(d)[0]
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    table = ax(fig, "loss-factors").tables[0]
+    labels = []
+    for (i, j), cell in table.get_celld().items():
+        box, text = cell.get_window_extent(renderer), cell.get_text()
+        t = text.get_window_extent(renderer)
+        assert box.x0 - 0.5 <= t.x0 and t.x1 <= box.x1 + 0.5, text.get_text()
+        if i > 0 and j == 0:
+            labels.append(" ".join(text.get_text().split()))
+    assert sorted(labels) == sorted(d["labels"])
+
+
+GLASS = "E-glass 7781 woven fabric / Hexcel 913 epoxy (batch 2026-11)"
+CARBON = "Toray T300 carbon / R367 epoxy UD prepreg tape (Structil CTE235)"
+
+
+@pytest.fixture(scope="module")
+def long_materials(tmp_path_factory):
+    """A two-material plate (S1.1's, its plies tagged) whose materials have a lab's long
+    names, identified at 4x4 with G13, G23, nu12 fixed (under a second). Read only."""
+    folder = tmp_path_factory.mktemp("long-materials")
+    spec = folder / "two.yaml"
+    spec.write_text(
+        "name: two\ngeometry: {a: 210.5 mm, b: 311 mm, h: 3.06 mm}\nmass: 0.3225 kg\n"
+        "materials:\n"
+        f'  "{GLASS}": {{E1: 40 GPa, E2: 10 GPa, G12: 4 GPa, G13: 3.5 GPa, G23: 3.5 GPa, '
+        "nu12: 0.28, density_ratio: 1.3, fixed: [G13, G23, nu12]}\n"
+        f'  "{CARBON}": {{E1: 117.2 GPa, E2: 8.8 GPa, G12: 3.1 GPa, G13: 3.1 GPa, '
+        "G23: 3.1 GPa, nu12: 0.35, density_ratio: 1.0, fixed: [G13, G23, nu12]}\n"
+        'layup: "[45_3:E/0_3:T/-45_3:E/90_3:T]s"\n'
+        "measured:\n  frequencies: [125.05, 203.50, 331.30, 446.65, 493.55, 603.80, 650.75, "
+        "818.70, 951.35, 990.65]\n")
+    out = folder / "two.result.h5"
+    res = run("identify", spec, "--mesh", "4x4", "-o", out)
+    assert res.exit_code == 0, res.output
+    return out
+
+
+def test_long_material_names_are_shortened_in_the_labels_and_given_whole(long_materials):
+    """A lab's material names ("E-glass 7781 woven fabric / Hexcel 913 epoxy (batch
+    2026-11)") were written whole in the labels: the constants table's first column ran under
+    the next cell, which hid the constant of each row ("...fabric / Hexcel 913 epoxy (" for
+    E1 to G23 alike), the interval panels' titles ran into each other, the history's legend
+    took two thirds of its page's width. Each name is shortened in the middle in the labels
+    (the constant whole, under it in the table), every table cell's text is inside its cell,
+    the titles do not overlap, and the notes give each name whole."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.text import Text
+
+    def drawn(name):
+        fig = result_page(long_materials, name)
+        renderer = FigureCanvasAgg(fig).get_renderer()
+        fig.draw(renderer)
+        words = " ".join(" ".join(t.get_text() for t in fig.findobj(Text)).split())
+        return fig, renderer, words
+
+    fig, renderer, words = drawn("summary")
+    table = ax(fig, "constants").tables[0]
+    firsts = []
+    for (i, j), cell in table.get_celld().items():
+        box, t = cell.get_window_extent(renderer), cell.get_text().get_window_extent(renderer)
+        assert box.x0 - 0.5 <= t.x0 and t.x1 <= box.x1 + 0.5, cell.get_text().get_text()
+        if i > 0 and j == 0:
+            firsts.append(cell.get_text().get_text().split("\n")[-1])
+    assert sorted(firsts) == sorted(f"{k} ({'–' if k == 'nu12' else 'GPa'})"
+                                    for k in ("E1", "E2", "G12", "G13", "G23", "nu12")
+                                    for _ in range(2))
+    assert GLASS in words and CARBON in words
+    fig, renderer, words = drawn("intervals")
+    titles = [a.title for a in fig.axes if (a.get_gid() or "").startswith("interval-")]
+    boxes = sorted((t.get_window_extent(renderer) for t in titles), key=lambda b: (b.y0, b.x0))
+    for p, q in zip(boxes, boxes[1:]):
+        assert not (p.x1 > q.x0 + 0.5 and abs(p.y0 - q.y0) < 1), (p, q)
+    assert GLASS in words and CARBON in words
+    fig, renderer, words = drawn("history")
+    assert ax(fig, "moduli").get_window_extent(renderer).width > 0.5 * fig.bbox.width
+    assert GLASS in words and CARBON in words
+
+
+def test_a_bound_statement_running_into_its_profiles_words_is_left_out():
+    """On interval panels made short by a long status (hybrid CM: carbon nu12 at 12x12, every
+    glass panel on a search limit with the materials' long names), "stopped on the upper
+    search limit: no interval" and "profile: flat to 0.000" were written over each other.
+    Where they overlap the statement is left out (the triangle, the legend and the words
+    under the panel say it); where they do not, both stay."""
+    from laminid_cli.report import _clear_bound_statements, _figure
+
+    fig = _figure()
+    short, tall = fig.subplots(1, 2)
+    for a, (y_statement, y_profile) in ((short, (0.6, 0.5)), (tall, (0.95, 0.05))):
+        a.annotate("stopped on\nthe upper\nsearch\nlimit: no\ninterval", (0, y_statement),
+                   fontsize=6.5, va="top", gid="bound-statement")
+        a.annotate("profile:\nflat to\n0.000", (0, y_profile), fontsize=6.5, va="bottom",
+                   gid="profile-label")
+    _clear_bound_statements(fig, [short, tall])
+    assert [t.get_gid() for t in short.texts] == ["profile-label"]
+    assert [t.get_gid() for t in tall.texts] == ["bound-statement", "profile-label"]
+
+
+def test_a_mode_left_out_by_modes_n_is_said_so_not_noise(example_frf_fit):
+    """fit-frf --band 100:700 --modes 6 of the example: the 7th mode, 651 Hz, the band's
+    tallest peak, was found and cut by --modes 6, but the chart boxed it as "its contribution
+    does not rise above the fit's residual (5 x): dropped as noise" and the terminal asked "a
+    mode missed in noise?". It is now boxed as a mode above the lowest --modes asks for, not
+    listed, and no missed peak is said."""
+    import numpy as np
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from laminid_cli.frf.plot import fit_figure
+    from laminid_cli.frf.rfp import find_modes, missed_peak_notes, unlisted_stable_poles
+
+    _, fs, _ = example_frf_fit
+    fit = find_modes(fs.freq, fs.frf, bands=[(100.0, 700.0)], n_modes=6)
+    assert len(fit.modes) == 6 and [round(m.freq_hz) for m in fit.beyond] == [651]
+    beyond = [u for u in unlisted_stable_poles(fit, fs.freq) if u.reason == "beyond"]
+    assert [round(u.freq_hz[0]) for u in beyond] == [651]
+    assert not any(round(u.freq_hz[0]) == 651 for u in unlisted_stable_poles(fit, fs.freq)
+                   if u.reason != "beyond")
+    assert not [n for n in missed_peak_notes(fit, fs.freq, fs.frf) if "651" in n]
+    fig = fit_figure(fs.freq, fs.frf, fit, units=fs.units)
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    s = ax(fig, "stabilisation")
+    note = " ".join(next(t for t in s.texts if t.get_gid() == "unlisted-note")
+                    .get_text().split())
+    assert note.startswith("boxed, stable but not listed: 651 Hz")
+    assert "a mode, above the lowest that --modes asks for: not listed" in note
+    assert "dropped as noise" not in note
+    assert "boxed: stable, not listed (why: below)" in [
+        t.get_text() for t in s.get_legend().get_texts()]
+    assert np.isfinite(fit.freq_hz).all()
+
+
+def test_the_constants_table_of_one_material_names_it(s11):
+    """S1.1's page 1: the table's rows say "E1 (GPa)" ..., and the material (IM7/977-2) was
+    named nowhere on the page but in the status's words (none where the status is ok). The
+    table's title names it."""
+    fig = result_page(s11, "summary")
+    assert ax(fig, "constants").get_title(loc="left") == "identified constants of IM7/977-2"

@@ -170,6 +170,8 @@ def unlisted_note(unlisted, criteria, width: int = 150) -> str:
 
     from laminid_cli.frf.rfp import EDGE_LINES
 
+    not_listed = ("not listed" if any(u.reason == "beyond" for u in unlisted)
+                  else "not a mode")
     if len(unlisted) > MAX_NOTE_GROUPS:
         def count(reason):
             return sum(1 for u in unlisted if u.reason == reason)
@@ -184,10 +186,11 @@ def unlisted_note(unlisted, criteria, width: int = 150) -> str:
             (count("damping"), f"damping outside 0–{criteria.max_damping:.0%} (not physical "
                                "modes)"),
             (count("noise"), f"not above the fit's residual ({criteria.min_snr:g} x; dropped "
-                             "as noise)")]
+                             "as noise)"),
+            (count("beyond"), "modes above the lowest that --modes asks for (not listed)")]
         lo = min(u.freq_hz[0] for u in unlisted)
         hi = max(u.freq_hz[1] for u in unlisted)
-        text = (f"boxed, stable but not a mode: {len(unlisted)} groups of poles, "
+        text = (f"boxed, stable but {not_listed}: {len(unlisted)} groups of poles, "
                 f"{lo:.0f}–{hi:.0f} Hz: " + "; ".join(f"{n} {why}" for n, why in rules if n)
                 + ". So many: noisy FRFs (see the coherence) or too wide bands; try --band "
                   "LO:HI")
@@ -209,11 +212,13 @@ def unlisted_note(unlisted, criteria, width: int = 150) -> str:
                    "band (a pole there stands for the modes beyond it)")
         elif u.reason == "damping":
             why = (f"damping outside 0–{criteria.max_damping:.0%}: not a physical mode")
+        elif u.reason == "beyond":
+            why = "a mode, above the lowest that --modes asks for: not listed"
         else:
             why = (f"its contribution does not rise above the fit's residual ({criteria.min_snr:g}"
                    " x): dropped as noise")
         parts.append(f"{where} ({orders}): {why}")
-    text = "boxed, stable but not a mode: " + "; ".join(parts)
+    text = f"boxed, stable but {not_listed}: " + "; ".join(parts)
     return "\n".join(textwrap.wrap(text, width))
 
 
@@ -279,7 +284,8 @@ def fit_figure(freq, frf, fit, *, title: str = "", units: str = "", coherence=No
     if unlisted:
         handles.append(Line2D([], [], ls="none", marker="s", ms=9, mfc="none", mew=0.9,
                               color=UNLISTED_COLOR))
-        labels.append("boxed: stable, not a mode (why: below)")
+        labels.append("boxed: stable, not " + ("listed" if any(
+            u.reason == "beyond" for u in unlisted) else "a mode") + " (why: below)")
     for m in fit.modes:
         ax_s.axvline(m.freq_hz, color="0.35", ls="--", lw=0.6)
     ax_s2 = ax_s.twinx()

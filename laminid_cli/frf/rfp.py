@@ -249,11 +249,14 @@ class ModalFit:
     modes : identified modes sorted by frequency
     bands : one :class:`BandFit` per band
     criteria : the criteria used
+    beyond : modes found above the ``n_modes`` lowest that :func:`find_modes` was asked
+        for (``--modes``), not in ``modes``
     """
 
     modes: tuple[Mode, ...]
     bands: tuple[BandFit, ...]
     criteria: PoleCriteria = field(default_factory=PoleCriteria)
+    beyond: tuple[Mode, ...] = ()
 
     @property
     def freq_hz(self) -> np.ndarray:
@@ -693,7 +696,8 @@ class UnlistedPoles:
     n_stable : orders at which their track is stable in frequency and damping; reason :
     'few' (fewer than ``min_stable``: a computational pole), 'edge' (within
     :data:`EDGE_LINES` lines of the band's edge), 'damping' (outside (0, max_damping]) or
-    'noise' (its contribution did not rise above the fit residual, ``min_snr``); edge_hz :
+    'noise' (its contribution did not rise above the fit residual, ``min_snr``) or
+    'beyond' (a mode, above the ``n_modes`` lowest asked for: ``ModalFit.beyond``); edge_hz :
     the band edge it lies near (within 5 % of the band's width), or None
     """
 
@@ -716,6 +720,7 @@ def unlisted_stable_poles(fit: ModalFit, freq) -> list[UnlistedPoles]:
     df = float(np.median(np.diff(np.asarray(freq, float))))
     margin = EDGE_LINES * df
     listed = fit.freq_hz
+    beyond = np.array([m.freq_hz for m in getattr(fit, "beyond", ())])
     out = []
     for k, band in enumerate(fit.bands):
         ch = band.chart
@@ -734,6 +739,12 @@ def unlisted_stable_poles(fit: ModalFit, freq) -> list[UnlistedPoles]:
                 reason = ("damping" if track.size >= crit.min_stable
                           and not 0 < zmed <= crit.max_damping else "few")
                 n_stable = int(track.size)
+            elif beyond.size and np.min(np.abs(beyond - c.freq_hz)) <= max(
+                    0.01 * c.freq_hz, 2 * df):
+                # a mode the fit found, left out by --modes N (it was said to be noise, next
+                # to the tallest peak of the band)
+                reason = "beyond"
+                n_stable = c.orders_stable
             else:
                 reason = ("noise" if lo + margin <= c.freq_hz <= hi - margin else "edge")
                 n_stable = c.orders_stable
@@ -1100,8 +1111,11 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
             raise FrfError(f"asked for {n_modes} modes but the band(s) {where} Hz hold only "
                            f"{len(modes)} stable modes" + (f" ({listed} Hz)" if modes else "")
                            + "; widen the bands or ask fewer modes")
-        modes = modes[:n_modes]
-    return ModalFit(modes=tuple(modes), bands=tuple(band_fits), criteria=criteria)
+        modes, beyond = modes[:n_modes], modes[n_modes:]
+    else:
+        beyond = []
+    return ModalFit(modes=tuple(modes), bands=tuple(band_fits), criteria=criteria,
+                    beyond=tuple(beyond))
 
 
 def _merge_narrow(plan, freq, n_points: int, criteria) -> list:
@@ -1449,7 +1463,8 @@ def missed_peak_notes(fit: ModalFit, freq, frf) -> list[str]:
 
     freq = np.asarray(freq, float)
     peaks, props = find_peaks(summed_db(frf), prominence=MISSED_PEAK_DB)
-    found = fit.freq_hz
+    # (a mode found above the n lowest asked for is no mode missed)
+    found = np.concatenate([fit.freq_hz, [m.freq_hz for m in getattr(fit, "beyond", ())]])
     step = float(np.median(np.diff(freq))) if freq.size > 1 else 0.0
     notes = []
     for i, prom in zip(peaks, props["prominences"]):
