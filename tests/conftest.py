@@ -103,3 +103,26 @@ def s21_8x8_terminal():
     r = run("identify", "specimens/example2/S2.1.yaml", "--mesh", "8x8", "--no-output")
     assert r.exit_code == 0, r.output
     return r.output
+
+
+
+@pytest.fixture(autouse=True)
+def _no_thread_left():
+    """Every test leaves the process's threads as it found them: a thread that a command
+    started and left alive (a Monte Carlo run in the calling process once left one per run,
+    watching its parent) makes every later HDF5 probe of that process start an interpreter
+    instead of forking (frf.store._fork_is_safe), and in a user's batch it outlives the
+    specimen. A new thread still alive 2 s after the test is an error of the test."""
+    import threading
+    import time
+
+    before = {t.ident for t in threading.enumerate()}
+    yield
+    deadline = time.monotonic() + 2.0
+    left = [t for t in threading.enumerate() if t.ident not in before]
+    for t in left:
+        t.join(max(0.0, deadline - time.monotonic()))
+    alive = [t for t in left if t.is_alive()]
+    if alive:
+        pytest.fail("the test left threads running: " + ", ".join(
+            f"{t.name} ({type(t).__name__}{', daemon' if t.daemon else ''})" for t in alive))
