@@ -1367,9 +1367,47 @@ def _measured_from_frf(r: _Reader, m: dict) -> Measured:
                                  f"{100 * DEFAULT_SIGMA_REL:g} % of f")
 
 
+#: "value ± half-width" in a reference ("170 ± 1 GPa"; "+/-" and "+-" for keyboards without ±)
+_PLUS_MINUS = re.compile(r"\s*(?:±|\+/-|\+-)\s*")
+_LEADING_NUMBER = re.compile(r"^\s*[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+
+
+def _plus_minus(r: _Reader, y: _Y, kind: str) -> tuple[float, float]:
+    """``(value, half-width)`` in SI of a reference written "value ± half-width": the unit
+    written once at the end applies to both ("170 ± 1 GPa", as tables print it), or written
+    on both ("170 GPa ± 1 GPa"); a half-width in per cent of the value ("170 GPa ± 2 %")."""
+    text = str(y.value)
+    parts = _PLUS_MINUS.split(text)
+    if len(parts) != 2 or not parts[0].strip() or not parts[1].strip():
+        raise r.error(y, f"'{text}': write a value and its half-width as '170 ± 1 GPa' "
+                         "(or [low, high])")
+    centre, half = (p.strip() for p in parts)
+    where = r.where(y)
+    if half.endswith("%"):
+        value = parse_quantity(centre, kind, where=where)
+        share = parse_quantity(half[:-1].strip(), "dimensionless", where=where)
+        return value, abs(value) * share / 100.0
+    number = _LEADING_NUMBER.match(centre)
+    if number is not None and number.end() == len(centre):
+        # the centre's unit is the half-width's ('170 ± 1 GPa')
+        lead = _LEADING_NUMBER.match(half)
+        centre = centre + (half[lead.end():] if lead is not None else "")
+    return parse_quantity(centre, kind, where=where), parse_quantity(half, kind, where=where)
+
+
 def _reference_value(r: _Reader, y: _Y, kind: str) -> float | tuple[float, float]:
-    """A reference value, or ``(low, high)`` for a range ``[low, high]`` (kept as a range:
-    its midpoint is no value anyone measured)."""
+    """A reference value, or ``(low, high)`` for a range ``[low, high]`` or "value ±
+    half-width" (kept as a range: its midpoint is no value anyone measured; a half-width read
+    as the range the source gives, whatever its confidence)."""
+    if isinstance(y.value, str) and _PLUS_MINUS.search(y.value):
+        value, half = _plus_minus(r, y, kind)
+        if half < 0:
+            raise r.error(y, f"'{y.value}': the half-width after ± must not be negative")
+        low, high = value - half, value + half
+        if kind == "modulus" and low <= 0:
+            raise r.error(y, f"'{y.value}' reaches down to {low / 1e9:.4g} GPa: a reference "
+                             "modulus must be positive")
+        return low if half == 0 else (low, high)
     if isinstance(y.value, list):
         if len(y.value) != 2:
             raise r.error(y, "a range is written [low, high]")

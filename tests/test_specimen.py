@@ -585,6 +585,24 @@ def test_reference_range_of_a_material_kept_as_written():
                                                     "G12": 5e9}}
 
 
+@pytest.mark.parametrize("written, expected", [
+    ("170 ± 1 GPa", (169e9, 171e9)),            # the unit once, at the end, as tables print it
+    ("170 GPa ± 1 GPa", (169e9, 171e9)),
+    ("170+-1GPa", (169e9, 171e9)),
+    ("170 GPa +/- 2 %", (166.6e9, 173.4e9)),     # a half-width in per cent of the value
+    ("150 ± 0 GPa", 150e9),                      # no half-width: the one value
+])
+def test_reference_written_value_plus_minus_is_its_range(written, expected):
+    """"170 ± 1 GPa" (the paper's Table 2, as labs write it) was refused: unknown unit '± 1
+    GPa'. It is the range [169, 171] GPa, (low, high) in SI as [low, high] gives it."""
+    spec = load_specimen_text(edit(BASE, "frequencies: [100, 200, 300]",
+                                   "frequencies: [100, 200, 300]\nreference:\n  materials: "
+                                   f"{{CFRP: {{E1: {written}, nu12: 0.35 ± 0.02}}}}"))
+    got = spec.reference["materials"]["CFRP"]
+    assert got["E1"] == pytest.approx(expected, rel=1e-12)
+    assert got["nu12"] == pytest.approx((0.33, 0.37), rel=1e-12)
+
+
 ALUMINIUM = """\
 geometry: {a: 300 mm, b: 200 mm, h: 3 mm}
 mass: 486 g
