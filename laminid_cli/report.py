@@ -1877,6 +1877,32 @@ def revisits(constants) -> np.ndarray:
     return (first[np.ravel(inverse)] < np.arange(n) - 1) & ~same_as_previous
 
 
+def marker_offsets(values, log: bool, step: float = 9.0) -> list[float]:
+    """Horizontal offsets (points) for markers at ``values`` drawn at one abscissa, so that
+    those that would cover each other (within 4 % on a log axis, 0.03 on a linear one) stand
+    side by side, ``step`` apart and centred on it; 0 for a marker alone.
+
+    >>> marker_offsets([0.0015, 0.0015, 12.0, 0.00151], log=True)
+    [-9.0, 0.0, 0.0, 9.0]
+    >>> marker_offsets([0.95, 0.5], log=False)
+    [0.0, 0.0]
+    """
+    v = np.asarray(values, float)
+    key = np.log(np.abs(v) + 1e-300) if log else v
+    near = 0.04 if log else 0.03
+    out = [0.0] * v.size
+    order = sorted(range(v.size), key=lambda i: (key[i], i))
+    group: list[int] = []
+    for i in order + [None]:
+        if i is not None and group and key[i] - key[group[-1]] <= near:
+            group.append(i)
+            continue
+        for k, j in enumerate(sorted(group)):
+            out[j] = (k - (len(group) - 1) / 2) * step
+        group = [] if i is None else [i]
+    return out
+
+
 def history_page(r: ResultFile):
     """Objective, RMS residual and the free constants / initial value per evaluation."""
     hist = r.history
@@ -1944,6 +1970,7 @@ def history_page(r: ResultFile):
     names, shortened = material_labels(r)
     shown_mod = shown_nu = 0
     fixed = {"mod": [], "nu": []}            # fixed constants: no line, named instead
+    ends = []                                # (axes, last value, colour, label) at a bound
     for j, lab in enumerate(hist.labels):
         col = hist.constants[:, j]
         m, k = lab.rsplit(".", 1)
@@ -1962,12 +1989,23 @@ def history_page(r: ResultFile):
         style = "--" if (shown_nu if is_nu else shown_mod) >= 10 else "-"
         (line,) = ax.plot(ev[on], y[on], style, lw=1.2, label=name, gid=f"history-{lab}")
         if lab in hits:
-            ax.plot(ev[-1], y[-1], "X", ms=9, color=line.get_color(), mec="k", zorder=5,
-                    gid=f"bound-{lab}")
+            ends.append((ax, float(y[-1]), line.get_color(), lab))
         if is_nu:
             shown_nu += 1
         else:
             shown_mod += 1
+    from matplotlib.transforms import offset_copy
+
+    for ax in (ax_c, ax_n):
+        mine = [e for e in ends if e[0] is ax]
+        # the X of each constant at a bound, side by side where they fall on one another
+        # (hybrid CM's glass G12, G13 and G23 all end at 1e-4 E1 from the same initial
+        # value: one X showed, the others' colours hidden under it)
+        shifts = marker_offsets([e[1] for e in mine], log=ax is ax_c)
+        for (_, value, color, lab), dx in zip(mine, shifts):
+            ax.plot(ev[-1], value, "X", ms=9, color=color, mec="k", zorder=5,
+                    gid=f"bound-{lab}",
+                    transform=offset_copy(ax.transData, fig=fig, x=dx, units="points"))
     ax_c.set_yscale("log")
     ax_c.axhline(1, color="k", lw=0.5)
     ax_c.set_ylabel("modulus / initial value", fontsize=8)

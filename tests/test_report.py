@@ -348,6 +348,46 @@ def test_no_page_of_a_result_needs_mathtext(checked, checked_pages):
     assert sens.axes[1].get_ylabel() == "∂ ln fᵢ / ∂ ln Pⱼ"
 
 
+def test_history_bound_marks_that_coincide_stand_side_by_side(checked):
+    """Constants that end at one bound from one initial value (hybrid CM's glass G12, G13 and
+    G23 at 1e-4 E1) end on the same point of the history's panel: one X showed, the others'
+    colours hidden under it. They stand side by side now, 9 points apart, at the same height;
+    a lone X stays at the last evaluation."""
+    import dataclasses
+
+    from laminid_cli.report import history_page, marker_offsets
+
+    assert marker_offsets([0.0015, 0.0015, 12.0, 0.00151], log=True) == [-9.0, 0.0, 0.0, 9.0]
+    assert marker_offsets([0.95, 0.5], log=False) == [0.0, 0.0]
+    res = read_result(checked)
+    h = res.history
+    labels = list(h.labels)
+    C = h.constants.copy()
+    g13, g23 = labels.index(f"{MAT}.G13"), labels.index(f"{MAT}.G23")
+    C[:, g13] = C[:, g23] / C[0, g23] * C[0, g13]         # the same ratio to its start
+    u = res.uncertainty
+    ivs = tuple(dataclasses.replace(iv, at_bound=True) if iv.label == f"{MAT}.G13" else iv
+                for iv in u.intervals)
+    res = dataclasses.replace(res, history=dataclasses.replace(h, constants=C),
+                              uncertainty=dataclasses.replace(u, intervals=ivs))
+    fig = history_page(res)
+    fig.canvas.draw()
+    marks = {ln.get_gid(): ln for a in fig.axes for ln in a.get_lines()
+             if (ln.get_gid() or "").startswith("bound-")}
+    assert sorted(marks) == [f"bound-{MAT}.G13", f"bound-{MAT}.G23"]
+    (x13, y13), (x23, y23) = (marks[f"bound-{MAT}.{k}"].get_transform().transform(
+        marks[f"bound-{MAT}.{k}"].get_xydata())[0] for k in ("G13", "G23"))
+    assert abs(x23 - x13) == pytest.approx(9.0 * fig.dpi / 72.0, rel=1e-6)
+    assert y13 == pytest.approx(y23, abs=1e-6)
+    plain = history_page(read_result(checked))          # G23 alone: at the last evaluation
+    plain.canvas.draw()
+    mark = next(ln for a in plain.axes for ln in a.get_lines()
+                if ln.get_gid() == f"bound-{MAT}.G23")
+    a = mark.axes
+    assert mark.get_transform().transform(mark.get_xydata())[0][0] == pytest.approx(
+        a.transData.transform((res.history.evaluation[-1], 1.0))[0], abs=1e-6)
+
+
 def test_history_on_log_scales_with_bound_hits(checked, checked_pages):
     from laminid_cli.report import power_of_ten
 
