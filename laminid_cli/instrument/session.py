@@ -57,6 +57,14 @@ class NoOperatorInput(LaminidError):
     exit_code = 2
 
 
+class PointNotWritten(LaminidError):
+    """A measured point could not be written (the disk full, the folder gone or read-only):
+    the session stops, the file holds the points saved before (exit 2, as for any file the
+    file system refuses)."""
+
+    exit_code = 2
+
+
 @dataclass(frozen=True)
 class SessionOptions:
     """How the session runs.
@@ -216,8 +224,14 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
                         f"({m.freq.size} lines, {m.freq[0]:g}-{m.freq[-1]:g} Hz; the file has "
                         f"{writer.freq.size}, {writer.freq[0]:g}-{writer.freq[-1]:g} Hz); were "
                         "the analyser's settings changed on its front panel?")
-                writer.add_point(label, m.frf, m.coherence, n_averages=m.n_averages,
-                                 overloads=m.overloads, replace=replace)
+                try:
+                    writer.add_point(label, m.frf, m.coherence, n_averages=m.n_averages,
+                                     overloads=m.overloads, replace=replace)
+                except OSError as exc:
+                    raise PointNotWritten(
+                        f"point {label}: cannot write {exc.filename or writer.path}: "
+                        f"{exc.strerror or exc}; point {label} not saved (free some space or "
+                        "fix the folder, then resume)") from exc
                 quality = assess_point(label, m, options.coherence_min)
                 ui.summary(quality)
                 if quality.ok or not options.prompt or not ui.repeat(quality):
@@ -238,6 +252,10 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
         _stop(analyser)
         raise _stopped(NoOperatorInput(_saved_message(str(exc), writer, options)),
                        result, writer) from None
+    except PointNotWritten as exc:
+        _stop(analyser)
+        raise _stopped(PointNotWritten(_saved_message(str(exc), writer, options)),
+                       result, writer) from exc.__cause__
     except InstrumentError as exc:
         _stop(analyser)
         raise _stopped(InstrumentError(_saved_message(str(exc), writer, options)),

@@ -136,3 +136,51 @@ def test_quality_uses_coherence_at_the_resonances_not_the_antiresonances():
     assert q.ok and q.peak_freq_hz == 50.0 and q.peak_coherence == pytest.approx(0.97)
     assert q.line() == ("point 7: 5 hits, coherence at resonances 0.970 (peak 0.970 at 50.0 Hz), "
                         "overloads 0 - ok")
+
+
+FULL_DISK_SCRIPT = """
+import resource, signal, sys
+import numpy as np
+from pathlib import Path
+from laminid_cli.frf.store import FrfWriter
+from laminid_cli.instrument.session import PointNotWritten, SessionOptions, run_session
+from tests.instrument.test_session import SETTINGS, FakeAnalyser, ScriptUI
+
+path = Path(sys.argv[1])
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)      # a write past the limit: EFBIG, as ENOSPC
+w = FrfWriter(path, np.linspace(0.0, 100.0, 51), units="Pa/N")
+w.add_point("1", np.ones(51), np.ones(51))
+size = path.stat().st_size
+resource.setrlimit(resource.RLIMIT_FSIZE, (size + 200, size + 200))   # no room for point 2
+fake = FakeAnalyser([0.99, 0.99])
+try:
+    run_session(fake, w, SETTINGS, SessionOptions(n_points=3, prompt=False,
+                                                  resume_hint="laminid ... --resume"), ScriptUI())
+except PointNotWritten as exc:
+    print("exit", exc.exit_code, "aborted", fake.aborted, "saved", exc.result.n_saved)
+    print(exc)
+"""
+
+
+def test_a_full_disk_stops_the_session_cleanly_and_keeps_the_saved_points(tmp_path):
+    """The disk filling while a point is written (here a file-size limit, which HDF5 meets
+    the same way): HDF5 writing to the disk itself failed on close, h5py printed tracebacks
+    and the process died of a segmentation fault. Now: PointNotWritten naming the file and
+    the point, the analyser stopped, no temporary file left, the saved point readable."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    path = tmp_path / "s.h5"
+    root = Path(__file__).resolve().parents[2]
+    run = subprocess.run([sys.executable, "-c", FULL_DISK_SCRIPT, str(path)], cwd=root,
+                         capture_output=True, text=True, timeout=60,
+                         env={**__import__("os").environ, "PYTHONPATH": str(root)})
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert run.stderr == ""
+    head, message = run.stdout.splitlines()
+    assert head == "exit 2 aborted 1 saved 1"
+    assert message.startswith(f"point 2: cannot write {path}: File too large; point 2 not saved")
+    assert "1 point(s) saved in" in message and message.endswith("laminid ... --resume")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.h5"]
+    assert read_frf_h5(path).labels == ("1",)
