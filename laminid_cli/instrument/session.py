@@ -9,7 +9,11 @@ point, and ``--resume`` continues with the points not yet in it.
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import os
+import signal
+import threading
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -224,21 +228,24 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
                         f"({m.freq.size} lines, {m.freq[0]:g}-{m.freq[-1]:g} Hz; the file has "
                         f"{writer.freq.size}, {writer.freq[0]:g}-{writer.freq[-1]:g} Hz); were "
                         "the analyser's settings changed on its front panel?")
-                try:
-                    writer.add_point(label, m.frf, m.coherence, n_averages=m.n_averages,
-                                     overloads=m.overloads, replace=replace)
-                except OSError as exc:
-                    raise PointNotWritten(
-                        f"point {label}: cannot write {exc.filename or writer.path}: "
-                        f"{exc.strerror or exc}; point {label} not saved (free some space or "
-                        "fix the folder, then resume)") from exc
-                quality = assess_point(label, m, options.coherence_min)
-                ui.summary(quality)
+                # a stop asked for while the point is written waits for it (and its line)
+                with _signals_held():
+                    try:
+                        writer.add_point(label, m.frf, m.coherence, n_averages=m.n_averages,
+                                         overloads=m.overloads, replace=replace)
+                    except OSError as exc:
+                        raise PointNotWritten(
+                            f"point {label}: cannot write {exc.filename or writer.path}: "
+                            f"{exc.strerror or exc}; point {label} not saved (free some space "
+                            "or fix the folder, then resume)") from exc
+                    quality = assess_point(label, m, options.coherence_min)
+                    ui.summary(quality)
+                    if label not in result.measured:
+                        result.measured.append(label)
                 if quality.ok or not options.prompt or not ui.repeat(quality):
                     break
                 replace = True
                 result.repeated += 1
-            result.measured.append(label)
     except Terminated:
         _stop(analyser)
         raise _stopped(AcquisitionTerminated(_saved_message("terminated (SIGTERM)", writer,
@@ -265,6 +272,31 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
     if result.complete:
         writer.close()
     return result
+
+
+@contextlib.contextmanager
+def _signals_held():
+    """Ctrl-C (SIGINT) and SIGTERM wait until the block ends, then take effect as they would
+    have (the handler in place before: KeyboardInterrupt, :class:`Terminated`, ignored).
+    Around writing a measured point and saying so: a stop there dropped the averaged point
+    (the temporary file removed) while the message counted it saved. Only in the main
+    thread, where Python runs signal handlers."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+
+    def hold(signum, frame):
+        caught.append(signum)
+
+    previous = {sig: signal.signal(sig, hold) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        for sig in dict.fromkeys(caught):      # delivered again, to the handler restored
+            os.kill(os.getpid(), sig)
 
 
 def _stopped(exc: LaminidError, result: SessionResult, writer) -> LaminidError:

@@ -184,3 +184,49 @@ def test_a_full_disk_stops_the_session_cleanly_and_keeps_the_saved_points(tmp_pa
     assert "1 point(s) saved in" in message and message.endswith("laminid ... --resume")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["s.h5"]
     assert read_frf_h5(path).labels == ("1",)
+
+
+class SignalledWriter(FrfWriter):
+    """Ctrl-C (SIGINT) or SIGTERM arrives while the file is being written with point ``at``."""
+
+    def __init__(self, *args, at: str, signum: int, **kw):
+        super().__init__(*args, **kw)
+        self.at, self.signum = at, signum
+
+    def _write(self, complete):
+        import os
+
+        if self.at in self.labels:
+            self.at = None
+            os.kill(os.getpid(), self.signum)
+            for _ in range(1000):      # the eval loop runs a Python handler within this
+                pass
+        super()._write(complete)
+
+
+@pytest.mark.parametrize("signame, exit_code", [("SIGINT", 130), ("SIGTERM", 143)])
+def test_a_stop_while_a_point_is_written_saves_that_point_first(tmp_path, signame, exit_code):
+    """Ctrl-C or SIGTERM while point 2 was written dropped it (the temporary file removed)
+    after its hits were averaged; the point is now written and its quality line said, then
+    the session stops as asked."""
+    import signal
+
+    from laminid_cli.instrument.session import Terminated
+
+    signum = getattr(signal, signame)
+    previous = signal.getsignal(signal.SIGTERM)
+    if signum == signal.SIGTERM:      # as acquire installs it (_sigterm_stops_the_session)
+        signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(Terminated()))
+    try:
+        w = SignalledWriter(tmp_path / "s.h5", FREQ, units="Pa/N", at="2", signum=signum)
+        ui = ScriptUI()
+        with pytest.raises(AcquisitionInterrupted) as info:
+            run_session(FakeAnalyser([0.99, 0.99, 0.99]), w, SETTINGS,
+                        SessionOptions(n_points=3, prompt=False), ui)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert info.value.exit_code == exit_code
+    assert "; 2 point(s) saved in" in str(info.value)
+    assert info.value.result.measured == ["1", "2"] and info.value.result.n_saved == 2
+    assert len(ui.lines) == 2
+    assert read_frf_h5(tmp_path / "s.h5").labels == ("1", "2")
