@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from laminid_cli import __version__
-from laminid_cli.atomic import atomic_path
+from laminid_cli.atomic import atomic_path, remove_stale_temporaries_of
 from laminid_cli.errors import FrfError, OutputExistsError
 
 log = logging.getLogger(__name__)
@@ -776,6 +776,9 @@ class FrfWriter:
         elif resume:
             raise FrfError(f"{self.path}: cannot resume, the file does not exist")
         validate_frf_arrays(self.freq, np.zeros((1, self.freq.size)), source=str(self.path))
+        # a session killed (SIGKILL, power cut) while writing left its temporary file beside
+        # the FRF file, kept for ever: the next session writing it removes it
+        remove_stale_temporaries_of(self.path)
 
     def _load_existing(self) -> None:
         old = read_frf_h5(self.path)

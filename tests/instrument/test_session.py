@@ -230,3 +230,24 @@ def test_a_stop_while_a_point_is_written_saves_that_point_first(tmp_path, signam
     assert info.value.result.measured == ["1", "2"] and info.value.result.n_saved == 2
     assert len(ui.lines) == 2
     assert read_frf_h5(tmp_path / "s.h5").labels == ("1", "2")
+
+
+def test_a_temporary_file_left_by_a_killed_session_is_removed_by_the_next(tmp_path):
+    """SIGKILL while a point was written left '.s.h5.tmp-PID' beside the FRF file for ever
+    (a resume completed the file and kept it); the next writer of the file removes it, and
+    keeps a temporary file of a process still running."""
+    import os
+    import subprocess
+    import sys
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True).stdout.strip()
+    stale, live = tmp_path / f".s.h5.tmp-{dead}", tmp_path / f".s.h5.tmp-{os.getppid()}"
+    other = tmp_path / f".t.h5.tmp-{dead}"
+    for p in (stale, live, other):
+        p.write_bytes(b"half a point")
+    w = writer(tmp_path)
+    run_session(FakeAnalyser([0.99]), w, SETTINGS, SessionOptions(n_points=1, prompt=False),
+                ScriptUI())
+    assert not stale.exists() and live.exists() and other.exists()
+    assert read_frf_h5(tmp_path / "s.h5").labels == ("1",)
