@@ -1108,3 +1108,43 @@ def _signalled_at_point_2(hp, out, sig, preexec_fn=None):
         if proc.poll() is None:
             proc.kill()
     return proc, seen, stdout, stderr
+
+
+@pytest.mark.parametrize("signame, exit_code", [("SIGINT", 130), ("SIGTERM", 143)])
+def test_a_stop_before_the_first_point_says_so_and_json_has_a_document(tmp_path, monkeypatch,
+                                                                        signame, exit_code):
+    """Ctrl-C while acquire connected to or set up the analyser said "laminid: interrupted"
+    and --json printed nothing (a reader got no document); SIGTERM there killed acquire
+    without a word. Both now stop as the session does: one line saying nothing was measured
+    or written, the error document with --json, exit 130 / 143."""
+    import os
+    import signal
+
+    import laminid_cli.instrument.registry as registry
+
+    def stopped(*args, **kw):
+        os.kill(os.getpid(), getattr(signal, signame))
+        for _ in range(1000):       # the eval loop runs the Python handler within this
+            pass
+        raise AssertionError("the signal did not stop acquire")
+
+    monkeypatch.setattr(registry, "open_analyser", stopped)
+    out = tmp_path / "c.h5"
+    def not_acquires(signum, frame):     # without acquire's own, SIGTERM ended pytest
+        raise RuntimeError("SIGTERM reached the default handler")
+
+    previous = signal.signal(signal.SIGTERM, not_acquires)
+    try:
+        r = CliRunner().invoke(cli, ["acquire", "--analyser", "TCPIP::127.0.0.1::5025::SOCKET",
+                                     "--no-prompt", "--json", "-o", str(out)])
+        assert signal.getsignal(signal.SIGTERM) is not_acquires   # acquire put it back
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    what = "interrupted" if signame == "SIGINT" else "terminated (SIGTERM)"
+    message = (f"{what} while connecting to or setting up the analyser, before the first "
+               f"point: no point measured; nothing written to {out}")
+    assert r.exit_code == exit_code
+    assert r.stderr == f"laminid: stopped: {message}\n"
+    error = json.loads(r.stdout)["error"]
+    assert error["message"] == message and error["exit_code"] == exit_code
+    assert not out.exists()

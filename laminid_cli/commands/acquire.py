@@ -268,6 +268,25 @@ def _resume_command(params: dict, output: Path) -> str:
     return shlex.join(args)
 
 
+def _stopped_outside_the_session(exc: KeyboardInterrupt, out: Path, resume: bool, result):
+    """Ctrl-C or SIGTERM (``exc``) while acquire connected to or set up the analyser, or
+    closed it after the session (``result``: the session's, else None), stopped as the
+    session's own stop: one line saying what is in ``out`` (exit 130 or 143), and with --json
+    an error document. It said "laminid: interrupted", --json printed nothing, and SIGTERM
+    killed the process without a word."""
+    from laminid_cli.instrument.session import (AcquisitionInterrupted, AcquisitionTerminated,
+                                                Terminated)
+
+    cls, what = ((AcquisitionTerminated, "terminated (SIGTERM)") if isinstance(exc, Terminated)
+                 else (AcquisitionInterrupted, "interrupted"))
+    if result is not None:
+        return cls(f"{what} while closing the connection to the analyser, after the session: "
+                   f"{result.n_saved} point(s) saved in {out}")
+    left = f"{out} left as it was" if resume else f"nothing written to {out}"
+    return cls(f"{what} while connecting to or setting up the analyser, before the first "
+               f"point: no point measured; {left}")
+
+
 @contextlib.contextmanager
 def _sigterm_stops_the_session():
     """SIGTERM (``kill PID``, ``timeout``, a scheduler) ends the session as Ctrl-C does: the
@@ -462,54 +481,61 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
                              resume_hint=hint)
     ui = _ClickUI(out, as_json=as_json)  # --no-prompt: the session never calls ready()/repeat()
 
-    with open_analyser(analyser, model=model, backend=visa_backend, timeout=timeout) as dsa:
-        click.echo(f"{dsa.MODEL} at {dsa.transport.resource}: {dsa.idn}", err=True)
-        if configure:
-            dsa.validate(settings, names=OPTION_NAMES)   # the model *IDN? named (auto)
-            dsa.configure(settings)
-        else:
-            dsa.prepare_transfer()
-            settings = dsa.read_settings()
-        freq = dsa.read_frequency()
-        if configure:
-            dsa.check_axis(settings, freq)
-        attrs = settings.as_attrs()
-        attrs.update(coherence_min=coherence_min, n_points=points, configured=bool(configure),
-                     frf_estimator="H1 (RMS-averaged cross/auto spectra)",
-                     channels="ch1 = hammer force, ch2 = response")
-        writer = FrfWriter(out, freq, units=units, settings=attrs,
-                           instrument=dsa.identity(), resume=resume, overwrite=force)
-        if resume:
-            click.echo(f"{out}: resuming, {writer.n_points} of {points} point(s) already "
-                       "measured", err=True)
-        identity = dsa.identity()
+    result = None
+    try:   # SIGTERM as Ctrl-C also while connecting and setting up (it killed acquire)
+        with _sigterm_stops_the_session(), open_analyser(
+                analyser, model=model, backend=visa_backend, timeout=timeout) as dsa:
+            click.echo(f"{dsa.MODEL} at {dsa.transport.resource}: {dsa.idn}", err=True)
+            if configure:
+                dsa.validate(settings, names=OPTION_NAMES)   # the model *IDN? named (auto)
+                dsa.configure(settings)
+            else:
+                dsa.prepare_transfer()
+                settings = dsa.read_settings()
+            freq = dsa.read_frequency()
+            if configure:
+                dsa.check_axis(settings, freq)
+            attrs = settings.as_attrs()
+            attrs.update(coherence_min=coherence_min, n_points=points,
+                         configured=bool(configure),
+                         frf_estimator="H1 (RMS-averaged cross/auto spectra)",
+                         channels="ch1 = hammer force, ch2 = response")
+            writer = FrfWriter(out, freq, units=units, settings=attrs,
+                               instrument=dsa.identity(), resume=resume, overwrite=force)
+            if resume:
+                click.echo(f"{out}: resuming, {writer.n_points} of {points} point(s) already "
+                           "measured", err=True)
+            identity = dsa.identity()
 
-        def summary(result, stopped=None):
-            """The --json document: also when the session stopped early (Ctrl-C, an analyser
-            fault, a closed stdin), with what was saved before and the resume command."""
-            from dataclasses import asdict
+            def summary(result, stopped=None):
+                """The --json document: also when the session stopped early (Ctrl-C, an
+                analyser fault, a closed stdin), with what was saved before and the resume
+                command."""
+                from dataclasses import asdict
 
-            from laminid_cli.commands._common import echo_json
+                from laminid_cli.commands._common import echo_json
 
-            echo_json(_json_summary(
-                out, points, units, freq, identity, complete=result.complete,
-                points_saved=result.n_saved, measured=result.measured,
-                skipped=result.skipped, repeated=result.repeated, quit=result.quit,
-                # an analyser that cannot tell its overloads: null, not a count of -1
-                qualities=[asdict(q) | {"ok": q.ok} | (
-                    {"overloads": None, "overloaded_channels": None} if q.overloads < 0 else
-                    {"overloaded_channels": list(q.overloaded_channels)})
-                    for q in ui.qualities.values()],
-                resume=None if result.complete or not out.exists() else hint,
-                stopped=stopped))
+                echo_json(_json_summary(
+                    out, points, units, freq, identity, complete=result.complete,
+                    points_saved=result.n_saved, measured=result.measured,
+                    skipped=result.skipped, repeated=result.repeated, quit=result.quit,
+                    # an analyser that cannot tell its overloads: null, not a count of -1
+                    qualities=[asdict(q) | {"ok": q.ok} | (
+                        {"overloads": None, "overloaded_channels": None}
+                        if q.overloads < 0 else
+                        {"overloaded_channels": list(q.overloaded_channels)})
+                        for q in ui.qualities.values()],
+                    resume=None if result.complete or not out.exists() else hint,
+                    stopped=stopped))
 
-        try:
-            with _sigterm_stops_the_session():
+            try:
                 result = run_session(dsa, writer, settings, options, ui)
-        except LaminidError as exc:
-            if as_json and getattr(exc, "result", None) is not None:
-                summary(exc.result, stopped=str(exc))
-            raise
+            except LaminidError as exc:
+                if as_json and getattr(exc, "result", None) is not None:
+                    summary(exc.result, stopped=str(exc))
+                raise
+    except KeyboardInterrupt as exc:    # outside the session, which says what it saved
+        raise _stopped_outside_the_session(exc, out, resume, result) from None
 
     if as_json:
         summary(result)
