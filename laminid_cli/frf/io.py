@@ -997,9 +997,19 @@ def point_quality_notes(fs) -> list[str]:
     the resonances is below the file's ``coherence_min`` (acquire's --coherence-min, else
     :data:`DEFAULT_COHERENCE_MIN`) and points whose inputs went over range (``overloads`` of
     an acquire file). A file acquired with --no-prompt keeps such points as measured; its fit
-    then misses modes or lists noise without a word."""
+    then misses modes or lists noise without a word. And an acquisition whose session stopped
+    before its last point (``complete`` false): fitted as if it were the whole test."""
     notes = []
     labels = list(fs.labels) or [str(i + 1) for i in range(fs.n_points)]
+    if fs.meta.get("complete") is False:
+        try:
+            asked = f" of the {int((fs.meta.get('settings') or {})['n_points'])} asked for"
+        except (KeyError, TypeError, ValueError):
+            asked = ""
+        notes.append(f"{fs.source}: an unfinished acquisition (its session stopped): "
+                     f"{fs.n_points} point{'s' if fs.n_points != 1 else ''}{asked}, fitted "
+                     "as saved (a mode with a nodal line through every point measured goes "
+                     "unseen); laminid acquire ... --resume measures the rest")
     if fs.coherence is not None and np.isfinite(fs.coherence).any():
         settings = fs.meta.get("settings") or {}
         try:
