@@ -1148,3 +1148,31 @@ def test_a_stop_before_the_first_point_says_so_and_json_has_a_document(tmp_path,
     error = json.loads(r.stdout)["error"]
     assert error["message"] == message and error["exit_code"] == exit_code
     assert not out.exists()
+
+
+def test_resume_on_an_analyser_of_another_model_is_refused(tmp_path, hp, sr):
+    """A 35670A's unfinished file resumed on an SR785 went on, and the file's /instrument
+    then named the SR785 for every point. Refused now before the set-up is sent, naming both
+    models (exit 2, the file unchanged); the same model resumes."""
+    out = tmp_path / "p.h5"
+    assert acquire(hp, out, "--no-prompt", points=1).exit_code == 0
+    with h5py_file(out, "r+") as f:
+        f.attrs["complete"] = False          # a session that stopped after point 1
+    before = out.read_bytes()
+    r = acquire(sr, out, "--no-prompt", "--resume", points=2)
+    assert r.exit_code == 2
+    assert (f"laminid: error: {out}: cannot resume on another analyser model: its points "
+            "were measured with the 35670A (HEWLETT-PACKARD,35670A,") in r.stderr
+    assert (f"the analyser at {sr.resource.replace('TCPIP::', 'TCPIP0::')} is the SR785; the "
+            "file records one instrument for all its points: resume on the 35670A") in r.stderr
+    assert out.read_bytes() == before
+    r = acquire(sr, out, "--no-prompt", "--resume", "--json", points=2)
+    assert json.loads(r.stdout)["error"]["file"] == str(out)
+    r = acquire(hp, out, "--no-prompt", "--resume", points=2)
+    assert r.exit_code == 0 and read_frf_h5(out).labels == ("1", "2")
+
+
+def h5py_file(path, mode):
+    import h5py
+
+    return h5py.File(path, mode)

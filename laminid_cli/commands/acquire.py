@@ -189,6 +189,24 @@ def _refuse_unfinished(out: Path) -> None:
         "choose another name with -o (--force would start it again and lose the saved points)")
 
 
+def _refuse_another_model(out: Path, old, dsa) -> None:
+    """A ``--resume`` of ``out`` (read as ``old``) on an analyser of another model than the
+    one its points were measured with is refused before the set-up is sent (exit 2, the file
+    unchanged): it went on, and the file's ``/instrument`` then named the new analyser for
+    every point, the first ones' included."""
+    from laminid_cli.errors import FrfError
+
+    recorded = old.meta.get("instrument") or {}
+    model = str(recorded.get("model") or "").strip()
+    if model and model.upper() != dsa.MODEL.upper():
+        idn = f" ({recorded['idn']})" if recorded.get("idn") else ""
+        raise FrfError(f"{out}: cannot resume on another analyser model: its points were "
+                       f"measured with the {model}{idn}, the analyser at "
+                       f"{dsa.transport.resource} is the {dsa.MODEL}; the file records one "
+                       f"instrument for all its points: resume on the {model}, or write the "
+                       "new points to another file (-o)", path=out)
+
+
 def _nothing_to_measure(old, points: int) -> bool:
     """``--resume`` of ``old`` (the FRF file read) with ``--points points`` measures nothing:
     every point label 1..points is in the file, and the file is marked complete or holds
@@ -486,6 +504,8 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
         with _sigterm_stops_the_session(), open_analyser(
                 analyser, model=model, backend=visa_backend, timeout=timeout) as dsa:
             click.echo(f"{dsa.MODEL} at {dsa.transport.resource}: {dsa.idn}", err=True)
+            if resume:
+                _refuse_another_model(out, old, dsa)
             if configure:
                 dsa.validate(settings, names=OPTION_NAMES)   # the model *IDN? named (auto)
                 dsa.configure(settings)
