@@ -1176,3 +1176,23 @@ def h5py_file(path, mode):
     import h5py
 
     return h5py.File(path, mode)
+
+
+def test_nothing_answering_idn_is_bad_input_with_what_to_check(tmp_path):
+    """A port or GPIB address where nothing answers *IDN? (a listening socket that never
+    replies here) was an analyser fault, exit 1, naming the timeout only; nothing was
+    measured there, as with a refused connection: exit 2, with what to check."""
+    import socket
+
+    with socket.socket() as silent:
+        silent.bind(("127.0.0.1", 0))
+        silent.listen(1)                  # the connection completes, nothing ever answers
+        resource = f"TCPIP::127.0.0.1::{silent.getsockname()[1]}::SOCKET"
+        out = tmp_path / "x.h5"
+        r = run(["acquire", "--analyser", resource, "--timeout", "0.2", "--no-prompt", "-o",
+                 str(out)])
+    assert r.exit_code == 2
+    assert r.stderr.startswith(f"laminid: error: analyser {resource.replace('TCPIP', 'TCPIP0')} "
+                               "did not answer within 0.2 s (waiting for the answer to '*IDN?', "
+                               "read): no analyser answering there; check the address")
+    assert "(--timeout)" in r.stderr and len(r.stderr.splitlines()) == 1 and not out.exists()

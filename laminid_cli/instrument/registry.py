@@ -10,6 +10,7 @@ import importlib
 import logging
 import pkgutil
 
+from laminid_cli.errors import InstrumentError
 from laminid_cli.instrument.base import Analyser
 from laminid_cli.instrument.transport import (DEFAULT_TIMEOUT_S, AnalyserSetupError, Transport,
                                               open_transport)
@@ -87,7 +88,15 @@ def driver_for(model: str, idn: str, resource: str = "") -> type[Analyser]:
 def connect(transport: Transport, model: str = "auto", poll_s: float = 0.05) -> Analyser:
     """Identify the analyser on ``transport`` and return its driver (closes it on failure)."""
     try:
-        idn = transport.query("*IDN?")
+        try:
+            idn = transport.query("*IDN?")
+        except InstrumentError as exc:
+            # nothing answers the first query (a wrong GPIB address or port, the analyser off):
+            # bad input as a refused connection is (exit 2), with what to check
+            raise AnalyserSetupError(
+                f"{exc}: no analyser answering there; check the address (GPIB address, host "
+                "and port), that the analyser is on and its GPIB or LAN interface enabled, "
+                "or allow it longer (--timeout)") from exc
         driver = driver_for(model, idn, transport.resource)
     except BaseException:
         transport.close()
