@@ -235,7 +235,7 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
                                          overloads=m.overloads, replace=replace)
                     except OSError as exc:
                         raise PointNotWritten(
-                            f"point {label}: cannot write {exc.filename or writer.path}: "
+                            f"point {label}: cannot write {writer.path}: "
                             f"{exc.strerror or exc}; point {label} not saved (free some space "
                             "or fix the folder, then resume)") from exc
                     quality = assess_point(label, m, options.coherence_min)
@@ -316,6 +316,8 @@ def _stop(analyser: Analyser) -> None:
 
 def _saved_message(prefix: str, writer, options: SessionOptions) -> str:
     n = writer.n_points
+    if n and not writer.path.exists():      # removed (its folder too?) during the session
+        return f"{prefix}; {writer.path} is gone, with the {n} point(s) saved in it"
     msg = f"{prefix}; {n} point(s) saved in {writer.path}" if n else \
         f"{prefix}; no point finished" + (f" (file {writer.path})" if writer.path.exists() else "")
     if options.resume_hint and writer.path.exists():   # nothing to resume without the file

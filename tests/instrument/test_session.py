@@ -251,3 +251,30 @@ def test_a_temporary_file_left_by_a_killed_session_is_removed_by_the_next(tmp_pa
                 ScriptUI())
     assert not stale.exists() and live.exists() and other.exists()
     assert read_frf_h5(tmp_path / "s.h5").labels == ("1",)
+
+
+def test_an_output_folder_removed_during_the_session_is_said_so(tmp_path):
+    """The folder of the FRF file removed while the session ran: the point then measured
+    cannot be written, and the message named the temporary file and said 1 point saved in a
+    file that was gone."""
+    import shutil
+
+    folder = tmp_path / "run"
+    folder.mkdir()
+    w = FrfWriter(folder / "s.h5", FREQ, units="Pa/N")
+
+    class RemovingUI(ScriptUI):
+        def summary(self, quality):
+            super().summary(quality)
+            shutil.rmtree(folder)
+
+    from laminid_cli.instrument.session import PointNotWritten
+
+    with pytest.raises(PointNotWritten) as info:
+        run_session(FakeAnalyser([0.99, 0.99]), w, SETTINGS,
+                    SessionOptions(n_points=2, prompt=False, resume_hint="laminid ..."),
+                    RemovingUI())
+    assert str(info.value) == (
+        f"point 2: cannot write {folder / 's.h5'}: No such file or directory; point 2 not saved "
+        f"(free some space or fix the folder, then resume); {folder / 's.h5'} is gone, with the "
+        "1 point(s) saved in it")
