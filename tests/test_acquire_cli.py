@@ -1196,3 +1196,13 @@ def test_nothing_answering_idn_is_bad_input_with_what_to_check(tmp_path):
                                "did not answer within 0.2 s (waiting for the answer to '*IDN?', "
                                "read): no analyser answering there; check the address")
     assert "(--timeout)" in r.stderr and len(r.stderr.splitlines()) == 1 and not out.exists()
+
+
+def test_the_resume_command_keeps_the_timeout_given(tmp_path, hp, monkeypatch):
+    """The --resume command printed when a session stops dropped --timeout: a slow link (a
+    GPIB gateway) given --timeout 20 timed out again on the command it was told to run."""
+    _interrupt_on_second_point(monkeypatch)
+    out = tmp_path / "c.h5"
+    r = acquire(hp, out, "--no-prompt")          # FAST has --timeout 0.5
+    assert r.exit_code == 130
+    assert "--timeout 0.5" in r.stderr.split("continue with: ")[1]

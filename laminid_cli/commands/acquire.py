@@ -23,6 +23,9 @@ from laminid_cli.commands._common import (FRF_UNIT_NOTE, JSON_ERROR_DOC, OUTPUT_
                                           force_option, quiet, writable_target)
 
 
+#: seconds the analyser may take to answer one query, unless --timeout says
+DEFAULT_TIMEOUT_S = 5.0
+
 #: acquire's option for each field of AcquisitionSettings: the checks' messages name them
 OPTION_NAMES = {"span_hz": "--span", "start_hz": "--start", "lines": "--lines",
                 "averages": "--averages", "trigger_level_pct": "--trigger-level",
@@ -276,6 +279,8 @@ def _resume_command(params: dict, output: Path) -> str:
         value = params.get(name)
         if value is not None:
             args += [flag, f"{value:g}" if isinstance(value, float) else str(value)]
+    if params.get("timeout") not in (None, DEFAULT_TIMEOUT_S):   # a slow link needs it again
+        args += ["--timeout", f"{params['timeout']:g}"]
     if not params.get("configure", True):
         args.append("--keep-setup")
     if params.get("no_prompt"):
@@ -360,7 +365,8 @@ def _sigint_stops_it_even_in_the_background():
 @click.option("--visa-backend", default=None, metavar="BACKEND",
               help="pyvisa backend: @py (pyvisa-py, default), @ivi (NI/Keysight VISA), "
                    "file.yaml@sim. Default from $LAMINID_VISA_BACKEND.")
-@click.option("--timeout", default=5.0, show_default=True, type=FiniteFloat(min=0.01),
+@click.option("--timeout", default=DEFAULT_TIMEOUT_S, show_default=True,
+              type=FiniteFloat(min=0.01),
               help="Seconds the analyser may take to answer one query.")
 @click.option("--span", default=1600.0, show_default=True, type=OfferedSpan(),
               help="Span, Hz: 102400 / 2^k (51200 and below on the 35670A): ... 3200, 1600, "
