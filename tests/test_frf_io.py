@@ -420,3 +420,14 @@ def test_an_unfinished_acquisition_is_noted_when_fitted(tmp_path):
                      "measures the rest"]
     w.close()
     assert io.point_quality_notes(read_frf_h5(tmp_path / "s.h5", probe=False)) == []
+
+
+def test_every_point_saved_but_not_marked_complete_is_not_noted_unfinished(tmp_path):
+    """acquire stopped after saving its last point, before marking the file complete (a full
+    disk then): every point asked for is there, no 'unfinished acquisition' note."""
+    from laminid_cli.frf.store import FrfWriter, read_frf_h5
+
+    freq = np.linspace(0.0, 100.0, 51)
+    w = FrfWriter(tmp_path / "s.h5", freq, units="Pa/N", settings={"n_points": 1})
+    w.add_point("1", 1.0 / (50.0 ** 2 - freq ** 2 + 2j * freq), np.ones(51))
+    assert io.point_quality_notes(read_frf_h5(tmp_path / "s.h5", probe=False)) == []

@@ -10,6 +10,7 @@ point, and ``--resume`` continues with the points not yet in it.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import logging
 import os
 import signal
@@ -246,6 +247,17 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
                     break
                 replace = True
                 result.repeated += 1
+        result.complete = all(label in writer.labels for label in labels)
+        if result.complete:
+            # marked complete in the try: a full disk or a stop here is said as for a point
+            with _signals_held():
+                try:
+                    writer.close()
+                except OSError as exc:
+                    raise PointNotWritten(
+                        f"every point is measured, but {writer.path} could not be marked "
+                        f"complete: {exc.strerror or exc}; its points are all saved and "
+                        "fit-frf reads it as it is") from exc
     except Terminated:
         _stop(analyser)
         raise _stopped(AcquisitionTerminated(_saved_message("terminated (SIGTERM)", writer,
@@ -261,16 +273,15 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
                        result, writer) from None
     except PointNotWritten as exc:
         _stop(analyser)
-        raise _stopped(PointNotWritten(_saved_message(str(exc), writer, options)),
+        # every point in the file (not marked complete): nothing for a resume to measure
+        said = dataclasses.replace(options, resume_hint="") if result.complete else options
+        raise _stopped(PointNotWritten(_saved_message(str(exc), writer, said)),
                        result, writer) from exc.__cause__
     except InstrumentError as exc:
         _stop(analyser)
         raise _stopped(InstrumentError(_saved_message(str(exc), writer, options)),
                        result, writer) from exc
     result.n_saved = writer.n_points
-    result.complete = all(label in writer.labels for label in labels)
-    if result.complete:
-        writer.close()
     return result
 
 

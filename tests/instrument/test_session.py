@@ -278,3 +278,30 @@ def test_an_output_folder_removed_during_the_session_is_said_so(tmp_path):
         f"point 2: cannot write {folder / 's.h5'}: No such file or directory; point 2 not saved "
         f"(free some space or fix the folder, then resume); {folder / 's.h5'} is gone, with the "
         "1 point(s) saved in it")
+
+
+def test_a_full_disk_when_marking_the_file_complete_says_every_point_is_saved(tmp_path):
+    """The disk full when the file, every point in it, is rewritten marked complete: the
+    OSError left the session, and acquire said only 'laminid: error: No space left on
+    device' (no file, no word of the points saved, --json an error document)."""
+    import errno
+
+    from laminid_cli.instrument.session import PointNotWritten
+
+    class FullAtClose(FrfWriter):
+        def close(self):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+    w = FullAtClose(tmp_path / "s.h5", FREQ, units="Pa/N")
+    fake = FakeAnalyser([0.99, 0.99])
+    with pytest.raises(PointNotWritten) as info:
+        run_session(fake, w, SETTINGS, SessionOptions(n_points=2, prompt=False,
+                                                      resume_hint="laminid ... --resume"),
+                    ScriptUI())
+    assert "--resume" not in str(info.value)       # nothing left to measure
+    assert str(info.value).startswith(
+        f"every point is measured, but {tmp_path / 's.h5'} could not be marked complete: No "
+        "space left on device; its points are all saved and fit-frf reads it as it is; 2 "
+        "point(s) saved in")
+    assert info.value.result.complete and info.value.result.n_saved == 2
+    assert read_frf_h5(tmp_path / "s.h5").labels == ("1", "2")
