@@ -1206,3 +1206,17 @@ def test_the_resume_command_keeps_the_timeout_given(tmp_path, hp, monkeypatch):
     r = acquire(hp, out, "--no-prompt")          # FAST has --timeout 0.5
     assert r.exit_code == 130
     assert "--timeout 0.5" in r.stderr.split("continue with: ")[1]
+
+
+def test_a_forced_model_that_contradicts_a_known_identity_is_refused(tmp_path, hp):
+    """--model sr785 on an analyser that identifies as a 35670A: a warning, then a timeout
+    on the SR785's first query ('FSTR? 0'), exit 1, naming neither model as the cause. Now
+    refused after *IDN?, before any set-up, naming both (exit 2)."""
+    out = tmp_path / "m.h5"
+    r = acquire(hp, out, "--model", "SR785", "--no-prompt", points=1)
+    assert r.exit_code == 2
+    assert r.stderr.startswith(
+        f"laminid: error: --model SR785: the analyser at {hp.resource.replace('TCPIP', 'TCPIP0')}"
+        " identifies as the 35670A ('HEWLETT-PACKARD,35670A,")
+    assert "not the SR785; use --model auto or the 35670A's name" in r.stderr
+    assert not out.exists() and not any(c.startswith("FSTR") for c in hp.log)

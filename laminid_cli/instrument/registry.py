@@ -81,6 +81,14 @@ def driver_for(model: str, idn: str, resource: str = "") -> type[Analyser]:
         raise AnalyserSetupError(f"unknown analyser model {model!r}; choose auto or one of: "
                                  f"{', '.join(accepted_names())} (case-insensitive)")
     if not driver.matches(idn):
+        # another supported analyser: forcing a driver on it timed out on the first command
+        # it does not know (SR785's 'FSTR? 0' on a 35670A), naming neither model
+        other = next((d for d in table.values() if d.matches(idn)), None)
+        if other is not None:
+            raise AnalyserSetupError(
+                f"--model {model}: the analyser{where} identifies as the {other.MODEL} "
+                f"({idn!r}), not the {driver.MODEL}; use --model auto or the {other.MODEL}'s "
+                "name (--model forces a driver on an analyser whose *IDN? none recognises)")
         log.warning("--model %s forced, but the analyser identifies as %r", driver.MODEL, idn)
     return driver
 
