@@ -71,6 +71,23 @@ def remove_stale_temporaries(folder) -> int:
     return n
 
 
+def remove_stale_temporaries_of(path) -> int:
+    """Delete the temporary files of ``path`` (:func:`temporary_name`) that killed processes
+    left beside it; returns the count. Those of processes still alive are kept."""
+    import glob
+
+    path = Path(path)
+    n = 0
+    for p in path.parent.glob(f".{glob.escape(path.name)}.tmp-*"):
+        pid = p.name.rsplit("-", 1)[-1]
+        if not pid.isdigit() or process_alive(int(pid)):
+            continue
+        with contextlib.suppress(OSError):
+            p.unlink()
+            n += 1
+    return n
+
+
 def process_alive(pid: int) -> bool:
     """True while process ``pid`` runs (also when it belongs to another user). A zombie (dead,
     not yet reaped: a killed batch's workers whose parent died too, until init reaps them) is

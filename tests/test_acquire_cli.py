@@ -1108,3 +1108,115 @@ def _signalled_at_point_2(hp, out, sig, preexec_fn=None):
         if proc.poll() is None:
             proc.kill()
     return proc, seen, stdout, stderr
+
+
+@pytest.mark.parametrize("signame, exit_code", [("SIGINT", 130), ("SIGTERM", 143)])
+def test_a_stop_before_the_first_point_says_so_and_json_has_a_document(tmp_path, monkeypatch,
+                                                                        signame, exit_code):
+    """Ctrl-C while acquire connected to or set up the analyser said "laminid: interrupted"
+    and --json printed nothing (a reader got no document); SIGTERM there killed acquire
+    without a word. Both now stop as the session does: one line saying nothing was measured
+    or written, the error document with --json, exit 130 / 143."""
+    import os
+    import signal
+
+    import laminid_cli.instrument.registry as registry
+
+    def stopped(*args, **kw):
+        os.kill(os.getpid(), getattr(signal, signame))
+        for _ in range(1000):       # the eval loop runs the Python handler within this
+            pass
+        raise AssertionError("the signal did not stop acquire")
+
+    monkeypatch.setattr(registry, "open_analyser", stopped)
+    out = tmp_path / "c.h5"
+    def not_acquires(signum, frame):     # without acquire's own, SIGTERM ended pytest
+        raise RuntimeError("SIGTERM reached the default handler")
+
+    previous = signal.signal(signal.SIGTERM, not_acquires)
+    try:
+        r = CliRunner().invoke(cli, ["acquire", "--analyser", "TCPIP::127.0.0.1::5025::SOCKET",
+                                     "--no-prompt", "--json", "-o", str(out)])
+        assert signal.getsignal(signal.SIGTERM) is not_acquires   # acquire put it back
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    what = "interrupted" if signame == "SIGINT" else "terminated (SIGTERM)"
+    message = (f"{what} while connecting to or setting up the analyser, before the first "
+               f"point: no point measured; nothing written to {out}")
+    assert r.exit_code == exit_code
+    assert r.stderr == f"laminid: stopped: {message}\n"
+    error = json.loads(r.stdout)["error"]
+    assert error["message"] == message and error["exit_code"] == exit_code
+    assert not out.exists()
+
+
+def test_resume_on_an_analyser_of_another_model_is_refused(tmp_path, hp, sr):
+    """A 35670A's unfinished file resumed on an SR785 went on, and the file's /instrument
+    then named the SR785 for every point. Refused now before the set-up is sent, naming both
+    models (exit 2, the file unchanged); the same model resumes."""
+    out = tmp_path / "p.h5"
+    assert acquire(hp, out, "--no-prompt", points=1).exit_code == 0
+    with h5py_file(out, "r+") as f:
+        f.attrs["complete"] = False          # a session that stopped after point 1
+    before = out.read_bytes()
+    r = acquire(sr, out, "--no-prompt", "--resume", points=2)
+    assert r.exit_code == 2
+    assert (f"laminid: error: {out}: cannot resume on another analyser model: its points "
+            "were measured with the 35670A (HEWLETT-PACKARD,35670A,") in r.stderr
+    assert (f"the analyser at {sr.resource.replace('TCPIP::', 'TCPIP0::')} is the SR785; the "
+            "file records one instrument for all its points: resume on the 35670A") in r.stderr
+    assert out.read_bytes() == before
+    r = acquire(sr, out, "--no-prompt", "--resume", "--json", points=2)
+    assert json.loads(r.stdout)["error"]["file"] == str(out)
+    r = acquire(hp, out, "--no-prompt", "--resume", points=2)
+    assert r.exit_code == 0 and read_frf_h5(out).labels == ("1", "2")
+
+
+def h5py_file(path, mode):
+    import h5py
+
+    return h5py.File(path, mode)
+
+
+def test_nothing_answering_idn_is_bad_input_with_what_to_check(tmp_path):
+    """A port or GPIB address where nothing answers *IDN? (a listening socket that never
+    replies here) was an analyser fault, exit 1, naming the timeout only; nothing was
+    measured there, as with a refused connection: exit 2, with what to check."""
+    import socket
+
+    with socket.socket() as silent:
+        silent.bind(("127.0.0.1", 0))
+        silent.listen(1)                  # the connection completes, nothing ever answers
+        resource = f"TCPIP::127.0.0.1::{silent.getsockname()[1]}::SOCKET"
+        out = tmp_path / "x.h5"
+        r = run(["acquire", "--analyser", resource, "--timeout", "0.2", "--no-prompt", "-o",
+                 str(out)])
+    assert r.exit_code == 2
+    assert r.stderr.startswith(f"laminid: error: analyser {resource.replace('TCPIP', 'TCPIP0')} "
+                               "did not answer within 0.2 s (waiting for the answer to '*IDN?', "
+                               "read): no analyser answering there; check the address")
+    assert "(--timeout)" in r.stderr and len(r.stderr.splitlines()) == 1 and not out.exists()
+
+
+def test_the_resume_command_keeps_the_timeout_given(tmp_path, hp, monkeypatch):
+    """The --resume command printed when a session stops dropped --timeout: a slow link (a
+    GPIB gateway) given --timeout 20 timed out again on the command it was told to run."""
+    _interrupt_on_second_point(monkeypatch)
+    out = tmp_path / "c.h5"
+    r = acquire(hp, out, "--no-prompt")          # FAST has --timeout 0.5
+    assert r.exit_code == 130
+    assert "--timeout 0.5" in r.stderr.split("continue with: ")[1]
+
+
+def test_a_forced_model_that_contradicts_a_known_identity_is_refused(tmp_path, hp):
+    """--model sr785 on an analyser that identifies as a 35670A: a warning, then a timeout
+    on the SR785's first query ('FSTR? 0'), exit 1, naming neither model as the cause. Now
+    refused after *IDN?, before any set-up, naming both (exit 2)."""
+    out = tmp_path / "m.h5"
+    r = acquire(hp, out, "--model", "SR785", "--no-prompt", points=1)
+    assert r.exit_code == 2
+    assert r.stderr.startswith(
+        f"laminid: error: --model SR785: the analyser at {hp.resource.replace('TCPIP', 'TCPIP0')}"
+        " identifies as the 35670A ('HEWLETT-PACKARD,35670A,")
+    assert "not the SR785; use --model auto or the 35670A's name" in r.stderr
+    assert not out.exists() and not any(c.startswith("FSTR") for c in hp.log)

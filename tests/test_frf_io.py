@@ -401,3 +401,33 @@ def test_csv_angular_frequency_without_its_unit_is_refused(tmp_path, name):
                        ("frequency", 1000.0)):
         p.write_text(f"{header},a_re,a_im\n0,1,0\n1000,0.5,0.1\n2000,0.2,0.1\n")
         assert io.read_frf(p).freq[1] == pytest.approx(hz, rel=1e-15)
+
+
+def test_an_unfinished_acquisition_is_noted_when_fitted(tmp_path):
+    """fit-frf of a file whose acquire session stopped (1 of 4 points, 'complete' false)
+    fitted it without a word, as if it were the whole test; a note now says so, with the
+    points saved of those asked for and the resume. A finished file has no such note."""
+    from laminid_cli.frf.store import FrfWriter, read_frf_h5
+
+    freq = np.linspace(0.0, 100.0, 51)
+    frf = 1.0 / (50.0 ** 2 - freq ** 2 + 2j * 0.02 * 50.0 * freq)
+    w = FrfWriter(tmp_path / "s.h5", freq, units="Pa/N", settings={"n_points": 4})
+    w.add_point("1", frf, np.ones(51))
+    notes = io.point_quality_notes(read_frf_h5(tmp_path / "s.h5", probe=False))
+    assert notes == [f"{tmp_path / 's.h5'}: an unfinished acquisition (its session stopped): "
+                     "1 point of the 4 asked for, fitted as saved (a mode with a nodal line "
+                     "through every point measured goes unseen); laminid acquire ... --resume "
+                     "measures the rest"]
+    w.close()
+    assert io.point_quality_notes(read_frf_h5(tmp_path / "s.h5", probe=False)) == []
+
+
+def test_every_point_saved_but_not_marked_complete_is_not_noted_unfinished(tmp_path):
+    """acquire stopped after saving its last point, before marking the file complete (a full
+    disk then): every point asked for is there, no 'unfinished acquisition' note."""
+    from laminid_cli.frf.store import FrfWriter, read_frf_h5
+
+    freq = np.linspace(0.0, 100.0, 51)
+    w = FrfWriter(tmp_path / "s.h5", freq, units="Pa/N", settings={"n_points": 1})
+    w.add_point("1", 1.0 / (50.0 ** 2 - freq ** 2 + 2j * freq), np.ones(51))
+    assert io.point_quality_notes(read_frf_h5(tmp_path / "s.h5", probe=False)) == []

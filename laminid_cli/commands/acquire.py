@@ -23,6 +23,9 @@ from laminid_cli.commands._common import (FRF_UNIT_NOTE, JSON_ERROR_DOC, OUTPUT_
                                           force_option, quiet, writable_target)
 
 
+#: seconds the analyser may take to answer one query, unless --timeout says
+DEFAULT_TIMEOUT_S = 5.0
+
 #: acquire's option for each field of AcquisitionSettings: the checks' messages name them
 OPTION_NAMES = {"span_hz": "--span", "start_hz": "--start", "lines": "--lines",
                 "averages": "--averages", "trigger_level_pct": "--trigger-level",
@@ -189,6 +192,24 @@ def _refuse_unfinished(out: Path) -> None:
         "choose another name with -o (--force would start it again and lose the saved points)")
 
 
+def _refuse_another_model(out: Path, old, dsa) -> None:
+    """A ``--resume`` of ``out`` (read as ``old``) on an analyser of another model than the
+    one its points were measured with is refused before the set-up is sent (exit 2, the file
+    unchanged): it went on, and the file's ``/instrument`` then named the new analyser for
+    every point, the first ones' included."""
+    from laminid_cli.errors import FrfError
+
+    recorded = old.meta.get("instrument") or {}
+    model = str(recorded.get("model") or "").strip()
+    if model and model.upper() != dsa.MODEL.upper():
+        idn = f" ({recorded['idn']})" if recorded.get("idn") else ""
+        raise FrfError(f"{out}: cannot resume on another analyser model: its points were "
+                       f"measured with the {model}{idn}, the analyser at "
+                       f"{dsa.transport.resource} is the {dsa.MODEL}; the file records one "
+                       f"instrument for all its points: resume on the {model}, or write the "
+                       "new points to another file (-o)", path=out)
+
+
 def _nothing_to_measure(old, points: int) -> bool:
     """``--resume`` of ``old`` (the FRF file read) with ``--points points`` measures nothing:
     every point label 1..points is in the file, and the file is marked complete or holds
@@ -258,6 +279,8 @@ def _resume_command(params: dict, output: Path) -> str:
         value = params.get(name)
         if value is not None:
             args += [flag, f"{value:g}" if isinstance(value, float) else str(value)]
+    if params.get("timeout") not in (None, DEFAULT_TIMEOUT_S):   # a slow link needs it again
+        args += ["--timeout", f"{params['timeout']:g}"]
     if not params.get("configure", True):
         args.append("--keep-setup")
     if params.get("no_prompt"):
@@ -266,6 +289,25 @@ def _resume_command(params: dict, output: Path) -> str:
         args.append("--json")
     args += ["-o", str(output), "--resume"]
     return shlex.join(args)
+
+
+def _stopped_outside_the_session(exc: KeyboardInterrupt, out: Path, resume: bool, result):
+    """Ctrl-C or SIGTERM (``exc``) while acquire connected to or set up the analyser, or
+    closed it after the session (``result``: the session's, else None), stopped as the
+    session's own stop: one line saying what is in ``out`` (exit 130 or 143), and with --json
+    an error document. It said "laminid: interrupted", --json printed nothing, and SIGTERM
+    killed the process without a word."""
+    from laminid_cli.instrument.session import (AcquisitionInterrupted, AcquisitionTerminated,
+                                                Terminated)
+
+    cls, what = ((AcquisitionTerminated, "terminated (SIGTERM)") if isinstance(exc, Terminated)
+                 else (AcquisitionInterrupted, "interrupted"))
+    if result is not None:
+        return cls(f"{what} while closing the connection to the analyser, after the session: "
+                   f"{result.n_saved} point(s) saved in {out}")
+    left = f"{out} left as it was" if resume else f"nothing written to {out}"
+    return cls(f"{what} while connecting to or setting up the analyser, before the first "
+               f"point: no point measured; {left}")
 
 
 @contextlib.contextmanager
@@ -323,7 +365,8 @@ def _sigint_stops_it_even_in_the_background():
 @click.option("--visa-backend", default=None, metavar="BACKEND",
               help="pyvisa backend: @py (pyvisa-py, default), @ivi (NI/Keysight VISA), "
                    "file.yaml@sim. Default from $LAMINID_VISA_BACKEND.")
-@click.option("--timeout", default=5.0, show_default=True, type=FiniteFloat(min=0.01),
+@click.option("--timeout", default=DEFAULT_TIMEOUT_S, show_default=True,
+              type=FiniteFloat(min=0.01),
               help="Seconds the analyser may take to answer one query.")
 @click.option("--span", default=1600.0, show_default=True, type=OfferedSpan(),
               help="Span, Hz: 102400 / 2^k (51200 and below on the 35670A): ... 3200, 1600, "
@@ -462,54 +505,63 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
                              resume_hint=hint)
     ui = _ClickUI(out, as_json=as_json)  # --no-prompt: the session never calls ready()/repeat()
 
-    with open_analyser(analyser, model=model, backend=visa_backend, timeout=timeout) as dsa:
-        click.echo(f"{dsa.MODEL} at {dsa.transport.resource}: {dsa.idn}", err=True)
-        if configure:
-            dsa.validate(settings, names=OPTION_NAMES)   # the model *IDN? named (auto)
-            dsa.configure(settings)
-        else:
-            dsa.prepare_transfer()
-            settings = dsa.read_settings()
-        freq = dsa.read_frequency()
-        if configure:
-            dsa.check_axis(settings, freq)
-        attrs = settings.as_attrs()
-        attrs.update(coherence_min=coherence_min, n_points=points, configured=bool(configure),
-                     frf_estimator="H1 (RMS-averaged cross/auto spectra)",
-                     channels="ch1 = hammer force, ch2 = response")
-        writer = FrfWriter(out, freq, units=units, settings=attrs,
-                           instrument=dsa.identity(), resume=resume, overwrite=force)
-        if resume:
-            click.echo(f"{out}: resuming, {writer.n_points} of {points} point(s) already "
-                       "measured", err=True)
-        identity = dsa.identity()
+    result = None
+    try:   # SIGTERM as Ctrl-C also while connecting and setting up (it killed acquire)
+        with _sigterm_stops_the_session(), open_analyser(
+                analyser, model=model, backend=visa_backend, timeout=timeout) as dsa:
+            click.echo(f"{dsa.MODEL} at {dsa.transport.resource}: {dsa.idn}", err=True)
+            if resume:
+                _refuse_another_model(out, old, dsa)
+            if configure:
+                dsa.validate(settings, names=OPTION_NAMES)   # the model *IDN? named (auto)
+                dsa.configure(settings)
+            else:
+                dsa.prepare_transfer()
+                settings = dsa.read_settings()
+            freq = dsa.read_frequency()
+            if configure:
+                dsa.check_axis(settings, freq)
+            attrs = settings.as_attrs()
+            attrs.update(coherence_min=coherence_min, n_points=points,
+                         configured=bool(configure),
+                         frf_estimator="H1 (RMS-averaged cross/auto spectra)",
+                         channels="ch1 = hammer force, ch2 = response")
+            writer = FrfWriter(out, freq, units=units, settings=attrs,
+                               instrument=dsa.identity(), resume=resume, overwrite=force)
+            if resume:
+                click.echo(f"{out}: resuming, {writer.n_points} of {points} point(s) already "
+                           "measured", err=True)
+            identity = dsa.identity()
 
-        def summary(result, stopped=None):
-            """The --json document: also when the session stopped early (Ctrl-C, an analyser
-            fault, a closed stdin), with what was saved before and the resume command."""
-            from dataclasses import asdict
+            def summary(result, stopped=None):
+                """The --json document: also when the session stopped early (Ctrl-C, an
+                analyser fault, a closed stdin), with what was saved before and the resume
+                command."""
+                from dataclasses import asdict
 
-            from laminid_cli.commands._common import echo_json
+                from laminid_cli.commands._common import echo_json
 
-            echo_json(_json_summary(
-                out, points, units, freq, identity, complete=result.complete,
-                points_saved=result.n_saved, measured=result.measured,
-                skipped=result.skipped, repeated=result.repeated, quit=result.quit,
-                # an analyser that cannot tell its overloads: null, not a count of -1
-                qualities=[asdict(q) | {"ok": q.ok} | (
-                    {"overloads": None, "overloaded_channels": None} if q.overloads < 0 else
-                    {"overloaded_channels": list(q.overloaded_channels)})
-                    for q in ui.qualities.values()],
-                resume=None if result.complete or not out.exists() else hint,
-                stopped=stopped))
+                echo_json(_json_summary(
+                    out, points, units, freq, identity, complete=result.complete,
+                    points_saved=result.n_saved, measured=result.measured,
+                    skipped=result.skipped, repeated=result.repeated, quit=result.quit,
+                    # an analyser that cannot tell its overloads: null, not a count of -1
+                    qualities=[asdict(q) | {"ok": q.ok} | (
+                        {"overloads": None, "overloaded_channels": None}
+                        if q.overloads < 0 else
+                        {"overloaded_channels": list(q.overloaded_channels)})
+                        for q in ui.qualities.values()],
+                    resume=None if result.complete or not out.exists() else hint,
+                    stopped=stopped))
 
-        try:
-            with _sigterm_stops_the_session():
+            try:
                 result = run_session(dsa, writer, settings, options, ui)
-        except LaminidError as exc:
-            if as_json and getattr(exc, "result", None) is not None:
-                summary(exc.result, stopped=str(exc))
-            raise
+            except LaminidError as exc:
+                if as_json and getattr(exc, "result", None) is not None:
+                    summary(exc.result, stopped=str(exc))
+                raise
+    except KeyboardInterrupt as exc:    # outside the session, which says what it saved
+        raise _stopped_outside_the_session(exc, out, resume, result) from None
 
     if as_json:
         summary(result)

@@ -997,9 +997,22 @@ def point_quality_notes(fs) -> list[str]:
     the resonances is below the file's ``coherence_min`` (acquire's --coherence-min, else
     :data:`DEFAULT_COHERENCE_MIN`) and points whose inputs went over range (``overloads`` of
     an acquire file). A file acquired with --no-prompt keeps such points as measured; its fit
-    then misses modes or lists noise without a word."""
+    then misses modes or lists noise without a word. And an acquisition whose session stopped
+    before its last point (``complete`` false): fitted as if it were the whole test."""
     notes = []
     labels = list(fs.labels) or [str(i + 1) for i in range(fs.n_points)]
+    try:
+        n_asked = int((fs.meta.get("settings") or {})["n_points"])
+    except (KeyError, TypeError, ValueError):
+        n_asked = None
+    # not marked complete, and (where the file says how many were asked for) points missing:
+    # a session that saved its last point and stopped before marking the file is whole
+    if fs.meta.get("complete") is False and (n_asked is None or fs.n_points < n_asked):
+        asked = "" if n_asked is None else f" of the {n_asked} asked for"
+        notes.append(f"{fs.source}: an unfinished acquisition (its session stopped): "
+                     f"{fs.n_points} point{'s' if fs.n_points != 1 else ''}{asked}, fitted "
+                     "as saved (a mode with a nodal line through every point measured goes "
+                     "unseen); laminid acquire ... --resume measures the rest")
     if fs.coherence is not None and np.isfinite(fs.coherence).any():
         settings = fs.meta.get("settings") or {}
         try:

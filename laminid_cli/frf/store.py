@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from laminid_cli import __version__
-from laminid_cli.atomic import atomic_path
+from laminid_cli.atomic import atomic_path, remove_stale_temporaries_of
 from laminid_cli.errors import FrfError, OutputExistsError
 
 log = logging.getLogger(__name__)
@@ -776,6 +776,9 @@ class FrfWriter:
         elif resume:
             raise FrfError(f"{self.path}: cannot resume, the file does not exist")
         validate_frf_arrays(self.freq, np.zeros((1, self.freq.size)), source=str(self.path))
+        # a session killed (SIGKILL, power cut) while writing left its temporary file beside
+        # the FRF file, kept for ever: the next session writing it removes it
+        remove_stale_temporaries_of(self.path)
 
     def _load_existing(self) -> None:
         old = read_frf_h5(self.path)
@@ -806,13 +809,18 @@ class FrfWriter:
 
     def add_point(self, label: str, frf, coherence=None, *, n_averages: int = 0,
                   overloads: int = 0, replace: bool = False) -> None:
-        """Append (or, with ``replace``, overwrite) one point and rewrite the file atomically."""
+        """Append (or, with ``replace``, overwrite) one point and rewrite the file atomically.
+
+        A write that fails (a full disk: ``OSError``; Ctrl-C) leaves the writer as the file on
+        disk is, without the point: :attr:`n_points` counts only points saved."""
         frf = np.asarray(frf, dtype=complex).reshape(-1)
         coh = (np.full(frf.shape, np.nan) if coherence is None
                else np.asarray(coherence, dtype=float).reshape(-1))
         validate_frf_arrays(self.freq, frf[None, :], coh[None, :], source=str(self.path))
         record = {"label": str(label), "timestamp": _now(), "n_averages": int(n_averages),
                   "overloads": int(overloads)}
+        before = (list(self.frf), list(self.coherence),
+                  {key: list(values) for key, values in self.points.items()})
         if replace and str(label) in self.labels:
             i = self.labels.index(str(label))
             self.frf[i], self.coherence[i] = frf, coh
@@ -823,7 +831,11 @@ class FrfWriter:
             self.coherence.append(coh)
             for key, value in record.items():
                 self.points[key].append(value)
-        self._write(complete=False)
+        try:
+            self._write(complete=False)
+        except BaseException:
+            self.frf, self.coherence, self.points = before
+            raise
 
     def close(self) -> None:
         """Mark the file complete (rewrites it once more)."""
@@ -850,7 +862,13 @@ def write_frf_h5(path, freq, frf, coherence=None, *, units: str | None = None, l
                  instrument: dict | None = None, created: str | None = None,
                  complete: bool = True, quantity: str = "response/force",
                  overwrite: bool = False) -> Path:
-    """Write a whole FRF set atomically (temporary file + fsync + rename). Returns the path."""
+    """Write a whole FRF set atomically (temporary file + fsync + rename). Returns the path.
+
+    The HDF5 image is built in memory and written to the temporary file as bytes: a disk that
+    fills (or a file-size limit) is then an ``OSError`` naming the file, the temporary file
+    removed and ``path`` untouched. HDF5 writing to the disk itself failed on close, where
+    h5py printed tracebacks and the process died of a segmentation fault, losing the session.
+    """
     import h5py
 
     path = Path(path)
@@ -867,7 +885,10 @@ def write_frf_h5(path, freq, frf, coherence=None, *, units: str | None = None, l
     points.setdefault("timestamp", [_now()] * n)
     points.setdefault("n_averages", [0] * n)
     points.setdefault("overloads", [0] * n)
-    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+    # the core driver without a backing store: nothing touches the disk; its image is
+    # byte for byte the file HDF5 writes there
+    f = h5py.File(f"{path.name} (in memory)", "w", driver="core", backing_store=False)
+    with f:
         f.attrs["format"] = FORMAT
         f.attrs["schema_version"] = SCHEMA_VERSION
         f.attrs["laminid_version"] = __version__
@@ -901,4 +922,8 @@ def write_frf_h5(path, freq, frf, coherence=None, *, units: str | None = None, l
         gs = f.create_group("settings")
         for k, v in (settings or {}).items():
             gs.attrs[k] = v if v is not None else ""
+        f.flush()
+        image = f.id.get_file_image()
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(image)
     return path

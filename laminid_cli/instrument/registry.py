@@ -10,6 +10,7 @@ import importlib
 import logging
 import pkgutil
 
+from laminid_cli.errors import InstrumentError
 from laminid_cli.instrument.base import Analyser
 from laminid_cli.instrument.transport import (DEFAULT_TIMEOUT_S, AnalyserSetupError, Transport,
                                               open_transport)
@@ -80,6 +81,14 @@ def driver_for(model: str, idn: str, resource: str = "") -> type[Analyser]:
         raise AnalyserSetupError(f"unknown analyser model {model!r}; choose auto or one of: "
                                  f"{', '.join(accepted_names())} (case-insensitive)")
     if not driver.matches(idn):
+        # another supported analyser: forcing a driver on it timed out on the first command
+        # it does not know (SR785's 'FSTR? 0' on a 35670A), naming neither model
+        other = next((d for d in table.values() if d.matches(idn)), None)
+        if other is not None:
+            raise AnalyserSetupError(
+                f"--model {model}: the analyser{where} identifies as the {other.MODEL} "
+                f"({idn!r}), not the {driver.MODEL}; use --model auto or the {other.MODEL}'s "
+                "name (--model forces a driver on an analyser whose *IDN? none recognises)")
         log.warning("--model %s forced, but the analyser identifies as %r", driver.MODEL, idn)
     return driver
 
@@ -87,7 +96,15 @@ def driver_for(model: str, idn: str, resource: str = "") -> type[Analyser]:
 def connect(transport: Transport, model: str = "auto", poll_s: float = 0.05) -> Analyser:
     """Identify the analyser on ``transport`` and return its driver (closes it on failure)."""
     try:
-        idn = transport.query("*IDN?")
+        try:
+            idn = transport.query("*IDN?")
+        except InstrumentError as exc:
+            # nothing answers the first query (a wrong GPIB address or port, the analyser off):
+            # bad input as a refused connection is (exit 2), with what to check
+            raise AnalyserSetupError(
+                f"{exc}: no analyser answering there; check the address (GPIB address, host "
+                "and port), that the analyser is on and its GPIB or LAN interface enabled, "
+                "or allow it longer (--timeout)") from exc
         driver = driver_for(model, idn, transport.resource)
     except BaseException:
         transport.close()

@@ -9,7 +9,12 @@ point, and ``--resume`` continues with the points not yet in it.
 
 from __future__ import annotations
 
+import contextlib
+import dataclasses
 import logging
+import os
+import signal
+import threading
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -53,6 +58,14 @@ class SessionIncomplete(LaminidError):
 class NoOperatorInput(LaminidError):
     """A prompt found standard input closed (a script without --no-prompt): nobody can answer
     it (exit 2; the finished points, if any, are in the file)."""
+
+    exit_code = 2
+
+
+class PointNotWritten(LaminidError):
+    """A measured point could not be written (the disk full, the folder gone or read-only):
+    the session stops, the file holds the points saved before (exit 2, as for any file the
+    file system refuses)."""
 
     exit_code = 2
 
@@ -216,15 +229,35 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
                         f"({m.freq.size} lines, {m.freq[0]:g}-{m.freq[-1]:g} Hz; the file has "
                         f"{writer.freq.size}, {writer.freq[0]:g}-{writer.freq[-1]:g} Hz); were "
                         "the analyser's settings changed on its front panel?")
-                writer.add_point(label, m.frf, m.coherence, n_averages=m.n_averages,
-                                 overloads=m.overloads, replace=replace)
-                quality = assess_point(label, m, options.coherence_min)
-                ui.summary(quality)
+                # a stop asked for while the point is written waits for it (and its line)
+                with _signals_held():
+                    try:
+                        writer.add_point(label, m.frf, m.coherence, n_averages=m.n_averages,
+                                         overloads=m.overloads, replace=replace)
+                    except OSError as exc:
+                        raise PointNotWritten(
+                            f"point {label}: cannot write {writer.path}: "
+                            f"{exc.strerror or exc}; point {label} not saved (free some space "
+                            "or fix the folder, then resume)") from exc
+                    quality = assess_point(label, m, options.coherence_min)
+                    ui.summary(quality)
+                    if label not in result.measured:
+                        result.measured.append(label)
                 if quality.ok or not options.prompt or not ui.repeat(quality):
                     break
                 replace = True
                 result.repeated += 1
-            result.measured.append(label)
+        result.complete = all(label in writer.labels for label in labels)
+        if result.complete:
+            # marked complete in the try: a full disk or a stop here is said as for a point
+            with _signals_held():
+                try:
+                    writer.close()
+                except OSError as exc:
+                    raise PointNotWritten(
+                        f"every point is measured, but {writer.path} could not be marked "
+                        f"complete: {exc.strerror or exc}; its points are all saved and "
+                        "fit-frf reads it as it is") from exc
     except Terminated:
         _stop(analyser)
         raise _stopped(AcquisitionTerminated(_saved_message("terminated (SIGTERM)", writer,
@@ -238,15 +271,43 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
         _stop(analyser)
         raise _stopped(NoOperatorInput(_saved_message(str(exc), writer, options)),
                        result, writer) from None
+    except PointNotWritten as exc:
+        _stop(analyser)
+        # every point in the file (not marked complete): nothing for a resume to measure
+        said = dataclasses.replace(options, resume_hint="") if result.complete else options
+        raise _stopped(PointNotWritten(_saved_message(str(exc), writer, said)),
+                       result, writer) from exc.__cause__
     except InstrumentError as exc:
         _stop(analyser)
         raise _stopped(InstrumentError(_saved_message(str(exc), writer, options)),
                        result, writer) from exc
     result.n_saved = writer.n_points
-    result.complete = all(label in writer.labels for label in labels)
-    if result.complete:
-        writer.close()
     return result
+
+
+@contextlib.contextmanager
+def _signals_held():
+    """Ctrl-C (SIGINT) and SIGTERM wait until the block ends, then take effect as they would
+    have (the handler in place before: KeyboardInterrupt, :class:`Terminated`, ignored).
+    Around writing a measured point and saying so: a stop there dropped the averaged point
+    (the temporary file removed) while the message counted it saved. Only in the main
+    thread, where Python runs signal handlers."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+
+    def hold(signum, frame):
+        caught.append(signum)
+
+    previous = {sig: signal.signal(sig, hold) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        for sig in dict.fromkeys(caught):      # delivered again, to the handler restored
+            os.kill(os.getpid(), sig)
 
 
 def _stopped(exc: LaminidError, result: SessionResult, writer) -> LaminidError:
@@ -266,6 +327,8 @@ def _stop(analyser: Analyser) -> None:
 
 def _saved_message(prefix: str, writer, options: SessionOptions) -> str:
     n = writer.n_points
+    if n and not writer.path.exists():      # removed (its folder too?) during the session
+        return f"{prefix}; {writer.path} is gone, with the {n} point(s) saved in it"
     msg = f"{prefix}; {n} point(s) saved in {writer.path}" if n else \
         f"{prefix}; no point finished" + (f" (file {writer.path})" if writer.path.exists() else "")
     if options.resume_hint and writer.path.exists():   # nothing to resume without the file

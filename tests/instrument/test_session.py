@@ -136,3 +136,172 @@ def test_quality_uses_coherence_at_the_resonances_not_the_antiresonances():
     assert q.ok and q.peak_freq_hz == 50.0 and q.peak_coherence == pytest.approx(0.97)
     assert q.line() == ("point 7: 5 hits, coherence at resonances 0.970 (peak 0.970 at 50.0 Hz), "
                         "overloads 0 - ok")
+
+
+FULL_DISK_SCRIPT = """
+import resource, signal, sys
+import numpy as np
+from pathlib import Path
+from laminid_cli.frf.store import FrfWriter
+from laminid_cli.instrument.session import PointNotWritten, SessionOptions, run_session
+from tests.instrument.test_session import SETTINGS, FakeAnalyser, ScriptUI
+
+path = Path(sys.argv[1])
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)      # a write past the limit: EFBIG, as ENOSPC
+w = FrfWriter(path, np.linspace(0.0, 100.0, 51), units="Pa/N")
+w.add_point("1", np.ones(51), np.ones(51))
+size = path.stat().st_size
+resource.setrlimit(resource.RLIMIT_FSIZE, (size + 200, size + 200))   # no room for point 2
+fake = FakeAnalyser([0.99, 0.99])
+try:
+    run_session(fake, w, SETTINGS, SessionOptions(n_points=3, prompt=False,
+                                                  resume_hint="laminid ... --resume"), ScriptUI())
+except PointNotWritten as exc:
+    print("exit", exc.exit_code, "aborted", fake.aborted, "saved", exc.result.n_saved)
+    print(exc)
+"""
+
+
+def test_a_full_disk_stops_the_session_cleanly_and_keeps_the_saved_points(tmp_path):
+    """The disk filling while a point is written (here a file-size limit, which HDF5 meets
+    the same way): HDF5 writing to the disk itself failed on close, h5py printed tracebacks
+    and the process died of a segmentation fault. Now: PointNotWritten naming the file and
+    the point, the analyser stopped, no temporary file left, the saved point readable."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    path = tmp_path / "s.h5"
+    root = Path(__file__).resolve().parents[2]
+    run = subprocess.run([sys.executable, "-c", FULL_DISK_SCRIPT, str(path)], cwd=root,
+                         capture_output=True, text=True, timeout=60,
+                         env={**__import__("os").environ, "PYTHONPATH": str(root)})
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert run.stderr == ""
+    head, message = run.stdout.splitlines()
+    assert head == "exit 2 aborted 1 saved 1"
+    assert message.startswith(f"point 2: cannot write {path}: File too large; point 2 not saved")
+    assert "1 point(s) saved in" in message and message.endswith("laminid ... --resume")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.h5"]
+    assert read_frf_h5(path).labels == ("1",)
+
+
+class SignalledWriter(FrfWriter):
+    """Ctrl-C (SIGINT) or SIGTERM arrives while the file is being written with point ``at``."""
+
+    def __init__(self, *args, at: str, signum: int, **kw):
+        super().__init__(*args, **kw)
+        self.at, self.signum = at, signum
+
+    def _write(self, complete):
+        import os
+
+        if self.at in self.labels:
+            self.at = None
+            os.kill(os.getpid(), self.signum)
+            for _ in range(1000):      # the eval loop runs a Python handler within this
+                pass
+        super()._write(complete)
+
+
+@pytest.mark.parametrize("signame, exit_code", [("SIGINT", 130), ("SIGTERM", 143)])
+def test_a_stop_while_a_point_is_written_saves_that_point_first(tmp_path, signame, exit_code):
+    """Ctrl-C or SIGTERM while point 2 was written dropped it (the temporary file removed)
+    after its hits were averaged; the point is now written and its quality line said, then
+    the session stops as asked."""
+    import signal
+
+    from laminid_cli.instrument.session import Terminated
+
+    signum = getattr(signal, signame)
+    previous = signal.getsignal(signal.SIGTERM)
+    if signum == signal.SIGTERM:      # as acquire installs it (_sigterm_stops_the_session)
+        signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(Terminated()))
+    try:
+        w = SignalledWriter(tmp_path / "s.h5", FREQ, units="Pa/N", at="2", signum=signum)
+        ui = ScriptUI()
+        with pytest.raises(AcquisitionInterrupted) as info:
+            run_session(FakeAnalyser([0.99, 0.99, 0.99]), w, SETTINGS,
+                        SessionOptions(n_points=3, prompt=False), ui)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert info.value.exit_code == exit_code
+    assert "; 2 point(s) saved in" in str(info.value)
+    assert info.value.result.measured == ["1", "2"] and info.value.result.n_saved == 2
+    assert len(ui.lines) == 2
+    assert read_frf_h5(tmp_path / "s.h5").labels == ("1", "2")
+
+
+def test_a_temporary_file_left_by_a_killed_session_is_removed_by_the_next(tmp_path):
+    """SIGKILL while a point was written left '.s.h5.tmp-PID' beside the FRF file for ever
+    (a resume completed the file and kept it); the next writer of the file removes it, and
+    keeps a temporary file of a process still running."""
+    import os
+    import subprocess
+    import sys
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True).stdout.strip()
+    stale, live = tmp_path / f".s.h5.tmp-{dead}", tmp_path / f".s.h5.tmp-{os.getppid()}"
+    other = tmp_path / f".t.h5.tmp-{dead}"
+    for p in (stale, live, other):
+        p.write_bytes(b"half a point")
+    w = writer(tmp_path)
+    run_session(FakeAnalyser([0.99]), w, SETTINGS, SessionOptions(n_points=1, prompt=False),
+                ScriptUI())
+    assert not stale.exists() and live.exists() and other.exists()
+    assert read_frf_h5(tmp_path / "s.h5").labels == ("1",)
+
+
+def test_an_output_folder_removed_during_the_session_is_said_so(tmp_path):
+    """The folder of the FRF file removed while the session ran: the point then measured
+    cannot be written, and the message named the temporary file and said 1 point saved in a
+    file that was gone."""
+    import shutil
+
+    folder = tmp_path / "run"
+    folder.mkdir()
+    w = FrfWriter(folder / "s.h5", FREQ, units="Pa/N")
+
+    class RemovingUI(ScriptUI):
+        def summary(self, quality):
+            super().summary(quality)
+            shutil.rmtree(folder)
+
+    from laminid_cli.instrument.session import PointNotWritten
+
+    with pytest.raises(PointNotWritten) as info:
+        run_session(FakeAnalyser([0.99, 0.99]), w, SETTINGS,
+                    SessionOptions(n_points=2, prompt=False, resume_hint="laminid ..."),
+                    RemovingUI())
+    assert str(info.value) == (
+        f"point 2: cannot write {folder / 's.h5'}: No such file or directory; point 2 not saved "
+        f"(free some space or fix the folder, then resume); {folder / 's.h5'} is gone, with the "
+        "1 point(s) saved in it")
+
+
+def test_a_full_disk_when_marking_the_file_complete_says_every_point_is_saved(tmp_path):
+    """The disk full when the file, every point in it, is rewritten marked complete: the
+    OSError left the session, and acquire said only 'laminid: error: No space left on
+    device' (no file, no word of the points saved, --json an error document)."""
+    import errno
+
+    from laminid_cli.instrument.session import PointNotWritten
+
+    class FullAtClose(FrfWriter):
+        def close(self):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+    w = FullAtClose(tmp_path / "s.h5", FREQ, units="Pa/N")
+    fake = FakeAnalyser([0.99, 0.99])
+    with pytest.raises(PointNotWritten) as info:
+        run_session(fake, w, SETTINGS, SessionOptions(n_points=2, prompt=False,
+                                                      resume_hint="laminid ... --resume"),
+                    ScriptUI())
+    assert "--resume" not in str(info.value)       # nothing left to measure
+    assert str(info.value).startswith(
+        f"every point is measured, but {tmp_path / 's.h5'} could not be marked complete: No "
+        "space left on device; its points are all saved and fit-frf reads it as it is; 2 "
+        "point(s) saved in")
+    assert info.value.result.complete and info.value.result.n_saved == 2
+    assert read_frf_h5(tmp_path / "s.h5").labels == ("1", "2")
