@@ -198,6 +198,9 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
     """
     exclude = [Path(e).resolve() for e in exclude]
     found: dict[Path, Path] = {}          # resolved -> as found
+    # resolved -> where it lies below the resolved input folder: a symbolic link in a folder
+    # to a specimen file elsewhere is named by the link, not by its target's place
+    placed: dict[Path, Path] = {}
     roots = []
     for item in inputs:
         p = Path(item)
@@ -210,9 +213,11 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
                         and not any(part.startswith(".") for part in rel.parts)
                         and not any(_inside(f.resolve(), e) for e in below)):
                     found.setdefault(f.resolve(), f)
+                    placed.setdefault(f.resolve(), p.resolve() / rel)
         elif p.exists():
             roots.append(p.resolve().parent)
             found.setdefault(p.resolve(), p)
+            placed.setdefault(p.resolve(), p.resolve())
         else:
             from laminid_cli.pipeline import fix_list_hint
 
@@ -220,7 +225,8 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
     if not found:
         return []
     root = Path(os.path.commonpath([str(r) for r in roots]))
-    rels = {resolved: resolved.relative_to(root) for resolved in found}
+    rels = {resolved: (resolved if _inside(resolved, root) else placed[resolved]
+                       ).relative_to(root) for resolved in found}
     names = {r: rel.with_name(rel.name[: -len(rel.suffix)] if rel.suffix else rel.name
                               ).as_posix() for r, rel in rels.items()}
     # plate.yaml and plate.yml (or plate) in one folder: their names keep the suffix, so that

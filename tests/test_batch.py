@@ -1343,6 +1343,18 @@ def test_a_killed_workers_temporary_file_is_removed_at_the_end_if_it_was_exiting
     assert (out / "example1" / "S1.4.result.h5").exists()
 
 
+def test_a_linked_specimen_file_from_elsewhere_is_named_by_its_link(tmp_path):
+    """A folder's symbolic link to a specimen file outside it was a traceback ('... is not in
+    the subpath of ...'); it is a specimen named by the link, beside the folder's own."""
+    (tmp_path / "elsewhere").mkdir()
+    (tmp_path / "elsewhere" / "S1.2.yaml").write_text("x")
+    (tmp_path / "lab" / "a").mkdir(parents=True)
+    (tmp_path / "lab" / "a" / "p1.yaml").write_text("x")
+    (tmp_path / "lab" / "latest.yaml").symlink_to(tmp_path / "elsewhere" / "S1.2.yaml")
+    found = discover_specimens([tmp_path / "lab"])
+    assert [n for _, n in found] == ["a/p1", "latest"]
+
+
 def test_specimens_differing_only_in_their_suffix_keep_both_results(tmp_path):
     """plate.yaml and plate.yml in one folder: two results (names with their suffix), each with
     its own plate's constants; nothing overwritten."""
