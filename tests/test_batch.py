@@ -1691,6 +1691,33 @@ def test_an_interrupted_batch_sets_aside_the_results_it_did_not_reach_and_keeps_
     assert (work / "example2" / "S2.1.result.stale.h5").read_bytes() == old
 
 
+def test_a_ctrl_c_while_the_final_summaries_are_written_waits_for_them_and_the_table(
+        batch_run, tmp_path, monkeypatch):
+    """Ctrl-C as the batch wrote its final summaries (every specimen done) was raised inside
+    the write: summary.json stayed the running one beside the final summary.csv, and no table.
+    Now both summaries are the final ones, the table is printed, then exit 130."""
+    import laminid_cli.batch as batch_mod
+
+    specs, out, _ = batch_run
+    work = tmp_path / "out"
+    shutil.copytree(out, work)
+    real = batch_mod.write_summary_json
+
+    def ctrl_c_then_write(path, report):
+        if not report.get("running"):
+            os.kill(os.getpid(), signal.SIGINT)
+        return real(path, report)
+
+    monkeypatch.setattr(batch_mod, "write_summary_json", ctrl_c_then_write)
+    r = run("batch", specs, "--mesh", MESH, "-j", "2", "--out", work)
+    assert r.exit_code == 130, r.output
+    assert "summary: " in r.stdout and "not run" not in r.stdout
+    doc = json.loads((work / "summary.json").read_text())
+    assert doc["running"] is False
+    assert doc["counts"]["check"] + doc["counts"]["ok"] == 2
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
 def test_an_interrupted_forced_batch_keeps_the_results_of_the_same_input(batch_run, tmp_path,
                                                                         monkeypatch):
     """--force redoes up-to-date results: one the interrupted run did not reach is still this

@@ -94,10 +94,11 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
                                    check_scheduler, discover_specimens, duplicate_specimens,
                                    duplicate_text, failed, foreign_results, foreign_row,
                                    format_table, load_specimen_docs, non_specimens_message,
-                                   pending_row, plan_batch, printable, remove_stale_parts,
-                                   result_row, run_jobs, set_aside_result,
+                                   pending_row, plan_batch, printable,
+                                   remove_stale_parts, result_row, run_jobs, set_aside_result,
                                    sort_out_non_specimens, stored_hash, write_summary_csv,
                                    write_summary_json)
+    from laminid_cli.batch import _note_sigint as note_sigint
 
     def _unfinished_row(job):
         """The row of a job this run did not finish (Ctrl-C, a lost scheduler)."""
@@ -248,41 +249,53 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
         # Ctrl-C: the summaries, the table (or --json) of what was done, then exit 130
         interrupted = True
     finally:
-        if refused:
-            if created:
-                with contextlib.suppress(OSError):
-                    out.rmdir()
+        # from here to the table a Ctrl-C (a second one, or one as the last specimen finished)
+        # is noted, not raised: raised while the summaries were written, it left no table and
+        # a summary.csv of the finished run beside a summary.json of the running one, or both
+        # still 'running' with every result there; now exit 130 after the table
+        held, release = note_sigint(raise_=False)
+        try:
+            if refused:
+                if created:
+                    with contextlib.suppress(OSError):
+                        out.rmdir()
+            else:
+                # also on Ctrl-C: the summary lists what was done ('not run' for the rest). A
+                # result this run did not reach is kept when it is this input's (--force redoing
+                # it); another input's is set aside as a failing specimen's, so that no
+                # *.result.h5 beside this summary is older than its input. Results of specimens
+                # not in this batch are named, not moved (another batch's may share --out).
+                ordered = [rows.get(j.name) or _unfinished_row(j) for j in jobs]
+                ordered += [foreign_row(p, out) for p in foreign_results(out, jobs)]
+                report = batch_report(ordered, options, out, interrupted=interrupted,
+                                      duplicates=duplicates, batch=settings)
+                write_summary_csv(out / SUMMARY_CSV, ordered, wide=wide,
+                                  options=options.as_dict(), batch=settings)
+                write_summary_json(out / SUMMARY_JSON, report)
+                # once more at the end: a killed run's worker may still have been exiting at the
+                # start (its temporary file then counted as a live process's)
+                remove_stale_parts(out)
+        except BaseException:
+            release()
+            raise
+    try:
+        if as_json:
+            echo_json(report)
         else:
-            # also on Ctrl-C: the summary lists what was done ('not run' for the rest). A
-            # result this run did not reach is kept when it is this input's (--force redoing
-            # it); another input's is set aside as a failing specimen's, so that no
-            # *.result.h5 beside this summary is older than its input. Results of specimens
-            # not in this batch are named, not moved (another batch's may share --out).
-            ordered = [rows.get(j.name) or _unfinished_row(j) for j in jobs]
-            ordered += [foreign_row(p, out) for p in foreign_results(out, jobs)]
-            report = batch_report(ordered, options, out, interrupted=interrupted,
-                                  duplicates=duplicates, batch=settings)
-            write_summary_csv(out / SUMMARY_CSV, ordered, wide=wide,
-                              options=options.as_dict(), batch=settings)
-            write_summary_json(out / SUMMARY_JSON, report)
-            # once more at the end: a killed run's worker may still have been exiting at the
-            # start (its temporary file then counted as a live process's)
-            remove_stale_parts(out)
-    if as_json:
-        echo_json(report)
-    else:
-        click.echo(format_table(ordered), nl=False)
-        c = report["counts"]
-        click.echo(f"\n{c['ok']} ok, {c['check']} check ({c['not converged']} not converged), "
-                   f"{c['error']} failed ({report['n_cached']} up to date"
-                   + (f"; {c['set aside']} earlier result{'' if c['set aside'] == 1 else 's'}"
-                      " set aside" if c["set aside"] else "")
-                   + (f"; {c[NOT_FROM_BATCH]} result file"
-                      f"{' is' if c[NOT_FROM_BATCH] == 1 else 's are'} not from this batch"
-                      if c[NOT_FROM_BATCH] else "")
-                   + (f"; {c['not run']} not run: interrupted" if interrupted else "")
-                   + f"); summary: {out / SUMMARY_CSV}")
-    if interrupted:
+            click.echo(format_table(ordered), nl=False)
+            c = report["counts"]
+            click.echo(f"\n{c['ok']} ok, {c['check']} check ({c['not converged']} not converged), "
+                       f"{c['error']} failed ({report['n_cached']} up to date"
+                       + (f"; {c['set aside']} earlier result{'' if c['set aside'] == 1 else 's'}"
+                          " set aside" if c["set aside"] else "")
+                       + (f"; {c[NOT_FROM_BATCH]} result file"
+                          f"{' is' if c[NOT_FROM_BATCH] == 1 else 's are'} not from this batch"
+                          if c[NOT_FROM_BATCH] else "")
+                       + (f"; {c['not run']} not run: interrupted" if interrupted else "")
+                       + f"); summary: {out / SUMMARY_CSV}")
+    finally:
+        release()
+    if interrupted or held:
         raise KeyboardInterrupt
     if failed(ordered):
         sys.exit(1)
