@@ -695,6 +695,66 @@ def run_job(job: Job, options: BatchOptions, write: bool = False) -> Outcome:
         return failure(f"internal error {type(exc).__name__}: {exc}")
 
 
+def lock_out_folder(out_dir) -> int | None:
+    """Hold ``out_dir`` for this batch: an exclusive advisory lock (flock) on the folder itself
+    (no file is left in it), released when the returned descriptor is closed or the process
+    ends, SIGKILL included. Two batches writing into one folder at once replaced each other's
+    results under their summaries (a summary giving the 8x8 constants of a file that held the
+    other batch's 6x6 ones), so a second one is refused (BatchError) before it touches
+    anything. None where the system or the file system has no such lock (Windows, some network
+    file systems): the batch runs unguarded, as before."""
+    try:
+        import fcntl
+    except ImportError:
+        return None
+    try:
+        fd = os.open(out_dir, os.O_RDONLY)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        os.close(fd)
+        raise BatchError(f"--out {out_dir}: another laminid batch is writing into this folder "
+                         "now (two at once replace each other's results under their "
+                         "summaries); wait for it to end, or choose another --out",
+                         path=out_dir) from None
+    except OSError:
+        os.close(fd)
+        return None
+    _held_out.append(fd)
+    return fd
+
+
+def release_out_folder(fd: int | None) -> None:
+    """Let go of the folder :func:`lock_out_folder` held (``fd``: what it returned)."""
+    if fd is None:
+        return
+    with contextlib.suppress(ValueError):
+        _held_out.remove(fd)
+    with contextlib.suppress(OSError):
+        os.close(fd)
+
+
+#: descriptors of the --out folders this process holds (lock_out_folder)
+_held_out: list = []
+
+
+def _close_held_out_in_child() -> None:
+    """In a forked child (the Monte Carlo trials', an HDF5 probe): close the inherited copies
+    of the held folders' descriptors, so that a child that outlives a killed batch for a
+    moment does not keep the next batch out (the parent's lock stays: closing a copy does not
+    release it)."""
+    for fd in _held_out:
+        with contextlib.suppress(OSError):
+            os.close(fd)
+    _held_out.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_close_held_out_in_child)
+
+
 def remove_stale_parts(out_dir) -> int:
     """Delete the temporary files a killed batch left in ``out_dir``."""
     return remove_stale_temporaries(out_dir)

@@ -1718,6 +1718,58 @@ def test_a_ctrl_c_while_the_final_summaries_are_written_waits_for_them_and_the_t
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
+def test_a_second_batch_into_the_same_out_at_once_is_refused_before_it_touches_it(
+        batch_run, tmp_path):
+    """Two batches writing into one --out at once replaced each other's results under their
+    summaries (the one ending last gave its own constants for files holding the other's). While
+    one holds the folder, another is refused (exit 2, naming it) and changes nothing; the folder
+    is free again when a batch ends."""
+    import fcntl
+
+    specs, out, _ = batch_run
+    work = tmp_path / "out"
+    shutil.copytree(out, work)
+    before = {p: p.read_bytes() for p in work.rglob("*") if p.is_file()}
+    fd = os.open(work, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)       # a batch running into it
+        r = run("batch", specs, "--mesh", "5x5", "--out", work)
+        assert r.exit_code == 2, r.output
+        assert f"--out {work}: another laminid batch is writing into this folder" in r.output
+        assert {p: p.read_bytes() for p in work.rglob("*") if p.is_file()} == before
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        r = run("batch", specs, "--mesh", MESH, "--out", work, "-j", "2")
+        assert r.exit_code == 0, r.output
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)       # released by the batch's end
+    finally:
+        os.close(fd)
+
+
+def test_a_forked_child_of_a_batch_does_not_hold_its_out_folder(tmp_path):
+    """A Monte Carlo trial forked from the batch that outlived it for a moment (SIGKILL) kept
+    the next batch out; a forked child closes its copy, the parent's hold stays."""
+    import fcntl
+
+    from laminid_cli.batch import lock_out_folder, release_out_folder
+
+    fd = lock_out_folder(tmp_path)
+    try:
+        pid = os.fork()
+        if pid == 0:
+            try:
+                os.fstat(fd)
+                os._exit(1)
+            except OSError:
+                os._exit(0)
+        assert os.waitpid(pid, 0)[1] == 0
+        other = os.open(tmp_path, os.O_RDONLY)
+        with pytest.raises(BlockingIOError):
+            fcntl.flock(other, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        os.close(other)
+    finally:
+        release_out_folder(fd)
+
+
 def test_an_interrupted_forced_batch_keeps_the_results_of_the_same_input(batch_run, tmp_path,
                                                                         monkeypatch):
     """--force redoes up-to-date results: one the interrupted run did not reach is still this

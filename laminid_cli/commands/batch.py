@@ -94,10 +94,10 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
                                    check_scheduler, discover_specimens, duplicate_specimens,
                                    duplicate_text, failed, foreign_results, foreign_row,
                                    format_table, load_specimen_docs, non_specimens_message,
-                                   pending_row, plan_batch, printable,
-                                   remove_stale_parts, result_row, run_jobs, set_aside_result,
-                                   sort_out_non_specimens, stored_hash, write_summary_csv,
-                                   write_summary_json)
+                                   lock_out_folder, pending_row, plan_batch, printable,
+                                   release_out_folder, remove_stale_parts, result_row,
+                                   run_jobs, set_aside_result, sort_out_non_specimens,
+                                   stored_hash, write_summary_csv, write_summary_json)
     from laminid_cli.batch import _note_sigint as note_sigint
 
     def _unfinished_row(job):
@@ -162,6 +162,11 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     if not folder_writable(out):
         raise BatchError(f"--out {out}: the folder cannot be written to (permissions, a "
                          "read-only or special file system); choose another place with --out")
+    # one batch at a time in a folder: a second one is refused here, before it reads or moves
+    # anything; the lock goes with this command (or its process, however it ends)
+    held_out = lock_out_folder(out)
+    if held_out is not None:
+        click.get_current_context().call_on_close(lambda: release_out_folder(held_out))
     remove_stale_parts(out)
     jobs = plan_batch(specimens, out, options, force=force)
     todo = [j for j in jobs if not j.up_to_date]
