@@ -185,7 +185,8 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
     Parameters
     ----------
     inputs : files and folders; folders are searched recursively for ``*.yaml``/``*.yml``
-        (hidden files and folders skipped), files are taken whatever their suffix
+        (hidden files and folders skipped, symbolic links to folders followed, each folder
+        once), files are taken whatever their suffix
     exclude : folders not to search (the output folder) where they lie below an input folder
         (an input folder inside one, or itself one, is searched: results beside specimens)
 
@@ -207,10 +208,9 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
         if p.is_dir():
             roots.append(p.resolve())
             below = [e for e in exclude if not _inside(p.resolve(), e)]
-            for f in sorted(p.rglob("*")):
+            for f in sorted(_files_below(p)):
                 rel = f.relative_to(p)
                 if (f.suffix.lower() in SPECIMEN_SUFFIXES and f.is_file()
-                        and not any(part.startswith(".") for part in rel.parts)
                         and not any(_inside(f.resolve(), e) for e in below)):
                     found.setdefault(f.resolve(), f)
                     placed.setdefault(f.resolve(), p.resolve() / rel)
@@ -235,6 +235,38 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
     out = [(as_found, names[r] if count[names[r]] == 1 else rels[r].as_posix())
            for r, as_found in found.items()]
     return sorted(out, key=lambda t: t[1])
+
+
+def _files_below(folder: Path):
+    """The paths below ``folder`` that are no folders, hidden names (and what is below them)
+    skipped. A symbolic link to a folder is followed (pathlib's rglob skipped it, and with it
+    every specimen of a lab's linked folder, without a word), each real folder once, so that a
+    link to a folder above it ends there rather than going round."""
+    seen = set()
+
+    def walk(d: Path):
+        real = os.path.realpath(d)
+        if real in seen:
+            return
+        seen.add(real)
+        try:
+            entries = sorted(os.scandir(d), key=lambda e: e.name)
+        except OSError:                     # unreadable: as rglob, nothing below it
+            return
+        for entry in entries:
+            if entry.name.startswith("."):
+                continue
+            path = d / entry.name
+            try:
+                is_dir = entry.is_dir()     # through a symbolic link
+            except OSError:
+                is_dir = False
+            if is_dir:
+                yield from walk(path)
+            else:
+                yield path
+
+    yield from walk(Path(folder))
 
 
 def _inside(path: Path, folder: Path) -> bool:

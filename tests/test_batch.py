@@ -1355,6 +1355,20 @@ def test_a_linked_specimen_file_from_elsewhere_is_named_by_its_link(tmp_path):
     assert [n for _, n in found] == ["a/p1", "latest"]
 
 
+def test_a_linked_folder_is_searched_once_and_a_link_loop_ends(tmp_path):
+    """A symbolic link to a folder (a lab's data elsewhere) was skipped without a word; it is
+    searched as a folder, each real folder once: a link back up ends there."""
+    (tmp_path / "elsewhere" / "deep").mkdir(parents=True)
+    (tmp_path / "elsewhere" / "deep" / "p2.yaml").write_text("x")
+    (tmp_path / "lab" / "a").mkdir(parents=True)
+    (tmp_path / "lab" / "a" / "p1.yaml").write_text("x")
+    (tmp_path / "lab" / "a" / "up").symlink_to(tmp_path / "lab")          # a loop
+    (tmp_path / "lab" / "nov").symlink_to(tmp_path / "elsewhere")
+    (tmp_path / "lab" / ".hid").symlink_to(tmp_path / "elsewhere")        # hidden: skipped
+    found = discover_specimens([tmp_path / "lab"])
+    assert [n for _, n in found] == ["a/p1", "nov/deep/p2"]
+
+
 def test_specimens_differing_only_in_their_suffix_keep_both_results(tmp_path):
     """plate.yaml and plate.yml in one folder: two results (names with their suffix), each with
     its own plate's constants; nothing overwritten."""

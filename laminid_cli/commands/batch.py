@@ -46,7 +46,8 @@ from laminid_cli.commands._common import (echo_json, fit_options, json_option,
 @pass_run_options()
 def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, as_json):
     """Identify every specimen in INPUTS (folders searched recursively for *.yaml/*.yml,
-    or files) as 'laminid identify' does (same options, same uncertainty assessment),
+    links to folders followed, or files) as 'laminid identify' does (same options, same
+    uncertainty assessment),
     writing OUT/<folder>/<name>.result.h5 per specimen
     (folders relative to the inputs' common root) and OUT/summary.csv and summary.json
     (SI units: summary.csv has one row per specimen, material and constant with value,
