@@ -563,6 +563,16 @@ def _hdf5_with_format(path: Path, fmt: str) -> Path:
     return path
 
 
+def test_an_out_that_is_a_link_to_nothing_is_named_as_such(tmp_path):
+    """--out a dangling symbolic link was refused as 'cannot create the folder (File exists)'."""
+    (tmp_path / "res").symlink_to(tmp_path / "gone")
+    r = run("batch", SPECS["example2/S2.1.yaml"], "--mesh", MESH, "--out", tmp_path / "res")
+    assert r.exit_code == 2, r.output
+    assert (f"--out {tmp_path / 'res'}: a symbolic link to {tmp_path / 'gone'}, which does not "
+            "exist") in r.output
+    assert not (tmp_path / "gone").exists()
+
+
 def test_a_result_frf_or_modes_file_named_as_an_input_is_refused_before_anything_runs(tmp_path):
     """A result file among the files given (laminid batch plates/* with results beside the
     specimens) ran as a specimen and failed as one ("is an HDF5 file (an FRF or result

@@ -84,6 +84,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
       laminid batch study/ --scheduler tcp://10.0.0.5:8786 -j 64
     """
     import contextlib
+    import os
     import sys
     import time
     from pathlib import Path
@@ -152,6 +153,10 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
         for group in duplicates:
             click.echo(f"warning: {duplicate_text(p for p, _ in group)}", err=True)
     duplicates = [[name for _, name in group] for group in duplicates]
+    if out.is_symlink() and not out.exists():
+        # mkdir said only "cannot create the folder (File exists)" of a link to nothing
+        raise BatchError(f"--out {out}: a symbolic link to {os.readlink(out)}, which does not "
+                         "exist; create that folder, or choose another place with --out")
     created = not out.exists()
     try:
         out.mkdir(parents=True, exist_ok=True)
