@@ -1742,6 +1742,28 @@ def test_a_ctrl_c_while_the_final_summaries_are_written_waits_for_them_and_the_t
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
+def test_a_batch_that_ends_in_an_error_leaves_ctrl_c_as_it_found_it(batch_run, tmp_path,
+                                                                     monkeypatch):
+    """The summaries' and table's hold on Ctrl-C is let go when an error ends the run (a
+    scheduler lost before any job: exit 2) as when the run ends: a Ctrl-C raises again."""
+    import laminid_cli.batch as batch_mod
+    from laminid_cli.batch import BatchError
+
+    specs, out, _ = batch_run
+    work = tmp_path / "out"
+    shutil.copytree(out, work)
+
+    def refused(jobs, options, **kw):
+        raise BatchError("scheduler gone")
+        yield                                   # a generator, as run_jobs
+
+    monkeypatch.setattr(batch_mod, "run_jobs", refused)
+    before = signal.getsignal(signal.SIGINT)
+    r = run("batch", specs, "--mesh", "5x5", "--out", work)
+    assert r.exit_code == 2 and "scheduler gone" in r.output, r.output
+    assert signal.getsignal(signal.SIGINT) is before
+
+
 def test_a_second_batch_into_the_same_out_at_once_is_refused_before_it_touches_it(
         batch_run, tmp_path):
     """Two batches writing into one --out at once replaced each other's results under their

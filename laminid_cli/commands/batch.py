@@ -209,6 +209,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     finished = 0
     refused = False
     interrupted = False
+    ended = False                          # the run ended, or a Ctrl-C ended it: a table follows
     written = [0.0]                        # when the summaries were last written while running
 
     def write_running(force: bool = False):
@@ -253,12 +254,13 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
                 elif logged:
                     click.echo(printable(f"identified {finished}/{len(todo)}: {job.name}: "
                                          f"{outcome.status}"), err=True)
+        ended = True
     except BatchError:   # e.g. --scheduler unreachable: nothing ran, so nothing is written
         refused = finished == 0
         raise
     except KeyboardInterrupt:
         # Ctrl-C: the summaries, the table (or --json) of what was done, then exit 130
-        interrupted = True
+        interrupted = ended = True
     finally:
         # from here to the table a Ctrl-C (a second one, or one as the last specimen finished)
         # is noted, not raised: raised while the summaries were written, it left no table and
@@ -289,6 +291,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
         except BaseException:
             release()
             raise
+        if not ended:                 # an error on its way out of the run: no table follows
+            release()
     try:
         if as_json:
             echo_json(report)
