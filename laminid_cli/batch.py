@@ -792,10 +792,14 @@ def remove_stale_parts(out_dir) -> int:
     return remove_stale_temporaries(out_dir)
 
 
-def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None = None):
+def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None = None,
+             retry: bool = True):
     """Run the jobs and yield ``(job, outcome)`` in order of completion.
 
     n_jobs : worker processes; 1 without a scheduler runs in this process
+    retry : on a process pool, the jobs a dead worker took down with the pool (one killed, out
+        of memory: every job not finished then fails with BrokenProcessPool) run again after
+        it, each alone in a new worker, so that only a job that kills its worker again fails
     scheduler : None (concurrent.futures process pool), "local" (a local Dask cluster of
         ``n_jobs`` single-threaded worker processes) or a Dask scheduler address
         ("tcp://host:8786"); the workers must see the specimen files at the same paths.
@@ -827,6 +831,7 @@ def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None
     # clean-up (a weakref callback of the pool's), which prints "Exception ignored in ...
     # KeyboardInterrupt" after "laminid: interrupted" (1 of 40 interrupted batches)
     seen, restore = _note_sigint(raise_=False)
+    broken = []                      # jobs a dead worker took down with the pool
     try:
         with _sigint_blocked():      # the pool starts its worker processes in submit
             futures = {pool.submit(run_job, job, options, True): i for i, job in enumerate(jobs)}
@@ -839,6 +844,9 @@ def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None
                 if seen:
                     raise KeyboardInterrupt
                 job = jobs[futures[fut]]
+                if retry and _pool_broke(fut):
+                    broken.append(job)
+                    continue
                 yield job, _outcome_of(fut, job)
             if seen:
                 raise KeyboardInterrupt
@@ -866,6 +874,11 @@ def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None
             restore()
         if seen and complete:
             raise KeyboardInterrupt          # as the last job finished: a Ctrl-C like any other
+    # a worker died (killed, out of memory) and every job not finished failed with it: each
+    # alone in a new worker, one after the other (the least memory), so that the job that
+    # killed its worker is the only one to fail, and the others are not 'failed' for it
+    for job in broken:
+        yield from run_jobs([job], options, n_jobs=2, retry=False)
 
 
 #: seconds the pool's workers have to exit after SIGTERM before they are killed (SIGKILL)
@@ -1004,10 +1017,21 @@ def _run_here(jobs, options):
         restore()
 
 
+def _pool_broke(fut) -> bool:
+    """True when the job of ``fut`` failed because a worker process of its pool died."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    return isinstance(fut.exception(), BrokenProcessPool)
+
+
 def _outcome_of(fut, job: Job) -> Outcome:
     try:
         return fut.result()
     except Exception as exc:  # noqa: BLE001 - a worker died (killed, out of memory)
+        if _pool_broke(fut):
+            return Outcome(job.name, "error", "worker failed: its worker process died "
+                           "(killed, or out of memory?), also when the specimen ran again "
+                           "alone in a new one")
         return Outcome(job.name, "error", f"worker failed: {type(exc).__name__}: {exc}")
 
 

@@ -1078,6 +1078,47 @@ def _wait_first_result(proc, out, timeout=120):
     pytest.fail("no result appeared")
 
 
+def _pool_workers(pid: int) -> list[int]:
+    """The batch ``pid``'s pool workers: the children of its forkserver (Linux /proc)."""
+    def children(parent):
+        found = []
+        for entry in Path("/proc").iterdir():
+            if entry.name.isdigit():
+                try:
+                    stat = (entry / "stat").read_text()
+                    cmd = (entry / "cmdline").read_bytes()
+                except OSError:
+                    continue
+                if int(stat.rsplit(")", 1)[1].split()[1]) == parent:
+                    found.append((int(entry.name), cmd))
+        return found
+
+    servers = [c for c, cmd in children(pid) if b"forkserver" in cmd]
+    return [c for s in servers for c, _ in children(s)]
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+def test_a_killed_worker_fails_no_specimen_that_runs_again_alone(tmp_path):
+    """One worker of -j 2 killed (the OOM killer): the pool broke and every specimen not
+    finished then was 'failed' ('worker failed: BrokenProcessPool ...', exit 1), none of them
+    at fault. They run again, each alone in a new worker: all identified, exit 0."""
+    specs = make_tree(tmp_path / "in", {**SPECS, "example1/S1.1.yaml":
+                                        "specimens/example1/S1.1.yaml", "example1/S1.2.yaml":
+                                        "specimens/example1/S1.2.yaml"})
+    out = tmp_path / "out"
+    proc = _start_batch(specs, out, "2")
+    _wait_first_result(proc, out)
+    workers = _pool_workers(proc.pid)
+    assert workers and proc.poll() is None
+    os.kill(workers[0], signal.SIGKILL)
+    _o, _e = proc.communicate(timeout=120)
+    assert proc.returncode == 0, _o.decode()[-2000:] + _e.decode()[-2000:]
+    rows = read_summary(out / "summary.csv")
+    assert {r["name"] for r in rows} == {"example1/S1.1", "example1/S1.2", "example1/S1.4",
+                                         "example2/S2.1"}
+    assert {r["status"] for r in rows} <= {"ok", "check"}
+
+
 @pytest.mark.parametrize("sig, jobs", [(signal.SIGKILL, "2"), (signal.SIGINT, "2"),
                                        (signal.SIGINT, "1")])
 def test_killed_batch_leaves_only_complete_files_and_a_rerun_finishes(tmp_path, sig, jobs):
