@@ -185,7 +185,8 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
     Parameters
     ----------
     inputs : files and folders; folders are searched recursively for ``*.yaml``/``*.yml``
-        (hidden files and folders skipped), files are taken whatever their suffix
+        (hidden files and folders skipped, symbolic links to folders followed, each folder
+        once), files are taken whatever their suffix
     exclude : folders not to search (the output folder) where they lie below an input folder
         (an input folder inside one, or itself one, is searched: results beside specimens)
 
@@ -198,21 +199,25 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
     """
     exclude = [Path(e).resolve() for e in exclude]
     found: dict[Path, Path] = {}          # resolved -> as found
+    # resolved -> where it lies below the resolved input folder: a symbolic link in a folder
+    # to a specimen file elsewhere is named by the link, not by its target's place
+    placed: dict[Path, Path] = {}
     roots = []
     for item in inputs:
         p = Path(item)
         if p.is_dir():
             roots.append(p.resolve())
             below = [e for e in exclude if not _inside(p.resolve(), e)]
-            for f in sorted(p.rglob("*")):
+            for f in sorted(_files_below(p)):
                 rel = f.relative_to(p)
                 if (f.suffix.lower() in SPECIMEN_SUFFIXES and f.is_file()
-                        and not any(part.startswith(".") for part in rel.parts)
                         and not any(_inside(f.resolve(), e) for e in below)):
                     found.setdefault(f.resolve(), f)
+                    placed.setdefault(f.resolve(), p.resolve() / rel)
         elif p.exists():
             roots.append(p.resolve().parent)
             found.setdefault(p.resolve(), p)
+            placed.setdefault(p.resolve(), p.resolve())
         else:
             from laminid_cli.pipeline import fix_list_hint
 
@@ -220,7 +225,8 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
     if not found:
         return []
     root = Path(os.path.commonpath([str(r) for r in roots]))
-    rels = {resolved: resolved.relative_to(root) for resolved in found}
+    rels = {resolved: (resolved if _inside(resolved, root) else placed[resolved]
+                       ).relative_to(root) for resolved in found}
     names = {r: rel.with_name(rel.name[: -len(rel.suffix)] if rel.suffix else rel.name
                               ).as_posix() for r, rel in rels.items()}
     # plate.yaml and plate.yml (or plate) in one folder: their names keep the suffix, so that
@@ -229,6 +235,38 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
     out = [(as_found, names[r] if count[names[r]] == 1 else rels[r].as_posix())
            for r, as_found in found.items()]
     return sorted(out, key=lambda t: t[1])
+
+
+def _files_below(folder: Path):
+    """The paths below ``folder`` that are no folders, hidden names (and what is below them)
+    skipped. A symbolic link to a folder is followed (pathlib's rglob skipped it, and with it
+    every specimen of a lab's linked folder, without a word), each real folder once, so that a
+    link to a folder above it ends there rather than going round."""
+    seen = set()
+
+    def walk(d: Path):
+        real = os.path.realpath(d)
+        if real in seen:
+            return
+        seen.add(real)
+        try:
+            entries = sorted(os.scandir(d), key=lambda e: e.name)
+        except OSError:                     # unreadable: as rglob, nothing below it
+            return
+        for entry in entries:
+            if entry.name.startswith("."):
+                continue
+            path = d / entry.name
+            try:
+                is_dir = entry.is_dir()     # through a symbolic link
+            except OSError:
+                is_dir = False
+            if is_dir:
+                yield from walk(path)
+            else:
+                yield path
+
+    yield from walk(Path(folder))
 
 
 def _inside(path: Path, folder: Path) -> bool:
@@ -689,15 +727,79 @@ def run_job(job: Job, options: BatchOptions, write: bool = False) -> Outcome:
         return failure(f"internal error {type(exc).__name__}: {exc}")
 
 
+def lock_out_folder(out_dir) -> int | None:
+    """Hold ``out_dir`` for this batch: an exclusive advisory lock (flock) on the folder itself
+    (no file is left in it), released when the returned descriptor is closed or the process
+    ends, SIGKILL included. Two batches writing into one folder at once replaced each other's
+    results under their summaries (a summary giving the 8x8 constants of a file that held the
+    other batch's 6x6 ones), so a second one is refused (BatchError) before it touches
+    anything. None where the system or the file system has no such lock (Windows, some network
+    file systems): the batch runs unguarded, as before."""
+    try:
+        import fcntl
+    except ImportError:
+        return None
+    try:
+        fd = os.open(out_dir, os.O_RDONLY)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        os.close(fd)
+        raise BatchError(f"--out {out_dir}: another laminid batch is writing into this folder "
+                         "now (two at once replace each other's results under their "
+                         "summaries); wait for it to end, or choose another --out",
+                         path=out_dir) from None
+    except OSError:
+        os.close(fd)
+        return None
+    _held_out.append(fd)
+    return fd
+
+
+def release_out_folder(fd: int | None) -> None:
+    """Let go of the folder :func:`lock_out_folder` held (``fd``: what it returned)."""
+    if fd is None:
+        return
+    with contextlib.suppress(ValueError):
+        _held_out.remove(fd)
+    with contextlib.suppress(OSError):
+        os.close(fd)
+
+
+#: descriptors of the --out folders this process holds (lock_out_folder)
+_held_out: list = []
+
+
+def _close_held_out_in_child() -> None:
+    """In a forked child (the Monte Carlo trials', an HDF5 probe): close the inherited copies
+    of the held folders' descriptors, so that a child that outlives a killed batch for a
+    moment does not keep the next batch out (the parent's lock stays: closing a copy does not
+    release it)."""
+    for fd in _held_out:
+        with contextlib.suppress(OSError):
+            os.close(fd)
+    _held_out.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_close_held_out_in_child)
+
+
 def remove_stale_parts(out_dir) -> int:
     """Delete the temporary files a killed batch left in ``out_dir``."""
     return remove_stale_temporaries(out_dir)
 
 
-def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None = None):
+def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None = None,
+             retry: bool = True):
     """Run the jobs and yield ``(job, outcome)`` in order of completion.
 
     n_jobs : worker processes; 1 without a scheduler runs in this process
+    retry : on a process pool, the jobs a dead worker took down with the pool (one killed, out
+        of memory: every job not finished then fails with BrokenProcessPool) run again after
+        it, each alone in a new worker, so that only a job that kills its worker again fails
     scheduler : None (concurrent.futures process pool), "local" (a local Dask cluster of
         ``n_jobs`` single-threaded worker processes) or a Dask scheduler address
         ("tcp://host:8786"); the workers must see the specimen files at the same paths.
@@ -729,6 +831,7 @@ def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None
     # clean-up (a weakref callback of the pool's), which prints "Exception ignored in ...
     # KeyboardInterrupt" after "laminid: interrupted" (1 of 40 interrupted batches)
     seen, restore = _note_sigint(raise_=False)
+    broken = []                      # jobs a dead worker took down with the pool
     try:
         with _sigint_blocked():      # the pool starts its worker processes in submit
             futures = {pool.submit(run_job, job, options, True): i for i, job in enumerate(jobs)}
@@ -741,6 +844,9 @@ def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None
                 if seen:
                     raise KeyboardInterrupt
                 job = jobs[futures[fut]]
+                if retry and _pool_broke(fut):
+                    broken.append(job)
+                    continue
                 yield job, _outcome_of(fut, job)
             if seen:
                 raise KeyboardInterrupt
@@ -768,6 +874,11 @@ def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None
             restore()
         if seen and complete:
             raise KeyboardInterrupt          # as the last job finished: a Ctrl-C like any other
+    # a worker died (killed, out of memory) and every job not finished failed with it: each
+    # alone in a new worker, one after the other (the least memory), so that the job that
+    # killed its worker is the only one to fail, and the others are not 'failed' for it
+    for job in broken:
+        yield from run_jobs([job], options, n_jobs=2, retry=False)
 
 
 #: seconds the pool's workers have to exit after SIGTERM before they are killed (SIGKILL)
@@ -906,10 +1017,21 @@ def _run_here(jobs, options):
         restore()
 
 
+def _pool_broke(fut) -> bool:
+    """True when the job of ``fut`` failed because a worker process of its pool died."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    return isinstance(fut.exception(), BrokenProcessPool)
+
+
 def _outcome_of(fut, job: Job) -> Outcome:
     try:
         return fut.result()
     except Exception as exc:  # noqa: BLE001 - a worker died (killed, out of memory)
+        if _pool_broke(fut):
+            return Outcome(job.name, "error", "worker failed: its worker process died "
+                           "(killed, or out of memory?), also when the specimen ran again "
+                           "alone in a new one")
         return Outcome(job.name, "error", f"worker failed: {type(exc).__name__}: {exc}")
 
 

@@ -563,6 +563,16 @@ def _hdf5_with_format(path: Path, fmt: str) -> Path:
     return path
 
 
+def test_an_out_that_is_a_link_to_nothing_is_named_as_such(tmp_path):
+    """--out a dangling symbolic link was refused as 'cannot create the folder (File exists)'."""
+    (tmp_path / "res").symlink_to(tmp_path / "gone")
+    r = run("batch", SPECS["example2/S2.1.yaml"], "--mesh", MESH, "--out", tmp_path / "res")
+    assert r.exit_code == 2, r.output
+    assert (f"--out {tmp_path / 'res'}: a symbolic link to {tmp_path / 'gone'}, which does not "
+            "exist") in r.output
+    assert not (tmp_path / "gone").exists()
+
+
 def test_a_result_frf_or_modes_file_named_as_an_input_is_refused_before_anything_runs(tmp_path):
     """A result file among the files given (laminid batch plates/* with results beside the
     specimens) ran as a specimen and failed as one ("is an HDF5 file (an FRF or result
@@ -1068,6 +1078,47 @@ def _wait_first_result(proc, out, timeout=120):
     pytest.fail("no result appeared")
 
 
+def _pool_workers(pid: int) -> list[int]:
+    """The batch ``pid``'s pool workers: the children of its forkserver (Linux /proc)."""
+    def children(parent):
+        found = []
+        for entry in Path("/proc").iterdir():
+            if entry.name.isdigit():
+                try:
+                    stat = (entry / "stat").read_text()
+                    cmd = (entry / "cmdline").read_bytes()
+                except OSError:
+                    continue
+                if int(stat.rsplit(")", 1)[1].split()[1]) == parent:
+                    found.append((int(entry.name), cmd))
+        return found
+
+    servers = [c for c, cmd in children(pid) if b"forkserver" in cmd]
+    return [c for s in servers for c, _ in children(s)]
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+def test_a_killed_worker_fails_no_specimen_that_runs_again_alone(tmp_path):
+    """One worker of -j 2 killed (the OOM killer): the pool broke and every specimen not
+    finished then was 'failed' ('worker failed: BrokenProcessPool ...', exit 1), none of them
+    at fault. They run again, each alone in a new worker: all identified, exit 0."""
+    specs = make_tree(tmp_path / "in", {**SPECS, "example1/S1.1.yaml":
+                                        "specimens/example1/S1.1.yaml", "example1/S1.2.yaml":
+                                        "specimens/example1/S1.2.yaml"})
+    out = tmp_path / "out"
+    proc = _start_batch(specs, out, "2")
+    _wait_first_result(proc, out)
+    workers = _pool_workers(proc.pid)
+    assert workers and proc.poll() is None
+    os.kill(workers[0], signal.SIGKILL)
+    _o, _e = proc.communicate(timeout=120)
+    assert proc.returncode == 0, _o.decode()[-2000:] + _e.decode()[-2000:]
+    rows = read_summary(out / "summary.csv")
+    assert {r["name"] for r in rows} == {"example1/S1.1", "example1/S1.2", "example1/S1.4",
+                                         "example2/S2.1"}
+    assert {r["status"] for r in rows} <= {"ok", "check"}
+
+
 @pytest.mark.parametrize("sig, jobs", [(signal.SIGKILL, "2"), (signal.SIGINT, "2"),
                                        (signal.SIGINT, "1")])
 def test_killed_batch_leaves_only_complete_files_and_a_rerun_finishes(tmp_path, sig, jobs):
@@ -1341,6 +1392,32 @@ def test_a_killed_workers_temporary_file_is_removed_at_the_end_if_it_was_exiting
     assert calls.count(999999) == 2
     assert not stale.exists()
     assert (out / "example1" / "S1.4.result.h5").exists()
+
+
+def test_a_linked_specimen_file_from_elsewhere_is_named_by_its_link(tmp_path):
+    """A folder's symbolic link to a specimen file outside it was a traceback ('... is not in
+    the subpath of ...'); it is a specimen named by the link, beside the folder's own."""
+    (tmp_path / "elsewhere").mkdir()
+    (tmp_path / "elsewhere" / "S1.2.yaml").write_text("x")
+    (tmp_path / "lab" / "a").mkdir(parents=True)
+    (tmp_path / "lab" / "a" / "p1.yaml").write_text("x")
+    (tmp_path / "lab" / "latest.yaml").symlink_to(tmp_path / "elsewhere" / "S1.2.yaml")
+    found = discover_specimens([tmp_path / "lab"])
+    assert [n for _, n in found] == ["a/p1", "latest"]
+
+
+def test_a_linked_folder_is_searched_once_and_a_link_loop_ends(tmp_path):
+    """A symbolic link to a folder (a lab's data elsewhere) was skipped without a word; it is
+    searched as a folder, each real folder once: a link back up ends there."""
+    (tmp_path / "elsewhere" / "deep").mkdir(parents=True)
+    (tmp_path / "elsewhere" / "deep" / "p2.yaml").write_text("x")
+    (tmp_path / "lab" / "a").mkdir(parents=True)
+    (tmp_path / "lab" / "a" / "p1.yaml").write_text("x")
+    (tmp_path / "lab" / "a" / "up").symlink_to(tmp_path / "lab")          # a loop
+    (tmp_path / "lab" / "nov").symlink_to(tmp_path / "elsewhere")
+    (tmp_path / "lab" / ".hid").symlink_to(tmp_path / "elsewhere")        # hidden: skipped
+    found = discover_specimens([tmp_path / "lab"])
+    assert [n for _, n in found] == ["a/p1", "nov/deep/p2"]
 
 
 def test_specimens_differing_only_in_their_suffix_keep_both_results(tmp_path):
@@ -1677,6 +1754,107 @@ def test_an_interrupted_batch_sets_aside_the_results_it_did_not_reach_and_keeps_
     assert r.exit_code == 0, r.output
     assert json.loads(r.stdout)["n_cached"] == 1
     assert (work / "example2" / "S2.1.result.stale.h5").read_bytes() == old
+
+
+def test_a_ctrl_c_while_the_final_summaries_are_written_waits_for_them_and_the_table(
+        batch_run, tmp_path, monkeypatch):
+    """Ctrl-C as the batch wrote its final summaries (every specimen done) was raised inside
+    the write: summary.json stayed the running one beside the final summary.csv, and no table.
+    Now both summaries are the final ones, the table is printed, then exit 130."""
+    import laminid_cli.batch as batch_mod
+
+    specs, out, _ = batch_run
+    work = tmp_path / "out"
+    shutil.copytree(out, work)
+    real = batch_mod.write_summary_json
+
+    def ctrl_c_then_write(path, report):
+        if not report.get("running"):
+            os.kill(os.getpid(), signal.SIGINT)
+        return real(path, report)
+
+    monkeypatch.setattr(batch_mod, "write_summary_json", ctrl_c_then_write)
+    r = run("batch", specs, "--mesh", MESH, "-j", "2", "--out", work)
+    assert r.exit_code == 130, r.output
+    assert "summary: " in r.stdout and "not run" not in r.stdout
+    doc = json.loads((work / "summary.json").read_text())
+    assert doc["running"] is False
+    assert doc["counts"]["check"] + doc["counts"]["ok"] == 2
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_a_batch_that_ends_in_an_error_leaves_ctrl_c_as_it_found_it(batch_run, tmp_path,
+                                                                     monkeypatch):
+    """The summaries' and table's hold on Ctrl-C is let go when an error ends the run (a
+    scheduler lost before any job: exit 2) as when the run ends: a Ctrl-C raises again."""
+    import laminid_cli.batch as batch_mod
+    from laminid_cli.batch import BatchError
+
+    specs, out, _ = batch_run
+    work = tmp_path / "out"
+    shutil.copytree(out, work)
+
+    def refused(jobs, options, **kw):
+        raise BatchError("scheduler gone")
+        yield                                   # a generator, as run_jobs
+
+    monkeypatch.setattr(batch_mod, "run_jobs", refused)
+    before = signal.getsignal(signal.SIGINT)
+    r = run("batch", specs, "--mesh", "5x5", "--out", work)
+    assert r.exit_code == 2 and "scheduler gone" in r.output, r.output
+    assert signal.getsignal(signal.SIGINT) is before
+
+
+def test_a_second_batch_into_the_same_out_at_once_is_refused_before_it_touches_it(
+        batch_run, tmp_path):
+    """Two batches writing into one --out at once replaced each other's results under their
+    summaries (the one ending last gave its own constants for files holding the other's). While
+    one holds the folder, another is refused (exit 2, naming it) and changes nothing; the folder
+    is free again when a batch ends."""
+    import fcntl
+
+    specs, out, _ = batch_run
+    work = tmp_path / "out"
+    shutil.copytree(out, work)
+    before = {p: p.read_bytes() for p in work.rglob("*") if p.is_file()}
+    fd = os.open(work, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)       # a batch running into it
+        r = run("batch", specs, "--mesh", "5x5", "--out", work)
+        assert r.exit_code == 2, r.output
+        assert f"--out {work}: another laminid batch is writing into this folder" in r.output
+        assert {p: p.read_bytes() for p in work.rglob("*") if p.is_file()} == before
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        r = run("batch", specs, "--mesh", MESH, "--out", work, "-j", "2")
+        assert r.exit_code == 0, r.output
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)       # released by the batch's end
+    finally:
+        os.close(fd)
+
+
+def test_a_forked_child_of_a_batch_does_not_hold_its_out_folder(tmp_path):
+    """A Monte Carlo trial forked from the batch that outlived it for a moment (SIGKILL) kept
+    the next batch out; a forked child closes its copy, the parent's hold stays."""
+    import fcntl
+
+    from laminid_cli.batch import lock_out_folder, release_out_folder
+
+    fd = lock_out_folder(tmp_path)
+    try:
+        pid = os.fork()
+        if pid == 0:
+            try:
+                os.fstat(fd)
+                os._exit(1)
+            except OSError:
+                os._exit(0)
+        assert os.waitpid(pid, 0)[1] == 0
+        other = os.open(tmp_path, os.O_RDONLY)
+        with pytest.raises(BlockingIOError):
+            fcntl.flock(other, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        os.close(other)
+    finally:
+        release_out_folder(fd)
 
 
 def test_an_interrupted_forced_batch_keeps_the_results_of_the_same_input(batch_run, tmp_path,

@@ -46,7 +46,8 @@ from laminid_cli.commands._common import (echo_json, fit_options, json_option,
 @pass_run_options()
 def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, as_json):
     """Identify every specimen in INPUTS (folders searched recursively for *.yaml/*.yml,
-    or files) as 'laminid identify' does (same options, same uncertainty assessment),
+    links to folders followed, or files) as 'laminid identify' does (same options, same
+    uncertainty assessment),
     writing OUT/<folder>/<name>.result.h5 per specimen
     (folders relative to the inputs' common root) and OUT/summary.csv and summary.json
     (SI units: summary.csv has one row per specimen, material and constant with value,
@@ -83,6 +84,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
       laminid batch study/ --scheduler tcp://10.0.0.5:8786 -j 64
     """
     import contextlib
+    import os
     import sys
     import time
     from pathlib import Path
@@ -94,10 +96,11 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
                                    check_scheduler, discover_specimens, duplicate_specimens,
                                    duplicate_text, failed, foreign_results, foreign_row,
                                    format_table, load_specimen_docs, non_specimens_message,
-                                   pending_row, plan_batch, printable, remove_stale_parts,
-                                   result_row, run_jobs, set_aside_result,
-                                   sort_out_non_specimens, stored_hash, write_summary_csv,
-                                   write_summary_json)
+                                   lock_out_folder, pending_row, plan_batch, printable,
+                                   release_out_folder, remove_stale_parts, result_row,
+                                   run_jobs, set_aside_result, sort_out_non_specimens,
+                                   stored_hash, write_summary_csv, write_summary_json)
+    from laminid_cli.batch import _note_sigint as note_sigint
 
     def _unfinished_row(job):
         """The row of a job this run did not finish (Ctrl-C, a lost scheduler)."""
@@ -150,6 +153,10 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
         for group in duplicates:
             click.echo(f"warning: {duplicate_text(p for p, _ in group)}", err=True)
     duplicates = [[name for _, name in group] for group in duplicates]
+    if out.is_symlink() and not out.exists():
+        # mkdir said only "cannot create the folder (File exists)" of a link to nothing
+        raise BatchError(f"--out {out}: a symbolic link to {os.readlink(out)}, which does not "
+                         "exist; create that folder, or choose another place with --out")
     created = not out.exists()
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -161,6 +168,11 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     if not folder_writable(out):
         raise BatchError(f"--out {out}: the folder cannot be written to (permissions, a "
                          "read-only or special file system); choose another place with --out")
+    # one batch at a time in a folder: a second one is refused here, before it reads or moves
+    # anything; the lock goes with this command (or its process, however it ends)
+    held_out = lock_out_folder(out)
+    if held_out is not None:
+        click.get_current_context().call_on_close(lambda: release_out_folder(held_out))
     remove_stale_parts(out)
     jobs = plan_batch(specimens, out, options, force=force)
     todo = [j for j in jobs if not j.up_to_date]
@@ -197,6 +209,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     finished = 0
     refused = False
     interrupted = False
+    ended = False                          # the run ended, or a Ctrl-C ended it: a table follows
     written = [0.0]                        # when the summaries were last written while running
 
     def write_running(force: bool = False):
@@ -241,48 +254,63 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
                 elif logged:
                     click.echo(printable(f"identified {finished}/{len(todo)}: {job.name}: "
                                          f"{outcome.status}"), err=True)
+        ended = True
     except BatchError:   # e.g. --scheduler unreachable: nothing ran, so nothing is written
         refused = finished == 0
         raise
     except KeyboardInterrupt:
         # Ctrl-C: the summaries, the table (or --json) of what was done, then exit 130
-        interrupted = True
+        interrupted = ended = True
     finally:
-        if refused:
-            if created:
-                with contextlib.suppress(OSError):
-                    out.rmdir()
+        # from here to the table a Ctrl-C (a second one, or one as the last specimen finished)
+        # is noted, not raised: raised while the summaries were written, it left no table and
+        # a summary.csv of the finished run beside a summary.json of the running one, or both
+        # still 'running' with every result there; now exit 130 after the table
+        held, release = note_sigint(raise_=False)
+        try:
+            if refused:
+                if created:
+                    with contextlib.suppress(OSError):
+                        out.rmdir()
+            else:
+                # also on Ctrl-C: the summary lists what was done ('not run' for the rest). A
+                # result this run did not reach is kept when it is this input's (--force redoing
+                # it); another input's is set aside as a failing specimen's, so that no
+                # *.result.h5 beside this summary is older than its input. Results of specimens
+                # not in this batch are named, not moved (another batch's may share --out).
+                ordered = [rows.get(j.name) or _unfinished_row(j) for j in jobs]
+                ordered += [foreign_row(p, out) for p in foreign_results(out, jobs)]
+                report = batch_report(ordered, options, out, interrupted=interrupted,
+                                      duplicates=duplicates, batch=settings)
+                write_summary_csv(out / SUMMARY_CSV, ordered, wide=wide,
+                                  options=options.as_dict(), batch=settings)
+                write_summary_json(out / SUMMARY_JSON, report)
+                # once more at the end: a killed run's worker may still have been exiting at the
+                # start (its temporary file then counted as a live process's)
+                remove_stale_parts(out)
+        except BaseException:
+            release()
+            raise
+        if not ended:                 # an error on its way out of the run: no table follows
+            release()
+    try:
+        if as_json:
+            echo_json(report)
         else:
-            # also on Ctrl-C: the summary lists what was done ('not run' for the rest). A
-            # result this run did not reach is kept when it is this input's (--force redoing
-            # it); another input's is set aside as a failing specimen's, so that no
-            # *.result.h5 beside this summary is older than its input. Results of specimens
-            # not in this batch are named, not moved (another batch's may share --out).
-            ordered = [rows.get(j.name) or _unfinished_row(j) for j in jobs]
-            ordered += [foreign_row(p, out) for p in foreign_results(out, jobs)]
-            report = batch_report(ordered, options, out, interrupted=interrupted,
-                                  duplicates=duplicates, batch=settings)
-            write_summary_csv(out / SUMMARY_CSV, ordered, wide=wide,
-                              options=options.as_dict(), batch=settings)
-            write_summary_json(out / SUMMARY_JSON, report)
-            # once more at the end: a killed run's worker may still have been exiting at the
-            # start (its temporary file then counted as a live process's)
-            remove_stale_parts(out)
-    if as_json:
-        echo_json(report)
-    else:
-        click.echo(format_table(ordered), nl=False)
-        c = report["counts"]
-        click.echo(f"\n{c['ok']} ok, {c['check']} check ({c['not converged']} not converged), "
-                   f"{c['error']} failed ({report['n_cached']} up to date"
-                   + (f"; {c['set aside']} earlier result{'' if c['set aside'] == 1 else 's'}"
-                      " set aside" if c["set aside"] else "")
-                   + (f"; {c[NOT_FROM_BATCH]} result file"
-                      f"{' is' if c[NOT_FROM_BATCH] == 1 else 's are'} not from this batch"
-                      if c[NOT_FROM_BATCH] else "")
-                   + (f"; {c['not run']} not run: interrupted" if interrupted else "")
-                   + f"); summary: {out / SUMMARY_CSV}")
-    if interrupted:
+            click.echo(format_table(ordered), nl=False)
+            c = report["counts"]
+            click.echo(f"\n{c['ok']} ok, {c['check']} check ({c['not converged']} not converged), "
+                       f"{c['error']} failed ({report['n_cached']} up to date"
+                       + (f"; {c['set aside']} earlier result{'' if c['set aside'] == 1 else 's'}"
+                          " set aside" if c["set aside"] else "")
+                       + (f"; {c[NOT_FROM_BATCH]} result file"
+                          f"{' is' if c[NOT_FROM_BATCH] == 1 else 's are'} not from this batch"
+                          if c[NOT_FROM_BATCH] else "")
+                       + (f"; {c['not run']} not run: interrupted" if interrupted else "")
+                       + f"); summary: {out / SUMMARY_CSV}")
+    finally:
+        release()
+    if interrupted or held:
         raise KeyboardInterrupt
     if failed(ordered):
         sys.exit(1)
