@@ -918,3 +918,20 @@ def test_uff_abscissa_with_a_units_label_is_read_without_a_warning(tmp_path, cas
     stderr, out = _fit_cli(path)
     assert stderr == "" and out["warnings"] == []
     assert np.allclose([m["freq_hz"] for m in out["modes"]], case.freq_hz[:3], rtol=1e-4)
+
+
+@pytest.mark.parametrize("key", ["Unit", "UNITS", "Units"])
+def test_plain_hdf5_units_attribute_in_any_case(tmp_path, case, key):
+    # a tool's 'Unit' attribute was not read: its kHz axis read as Hz (a warning saying the
+    # frequency states no unit) and its FRF unit "not stated"
+    path = tmp_path / "unit.h5"
+    with h5py.File(path, "w") as f:
+        f["freq"] = case.freq / 1000.0
+        f["freq"].attrs[key] = "kHz"
+        f["H_re"], f["H_im"] = case.frf.real, case.frf.imag
+        f["H_re"].attrs[key] = "g/N"
+        f["H_im"].attrs[key] = "g/N"
+    fs = io.read_frf(path)
+    assert np.allclose(fs.freq, case.freq, rtol=1e-12)
+    assert fs.units == "g/N"
+    assert not fs.meta.get("warnings") and not fs.meta.get("notes")

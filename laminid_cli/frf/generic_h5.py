@@ -5,8 +5,8 @@ complex FRF dataset, units as attributes, names and orientation their own. This 
 them:
 
 - **frequency**: a 1-D real dataset (or n x 1, 1 x n as MATLAB writes a vector), at least 2
-  values, finite, strictly increasing, >= 0; its ``units`` (or ``unit``) attribute, if any,
-  must be a frequency unit (Hz, kHz, 1/s or rad/s; converted to Hz); without one, a kHz or
+  values, finite, strictly increasing, >= 0; its ``units`` (or ``unit``, any case: ``Unit``)
+  attribute, if any, must be a frequency unit (Hz, kHz, 1/s or rad/s; converted to Hz); without one, a kHz or
   rad/s in its name ("f_kHz", "omega_rad_s") is its unit, a name that reads as an angular
   frequency without a unit ("omega", "w") is refused, any other is Hz with a warning
   (``meta["warnings"]``: the file, the dataset, the range read and the attribute that states
@@ -89,9 +89,13 @@ def _text(v) -> str:
 
 
 def _units(ds) -> str | None:
-    for key in ("units", "unit", "Units", "UNITS"):
-        if key in ds.attrs:
-            return _text(ds.attrs[key]).strip()
+    """The ``units`` (or ``unit``) attribute of ``ds``, in any case: ``Unit``, as some tools
+    write it, was not read (its frequency read as unstated Hz with a warning, its FRF unit
+    "not stated")."""
+    keys = {str(k).lower(): k for k in ds.attrs.keys()}
+    for key in ("units", "unit"):
+        if key in keys:
+            return _text(ds.attrs[keys[key]]).strip()
     return None
 
 
