@@ -404,3 +404,33 @@ def test_a_row_index_in_the_first_column_is_refused(tmp_path, truth):
     rows = [[str(i), _r(H[0, i].real), _r(H[0, i].imag)] for i in range(freq.size)]
     fs = io.read_frf(_write(tmp_path / "one-hz.csv", ["f [Hz]", "H1_re", "H1_im"], rows))
     assert fs.freq[1] - fs.freq[0] == 1.0
+
+
+# -------------------------------------------------------------------- encodings of spreadsheets
+@pytest.mark.parametrize("encoding", ["cp1252", "utf-16"])
+def test_a_spreadsheets_windows_1252_or_utf16_export_is_read(tmp_path, truth, encoding):
+    # Excel's "CSV" on Windows writes "Phase [°]" in Windows-1252 (byte 0xB0), its "Unicode
+    # Text" in UTF-16 with a BOM: both were refused as "not a text (CSV) file; it looks like
+    # binary data, not text"
+    freq, H = truth
+    header = ["f [Hz]"] + [name for k in range(H.shape[0])
+                           for name in (f"H{k + 1} Magnitude", f"H{k + 1} Phase [°]")]
+    rows = [[_r(f)] + [_r(v) for k in range(H.shape[0])
+                       for v in (abs(H[k, i]), np.degrees(np.angle(H[k, i])))]
+            for i, f in enumerate(freq)]
+    sep = "\t" if encoding == "utf-16" else ";"
+    path = tmp_path / "excel.csv"
+    path.write_bytes("\r\n".join([sep.join(header)] + [sep.join(r) for r in rows])
+                     .encode(encoding))
+    fs = io.read_frf(path)
+    assert np.array_equal(fs.freq, freq) and _rel_error(fs.frf, H) <= REL
+    assert fs.labels == ("H1", "H2", "H3")
+    said = [n for n in _other_notes(fs.meta.get("notes", [])) if "Windows-1252" in n]
+    assert len(said) == (encoding == "cp1252"), said
+
+
+def test_binary_data_named_csv_is_still_refused_as_binary(tmp_path):
+    path = tmp_path / "data.csv"
+    path.write_bytes(bytes(range(256)) * 4)
+    with pytest.raises(FrfError, match=r"not a text \(CSV\) file; it looks like binary data"):
+        io.read_frf(path)

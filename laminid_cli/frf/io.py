@@ -50,6 +50,7 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
       few resonances look alike). The labels are the magnitude names without the magnitude word (``H1_mag`` H1).
       Without a header, columns are never taken for magnitude and phase.
 
+    Text in UTF-8, UTF-16 with a BOM, or Windows-1252 (:func:`decode_text`, with a note).
     Separator ``;`` tab ``,`` (the first found in the first line) or blanks; with ``;`` or tab
     a decimal comma is read too (``125,05``, as a European spreadsheet writes); ``#`` comment
     lines (``# ... units Pa/N`` gives the FRF unit; without one the unit is not stated:
@@ -207,13 +208,11 @@ def describe_content(path) -> tuple[str, str | None]:
     if kind is not None:
         aside, fmt = _FRF_KINDS.get(kind[0], ("", None))
         return kind[1] + aside, fmt
-    try:
-        text = head.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        try:                       # a multi-byte character cut at the end of the block
-            text = head[:-4].decode("utf-8-sig")
-        except UnicodeDecodeError:
-            return "binary data, not text", None
+    text, _ = decode_text(head)
+    if text is None:                # a multi-byte character cut at the end of the block
+        text, _ = decode_text(head[:-4])
+    if text is None:
+        return "binary data, not text", None
     first = next((ln.strip() for ln in text.splitlines() if ln.strip()), "")
     if not first:
         return "text with blank lines only", None
@@ -224,6 +223,37 @@ def describe_content(path) -> tuple[str, str | None]:
     if data and any(c in data[0] for c in ",;\t"):
         return f"text in columns, as a CSV FRF file is (first line {quoted})", "csv"
     return f"text whose first line is {quoted}", None
+
+
+#: the byte-order marks of a UTF-16 text file (a spreadsheet's "Unicode text" export)
+_UTF16_BOMS = (b"\xff\xfe", b"\xfe\xff")
+
+
+def decode_text(raw: bytes) -> tuple[str | None, str | None]:
+    """``(text, encoding)`` of a text file's bytes: UTF-8 (a BOM dropped), UTF-16 with its BOM
+    (Excel's "Unicode Text" export, tab-separated), else Windows-1252 (Excel's "CSV" on
+    Windows writes the '°' of "Phase [°]" as the byte 0xB0, which was refused as "binary
+    data, not text") where no byte is a control character other than tab, CR, LF and form
+    feed; ``(None, None)`` for anything else (binary data).
+
+    >>> decode_text("f;H [°]".encode("cp1252"))
+    ('f;H [°]', 'cp1252')
+    """
+    if raw.startswith(_UTF16_BOMS):
+        try:
+            return raw.decode("utf-16"), "utf-16"
+        except UnicodeDecodeError:
+            return None, None
+    try:
+        return raw.decode("utf-8-sig"), "utf-8"
+    except UnicodeDecodeError:
+        pass
+    if re.search(rb"[\x00-\x08\x0b\x0e-\x1f\x7f]", raw) or binary_kind(raw[:16]):
+        return None, None
+    try:
+        return raw.decode("cp1252"), "cp1252"
+    except UnicodeDecodeError:   # 0x81, 0x8d, 0x8f, 0x90, 0x9d are not cp1252
+        return None, None
 
 
 def _not_the_format(path, fmt: str) -> str:
@@ -579,10 +609,11 @@ def read_frf_csv(path) -> FrfSet:
     :data:`UNSTATED_FREQ_MIN_SPAN_HZ`) in its ``meta["warnings"]``."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise FrfError(f"{path}: not a text (CSV) file; {_not_the_format(path, 'csv')}") \
-            from exc
+        text, encoding = decode_text(path.read_bytes())
+    except OSError as exc:
+        raise FrfError(f"{path}: cannot read the file ({exc.strerror or exc})") from exc
+    if text is None:
+        raise FrfError(f"{path}: not a text (CSV) file; {_not_the_format(path, 'csv')}")
     units = None                   # not stated: not "1", which declares FRFs dimensionless
     for ln in text.splitlines():
         # the rest of the line: a unit may hold spaces ("m/s^2 / N")
@@ -719,6 +750,9 @@ def read_frf_csv(path) -> FrfSet:
         if header and len(header) == n:
             labels = tuple(_real_part_label(h) or str(i + 1)
                            for i, h in enumerate(header[1::2]))
+    if encoding == "cp1252":
+        notes.append(f"{path}: not UTF-8; read as Windows-1252 text (a spreadsheet's 'CSV' "
+                     "export on Windows: '°' is byte 0xB0)")
     factor, stated = _csv_freq_factor(path, header[0] if header else "")
     freq, frf, _ = check_frf_arrays(data[:, 0].real * factor, frf, source=str(path))
     meta: dict = {}
