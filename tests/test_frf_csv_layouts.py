@@ -434,3 +434,31 @@ def test_binary_data_named_csv_is_still_refused_as_binary(tmp_path):
     path.write_bytes(bytes(range(256)) * 4)
     with pytest.raises(FrfError, match=r"not a text \(CSV\) file; it looks like binary data"):
         io.read_frf(path)
+
+
+# ---------------------------------------------------------------- lines above the header
+@pytest.mark.parametrize("sep", [",", ";"])
+def test_an_exports_title_and_settings_above_the_header_are_skipped_with_a_note(tmp_path,
+                                                                                 truth, sep):
+    # an analyser's export writes its title and date above the column names; the first of
+    # them was taken for the header: "line 2, column 1 ('Title:'): 'Date:' is not a number"
+    freq, H = truth
+    header = ["f [Hz]"] + [n for k in range(3) for n in (f"H{k + 1}_re", f"H{k + 1}_im")]
+    rows = [[_r(f)] + [_r(v) for k in range(3) for v in (H[k, i].real, H[k, i].imag)]
+            for i, f in enumerate(freq)]
+    path = tmp_path / "export.csv"
+    preamble = "Title: plate S1\nDate: 07.12.2026\n" if sep == "," else "Title;plate\nDate;7.12.\n"
+    path.write_text(preamble + "\n".join(sep.join(r) for r in [header] + rows) + "\n")
+    fs = io.read_frf(path)
+    assert np.array_equal(fs.freq, freq) and _rel_error(fs.frf, H) <= REL
+    assert fs.labels == ("H1", "H2", "H3")
+    notes = _other_notes(fs.meta.get("notes", []))
+    assert len(notes) == 1 and notes[0].startswith(f"{path}: lines 1-2 above the header "
+                                                   "skipped ('Title"), notes
+
+
+def test_a_bad_first_data_line_below_the_header_is_still_named(tmp_path):
+    path = tmp_path / "bad.csv"
+    path.write_text("f [Hz],H1_re,H1_im\nx,1,2\n101,3,4\n102,5,6\n")
+    with pytest.raises(FrfError, match=r"line 2, column 1 \('f \[Hz\]'\): 'x' is not a number"):
+        io.read_frf(path)

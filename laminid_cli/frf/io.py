@@ -58,7 +58,8 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     header line, known by its
     first cell not being a number (or, above a first line of data, the comment line just
     above it, numpy's ``savetxt(header=...)``, when it has as many cells as the data and its
-    first is not a number: :func:`_commented_header`, with a note) (its names give the point labels: of the real columns, of
+    first is not a number: :func:`_commented_header`, with a note; lines above it that are
+    neither, an export's title and date, skipped with a note: :func:`_csv_preamble`) (its names give the point labels: of the real columns, of
     the complex columns, of the magnitude columns).
 """
 
@@ -599,6 +600,54 @@ def _unstated_freq_warning(path, header: list[str] | None, sep: str | None,
     return unstated_freq_warning(f"{path}: {column}", freq, how, f"'{hz}'")
 
 
+def _csv_separator(line: str) -> str | None:
+    """The cell separator of a CSV line: ";" first, a European spreadsheet writes
+    "125,05;0,0012" (';' between cells, ',' the decimal mark), which split at ',' was refused
+    as "'5;0' is not a number"; then tab, ","; None for blanks."""
+    return next((c for c in (";", "\t", ",") if c in line), None)
+
+
+def _csv_number(cell: str, sep: str | None) -> bool:
+    """Whether ``cell`` of a line separated by ``sep`` is a number (a decimal comma with ';'
+    or tab)."""
+    if sep in (";", "\t") and "," in cell and "." not in cell:
+        cell = cell.replace(",", ".")
+    try:
+        float(cell)
+    except ValueError:
+        try:
+            parse_complex_cell(cell)
+        except ValueError:
+            return False
+    return True
+
+
+def _csv_preamble(lines) -> int:
+    """How many of the non-comment ``lines`` ((number, text)) come before a CSV file's header:
+    an analyser's or spreadsheet's export writes its title, date and settings above the
+    column names ("Title: plate", "Date;07.12.2026"), and the first of them was taken for the
+    header ("line 2, column 1 ('Title:'): 'Date:' is not a number"). They are the lines
+    above the last one before the first data line (first cell a number), when that one
+    is a header: no cell of it a number, as many cells as the data line, split alike; else
+    0 (a header and a bad data line are named as before)."""
+    for i, (_, ln) in enumerate(lines):
+        sep = _csv_separator(ln)
+        cells = _split(ln, sep)
+        if cells and _csv_number(cells[0], sep):
+            break
+    else:
+        return 0
+    if i < 2:
+        return 0
+    header = lines[i - 1][1]
+    if _csv_separator(header) != sep:
+        return 0
+    names = _split(header, sep)
+    if len(names) != len(cells) or any(c and _csv_number(c, sep) for c in names):
+        return 0
+    return i - 1
+
+
 def read_frf_csv(path) -> FrfSet:
     """Read a CSV FRF file: ``freq, re_1, im_1, ...``, ``freq, H_1, H_2, ...`` of complex cells
     or magnitude and phase columns named in the header (see module docstring).
@@ -627,10 +676,16 @@ def read_frf_csv(path) -> FrfSet:
         check_frf_size(1, len(lines) - 1, str(path))
     if not lines:
         raise FrfError(f"{path}: no data lines (expected columns freq, re_1, im_1, ...)")
+    notes: list[str] = []
+    preamble = _csv_preamble(lines)
+    if preamble:
+        shown = ", ".join(_quoted(ln.strip()) for _, ln in lines[:min(preamble, 3)])
+        notes.append(f"{path}: lines {lines[0][0]}-{lines[preamble - 1][0]} above the header "
+                     f"skipped ({shown}{', ...' if preamble > 3 else ''}): they are no "
+                     "column names or data")
+        lines = lines[preamble:]
     first = lines[0][1]
-    # ";" first: a European spreadsheet writes "125,05;0,0012" (';' between cells, ',' the
-    # decimal mark), which split at ',' was refused as "'5;0' is not a number"
-    sep = next((c for c in (";", "\t", ",") if c in first), None)
+    sep = _csv_separator(first)
     header = None
 
     def number(cell: str) -> float | complex:
@@ -643,7 +698,6 @@ def read_frf_csv(path) -> FrfSet:
             return parse_complex_cell(cell)
 
     cells = _split(first, sep)
-    notes: list[str] = []
     try:
         number(cells[0])
     except ValueError:
