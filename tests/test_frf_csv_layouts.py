@@ -34,8 +34,8 @@ def _unit_note(path) -> str:
     """The reader's note on a file that states no FRF unit (none of these files has a
     '# units' line)."""
     return (f"{path}: the FRF unit is not stated in the file (a comment line '# units Pa/N' "
-            "above the data states it): the FRFs and their modal constants are given without "
-            "a unit (null in --json)")
+            "above the data or the FRF columns' headers, 'H1_re [g/N]', state it): the FRFs "
+            "and their modal constants are given without a unit (null in --json)")
 
 
 #: how a file without a header is told to state its frequency's unit
@@ -462,3 +462,45 @@ def test_a_bad_first_data_line_below_the_header_is_still_named(tmp_path):
     path.write_text("f [Hz],H1_re,H1_im\nx,1,2\n101,3,4\n102,5,6\n")
     with pytest.raises(FrfError, match=r"line 2, column 1 \('f \[Hz\]'\): 'x' is not a number"):
         io.read_frf(path)
+
+
+# ---------------------------------------------------------------- the FRF unit in the header
+@pytest.mark.parametrize("layout", ["re-im", "complex", "mag-phase"])
+def test_the_frf_unit_in_the_columns_headers_is_read(tmp_path, truth, layout):
+    # "H1 real [g/N]", a spreadsheet's way to state the unit, was read as "not stated" (and
+    # the point labelled 'H1 real [g/N]')
+    freq, H = truth
+    P = H.shape[0]
+    if layout == "re-im":
+        header = [n for k in range(P) for n in (f"H{k + 1} real [g/N]", f"H{k + 1} imag [g/N]")]
+        cols = [c for k in range(P) for c in (H[k].real, H[k].imag)]
+    elif layout == "complex":
+        header = [f"H{k + 1} (g/N)" for k in range(P)]
+        cols = list(H)
+    else:
+        header = [n for k in range(P) for n in (f"H{k + 1} Magnitude (g/N)", f"H{k + 1} Phase (°)")]
+        cols = [c for k in range(P) for c in (np.abs(H[k]), np.degrees(np.angle(H[k])))]
+    cell = (lambda v: f"{float(v.real)!r}{v.imag:+.17g}i") if layout == "complex" else _r
+    rows = [[_r(f)] + [cell(c[i]) for c in cols] for i, f in enumerate(freq)]
+    fs = io.read_frf(_write(tmp_path / "unit.csv", ["f [Hz]"] + header, rows))
+    assert fs.units == "g/N" and "point_units" not in fs.meta
+    assert fs.labels == ("H1", "H2", "H3")
+    assert _rel_error(fs.frf, H) <= REL
+    assert not any("not stated" in n for n in fs.meta.get("notes", []))
+
+
+def test_points_in_different_units_in_the_header_are_each_their_own(tmp_path, truth):
+    freq, H = truth
+    units = ("g/N", "m/s/N", "g/N")
+    header = ["f [Hz]"] + [n for k, u in enumerate(units) for n in (f"H{k + 1}_re [{u}]",
+                                                                    f"H{k + 1}_im [{u}]")]
+    rows = [[_r(f)] + [_r(v) for k in range(3) for v in (H[k, i].real, H[k, i].imag)]
+            for i, f in enumerate(freq)]
+    fs = io.read_frf(_write(tmp_path / "mixed.csv", header, rows))
+    assert fs.units == "g/N" and fs.meta["point_units"] == list(units)
+    # a phase's or a dB magnitude's bracket is no FRF unit
+    header = ["f [Hz]"] + [n for k in range(3) for n in (f"H{k + 1} [dB]", f"H{k + 1} [deg]")]
+    rows = [[_r(f)] + [_r(v) for k in range(3) for v in (20 * np.log10(abs(H[k, i])),
+                                                          np.degrees(np.angle(H[k, i])))]
+            for i, f in enumerate(freq)]
+    assert io.read_frf(_write(tmp_path / "db.csv", header, rows)).units is None

@@ -518,7 +518,8 @@ def test_a_unit_not_stated_stays_not_stated_through_every_writer(tmp_path, case)
     assert first == "# laminid FRF, unit not stated in the source file"
     uff = io.write_frf(tmp_path / "in.uff", fs)
     hows = {h5: "no 'units' attribute on '/frf'; acquire --units records it",
-            csv_path: "a comment line '# units Pa/N' above the data states it",
+            csv_path: "a comment line '# units Pa/N' above the data or the FRF columns' "
+                      "headers, 'H1_re [g/N]', state it",
             uff: "FRF records' ordinate units label 'NONE' over 'NONE'"}
     for path, how in hows.items():
         back = io.read_frf(path)

@@ -53,7 +53,9 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     Text in UTF-8, UTF-16 with a BOM, or Windows-1252 (:func:`decode_text`, with a note).
     Separator ``;`` tab ``,`` (the first found in the first line) or blanks; with ``;`` or tab
     a decimal comma is read too (``125,05``, as a European spreadsheet writes); ``#`` comment
-    lines (``# ... units Pa/N`` gives the FRF unit; without one the unit is not stated:
+    lines (``# ... units Pa/N`` gives the FRF unit; else a unit closing every FRF column's
+    name, ``H1_re [g/N]``, ``Pt1 Magnitude (g/N)``: :func:`_csv_header_units`; without one the
+    unit is not stated:
     ``units`` None and a note, never "1", which declares the FRFs dimensionless); an optional
     header line, known by its
     first cell not being a number (or, above a first line of data, the comment line just
@@ -270,11 +272,56 @@ def _not_the_format(path, fmt: str) -> str:
 
 
 def _real_part_label(name: str) -> str:
-    """The point label of a real-part column name: without "_re", ".re", "_real", ".real"."""
+    """The point label of a real-part column name: without its unit ("[g/N]") and "_re",
+    ".re", "_real", ".real", " Re", " real"."""
+    name = _csv_unit_removed(name)
     for suffix in ("_real", ".real", "_re", ".re"):
         if name.endswith(suffix):
             return name[:-len(suffix)].strip()
-    return name.strip()
+    return re.sub(r"(?i)\s+(re|real)\Z", "", name.strip()).strip() or name.strip()
+
+
+#: a unit closing a CSV column name: "H1 real [g/N]", "FRF 1 Re (m/s^2/N)" (a round bracket
+#: after a blank or "_": "abs(H1)" is a magnitude of H1)
+_CSV_UNIT = re.compile(r"\s*(?:\[\s*([^\]]*?)\s*\]|(?:(?<=[\s_])|^)\(\s*([^()]*?)\s*\))\s*\Z")
+#: what such a bracket holds that is no FRF unit: a magnitude's dB, a phase's angle unit, a
+#: frequency's, or "no unit"
+_CSV_NOT_FRF_UNITS = {"", "-", "db", "deg", "degree", "degrees", "rad", "radian", "radians",
+                      "°", "hz", "khz", "rad/s"}
+
+
+def _csv_unit_removed(name: str) -> str:
+    return _CSV_UNIT.sub("", name) if _csv_frf_unit(name) else name
+
+
+def _csv_frf_unit(name: str) -> str | None:
+    """The FRF unit that closes a column name ("H1 real [g/N]", "Magnitude (m/s^2/N)": g/N,
+    m/s^2/N); None where it names none or a dB, phase or frequency unit."""
+    m = _CSV_UNIT.search(name)
+    if m is None:
+        return None
+    unit = (m.group(1) if m.group(1) is not None else m.group(2)).strip()
+    if unit.lower() in _CSV_NOT_FRF_UNITS or unit.lower().startswith("db"):
+        return None
+    # an FRF's unit is a response over a force: "g/N", "m s^-2 N^-1"
+    return unit if "/" in unit or "-1" in unit else None
+
+
+def _csv_header_units(path, header: list[str], columns: list[list[int]]
+                      ) -> tuple[str | None, list[str] | None]:
+    """The FRF unit the header gives ("H1 real [g/N]"): ``(unit, None)`` where every point's
+    columns (``columns``: per point, its column indices) state one and the same, ``(first,
+    each point's)`` where points differ (an accelerance beside a mobility, as a UFF's
+    records may), ``(None, None)`` where any point states none."""
+    each = []
+    for cols in columns:
+        units = {_csv_frf_unit(header[j]) for j in cols}
+        if len(units) != 1 or None in units:
+            return None, None
+        each.append(units.pop())
+    if not each:
+        return None, None
+    return each[0], (each if len(set(each)) > 1 else None)
 
 
 def _commented_header(text: str, first_data: int, sep: str | None, n: int
@@ -451,8 +498,9 @@ def _csv_phase_unit(path, header: list[str], j: int) -> str | None:
 
 def _csv_point_label(name: str) -> str:
     """A point's label from its magnitude column's name: without the magnitude words, the dB
-    and the unit ("H1_mag" H1, "|H2|" H2, "abs(H3)" H3, "Magnitude [dB]" "")."""
-    s = re.sub(r"\[[^\]]*\]", " ", name)
+    and the unit ("H1_mag" H1, "|H2|" H2, "abs(H3)" H3, "Magnitude [dB]" "", "Pt1 Magnitude
+    (g/N)" Pt1)."""
+    s = re.sub(r"\[[^\]]*\]", " ", _csv_unit_removed(name))
     s = re.sub(r"(?i)\(\s*(?:db|deg|degrees?|rad|radians?|°)\s*\)", " ", s)
     drop = set(CSV_MAGNITUDE_WORDS) | {"db"}
     for m in reversed(list(re.finditer(r"(?i:db)(?![A-Za-z])|[A-Z]+(?![a-z])|[A-Z]?[a-z]+",
@@ -783,12 +831,16 @@ def read_frf_csv(path) -> FrfSet:
         check_frf_size(n - 1, data.shape[0], str(path))
         frf = data[:, 1:].T.astype(complex)
         labels = tuple(str(i + 1) for i in range(n - 1))
+        unit_columns = [[j] for j in range(1, n)]
         if header and len(header) == n:
-            labels = tuple(h or str(i + 1) for i, h in enumerate(header[1:]))
+            labels = tuple(_csv_unit_removed(h) or str(i + 1)
+                           for i, h in enumerate(header[1:]))
     elif any(kinds):
         check_frf_size(max((n - 1) // 2, 1), data.shape[0], str(path))
         frf, labels, more = _csv_mag_phase(path, header, data.real, lines)
         notes += more
+        unit_columns = [[j] for j in range(1, n) if kinds[j - 1] == "magnitude"
+                        and not _csv_magnitude_in_db(path, header, j)]
     else:
         data = data.real
         check_frf_size(max((n - 1) // 2, 1), data.shape[0], str(path))
@@ -801,6 +853,7 @@ def read_frf_csv(path) -> FrfSet:
         frf.real, frf.imag = data[:, 1::2], data[:, 2::2]   # no inf * 1j = nan: inf stays inf
         frf = frf.T
         labels = tuple(str(i + 1) for i in range(frf.shape[0]))
+        unit_columns = [[j, j + 1] for j in range(1, n, 2)]
         if header and len(header) == n:
             labels = tuple(_real_part_label(h) or str(i + 1)
                            for i, h in enumerate(header[1::2]))
@@ -812,9 +865,15 @@ def read_frf_csv(path) -> FrfSet:
     meta: dict = {}
     if not stated:
         meta["warnings"] = [_unstated_freq_warning(path, header, sep, freq)]
+    if units is None and header and len(header) == n and len(unit_columns) == frf.shape[0]:
+        # "H1 real [g/N]": the unit a spreadsheet's header gives was read as "not stated"
+        units, point_units = _csv_header_units(path, header, unit_columns)
+        if point_units:
+            meta["point_units"] = point_units
     if units is None:
         notes.append(unit_not_stated_note(path, "a comment line '# units Pa/N' above the data "
-                                                "states it"))
+                                                "or the FRF columns' headers, 'H1_re [g/N]', "
+                                                "state it"))
     if notes:
         meta["notes"] = notes
     return FrfSet(freq=freq, frf=frf, labels=labels, units=units, source=str(path), meta=meta)
