@@ -936,3 +936,45 @@ def test_plain_hdf5_units_attribute_in_any_case(tmp_path, case, key):
     assert np.allclose(fs.freq, case.freq, rtol=1e-12)
     assert fs.units == "g/N"
     assert not fs.meta.get("warnings") and not fs.meta.get("notes")
+
+
+@pytest.mark.parametrize("where", ["dataset", "group", "root"])
+def test_plain_hdf5_frequency_as_an_attribute(tmp_path, case, where):
+    # a tool that keeps the axis with its FRF (an attribute 'frequency' of the FRF dataset, or
+    # of its group) was refused: "no frequency axis matches an FRF dataset; frequency
+    # candidates: none"
+    path = tmp_path / "attr.h5"
+    with h5py.File(path, "w") as f:
+        f["meas/H"] = case.frf.T
+        f["meas/H"].attrs["units"] = "g/N"
+        owner = {"dataset": f["meas/H"], "group": f["meas"], "root": f}[where]
+        owner.attrs["frequency"] = 2 * np.pi * case.freq
+        owner.attrs["frequency_units"] = "rad/s"
+    fs = io.read_frf(path)
+    assert np.allclose(fs.freq, case.freq, rtol=1e-12) and np.array_equal(fs.frf, case.frf)
+    assert fs.units == "g/N" and not fs.meta.get("warnings")
+    named = {"dataset": "/meas/H@frequency", "group": "/meas@frequency", "root": "@frequency"}
+    assert fs.meta["frequency_dataset"] == named[where]
+    out = _fit_json(path, "--freq-dataset", named[where], "--band", "100:300")
+    assert out["n_points"] == 5 and out["frf_unit"] == "g/N"
+
+
+def test_plain_hdf5_frequency_attribute_without_a_unit_is_hz_with_a_warning(tmp_path, case):
+    path = tmp_path / "attr.h5"
+    with h5py.File(path, "w") as f:
+        f["frf"] = case.frf
+        f["frf"].attrs["freq"] = case.freq
+        f["frf"].attrs["f_kHz"] = case.freq / 1e3 + 1.0   # another axis, named in kHz
+    with pytest.raises(FrfError, match="several frequency/FRF dataset pairs fit"):
+        io.read_frf(path)
+    fs = io.read_frf(path, freq_dataset="/frf@freq", frf_dataset="/frf")
+    assert np.array_equal(fs.freq, case.freq)
+    assert fs.meta["warnings"][0].startswith(
+        f"{path}: attribute 'freq' of '/frf' (no freq_units attribute beside it): the frequency "
+        "states no unit")
+    assert "h5py.File(" in fs.meta["warnings"][0] and ".attrs['freq_units'] = 'kHz'" \
+        in fs.meta["warnings"][0]
+    with h5py.File(path, "r+") as f:          # a dataset named as the frequency comes first
+        f["freq"] = case.freq
+        f["freq"].attrs["units"] = "Hz"
+    assert io.read_frf(path).meta["frequency_dataset"] == "/freq"

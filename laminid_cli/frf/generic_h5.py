@@ -12,7 +12,10 @@ them:
   (``meta["warnings"]``: the file, the dataset, the range read and the attribute that states
   the unit), refused where its values end below
   :data:`~laminid_cli.frf.store.UNSTATED_FREQ_MIN_SPAN_HZ` (very likely kHz). A name such as
-  ``freq``, ``frequency``, ``f_hz`` ranks first.
+  ``freq``, ``frequency``, ``f_hz`` ranks first. Or an attribute of the FRF dataset, its
+  group or the root named so (``/frf@frequency``; its unit in an attribute
+  ``frequency_units`` beside it or in its name, else Hz with the warning), ranked after
+  such a dataset.
 - **FRF**: a complex dataset (HDF5 compound ``r``/``i`` as h5py and most tools write it, or
   ``real``/``imag`` as MATLAB v7.3 does, or ``re``/``im``), or two real datasets of one shape
   named as its parts (``frf_real`` + ``frf_imag``, ``H_re`` + ``H_im``: named ``frf``, ``H``),
@@ -61,7 +64,13 @@ class _Dataset:
 
     @property
     def name(self) -> str:
-        return self.path.rsplit("/", 1)[-1]
+        return self.path.rsplit("@", 1)[-1] if self.is_attribute else self.path.rsplit("/", 1)[-1]
+
+    @property
+    def is_attribute(self) -> bool:
+        """A frequency vector stored as an attribute ("/frf@frequency": attribute
+        ``frequency`` of ``/frf``), as some tools keep the axis with its FRF."""
+        return "@" in self.path
 
     def describe(self) -> str:
         shape = " x ".join(str(n) for n in self.shape)
@@ -133,7 +142,51 @@ def _datasets(f) -> list[_Dataset]:
             found.append(_Dataset("/" + name, tuple(obj.shape), kind, _units(obj)))
 
     f.visititems(visit)
-    return found + _real_imag_pairs(found)
+    return found + _real_imag_pairs(found) + _attribute_axes(f)
+
+
+def _attribute_axes(f) -> list[_Dataset]:
+    """Frequency vectors stored as attributes of a dataset or group (``/frf@frequency``):
+    numeric, 1-D (or n x 1), at least 2 values, named as a frequency (``freq``,
+    ``frequency``, ``f_Hz``, ``freq_kHz``, ``omega_rad_s``); their unit from an attribute
+    ``<name>_units`` (or ``_unit``, any case) beside them, else from the name. Such a file
+    was refused: "no frequency axis matches an FRF dataset; frequency candidates: none"."""
+    import h5py
+
+    objects = [("", f)]
+    f.visititems(lambda name, obj: objects.append(("/" + name, obj)))
+    found = []
+    for path, obj in objects:
+        if not isinstance(obj, (h5py.Dataset, h5py.Group)):
+            continue
+        keys = {str(k).lower(): k for k in obj.attrs.keys()}
+        for key in obj.attrs.keys():
+            name = str(key)
+            if not (_FREQ_NAME.search(name) or _ANGULAR_NAME.search(name)
+                    or re.search(r"(?i)(?<![a-z])(khz|rad[/_ ]?s)(?![a-z])", name)):
+                continue
+            try:
+                value = np.asarray(obj.attrs[key])
+            except (OSError, TypeError, ValueError):   # an attribute h5py cannot read
+                continue
+            if value.dtype.kind not in "fiu" or value.ndim not in (1, 2) or value.size < 2 \
+                    or (value.ndim == 2 and 1 not in value.shape):
+                continue
+            unit = next((obj.attrs[keys[k]] for k in (f"{name.lower()}_units",
+                                                      f"{name.lower()}_unit") if k in keys),
+                        None)
+            found.append(_Dataset(f"{path or ''}@{name}", tuple(value.shape), value.dtype.kind,
+                                  None if unit is None else _text(unit).strip()))
+    return found
+
+
+def _values(f, path: str) -> np.ndarray:
+    """The values of dataset ``path``, or of the attribute ``path`` names (``/frf@frequency``,
+    ``@freq`` of the root)."""
+    if "@" in path:
+        where, name = path.rsplit("@", 1)
+        return np.asarray(f[where or "/"].attrs[name])
+    return f[path][()]
 
 
 #: name endings of the real and imaginary parts of a complex FRF stored as two real datasets
@@ -204,7 +257,7 @@ def _freq_factor(units: str | None) -> float | None:
 def _is_axis(f, d: _Dataset) -> bool:
     if d.length is None or d.length < 2 or d.kind == "c" or _freq_factor(d.units) is None:
         return False
-    x = np.asarray(f[d.path][()], dtype=float).reshape(-1)
+    x = np.asarray(_values(f, d.path), dtype=float).reshape(-1)
     return bool(np.all(np.isfinite(x)) and x[0] >= 0 and np.all(np.diff(x) > 0))
 
 
@@ -214,8 +267,11 @@ def _fits(frf: _Dataset, n: int) -> bool:
 
 
 def _rank(d: _Dataset) -> int:
-    """0 for a dataset named or labelled as a frequency, 1 otherwise."""
-    return 0 if _FREQ_NAME.search(d.name) or d.units else 1
+    """0 for a dataset named or labelled as a frequency, 1 for a frequency attribute, 2
+    otherwise."""
+    if d.is_attribute:
+        return 1
+    return 0 if _FREQ_NAME.search(d.name) or d.units else 2
 
 
 def _listing(datasets, limit: int = 12) -> str:
@@ -228,7 +284,7 @@ def _choose(path: Path, f, datasets, freq_path, frf_path):
     by_path = {d.path: d for d in datasets}
 
     def named(p, what):
-        key = "/" + p.strip("/")
+        key = p.strip() if p.strip().startswith("@") else "/" + p.strip("/")
         if key not in by_path:
             raise FrfError(f"{path}: no numeric 1-D/2-D dataset {key!r} for the {what}; "
                            f"datasets: {_listing(datasets)}")
@@ -286,15 +342,24 @@ def read_generic_frf_h5(path, freq_dataset: str | None = None,
 def _read_generic(f, path: Path, freq_dataset, frf_dataset) -> FrfSet:
     datasets = _datasets(f)
     axis, frf_d = _choose(path, f, datasets, freq_dataset, frf_dataset)
+    if axis.is_attribute:
+        owner = axis.path.rsplit("@", 1)[0] or "/"
+        what = f"attribute {axis.name!r} of '{owner}' (no {axis.name}_units attribute beside it)"
+        how = (f"h5py.File('{path}', 'r+')['{owner}'].attrs['{axis.name}_units'] = 'kHz' (or "
+               "'rad/s')")
+    else:
+        what = f"dataset '{axis.path}' (no units attribute)"
+        how = f"h5py.File('{path}', 'r+')['{axis.path}'].attrs['units'] = 'kHz' (or 'rad/s')"
     if axis.units:
         factor, stated = _freq_factor(axis.units), True
     else:
+        owner_attrs = how.split(" = ")[0].replace(f"h5py.File('{path}', 'r+')",
+                                                  "h5py.File(file, 'r+')")
         unit = name_freq_unit(
-            axis.name, f"{path}: dataset '{axis.path}' (no units attribute; give it one, 'Hz' "
-                       f"or 'rad/s': h5py.File(file, 'r+')['{axis.path}'].attrs['units'] = "
-                       "'rad/s')")
+            axis.name, f"{path}: {what.removesuffix(')')}; give it one, 'Hz' or 'rad/s': "
+                       f"{owner_attrs} = 'rad/s')")
         factor, stated = (1.0 if unit is None else FREQ_UNITS[unit]), unit is not None
-    freq = np.asarray(f[axis.path][()], dtype=float).reshape(-1) * factor
+    freq = np.asarray(_values(f, axis.path), dtype=float).reshape(-1) * factor
     if frf_d.parts:
         values = np.asarray(f[frf_d.parts[0]][()], dtype=float) \
             + 1j * np.asarray(f[frf_d.parts[1]][()], dtype=float)
@@ -314,9 +379,9 @@ def _read_generic(f, path: Path, freq_dataset, frf_dataset) -> FrfSet:
         # neither a units attribute nor a unit in the name ("f", "freq"): Hz, said, and
         # refused where it ends below 100 (kHz read as Hz: every mode 1000 times too low)
         meta["warnings"] = [unstated_freq_warning(
-            f"{path}: dataset '{axis.path}' (no units attribute)", freq,
-            f"give it one: h5py.File('{path}', 'r+')['{axis.path}'].attrs['units'] = 'kHz' "
-            "(or 'rad/s')", "a units attribute 'Hz'")]
+            f"{path}: {what}", freq, f"give it one: {how}",
+            f"a {axis.name}_units attribute 'Hz'" if axis.is_attribute
+            else "a units attribute 'Hz'")]
     if units is None:
         where = frf_d.parts[0] if frf_d.parts else frf_d.path
         meta["notes"] = [unit_not_stated_note(path, f"no 'units' attribute on '{where}'")]
