@@ -978,3 +978,21 @@ def test_plain_hdf5_frequency_attribute_without_a_unit_is_hz_with_a_warning(tmp_
         f["freq"] = case.freq
         f["freq"].attrs["units"] = "Hz"
     assert io.read_frf(path).meta["frequency_dataset"] == "/freq"
+
+
+@pytest.mark.parametrize("step", [2000 / 4096, 1 / 3])
+def test_binary_uff58_keeps_a_grid_whose_step_has_more_than_6_digits_exactly(tmp_path, case,
+                                                                              step):
+    # the header's start and step hold 6 digits (E13.5): a 2000 Hz / 4096-line grid's
+    # 0.48828125 Hz step read back as 0.488281, its top line 0.7 mHz off (5e-7), though
+    # binary 58b "keeps the doubles exactly"; such a grid is now written uneven (each line's
+    # frequency a double), an exact step still as start and step
+    import pyuff
+
+    freq = step * np.arange(1, case.freq.size + 1)
+    for grid, spacing in ((freq, 0), (0.5 * np.arange(1, case.freq.size + 1), 1)):
+        out = tmp_path / f"grid{spacing}.uff"
+        io.write_frf_uff(out, FrfSet(freq=grid, frf=case.frf, units="m/s^2/N"), binary=True)
+        back = io.read_frf(out)
+        assert np.array_equal(back.freq, grid) and np.array_equal(back.frf, case.frf)
+        assert {s["abscissa_spacing"] for s in pyuff.UFF(str(out)).read_sets()} == {spacing}

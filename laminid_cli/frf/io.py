@@ -1240,7 +1240,7 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
         common = dict(
             binary=int(binary), id2=UFF_WRITER,
             rsp_node=node, rsp_dir=direction, ref_node=ref, ref_dir=ref_direction,
-            abscissa_spacing=1 if np.allclose(np.diff(fs.freq), fs.freq[1] - fs.freq[0]) else 0,
+            abscissa_spacing=_uff_even_abscissa(fs.freq, binary),
             abscissa_spec_data_type=UFF_ABSCISSA_FREQUENCY, abscissa_axis_units_lab="Hz",
             x=np.asarray(fs.freq, dtype=float))
         sets.append(pyuff.prepare_58(
@@ -1256,6 +1256,26 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
                 ordinate_axis_units_lab="NONE", orddenom_axis_units_lab="NONE",
                 data=np.asarray(fs.coherence[k], dtype=float), **common))
     return write_uff_sets(path, sets)
+
+
+def _uff_even_abscissa(freq, binary: bool) -> int:
+    """Record 7's abscissa spacing for ``freq`` (Hz): 1 (even: the start and step in the
+    header, E13.5, 6 significant digits) where that gives every line back, else 0 (uneven:
+    each line's frequency in the data, doubles in binary 58b). Binary is even only where the
+    header's start and step give the lines back to 1e-12: a 2000 Hz / 4096-line grid's step
+    0.48828125 Hz written as 4.88281e-01 put its top line 0.7 mHz off, though 58b "keeps the
+    doubles exactly" (and a grid even only to 1e-5, as np.allclose took it, was moved onto an
+    even one). ASCII writes the abscissa in 6 digits either way, so a grid even to 1e-9 is
+    even."""
+    freq = np.asarray(freq, dtype=float)
+    if freq.size < 2:
+        return 0
+    if not binary:
+        step = np.diff(freq)
+        return int(bool(np.allclose(step, step[0], rtol=1e-9, atol=0)))
+    start, step = (float(f"{v:13.5e}") for v in (freq[0], freq[1] - freq[0]))
+    header = start + np.arange(freq.size) * step     # as pyuff reads an even abscissa back
+    return int(bool(np.allclose(header, freq, rtol=1e-12, atol=0)))
 
 
 def uff_ascii(text: str) -> str:
