@@ -996,3 +996,19 @@ def test_binary_uff58_keeps_a_grid_whose_step_has_more_than_6_digits_exactly(tmp
         back = io.read_frf(out)
         assert np.array_equal(back.freq, grid) and np.array_equal(back.frf, case.frf)
         assert {s["abscissa_spacing"] for s in pyuff.UFF(str(out)).read_sets()} == {spacing}
+
+
+@pytest.mark.parametrize("binary", [True, False])
+def test_a_uff_cut_short_is_refused_not_read_with_fewer_points(tmp_path, case, binary):
+    # pyuff drops a dataset that no '    -1' closes: a file cut short (a copy that did not
+    # finish) gave 2 of its 5 points and a fit of those, exit 0
+    whole = io.write_frf_uff(tmp_path / "whole.uff", FrfSet(freq=case.freq, frf=case.frf),
+                             binary=binary)
+    data = whole.read_bytes()
+    cut = tmp_path / "cut.uff"
+    cut.write_bytes(data[:int(len(data) * 0.5)])
+    with pytest.raises(FrfError, match=r"cut\.uff: the file ends inside a dataset, after 2 "
+                                       r"complete ones \(no '    -1' line closes the last\)"):
+        io.read_frf(cut)
+    cut.write_bytes(data + b"\r\n\x1a")      # a DOS end of file after the last tag is whole
+    assert io.read_frf(cut).n_points == 5

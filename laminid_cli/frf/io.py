@@ -912,6 +912,12 @@ def read_frf_uff(path) -> FrfSet:
     if not types.size:             # not one '    -1' delimited dataset: another kind of file
         raise FrfError(f"{path}: not a Universal File (no dataset between '    -1' lines, as "
                        f"UFF 58 FRF records are); {_not_the_format(path, 'uff')}")
+    if not _uff_ends_closed(path):
+        # pyuff drops a dataset its end tag never closes: a file cut short gave fewer points,
+        # silently, and a fit of those (exit 0)
+        raise FrfError(f"{path}: the file ends inside a dataset, after {types.size} complete "
+                       f"ones (no '    -1' line closes the last): cut short, a copy or an "
+                       "export that did not finish; copy or export it again")
     if not idx:
         found = ", ".join(str(t) for t in sorted(set(types.tolist()))) or "none"
         raise FrfError(f"{path}: no type-58 (function at nodal DOF) record; dataset types "
@@ -995,6 +1001,17 @@ def read_frf_uff(path) -> FrfSet:
         meta["settings"] = {"exp_window_s": tau}
     return FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels, units=units,
                   source=str(path), meta=meta)
+
+
+def _uff_ends_closed(path) -> bool:
+    """Whether a Universal File ends with the ``    -1`` tag (I6, as pyuff finds the tags)
+    that closes its last dataset: trailing blanks, line ends and a DOS end-of-file byte
+    allowed, and no line end before it (pyuff writes it right after a binary record's data)."""
+    with open(path, "rb") as fh:
+        fh.seek(0, 2)
+        fh.seek(max(0, fh.tell() - 256))
+        tail = fh.read()
+    return re.search(rb"    -1[ \t\r\n\x1a]*\Z", tail) is not None
 
 
 def _uff_abscissa_to_hz(path, k: int, d) -> float:
