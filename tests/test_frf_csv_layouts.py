@@ -504,3 +504,25 @@ def test_points_in_different_units_in_the_header_are_each_their_own(tmp_path, tr
                                                           np.degrees(np.angle(H[k, i])))]
             for i, f in enumerate(freq)]
     assert io.read_frf(_write(tmp_path / "db.csv", header, rows)).units is None
+
+
+@pytest.mark.parametrize("style", ["quoted", "trailing-separator"])
+def test_quoted_cells_and_a_trailing_separator_are_read(tmp_path, truth, style):
+    # '"0.5"' (pandas' QUOTE_ALL, LabVIEW) was "not a number"; "0,5;1,2;" (a spreadsheet's
+    # trailing empty column) was "column 8: empty, where a number is expected"
+    freq, H = truth
+    header = ["f [Hz]"] + [n for k in range(3) for n in (f"H{k + 1}_re", f"H{k + 1}_im")]
+    rows = [[_r(f)] + [_r(v) for k in range(3) for v in (H[k, i].real, H[k, i].imag)]
+            for i, f in enumerate(freq)]
+    if style == "quoted":
+        text = "\n".join(",".join(f'"{c}"' for c in r) for r in [header] + rows)
+    else:
+        text = "\n".join(";".join(r) + ";" for r in [header] + rows)
+    path = tmp_path / "lab.csv"
+    path.write_text(text + "\n")
+    fs = io.read_frf(path)
+    assert np.array_equal(fs.freq, freq) and _rel_error(fs.frf, H) <= REL
+    assert fs.labels == ("H1", "H2", "H3")
+    path.write_text(text.replace(rows[5][3], "", 1) + "\n")   # an empty cell is still named
+    with pytest.raises(FrfError, match="line 7, column 4 .*empty, where a number is expected"):
+        io.read_frf(path)

@@ -348,7 +348,17 @@ def _commented_header(text: str, first_data: int, sep: str | None, n: int
 
 
 def _split(line: str, sep: str | None) -> list[str]:
-    cells = [t.strip() for t in (line.split(sep) if sep else line.split())]
+    """The cells of a CSV line: quoted cells unquoted (``"f [Hz]","0.5"``, as pandas with
+    QUOTE_ALL, LabVIEW and many loggers write them; they were "'\"0.5\"' is not a number"),
+    and the empty cell after a separator that ends the line dropped (``0,5;1,2;``, as a
+    spreadsheet writes a trailing empty column: "column 10: empty, where a number is
+    expected")."""
+    if sep and '"' in line:
+        cells = [t.strip() for t in next(csv.reader([line], delimiter=sep))]
+    else:
+        cells = [t.strip() for t in (line.split(sep) if sep else line.split())]
+    if sep and len(cells) > 1 and cells[-1] == "" and line.rstrip().endswith(sep):
+        cells = cells[:-1]
     if sep is None and ("+" in cells or "-" in cells):
         cells = _join_signs(cells)
     return cells
