@@ -1012,3 +1012,22 @@ def test_a_uff_cut_short_is_refused_not_read_with_fewer_points(tmp_path, case, b
         io.read_frf(cut)
     cut.write_bytes(data + b"\r\n\x1a")      # a DOS end of file after the last tag is whole
     assert io.read_frf(cut).n_points == 5
+
+
+def test_plain_hdf5_frf_of_one_reference_in_three_axes(tmp_path, case):
+    # (n_points, 1, n_freq), a MIMO layout's one reference, was "no complex dataset (FRF) in
+    # it; datasets: '/freq'": the FRF not even listed
+    path = tmp_path / "mimo.h5"
+    with h5py.File(path, "w") as f:
+        f["freq"] = case.freq
+        f["freq"].attrs["units"] = "Hz"
+        f["H"] = case.frf[:, None, :]
+        f["coherence"] = np.ones((case.frf.shape[0], 1, case.freq.size))
+    fs = io.read_frf(path)
+    assert np.array_equal(fs.frf, case.frf) and fs.coherence.shape == case.frf.shape
+    with h5py.File(path, "w") as f:
+        f["freq"] = case.freq
+        f["H"] = np.stack([case.frf, case.frf], axis=1)
+    with pytest.raises(FrfError, match=r"complex datasets of more than 2 axes: '/H' \(5 x 2 x "
+                                       r"1601\) \(laminid reads one reference's FRFs"):
+        io.read_frf(path)

@@ -20,7 +20,9 @@ them:
   ``real``/``imag`` as MATLAB v7.3 does, or ``re``/``im``), or two real datasets of one shape
   named as its parts (``frf_real`` + ``frf_imag``, ``H_re`` + ``H_im``: named ``frf``, ``H``),
   1-D of the frequency's length, or 2-D with one axis of that length: ``(n_points, n_freq)``
-  or ``(n_freq, n_points)`` (either orientation). Its ``units`` attribute becomes the FRF
+  or ``(n_freq, n_points)`` (either orientation), or more axes of length 1 beside those
+  (``(n_points, 1, n_freq)``, one reference of a MIMO layout; more references are refused
+  by name). Its ``units`` attribute becomes the FRF
   units (without one: not stated, None, with a note).
 - **coherence** (optional): a real dataset whose name contains ``coh``, of the FRF's shape.
 
@@ -135,11 +137,15 @@ def _datasets(f) -> list[_Dataset]:
     found = []
 
     def visit(name, obj):
-        if not isinstance(obj, h5py.Dataset) or obj.ndim not in (1, 2):
+        if not isinstance(obj, h5py.Dataset):
+            return
+        # (n_points, 1, n_freq) of one reference, as MIMO layouts store it: its 2-D squeeze
+        shape = tuple(obj.shape) if obj.ndim <= 2 else tuple(n for n in obj.shape if n != 1)
+        if len(shape) not in (1, 2):
             return
         kind = "c" if _complex_fields(obj.dtype) else obj.dtype.kind
         if kind in "fiuc":
-            found.append(_Dataset("/" + name, tuple(obj.shape), kind, _units(obj)))
+            found.append(_Dataset("/" + name, shape, kind, _units(obj)))
 
     f.visititems(visit)
     return found + _real_imag_pairs(found) + _attribute_axes(f)
@@ -305,8 +311,12 @@ def _choose(path: Path, f, datasets, freq_path, frf_path):
                            "a complex dataset (HDF5 compound of r and i)")
         frfs = [d]
     if not frfs:
+        more = _many_axes(f)
         raise FrfError(f"{path}: not a laminid FRF file and no complex dataset (FRF) in it; "
-                       f"datasets: {_listing(datasets)}")
+                       f"datasets: {_listing(datasets)}" + (
+                           f"; complex datasets of more than 2 axes: {more} (laminid reads "
+                           "one reference's FRFs, points x lines: store each reference's as "
+                           "a 2-D dataset, H[:, 0, :])" if more else ""))
     pairs = [(a, h) for a in axes for h in frfs if _fits(h, a.length)]
     if not pairs:
         raise FrfError(
@@ -321,6 +331,22 @@ def _choose(path: Path, f, datasets, freq_path, frf_path):
         raise FrfError(f"{path}: several frequency/FRF dataset pairs fit: {listing}; choose "
                        "one with --freq-dataset PATH and --frf-dataset PATH")
     return pairs[0]
+
+
+def _many_axes(f) -> str:
+    """The complex datasets of more than 2 axes other than 1 (``'/H' (4 x 2 x 2848)``, a
+    MIMO test's outputs x references x lines), for the message that finds no FRF."""
+    import h5py
+
+    found = []
+
+    def visit(name, obj):
+        if isinstance(obj, h5py.Dataset) and obj.ndim > 2 and (
+                _complex_fields(obj.dtype) or obj.dtype.kind == "c"):
+            found.append(f"'/{name}' ({' x '.join(str(n) for n in obj.shape)})")
+
+    f.visititems(visit)
+    return ", ".join(found)
 
 
 def _orient(values: np.ndarray, n_freq: int) -> np.ndarray:
@@ -365,11 +391,12 @@ def _read_generic(f, path: Path, freq_dataset, frf_dataset) -> FrfSet:
             + 1j * np.asarray(f[frf_d.parts[1]][()], dtype=float)
     else:
         values = np.asarray(_read(f[frf_d.path]), dtype=complex)
-    frf = _orient(values, freq.size)
+    frf = _orient(values.reshape(frf_d.shape), freq.size)
     coherence = None
     for d in datasets:
         if "coh" in d.name.lower() and d.kind in "fiu" and d.shape == frf_d.shape:
-            coherence = _orient(np.asarray(f[d.path][()], dtype=float), freq.size)
+            coherence = _orient(np.asarray(f[d.path][()], dtype=float).reshape(d.shape),
+                                freq.size)
             break
     units = frf_d.units or None
     validate_frf_arrays(freq, frf, coherence, source=str(path))
