@@ -1031,3 +1031,22 @@ def test_plain_hdf5_frf_of_one_reference_in_three_axes(tmp_path, case):
     with pytest.raises(FrfError, match=r"complex datasets of more than 2 axes: '/H' \(5 x 2 x "
                                        r"1601\) \(laminid reads one reference's FRFs"):
         io.read_frf(path)
+
+
+def test_export_of_mixed_response_units_writes_each_record_in_its_own(tmp_path, case):
+    # every record was written in the first point's unit: the mobility of point 2 labelled
+    # g over N, ordinate type 12 (acceleration), and read back as an accelerance
+    import pyuff
+
+    path = _other_uff(tmp_path / "mixed.uff", case.freq, case.frf[:2],
+                      ordinate_axis_units_lab=lambda k: "g" if k == 0 else "m/s",
+                      ordinate_spec_data_type=lambda k: 12 if k == 0 else 11)
+    out = tmp_path / "out.uff"
+    r = run(["export", str(path), "-o", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    assert ("the FRFs are in different units, each record written in its own: 1+Z g/N; "
+            "2+Z m/s/N") in json.loads(r.stdout)["notes"]
+    sets = pyuff.UFF(str(out)).read_sets()
+    assert [(s["ordinate_axis_units_lab"], s["orddenom_axis_units_lab"],
+             s["ordinate_spec_data_type"]) for s in sets] == [("g", "N", 12), ("m/s", "N", 11)]
+    assert io.read_frf(out).meta["point_units"] == ["g/N", "m/s/N"]

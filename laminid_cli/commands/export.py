@@ -123,6 +123,11 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
         nodes = [uff_point(lab, i)[0] for i, lab in enumerate(labels)]
         coherent, notes = uff_coherence_points(fs)
         notes[:0] = fs.meta.get("notes") or ()    # the reader's (a CSV phase unit assumed)
+        point_units = fs.meta.get("point_units")
+        if point_units and len(set(point_units)) > 1:
+            notes.append("the FRFs are in different units, each record written in its own: "
+                         + "; ".join(f"{lab} {units_text(uff_units(u, input_file))}"
+                                     for lab, u in zip(labels, point_units)))
         if "exp_window_s" in (fs.meta.get("settings") or {}):
             from laminid_cli.frf.rfp import window_time_constant
 

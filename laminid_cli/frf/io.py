@@ -1252,16 +1252,24 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
     import pyuff
 
     path = _new_target(path, overwrite)
-    axes = _uff_axes(uff_units(fs.units, fs.source or path))
-    for key in ("ordinate_axis_units_lab", "orddenom_axis_units_lab"):
-        if len(axes[key]) > UFF_UNITS_CHARS:
-            # pyuff would cut the label to its field: the unit would read back as another
-            raise FrfError(f"{fs.source or path}: FRF unit {fs.units!r} does not fit a UFF 58 "
-                           f"record: {axes[key]!r} has {len(axes[key])} characters, a units "
-                           f"label holds {UFF_UNITS_CHARS}")
+    # each point's own unit where the points differ (a UFF's accelerance beside a mobility):
+    # every record was written in the first point's unit, a mobility labelled an accelerance
+    point_units = list(fs.meta.get("point_units") or ())
+    each = [point_units[k] if k < len(point_units) else fs.units for k in range(fs.n_points)]
+    axes_of = {}
+    for units in dict.fromkeys(each):
+        axes = _uff_axes(uff_units(units, fs.source or path))
+        for key in ("ordinate_axis_units_lab", "orddenom_axis_units_lab"):
+            if len(axes[key]) > UFF_UNITS_CHARS:
+                # pyuff would cut the label to its field: the unit would read back as another
+                raise FrfError(f"{fs.source or path}: FRF unit {units!r} does not fit a UFF 58 "
+                               f"record: {axes[key]!r} has {len(axes[key])} characters, a "
+                               f"units label holds {UFF_UNITS_CHARS}")
+        axes_of[units] = axes
     with_coherence, _ = uff_coherence_points(fs)
     sets = []
     for k in range(fs.n_points):
+        axes = axes_of[each[k]]
         label = fs.labels[k] if k < len(fs.labels) else str(k + 1)
         node, direction, ref, ref_direction = uff_point(label, k, rsp_dir, (ref_node, ref_dir))
         common = dict(
