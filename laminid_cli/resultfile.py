@@ -52,8 +52,8 @@ def is_frf_text_file(path) -> bool:
     import re
 
     from laminid_cli.frf.generic_h5 import _ANGULAR_NAME, _FREQ_NAME
-    from laminid_cli.frf.io import (_csv_number, _csv_preamble, _csv_separator, _split,
-                                    decode_text)
+    from laminid_cli.frf.io import (_csv_freq_factor, _csv_number, _csv_preamble,
+                                    _csv_separator, _split, decode_text)
 
     p = Path(path)
     suffix = p.suffix.lower()
@@ -83,6 +83,11 @@ def is_frf_text_file(path) -> bool:
     cell = (_split(first, sep) or [""])[0]
     if _csv_number(cell, sep):
         return True                         # no header: the frequency first
+    try:
+        if _csv_freq_factor(p, cell)[1]:
+            return True                     # its unit a frequency's: "X [Hz]", "f / kHz"
+    except LaminidError:
+        pass                                # "Time [s]"; "omega" (its name, below)
     name = re.sub(r"[\[(].*", "", cell).strip()    # "f [Hz]", "Frequency (kHz)": f, Frequency
     return bool(name and (_FREQ_NAME.fullmatch(name) or _ANGULAR_NAME.fullmatch(name)
                           or name.lower().startswith(("freq", "f_hz", "omega"))))

@@ -2471,3 +2471,14 @@ def test_report_of_another_tools_frf_file_names_it_an_frf_file(tmp_path, name):
         assert r.exit_code == 2, r.output
         assert " ".join(r.stderr.split()) == said
     assert not (tmp_path / "r.pdf").exists()
+
+
+@pytest.mark.parametrize("first, frf", [("Fréquence (Hz)", True), ("X [Hz]", True),
+                                        ("f / kHz", True), ("Hz", True), ("omega", True),
+                                        ("125.5", True), ("Time [s]", False), ("name", False)])
+def test_a_csv_is_an_frf_file_by_its_frequency_column(tmp_path, first, frf):
+    from laminid_cli.resultfile import is_frf_text_file
+
+    path = tmp_path / "x.csv"
+    path.write_text(f"{first},H_re,H_im\n125.5,1,2\n126,1,2\n", encoding="utf-8")
+    assert is_frf_text_file(path) is frf
