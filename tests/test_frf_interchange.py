@@ -1050,3 +1050,29 @@ def test_export_of_mixed_response_units_writes_each_record_in_its_own(tmp_path, 
     assert [(s["ordinate_axis_units_lab"], s["orddenom_axis_units_lab"],
              s["ordinate_spec_data_type"]) for s in sets] == [("g", "N", 12), ("m/s", "N", 11)]
     assert io.read_frf(out).meta["point_units"] == ["g/N", "m/s/N"]
+
+
+@pytest.mark.parametrize("units, scale", [("[Hz]", 1.0), ("(kHz)", 1e-3), ("rad s^-1", 2 * np.pi),
+                                          ("1/sec", 1.0)])
+def test_plain_hdf5_frequency_units_in_brackets_or_other_spellings(tmp_path, case, units,
+                                                                    scale):
+    # '[Hz]' (a unit as a plot label writes it) or 'rad s^-1' made the dataset no axis: "no
+    # frequency axis matches an FRF dataset; frequency candidates: none"
+    path = tmp_path / "u.h5"
+    with h5py.File(path, "w") as f:
+        f["freq"] = case.freq * scale
+        f["freq"].attrs["units"] = units
+        f["frf"] = case.frf
+    assert np.allclose(io.read_frf(path).freq, case.freq, rtol=1e-12)
+
+
+def test_plain_hdf5_frequency_in_a_unit_not_read_is_named_in_the_message(tmp_path, case):
+    path = tmp_path / "u.h5"
+    with h5py.File(path, "w") as f:
+        f["freq"] = case.freq
+        f["freq"].attrs["units"] = "cycles/s"
+        f["frf"] = case.frf
+    with pytest.raises(FrfError, match=r"set aside for a units attribute that is no frequency "
+                                       r"unit laminid reads \(hz, .*\): '/freq' \(1601, units "
+                                       r"'cycles/s'\)"):
+        io.read_frf(path)

@@ -51,6 +51,9 @@ from laminid_cli.frf.store import (FORMAT, FrfSet, probe_hdf5_file, read_frf_h5,
 #: frequency units accepted in a ``units`` attribute -> factor to Hz
 FREQ_UNITS = {"hz": 1.0, "hertz": 1.0, "1/s": 1.0, "s^-1": 1.0, "khz": 1e3,
               "rad/s": 1.0 / (2.0 * math.pi), "rad/sec": 1.0 / (2.0 * math.pi)}
+#: other spellings of those units (spaces and case already ignored): "1/sec", "rad s^-1"
+_FREQ_SPELLINGS = {"1/sec": "1/s", "sec^-1": "s^-1", "s-1": "s^-1", "rads^-1": "rad/s",
+                   "rad*s^-1": "rad/s", "rad.s^-1": "rad/s", "rads-1": "rad/s"}
 _FREQ_NAME = re.compile(r"(^|[^a-z])(f|freq|frequency|frequencies|f_?hz|freq_?hz|hz)"
                         r"([^a-z]|$)", re.I)
 
@@ -248,9 +251,14 @@ def name_freq_unit(name: str, where: str) -> str | None:
 
 
 def freq_unit_factor(unit: str) -> float | None:
-    """Factor to Hz of a frequency unit as written ("Hz", "rad/s", "k Hz"; spaces and case
-    ignored), None when it is not one of :data:`FREQ_UNITS`."""
-    return FREQ_UNITS.get(unit.replace(" ", "").lower())
+    """Factor to Hz of a frequency unit as written ("Hz", "rad/s", "k Hz", "[Hz]", "rad s^-1";
+    spaces, case and one pair of enclosing brackets ignored), None when it is not one of
+    :data:`FREQ_UNITS`. A units attribute '[Hz]' made its dataset no axis, and the file was
+    refused with "frequency candidates: none"."""
+    key = unit.replace(" ", "").lower()
+    if len(key) > 2 and key[0] + key[-1] in ("[]", "()"):
+        key = key[1:-1]
+    return FREQ_UNITS.get(_FREQ_SPELLINGS.get(key, key))
 
 
 def _freq_factor(units: str | None) -> float | None:
@@ -319,10 +327,16 @@ def _choose(path: Path, f, datasets, freq_path, frf_path):
                            "a 2-D dataset, H[:, 0, :])" if more else ""))
     pairs = [(a, h) for a in axes for h in frfs if _fits(h, a.length)]
     if not pairs:
+        # a frequency set aside for its units attribute is named with it: the message said
+        # only "frequency candidates: none" beside a '/freq' of the FRF's length
+        aside = [d for d in datasets if d.units and d.kind != "c" and d.length
+                 and _freq_factor(d.units) is None and _FREQ_NAME.search(d.name)]
         raise FrfError(
             f"{path}: no frequency axis matches an FRF dataset; frequency candidates: "
             f"{_listing(axes)}; FRF candidates: {_listing(frfs)} (an FRF axis must have the "
-            "frequency's length)")
+            "frequency's length)" + (
+                f"; set aside for a units attribute that is no frequency unit laminid reads "
+                f"({', '.join(FREQ_UNITS)}): {_listing(aside)}" if aside else ""))
     if len(pairs) > 1:
         best = min(_rank(a) for a, _ in pairs)
         pairs = [(a, h) for a, h in pairs if _rank(a) == best]
