@@ -1076,3 +1076,20 @@ def test_plain_hdf5_frequency_in_a_unit_not_read_is_named_in_the_message(tmp_pat
                                        r"unit laminid reads \(hz, .*\): '/freq' \(1601, units "
                                        r"'cycles/s'\)"):
         io.read_frf(path)
+
+
+@pytest.mark.parametrize("encoding", ["cp1252", "utf-8"])
+def test_uff_units_label_with_a_superscript_of_a_windows_tool(tmp_path, case, encoding):
+    # "m/s²" in Windows-1252 (byte 0xB2) read as 'm/s\ufffd/N' (pyuff's replacement
+    # character), and beside another record's "m/s^2" as two units
+    plain = io.write_frf_uff(tmp_path / "plain.uff",
+                             FrfSet(freq=case.freq, frf=case.frf[:2], units="m/s^2/N"),
+                             binary=True)
+    data = plain.read_bytes()
+    label = b"m/s^2" + b" " * 15
+    assert data.count(label) == 2
+    path = tmp_path / "win.uff"
+    path.write_bytes(data.replace(label, "m/s²".encode(encoding).ljust(20), 1))
+    fs = io.read_frf(path)
+    assert fs.units == "m/s^2/N" and "point_units" not in fs.meta
+    assert np.array_equal(fs.frf, case.frf[:2])

@@ -939,6 +939,7 @@ def read_frf_uff(path) -> FrfSet:
     sets = [sets] if isinstance(sets, dict) else sets
     for k, d in enumerate(sets, start=1):
         _check_uff_record(path, k, d)
+    _recover_uff_labels(path, sets)
     frfs = [d for d in sets if int(d.get("func_type", 0)) == UFF_FRF]
     if not frfs:
         kinds = sorted({int(d.get("func_type", 0)) for d in sets})
@@ -1011,6 +1012,30 @@ def read_frf_uff(path) -> FrfSet:
         meta["settings"] = {"exp_window_s": tau}
     return FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels, units=units,
                   source=str(path), meta=meta)
+
+
+#: the units labels of a type-58 record (records 8-10, field 6)
+_UFF_LABELS = ("abscissa_axis_units_lab", "ordinate_axis_units_lab", "orddenom_axis_units_lab")
+
+
+def _recover_uff_labels(path, sets) -> None:
+    """Units labels that pyuff decoded with a replacement character (a byte not UTF-8: a
+    Windows tool's "m/s²" in Windows-1252, "²" the byte 0xB2) read again from the file's
+    bytes as Windows-1252. The unit was "m/s\ufffd/N", and another point's "m/s^2/N" a
+    different unit."""
+    raw = None
+    for d in sets:
+        for key in _UFF_LABELS:
+            label = d.get(key)
+            if not isinstance(label, str) or "\ufffd" not in label:
+                continue
+            if raw is None:
+                raw = Path(path).read_bytes()
+            pattern = rb"[\x80-\xff]".join(re.escape(part.encode("ascii", "replace"))
+                                            for part in label.split("\ufffd"))
+            m = re.search(pattern, raw)
+            if m is not None:
+                d[key] = m.group().decode("cp1252", errors="replace")
 
 
 def _uff_ends_closed(path) -> bool:
@@ -1095,10 +1120,11 @@ def _uff_units(d) -> str | None:
     ordinate that already ends with its denominator ("m/s^2/N" over "N") is taken as the whole
     unit, not "m/s^2/N/N"; that guess is never applied to laminid's own records, where it
     turned "N/N/N" into "N/N"."""
-    ordinate = str(d.get("ordinate_axis_units_lab", "") or "").strip()
+    # in the ASCII spelling laminid writes ("m/s²" "m/s^2"): the same unit, one string
+    ordinate = str(d.get("ordinate_axis_units_lab", "") or "").strip().translate(UFF_ASCII)
     if ordinate.upper() in ("", "NONE"):  # pyuff's default label: no unit given, as blank
         return None
-    denominator = str(d.get("orddenom_axis_units_lab", "") or "").strip()
+    denominator = str(d.get("orddenom_axis_units_lab", "") or "").strip().translate(UFF_ASCII)
     if denominator.upper() in ("", "NONE"):
         return ordinate
     ours = str(d.get("id2", "") or "").strip() == UFF_WRITER
