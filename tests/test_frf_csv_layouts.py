@@ -478,7 +478,8 @@ def test_the_frf_unit_in_the_columns_headers_is_read(tmp_path, truth, layout):
         header = [f"H{k + 1} (g/N)" for k in range(P)]
         cols = list(H)
     else:
-        header = [n for k in range(P) for n in (f"H{k + 1} Magnitude (g/N)", f"H{k + 1} Phase (°)")]
+        header = [n for k in range(P)
+                  for n in (f"H{k + 1} Magnitude (g/N)", f"H{k + 1} Phase (°)")]
         cols = [c for k in range(P) for c in (np.abs(H[k]), np.degrees(np.angle(H[k])))]
     cell = (lambda v: f"{float(v.real)!r}{v.imag:+.17g}i") if layout == "complex" else _r
     rows = [[_r(f)] + [cell(c[i]) for c in cols] for i, f in enumerate(freq)]

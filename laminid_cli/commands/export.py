@@ -40,8 +40,8 @@ def _span(freq) -> list:
 @click.option("-o", "--output", required=True, type=OUTPUT_FILE,
               help="Universal File to write (.uff or .unv).")
 @click.option("--ascii", "ascii_", is_flag=True,
-              help="FRFs: write ASCII UFF 58 (12 significant digits, the frequencies 6) instead of binary 58b "
-                   "(lossless doubles).")
+              help="FRFs: write ASCII UFF 58 (12 significant digits, the frequencies 6) "
+                   "instead of binary 58b (lossless doubles).")
 @click.option("--format", "fmt", type=click.Choice(["hdf5", "uff", "csv"]), default=None,
               help="FRF input format (default: from the suffix).")
 @click.option("--freq-dataset", default=None, metavar="PATH",

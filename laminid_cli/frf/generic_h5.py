@@ -6,11 +6,11 @@ them:
 
 - **frequency**: a 1-D real dataset (or n x 1, 1 x n as MATLAB writes a vector), at least 2
   values, finite, strictly increasing, >= 0; its ``units`` (or ``unit``, any case: ``Unit``)
-  attribute, if any, must be a frequency unit (Hz, kHz, 1/s or rad/s; converted to Hz); without one, a kHz or
-  rad/s in its name ("f_kHz", "omega_rad_s") is its unit, a name that reads as an angular
-  frequency without a unit ("omega", "w") is refused, any other is Hz with a warning
-  (``meta["warnings"]``: the file, the dataset, the range read and the attribute that states
-  the unit), refused where its values end below
+  attribute, if any, must be a frequency unit (Hz, kHz, 1/s or rad/s; converted to Hz);
+  without one, a kHz or rad/s in its name ("f_kHz", "omega_rad_s") is its unit, a name
+  that reads as an angular frequency without a unit ("omega", "w") is refused, any other
+  is Hz with a warning (``meta["warnings"]``: the file, the dataset, the range read and the
+  attribute that states the unit), refused where its values end below
   :data:`~laminid_cli.frf.store.UNSTATED_FREQ_MIN_SPAN_HZ` (very likely kHz). A name such as
   ``freq``, ``frequency``, ``f_hz`` ranks first. Or an attribute of the FRF dataset, its
   group or the root named so (``/frf@frequency``; its unit in an attribute

@@ -61,7 +61,8 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     first cell not being a number (or, above a first line of data, the comment line just
     above it, numpy's ``savetxt(header=...)``, when it has as many cells as the data and its
     first is not a number: :func:`_commented_header`, with a note; lines above it that are
-    neither, an export's title and date, skipped with a note: :func:`_csv_preamble`) (its names give the point labels: of the real columns, of
+    neither, an export's title and date, skipped with a note: :func:`_csv_preamble`) (its
+    names give the point labels: of the real columns, of
     the complex columns, of the magnitude columns).
 """
 
