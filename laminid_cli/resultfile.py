@@ -45,24 +45,68 @@ def not_a_result_but_frf(path) -> str:
 
 
 def is_frf_text_file(path) -> bool:
-    """A Universal File (.uff/.unv) or a CSV FRF file (first column the frequency, or a
-    '# laminid FRF' comment), given to ``report`` or ``show`` instead of a result or summary."""
+    """A Universal File (.uff/.unv) or a CSV FRF file (.csv/.txt: first column the frequency,
+    named so, "f [Hz]", "Frequency (kHz)", "omega [rad/s]", or a number; or a '# laminid FRF'
+    comment), given to ``report`` or ``show`` instead of a result or summary. Another tool's
+    CSV whose frequency was named "f [Hz]" was "not a laminid batch summary"."""
+    import re
+
+    from laminid_cli.frf.generic_h5 import _ANGULAR_NAME, _FREQ_NAME
+    from laminid_cli.frf.io import (_csv_freq_factor, _csv_number, _csv_preamble,
+                                    _csv_separator, _split, decode_text)
+
     p = Path(path)
     suffix = p.suffix.lower()
     if suffix in (".uff", ".unv"):
         return True
-    if suffix != ".csv":
+    if suffix not in (".csv", ".txt"):
         return False
     try:
-        with open(p, encoding="utf-8-sig", errors="replace") as fh:
-            head = [fh.readline() for _ in range(5)]
+        with open(p, "rb") as fh:
+            raw = fh.read(65536)
     except OSError:
         return False
-    if any(ln.lstrip().startswith("# laminid FRF") for ln in head):
+    text, _ = decode_text(raw)
+    if text is None:
+        text, _ = decode_text(raw[:-4])     # a character cut at the end of the block
+    if text is None:
+        return False
+    rows = text.splitlines()[:-1] if len(raw) == 65536 else text.splitlines()
+    if any(ln.lstrip().startswith("# laminid FRF") for ln in rows[:5]):
         return True
-    first = next((ln.strip() for ln in head if ln.strip() and not ln.lstrip().startswith("#")),
-                 "")
-    return first.split(",")[0].split(";")[0].strip().lower().startswith(("freq", "f_hz"))
+    lines = [(i + 1, ln) for i, ln in enumerate(rows)
+             if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines:
+        return False
+    first = lines[_csv_preamble(lines)][1]
+    sep = _csv_separator(first)
+    cell = (_split(first, sep) or [""])[0]
+    if _csv_number(cell, sep):
+        return True                         # no header: the frequency first
+    try:
+        if _csv_freq_factor(p, cell)[1]:
+            return True                     # its unit a frequency's: "X [Hz]", "f / kHz"
+    except LaminidError:
+        pass                                # "Time [s]"; "omega" (its name, below)
+    name = re.sub(r"[\[(].*", "", cell).strip()    # "f [Hz]", "Frequency (kHz)": f, Frequency
+    return bool(name and (_FREQ_NAME.fullmatch(name) or _ANGULAR_NAME.fullmatch(name)
+                          or name.lower().startswith(("freq", "f_hz", "omega"))))
+
+
+def _plain_frf_file(f, path) -> bool:
+    """Whether the open HDF5 file ``f`` without a laminid format holds FRFs as
+    ``fit-frf`` reads another tool's file (:mod:`laminid_cli.frf.generic_h5`): one
+    frequency/FRF dataset pair, or several to choose from."""
+    from laminid_cli.errors import FrfError
+    from laminid_cli.frf.generic_h5 import _choose, _datasets
+
+    try:
+        _choose(Path(path), f, _datasets(f), None, None)
+    except FrfError as exc:
+        return "several frequency/FRF dataset pairs fit" in str(exc)
+    except Exception:     # noqa: BLE001 - h5py on an odd dataset: not FRFs, say what it is not
+        return False
+    return True
 
 
 class ResultFileError(LaminidError):
@@ -785,6 +829,10 @@ def _open_result(path: Path):
                 "constants), not an identification result: 'laminid modes SPEC.yaml' prints "
                 f"its table again, 'laminid export {path} -o modes.unv' writes its mode shapes; "
                 f"a result is made with {MAKES_A_RESULT}")
+        if not fmt and _plain_frf_file(f, path):
+            # another tool's FRFs (a frequency and a complex FRF dataset, as fit-frf reads
+            # them) were "not a laminid identification result (no 'format' attribute ...)"
+            raise ResultFileError(not_a_result_but_frf(path))
         if fmt not in RESULT_FORMATS:
             what = f"a {fmt!r} file" if fmt else "no 'format' attribute"
             raise ResultFileError(f"{path}: not a laminid identification result ({what}; "

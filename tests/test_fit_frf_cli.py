@@ -444,8 +444,8 @@ def test_a_csv_that_states_no_unit_is_said_so_not_called_dimensionless(tmp_path,
     path = tmp_path / "lab.csv"
     np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
     note = (f"{path}: the FRF unit is not stated in the file (a comment line '# units Pa/N' "
-            "above the data states it): the FRFs and their modal constants are given without "
-            "a unit (null in --json)")
+            "above the data or the FRF columns' headers, 'H1_re [g/N]', state it): the FRFs "
+            "and their modal constants are given without a unit (null in --json)")
     r = run(["fit-frf", str(path), "--band", "100:300"])
     assert r.exit_code == 0, r.output
     first = r.stdout.splitlines()[0]

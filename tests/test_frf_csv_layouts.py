@@ -34,8 +34,8 @@ def _unit_note(path) -> str:
     """The reader's note on a file that states no FRF unit (none of these files has a
     '# units' line)."""
     return (f"{path}: the FRF unit is not stated in the file (a comment line '# units Pa/N' "
-            "above the data states it): the FRFs and their modal constants are given without "
-            "a unit (null in --json)")
+            "above the data or the FRF columns' headers, 'H1_re [g/N]', state it): the FRFs "
+            "and their modal constants are given without a unit (null in --json)")
 
 
 #: how a file without a header is told to state its frequency's unit
@@ -404,3 +404,126 @@ def test_a_row_index_in_the_first_column_is_refused(tmp_path, truth):
     rows = [[str(i), _r(H[0, i].real), _r(H[0, i].imag)] for i in range(freq.size)]
     fs = io.read_frf(_write(tmp_path / "one-hz.csv", ["f [Hz]", "H1_re", "H1_im"], rows))
     assert fs.freq[1] - fs.freq[0] == 1.0
+
+
+# -------------------------------------------------------------------- encodings of spreadsheets
+@pytest.mark.parametrize("encoding", ["cp1252", "utf-16"])
+def test_a_spreadsheets_windows_1252_or_utf16_export_is_read(tmp_path, truth, encoding):
+    # Excel's "CSV" on Windows writes "Phase [°]" in Windows-1252 (byte 0xB0), its "Unicode
+    # Text" in UTF-16 with a BOM: both were refused as "not a text (CSV) file; it looks like
+    # binary data, not text"
+    freq, H = truth
+    header = ["f [Hz]"] + [name for k in range(H.shape[0])
+                           for name in (f"H{k + 1} Magnitude", f"H{k + 1} Phase [°]")]
+    rows = [[_r(f)] + [_r(v) for k in range(H.shape[0])
+                       for v in (abs(H[k, i]), np.degrees(np.angle(H[k, i])))]
+            for i, f in enumerate(freq)]
+    sep = "\t" if encoding == "utf-16" else ";"
+    path = tmp_path / "excel.csv"
+    path.write_bytes("\r\n".join([sep.join(header)] + [sep.join(r) for r in rows])
+                     .encode(encoding))
+    fs = io.read_frf(path)
+    assert np.array_equal(fs.freq, freq) and _rel_error(fs.frf, H) <= REL
+    assert fs.labels == ("H1", "H2", "H3")
+    said = [n for n in _other_notes(fs.meta.get("notes", [])) if "Windows-1252" in n]
+    assert len(said) == (encoding == "cp1252"), said
+
+
+def test_binary_data_named_csv_is_still_refused_as_binary(tmp_path):
+    path = tmp_path / "data.csv"
+    path.write_bytes(bytes(range(256)) * 4)
+    with pytest.raises(FrfError, match=r"not a text \(CSV\) file; it looks like binary data"):
+        io.read_frf(path)
+
+
+# ---------------------------------------------------------------- lines above the header
+@pytest.mark.parametrize("sep", [",", ";"])
+def test_an_exports_title_and_settings_above_the_header_are_skipped_with_a_note(tmp_path,
+                                                                                 truth, sep):
+    # an analyser's export writes its title and date above the column names; the first of
+    # them was taken for the header: "line 2, column 1 ('Title:'): 'Date:' is not a number"
+    freq, H = truth
+    header = ["f [Hz]"] + [n for k in range(3) for n in (f"H{k + 1}_re", f"H{k + 1}_im")]
+    rows = [[_r(f)] + [_r(v) for k in range(3) for v in (H[k, i].real, H[k, i].imag)]
+            for i, f in enumerate(freq)]
+    path = tmp_path / "export.csv"
+    preamble = "Title: plate S1\nDate: 07.12.2026\n" if sep == "," else "Title;plate\nDate;7.12.\n"
+    path.write_text(preamble + "\n".join(sep.join(r) for r in [header] + rows) + "\n")
+    fs = io.read_frf(path)
+    assert np.array_equal(fs.freq, freq) and _rel_error(fs.frf, H) <= REL
+    assert fs.labels == ("H1", "H2", "H3")
+    notes = _other_notes(fs.meta.get("notes", []))
+    assert len(notes) == 1 and notes[0].startswith(f"{path}: lines 1-2 above the header "
+                                                   "skipped ('Title"), notes
+
+
+def test_a_bad_first_data_line_below_the_header_is_still_named(tmp_path):
+    path = tmp_path / "bad.csv"
+    path.write_text("f [Hz],H1_re,H1_im\nx,1,2\n101,3,4\n102,5,6\n")
+    with pytest.raises(FrfError, match=r"line 2, column 1 \('f \[Hz\]'\): 'x' is not a number"):
+        io.read_frf(path)
+
+
+# ---------------------------------------------------------------- the FRF unit in the header
+@pytest.mark.parametrize("layout", ["re-im", "complex", "mag-phase"])
+def test_the_frf_unit_in_the_columns_headers_is_read(tmp_path, truth, layout):
+    # "H1 real [g/N]", a spreadsheet's way to state the unit, was read as "not stated" (and
+    # the point labelled 'H1 real [g/N]')
+    freq, H = truth
+    P = H.shape[0]
+    if layout == "re-im":
+        header = [n for k in range(P) for n in (f"H{k + 1} real [g/N]", f"H{k + 1} imag [g/N]")]
+        cols = [c for k in range(P) for c in (H[k].real, H[k].imag)]
+    elif layout == "complex":
+        header = [f"H{k + 1} (g/N)" for k in range(P)]
+        cols = list(H)
+    else:
+        header = [n for k in range(P)
+                  for n in (f"H{k + 1} Magnitude (g/N)", f"H{k + 1} Phase (°)")]
+        cols = [c for k in range(P) for c in (np.abs(H[k]), np.degrees(np.angle(H[k])))]
+    cell = (lambda v: f"{float(v.real)!r}{v.imag:+.17g}i") if layout == "complex" else _r
+    rows = [[_r(f)] + [cell(c[i]) for c in cols] for i, f in enumerate(freq)]
+    fs = io.read_frf(_write(tmp_path / "unit.csv", ["f [Hz]"] + header, rows))
+    assert fs.units == "g/N" and "point_units" not in fs.meta
+    assert fs.labels == ("H1", "H2", "H3")
+    assert _rel_error(fs.frf, H) <= REL
+    assert not any("not stated" in n for n in fs.meta.get("notes", []))
+
+
+def test_points_in_different_units_in_the_header_are_each_their_own(tmp_path, truth):
+    freq, H = truth
+    units = ("g/N", "m/s/N", "g/N")
+    header = ["f [Hz]"] + [n for k, u in enumerate(units) for n in (f"H{k + 1}_re [{u}]",
+                                                                    f"H{k + 1}_im [{u}]")]
+    rows = [[_r(f)] + [_r(v) for k in range(3) for v in (H[k, i].real, H[k, i].imag)]
+            for i, f in enumerate(freq)]
+    fs = io.read_frf(_write(tmp_path / "mixed.csv", header, rows))
+    assert fs.units == "g/N" and fs.meta["point_units"] == list(units)
+    # a phase's or a dB magnitude's bracket is no FRF unit
+    header = ["f [Hz]"] + [n for k in range(3) for n in (f"H{k + 1} [dB]", f"H{k + 1} [deg]")]
+    rows = [[_r(f)] + [_r(v) for k in range(3) for v in (20 * np.log10(abs(H[k, i])),
+                                                          np.degrees(np.angle(H[k, i])))]
+            for i, f in enumerate(freq)]
+    assert io.read_frf(_write(tmp_path / "db.csv", header, rows)).units is None
+
+
+@pytest.mark.parametrize("style", ["quoted", "trailing-separator"])
+def test_quoted_cells_and_a_trailing_separator_are_read(tmp_path, truth, style):
+    # '"0.5"' (pandas' QUOTE_ALL, LabVIEW) was "not a number"; "0,5;1,2;" (a spreadsheet's
+    # trailing empty column) was "column 8: empty, where a number is expected"
+    freq, H = truth
+    header = ["f [Hz]"] + [n for k in range(3) for n in (f"H{k + 1}_re", f"H{k + 1}_im")]
+    rows = [[_r(f)] + [_r(v) for k in range(3) for v in (H[k, i].real, H[k, i].imag)]
+            for i, f in enumerate(freq)]
+    if style == "quoted":
+        text = "\n".join(",".join(f'"{c}"' for c in r) for r in [header] + rows)
+    else:
+        text = "\n".join(";".join(r) + ";" for r in [header] + rows)
+    path = tmp_path / "lab.csv"
+    path.write_text(text + "\n")
+    fs = io.read_frf(path)
+    assert np.array_equal(fs.freq, freq) and _rel_error(fs.frf, H) <= REL
+    assert fs.labels == ("H1", "H2", "H3")
+    path.write_text(text.replace(rows[5][3], "", 1) + "\n")   # an empty cell is still named
+    with pytest.raises(FrfError, match="line 7, column 4 .*empty, where a number is expected"):
+        io.read_frf(path)

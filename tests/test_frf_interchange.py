@@ -518,7 +518,8 @@ def test_a_unit_not_stated_stays_not_stated_through_every_writer(tmp_path, case)
     assert first == "# laminid FRF, unit not stated in the source file"
     uff = io.write_frf(tmp_path / "in.uff", fs)
     hows = {h5: "no 'units' attribute on '/frf'; acquire --units records it",
-            csv_path: "a comment line '# units Pa/N' above the data states it",
+            csv_path: "a comment line '# units Pa/N' above the data or the FRF columns' "
+                      "headers, 'H1_re [g/N]', state it",
             uff: "FRF records' ordinate units label 'NONE' over 'NONE'"}
     for path, how in hows.items():
         back = io.read_frf(path)
@@ -918,3 +919,177 @@ def test_uff_abscissa_with_a_units_label_is_read_without_a_warning(tmp_path, cas
     stderr, out = _fit_cli(path)
     assert stderr == "" and out["warnings"] == []
     assert np.allclose([m["freq_hz"] for m in out["modes"]], case.freq_hz[:3], rtol=1e-4)
+
+
+@pytest.mark.parametrize("key", ["Unit", "UNITS", "Units"])
+def test_plain_hdf5_units_attribute_in_any_case(tmp_path, case, key):
+    # a tool's 'Unit' attribute was not read: its kHz axis read as Hz (a warning saying the
+    # frequency states no unit) and its FRF unit "not stated"
+    path = tmp_path / "unit.h5"
+    with h5py.File(path, "w") as f:
+        f["freq"] = case.freq / 1000.0
+        f["freq"].attrs[key] = "kHz"
+        f["H_re"], f["H_im"] = case.frf.real, case.frf.imag
+        f["H_re"].attrs[key] = "g/N"
+        f["H_im"].attrs[key] = "g/N"
+    fs = io.read_frf(path)
+    assert np.allclose(fs.freq, case.freq, rtol=1e-12)
+    assert fs.units == "g/N"
+    assert not fs.meta.get("warnings") and not fs.meta.get("notes")
+
+
+@pytest.mark.parametrize("where", ["dataset", "group", "root"])
+def test_plain_hdf5_frequency_as_an_attribute(tmp_path, case, where):
+    # a tool that keeps the axis with its FRF (an attribute 'frequency' of the FRF dataset, or
+    # of its group) was refused: "no frequency axis matches an FRF dataset; frequency
+    # candidates: none"
+    path = tmp_path / "attr.h5"
+    with h5py.File(path, "w") as f:
+        f["meas/H"] = case.frf.T
+        f["meas/H"].attrs["units"] = "g/N"
+        owner = {"dataset": f["meas/H"], "group": f["meas"], "root": f}[where]
+        owner.attrs["frequency"] = 2 * np.pi * case.freq
+        owner.attrs["frequency_units"] = "rad/s"
+    fs = io.read_frf(path)
+    assert np.allclose(fs.freq, case.freq, rtol=1e-12) and np.array_equal(fs.frf, case.frf)
+    assert fs.units == "g/N" and not fs.meta.get("warnings")
+    named = {"dataset": "/meas/H@frequency", "group": "/meas@frequency", "root": "@frequency"}
+    assert fs.meta["frequency_dataset"] == named[where]
+    out = _fit_json(path, "--freq-dataset", named[where], "--band", "100:300")
+    assert out["n_points"] == 5 and out["frf_unit"] == "g/N"
+
+
+def test_plain_hdf5_frequency_attribute_without_a_unit_is_hz_with_a_warning(tmp_path, case):
+    path = tmp_path / "attr.h5"
+    with h5py.File(path, "w") as f:
+        f["frf"] = case.frf
+        f["frf"].attrs["freq"] = case.freq
+        f["frf"].attrs["f_kHz"] = case.freq / 1e3 + 1.0   # another axis, named in kHz
+    with pytest.raises(FrfError, match="several frequency/FRF dataset pairs fit"):
+        io.read_frf(path)
+    fs = io.read_frf(path, freq_dataset="/frf@freq", frf_dataset="/frf")
+    assert np.array_equal(fs.freq, case.freq)
+    assert fs.meta["warnings"][0].startswith(
+        f"{path}: attribute 'freq' of '/frf' (no freq_units attribute beside it): the frequency "
+        "states no unit")
+    assert "h5py.File(" in fs.meta["warnings"][0] and ".attrs['freq_units'] = 'kHz'" \
+        in fs.meta["warnings"][0]
+    with h5py.File(path, "r+") as f:          # a dataset named as the frequency comes first
+        f["freq"] = case.freq
+        f["freq"].attrs["units"] = "Hz"
+    assert io.read_frf(path).meta["frequency_dataset"] == "/freq"
+
+
+@pytest.mark.parametrize("step", [2000 / 4096, 1 / 3])
+def test_binary_uff58_keeps_a_grid_whose_step_has_more_than_6_digits_exactly(tmp_path, case,
+                                                                              step):
+    # the header's start and step hold 6 digits (E13.5): a 2000 Hz / 4096-line grid's
+    # 0.48828125 Hz step read back as 0.488281, its top line 0.7 mHz off (5e-7), though
+    # binary 58b "keeps the doubles exactly"; such a grid is now written uneven (each line's
+    # frequency a double), an exact step still as start and step
+    import pyuff
+
+    freq = step * np.arange(1, case.freq.size + 1)
+    for grid, spacing in ((freq, 0), (0.5 * np.arange(1, case.freq.size + 1), 1)):
+        out = tmp_path / f"grid{spacing}.uff"
+        io.write_frf_uff(out, FrfSet(freq=grid, frf=case.frf, units="m/s^2/N"), binary=True)
+        back = io.read_frf(out)
+        assert np.array_equal(back.freq, grid) and np.array_equal(back.frf, case.frf)
+        assert {s["abscissa_spacing"] for s in pyuff.UFF(str(out)).read_sets()} == {spacing}
+
+
+@pytest.mark.parametrize("binary", [True, False])
+def test_a_uff_cut_short_is_refused_not_read_with_fewer_points(tmp_path, case, binary):
+    # pyuff drops a dataset that no '    -1' closes: a file cut short (a copy that did not
+    # finish) gave 2 of its 5 points and a fit of those, exit 0
+    whole = io.write_frf_uff(tmp_path / "whole.uff", FrfSet(freq=case.freq, frf=case.frf),
+                             binary=binary)
+    data = whole.read_bytes()
+    cut = tmp_path / "cut.uff"
+    cut.write_bytes(data[:int(len(data) * 0.5)])
+    with pytest.raises(FrfError, match=r"cut\.uff: the file ends inside a dataset, after 2 "
+                                       r"complete ones \(no '    -1' line closes the last\)"):
+        io.read_frf(cut)
+    cut.write_bytes(data + b"\r\n\x1a")      # a DOS end of file after the last tag is whole
+    assert io.read_frf(cut).n_points == 5
+
+
+def test_plain_hdf5_frf_of_one_reference_in_three_axes(tmp_path, case):
+    # (n_points, 1, n_freq), a MIMO layout's one reference, was "no complex dataset (FRF) in
+    # it; datasets: '/freq'": the FRF not even listed
+    path = tmp_path / "mimo.h5"
+    with h5py.File(path, "w") as f:
+        f["freq"] = case.freq
+        f["freq"].attrs["units"] = "Hz"
+        f["H"] = case.frf[:, None, :]
+        f["coherence"] = np.ones((case.frf.shape[0], 1, case.freq.size))
+    fs = io.read_frf(path)
+    assert np.array_equal(fs.frf, case.frf) and fs.coherence.shape == case.frf.shape
+    with h5py.File(path, "w") as f:
+        f["freq"] = case.freq
+        f["H"] = np.stack([case.frf, case.frf], axis=1)
+    with pytest.raises(FrfError, match=r"complex datasets of more than 2 axes: '/H' \(5 x 2 x "
+                                       r"1601\) \(laminid reads one reference's FRFs"):
+        io.read_frf(path)
+
+
+def test_export_of_mixed_response_units_writes_each_record_in_its_own(tmp_path, case):
+    # every record was written in the first point's unit: the mobility of point 2 labelled
+    # g over N, ordinate type 12 (acceleration), and read back as an accelerance
+    import pyuff
+
+    path = _other_uff(tmp_path / "mixed.uff", case.freq, case.frf[:2],
+                      ordinate_axis_units_lab=lambda k: "g" if k == 0 else "m/s",
+                      ordinate_spec_data_type=lambda k: 12 if k == 0 else 11)
+    out = tmp_path / "out.uff"
+    r = run(["export", str(path), "-o", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    assert ("the FRFs are in different units, each record written in its own: 1+Z g/N; "
+            "2+Z m/s/N") in json.loads(r.stdout)["notes"]
+    sets = pyuff.UFF(str(out)).read_sets()
+    assert [(s["ordinate_axis_units_lab"], s["orddenom_axis_units_lab"],
+             s["ordinate_spec_data_type"]) for s in sets] == [("g", "N", 12), ("m/s", "N", 11)]
+    assert io.read_frf(out).meta["point_units"] == ["g/N", "m/s/N"]
+
+
+@pytest.mark.parametrize("units, scale", [("[Hz]", 1.0), ("(kHz)", 1e-3), ("rad s^-1", 2 * np.pi),
+                                          ("1/sec", 1.0)])
+def test_plain_hdf5_frequency_units_in_brackets_or_other_spellings(tmp_path, case, units,
+                                                                    scale):
+    # '[Hz]' (a unit as a plot label writes it) or 'rad s^-1' made the dataset no axis: "no
+    # frequency axis matches an FRF dataset; frequency candidates: none"
+    path = tmp_path / "u.h5"
+    with h5py.File(path, "w") as f:
+        f["freq"] = case.freq * scale
+        f["freq"].attrs["units"] = units
+        f["frf"] = case.frf
+    assert np.allclose(io.read_frf(path).freq, case.freq, rtol=1e-12)
+
+
+def test_plain_hdf5_frequency_in_a_unit_not_read_is_named_in_the_message(tmp_path, case):
+    path = tmp_path / "u.h5"
+    with h5py.File(path, "w") as f:
+        f["freq"] = case.freq
+        f["freq"].attrs["units"] = "cycles/s"
+        f["frf"] = case.frf
+    with pytest.raises(FrfError, match=r"set aside for a units attribute that is no frequency "
+                                       r"unit laminid reads \(hz, .*\): '/freq' \(1601, units "
+                                       r"'cycles/s'\)"):
+        io.read_frf(path)
+
+
+@pytest.mark.parametrize("encoding", ["cp1252", "utf-8"])
+def test_uff_units_label_with_a_superscript_of_a_windows_tool(tmp_path, case, encoding):
+    # "m/s²" in Windows-1252 (byte 0xB2) read as 'm/s\ufffd/N' (pyuff's replacement
+    # character), and beside another record's "m/s^2" as two units
+    plain = io.write_frf_uff(tmp_path / "plain.uff",
+                             FrfSet(freq=case.freq, frf=case.frf[:2], units="m/s^2/N"),
+                             binary=True)
+    data = plain.read_bytes()
+    label = b"m/s^2" + b" " * 15
+    assert data.count(label) == 2
+    path = tmp_path / "win.uff"
+    path.write_bytes(data.replace(label, "m/s²".encode(encoding).ljust(20), 1))
+    fs = io.read_frf(path)
+    assert fs.units == "m/s^2/N" and "point_units" not in fs.meta
+    assert np.array_equal(fs.frf, case.frf[:2])

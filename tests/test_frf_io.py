@@ -352,8 +352,8 @@ def test_csv_written_by_numpy_savetxt_with_its_header_in_a_comment(tmp_path, del
         "column names read from the comment line just above the data (line 1, as numpy's "
         f"savetxt writes a header): {', '.join(names)}",
         f"{path}: the FRF unit is not stated in the file (a comment line '# units Pa/N' above "
-        "the data states it): the FRFs and their modal constants are given without a unit "
-        "(null in --json)"]
+        "the data or the FRF columns' headers, 'H1_re [g/N]', state it): the FRFs and their "
+        "modal constants are given without a unit (null in --json)"]
     assert fs.units is None
     fit = rfp.find_modes(fs.freq, fs.frf, bands=[(100.0, 300.0)])
     assert np.allclose(fit.freq_hz, case.freq_hz[:3], rtol=1e-4)

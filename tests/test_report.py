@@ -2482,3 +2482,43 @@ def test_a_page_of_the_damping_table_is_laid_out_once(monkeypatch):
                      ("ply loss factors (continued)", True, 0)]
     drawn = [row for fig in figs[1:] for row in cells(ax(fig, "loss-factors"))[1:]]
     assert drawn == report_damping.loss_factor_rows(d)
+
+
+@pytest.mark.parametrize("name", ["lab.csv", "lab.txt", "lab.h5"])
+def test_report_of_another_tools_frf_file_names_it_an_frf_file(tmp_path, name):
+    """Another tool's FRFs, which fit-frf reads, were not known by report: a CSV whose
+    frequency column is "f [Hz]" (an export's title line above it) was "not a laminid batch
+    summary", a plain HDF5 file "not a laminid identification result (no 'format'
+    attribute ...)"."""
+    freq = np.arange(1.0, 100.0, 0.25)
+    frf = synth_frf(freq, np.array([[30.0, 0.01], [70.0, 0.01]]), np.array([[1.0, -0.5]]),
+                    kind="accelerance", noise=0.001, seed=1)
+    path = tmp_path / name
+    if name.endswith(".h5"):
+        with h5py.File(path, "w") as f:
+            f["measurement/f"] = freq
+            f["measurement/H"] = frf.T
+    else:
+        rows = [f"{x:.6f};{h.real:.9e};{h.imag:.9e}".replace(".", ",")
+                for x, h in zip(freq, frf[0])]
+        path.write_text("\n".join(["Title;plate", "f [Hz];H1_re;H1_im"] + rows) + "\n")
+    said = (f"laminid: error: {path}: an FRF file, not an identification result: laminid "
+            f"fit-frf {path} --plot lab.fit.pdf draws its FRFs and their fit; a result is made "
+            f"from it by laminid fit-frf {path} --into SPEC.yaml, then laminid identify "
+            "SPEC.yaml")
+    for command in (["report", path, "-o", tmp_path / "r.pdf"], ["show", path]):
+        r = run(*command)
+        assert r.exit_code == 2, r.output
+        assert " ".join(r.stderr.split()) == said
+    assert not (tmp_path / "r.pdf").exists()
+
+
+@pytest.mark.parametrize("first, frf", [("Fréquence (Hz)", True), ("X [Hz]", True),
+                                        ("f / kHz", True), ("Hz", True), ("omega", True),
+                                        ("125.5", True), ("Time [s]", False), ("name", False)])
+def test_a_csv_is_an_frf_file_by_its_frequency_column(tmp_path, first, frf):
+    from laminid_cli.resultfile import is_frf_text_file
+
+    path = tmp_path / "x.csv"
+    path.write_text(f"{first},H_re,H_im\n125.5,1,2\n126,1,2\n", encoding="utf-8")
+    assert is_frf_text_file(path) is frf

@@ -40,8 +40,8 @@ def _span(freq) -> list:
 @click.option("-o", "--output", required=True, type=OUTPUT_FILE,
               help="Universal File to write (.uff or .unv).")
 @click.option("--ascii", "ascii_", is_flag=True,
-              help="FRFs: write ASCII UFF 58 (12 significant digits) instead of binary 58b "
-                   "(lossless doubles).")
+              help="FRFs: write ASCII UFF 58 (12 significant digits, the frequencies 6) "
+                   "instead of binary 58b (lossless doubles).")
 @click.option("--format", "fmt", type=click.Choice(["hdf5", "uff", "csv"]), default=None,
               help="FRF input format (default: from the suffix).")
 @click.option("--freq-dataset", default=None, metavar="PATH",
@@ -123,6 +123,11 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
         nodes = [uff_point(lab, i)[0] for i, lab in enumerate(labels)]
         coherent, notes = uff_coherence_points(fs)
         notes[:0] = fs.meta.get("notes") or ()    # the reader's (a CSV phase unit assumed)
+        point_units = fs.meta.get("point_units")
+        if point_units and len(set(point_units)) > 1:
+            notes.append("the FRFs are in different units, each record written in its own: "
+                         + "; ".join(f"{lab} {units_text(uff_units(u, input_file))}"
+                                     for lab, u in zip(labels, point_units)))
         if "exp_window_s" in (fs.meta.get("settings") or {}):
             from laminid_cli.frf.rfp import window_time_constant
 

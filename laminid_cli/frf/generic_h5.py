@@ -5,19 +5,24 @@ complex FRF dataset, units as attributes, names and orientation their own. This 
 them:
 
 - **frequency**: a 1-D real dataset (or n x 1, 1 x n as MATLAB writes a vector), at least 2
-  values, finite, strictly increasing, >= 0; its ``units`` (or ``unit``) attribute, if any,
-  must be a frequency unit (Hz, kHz, 1/s or rad/s; converted to Hz); without one, a kHz or
-  rad/s in its name ("f_kHz", "omega_rad_s") is its unit, a name that reads as an angular
-  frequency without a unit ("omega", "w") is refused, any other is Hz with a warning
-  (``meta["warnings"]``: the file, the dataset, the range read and the attribute that states
-  the unit), refused where its values end below
+  values, finite, strictly increasing, >= 0; its ``units`` (or ``unit``, any case: ``Unit``)
+  attribute, if any, must be a frequency unit (Hz, kHz, 1/s or rad/s; converted to Hz);
+  without one, a kHz or rad/s in its name ("f_kHz", "omega_rad_s") is its unit, a name
+  that reads as an angular frequency without a unit ("omega", "w") is refused, any other
+  is Hz with a warning (``meta["warnings"]``: the file, the dataset, the range read and the
+  attribute that states the unit), refused where its values end below
   :data:`~laminid_cli.frf.store.UNSTATED_FREQ_MIN_SPAN_HZ` (very likely kHz). A name such as
-  ``freq``, ``frequency``, ``f_hz`` ranks first.
+  ``freq``, ``frequency``, ``f_hz`` ranks first. Or an attribute of the FRF dataset, its
+  group or the root named so (``/frf@frequency``; its unit in an attribute
+  ``frequency_units`` beside it or in its name, else Hz with the warning), ranked after
+  such a dataset.
 - **FRF**: a complex dataset (HDF5 compound ``r``/``i`` as h5py and most tools write it, or
   ``real``/``imag`` as MATLAB v7.3 does, or ``re``/``im``), or two real datasets of one shape
   named as its parts (``frf_real`` + ``frf_imag``, ``H_re`` + ``H_im``: named ``frf``, ``H``),
   1-D of the frequency's length, or 2-D with one axis of that length: ``(n_points, n_freq)``
-  or ``(n_freq, n_points)`` (either orientation). Its ``units`` attribute becomes the FRF
+  or ``(n_freq, n_points)`` (either orientation), or more axes of length 1 beside those
+  (``(n_points, 1, n_freq)``, one reference of a MIMO layout; more references are refused
+  by name). Its ``units`` attribute becomes the FRF
   units (without one: not stated, None, with a note).
 - **coherence** (optional): a real dataset whose name contains ``coh``, of the FRF's shape.
 
@@ -46,6 +51,9 @@ from laminid_cli.frf.store import (FORMAT, FrfSet, probe_hdf5_file, read_frf_h5,
 #: frequency units accepted in a ``units`` attribute -> factor to Hz
 FREQ_UNITS = {"hz": 1.0, "hertz": 1.0, "1/s": 1.0, "s^-1": 1.0, "khz": 1e3,
               "rad/s": 1.0 / (2.0 * math.pi), "rad/sec": 1.0 / (2.0 * math.pi)}
+#: other spellings of those units (spaces and case already ignored): "1/sec", "rad s^-1"
+_FREQ_SPELLINGS = {"1/sec": "1/s", "sec^-1": "s^-1", "s-1": "s^-1", "rads^-1": "rad/s",
+                   "rad*s^-1": "rad/s", "rad.s^-1": "rad/s", "rads-1": "rad/s"}
 _FREQ_NAME = re.compile(r"(^|[^a-z])(f|freq|frequency|frequencies|f_?hz|freq_?hz|hz)"
                         r"([^a-z]|$)", re.I)
 
@@ -61,7 +69,13 @@ class _Dataset:
 
     @property
     def name(self) -> str:
-        return self.path.rsplit("/", 1)[-1]
+        return self.path.rsplit("@", 1)[-1] if self.is_attribute else self.path.rsplit("/", 1)[-1]
+
+    @property
+    def is_attribute(self) -> bool:
+        """A frequency vector stored as an attribute ("/frf@frequency": attribute
+        ``frequency`` of ``/frf``), as some tools keep the axis with its FRF."""
+        return "@" in self.path
 
     def describe(self) -> str:
         shape = " x ".join(str(n) for n in self.shape)
@@ -89,9 +103,13 @@ def _text(v) -> str:
 
 
 def _units(ds) -> str | None:
-    for key in ("units", "unit", "Units", "UNITS"):
-        if key in ds.attrs:
-            return _text(ds.attrs[key]).strip()
+    """The ``units`` (or ``unit``) attribute of ``ds``, in any case: ``Unit``, as some tools
+    write it, was not read (its frequency read as unstated Hz with a warning, its FRF unit
+    "not stated")."""
+    keys = {str(k).lower(): k for k in ds.attrs.keys()}
+    for key in ("units", "unit"):
+        if key in keys:
+            return _text(ds.attrs[keys[key]]).strip()
     return None
 
 
@@ -122,14 +140,62 @@ def _datasets(f) -> list[_Dataset]:
     found = []
 
     def visit(name, obj):
-        if not isinstance(obj, h5py.Dataset) or obj.ndim not in (1, 2):
+        if not isinstance(obj, h5py.Dataset):
+            return
+        # (n_points, 1, n_freq) of one reference, as MIMO layouts store it: its 2-D squeeze
+        shape = tuple(obj.shape) if obj.ndim <= 2 else tuple(n for n in obj.shape if n != 1)
+        if len(shape) not in (1, 2):
             return
         kind = "c" if _complex_fields(obj.dtype) else obj.dtype.kind
         if kind in "fiuc":
-            found.append(_Dataset("/" + name, tuple(obj.shape), kind, _units(obj)))
+            found.append(_Dataset("/" + name, shape, kind, _units(obj)))
 
     f.visititems(visit)
-    return found + _real_imag_pairs(found)
+    return found + _real_imag_pairs(found) + _attribute_axes(f)
+
+
+def _attribute_axes(f) -> list[_Dataset]:
+    """Frequency vectors stored as attributes of a dataset or group (``/frf@frequency``):
+    numeric, 1-D (or n x 1), at least 2 values, named as a frequency (``freq``,
+    ``frequency``, ``f_Hz``, ``freq_kHz``, ``omega_rad_s``); their unit from an attribute
+    ``<name>_units`` (or ``_unit``, any case) beside them, else from the name. Such a file
+    was refused: "no frequency axis matches an FRF dataset; frequency candidates: none"."""
+    import h5py
+
+    objects = [("", f)]
+    f.visititems(lambda name, obj: objects.append(("/" + name, obj)))
+    found = []
+    for path, obj in objects:
+        if not isinstance(obj, (h5py.Dataset, h5py.Group)):
+            continue
+        keys = {str(k).lower(): k for k in obj.attrs.keys()}
+        for key in obj.attrs.keys():
+            name = str(key)
+            if not (_FREQ_NAME.search(name) or _ANGULAR_NAME.search(name)
+                    or re.search(r"(?i)(?<![a-z])(khz|rad[/_ ]?s)(?![a-z])", name)):
+                continue
+            try:
+                value = np.asarray(obj.attrs[key])
+            except (OSError, TypeError, ValueError):   # an attribute h5py cannot read
+                continue
+            if value.dtype.kind not in "fiu" or value.ndim not in (1, 2) or value.size < 2 \
+                    or (value.ndim == 2 and 1 not in value.shape):
+                continue
+            unit = next((obj.attrs[keys[k]] for k in (f"{name.lower()}_units",
+                                                      f"{name.lower()}_unit") if k in keys),
+                        None)
+            found.append(_Dataset(f"{path or ''}@{name}", tuple(value.shape), value.dtype.kind,
+                                  None if unit is None else _text(unit).strip()))
+    return found
+
+
+def _values(f, path: str) -> np.ndarray:
+    """The values of dataset ``path``, or of the attribute ``path`` names (``/frf@frequency``,
+    ``@freq`` of the root)."""
+    if "@" in path:
+        where, name = path.rsplit("@", 1)
+        return np.asarray(f[where or "/"].attrs[name])
+    return f[path][()]
 
 
 #: name endings of the real and imaginary parts of a complex FRF stored as two real datasets
@@ -185,9 +251,14 @@ def name_freq_unit(name: str, where: str) -> str | None:
 
 
 def freq_unit_factor(unit: str) -> float | None:
-    """Factor to Hz of a frequency unit as written ("Hz", "rad/s", "k Hz"; spaces and case
-    ignored), None when it is not one of :data:`FREQ_UNITS`."""
-    return FREQ_UNITS.get(unit.replace(" ", "").lower())
+    """Factor to Hz of a frequency unit as written ("Hz", "rad/s", "k Hz", "[Hz]", "rad s^-1";
+    spaces, case and one pair of enclosing brackets ignored), None when it is not one of
+    :data:`FREQ_UNITS`. A units attribute '[Hz]' made its dataset no axis, and the file was
+    refused with "frequency candidates: none"."""
+    key = unit.replace(" ", "").lower()
+    if len(key) > 2 and key[0] + key[-1] in ("[]", "()"):
+        key = key[1:-1]
+    return FREQ_UNITS.get(_FREQ_SPELLINGS.get(key, key))
 
 
 def _freq_factor(units: str | None) -> float | None:
@@ -200,7 +271,7 @@ def _freq_factor(units: str | None) -> float | None:
 def _is_axis(f, d: _Dataset) -> bool:
     if d.length is None or d.length < 2 or d.kind == "c" or _freq_factor(d.units) is None:
         return False
-    x = np.asarray(f[d.path][()], dtype=float).reshape(-1)
+    x = np.asarray(_values(f, d.path), dtype=float).reshape(-1)
     return bool(np.all(np.isfinite(x)) and x[0] >= 0 and np.all(np.diff(x) > 0))
 
 
@@ -210,8 +281,11 @@ def _fits(frf: _Dataset, n: int) -> bool:
 
 
 def _rank(d: _Dataset) -> int:
-    """0 for a dataset named or labelled as a frequency, 1 otherwise."""
-    return 0 if _FREQ_NAME.search(d.name) or d.units else 1
+    """0 for a dataset named or labelled as a frequency, 1 for a frequency attribute, 2
+    otherwise."""
+    if d.is_attribute:
+        return 1
+    return 0 if _FREQ_NAME.search(d.name) or d.units else 2
 
 
 def _listing(datasets, limit: int = 12) -> str:
@@ -224,7 +298,7 @@ def _choose(path: Path, f, datasets, freq_path, frf_path):
     by_path = {d.path: d for d in datasets}
 
     def named(p, what):
-        key = "/" + p.strip("/")
+        key = p.strip() if p.strip().startswith("@") else "/" + p.strip("/")
         if key not in by_path:
             raise FrfError(f"{path}: no numeric 1-D/2-D dataset {key!r} for the {what}; "
                            f"datasets: {_listing(datasets)}")
@@ -245,14 +319,24 @@ def _choose(path: Path, f, datasets, freq_path, frf_path):
                            "a complex dataset (HDF5 compound of r and i)")
         frfs = [d]
     if not frfs:
+        more = _many_axes(f)
         raise FrfError(f"{path}: not a laminid FRF file and no complex dataset (FRF) in it; "
-                       f"datasets: {_listing(datasets)}")
+                       f"datasets: {_listing(datasets)}" + (
+                           f"; complex datasets of more than 2 axes: {more} (laminid reads "
+                           "one reference's FRFs, points x lines: store each reference's as "
+                           "a 2-D dataset, H[:, 0, :])" if more else ""))
     pairs = [(a, h) for a in axes for h in frfs if _fits(h, a.length)]
     if not pairs:
+        # a frequency set aside for its units attribute is named with it: the message said
+        # only "frequency candidates: none" beside a '/freq' of the FRF's length
+        aside = [d for d in datasets if d.units and d.kind != "c" and d.length
+                 and _freq_factor(d.units) is None and _FREQ_NAME.search(d.name)]
         raise FrfError(
             f"{path}: no frequency axis matches an FRF dataset; frequency candidates: "
             f"{_listing(axes)}; FRF candidates: {_listing(frfs)} (an FRF axis must have the "
-            "frequency's length)")
+            "frequency's length)" + (
+                f"; set aside for a units attribute that is no frequency unit laminid reads "
+                f"({', '.join(FREQ_UNITS)}): {_listing(aside)}" if aside else ""))
     if len(pairs) > 1:
         best = min(_rank(a) for a, _ in pairs)
         pairs = [(a, h) for a, h in pairs if _rank(a) == best]
@@ -261,6 +345,22 @@ def _choose(path: Path, f, datasets, freq_path, frf_path):
         raise FrfError(f"{path}: several frequency/FRF dataset pairs fit: {listing}; choose "
                        "one with --freq-dataset PATH and --frf-dataset PATH")
     return pairs[0]
+
+
+def _many_axes(f) -> str:
+    """The complex datasets of more than 2 axes other than 1 (``'/H' (4 x 2 x 2848)``, a
+    MIMO test's outputs x references x lines), for the message that finds no FRF."""
+    import h5py
+
+    found = []
+
+    def visit(name, obj):
+        if isinstance(obj, h5py.Dataset) and obj.ndim > 2 and (
+                _complex_fields(obj.dtype) or obj.dtype.kind == "c"):
+            found.append(f"'/{name}' ({' x '.join(str(n) for n in obj.shape)})")
+
+    f.visititems(visit)
+    return ", ".join(found)
 
 
 def _orient(values: np.ndarray, n_freq: int) -> np.ndarray:
@@ -282,25 +382,35 @@ def read_generic_frf_h5(path, freq_dataset: str | None = None,
 def _read_generic(f, path: Path, freq_dataset, frf_dataset) -> FrfSet:
     datasets = _datasets(f)
     axis, frf_d = _choose(path, f, datasets, freq_dataset, frf_dataset)
+    if axis.is_attribute:
+        owner = axis.path.rsplit("@", 1)[0] or "/"
+        what = f"attribute {axis.name!r} of '{owner}' (no {axis.name}_units attribute beside it)"
+        how = (f"h5py.File('{path}', 'r+')['{owner}'].attrs['{axis.name}_units'] = 'kHz' (or "
+               "'rad/s')")
+    else:
+        what = f"dataset '{axis.path}' (no units attribute)"
+        how = f"h5py.File('{path}', 'r+')['{axis.path}'].attrs['units'] = 'kHz' (or 'rad/s')"
     if axis.units:
         factor, stated = _freq_factor(axis.units), True
     else:
+        owner_attrs = how.split(" = ")[0].replace(f"h5py.File('{path}', 'r+')",
+                                                  "h5py.File(file, 'r+')")
         unit = name_freq_unit(
-            axis.name, f"{path}: dataset '{axis.path}' (no units attribute; give it one, 'Hz' "
-                       f"or 'rad/s': h5py.File(file, 'r+')['{axis.path}'].attrs['units'] = "
-                       "'rad/s')")
+            axis.name, f"{path}: {what.removesuffix(')')}; give it one, 'Hz' or 'rad/s': "
+                       f"{owner_attrs} = 'rad/s')")
         factor, stated = (1.0 if unit is None else FREQ_UNITS[unit]), unit is not None
-    freq = np.asarray(f[axis.path][()], dtype=float).reshape(-1) * factor
+    freq = np.asarray(_values(f, axis.path), dtype=float).reshape(-1) * factor
     if frf_d.parts:
         values = np.asarray(f[frf_d.parts[0]][()], dtype=float) \
             + 1j * np.asarray(f[frf_d.parts[1]][()], dtype=float)
     else:
         values = np.asarray(_read(f[frf_d.path]), dtype=complex)
-    frf = _orient(values, freq.size)
+    frf = _orient(values.reshape(frf_d.shape), freq.size)
     coherence = None
     for d in datasets:
         if "coh" in d.name.lower() and d.kind in "fiu" and d.shape == frf_d.shape:
-            coherence = _orient(np.asarray(f[d.path][()], dtype=float), freq.size)
+            coherence = _orient(np.asarray(f[d.path][()], dtype=float).reshape(d.shape),
+                                freq.size)
             break
     units = frf_d.units or None
     validate_frf_arrays(freq, frf, coherence, source=str(path))
@@ -310,9 +420,9 @@ def _read_generic(f, path: Path, freq_dataset, frf_dataset) -> FrfSet:
         # neither a units attribute nor a unit in the name ("f", "freq"): Hz, said, and
         # refused where it ends below 100 (kHz read as Hz: every mode 1000 times too low)
         meta["warnings"] = [unstated_freq_warning(
-            f"{path}: dataset '{axis.path}' (no units attribute)", freq,
-            f"give it one: h5py.File('{path}', 'r+')['{axis.path}'].attrs['units'] = 'kHz' "
-            "(or 'rad/s')", "a units attribute 'Hz'")]
+            f"{path}: {what}", freq, f"give it one: {how}",
+            f"a {axis.name}_units attribute 'Hz'" if axis.is_attribute
+            else "a units attribute 'Hz'")]
     if units is None:
         where = frf_d.parts[0] if frf_d.parts else frf_d.path
         meta["notes"] = [unit_not_stated_note(path, f"no 'units' attribute on '{where}'")]

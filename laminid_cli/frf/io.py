@@ -50,14 +50,19 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
       few resonances look alike). The labels are the magnitude names without the magnitude word (``H1_mag`` H1).
       Without a header, columns are never taken for magnitude and phase.
 
+    Text in UTF-8, UTF-16 with a BOM, or Windows-1252 (:func:`decode_text`, with a note).
     Separator ``;`` tab ``,`` (the first found in the first line) or blanks; with ``;`` or tab
     a decimal comma is read too (``125,05``, as a European spreadsheet writes); ``#`` comment
-    lines (``# ... units Pa/N`` gives the FRF unit; without one the unit is not stated:
+    lines (``# ... units Pa/N`` gives the FRF unit; else a unit closing every FRF column's
+    name, ``H1_re [g/N]``, ``Pt1 Magnitude (g/N)``: :func:`_csv_header_units`; without one the
+    unit is not stated:
     ``units`` None and a note, never "1", which declares the FRFs dimensionless); an optional
     header line, known by its
     first cell not being a number (or, above a first line of data, the comment line just
     above it, numpy's ``savetxt(header=...)``, when it has as many cells as the data and its
-    first is not a number: :func:`_commented_header`, with a note) (its names give the point labels: of the real columns, of
+    first is not a number: :func:`_commented_header`, with a note; lines above it that are
+    neither, an export's title and date, skipped with a note: :func:`_csv_preamble`) (its
+    names give the point labels: of the real columns, of
     the complex columns, of the magnitude columns).
 """
 
@@ -207,13 +212,11 @@ def describe_content(path) -> tuple[str, str | None]:
     if kind is not None:
         aside, fmt = _FRF_KINDS.get(kind[0], ("", None))
         return kind[1] + aside, fmt
-    try:
-        text = head.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        try:                       # a multi-byte character cut at the end of the block
-            text = head[:-4].decode("utf-8-sig")
-        except UnicodeDecodeError:
-            return "binary data, not text", None
+    text, _ = decode_text(head)
+    if text is None:                # a multi-byte character cut at the end of the block
+        text, _ = decode_text(head[:-4])
+    if text is None:
+        return "binary data, not text", None
     first = next((ln.strip() for ln in text.splitlines() if ln.strip()), "")
     if not first:
         return "text with blank lines only", None
@@ -224,6 +227,37 @@ def describe_content(path) -> tuple[str, str | None]:
     if data and any(c in data[0] for c in ",;\t"):
         return f"text in columns, as a CSV FRF file is (first line {quoted})", "csv"
     return f"text whose first line is {quoted}", None
+
+
+#: the byte-order marks of a UTF-16 text file (a spreadsheet's "Unicode text" export)
+_UTF16_BOMS = (b"\xff\xfe", b"\xfe\xff")
+
+
+def decode_text(raw: bytes) -> tuple[str | None, str | None]:
+    """``(text, encoding)`` of a text file's bytes: UTF-8 (a BOM dropped), UTF-16 with its BOM
+    (Excel's "Unicode Text" export, tab-separated), else Windows-1252 (Excel's "CSV" on
+    Windows writes the '°' of "Phase [°]" as the byte 0xB0, which was refused as "binary
+    data, not text") where no byte is a control character other than tab, CR, LF and form
+    feed; ``(None, None)`` for anything else (binary data).
+
+    >>> decode_text("f;H [°]".encode("cp1252"))
+    ('f;H [°]', 'cp1252')
+    """
+    if raw.startswith(_UTF16_BOMS):
+        try:
+            return raw.decode("utf-16"), "utf-16"
+        except UnicodeDecodeError:
+            return None, None
+    try:
+        return raw.decode("utf-8-sig"), "utf-8"
+    except UnicodeDecodeError:
+        pass
+    if re.search(rb"[\x00-\x08\x0b\x0e-\x1f\x7f]", raw) or binary_kind(raw[:16]):
+        return None, None
+    try:
+        return raw.decode("cp1252"), "cp1252"
+    except UnicodeDecodeError:   # 0x81, 0x8d, 0x8f, 0x90, 0x9d are not cp1252
+        return None, None
 
 
 def _not_the_format(path, fmt: str) -> str:
@@ -239,11 +273,56 @@ def _not_the_format(path, fmt: str) -> str:
 
 
 def _real_part_label(name: str) -> str:
-    """The point label of a real-part column name: without "_re", ".re", "_real", ".real"."""
+    """The point label of a real-part column name: without its unit ("[g/N]") and "_re",
+    ".re", "_real", ".real", " Re", " real"."""
+    name = _csv_unit_removed(name)
     for suffix in ("_real", ".real", "_re", ".re"):
         if name.endswith(suffix):
             return name[:-len(suffix)].strip()
-    return name.strip()
+    return re.sub(r"(?i)\s+(re|real)\Z", "", name.strip()).strip() or name.strip()
+
+
+#: a unit closing a CSV column name: "H1 real [g/N]", "FRF 1 Re (m/s^2/N)" (a round bracket
+#: after a blank or "_": "abs(H1)" is a magnitude of H1)
+_CSV_UNIT = re.compile(r"\s*(?:\[\s*([^\]]*?)\s*\]|(?:(?<=[\s_])|^)\(\s*([^()]*?)\s*\))\s*\Z")
+#: what such a bracket holds that is no FRF unit: a magnitude's dB, a phase's angle unit, a
+#: frequency's, or "no unit"
+_CSV_NOT_FRF_UNITS = {"", "-", "db", "deg", "degree", "degrees", "rad", "radian", "radians",
+                      "°", "hz", "khz", "rad/s"}
+
+
+def _csv_unit_removed(name: str) -> str:
+    return _CSV_UNIT.sub("", name) if _csv_frf_unit(name) else name
+
+
+def _csv_frf_unit(name: str) -> str | None:
+    """The FRF unit that closes a column name ("H1 real [g/N]", "Magnitude (m/s^2/N)": g/N,
+    m/s^2/N); None where it names none or a dB, phase or frequency unit."""
+    m = _CSV_UNIT.search(name)
+    if m is None:
+        return None
+    unit = (m.group(1) if m.group(1) is not None else m.group(2)).strip()
+    if unit.lower() in _CSV_NOT_FRF_UNITS or unit.lower().startswith("db"):
+        return None
+    # an FRF's unit is a response over a force: "g/N", "m s^-2 N^-1"
+    return unit if "/" in unit or "-1" in unit else None
+
+
+def _csv_header_units(path, header: list[str], columns: list[list[int]]
+                      ) -> tuple[str | None, list[str] | None]:
+    """The FRF unit the header gives ("H1 real [g/N]"): ``(unit, None)`` where every point's
+    columns (``columns``: per point, its column indices) state one and the same, ``(first,
+    each point's)`` where points differ (an accelerance beside a mobility, as a UFF's
+    records may), ``(None, None)`` where any point states none."""
+    each = []
+    for cols in columns:
+        units = {_csv_frf_unit(header[j]) for j in cols}
+        if len(units) != 1 or None in units:
+            return None, None
+        each.append(units.pop())
+    if not each:
+        return None, None
+    return each[0], (each if len(set(each)) > 1 else None)
 
 
 def _commented_header(text: str, first_data: int, sep: str | None, n: int
@@ -270,7 +349,17 @@ def _commented_header(text: str, first_data: int, sep: str | None, n: int
 
 
 def _split(line: str, sep: str | None) -> list[str]:
-    cells = [t.strip() for t in (line.split(sep) if sep else line.split())]
+    """The cells of a CSV line: quoted cells unquoted (``"f [Hz]","0.5"``, as pandas with
+    QUOTE_ALL, LabVIEW and many loggers write them; they were "'\"0.5\"' is not a number"),
+    and the empty cell after a separator that ends the line dropped (``0,5;1,2;``, as a
+    spreadsheet writes a trailing empty column: "column 10: empty, where a number is
+    expected")."""
+    if sep and '"' in line:
+        cells = [t.strip() for t in next(csv.reader([line], delimiter=sep))]
+    else:
+        cells = [t.strip() for t in (line.split(sep) if sep else line.split())]
+    if sep and len(cells) > 1 and cells[-1] == "" and line.rstrip().endswith(sep):
+        cells = cells[:-1]
     if sep is None and ("+" in cells or "-" in cells):
         cells = _join_signs(cells)
     return cells
@@ -420,8 +509,9 @@ def _csv_phase_unit(path, header: list[str], j: int) -> str | None:
 
 def _csv_point_label(name: str) -> str:
     """A point's label from its magnitude column's name: without the magnitude words, the dB
-    and the unit ("H1_mag" H1, "|H2|" H2, "abs(H3)" H3, "Magnitude [dB]" "")."""
-    s = re.sub(r"\[[^\]]*\]", " ", name)
+    and the unit ("H1_mag" H1, "|H2|" H2, "abs(H3)" H3, "Magnitude [dB]" "", "Pt1 Magnitude
+    (g/N)" Pt1)."""
+    s = re.sub(r"\[[^\]]*\]", " ", _csv_unit_removed(name))
     s = re.sub(r"(?i)\(\s*(?:db|deg|degrees?|rad|radians?|°)\s*\)", " ", s)
     drop = set(CSV_MAGNITUDE_WORDS) | {"db"}
     for m in reversed(list(re.finditer(r"(?i:db)(?![A-Za-z])|[A-Z]+(?![a-z])|[A-Z]?[a-z]+",
@@ -569,6 +659,54 @@ def _unstated_freq_warning(path, header: list[str] | None, sep: str | None,
     return unstated_freq_warning(f"{path}: {column}", freq, how, f"'{hz}'")
 
 
+def _csv_separator(line: str) -> str | None:
+    """The cell separator of a CSV line: ";" first, a European spreadsheet writes
+    "125,05;0,0012" (';' between cells, ',' the decimal mark), which split at ',' was refused
+    as "'5;0' is not a number"; then tab, ","; None for blanks."""
+    return next((c for c in (";", "\t", ",") if c in line), None)
+
+
+def _csv_number(cell: str, sep: str | None) -> bool:
+    """Whether ``cell`` of a line separated by ``sep`` is a number (a decimal comma with ';'
+    or tab)."""
+    if sep in (";", "\t") and "," in cell and "." not in cell:
+        cell = cell.replace(",", ".")
+    try:
+        float(cell)
+    except ValueError:
+        try:
+            parse_complex_cell(cell)
+        except ValueError:
+            return False
+    return True
+
+
+def _csv_preamble(lines) -> int:
+    """How many of the non-comment ``lines`` ((number, text)) come before a CSV file's header:
+    an analyser's or spreadsheet's export writes its title, date and settings above the
+    column names ("Title: plate", "Date;07.12.2026"), and the first of them was taken for the
+    header ("line 2, column 1 ('Title:'): 'Date:' is not a number"). They are the lines
+    above the last one before the first data line (first cell a number), when that one
+    is a header: no cell of it a number, as many cells as the data line, split alike; else
+    0 (a header and a bad data line are named as before)."""
+    for i, (_, ln) in enumerate(lines):
+        sep = _csv_separator(ln)
+        cells = _split(ln, sep)
+        if cells and _csv_number(cells[0], sep):
+            break
+    else:
+        return 0
+    if i < 2:
+        return 0
+    header = lines[i - 1][1]
+    if _csv_separator(header) != sep:
+        return 0
+    names = _split(header, sep)
+    if len(names) != len(cells) or any(c and _csv_number(c, sep) for c in names):
+        return 0
+    return i - 1
+
+
 def read_frf_csv(path) -> FrfSet:
     """Read a CSV FRF file: ``freq, re_1, im_1, ...``, ``freq, H_1, H_2, ...`` of complex cells
     or magnitude and phase columns named in the header (see module docstring).
@@ -579,10 +717,11 @@ def read_frf_csv(path) -> FrfSet:
     :data:`UNSTATED_FREQ_MIN_SPAN_HZ`) in its ``meta["warnings"]``."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise FrfError(f"{path}: not a text (CSV) file; {_not_the_format(path, 'csv')}") \
-            from exc
+        text, encoding = decode_text(path.read_bytes())
+    except OSError as exc:
+        raise FrfError(f"{path}: cannot read the file ({exc.strerror or exc})") from exc
+    if text is None:
+        raise FrfError(f"{path}: not a text (CSV) file; {_not_the_format(path, 'csv')}")
     units = None                   # not stated: not "1", which declares FRFs dimensionless
     for ln in text.splitlines():
         # the rest of the line: a unit may hold spaces ("m/s^2 / N")
@@ -596,10 +735,16 @@ def read_frf_csv(path) -> FrfSet:
         check_frf_size(1, len(lines) - 1, str(path))
     if not lines:
         raise FrfError(f"{path}: no data lines (expected columns freq, re_1, im_1, ...)")
+    notes: list[str] = []
+    preamble = _csv_preamble(lines)
+    if preamble:
+        shown = ", ".join(_quoted(ln.strip()) for _, ln in lines[:min(preamble, 3)])
+        notes.append(f"{path}: lines {lines[0][0]}-{lines[preamble - 1][0]} above the header "
+                     f"skipped ({shown}{', ...' if preamble > 3 else ''}): they are no "
+                     "column names or data")
+        lines = lines[preamble:]
     first = lines[0][1]
-    # ";" first: a European spreadsheet writes "125,05;0,0012" (';' between cells, ',' the
-    # decimal mark), which split at ',' was refused as "'5;0' is not a number"
-    sep = next((c for c in (";", "\t", ",") if c in first), None)
+    sep = _csv_separator(first)
     header = None
 
     def number(cell: str) -> float | complex:
@@ -612,7 +757,6 @@ def read_frf_csv(path) -> FrfSet:
             return parse_complex_cell(cell)
 
     cells = _split(first, sep)
-    notes: list[str] = []
     try:
         number(cells[0])
     except ValueError:
@@ -698,12 +842,16 @@ def read_frf_csv(path) -> FrfSet:
         check_frf_size(n - 1, data.shape[0], str(path))
         frf = data[:, 1:].T.astype(complex)
         labels = tuple(str(i + 1) for i in range(n - 1))
+        unit_columns = [[j] for j in range(1, n)]
         if header and len(header) == n:
-            labels = tuple(h or str(i + 1) for i, h in enumerate(header[1:]))
+            labels = tuple(_csv_unit_removed(h) or str(i + 1)
+                           for i, h in enumerate(header[1:]))
     elif any(kinds):
         check_frf_size(max((n - 1) // 2, 1), data.shape[0], str(path))
         frf, labels, more = _csv_mag_phase(path, header, data.real, lines)
         notes += more
+        unit_columns = [[j] for j in range(1, n) if kinds[j - 1] == "magnitude"
+                        and not _csv_magnitude_in_db(path, header, j)]
     else:
         data = data.real
         check_frf_size(max((n - 1) // 2, 1), data.shape[0], str(path))
@@ -716,17 +864,27 @@ def read_frf_csv(path) -> FrfSet:
         frf.real, frf.imag = data[:, 1::2], data[:, 2::2]   # no inf * 1j = nan: inf stays inf
         frf = frf.T
         labels = tuple(str(i + 1) for i in range(frf.shape[0]))
+        unit_columns = [[j, j + 1] for j in range(1, n, 2)]
         if header and len(header) == n:
             labels = tuple(_real_part_label(h) or str(i + 1)
                            for i, h in enumerate(header[1::2]))
+    if encoding == "cp1252":
+        notes.append(f"{path}: not UTF-8; read as Windows-1252 text (a spreadsheet's 'CSV' "
+                     "export on Windows: '°' is byte 0xB0)")
     factor, stated = _csv_freq_factor(path, header[0] if header else "")
     freq, frf, _ = check_frf_arrays(data[:, 0].real * factor, frf, source=str(path))
     meta: dict = {}
     if not stated:
         meta["warnings"] = [_unstated_freq_warning(path, header, sep, freq)]
+    if units is None and header and len(header) == n and len(unit_columns) == frf.shape[0]:
+        # "H1 real [g/N]": the unit a spreadsheet's header gives was read as "not stated"
+        units, point_units = _csv_header_units(path, header, unit_columns)
+        if point_units:
+            meta["point_units"] = point_units
     if units is None:
         notes.append(unit_not_stated_note(path, "a comment line '# units Pa/N' above the data "
-                                                "states it"))
+                                                "or the FRF columns' headers, 'H1_re [g/N]', "
+                                                "state it"))
     if notes:
         meta["notes"] = notes
     return FrfSet(freq=freq, frf=frf, labels=labels, units=units, source=str(path), meta=meta)
@@ -765,6 +923,12 @@ def read_frf_uff(path) -> FrfSet:
     if not types.size:             # not one '    -1' delimited dataset: another kind of file
         raise FrfError(f"{path}: not a Universal File (no dataset between '    -1' lines, as "
                        f"UFF 58 FRF records are); {_not_the_format(path, 'uff')}")
+    if not _uff_ends_closed(path):
+        # pyuff drops a dataset its end tag never closes: a file cut short gave fewer points,
+        # silently, and a fit of those (exit 0)
+        raise FrfError(f"{path}: the file ends inside a dataset, after {types.size} complete "
+                       f"ones (no '    -1' line closes the last): cut short, a copy or an "
+                       "export that did not finish; copy or export it again")
     if not idx:
         found = ", ".join(str(t) for t in sorted(set(types.tolist()))) or "none"
         raise FrfError(f"{path}: no type-58 (function at nodal DOF) record; dataset types "
@@ -776,6 +940,7 @@ def read_frf_uff(path) -> FrfSet:
     sets = [sets] if isinstance(sets, dict) else sets
     for k, d in enumerate(sets, start=1):
         _check_uff_record(path, k, d)
+    _recover_uff_labels(path, sets)
     frfs = [d for d in sets if int(d.get("func_type", 0)) == UFF_FRF]
     if not frfs:
         kinds = sorted({int(d.get("func_type", 0)) for d in sets})
@@ -850,6 +1015,41 @@ def read_frf_uff(path) -> FrfSet:
                   source=str(path), meta=meta)
 
 
+#: the units labels of a type-58 record (records 8-10, field 6)
+_UFF_LABELS = ("abscissa_axis_units_lab", "ordinate_axis_units_lab", "orddenom_axis_units_lab")
+
+
+def _recover_uff_labels(path, sets) -> None:
+    """Units labels that pyuff decoded with a replacement character (a byte not UTF-8: a
+    Windows tool's "m/s²" in Windows-1252, "²" the byte 0xB2) read again from the file's
+    bytes as Windows-1252. The unit was "m/s\ufffd/N", and another point's "m/s^2/N" a
+    different unit."""
+    raw = None
+    for d in sets:
+        for key in _UFF_LABELS:
+            label = d.get(key)
+            if not isinstance(label, str) or "\ufffd" not in label:
+                continue
+            if raw is None:
+                raw = Path(path).read_bytes()
+            pattern = rb"[\x80-\xff]".join(re.escape(part.encode("ascii", "replace"))
+                                            for part in label.split("\ufffd"))
+            m = re.search(pattern, raw)
+            if m is not None:
+                d[key] = m.group().decode("cp1252", errors="replace")
+
+
+def _uff_ends_closed(path) -> bool:
+    """Whether a Universal File ends with the ``    -1`` tag (I6, as pyuff finds the tags)
+    that closes its last dataset: trailing blanks, line ends and a DOS end-of-file byte
+    allowed, and no line end before it (pyuff writes it right after a binary record's data)."""
+    with open(path, "rb") as fh:
+        fh.seek(0, 2)
+        fh.seek(max(0, fh.tell() - 256))
+        tail = fh.read()
+    return re.search(rb"    -1[ \t\r\n\x1a]*\Z", tail) is not None
+
+
 def _uff_abscissa_to_hz(path, k: int, d) -> float:
     """The factor from the abscissa of FRF record ``k`` to Hz, by its units label (record 8,
     field 6): 1 for Hz or no label (:func:`read_frf_uff` warns where no record has one),
@@ -921,10 +1121,11 @@ def _uff_units(d) -> str | None:
     ordinate that already ends with its denominator ("m/s^2/N" over "N") is taken as the whole
     unit, not "m/s^2/N/N"; that guess is never applied to laminid's own records, where it
     turned "N/N/N" into "N/N"."""
-    ordinate = str(d.get("ordinate_axis_units_lab", "") or "").strip()
+    # in the ASCII spelling laminid writes ("m/s²" "m/s^2"): the same unit, one string
+    ordinate = str(d.get("ordinate_axis_units_lab", "") or "").strip().translate(UFF_ASCII)
     if ordinate.upper() in ("", "NONE"):  # pyuff's default label: no unit given, as blank
         return None
-    denominator = str(d.get("orddenom_axis_units_lab", "") or "").strip()
+    denominator = str(d.get("orddenom_axis_units_lab", "") or "").strip().translate(UFF_ASCII)
     if denominator.upper() in ("", "NONE"):
         return ordinate
     ours = str(d.get("id2", "") or "").strip() == UFF_WRITER
@@ -1091,22 +1292,30 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
     import pyuff
 
     path = _new_target(path, overwrite)
-    axes = _uff_axes(uff_units(fs.units, fs.source or path))
-    for key in ("ordinate_axis_units_lab", "orddenom_axis_units_lab"):
-        if len(axes[key]) > UFF_UNITS_CHARS:
-            # pyuff would cut the label to its field: the unit would read back as another
-            raise FrfError(f"{fs.source or path}: FRF unit {fs.units!r} does not fit a UFF 58 "
-                           f"record: {axes[key]!r} has {len(axes[key])} characters, a units "
-                           f"label holds {UFF_UNITS_CHARS}")
+    # each point's own unit where the points differ (a UFF's accelerance beside a mobility):
+    # every record was written in the first point's unit, a mobility labelled an accelerance
+    point_units = list(fs.meta.get("point_units") or ())
+    each = [point_units[k] if k < len(point_units) else fs.units for k in range(fs.n_points)]
+    axes_of = {}
+    for units in dict.fromkeys(each):
+        axes = _uff_axes(uff_units(units, fs.source or path))
+        for key in ("ordinate_axis_units_lab", "orddenom_axis_units_lab"):
+            if len(axes[key]) > UFF_UNITS_CHARS:
+                # pyuff would cut the label to its field: the unit would read back as another
+                raise FrfError(f"{fs.source or path}: FRF unit {units!r} does not fit a UFF 58 "
+                               f"record: {axes[key]!r} has {len(axes[key])} characters, a "
+                               f"units label holds {UFF_UNITS_CHARS}")
+        axes_of[units] = axes
     with_coherence, _ = uff_coherence_points(fs)
     sets = []
     for k in range(fs.n_points):
+        axes = axes_of[each[k]]
         label = fs.labels[k] if k < len(fs.labels) else str(k + 1)
         node, direction, ref, ref_direction = uff_point(label, k, rsp_dir, (ref_node, ref_dir))
         common = dict(
             binary=int(binary), id2=UFF_WRITER,
             rsp_node=node, rsp_dir=direction, ref_node=ref, ref_dir=ref_direction,
-            abscissa_spacing=1 if np.allclose(np.diff(fs.freq), fs.freq[1] - fs.freq[0]) else 0,
+            abscissa_spacing=_uff_even_abscissa(fs.freq, binary),
             abscissa_spec_data_type=UFF_ABSCISSA_FREQUENCY, abscissa_axis_units_lab="Hz",
             x=np.asarray(fs.freq, dtype=float))
         sets.append(pyuff.prepare_58(
@@ -1122,6 +1331,26 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
                 ordinate_axis_units_lab="NONE", orddenom_axis_units_lab="NONE",
                 data=np.asarray(fs.coherence[k], dtype=float), **common))
     return write_uff_sets(path, sets)
+
+
+def _uff_even_abscissa(freq, binary: bool) -> int:
+    """Record 7's abscissa spacing for ``freq`` (Hz): 1 (even: the start and step in the
+    header, E13.5, 6 significant digits) where that gives every line back, else 0 (uneven:
+    each line's frequency in the data, doubles in binary 58b). Binary is even only where the
+    header's start and step give the lines back to 1e-12: a 2000 Hz / 4096-line grid's step
+    0.48828125 Hz written as 4.88281e-01 put its top line 0.7 mHz off, though 58b "keeps the
+    doubles exactly" (and a grid even only to 1e-5, as np.allclose took it, was moved onto an
+    even one). ASCII writes the abscissa in 6 digits either way, so a grid even to 1e-9 is
+    even."""
+    freq = np.asarray(freq, dtype=float)
+    if freq.size < 2:
+        return 0
+    if not binary:
+        step = np.diff(freq)
+        return int(bool(np.allclose(step, step[0], rtol=1e-9, atol=0)))
+    start, step = (float(f"{v:13.5e}") for v in (freq[0], freq[1] - freq[0]))
+    header = start + np.arange(freq.size) * step     # as pyuff reads an even abscissa back
+    return int(bool(np.allclose(header, freq, rtol=1e-12, atol=0)))
 
 
 def uff_ascii(text: str) -> str:
