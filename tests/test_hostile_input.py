@@ -281,10 +281,12 @@ def test_every_scheduler_problem_is_one_line(tmp_path, address, words):
     assert not (tmp_path / "out").exists()
 
 
-def test_unreachable_tcpip_analyser_is_an_instrument_error_naming_the_resource(tmp_path):
+def test_unreachable_tcpip_analyser_is_bad_input_naming_the_resource(tmp_path):
+    """A host that does not resolve (a typo in --analyser) is no analyser answering there:
+    exit 2 as a refused connection (README), where it was 1, an analyser fault."""
     r = run("acquire", "--analyser", "TCPIP0::no-such-host.invalid::5025::SOCKET",
             "-o", tmp_path / "x.h5")
-    assert r.exit_code == 1, r.output
+    assert r.exit_code == 2, r.output
     assert "laminid: error: analyser TCPIP0::no-such-host.invalid::5025::SOCKET is unreachable" \
            in r.output
     assert not (tmp_path / "x.h5").exists()

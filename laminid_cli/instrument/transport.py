@@ -152,8 +152,10 @@ class VisaTransport:
                                          f"backend {self.backend} ({exc.description})") from exc
             raise InstrumentError(f"analyser {self.resource}: cannot open ({exc.description})") from exc
         except (socket.timeout, socket.gaierror, TimeoutError) as exc:
+            # a host that does not resolve or answer: no analyser answering at --analyser, bad
+            # input as a refused connection is (exit 2, README), not an analyser fault (1)
             self._rm.close()
-            raise InstrumentError(f"analyser {self.resource} is unreachable "
+            raise AnalyserSetupError(f"analyser {self.resource} is unreachable "
                                   f"({' '.join(str(exc).split()) or type(exc).__name__}); check "
                                   "the address, the network and that the analyser is on") from exc
         except (ValueError, OSError, pyvisa.errors.Error) as exc:
@@ -169,7 +171,7 @@ class VisaTransport:
         except Exception as exc:  # noqa: BLE001 - pyvisa-py raises a bare Exception ("could not
             # connect: ...") when a TCPIP host does not resolve or answer
             self._rm.close()
-            raise InstrumentError(f"analyser {self.resource} is unreachable "
+            raise AnalyserSetupError(f"analyser {self.resource} is unreachable "
                                   f"({' '.join(str(exc).split()) or type(exc).__name__}); check "
                                   "the address, the network and that the analyser is on") from exc
         # Text messages end with LF; raw sockets have no EOI, so the terminator is required
