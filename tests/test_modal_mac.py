@@ -21,12 +21,14 @@ def test_mac_is_the_squared_cosine_between_the_shapes():
 
 
 def test_mass_weighted_mac():
-    """M = diag(1, 3): (e1' M (1, 1))^2 / ((e1' M e1) ((1, 1)' M (1, 1))) = 1 / (1 * 4)."""
+    """a = (1, 1), b = (1, 2), M = diag(1, 3): (a'Mb)^2 / (a'Ma b'Mb) = 7^2 / (4 * 13);
+    without M (a'b)^2 / (a'a b'b) = 3^2 / (2 * 5)."""
     M = sp.diags([1.0, 3.0])
-    a = np.array([[1.0], [0.0]])
-    b = np.array([[1.0], [1.0]])
-    assert mac(a, b, M)[0, 0] == pytest.approx(0.25, rel=1e-15)
-    assert mac(a, b)[0, 0] == pytest.approx(0.5, rel=1e-15)
+    a = np.array([[1.0], [1.0]])
+    b = np.array([[1.0], [2.0]])
+    assert mac(a, b, M)[0, 0] == pytest.approx(49 / 52, rel=1e-15)
+    assert mac(b, a, M)[0, 0] == pytest.approx(49 / 52, rel=1e-15)
+    assert mac(a, b)[0, 0] == pytest.approx(9 / 10, rel=1e-15)
 
 
 def test_mac_of_two_sampled_beam_shapes():
