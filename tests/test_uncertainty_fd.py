@@ -100,7 +100,7 @@ def test_condition_number_and_weakest_combination_from_the_svd_of_the_fd_jacobia
         assert printed[lab] == pytest.approx(c, abs=0.01), lab
 
 
-def test_std_correlation_and_intervals_are_the_gauss_newton_covariance(s11_fd):
+def test_std_correlation_and_intervals_are_the_sandwich_covariance_of_the_fd_jacobian(s11_fd):
     """Stated scaling: std within 1 % of the sandwich covariance built on the FD Jacobian
     (measured: 0.4 %; (J'J)^-1 of the whitened Jacobian, the 1/sigma^2-weighted fit's, would
     be 5-25 % off here), correlations within 0.005, the 95 % intervals with scipy's normal
