@@ -477,3 +477,43 @@ def test_the_note_on_unstrained_terms_says_transverse_shear_only_of_transverse_s
     fix = mixed.split("--fix ")[1].split(")")[0]
     assert parse_loss_fix(fix.split(","), ["glass", "carbon"]) == {
         "glass.eta12": 0.01, "carbon.eta13": 0.01}
+
+
+@pytest.mark.parametrize("scale", [1.0, 4.0], ids=["residuals within sigma", "3x sigma"])
+def test_loss_factors_intervals_and_chi2_are_the_weighted_least_squares_textbook(scale):
+    """Interior solution of 12 modes, 3 free loss factors (13 and 23 fixed): value = numpy's
+    lstsq of the 1/sigma-weighted rows (y - A_f eta_f), std = sqrt(diag((A'WA)^-1)), chi2 the
+    weighted residual sum, s2 = chi2 / 9; the 95 % intervals with scipy's quantiles: normal
+    and the stated sigma when s2 <= 1, else Student t(9) and std sqrt(s2) ('larger'); all to
+    rounding (1e-9). The modal model loss factor A eta (the table's 'model' column)."""
+    from scipy import stats
+
+    rng = np.random.default_rng(5)
+    A = rng.dirichlet([8, 2, 2, 0.3, 0.3], size=12)          # energy shares, rows sum to 1
+    truth = np.array([0.002, 0.012, 0.015, 0.01, 0.01])
+    y0 = A @ truth
+    sigma = 0.02 * y0
+    y = y0 + scale * sigma * rng.standard_normal(12)
+    labels = D.loss_labels(["m"])
+    fit = D.fit_loss_factors(A, y, sigma, labels, fixed={labels[3]: 0.01, labels[4]: 0.01})
+    Aw = A[:, :3] / sigma[:, None]
+    bw = (y - A[:, 3:] @ truth[3:]) / sigma
+    x = np.linalg.lstsq(Aw, bw, rcond=None)[0]
+    assert np.all(x > 0)
+    cov = np.linalg.inv(Aw.T @ Aw)
+    chi2 = float(np.sum((Aw @ x - bw) ** 2))
+    s2 = chi2 / 9
+    np.testing.assert_allclose(fit.value, x, rtol=1e-9)
+    assert fit.chi2 == pytest.approx(chi2, rel=1e-9) and fit.dof == 9
+    assert fit.s2 == pytest.approx(s2, rel=1e-9)
+    if s2 > 1:
+        q, std = stats.t.ppf(0.975, 9), np.sqrt(np.diag(cov) * s2)
+    else:
+        q, std = stats.norm.ppf(0.975), np.sqrt(np.diag(cov))
+    assert (s2 > 1) == (scale > 1)
+    np.testing.assert_allclose(fit.std, std, rtol=1e-9)
+    np.testing.assert_allclose(fit.lower, np.maximum(x - q * std, 0), rtol=1e-9)
+    np.testing.assert_allclose(fit.upper, x + q * std, rtol=1e-9)
+    np.testing.assert_allclose(fit.rel_half_width, q * std / x, rtol=1e-9)
+    eta = np.concatenate([x, truth[3:]])
+    np.testing.assert_allclose(fit.model_loss_factor, A @ eta, rtol=1e-12)

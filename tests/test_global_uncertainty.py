@@ -185,3 +185,51 @@ def test_a_property_from_fixed_constants_only_is_not_identified():
     plate = type("P", (), {"global_properties": {"Ex": gu["Ex"]["value"]},
                            "reference_global": {}, "global_uncertainty": {"Ex": gu["Ex"]}})()
     assert _laminate_text(plate).endswith("% (given fixed values)")
+
+
+def _qi_ex_nu_gxy(P):
+    """Ex, nu_xy, Gxy of a pi/4 quasi-isotropic laminate from the Tsai-Pagano invariants
+    (classical lamination theory, written for complex P: complex-step derivatives)."""
+    E1, E2, G12, _, _, nu12 = P
+    d = 1 - nu12 ** 2 * E2 / E1
+    Q11, Q22, Q12 = E1 / d, E2 / d, nu12 * E2 / d
+    U1 = (3 * Q11 + 3 * Q22 + 2 * Q12 + 4 * G12) / 8
+    U4 = (Q11 + Q22 + 6 * Q12 - 4 * G12) / 8
+    U5 = (Q11 + Q22 - 2 * Q12 + 4 * G12) / 8
+    return np.array([U1 - U4 ** 2 / U1, U4 / U1, U5])
+
+
+def test_delta_method_against_complex_step_derivatives_of_the_invariants():
+    """[0/45/-45/90]s with a full, correlated covariance: std of Ex, nu_xy, Gxy within 1e-6
+    of sqrt(g' C g) with g the complex-step gradient (exact to rounding) of the closed-form
+    invariants, and Gxz = Gyz = (G13 + G23) / 2, so var = (C33 + C44 + 2 C34) / 4; the
+    intervals: moduli on ln g with scipy's normal quantile, nu_xy linear."""
+    from scipy import stats
+
+    lam = laminate([0, 45, -45, 90, 90, -45, 45, 0])
+    v = np.array([getattr(C0, k) for k in CONSTANT_NAMES])
+    rng = np.random.default_rng(11)
+    sd = np.where(np.array(CONSTANT_NAMES) == "nu12", 0.02, rng.uniform(0.02, 0.1, 6) * v)
+    L = rng.uniform(-1, 1, (6, 6))
+    corr = np.corrcoef(L @ L.T + 6 * np.eye(6))
+    cov = corr * np.outer(sd, sd)
+    z = stats.norm.ppf(0.975)
+    out = global_intervals(lam, {"m": C0}, fake_u(cov, q=z))
+    grad = np.zeros((3, 6))
+    for j in range(6):
+        P = v.astype(complex)
+        P[j] += 1j * 1e-20 * abs(v[j])
+        grad[:, j] = _qi_ex_nu_gxy(P).imag / (1e-20 * abs(v[j]))
+    value = _qi_ex_nu_gxy(v)
+    for i, key in enumerate(("Ex", "nu_xy", "Gxy")):
+        std = np.sqrt(grad[i] @ cov @ grad[i])
+        assert out[key].value == pytest.approx(value[i], rel=1e-12), key
+        assert out[key].std == pytest.approx(std, rel=1e-6), key
+    assert out["Ex"].lower == pytest.approx(value[0] * np.exp(-z * out["Ex"].std / value[0]),
+                                            rel=1e-12)
+    assert out["nu_xy"].upper == pytest.approx(value[1] + z * out["nu_xy"].std, rel=1e-12)
+    var_gxz = (cov[3, 3] + cov[4, 4] + 2 * cov[3, 4]) / 4
+    for key in ("Gxz", "Gyz"):
+        assert out[key].std == pytest.approx(np.sqrt(var_gxz), rel=1e-6), key
+    assert out["Gxz"].rel_half_width == pytest.approx(
+        z * np.sqrt(var_gxz) / (0.5 * (C0.G13 + C0.G23)), rel=1e-6)
