@@ -19,7 +19,7 @@ import os
 import stat
 import sys
 
-from laminid_cli.errors import EXIT_INTERRUPTED
+from laminid_cli.errors import EXIT_INTERRUPTED, EXIT_TERMINATED
 
 
 def main():
@@ -38,8 +38,8 @@ def main():
         print("laminid: interrupted", file=sys.stderr)
         _exit_interrupted()
     except SystemExit as exc:
-        if exc.code == EXIT_INTERRUPTED:   # the group caught the interrupt and said so
-            _exit_interrupted()
+        if exc.code in (EXIT_INTERRUPTED, EXIT_TERMINATED):  # the group caught the interrupt
+            _exit_interrupted(exc.code)                         # (or SIGTERM) and said so
         raise
 
 
@@ -94,8 +94,9 @@ def quiet_closed_pipes() -> None:
             line_buffering=stream.line_buffering, write_through=stream.write_through))
 
 
-def _exit_interrupted():
-    """Exit with code 130 even when CPython would turn it into death by SIGINT.
+def _exit_interrupted(code: int = EXIT_INTERRUPTED):
+    """Exit with ``code`` (130; 143 for SIGTERM turned into a stop, :class:`Terminated`, a
+    KeyboardInterrupt too) even when CPython would turn it into death by SIGINT.
 
     A KeyboardInterrupt that went through ``exec`` of a string (dataclasses, numpy/scipy start-up)
     marks the interpreter as killed by Ctrl-C, and at exit it re-raises SIGINT on itself (exit
@@ -109,7 +110,7 @@ def _exit_interrupted():
         sys.stdout.flush()
         sys.stderr.flush()
     finally:
-        os._exit(EXIT_INTERRUPTED)
+        os._exit(code)
 
 
 if __name__ == "__main__":

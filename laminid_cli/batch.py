@@ -60,7 +60,7 @@ from pathlib import Path
 from laminid_cli import __version__
 from laminid_cli.atomic import (remove_stale_temporaries, stop_with_parent, temporary_name,
                                 write_bytes_atomic)
-from laminid_cli.errors import LaminidError
+from laminid_cli.errors import LaminidError, Terminated
 from laminid_cli.intervals import HELD_BY_PRIOR, VERDICT_AT_BOUND, VERDICT_FIXED
 from laminid_cli.pipeline import RunOptions
 # imported here, not on the first summary row: a Ctrl-C landing in an import (in the code
@@ -842,14 +842,14 @@ def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None
             done, pending = wait(pending, timeout=SIGINT_POLL, return_when=FIRST_COMPLETED)
             for fut in sorted(done, key=futures.get):
                 if seen:
-                    raise KeyboardInterrupt
+                    raise _interruption(seen)
                 job = jobs[futures[fut]]
                 if retry and _pool_broke(fut):
                     broken.append(job)
                     continue
                 yield job, _outcome_of(fut, job)
             if seen:
-                raise KeyboardInterrupt
+                raise _interruption(seen)
         complete = True
     finally:
         # a further Ctrl-C (an impatient user; `timeout -s INT`, which signals the batch and then
@@ -873,7 +873,7 @@ def run_jobs(jobs, options: BatchOptions, n_jobs: int = 1, scheduler: str | None
         finally:
             restore()
         if seen and complete:
-            raise KeyboardInterrupt          # as the last job finished: a Ctrl-C like any other
+            raise _interruption(seen)        # as the last job finished: a Ctrl-C like any other
     # a worker died (killed, out of memory) and every job not finished failed with it: each
     # alone in a new worker, one after the other (the least memory), so that the job that
     # killed its worker is the only one to fail, and the others are not 'failed' for it
@@ -915,22 +915,71 @@ def _note_sigint(raise_: bool = True):
     looks at the note often enough). A KeyboardInterrupt raised where Python swallows
     exceptions (a weakref callback, a finaliser, an optimiser's callback in compiled code) is
     lost; the note is not, and the caller raises it again (seen once in
-    test_killed_batch...: the batch then finished and exited 0). Elsewhere a no-op."""
+    test_killed_batch...: the batch then finished and exited 0). Elsewhere a no-op.
+
+    SIGTERM likewise (its :class:`~laminid_cli.errors.Terminated`) where the handler in place
+    is a Python one (the batch command's, :func:`sigterm_stops_the_batch`); its default (the
+    process killed) and an ignored SIGTERM are left as they are. :func:`_interruption` gives
+    the exception of what was noted first."""
     import signal
     import threading
 
     seen: list = []
 
-    def on_sigint(signum, frame):
+    def on_signal(signum, frame):
         seen.append(signum)
         if raise_:
-            raise KeyboardInterrupt
+            raise _interruption(seen)
+
+    if threading.current_thread() is not threading.main_thread():
+        return seen, lambda: None
+    previous = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    noted = [sig for sig, handler in previous.items()
+             if handler is not signal.SIG_IGN
+             and (sig == signal.SIGINT or callable(handler))]
+    for sig in noted:
+        signal.signal(sig, on_signal)
+
+    def restore():
+        for sig in noted:
+            signal.signal(sig, previous[sig])
+
+    return seen, restore
+
+
+def _interruption(seen) -> KeyboardInterrupt:
+    """The exception that stops the batch for the signals noted in ``seen`` (the first one
+    decides): :class:`~laminid_cli.errors.Terminated` for SIGTERM, else KeyboardInterrupt."""
+    import signal
+
+    return Terminated() if seen and seen[0] == signal.SIGTERM else KeyboardInterrupt()
+
+
+@contextlib.contextmanager
+def sigterm_stops_the_batch():
+    """SIGTERM to the batch process (``kill PID``, ``timeout``, systemd, a cluster scheduler
+    at the wall-time limit) stops the batch as Ctrl-C does (workers stopped, both summaries
+    written, the table printed) and the command exits 143: within the block it raises
+    :class:`~laminid_cli.errors.Terminated`, a KeyboardInterrupt, where the runners note it
+    as they note Ctrl-C (:func:`_note_sigint`). Without it the process died by the signal,
+    its summaries left 'running' and no table. The handler found is restored after the
+    block; an ignored SIGTERM stays ignored. Only in the main thread."""
+    import signal
+    import threading
 
     if (threading.current_thread() is not threading.main_thread()
-            or signal.getsignal(signal.SIGINT) is signal.SIG_IGN):
-        return seen, lambda: None
-    previous = signal.signal(signal.SIGINT, on_sigint)
-    return seen, lambda: signal.signal(signal.SIGINT, previous)
+            or signal.getsignal(signal.SIGTERM) is signal.SIG_IGN):
+        yield
+        return
+
+    def on_sigterm(signum, frame):
+        raise Terminated
+
+    previous = signal.signal(signal.SIGTERM, on_sigterm)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 @contextlib.contextmanager
@@ -1009,10 +1058,10 @@ def _run_here(jobs, options):
         for job in jobs:
             outcome = run_job(job, options)
             if seen:
-                raise KeyboardInterrupt
+                raise _interruption(seen)
             yield job, outcome
         if seen:                             # swallowed while the last one was written
-            raise KeyboardInterrupt
+            raise _interruption(seen)
     finally:
         restore()
 
@@ -1118,10 +1167,10 @@ def _run_dask(jobs, options, n_jobs, scheduler):
             ready = pending.next_batch(block=False)
             for fut in ready:
                 if seen:
-                    raise KeyboardInterrupt
+                    raise _interruption(seen)
                 yield futures[fut], _outcome_of(fut, futures[fut])
             if seen:
-                raise KeyboardInterrupt
+                raise _interruption(seen)
             if not ready:
                 time.sleep(SIGINT_POLL)
     finally:
@@ -1142,7 +1191,7 @@ def _run_dask(jobs, options, n_jobs, scheduler):
         finally:
             restore()
     if seen:
-        raise KeyboardInterrupt          # noted while the cluster closed after the last job
+        raise _interruption(seen)        # noted while the cluster closed after the last job
 
 
 # ----------------------------------------------------------------------------------------------
@@ -1667,10 +1716,12 @@ def write_summary_csv(path, rows, wide: bool = False, options: dict | None = Non
 
 
 def batch_report(rows, options: BatchOptions, out_dir, interrupted: bool = False,
-                 running: bool = False, duplicates=(), batch: dict | None = None) -> dict:
+                 running: bool = False, duplicates=(), batch: dict | None = None,
+                 stopped_by: str | None = None) -> dict:
     """The summary as plain data (SI), as written to summary.json and printed by --json;
-    ``interrupted``: the run was stopped (Ctrl-C) before every specimen was done (those rows
-    are "not run"); ``running``: written while the batch runs (:func:`pending_row` for the
+    ``interrupted``: the run was stopped (Ctrl-C, SIGTERM) before every specimen was done
+    (those rows are "not run"), ``stopped_by`` the signal that stopped it ("SIGINT",
+    "SIGTERM"; null when it was not); ``running``: written while the batch runs (:func:`pending_row` for the
     specimens it has not finished), replaced when it ends; ``duplicates``: the groups of
     specimens holding the same plate's measured data (:func:`duplicate_specimens`), each a
     list of their rows' ``name``; ``batch``: the batch's own settings (:func:`batch_settings`),
@@ -1686,7 +1737,7 @@ def batch_report(rows, options: BatchOptions, out_dir, interrupted: bool = False
     return {**head, "units": dict(UNITS),
             "n_specimens": len(rows) - counts[NOT_FROM_BATCH], "counts": counts,
             "n_cached": sum(bool(r["cached"]) for r in rows), "interrupted": bool(interrupted),
-            "running": bool(running), "duplicates": [list(g) for g in duplicates],
+            "stopped_by": stopped_by if interrupted else None, "running": bool(running), "duplicates": [list(g) for g in duplicates],
             "specimens": rows}
 
 

@@ -15,7 +15,7 @@ import logging
 import click
 
 from laminid_cli import __version__
-from laminid_cli.errors import EXIT_INTERRUPTED
+from laminid_cli.errors import EXIT_INTERRUPTED, EXIT_TERMINATED, Terminated
 
 # command name -> "module:attribute"; each command lives in laminid_cli/commands/<module>.py
 COMMANDS = {
@@ -106,6 +106,9 @@ class LazyGroup(click.Group):
             _echo_json_error(ctx, _error_document(exc, exc.format_message(), exc.exit_code,
                                                   kind="UsageError", field=_option_of(exc)))
             raise
+        except Terminated:             # SIGTERM, where the command turns it into a stop (batch)
+            click.echo("laminid: terminated (SIGTERM)", err=True)
+            ctx.exit(EXIT_TERMINATED)
         except KeyboardInterrupt:
             click.echo("laminid: interrupted", err=True)
             ctx.exit(EXIT_INTERRUPTED)

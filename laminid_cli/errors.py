@@ -12,6 +12,15 @@ import contextlib
 
 #: exit code of a command interrupted by Ctrl-C (128 + SIGINT)
 EXIT_INTERRUPTED = 130
+#: exit code of a command ended by SIGTERM as Ctrl-C would end it (128 + SIGTERM)
+EXIT_TERMINATED = 143
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (``kill PID``, ``timeout``, a job scheduler at its time limit) turned into a
+    stop as by Ctrl-C, where a command installs a handler raising it (acquire's session,
+    batch): whatever handles Ctrl-C handles it, and the command line says "terminated
+    (SIGTERM)" and exits 143 instead of "interrupted" and 130."""
 
 
 class LaminidError(Exception):

@@ -1168,6 +1168,103 @@ def test_killed_batch_leaves_only_complete_files_and_a_rerun_finishes(tmp_path, 
     assert not [p for p in out.rglob("*") if ".part-" in p.name or ".tmp-" in p.name]
 
 
+@pytest.mark.parametrize("target, jobs", [("batch", "1"), ("batch", "2"), ("group", "2"),
+                                           ("group", "1")])
+def test_sigterm_ends_the_batch_as_ctrl_c_does_with_exit_143(tmp_path, target, jobs):
+    """SIGTERM to the batch process (``kill PID``, ``timeout``, systemd) or to its whole
+    process group (SLURM at the wall-time limit: workers and batch at once) killed the batch
+    outright: summaries left "running", no table, exit 143 by the signal. It now ends as
+    Ctrl-C does: workers stopped, their partial files removed, both summaries final and
+    agreeing with the result files, the table (or --json) printed, saying "terminated
+    (SIGTERM)", exit 143. The workers a group SIGTERM killed broke the pool: their specimens
+    are 'not run', not run again alone (the retry for a killed worker) nor 'failed'."""
+    specs = make_tree(tmp_path / "in", {**SPECS, "example1/S1.1.yaml":
+                                        "specimens/example1/S1.1.yaml", "example1/S1.2.yaml":
+                                        "specimens/example1/S1.2.yaml"})
+    out = tmp_path / "out"
+    as_json = jobs == "1"
+    mc = ["--monte-carlo", "20"] if jobs == "1" else []     # forked trial workers at -j 1
+    proc = _start_batch(specs, out, jobs, *(["--json"] if as_json else []), *mc)
+    _wait_first_result(proc, out)
+    if target == "group":
+        os.killpg(proc.pid, signal.SIGTERM)
+    else:
+        os.kill(proc.pid, signal.SIGTERM)
+    t0 = time.time()
+    _o, _e = proc.communicate(timeout=60)
+    assert time.time() - t0 < 5, _e.decode()[-2000:]          # no specimen ran again
+    assert proc.returncode == 143, _e.decode()[-2000:]
+    assert _e.decode().rstrip().endswith("laminid: terminated (SIGTERM)"), _e.decode()[-2000:]
+    doc = json.loads((out / "summary.json").read_text())
+    assert doc["running"] is False and doc["interrupted"] is True
+    assert doc["stopped_by"] == "SIGTERM"
+    rows = read_summary(out / "summary.csv")
+    assert {r["status"] for r in rows} <= {"ok", "check", "not run"}, rows
+    done = sorted(out.rglob("*.result.h5"))
+    n_done = sum(r["status"] in ("ok", "check") for r in rows)
+    assert 1 <= n_done == len(done) < 4
+    for r in rows:                                 # the summary agrees with the result files
+        if r["status"] in ("ok", "check"):
+            (material,) = r["materials"].values()             # one material per plate
+            with h5py.File(out / r["result"], "r") as f:
+                (stored,) = f["materials"].values()
+                assert material["E1"] == pytest.approx(stored["E1"][()], rel=1e-12)
+        else:
+            assert not r["result"], r
+    assert not [p for p in out.rglob("*") if ".part-" in p.name or ".tmp-" in p.name]
+    if as_json:
+        d = json.loads(_o)
+        assert d["interrupted"] is True and d["stopped_by"] == "SIGTERM"
+        assert d["counts"]["not run"] == 4 - n_done
+    else:
+        text = _o.decode()
+        assert f"; {4 - n_done} not run: terminated (SIGTERM)); summary: " in text, text
+
+
+def test_sigterm_is_noted_as_ctrl_c_where_the_batch_made_it_a_stop(monkeypatch):
+    """batch._note_sigint notes SIGTERM (raising Terminated, a KeyboardInterrupt) where the
+    handler in place is the batch command's (sigterm_stops_the_batch), which raises
+    Terminated itself; both give the handler they found back. SIGTERM's default (the
+    process killed, as in a pool worker) is left alone."""
+    import laminid_cli.batch as B
+    from laminid_cli.errors import Terminated
+
+    before = signal.getsignal(signal.SIGTERM)
+    seen, restore = B._note_sigint(raise_=False)
+    restore()
+    assert signal.getsignal(signal.SIGTERM) is before       # default: not taken over
+    with B.sigterm_stops_the_batch():
+        handler = signal.getsignal(signal.SIGTERM)
+        with pytest.raises(Terminated):
+            signal.raise_signal(signal.SIGTERM)
+        seen, restore = B._note_sigint(raise_=False)
+        try:
+            signal.raise_signal(signal.SIGTERM)
+            assert seen == [signal.SIGTERM]
+            assert isinstance(B._interruption(seen), Terminated)
+        finally:
+            restore()
+        assert signal.getsignal(signal.SIGTERM) is handler
+        seen, restore = B._note_sigint()
+        try:
+            with pytest.raises(Terminated):
+                signal.raise_signal(signal.SIGTERM)
+        finally:
+            restore()
+    assert signal.getsignal(signal.SIGTERM) is before
+    assert type(B._interruption([signal.SIGINT, signal.SIGTERM])) is KeyboardInterrupt
+
+
+def test_the_batch_command_gives_sigterm_its_handler_back(tmp_path):
+    """The command's SIGTERM handler is the process's only while it runs."""
+    before = signal.getsignal(signal.SIGTERM)
+    specs = make_tree(tmp_path / "in", {"example1/S1.4.yaml": "specimens/example1/S1.4.yaml"})
+    r = run("batch", specs, "--mesh", MESH, "--out", tmp_path / "out", "--json")
+    assert r.exit_code in (0, 1), r.output
+    assert json.loads(r.stdout)["stopped_by"] is None
+    assert signal.getsignal(signal.SIGTERM) is before
+
+
 def test_a_killed_rerun_leaves_summaries_that_agree_with_its_results(tmp_path):
     """A batch killed (SIGKILL) mid-run left the summaries of the run before it: they named
     as "ok", with the old values, specimens whose result files the killed run had already

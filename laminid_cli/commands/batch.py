@@ -65,7 +65,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     on; a result it still has in OUT (an earlier input's) is renamed
     <name>.result.stale.h5 (.stale1.h5, ... when that exists), out of the *.result.h5
     pattern, and named in the table and the summaries (stale_result); so is that of a
-    specimen an interrupted batch (Ctrl-C) did not reach, while every finished result stays.
+    specimen an interrupted batch (Ctrl-C, SIGTERM) did not reach, while every finished
+    result stays.
     Result files in OUT that no specimen of the inputs has (its file removed, or another
     batch's) are kept and listed as 'not from this batch'. Specimen files that hold one
     plate's measured data (a file copied under another name) are warned of, once per group,
@@ -74,7 +75,9 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     INPUTS, before anything runs (exit 2, naming each and what it is), and skipped with a
     warning when a folder holds it as *.yaml. Exit code 0 when all converged (status ok or
     check), 1 when any failed or did not converge, 2 for bad usage (no specimen found, a
-    file named that is no specimen).
+    file named that is no specimen); 130 after Ctrl-C and 143 after SIGTERM (kill, timeout,
+    a scheduler's time limit), each of which stops the batch with both summaries written
+    and the table printed.
 
     \b
     Examples:
@@ -83,6 +86,14 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
       laminid batch plates/ --mesh 8x8 --mesh-check
       laminid batch study/ --scheduler tcp://10.0.0.5:8786 -j 64
     """
+    from laminid_cli.batch import sigterm_stops_the_batch
+
+    # SIGTERM (kill, timeout, a scheduler's time limit) ends the batch as Ctrl-C does, exit 143
+    with sigterm_stops_the_batch():
+        _batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, as_json)
+
+
+def _batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, as_json):
     import contextlib
     import os
     import sys
@@ -100,6 +111,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
                                    release_out_folder, remove_stale_parts, result_row,
                                    run_jobs, set_aside_result, sort_out_non_specimens,
                                    stored_hash, write_summary_csv, write_summary_json)
+    from laminid_cli.batch import _interruption as interruption
     from laminid_cli.batch import _note_sigint as note_sigint
 
     def _unfinished_row(job):
@@ -208,7 +220,7 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     settings = batch_settings(n_jobs, scheduler)
     finished = 0
     refused = False
-    interrupted = False
+    interrupted = False                    # or the KeyboardInterrupt / Terminated that stopped it
     ended = False                          # the run ended, or a Ctrl-C ended it: a table follows
     written = [0.0]                        # when the summaries were last written while running
 
@@ -258,14 +270,15 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     except BatchError:   # e.g. --scheduler unreachable: nothing ran, so nothing is written
         refused = finished == 0
         raise
-    except KeyboardInterrupt:
-        # Ctrl-C: the summaries, the table (or --json) of what was done, then exit 130
-        interrupted = ended = True
+    except KeyboardInterrupt as exc:
+        # Ctrl-C (or SIGTERM, Terminated): the summaries, the table (or --json) of what was
+        # done, then exit 130 (143)
+        interrupted, ended = exc, True
     finally:
-        # from here to the table a Ctrl-C (a second one, or one as the last specimen finished)
-        # is noted, not raised: raised while the summaries were written, it left no table and
-        # a summary.csv of the finished run beside a summary.json of the running one, or both
-        # still 'running' with every result there; now exit 130 after the table
+        # from here to the table a Ctrl-C or SIGTERM (a second one, or one as the last specimen
+        # finished) is noted, not raised: raised while the summaries were written, it left no
+        # table and a summary.csv of the finished run beside a summary.json of the running one,
+        # or both still 'running' with every result there; now exit 130 (143) after the table
         held, release = note_sigint(raise_=False)
         try:
             if refused:
@@ -280,7 +293,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
                 # not in this batch are named, not moved (another batch's may share --out).
                 ordered = [rows.get(j.name) or _unfinished_row(j) for j in jobs]
                 ordered += [foreign_row(p, out) for p in foreign_results(out, jobs)]
-                report = batch_report(ordered, options, out, interrupted=interrupted,
+                report = batch_report(ordered, options, out, interrupted=bool(interrupted),
+                                      stopped_by=_signal_name(interrupted),
                                       duplicates=duplicates, batch=settings)
                 write_summary_csv(out / SUMMARY_CSV, ordered, wide=wide,
                                   options=options.as_dict(), batch=settings)
@@ -306,11 +320,28 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
                        + (f"; {c[NOT_FROM_BATCH]} result file"
                           f"{' is' if c[NOT_FROM_BATCH] == 1 else 's are'} not from this batch"
                           if c[NOT_FROM_BATCH] else "")
-                       + (f"; {c['not run']} not run: interrupted" if interrupted else "")
+                       + (f"; {c['not run']} not run: {_stop_words(interrupted)}"
+                          if interrupted else "")
                        + f"); summary: {out / SUMMARY_CSV}")
     finally:
         release()
-    if interrupted or held:
-        raise KeyboardInterrupt
+    if interrupted:
+        raise interrupted
+    if held:
+        raise interruption(held)
     if failed(ordered):
         sys.exit(1)
+
+
+def _signal_name(stop) -> str | None:
+    """The signal that stopped the batch (``stop``: its KeyboardInterrupt, or False)."""
+    from laminid_cli.errors import Terminated
+
+    if not stop:
+        return None
+    return "SIGTERM" if isinstance(stop, Terminated) else "SIGINT"
+
+
+def _stop_words(stop) -> str:
+    """How the table's last line names the stop: Ctrl-C's 'interrupted', SIGTERM's own."""
+    return "terminated (SIGTERM)" if _signal_name(stop) == "SIGTERM" else "interrupted"

@@ -20,7 +20,7 @@ from typing import Protocol
 
 import numpy as np
 
-from laminid_cli.errors import InstrumentError, LaminidError
+from laminid_cli.errors import InstrumentError, LaminidError, Terminated
 from laminid_cli.frf.store import resonance_lines
 from laminid_cli.instrument.base import AcquisitionSettings, Analyser, Measurement
 
@@ -32,12 +32,6 @@ class AcquisitionInterrupted(LaminidError):
 
     exit_code = 130
     label = "stopped"
-
-
-class Terminated(KeyboardInterrupt):
-    """SIGTERM during a session (``kill PID``, ``timeout``, a job scheduler): stopped as by
-    Ctrl-C, the finished points kept, and said so with the resume command (the process
-    died by the signal before, with no word, no --json and no resume command)."""
 
 
 class AcquisitionTerminated(AcquisitionInterrupted):
