@@ -60,7 +60,10 @@ from pathlib import Path
 from laminid_cli import __version__
 from laminid_cli.atomic import (remove_stale_temporaries, stop_with_parent, temporary_name,
                                 write_bytes_atomic)
+# sigterm_stops_the_batch: SIGTERM stops the batch as Ctrl-C does (the command's block;
+# _note_sigint notes it)
 from laminid_cli.errors import LaminidError, Terminated
+from laminid_cli.errors import sigterm_raises_terminated as sigterm_stops_the_batch  # noqa: F401
 from laminid_cli.intervals import HELD_BY_PRIOR, VERDICT_AT_BOUND, VERDICT_FIXED
 from laminid_cli.pipeline import RunOptions
 # imported here, not on the first summary row: a Ctrl-C landing in an import (in the code
@@ -918,7 +921,7 @@ def _note_sigint(raise_: bool = True):
     test_killed_batch...: the batch then finished and exited 0). Elsewhere a no-op.
 
     SIGTERM likewise (its :class:`~laminid_cli.errors.Terminated`) where the handler in place
-    is a Python one (the batch command's, :func:`sigterm_stops_the_batch`); its default (the
+    is a Python one (the batch command's, :func:`~laminid_cli.errors.sigterm_raises_terminated`); its default (the
     process killed) and an ignored SIGTERM are left as they are. :func:`_interruption` gives
     the exception of what was noted first."""
     import signal
@@ -953,33 +956,6 @@ def _interruption(seen) -> KeyboardInterrupt:
     import signal
 
     return Terminated() if seen and seen[0] == signal.SIGTERM else KeyboardInterrupt()
-
-
-@contextlib.contextmanager
-def sigterm_stops_the_batch():
-    """SIGTERM to the batch process (``kill PID``, ``timeout``, systemd, a cluster scheduler
-    at the wall-time limit) stops the batch as Ctrl-C does (workers stopped, both summaries
-    written, the table printed) and the command exits 143: within the block it raises
-    :class:`~laminid_cli.errors.Terminated`, a KeyboardInterrupt, where the runners note it
-    as they note Ctrl-C (:func:`_note_sigint`). Without it the process died by the signal,
-    its summaries left 'running' and no table. The handler found is restored after the
-    block; an ignored SIGTERM stays ignored. Only in the main thread."""
-    import signal
-    import threading
-
-    if (threading.current_thread() is not threading.main_thread()
-            or signal.getsignal(signal.SIGTERM) is signal.SIG_IGN):
-        yield
-        return
-
-    def on_sigterm(signum, frame):
-        raise Terminated
-
-    previous = signal.signal(signal.SIGTERM, on_sigterm)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
 
 
 @contextlib.contextmanager

@@ -23,6 +23,33 @@ class Terminated(KeyboardInterrupt):
     (SIGTERM)" and exits 143 instead of "interrupted" and 130."""
 
 
+@contextlib.contextmanager
+def sigterm_raises_terminated():
+    """Within the block SIGTERM (``kill PID``, ``timeout``, systemd, a job scheduler at its
+    time limit) raises :class:`Terminated`, so that a command stops as by Ctrl-C, where the
+    process would die by the signal saying nothing: acquire's session (the analyser stopped,
+    the finished points kept, the resume command), a batch (its workers stopped, both
+    summaries written, the table printed; batch._note_sigint notes it as Ctrl-C). The
+    handler found is restored after the block; an ignored SIGTERM stays ignored. Only in the
+    main thread, where Python runs signal handlers."""
+    import signal
+    import threading
+
+    if (threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGTERM) is signal.SIG_IGN):
+        yield
+        return
+
+    def on_sigterm(signum, frame):
+        raise Terminated
+
+    previous = signal.signal(signal.SIGTERM, on_sigterm)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 class LaminidError(Exception):
     """Base class of all errors laminid reports to a user.
 

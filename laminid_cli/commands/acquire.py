@@ -311,31 +311,6 @@ def _stopped_outside_the_session(exc: KeyboardInterrupt, out: Path, resume: bool
 
 
 @contextlib.contextmanager
-def _sigterm_stops_the_session():
-    """SIGTERM (``kill PID``, ``timeout``, a scheduler) ends the session as Ctrl-C does: the
-    analyser stopped, the finished points kept, the message and --json with the resume
-    command (exit 143). Without it the process died by the signal, saying nothing. Only in
-    the main thread, where Python runs signal handlers."""
-    import signal
-    import threading
-
-    from laminid_cli.instrument.session import Terminated
-
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def on_sigterm(signum, frame):
-        raise Terminated
-
-    previous = signal.signal(signal.SIGTERM, on_sigterm)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
-
-
-@contextlib.contextmanager
 def _sigint_stops_it_even_in_the_background():
     """SIGINT (``kill -INT PID``) stops acquire as Ctrl-C does also where it started with
     SIGINT ignored: a shell without job control (a script) starts ``laminid acquire ... &``
@@ -441,7 +416,7 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
       laminid fit-frf plate.frf.h5 --into plate.yaml
     """
     ctx.with_resource(_sigint_stops_it_even_in_the_background())
-    from laminid_cli.errors import FrfError, LaminidError
+    from laminid_cli.errors import FrfError, LaminidError, sigterm_raises_terminated
     from laminid_cli.frf.store import FrfWriter
     from laminid_cli.instrument.base import AcquisitionSettings
     from laminid_cli.instrument.registry import open_analyser
@@ -507,7 +482,7 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
 
     result = None
     try:   # SIGTERM as Ctrl-C also while connecting and setting up (it killed acquire)
-        with _sigterm_stops_the_session(), open_analyser(
+        with sigterm_raises_terminated(), open_analyser(
                 analyser, model=model, backend=visa_backend, timeout=timeout) as dsa:
             click.echo(f"{dsa.MODEL} at {dsa.transport.resource}: {dsa.idn}", err=True)
             if resume:
