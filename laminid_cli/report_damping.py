@@ -728,10 +728,13 @@ def loss_factor_table_pages(rows, title: str, confidence: float | None = None) -
     # SUMMARY_TABLE_ROWS one-line rows a page: a row wrapped to more lines counts as more
     # (row_heights)
     chunks: list[list] = [[]]
-    for row in table:
-        if chunks[-1] and sum(row_heights(head, chunks[-1] + [row])[1:]) > SUMMARY_TABLE_ROWS:
+    filled = 0.0                             # the heights of the rows on the page so far
+    for row, h in zip(table, row_heights(head, table)[1:]):
+        if chunks[-1] and filled + h > SUMMARY_TABLE_ROWS:
             chunks.append([])
+            filled = 0.0
         chunks[-1].append(row)
+        filled += h
     figs = []
     for n, chunk in enumerate(chunks, start=1):
         fig = _figure()
