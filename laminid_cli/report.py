@@ -2517,10 +2517,12 @@ def specimen_labels(rows) -> list[str]:
 AXIS_NAME_CHARS = 24
 
 
-def axis_names(names, limit: int = AXIS_NAME_CHARS) -> tuple[list[str], str | None]:
+def axis_names(names, limit: int = AXIS_NAME_CHARS,
+               said: str = "names shortened under the panels") -> tuple[list[str], str | None]:
     """The specimens' names as ticks under a panel (each at most ``limit`` characters: its
-    start and end kept, "…" between), and the note naming each shortened one whole (None when
-    none is). Two names shortened alike get their place in the row after them ("#2").
+    start and end kept, "…" between), and the note naming each shortened one whole, ``said``
+    first (None when none is). Two names shortened alike get their place in the row after
+    them ("#2").
 
     >>> axis_names(["S1.1", "S1.1 panel B-07 (autoclave batch 2026-11)"])[0]
     ['S1.1', 'S1.1 panel B-07…2026-11)']
@@ -2532,7 +2534,7 @@ def axis_names(names, limit: int = AXIS_NAME_CHARS) -> tuple[list[str], str | No
     short = [s if short.count(s) == 1 or s == n else f"{s} #{i + 1}"
              for i, (s, n) in enumerate(zip(short, names))]
     pairs = [f"{s} = {n}" for s, n in zip(short, names) if s != n]
-    return short, ("names shortened under the panels: " + "; ".join(pairs)) if pairs else None
+    return short, (f"{said}: " + "; ".join(pairs)) if pairs else None
 
 
 #: the most characters of a material's name in the labels of a result's pages (the
@@ -2548,10 +2550,8 @@ def material_labels(r: ResultFile) -> tuple[dict[str, str], str | None]:
     :data:`MATERIAL_LABEL_CHARS`, as :func:`axis_names`), and the note naming each shortened
     one whole (None when none is)."""
     mats = list(r.materials)
-    short, _ = axis_names(mats, MATERIAL_LABEL_CHARS)
-    pairs = [f"{s} = {m}" for s, m in zip(short, mats) if s != m]
-    return dict(zip(mats, short)), (("materials shortened in the labels: " + "; ".join(pairs))
-                                    if pairs else None)
+    short, note = axis_names(mats, MATERIAL_LABEL_CHARS, "materials shortened in the labels")
+    return dict(zip(mats, short)), note
 
 
 MC_COLOR = "0.62"
