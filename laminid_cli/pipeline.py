@@ -354,10 +354,10 @@ def fix_list_hint(name: str) -> str:
     >>> fix_list_hint("plate.yaml")
     ''
     """
+    from laminid_cli.damping import LOSS_NAMES
     from laminid_cli.material import CONSTANT_NAMES
 
-    names = {n.lower() for n in CONSTANT_NAMES} | {f"eta{k}" for k in ("11", "22", "12", "13",
-                                                                         "23")}
+    names = {n.lower() for n in CONSTANT_NAMES + LOSS_NAMES}
     items = [i.strip() for i in str(name).split(",") if i.strip()]
     if not items or not all(i.split("=", 1)[0].rsplit(".", 1)[-1].strip().lower() in names
                             for i in items):
