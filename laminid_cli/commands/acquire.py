@@ -21,10 +21,10 @@ import click
 from laminid_cli.commands._common import (FRF_UNIT_NOTE, JSON_ERROR_DOC, OUTPUT_FILE,
                                           FiniteFloat, check_hdf5_name, check_output_path,
                                           force_option, quiet, writable_target)
+# (seconds the analyser may take to answer one query, unless --timeout says)
+from laminid_cli.instrument.transport import DEFAULT_TIMEOUT_S
 
 
-#: seconds the analyser may take to answer one query, unless --timeout says
-DEFAULT_TIMEOUT_S = 5.0
 
 #: acquire's option for each field of AcquisitionSettings: the checks' messages name them
 OPTION_NAMES = {"span_hz": "--span", "start_hz": "--start", "lines": "--lines",
