@@ -60,27 +60,28 @@ def remove_stale_temporaries(folder) -> int:
 
     Files of processes still alive (their pid ends the name) are kept.
     """
-    n = 0
-    for p in Path(folder).rglob(TEMP_GLOB):
-        pid = p.name.rsplit("-", 1)[-1]
-        if pid.isdigit() and process_alive(int(pid)):
-            continue
-        with contextlib.suppress(OSError):
-            p.unlink()
-            n += 1
-    return n
+    return _remove_dead(Path(folder).rglob(TEMP_GLOB))
 
 
 def remove_stale_temporaries_of(path) -> int:
     """Delete the temporary files of ``path`` (:func:`temporary_name`) that killed processes
-    left beside it; returns the count. Those of processes still alive are kept."""
+    left beside it; returns the count. Those of processes still alive are kept, and so is a
+    name ending in no pid (none of laminid's)."""
     import glob
 
     path = Path(path)
+    return _remove_dead(path.parent.glob(f".{glob.escape(path.name)}.tmp-*"),
+                        keep_unnumbered=True)
+
+
+def _remove_dead(paths, keep_unnumbered: bool = False) -> int:
+    """Delete those of the temporary files ``paths`` whose process (the pid ending the name)
+    no longer runs, and those whose name ends in no pid unless ``keep_unnumbered``; returns
+    the count."""
     n = 0
-    for p in path.parent.glob(f".{glob.escape(path.name)}.tmp-*"):
+    for p in paths:
         pid = p.name.rsplit("-", 1)[-1]
-        if not pid.isdigit() or process_alive(int(pid)):
+        if process_alive(int(pid)) if pid.isdigit() else keep_unnumbered:
             continue
         with contextlib.suppress(OSError):
             p.unlink()
