@@ -53,7 +53,7 @@ def is_frf_text_file(path) -> bool:
 
     from laminid_cli.frf.generic_h5 import _ANGULAR_NAME, _FREQ_NAME
     from laminid_cli.frf.io import (_csv_freq_factor, _csv_number, _csv_preamble,
-                                    _csv_separator, _split, decode_text)
+                                    _csv_separator, _split, decode_head)
 
     p = Path(path)
     suffix = p.suffix.lower()
@@ -66,9 +66,7 @@ def is_frf_text_file(path) -> bool:
             raw = fh.read(65536)
     except OSError:
         return False
-    text, _ = decode_text(raw)
-    if text is None:
-        text, _ = decode_text(raw[:-4])     # a character cut at the end of the block
+    text = decode_head(raw)
     if text is None:
         return False
     rows = text.splitlines()[:-1] if len(raw) == 65536 else text.splitlines()

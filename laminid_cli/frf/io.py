@@ -212,9 +212,7 @@ def describe_content(path) -> tuple[str, str | None]:
     if kind is not None:
         aside, fmt = _FRF_KINDS.get(kind[0], ("", None))
         return kind[1] + aside, fmt
-    text, _ = decode_text(head)
-    if text is None:                # a multi-byte character cut at the end of the block
-        text, _ = decode_text(head[:-4])
+    text = decode_head(head)
     if text is None:
         return "binary data, not text", None
     first = next((ln.strip() for ln in text.splitlines() if ln.strip()), "")
@@ -231,6 +229,15 @@ def describe_content(path) -> tuple[str, str | None]:
 
 #: the byte-order marks of a UTF-16 text file (a spreadsheet's "Unicode text" export)
 _UTF16_BOMS = (b"\xff\xfe", b"\xfe\xff")
+
+
+def decode_head(head: bytes) -> str | None:
+    """The text of a file's first block ``head`` (:func:`decode_text`; where it ends in the
+    middle of a multi-byte character, without its last bytes), None for binary data."""
+    text, _ = decode_text(head)
+    if text is None:
+        text, _ = decode_text(head[:-4])
+    return text
 
 
 def decode_text(raw: bytes) -> tuple[str | None, str | None]:
