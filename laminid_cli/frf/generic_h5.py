@@ -385,19 +385,17 @@ def _read_generic(f, path: Path, freq_dataset, frf_dataset) -> FrfSet:
     if axis.is_attribute:
         owner = axis.path.rsplit("@", 1)[0] or "/"
         what = f"attribute {axis.name!r} of '{owner}' (no {axis.name}_units attribute beside it)"
-        how = (f"h5py.File('{path}', 'r+')['{owner}'].attrs['{axis.name}_units'] = 'kHz' (or "
-               "'rad/s')")
+        target = f"['{owner}'].attrs['{axis.name}_units']"      # where its unit would go
     else:
         what = f"dataset '{axis.path}' (no units attribute)"
-        how = f"h5py.File('{path}', 'r+')['{axis.path}'].attrs['units'] = 'kHz' (or 'rad/s')"
+        target = f"['{axis.path}'].attrs['units']"
+    how = f"h5py.File('{path}', 'r+'){target} = 'kHz' (or 'rad/s')"
     if axis.units:
         factor, stated = _freq_factor(axis.units), True
     else:
-        owner_attrs = how.split(" = ")[0].replace(f"h5py.File('{path}', 'r+')",
-                                                  "h5py.File(file, 'r+')")
         unit = name_freq_unit(
             axis.name, f"{path}: {what.removesuffix(')')}; give it one, 'Hz' or 'rad/s': "
-                       f"{owner_attrs} = 'rad/s')")
+                       f"h5py.File(file, 'r+'){target} = 'rad/s')")
         factor, stated = (1.0 if unit is None else FREQ_UNITS[unit]), unit is not None
     freq = np.asarray(_values(f, axis.path), dtype=float).reshape(-1) * factor
     if frf_d.parts:
