@@ -18,7 +18,13 @@ class LocalWorkerSetup(WorkerPlugin):
     cluster's worker processes included, and each one interrupted in its event loop printed
     its tracebacks ("Process Dask Worker process (from Nanny)", CancelledError,
     KeyboardInterrupt; some 300 lines) before the batch's "laminid: interrupted". They ignore
-    it; the client cancels the jobs and closes the cluster. Their loggers get laminid's
+    it; the client cancels the jobs and closes the cluster. SIGTERM likewise: sent to the
+    whole group (a cluster's wall-time limit, ``timeout``), it killed the workers before the
+    batch acted on it; their nannies restarted them and the scheduler logged the lost
+    results ("Removing worker ... caused the cluster to lose already computed task(s)",
+    "Restarting worker") above "laminid: terminated (SIGTERM)". The cluster's close still
+    ends them: a stop message, then SIGKILL after its timeout (distributed.nanny.
+    WorkerProcess.kill), never SIGTERM. Their loggers get laminid's
     verbosity (:func:`worker_log_level`): the messages of that close only with -v.
 
     log_level : the level of the workers' ``distributed`` loggers (logging.CRITICAL unless -v)
@@ -33,6 +39,7 @@ class LocalWorkerSetup(WorkerPlugin):
     def setup(self, worker) -> None:
         # (a worker plugin runs in the worker process' main thread, where signals are set)
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
         logging.getLogger("distributed").setLevel(self.log_level)
 
 

@@ -1427,9 +1427,11 @@ def test_a_local_workers_shutdown_errors_are_muted_without_v():
     assert worker_log_level(logging.DEBUG) == logging.DEBUG
     dist = logging.getLogger("distributed")
     before_level, before_sigint = dist.level, signal.getsignal(signal.SIGINT)
+    before_sigterm = signal.getsignal(signal.SIGTERM)
     try:
         LocalWorkerSetup(worker_log_level(logging.WARNING)).setup(worker=None)
         assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+        assert signal.getsignal(signal.SIGTERM) is signal.SIG_IGN
         assert dist.level == logging.CRITICAL
         assert not logging.getLogger("distributed.worker").isEnabledFor(logging.ERROR)
         LocalWorkerSetup(worker_log_level(logging.INFO)).setup(worker=None)
@@ -1437,14 +1439,18 @@ def test_a_local_workers_shutdown_errors_are_muted_without_v():
     finally:
         dist.setLevel(before_level)
         signal.signal(signal.SIGINT, before_sigint)
+        signal.signal(signal.SIGTERM, before_sigterm)
 
 
-def test_ctrl_c_on_a_dask_local_batch_prints_no_worker_tracebacks(tmp_path):
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_ctrl_c_or_sigterm_on_a_dask_local_batch_prints_no_worker_tracebacks(tmp_path, sig):
     """Ctrl-C reaches the whole process group, the local cluster's worker processes too: each
     one printed its tracebacks ("Process Dask Worker process (from Nanny)", CancelledError,
     KeyboardInterrupt; some 300 lines in all) and the cluster warned of cancelled tasks before
     "laminid: interrupted". The workers leave it to the batch, as the process pool's do: one
-    line, exit 130, the finished results kept and the rest done by a re-run."""
+    line, exit 130, the finished results kept and the rest done by a re-run. SIGTERM to the
+    whole group (a cluster's wall-time limit) ends it the same way, exit 143, the summary
+    final and saying so (the process pool's test: test_sigterm_ends_the_batch_as_ctrl_c_...)."""
     pytest.importorskip("distributed")
     specs = make_tree(tmp_path / "in", {**SPECS, "example1/S1.1.yaml":
                                         "specimens/example1/S1.1.yaml", "example1/S1.2.yaml":
@@ -1452,12 +1458,20 @@ def test_ctrl_c_on_a_dask_local_batch_prints_no_worker_tracebacks(tmp_path):
     out = tmp_path / "out"
     proc = _start_batch(specs, out, "2", "--scheduler", "local")
     _wait_first_result(proc, out)
-    os.killpg(proc.pid, signal.SIGINT)
+    os.killpg(proc.pid, sig)
     _o, err = proc.communicate(timeout=60)
     err = err.decode()
-    assert proc.returncode == 130, err[-3000:]
     assert "Traceback" not in err and "distributed" not in err, err[-3000:]
-    assert err.splitlines()[-1] == "laminid: interrupted", err[-3000:]
+    if sig == signal.SIGINT:
+        assert proc.returncode == 130, err[-3000:]
+        assert err.splitlines()[-1] == "laminid: interrupted", err[-3000:]
+    else:
+        assert proc.returncode == 143, err[-3000:]
+        assert err.splitlines()[-1] == "laminid: terminated (SIGTERM)", err[-3000:]
+        doc = json.loads((out / "summary.json").read_text())
+        assert doc["running"] is False and doc["stopped_by"] == "SIGTERM"
+        assert doc["counts"]["not run"] == 4 - len(list(out.rglob("*.result.h5")))
+    assert not [p for p in out.rglob("*") if ".part-" in p.name or ".tmp-" in p.name]
     done = sorted(out.rglob("*.result.h5"))
     assert 1 <= len(done) <= 4
     r = run("batch", specs, "--mesh", MESH, "--out", out, "--json")
