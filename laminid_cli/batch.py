@@ -169,13 +169,16 @@ class Job:
 @dataclass
 class Outcome:
     """What a worker returns: status ("ok" | "check" | "error"), the reason of a failure or
-    the reason codes of a check, the result file's bytes (None on error) and the wall time."""
+    the reason codes of a check, the result file's bytes (None on error) and the wall time.
+    ``n_logged``: how many of the result's first warnings (the specimen reader's) the worker
+    logged as it read the file (0 where its log level hides warnings: -q)."""
 
     name: str
     status: str
     reason: str = ""
     data: bytes | None = field(default=None, repr=False)
     time_s: float = 0.0
+    n_logged: int = 0
 
 
 # ----------------------------------------------------------------------------------------------
@@ -721,8 +724,12 @@ def run_job(job: Job, options: BatchOptions, write: bool = False) -> Outcome:
                     data = path.read_bytes()
                 finally:
                     _current_tmp.remove(Path(tmp))
+        # the specimen reader logged its warnings as it read the file (through the worker's
+        # log set-up, at the batch's level); the result's warnings begin with them
+        logged = logging.getLogger("laminid_cli.specimen").isEnabledFor(logging.WARNING)
         return Outcome(job.name, run.status.status, ", ".join(run.status.codes), data,
-                       time.perf_counter() - t0)
+                       time.perf_counter() - t0,
+                       len(run.forward_models[0].specimen.warnings) if logged else 0)
     except LaminidError as exc:
         return failure(str(exc))
     except Exception as exc:  # noqa: BLE001 - one specimen's crash must not stop the batch
@@ -2002,13 +2009,14 @@ def _mark(row: dict, material: str, constant: str) -> str:
     return next((mark for mark, w in FLAG_WORDS.items() if w == word), " ")
 
 
-def format_table(rows) -> str:
+def format_table(rows, on_stderr=None) -> str:
     """The constants across specimens as text, shaped like the paper's Table 2: one block per
     set of materials, specimens as columns, constants as rows (GPa; a value at its bound
     marked "!", one not determined by the modes "?", a fixed one "=", one assumed by
     --fix-undetermined "#", one held by its prior "~"), a status row; then the
     reasons of every "check", the warnings of each result and the specimens without a
-    result."""
+    result. ``on_stderr``: {row name: n}, a result's first n warnings (its specimen reader's)
+    are on stderr already, logged as this run read the file: not listed again."""
     lines = []
     groups: dict[tuple, list] = {}
     for r in rows:
@@ -2081,12 +2089,16 @@ def format_table(rows) -> str:
             lines += [f"    {x['code']}: {x['text']}" for x in r.get("reasons", [])]
     # each result's warnings (the specimen reader's: a mass that density x volume contradicts,
     # ply angles that look like radians; the run's: a coarse mesh...), as summary.json has them
-    warned = [r for r in rows if r.get("warnings")]
+    # (those the specimen reader logged on stderr as this run read the file, not again: a
+    # terminal showed each of them twice)
+    on_stderr = on_stderr or {}
+    warned = [(r, left) for r in rows
+              if (left := (r.get("warnings") or [])[on_stderr.get(r["name"], 0):])]
     if warned:
         lines.append("warnings:")
-        for r in warned:
+        for r, left in warned:
             lines.append(f"  {_who(r)}:")
-            lines += [f"    {w}" for w in r["warnings"]]
+            lines += [f"    {w}" for w in left]
     failed_rows = [r for r in rows if r["status"] in ("error", "not run")]
     if failed_rows:
         lines.append("not identified:")
