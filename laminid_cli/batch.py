@@ -62,7 +62,7 @@ from laminid_cli.atomic import (remove_stale_temporaries, stop_with_parent, temp
                                 write_bytes_atomic)
 # sigterm_stops_the_batch: SIGTERM stops the batch as Ctrl-C does (the command's block;
 # _note_sigint notes it)
-from laminid_cli.errors import LaminidError, Terminated
+from laminid_cli.errors import LaminidError, Terminated, note_stop_signals
 from laminid_cli.errors import sigterm_raises_terminated as sigterm_stops_the_batch  # noqa: F401
 from laminid_cli.intervals import HELD_BY_PRIOR, VERDICT_AT_BOUND, VERDICT_FIXED
 from laminid_cli.pipeline import RunOptions
@@ -930,31 +930,8 @@ def _note_sigint(raise_: bool = True):
     SIGTERM likewise (its :class:`~laminid_cli.errors.Terminated`) where the handler in place
     is a Python one (the batch command's, :func:`~laminid_cli.errors.sigterm_raises_terminated`); its default (the
     process killed) and an ignored SIGTERM are left as they are. :func:`_interruption` gives
-    the exception of what was noted first."""
-    import signal
-    import threading
-
-    seen: list = []
-
-    def on_signal(signum, frame):
-        seen.append(signum)
-        if raise_:
-            raise _interruption(seen)
-
-    if threading.current_thread() is not threading.main_thread():
-        return seen, lambda: None
-    previous = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
-    noted = [sig for sig, handler in previous.items()
-             if handler is not signal.SIG_IGN
-             and (sig == signal.SIGINT or callable(handler))]
-    for sig in noted:
-        signal.signal(sig, on_signal)
-
-    def restore():
-        for sig in noted:
-            signal.signal(sig, previous[sig])
-
-    return seen, restore
+    the exception of what was noted first (:func:`~laminid_cli.errors.note_stop_signals`)."""
+    return note_stop_signals(take_all=False, raising=_interruption if raise_ else None)
 
 
 def _interruption(seen) -> KeyboardInterrupt:
