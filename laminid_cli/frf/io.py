@@ -722,6 +722,34 @@ def _csv_preamble(lines) -> int:
     return i - 1
 
 
+def csv_frequency_first(path, rows) -> bool:
+    """Whether the text lines ``rows`` of the CSV file ``path`` have the frequency in their
+    first column, as a CSV FRF file has: the first cell of the first line below any comments
+    and preamble (:func:`_csv_preamble`) a number (no header), or a name whose unit is a
+    frequency's ("X [Hz]", "f / kHz") or that names one ("f", "Frequency (kHz)", "omega");
+    False for no such line. For :func:`laminid_cli.resultfile.is_frf_text_file` (show and
+    report given FRFs)."""
+    from laminid_cli.frf.generic_h5 import _ANGULAR_NAME, _FREQ_NAME
+
+    lines = [(i + 1, ln) for i, ln in enumerate(rows)
+             if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines:
+        return False
+    first = lines[_csv_preamble(lines)][1]
+    sep = _csv_separator(first)
+    cell = (_split(first, sep) or [""])[0]
+    if _csv_number(cell, sep):
+        return True                         # no header: the frequency first
+    try:
+        if _csv_freq_factor(path, cell)[1]:
+            return True                     # its unit a frequency's: "X [Hz]", "f / kHz"
+    except LaminidError:
+        pass                                # "Time [s]"; "omega" (its name, below)
+    name = re.sub(r"[\[(].*", "", cell).strip()    # "f [Hz]", "Frequency (kHz)": f, Frequency
+    return bool(name and (_FREQ_NAME.fullmatch(name) or _ANGULAR_NAME.fullmatch(name)
+                          or name.lower().startswith(("freq", "f_hz", "omega"))))
+
+
 def read_frf_csv(path) -> FrfSet:
     """Read a CSV FRF file: ``freq, re_1, im_1, ...``, ``freq, H_1, H_2, ...`` of complex cells
     or magnitude and phase columns named in the header (see module docstring).
