@@ -1403,12 +1403,10 @@ def _reference_value(r: _Reader, y: _Y, kind: str) -> float | tuple[float, float
         value, half = _plus_minus(r, y, kind)
         if half < 0:
             raise r.error(y, f"'{y.value}': the half-width after ± must not be negative")
-        low, high = value - half, value + half
-        if kind == "modulus" and low <= 0:
-            raise r.error(y, f"'{y.value}' reaches down to {low / 1e9:.4g} GPa: a reference "
-                             "modulus must be positive")
-        return low if half == 0 else (low, high)
-    if isinstance(y.value, list):
+        low, high, one = value - half, value + half, half == 0
+        below = (f"'{y.value}' reaches down to {low / 1e9:.4g} GPa: a reference modulus must "
+                 "be positive")
+    elif isinstance(y.value, list):
         if len(y.value) != 2:
             raise r.error(y, "a range is written [low, high]")
         low, high = (r.quantity(item, kind) for item in y.value)
@@ -1416,13 +1414,15 @@ def _reference_value(r: _Reader, y: _Y, kind: str) -> float | tuple[float, float
         ends = [item.value for item in y.value]
         if low > high:
             raise r.error(y, f"range [{ends[0]}, {ends[1]}] has low > high: write [low, high]")
-        if kind == "modulus" and low <= 0:
-            raise r.error(y, f"a reference modulus must be positive, got {ends[0]!r}")
-        return low if low == high else (low, high)
-    value = r.quantity(y, kind)
-    if kind == "modulus" and value <= 0:
-        raise r.error(y, f"a reference modulus must be positive, got {y.value!r}")
-    return value
+        one = low == high
+        below = f"a reference modulus must be positive, got {ends[0]!r}"
+    else:
+        low = high = r.quantity(y, kind)
+        one = True
+        below = f"a reference modulus must be positive, got {y.value!r}"
+    if kind == "modulus" and low <= 0:
+        raise r.error(y, below)
+    return low if one else (low, high)
 
 
 def _read_reference(r: _Reader, y: _Y, materials: dict[str, Material]) -> dict:
