@@ -288,78 +288,15 @@ BATCH_TAKES = ("batch identifies specimen files (YAML text), named or found in f
                "(*.yaml, *.yml)")
 
 
-def hdf5_format(path, probe: bool = True) -> str:
-    """The root attribute ``format`` of the HDF5 file ``path`` ("laminid-result",
-    "laminid-frf", ...; "" when it has none). With ``probe`` the file is read in a child
-    process first (:func:`laminid_cli.frf.store.probe_hdf5_file`): one that would crash or
-    hang libhdf5 is an FrfError, as is one h5py cannot open."""
-    from laminid_cli.errors import FrfError
-    from laminid_cli.frf.store import H5_DAMAGE_ERRORS, probe_hdf5_file
-    from laminid_cli.h5open import file_format
-
-    if probe:
-        probe_hdf5_file(path, reader="hdf5_format", module="laminid_cli.batch")
-    try:
-        return file_format(path)
-    except H5_DAMAGE_ERRORS as exc:
-        raise FrfError(f"{path}: {exc}") from exc
-
-
-def is_batch_summary(head: bytes) -> bool:
-    """Whether ``head``, the first bytes of a file (a few hundred will do), are those of a
-    summary.json or summary.csv of laminid batch: the JSON's leading ``"format":
-    "laminid-batch-summary"``, the CSV's options title (:data:`CSV_OPTIONS_TITLE`) or, in one
-    written before it, its header ``name,specimen,``."""
-    text = head.lstrip().decode("utf-8", "replace")
-    if text.startswith("{"):
-        return bool(re.match(r'\{\s*"format"\s*:\s*"laminid-batch-summary"', text))
-    first = text.split("\n", 1)[0]
-    return ((first.startswith("# laminid ") and " batch summary; " in first)
-            or first.startswith("name,specimen,"))
-
-
-def non_specimen_text(path) -> str | None:
-    """What ``path`` is, in words with what takes it, when it can be no specimen file: by its
-    first bytes (:func:`laminid_cli.specimen.not_a_specimen`: PDF, ZIP, ...) and an HDF5 file
-    by its ``format`` (a laminid result, FRF or modes file, another tool's file). None for a
-    file that may be one: its faults are its own, reported when it runs."""
-    import shlex
-
-    from laminid_cli.h5open import laminid_kind
-    from laminid_cli.filekinds import HDF5_MAGIC
-    from laminid_cli.specimen import not_a_specimen
-
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(512)
-    except OSError:
-        return None
-    if is_batch_summary(head):
-        # a YAML reader took summary.json for a specimen ("unknown key 'format'") and
-        # summary.csv for one line of text, echoed whole in its message
-        return ("a laminid batch summary, not a specimen file (YAML text); "
-                f"'laminid report {shlex.quote(str(path))}' draws it")
-    if not head.startswith(HDF5_MAGIC):
-        return not_a_specimen(head)
-    try:
-        fmt = hdf5_format(path)
-    except LaminidError as exc:
-        reason = str(exc).removeprefix(f"{path}: ")
-        return f"a damaged HDF5 file ({reason}), not a specimen file (YAML text)"
-    kind = laminid_kind(fmt, path)
-    if kind is not None:
-        return f"{kind[0]}, not a specimen file (YAML text); {kind[1]}"
-    which = f"format {fmt!r}" if fmt else "not a laminid file"
-    return (f"an HDF5 file ({which}), not a specimen file (YAML text); FRFs of another tool go "
-            f"through 'laminid fit-frf {shlex.quote(str(path))} --into SPEC.yaml'")
-
-
 def sort_out_non_specimens(specimens, inputs) -> tuple[list, list, list]:
     """(specimens, named, found): the (path, name) of :func:`discover_specimens` that may be
-    specimen files, and those that can be none (:func:`non_specimen_text`) as (path, what):
-    ``named`` those the ``inputs`` name (the command refuses them: a result or FRF file among
-    the files given is a slip to be told before anything runs), ``found`` those found in an
-    input folder (a ``*.yaml`` that is none: skipped with a warning)."""
+    specimen files, and those that can be none
+    (:func:`~laminid_cli.specimen.non_specimen_text`) as (path, what): ``named`` those the
+    ``inputs`` name (the command refuses them: a result or FRF file among the files given is
+    a slip to be told before anything runs), ``found`` those found in an input folder (a
+    ``*.yaml`` that is none: skipped with a warning)."""
+    from laminid_cli.specimen import non_specimen_text
+
     named_inputs = {Path(i).resolve() for i in inputs if Path(i).is_file()}
     kept, named, found = [], [], []
     for path, name in specimens:

@@ -72,8 +72,9 @@ LAMINID_KINDS = {
 
 def laminid_kind(fmt: str, path) -> tuple[str, str] | None:
     """(what the file ``path`` of ``format`` ``fmt`` is, what takes it) in words, for a file
-    given to the wrong command (batch, identify or modes as a specimen: batch.non_specimen_text;
-    fit-frf as FRFs: frf.generic_h5); None for a format laminid does not write."""
+    given to the wrong command (batch, identify or modes as a specimen:
+    specimen.non_specimen_text; fit-frf as FRFs: frf.generic_h5); None for a format laminid
+    does not write."""
     import shlex
 
     kind = LAMINID_KINDS.get(fmt)

@@ -627,7 +627,7 @@ def test_a_batch_summary_named_as_an_input_is_refused_before_anything_runs(tmp_p
     'format'"; the CSV's whole text echoed as one YAML line), exit 1. Now refused with the
     results (exit 2), naming each as a batch summary and what draws it; --wide and a CSV
     written before the options block (its header first) too."""
-    from laminid_cli.batch import is_batch_summary
+    from laminid_cli.specimen import is_batch_summary
 
     specs = make_tree(tmp_path / "plates", {"S2.1.yaml": SPECS["example2/S2.1.yaml"]})
     r = run("batch", specs, "--mesh", MESH, "--out", specs)
