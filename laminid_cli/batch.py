@@ -62,7 +62,7 @@ from laminid_cli.atomic import (remove_stale_temporaries, stop_with_parent, temp
                                 write_bytes_atomic)
 # sigterm_stops_the_batch: SIGTERM stops the batch as Ctrl-C does (the command's block;
 # _note_sigint notes it)
-from laminid_cli.errors import LaminidError, Terminated
+from laminid_cli.errors import LaminidError, Terminated, note_stop_signals
 from laminid_cli.errors import sigterm_raises_terminated as sigterm_stops_the_batch  # noqa: F401
 from laminid_cli.intervals import HELD_BY_PRIOR, VERDICT_AT_BOUND, VERDICT_FIXED
 from laminid_cli.pipeline import RunOptions
@@ -169,13 +169,16 @@ class Job:
 @dataclass
 class Outcome:
     """What a worker returns: status ("ok" | "check" | "error"), the reason of a failure or
-    the reason codes of a check, the result file's bytes (None on error) and the wall time."""
+    the reason codes of a check, the result file's bytes (None on error) and the wall time.
+    ``n_logged``: how many of the result's first warnings (the specimen reader's) the worker
+    logged as it read the file (0 where its log level hides warnings: -q)."""
 
     name: str
     status: str
     reason: str = ""
     data: bytes | None = field(default=None, repr=False)
     time_s: float = 0.0
+    n_logged: int = 0
 
 
 # ----------------------------------------------------------------------------------------------
@@ -285,78 +288,15 @@ BATCH_TAKES = ("batch identifies specimen files (YAML text), named or found in f
                "(*.yaml, *.yml)")
 
 
-def hdf5_format(path, probe: bool = True) -> str:
-    """The root attribute ``format`` of the HDF5 file ``path`` ("laminid-result",
-    "laminid-frf", ...; "" when it has none). With ``probe`` the file is read in a child
-    process first (:func:`laminid_cli.frf.store.probe_hdf5_file`): one that would crash or
-    hang libhdf5 is an FrfError, as is one h5py cannot open."""
-    from laminid_cli.errors import FrfError
-    from laminid_cli.frf.store import H5_DAMAGE_ERRORS, probe_hdf5_file
-    from laminid_cli.h5open import file_format
-
-    if probe:
-        probe_hdf5_file(path, reader="hdf5_format", module="laminid_cli.batch")
-    try:
-        return file_format(path)
-    except H5_DAMAGE_ERRORS as exc:
-        raise FrfError(f"{path}: {exc}") from exc
-
-
-def is_batch_summary(head: bytes) -> bool:
-    """Whether ``head``, the first bytes of a file (a few hundred will do), are those of a
-    summary.json or summary.csv of laminid batch: the JSON's leading ``"format":
-    "laminid-batch-summary"``, the CSV's options title (:data:`CSV_OPTIONS_TITLE`) or, in one
-    written before it, its header ``name,specimen,``."""
-    text = head.lstrip().decode("utf-8", "replace")
-    if text.startswith("{"):
-        return bool(re.match(r'\{\s*"format"\s*:\s*"laminid-batch-summary"', text))
-    first = text.split("\n", 1)[0]
-    return ((first.startswith("# laminid ") and " batch summary; " in first)
-            or first.startswith("name,specimen,"))
-
-
-def non_specimen_text(path) -> str | None:
-    """What ``path`` is, in words with what takes it, when it can be no specimen file: by its
-    first bytes (:func:`laminid_cli.specimen.not_a_specimen`: PDF, ZIP, ...) and an HDF5 file
-    by its ``format`` (a laminid result, FRF or modes file, another tool's file). None for a
-    file that may be one: its faults are its own, reported when it runs."""
-    import shlex
-
-    from laminid_cli.h5open import laminid_kind
-    from laminid_cli.filekinds import HDF5_MAGIC
-    from laminid_cli.specimen import not_a_specimen
-
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(512)
-    except OSError:
-        return None
-    if is_batch_summary(head):
-        # a YAML reader took summary.json for a specimen ("unknown key 'format'") and
-        # summary.csv for one line of text, echoed whole in its message
-        return ("a laminid batch summary, not a specimen file (YAML text); "
-                f"'laminid report {shlex.quote(str(path))}' draws it")
-    if not head.startswith(HDF5_MAGIC):
-        return not_a_specimen(head)
-    try:
-        fmt = hdf5_format(path)
-    except LaminidError as exc:
-        reason = str(exc).removeprefix(f"{path}: ")
-        return f"a damaged HDF5 file ({reason}), not a specimen file (YAML text)"
-    kind = laminid_kind(fmt, path)
-    if kind is not None:
-        return f"{kind[0]}, not a specimen file (YAML text); {kind[1]}"
-    which = f"format {fmt!r}" if fmt else "not a laminid file"
-    return (f"an HDF5 file ({which}), not a specimen file (YAML text); FRFs of another tool go "
-            f"through 'laminid fit-frf {shlex.quote(str(path))} --into SPEC.yaml'")
-
-
 def sort_out_non_specimens(specimens, inputs) -> tuple[list, list, list]:
     """(specimens, named, found): the (path, name) of :func:`discover_specimens` that may be
-    specimen files, and those that can be none (:func:`non_specimen_text`) as (path, what):
-    ``named`` those the ``inputs`` name (the command refuses them: a result or FRF file among
-    the files given is a slip to be told before anything runs), ``found`` those found in an
-    input folder (a ``*.yaml`` that is none: skipped with a warning)."""
+    specimen files, and those that can be none
+    (:func:`~laminid_cli.specimen.non_specimen_text`) as (path, what): ``named`` those the
+    ``inputs`` name (the command refuses them: a result or FRF file among the files given is
+    a slip to be told before anything runs), ``found`` those found in an input folder (a
+    ``*.yaml`` that is none: skipped with a warning)."""
+    from laminid_cli.specimen import non_specimen_text
+
     named_inputs = {Path(i).resolve() for i in inputs if Path(i).is_file()}
     kept, named, found = [], [], []
     for path, name in specimens:
@@ -721,8 +661,12 @@ def run_job(job: Job, options: BatchOptions, write: bool = False) -> Outcome:
                     data = path.read_bytes()
                 finally:
                     _current_tmp.remove(Path(tmp))
+        # the specimen reader logged its warnings as it read the file (through the worker's
+        # log set-up, at the batch's level); the result's warnings begin with them
+        logged = logging.getLogger("laminid_cli.specimen").isEnabledFor(logging.WARNING)
         return Outcome(job.name, run.status.status, ", ".join(run.status.codes), data,
-                       time.perf_counter() - t0)
+                       time.perf_counter() - t0,
+                       len(run.forward_models[0].specimen.warnings) if logged else 0)
     except LaminidError as exc:
         return failure(str(exc))
     except Exception as exc:  # noqa: BLE001 - one specimen's crash must not stop the batch
@@ -923,31 +867,8 @@ def _note_sigint(raise_: bool = True):
     SIGTERM likewise (its :class:`~laminid_cli.errors.Terminated`) where the handler in place
     is a Python one (the batch command's, :func:`~laminid_cli.errors.sigterm_raises_terminated`); its default (the
     process killed) and an ignored SIGTERM are left as they are. :func:`_interruption` gives
-    the exception of what was noted first."""
-    import signal
-    import threading
-
-    seen: list = []
-
-    def on_signal(signum, frame):
-        seen.append(signum)
-        if raise_:
-            raise _interruption(seen)
-
-    if threading.current_thread() is not threading.main_thread():
-        return seen, lambda: None
-    previous = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
-    noted = [sig for sig, handler in previous.items()
-             if handler is not signal.SIG_IGN
-             and (sig == signal.SIGINT or callable(handler))]
-    for sig in noted:
-        signal.signal(sig, on_signal)
-
-    def restore():
-        for sig in noted:
-            signal.signal(sig, previous[sig])
-
-    return seen, restore
+    the exception of what was noted first (:func:`~laminid_cli.errors.note_stop_signals`)."""
+    return note_stop_signals(take_all=False, raising=_interruption if raise_ else None)
 
 
 def _interruption(seen) -> KeyboardInterrupt:
@@ -2002,13 +1923,14 @@ def _mark(row: dict, material: str, constant: str) -> str:
     return next((mark for mark, w in FLAG_WORDS.items() if w == word), " ")
 
 
-def format_table(rows) -> str:
+def format_table(rows, on_stderr=None) -> str:
     """The constants across specimens as text, shaped like the paper's Table 2: one block per
     set of materials, specimens as columns, constants as rows (GPa; a value at its bound
     marked "!", one not determined by the modes "?", a fixed one "=", one assumed by
     --fix-undetermined "#", one held by its prior "~"), a status row; then the
     reasons of every "check", the warnings of each result and the specimens without a
-    result."""
+    result. ``on_stderr``: {row name: n}, a result's first n warnings (its specimen reader's)
+    are on stderr already, logged as this run read the file: not listed again."""
     lines = []
     groups: dict[tuple, list] = {}
     for r in rows:
@@ -2081,12 +2003,16 @@ def format_table(rows) -> str:
             lines += [f"    {x['code']}: {x['text']}" for x in r.get("reasons", [])]
     # each result's warnings (the specimen reader's: a mass that density x volume contradicts,
     # ply angles that look like radians; the run's: a coarse mesh...), as summary.json has them
-    warned = [r for r in rows if r.get("warnings")]
+    # (those the specimen reader logged on stderr as this run read the file, not again: a
+    # terminal showed each of them twice)
+    on_stderr = on_stderr or {}
+    warned = [(r, left) for r in rows
+              if (left := (r.get("warnings") or [])[on_stderr.get(r["name"], 0):])]
     if warned:
         lines.append("warnings:")
-        for r in warned:
+        for r, left in warned:
             lines.append(f"  {_who(r)}:")
-            lines += [f"    {w}" for w in r["warnings"]]
+            lines += [f"    {w}" for w in left]
     failed_rows = [r for r in rows if r["status"] in ("error", "not run")]
     if failed_rows:
         lines.append("not identified:")

@@ -50,6 +50,56 @@ def sigterm_raises_terminated():
         signal.signal(signal.SIGTERM, previous)
 
 
+def note_stop_signals(*, take_all: bool = True, raising=None):
+    """(seen, restore): in the main thread (where Python runs signal handlers) SIGINT and
+    SIGTERM are noted in the list ``seen`` (their numbers, as they come) until ``restore()``
+    gives each the handler it had; the handler raises ``raising(seen)`` too where given (None:
+    noted only). ``take_all`` False leaves an ignored signal as it is, and SIGTERM where its
+    handler is no Python one (its default: the process killed). Elsewhere a no-op (``seen``
+    stays empty). For :func:`stop_signals_held` and a batch's run (batch._note_sigint)."""
+    import signal
+    import threading
+
+    seen: list = []
+
+    def on_signal(signum, frame):
+        seen.append(signum)
+        if raising is not None:
+            raise raising(seen)
+
+    if threading.current_thread() is not threading.main_thread():
+        return seen, lambda: None
+    previous = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    taken = [sig for sig, handler in previous.items()
+             if take_all or (handler is not signal.SIG_IGN
+                             and (sig == signal.SIGINT or callable(handler)))]
+    for sig in taken:
+        signal.signal(sig, on_signal)
+
+    def restore():
+        for sig in taken:
+            signal.signal(sig, previous[sig])
+
+    return seen, restore
+
+
+@contextlib.contextmanager
+def stop_signals_held():
+    """Ctrl-C (SIGINT) and SIGTERM wait until the block ends, then take effect as they would
+    have (the handler in place before: KeyboardInterrupt, :class:`Terminated`, ignored, the
+    process killed): each signal noted (:func:`note_stop_signals`) is sent again, once, to the
+    handler restored. Only in the main thread, where Python runs signal handlers."""
+    import os
+
+    seen, restore = note_stop_signals()
+    try:
+        yield
+    finally:
+        restore()
+        for sig in dict.fromkeys(seen):      # delivered again, to the handler restored
+            os.kill(os.getpid(), sig)
+
+
 class LaminidError(Exception):
     """Base class of all errors laminid reports to a user.
 

@@ -33,10 +33,14 @@ def format_of(f) -> str:
     """The root attribute ``format`` of the open HDF5 file ``f`` ("laminid-result", ...) as
     text: "" when it has none, bytes decoded as UTF-8 (an undecodable byte replaced), any other
     value (a number, an array) as ``str``, so that the callers' ``fmt in FORMATS`` is a plain
-    comparison whatever another tool wrote there."""
+    comparison whatever another tool wrote there; opaque data (HDF5's H5T_OPAQUE, numpy's
+    void) as "<opaque data, N bytes>", where ``str`` gave its bytes in hex escapes."""
     fmt = f.attrs.get("format", "")
     if getattr(fmt, "shape", None) == () and not isinstance(fmt, (str, bytes)):
         fmt = fmt[()]                 # a 0-d array (of bytes or text): its one element
+    dtype = getattr(fmt, "dtype", None)
+    if dtype is not None and dtype.kind == "V" and dtype.names is None:
+        return f"<opaque data, {fmt.nbytes} bytes>"
     return fmt.decode("utf-8", "replace") if isinstance(fmt, bytes) else str(fmt)
 
 
@@ -68,8 +72,9 @@ LAMINID_KINDS = {
 
 def laminid_kind(fmt: str, path) -> tuple[str, str] | None:
     """(what the file ``path`` of ``format`` ``fmt`` is, what takes it) in words, for a file
-    given to the wrong command (batch, identify or modes as a specimen: batch.non_specimen_text;
-    fit-frf as FRFs: frf.generic_h5); None for a format laminid does not write."""
+    given to the wrong command (batch, identify or modes as a specimen:
+    specimen.non_specimen_text; fit-frf as FRFs: frf.generic_h5); None for a format laminid
+    does not write."""
     import shlex
 
     kind = LAMINID_KINDS.get(fmt)

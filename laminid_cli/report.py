@@ -1393,6 +1393,22 @@ def panel_scales(r: ResultFile) -> dict[tuple[str, str], bool]:
     return log
 
 
+def _log_panel_limits(r: ResultFile, m: str, k: str, marks, ends) -> tuple[float, float]:
+    """(ymin, ymax) of the panel of constant ``k`` of material ``m`` on a log scale, from its
+    :func:`_panel_marks` (``marks``, ``ends``), before the decades its page may ask for: the
+    value and the reference in view, the ends within :data:`LOG_PANEL_REACH` of the value,
+    and the weak band; at a bound, room on the side the fit pushes it (the dashed arrow's).
+    The panel's own, and the page's measure of the decades each such panel needs."""
+    iv = r.uncertainty.get(m, k) if r.uncertainty is not None else None
+    v = marks[0]
+    reach = [e for e in ends if v / LOG_PANEL_REACH <= e <= v * LOG_PANEL_REACH]
+    if iv is not None and iv.at_bound:
+        down = (iv.bound_side or bound_statement(iv.bound_text)[0]) != "upper"
+        return _log_limits(marks, reach, pad=(0.15, 0.06) if down else (0.06, 0.15))
+    weak = r.uncertainty.weak
+    return _log_limits((*marks, v * (1 - 1.2 * weak), v * (1 + 1.35 * weak)), reach)
+
+
 def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0,
                    log: bool | None = None, decades: float | None = None):
     """Value, interval, verdict bands and reference of constant ``k`` of material ``m``;
@@ -1419,15 +1435,7 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0,
     if log:
         # a decade and more: on a linear axis the value sat on 0 under the others
         ax.set_yscale("log")
-        reach = [e for e in ends if g(v) / LOG_PANEL_REACH <= e <= g(v) * LOG_PANEL_REACH]
-        if at_bound:
-            # room on the side the fit pushes it (the dashed arrow's)
-            down = (iv.bound_side or bound_statement(iv.bound_text)[0]) != "upper"
-            ymin, ymax = _log_limits((g(v), *gref), reach,
-                                     pad=(0.15, 0.06) if down else (0.06, 0.15))
-        else:
-            band = (g(v) * (1 - 1.2 * u.weak), g(v) * (1 + 1.35 * u.weak))
-            ymin, ymax = _log_limits((g(v), *band, *gref), reach)
+        ymin, ymax = _log_panel_limits(r, m, k, marks, ends)
         d = np.log10(ymax / ymin)
         if decades is not None and d < decades:
             # as many decades as the panels it is compared with, about its own middle: a
@@ -1577,15 +1585,6 @@ def panel_words(r: ResultFile, m: str, k: str, iv) -> str:
     return text + "\n" + "\n".join(textwrap.wrap(verdict, 24))
 
 
-def _alone(r: ResultFile, m: str, k: str) -> tuple[float, float]:
-    """(ymin, ymax) of the log panel of constant ``k`` of material ``m`` drawn alone."""
-    from matplotlib.figure import Figure
-
-    a = Figure().add_subplot()
-    interval_panel(a, r, m, k, log=True)
-    return a.get_ylim()
-
-
 def interval_page(r: ResultFile):
     """One panel per constant (rows: materials), each in its unit and on its own scale."""
     u = r.uncertainty
@@ -1598,9 +1597,9 @@ def interval_page(r: ResultFile):
     axes = np.array([[fig.add_subplot(gs[i, j]) for j in range(6)] for i in range(len(mats))])
     log_of = panel_scales(r)
     # the SAME_SCALE panels on log scales span as many decades each, the most any of them
-    # needs (measured on panels drawn for it alone): S1.1 (8x8) drew G13 [1.17, 10.4] GPa over
+    # needs (each panel's own log limits): S1.1 (8x8) drew G13 [1.17, 10.4] GPa over
     # 1.1 decades beside G23 [0.199, 5.96] over 1.6, two bars of one length for 8.9x and 30x
-    spans = [np.log10(abs(np.divide(*_alone(r, m, k)[::-1])))
+    spans = [np.log10(abs(np.divide(*_log_panel_limits(r, m, k, *_panel_marks(r, m, k))[::-1])))
              for m in mats for k in SAME_SCALE if log_of[m, k]]
     decades = max(spans) if spans else None
     for i, m in enumerate(mats):

@@ -49,11 +49,7 @@ def is_frf_text_file(path) -> bool:
     named so, "f [Hz]", "Frequency (kHz)", "omega [rad/s]", or a number; or a '# laminid FRF'
     comment), given to ``report`` or ``show`` instead of a result or summary. Another tool's
     CSV whose frequency was named "f [Hz]" was "not a laminid batch summary"."""
-    import re
-
-    from laminid_cli.frf.generic_h5 import _ANGULAR_NAME, _FREQ_NAME
-    from laminid_cli.frf.io import (_csv_freq_factor, _csv_number, _csv_preamble,
-                                    _csv_separator, _split, decode_head)
+    from laminid_cli.frf.io import csv_frequency_first, decode_head
 
     p = Path(path)
     suffix = p.suffix.lower()
@@ -72,23 +68,7 @@ def is_frf_text_file(path) -> bool:
     rows = text.splitlines()[:-1] if len(raw) == 65536 else text.splitlines()
     if any(ln.lstrip().startswith("# laminid FRF") for ln in rows[:5]):
         return True
-    lines = [(i + 1, ln) for i, ln in enumerate(rows)
-             if ln.strip() and not ln.lstrip().startswith("#")]
-    if not lines:
-        return False
-    first = lines[_csv_preamble(lines)][1]
-    sep = _csv_separator(first)
-    cell = (_split(first, sep) or [""])[0]
-    if _csv_number(cell, sep):
-        return True                         # no header: the frequency first
-    try:
-        if _csv_freq_factor(p, cell)[1]:
-            return True                     # its unit a frequency's: "X [Hz]", "f / kHz"
-    except LaminidError:
-        pass                                # "Time [s]"; "omega" (its name, below)
-    name = re.sub(r"[\[(].*", "", cell).strip()    # "f [Hz]", "Frequency (kHz)": f, Frequency
-    return bool(name and (_FREQ_NAME.fullmatch(name) or _ANGULAR_NAME.fullmatch(name)
-                          or name.lower().startswith(("freq", "f_hz", "omega"))))
+    return csv_frequency_first(p, rows)
 
 
 def _plain_frf_file(f, path) -> bool:

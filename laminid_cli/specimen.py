@@ -55,7 +55,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from laminid_cli.errors import SpecimenError
+from laminid_cli.errors import LaminidError, SpecimenError
 from laminid_cli.filekinds import binary_kind
 from laminid_cli.material import CONSTANT_NAMES, ElasticConstants, infeasibility_reasons
 from laminid_cli.units import Where, normalize_text, parse_fraction, parse_quantity
@@ -1403,12 +1403,10 @@ def _reference_value(r: _Reader, y: _Y, kind: str) -> float | tuple[float, float
         value, half = _plus_minus(r, y, kind)
         if half < 0:
             raise r.error(y, f"'{y.value}': the half-width after ± must not be negative")
-        low, high = value - half, value + half
-        if kind == "modulus" and low <= 0:
-            raise r.error(y, f"'{y.value}' reaches down to {low / 1e9:.4g} GPa: a reference "
-                             "modulus must be positive")
-        return low if half == 0 else (low, high)
-    if isinstance(y.value, list):
+        low, high, one = value - half, value + half, half == 0
+        below = (f"'{y.value}' reaches down to {low / 1e9:.4g} GPa: a reference modulus must "
+                 "be positive")
+    elif isinstance(y.value, list):
         if len(y.value) != 2:
             raise r.error(y, "a range is written [low, high]")
         low, high = (r.quantity(item, kind) for item in y.value)
@@ -1416,13 +1414,15 @@ def _reference_value(r: _Reader, y: _Y, kind: str) -> float | tuple[float, float
         ends = [item.value for item in y.value]
         if low > high:
             raise r.error(y, f"range [{ends[0]}, {ends[1]}] has low > high: write [low, high]")
-        if kind == "modulus" and low <= 0:
-            raise r.error(y, f"a reference modulus must be positive, got {ends[0]!r}")
-        return low if low == high else (low, high)
-    value = r.quantity(y, kind)
-    if kind == "modulus" and value <= 0:
-        raise r.error(y, f"a reference modulus must be positive, got {y.value!r}")
-    return value
+        one = low == high
+        below = f"a reference modulus must be positive, got {ends[0]!r}"
+    else:
+        low = high = r.quantity(y, kind)
+        one = True
+        below = f"a reference modulus must be positive, got {y.value!r}"
+    if kind == "modulus" and low <= 0:
+        raise r.error(y, below)
+    return low if one else (low, high)
 
 
 def _read_reference(r: _Reader, y: _Y, materials: dict[str, Material]) -> dict:
@@ -1688,6 +1688,72 @@ def not_a_specimen(head: bytes) -> str | None:
     return f"{kind[1]}{aside}, not a specimen file (YAML text){then}"
 
 
+def hdf5_format(path, probe: bool = True) -> str:
+    """The root attribute ``format`` of the HDF5 file ``path`` ("laminid-result",
+    "laminid-frf", ...; "" when it has none). With ``probe`` the file is read in a child
+    process first (:func:`laminid_cli.frf.store.probe_hdf5_file`): one that would crash or
+    hang libhdf5 is an FrfError, as is one h5py cannot open."""
+    from laminid_cli.errors import FrfError
+    from laminid_cli.frf.store import H5_DAMAGE_ERRORS, probe_hdf5_file
+    from laminid_cli.h5open import file_format
+
+    if probe:
+        probe_hdf5_file(path, reader="hdf5_format", module="laminid_cli.specimen")
+    try:
+        return file_format(path)
+    except H5_DAMAGE_ERRORS as exc:
+        raise FrfError(f"{path}: {exc}") from exc
+
+
+def is_batch_summary(head: bytes) -> bool:
+    """Whether ``head``, the first bytes of a file (a few hundred will do), are those of a
+    summary.json or summary.csv of laminid batch: the JSON's leading ``"format":
+    "laminid-batch-summary"``, the CSV's options title
+    (:data:`laminid_cli.batch.CSV_OPTIONS_TITLE`) or, in one written before it, its header
+    ``name,specimen,``."""
+    text = head.lstrip().decode("utf-8", "replace")
+    if text.startswith("{"):
+        return bool(re.match(r'\{\s*"format"\s*:\s*"laminid-batch-summary"', text))
+    first = text.split("\n", 1)[0]
+    return ((first.startswith("# laminid ") and " batch summary; " in first)
+            or first.startswith("name,specimen,"))
+
+
+def non_specimen_text(path) -> str | None:
+    """What ``path`` is, in words with what takes it, when it can be no specimen file: by its
+    first bytes (:func:`not_a_specimen`: PDF, ZIP, ...) and an HDF5 file
+    by its ``format`` (a laminid result, FRF or modes file, another tool's file). None for a
+    file that may be one: its faults are its own, reported when it runs."""
+    import shlex
+
+    from laminid_cli.filekinds import HDF5_MAGIC
+    from laminid_cli.h5open import laminid_kind
+
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(512)
+    except OSError:
+        return None
+    if is_batch_summary(head):
+        # a YAML reader took summary.json for a specimen ("unknown key 'format'") and
+        # summary.csv for one line of text, echoed whole in its message
+        return ("a laminid batch summary, not a specimen file (YAML text); "
+                f"'laminid report {shlex.quote(str(path))}' draws it")
+    if not head.startswith(HDF5_MAGIC):
+        return not_a_specimen(head)
+    try:
+        fmt = hdf5_format(path)
+    except LaminidError as exc:
+        reason = str(exc).removeprefix(f"{path}: ")
+        return f"a damaged HDF5 file ({reason}), not a specimen file (YAML text)"
+    kind = laminid_kind(fmt, path)
+    if kind is not None:
+        return f"{kind[0]}, not a specimen file (YAML text); {kind[1]}"
+    which = f"format {fmt!r}" if fmt else "not a laminid file"
+    return (f"an HDF5 file ({which}), not a specimen file (YAML text); FRFs of another tool go "
+            f"through 'laminid fit-frf {shlex.quote(str(path))} --into SPEC.yaml'")
+
+
 def read_specimen(path, *, log_warnings: bool = True) -> Specimen:
     """Read a specimen YAML file (UTF-8) and validate it; see :func:`load_specimen_text`
     (``log_warnings`` too)."""
@@ -1700,8 +1766,6 @@ def read_specimen(path, *, log_warnings: bool = True) -> Specimen:
             what = not_a_specimen(head)
             if what is not None or head.lstrip().startswith((b"{", b"# laminid ",
                                                               b"name,specimen,")):
-                from laminid_cli.batch import is_batch_summary, non_specimen_text
-
                 if what is not None or is_batch_summary(head):
                     # a laminid file named by its format, with what reads it (a result: show,
                     # report; an FRF file: fit-frf; a batch summary: report), as batch names

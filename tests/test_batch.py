@@ -627,7 +627,7 @@ def test_a_batch_summary_named_as_an_input_is_refused_before_anything_runs(tmp_p
     'format'"; the CSV's whole text echoed as one YAML line), exit 1. Now refused with the
     results (exit 2), naming each as a batch summary and what draws it; --wide and a CSV
     written before the options block (its header first) too."""
-    from laminid_cli.batch import is_batch_summary
+    from laminid_cli.specimen import is_batch_summary
 
     specs = make_tree(tmp_path / "plates", {"S2.1.yaml": SPECS["example2/S2.1.yaml"]})
     r = run("batch", specs, "--mesh", MESH, "--out", specs)
@@ -2165,9 +2165,12 @@ def test_the_table_lists_each_results_warnings_below_it():
         "    a coarse mesh"]
 
 
-def test_batch_text_output_names_a_specimens_warning(tmp_path):
-    """End to end: the warning of a specimen whose ply angles look like radians, in the list
-    below the table (summary.json had it, the terminal did not)."""
+def test_batch_text_output_names_a_specimens_warning_once(tmp_path):
+    """End to end, in a process of its own (the terminal's two streams): the warning of a
+    specimen whose ply angles look like radians is said once. The reader logs it on stderr as
+    it reads the file; the list below the table repeated it (twice on the terminal), and now
+    keeps only what stderr did not say: the warnings of a result up to date (not read this
+    run), and all of them under -q (nothing on stderr)."""
     import re
 
     text = Path("specimens/example2/S2.1.yaml").read_text()
@@ -2177,9 +2180,26 @@ def test_batch_text_output_names_a_specimens_warning(tmp_path):
     spec = tmp_path / "rad.yaml"
     spec.write_text(text)
     line = next(i for i, ln in enumerate(text.splitlines(), 1) if ln.startswith("layup:"))
-    r = run("batch", spec, "--out", tmp_path / "out", "--mesh", "8x8")
-    assert r.exit_code == 0, r.output
-    below = r.stdout.split("\nwarnings:\n", 1)[1].splitlines()
-    assert below[:2] == ["  S2.1 (rad):",
-                         f"    {spec}:{line}, field 'layup': the ply angles 1.5 look like radians; "
-                         "laminid reads ply angles in degrees (write 85.94)"]
+    warning = (f"{spec}:{line}, field 'layup': the ply angles 1.5 look like radians; laminid "
+               "reads ply angles in degrees (write 85.94)")
+    root = Path(__file__).resolve().parents[1]
+
+    def batch(*args):
+        p = subprocess.run([sys.executable, "-m", "laminid_cli", *args, "batch", str(spec),
+                            "--out", str(tmp_path / "out"), "--mesh", "8x8"],
+                           capture_output=True, text=True, cwd=root, timeout=120)
+        assert p.returncode == 0, p.stderr
+        return p
+
+    p = batch()
+    assert p.stderr.count(warning) == 1 and f"warning: {warning}\n" in p.stderr
+    assert warning not in p.stdout           # the run's own warnings are still listed there
+    for p in (batch(), batch("-q")):        # up to date: not read, so not on stderr
+        assert warning not in p.stderr
+        below = p.stdout.split("\nwarnings:\n", 1)[1].splitlines()
+        assert below[:2] == ["  S2.1 (rad):", f"    {warning}"]
+    (tmp_path / "out" / "rad.result.h5").unlink()
+    p = batch("-q")                         # -q: read again, nothing on stderr, all below
+    assert p.stderr == ""
+    below = p.stdout.split("\nwarnings:\n", 1)[1].splitlines()
+    assert below[:2] == ["  S2.1 (rad):", f"    {warning}"]

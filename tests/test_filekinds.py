@@ -10,6 +10,10 @@ from laminid_cli.specimen import not_a_specimen
 
 NOT_A_SPECIMEN = ", not a specimen file (YAML text)"
 
+#: what to do with a workbook (a ZIP archive) given as FRFs
+SAVE_AS_CSV = ("; a spreadsheet is read once its sheet is saved as CSV (File > Save As > CSV), "
+               "the frequency in the first column")
+
 #: first bytes, then the specimen reader's and the FRF reader's words (as each said before)
 KINDS = [
     (b"\x89HDF\r\n\x1a\n\x00", "an HDF5 file (an FRF or result file?)" + NOT_A_SPECIMEN +
@@ -19,7 +23,7 @@ KINDS = [
     (b"%PDF-1.7\n", "a PDF document" + NOT_A_SPECIMEN, ("a PDF document", None)),
     (b"PK\x03\x04\x14", "a ZIP archive (an Excel or Word file?)" + NOT_A_SPECIMEN +
      "; write the specimen as YAML text (specimens/README.md)",
-     ("a ZIP archive (an Excel or Word file?)", None)),
+     ("a ZIP archive (an Excel or Word file?)" + SAVE_AS_CSV, None)),
     (b"\x89PNG\r\n\x1a\n", "a PNG image" + NOT_A_SPECIMEN, ("a PNG image", None)),
     (b"\x1f\x8b\x08", "a gzip archive" + NOT_A_SPECIMEN + "; unpack it first",
      ("a gzip archive", None)),
@@ -47,3 +51,19 @@ def test_a_signature_added_to_the_table_is_known_to_both_readers(tmp_path, monke
     (tmp_path / "a.out").write_bytes(b"\x7fELF\x02\x01")
     assert not_a_specimen(b"\x7fELF\x02\x01") == "a program (ELF)" + NOT_A_SPECIMEN
     assert describe_content(tmp_path / "a.out") == ("a program (ELF)", None)
+
+
+@pytest.mark.parametrize("name", ["plate.csv", "plate.txt"])
+def test_a_workbook_cut_to_its_signature_is_named_as_one(tmp_path, name):
+    # 4 bytes 'PK\x03\x04' (an .xlsx cut short) are valid UTF-8: read as a CSV header without
+    # data ("header but no data lines"); now a ZIP archive, and what to do with a workbook
+    from laminid_cli.errors import FrfError
+    from laminid_cli.frf.io import decode_text, read_frf
+
+    path = tmp_path / name
+    path.write_bytes(b"PK\x03\x04")
+    assert decode_text(b"PK\x03\x04") == (None, None)
+    with pytest.raises(FrfError) as err:
+        read_frf(path)
+    assert str(err.value) == (f"{path}: not a text (CSV) file; it looks like a ZIP archive (an "
+                              "Excel or Word file?)" + SAVE_AS_CSV)

@@ -11,9 +11,10 @@ from click.testing import CliRunner
 from laminid_cli.cli import cli
 from laminid_cli.h5open import file_format, format_of
 
-#: format attributes another tool may write, and how format_of gives them
+#: format attributes another tool may write, and how format_of gives them (opaque data, HDF5's
+#: H5T_OPAQUE, was its bytes in hex escapes: "b'\\x01\\x02\\x6C...'")
 ODD_FORMATS = [(np.bytes_(b"\xff\xfe"), "\ufffd\ufffd"), (np.array([1, 2, 3]), "[1 2 3]"),
-               (7, "7")]
+               (7, "7"), (np.void(b"\x01\x02laminid"), "<opaque data, 9 bytes>")]
 
 
 def run(*args):

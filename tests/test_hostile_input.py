@@ -1239,6 +1239,9 @@ def test_a_negative_modulus_is_said_in_gpa(tmp_path):
     ("E1: 170 GPa", "E1: [-1 GPa, 150 GPa]",
      "field 'reference.materials.IM7/977-2.E1': a reference modulus must be positive, "
      "got '-1 GPa'"),
+    ("E1: 170 GPa", "E1: -170 GPa",
+     "field 'reference.materials.IM7/977-2.E1': a reference modulus must be positive, "
+     "got '-170 GPa'"),
     ("E1: 170 GPa", "E1: 170 ± -1 GPa",
      "field 'reference.materials.IM7/977-2.E1': '170 ± -1 GPa': the half-width after ± must "
      "not be negative"),
@@ -1248,7 +1251,8 @@ def test_a_negative_modulus_is_said_in_gpa(tmp_path):
     ("E1: 170 GPa", "E1: ± 1 GPa",
      "field 'reference.materials.IM7/977-2.E1': '± 1 GPa': write a value and its half-width "
      "as '170 ± 1 GPa' (or [low, high])"),
-], ids=["modulus", "nu12", "negative end", "negative half-width", "below zero", "no value"])
+], ids=["modulus", "nu12", "negative end", "negative value", "negative half-width",
+        "below zero", "no value"])
 def test_a_reference_range_written_wrongly_is_quoted_as_written(tmp_path, old, new, said):
     """A reference range high end first was refused as "range [1.7e+11, 1.5e+11] has low >
     high" (Pa, whatever the file wrote), and a negative end as "got -1e+09 Pa"."""

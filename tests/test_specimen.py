@@ -1127,7 +1127,7 @@ def test_a_file_that_is_not_text_is_named_for_what_it_is(tmp_path, head, what):
 
 def test_a_laminid_file_given_as_a_specimen_is_named_with_what_reads_it(tmp_path):
     """identify or modes given a laminid result, FRF or modes file, or a batch summary, name
-    it by its format with the command that reads it, as batch does (batch.non_specimen_text):
+    it by its format with the command that reads it, as batch does (specimen.non_specimen_text):
     a result was "an HDF5 file (an FRF or result file?)", a summary.json "unknown key
     'format'" (a YAML reader took its JSON for a specimen)."""
     import h5py

@@ -154,6 +154,24 @@ def test_fit_frf_into_gives_the_specimens_warnings_in_its_json(tmp_path, caplog)
     assert r.exit_code == 0 and json.loads(r.stdout)["warnings"] == []
 
 
+def test_write_measured_as_a_library_logs_the_specimens_warnings_once(tmp_path, caplog):
+    # write_measured(validate=True) read the file with its warnings silenced (fit-frf --into
+    # gives them itself): a program calling it was told nothing of a layup in radians. Now
+    # logged once, as fit-frf --into logs them; log_warnings=False for a caller that did
+    from laminid_cli.frf.into import write_measured
+
+    caplog.set_level("WARNING", logger="laminid_cli.specimen")
+    spec = _specimen(tmp_path, "[(0/1.5)_2/1.5/0/1.5]s")
+    warning = (f"{spec}:{_line(spec, 'layup')}, field 'layup': the ply angles 1.5 look like "
+               "radians; laminid reads ply angles in degrees (write 85.94)")
+    freq = [float(f) for f in FREQ_15.split(", ")]
+    write_measured(spec, freq, [0.1] * len(freq), backup=False)
+    assert _logged(caplog) == [warning]
+    write_measured(spec, freq, [0.1] * len(freq), backup=False, log_warnings=False)
+    assert _logged(caplog) == []
+    assert f"frequencies: [{FREQ_15}]" in spec.read_text()
+
+
 def test_report_does_not_warn_again_of_the_stored_specimen(tmp_path, caplog):
     # drawing the modes page rebuilt the model from the result's stored specimen, and its
     # reader logged the warnings again on stderr; the report's pages carry the result's

@@ -57,7 +57,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     was measured; --wide one row per specimen; both forms the run options, as summary.json's
     "options", in '#' lines above the header; summary.json a units map). Every result has a
     status, ok or check with its reasons, shown in the table, and its warnings (the specimen
-    file's, the run's) are listed below the table.
+    file's, the run's) are listed below the table (less the specimen file's that this run
+    wrote on stderr as it read the file).
 
     A result whose input has not changed (sha256 of the specimen and its FRF file, the
     options and the laminid version, stored in the file) is not redone unless --force (which
@@ -219,6 +220,7 @@ def _batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check,
     # uncertainty.jobs (1 on several workers) is each specimen's, not the batch's
     settings = batch_settings(n_jobs, scheduler)
     finished = 0
+    on_stderr: dict = {}                   # format_table's
     refused = False
     interrupted = False                    # or the KeyboardInterrupt / Terminated that stopped it
     ended = False                          # the run ended, or a Ctrl-C ended it: a table follows
@@ -259,6 +261,10 @@ def _batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check,
                 # a failing specimen gets no result: one at its name is an earlier input's
                 stale = set_aside_result(job) if outcome.status == "error" else (None, "")
                 rows[job.name] = result_row(job, outcome, stale=stale)
+                if scheduler in (None, "local"):
+                    # its specimen's warnings went to this terminal (a remote Dask worker's
+                    # log is its own)
+                    on_stderr[job.name] = outcome.n_logged
                 finished += 1
                 write_running()
                 if bar is not None:
@@ -311,7 +317,7 @@ def _batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check,
         if as_json:
             echo_json(report)
         else:
-            click.echo(format_table(ordered), nl=False)
+            click.echo(format_table(ordered, on_stderr), nl=False)
             c = report["counts"]
             click.echo(f"\n{c['ok']} ok, {c['check']} check ({c['not converged']} not converged), "
                        f"{c['error']} failed ({report['n_cached']} up to date"

@@ -199,7 +199,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         into = write_measured(spec_path, fit.freq_hz.tolist(), sigma.tolist(),
                               damping=wc.damping.tolist(), damping_sigma=wc.sigma.tolist(),
                               sigma_source=f"{Path(frf_file).name}: {msig.summary()}",
-                              comment=f"Hz, laminid fit-frf of {Path(frf_file).name}")
+                              comment=f"Hz, laminid fit-frf of {Path(frf_file).name}",
+                              log_warnings=False)        # logged as it read it, above
     if as_json:
         def damping_fields(i):
             return {"damping_ratio": float(wc.damping[i]), "damping_sigma": float(wc.sigma[i]),

@@ -346,7 +346,7 @@ DAMPING_COMMENT = "viscous damping ratios zeta, fractions (0.008 = 0.8 %); loss 
 def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=None,
                    damping_sigma=None, backup: bool = True,
                    validate: bool = True, sigma_source: str | None = None,
-                   comment: str | None = None) -> MeasuredEdit:
+                   comment: str | None = None, log_warnings: bool = True) -> MeasuredEdit:
     """Replace/insert the measured frequencies (and sigma, weights) of a specimen YAML file.
 
     Parameters
@@ -366,9 +366,11 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
         an existing one is never overwritten)
     validate : the file must be a valid specimen before and after the edit (``laminid
         fit-frf --into``); without it only the YAML checks (bounded size, depth, aliases, no
-        tags) and the structure of ``measured`` are required (any YAML mapping is edited);
-        the specimen reader's warnings are not logged by these checks (the caller reads the
-        file first and gives them: fit-frf --into)
+        tags) and the structure of ``measured`` are required (any YAML mapping is edited)
+    log_warnings : with ``validate``, the specimen reader's warnings on the file as it was
+        (a mass that density x volume contradicts...) are logged (laminid_cli.specimen's
+        logger), once: the check after the edit logs none. False for a caller that read the
+        file itself and gave them already (fit-frf --into, before its fit)
     sigma_source : written as ``measured.sigma_source`` (shown by identify), with ``sigma_hz``
     comment : the comment of the new ``frequencies`` line (where they came from); the lines
         replaced lose theirs, which spoke of the values replaced
@@ -388,9 +390,9 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
         spec_path = Path(os.path.realpath(spec_path))
     parsed = None
     if validate:   # the whole specimen must be valid before anything is edited
-        # (its warnings are the caller's to give: fit-frf --into read the file, and logged
-        # them, before the fit; here and after the edit they were said again)
-        parsed = read_specimen(spec_path, log_warnings=False)
+        # (its warnings logged here, as fit-frf --into logs them, unless the caller gave them
+        # already: fit-frf --into read the file before the fit; after the edit, never again)
+        parsed = read_specimen(spec_path, log_warnings=log_warnings)
     try:
         # bytes as they are: line endings and a byte-order mark are kept
         raw = spec_path.read_bytes()

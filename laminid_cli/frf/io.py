@@ -191,10 +191,13 @@ def _new_target(path, overwrite: bool) -> Path:
 
 
 # --------------------------------------------------------------------------- CSV
-#: the kinds of binary file (laminid_cli.filekinds) an FRF format reads, given as an FRF text
-#: file by mistake: (words in parentheses after the kind's name, the --format that reads it);
-#: the others are no FRF format
-_FRF_KINDS = {"hdf5": (" (laminid acquire's FRF file or another tool's)", "hdf5")}
+#: the kinds of binary file (laminid_cli.filekinds) given as an FRF text file by mistake that
+#: the reader has words for: (words after the kind's name, the --format that reads it, None
+#: for no FRF format); the others are no FRF format either
+_FRF_KINDS = {"hdf5": (" (laminid acquire's FRF file or another tool's)", "hdf5"),
+              # a workbook (.xlsx, .ods) is a ZIP archive: its sheet saved as CSV is read
+              "zip": ("; a spreadsheet is read once its sheet is saved as CSV (File > Save As "
+                      "> CSV), the frequency in the first column", None)}
 
 
 def describe_content(path) -> tuple[str, str | None]:
@@ -245,11 +248,16 @@ def decode_text(raw: bytes) -> tuple[str | None, str | None]:
     (Excel's "Unicode Text" export, tab-separated), else Windows-1252 (Excel's "CSV" on
     Windows writes the '°' of "Phase [°]" as the byte 0xB0, which was refused as "binary
     data, not text") where no byte is a control character other than tab, CR, LF and form
-    feed; ``(None, None)`` for anything else (binary data).
+    feed; ``(None, None)`` for anything else (binary data, and bytes that begin with a
+    binary file's signature: :func:`laminid_cli.filekinds.binary_kind`).
 
     >>> decode_text("f;H [°]".encode("cp1252"))
     ('f;H [°]', 'cp1252')
     """
+    if binary_kind(raw[:16]):
+        # a binary file's signature, whatever follows: a ZIP archive's 'PK\x03\x04' is valid
+        # UTF-8, and a workbook cut to its first bytes was read as a header without data
+        return None, None
     if raw.startswith(_UTF16_BOMS):
         try:
             return raw.decode("utf-16"), "utf-16"
@@ -259,7 +267,7 @@ def decode_text(raw: bytes) -> tuple[str | None, str | None]:
         return raw.decode("utf-8-sig"), "utf-8"
     except UnicodeDecodeError:
         pass
-    if re.search(rb"[\x00-\x08\x0b\x0e-\x1f\x7f]", raw) or binary_kind(raw[:16]):
+    if re.search(rb"[\x00-\x08\x0b\x0e-\x1f\x7f]", raw):
         return None, None
     try:
         return raw.decode("cp1252"), "cp1252"
@@ -712,6 +720,34 @@ def _csv_preamble(lines) -> int:
     if len(names) != len(cells) or any(c and _csv_number(c, sep) for c in names):
         return 0
     return i - 1
+
+
+def csv_frequency_first(path, rows) -> bool:
+    """Whether the text lines ``rows`` of the CSV file ``path`` have the frequency in their
+    first column, as a CSV FRF file has: the first cell of the first line below any comments
+    and preamble (:func:`_csv_preamble`) a number (no header), or a name whose unit is a
+    frequency's ("X [Hz]", "f / kHz") or that names one ("f", "Frequency (kHz)", "omega");
+    False for no such line. For :func:`laminid_cli.resultfile.is_frf_text_file` (show and
+    report given FRFs)."""
+    from laminid_cli.frf.generic_h5 import _ANGULAR_NAME, _FREQ_NAME
+
+    lines = [(i + 1, ln) for i, ln in enumerate(rows)
+             if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines:
+        return False
+    first = lines[_csv_preamble(lines)][1]
+    sep = _csv_separator(first)
+    cell = (_split(first, sep) or [""])[0]
+    if _csv_number(cell, sep):
+        return True                         # no header: the frequency first
+    try:
+        if _csv_freq_factor(path, cell)[1]:
+            return True                     # its unit a frequency's: "X [Hz]", "f / kHz"
+    except LaminidError:
+        pass                                # "Time [s]"; "omega" (its name, below)
+    name = re.sub(r"[\[(].*", "", cell).strip()    # "f [Hz]", "Frequency (kHz)": f, Frequency
+    return bool(name and (_FREQ_NAME.fullmatch(name) or _ANGULAR_NAME.fullmatch(name)
+                          or name.lower().startswith(("freq", "f_hz", "omega"))))
 
 
 def read_frf_csv(path) -> FrfSet:

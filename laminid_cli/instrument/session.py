@@ -9,18 +9,14 @@ point, and ``--resume`` continues with the points not yet in it.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import logging
-import os
-import signal
-import threading
 from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
 
-from laminid_cli.errors import InstrumentError, LaminidError, Terminated
+from laminid_cli.errors import InstrumentError, LaminidError, Terminated, stop_signals_held
 from laminid_cli.frf.store import resonance_lines
 from laminid_cli.instrument.base import AcquisitionSettings, Analyser, Measurement
 
@@ -224,7 +220,7 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
                         f"{writer.freq.size}, {writer.freq[0]:g}-{writer.freq[-1]:g} Hz); were "
                         "the analyser's settings changed on its front panel?")
                 # a stop asked for while the point is written waits for it (and its line)
-                with _signals_held():
+                with stop_signals_held():
                     try:
                         writer.add_point(label, m.frf, m.coherence, n_averages=m.n_averages,
                                          overloads=m.overloads, replace=replace)
@@ -244,7 +240,7 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
         result.complete = all(label in writer.labels for label in labels)
         if result.complete:
             # marked complete in the try: a full disk or a stop here is said as for a point
-            with _signals_held():
+            with stop_signals_held():
                 try:
                     writer.close()
                 except OSError as exc:
@@ -277,31 +273,6 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
                        result, writer) from exc
     result.n_saved = writer.n_points
     return result
-
-
-@contextlib.contextmanager
-def _signals_held():
-    """Ctrl-C (SIGINT) and SIGTERM wait until the block ends, then take effect as they would
-    have (the handler in place before: KeyboardInterrupt, :class:`Terminated`, ignored).
-    Around writing a measured point and saying so: a stop there dropped the averaged point
-    (the temporary file removed) while the message counted it saved. Only in the main
-    thread, where Python runs signal handlers."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    caught: list[int] = []
-
-    def hold(signum, frame):
-        caught.append(signum)
-
-    previous = {sig: signal.signal(sig, hold) for sig in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
-        for sig in dict.fromkeys(caught):      # delivered again, to the handler restored
-            os.kill(os.getpid(), sig)
 
 
 def _stopped(exc: LaminidError, result: SessionResult, writer) -> LaminidError:
