@@ -1222,17 +1222,16 @@ def _read_measured(r: _Reader, y: _Y) -> Measured:
                               f"{damping[i]:.3g}: no damping estimate is that exact (half-power "
                               "or RFP ratios are known to a few %); give the standard deviation "
                               f"of the ratio (5 % of it: {0.05 * damping[i]:.2g})")
-            warn_loose_damping_sigma(r.path, f"measured.damping_sigma (line "
+            warn_loose_damping_sigma(r, f"measured.damping_sigma (line "
                                      f"{m['damping_sigma'].line})", freq, damping, damping_sigma)
         given = damping[np.isfinite(damping)]
         if given.size >= 2 and given.min() >= DAMPING_PERCENT_SUSPECT:
             # a free composite plate's modes damp at 0.1-2 %: 10 % and more on every mode is
             # the percentage written as a plain number
-            log.warning("%s: measured.damping (line %s): every damping ratio is %.0f %% or more "
-                        "(zeta %s ... %s); a plain number is the ratio itself (0.004 = 0.4 %%): "
-                        "if these are percent, write '%s %%'", r.path, m["damping"].line,
-                        100 * DAMPING_PERCENT_SUSPECT, f"{given.min():g}", f"{given.max():g}",
-                        f"{given.min():g}")
+            r.warn(f"{r.path}: measured.damping (line {m['damping'].line}): every damping "
+                   f"ratio is {100 * DAMPING_PERCENT_SUSPECT:.0f} % or more (zeta "
+                   f"{given.min():g} ... {given.max():g}); a plain number is the ratio itself "
+                   f"(0.004 = 0.4 %): if these are percent, write '{given.min():g} %'")
     for array in (freq, weight, sigma, damping, damping_sigma):
         if array is not None:
             array.flags.writeable = False
@@ -1254,10 +1253,11 @@ DAMPING_PERCENT_SUSPECT = 0.1
 DAMPING_SIGMA_SUSPECT = 1.0
 
 
-def warn_loose_damping_sigma(path, where: str, freq, zeta, sigma) -> list[int]:
-    """Warn (log, not an error) of the modes whose damping ratio's standard deviation is
-    larger than :data:`DAMPING_SIGMA_SUSPECT` times the ratio; returns their 0-based indices.
-    ``where``: the field (and line) the sigmas came from."""
+def warn_loose_damping_sigma(r: "_Reader", where: str, freq, zeta, sigma) -> list[int]:
+    """Warn (through the reader ``r``: logged unless it was made not to, kept for
+    :attr:`Specimen.warnings`; not an error) of the modes whose damping ratio's standard
+    deviation is larger than :data:`DAMPING_SIGMA_SUSPECT` times the ratio; returns their
+    0-based indices. ``where``: the field (and line) the sigmas came from."""
     zeta, sigma = np.asarray(zeta, float), np.asarray(sigma, float)
     with np.errstate(invalid="ignore"):
         loose = np.flatnonzero(np.isfinite(zeta) & np.isfinite(sigma)
@@ -1265,11 +1265,10 @@ def warn_loose_damping_sigma(path, where: str, freq, zeta, sigma) -> list[int]:
     if loose.size:
         modes = "; ".join(f"mode {k + 1} ({freq[k]:g} Hz): sigma {sigma[k]:g} > zeta {zeta[k]:g}"
                           for k in loose)
-        log.warning("%s: %s: the standard deviation of a damping ratio is larger than the ratio "
-                    "itself (%s): such a ratio is not measured at all (its +-1 sd range reaches "
-                    "0) and the fit gives it almost no weight; check the value (a percentage "
-                    "written as a plain number? write '%s %%')", path, where, modes,
-                    f"{sigma[loose[0]]:g}")
+        r.warn(f"{r.path}: {where}: the standard deviation of a damping ratio is larger than "
+               f"the ratio itself ({modes}): such a ratio is not measured at all (its +-1 sd "
+               "range reaches 0) and the fit gives it almost no weight; check the value (a "
+               f"percentage written as a plain number? write '{sigma[loose[0]]:g} %')")
     return [int(k) for k in loose]
 
 
@@ -1357,7 +1356,7 @@ def _measured_from_frf(r: _Reader, m: dict) -> Measured:
     sigma = np.asarray(sigma, float)
     damping = np.asarray(damping, float)
     damping_sigma = np.asarray(damping_sigma, float)
-    warn_loose_damping_sigma(r.path, f"the damping of the fit of {name}", freq, damping,
+    warn_loose_damping_sigma(r, f"the damping of the fit of {name}", freq, damping,
                              damping_sigma)
     for array in (freq, weight, sigma, damping, damping_sigma):
         array.flags.writeable = False

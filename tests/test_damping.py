@@ -334,6 +334,32 @@ def test_a_damping_sigma_larger_than_its_ratio_is_warned(caplog):
     assert not [r for r in caplog.records if "standard deviation" in r.getMessage()]
 
 
+def test_the_damping_warnings_are_the_specimens_and_silenced_on_a_file_read_again(caplog):
+    """The two damping warnings (ratios written as percent numbers, a sigma above its ratio)
+    were logged past the specimen reader: a file read again with log_warnings=False (report,
+    batch's up-to-date check) logged them again, and they never reached Specimen.warnings,
+    hence no --json document or batch row. They are the specimen's warnings now, as every
+    other one."""
+    import logging
+
+    from laminid_cli.specimen import load_specimen_text
+
+    text = BASE + "  damping: [0.365, 0.41, 0.28, null]\n  damping_sigma: [0.4, 0.01, null, null]\n"
+    with caplog.at_level(logging.WARNING, logger="laminid_cli.specimen"):
+        s = load_specimen_text(text, "p.yaml", log_warnings=False)
+    assert not [r for r in caplog.records if "damping" in r.getMessage()]
+    kept = [w for w in s.warnings if "damping" in w]
+    assert len(kept) == 2, s.warnings
+    assert kept[0].startswith("p.yaml: measured.damping_sigma (line 10): the standard deviation")
+    assert "mode 1 (100 Hz): sigma 0.4 > zeta 0.365" in kept[0]
+    assert kept[1].startswith("p.yaml: measured.damping (line 9): every damping ratio is 10 % or "
+                              "more (zeta 0.365 ... 0.41)")
+    with caplog.at_level(logging.WARNING, logger="laminid_cli.specimen"):
+        again = load_specimen_text(text, "p.yaml")
+    assert [r.getMessage() for r in caplog.records if "damping" in r.getMessage()] == kept
+    assert again.warnings == s.warnings
+
+
 # ----------------------------------------------------------------------------------------------
 # closed-form references of the energy split (independent of laminid's basis algebra)
 
