@@ -1039,8 +1039,8 @@ def _run_dask(jobs, options, n_jobs, scheduler):
             # own: a `dask worker` stops on it)
             from laminid_cli.dask_worker import LocalWorkerSetup
 
-            client.register_plugin(LocalWorkerSetup(
-                worker_log_level(logging.getLogger().getEffectiveLevel())))
+            level = logging.getLogger().getEffectiveLevel()
+            client.register_plugin(LocalWorkerSetup(worker_log_level(level), level))
         else:
             client = Client(scheduler, timeout="20s")
     except Exception as exc:  # noqa: BLE001 - distributed raises OSError, TimeoutError,

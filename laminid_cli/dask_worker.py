@@ -27,19 +27,30 @@ class LocalWorkerSetup(WorkerPlugin):
     WorkerProcess.kill), never SIGTERM. Their loggers get laminid's
     verbosity (:func:`worker_log_level`): the messages of that close only with -v.
 
+    laminid's own records (a specimen's warning) are written as the batch writes them
+    (:func:`laminid_cli.cli.configure_logging`, "warning: ..."): a worker starts from a clean
+    interpreter, where they went out bare through Python's last-resort handler, as the process
+    pool's did before its initializer configured them (batch._worker_init).
+
     log_level : the level of the workers' ``distributed`` loggers (logging.CRITICAL unless -v)
+    level : laminid's level (the batch's: WARNING, ERROR with -q, INFO/DEBUG with -v)
     """
 
     idempotent = True
     name = "laminid-local-worker-setup"
 
-    def __init__(self, log_level: int = logging.CRITICAL):
+    def __init__(self, log_level: int = logging.CRITICAL, level: int = logging.WARNING):
         self.log_level = log_level
+        self.level = level
 
     def setup(self, worker) -> None:
+        from laminid_cli.cli import configure_logging
+
         # (a worker plugin runs in the worker process' main thread, where signals are set)
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        configure_logging(self.level)
+        logging.getLogger().setLevel(self.level)
         logging.getLogger("distributed").setLevel(self.log_level)
 
 

@@ -1373,6 +1373,23 @@ def test_a_dask_local_batch_prints_no_cluster_log_lines_unless_verbose(tmp_path)
     assert p.returncode == 0 and "INFO distributed.scheduler" in p.stderr, p.stderr
 
 
+def test_a_dask_local_workers_warning_is_written_as_the_batchs(tmp_path):
+    """A local Dask worker starts from a clean interpreter: a specimen's warning logged there
+    went out bare through Python's last-resort handler ('/.../S1.4.yaml: measured.damping
+    ...'), where the batch in its process and the pool's workers write 'warning: ...'."""
+    pytest.importorskip("distributed")
+    (tmp_path / "in").mkdir()
+    text = Path("specimens/example1/S1.4.yaml").read_text()
+    line = next(t for t in text.splitlines() if t.startswith("  frequencies:"))
+    (tmp_path / "in" / "S1.4.yaml").write_text(
+        text.replace(line, line + "\n  damping: [" + ", ".join(["0.3"] * 12) + "]"))
+    p = _dask_local_batch(tmp_path)
+    assert p.returncode == 0, p.stderr
+    said = [t for t in p.stderr.splitlines() if "every damping ratio is 10 % or more" in t]
+    assert len(said) == 1 and said[0].startswith("warning: "), p.stderr
+    assert said[0].endswith("if these are percent, write '0.3 %'"), p.stderr
+
+
 def _dask_local_batch(tmp_path, *extra, verbose=False):
     """`laminid [-v] batch` of S1.4 (4x4) on a one-worker local Dask cluster, in a new
     process (its stderr is the subject: distributed's logging and warnings)."""
@@ -1428,6 +1445,8 @@ def test_a_local_workers_shutdown_errors_are_muted_without_v():
     dist = logging.getLogger("distributed")
     before_level, before_sigint = dist.level, signal.getsignal(signal.SIGINT)
     before_sigterm = signal.getsignal(signal.SIGTERM)
+    root = logging.getLogger()
+    before_root = (root.level, list(root.handlers))
     try:
         LocalWorkerSetup(worker_log_level(logging.WARNING)).setup(worker=None)
         assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
@@ -1440,6 +1459,8 @@ def test_a_local_workers_shutdown_errors_are_muted_without_v():
         dist.setLevel(before_level)
         signal.signal(signal.SIGINT, before_sigint)
         signal.signal(signal.SIGTERM, before_sigterm)
+        root.setLevel(before_root[0])
+        root.handlers[:] = before_root[1]
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
