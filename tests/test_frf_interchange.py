@@ -194,7 +194,7 @@ def test_ascii_uff58_keeps_12_significant_digits(tmp_path, case, numbered):
 def test_ascii_uff58_round_trip_gives_the_same_modes_to_1e9(tmp_path):
     """The ASCII Universal File keeps 12 significant digits (above): the FRFs read back differ
     by ~5e-12 (relative), and the modes fitted to them now differ from the file's by at most
-    1e-9 (relative; measured 1.1e-11 on these FRFs with 3 % noise, damping 1.2e-9). They moved by
+    1e-9 (relative; measured 2e-14 on these FRFs with 3 % noise, damping 2e-12). They moved by
     up to 4.5e-7 (5e-4 Hz at 1130 Hz) while the pole refinement stopped short of its optimum,
     where the stabilised RFP poles it started from decided (tests/test_rfp.py, continuity)."""
     noisy = plate_case(noise=0.03, seed=1)
