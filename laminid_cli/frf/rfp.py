@@ -867,21 +867,26 @@ def refine_poles(freq, frf, cands, fixed_poles=(), *, w_ref: float, max_damping:
 
     u0 = np.zeros(2 * f0.size)
     lim = np.tile([2.0, 1.5], f0.size)
-    try:
-        with np.errstate(all="ignore"):
-            sol = least_squares(resid, u0, bounds=(-lim, lim), method="trf", x_scale=1.0,
-                                max_nfev=30 * (u0.size + 1), xtol=1e-10, ftol=1e-12)
-    except (ValueError, np.linalg.LinAlgError) as exc:  # pragma: no cover - keep RFP values
-        log.info("pole refinement failed (%s); keeping the RFP poles", exc)
-        return list(cands)
-    x = sol.x
-    if np.all(np.isfinite(x)) and np.all(np.abs(x) < lim):
-        with np.errstate(all="ignore"):
-            polished = _gauss_newton_polish(resid, x, lim)
-            r_p = resid(polished)
-        # a polish, not a search: kept where it does not raise the cost beyond rounding
-        if float(r_p @ r_p) <= 2 * sol.cost * (1 + 1e-9):
-            x = polished
+    with np.errstate(all="ignore"):
+        # started at an optimum already (find_modes' second pass, the neighbours refined),
+        # Gauss-Newton alone ends there; otherwise the trust region searches first
+        x, done = _gauss_newton_polish(resid, u0, lim)
+    if not done:
+        try:
+            with np.errstate(all="ignore"):
+                sol = least_squares(resid, u0, bounds=(-lim, lim), method="trf", x_scale=1.0,
+                                    max_nfev=30 * (u0.size + 1), xtol=1e-10, ftol=1e-12)
+        except (ValueError, np.linalg.LinAlgError) as exc:  # pragma: no cover - keep RFP values
+            log.info("pole refinement failed (%s); keeping the RFP poles", exc)
+            return list(cands)
+        x = sol.x
+        if np.all(np.isfinite(x)) and np.all(np.abs(x) < lim):
+            with np.errstate(all="ignore"):
+                polished = _gauss_newton_polish(resid, x, lim)[0]
+                r_p = resid(polished)
+            # a polish, not a search: kept where it does not raise the cost beyond rounding
+            if float(r_p @ r_p) <= 2 * sol.cost * (1 + 1e-9):
+                x = polished
     r_x, r_0 = resid(x), resid(u0)
     if not np.all(np.isfinite(x)) or float(r_x @ r_x) > float(r_0 @ r_0) + 1e-300:
         return list(cands)
@@ -904,6 +909,8 @@ POLISH_DIFF_STEP = 1e-5
 #: largest Gauss-Newton step taken (half-power bandwidths): the trust region's answer is within
 #: 1e-5 of the optimum; a longer step means it was not near one, and it is kept as it is
 POLISH_MAX_STEP = 0.01
+#: a step this short (half-power bandwidths; 1e-12 of a frequency at 1 % damping) ends it
+POLISH_DONE = 1e-10
 
 
 def _gauss_newton_polish(resid, x, lim):
@@ -915,7 +922,8 @@ def _gauss_newton_polish(resid, x, lim):
     start decided. Gauss-Newton steps go to the stationary point ``J^T r = 0`` without comparing
     costs, so the answer no longer depends on the start. Stops where a step would leave the
     bounds ``lim`` or be longer than :data:`POLISH_MAX_STEP` (not near an optimum: the
-    point reached is kept), or is at rounding level.
+    point reached is kept), or after one shorter than :data:`POLISH_DONE`. Returns the point
+    and whether it ended so (at the stationary point).
     """
     h = POLISH_DIFF_STEP
     for _ in range(POLISH_STEPS):
@@ -930,9 +938,9 @@ def _gauss_newton_polish(resid, x, lim):
                 or np.max(np.abs(step)) > POLISH_MAX_STEP):
             break
         x = x + step
-        if np.linalg.norm(step) <= 1e-13 * (1.0 + np.linalg.norm(x)):
-            break
-    return x
+        if np.max(np.abs(step)) <= POLISH_DONE:
+            return x, True
+    return x, False
 
 
 # --------------------------------------------------------------------------- bands
@@ -1142,15 +1150,29 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
         charts, cands = sweep([c for _, c, _ in cands])
 
     def constants(cands):
-        band_fits, modes = [], []
-        for k, chart in enumerate(charts):
-            own = [c for b, c, _ in cands if b == k]
-            lo, hi = chart.band_hz
-            near = [c for b, c, _ in cands
-                    if b != k and lo - (hi - lo) <= c.freq_hz <= hi + (hi - lo)]
-            bf, ms = _band_constants(freq, frf, chart, own, near, criteria)
-            band_fits.append(bf)
-            modes.extend(ms)
+        # a band's neighbours (other bands' poles) are fixed in its refinement: at their
+        # stabilised RFP values, then, in a second pass, at their refined ones, so that no
+        # band's answer follows another band's RFP median (which jumps where a pole's stability
+        # flag flips): moved by 0.1 bandwidths, they moved the other bands' frequencies by up
+        # to 4e-7 (relative) after one pass, 1e-11 after two (damping 2e-5, 4e-9)
+        start = [c for _, c, _ in cands]
+        for _ in range(2 if criteria.refine else 1):
+            band_fits, modes, refined, neighbours = [], [], list(start), False
+            for k, chart in enumerate(charts):
+                lo, hi = chart.band_hz
+                mine = [i for i, (b, _, _) in enumerate(cands) if b == k]
+                near = [start[i] for i, (b, c, _) in enumerate(cands)
+                        if b != k and lo - (hi - lo) <= c.freq_hz <= hi + (hi - lo)]
+                neighbours = neighbours or bool(near)
+                bf, ms, ref = _band_constants(freq, frf, chart, [start[i] for i in mine], near,
+                                              criteria)
+                for i, r in zip(mine, ref):
+                    refined[i] = r
+                band_fits.append(bf)
+                modes.extend(ms)
+            start = refined
+            if not neighbours:
+                break
         return band_fits, sorted(modes, key=lambda m: m.freq_hz)
 
     band_fits, modes = constants(cands)
@@ -1273,7 +1295,10 @@ def _dedupe(cands, criteria):
 
 
 def _band_constants(freq, frf, chart, own, near, criteria):
-    """LSFD over one band with its own poles and its neighbours'; drop insignificant own poles."""
+    """LSFD over one band with its own poles and its neighbours'; drop insignificant own poles.
+
+    Returns the :class:`BandFit`, its modes and ``own`` refined (:func:`refine_poles`; the
+    insignificant ones still in it)."""
     lo, hi = chart.band_hz
     sel = (freq >= lo) & (freq <= hi) & (freq > 0)
     f, H = freq[sel], frf[:, sel]
@@ -1283,6 +1308,7 @@ def _band_constants(freq, frf, chart, own, near, criteria):
     near_poles = _pole([c.freq_hz for c in near], [c.damping_ratio for c in near])
     if criteria.refine and own:
         own = refine_poles(f, H, own, near_poles, w_ref=w_ref, max_damping=criteria.max_damping)
+    refined = list(own)
     while True:
         poles = np.concatenate([_pole([c.freq_hz for c in own], [c.damping_ratio for c in own]),
                                 near_poles])
@@ -1309,7 +1335,7 @@ def _band_constants(freq, frf, chart, own, near, criteria):
              for r, c in enumerate(own)]
     bf = BandFit(band_hz=(float(lo), float(hi)), chart=chart, poles=poles, constants=A,
                  residual=res, w_ref=w_ref)
-    return bf, modes
+    return bf, modes, refined
 
 
 # --------------------------------------------------------------------------- file -> specimen
