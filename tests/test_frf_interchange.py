@@ -155,9 +155,12 @@ def test_export_frfs_as_uff58_keeps_numbers_units_and_point_numbering(tmp_path, 
     # the frequency range written, in Hz (the --json output gave only the number of lines)
     assert summary["freq_range_hz"] == [case.freq[0], case.freq[-1]]
     assert summary["n_lines"] == case.freq.size
+    assert summary["datasets"] == {"164": 1, "58": 5}
     sets = pyuff.UFF(str(out)).read_sets()
-    assert [s["type"] for s in sets] == [58] * 5
-    for k, s in enumerate(sets):
+    assert [s["type"] for s in sets] == [164] + [58] * 5
+    # the units record the records' types are in: SI (there was none)
+    assert (sets[0]["units_code"], sets[0]["length"], sets[0]["force"]) == (1, 1.0, 1.0)
+    for k, s in enumerate(sets[1:]):
         assert s["func_type"] == 4 and s["rsp_node"] == int(LABELS[k]) and s["rsp_dir"] == 3
         # the response over the force, each with its unit and UFF specific data type (15
         # pressure, 13 excitation force; it said 12 acceleration with the whole unit "Pa/N"
@@ -166,8 +169,54 @@ def test_export_frfs_as_uff58_keeps_numbers_units_and_point_numbering(tmp_path, 
         assert s["orddenom_axis_units_lab"].strip() == "N"
         assert s["ordinate_spec_data_type"] == 15 and s["orddenom_spec_data_type"] == 13
         assert s["abscissa_axis_units_lab"].strip() == "Hz"
+        assert _exponents(s) == {"abscissa": (0, 0, 0), "ordinate": (-2, 1, 0),
+                                 "orddenom": (0, 1, 0)}
         np.testing.assert_array_equal(s["data"], case.frf[k])     # binary 58b: lossless
         np.testing.assert_array_equal(s["x"], case.freq)
+
+
+def _exponents(record) -> dict:
+    """The length, force and temperature units exponents of a type-58 record as pyuff reads
+    them, per axis."""
+    return {axis: tuple(int(record[f"{axis}_{q}_unit_exp"]) for q in ("len", "force", "temp"))
+            for axis in ("abscissa", "ordinate", "orddenom")}
+
+
+#: FRF unit -> (ordinate type, exponents), (denominator type, exponents) as written: the types
+#: and the exponents of Addendum A of the dataset 58 definition (translational; acceleration,
+#: velocity and displacement length 1, force 1, pressure length -2 force 1), a unit not SI of
+#: type 0 (unknown) and exponents 0 ("g" typed acceleration in an SI file is m/s^2 to a tool)
+UFF_TYPES_WRITTEN = {
+    "m/s^2/N": ((12, (1, 0, 0)), (13, (0, 1, 0))), "m/s/N": ((11, (1, 0, 0)), (13, (0, 1, 0))),
+    "m/N": ((8, (1, 0, 0)), (13, (0, 1, 0))), "Pa/N": ((15, (-2, 1, 0)), (13, (0, 1, 0))),
+    "(m/s^2)/N": ((12, (1, 0, 0)), (13, (0, 1, 0))), "g/N": ((0, (0, 0, 0)), (13, (0, 1, 0))),
+    "mm/s/N": ((0, (0, 0, 0)), (13, (0, 1, 0))), "m/s^2/kN": ((12, (1, 0, 0)), (0, (0, 0, 0))),
+    "kPa/lbf": ((0, (0, 0, 0)), (0, (0, 0, 0))), "V/V": ((0, (0, 0, 0)), (0, (0, 0, 0))),
+}
+
+
+@pytest.mark.parametrize("units", sorted(UFF_TYPES_WRITTEN))
+def test_uff58_records_carry_the_units_exponents_of_their_types(tmp_path, case, units):
+    """Records 8-10 said length, force and temperature exponents 0 0 0 whatever the unit (a
+    tool reading them took an accelerance for dimensionless), in a file without a units record;
+    pyuff reads the 164 record and the exponents of the spec's table back (ASCII and 58b)."""
+    import pyuff
+
+    fs = FrfSet(freq=case.freq[:50], frf=case.frf[:1, :50], labels=("1",), units=units,
+                coherence=np.full((1, 50), 0.99))
+    for binary in (False, True):
+        out = io.write_frf_uff(tmp_path / f"{int(binary)}.uff", fs, binary=binary)
+        sets = pyuff.UFF(str(out)).read_sets()
+        assert [s["type"] for s in sets] == [164, 58, 58]
+        assert (sets[0]["units_code"], sets[0]["length"], sets[0]["force"], sets[0]["temp"]) \
+            == (1, 1.0, 1.0, 1.0)
+        (num, num_exp), (den, den_exp) = UFF_TYPES_WRITTEN[units]
+        frf, coh = sets[1], sets[2]
+        assert (frf["ordinate_spec_data_type"], frf["orddenom_spec_data_type"]) == (num, den)
+        assert _exponents(frf) == {"abscissa": (0, 0, 0), "ordinate": num_exp,
+                                   "orddenom": den_exp}
+        assert _exponents(coh) == dict.fromkeys(("abscissa", "ordinate", "orddenom"), (0, 0, 0))
+        assert io.read_frf(out).units == units
 
 
 def test_uff58_round_trip_through_fit_frf_gives_the_same_modes_to_1e9(tmp_path, numbered):
@@ -360,7 +409,7 @@ def test_uff58_export_writes_the_response_and_force_units_apart(tmp_path, case, 
 
     fs = FrfSet(freq=case.freq, frf=case.frf[:1], labels=("1",), units=units)
     out = io.write_frf_uff(tmp_path / "x.uff", fs)
-    s = pyuff.UFF(str(out)).read_sets(0)
+    s = pyuff.UFF(str(out)).read_sets(1)                  # after the units record
     assert (s["ordinate_axis_units_lab"].strip(), s["ordinate_spec_data_type"],
             s["orddenom_axis_units_lab"].strip(), s["orddenom_spec_data_type"]) == (
         ordinate, ord_type, denominator, den_type)
@@ -441,10 +490,10 @@ def test_export_writes_the_coherence_as_uff58_function_type_6_and_reads_it_back(
     r = run(["export", str(src), "-o", str(out), "--json"] + ([] if binary else ["--ascii"]))
     assert r.exit_code == 0, r.output
     summary = json.loads(r.output)
-    assert summary["datasets"] == {"58": 8}
+    assert summary["datasets"] == {"164": 1, "58": 8}
     assert summary["coherence_points"] == ["3", "12", "21"]
     assert summary["notes"] == ["point 15: coherence unknown at 10 of 1601 lines; not written"]
-    sets = pyuff.UFF(str(out)).read_sets()
+    sets = pyuff.UFF(str(out)).read_sets()[1:]          # after the units record
     assert [(s["func_type"], s["rsp_node"]) for s in sets] == [
         (4, 3), (6, 3), (4, 7), (4, 12), (6, 12), (4, 15), (4, 21), (6, 21)]
     for s, k in zip([sets[1], sets[4], sets[7]], (0, 2, 4)):
@@ -586,7 +635,7 @@ def test_a_universal_file_is_written_in_ascii(tmp_path, case):
     out = io.write_frf_uff(tmp_path / "a.uff", fs)
     raw = out.read_bytes()
     assert max(raw) < 128
-    d = pyuff.UFF(str(out)).read_sets(0)
+    d = pyuff.UFF(str(out)).read_sets(1)                  # after the units record
     assert (d["ordinate_axis_units_lab"], d["orddenom_axis_units_lab"]) == ("m/s^2", "N")
     assert (d["ordinate_spec_data_type"], d["orddenom_spec_data_type"]) == (12, 13)
     assert d["id1"].strip() == "FRF Prufpunkt 1"
@@ -995,7 +1044,8 @@ def test_binary_uff58_keeps_a_grid_whose_step_has_more_than_6_digits_exactly(tmp
         io.write_frf_uff(out, FrfSet(freq=grid, frf=case.frf, units="m/s^2/N"), binary=True)
         back = io.read_frf(out)
         assert np.array_equal(back.freq, grid) and np.array_equal(back.frf, case.frf)
-        assert {s["abscissa_spacing"] for s in pyuff.UFF(str(out)).read_sets()} == {spacing}
+        assert {s["abscissa_spacing"] for s in pyuff.UFF(str(out)).read_sets()[1:]} \
+            == {spacing}
 
 
 @pytest.mark.parametrize("binary", [True, False])
@@ -1007,7 +1057,8 @@ def test_a_uff_cut_short_is_refused_not_read_with_fewer_points(tmp_path, case, b
     data = whole.read_bytes()
     cut = tmp_path / "cut.uff"
     cut.write_bytes(data[:int(len(data) * 0.5)])
-    with pytest.raises(FrfError, match=r"cut\.uff: the file ends inside a dataset, after 2 "
+    # the units record and 2 of the 5 FRF records
+    with pytest.raises(FrfError, match=r"cut\.uff: the file ends inside a dataset, after 3 "
                                        r"complete ones \(no '    -1' line closes the last\)"):
         io.read_frf(cut)
     cut.write_bytes(data + b"\r\n\x1a")      # a DOS end of file after the last tag is whole
@@ -1048,7 +1099,7 @@ def test_export_of_mixed_response_units_writes_each_record_in_its_own(tmp_path, 
             "2+Z m/s/N") in json.loads(r.stdout)["notes"]
     sets = pyuff.UFF(str(out)).read_sets()
     assert [(s["ordinate_axis_units_lab"], s["orddenom_axis_units_lab"],
-             s["ordinate_spec_data_type"]) for s in sets] == [("g", "N", 12), ("m/s", "N", 11)]
+             s["ordinate_spec_data_type"]) for s in sets[1:]] == [("g", "N", 0), ("m/s", "N", 11)]
     assert io.read_frf(out).meta["point_units"] == ["g/N", "m/s/N"]
 
 

@@ -98,10 +98,26 @@ SUFFIXES = {".h5": "hdf5", ".hdf5": "hdf5", ".hdf": "hdf5", ".uff": "uff", ".unv
 UFF_FRF, UFF_COHERENCE = 4, 6
 UFF_ABSCISSA_FREQUENCY = 18
 #: UFF 58 specific data types (record 9/10 of the header) of the response units laminid
-#: writes, and of the force; any other unit is written as 0 (unknown)
-UFF_RESPONSE_TYPES = {"m": 8, "mm": 8, "m/s": 11, "mm/s": 11, "m/s^2": 12, "m/s2": 12,
-                      "g": 12, "Pa": 15, "kPa": 15}
-UFF_FORCE_TYPES = {"N": 13, "kN": 13, "lbf": 13}
+#: writes, and of the force: SI units only, as the units record (dataset 164,
+#: :func:`uff_units_record`) at the head of the file says SI, and a reader takes a record's
+#: values in the file's units by its type (the labels "take precedence" for display only: UFF
+#: 58 record 8, field 6, note). Any other unit ("g", "mm/s", "kPa", "kN", "lbf") is written as
+#: 0 (unknown), whose values no tool converts: "g" typed 12 (acceleration) in an SI file read
+#: as m/s^2 elsewhere, 9.81 times too small
+UFF_RESPONSE_TYPES = {"m": 8, "m/s": 11, "m/s^2": 12, "m/s2": 12, "Pa": 15}
+UFF_FORCE_TYPES = {"N": 13}
+#: the length, force and temperature units exponents (records 8-11, fields 2-4) of the specific
+#: data types laminid writes, translational direction: Addendum A ("Table - Unit Exponents") of
+#: the dataset 58 definition (UC-SDRL's copy of the I-DEAS Universal File format, 58.asc, as
+#: reproduced in pyuff 2.5.8's ``pyuff/datasets/dataset_58.py``). Time has no exponent (the
+#: second in every unit system): acceleration is length 1, as displacement and velocity
+UFF_UNIT_EXPONENTS = {0: (0, 0, 0), 8: (1, 0, 0), 11: (1, 0, 0), 12: (1, 0, 0),
+                      13: (0, 1, 0), 15: (-2, 1, 0), 18: (0, 0, 0)}
+#: the units record (dataset 164) laminid writes at the head of every Universal File: units
+#: code 1, SI (metre, newton), factors to SI 1 (UC-SDRL's 164.asc: "to convert from universal
+#: file units to SI divide by the appropriate factor"); temperature relative, offset 273.15
+UFF_SI_UNITS = dict(units_code=1, units_description="SI - Meter (newton)", temp_mode=2,
+                    length=1.0, force=1.0, temp=1.0, temp_offset=273.15)
 #: ``id2`` of every UFF 58 record laminid writes: the reader knows its own records by it
 UFF_WRITER = "laminid"
 #: ``id3`` of laminid's FRF records from a file that records the exponential window the
@@ -1314,7 +1330,7 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
                                f"units label holds {UFF_UNITS_CHARS}")
         axes_of[units] = axes
     with_coherence, _ = uff_coherence_points(fs)
-    sets = []
+    sets = [pyuff.prepare_164(**UFF_SI_UNITS)]        # the units the records' types are in
     for k in range(fs.n_points):
         axes = axes_of[each[k]]
         label = fs.labels[k] if k < len(fs.labels) else str(k + 1)
@@ -1324,6 +1340,7 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
             rsp_node=node, rsp_dir=direction, ref_node=ref, ref_dir=ref_direction,
             abscissa_spacing=_uff_even_abscissa(fs.freq, binary),
             abscissa_spec_data_type=UFF_ABSCISSA_FREQUENCY, abscissa_axis_units_lab="Hz",
+            **uff_exponents("abscissa", UFF_ABSCISSA_FREQUENCY),
             x=np.asarray(fs.freq, dtype=float))
         sets.append(pyuff.prepare_58(
             id1=f"FRF {label}", id3=_window_id(fs), func_type=UFF_FRF,
@@ -1335,6 +1352,7 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
                 ord_data_type=4,  # real double
                 # a dimensionless ratio: specific data types 0 (unknown), no units
                 ordinate_spec_data_type=0, orddenom_spec_data_type=0,
+                **uff_exponents("ordinate", 0), **uff_exponents("orddenom", 0),
                 ordinate_axis_units_lab="NONE", orddenom_axis_units_lab="NONE",
                 data=np.asarray(fs.coherence[k], dtype=float), **common))
     return write_uff_sets(path, sets)
@@ -1393,16 +1411,28 @@ def _uff_axes(units: str | None) -> dict:
     unit (None) "NONE" over "NONE". The reader (:func:`_uff_units`) joins them back."""
     if units is None:
         return {"ordinate_axis_units_lab": "NONE", "orddenom_axis_units_lab": "NONE",
-                "ordinate_spec_data_type": 0, "orddenom_spec_data_type": 0}
+                "ordinate_spec_data_type": 0, "orddenom_spec_data_type": 0,
+                **uff_exponents("ordinate", 0), **uff_exponents("orddenom", 0)}
     response, sep, force = units.rpartition("/")
     # a label holds no surrounding spaces (the reader strips them): "m/s^2 / N" is
     # "m/s^2" over "N", and reads back "m/s^2/N"
     response, force = response.strip(), force.strip()
     if not sep or not response or not force:
         response, force = units.strip(), "NONE"
+    types = (UFF_RESPONSE_TYPES.get(_unbracketed(response), 0),
+             UFF_FORCE_TYPES.get(_unbracketed(force), 0))
     return {"ordinate_axis_units_lab": response, "orddenom_axis_units_lab": force,
-            "ordinate_spec_data_type": UFF_RESPONSE_TYPES.get(_unbracketed(response), 0),
-            "orddenom_spec_data_type": UFF_FORCE_TYPES.get(_unbracketed(force), 0)}
+            "ordinate_spec_data_type": types[0], "orddenom_spec_data_type": types[1],
+            **uff_exponents("ordinate", types[0]), **uff_exponents("orddenom", types[1])}
+
+
+def uff_exponents(axis: str, spec_type: int) -> dict:
+    """pyuff's fields of the length, force and temperature units exponents of a type-58
+    record's ``axis`` ("abscissa", "ordinate", "orddenom") of specific data type
+    ``spec_type``: :data:`UFF_UNIT_EXPONENTS` (pyuff writes 0 0 0 unless told, which says
+    dimensionless to a tool that reads them)."""
+    return dict(zip((f"{axis}_len_unit_exp", f"{axis}_force_unit_exp",
+                     f"{axis}_temp_unit_exp"), UFF_UNIT_EXPONENTS[spec_type]))
 
 
 def _unbracketed(unit: str) -> str:
