@@ -666,14 +666,15 @@ def test_uff58_unit_labels_drop_spaces_and_a_label_too_long_is_refused(tmp_path,
 
 
 # ------------------------------------------------- FRF files written by other tools (interop)
-def _other_uff(path, freq, frf, *, x=None, binary=0, **fields):
+def _other_uff(path, freq, frf, *, x=None, binary=0, units164=None, **fields):
     """A UFF 58 file as another modal tool writes it with pyuff: one FRF record per point
     (response node k + 1 +Z, reference 1 +Z), acceleration over force in g/N; ``fields``
-    override any record field, ``x`` the abscissa as written (default ``freq`` in Hz)."""
+    override any record field, ``x`` the abscissa as written (default ``freq`` in Hz);
+    ``units164`` pyuff's fields of a units record (dataset 164) at the head of the file."""
     import pyuff
 
     x = freq if x is None else x
-    sets = []
+    sets = [] if units164 is None else [pyuff.prepare_164(**units164)]
     for k, h in enumerate(frf):
         record = dict(binary=binary, id1=f"FRF {k + 1}", id2="OtherTool", func_type=4,
                       rsp_node=k + 1, rsp_dir=3, ref_node=1, ref_dir=3, ord_data_type=6,
@@ -685,6 +686,50 @@ def _other_uff(path, freq, frf, *, x=None, binary=0, **fields):
         sets.append(pyuff.prepare_58(**record))
     pyuff.UFF(str(path)).write_sets(sets, mode="add")
     return path
+
+
+def test_a_uff_with_an_si_units_record_reads_as_without(tmp_path, case):
+    # as a modal tool (LMS, pyuff users) heads its files: code 1, factors 1, Celsius offset
+    si = dict(units_code=1, units_description="SI - mks (Newton)", temp_mode=2, length=1.0,
+              force=1.0, temp=1.0, temp_offset=273.15)
+    for binary in (0, 1):
+        with_164 = io.read_frf(_other_uff(tmp_path / f"si{binary}.uff", case.freq,
+                                          case.frf[:2], units164=si, binary=binary,
+                                          ordinate_axis_units_lab="m/s^2"))
+        assert with_164.units == "m/s^2/N" and with_164.labels == ("1+Z", "2+Z")
+        if binary:
+            np.testing.assert_array_equal(with_164.frf, case.frf[:2])
+        else:
+            np.testing.assert_allclose(with_164.frf, case.frf[:2], rtol=1e-11,
+                                       atol=1e-11 * np.abs(case.frf).max())
+
+
+@pytest.mark.parametrize("code, name, length, force", [
+    (5, "MM - mm (milli newton)", 1000.0, 1000.0),
+    (7, "IN - Inch (pound f)", 39.37007874015748, 0.2248089430997105),
+    (9, "US - USER_DEFINED", 1000.0, 1.0),          # mm and N: code 9, the factors tell
+])
+def test_a_uff_whose_units_record_is_not_si_is_refused(tmp_path, case, code, name, length,
+                                                       force):
+    """A units record (dataset 164) not SI makes a record's values mm/s^2 per mN (its factors
+    and the acceleration's powers of length and force), while its labels, display text, may
+    say m/s^2 over N: laminid took the labels and the values as SI, 1000 times off for mm.
+    Refused, naming the file, the record and its factors; no traceback, exit 2."""
+    units = dict(units_code=code, units_description=name[:20], temp_mode=1, length=length,
+                 force=force, temp=1.0, temp_offset=0.0)
+    path = _other_uff(tmp_path / "mm.uff", case.freq, case.frf[:2], units164=units,
+                      ordinate_axis_units_lab="mm/s^2")
+    with pytest.raises(FrfError) as info:
+        io.read_frf(path)
+    assert str(info.value) == (
+        f"{path}: its units record (dataset 164) says units code {code} ({name[:20]!r}; length "
+        f"factor {length:.10g}, force factor {force:.10g} to SI), not SI: laminid reads FRF "
+        "records in SI units only (whether the values follow that record or their units labels "
+        "is not said, a factor apart); export them from the tool in SI (units code 1, metre "
+        "and newton)")
+    r = CliRunner().invoke(cli, ["fit-frf", str(path)])
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert "its units record (dataset 164) says units code" in r.output
 
 
 @pytest.mark.parametrize("label, scale", [("rad/s", 2 * np.pi), ("RAD/S", 2 * np.pi),

@@ -20,6 +20,8 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     specific data type), read as Hz with a warning, refused where it ends below
     :data:`UNSTATED_FREQ_MIN_SPAN_HZ`. An
     ordinate units label blank or "NONE" (pyuff's default) states no FRF unit (``units`` None).
+    A units record (dataset 164) must be SI (length and force factors 1): another is refused
+    (:func:`_check_uff_units_records`). laminid writes one, SI, at the head of its files.
 ``csv`` (``.csv``, ``.txt``)
     Text: first column frequency in Hz (kHz or rad/s when its header says so: "f [kHz]",
     "f (kHz)", "omega_rad_s"; another bracketed unit is refused, and so is a header that reads
@@ -956,6 +958,7 @@ def read_frf_uff(path) -> FrfSet:
         found = ", ".join(str(t) for t in sorted(set(types.tolist()))) or "none"
         raise FrfError(f"{path}: no type-58 (function at nodal DOF) record; dataset types "
                        f"found: {found}")
+    _check_uff_units_records(path, uff, [int(i) for i in np.flatnonzero(types == 164)])
     try:
         sets = uff.read_sets(idx)
     except Exception as exc:  # noqa: BLE001 - pyuff raises bare Exception, and others
@@ -1036,6 +1039,38 @@ def read_frf_uff(path) -> FrfSet:
         meta["settings"] = {"exp_window_s": tau}
     return FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels, units=units,
                   source=str(path), meta=meta)
+
+
+def _check_uff_units_records(path, uff, idx) -> None:
+    """The units records (dataset 164) of a Universal File: SI (length and force factors 1,
+    whatever the units code says) is read as the file's FRFs are; another unit system is
+    refused. Its factors convert a record's values to SI by the powers of length and force of
+    its specific data type (Addendum A of dataset 58; UC-SDRL's 164.asc: "to convert from
+    universal file units to SI divide by the appropriate factor"), while the units labels,
+    which laminid takes the FRF unit from, are display text ("mm/s^2" over "N" in a file of
+    mm and mN): which of the two the values follow is not said, and a guess is wrong by the
+    factor (1000 for mm)."""
+    if not idx:
+        return
+    try:
+        records = uff.read_sets(idx)
+    except Exception as exc:  # noqa: BLE001 - pyuff raises bare Exception
+        raise FrfError(f"{path}: cannot read its units record (dataset 164) ({exc})") from exc
+    for d in [records] if isinstance(records, dict) else records:
+        try:
+            factors = float(d["length"]), float(d["force"])
+        except (KeyError, TypeError, ValueError):
+            raise FrfError(f"{path}: its units record (dataset 164) has no length and force "
+                           "factors") from None
+        if not np.allclose(factors, 1.0, rtol=1e-9, atol=0):
+            name = str(d.get("units_description", "") or "").strip()
+            raise FrfError(
+                f"{path}: its units record (dataset 164) says units code "
+                f"{d.get('units_code')} ({name!r}; length factor {factors[0]:.10g}, force "
+                f"factor {factors[1]:.10g} to SI), not SI: laminid reads FRF records in SI "
+                "units only (whether the values follow that record or their units labels is "
+                "not said, a factor apart); export them from the tool in SI (units code 1, "
+                "metre and newton)")
 
 
 #: the units labels of a type-58 record (records 8-10, field 6)
