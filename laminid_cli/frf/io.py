@@ -52,6 +52,10 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
       few resonances look alike). The labels are the magnitude names without the magnitude word (``H1_mag`` H1).
       Without a header, columns are never taken for magnitude and phase.
 
+    A first line at 0 Hz whose FRF values are NaN or inf (H = X/F, the force 0 at DC) is
+    dropped with a warning (:func:`~laminid_cli.frf.store.nonfinite_dc_lines`; the UFF and
+    plain HDF5 readers too); NaN or inf at any other line is refused.
+
     Text in UTF-8, UTF-16 with a BOM, or Windows-1252 (:func:`decode_text`, with a note).
     Separator ``;`` tab ``,`` (the first found in the first line) or blanks; with ``;`` or tab
     a decimal comma is read too (``125,05``, as a European spreadsheet writes); ``#`` comment
@@ -80,7 +84,8 @@ from laminid_cli.atomic import atomic_path
 from laminid_cli.errors import FrfError, LaminidError, OutputExistsError, about_file
 from laminid_cli.filekinds import binary_kind
 from laminid_cli.frf.store import (UNSTATED_FREQ_MIN_SPAN_HZ, FrfSet, check_frf_arrays,
-                                   check_frf_size, read_frf_h5, resonance_lines,
+                                   check_frf_size, nonfinite_dc_lines, nonfinite_dc_warning,
+                                   read_frf_h5, resonance_lines,
                                    unit_not_stated_note, unstated_freq_warning,
                                    validate_frf_arrays, write_frf_h5)
 
@@ -845,6 +850,12 @@ def read_frf_csv(path) -> FrfSet:
         if i.size:
             raise FrfError(f"{path}: line {lines[i[0]][0]}, {_csv_column(header, 0)}: the "
                            f"frequency {data[i[0], 0]} has an imaginary part")
+    warnings: list[str] = []
+    dc = nonfinite_dc_lines(data[:, 0].real, data[:, 1:])
+    if dc:
+        # before the layouts are told apart: a NaN phase there would weigh in on its unit
+        warnings.append(nonfinite_dc_warning(path, dc))
+        data, lines = data[dc:], lines[dc:]
     kinds = [_csv_part_kind(h) for h in header[1:]] if header else []
     complex_columns = sorted(j for j in complex_at if j > 0)
     expected = ("expected the frequency, then a real and an imaginary column per FRF, or one "
@@ -900,7 +911,9 @@ def read_frf_csv(path) -> FrfSet:
     freq, frf, _ = check_frf_arrays(data[:, 0].real * factor, frf, source=str(path))
     meta: dict = {}
     if not stated:
-        meta["warnings"] = [_unstated_freq_warning(path, header, sep, freq)]
+        warnings.append(_unstated_freq_warning(path, header, sep, freq))
+    if warnings:
+        meta["warnings"] = warnings
     if units is None and header and len(header) == n and len(unit_columns) == frf.shape[0]:
         # "H1 real [g/N]": the unit a spreadsheet's header gives was read as "not stated"
         units, point_units = _csv_header_units(path, header, unit_columns)
@@ -1010,6 +1023,12 @@ def read_frf_uff(path) -> FrfSet:
                    for k, d in enumerate(frfs))
     each = [_uff_units(d) for d in frfs]
     units = each[0]
+    warnings = []
+    dc = nonfinite_dc_lines(freq, frf.T)
+    if dc:
+        warnings.append(nonfinite_dc_warning(path, dc))
+        freq, frf = freq[dc:], frf[:, dc:]
+        coherence = None if coherence is None else coherence[:, dc:]
     freq, frf, coherence = check_frf_arrays(freq, frf, coherence, source=str(path))
     meta = {"uff_ids": [str(d.get("id1", "")) for d in frfs]}
     stated = [_uff_abscissa_label(d) for d in frfs]
@@ -1019,11 +1038,13 @@ def read_frf_uff(path) -> FrfSet:
         # 100 (kHz read as Hz: every mode 1000 times too low)
         label = str(frfs[0].get("abscissa_axis_units_lab", "") or "").strip()
         kind = "frequency" if absc == UFF_ABSCISSA_FREQUENCY else "unknown"
-        meta["warnings"] = [unstated_freq_warning(
+        warnings.append(unstated_freq_warning(
             f"{path}: the FRF records' abscissa (specific data type {absc}, {kind}; units "
             f"label {label!r})", freq,
             "state it in the records' abscissa units label (record 8, field 6): 'kHz' or "
-            "'rad/s' (pyuff: abscissa_axis_units_lab='kHz')", "the label 'Hz'")]
+            "'rad/s' (pyuff: abscissa_axis_units_lab='kHz')", "the label 'Hz'"))
+    if warnings:
+        meta["warnings"] = warnings
     if units is None and len(set(each)) == 1:
         d = frfs[0]
         meta["notes"] = [unit_not_stated_note(
