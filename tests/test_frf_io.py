@@ -573,3 +573,31 @@ def test_uff_and_plain_hdf5_0_hz_line_of_nan_is_dropped_the_same(tmp_path, dc_tr
         f.create_dataset("H", data=bad).attrs["units"] = "m/N"
     with pytest.raises(FrfError, match=r"FRF of point 1 has NaN/inf at 0\.5 Hz"):
         io.read_frf(h5)
+
+
+# ------------------------------------------------------------- spreadsheet exports
+@pytest.mark.parametrize("sep", [",", ";", "\t"], ids=["comma", "semicolon", "tab"])
+def test_a_spreadsheets_empty_trailing_columns_and_rows_are_blank(tmp_path, dc_truth, sep):
+    """A spreadsheet writes the columns and rows formatted but empty as separators: lines
+    ending ",," and lines ",,,,," below the data were refused ("line 2, column 6: empty,
+    where a number is expected"), and so was a tab-separated line ending in one tab, whose
+    tab the test for a separator at the end stripped as a blank. Read as the data alone."""
+    freq, H = dc_truth
+    cells = [[repr(float(f)), repr(float(H[0, k].real)), repr(float(H[0, k].imag))]
+             for k, f in enumerate(freq) if k]
+    trail = sep * (1 if sep == "\t" else 2)
+    text = [sep.join(["f [Hz]", "H1_re", "H1_im"]) + trail]
+    text += [sep.join(c) + trail for c in cells] + [sep * 4] * 3
+    path = tmp_path / "sheet.csv"
+    path.write_text("\r\n".join(text) + "\r\n")
+    fs = io.read_frf(path)
+    np.testing.assert_array_equal(fs.freq, freq[1:])
+    np.testing.assert_array_equal(fs.frf, H[:1, 1:])
+    assert fs.labels == ("H1",) and "warnings" not in fs.meta
+
+
+def test_a_missing_last_value_is_still_named(tmp_path):
+    p = tmp_path / "gap.csv"
+    p.write_text("f [Hz],H_re,H_im\n1,2,3\n2,3,\n")       # one empty cell: as before
+    with pytest.raises(FrfError, match=r":3: 2 columns, the first data line has 3"):
+        io.read_frf(p)

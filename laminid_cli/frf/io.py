@@ -381,15 +381,17 @@ def _commented_header(text: str, first_data: int, sep: str | None, n: int
 def _split(line: str, sep: str | None) -> list[str]:
     """The cells of a CSV line: quoted cells unquoted (``"f [Hz]","0.5"``, as pandas with
     QUOTE_ALL, LabVIEW and many loggers write them; they were "'\"0.5\"' is not a number"),
-    and the empty cell after a separator that ends the line dropped (``0,5;1,2;``, as a
+    and the empty cells after the separators that end the line dropped (``0,5;1,2;``, as a
     spreadsheet writes a trailing empty column: "column 10: empty, where a number is
-    expected")."""
+    expected"; ``0.5,1.2,,,`` of columns formatted but empty, and ``0.5\t1.2\t``, whose tab
+    the test for a separator at the end stripped as a blank)."""
     if sep and '"' in line:
         cells = [t.strip() for t in next(csv.reader([line], delimiter=sep))]
     else:
         cells = [t.strip() for t in (line.split(sep) if sep else line.split())]
-    if sep and len(cells) > 1 and cells[-1] == "" and line.rstrip().endswith(sep):
-        cells = cells[:-1]
+    if sep and line.rstrip(" \r\n").endswith(sep):
+        while len(cells) > 1 and cells[-1] == "":
+            cells.pop()
     if sep is None and ("+" in cells or "-" in cells):
         cells = _join_signs(cells)
     return cells
@@ -759,8 +761,9 @@ def read_frf_csv(path) -> FrfSet:
         if hit:
             units = hit.group(1)
             break
+    # a line of separators only (",,,,", a spreadsheet's formatted empty row) is blank
     lines = [(i + 1, ln) for i, ln in enumerate(text.splitlines())
-             if ln.strip() and not ln.lstrip().startswith("#")]
+             if ln.strip(' \t,;"') and not ln.lstrip().startswith("#")]
     if len(lines) > 1:
         check_frf_size(1, len(lines) - 1, str(path))
     if not lines:
