@@ -601,3 +601,24 @@ def test_a_missing_last_value_is_still_named(tmp_path):
     p.write_text("f [Hz],H_re,H_im\n1,2,3\n2,3,\n")       # one empty cell: as before
     with pytest.raises(FrfError, match=r":3: 2 columns, the first data line has 3"):
         io.read_frf(p)
+
+
+@pytest.mark.parametrize("error", ["#DIV/0!", "#NUM!", "#div/0!"])
+def test_a_spreadsheets_division_by_zero_at_0_hz_is_dropped_as_nan(tmp_path, dc_truth, error):
+    """A spreadsheet that computed H = X/F writes its error value where F is 0, at 0 Hz: the
+    file was refused ("line 2, column 2 ('H1_re'): '#DIV/0!' is neither a number ..."); that
+    line is dropped as a NaN one, with the warning naming the value. Elsewhere it is still
+    refused by line and column."""
+    freq, H = dc_truth
+    path = tmp_path / "div0.csv"
+    _dc_csv(path, freq, H, "re/im", [error] * 4)
+    fs = io.read_frf(path)
+    assert fs.meta["warnings"] == [_dc_warning(path).replace("NaN/inf", f"NaN/inf or {error}")]
+    np.testing.assert_array_equal(fs.freq, freq[1:])
+    np.testing.assert_allclose(fs.frf, H[:, 1:], rtol=1e-12, atol=0)
+    lines = path.read_text().splitlines()
+    lines[5] = lines[5].split(",")[0] + f",{error},1,2,3"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(FrfError) as info:
+        io.read_frf(path)
+    assert str(info.value).startswith(f"{path}: line 6, column 2 ('H1_re'): '{error}' is ")

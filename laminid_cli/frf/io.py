@@ -52,8 +52,8 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
       few resonances look alike). The labels are the magnitude names without the magnitude word (``H1_mag`` H1).
       Without a header, columns are never taken for magnitude and phase.
 
-    A first line at 0 Hz whose FRF values are NaN or inf (H = X/F, the force 0 at DC) is
-    dropped with a warning (:func:`~laminid_cli.frf.store.nonfinite_dc_lines`; the UFF and
+    A first line at 0 Hz whose FRF values are NaN or inf (H = X/F, the force 0 at DC; also a
+    spreadsheet's ``#DIV/0!``, :data:`CSV_SHEET_ERRORS`) is dropped with a warning (:func:`~laminid_cli.frf.store.nonfinite_dc_lines`; the UFF and
     plain HDF5 readers too); NaN or inf at any other line is refused.
 
     Text in UTF-8, UTF-16 with a BOM, or Windows-1252 (:func:`decode_text`, with a note).
@@ -141,6 +141,10 @@ UFF_UNITS_CHARS = 20
 #: the fixed columns for other readers)
 UFF_ASCII = str.maketrans({"²": "^2", "³": "^3", "µ": "u", "μ": "u", "°": "deg", "·": "*",
                            "−": "-", "–": "-", "—": "-", "×": "x"})
+#: a spreadsheet's error values for a division by zero and an undefined number: on a CSV's
+#: 0 Hz line (H = X/F, F 0 at DC) they are NaN, and that line is dropped with a warning
+#: (:func:`~laminid_cli.frf.store.nonfinite_dc_lines`); anywhere else still "not a number"
+CSV_SHEET_ERRORS = ("#DIV/0!", "#NUM!")
 #: text FRF files (UFF, CSV) larger than this are refused before they are read (1 GB: the
 #: 50 million values of MAX_FRF_VALUES at ~20 characters each)
 MAX_TEXT_FILE_BYTES = 1_000_000_000
@@ -812,6 +816,7 @@ def read_frf_csv(path) -> FrfSet:
     rows = []
     #: the first complex cell of each column that has one: (line, cell)
     complex_at: dict[int, tuple[int, str]] = {}
+    sheet_error = None              # a CSV_SHEET_ERRORS cell read as NaN
     for lineno, ln in lines:
         cells = _split(ln, sep)
         row, bad = [], None
@@ -819,8 +824,11 @@ def read_frf_csv(path) -> FrfSet:
             try:
                 v = number(cell)
             except ValueError:
-                bad = bad or (j, cell)
-                continue
+                if not (j and row and row[0] == 0 and cell.upper() in CSV_SHEET_ERRORS):
+                    bad = bad or (j, cell)
+                    continue
+                v = float("nan")    # a spreadsheet's X/F at 0 Hz: NaN, the line dropped below
+                sheet_error = sheet_error or cell
             if isinstance(v, complex) and j not in complex_at:
                 complex_at[j] = (lineno, cell)
             row.append(v)
@@ -857,7 +865,8 @@ def read_frf_csv(path) -> FrfSet:
     dc = nonfinite_dc_lines(data[:, 0].real, data[:, 1:])
     if dc:
         # before the layouts are told apart: a NaN phase there would weigh in on its unit
-        warnings.append(nonfinite_dc_warning(path, dc))
+        warnings.append(nonfinite_dc_warning(
+            path, dc, "NaN/inf" if sheet_error is None else f"NaN/inf or {sheet_error}"))
         data, lines = data[dc:], lines[dc:]
     kinds = [_csv_part_kind(h) for h in header[1:]] if header else []
     complex_columns = sorted(j for j in complex_at if j > 0)

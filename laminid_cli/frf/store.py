@@ -155,11 +155,11 @@ def nonfinite_dc_lines(freq, values) -> int:
     return int(np.argmin(dc)) if not dc.all() else 0
 
 
-def nonfinite_dc_warning(source, n: int) -> str:
+def nonfinite_dc_warning(source, n: int, shown: str = "NaN/inf") -> str:
     """The one-line warning of a reader that dropped ``n`` DC lines
-    (:func:`nonfinite_dc_lines`)."""
+    (:func:`nonfinite_dc_lines`) whose values are ``shown``."""
     lines = "the first line" if n == 1 else f"the first {n} lines"
-    return (f"{source}: {lines} (0 Hz) dropped: its FRF values are NaN/inf (a response over "
+    return (f"{source}: {lines} (0 Hz) dropped: its FRF values are {shown} (a response over "
             "a force spectrum that is 0 at DC, as analysers export it)")
 
 
