@@ -622,3 +622,37 @@ def test_a_spreadsheets_division_by_zero_at_0_hz_is_dropped_as_nan(tmp_path, dc_
     with pytest.raises(FrfError) as info:
         io.read_frf(path)
     assert str(info.value).startswith(f"{path}: line 6, column 2 ('H1_re'): '{error}' is ")
+
+
+def test_a_header_of_names_over_units_gives_the_points_and_the_unit(tmp_path, dc_truth):
+    """Column names over a line of their units, as loggers and spreadsheets write them: the
+    units' line was taken for the header and the names' line skipped as a title, so the
+    points were named "m/s^2/N", "m/s^2/N" and the FRF unit was not stated. Each name now
+    takes its unit: points H1, H2 in m/s^2/N, the frequency in kHz converted, the magnitude
+    in dB and the phase in degrees by their units; a title above stays skipped."""
+    freq, H = dc_truth
+    f_khz = [repr(float(f) / 1000) for f in freq[1:]]
+    reim = [",".join([f] + [repr(float(v)) for h in H[:, k + 1] for v in (h.real, h.imag)])
+            for k, f in enumerate(f_khz)]
+    path = tmp_path / "two.csv"
+    path.write_text("Export of test 3\nFrequency,H1 Real,H1 Imag,H2 Real,H2 Imag\n"
+                    "kHz,m/s^2/N,m/s^2/N,m/s^2/N,m/s^2/N\n" + "\n".join(reim) + "\n")
+    fs = io.read_frf(path)
+    assert fs.labels == ("H1", "H2") and fs.units == "m/s^2/N" and "warnings" not in fs.meta
+    np.testing.assert_allclose(fs.freq, freq[1:], rtol=1e-15)
+    np.testing.assert_array_equal(fs.frf, H[:, 1:])
+    assert f"{path}: a header of two lines: the column names (line 2) over their units (line " \
+           "3), read as Frequency [kHz], H1 Real [m/s^2/N], H1 Imag [m/s^2/N], H2 Real " \
+           "[m/s^2/N], H2 Imag [m/s^2/N]" in fs.meta["notes"]
+    assert any("lines 1-1 above the header skipped ('Export of test 3')" in n
+               for n in fs.meta["notes"])
+    magph = [";".join([repr(float(f))] + [repr(float(v)) for h in H[:, k]
+                                          for v in (20 * np.log10(abs(h)),
+                                                    np.degrees(np.angle(h)))])
+             for k, f in enumerate(freq) if k]
+    path = tmp_path / "magph.csv"
+    path.write_text("f;Pt1 Magnitude;Pt1 Phase;Pt2 Magnitude;Pt2 Phase\n"
+                    "[Hz];[dB];[deg];[dB];[deg]\n" + "\n".join(magph) + "\n")
+    fs = io.read_frf(path)
+    assert fs.labels == ("Pt1", "Pt2") and "warnings" not in fs.meta
+    np.testing.assert_allclose(fs.frf, H[:, 1:], rtol=1e-12, atol=0)

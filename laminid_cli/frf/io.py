@@ -67,7 +67,8 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     first cell not being a number (or, above a first line of data, the comment line just
     above it, numpy's ``savetxt(header=...)``, when it has as many cells as the data and its
     first is not a number: :func:`_commented_header`, with a note; lines above it that are
-    neither, an export's title and date, skipped with a note: :func:`_csv_preamble`) (its
+    neither, an export's title and date, skipped with a note: :func:`_csv_preamble`; or the
+    names over a line of their units, :func:`_csv_two_line_header`) (its
     names give the point labels: of the real columns, of
     the complex columns, of the magnitude columns).
 """
@@ -743,6 +744,33 @@ def _csv_preamble(lines) -> int:
     return i - 1
 
 
+def _csv_two_line_header(names_line: str, units_line: str) -> list[str] | None:
+    """The header of a CSV whose column names are over a line of their units, as loggers and
+    spreadsheets write it ("Frequency,H1 Real,..." over "Hz,m/s^2/N,..."): each name with its
+    unit in brackets ("Frequency [Hz]", "H1 Real [m/s^2/N]"; a name that has one keeps it, a
+    blank unit adds none), which the header's readers then take the units from. The units'
+    line was taken for the header and the names' line skipped as a title: the points were
+    named "m/s^2/N" and the FRF unit lost. None unless both lines split alike into as many
+    cells and the first unit is a frequency unit (Hz, kHz, rad/s)."""
+    from laminid_cli.frf.generic_h5 import freq_unit_factor
+
+    sep = _csv_separator(units_line)
+    if sep != _csv_separator(names_line):
+        return None
+    names, units = _split(names_line, sep), _split(units_line, sep)
+    if len(names) != len(units) or len(names) < 2 or not units[0] \
+            or freq_unit_factor(units[0]) is None or _csv_number(names[0], sep):
+        return None
+    merged = []
+    for name, unit in zip(names, units):
+        unit = unit.strip()
+        if len(unit) > 2 and unit[0] + unit[-1] in ("[]", "()"):
+            unit = unit[1:-1].strip()
+        has_unit = re.search(r"[\[(][^\])]*[\])]\s*\Z", name) is not None
+        merged.append(name if not unit or has_unit else f"{name} [{unit}]")
+    return merged
+
+
 def read_frf_csv(path) -> FrfSet:
     """Read a CSV FRF file: ``freq, re_1, im_1, ...``, ``freq, H_1, H_2, ...`` of complex cells
     or magnitude and phase columns named in the header (see module docstring).
@@ -774,12 +802,21 @@ def read_frf_csv(path) -> FrfSet:
         raise FrfError(f"{path}: no data lines (expected columns freq, re_1, im_1, ...)")
     notes: list[str] = []
     preamble = _csv_preamble(lines)
+    two_line = _csv_two_line_header(lines[preamble - 1][1], lines[preamble][1]) \
+        if preamble else None
+    if two_line is not None:
+        preamble -= 1               # the names' line is the header's first, no preamble
+        notes.append(f"{path}: a header of two lines: the column names (line "
+                     f"{lines[preamble][0]}) over their units (line {lines[preamble + 1][0]}), "
+                     f"read as {', '.join(two_line)}")
     if preamble:
         shown = ", ".join(_quoted(ln.strip()) for _, ln in lines[:min(preamble, 3)])
         notes.append(f"{path}: lines {lines[0][0]}-{lines[preamble - 1][0]} above the header "
                      f"skipped ({shown}{', ...' if preamble > 3 else ''}): they are no "
                      "column names or data")
         lines = lines[preamble:]
+    if two_line is not None:
+        lines = lines[1:]           # the units' line next, read as the header, then replaced
     first = lines[0][1]
     sep = _csv_separator(first)
     header = None
@@ -799,7 +836,7 @@ def read_frf_csv(path) -> FrfSet:
     except ValueError:
         # the frequency's name: a first line whose first cell is a number is data, and a bad
         # cell in it is named as such (it was taken for the header, the line lost)
-        header = cells
+        header = cells if two_line is None else two_line
         lines = lines[1:]
         if [c.strip().lower() for c in cells[:2]] == ["name", "specimen"]:
             # laminid batch's summary.csv (long or --wide): was "line 2, column 1 ('name'):
