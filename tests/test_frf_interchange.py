@@ -688,13 +688,15 @@ def _other_uff(path, freq, frf, *, x=None, binary=0, units164=None, **fields):
     return path
 
 
-def test_a_uff_with_an_si_units_record_reads_as_without(tmp_path, case):
-    # as a modal tool (LMS, pyuff users) heads its files: code 1, factors 1, Celsius offset
-    si = dict(units_code=1, units_description="SI - mks (Newton)", temp_mode=2, length=1.0,
+#: the units record an SI tool writes (LMS, pyuff users): code 1, factors 1, Celsius offset
+SI_164 = dict(units_code=1, units_description="SI - mks (Newton)", temp_mode=2, length=1.0,
               force=1.0, temp=1.0, temp_offset=273.15)
+
+
+def test_a_uff_with_an_si_units_record_reads_as_without(tmp_path, case):
     for binary in (0, 1):
         with_164 = io.read_frf(_other_uff(tmp_path / f"si{binary}.uff", case.freq,
-                                          case.frf[:2], units164=si, binary=binary,
+                                          case.frf[:2], units164=SI_164, binary=binary,
                                           ordinate_axis_units_lab="m/s^2"))
         assert with_164.units == "m/s^2/N" and with_164.labels == ("1+Z", "2+Z")
         if binary:
@@ -702,6 +704,32 @@ def test_a_uff_with_an_si_units_record_reads_as_without(tmp_path, case):
         else:
             np.testing.assert_allclose(with_164.frf, case.frf[:2], rtol=1e-11,
                                        atol=1e-11 * np.abs(case.frf).max())
+
+
+@pytest.mark.parametrize("types, with_164, units", [
+    ((12, 13), True, "m/s^2/N"), ((11, 13), True, "m/s/N"), ((8, 13), True, "m/N"),
+    ((15, 13), True, "Pa/N"),
+    ((12, 13), False, None),          # no units record: in which system is not said
+    ((12, 0), True, None), ((0, 13), True, None),       # a type not known
+])
+def test_uff_records_without_units_labels_take_the_unit_of_their_types(tmp_path, case, types,
+                                                                      with_164, units):
+    """pyuff's records typed (12 acceleration over 13 force) but with its default labels
+    "NONE": "the FRF unit is not stated", though a tool labels them m/s^2 over N in the SI
+    of the file's units record. Now the unit of the types, with a note; without a units
+    record or with a type laminid does not know, not stated as before."""
+    path = _other_uff(tmp_path / "typed.uff", case.freq[:UNIT_LINES], case.frf[:2, :UNIT_LINES],
+                      units164=SI_164 if with_164 else None, ordinate_spec_data_type=types[0],
+                      orddenom_spec_data_type=types[1], ordinate_axis_units_lab="NONE",
+                      orddenom_axis_units_lab="NONE")
+    fs = io.read_frf(path)
+    assert fs.units == units and "point_units" not in fs.meta
+    if units is None:
+        assert "the FRF unit is not stated in the file" in fs.meta["notes"][0]
+    else:
+        assert fs.meta["notes"] == [
+            f"{path}: FRF records 1, 2 state no units label: {units} from the specific data "
+            f"types ({types[0]} over {types[1]}) in the units record's SI"]
 
 
 @pytest.mark.parametrize("code, name, length, force", [

@@ -19,7 +19,9 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     unit refused); where no record has one (blank or "NONE", pyuff's default, whatever the
     specific data type), read as Hz with a warning, refused where it ends below
     :data:`UNSTATED_FREQ_MIN_SPAN_HZ`. An
-    ordinate units label blank or "NONE" (pyuff's default) states no FRF unit (``units`` None).
+    ordinate units label blank or "NONE" (pyuff's default) states no FRF unit (``units`` None),
+    except in a file whose units record says SI, where a record typed (8, 11, 12 or 15 over
+    13) without labels has its types' unit (:func:`_uff_typed_unit`, with a note).
     A units record (dataset 164) must be SI (length and force factors 1): another is refused
     (:func:`_check_uff_units_records`). laminid writes one, SI, at the head of its files.
 ``csv`` (``.csv``, ``.txt``)
@@ -53,8 +55,9 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
       Without a header, columns are never taken for magnitude and phase.
 
     A first line at 0 Hz whose FRF values are NaN or inf (H = X/F, the force 0 at DC; also a
-    spreadsheet's ``#DIV/0!``, :data:`CSV_SHEET_ERRORS`) is dropped with a warning (:func:`~laminid_cli.frf.store.nonfinite_dc_lines`; the UFF and
-    plain HDF5 readers too); NaN or inf at any other line is refused.
+    spreadsheet's ``#DIV/0!``, :data:`CSV_SHEET_ERRORS`) is dropped with a warning
+    (:func:`~laminid_cli.frf.store.nonfinite_dc_lines`; the UFF and plain HDF5 readers too);
+    NaN or inf at any other line is refused.
 
     Text in UTF-8, UTF-16 with a BOM, or Windows-1252 (:func:`decode_text`, with a note).
     Separator ``;`` tab ``,`` (the first found in the first line) or blanks; with ``;`` or tab
@@ -1020,7 +1023,7 @@ def read_frf_uff(path) -> FrfSet:
         found = ", ".join(str(t) for t in sorted(set(types.tolist()))) or "none"
         raise FrfError(f"{path}: no type-58 (function at nodal DOF) record; dataset types "
                        f"found: {found}")
-    _check_uff_units_records(path, uff, [int(i) for i in np.flatnonzero(types == 164)])
+    si = _check_uff_units_records(path, uff, [int(i) for i in np.flatnonzero(types == 164)])
     try:
         sets = uff.read_sets(idx)
     except Exception as exc:  # noqa: BLE001 - pyuff raises bare Exception, and others
@@ -1071,6 +1074,12 @@ def read_frf_uff(path) -> FrfSet:
                    + (f":{d.get('ref_node', 0)}{_dir(d.get('ref_dir', 0))}" if roving else "")
                    for k, d in enumerate(frfs))
     each = [_uff_units(d) for d in frfs]
+    # no units labels, a type over a force's, in a file whose units record says SI: the unit
+    # a tool generates from the types (the labels "take precedence" where given)
+    typed = {k: _uff_typed_unit(d) for k, d in enumerate(frfs) if si and each[k] is None}
+    typed = {k: unit for k, unit in typed.items() if unit is not None}
+    for k, unit in typed.items():
+        each[k] = unit
     units = each[0]
     warnings = []
     dc = nonfinite_dc_lines(freq, frf.T)
@@ -1094,6 +1103,16 @@ def read_frf_uff(path) -> FrfSet:
             "'rad/s' (pyuff: abscissa_axis_units_lab='kHz')", "the label 'Hz'"))
     if warnings:
         meta["warnings"] = warnings
+    if typed:
+        k = min(typed)
+        d = frfs[k]
+        one = len(typed) == 1
+        meta["notes"] = [
+            f"{path}: FRF record{'' if one else 's'} "
+            f"{', '.join(str(j + 1) for j in sorted(typed))} state{'s' if one else ''}"
+            f" no units label: {typed[k]} from the specific data types "
+            f"({int(d['ordinate_spec_data_type'])} over {int(d['orddenom_spec_data_type'])}) in "
+            "the units record's SI"]
     if units is None and len(set(each)) == 1:
         d = frfs[0]
         meta["notes"] = [unit_not_stated_note(
@@ -1111,17 +1130,40 @@ def read_frf_uff(path) -> FrfSet:
                   source=str(path), meta=meta)
 
 
-def _check_uff_units_records(path, uff, idx) -> None:
+#: the SI unit of a type-58 record's ordinate of each specific data type laminid knows
+#: (record 9, field 1: 8 displacement, 11 velocity, 12 acceleration, 15 pressure), over an
+#: excitation force (record 10: 13) in N, as a tool labels a record that gives no label
+UFF_SI_UNIT_OF_TYPE = {8: "m", 11: "m/s", 12: "m/s^2", 15: "Pa"}
+
+
+def _uff_typed_unit(d) -> str | None:
+    """The FRF unit of a type-58 record by its specific data types, in SI ("m/s^2/N" for 12
+    over 13), where both its units labels are blank or "NONE"; None where a label is given
+    or a type is another."""
+    for key in ("ordinate_axis_units_lab", "orddenom_axis_units_lab"):
+        if str(d.get(key, "") or "").strip().upper() not in ("", "NONE"):
+            return None
+    try:
+        types = (int(d.get("ordinate_spec_data_type", 0)),
+                 int(d.get("orddenom_spec_data_type", 0)))
+    except (TypeError, ValueError):
+        return None
+    if types[1] != 13 or types[0] not in UFF_SI_UNIT_OF_TYPE:
+        return None
+    return f"{UFF_SI_UNIT_OF_TYPE[types[0]]}/N"
+
+
+def _check_uff_units_records(path, uff, idx) -> bool:
     """The units records (dataset 164) of a Universal File: SI (length and force factors 1,
-    whatever the units code says) is read as the file's FRFs are; another unit system is
-    refused. Its factors convert a record's values to SI by the powers of length and force of
-    its specific data type (Addendum A of dataset 58; UC-SDRL's 164.asc: "to convert from
-    universal file units to SI divide by the appropriate factor"), while the units labels,
-    which laminid takes the FRF unit from, are display text ("mm/s^2" over "N" in a file of
-    mm and mN): which of the two the values follow is not said, and a guess is wrong by the
-    factor (1000 for mm)."""
+    whatever the units code says) is read as the file's FRFs are (True: the file has one);
+    another unit system is refused. Its factors convert a record's values to SI by the powers
+    of length and force of its specific data type (Addendum A of dataset 58; UC-SDRL's
+    164.asc: "to convert from universal file units to SI divide by the appropriate factor"),
+    while the units labels, which laminid takes the FRF unit from, are display text
+    ("mm/s^2" over "N" in a file of mm and mN): which of the two the values follow is not
+    said, and a guess is wrong by the factor (1000 for mm)."""
     if not idx:
-        return
+        return False
     try:
         records = uff.read_sets(idx)
     except Exception as exc:  # noqa: BLE001 - pyuff raises bare Exception
@@ -1141,6 +1183,7 @@ def _check_uff_units_records(path, uff, idx) -> None:
                 "units only (whether the values follow that record or their units labels is "
                 "not said, a factor apart); export them from the tool in SI (units code 1, "
                 "metre and newton)")
+    return True
 
 
 #: the units labels of a type-58 record (records 8-10, field 6)
