@@ -1217,3 +1217,32 @@ def test_uff_units_label_with_a_superscript_of_a_windows_tool(tmp_path, case, en
     fs = io.read_frf(path)
     assert fs.units == "m/s^2/N" and "point_units" not in fs.meta
     assert np.array_equal(fs.frf, case.frf[:2])
+
+
+def test_a_dof_measured_twice_keeps_each_records_coherence(tmp_path, case):
+    """Two FRF records of one DOF (a repeated measurement), each followed by its coherence:
+    the coherence was looked up by DOF alone, and both FRFs got the second's (0.9 where the
+    first was 0.3). Paired in file order now, with a note naming the records."""
+    import pyuff
+
+    f, H = case.freq[:UNIT_LINES], case.frf[:3, :UNIT_LINES]
+    sets = []
+    for k, (node, c) in enumerate(((1, 0.3), (1, 0.9), (2, 0.6))):
+        common = dict(binary=0, rsp_node=node, rsp_dir=3, ref_node=1, ref_dir=3,
+                      abscissa_spacing=1, abscissa_spec_data_type=18,
+                      abscissa_axis_units_lab="Hz", ordinate_axis_units_lab="m/s^2",
+                      orddenom_axis_units_lab="N", ordinate_spec_data_type=12,
+                      orddenom_spec_data_type=13, x=f)
+        sets.append(pyuff.prepare_58(func_type=4, ord_data_type=6, data=H[k], **common))
+        sets.append(pyuff.prepare_58(func_type=6, ord_data_type=4, data=np.full(f.size, c),
+                                     **common))
+    path = tmp_path / "repeat.uff"
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")
+    fs = io.read_frf(path)
+    assert fs.labels == ("1+Z", "1+Z", "2+Z")
+    np.testing.assert_array_equal(fs.coherence, np.repeat([[0.3], [0.9], [0.6]], f.size, 1))
+    assert fs.meta["notes"] == [
+        f"{path}: the same DOF in more than one FRF record (1+Z: records 1, 2): each fitted as "
+        "a point of its own, its coherence the DOF's record of the same rank"]
+    out = io.write_frf(tmp_path / "again.uff", fs)          # and through laminid's writer
+    np.testing.assert_array_equal(io.read_frf(out).coherence, fs.coherence)

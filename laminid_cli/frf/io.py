@@ -1062,12 +1062,19 @@ def read_frf_uff(path) -> FrfSet:
         return (int(d.get("rsp_node", 0)), int(d.get("rsp_dir", 0)),
                 int(d.get("ref_node", 0)), int(d.get("ref_dir", 0)))
 
-    coh_by_dof = {dof(d): np.asarray(d["data"]).real for d in sets
-                  if int(d.get("func_type", 0)) == UFF_COHERENCE
-                  and np.asarray(d["x"]).size == freq.size}
+    # each DOF's coherence records in file order, the n-th to its n-th FRF: a DOF measured
+    # twice (a repeat) gave both FRFs the second's coherence
+    coh_by_dof: dict[tuple, list] = {}
+    for d in sets:
+        if int(d.get("func_type", 0)) == UFF_COHERENCE and np.asarray(d["x"]).size == freq.size:
+            coh_by_dof.setdefault(dof(d), []).append(np.asarray(d["data"]).real)
     coherence = None
     if coh_by_dof:
-        coherence = np.array([coh_by_dof.get(dof(d), np.full(freq.size, np.nan)) for d in frfs])
+        rows = []
+        for d in frfs:
+            queue = coh_by_dof.get(dof(d))
+            rows.append(queue.pop(0) if queue else np.full(freq.size, np.nan))
+        coherence = np.array(rows)
     # the response DOF, and the reference's where they differ (a roving hammer: "5+Z:2+Z")
     roving = len({dof(d)[2:] for d in frfs}) > 1
     labels = tuple(f"{d.get('rsp_node', k + 1)}{_dir(d.get('rsp_dir', 0))}"
@@ -1119,6 +1126,18 @@ def read_frf_uff(path) -> FrfSet:
             path, "FRF records' ordinate units label "
                   f"{str(d.get('ordinate_axis_units_lab', '') or '').strip()!r} over "
                   f"{str(d.get('orddenom_axis_units_lab', '') or '').strip()!r}")]
+    records_of: dict[str, list[int]] = {}
+    for k, label in enumerate(labels, start=1):
+        records_of.setdefault(label, []).append(k)
+    twice = {label: ks for label, ks in records_of.items() if len(ks) > 1}
+    if twice:
+        # a repeated measurement: nothing in the file tells the records apart but their order
+        meta.setdefault("notes", []).append(
+            f"{path}: the same DOF in more than one FRF record ("
+            + "; ".join(f"{label}: records {', '.join(map(str, ks))}"
+                        for label, ks in twice.items())
+            + "): each fitted as a point of its own, its coherence the DOF's record of the "
+              "same rank")
     if len(set(each)) > 1:
         # accelerances beside mobilities (another tool's file): one pole set, so the modes
         # are those of all; each FRF's modal constants are in its own unit (fit-frf says so)
