@@ -114,7 +114,7 @@ def write_shapes_uff(path, shapes: PlateShapes, *, overwrite: bool = False) -> P
     """Write UFF 164 + 15 + 55 (see the module docstring); atomic, no silent overwrite."""
     import pyuff
 
-    from laminid_cli.frf.io import write_uff_sets
+    from laminid_cli.frf.io import UFF_SI_UNITS, write_uff_sets
 
     path = Path(path)
     if path.exists() and not overwrite:
@@ -122,8 +122,7 @@ def write_shapes_uff(path, shapes: PlateShapes, *, overwrite: bool = False) -> P
     n = shapes.nodes.shape[0]
     node_nums = np.arange(1, n + 1)
     sets = [
-        pyuff.prepare_164(units_code=1, units_description="SI - m, N, K", temp_mode=2,
-                          length=1.0, force=1.0, temp=1.0, temp_offset=273.15),
+        pyuff.prepare_164(**UFF_SI_UNITS),
         pyuff.prepare_15(node_nums=node_nums, def_cs=np.zeros(n, int), disp_cs=np.zeros(n, int),
                          color=np.ones(n, int), x=shapes.nodes[:, 0], y=shapes.nodes[:, 1],
                          z=np.zeros(n)),

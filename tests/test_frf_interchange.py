@@ -155,9 +155,12 @@ def test_export_frfs_as_uff58_keeps_numbers_units_and_point_numbering(tmp_path, 
     # the frequency range written, in Hz (the --json output gave only the number of lines)
     assert summary["freq_range_hz"] == [case.freq[0], case.freq[-1]]
     assert summary["n_lines"] == case.freq.size
+    assert summary["datasets"] == {"164": 1, "58": 5}
     sets = pyuff.UFF(str(out)).read_sets()
-    assert [s["type"] for s in sets] == [58] * 5
-    for k, s in enumerate(sets):
+    assert [s["type"] for s in sets] == [164] + [58] * 5
+    # the units record the records' types are in: SI (there was none)
+    assert (sets[0]["units_code"], sets[0]["length"], sets[0]["force"]) == (1, 1.0, 1.0)
+    for k, s in enumerate(sets[1:]):
         assert s["func_type"] == 4 and s["rsp_node"] == int(LABELS[k]) and s["rsp_dir"] == 3
         # the response over the force, each with its unit and UFF specific data type (15
         # pressure, 13 excitation force; it said 12 acceleration with the whole unit "Pa/N"
@@ -166,8 +169,54 @@ def test_export_frfs_as_uff58_keeps_numbers_units_and_point_numbering(tmp_path, 
         assert s["orddenom_axis_units_lab"].strip() == "N"
         assert s["ordinate_spec_data_type"] == 15 and s["orddenom_spec_data_type"] == 13
         assert s["abscissa_axis_units_lab"].strip() == "Hz"
+        assert _exponents(s) == {"abscissa": (0, 0, 0), "ordinate": (-2, 1, 0),
+                                 "orddenom": (0, 1, 0)}
         np.testing.assert_array_equal(s["data"], case.frf[k])     # binary 58b: lossless
         np.testing.assert_array_equal(s["x"], case.freq)
+
+
+def _exponents(record) -> dict:
+    """The length, force and temperature units exponents of a type-58 record as pyuff reads
+    them, per axis."""
+    return {axis: tuple(int(record[f"{axis}_{q}_unit_exp"]) for q in ("len", "force", "temp"))
+            for axis in ("abscissa", "ordinate", "orddenom")}
+
+
+#: FRF unit -> (ordinate type, exponents), (denominator type, exponents) as written: the types
+#: and the exponents of Addendum A of the dataset 58 definition (translational; acceleration,
+#: velocity and displacement length 1, force 1, pressure length -2 force 1), a unit not SI of
+#: type 0 (unknown) and exponents 0 ("g" typed acceleration in an SI file is m/s^2 to a tool)
+UFF_TYPES_WRITTEN = {
+    "m/s^2/N": ((12, (1, 0, 0)), (13, (0, 1, 0))), "m/s/N": ((11, (1, 0, 0)), (13, (0, 1, 0))),
+    "m/N": ((8, (1, 0, 0)), (13, (0, 1, 0))), "Pa/N": ((15, (-2, 1, 0)), (13, (0, 1, 0))),
+    "(m/s^2)/N": ((12, (1, 0, 0)), (13, (0, 1, 0))), "g/N": ((0, (0, 0, 0)), (13, (0, 1, 0))),
+    "mm/s/N": ((0, (0, 0, 0)), (13, (0, 1, 0))), "m/s^2/kN": ((12, (1, 0, 0)), (0, (0, 0, 0))),
+    "kPa/lbf": ((0, (0, 0, 0)), (0, (0, 0, 0))), "V/V": ((0, (0, 0, 0)), (0, (0, 0, 0))),
+}
+
+
+@pytest.mark.parametrize("units", sorted(UFF_TYPES_WRITTEN))
+def test_uff58_records_carry_the_units_exponents_of_their_types(tmp_path, case, units):
+    """Records 8-10 said length, force and temperature exponents 0 0 0 whatever the unit (a
+    tool reading them took an accelerance for dimensionless), in a file without a units record;
+    pyuff reads the 164 record and the exponents of the spec's table back (ASCII and 58b)."""
+    import pyuff
+
+    fs = FrfSet(freq=case.freq[:50], frf=case.frf[:1, :50], labels=("1",), units=units,
+                coherence=np.full((1, 50), 0.99))
+    for binary in (False, True):
+        out = io.write_frf_uff(tmp_path / f"{int(binary)}.uff", fs, binary=binary)
+        sets = pyuff.UFF(str(out)).read_sets()
+        assert [s["type"] for s in sets] == [164, 58, 58]
+        assert (sets[0]["units_code"], sets[0]["length"], sets[0]["force"], sets[0]["temp"]) \
+            == (1, 1.0, 1.0, 1.0)
+        (num, num_exp), (den, den_exp) = UFF_TYPES_WRITTEN[units]
+        frf, coh = sets[1], sets[2]
+        assert (frf["ordinate_spec_data_type"], frf["orddenom_spec_data_type"]) == (num, den)
+        assert _exponents(frf) == {"abscissa": (0, 0, 0), "ordinate": num_exp,
+                                   "orddenom": den_exp}
+        assert _exponents(coh) == dict.fromkeys(("abscissa", "ordinate", "orddenom"), (0, 0, 0))
+        assert io.read_frf(out).units == units
 
 
 def test_uff58_round_trip_through_fit_frf_gives_the_same_modes_to_1e9(tmp_path, numbered):
@@ -380,7 +429,7 @@ def test_uff58_export_writes_the_response_and_force_units_apart(tmp_path, case, 
 
     fs = FrfSet(freq=case.freq, frf=case.frf[:1], labels=("1",), units=units)
     out = io.write_frf_uff(tmp_path / "x.uff", fs)
-    s = pyuff.UFF(str(out)).read_sets(0)
+    s = pyuff.UFF(str(out)).read_sets(1)                  # after the units record
     assert (s["ordinate_axis_units_lab"].strip(), s["ordinate_spec_data_type"],
             s["orddenom_axis_units_lab"].strip(), s["orddenom_spec_data_type"]) == (
         ordinate, ord_type, denominator, den_type)
@@ -461,10 +510,10 @@ def test_export_writes_the_coherence_as_uff58_function_type_6_and_reads_it_back(
     r = run(["export", str(src), "-o", str(out), "--json"] + ([] if binary else ["--ascii"]))
     assert r.exit_code == 0, r.output
     summary = json.loads(r.output)
-    assert summary["datasets"] == {"58": 8}
+    assert summary["datasets"] == {"164": 1, "58": 8}
     assert summary["coherence_points"] == ["3", "12", "21"]
     assert summary["notes"] == ["point 15: coherence unknown at 10 of 1601 lines; not written"]
-    sets = pyuff.UFF(str(out)).read_sets()
+    sets = pyuff.UFF(str(out)).read_sets()[1:]          # after the units record
     assert [(s["func_type"], s["rsp_node"]) for s in sets] == [
         (4, 3), (6, 3), (4, 7), (4, 12), (6, 12), (4, 15), (4, 21), (6, 21)]
     for s, k in zip([sets[1], sets[4], sets[7]], (0, 2, 4)):
@@ -606,7 +655,7 @@ def test_a_universal_file_is_written_in_ascii(tmp_path, case):
     out = io.write_frf_uff(tmp_path / "a.uff", fs)
     raw = out.read_bytes()
     assert max(raw) < 128
-    d = pyuff.UFF(str(out)).read_sets(0)
+    d = pyuff.UFF(str(out)).read_sets(1)                  # after the units record
     assert (d["ordinate_axis_units_lab"], d["orddenom_axis_units_lab"]) == ("m/s^2", "N")
     assert (d["ordinate_spec_data_type"], d["orddenom_spec_data_type"]) == (12, 13)
     assert d["id1"].strip() == "FRF Prufpunkt 1"
@@ -637,14 +686,15 @@ def test_uff58_unit_labels_drop_spaces_and_a_label_too_long_is_refused(tmp_path,
 
 
 # ------------------------------------------------- FRF files written by other tools (interop)
-def _other_uff(path, freq, frf, *, x=None, binary=0, **fields):
+def _other_uff(path, freq, frf, *, x=None, binary=0, units164=None, **fields):
     """A UFF 58 file as another modal tool writes it with pyuff: one FRF record per point
     (response node k + 1 +Z, reference 1 +Z), acceleration over force in g/N; ``fields``
-    override any record field, ``x`` the abscissa as written (default ``freq`` in Hz)."""
+    override any record field, ``x`` the abscissa as written (default ``freq`` in Hz);
+    ``units164`` pyuff's fields of a units record (dataset 164) at the head of the file."""
     import pyuff
 
     x = freq if x is None else x
-    sets = []
+    sets = [] if units164 is None else [pyuff.prepare_164(**units164)]
     for k, h in enumerate(frf):
         record = dict(binary=binary, id1=f"FRF {k + 1}", id2="OtherTool", func_type=4,
                       rsp_node=k + 1, rsp_dir=3, ref_node=1, ref_dir=3, ord_data_type=6,
@@ -656,6 +706,78 @@ def _other_uff(path, freq, frf, *, x=None, binary=0, **fields):
         sets.append(pyuff.prepare_58(**record))
     pyuff.UFF(str(path)).write_sets(sets, mode="add")
     return path
+
+
+#: the units record an SI tool writes (LMS, pyuff users): code 1, factors 1, Celsius offset
+SI_164 = dict(units_code=1, units_description="SI - mks (Newton)", temp_mode=2, length=1.0,
+              force=1.0, temp=1.0, temp_offset=273.15)
+
+
+def test_a_uff_with_an_si_units_record_reads_as_without(tmp_path, case):
+    for binary in (0, 1):
+        with_164 = io.read_frf(_other_uff(tmp_path / f"si{binary}.uff", case.freq,
+                                          case.frf[:2], units164=SI_164, binary=binary,
+                                          ordinate_axis_units_lab="m/s^2"))
+        assert with_164.units == "m/s^2/N" and with_164.labels == ("1+Z", "2+Z")
+        if binary:
+            np.testing.assert_array_equal(with_164.frf, case.frf[:2])
+        else:
+            np.testing.assert_allclose(with_164.frf, case.frf[:2], rtol=1e-11,
+                                       atol=1e-11 * np.abs(case.frf).max())
+
+
+@pytest.mark.parametrize("types, with_164, units", [
+    ((12, 13), True, "m/s^2/N"), ((11, 13), True, "m/s/N"), ((8, 13), True, "m/N"),
+    ((15, 13), True, "Pa/N"),
+    ((12, 13), False, None),          # no units record: in which system is not said
+    ((12, 0), True, None), ((0, 13), True, None),       # a type not known
+])
+def test_uff_records_without_units_labels_take_the_unit_of_their_types(tmp_path, case, types,
+                                                                      with_164, units):
+    """pyuff's records typed (12 acceleration over 13 force) but with its default labels
+    "NONE": "the FRF unit is not stated", though a tool labels them m/s^2 over N in the SI
+    of the file's units record. Now the unit of the types, with a note; without a units
+    record or with a type laminid does not know, not stated as before."""
+    path = _other_uff(tmp_path / "typed.uff", case.freq[:UNIT_LINES], case.frf[:2, :UNIT_LINES],
+                      units164=SI_164 if with_164 else None, ordinate_spec_data_type=types[0],
+                      orddenom_spec_data_type=types[1], ordinate_axis_units_lab="NONE",
+                      orddenom_axis_units_lab="NONE")
+    fs = io.read_frf(path)
+    assert fs.units == units and "point_units" not in fs.meta
+    if units is None:
+        assert "the FRF unit is not stated in the file" in fs.meta["notes"][0]
+    else:
+        assert fs.meta["notes"] == [
+            f"{path}: FRF records 1, 2 state no units label: {units} from the specific data "
+            f"types ({types[0]} over {types[1]}) in the units record's SI"]
+
+
+@pytest.mark.parametrize("code, name, length, force", [
+    (5, "MM - mm (milli newton)", 1000.0, 1000.0),
+    (7, "IN - Inch (pound f)", 39.37007874015748, 0.2248089430997105),
+    (9, "US - USER_DEFINED", 1000.0, 1.0),          # mm and N: code 9, the factors tell
+])
+def test_a_uff_whose_units_record_is_not_si_is_refused(tmp_path, case, code, name, length,
+                                                       force):
+    """A units record (dataset 164) not SI makes a record's values mm/s^2 per mN (its factors
+    and the acceleration's powers of length and force), while its labels, display text, may
+    say m/s^2 over N: laminid took the labels and the values as SI, 1000 times off for mm.
+    Refused, naming the file, the record and its factors; no traceback, exit 2."""
+    units = dict(units_code=code, units_description=name[:20], temp_mode=1, length=length,
+                 force=force, temp=1.0, temp_offset=0.0)
+    path = _other_uff(tmp_path / "mm.uff", case.freq, case.frf[:2], units164=units,
+                      ordinate_axis_units_lab="mm/s^2")
+    with pytest.raises(FrfError) as info:
+        io.read_frf(path)
+    assert str(info.value) == (
+        f"{path}: its units record (dataset 164) says units code {code} ({name[:20]!r}; length "
+        f"factor {length:.10g}, force factor {force:.10g} to SI), not SI: laminid reads FRF "
+        "records in SI units only (whether the values follow that record or their units labels "
+        "is not said, a factor apart); export them from the tool in SI (units code 1, metre "
+        "and newton)")
+    r = CliRunner().invoke(cli, ["fit-frf", str(path)])
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert "its units record (dataset 164) says units code" in r.output
 
 
 @pytest.mark.parametrize("label, scale", [("rad/s", 2 * np.pi), ("RAD/S", 2 * np.pi),
@@ -1015,7 +1137,8 @@ def test_binary_uff58_keeps_a_grid_whose_step_has_more_than_6_digits_exactly(tmp
         io.write_frf_uff(out, FrfSet(freq=grid, frf=case.frf, units="m/s^2/N"), binary=True)
         back = io.read_frf(out)
         assert np.array_equal(back.freq, grid) and np.array_equal(back.frf, case.frf)
-        assert {s["abscissa_spacing"] for s in pyuff.UFF(str(out)).read_sets()} == {spacing}
+        assert {s["abscissa_spacing"] for s in pyuff.UFF(str(out)).read_sets()[1:]} \
+            == {spacing}
 
 
 @pytest.mark.parametrize("binary", [True, False])
@@ -1027,7 +1150,8 @@ def test_a_uff_cut_short_is_refused_not_read_with_fewer_points(tmp_path, case, b
     data = whole.read_bytes()
     cut = tmp_path / "cut.uff"
     cut.write_bytes(data[:int(len(data) * 0.5)])
-    with pytest.raises(FrfError, match=r"cut\.uff: the file ends inside a dataset, after 2 "
+    # the units record and 2 of the 5 FRF records
+    with pytest.raises(FrfError, match=r"cut\.uff: the file ends inside a dataset, after 3 "
                                        r"complete ones \(no '    -1' line closes the last\)"):
         io.read_frf(cut)
     cut.write_bytes(data + b"\r\n\x1a")      # a DOS end of file after the last tag is whole
@@ -1068,7 +1192,7 @@ def test_export_of_mixed_response_units_writes_each_record_in_its_own(tmp_path, 
             "2+Z m/s/N") in json.loads(r.stdout)["notes"]
     sets = pyuff.UFF(str(out)).read_sets()
     assert [(s["ordinate_axis_units_lab"], s["orddenom_axis_units_lab"],
-             s["ordinate_spec_data_type"]) for s in sets] == [("g", "N", 12), ("m/s", "N", 11)]
+             s["ordinate_spec_data_type"]) for s in sets[1:]] == [("g", "N", 0), ("m/s", "N", 11)]
     assert io.read_frf(out).meta["point_units"] == ["g/N", "m/s/N"]
 
 
@@ -1113,3 +1237,32 @@ def test_uff_units_label_with_a_superscript_of_a_windows_tool(tmp_path, case, en
     fs = io.read_frf(path)
     assert fs.units == "m/s^2/N" and "point_units" not in fs.meta
     assert np.array_equal(fs.frf, case.frf[:2])
+
+
+def test_a_dof_measured_twice_keeps_each_records_coherence(tmp_path, case):
+    """Two FRF records of one DOF (a repeated measurement), each followed by its coherence:
+    the coherence was looked up by DOF alone, and both FRFs got the second's (0.9 where the
+    first was 0.3). Paired in file order now, with a note naming the records."""
+    import pyuff
+
+    f, H = case.freq[:UNIT_LINES], case.frf[:3, :UNIT_LINES]
+    sets = []
+    for k, (node, c) in enumerate(((1, 0.3), (1, 0.9), (2, 0.6))):
+        common = dict(binary=0, rsp_node=node, rsp_dir=3, ref_node=1, ref_dir=3,
+                      abscissa_spacing=1, abscissa_spec_data_type=18,
+                      abscissa_axis_units_lab="Hz", ordinate_axis_units_lab="m/s^2",
+                      orddenom_axis_units_lab="N", ordinate_spec_data_type=12,
+                      orddenom_spec_data_type=13, x=f)
+        sets.append(pyuff.prepare_58(func_type=4, ord_data_type=6, data=H[k], **common))
+        sets.append(pyuff.prepare_58(func_type=6, ord_data_type=4, data=np.full(f.size, c),
+                                     **common))
+    path = tmp_path / "repeat.uff"
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")
+    fs = io.read_frf(path)
+    assert fs.labels == ("1+Z", "1+Z", "2+Z")
+    np.testing.assert_array_equal(fs.coherence, np.repeat([[0.3], [0.9], [0.6]], f.size, 1))
+    assert fs.meta["notes"] == [
+        f"{path}: the same DOF in more than one FRF record (1+Z: records 1, 2): each fitted as "
+        "a point of its own, its coherence the DOF's record of the same rank"]
+    out = io.write_frf(tmp_path / "again.uff", fs)          # and through laminid's writer
+    np.testing.assert_array_equal(io.read_frf(out).coherence, fs.coherence)

@@ -431,3 +431,228 @@ def test_every_point_saved_but_not_marked_complete_is_not_noted_unfinished(tmp_p
     w = FrfWriter(tmp_path / "s.h5", freq, units="Pa/N", settings={"n_points": 1})
     w.add_point("1", 1.0 / (50.0 ** 2 - freq ** 2 + 2j * freq), np.ones(51))
     assert io.point_quality_notes(read_frf_h5(tmp_path / "s.h5", probe=False)) == []
+
+
+# ------------------------------------------------------------- an undefined FRF at 0 Hz
+#: two modes (Hz, damping ratio) seen from two points, 0-400 Hz at 0.5 Hz, receptance
+DC_MODES = ((105.3, 0.012), (236.8, 0.008))
+
+
+@pytest.fixture(scope="module")
+def dc_truth():
+    from tests.frf_synth import synth_frf
+
+    freq = 0.5 * np.arange(801)
+    C = np.array([[1.0, -0.6], [0.7, 0.9]]) * 1e3
+    return freq, synth_frf(freq, DC_MODES, C)
+
+
+def _dc_warning(path, n: int = 1) -> str:
+    lines = "the first line" if n == 1 else f"the first {n} lines"
+    return (f"{path}: {lines} (0 Hz) dropped: its FRF values are NaN/inf (a response over a "
+            "force spectrum that is 0 at DC, as analysers export it)")
+
+
+def _dc_csv(path, freq, H, layout: str, dc_cells) -> None:
+    """A CSV of ``H`` in ``layout`` whose 0 Hz line holds ``dc_cells`` after the frequency."""
+    def cells(row):
+        if layout == "re/im":
+            return [repr(float(v)) for h in row for v in (h.real, h.imag)]
+        if layout == "complex":
+            return [f"{float(h.real)!r}{float(h.imag):+.17g}i" for h in row]
+        return [repr(float(v)) for h in row for v in (20 * np.log10(abs(h)),
+                                                       np.degrees(np.angle(h)))]
+    header = {"re/im": "f [Hz],H1_re,H1_im,H2_re,H2_im", "complex": "f [Hz],H1,H2",
+              "mag/phase": "f [Hz],H1 Magnitude [dB],H1 Phase [deg],H2 Magnitude [dB],"
+                           "H2 Phase [deg]"}[layout]
+    lines = [header, ",".join(["0"] + list(dc_cells))]
+    lines += [",".join([repr(float(f))] + cells(H[:, k])) for k, f in enumerate(freq) if k]
+    path.write_text("\n".join(lines) + "\n")
+
+
+@pytest.mark.parametrize("layout, dc_cells", [
+    ("re/im", ["nan", "nan", "inf", "-inf"]),      # 0/0 at one point, x/0 at the other
+    ("re/im", ["NaN", "0", "1.5", "0"]),           # MATLAB's NaN, in one cell only
+    ("complex", ["nan+nani", "inf+0i"]),
+    ("mag/phase", ["inf", "nan", "inf", "nan"]),
+])
+def test_a_csv_whose_0_hz_line_is_nan_or_inf_is_read_from_the_next_line(tmp_path, dc_truth,
+                                                                         layout, dc_cells):
+    """H = X/F at 0 Hz, where the force spectrum is 0, is NaN or inf, as analysers export it:
+    the file was refused ("FRF of point 1 has NaN/inf at 0 Hz"); the line is dropped with a
+    warning saying so, the rest read as written (to 1e-12, repr's rounding through dB and
+    degrees), fit-frf finds the modes (exit 0) and prints the warning."""
+    freq, H = dc_truth
+    path = tmp_path / "dc.csv"
+    _dc_csv(path, freq, H, layout, dc_cells)
+    fs = io.read_frf(path)
+    assert fs.meta["warnings"] == [_dc_warning(path)]
+    np.testing.assert_array_equal(fs.freq, freq[1:])
+    np.testing.assert_allclose(fs.frf, H[:, 1:], rtol=1e-12, atol=0)
+    from click.testing import CliRunner
+
+    from laminid_cli.cli import cli
+
+    r = CliRunner().invoke(cli, ["fit-frf", str(path), "--json"])
+    assert r.exit_code == 0, r.output
+    assert f"warning: {_dc_warning(path)}" in r.stderr
+    import json
+
+    got = [m["freq_hz"] for m in json.loads(r.stdout)["modes"]]
+    np.testing.assert_allclose(got, [m[0] for m in DC_MODES], rtol=1e-6)
+
+
+@pytest.mark.parametrize("where, dc_cells, message", [
+    ("0.5 Hz", None, "FRF of point 1 has NaN/inf at 0.5 Hz"),      # above 0 Hz: refused
+    ("0 and 1 Hz", ["nan", "nan", "nan", "nan"], "FRF of point 1 has NaN/inf at 1 Hz"),
+])
+def test_nan_above_0_hz_stays_refused(tmp_path, dc_truth, where, dc_cells, message):
+    freq, H = dc_truth
+    H = H.copy()
+    H[0, 2 if dc_cells else 1] = np.nan
+    path = tmp_path / "nan.csv"
+    _dc_csv(path, freq, H, "re/im",
+            dc_cells or [repr(float(v)) for h in H[:, 0] for v in (h.real, h.imag)])
+    with pytest.raises(FrfError) as info:
+        io.read_frf(path)
+    assert str(info.value) == f"{path}: {message}"
+
+
+def test_a_finite_0_hz_line_is_kept_without_a_word(tmp_path, dc_truth):
+    freq, H = dc_truth
+    path = tmp_path / "dc.csv"
+    _dc_csv(path, freq, H, "re/im", [repr(float(v)) for h in H[:, 0] for v in (h.real, h.imag)])
+    fs = io.read_frf(path)
+    assert "warnings" not in fs.meta and fs.freq[0] == 0 and fs.freq.size == freq.size
+
+
+def test_uff_and_plain_hdf5_0_hz_line_of_nan_is_dropped_the_same(tmp_path, dc_truth):
+    """The UFF and plain HDF5 readers share the check: their 0 Hz line of NaN/inf (coherence
+    beside it) was refused too; dropped with the same warning, NaN at 0.5 Hz still refused."""
+    import h5py
+    import pyuff
+
+    freq, H = dc_truth
+    bad = H.copy()
+    bad[:, 0] = [np.nan, complex(np.inf, 0)]
+    uff = tmp_path / "dc.uff"
+    # ASCII, 4E20.12 a line: pyuff writes NaN as 0, another tool's export "NaN" as here
+    sets = [pyuff.prepare_58(binary=0, id1=f"FRF {k + 1}", func_type=4, rsp_node=k + 1,
+                             rsp_dir=3, ref_node=1, ref_dir=3, ord_data_type=6,
+                             abscissa_spacing=1, abscissa_spec_data_type=18,
+                             abscissa_axis_units_lab="Hz", ordinate_axis_units_lab="m",
+                             ordinate_spec_data_type=8, orddenom_spec_data_type=13,
+                             orddenom_axis_units_lab="N", data=H[k], x=freq)
+            for k in range(2)]
+    coh = [pyuff.prepare_58(binary=0, id1="Coh 1", func_type=6, rsp_node=1, rsp_dir=3,
+                            ref_node=1, ref_dir=3, ord_data_type=4, abscissa_spacing=1,
+                            abscissa_spec_data_type=18, abscissa_axis_units_lab="Hz",
+                            ordinate_spec_data_type=0, orddenom_spec_data_type=0,
+                            data=np.linspace(0.5, 1.0, freq.size), x=freq)]
+    pyuff.UFF(str(uff)).write_sets(sets + coh, mode="add")
+    lines = uff.read_text().split("\n")
+    heads = [i for i, line in enumerate(lines) if line.strip() == "58"]
+    for i, dc in zip(heads, ("                 NaN                 NaN",
+                             "                 inf" + 19 * " " + "0")):
+        lines[i + 12] = dc + lines[i + 12][40:]          # record 12's first line: re, im
+    uff.write_text("\n".join(lines))
+    h5 = tmp_path / "dc.h5"
+    with h5py.File(h5, "w") as f:
+        f.create_dataset("frequency", data=freq).attrs["units"] = "Hz"
+        f.create_dataset("H", data=bad).attrs["units"] = "m/N"
+    for path in (uff, h5):
+        fs = io.read_frf(path)
+        assert fs.meta["warnings"] == [_dc_warning(path)]
+        np.testing.assert_array_equal(fs.freq, freq[1:])
+        np.testing.assert_allclose(fs.frf, H[:, 1:], rtol=1e-11, atol=0)   # ASCII: 12 digits
+    np.testing.assert_allclose(io.read_frf(uff).coherence[0],
+                               np.linspace(0.5, 1.0, freq.size)[1:], rtol=1e-11, atol=0)
+    bad[0, 1] = np.nan
+    with h5py.File(h5, "w") as f:
+        f.create_dataset("frequency", data=freq).attrs["units"] = "Hz"
+        f.create_dataset("H", data=bad).attrs["units"] = "m/N"
+    with pytest.raises(FrfError, match=r"FRF of point 1 has NaN/inf at 0\.5 Hz"):
+        io.read_frf(h5)
+
+
+# ------------------------------------------------------------- spreadsheet exports
+@pytest.mark.parametrize("sep", [",", ";", "\t"], ids=["comma", "semicolon", "tab"])
+def test_a_spreadsheets_empty_trailing_columns_and_rows_are_blank(tmp_path, dc_truth, sep):
+    """A spreadsheet writes the columns and rows formatted but empty as separators: lines
+    ending ",," and lines ",,,,," below the data were refused ("line 2, column 6: empty,
+    where a number is expected"), and so was a tab-separated line ending in one tab, whose
+    tab the test for a separator at the end stripped as a blank. Read as the data alone."""
+    freq, H = dc_truth
+    cells = [[repr(float(f)), repr(float(H[0, k].real)), repr(float(H[0, k].imag))]
+             for k, f in enumerate(freq) if k]
+    trail = sep * (1 if sep == "\t" else 2)
+    text = [sep.join(["f [Hz]", "H1_re", "H1_im"]) + trail]
+    text += [sep.join(c) + trail for c in cells] + [sep * 4] * 3
+    path = tmp_path / "sheet.csv"
+    path.write_text("\r\n".join(text) + "\r\n")
+    fs = io.read_frf(path)
+    np.testing.assert_array_equal(fs.freq, freq[1:])
+    np.testing.assert_array_equal(fs.frf, H[:1, 1:])
+    assert fs.labels == ("H1",) and "warnings" not in fs.meta
+
+
+def test_a_missing_last_value_is_still_named(tmp_path):
+    p = tmp_path / "gap.csv"
+    p.write_text("f [Hz],H_re,H_im\n1,2,3\n2,3,\n")       # one empty cell: as before
+    with pytest.raises(FrfError, match=r":3: 2 columns, the first data line has 3"):
+        io.read_frf(p)
+
+
+@pytest.mark.parametrize("error", ["#DIV/0!", "#NUM!", "#div/0!"])
+def test_a_spreadsheets_division_by_zero_at_0_hz_is_dropped_as_nan(tmp_path, dc_truth, error):
+    """A spreadsheet that computed H = X/F writes its error value where F is 0, at 0 Hz: the
+    file was refused ("line 2, column 2 ('H1_re'): '#DIV/0!' is neither a number ..."); that
+    line is dropped as a NaN one, with the warning naming the value. Elsewhere it is still
+    refused by line and column."""
+    freq, H = dc_truth
+    path = tmp_path / "div0.csv"
+    _dc_csv(path, freq, H, "re/im", [error] * 4)
+    fs = io.read_frf(path)
+    assert fs.meta["warnings"] == [_dc_warning(path).replace("NaN/inf", f"NaN/inf or {error}")]
+    np.testing.assert_array_equal(fs.freq, freq[1:])
+    np.testing.assert_allclose(fs.frf, H[:, 1:], rtol=1e-12, atol=0)
+    lines = path.read_text().splitlines()
+    lines[5] = lines[5].split(",")[0] + f",{error},1,2,3"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(FrfError) as info:
+        io.read_frf(path)
+    assert str(info.value).startswith(f"{path}: line 6, column 2 ('H1_re'): '{error}' is ")
+
+
+def test_a_header_of_names_over_units_gives_the_points_and_the_unit(tmp_path, dc_truth):
+    """Column names over a line of their units, as loggers and spreadsheets write them: the
+    units' line was taken for the header and the names' line skipped as a title, so the
+    points were named "m/s^2/N", "m/s^2/N" and the FRF unit was not stated. Each name now
+    takes its unit: points H1, H2 in m/s^2/N, the frequency in kHz converted, the magnitude
+    in dB and the phase in degrees by their units; a title above stays skipped."""
+    freq, H = dc_truth
+    f_khz = [repr(float(f) / 1000) for f in freq[1:]]
+    reim = [",".join([f] + [repr(float(v)) for h in H[:, k + 1] for v in (h.real, h.imag)])
+            for k, f in enumerate(f_khz)]
+    path = tmp_path / "two.csv"
+    path.write_text("Export of test 3\nFrequency,H1 Real,H1 Imag,H2 Real,H2 Imag\n"
+                    "kHz,m/s^2/N,m/s^2/N,m/s^2/N,m/s^2/N\n" + "\n".join(reim) + "\n")
+    fs = io.read_frf(path)
+    assert fs.labels == ("H1", "H2") and fs.units == "m/s^2/N" and "warnings" not in fs.meta
+    np.testing.assert_allclose(fs.freq, freq[1:], rtol=1e-15)
+    np.testing.assert_array_equal(fs.frf, H[:, 1:])
+    assert f"{path}: a header of two lines: the column names (line 2) over their units (line " \
+           "3), read as Frequency [kHz], H1 Real [m/s^2/N], H1 Imag [m/s^2/N], H2 Real " \
+           "[m/s^2/N], H2 Imag [m/s^2/N]" in fs.meta["notes"]
+    assert any("lines 1-1 above the header skipped ('Export of test 3')" in n
+               for n in fs.meta["notes"])
+    magph = [";".join([repr(float(f))] + [repr(float(v)) for h in H[:, k]
+                                          for v in (20 * np.log10(abs(h)),
+                                                    np.degrees(np.angle(h)))])
+             for k, f in enumerate(freq) if k]
+    path = tmp_path / "magph.csv"
+    path.write_text("f;Pt1 Magnitude;Pt1 Phase;Pt2 Magnitude;Pt2 Phase\n"
+                    "[Hz];[dB];[deg];[dB];[deg]\n" + "\n".join(magph) + "\n")
+    fs = io.read_frf(path)
+    assert fs.labels == ("Pt1", "Pt2") and "warnings" not in fs.meta
+    np.testing.assert_allclose(fs.frf, H[:, 1:], rtol=1e-12, atol=0)

@@ -735,7 +735,8 @@ def test_frf_size_limits_are_checked_before_reading():
 
 def test_nan_in_uff_data_is_refused(frf_files, tmp_path):
     lines = Path(frf_files["uff"]).read_text().split("\n")
-    k = lines.index("    -1", 2) - 5      # a data line of the first record
+    head = [line.strip() for line in lines].index("58")  # the first record (after the 164)
+    k = lines.index("    -1", head) - 5   # a data line of the first record
     lines[k] = "                 NaN" + lines[k][20:]
     path = tmp_path / "nan.uff"
     path.write_text("\n".join(lines))

@@ -249,7 +249,7 @@ def test_window_survives_export_to_uff(tmp_path, ascii_):
     assert r.exit_code == 0, r.output
     assert ("note: the FRFs carry the analyser's exponential window (tau = 0.1 s), written in "
             "each record's id3: laminid fit-frf of the Universal File removes it") in r.output
-    ids = [d["id3"].strip() for d in pyuff.UFF(str(uff)).read_sets() if d["func_type"] == 4]
+    ids = [d["id3"].strip() for d in pyuff.UFF(str(uff)).read_sets() if d.get("func_type") == 4]
     assert ids == ["exponential window tau = 0.1 s"] * 4
     assert io.read_frf(uff).meta["settings"] == {"exp_window_s": 0.1}
     from_h5 = json.loads(run(["fit-frf", str(h5), "--json"]).output)

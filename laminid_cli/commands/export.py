@@ -58,12 +58,14 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
 
     \b
     INPUT_FILE is either
-      - FRFs (laminid acquire file, plain HDF5, UFF 58 or CSV): written as one UFF 58 record
-        per measurement point, response node = point number (label), direction +Z,
-        reference node 1 +Z (a UFF label such as 12-Z, or 5+Z:2+Z of a roving hammer: its
-        nodes and directions), abscissa Hz, the file's units as the response's over the force's
-        (Pa/N: ordinate Pa, pressure, over N, excitation force), each followed by the
-        point's coherence where the file has it (a UFF 58 record of function type 6);
+      - FRFs (laminid acquire file, plain HDF5, UFF 58 or CSV): written as the units record
+        (UFF 164, SI) and one UFF 58 record per measurement point, response node = point
+        number (label), direction +Z, reference node 1 +Z (a UFF label such as 12-Z, or
+        5+Z:2+Z of a roving hammer: its nodes and directions), abscissa Hz, the file's units
+        as the response's over the force's (Pa/N: ordinate Pa, pressure, over N, excitation
+        force, with their units exponents; a unit not SI, g or kN, of unknown type), each
+        followed by the point's coherence where the file has it (a UFF 58 record of function
+        type 6);
       - a result of identify/batch/modes: the plate mesh as UFF 15 nodes (metres, UFF 164
         units SI) and each mode as a UFF 55 normal-mode record (0, 0, w0) at the nodes,
         w0 of the mass-normalised mode in m/sqrt(kg), with its natural frequency.
@@ -140,7 +142,8 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
                   "it as of the acquire file; another tool's damping ratios include it "
                   "(about 1/(tau*omega_n) added)")
         summary = {"input": str(input_file), "output": str(out), "kind": "FRF",
-                   "datasets": {"58": fs.n_points + len(coherent)}, "binary": not ascii_,
+                   "datasets": {"164": 1, "58": fs.n_points + len(coherent)},
+                   "binary": not ascii_,
                    "frf_unit": units,
                    "units": units,      # frf_unit's old name, kept for 0.2.x (--json help)
                    "n_lines": int(fs.freq.size),

@@ -44,7 +44,8 @@ from pathlib import Path
 import numpy as np
 
 from laminid_cli.errors import FrfError
-from laminid_cli.frf.store import (FORMAT, FrfSet, probe_hdf5_file, read_frf_h5, read_hdf5,
+from laminid_cli.frf.store import (FORMAT, FrfSet, nonfinite_dc_lines, nonfinite_dc_warning,
+                                   probe_hdf5_file, read_frf_h5, read_hdf5,
                                    unit_not_stated_note, unstated_freq_warning,
                                    validate_frf_arrays)
 
@@ -411,16 +412,24 @@ def _read_generic(f, path: Path, freq_dataset, frf_dataset) -> FrfSet:
                                 freq.size)
             break
     units = frf_d.units or None
+    warnings = []
+    dc = nonfinite_dc_lines(freq, frf.T) if np.ndim(frf) == 2 else 0  # (points, lines)
+    if dc:
+        warnings.append(nonfinite_dc_warning(path, dc))
+        freq, frf = freq[dc:], frf[:, dc:]
+        coherence = None if coherence is None else coherence[..., dc:]
     validate_frf_arrays(freq, frf, coherence, source=str(path))
     labels = tuple(str(i + 1) for i in range(frf.shape[0]))
     meta = {"frequency_dataset": axis.path, "frf_dataset": frf_d.path}
     if not stated:
         # neither a units attribute nor a unit in the name ("f", "freq"): Hz, said, and
         # refused where it ends below 100 (kHz read as Hz: every mode 1000 times too low)
-        meta["warnings"] = [unstated_freq_warning(
+        warnings.append(unstated_freq_warning(
             f"{path}: {what}", freq, f"give it one: {how}",
             f"a {axis.name}_units attribute 'Hz'" if axis.is_attribute
-            else "a units attribute 'Hz'")]
+            else "a units attribute 'Hz'"))
+    if warnings:
+        meta["warnings"] = warnings
     if units is None:
         where = frf_d.parts[0] if frf_d.parts else frf_d.path
         meta["notes"] = [unit_not_stated_note(path, f"no 'units' attribute on '{where}'")]

@@ -19,7 +19,11 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     unit refused); where no record has one (blank or "NONE", pyuff's default, whatever the
     specific data type), read as Hz with a warning, refused where it ends below
     :data:`UNSTATED_FREQ_MIN_SPAN_HZ`. An
-    ordinate units label blank or "NONE" (pyuff's default) states no FRF unit (``units`` None).
+    ordinate units label blank or "NONE" (pyuff's default) states no FRF unit (``units`` None),
+    except in a file whose units record says SI, where a record typed (8, 11, 12 or 15 over
+    13) without labels has its types' unit (:func:`_uff_typed_unit`, with a note).
+    A units record (dataset 164) must be SI (length and force factors 1): another is refused
+    (:func:`_check_uff_units_records`). laminid writes one, SI, at the head of its files.
 ``csv`` (``.csv``, ``.txt``)
     Text: first column frequency in Hz (kHz or rad/s when its header says so: "f [kHz]",
     "f (kHz)", "omega_rad_s"; another bracketed unit is refused, and so is a header that reads
@@ -50,6 +54,11 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
       few resonances look alike). The labels are the magnitude names without the magnitude word (``H1_mag`` H1).
       Without a header, columns are never taken for magnitude and phase.
 
+    A first line at 0 Hz whose FRF values are NaN or inf (H = X/F, the force 0 at DC; also a
+    spreadsheet's ``#DIV/0!``, :data:`CSV_SHEET_ERRORS`) is dropped with a warning
+    (:func:`~laminid_cli.frf.store.nonfinite_dc_lines`; the UFF and plain HDF5 readers too);
+    NaN or inf at any other line is refused.
+
     Text in UTF-8, UTF-16 with a BOM, or Windows-1252 (:func:`decode_text`, with a note).
     Separator ``;`` tab ``,`` (the first found in the first line) or blanks; with ``;`` or tab
     a decimal comma is read too (``125,05``, as a European spreadsheet writes); ``#`` comment
@@ -61,7 +70,8 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     first cell not being a number (or, above a first line of data, the comment line just
     above it, numpy's ``savetxt(header=...)``, when it has as many cells as the data and its
     first is not a number: :func:`_commented_header`, with a note; lines above it that are
-    neither, an export's title and date, skipped with a note: :func:`_csv_preamble`) (its
+    neither, an export's title and date, skipped with a note: :func:`_csv_preamble`; or the
+    names over a line of their units, :func:`_csv_two_line_header`) (its
     names give the point labels: of the real columns, of
     the complex columns, of the magnitude columns).
 """
@@ -78,7 +88,8 @@ from laminid_cli.atomic import atomic_path
 from laminid_cli.errors import FrfError, LaminidError, OutputExistsError, about_file
 from laminid_cli.filekinds import binary_kind
 from laminid_cli.frf.store import (UNSTATED_FREQ_MIN_SPAN_HZ, FrfSet, check_frf_arrays,
-                                   check_frf_size, read_frf_h5, resonance_lines,
+                                   check_frf_size, nonfinite_dc_lines, nonfinite_dc_warning,
+                                   read_frf_h5, resonance_lines,
                                    unit_not_stated_note, unstated_freq_warning,
                                    validate_frf_arrays, write_frf_h5)
 
@@ -98,10 +109,26 @@ SUFFIXES = {".h5": "hdf5", ".hdf5": "hdf5", ".hdf": "hdf5", ".uff": "uff", ".unv
 UFF_FRF, UFF_COHERENCE = 4, 6
 UFF_ABSCISSA_FREQUENCY = 18
 #: UFF 58 specific data types (record 9/10 of the header) of the response units laminid
-#: writes, and of the force; any other unit is written as 0 (unknown)
-UFF_RESPONSE_TYPES = {"m": 8, "mm": 8, "m/s": 11, "mm/s": 11, "m/s^2": 12, "m/s2": 12,
-                      "g": 12, "Pa": 15, "kPa": 15}
-UFF_FORCE_TYPES = {"N": 13, "kN": 13, "lbf": 13}
+#: writes, and of the force: SI units only, as the units record (dataset 164,
+#: :func:`uff_units_record`) at the head of the file says SI, and a reader takes a record's
+#: values in the file's units by its type (the labels "take precedence" for display only: UFF
+#: 58 record 8, field 6, note). Any other unit ("g", "mm/s", "kPa", "kN", "lbf") is written as
+#: 0 (unknown), whose values no tool converts: "g" typed 12 (acceleration) in an SI file read
+#: as m/s^2 elsewhere, 9.81 times too small
+UFF_RESPONSE_TYPES = {"m": 8, "m/s": 11, "m/s^2": 12, "m/s2": 12, "Pa": 15}
+UFF_FORCE_TYPES = {"N": 13}
+#: the length, force and temperature units exponents (records 8-11, fields 2-4) of the specific
+#: data types laminid writes, translational direction: Addendum A ("Table - Unit Exponents") of
+#: the dataset 58 definition (UC-SDRL's copy of the I-DEAS Universal File format, 58.asc, as
+#: reproduced in pyuff 2.5.8's ``pyuff/datasets/dataset_58.py``). Time has no exponent (the
+#: second in every unit system): acceleration is length 1, as displacement and velocity
+UFF_UNIT_EXPONENTS = {0: (0, 0, 0), 8: (1, 0, 0), 11: (1, 0, 0), 12: (1, 0, 0),
+                      13: (0, 1, 0), 15: (-2, 1, 0), 18: (0, 0, 0)}
+#: the units record (dataset 164) laminid writes at the head of every Universal File: units
+#: code 1, SI (metre, newton), factors to SI 1 (UC-SDRL's 164.asc: "to convert from universal
+#: file units to SI divide by the appropriate factor"); temperature relative, offset 273.15
+UFF_SI_UNITS = dict(units_code=1, units_description="SI - Meter (newton)", temp_mode=2,
+                    length=1.0, force=1.0, temp=1.0, temp_offset=273.15)
 #: ``id2`` of every UFF 58 record laminid writes: the reader knows its own records by it
 UFF_WRITER = "laminid"
 #: ``id3`` of laminid's FRF records from a file that records the exponential window the
@@ -118,6 +145,10 @@ UFF_UNITS_CHARS = 20
 #: the fixed columns for other readers)
 UFF_ASCII = str.maketrans({"²": "^2", "³": "^3", "µ": "u", "μ": "u", "°": "deg", "·": "*",
                            "−": "-", "–": "-", "—": "-", "×": "x"})
+#: a spreadsheet's error values for a division by zero and an undefined number: on a CSV's
+#: 0 Hz line (H = X/F, F 0 at DC) they are NaN, and that line is dropped with a warning
+#: (:func:`~laminid_cli.frf.store.nonfinite_dc_lines`); anywhere else still "not a number"
+CSV_SHEET_ERRORS = ("#DIV/0!", "#NUM!")
 #: text FRF files (UFF, CSV) larger than this are refused before they are read (1 GB: the
 #: 50 million values of MAX_FRF_VALUES at ~20 characters each)
 MAX_TEXT_FILE_BYTES = 1_000_000_000
@@ -366,15 +397,17 @@ def _commented_header(text: str, first_data: int, sep: str | None, n: int
 def _split(line: str, sep: str | None) -> list[str]:
     """The cells of a CSV line: quoted cells unquoted (``"f [Hz]","0.5"``, as pandas with
     QUOTE_ALL, LabVIEW and many loggers write them; they were "'\"0.5\"' is not a number"),
-    and the empty cell after a separator that ends the line dropped (``0,5;1,2;``, as a
+    and the empty cells after the separators that end the line dropped (``0,5;1,2;``, as a
     spreadsheet writes a trailing empty column: "column 10: empty, where a number is
-    expected")."""
+    expected"; ``0.5,1.2,,,`` of columns formatted but empty, and ``0.5\t1.2\t``, whose tab
+    the test for a separator at the end stripped as a blank)."""
     if sep and '"' in line:
         cells = [t.strip() for t in next(csv.reader([line], delimiter=sep))]
     else:
         cells = [t.strip() for t in (line.split(sep) if sep else line.split())]
-    if sep and len(cells) > 1 and cells[-1] == "" and line.rstrip().endswith(sep):
-        cells = cells[:-1]
+    if sep and line.rstrip(" \r\n").endswith(sep):
+        while len(cells) > 1 and cells[-1] == "":
+            cells.pop()
     if sep is None and ("+" in cells or "-" in cells):
         cells = _join_signs(cells)
     return cells
@@ -750,6 +783,33 @@ def csv_frequency_first(path, rows) -> bool:
                           or name.lower().startswith(("freq", "f_hz", "omega"))))
 
 
+def _csv_two_line_header(names_line: str, units_line: str) -> list[str] | None:
+    """The header of a CSV whose column names are over a line of their units, as loggers and
+    spreadsheets write it ("Frequency,H1 Real,..." over "Hz,m/s^2/N,..."): each name with its
+    unit in brackets ("Frequency [Hz]", "H1 Real [m/s^2/N]"; a name that has one keeps it, a
+    blank unit adds none), which the header's readers then take the units from. The units'
+    line was taken for the header and the names' line skipped as a title: the points were
+    named "m/s^2/N" and the FRF unit lost. None unless both lines split alike into as many
+    cells and the first unit is a frequency unit (Hz, kHz, rad/s)."""
+    from laminid_cli.frf.generic_h5 import freq_unit_factor
+
+    sep = _csv_separator(units_line)
+    if sep != _csv_separator(names_line):
+        return None
+    names, units = _split(names_line, sep), _split(units_line, sep)
+    if len(names) != len(units) or len(names) < 2 or not units[0] \
+            or freq_unit_factor(units[0]) is None or _csv_number(names[0], sep):
+        return None
+    merged = []
+    for name, unit in zip(names, units):
+        unit = unit.strip()
+        if len(unit) > 2 and unit[0] + unit[-1] in ("[]", "()"):
+            unit = unit[1:-1].strip()
+        has_unit = re.search(r"[\[(][^\])]*[\])]\s*\Z", name) is not None
+        merged.append(name if not unit or has_unit else f"{name} [{unit}]")
+    return merged
+
+
 def read_frf_csv(path) -> FrfSet:
     """Read a CSV FRF file: ``freq, re_1, im_1, ...``, ``freq, H_1, H_2, ...`` of complex cells
     or magnitude and phase columns named in the header (see module docstring).
@@ -772,20 +832,30 @@ def read_frf_csv(path) -> FrfSet:
         if hit:
             units = hit.group(1)
             break
+    # a line of separators only (",,,,", a spreadsheet's formatted empty row) is blank
     lines = [(i + 1, ln) for i, ln in enumerate(text.splitlines())
-             if ln.strip() and not ln.lstrip().startswith("#")]
+             if ln.strip(' \t,;"') and not ln.lstrip().startswith("#")]
     if len(lines) > 1:
         check_frf_size(1, len(lines) - 1, str(path))
     if not lines:
         raise FrfError(f"{path}: no data lines (expected columns freq, re_1, im_1, ...)")
     notes: list[str] = []
     preamble = _csv_preamble(lines)
+    two_line = _csv_two_line_header(lines[preamble - 1][1], lines[preamble][1]) \
+        if preamble else None
+    if two_line is not None:
+        preamble -= 1               # the names' line is the header's first, no preamble
+        notes.append(f"{path}: a header of two lines: the column names (line "
+                     f"{lines[preamble][0]}) over their units (line {lines[preamble + 1][0]}), "
+                     f"read as {', '.join(two_line)}")
     if preamble:
         shown = ", ".join(_quoted(ln.strip()) for _, ln in lines[:min(preamble, 3)])
         notes.append(f"{path}: lines {lines[0][0]}-{lines[preamble - 1][0]} above the header "
                      f"skipped ({shown}{', ...' if preamble > 3 else ''}): they are no "
                      "column names or data")
         lines = lines[preamble:]
+    if two_line is not None:
+        lines = lines[1:]           # the units' line next, read as the header, then replaced
     first = lines[0][1]
     sep = _csv_separator(first)
     header = None
@@ -805,7 +875,7 @@ def read_frf_csv(path) -> FrfSet:
     except ValueError:
         # the frequency's name: a first line whose first cell is a number is data, and a bad
         # cell in it is named as such (it was taken for the header, the line lost)
-        header = cells
+        header = cells if two_line is None else two_line
         lines = lines[1:]
         if [c.strip().lower() for c in cells[:2]] == ["name", "specimen"]:
             # laminid batch's summary.csv (long or --wide): was "line 2, column 1 ('name'):
@@ -822,6 +892,7 @@ def read_frf_csv(path) -> FrfSet:
     rows = []
     #: the first complex cell of each column that has one: (line, cell)
     complex_at: dict[int, tuple[int, str]] = {}
+    sheet_error = None              # a CSV_SHEET_ERRORS cell read as NaN
     for lineno, ln in lines:
         cells = _split(ln, sep)
         row, bad = [], None
@@ -829,8 +900,11 @@ def read_frf_csv(path) -> FrfSet:
             try:
                 v = number(cell)
             except ValueError:
-                bad = bad or (j, cell)
-                continue
+                if not (j and row and row[0] == 0 and cell.upper() in CSV_SHEET_ERRORS):
+                    bad = bad or (j, cell)
+                    continue
+                v = float("nan")    # a spreadsheet's X/F at 0 Hz: NaN, the line dropped below
+                sheet_error = sheet_error or cell
             if isinstance(v, complex) and j not in complex_at:
                 complex_at[j] = (lineno, cell)
             row.append(v)
@@ -863,6 +937,13 @@ def read_frf_csv(path) -> FrfSet:
         if i.size:
             raise FrfError(f"{path}: line {lines[i[0]][0]}, {_csv_column(header, 0)}: the "
                            f"frequency {data[i[0], 0]} has an imaginary part")
+    warnings: list[str] = []
+    dc = nonfinite_dc_lines(data[:, 0].real, data[:, 1:])
+    if dc:
+        # before the layouts are told apart: a NaN phase there would weigh in on its unit
+        warnings.append(nonfinite_dc_warning(
+            path, dc, "NaN/inf" if sheet_error is None else f"NaN/inf or {sheet_error}"))
+        data, lines = data[dc:], lines[dc:]
     kinds = [_csv_part_kind(h) for h in header[1:]] if header else []
     complex_columns = sorted(j for j in complex_at if j > 0)
     expected = ("expected the frequency, then a real and an imaginary column per FRF, or one "
@@ -918,7 +999,9 @@ def read_frf_csv(path) -> FrfSet:
     freq, frf, _ = check_frf_arrays(data[:, 0].real * factor, frf, source=str(path))
     meta: dict = {}
     if not stated:
-        meta["warnings"] = [_unstated_freq_warning(path, header, sep, freq)]
+        warnings.append(_unstated_freq_warning(path, header, sep, freq))
+    if warnings:
+        meta["warnings"] = warnings
     if units is None and header and len(header) == n and len(unit_columns) == frf.shape[0]:
         # "H1 real [g/N]": the unit a spreadsheet's header gives was read as "not stated"
         units, point_units = _csv_header_units(path, header, unit_columns)
@@ -976,6 +1059,7 @@ def read_frf_uff(path) -> FrfSet:
         found = ", ".join(str(t) for t in sorted(set(types.tolist()))) or "none"
         raise FrfError(f"{path}: no type-58 (function at nodal DOF) record; dataset types "
                        f"found: {found}")
+    si = _check_uff_units_records(path, uff, [int(i) for i in np.flatnonzero(types == 164)])
     try:
         sets = uff.read_sets(idx)
     except Exception as exc:  # noqa: BLE001 - pyuff raises bare Exception, and others
@@ -1014,19 +1098,38 @@ def read_frf_uff(path) -> FrfSet:
         return (int(d.get("rsp_node", 0)), int(d.get("rsp_dir", 0)),
                 int(d.get("ref_node", 0)), int(d.get("ref_dir", 0)))
 
-    coh_by_dof = {dof(d): np.asarray(d["data"]).real for d in sets
-                  if int(d.get("func_type", 0)) == UFF_COHERENCE
-                  and np.asarray(d["x"]).size == freq.size}
+    # each DOF's coherence records in file order, the n-th to its n-th FRF: a DOF measured
+    # twice (a repeat) gave both FRFs the second's coherence
+    coh_by_dof: dict[tuple, list] = {}
+    for d in sets:
+        if int(d.get("func_type", 0)) == UFF_COHERENCE and np.asarray(d["x"]).size == freq.size:
+            coh_by_dof.setdefault(dof(d), []).append(np.asarray(d["data"]).real)
     coherence = None
     if coh_by_dof:
-        coherence = np.array([coh_by_dof.get(dof(d), np.full(freq.size, np.nan)) for d in frfs])
+        rows = []
+        for d in frfs:
+            queue = coh_by_dof.get(dof(d))
+            rows.append(queue.pop(0) if queue else np.full(freq.size, np.nan))
+        coherence = np.array(rows)
     # the response DOF, and the reference's where they differ (a roving hammer: "5+Z:2+Z")
     roving = len({dof(d)[2:] for d in frfs}) > 1
     labels = tuple(f"{d.get('rsp_node', k + 1)}{_dir(d.get('rsp_dir', 0))}"
                    + (f":{d.get('ref_node', 0)}{_dir(d.get('ref_dir', 0))}" if roving else "")
                    for k, d in enumerate(frfs))
     each = [_uff_units(d) for d in frfs]
+    # no units labels, a type over a force's, in a file whose units record says SI: the unit
+    # a tool generates from the types (the labels "take precedence" where given)
+    typed = {k: _uff_typed_unit(d) for k, d in enumerate(frfs) if si and each[k] is None}
+    typed = {k: unit for k, unit in typed.items() if unit is not None}
+    for k, unit in typed.items():
+        each[k] = unit
     units = each[0]
+    warnings = []
+    dc = nonfinite_dc_lines(freq, frf.T)
+    if dc:
+        warnings.append(nonfinite_dc_warning(path, dc))
+        freq, frf = freq[dc:], frf[:, dc:]
+        coherence = None if coherence is None else coherence[:, dc:]
     freq, frf, coherence = check_frf_arrays(freq, frf, coherence, source=str(path))
     meta = {"uff_ids": [str(d.get("id1", "")) for d in frfs]}
     stated = [_uff_abscissa_label(d) for d in frfs]
@@ -1036,17 +1139,41 @@ def read_frf_uff(path) -> FrfSet:
         # 100 (kHz read as Hz: every mode 1000 times too low)
         label = str(frfs[0].get("abscissa_axis_units_lab", "") or "").strip()
         kind = "frequency" if absc == UFF_ABSCISSA_FREQUENCY else "unknown"
-        meta["warnings"] = [unstated_freq_warning(
+        warnings.append(unstated_freq_warning(
             f"{path}: the FRF records' abscissa (specific data type {absc}, {kind}; units "
             f"label {label!r})", freq,
             "state it in the records' abscissa units label (record 8, field 6): 'kHz' or "
-            "'rad/s' (pyuff: abscissa_axis_units_lab='kHz')", "the label 'Hz'")]
+            "'rad/s' (pyuff: abscissa_axis_units_lab='kHz')", "the label 'Hz'"))
+    if warnings:
+        meta["warnings"] = warnings
+    if typed:
+        k = min(typed)
+        d = frfs[k]
+        one = len(typed) == 1
+        meta["notes"] = [
+            f"{path}: FRF record{'' if one else 's'} "
+            f"{', '.join(str(j + 1) for j in sorted(typed))} state{'s' if one else ''}"
+            f" no units label: {typed[k]} from the specific data types "
+            f"({int(d['ordinate_spec_data_type'])} over {int(d['orddenom_spec_data_type'])}) in "
+            "the units record's SI"]
     if units is None and len(set(each)) == 1:
         d = frfs[0]
         meta["notes"] = [unit_not_stated_note(
             path, "FRF records' ordinate units label "
                   f"{str(d.get('ordinate_axis_units_lab', '') or '').strip()!r} over "
                   f"{str(d.get('orddenom_axis_units_lab', '') or '').strip()!r}")]
+    records_of: dict[str, list[int]] = {}
+    for k, label in enumerate(labels, start=1):
+        records_of.setdefault(label, []).append(k)
+    twice = {label: ks for label, ks in records_of.items() if len(ks) > 1}
+    if twice:
+        # a repeated measurement: nothing in the file tells the records apart but their order
+        meta.setdefault("notes", []).append(
+            f"{path}: the same DOF in more than one FRF record ("
+            + "; ".join(f"{label}: records {', '.join(map(str, ks))}"
+                        for label, ks in twice.items())
+            + "): each fitted as a point of its own, its coherence the DOF's record of the "
+              "same rank")
     if len(set(each)) > 1:
         # accelerances beside mobilities (another tool's file): one pole set, so the modes
         # are those of all; each FRF's modal constants are in its own unit (fit-frf says so)
@@ -1056,6 +1183,62 @@ def read_frf_uff(path) -> FrfSet:
         meta["settings"] = {"exp_window_s": tau}
     return FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels, units=units,
                   source=str(path), meta=meta)
+
+
+#: the SI unit of a type-58 record's ordinate of each specific data type laminid knows
+#: (record 9, field 1: 8 displacement, 11 velocity, 12 acceleration, 15 pressure), over an
+#: excitation force (record 10: 13) in N, as a tool labels a record that gives no label
+UFF_SI_UNIT_OF_TYPE = {8: "m", 11: "m/s", 12: "m/s^2", 15: "Pa"}
+
+
+def _uff_typed_unit(d) -> str | None:
+    """The FRF unit of a type-58 record by its specific data types, in SI ("m/s^2/N" for 12
+    over 13), where both its units labels are blank or "NONE"; None where a label is given
+    or a type is another."""
+    for key in ("ordinate_axis_units_lab", "orddenom_axis_units_lab"):
+        if str(d.get(key, "") or "").strip().upper() not in ("", "NONE"):
+            return None
+    try:
+        types = (int(d.get("ordinate_spec_data_type", 0)),
+                 int(d.get("orddenom_spec_data_type", 0)))
+    except (TypeError, ValueError):
+        return None
+    if types[1] != 13 or types[0] not in UFF_SI_UNIT_OF_TYPE:
+        return None
+    return f"{UFF_SI_UNIT_OF_TYPE[types[0]]}/N"
+
+
+def _check_uff_units_records(path, uff, idx) -> bool:
+    """The units records (dataset 164) of a Universal File: SI (length and force factors 1,
+    whatever the units code says) is read as the file's FRFs are (True: the file has one);
+    another unit system is refused. Its factors convert a record's values to SI by the powers
+    of length and force of its specific data type (Addendum A of dataset 58; UC-SDRL's
+    164.asc: "to convert from universal file units to SI divide by the appropriate factor"),
+    while the units labels, which laminid takes the FRF unit from, are display text
+    ("mm/s^2" over "N" in a file of mm and mN): which of the two the values follow is not
+    said, and a guess is wrong by the factor (1000 for mm)."""
+    if not idx:
+        return False
+    try:
+        records = uff.read_sets(idx)
+    except Exception as exc:  # noqa: BLE001 - pyuff raises bare Exception
+        raise FrfError(f"{path}: cannot read its units record (dataset 164) ({exc})") from exc
+    for d in [records] if isinstance(records, dict) else records:
+        try:
+            factors = float(d["length"]), float(d["force"])
+        except (KeyError, TypeError, ValueError):
+            raise FrfError(f"{path}: its units record (dataset 164) has no length and force "
+                           "factors") from None
+        if not np.allclose(factors, 1.0, rtol=1e-9, atol=0):
+            name = str(d.get("units_description", "") or "").strip()
+            raise FrfError(
+                f"{path}: its units record (dataset 164) says units code "
+                f"{d.get('units_code')} ({name!r}; length factor {factors[0]:.10g}, force "
+                f"factor {factors[1]:.10g} to SI), not SI: laminid reads FRF records in SI "
+                "units only (whether the values follow that record or their units labels is "
+                "not said, a factor apart); export them from the tool in SI (units code 1, "
+                "metre and newton)")
+    return True
 
 
 #: the units labels of a type-58 record (records 8-10, field 6)
@@ -1350,7 +1533,7 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
                                f"units label holds {UFF_UNITS_CHARS}")
         axes_of[units] = axes
     with_coherence, _ = uff_coherence_points(fs)
-    sets = []
+    sets = [pyuff.prepare_164(**UFF_SI_UNITS)]        # the units the records' types are in
     for k in range(fs.n_points):
         axes = axes_of[each[k]]
         label = fs.labels[k] if k < len(fs.labels) else str(k + 1)
@@ -1360,6 +1543,7 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
             rsp_node=node, rsp_dir=direction, ref_node=ref, ref_dir=ref_direction,
             abscissa_spacing=_uff_even_abscissa(fs.freq, binary),
             abscissa_spec_data_type=UFF_ABSCISSA_FREQUENCY, abscissa_axis_units_lab="Hz",
+            **uff_exponents("abscissa", UFF_ABSCISSA_FREQUENCY),
             x=np.asarray(fs.freq, dtype=float))
         sets.append(pyuff.prepare_58(
             id1=f"FRF {label}", id3=_window_id(fs), func_type=UFF_FRF,
@@ -1371,6 +1555,7 @@ def write_frf_uff(path, fs: FrfSet, *, overwrite: bool = False, ref_node: int = 
                 ord_data_type=4,  # real double
                 # a dimensionless ratio: specific data types 0 (unknown), no units
                 ordinate_spec_data_type=0, orddenom_spec_data_type=0,
+                **uff_exponents("ordinate", 0), **uff_exponents("orddenom", 0),
                 ordinate_axis_units_lab="NONE", orddenom_axis_units_lab="NONE",
                 data=np.asarray(fs.coherence[k], dtype=float), **common))
     return write_uff_sets(path, sets)
@@ -1429,16 +1614,28 @@ def _uff_axes(units: str | None) -> dict:
     unit (None) "NONE" over "NONE". The reader (:func:`_uff_units`) joins them back."""
     if units is None:
         return {"ordinate_axis_units_lab": "NONE", "orddenom_axis_units_lab": "NONE",
-                "ordinate_spec_data_type": 0, "orddenom_spec_data_type": 0}
+                "ordinate_spec_data_type": 0, "orddenom_spec_data_type": 0,
+                **uff_exponents("ordinate", 0), **uff_exponents("orddenom", 0)}
     response, sep, force = units.rpartition("/")
     # a label holds no surrounding spaces (the reader strips them): "m/s^2 / N" is
     # "m/s^2" over "N", and reads back "m/s^2/N"
     response, force = response.strip(), force.strip()
     if not sep or not response or not force:
         response, force = units.strip(), "NONE"
+    types = (UFF_RESPONSE_TYPES.get(_unbracketed(response), 0),
+             UFF_FORCE_TYPES.get(_unbracketed(force), 0))
     return {"ordinate_axis_units_lab": response, "orddenom_axis_units_lab": force,
-            "ordinate_spec_data_type": UFF_RESPONSE_TYPES.get(_unbracketed(response), 0),
-            "orddenom_spec_data_type": UFF_FORCE_TYPES.get(_unbracketed(force), 0)}
+            "ordinate_spec_data_type": types[0], "orddenom_spec_data_type": types[1],
+            **uff_exponents("ordinate", types[0]), **uff_exponents("orddenom", types[1])}
+
+
+def uff_exponents(axis: str, spec_type: int) -> dict:
+    """pyuff's fields of the length, force and temperature units exponents of a type-58
+    record's ``axis`` ("abscissa", "ordinate", "orddenom") of specific data type
+    ``spec_type``: :data:`UFF_UNIT_EXPONENTS` (pyuff writes 0 0 0 unless told, which says
+    dimensionless to a tool that reads them)."""
+    return dict(zip((f"{axis}_len_unit_exp", f"{axis}_force_unit_exp",
+                     f"{axis}_temp_unit_exp"), UFF_UNIT_EXPONENTS[spec_type]))
 
 
 def _unbracketed(unit: str) -> str:

@@ -138,6 +138,31 @@ def unstated_freq_warning(what: str, freq: np.ndarray, how: str, confirm: str) -
             "warning")
 
 
+def nonfinite_dc_lines(freq, values) -> int:
+    """How many leading lines of an FRF file to drop as its undefined DC line: lines at 0 Hz
+    (exactly) whose FRF values are not all finite. An analyser's H = X/F is 0/0 or x/0 there,
+    the force spectrum of a hammer or shaker being 0 at DC, and its export writes NaN or inf;
+    no mode lies at 0 Hz. NaN or inf at any other line stays refused (:func:`check_frf_arrays`).
+
+    freq : (n_freq,) as read, Hz; values : (n_freq, ...) the FRF values of each line
+    """
+    freq, values = np.asarray(freq), np.asarray(values)
+    if (freq.ndim != 1 or values.ndim < 1 or values.shape[0] != freq.size
+            or freq.dtype.kind not in "fiu" or values.dtype.kind not in "fciu"):
+        return 0                              # refused as such by check_frf_arrays
+    values = values.reshape(freq.size, -1)
+    dc = (freq == 0) & ~np.isfinite(values).all(axis=1)
+    return int(np.argmin(dc)) if not dc.all() else 0
+
+
+def nonfinite_dc_warning(source, n: int, shown: str = "NaN/inf") -> str:
+    """The one-line warning of a reader that dropped ``n`` DC lines
+    (:func:`nonfinite_dc_lines`) whose values are ``shown``."""
+    lines = "the first line" if n == 1 else f"the first {n} lines"
+    return (f"{source}: {lines} (0 Hz) dropped: its FRF values are {shown} (a response over "
+            "a force spectrum that is 0 at DC, as analysers export it)")
+
+
 def _now() -> str:
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 
