@@ -236,6 +236,37 @@ def test_reference_ranges_read_back_and_an_old_file_with_single_values(ranged, t
     assert r.plates[0].reference_source.startswith("strain gauge tests")
 
 
+def test_a_reference_written_value_plus_minus_half_width_reads_as_its_range(tmp_path):
+    """"170 ± 1 GPa" (also "+/-", "+-" and a half-width in %) is the range the specimen reader
+    gives it, in the result files' reader too: the report read it as a unit error and left the
+    reference out of its table and panels (the terminal showed 169.00 .. 171.00)."""
+    from laminid_cli.resultfile import parse_global_reference, parse_reference
+    from laminid_cli.specimen import read_specimen
+
+    text = Path(S14).read_text(encoding="utf-8")
+    head, _, _ = text.partition("\nreference:")
+    spec = tmp_path / "pm.yaml"
+    spec.write_text(head + "\nreference:\n  source: a table\n  materials:\n"
+                    "    IM7/977-2: {E1: 170 ± 1 GPa, E2: 10 GPa +- 0.5 GPa, "
+                    "G12: 5.8 GPa +/- 5 %, nu12: 0.35}\n"
+                    "  global: {Ex: 62 ± 2 GPa, nu_xy: 0.30 ± 0.02}\n", encoding="utf-8")
+    yaml_text = spec.read_text(encoding="utf-8")
+    mats, source = parse_reference(yaml_text)
+    got = mats["IM7/977-2"]
+    expect = {"E1": (169e9, 171e9), "E2": (9.5e9, 10.5e9), "G12": (5.51e9, 6.09e9),
+              "nu12": (0.35, 0.35)}
+    assert sorted(got) == sorted(expect) and source == "a table"
+    for k, (lo, hi) in expect.items():
+        assert got[k] == pytest.approx((lo, hi), rel=1e-12), k
+    glob = parse_global_reference(yaml_text)
+    assert glob["Ex"] == pytest.approx((60e9, 64e9), rel=1e-12)
+    assert glob["nu_xy"] == pytest.approx((0.28, 0.32), rel=1e-12)
+    # the specimen reader's ranges, the same to round-off
+    ref = read_specimen(spec).reference["materials"]["IM7/977-2"]
+    for k in ("E1", "E2", "G12"):
+        assert tuple(ref[k]) == pytest.approx(got[k], rel=1e-12), k
+
+
 def test_not_a_result_and_future_versions(tmp_path, result):
     frf = tmp_path / "x.h5"
     with h5py.File(frf, "w") as f:
