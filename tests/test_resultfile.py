@@ -368,6 +368,42 @@ def test_every_numeric_dataset_carries_its_units(result, s11_fix_undetermined_6x
     assert missing == []
 
 
+def test_each_constant_and_property_dataset_carries_its_doubt(checked, result,
+                                                              s11_fix_undetermined_6x6):
+    """A program reading /materials/<key>/G13 with plain h5py finds its verdict and interval
+    beside the value (attrs verdict, lower, upper, confidence), as --json gives them: a value
+    on a search limit, a guess held fixed and an identified one read alike before, a bare
+    number each. The laminate's /global_properties likewise."""
+    from laminid_cli.results import FIXED_VERDICT, UNDETERMINED_FIXED_VERDICT
+
+    def attrs(path, group, key):
+        with h5py.File(path) as f:
+            g = f[group]
+            return float(g[key][()]), dict(g[key].attrs)
+
+    path, doc = checked                       # G13 at its bound, the others free
+    consts = doc["uncertainty"]["constants"]["Glas/Epoxid µ-Lage"]
+    for k, c in consts.items():
+        value, a = attrs(path, "materials/Glas_Epoxid__-Lage", k)
+        assert value == c["value"] and a["verdict"] == c["verdict"] and a["confidence"] == 0.95
+        for end in ("lower", "upper"):
+            assert (np.isnan(a[end]) and c[end] is None) or a[end] == c[end], (k, end)
+    assert consts["G13"]["at_bound"] and attrs(path, "materials/Glas_Epoxid__-Lage", "G13")[1][
+        "verdict"] == "at bound — not identified"
+    for k, c in doc["global_uncertainty"].items():
+        _, a = attrs(path, "global_properties", k)
+        assert a["verdict"] == c["verdict"], k
+        assert (np.isnan(a["lower"]) and c["lower"] is None) or a["lower"] == c["lower"], k
+    _, a = attrs(result[0], "materials/Glas_Epoxid__-Lage", "G23")        # --fix G23
+    assert a["verdict"] == FIXED_VERDICT and np.isnan(a["lower"]) and np.isnan(a["upper"])
+    _, a = attrs(result[0], "materials/Glas_Epoxid__-Lage", "E1")
+    assert a["lower"] == result[1]["uncertainty"]["constants"]["Glas/Epoxid µ-Lage"]["E1"][
+        "lower"] > 0
+    doc, path = s11_fix_undetermined_6x6      # G13 fixed because undetermined
+    _, a = attrs(path, "materials/IM7_977-2", "G13")
+    assert a["verdict"] == UNDETERMINED_FIXED_VERDICT and np.isnan(a["upper"])
+
+
 def test_bound_statement_reads_both_forms():
     """The statement of a constant at its bound, as files before stop 29 wrote it ("G13 <=
     0.0001 E1 (...)") and as later ones do ("stopped on the search's lower limit, G13 =
