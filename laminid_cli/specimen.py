@@ -427,6 +427,11 @@ def _closest(key: str, valid) -> str | None:
     for v in valid:
         if v.lower() == key.lower():
             return v
+    # a shear modulus with its indices the other way round is the same modulus (G31 = G13):
+    # spelling alone guessed G23 for G31 and for G21
+    swapped = re.fullmatch(r"[Gg](\d)(\d)", str(key))
+    if swapped and f"G{swapped[2]}{swapped[1]}" in valid:
+        return f"G{swapped[2]}{swapped[1]}"
     found = difflib.get_close_matches(key, valid, n=1, cutoff=0.6)
     return found[0] if found else None
 
