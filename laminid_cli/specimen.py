@@ -1394,6 +1394,10 @@ def plus_minus(text: str, kind: str, where=None) -> tuple[float, float]:
         raise ValueError(f"'{text}': write a value and its half-width as '170 ± 1 GPa' "
                          "(or [low, high])")
     centre, half = (p.strip() for p in parts)
+    if _LEADING_NUMBER.match(half) is None:
+        # '170 ± GPa': the half-width left out (the unit alone was read as the centre's)
+        raise ValueError(f"'{text}': no half-width after ±; write a value and its half-width "
+                         "as '170 ± 1 GPa' (or [low, high])")
     if half.endswith("%"):
         value = parse_quantity(centre, kind, where=where)
         share = parse_quantity(half[:-1].strip(), "dimensionless", where=where)

@@ -1192,3 +1192,11 @@ def test_a_shear_modulus_with_its_indices_swapped_is_named_as_itself(tmp_path, o
     """G31 is G13 and G21 G12: the spelling guess named G23 for both."""
     bad(tmp_path, edit(BASE, old, new), line, field, *words)
 
+
+def test_a_plus_minus_reference_without_its_half_width_says_so(tmp_path):
+    """'170 ± GPa' (the half-width left out) read the unit as the half-width and refused
+    "'170' = 1.7e-07 GPa is not a plausible modulus"."""
+    text = edit(BASE, "frequencies: [100, 200, 300]", "frequencies: [100, 200, 300]\n"
+                "reference:\n  materials: {CFRP: {E1: 170 ± GPa}}")
+    bad(tmp_path, text, None, "reference.materials.CFRP.E1",
+        "'170 ± GPa': no half-width after ±; write a value and its half-width as '170 ± 1 GPa'")
