@@ -779,6 +779,19 @@ def uncertainty_summary(a) -> dict:
                               for n, s in zip(names, a.sigmas)}
     out["sensitivity"] = sensitivity_table(r)
     out["fixed_undetermined"] = list(a.fixed_undetermined)
+    # a fixed constant's entry has a free one's keys (its value, no interval, "assumed" where
+    # --fix-undetermined held it), as summary.json's: {"verdict", "flagged"} alone sent a
+    # program reading constants[m][k]["value"] or ["lower"] into a KeyError
+    values = {f"{n}.{k}": v for n, c in zip(r.material_names, r.constants)
+              for k, v in c.as_dict().items()}
+    for lab in a.uncertainty.fixed:
+        mat, const = lab.rsplit(".", 1)
+        entry = out["constants"].setdefault(mat, {}).setdefault(const, {})
+        entry.update({"value": values.get(lab), "std": None, "std_stated": None,
+                      "lower": None, "upper": None, "half_width": None, "rel_half_width": None,
+                      "verdict": entry.get("verdict", "fixed"), "flagged": False,
+                      "at_bound": False, "bound_text": "", "bound_side": "",
+                      "bound_limit": None, "assumed": lab in a.fixed_undetermined})
     out["kept_free"] = dict(a.kept_free)
     out["fixed_undetermined_widths"] = {
         lab: {"rel_half_width": w[0], "verdict": w[1], "run": w[2]}

@@ -431,3 +431,26 @@ def test_bound_statement_reads_both_forms():
             assert s == side and v == pytest.approx(limit, rel=1e-12)
     assert bound_statement("") == ("", "") and bound_statement(head + "somewhere") == ("", "")
     assert np.isnan(bound_from_text(head + "somewhere")[1])
+
+
+def test_a_fixed_constants_json_entry_has_a_free_ones_keys(result, s11_fix_undetermined_6x6):
+    """identify --json gave a fixed constant {"verdict": "fixed", "flagged": false} alone: a
+    program reading uncertainty.constants[m][k]["value"] or ["lower"] of every constant got a
+    KeyError. It has a free one's keys now, its value, no interval, and "assumed" where
+    --fix-undetermined held it (summary.json's flag "assumed")."""
+    path, doc = result                             # --fix nu12,G13,G23
+    consts = doc["uncertainty"]["constants"]["Glas/Epoxid µ-Lage"]
+    free_keys = {"value", "std", "lower", "upper", "half_width", "rel_half_width", "verdict",
+                 "flagged", "at_bound", "bound_side", "bound_limit"}
+    for k in ("G13", "G23", "nu12"):
+        e = consts[k]
+        assert free_keys <= set(consts["E1"]) and free_keys <= set(e), k
+        assert e["value"] == doc["materials"]["Glas/Epoxid µ-Lage"][k] == doc["initial"][
+            "Glas/Epoxid µ-Lage"][k]
+        assert (e["lower"], e["upper"], e["verdict"], e["assumed"]) == (None, None, "fixed",
+                                                                         False)
+    assert consts["nu12"]["value"] == pytest.approx(0.28, rel=1e-12)
+    doc, _ = s11_fix_undetermined_6x6              # G13, G23, nu12, E2 fixed: assumed
+    g13 = doc["uncertainty"]["constants"]["IM7/977-2"]["G13"]
+    assert g13["assumed"] is True and g13["value"] == pytest.approx(3.1e9, rel=1e-12)
+    assert g13["lower"] is None and g13["verdict"] == "fixed"
