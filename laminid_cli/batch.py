@@ -1937,6 +1937,7 @@ def format_table(rows, on_stderr=None) -> str:
         if r["materials"]:
             groups.setdefault(tuple(r["materials"]), []).append(r)
     marked: set[str] = set()
+    plain = False
     for mats, members in groups.items():
         specs = [r["specimen"] for r in members]
         labels = specs if all(specs) and len(set(specs)) == len(specs) else \
@@ -1958,6 +1959,9 @@ def format_table(rows, on_stderr=None) -> str:
                     v = r["materials"][m][k]
                     mark = _mark(r, m, k)
                     marked.add(mark)
+                    if mark == " " and ((r.get("intervals") or {}).get(m, {}).get(k) or {}).get(
+                            "verdict"):
+                        plain = True      # an identified value with its interval, unmarked
                     # a modulus at its floor (a few MPa) keeps 3 digits, not "0.00"
                     gpa = v / 1e9
                     text = (f"{v:.3f}" if k == "nu12" else
@@ -1988,6 +1992,11 @@ def format_table(rows, on_stderr=None) -> str:
         (MARK_PRIOR, f"{MARK_PRIOR} held by the prior — mostly the file's prior value, not "
                      "the modes' (the prior gives more than half of what is known of it, "
                      "paper Eq. 15)")) if mark in marked]
+    if plain:
+        # an unmarked value is no exact one: its interval is in the summaries (the table has
+        # room for the value alone)
+        legend.append("unmarked: identified, its 95 % interval within --max-rel-interval of "
+                      "the value (well determined or weak: summary.csv's lower, upper, verdict)")
     if any(checked_mesh(g) for g in groups.values()):
         legend.append("mesh change/shift: on a mesh twice as fine (--mesh-check), the largest "
                       "frequency change in the mode's sigmas and the largest shift of a constant "

@@ -102,6 +102,14 @@ class LazyGroup(click.Group):
             click.echo(f"laminid: {getattr(exc, 'label', 'error')}: {exc}", err=True)
             ctx.exit(exc.exit_code)
         except click.UsageError as exc:
+            if isinstance(exc, click.NoSuchOption) and exc.option_name in _GROUP_OPTIONS:
+                # laminid's own -q/-v written after the command ("laminid batch d -q", as the
+                # README's "not under -q" reads): say where it goes
+                name = ctx.meta.get(_INVOKED, (None,))[0] or "COMMAND"
+                exc.message = (f"No such option: {exc.option_name} of '{name}'; it is "
+                               f"laminid's own, written before the command: laminid "
+                               f"{exc.option_name} {name} ...")
+                exc.possibilities = None
             # click says it (usage, "Error: ...") and exits 2 once this returns
             _echo_json_error(ctx, _error_document(exc, exc.format_message(), exc.exit_code,
                                                   kind="UsageError", field=_option_of(exc)))
@@ -133,6 +141,9 @@ class LazyGroup(click.Group):
             click.echo("laminid: interrupted", err=True)
             raise click.exceptions.Exit(EXIT_INTERRUPTED) from None
 
+
+#: the group's own options (cli below), which a command refuses after its name
+_GROUP_OPTIONS = {"-q", "--quiet", "-v", "--verbose"}
 
 #: key of the click context's ``meta``: (name, command, arguments) of the command invoked
 _INVOKED = "laminid.invoked"

@@ -401,12 +401,20 @@ def _history(f) -> History | None:
 
 
 def _reference_pair(v, kind: str) -> tuple[float, float]:
-    """(low, high) SI of a reference value as the YAML writes it: one value (low == high) or
-    a range [low, high]; ValueError (or a units error) when it cannot be read."""
+    """(low, high) SI of a reference value as the YAML writes it: one value (low == high), a
+    range [low, high] or a value and its half-width, "170 ± 1 GPa" (specimen.plus_minus, as
+    the specimen reader reads it: the report left such a reference out); ValueError (or a
+    units error) when it cannot be read."""
+    from laminid_cli.specimen import _PLUS_MINUS, plus_minus
     from laminid_cli.units import parse_quantity
 
     if isinstance(v, dict) or (isinstance(v, list) and len(v) != 2):
         raise ValueError(f"not a reference value: {v!r}")
+    if isinstance(v, str) and _PLUS_MINUS.search(v):
+        value, half = plus_minus(v, kind)
+        if half < 0:
+            raise ValueError(f"{v!r}: a negative half-width")
+        return value - half, value + half
     low, high = (float(parse_quantity(x, kind)) for x in (v if isinstance(v, list) else [v, v]))
     if not low <= high:
         raise ValueError(f"range [{low:g}, {high:g}] has low > high")

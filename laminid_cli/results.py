@@ -14,7 +14,12 @@ Common layout::
     /materials/<key>      attr name (the material's real name, UTF-8); E1, E2, G12, G13, G23
                           (Pa), nu12 (1), density (kg/m^3). <key> is :func:`safe_keys` of the
                           names (ASCII [A-Za-z0-9_.-], "_" elsewhere, de-duplicated): group
-                          keys stay readable in h5ls/h5dump; readers take the name attribute
+                          keys stay readable in h5ls/h5dump; readers take the name attribute.
+                          With an uncertainty assessment each constant's dataset has attrs
+                          verdict, lower, upper (NaN: no interval), confidence, as
+                          /uncertainty gives them (a fixed one: FIXED_VERDICT or
+                          UNDETERMINED_FIXED_VERDICT); /global_properties/<k> likewise
+                          (annotate_doubt)
     /frequencies          model, measured (Hz; NaN = not measured), residual_percent, weight
     /modes                w (n_nodes, n_modes) transverse displacement of the mass-normalised
                           modes (m/sqrt(kg)); phi (n_dofs, n_modes) all DOFs; dofs (n_dofs,)
@@ -483,6 +488,7 @@ def write_identification_file(path, fm, r, summary: dict, command: str = "lamini
             write_uncertainty(f, assessment, [fm.specimen.name])
             if summary.get("global_uncertainty"):
                 write_global_uncertainty(f, summary["global_uncertainty"])
+            annotate_doubt(f, assessment)
         if damping is not None:
             write_damping(f, damping)
         put_summary(f, summary)
@@ -773,6 +779,19 @@ def uncertainty_summary(a) -> dict:
                               for n, s in zip(names, a.sigmas)}
     out["sensitivity"] = sensitivity_table(r)
     out["fixed_undetermined"] = list(a.fixed_undetermined)
+    # a fixed constant's entry has a free one's keys (its value, no interval, "assumed" where
+    # --fix-undetermined held it), as summary.json's: {"verdict", "flagged"} alone sent a
+    # program reading constants[m][k]["value"] or ["lower"] into a KeyError
+    values = {f"{n}.{k}": v for n, c in zip(r.material_names, r.constants)
+              for k, v in c.as_dict().items()}
+    for lab in a.uncertainty.fixed:
+        mat, const = lab.rsplit(".", 1)
+        entry = out["constants"].setdefault(mat, {}).setdefault(const, {})
+        entry.update({"value": values.get(lab), "std": None, "std_stated": None,
+                      "lower": None, "upper": None, "half_width": None, "rel_half_width": None,
+                      "verdict": entry.get("verdict", "fixed"), "flagged": False,
+                      "at_bound": False, "bound_text": "", "bound_side": "",
+                      "bound_limit": None, "assumed": lab in a.fixed_undetermined})
     out["kept_free"] = dict(a.kept_free)
     out["fixed_undetermined_widths"] = {
         lab: {"rel_half_width": w[0], "verdict": w[1], "run": w[2]}
@@ -873,7 +892,55 @@ def write_joint_identification_file(path, fms, r, summary: dict, assessment=None
                 write_global_uncertainty(g, summary["specimens"][name]["global_uncertainty"])
         if assessment is not None:
             write_uncertainty(f, assessment, names)
+            annotate_doubt(f, assessment)
         put_summary(f, summary)
+
+
+#: a fixed constant's verdict on its /materials dataset (annotate_doubt)
+FIXED_VERDICT = "fixed at its initial value — not identified"
+UNDETERMINED_FIXED_VERDICT = "fixed because undetermined — not identified (an assumption)"
+
+
+def annotate_doubt(f, a) -> None:
+    """Each constant's dataset under /materials (a joint file's root and each plate's) and
+    each global property's under /global_properties gets its doubt as attributes: ``verdict``
+    and ``lower``, ``upper`` (SI; NaN: no interval, a constant at its bound or fixed) at
+    ``confidence``, as /uncertainty and /global_properties_uncertainty give them; a fixed
+    constant the verdict FIXED_VERDICT or UNDETERMINED_FIXED_VERDICT. A program reading
+    /materials/<key>/G13 alone took a value at a search limit, or a guess held fixed, for an
+    identified one."""
+    u = a.uncertainty
+    index = {lab: i for i, lab in enumerate(u.labels)}
+    assumed = set(a.fixed_undetermined)
+    tables = [f] + [g for g in f["specimens"].values()] if "specimens" in f else [f]
+
+    def put_doubt(d, verdict, lower, upper):
+        d.attrs["verdict"] = str(verdict)
+        d.attrs["lower"], d.attrs["upper"] = float(lower), float(upper)
+        d.attrs["confidence"] = float(u.confidence)
+
+    for g in tables:
+        for gm in (g["materials"].values() if "materials" in g else ()):
+            name = str(gm.attrs.get("name", ""))
+            for k in CONSTANT_UNITS:
+                if k not in gm:
+                    continue
+                lab = f"{name}.{k}"
+                if lab in index:
+                    i = index[lab]
+                    put_doubt(gm[k], u.verdict[i], u.lower[i], u.upper[i])
+                else:
+                    put_doubt(gm[k], UNDETERMINED_FIXED_VERDICT if lab in assumed
+                              else FIXED_VERDICT, np.nan, np.nan)
+        if "global_properties" in g and "global_properties_uncertainty" in g:
+            h = g["global_properties_uncertainty"]
+            keys = [x.decode() if isinstance(x, bytes) else str(x) for x in h["keys"][()]]
+            verdicts = [x.decode() if isinstance(x, bytes) else str(x)
+                        for x in h["verdict"][()]]
+            for i, k in enumerate(keys):
+                if k in g["global_properties"]:
+                    put_doubt(g["global_properties"][k], verdicts[i], h["lower"][i],
+                              h["upper"][i])
 
 
 def write_global_uncertainty(g, unc: dict) -> None:

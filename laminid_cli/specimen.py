@@ -427,6 +427,11 @@ def _closest(key: str, valid) -> str | None:
     for v in valid:
         if v.lower() == key.lower():
             return v
+    # a shear modulus with its indices the other way round is the same modulus (G31 = G13):
+    # spelling alone guessed G23 for G31 and for G21
+    swapped = re.fullmatch(r"[Gg](\d)(\d)", str(key))
+    if swapped and f"G{swapped[2]}{swapped[1]}" in valid:
+        return f"G{swapped[2]}{swapped[1]}"
     found = difflib.get_close_matches(key, valid, n=1, cutoff=0.6)
     return found[0] if found else None
 
@@ -1371,17 +1376,27 @@ _PLUS_MINUS = re.compile(r"\s*(?:±|\+/-|\+-)\s*")
 _LEADING_NUMBER = re.compile(r"^\s*[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 
 
-def _plus_minus(r: _Reader, y: _Y, kind: str) -> tuple[float, float]:
+def plus_minus(text: str, kind: str, where=None) -> tuple[float, float]:
     """``(value, half-width)`` in SI of a reference written "value ± half-width": the unit
     written once at the end applies to both ("170 ± 1 GPa", as tables print it), or written
-    on both ("170 GPa ± 1 GPa"); a half-width in per cent of the value ("170 GPa ± 2 %")."""
-    text = str(y.value)
+    on both ("170 GPa ± 1 GPa"); a half-width in per cent of the value ("170 GPa ± 2 %").
+    ValueError where it is not of that form; a SpecimenError (at ``where``, a units.Where)
+    where a part cannot be read as a quantity of ``kind``. The
+    specimen reader and the result files' reader (resultfile.parse_reference) both read it.
+
+    >>> plus_minus("170 ± 1 GPa", "modulus"), plus_minus("0.3 +/- 10 %", "dimensionless")
+    ((170000000000.0, 1000000000.0), (0.3, 0.03))
+    """
+    text = str(text)
     parts = _PLUS_MINUS.split(text)
     if len(parts) != 2 or not parts[0].strip() or not parts[1].strip():
-        raise r.error(y, f"'{text}': write a value and its half-width as '170 ± 1 GPa' "
+        raise ValueError(f"'{text}': write a value and its half-width as '170 ± 1 GPa' "
                          "(or [low, high])")
     centre, half = (p.strip() for p in parts)
-    where = r.where(y)
+    if _LEADING_NUMBER.match(half) is None:
+        # '170 ± GPa': the half-width left out (the unit alone was read as the centre's)
+        raise ValueError(f"'{text}': no half-width after ±; write a value and its half-width "
+                         "as '170 ± 1 GPa' (or [low, high])")
     if half.endswith("%"):
         value = parse_quantity(centre, kind, where=where)
         share = parse_quantity(half[:-1].strip(), "dimensionless", where=where)
@@ -1392,6 +1407,14 @@ def _plus_minus(r: _Reader, y: _Y, kind: str) -> tuple[float, float]:
         lead = _LEADING_NUMBER.match(half)
         centre = centre + (half[lead.end():] if lead is not None else "")
     return parse_quantity(centre, kind, where=where), parse_quantity(half, kind, where=where)
+
+
+def _plus_minus(r: _Reader, y: _Y, kind: str) -> tuple[float, float]:
+    """:func:`plus_minus` of a reference's YAML node, its errors the reader's."""
+    try:
+        return plus_minus(str(y.value), kind, where=r.where(y))
+    except ValueError as exc:                 # not "value ± half-width"
+        raise r.error(y, str(exc)) from None
 
 
 def _reference_value(r: _Reader, y: _Y, kind: str) -> float | tuple[float, float]:

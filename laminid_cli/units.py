@@ -397,10 +397,19 @@ def significant_text(name: str, value: float, digits: int = 3) -> str:
     as the terminal's Monte Carlo table writes its stds (3) and its range ends (4: "8.685",
     "0.01025"), and the report its Monte Carlo range ends.
 
+    Trailing zeros are kept, so that every number shows the digits it has: the range
+    "156.0 GPa .. 163.7 GPa" and the std "0.500 GPa" beside "0.489 GPa" (``g`` wrote "156"
+    and "0.5", which read as known to fewer digits than their neighbours).
+
     >>> significant_text("G13", 8.684992e9, 4), significant_text("nu12", 0.0552771, 4)
     ('8.685', '0.05528')
+    >>> significant_text("E1", 156.0e9, 4), significant_text("E2", 0.5e9)
+    ('156.0', '0.500')
+    >>> significant_text("E1", 1234.4e9, 4), significant_text("nu12", 1e-5, 3)
+    ('1234', '1.00e-05')
     """
-    return f"{(value if name == 'nu12' else value / 1e9):.{digits}g}"
+    text = f"{(value if name == 'nu12' else value / 1e9):#.{digits}g}"
+    return text[:-1] if text.endswith(".") else text
 
 
 #: the unit of each numeric field of a ``--json`` document (modes, identify, show) by the

@@ -1592,7 +1592,12 @@ def test_table_marks_fixed_bound_and_undetermined_values():
     assert cell == {"E1": "150.00", "E2": "9.00", "G12": "5.00?", "G13": "3.10=",
                     "G23": "0.00295!", "nu12": "0.350="}
     legend = next(ln for ln in lines if ln.startswith("! "))
-    assert legend.count(";") == 2 and "= fixed at its initial value — not identified" in legend
+    assert legend.count(";") == 3 and "= fixed at its initial value — not identified" in legend
+    # E1 and E2, unmarked, are no exact values: the legend says where their intervals are
+    # (it said nothing of them: a weak E2 read as a number known like E1)
+    assert legend.endswith("; unmarked: identified, its 95 % interval within --max-rel-interval "
+                           "of the value (well determined or weak: summary.csv's lower, upper, "
+                           "verdict)")
     row["intervals"] = {"m": {k: {"verdict": "fixed"} if k == "nu12" else {} for k in consts}}
     legend = [ln for ln in format_table([row]).splitlines() if "not identified" in ln]
     assert legend == ["= fixed at its initial value — not identified (--fix or the file's "

@@ -326,3 +326,16 @@ def test_identify_of_two_files_one_missing_names_it_not_add_joint(tmp_path):
     assert r.exit_code == 2
     assert f"laminid: error: {tmp_path / 'S1.2.yaml'}: file not found\n" in r.output
     assert "--joint" not in r.output and "--fix" not in r.output
+
+
+@pytest.mark.parametrize("option", ["-q", "--quiet", "-v", "--verbose"])
+def test_laminids_own_option_after_the_command_says_where_it_goes(option):
+    """`laminid batch plates/ -q` (the README's "not under -q" read as batch's option): click
+    said only "No such option '-q'"; the message now says it goes before the command, in the
+    --json error document too."""
+    r = run("batch", "nowhere", option, "--json")
+    assert r.exit_code == 2
+    doc = json.loads(r.stdout)["error"]
+    assert doc["message"] == (f"No such option: {option} of 'batch'; it is laminid's own, "
+                              f"written before the command: laminid {option} batch ...")
+    assert doc["field"] == option and doc["kind"] == "UsageError"

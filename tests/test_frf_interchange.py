@@ -307,6 +307,21 @@ def test_export_refuses_to_overwrite_and_names_bad_input(tmp_path, modes_file):
     assert r.exit_code == 2 and "holds specimen 'S1.1', not 'S9'" in r.output
 
 
+def test_export_of_a_specimen_file_says_what_export_takes(tmp_path):
+    """A specimen YAML given to export (for its mode shapes) is named with the commands that
+    make a result of it; the FRF reader's message named only fit-frf --into."""
+    spec = tmp_path / "plate.yaml"
+    spec.write_text("name: p\n", encoding="utf-8")
+    out = tmp_path / "p.unv"
+    r = run(["export", str(spec), "-o", str(out)])
+    assert r.exit_code == 2 and not out.exists()
+    assert f"{spec}: a specimen file (YAML), neither FRFs nor a result; 'laminid identify " \
+           f"{spec}' (or 'laminid modes {spec} -o NAME.modes.h5')" in r.output
+    assert "fit-frf" not in r.output
+    doc = json.loads(run(["export", str(spec), "-o", str(out), "--json"]).stdout)["error"]
+    assert doc["file"] == str(spec) and doc["exit_code"] == 2
+
+
 def test_matlab_style_compound_real_imag_is_complex(tmp_path, case):
     path = tmp_path / "matlab.h5"
     pair = np.dtype([("real", "<f8"), ("imag", "<f8")])

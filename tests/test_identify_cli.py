@@ -693,3 +693,17 @@ def test_a_trial_model_refuses_points_whose_stiffness_is_no_stiffness(tmp_path):
     (p,) = model.params
     c = res.constants[0]
     assert model.refusal(variables_of(p, dataclasses.replace(c, G12=-0.001 * c.G12)))
+
+
+def test_monte_carlo_table_numbers_keep_their_trailing_zeros():
+    """The Monte Carlo table (terminal and report) wrote its range ends and stds with 'g':
+    "156 GPa .. 163.7 GPa" and a std "0.5 GPa" beside "0.489 GPa", which read as known to
+    fewer digits than their neighbours."""
+    from laminid_cli.commands.text import _val
+    from laminid_cli.units import significant_text
+
+    assert _val("E1", 156.0e9, 4) == "156.0 GPa" and _val("E1", 163.74e9, 4) == "163.7 GPa"
+    assert _val("G12", 0.5e9) == "0.500 GPa" and _val("E2", 0.489e9) == "0.489 GPa"
+    assert _val("nu12", 0.05, 4) == "0.05000"
+    assert significant_text("E1", 1234.4e9, 4) == "1234"           # no trailing point
+    assert significant_text("G13", 8.684992e9, 4) == "8.685"

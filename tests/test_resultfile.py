@@ -236,6 +236,37 @@ def test_reference_ranges_read_back_and_an_old_file_with_single_values(ranged, t
     assert r.plates[0].reference_source.startswith("strain gauge tests")
 
 
+def test_a_reference_written_value_plus_minus_half_width_reads_as_its_range(tmp_path):
+    """"170 ± 1 GPa" (also "+/-", "+-" and a half-width in %) is the range the specimen reader
+    gives it, in the result files' reader too: the report read it as a unit error and left the
+    reference out of its table and panels (the terminal showed 169.00 .. 171.00)."""
+    from laminid_cli.resultfile import parse_global_reference, parse_reference
+    from laminid_cli.specimen import read_specimen
+
+    text = Path(S14).read_text(encoding="utf-8")
+    head, _, _ = text.partition("\nreference:")
+    spec = tmp_path / "pm.yaml"
+    spec.write_text(head + "\nreference:\n  source: a table\n  materials:\n"
+                    "    IM7/977-2: {E1: 170 ± 1 GPa, E2: 10 GPa +- 0.5 GPa, "
+                    "G12: 5.8 GPa +/- 5 %, nu12: 0.35}\n"
+                    "  global: {Ex: 62 ± 2 GPa, nu_xy: 0.30 ± 0.02}\n", encoding="utf-8")
+    yaml_text = spec.read_text(encoding="utf-8")
+    mats, source = parse_reference(yaml_text)
+    got = mats["IM7/977-2"]
+    expect = {"E1": (169e9, 171e9), "E2": (9.5e9, 10.5e9), "G12": (5.51e9, 6.09e9),
+              "nu12": (0.35, 0.35)}
+    assert sorted(got) == sorted(expect) and source == "a table"
+    for k, (lo, hi) in expect.items():
+        assert got[k] == pytest.approx((lo, hi), rel=1e-12), k
+    glob = parse_global_reference(yaml_text)
+    assert glob["Ex"] == pytest.approx((60e9, 64e9), rel=1e-12)
+    assert glob["nu_xy"] == pytest.approx((0.28, 0.32), rel=1e-12)
+    # the specimen reader's ranges, the same to round-off
+    ref = read_specimen(spec).reference["materials"]["IM7/977-2"]
+    for k in ("E1", "E2", "G12"):
+        assert tuple(ref[k]) == pytest.approx(got[k], rel=1e-12), k
+
+
 def test_not_a_result_and_future_versions(tmp_path, result):
     frf = tmp_path / "x.h5"
     with h5py.File(frf, "w") as f:
@@ -337,6 +368,42 @@ def test_every_numeric_dataset_carries_its_units(result, s11_fix_undetermined_6x
     assert missing == []
 
 
+def test_each_constant_and_property_dataset_carries_its_doubt(checked, result,
+                                                              s11_fix_undetermined_6x6):
+    """A program reading /materials/<key>/G13 with plain h5py finds its verdict and interval
+    beside the value (attrs verdict, lower, upper, confidence), as --json gives them: a value
+    on a search limit, a guess held fixed and an identified one read alike before, a bare
+    number each. The laminate's /global_properties likewise."""
+    from laminid_cli.results import FIXED_VERDICT, UNDETERMINED_FIXED_VERDICT
+
+    def attrs(path, group, key):
+        with h5py.File(path) as f:
+            g = f[group]
+            return float(g[key][()]), dict(g[key].attrs)
+
+    path, doc = checked                       # G13 at its bound, the others free
+    consts = doc["uncertainty"]["constants"]["Glas/Epoxid µ-Lage"]
+    for k, c in consts.items():
+        value, a = attrs(path, "materials/Glas_Epoxid__-Lage", k)
+        assert value == c["value"] and a["verdict"] == c["verdict"] and a["confidence"] == 0.95
+        for end in ("lower", "upper"):
+            assert (np.isnan(a[end]) and c[end] is None) or a[end] == c[end], (k, end)
+    assert consts["G13"]["at_bound"] and attrs(path, "materials/Glas_Epoxid__-Lage", "G13")[1][
+        "verdict"] == "at bound — not identified"
+    for k, c in doc["global_uncertainty"].items():
+        _, a = attrs(path, "global_properties", k)
+        assert a["verdict"] == c["verdict"], k
+        assert (np.isnan(a["lower"]) and c["lower"] is None) or a["lower"] == c["lower"], k
+    _, a = attrs(result[0], "materials/Glas_Epoxid__-Lage", "G23")        # --fix G23
+    assert a["verdict"] == FIXED_VERDICT and np.isnan(a["lower"]) and np.isnan(a["upper"])
+    _, a = attrs(result[0], "materials/Glas_Epoxid__-Lage", "E1")
+    assert a["lower"] == result[1]["uncertainty"]["constants"]["Glas/Epoxid µ-Lage"]["E1"][
+        "lower"] > 0
+    doc, path = s11_fix_undetermined_6x6      # G13 fixed because undetermined
+    _, a = attrs(path, "materials/IM7_977-2", "G13")
+    assert a["verdict"] == UNDETERMINED_FIXED_VERDICT and np.isnan(a["upper"])
+
+
 def test_bound_statement_reads_both_forms():
     """The statement of a constant at its bound, as files before stop 29 wrote it ("G13 <=
     0.0001 E1 (...)") and as later ones do ("stopped on the search's lower limit, G13 =
@@ -364,3 +431,26 @@ def test_bound_statement_reads_both_forms():
             assert s == side and v == pytest.approx(limit, rel=1e-12)
     assert bound_statement("") == ("", "") and bound_statement(head + "somewhere") == ("", "")
     assert np.isnan(bound_from_text(head + "somewhere")[1])
+
+
+def test_a_fixed_constants_json_entry_has_a_free_ones_keys(result, s11_fix_undetermined_6x6):
+    """identify --json gave a fixed constant {"verdict": "fixed", "flagged": false} alone: a
+    program reading uncertainty.constants[m][k]["value"] or ["lower"] of every constant got a
+    KeyError. It has a free one's keys now, its value, no interval, and "assumed" where
+    --fix-undetermined held it (summary.json's flag "assumed")."""
+    path, doc = result                             # --fix nu12,G13,G23
+    consts = doc["uncertainty"]["constants"]["Glas/Epoxid µ-Lage"]
+    free_keys = {"value", "std", "lower", "upper", "half_width", "rel_half_width", "verdict",
+                 "flagged", "at_bound", "bound_side", "bound_limit"}
+    for k in ("G13", "G23", "nu12"):
+        e = consts[k]
+        assert free_keys <= set(consts["E1"]) and free_keys <= set(e), k
+        assert e["value"] == doc["materials"]["Glas/Epoxid µ-Lage"][k] == doc["initial"][
+            "Glas/Epoxid µ-Lage"][k]
+        assert (e["lower"], e["upper"], e["verdict"], e["assumed"]) == (None, None, "fixed",
+                                                                         False)
+    assert consts["nu12"]["value"] == pytest.approx(0.28, rel=1e-12)
+    doc, _ = s11_fix_undetermined_6x6              # G13, G23, nu12, E2 fixed: assumed
+    g13 = doc["uncertainty"]["constants"]["IM7/977-2"]["G13"]
+    assert g13["assumed"] is True and g13["value"] == pytest.approx(3.1e9, rel=1e-12)
+    assert g13["lower"] is None and g13["verdict"] == "fixed"

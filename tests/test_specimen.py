@@ -1179,3 +1179,24 @@ def test_constant_line_finds_a_ply_constant_or_its_isotropic_key():
     assert constant_line(spec, "alu", "nu12") == 13
     assert constant_line(spec, "alu", "G23") == 12     # G = E / (2 (1 + nu)) when not given
     assert constant_line(spec, "steel", "E1") is None
+
+
+@pytest.mark.parametrize("old, new, line, field, words", [
+    ("    nu12: 0.35\n", "    nu12: 0.35\n    fixed: [G31]\n", 15, "materials.CFRP.fixed[1]",
+     ["'G31' is not a constant; did you mean 'G13'?"]),
+    ("    G12: 3.1 GPa\n", "    G21: 3.1 GPa\n", 11, "materials.CFRP.G21",
+     ["unknown key 'G21'; did you mean 'G12'?"]),
+])
+def test_a_shear_modulus_with_its_indices_swapped_is_named_as_itself(tmp_path, old, new, line,
+                                                                      field, words):
+    """G31 is G13 and G21 G12: the spelling guess named G23 for both."""
+    bad(tmp_path, edit(BASE, old, new), line, field, *words)
+
+
+def test_a_plus_minus_reference_without_its_half_width_says_so(tmp_path):
+    """'170 ± GPa' (the half-width left out) read the unit as the half-width and refused
+    "'170' = 1.7e-07 GPa is not a plausible modulus"."""
+    text = edit(BASE, "frequencies: [100, 200, 300]", "frequencies: [100, 200, 300]\n"
+                "reference:\n  materials: {CFRP: {E1: 170 ± GPa}}")
+    bad(tmp_path, text, None, "reference.materials.CFRP.E1",
+        "'170 ± GPa': no half-width after ±; write a value and its half-width as '170 ± 1 GPa'")

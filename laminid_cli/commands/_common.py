@@ -408,7 +408,9 @@ fit_options = _apply([
 uncertainty_options = _apply([
     click.option("--sigma-rel", type=SIGMA_REL, default=0.002, show_default=True, metavar="FRACTION",
                   help="Standard deviation of a measured frequency, as a fraction of it, where the "
-                       "specimen file gives no measured.sigma (0.002 = 0.2 %)."),
+                       "specimen file gives no measured.sigma (0.002 = 0.2 %); not used for "
+                       "the modes of a measured.frf_file, whose RFP fit gives each one's "
+                       "(at least 0.2 %)."),
     click.option("--covariance-scale", type=click.Choice(["stated", "residuals", "larger"]),
                   default="larger", show_default=True,
                   help="Intervals from the stated frequency sigma, from the residuals at the "

@@ -87,6 +87,13 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
         raise OutputExistsError(f"{output}: export writes Universal Files; name the output "
                                 f"{' or '.join(UFF_SUFFIXES)} (-o)")
     shape_format = _shape_format(input_file) if Path(input_file).is_file() else None
+    if Path(input_file).suffix.lower() in (".yaml", ".yml") and Path(input_file).is_file():
+        # a specimen given for its mode shapes, most likely: the FRF reader's message named
+        # only 'fit-frf --into', which takes FRFs into it, not what export takes
+        raise ExportError(f"{input_file}: a specimen file (YAML), neither FRFs nor a result; "
+                          f"'laminid identify {input_file}' (or 'laminid modes {input_file} "
+                          "-o NAME.modes.h5') makes a result whose mode shapes export writes; "
+                          "FRFs are an acquire file, UFF 58 or CSV", path=input_file)
     # an option that does not apply to this input is a mistake, not something to ignore
     if shape_format is not None:
         for given, option in ((fmt, "--format"), (freq_dataset, "--freq-dataset"),

@@ -81,7 +81,7 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
     measured vs model frequencies with residuals (measured - model)/measured*100, the global
     laminate properties, the correlation of the constants and the normalised sensitivities
     d ln f / d ln P of each mode. Frequency uncertainties come from the file's measured.sigma,
-    else --sigma-rel. Every result has a status: ok, or check with the reasons (a constant at
+    or the RFP fit of its measured.frf_file, else --sigma-rel. Every result has a status: ok, or check with the reasons (a constant at
     its bound or undetermined, a fit worse than the stated noise, implausible values, modes
     swapped). Exit code 0 when converged (also with status check), 1 when not, 2 for bad
     input.

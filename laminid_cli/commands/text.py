@@ -5,7 +5,8 @@ from __future__ import annotations
 import math
 import re
 
-from laminid_cli.intervals import VERDICT_NOT, flag_words, spread_sentence, t_std, width_text
+from laminid_cli.intervals import (VERDICT_FIXED, VERDICT_NOT, flag_words, spread_sentence, t_std,
+                                    width_text)
 from laminid_cli.units import constant_text, number_text, significant_text
 
 #: the advice that ends the verdict "not determined by these modes — fix it or ..." (shown
@@ -317,7 +318,7 @@ def _material_tables(s: dict, ref: dict) -> list[str]:
                 lines.append(row)
                 if prof.get("text"):
                     lines.append(f"{'':14}profile: {prof['text']}")
-            elif u is not None and "half_width" in u:
+            elif u is not None and "half_width" in u and u.get("verdict") != VERDICT_FIXED:
                 flag = " [!]" if u.get("flagged") else ""
                 span = f"{_num(k, u['lower'])} .. {_num(k, u['upper'])}"
                 row += (f"  {span:>17} {_pct(u['rel_half_width']):>10}  "
