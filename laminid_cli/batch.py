@@ -1347,18 +1347,15 @@ def material_names(rows) -> list[str]:
     return names
 
 
-#: the columns after each constant's value in the wide summary ("IM7/977-2 E2 lower [Pa]",
-#: "... upper [Pa]", "... verdict"): its 95 % interval (empty where it has none: fixed, at a
-#: bound, no uncertainty) and its verdict in the words of the long summary's ``verdict``.
-#: Why the verdict, not the relative half-width: the ends give the width already (to the log
-#: scale's asymmetry), while the verdict says what they cannot: a Monte Carlo that made it
-#: worse ("weak (Monte Carlo)"), a value held by its prior, at a bound, fixed
-WIDE_INTERVAL_COLUMNS = ("lower", "upper", "verdict")
-
-
 def wide_columns(material: str, constant: str) -> tuple[str, str, str, str]:
-    """The wide summary's columns of one constant: its value, then its interval's ends and its
-    verdict (:data:`WIDE_INTERVAL_COLUMNS`), SI units in the headers."""
+    """The wide summary's columns of one constant, SI units in the headers: its value
+    ("IM7/977-2 E2 [Pa]"), then its 95 % interval's ends ("... lower [Pa]", "... upper [Pa]";
+    empty where it has none: fixed, at a bound, no uncertainty) and its verdict ("...
+    verdict", the words of the long summary's ``verdict``).
+
+    Why the verdict, not the relative half-width: the ends give the width already (to the log
+    scale's asymmetry), while the verdict says what they cannot: a Monte Carlo that made it
+    worse ("weak (Monte Carlo)"), a value held by its prior, at a bound, fixed."""
     unit = CONSTANT_UNITS[constant]
     return (f"{material} {constant} [{unit}]", f"{material} {constant} lower [{unit}]",
             f"{material} {constant} upper [{unit}]", f"{material} {constant} verdict")
