@@ -30,8 +30,9 @@ The flow of ``laminid batch`` as library functions:
    shape of the paper's Table 2: specimens as columns, undetermined values marked).
 
 Units: SI everywhere in the files (Pa, 1, %, s). summary.json has a ``units`` map, the long CSV
-a ``unit`` column, the wide CSV the unit in each header ("IM7/977-2 E1 [Pa]"). The terminal
-table shows GPa.
+a ``unit`` column, the wide CSV the unit in each header ("IM7/977-2 E1 [Pa]", then the
+interval's "IM7/977-2 E1 lower [Pa]", "IM7/977-2 E1 upper [Pa]" and "IM7/977-2 E1 verdict").
+The terminal table shows GPa.
 
 Status of a row: "ok" or "check" (the result's status, laminid_cli.status; a run that did not
 converge is "check" with reason ``not_converged``), "error" (no result: bad input, crash),
@@ -1346,11 +1347,27 @@ def material_names(rows) -> list[str]:
     return names
 
 
+def wide_columns(material: str, constant: str) -> tuple[str, str, str, str]:
+    """The wide summary's columns of one constant, SI units in the headers: its value
+    ("IM7/977-2 E2 [Pa]"), then its 95 % interval's ends ("... lower [Pa]", "... upper [Pa]";
+    empty where it has none: fixed, at a bound, no uncertainty) and its verdict ("...
+    verdict", the words of the long summary's ``verdict``).
+
+    Why the verdict, not the relative half-width: the ends give the width already (to the log
+    scale's asymmetry), while the verdict says what they cannot: a Monte Carlo that made it
+    worse ("weak (Monte Carlo)"), a value held by its prior, at a bound, fixed."""
+    unit = CONSTANT_UNITS[constant]
+    return (f"{material} {constant} [{unit}]", f"{material} {constant} lower [{unit}]",
+            f"{material} {constant} upper [{unit}]", f"{material} {constant} verdict")
+
+
 def csv_header(materials, mesh_check: bool = False) -> list[str]:
-    """Columns of the wide summary (one row per specimen), SI units in the headers;
-    ``mesh_check``: with MESH_WIDE_COLUMNS before the last, ``flagged``."""
+    """Columns of the wide summary (one row per specimen), SI units in the headers: each
+    constant's value, then its interval and verdict (:func:`wide_columns`; the value columns
+    keep the names they had before these); ``mesh_check``: with MESH_WIDE_COLUMNS before the
+    last, ``flagged``."""
     cols = ["name", "specimen", "path", "status", "reasons"]
-    cols += [f"{m} {k} [{CONSTANT_UNITS[k]}]" for m in materials for k in CONSTANTS]
+    cols += [c for m in materials for k in CONSTANTS for c in wide_columns(m, k)]
     return cols + ["rms_residual [%]", "evaluations", "time [s]", "cached", "result",
                    "stale_result", *(MESH_WIDE_COLUMNS if mesh_check else ()), "flagged"]
 
@@ -1572,7 +1589,8 @@ def write_summary_csv(path, rows, wide: bool = False, options: dict | None = Non
     """The summary as CSV, SI units, written atomically.
 
     Long form (default): LONG_COLUMNS, one row per specimen, material and constant, the unit
-    in the ``unit`` column. ``wide``: one row per specimen, the unit in each header; its result
+    in the ``unit`` column. ``wide``: one row per specimen, the unit in each header, each
+    constant's value followed by its interval and verdict (:func:`wide_columns`); its result
     column is relative to the CSV's folder. ``options`` (RunOptions.as_dict()): written above
     the header as ``#`` comment lines (:func:`options_comment_lines`), then ``batch``
     (:func:`batch_settings`) as its own block (:func:`batch_comment_lines`)."""
@@ -1597,7 +1615,10 @@ def write_summary_csv(path, rows, wide: bool = False, options: dict | None = Non
         values = [r["name"], r["specimen"], r["path"], r["status"], r["reason"]]
         for m in mats:
             c = r["materials"].get(m, {})
-            values += [repr(c[k]) if k in c else "" for k in CONSTANTS]
+            for k in CONSTANTS:
+                iv = (r.get("intervals") or {}).get(m, {}).get(k) or {}
+                values += [repr(c[k]) if k in c else "", _num(iv.get("lower")),
+                           _num(iv.get("upper")), iv.get("verdict") or ""]
         values += ["" if r["rms_residual_percent"] is None else f"{r['rms_residual_percent']:.6g}",
                    "" if r["evaluations"] is None else r["evaluations"],
                    "" if r["time_s"] is None else f"{r['time_s']:.3f}",
@@ -1769,6 +1790,10 @@ def read_summary(path) -> list[dict]:
         # the constants --wide flags (at a bound, undetermined, fixed); summaries before the
         # column have no key: nothing is known of their doubt
         flags = {} if "flagged" not in rec else {"flagged": parse_flagged(rec["flagged"])}
+        # their intervals and verdicts (summaries before those columns: no key, as above)
+        intervals = _intervals_of_wide(rec, mats, flags.get("flagged") or {})
+        if intervals is not None:
+            flags["intervals"] = intervals
         rows.append(flags | {"mesh_check": _mesh_of_csv(rec),
                              "name": rec["name"], "specimen": rec.get("specimen", ""),
                      "path": rec.get("path", ""), "status": rec["status"],
@@ -1780,6 +1805,36 @@ def read_summary(path) -> list[dict]:
                      "result": str(path.parent / res) if res else None,
                      "stale_result": _path_of_csv(rec, "stale_result", path)})
     return rows
+
+
+def _intervals_of_wide(rec: dict, mats: dict, flagged: dict) -> dict | None:
+    """A wide summary record's ``intervals`` ({material: {constant: entry}}, the long reader's
+    keys) from its interval and verdict columns (:func:`wide_columns`) and its ``flagged``
+    words; None for a summary written before those columns. A constant whose three cells are
+    empty (no uncertainty) gets no entry. The side of a bound is not in the wide summary
+    (bound_side "")."""
+    found = False
+    out: dict[str, dict] = {}
+    for col in rec:
+        if not (col and col.endswith(" verdict")):
+            continue
+        m, _, k = col[: -len(" verdict")].rpartition(" ")
+        if k not in CONSTANTS or not m:
+            continue
+        found = True
+        _, lo_col, hi_col, _ = wide_columns(m, k)
+        lower, upper = _float(rec.get(lo_col)), _float(rec.get(hi_col))
+        verdict = rec.get(col) or ""
+        if lower is None and upper is None and not verdict or k not in mats.get(m, {}):
+            continue
+        word = flagged.get(m, {}).get(k, "")
+        out.setdefault(m, {})[k] = {
+            "lower": lower, "upper": upper, "verdict": verdict,
+            "at_bound": verdict == VERDICT_AT_BOUND or word == FLAG_AT_BOUND,
+            "bound_side": "", "bound_limit": None,
+            "flagged": word == FLAG_UNDETERMINED, "assumed": word == FLAG_ASSUMED,
+            "flag": word}
+    return out if found else None
 
 
 def _after_comments(lines):

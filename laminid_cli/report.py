@@ -2356,7 +2356,7 @@ def summary_pages(path) -> list[Page]:
     """Pages of the report of a batch summary (summary.csv or summary.json). The doubt of
     every constant (interval, verdict, at a bound, fixed, Monte Carlo range) is the summary's
     own; the result files, where found, add the reference values (and the doubt for a wide
-    CSV, which has none)."""
+    CSV written before its interval columns, which has none)."""
     from laminid_cli.batch import NOT_FROM_BATCH, read_summary
 
     # a result file the batch found in its folder but did not make is no specimen of it
@@ -2414,8 +2414,9 @@ class Doubt:
     profile: str = ""
     profile_bound: float = np.nan
     profile_far: float = np.nan
-    #: all that is known is a --wide summary.csv's ``flagged`` column (its result file not
-    #: found): at a bound (side not stated), undetermined, fixed, or none of them; no interval
+    #: all that is known is a --wide summary.csv's ``flagged`` column (one written before its
+    #: interval columns; its result file not found): at a bound (side not stated),
+    #: undetermined, fixed, or none of them; no interval
     flag_only: bool = False
 
     @property
@@ -2436,8 +2437,9 @@ def _si(v) -> float:
 
 def _doubt_of_flag(row, m: str, k: str) -> Doubt | None:
     """The :class:`Doubt` a --wide summary.csv's ``flagged`` column gives constant ``k`` of
-    material ``m`` (``flag_only``: no interval, no side of a bound); None for a row without the
-    column (a wide summary written before it)."""
+    material ``m`` where the summary has no interval columns (written before them;
+    ``flag_only``: no interval, no side of a bound); None for a row without the column (a wide
+    summary written before it)."""
     flags = row.get("flagged")
     if not isinstance(flags, dict) or m not in (row.get("materials") or {}):
         return None
@@ -2453,8 +2455,9 @@ def _doubt_of_flag(row, m: str, k: str) -> Doubt | None:
 
 def doubt_of_row(row, m: str, k: str, r: ResultFile | None = None) -> Doubt | None:
     """The :class:`Doubt` of constant ``k`` of material ``m`` from the summary row's own
-    columns (summary.json, long summary.csv); from the result file ``r`` only when the row has
-    none (a wide summary.csv); None when neither says anything."""
+    columns (summary.json, long summary.csv, a wide one's interval and verdict columns, which
+    do not say the side of a bound); from the result file ``r`` only when the row has none (a
+    wide summary.csv written before those columns); None when neither says anything."""
     e = (row.get("intervals") or {}).get(m, {}).get(k)
     if e is not None:
         verdict = str(e.get("verdict") or "")
@@ -2592,7 +2595,8 @@ def _across_point(ax, k, xi, v, d: Doubt | None, color, tag):
                 mew=1.3, gid=f"at-bound-{tag}", **on_top)
         return "at bound"
     if d is not None and d.flag_only:
-        # a --wide summary's flag: determined or not, without the interval
+        # a --wide summary's flag (one written before its interval columns): determined or
+        # not, without the interval
         ax.plot([xi], [v], "o", ms=6, color=color, mfc="w" if d.undetermined else color,
                 gid=f"value-{tag}", **on_top)
         if d.undetermined:
@@ -2830,7 +2834,8 @@ def constants_across_page(done, title: str, absent=()):
             break
     ax_leg.legend(list(handles.values()), list(handles), loc="center", ncol=ncol, fontsize=8,
                   handler_map={tuple: HandlerTuple(ndivide=None)},
-                  # (bars and arrows where there are intervals: a --wide summary has none)
+                  # (bars and arrows where there are intervals: a --wide summary written
+                  # before its interval columns has none)
                   title="colour: material" + ("; bars: confidence interval of the summary "
                                               "(arrow: runs off the panel)" if has_interval
                                               else ""), title_fontsize=8)
@@ -2845,16 +2850,18 @@ def constants_across_page(done, title: str, absent=()):
     if missing:
         notes.append("result file not found (no reference values): " + ", ".join(missing))
     if "no interval" in kinds:
-        notes.insert(0, "values without their doubt (hollow diamonds): a --wide summary.csv has "
-                        "no intervals, verdicts or search limits, and their result files were "
-                        "not found: a value at a search limit or not determined looks like any "
-                        "other here; use the long summary.csv or summary.json")
+        notes.insert(0, "values without their doubt (hollow diamonds): a --wide summary.csv "
+                        "written before its interval columns has no intervals, verdicts or "
+                        "search limits, and their result files were not found: a value at a "
+                        "search limit or not determined looks like any other here; use the "
+                        "long summary.csv or summary.json, or run the batch again")
     elif any(d is not None and d.flag_only for row, mats, r in done for m in mats
              for k in mats[m] if (d := doubt_of_row(row, m, k, r)) is not None):
-        notes.insert(0, "no intervals: a --wide summary.csv gives only which constants are at a "
-                        "search limit (not which one), not determined or fixed (its column "
-                        "flagged), and their result files were not found; the intervals are in "
-                        "the long summary.csv or summary.json")
+        notes.insert(0, "no intervals: a --wide summary.csv written before its interval "
+                        "columns gives only which constants are at a search limit (not which "
+                        "one), not determined or fixed (its column flagged), and their result "
+                        "files were not found; the intervals are in the long summary.csv or "
+                        "summary.json (a batch run again writes them in the wide one too)")
     if shortened:
         notes.append(shortened)
     if notes:

@@ -176,6 +176,70 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
         pytest.approx(E1, rel=1e-14)
 
 
+def test_wide_summary_gives_each_value_its_interval_and_verdict(batch_run, tmp_path):
+    """--wide wrote each constant's value with no interval: a "weak" value (S1.4's G12,
+    about ±5 % on this mesh) read as exact, and its report had no bars. After each value
+    column (names and order kept) come its 95 % interval's ends and its verdict, the long
+    summary.csv's and summary.json's numbers to 1e-9 (relative), empty where there is no
+    interval (at a bound); read back, they are the long summary's."""
+    from laminid_cli.batch import CONSTANTS
+
+    specs, out, _ = batch_run
+    wide = tmp_path / "wide"
+    shutil.copytree(out, wide)
+    r = run("batch", specs, "--mesh", MESH, "--out", wide, "--wide")       # cached: same rows
+    assert r.exit_code == 0, r.output
+    with open(out / "summary.csv", newline="") as fh:
+        long = {(row["specimen"], row["material"], row["constant"]): row
+                for row in csv.DictReader(without_comments(fh))}
+    doc = json.loads((out / "summary.json").read_text())
+    with open(wide / "summary.csv", newline="") as fh:
+        reader = csv.DictReader(without_comments(fh))
+        header, w = reader.fieldnames, list(reader)
+    m1, m2 = "IM7/977-2", "E-glass/R368"
+    # the value columns keep their names and order; the three new ones follow each
+    values = [c for c in header if c.endswith(("[Pa]", "[1]")) and " lower " not in c
+              and " upper " not in c]
+    assert values == [f"{m} {k} [{'1' if k == 'nu12' else 'Pa'}]" for m in (m1, m2)
+                      for k in CONSTANTS]
+    i = header.index(f"{m1} E2 [Pa]")
+    assert header[i:i + 5] == [f"{m1} E2 [Pa]", f"{m1} E2 lower [Pa]", f"{m1} E2 upper [Pa]",
+                               f"{m1} E2 verdict", f"{m1} G12 [Pa]"]
+    assert header[-1] == "flagged"
+    n_checked = 0
+    for row, spec in zip(w, doc["specimens"]):
+        m = m1 if row["name"] == "example1/S1.4" else m2
+        assert row[f"{m2 if m == m1 else m1} E1 lower [Pa]"] == ""      # not its material
+        for k in CONSTANTS:
+            unit = "1" if k == "nu12" else "Pa"
+            lc = long[spec["specimen"], m, k]
+            js = spec["intervals"][m][k]
+            assert row[f"{m} {k} verdict"] == lc["verdict"] == js["verdict"]
+            for end in ("lower", "upper"):
+                cell = row[f"{m} {k} {end} [{unit}]"]
+                assert (cell == "") is (lc[end] == "") is (js[end] is None), (m, k, end)
+                if cell:
+                    assert float(cell) == pytest.approx(float(lc[end]), rel=1e-9)
+                    assert float(cell) == pytest.approx(js[end], rel=1e-9)
+                    n_checked += 1
+    assert n_checked >= 20
+    s14, s21 = w
+    # a weak value now shows its doubt beside it
+    assert s14[f"{m1} G12 verdict"] == "weak"
+    g12 = float(s14[f"{m1} G12 [Pa]"])
+    assert float(s14[f"{m1} G12 lower [Pa]"]) < 0.96 * g12
+    assert float(s14[f"{m1} G12 upper [Pa]"]) > 1.04 * g12
+    # a value at its bound has no interval, its verdict says so
+    assert s21[f"{m2} G13 lower [Pa]"] == s21[f"{m2} G13 upper [Pa]"] == ""
+    assert s21[f"{m2} G13 verdict"] == "at bound — not identified"
+    back = read_summary(wide / "summary.csv")
+    iv = back[1]["intervals"][m2]
+    assert iv["G13"]["at_bound"] and iv["G13"]["lower"] is None
+    assert iv["G23"]["flagged"] and iv["G23"]["verdict"].startswith("not determined")
+    assert back[0]["intervals"][m1]["E1"]["lower"] == pytest.approx(
+        doc["specimens"][0]["intervals"][m1]["E1"]["lower"], rel=1e-9)
+
+
 def test_summary_csv_records_the_run_options_above_its_unchanged_table(tmp_path):
     """summary.csv did not say how its numbers were made (summary.json did: "options"): a CSV
     read alone could not tell a 6x6 mesh from 12x12, or whether a Monte Carlo ran. The options
@@ -364,6 +428,16 @@ def test_summaries_say_in_a_word_which_values_are_no_identified_ones(tmp_path):
     # the terminal table marks the same values
     g13 = next(line for line in r.output.splitlines() if line.startswith("G13 [GPa]"))
     assert g13.split()[-1].endswith("=")
+    # the wide summary: a fixed value's interval cells empty, its verdict "fixed"
+    r = run("batch", specs, "--mesh", MESH, "--out", out, "--wide")
+    assert r.exit_code == 0, r.output
+    with open(out / "summary.csv", newline="") as fh:
+        wide = {row["specimen"]: row for row in csv.DictReader(without_comments(fh))}
+    s14 = wide["S1.4"]
+    assert s14["IM7/977-2 G13 lower [Pa]"] == s14["IM7/977-2 G13 upper [Pa]"] == ""
+    assert s14["IM7/977-2 G13 verdict"] == "fixed" and float(s14["IM7/977-2 G13 [Pa]"]) > 0
+    assert float(s14["IM7/977-2 E1 lower [Pa]"]) == pytest.approx(
+        float(rows["S1.4", "E1"]["lower"]), rel=1e-9)
 
 
 def test_values_fixed_because_undetermined_are_flagged_assumed_not_fixed(tmp_path):

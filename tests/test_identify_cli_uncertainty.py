@@ -136,6 +136,32 @@ def test_monte_carlo_in_two_processes(tmp_path):
     assert u["verdict_from_monte_carlo"] == []
 
 
+def test_the_monte_carlo_tables_lines_end_without_trailing_spaces():
+    """identify's Monte Carlo table (S1.1, 6x6, 6 trials) padded each row's last cell, the
+    range's upper end, to 12 characters: lines ending in up to 8 spaces (a diff of two
+    outputs, an editor that strips them, showed changes that were none). They end on the
+    value now; the range's ".." stays in one column. The loss factors' table likewise."""
+    from laminid_cli.commands.text import format_damping_monte_carlo
+
+    r = run("identify", S1[0], "--mesh", "6x6", "--monte-carlo", "6", "--seed", "0",
+            "--no-output")
+    assert r.exit_code == 0, r.output
+    lines = r.output.splitlines()
+    start = next(i for i, x in enumerate(lines) if x.startswith("Monte Carlo check:"))
+    rows = [x for x in lines[start + 2:start + 8]]
+    assert [x.split()[0] for x in rows] == ["E1", "E2", "G12", "G13", "G23", "nu12"]
+    assert all(x == x.rstrip() for x in lines[start:start + 8]), rows
+    assert len({x.index(" .. ") for x in rows}) == 1
+    assert rows[0].endswith(" GPa") and not rows[-1].endswith(" ")
+    one = {"lower": 0.0101, "upper": 0.0123, "linearized_std": 6e-4, "std": 5e-4, "ratio": 0.83}
+    d = {"confidence": 0.95, "monte_carlo": {
+        "refits": 8, "trials": 8, "sigma_factor": 1.0, "time_s": 0.1,
+        "loss_factors": {MAT: {"eta11": one, "eta22": dict(one, upper=0.0456)}}}}
+    table = format_damping_monte_carlo(d)
+    assert table[3].endswith("1.01 .. 1.23") and table[4].endswith("1.01 .. 4.56")
+    assert all(x == x.rstrip() for x in table), table
+
+
 def test_a_monte_carlo_verdict_reaches_json_hdf5_the_reader_terminal_and_status(
         monkeypatch, tmp_path):
     """The plumbing of a verdict set by the Monte Carlo, on a Monte Carlo that sets one: a

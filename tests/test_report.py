@@ -1606,18 +1606,36 @@ def test_summary_pages_take_the_doubt_from_the_summary_itself(tmp_path, kind):
     assert "H: check: at_bound" in footer and "Q:" not in footer
 
 
+def old_wide(path, to, flagged: bool = True):
+    """The wide summary.csv ``path`` as written before its interval and verdict columns (and,
+    ``flagged`` False, before its column 'flagged'), at ``to``."""
+    import csv
+
+    with open(path, newline="") as fh:
+        recs = list(csv.DictReader(ln for ln in fh if not ln.startswith("#")))
+    keep = [c for c in recs[0] if not re.search(r" (lower|upper) \[[^]]*\]$| verdict$", c)
+            and (flagged or c != "flagged")]
+    assert len(keep) < len(recs[0])
+    with open(to, "w", newline="") as fh:
+        w = csv.DictWriter(fh, keep, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(recs)
+    return to
+
+
 def test_a_wide_summary_alone_draws_its_flagged_column(tmp_path):
-    """A --wide summary.csv without its result files: its column 'flagged' ("glass.E2
-    at_bound; glass.G12 at_bound; glass.G13 fixed; glass.G23 undetermined; glass.nu12
-    at_bound") is drawn as the long summary draws them: the fixed one a grey square, the
-    undetermined one hollow with "?", those at a bound a hollow triangle (both, "^" over "v":
-    the column does not say which limit), the others filled (identified, not flagged). They
-    were all hollow diamonds with "values without their doubt"."""
+    """A --wide summary.csv written before its interval columns, without its result files:
+    its column 'flagged' ("glass.E2 at_bound; glass.G12 at_bound; glass.G13 fixed; glass.G23
+    undetermined; glass.nu12 at_bound") is drawn as the long summary draws them: the fixed one
+    a grey square, the undetermined one hollow with "?", those at a bound a hollow triangle
+    (both, "^" over "v": the column does not say which limit), the others filled (identified,
+    not flagged). They were all hollow diamonds with "values without their doubt"."""
     from laminid_cli.batch import read_summary, write_summary_csv
     from laminid_cli.report import FIXED_COLOR
 
     path = tmp_path / "wide.csv"
-    write_summary_csv(path, _summary_rows(), wide=True)
+    write_summary_csv(tmp_path / "new.csv", _summary_rows(), wide=True)
+    old_wide(tmp_path / "new.csv", path)
     assert read_summary(path)[0]["flagged"] == {"glass": {
         "E2": "at_bound", "G12": "at_bound", "G13": "fixed", "G23": "undetermined",
         "nu12": "at_bound"}}
@@ -1653,14 +1671,51 @@ def test_a_wide_summary_alone_draws_its_flagged_column(tmp_path):
     assert "no interval in this summary (wide CSV, result file not found)" not in legend
     foot = " ".join(t.get_text() for t in fig.texts).replace("\n", " ")
     assert "values without their doubt" not in foot
-    assert "no intervals: a --wide summary.csv gives only which constants" in foot
+    assert "no intervals: a --wide summary.csv written before its interval columns gives " \
+           "only which constants" in foot
+
+
+def test_a_wide_summary_alone_draws_the_long_summarys_bars(tmp_path):
+    """A --wide summary.csv with its interval columns, without its result files, draws each
+    identified constant's interval bar where the long summary.csv of the same rows draws it
+    (the same ends, to 1e-9), with its legend; it drew hollow diamonds or dots without a bar,
+    and the note that a wide CSV has no intervals."""
+    from laminid_cli.batch import write_summary_csv
+
+    (tmp_path / "long").mkdir()
+    (tmp_path / "wide").mkdir()
+    write_summary_csv(tmp_path / "long" / "summary.csv", _summary_rows())
+    write_summary_csv(tmp_path / "wide" / "summary.csv", _summary_rows(), wide=True)
+    figs = {kind: {p.name: p.figure for p in report_pages(tmp_path / kind / "summary.csv")}[
+        "constants"] for kind in ("long", "wide")}
+
+    def bars(fig):
+        return {(a.get_gid(), tuple(ln.get_xdata())): tuple(ln.get_ydata())
+                for a in fig.axes for ln in a.get_lines() if ln.get_gid() == "interval"}
+
+    long, wide = bars(figs["long"]), bars(figs["wide"])
+    # H's carbon (6 constants, G12 0.955 ... 1.016 of its value), H's glass E1 and G23, Q's 6
+    assert len(long) == 14 and set(wide) == set(long)
+    for key, ends in long.items():
+        assert np.allclose(wide[key], ends, rtol=1e-9, atol=0), key
+    g12 = ax(figs["wide"], "across-G12")
+    assert _line(g12, "value-H-carbon").get_markerfacecolor() == \
+        _line(g12, "value-H-carbon").get_color()                          # filled: identified
+    legend = [t.get_text() for a in figs["wide"].axes if a.get_legend() is not None
+              for t in a.get_legend().get_texts()]
+    assert "identified, with its confidence interval" in legend
+    assert "identified, not flagged (--wide: no interval)" not in legend
+    # (the side of a bound is not in the wide summary: both triangles, as before)
+    assert "on a search limit, not identified (--wide: which one not said)" in legend
+    foot = " ".join(t.get_text() for t in figs["wide"].texts).replace("\n", " ")
+    assert "no intervals" not in foot and "without their doubt" not in foot
 
 
 def test_batch_summary_alone_keeps_its_verdicts(batch_dir, tmp_path):
     """The batch's own summary.csv copied away from its result files: S1.4's G13 is still
     drawn not determined (hollow, "?") with its interval; a wide CSV alone (no intervals in
-    it, written before its column 'flagged') draws its values as "no interval in this
-    summary", and with its result files beside it takes their doubt."""
+    it, written before its columns 'flagged' and the intervals) draws its values as "no
+    interval in this summary", and with its result files beside it takes their doubt."""
     from laminid_cli.batch import read_summary, write_summary_csv
 
     shutil.copy(batch_dir / "summary.csv", tmp_path / "summary.csv")
@@ -1677,15 +1732,8 @@ def test_batch_summary_alone_keeps_its_verdicts(batch_dir, tmp_path):
     assert _line(g, "value-S1.4-IM7/977-2").get_markerfacecolor() == "w"
     (tmp_path / "x").mkdir()
     alone = tmp_path / "x" / "wide.csv"
-    # a wide summary written before its column 'flagged': the present note
-    import csv
-
-    with open(wide, newline="") as fh:
-        recs = list(csv.DictReader(fh))
-    with open(alone, "w", newline="") as fh:
-        w = csv.DictWriter(fh, [c for c in recs[0] if c != "flagged"], extrasaction="ignore")
-        w.writeheader()
-        w.writerows(recs)
+    # a wide summary written before its columns 'flagged' and the intervals: the present note
+    old_wide(wide, alone, flagged=False)
     fig = {p.name: p.figure for p in report_pages(alone)}["constants"]
     g = ax(fig, "across-E1")
     assert _line(g, "value-S1.4-IM7/977-2").get_marker() == "d"
@@ -1694,8 +1742,8 @@ def test_batch_summary_alone_keeps_its_verdicts(batch_dir, tmp_path):
     assert "no interval in this summary (wide CSV, result file not found)" in legend
     assert "identified, with its confidence interval" not in legend
     foot = " ".join(t.get_text() for t in fig.texts).replace("\n", " ")
-    assert "values without their doubt (hollow diamonds): a --wide summary.csv has no " \
-           "intervals" in foot
+    assert "values without their doubt (hollow diamonds): a --wide summary.csv written " \
+           "before its interval columns has no intervals" in foot
 
 
 def test_damping_page_fits_the_page_and_ends_with_the_status(damped, tmp_path):

@@ -139,24 +139,28 @@ def _legend_title(fig) -> str:
                 if a.get_legend() is not None)
 
 
-@pytest.mark.parametrize("wide", [False, True])
-def test_constants_across_specimens_legend_speaks_of_bars_only_where_drawn(tmp_path, wide):
+@pytest.mark.parametrize("kind", ["long", "wide", "old wide"])
+def test_constants_across_specimens_legend_speaks_of_bars_only_where_drawn(tmp_path, kind):
     """The legend of the constants across specimens names the interval bars (and their
-    arrows) where the summary has intervals; a --wide summary.csv alone has none, and its
-    page said 'bars: confidence interval of the summary (arrow: runs off the panel)' over
-    panels without a bar or an arrow."""
+    arrows) where the summary has intervals (the long summary.csv, a --wide one with its
+    interval columns); a --wide summary.csv written before those columns, alone, has none,
+    and its page said 'bars: confidence interval of the summary (arrow: runs off the panel)'
+    over panels without a bar or an arrow."""
     from laminid_cli.batch import write_summary_csv
-    from tests.test_report import _summary_rows
+    from tests.test_report import _summary_rows, old_wide
 
     path = tmp_path / "summary.csv"
-    write_summary_csv(path, _summary_rows(), wide=wide)
+    write_summary_csv(path, _summary_rows(), wide=kind != "long")
+    if kind == "old wide":
+        path = old_wide(path, tmp_path / "old.csv")
     fig = {p.name: p.figure for p in report_pages(path)}["constants"]
     bars = [ln for a in fig.axes for ln in a.get_lines() if ln.get_gid() == "interval"]
-    assert bool(bars) is not wide
+    drawn = kind != "old wide"
+    assert bool(bars) is drawn
     title = _legend_title(fig)
     assert title.startswith("colour: material")
-    assert ("bars: confidence interval" in title) is not wide
-    assert ("arrow" in title) is not wide
+    assert ("bars: confidence interval" in title) is drawn
+    assert ("arrow" in title) is drawn
 
 
 def test_history_rms_panel_tells_predictions_from_checked_evaluations(s21_fixed_at_limit,

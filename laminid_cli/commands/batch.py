@@ -31,9 +31,11 @@ from laminid_cli.commands._common import (echo_json, fit_options, json_option,
                    "way (a batch's results are derived files). Not 'overwrite the output' as "
                    "in identify -o, modes, export, acquire.")
 @click.option("--wide", is_flag=True,
-              help="summary.csv with one row per specimen (a column per constant) instead of "
-                   "one row per specimen, material and constant; its column 'flagged' names "
-                   "the constants at a bound, undetermined, fixed or held by their prior.")
+              help="summary.csv with one row per specimen (a column per constant, then its "
+                   "interval's ends and its verdict: 'IM7/977-2 E2 lower [Pa]', '... upper "
+                   "[Pa]', '... verdict') instead of one row per specimen, material and "
+                   "constant; its column 'flagged' names the constants at a bound, "
+                   "undetermined, fixed or held by their prior.")
 @click.option("--mesh-check", is_flag=True,
               help="As identify --mesh-check, for each specimen alone: after its "
                    "identification, solve its model on a mesh twice as fine at the identified "
@@ -54,7 +56,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     interval, verdict, flag (at_bound, undetermined, fixed or prior: no plain identified
     value), the Monte Carlo range with --monte-carlo (mc_search_limit: its ends set by
     trials on a search limit), unit and status, then the ply loss factors where damping
-    was measured; --wide one row per specimen; both forms the run options, as summary.json's
+    was measured; --wide one row per specimen, each constant's value, interval and verdict;
+    both forms the run options, as summary.json's
     "options", in '#' lines above the header; summary.json a units map). Every result has a
     status, ok or check with its reasons, shown in the table, and its warnings (the specimen
     file's, the run's) are listed below the table (less the specimen file's that this run

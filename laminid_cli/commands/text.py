@@ -495,9 +495,10 @@ def format_uncertainty(u: dict) -> list[str]:
                 lo = _val(k, v['lower'], 4) + ("*" if v.get("lower_at_bound") else "")
                 hi = _val(k, v['upper'], 4) + ("*" if v.get("upper_at_bound") else "")
                 marked |= bool(v.get("lower_at_bound") or v.get("upper_at_bound"))
+                # (the range's upper end is the line's last cell: not padded)
                 lines.append(f"  {lab:<18} {_val(k, v['linearized_std']):>15} "
                              f"{_val(k, v['std']):>16} {fmt(v['ratio'], '6.2f'):>6}  "
-                             f"{lo:>12} .. {hi:<12}")
+                             f"{lo:>12} .. {hi}")
                 at = [f"{v[f'trials_at_{side}_bound']} at its {side} limit"
                       for side in ("lower", "upper") if v.get(f"trials_at_{side}_bound")]
                 if at:
@@ -642,7 +643,7 @@ def format_damping_monte_carlo(d: dict) -> list[str]:
             hi = fmt(100 * v["upper"], ".3g")
             lines.append(f"  {lab:<{w}} {fmt(100 * v['linearized_std'], '14.3g'):>14} "
                          f"{fmt(100 * v['std'], '17.3g'):>17} {fmt(v['ratio'], '6.2f'):>6}  "
-                         f"{lo:>12} .. {hi:<12}")
+                         f"{lo:>12} .. {hi}")
             if v.get("trials_at_zero"):
                 zero.append(f"{lab} {v['trials_at_zero']}")
     if zero:
