@@ -1073,8 +1073,10 @@ def find_modes(freq, frf, *, bands=None, n_modes: int | None = None,
     :func:`refine_poles` (the neighbouring bands' poles fixed: at their stabilised values, then,
     in a second pass, at their refined ones) and modal constants by :func:`modal_constants`
     with every retained pole near the band (neighbours' poles explicit, not left to residual
-    terms); a mode whose peak contribution does not exceed ``min_snr`` times the local RMS
-    residual is dropped (noise pole) and the band refitted.
+    terms); a pole whose peak contribution does not exceed ``min_snr`` times the local RMS
+    residual (noise pole) is dropped, the band refitted without it, and it is no other band's
+    neighbour (another pass follows one that dropped a pole or moved one by more than
+    :data:`PASS_MOVED`).
     """
     where = f"{source}: " if source else ""
     try:
@@ -1159,30 +1161,47 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
         # second pass weighted with the first pass's physical poles (Sanathanan-Koerner)
         charts, cands = sweep([c for _, c, _ in cands])
 
-    def constants(cands):
+    def passes(cands):
         # a band's neighbours (other bands' poles) are fixed in its refinement: at their
         # stabilised RFP values, then, in a second pass, at their refined ones, so that no
         # band's answer follows another band's RFP median (which jumps where a pole's stability
         # flag flips): moved by 0.1 bandwidths, they moved the other bands' frequencies by up
-        # to 4e-7 (relative) after one pass, 1e-11 after two (damping 2e-5, 4e-9)
+        # to 4e-7 (relative) after one pass, 1e-11 after two (damping 2e-5, 4e-9). A pole a
+        # band drops is no neighbour in the next pass, nor a candidate; a pass that dropped one
+        # (the bands fitted before it held it fixed), or moved a pole by more than PASS_MOVED,
+        # is followed by another
         start = [c for _, c, _ in cands]
-        for _ in range(2 if criteria.refine else 1):
-            band_fits, modes, refined, neighbours = [], [], list(start), False
+        alive = [True] * len(cands)
+        for n_pass in range(MAX_PASSES):
+            band_fits, modes, owner, refined = [], [], [], list(start)
+            neighbours = dropped = False
             for k, chart in enumerate(charts):
                 lo, hi = chart.band_hz
-                mine = [i for i, (b, _, _) in enumerate(cands) if b == k]
+                mine = [i for i, (b, _, _) in enumerate(cands) if b == k and alive[i]]
                 near = [start[i] for i, (b, c, _) in enumerate(cands)
-                        if b != k and lo - (hi - lo) <= c.freq_hz <= hi + (hi - lo)]
+                        if b != k and alive[i] and lo - (hi - lo) <= c.freq_hz <= hi + (hi - lo)]
                 neighbours = neighbours or bool(near)
                 bf, ms, ref = _band_constants(freq, frf, chart, [start[i] for i in mine], near,
                                               criteria)
                 for i, r in zip(mine, ref):
-                    refined[i] = r
+                    if r is None:                     # dropped as noise
+                        alive[i], dropped = False, True
+                    else:
+                        refined[i] = r
+                        owner.append(i)
                 band_fits.append(bf)
                 modes.extend(ms)
+            moved = max((abs(refined[i].freq_hz - start[i].freq_hz)
+                         / (2 * start[i].freq_hz * start[i].damping_ratio) for i in owner),
+                        default=0.0)
             start = refined
-            if not neighbours:
+            if not (neighbours and (dropped or (criteria.refine
+                                                and (n_pass == 0 or moved > PASS_MOVED)))):
                 break
+        return band_fits, modes
+
+    def constants(cands):
+        band_fits, modes = passes(cands)
         return band_fits, sorted(modes, key=lambda m: m.freq_hz)
 
     band_fits, modes = constants(cands)
@@ -1211,6 +1230,14 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
                     beyond=tuple(beyond))
 
 
+#: most passes over the bands in :func:`find_modes` (two; more after a pass that dropped a
+#: pole others held fixed or moved one by more than :data:`PASS_MOVED`)
+MAX_PASSES = 4
+#: a pass over the bands that moved a pole by more than this many half-power bandwidths (the
+#: poles it held fixed in other bands were that far from its answer) is followed by another;
+#: a second pass moves them by ~1e-5 (4e-7 of 902 Hz at 1.5 % damping), and the next by 1e-5
+#: of that
+PASS_MOVED = 1e-4
 def _merge_narrow(plan, freq, n_points: int, criteria) -> list:
     """Automatic bands (``[((lo, hi) Hz, n_peaks)]``) with too few lines for a stabilisation
     sweep over ``min_stable + 1`` orders (:func:`max_band_modes`) joined to their neighbour
@@ -1307,8 +1334,12 @@ def _dedupe(cands, criteria):
 def _band_constants(freq, frf, chart, own, near, criteria):
     """LSFD over one band with its own poles and its neighbours'; drop insignificant own poles.
 
-    Returns the :class:`BandFit`, its modes and ``own`` refined (:func:`refine_poles`; the
-    insignificant ones still in it)."""
+    The own poles are refined (:func:`refine_poles`, the neighbours fixed); a pole whose peak
+    contribution does not exceed ``min_snr`` times the local residual is dropped (noise pole),
+    and the others are refined again and refitted without it.
+
+    Returns the :class:`BandFit`, its modes and, per pole of ``own``, its refined value or
+    ``None`` where it was dropped."""
     lo, hi = chart.band_hz
     sel = (freq >= lo) & (freq <= hi) & (freq > 0)
     f, H = freq[sel], frf[:, sel]
@@ -1316,35 +1347,45 @@ def _band_constants(freq, frf, chart, own, near, criteria):
     df = float(f[1] - f[0])
     own = list(own)
     near_poles = _pole([c.freq_hz for c in near], [c.damping_ratio for c in near])
-    if criteria.refine and own:
-        own = refine_poles(f, H, own, near_poles, w_ref=w_ref, max_damping=criteria.max_damping)
-    refined = list(own)
+
+    def refine(idx, start):
+        """(indices into own, refined poles) of the poles ``idx`` started at ``start``"""
+        if criteria.refine and idx:
+            start = refine_poles(f, H, start, near_poles, w_ref=w_ref,
+                                 max_damping=criteria.max_damping)
+        return idx, start
+
+    idx, cur = refine(list(range(len(own))), own)
     while True:
-        poles = np.concatenate([_pole([c.freq_hz for c in own], [c.damping_ratio for c in own]),
+        poles = np.concatenate([_pole([c.freq_hz for c in cur], [c.damping_ratio for c in cur]),
                                 near_poles])
         A, res, synth = modal_constants(f, H, poles, w_ref=w_ref)
         resid = np.abs(H - synth)                                           # (n_p, nf)
-        snr = np.empty(len(own))
-        for r, c in enumerate(own):
+        snr = np.empty(len(cur))
+        for r, c in enumerate(cur):
             # residual RMS within a few half-power bandwidths (at least 5 lines) of the mode
             near_lines = np.abs(f - c.freq_hz) <= max(15 * c.damping_ratio * c.freq_hz, 5 * df)
             noise = np.sqrt(np.mean(resid[:, near_lines] ** 2, axis=1))     # (n_p,)
             peak = np.abs(A[:, r]) / max(-poles[r].real, 1e-300)            # |A| / sigma_r
             floor = 1e-12 * float(np.max(np.abs(H)))
             snr[r] = float(np.max(peak / np.maximum(noise, floor)))
-        if not own or snr.min() >= criteria.min_snr:
+        if not cur or snr.min() >= criteria.min_snr:
             break
         worst = int(np.argmin(snr))
-        log.info("dropping pole at %.3f Hz: peak/residual %.2f < %.2f", own[worst].freq_hz,
+        log.info("dropping pole at %.3f Hz: peak/residual %.2f < %.2f", cur[worst].freq_hz,
                  snr[worst], criteria.min_snr)
-        own.pop(worst)
+        # the others refined again without it (from where they are: near their optimum)
+        idx, cur = refine(idx[:worst] + idx[worst + 1:], cur[:worst] + cur[worst + 1:])
     modes = [Mode(freq_hz=c.freq_hz, damping_ratio=c.damping_ratio,
                   modal_constants=A[:, r].copy(), freq_std_hz=c.freq_std_hz,
                   damping_std=c.damping_std, orders_stable=c.orders_stable,
                   band_hz=(float(lo), float(hi)), snr=float(snr[r]))
-             for r, c in enumerate(own)]
+             for r, c in enumerate(cur)]
     bf = BandFit(band_hz=(float(lo), float(hi)), chart=chart, poles=poles, constants=A,
                  residual=res, w_ref=w_ref)
+    refined = [None] * len(own)
+    for i, c in zip(idx, cur):
+        refined[i] = c
     return bf, modes, refined
 
 
