@@ -33,8 +33,8 @@ are linear (LSFD), and modes whose contribution does not rise above the fit resi
 dropped. The frequencies and damping ratios reported are that fit's optimum, reached whatever
 the stabilised poles it starts from, with the neighbouring bands' poles at their own refined
 values: they are continuous in the FRF data (the stabilised estimate, a median over the stable
-orders, jumps where a pole's stability flag flips; it is only the start, and the answer for a
-pole whose refinement would leave its bounds).
+orders, jumps where a pole's stability flag flips; it is only the start). A pole whose
+refinement would leave its bounds is no credible mode and is dropped.
 
 Automatic bands group the peaks of the summed FRF magnitude (at most four per band) and
 overlap; a pole seen by two bands is taken from the one in which it lies farther from the edges.
@@ -255,12 +255,15 @@ class ModalFit:
     criteria : the criteria used
     beyond : modes found above the ``n_modes`` lowest that :func:`find_modes` was asked
         for (``--modes``), not in ``modes``
+    out_of_reach : frequencies (Hz, stabilised) of the stable poles dropped because their
+        output-error refinement would leave its bounds (:data:`REFINE_LIMITS`)
     """
 
     modes: tuple[Mode, ...]
     bands: tuple[BandFit, ...]
     criteria: PoleCriteria = field(default_factory=PoleCriteria)
     beyond: tuple[Mode, ...] = ()
+    out_of_reach: tuple = ()
 
     @property
     def freq_hz(self) -> np.ndarray:
@@ -702,6 +705,7 @@ class UnlistedPoles:
     'few' (fewer than ``min_stable``: a computational pole), 'edge' (within
     :data:`EDGE_LINES` lines of the band's edge), 'damping' (outside (0, max_damping]) or
     'noise' (its contribution did not rise above the fit residual, ``min_snr``) or
+    'reach' (its output-error refinement would leave its bounds, :data:`REFINE_LIMITS`) or
     'beyond' (a mode, above the ``n_modes`` lowest asked for: ``ModalFit.beyond``); edge_hz :
     the band edge it lies near (within 5 % of the band's width), or None
     """
@@ -726,6 +730,7 @@ def unlisted_stable_poles(fit: ModalFit, freq) -> list[UnlistedPoles]:
     margin = EDGE_LINES * df
     listed = fit.freq_hz
     beyond = np.array([m.freq_hz for m in getattr(fit, "beyond", ())])
+    reach = np.array(getattr(fit, "out_of_reach", ()), float)
     out = []
     for k, band in enumerate(fit.bands):
         ch = band.chart
@@ -751,7 +756,9 @@ def unlisted_stable_poles(fit: ModalFit, freq) -> list[UnlistedPoles]:
                 reason = "beyond"
                 n_stable = c.orders_stable
             else:
-                reason = ("noise" if lo + margin <= c.freq_hz <= hi - margin else "edge")
+                reason = ("edge" if not lo + margin <= c.freq_hz <= hi - margin
+                          else "reach" if np.any(np.abs(reach - c.freq_hz)
+                                                 <= crit.freq_tol * c.freq_hz) else "noise")
                 n_stable = c.orders_stable
             f = ch.freq_hz[mine]
             near_edge = [e for e in (lo, hi) if abs(np.median(f) - e) <= 0.05 * (hi - lo)]
@@ -830,11 +837,24 @@ def refine_poles(freq, frf, cands, fixed_poles=(), *, w_ref: float, max_damping:
     squares at every step (Golub & Pereyra's variable projection; the LSFD model of
     :func:`lsfd_basis`). ``fixed_poles`` (neighbouring bands' modes) stay as they are. Started
     from the stabilised RFP poles this is the maximum-likelihood estimate for white noise; a
-    pole that moves by more than two half-power bandwidths keeps its RFP value. The answer is
-    the optimum whatever the start (to ~1e-11 of a frequency): the projection is computed by
-    QR, the fixed columns projected out once, and Gauss-Newton steps end the search
-    (:func:`_gauss_newton_polish`).
+    pole whose optimum lies beyond :data:`REFINE_LIMITS` of its start (two half-power
+    bandwidths, damping e^1.5 times) keeps its start here (:func:`find_modes` drops it: not a
+    credible mode). The answer is the optimum whatever the start (to ~1e-11 of a frequency):
+    the projection is computed by QR, the fixed columns projected out once, and Gauss-Newton
+    steps end the search (:func:`_gauss_newton_polish`).
     """
+    return _refine(freq, frf, cands, fixed_poles, w_ref=w_ref, max_damping=max_damping)[0]
+
+
+#: bounds of the output-error refinement around its start: frequency +- this many half-power
+#: half-widths (f zeta), damping ratio times e^+-this
+REFINE_LIMITS = (2.0, 1.5)
+
+
+def _refine(freq, frf, cands, fixed_poles=(), *, w_ref: float, max_damping: float = 0.1):
+    """:func:`refine_poles`, with per pole whether its optimum lies out of reach: on a bound
+    of :data:`REFINE_LIMITS` or with a damping ratio above ``max_damping`` (that pole is
+    returned as it came). Returns (poles, out_of_reach bool array)."""
     from dataclasses import replace
 
     from scipy.optimize import least_squares
@@ -874,7 +894,8 @@ def refine_poles(freq, frf, cands, fixed_poles=(), *, w_ref: float, max_damping:
         return (Yf - Q @ (Q.T @ Yf)).ravel()
 
     u0 = np.zeros(2 * f0.size)
-    lim = np.tile([2.0, 1.5], f0.size)
+    lim = np.tile(REFINE_LIMITS, f0.size)
+    kept = (list(cands), np.zeros(len(cands), bool))
     with np.errstate(all="ignore"):
         # started at an optimum already (find_modes' second pass, the neighbours refined),
         # Gauss-Newton alone ends there; otherwise the trust region searches first
@@ -886,7 +907,7 @@ def refine_poles(freq, frf, cands, fixed_poles=(), *, w_ref: float, max_damping:
                                     max_nfev=30 * (u0.size + 1), xtol=1e-10, ftol=1e-12)
         except (ValueError, np.linalg.LinAlgError) as exc:  # pragma: no cover - keep RFP values
             log.info("pole refinement failed (%s); keeping the RFP poles", exc)
-            return list(cands)
+            return kept
         x = sol.x
         if np.all(np.isfinite(x)) and np.all(np.abs(x) < lim):
             with np.errstate(all="ignore"):
@@ -897,17 +918,18 @@ def refine_poles(freq, frf, cands, fixed_poles=(), *, w_ref: float, max_damping:
                 x = polished
     r_x, r_0 = resid(x), resid(u0)
     if not np.all(np.isfinite(x)) or float(r_x @ r_x) > float(r_0 @ r_0) + 1e-300:
-        return list(cands)
-    out = []
+        return kept       # no better than the start (an exact start: noise-free FRFs)
+    out, off = [], np.zeros(len(cands), bool)
     for r, c in enumerate(cands):
         fr, zr = f0[r] + x[2 * r] * bw[r], z0[r] * np.exp(x[2 * r + 1])
         at_bound = (np.isclose(abs(x[2 * r]), lim[0])
                     or np.isclose(abs(x[2 * r + 1]), lim[1]))
         if at_bound or not (0 < zr <= max_damping):
             out.append(c)
+            off[r] = True
         else:
             out.append(replace(c, freq_hz=float(fr), damping_ratio=float(zr)))
-    return out
+    return out, off
 
 
 #: Gauss-Newton steps after the trust-region search of :func:`refine_poles`, and the central
@@ -1073,10 +1095,10 @@ def find_modes(freq, frf, *, bands=None, n_modes: int | None = None,
     :func:`refine_poles` (the neighbouring bands' poles fixed: at their stabilised values, then,
     in a second pass, at their refined ones) and modal constants by :func:`modal_constants`
     with every retained pole near the band (neighbours' poles explicit, not left to residual
-    terms); a pole whose peak contribution does not exceed ``min_snr`` times the local RMS
-    residual (noise pole) is dropped, the band refitted without it, and it is no other band's
-    neighbour (another pass follows one that dropped a pole or moved one by more than
-    :data:`PASS_MOVED`).
+    terms); a pole whose refinement would leave its bounds (:data:`REFINE_LIMITS`), or whose
+    peak contribution does not exceed ``min_snr`` times the local RMS residual (noise pole), is
+    dropped, the band refitted without it, and it is no other band's neighbour (another pass
+    follows one that dropped a pole or moved one by more than :data:`PASS_MOVED`).
     """
     where = f"{source}: " if source else ""
     try:
@@ -1172,6 +1194,7 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
         # is followed by another
         start = [c for _, c, _ in cands]
         alive = [True] * len(cands)
+        reach = set()
         for n_pass in range(MAX_PASSES):
             band_fits, modes, owner, refined = [], [], [], list(start)
             neighbours = dropped = False
@@ -1184,8 +1207,10 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
                 bf, ms, ref = _band_constants(freq, frf, chart, [start[i] for i in mine], near,
                                               criteria)
                 for i, r in zip(mine, ref):
-                    if r is None:                     # dropped as noise
+                    if isinstance(r, str):            # dropped: "reach" or "noise"
                         alive[i], dropped = False, True
+                        if r == "reach":
+                            reach.add(cands[i][1].freq_hz)
                     else:
                         refined[i] = r
                         owner.append(i)
@@ -1198,13 +1223,13 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
             if not (neighbours and (dropped or (criteria.refine
                                                 and (n_pass == 0 or moved > PASS_MOVED)))):
                 break
-        return band_fits, modes
+        return band_fits, modes, owner, reach
 
     def constants(cands):
-        band_fits, modes = passes(cands)
-        return band_fits, sorted(modes, key=lambda m: m.freq_hz)
+        band_fits, modes, _, reach = passes(cands)
+        return band_fits, sorted(modes, key=lambda m: m.freq_hz), reach
 
-    band_fits, modes = constants(cands)
+    band_fits, modes, reach = constants(cands)
     if criteria.gap_search:
         found = _new_poles(_gap_search(freq, frf, modes, charts, criteria),
                            [c for _, c, _ in cands], criteria)
@@ -1215,7 +1240,7 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
                 k = int(np.argmax([min(c.freq_hz - ch.band_hz[0], ch.band_hz[1] - c.freq_hz)
                                    / (ch.band_hz[1] - ch.band_hz[0]) for ch in charts]))
                 cands.append((k, c, 0.0))
-            band_fits, modes = constants(cands)
+            band_fits, modes, reach = constants(cands)
     if n_modes is not None:
         if len(modes) < n_modes:
             where = ", ".join(f"{c.band_hz[0]:g}:{c.band_hz[1]:g}" for c in charts)
@@ -1227,7 +1252,7 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
     else:
         beyond = []
     return ModalFit(modes=tuple(modes), bands=tuple(band_fits), criteria=criteria,
-                    beyond=tuple(beyond))
+                    beyond=tuple(beyond), out_of_reach=tuple(sorted(reach)))
 
 
 #: most passes over the bands in :func:`find_modes` (two; more after a pass that dropped a
@@ -1332,14 +1357,21 @@ def _dedupe(cands, criteria):
 
 
 def _band_constants(freq, frf, chart, own, near, criteria):
-    """LSFD over one band with its own poles and its neighbours'; drop insignificant own poles.
+    """LSFD over one band with its own poles and its neighbours'; drop own poles that are no
+    credible modes.
 
-    The own poles are refined (:func:`refine_poles`, the neighbours fixed); a pole whose peak
-    contribution does not exceed ``min_snr`` times the local residual is dropped (noise pole),
-    and the others are refined again and refitted without it.
+    The own poles are refined (:func:`refine_poles`, the neighbours fixed). A pole whose
+    optimum is out of the refinement's reach (:data:`REFINE_LIMITS`: it would move more than
+    2 f zeta from its start, or its damping e^1.5 = 4.5 times up or down) is no credible mode:
+    it is dropped, with a log line, and the others refined again from their starts without it
+    (kept at its start, as it was, it held the reported frequencies at a value its stabilised
+    RFP median decided, and sat on a mode the others had found: the emulator's plate at noise
+    0.2 listed 497.43 Hz twice, and a spurious 1263.30 Hz with damping 9e-5). Then a pole whose
+    peak contribution does not exceed ``min_snr`` times the local residual is dropped (noise
+    pole), and the others are refined again and refitted without it.
 
-    Returns the :class:`BandFit`, its modes and, per pole of ``own``, its refined value or
-    ``None`` where it was dropped."""
+    Returns the :class:`BandFit`, its modes and, per pole of ``own``, its refined value or,
+    where it was dropped, why: "reach" (out of the refinement's reach) or "noise"."""
     lo, hi = chart.band_hz
     sel = (freq >= lo) & (freq <= hi) & (freq > 0)
     f, H = freq[sel], frf[:, sel]
@@ -1348,11 +1380,26 @@ def _band_constants(freq, frf, chart, own, near, criteria):
     own = list(own)
     near_poles = _pole([c.freq_hz for c in near], [c.damping_ratio for c in near])
 
+    dropped = {}
+
     def refine(idx, start):
-        """(indices into own, refined poles) of the poles ``idx`` started at ``start``"""
-        if criteria.refine and idx:
-            start = refine_poles(f, H, start, near_poles, w_ref=w_ref,
-                                 max_damping=criteria.max_damping)
+        """(indices into own, refined poles) of the poles ``idx`` started at ``start``, those
+        whose optimum is out of reach dropped"""
+        while criteria.refine and idx:
+            ref, off = _refine(f, H, start, near_poles, w_ref=w_ref,
+                               max_damping=criteria.max_damping)
+            if not off.any():
+                return idx, ref
+            for r in np.flatnonzero(off):
+                c = start[r]
+                log.info("dropping pole at %.3f Hz: its output-error fit would move it more than "
+                         "%.3g Hz (%g f*zeta) or its damping %.5f %.1f times (not a credible "
+                         "mode)", c.freq_hz, REFINE_LIMITS[0] * max(c.freq_hz * c.damping_ratio,
+                                                                    0.25 * df),
+                         REFINE_LIMITS[0], c.damping_ratio, np.exp(REFINE_LIMITS[1]))
+            dropped.update((i, "reach") for i, o in zip(idx, off) if o)
+            idx = [i for i, o in zip(idx, off) if not o]
+            start = [own[i] for i in idx]      # the others again from their starts
         return idx, start
 
     idx, cur = refine(list(range(len(own))), own)
@@ -1374,6 +1421,7 @@ def _band_constants(freq, frf, chart, own, near, criteria):
         worst = int(np.argmin(snr))
         log.info("dropping pole at %.3f Hz: peak/residual %.2f < %.2f", cur[worst].freq_hz,
                  snr[worst], criteria.min_snr)
+        dropped[idx[worst]] = "noise"
         # the others refined again without it (from where they are: near their optimum)
         idx, cur = refine(idx[:worst] + idx[worst + 1:], cur[:worst] + cur[worst + 1:])
     modes = [Mode(freq_hz=c.freq_hz, damping_ratio=c.damping_ratio,
@@ -1383,7 +1431,7 @@ def _band_constants(freq, frf, chart, own, near, criteria):
              for r, c in enumerate(cur)]
     bf = BandFit(band_hz=(float(lo), float(hi)), chart=chart, poles=poles, constants=A,
                  residual=res, w_ref=w_ref)
-    refined = [None] * len(own)
+    refined = [dropped.get(i) for i in range(len(own))]
     for i, c in zip(idx, cur):
         refined[i] = c
     return bf, modes, refined
