@@ -500,8 +500,8 @@ def test_a_pole_whose_refinement_leaves_its_bounds_is_no_mode(noisy_emulated_pla
     assert len(group) == 1 and fit.bands[group[0].band].band_hz == (1261.0, 1497.0)
     assert group[0].freq_hz[0] < 1263.3 < group[0].freq_hz[1]
     assert unlisted_note(group, fit.criteria, width=1000).endswith(
-        "its output-error fit would move it more than 2 f·ζ, or its damping 4.5 times: not a "
-        "credible mode")
+        "its output-error fit would move it more than 2 f·ζ (at least 0.5 line), or its damping "
+        "4.5 times: not a credible mode")
 
 
 def test_two_poles_the_refinement_brings_to_one_place_are_one_mode(noisy_emulated_plate,

@@ -216,7 +216,8 @@ def unlisted_note(unlisted, criteria, width: int = 150) -> str:
         elif u.reason == "beyond":
             why = "a mode, above the lowest that --modes asks for: not listed"
         elif u.reason == "reach":
-            why = (f"its output-error fit would move it more than {REFINE_LIMITS[0]:g} f·ζ, or "
+            why = (f"its output-error fit would move it more than {REFINE_LIMITS[0]:g} f·ζ (at "
+                   f"least {REFINE_LIMITS[0] / 4:g} line), or "
                    f"its damping {np.exp(REFINE_LIMITS[1]):.1f} times: not a credible mode")
         else:
             why = (f"its contribution does not rise above the fit's residual ({criteria.min_snr:g}"

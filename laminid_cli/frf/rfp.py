@@ -848,7 +848,7 @@ def refine_poles(freq, frf, cands, fixed_poles=(), *, w_ref: float, max_damping:
 
 
 #: bounds of the output-error refinement around its start: frequency +- this many half-power
-#: half-widths (f zeta), damping ratio times e^+-this
+#: half-widths (f zeta, at least a quarter of a line spacing), damping ratio times e^+-this
 REFINE_LIMITS = (2.0, 1.5)
 
 
@@ -1447,10 +1447,9 @@ def _band_constants(freq, frf, chart, own, near, criteria):
             for r in np.flatnonzero(off):
                 c = start[r]
                 log.info("dropping pole at %.3f Hz: its output-error fit would move it more than "
-                         "%.3g Hz (%g f*zeta) or its damping %.5f %.1f times (not a credible "
-                         "mode)", c.freq_hz, REFINE_LIMITS[0] * max(c.freq_hz * c.damping_ratio,
-                                                                    0.25 * df),
-                         REFINE_LIMITS[0], c.damping_ratio, np.exp(REFINE_LIMITS[1]))
+                         "%.3g Hz or its damping %.5f %.1f times (not a credible mode)",
+                         c.freq_hz, REFINE_LIMITS[0] * max(c.freq_hz * c.damping_ratio, 0.25 * df),
+                         c.damping_ratio, np.exp(REFINE_LIMITS[1]))
             dropped.update((i, "reach") for i, o in zip(idx, off) if o)
             idx = [i for i, o in zip(idx, off) if not o]
             start = [own[i] for i in idx]      # the others again from their starts
