@@ -838,9 +838,8 @@ def refine_poles(freq, frf, cands, fixed_poles=(), *, w_ref: float, max_damping:
     squares at every step (Golub & Pereyra's variable projection; the LSFD model of
     :func:`lsfd_basis`). ``fixed_poles`` (neighbouring bands' modes) stay as they are. Started
     from the stabilised RFP poles this is the maximum-likelihood estimate for white noise; a
-    pole whose optimum lies beyond :data:`REFINE_LIMITS` of its start (two half-power
-    bandwidths, damping e^1.5 times) keeps its start here (:func:`find_modes` drops it: not a
-    credible mode). The answer is the optimum whatever the start (to ~1e-11 of a frequency):
+    pole whose optimum lies beyond :data:`REFINE_LIMITS` of its start (2 f zeta, damping e^1.5
+    times) keeps its start here (:func:`find_modes` drops it: not a credible mode). The answer is the optimum whatever the start (to ~1e-11 of a frequency):
     the projection is computed by QR, the fixed columns projected out once, and Gauss-Newton
     steps end the search (:func:`_gauss_newton_polish`).
     """
