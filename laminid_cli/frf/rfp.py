@@ -33,8 +33,9 @@ are linear (LSFD), and modes whose contribution does not rise above the fit resi
 dropped. The frequencies and damping ratios reported are that fit's optimum, reached whatever
 the stabilised poles it starts from, with the neighbouring bands' poles at their own refined
 values: they are continuous in the FRF data (the stabilised estimate, a median over the stable
-orders, jumps where a pole's stability flag flips; it is only the start, and the answer for a
-pole whose refinement would leave its bounds).
+orders, jumps where a pole's stability flag flips; it is only the start). A pole whose
+refinement would leave its bounds is no credible mode and is dropped, as is a second pole that
+the refinement brings onto a mode another has found (one mode, listed once).
 
 Automatic bands group the peaks of the summed FRF magnitude (at most four per band) and
 overlap; a pole seen by two bands is taken from the one in which it lies farther from the edges.
@@ -255,12 +256,15 @@ class ModalFit:
     criteria : the criteria used
     beyond : modes found above the ``n_modes`` lowest that :func:`find_modes` was asked
         for (``--modes``), not in ``modes``
+    out_of_reach : frequencies (Hz, stabilised) of the stable poles dropped because their
+        output-error refinement would leave its bounds (:data:`REFINE_LIMITS`)
     """
 
     modes: tuple[Mode, ...]
     bands: tuple[BandFit, ...]
     criteria: PoleCriteria = field(default_factory=PoleCriteria)
     beyond: tuple[Mode, ...] = ()
+    out_of_reach: tuple = ()
 
     @property
     def freq_hz(self) -> np.ndarray:
@@ -702,6 +706,7 @@ class UnlistedPoles:
     'few' (fewer than ``min_stable``: a computational pole), 'edge' (within
     :data:`EDGE_LINES` lines of the band's edge), 'damping' (outside (0, max_damping]) or
     'noise' (its contribution did not rise above the fit residual, ``min_snr``) or
+    'reach' (its output-error refinement would leave its bounds, :data:`REFINE_LIMITS`) or
     'beyond' (a mode, above the ``n_modes`` lowest asked for: ``ModalFit.beyond``); edge_hz :
     the band edge it lies near (within 5 % of the band's width), or None
     """
@@ -726,6 +731,7 @@ def unlisted_stable_poles(fit: ModalFit, freq) -> list[UnlistedPoles]:
     margin = EDGE_LINES * df
     listed = fit.freq_hz
     beyond = np.array([m.freq_hz for m in getattr(fit, "beyond", ())])
+    reach = np.array(getattr(fit, "out_of_reach", ()), float)
     out = []
     for k, band in enumerate(fit.bands):
         ch = band.chart
@@ -751,7 +757,9 @@ def unlisted_stable_poles(fit: ModalFit, freq) -> list[UnlistedPoles]:
                 reason = "beyond"
                 n_stable = c.orders_stable
             else:
-                reason = ("noise" if lo + margin <= c.freq_hz <= hi - margin else "edge")
+                reason = ("edge" if not lo + margin <= c.freq_hz <= hi - margin
+                          else "reach" if np.any(np.abs(reach - c.freq_hz)
+                                                 <= crit.freq_tol * c.freq_hz) else "noise")
                 n_stable = c.orders_stable
             f = ch.freq_hz[mine]
             near_edge = [e for e in (lo, hi) if abs(np.median(f) - e) <= 0.05 * (hi - lo)]
@@ -830,11 +838,23 @@ def refine_poles(freq, frf, cands, fixed_poles=(), *, w_ref: float, max_damping:
     squares at every step (Golub & Pereyra's variable projection; the LSFD model of
     :func:`lsfd_basis`). ``fixed_poles`` (neighbouring bands' modes) stay as they are. Started
     from the stabilised RFP poles this is the maximum-likelihood estimate for white noise; a
-    pole that moves by more than two half-power bandwidths keeps its RFP value. The answer is
-    the optimum whatever the start (to ~1e-11 of a frequency): the projection is computed by
-    QR, the fixed columns projected out once, and Gauss-Newton steps end the search
-    (:func:`_gauss_newton_polish`).
+    pole whose optimum lies beyond :data:`REFINE_LIMITS` of its start (2 f zeta, damping e^1.5
+    times) keeps its start here (:func:`find_modes` drops it: not a credible mode). The answer is the optimum whatever the start (to ~1e-11 of a frequency):
+    the projection is computed by QR, the fixed columns projected out once, and Gauss-Newton
+    steps end the search (:func:`_gauss_newton_polish`).
     """
+    return _refine(freq, frf, cands, fixed_poles, w_ref=w_ref, max_damping=max_damping)[0]
+
+
+#: bounds of the output-error refinement around its start: frequency +- this many half-power
+#: half-widths (f zeta, at least a quarter of a line spacing), damping ratio times e^+-this
+REFINE_LIMITS = (2.0, 1.5)
+
+
+def _refine(freq, frf, cands, fixed_poles=(), *, w_ref: float, max_damping: float = 0.1):
+    """:func:`refine_poles`, with per pole whether its optimum lies out of reach: on a bound
+    of :data:`REFINE_LIMITS` or with a damping ratio above ``max_damping`` (that pole is
+    returned as it came). Returns (poles, out_of_reach bool array)."""
     from dataclasses import replace
 
     from scipy.optimize import least_squares
@@ -874,7 +894,8 @@ def refine_poles(freq, frf, cands, fixed_poles=(), *, w_ref: float, max_damping:
         return (Yf - Q @ (Q.T @ Yf)).ravel()
 
     u0 = np.zeros(2 * f0.size)
-    lim = np.tile([2.0, 1.5], f0.size)
+    lim = np.tile(REFINE_LIMITS, f0.size)
+    kept = (list(cands), np.zeros(len(cands), bool))
     with np.errstate(all="ignore"):
         # started at an optimum already (find_modes' second pass, the neighbours refined),
         # Gauss-Newton alone ends there; otherwise the trust region searches first
@@ -886,7 +907,7 @@ def refine_poles(freq, frf, cands, fixed_poles=(), *, w_ref: float, max_damping:
                                     max_nfev=30 * (u0.size + 1), xtol=1e-10, ftol=1e-12)
         except (ValueError, np.linalg.LinAlgError) as exc:  # pragma: no cover - keep RFP values
             log.info("pole refinement failed (%s); keeping the RFP poles", exc)
-            return list(cands)
+            return kept
         x = sol.x
         if np.all(np.isfinite(x)) and np.all(np.abs(x) < lim):
             with np.errstate(all="ignore"):
@@ -897,17 +918,18 @@ def refine_poles(freq, frf, cands, fixed_poles=(), *, w_ref: float, max_damping:
                 x = polished
     r_x, r_0 = resid(x), resid(u0)
     if not np.all(np.isfinite(x)) or float(r_x @ r_x) > float(r_0 @ r_0) + 1e-300:
-        return list(cands)
-    out = []
+        return kept       # no better than the start (an exact start: noise-free FRFs)
+    out, off = [], np.zeros(len(cands), bool)
     for r, c in enumerate(cands):
         fr, zr = f0[r] + x[2 * r] * bw[r], z0[r] * np.exp(x[2 * r + 1])
         at_bound = (np.isclose(abs(x[2 * r]), lim[0])
                     or np.isclose(abs(x[2 * r + 1]), lim[1]))
         if at_bound or not (0 < zr <= max_damping):
             out.append(c)
+            off[r] = True
         else:
             out.append(replace(c, freq_hz=float(fr), damping_ratio=float(zr)))
-    return out
+    return out, off
 
 
 #: Gauss-Newton steps after the trust-region search of :func:`refine_poles`, and the central
@@ -1073,8 +1095,12 @@ def find_modes(freq, frf, *, bands=None, n_modes: int | None = None,
     :func:`refine_poles` (the neighbouring bands' poles fixed: at their stabilised values, then,
     in a second pass, at their refined ones) and modal constants by :func:`modal_constants`
     with every retained pole near the band (neighbours' poles explicit, not left to residual
-    terms); a mode whose peak contribution does not exceed ``min_snr`` times the local RMS
-    residual is dropped (noise pole) and the band refitted.
+    terms); a pole whose refinement would leave its bounds (:data:`REFINE_LIMITS`), or whose
+    peak contribution does not exceed ``min_snr`` times the local RMS residual (noise pole), is
+    dropped, the band refitted without it, and it is no other band's neighbour (another pass
+    follows one that dropped a pole or moved one by more than :data:`PASS_MOVED`); (4) two
+    refined poles within :data:`SAME_MODE_BANDWIDTHS` half-power bandwidths of each other
+    are one mode (:func:`_one_mode_twice`): one is dropped and the bands fitted again.
     """
     where = f"{source}: " if source else ""
     try:
@@ -1159,33 +1185,65 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
         # second pass weighted with the first pass's physical poles (Sanathanan-Koerner)
         charts, cands = sweep([c for _, c, _ in cands])
 
-    def constants(cands):
+    dead = set()          # indices into cands of poles found to be no modes, or one twice
+
+    def passes(cands):
         # a band's neighbours (other bands' poles) are fixed in its refinement: at their
         # stabilised RFP values, then, in a second pass, at their refined ones, so that no
         # band's answer follows another band's RFP median (which jumps where a pole's stability
         # flag flips): moved by 0.1 bandwidths, they moved the other bands' frequencies by up
-        # to 4e-7 (relative) after one pass, 1e-11 after two (damping 2e-5, 4e-9)
+        # to 4e-7 (relative) after one pass, 1e-11 after two (damping 2e-5, 4e-9). A pole a
+        # band drops is no neighbour in the next pass, nor a candidate; a pass that dropped one
+        # (the bands fitted before it held it fixed), or moved a pole by more than PASS_MOVED,
+        # is followed by another
         start = [c for _, c, _ in cands]
-        for _ in range(2 if criteria.refine else 1):
-            band_fits, modes, refined, neighbours = [], [], list(start), False
+        alive = [i not in dead for i in range(len(cands))]
+        reach = set()
+        for n_pass in range(MAX_PASSES):
+            band_fits, modes, owner, refined = [], [], [], list(start)
+            neighbours = dropped = False
             for k, chart in enumerate(charts):
                 lo, hi = chart.band_hz
-                mine = [i for i, (b, _, _) in enumerate(cands) if b == k]
+                mine = [i for i, (b, _, _) in enumerate(cands) if b == k and alive[i]]
                 near = [start[i] for i, (b, c, _) in enumerate(cands)
-                        if b != k and lo - (hi - lo) <= c.freq_hz <= hi + (hi - lo)]
+                        if b != k and alive[i] and lo - (hi - lo) <= c.freq_hz <= hi + (hi - lo)]
                 neighbours = neighbours or bool(near)
                 bf, ms, ref = _band_constants(freq, frf, chart, [start[i] for i in mine], near,
                                               criteria)
                 for i, r in zip(mine, ref):
-                    refined[i] = r
+                    if isinstance(r, str):            # dropped: "reach" or "noise"
+                        alive[i], dropped = False, True
+                        if r == "reach":
+                            reach.add(cands[i][1].freq_hz)
+                    else:
+                        refined[i] = r
+                        owner.append(i)
                 band_fits.append(bf)
                 modes.extend(ms)
+            moved = max((abs(refined[i].freq_hz - start[i].freq_hz)
+                         / (2 * start[i].freq_hz * start[i].damping_ratio) for i in owner),
+                        default=0.0)
             start = refined
-            if not neighbours:
+            if not (neighbours and (dropped or (criteria.refine
+                                                and (n_pass == 0 or moved > PASS_MOVED)))):
                 break
-        return band_fits, sorted(modes, key=lambda m: m.freq_hz)
+        return band_fits, modes, owner, reach
 
-    band_fits, modes = constants(cands)
+    def constants(cands):
+        while True:
+            band_fits, modes, owner, reach = passes(cands)
+            twin = _one_mode_twice(modes)
+            if twin is None:
+                return band_fits, sorted(modes, key=lambda m: m.freq_hz), reach
+            a, b, sep = twin
+            keep, drop = sorted((a, b), key=lambda r: (-modes[r].orders_stable, -modes[r].snr))
+            log.info("poles at %.4f and %.4f Hz are one mode (%.2g half-power bandwidths apart, "
+                     "damping %.5f and %.5f): keeping the one at %.3f Hz, refitting",
+                     modes[a].freq_hz, modes[b].freq_hz, sep, modes[a].damping_ratio,
+                     modes[b].damping_ratio, modes[keep].freq_hz)
+            dead.add(owner[drop])
+
+    band_fits, modes, reach = constants(cands)
     if criteria.gap_search:
         found = _new_poles(_gap_search(freq, frf, modes, charts, criteria),
                            [c for _, c, _ in cands], criteria)
@@ -1196,7 +1254,7 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
                 k = int(np.argmax([min(c.freq_hz - ch.band_hz[0], ch.band_hz[1] - c.freq_hz)
                                    / (ch.band_hz[1] - ch.band_hz[0]) for ch in charts]))
                 cands.append((k, c, 0.0))
-            band_fits, modes = constants(cands)
+            band_fits, modes, reach = constants(cands)
     if n_modes is not None:
         if len(modes) < n_modes:
             where = ", ".join(f"{c.band_hz[0]:g}:{c.band_hz[1]:g}" for c in charts)
@@ -1208,7 +1266,54 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
     else:
         beyond = []
     return ModalFit(modes=tuple(modes), bands=tuple(band_fits), criteria=criteria,
-                    beyond=tuple(beyond))
+                    beyond=tuple(beyond), out_of_reach=tuple(sorted(reach)))
+
+
+#: most passes over the bands in :func:`find_modes` (two; more after a pass that dropped a
+#: pole others held fixed or moved one by more than :data:`PASS_MOVED`)
+MAX_PASSES = 4
+#: a pass over the bands that moved a pole by more than this many half-power bandwidths (the
+#: poles it held fixed in other bands were that far from its answer) is followed by another;
+#: a second pass moves them by ~1e-5 (4e-7 of 902 Hz at 1.5 % damping), and the next by 1e-5
+#: of that
+PASS_MOVED = 1e-4
+#: two refined poles closer than this many half-power bandwidths (at equal damping) are one
+#: mode: :func:`_one_mode_twice`
+SAME_MODE_BANDWIDTHS = 0.1
+
+
+def pole_overlap(lam_a, lam_b):
+    """Cosine of the angle between the modal columns ``1/(s - lam)`` of two poles (rad/s) over
+    the whole frequency axis: ``2 sqrt(sa sb) / |sa + sb + j (wa - wb)|`` with ``lam = -s + j w``
+    (the integral over w of a product of two resonance curves). 1 for one pole; at equal
+    damping ``1 / sqrt(1 + d^2)`` for poles ``d`` half-power bandwidths (2 s) apart; damping
+    ratios 1.5 times apart at one frequency give 0.98."""
+    sa, sb = -np.real(lam_a), -np.real(lam_b)
+    return 2 * np.sqrt(sa * sb) / np.abs(sa + sb + 1j * (np.imag(lam_a) - np.imag(lam_b)))
+
+
+def _one_mode_twice(modes):
+    """(a, b, separation) of the two modes whose poles are nearest to one (their LSFD columns
+    collinear: :func:`pole_overlap` at least that of poles :data:`SAME_MODE_BANDWIDTHS` apart),
+    separation in half-power bandwidths; ``None`` where no two are.
+
+    Two poles that the output-error refinement brings to one place are one mode, fitted twice
+    (two stable tracks of one band's chart, or two bands'): their modal constants are large and
+    of opposite sign, and the LSFD's significance test keeps both; listed twice, the mode
+    shifted every later mode's index (the emulator's plate at noise 0.2: 497.430 and 497.431
+    Hz). Two physical modes at one pole are one in FRFs of one reference too (one pole with the
+    sum of their constants fits them exactly). True close modes stay apart: the close pair of
+    the tests, 0.75 bandwidths apart, overlaps 0.80."""
+    if len(modes) < 2:
+        return None
+    lam = _pole([m.freq_hz for m in modes], [m.damping_ratio for m in modes])
+    cos = pole_overlap(lam[:, None], lam[None, :])
+    np.fill_diagonal(cos, 0.0)
+    a, b = np.unravel_index(int(np.argmax(cos)), cos.shape)
+    if cos[a, b] < 1 / np.sqrt(1 + SAME_MODE_BANDWIDTHS ** 2):
+        return None
+    sep = abs(lam[a].imag - lam[b].imag) / (-lam[a].real - lam[b].real)
+    return int(min(a, b)), int(max(a, b)), float(sep)
 
 
 def _merge_narrow(plan, freq, n_points: int, criteria) -> list:
@@ -1305,10 +1410,21 @@ def _dedupe(cands, criteria):
 
 
 def _band_constants(freq, frf, chart, own, near, criteria):
-    """LSFD over one band with its own poles and its neighbours'; drop insignificant own poles.
+    """LSFD over one band with its own poles and its neighbours'; drop own poles that are no
+    credible modes.
 
-    Returns the :class:`BandFit`, its modes and ``own`` refined (:func:`refine_poles`; the
-    insignificant ones still in it)."""
+    The own poles are refined (:func:`refine_poles`, the neighbours fixed). A pole whose
+    optimum is out of the refinement's reach (:data:`REFINE_LIMITS`: it would move more than
+    2 f zeta from its start, or its damping e^1.5 = 4.5 times up or down) is no credible mode:
+    it is dropped, with a log line, and the others refined again from their starts without it
+    (kept at its start, as it was, it held the reported frequencies at a value its stabilised
+    RFP median decided, and sat on a mode the others had found: the emulator's plate at noise
+    0.2 listed 497.43 Hz twice, and a spurious 1263.30 Hz with damping 9e-5). Then a pole whose
+    peak contribution does not exceed ``min_snr`` times the local residual is dropped (noise
+    pole), and the others are refined again and refitted without it.
+
+    Returns the :class:`BandFit`, its modes and, per pole of ``own``, its refined value or,
+    where it was dropped, why: "reach" (out of the refinement's reach) or "noise"."""
     lo, hi = chart.band_hz
     sel = (freq >= lo) & (freq <= hi) & (freq > 0)
     f, H = freq[sel], frf[:, sel]
@@ -1316,35 +1432,60 @@ def _band_constants(freq, frf, chart, own, near, criteria):
     df = float(f[1] - f[0])
     own = list(own)
     near_poles = _pole([c.freq_hz for c in near], [c.damping_ratio for c in near])
-    if criteria.refine and own:
-        own = refine_poles(f, H, own, near_poles, w_ref=w_ref, max_damping=criteria.max_damping)
-    refined = list(own)
+
+    dropped = {}
+
+    def refine(idx, start):
+        """(indices into own, refined poles) of the poles ``idx`` started at ``start``, those
+        whose optimum is out of reach dropped"""
+        while criteria.refine and idx:
+            ref, off = _refine(f, H, start, near_poles, w_ref=w_ref,
+                               max_damping=criteria.max_damping)
+            if not off.any():
+                return idx, ref
+            for r in np.flatnonzero(off):
+                c = start[r]
+                log.info("dropping pole at %.3f Hz: its output-error fit would move it more than "
+                         "%.3g Hz or its damping %.5f %.1f times (not a credible mode)",
+                         c.freq_hz, REFINE_LIMITS[0] * max(c.freq_hz * c.damping_ratio, 0.25 * df),
+                         c.damping_ratio, np.exp(REFINE_LIMITS[1]))
+            dropped.update((i, "reach") for i, o in zip(idx, off) if o)
+            idx = [i for i, o in zip(idx, off) if not o]
+            start = [own[i] for i in idx]      # the others again from their starts
+        return idx, start
+
+    idx, cur = refine(list(range(len(own))), own)
     while True:
-        poles = np.concatenate([_pole([c.freq_hz for c in own], [c.damping_ratio for c in own]),
+        poles = np.concatenate([_pole([c.freq_hz for c in cur], [c.damping_ratio for c in cur]),
                                 near_poles])
         A, res, synth = modal_constants(f, H, poles, w_ref=w_ref)
         resid = np.abs(H - synth)                                           # (n_p, nf)
-        snr = np.empty(len(own))
-        for r, c in enumerate(own):
+        snr = np.empty(len(cur))
+        for r, c in enumerate(cur):
             # residual RMS within a few half-power bandwidths (at least 5 lines) of the mode
             near_lines = np.abs(f - c.freq_hz) <= max(15 * c.damping_ratio * c.freq_hz, 5 * df)
             noise = np.sqrt(np.mean(resid[:, near_lines] ** 2, axis=1))     # (n_p,)
             peak = np.abs(A[:, r]) / max(-poles[r].real, 1e-300)            # |A| / sigma_r
             floor = 1e-12 * float(np.max(np.abs(H)))
             snr[r] = float(np.max(peak / np.maximum(noise, floor)))
-        if not own or snr.min() >= criteria.min_snr:
+        if not cur or snr.min() >= criteria.min_snr:
             break
         worst = int(np.argmin(snr))
-        log.info("dropping pole at %.3f Hz: peak/residual %.2f < %.2f", own[worst].freq_hz,
+        log.info("dropping pole at %.3f Hz: peak/residual %.2f < %.2f", cur[worst].freq_hz,
                  snr[worst], criteria.min_snr)
-        own.pop(worst)
+        dropped[idx[worst]] = "noise"
+        # the others refined again without it (from where they are: near their optimum)
+        idx, cur = refine(idx[:worst] + idx[worst + 1:], cur[:worst] + cur[worst + 1:])
     modes = [Mode(freq_hz=c.freq_hz, damping_ratio=c.damping_ratio,
                   modal_constants=A[:, r].copy(), freq_std_hz=c.freq_std_hz,
                   damping_std=c.damping_std, orders_stable=c.orders_stable,
                   band_hz=(float(lo), float(hi)), snr=float(snr[r]))
-             for r, c in enumerate(own)]
+             for r, c in enumerate(cur)]
     bf = BandFit(band_hz=(float(lo), float(hi)), chart=chart, poles=poles, constants=A,
                  residual=res, w_ref=w_ref)
+    refined = [dropped.get(i) for i in range(len(own))]
+    for i, c in zip(idx, cur):
+        refined[i] = c
     return bf, modes, refined
 
 
