@@ -618,14 +618,25 @@ def _identify_from_frf_file(folder, n_modes: int):
     return res
 
 
-def test_frf_page_for_a_specimen_fitted_from_an_frf_file(tmp_path):
+@pytest.fixture(scope="module")
+def frf_case(tmp_path_factory):
+    """S2.1 fitted from an FRF file of 8 modes, 3 points, with coherence (the report has an
+    FRF page): (result file, the modes' frequencies, the FRFs, the coherence). Read by
+    test_frf_page_for_a_specimen_fitted_from_an_frf_file and, as frf_result, by
+    test_status_clear_of_the_titles_on_every_page, which each fitted and identified it (~2 s);
+    neither changes the files."""
+    tmp = tmp_path_factory.mktemp("frfres")
     f_true, constants, rng = _s21_modes(8, 3)
     freq = np.arange(0.5, 700.0, 0.5)
     frf = synth_frf(freq, np.column_stack([f_true, np.full(8, 0.008)]), constants,
                     kind="accelerance", noise=0.005, seed=4)
     coherence = np.clip(1 - 0.05 * rng.random(frf.shape), 0, 1)
-    write_frf_h5(tmp_path / "plate.frf.h5", freq, frf, coherence, units="(m/s^2)/N")
-    res = _identify_from_frf_file(tmp_path, 8)
+    write_frf_h5(tmp / "plate.frf.h5", freq, frf, coherence, units="(m/s^2)/N")
+    return _identify_from_frf_file(tmp, 8), f_true, frf, coherence
+
+
+def test_frf_page_for_a_specimen_fitted_from_an_frf_file(frf_case, tmp_path):
+    res, f_true, frf, coherence = frf_case
     fig = {p.name: p.figure for p in report_pages(res)}["frf"]
     a = ax(fig, "frf")
     dashed = [ln.get_xdata()[0] for ln in a.get_lines() if ln.get_linestyle() == "--"]
@@ -1785,15 +1796,9 @@ def s13(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def frf_result(tmp_path_factory):
-    """S2.1 fitted from an FRF file (the report has an FRF page)."""
-    tmp = tmp_path_factory.mktemp("frfres")
-    f_true, constants, _ = _s21_modes(8, 3)
-    freq = np.arange(0.5, 700.0, 0.5)
-    frf = synth_frf(freq, np.column_stack([f_true, np.full(8, 0.008)]), constants,
-                    kind="accelerance", noise=0.005, seed=4)
-    write_frf_h5(tmp / "plate.frf.h5", freq, frf, units="(m/s^2)/N")
-    return _identify_from_frf_file(tmp, 8)
+def frf_result(frf_case):
+    """S2.1 fitted from an FRF file (the report has an FRF page, with its coherence panel)."""
+    return frf_case[0]
 
 
 #: a long specimen name: 60 characters, so that a title carrying it (and "A + B" of a joint
