@@ -560,7 +560,7 @@ def test_joint_shared_page_with_a_prior_adds_its_terms_to_the_plates_chi2(joint_
     # without the priors' terms the plates' chi2 miss the stored one by far more than 1e-9
     assert not np.isclose(plates, stored, rtol=1e-6, atol=0)
     assert np.isclose(plates + sum(terms.values()), stored, rtol=1e-9, atol=0)
-    shared = next(p.figure for p in report_pages(joint_prior) if p.name == "shared")
+    shared = result_page(joint_prior, "shared")
     note = next(t for a in shared.axes for t in a.texts if t.get_gid() == "plates-note")
     text = " ".join(note.get_text().split()).replace("\u00a0", " ")
     d = int(2 - np.floor(np.log10(terms[f"{MAT}.nu12"])))
@@ -581,7 +581,7 @@ def test_joint_plates_table_header_within_its_cells(joint):
     text now lies inside its cell with 5 % of its width to spare on each side."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-    shared = next(p.figure for p in report_pages(joint) if p.name == "shared")
+    shared = result_page(joint, "shared")
     renderer = FigureCanvasAgg(shared).get_renderer()
     shared.draw(renderer)
     table = ax(shared, "plates").tables[0]
