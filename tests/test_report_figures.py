@@ -29,9 +29,12 @@ def s21_fixed_at_limit(s21_8x8_fix_undetermined):
 
 @pytest.fixture(scope="module")
 def s21_fixed_pages(s21_fixed_at_limit):
-    """Its report's pages by name, built once for the tests that only read them (none draws
-    them: see test_report.py's checked_pages)."""
-    return {p.name: p.figure for p in report_pages(s21_fixed_at_limit)}
+    """The pages of its report that the tests read (summary, intervals, history), by name,
+    built once for the tests that only read them (none draws them: see test_report.py's
+    checked_pages), each alone (tests.figs.result_page): not the mode shapes and
+    sensitivities, which none reads."""
+    return {name: result_page(s21_fixed_at_limit, name)
+            for name in ("summary", "intervals", "history")}
 
 
 def test_no_search_limit_note_where_no_constant_is_on_one(s21_fixed_pages):
