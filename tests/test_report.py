@@ -2307,9 +2307,28 @@ def _damping_pages_of(case, damped, monkeypatch):
     return d, report_damping.damping_figures(r)
 
 
+@pytest.fixture(scope="module")
+def damping_table_pages(damped):
+    """``pages_of(case)``: (d, pages) of :func:`_damping_pages_of`, each case built once
+    (0.4-0.8 s) and each call given its own copy (pickled): the two tests below lay the
+    pages out and write them, so that neither reads a figure the other has laid out; a copy
+    lays out as the build it is copied from (the same bands to the last digit)."""
+    import pickle
+
+    built = {}
+
+    def pages_of(case):
+        if case not in built:
+            with pytest.MonkeyPatch.context() as mp:
+                built[case] = pickle.dumps(_damping_pages_of(case, damped, mp))
+        return pickle.loads(built[case])
+
+    return pages_of
+
+
 @pytest.mark.parametrize("case", list(TABLE_CASES))
-def test_a_damping_table_too_long_for_its_page_continues_on_the_next(damped, case,
-                                                                     monkeypatch, tmp_path):
+def test_a_damping_table_too_long_for_its_page_continues_on_the_next(damping_table_pages, case,
+                                                                     tmp_path):
     """hybrid-CM (two materials, 20 modes) with a Monte Carlo of 20 trials under its 14-line status
     (6x6): the table's ten two-line rows got at most 0.6 of the panels' and table's height and
     were squeezed (their text 1.82 times as tall as their rows: the Monte Carlo ranges ran over
@@ -2327,7 +2346,7 @@ def test_a_damping_table_too_long_for_its_page_continues_on_the_next(damped, cas
     order, and the advice and notes on the loss factors are over the table's end."""
     from laminid_cli import report_damping
 
-    d, pages = _damping_pages_of(case, damped, monkeypatch)
+    d, pages = damping_table_pages(case)
     whole = case != "four-materials"
     assert [name for name, _ in pages] == ["damping", "damping-2"]
     drawn = []
@@ -2390,7 +2409,7 @@ def test_a_damping_table_too_long_for_its_page_continues_on_the_next(damped, cas
 
 
 @pytest.mark.parametrize("case", list(TABLE_CASES))
-def test_a_page_of_the_damping_table_alone_has_no_blank_band(damped, case, monkeypatch):
+def test_a_page_of_the_damping_table_alone_has_no_blank_band(damping_table_pages, case):
     """The page of the loss-factor table alone (damping-2) put the table at its rows' height
     at the top and left the rest blank down to the status at its foot: 0.216 of the page with
     hybrid-CM's 14-line status, 0.539 with one reason (carbon's five rows alone). Now its rows
@@ -2402,7 +2421,7 @@ def test_a_page_of_the_damping_table_alone_has_no_blank_band(damped, case, monke
     from laminid_cli.report import row_heights
     from laminid_cli.report_damping import TABLE_PAGE_STRETCH, TABLE_ROW_IN
 
-    _, pages = _damping_pages_of(case, damped, monkeypatch)
+    _, pages = damping_table_pages(case)
     name, fig = pages[-1]
     assert name == "damping-2" and not any(a.get_gid() == "energy-shares" for a in fig.axes)
     bands = _drawn_bands(fig)
