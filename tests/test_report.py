@@ -635,9 +635,30 @@ def frf_case(tmp_path_factory):
     return _identify_from_frf_file(tmp, 8), f_true, frf, coherence
 
 
-def test_frf_page_for_a_specimen_fitted_from_an_frf_file(frf_case, tmp_path):
+def test_frf_page_for_a_specimen_fitted_from_an_frf_file(frf_case, tmp_path, monkeypatch):
+    import laminid_cli.report as rep
+
     res, f_true, frf, coherence = frf_case
-    fig = {p.name: p.figure for p in report_pages(res)}["frf"]
+    # the pages the report command builds (its FRF fit included) and writes are the ones read
+    # here: one build of the report, not one here and another by the command
+    built = []
+    real = rep.report_pages
+
+    def kept(*args, **kwargs):
+        built.append(real(*args, **kwargs))
+        return built[-1]
+
+    monkeypatch.setattr(rep, "report_pages", kept)
+    r = run("report", res, "-o", tmp_path / "plate.png", "--dpi", "50")
+    assert r.exit_code == 0, r.output
+    # "N pages (summary, ..., frf, ...) written to plate-1.png, ...": the FRF page's own file
+    names = r.output.split("(", 1)[1].split(")", 1)[0].split(", ")
+    k = names.index("frf") + 1
+    assert f"plate-{k}.png" in r.output
+    assert (tmp_path / f"plate-{k}.png").read_bytes()[:8] == PNG
+    (pages,) = built
+    assert [p.name for p in pages] == names
+    fig = {p.name: p.figure for p in pages}["frf"]
     a = ax(fig, "frf")
     dashed = [ln.get_xdata()[0] for ln in a.get_lines() if ln.get_linestyle() == "--"]
     assert np.allclose(sorted(dashed), f_true, rtol=1e-3)                # RFP modes
@@ -663,13 +684,6 @@ def test_frf_page_for_a_specimen_fitted_from_an_frf_file(frf_case, tmp_path):
     lines = [ln for ln in coh.get_lines() if ln.get_gid() == "coherence"]
     assert len(lines) == 3 and np.array_equal(lines[0].get_ydata(), coherence[0])
     assert not [t for t in fig.texts if t.get_gid() == "frf-changed"]   # the file identified
-    r = run("report", res, "-o", tmp_path / "plate.png", "--dpi", "50")
-    assert r.exit_code == 0, r.output
-    # "N pages (summary, ..., frf, ...) written to plate-1.png, ...": the FRF page's own file
-    names = r.output.split("(", 1)[1].split(")", 1)[0].split(", ")
-    k = names.index("frf") + 1
-    assert f"plate-{k}.png" in r.output
-    assert (tmp_path / f"plate-{k}.png").read_bytes()[:8] == PNG
 
 
 def test_frf_page_of_an_frf_file_changed_since_the_identification_says_so(tmp_path, caplog):
