@@ -740,13 +740,26 @@ def test_frf_fit_changed_words():
     assert frf_fit_changed([100.0, 250.0], [np.nan, 250.0]) is None      # not measured
 
 
-def test_report_of_a_batch_summary(batch_dir, tmp_path):
+def test_report_of_a_batch_summary(batch_dir, tmp_path, monkeypatch):
+    import laminid_cli.report as rep
+
+    # the pages the report command builds and writes are the ones read below: one build of
+    # each summary's report, not one by the command and another here
+    built = {}
+    real = rep.report_pages
+
+    def kept(source, *args, **kwargs):
+        pages = real(source, *args, **kwargs)
+        built[Path(source).name] = {p.name: p.figure for p in pages}
+        return pages
+
+    monkeypatch.setattr(rep, "report_pages", kept)
     for src in ("summary.csv", "summary.json"):
         out = tmp_path / (src + ".png")
         r = run("report", batch_dir / src, "-o", out, "--dpi", "50")
         assert r.exit_code == 0, r.output
         assert len(list(tmp_path.glob(src + "-*.png"))) == 2
-    built = {"summary.csv": {p.name: p.figure for p in report_pages(batch_dir / "summary.csv")}}
+        assert list(built[src]) == ["constants", "residuals"]
     pages = built["summary.csv"]
     a = ax(pages["constants"], "across-E1")
     res = read_result(batch_dir / "S1.4.result.h5")
@@ -767,7 +780,7 @@ def test_report_of_a_batch_summary(batch_dir, tmp_path):
     s21 = read_result(batch_dir / "S2.1.result.h5").uncertainty.get("E-glass/R368", "G13")
     assert s21.profile_kind == "bound" and 0.1e9 < s21.profile_bound < 18.5e9
     for src in ("summary.csv", "summary.json"):
-        pages = built.get(src) or {p.name: p.figure for p in report_pages(batch_dir / src)}
+        pages = built[src]
         g = ax(pages["constants"], "across-G13")
         prof = [ln for ln in g.get_lines() if ln.get_gid() == "profile"]
         assert len(prof) == 1 and prof[0].get_linestyle() != "-"          # dotted
