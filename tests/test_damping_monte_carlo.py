@@ -49,10 +49,20 @@ def exact(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def leaning(tmp_path_factory):
+def leaning_text(tmp_path_factory):
+    """The text of S1.1 with the damping of ETA at its identified constants (8x8) and damping
+    sigma 0.5 %: the specimen of ``leaning`` and ``leaning_fixed``, written once (damped_copy
+    identifies S1.1 to make it)."""
+    spec = tmp_path_factory.mktemp("mcdamp") / "S1.1d.yaml"
+    damped_copy(S11, spec, ETA, sigma_rel=0.005)
+    return spec.read_text()
+
+
+@pytest.fixture(scope="module")
+def leaning(tmp_path_factory, leaning_text):
     tmp = tmp_path_factory.mktemp("mcdamp")
     spec = tmp / "S1.1l.yaml"
-    damped_copy(S11, spec, ETA, sigma_rel=0.005)
+    spec.write_text(leaning_text)
     opts = RunOptions.with_fix(FIX, mesh="8x8", uncertainty=UncertaintyOptions(
         monte_carlo=40, jobs=1, seed=0))
     return tmp, run_identification([spec], opts)
@@ -162,11 +172,11 @@ def test_a_trials_refit_is_the_main_fit_at_its_constants_and_damping(leaning):
 
 
 @pytest.fixture(scope="module")
-def leaning_fixed(tmp_path_factory):
+def leaning_fixed(tmp_path_factory, leaning_text):
     """``leaning`` with --fix-undetermined (G13, G23, nu12 fixed): the trials draw them."""
     tmp = tmp_path_factory.mktemp("mcdamp")
     spec = tmp / "S1.1f.yaml"
-    damped_copy(S11, spec, ETA, sigma_rel=0.005)
+    spec.write_text(leaning_text)
     opts = RunOptions.with_fix(FIX, mesh="8x8", uncertainty=UncertaintyOptions(
         fix_undetermined=True, monte_carlo=40, jobs=1, seed=0))
     return run_identification([spec], opts)

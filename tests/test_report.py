@@ -100,6 +100,23 @@ def n_pdf_pages(path) -> int:
     return len(re.findall(rb"/Type\s*/Page\b(?!s)", path.read_bytes()))
 
 
+def pages_the_command_builds(monkeypatch) -> list:
+    """The list to which each report_pages call of the report command (report_pages kept as
+    the command calls it) adds the pages it built: a test that runs the command reads the
+    pages the command built and wrote, instead of building the report again (~0.5-1 s)."""
+    import laminid_cli.report as rep
+
+    built = []
+    real = rep.report_pages
+
+    def kept(*args, **kwargs):
+        built.append(real(*args, **kwargs))
+        return built[-1]
+
+    monkeypatch.setattr(rep, "report_pages", kept)
+    return built
+
+
 def test_pdf_report_of_a_result(batch_dir, tmp_path):
     out = tmp_path / "r.pdf"
     r = run("report", batch_dir / "S1.4.result.h5", "-o", out)
@@ -560,7 +577,7 @@ def test_joint_shared_page_with_a_prior_adds_its_terms_to_the_plates_chi2(joint_
     # without the priors' terms the plates' chi2 miss the stored one by far more than 1e-9
     assert not np.isclose(plates, stored, rtol=1e-6, atol=0)
     assert np.isclose(plates + sum(terms.values()), stored, rtol=1e-9, atol=0)
-    shared = next(p.figure for p in report_pages(joint_prior) if p.name == "shared")
+    shared = result_page(joint_prior, "shared")
     note = next(t for a in shared.axes for t in a.texts if t.get_gid() == "plates-note")
     text = " ".join(note.get_text().split()).replace("\u00a0", " ")
     d = int(2 - np.floor(np.log10(terms[f"{MAT}.nu12"])))
@@ -581,7 +598,7 @@ def test_joint_plates_table_header_within_its_cells(joint):
     text now lies inside its cell with 5 % of its width to spare on each side."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-    shared = next(p.figure for p in report_pages(joint) if p.name == "shared")
+    shared = result_page(joint, "shared")
     renderer = FigureCanvasAgg(shared).get_renderer()
     shared.draw(renderer)
     table = ax(shared, "plates").tables[0]
@@ -618,15 +635,37 @@ def _identify_from_frf_file(folder, n_modes: int):
     return res
 
 
-def test_frf_page_for_a_specimen_fitted_from_an_frf_file(tmp_path):
+@pytest.fixture(scope="module")
+def frf_case(tmp_path_factory):
+    """S2.1 fitted from an FRF file of 8 modes, 3 points, with coherence (the report has an
+    FRF page): (result file, the modes' frequencies, the FRFs, the coherence). Read by
+    test_frf_page_for_a_specimen_fitted_from_an_frf_file and, as frf_result, by
+    test_status_clear_of_the_titles_on_every_page, which each fitted and identified it (~2 s);
+    neither changes the files."""
+    tmp = tmp_path_factory.mktemp("frfres")
     f_true, constants, rng = _s21_modes(8, 3)
     freq = np.arange(0.5, 700.0, 0.5)
     frf = synth_frf(freq, np.column_stack([f_true, np.full(8, 0.008)]), constants,
                     kind="accelerance", noise=0.005, seed=4)
     coherence = np.clip(1 - 0.05 * rng.random(frf.shape), 0, 1)
-    write_frf_h5(tmp_path / "plate.frf.h5", freq, frf, coherence, units="(m/s^2)/N")
-    res = _identify_from_frf_file(tmp_path, 8)
-    fig = {p.name: p.figure for p in report_pages(res)}["frf"]
+    write_frf_h5(tmp / "plate.frf.h5", freq, frf, coherence, units="(m/s^2)/N")
+    return _identify_from_frf_file(tmp, 8), f_true, frf, coherence
+
+
+def test_frf_page_for_a_specimen_fitted_from_an_frf_file(frf_case, tmp_path, monkeypatch):
+    res, f_true, frf, coherence = frf_case
+    # the pages the command builds (its FRF fit included) and writes are the ones read here
+    built = pages_the_command_builds(monkeypatch)
+    r = run("report", res, "-o", tmp_path / "plate.png", "--dpi", "50")
+    assert r.exit_code == 0, r.output
+    # "N pages (summary, ..., frf, ...) written to plate-1.png, ...": the FRF page's own file
+    names = r.output.split("(", 1)[1].split(")", 1)[0].split(", ")
+    k = names.index("frf") + 1
+    assert f"plate-{k}.png" in r.output
+    assert (tmp_path / f"plate-{k}.png").read_bytes()[:8] == PNG
+    (pages,) = built
+    assert [p.name for p in pages] == names
+    fig = {p.name: p.figure for p in pages}["frf"]
     a = ax(fig, "frf")
     dashed = [ln.get_xdata()[0] for ln in a.get_lines() if ln.get_linestyle() == "--"]
     assert np.allclose(sorted(dashed), f_true, rtol=1e-3)                # RFP modes
@@ -652,13 +691,6 @@ def test_frf_page_for_a_specimen_fitted_from_an_frf_file(tmp_path):
     lines = [ln for ln in coh.get_lines() if ln.get_gid() == "coherence"]
     assert len(lines) == 3 and np.array_equal(lines[0].get_ydata(), coherence[0])
     assert not [t for t in fig.texts if t.get_gid() == "frf-changed"]   # the file identified
-    r = run("report", res, "-o", tmp_path / "plate.png", "--dpi", "50")
-    assert r.exit_code == 0, r.output
-    # "N pages (summary, ..., frf, ...) written to plate-1.png, ...": the FRF page's own file
-    names = r.output.split("(", 1)[1].split(")", 1)[0].split(", ")
-    k = names.index("frf") + 1
-    assert f"plate-{k}.png" in r.output
-    assert (tmp_path / f"plate-{k}.png").read_bytes()[:8] == PNG
 
 
 def test_frf_page_of_an_frf_file_changed_since_the_identification_says_so(tmp_path, caplog):
@@ -715,13 +747,17 @@ def test_frf_fit_changed_words():
     assert frf_fit_changed([100.0, 250.0], [np.nan, 250.0]) is None      # not measured
 
 
-def test_report_of_a_batch_summary(batch_dir, tmp_path):
+def test_report_of_a_batch_summary(batch_dir, tmp_path, monkeypatch):
+    # the pages the command builds and writes for each summary are the ones read below
+    written = pages_the_command_builds(monkeypatch)
+    built = {}
     for src in ("summary.csv", "summary.json"):
         out = tmp_path / (src + ".png")
         r = run("report", batch_dir / src, "-o", out, "--dpi", "50")
         assert r.exit_code == 0, r.output
         assert len(list(tmp_path.glob(src + "-*.png"))) == 2
-    built = {"summary.csv": {p.name: p.figure for p in report_pages(batch_dir / "summary.csv")}}
+        built[src] = {p.name: p.figure for p in written[-1]}
+        assert list(built[src]) == ["constants", "residuals"]
     pages = built["summary.csv"]
     a = ax(pages["constants"], "across-E1")
     res = read_result(batch_dir / "S1.4.result.h5")
@@ -742,7 +778,7 @@ def test_report_of_a_batch_summary(batch_dir, tmp_path):
     s21 = read_result(batch_dir / "S2.1.result.h5").uncertainty.get("E-glass/R368", "G13")
     assert s21.profile_kind == "bound" and 0.1e9 < s21.profile_bound < 18.5e9
     for src in ("summary.csv", "summary.json"):
-        pages = built.get(src) or {p.name: p.figure for p in report_pages(batch_dir / src)}
+        pages = built[src]
         g = ax(pages["constants"], "across-G13")
         prof = [ln for ln in g.get_lines() if ln.get_gid() == "profile"]
         assert len(prof) == 1 and prof[0].get_linestyle() != "-"          # dotted
@@ -1833,15 +1869,9 @@ def s13(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def frf_result(tmp_path_factory):
-    """S2.1 fitted from an FRF file (the report has an FRF page)."""
-    tmp = tmp_path_factory.mktemp("frfres")
-    f_true, constants, _ = _s21_modes(8, 3)
-    freq = np.arange(0.5, 700.0, 0.5)
-    frf = synth_frf(freq, np.column_stack([f_true, np.full(8, 0.008)]), constants,
-                    kind="accelerance", noise=0.005, seed=4)
-    write_frf_h5(tmp / "plate.frf.h5", freq, frf, units="(m/s^2)/N")
-    return _identify_from_frf_file(tmp, 8)
+def frf_result(frf_case):
+    """S2.1 fitted from an FRF file (the report has an FRF page, with its coherence panel)."""
+    return frf_case[0]
 
 
 #: a long specimen name: 60 characters, so that a title carrying it (and "A + B" of a joint
@@ -1948,7 +1978,7 @@ def test_short_verdict_of_a_loss_factor_not_determined_by_the_damping():
 
 
 @pytest.mark.parametrize("kind", ["csv", "json"])
-def test_summary_with_loss_factors_has_a_loss_factor_page(tmp_path, kind):
+def test_summary_with_loss_factors_has_a_loss_factor_page(tmp_path, kind, monkeypatch):
     """A batch summary holding loss factors had no page of them; now one panel per loss
     factor (%) in the marks of the constants' page -- interval bar, hollow "?" for not
     determined by the damping, a hollow triangle at 0 for one held at 0 by eta >= 0 (no
@@ -1973,7 +2003,14 @@ def test_summary_with_loss_factors_has_a_loss_factor_page(tmp_path, kind):
                   "verdict": VERDICT_NOT_DAMPING.format(term="eta13")} | free,
         "eta23": {"value": 0.012, "lower": None, "upper": None, "verdict": "fixed"}}}
     _write_summary(path, rows)
-    pages = {p.name: p.figure for p in report_pages(path)}
+    # the pages the command builds and writes are the ones read below
+    built = pages_the_command_builds(monkeypatch)
+    r = run("report", path, "-o", tmp_path / "s.png", "--dpi", "50")
+    assert r.exit_code == 0, r.output
+    assert "loss-factors, loss-factor-table" in r.output
+    assert (tmp_path / "s-4.png").read_bytes()[:8] == PNG
+    (written,) = built
+    pages = {p.name: p.figure for p in written}
     assert list(pages) == ["constants", "residuals", "loss-factors", "loss-factor-table"]
     fig = pages["loss-factors"]
     a = ax(fig, "across-eta11")
@@ -2014,10 +2051,6 @@ def test_summary_with_loss_factors_has_a_loss_factor_page(tmp_path, kind):
                     ["H", "glass.eta23", "1.200", "none — fixed",
                      "fixed at the value given (not identified)"]]
     assert (5, 0) not in cells                                  # Q has no loss factors
-    r = run("report", path, "-o", tmp_path / "s.png", "--dpi", "50")
-    assert r.exit_code == 0, r.output
-    assert "loss-factors, loss-factor-table" in r.output
-    assert (tmp_path / "s-4.png").read_bytes()[:8] == PNG
 
 
 def test_bound_statement_stays_inside_its_panel(checked, tmp_path):
@@ -2350,9 +2383,28 @@ def _damping_pages_of(case, damped, monkeypatch):
     return d, report_damping.damping_figures(r)
 
 
+@pytest.fixture(scope="module")
+def damping_table_pages(damped):
+    """``pages_of(case)``: (d, pages) of :func:`_damping_pages_of`, each case built once
+    (0.4-0.8 s) and each call given its own copy (pickled): the two tests below lay the
+    pages out and write them, so that neither reads a figure the other has laid out; a copy
+    lays out as the build it is copied from (the same bands to the last digit)."""
+    import pickle
+
+    built = {}
+
+    def pages_of(case):
+        if case not in built:
+            with pytest.MonkeyPatch.context() as mp:
+                built[case] = pickle.dumps(_damping_pages_of(case, damped, mp))
+        return pickle.loads(built[case])
+
+    return pages_of
+
+
 @pytest.mark.parametrize("case", list(TABLE_CASES))
-def test_a_damping_table_too_long_for_its_page_continues_on_the_next(damped, case,
-                                                                     monkeypatch, tmp_path):
+def test_a_damping_table_too_long_for_its_page_continues_on_the_next(damping_table_pages, case,
+                                                                     tmp_path):
     """hybrid-CM (two materials, 20 modes) with a Monte Carlo of 20 trials under its 14-line status
     (6x6): the table's ten two-line rows got at most 0.6 of the panels' and table's height and
     were squeezed (their text 1.82 times as tall as their rows: the Monte Carlo ranges ran over
@@ -2370,7 +2422,7 @@ def test_a_damping_table_too_long_for_its_page_continues_on_the_next(damped, cas
     order, and the advice and notes on the loss factors are over the table's end."""
     from laminid_cli import report_damping
 
-    d, pages = _damping_pages_of(case, damped, monkeypatch)
+    d, pages = damping_table_pages(case)
     whole = case != "four-materials"
     assert [name for name, _ in pages] == ["damping", "damping-2"]
     drawn = []
@@ -2433,7 +2485,7 @@ def test_a_damping_table_too_long_for_its_page_continues_on_the_next(damped, cas
 
 
 @pytest.mark.parametrize("case", list(TABLE_CASES))
-def test_a_page_of_the_damping_table_alone_has_no_blank_band(damped, case, monkeypatch):
+def test_a_page_of_the_damping_table_alone_has_no_blank_band(damping_table_pages, case):
     """The page of the loss-factor table alone (damping-2) put the table at its rows' height
     at the top and left the rest blank down to the status at its foot: 0.216 of the page with
     hybrid-CM's 14-line status, 0.539 with one reason (carbon's five rows alone). Now its rows
@@ -2445,7 +2497,7 @@ def test_a_page_of_the_damping_table_alone_has_no_blank_band(damped, case, monke
     from laminid_cli.report import row_heights
     from laminid_cli.report_damping import TABLE_PAGE_STRETCH, TABLE_ROW_IN
 
-    _, pages = _damping_pages_of(case, damped, monkeypatch)
+    _, pages = damping_table_pages(case)
     name, fig = pages[-1]
     assert name == "damping-2" and not any(a.get_gid() == "energy-shares" for a in fig.axes)
     bands = _drawn_bands(fig)

@@ -29,9 +29,12 @@ def s21_fixed_at_limit(s21_8x8_fix_undetermined):
 
 @pytest.fixture(scope="module")
 def s21_fixed_pages(s21_fixed_at_limit):
-    """Its report's pages by name, built once for the tests that only read them (none draws
-    them: see test_report.py's checked_pages)."""
-    return {p.name: p.figure for p in report_pages(s21_fixed_at_limit)}
+    """The pages of its report that the tests read (summary, intervals, history), by name,
+    built once for the tests that only read them (none draws them: see test_report.py's
+    checked_pages), each alone (tests.figs.result_page): not the mode shapes and
+    sensitivities, which none reads."""
+    return {name: result_page(s21_fixed_at_limit, name)
+            for name in ("summary", "intervals", "history")}
 
 
 def test_no_search_limit_note_where_no_constant_is_on_one(s21_fixed_pages):
@@ -523,7 +526,7 @@ def test_interval_panels_within_a_decade_stay_linear(s11):
     from laminid_cli.resultfile import CONSTANTS, read_result
 
     res = read_result(s11)
-    fig = {p.name: p.figure for p in report_pages(s11)}["intervals"]
+    fig = result_page(s11, "intervals")
     m = next(iter(res.materials))
     log, own = {}, {}
     for k in CONSTANTS:
@@ -553,7 +556,7 @@ def test_transverse_shear_moduli_on_one_scale(s11, s14):
 
     res = read_result(s11)
     m = next(iter(res.materials))
-    fig = {p.name: p.figure for p in report_pages(s11)}["intervals"]
+    fig = result_page(s11, "intervals")
     fig.draw_without_rendering()
     ivs = {k: res.uncertainty.get(m, k) for k in ("G13", "G23")}
     ratio = {k: iv.upper / iv.lower for k, iv in ivs.items()}
@@ -579,7 +582,7 @@ def test_transverse_shear_moduli_on_one_scale(s11, s14):
     assert ("G13 and G23 on one log scale, as one of them spans more than a decade: each panel "
             "over the same decades, a bar's length the same ratio on each") in title
     # both within a decade: both linear, no word of it
-    fig = {p.name: p.figure for p in report_pages(s14)}["intervals"]
+    fig = result_page(s14, "intervals")
     m = next(iter(read_result(s14).materials))
     assert [ax(fig, f"interval-{m}.{k}").get_yscale() for k in ("G13", "G23")] == ["linear"] * 2
     assert "one log scale" not in _legend_title(fig)
@@ -764,7 +767,7 @@ def test_interval_end_at_or_below_zero_on_a_log_panel_is_clipped_and_said(s21):
     assert list(bar.get_ydata()) == [lo, 50 * v / 1e9]               # clipped at the foot
     assert "(an end ≤ 0 is below any log scale)" in _legend_title(fig)
     assert "below any log scale" not in _legend_title(
-        {p.name: p.figure for p in report_pages(s21)}["intervals"])
+        result_page(s21, "intervals"))
 
 
 def _notes(fig) -> str:
@@ -786,12 +789,12 @@ def test_summary_page_says_a_monte_carlo_was_run(s21_mc, s21):
     said = f"Monte Carlo check: {converged} of {trials} re-identifications converged"
     shown = run("show", s21_mc)
     assert shown.exit_code == 0 and said in shown.output
-    notes = _notes({p.name: p.figure for p in report_pages(s21_mc)}["summary"])
+    notes = _notes(result_page(s21_mc, "summary"))
     assert (f"{said} (frequencies perturbed by σ × {factor:.3g}); their 95% ranges: grey bars "
             "on the intervals page") in notes
     # after the intervals' own line, before the table's words
     assert notes.index("uncertainty: 95% intervals") < notes.index(said)
-    assert "Monte Carlo" not in _notes({p.name: p.figure for p in report_pages(s21)}["summary"])
+    assert "Monte Carlo" not in _notes(result_page(s21, "summary"))
 
 
 def test_monte_carlo_note_words():
