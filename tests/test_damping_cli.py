@@ -210,6 +210,38 @@ def test_a_loss_factor_at_its_bound_in_the_summary_rows():
     assert recs["eta23"]["verdict"] == "fixed" and recs["eta23"]["bound_side"] == ""
 
 
+def test_a_loss_factors_monte_carlo_end_held_at_0_is_flagged_in_the_summaries():
+    """The terminal and the result's damping page mark a loss factor's Monte Carlo end set by
+    refits held at 0 ("0*", /damping/monte_carlo/lower_at_zero); summary.csv's mc_search_limit
+    was empty for it and summary.json had no mc_lower_at_limit (the synthetic S1.1 of
+    scripts/example_frf.py, 6x6, 10 trials: eta23's range 0 .. 1.02 %, 3 refits at 0, left
+    unmarked past the result file). Now "lower" and True there, as a constant's end on a search
+    limit; an end the data set stays unflagged."""
+    from laminid_cli.batch import LONG_COLUMNS, damping_of_file, long_rows
+    from laminid_cli.resultfile import Damping
+
+    d = Damping(attrs={}, data={
+        "labels": ("m.eta11", "m.eta23"), "value": np.array([0.00187, 0.00774]),
+        "lower": np.array([0.00157, 0.0]), "upper": np.array([0.00216, 0.0170]),
+        "verdict": ("weak", "not determined by the measured damping"),
+        "at_bound": np.array([False, False])},
+        monte_carlo={"lower": np.array([0.00154, 0.0]), "upper": np.array([0.00214, 0.0102]),
+                     "lower_at_zero": np.array([0, 1], dtype=np.int8)})
+    per = damping_of_file(d)["m"]
+    assert (per["eta23"]["mc_lower_at_limit"], per["eta23"]["mc_upper_at_limit"]) \
+        == (True, False)
+    assert (per["eta11"]["mc_lower_at_limit"], per["eta11"]["mc_upper_at_limit"]) \
+        == (False, False)
+    assert per["eta23"]["mc_lower"] == 0.0 and per["eta23"]["mc_upper"] == 0.0102
+    row = {"name": "p", "specimen": "p", "status": "check", "reason": "", "reasons": [],
+           "rms_residual_percent": None, "result": None, "materials": {}, "damping": {"m": per}}
+    recs = {r[LONG_COLUMNS.index("constant")]: dict(zip(LONG_COLUMNS, r))
+            for r in long_rows([row])}
+    assert recs["eta23"]["mc_search_limit"] == "lower"
+    assert recs["eta23"]["mc_lower"] == "0.0" and recs["eta23"]["mc_upper"] == "0.0102"
+    assert recs["eta11"]["mc_search_limit"] == ""
+
+
 def test_a_loss_factor_held_at_0_has_no_interval_anywhere(tmp_path):
     """S2.1 (6x6) with damping from eta12 = eta23 = 0 plus 3 % noise: the fit holds both at
     0 by eta >= 0 ("at bound — not identified"). They showed the one-sided 0 .. q std of the
