@@ -537,7 +537,7 @@ def test_json_states_the_unit_of_the_modal_constants_and_which_spread_is_which(h
     assert out["mode_units"]["snr"] == ("1 (linear, not dB: the mode's peak contribution over "
                                         "the RMS of the fit's residual around it)")
     assert all(m["snr"] > 5 for m in out["modes"])           # rfp's min_snr, linear
-    counts = {"mode", "orders_stable", "sigma_dominant"}
+    counts = {"mode", "orders_stable", "sigma_dominant", "damping_sigma_dominant"}   # words
     for m in out["modes"]:
         assert set(m) - counts == set(out["mode_units"])
         # freq_std_hz is the 'rfp spread' term alone; sigma_hz is every term, floored
@@ -601,3 +601,33 @@ def test_into_with_no_mode_found_names_the_fit_not_the_specimen(tmp_path, h5):
                         f"nothing to write into {spec}, left unchanged; fit other bands "
                         "(--band LO:HI)\n")
     assert spec.read_text() == SPEC and not list(tmp_path.glob("p.yaml.bak*"))
+
+
+def test_damping_sigma_says_whether_the_floor_or_the_spread_set_it(h5, case):
+    """A damping ratio's +/- is its spread over the stable orders, at least 2 % of the ratio.
+    The table named what set each frequency's sigma ('from', the footnote) but not the
+    damping's: on the synthetic S1.1 (scripts/example_frf.py) 12 of 13 damping sigmas were
+    exactly the assumed 2 % floor, shown as if the FRFs had measured them. Now --json gives
+    each mode's damping_sigma_dominant and damping_sigma_rule, and the table a footnote with
+    the counts, matching the sigmas themselves."""
+    from laminid_cli.frf import rfp
+
+    fit = rfp.find_modes(case.freq, case.frf)
+    z = np.asarray(fit.damping_ratio)
+    std = np.array([m.damping_std for m in fit.modes])
+    expect = ["rfp spread" if s > 0.02 * v else "floor" for s, v in zip(std, z)]
+    assert rfp.damping_sigma_dominant(fit) == expect
+    r = run(["fit-frf", str(h5), "--json"])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.output)
+    got = [mo["damping_sigma_dominant"] for mo in out["modes"]]
+    assert got == expect
+    for mo, d in zip(out["modes"], got):                # the sigma is the term it names
+        floor = 0.02 * mo["damping_ratio"]
+        assert mo["damping_sigma"] == pytest.approx(floor if d == "floor" else mo["damping_std"],
+                                                    rel=1e-12)
+    n_floor = expect.count("floor")
+    assert f"floor {n_floor} (modes)" in out["damping_sigma_rule"] if n_floor else True
+    r = run(["fit-frf", str(h5)])
+    line = next(ln for ln in r.output.splitlines() if ln.startswith("zeta +/-:"))
+    assert "at least 2 % of the ratio" in line and out["damping_sigma_rule"] in line

@@ -1551,6 +1551,32 @@ def damping_sigma(fit: ModalFit) -> np.ndarray:
     return np.maximum(std, DAMPING_SIGMA_FLOOR_REL * fit.damping_ratio)
 
 
+def damping_sigma_dominant(fit: ModalFit) -> list[str]:
+    """Per mode, the term that set :func:`damping_sigma`: "floor" (2 % of the ratio, an
+    assumed figure: the orders agreed more closely) or "rfp spread" (the spread over the
+    stable orders, measured), as the frequencies' 'from' column names theirs."""
+    if not fit.modes:
+        return []
+    std = np.array([m.damping_std for m in fit.modes])
+    floor = DAMPING_SIGMA_FLOOR_REL * np.asarray(fit.damping_ratio, float)
+    return ["rfp spread" if s > f else "floor" for s, f in zip(std, floor)]
+
+
+def damping_sigma_summary(dominant: list[str]) -> str:
+    """One line on the damping ratios' standard deviations and what set them (the terminal
+    table's 'from' column for zeta, --json's damping_sigma_rule)."""
+    n = len(dominant)
+    floor = sum(d == "floor" for d in dominant)
+    text = (f"fitted ratio's spread over the stable orders, at least "
+            f"{100 * DAMPING_SIGMA_FLOOR_REL:g} % of the ratio; dominated by: "
+            + ", ".join(f"{d} {c}" for d, c in (("rfp spread", n - floor), ("floor", floor))
+                        if c) + " (modes)")
+    if floor:
+        text += (f"; the floor is an assumed {100 * DAMPING_SIGMA_FLOOR_REL:g} %, not a spread "
+                 "the FRFs showed")
+    return text
+
+
 #: Where the exponential window's convention comes from (written beside the code, issue 1 of
 #: the frf-fixes branch). The window multiplies the response record by w(t) = exp(-t / tau):
 #: the 35670A takes tau in seconds (``[SENSe:]WINDow[1|2|3|4]:EXPonential``: pymeasure's
