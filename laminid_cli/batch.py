@@ -1280,7 +1280,8 @@ def mesh_summary(mc: dict | None) -> dict | None:
 
 
 def damping_of_file(d) -> dict:
-    """{material: {etaXY: {value, lower, upper, verdict, at_bound, bound_side, bound_limit}}}
+    """{material: {etaXY: {value, lower, upper, verdict, at_bound, bound_side, bound_limit,
+    flag}}} (flag: :func:`flag_word`, as summary.csv's column)
     of a result's /damping (:class:`laminid_cli.resultfile.Damping`: free loss factors with
     their interval, held at 0 and fixed ones with lower = upper = None, fixed ones with
     verdict "fixed"); with the loss factors' Monte Carlo
@@ -1322,6 +1323,11 @@ def damping_of_file(d) -> dict:
         mat, name = lab.rsplit(".", 1)
         out.setdefault(mat, {})[name] = {"value": float(value), "lower": None, "upper": None,
                                          "verdict": "fixed"}
+    # the word summary.csv's flag column gives each (summary.json's constants have it; its
+    # loss factors had none: a script testing "flag" read eta13 "not determined" as plain)
+    for per in out.values():
+        for v in per.values():
+            v["flag"] = flag_word(v)
     return out
 
 

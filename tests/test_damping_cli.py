@@ -158,7 +158,8 @@ def test_batch_rows_carry_the_loss_factors(frf_case, tmp_path):
     row = json.loads((tmp_path / "out" / "summary.json").read_text())["specimens"][0]
     eta = row["damping"]["E-glass/R368"]
     assert eta["eta11"]["lower"] <= ETA[0] <= eta["eta11"]["upper"]
-    assert eta["eta23"] == {"value": 0.012, "lower": None, "upper": None, "verdict": "fixed"}
+    assert eta["eta23"] == {"value": 0.012, "lower": None, "upper": None, "verdict": "fixed",
+                            "flag": "fixed"}
     assert (eta["eta11"]["at_bound"], eta["eta11"]["bound_side"], eta["eta11"]["bound_limit"]) \
         == (False, "", None)
     rows = damping_long_rows(row)
@@ -240,6 +241,29 @@ def test_a_loss_factors_monte_carlo_end_held_at_0_is_flagged_in_the_summaries():
     assert recs["eta23"]["mc_search_limit"] == "lower"
     assert recs["eta23"]["mc_lower"] == "0.0" and recs["eta23"]["mc_upper"] == "0.0102"
     assert recs["eta11"]["mc_search_limit"] == ""
+
+
+def test_summary_json_loss_factors_carry_the_flag_word_as_summary_csv():
+    """summary.csv's flag column said eta13 "undetermined", a loss factor held at 0
+    "at_bound", a --fix'ed one "fixed"; summary.json's loss factors had no "flag" at all (its
+    constants have one), so a script testing it read them as plain identified values."""
+    from laminid_cli.batch import LONG_COLUMNS, damping_of_file, long_rows
+    from laminid_cli.damping import VERDICT_NOT_DAMPING
+    from laminid_cli.resultfile import Damping
+
+    d = Damping(attrs={"fixed": "m.eta23=0.012"}, data={
+        "labels": ("m.eta11", "m.eta12", "m.eta13"), "value": np.array([0.002, 0.0, 0.013]),
+        "lower": np.array([0.0016, 0.0, 0.0]), "upper": np.array([0.0023, 0.006, 0.036]),
+        "verdict": ("weak", "at bound — not identified", VERDICT_NOT_DAMPING.format(term="eta13")),
+        "at_bound": np.array([False, True, False])})
+    per = damping_of_file(d)["m"]
+    flags = {k: v["flag"] for k, v in per.items()}
+    assert flags == {"eta11": "", "eta12": "at_bound", "eta13": "undetermined", "eta23": "fixed"}
+    row = {"name": "p", "specimen": "p", "status": "check", "reason": "", "reasons": [],
+           "rms_residual_percent": None, "result": None, "materials": {}, "damping": {"m": per}}
+    recs = {r[LONG_COLUMNS.index("constant")]: r[LONG_COLUMNS.index("flag")]
+            for r in long_rows([row])}
+    assert recs == flags
 
 
 def test_a_loss_factor_held_at_0_has_no_interval_anywhere(tmp_path):
