@@ -276,6 +276,11 @@ def _table_words(fig, ax_t, title: str, words):
 
     from laminid_cli.report import _wrap_width
 
+    # the title wrapped to the page too: a long damping sigma source (fit-frf's rule, an
+    # frf_file's fit) ran off both edges of the page on one line
+    title = "\n".join(ln for para in title.split("\n")
+                      for ln in textwrap.wrap(para, _wrap_width(fig, 9),
+                                              break_on_hyphens=False) or [""])
     ax_t.set_title(title, fontsize=9)
     if not words:
         return None
