@@ -550,9 +550,14 @@ def identify_damping(fm, result, damping: MeasuredDamping, *, fix=(), scaling: s
     eta = np.where(np.asarray(result.weight) > 0, damping.loss_factor, np.nan)
     src = sorted({s for s in damping.source if s})
     frf_file = getattr(fm.specimen.measured, "frf_file", "")
-    source = {"file": (f"the RFP fit of the specimen's measured.frf_file {frf_file} (spread "
-                       "over the stable orders, at least 2 % of the fitted ratio)" if frf_file else
-                       "the specimen file's measured.damping_sigma"),
+    # how they were made (fit-frf --into writes it; an frf_file's fit gives it): where the RFP
+    # fit's assumed 2 % floor set them, that is said, not read as a measured spread
+    made = getattr(fm.specimen.measured, "damping_sigma_source", "")
+    source = {"file": (f"the RFP fit of the specimen's measured.frf_file {frf_file} ("
+                       + (made or "spread over the stable orders, at least 2 % of the fitted "
+                          "ratio") + ")" if frf_file else
+                       "the specimen file's measured.damping_sigma"
+                       + (f" (made by: {made})" if made else "")),
               "relative": f"{DEFAULT_DAMPING_SIGMA_REL:.0%} of each damping ratio (none given)"}
     fit = fit_loss_factors(shares, eta, damping.loss_sigma, loss_labels(names),
                            fixed=parse_loss_fix(fix, names), scaling=scaling,

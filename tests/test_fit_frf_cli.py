@@ -379,7 +379,8 @@ def test_into_leaves_every_other_line_byte_for_byte_and_no_stale_comment(tmp_pat
         assert new[:k] == old[:k] and new[k + added:] == old[k + 1:]
         written = new[k:k + added]
         assert [line.split(":")[0] for line in written] == [
-            "  frequencies", "  sigma", "  sigma_source", "  damping", "  damping_sigma"]
+            "  frequencies", "  sigma", "  sigma_source", "  damping", "  damping_sigma",
+            "  damping_sigma_source"]
         assert "Table 1" not in "".join(written)
         assert written[0].endswith("]   # Hz, laminid fit-frf of plate.frf.h5")
         # the damping line says what its numbers are: 0.008 beside the table's 'zeta (%)
@@ -631,3 +632,39 @@ def test_damping_sigma_says_whether_the_floor_or_the_spread_set_it(h5, case):
     r = run(["fit-frf", str(h5)])
     line = next(ln for ln in r.output.splitlines() if ln.startswith("zeta +/-:"))
     assert "at least 2 % of the ratio" in line and out["damping_sigma_rule"] in line
+
+
+def test_into_records_the_damping_sigma_rule_and_identify_reports_it(tmp_path, h5, case):
+    """--into wrote the damping sigmas without a word of how they were made, and identify
+    said "the specimen file's measured.damping_sigma", as if measured: 12 of 13 of the
+    synthetic S1.1's were the RFP fit's assumed 2 % floor. Now measured.damping_sigma_source
+    says so (the fit's counts), identify repeats it ("made by: ..."), a later fit without it
+    drops the stale one, and one without damping_sigma is refused."""
+    from laminid_cli.errors import SpecimenError
+    from laminid_cli.frf import rfp
+    from laminid_cli.frf.into import write_measured
+    from laminid_cli.specimen import read_specimen
+
+    spec = tmp_path / "S1.1.yaml"
+    spec.write_text(_S11.read_text())
+    assert run(["fit-frf", str(h5), "--into", str(spec)]).exit_code == 0
+    rule = rfp.damping_sigma_summary(rfp.damping_sigma_dominant(
+        rfp.find_modes(case.freq, case.frf)))
+    measured = yaml.safe_load(spec.read_text())["measured"]
+    assert measured["damping_sigma_source"] == f"plate.frf.h5: fit-frf: {rule}"
+    assert read_specimen(spec).measured.damping_sigma_source == f"plate.frf.h5: fit-frf: {rule}"
+    r = run(["identify", str(spec), "--mesh", "6x6", "--no-output", "--json"])
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["damping"]["sigma_source"] == (
+        f"the specimen file's measured.damping_sigma (made by: plate.frf.h5: fit-frf: {rule})")
+    s = read_specimen(spec).measured
+    write_measured(spec, list(s.freq), list(s.sigma), damping=list(s.damping),
+                   damping_sigma=list(s.damping_sigma))
+    assert "damping_sigma_source" not in yaml.safe_load(spec.read_text())["measured"]
+    lines = [ln if not ln.startswith("  damping_sigma:") else "  damping_sigma_source: by eye"
+             for ln in spec.read_text().splitlines()]
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("\n".join(lines) + "\n")
+    with pytest.raises(SpecimenError, match="'damping_sigma_source' describes 'damping_sigma', "
+                                            "which is missing"):
+        read_specimen(bad)

@@ -204,6 +204,9 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         into = write_measured(spec_path, fit.freq_hz.tolist(), sigma.tolist(),
                               damping=wc.damping.tolist(), damping_sigma=wc.sigma.tolist(),
                               sigma_source=f"{Path(frf_file).name}: {msig.summary()}",
+                              damping_sigma_source=(f"{Path(frf_file).name}: fit-frf: "
+                                                    f"{rfp.damping_sigma_summary(zdom)}"
+                                                    if zdom else None),
                               comment=f"Hz, laminid fit-frf of {Path(frf_file).name}",
                               log_warnings=False)        # logged as it read it, above
     if as_json:

@@ -1493,7 +1493,8 @@ def _band_constants(freq, frf, chart, own, near, criteria):
 def measured_from_frf_file(path, *, bands=None, n_modes: int | None = None,
                            criteria: PoleCriteria = PoleCriteria(),
                            with_damping_sigma: bool = False,
-                           warnings: list | None = None) -> tuple:
+                           warnings: list | None = None,
+                           damping_sigma_rule: list | None = None) -> tuple:
     """Natural frequencies of the FRFs in a file, for a specimen's ``measured.frf_file``.
 
     Parameters
@@ -1503,6 +1504,8 @@ def measured_from_frf_file(path, *, bands=None, n_modes: int | None = None,
     n_modes : the n lowest modes (FrfError if fewer found)
     warnings : a list that takes the FRF reader's warnings (a frequency unit not stated);
         without one they are logged
+    damping_sigma_rule : a list that takes one line on what set the damping ratios' standard
+        deviations (:func:`damping_sigma_summary`: how many are the assumed 2 % floor)
 
     Returns
     -------
@@ -1530,6 +1533,8 @@ def measured_from_frf_file(path, *, bands=None, n_modes: int | None = None,
     tau = window_time_constant(fs)
     sig = measurement_sigma(fit, fs.freq, exp_window_s=tau)
     wc = window_corrected_damping(fit, tau)
+    if damping_sigma_rule is not None and fit.modes:
+        damping_sigma_rule.append(damping_sigma_summary(damping_sigma_dominant(fit)))
     if with_damping_sigma:
         return fit.freq_hz, sig.sigma_hz, wc.damping, wc.sigma
     return fit.freq_hz, sig.sigma_hz, wc.damping
