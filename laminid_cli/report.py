@@ -659,6 +659,11 @@ def _laminate_text(plate) -> str:
                          else f" (±{pct:.0f} %)")
                 if rel >= WEAK:           # as a constant is (intervals.WEAK)
                     text += " not determined"
+                if "the Monte Carlo found" in u.get("verdict", ""):
+                    # the terminal's "— linearised; the Monte Carlo found ESL.G13 less
+                    # determined than that: this interval is too narrow" (hybrid-ESL 8x8,
+                    # 20 trials: Gxz ±27 % beside G13 "not determined (Monte Carlo)")
+                    text += " (too narrow: the Monte Carlo found it less determined)"
                 if "given the fixed" in u.get("verdict", ""):
                     text += " (given fixed values)"     # their own doubt is not in the ±
         if k in ref:

@@ -187,6 +187,24 @@ def test_a_property_from_fixed_constants_only_is_not_identified():
     assert _laminate_text(plate).endswith("% (given fixed values)")
 
 
+def test_report_laminate_line_says_an_interval_the_monte_carlo_found_too_narrow():
+    """hybrid-ESL (8x8, --monte-carlo 20): G13 "not determined by these modes (Monte Carlo)",
+    and Gxz (= G13 there) "weak — linearised; the Monte Carlo found ESL.G13 less determined
+    than that: this interval is too narrow" in the terminal, --json and the file; the
+    report's laminate line gave "Gxz 2.50 GPa ±27 %" alone, a plain interval. Now it says so;
+    a property the Monte Carlo did not touch keeps its plain "±"."""
+    from laminid_cli.report import _laminate_text
+
+    gu = {"Gxz": {"rel_half_width": 0.272, "verdict": "weak — linearised; the Monte Carlo "
+                  "found ESL.G13 less determined than that: this interval is too narrow"},
+          "Ex": {"rel_half_width": 0.0071, "verdict": "well determined"}}
+    plate = type("P", (), {"global_properties": {"Ex": 75.99e9, "Gxz": 2.50e9},
+                           "reference_global": {}, "global_uncertainty": gu})()
+    text = _laminate_text(plate)
+    assert "Gxz 2.50 GPa ±27 % (too narrow: the Monte Carlo found it less determined)" in text
+    assert "Ex 75.99 GPa ±0.71 %," in text
+
+
 def _qi_ex_nu_gxy(P):
     """Ex, nu_xy, Gxy of a pi/4 quasi-isotropic laminate from the Tsai-Pagano invariants
     (classical lamination theory, written for complex P: complex-step derivatives)."""
