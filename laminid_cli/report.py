@@ -2250,8 +2250,10 @@ def frf_page(r: ResultFile, plate, frf_path, bands=None, n_modes=None, own: bool
     ax_m, ax_p = axes[0], axes[1]
     ax_m.set_gid("frf")
     # the RFP frequencies in page 1's digits (1 decimal labelled its 124.98 Hz "125.0")
+    # (their sigmas as fit-frf and an frf_file's identify take them: the legend gives the span)
+    sig = rfp.measurement_sigma(fit, fs.freq, exp_window_s=rfp.window_time_constant(fs))
     draw_frf(ax_m, ax_p, fs.freq, fs.frf, fit, units=fs.units, coherence=fs.coherence,
-             ax_c=axes[2] if coh else None, decimals=2)
+             ax_c=axes[2] if coh else None, decimals=2, sigma_hz=sig.sigma_hz)
     for i, f in enumerate(plate.frequencies.model):
         ax_m.axvline(f, color="C3", ls=":", lw=1.2, label="model (identified)" if i == 0
                      else None)

@@ -668,3 +668,21 @@ def test_into_records_the_damping_sigma_rule_and_identify_reports_it(tmp_path, h
     with pytest.raises(SpecimenError, match="'damping_sigma_source' describes 'damping_sigma', "
                                             "which is missing"):
         read_specimen(bad)
+
+
+def test_plot_legend_gives_the_frequencies_sigma_span(tmp_path, h5, case):
+    """fit-frf --plot labelled the natural frequencies with their values alone (124.98); the
+    legend now gives the span of their standard deviations, the table's +/- column."""
+    from laminid_cli.frf import rfp
+    from laminid_cli.frf.plot import fit_figure, sigma_label
+
+    fit = rfp.find_modes(case.freq, case.frf)
+    sig = rfp.measurement_sigma(fit, case.freq, sigma_rel=0.002).sigma_hz
+    fig = fit_figure(case.freq, case.frf, fit, sigma_hz=sig)
+    texts = [t.get_text() for a in fig.axes if a.get_legend() for t in a.get_legend().get_texts()]
+    want = f"RFP natural frequency (± {sig.min():.3g}–{sig.max():.3g} Hz, one standard deviation)"
+    assert want in texts
+    assert sigma_label(None) == "RFP natural frequency"
+    assert sigma_label([0.25, 0.25]) == "RFP natural frequency (± 0.25 Hz, one standard deviation)"
+    r = run(["fit-frf", str(h5), "--plot", str(tmp_path / "fit.png")])
+    assert r.exit_code == 0, r.output

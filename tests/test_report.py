@@ -648,6 +648,12 @@ def test_frf_page_for_a_specimen_fitted_from_an_frf_file(tmp_path):
     labels = a.get_legend().get_texts()
     assert [t.get_text() for t in labels][:2] == ["measured (3 points)",
                                                   "RFP fit (one colour per band)"]
+    # the frequencies' doubt: the span of the sigmas identify took from this file's fit (the
+    # labels were the values alone)
+    with h5py.File(res) as f:
+        sig = next(iter(f["uncertainty/frequency_sigma"].values()))[()]    # the one plate's
+    assert labels[2].get_text() == (f"RFP natural frequency (± {sig.min():.3g}–{sig.max():.3g} "
+                                    "Hz, one standard deviation)")
     coh = next(x for x in fig.axes if x.get_ylabel() == "coherence (–)")
     lines = [ln for ln in coh.get_lines() if ln.get_gid() == "coherence"]
     assert len(lines) == 3 and np.array_equal(lines[0].get_ydata(), coherence[0])

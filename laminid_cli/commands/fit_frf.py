@@ -188,7 +188,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         from laminid_cli.frf.plot import plot_fit
 
         plot_fit(plot_path, fs.freq, fs.frf, fit, units=fs.units, coherence=fs.coherence,
-                 title=f"{Path(frf_file).name}: {len(fit.modes)} modes")
+                 title=f"{Path(frf_file).name}: {len(fit.modes)} modes", sigma_hz=sigma)
     into = None
     if spec_path is not None and not fit.modes:
         from laminid_cli.errors import FrfError
