@@ -395,10 +395,56 @@ def test_loss_factors_leaning_on_undetermined_constants_say_so(frf_case):
     assert {"E-glass/R368.eta13", "E-glass/R368.eta23"} <= set(head.split(", "))
     assert "E-glass/R368.G13" in tail and "E-glass/R368.G23" in tail
     assert tail.endswith("known less well than the interval says")
+    # E2 is not determined either: eta22's verdict was a plain "weak" (summary.csv's flag
+    # empty); it now says what its interval leans on (eta13 is held at 0, eta23 not
+    # determined already: theirs stay), the others' plain
+    verdict = dict(zip(d["labels"], d["verdict"]))
+    assert verdict["E-glass/R368.eta22"] == (
+        "weak — interval too narrow: its energy share leans on E-glass/R368.E2, not determined "
+        "by the modes")
+    assert verdict["E-glass/R368.eta11"] == "weak"
+    assert verdict["E-glass/R368.eta23"].startswith("not determined by the measured damping")
     fixed = run("identify", tmp / "plate.yaml", "--mesh", "6x6", "--fix", FIX, "--json",
                 "--no-output")
     assert not [n for n in json.loads(fixed.output)["damping"]["notes"]
                 if "take the elastic constants as identified" in n]
+
+
+def test_a_loss_factor_leaning_on_an_undetermined_constant_says_so_in_its_verdict():
+    """The synthetic S1.1 of scripts/example_frf.py (6x6; --fix-undetermined then leaves E2
+    and G12 not determined): eta22 and eta12 were "weak" with an interval, summary.csv's flag
+    empty, while their energy shares rest on E2 and G12; only a note said so, and the
+    summaries carry no notes. Without a Monte Carlo range that counts the constants' doubt,
+    their verdict now says it in every form (terminal, --json, HDF5, summaries, report); one
+    not determined already, or held at 0, keeps its verdict; the flag stays a plain one's."""
+    import dataclasses
+    from types import SimpleNamespace
+
+    from laminid_cli.batch import flag_word
+    from laminid_cli.damping import VERDICT_LEANS, leaning, with_leaning_verdicts
+
+    @dataclasses.dataclass(frozen=True)
+    class Fit:
+        labels: tuple
+        verdict: tuple
+        at_bound: tuple
+
+    m = "IM7/977-2"
+    fit = Fit(labels=tuple(f"{m}.eta{t}" for t in ("11", "22", "12", "13", "23")),
+              verdict=("weak", "weak", "well determined", "not determined by the measured "
+                       "damping", "weak"), at_bound=(False, False, False, False, True))
+    u = SimpleNamespace(flagged=(f"{m}.E2", f"{m}.G12"), labels=(f"{m}.G13",), at_bound=(True,))
+    assert leaning(fit, u, (f"{m}.G23",)) == {f"{m}.eta22": [f"{m}.E2"],
+                                               f"{m}.eta12": [f"{m}.G12"],
+                                               f"{m}.eta13": [f"{m}.G13"],
+                                               f"{m}.eta23": [f"{m}.G23"]}
+    out = with_leaning_verdicts(fit, u, (f"{m}.G23",))
+    assert out.verdict == (
+        "weak", "weak" + VERDICT_LEANS.format(labels=f"{m}.E2"),
+        "well determined — interval too narrow: its energy share leans on IM7/977-2.G12, not "
+        "determined by the modes",
+        "not determined by the measured damping", "weak")
+    assert flag_word({"verdict": out.verdict[1]}) == ""
 
 
 def test_fix_takes_loss_factors_in_percent_on_the_command_line(frf_case):
