@@ -172,6 +172,11 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
         was_at_limit = {lab for lab, b in zip(before.labels, before.at_bound) if b}
     scale = np.array([_dependence_scale(constants, lab) for lab in labels])
     by_monte_carlo = set(getattr(u, "verdict_from_monte_carlo", ()))
+    # constants held by their prior (more than half of what is known of them is the file's
+    # prior: their verdict says "(held by the prior)"); a property leaning on one says so
+    share = getattr(u, "information_from_prior", None)
+    by_prior = set() if share is None else {
+        lab for lab, x in zip(u.labels, np.asarray(share, float)) if x > 0.5}
     out = {}
     for i, key in enumerate(KEYS):
         g = float(g0[i])
@@ -215,6 +220,11 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
                         + ("it was" if len(counted) == 1 else "they were") + " fixed")
         if given:
             verdict += " — given the fixed " + ", ".join(given)
+        prior = [lab for lab in deps if lab in by_prior]
+        if prior:
+            # (S1.2 with prior {nu12: 1.0}: Ex "well determined" beside nu12 "well
+            # determined (held by the prior)", as if the modes had given both)
+            verdict += " — leans on the prior of " + ", ".join(prior)
         out[key] = GlobalInterval(key, g, float(std[i]), float(lo), float(hi), float(rel),
                                   verdict, (), (), given, counted)
     return out

@@ -666,6 +666,8 @@ def _laminate_text(plate) -> str:
                     text += " (too narrow: the Monte Carlo found it less determined)"
                 if "given the fixed" in u.get("verdict", ""):
                     text += " (given fixed values)"     # their own doubt is not in the ±
+                if "leans on the prior of" in u.get("verdict", ""):
+                    text += " (leans on a prior)"       # as the constant's "held by the prior"
         if k in ref:
             lo, hi = ref[k]
             r = (f"{lo:.3g}" if nu else f"{lo / 1e9:.3g} GPa") if lo == hi else \

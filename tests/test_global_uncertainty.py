@@ -205,6 +205,38 @@ def test_report_laminate_line_says_an_interval_the_monte_carlo_found_too_narrow(
     assert "Ex 75.99 GPa ±0.71 %," in text
 
 
+def test_a_property_leaning_on_a_constant_held_by_its_prior_says_so(tmp_path):
+    """S1.2 (6x6) with prior {nu12: 1.0}: nu12 ends "well determined (held by the prior)",
+    mostly the file's value; Ex, Ey, Gxy and the Poisson ratios, which depend on it, were
+    "well determined" / "weak" with no word of it, as if the modes had given them. Now "—
+    leans on the prior of IM7/977-2.nu12" (terminal, --json, the file) and "(leans on a prior)"
+    on the report's laminate line; Gxz, Gyz (no nu12 in them) keep theirs."""
+    from pathlib import Path
+
+    from laminid_cli.report import _laminate_text
+
+    text = Path("specimens/example1/S1.2.yaml").read_text()
+    assert text.count("    nu12: 0.35\n") == 1
+    spec = tmp_path / "pr.yaml"
+    spec.write_text(text.replace("    nu12: 0.35\n", "    nu12: 0.35\n    prior: {nu12: 1.0}\n"))
+    r = CliRunner().invoke(cli, ["identify", str(spec), "--mesh", "6x6", "--json",
+                                 "--no-output"])
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output)
+    assert d["uncertainty"]["constants"]["IM7/977-2"]["nu12"]["verdict"].endswith(
+        "(held by the prior)")
+    gu = d["global_uncertainty"]
+    for k in ("Ex", "Ey", "Gxy", "nu_xy", "nu_yx"):
+        assert gu[k]["verdict"].endswith(" — leans on the prior of IM7/977-2.nu12"), k
+    assert "prior" not in gu["Gxz"]["verdict"] and "prior" not in gu["Gyz"]["verdict"]
+    as_file = {k: {f: np.nan if v is None else v for f, v in e.items()} for k, e in gu.items()}
+    plate = type("P", (), {"global_properties": d["global_properties"],
+                           "reference_global": {}, "global_uncertainty": as_file})()
+    line = _laminate_text(plate)
+    rel = gu["Ex"]["rel_half_width"] * 100
+    assert f"Ex {gu['Ex']['value'] / 1e9:.2f} GPa ±{rel:.2g} % (leans on a prior)" in line
+
+
 def _qi_ex_nu_gxy(P):
     """Ex, nu_xy, Gxy of a pi/4 quasi-isotropic laminate from the Tsai-Pagano invariants
     (classical lamination theory, written for complex P: complex-step derivatives)."""
