@@ -632,6 +632,9 @@ def test_damping_sigma_says_whether_the_floor_or_the_spread_set_it(h5, case):
     r = run(["fit-frf", str(h5)])
     line = next(ln for ln in r.output.splitlines() if ln.startswith("zeta +/-:"))
     assert "at least 2 % of the ratio" in line and out["damping_sigma_rule"] in line
+    # the frequencies' line names its column too (a bare '+/-:' over two +/- columns)
+    line = next(ln for ln in r.output.splitlines() if "+/-: one standard deviation, fit-frf" in ln)
+    assert line.startswith("freq +/-: ")
 
 
 def test_into_records_the_damping_sigma_rule_and_identify_reports_it(tmp_path, h5, case):

@@ -266,7 +266,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
                 w_txt = f"{100 * r:>10.3f}  "
             click.echo(f"{i:>4}  {m.freq_hz:>11.3f}  {s:>9.3f}  {msig.dominant[i - 1]:>10}  "
                        f"{z_txt}  {w_txt}{m.orders_stable:>13d}")
-        click.echo(f"+/-: one standard deviation, {msig.summary()}")
+        click.echo(f"freq +/-: one standard deviation, {msig.summary()}")
         click.echo(f"zeta +/-: one standard deviation, the {rfp.damping_sigma_summary(zdom)}")
         if windowed:
             click.echo(f"damping: {wc.summary()}; as fitted = damping + window (--json: "
