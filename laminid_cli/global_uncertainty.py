@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from laminid_cli.intervals import VERDICT_NOT
 from laminid_cli.intervals import verdict as verdict_of
 from laminid_cli.material import CONSTANT_NAMES
 
@@ -42,6 +43,8 @@ REL_STEP = 1e-6
 #: |d ln g / d ln P| above which a property depends on a constant
 DEPENDS = 1e-3
 NOT_IDENTIFIED = "not identified"
+#: the advice after a constant's "not determined by these modes", which a property does not take
+_ADVICE = " — " + VERDICT_NOT.split(" — ", 1)[1]
 
 
 @dataclass(frozen=True)
@@ -210,7 +213,10 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
         else:
             with np.errstate(over="ignore"):
                 lo, hi = g * np.exp(-half / g), g * np.exp(half / g)
-        verdict = verdict_of(rel, False)
+        # the constants' bands and words, without their advice ("fix it or measure a thicker
+        # plate / more modes": no laminate property can be fixed; the terminal left it out,
+        # --json and the file gave it)
+        verdict = verdict_of(rel, False).replace(_ADVICE, "")
         mc = [lab for lab in deps if lab in by_monte_carlo]
         if mc:
             verdict += (" — linearised; the Monte Carlo found " + ", ".join(mc)

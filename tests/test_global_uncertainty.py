@@ -78,6 +78,20 @@ def test_linearised_spread_against_sampling_for_a_quasi_isotropic_laminate():
         assert out[key].std == pytest.approx(gp[:, i].std(), rel=0.03), key
 
 
+def test_a_property_not_determined_gets_no_constants_advice():
+    """A property wider than 30 % was "not determined by these modes — fix it or measure a
+    thicker plate / more modes" in --json and the file (the terminal printed the words
+    without the advice): no laminate property can be --fix'ed. The words are now the
+    terminal's in every form (S1.1 joint --fix-undetermined: Gxz ±35 %)."""
+    lam = laminate([0, 90, 90, 0])
+    v = np.array([getattr(C0, k) for k in CONSTANT_NAMES])
+    sd = np.where(np.array(CONSTANT_NAMES) == "nu12", 0.03, np.array([.02, .02, .02, .4, .4, 0]) * v)
+    out = global_intervals(lam, {"m": C0}, fake_u(np.diag(sd ** 2)))
+    assert out["Gxz"].rel_half_width > 0.3
+    assert out["Gxz"].verdict == "not determined by these modes"
+    assert out["Ex"].verdict == "well determined"
+
+
 def test_dependence_on_constants_at_a_bound_fixed_or_fixed_because_undetermined():
     """Gxz and Gyz of a cross-ply depend on G13 and G23 only, Ex, Ey, Gxy, nu_xy never on
     them: G13 at its bound leaves Gxz, Gyz not identified; G23 fixed because undetermined adds
