@@ -1280,12 +1280,14 @@ def mesh_summary(mc: dict | None) -> dict | None:
 
 
 def damping_of_file(d) -> dict:
-    """{material: {etaXY: {value, lower, upper, verdict, at_bound, bound_side, bound_limit}}}
+    """{material: {etaXY: {value, lower, upper, verdict, at_bound, bound_side, bound_limit,
+    flag}}} (flag: :func:`flag_word`, as summary.csv's column)
     of a result's /damping (:class:`laminid_cli.resultfile.Damping`: free loss factors with
     their interval, held at 0 and fixed ones with lower = upper = None, fixed ones with
     verdict "fixed"); with the loss factors' Monte Carlo
     (/damping/monte_carlo: each trial refitted them at its own constants) also mc_lower,
-    mc_upper, its range, as the constants have it."""
+    mc_upper, its range, and mc_lower_at_limit, mc_upper_at_limit (its lower end set by refits
+    held at 0; None: the file does not say), as the constants have them."""
     import numpy as np
 
     out: dict[str, dict] = {}
@@ -1306,14 +1308,26 @@ def damping_of_file(d) -> dict:
             "at_bound": hit, "bound_side": "lower" if hit else "",
             "bound_limit": 0.0 if hit else None}
         if mc is not None:
+            # the range's lower end set by refits held at 0 (eta >= 0: the bound's end, not
+            # the data's) is flagged as a constant's end on a search limit is (the terminal's
+            # "0*"); files before /damping/monte_carlo/lower_at_zero do not say (None)
+            zero = mc.get("lower_at_zero")
             out[mat][name].update(mc_lower=float(np.ravel(mc["lower"])[k]),
-                                  mc_upper=float(np.ravel(mc["upper"])[k]))
+                                  mc_upper=float(np.ravel(mc["upper"])[k]),
+                                  mc_lower_at_limit=None if zero is None
+                                  else bool(np.ravel(zero)[k]),
+                                  mc_upper_at_limit=None if zero is None else False)
     fixed = _str(d.attrs.get("fixed", ""))
     for item in filter(None, fixed.split(",")):
         lab, value = item.rsplit("=", 1)
         mat, name = lab.rsplit(".", 1)
         out.setdefault(mat, {})[name] = {"value": float(value), "lower": None, "upper": None,
                                          "verdict": "fixed"}
+    # the word summary.csv's flag column gives each (summary.json's constants have it; its
+    # loss factors had none: a script testing "flag" read eta13 "not determined" as plain)
+    for per in out.values():
+        for v in per.values():
+            v["flag"] = flag_word(v)
     return out
 
 
@@ -1329,7 +1343,7 @@ def damping_long_rows(row) -> list[dict]:
                         "upper": v["upper"], "verdict": v["verdict"], "unit": "1",
                         "status": row["status"], "bound_side": v.get("bound_side") or "",
                         "bound_limit": v.get("bound_limit"), "mc_lower": v.get("mc_lower"),
-                        "mc_upper": v.get("mc_upper")})
+                        "mc_upper": v.get("mc_upper"), "mc_search_limit": search_limit_text(v)})
     return out
 
 
@@ -1476,7 +1490,8 @@ def long_rows(rows, folder=None, columns=LONG_COLUMNS) -> list[list[str]]:
                           "upper": _num(d["upper"]), "verdict": d["verdict"],
                           "flag": flag_word(d), "unit": d["unit"],
                           "bound_side": d["bound_side"], "bound_limit": _num(d["bound_limit"]),
-                          "mc_lower": _num(d["mc_lower"]), "mc_upper": _num(d["mc_upper"])})
+                          "mc_lower": _num(d["mc_lower"]), "mc_upper": _num(d["mc_upper"]),
+                          "mc_search_limit": d["mc_search_limit"]})
         for cell in cells or [{}]:
             row = common | cell
             out.append([row.get(col, "") for col in columns])
@@ -1943,7 +1958,10 @@ def _rows_of_long(records, path: Path) -> list[dict]:
                 "at_bound": bool(side), "bound_side": side,
                 "bound_limit": _float(rec.get("bound_limit"))}
             if rec.get("mc_lower") not in ("", None):
-                eta.update(mc_lower=_float(rec["mc_lower"]), mc_upper=_float(rec.get("mc_upper")))
+                limit = rec.get("mc_search_limit") or ""
+                eta.update(mc_lower=_float(rec["mc_lower"]), mc_upper=_float(rec.get("mc_upper")),
+                           mc_lower_at_limit=limit in ("lower", "both"),
+                           mc_upper_at_limit=limit in ("upper", "both"))
     return list(rows.values())
 
 

@@ -550,9 +550,14 @@ def identify_damping(fm, result, damping: MeasuredDamping, *, fix=(), scaling: s
     eta = np.where(np.asarray(result.weight) > 0, damping.loss_factor, np.nan)
     src = sorted({s for s in damping.source if s})
     frf_file = getattr(fm.specimen.measured, "frf_file", "")
-    source = {"file": (f"the RFP fit of the specimen's measured.frf_file {frf_file} (spread "
-                       "over the stable orders, at least 2 % of the fitted ratio)" if frf_file else
-                       "the specimen file's measured.damping_sigma"),
+    # how they were made (fit-frf --into writes it; an frf_file's fit gives it): where the RFP
+    # fit's assumed 2 % floor set them, that is said, not read as a measured spread
+    made = getattr(fm.specimen.measured, "damping_sigma_source", "")
+    source = {"file": (f"the RFP fit of the specimen's measured.frf_file {frf_file} ("
+                       + (made or "spread over the stable orders, at least 2 % of the fitted "
+                          "ratio") + ")" if frf_file else
+                       "the specimen file's measured.damping_sigma"
+                       + (f" (made by: {made})" if made else "")),
               "relative": f"{DEFAULT_DAMPING_SIGMA_REL:.0%} of each damping ratio (none given)"}
     fit = fit_loss_factors(shares, eta, damping.loss_sigma, loss_labels(names),
                            fixed=parse_loss_fix(fix, names), scaling=scaling,
@@ -581,6 +586,11 @@ def damping_of(fm, assessment, fix=()) -> DampingFit | None:
                                 tuple(getattr(mc, "fixed_labels", ()) or ()) if counted else ())
     if note:
         fit = dataclasses.replace(fit, notes=fit.notes + (note,))
+    if not counted:
+        # no Monte Carlo range counts the constants' doubt: the verdict of a loss factor whose
+        # interval is too narrow for it says so itself (summary.csv and summary.json, which
+        # carry no notes, gave eta12 "weak", flag empty, beside G12 "not determined")
+        fit = with_leaning_verdicts(fit, u, assessment.fixed_undetermined)
     if counted:
         fit = with_monte_carlo_damping(fit, monte_carlo_loss_factors(fit, mc))
     return fit
@@ -589,6 +599,41 @@ def damping_of(fm, assessment, fix=()) -> DampingFit | None:
 #: the loss factor whose strain-energy share each elastic constant sets (nu12 couples 11, 22)
 TERMS_OF = {"E1": ("11",), "E2": ("22",), "G12": ("12",), "G13": ("13",), "G23": ("23",),
             "nu12": ("11", "22")}
+
+
+#: what a loss factor's verdict gets when its interval leans on elastic constants the modes do
+#: not determine and no Monte Carlo range counts their doubt (:func:`with_leaning_verdicts`)
+VERDICT_LEANS = (" — interval too narrow: its energy share leans on {labels}, not determined "
+                 "by the modes")
+
+
+def leaning(fit, u, fixed_undetermined=()) -> dict[str, list[str]]:
+    """{free loss factor: [the elastic constants the modes did not determine (flagged, at a
+    limit, or fixed by --fix-undetermined) whose strain-energy share it takes]} (:data:`TERMS_OF`);
+    only the loss factors that lean on some."""
+    doubtful = set(u.flagged) | set(fixed_undetermined)
+    if u.at_bound is not None:
+        doubtful |= {lab for lab, b in zip(u.labels, u.at_bound) if b}
+    free = set(fit.labels)
+    out: dict[str, list[str]] = {}
+    for lab in sorted(doubtful):
+        name, k = lab.rsplit(".", 1)
+        for t in TERMS_OF.get(k, ()):
+            if f"{name}.eta{t}" in free:
+                out.setdefault(f"{name}.eta{t}", []).append(lab)
+    return out
+
+
+def with_leaning_verdicts(fit, u, fixed_undetermined=()):
+    """``fit`` with :data:`VERDICT_LEANS` after the verdict of each free loss factor that leans
+    on constants the modes did not determine (:func:`leaning`), unless it is not determined or
+    held at 0 already (its verdict says more)."""
+    lean = leaning(fit, u, fixed_undetermined)
+    verdict = list(fit.verdict)
+    for k, lab in enumerate(fit.labels):
+        if lab in lean and not fit.at_bound[k] and not verdict[k].startswith("not determined"):
+            verdict[k] += VERDICT_LEANS.format(labels=", ".join(lean[lab]))
+    return dataclasses.replace(fit, verdict=tuple(verdict))
 
 
 def stiffness_doubt_note(fit, u, fixed_undetermined=(), monte_carlo: bool = False,

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from laminid_cli.intervals import VERDICT_NOT
 from laminid_cli.intervals import verdict as verdict_of
 from laminid_cli.material import CONSTANT_NAMES
 
@@ -42,6 +43,8 @@ REL_STEP = 1e-6
 #: |d ln g / d ln P| above which a property depends on a constant
 DEPENDS = 1e-3
 NOT_IDENTIFIED = "not identified"
+#: the advice after a constant's "not determined by these modes", which a property does not take
+_ADVICE = " — " + VERDICT_NOT.split(" — ", 1)[1]
 
 
 @dataclass(frozen=True)
@@ -172,6 +175,11 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
         was_at_limit = {lab for lab, b in zip(before.labels, before.at_bound) if b}
     scale = np.array([_dependence_scale(constants, lab) for lab in labels])
     by_monte_carlo = set(getattr(u, "verdict_from_monte_carlo", ()))
+    # constants held by their prior (more than half of what is known of them is the file's
+    # prior: their verdict says "(held by the prior)"); a property leaning on one says so
+    share = getattr(u, "information_from_prior", None)
+    by_prior = set() if share is None else {
+        lab for lab, x in zip(u.labels, np.asarray(share, float)) if x > 0.5}
     out = {}
     for i, key in enumerate(KEYS):
         g = float(g0[i])
@@ -205,7 +213,10 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
         else:
             with np.errstate(over="ignore"):
                 lo, hi = g * np.exp(-half / g), g * np.exp(half / g)
-        verdict = verdict_of(rel, False)
+        # the constants' bands and words, without their advice ("fix it or measure a thicker
+        # plate / more modes": no laminate property can be fixed; the terminal left it out,
+        # --json and the file gave it)
+        verdict = verdict_of(rel, False).replace(_ADVICE, "")
         mc = [lab for lab in deps if lab in by_monte_carlo]
         if mc:
             verdict += (" — linearised; the Monte Carlo found " + ", ".join(mc)
@@ -215,6 +226,11 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
                         + ("it was" if len(counted) == 1 else "they were") + " fixed")
         if given:
             verdict += " — given the fixed " + ", ".join(given)
+        prior = [lab for lab in deps if lab in by_prior]
+        if prior:
+            # (S1.2 with prior {nu12: 1.0}: Ex "well determined" beside nu12 "well
+            # determined (held by the prior)", as if the modes had given both)
+            verdict += " — leans on the prior of " + ", ".join(prior)
         out[key] = GlobalInterval(key, g, float(std[i]), float(lo), float(hi), float(rel),
                                   verdict, (), (), given, counted)
     return out

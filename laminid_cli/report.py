@@ -659,8 +659,15 @@ def _laminate_text(plate) -> str:
                          else f" (±{pct:.0f} %)")
                 if rel >= WEAK:           # as a constant is (intervals.WEAK)
                     text += " not determined"
+                if "the Monte Carlo found" in u.get("verdict", ""):
+                    # the terminal's "— linearised; the Monte Carlo found ESL.G13 less
+                    # determined than that: this interval is too narrow" (hybrid-ESL 8x8,
+                    # 20 trials: Gxz ±27 % beside G13 "not determined (Monte Carlo)")
+                    text += " (too narrow: the Monte Carlo found it less determined)"
                 if "given the fixed" in u.get("verdict", ""):
                     text += " (given fixed values)"     # their own doubt is not in the ±
+                if "leans on the prior of" in u.get("verdict", ""):
+                    text += " (leans on a prior)"       # as the constant's "held by the prior"
         if k in ref:
             lo, hi = ref[k]
             r = (f"{lo:.3g}" if nu else f"{lo / 1e9:.3g} GPa") if lo == hi else \
@@ -2245,8 +2252,10 @@ def frf_page(r: ResultFile, plate, frf_path, bands=None, n_modes=None, own: bool
     ax_m, ax_p = axes[0], axes[1]
     ax_m.set_gid("frf")
     # the RFP frequencies in page 1's digits (1 decimal labelled its 124.98 Hz "125.0")
+    # (their sigmas as fit-frf and an frf_file's identify take them: the legend gives the span)
+    sig = rfp.measurement_sigma(fit, fs.freq, exp_window_s=rfp.window_time_constant(fs))
     draw_frf(ax_m, ax_p, fs.freq, fs.frf, fit, units=fs.units, coherence=fs.coherence,
-             ax_c=axes[2] if coh else None, decimals=2)
+             ax_c=axes[2] if coh else None, decimals=2, sigma_hz=sig.sigma_hz)
     for i, f in enumerate(plate.frequencies.model):
         ax_m.axvline(f, color="C3", ls=":", lw=1.2, label="model (identified)" if i == 0
                      else None)

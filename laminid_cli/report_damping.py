@@ -276,6 +276,11 @@ def _table_words(fig, ax_t, title: str, words):
 
     from laminid_cli.report import _wrap_width
 
+    # the title wrapped to the page too: a long damping sigma source (fit-frf's rule, an
+    # frf_file's fit) ran off both edges of the page on one line
+    title = "\n".join(ln for para in title.split("\n")
+                      for ln in textwrap.wrap(para, _wrap_width(fig, 9),
+                                              break_on_hyphens=False) or [""])
     ax_t.set_title(title, fontsize=9)
     if not words:
         return None
@@ -611,7 +616,7 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
     width = min(0.22, 0.7 / max(nm, 1))
     offsets = {m: (c - (nm - 1) / 2) * width for c, m in enumerate(materials)}
     kinds: set[str] = set()
-    has_mc = False
+    has_mc = has_mc_limit = False
     on_top = dict(zorder=6, clip_on=False)
     for ax, k in zip(axes, TERMS):
         name = f"eta{k}"
@@ -633,7 +638,12 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                             for key in ("mc_lower", "mc_upper"))
                 if verdict != "fixed" and np.isfinite(mlo) and np.isfinite(mhi):
                     has_mc = True
-                    bars.append((xi + 0.55 * width, mlo, mhi, MC_COLOR, f"monte-carlo-{tag}"))
+                    # "*" on an end set by refits held at 0, as the terminal and the result's
+                    # damping page mark it (the bound's end, not the data's)
+                    limits = (bool(e.get("mc_lower_at_limit")), bool(e.get("mc_upper_at_limit")))
+                    has_mc_limit = has_mc_limit or any(limits)
+                    bars.append((xi + 0.55 * width, mlo, mhi, MC_COLOR, f"monte-carlo-{tag}",
+                                 limits))
                     loose.append(mhi)
                 if verdict == "fixed":
                     ax.plot([xi], [v], "s", ms=6, color=FIXED_COLOR, mfc="w", mew=1.3,
@@ -659,7 +669,7 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                     kinds.add("identified")
                     vals += [lo, hi, mlo, mhi]           # (the Monte Carlo's NaN: none)
                 if np.isfinite(lo) or np.isfinite(hi):
-                    bars.append((xi, lo, hi, color, f"interval-{tag}"))
+                    bars.append((xi, lo, hi, color, f"interval-{tag}", (False, False)))
         # the panel spans the identified values and their intervals; an interval of a loss
         # factor not determined runs off it with an arrow rather than squash
         # the others (as on the constants' page); from 0: a loss factor is >= 0
@@ -668,9 +678,9 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
             max([t for t in loose if np.isfinite(t)], default=1.0)
         ymax = 1.15 * top if top > 0 else 1.0
         ax.set_ylim(0.0, ymax)
-        for xi, lo, hi, color, gid in bars:
+        for xi, lo, hi, color, gid, limits in bars:
             _clipped_bar(ax, name, xi, lo, hi, 0.0, ymax, color,
-                         lw=2.2 if color == MC_COLOR else 1.2, gid=gid)
+                         lw=2.2 if color == MC_COLOR else 1.2, gid=gid, marks=limits)
         style_across_panel(ax, f"\u03b7{k} (%)", ticks)
         ax.set_ylabel("loss factor (%)", fontsize=8)
     handles = {m: Line2D([], [], ls="none", marker="o", ms=6, color=f"C{c % 10}")
@@ -690,8 +700,9 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
             h, text = marks[kind]
             handles[text] = h
     if has_mc:
-        handles["Monte Carlo range (each trial refits\nthe loss factors at its own constants)"] = \
-            Line2D([], [], color=MC_COLOR, lw=2.2)
+        handles["Monte Carlo range (each trial refits\nthe loss factors at its own constants)"
+                + ("\n*: end set by refits held at 0 (\u03b7 \u2265 0),\nnot by the data"
+                   if has_mc_limit else "")] = Line2D([], [], color=MC_COLOR, lw=2.2)
     ax_leg = fig.add_subplot(gs[1, 2])             # the sixth cell: clear of the panels
     ax_leg.axis("off")
     ax_leg.set_gid("legend")

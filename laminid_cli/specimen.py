@@ -161,6 +161,9 @@ class Measured:
     damping_sigma : (n,) their standard deviations, NaN where unknown; None when none given
     sigma_source : how the sigmas were made (``measured.sigma_source``, written by
         ``fit-frf --into``; for ``frf_file`` the fit's rule), "" when not said
+    damping_sigma_source : how the damping sigmas were made (``measured.damping_sigma_source``,
+        written by ``fit-frf --into``: how many are the RFP fit's assumed 2 % floor; for
+        ``frf_file`` the fit's), "" when not said
     frf_file : the FRF file (``measured.frf_file``, as written) whose RFP fit gave the
         frequencies, sigmas and damping; "" when the specimen file lists them itself
     """
@@ -172,6 +175,7 @@ class Measured:
     damping_sigma: np.ndarray | None = None
     sigma_source: str = ""
     frf_file: str = ""
+    damping_sigma_source: str = ""
 
     @property
     def n_modes(self) -> int:
@@ -1134,12 +1138,13 @@ def _check_derived_densities(r: _Reader, top: dict, root: _Y, densities: dict,
 
 def _read_measured(r: _Reader, y: _Y) -> Measured:
     m = r.mapping(y, optional=("frequencies", "weights", "sigma", "sigma_source", "frf_file",
-                               "bands", "modes", "damping", "damping_sigma"))
+                               "bands", "modes", "damping", "damping_sigma",
+                               "damping_sigma_source"))
     if "frf_file" in m:
         if "frequencies" in m or "sigma" in m or "sigma_source" in m:
             raise r.error(m["frf_file"], "give either 'frequencies' (and 'sigma') or "
                                          "'frf_file', not both")
-        for key in ("damping", "damping_sigma"):
+        for key in ("damping", "damping_sigma", "damping_sigma_source"):
             if key in m:
                 raise r.error(m[key], f"'{key}' comes from the fit of 'frf_file'; give either "
                                       "the FRF file or the damping ratios, not both")
@@ -1209,6 +1214,12 @@ def _read_measured(r: _Reader, y: _Y) -> Measured:
     damping = _damping_list(r, m, "damping", n, "damping ratios") if "damping" in m else None
     damping_sigma = (_damping_list(r, m, "damping_sigma", n, "standard deviations of the damping "
                                    "ratios") if "damping_sigma" in m else None)
+    damping_source = ""
+    if "damping_sigma_source" in m:
+        if damping_sigma is None:
+            raise r.error(m["damping_sigma_source"], "'damping_sigma_source' describes "
+                                                     "'damping_sigma', which is missing")
+        damping_source = r.string(m["damping_sigma_source"])
     if damping is not None:
         damping[np.isnan(freq)] = np.nan
         if damping_sigma is not None:
@@ -1241,7 +1252,8 @@ def _read_measured(r: _Reader, y: _Y) -> Measured:
         if array is not None:
             array.flags.writeable = False
     return Measured(freq=freq, weight=weight, sigma=sigma, damping=damping,
-                    damping_sigma=damping_sigma, sigma_source=source)
+                    damping_sigma=damping_sigma, sigma_source=source,
+                    damping_sigma_source=damping_source)
 
 
 #: damping ratios all at least this large are suspected of being percentages written as plain
@@ -1339,9 +1351,11 @@ def _measured_from_frf(r: _Reader, m: dict) -> Measured:
         if n_modes < 1:
             raise r.error(m["modes"], "the number of modes must be at least 1")
     found: list[str] = []
+    rule: list[str] = []
     try:
         freq, sigma, damping, damping_sigma = measured_from_frf_file(
-            path, bands=bands, n_modes=n_modes, with_damping_sigma=True, warnings=found)
+            path, bands=bands, n_modes=n_modes, with_damping_sigma=True, warnings=found,
+            damping_sigma_rule=rule)
     except FrfError as exc:
         raise r.error(m["frf_file"], f"fitting {path}: {exc}") from exc
     for warning in found:          # the FRF file's own (a frequency unit not stated)
@@ -1367,6 +1381,7 @@ def _measured_from_frf(r: _Reader, m: dict) -> Measured:
         array.flags.writeable = False
     return Measured(freq=freq, weight=weight, sigma=sigma, damping=damping,
                     damping_sigma=damping_sigma, frf_file=name,
+                    damping_sigma_source=rule[0] if rule else "",
                     sigma_source="sqrt(RFP spread^2 + resolution^2 + window^2), at least "
                                  f"{100 * DEFAULT_SIGMA_REL:g} % of f")
 

@@ -158,7 +158,8 @@ def test_batch_rows_carry_the_loss_factors(frf_case, tmp_path):
     row = json.loads((tmp_path / "out" / "summary.json").read_text())["specimens"][0]
     eta = row["damping"]["E-glass/R368"]
     assert eta["eta11"]["lower"] <= ETA[0] <= eta["eta11"]["upper"]
-    assert eta["eta23"] == {"value": 0.012, "lower": None, "upper": None, "verdict": "fixed"}
+    assert eta["eta23"] == {"value": 0.012, "lower": None, "upper": None, "verdict": "fixed",
+                            "flag": "fixed"}
     assert (eta["eta11"]["at_bound"], eta["eta11"]["bound_side"], eta["eta11"]["bound_limit"]) \
         == (False, "", None)
     rows = damping_long_rows(row)
@@ -208,6 +209,61 @@ def test_a_loss_factor_at_its_bound_in_the_summary_rows():
     assert (recs["eta11"]["lower"], recs["eta11"]["upper"]) == ("0.009", "0.013")
     assert recs["eta11"]["bound_side"] == recs["eta11"]["bound_limit"] == ""
     assert recs["eta23"]["verdict"] == "fixed" and recs["eta23"]["bound_side"] == ""
+
+
+def test_a_loss_factors_monte_carlo_end_held_at_0_is_flagged_in_the_summaries():
+    """The terminal and the result's damping page mark a loss factor's Monte Carlo end set by
+    refits held at 0 ("0*", /damping/monte_carlo/lower_at_zero); summary.csv's mc_search_limit
+    was empty for it and summary.json had no mc_lower_at_limit (the synthetic S1.1 of
+    scripts/example_frf.py, 6x6, 10 trials: eta23's range 0 .. 1.02 %, 3 refits at 0, left
+    unmarked past the result file). Now "lower" and True there, as a constant's end on a search
+    limit; an end the data set stays unflagged."""
+    from laminid_cli.batch import LONG_COLUMNS, damping_of_file, long_rows
+    from laminid_cli.resultfile import Damping
+
+    d = Damping(attrs={}, data={
+        "labels": ("m.eta11", "m.eta23"), "value": np.array([0.00187, 0.00774]),
+        "lower": np.array([0.00157, 0.0]), "upper": np.array([0.00216, 0.0170]),
+        "verdict": ("weak", "not determined by the measured damping"),
+        "at_bound": np.array([False, False])},
+        monte_carlo={"lower": np.array([0.00154, 0.0]), "upper": np.array([0.00214, 0.0102]),
+                     "lower_at_zero": np.array([0, 1], dtype=np.int8)})
+    per = damping_of_file(d)["m"]
+    assert (per["eta23"]["mc_lower_at_limit"], per["eta23"]["mc_upper_at_limit"]) \
+        == (True, False)
+    assert (per["eta11"]["mc_lower_at_limit"], per["eta11"]["mc_upper_at_limit"]) \
+        == (False, False)
+    assert per["eta23"]["mc_lower"] == 0.0 and per["eta23"]["mc_upper"] == 0.0102
+    row = {"name": "p", "specimen": "p", "status": "check", "reason": "", "reasons": [],
+           "rms_residual_percent": None, "result": None, "materials": {}, "damping": {"m": per}}
+    recs = {r[LONG_COLUMNS.index("constant")]: dict(zip(LONG_COLUMNS, r))
+            for r in long_rows([row])}
+    assert recs["eta23"]["mc_search_limit"] == "lower"
+    assert recs["eta23"]["mc_lower"] == "0.0" and recs["eta23"]["mc_upper"] == "0.0102"
+    assert recs["eta11"]["mc_search_limit"] == ""
+
+
+def test_summary_json_loss_factors_carry_the_flag_word_as_summary_csv():
+    """summary.csv's flag column said eta13 "undetermined", a loss factor held at 0
+    "at_bound", a --fix'ed one "fixed"; summary.json's loss factors had no "flag" at all (its
+    constants have one), so a script testing it read them as plain identified values."""
+    from laminid_cli.batch import LONG_COLUMNS, damping_of_file, long_rows
+    from laminid_cli.damping import VERDICT_NOT_DAMPING
+    from laminid_cli.resultfile import Damping
+
+    d = Damping(attrs={"fixed": "m.eta23=0.012"}, data={
+        "labels": ("m.eta11", "m.eta12", "m.eta13"), "value": np.array([0.002, 0.0, 0.013]),
+        "lower": np.array([0.0016, 0.0, 0.0]), "upper": np.array([0.0023, 0.006, 0.036]),
+        "verdict": ("weak", "at bound — not identified", VERDICT_NOT_DAMPING.format(term="eta13")),
+        "at_bound": np.array([False, True, False])})
+    per = damping_of_file(d)["m"]
+    flags = {k: v["flag"] for k, v in per.items()}
+    assert flags == {"eta11": "", "eta12": "at_bound", "eta13": "undetermined", "eta23": "fixed"}
+    row = {"name": "p", "specimen": "p", "status": "check", "reason": "", "reasons": [],
+           "rms_residual_percent": None, "result": None, "materials": {}, "damping": {"m": per}}
+    recs = {r[LONG_COLUMNS.index("constant")]: r[LONG_COLUMNS.index("flag")]
+            for r in long_rows([row])}
+    assert recs == flags
 
 
 def test_a_loss_factor_held_at_0_has_no_interval_anywhere(tmp_path):
@@ -339,10 +395,56 @@ def test_loss_factors_leaning_on_undetermined_constants_say_so(frf_case):
     assert {"E-glass/R368.eta13", "E-glass/R368.eta23"} <= set(head.split(", "))
     assert "E-glass/R368.G13" in tail and "E-glass/R368.G23" in tail
     assert tail.endswith("known less well than the interval says")
+    # E2 is not determined either: eta22's verdict was a plain "weak" (summary.csv's flag
+    # empty); it now says what its interval leans on (eta13 is held at 0, eta23 not
+    # determined already: theirs stay), the others' plain
+    verdict = dict(zip(d["labels"], d["verdict"]))
+    assert verdict["E-glass/R368.eta22"] == (
+        "weak — interval too narrow: its energy share leans on E-glass/R368.E2, not determined "
+        "by the modes")
+    assert verdict["E-glass/R368.eta11"] == "weak"
+    assert verdict["E-glass/R368.eta23"].startswith("not determined by the measured damping")
     fixed = run("identify", tmp / "plate.yaml", "--mesh", "6x6", "--fix", FIX, "--json",
                 "--no-output")
     assert not [n for n in json.loads(fixed.output)["damping"]["notes"]
                 if "take the elastic constants as identified" in n]
+
+
+def test_a_loss_factor_leaning_on_an_undetermined_constant_says_so_in_its_verdict():
+    """The synthetic S1.1 of scripts/example_frf.py (6x6; --fix-undetermined then leaves E2
+    and G12 not determined): eta22 and eta12 were "weak" with an interval, summary.csv's flag
+    empty, while their energy shares rest on E2 and G12; only a note said so, and the
+    summaries carry no notes. Without a Monte Carlo range that counts the constants' doubt,
+    their verdict now says it in every form (terminal, --json, HDF5, summaries, report); one
+    not determined already, or held at 0, keeps its verdict; the flag stays a plain one's."""
+    import dataclasses
+    from types import SimpleNamespace
+
+    from laminid_cli.batch import flag_word
+    from laminid_cli.damping import VERDICT_LEANS, leaning, with_leaning_verdicts
+
+    @dataclasses.dataclass(frozen=True)
+    class Fit:
+        labels: tuple
+        verdict: tuple
+        at_bound: tuple
+
+    m = "IM7/977-2"
+    fit = Fit(labels=tuple(f"{m}.eta{t}" for t in ("11", "22", "12", "13", "23")),
+              verdict=("weak", "weak", "well determined", "not determined by the measured "
+                       "damping", "weak"), at_bound=(False, False, False, False, True))
+    u = SimpleNamespace(flagged=(f"{m}.E2", f"{m}.G12"), labels=(f"{m}.G13",), at_bound=(True,))
+    assert leaning(fit, u, (f"{m}.G23",)) == {f"{m}.eta22": [f"{m}.E2"],
+                                               f"{m}.eta12": [f"{m}.G12"],
+                                               f"{m}.eta13": [f"{m}.G13"],
+                                               f"{m}.eta23": [f"{m}.G23"]}
+    out = with_leaning_verdicts(fit, u, (f"{m}.G23",))
+    assert out.verdict == (
+        "weak", "weak" + VERDICT_LEANS.format(labels=f"{m}.E2"),
+        "well determined — interval too narrow: its energy share leans on IM7/977-2.G12, not "
+        "determined by the modes",
+        "not determined by the measured damping", "weak")
+    assert flag_word({"verdict": out.verdict[1]}) == ""
 
 
 def test_fix_takes_loss_factors_in_percent_on_the_command_line(frf_case):

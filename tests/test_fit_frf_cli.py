@@ -379,7 +379,8 @@ def test_into_leaves_every_other_line_byte_for_byte_and_no_stale_comment(tmp_pat
         assert new[:k] == old[:k] and new[k + added:] == old[k + 1:]
         written = new[k:k + added]
         assert [line.split(":")[0] for line in written] == [
-            "  frequencies", "  sigma", "  sigma_source", "  damping", "  damping_sigma"]
+            "  frequencies", "  sigma", "  sigma_source", "  damping", "  damping_sigma",
+            "  damping_sigma_source"]
         assert "Table 1" not in "".join(written)
         assert written[0].endswith("]   # Hz, laminid fit-frf of plate.frf.h5")
         # the damping line says what its numbers are: 0.008 beside the table's 'zeta (%)
@@ -537,7 +538,7 @@ def test_json_states_the_unit_of_the_modal_constants_and_which_spread_is_which(h
     assert out["mode_units"]["snr"] == ("1 (linear, not dB: the mode's peak contribution over "
                                         "the RMS of the fit's residual around it)")
     assert all(m["snr"] > 5 for m in out["modes"])           # rfp's min_snr, linear
-    counts = {"mode", "orders_stable", "sigma_dominant"}
+    counts = {"mode", "orders_stable", "sigma_dominant", "damping_sigma_dominant"}   # words
     for m in out["modes"]:
         assert set(m) - counts == set(out["mode_units"])
         # freq_std_hz is the 'rfp spread' term alone; sigma_hz is every term, floored
@@ -601,3 +602,90 @@ def test_into_with_no_mode_found_names_the_fit_not_the_specimen(tmp_path, h5):
                         f"nothing to write into {spec}, left unchanged; fit other bands "
                         "(--band LO:HI)\n")
     assert spec.read_text() == SPEC and not list(tmp_path.glob("p.yaml.bak*"))
+
+
+def test_damping_sigma_says_whether_the_floor_or_the_spread_set_it(h5, case):
+    """A damping ratio's +/- is its spread over the stable orders, at least 2 % of the ratio.
+    The table named what set each frequency's sigma ('from', the footnote) but not the
+    damping's: on the synthetic S1.1 (scripts/example_frf.py) 12 of 13 damping sigmas were
+    exactly the assumed 2 % floor, shown as if the FRFs had measured them. Now --json gives
+    each mode's damping_sigma_dominant and damping_sigma_rule, and the table a footnote with
+    the counts, matching the sigmas themselves."""
+    from laminid_cli.frf import rfp
+
+    fit = rfp.find_modes(case.freq, case.frf)
+    z = np.asarray(fit.damping_ratio)
+    std = np.array([m.damping_std for m in fit.modes])
+    expect = ["rfp spread" if s > 0.02 * v else "floor" for s, v in zip(std, z)]
+    assert rfp.damping_sigma_dominant(fit) == expect
+    r = run(["fit-frf", str(h5), "--json"])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.output)
+    got = [mo["damping_sigma_dominant"] for mo in out["modes"]]
+    assert got == expect
+    for mo, d in zip(out["modes"], got):                # the sigma is the term it names
+        floor = 0.02 * mo["damping_ratio"]
+        assert mo["damping_sigma"] == pytest.approx(floor if d == "floor" else mo["damping_std"],
+                                                    rel=1e-12)
+    n_floor = expect.count("floor")
+    assert f"floor {n_floor} (modes)" in out["damping_sigma_rule"] if n_floor else True
+    r = run(["fit-frf", str(h5)])
+    line = next(ln for ln in r.output.splitlines() if ln.startswith("zeta +/-:"))
+    assert "at least 2 % of the ratio" in line and out["damping_sigma_rule"] in line
+    # the frequencies' line names its column too (a bare '+/-:' over two +/- columns)
+    line = next(ln for ln in r.output.splitlines() if "+/-: one standard deviation, fit-frf" in ln)
+    assert line.startswith("freq +/-: ")
+
+
+def test_into_records_the_damping_sigma_rule_and_identify_reports_it(tmp_path, h5, case):
+    """--into wrote the damping sigmas without a word of how they were made, and identify
+    said "the specimen file's measured.damping_sigma", as if measured: 12 of 13 of the
+    synthetic S1.1's were the RFP fit's assumed 2 % floor. Now measured.damping_sigma_source
+    says so (the fit's counts), identify repeats it ("made by: ..."), a later fit without it
+    drops the stale one, and one without damping_sigma is refused."""
+    from laminid_cli.errors import SpecimenError
+    from laminid_cli.frf import rfp
+    from laminid_cli.frf.into import write_measured
+    from laminid_cli.specimen import read_specimen
+
+    spec = tmp_path / "S1.1.yaml"
+    spec.write_text(_S11.read_text())
+    assert run(["fit-frf", str(h5), "--into", str(spec)]).exit_code == 0
+    rule = rfp.damping_sigma_summary(rfp.damping_sigma_dominant(
+        rfp.find_modes(case.freq, case.frf)))
+    measured = yaml.safe_load(spec.read_text())["measured"]
+    assert measured["damping_sigma_source"] == f"plate.frf.h5: fit-frf: {rule}"
+    assert read_specimen(spec).measured.damping_sigma_source == f"plate.frf.h5: fit-frf: {rule}"
+    r = run(["identify", str(spec), "--mesh", "6x6", "--no-output", "--json"])
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.stdout)["damping"]["sigma_source"] == (
+        f"the specimen file's measured.damping_sigma (made by: plate.frf.h5: fit-frf: {rule})")
+    s = read_specimen(spec).measured
+    write_measured(spec, list(s.freq), list(s.sigma), damping=list(s.damping),
+                   damping_sigma=list(s.damping_sigma))
+    assert "damping_sigma_source" not in yaml.safe_load(spec.read_text())["measured"]
+    lines = [ln if not ln.startswith("  damping_sigma:") else "  damping_sigma_source: by eye"
+             for ln in spec.read_text().splitlines()]
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("\n".join(lines) + "\n")
+    with pytest.raises(SpecimenError, match="'damping_sigma_source' describes 'damping_sigma', "
+                                            "which is missing"):
+        read_specimen(bad)
+
+
+def test_plot_legend_gives_the_frequencies_sigma_span(tmp_path, h5, case):
+    """fit-frf --plot labelled the natural frequencies with their values alone (124.98); the
+    legend now gives the span of their standard deviations, the table's +/- column."""
+    from laminid_cli.frf import rfp
+    from laminid_cli.frf.plot import fit_figure, sigma_label
+
+    fit = rfp.find_modes(case.freq, case.frf)
+    sig = rfp.measurement_sigma(fit, case.freq, sigma_rel=0.002).sigma_hz
+    fig = fit_figure(case.freq, case.frf, fit, sigma_hz=sig)
+    texts = [t.get_text() for a in fig.axes if a.get_legend() for t in a.get_legend().get_texts()]
+    want = f"RFP natural frequency (± {sig.min():.3g}–{sig.max():.3g} Hz, one standard deviation)"
+    assert want in texts
+    assert sigma_label(None) == "RFP natural frequency"
+    assert sigma_label([0.25, 0.25]) == "RFP natural frequency (± 0.25 Hz, one standard deviation)"
+    r = run(["fit-frf", str(h5), "--plot", str(tmp_path / "fit.png")])
+    assert r.exit_code == 0, r.output

@@ -86,9 +86,10 @@ def test_identify_and_the_report_say_the_sigmas_came_from_fitting_the_frf_file(f
     assert f"frequency standard deviations: {FRF_FILE_SIGMA}" in r.output
     assert "measured.sigma" not in r.output
     # the damping's sigmas too (they said 'specimen file / FRF fit')
+    # (and what set them: the spread or the fit's assumed 2 % floor, as fit-frf says)
     assert ("damping standard deviations: the RFP fit of the specimen's measured.frf_file "
-            "plate.frf.h5 (spread over the stable orders, at least 2 % of the fitted ratio)"
-            in " ".join(r.output.split()))
+            "plate.frf.h5 (fitted ratio's spread over the stable orders, at least 2 % of the "
+            "ratio; dominated by: " in " ".join(r.output.split()))
     page1 = result_page(out, "summary")                    # the report's page 1
     texts = [t.get_text() for t in list(page1.texts) + [t for a in page1.axes for t in a.texts]]
     flat = " ".join(" ".join(texts).split())

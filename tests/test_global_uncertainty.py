@@ -78,6 +78,20 @@ def test_linearised_spread_against_sampling_for_a_quasi_isotropic_laminate():
         assert out[key].std == pytest.approx(gp[:, i].std(), rel=0.03), key
 
 
+def test_a_property_not_determined_gets_no_constants_advice():
+    """A property wider than 30 % was "not determined by these modes — fix it or measure a
+    thicker plate / more modes" in --json and the file (the terminal printed the words
+    without the advice): no laminate property can be --fix'ed. The words are now the
+    terminal's in every form (S1.1 joint --fix-undetermined: Gxz ±35 %)."""
+    lam = laminate([0, 90, 90, 0])
+    v = np.array([getattr(C0, k) for k in CONSTANT_NAMES])
+    sd = np.where(np.array(CONSTANT_NAMES) == "nu12", 0.03, np.array([.02, .02, .02, .4, .4, 0]) * v)
+    out = global_intervals(lam, {"m": C0}, fake_u(np.diag(sd ** 2)))
+    assert out["Gxz"].rel_half_width > 0.3
+    assert out["Gxz"].verdict == "not determined by these modes"
+    assert out["Ex"].verdict == "well determined"
+
+
 def test_dependence_on_constants_at_a_bound_fixed_or_fixed_because_undetermined():
     """Gxz and Gyz of a cross-ply depend on G13 and G23 only, Ex, Ey, Gxy, nu_xy never on
     them: G13 at its bound leaves Gxz, Gyz not identified; G23 fixed because undetermined adds
@@ -185,6 +199,56 @@ def test_a_property_from_fixed_constants_only_is_not_identified():
     plate = type("P", (), {"global_properties": {"Ex": gu["Ex"]["value"]},
                            "reference_global": {}, "global_uncertainty": {"Ex": gu["Ex"]}})()
     assert _laminate_text(plate).endswith("% (given fixed values)")
+
+
+def test_report_laminate_line_says_an_interval_the_monte_carlo_found_too_narrow():
+    """hybrid-ESL (8x8, --monte-carlo 20): G13 "not determined by these modes (Monte Carlo)",
+    and Gxz (= G13 there) "weak — linearised; the Monte Carlo found ESL.G13 less determined
+    than that: this interval is too narrow" in the terminal, --json and the file; the
+    report's laminate line gave "Gxz 2.50 GPa ±27 %" alone, a plain interval. Now it says so;
+    a property the Monte Carlo did not touch keeps its plain "±"."""
+    from laminid_cli.report import _laminate_text
+
+    gu = {"Gxz": {"rel_half_width": 0.272, "verdict": "weak — linearised; the Monte Carlo "
+                  "found ESL.G13 less determined than that: this interval is too narrow"},
+          "Ex": {"rel_half_width": 0.0071, "verdict": "well determined"}}
+    plate = type("P", (), {"global_properties": {"Ex": 75.99e9, "Gxz": 2.50e9},
+                           "reference_global": {}, "global_uncertainty": gu})()
+    text = _laminate_text(plate)
+    assert "Gxz 2.50 GPa ±27 % (too narrow: the Monte Carlo found it less determined)" in text
+    assert "Ex 75.99 GPa ±0.71 %," in text
+
+
+def test_a_property_leaning_on_a_constant_held_by_its_prior_says_so(tmp_path):
+    """S1.2 (6x6) with prior {nu12: 1.0}: nu12 ends "well determined (held by the prior)",
+    mostly the file's value; Ex, Ey, Gxy and the Poisson ratios, which depend on it, were
+    "well determined" / "weak" with no word of it, as if the modes had given them. Now "—
+    leans on the prior of IM7/977-2.nu12" (terminal, --json, the file) and "(leans on a prior)"
+    on the report's laminate line; Gxz, Gyz (no nu12 in them) keep theirs."""
+    from pathlib import Path
+
+    from laminid_cli.report import _laminate_text
+
+    text = Path("specimens/example1/S1.2.yaml").read_text()
+    assert text.count("    nu12: 0.35\n") == 1
+    spec = tmp_path / "pr.yaml"
+    spec.write_text(text.replace("    nu12: 0.35\n", "    nu12: 0.35\n    prior: {nu12: 1.0}\n"))
+    r = CliRunner().invoke(cli, ["identify", str(spec), "--mesh", "6x6", "--json",
+                                 "--no-output"])
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output)
+    assert d["uncertainty"]["constants"]["IM7/977-2"]["nu12"]["verdict"].endswith(
+        "(held by the prior)")
+    gu = d["global_uncertainty"]
+    for k in ("Ex", "Ey", "Gxy", "nu_xy", "nu_yx"):
+        assert gu[k]["verdict"].endswith(" — leans on the prior of IM7/977-2.nu12"), k
+    assert "prior" not in gu["Gxz"]["verdict"] and "prior" not in gu["Gyz"]["verdict"]
+    as_file = {k: {f: np.nan if v is None else v for f, v in e.items()} for k, e in gu.items()}
+    plate = type("P", (), {"global_properties": d["global_properties"],
+                           "reference_global": {}, "global_uncertainty": as_file})()
+    line = _laminate_text(plate)
+    rel = gu["Ex"]["rel_half_width"] * 100
+    assert f"Ex {gu['Ex']['value'] / 1e9:.2f} GPa ±{rel:.2g} % (leans on a prior)" in line
 
 
 def _qi_ex_nu_gxy(P):

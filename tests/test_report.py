@@ -687,6 +687,12 @@ def test_frf_page_for_a_specimen_fitted_from_an_frf_file(frf_case, tmp_path, mon
     labels = a.get_legend().get_texts()
     assert [t.get_text() for t in labels][:2] == ["measured (3 points)",
                                                   "RFP fit (one colour per band)"]
+    # the frequencies' doubt: the span of the sigmas identify took from this file's fit (the
+    # labels were the values alone)
+    with h5py.File(res) as f:
+        sig = next(iter(f["uncertainty/frequency_sigma"].values()))[()]    # the one plate's
+    assert labels[2].get_text() == (f"RFP natural frequency (± {sig.min():.3g}–{sig.max():.3g} "
+                                    "Hz, one standard deviation)")
     coh = next(x for x in fig.axes if x.get_ylabel() == "coherence (–)")
     lines = [ln for ln in coh.get_lines() if ln.get_gid() == "coherence"]
     assert len(lines) == 3 and np.array_equal(lines[0].get_ydata(), coherence[0])
@@ -1938,15 +1944,24 @@ def test_summary_loss_factor_page_draws_their_monte_carlo_range(tmp_path, kind):
     """With --monte-carlo each trial refits the loss factors at its own constants: the range
     goes into both summaries (mc_lower, mc_upper of the loss factor's row, as a constant's),
     reads back, and is drawn in grey beside the interval, named in the legend and the footer;
-    a loss factor held at 0 keeps its side and limit through summary.csv."""
+    a loss factor held at 0 keeps its side and limit through summary.csv. A range whose lower
+    end refits held at 0 set (eta13 here; the terminal's "0*") keeps that flag through both
+    summaries (summary.csv's mc_search_limit "lower") and gets its "*" on the page, with the
+    legend saying what it means; it had none past the result file."""
     from laminid_cli.batch import read_summary
+    from laminid_cli.damping import VERDICT_NOT_DAMPING
     from laminid_cli.report import MC_COLOR
 
     rows = _summary_rows()
     free = {"at_bound": False, "bound_side": "", "bound_limit": None}
     rows[0]["damping"] = {"glass": {
         "eta11": {"value": 0.002, "lower": 0.0017, "upper": 0.0023, "verdict": "weak",
-                  "mc_lower": 0.0012, "mc_upper": 0.0031} | free,
+                  "mc_lower": 0.0012, "mc_upper": 0.0031, "mc_lower_at_limit": False,
+                  "mc_upper_at_limit": False} | free,
+        "eta13": {"value": 0.0077, "lower": 0.0, "upper": 0.017,
+                  "verdict": VERDICT_NOT_DAMPING.format(term="eta13"), "mc_lower": 0.0,
+                  "mc_upper": 0.0102, "mc_lower_at_limit": True,
+                  "mc_upper_at_limit": False} | free,
         "eta22": {"value": 0.0, "lower": 0.0, "upper": 0.03, "verdict":
                   "at bound — not identified", "at_bound": True, "bound_side": "lower",
                   "bound_limit": 0.0}}}
@@ -1956,13 +1971,22 @@ def test_summary_loss_factor_page_draws_their_monte_carlo_range(tmp_path, kind):
     assert back["eta11"]["mc_lower"] == 0.0012 and back["eta11"]["mc_upper"] == 0.0031
     assert back["eta22"]["bound_side"] == "lower" and back["eta22"]["bound_limit"] == 0.0
     assert "mc_lower" not in back["eta22"] or back["eta22"]["mc_lower"] is None
+    assert (back["eta13"]["mc_lower_at_limit"], back["eta13"]["mc_upper_at_limit"]) \
+        == (True, False)
+    assert not back["eta11"]["mc_lower_at_limit"] and not back["eta11"]["mc_upper_at_limit"]
     fig = {p.name: p.figure for p in report_pages(path)}["loss-factors"]
     a = ax(fig, "across-eta11")
     mc = _line(a, "monte-carlo-H-glass")
     assert np.allclose(mc.get_ydata(), [0.12, 0.31], rtol=1e-12) and mc.get_color() == MC_COLOR
     assert mc.get_xdata()[0] > _line(a, "interval-H-glass").get_xdata()[0]
+    assert not [t for t in a.texts if t.get_gid() == "monte-carlo-H-glass-search-limit"]
+    a = ax(fig, "across-eta13")
+    assert _line(a, "monte-carlo-H-glass").get_ydata()[0] == 0.0      # (off the top: arrow)
+    star = [t for t in a.texts if t.get_gid() == "monte-carlo-H-glass-search-limit"]
+    assert [t.get_text() for t in star] == ["*"] and star[0].xy[1] == 0.0
     legend = [t.get_text() for t in ax(fig, "legend").get_legend().get_texts()]
     assert any(t.startswith("Monte Carlo range (each trial refits") for t in legend)
+    assert any("*: end set by refits held at 0" in t for t in legend)
     assert any("the Monte Carlo ranges count the free constants' doubt too"
                in " ".join(t.get_text().split()) for t in fig.texts)
 

@@ -137,6 +137,32 @@ def test_damping_page_gives_the_results_note_on_the_loss_factors(notes):
     assert 0 <= box.x0 and box.x1 <= fig.bbox.width
 
 
+def test_damping_page_wraps_a_long_damping_sigma_source_inside_the_page():
+    """The loss-factor table's title gives the damping sigma's source on one line; the source
+    an frf_file's fit states ("the RFP fit of the specimen's measured.frf_file plate.frf.h5
+    (spread over the stable orders, at least 2 % of the fitted ratio)", about 230 characters
+    with the rest of the title) ran off both edges of the page, the rule cut on either side.
+    Now wrapped: every character of it is on the page, within its width."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from laminid_cli.report_damping import damping_pages
+
+    d = _damping_data("")
+    d["sigma_source"] = ("the RFP fit of the specimen's measured.frf_file plate.frf.h5 (fitted "
+                         "ratio's spread over the stable orders, at least 2 % of the ratio; "
+                         "dominated by: rfp spread 1, floor 12 (modes); the floor is an assumed "
+                         "2 %, not a spread the FRFs showed)")
+    fig = damping_pages(d)[0]
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw_without_rendering()
+    a = ax(fig, "loss-factors")
+    said = " ".join(a.title.get_text().split())
+    assert d["sigma_source"] in said
+    box = a.title.get_window_extent(renderer)
+    assert 0 <= box.x0 and box.x1 <= fig.bbox.width, (box.x0, box.x1, fig.bbox.width)
+    assert len([x for x in a.title.get_text().split("\n") if x]) >= 2
+
+
 def _legend_title(fig) -> str:
     return next(a.get_legend().get_title().get_text() for a in fig.axes
                 if a.get_legend() is not None)

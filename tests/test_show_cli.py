@@ -47,6 +47,23 @@ def test_show_prints_what_identify_printed(single):
     assert "status:" in body and "E1" in body
 
 
+def test_frequency_table_gives_each_measured_frequency_its_sigma(single):
+    """The mode table gave the measured frequencies without their standard deviations (the
+    damping table has its '+/-'; the sigmas were in --json, the file and the report's shading
+    only): the residuals could not be read against them. S1.1 (0.2 % of each frequency, the
+    --sigma-rel default): a '+/- Hz' column, 0.25 Hz for 125.05 Hz, identify and show alike."""
+    out, text = single
+    lines = text.splitlines()
+    head = next(i for i, ln in enumerate(lines) if "residual %" in ln)
+    assert lines[head].split()[-3:] == ["weight", "+/-", "Hz"]
+    rows = [ln.split() for ln in lines[head + 1:head + 13]]
+    measured = np.array([float(r[2]) for r in rows])
+    assert measured[0] == 125.05
+    assert [r[5] for r in rows] == [f"{0.002 * f:.2f}" for f in measured]
+    r = run("show", out)
+    assert lines[head] in r.stdout.splitlines() and "\n".join(lines[head:head + 13]) in r.stdout
+
+
 def test_show_json_is_identify_json_plus_file_and_written(tmp_path):
     out = tmp_path / "s11.h5"
     d = json.loads(_identify(S11, "--mesh", MESH, "--json", "-o", out))

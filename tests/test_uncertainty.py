@@ -772,6 +772,34 @@ def test_a_range_end_is_at_the_bound_when_the_quantile_depends_on_a_trial_there(
             assert bool(up[0]) == depends and not low[0], (n, k, conf)
 
 
+@pytest.mark.parametrize("n", [5, 10, 40])
+def test_the_far_end_of_a_range_of_trials_nearly_all_on_one_limit_is_flagged_too(n):
+    """Where (nearly) every trial ends on the lower limit, the range's upper quantile is one of
+    them too: S2.1 (8x8, 10 trials, all on G13's lower limit 1e-4 E1) printed "0.002879 GPa*
+    .. 0.003000 GPa", an upper end no bound of the data (its profile is flat to 18.5 GPa)
+    left unmarked. Against numpy's quantile: the upper end is flagged exactly when moving the
+    trials on the lower limit moves it by at least half as much (k of n on the limit, k up to
+    n); and the same mirrored; none flagged without trials (n = 0)."""
+    from laminid_cli.uncertainty import range_ends_at_bound
+
+    rng = np.random.default_rng(n)
+    for k in range(n + 1):
+        x = 1.0 + rng.random(n)
+        x[:k] = 1.0                                     # k samples at the lower limit
+        moved = x.copy()
+        moved[:k] = 0.5
+        for conf in (0.9, 0.95):
+            q = (1 - conf) / 2
+            low_dep = abs(np.quantile(x, q) - np.quantile(moved, q)) >= 0.25 - 1e-12
+            up_dep = abs(np.quantile(x, 1 - q) - np.quantile(moved, 1 - q)) >= 0.25 - 1e-12
+            low, up = range_ends_at_bound([k], [0], n, conf)
+            assert (bool(low[0]), bool(up[0])) == (low_dep, up_dep), (n, k, conf)
+            low, up = range_ends_at_bound([0], [k], n, conf)      # mirrored: upper limit
+            assert (bool(low[0]), bool(up[0])) == (up_dep, low_dep), (n, k, conf)
+    assert range_ends_at_bound([10], [0], 10, 0.95) == (np.array([True]), np.array([True]))
+    assert range_ends_at_bound([0], [0], 0, 0.95) == (np.array([False]), np.array([False]))
+
+
 def test_monte_carlo_trials_on_a_search_limit_are_counted_and_marked(tmp_path):
     """S1.1 (12x12, all six free, 40 seeded trials): G23 is not determined and some trials end
     on its lower limit (G23 >= 1e-4 E1 / alpha0 on the alphas). The trials counted there are

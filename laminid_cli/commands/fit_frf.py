@@ -101,7 +101,9 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     (damping = fitted - about 1/(tau*omega_n), the 'window' column) in the table, --json and
     --into. A mode whose fitted damping is not above the window's gets no damping ratio
     (null), with a note. The standard deviation is the fitted ratio's (the spread over the
-    stable orders, at least 2 % of the fitted ratio).
+    stable orders, at least 2 % of the fitted ratio); a 'zeta +/-' line under the table
+    (--json: damping_sigma_rule, per mode damping_sigma_dominant) says for how many modes the
+    2 % floor, an assumed figure, set it.
 
     \b
     Examples:
@@ -152,6 +154,9 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     msig = rfp.measurement_sigma(fit, fs.freq, sigma_rel=sigma_rel, exp_window_s=tau)
     sigma = msig.sigma_hz
     wc = rfp.window_corrected_damping(fit, tau)
+    # what set each damping ratio's sigma: its spread over the orders, or the 2 % floor (an
+    # assumed figure, which the table did not tell apart from a measured one)
+    zdom = rfp.damping_sigma_dominant(fit)
     # the reader's first (a CSV phase column's assumed unit): they concern the data fitted
     notes = (list(fs.meta.get("notes") or ()) + point_quality_notes(fs)
              + wc.below_notes(fit.freq_hz) + rfp.missed_peak_notes(fit, fs.freq, fs.frf))
@@ -183,7 +188,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         from laminid_cli.frf.plot import plot_fit
 
         plot_fit(plot_path, fs.freq, fs.frf, fit, units=fs.units, coherence=fs.coherence,
-                 title=f"{Path(frf_file).name}: {len(fit.modes)} modes")
+                 title=f"{Path(frf_file).name}: {len(fit.modes)} modes", sigma_hz=sigma)
     into = None
     if spec_path is not None and not fit.modes:
         from laminid_cli.errors import FrfError
@@ -199,11 +204,15 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         into = write_measured(spec_path, fit.freq_hz.tolist(), sigma.tolist(),
                               damping=wc.damping.tolist(), damping_sigma=wc.sigma.tolist(),
                               sigma_source=f"{Path(frf_file).name}: {msig.summary()}",
+                              damping_sigma_source=(f"{Path(frf_file).name}: fit-frf: "
+                                                    f"{rfp.damping_sigma_summary(zdom)}"
+                                                    if zdom else None),
                               comment=f"Hz, laminid fit-frf of {Path(frf_file).name}",
                               log_warnings=False)        # logged as it read it, above
     if as_json:
         def damping_fields(i):
             return {"damping_ratio": float(wc.damping[i]), "damping_sigma": float(wc.sigma[i]),
+                    "damping_sigma_dominant": zdom[i],
                     "damping_ratio_fitted": float(wc.fitted[i]),
                     "damping_window_removed": float(wc.removed[i])}
 
@@ -225,7 +234,9 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
                            sigma_dominant=msig.dominant[i], **damping_fields(i))
                       for i, (m, s) in enumerate(zip(fit.modes, sigma))],
             "sigma_rule": msig.summary(), "sigma_rel": sigma_rel,
-            "exp_window_s": tau, "damping_rule": wc.summary() or None, "notes": notes,
+            "exp_window_s": tau, "damping_rule": wc.summary() or None,
+            "damping_sigma_rule": rfp.damping_sigma_summary(zdom) if zdom else None,
+            "notes": notes,
             "warnings": warnings,
             "plot": plot_path, "into": spec_path,
             "backup": None if into is None else into.backup_text,
@@ -255,7 +266,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
                 w_txt = f"{100 * r:>10.3f}  "
             click.echo(f"{i:>4}  {m.freq_hz:>11.3f}  {s:>9.3f}  {msig.dominant[i - 1]:>10}  "
                        f"{z_txt}  {w_txt}{m.orders_stable:>13d}")
-        click.echo(f"+/-: one standard deviation, {msig.summary()}")
+        click.echo(f"freq +/-: one standard deviation, {msig.summary()}")
+        click.echo(f"zeta +/-: one standard deviation, the {rfp.damping_sigma_summary(zdom)}")
         if windowed:
             click.echo(f"damping: {wc.summary()}; as fitted = damping + window (--json: "
                        "damping_ratio_fitted)")

@@ -148,12 +148,24 @@ def format_status(s: dict) -> list[str]:
     return lines
 
 
-def _paired_frequency_table(fr: dict) -> list[str]:
-    """Frequency table with a 'model #' column when the pairing is not in sorted order."""
+def _paired_frequency_table(fr: dict, sigma: dict | None = None) -> list[str]:
+    """Frequency table with a 'model #' column when the pairing is not in sorted order, and a
+    '+/- Hz' column with each measured frequency's standard deviation where the run had them
+    (``sigma``: the plate's entry of the JSON's uncertainty.frequency_sigma), as the damping
+    table gives the measured loss factors': the residuals are read against them."""
     extra = {}
+    sig = (sigma or {}).get("sigma_hz")
+    if sig is not None and len(sig) == len(fr["measured"]):
+        extra["+/- Hz"] = [fmt(x, ".2f") for x in sig]
     if any(m != i + 1 for i, m in enumerate(fr["model_mode"])):
         extra["model #"] = [str(m) for m in fr["model_mode"]]
     return format_frequency_table(fr, extra)
+
+
+def _plate_sigma(s: dict, name: str) -> dict | None:
+    """The plate's frequency sigmas of an identify/joint JSON (None without uncertainty)."""
+    fs = (s.get("uncertainty") or {}).get("frequency_sigma") or {}
+    return fs.get(name)
 
 
 def _closing_lines(s: dict) -> list[str]:
@@ -177,7 +189,7 @@ def format_identify_report(s: dict) -> str:
     lines = _plate_header(s["specimen"]) + [_run_line(s)] + format_status(s)
     lines += _material_tables(s, s.get("reference") or {})
     lines.append("")
-    lines += _paired_frequency_table(s["frequencies"])
+    lines += _paired_frequency_table(s["frequencies"], _plate_sigma(s, s["specimen"]["name"]))
     lines.append(f"RMS residual {s['rms_residual_percent']:.3f} % "
                  f"(initial guess {s['initial_rms_residual_percent']:.2f} %), objective "
                  f"{s['objective']:.4g}")
@@ -241,7 +253,7 @@ def format_joint_report(s: dict) -> str:
     for name, p in s["specimens"].items():
         lines.append("")
         lines += _plate_header({**p["specimen"], "name": name})
-        lines += _paired_frequency_table(p["frequencies"])
+        lines += _paired_frequency_table(p["frequencies"], _plate_sigma(s, name))
         lines.append(f"RMS residual {p['rms_residual_percent']:.3f} % (initial guess "
                      f"{p['initial_rms_residual_percent']:.2f} %)")
         lines += format_global(p["global_properties"], p.get("global_uncertainty"))

@@ -34,7 +34,7 @@ from pathlib import Path
 
 from laminid_cli.errors import SpecimenError
 
-KEYS = ("frequencies", "sigma", "weights", "damping", "damping_sigma")
+KEYS = ("frequencies", "sigma", "weights", "damping", "damping_sigma", "damping_sigma_source")
 #: longest line a written entry may have before PyYAML would fold it (never: one line each)
 _WIDTH = 10**9
 #: a user's weight follows its mode to the new fit when their frequencies are within this
@@ -346,6 +346,7 @@ DAMPING_COMMENT = "viscous damping ratios zeta, fractions (0.008 = 0.8 %); loss 
 def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=None,
                    damping_sigma=None, backup: bool = True,
                    validate: bool = True, sigma_source: str | None = None,
+                   damping_sigma_source: str | None = None,
                    comment: str | None = None, log_warnings: bool = True) -> MeasuredEdit:
     """Replace/insert the measured frequencies (and sigma, weights) of a specimen YAML file.
 
@@ -372,6 +373,8 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
         logger), once: the check after the edit logs none. False for a caller that read the
         file itself and gave them already (fit-frf --into, before its fit)
     sigma_source : written as ``measured.sigma_source`` (shown by identify), with ``sigma_hz``
+    damping_sigma_source : written as ``measured.damping_sigma_source`` (shown by identify),
+        with ``damping_sigma``; an earlier one is removed when damping is written without it
     comment : the comment of the new ``frequencies`` line (where they came from); the lines
         replaced lose theirs, which spoke of the values replaced
 
@@ -430,6 +433,8 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
     drop_damping = "damping" in extra and all(v is None for v in extra["damping"])
     if drop_damping:   # no mode's damping measured: an all-null list is no valid specimen
         extra.clear()
+    if "damping_sigma" in extra and damping_sigma_source:
+        extra["damping_sigma_source"] = str(damping_sigma_source)
     if weights is not None:
         if len(weights) != len(freq):
             raise ValueError("weights and freq_hz differ in length")
@@ -475,6 +480,9 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
             if key in measured:
                 removals.append(key)
                 damping_notes.append(f"measured.{key} removed (it described an earlier fit)")
+    if "damping_sigma_source" in measured and "damping_sigma_source" not in extra and (
+            drop_damping or "damping_sigma" in extra):
+        removals.append("damping_sigma_source")     # it described the previous sigmas
     comments = {"frequencies": comment} if comment else {}
     if "damping" in updates:
         # 0.008 beside a table's 'zeta (%) 0.800' reads as a loss factor as well: say which
@@ -504,6 +512,8 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
     if drop_damping:
         exp_measured.pop("damping", None)
         exp_measured.pop("damping_sigma", None)
+    if "damping_sigma_source" in removals:
+        exp_measured.pop("damping_sigma_source", None)
     expect["measured"] = exp_measured
     try:   # the edited file must be a valid specimen too (e.g. weights of the right length)
         if validate:

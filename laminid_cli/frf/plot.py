@@ -69,11 +69,26 @@ def hidden_note(freq, view) -> str:
     return f"not shown: {' and '.join(parts)} of the measured FRFs (no band fitted there)"
 
 
+def sigma_label(sigma_hz) -> str:
+    """The legend words of the RFP natural frequencies with their standard deviations (the
+    labels give the values alone): "RFP natural frequency (± 0.25–2.75 Hz, one standard
+    deviation)"; without sigmas the plain words."""
+    s = np.asarray([] if sigma_hz is None else sigma_hz, float)
+    s = s[np.isfinite(s)]
+    if not s.size:
+        return "RFP natural frequency"
+    lo, hi = (f"{v:.3g}" for v in (s.min(), s.max()))
+    span = lo if lo == hi else f"{lo}–{hi}"
+    return f"RFP natural frequency (± {span} Hz, one standard deviation)"
+
+
 def draw_frf(ax_m, ax_p, freq, frf, fit, *, units: str = "", coherence=None, ax_c=None,
-             decimals: int = 2):
+             decimals: int = 2, sigma_hz=None):
     """Draw measured FRFs (black, on top), the RFP fit per band (coloured, below), the RFP
     natural frequencies (dashed, labelled at the top) on magnitude ``ax_m`` (dB re 1 ``units``)
     and phase ``ax_p`` (wrapped to +/-180 deg), and the coherence on ``ax_c`` when given.
+    ``sigma_hz``: the frequencies' standard deviations (fit-frf's +/-), their span given in
+    the legend (the labels were the values alone, with no word of their doubt).
     Returns the x range of the fitted bands (or None)."""
     freq = np.asarray(freq, dtype=float)
     frf = np.atleast_2d(np.asarray(frf))
@@ -104,7 +119,7 @@ def draw_frf(ax_m, ax_p, freq, frf, fit, *, units: str = "", coherence=None, ax_
     for i, (f, lev) in enumerate(zip(fm, _label_levels(fm, lo, hi))):
         for ax in [a for a in (ax_m, ax_p, ax_c) if a is not None]:
             ax.axvline(f, color="0.35", ls="--", lw=0.6, zorder=1,
-                       label="RFP natural frequency" if ax is ax_m and i == 0 else None)
+                       label=sigma_label(sigma_hz) if ax is ax_m and i == 0 else None)
         ax_m.annotate(f"{f:.{decimals}f}", (f, 1 - 0.09 * lev), xycoords=("data", "axes fraction"),
                       rotation=90, va="top", ha="right", fontsize=7, color="0.25",
                       bbox=dict(fc="w", ec="none", pad=0.4, alpha=0.85), zorder=6)
@@ -140,13 +155,15 @@ def draw_frf(ax_m, ax_p, freq, frf, fit, *, units: str = "", coherence=None, ax_
     return xr
 
 
-def plot_fit(path, freq, frf, fit, *, title: str = "", units: str = "", coherence=None) -> Path:
+def plot_fit(path, freq, frf, fit, *, title: str = "", units: str = "", coherence=None,
+             sigma_hz=None) -> Path:
     """Write :func:`fit_figure` to ``path`` (PNG/PDF/SVG)."""
     path = Path(path)
     if path.suffix.lower() not in PLOT_SUFFIXES:
         raise FrfError(f"{path}: plot file type {path.suffix!r} not supported; use one of "
                        f"{', '.join(PLOT_SUFFIXES)}")
-    fig = fit_figure(freq, frf, fit, title=title, units=units, coherence=coherence)
+    fig = fit_figure(freq, frf, fit, title=title, units=units, coherence=coherence,
+                     sigma_hz=sigma_hz)
     try:
         fig.savefig(path, dpi=120)
     except OSError as exc:
@@ -227,7 +244,8 @@ def unlisted_note(unlisted, criteria, width: int = 150) -> str:
     return "\n".join(textwrap.wrap(text, width))
 
 
-def fit_figure(freq, frf, fit, *, title: str = "", units: str = "", coherence=None):
+def fit_figure(freq, frf, fit, *, title: str = "", units: str = "", coherence=None,
+               sigma_hz=None):
     """The figure of a :class:`~laminid_cli.frf.rfp.ModalFit` (``fit-frf --plot``).
 
     Magnitude (dB re 1 FRF unit) of every measured FRF (black, drawn over the fit) and the
@@ -251,7 +269,8 @@ def fit_figure(freq, frf, fit, *, title: str = "", units: str = "", coherence=No
     ax_m.set_gid("frf")
     ax_s.set_gid("stabilisation")
     ax_c = axes[2] if coh else None
-    xr = draw_frf(ax_m, ax_p, freq, frf, fit, units=units, coherence=coherence, ax_c=ax_c)
+    xr = draw_frf(ax_m, ax_p, freq, frf, fit, units=units, coherence=coherence, ax_c=ax_c,
+                  sigma_hz=sigma_hz)
     ax_m.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=3, fontsize=8,
                 frameon=False)                  # above the panel: clear of the curves
     from matplotlib.lines import Line2D

@@ -1493,7 +1493,8 @@ def _band_constants(freq, frf, chart, own, near, criteria):
 def measured_from_frf_file(path, *, bands=None, n_modes: int | None = None,
                            criteria: PoleCriteria = PoleCriteria(),
                            with_damping_sigma: bool = False,
-                           warnings: list | None = None) -> tuple:
+                           warnings: list | None = None,
+                           damping_sigma_rule: list | None = None) -> tuple:
     """Natural frequencies of the FRFs in a file, for a specimen's ``measured.frf_file``.
 
     Parameters
@@ -1503,6 +1504,8 @@ def measured_from_frf_file(path, *, bands=None, n_modes: int | None = None,
     n_modes : the n lowest modes (FrfError if fewer found)
     warnings : a list that takes the FRF reader's warnings (a frequency unit not stated);
         without one they are logged
+    damping_sigma_rule : a list that takes one line on what set the damping ratios' standard
+        deviations (:func:`damping_sigma_summary`: how many are the assumed 2 % floor)
 
     Returns
     -------
@@ -1530,6 +1533,8 @@ def measured_from_frf_file(path, *, bands=None, n_modes: int | None = None,
     tau = window_time_constant(fs)
     sig = measurement_sigma(fit, fs.freq, exp_window_s=tau)
     wc = window_corrected_damping(fit, tau)
+    if damping_sigma_rule is not None and fit.modes:
+        damping_sigma_rule.append(damping_sigma_summary(damping_sigma_dominant(fit)))
     if with_damping_sigma:
         return fit.freq_hz, sig.sigma_hz, wc.damping, wc.sigma
     return fit.freq_hz, sig.sigma_hz, wc.damping
@@ -1549,6 +1554,32 @@ def damping_sigma(fit: ModalFit) -> np.ndarray:
         return np.zeros(0)
     std = np.array([m.damping_std for m in fit.modes])
     return np.maximum(std, DAMPING_SIGMA_FLOOR_REL * fit.damping_ratio)
+
+
+def damping_sigma_dominant(fit: ModalFit) -> list[str]:
+    """Per mode, the term that set :func:`damping_sigma`: "floor" (2 % of the ratio, an
+    assumed figure: the orders agreed more closely) or "rfp spread" (the spread over the
+    stable orders, measured), as the frequencies' 'from' column names theirs."""
+    if not fit.modes:
+        return []
+    std = np.array([m.damping_std for m in fit.modes])
+    floor = DAMPING_SIGMA_FLOOR_REL * np.asarray(fit.damping_ratio, float)
+    return ["rfp spread" if s > f else "floor" for s, f in zip(std, floor)]
+
+
+def damping_sigma_summary(dominant: list[str]) -> str:
+    """One line on the damping ratios' standard deviations and what set them (the terminal
+    table's 'from' column for zeta, --json's damping_sigma_rule)."""
+    n = len(dominant)
+    floor = sum(d == "floor" for d in dominant)
+    text = (f"fitted ratio's spread over the stable orders, at least "
+            f"{100 * DAMPING_SIGMA_FLOOR_REL:g} % of the ratio; dominated by: "
+            + ", ".join(f"{d} {c}" for d, c in (("rfp spread", n - floor), ("floor", floor))
+                        if c) + " (modes)")
+    if floor:
+        text += (f"; the floor is an assumed {100 * DAMPING_SIGMA_FLOOR_REL:g} %, not a spread "
+                 "the FRFs showed")
+    return text
 
 
 #: Where the exponential window's convention comes from (written beside the code, issue 1 of
