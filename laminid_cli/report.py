@@ -1319,6 +1319,21 @@ def _mc_end_label(ax, k, x, y, end_si, up, at_limit, gid, sure_si=None):
 
 #: the grey of the Monte Carlo range's bar and arrows
 MC_COLOR = "0.45"
+#: two ends of a Monte Carlo range on search limits nearer than this fraction of the panel's
+#: height get one "search limit" label (two labels of two lines each need ~0.12 of a panel)
+MC_LIMIT_LABELS_APART = 0.12
+
+
+def _limit_ends_together(ax, rng: MonteCarloRange, lo, hi, ymin, ymax) -> bool:
+    """Whether both ends of the Monte Carlo range are on search limits, inside the panel, and
+    nearer than :data:`MC_LIMIT_LABELS_APART` of its height (on its scale)."""
+    if not (rng.lower_at_limit and rng.upper_at_limit and ymin <= lo <= hi <= ymax):
+        return False
+    if ax.get_yscale() == "log":
+        if min(lo, ymin) <= 0:
+            return False
+        lo, hi, ymin, ymax = np.log10([lo, hi, ymin, ymax])
+    return (hi - lo) < MC_LIMIT_LABELS_APART * (ymax - ymin)
 
 
 def _monte_carlo_bar(ax, k, rng: MonteCarloRange, x, ymin, ymax) -> None:
@@ -1341,9 +1356,18 @@ def _monte_carlo_bar(ax, k, rng: MonteCarloRange, x, ymin, ymax) -> None:
     if sure:
         ax.plot([x] * 2, clipped(g(rng.inner_lower), g(rng.inner_upper)), "-",
                 color="0.2", lw=4.5, solid_capstyle="butt", gid="monte-carlo-sure")
+    both = _limit_ends_together(ax, rng, lo, hi, ymin, ymax)
+    if both:
+        # both ends on search limits, too near for two labels (S2.1 8x8: all ten trials on
+        # G13's lower limit 1e-4 E1, 0.002879 .. 0.003000 GPa, two "search limit" labels
+        # over each other): one, beside the bar's middle
+        mid = np.sqrt(lo * hi) if ax.get_yscale() == "log" else 0.5 * (lo + hi)
+        ax.annotate("search\nlimit\n(both\nends)", (x, mid), xytext=(-4, 0),
+                    textcoords="offset points", fontsize=6.5, va="center", ha="right",
+                    color="0.35", gid="monte-carlo-both-limit")
     for side, end, end_si, inner_si, at_limit in (
-            ("upper", hi, rng.upper, rng.inner_upper, rng.upper_at_limit),
-            ("lower", lo, rng.lower, rng.inner_lower, rng.lower_at_limit)):
+            ("upper", hi, rng.upper, rng.inner_upper, rng.upper_at_limit and not both),
+            ("lower", lo, rng.lower, rng.inner_lower, rng.lower_at_limit and not both)):
         up = side == "upper"
         off = (end > ymax) if up else (end < ymin)
         if off:                     # an arrow onto the edge and the end's value beside it

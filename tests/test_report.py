@@ -900,10 +900,10 @@ def test_report_errors(batch_dir, tmp_path):
     assert not list(tmp_path.glob("*.pdf"))
 
 
-def _with_monte_carlo(checked, tmp_path, lower_at_bound=None, inner=False):
+def _with_monte_carlo(checked, tmp_path, lower_at_bound=None, inner=False, upper_at_bound=None):
     """A copy of the checked result with a Monte Carlo range of 0.97 .. 1.02 x each value (and
-    ``lower_at_bound`` flags, with no upper end at a bound, when given; ``inner``: the width
-    for sure 0.98 .. 1.01 x, as files since stop 28 have it)."""
+    ``lower_at_bound`` flags, with ``upper_at_bound`` or no upper end at a bound, when given;
+    ``inner``: the width for sure 0.98 .. 1.01 x, as files since stop 28 have it)."""
     path = tmp_path / "mc.result.h5"
     shutil.copy(checked, path)
     with h5py.File(path, "r+") as f:
@@ -917,7 +917,8 @@ def _with_monte_carlo(checked, tmp_path, lower_at_bound=None, inner=False):
             g.attrs["evidence_level"] = 0.95
         if lower_at_bound is not None:
             g.create_dataset("lower_at_bound", data=np.asarray(lower_at_bound, np.int8))
-            g.create_dataset("upper_at_bound", data=np.zeros(v.size, np.int8))
+            g.create_dataset("upper_at_bound", data=np.zeros(v.size, np.int8)
+                             if upper_at_bound is None else np.asarray(upper_at_bound, np.int8))
     return path
 
 
@@ -940,6 +941,26 @@ def test_monte_carlo_spread_drawn_beside_the_interval(checked, tmp_path):
     texts = [t.get_text() for a_ in fig.axes if a_.get_legend() is not None
              for t in a_.get_legend().get_texts()]
     assert "Monte Carlo range for sure (90 %)" in texts
+
+
+def test_monte_carlo_range_with_both_ends_on_search_limits_close_together_has_one_label(
+        checked, tmp_path):
+    """Both ends of a Monte Carlo range set by trials on search limits (S2.1 8x8: all ten
+    trials on G13's lower limit 1e-4 E1, which moves with E1: 0.002879 .. 0.003000 GPa) got a
+    "search limit" label each, written over each other beside the short bar; one label now,
+    beside its middle, saying both ends."""
+    with h5py.File(checked) as f:
+        flags = np.zeros(f["uncertainty"]["value"].size, np.int8)
+    flags[1] = 1                                        # E2: 0.97 .. 1.02 x, both ends
+    path = _with_monte_carlo(checked, tmp_path, lower_at_bound=flags, upper_at_bound=flags)
+    e2 = read_result(path).materials[MAT]["E2"] / 1e9
+    a = ax(result_page(path, "intervals"), f"interval-{MAT}.E2")
+    labels = [t for t in a.texts if "limit" in (t.get_gid() or "")]
+    assert [t.get_gid() for t in labels] == ["monte-carlo-both-limit"]
+    assert labels[0].get_text() == "search\nlimit\n(both\nends)"
+    lo, hi = a.get_ylim()
+    assert labels[0].xy[1] == pytest.approx(0.5 * (0.97 + 1.02) * e2, rel=1e-12)
+    assert (1.02 - 0.97) * e2 < 0.12 * (hi - lo)        # as near as the rule says
 
 
 def test_monte_carlo_range_end_at_a_search_limit_is_labelled(checked, tmp_path):
