@@ -1281,3 +1281,36 @@ def test_a_dof_measured_twice_keeps_each_records_coherence(tmp_path, case):
         "a point of its own, its coherence the DOF's record of the same rank"]
     out = io.write_frf(tmp_path / "again.uff", fs)          # and through laminid's writer
     np.testing.assert_array_equal(io.read_frf(out).coherence, fs.coherence)
+
+
+def test_export_json_lists_every_record_where_point_labels_repeat(tmp_path, case):
+    """export --json's ``points`` (label -> node) held one entry per label: a DOF measured
+    twice (1+Z, records 1 and 2) and scalar records at node 0 (labelled '0', both) were one
+    entry each, 4 records shown as 2. ``point_nodes`` lists every record in file order with
+    its DOFs as written; ``points`` stays, the last record of a label."""
+    import pyuff
+
+    f, H = case.freq[:UNIT_LINES], case.frf[:4, :UNIT_LINES]
+    sets = [pyuff.prepare_58(binary=0, func_type=4, ord_data_type=6, rsp_node=node,
+                             rsp_dir=d, ref_node=1, ref_dir=3, abscissa_spacing=1,
+                             abscissa_spec_data_type=18, abscissa_axis_units_lab="Hz",
+                             ordinate_axis_units_lab="m/s^2", orddenom_axis_units_lab="N",
+                             ordinate_spec_data_type=12, orddenom_spec_data_type=13,
+                             x=f, data=H[k])
+            for k, (node, d) in enumerate(((1, 3), (1, 3), (0, 0), (0, 0)))]
+    src = tmp_path / "repeat.uff"
+    pyuff.UFF(str(src)).write_sets(sets, mode="add")
+    out = tmp_path / "again.uff"
+    r = run(["export", str(src), "-o", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.stdout)
+    assert d["datasets"]["58"] == 4
+    assert d["points"] == {"1+Z": 1, "0": 0}
+    assert d["point_nodes"] == [
+        {"label": "1+Z", "node": 1, "direction": "+Z", "ref_node": 1, "ref_direction": "+Z"},
+        {"label": "1+Z", "node": 1, "direction": "+Z", "ref_node": 1, "ref_direction": "+Z"},
+        {"label": "0", "node": 0, "direction": "+Z", "ref_node": 1, "ref_direction": "+Z"},
+        {"label": "0", "node": 0, "direction": "+Z", "ref_node": 1, "ref_direction": "+Z"}]
+    back = [s for s in pyuff.UFF(str(out)).read_sets() if s["type"] == 58]
+    assert [(s["rsp_node"], s["rsp_dir"]) for s in back] == [
+        (p["node"], 3) for p in d["point_nodes"]]                # as written

@@ -1390,6 +1390,12 @@ def _dir(code) -> str:
     return _DIRECTIONS.get(code, f"/{code}" if code else "")
 
 
+def uff_direction(code) -> str | None:
+    """A UFF direction code's name ("+Z" of 3, "-X" of -1); None for 0 (a scalar) or a code
+    outside 1-3 either sign."""
+    return _DIRECTIONS.get(int(code))
+
+
 def negative_direction_points(labels) -> list[str]:
     """The labels of :func:`read_frf_uff` ("12-Z", "5+Z:2-Y") whose response or reference
     direction is negative: their FRF is the +direction's times -1, and so are its modal
