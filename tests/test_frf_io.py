@@ -311,6 +311,60 @@ def test_csv_with_a_decimal_comma_as_a_european_spreadsheet_writes_it(tmp_path, 
     assert np.allclose(fit.freq_hz, case.freq_hz[:3], rtol=1e-4)
 
 
+def _german(v: float) -> str:
+    """``v`` as a spreadsheet with a German locale and "Use 1000 separator" writes it:
+    1234.5 "1.234,500000"."""
+    return f"{v:,.6f}".translate(str.maketrans(",.", ".,"))
+
+
+@pytest.mark.parametrize("sep", [";", "\t"])
+def test_csv_with_thousands_separators_of_a_european_spreadsheet(tmp_path, sep):
+    """'1.000,5;0,0012' (1000.5 Hz) was refused as 'not a number'; a file whose decimal marks
+    are commas and whose every '.' groups thousands is read so, with a note."""
+    freq = 1000.5 + 0.5 * np.arange(400)                  # 1000.5-1200 Hz: '1.000,500000'
+    H = 1500.0 * np.exp(1j * np.linspace(0, 3, freq.size)) / (1 + (freq - 1100.0) ** 2 / 400)
+    lines = [sep.join(["f [Hz]", "H1_re", "H1_im"])]
+    lines += [sep.join(_german(v) for v in (f, h.real, h.imag)) for f, h in zip(freq, H)]
+    path = tmp_path / "de.csv"
+    path.write_text("\n".join(lines) + "\n")
+    fs = io.read_frf(path)
+    np.testing.assert_allclose(fs.freq, freq, rtol=0, atol=1e-9)
+    for part in (np.real, np.imag):                                      # 6 decimals written
+        np.testing.assert_allclose(part(fs.frf[0]), part(H), rtol=0, atol=5.1e-7)
+    assert f"{path}: '.' read as a thousands separator and ',' as the decimal mark (line " \
+           "2, column 1 ('f [Hz]'): '1.000,500000' is 1000.5): the file's decimal marks are " \
+           "commas, and every '.' in it is followed by groups of 3 digits" in fs.meta["notes"]
+
+
+def test_csv_with_a_thousands_separator_and_a_decimal_point_is_refused(tmp_path):
+    """'1.000' beside decimal commas is 1000, beside a decimal point ('1.5') 1: nothing in the
+    file says which; refused naming both cells (it read '1.000' as 1, silently)."""
+    path = tmp_path / "mixed.csv"
+    rows = [f"{100 + k},5;0,{k + 1};0,2" for k in range(200)]
+    rows[3] = "103,5;1.000;0,2"
+    rows[7] = "107,5;1.5;0,2"
+    path.write_text("f [Hz];H1_re;H1_im\n" + "\n".join(rows) + "\n")
+    with pytest.raises(FrfError) as err:
+        io.read_frf(path)
+    assert str(err.value) == (
+        f"{path}: line 5, column 2 ('H1_re'): '1.000' reads as a number with '.' grouping "
+        "thousands, as the file's decimal commas suggest (line 2, column 1 ('f [Hz]'): "
+        "'100,5'), but line 9, column 2 ('H1_re'): '1.5' has a decimal point: with both, "
+        "which '.' groups thousands is not known (1.000 is 1 or 1000); save the file again "
+        "without thousands separators (the cells' number format: untick 'Use 1000 "
+        "separator')")
+
+
+def test_csv_of_decimal_points_between_semicolons_keeps_them(tmp_path):
+    """No decimal comma in the file: '1.250' stays 1.25 (the '.' is the decimal point)."""
+    path = tmp_path / "dots.csv"
+    rows = [f"{100 + k}.500;1.250;0.002" for k in range(200)]
+    path.write_text("f [Hz];H1_re;H1_im\n" + "\n".join(rows) + "\n")
+    fs = io.read_frf(path)
+    assert fs.freq[0] == 100.5 and fs.frf[0, 0] == 1.25 + 0.002j
+    assert not any("thousands" in n for n in fs.meta.get("notes", []))
+
+
 @pytest.mark.parametrize("name, scale", [("Frequency [rad/s]", 2 * np.pi), ("f (kHz)", 1e-3),
                                          ("omega_rad_s", 2 * np.pi), ("freq_kHz", 1e-3),
                                          ("freq_Hz", 1.0), ("Frequency [Hz]", 1.0), ("f", 1.0)])

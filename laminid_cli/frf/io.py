@@ -61,7 +61,9 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
 
     Text in UTF-8, UTF-16 with a BOM, or Windows-1252 (:func:`decode_text`, with a note).
     Separator ``;`` tab ``,`` (the first found in the first line) or blanks; with ``;`` or tab
-    a decimal comma is read too (``125,05``, as a European spreadsheet writes); ``#`` comment
+    a decimal comma is read too (``125,05``, as a European spreadsheet writes), and '.' as its
+    thousands separator (``1.000,5``) where the whole file says so (:func:`_csv_thousands`,
+    with a note; refused where a decimal point shares the file); ``#`` comment
     lines (``# ... units Pa/N`` gives the FRF unit; else a unit closing every FRF column's
     name, ``H1_re [g/N]``, ``Pt1 Magnitude (g/N)``: :func:`_csv_header_units`; without one the
     unit is not stated:
@@ -707,6 +709,66 @@ def _unstated_freq_warning(path, header: list[str] | None, sep: str | None,
     return unstated_freq_warning(f"{path}: {column}", freq, how, f"'{hz}'")
 
 
+#: a number with '.' grouping thousands and ',' its decimal mark, as a spreadsheet with a
+#: German, Dutch, Italian or Spanish locale writes it with "Use 1000 separator" ticked
+#: ("1.000,5", "12.345.678", "-2.500,125E-03"): a first group of 1-3 digits not beginning with
+#: 0 ("0.001" is a decimal point's), then groups of exactly 3
+_CSV_GROUPED = re.compile(r"[+-]?[1-9]\d{0,2}(?:\.\d{3})+(?:,\d*)?(?:[eE][+-]?\d+)?")
+#: a cell with a decimal point that groups no thousands ("1.5", "0.0012", "1.25e-3")
+_CSV_DECIMAL_POINT = re.compile(r"[+-]?(?:\d+\.\d*|\.\d+)(?:[eE][+-]?\d+)?")
+
+
+def _csv_thousands(path, lines, sep: str | None, header: list[str] | None) -> str | None:
+    """Whether '.' groups thousands in the data ``lines`` ((number, text)) of a CSV file: the
+    note saying it is read so, or None where it is not. Decided by the whole file, never by
+    one cell: separated by ';' or tab, a decimal comma somewhere ("0,5", or "1.000,5"
+    itself), and every cell with a '.' a number grouped in threes (:data:`_CSV_GROUPED`);
+    "1.000,5" was refused as "not a number" and, worse, "1.250" in such a file read as 1.25.
+    FrfError naming both cells where a grouped cell and a decimal point ("1.5") share the
+    file: "1.000" is then 1 or 1000, and nothing in the file says which. A file without a
+    decimal comma keeps '.' the decimal point, as before ("1.250;0.002" is 1.25)."""
+    if sep not in (";", "\t"):
+        return None
+    body = "\n".join(ln for _, ln in lines)
+    if "." not in body or "," not in body:
+        return None
+    grouped = point = comma = None
+    for lineno, ln in lines:
+        for j, cell in enumerate(_split(ln, sep)):
+            if "." in cell:
+                if _CSV_GROUPED.fullmatch(cell):
+                    grouped = grouped or (lineno, j, cell)
+                    if "," in cell:
+                        comma = comma or (lineno, j, cell)
+                elif _CSV_DECIMAL_POINT.fullmatch(cell):
+                    point = point or (lineno, j, cell)
+            elif "," in cell:
+                comma = comma or (lineno, j, cell)
+        if grouped and point and comma:
+            break
+    if grouped is None or comma is None:
+        return None
+
+    def at(where) -> str:
+        return f"line {where[0]}, {_csv_column(header, where[1])}: {_quoted(where[2])}"
+
+    if point is not None:
+        raise FrfError(
+            f"{path}: {at(grouped)} reads as a number with '.' grouping thousands, as the "
+            f"file's decimal commas suggest ({at(comma)}), but {at(point)} has a decimal point: "
+            "with both, which '.' groups thousands is not known (1.000 is 1 or 1000); save "
+            "the file again without thousands separators (the cells' number format: untick "
+            "'Use 1000 separator')")
+    return (f"{path}: '.' read as a thousands separator and ',' as the decimal mark "
+            f"({at(grouped)} is {_grouped_number(grouped[2])!r}): the file's decimal marks are "
+            "commas, and every '.' in it is followed by groups of 3 digits")
+
+
+def _grouped_number(cell: str) -> float:
+    """The value of a cell of :data:`_CSV_GROUPED` ("1.000,5": 1000.5)."""
+    return float(cell.replace(".", "").replace(",", "."))
+
+
 def _csv_separator(line: str) -> str | None:
     """The cell separator of a CSV line: ";" first, a European spreadsheet writes
     "125,05;0,0012" (';' between cells, ',' the decimal mark), which split at ',' was refused
@@ -719,6 +781,8 @@ def _csv_number(cell: str, sep: str | None) -> bool:
     or tab)."""
     if sep in (";", "\t") and "," in cell and "." not in cell:
         cell = cell.replace(",", ".")
+    if sep in (";", "\t") and _CSV_GROUPED.fullmatch(cell):
+        return True                         # "1.000,5": _csv_thousands decides
     try:
         float(cell)
     except ValueError:
@@ -859,9 +923,12 @@ def read_frf_csv(path) -> FrfSet:
     first = lines[0][1]
     sep = _csv_separator(first)
     header = None
+    thousands = False               # '.' groups thousands: _csv_thousands
 
     def number(cell: str) -> float | complex:
         """A cell's value: a float, or a complex for a cell in complex syntax."""
+        if thousands and "." in cell and _CSV_GROUPED.fullmatch(cell):
+            return _grouped_number(cell)           # "1.000,5"
         if sep in (";", "\t") and "," in cell and "." not in cell:
             cell = cell.replace(",", ".")          # the decimal comma
         try:
@@ -870,9 +937,7 @@ def read_frf_csv(path) -> FrfSet:
             return parse_complex_cell(cell)
 
     cells = _split(first, sep)
-    try:
-        number(cells[0])
-    except ValueError:
+    if not _csv_number(cells[0], sep):
         # the frequency's name: a first line whose first cell is a number is data, and a bad
         # cell in it is named as such (it was taken for the header, the line lost)
         header = cells if two_line is None else two_line
@@ -889,6 +954,10 @@ def read_frf_csv(path) -> FrfSet:
             notes.append(f"column names read from the comment line just above the data (line "
                          f"{lines[0][0] - 1}, as numpy's savetxt writes a header): "
                          f"{', '.join(header)}")
+    grouping = _csv_thousands(path, lines, sep, header)
+    if grouping is not None:
+        thousands = True
+        notes.append(grouping)
     rows = []
     #: the first complex cell of each column that has one: (line, cell)
     complex_at: dict[int, tuple[int, str]] = {}
