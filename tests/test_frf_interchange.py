@@ -1314,3 +1314,41 @@ def test_export_json_lists_every_record_where_point_labels_repeat(tmp_path, case
     back = [s for s in pyuff.UFF(str(out)).read_sets() if s["type"] == 58]
     assert [(s["rsp_node"], s["rsp_dir"]) for s in back] == [
         (p["node"], 3) for p in d["point_nodes"]]                # as written
+
+
+@pytest.mark.parametrize("where, after", [("head", False), ("between the records", True)])
+def test_a_malformed_units_record_is_named_by_dataset_line_and_field(tmp_path, case, where,
+                                                                     after):
+    """A units record (dataset 164) pyuff cannot read was refused as 'cannot read its units
+    record (dataset 164) (Error when reading data-set(s).)', pyuff's words: now the dataset's
+    number in the file, its line, the record and field that is no number, and what to do;
+    one line, exit 2, in fit-frf and export, text and --json, no file written."""
+    import pyuff
+
+    f, H = case.freq[:UNIT_LINES], case.frf[:2, :UNIT_LINES]
+    src = _other_uff(tmp_path / "ok.uff", f, H, ordinate_axis_units_lab="m/s^2")
+    sets = pyuff.UFF(str(src)).read_sets()
+    sets.insert(1 if after else 0, pyuff.prepare_164(**SI_164))
+    path = tmp_path / "bad164.uff"
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")
+    text = path.read_text()
+    line = text[:text.index("   164 ")].count("\n")              # its opening '    -1'
+    lines = text.splitlines()
+    factors = lines[line + 2].split()                # record 2 (line + 3, 1-based)
+    assert [float(v.replace("D", "e")) for v in factors] == [1.0, 1.0, 1.0]
+    lines[line + 2] = "".join(f"{v:>25}" for v in (factors[0], "1.0O00e+00", factors[2]))
+    path.write_text("\n".join(lines) + "\n")
+    message = (f"{path}: cannot read its units record (dataset 164): dataset "
+               f"{2 if after else 1} of the file, line {line}: record 2 (line {line + 3}), the "
+               "force factor: '1.0O00e+00' is not a number; export the file again, or delete "
+               "that dataset where the file is in SI (its FRF records are then read by their "
+               "units labels)")
+    out = tmp_path / "x.uff"
+    for args in (["fit-frf", str(path)], ["export", str(path), "-o", str(out)]):
+        r = run(args)
+        assert (r.exit_code, r.stdout, r.stderr) == (2, "", f"laminid: error: {message}\n")
+        r = run([*args, "--json"])
+        assert r.exit_code == 2 and json.loads(r.stdout)["error"] == {
+            "kind": "FrfError", "message": message, "file": str(path), "field": None,
+            "line": None, "exit_code": 2}
+    assert not out.exists()

@@ -1291,7 +1291,13 @@ def _check_uff_units_records(path, uff, idx) -> bool:
     try:
         records = uff.read_sets(idx)
     except Exception as exc:  # noqa: BLE001 - pyuff raises bare Exception
-        raise FrfError(f"{path}: cannot read its units record (dataset 164) ({exc})") from exc
+        what = None
+        for i in idx:
+            what = what or _uff_164_problem(path, uff, i)
+        raise FrfError(f"{path}: cannot read its units record (dataset 164"
+                       + (f"): {what}" if what else f") ({exc})")
+                       + "; export the file again, or delete that dataset where the file is in "
+                         "SI (its FRF records are then read by their units labels)") from exc
     for d in [records] if isinstance(records, dict) else records:
         try:
             factors = float(d["length"]), float(d["force"])
@@ -1308,6 +1314,51 @@ def _check_uff_units_records(path, uff, idx) -> bool:
                 "not said, a factor apart); export them from the tool in SI (units code 1, "
                 "metre and newton)")
     return True
+
+
+#: the numbers of a units record (dataset 164) after its record 1, each with its record:
+#: record 2 FORMAT(3D25.17) the length, force and temperature factors, record 3 FORMAT(D25.17)
+#: the temperature offset (the dataset 164 definition as reproduced in the docstring of pyuff
+#: 2.5.8's ``pyuff/datasets/dataset_164.py``; pyuff reads them as 4 blank-separated numbers)
+_UFF_164_NUMBERS = (("length factor", 2), ("force factor", 2), ("temperature factor", 2),
+                    ("temperature offset", 3))
+
+
+def _uff_164_problem(path, uff, i: int) -> str | None:
+    """What is wrong with dataset ``i`` (0-based) of the Universal File ``path``, a units
+    record (dataset 164) pyuff could not read: where it is (the dataset's number in the file,
+    its line) and the field that is no number or is missing, by the lines of
+    :data:`_UFF_164_NUMBERS`; None where none is found (pyuff's own words are given then)."""
+    blocks = getattr(uff, "_block_ind", None)      # pyuff's byte offsets of each dataset
+    try:
+        start, end = (int(v) for v in blocks[i])
+        raw = path.read_bytes()
+    except (TypeError, IndexError, ValueError, OSError):
+        return None
+    first = raw.count(b"\n", 0, start) + 1         # the line of its opening '    -1'
+    lines = raw[start:end + 1].decode("latin-1").splitlines()[2:]
+    where = f"dataset {i + 1} of the file, line {first}"
+    if not lines or not lines[0].strip():
+        return f"{where}: record 1 (units code, description, temperature mode) is missing"
+    rec1 = lines[0].ljust(40)
+    for name, cell in (("units code", rec1[:10]), ("temperature mode", rec1[30:40])):
+        try:
+            int(cell.strip())
+        except ValueError:
+            return (f"{where}: record 1 (line {first + 2}), the {name} (I10): "
+                    f"{_quoted(cell.strip())} is not a whole number")
+    tokens = [(first + 3 + k, t) for k, ln in enumerate(lines[1:]) for t in ln.split()]
+    for n, (name, record) in enumerate(_UFF_164_NUMBERS):
+        if n >= len(tokens):
+            return (f"{where}: it ends after {n} of its 4 numbers, the {name} (record "
+                    f"{record}) missing")
+        lineno, token = tokens[n]
+        try:
+            float(token.lower().replace("d", "e"))
+        except ValueError:
+            return (f"{where}: record {record} (line {lineno}), the {name}: {_quoted(token)} "
+                    "is not a number")
+    return None
 
 
 #: the units labels of a type-58 record (records 8-10, field 6)
