@@ -1352,3 +1352,44 @@ def test_a_malformed_units_record_is_named_by_dataset_line_and_field(tmp_path, c
             "kind": "FrfError", "message": message, "file": str(path), "field": None,
             "line": None, "exit_code": 2}
     assert not out.exists()
+
+
+def _matlab_v73(path, freq, frf, freq_shape):
+    """A MAT-file as MATLAB's save(..., '-v7.3') writes it: HDF5 behind a 512-byte user
+    block holding the MAT header, each variable a dataset with a MATLAB_class attribute,
+    stored transposed (column-major: MATLAB's lines x points H is points x lines here), a
+    complex one a compound of real and imag."""
+    with h5py.File(path, "w", userblock_size=512) as f:
+        H = np.empty(frf.shape, np.dtype([("real", "<f8"), ("imag", "<f8")]))
+        H["real"], H["imag"] = frf.real, frf.imag
+        f.create_dataset("H", data=H).attrs["MATLAB_class"] = np.bytes_("double")
+        f.create_dataset("f", data=freq.reshape(freq_shape)).attrs["MATLAB_class"] = \
+            np.bytes_("double")
+    with open(path, "r+b") as fh:
+        fh.write(b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Dec  7 08:00:00 "
+                 b"2026 HDF5 schema 1.00 .".ljust(116) + bytes(8) + b"\x00\x02IM")
+    return path
+
+
+@pytest.mark.parametrize("freq_shape", [(1, -1), (-1, 1)])
+def test_a_matlab_v73_mat_file_is_read_as_plain_hdf5(tmp_path, case, freq_shape):
+    """A MAT-file saved with '-v7.3' is HDF5, but '.mat' was 'unknown FRF file type': it is
+    read as a plain HDF5 file now (the same modes as the native file to 1e-9); a version 5
+    MAT-file (save's default, no HDF5) is refused saying how to save one laminid reads."""
+    f, H = case.freq[:UNIT_LINES], case.frf[:, :UNIT_LINES]
+    path = _matlab_v73(tmp_path / "plate.mat", f, H, freq_shape)
+    fs = io.read_frf(path)
+    np.testing.assert_array_equal(fs.freq, f)
+    np.testing.assert_array_equal(fs.frf, H)                    # as the native file holds
+    out = _fit_json(path)                                       # and through the CLI
+    np.testing.assert_allclose([m["freq_hz"] for m in out["modes"]][:3], case.freq_hz[:3],
+                               rtol=2e-3)
+    v5 = tmp_path / "old.mat"
+    v5.write_bytes(b"MATLAB 5.0 MAT-file, Platform: PCWIN64, Created on: Mon Dec 7 2026"
+                   .ljust(116) + bytes(8) + b"\x00\x01IM" + bytes(64))
+    r = run(["fit-frf", str(v5)])
+    assert (r.exit_code, r.stderr) == (2, (
+        f"laminid: error: {v5}: a MATLAB MAT-file of version 5.0 (save's default), not HDF5, "
+        "which laminid does not read; in MATLAB save the frequency and FRF variables again "
+        "with '-v7.3' (save('old.mat', 'f', 'H', '-v7.3'), an HDF5 file laminid reads), or "
+        "write them as a CSV\n"))
