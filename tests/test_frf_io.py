@@ -311,6 +311,14 @@ def test_csv_with_a_decimal_comma_as_a_european_spreadsheet_writes_it(tmp_path, 
     assert np.allclose(fit.freq_hz, case.freq_hz[:3], rtol=1e-4)
 
 
+def synth_h(freq):
+    """Three modes' receptance at ``freq`` (Hz), one point."""
+    from tests.frf_synth import synth_frf
+
+    modes = ((105.3, 0.012), (236.8, 0.008), (402.45, 0.010))
+    return synth_frf(freq, modes, np.array([[1.0, -0.6, 0.8]]))[0]
+
+
 def _german(v: float) -> str:
     """``v`` as a spreadsheet with a German locale and "Use 1000 separator" writes it:
     1234.5 "1.234,500000"."""
@@ -363,6 +371,55 @@ def test_csv_of_decimal_points_between_semicolons_keeps_them(tmp_path):
     fs = io.read_frf(path)
     assert fs.freq[0] == 100.5 and fs.frf[0, 0] == 1.25 + 0.002j
     assert not any("thousands" in n for n in fs.meta.get("notes", []))
+
+
+@pytest.mark.parametrize("comment, units, scale", [
+    ("# Units: g/N", "g/N", 1.0),                       # was not read: 'unit not stated'
+    ("# units = g/N", "g/N", 1.0),                      # was read as the unit '= g/N'
+    ("# FRF units: m/s^2/N", "m/s^2/N", 1.0),
+    ("# Unit: [g/N]", "g/N", 1.0),
+    ("# Units: kHz, g/N, g/N", "g/N", 1e-3),            # the frequency's unit first
+    ("# laminid FRF, units m/s^2 / N", "m/s^2 / N", 1.0),   # laminid's own, as before
+    ("# units 1", "1", 1.0),
+])
+def test_csv_units_comment_line_as_tools_write_it(tmp_path, comment, units, scale):
+    """A units comment line of an analyser's CSV export, above a magnitude (dB) and phase
+    (deg) file with Windows line endings: the FRF unit it names (and the frequency's, first
+    in a list, where the header 'Frequency' states none: read, with a note, no warning)."""
+    freq = 20.0 + 0.5 * np.arange(1161)
+    H = synth_h(freq)
+    rows = ["# Exported by SignalCalc Mobilyzer", comment,
+            "Frequency,H1 Magnitude [dB],H1 Phase [deg]"]
+    rows += [",".join(repr(float(v)) for v in (f * scale, 20 * np.log10(abs(h)),
+                                                np.degrees(np.angle(h))))
+             for f, h in zip(freq, H)]
+    path = tmp_path / "sc.csv"
+    path.write_bytes(("\r\n".join(rows) + "\r\n").encode())
+    fs = io.read_frf(path)
+    assert fs.units == units
+    np.testing.assert_allclose(fs.freq, freq, rtol=1e-12)
+    np.testing.assert_allclose(fs.frf[0], H, rtol=1e-12)
+    assert ("warnings" in fs.meta) == (scale == 1.0)     # the frequency's unit stated or not
+    if scale != 1.0:
+        assert f"{path}: the frequency read in kHz, as the comment line 2 says (its first " \
+               "unit)" in fs.meta["notes"]
+
+
+@pytest.mark.parametrize("comment, header, message", [
+    ("# Units: Hz, g/N, m/s/N", "f", "line 1: '# Units: Hz, g/N, m/s/N' names more than one FRF "
+     "unit (g/N, m/s/N), not which column each is; give one ('# units g/N') or each FRF "
+     "column's in the header ('H1_re [g/N]')"),
+    ("# Units: kHz, g/N", "f [Hz]", "column 1 ('f [Hz]') states a frequency unit the comment "
+     "line 1 contradicts ('kHz', its first unit); make them agree"),
+])
+def test_csv_units_comment_line_that_does_not_say_one_unit_is_refused(tmp_path, comment,
+                                                                      header, message):
+    path = tmp_path / "u.csv"
+    path.write_text("\n".join([comment, f"{header},H1_re,H1_im"]
+                              + [f"{100 + k},0.{k + 1},0.2" for k in range(200)]) + "\n")
+    with pytest.raises(FrfError) as err:
+        io.read_frf(path)
+    assert str(err.value) == f"{path}: {message}"
 
 
 @pytest.mark.parametrize("name, scale", [("Frequency [rad/s]", 2 * np.pi), ("f (kHz)", 1e-3),

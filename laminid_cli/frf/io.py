@@ -64,7 +64,8 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     a decimal comma is read too (``125,05``, as a European spreadsheet writes), and '.' as its
     thousands separator (``1.000,5``) where the whole file says so (:func:`_csv_thousands`,
     with a note; refused where a decimal point shares the file); ``#`` comment
-    lines (``# ... units Pa/N`` gives the FRF unit; else a unit closing every FRF column's
+    lines (``# ... units Pa/N``, ``# Units: g/N``, ``# Units: Hz, g/N`` give the FRF unit, and the
+    last the frequency's: :func:`_csv_units_comment`; else a unit closing every FRF column's
     name, ``H1_re [g/N]``, ``Pt1 Magnitude (g/N)``: :func:`_csv_header_units`; without one the
     unit is not stated:
     ``units`` None and a note, never "1", which declares the FRFs dimensionless); an optional
@@ -796,6 +797,50 @@ def _grouped_number(cell: str) -> float:
     return float(cell.replace(".", "").replace(",", "."))
 
 
+#: a units comment line as a tool writes it: "# Units: g/N", "# FRF units = m/s^2/N", "# Unit:
+#: Hz, g/N" (a unit per column, the frequency's first); laminid's "# ... units Pa/N" below
+_CSV_UNITS_SAID = re.compile(r"\s*#.*?\bunits?\s*[:=]\s*(\S.*?)\s*\Z", re.IGNORECASE)
+_CSV_UNITS_LAMINID = re.compile(r"\s*#.*?\bunits\s+(\S.*?)\s*\Z")
+
+
+def _csv_units_comment(path, text: str) -> tuple[str | None, str | None, int | None]:
+    """The FRF unit a CSV file's comment line states, the frequency unit it states (None
+    where it states none) and the line's number: laminid's "# laminid FRF, units Pa/N" (the
+    rest of the line: a unit may hold spaces, "m/s^2 / N"), or a tool's "# Units: g/N",
+    "# FRF units = m/s^2/N", "# Units: Hz, g/N" (one unit per column or per kind, the
+    frequency's first; an FRF unit is a ratio, "g/N", "m s^-2 N^-1": "# Units: SI" states
+    none). "# Units: g/N" was not read (the FRFs 'unit not stated'), and
+    "# units = g/N" read as the unit "= g/N". FrfError where the list names more than one
+    FRF unit (which column each is not said)."""
+    from laminid_cli.frf.generic_h5 import freq_unit_factor
+
+    for lineno, ln in enumerate(text.splitlines(), start=1):
+        said = _CSV_UNITS_SAID.match(ln)
+        if said is None:
+            hit = _CSV_UNITS_LAMINID.match(ln)
+            if hit:
+                return hit.group(1), None, lineno
+            continue
+        value = said.group(1)
+        if len(value) > 2 and value[0] + value[-1] in ("[]", "()"):
+            value = value[1:-1].strip()
+        items = [v.strip() for v in re.split(r"[,;\t]", value)]
+        freq_unit = items[0] if len(items) > 1 and freq_unit_factor(items[0]) else None
+        frf_units = list(dict.fromkeys(
+            v for v in items[1 if freq_unit else 0:]
+            if v and v.lower() not in _CSV_NOT_FRF_UNITS and not v.lower().startswith("db")
+            and ("/" in v or "-1" in v)))         # an FRF's unit: a response over a force
+        if len(frf_units) > 1:
+            raise FrfError(f"{path}: line {lineno}: {_quoted(ln.strip())} names more than one "
+                           f"FRF unit ({', '.join(frf_units)}), not which column each is; "
+                           "give one ('# units g/N') or each FRF column's in the header "
+                           "('H1_re [g/N]')")
+        if frf_units or freq_unit:
+            return (frf_units[0] if frf_units else None), freq_unit, lineno
+        # "# Units: SI": no unit of the FRFs or the frequency; a later line may give one
+    return None, None, None
+
+
 def _csv_separator(line: str) -> str | None:
     """The cell separator of a CSV line: ";" first, a European spreadsheet writes
     "125,05;0,0012" (';' between cells, ',' the decimal mark), which split at ',' was refused
@@ -916,13 +961,8 @@ def read_frf_csv(path) -> FrfSet:
         raise FrfError(f"{path}: cannot read the file ({exc.strerror or exc})") from exc
     if text is None:
         raise FrfError(f"{path}: not a text (CSV) file; {_not_the_format(path, 'csv')}")
-    units = None                   # not stated: not "1", which declares FRFs dimensionless
-    for ln in text.splitlines():
-        # the rest of the line: a unit may hold spaces ("m/s^2 / N")
-        hit = re.match(r"\s*#.*?\bunits\s+(\S.*?)\s*\Z", ln)
-        if hit:
-            units = hit.group(1)
-            break
+    # not stated: not "1", which declares FRFs dimensionless
+    units, comment_freq_unit, units_line = _csv_units_comment(path, text)
     # a line of separators only (",,,,", a spreadsheet's formatted empty row) is blank
     lines = [(i + 1, ln) for i, ln in enumerate(text.splitlines())
              if ln.strip(' \t,;"') and not ln.lstrip().startswith("#")]
@@ -1092,6 +1132,18 @@ def read_frf_csv(path) -> FrfSet:
         notes.append(f"{path}: not UTF-8; read as Windows-1252 text (a spreadsheet's 'CSV' "
                      "export on Windows: '°' is byte 0xB0)")
     factor, stated = _csv_freq_factor(path, header[0] if header else "")
+    if comment_freq_unit is not None:
+        from laminid_cli.frf.generic_h5 import freq_unit_factor
+
+        said = freq_unit_factor(comment_freq_unit)
+        if not stated:
+            factor, stated = said, True
+            notes.append(f"{path}: the frequency read in {comment_freq_unit}, as the comment "
+                         f"line {units_line} says (its first unit)")
+        elif not np.isclose(said, factor, rtol=1e-12):
+            raise FrfError(f"{path}: {_csv_column(header, 0)} states a frequency unit the "
+                           f"comment line {units_line} contradicts ({comment_freq_unit!r}, its "
+                           "first unit); make them agree")
     freq, frf, _ = check_frf_arrays(data[:, 0].real * factor, frf, source=str(path))
     meta: dict = {}
     if not stated:
