@@ -1393,3 +1393,34 @@ def test_a_matlab_v73_mat_file_is_read_as_plain_hdf5(tmp_path, case, freq_shape)
         "which laminid does not read; in MATLAB save the frequency and FRF variables again "
         "with '-v7.3' (save('old.mat', 'f', 'H', '-v7.3'), an HDF5 file laminid reads), or "
         "write them as a CSV\n"))
+
+
+def test_a_uff_of_ascii_and_binary_records_mixed_is_read_whole(tmp_path, case):
+    """A file another tool appended to over a session: ASCII and binary 58b records mixed,
+    each FRF's coherence in the other form. Every record read, each coherence with its FRF
+    (binary exactly, ASCII to its 12-13 significant digits)."""
+    import pyuff
+
+    f, H = case.freq[:UNIT_LINES], case.frf[:3, :UNIT_LINES]
+    sets = [pyuff.prepare_164(**SI_164)]
+    for k in range(3):
+        common = dict(rsp_node=k + 1, rsp_dir=3, ref_node=1, ref_dir=3, abscissa_spacing=1,
+                      abscissa_spec_data_type=18, abscissa_axis_units_lab="Hz", x=f)
+        sets.append(pyuff.prepare_58(binary=k % 2, func_type=4, ord_data_type=6, data=H[k],
+                                     ordinate_axis_units_lab="m/s^2", ordinate_spec_data_type=12,
+                                     orddenom_axis_units_lab="N", orddenom_spec_data_type=13,
+                                     **common))
+        sets.append(pyuff.prepare_58(binary=(k + 1) % 2, func_type=6, ord_data_type=4,
+                                     data=np.full(f.size, 0.5 + 0.1 * k),
+                                     ordinate_axis_units_lab="NONE", ordinate_spec_data_type=0,
+                                     orddenom_axis_units_lab="NONE", orddenom_spec_data_type=0,
+                                     **common))
+    path = tmp_path / "mixed.uff"
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")
+    fs = io.read_frf(path)
+    assert fs.labels == ("1+Z", "2+Z", "3+Z") and fs.units == "m/s^2/N"
+    np.testing.assert_array_equal(fs.frf[1], H[1])                       # binary: exact
+    np.testing.assert_allclose(fs.frf[[0, 2]], H[[0, 2]], rtol=1e-11,
+                               atol=1e-11 * np.abs(H).max())              # ASCII
+    np.testing.assert_allclose(fs.coherence, np.repeat([[0.5], [0.6], [0.7]], f.size, 1),
+                               rtol=1e-12)
