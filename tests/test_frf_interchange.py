@@ -1281,3 +1281,146 @@ def test_a_dof_measured_twice_keeps_each_records_coherence(tmp_path, case):
         "a point of its own, its coherence the DOF's record of the same rank"]
     out = io.write_frf(tmp_path / "again.uff", fs)          # and through laminid's writer
     np.testing.assert_array_equal(io.read_frf(out).coherence, fs.coherence)
+
+
+def test_export_json_lists_every_record_where_point_labels_repeat(tmp_path, case):
+    """export --json's ``points`` (label -> node) held one entry per label: a DOF measured
+    twice (1+Z, records 1 and 2) and scalar records at node 0 (labelled '0', both) were one
+    entry each, 4 records shown as 2. ``point_nodes`` lists every record in file order with
+    its DOFs as written; ``points`` stays, the last record of a label."""
+    import pyuff
+
+    f, H = case.freq[:UNIT_LINES], case.frf[:4, :UNIT_LINES]
+    sets = [pyuff.prepare_58(binary=0, func_type=4, ord_data_type=6, rsp_node=node,
+                             rsp_dir=d, ref_node=1, ref_dir=3, abscissa_spacing=1,
+                             abscissa_spec_data_type=18, abscissa_axis_units_lab="Hz",
+                             ordinate_axis_units_lab="m/s^2", orddenom_axis_units_lab="N",
+                             ordinate_spec_data_type=12, orddenom_spec_data_type=13,
+                             x=f, data=H[k])
+            for k, (node, d) in enumerate(((1, 3), (1, 3), (0, 0), (0, 0)))]
+    src = tmp_path / "repeat.uff"
+    pyuff.UFF(str(src)).write_sets(sets, mode="add")
+    out = tmp_path / "again.uff"
+    r = run(["export", str(src), "-o", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.stdout)
+    assert d["datasets"]["58"] == 4
+    assert d["points"] == {"1+Z": 1, "0": 0}
+    assert d["point_nodes"] == [
+        {"label": "1+Z", "node": 1, "direction": "+Z", "ref_node": 1, "ref_direction": "+Z"},
+        {"label": "1+Z", "node": 1, "direction": "+Z", "ref_node": 1, "ref_direction": "+Z"},
+        {"label": "0", "node": 0, "direction": "+Z", "ref_node": 1, "ref_direction": "+Z"},
+        {"label": "0", "node": 0, "direction": "+Z", "ref_node": 1, "ref_direction": "+Z"}]
+    back = [s for s in pyuff.UFF(str(out)).read_sets() if s["type"] == 58]
+    assert [(s["rsp_node"], s["rsp_dir"]) for s in back] == [
+        (p["node"], 3) for p in d["point_nodes"]]                # as written
+
+
+@pytest.mark.parametrize("where, after", [("head", False), ("between the records", True)])
+def test_a_malformed_units_record_is_named_by_dataset_line_and_field(tmp_path, case, where,
+                                                                     after):
+    """A units record (dataset 164) pyuff cannot read was refused as 'cannot read its units
+    record (dataset 164) (Error when reading data-set(s).)', pyuff's words: now the dataset's
+    number in the file, its line, the record and field that is no number, and what to do;
+    one line, exit 2, in fit-frf and export, text and --json, no file written."""
+    import pyuff
+
+    f, H = case.freq[:UNIT_LINES], case.frf[:2, :UNIT_LINES]
+    src = _other_uff(tmp_path / "ok.uff", f, H, ordinate_axis_units_lab="m/s^2")
+    sets = pyuff.UFF(str(src)).read_sets()
+    sets.insert(1 if after else 0, pyuff.prepare_164(**SI_164))
+    path = tmp_path / "bad164.uff"
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")
+    text = path.read_text()
+    line = text[:text.index("   164 ")].count("\n")              # its opening '    -1'
+    lines = text.splitlines()
+    factors = lines[line + 2].split()                # record 2 (line + 3, 1-based)
+    assert [float(v.replace("D", "e")) for v in factors] == [1.0, 1.0, 1.0]
+    lines[line + 2] = "".join(f"{v:>25}" for v in (factors[0], "1.0O00e+00", factors[2]))
+    path.write_text("\n".join(lines) + "\n")
+    message = (f"{path}: cannot read its units record (dataset 164): dataset "
+               f"{2 if after else 1} of the file, line {line}: record 2 (line {line + 3}), the "
+               "force factor: '1.0O00e+00' is not a number; export the file again, or delete "
+               "that dataset where the file is in SI (its FRF records are then read by their "
+               "units labels)")
+    out = tmp_path / "x.uff"
+    for args in (["fit-frf", str(path)], ["export", str(path), "-o", str(out)]):
+        r = run(args)
+        assert (r.exit_code, r.stdout, r.stderr) == (2, "", f"laminid: error: {message}\n")
+        r = run([*args, "--json"])
+        assert r.exit_code == 2 and json.loads(r.stdout)["error"] == {
+            "kind": "FrfError", "message": message, "file": str(path), "field": None,
+            "line": None, "exit_code": 2}
+    assert not out.exists()
+
+
+def _matlab_v73(path, freq, frf, freq_shape):
+    """A MAT-file as MATLAB's save(..., '-v7.3') writes it: HDF5 behind a 512-byte user
+    block holding the MAT header, each variable a dataset with a MATLAB_class attribute,
+    stored transposed (column-major: MATLAB's lines x points H is points x lines here), a
+    complex one a compound of real and imag."""
+    with h5py.File(path, "w", userblock_size=512) as f:
+        H = np.empty(frf.shape, np.dtype([("real", "<f8"), ("imag", "<f8")]))
+        H["real"], H["imag"] = frf.real, frf.imag
+        f.create_dataset("H", data=H).attrs["MATLAB_class"] = np.bytes_("double")
+        f.create_dataset("f", data=freq.reshape(freq_shape)).attrs["MATLAB_class"] = \
+            np.bytes_("double")
+    with open(path, "r+b") as fh:
+        fh.write(b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Dec  7 08:00:00 "
+                 b"2026 HDF5 schema 1.00 .".ljust(116) + bytes(8) + b"\x00\x02IM")
+    return path
+
+
+@pytest.mark.parametrize("freq_shape", [(1, -1), (-1, 1)])
+def test_a_matlab_v73_mat_file_is_read_as_plain_hdf5(tmp_path, case, freq_shape):
+    """A MAT-file saved with '-v7.3' is HDF5, but '.mat' was 'unknown FRF file type': it is
+    read as a plain HDF5 file now (the same modes as the native file to 1e-9); a version 5
+    MAT-file (save's default, no HDF5) is refused saying how to save one laminid reads."""
+    f, H = case.freq[:UNIT_LINES], case.frf[:, :UNIT_LINES]
+    path = _matlab_v73(tmp_path / "plate.mat", f, H, freq_shape)
+    fs = io.read_frf(path)
+    np.testing.assert_array_equal(fs.freq, f)
+    np.testing.assert_array_equal(fs.frf, H)                    # as the native file holds
+    out = _fit_json(path)                                       # and through the CLI
+    np.testing.assert_allclose([m["freq_hz"] for m in out["modes"]][:3], case.freq_hz[:3],
+                               rtol=2e-3)
+    v5 = tmp_path / "old.mat"
+    v5.write_bytes(b"MATLAB 5.0 MAT-file, Platform: PCWIN64, Created on: Mon Dec 7 2026"
+                   .ljust(116) + bytes(8) + b"\x00\x01IM" + bytes(64))
+    r = run(["fit-frf", str(v5)])
+    assert (r.exit_code, r.stderr) == (2, (
+        f"laminid: error: {v5}: a MATLAB MAT-file of version 5.0 (save's default), not HDF5, "
+        "which laminid does not read; in MATLAB save the frequency and FRF variables again "
+        "with '-v7.3' (save('old.mat', 'f', 'H', '-v7.3'), an HDF5 file laminid reads), or "
+        "write them as a CSV\n"))
+
+
+def test_a_uff_of_ascii_and_binary_records_mixed_is_read_whole(tmp_path, case):
+    """A file another tool appended to over a session: ASCII and binary 58b records mixed,
+    each FRF's coherence in the other form. Every record read, each coherence with its FRF
+    (binary exactly, ASCII to its 12-13 significant digits)."""
+    import pyuff
+
+    f, H = case.freq[:UNIT_LINES], case.frf[:3, :UNIT_LINES]
+    sets = [pyuff.prepare_164(**SI_164)]
+    for k in range(3):
+        common = dict(rsp_node=k + 1, rsp_dir=3, ref_node=1, ref_dir=3, abscissa_spacing=1,
+                      abscissa_spec_data_type=18, abscissa_axis_units_lab="Hz", x=f)
+        sets.append(pyuff.prepare_58(binary=k % 2, func_type=4, ord_data_type=6, data=H[k],
+                                     ordinate_axis_units_lab="m/s^2", ordinate_spec_data_type=12,
+                                     orddenom_axis_units_lab="N", orddenom_spec_data_type=13,
+                                     **common))
+        sets.append(pyuff.prepare_58(binary=(k + 1) % 2, func_type=6, ord_data_type=4,
+                                     data=np.full(f.size, 0.5 + 0.1 * k),
+                                     ordinate_axis_units_lab="NONE", ordinate_spec_data_type=0,
+                                     orddenom_axis_units_lab="NONE", orddenom_spec_data_type=0,
+                                     **common))
+    path = tmp_path / "mixed.uff"
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")
+    fs = io.read_frf(path)
+    assert fs.labels == ("1+Z", "2+Z", "3+Z") and fs.units == "m/s^2/N"
+    np.testing.assert_array_equal(fs.frf[1], H[1])                       # binary: exact
+    np.testing.assert_allclose(fs.frf[[0, 2]], H[[0, 2]], rtol=1e-11,
+                               atol=1e-11 * np.abs(H).max())              # ASCII
+    np.testing.assert_allclose(fs.coherence, np.repeat([[0.5], [0.6], [0.7]], f.size, 1),
+                               rtol=1e-12)

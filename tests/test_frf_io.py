@@ -311,6 +311,117 @@ def test_csv_with_a_decimal_comma_as_a_european_spreadsheet_writes_it(tmp_path, 
     assert np.allclose(fit.freq_hz, case.freq_hz[:3], rtol=1e-4)
 
 
+def synth_h(freq):
+    """Three modes' receptance at ``freq`` (Hz), one point."""
+    from tests.frf_synth import synth_frf
+
+    modes = ((105.3, 0.012), (236.8, 0.008), (402.45, 0.010))
+    return synth_frf(freq, modes, np.array([[1.0, -0.6, 0.8]]))[0]
+
+
+def _german(v: float) -> str:
+    """``v`` as a spreadsheet with a German locale and "Use 1000 separator" writes it:
+    1234.5 "1.234,500000"."""
+    return f"{v:,.6f}".translate(str.maketrans(",.", ".,"))
+
+
+@pytest.mark.parametrize("sep", [";", "\t"])
+def test_csv_with_thousands_separators_of_a_european_spreadsheet(tmp_path, sep):
+    """'1.000,5;0,0012' (1000.5 Hz) was refused as 'not a number'; a file whose decimal marks
+    are commas and whose every '.' groups thousands is read so, with a note."""
+    freq = 1000.5 + 0.5 * np.arange(400)                  # 1000.5-1200 Hz: '1.000,500000'
+    H = 1500.0 * np.exp(1j * np.linspace(0, 3, freq.size)) / (1 + (freq - 1100.0) ** 2 / 400)
+    lines = [sep.join(["f [Hz]", "H1_re", "H1_im"])]
+    lines += [sep.join(_german(v) for v in (f, h.real, h.imag)) for f, h in zip(freq, H)]
+    path = tmp_path / "de.csv"
+    path.write_text("\n".join(lines) + "\n")
+    fs = io.read_frf(path)
+    np.testing.assert_allclose(fs.freq, freq, rtol=0, atol=1e-9)
+    for part in (np.real, np.imag):                                      # 6 decimals written
+        np.testing.assert_allclose(part(fs.frf[0]), part(H), rtol=0, atol=5.1e-7)
+    assert f"{path}: '.' read as a thousands separator and ',' as the decimal mark (line " \
+           "2, column 1 ('f [Hz]'): '1.000,500000' is 1000.5): the file's decimal marks are " \
+           "commas, and every '.' in it is followed by groups of 3 digits" in fs.meta["notes"]
+
+
+def test_csv_with_a_thousands_separator_and_a_decimal_point_is_refused(tmp_path):
+    """'1.000' beside decimal commas is 1000, beside a decimal point ('1.5') 1: nothing in the
+    file says which; refused naming both cells (it read '1.000' as 1, silently)."""
+    path = tmp_path / "mixed.csv"
+    rows = [f"{100 + k},5;0,{k + 1};0,2" for k in range(200)]
+    rows[3] = "103,5;1.000;0,2"
+    rows[7] = "107,5;1.5;0,2"
+    path.write_text("f [Hz];H1_re;H1_im\n" + "\n".join(rows) + "\n")
+    with pytest.raises(FrfError) as err:
+        io.read_frf(path)
+    assert str(err.value) == (
+        f"{path}: line 5, column 2 ('H1_re'): '1.000' reads as a number with '.' grouping "
+        "thousands, as the file's decimal commas suggest (line 2, column 1 ('f [Hz]'): "
+        "'100,5'), but line 9, column 2 ('H1_re'): '1.5' has a decimal point: with both, "
+        "which '.' groups thousands is not known (1.000 is 1 or 1000); save the file again "
+        "without thousands separators (the cells' number format: untick 'Use 1000 "
+        "separator')")
+
+
+def test_csv_of_decimal_points_between_semicolons_keeps_them(tmp_path):
+    """No decimal comma in the file: '1.250' stays 1.25 (the '.' is the decimal point)."""
+    path = tmp_path / "dots.csv"
+    rows = [f"{100 + k}.500;1.250;0.002" for k in range(200)]
+    path.write_text("f [Hz];H1_re;H1_im\n" + "\n".join(rows) + "\n")
+    fs = io.read_frf(path)
+    assert fs.freq[0] == 100.5 and fs.frf[0, 0] == 1.25 + 0.002j
+    assert not any("thousands" in n for n in fs.meta.get("notes", []))
+
+
+@pytest.mark.parametrize("comment, units, scale", [
+    ("# Units: g/N", "g/N", 1.0),                       # was not read: 'unit not stated'
+    ("# units = g/N", "g/N", 1.0),                      # was read as the unit '= g/N'
+    ("# FRF units: m/s^2/N", "m/s^2/N", 1.0),
+    ("# Unit: [g/N]", "g/N", 1.0),
+    ("# Units: kHz, g/N, g/N", "g/N", 1e-3),            # the frequency's unit first
+    ("# laminid FRF, units m/s^2 / N", "m/s^2 / N", 1.0),   # laminid's own, as before
+    ("# units 1", "1", 1.0),
+])
+def test_csv_units_comment_line_as_tools_write_it(tmp_path, comment, units, scale):
+    """A units comment line of an analyser's CSV export, above a magnitude (dB) and phase
+    (deg) file with Windows line endings: the FRF unit it names (and the frequency's, first
+    in a list, where the header 'Frequency' states none: read, with a note, no warning)."""
+    freq = 20.0 + 0.5 * np.arange(1161)
+    H = synth_h(freq)
+    rows = ["# Exported by SignalCalc Mobilyzer", comment,
+            "Frequency,H1 Magnitude [dB],H1 Phase [deg]"]
+    rows += [",".join(repr(float(v)) for v in (f * scale, 20 * np.log10(abs(h)),
+                                                np.degrees(np.angle(h))))
+             for f, h in zip(freq, H)]
+    path = tmp_path / "sc.csv"
+    path.write_bytes(("\r\n".join(rows) + "\r\n").encode())
+    fs = io.read_frf(path)
+    assert fs.units == units
+    np.testing.assert_allclose(fs.freq, freq, rtol=1e-12)
+    np.testing.assert_allclose(fs.frf[0], H, rtol=1e-12)
+    assert ("warnings" in fs.meta) == (scale == 1.0)     # the frequency's unit stated or not
+    if scale != 1.0:
+        assert f"{path}: the frequency read in kHz, as the comment line 2 says (its first " \
+               "unit)" in fs.meta["notes"]
+
+
+@pytest.mark.parametrize("comment, header, message", [
+    ("# Units: Hz, g/N, m/s/N", "f", "line 1: '# Units: Hz, g/N, m/s/N' names more than one FRF "
+     "unit (g/N, m/s/N), not which column each is; give one ('# units g/N') or each FRF "
+     "column's in the header ('H1_re [g/N]')"),
+    ("# Units: kHz, g/N", "f [Hz]", "column 1 ('f [Hz]') states a frequency unit the comment "
+     "line 1 contradicts ('kHz', its first unit); make them agree"),
+])
+def test_csv_units_comment_line_that_does_not_say_one_unit_is_refused(tmp_path, comment,
+                                                                      header, message):
+    path = tmp_path / "u.csv"
+    path.write_text("\n".join([comment, f"{header},H1_re,H1_im"]
+                              + [f"{100 + k},0.{k + 1},0.2" for k in range(200)]) + "\n")
+    with pytest.raises(FrfError) as err:
+        io.read_frf(path)
+    assert str(err.value) == f"{path}: {message}"
+
+
 @pytest.mark.parametrize("name, scale", [("Frequency [rad/s]", 2 * np.pi), ("f (kHz)", 1e-3),
                                          ("omega_rad_s", 2 * np.pi), ("freq_kHz", 1e-3),
                                          ("freq_Hz", 1.0), ("Frequency [Hz]", 1.0), ("f", 1.0)])

@@ -119,8 +119,8 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
         text = (f"{out}: {summary['n_modes']} mode shapes of {shapes.specimen} (UFF 55) on "
                 f"{summary['n_nodes']} nodes (UFF 15, metres; UFF 164 SI)")
     else:
-        from laminid_cli.frf.io import (read_frf, uff_coherence_points, uff_point, uff_units,
-                                        write_frf_uff)
+        from laminid_cli.frf.io import (read_frf, uff_coherence_points, uff_direction,
+                                        uff_point, uff_units, write_frf_uff)
         from laminid_cli.frf.store import units_text
 
         fs = read_frf(input_file, fmt, freq_dataset=freq_dataset, frf_dataset=frf_dataset)
@@ -129,7 +129,8 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
         # as written: a Universal File is ASCII ("m/s²/N" is written "m/s^2/N")
         units = uff_units(fs.units, input_file)
         labels = list(fs.labels) or [str(i + 1) for i in range(fs.n_points)]
-        nodes = [uff_point(lab, i)[0] for i, lab in enumerate(labels)]
+        dofs = [uff_point(lab, i) for i, lab in enumerate(labels)]    # as write_frf_uff
+        nodes = [d[0] for d in dofs]
         coherent, notes = uff_coherence_points(fs)
         notes[:0] = fs.meta.get("notes") or ()    # the reader's (a CSV phase unit assumed)
         point_units = fs.meta.get("point_units")
@@ -155,7 +156,13 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
                    "units": units,      # frf_unit's old name, kept for 0.2.x (--json help)
                    "n_lines": int(fs.freq.size),
                    "freq_range_hz": _span(fs.freq),
+                   # label -> node, kept for 0.2.x: a label that two records share (a
+                   # DOF measured twice, scalar records at node 0) keeps its last record
                    "points": dict(zip(labels, nodes)),
+                   # every record, in file order: the map above cannot hold a repeat
+                   "point_nodes": [{"label": lab, "node": n, "direction": uff_direction(d),
+                                    "ref_node": r, "ref_direction": uff_direction(rd)}
+                                   for lab, (n, d, r, rd) in zip(labels, dofs)],
                    "coherence_points": [labels[k] for k in coherent], "notes": notes,
                    "warnings": warnings}
         text = (f"{out}: {fs.n_points} FRFs (UFF 58{'' if ascii_ else 'b'}, {units_text(units)}, "

@@ -61,8 +61,11 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
 
     Text in UTF-8, UTF-16 with a BOM, or Windows-1252 (:func:`decode_text`, with a note).
     Separator ``;`` tab ``,`` (the first found in the first line) or blanks; with ``;`` or tab
-    a decimal comma is read too (``125,05``, as a European spreadsheet writes); ``#`` comment
-    lines (``# ... units Pa/N`` gives the FRF unit; else a unit closing every FRF column's
+    a decimal comma is read too (``125,05``, as a European spreadsheet writes), and '.' as its
+    thousands separator (``1.000,5``) where the whole file says so (:func:`_csv_thousands`,
+    with a note; refused where a decimal point shares the file); ``#`` comment
+    lines (``# ... units Pa/N``, ``# Units: g/N``, ``# Units: Hz, g/N`` give the FRF unit, and the
+    last the frequency's: :func:`_csv_units_comment`; else a unit closing every FRF column's
     name, ``H1_re [g/N]``, ``Pt1 Magnitude (g/N)``: :func:`_csv_header_units`; without one the
     unit is not stated:
     ``units`` None and a note, never "1", which declares the FRFs dimensionless); an optional
@@ -98,8 +101,13 @@ __all__ = ["FORMATS", "SUFFIXES", "UNSTATED_FREQ_MIN_SPAN_HZ", "check_frf_arrays
            "validate_frf_arrays", "write_frf"]
 
 FORMATS = ("hdf5", "uff", "csv")
-SUFFIXES = {".h5": "hdf5", ".hdf5": "hdf5", ".hdf": "hdf5", ".uff": "uff", ".unv": "uff",
-            ".csv": "csv", ".txt": "csv"}
+SUFFIXES = {".h5": "hdf5", ".hdf5": "hdf5", ".hdf": "hdf5", ".mat": "hdf5", ".uff": "uff",
+            ".unv": "uff", ".csv": "csv", ".txt": "csv"}
+#: the text a MATLAB MAT-file begins with (its 116-byte descriptive header: "MATLAB 5.0
+#: MAT-file, Platform: ..."; MathWorks, "MAT-File Format", Level 5 MAT-File Format, header),
+#: and the version of a v7.3 file, HDF5 behind a 512-byte user block, which the plain HDF5
+#: reader reads; a version 5 (v6, v7: save's default) file is no HDF5
+MAT_HEADER = b"MATLAB "
 
 #: UFF 58 function types (record 6, field 1: 4 frequency response function, 6 coherence), and
 #: the abscissa's specific data type for frequency (Hz; record 8, field 1: 18). Source: the
@@ -192,6 +200,8 @@ def _read_frf(path: Path, fmt: str | None, h5_paths: dict) -> FrfSet:
         raise FrfError(f"{path}: file not found")
     if path.is_dir():
         raise FrfError(f"{path}: is a folder, not an FRF file")
+    if fmt == "hdf5" and path.suffix.lower() == ".mat":
+        _check_mat_file(path)
     if fmt != "hdf5":
         size = path.stat().st_size
         if size > MAX_TEXT_FILE_BYTES:
@@ -202,6 +212,26 @@ def _read_frf(path: Path, fmt: str | None, h5_paths: dict) -> FrfSet:
     if fs.n_points == 0:
         raise FrfError(f"{path}: the file holds no FRF (0 measurement points)")
     return fs
+
+
+def _check_mat_file(path: Path) -> None:
+    """A MATLAB MAT-file (``.mat``) is read as HDF5 where it is one (saved with '-v7.3');
+    FrfError for one of version 5 (save's default), which is not, naming the save that makes
+    one laminid reads (it said 'unknown FRF file type .mat')."""
+    import h5py
+
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(128)
+    except OSError:
+        return                      # the HDF5 reader's message
+    if h5py.is_hdf5(str(path)) or not head.startswith(MAT_HEADER):
+        return
+    version = head[7:10].decode("ascii", "replace")
+    raise FrfError(f"{path}: a MATLAB MAT-file of version {version} (save's default), not "
+                   "HDF5, which laminid does not read; in MATLAB save the frequency and FRF "
+                   f"variables again with '-v7.3' (save('{path.name}', 'f', 'H', '-v7.3'), an "
+                   "HDF5 file laminid reads), or write them as a CSV")
 
 
 def write_frf(path, fs: FrfSet, fmt: str | None = None, *, overwrite: bool = False) -> Path:
@@ -707,6 +737,110 @@ def _unstated_freq_warning(path, header: list[str] | None, sep: str | None,
     return unstated_freq_warning(f"{path}: {column}", freq, how, f"'{hz}'")
 
 
+#: a number with '.' grouping thousands and ',' its decimal mark, as a spreadsheet with a
+#: German, Dutch, Italian or Spanish locale writes it with "Use 1000 separator" ticked
+#: ("1.000,5", "12.345.678", "-2.500,125E-03"): a first group of 1-3 digits not beginning with
+#: 0 ("0.001" is a decimal point's), then groups of exactly 3
+_CSV_GROUPED = re.compile(r"[+-]?[1-9]\d{0,2}(?:\.\d{3})+(?:,\d*)?(?:[eE][+-]?\d+)?")
+#: a cell with a decimal point that groups no thousands ("1.5", "0.0012", "1.25e-3")
+_CSV_DECIMAL_POINT = re.compile(r"[+-]?(?:\d+\.\d*|\.\d+)(?:[eE][+-]?\d+)?")
+
+
+def _csv_thousands(path, lines, sep: str | None, header: list[str] | None) -> str | None:
+    """Whether '.' groups thousands in the data ``lines`` ((number, text)) of a CSV file: the
+    note saying it is read so, or None where it is not. Decided by the whole file, never by
+    one cell: separated by ';' or tab, a decimal comma somewhere ("0,5", or "1.000,5"
+    itself), and every cell with a '.' a number grouped in threes (:data:`_CSV_GROUPED`);
+    "1.000,5" was refused as "not a number" and, worse, "1.250" in such a file read as 1.25.
+    FrfError naming both cells where a grouped cell and a decimal point ("1.5") share the
+    file: "1.000" is then 1 or 1000, and nothing in the file says which. A file without a
+    decimal comma keeps '.' the decimal point, as before ("1.250;0.002" is 1.25)."""
+    if sep not in (";", "\t"):
+        return None
+    body = "\n".join(ln for _, ln in lines)
+    if "." not in body or "," not in body:
+        return None
+    grouped = point = comma = None
+    for lineno, ln in lines:
+        for j, cell in enumerate(_split(ln, sep)):
+            if "." in cell:
+                if _CSV_GROUPED.fullmatch(cell):
+                    grouped = grouped or (lineno, j, cell)
+                    if "," in cell:
+                        comma = comma or (lineno, j, cell)
+                elif _CSV_DECIMAL_POINT.fullmatch(cell):
+                    point = point or (lineno, j, cell)
+            elif "," in cell:
+                comma = comma or (lineno, j, cell)
+        if grouped and point and comma:
+            break
+    if grouped is None or comma is None:
+        return None
+
+    def at(where) -> str:
+        return f"line {where[0]}, {_csv_column(header, where[1])}: {_quoted(where[2])}"
+
+    if point is not None:
+        raise FrfError(
+            f"{path}: {at(grouped)} reads as a number with '.' grouping thousands, as the "
+            f"file's decimal commas suggest ({at(comma)}), but {at(point)} has a decimal point: "
+            "with both, which '.' groups thousands is not known (1.000 is 1 or 1000); save "
+            "the file again without thousands separators (the cells' number format: untick "
+            "'Use 1000 separator')")
+    return (f"{path}: '.' read as a thousands separator and ',' as the decimal mark "
+            f"({at(grouped)} is {_grouped_number(grouped[2])!r}): the file's decimal marks are "
+            "commas, and every '.' in it is followed by groups of 3 digits")
+
+
+def _grouped_number(cell: str) -> float:
+    """The value of a cell of :data:`_CSV_GROUPED` ("1.000,5": 1000.5)."""
+    return float(cell.replace(".", "").replace(",", "."))
+
+
+#: a units comment line as a tool writes it: "# Units: g/N", "# FRF units = m/s^2/N", "# Unit:
+#: Hz, g/N" (a unit per column, the frequency's first); laminid's "# ... units Pa/N" below
+_CSV_UNITS_SAID = re.compile(r"\s*#.*?\bunits?\s*[:=]\s*(\S.*?)\s*\Z", re.IGNORECASE)
+_CSV_UNITS_LAMINID = re.compile(r"\s*#.*?\bunits\s+(\S.*?)\s*\Z")
+
+
+def _csv_units_comment(path, text: str) -> tuple[str | None, str | None, int | None]:
+    """The FRF unit a CSV file's comment line states, the frequency unit it states (None
+    where it states none) and the line's number: laminid's "# laminid FRF, units Pa/N" (the
+    rest of the line: a unit may hold spaces, "m/s^2 / N"), or a tool's "# Units: g/N",
+    "# FRF units = m/s^2/N", "# Units: Hz, g/N" (one unit per column or per kind, the
+    frequency's first; an FRF unit is a ratio, "g/N", "m s^-2 N^-1": "# Units: SI" states
+    none). "# Units: g/N" was not read (the FRFs 'unit not stated'), and
+    "# units = g/N" read as the unit "= g/N". FrfError where the list names more than one
+    FRF unit (which column each is not said)."""
+    from laminid_cli.frf.generic_h5 import freq_unit_factor
+
+    for lineno, ln in enumerate(text.splitlines(), start=1):
+        said = _CSV_UNITS_SAID.match(ln)
+        if said is None:
+            hit = _CSV_UNITS_LAMINID.match(ln)
+            if hit:
+                return hit.group(1), None, lineno
+            continue
+        value = said.group(1)
+        if len(value) > 2 and value[0] + value[-1] in ("[]", "()"):
+            value = value[1:-1].strip()
+        items = [v.strip() for v in re.split(r"[,;\t]", value)]
+        freq_unit = items[0] if len(items) > 1 and freq_unit_factor(items[0]) else None
+        frf_units = list(dict.fromkeys(
+            v for v in items[1 if freq_unit else 0:]
+            if v and v.lower() not in _CSV_NOT_FRF_UNITS and not v.lower().startswith("db")
+            and ("/" in v or "-1" in v)))         # an FRF's unit: a response over a force
+        if len(frf_units) > 1:
+            raise FrfError(f"{path}: line {lineno}: {_quoted(ln.strip())} names more than one "
+                           f"FRF unit ({', '.join(frf_units)}), not which column each is; "
+                           "give one ('# units g/N') or each FRF column's in the header "
+                           "('H1_re [g/N]')")
+        if frf_units or freq_unit:
+            return (frf_units[0] if frf_units else None), freq_unit, lineno
+        # "# Units: SI": no unit of the FRFs or the frequency; a later line may give one
+    return None, None, None
+
+
 def _csv_separator(line: str) -> str | None:
     """The cell separator of a CSV line: ";" first, a European spreadsheet writes
     "125,05;0,0012" (';' between cells, ',' the decimal mark), which split at ',' was refused
@@ -719,6 +853,8 @@ def _csv_number(cell: str, sep: str | None) -> bool:
     or tab)."""
     if sep in (";", "\t") and "," in cell and "." not in cell:
         cell = cell.replace(",", ".")
+    if sep in (";", "\t") and _CSV_GROUPED.fullmatch(cell):
+        return True                         # "1.000,5": _csv_thousands decides
     try:
         float(cell)
     except ValueError:
@@ -825,13 +961,8 @@ def read_frf_csv(path) -> FrfSet:
         raise FrfError(f"{path}: cannot read the file ({exc.strerror or exc})") from exc
     if text is None:
         raise FrfError(f"{path}: not a text (CSV) file; {_not_the_format(path, 'csv')}")
-    units = None                   # not stated: not "1", which declares FRFs dimensionless
-    for ln in text.splitlines():
-        # the rest of the line: a unit may hold spaces ("m/s^2 / N")
-        hit = re.match(r"\s*#.*?\bunits\s+(\S.*?)\s*\Z", ln)
-        if hit:
-            units = hit.group(1)
-            break
+    # not stated: not "1", which declares FRFs dimensionless
+    units, comment_freq_unit, units_line = _csv_units_comment(path, text)
     # a line of separators only (",,,,", a spreadsheet's formatted empty row) is blank
     lines = [(i + 1, ln) for i, ln in enumerate(text.splitlines())
              if ln.strip(' \t,;"') and not ln.lstrip().startswith("#")]
@@ -859,9 +990,12 @@ def read_frf_csv(path) -> FrfSet:
     first = lines[0][1]
     sep = _csv_separator(first)
     header = None
+    thousands = False               # '.' groups thousands: _csv_thousands
 
     def number(cell: str) -> float | complex:
         """A cell's value: a float, or a complex for a cell in complex syntax."""
+        if thousands and "." in cell and _CSV_GROUPED.fullmatch(cell):
+            return _grouped_number(cell)           # "1.000,5"
         if sep in (";", "\t") and "," in cell and "." not in cell:
             cell = cell.replace(",", ".")          # the decimal comma
         try:
@@ -870,9 +1004,7 @@ def read_frf_csv(path) -> FrfSet:
             return parse_complex_cell(cell)
 
     cells = _split(first, sep)
-    try:
-        number(cells[0])
-    except ValueError:
+    if not _csv_number(cells[0], sep):
         # the frequency's name: a first line whose first cell is a number is data, and a bad
         # cell in it is named as such (it was taken for the header, the line lost)
         header = cells if two_line is None else two_line
@@ -889,6 +1021,10 @@ def read_frf_csv(path) -> FrfSet:
             notes.append(f"column names read from the comment line just above the data (line "
                          f"{lines[0][0] - 1}, as numpy's savetxt writes a header): "
                          f"{', '.join(header)}")
+    grouping = _csv_thousands(path, lines, sep, header)
+    if grouping is not None:
+        thousands = True
+        notes.append(grouping)
     rows = []
     #: the first complex cell of each column that has one: (line, cell)
     complex_at: dict[int, tuple[int, str]] = {}
@@ -996,6 +1132,18 @@ def read_frf_csv(path) -> FrfSet:
         notes.append(f"{path}: not UTF-8; read as Windows-1252 text (a spreadsheet's 'CSV' "
                      "export on Windows: '°' is byte 0xB0)")
     factor, stated = _csv_freq_factor(path, header[0] if header else "")
+    if comment_freq_unit is not None:
+        from laminid_cli.frf.generic_h5 import freq_unit_factor
+
+        said = freq_unit_factor(comment_freq_unit)
+        if not stated:
+            factor, stated = said, True
+            notes.append(f"{path}: the frequency read in {comment_freq_unit}, as the comment "
+                         f"line {units_line} says (its first unit)")
+        elif not np.isclose(said, factor, rtol=1e-12):
+            raise FrfError(f"{path}: {_csv_column(header, 0)} states a frequency unit the "
+                           f"comment line {units_line} contradicts ({comment_freq_unit!r}, its "
+                           "first unit); make them agree")
     freq, frf, _ = check_frf_arrays(data[:, 0].real * factor, frf, source=str(path))
     meta: dict = {}
     if not stated:
@@ -1222,7 +1370,13 @@ def _check_uff_units_records(path, uff, idx) -> bool:
     try:
         records = uff.read_sets(idx)
     except Exception as exc:  # noqa: BLE001 - pyuff raises bare Exception
-        raise FrfError(f"{path}: cannot read its units record (dataset 164) ({exc})") from exc
+        what = None
+        for i in idx:
+            what = what or _uff_164_problem(path, uff, i)
+        raise FrfError(f"{path}: cannot read its units record (dataset 164"
+                       + (f"): {what}" if what else f") ({exc})")
+                       + "; export the file again, or delete that dataset where the file is in "
+                         "SI (its FRF records are then read by their units labels)") from exc
     for d in [records] if isinstance(records, dict) else records:
         try:
             factors = float(d["length"]), float(d["force"])
@@ -1239,6 +1393,51 @@ def _check_uff_units_records(path, uff, idx) -> bool:
                 "not said, a factor apart); export them from the tool in SI (units code 1, "
                 "metre and newton)")
     return True
+
+
+#: the numbers of a units record (dataset 164) after its record 1, each with its record:
+#: record 2 FORMAT(3D25.17) the length, force and temperature factors, record 3 FORMAT(D25.17)
+#: the temperature offset (the dataset 164 definition as reproduced in the docstring of pyuff
+#: 2.5.8's ``pyuff/datasets/dataset_164.py``; pyuff reads them as 4 blank-separated numbers)
+_UFF_164_NUMBERS = (("length factor", 2), ("force factor", 2), ("temperature factor", 2),
+                    ("temperature offset", 3))
+
+
+def _uff_164_problem(path, uff, i: int) -> str | None:
+    """What is wrong with dataset ``i`` (0-based) of the Universal File ``path``, a units
+    record (dataset 164) pyuff could not read: where it is (the dataset's number in the file,
+    its line) and the field that is no number or is missing, by the lines of
+    :data:`_UFF_164_NUMBERS`; None where none is found (pyuff's own words are given then)."""
+    blocks = getattr(uff, "_block_ind", None)      # pyuff's byte offsets of each dataset
+    try:
+        start, end = (int(v) for v in blocks[i])
+        raw = path.read_bytes()
+    except (TypeError, IndexError, ValueError, OSError):
+        return None
+    first = raw.count(b"\n", 0, start) + 1         # the line of its opening '    -1'
+    lines = raw[start:end + 1].decode("latin-1").splitlines()[2:]
+    where = f"dataset {i + 1} of the file, line {first}"
+    if not lines or not lines[0].strip():
+        return f"{where}: record 1 (units code, description, temperature mode) is missing"
+    rec1 = lines[0].ljust(40)
+    for name, cell in (("units code", rec1[:10]), ("temperature mode", rec1[30:40])):
+        try:
+            int(cell.strip())
+        except ValueError:
+            return (f"{where}: record 1 (line {first + 2}), the {name} (I10): "
+                    f"{_quoted(cell.strip())} is not a whole number")
+    tokens = [(first + 3 + k, t) for k, ln in enumerate(lines[1:]) for t in ln.split()]
+    for n, (name, record) in enumerate(_UFF_164_NUMBERS):
+        if n >= len(tokens):
+            return (f"{where}: it ends after {n} of its 4 numbers, the {name} (record "
+                    f"{record}) missing")
+        lineno, token = tokens[n]
+        try:
+            float(token.lower().replace("d", "e"))
+        except ValueError:
+            return (f"{where}: record {record} (line {lineno}), the {name}: {_quoted(token)} "
+                    "is not a number")
+    return None
 
 
 #: the units labels of a type-58 record (records 8-10, field 6)
@@ -1388,6 +1587,12 @@ _DIRECTIONS = {1: "+X", 2: "+Y", 3: "+Z", -1: "-X", -2: "-Y", -3: "-Z"}
 def _dir(code) -> str:
     code = int(code)
     return _DIRECTIONS.get(code, f"/{code}" if code else "")
+
+
+def uff_direction(code) -> str | None:
+    """A UFF direction code's name ("+Z" of 3, "-X" of -1); None for 0 (a scalar) or a code
+    outside 1-3 either sign."""
+    return _DIRECTIONS.get(int(code))
 
 
 def negative_direction_points(labels) -> list[str]:
