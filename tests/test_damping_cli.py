@@ -147,6 +147,31 @@ def test_undetermined_loss_factors_make_the_status_check(frf_case, tmp_path):
     assert not any("loss factor" in x["text"] for x in doc["reasons"]), doc["reasons"]
 
 
+def test_identify_json_loss_factors_carry_the_flag_word_of_the_summaries(frf_case, identified,
+                                                                        tmp_path):
+    """identify --json's loss factors had no "flag" (its summary.json and summary.csv
+    counterparts have one): a script testing it read eta13 "not determined" as a plain value.
+    Now the same word as the summaries for the same run (both read from its result file):
+    free eta13/eta23 "undetermined" or "at_bound", --fix'ed ones "fixed", eta11 ""."""
+    from laminid_cli.batch import damping_of_file
+    from laminid_cli.resultfile import read_result
+
+    tmp = frf_case[0]
+    out = tmp_path / "free.h5"
+    r = run("identify", tmp / "plate.yaml", "--mesh", "6x6", "--fix", "nu12,G13,G23", "--json",
+            "-o", out)
+    assert r.exit_code == 0, r.output
+    seen = set()
+    for doc, path in ((json.loads(r.output), out), identified):
+        per = doc["damping"]["loss_factors"]["E-glass/R368"]
+        summary = damping_of_file(read_result(path).damping)["E-glass/R368"]
+        flags = {k: v["flag"] for k, v in per.items()}
+        assert flags == {k: v["flag"] for k, v in summary.items()}
+        assert flags["eta11"] == ""
+        seen |= set(flags.values())
+    assert {"fixed", ""} < seen and seen & {"undetermined", "at_bound"}
+
+
 def test_batch_rows_carry_the_loss_factors(frf_case, tmp_path):
     from laminid_cli.batch import damping_long_rows, read_summary
 
