@@ -206,6 +206,75 @@ def test_batch_rows_carry_the_loss_factors(frf_case, tmp_path):
     assert back["eta11"]["value"] == pytest.approx(eta["eta11"]["value"], rel=1e-14)
 
 
+def test_wide_summary_has_the_loss_factors_and_monte_carlo_ranges_of_the_long_one(frf_case,
+                                                                                  tmp_path):
+    """--wide dropped the ply loss factors and every Monte Carlo range and side of a bound
+    (the long form's only). Now, after the old columns (names and places kept), each
+    constant's bound_side and Monte Carlo range, then each loss factor's value, interval,
+    verdict and range, equal to the long summary.csv's (1e-9 relative) for the same run
+    (S2.1 6x6, --fix nu12: eta13 held at 0; 8 trials); read_summary and the report take them
+    from the wide file (a constant's bound_side: test_summary_csv_and_table_have_the_shape_of_
+    table_2)."""
+    from laminid_cli.batch import LOSS_NAMES, csv_header, read_summary
+    from laminid_cli.report import report_pages
+
+    tmp = frf_case[0]
+    (tmp_path / "in").mkdir()
+    (tmp_path / "in" / "plate.yaml").write_text((tmp / "plate.yaml").read_text())
+    out = tmp_path / "out"
+    args = ("batch", tmp_path / "in", "--mesh", "6x6", "--fix", "nu12", "--monte-carlo", "8",
+            "--out", out)
+    r = run(*args)
+    assert r.exit_code in (0, 1), r.output
+    with open(out / "summary.csv", newline="") as fh:
+        long = {(x["material"], x["constant"]): x for x in csv.DictReader(without_comments(fh))}
+    r = run(*args, "--wide")                                 # up to date: the same rows
+    assert "up to date" in r.output
+    with open(out / "summary.csv", newline="") as fh:
+        head = next(csv.reader(without_comments(fh)))
+        fh.seek(0)
+        (wide,) = list(csv.DictReader(without_comments(fh)))
+    m = "E-glass/R368"
+    old = csv_header([m])
+    assert head[: len(old)] == old                       # the old columns first, unchanged
+    assert head == csv_header([m], damped=[m], monte_carlo=True)
+
+    def same(a, b):
+        assert (a == "") == (b == ""), (a, b)
+        if a:
+            assert float(a) == pytest.approx(float(b), rel=1e-9, abs=0.0)
+
+    for (mat, k), rec in long.items():
+        assert mat == m
+        if k.startswith("eta"):
+            for cell, col in zip(("value", "lower", "upper"), (f"{m} {k} [1]",
+                                                               f"{m} {k} lower [1]",
+                                                               f"{m} {k} upper [1]")):
+                same(wide[col], rec[cell])
+            assert wide[f"{m} {k} verdict"] == rec["verdict"]
+        else:
+            assert wide[f"{m} {k} bound_side"] == rec["bound_side"]
+        unit = rec["unit"]
+        same(wide[f"{m} {k} mc_lower [{unit}]"], rec["mc_lower"])
+        same(wide[f"{m} {k} mc_upper [{unit}]"], rec["mc_upper"])
+        assert wide[f"{m} {k} mc_search_limit"] == rec["mc_search_limit"]
+    assert [k for (_, k) in long if k.startswith("eta")] == list(LOSS_NAMES)
+    assert float(wide[f"{m} eta11 mc_upper [1]"]) > float(wide[f"{m} eta11 mc_lower [1]"]) > 0
+    # read back as the long one is
+    (w,) = read_summary(out / "summary.csv")
+    assert w["damping"][m].keys() == set(LOSS_NAMES)
+    for k in LOSS_NAMES:
+        e, rec = w["damping"][m][k], long[(m, k)]
+        assert e["value"] == pytest.approx(float(rec["value"]), rel=1e-9)
+        assert e["verdict"] == rec["verdict"]
+        assert (e.get("mc_lower") is None) == (rec["mc_lower"] == "")
+        assert e["bound_side"] == rec["bound_side"]          # eta13: held at 0, "lower"
+    assert long[(m, "eta13")]["bound_side"] == "lower"
+    g13 = w["intervals"][m]["G13"]
+    assert g13["mc_lower"] == pytest.approx(float(long[(m, "G13")]["mc_lower"]), rel=1e-9)
+    assert "loss-factors" in [p.name for p in report_pages(out / "summary.csv")]
+
+
 def test_a_loss_factor_at_its_bound_in_the_summary_rows():
     """A loss factor held at 0 by eta >= 0 (/damping/at_bound) has no interval in summary.csv
     (it kept the one-sided 0 .. upper of a file written before: this file's numbers) and gets

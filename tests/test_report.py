@@ -1656,7 +1656,10 @@ def old_wide(path, to, flagged: bool = True):
     with open(path, newline="") as fh:
         recs = list(csv.DictReader(ln for ln in fh if not ln.startswith("#")))
     keep = [c for c in recs[0] if not re.search(r" (lower|upper) \[[^]]*\]$| verdict$", c)
-            and (flagged or c != "flagged")]
+            and (flagged or c != "flagged")
+            # (nor the columns after 'flagged': sides of a bound, ranges, loss factors)
+            and not re.search(r" (bound_side|mc_lower \[.*|mc_upper \[.*|mc_search_limit)$"
+                              r"|^\S+ eta\d\d ", c)]
     assert len(keep) < len(recs[0])
     with open(to, "w", newline="") as fh:
         w = csv.DictWriter(fh, keep, extrasaction="ignore")
@@ -1747,8 +1750,17 @@ def test_a_wide_summary_alone_draws_the_long_summarys_bars(tmp_path):
               for t in a.get_legend().get_texts()]
     assert "identified, with its confidence interval" in legend
     assert "identified, not flagged (--wide: no interval)" not in legend
-    # (the side of a bound is not in the wide summary: both triangles, as before)
-    assert "on a search limit, not identified (--wide: which one not said)" in legend
+    # the side of a bound is in the wide summary now (its bound_side columns): one triangle
+    # on that side, as the long summary draws it (both triangles, "which one not said", before)
+    assert "on a search limit, not identified (--wide: which one not said)" not in legend
+    assert "stopped on a lower / upper search limit: not identified, no interval" in legend
+
+    def at_bound(fig):
+        return {(a.get_gid(), ln.get_gid()): (ln.get_marker(), tuple(ln.get_ydata()))
+                for a in fig.axes for ln in a.get_lines()
+                if (ln.get_gid() or "").startswith("at-bound")}
+
+    assert at_bound(figs["wide"]) == at_bound(figs["long"]) and len(at_bound(figs["long"])) >= 3
     foot = " ".join(t.get_text() for t in figs["wide"].texts).replace("\n", " ")
     assert "no intervals" not in foot and "without their doubt" not in foot
 
