@@ -2003,6 +2003,49 @@ def test_summary_loss_factor_page_draws_their_monte_carlo_range(tmp_path, kind):
                in " ".join(t.get_text().split()) for t in fig.texts)
 
 
+@pytest.mark.parametrize("kind", ["csv", "json", "wide"])
+def test_summary_loss_factor_leaning_on_an_undetermined_constant_is_marked(tmp_path, kind):
+    """A loss factor whose verdict says "interval too narrow: its energy share leans on
+    glass.E2, not determined by the modes" (damping.VERDICT_LEANS; no Monte Carlo counted the
+    constant's doubt) was drawn as a plain identified dot with a solid bar, the same as a weak
+    one. Now a half-filled dot and a dashed bar, a legend entry, and a footer line naming the
+    specimen, the loss factor and the constant; a plain weak one keeps its filled dot."""
+    from laminid_cli.batch import write_summary_csv
+    from laminid_cli.damping import VERDICT_LEANS
+
+    rows = _summary_rows()
+    free = {"at_bound": False, "bound_side": "", "bound_limit": None}
+    rows[0]["damping"] = {"glass": {
+        "eta11": {"value": 0.002, "lower": 0.0017, "upper": 0.0023, "verdict": "weak"} | free,
+        "eta22": {"value": 0.012, "lower": 0.0097, "upper": 0.0143,
+                  "verdict": "weak" + VERDICT_LEANS.format(labels="glass.E2")} | free}}
+    path = tmp_path / f"summary.{'json' if kind == 'json' else 'csv'}"
+    if kind == "wide":
+        write_summary_csv(path, rows, wide=True)
+    else:
+        _write_summary(path, rows)
+    fig = {p.name: p.figure for p in report_pages(path)}["loss-factors"]
+    a = ax(fig, "across-eta22")
+    dot = _line(a, "leans-H-glass")
+    assert dot.get_fillstyle() == "left" and dot.get_markerfacecoloralt() == "w"
+    assert dot.get_ydata()[0] == pytest.approx(1.2, rel=1e-12)
+    assert "value-H-glass" not in [ln.get_gid() for ln in a.get_lines()]
+    bar = _line(a, "interval-H-glass")
+    assert bar.get_linestyle() == "--"
+    assert np.allclose(bar.get_ydata(), [0.97, 1.43], rtol=1e-12)
+    a = ax(fig, "across-eta11")
+    v = _line(a, "value-H-glass")
+    assert v.get_fillstyle() == "full" and v.get_markerfacecolor() == v.get_color()
+    assert _line(a, "interval-H-glass").get_linestyle() == "-"
+    legend = [" ".join(t.get_text().split())
+              for t in ax(fig, "legend").get_legend().get_texts()]
+    assert ("interval too narrow: its energy share leans on a constant the modes do not "
+            "determine (named below)") in legend
+    foot = " ".join(" ".join(t.get_text() for t in fig.texts).split())
+    assert "H: glass.eta22 leans on glass.E2, not determined by the modes: interval too " \
+           "narrow" in foot
+
+
 def test_short_verdict_of_a_loss_factor_not_determined_by_the_damping():
     """The damping's verdict has its own phrase ("by the measured damping"); the table shows
     "not determined", not the phrase cut at the length of the modes' one."""
