@@ -1446,6 +1446,11 @@ FLAG_AT_BOUND, FLAG_UNDETERMINED, FLAG_FIXED, FLAG_PRIOR, FLAG_ASSUMED = \
 #: value held fixed (the initial value, not identified), value held by its prior, value
 #: assumed (held at its initial guess by --fix-undetermined)
 MARK_BOUND, MARK_UNDETERMINED, MARK_FIXED, MARK_PRIOR, MARK_ASSUMED = "!", "?", "=", "~", "#"
+#: the terminal table's mark of a loss factor whose interval is too narrow: its energy share
+#: leans on a constant (above it in the table) the modes do not determine
+#: (laminid_cli.damping.VERDICT_LEANS, whose words LEANS_WORDS are); its flag stays empty
+MARK_LEANS = "^"
+LEANS_WORDS = "interval too narrow: its energy share leans on"
 FLAG_WORDS = {MARK_BOUND: FLAG_AT_BOUND, MARK_UNDETERMINED: FLAG_UNDETERMINED,
               MARK_FIXED: FLAG_FIXED, MARK_PRIOR: FLAG_PRIOR, MARK_ASSUMED: FLAG_ASSUMED}
 
@@ -2123,6 +2128,7 @@ def format_table(rows, on_stderr=None) -> str:
         if r["materials"]:
             groups.setdefault(tuple(r["materials"]), []).append(r)
     marked: set[str] = set()
+    loss_marked: set[str] = set()           # the marks of loss factors' cells
     plain = False
     for mats, members in groups.items():
         specs = [r["specimen"] for r in members]
@@ -2131,6 +2137,8 @@ def format_table(rows, on_stderr=None) -> str:
         status_w = [len(r['status'] + (' (cached)' if r['cached'] else '')) for r in members]
         width = max(9, *(len(s) for s in labels), *status_w)
         mesh = checked_mesh(members)
+        # the ply loss factors' rows (in %) of the materials some specimen here has them of
+        damped = [m for m in mats if any((r.get("damping") or {}).get(m) for r in members)]
         label_w = max(19 if mesh else 18,
                       *(len(f"{m} {k} [GPa]") for m in mats for k in CONSTANTS)) \
             if len(mats) > 1 else 19 if mesh else 18
@@ -2153,6 +2161,28 @@ def format_table(rows, on_stderr=None) -> str:
                     text = (f"{v:.3f}" if k == "nu12" else
                             f"{gpa:.2f}" if abs(gpa) >= 0.1 or gpa == 0 else f"{gpa:.3g}")
                     cells.append(text + mark)
+                lines.append(f"{name:<{label_w}}" + "".join(f"  {c:>{width + 1}}" for c in cells))
+        for m in damped:
+            for k in LOSS_NAMES:
+                if not any(k in ((r.get("damping") or {}).get(m) or {}) for r in members):
+                    continue
+                name = f"{m} {k} [%]" if len(mats) > 1 else f"{k} [%]"
+                cells = []
+                for r in members:
+                    e = ((r.get("damping") or {}).get(m) or {}).get(k)
+                    if e is None:                 # no measured damping: no loss factor
+                        cells.append("—" + " ")
+                        loss_marked.add("—")
+                        continue
+                    # the constants' marks, by the summaries' flag (held at 0: "!")
+                    word = flag_word(e)
+                    mark = next((mk for mk, w in FLAG_WORDS.items() if w == word), " ")
+                    if mark == " " and LEANS_WORDS in str(e.get("verdict") or ""):
+                        mark = MARK_LEANS     # its interval too narrow: not a plain one
+                    marked.add(mark)
+                    loss_marked.add(mark)
+                    plain = plain or (mark == " " and bool(e.get("verdict")))
+                    cells.append(f"{100 * float(e['value']):.3f}" + mark)
                 lines.append(f"{name:<{label_w}}" + "".join(f"  {c:>{width + 1}}" for c in cells))
         lines.append(f"{'RMS residual [%]':<{label_w}}" + "".join(
             f"  {r['rms_residual_percent']:>{width}.3f} " for r in members))
@@ -2183,6 +2213,19 @@ def format_table(rows, on_stderr=None) -> str:
         # room for the value alone)
         legend.append("unmarked: identified, its 95 % interval within --max-rel-interval of "
                       "the value (well determined or weak: summary.csv's lower, upper, verdict)")
+    if loss_marked:
+        # a loss factor's "?" and "!" say something else than a constant's
+        legend.append("eta [%]: ply loss factors in % (modal strain energy), in the same marks"
+                      + "".join(text for mark, text in (
+                          (MARK_UNDETERMINED, f", {MARK_UNDETERMINED} not determined by the "
+                                              "measured damping"),
+                          (MARK_BOUND, f", {MARK_BOUND} held at 0 by eta >= 0 — not "
+                                       "identified"),
+                          (MARK_LEANS, f", {MARK_LEANS} interval too narrow: its energy share "
+                                       "leans on a constant above that the modes do not "
+                                       "determine (its verdict in the summaries names it)"),
+                          (MARK_FIXED, f", {MARK_FIXED} fixed by --fix"),
+                          ("—", ", — no measured damping")) if mark in loss_marked))
     if any(checked_mesh(g) for g in groups.values()):
         legend.append("mesh change/shift: on a mesh twice as fine (--mesh-check), the largest "
                       "frequency change in the mode's sigmas and the largest shift of a constant "

@@ -547,9 +547,6 @@ def damping_pages(d: dict, banner=None) -> list:
 
 #: rows of the loss-factor table of a batch summary on one page
 SUMMARY_TABLE_ROWS = 26
-#: the words of a loss factor's verdict whose interval leans on an undetermined constant
-#: (laminid_cli.damping.VERDICT_LEANS)
-LEANS_WORDS = "interval too narrow: its energy share leans on"
 
 
 def summary_loss_factors(row) -> dict | None:
@@ -600,6 +597,7 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
     interval."""
     from matplotlib.lines import Line2D
 
+    from laminid_cli.batch import LEANS_WORDS
     from laminid_cli.damping import TERMS
     from laminid_cli.report import (FIXED_COLOR, MC_COLOR, _clipped_bar, _figure, _footer,
                                     axis_names, specimen_labels, style_across_panel)

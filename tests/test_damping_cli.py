@@ -203,6 +203,12 @@ def test_batch_rows_carry_the_loss_factors(frf_case, tmp_path):
     assert recs[10]["verdict"] == "fixed" and recs[10]["lower"] == recs[10]["upper"] == ""
     back = read_summary(tmp_path / "out" / "summary.csv")[0]["damping"]["E-glass/R368"]
     assert back["eta23"]["value"] == 0.012 and back["eta23"]["verdict"] == "fixed"
+    # the terminal table has them too (%), below the constants: eta23 fixed, "="
+    table = {ln.split()[0]: ln.split()[-1] for ln in r.output.splitlines()
+             if ln.startswith("eta")}
+    assert table["eta23"] == "1.200=" and table["eta13"] == "1.200="
+    assert float(table["eta11"].rstrip("^")) == pytest.approx(100 * eta["eta11"]["value"],
+                                                              abs=6e-4)
     assert back["eta11"]["value"] == pytest.approx(eta["eta11"]["value"], rel=1e-14)
 
 
@@ -273,6 +279,49 @@ def test_wide_summary_has_the_loss_factors_and_monte_carlo_ranges_of_the_long_on
     g13 = w["intervals"][m]["G13"]
     assert g13["mc_lower"] == pytest.approx(float(long[(m, "G13")]["mc_lower"]), rel=1e-9)
     assert "loss-factors" in [p.name for p in report_pages(out / "summary.csv")]
+
+
+def test_batch_table_has_a_row_per_loss_factor_with_the_constants_marks():
+    """The batch's terminal table showed the constants only: a specimen's loss factors were in
+    the summaries alone. Now a row per loss factor (%) below the constants, in their marks by
+    the summaries' flag: "?" not determined by the damping, "!" held at 0, "=" fixed, and "^"
+    for one whose interval is too narrow (leans on an undetermined constant: its flag is
+    empty, so it read as plain); "—" for a specimen without measured damping; a legend line."""
+    from laminid_cli.batch import CONSTANTS, format_table
+    from laminid_cli.damping import VERDICT_LEANS, VERDICT_NOT_DAMPING
+
+    def row(name, damping):
+        return {"name": name, "specimen": name, "status": "ok", "cached": False,
+                "materials": {"m": {k: 1e10 for k in CONSTANTS}}, "intervals": {},
+                "rms_residual_percent": 0.5, "evaluations": 40, "reasons": [],
+                "warnings": [], "mesh_check": None, "damping": damping}
+
+    free = {"at_bound": False, "bound_side": "", "bound_limit": None}
+    damped = {"m": {
+        "eta11": {"value": 0.00201, "lower": 0.0017, "upper": 0.0023, "verdict": "weak"} | free,
+        "eta22": {"value": 0.012, "lower": 0.0097, "upper": 0.0143,
+                  "verdict": "weak" + VERDICT_LEANS.format(labels="m.E2")} | free,
+        "eta12": {"value": 0.0, "lower": None, "upper": None,
+                  "verdict": "at bound — not identified", "at_bound": True,
+                  "bound_side": "lower", "bound_limit": 0.0},
+        "eta13": {"value": 0.0105, "lower": 0.0, "upper": 0.034,
+                  "verdict": VERDICT_NOT_DAMPING.format(term="eta13")} | free,
+        "eta23": {"value": 0.012, "lower": None, "upper": None, "verdict": "fixed"}}}
+    lines = format_table([row("A", damped), row("B", {})]).splitlines()
+    cells = {ln.split()[0]: ln.split()[2:] for ln in lines if ln.startswith("eta")}
+    assert cells == {"eta11": ["0.201", "—"], "eta22": ["1.200^", "—"],
+                     "eta12": ["0.000!", "—"], "eta13": ["1.050?", "—"],
+                     "eta23": ["1.200=", "—"]}
+    k = [(ln.split() or [""])[0] for ln in lines].index
+    assert k("nu12") < k("eta11") < k("RMS")                     # below the constants
+    legend = next(ln for ln in lines if "eta [%]: ply loss factors in %" in ln)
+    for words in ("? not determined by the measured damping", "! held at 0 by eta >= 0",
+                  "^ interval too narrow: its energy share leans on a constant above",
+                  "= fixed by --fix", "— no measured damping"):
+        assert words in legend, words
+    # a batch without loss factors: no such rows, no such legend
+    plain = format_table([row("B", {})])
+    assert "eta11" not in plain and "eta [%]" not in plain
 
 
 def test_a_loss_factor_at_its_bound_in_the_summary_rows():
