@@ -1370,20 +1370,72 @@ def wide_columns(material: str, constant: str) -> tuple[str, str, str, str]:
     Why the verdict, not the relative half-width: the ends give the width already (to the log
     scale's asymmetry), while the verdict says what they cannot: a Monte Carlo that made it
     worse ("weak (Monte Carlo)"), a value held by its prior, at a bound, fixed."""
-    unit = CONSTANT_UNITS[constant]
+    unit = CONSTANT_UNITS.get(constant, "1")          # a loss factor's: 1
     return (f"{material} {constant} [{unit}]", f"{material} {constant} lower [{unit}]",
             f"{material} {constant} upper [{unit}]", f"{material} {constant} verdict")
 
 
-def csv_header(materials, mesh_check: bool = False) -> list[str]:
+def csv_header(materials, mesh_check: bool = False, damped=(),
+               monte_carlo: bool = False) -> list[str]:
     """Columns of the wide summary (one row per specimen), SI units in the headers: each
     constant's value, then its interval and verdict (:func:`wide_columns`; the value columns
-    keep the names they had before these); ``mesh_check``: with MESH_WIDE_COLUMNS before the
-    last, ``flagged``."""
+    keep the names they had before these); ``mesh_check``: with MESH_WIDE_COLUMNS before
+    ``flagged``. After ``flagged`` (so that the columns before keep their names and places):
+    each constant's side of a bound (:func:`wide_bound_column`), with ``monte_carlo`` its
+    Monte Carlo range (:func:`wide_mc_columns`), then the ply loss factors of each material
+    of ``damped`` (value, interval, verdict: :func:`wide_columns`, unit "1"; with
+    ``monte_carlo`` their range too)."""
     cols = ["name", "specimen", "path", "status", "reasons"]
     cols += [c for m in materials for k in CONSTANTS for c in wide_columns(m, k)]
-    return cols + ["rms_residual [%]", "evaluations", "time [s]", "cached", "result",
-                   "stale_result", *(MESH_WIDE_COLUMNS if mesh_check else ()), "flagged"]
+    cols += ["rms_residual [%]", "evaluations", "time [s]", "cached", "result",
+             "stale_result", *(MESH_WIDE_COLUMNS if mesh_check else ()), "flagged"]
+    for m in materials:
+        cols += [wide_bound_column(m, k) for k in CONSTANTS]
+        if monte_carlo:
+            cols += [c for k in CONSTANTS for c in wide_mc_columns(m, k)]
+    for m in damped:
+        cols += [c for k in LOSS_NAMES for c in wide_columns(m, k)]
+        if monte_carlo:
+            cols += [c for k in LOSS_NAMES for c in wide_mc_columns(m, k)]
+    return cols
+
+
+#: the ply loss factors in the order of the summaries (laminid_cli.damping.LOSS_NAMES)
+LOSS_NAMES = ("eta11", "eta22", "eta12", "eta13", "eta23")
+
+
+def wide_bound_column(material: str, constant: str) -> str:
+    """The wide summary's column of a constant's side of a bound ("IM7/977-2 G13
+    bound_side": "lower", "upper", empty when it is not at a bound), the long form's
+    ``bound_side``."""
+    return f"{material} {constant} bound_side"
+
+
+def wide_mc_columns(material: str, name: str) -> tuple[str, str, str]:
+    """The wide summary's Monte Carlo columns of a constant or loss factor: the trials'
+    range ("IM7/977-2 E2 mc_lower [Pa]", "... mc_upper [Pa]") and which of its ends trials on
+    a limit of the search set ("IM7/977-2 E2 mc_search_limit": lower, upper, both, empty;
+    a loss factor's lower end set by refits held at 0): the long form's mc_lower, mc_upper,
+    mc_search_limit."""
+    unit = CONSTANT_UNITS.get(name, "1")
+    return (f"{material} {name} mc_lower [{unit}]", f"{material} {name} mc_upper [{unit}]",
+            f"{material} {name} mc_search_limit")
+
+
+def damped_materials(rows) -> list[str]:
+    """Materials with ply loss factors in some row (measured damping), in order of first
+    appearance."""
+    names: list[str] = []
+    for r in rows:
+        names += [m for m in (r.get("damping") or {}) if m not in names]
+    return names
+
+
+def ran_monte_carlo(rows) -> bool:
+    """Whether some row has a Monte Carlo range (a constant's or a loss factor's)."""
+    return any(v.get("mc_lower") is not None
+               for r in rows for group in ("intervals", "damping")
+               for per in (r.get(group) or {}).values() for v in per.values())
 
 
 #: the words of the summaries' ``flag`` (long summary.csv, summary.json) and of the wide
@@ -1394,6 +1446,11 @@ FLAG_AT_BOUND, FLAG_UNDETERMINED, FLAG_FIXED, FLAG_PRIOR, FLAG_ASSUMED = \
 #: value held fixed (the initial value, not identified), value held by its prior, value
 #: assumed (held at its initial guess by --fix-undetermined)
 MARK_BOUND, MARK_UNDETERMINED, MARK_FIXED, MARK_PRIOR, MARK_ASSUMED = "!", "?", "=", "~", "#"
+#: the terminal table's mark of a loss factor whose interval is too narrow: its energy share
+#: leans on a constant (above it in the table) the modes do not determine
+#: (laminid_cli.damping.VERDICT_LEANS, whose words LEANS_WORDS are); its flag stays empty
+MARK_LEANS = "^"
+LEANS_WORDS = "interval too narrow: its energy share leans on"
 FLAG_WORDS = {MARK_BOUND: FLAG_AT_BOUND, MARK_UNDETERMINED: FLAG_UNDETERMINED,
               MARK_FIXED: FLAG_FIXED, MARK_PRIOR: FLAG_PRIOR, MARK_ASSUMED: FLAG_ASSUMED}
 
@@ -1522,6 +1579,11 @@ def _path_text(path, folder) -> str:
     return os.path.relpath(path, folder) if folder is not None else str(path)
 
 
+def _mc_cells(iv: dict) -> list[str]:
+    """The wide summary's Monte Carlo cells of one entry (:func:`wide_mc_columns`)."""
+    return [_num(iv.get("mc_lower")), _num(iv.get("mc_upper")), search_limit_text(iv)]
+
+
 def search_limit_text(iv: dict) -> str:
     """The long CSV's mc_search_limit of one interval entry: which ends of the Monte Carlo
     range trials on a limit of the search set ("lower", "upper", "both" or "")."""
@@ -1625,7 +1687,8 @@ def write_summary_csv(path, rows, wide: bool = False, options: dict | None = Non
         return _write_text(path, buf.getvalue())
     mats = material_names(rows)
     mesh = checked_mesh(rows)
-    w.writerow(csv_header(mats, mesh))
+    damped, mc = damped_materials(rows), ran_monte_carlo(rows)
+    w.writerow(csv_header(mats, mesh, damped, mc))
     for r in rows:
         values = [r["name"], r["specimen"], r["path"], r["status"], r["reason"]]
         for m in mats:
@@ -1644,6 +1707,19 @@ def write_summary_csv(path, rows, wide: bool = False, options: dict | None = Non
             cells = _mesh_cells(r)
             values += [cells[c] for c in MESH_WIDE_COLUMNS]
         values.append(flagged_text(r))
+        for m in mats:
+            ivs = (r.get("intervals") or {}).get(m, {})
+            values += [(ivs.get(k) or {}).get("bound_side") or "" for k in CONSTANTS]
+            if mc:
+                values += [c for k in CONSTANTS for c in _mc_cells(ivs.get(k) or {})]
+        for m in damped:
+            per = (r.get("damping") or {}).get(m, {})
+            for k in LOSS_NAMES:
+                e = per.get(k) or {}
+                values += [_num(e.get("value")), _num(e.get("lower")), _num(e.get("upper")),
+                           e.get("verdict") or ""]
+            if mc:
+                values += [c for k in LOSS_NAMES for c in _mc_cells(per.get(k) or {})]
         w.writerow(values)
     return _write_text(path, buf.getvalue())
 
@@ -1809,6 +1885,9 @@ def read_summary(path) -> list[dict]:
         intervals = _intervals_of_wide(rec, mats, flags.get("flagged") or {})
         if intervals is not None:
             flags["intervals"] = intervals
+        damping = _damping_of_wide(rec)
+        if damping:
+            flags["damping"] = damping
         rows.append(flags | {"mesh_check": _mesh_of_csv(rec),
                              "name": rec["name"], "specimen": rec.get("specimen", ""),
                      "path": rec.get("path", ""), "status": rec["status"],
@@ -1843,13 +1922,52 @@ def _intervals_of_wide(rec: dict, mats: dict, flagged: dict) -> dict | None:
         if lower is None and upper is None and not verdict or k not in mats.get(m, {}):
             continue
         word = flagged.get(m, {}).get(k, "")
-        out.setdefault(m, {})[k] = {
+        # (the side: summaries written before its column do not say, "")
+        side = rec.get(wide_bound_column(m, k)) or ""
+        iv = out.setdefault(m, {})[k] = {
             "lower": lower, "upper": upper, "verdict": verdict,
-            "at_bound": verdict == VERDICT_AT_BOUND or word == FLAG_AT_BOUND,
-            "bound_side": "", "bound_limit": None,
+            "at_bound": verdict == VERDICT_AT_BOUND or word == FLAG_AT_BOUND or bool(side),
+            "bound_side": side, "bound_limit": None,
             "flagged": word == FLAG_UNDETERMINED, "assumed": word == FLAG_ASSUMED,
             "flag": word}
+        iv.update(_mc_of_wide(rec, m, k))
     return out if found else None
+
+
+def _mc_of_wide(rec: dict, material: str, name: str) -> dict:
+    """The Monte Carlo keys (mc_lower, mc_upper, mc_lower_at_limit, mc_upper_at_limit) of
+    one constant or loss factor of a wide summary record (:func:`wide_mc_columns`); {}
+    where it has none (no Monte Carlo, a summary written before those columns)."""
+    lo_col, hi_col, limit_col = wide_mc_columns(material, name)
+    if rec.get(lo_col) in ("", None):
+        return {}
+    limit = rec.get(limit_col) or ""
+    return {"mc_lower": _float(rec[lo_col]), "mc_upper": _float(rec.get(hi_col)),
+            "mc_lower_at_limit": limit in ("lower", "both"),
+            "mc_upper_at_limit": limit in ("upper", "both")}
+
+
+def _damping_of_wide(rec: dict) -> dict:
+    """A wide summary record's ``damping`` ({material: {etaXY: entry}}, the long reader's
+    keys) from its loss-factor columns (:func:`csv_header`); {} for a specimen without
+    loss factors or a summary written before those columns."""
+    out: dict[str, dict] = {}
+    for col in rec:
+        if not (col and col.endswith(" [1]")):
+            continue
+        m, _, k = col[: -len(" [1]")].rpartition(" ")
+        if k not in LOSS_NAMES or not m or rec.get(col) in ("", None):
+            continue
+        value_col, lo_col, hi_col, verdict_col = wide_columns(m, k)
+        verdict = rec.get(verdict_col) or ""
+        # a loss factor held at 0 by eta >= 0: its verdict says so (no interval), side lower
+        hit = verdict == VERDICT_AT_BOUND
+        out.setdefault(m, {})[k] = {
+            "value": float(rec[value_col]), "lower": _float(rec.get(lo_col)),
+            "upper": _float(rec.get(hi_col)), "verdict": verdict, "at_bound": hit,
+            "bound_side": "lower" if hit else "", "bound_limit": 0.0 if hit else None,
+            **_mc_of_wide(rec, m, k)}
+    return out
 
 
 def _after_comments(lines):
@@ -2010,6 +2128,7 @@ def format_table(rows, on_stderr=None) -> str:
         if r["materials"]:
             groups.setdefault(tuple(r["materials"]), []).append(r)
     marked: set[str] = set()
+    loss_marked: set[str] = set()           # the marks of loss factors' cells
     plain = False
     for mats, members in groups.items():
         specs = [r["specimen"] for r in members]
@@ -2018,6 +2137,8 @@ def format_table(rows, on_stderr=None) -> str:
         status_w = [len(r['status'] + (' (cached)' if r['cached'] else '')) for r in members]
         width = max(9, *(len(s) for s in labels), *status_w)
         mesh = checked_mesh(members)
+        # the ply loss factors' rows (in %) of the materials some specimen here has them of
+        damped = [m for m in mats if any((r.get("damping") or {}).get(m) for r in members)]
         label_w = max(19 if mesh else 18,
                       *(len(f"{m} {k} [GPa]") for m in mats for k in CONSTANTS)) \
             if len(mats) > 1 else 19 if mesh else 18
@@ -2040,6 +2161,28 @@ def format_table(rows, on_stderr=None) -> str:
                     text = (f"{v:.3f}" if k == "nu12" else
                             f"{gpa:.2f}" if abs(gpa) >= 0.1 or gpa == 0 else f"{gpa:.3g}")
                     cells.append(text + mark)
+                lines.append(f"{name:<{label_w}}" + "".join(f"  {c:>{width + 1}}" for c in cells))
+        for m in damped:
+            for k in LOSS_NAMES:
+                if not any(k in ((r.get("damping") or {}).get(m) or {}) for r in members):
+                    continue
+                name = f"{m} {k} [%]" if len(mats) > 1 else f"{k} [%]"
+                cells = []
+                for r in members:
+                    e = ((r.get("damping") or {}).get(m) or {}).get(k)
+                    if e is None:                 # no measured damping: no loss factor
+                        cells.append("—" + " ")
+                        loss_marked.add("—")
+                        continue
+                    # the constants' marks, by the summaries' flag (held at 0: "!")
+                    word = flag_word(e)
+                    mark = next((mk for mk, w in FLAG_WORDS.items() if w == word), " ")
+                    if mark == " " and LEANS_WORDS in str(e.get("verdict") or ""):
+                        mark = MARK_LEANS     # its interval too narrow: not a plain one
+                    marked.add(mark)
+                    loss_marked.add(mark)
+                    plain = plain or (mark == " " and bool(e.get("verdict")))
+                    cells.append(f"{100 * float(e['value']):.3f}" + mark)
                 lines.append(f"{name:<{label_w}}" + "".join(f"  {c:>{width + 1}}" for c in cells))
         lines.append(f"{'RMS residual [%]':<{label_w}}" + "".join(
             f"  {r['rms_residual_percent']:>{width}.3f} " for r in members))
@@ -2070,6 +2213,19 @@ def format_table(rows, on_stderr=None) -> str:
         # room for the value alone)
         legend.append("unmarked: identified, its 95 % interval within --max-rel-interval of "
                       "the value (well determined or weak: summary.csv's lower, upper, verdict)")
+    if loss_marked:
+        # a loss factor's "?" and "!" say something else than a constant's
+        legend.append("eta [%]: ply loss factors in % (modal strain energy), in the same marks"
+                      + "".join(text for mark, text in (
+                          (MARK_UNDETERMINED, f", {MARK_UNDETERMINED} not determined by the "
+                                              "measured damping"),
+                          (MARK_BOUND, f", {MARK_BOUND} held at 0 by eta >= 0 — not "
+                                       "identified"),
+                          (MARK_LEANS, f", {MARK_LEANS} interval too narrow: its energy share "
+                                       "leans on a constant above that the modes do not "
+                                       "determine (its verdict in the summaries names it)"),
+                          (MARK_FIXED, f", {MARK_FIXED} fixed by --fix"),
+                          ("—", ", — no measured damping")) if mark in loss_marked))
     if any(checked_mesh(g) for g in groups.values()):
         legend.append("mesh change/shift: on a mesh twice as fine (--mesh-check), the largest "
                       "frequency change in the mode's sigmas and the largest shift of a constant "

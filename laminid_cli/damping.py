@@ -389,6 +389,13 @@ class DampingFit:
         for lab, v in self.fixed.items():
             mat, name = lab.rsplit(".", 1)
             per.setdefault(mat, {})[name] = {"value": float(v), "verdict": VERDICT_FIXED}
+        # the word summary.csv's and summary.json's flag gives the same loss factor of the
+        # same run (a script testing "flag" read eta13 "not determined" here as plain)
+        from laminid_cli.batch import flag_word
+
+        for entries in per.values():
+            for entry in entries.values():
+                entry["flag"] = flag_word(entry)
         out = {
             "method": self.method, "terms": ",".join(TERMS), "unit": "1",
             "loss_factors": per,

@@ -597,6 +597,7 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
     interval."""
     from matplotlib.lines import Line2D
 
+    from laminid_cli.batch import LEANS_WORDS
     from laminid_cli.damping import TERMS
     from laminid_cli.report import (FIXED_COLOR, MC_COLOR, _clipped_bar, _figure, _footer,
                                     axis_names, specimen_labels, style_across_panel)
@@ -616,6 +617,8 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
     width = min(0.22, 0.7 / max(nm, 1))
     offsets = {m: (c - (nm - 1) / 2) * width for c, m in enumerate(materials)}
     kinds: set[str] = set()
+    #: {(specimen, the constants it leans on): [its loss factors whose interval is too narrow]}
+    leaning: dict[tuple[str, str], list[str]] = {}
     has_mc = has_mc_limit = False
     on_top = dict(zorder=6, clip_on=False)
     for ax, k in zip(axes, TERMS):
@@ -643,7 +646,7 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                     limits = (bool(e.get("mc_lower_at_limit")), bool(e.get("mc_upper_at_limit")))
                     has_mc_limit = has_mc_limit or any(limits)
                     bars.append((xi + 0.55 * width, mlo, mhi, MC_COLOR, f"monte-carlo-{tag}",
-                                 limits))
+                                 limits, "-"))
                     loose.append(mhi)
                 if verdict == "fixed":
                     ax.plot([xi], [v], "s", ms=6, color=FIXED_COLOR, mfc="w", mew=1.3,
@@ -657,10 +660,23 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                     kinds.add("at bound")
                     continue
                 undetermined = verdict.startswith("not")
-                ax.plot([xi], [v], "o", ms=6, color=color, mfc="w" if undetermined else color,
-                        gid=f"value-{tag}", **on_top)
+                # an interval too narrow (damping.VERDICT_LEANS): its energy share rests on a
+                # constant the modes did not determine, taken as exact; a half-filled dot and a
+                # dashed bar, where a plain dot read as identified to its interval
+                leans = not undetermined and LEANS_WORDS in verdict
+                if leans:
+                    ax.plot([xi], [v], "o", ms=6, color=color, fillstyle="left", mfc=color,
+                            markerfacecoloralt="w", gid=f"leans-{tag}", **on_top)
+                    kinds.add("leans")
+                    on = verdict.partition("leans on ")[2].partition(", not determined")[0]
+                    leaning.setdefault((label, on), []).append(f"{m}.{name}")
+                else:
+                    ax.plot([xi], [v], "o", ms=6, color=color,
+                            mfc="w" if undetermined else color, gid=f"value-{tag}", **on_top)
                 vals.append(v)
-                if undetermined:
+                if leans:
+                    vals += [lo, hi, mlo, mhi]
+                elif undetermined:
                     ax.annotate("?", (xi, v), xytext=(4, 2), textcoords="offset points",
                                 fontsize=9, color=color, weight="bold")
                     kinds.add("undetermined")
@@ -669,7 +685,8 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                     kinds.add("identified")
                     vals += [lo, hi, mlo, mhi]           # (the Monte Carlo's NaN: none)
                 if np.isfinite(lo) or np.isfinite(hi):
-                    bars.append((xi, lo, hi, color, f"interval-{tag}", (False, False)))
+                    bars.append((xi, lo, hi, color, f"interval-{tag}", (False, False),
+                                 "--" if leans else "-"))
         # the panel spans the identified values and their intervals; an interval of a loss
         # factor not determined runs off it with an arrow rather than squash
         # the others (as on the constants' page); from 0: a loss factor is >= 0
@@ -678,9 +695,9 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
             max([t for t in loose if np.isfinite(t)], default=1.0)
         ymax = 1.15 * top if top > 0 else 1.0
         ax.set_ylim(0.0, ymax)
-        for xi, lo, hi, color, gid, limits in bars:
+        for xi, lo, hi, color, gid, limits, ls in bars:
             _clipped_bar(ax, name, xi, lo, hi, 0.0, ymax, color,
-                         lw=2.2 if color == MC_COLOR else 1.2, gid=gid, marks=limits)
+                         lw=2.2 if color == MC_COLOR else 1.2, gid=gid, marks=limits, ls=ls)
         style_across_panel(ax, f"\u03b7{k} (%)", ticks)
         ax.set_ylabel("loss factor (%)", fontsize=8)
     handles = {m: Line2D([], [], ls="none", marker="o", ms=6, color=f"C{c % 10}")
@@ -691,11 +708,15 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                        "identified (well determined / weak), with its interval"),
         "undetermined": (Line2D([], [], ls="-", marker="o", ms=6, color=grey, mfc="w", lw=1.2),
                          "?: not determined by the damping (interval too wide)"),
+        "leans": (Line2D([], [], ls="--", marker="o", ms=6, color=grey, fillstyle="left",
+                         markerfacecoloralt="w", lw=1.2),
+                  "interval too narrow: its energy share leans on\na constant the modes do not "
+                  "determine (named below)"),
         "at bound": (Line2D([], [], ls="none", marker="v", ms=7, color=grey, mfc="w"),
                      "held at 0 by \u03b7 \u2265 0: not identified, no interval"),
         "fixed": (Line2D([], [], ls="none", marker="s", ms=6, color=FIXED_COLOR, mfc="w"),
                   "fixed at the value given (--fix): not identified")}
-    for kind in ("identified", "undetermined", "at bound", "fixed"):
+    for kind in ("identified", "leans", "undetermined", "at bound", "fixed"):
         if kind in kinds:
             h, text = marks[kind]
             handles[text] = h
@@ -715,6 +736,9 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
             + (" (the Monte Carlo ranges count the free constants' doubt too)" if has_mc
                else "") + ". Measured vs model damping of each mode and the energy shares: the damping page of "
             "each result's report (laminid report <result>.h5)."
+            + "".join(f"\n{spec}: {', '.join(etas)} {'leans' if len(etas) == 1 else 'lean'} on "
+                      f"{on}, not determined by the modes: interval too narrow"
+                      for (spec, on), etas in leaning.items())
             + (f"\n{shortened}" if shortened else ""), color="0.25")
     return fig
 

@@ -174,6 +174,13 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
                                         if iv["flagged"])
     assert read_summary(wide / "summary.csv")[0]["materials"]["IM7/977-2"]["E1"] == \
         pytest.approx(E1, rel=1e-14)
+    # ... and which limit, after the old columns (the wide summary did not say it: the
+    # report drew both triangles)
+    assert w[1]["E-glass/R368 G13 bound_side"] == "lower"
+    assert all(w[1][f"E-glass/R368 {k} bound_side"] == "" for k in ("E1", "E2", "G12", "G23"))
+    back_wide = read_summary(wide / "summary.csv")[1]["intervals"]["E-glass/R368"]
+    assert back_wide["G13"]["bound_side"] == "lower" and back_wide["G13"]["at_bound"]
+    assert back_wide["G23"]["bound_side"] == "" and not back_wide["G23"]["at_bound"]
 
 
 def test_wide_summary_gives_each_value_its_interval_and_verdict(batch_run, tmp_path):
@@ -205,7 +212,10 @@ def test_wide_summary_gives_each_value_its_interval_and_verdict(batch_run, tmp_p
     i = header.index(f"{m1} E2 [Pa]")
     assert header[i:i + 5] == [f"{m1} E2 [Pa]", f"{m1} E2 lower [Pa]", f"{m1} E2 upper [Pa]",
                                f"{m1} E2 verdict", f"{m1} G12 [Pa]"]
-    assert header[-1] == "flagged"
+    # 'flagged' ends the old columns; after it (new, so old readers find theirs in place)
+    # each constant's side of a bound
+    k = header.index("flagged")
+    assert header[k + 1:] == [f"{m} {c} bound_side" for m in (m1, m2) for c in CONSTANTS]
     n_checked = 0
     for row, spec in zip(w, doc["specimens"]):
         m = m1 if row["name"] == "example1/S1.4" else m2
@@ -2173,7 +2183,8 @@ def test_batch_mesh_check_is_identify_mesh_check_per_specimen(tmp_path):
     with open(out / "summary.csv", newline="") as fh:
         head = next(csv.reader(without_comments(fh)))
     assert head == csv_header(["IM7/977-2"], mesh_check=True)
-    assert head[-3:] == ["mesh_max_change_sigma", "mesh_max_shift_half_width", "flagged"]
+    k = head.index("flagged")           # (then the constants' sides of a bound: new ones last)
+    assert head[k - 2:k + 1] == ["mesh_max_change_sigma", "mesh_max_shift_half_width", "flagged"]
     # 12x12: fine enough
     r = run("batch", specs, "--mesh", "12x12", "--mesh-check", "--out", tmp_path / "o12",
             "--json")

@@ -147,6 +147,31 @@ def test_undetermined_loss_factors_make_the_status_check(frf_case, tmp_path):
     assert not any("loss factor" in x["text"] for x in doc["reasons"]), doc["reasons"]
 
 
+def test_identify_json_loss_factors_carry_the_flag_word_of_the_summaries(frf_case, identified,
+                                                                        tmp_path):
+    """identify --json's loss factors had no "flag" (its summary.json and summary.csv
+    counterparts have one): a script testing it read eta13 "not determined" as a plain value.
+    Now the same word as the summaries for the same run (both read from its result file):
+    free eta13/eta23 "undetermined" or "at_bound", --fix'ed ones "fixed", eta11 ""."""
+    from laminid_cli.batch import damping_of_file
+    from laminid_cli.resultfile import read_result
+
+    tmp = frf_case[0]
+    out = tmp_path / "free.h5"
+    r = run("identify", tmp / "plate.yaml", "--mesh", "6x6", "--fix", "nu12,G13,G23", "--json",
+            "-o", out)
+    assert r.exit_code == 0, r.output
+    seen = set()
+    for doc, path in ((json.loads(r.output), out), identified):
+        per = doc["damping"]["loss_factors"]["E-glass/R368"]
+        summary = damping_of_file(read_result(path).damping)["E-glass/R368"]
+        flags = {k: v["flag"] for k, v in per.items()}
+        assert flags == {k: v["flag"] for k, v in summary.items()}
+        assert flags["eta11"] == ""
+        seen |= set(flags.values())
+    assert {"fixed", ""} < seen and seen & {"undetermined", "at_bound"}
+
+
 def test_batch_rows_carry_the_loss_factors(frf_case, tmp_path):
     from laminid_cli.batch import damping_long_rows, read_summary
 
@@ -178,7 +203,125 @@ def test_batch_rows_carry_the_loss_factors(frf_case, tmp_path):
     assert recs[10]["verdict"] == "fixed" and recs[10]["lower"] == recs[10]["upper"] == ""
     back = read_summary(tmp_path / "out" / "summary.csv")[0]["damping"]["E-glass/R368"]
     assert back["eta23"]["value"] == 0.012 and back["eta23"]["verdict"] == "fixed"
+    # the terminal table has them too (%), below the constants: eta23 fixed, "="
+    table = {ln.split()[0]: ln.split()[-1] for ln in r.output.splitlines()
+             if ln.startswith("eta")}
+    assert table["eta23"] == "1.200=" and table["eta13"] == "1.200="
+    assert float(table["eta11"].rstrip("^")) == pytest.approx(100 * eta["eta11"]["value"],
+                                                              abs=6e-4)
     assert back["eta11"]["value"] == pytest.approx(eta["eta11"]["value"], rel=1e-14)
+
+
+def test_wide_summary_has_the_loss_factors_and_monte_carlo_ranges_of_the_long_one(frf_case,
+                                                                                  tmp_path):
+    """--wide dropped the ply loss factors and every Monte Carlo range and side of a bound
+    (the long form's only). Now, after the old columns (names and places kept), each
+    constant's bound_side and Monte Carlo range, then each loss factor's value, interval,
+    verdict and range, equal to the long summary.csv's (1e-9 relative) for the same run
+    (S2.1 6x6, --fix nu12: eta13 held at 0; 8 trials); read_summary and the report take them
+    from the wide file (a constant's bound_side: test_summary_csv_and_table_have_the_shape_of_
+    table_2)."""
+    from laminid_cli.batch import LOSS_NAMES, csv_header, read_summary
+    from laminid_cli.report import report_pages
+
+    tmp = frf_case[0]
+    (tmp_path / "in").mkdir()
+    (tmp_path / "in" / "plate.yaml").write_text((tmp / "plate.yaml").read_text())
+    out = tmp_path / "out"
+    args = ("batch", tmp_path / "in", "--mesh", "6x6", "--fix", "nu12", "--monte-carlo", "8",
+            "--out", out)
+    r = run(*args)
+    assert r.exit_code in (0, 1), r.output
+    with open(out / "summary.csv", newline="") as fh:
+        long = {(x["material"], x["constant"]): x for x in csv.DictReader(without_comments(fh))}
+    r = run(*args, "--wide")                                 # up to date: the same rows
+    assert "up to date" in r.output
+    with open(out / "summary.csv", newline="") as fh:
+        head = next(csv.reader(without_comments(fh)))
+        fh.seek(0)
+        (wide,) = list(csv.DictReader(without_comments(fh)))
+    m = "E-glass/R368"
+    old = csv_header([m])
+    assert head[: len(old)] == old                       # the old columns first, unchanged
+    assert head == csv_header([m], damped=[m], monte_carlo=True)
+
+    def same(a, b):
+        assert (a == "") == (b == ""), (a, b)
+        if a:
+            assert float(a) == pytest.approx(float(b), rel=1e-9, abs=0.0)
+
+    for (mat, k), rec in long.items():
+        assert mat == m
+        if k.startswith("eta"):
+            for cell, col in zip(("value", "lower", "upper"), (f"{m} {k} [1]",
+                                                               f"{m} {k} lower [1]",
+                                                               f"{m} {k} upper [1]")):
+                same(wide[col], rec[cell])
+            assert wide[f"{m} {k} verdict"] == rec["verdict"]
+        else:
+            assert wide[f"{m} {k} bound_side"] == rec["bound_side"]
+        unit = rec["unit"]
+        same(wide[f"{m} {k} mc_lower [{unit}]"], rec["mc_lower"])
+        same(wide[f"{m} {k} mc_upper [{unit}]"], rec["mc_upper"])
+        assert wide[f"{m} {k} mc_search_limit"] == rec["mc_search_limit"]
+    assert [k for (_, k) in long if k.startswith("eta")] == list(LOSS_NAMES)
+    assert float(wide[f"{m} eta11 mc_upper [1]"]) > float(wide[f"{m} eta11 mc_lower [1]"]) > 0
+    # read back as the long one is
+    (w,) = read_summary(out / "summary.csv")
+    assert w["damping"][m].keys() == set(LOSS_NAMES)
+    for k in LOSS_NAMES:
+        e, rec = w["damping"][m][k], long[(m, k)]
+        assert e["value"] == pytest.approx(float(rec["value"]), rel=1e-9)
+        assert e["verdict"] == rec["verdict"]
+        assert (e.get("mc_lower") is None) == (rec["mc_lower"] == "")
+        assert e["bound_side"] == rec["bound_side"]          # eta13: held at 0, "lower"
+    assert long[(m, "eta13")]["bound_side"] == "lower"
+    g13 = w["intervals"][m]["G13"]
+    assert g13["mc_lower"] == pytest.approx(float(long[(m, "G13")]["mc_lower"]), rel=1e-9)
+    assert "loss-factors" in [p.name for p in report_pages(out / "summary.csv")]
+
+
+def test_batch_table_has_a_row_per_loss_factor_with_the_constants_marks():
+    """The batch's terminal table showed the constants only: a specimen's loss factors were in
+    the summaries alone. Now a row per loss factor (%) below the constants, in their marks by
+    the summaries' flag: "?" not determined by the damping, "!" held at 0, "=" fixed, and "^"
+    for one whose interval is too narrow (leans on an undetermined constant: its flag is
+    empty, so it read as plain); "—" for a specimen without measured damping; a legend line."""
+    from laminid_cli.batch import CONSTANTS, format_table
+    from laminid_cli.damping import VERDICT_LEANS, VERDICT_NOT_DAMPING
+
+    def row(name, damping):
+        return {"name": name, "specimen": name, "status": "ok", "cached": False,
+                "materials": {"m": {k: 1e10 for k in CONSTANTS}}, "intervals": {},
+                "rms_residual_percent": 0.5, "evaluations": 40, "reasons": [],
+                "warnings": [], "mesh_check": None, "damping": damping}
+
+    free = {"at_bound": False, "bound_side": "", "bound_limit": None}
+    damped = {"m": {
+        "eta11": {"value": 0.00201, "lower": 0.0017, "upper": 0.0023, "verdict": "weak"} | free,
+        "eta22": {"value": 0.012, "lower": 0.0097, "upper": 0.0143,
+                  "verdict": "weak" + VERDICT_LEANS.format(labels="m.E2")} | free,
+        "eta12": {"value": 0.0, "lower": None, "upper": None,
+                  "verdict": "at bound — not identified", "at_bound": True,
+                  "bound_side": "lower", "bound_limit": 0.0},
+        "eta13": {"value": 0.0105, "lower": 0.0, "upper": 0.034,
+                  "verdict": VERDICT_NOT_DAMPING.format(term="eta13")} | free,
+        "eta23": {"value": 0.012, "lower": None, "upper": None, "verdict": "fixed"}}}
+    lines = format_table([row("A", damped), row("B", {})]).splitlines()
+    cells = {ln.split()[0]: ln.split()[2:] for ln in lines if ln.startswith("eta")}
+    assert cells == {"eta11": ["0.201", "—"], "eta22": ["1.200^", "—"],
+                     "eta12": ["0.000!", "—"], "eta13": ["1.050?", "—"],
+                     "eta23": ["1.200=", "—"]}
+    k = [(ln.split() or [""])[0] for ln in lines].index
+    assert k("nu12") < k("eta11") < k("RMS")                     # below the constants
+    legend = next(ln for ln in lines if "eta [%]: ply loss factors in %" in ln)
+    for words in ("? not determined by the measured damping", "! held at 0 by eta >= 0",
+                  "^ interval too narrow: its energy share leans on a constant above",
+                  "= fixed by --fix", "— no measured damping"):
+        assert words in legend, words
+    # a batch without loss factors: no such rows, no such legend
+    plain = format_table([row("B", {})])
+    assert "eta11" not in plain and "eta [%]" not in plain
 
 
 def test_a_loss_factor_at_its_bound_in_the_summary_rows():

@@ -1677,7 +1677,10 @@ def old_wide(path, to, flagged: bool = True):
     with open(path, newline="") as fh:
         recs = list(csv.DictReader(ln for ln in fh if not ln.startswith("#")))
     keep = [c for c in recs[0] if not re.search(r" (lower|upper) \[[^]]*\]$| verdict$", c)
-            and (flagged or c != "flagged")]
+            and (flagged or c != "flagged")
+            # (nor the columns after 'flagged': sides of a bound, ranges, loss factors)
+            and not re.search(r" (bound_side|mc_lower \[.*|mc_upper \[.*|mc_search_limit)$"
+                              r"|^\S+ eta\d\d ", c)]
     assert len(keep) < len(recs[0])
     with open(to, "w", newline="") as fh:
         w = csv.DictWriter(fh, keep, extrasaction="ignore")
@@ -1768,8 +1771,17 @@ def test_a_wide_summary_alone_draws_the_long_summarys_bars(tmp_path):
               for t in a.get_legend().get_texts()]
     assert "identified, with its confidence interval" in legend
     assert "identified, not flagged (--wide: no interval)" not in legend
-    # (the side of a bound is not in the wide summary: both triangles, as before)
-    assert "on a search limit, not identified (--wide: which one not said)" in legend
+    # the side of a bound is in the wide summary now (its bound_side columns): one triangle
+    # on that side, as the long summary draws it (both triangles, "which one not said", before)
+    assert "on a search limit, not identified (--wide: which one not said)" not in legend
+    assert "stopped on a lower / upper search limit: not identified, no interval" in legend
+
+    def at_bound(fig):
+        return {(a.get_gid(), ln.get_gid()): (ln.get_marker(), tuple(ln.get_ydata()))
+                for a in fig.axes for ln in a.get_lines()
+                if (ln.get_gid() or "").startswith("at-bound")}
+
+    assert at_bound(figs["wide"]) == at_bound(figs["long"]) and len(at_bound(figs["long"])) >= 3
     foot = " ".join(t.get_text() for t in figs["wide"].texts).replace("\n", " ")
     assert "no intervals" not in foot and "without their doubt" not in foot
 
@@ -2010,6 +2022,49 @@ def test_summary_loss_factor_page_draws_their_monte_carlo_range(tmp_path, kind):
     assert any("*: end set by refits held at 0" in t for t in legend)
     assert any("the Monte Carlo ranges count the free constants' doubt too"
                in " ".join(t.get_text().split()) for t in fig.texts)
+
+
+@pytest.mark.parametrize("kind", ["csv", "json", "wide"])
+def test_summary_loss_factor_leaning_on_an_undetermined_constant_is_marked(tmp_path, kind):
+    """A loss factor whose verdict says "interval too narrow: its energy share leans on
+    glass.E2, not determined by the modes" (damping.VERDICT_LEANS; no Monte Carlo counted the
+    constant's doubt) was drawn as a plain identified dot with a solid bar, the same as a weak
+    one. Now a half-filled dot and a dashed bar, a legend entry, and a footer line naming the
+    specimen, the loss factor and the constant; a plain weak one keeps its filled dot."""
+    from laminid_cli.batch import write_summary_csv
+    from laminid_cli.damping import VERDICT_LEANS
+
+    rows = _summary_rows()
+    free = {"at_bound": False, "bound_side": "", "bound_limit": None}
+    rows[0]["damping"] = {"glass": {
+        "eta11": {"value": 0.002, "lower": 0.0017, "upper": 0.0023, "verdict": "weak"} | free,
+        "eta22": {"value": 0.012, "lower": 0.0097, "upper": 0.0143,
+                  "verdict": "weak" + VERDICT_LEANS.format(labels="glass.E2")} | free}}
+    path = tmp_path / f"summary.{'json' if kind == 'json' else 'csv'}"
+    if kind == "wide":
+        write_summary_csv(path, rows, wide=True)
+    else:
+        _write_summary(path, rows)
+    fig = {p.name: p.figure for p in report_pages(path)}["loss-factors"]
+    a = ax(fig, "across-eta22")
+    dot = _line(a, "leans-H-glass")
+    assert dot.get_fillstyle() == "left" and dot.get_markerfacecoloralt() == "w"
+    assert dot.get_ydata()[0] == pytest.approx(1.2, rel=1e-12)
+    assert "value-H-glass" not in [ln.get_gid() for ln in a.get_lines()]
+    bar = _line(a, "interval-H-glass")
+    assert bar.get_linestyle() == "--"
+    assert np.allclose(bar.get_ydata(), [0.97, 1.43], rtol=1e-12)
+    a = ax(fig, "across-eta11")
+    v = _line(a, "value-H-glass")
+    assert v.get_fillstyle() == "full" and v.get_markerfacecolor() == v.get_color()
+    assert _line(a, "interval-H-glass").get_linestyle() == "-"
+    legend = [" ".join(t.get_text().split())
+              for t in ax(fig, "legend").get_legend().get_texts()]
+    assert ("interval too narrow: its energy share leans on a constant the modes do not "
+            "determine (named below)") in legend
+    foot = " ".join(" ".join(t.get_text() for t in fig.texts).split())
+    assert "H: glass.eta22 leans on glass.E2, not determined by the modes: interval too " \
+           "narrow" in foot
 
 
 def test_short_verdict_of_a_loss_factor_not_determined_by_the_damping():

@@ -35,7 +35,11 @@ from laminid_cli.commands._common import (echo_json, fit_options, json_option,
                    "interval's ends and its verdict: 'IM7/977-2 E2 lower [Pa]', '... upper "
                    "[Pa]', '... verdict') instead of one row per specimen, material and "
                    "constant; its column 'flagged' names the constants at a bound, "
-                   "undetermined, fixed or held by their prior.")
+                   "undetermined, fixed or held by their prior; after it each constant's "
+                   "bound_side, with --monte-carlo its range ('... mc_lower [Pa]', '... "
+                   "mc_upper [Pa]', '... mc_search_limit'), then the ply loss factors where "
+                   "damping was measured ('IM7/977-2 eta22 [1]', its interval, verdict and "
+                   "range).")
 @click.option("--mesh-check", is_flag=True,
               help="As identify --mesh-check, for each specimen alone: after its "
                    "identification, solve its model on a mesh twice as fine at the identified "
@@ -56,7 +60,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     interval, verdict, flag (at_bound, undetermined, fixed or prior: no plain identified
     value), the Monte Carlo range with --monte-carlo (mc_search_limit: its ends set by
     trials on a search limit), unit and status, then the ply loss factors where damping
-    was measured; --wide one row per specimen, each constant's value, interval and verdict;
+    was measured; --wide one row per specimen, each constant's value, interval and verdict,
+    then its side of a bound, its Monte Carlo range and the loss factors;
     both forms the run options, as summary.json's
     "options", in '#' lines above the header; summary.json a units map). Every result has a
     status, ok or check with its reasons, shown in the table, and its warnings (the specimen
