@@ -748,33 +748,13 @@ def test_eq17_rows_value_and_gradient_agree():
 
 # --- Monte Carlo trials on a limit of the search -----------------------------------------------
 
-@pytest.mark.parametrize("n", [8, 40, 200])
+@pytest.mark.parametrize("n", [5, 8, 10, 40, 200])
 def test_a_range_end_is_at_the_bound_when_the_quantile_depends_on_a_trial_there(n):
     """range_ends_at_bound against numpy's quantile itself: an end is flagged exactly when
     moving the samples at the limit moves the quantile by at least half as much (it takes at
-    least half its weight from them; 0-6 samples at each limit)."""
-    from laminid_cli.uncertainty import range_ends_at_bound
+    least half its weight from them), for 0 to n samples at each limit.
 
-    rng = np.random.default_rng(n)
-    for k in range(7):
-        x = 1.0 + rng.random(n)
-        x[:k] = 1.0                                     # k samples at the lower limit
-        moved = x.copy()
-        moved[:k] = 0.5
-        for conf in (0.9, 0.95):
-            q = (1 - conf) / 2
-            depends = abs(np.quantile(x, q) - np.quantile(moved, q)) >= 0.25 - 1e-12
-            low, up = range_ends_at_bound([k], [0], n, conf)
-            assert bool(low[0]) == depends and not up[0], (n, k, conf)
-            y = -x                                      # the same at the upper limit
-            depends = abs(np.quantile(y, 1 - q) - np.quantile(-moved, 1 - q)) >= 0.25 - 1e-12
-            low, up = range_ends_at_bound([0], [k], n, conf)
-            assert bool(up[0]) == depends and not low[0], (n, k, conf)
-
-
-@pytest.mark.parametrize("n", [5, 10, 40])
-def test_the_far_end_of_a_range_of_trials_nearly_all_on_one_limit_is_flagged_too(n):
-    """Where (nearly) every trial ends on the lower limit, the range's upper quantile is one of
+    Where (nearly) every trial ends on the lower limit, the range's upper quantile is one of
     them too: S2.1 (8x8, 10 trials, all on G13's lower limit 1e-4 E1) printed "0.002879 GPa*
     .. 0.003000 GPa", an upper end no bound of the data (its profile is flat to 18.5 GPa)
     left unmarked. Against numpy's quantile: the upper end is flagged exactly when moving the
