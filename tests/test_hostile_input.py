@@ -1332,3 +1332,54 @@ def test_a_block_gets_a_warning_and_a_too_coarse_mesh_says_so(tmp_path):
     assert doc["objective"] == pytest.approx(full.objective, rel=1e-12)
     poor = next(x["text"] for x in doc["reasons"] if x["code"] == "poor_fit")
     assert "a mesh too coarse" in poor and doc["status"] != "ok"
+
+
+# ---------------------------------------------------------------------------------- summaries
+
+#: a wide summary.csv as batch --wide writes one (a comment line, one constant of one
+#: material), read back by laminid report
+WIDE_HEADER = ("name,specimen,path,status,reasons,M E1 [Pa],M E1 lower [Pa],M E1 upper [Pa],"
+               "M E1 verdict,rms_residual [%],result,flagged")
+
+
+def wide_summary(tmp_path, value="1.7e11", lower="1.6e11", upper="1.8e11"):
+    path = tmp_path / "summary.csv"
+    path.write_text("# laminid batch summary\n" + WIDE_HEADER + "\n"
+                    f"S1,S1,S1.yaml,ok,,{value},{lower},{upper},weak,0.5,,\n", encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize("cells, column, said", [
+    (dict(value="n/a"), "M E1 [Pa]", "'n/a' is not a number"),
+    (dict(value="1e400"), "M E1 [Pa]", "'1e400' is not a finite number"),
+    (dict(lower="abc"), "M E1 lower [Pa]", "'abc' is not a number"),
+    (dict(upper="nan"), "M E1 upper [Pa]", "'nan' is not a finite number"),
+])
+def test_a_wide_summary_cell_edited_to_text_is_named_not_a_traceback(tmp_path, cells, column,
+                                                                       said):
+    # 'n/a' as a value was a ValueError traceback of float() in batch.read_summary, '1e400'
+    # one of matplotlib's axis limits; text as an interval's end was read as no interval
+    path = wide_summary(tmp_path, **cells)
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert f"{path}:3, column '{column}': {said}" in r.output
+    assert not (tmp_path / "r.pdf").exists()
+
+
+def test_a_wide_summary_interval_with_lower_above_upper_is_refused(tmp_path):
+    path = wide_summary(tmp_path, lower="2e11")
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert r.exit_code == 2
+    assert (f"{path}:3, columns 'M E1 lower [Pa]' and 'M E1 upper [Pa]': the lower end 2e+11 "
+            "is above the upper 1.8e+11") in r.output
+    assert not (tmp_path / "r.pdf").exists()
+
+
+def test_a_long_summary_value_edited_to_text_is_named(tmp_path):
+    path = tmp_path / "summary.csv"
+    path.write_text("name,specimen,status,reasons,material,constant,value,lower,upper,verdict,"
+                    "unit\nS1,S1,ok,,M,E1,1.7e11,1.6e11,1.8e11,weak,Pa\n"
+                    "S1,S1,ok,,M,E2,ten,,,weak,Pa\n", encoding="utf-8")
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert f"{path}:3, column 'value': 'ten' is not a number" in r.output
