@@ -1776,7 +1776,8 @@ def read_summary(path) -> list[dict]:
         if not isinstance(doc, dict) or doc.get("format") != "laminid-batch-summary":
             raise BatchError(f"{path}: not a laminid batch summary (no format "
                              "'laminid-batch-summary')")
-        rows = doc["specimens"]
+        rows = doc.get("specimens")
+        _check_json_rows(path, rows)
         for r in rows:
             for key in ("result", "stale_result"):
                 if r.get(key):
@@ -1878,6 +1879,52 @@ def _interval_cells(where: tuple, lo_col: str, hi_col: str, rec: dict) -> tuple:
         raise BatchError(f"{path}:{line}, columns {lo_col!r} and {hi_col!r}: the lower end "
                          f"{lower:g} is above the upper {upper:g}")
     return lower, upper
+
+
+def _check_json_rows(path: Path, rows) -> None:
+    """BatchError naming the file and the field where a summary.json edited by hand has not
+    the shape laminid report reads (a list of specimens, each with its name and status as
+    text, its constants as numbers by material, its intervals by material and constant, its
+    result file as text): it was a KeyError, AttributeError or TypeError traceback."""
+    def bad(field, what, value):
+        shown = repr(value) if len(repr(value)) <= 40 else repr(value)[:37] + "..."
+        raise BatchError(f"{path}: field '{field}': {what}, got {shown}")
+
+    def number_or_null(field, value):
+        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))
+                                  or value != value or abs(value) == float("inf")):
+            bad(field, "expected a finite number or null", value)
+
+    if not isinstance(rows, list):
+        bad("specimens", "expected a list of specimens", rows)
+    for i, r in enumerate(rows):
+        at = f"specimens[{i}]"
+        if not isinstance(r, dict):
+            bad(at, "expected a mapping (a specimen)", r)
+        for key in ("name", "status"):
+            if not isinstance(r.get(key), str):
+                bad(f"{at}.{key}", "expected text", r.get(key))
+        for key in ("result", "stale_result"):
+            if r.get(key) is not None and not isinstance(r[key], str):
+                bad(f"{at}.{key}", "expected a file name or null", r[key])
+        for key in ("materials", "intervals"):
+            table = r.get(key)
+            if table is None and key == "intervals":
+                continue
+            if not isinstance(table, dict):
+                bad(f"{at}.{key}", "expected a mapping by material", table)
+            for m, consts in table.items():
+                if not isinstance(consts, dict):
+                    bad(f"{at}.{key}.{m}", "expected a mapping by constant", consts)
+                for k, v in consts.items():
+                    if key == "materials":
+                        number_or_null(f"{at}.{key}.{m}.{k}", v)
+                    elif not isinstance(v, dict):
+                        bad(f"{at}.{key}.{m}.{k}", "expected a mapping (lower, upper, verdict)",
+                            v)
+                    else:
+                        for end in ("lower", "upper"):
+                            number_or_null(f"{at}.{key}.{m}.{k}.{end}", v.get(end))
 
 
 def _intervals_of_wide(rec: dict, mats: dict, flagged: dict, where: tuple) -> dict | None:

@@ -1383,3 +1383,30 @@ def test_a_long_summary_value_edited_to_text_is_named(tmp_path):
     r = run("report", path, "-o", tmp_path / "r.pdf")
     assert r.exit_code == 2 and "Traceback" not in r.output
     assert f"{path}:3, column 'value': 'ten' is not a number" in r.output
+
+
+@pytest.mark.parametrize("edit, said", [
+    (lambda d: d.pop("specimens"), "field 'specimens': expected a list of specimens, got None"),
+    (lambda d: d["specimens"].append(3), "field 'specimens[1]': expected a mapping"),
+    (lambda d: d["specimens"][0].pop("status"), "field 'specimens[0].status': expected text"),
+    (lambda d: d["specimens"][0]["materials"]["M"].update(E1="abc"),
+     "field 'specimens[0].materials.M.E1': expected a finite number or null, got 'abc'"),
+    (lambda d: d["specimens"][0].update(intervals="x"),
+     "field 'specimens[0].intervals': expected a mapping by material, got 'x'"),
+    (lambda d: d["specimens"][0].update(result=5),
+     "field 'specimens[0].result': expected a file name or null, got 5"),
+])
+def test_a_summary_json_edited_out_of_shape_is_named_not_a_traceback(tmp_path, edit, said):
+    # each was a KeyError, AttributeError or TypeError traceback in laminid report
+    doc = {"format": "laminid-batch-summary", "specimens": [
+        {"name": "S1", "specimen": "S1", "status": "ok", "materials": {"M": {"E1": 1.7e11}},
+         "intervals": {"M": {"E1": {"lower": 1.6e11, "upper": 1.8e11, "verdict": "weak"}}},
+         "result": None}]}
+    edit(doc)
+    path = tmp_path / "summary.json"
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert f"{path}: {said}" in r.output
+    assert not (tmp_path / "r.pdf").exists()
+
