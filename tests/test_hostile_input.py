@@ -1410,3 +1410,18 @@ def test_a_summary_json_edited_out_of_shape_is_named_not_a_traceback(tmp_path, e
     assert f"{path}: {said}" in r.output
     assert not (tmp_path / "r.pdf").exists()
 
+
+def test_too_few_damped_modes_names_the_specimen_file_and_field(tmp_path):
+    # was "laminid: error: 3 modes with measured damping for 5 free loss factors; ..." with
+    # no word of the file, in a batch of many specimens
+    meas = [ln for ln in BASE.splitlines() if ln.startswith("  frequencies:")][0]
+    nulls = ", ".join(["null"] * 9)
+    text = BASE.replace(meas, meas + f"\n  damping: [0.006, 0.004, 0.01, {nulls}]\n"
+                        f"  damping_sigma: [0.0002, 0.0002, 0.0003, {nulls}]")
+    path = spec(tmp_path, text)
+    r = run("identify", path, "--mesh", "3x3", "--max-evaluations", "2", "-o",
+            tmp_path / "r.h5")
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert (f"{path}, field 'measured.damping': 3 modes with measured damping for 5 free "
+            "loss factors") in r.output
+    assert not (tmp_path / "r.h5").exists()
