@@ -1425,3 +1425,33 @@ def test_too_few_damped_modes_names_the_specimen_file_and_field(tmp_path):
     assert (f"{path}, field 'measured.damping': 3 modes with measured damping for 5 free "
             "loss factors") in r.output
     assert not (tmp_path / "r.h5").exists()
+
+
+def _with_damping_sigma_source(value: str) -> str:
+    meas = [ln for ln in BASE.splitlines() if ln.startswith("  frequencies:")][0]
+    zeros = ", ".join(["0.005"] * 12)
+    return BASE.replace(meas, meas + f"\n  damping: [{zeros}]\n  damping_sigma: [{zeros}]\n"
+                        f"  damping_sigma_source: {value}")
+
+
+def test_a_damping_sigma_source_of_10_kb_is_refused_with_its_field(tmp_path):
+    # it was accepted, printed whole by identify and show, and set on the report's damping
+    # page, whose table collapsed (matplotlib "axes sizes collapsed to zero")
+    code, out, path = modes_error(tmp_path, _with_damping_sigma_source("x" * 10000))
+    assert code == 2
+    assert (f"field 'measured.damping_sigma_source': 10000 characters, more than 1000"
+            in out) and f"{path}:" in out
+
+
+def test_a_sigma_source_with_an_escaped_control_character_is_refused(tmp_path):
+    # a quoted YAML escape ("\e[31m") passed the raw text's check and reached the terminal
+    code, out, path = modes_error(tmp_path, _with_damping_sigma_source('"\\e[31mred"'))
+    assert code == 2
+    assert ("field 'measured.damping_sigma_source': non-printable character U+001B" in out)
+
+
+def test_a_damping_sigma_source_on_several_lines_is_read_as_one(tmp_path):
+    from laminid_cli.specimen import read_specimen
+
+    path = spec(tmp_path, _with_damping_sigma_source('"fit-frf:\\n  spread\\n\\nfloor 2 %"'))
+    assert read_specimen(path).measured.damping_sigma_source == "fit-frf: spread floor 2 %"
