@@ -1455,3 +1455,23 @@ def test_a_damping_sigma_source_on_several_lines_is_read_as_one(tmp_path):
 
     path = spec(tmp_path, _with_damping_sigma_source('"fit-frf:\\n  spread\\n\\nfloor 2 %"'))
     assert read_specimen(path).measured.damping_sigma_source == "fit-frf: spread floor 2 %"
+
+
+@pytest.mark.parametrize("text, said", [
+    # an ESC in a column name turned the terminal red where export printed the point's name
+    # (and was written into the UFF record's ID line)
+    ("freq_Hz,\x1b[31m_re,\x1b[31m_im\n1,1,0\n2,1,0\n",
+     "line 1, column 2 ('\\x1b[31m_re'): non-printable character U+001B in the column name"),
+    # the two-line header's names printed back to front by a bidirectional override
+    ("Frequency,H\u202e1 Real,H1 Imag\nHz,m/N,m/N\n1,1,0\n2,1,0\n",
+     "line 1, column 2 ('H\\u202e1 Real'): non-printable character U+202E in the column name"),
+    ("# units m/\x07N\nfreq_Hz,1_re,1_im\n1,1,0\n2,1,0\n",
+     "line 1, FRF unit ('m/\\x07N'): non-printable character U+0007 in it"),
+])
+def test_a_csv_column_name_with_a_control_character_is_refused(tmp_path, text, said):
+    path = tmp_path / "x.csv"
+    path.write_text(text, encoding="utf-8")
+    r = run("export", path, "-o", tmp_path / "x.uff")
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert f"{path}: {said}; remove it" in r.output
+    assert not (tmp_path / "x.uff").exists()

@@ -394,6 +394,27 @@ def _commented_header(text: str, first_data: int, sep: str | None, n: int
     return None
 
 
+#: characters refused in a CSV's column names: C0/C1 control characters (an ESC begins a
+#: terminal's escape sequence: "\x1b[31m" turned the terminal red where fit-frf and export
+#: printed a point's name, and export wrote it into the UFF record's ID line) and the
+#: bidirectional overrides, which print a name backwards
+_BAD_NAME_CHARS = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u200e\u200f\u202a-\u202e"
+                             "\u2066-\u2069]")
+
+
+def _check_names(path, lineno: int, names, what: str = "") -> None:
+    """FrfError naming the file, the line and the column of a column name holding a character
+    of :data:`_BAD_NAME_CHARS` (``what``: the name of a single text checked, the FRF unit of a
+    '# units' line)."""
+    for j, name in enumerate(names):
+        bad = _BAD_NAME_CHARS.search(name)
+        if bad is not None:
+            at = what or f"column {j + 1}"
+            raise FrfError(f"{path}: line {lineno}, {at} ({_quoted(name)}): non-printable "
+                           f"character U+{ord(bad.group()):04X} in "
+                           f"{'it' if what else 'the column name'}; remove it")
+
+
 def _split(line: str, sep: str | None) -> list[str]:
     """The cells of a CSV line: quoted cells unquoted (``"f [Hz]","0.5"``, as pandas with
     QUOTE_ALL, LabVIEW and many loggers write them; they were "'\"0.5\"' is not a number"),
@@ -826,11 +847,12 @@ def read_frf_csv(path) -> FrfSet:
     if text is None:
         raise FrfError(f"{path}: not a text (CSV) file; {_not_the_format(path, 'csv')}")
     units = None                   # not stated: not "1", which declares FRFs dimensionless
-    for ln in text.splitlines():
+    for i, ln in enumerate(text.splitlines()):
         # the rest of the line: a unit may hold spaces ("m/s^2 / N")
         hit = re.match(r"\s*#.*?\bunits\s+(\S.*?)\s*\Z", ln)
         if hit:
             units = hit.group(1)
+            _check_names(path, i + 1, [units], "FRF unit")
             break
     # a line of separators only (",,,,", a spreadsheet's formatted empty row) is blank
     lines = [(i + 1, ln) for i, ln in enumerate(text.splitlines())
@@ -843,6 +865,7 @@ def read_frf_csv(path) -> FrfSet:
     preamble = _csv_preamble(lines)
     two_line = _csv_two_line_header(lines[preamble - 1][1], lines[preamble][1]) \
         if preamble else None
+    names_line = lines[preamble - 1][1] if two_line is not None else ""
     if two_line is not None:
         preamble -= 1               # the names' line is the header's first, no preamble
         notes.append(f"{path}: a header of two lines: the column names (line "
@@ -876,6 +899,9 @@ def read_frf_csv(path) -> FrfSet:
         # the frequency's name: a first line whose first cell is a number is data, and a bad
         # cell in it is named as such (it was taken for the header, the line lost)
         header = cells if two_line is None else two_line
+        _check_names(path, lines[0][0], cells)
+        if two_line is not None:
+            _check_names(path, lines[0][0] - 1, _split(names_line, sep))
         lines = lines[1:]
         if [c.strip().lower() for c in cells[:2]] == ["name", "specimen"]:
             # laminid batch's summary.csv (long or --wide): was "line 2, column 1 ('name'):
@@ -886,6 +912,7 @@ def read_frf_csv(path) -> FrfSet:
     else:
         header = _commented_header(text, lines[0][0], sep, len(cells))
         if header is not None:
+            _check_names(path, lines[0][0] - 1, header)
             notes.append(f"column names read from the comment line just above the data (line "
                          f"{lines[0][0] - 1}, as numpy's savetxt writes a header): "
                          f"{', '.join(header)}")
