@@ -1804,7 +1804,8 @@ def read_summary(path) -> list[dict]:
         where = (path, line_of[id(rec)])
         mats: dict[str, dict] = {}
         for col, val in rec.items():
-            if col and col.endswith("]") and val not in ("", None):
+            # (a header edited to 'x]' without its ' [unit': not a constant's column)
+            if col and col.endswith("]") and " [" in col and val not in ("", None):
                 head, unit = col[:-1].rsplit(" [", 1)
                 if " " in head and head.rsplit(" ", 1)[1] in CONSTANTS:
                     m, k = head.rsplit(" ", 1)
@@ -1907,9 +1908,13 @@ def _check_json_rows(path: Path, rows) -> None:
         for key in ("result", "stale_result"):
             if r.get(key) is not None and not isinstance(r[key], str):
                 bad(f"{at}.{key}", "expected a file name or null", r[key])
-        for key in ("materials", "intervals"):
+        number_or_null(f"{at}.rms_residual_percent", r.setdefault("rms_residual_percent", None))
+        for key in ("mesh_check", "flagged"):
+            if r.get(key) is not None and not isinstance(r[key], dict):
+                bad(f"{at}.{key}", "expected a mapping or null", r[key])
+        for key in ("materials", "intervals", "damping"):
             table = r.get(key)
-            if table is None and key == "intervals":
+            if table is None and key != "materials":
                 continue
             if not isinstance(table, dict):
                 bad(f"{at}.{key}", "expected a mapping by material", table)
@@ -1923,7 +1928,7 @@ def _check_json_rows(path: Path, rows) -> None:
                         bad(f"{at}.{key}.{m}.{k}", "expected a mapping (lower, upper, verdict)",
                             v)
                     else:
-                        for end in ("lower", "upper"):
+                        for end in ("value", "lower", "upper"):
                             number_or_null(f"{at}.{key}.{m}.{k}.{end}", v.get(end))
 
 

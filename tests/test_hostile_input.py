@@ -1395,6 +1395,12 @@ def test_a_long_summary_value_edited_to_text_is_named(tmp_path):
      "field 'specimens[0].intervals': expected a mapping by material, got 'x'"),
     (lambda d: d["specimens"][0].update(result=5),
      "field 'specimens[0].result': expected a file name or null, got 5"),
+    (lambda d: d["specimens"][0].update(damping="x"),
+     "field 'specimens[0].damping': expected a mapping by material, got 'x'"),
+    (lambda d: d["specimens"][0].update(mesh_check=[1]),
+     "field 'specimens[0].mesh_check': expected a mapping or null, got [1]"),
+    (lambda d: d["specimens"][0].update(rms_residual_percent="0.5 %"),
+     "field 'specimens[0].rms_residual_percent': expected a finite number or null"),
 ])
 def test_a_summary_json_edited_out_of_shape_is_named_not_a_traceback(tmp_path, edit, said):
     # each was a KeyError, AttributeError or TypeError traceback in laminid report
@@ -1475,3 +1481,24 @@ def test_a_csv_column_name_with_a_control_character_is_refused(tmp_path, text, s
     assert r.exit_code == 2 and "Traceback" not in r.output
     assert f"{path}: {said}; remove it" in r.output
     assert not (tmp_path / "x.uff").exists()
+
+
+def test_a_summary_json_without_its_rms_residual_is_drawn(tmp_path):
+    # a KeyError traceback in the report's residuals page (a key deleted by hand)
+    doc = {"format": "laminid-batch-summary", "specimens": [
+        {"name": "S1", "specimen": "S1", "status": "ok", "materials": {"M": {"E1": 1.7e11}},
+         "result": None}]}
+    path = tmp_path / "summary.json"
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert r.exit_code == 0, r.output
+    assert "2 pages (constants, residuals)" in r.output
+
+
+def test_a_wide_summary_column_edited_to_end_in_a_bracket_is_not_a_traceback(tmp_path):
+    # 'M E1 [Pa' edited to 'M E1 Pa]' was a ValueError (unpacking 'rsplit(" [")')
+    path = wide_summary(tmp_path)
+    path.write_text(path.read_text().replace("M E1 [Pa]", "M E1 Pa]"), encoding="utf-8")
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert f"{path}: no identified specimen in the summary" in r.output   # E1 has no column
