@@ -1128,16 +1128,26 @@ def read_frf_uff(path) -> FrfSet:
     # each DOF's coherence records in file order, the n-th to its n-th FRF: a DOF measured
     # twice (a repeat) gave both FRFs the second's coherence
     coh_by_dof: dict[tuple, list] = {}
-    for d in sets:
-        if int(d.get("func_type", 0)) == UFF_COHERENCE and np.asarray(d["x"]).size == freq.size:
-            coh_by_dof.setdefault(dof(d), []).append(np.asarray(d["data"]).real)
+    #: coherence records not used, each with why: they were dropped without a word, so that
+    #: a file whose coherence was written on another axis read as one without coherence
+    unused: list[tuple[int, str]] = []
+    for k, d in enumerate(sets, start=1):
+        if int(d.get("func_type", 0)) != UFF_COHERENCE:
+            continue
+        n = np.asarray(d["x"]).size
+        if n == freq.size:
+            coh_by_dof.setdefault(dof(d), []).append((k, np.asarray(d["data"]).real))
+        else:
+            unused.append((k, f"{n} lines where the FRFs have {freq.size}"))
     coherence = None
     if coh_by_dof:
         rows = []
         for d in frfs:
             queue = coh_by_dof.get(dof(d))
-            rows.append(queue.pop(0) if queue else np.full(freq.size, np.nan))
+            rows.append(queue.pop(0)[1] if queue else np.full(freq.size, np.nan))
         coherence = np.array(rows)
+        unused += [(k, "no FRF record of its DOF left to pair it with")
+                   for queue in coh_by_dof.values() for k, _ in queue]
     # the response DOF, and the reference's where they differ (a roving hammer: "5+Z:2+Z")
     roving = len({dof(d)[2:] for d in frfs}) > 1
     labels = tuple(f"{d.get('rsp_node', k + 1)}{_dir(d.get('rsp_dir', 0))}"
@@ -1205,6 +1215,10 @@ def read_frf_uff(path) -> FrfSet:
         # accelerances beside mobilities (another tool's file): one pole set, so the modes
         # are those of all; each FRF's modal constants are in its own unit (fit-frf says so)
         meta["point_units"] = each
+    if unused:
+        meta.setdefault("notes", []).append(
+            f"{path}: coherence (function type {UFF_COHERENCE}) not used: "
+            + "; ".join(f"type-58 record {k}: {why}" for k, why in sorted(unused)))
     tau = _uff_window(frfs)
     if tau is not None:
         meta["settings"] = {"exp_window_s": tau}
