@@ -1921,9 +1921,11 @@ def _check_json_rows(path: Path, rows) -> None:
             for m, consts in table.items():
                 if not isinstance(consts, dict):
                     bad(f"{at}.{key}.{m}", "expected a mapping by constant", consts)
-                for k, v in consts.items():
+                for k, v in list(consts.items()):
                     if key == "materials":
                         number_or_null(f"{at}.{key}.{m}.{k}", v)
+                        if v is None:           # (NaN written as null): no value, as a
+                            del consts[k]       # summary.csv's empty cell
                     elif not isinstance(v, dict):
                         bad(f"{at}.{key}.{m}.{k}", "expected a mapping (lower, upper, verdict)",
                             v)
