@@ -831,6 +831,30 @@ def _csv_two_line_header(names_line: str, units_line: str) -> list[str] | None:
     return merged
 
 
+def _check_csv_lines(path, freq, frf, lines, header, labels) -> None:
+    """FrfError naming the file line of a CSV's frequency that is not finite or not above the
+    one before, or of an FRF value that is not finite: check_frf_arrays (every reader's check)
+    counts the axis' lines from 1, which in a CSV are not its lines: 'line 50: 50 Hz, line
+    51: 50 Hz' for file lines 51 and 52 (the header above), further off after a preamble or
+    dropped 0 Hz lines; and 'FRF of point 1 has NaN/inf at 1 Hz' said no line."""
+    freq = np.asarray(freq)
+    bad = np.flatnonzero(~np.isfinite(freq))
+    if bad.size:
+        raise FrfError(f"{path}: line {lines[bad[0]][0]}, {_csv_column(header, 0)}: the "
+                       f"frequency {freq[bad[0]]:g} is not a finite number")
+    down = np.flatnonzero(np.diff(freq) <= 0)
+    if down.size:
+        i = down[0]
+        raise FrfError(f"{path}: the frequency is not strictly increasing: line "
+                       f"{lines[i][0]}: {freq[i]:g} Hz, line {lines[i + 1][0]}: "
+                       f"{freq[i + 1]:g} Hz")
+    bad = np.argwhere(~np.isfinite(frf))
+    if bad.size and np.shape(frf)[1] == len(lines):
+        p, k = bad[0]
+        raise FrfError(f"{path}: line {lines[k][0]}: the FRF of point {labels[p]} has "
+                       f"NaN/inf at {freq[k]:g} Hz; only a 0 Hz line of them is dropped")
+
+
 def read_frf_csv(path) -> FrfSet:
     """Read a CSV FRF file: ``freq, re_1, im_1, ...``, ``freq, H_1, H_2, ...`` of complex cells
     or magnitude and phase columns named in the header (see module docstring).
@@ -1023,6 +1047,7 @@ def read_frf_csv(path) -> FrfSet:
         notes.append(f"{path}: not UTF-8; read as Windows-1252 text (a spreadsheet's 'CSV' "
                      "export on Windows: '°' is byte 0xB0)")
     factor, stated = _csv_freq_factor(path, header[0] if header else "")
+    _check_csv_lines(path, data[:, 0].real * factor, frf, lines, header, labels)
     freq, frf, _ = check_frf_arrays(data[:, 0].real * factor, frf, source=str(path))
     meta: dict = {}
     if not stated:
