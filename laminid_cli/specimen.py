@@ -1439,6 +1439,11 @@ def plus_minus(text: str, kind: str, where=None) -> tuple[float, float]:
     if half.endswith("%"):
         value = parse_quantity(centre, kind, where=where)
         share = parse_quantity(half[:-1].strip(), "dimensionless", where=where)
+        if share > 100:
+            # '0.35 ± 200 %' was read as -0.35 .. 1.05 (a modulus' was refused as reaching
+            # below 0, a Poisson's ratio's kept): more than the value itself is a typo
+            raise ValueError(f"'{text}': a half-width of {share:g} % is more than the value "
+                             "itself; write the range as [low, high] if that is meant")
         return value, abs(value) * share / 100.0
     number = _LEADING_NUMBER.match(centre)
     if number is not None and number.end() == len(centre):

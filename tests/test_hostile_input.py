@@ -1252,8 +1252,15 @@ def test_a_negative_modulus_is_said_in_gpa(tmp_path):
     ("E1: 170 GPa", "E1: ± 1 GPa",
      "field 'reference.materials.IM7/977-2.E1': '± 1 GPa': write a value and its half-width "
      "as '170 ± 1 GPa' (or [low, high])"),
+    # a half-width in per cent over 100: a Poisson's ratio's was read as -0.35 .. 1.05
+    ("nu12: 0.35}", "nu12: '0.35 ± 200 %'}",
+     "field 'reference.materials.IM7/977-2.nu12': '0.35 ± 200 %': a half-width of 200 % is "
+     "more than the value itself; write the range as [low, high] if that is meant"),
+    ("E1: 170 GPa", "E1: 170 GPa ± 150 %",
+     "field 'reference.materials.IM7/977-2.E1': '170 GPa ± 150 %': a half-width of 150 % is "
+     "more than the value itself; write the range as [low, high] if that is meant"),
 ], ids=["modulus", "nu12", "negative end", "negative value", "negative half-width",
-        "below zero", "no value"])
+        "below zero", "no value", "nu12 over 100 %", "modulus over 100 %"])
 def test_a_reference_range_written_wrongly_is_quoted_as_written(tmp_path, old, new, said):
     """A reference range high end first was refused as "range [1.7e+11, 1.5e+11] has low >
     high" (Pa, whatever the file wrote), and a negative end as "got -1e+09 Pa"."""
