@@ -1427,7 +1427,9 @@ def plus_minus(text: str, kind: str, where=None) -> tuple[float, float]:
     ((170000000000.0, 1000000000.0), (0.3, 0.03))
     """
     text = str(text)
-    parts = _PLUS_MINUS.split(text)
+    # a word processor's minus ('170 ± −1 GPa', U+2212) is a minus, as in every quantity: it
+    # was "no half-width after ±" where the half-width is there, negative
+    parts = _PLUS_MINUS.split(normalize_text(text))
     if len(parts) != 2 or not parts[0].strip() or not parts[1].strip():
         raise ValueError(f"'{text}': write a value and its half-width as '170 ± 1 GPa' "
                          "(or [low, high])")

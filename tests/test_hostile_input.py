@@ -1259,8 +1259,12 @@ def test_a_negative_modulus_is_said_in_gpa(tmp_path):
     ("E1: 170 GPa", "E1: 170 GPa ± 150 %",
      "field 'reference.materials.IM7/977-2.E1': '170 GPa ± 150 %': a half-width of 150 % is "
      "more than the value itself; write the range as [low, high] if that is meant"),
+    # a word processor's minus (U+2212): was "no half-width after ±"
+    ("E1: 170 GPa", "E1: 170 ± \u22121 GPa",
+     "field 'reference.materials.IM7/977-2.E1': '170 ± \u22121 GPa': the half-width after ± "
+     "must not be negative"),
 ], ids=["modulus", "nu12", "negative end", "negative value", "negative half-width",
-        "below zero", "no value", "nu12 over 100 %", "modulus over 100 %"])
+        "below zero", "no value", "nu12 over 100 %", "modulus over 100 %", "unicode minus"])
 def test_a_reference_range_written_wrongly_is_quoted_as_written(tmp_path, old, new, said):
     """A reference range high end first was refused as "range [1.7e+11, 1.5e+11] has low >
     high" (Pa, whatever the file wrote), and a negative end as "got -1e+09 Pa"."""
