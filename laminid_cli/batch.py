@@ -1852,7 +1852,8 @@ def read_summary(path) -> list[dict]:
         if not isinstance(doc, dict) or doc.get("format") != "laminid-batch-summary":
             raise BatchError(f"{path}: not a laminid batch summary (no format "
                              "'laminid-batch-summary')")
-        rows = doc["specimens"]
+        rows = doc.get("specimens")
+        _check_json_rows(path, rows)
         for r in rows:
             for key in ("result", "stale_result"):
                 if r.get(key):
@@ -1860,29 +1861,38 @@ def read_summary(path) -> list[dict]:
         return rows
     try:
         with open(path, newline="", encoding="utf-8") as fh:
-            records = list(csv.DictReader(_after_comments(fh)))
+            comments = _Counted(fh)
+            reader = csv.DictReader(comments)
+            records, line_of = [], {}
+            for rec in reader:
+                records.append(rec)
+                # its line in the file (the comment lines above the header counted)
+                line_of[id(rec)] = comments.skipped + reader.line_num
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise BatchError(f"{path}: not a readable batch summary ({exc})") from exc
     if not records or "status" not in records[0] or "name" not in records[0]:
         raise BatchError(f"{path}: not a laminid batch summary (columns name, status, ... "
                          "expected)")
     if "constant" in records[0]:
-        return _rows_of_long(records, path)
+        return _rows_of_long(records, path, line_of)
     rows = []
     for rec in records:
+        where = (path, line_of[id(rec)])
         mats: dict[str, dict] = {}
         for col, val in rec.items():
-            if col and col.endswith("]") and val not in ("", None):
+            # (a header edited to 'x]' without its ' [unit': not a constant's column)
+            if col and col.endswith("]") and " [" in col and val not in ("", None):
                 head, unit = col[:-1].rsplit(" [", 1)
                 if " " in head and head.rsplit(" ", 1)[1] in CONSTANTS:
                     m, k = head.rsplit(" ", 1)
-                    mats.setdefault(m, {})[k] = float(val) * (1e9 if unit == "GPa" else 1.0)
+                    mats.setdefault(m, {})[k] = _number_cell(where, col, val) * (
+                        1e9 if unit == "GPa" else 1.0)
         res = rec.get("result") or None
         # the constants --wide flags (at a bound, undetermined, fixed); summaries before the
         # column have no key: nothing is known of their doubt
         flags = {} if "flagged" not in rec else {"flagged": parse_flagged(rec["flagged"])}
         # their intervals and verdicts (summaries before those columns: no key, as above)
-        intervals = _intervals_of_wide(rec, mats, flags.get("flagged") or {})
+        intervals = _intervals_of_wide(rec, mats, flags.get("flagged") or {}, where)
         if intervals is not None:
             flags["intervals"] = intervals
         damping = _damping_of_wide(rec)
@@ -1901,7 +1911,109 @@ def read_summary(path) -> list[dict]:
     return rows
 
 
-def _intervals_of_wide(rec: dict, mats: dict, flagged: dict) -> dict | None:
+class _Counted:
+    """The lines of a summary.csv from its header on, as :func:`_after_comments` gives them,
+    with ``skipped``: how many comment lines it passed over above the header."""
+
+    def __init__(self, lines):
+        self._lines, self.skipped, self._started = iter(lines), 0, False
+
+    def __iter__(self):
+        return self
+
+    def __next__(self):
+        line = next(self._lines)
+        while not self._started and line.startswith(CSV_COMMENT):
+            self.skipped += 1
+            line = next(self._lines)
+        self._started = True
+        return line
+
+
+def _number_cell(where: tuple, column: str, text) -> float | None:
+    """A number cell of a summary.csv: None where empty; BatchError naming the file, its line
+    and the column where it is text or not finite (a summary edited by hand: 'n/a' was a
+    ValueError traceback in laminid report, '1e400' one from matplotlib's axis limits)."""
+    if text in ("", None):
+        return None
+    try:
+        value = float(text)
+    except (TypeError, ValueError):
+        value = None
+    if value is None or value != value or value in (float("inf"), float("-inf")):
+        path, line = where
+        shown = text if len(str(text)) <= 40 else str(text)[:37] + "..."
+        raise BatchError(f"{path}:{line}, column {column!r}: {shown!r} is not "
+                         f"{'a finite number' if value is not None else 'a number'} (empty "
+                         "where there is none)")
+    return value
+
+
+def _interval_cells(where: tuple, lo_col: str, hi_col: str, rec: dict) -> tuple:
+    """An interval's ends from their cells (:func:`_number_cell`), BatchError where the lower
+    is above the upper."""
+    lower = _number_cell(where, lo_col, rec.get(lo_col))
+    upper = _number_cell(where, hi_col, rec.get(hi_col))
+    if lower is not None and upper is not None and lower > upper:
+        path, line = where
+        raise BatchError(f"{path}:{line}, columns {lo_col!r} and {hi_col!r}: the lower end "
+                         f"{lower:g} is above the upper {upper:g}")
+    return lower, upper
+
+
+def _check_json_rows(path: Path, rows) -> None:
+    """BatchError naming the file and the field where a summary.json edited by hand has not
+    the shape laminid report reads (a list of specimens, each with its name and status as
+    text, its constants as numbers by material, its intervals by material and constant, its
+    result file as text): it was a KeyError, AttributeError or TypeError traceback."""
+    def bad(field, what, value):
+        shown = repr(value) if len(repr(value)) <= 40 else repr(value)[:37] + "..."
+        raise BatchError(f"{path}: field '{field}': {what}, got {shown}")
+
+    def number_or_null(field, value):
+        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))
+                                  or value != value or abs(value) == float("inf")):
+            bad(field, "expected a finite number or null", value)
+
+    if not isinstance(rows, list):
+        bad("specimens", "expected a list of specimens", rows)
+    for i, r in enumerate(rows):
+        at = f"specimens[{i}]"
+        if not isinstance(r, dict):
+            bad(at, "expected a mapping (a specimen)", r)
+        for key in ("name", "status"):
+            if not isinstance(r.get(key), str):
+                bad(f"{at}.{key}", "expected text", r.get(key))
+        for key in ("result", "stale_result"):
+            if r.get(key) is not None and not isinstance(r[key], str):
+                bad(f"{at}.{key}", "expected a file name or null", r[key])
+        number_or_null(f"{at}.rms_residual_percent", r.setdefault("rms_residual_percent", None))
+        for key in ("mesh_check", "flagged"):
+            if r.get(key) is not None and not isinstance(r[key], dict):
+                bad(f"{at}.{key}", "expected a mapping or null", r[key])
+        for key in ("materials", "intervals", "damping"):
+            table = r.get(key)
+            if table is None and key != "materials":
+                continue
+            if not isinstance(table, dict):
+                bad(f"{at}.{key}", "expected a mapping by material", table)
+            for m, consts in table.items():
+                if not isinstance(consts, dict):
+                    bad(f"{at}.{key}.{m}", "expected a mapping by constant", consts)
+                for k, v in list(consts.items()):
+                    if key == "materials":
+                        number_or_null(f"{at}.{key}.{m}.{k}", v)
+                        if v is None:           # (NaN written as null): no value, as a
+                            del consts[k]       # summary.csv's empty cell
+                    elif not isinstance(v, dict):
+                        bad(f"{at}.{key}.{m}.{k}", "expected a mapping (lower, upper, verdict)",
+                            v)
+                    else:
+                        for end in ("value", "lower", "upper"):
+                            number_or_null(f"{at}.{key}.{m}.{k}.{end}", v.get(end))
+
+
+def _intervals_of_wide(rec: dict, mats: dict, flagged: dict, where: tuple) -> dict | None:
     """A wide summary record's ``intervals`` ({material: {constant: entry}}, the long reader's
     keys) from its interval and verdict columns (:func:`wide_columns`) and its ``flagged``
     words; None for a summary written before those columns. A constant whose three cells are
@@ -1917,7 +2029,7 @@ def _intervals_of_wide(rec: dict, mats: dict, flagged: dict) -> dict | None:
             continue
         found = True
         _, lo_col, hi_col, _ = wide_columns(m, k)
-        lower, upper = _float(rec.get(lo_col)), _float(rec.get(hi_col))
+        lower, upper = _interval_cells(where, lo_col, hi_col, rec)
         verdict = rec.get(col) or ""
         if lower is None and upper is None and not verdict or k not in mats.get(m, {}):
             continue
@@ -2033,10 +2145,11 @@ def read_summary_batch(path) -> dict | None:
     return _comment_blocks(path)[1]
 
 
-def _rows_of_long(records, path: Path) -> list[dict]:
+def _rows_of_long(records, path: Path, line_of: dict) -> list[dict]:
     """Rows of a long summary.csv (one record per constant) grouped by specimen."""
     rows: dict[str, dict] = {}
     for rec in records:
+        where = (path, line_of[id(rec)])
         r = rows.get(rec["name"])
         if r is None:
             res = rec.get("result") or None
@@ -2050,10 +2163,11 @@ def _rows_of_long(records, path: Path) -> list[dict]:
                 "stale_result": _path_of_csv(rec, "stale_result", path)}
         m, k = rec.get("material"), rec.get("constant")
         if m and k in CONSTANTS and rec.get("value") not in ("", None):
-            r["materials"].setdefault(m, {})[k] = float(rec["value"])
+            r["materials"].setdefault(m, {})[k] = _number_cell(where, "value", rec["value"])
             side = rec.get("bound_side") or ""
+            lower, upper = _interval_cells(where, "lower", "upper", rec)
             iv = r["intervals"].setdefault(m, {})[k] = {
-                "lower": _float(rec.get("lower")), "upper": _float(rec.get("upper")),
+                "lower": lower, "upper": upper,
                 "verdict": rec.get("verdict", ""),
                 # (summaries written before the bound columns: the verdict says it)
                 "at_bound": bool(side) or rec.get("verdict", "") == VERDICT_AT_BOUND,
@@ -2070,9 +2184,10 @@ def _rows_of_long(records, path: Path) -> list[dict]:
                           mc_upper_at_limit=limit in ("upper", "both"))
         elif m and k and k.startswith("eta") and rec.get("value") not in ("", None):
             side = rec.get("bound_side") or ""
+            lower, upper = _interval_cells(where, "lower", "upper", rec)
             eta = r.setdefault("damping", {}).setdefault(m, {})[k] = {
-                "value": float(rec["value"]), "lower": _float(rec.get("lower")),
-                "upper": _float(rec.get("upper")), "verdict": rec.get("verdict", ""),
+                "value": _number_cell(where, "value", rec["value"]), "lower": lower,
+                "upper": upper, "verdict": rec.get("verdict", ""),
                 "at_bound": bool(side), "bound_side": side,
                 "bound_limit": _float(rec.get("bound_limit"))}
             if rec.get("mc_lower") not in ("", None):

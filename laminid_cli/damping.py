@@ -442,12 +442,13 @@ def _bounded_solve(A_all, y_all, s_all, used, eta_fixed, free):
 
 def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
                      scaling: str = "larger", confidence: float = 0.95,
-                     sigma_source: str = "") -> DampingFit:
+                     sigma_source: str = "", source: str = "") -> DampingFit:
     """Bounded weighted linear least squares of the ply loss factors (module docstring).
 
     shares : (n_modes, n_cols) energy shares; eta_measured, eta_sigma : (n_modes,) measured
     modal loss factors and standard deviations (NaN: mode not used); labels : (n_cols,)
-    "material.etaXY"; fixed : {label: value} columns held.
+    "material.etaXY"; fixed : {label: value} columns held; source : where the damping was
+    read ("plate.yaml, field 'measured.damping'"), named where too few modes have it.
     """
     from laminid_cli.intervals import small_chi2_note
     from laminid_cli.quantiles import chi2_ppf
@@ -469,7 +470,10 @@ def fit_loss_factors(shares, eta_measured, eta_sigma, labels, *, fixed=None,
     if p == 0:
         raise FitInputError("every loss factor is fixed; nothing to identify")
     if n < p:
-        raise FitInputError(f"{n} modes with measured damping for {p} free loss factors; "
+        # the specimen file and its field named (was the bare count, after the whole
+        # identification had run)
+        at = f"{source}: " if source else ""
+        raise FitInputError(f"{at}{n} modes with measured damping for {p} free loss factors; "
                             "measure the damping of more modes or fix loss factors "
                             "(--fix eta13=0.01,eta23=0.01)")
     eta_fixed = np.array([fixed.get(lab, 0.0) for lab in labels])
@@ -569,7 +573,10 @@ def identify_damping(fm, result, damping: MeasuredDamping, *, fix=(), scaling: s
     fit = fit_loss_factors(shares, eta, damping.loss_sigma, loss_labels(names),
                            fixed=parse_loss_fix(fix, names), scaling=scaling,
                            confidence=confidence,
-                           sigma_source="; ".join(source[s] for s in src))
+                           sigma_source="; ".join(source[s] for s in src),
+                           source=(f"{fm.specimen.path}, field 'measured."
+                                   f"{'frf_file' if frf_file else 'damping'}'"
+                                   if getattr(fm.specimen, "path", "") else ""))
     import dataclasses
 
     return dataclasses.replace(fit, share_labels=share_labels(names),

@@ -1136,6 +1136,30 @@ def _check_derived_densities(r: _Reader, top: dict, root: _Y, densities: dict,
                             "of mass, a, b, h and the ply thicknesses", "mass")
 
 
+#: the longest ``measured.sigma_source`` / ``damping_sigma_source`` (characters): fit-frf
+#: --into writes a file name and a line of the rule (a few hundred); each is printed by
+#: identify and show and set on the report's pages, where 10 kB collapsed the damping page's
+#: table (matplotlib: "axes sizes collapsed to zero")
+MAX_SOURCE_CHARS = 1000
+
+
+def _source_text(r: _Reader, y: _Y) -> str:
+    """A ``sigma_source`` or ``damping_sigma_source``: text on one line (line breaks of a
+    YAML block or a quoted "\\n" read as spaces), refused where longer than
+    :data:`MAX_SOURCE_CHARS` or holding a control character a quoted YAML escape can make
+    ("\\e[31m", which the check of the raw text cannot see)."""
+    text = r.string(y)
+    bad = _NON_PRINTABLE.search(text) or re.search("[\x00-\x08\x0b-\x1f\x7f]", text)
+    if bad is not None:
+        raise r.error(y, f"non-printable character U+{ord(bad.group()):04X} in the text; "
+                         "remove it")
+    text = " ".join(text.split())
+    if len(text) > MAX_SOURCE_CHARS:
+        raise r.error(y, f"{len(text)} characters, more than {MAX_SOURCE_CHARS}: a line "
+                         "saying how the standard deviations were made is expected")
+    return text
+
+
 def _read_measured(r: _Reader, y: _Y) -> Measured:
     m = r.mapping(y, optional=("frequencies", "weights", "sigma", "sigma_source", "frf_file",
                                "bands", "modes", "damping", "damping_sigma",
@@ -1210,7 +1234,7 @@ def _read_measured(r: _Reader, y: _Y) -> Measured:
     if "sigma_source" in m:
         if sigma is None:
             raise r.error(m["sigma_source"], "'sigma_source' describes 'sigma', which is missing")
-        source = r.string(m["sigma_source"])
+        source = _source_text(r, m["sigma_source"])
     damping = _damping_list(r, m, "damping", n, "damping ratios") if "damping" in m else None
     damping_sigma = (_damping_list(r, m, "damping_sigma", n, "standard deviations of the damping "
                                    "ratios") if "damping_sigma" in m else None)
@@ -1219,7 +1243,7 @@ def _read_measured(r: _Reader, y: _Y) -> Measured:
         if damping_sigma is None:
             raise r.error(m["damping_sigma_source"], "'damping_sigma_source' describes "
                                                      "'damping_sigma', which is missing")
-        damping_source = r.string(m["damping_sigma_source"])
+        damping_source = _source_text(r, m["damping_sigma_source"])
     if damping is not None:
         damping[np.isnan(freq)] = np.nan
         if damping_sigma is not None:
@@ -1403,7 +1427,9 @@ def plus_minus(text: str, kind: str, where=None) -> tuple[float, float]:
     ((170000000000.0, 1000000000.0), (0.3, 0.03))
     """
     text = str(text)
-    parts = _PLUS_MINUS.split(text)
+    # a word processor's minus ('170 ± −1 GPa', U+2212) is a minus, as in every quantity: it
+    # was "no half-width after ±" where the half-width is there, negative
+    parts = _PLUS_MINUS.split(normalize_text(text))
     if len(parts) != 2 or not parts[0].strip() or not parts[1].strip():
         raise ValueError(f"'{text}': write a value and its half-width as '170 ± 1 GPa' "
                          "(or [low, high])")
@@ -1415,6 +1441,11 @@ def plus_minus(text: str, kind: str, where=None) -> tuple[float, float]:
     if half.endswith("%"):
         value = parse_quantity(centre, kind, where=where)
         share = parse_quantity(half[:-1].strip(), "dimensionless", where=where)
+        if share > 100:
+            # '0.35 ± 200 %' was read as -0.35 .. 1.05 (a modulus' was refused as reaching
+            # below 0, a Poisson's ratio's kept): more than the value itself is a typo
+            raise ValueError(f"'{text}': a half-width of {share:g} % is more than the value "
+                             "itself; write the range as [low, high] if that is meant")
         return value, abs(value) * share / 100.0
     number = _LEADING_NUMBER.match(centre)
     if number is not None and number.end() == len(centre):

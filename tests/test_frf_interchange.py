@@ -1424,3 +1424,34 @@ def test_a_uff_of_ascii_and_binary_records_mixed_is_read_whole(tmp_path, case):
                                atol=1e-11 * np.abs(H).max())              # ASCII
     np.testing.assert_allclose(fs.coherence, np.repeat([[0.5], [0.6], [0.7]], f.size, 1),
                                rtol=1e-12)
+
+
+def test_a_coherence_record_not_used_is_said_with_why(tmp_path, case):
+    """A coherence record on another axis than the FRFs' (100 lines of 1601), or one with no
+    FRF of its DOF left to pair with (a DOF without FRF, a second coherence of one FRF), was
+    dropped without a word: a file whose every coherence was written on the wrong axis read
+    as one without coherence. Each is named now, with why; the others are used as before."""
+    import pyuff
+
+    f, H = case.freq[:UNIT_LINES], case.frf[:2, :UNIT_LINES]
+    common = dict(binary=0, rsp_dir=3, ref_node=1, ref_dir=3, abscissa_spacing=1,
+                  abscissa_spec_data_type=18, abscissa_axis_units_lab="Hz",
+                  ordinate_axis_units_lab="m/s^2", orddenom_axis_units_lab="N",
+                  ordinate_spec_data_type=12, orddenom_spec_data_type=13)
+
+    def coh(node, c, n=f.size):
+        return pyuff.prepare_58(func_type=6, ord_data_type=4, data=np.full(n, c), x=f[:n],
+                                rsp_node=node, **common)
+    sets = [pyuff.prepare_58(func_type=4, ord_data_type=6, data=H[0], x=f, rsp_node=1,
+                             **common), coh(1, 0.7, n=10), coh(1, 0.8), coh(1, 0.5),
+            pyuff.prepare_58(func_type=4, ord_data_type=6, data=H[1], x=f, rsp_node=2,
+                             **common), coh(9, 0.6)]
+    path = tmp_path / "coherence.uff"
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")
+    fs = io.read_frf(path)
+    assert np.isnan(fs.coherence[1]).all()
+    np.testing.assert_array_equal(fs.coherence[0], np.full(f.size, 0.8))   # the first that fits
+    assert fs.meta["notes"] == [
+        f"{path}: coherence (function type 6) not used: type-58 record 2: 10 lines where the "
+        f"FRFs have {f.size}; type-58 record 4: no FRF record of its DOF left to pair it with; "
+        "type-58 record 6: no FRF record of its DOF left to pair it with"]

@@ -90,10 +90,14 @@ def test_csv_variants(tmp_path):
 
 
 @pytest.mark.parametrize("text, message", [
-    ("1,1,0\n1,2,0\n", "not strictly increasing"),
-    ("2,1,0\n1,2,0\n", "not strictly increasing"),
-    ("1,1,0\n2,nan,0\n", "NaN/inf"),
-    ("1,1,0\n2,inf,0\n", "NaN/inf"),
+    # the file's lines named (the axis' indices were, 'line 1: 1 Hz, line 2: 1 Hz' where the
+    # lines of a file with a header above are 2 and 3)
+    ("1,1,0\n1,2,0\n", "not strictly increasing: line 1: 1 Hz, line 2: 1 Hz"),
+    ("f [Hz],re,im\n2,1,0\n1,2,0\n", "not strictly increasing: line 2: 2 Hz, line 3: 1 Hz"),
+    ("1,1,0\n2,nan,0\n", "line 2: the FRF of point 1 has NaN/inf at 2 Hz"),
+    ("1,1,0\n2,inf,0\n", "line 2: the FRF of point 1 has NaN/inf at 2 Hz"),
+    ("f [Hz],re,im\n1,1,0\nnan,1,0\n", r"line 3, column 1 \('f \[Hz\]'\): the frequency "
+                                       "nan is not a finite number"),
     ("1,1\n2,1\n", "2 columns"),
     ("1,1,0\n2,1,0,3\n", ":2: 4 columns"),
     ("1,1,0\n2,x,0\n", "not a number"),
@@ -614,8 +618,11 @@ def test_a_csv_whose_0_hz_line_is_nan_or_inf_is_read_from_the_next_line(tmp_path
 
 
 @pytest.mark.parametrize("where, dc_cells, message", [
-    ("0.5 Hz", None, "FRF of point 1 has NaN/inf at 0.5 Hz"),      # above 0 Hz: refused
-    ("0 and 1 Hz", ["nan", "nan", "nan", "nan"], "FRF of point 1 has NaN/inf at 1 Hz"),
+    # above 0 Hz: refused, naming the file's line (the header is line 1, 0 Hz line 2)
+    ("0.5 Hz", None, "line 3: the FRF of point H1 has NaN/inf at 0.5 Hz; only a 0 Hz line "
+                     "of them is dropped"),
+    ("0 and 1 Hz", ["nan", "nan", "nan", "nan"], "line 4: the FRF of point H1 has NaN/inf at "
+                                                 "1 Hz; only a 0 Hz line of them is dropped"),
 ])
 def test_nan_above_0_hz_stays_refused(tmp_path, dc_truth, where, dc_cells, message):
     freq, H = dc_truth

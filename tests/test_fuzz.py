@@ -65,6 +65,38 @@ INSERTS = [BOMB, "deep: " + "[" * 500 + "]" * 500 + "\n", "m0: &m {x: 1}\nm1:\n 
            "measured: {frequencies: []}\n", "key: " + "x" * 5000 + "\n"]
 
 
+#: odd values of the fields the specimen files in specimens/ do not use: references written
+#: "value ± half-width" and measured.damping_sigma_source (NEW_FIELDS_SPECIMEN has them)
+SPECIMEN_ODD_VALUES = [
+    "'170 ± GPa'", "'± 2 %'", "'170 ± 1 ± 2 GPa'", "'170 ± -1 GPa'", "'170 ± 200 GPa'",
+    "'170 GPa ± 150 %'", "'0.35 ± 200 %'", "'170 +/- 1 GPa'", "'+/-'", "'170 ± nan GPa'",
+    "'170 GPa ± 1e400 %'", "'170 ± 1 mm'", "[a, b]", "42", "null", "'" + "x" * 2000 + "'",
+    '"\\e[31m"', '"a\\nb"', "{a: 1}",
+]
+
+#: S1.1 with the fields added since the fuzz was written: damping ratios with their sigmas and
+#: damping_sigma_source, and references written "value ± half-width" (also '+/-' and '%')
+NEW_FIELDS_SPECIMEN = (
+    (ROOT / "specimens" / "example1" / "S1.1.yaml").read_text(encoding="utf-8")
+    .replace("    IM7/977-2: {E1: 170 GPa, E2: 10 GPa, G12: 5.8 GPa, nu12: 0.35}",
+             "    IM7/977-2: {E1: '170 ± 1 GPa', E2: '10 GPa +/- 10 %', G12: [5 GPa, 6 GPa], "
+             "nu12: '0.35 ± 0.02'}")
+    .replace("   # Hz, Table 1\n", "   # Hz, Table 1\n"
+             "  damping: [0.006, 0.004, 0.01, 0.007, 0.005, 0.006, 0.004, 0.01, 0.007, 0.005, "
+             "0.006, 0.004]\n"
+             "  damping_sigma: [0.0002, 0.0002, 0.0003, 0.0002, 0.0002, 0.0003, 0.0002, 0.0002, "
+             "0.0003, 0.0002, 0.0002, 0.0003]\n"
+             "  damping_sigma_source: 'x.uff: fit-frf: spread over the stable orders'\n"))
+
+#: odd cells and lines of FRF files, for the readers added since the fuzz was written (a
+#: spreadsheet's errors at 0 Hz, units lines of a two-line header, UFF 164 factors)
+FRF_ODD_VALUES = [
+    "#DIV/0!", "#NUM!", "#div/0!", "NaN", "nan", "inf", "-inf", "Hz", "kHz", "rad/s", "s",
+    "m/s^2/N", "[Hz]", "", "0", "0.0", "-0.0", "0.0000000000000000D+00",
+    "-1.0000000000000000D+00", "NaN D+00", "1.0D+300", "\x1b[31m", "\u202e", "H1 Real",
+]
+
+
 class CaseTimeout(Exception):
     pass
 
@@ -140,18 +172,22 @@ def run_case(args, folder: Path, inputs: list[Path], what: str, stats: Stats,
 # ---------------------------------------------------------------------------------- mutators
 
 
-def mutate_text(text: str, rng: random.Random, yaml_like: bool) -> tuple[str, list[str]]:
-    """1-3 random mutations of a text file; returns the text and their description."""
+def mutate_text(text: str, rng: random.Random, yaml_like: bool, head: int = 0,
+                values: list[str] | None = None) -> tuple[str, list[str]]:
+    """1-3 random mutations of a text file; returns the text and their description. ``head``:
+    half of the mutations fall on the first ``head`` lines (an FRF file's header, units
+    record or 0 Hz line, which a mutation at a random line of 300 hardly reaches);
+    ``values``: odd values of that kind of file, drawn as often as :data:`ODD_VALUES`."""
     done = []
     for _ in range(rng.randint(1, 3)):
         lines = text.split("\n")
-        k = rng.randrange(len(lines))
+        k = rng.randrange(min(head, len(lines)) if head and rng.random() < 0.5 else len(lines))
         op = rng.choice(["value", "value", "value", "delete", "duplicate", "swap", "insert",
                          "char", "truncate", "indent"])
         if op == "value":
             line = lines[k]
             tokens = [i for i, c in enumerate(line) if c in ":,[ " and i + 1 < len(line)]
-            odd = rng.choice(ODD_VALUES)
+            odd = rng.choice(values if values and rng.random() < 0.5 else ODD_VALUES)
             if tokens:
                 i = rng.choice(tokens) + 1
                 end = i
@@ -199,11 +235,12 @@ def mutate_text(text: str, rng: random.Random, yaml_like: bool) -> tuple[str, li
 def fuzz_specimens(n_cases: int, tmp_path: Path, seed: int):
     stats = Stats("specimen")
     rng = random.Random(seed)
-    bases = [p.read_text(encoding="utf-8") for p in SPECIMENS]
+    bases = [p.read_text(encoding="utf-8") for p in SPECIMENS] + [NEW_FIELDS_SPECIMEN]
     for case in range(n_cases):
         folder = tmp_path / f"s{case}"
         folder.mkdir()
-        text, done = mutate_text(rng.choice(bases), rng, yaml_like=True)
+        text, done = mutate_text(rng.choice(bases), rng, yaml_like=True,
+                                 values=SPECIMEN_ODD_VALUES)
         spec = folder / "plate.yaml"
         spec.write_text(text, encoding="utf-8", errors="surrogatepass")
         what = f"specimen fuzz seed {seed} case {case}: {done}"
@@ -239,9 +276,18 @@ def _base_frf(folder: Path) -> dict[str, Path]:
     fs = FrfSet(freq=c.freq, frf=c.frf, units="m/N")
     now, store._now = store._now, lambda: "2026-01-01T00:00:00+00:00"
     try:
-        return {ext: write_frf(folder / f"base.{ext}", fs) for ext in ("h5", "uff", "csv")}
+        bases = {ext: write_frf(folder / f"base.{ext}", fs) for ext in ("h5", "uff", "csv")}
     finally:
         store._now = now
+    # the CSV layouts of the readers added since: names over a units line (a logger's or a
+    # spreadsheet's), a 0 Hz line of #DIV/0! (X/F with F 0) and one of NaN (an analyser's)
+    lines = bases["csv"].read_text().splitlines()
+    assert lines[1] == "freq_Hz,1_re,1_im,2_re,2_im", lines[:2]
+    bases["csv2"] = folder / "base2.csv"
+    bases["csv2"].write_text("\n".join(
+        ["Frequency,H1 Real,H1 Imag,H2 Real,H2 Imag", "Hz,m/N,m/N,m/N,m/N",
+         "0,#DIV/0!,#DIV/0!,#DIV/0!,#DIV/0!", "0.5,NaN,NaN,NaN,NaN"] + lines[2:]) + "\n")
+    return bases
 
 
 def _mutate_h5(src: Path, dst: Path, rng: random.Random) -> list[str]:
@@ -329,16 +375,19 @@ def _fuzz_frf_files(n_cases: int, tmp_path: Path, seed: int):
     base_dir = tmp_path / "base"
     base_dir.mkdir()
     bases = _base_frf(base_dir)
-    texts = {k: bases[k].read_text() for k in ("uff", "csv")}
+    texts = {k: bases[k].read_text() for k in ("uff", "csv", "csv2")}
     for case in range(n_cases):
         folder = tmp_path / f"f{case}"
         folder.mkdir()
-        kind = rng.choice(["h5", "h5", "uff", "csv", "csv"])
-        path = folder / f"x.{kind}"
+        kind = rng.choice(["h5", "h5", "uff", "uff", "csv", "csv2"])
+        path = folder / f"x.{kind.rstrip('2')}"
         if kind == "h5":
             done = _mutate_h5(bases["h5"], path, rng)
         else:
-            text, done = mutate_text(texts[kind], rng, yaml_like=False)
+            # the first lines: the UFF 164 units record and the first 58's header; the CSV's
+            # header(s) and 0 Hz lines
+            text, done = mutate_text(texts[kind], rng, yaml_like=False,
+                                     head=20 if kind == "uff" else 6, values=FRF_ODD_VALUES)
             path.write_text(text, encoding="utf-8", errors="surrogatepass")
         what = f"FRF fuzz seed {seed} case {case} ({kind}): {done}"
         args = ["fit-frf", path]
@@ -348,6 +397,51 @@ def _fuzz_frf_files(n_cases: int, tmp_path: Path, seed: int):
         if r > 0.8:
             args += ["--modes", str(rng.randint(1, 4))]
         run_case(args, folder, [path], what, stats, may_write=False)
+    stats.report()
+    return stats
+
+
+# ---------------------------------------------------------------------------------- summaries
+
+#: a batch --wide summary.csv of two specimens, its intervals and verdicts, as laminid report
+#: reads it back (hand-edited: columns deleted, values replaced by text, lower above upper)
+WIDE_SUMMARY = (
+    "# laminid batch summary; run options as in summary.json\n# mesh: \"4x4\"\n"
+    "name,specimen,path,status,reasons,M E1 [Pa],M E1 lower [Pa],M E1 upper [Pa],M E1 verdict,"
+    "M nu12 [1],M nu12 lower [1],M nu12 upper [1],M nu12 verdict,rms_residual [%],evaluations,"
+    "time [s],cached,result,stale_result,flagged\n"
+    "S1,S1,a/S1.yaml,ok,,1.7e11,1.6e11,1.8e11,weak,0.3,0.25,0.35,weak,0.5,40,0.3,no,,,\n"
+    "S2,S2,a/S2.yaml,check,undetermined,1.5e11,1.4e11,1.6e11,well determined,-0.1,,,"
+    "at bound — not identified,0.9,102,0.1,no,,,M.nu12 at_bound\n")
+#: the same as a long summary.csv (one row per constant)
+LONG_SUMMARY = (
+    "name,specimen,status,reasons,material,constant,value,lower,upper,verdict,unit\n"
+    "S1,S1,ok,,M,E1,1.7e11,1.6e11,1.8e11,weak,Pa\nS1,S1,ok,,M,nu12,0.3,0.25,0.35,weak,1\n"
+    "S2,S2,check,,M,E1,1.5e11,1.4e11,1.6e11,weak,Pa\n")
+#: and as summary.json
+JSON_SUMMARY = json.dumps({"format": "laminid-batch-summary", "specimens": [
+    {"name": f"S{i}", "specimen": f"S{i}", "status": "ok", "result": None,
+     "materials": {"M": {"E1": e1, "nu12": 0.3}},
+     "intervals": {"M": {"E1": {"lower": 0.9 * e1, "upper": 1.1 * e1, "verdict": "weak"}}}}
+    for i, e1 in ((1, 1.7e11), (2, 1.5e11))]}, indent=1)
+SUMMARY_ODD_VALUES = ["n/a", "abc", "nan", "inf", "1e400", "-1e308", "2e12", "", "weak",
+                      "at bound — not identified", "null", "[]", "{}", '"x"', "true"]
+
+
+def fuzz_summaries(n_cases: int, tmp_path: Path, seed: int):
+    stats = Stats("summary")
+    rng = random.Random(seed)
+    bases = {"wide": WIDE_SUMMARY, "long": LONG_SUMMARY, "json": JSON_SUMMARY}
+    for case in range(n_cases):
+        folder = tmp_path / f"b{case}"
+        folder.mkdir()
+        kind = rng.choice(list(bases))
+        text, done = mutate_text(bases[kind], rng, yaml_like=False, values=SUMMARY_ODD_VALUES)
+        path = folder / ("summary.json" if kind == "json" else "summary.csv")
+        path.write_text(text, encoding="utf-8", errors="surrogatepass")
+        what = f"summary fuzz seed {seed} case {case} ({kind}): {done}"
+        run_case(["report", path, "-o", folder / "r.png", "--dpi", "50"], folder, [path], what,
+                 stats)
     stats.report()
     return stats
 
@@ -445,6 +539,7 @@ FUZZ_RUNS = {
     "specimen_files": (fuzz_specimens, 500, 2000, 0.3),
     "frf_files": (fuzz_frf_files, 100, 600, 0.2),
     "command_lines": (fuzz_command_lines, 300, 1500, 0.5),
+    "summaries": (fuzz_summaries, 30, 300, 0.2),
 }
 
 

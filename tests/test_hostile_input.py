@@ -1252,8 +1252,19 @@ def test_a_negative_modulus_is_said_in_gpa(tmp_path):
     ("E1: 170 GPa", "E1: ± 1 GPa",
      "field 'reference.materials.IM7/977-2.E1': '± 1 GPa': write a value and its half-width "
      "as '170 ± 1 GPa' (or [low, high])"),
+    # a half-width in per cent over 100: a Poisson's ratio's was read as -0.35 .. 1.05
+    ("nu12: 0.35}", "nu12: '0.35 ± 200 %'}",
+     "field 'reference.materials.IM7/977-2.nu12': '0.35 ± 200 %': a half-width of 200 % is "
+     "more than the value itself; write the range as [low, high] if that is meant"),
+    ("E1: 170 GPa", "E1: 170 GPa ± 150 %",
+     "field 'reference.materials.IM7/977-2.E1': '170 GPa ± 150 %': a half-width of 150 % is "
+     "more than the value itself; write the range as [low, high] if that is meant"),
+    # a word processor's minus (U+2212): was "no half-width after ±"
+    ("E1: 170 GPa", "E1: 170 ± \u22121 GPa",
+     "field 'reference.materials.IM7/977-2.E1': '170 ± \u22121 GPa': the half-width after ± "
+     "must not be negative"),
 ], ids=["modulus", "nu12", "negative end", "negative value", "negative half-width",
-        "below zero", "no value"])
+        "below zero", "no value", "nu12 over 100 %", "modulus over 100 %", "unicode minus"])
 def test_a_reference_range_written_wrongly_is_quoted_as_written(tmp_path, old, new, said):
     """A reference range high end first was refused as "range [1.7e+11, 1.5e+11] has low >
     high" (Pa, whatever the file wrote), and a negative end as "got -1e+09 Pa"."""
@@ -1332,3 +1343,175 @@ def test_a_block_gets_a_warning_and_a_too_coarse_mesh_says_so(tmp_path):
     assert doc["objective"] == pytest.approx(full.objective, rel=1e-12)
     poor = next(x["text"] for x in doc["reasons"] if x["code"] == "poor_fit")
     assert "a mesh too coarse" in poor and doc["status"] != "ok"
+
+
+# ---------------------------------------------------------------------------------- summaries
+
+#: a wide summary.csv as batch --wide writes one (a comment line, one constant of one
+#: material), read back by laminid report
+WIDE_HEADER = ("name,specimen,path,status,reasons,M E1 [Pa],M E1 lower [Pa],M E1 upper [Pa],"
+               "M E1 verdict,rms_residual [%],result,flagged")
+
+
+def wide_summary(tmp_path, value="1.7e11", lower="1.6e11", upper="1.8e11"):
+    path = tmp_path / "summary.csv"
+    path.write_text("# laminid batch summary\n" + WIDE_HEADER + "\n"
+                    f"S1,S1,S1.yaml,ok,,{value},{lower},{upper},weak,0.5,,\n", encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize("cells, column, said", [
+    (dict(value="n/a"), "M E1 [Pa]", "'n/a' is not a number"),
+    (dict(value="1e400"), "M E1 [Pa]", "'1e400' is not a finite number"),
+    (dict(lower="abc"), "M E1 lower [Pa]", "'abc' is not a number"),
+    (dict(upper="nan"), "M E1 upper [Pa]", "'nan' is not a finite number"),
+])
+def test_a_wide_summary_cell_edited_to_text_is_named_not_a_traceback(tmp_path, cells, column,
+                                                                       said):
+    # 'n/a' as a value was a ValueError traceback of float() in batch.read_summary, '1e400'
+    # one of matplotlib's axis limits; text as an interval's end was read as no interval
+    path = wide_summary(tmp_path, **cells)
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert f"{path}:3, column '{column}': {said}" in r.output
+    assert not (tmp_path / "r.pdf").exists()
+
+
+def test_a_wide_summary_interval_with_lower_above_upper_is_refused(tmp_path):
+    path = wide_summary(tmp_path, lower="2e11")
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert r.exit_code == 2
+    assert (f"{path}:3, columns 'M E1 lower [Pa]' and 'M E1 upper [Pa]': the lower end 2e+11 "
+            "is above the upper 1.8e+11") in r.output
+    assert not (tmp_path / "r.pdf").exists()
+
+
+def test_a_long_summary_value_edited_to_text_is_named(tmp_path):
+    path = tmp_path / "summary.csv"
+    path.write_text("name,specimen,status,reasons,material,constant,value,lower,upper,verdict,"
+                    "unit\nS1,S1,ok,,M,E1,1.7e11,1.6e11,1.8e11,weak,Pa\n"
+                    "S1,S1,ok,,M,E2,ten,,,weak,Pa\n", encoding="utf-8")
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert f"{path}:3, column 'value': 'ten' is not a number" in r.output
+
+
+@pytest.mark.parametrize("edit, said", [
+    (lambda d: d.pop("specimens"), "field 'specimens': expected a list of specimens, got None"),
+    (lambda d: d["specimens"].append(3), "field 'specimens[1]': expected a mapping"),
+    (lambda d: d["specimens"][0].pop("status"), "field 'specimens[0].status': expected text"),
+    (lambda d: d["specimens"][0]["materials"]["M"].update(E1="abc"),
+     "field 'specimens[0].materials.M.E1': expected a finite number or null, got 'abc'"),
+    (lambda d: d["specimens"][0].update(intervals="x"),
+     "field 'specimens[0].intervals': expected a mapping by material, got 'x'"),
+    (lambda d: d["specimens"][0].update(result=5),
+     "field 'specimens[0].result': expected a file name or null, got 5"),
+    (lambda d: d["specimens"][0].update(damping="x"),
+     "field 'specimens[0].damping': expected a mapping by material, got 'x'"),
+    (lambda d: d["specimens"][0].update(mesh_check=[1]),
+     "field 'specimens[0].mesh_check': expected a mapping or null, got [1]"),
+    (lambda d: d["specimens"][0].update(rms_residual_percent="0.5 %"),
+     "field 'specimens[0].rms_residual_percent': expected a finite number or null"),
+])
+def test_a_summary_json_edited_out_of_shape_is_named_not_a_traceback(tmp_path, edit, said):
+    # each was a KeyError, AttributeError or TypeError traceback in laminid report
+    doc = {"format": "laminid-batch-summary", "specimens": [
+        {"name": "S1", "specimen": "S1", "status": "ok", "materials": {"M": {"E1": 1.7e11}},
+         "intervals": {"M": {"E1": {"lower": 1.6e11, "upper": 1.8e11, "verdict": "weak"}}},
+         "result": None}]}
+    edit(doc)
+    path = tmp_path / "summary.json"
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert f"{path}: {said}" in r.output
+    assert not (tmp_path / "r.pdf").exists()
+
+
+def test_too_few_damped_modes_names_the_specimen_file_and_field(tmp_path):
+    # was "laminid: error: 3 modes with measured damping for 5 free loss factors; ..." with
+    # no word of the file, in a batch of many specimens
+    meas = [ln for ln in BASE.splitlines() if ln.startswith("  frequencies:")][0]
+    nulls = ", ".join(["null"] * 9)
+    text = BASE.replace(meas, meas + f"\n  damping: [0.006, 0.004, 0.01, {nulls}]\n"
+                        f"  damping_sigma: [0.0002, 0.0002, 0.0003, {nulls}]")
+    path = spec(tmp_path, text)
+    r = run("identify", path, "--mesh", "3x3", "--max-evaluations", "2", "-o",
+            tmp_path / "r.h5")
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert (f"{path}, field 'measured.damping': 3 modes with measured damping for 5 free "
+            "loss factors") in r.output
+    assert not (tmp_path / "r.h5").exists()
+
+
+def _with_damping_sigma_source(value: str) -> str:
+    meas = [ln for ln in BASE.splitlines() if ln.startswith("  frequencies:")][0]
+    zeros = ", ".join(["0.005"] * 12)
+    return BASE.replace(meas, meas + f"\n  damping: [{zeros}]\n  damping_sigma: [{zeros}]\n"
+                        f"  damping_sigma_source: {value}")
+
+
+def test_a_damping_sigma_source_of_10_kb_is_refused_with_its_field(tmp_path):
+    # it was accepted, printed whole by identify and show, and set on the report's damping
+    # page, whose table collapsed (matplotlib "axes sizes collapsed to zero")
+    code, out, path = modes_error(tmp_path, _with_damping_sigma_source("x" * 10000))
+    assert code == 2
+    assert (f"field 'measured.damping_sigma_source': 10000 characters, more than 1000"
+            in out) and f"{path}:" in out
+
+
+def test_a_sigma_source_with_an_escaped_control_character_is_refused(tmp_path):
+    # a quoted YAML escape ("\e[31m") passed the raw text's check and reached the terminal
+    code, out, path = modes_error(tmp_path, _with_damping_sigma_source('"\\e[31mred"'))
+    assert code == 2
+    assert ("field 'measured.damping_sigma_source': non-printable character U+001B" in out)
+
+
+def test_a_damping_sigma_source_on_several_lines_is_read_as_one(tmp_path):
+    from laminid_cli.specimen import read_specimen
+
+    path = spec(tmp_path, _with_damping_sigma_source('"fit-frf:\\n  spread\\n\\nfloor 2 %"'))
+    assert read_specimen(path).measured.damping_sigma_source == "fit-frf: spread floor 2 %"
+
+
+@pytest.mark.parametrize("text, said", [
+    # an ESC in a column name turned the terminal red where export printed the point's name
+    # (and was written into the UFF record's ID line)
+    ("freq_Hz,\x1b[31m_re,\x1b[31m_im\n1,1,0\n2,1,0\n",
+     "line 1, column 2 ('\\x1b[31m_re'): non-printable character U+001B in the column name"),
+    # the two-line header's names printed back to front by a bidirectional override
+    ("Frequency,H\u202e1 Real,H1 Imag\nHz,m/N,m/N\n1,1,0\n2,1,0\n",
+     "line 1, column 2 ('H\\u202e1 Real'): non-printable character U+202E in the column name"),
+    ("# units m/\x07N\nfreq_Hz,1_re,1_im\n1,1,0\n2,1,0\n",
+     "line 1, FRF unit ('m/\\x07N'): non-printable character U+0007 in it"),
+])
+def test_a_csv_column_name_with_a_control_character_is_refused(tmp_path, text, said):
+    path = tmp_path / "x.csv"
+    path.write_text(text, encoding="utf-8")
+    r = run("export", path, "-o", tmp_path / "x.uff")
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert f"{path}: {said}; remove it" in r.output
+    assert not (tmp_path / "x.uff").exists()
+
+
+def test_a_summary_json_without_its_rms_residual_is_drawn(tmp_path):
+    # a KeyError traceback in the report's residuals page (a key deleted by hand), and a
+    # constant null (JSON's NaN) a TypeError one in the constants page (found by the fuzz,
+    # seed 7 at 10x, case 201); null is drawn as no value, as an empty cell of summary.csv
+    doc = {"format": "laminid-batch-summary", "specimens": [
+        {"name": "S1", "specimen": "S1", "status": "ok",
+         "materials": {"M": {"E1": 1.7e11, "E2": None}}, "result": None}]}
+    path = tmp_path / "summary.json"
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert r.exit_code == 0, r.output
+    assert "2 pages (constants, residuals)" in r.output
+
+
+def test_a_wide_summary_column_edited_to_end_in_a_bracket_is_not_a_traceback(tmp_path):
+    # 'M E1 [Pa' edited to 'M E1 Pa]' was a ValueError (unpacking 'rsplit(" [")')
+    path = wide_summary(tmp_path)
+    path.write_text(path.read_text().replace("M E1 [Pa]", "M E1 Pa]"), encoding="utf-8")
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert f"{path}: no identified specimen in the summary" in r.output   # E1 has no column

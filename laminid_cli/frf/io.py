@@ -424,6 +424,27 @@ def _commented_header(text: str, first_data: int, sep: str | None, n: int
     return None
 
 
+#: characters refused in a CSV's column names: C0/C1 control characters (an ESC begins a
+#: terminal's escape sequence: "\x1b[31m" turned the terminal red where fit-frf and export
+#: printed a point's name, and export wrote it into the UFF record's ID line) and the
+#: bidirectional overrides, which print a name backwards
+_BAD_NAME_CHARS = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u200e\u200f\u202a-\u202e"
+                             "\u2066-\u2069]")
+
+
+def _check_names(path, lineno: int, names, what: str = "") -> None:
+    """FrfError naming the file, the line and the column of a column name holding a character
+    of :data:`_BAD_NAME_CHARS` (``what``: the name of a single text checked, the FRF unit of a
+    '# units' line)."""
+    for j, name in enumerate(names):
+        bad = _BAD_NAME_CHARS.search(name)
+        if bad is not None:
+            at = what or f"column {j + 1}"
+            raise FrfError(f"{path}: line {lineno}, {at} ({_quoted(name)}): non-printable "
+                           f"character U+{ord(bad.group()):04X} in "
+                           f"{'it' if what else 'the column name'}; remove it")
+
+
 def _split(line: str, sep: str | None) -> list[str]:
     """The cells of a CSV line: quoted cells unquoted (``"f [Hz]","0.5"``, as pandas with
     QUOTE_ALL, LabVIEW and many loggers write them; they were "'\"0.5\"' is not a number"),
@@ -946,6 +967,30 @@ def _csv_two_line_header(names_line: str, units_line: str) -> list[str] | None:
     return merged
 
 
+def _check_csv_lines(path, freq, frf, lines, header, labels) -> None:
+    """FrfError naming the file line of a CSV's frequency that is not finite or not above the
+    one before, or of an FRF value that is not finite: check_frf_arrays (every reader's check)
+    counts the axis' lines from 1, which in a CSV are not its lines: 'line 50: 50 Hz, line
+    51: 50 Hz' for file lines 51 and 52 (the header above), further off after a preamble or
+    dropped 0 Hz lines; and 'FRF of point 1 has NaN/inf at 1 Hz' said no line."""
+    freq = np.asarray(freq)
+    bad = np.flatnonzero(~np.isfinite(freq))
+    if bad.size:
+        raise FrfError(f"{path}: line {lines[bad[0]][0]}, {_csv_column(header, 0)}: the "
+                       f"frequency {freq[bad[0]]:g} is not a finite number")
+    down = np.flatnonzero(np.diff(freq) <= 0)
+    if down.size:
+        i = down[0]
+        raise FrfError(f"{path}: the frequency is not strictly increasing: line "
+                       f"{lines[i][0]}: {freq[i]:g} Hz, line {lines[i + 1][0]}: "
+                       f"{freq[i + 1]:g} Hz")
+    bad = np.argwhere(~np.isfinite(frf))
+    if bad.size and np.shape(frf)[1] == len(lines):
+        p, k = bad[0]
+        raise FrfError(f"{path}: line {lines[k][0]}: the FRF of point {labels[p]} has "
+                       f"NaN/inf at {freq[k]:g} Hz; only a 0 Hz line of them is dropped")
+
+
 def read_frf_csv(path) -> FrfSet:
     """Read a CSV FRF file: ``freq, re_1, im_1, ...``, ``freq, H_1, H_2, ...`` of complex cells
     or magnitude and phase columns named in the header (see module docstring).
@@ -963,6 +1008,8 @@ def read_frf_csv(path) -> FrfSet:
         raise FrfError(f"{path}: not a text (CSV) file; {_not_the_format(path, 'csv')}")
     # not stated: not "1", which declares FRFs dimensionless
     units, comment_freq_unit, units_line = _csv_units_comment(path, text)
+    if units is not None:
+        _check_names(path, units_line, [units], "FRF unit")
     # a line of separators only (",,,,", a spreadsheet's formatted empty row) is blank
     lines = [(i + 1, ln) for i, ln in enumerate(text.splitlines())
              if ln.strip(' \t,;"') and not ln.lstrip().startswith("#")]
@@ -974,6 +1021,7 @@ def read_frf_csv(path) -> FrfSet:
     preamble = _csv_preamble(lines)
     two_line = _csv_two_line_header(lines[preamble - 1][1], lines[preamble][1]) \
         if preamble else None
+    names_line = lines[preamble - 1][1] if two_line is not None else ""
     if two_line is not None:
         preamble -= 1               # the names' line is the header's first, no preamble
         notes.append(f"{path}: a header of two lines: the column names (line "
@@ -1008,6 +1056,9 @@ def read_frf_csv(path) -> FrfSet:
         # the frequency's name: a first line whose first cell is a number is data, and a bad
         # cell in it is named as such (it was taken for the header, the line lost)
         header = cells if two_line is None else two_line
+        _check_names(path, lines[0][0], cells)
+        if two_line is not None:
+            _check_names(path, lines[0][0] - 1, _split(names_line, sep))
         lines = lines[1:]
         if [c.strip().lower() for c in cells[:2]] == ["name", "specimen"]:
             # laminid batch's summary.csv (long or --wide): was "line 2, column 1 ('name'):
@@ -1018,6 +1069,7 @@ def read_frf_csv(path) -> FrfSet:
     else:
         header = _commented_header(text, lines[0][0], sep, len(cells))
         if header is not None:
+            _check_names(path, lines[0][0] - 1, header)
             notes.append(f"column names read from the comment line just above the data (line "
                          f"{lines[0][0] - 1}, as numpy's savetxt writes a header): "
                          f"{', '.join(header)}")
@@ -1144,6 +1196,7 @@ def read_frf_csv(path) -> FrfSet:
             raise FrfError(f"{path}: {_csv_column(header, 0)} states a frequency unit the "
                            f"comment line {units_line} contradicts ({comment_freq_unit!r}, its "
                            "first unit); make them agree")
+    _check_csv_lines(path, data[:, 0].real * factor, frf, lines, header, labels)
     freq, frf, _ = check_frf_arrays(data[:, 0].real * factor, frf, source=str(path))
     meta: dict = {}
     if not stated:
@@ -1249,16 +1302,26 @@ def read_frf_uff(path) -> FrfSet:
     # each DOF's coherence records in file order, the n-th to its n-th FRF: a DOF measured
     # twice (a repeat) gave both FRFs the second's coherence
     coh_by_dof: dict[tuple, list] = {}
-    for d in sets:
-        if int(d.get("func_type", 0)) == UFF_COHERENCE and np.asarray(d["x"]).size == freq.size:
-            coh_by_dof.setdefault(dof(d), []).append(np.asarray(d["data"]).real)
+    #: coherence records not used, each with why: they were dropped without a word, so that
+    #: a file whose coherence was written on another axis read as one without coherence
+    unused: list[tuple[int, str]] = []
+    for k, d in enumerate(sets, start=1):
+        if int(d.get("func_type", 0)) != UFF_COHERENCE:
+            continue
+        n = np.asarray(d["x"]).size
+        if n == freq.size:
+            coh_by_dof.setdefault(dof(d), []).append((k, np.asarray(d["data"]).real))
+        else:
+            unused.append((k, f"{n} lines where the FRFs have {freq.size}"))
     coherence = None
     if coh_by_dof:
         rows = []
         for d in frfs:
             queue = coh_by_dof.get(dof(d))
-            rows.append(queue.pop(0) if queue else np.full(freq.size, np.nan))
+            rows.append(queue.pop(0)[1] if queue else np.full(freq.size, np.nan))
         coherence = np.array(rows)
+        unused += [(k, "no FRF record of its DOF left to pair it with")
+                   for queue in coh_by_dof.values() for k, _ in queue]
     # the response DOF, and the reference's where they differ (a roving hammer: "5+Z:2+Z")
     roving = len({dof(d)[2:] for d in frfs}) > 1
     labels = tuple(f"{d.get('rsp_node', k + 1)}{_dir(d.get('rsp_dir', 0))}"
@@ -1326,6 +1389,10 @@ def read_frf_uff(path) -> FrfSet:
         # accelerances beside mobilities (another tool's file): one pole set, so the modes
         # are those of all; each FRF's modal constants are in its own unit (fit-frf says so)
         meta["point_units"] = each
+    if unused:
+        meta.setdefault("notes", []).append(
+            f"{path}: coherence (function type {UFF_COHERENCE}) not used: "
+            + "; ".join(f"type-58 record {k}: {why}" for k, why in sorted(unused)))
     tau = _uff_window(frfs)
     if tau is not None:
         meta["settings"] = {"exp_window_s": tau}
