@@ -63,7 +63,7 @@ from laminid_cli.atomic import (remove_stale_temporaries, stop_with_parent, temp
                                 write_bytes_atomic)
 # sigterm_stops_the_batch: SIGTERM stops the batch as Ctrl-C does (the command's block;
 # _note_sigint notes it)
-from laminid_cli.errors import LaminidError, Terminated, note_stop_signals
+from laminid_cli.errors import NON_PRINTABLE, LaminidError, Terminated, note_stop_signals
 from laminid_cli.errors import sigterm_raises_terminated as sigterm_stops_the_batch  # noqa: F401
 from laminid_cli.intervals import HELD_BY_PRIOR, VERDICT_AT_BOUND, VERDICT_FIXED
 from laminid_cli.pipeline import RunOptions
@@ -1854,6 +1854,7 @@ def read_summary(path) -> list[dict]:
                              "'laminid-batch-summary')")
         rows = doc.get("specimens")
         _check_json_rows(path, rows)
+        _check_json_text(path, rows, "specimens")
         for r in rows:
             for key in ("result", "stale_result"):
                 if r.get(key):
@@ -1873,6 +1874,14 @@ def read_summary(path) -> list[dict]:
     if not records or "status" not in records[0] or "name" not in records[0]:
         raise BatchError(f"{path}: not a laminid batch summary (columns name, status, ... "
                          "expected)")
+    for rec in records:
+        for col, val in rec.items():
+            for text in (col, val):
+                bad = NON_PRINTABLE.search(text) if isinstance(text, str) else None
+                if bad is not None:
+                    raise BatchError(f"{path}:{line_of[id(rec)]}, column {col!r}: "
+                                     f"non-printable character U+{ord(bad.group()):04X}; "
+                                     "remove it")
     if "constant" in records[0]:
         return _rows_of_long(records, path, line_of)
     rows = []
@@ -1959,6 +1968,24 @@ def _interval_cells(where: tuple, lo_col: str, hi_col: str, rec: dict) -> tuple:
         raise BatchError(f"{path}:{line}, columns {lo_col!r} and {hi_col!r}: the lower end "
                          f"{lower:g} is above the upper {upper:g}")
     return lower, upper
+
+
+def _check_json_text(path: Path, value, field: str) -> None:
+    """BatchError naming the file and the field of a summary.json's text (a key or a value,
+    at any depth) holding a non-printable character (:data:`~laminid_cli.errors.NON_PRINTABLE`),
+    which report would print or draw: a BEL in a name warned 'Glyph 7 missing from font'."""
+    if isinstance(value, str):
+        bad = NON_PRINTABLE.search(value)
+        if bad is not None:
+            raise BatchError(f"{path}: field '{field}': non-printable character "
+                             f"U+{ord(bad.group()):04X}; remove it")
+    elif isinstance(value, dict):
+        for key, item in value.items():
+            _check_json_text(path, key, f"{field} (a key)")
+            _check_json_text(path, item, f"{field}.{key}")
+    elif isinstance(value, list):
+        for i, item in enumerate(value):
+            _check_json_text(path, item, f"{field}[{i}]")
 
 
 def _check_json_rows(path: Path, rows) -> None:

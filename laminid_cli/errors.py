@@ -9,6 +9,14 @@ instrument fault).
 from __future__ import annotations
 
 import contextlib
+import re
+
+#: characters refused in text a user's file gives laminid to print or draw (column names, a
+#: summary's names and words): C0/C1 control characters (an ESC begins a terminal's escape
+#: sequence: "\x1b[31m" turned the terminal red; a BEL is a glyph no font has, which
+#: matplotlib warned of) and the bidirectional overrides, which print a name backwards
+NON_PRINTABLE = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u200e\u200f\u202a-\u202e"
+                           "\u2066-\u2069]")
 
 #: exit code of a command interrupted by Ctrl-C (128 + SIGINT)
 EXIT_INTERRUPTED = 130

@@ -1377,6 +1377,29 @@ def test_a_wide_summary_cell_edited_to_text_is_named_not_a_traceback(tmp_path, c
     assert not (tmp_path / "r.pdf").exists()
 
 
+@pytest.mark.parametrize("kind", ["wide", "json"])
+def test_a_summary_with_a_control_character_in_its_text_is_refused(tmp_path, kind):
+    """A BEL (or an ESC, a bidirectional override) edited into a summary's name reached the
+    report's figure (matplotlib: 'UserWarning: Glyph 7 missing from font(s) DejaVu Sans', the
+    summary fuzz); refused naming the file, the line and column (or the field) and the
+    character."""
+    if kind == "wide":
+        path = wide_summary(tmp_path)
+        path.write_text(path.read_text().replace("S1,S1,S1.yaml", "S1\x07,S1,S1.yaml"))
+        said = f"{path}:3, column 'name': non-printable character U+0007; remove it"
+    else:
+        path = tmp_path / "summary.json"
+        path.write_text(json.dumps({"format": "laminid-batch-summary", "specimens": [
+            {"name": "S1", "specimen": "S1\u202e", "status": "ok",
+             "materials": {"M": {"E1": 1.7e11}}}]}))
+        said = (f"{path}: field 'specimens[0].specimen': non-printable character U+202E; "
+                "remove it")
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert said in r.output, r.output
+    assert not (tmp_path / "r.pdf").exists()
+
+
 def test_a_wide_summary_interval_with_lower_above_upper_is_refused(tmp_path):
     path = wide_summary(tmp_path, lower="2e11")
     r = run("report", path, "-o", tmp_path / "r.pdf")

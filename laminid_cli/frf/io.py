@@ -88,7 +88,8 @@ from pathlib import Path
 import numpy as np
 
 from laminid_cli.atomic import atomic_path
-from laminid_cli.errors import FrfError, LaminidError, OutputExistsError, about_file
+from laminid_cli.errors import (NON_PRINTABLE, FrfError, LaminidError, OutputExistsError,
+                                 about_file)
 from laminid_cli.filekinds import binary_kind
 from laminid_cli.frf.store import (UNSTATED_FREQ_MIN_SPAN_HZ, FrfSet, check_frf_arrays,
                                    check_frf_size, nonfinite_dc_lines, nonfinite_dc_warning,
@@ -424,12 +425,8 @@ def _commented_header(text: str, first_data: int, sep: str | None, n: int
     return None
 
 
-#: characters refused in a CSV's column names: C0/C1 control characters (an ESC begins a
-#: terminal's escape sequence: "\x1b[31m" turned the terminal red where fit-frf and export
-#: printed a point's name, and export wrote it into the UFF record's ID line) and the
-#: bidirectional overrides, which print a name backwards
-_BAD_NAME_CHARS = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u200e\u200f\u202a-\u202e"
-                             "\u2066-\u2069]")
+#: characters refused in a CSV's column names (errors.NON_PRINTABLE)
+_BAD_NAME_CHARS = NON_PRINTABLE
 
 
 def _check_names(path, lineno: int, names, what: str = "") -> None:
