@@ -1435,6 +1435,11 @@ def plus_minus(text: str, kind: str, where=None) -> tuple[float, float]:
                          "(or [low, high])")
     centre, half = (p.strip() for p in parts)
     if _LEADING_NUMBER.match(half) is None:
+        word = half.split()[0]
+        if word.lower().lstrip("+-") in ("nan", "inf", "infinity"):
+            # '170 ± nan GPa' (a spreadsheet's empty cell) was "no half-width after ±"
+            raise ValueError(f"'{text}': the half-width '{word}' is not a finite number; write "
+                             "a value and its half-width as '170 ± 1 GPa' (or [low, high])")
         # '170 ± GPa': the half-width left out (the unit alone was read as the centre's)
         raise ValueError(f"'{text}': no half-width after ±; write a value and its half-width "
                          "as '170 ± 1 GPa' (or [low, high])")

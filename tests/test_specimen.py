@@ -1200,3 +1200,13 @@ def test_a_plus_minus_reference_without_its_half_width_says_so(tmp_path):
                 "reference:\n  materials: {CFRP: {E1: 170 ± GPa}}")
     bad(tmp_path, text, None, "reference.materials.CFRP.E1",
         "'170 ± GPa': no half-width after ±; write a value and its half-width as '170 ± 1 GPa'")
+
+
+@pytest.mark.parametrize("half", ["nan", "NaN", "inf", "-inf"])
+def test_a_plus_minus_reference_whose_half_width_is_not_finite_says_so(tmp_path, half):
+    """'170 ± nan GPa' (a spreadsheet's empty cell pasted) was "no half-width after ±", where
+    a half-width is there, not a number."""
+    text = edit(BASE, "frequencies: [100, 200, 300]", "frequencies: [100, 200, 300]\n"
+                f"reference:\n  materials: {{CFRP: {{E1: 170 ± {half} GPa}}}}")
+    bad(tmp_path, text, None, "reference.materials.CFRP.E1",
+        f"'170 ± {half} GPa': the half-width '{half}' is not a finite number")
