@@ -63,6 +63,8 @@ from laminid_cli.atomic import (remove_stale_temporaries, stop_with_parent, temp
                                 write_bytes_atomic)
 # sigterm_stops_the_batch: SIGTERM stops the batch as Ctrl-C does (the command's block;
 # _note_sigint notes it)
+# the loss factors' names and the words of a verdict leaning on an undetermined constant
+from laminid_cli.damping import LEANS_WORDS, LOSS_NAMES
 from laminid_cli.errors import NON_PRINTABLE, LaminidError, Terminated, note_stop_signals
 from laminid_cli.errors import sigterm_raises_terminated as sigterm_stops_the_batch  # noqa: F401
 from laminid_cli.intervals import HELD_BY_PRIOR, VERDICT_AT_BOUND, VERDICT_FIXED
@@ -1400,9 +1402,6 @@ def csv_header(materials, mesh_check: bool = False, damped=(),
     return cols
 
 
-#: the ply loss factors in the order of the summaries (laminid_cli.damping.LOSS_NAMES)
-LOSS_NAMES = ("eta11", "eta22", "eta12", "eta13", "eta23")
-
 
 def wide_bound_column(material: str, constant: str) -> str:
     """The wide summary's column of a constant's side of a bound ("IM7/977-2 G13
@@ -1450,7 +1449,6 @@ MARK_BOUND, MARK_UNDETERMINED, MARK_FIXED, MARK_PRIOR, MARK_ASSUMED = "!", "?", 
 #: leans on a constant (above it in the table) the modes do not determine
 #: (laminid_cli.damping.VERDICT_LEANS, whose words LEANS_WORDS are); its flag stays empty
 MARK_LEANS = "^"
-LEANS_WORDS = "interval too narrow: its energy share leans on"
 FLAG_WORDS = {MARK_BOUND: FLAG_AT_BOUND, MARK_UNDETERMINED: FLAG_UNDETERMINED,
               MARK_FIXED: FLAG_FIXED, MARK_PRIOR: FLAG_PRIOR, MARK_ASSUMED: FLAG_ASSUMED}
 

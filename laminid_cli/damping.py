@@ -617,8 +617,8 @@ TERMS_OF = {"E1": ("11",), "E2": ("22",), "G12": ("12",), "G13": ("13",), "G23":
 
 #: what a loss factor's verdict gets when its interval leans on elastic constants the modes do
 #: not determine and no Monte Carlo range counts their doubt (:func:`with_leaning_verdicts`)
-VERDICT_LEANS = (" — interval too narrow: its energy share leans on {labels}, not determined "
-                 "by the modes")
+LEANS_WORDS = "interval too narrow: its energy share leans on"
+VERDICT_LEANS = f" — {LEANS_WORDS} {{labels}}, not determined by the modes"
 
 
 def leaning(fit, u, fixed_undetermined=()) -> dict[str, list[str]]:

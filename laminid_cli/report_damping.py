@@ -597,8 +597,7 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
     interval."""
     from matplotlib.lines import Line2D
 
-    from laminid_cli.batch import LEANS_WORDS
-    from laminid_cli.damping import TERMS
+    from laminid_cli.damping import LEANS_WORDS, TERMS
     from laminid_cli.report import (FIXED_COLOR, MC_COLOR, _clipped_bar, _figure, _footer,
                                     axis_names, specimen_labels, style_across_panel)
 
