@@ -2071,17 +2071,23 @@ def _intervals_of_wide(rec: dict, mats: dict, flagged: dict, where: tuple) -> di
     return out if found else None
 
 
-def _mc_of_wide(rec: dict, material: str, name: str) -> dict:
-    """The Monte Carlo keys (mc_lower, mc_upper, mc_lower_at_limit, mc_upper_at_limit) of
-    one constant or loss factor of a wide summary record (:func:`wide_mc_columns`); {}
-    where it has none (no Monte Carlo, a summary written before those columns)."""
-    lo_col, hi_col, limit_col = wide_mc_columns(material, name)
+def _mc_keys(rec: dict, lo_col: str, hi_col: str, limit_col: str) -> dict:
+    """The Monte Carlo keys (mc_lower, mc_upper, mc_lower_at_limit, mc_upper_at_limit) of one
+    constant or loss factor of a summary.csv record, from its range's columns and the one
+    saying which ends trials on a search limit set (:func:`search_limit_text`: the long
+    summary's mc_lower, mc_upper, mc_search_limit; the wide one's :func:`wide_mc_columns`);
+    {} where it has none (no Monte Carlo, a summary written before those columns)."""
     if rec.get(lo_col) in ("", None):
         return {}
     limit = rec.get(limit_col) or ""
     return {"mc_lower": _float(rec[lo_col]), "mc_upper": _float(rec.get(hi_col)),
             "mc_lower_at_limit": limit in ("lower", "both"),
             "mc_upper_at_limit": limit in ("upper", "both")}
+
+
+def _mc_of_wide(rec: dict, material: str, name: str) -> dict:
+    """:func:`_mc_keys` of one constant or loss factor of a wide summary record."""
+    return _mc_keys(rec, *wide_mc_columns(material, name))
 
 
 def _damping_of_wide(rec: dict) -> dict:
@@ -2202,11 +2208,7 @@ def _rows_of_long(records, path: Path, line_of: dict) -> list[dict]:
                 "profile_far": _float(rec.get("profile_far")),
                 # a value --fix-undetermined held (its verdict is "fixed" as a known one's)
                 "assumed": rec.get("flag") == FLAG_ASSUMED}
-            if rec.get("mc_lower") not in ("", None):
-                limit = rec.get("mc_search_limit") or ""
-                iv.update(mc_lower=_float(rec["mc_lower"]), mc_upper=_float(rec.get("mc_upper")),
-                          mc_lower_at_limit=limit in ("lower", "both"),
-                          mc_upper_at_limit=limit in ("upper", "both"))
+            iv.update(_mc_keys(rec, "mc_lower", "mc_upper", "mc_search_limit"))
         elif m and k and k.startswith("eta") and rec.get("value") not in ("", None):
             side = rec.get("bound_side") or ""
             lower, upper = _interval_cells(where, "lower", "upper", rec)
@@ -2215,11 +2217,7 @@ def _rows_of_long(records, path: Path, line_of: dict) -> list[dict]:
                 "upper": upper, "verdict": rec.get("verdict", ""),
                 "at_bound": bool(side), "bound_side": side,
                 "bound_limit": _float(rec.get("bound_limit"))}
-            if rec.get("mc_lower") not in ("", None):
-                limit = rec.get("mc_search_limit") or ""
-                eta.update(mc_lower=_float(rec["mc_lower"]), mc_upper=_float(rec.get("mc_upper")),
-                           mc_lower_at_limit=limit in ("lower", "both"),
-                           mc_upper_at_limit=limit in ("upper", "both"))
+            eta.update(_mc_keys(rec, "mc_lower", "mc_upper", "mc_search_limit"))
     return list(rows.values())
 
 
