@@ -1902,7 +1902,7 @@ def read_summary(path) -> list[dict]:
         intervals = _intervals_of_wide(rec, mats, flags.get("flagged") or {}, where)
         if intervals is not None:
             flags["intervals"] = intervals
-        damping = _damping_of_wide(rec)
+        damping = _damping_of_wide(rec, where)
         if damping:
             flags["damping"] = damping
         rows.append(flags | {"mesh_check": _mesh_of_csv(rec),
@@ -2090,10 +2090,11 @@ def _mc_of_wide(rec: dict, material: str, name: str) -> dict:
     return _mc_keys(rec, *wide_mc_columns(material, name))
 
 
-def _damping_of_wide(rec: dict) -> dict:
+def _damping_of_wide(rec: dict, where: tuple) -> dict:
     """A wide summary record's ``damping`` ({material: {etaXY: entry}}, the long reader's
-    keys) from its loss-factor columns (:func:`csv_header`); {} for a specimen without
-    loss factors or a summary written before those columns."""
+    keys) from its loss-factor columns (:func:`csv_header`), their cells checked as the
+    constants' (:func:`_number_cell`, :func:`_interval_cells`; ``where``: file and line);
+    {} for a specimen without loss factors or a summary written before those columns."""
     out: dict[str, dict] = {}
     for col in rec:
         if not (col and col.endswith(" [1]")):
@@ -2105,9 +2106,10 @@ def _damping_of_wide(rec: dict) -> dict:
         verdict = rec.get(verdict_col) or ""
         # a loss factor held at 0 by eta >= 0: its verdict says so (no interval), side lower
         hit = verdict == VERDICT_AT_BOUND
+        lower, upper = _interval_cells(where, lo_col, hi_col, rec)
         out.setdefault(m, {})[k] = {
-            "value": float(rec[value_col]), "lower": _float(rec.get(lo_col)),
-            "upper": _float(rec.get(hi_col)), "verdict": verdict, "at_bound": hit,
+            "value": _number_cell(where, value_col, rec[value_col]), "lower": lower,
+            "upper": upper, "verdict": verdict, "at_bound": hit,
             "bound_side": "lower" if hit else "", "bound_limit": 0.0 if hit else None,
             **_mc_of_wide(rec, m, k)}
     return out

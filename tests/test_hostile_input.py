@@ -1400,6 +1400,26 @@ def test_a_summary_with_a_control_character_in_its_text_is_refused(tmp_path, kin
     assert not (tmp_path / "r.pdf").exists()
 
 
+@pytest.mark.parametrize("cells, column, said", [
+    (("n/a", "0.001", "0.003"), "M eta22 [1]", "'n/a' is not a number"),
+    (("0.002", "abc", "0.003"), "M eta22 lower [1]", "'abc' is not a number"),
+    (("0.002", "0.001", "inf"), "M eta22 upper [1]", "'inf' is not a finite number"),
+])
+def test_a_wide_summary_loss_factor_cell_edited_to_text_is_named_not_a_traceback(
+        tmp_path, cells, column, said):
+    # the loss factors' columns of a wide summary were read by float(): 'n/a' as a value was a
+    # ValueError traceback in laminid report, text as an end no interval; as the constants'
+    path = tmp_path / "summary.csv"
+    path.write_text("# laminid batch summary\n" + WIDE_HEADER + ",M eta22 [1],M eta22 lower [1],"
+                    "M eta22 upper [1],M eta22 verdict\n"
+                    "S1,S1,S1.yaml,ok,,1.7e11,1.6e11,1.8e11,weak,0.5,,," + ",".join(cells)
+                    + ",weak\n", encoding="utf-8")
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert r.exit_code == 2 and "Traceback" not in r.output, r.output
+    assert f"{path}:3, column '{column}': {said}" in r.output, r.output
+    assert not (tmp_path / "r.pdf").exists()
+
+
 def test_a_wide_summary_interval_with_lower_above_upper_is_refused(tmp_path):
     path = wide_summary(tmp_path, lower="2e11")
     r = run("report", path, "-o", tmp_path / "r.pdf")
