@@ -2249,8 +2249,13 @@ def _float(text):
 
 
 def _mark(row: dict, material: str, constant: str) -> str:
-    iv = (row.get("intervals") or {}).get(material, {}).get(constant, {})
-    word = flag_word(iv) if iv else ""
+    return _mark_of((row.get("intervals") or {}).get(material, {}).get(constant, {}))
+
+
+def _mark_of(entry: dict) -> str:
+    """The terminal table's mark of a constant's or loss factor's entry, by its summaries'
+    flag (:func:`flag_word`; " " for none)."""
+    word = flag_word(entry) if entry else ""
     return next((mark for mark, w in FLAG_WORDS.items() if w == word), " ")
 
 
@@ -2314,9 +2319,7 @@ def format_table(rows, on_stderr=None) -> str:
                         cells.append("—" + " ")
                         loss_marked.add("—")
                         continue
-                    # the constants' marks, by the summaries' flag (held at 0: "!")
-                    word = flag_word(e)
-                    mark = next((mk for mk, w in FLAG_WORDS.items() if w == word), " ")
+                    mark = _mark_of(e)        # the constants' marks (held at 0: "!")
                     if mark == " " and LEANS_WORDS in str(e.get("verdict") or ""):
                         mark = MARK_LEANS     # its interval too narrow: not a plain one
                     marked.add(mark)
