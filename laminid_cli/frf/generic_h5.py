@@ -256,10 +256,16 @@ def freq_unit_factor(unit: str) -> float | None:
     spaces, case and one pair of enclosing brackets ignored), None when it is not one of
     :data:`FREQ_UNITS`. A units attribute '[Hz]' made its dataset no axis, and the file was
     refused with "frequency candidates: none"."""
-    key = unit.replace(" ", "").lower()
-    if len(key) > 2 and key[0] + key[-1] in ("[]", "()"):
-        key = key[1:-1]
+    key = unbracketed(unit.replace(" ", "").lower())
     return FREQ_UNITS.get(_FREQ_SPELLINGS.get(key, key))
+
+
+def unbracketed(text: str) -> str:
+    """``text`` without one pair of enclosing brackets, as a unit is written in a header or
+    a comment line ("[Hz]", "(g/N)"; a text of two characters or fewer as it is)."""
+    if len(text) > 2 and text[0] + text[-1] in ("[]", "()"):
+        return text[1:-1]
+    return text
 
 
 def _freq_factor(units: str | None) -> float | None:

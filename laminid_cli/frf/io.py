@@ -830,7 +830,7 @@ def _csv_units_comment(path, text: str) -> tuple[str | None, str | None, int | N
     none). "# Units: g/N" was not read (the FRFs 'unit not stated'), and
     "# units = g/N" read as the unit "= g/N". FrfError where the list names more than one
     FRF unit (which column each is not said)."""
-    from laminid_cli.frf.generic_h5 import freq_unit_factor
+    from laminid_cli.frf.generic_h5 import freq_unit_factor, unbracketed
 
     for lineno, ln in enumerate(text.splitlines(), start=1):
         said = _CSV_UNITS_SAID.match(ln)
@@ -839,9 +839,7 @@ def _csv_units_comment(path, text: str) -> tuple[str | None, str | None, int | N
             if hit:
                 return hit.group(1), None, lineno
             continue
-        value = said.group(1)
-        if len(value) > 2 and value[0] + value[-1] in ("[]", "()"):
-            value = value[1:-1].strip()
+        value = unbracketed(said.group(1)).strip()
         items = [v.strip() for v in re.split(r"[,;\t]", value)]
         freq_unit = items[0] if len(items) > 1 and freq_unit_factor(items[0]) else None
         frf_units = list(dict.fromkeys(
@@ -945,7 +943,7 @@ def _csv_two_line_header(names_line: str, units_line: str) -> list[str] | None:
     line was taken for the header and the names' line skipped as a title: the points were
     named "m/s^2/N" and the FRF unit lost. None unless both lines split alike into as many
     cells and the first unit is a frequency unit (Hz, kHz, rad/s)."""
-    from laminid_cli.frf.generic_h5 import freq_unit_factor
+    from laminid_cli.frf.generic_h5 import freq_unit_factor, unbracketed
 
     sep = _csv_separator(units_line)
     if sep != _csv_separator(names_line):
@@ -956,9 +954,7 @@ def _csv_two_line_header(names_line: str, units_line: str) -> list[str] | None:
         return None
     merged = []
     for name, unit in zip(names, units):
-        unit = unit.strip()
-        if len(unit) > 2 and unit[0] + unit[-1] in ("[]", "()"):
-            unit = unit[1:-1].strip()
+        unit = unbracketed(unit.strip()).strip()
         has_unit = re.search(r"[\[(][^\])]*[\])]\s*\Z", name) is not None
         merged.append(name if not unit or has_unit else f"{name} [{unit}]")
     return merged
