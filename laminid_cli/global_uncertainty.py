@@ -36,6 +36,13 @@ from laminid_cli.intervals import VERDICT_NOT
 from laminid_cli.intervals import verdict as verdict_of
 from laminid_cli.material import CONSTANT_NAMES
 
+#: words of a global property's verdict (in the result file) that the report's laminate line
+#: looks for: a constant it depends on that the Monte Carlo found less determined than the
+#: linearised interval; fixed constants it is given; constants held by their prior
+MC_NARROW_WORDS = "the Monte Carlo found"
+GIVEN_WORDS = "given the fixed"
+PRIOR_WORDS = "leans on the prior of"
+
 #: the properties, in the order they are shown
 KEYS = ("Ex", "Ey", "Gxy", "Gxz", "Gyz", "nu_xy", "nu_yx")
 #: relative step of the central differences (a Poisson ratio: of max(|nu|, 0.1))
@@ -219,18 +226,18 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
         verdict = verdict_of(rel, False).replace(_ADVICE, "")
         mc = [lab for lab in deps if lab in by_monte_carlo]
         if mc:
-            verdict += (" — linearised; the Monte Carlo found " + ", ".join(mc)
+            verdict += (f" — linearised; {MC_NARROW_WORDS} " + ", ".join(mc)
                         + " less determined than that: this interval is too narrow")
         if counted:
             verdict += (" — counts the spread " + ", ".join(counted) + " had before "
                         + ("it was" if len(counted) == 1 else "they were") + " fixed")
         if given:
-            verdict += " — given the fixed " + ", ".join(given)
+            verdict += f" — {GIVEN_WORDS} " + ", ".join(given)
         prior = [lab for lab in deps if lab in by_prior]
         if prior:
             # (S1.2 with prior {nu12: 1.0}: Ex "well determined" beside nu12 "well
             # determined (held by the prior)", as if the modes had given both)
-            verdict += " — leans on the prior of " + ", ".join(prior)
+            verdict += f" — {PRIOR_WORDS} " + ", ".join(prior)
         out[key] = GlobalInterval(key, g, float(std[i]), float(lo), float(hi), float(rel),
                                   verdict, (), (), given, counted)
     return out

@@ -637,6 +637,8 @@ def frequency_block(fig, spec, plate):
 
 
 def _laminate_text(plate) -> str:
+    from laminid_cli.global_uncertainty import GIVEN_WORDS, MC_NARROW_WORDS, PRIOR_WORDS
+
     gp = plate.global_properties
     if not gp:
         return ""
@@ -659,14 +661,14 @@ def _laminate_text(plate) -> str:
                          else f" (±{pct:.0f} %)")
                 if rel >= WEAK:           # as a constant is (intervals.WEAK)
                     text += " not determined"
-                if "the Monte Carlo found" in u.get("verdict", ""):
+                if MC_NARROW_WORDS in u.get("verdict", ""):
                     # the terminal's "— linearised; the Monte Carlo found ESL.G13 less
                     # determined than that: this interval is too narrow" (hybrid-ESL 8x8,
                     # 20 trials: Gxz ±27 % beside G13 "not determined (Monte Carlo)")
                     text += " (too narrow: the Monte Carlo found it less determined)"
-                if "given the fixed" in u.get("verdict", ""):
+                if GIVEN_WORDS in u.get("verdict", ""):
                     text += " (given fixed values)"     # their own doubt is not in the ±
-                if "leans on the prior of" in u.get("verdict", ""):
+                if PRIOR_WORDS in u.get("verdict", ""):
                     text += " (leans on a prior)"       # as the constant's "held by the prior"
         if k in ref:
             lo, hi = ref[k]
