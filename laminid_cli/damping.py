@@ -618,7 +618,16 @@ TERMS_OF = {"E1": ("11",), "E2": ("22",), "G12": ("12",), "G13": ("13",), "G23":
 #: what a loss factor's verdict gets when its interval leans on elastic constants the modes do
 #: not determine and no Monte Carlo range counts their doubt (:func:`with_leaning_verdicts`)
 LEANS_WORDS = "interval too narrow: its energy share leans on"
-VERDICT_LEANS = f" — {LEANS_WORDS} {{labels}}, not determined by the modes"
+_LEANS_END = ", not determined by the modes"
+VERDICT_LEANS = f" — {LEANS_WORDS} {{labels}}{_LEANS_END}"
+
+
+def leans_on(verdict: str) -> str:
+    """The constants a loss factor's verdict says its interval leans on (the ``labels`` of
+    :data:`VERDICT_LEANS`, "IM7/977-2.nu12"); "" where it says none."""
+    if LEANS_WORDS not in verdict:
+        return ""
+    return verdict.partition(LEANS_WORDS + " ")[2].partition(_LEANS_END)[0]
 
 
 def leaning(fit, u, fixed_undetermined=()) -> dict[str, list[str]]:

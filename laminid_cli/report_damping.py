@@ -597,7 +597,7 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
     interval."""
     from matplotlib.lines import Line2D
 
-    from laminid_cli.damping import LEANS_WORDS, TERMS
+    from laminid_cli.damping import LEANS_WORDS, TERMS, leans_on
     from laminid_cli.report import (FIXED_COLOR, MC_COLOR, _clipped_bar, _figure, _footer,
                                     axis_names, specimen_labels, style_across_panel)
 
@@ -667,7 +667,7 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                     ax.plot([xi], [v], "o", ms=6, color=color, fillstyle="left", mfc=color,
                             markerfacecoloralt="w", gid=f"leans-{tag}", **on_top)
                     kinds.add("leans")
-                    on = verdict.partition("leans on ")[2].partition(", not determined")[0]
+                    on = leans_on(verdict)
                     leaning.setdefault((label, on), []).append(f"{m}.{name}")
                 else:
                     ax.plot([xi], [v], "o", ms=6, color=color,
