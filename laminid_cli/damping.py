@@ -670,19 +670,11 @@ def stiffness_doubt_note(fit, u, fixed_undetermined=(), monte_carlo: bool = Fals
     constants fixed by --fix-undetermined that the trials drew from their spread before
     fixing (``drawn``, laminid_cli.uncertainty.FixedDraw; one fixed on a limit of the
     search is held by the trials, its doubt not in them)."""
-    doubtful = set(u.flagged) | set(fixed_undetermined)
-    if u.at_bound is not None:
-        doubtful |= {lab for lab, b in zip(u.labels, u.at_bound) if b}
-    free = set(fit.labels)
-    hit, why = [], []
-    for lab in sorted(doubtful):
-        name, k = lab.rsplit(".", 1)
-        terms = [f"{name}.eta{t}" for t in TERMS_OF.get(k, ()) if f"{name}.eta{t}" in free]
-        if terms:
-            why.append(lab)
-            hit += [t for t in terms if t not in hit]
-    if not hit:
+    lean = leaning(fit, u, fixed_undetermined)
+    if not lean:
         return ""
+    hit = list(lean)                                  # in the order the constants hit them
+    why = sorted({lab for labs in lean.values() for lab in labs})
     return (", ".join(hit) + ": the loss factors' intervals take the elastic constants as "
             "identified, and " + ", ".join(why) + (" is" if len(why) == 1 else " are")
             + " not determined by the modes (or fixed because of it): "
