@@ -411,9 +411,7 @@ def _reference_pair(v, kind: str) -> tuple[float, float]:
     if isinstance(v, dict) or (isinstance(v, list) and len(v) != 2):
         raise ValueError(f"not a reference value: {v!r}")
     if isinstance(v, str) and _PLUS_MINUS.search(v):
-        value, half = plus_minus(v, kind)
-        if half < 0:
-            raise ValueError(f"{v!r}: a negative half-width")
+        value, half = plus_minus(v, kind)       # (ValueError for a negative half-width)
         return value - half, value + half
     low, high = (float(parse_quantity(x, kind)) for x in (v if isinstance(v, list) else [v, v]))
     if not low <= high:

@@ -1451,13 +1451,18 @@ def plus_minus(text: str, kind: str, where=None) -> tuple[float, float]:
             # below 0, a Poisson's ratio's kept): more than the value itself is a typo
             raise ValueError(f"'{text}': a half-width of {share:g} % is more than the value "
                              "itself; write the range as [low, high] if that is meant")
-        return value, abs(value) * share / 100.0
-    number = _LEADING_NUMBER.match(centre)
-    if number is not None and number.end() == len(centre):
-        # the centre's unit is the half-width's ('170 ± 1 GPa')
-        lead = _LEADING_NUMBER.match(half)
-        centre = centre + (half[lead.end():] if lead is not None else "")
-    return parse_quantity(centre, kind, where=where), parse_quantity(half, kind, where=where)
+        width = abs(value) * share / 100.0
+    else:
+        number = _LEADING_NUMBER.match(centre)
+        if number is not None and number.end() == len(centre):
+            # the centre's unit is the half-width's ('170 ± 1 GPa')
+            lead = _LEADING_NUMBER.match(half)
+            centre = centre + (half[lead.end():] if lead is not None else "")
+        value = parse_quantity(centre, kind, where=where)
+        width = parse_quantity(half, kind, where=where)
+    if width < 0:
+        raise ValueError(f"'{text}': the half-width after ± must not be negative")
+    return value, width
 
 
 def _plus_minus(r: _Reader, y: _Y, kind: str) -> tuple[float, float]:
@@ -1474,8 +1479,6 @@ def _reference_value(r: _Reader, y: _Y, kind: str) -> float | tuple[float, float
     as the range the source gives, whatever its confidence)."""
     if isinstance(y.value, str) and _PLUS_MINUS.search(y.value):
         value, half = _plus_minus(r, y, kind)
-        if half < 0:
-            raise r.error(y, f"'{y.value}': the half-width after ± must not be negative")
         low, high, one = value - half, value + half, half == 0
         below = (f"'{y.value}' reaches down to {low / 1e9:.4g} GPa: a reference modulus must "
                  "be positive")
