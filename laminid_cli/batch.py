@@ -67,7 +67,9 @@ from laminid_cli.atomic import (remove_stale_temporaries, stop_with_parent, temp
 from laminid_cli.damping import LEANS_WORDS, LOSS_NAMES
 from laminid_cli.errors import NON_PRINTABLE, LaminidError, Terminated, note_stop_signals
 from laminid_cli.errors import sigterm_raises_terminated as sigterm_stops_the_batch  # noqa: F401
-from laminid_cli.intervals import HELD_BY_PRIOR, VERDICT_AT_BOUND, VERDICT_FIXED
+from laminid_cli.intervals import (FLAG_ASSUMED, FLAG_AT_BOUND, FLAG_FIXED,
+                                   FLAG_PRIOR, FLAG_UNDETERMINED, HELD_BY_PRIOR, VERDICT_AT_BOUND,
+                                   VERDICT_FIXED, flag_word)
 from laminid_cli.pipeline import RunOptions
 # imported here, not on the first summary row: a Ctrl-C landing in an import (in the code
 # a dataclass definition executes) can turn the exit code 130 into a kill by SIGINT (-2)
@@ -1437,10 +1439,6 @@ def ran_monte_carlo(rows) -> bool:
                for per in (r.get(group) or {}).values() for v in per.values())
 
 
-#: the words of the summaries' ``flag`` (long summary.csv, summary.json) and of the wide
-#: summary's ``flagged`` column for each mark of the terminal table
-FLAG_AT_BOUND, FLAG_UNDETERMINED, FLAG_FIXED, FLAG_PRIOR, FLAG_ASSUMED = \
-    "at_bound", "undetermined", "fixed", "prior", "assumed"
 #: markers of the terminal table: value at a bound (not identified), value not determined,
 #: value held fixed (the initial value, not identified), value held by its prior, value
 #: assumed (held at its initial guess by --fix-undetermined)
@@ -1451,29 +1449,6 @@ MARK_BOUND, MARK_UNDETERMINED, MARK_FIXED, MARK_PRIOR, MARK_ASSUMED = "!", "?", 
 MARK_LEANS = "^"
 FLAG_WORDS = {MARK_BOUND: FLAG_AT_BOUND, MARK_UNDETERMINED: FLAG_UNDETERMINED,
               MARK_FIXED: FLAG_FIXED, MARK_PRIOR: FLAG_PRIOR, MARK_ASSUMED: FLAG_ASSUMED}
-
-
-def flag_word(iv: dict) -> str:
-    """What a summary's value is when it is no plain identified one, as a word a script can
-    test (the verdict is words for a reader): "fixed" (held at its initial value: --fix, the
-    file's ``fixed``), "assumed" (held at its initial guess by --fix-undetermined, because the
-    modes did not determine it: an assumption, where "fixed" is a value the user gave as
-    known), "at_bound" (stopped on a limit of the search: the
-    value is that limit), "undetermined" (flagged: its interval wider than --max-rel-interval;
-    a loss factor's verdict "not determined"), "prior" (held by the prior: the file's prior
-    gives more than half of what is known of it, paper Eq. 15; its value is mostly the
-    prior's), else "" (identified, with its interval).
-    ``iv``: an entry of a summary row's ``intervals`` (or a loss factor's of ``damping``)."""
-    verdict = str(iv.get("verdict") or "")
-    if verdict == VERDICT_FIXED:
-        return FLAG_ASSUMED if iv.get("assumed") else FLAG_FIXED
-    if iv.get("at_bound") or verdict == VERDICT_AT_BOUND:
-        return FLAG_AT_BOUND
-    if iv.get("flagged") or ("flagged" not in iv and verdict.startswith("not determined")):
-        return FLAG_UNDETERMINED
-    if verdict.endswith(HELD_BY_PRIOR):
-        return FLAG_PRIOR
-    return ""
 
 
 def flagged_text(row: dict) -> str:

@@ -68,7 +68,7 @@ from laminid_cli.errors import FitInputError, SpecimenError
 from laminid_cli.material import ElasticConstants, c_basis, ply_stiffness
 from laminid_cli.units import parse_fraction
 from laminid_cli.intervals import (SCALINGS, VERDICT_AT_BOUND, VERDICT_FIXED,  # noqa: F401
-                                   VERDICT_NOT, interval_scale, verdict as verdict_of)
+                                   VERDICT_NOT, flag_word, interval_scale, verdict as verdict_of)
 
 #: a loss factor the modal damping does not determine (the advice: fix it with a value);
 #: ``{term}`` is the loss factor's own name (eta11 ...), so the advice names the right one
@@ -391,8 +391,6 @@ class DampingFit:
             per.setdefault(mat, {})[name] = {"value": float(v), "verdict": VERDICT_FIXED}
         # the word summary.csv's and summary.json's flag gives the same loss factor of the
         # same run (a script testing "flag" read eta13 "not determined" here as plain)
-        from laminid_cli.batch import flag_word
-
         for entries in per.values():
             for entry in entries.values():
                 entry["flag"] = flag_word(entry)

@@ -160,3 +160,33 @@ def spread_sentence(counted, given, what: str = "the intervals") -> str:
             + " fixed (a fixed value is not known better than that)"
             + ("; given the fixed values alone: " + ", ".join(
                 f"{name} ±{width_text(w)}" for name, w in given) if given else ""))
+
+
+#: the words of the summaries' ``flag`` (long summary.csv, summary.json, identify --json's
+#: loss factors) and of the wide summary's ``flagged`` column for each mark of batch's
+#: terminal table
+FLAG_AT_BOUND, FLAG_UNDETERMINED, FLAG_FIXED, FLAG_PRIOR, FLAG_ASSUMED = \
+    "at_bound", "undetermined", "fixed", "prior", "assumed"
+
+
+def flag_word(iv: dict) -> str:
+    """What a summary's value is when it is no plain identified one, as a word a script can
+    test (the verdict is words for a reader): "fixed" (held at its initial value: --fix, the
+    file's ``fixed``), "assumed" (held at its initial guess by --fix-undetermined, because the
+    modes did not determine it: an assumption, where "fixed" is a value the user gave as
+    known), "at_bound" (stopped on a limit of the search: the
+    value is that limit), "undetermined" (flagged: its interval wider than --max-rel-interval;
+    a loss factor's verdict "not determined"), "prior" (held by the prior: the file's prior
+    gives more than half of what is known of it, paper Eq. 15; its value is mostly the
+    prior's), else "" (identified, with its interval).
+    ``iv``: an entry of a summary row's ``intervals`` (or a loss factor's of ``damping``)."""
+    verdict = str(iv.get("verdict") or "")
+    if verdict == VERDICT_FIXED:
+        return FLAG_ASSUMED if iv.get("assumed") else FLAG_FIXED
+    if iv.get("at_bound") or verdict == VERDICT_AT_BOUND:
+        return FLAG_AT_BOUND
+    if iv.get("flagged") or ("flagged" not in iv and verdict.startswith("not determined")):
+        return FLAG_UNDETERMINED
+    if verdict.endswith(HELD_BY_PRIOR):
+        return FLAG_PRIOR
+    return ""
