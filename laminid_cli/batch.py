@@ -63,11 +63,11 @@ from laminid_cli.atomic import (remove_stale_temporaries, stop_with_parent, temp
                                 write_bytes_atomic)
 # sigterm_stops_the_batch: SIGTERM stops the batch as Ctrl-C does (the command's block;
 # _note_sigint notes it)
-# the loss factors' names and the words of a verdict leaning on an undetermined constant
-from laminid_cli.damping import LEANS_WORDS, LOSS_NAMES
+# the loss factors' names
+from laminid_cli.damping import LOSS_NAMES
 from laminid_cli.errors import NON_PRINTABLE, LaminidError, Terminated, note_stop_signals
 from laminid_cli.errors import sigterm_raises_terminated as sigterm_stops_the_batch  # noqa: F401
-from laminid_cli.intervals import (FLAG_ASSUMED, FLAG_AT_BOUND, FLAG_FIXED,
+from laminid_cli.intervals import (FLAG_ASSUMED, FLAG_AT_BOUND, FLAG_FIXED, FLAG_LEANS,
                                    FLAG_PRIOR, FLAG_UNDETERMINED, HELD_BY_PRIOR, VERDICT_AT_BOUND,
                                    VERDICT_FIXED, flag_word)
 from laminid_cli.pipeline import RunOptions
@@ -92,8 +92,8 @@ UNITS = {**CONSTANT_UNITS, "lower": "unit of the constant", "upper": "unit of th
          **{f"eta{k}": "1 (loss factor, eta = 2 zeta)" for k in ("11", "22", "12", "13", "23")}}
 #: the columns of the long summary.csv: lower/upper the linearised interval (empty for a
 #: constant at its bound), flag what the value is when it is no plain identified one, in a
-#: word a script can test (:func:`flag_word`: at_bound, undetermined, fixed, assumed, prior;
-#: empty for an identified value), bound_side/bound_limit of a constant at its bound (the data
+#: word a script can test (:func:`flag_word`: at_bound, undetermined, fixed, assumed, prior,
+#: leans (a loss factor's interval too narrow); empty for an identified value), bound_side/bound_limit of a constant at its bound (the data
 #: push it below a "lower" limit, above an "upper" one; no interval), profile_bound where the fit
 #: rejects it (uncertainty.Profile) and profile what its profile says ("bound": the fit
 #: rejects it beyond profile_bound; "flat": nowhere within its scan, the modes do not
@@ -1445,10 +1445,11 @@ def ran_monte_carlo(rows) -> bool:
 MARK_BOUND, MARK_UNDETERMINED, MARK_FIXED, MARK_PRIOR, MARK_ASSUMED = "!", "?", "=", "~", "#"
 #: the terminal table's mark of a loss factor whose interval is too narrow: its energy share
 #: leans on a constant (above it in the table) the modes do not determine
-#: (laminid_cli.damping.VERDICT_LEANS, whose words LEANS_WORDS are); its flag stays empty
+#: (laminid_cli.damping.VERDICT_LEANS, whose words LEANS_WORDS are; its flag FLAG_LEANS)
 MARK_LEANS = "^"
 FLAG_WORDS = {MARK_BOUND: FLAG_AT_BOUND, MARK_UNDETERMINED: FLAG_UNDETERMINED,
-              MARK_FIXED: FLAG_FIXED, MARK_PRIOR: FLAG_PRIOR, MARK_ASSUMED: FLAG_ASSUMED}
+              MARK_FIXED: FLAG_FIXED, MARK_PRIOR: FLAG_PRIOR, MARK_ASSUMED: FLAG_ASSUMED,
+              MARK_LEANS: FLAG_LEANS}
 
 
 def flagged_text(row: dict) -> str:
@@ -2294,9 +2295,7 @@ def format_table(rows, on_stderr=None) -> str:
                         cells.append("—" + " ")
                         loss_marked.add("—")
                         continue
-                    mark = _mark_of(e)        # the constants' marks (held at 0: "!")
-                    if mark == " " and LEANS_WORDS in str(e.get("verdict") or ""):
-                        mark = MARK_LEANS     # its interval too narrow: not a plain one
+                    mark = _mark_of(e)        # the constants' marks (held at 0: "!"; "^")
                     marked.add(mark)
                     loss_marked.add(mark)
                     plain = plain or (mark == " " and bool(e.get("verdict")))

@@ -67,8 +67,9 @@ import numpy as np
 from laminid_cli.errors import FitInputError, SpecimenError
 from laminid_cli.material import ElasticConstants, c_basis, ply_stiffness
 from laminid_cli.units import parse_fraction
-from laminid_cli.intervals import (SCALINGS, VERDICT_AT_BOUND, VERDICT_FIXED,  # noqa: F401
-                                   VERDICT_NOT, flag_word, interval_scale, verdict as verdict_of)
+from laminid_cli.intervals import (LEANS_WORDS, SCALINGS, VERDICT_AT_BOUND,  # noqa: F401
+                                   VERDICT_FIXED, VERDICT_NOT, flag_word, interval_scale,
+                                   verdict as verdict_of)
 
 #: a loss factor the modal damping does not determine (the advice: fix it with a value);
 #: ``{term}`` is the loss factor's own name (eta11 ...), so the advice names the right one
@@ -614,8 +615,8 @@ TERMS_OF = {"E1": ("11",), "E2": ("22",), "G12": ("12",), "G13": ("13",), "G23":
 
 
 #: what a loss factor's verdict gets when its interval leans on elastic constants the modes do
-#: not determine and no Monte Carlo range counts their doubt (:func:`with_leaning_verdicts`)
-LEANS_WORDS = "interval too narrow: its energy share leans on"
+#: not determine and no Monte Carlo range counts their doubt (:func:`with_leaning_verdicts`;
+#: the words LEANS_WORDS are intervals', whose flag_word gives such a loss factor "leans")
 _LEANS_END = ", not determined by the modes"
 VERDICT_LEANS = f" — {LEANS_WORDS} {{labels}}{_LEANS_END}"
 

@@ -165,8 +165,13 @@ def spread_sentence(counted, given, what: str = "the intervals") -> str:
 #: the words of the summaries' ``flag`` (long summary.csv, summary.json, identify --json's
 #: loss factors) and of the wide summary's ``flagged`` column for each mark of batch's
 #: terminal table
-FLAG_AT_BOUND, FLAG_UNDETERMINED, FLAG_FIXED, FLAG_PRIOR, FLAG_ASSUMED = \
-    "at_bound", "undetermined", "fixed", "prior", "assumed"
+FLAG_AT_BOUND, FLAG_UNDETERMINED, FLAG_FIXED, FLAG_PRIOR, FLAG_ASSUMED, FLAG_LEANS = \
+    "at_bound", "undetermined", "fixed", "prior", "assumed", "leans"
+
+#: what a loss factor's verdict says when its interval leans on elastic constants the modes do
+#: not determine (laminid_cli.damping.VERDICT_LEANS is built on these words; its flag:
+#: FLAG_LEANS)
+LEANS_WORDS = "interval too narrow: its energy share leans on"
 
 
 def flag_word(iv: dict) -> str:
@@ -178,7 +183,9 @@ def flag_word(iv: dict) -> str:
     value is that limit), "undetermined" (flagged: its interval wider than --max-rel-interval;
     a loss factor's verdict "not determined"), "prior" (held by the prior: the file's prior
     gives more than half of what is known of it, paper Eq. 15; its value is mostly the
-    prior's), else "" (identified, with its interval).
+    prior's), "leans" (a loss factor whose interval is too narrow: its energy share leans on
+    elastic constants the modes do not determine, :data:`LEANS_WORDS`), else "" (identified,
+    with its interval).
     ``iv``: an entry of a summary row's ``intervals`` (or a loss factor's of ``damping``)."""
     verdict = str(iv.get("verdict") or "")
     if verdict == VERDICT_FIXED:
@@ -189,4 +196,6 @@ def flag_word(iv: dict) -> str:
         return FLAG_UNDETERMINED
     if verdict.endswith(HELD_BY_PRIOR):
         return FLAG_PRIOR
+    if LEANS_WORDS in verdict:
+        return FLAG_LEANS
     return ""

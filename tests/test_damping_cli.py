@@ -285,8 +285,8 @@ def test_batch_table_has_a_row_per_loss_factor_with_the_constants_marks():
     """The batch's terminal table showed the constants only: a specimen's loss factors were in
     the summaries alone. Now a row per loss factor (%) below the constants, in their marks by
     the summaries' flag: "?" not determined by the damping, "!" held at 0, "=" fixed, and "^"
-    for one whose interval is too narrow (leans on an undetermined constant: its flag is
-    empty, so it read as plain); "—" for a specimen without measured damping; a legend line."""
+    for one whose interval is too narrow (leans on an undetermined constant: its flag
+    "leans"); "—" for a specimen without measured damping; a legend line."""
     from laminid_cli.batch import CONSTANTS, format_table
     from laminid_cli.damping import VERDICT_LEANS, VERDICT_NOT_DAMPING
 
@@ -559,7 +559,8 @@ def test_a_loss_factor_leaning_on_an_undetermined_constant_says_so_in_its_verdic
     empty, while their energy shares rest on E2 and G12; only a note said so, and the
     summaries carry no notes. Without a Monte Carlo range that counts the constants' doubt,
     their verdict now says it in every form (terminal, --json, HDF5, summaries, report); one
-    not determined already, or held at 0, keeps its verdict; the flag stays a plain one's."""
+    not determined already, or held at 0, keeps its verdict. Its flag was empty, a plain
+    one's (a script keeping the rows with no flag kept it as identified); it is "leans"."""
     import dataclasses
     from types import SimpleNamespace
 
@@ -587,7 +588,8 @@ def test_a_loss_factor_leaning_on_an_undetermined_constant_says_so_in_its_verdic
         "well determined — interval too narrow: its energy share leans on IM7/977-2.G12, not "
         "determined by the modes",
         "not determined by the measured damping", "weak")
-    assert flag_word({"verdict": out.verdict[1]}) == ""
+    assert [flag_word({"verdict": v}) for v in out.verdict] == [
+        "", "leans", "leans", "undetermined", ""]
 
 
 def test_fix_takes_loss_factors_in_percent_on_the_command_line(frf_case):
