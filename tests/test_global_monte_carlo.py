@@ -5,8 +5,10 @@ as the constants' (quantiles, the range for sure, ends set by trials on a search
 verdict by the constants' rule, and the range in --json, the HDF5 file, the terminal and the
 report's laminate line."""
 
+import json
 from types import SimpleNamespace
 
+import h5py
 import numpy as np
 import pytest
 
@@ -153,3 +155,49 @@ def test_range_ends_set_by_trials_on_a_search_limit():
     assert g.lower_at_bound
     assert out["Ex"].monte_carlo.trials_at_bound == 0 and not out["Ex"].monte_carlo.lower_at_bound
 
+
+def test_monte_carlo_ranges_in_json_hdf5_terminal_and_report(tmp_path):
+    """identify S1.1 --mesh 6x6 --monte-carlo 10: each property's Monte Carlo range in --json
+    (global_uncertainty.<key>.monte_carlo), the HDF5 file
+    (/global_properties_uncertainty/monte_carlo/lower...), the terminal's table and the
+    report's laminate line; Ex's range is the quantiles of Ex computed here from the file's
+    trials (/uncertainty/monte_carlo/samples) through the laminate, to 1e-12."""
+    from laminid_cli.commands.text import format_global
+    from laminid_cli.laminate import laminate_from_specimen
+    from laminid_cli.report import _laminate_text
+    from laminid_cli.resultfile import read_result
+    from laminid_cli.specimen import read_specimen
+    from tests.clihelp import run
+
+    out = tmp_path / "s.h5"
+    r = run("identify", "specimens/example1/S1.1.yaml", "--mesh", "6x6", "--monte-carlo",
+            "10", "--json", "-o", str(out))
+    assert r.exit_code == 0, r.output
+    gu = json.loads(r.output)["global_uncertainty"]
+    with h5py.File(out) as f:
+        mc = f["uncertainty/monte_carlo"]
+        labels = [x.decode() for x in f["uncertainty/labels"][()]]
+        samples = mc["samples"][()]
+        h = f["global_properties_uncertainty"]
+        keys = [k.decode() for k in h["keys"][()]]
+        lower = h["monte_carlo/lower"][()]
+        assert {"upper", "inner_lower", "inner_upper", "lower_at_bound", "upper_at_bound",
+                "trials_at_bound", "std", "mean"} <= set(h["monte_carlo"])
+        assert "monte_carlo_rel_half_width_lower" in h
+        assert "verdict_from_monte_carlo" in h.attrs
+    lam = laminate_from_specimen(read_specimen("specimens/example1/S1.1.yaml"))
+    ex = [lam.with_constants([ElasticConstants(**dict(zip(
+        [lab.rsplit(".", 1)[1] for lab in labels], row)))]).global_properties().Ex
+        for row in samples]
+    lo, hi = np.quantile(ex, [0.025, 0.975])
+    assert gu["Ex"]["monte_carlo"]["lower"] == pytest.approx(lo, rel=1e-12, abs=0)
+    assert gu["Ex"]["monte_carlo"]["upper"] == pytest.approx(hi, rel=1e-12, abs=0)
+    assert lower[keys.index("Ex")] == gu["Ex"]["monte_carlo"]["lower"]
+    plate = read_result(out).plates[0]
+    assert plate.global_uncertainty["Ex"]["monte_carlo"]["upper"] == \
+        gu["Ex"]["monte_carlo"]["upper"]
+    line = _laminate_text(plate)
+    assert f"(Monte Carlo {lo / 1e9:.2f}–{hi / 1e9:.2f} GPa)" in line
+    table = format_global(json.loads(r.output)["global_properties"], gu)
+    row = next(t for t in table if t.startswith("  Ex [GPa]"))
+    assert f"{lo / 1e9:.2f} .. {hi / 1e9:.2f}" in row
