@@ -22,6 +22,12 @@ is not identified ("from the fixed G13, G23"): it is an assumption. For an ortho
 rotated about z the in-plane and the transverse-shear blocks of Q do not mix, so Ex, Ey, Gxy
 and the Poisson ratios never depend on G13 or G23, and Gxz, Gyz only on them.
 
+With the constants' Monte Carlo, each property is also computed at every converged trial's
+constants (:func:`trial_properties`, one array computation) and summarised as the constants
+are (:class:`MonteCarloRange`): its range, the range for sure, the ends set by trials on a
+search limit, and the verdict by the constants' rule (a worse band of the range for sure than
+of the interval: "(Monte Carlo)").
+
 No click, no h5py: library code.
 """
 
@@ -72,18 +78,122 @@ class GlobalInterval:
     given_fixed: tuple[str, ...] = ()
     #: constants fixed because undetermined whose spread before fixing the interval counts
     spread_counted: tuple[str, ...] = ()
+    #: with a Monte Carlo: its range of this property (:class:`MonteCarloRange`; None where
+    #: the trials do not move it: it depends on fixed values only, or on one fixed because
+    #: undetermined that the trials held), and whether it set the verdict
+    monte_carlo: "MonteCarloRange | None" = None
+    monte_carlo_ran: bool = False
+    verdict_from_monte_carlo: bool = False
 
     @property
     def identified(self) -> bool:
         return not (self.at_bound or self.undetermined_fixed)
 
     def as_dict(self) -> dict:
-        return {"value": self.value, "std": self.std, "lower": self.lower, "upper": self.upper,
-                "rel_half_width": self.rel_half_width, "verdict": self.verdict,
-                "depends_on_at_bound": list(self.at_bound),
-                "depends_on_undetermined_fixed": list(self.undetermined_fixed),
-                "given_fixed": list(self.given_fixed),
-                "spread_counted": list(self.spread_counted)}
+        out = {"value": self.value, "std": self.std, "lower": self.lower, "upper": self.upper,
+               "rel_half_width": self.rel_half_width, "verdict": self.verdict,
+               "depends_on_at_bound": list(self.at_bound),
+               "depends_on_undetermined_fixed": list(self.undetermined_fixed),
+               "given_fixed": list(self.given_fixed),
+               "spread_counted": list(self.spread_counted)}
+        if self.monte_carlo_ran:
+            # the constants' keys (uncertainty.constants.<m>.<k>, uncertainty.monte_carlo)
+            m = self.monte_carlo
+            out["verdict_from"] = ("monte_carlo" if self.verdict_from_monte_carlo
+                                   else "linearised")
+            out["monte_carlo"] = None if m is None else m.as_dict()
+            rel, sure = (np.nan, np.nan) if m is None else m.rel(self.value)
+            out["monte_carlo_rel_half_width"] = float(rel)
+            out["monte_carlo_rel_half_width_lower"] = float(sure)
+        return out
+
+
+@dataclass(frozen=True)
+class MonteCarloRange:
+    """A laminate property over the converged Monte Carlo trials, each at its own constants
+    (:func:`trial_properties`), summarised as the constants' ranges are
+    (laminid_cli.uncertainty: ``sample_spread``, ``inner_range_of``, and the flags of an end
+    set by trials on a limit of the search, ``sorted_ends_at_bound``, a trial counting as on
+    one where a constant the property depends on is)."""
+
+    mean: float
+    std: float
+    lower: float
+    upper: float
+    inner_lower: float
+    inner_upper: float
+    linearized_std: float
+    ratio: float
+    trials_at_bound: int
+    lower_at_bound: bool
+    upper_at_bound: bool
+
+    def rel(self, value: float) -> tuple[float, float]:
+        """(half-width of the range, of the range for sure) over ``|value|``."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return (0.5 * (self.upper - self.lower) / abs(value),
+                    0.5 * (self.inner_upper - self.inner_lower) / abs(value))
+
+    def as_dict(self) -> dict:
+        return {f.name: (bool(v) if isinstance(v, (bool, np.bool_)) else
+                         int(v) if isinstance(v, (int, np.integer)) else float(v))
+                for f in dataclasses.fields(self) for v in (getattr(self, f.name),)}
+
+
+def trial_properties(laminate, constants: dict, mc) -> np.ndarray:
+    """(n_converged, 7) the properties of :data:`KEYS` at each converged trial of ``mc`` (a
+    laminid_cli.uncertainty.MonteCarlo): its free constants from the trial (``samples``), the
+    fixed ones it drew from their spread before fixing from ``fixed_samples``, the others
+    the result's ``constants`` ({material: ElasticConstants}). One vectorised evaluation
+    (:meth:`laminid_cli.laminate.Laminate.global_properties_of`)."""
+    names = laminate.material_names
+    where = {name: m for m, name in enumerate(names)}
+    samples = np.asarray(mc.samples, float)
+    n = samples.shape[0]
+    values = np.repeat(np.array([constants[name].as_array() for name in names])[None], n, 0)
+    drawn = (() if mc.fixed_samples is None else
+             zip(mc.fixed_labels, np.asarray(mc.fixed_samples, float).reshape(n, -1).T))
+    for lab, column in [*zip(mc.labels, samples.T), *drawn]:
+        name, k = lab.rsplit(".", 1)
+        if name in where:                     # (a joint fit's other plates' materials)
+            values[:, where[name], CONSTANT_NAMES.index(k)] = column
+    return laminate.global_properties_of(values) if n else np.zeros((0, len(KEYS)))
+
+
+def _monte_carlo_ranges(laminate, constants: dict, mc, deps: dict, held, g0, std
+                        ) -> dict[str, "MonteCarloRange | None"]:
+    """Per key, the :class:`MonteCarloRange` of the property over ``mc``'s trials, or None
+    where the trials do not move it: no constant it depends on (``deps[key]``) is free or
+    drawn by them, or one is fixed because undetermined and held by them (``held``)."""
+    from laminid_cli.intervals import t_std
+    from laminid_cli.uncertainty import (MC_EVIDENCE, inner_range_of, sample_spread,
+                                         sorted_ends_at_bound)
+
+    G = trial_properties(laminate, constants, mc)
+    conf = float(mc.confidence)
+    mean, sd, lower, upper = sample_spread(G, len(KEYS), conf)
+    in_lo, in_hi = inner_range_of(G, len(KEYS), conf, MC_EVIDENCE)
+    moved = set(mc.labels) | set(mc.fixed_labels)
+    flags = (np.zeros((G.shape[0], len(mc.labels)), np.int8) if mc.trial_at_bound is None
+             else np.asarray(mc.trial_at_bound).reshape(G.shape[0], len(mc.labels)))
+    col = {lab: j for j, lab in enumerate(mc.labels)}
+    out = {}
+    for i, key in enumerate(KEYS):
+        d = deps[key]
+        if G.shape[0] < 2 or not moved.intersection(d) or set(d) & set(held):
+            out[key] = None
+            continue
+        on_limit = np.zeros(G.shape[0], bool)
+        for lab in d:
+            if lab in col:
+                on_limit |= flags[:, col[lab]] != 0
+        lo_b, up_b = sorted_ends_at_bound(G[:, i], on_limit, conf)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = sd[i] / (std[i] * t_std(mc.variance_dof))
+        out[key] = MonteCarloRange(float(mean[i]), float(sd[i]), float(lower[i]),
+                                   float(upper[i]), float(in_lo[i]), float(in_hi[i]),
+                                   float(std[i]), float(ratio), int(on_limit.sum()), lo_b, up_b)
+    return out
 
 
 def _props(laminate, constants: dict) -> np.ndarray:
@@ -122,15 +232,21 @@ def sensitivities(laminate, constants: dict) -> tuple[np.ndarray, tuple[str, ...
     return np.column_stack(cols), tuple(labels), g0
 
 
-def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before=None
-                     ) -> dict[str, GlobalInterval]:
+def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before=None,
+                     mc=None) -> dict[str, GlobalInterval]:
     """The :class:`GlobalInterval` of each property of ``laminate`` (a
     :class:`laminid_cli.laminate.Laminate`) with the identified ``constants`` ({material:
     ElasticConstants}), from the constants' uncertainty ``u``. ``fixed_undetermined``: labels
     fixed because undetermined, whose spread counts where ``u`` counted it
     (``u.spread_counted``; a property depending on one not counted is not identified);
     ``before``: the uncertainty of the run before they were fixed (which of them were at a
-    limit of the search there)."""
+    limit of the search there); ``mc``: the constants' Monte Carlo
+    (laminid_cli.uncertainty.MonteCarlo), whose trials give each property its range
+    (:class:`MonteCarloRange`) and, by the constants' rule
+    (laminid_cli.uncertainty.monte_carlo_verdict: the range's width for sure in a worse band
+    than the interval's), a worse verdict marked "(Monte Carlo)"."""
+    from laminid_cli.uncertainty import monte_carlo_verdict
+
     J, labels, g0 = sensitivities(laminate, constants)
     index = {lab: j for j, lab in enumerate(labels)}
     free = list(u.labels)
@@ -187,11 +303,20 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
     share = getattr(u, "information_from_prior", None)
     by_prior = set() if share is None else {
         lab for lab, x in zip(u.labels, np.asarray(share, float)) if x > 0.5}
+    depends = {key: [lab for lab, d in zip(labels, np.abs(J[i]) * scale
+                                           / max(abs(float(g0[i])), 1e-300)) if d > DEPENDS]
+               for i, key in enumerate(KEYS)}
+    ranges = {}
+    if mc is not None:
+        # the trials hold a constant fixed because undetermined unless they drew it
+        ranges = _monte_carlo_ranges(laminate, constants, mc, depends,
+                                     undetermined - set(mc.fixed_labels), g0, std)
+    ran = mc is not None
     out = {}
     for i, key in enumerate(KEYS):
         g = float(g0[i])
-        rel_dep = np.abs(J[i]) * scale / max(abs(g), 1e-300)
-        deps = [lab for lab, d in zip(labels, rel_dep) if d > DEPENDS]
+        deps = depends[key]
+        rng = ranges.get(key)
         bound = tuple(lab for lab in deps if lab in at_bound or lab in unseen)
         und = tuple(lab for lab in deps if lab in undetermined)
         counted = tuple(lab for lab in und if lab in spread)
@@ -205,7 +330,7 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
             # result; no interval (its doubt is the fixed values', which laminid does not know)
             out[key] = GlobalInterval(key, g, np.nan, np.nan, np.nan, np.nan,
                                       f"{NOT_IDENTIFIED}: from the fixed " + ", ".join(given),
-                                      (), (), given)
+                                      (), (), given, monte_carlo=rng, monte_carlo_ran=ran)
             continue
         if bound or und:
             why = ", ".join([f"{lab} (at its bound)" if lab in at_bound else
@@ -213,7 +338,8 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
                             + [f"{lab} (fixed: it was at a search limit)" if lab in was_at_limit
                                else f"{lab} (fixed because undetermined)" for lab in und])
             out[key] = GlobalInterval(key, g, np.nan, np.nan, np.nan, np.nan,
-                                      f"{NOT_IDENTIFIED}: depends on {why}", bound, und, given)
+                                      f"{NOT_IDENTIFIED}: depends on {why}", bound, und, given,
+                                      monte_carlo=rng, monte_carlo_ran=ran)
             continue
         if key.startswith("nu"):
             lo, hi = g - half, g + half
@@ -224,9 +350,14 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
         # plate / more modes": no laminate property can be fixed; the terminal left it out,
         # --json and the file gave it)
         verdict = verdict_of(rel, False).replace(_ADVICE, "")
-        mc = [lab for lab in deps if lab in by_monte_carlo]
-        if mc:
-            verdict += (f" — linearised; {MC_NARROW_WORDS} " + ", ".join(mc)
+        sure = rng.rel(g)[1] if rng is not None else np.nan
+        worse = monte_carlo_verdict(sure, rel) if np.isfinite(sure) else ""
+        if worse:
+            verdict = worse.replace(_ADVICE, "")
+        narrow = [lab for lab in deps if lab in by_monte_carlo]
+        if narrow and not np.isfinite(sure):
+            # no range of its own to judge by: a constant it depends on says it
+            verdict += (f" — linearised; {MC_NARROW_WORDS} " + ", ".join(narrow)
                         + " less determined than that: this interval is too narrow")
         if counted:
             verdict += (" — counts the spread " + ", ".join(counted) + " had before "
@@ -239,5 +370,6 @@ def global_intervals(laminate, constants: dict, u, fixed_undetermined=(), before
             # determined (held by the prior)", as if the modes had given both)
             verdict += f" — {PRIOR_WORDS} " + ", ".join(prior)
         out[key] = GlobalInterval(key, g, float(std[i]), float(lo), float(hi), float(rel),
-                                  verdict, (), (), given, counted)
+                                  verdict, (), (), given, counted, monte_carlo=rng,
+                                  monte_carlo_ran=ran, verdict_from_monte_carlo=bool(worse))
     return out

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from laminid_cli.material import ElasticConstants, GlobalProperties, global_properties, \
-    ply_stiffness
+from laminid_cli.material import ElasticConstants, GlobalProperties, alphas_from_constants, \
+    c_basis, global_properties, global_property_array, ply_stiffness
 
 
 @dataclass(frozen=True)
@@ -66,6 +66,19 @@ class Laminate:
     def global_properties(self) -> GlobalProperties:
         """Equivalent membrane/shear properties of the laminate, paper Appendix A."""
         return global_properties(self.ply_stiffness(), self.thickness)
+
+    def global_properties_of(self, values) -> np.ndarray:
+        """The global properties (Appendix A) at many sets of constants at once: ``values``
+        (n, n_materials, 6), each material's constants in CONSTANT_NAMES order (SI, materials
+        in ``material_names`` order), gives (n, 7) in :class:`GlobalProperties` order. One
+        array expression over the sets (Eq. 4's alphas, Eq. 8's basis, A.1-A.2), no loop."""
+        v = np.asarray(values, dtype=float)
+        a = alphas_from_constants(ElasticConstants(*np.moveaxis(v, -1, 0)))   # (6, n, M)
+        scale = v[..., 0] / (8.0 * a[0])                                        # E1 / (8 a0)
+        coef = scale[..., None] * np.stack([np.ones_like(a[0]), *a[1:]], axis=-1)
+        # Q of every ply of every set: sum_j coef[set, its material, j] C_j(its angle)
+        Q = np.einsum("nlj,ljab->nlab", coef[:, self.material_index], c_basis(self.angle))
+        return global_property_array(Q, self.thickness)
 
     def with_constants(self, constants) -> "Laminate":
         """Copy with new constants: a sequence in ``material_names`` order or a dict by name."""

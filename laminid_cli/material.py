@@ -235,11 +235,16 @@ def global_properties(Q_plies: np.ndarray, thicknesses: np.ndarray) -> GlobalPro
         Ply constitutive matrices in laminate axes (strain order xx, yy, yz, xz, xy).
     thicknesses : array (n_plies,), m
     """
+    return GlobalProperties(*(float(v) for v in global_property_array(Q_plies, thicknesses)))
+
+
+def global_property_array(Q_plies: np.ndarray, thicknesses: np.ndarray) -> np.ndarray:
+    """:func:`global_properties` as an array (..., 7) in :class:`GlobalProperties` order, of
+    ``Q_plies`` (..., n_plies, 5, 5): many sets of ply matrices at once (a Monte Carlo's
+    trials, laminid_cli.global_uncertainty)."""
     t = np.asarray(thicknesses, dtype=float)
-    C = np.einsum("l,lij->ij", t, Q_plies)        # Eq. A.1
+    C = np.einsum("l,...lij->...ij", t, Q_plies)  # Eq. A.1
     S = t.sum() * np.linalg.inv(C)                # Eq. A.2
-    Ex, Ey = 1.0 / S[0, 0], 1.0 / S[1, 1]
-    return GlobalProperties(
-        Ex=Ex, Ey=Ey, Gxy=1.0 / S[4, 4], Gxz=1.0 / S[3, 3], Gyz=1.0 / S[2, 2],
-        nu_xy=-S[0, 1] * Ex, nu_yx=-S[1, 0] * Ey,
-    )
+    Ex, Ey = 1.0 / S[..., 0, 0], 1.0 / S[..., 1, 1]
+    return np.stack([Ex, Ey, 1.0 / S[..., 4, 4], 1.0 / S[..., 3, 3], 1.0 / S[..., 2, 2],
+                     -S[..., 0, 1] * Ex, -S[..., 1, 0] * Ey], axis=-1)

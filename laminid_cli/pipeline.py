@@ -251,7 +251,7 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
         # the laminate's global properties with their doubt (one block per plate when joint)
         gu = {key: gi.as_dict() for key, gi in global_intervals(
             fm.laminate, {n: shared[n] for n in fm.material_names}, a.uncertainty,
-            a.fixed_undetermined, a.before_fixing).items()}
+            a.fixed_undetermined, a.before_fixing, a.monte_carlo).items()}
         if joint:
             list(summary["specimens"].values())[k]["global_uncertainty"] = gu
         else:

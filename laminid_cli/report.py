@@ -645,6 +645,7 @@ def _laminate_text(plate) -> str:
     ref = plate.reference_global
 
     unc = getattr(plate, "global_uncertainty", None) or {}
+    starred = [False]
 
     def one(k, v):
         nu = k.startswith("nu")
@@ -670,6 +671,22 @@ def _laminate_text(plate) -> str:
                     text += " (given fixed values)"     # their own doubt is not in the ±
                 if PRIOR_WORDS in u.get("verdict", ""):
                     text += " (leans on a prior)"       # as the constant's "held by the prior"
+            m = u.get("monte_carlo")
+            if m:
+                # its Monte Carlo range (the property at each trial's constants), in the
+                # words of the constants' table: the ends ("*": set by trials on a search
+                # limit) and, where it set the verdict, its widths and band
+                rng = MonteCarloRange(m["lower"], m["upper"], m.get("inner_lower", np.nan),
+                                      m.get("inner_upper", np.nan),
+                                      bool(m.get("lower_at_bound")),
+                                      bool(m.get("upper_at_bound")))
+                ends, widths = monte_carlo_text("nu12" if nu else k, rng, v)
+                text += f" (Monte Carlo {ends}" + ("" if nu else " GPa")
+                if u.get("verdict_from") == "monte_carlo":
+                    text += (f", {widths}: " + ("not determined" if u["verdict"].startswith(
+                        "not determined") else "weak"))
+                text += ")"
+                starred[0] |= rng.lower_at_limit or rng.upper_at_limit
         if k in ref:
             lo, hi = ref[k]
             r = (f"{lo:.3g}" if nu else f"{lo / 1e9:.3g} GPa") if lo == hi else \
@@ -677,7 +694,9 @@ def _laminate_text(plate) -> str:
             text += f" (reference {r})"
         return text
 
-    return "laminate (Appendix A): " + ", ".join(one(k, v) for k, v in gp.items())
+    text = "laminate (Appendix A): " + ", ".join(one(k, v) for k, v in gp.items())
+    return text + ("; *: an end of a Monte Carlo range set by trials on a search limit (the "
+                   "search's end, not the data's)" if starred[0] else "")
 
 
 def table_notes(r: ResultFile) -> list[str]:

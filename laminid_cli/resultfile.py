@@ -548,8 +548,20 @@ def _global_uncertainty(g) -> dict:
     cols = {k: np.asarray(h[k][()], float) for k in ("value", "std", "lower", "upper",
                                                        "rel_half_width")}
     verdict = _strings(h["verdict"])
-    return {key: {**{k: float(v[i]) for k, v in cols.items()}, "verdict": verdict[i]}
-            for i, key in enumerate(keys)}
+    out = {key: {**{k: float(v[i]) for k, v in cols.items()}, "verdict": verdict[i]}
+           for i, key in enumerate(keys)}
+    if "monte_carlo" in h:
+        # each property's Monte Carlo range (files before it have none: no key)
+        m = h["monte_carlo"]
+        from_mc = set(filter(None, str(h.attrs.get("verdict_from_monte_carlo", ""))
+                             .split(",")))
+        for i, key in enumerate(keys):
+            rng = {k: np.ravel(m[k][()])[i].item() for k in m}
+            lo_b, up_b = (bool(rng.get(f"{side}_at_bound", 0)) for side in ("lower", "upper"))
+            out[key]["monte_carlo"] = (None if not np.isfinite(rng.get("lower", np.nan)) else
+                                       {**rng, "lower_at_bound": lo_b, "upper_at_bound": up_b})
+            out[key]["verdict_from"] = "monte_carlo" if key in from_mc else "linearised"
+    return out
 
 
 #: the statement of a constant at a bound: files before stop 29 wrote it as an inequality

@@ -134,7 +134,15 @@ With an uncertainty assessment (``laminid identify`` always makes one) they also
                           by --fix-undetermined with the width of the run that had it fixed
     /global_properties_uncertainty  keys (Ex, Ey, Gxy, Gxz, Gyz, nu_xy, nu_yx), value, std,
                           lower, upper (Pa; nu: 1; NaN: not identified), rel_half_width, verdict
-                          (laminid_cli.global_uncertainty; in /specimens/<key> of a joint one)
+                          (laminid_cli.global_uncertainty; in /specimens/<key> of a joint one);
+                          with --monte-carlo: attr verdict_from_monte_carlo (keys, comma-
+                          separated: the verdicts marked "(Monte Carlo)"),
+                          monte_carlo_rel_half_width, monte_carlo_rel_half_width_lower (per
+                          key, as /uncertainty's), and monte_carlo/ mean, std, lower, upper,
+                          inner_lower, inner_upper, linearized_std, ratio, trials_at_bound,
+                          lower_at_bound, upper_at_bound (per key: the property at each
+                          trial's constants, as /uncertainty/monte_carlo; NaN: the trials do
+                          not move it), attr evidence_level
 
 With measured damping (``measured.damping`` or an FRF file; laminid_cli.damping)::
 
@@ -961,6 +969,41 @@ def write_global_uncertainty(g, unc: dict) -> None:
                                        else unc[k]["rel_half_width"] for k in keys], float), "1")
     h.create_dataset("verdict", data=[unc[k]["verdict"] for k in keys],
                      dtype=h5py.string_dtype())
+    if not any("monte_carlo" in unc[k] for k in keys):
+        return
+    # with a Monte Carlo: each property at every trial's constants, summarised as the
+    # constants' ranges are (/uncertainty/monte_carlo; NaN: the trials do not move it)
+    from laminid_cli.uncertainty import MC_EVIDENCE
+
+    h.attrs["verdict_from_monte_carlo"] = ",".join(
+        k for k in keys if unc[k].get("verdict_from") == "monte_carlo")
+    for key, what in (("monte_carlo_rel_half_width", "the Monte Carlo range's half-width / "
+                       "|value|"),
+                      ("monte_carlo_rel_half_width_lower", "the half-width / |value| the "
+                       "Monte Carlo range has for sure (monte_carlo/@evidence_level): the "
+                       "width its verdicts use; NaN: no range, or too few trials")):
+        put(h, key, np.array([unc[k].get(key, np.nan) for k in keys], float), "1",
+            description=what)
+    gm = h.create_group("monte_carlo")
+    gm.attrs["evidence_level"] = MC_EVIDENCE
+    gm.attrs["description"] = (
+        "each property at each converged trial's constants (its free ones, the fixed ones it "
+        "drew, the others the result's); NaN: the trials do not move it (it depends on fixed "
+        "values only, or on one fixed because undetermined that they held)")
+    mc = [unc[k].get("monte_carlo") or {} for k in keys]
+    for field in ("mean", "std", "lower", "upper", "inner_lower", "inner_upper",
+                  "linearized_std"):
+        put(gm, field, np.array([m.get(field, np.nan) for m in mc], float), unit)
+    put(gm, "ratio", np.array([m.get("ratio", np.nan) for m in mc], float), "1",
+        description="Monte Carlo std / linearised std (times t's std, as the constants')")
+    put(gm, "trials_at_bound", np.array([m.get("trials_at_bound", 0) for m in mc], int), "1",
+        description="converged trials whose answer has a constant the property depends on "
+        "on a limit of the search")
+    for side in ("lower", "upper"):
+        put(gm, f"{side}_at_bound", np.array([m.get(f"{side}_at_bound", False) for m in mc],
+                                             np.int8), "1",
+            description=f"1: the {side} end of the range is set by such trials (the "
+            "search's end, not the data's)")
 
 
 def write_damping(f, d) -> None:

@@ -1937,6 +1937,11 @@ class MonteCarlo:
     #: degrees of freedom of the variance factor each trial drew (the linearised intervals
     #: scaled by s2, Student t: :func:`variance_draws`); 0 when the stated sigma was used
     variance_dof: int = 0
+    #: (n_converged, p) int8, rows as ``samples``: -1 where the trial's answer has the
+    #: constant on a lower limit of the search, +1 on an upper one, 0 elsewhere
+    #: (:func:`trial_bound_flags`; ``at_lower_bound``/``at_upper_bound`` count them); None
+    #: where not kept (no trial then counts as on a limit)
+    trial_at_bound: np.ndarray | None = None
 
     def bound_counts(self) -> tuple[np.ndarray, np.ndarray]:
         """(lower, upper) trials at a limit of the search per constant (p,), zeros where not
@@ -2068,23 +2073,50 @@ def range_ends_at_bound(at_lower, at_upper, n: int, confidence: float
             (at_upper >= need) | ((at_lower > 0) & (n - at_lower < need)))
 
 
+def sorted_ends_at_bound(values, on_limit, confidence: float) -> tuple[bool, bool]:
+    """(lower, upper): the rule of :func:`range_ends_at_bound` for a quantity computed from
+    the constants (a laminate property, laminid_cli.global_uncertainty), whose trials on a
+    limit of the search need not be its smallest or largest: an end is flagged where the
+    order statistic that carries at least half the weight of its quantile (linear
+    interpolation, position q (n - 1) from 0; the outer one at a tie) is a trial on a limit
+    (``on_limit``, (n,) bool). For samples whose trials on a limit are the smallest (a
+    constant on its lower limit) this is :func:`range_ends_at_bound`, far end included."""
+    x = np.asarray(values, float)
+    n = x.size
+    if n < 2:
+        return False, False
+    pos = (1 - confidence) / 2 * (n - 1)
+    i = int(np.floor(pos))
+    k = i + 1 if pos - i > 0.5 else i
+    lim = np.asarray(on_limit, bool)[np.argsort(x, kind="stable")]
+    return bool(lim[k]), bool(lim[n - 1 - k])
+
+
 def trials_at_bounds(result, labels, samples) -> tuple[np.ndarray, np.ndarray]:
     """Per free constant (``labels``), the trials (rows of ``samples``, over ``labels``) whose
-    answer has it on a lower / upper limit of the search: :func:`bounds_reached` on each
-    trial's constants (the fixed ones are the result's)."""
+    answer has it on a lower / upper limit of the search (:func:`trial_bound_flags`)."""
+    flags = trial_bound_flags(result, labels, samples)
+    return (flags < 0).sum(axis=0), (flags > 0).sum(axis=0)
+
+
+def trial_bound_flags(result, labels, samples) -> np.ndarray:
+    """(n, p) int8 over the trials (rows of ``samples``, over ``labels``): -1 where the
+    trial's answer has the constant on a lower limit of the search, +1 on an upper one, 0
+    elsewhere: :func:`bounds_reached` on each trial's constants (the fixed ones are the
+    result's)."""
     states = material_states(result)
     opts = result.options
     index = {lab: k for k, lab in enumerate(labels)}
-    low = np.zeros(len(labels), int)
-    up = np.zeros(len(labels), int)
-    for row in np.asarray(samples, float):
+    samples = np.asarray(samples, float).reshape(-1, len(labels))
+    flags = np.zeros(samples.shape, np.int8)
+    for t, row in enumerate(samples):
         trial = [dataclasses.replace(m, constants=dataclasses.replace(
             m.constants, **{k: float(row[index[f"{m.name}.{k}"]]) for k in m.free
                             if f"{m.name}.{k}" in index})) for m in states]
         for lab, hit in bounds_reached(trial, opts.nu_max, opts.bound_factor).items():
             if lab in index:
-                (low if hit.side == "lower" else up)[index[lab]] += 1
-    return low, up
+                flags[t, index[lab]] = -1 if hit.side == "lower" else 1
+    return flags
 
 
 _WORKER: dict = {}
@@ -2477,7 +2509,8 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
     conv = np.array([v is not None for v in out])
     finite = bounds[conv & np.isfinite(bounds)]
     moved = shifts[conv & np.isfinite(shifts)]
-    at_lower, at_upper = trials_at_bounds(result, uncertainty.labels, samples)
+    on_limit = trial_bound_flags(result, uncertainty.labels, samples)
+    at_lower, at_upper = (on_limit < 0).sum(axis=0), (on_limit > 0).sum(axis=0)
     return MonteCarlo(labels=uncertainty.labels, n_trials=n_trials, n_converged=len(ok),
                       samples=samples, mean=mean, std=std, lower=lower, upper=upper,
                       linearized_std=lin, ratio=ratio, sigma_factor=factor, seed=seed, jobs=jobs,
@@ -2492,6 +2525,7 @@ def monte_carlo(result, fms, sigmas, uncertainty: Uncertainty, n_trials: int, *,
                       else float("nan"),
                       prior_sigma=shift_sd if priors else 0.0,
                       at_lower_bound=at_lower, at_upper_bound=at_upper, confidence=conf,
+                      trial_at_bound=on_limit,
                       trials=converged, energy_shares=trial_shares, variance_dof=nu,
                       fixed_labels=() if drawn is None else fixed_draw.labels,
                       fixed_samples=None if drawn is None else drawn[converged],

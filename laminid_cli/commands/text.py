@@ -79,8 +79,16 @@ def format_global(props: dict, unc: dict | None = None) -> list[str]:
     """The laminate's global properties (Appendix A); with ``unc`` (the JSON block
     "global_uncertainty") a table with their intervals and verdicts."""
     if unc:
+        # with a Monte Carlo, each property's range over the trials, each at its own constants
+        # (laminid_cli.global_uncertainty.MonteCarloRange), as the constants' table gives it
+        mc = any("monte_carlo" in u for u in unc.values())
         lines = ["global laminate properties (Appendix A; 95 % intervals from the constants' "
-                 "covariance)"]
+                 "covariance" + ("; Monte Carlo: the property at each trial's constants"
+                                 if mc else "") + ")"]
+        if mc:
+            lines.append(f"  {'property':<10} {'value':>8}  {'95 % interval':>17} "
+                         f"{'±':>8}  {'Monte Carlo 95 % range':>24}  verdict")
+        marked = False
         for key, unit in GLOBAL_ORDER:
             u = unc.get(key)
             v = props.get(key)
@@ -91,8 +99,25 @@ def format_global(props: dict, unc: dict | None = None) -> list[str]:
             span = (f"{_num(name, u['lower'])} .. {_num(name, u['upper'])}"
                     if _finite(u["lower"]) else "none")
             rel = _pct(u["rel_half_width"]) if _finite(u["rel_half_width"]) else "—"
+            cell = ""
+            if mc:
+                r = u.get("monte_carlo")
+                cell = "none"
+                if r and _finite(r.get("lower")):
+                    # the digits of the constants' Monte Carlo table; "*": an end set by
+                    # trials on a limit of the search
+                    cell = (significant_text(name, r["lower"], 4)
+                            + ("*" if r.get("lower_at_bound") else "") + " .. "
+                            + significant_text(name, r["upper"], 4)
+                            + ("*" if r.get("upper_at_bound") else ""))
+                    marked |= bool(r.get("lower_at_bound") or r.get("upper_at_bound"))
+                cell = f"{cell:>24}  "
             lines.append(f"  {key + (' [GPa]' if gpa else ''):<10} {_num(name, v):>8}  {span:>17} "
-                         f"{rel:>8}  {u['verdict'].replace(VERDICT_ADVICE, '')}")
+                         f"{rel:>8}  {cell}{u['verdict'].replace(VERDICT_ADVICE, '')}")
+        if marked:
+            lines.append("  * that end of the Monte Carlo range is set by trials with a constant "
+                         "the property depends on on a limit of the search: the search's "
+                         "limit, not the data's")
         return lines
     parts = []
     for key, unit in GLOBAL_ORDER:
