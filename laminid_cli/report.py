@@ -3042,7 +3042,8 @@ def lay_out_once(fig, fmt: str, dpi: float) -> None:
     else:
         fig.set_dpi(dpi)
     try:
-        engine.execute(fig)
+        if fig.axes:                # as Figure.draw: no layout of a page without axes
+            engine.execute(fig)
     finally:
         fig.set_dpi(own_dpi)        # (the PDF canvas leaves it at 72)
         fig.set_canvas(own_canvas)

@@ -173,3 +173,24 @@ def test_a_page_laid_out_once_is_the_page_savefig_lays_out(fmt, tmp_path):
         assert a.get_position().bounds == pytest.approx(b.get_position().bounds, abs=1e-9)
     assert saved._suptitle.get_position() == pytest.approx(once._suptitle.get_position(),
                                                            abs=1e-9)
+
+
+def test_a_page_of_words_only_is_written_without_a_layout_warning(tmp_path):
+    """A page without axes is not laid out by savefig (Figure.draw lays out only a figure with
+    axes); lay_out_once does the same, where constrained layout warns 'There are no gridspecs
+    with layoutgrids'."""
+    import warnings
+
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)
+    from matplotlib.figure import Figure
+
+    from laminid_cli.report import Page, write_pages
+
+    fig = Figure(figsize=(4.0, 3.0), layout="constrained")
+    fig.text(0.5, 0.5, "words only", ha="center")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert write_pages([Page("words", fig)], tmp_path / "w.pdf") == [tmp_path / "w.pdf"]
+    assert fig.get_layout_engine() is None
