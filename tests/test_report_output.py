@@ -140,3 +140,57 @@ def test_page_one_fits_two_line_cells_and_many_notes(s21_6x6, monkeypatch):
     notes = next(t for a in fig.axes for t in a.texts if t.get_gid() == "notes")
     box = notes.get_window_extent(renderer)
     assert box.y0 >= 0 and notes.get_fontsize() < 7.5      # shrunk, and still on the page
+
+
+@pytest.mark.parametrize("fmt", ["pdf", "png"])
+def test_a_page_laid_out_once_is_the_page_savefig_lays_out(fmt, tmp_path):
+    """write_pages lays each page out once (report.lay_out_once) and removes its layout engine,
+    so that savefig draws it once instead of twice: the layout must be the one savefig's own
+    first draw makes, with the renderer of the format (a PDF's text metrics at 72 dpi differ
+    from Agg's: laid out with Agg, S1.1's pages moved by up to 5 pt)."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)
+    from matplotlib.figure import Figure
+
+    from laminid_cli.report import lay_out_once
+
+    def page():
+        fig = Figure(figsize=(6.0, 4.0), layout="constrained")
+        fig.suptitle("a title of some length", fontsize=13)
+        for k, ax in enumerate(fig.subplots(1, 2)):
+            ax.plot([0.0, 1.0], [0.0, 10.0 ** (4 * k)])
+            ax.set_ylabel("a label\non two lines" if k else "w", fontsize=11)
+            ax.set_title(f"panel {k}: 0.123456 Hz")
+        return fig
+
+    saved = page()
+    saved.savefig(tmp_path / f"a.{fmt}", dpi=110)        # laid out by savefig's first draw
+    once = page()
+    lay_out_once(once, fmt, 110)
+    assert once.get_layout_engine() is None and once.dpi == saved.dpi
+    for a, b in zip(saved.axes, once.axes):
+        assert a.get_position().bounds == pytest.approx(b.get_position().bounds, abs=1e-9)
+    assert saved._suptitle.get_position() == pytest.approx(once._suptitle.get_position(),
+                                                           abs=1e-9)
+
+
+def test_a_page_of_words_only_is_written_without_a_layout_warning(tmp_path):
+    """A page without axes is not laid out by savefig (Figure.draw lays out only a figure with
+    axes); lay_out_once does the same, where constrained layout warns 'There are no gridspecs
+    with layoutgrids'."""
+    import warnings
+
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)
+    from matplotlib.figure import Figure
+
+    from laminid_cli.report import Page, write_pages
+
+    fig = Figure(figsize=(4.0, 3.0), layout="constrained")
+    fig.text(0.5, 0.5, "words only", ha="center")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert write_pages([Page("words", fig)], tmp_path / "w.pdf") == [tmp_path / "w.pdf"]
+    assert fig.get_layout_engine() is None
