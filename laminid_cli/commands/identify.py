@@ -114,7 +114,7 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
     import dataclasses
     import sys
 
-    from laminid_cli.errors import FitInputError, InputFileError, LaminidError
+    from laminid_cli.errors import FitInputError, InputFileError, LaminidError, SpecimenError
     from laminid_cli.pipeline import fix_list_hint, run_identification, write_result
 
     if no_output and output is not None:
@@ -124,6 +124,11 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
         # --joint where the second "specimen" is the rest of a --fix list split at a space
         if not Path(sp).exists() and (len(specs) > 1 or fix_list_hint(sp)):
             raise InputFileError(f"{sp}: file not found{fix_list_hint(sp)}", path=sp)
+        # and before the output is looked at: /nope/x.yaml was "/nope/x.result.h5: folder
+        # /nope does not exist", and a mistyped path set the earlier default result of that
+        # name aside as another input's (a path is no specimen that now fails)
+        if not Path(sp).exists():
+            raise SpecimenError("file not found", path=sp)
     if len(specs) > 1 and not joint:
         raise FitInputError(f"{len(specs)} specimens given: add --joint to identify them "
                             "together (one set of constants per shared material)")
