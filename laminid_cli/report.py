@@ -3021,9 +3021,11 @@ def report_pages(path, *, frf_path=None) -> list[Page]:
     return result_pages(path, frf_path=frf_path)
 
 
-def write_pages(pages, out, *, dpi: int = 110) -> list[Path]:
+def write_pages(pages, out, *, dpi: int = 110, progress=None) -> list[Path]:
     """Write a multi-page PDF (one file) or PNGs (``out`` for one page, else ``<stem>-1.png``,
-    ``<stem>-2.png``...). Each file goes to a temporary name first, then is renamed."""
+    ``<stem>-2.png``...). Each file goes to a temporary name first, then is renamed.
+    ``progress(k, n, name)``, if given, is called before page k of n is drawn (drawing is most
+    of a report's time: hybrid CM's six pages 12 of 18 s)."""
 
     out = Path(out)
     suffix = out.suffix.lower()
@@ -3036,10 +3038,14 @@ def write_pages(pages, out, *, dpi: int = 110) -> list[Path]:
         with atomic_path(out) as tmp:
             with PdfPages(tmp, metadata={"Title": f"laminid report {out.stem}",
                                          "Creator": "laminid"}) as pdf:
-                for p in pages:
+                for k, p in enumerate(pages, start=1):
+                    if progress is not None:
+                        progress(k, len(pages), p.name)
                     pdf.savefig(p.figure)
         return [out]
     for k, p in enumerate(pages, start=1):
+        if progress is not None:
+            progress(k, len(pages), p.name)
         target = out if len(pages) == 1 else out.with_name(f"{out.stem}-{k}{out.suffix}")
         with atomic_path(target) as tmp:
             p.figure.savefig(tmp, dpi=dpi, format="png")

@@ -140,3 +140,27 @@ def test_page_one_fits_two_line_cells_and_many_notes(s21_6x6, monkeypatch):
     notes = next(t for a in fig.axes for t in a.texts if t.get_gid() == "notes")
     box = notes.get_window_extent(renderer)
     assert box.y0 >= 0 and notes.get_fontsize() < 7.5      # shrunk, and still on the page
+
+
+def test_a_terminal_is_told_which_page_is_drawn(result, tmp_path, monkeypatch):
+    """report drew a result's pages for 5 s (hybrid CM: 15 s) with nothing on a terminal;
+    it now says it is reading the result, then each page as it is drawn, and ends the line
+    before its own. Not on a pipe or a log, nor under -q. (Three blank pages stand for the
+    result's: what is said, not what is drawn.)"""
+    import laminid_cli.commands.report as cmd
+    import laminid_cli.report as rep
+
+    def pages(source, frf_path=None):
+        return [rep.Page(name, rep._figure(size=(2, 2))) for name in ("a", "b", "c")]
+
+    monkeypatch.setattr(rep, "report_pages", pages)
+    monkeypatch.setattr(cmd, "stderr_is_terminal", lambda: True)
+    r = CliRunner().invoke(cli, ["report", str(result), "-o", str(tmp_path / "r.pdf")])
+    assert r.exit_code == 0, r.output
+    head = f"  reading {result} and laying out its pages"
+    assert r.stderr.split("\r") == [head] + [
+        f"  drawing page {k} of 3 ({n})".ljust(len(head)) for k, n in ((1, "a"), (2, "b"))] + [
+        "  drawing page 3 of 3 (c)".ljust(len(head)) + "\n"]
+    assert r.stdout == f"3 pages (a, b, c) written to {tmp_path / 'r.pdf'}\n"
+    r = CliRunner().invoke(cli, ["-q", "report", str(result), "-o", str(tmp_path / "q.pdf")])
+    assert r.exit_code == 0 and r.stderr == ""
