@@ -55,7 +55,8 @@ SNR_UNIT = ("1 (linear, not dB: the mode's peak contribution over the RMS of the
                    "weights follow their modes by frequency).")
 @click.option("--sigma-rel", type=SIGMA_REL, default=0.002, show_default=True, metavar="FRACTION",
               help="Floor of each frequency's standard deviation, as a fraction of it "
-                   "(supports, temperature, repeatability: what the FRF cannot show).")
+                   "(0.002, or 0.2%; supports, temperature, repeatability: what the FRF "
+                   "cannot show).")
 @force_option
 @frf_json_option
 def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path, spec_path,
