@@ -318,21 +318,37 @@ def test_into_weights_follow_by_frequency_when_a_mode_is_missing():
 
 def test_into_never_overwrites_a_backup(tmp_path, h5):
     """Each --into keeps the text it replaces in a backup of its own (SPEC.bak, SPEC.bak1...);
-    a run that would back up exactly the newest backup's text makes none, and says where."""
+    a run that would back up exactly the newest backup's text makes none, and says where. A
+    run that would write exactly what the file holds (the same FRFs fitted into it again)
+    writes nothing: it rewrote the file as it was, with a backup of that same text."""
     spec = tmp_path / "p.yaml"
     spec.write_text(SPEC)
     r = run(["fit-frf", str(h5), "--into", str(spec)])
     assert f"(previous version in {tmp_path / 'p.yaml.bak'})" in r.output
     texts = [SPEC]
     for k, word in ((1, "one"), (2, "two")):       # edited by hand between two fits
-        spec.write_text(spec.read_text().replace("# keep me", f"# keep me {word}"))
+        spec.write_text(SPEC.replace("# keep me", f"# keep me {word}"))
         texts.append(spec.read_text())
         r = run(["fit-frf", str(h5), "--into", str(spec), "--json"])
         assert json.loads(r.output)["backup"] == \
             f"previous version in {tmp_path / f'p.yaml.bak{k}'}"
-    # the fit writes what the file holds already: no third copy of the same text
+        assert json.loads(r.output)["into_unchanged"] is False
+    # the file as the fit left it, backed up by hand: a fit that changes it makes no third copy
+    fitted = spec.read_text()
+    spec.write_text(SPEC.replace("# keep me", "# keep me two"))
     r = run(["fit-frf", str(h5), "--into", str(spec)])
     assert f"(previous version already in {tmp_path / 'p.yaml.bak2'})" in r.output
+    assert spec.read_text() == fitted
+    # the same fit again: the file holds it already, nothing is written
+    before = spec.stat().st_mtime_ns
+    r = run(["fit-frf", str(h5), "--into", str(spec)])
+    assert r.exit_code == 0, r.output
+    assert r.output.splitlines()[-1].startswith(f"{spec} already holds these ")
+    assert r.output.splitlines()[-1].endswith(": left unchanged (no backup made)")
+    assert spec.read_text() == fitted and spec.stat().st_mtime_ns == before
+    r = run(["fit-frf", str(h5), "--into", str(spec), "--json"])
+    assert json.loads(r.output)["into_unchanged"] is True
+    assert json.loads(r.output)["backup"] == "unchanged: it held them already; no backup made"
     assert [(tmp_path / n).read_text() for n in ("p.yaml.bak", "p.yaml.bak1", "p.yaml.bak2")] \
         == texts
     assert sorted(p.name for p in tmp_path.iterdir()) == [

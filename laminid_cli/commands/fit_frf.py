@@ -242,6 +242,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
             "warnings": warnings,
             "plot": plot_path, "into": spec_path,
             "backup": None if into is None else into.backup_text,
+            "into_unchanged": None if into is None else into.unchanged,
             "weights": None if into is None else list(into.weight_notes),
             "into_notes": None if into is None else list(into.damping_notes),
         })
@@ -280,7 +281,11 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     if into is not None:
         what = "frequencies and damping ratios" if into.damping_written else \
             "frequencies (no damping ratio: none is above the window's)"
-        click.echo(f"{len(fit.modes)} {what} written to {spec_path} ({into.backup_text})")
+        if into.unchanged:
+            click.echo(f"{spec_path} already holds these {len(fit.modes)} {what}: left "
+                       "unchanged (no backup made)")
+        else:
+            click.echo(f"{len(fit.modes)} {what} written to {spec_path} ({into.backup_text})")
         for note in into.damping_notes:
             click.echo(f"note: {note}")
         for note in into.weight_notes:
