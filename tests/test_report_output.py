@@ -164,3 +164,21 @@ def test_a_terminal_is_told_which_page_is_drawn(result, tmp_path, monkeypatch):
     assert r.stdout == f"3 pages (a, b, c) written to {tmp_path / 'r.pdf'}\n"
     r = CliRunner().invoke(cli, ["-q", "report", str(result), "-o", str(tmp_path / "q.pdf")])
     assert r.exit_code == 0 and r.stderr == ""
+
+
+def test_an_existing_first_png_page_is_refused_before_the_pages_are_drawn(result, tmp_path,
+                                                                          monkeypatch):
+    """report -o r.png where r-1.png exists laid out every page (5 s for S1.1, 15 s for
+    hybrid CM), then refused r-1.png; it is refused first, nothing drawn, the file kept."""
+    import laminid_cli.report as rep
+
+    def no_pages(source, frf_path=None):
+        raise AssertionError("the pages were laid out before the output was refused")
+
+    monkeypatch.setattr(rep, "report_pages", no_pages)
+    (tmp_path / "r-1.png").write_bytes(b"page one of an earlier report")
+    r = run("report", result, "-o", tmp_path / "r.png")
+    assert r.exit_code == 2, r.output
+    assert r.output == (f"laminid: error: {tmp_path / 'r-1.png'}: file exists; use --force to "
+                        "overwrite it or choose another name with -o\n")
+    assert (tmp_path / "r-1.png").read_bytes() == b"page one of an earlier report"

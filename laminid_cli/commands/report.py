@@ -115,6 +115,11 @@ def report(source, output, frf_path, dpi, force):
     replacing = False
     if output:
         out = check_output_path(out, force)
+        if out.suffix.lower() == ".png":
+            # every report has two pages or more (a result's summary and mode shapes, a
+            # summary's constants and residuals), so its first PNG is <stem>-1.png: one there
+            # was refused only after the pages were laid out (5 s for S1.1, 15 s hybrid CM)
+            check_output_path(out.with_name(f"{out.stem}-1{out.suffix}"), force)
     else:
         out, replacing = derived_report(source)
     # a terminal is told where the report is (S1.1: 5 s, hybrid CM: 15 s on a busy machine,
