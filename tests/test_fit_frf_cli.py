@@ -705,3 +705,26 @@ def test_plot_legend_gives_the_frequencies_sigma_span(tmp_path, h5, case):
     assert sigma_label([0.25, 0.25]) == "RFP natural frequency (± 0.25 Hz, one standard deviation)"
     r = run(["fit-frf", str(h5), "--plot", str(tmp_path / "fit.png")])
     assert r.exit_code == 0, r.output
+
+
+def test_a_terminal_is_told_what_runs(tmp_path, h5, monkeypatch):
+    """fit-frf --plot fitted and drew for 2.8-7.6 s (the synthetic S1.1's 8 FRFs) with nothing
+    on a terminal, its table printed after the plot; it now says it fits, then draws, and ends
+    the line before the table. Not with --json, nor on a pipe or a log. (The plot is stood in
+    for: what is said, not what is drawn.)"""
+    import laminid_cli.commands.fit_frf as cmd
+    import laminid_cli.frf.plot as plot
+
+    drawn = []
+    monkeypatch.setattr(plot, "plot_fit", lambda path, *a, **k: drawn.append(path))
+    monkeypatch.setattr(cmd, "stderr_is_terminal", lambda: True)
+    out = tmp_path / "fit.png"
+    r = CliRunner().invoke(cli, ["fit-frf", str(h5), "--plot", str(out)])
+    assert r.exit_code == 0, r.output
+    head = f"  fitting 5 FRFs of {h5}"
+    assert r.stderr == head + "\r" + f"  drawing {out}".ljust(len(head)) + "\n"
+    assert drawn == [out] and r.stdout.startswith(f"{h5}: 5 FRFs (Pa/N)")
+    r = CliRunner().invoke(cli, ["fit-frf", str(h5)])
+    assert r.exit_code == 0 and r.stderr == head + "\n"
+    r = CliRunner().invoke(cli, ["fit-frf", str(h5), "--json"])
+    assert r.exit_code == 0 and r.stderr == ""

@@ -111,6 +111,14 @@ class InputFile(click.Path):
 OUTPUT_FILE = click.Path()
 
 
+def stderr_is_terminal() -> bool:
+    """Whether stderr is a terminal: progress lines (``\\r``) are drawn there only (report,
+    fit-frf)."""
+    import sys
+
+    return sys.stderr.isatty()
+
+
 def quiet() -> bool:
     """True under ``laminid -q`` (only errors on stderr: no count lines, no progress)."""
     ctx = click.get_current_context(silent=True)

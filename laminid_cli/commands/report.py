@@ -7,7 +7,8 @@ from pathlib import Path
 import click
 
 from laminid_cli.commands._common import (OUTPUT_FILE, InputFile, check_output_path,
-                                          force_option, quiet, writable_target)
+                                          force_option, quiet, stderr_is_terminal,
+                                          writable_target)
 
 #: what write_pages puts in a PDF's information dictionary
 _CREATOR = b"/Creator (laminid)"
@@ -17,13 +18,6 @@ def default_output(source: str) -> Path:
     p = Path(source)
     stem = p.name[: -len(".result.h5")] if p.name.endswith(".result.h5") else p.stem
     return p.with_name(stem + ".report.pdf")
-
-
-def stderr_is_terminal() -> bool:
-    """Whether stderr is a terminal (the report's progress line is drawn there only)."""
-    import sys
-
-    return sys.stderr.isatty()
 
 
 def is_laminid_report(path: Path) -> bool:
