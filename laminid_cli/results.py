@@ -792,6 +792,15 @@ def uncertainty_summary(a) -> dict:
                       "verdict": entry.get("verdict", "fixed"), "flagged": False,
                       "at_bound": False, "bound_text": "", "bound_side": "",
                       "bound_limit": None, "assumed": lab in a.fixed_undetermined})
+    # ... all of them: the README's "the same keys for every constant" missed a fixed one's
+    # scale, verdict_from, information_from_prior (and quantile, effective_dof... where the
+    # free ones have them), and a free one's "assumed"; null where it does not apply
+    entries = [e for per in out["constants"].values() for e in per.values()]
+    keys = list(dict.fromkeys(k for e in entries for k in e))
+    for e in entries:
+        e.setdefault("assumed", False)
+        for k in keys:
+            e.setdefault(k, None)
     out["kept_free"] = dict(a.kept_free)
     out["fixed_undetermined_widths"] = {
         lab: {"rel_half_width": w[0], "verdict": w[1], "run": w[2]}
