@@ -1562,7 +1562,15 @@ def load_specimen_text(text: str, path: str = "<string>", *,
 
     boundary = "free"
     if "boundary" in top:
-        boundary = r.string(top["boundary"]).strip().lower()
+        written = r.string(top["boundary"]).strip()
+        boundary = written.lower()
+        if len(boundary) == 4 and set(boundary) <= set("fsc"):
+            # an edge code (CFFF, a cantilever) was "unknown boundary condition 'cfff'", though
+            # modes --boundary takes it: say where it goes
+            raise r.error(top["boundary"], f"'{written}' is an edge code, which only 'laminid "
+                                           "modes --boundary' takes; a specimen's boundary is "
+                                           f"one of {', '.join(BOUNDARIES)} (what identify and "
+                                           "batch fit)")
         if boundary not in BOUNDARIES:
             guess = _closest(boundary, BOUNDARIES)
             hint = f"; did you mean '{guess}'?" if guess else ""

@@ -109,8 +109,11 @@ def test_an_edge_code_is_a_modes_boundary_not_a_specimens(tmp_path):
     spec.write_text(Path(S11).read_text().replace("boundary: free", "boundary: CFFF"))
     r = run("modes", str(spec), "--mesh", "4x4")
     assert r.exit_code == 2
-    assert (f"{spec}:26, field 'boundary': unknown boundary condition 'cfff' (valid: free, "
-            "simply-supported, clamped)") in r.output
+    # it was "unknown boundary condition 'cfff' (valid: ...)": the code lowercased, and not
+    # said to be a code that modes --boundary takes
+    assert r.output == (f"laminid: error: {spec}:26, field 'boundary': 'CFFF' is an edge code, "
+                        "which only 'laminid modes --boundary' takes; a specimen's boundary is "
+                        "one of free, simply-supported, clamped (what identify and batch fit)\n")
 
 
 def test_a_mode_not_measured_keeps_the_columns():
