@@ -725,3 +725,19 @@ def test_monte_carlo_table_numbers_keep_their_trailing_zeros():
     assert _val("nu12", 0.05, 4) == "0.05000"
     assert significant_text("E1", 1234.4e9, 4) == "1234"           # no trailing point
     assert significant_text("G13", 8.684992e9, 4) == "8.685"
+
+
+def test_a_terminal_is_told_of_the_mesh_check(monkeypatch):
+    """identify --mesh-check solved the finer mesh (S1.1 at 24x24: 11.6 s) under the last
+    "evaluation" line, which looked stuck; a terminal is told the mesh check runs, and the
+    line ends before the report."""
+    import laminid_cli.commands.identify as cmd
+
+    monkeypatch.setattr(cmd, "stderr_is_terminal", lambda: True)
+    r = run("identify", "specimens/example1/S1.1.yaml", "--mesh", "4x4", "--mesh-check",
+            "--no-output")
+    assert r.exit_code == 0, r.output
+    said = "\r" + "  mesh check: the identified constants on 8x8".ljust(78)
+    assert said in r.stderr
+    after = r.stderr.split(said, 1)[1]
+    assert "evaluation" not in after and after.startswith("\n"), after
