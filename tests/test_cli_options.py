@@ -339,3 +339,14 @@ def test_laminids_own_option_after_the_command_says_where_it_goes(option):
     assert doc["message"] == (f"No such option: {option} of 'batch'; it is laminid's own, "
                               f"written before the command: laminid {option} batch ...")
     assert doc["field"] == option and doc["kind"] == "UsageError"
+
+
+def test_report_json_names_where_a_results_json_is(tmp_path):
+    """report is the one command without --json; `laminid report R.h5 --json` said only
+    "No such option '--json'": it names show --json (and a batch's summary.json). No JSON
+    document on stdout: report has none to replace."""
+    r = run("report", tmp_path / "r.result.h5", "--json")
+    assert r.exit_code == 2 and r.stdout == ""
+    assert r.stderr.endswith(
+        "Error: No such option: --json of 'report', which draws figures; 'laminid show RESULT "
+        "--json' prints a result as JSON (a batch's is its summary.json)\n"), r.stderr
