@@ -728,3 +728,20 @@ def test_a_terminal_is_told_what_runs(tmp_path, h5, monkeypatch):
     assert r.exit_code == 0 and r.stderr == head + "\n"
     r = CliRunner().invoke(cli, ["fit-frf", str(h5), "--json"])
     assert r.exit_code == 0 and r.stderr == ""
+
+
+def test_one_frf_is_said_in_the_singular(tmp_path, case):
+    """A lab's CSV of one FRF (frequency, real, imaginary) was "1 FRFs" in fit-frf's first
+    line, its progress line and export's line."""
+    path = tmp_path / "one.csv"
+    with open(path, "w") as fh:
+        fh.write("f [Hz],H1_re,H1_im\n")
+        for f, h in zip(case.freq, case.frf[0]):
+            fh.write(f"{float(f)!r},{float(h.real)!r},{float(h.imag)!r}\n")
+    r = run(["fit-frf", str(path), "--band", "100:300"])
+    assert r.exit_code == 0, r.output
+    assert r.output.startswith(f"{path}: 1 FRF (unit not stated in file), {case.freq.size} "
+                               "lines, bands 100-300 Hz\n"), r.output
+    r = run(["export", str(path), "-o", str(tmp_path / "one.uff")])
+    assert r.exit_code == 0, r.output
+    assert r.output.startswith(f"{tmp_path / 'one.uff'}: 1 FRF (UFF 58b, ")

@@ -154,7 +154,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     # a terminal is told what runs: the fit and the plot took 2.8-7.6 s (the synthetic S1.1's
     # 8 FRFs, busy machine) with nothing on it, the table printed after the plot
     show_progress = not as_json and stderr_is_terminal() and not quiet()
-    head = f"  fitting {fs.n_points} FRFs of {frf_file}"
+    head = f"  fitting {fs.n_points} FRF{'' if fs.n_points == 1 else 's'} of {frf_file}"
     if show_progress:
         click.echo(head, err=True, nl=False)
     try:
@@ -268,7 +268,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         })
         return
     bands_txt = ", ".join(f"{b.band_hz[0]:g}-{b.band_hz[1]:g}" for b in fit.bands)
-    click.echo(f"{frf_file}: {fs.n_points} FRFs ({units_text(fs.units)}), {fs.freq.size} lines, "
+    frfs = f"{fs.n_points} FRF{'' if fs.n_points == 1 else 's'}"     # (was "1 FRFs")
+    click.echo(f"{frf_file}: {frfs} ({units_text(fs.units)}), {fs.freq.size} lines, "
                f"bands {bands_txt} Hz")
     windowed = wc.exp_window_s is not None
     if not fit.modes:
