@@ -106,6 +106,25 @@ class InputFile(click.Path):
         return value
 
 
+def files_hint(command: str, patterns, what: str):
+    """A ``folder_hint`` for :class:`InputFile`: what a folder given for a file holds that
+    ``laminid COMMAND`` takes (``patterns`` in the folder itself), one named in the command
+    to run ("efrf: is a folder, not a file; it holds 1 FRF file: 'laminid fit-frf
+    efrf/plate.frf.h5'"); it was "is a folder, not a file" alone."""
+    def hint(folder: Path) -> str:
+        import shlex
+
+        # (a batch's summary.csv is no FRF file)
+        found = sorted({p for pat in patterns for p in folder.glob(pat)
+                        if p.is_file() and p.name != "summary.csv"})
+        if not found:
+            return ""
+        many = len(found) > 1
+        return (f"; it holds {len(found)} {what}{'s' if many else ''}: 'laminid {command} "
+                f"{shlex.quote(str(found[0]))}'" + (" takes one" if many else ""))
+    return hint
+
+
 #: a file to write, named on the command line: click checks nothing, the command refuses a
 #: folder or a file it must not replace in laminid's format (:func:`check_output_path`)
 OUTPUT_FILE = click.Path()

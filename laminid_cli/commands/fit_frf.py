@@ -6,8 +6,8 @@ import click
 
 from laminid_cli.commands._common import (OUTPUT_FILE, SIGMA_REL, InputFile, check_output_path,
                                           echo_frf_warnings, echo_json, force_option,
-                                          frf_json_option, quiet, stderr_is_terminal,
-                                          writable_target)
+                                          files_hint, frf_json_option, quiet,
+                                          stderr_is_terminal, writable_target)
 
 
 def _parse_bands(ctx, param, values):
@@ -31,7 +31,8 @@ SNR_UNIT = ("1 (linear, not dB: the mode's peak contribution over the RMS of the
 
 
 @click.command("fit-frf")
-@click.argument("frf_file", type=InputFile())
+@click.argument("frf_file", type=InputFile(folder_hint=files_hint(
+    "fit-frf", ("*.frf.h5", "*.uff", "*.unv", "*.csv", "*.txt", "*.mat"), "FRF file")))
 @click.option("--band", "bands", multiple=True, callback=_parse_bands, metavar="LO:HI",
               help="Frequency band in Hz to fit (repeatable); a band with more than six "
                    "resonance peaks is fitted as overlapping sub-bands (the first line lists "

@@ -8,13 +8,14 @@ import click
 
 from laminid_cli.commands._common import (OUTPUT_FILE, InputFile, check_boundary_text,
                                           check_hdf5_name, check_mesh_text, check_output_path,
-                                          echo_json, force_option, json_option, quiet,
-                                          stderr_is_terminal)
+                                          echo_json, files_hint, force_option, json_option,
+                                          quiet, stderr_is_terminal)
 from laminid_cli.commands.text import format_modes_report
 
 
 @click.command(short_help="Natural frequencies of the plate model vs the measured ones.")
-@click.argument("spec", type=InputFile())
+@click.argument("spec", type=InputFile(folder_hint=files_hint("modes", ("*.yaml", "*.yml"),
+                                                               "specimen file")))
 @click.option("--mesh", default="12x12", show_default=True, metavar="NXxNY",
               callback=check_mesh_text, help="Elements along x (side a) and y (side b).")
 @click.option("--modes", "n_modes", type=click.IntRange(1, 200), default=None,
