@@ -2185,12 +2185,16 @@ def sensitivity_page(r: ResultFile, plate):
 # FRF
 
 
-def frf_source(plate, frf_path=None):
+def frf_source(plate, frf_path=None, result_path=None):
     """(path, bands, n_modes, own) of the FRF file the plate was fitted from, or None; ``own``
     False for ``frf_path``.
 
     ``frf_path`` overrides; otherwise ``measured.frf_file`` of the stored specimen YAML,
-    relative to the specimen's folder.
+    relative to the specimen's folder: the stored path's (as identify was given it: relative
+    to the folder it ran in), else, where both are relative, the folder of the result file
+    ``result_path`` (identify's default result lies beside its specimen). The report of
+    ``identify plate.yaml`` made from another folder had no FRF page ("FRF file plate.frf.h5
+    of the specimen not found"), though the FRF file lay beside the result.
     """
     import yaml
 
@@ -2211,6 +2215,9 @@ def frf_source(plate, frf_path=None):
     if not isinstance(m, dict) or not m.get("frf_file"):
         return None
     p = Path(plate.path or ".").parent / str(m["frf_file"])
+    if (not p.exists() and result_path is not None and not p.is_absolute()
+            and (Path(result_path).parent / str(m["frf_file"])).exists()):
+        p = Path(result_path).parent / str(m["frf_file"])
     if not p.exists():
         log.warning("FRF file %s of the specimen not found: no FRF page", p)
         return None
@@ -2334,7 +2341,7 @@ def result_pages(path, *, frf_path=None) -> list[Page]:
         pages.append(Page("sensitivities", sensitivity_page(r, plate)))
     for fn in EXTRA_PAGES:
         pages += fn(r)
-    src = frf_source(plate, frf_path)
+    src = frf_source(plate, frf_path, r.path)
     if src is not None:
         pages.append(Page("frf", frf_page(r, plate, *src)))
     for page in pages:                   # every page says the result's status
@@ -2360,7 +2367,7 @@ def joint_pages(r: ResultFile, *, frf_path=None) -> list[Page]:
                   for k, fig in enumerate(mode_shape_pages(r, plate))]
         if plate.sensitivity is not None:
             pages.append(Page(f"{tag}-sensitivities", sensitivity_page(r, plate)))
-        src = frf_source(plate, None)
+        src = frf_source(plate, None, r.path)
         if src is not None:
             pages.append(Page(f"{tag}-frf", frf_page(r, plate, *src)))
     for page in pages:                   # every page says the result's status

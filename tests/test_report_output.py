@@ -182,3 +182,26 @@ def test_an_existing_first_png_page_is_refused_before_the_pages_are_drawn(result
     assert r.output == (f"laminid: error: {tmp_path / 'r-1.png'}: file exists; use --force to "
                         "overwrite it or choose another name with -o\n")
     assert (tmp_path / "r-1.png").read_bytes() == b"page one of an earlier report"
+
+
+def test_the_frf_file_is_found_beside_the_result_from_another_folder(tmp_path, monkeypatch):
+    """identify plate.yaml (measured.frf_file: plate.frf.h5) stores the specimen's path as
+    given; the report of its result made from another folder looked for plate.frf.h5 there,
+    and drew no FRF page. The result's own folder (identify's default result lies beside its
+    specimen) is looked in too; an absolute specimen path keeps its own folder."""
+    from types import SimpleNamespace
+
+    from laminid_cli.report import frf_source
+
+    lab = tmp_path / "lab"
+    lab.mkdir()
+    (lab / "plate.frf.h5").write_bytes(b"")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    plate = SimpleNamespace(yaml="measured: {frf_file: plate.frf.h5}\n", path="plate.yaml")
+    found = frf_source(plate, None, lab / "plate.result.h5")
+    assert found is not None and found[0] == lab / "plate.frf.h5" and found[3] is True
+    assert frf_source(plate, None, None) is None              # the cwd alone: not there
+    other = SimpleNamespace(yaml=plate.yaml, path=str(tmp_path / "x" / "plate.yaml"))
+    assert frf_source(other, None, lab / "plate.result.h5") is None
