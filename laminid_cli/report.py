@@ -2191,8 +2191,9 @@ def frf_source(plate, frf_path=None, result_path=None):
 
     ``frf_path`` overrides; otherwise ``measured.frf_file`` of the stored specimen YAML,
     relative to the specimen's folder: the stored path's (as identify was given it: relative
-    to the folder it ran in), else, where both are relative, the folder of the result file
-    ``result_path`` (identify's default result lies beside its specimen). The report of
+    to the folder it ran in), else, where both are relative, the specimen's folder as stored
+    (``plate.folder``, absolute), else the folder of the result file ``result_path``
+    (identify's default result lies beside its specimen). The report of
     ``identify plate.yaml`` made from another folder had no FRF page ("FRF file plate.frf.h5
     of the specimen not found"), though the FRF file lay beside the result.
     """
@@ -2215,9 +2216,13 @@ def frf_source(plate, frf_path=None, result_path=None):
     if not isinstance(m, dict) or not m.get("frf_file"):
         return None
     p = Path(plate.path or ".").parent / str(m["frf_file"])
-    if (not p.exists() and result_path is not None and not p.is_absolute()
-            and (Path(result_path).parent / str(m["frf_file"])).exists()):
-        p = Path(result_path).parent / str(m["frf_file"])
+    if not p.is_absolute():
+        # where the command that made the result ran elsewhere: the specimen's folder as
+        # stored (absolute; in result files written since it is), else the result's folder
+        for folder in (getattr(plate, "folder", ""),
+                       "" if result_path is None else str(Path(result_path).parent)):
+            if not p.exists() and folder and (Path(folder) / str(m["frf_file"])).exists():
+                p = Path(folder) / str(m["frf_file"])
     if not p.exists():
         log.warning("FRF file %s of the specimen not found: no FRF page", p)
         return None

@@ -8,7 +8,8 @@ Common layout::
 
     /                     attrs: format ("laminid-modes" | "laminid-result"), schema_version,
                                  laminid_version, created (ISO 8601 UTC), command
-    /specimen             attrs: name, path, a, b, h (m), mass (kg), boundary;
+    /specimen             attrs: name, path (as given), folder (absolute), a, b, h (m),
+                          mass (kg), boundary;
                           dataset yaml: the specimen file verbatim
     /mesh                 nodes (n_nodes, 2) m, elements (n_el, 8), attrs nx, ny
     /materials/<key>      attr name (the material's real name, UTF-8); E1, E2, G12, G13, G23
@@ -293,6 +294,12 @@ def write_specimen(f, specimen) -> None:
     g = f.create_group("specimen")
     g.attrs["name"] = specimen.name
     g.attrs["path"] = str(specimen.path)
+    # the folder it lies in, absolute: "path" is as the command was given it (relative to the
+    # folder it ran in), from which a report made elsewhere could not find its frf_file
+    from pathlib import Path
+
+    if specimen.path and Path(specimen.path).is_file():
+        g.attrs["folder"] = str(Path(specimen.path).resolve().parent)
     g.attrs["boundary"] = specimen.boundary
     g.attrs["description"] = specimen.description or ""
     g.create_dataset("yaml", data=specimen.source_text, dtype=h5py.string_dtype())

@@ -205,3 +205,34 @@ def test_the_frf_file_is_found_beside_the_result_from_another_folder(tmp_path, m
     assert frf_source(plate, None, None) is None              # the cwd alone: not there
     other = SimpleNamespace(yaml=plate.yaml, path=str(tmp_path / "x" / "plate.yaml"))
     assert frf_source(other, None, lab / "plate.result.h5") is None
+
+
+def test_the_specimens_folder_is_stored_and_finds_its_frf_file(tmp_path, monkeypatch):
+    """A batch's result lies in --out, not beside its specimen, and stores the specimen's path
+    as the batch was given it: a report made from another folder drew no FRF page. The
+    result stores the specimen's folder (absolute), where the FRF file is looked for."""
+    from types import SimpleNamespace
+
+    import h5py
+
+    from laminid_cli.report import frf_source
+    from laminid_cli.resultfile import read_result
+
+    lab = tmp_path / "lab"
+    lab.mkdir()
+    spec = lab / "S1.1.yaml"
+    spec.write_text(Path(S11).read_text())
+    monkeypatch.chdir(lab)
+    out = tmp_path / "out" / "S1.1.result.h5"
+    out.parent.mkdir()
+    assert run("identify", "S1.1.yaml", "--mesh", "4x4", "-o", out).exit_code == 0
+    with h5py.File(out) as f:
+        assert f["specimen"].attrs["path"] == "S1.1.yaml"
+        assert f["specimen"].attrs["folder"] == str(lab.resolve())
+    assert read_result(out).plates[0].folder == str(lab.resolve())
+    (lab / "plate.frf.h5").write_bytes(b"")
+    monkeypatch.chdir(tmp_path)
+    plate = SimpleNamespace(yaml="measured: {frf_file: plate.frf.h5}\n", path="S1.1.yaml",
+                            folder=str(lab.resolve()))
+    found = frf_source(plate, None, out)
+    assert found is not None and found[0] == lab.resolve() / "plate.frf.h5"
