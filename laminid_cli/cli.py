@@ -110,6 +110,14 @@ class LazyGroup(click.Group):
                                f"laminid's own, written before the command: laminid "
                                f"{exc.option_name} {name} ...")
                 exc.possibilities = None
+            elif (isinstance(exc, click.NoSuchOption) and exc.option_name == "--json"
+                  and ctx.meta.get(_INVOKED, (None,))[0] == "report"):
+                # the one command without --json (README): "No such option '--json'" alone
+                # left the lab to find where a result's JSON is
+                exc.message = ("No such option: --json of 'report', which draws figures; "
+                               "'laminid show RESULT --json' prints a result as JSON (a batch's "
+                               "is its summary.json)")
+                exc.possibilities = None
             # click says it (usage, "Error: ...") and exits 2 once this returns
             _echo_json_error(ctx, _error_document(exc, exc.format_message(), exc.exit_code,
                                                   kind="UsageError", field=_option_of(exc)))

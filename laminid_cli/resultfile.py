@@ -267,6 +267,9 @@ class Plate:
     #: interval: not identified) from the plate's global_properties_uncertainty; {} when not
     #: stored
     global_uncertainty: dict = field(default_factory=dict)
+    #: the specimen file's folder, absolute ("" in files before it was stored): ``path`` is as
+    #: the command was given it, relative to the folder it ran in
+    folder: str = ""
 
 
 @dataclass(frozen=True)
@@ -498,7 +501,8 @@ def _plate(g, name: str | None = None) -> Plate:
                        else len(order)))
     return Plate(
         name=name if name is not None else _s(sp.attrs.get("name", "")),
-        path=_s(sp.attrs.get("path", "")), yaml=yaml_text,
+        path=_s(sp.attrs.get("path", "")), folder=_s(sp.attrs.get("folder", "")),
+        yaml=yaml_text,
         a=float(sp["a"][()]), b=float(sp["b"][()]), h=float(sp["h"][()]),
         boundary=_s(sp.attrs.get("boundary", "free")),
         nodes=np.asarray(mesh["nodes"][()], float), elements=np.asarray(mesh["elements"][()], int),

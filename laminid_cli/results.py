@@ -8,7 +8,8 @@ Common layout::
 
     /                     attrs: format ("laminid-modes" | "laminid-result"), schema_version,
                                  laminid_version, created (ISO 8601 UTC), command
-    /specimen             attrs: name, path, a, b, h (m), mass (kg), boundary;
+    /specimen             attrs: name, path (as given), folder (absolute), a, b, h (m),
+                          mass (kg), boundary;
                           dataset yaml: the specimen file verbatim
     /mesh                 nodes (n_nodes, 2) m, elements (n_el, 8), attrs nx, ny
     /materials/<key>      attr name (the material's real name, UTF-8); E1, E2, G12, G13, G23
@@ -301,6 +302,12 @@ def write_specimen(f, specimen) -> None:
     g = f.create_group("specimen")
     g.attrs["name"] = specimen.name
     g.attrs["path"] = str(specimen.path)
+    # the folder it lies in, absolute: "path" is as the command was given it (relative to the
+    # folder it ran in), from which a report made elsewhere could not find its frf_file
+    from pathlib import Path
+
+    if specimen.path and Path(specimen.path).is_file():
+        g.attrs["folder"] = str(Path(specimen.path).resolve().parent)
     g.attrs["boundary"] = specimen.boundary
     g.attrs["description"] = specimen.description or ""
     g.create_dataset("yaml", data=specimen.source_text, dtype=h5py.string_dtype())
@@ -800,6 +807,15 @@ def uncertainty_summary(a) -> dict:
                       "verdict": entry.get("verdict", "fixed"), "flagged": False,
                       "at_bound": False, "bound_text": "", "bound_side": "",
                       "bound_limit": None, "assumed": lab in a.fixed_undetermined})
+    # ... all of them: the README's "the same keys for every constant" missed a fixed one's
+    # scale, verdict_from, information_from_prior (and quantile, effective_dof... where the
+    # free ones have them), and a free one's "assumed"; null where it does not apply
+    entries = [e for per in out["constants"].values() for e in per.values()]
+    keys = list(dict.fromkeys(k for e in entries for k in e))
+    for e in entries:
+        e.setdefault("assumed", False)
+        for k in keys:
+            e.setdefault(k, None)
     out["kept_free"] = dict(a.kept_free)
     out["fixed_undetermined_widths"] = {
         lab: {"rel_half_width": w[0], "verdict": w[1], "run": w[2]}

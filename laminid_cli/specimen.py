@@ -1217,6 +1217,15 @@ def _read_measured(r: _Reader, y: _Y) -> Measured:
     weight[np.isnan(freq)] = 0.0
     sigma = None
     if "sigma" in m:
+        # one relative sigma for every mode (the 0.2 % the README and the output speak of) is
+        # the command line's, not the file's: said where it was written here (sigma: 0.2 %,
+        # or a list of them, was "expected a list ...", "unknown unit '%'")
+        relative = ("a relative sigma for every mode is identify's and batch's --sigma-rel "
+                    "(0.002 or 0.2%), used where the file gives none")
+        if not isinstance(m["sigma"].value, list):
+            raise r.error(m["sigma"], "expected a list of standard deviations in Hz, one per "
+                                      f"frequency ([a, b, ...]), got "
+                                      f"{_describe(m['sigma'].value)}; {relative}")
         s_items = r.sequence(m["sigma"], "a list of standard deviations in Hz")
         if len(s_items) != n:
             raise r.error(m["sigma"], f"{len(s_items)} sigma values for {n} frequencies; give "
@@ -1225,6 +1234,9 @@ def _read_measured(r: _Reader, y: _Y) -> Measured:
         for k, item in enumerate(s_items):
             if item.value is None:
                 continue
+            if isinstance(item.value, str) and item.value.strip().endswith("%"):
+                raise r.error(item, f"'{item.value}' is relative; measured.sigma is in Hz "
+                                    f"(0.25 Hz); {relative}")
             value = r.quantity(item, "frequency")
             if value <= 0:
                 raise r.error(item, f"a standard deviation must be positive, got {item.value!r}")
@@ -1562,7 +1574,15 @@ def load_specimen_text(text: str, path: str = "<string>", *,
 
     boundary = "free"
     if "boundary" in top:
-        boundary = r.string(top["boundary"]).strip().lower()
+        written = r.string(top["boundary"]).strip()
+        boundary = written.lower()
+        if len(boundary) == 4 and set(boundary) <= set("fsc"):
+            # an edge code (CFFF, a cantilever) was "unknown boundary condition 'cfff'", though
+            # modes --boundary takes it: say where it goes
+            raise r.error(top["boundary"], f"'{written}' is an edge code, which only 'laminid "
+                                           "modes --boundary' takes; a specimen's boundary is "
+                                           f"one of {', '.join(BOUNDARIES)} (what identify and "
+                                           "batch fit)")
         if boundary not in BOUNDARIES:
             guess = _closest(boundary, BOUNDARIES)
             hint = f"; did you mean '{guess}'?" if guess else ""

@@ -89,3 +89,24 @@ def test_json_help_says_what_units_means(name):
     # and what it prints when the command fails (tests/test_cli_json_errors.py)
     assert text.endswith('prints {"error": {"kind", "message", "file", "field", "line", '
                          '"exit_code"}} instead.'), text
+
+
+def test_a_fraction_may_be_written_as_a_percentage():
+    """--sigma-rel 0.2% (the README's and the output's "0.2 %") was refused as "not a valid
+    float", and --max-rel-interval 20% likewise; both read it as the fraction (0.002, 0.2),
+    as --fix eta13=1% reads a loss factor. A bare number stays a fraction."""
+    import json
+
+    r = run("identify", "specimens/example1/S1.1.yaml", "--mesh", "4x4", "--no-output",
+            "--json", "--sigma-rel", "0.2 %", "--max-rel-interval", "20%")
+    assert r.exit_code == 0, r.output
+    u = json.loads(r.stdout)["uncertainty"]
+    assert abs(u["frequency_sigma"]["S1.1"]["sigma_rel"] - 0.002) < 1e-15
+    assert abs(u["thresholds"]["max_rel_interval"] - 0.2) < 1e-15
+    for value, said in (("0.2x%", "'0.2x%' is not a number: write a fraction (0.002) or a "
+                                  "percentage (0.2%)."),
+                        ("nan%", "'nan%' is not a finite number."),
+                        ("50%", "0.5 is not in the range 1e-09<=x<0.5.")):
+        r = run("identify", "specimens/example1/S1.1.yaml", "--sigma-rel", value)
+        assert r.exit_code == 2
+        assert r.stderr.endswith(f"Invalid value for '--sigma-rel': {said}\n"), r.stderr

@@ -339,3 +339,33 @@ def test_laminids_own_option_after_the_command_says_where_it_goes(option):
     assert doc["message"] == (f"No such option: {option} of 'batch'; it is laminid's own, "
                               f"written before the command: laminid {option} batch ...")
     assert doc["field"] == option and doc["kind"] == "UsageError"
+
+
+def test_report_json_names_where_a_results_json_is(tmp_path):
+    """report is the one command without --json; `laminid report R.h5 --json` said only
+    "No such option '--json'": it names show --json (and a batch's summary.json). No JSON
+    document on stdout: report has none to replace."""
+    r = run("report", tmp_path / "r.result.h5", "--json")
+    assert r.exit_code == 2 and r.stdout == ""
+    assert r.stderr.endswith(
+        "Error: No such option: --json of 'report', which draws figures; 'laminid show RESULT "
+        "--json' prints a result as JSON (a batch's is its summary.json)\n"), r.stderr
+
+
+def test_a_folder_given_for_a_file_names_one_the_command_takes(tmp_path):
+    """fit-frf and modes of a folder said "is a folder, not a file" alone; each names the
+    files there it takes (a batch's summary.csv is no FRF file), one in the command to run."""
+    (tmp_path / "b.frf.h5").write_bytes(b"")
+    (tmp_path / "a.uff").write_bytes(b"")
+    (tmp_path / "summary.csv").write_text("name\n")
+    (tmp_path / "plate.yaml").write_text("name: p\n")
+    r = run("fit-frf", tmp_path)
+    assert r.exit_code == 2
+    assert r.stderr == (f"laminid: error: {tmp_path}: is a folder, not a file; it holds 2 FRF "
+                        f"files: 'laminid fit-frf {tmp_path / 'a.uff'}' takes one\n")
+    r = run("modes", tmp_path)
+    assert r.exit_code == 2
+    assert r.stderr == (f"laminid: error: {tmp_path}: is a folder, not a file; it holds 1 "
+                        f"specimen file: 'laminid modes {tmp_path / 'plate.yaml'}'\n")
+    (tmp_path / "plate.yaml").unlink()
+    assert run("modes", tmp_path).stderr == f"laminid: error: {tmp_path}: is a folder, not a file\n"

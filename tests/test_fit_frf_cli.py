@@ -318,21 +318,37 @@ def test_into_weights_follow_by_frequency_when_a_mode_is_missing():
 
 def test_into_never_overwrites_a_backup(tmp_path, h5):
     """Each --into keeps the text it replaces in a backup of its own (SPEC.bak, SPEC.bak1...);
-    a run that would back up exactly the newest backup's text makes none, and says where."""
+    a run that would back up exactly the newest backup's text makes none, and says where. A
+    run that would write exactly what the file holds (the same FRFs fitted into it again)
+    writes nothing: it rewrote the file as it was, with a backup of that same text."""
     spec = tmp_path / "p.yaml"
     spec.write_text(SPEC)
     r = run(["fit-frf", str(h5), "--into", str(spec)])
     assert f"(previous version in {tmp_path / 'p.yaml.bak'})" in r.output
     texts = [SPEC]
     for k, word in ((1, "one"), (2, "two")):       # edited by hand between two fits
-        spec.write_text(spec.read_text().replace("# keep me", f"# keep me {word}"))
+        spec.write_text(SPEC.replace("# keep me", f"# keep me {word}"))
         texts.append(spec.read_text())
         r = run(["fit-frf", str(h5), "--into", str(spec), "--json"])
         assert json.loads(r.output)["backup"] == \
             f"previous version in {tmp_path / f'p.yaml.bak{k}'}"
-    # the fit writes what the file holds already: no third copy of the same text
+        assert json.loads(r.output)["into_unchanged"] is False
+    # the file as the fit left it, backed up by hand: a fit that changes it makes no third copy
+    fitted = spec.read_text()
+    spec.write_text(SPEC.replace("# keep me", "# keep me two"))
     r = run(["fit-frf", str(h5), "--into", str(spec)])
     assert f"(previous version already in {tmp_path / 'p.yaml.bak2'})" in r.output
+    assert spec.read_text() == fitted
+    # the same fit again: the file holds it already, nothing is written
+    before = spec.stat().st_mtime_ns
+    r = run(["fit-frf", str(h5), "--into", str(spec)])
+    assert r.exit_code == 0, r.output
+    assert r.output.splitlines()[-1].startswith(f"{spec} already holds these ")
+    assert r.output.splitlines()[-1].endswith(": left unchanged (no backup made)")
+    assert spec.read_text() == fitted and spec.stat().st_mtime_ns == before
+    r = run(["fit-frf", str(h5), "--into", str(spec), "--json"])
+    assert json.loads(r.output)["into_unchanged"] is True
+    assert json.loads(r.output)["backup"] == "unchanged: it held them already; no backup made"
     assert [(tmp_path / n).read_text() for n in ("p.yaml.bak", "p.yaml.bak1", "p.yaml.bak2")] \
         == texts
     assert sorted(p.name for p in tmp_path.iterdir()) == [
@@ -689,3 +705,43 @@ def test_plot_legend_gives_the_frequencies_sigma_span(tmp_path, h5, case):
     assert sigma_label([0.25, 0.25]) == "RFP natural frequency (± 0.25 Hz, one standard deviation)"
     r = run(["fit-frf", str(h5), "--plot", str(tmp_path / "fit.png")])
     assert r.exit_code == 0, r.output
+
+
+def test_a_terminal_is_told_what_runs(tmp_path, h5, monkeypatch):
+    """fit-frf --plot fitted and drew for 2.8-7.6 s (the synthetic S1.1's 8 FRFs) with nothing
+    on a terminal, its table printed after the plot; it now says it fits, then draws, and ends
+    the line before the table. Not with --json, nor on a pipe or a log. (The plot is stood in
+    for: what is said, not what is drawn.)"""
+    import laminid_cli.commands.fit_frf as cmd
+    import laminid_cli.frf.plot as plot
+
+    drawn = []
+    monkeypatch.setattr(plot, "plot_fit", lambda path, *a, **k: drawn.append(path))
+    monkeypatch.setattr(cmd, "stderr_is_terminal", lambda: True)
+    out = tmp_path / "fit.png"
+    r = CliRunner().invoke(cli, ["fit-frf", str(h5), "--plot", str(out)])
+    assert r.exit_code == 0, r.output
+    head = f"  fitting 5 FRFs of {h5}"
+    assert r.stderr == head + "\r" + f"  drawing {out}".ljust(len(head)) + "\n"
+    assert drawn == [out] and r.stdout.startswith(f"{h5}: 5 FRFs (Pa/N)")
+    r = CliRunner().invoke(cli, ["fit-frf", str(h5)])
+    assert r.exit_code == 0 and r.stderr == head + "\n"
+    r = CliRunner().invoke(cli, ["fit-frf", str(h5), "--json"])
+    assert r.exit_code == 0 and r.stderr == ""
+
+
+def test_one_frf_is_said_in_the_singular(tmp_path, case):
+    """A lab's CSV of one FRF (frequency, real, imaginary) was "1 FRFs" in fit-frf's first
+    line, its progress line and export's line."""
+    path = tmp_path / "one.csv"
+    with open(path, "w") as fh:
+        fh.write("f [Hz],H1_re,H1_im\n")
+        for f, h in zip(case.freq, case.frf[0]):
+            fh.write(f"{float(f)!r},{float(h.real)!r},{float(h.imag)!r}\n")
+    r = run(["fit-frf", str(path), "--band", "100:300"])
+    assert r.exit_code == 0, r.output
+    assert r.output.startswith(f"{path}: 1 FRF (unit not stated in file), {case.freq.size} "
+                               "lines, bands 100-300 Hz\n"), r.output
+    r = run(["export", str(path), "-o", str(tmp_path / "one.uff")])
+    assert r.exit_code == 0, r.output
+    assert r.output.startswith(f"{tmp_path / 'one.uff'}: 1 FRF (UFF 58b, ")

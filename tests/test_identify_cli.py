@@ -350,6 +350,24 @@ def test_a_specimen_that_now_fails_has_its_earlier_default_result_set_aside(tmp_
     assert mine.read_bytes() == first
 
 
+def test_a_missing_specimen_is_named_before_its_output_and_leaves_the_earlier_result(
+        tmp_path):
+    """identify /nope/x.yaml said "/nope/x.result.h5: folder /nope does not exist", and a
+    specimen path that names no file set aside the default result of that name as another
+    input's: a path is no specimen that now fails. Both say the specimen is not found."""
+    missing = tmp_path / "nope" / "plate.yaml"
+    r = run("identify", missing)
+    assert r.exit_code == 2
+    assert r.output == f"laminid: error: {missing}: file not found\n"
+    earlier = tmp_path / "plate.result.h5"
+    earlier.write_bytes(b"an earlier result")
+    r = run("identify", tmp_path / "plate.yaml")
+    assert r.exit_code == 2
+    assert r.output == f"laminid: error: {tmp_path / 'plate.yaml'}: file not found\n"
+    assert earlier.read_bytes() == b"an earlier result"
+    assert not list(tmp_path.glob("*.stale*"))
+
+
 @pytest.mark.parametrize("fix, said", [
     ("g13", "--fix g13: 'g13' is not a constant; choose from E1, E2, G12, G13, G23, nu12; did "
             "you mean 'G13'?"),
@@ -707,3 +725,19 @@ def test_monte_carlo_table_numbers_keep_their_trailing_zeros():
     assert _val("nu12", 0.05, 4) == "0.05000"
     assert significant_text("E1", 1234.4e9, 4) == "1234"           # no trailing point
     assert significant_text("G13", 8.684992e9, 4) == "8.685"
+
+
+def test_a_terminal_is_told_of_the_mesh_check(monkeypatch):
+    """identify --mesh-check solved the finer mesh (S1.1 at 24x24: 11.6 s) under the last
+    "evaluation" line, which looked stuck; a terminal is told the mesh check runs, and the
+    line ends before the report."""
+    import laminid_cli.commands.identify as cmd
+
+    monkeypatch.setattr(cmd, "stderr_is_terminal", lambda: True)
+    r = run("identify", "specimens/example1/S1.1.yaml", "--mesh", "4x4", "--mesh-check",
+            "--no-output")
+    assert r.exit_code == 0, r.output
+    said = "\r" + "  mesh check: the identified constants on 8x8".ljust(78)
+    assert said in r.stderr
+    after = r.stderr.split(said, 1)[1]
+    assert "evaluation" not in after and after.startswith("\n"), after

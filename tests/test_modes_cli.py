@@ -109,8 +109,11 @@ def test_an_edge_code_is_a_modes_boundary_not_a_specimens(tmp_path):
     spec.write_text(Path(S11).read_text().replace("boundary: free", "boundary: CFFF"))
     r = run("modes", str(spec), "--mesh", "4x4")
     assert r.exit_code == 2
-    assert (f"{spec}:26, field 'boundary': unknown boundary condition 'cfff' (valid: free, "
-            "simply-supported, clamped)") in r.output
+    # it was "unknown boundary condition 'cfff' (valid: ...)": the code lowercased, and not
+    # said to be a code that modes --boundary takes
+    assert r.output == (f"laminid: error: {spec}:26, field 'boundary': 'CFFF' is an edge code, "
+                        "which only 'laminid modes --boundary' takes; a specimen's boundary is "
+                        "one of free, simply-supported, clamped (what identify and batch fit)\n")
 
 
 def test_a_mode_not_measured_keeps_the_columns():
@@ -336,3 +339,20 @@ def test_a_mesh_too_coarse_for_the_modes_asked_is_warned_with_a_finer_one():
     assert "(1197 equations) is coarse for 8 modes: 149.6 equations per mode, fewer than 150" \
         in r.stderr, r.stderr
     assert "coarse" not in _mode1("--mesh", "8x8")[0].stderr   # 169 per mode, mode 12 0.8 %
+
+
+def test_a_terminal_is_told_what_runs_on_a_line_erased_when_done(monkeypatch):
+    """modes on 40x40 with 40 modes (a convergence check) built and solved for 10 s with
+    nothing on a terminal; it now says what it builds, then what it solves, each on a line
+    erased when done (12x12 takes 0.4 s: nothing left behind). Not with --json, nor under
+    -q or on a pipe."""
+    import laminid_cli.commands.modes as cmd
+
+    monkeypatch.setattr(cmd, "stderr_is_terminal", lambda: True)
+    r = run("modes", S11, "--mesh", "4x4", "--modes", "3")
+    assert r.exit_code == 0, r.output
+    steps = ["  building the model on a 4x4 mesh", "  solving 3 modes of 585 equations"]
+    assert r.stderr == "".join(s + "\r" + " " * len(s) + "\r" for s in steps)
+    assert r.stdout.startswith("S1.1 — ")
+    assert run("modes", S11, "--mesh", "4x4", "--modes", "3", "--json").stderr == ""
+    assert run("-q", "modes", S11, "--mesh", "4x4", "--modes", "3").stderr == ""

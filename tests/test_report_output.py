@@ -194,3 +194,98 @@ def test_a_page_of_words_only_is_written_without_a_layout_warning(tmp_path):
         warnings.simplefilter("error")
         assert write_pages([Page("words", fig)], tmp_path / "w.pdf") == [tmp_path / "w.pdf"]
     assert fig.get_layout_engine() is None
+
+def test_a_terminal_is_told_which_page_is_drawn(result, tmp_path, monkeypatch):
+    """report drew a result's pages for 5 s (hybrid CM: 15 s) with nothing on a terminal;
+    it now says it is reading the result, then each page as it is drawn, and ends the line
+    before its own. Not on a pipe or a log, nor under -q. (Three blank pages stand for the
+    result's: what is said, not what is drawn.)"""
+    import laminid_cli.commands.report as cmd
+    import laminid_cli.report as rep
+
+    def pages(source, frf_path=None):
+        return [rep.Page(name, rep._figure(size=(2, 2))) for name in ("a", "b", "c")]
+
+    monkeypatch.setattr(rep, "report_pages", pages)
+    monkeypatch.setattr(cmd, "stderr_is_terminal", lambda: True)
+    r = CliRunner().invoke(cli, ["report", str(result), "-o", str(tmp_path / "r.pdf")])
+    assert r.exit_code == 0, r.output
+    head = f"  reading {result} and laying out its pages"
+    assert r.stderr.split("\r") == [head] + [
+        f"  drawing page {k} of 3 ({n})".ljust(len(head)) for k, n in ((1, "a"), (2, "b"))] + [
+        "  drawing page 3 of 3 (c)".ljust(len(head)) + "\n"]
+    assert r.stdout == f"3 pages (a, b, c) written to {tmp_path / 'r.pdf'}\n"
+    r = CliRunner().invoke(cli, ["-q", "report", str(result), "-o", str(tmp_path / "q.pdf")])
+    assert r.exit_code == 0 and r.stderr == ""
+
+
+def test_an_existing_first_png_page_is_refused_before_the_pages_are_drawn(result, tmp_path,
+                                                                          monkeypatch):
+    """report -o r.png where r-1.png exists laid out every page (5 s for S1.1, 15 s for
+    hybrid CM), then refused r-1.png; it is refused first, nothing drawn, the file kept."""
+    import laminid_cli.report as rep
+
+    def no_pages(source, frf_path=None):
+        raise AssertionError("the pages were laid out before the output was refused")
+
+    monkeypatch.setattr(rep, "report_pages", no_pages)
+    (tmp_path / "r-1.png").write_bytes(b"page one of an earlier report")
+    r = run("report", result, "-o", tmp_path / "r.png")
+    assert r.exit_code == 2, r.output
+    assert r.output == (f"laminid: error: {tmp_path / 'r-1.png'}: file exists; use --force to "
+                        "overwrite it or choose another name with -o\n")
+    assert (tmp_path / "r-1.png").read_bytes() == b"page one of an earlier report"
+
+
+def test_the_frf_file_is_found_beside_the_result_from_another_folder(tmp_path, monkeypatch):
+    """identify plate.yaml (measured.frf_file: plate.frf.h5) stores the specimen's path as
+    given; the report of its result made from another folder looked for plate.frf.h5 there,
+    and drew no FRF page. The result's own folder (identify's default result lies beside its
+    specimen) is looked in too; an absolute specimen path keeps its own folder."""
+    from types import SimpleNamespace
+
+    from laminid_cli.report import frf_source
+
+    lab = tmp_path / "lab"
+    lab.mkdir()
+    (lab / "plate.frf.h5").write_bytes(b"")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    plate = SimpleNamespace(yaml="measured: {frf_file: plate.frf.h5}\n", path="plate.yaml")
+    found = frf_source(plate, None, lab / "plate.result.h5")
+    assert found is not None and found[0] == lab / "plate.frf.h5" and found[3] is True
+    assert frf_source(plate, None, None) is None              # the cwd alone: not there
+    other = SimpleNamespace(yaml=plate.yaml, path=str(tmp_path / "x" / "plate.yaml"))
+    assert frf_source(other, None, lab / "plate.result.h5") is None
+
+
+def test_the_specimens_folder_is_stored_and_finds_its_frf_file(tmp_path, monkeypatch):
+    """A batch's result lies in --out, not beside its specimen, and stores the specimen's path
+    as the batch was given it: a report made from another folder drew no FRF page. The
+    result stores the specimen's folder (absolute), where the FRF file is looked for."""
+    from types import SimpleNamespace
+
+    import h5py
+
+    from laminid_cli.report import frf_source
+    from laminid_cli.resultfile import read_result
+
+    lab = tmp_path / "lab"
+    lab.mkdir()
+    spec = lab / "S1.1.yaml"
+    spec.write_text(Path(S11).read_text())
+    monkeypatch.chdir(lab)
+    out = tmp_path / "out" / "S1.1.result.h5"
+    out.parent.mkdir()
+    assert run("identify", "S1.1.yaml", "--mesh", "4x4", "-o", out).exit_code == 0
+    with h5py.File(out) as f:
+        assert f["specimen"].attrs["path"] == "S1.1.yaml"
+        assert f["specimen"].attrs["folder"] == str(lab.resolve())
+    assert read_result(out).plates[0].folder == str(lab.resolve())
+    (lab / "plate.frf.h5").write_bytes(b"")
+    monkeypatch.chdir(tmp_path)
+    plate = SimpleNamespace(yaml="measured: {frf_file: plate.frf.h5}\n", path="S1.1.yaml",
+                            folder=str(lab.resolve()))
+    found = frf_source(plate, None, out)
+    assert found is not None and found[0] == lab.resolve() / "plate.frf.h5"

@@ -433,6 +433,26 @@ def test_bound_statement_reads_both_forms():
     assert np.isnan(bound_from_text(head + "somewhere")[1])
 
 
+def test_every_constants_json_entry_has_the_same_keys(result, s11_fix_undetermined_6x6):
+    """The README says uncertainty.constants.<material>.<constant> has the same keys for every
+    constant; a fixed one lacked scale, verdict_from, information_from_prior (and quantile,
+    effective_dof, rel_half_width_given_fixed after --fix-undetermined), a free one "assumed".
+    Each has them all now, null where they do not apply, "assumed" false for a free one."""
+    for doc in (result[1], s11_fix_undetermined_6x6[0]):
+        entries = {f"{m}.{k}": e for m, per in doc["uncertainty"]["constants"].items()
+                   for k, e in per.items()}
+        keys = {lab: set(e) for lab, e in entries.items()}
+        assert len({frozenset(v) for v in keys.values()}) == 1, keys
+        free = [lab for lab, e in entries.items() if e["verdict"] != "fixed"]
+        fixed = [lab for lab, e in entries.items() if e["verdict"] == "fixed"]
+        assert free and fixed
+        assert all(entries[lab]["assumed"] is False for lab in free)
+        assert all(entries[lab]["scale"] is None and entries[lab]["verdict_from"] is None
+                   for lab in fixed)
+    e = s11_fix_undetermined_6x6[0]["uncertainty"]["constants"]["IM7/977-2"]
+    assert e["G13"]["quantile"] is None and e["E1"]["quantile"] > 1.9
+
+
 def test_a_fixed_constants_json_entry_has_a_free_ones_keys(result, s11_fix_undetermined_6x6):
     """identify --json gave a fixed constant {"verdict": "fixed", "flagged": false} alone: a
     program reading uncertainty.constants[m][k]["value"] or ["lower"] of every constant got a

@@ -262,3 +262,24 @@ def test_show_and_report_of_a_cut_short_result_say_it_is_damaged_not_no_hdf5(tmp
         assert "): damaged or incomplete (a copy cut short?); copy it again, or make it again " \
                "with laminid identify SPEC.yaml" in r.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["S1.1.result.h5", "whole.h5"]
+
+
+def test_a_folder_names_the_result_files_it_holds(tmp_path):
+    """`laminid show results` (a batch's --out) said "is a folder, not a file" alone; it names
+    one of the result files it holds (one level down, as batch writes them) and the summary to
+    report. A folder without results keeps the plain words."""
+    (tmp_path / "example1").mkdir()
+    for name in ("S1.2", "S1.1"):
+        (tmp_path / "example1" / f"{name}.result.h5").write_bytes(b"")
+    (tmp_path / "summary.csv").write_text("name\n")
+    r = run("show", tmp_path)
+    assert r.exit_code == 2
+    assert r.stderr == (f"laminid: error: {tmp_path}: is a folder, not a file; it holds 2 result "
+                        f"files: 'laminid show {tmp_path / 'example1' / 'S1.1.result.h5'}' prints "
+                        f"one, 'laminid report {tmp_path / 'summary.csv'}' draws the batch\n")
+    r = run("show", tmp_path / "example1" / "..")
+    assert r.exit_code == 2 and "it holds 2 result files" in r.stderr
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    r = run("show", empty)
+    assert r.stderr == f"laminid: error: {empty}: is a folder, not a file\n"

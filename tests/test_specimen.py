@@ -902,6 +902,14 @@ BAD_CASES = {
                    "measured.sigma[2]", "must be positive"),
     "sigma negative": ("[100, 200, 300]", "[100, 200, 300]\n  sigma: [1, 1, -0.1 Hz]",
                        L_FREQ + 1, "measured.sigma[3]", "must be positive"),
+    # sigma: 0.2 % (one relative sigma, as the README says 0.2 %) was "expected a list ...",
+    # and in a list "unknown unit '%'": both name --sigma-rel, which takes it
+    "relative sigma": ("[100, 200, 300]", "[100, 200, 300]\n  sigma: 0.2 %", L_FREQ + 1,
+                       "measured.sigma", "one per frequency", "got '0.2 %'; a relative sigma for "
+                       "every mode is identify's and batch's --sigma-rel (0.002 or 0.2%)"),
+    "relative sigmas": ("[100, 200, 300]", "[100, 200, 300]\n  sigma: [0.2 %, 0.2 %, 0.2 %]",
+                        L_FREQ + 1, "measured.sigma[1]", "'0.2 %' is relative; measured.sigma "
+                        "is in Hz (0.25 Hz)", "--sigma-rel (0.002 or 0.2%)"),
     "misspelt measured key": ("frequencies:", "frequency:", L_FREQ, "measured.frequency",
                               "did you mean 'frequencies'"),
     "duplicate key": ("mass: 0.3 kg", "mass: 0.3 kg\nmass: 0.2 kg", L_MASS + 1, "mass",

@@ -53,9 +53,31 @@ class TrialCount(click.IntRange):
         return f"0 (off) or 2<=N<={self.MAX_TRIALS}"
 
 
+class Fraction(FiniteFloat):
+    """A fraction (0.002), also written as a percentage, ``0.2%`` or ``0.2 %`` (0.002), as the
+    README and the output say these values and as ``--fix eta13=1%`` takes a loss factor:
+    ``--sigma-rel 0.2%`` was refused as "not a valid float", leaving the lab to guess that
+    0.002 was meant (and ``0.2``, 20 %, is taken)."""
+
+    name = "fraction"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, str) and value.strip().endswith("%"):
+            text = value.strip()[:-1].strip()
+            try:
+                number = float(text)
+            except ValueError:
+                self.fail(f"{value!r} is not a number: write a fraction (0.002) or a "
+                          "percentage (0.2%).", param, ctx)
+            if not math.isfinite(number):
+                self.fail(f"{value!r} is not a finite number.", param, ctx)
+            return super().convert(number / 100, param, ctx)
+        return super().convert(value, param, ctx)
+
+
 #: a relative standard deviation of a frequency (--sigma-rel): a fraction, 1e-9 <= x < 0.5
 #: (uncertainty.SIGMA_REL_MIN: below it the model's own round-off)
-SIGMA_REL = FiniteFloat(min=1e-9, max=0.5, max_open=True)
+SIGMA_REL = Fraction(min=1e-9, max=0.5, max_open=True)
 
 
 class InputFile(click.Path):
@@ -84,9 +106,36 @@ class InputFile(click.Path):
         return value
 
 
+def files_hint(command: str, patterns, what: str):
+    """A ``folder_hint`` for :class:`InputFile`: what a folder given for a file holds that
+    ``laminid COMMAND`` takes (``patterns`` in the folder itself), one named in the command
+    to run ("efrf: is a folder, not a file; it holds 1 FRF file: 'laminid fit-frf
+    efrf/plate.frf.h5'"); it was "is a folder, not a file" alone."""
+    def hint(folder: Path) -> str:
+        import shlex
+
+        # (a batch's summary.csv is no FRF file)
+        found = sorted({p for pat in patterns for p in folder.glob(pat)
+                        if p.is_file() and p.name != "summary.csv"})
+        if not found:
+            return ""
+        many = len(found) > 1
+        return (f"; it holds {len(found)} {what}{'s' if many else ''}: 'laminid {command} "
+                f"{shlex.quote(str(found[0]))}'" + (" takes one" if many else ""))
+    return hint
+
+
 #: a file to write, named on the command line: click checks nothing, the command refuses a
 #: folder or a file it must not replace in laminid's format (:func:`check_output_path`)
 OUTPUT_FILE = click.Path()
+
+
+def stderr_is_terminal() -> bool:
+    """Whether stderr is a terminal: progress lines (``\\r``) are drawn there only (report,
+    fit-frf)."""
+    import sys
+
+    return sys.stderr.isatty()
 
 
 def quiet() -> bool:
@@ -408,16 +457,17 @@ fit_options = _apply([
 uncertainty_options = _apply([
     click.option("--sigma-rel", type=SIGMA_REL, default=0.002, show_default=True, metavar="FRACTION",
                   help="Standard deviation of a measured frequency, as a fraction of it, where the "
-                       "specimen file gives no measured.sigma (0.002 = 0.2 %); not used for "
+                       "specimen file gives no measured.sigma (0.002, or 0.2%); not used for "
                        "the modes of a measured.frf_file, whose RFP fit gives each one's "
                        "(at least 0.2 %)."),
     click.option("--covariance-scale", type=click.Choice(["stated", "residuals", "larger"]),
                   default="larger", show_default=True,
                   help="Intervals from the stated frequency sigma, from the residuals at the "
                        "optimum (s2 = chi2/(n-p), Student t), or the larger of the two."),
-    click.option("--max-rel-interval", type=FiniteFloat(min=0, min_open=True, max=0.30),
+    click.option("--max-rel-interval", type=Fraction(min=0, min_open=True, max=0.30),
                   default=0.30, show_default=True, metavar="FRACTION",
-                  help="Flag a constant whose 95 % half-width exceeds this fraction of its value. "
+                  help="Flag a constant whose 95 % half-width exceeds this fraction of its value "
+                       "(0.2, or 20%). "
                        "At most 0.30: above it a constant's verdict is 'not determined', and "
                        "such a constant is always flagged (a status of ok beside it would "
                        "mislead)."),

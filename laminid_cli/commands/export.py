@@ -165,7 +165,8 @@ def export(input_file, output, ascii_, fmt, freq_dataset, frf_dataset, specimen,
                                    for lab, (n, d, r, rd) in zip(labels, dofs)],
                    "coherence_points": [labels[k] for k in coherent], "notes": notes,
                    "warnings": warnings}
-        text = (f"{out}: {fs.n_points} FRFs (UFF 58{'' if ascii_ else 'b'}, {units_text(units)}, "
+        frfs = f"{fs.n_points} FRF{'' if fs.n_points == 1 else 's'}"     # (was "1 FRFs")
+        text = (f"{out}: {frfs} (UFF 58{'' if ascii_ else 'b'}, {units_text(units)}, "
                 f"{fs.freq.size} lines {fs.freq[0]:g}-{fs.freq[-1]:g} Hz)"
                 + (f" and the coherence of {len(coherent)} (UFF 58 function type 6)"
                    if coherent else "")

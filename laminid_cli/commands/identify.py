@@ -8,7 +8,8 @@ import click
 
 from laminid_cli.commands._common import (OUTPUT_FILE, InputFile, echo_json, fit_options,
                                           force_option, json_option, pass_run_options, quiet,
-                                          result_output, uncertainty_options)
+                                          result_output, stderr_is_terminal,
+                                          uncertainty_options)
 from laminid_cli.commands.text import (format_damping, format_identify_report,
                                        format_joint_report)
 
@@ -114,7 +115,7 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
     import dataclasses
     import sys
 
-    from laminid_cli.errors import FitInputError, InputFileError, LaminidError
+    from laminid_cli.errors import FitInputError, InputFileError, LaminidError, SpecimenError
     from laminid_cli.pipeline import fix_list_hint, run_identification, write_result
 
     if no_output and output is not None:
@@ -124,6 +125,11 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
         # --joint where the second "specimen" is the rest of a --fix list split at a space
         if not Path(sp).exists() and (len(specs) > 1 or fix_list_hint(sp)):
             raise InputFileError(f"{sp}: file not found{fix_list_hint(sp)}", path=sp)
+        # and before the output is looked at: /nope/x.yaml was "/nope/x.result.h5: folder
+        # /nope does not exist", and a mistyped path set the earlier default result of that
+        # name aside as another input's (a path is no specimen that now fails)
+        if not Path(sp).exists():
+            raise SpecimenError("file not found", path=sp)
     if len(specs) > 1 and not joint:
         raise FitInputError(f"{len(specs)} specimens given: add --joint to identify them "
                             "together (one set of constants per shared material)")
@@ -146,7 +152,7 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
     out, replacing = ((None, False) if no_output else
                       result_output(output, default, force, None if joint else specs[0],
                                     inputs=specs))
-    show_progress = not as_json and sys.stderr.isatty() and not quiet()
+    show_progress = not as_json and stderr_is_terminal() and not quiet()
 
     def progress(n, objective, rms):
         if show_progress:
@@ -180,9 +186,16 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
                     + (f" ({label})" if label else ""))
             click.echo("\r" + line.ljust(78), err=True, nl=False)
 
+    def stage_progress(text):
+        # a step with no progress of its own: the mesh check's finer mesh (S1.1 at 24x24:
+        # 11.6 s under the last "evaluation" line, which looked stuck)
+        if show_progress:
+            click.echo("\r" + f"  {text}".ljust(78), err=True, nl=False)
+
     try:
         run = run_identification(specs, options, progress=progress, mc_progress=mc_progress,
-                                 profile_progress=profile_progress)
+                                 profile_progress=profile_progress,
+                                 stage_progress=stage_progress)
     except LaminidError as exc:
         if replacing and not isinstance(exc, FitInputError):
             # this input fails, so the default result beside it is an earlier input's: set

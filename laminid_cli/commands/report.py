@@ -7,7 +7,8 @@ from pathlib import Path
 import click
 
 from laminid_cli.commands._common import (OUTPUT_FILE, InputFile, check_output_path,
-                                          force_option, writable_target)
+                                          force_option, quiet, stderr_is_terminal,
+                                          writable_target)
 
 #: what write_pages puts in a PDF's information dictionary
 _CREATOR = b"/Creator (laminid)"
@@ -108,16 +109,37 @@ def report(source, output, frf_path, dpi, force):
     replacing = False
     if output:
         out = check_output_path(out, force)
+        if out.suffix.lower() == ".png":
+            # every report has two pages or more (a result's summary and mode shapes, a
+            # summary's constants and residuals), so its first PNG is <stem>-1.png: one there
+            # was refused only after the pages were laid out (5 s for S1.1, 15 s hybrid CM)
+            check_output_path(out.with_name(f"{out.stem}-1{out.suffix}"), force)
     else:
         out, replacing = derived_report(source)
-    pages = report_pages(source, frf_path=frf_path)
-    if out.suffix.lower() == ".png" and len(pages) > 1:
-        for k in range(1, len(pages) + 1):
-            check_output_path(out.with_name(f"{out.stem}-{k}{out.suffix}"), force)
+    # a terminal is told where the report is (S1.1: 5 s, hybrid CM: 15 s on a busy machine,
+    # with nothing said before)
+    show_progress = stderr_is_terminal() and not quiet()
+    head = f"  reading {source} and laying out its pages"
+
+    def progress(k, n, name):
+        if show_progress:          # (as wide as the line before: none of it left over)
+            click.echo("\r" + f"  drawing page {k} of {n} ({name})".ljust(len(head)),
+                       err=True, nl=False)
+
+    if show_progress:
+        click.echo(head, err=True, nl=False)
     try:
-        written = write_pages(pages, out, dpi=dpi)
-    except OSError as exc:
-        raise ReportError(f"{out}: cannot write the report ({exc})") from exc
+        pages = report_pages(source, frf_path=frf_path)
+        if out.suffix.lower() == ".png" and len(pages) > 1:
+            for k in range(1, len(pages) + 1):
+                check_output_path(out.with_name(f"{out.stem}-{k}{out.suffix}"), force)
+        try:
+            written = write_pages(pages, out, dpi=dpi, progress=progress)
+        except OSError as exc:
+            raise ReportError(f"{out}: cannot write the report ({exc})") from exc
+    finally:
+        if show_progress:               # the line ends before the result or an error
+            click.echo("", err=True)
     names = ", ".join(p.name for p in pages)
     click.echo(f"{len(pages)} pages ({names}) written to " + ", ".join(map(str, written))
                + (" (replaced the previous report of this result)" if replacing else ""))

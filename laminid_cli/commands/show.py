@@ -7,8 +7,25 @@ import click
 from laminid_cli.commands._common import InputFile, echo_json, json_option
 
 
+def results_hint(folder) -> str:
+    """What show says of a folder given as RESULT: the result files it holds (a batch's --out:
+    <folder>/<name>.result.h5, one level down), one to show, and its summary to report; it
+    was "is a folder, not a file" alone."""
+    import shlex
+
+    found = sorted(folder.glob("*.result.h5")) + sorted(folder.glob("*/*.result.h5"))
+    if not found:
+        return ""
+    hint = (f"; it holds {len(found)} result file{'s' if len(found) > 1 else ''}: 'laminid "
+            f"show {shlex.quote(str(found[0]))}' prints {'one' if len(found) > 1 else 'it'}")
+    summary = folder / "summary.csv"
+    if summary.is_file():
+        hint += f", 'laminid report {shlex.quote(str(summary))}' draws the batch"
+    return hint
+
+
 @click.command(short_help="Print a result file as identify printed it (or --json).")
-@click.argument("result", type=InputFile(must_exist=True))
+@click.argument("result", type=InputFile(must_exist=True, folder_hint=results_hint))
 @json_option
 def show(result, as_json):
     """Print RESULT, a result file of 'laminid identify' (single or --joint) or 'laminid

@@ -16,10 +16,12 @@ left half-written or invalid:
 1. the edited document is serialised to text and parsed back with ``yaml.safe_load``; the
    result must equal the original document except for those keys, and the new lists must read
    back exactly, and the edited text must be a valid specimen;
-2. the original is copied to a backup that did not exist before: ``SPEC.yaml.bak``, then
+2. where the edited text is the file's own (the same FRFs fitted into it again), nothing is
+   written and no backup made (``MeasuredEdit.unchanged``);
+3. the original is copied to a backup that did not exist before: ``SPEC.yaml.bak``, then
    ``SPEC.yaml.bak1``, ``SPEC.yaml.bak2``, ... (an existing backup is never overwritten; when
    the newest backup already holds exactly the current text no new one is made);
-3. the text goes to a temporary file in the same folder, is fsynced and renamed over the
+4. the text goes to a temporary file in the same folder, is fsynced and renamed over the
    specimen file (``os.replace`` is atomic).
 """
 
@@ -52,7 +54,9 @@ class MeasuredEdit:
     ``backup``); backup_new : False when the newest backup already held exactly that text;
     weight_notes : sentences on the user's weights that could not follow their modes (empty
     when every weight was kept or none was given); damping_written : False when every damping
-    ratio given was null (none written; an earlier fit's lists are removed, ``damping_notes``)
+    ratio given was null (none written; an earlier fit's lists are removed, ``damping_notes``);
+    unchanged : True when the file already held exactly the text to write (a fit-frf --into
+    run again on the same FRFs): nothing written, no backup made
     """
 
     path: Path
@@ -61,9 +65,12 @@ class MeasuredEdit:
     weight_notes: tuple[str, ...]
     damping_written: bool = True
     damping_notes: tuple[str, ...] = ()
+    unchanged: bool = False
 
     @property
     def backup_text(self) -> str:
+        if self.unchanged:
+            return "unchanged: it held them already; no backup made"
         if self.backup is None:
             return "no backup"
         if self.backup_new:
@@ -526,13 +533,19 @@ def write_measured(spec_path, freq_hz, sigma_hz=None, weights=None, *, damping=N
         raise SpecimenError("edited file would not read back as intended; file left unchanged",
                             path=str(spec_path), field="measured")
 
+    try:
+        current = spec_path.read_bytes()
+    except OSError as exc:
+        raise SpecimenError(f"cannot read ({exc}); file left unchanged",
+                            path=str(spec_path)) from exc
+    if current == bom + new_text.encode("utf-8"):
+        # the same FRFs fitted into the same file again: it was rewritten as it was, with a
+        # backup of that same text beside the one before (plate.yaml.bak1 = plate.yaml)
+        return MeasuredEdit(path=spec_path, backup=None, backup_new=False,
+                            weight_notes=tuple(weight_notes), damping_written=not drop_damping,
+                            damping_notes=tuple(damping_notes), unchanged=True)
     bak, bak_new = None, False
     if backup:
-        try:
-            current = spec_path.read_bytes()
-        except OSError as exc:
-            raise SpecimenError(f"cannot read ({exc}); file left unchanged",
-                                path=str(spec_path)) from exc
         bak, bak_new = _next_backup(spec_path, current)
     tmp = spec_path.with_name(f".{spec_path.name}.tmp-{os.getpid()}")
     try:
