@@ -101,7 +101,16 @@ def main(argv=None) -> int:
     text = text.replace("name: S1.1\n", "name: S1.1-synthetic\n", 1)
     text = ("# Synthetic impact test of S1.1 (scripts/example_frf.py): fill in the measured\n"
             "# frequencies with  laminid fit-frf plate.frf.h5 --into plate.yaml\n") + text
-    (out / "plate.yaml").write_text(text, encoding="utf-8")
+    # a plate.yaml that is no longer what this script wrote (fit-frf --into filled in its
+    # frequencies, or it was edited) is kept in a backup that overwrites nothing, as
+    # fit-frf --into keeps one, before it is written again: a re-run lost it without a word
+    spec_path = out / "plate.yaml"
+    kept = None
+    if spec_path.exists() and spec_path.read_bytes() != text.encode("utf-8"):
+        from laminid_cli.frf.into import _next_backup
+
+        kept = _next_backup(spec_path, spec_path.read_bytes())[0]
+    spec_path.write_text(text, encoding="utf-8")
     (out / "truth.json").write_text(json.dumps({
         "constants_GPa": TRUTH_GPA, "nu12": TRUTH_NU12,
         "loss_factors": dict(zip(("eta11", "eta22", "eta12", "eta13", "eta23"), ETA)),
@@ -112,6 +121,9 @@ def main(argv=None) -> int:
           f"{n_in} modes ({modes.freq[0]:.1f}-{modes.freq[n_in - 1]:.1f} Hz), noise "
           f"{a.noise:g}\n{out / 'plate.yaml'}: S1.1 without its frequencies\n"
           f"{out / 'truth.json'}: what the FRFs were made from")
+    if kept is not None:
+        print(f"{spec_path}: the one there before (edited, or filled in by fit-frf --into) "
+              f"kept as {kept}")
     return 0
 
 
