@@ -689,3 +689,25 @@ def test_plot_legend_gives_the_frequencies_sigma_span(tmp_path, h5, case):
     assert sigma_label([0.25, 0.25]) == "RFP natural frequency (± 0.25 Hz, one standard deviation)"
     r = run(["fit-frf", str(h5), "--plot", str(tmp_path / "fit.png")])
     assert r.exit_code == 0, r.output
+
+
+def test_a_pole_dropped_as_no_credible_mode_is_reported_with_why(tmp_path):
+    """Two FRFs of pure noise (seed 3, 1-400 Hz): a stable pole at 69.23 Hz was listed as a
+    mode. It is dropped (rfp.pole_false_alarm) and said so: a 'dropped:' line under the table
+    and --json's dropped_poles, with its reason and the figures."""
+    rng = np.random.default_rng(3)
+    H = (rng.standard_normal((2, 400)) + 1j * rng.standard_normal((2, 400))) / np.sqrt(2)
+    path = io.write_frf(tmp_path / "noise.frf.h5",
+                        FrfSet(freq=np.arange(1.0, 401.0), frf=H, units="Pa/N"))
+    r = run(["fit-frf", str(path)])
+    assert r.exit_code == 0, r.output
+    assert "no stable mode found" in r.output
+    line = [ln for ln in r.output.splitlines() if ln.startswith("dropped: pole at 69.226 Hz")]
+    assert len(line) == 1, r.output
+    assert "no credible mode: its modal constants lower the residual by chi-squared" in line[0]
+    assert line[0].endswith("with probability 1 > 0.01")
+    out = json.loads(run(["fit-frf", str(path), "--json"]).output)
+    assert out["modes"] == []
+    d = [d for d in out["dropped_poles"] if abs(d["freq_hz"] - 69.226) < 1e-3]
+    assert len(d) == 1 and d[0]["reason"] == "chance" and d[0]["false_alarm"] == 1.0
+    assert d[0]["band_hz"] == [41.0, 71.0] and 0 < d[0]["damping_ratio"] < 0.01

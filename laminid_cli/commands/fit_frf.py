@@ -96,6 +96,13 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
                       of the FRF of each entry of points (its label: "12-Z", a UFF
                       record measured in -Z, is of that direction, and so are its
                       constants)
+      dropped_poles   the stable poles dropped as no credible modes, each with
+                      freq_hz, damping_ratio, band_hz, reason ('reach': its
+                      output-error fit leaves its bounds; 'noise': its peak below
+                      5 x the residual; 'chance': its modal constants lower the
+                      residual no more than noise alone does somewhere in the band,
+                      false_alarm above 0.01; 'twice': a mode another pole found)
+                      and why (the figures); the table lists them under 'dropped:'
 
     Damping: when the FRF file records the exponential window acquire applied to the response
     (exp_window_s = tau), every fitted pole decays faster by 1/tau; fit-frf removes it
@@ -237,6 +244,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
             "sigma_rule": msig.summary(), "sigma_rel": sigma_rel,
             "exp_window_s": tau, "damping_rule": wc.summary() or None,
             "damping_sigma_rule": rfp.damping_sigma_summary(zdom) if zdom else None,
+            "dropped_poles": [d.as_dict() for d in fit.dropped],
             "notes": notes,
             "warnings": warnings,
             "plot": plot_path, "into": spec_path,
@@ -272,6 +280,9 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         if windowed:
             click.echo(f"damping: {wc.summary()}; as fitted = damping + window (--json: "
                        "damping_ratio_fitted)")
+    for d in fit.dropped:
+        click.echo(f"dropped: pole at {d.freq_hz:.3f} Hz (zeta {100 * d.damping_ratio:.3g} %, "
+                   f"band {d.band_hz[0]:g}-{d.band_hz[1]:g} Hz), no credible mode: {d.why}")
     for note in notes:
         click.echo(f"note: {note}")
     if plot_path is not None:
