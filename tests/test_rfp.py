@@ -617,3 +617,18 @@ def test_the_chart_note_says_a_pole_was_dropped_by_chance():
     assert unlisted_note(group, fit.criteria, width=1000).endswith(
         "its modal constants lower the residual no more than noise alone does somewhere in the "
         "band (false-alarm probability above 0.01): not a credible mode")
+
+
+def test_a_sub_band_of_a_given_band_too_narrow_for_a_sweep_joins_its_neighbour():
+    """--band 100:300 on noisy FRFs (two FRFs of pure noise, seed 3) holds more than six peaks
+    and is fitted as sub-bands; noise peaks made the last one 293:300 Hz, 8 lines, and the fit
+    stopped: 'band 293:300 Hz holds 8 lines, too narrow for a stabilisation sweep ...; widen
+    it', a band the user never gave (9 of 60 such fits of 1, 2 or 5 FRFs). It joins its
+    neighbour, as an automatic band does: the sub-bands cover 100-300 Hz, each of 20 lines
+    or more, and the noise gives no mode."""
+    freq, H = _pure_noise(2, 3)
+    fit = rfp.find_modes(freq, H, bands=[(100, 300)])
+    bands = [b.band_hz for b in fit.bands]
+    assert bands[0][0] == 100.0 and bands[-1] == (260.0, 300.0), bands
+    assert all(hi - lo >= 20 for lo, hi in bands), bands
+    assert fit.modes == ()

@@ -1287,8 +1287,13 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
             # the |D| weighting of the linearised equations vary over decades)
             sel = (freq >= lo) & (freq <= hi)
             sub = auto_bands(freq[sel], frf[:, sel])
-            for k, (_core, (s_lo, s_hi), s_pk) in enumerate(sub):
-                plan.append(((lo if k == 0 else s_lo, hi if k == len(sub) - 1 else s_hi), s_pk))
+            # sub-bands too narrow for a sweep joined to a neighbour, as automatic bands are
+            # (noise peaks made one of 8 lines, 293:300 of --band 100:300, and the fit stopped:
+            # 'band 293:300 Hz ... too narrow ...; widen it', a band the user never gave)
+            plan.extend(_merge_narrow(
+                [((lo if k == 0 else s_lo, hi if k == len(sub) - 1 else s_hi), s_pk)
+                 for k, (_core, (s_lo, s_hi), s_pk) in enumerate(sub)],
+                freq, frf.shape[0], criteria))
     n_p = frf.shape[0]
     sweeps = []
     for rng, n_pk in plan:
