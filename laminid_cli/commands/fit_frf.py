@@ -100,8 +100,9 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
                       freq_hz, damping_ratio, band_hz, reason ('reach': its
                       output-error fit leaves its bounds; 'noise': its peak below
                       5 x the residual; 'chance': its modal constants lower the
-                      residual no more than noise alone does somewhere in the band,
-                      false_alarm above 0.01; 'twice': a mode another pole found)
+                      residual no more than noise alone does anywhere in the lines
+                      fitted, false_alarm above 0.01; 'twice': a mode another pole
+                      found)
                       and why (the figures); the table lists them under 'dropped:'
 
     Damping: when the FRF file records the exponential window acquire applied to the response

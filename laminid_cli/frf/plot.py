@@ -205,7 +205,7 @@ def unlisted_note(unlisted, criteria, width: int = 150) -> str:
             (count("noise"), f"not above the fit's residual ({criteria.min_snr:g} x; dropped "
                              "as noise)"),
             (count("chance"), "lowering the residual no more than noise does somewhere in the "
-                              f"band (false alarm above {FALSE_ALARM:g}; dropped)"),
+                              f"lines fitted (false alarm above {FALSE_ALARM:g}; dropped)"),
             (count("reach"), "output-error fit beyond its bounds (not credible modes)"),
             (count("beyond"), "modes above the lowest that --modes asks for (not listed)")]
         lo = min(u.freq_hz[0] for u in unlisted)
@@ -240,8 +240,8 @@ def unlisted_note(unlisted, criteria, width: int = 150) -> str:
                    f"its damping {np.exp(REFINE_LIMITS[1]):.1f} times: not a credible mode")
         elif u.reason == "chance":
             why = ("its modal constants lower the residual no more than noise alone does "
-                   f"somewhere in the band (false-alarm probability above {FALSE_ALARM:g}): "
-                   "not a credible mode")
+                   f"somewhere in the lines fitted (false-alarm probability above "
+                   f"{FALSE_ALARM:g}): not a credible mode")
         else:
             why = (f"its contribution does not rise above the fit's residual ({criteria.min_snr:g}"
                    " x): dropped as noise")
