@@ -29,6 +29,12 @@ SNR_UNIT = ("1 (linear, not dB: the mode's peak contribution over the RMS of the
             "residual around it)")
 
 
+#: mode_units' entry for false_alarm
+FALSE_ALARM_UNIT = ("1 (a probability: that noise alone gives a pole whose modal constants "
+                    "lower the fit's residual as much anywhere in the lines fitted; a mode is "
+                    "kept only at 0.01 or less)")
+
+
 @click.command("fit-frf")
 @click.argument("frf_file", type=InputFile())
 @click.option("--band", "bands", multiple=True, callback=_parse_bands, metavar="LO:HI",
@@ -96,6 +102,9 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
                       of the FRF of each entry of points (its label: "12-Z", a UFF
                       record measured in -Z, is of that direction, and so are its
                       constants)
+      false_alarm     the probability that noise alone gives a pole whose modal
+                      constants lower the fit's residual as much anywhere in the
+                      lines fitted (a mode is kept at 0.01 or less; 0 for a clear one)
       dropped_poles   the stable poles dropped as no credible modes, each with
                       freq_hz, damping_ratio, band_hz, reason ('reach': its
                       output-error fit leaves its bounds; 'noise': its peak below
@@ -236,7 +245,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
                 "damping_ratio": "1", "damping_sigma": "1", "damping_ratio_fitted": "1",
                 "damping_window_removed": "1", "damping_std": "1", "band_hz": "Hz",
                 # a linear ratio (895, not dB), which "1" alone did not say
-                "snr": SNR_UNIT, "modal_constants": residue_unit},
+                "snr": SNR_UNIT, "false_alarm": FALSE_ALARM_UNIT,
+                "modal_constants": residue_unit},
             "bands_hz": [list(b.band_hz) for b in fit.bands],
             "modes": [dict(m.as_dict(), mode=i + 1, sigma_hz=float(s),
                            sigma_terms_hz={t: float(msig.terms[t][i]) for t in msig.terms},

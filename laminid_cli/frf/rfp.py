@@ -191,6 +191,9 @@ class Mode:
     orders_stable : number of model orders over which the pole was stable
     band_hz : band (lo, hi) the mode was found in, Hz
     snr : peak modal contribution over the local residual RMS
+    false_alarm : the probability that noise alone gives a pole whose modal constants lower the
+        residual as much as this mode's anywhere in the lines fitted (:func:`pole_false_alarm`;
+        at most :data:`FALSE_ALARM`, 0 to the precision of a float for a clear mode)
     """
 
     freq_hz: float
@@ -201,6 +204,7 @@ class Mode:
     orders_stable: int
     band_hz: tuple[float, float]
     snr: float = np.inf
+    false_alarm: float = np.nan
 
     @property
     def pole(self) -> complex:
@@ -212,7 +216,7 @@ class Mode:
         return {"freq_hz": self.freq_hz, "freq_std_hz": self.freq_std_hz,
                 "damping_ratio": self.damping_ratio, "damping_std": self.damping_std,
                 "orders_stable": self.orders_stable, "band_hz": list(self.band_hz),
-                "snr": self.snr,
+                "snr": self.snr, "false_alarm": self.false_alarm,
                 "modal_constants": [[float(a.real), float(a.imag)] for a in self.modal_constants]}
 
 
@@ -1640,6 +1644,7 @@ def _band_constants(freq, frf, chart, own, near, criteria, n_places: int | None 
         return idx, start
 
     idx, cur = refine(list(range(len(own))), own)
+    fa = np.zeros(0)              # the kept poles' false-alarm probabilities
     while True:
         poles = np.concatenate([_pole([c.freq_hz for c in cur], [c.damping_ratio for c in cur]),
                                 near_poles])
@@ -1680,7 +1685,8 @@ def _band_constants(freq, frf, chart, own, near, criteria, n_places: int | None 
     modes = [Mode(freq_hz=c.freq_hz, damping_ratio=c.damping_ratio,
                   modal_constants=A[:, r].copy(), freq_std_hz=c.freq_std_hz,
                   damping_std=c.damping_std, orders_stable=c.orders_stable,
-                  band_hz=(float(lo), float(hi)), snr=float(snr[r]))
+                  band_hz=(float(lo), float(hi)), snr=float(snr[r]),
+                  false_alarm=float(fa[r]))
              for r, c in enumerate(cur)]
     bf = BandFit(band_hz=(float(lo), float(hi)), chart=chart, poles=poles, constants=A,
                  residual=res, w_ref=w_ref)
