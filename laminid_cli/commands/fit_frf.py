@@ -30,6 +30,12 @@ SNR_UNIT = ("1 (linear, not dB: the mode's peak contribution over the RMS of the
             "residual around it)")
 
 
+#: mode_units' entry for false_alarm
+FALSE_ALARM_UNIT = ("1 (a probability: that noise alone gives a pole whose modal constants "
+                    "lower the fit's residual as much anywhere in the lines fitted; a mode is "
+                    "kept only at 0.01 or less)")
+
+
 @click.command("fit-frf")
 @click.argument("frf_file", type=InputFile(folder_hint=files_hint(
     "fit-frf", ("*.frf.h5", "*.uff", "*.unv", "*.csv", "*.txt", "*.mat"), "FRF file")))
@@ -99,6 +105,17 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
                       of the FRF of each entry of points (its label: "12-Z", a UFF
                       record measured in -Z, is of that direction, and so are its
                       constants)
+      false_alarm     the probability that noise alone gives a pole whose modal
+                      constants lower the fit's residual as much anywhere in the
+                      lines fitted (a mode is kept at 0.01 or less; 0 for a clear one)
+      dropped_poles   the stable poles dropped as no credible modes, each with
+                      freq_hz, damping_ratio, band_hz, reason ('reach': its
+                      output-error fit leaves its bounds; 'noise': its peak below
+                      5 x the residual; 'chance': its modal constants lower the
+                      residual no more than noise alone does anywhere in the lines
+                      fitted, false_alarm above 0.01; 'twice': a mode another pole
+                      found)
+                      and why (the figures); the table lists them under 'dropped:'
 
     Damping: when the FRF file records the exponential window acquire applied to the response
     (exp_window_s = tau), every fitted pole decays faster by 1/tau; fit-frf removes it
@@ -250,7 +267,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
                 "damping_ratio": "1", "damping_sigma": "1", "damping_ratio_fitted": "1",
                 "damping_window_removed": "1", "damping_std": "1", "band_hz": "Hz",
                 # a linear ratio (895, not dB), which "1" alone did not say
-                "snr": SNR_UNIT, "modal_constants": residue_unit},
+                "snr": SNR_UNIT, "false_alarm": FALSE_ALARM_UNIT,
+                "modal_constants": residue_unit},
             "bands_hz": [list(b.band_hz) for b in fit.bands],
             "modes": [dict(m.as_dict(), mode=i + 1, sigma_hz=float(s),
                            sigma_terms_hz={t: float(msig.terms[t][i]) for t in msig.terms},
@@ -259,6 +277,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
             "sigma_rule": msig.summary(), "sigma_rel": sigma_rel,
             "exp_window_s": tau, "damping_rule": wc.summary() or None,
             "damping_sigma_rule": rfp.damping_sigma_summary(zdom) if zdom else None,
+            "dropped_poles": [d.as_dict() for d in fit.dropped],
             "notes": notes,
             "warnings": warnings,
             "plot": plot_path, "into": spec_path,
@@ -296,6 +315,9 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         if windowed:
             click.echo(f"damping: {wc.summary()}; as fitted = damping + window (--json: "
                        "damping_ratio_fitted)")
+    for d in fit.dropped:
+        click.echo(f"dropped: pole at {d.freq_hz:.3f} Hz (zeta {100 * d.damping_ratio:.3g} %, "
+                   f"band {d.band_hz[0]:g}-{d.band_hz[1]:g} Hz), no credible mode: {d.why}")
     for note in notes:
         click.echo(f"note: {note}")
     if plot_path is not None:

@@ -185,7 +185,7 @@ def unlisted_note(unlisted, criteria, width: int = 150) -> str:
     :data:`MAX_NOTE_GROUPS` groups are counted by rule instead, in at most three lines."""
     import textwrap
 
-    from laminid_cli.frf.rfp import EDGE_LINES, REFINE_LIMITS
+    from laminid_cli.frf.rfp import EDGE_LINES, FALSE_ALARM, REFINE_LIMITS
 
     not_listed = ("not listed" if any(u.reason == "beyond" for u in unlisted)
                   else "not a mode")
@@ -204,6 +204,8 @@ def unlisted_note(unlisted, criteria, width: int = 150) -> str:
                                "modes)"),
             (count("noise"), f"not above the fit's residual ({criteria.min_snr:g} x; dropped "
                              "as noise)"),
+            (count("chance"), "lowering the residual no more than noise does somewhere in the "
+                              f"lines fitted (false alarm above {FALSE_ALARM:g}; dropped)"),
             (count("reach"), "output-error fit beyond its bounds (not credible modes)"),
             (count("beyond"), "modes above the lowest that --modes asks for (not listed)")]
         lo = min(u.freq_hz[0] for u in unlisted)
@@ -236,6 +238,10 @@ def unlisted_note(unlisted, criteria, width: int = 150) -> str:
             why = (f"its output-error fit would move it more than {REFINE_LIMITS[0]:g} f·ζ (at "
                    f"least {REFINE_LIMITS[0] / 4:g} line), or "
                    f"its damping {np.exp(REFINE_LIMITS[1]):.1f} times: not a credible mode")
+        elif u.reason == "chance":
+            why = ("its modal constants lower the residual no more than noise alone does "
+                   f"somewhere in the lines fitted (false-alarm probability above "
+                   f"{FALSE_ALARM:g}): not a credible mode")
         else:
             why = (f"its contribution does not rise above the fit's residual ({criteria.min_snr:g}"
                    " x): dropped as noise")

@@ -30,10 +30,14 @@ complex polynomials"), which undoes the linearisation's emphasis on the regions 
 resonances. Finally the poles of each band are polished by an output-error least-squares fit
 (variable projection, Golub & Pereyra 1973) in which the modal constants and the residual terms
 are linear (LSFD), and modes whose contribution does not rise above the fit residual are
-dropped. The frequencies and damping ratios reported are that fit's optimum, reached whatever
-the stabilised poles it starts from, with the neighbouring bands' poles at their own refined
-values: they are continuous in the FRF data (the stabilised estimate, a median over the stable
-orders, jumps where a pole's stability flag flips; it is only the start). A pole whose
+dropped, as are poles whose modal constants lower the residual no more than noise alone does
+somewhere in the lines fitted (an extra-sum-of-squares test at a stated false-alarm
+probability,
+:func:`pole_false_alarm`). The frequencies and damping ratios reported are that fit's
+optimum, reached whatever the stabilised poles it starts from, with the neighbouring bands'
+poles at their own refined values: they are continuous in the FRF data (the stabilised
+estimate, a median over the stable orders, jumps where a pole's stability flag flips; it is
+only the start). A pole whose
 refinement would leave its bounds is no credible mode and is dropped, as is a second pole that
 the refinement brings onto a mode another has found (one mode, listed once).
 
@@ -187,6 +191,9 @@ class Mode:
     orders_stable : number of model orders over which the pole was stable
     band_hz : band (lo, hi) the mode was found in, Hz
     snr : peak modal contribution over the local residual RMS
+    false_alarm : the probability that noise alone gives a pole whose modal constants lower the
+        residual as much as this mode's anywhere in the lines fitted (:func:`pole_false_alarm`;
+        at most :data:`FALSE_ALARM`, 0 to the precision of a float for a clear mode)
     """
 
     freq_hz: float
@@ -197,6 +204,7 @@ class Mode:
     orders_stable: int
     band_hz: tuple[float, float]
     snr: float = np.inf
+    false_alarm: float = np.nan
 
     @property
     def pole(self) -> complex:
@@ -208,7 +216,7 @@ class Mode:
         return {"freq_hz": self.freq_hz, "freq_std_hz": self.freq_std_hz,
                 "damping_ratio": self.damping_ratio, "damping_std": self.damping_std,
                 "orders_stable": self.orders_stable, "band_hz": list(self.band_hz),
-                "snr": self.snr,
+                "snr": self.snr, "false_alarm": self.false_alarm,
                 "modal_constants": [[float(a.real), float(a.imag)] for a in self.modal_constants]}
 
 
@@ -246,6 +254,33 @@ class BandFit:
 
 
 @dataclass(frozen=True)
+class DroppedPole:
+    """A stable pole the fit dropped as no credible mode, and why.
+
+    freq_hz, damping_ratio : the pole when it was dropped (refined; for 'reach' its stabilised
+        start); band_hz : the band whose fit dropped it; reason : 'reach' (its output-error
+        refinement would leave its bounds, :data:`REFINE_LIMITS`), 'noise' (peak contribution
+        below ``min_snr`` times the residual), 'chance' (its modal constants lower the residual
+        no more than noise does somewhere in the lines fitted: :func:`pole_false_alarm`) or
+        'twice' (a
+        mode another pole found: :data:`SAME_MODE_BANDWIDTHS`); why : one sentence with the
+        figures; false_alarm : the probability of :func:`pole_false_alarm` where computed
+    """
+
+    freq_hz: float
+    damping_ratio: float
+    band_hz: tuple[float, float]
+    reason: str
+    why: str
+    false_alarm: float | None = None
+
+    def as_dict(self) -> dict:
+        return {"freq_hz": self.freq_hz, "damping_ratio": self.damping_ratio,
+                "band_hz": list(self.band_hz), "reason": self.reason, "why": self.why,
+                "false_alarm": self.false_alarm}
+
+
+@dataclass(frozen=True)
 class ModalFit:
     """Result of :func:`find_modes`: the modes of all bands and how they were found.
 
@@ -258,6 +293,8 @@ class ModalFit:
         for (``--modes``), not in ``modes``
     out_of_reach : frequencies (Hz, stabilised) of the stable poles dropped because their
         output-error refinement would leave its bounds (:data:`REFINE_LIMITS`)
+    dropped : the stable poles dropped as no credible modes (:class:`DroppedPole`), by
+        frequency
     """
 
     modes: tuple[Mode, ...]
@@ -265,6 +302,7 @@ class ModalFit:
     criteria: PoleCriteria = field(default_factory=PoleCriteria)
     beyond: tuple[Mode, ...] = ()
     out_of_reach: tuple = ()
+    dropped: tuple = ()
 
     @property
     def freq_hz(self) -> np.ndarray:
@@ -705,7 +743,10 @@ class UnlistedPoles:
     n_stable : orders at which their track is stable in frequency and damping; reason :
     'few' (fewer than ``min_stable``: a computational pole), 'edge' (within
     :data:`EDGE_LINES` lines of the band's edge), 'damping' (outside (0, max_damping]) or
-    'noise' (its contribution did not rise above the fit residual, ``min_snr``) or
+    'noise' (its contribution did not rise above the fit residual, ``min_snr``) or 'chance'
+    (its modal constants lower the residual no more than noise does somewhere in the lines
+    fitted,
+    :func:`pole_false_alarm`) or
     'reach' (its output-error refinement would leave its bounds, :data:`REFINE_LIMITS`) or
     'beyond' (a mode, above the ``n_modes`` lowest asked for: ``ModalFit.beyond``); edge_hz :
     the band edge it lies near (within 5 % of the band's width), or None
@@ -732,6 +773,7 @@ def unlisted_stable_poles(fit: ModalFit, freq) -> list[UnlistedPoles]:
     listed = fit.freq_hz
     beyond = np.array([m.freq_hz for m in getattr(fit, "beyond", ())])
     reach = np.array(getattr(fit, "out_of_reach", ()), float)
+    chance = np.array([d.freq_hz for d in getattr(fit, "dropped", ()) if d.reason == "chance"])
     out = []
     for k, band in enumerate(fit.bands):
         ch = band.chart
@@ -759,7 +801,10 @@ def unlisted_stable_poles(fit: ModalFit, freq) -> list[UnlistedPoles]:
             else:
                 reason = ("edge" if not lo + margin <= c.freq_hz <= hi - margin
                           else "reach" if np.any(np.abs(reach - c.freq_hz)
-                                                 <= crit.freq_tol * c.freq_hz) else "noise")
+                                                 <= crit.freq_tol * c.freq_hz)
+                          else "chance" if np.any(np.abs(chance - c.freq_hz)
+                                                  <= max(0.01 * c.freq_hz, 2 * df))
+                          else "noise")
                 n_stable = c.orders_stable
             f = ch.freq_hz[mine]
             near_edge = [e for e in (lo, hi) if abs(np.median(f) - e) <= 0.05 * (hi - lo)]
@@ -828,6 +873,119 @@ def modal_constants(freq, frf, poles, *, w_ref: float | None = None
         A = X[:, 0:2 * n:2] + 1j * X[:, 1:2 * n:2]
         synth = X @ B.T
     return A, X[:, 2 * n:], synth
+
+
+#: false-alarm probability of the significance test of the poles (:func:`pole_false_alarm`):
+#: the chance (at most; a Bonferroni bound) that noise alone, with no mode in the lines fitted,
+#: gives a pole that passes it anywhere in them
+FALSE_ALARM = 0.01
+
+
+def pole_false_alarm(freq, frf, poles, n_test: int, *, w_ref: float, n_places: int | None = None):
+    """Whether each of the first ``n_test`` ``poles`` (rad/s) is more than noise: the false-alarm
+    probability of its LSFD columns in the FRFs ``frf`` (n_points, n_freq) on ``freq`` (Hz).
+
+    The extra-sum-of-squares test of nested linear least squares (Seber & Lee, "Linear
+    regression analysis", 2nd ed., 2003, section 4.3): with the poles fixed, adding a pole's
+    two real columns (Re A, Im A of its residue) to the LSFD model of each FRF lowers its
+    residual sum of squares, in units of the noise variance, by a chi-squared variable of 2
+    degrees of freedom when the pole is no mode (residue 0), independently in each FRF; summed
+    over the n_points FRFs, chi-squared of ``2 n_points``. The noise variance of each line is
+    modelled as ``a_p + b_p |H_fit|^2`` (additive noise and noise proportional to the FRF, as
+    an H1 estimate's coherence-limited noise; Bendat & Piersol, "Random data", 4th ed., 9.2.4),
+    ``a_p, b_p >= 0`` of each FRF from its residuals (each line's squared residual over
+    ``1 - leverage``); the test is that of the fit weighted by its inverse (generalised least
+    squares). The pole's frequency was not fixed in advance but found where the data fit best:
+    the probability is that at one frequency times ``n_places``, the number of lines it could
+    have been found at (default: those of ``freq``; :func:`find_modes` gives the lines of all
+    its bands, so that the bound holds for the whole fit, not band by band: with one FRF of
+    pure noise and ~19 automatic bands, 3 of 200 fits kept a pole of probability 0.003-0.007
+    in its band's 27-34 lines). Bonferroni over the places a noise pole could be: a pole
+    narrower than the line spacing fits one line's noise; a wider one fewer independent places.
+    A pole whose false-alarm probability exceeds :data:`FALSE_ALARM` is no credible mode: its
+    contribution is what noise gives somewhere in this many lines. It replaces nothing of the
+    ``min_snr`` rule, which compares the pole's peak |A| / sigma, between the lines where the
+    pole is narrower than their spacing, with the residual, and so let through a noise pole
+    whose peak between two lines was high while at the lines it fitted one line's noise.
+
+    Returns (false-alarm probability (n_test,), statistic (n_test,), its degrees of freedom).
+    """
+    from scipy.special import chdtrc
+
+    freq = np.asarray(freq, dtype=float)
+    frf = np.atleast_2d(np.asarray(frf))
+    poles = np.asarray(poles, dtype=complex).reshape(-1)
+    n_p, nf = frf.shape
+    with np.errstate(all="ignore"):
+        B = lsfd_basis(freq, poles, w_ref)
+        Br = np.vstack([B.real, B.imag])
+        norm = np.linalg.norm(Br, axis=0)
+        norm[norm == 0] = 1.0
+        Br = Br / norm
+        scale = float(np.sqrt(np.mean(np.abs(frf) ** 2))) or 1.0
+        Y = np.hstack([frf.real, frf.imag]).T / scale                   # (2 nf, n_p)
+        Q = np.linalg.qr(Br)[0]
+        fitted = Q @ (Q.T @ Y)
+        E = Y - fitted
+        lev = np.sum(Q ** 2, axis=1)
+        lev = 0.5 * (lev[:nf] + lev[nf:])                               # per line
+        fit_c = (fitted[:nf] + 1j * fitted[nf:]).T                      # (n_p, nf)
+        e2 = (np.abs(E[:nf]) ** 2 + np.abs(E[nf:]) ** 2).T              # (n_p, nf)
+        ok = lev < 0.5
+        v = e2[:, ok] / (2 * (1 - lev[ok]))                             # per real component
+        x = np.abs(fit_c[:, ok]) ** 2
+        a, b = _variance_model(v, x)
+        floor = (1e-13 * float(np.max(np.abs(Y)))) ** 2
+        var = a[:, None] + b[:, None] * np.abs(fit_c) ** 2 + floor      # (n_p, nf)
+        w = 1.0 / np.sqrt(np.concatenate([var, var], axis=1))          # (n_p, 2 nf)
+        Qw, Rw = np.linalg.qr(w[:, :, None] * Br[None, :, :])        # (n_p, 2 nf, ncol)
+        x = np.linalg.solve(Rw, np.matmul(Qw.transpose(0, 2, 1), (Y.T * w)[:, :, None]))
+        # the extra sum of squares of a pole's two columns is the Wald form x_b^T C_bb^-1 x_b
+        # of their coefficients and the block of C = (R^T R)^-1 (Seber & Lee, 3.7 and 4.3)
+        Ri = np.linalg.inv(Rw)
+        k = np.arange(n_test)
+        rows = np.stack([2 * k, 2 * k + 1], axis=1)                     # (n_test, 2)
+        Rib = Ri[:, rows, :]                                            # (n_p, n_test, 2, ncol)
+        Cbb = np.matmul(Rib, Rib.transpose(0, 1, 3, 2))                 # (n_p, n_test, 2, 2)
+        xb = x[:, rows, 0][..., None]                                   # (n_p, n_test, 2, 1)
+        quad = np.matmul(xb.transpose(0, 1, 3, 2), np.linalg.solve(Cbb, xb))[..., 0, 0]
+        stat = np.sum(quad, axis=0)
+    dof = 2 * n_p
+    p = chdtrc(dof, stat)
+    return np.minimum((nf if n_places is None else n_places) * p, 1.0), stat, dof
+
+
+#: iterations of the reweighted fit of the noise variance model (:func:`_variance_model`)
+VARIANCE_ITERATIONS = 4
+
+
+def _variance_model(v, x):
+    """The noise variance model ``v ~ a + b x`` of each row of v and x (n, m), ``a, b >= 0``.
+
+    ``v`` are squared residuals (exponentially distributed about their mean for complex
+    Gaussian noise, their spread proportional to it): the fit is iteratively reweighted least
+    squares with weights ``1 / (a + b x)^2`` (the likelihood of a gamma model, McCullagh &
+    Nelder, "Generalized linear models", 2nd ed., 1989, 8.3), started from the unweighted fit;
+    unweighted, the few large residuals at a resonance set the constant ``a``, and noise
+    proportional to the FRF was taken about twice too large away from it (a pole's statistic
+    averaged 1.8 on 4 degrees of freedom: weak modes there dropped). Where one coefficient
+    comes out negative the other is fitted alone. Returns a, b (n,)."""
+    wt = np.ones_like(v)
+    for _ in range(VARIANCE_ITERATIONS + 1):
+        s0, s1, s2 = wt.sum(axis=1), (wt * x).sum(axis=1), (wt * x * x).sum(axis=1)
+        t0, t1 = (wt * v).sum(axis=1), (wt * x * v).sum(axis=1)
+        det = s0 * s2 - s1 * s1
+        ok = det > 1e-12 * s0 * s2
+        a = np.divide(s2 * t0 - s1 * t1, det, out=t0 / s0, where=ok)
+        b = np.divide(s0 * t1 - s1 * t0, det, out=np.zeros_like(det), where=ok)
+        a_alone = t0 / s0
+        b_alone = np.divide(t1, s2, out=np.zeros_like(s2), where=s2 > 0)
+        a, b = (np.where(a < 0, 0.0, np.where(b < 0, a_alone, a)),
+                np.where(a < 0, b_alone, np.where(b < 0, 0.0, b)))
+        mu = a[:, None] + b[:, None] * x
+        tiny = 1e-300 + 1e-12 * np.max(mu, axis=1, keepdims=True)
+        wt = 1.0 / np.maximum(mu, tiny) ** 2
+    return np.maximum(a, 0.0), np.maximum(b, 0.0)
 
 
 def refine_poles(freq, frf, cands, fixed_poles=(), *, w_ref: float, max_damping: float = 0.1):
@@ -1096,7 +1254,10 @@ def find_modes(freq, frf, *, bands=None, n_modes: int | None = None,
     in a second pass, at their refined ones) and modal constants by :func:`modal_constants`
     with every retained pole near the band (neighbours' poles explicit, not left to residual
     terms); a pole whose refinement would leave its bounds (:data:`REFINE_LIMITS`), or whose
-    peak contribution does not exceed ``min_snr`` times the local RMS residual (noise pole), is
+    peak contribution does not exceed ``min_snr`` times the local RMS residual (noise pole), or
+    whose modal constants lower the residual no more than noise does somewhere in the lines
+    fitted
+    (:func:`pole_false_alarm`, false-alarm probability above :data:`FALSE_ALARM`), is
     dropped, the band refitted without it, and it is no other band's neighbour (another pass
     follows one that dropped a pole or moved one by more than :data:`PASS_MOVED`); (4) two
     refined poles within :data:`SAME_MODE_BANDWIDTHS` half-power bandwidths of each other
@@ -1138,8 +1299,13 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
             # the |D| weighting of the linearised equations vary over decades)
             sel = (freq >= lo) & (freq <= hi)
             sub = auto_bands(freq[sel], frf[:, sel])
-            for k, (_core, (s_lo, s_hi), s_pk) in enumerate(sub):
-                plan.append(((lo if k == 0 else s_lo, hi if k == len(sub) - 1 else s_hi), s_pk))
+            # sub-bands too narrow for a sweep joined to a neighbour, as automatic bands are
+            # (noise peaks made one of 8 lines, 293:300 of --band 100:300, and the fit stopped:
+            # 'band 293:300 Hz ... too narrow ...; widen it', a band the user never gave)
+            plan.extend(_merge_narrow(
+                [((lo if k == 0 else s_lo, hi if k == len(sub) - 1 else s_hi), s_pk)
+                 for k, (_core, (s_lo, s_hi), s_pk) in enumerate(sub)],
+                freq, frf.shape[0], criteria))
     n_p = frf.shape[0]
     sweeps = []
     for rng, n_pk in plan:
@@ -1163,6 +1329,11 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
         sweeps.append((rng, n_max))
     check_fit_memory(freq, frf, sweeps, criteria.n_extra)
     margin = EDGE_LINES * float(np.median(np.diff(freq)))
+    # the lines of all bands: the places a noise pole could be found (pole_false_alarm)
+    covered = np.zeros(freq.size, bool)
+    for (lo, hi), _ in sweeps:
+        covered |= (freq >= lo) & (freq <= hi) & (freq > 0)
+    n_places = int(covered.sum())
 
     def sweep(ref=None):
         charts, cands = [], []
@@ -1186,6 +1357,7 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
         charts, cands = sweep([c for _, c, _ in cands])
 
     dead = set()          # indices into cands of poles found to be no modes, or one twice
+    twins = {}            # of those, the ones found twice: DroppedPole
 
     def passes(cands):
         # a band's neighbours (other bands' poles) are fixed in its refinement: at their
@@ -1199,6 +1371,7 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
         start = [c for _, c, _ in cands]
         alive = [i not in dead for i in range(len(cands))]
         reach = set()
+        gone = {}             # indices into cands of the poles dropped: DroppedPole
         for n_pass in range(MAX_PASSES):
             band_fits, modes, owner, refined = [], [], [], list(start)
             neighbours = dropped = False
@@ -1209,11 +1382,12 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
                         if b != k and alive[i] and lo - (hi - lo) <= c.freq_hz <= hi + (hi - lo)]
                 neighbours = neighbours or bool(near)
                 bf, ms, ref = _band_constants(freq, frf, chart, [start[i] for i in mine], near,
-                                              criteria)
+                                              criteria, n_places)
                 for i, r in zip(mine, ref):
-                    if isinstance(r, str):            # dropped: "reach" or "noise"
+                    if isinstance(r, DroppedPole):    # dropped: "reach", "noise", "chance"
                         alive[i], dropped = False, True
-                        if r == "reach":
+                        gone[i] = r
+                        if r.reason == "reach":
                             reach.add(cands[i][1].freq_hz)
                     else:
                         refined[i] = r
@@ -1227,14 +1401,16 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
             if not (neighbours and (dropped or (criteria.refine
                                                 and (n_pass == 0 or moved > PASS_MOVED)))):
                 break
-        return band_fits, modes, owner, reach
+        return band_fits, modes, owner, reach, gone
 
     def constants(cands):
         while True:
-            band_fits, modes, owner, reach = passes(cands)
+            band_fits, modes, owner, reach, gone = passes(cands)
             twin = _one_mode_twice(modes)
             if twin is None:
-                return band_fits, sorted(modes, key=lambda m: m.freq_hz), reach
+                gone.update(twins)
+                return (band_fits, sorted(modes, key=lambda m: m.freq_hz), reach,
+                        sorted(gone.values(), key=lambda d: d.freq_hz))
             a, b, sep = twin
             keep, drop = sorted((a, b), key=lambda r: (-modes[r].orders_stable, -modes[r].snr))
             log.info("poles at %.4f and %.4f Hz are one mode (%.2g half-power bandwidths apart, "
@@ -1242,8 +1418,13 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
                      modes[a].freq_hz, modes[b].freq_hz, sep, modes[a].damping_ratio,
                      modes[b].damping_ratio, modes[keep].freq_hz)
             dead.add(owner[drop])
+            m = modes[drop]
+            twins[owner[drop]] = DroppedPole(
+                freq_hz=m.freq_hz, damping_ratio=m.damping_ratio, band_hz=m.band_hz,
+                reason="twice", why=(f"{sep:.2g} half-power bandwidths from the pole at "
+                                     f"{modes[keep].freq_hz:.3f} Hz: one mode, fitted twice"))
 
-    band_fits, modes, reach = constants(cands)
+    band_fits, modes, reach, gone = constants(cands)
     if criteria.gap_search:
         found = _new_poles(_gap_search(freq, frf, modes, charts, criteria),
                            [c for _, c, _ in cands], criteria)
@@ -1254,7 +1435,7 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
                 k = int(np.argmax([min(c.freq_hz - ch.band_hz[0], ch.band_hz[1] - c.freq_hz)
                                    / (ch.band_hz[1] - ch.band_hz[0]) for ch in charts]))
                 cands.append((k, c, 0.0))
-            band_fits, modes, reach = constants(cands)
+            band_fits, modes, reach, gone = constants(cands)
     if n_modes is not None:
         if len(modes) < n_modes:
             where = ", ".join(f"{c.band_hz[0]:g}:{c.band_hz[1]:g}" for c in charts)
@@ -1266,7 +1447,8 @@ def _find_modes(freq, frf, bands, n_modes, criteria) -> ModalFit:
     else:
         beyond = []
     return ModalFit(modes=tuple(modes), bands=tuple(band_fits), criteria=criteria,
-                    beyond=tuple(beyond), out_of_reach=tuple(sorted(reach)))
+                    beyond=tuple(beyond), out_of_reach=tuple(sorted(reach)),
+                    dropped=tuple(gone))
 
 
 #: most passes over the bands in :func:`find_modes` (two; more after a pass that dropped a
@@ -1409,7 +1591,7 @@ def _dedupe(cands, criteria):
     return [c for c, k in zip(cands, keep) if k]
 
 
-def _band_constants(freq, frf, chart, own, near, criteria):
+def _band_constants(freq, frf, chart, own, near, criteria, n_places: int | None = None):
     """LSFD over one band with its own poles and its neighbours'; drop own poles that are no
     credible modes.
 
@@ -1421,10 +1603,14 @@ def _band_constants(freq, frf, chart, own, near, criteria):
     RFP median decided, and sat on a mode the others had found: the emulator's plate at noise
     0.2 listed 497.43 Hz twice, and a spurious 1263.30 Hz with damping 9e-5). Then a pole whose
     peak contribution does not exceed ``min_snr`` times the local residual is dropped (noise
-    pole), and the others are refined again and refitted without it.
+    pole), and the others are refined again and refitted without it; then, likewise, the pole
+    whose modal constants are least significant, where its false-alarm probability
+    (:func:`pole_false_alarm`, over ``n_places`` lines: those of all bands) exceeds
+    :data:`FALSE_ALARM`, one at a time.
 
     Returns the :class:`BandFit`, its modes and, per pole of ``own``, its refined value or,
-    where it was dropped, why: "reach" (out of the refinement's reach) or "noise"."""
+    where it was dropped, a :class:`DroppedPole` saying why: "reach" (out of the refinement's
+    reach), "noise" or "chance"."""
     lo, hi = chart.band_hz
     sel = (freq >= lo) & (freq <= hi) & (freq > 0)
     f, H = freq[sel], frf[:, sel]
@@ -1434,6 +1620,7 @@ def _band_constants(freq, frf, chart, own, near, criteria):
     near_poles = _pole([c.freq_hz for c in near], [c.damping_ratio for c in near])
 
     dropped = {}
+    band = (float(lo), float(hi))
 
     def refine(idx, start):
         """(indices into own, refined poles) of the poles ``idx`` started at ``start``, those
@@ -1445,16 +1632,19 @@ def _band_constants(freq, frf, chart, own, near, criteria):
                 return idx, ref
             for r in np.flatnonzero(off):
                 c = start[r]
-                log.info("dropping pole at %.3f Hz: its output-error fit would move it more than "
-                         "%.3g Hz or its damping %.5f %.1f times (not a credible mode)",
-                         c.freq_hz, REFINE_LIMITS[0] * max(c.freq_hz * c.damping_ratio, 0.25 * df),
-                         c.damping_ratio, np.exp(REFINE_LIMITS[1]))
-            dropped.update((i, "reach") for i, o in zip(idx, off) if o)
+                why = (f"its output-error fit would move it more than "
+                       f"{REFINE_LIMITS[0] * max(c.freq_hz * c.damping_ratio, 0.25 * df):.3g} Hz "
+                       f"or its damping {c.damping_ratio:.5f} {np.exp(REFINE_LIMITS[1]):.1f} "
+                       "times (not a credible mode)")
+                log.info("dropping pole at %.3f Hz: %s", c.freq_hz, why)
+                dropped[idx[r]] = DroppedPole(freq_hz=c.freq_hz, damping_ratio=c.damping_ratio,
+                                              band_hz=band, reason="reach", why=why)
             idx = [i for i, o in zip(idx, off) if not o]
             start = [own[i] for i in idx]      # the others again from their starts
         return idx, start
 
     idx, cur = refine(list(range(len(own))), own)
+    fa = np.zeros(0)              # the kept poles' false-alarm probabilities
     while True:
         poles = np.concatenate([_pole([c.freq_hz for c in cur], [c.damping_ratio for c in cur]),
                                 near_poles])
@@ -1468,18 +1658,35 @@ def _band_constants(freq, frf, chart, own, near, criteria):
             peak = np.abs(A[:, r]) / max(-poles[r].real, 1e-300)            # |A| / sigma_r
             floor = 1e-12 * float(np.max(np.abs(H)))
             snr[r] = float(np.max(peak / np.maximum(noise, floor)))
-        if not cur or snr.min() >= criteria.min_snr:
+        if not cur:
             break
-        worst = int(np.argmin(snr))
-        log.info("dropping pole at %.3f Hz: peak/residual %.2f < %.2f", cur[worst].freq_hz,
-                 snr[worst], criteria.min_snr)
-        dropped[idx[worst]] = "noise"
+        if snr.min() >= criteria.min_snr:
+            fa, stat, dof = pole_false_alarm(f, H, poles, len(cur), w_ref=w_ref,
+                                             n_places=n_places)
+            worst = int(np.argmin(stat))          # the least significant (fa is clipped at 1)
+            if fa[worst] <= FALSE_ALARM:
+                break
+            why = (f"its modal constants lower the residual by chi-squared {stat[worst]:.3g} "
+                   f"({dof} degrees of freedom), what noise alone gives somewhere in the "
+                   f"{n_places or f.size} lines fitted with probability {fa[worst]:.2g} > "
+                   f"{FALSE_ALARM:g}")
+            reason, p_fa = "chance", float(fa[worst])
+        else:
+            worst = int(np.argmin(snr))
+            why = f"peak/residual {snr[worst]:.2f} < {criteria.min_snr:.2f}"
+            reason, p_fa = "noise", None
+        c = cur[worst]
+        log.info("dropping pole at %.3f Hz: %s", c.freq_hz, why)
+        dropped[idx[worst]] = DroppedPole(freq_hz=c.freq_hz, damping_ratio=c.damping_ratio,
+                                          band_hz=band, reason=reason, why=why,
+                                          false_alarm=p_fa)
         # the others refined again without it (from where they are: near their optimum)
         idx, cur = refine(idx[:worst] + idx[worst + 1:], cur[:worst] + cur[worst + 1:])
     modes = [Mode(freq_hz=c.freq_hz, damping_ratio=c.damping_ratio,
                   modal_constants=A[:, r].copy(), freq_std_hz=c.freq_std_hz,
                   damping_std=c.damping_std, orders_stable=c.orders_stable,
-                  band_hz=(float(lo), float(hi)), snr=float(snr[r]))
+                  band_hz=(float(lo), float(hi)), snr=float(snr[r]),
+                  false_alarm=float(fa[r]))
              for r, c in enumerate(cur)]
     bf = BandFit(band_hz=(float(lo), float(hi)), chart=chart, poles=poles, constants=A,
                  residual=res, w_ref=w_ref)
