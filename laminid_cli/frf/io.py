@@ -64,7 +64,8 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     a decimal comma is read too (``125,05``, as a European spreadsheet writes), and '.' as its
     thousands separator (``1.000,5``) where the whole file says so (:func:`_csv_thousands`,
     with a note; refused where a decimal point shares the file); ``#`` comment
-    lines (``# ... units Pa/N``, ``# Units: g/N``, ``# Units: Hz, g/N`` give the FRF unit, and the
+    lines (not one beginning with a spreadsheet's error value, ``#VALUE!,1.2,...``: a data
+    line whose frequency cell is broken, refused by line and column; ``# ... units Pa/N``, ``# Units: g/N``, ``# Units: Hz, g/N`` give the FRF unit, and the
     last the frequency's: :func:`_csv_units_comment`; else a unit closing every FRF column's
     name, ``H1_re [g/N]``, ``Pt1 Magnitude (g/N)``: :func:`_csv_header_units`; without one the
     unit is not stated:
@@ -158,6 +159,20 @@ UFF_ASCII = str.maketrans({"²": "^2", "³": "^3", "µ": "u", "μ": "u", "°": "
 #: 0 Hz line (H = X/F, F 0 at DC) they are NaN, and that line is dropped with a warning
 #: (:func:`~laminid_cli.frf.store.nonfinite_dc_lines`); anywhere else still "not a number"
 CSV_SHEET_ERRORS = ("#DIV/0!", "#NUM!")
+#: a spreadsheet's error value as a line's first cell ("#DIV/0!,1.2,3.4", "#N/A;..."): the
+#: line is data whose frequency cell is broken, not a '#' comment line (it was skipped as
+#: one, a line of the file lost without a word; or taken for numpy's commented header); the
+#: error values of Excel and LibreOffice Calc (Microsoft, "How to correct a #... error";
+#: LibreOffice Help, "Error codes in LibreOffice Calc")
+_SHEET_ERROR_FIRST = re.compile(r'\s*"?#(?:DIV/0!|VALUE!|N/A|NUM!|REF!|NAME\?|NULL!|SPILL!|'
+                                r'CALC!|FIELD!|BLOCKED!|BUSY!|CONNECT!|UNKNOWN!|GETTING_DATA)'
+                                r'"?\s*(?:[,;\t ]|\Z)', re.IGNORECASE)
+
+
+def is_comment_line(line: str) -> bool:
+    """Whether a CSV text line is a '#' comment: it begins with '#', and not with a
+    spreadsheet's error value (:data:`_SHEET_ERROR_FIRST`)."""
+    return line.lstrip().startswith("#") and not _SHEET_ERROR_FIRST.match(line)
 #: text FRF files (UFF, CSV) larger than this are refused before they are read (1 GB: the
 #: 50 million values of MAX_FRF_VALUES at ~20 characters each)
 MAX_TEXT_FILE_BYTES = 1_000_000_000
@@ -286,7 +301,7 @@ def describe_content(path) -> tuple[str, str | None]:
     quoted = repr(first if len(first) <= 50 else first[:47] + "...")
     if first.startswith(("{", "[")):
         return f"JSON text (first line {quoted})", None
-    data = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    data = [ln for ln in text.splitlines() if ln.strip() and not is_comment_line(ln)]
     if data and any(c in data[0] for c in ",;\t"):
         return f"text in columns, as a CSV FRF file is (first line {quoted})", "csv"
     return f"text whose first line is {quoted}", None
@@ -413,7 +428,7 @@ def _commented_header(text: str, first_data: int, sep: str | None, n: int
     if first_data < 2:
         return None
     above = lines[first_data - 2].strip()
-    if not above.startswith("#"):
+    if not is_comment_line(above):
         return None
     cells = _split(above.lstrip("#").strip(), sep)
     if len(cells) != n or not cells[0]:
@@ -495,6 +510,9 @@ def _not_a_number(cell: str, complex_cells: bool = False) -> str:
     ``complex_cells``: in a file of complex numbers (the forms it reads named)."""
     if not cell:
         return "empty, where a number is expected"
+    if _SHEET_ERROR_FIRST.fullmatch(cell):
+        return (f"{_quoted(cell)} is a spreadsheet's error value, not a number (the formula "
+                "of that cell failed: correct it in the sheet and save the CSV again)")
     if complex_cells:
         return (f"{_quoted(cell)} is neither a number nor a complex number (a+bj, a+bi, "
                 "(a+bj))")
@@ -917,7 +935,7 @@ def csv_frequency_first(path, rows) -> bool:
     from laminid_cli.frf.generic_h5 import _ANGULAR_NAME, _FREQ_NAME
 
     lines = [(i + 1, ln) for i, ln in enumerate(rows)
-             if ln.strip() and not ln.lstrip().startswith("#")]
+             if ln.strip() and not is_comment_line(ln)]
     if not lines:
         return False
     first = lines[_csv_preamble(lines)][1]
@@ -1005,7 +1023,7 @@ def read_frf_csv(path) -> FrfSet:
         _check_names(path, units_line, [units], "FRF unit")
     # a line of separators only (",,,,", a spreadsheet's formatted empty row) is blank
     lines = [(i + 1, ln) for i, ln in enumerate(text.splitlines())
-             if ln.strip(' \t,;"') and not ln.lstrip().startswith("#")]
+             if ln.strip(' \t,;"') and not is_comment_line(ln)]
     if len(lines) > 1:
         check_frf_size(1, len(lines) - 1, str(path))
     if not lines:
@@ -1045,7 +1063,7 @@ def read_frf_csv(path) -> FrfSet:
             return parse_complex_cell(cell)
 
     cells = _split(first, sep)
-    if not _csv_number(cells[0], sep):
+    if not _csv_number(cells[0], sep) and not _SHEET_ERROR_FIRST.match(first):
         # the frequency's name: a first line whose first cell is a number is data, and a bad
         # cell in it is named as such (it was taken for the header, the line lost)
         header = cells if two_line is None else two_line
