@@ -105,11 +105,6 @@ __all__ = ["FORMATS", "SUFFIXES", "UNSTATED_FREQ_MIN_SPAN_HZ", "check_frf_arrays
 FORMATS = ("hdf5", "uff", "csv")
 SUFFIXES = {".h5": "hdf5", ".hdf5": "hdf5", ".hdf": "hdf5", ".mat": "hdf5", ".uff": "uff",
             ".unv": "uff", ".csv": "csv", ".txt": "csv"}
-#: the text a MATLAB MAT-file begins with (its 116-byte descriptive header: "MATLAB 5.0
-#: MAT-file, Platform: ..."; MathWorks, "MAT-File Format", Level 5 MAT-File Format, header),
-#: and the version of a v7.3 file, HDF5 behind a 512-byte user block, which the plain HDF5
-#: reader reads; a version 5 (v6, v7: save's default) file is no HDF5
-MAT_HEADER = b"MATLAB "
 
 #: UFF 58 function types (record 6, field 1: 4 frequency response function, 6 coherence), and
 #: the abscissa's specific data type for frequency (Hz; record 8, field 1: 18). Source: the
@@ -216,8 +211,11 @@ def _read_frf(path: Path, fmt: str | None, h5_paths: dict) -> FrfSet:
         raise FrfError(f"{path}: file not found")
     if path.is_dir():
         raise FrfError(f"{path}: is a folder, not an FRF file")
-    if fmt == "hdf5" and path.suffix.lower() == ".mat":
-        _check_mat_file(path)
+    if fmt == "hdf5" and path.suffix.lower() == ".mat" and not _is_hdf5(path):
+        from laminid_cli.frf.generic_h5 import read_mat_frf
+
+        # version 4 or 5 (save's default, scipy.io.savemat): no HDF5
+        return _some_points(path, read_mat_frf(path, **h5_paths))
     if fmt != "hdf5":
         size = path.stat().st_size
         if size > MAX_TEXT_FILE_BYTES:
@@ -225,29 +223,24 @@ def _read_frf(path: Path, fmt: str | None, h5_paths: dict) -> FrfSet:
                            f"reads ({MAX_TEXT_FILE_BYTES / 1e9:g} GB)")
     fs = {"hdf5": lambda p: read_any_frf_h5(p, **h5_paths), "uff": read_frf_uff,
           "csv": read_frf_csv}[fmt](path)
+    return _some_points(path, fs)
+
+
+def _some_points(path: Path, fs: FrfSet) -> FrfSet:
     if fs.n_points == 0:
         raise FrfError(f"{path}: the file holds no FRF (0 measurement points)")
     return fs
 
 
-def _check_mat_file(path: Path) -> None:
-    """A MATLAB MAT-file (``.mat``) is read as HDF5 where it is one (saved with '-v7.3');
-    FrfError for one of version 5 (save's default), which is not, naming the save that makes
-    one laminid reads (it said 'unknown FRF file type .mat')."""
+def _is_hdf5(path: Path) -> bool:
+    """Whether ``path`` is HDF5 (a MAT-file saved with '-v7.3' is: read as a plain HDF5
+    file); a file that cannot be opened counts as one, the HDF5 reader says why."""
     import h5py
 
     try:
-        with open(path, "rb") as fh:
-            head = fh.read(128)
+        return bool(h5py.is_hdf5(str(path)))
     except OSError:
-        return                      # the HDF5 reader's message
-    if h5py.is_hdf5(str(path)) or not head.startswith(MAT_HEADER):
-        return
-    version = head[7:10].decode("ascii", "replace")
-    raise FrfError(f"{path}: a MATLAB MAT-file of version {version} (save's default), not "
-                   "HDF5, which laminid does not read; in MATLAB save the frequency and FRF "
-                   f"variables again with '-v7.3' (save('{path.name}', 'f', 'H', '-v7.3'), an "
-                   "HDF5 file laminid reads), or write them as a CSV")
+        return True
 
 
 def write_frf(path, fs: FrfSet, fmt: str | None = None, *, overwrite: bool = False) -> Path:

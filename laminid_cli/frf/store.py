@@ -297,7 +297,8 @@ except LaminidError:
 
 
 def probe_hdf5_file(path, reader: str = "read_frf_h5",
-                    timeout: float | None = None, module: str = "laminid_cli.frf.store") -> None:
+                    timeout: float | None = None, module: str = "laminid_cli.frf.store",
+                    library: str = "the HDF5 library") -> None:
     """Read an HDF5 file once in a child process before this process touches it.
 
     libhdf5 can crash (segmentation fault) or loop on a damaged file (seen on files with one
@@ -305,7 +306,8 @@ def probe_hdf5_file(path, reader: str = "read_frf_h5",
     child takes that risk. Raises :class:`FrfError` when the child dies by a crash signal,
     fails without a LaminidError, or does not finish within ``timeout`` seconds (default
     :data:`H5_PROBE_TIMEOUT_S`). ``reader`` names a function of ``module`` taking
-    ``(path, probe=False)``.
+    ``(path, probe=False)``; ``library`` names what reads the file in the messages (scipy's
+    MAT-file reader crashes alike on a damaged version 5 MAT-file).
 
     The child is a fork of this process where that is safe (:func:`_fork_is_safe`), 20–30 ms
     with the modules already imported; elsewhere a new interpreter (0.2–0.3 s). Whatever a
@@ -322,12 +324,12 @@ def probe_hdf5_file(path, reader: str = "read_frf_h5",
     if outcome is None:
         return
     if outcome == _TIMEOUT:
-        raise FrfError(f"{path}: the HDF5 library did not finish reading the file in "
+        raise FrfError(f"{path}: {library} did not finish reading the file in "
                        f"{timeout:g} s{' (two tries)' if tries > 1 else ''}; the file is "
                        "damaged")
     returncode, tail = outcome
     if returncode < 0:
-        raise FrfError(f"{path}: the HDF5 library crashed reading the file "
+        raise FrfError(f"{path}: {library} crashed reading the file "
                        f"({_signal_name(-returncode)}); the file is damaged")
     if returncode != 0:
         raise FrfError(f"{path}: the file cannot be read "
