@@ -93,6 +93,7 @@ from laminid_cli.errors import (NON_PRINTABLE, FrfError, LaminidError, OutputExi
                                  about_file)
 from laminid_cli.filekinds import binary_kind
 from laminid_cli.frf.store import (UNSTATED_FREQ_MIN_SPAN_HZ, FrfSet, check_frf_arrays,
+                                   check_frf_texts,
                                    check_frf_size, nonfinite_dc_lines, nonfinite_dc_warning,
                                    read_frf_h5, resonance_lines,
                                    unit_not_stated_note, unstated_freq_warning,
@@ -229,7 +230,7 @@ def _read_frf(path: Path, fmt: str | None, h5_paths: dict) -> FrfSet:
 def _some_points(path: Path, fs: FrfSet) -> FrfSet:
     if fs.n_points == 0:
         raise FrfError(f"{path}: the file holds no FRF (0 measurement points)")
-    return fs
+    return check_frf_texts(fs, path)
 
 
 def _is_hdf5(path: Path) -> bool:

@@ -96,6 +96,45 @@ class FrfSet:
         return int(self.frf.shape[0])
 
 
+def check_frf_texts(fs: FrfSet, path) -> FrfSet:
+    """``fs`` as read from ``path``, FrfError naming the file and where for a text in it that
+    laminid prints (a point label, the FRF unit, a point's unit, channel name or other
+    record, the instrument's and settings' words, a UFF record's ids) holding a character of
+    :data:`~laminid_cli.errors.NON_PRINTABLE`: an HDF5 label "1\u202e2" printed as "21" in
+    fit-frf's table, an ESC in a units attribute coloured the terminal. Every reader's set
+    passes here (io.read_frf, read_frf_h5)."""
+    from laminid_cli.errors import non_printable
+
+    def texts():
+        for k, label in enumerate(fs.labels, start=1):
+            yield f"point label {k}", label
+        yield "the FRF unit", fs.units
+        for key, value in fs.meta.items():
+            if key in ("notes", "warnings"):
+                continue                # laminid's own sentences (quoting a name with !r)
+            yield from _walk(key, value)
+
+    for where, text in texts():
+        bad = non_printable(text)
+        if bad is not None:
+            raise FrfError(f"{path}: {where} ({text!r}): {bad} in it; remove it (it can make "
+                           "a printed line show other text than the file's)")
+    return fs
+
+
+def _walk(where: str, value):
+    """(where, text) of every str in ``value`` (lists and dicts of a set's meta)."""
+    if isinstance(value, str):
+        yield where, value
+    elif isinstance(value, dict):
+        for k, v in value.items():
+            yield from _walk(f"{where} {k!s}", str(k))
+            yield from _walk(f"{where} {k!s}", v)
+    elif isinstance(value, (list, tuple)):
+        for i, v in enumerate(value, start=1):
+            yield from _walk(f"{where} {i}", v)
+
+
 #: how laminid writes the FRF unit of a file that states none (its :attr:`FrfSet.units` None;
 #: in --json ``units`` null): "1" read as if the FRFs were dimensionless
 UNIT_NOT_STATED = "unit not stated in file"
@@ -637,8 +676,8 @@ def _read_open_h5(f, path: Path) -> FrfSet:
                                                     "acquire --units records it")]
     if frf.shape[0]:
         freq, frf, coherence = check_frf_arrays(freq, frf, coherence, source=str(path))
-    return FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels, units=units,
-                  source=str(path), meta=meta)
+    return check_frf_texts(FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels,
+                                  units=units, source=str(path), meta=meta), path)
 
 
 def _attrs(f, name: str) -> dict:
