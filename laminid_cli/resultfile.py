@@ -382,8 +382,44 @@ def _materials(f, group: str = "materials") -> dict:
     if group not in f:
         return out
     for key, g in f[group].items():
-        out[_name(key, g)] = {k: float(g[k][()]) for k in (*CONSTANTS, "density") if k in g}
+        out[_name(key, g)] = {k: _num(g[k]) for k in (*CONSTANTS, "density") if k in g}
     return out
+
+
+def _arr(ds, dtype=float) -> np.ndarray:
+    """The values of dataset ``ds`` as an array of ``dtype``: ResultFileError naming the file
+    and the dataset where they are no numbers (text, a compound) or no finite float is an
+    int (a result edited by hand or damaged: 'could not convert string to float' was a
+    ValueError traceback in show and report)."""
+    value = ds[()]
+    try:
+        out = np.asarray(value, dtype)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ResultFileError(f"{ds.file.filename}: dataset '{ds.name}' holds "
+                              f"{_shown(value)}, not numbers; the result file is damaged "
+                              "or was edited") from exc
+    if np.asarray(value).dtype.kind not in "biuf":
+        raise ResultFileError(f"{ds.file.filename}: dataset '{ds.name}' holds "
+                              f"{_shown(value)}, not numbers; the result file is damaged or "
+                              "was edited")
+    return out
+
+
+def _num(ds) -> float:
+    """A scalar dataset's value as a float (:func:`_arr`'s check), ResultFileError naming it
+    where it holds more than one value."""
+    out = _arr(ds, float)
+    if out.size != 1:
+        raise ResultFileError(f"{ds.file.filename}: dataset '{ds.name}' holds {out.size} "
+                              "values, where one number is expected; the result file is "
+                              "damaged or was edited")
+    return float(out.reshape(-1)[0])
+
+
+def _shown(value) -> str:
+    text = repr(decode(value) if not isinstance(value, np.ndarray) or value.shape == ()
+                else value.tolist())
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def _labels(ds) -> tuple[str, ...]:
@@ -394,10 +430,10 @@ def _history(f) -> History | None:
     if "history" not in f:
         return None
     h = f["history"]
-    bound = np.asarray(h["error_bound"][()], float) if "error_bound" in h else None
-    return History(np.asarray(h["evaluation"][()]), np.asarray(h["objective"][()], float),
-                   np.asarray(h["rms_residual_percent"][()], float),
-                   np.asarray(h["constants"][()], float), _labels(h["constants"]), bound)
+    bound = _arr(h["error_bound"], float) if "error_bound" in h else None
+    return History(np.asarray(h["evaluation"][()]), _arr(h["objective"], float),
+                   _arr(h["rms_residual_percent"], float),
+                   _arr(h["constants"], float), _labels(h["constants"]), bound)
 
 
 def _reference_pair(v, kind: str) -> tuple[float, float]:
@@ -485,7 +521,7 @@ def restate_reference_ranges(ref: dict, yaml_text: str) -> None:
 def _plate(g, name: str | None = None) -> Plate:
     sp = g["specimen"]
     fr = g["frequencies"]
-    measured = np.asarray(fr["measured"][()], float)
+    measured = _arr(fr["measured"], float)
     yaml_text = _s(sp["yaml"][()]) if "yaml" in sp else ""
     ref, source = parse_reference(yaml_text)
     mesh = g["mesh"]
@@ -499,23 +535,23 @@ def _plate(g, name: str | None = None) -> Plate:
     return Plate(
         name=name if name is not None else _s(sp.attrs.get("name", "")),
         path=_s(sp.attrs.get("path", "")), yaml=yaml_text,
-        a=float(sp["a"][()]), b=float(sp["b"][()]), h=float(sp["h"][()]),
+        a=_num(sp["a"]), b=_num(sp["b"]), h=_num(sp["h"]),
         boundary=_s(sp.attrs.get("boundary", "free")),
-        nodes=np.asarray(mesh["nodes"][()], float), elements=np.asarray(mesh["elements"][()], int),
+        nodes=_arr(mesh["nodes"], float), elements=_arr(mesh["elements"], int),
         mesh=(int(mesh.attrs.get("nx", 0)), int(mesh.attrs.get("ny", 0))),
         materials=mats, frequencies=Frequencies(
-            measured=measured, model=np.asarray(fr["model"][()], float),
-            residual_percent=np.asarray(fr["residual_percent"][()], float),
-            weight=np.asarray(fr["weight"][()], float),
-            model_mode=np.asarray(fr["model_mode"][()], int) if "model_mode" in fr
+            measured=measured, model=_arr(fr["model"], float),
+            residual_percent=_arr(fr["residual_percent"], float),
+            weight=_arr(fr["weight"], float),
+            model_mode=_arr(fr["model_mode"], int) if "model_mode" in fr
             else np.arange(1, measured.size + 1),
             rms_residual_percent=float(fr.attrs.get("rms_residual_percent", np.nan)),
             initial_rms_residual_percent=float(fr.attrs.get("initial_rms_residual_percent",
                                                             np.nan))),
-        w=np.asarray(g["modes"]["w"][()], float),
-        sensitivity=None if sens is None else np.asarray(sens["dlnf_dlnP"][()], float),
+        w=_arr(g["modes"]["w"], float),
+        sensitivity=None if sens is None else _arr(sens["dlnf_dlnP"], float),
         sensitivity_labels=() if sens is None else _labels(sens["dlnf_dlnP"]),
-        global_properties={k: float(v[()]) for k, v in g["global_properties"].items()}
+        global_properties={k: _num(v) for k, v in g["global_properties"].items()}
         if "global_properties" in g else {},
         history=hist,
         swaps=_strings(g["swaps"]) if "swaps" in g else (),
@@ -532,7 +568,7 @@ def _frequency_sigmas(f) -> dict:
     if "uncertainty" not in f or "frequency_sigma" not in f["uncertainty"]:
         return {}
     g = f["uncertainty"]["frequency_sigma"]
-    out = {_s(d.attrs.get("name", key)): np.asarray(d[()], float).ravel()
+    out = {_s(d.attrs.get("name", key)): _arr(d, float).ravel()
            for key, d in g.items()}
     if len(out) == 1:
         out[None] = next(iter(out.values()))
@@ -545,7 +581,7 @@ def _global_uncertainty(g) -> dict:
         return {}
     h = g["global_properties_uncertainty"]
     keys = _strings(h["keys"])
-    cols = {k: np.asarray(h[k][()], float) for k in ("value", "std", "lower", "upper",
+    cols = {k: _arr(h[k], float) for k in ("value", "std", "lower", "upper",
                                                        "rel_half_width")}
     verdict = _strings(h["verdict"])
     return {key: {**{k: float(v[i]) for k, v in cols.items()}, "verdict": verdict[i]}
@@ -772,6 +808,12 @@ def _read_complete(f, path, fmt, version) -> ResultFile:
         return _read(f, path, fmt, version)
     except KeyError as exc:
         raise ResultFileError(f"{path}: incomplete result file ({exc})") from exc
+    except (ValueError, TypeError, IndexError, AttributeError, OverflowError) as exc:
+        # what _arr/_num do not name: an attribute of the wrong type, a dataset where a
+        # group is expected; a traceback before (UnicodeDecodeError is a ValueError)
+        reason = str(exc).splitlines()[0][:200] if str(exc) else ""
+        raise ResultFileError(f"{path}: damaged or malformed result file "
+                              f"({type(exc).__name__}: {reason})") from exc
 
 
 @contextlib.contextmanager

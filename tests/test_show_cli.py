@@ -262,3 +262,32 @@ def test_show_and_report_of_a_cut_short_result_say_it_is_damaged_not_no_hdf5(tmp
         assert "): damaged or incomplete (a copy cut short?); copy it again, or make it again " \
                "with laminid identify SPEC.yaml" in r.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["S1.1.result.h5", "whole.h5"]
+
+
+@pytest.mark.parametrize("edit, words", [
+    (lambda f: f["materials/IM7_977-2"].__delitem__("E1") or
+     f["materials/IM7_977-2"].create_dataset("E1", data="abc"),
+     "dataset '/materials/IM7_977-2/E1' holds 'abc', not numbers; the result file is damaged "
+     "or was edited"),
+    (lambda f: f["specimen"].__delitem__("a") or f["specimen"].create_dataset("a", data=[1, 2]),
+     "dataset '/specimen/a' holds 2 values, where one number is expected; the result file is "
+     "damaged or was edited"),
+    (lambda f: f["frequencies"].__delitem__("model") or
+     f["frequencies"].create_dataset("model", data=np.array([b"x"] * 12)),
+     "dataset '/frequencies/model' holds [b'x', b'x', b'x', b'x', b'x', b'x', ..., not numbers; the "
+     "result file is damaged or was edited")])
+@pytest.mark.parametrize("command", ["show", "report"])
+def test_a_result_with_text_where_a_number_belongs_is_refused_naming_the_dataset(
+        single, tmp_path, edit, words, command):
+    """A result file edited by hand or damaged with text where a number is stored: show and
+    report died of 'ValueError: could not convert string to float: b'abc'' (a traceback,
+    exit 1); the file and the dataset are named, exit 2, no report written."""
+    out, _ = single
+    edited = tmp_path / "edited.result.h5"
+    edited.write_bytes(out.read_bytes())
+    with h5py.File(edited, "r+") as f:
+        edit(f)
+    pdf = tmp_path / "r.pdf"
+    r = run(command, edited, *(["-o", pdf] if command == "report" else []))
+    assert (r.exit_code, r.output) == (2, f"laminid: error: {edited}: {words}\n")
+    assert not pdf.exists()
