@@ -532,7 +532,7 @@ def _plate(g, name: str | None = None) -> Plate:
     mats = _materials(g)
     mats = dict(sorted(mats.items(), key=lambda kv: order.index(kv[0]) if kv[0] in order
                        else len(order)))
-    return Plate(
+    return _checked_plate(g, Plate(
         name=name if name is not None else _s(sp.attrs.get("name", "")),
         path=_s(sp.attrs.get("path", "")), yaml=yaml_text,
         a=_num(sp["a"]), b=_num(sp["b"]), h=_num(sp["h"]),
@@ -558,7 +558,50 @@ def _plate(g, name: str | None = None) -> Plate:
         warnings=_strings(g["warnings"]) if "warnings" in g else (),
         reference=ref, reference_source=source,
         reference_global=parse_global_reference(yaml_text),
-        global_uncertainty=_global_uncertainty(g))
+        global_uncertainty=_global_uncertainty(g)))
+
+
+def _checked_plate(g, p: Plate) -> Plate:
+    """``p`` as read from group ``g``, ResultFileError naming the file and the dataset where
+    a stored value cannot be what identify wrote (a hand edit, a damaged file): a side or
+    thickness not a finite positive length, an identified constant not finite, a mesh with
+    no node, a non-finite coordinate or an element naming a node it does not have, mode
+    shapes of another node count or not finite, frequency columns of different lengths.
+    report died of each with a traceback ('Axis limits cannot be NaN or Inf', 'index
+    1000000000 is out of bounds', 'shapes (5,) and (133,) not aligned')."""
+    at = g.name.rstrip("/")
+
+    def bad(dataset: str, what: str):
+        return ResultFileError(f"{g.file.filename}: dataset '{at}/{dataset}' {what}; the "
+                               "result file is damaged or was edited")
+
+    for key in ("a", "b", "h"):
+        value = getattr(p, key)
+        if not (np.isfinite(value) and 0 < value < 1e3):
+            raise bad(f"specimen/{key}", f"is {value!r}, not a plate's length in m")
+    for group_key, mg in g["materials"].items():
+        for key, value in p.materials.get(_name(group_key, mg), {}).items():
+            if key != "density" and not np.isfinite(value):
+                raise bad(f"materials/{group_key}/{key}", f"is {value!r}, not a finite number")
+    nodes, elements = p.nodes, p.elements
+    if nodes.ndim != 2 or nodes.shape[0] == 0 or nodes.shape[1] != 2 \
+            or not np.all(np.isfinite(nodes)):
+        raise bad("mesh/nodes", f"holds {' x '.join(map(str, nodes.shape))} values, not the "
+                                "finite x, y of at least one node")
+    if elements.ndim != 2 or elements.size == 0 or elements.min() < 0 \
+            or elements.max() >= nodes.shape[0]:
+        raise bad("mesh/elements", f"names nodes outside 0 .. {nodes.shape[0] - 1} (the "
+                                   "nodes of mesh/nodes)")
+    if p.w.ndim != 2 or p.w.shape[0] != nodes.shape[0] or not np.all(np.isfinite(p.w)):
+        raise bad("modes/w", f"holds {' x '.join(map(str, p.w.shape))} values, not finite "
+                             f"mode shapes at the {nodes.shape[0]} nodes")
+    fr = p.frequencies
+    n = fr.measured.size
+    for key in ("model", "residual_percent", "weight", "model_mode"):
+        if getattr(fr, key).size != n:
+            raise bad(f"frequencies/{key}", f"holds {getattr(fr, key).size} values, "
+                                            f"frequencies/measured {n}")
+    return p
 
 
 def _frequency_sigmas(f) -> dict:

@@ -291,3 +291,42 @@ def test_a_result_with_text_where_a_number_belongs_is_refused_naming_the_dataset
     r = run(command, edited, *(["-o", pdf] if command == "report" else []))
     assert (r.exit_code, r.output) == (2, f"laminid: error: {edited}: {words}\n")
     assert not pdf.exists()
+
+
+def _set(path, value):
+    def edit(f):
+        del f[path]
+        f[path] = value
+    return edit
+
+
+@pytest.mark.parametrize("edit, words", [
+    (_set("specimen/a", np.nan), "dataset '/specimen/a' is nan, not a plate's length in m"),
+    (_set("specimen/h", -3e-3), "dataset '/specimen/h' is -0.003, not a plate's length in m"),
+    (_set("materials/IM7_977-2/E1", np.inf),
+     "dataset '/materials/IM7_977-2/E1' is inf, not a finite number"),
+    (lambda f: f["mesh/elements"].__setitem__(0, 10**9),
+     "dataset '/mesh/elements' names nodes outside 0 .. 132 (the nodes of mesh/nodes)"),
+    (_set("mesh/nodes", np.zeros((0, 2))),
+     "dataset '/mesh/nodes' holds 0 x 2 values, not the finite x, y of at least one node"),
+    (lambda f: f["modes/w"].__setitem__((0, 0), np.inf),
+     "dataset '/modes/w' holds 133 x 12 values, not finite mode shapes at the 133 nodes"),
+    (_set("frequencies/model", np.zeros(3)),
+     "dataset '/frequencies/model' holds 3 values, frequencies/measured 12")])
+def test_a_result_whose_values_cannot_be_drawn_is_refused_naming_the_dataset(
+        single, tmp_path, edit, words):
+    """A damaged or hand-edited result: report died with a traceback on each (a NaN side:
+    'Axis limits cannot be NaN or Inf'; an element naming node 10**9: 'index 1000000000 is
+    out of bounds'; 3 model frequencies for 12 measured: 'shape mismatch'); the file and the
+    dataset are named, exit 2, no report written."""
+    out, _ = single
+    edited = tmp_path / "edited.result.h5"
+    edited.write_bytes(out.read_bytes())
+    with h5py.File(edited, "r+") as f:
+        edit(f)
+    pdf = tmp_path / "r.pdf"
+    r = run("report", edited, "-o", pdf)
+    assert (r.exit_code, r.output) == (2, f"laminid: error: {edited}: {words}; the result "
+                                          "file is damaged or was edited\n")
+    assert not pdf.exists()
+
