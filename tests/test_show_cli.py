@@ -330,3 +330,23 @@ def test_a_result_whose_values_cannot_be_drawn_is_refused_naming_the_dataset(
                                           "file is damaged or was edited\n")
     assert not pdf.exists()
 
+
+
+@pytest.mark.parametrize("edit, words", [
+    (lambda f: f["modes/w"].__setitem__((0, 0), np.inf),
+     "dataset modes/w holds 133 x 12 values, not finite mode shapes at the 133 nodes"),
+    (_set("mesh/nodes", np.zeros((0, 2))),
+     "dataset mesh/nodes holds 0 x 2 values, not the finite x, y of at least one node")])
+def test_export_of_shapes_that_are_not_finite_writes_no_uff(single, tmp_path, edit, words):
+    """export wrote a UFF of 0 nodes, or with 'inf' in a mode's record, from a damaged
+    result, exit 0; refused naming the dataset, no file written."""
+    out, _ = single
+    edited = tmp_path / "edited.result.h5"
+    edited.write_bytes(out.read_bytes())
+    with h5py.File(edited, "r+") as f:
+        edit(f)
+    unv = tmp_path / "modes.unv"
+    r = run("export", edited, "-o", unv)
+    assert (r.exit_code, r.output) == (2, f"laminid: error: {edited}: {words}; the file is "
+                                          "damaged or was edited\n")
+    assert not unv.exists()
