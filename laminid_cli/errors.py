@@ -133,6 +133,28 @@ def stop_signals_held():
             os.kill(os.getpid(), sig)
 
 
+def non_printable_in(value, where: str = "") -> tuple[str, str, str] | None:
+    """The first text in ``value`` (a str, or lists and dicts of them, keys too: a JSON
+    document) holding a character of :data:`NON_PRINTABLE`: (where, as "specimens.S1.name"
+    or "warnings[2]", the text, :func:`non_printable`'s words); None where there is none."""
+    if isinstance(value, str):
+        bad = non_printable(value)
+        return None if bad is None else (where, value, bad)
+    if isinstance(value, dict):
+        items = value.items()
+        for key, item in items:
+            at = f"{where}.{key}" if where else str(key)
+            found = non_printable_in(str(key), at) or non_printable_in(item, at)
+            if found is not None:
+                return found
+    elif isinstance(value, (list, tuple)):
+        for k, item in enumerate(value):
+            found = non_printable_in(item, f"{where}[{k}]")
+            if found is not None:
+                return found
+    return None
+
+
 def escaped(text: str) -> str:
     """``text`` with each character of :data:`NON_PRINTABLE` written as its escape
     ("IM7\\u2066/977-2"), for a message that names a field or file by the text that is

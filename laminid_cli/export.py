@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from laminid_cli.errors import LaminidError, OutputExistsError
+from laminid_cli.errors import LaminidError, OutputExistsError, non_printable
 
 #: result-file formats that carry a mesh and mode shapes
 SHAPE_FORMATS = ("laminid-result", "laminid-modes", "laminid-joint-result")
@@ -107,6 +107,10 @@ def read_shapes(path, specimen: str | None = None) -> PlateShapes:
         freq = freq[:w.shape[1]]
     _check_shapes(path, nodes, w, freq)
     name = specimen or str(data["specimen"]["@attrs"].get("name", path.stem))
+    bad = non_printable(name)
+    if bad is not None:
+        raise ExportError(f"{path}: the specimen's name {name!r} (attribute 'name' of "
+                          f"/specimen): {bad} in it; remove it")
     return PlateShapes(specimen=name, nodes=nodes, w=w, freq_hz=freq, source=str(path),
                        model_mode=model_mode)
 

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from laminid_cli.errors import LaminidError, about_file
+from laminid_cli.errors import LaminidError, about_file, escaped, non_printable, non_printable_in
 from laminid_cli.intervals import PROFILE_FLAT, PROFILE_NONE
 from laminid_cli.status import Reason, ResultStatus
 
@@ -570,6 +570,17 @@ def _checked_plate(g, p: Plate) -> Plate:
     report died of each with a traceback ('Axis limits cannot be NaN or Inf', 'index
     1000000000 is out of bounds', 'shapes (5,) and (133,) not aligned')."""
     at = g.name.rstrip("/")
+    texts = {"specimen@name": p.name, "specimen@description": _s(
+        g["specimen"].attrs.get("description", ""))}
+    texts |= {f"materials/{key}@name": name for key, name in
+              ((k, _name(k, mg)) for k, mg in g["materials"].items())}
+    for where, text in texts.items():
+        bad = non_printable(text)
+        if bad is not None:
+            dataset, attribute = where.split("@")
+            raise ResultFileError(f"{g.file.filename}: attribute '{attribute}' of "
+                                  f"'{at}/{escaped(dataset)}' ({text!r}): {bad} in it; the "
+                                  "result file is damaged or was edited")
 
     def bad(dataset: str, what: str):
         return ResultFileError(f"{g.file.filename}: dataset '{at}/{dataset}' {what}; the "
@@ -950,6 +961,12 @@ def read_stored_summary(path) -> tuple[dict, dict]:
             raise ResultFileError(f"{path}: /summary_json is not readable JSON ({exc})") from exc
         if not isinstance(summary, dict):
             raise ResultFileError(f"{path}: /summary_json is not a summary (a JSON object)")
+        found = non_printable_in(summary)
+        if found is not None:
+            where, text, bad = found
+            raise ResultFileError(f"{path}: /summary_json, field '{escaped(where)}' "
+                                  f"({text!r}): {bad} in it; the result file is damaged or "
+                                  "was edited")
         # a reference range an earlier laminid stored as its midpoint: the range again
         if fmt == "laminid-joint-result":
             plates = summary.get("specimens")

@@ -331,6 +331,37 @@ def test_a_result_whose_values_cannot_be_drawn_is_refused_naming_the_dataset(
     assert not pdf.exists()
 
 
+def _summary_name(f):
+    s = json.loads(f["summary_json"][()])
+    s["specimen"] = "S1\u202e1.2"
+    del f["summary_json"]
+    f["summary_json"] = json.dumps(s)
+
+
+@pytest.mark.parametrize("edit, words", [
+    (lambda f: f["specimen"].attrs.__setitem__("name", "S1\u202e1.2"),
+     "attribute 'name' of '/specimen' ('S1\\u202e1.2'): non-printable character U+202E "
+     "(RIGHT-TO-LEFT OVERRIDE) in it"),
+    (lambda f: f["specimen"].attrs.__setitem__("description", "plate \x1b[31mred"),
+     "attribute 'description' of '/specimen' ('plate \\x1b[31mred'): non-printable character "
+     "U+001B in it"),
+    (_summary_name, "/summary_json, field 'specimen' ('S1\\u202e1.2'): non-printable "
+                    "character U+202E (RIGHT-TO-LEFT OVERRIDE) in it")])
+def test_a_results_text_with_a_bidi_override_or_escape_is_refused(single, tmp_path, edit,
+                                                                  words):
+    """A result file's name, description or summary text with a right-to-left override or
+    an ESC (edited, or written by another tool) was printed by show and drawn by report as
+    it came, 'S1\\u202e1.2' shown as 'S12.11'; refused as the specimen reader refuses it
+    (errors.NON_PRINTABLE), the file and the field named."""
+    out, _ = single
+    edited = tmp_path / "edited.result.h5"
+    edited.write_bytes(out.read_bytes())
+    with h5py.File(edited, "r+") as f:
+        edit(f)
+    r = run("show", edited)
+    assert (r.exit_code, r.output) == (2, f"laminid: error: {edited}: {words}; the result "
+                                          "file is damaged or was edited\n")
+
 
 @pytest.mark.parametrize("edit, words", [
     (lambda f: f["modes/w"].__setitem__((0, 0), np.inf),
@@ -349,4 +380,21 @@ def test_export_of_shapes_that_are_not_finite_writes_no_uff(single, tmp_path, ed
     r = run("export", edited, "-o", unv)
     assert (r.exit_code, r.output) == (2, f"laminid: error: {edited}: {words}; the file is "
                                           "damaged or was edited\n")
+    assert not unv.exists()
+
+
+def test_export_of_a_result_whose_name_has_a_bidi_override_writes_no_uff(single, tmp_path):
+    """The specimen's name goes into each UFF 55 record's id2 ('specimen S1\\u202e1.2'): the
+    override was written into the file; refused as the readers refuse it."""
+    out, _ = single
+    edited = tmp_path / "edited.result.h5"
+    edited.write_bytes(out.read_bytes())
+    with h5py.File(edited, "r+") as f:
+        f["specimen"].attrs["name"] = "S1\u202e1.2"
+    unv = tmp_path / "modes.unv"
+    r = run("export", edited, "-o", unv)
+    assert (r.exit_code, r.output) == (2, (
+        f"laminid: error: {edited}: the specimen's name 'S1\\u202e1.2' (attribute 'name' of "
+        "/specimen): non-printable character U+202E (RIGHT-TO-LEFT OVERRIDE) in it; remove "
+        "it\n"))
     assert not unv.exists()
