@@ -1836,8 +1836,8 @@ def non_specimen_text(path) -> str | None:
 
 
 def read_specimen(path, *, log_warnings: bool = True) -> Specimen:
-    """Read a specimen YAML file (UTF-8) and validate it; see :func:`load_specimen_text`
-    (``log_warnings`` too)."""
+    """Read a specimen YAML file (UTF-8, or UTF-16 with its byte-order mark) and validate it;
+    see :func:`load_specimen_text` (``log_warnings`` too)."""
     name = str(path)
     p = Path(path)
     try:
@@ -1865,13 +1865,24 @@ def read_specimen(path, *, log_warnings: bool = True) -> Specimen:
         raise SpecimenError("is a folder, not a specimen file", path=name) from exc
     except OSError as exc:
         raise SpecimenError(f"cannot read the file: {exc.strerror or exc}", path=name) from exc
-    try:
-        text = data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        line = data[:exc.start].count(b"\n") + 1
-        raise SpecimenError(f"not UTF-8 text (byte 0x{data[exc.start]:02x} at byte "
-                            f"{exc.start + 1}); save the file as UTF-8", path=name,
-                            line=line) from exc
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        # UTF-16 with its byte-order mark, as Windows Notepad's "Unicode" saves it; YAML
+        # 1.1 reads it (yaml.org, YAML 1.1, 5.1 "Character Set": UTF-8, UTF-16 with a BOM);
+        # it was "not UTF-8 text (byte 0xff at byte 1)"
+        try:
+            text = data.decode("utf-16")
+        except UnicodeDecodeError as exc:
+            raise SpecimenError(f"UTF-16 text (its byte-order mark) that cannot be read as "
+                                f"such ({exc.reason} at byte {exc.start + 1}); save the file "
+                                "as UTF-8", path=name) from exc
+    else:
+        try:
+            text = data.decode("utf-8-sig")
+        except UnicodeDecodeError as exc:
+            line = data[:exc.start].count(b"\n") + 1
+            raise SpecimenError(f"not UTF-8 text (byte 0x{data[exc.start]:02x} at byte "
+                                f"{exc.start + 1}); save the file as UTF-8", path=name,
+                                line=line) from exc
     if not text.strip():
         raise SpecimenError("the file is empty; expected a mapping with geometry, materials, "
                             "layup, ...", path=name)

@@ -1625,3 +1625,30 @@ def test_an_frf_files_printed_text_with_a_bidi_override_or_escape_is_refused(tmp
     assert r.exit_code == 2 and not out.exists()
     assert r.output.startswith(f"laminid: error: {path}: {words}"), r.output
     assert r.output.count("\n") == 1 and "Traceback" not in r.output
+
+
+@pytest.mark.parametrize("encoding", ["utf-16", "utf-16-be-bom", "utf-8-sig-crlf"])
+def test_a_specimen_saved_as_unicode_text_or_with_bom_and_crlf_reads_as_utf8(tmp_path,
+                                                                           encoding):
+    """Windows Notepad's "Unicode" (UTF-16 with its byte-order mark), which YAML reads, was
+    refused as 'not UTF-8 text (byte 0xff at byte 1)'; it gives the same specimen as the UTF-8
+    file now (its frequencies and sides exactly), as a UTF-8 file with BOM and CRLF does."""
+    from laminid_cli.specimen import read_specimen
+
+    text = BASE.replace("Example 1", "Example 1, 45°")
+    if encoding == "utf-16":
+        data = text.encode("utf-16")                       # BOM, native (little) endian
+    elif encoding == "utf-16-be-bom":
+        data = b"\xfe\xff" + text.encode("utf-16-be")
+    else:
+        data = text.replace("\n", "\r\n").encode("utf-8-sig")
+    path = tmp_path / "plate.yaml"
+    path.write_bytes(data)
+    got, want = read_specimen(path), read_specimen(S11)
+    assert (got.a, got.b, got.h) == (want.a, want.b, want.h)
+    assert got.description.endswith("Example 1, 45°")
+    assert list(got.measured.freq) == list(want.measured.freq)
+    path.write_bytes(data[:-1] if encoding != "utf-8-sig-crlf" else b"\xff\xfe" + b"a\x00b")
+    r = run("modes", path, "--mesh", "4x4")
+    assert r.exit_code == 2 and f"laminid: error: {path}: UTF-16 text (its byte-order mark) " \
+                                "that cannot be read as such (truncated data at byte" in r.output
