@@ -1538,3 +1538,23 @@ def test_a_coherence_record_not_used_is_said_with_why(tmp_path, case):
         f"{path}: coherence (function type 6) not used: type-58 record 2: 10 lines where the "
         f"FRFs have {f.size}; type-58 record 4: no FRF record of its DOF left to pair it with; "
         "type-58 record 6: no FRF record of its DOF left to pair it with"]
+
+
+@pytest.mark.parametrize("edit, why", [
+    (lambda x: np.where(np.arange(x.size) == 7, np.nan, x), "NaN or inf at index 7"),
+    (lambda x: x - 1000.0, "it starts below 0 Hz (-995)"),
+    (lambda x: np.concatenate([x[:10], x[9:-1]]), "not increasing at index 10 (50, then 50)")])
+def test_a_frequency_dataset_that_is_no_axis_says_why(tmp_path, edit, why):
+    """A plain HDF5 file whose '/freq' holds a NaN, starts below 0 or repeats a line was
+    refused with 'frequency candidates: none' beside it, the lab left to guess why; the
+    message says what is wrong with it."""
+    f = np.linspace(5.0, 2000.0, 400)
+    path = tmp_path / "p.h5"
+    with h5py.File(path, "w") as h5:
+        h5["freq"], h5["H"] = edit(f), np.ones((2, 400)) * (1 + 1j)
+    with pytest.raises(FrfError) as info:
+        io.read_frf(path)
+    assert str(info.value) == (
+        f"{path}: no frequency axis matches an FRF dataset; frequency candidates: none; FRF "
+        "candidates: '/H' (2 x 400) (an FRF axis must have the frequency's length); '/freq' "
+        f"is no axis: {why}")

@@ -433,12 +433,14 @@ def _choose(path: Path, f, datasets, freq_path, frf_path):
         # only "frequency candidates: none" beside a '/freq' of the FRF's length
         aside = [d for d in datasets if d.units and d.kind != "c" and d.length
                  and _freq_factor(d.units) is None and _FREQ_NAME.search(d.name)]
+        why = _not_an_axis(f, [d for d in datasets if d not in aside and d not in axes
+                               and not d.is_attribute and _FREQ_NAME.search(d.name)])
         raise FrfError(
             f"{path}: no frequency axis matches an FRF dataset; frequency candidates: "
             f"{_listing(axes)}; FRF candidates: {_listing(frfs)} (an FRF axis must have the "
             "frequency's length)" + (
                 f"; set aside for a units attribute that is no frequency unit laminid reads "
-                f"({', '.join(FREQ_UNITS)}): {_listing(aside)}" if aside else ""))
+                f"({', '.join(FREQ_UNITS)}): {_listing(aside)}" if aside else "") + why)
     if len(pairs) > 1:
         best = min(_rank(a) for a, _ in pairs)
         pairs = [(a, h) for a, h in pairs if _rank(a) == best]
@@ -447,6 +449,33 @@ def _choose(path: Path, f, datasets, freq_path, frf_path):
         raise FrfError(f"{path}: several frequency/FRF dataset pairs fit: {listing}; choose "
                        "one with --freq-dataset PATH and --frf-dataset PATH")
     return pairs[0]
+
+
+def _not_an_axis(f, named) -> str:
+    """Why datasets named as a frequency ('/freq') are no axis, for the message that finds
+    none ('frequency candidates: none' beside a '/freq' of negative or NaN values left the
+    lab to guess): "; '/freq' is no axis: it starts below 0 Hz (-2000)"."""
+    import h5py
+
+    said = []
+    for d in named[:3]:
+        obj = f.get(d.path)
+        if not isinstance(obj, h5py.Dataset):
+            continue
+        if d.length is None or d.kind == "c" or d.units:
+            continue                # a matrix, an FRF ('freq_response'), units said above
+        x = np.asarray(obj[()], dtype=float).reshape(-1)
+        if x.size < 2:
+            reason = f"{x.size} value(s), fewer than 2"
+        elif not np.all(np.isfinite(x)):
+            reason = f"NaN or inf at index {int(np.argmin(np.isfinite(x)))}"
+        elif x[0] < 0:
+            reason = f"it starts below 0 Hz ({x[0]:g})"
+        else:
+            k = int(np.argmin(np.diff(x) > 0))
+            reason = f"not increasing at index {k + 1} ({x[k]:g}, then {x[k + 1]:g})"
+        said.append(f"'{d.path}' is no axis: {reason}")
+    return "".join(f"; {s}" for s in said)
 
 
 def _many_axes(f) -> str:
