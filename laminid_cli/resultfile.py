@@ -889,6 +889,12 @@ def _open_result(path: Path):
             head = fh.read(len(HDF5_MAGIC))
     except OSError:                         # (missing, unreadable: open_h5 says which)
         head = b""
+    if not head and Path(path).is_file() and Path(path).stat().st_size == 0:
+        # (it was "not an HDF5 file, so not a laminid identification result", as of a file of
+        # another kind: a 0-byte file is a copy or a transfer that did not finish)
+        raise ResultFileError(f"{path}: the file is empty (0 bytes), a copy that did not "
+                              "finish?; copy it again, or make it again with "
+                              + MAKES_A_RESULT)
     if head == HDF5_MAGIC:
         # an HDF5 file h5py cannot open is damaged or cut short (a copy that did not finish),
         # not "not an HDF5 file ... make one with laminid identify", which sent the lab to

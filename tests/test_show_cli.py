@@ -398,3 +398,16 @@ def test_export_of_a_result_whose_name_has_a_bidi_override_writes_no_uff(single,
         "/specimen): non-printable character U+202E (RIGHT-TO-LEFT OVERRIDE) in it; remove "
         "it\n"))
     assert not unv.exists()
+
+
+@pytest.mark.parametrize("command", ["show", "report"])
+def test_an_empty_result_file_is_said_to_be_empty(tmp_path, command):
+    """A 0-byte result (a copy cut off before it began) was 'not an HDF5 file, so not a
+    laminid identification result', as a file of another kind; it says it is empty."""
+    path = tmp_path / "s.result.h5"
+    path.write_bytes(b"")
+    r = run(command, path)
+    assert r.exit_code == 2 and r.output.startswith(
+        f"laminid: error: {path}: the file is empty (0 bytes), a copy that did not finish?; "
+        "copy it again, or make it again with laminid identify SPEC.yaml")
+    assert r.output.count("\n") == 1
