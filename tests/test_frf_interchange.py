@@ -1558,3 +1558,27 @@ def test_a_frequency_dataset_that_is_no_axis_says_why(tmp_path, edit, why):
         f"{path}: no frequency axis matches an FRF dataset; frequency candidates: none; FRF "
         "candidates: '/H' (2 x 400) (an FRF axis must have the frequency's length); '/freq' "
         f"is no axis: {why}")
+
+
+def test_a_declared_huge_dataset_is_not_read_into_memory(tmp_path):
+    """A plain HDF5 file declares its datasets' sizes before any data: a '/freq' of 10**9
+    lines (chunked, nothing written: a 1.6 kB file) was read whole to check it as an axis,
+    7.5 GiB ('MemoryError' where memory is limited, else the machine's memory taken); it is
+    named as more lines than laminid reads without being read, as is an FRF of 10**6
+    points (400 million values)."""
+    path = tmp_path / "big.h5"
+    with h5py.File(path, "w") as h5:
+        h5.create_dataset("freq", shape=(10**9,), dtype=float, chunks=(1024,))
+        h5.create_dataset("H", shape=(2, 10**9), dtype=complex, chunks=(1, 1024))
+    with pytest.raises(FrfError) as info:
+        io.read_frf(path)
+    assert str(info.value).endswith("; '/freq' is no axis: 1000000000 lines, more than "
+                                    "laminid reads (1000000)")
+    with h5py.File(path, "w") as h5:
+        h5["freq"] = np.linspace(5.0, 2000.0, 400)
+        h5.create_dataset("H", shape=(10**6, 400), dtype=complex, chunks=(16, 400))
+    with pytest.raises(FrfError) as info:
+        io.read_frf(path)
+    assert str(info.value) == (f"{path}: '/H': 1000000 FRFs of 400 lines (400000000 values), "
+                               "more than laminid reads (50000000); split the file")
+

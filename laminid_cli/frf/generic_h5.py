@@ -48,7 +48,8 @@ from pathlib import Path
 import numpy as np
 
 from laminid_cli.errors import FrfError
-from laminid_cli.frf.store import (FORMAT, FrfSet, nonfinite_dc_lines, nonfinite_dc_warning,
+from laminid_cli.frf.store import (FORMAT, MAX_FREQ_LINES, FrfSet, check_frf_size,
+                                   nonfinite_dc_lines, nonfinite_dc_warning,
                                    probe_hdf5_file, read_frf_h5, read_hdf5,
                                    unit_not_stated_note, unstated_freq_warning,
                                    validate_frf_arrays)
@@ -371,7 +372,8 @@ def _freq_factor(units: str | None) -> float | None:
 
 
 def _is_axis(f, d: _Dataset) -> bool:
-    if d.length is None or d.length < 2 or d.kind == "c" or _freq_factor(d.units) is None:
+    if d.length is None or d.length < 2 or d.kind == "c" or _freq_factor(d.units) is None \
+            or d.length > MAX_FREQ_LINES:       # (not read: 10**9 lines were 7.5 GiB)
         return False
     x = np.asarray(_values(f, d.path), dtype=float).reshape(-1)
     return bool(np.all(np.isfinite(x)) and x[0] >= 0 and np.all(np.diff(x) > 0))
@@ -464,6 +466,10 @@ def _not_an_axis(f, named) -> str:
             continue
         if d.length is None or d.kind == "c" or d.units:
             continue                # a matrix, an FRF ('freq_response'), units said above
+        if d.length > MAX_FREQ_LINES:
+            said.append(f"'{d.path}' is no axis: {d.length} lines, more than laminid reads "
+                        f"({MAX_FREQ_LINES})")
+            continue
         x = np.asarray(obj[()], dtype=float).reshape(-1)
         if x.size < 2:
             reason = f"{x.size} value(s), fewer than 2"
@@ -538,6 +544,8 @@ def _read_generic(f, path: Path, freq_dataset, frf_dataset) -> FrfSet:
                        + (f"h5py.File(file, 'r+'){target} = 'rad/s')" if target else
                           "a text variable freq_unit = 'rad/s' beside it)"))
         factor, stated = (1.0 if unit is None else FREQ_UNITS[unit]), unit is not None
+    n_points = math.prod(frf_d.shape) // axis.length
+    check_frf_size(n_points, axis.length, f"{path}: '{frf_d.path}'")   # before reading it
     freq = np.asarray(_values(f, axis.path), dtype=float).reshape(-1) * factor
     if frf_d.parts:
         values = np.asarray(f[frf_d.parts[0]][()], dtype=float) \
