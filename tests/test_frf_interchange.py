@@ -1582,3 +1582,27 @@ def test_a_declared_huge_dataset_is_not_read_into_memory(tmp_path):
     assert str(info.value) == (f"{path}: '/H': 1000000 FRFs of 400 lines (400000000 values), "
                                "more than laminid reads (50000000); split the file")
 
+
+def test_a_mat_files_variable_larger_than_laminid_reads_is_left_out(tmp_path, monkeypatch):
+    """A compressed v5 MAT-file's variable of 10**8 zeros is 150 kB on disk and 800 MB once
+    read: each variable's size is taken from its header first and one larger than laminid
+    reads is not loaded (here the limit lowered to 1000 values), and named where no FRF is
+    found; the file's FRF read as before."""
+    import scipy.io
+
+    from laminid_cli.frf import generic_h5
+
+    monkeypatch.setattr(generic_h5, "MAX_FRF_VALUES", 1000)
+    f = np.linspace(5.0, 2000.0, 400)
+    H = np.exp(1j * f / 300.0)[None, :]
+    path = tmp_path / "p.mat"
+    scipy.io.savemat(path, {"f": f, "H": H, "freq_unit": "Hz", "T": np.zeros(2000)},
+                     do_compression=True)
+    fs = generic_h5.read_mat_frf(path, probe=False)
+    np.testing.assert_array_equal(fs.freq, f)
+    np.testing.assert_array_equal(fs.frf, H)
+    scipy.io.savemat(path, {"f": f, "H": np.zeros((2, 400)), "T": np.zeros(2000)})
+    with pytest.raises(FrfError) as info:
+        generic_h5.read_mat_frf(path, probe=False)
+    assert str(info.value).endswith("; left out, larger than laminid reads (1000 values): "
+                                    "'T' (2000 values)")

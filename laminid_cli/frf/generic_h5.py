@@ -48,7 +48,8 @@ from pathlib import Path
 import numpy as np
 
 from laminid_cli.errors import FrfError
-from laminid_cli.frf.store import (FORMAT, MAX_FREQ_LINES, FrfSet, check_frf_size,
+from laminid_cli.frf.store import (FORMAT, MAX_FREQ_LINES, MAX_FRF_VALUES, FrfSet,
+                                   check_frf_size,
                                    nonfinite_dc_lines, nonfinite_dc_warning,
                                    probe_hdf5_file, read_frf_h5, read_hdf5,
                                    unit_not_stated_note, unstated_freq_warning,
@@ -627,7 +628,15 @@ def read_mat_frf(path, freq_dataset: str | None = None,
         probe_hdf5_file(path, reader="read_mat_frf", module="laminid_cli.frf.generic_h5",
                         library="scipy's MAT-file reader")
     try:
-        variables = scipy.io.loadmat(path, squeeze_me=False, chars_as_strings=True)
+        # each variable's size from its header first (scipy.io.whosmat): one larger than
+        # laminid reads (a compressed one of 10**8 zeros is 150 kB on disk) is left out,
+        # not decompressed into memory; named where no FRF is found
+        sizes = {name: math.prod(shape) for name, shape, _ in scipy.io.whosmat(path)}
+        big = [f"'{n}' ({n_values} values)" for n, n_values in sizes.items()
+               if n_values > MAX_FRF_VALUES]
+        variables = scipy.io.loadmat(path, squeeze_me=False, chars_as_strings=True,
+                                     variable_names=[n for n, n_values in sizes.items()
+                                                     if n_values <= MAX_FRF_VALUES])
     except (scipy.io.matlab.MatReadError, ValueError, TypeError, OSError, EOFError,
             IndexError, KeyError, AttributeError, NotImplementedError, struct.error,
             zlib.error, ArithmeticError, MemoryError) as exc:
@@ -638,7 +647,13 @@ def read_mat_frf(path, freq_dataset: str | None = None,
         for name, value in variables.items():
             if not name.startswith("__"):
                 _put_variable(f, name, value, depth=0)
-        return _read_generic(f, path, freq_dataset, frf_dataset)
+        try:
+            return _read_generic(f, path, freq_dataset, frf_dataset)
+        except FrfError as exc:
+            if not big:
+                raise
+            raise FrfError(f"{exc}; left out, larger than laminid reads ({MAX_FRF_VALUES} "
+                           f"values): {', '.join(big)}") from exc
 
 
 def _put_variable(group, name: str, value, depth: int) -> None:
