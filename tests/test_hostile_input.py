@@ -1652,3 +1652,32 @@ def test_a_specimen_saved_as_unicode_text_or_with_bom_and_crlf_reads_as_utf8(tmp
     r = run("modes", path, "--mesh", "4x4")
     assert r.exit_code == 2 and f"laminid: error: {path}: UTF-16 text (its byte-order mark) " \
                                 "that cannot be read as such (truncated data at byte" in r.output
+
+
+def test_an_frf_files_unprinted_words_are_not_held_to_the_rule_but_printed_ones_are(
+        tmp_path):
+    """The rule holds for the text laminid prints or writes again (errors.NON_PRINTABLE,
+    store.PRINTED_META): an instrument identity with a bidi override in a laminid FRF file
+    is refused; a UFF record's id padded with a NUL by another tool, which nothing prints,
+    is read, its FRFs as written."""
+    import h5py
+    import numpy as np
+
+    from laminid_cli.frf.io import read_frf, write_frf
+    from laminid_cli.frf.store import FrfSet, write_frf_h5
+
+    f = np.linspace(100.0, 2000.0, 64)
+    H = np.exp(1j * f / 300.0)[None, :] * np.array([[1.0], [2.0]])
+    path = write_frf_h5(tmp_path / "p.frf.h5", f, H, units="g/N")
+    with h5py.File(path, "r+") as h5:
+        h5.require_group("instrument").attrs["model"] = "SR785\u202e"
+    r = run("fit-frf", path)
+    assert (r.exit_code, r.output) == (2, (
+        f"laminid: error: {path}: instrument model ('SR785\\u202e'): non-printable character "
+        "U+202E (RIGHT-TO-LEFT OVERRIDE) in it; remove it (it can make a printed line show "
+        "other text than the file's)\n"))
+    uff = write_frf(tmp_path / "p.uff", FrfSet(freq=f, frf=H, labels=("1", "2"), units="g/N"))
+    uff.write_bytes(uff.read_bytes().replace(b"FRF 1 ", b"FRF\x001 ", 1))
+    fs = read_frf(uff)
+    assert fs.meta["uff_ids"][0] == "FRF\x001"
+    np.testing.assert_allclose(fs.frf, H, rtol=1e-11, atol=0)     # (ASCII UFF: 12 digits)

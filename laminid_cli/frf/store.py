@@ -96,11 +96,18 @@ class FrfSet:
         return int(self.frf.shape[0])
 
 
+#: the words of an FRF set's ``meta`` that laminid prints or writes again (a point's unit, the
+#: instrument's identity and settings, a point's records, the datasets read); not a UFF
+#: record's ids, which nothing prints (a tool may pad them with NULs)
+PRINTED_META = ("point_units", "instrument", "settings", "points", "frequency_dataset",
+                "frf_dataset")
+
+
 def check_frf_texts(fs: FrfSet, path) -> FrfSet:
     """``fs`` as read from ``path``, FrfError naming the file and where for a text in it that
     laminid prints (a point label, the FRF unit, a point's unit, channel name or other
-    record, the instrument's and settings' words, a UFF record's ids) holding a character of
-    :data:`~laminid_cli.errors.NON_PRINTABLE`: an HDF5 label "1\u202e2" printed as "21" in
+    record, the instrument's and settings' words: :data:`PRINTED_META`) holding a character
+    of :data:`~laminid_cli.errors.NON_PRINTABLE`: an HDF5 label "1\\u202e2" printed as "21" in
     fit-frf's table, an ESC in a units attribute coloured the terminal. Every reader's set
     passes here (io.read_frf, read_frf_h5)."""
     from laminid_cli.errors import non_printable
@@ -109,10 +116,9 @@ def check_frf_texts(fs: FrfSet, path) -> FrfSet:
         for k, label in enumerate(fs.labels, start=1):
             yield f"point label {k}", label
         yield "the FRF unit", fs.units
-        for key, value in fs.meta.items():
-            if key in ("notes", "warnings"):
-                continue                # laminid's own sentences (quoting a name with !r)
-            yield from _walk(key, value)
+        for key in PRINTED_META:
+            if key in fs.meta:
+                yield from _walk(key.replace("_", " "), fs.meta[key])
 
     for where, text in texts():
         bad = non_printable(text)
