@@ -779,6 +779,31 @@ def test_a_comment_line_beginning_like_an_error_value_is_still_a_comment(tmp_pat
     np.testing.assert_array_equal(io.read_frf(path).freq, freq[1:])
 
 
+def test_an_excel_csv_with_a_thousands_separator_reads_its_frequencies(tmp_path, dc_truth):
+    """Excel writes a column formatted 'Use 1000 separator' as quoted "1,000.5" cells in a
+    ','-separated CSV: the line at 1000 Hz was refused ("'1,000.5' is not a number"). ','
+    is read as grouping thousands where every ',' in the file's numbers is followed by groups
+    of 3 digits and its decimal mark is '.', with a note; the axis as written, exactly. A
+    file with a decimal comma in a quoted cell ("0,5") is read as before (refused)."""
+    freq, H = dc_truth
+    f = freq[1:] * 3.0                                  # 1.5 .. 1200 Hz, so some above 1000
+    rows = [",".join([f'"{x:,.1f}"', repr(float(h.real)), repr(float(h.imag))])
+            for x, h in zip(f, H[0, 1:])]
+    path = tmp_path / "excel.csv"
+    path.write_text("Frequency (Hz),H1 Real,H1 Imag\r\n" + "\r\n".join(rows) + "\r\n")
+    fs = io.read_frf(path)
+    np.testing.assert_array_equal(fs.freq, f)
+    np.testing.assert_array_equal(fs.frf[0], H[0, 1:])
+    k = int(np.argmax(f >= 1000)) + 2
+    assert fs.meta["notes"][0] == (
+        f"{path}: ',' read as a thousands separator (line {k}, column 1 ('Frequency (Hz)'): "
+        f"'{f[k - 2]:,.1f}' is {float(f[k - 2])!r}): every ',' in the file's numbers is followed "
+        "by groups of 3 digits, and its decimal mark is '.'")
+    path.write_text(path.read_text().replace('"1.5"', '"1,5"'))
+    with pytest.raises(FrfError, match="line 2, column 1 .*'1,5' is not a number"):
+        io.read_frf(path)
+
+
 def test_a_header_of_names_over_units_gives_the_points_and_the_unit(tmp_path, dc_truth):
     """Column names over a line of their units, as loggers and spreadsheets write them: the
     units' line was taken for the header and the names' line skipped as a title, so the

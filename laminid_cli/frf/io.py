@@ -63,7 +63,8 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     Separator ``;`` tab ``,`` (the first found in the first line) or blanks; with ``;`` or tab
     a decimal comma is read too (``125,05``, as a European spreadsheet writes), and '.' as its
     thousands separator (``1.000,5``) where the whole file says so (:func:`_csv_thousands`,
-    with a note; refused where a decimal point shares the file); ``#`` comment
+    with a note; refused where a decimal point shares the file; with ',' a quoted "1,000.5"
+    reads as 1000.5 where the whole file says so, :func:`_csv_comma_thousands`); ``#`` comment
     lines (not one beginning with a spreadsheet's error value, ``#VALUE!,1.2,...``: a data
     line whose frequency cell is broken, refused by line and column; ``# ... units Pa/N``, ``# Units: g/N``, ``# Units: Hz, g/N`` give the FRF unit, and the
     last the frequency's: :func:`_csv_units_comment`; else a unit closing every FRF column's
@@ -776,6 +777,32 @@ _CSV_GROUPED = re.compile(r"[+-]?[1-9]\d{0,2}(?:\.\d{3})+(?:,\d*)?(?:[eE][+-]?\d
 _CSV_DECIMAL_POINT = re.compile(r"[+-]?(?:\d+\.\d*|\.\d+)(?:[eE][+-]?\d+)?")
 
 
+#: a number with ',' grouping thousands and '.' its decimal point ("1,000.5", "12,500"), as a
+#: spreadsheet writes a cell formatted with a 1000 separator: quoted in a ','-separated file
+_CSV_COMMA_GROUPED = re.compile(r"[+-]?[1-9]\d{0,2}(?:,\d{3})+(?:\.\d*)?(?:[eE][+-]?\d+)?")
+
+
+def _csv_comma_thousands(lines) -> str | None:
+    """Whether ',' groups thousands in the data ``lines`` of a ','-separated CSV file (a
+    cell holding a ',' is quoted there): the first such cell, or None. Decided by the whole
+    file: every cell with a ',' a number grouped in threes (:data:`_CSV_COMMA_GROUPED`), and
+    a decimal point somewhere, so that '.' is the decimal mark ("1,000.0" in an Excel CSV of
+    a column formatted 'Use 1000 separator' was refused as "not a number"); a "0,5" in
+    the file (a decimal comma) leaves every cell as it was."""
+    if not any('"' in ln for _, ln in lines):
+        return None                 # (no quoted cell: no ',' within a number; not split)
+    grouped = None
+    point = False
+    for lineno, ln in lines:
+        for j, cell in enumerate(_split(ln, ",")):
+            if "," in cell:
+                if not _CSV_COMMA_GROUPED.fullmatch(cell):
+                    return None
+                grouped = grouped or (lineno, j, cell)
+            point = point or "." in cell
+    return grouped if point else None
+
+
 def _csv_thousands(path, lines, sep: str | None, header: list[str] | None) -> str | None:
     """Whether '.' groups thousands in the data ``lines`` ((number, text)) of a CSV file: the
     note saying it is read so, or None where it is not. Decided by the whole file, never by
@@ -785,6 +812,13 @@ def _csv_thousands(path, lines, sep: str | None, header: list[str] | None) -> st
     FrfError naming both cells where a grouped cell and a decimal point ("1.5") share the
     file: "1.000" is then 1 or 1000, and nothing in the file says which. A file without a
     decimal comma keeps '.' the decimal point, as before ("1.250;0.002" is 1.25)."""
+    if sep == ",":
+        where = _csv_comma_thousands(lines)
+        return None if where is None else (
+            f"{path}: ',' read as a thousands separator (line {where[0]}, "
+            f"{_csv_column(header, where[1])}: {_quoted(where[2])} is "
+            f"{float(where[2].replace(',', ''))!r}): every ',' in the file's numbers is "
+            "followed by groups of 3 digits, and its decimal mark is '.'")
     if sep not in (";", "\t"):
         return None
     body = "\n".join(ln for _, ln in lines)
@@ -1049,6 +1083,8 @@ def read_frf_csv(path) -> FrfSet:
         """A cell's value: a float, or a complex for a cell in complex syntax."""
         if thousands and "." in cell and _CSV_GROUPED.fullmatch(cell):
             return _grouped_number(cell)           # "1.000,5"
+        if thousands and sep == "," and "," in cell and _CSV_COMMA_GROUPED.fullmatch(cell):
+            return float(cell.replace(",", ""))    # "1,000.5", quoted
         if sep in (";", "\t") and "," in cell and "." not in cell:
             cell = cell.replace(",", ".")          # the decimal comma
         try:
