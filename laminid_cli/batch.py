@@ -1820,7 +1820,10 @@ def read_summary(path) -> list[dict]:
     path = Path(path)
     if path.suffix.lower() == ".json":
         try:
-            doc = json.loads(path.read_text(encoding="utf-8"))
+            # (utf-8-sig: a BOM, as an editor on Windows saves it, dropped; it was
+            # "not a readable batch summary (Unexpected UTF-8 BOM)", and a CSV's first
+            # column '\ufeffname', "not a laminid batch summary")
+            doc = json.loads(path.read_text(encoding="utf-8-sig"))
         except (OSError, ValueError) as exc:
             raise BatchError(f"{path}: not a readable batch summary ({exc})") from exc
         if not isinstance(doc, dict) or doc.get("format") != "laminid-batch-summary":
@@ -1835,7 +1838,7 @@ def read_summary(path) -> list[dict]:
                     r[key] = _result_of_json(r[key], path, doc)
         return rows
     try:
-        with open(path, newline="", encoding="utf-8") as fh:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
             comments = _Counted(fh)
             reader = csv.DictReader(comments)
             records, line_of = [], {}

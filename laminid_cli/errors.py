@@ -11,12 +11,37 @@ from __future__ import annotations
 import contextlib
 import re
 
-#: characters refused in text a user's file gives laminid to print or draw (column names, a
-#: summary's names and words): C0/C1 control characters (an ESC begins a terminal's escape
-#: sequence: "\x1b[31m" turned the terminal red; a BEL is a glyph no font has, which
-#: matplotlib warned of) and the bidirectional overrides, which print a name backwards
-NON_PRINTABLE = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u200e\u200f\u202a-\u202e"
-                           "\u2066-\u2069]")
+#: characters refused in text a user's file gives laminid to print or draw, by every reader
+#: (a specimen's text, an FRF file's point labels, units and channel names, a CSV's column
+#: names, a summary's names and words, a result file's texts): C0/C1 control characters
+#: but tab and line feed (an ESC begins a terminal's escape sequence: "\x1b[31m" turned the
+#: terminal red; a BEL is a glyph no font has, which matplotlib warned of; a CR returns to
+#: the line's start and overwrites it), the bidirectional marks, embeddings, overrides and
+#: isolates (U+061C, U+200E/F, U+202A-U+202E, U+2066-U+2069: "S1\u202e2.1" prints as
+#: "S11.2", a line that lies about its content; Unicode TR #9, "Explicit Directional
+#: Formatting Characters"), the line and paragraph separators (U+2028, U+2029) and the
+#: invisible characters that make two names look alike or hide text between them (zero
+#: width space U+200B, word joiner and invisible operators U+2060-U+2064, Mongolian vowel
+#: separator U+180E, zero width no-break space/BOM U+FEFF). The zero width (non-)joiners
+#: U+200C/U+200D are left: Persian, Indic scripts and emoji spell words with them. Refused,
+#: not escaped: the text is a name laminid writes into result files and tables, where an
+#: escaped one would differ from the file's, and the message says which character to remove
+NON_PRINTABLE = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u061c\u180e\u200b\u200e\u200f"
+                           "\u2028-\u202e\u2060-\u2064\u2066-\u2069\ufeff]")
+
+
+def non_printable(text) -> str | None:
+    """What :data:`NON_PRINTABLE` finds in ``text`` for a message: "non-printable character
+    U+202E (RIGHT-TO-LEFT OVERRIDE)", its Unicode name where it has one ("U+001B" for ESC);
+    None where there is none (or ``text`` is no str)."""
+    import unicodedata
+
+    bad = NON_PRINTABLE.search(text) if isinstance(text, str) else None
+    if bad is None:
+        return None
+    char = bad.group()
+    name = unicodedata.name(char, "")
+    return f"non-printable character U+{ord(char):04X}" + (f" ({name})" if name else "")
 
 #: exit code of a command interrupted by Ctrl-C (128 + SIGINT)
 EXIT_INTERRUPTED = 130
@@ -108,6 +133,36 @@ def stop_signals_held():
             os.kill(os.getpid(), sig)
 
 
+def non_printable_in(value, where: str = "") -> tuple[str, str, str] | None:
+    """The first text in ``value`` (a str, or lists and dicts of them, keys too: a JSON
+    document) holding a character of :data:`NON_PRINTABLE`: (where, as "specimens.S1.name"
+    or "warnings[2]", the text, :func:`non_printable`'s words); None where there is none."""
+    if isinstance(value, str):
+        bad = non_printable(value)
+        return None if bad is None else (where, value, bad)
+    if isinstance(value, dict):
+        items = value.items()
+        for key, item in items:
+            at = f"{where}.{key}" if where else str(key)
+            found = non_printable_in(str(key), at) or non_printable_in(item, at)
+            if found is not None:
+                return found
+    elif isinstance(value, (list, tuple)):
+        for k, item in enumerate(value):
+            found = non_printable_in(item, f"{where}[{k}]")
+            if found is not None:
+                return found
+    return None
+
+
+def escaped(text: str) -> str:
+    """``text`` with each character of :data:`NON_PRINTABLE` written as its escape
+    ("IM7\\u2066/977-2"), for a message that names a field or file by the text that is
+    refused: the character itself would act on the line that reports it."""
+    return NON_PRINTABLE.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"),
+                             text)
+
+
 class LaminidError(Exception):
     """Base class of all errors laminid reports to a user.
 
@@ -138,7 +193,7 @@ class SpecimenError(LaminidError):
         if path:
             where.append(f"{path}" + (f":{line}" if line else ""))
         if field:
-            where.append(f"field '{field}'")
+            where.append(f"field '{escaped(field)}'")
         prefix = ", ".join(where)
         super().__init__(f"{prefix}: {message}" if prefix else message)
         self.path, self.field, self.line = path, field, line

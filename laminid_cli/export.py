@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from laminid_cli.errors import LaminidError, OutputExistsError
+from laminid_cli.errors import LaminidError, OutputExistsError, non_printable
 
 #: result-file formats that carry a mesh and mode shapes
 SHAPE_FORMATS = ("laminid-result", "laminid-modes", "laminid-joint-result")
@@ -105,9 +105,33 @@ def read_shapes(path, specimen: str | None = None) -> PlateShapes:
                           "shapes in modes/w")
     else:
         freq = freq[:w.shape[1]]
+    _check_shapes(path, nodes, w, freq)
     name = specimen or str(data["specimen"]["@attrs"].get("name", path.stem))
+    bad = non_printable(name)
+    if bad is not None:
+        raise ExportError(f"{path}: the specimen's name {name!r} (attribute 'name' of "
+                          f"/specimen): {bad} in it; remove it")
     return PlateShapes(specimen=name, nodes=nodes, w=w, freq_hz=freq, source=str(path),
                        model_mode=model_mode)
+
+
+def _check_shapes(path, nodes: np.ndarray, w: np.ndarray, freq: np.ndarray) -> None:
+    """ExportError naming the file and the dataset where the mesh or the shapes cannot be
+    what laminid wrote (a damaged or edited file): no node, coordinates or shapes not
+    finite, shapes of another node count, a frequency not finite. A UFF of 0 nodes, or
+    of 'inf' and 'nan' in its records, was written with exit 0."""
+    if nodes.ndim != 2 or nodes.shape[0] == 0 or nodes.shape[1] != 2 \
+            or not np.all(np.isfinite(nodes)):
+        raise ExportError(f"{path}: dataset mesh/nodes holds "
+                          f"{' x '.join(map(str, nodes.shape))} values, not the finite x, y "
+                          "of at least one node; the file is damaged or was edited")
+    if w.ndim != 2 or w.shape[0] != nodes.shape[0] or not np.all(np.isfinite(w)):
+        raise ExportError(f"{path}: dataset modes/w holds {' x '.join(map(str, w.shape))} "
+                          f"values, not finite mode shapes at the {nodes.shape[0]} nodes; the "
+                          "file is damaged or was edited")
+    if not np.all(np.isfinite(freq)):
+        raise ExportError(f"{path}: dataset modes/frequency holds NaN or inf; the file is "
+                          "damaged or was edited")
 
 
 def write_shapes_uff(path, shapes: PlateShapes, *, overwrite: bool = False) -> Path:

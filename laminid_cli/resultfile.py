@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from laminid_cli.errors import LaminidError, about_file
+from laminid_cli.errors import LaminidError, about_file, escaped, non_printable, non_printable_in
 from laminid_cli.intervals import PROFILE_FLAT, PROFILE_NONE
 from laminid_cli.status import Reason, ResultStatus
 
@@ -385,8 +385,44 @@ def _materials(f, group: str = "materials") -> dict:
     if group not in f:
         return out
     for key, g in f[group].items():
-        out[_name(key, g)] = {k: float(g[k][()]) for k in (*CONSTANTS, "density") if k in g}
+        out[_name(key, g)] = {k: _num(g[k]) for k in (*CONSTANTS, "density") if k in g}
     return out
+
+
+def _arr(ds, dtype=float) -> np.ndarray:
+    """The values of dataset ``ds`` as an array of ``dtype``: ResultFileError naming the file
+    and the dataset where they are no numbers (text, a compound) or no finite float is an
+    int (a result edited by hand or damaged: 'could not convert string to float' was a
+    ValueError traceback in show and report)."""
+    value = ds[()]
+    try:
+        out = np.asarray(value, dtype)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ResultFileError(f"{ds.file.filename}: dataset '{ds.name}' holds "
+                              f"{_shown(value)}, not numbers; the result file is damaged "
+                              "or was edited") from exc
+    if np.asarray(value).dtype.kind not in "biuf":
+        raise ResultFileError(f"{ds.file.filename}: dataset '{ds.name}' holds "
+                              f"{_shown(value)}, not numbers; the result file is damaged or "
+                              "was edited")
+    return out
+
+
+def _num(ds) -> float:
+    """A scalar dataset's value as a float (:func:`_arr`'s check), ResultFileError naming it
+    where it holds more than one value."""
+    out = _arr(ds, float)
+    if out.size != 1:
+        raise ResultFileError(f"{ds.file.filename}: dataset '{ds.name}' holds {out.size} "
+                              "values, where one number is expected; the result file is "
+                              "damaged or was edited")
+    return float(out.reshape(-1)[0])
+
+
+def _shown(value) -> str:
+    text = repr(decode(value) if not isinstance(value, np.ndarray) or value.shape == ()
+                else value.tolist())
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def _labels(ds) -> tuple[str, ...]:
@@ -397,10 +433,10 @@ def _history(f) -> History | None:
     if "history" not in f:
         return None
     h = f["history"]
-    bound = np.asarray(h["error_bound"][()], float) if "error_bound" in h else None
-    return History(np.asarray(h["evaluation"][()]), np.asarray(h["objective"][()], float),
-                   np.asarray(h["rms_residual_percent"][()], float),
-                   np.asarray(h["constants"][()], float), _labels(h["constants"]), bound)
+    bound = _arr(h["error_bound"], float) if "error_bound" in h else None
+    return History(np.asarray(h["evaluation"][()]), _arr(h["objective"], float),
+                   _arr(h["rms_residual_percent"], float),
+                   _arr(h["constants"], float), _labels(h["constants"]), bound)
 
 
 def _reference_pair(v, kind: str) -> tuple[float, float]:
@@ -488,7 +524,7 @@ def restate_reference_ranges(ref: dict, yaml_text: str) -> None:
 def _plate(g, name: str | None = None) -> Plate:
     sp = g["specimen"]
     fr = g["frequencies"]
-    measured = np.asarray(fr["measured"][()], float)
+    measured = _arr(fr["measured"], float)
     yaml_text = _s(sp["yaml"][()]) if "yaml" in sp else ""
     ref, source = parse_reference(yaml_text)
     mesh = g["mesh"]
@@ -499,34 +535,88 @@ def _plate(g, name: str | None = None) -> Plate:
     mats = _materials(g)
     mats = dict(sorted(mats.items(), key=lambda kv: order.index(kv[0]) if kv[0] in order
                        else len(order)))
-    return Plate(
+    return _checked_plate(g, Plate(
         name=name if name is not None else _s(sp.attrs.get("name", "")),
         path=_s(sp.attrs.get("path", "")), folder=_s(sp.attrs.get("folder", "")),
         yaml=yaml_text,
-        a=float(sp["a"][()]), b=float(sp["b"][()]), h=float(sp["h"][()]),
+        a=_num(sp["a"]), b=_num(sp["b"]), h=_num(sp["h"]),
         boundary=_s(sp.attrs.get("boundary", "free")),
-        nodes=np.asarray(mesh["nodes"][()], float), elements=np.asarray(mesh["elements"][()], int),
+        nodes=_arr(mesh["nodes"], float), elements=_arr(mesh["elements"], int),
         mesh=(int(mesh.attrs.get("nx", 0)), int(mesh.attrs.get("ny", 0))),
         materials=mats, frequencies=Frequencies(
-            measured=measured, model=np.asarray(fr["model"][()], float),
-            residual_percent=np.asarray(fr["residual_percent"][()], float),
-            weight=np.asarray(fr["weight"][()], float),
-            model_mode=np.asarray(fr["model_mode"][()], int) if "model_mode" in fr
+            measured=measured, model=_arr(fr["model"], float),
+            residual_percent=_arr(fr["residual_percent"], float),
+            weight=_arr(fr["weight"], float),
+            model_mode=_arr(fr["model_mode"], int) if "model_mode" in fr
             else np.arange(1, measured.size + 1),
             rms_residual_percent=float(fr.attrs.get("rms_residual_percent", np.nan)),
             initial_rms_residual_percent=float(fr.attrs.get("initial_rms_residual_percent",
                                                             np.nan))),
-        w=np.asarray(g["modes"]["w"][()], float),
-        sensitivity=None if sens is None else np.asarray(sens["dlnf_dlnP"][()], float),
+        w=_arr(g["modes"]["w"], float),
+        sensitivity=None if sens is None else _arr(sens["dlnf_dlnP"], float),
         sensitivity_labels=() if sens is None else _labels(sens["dlnf_dlnP"]),
-        global_properties={k: float(v[()]) for k, v in g["global_properties"].items()}
+        global_properties={k: _num(v) for k, v in g["global_properties"].items()}
         if "global_properties" in g else {},
         history=hist,
         swaps=_strings(g["swaps"]) if "swaps" in g else (),
         warnings=_strings(g["warnings"]) if "warnings" in g else (),
         reference=ref, reference_source=source,
         reference_global=parse_global_reference(yaml_text),
-        global_uncertainty=_global_uncertainty(g))
+        global_uncertainty=_global_uncertainty(g)))
+
+
+def _checked_plate(g, p: Plate) -> Plate:
+    """``p`` as read from group ``g``, ResultFileError naming the file and the dataset where
+    a stored value cannot be what identify wrote (a hand edit, a damaged file): a side or
+    thickness not a finite positive length, an identified constant not finite, a mesh with
+    no node, a non-finite coordinate or an element naming a node it does not have, mode
+    shapes of another node count or not finite, frequency columns of different lengths.
+    report died of each with a traceback ('Axis limits cannot be NaN or Inf', 'index
+    1000000000 is out of bounds', 'shapes (5,) and (133,) not aligned')."""
+    at = g.name.rstrip("/")
+    texts = {"specimen@name": p.name, "specimen@description": _s(
+        g["specimen"].attrs.get("description", ""))}
+    texts |= {f"materials/{key}@name": name for key, name in
+              ((k, _name(k, mg)) for k, mg in g["materials"].items())}
+    for where, text in texts.items():
+        bad = non_printable(text)
+        if bad is not None:
+            dataset, attribute = where.split("@")
+            raise ResultFileError(f"{g.file.filename}: attribute '{attribute}' of "
+                                  f"'{at}/{escaped(dataset)}' ({text!r}): {bad} in it; the "
+                                  "result file is damaged or was edited")
+
+    def bad(dataset: str, what: str):
+        return ResultFileError(f"{g.file.filename}: dataset '{at}/{dataset}' {what}; the "
+                               "result file is damaged or was edited")
+
+    for key in ("a", "b", "h"):
+        value = getattr(p, key)
+        if not (np.isfinite(value) and 0 < value < 1e3):
+            raise bad(f"specimen/{key}", f"is {value!r}, not a plate's length in m")
+    for group_key, mg in g["materials"].items():
+        for key, value in p.materials.get(_name(group_key, mg), {}).items():
+            if key != "density" and not np.isfinite(value):
+                raise bad(f"materials/{group_key}/{key}", f"is {value!r}, not a finite number")
+    nodes, elements = p.nodes, p.elements
+    if nodes.ndim != 2 or nodes.shape[0] == 0 or nodes.shape[1] != 2 \
+            or not np.all(np.isfinite(nodes)):
+        raise bad("mesh/nodes", f"holds {' x '.join(map(str, nodes.shape))} values, not the "
+                                "finite x, y of at least one node")
+    if elements.ndim != 2 or elements.size == 0 or elements.min() < 0 \
+            or elements.max() >= nodes.shape[0]:
+        raise bad("mesh/elements", f"names nodes outside 0 .. {nodes.shape[0] - 1} (the "
+                                   "nodes of mesh/nodes)")
+    if p.w.ndim != 2 or p.w.shape[0] != nodes.shape[0] or not np.all(np.isfinite(p.w)):
+        raise bad("modes/w", f"holds {' x '.join(map(str, p.w.shape))} values, not finite "
+                             f"mode shapes at the {nodes.shape[0]} nodes")
+    fr = p.frequencies
+    n = fr.measured.size
+    for key in ("model", "residual_percent", "weight", "model_mode"):
+        if getattr(fr, key).size != n:
+            raise bad(f"frequencies/{key}", f"holds {getattr(fr, key).size} values, "
+                                            f"frequencies/measured {n}")
+    return p
 
 
 def _frequency_sigmas(f) -> dict:
@@ -536,7 +626,7 @@ def _frequency_sigmas(f) -> dict:
     if "uncertainty" not in f or "frequency_sigma" not in f["uncertainty"]:
         return {}
     g = f["uncertainty"]["frequency_sigma"]
-    out = {_s(d.attrs.get("name", key)): np.asarray(d[()], float).ravel()
+    out = {_s(d.attrs.get("name", key)): _arr(d, float).ravel()
            for key, d in g.items()}
     if len(out) == 1:
         out[None] = next(iter(out.values()))
@@ -549,7 +639,7 @@ def _global_uncertainty(g) -> dict:
         return {}
     h = g["global_properties_uncertainty"]
     keys = _strings(h["keys"])
-    cols = {k: np.asarray(h[k][()], float) for k in ("value", "std", "lower", "upper",
+    cols = {k: _arr(h[k], float) for k in ("value", "std", "lower", "upper",
                                                        "rel_half_width")}
     verdict = _strings(h["verdict"])
     out = {key: {**{k: float(v[i]) for k, v in cols.items()}, "verdict": verdict[i]}
@@ -788,6 +878,12 @@ def _read_complete(f, path, fmt, version) -> ResultFile:
         return _read(f, path, fmt, version)
     except KeyError as exc:
         raise ResultFileError(f"{path}: incomplete result file ({exc})") from exc
+    except (ValueError, TypeError, IndexError, AttributeError, OverflowError) as exc:
+        # what _arr/_num do not name: an attribute of the wrong type, a dataset where a
+        # group is expected; a traceback before (UnicodeDecodeError is a ValueError)
+        reason = str(exc).splitlines()[0][:200] if str(exc) else ""
+        raise ResultFileError(f"{path}: damaged or malformed result file "
+                              f"({type(exc).__name__}: {reason})") from exc
 
 
 @contextlib.contextmanager
@@ -809,6 +905,12 @@ def _open_result(path: Path):
             head = fh.read(len(HDF5_MAGIC))
     except OSError:                         # (missing, unreadable: open_h5 says which)
         head = b""
+    if not head and Path(path).is_file() and Path(path).stat().st_size == 0:
+        # (it was "not an HDF5 file, so not a laminid identification result", as of a file of
+        # another kind: a 0-byte file is a copy or a transfer that did not finish)
+        raise ResultFileError(f"{path}: the file is empty (0 bytes), a copy that did not "
+                              "finish?; copy it again, or make it again with "
+                              + MAKES_A_RESULT)
     if head == HDF5_MAGIC:
         # an HDF5 file h5py cannot open is damaged or cut short (a copy that did not finish),
         # not "not an HDF5 file ... make one with laminid identify", which sent the lab to
@@ -881,6 +983,12 @@ def read_stored_summary(path) -> tuple[dict, dict]:
             raise ResultFileError(f"{path}: /summary_json is not readable JSON ({exc})") from exc
         if not isinstance(summary, dict):
             raise ResultFileError(f"{path}: /summary_json is not a summary (a JSON object)")
+        found = non_printable_in(summary)
+        if found is not None:
+            where, text, bad = found
+            raise ResultFileError(f"{path}: /summary_json, field '{escaped(where)}' "
+                                  f"({text!r}): {bad} in it; the result file is damaged or "
+                                  "was edited")
         # a reference range an earlier laminid stored as its midpoint: the range again
         if fmt == "laminid-joint-result":
             plates = summary.get("specimens")

@@ -55,7 +55,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from laminid_cli.errors import LaminidError, SpecimenError
+from laminid_cli.errors import LaminidError, SpecimenError, non_printable
 from laminid_cli.filekinds import binary_kind
 from laminid_cli.material import CONSTANT_NAMES, ElasticConstants, infeasibility_reasons
 from laminid_cli.units import Where, normalize_text, parse_fraction, parse_quantity
@@ -501,9 +501,16 @@ class _Reader:
         return value
 
     def string(self, y: _Y) -> str:
+        """A text: a control character, bidirectional override or invisible character in it
+        (errors.NON_PRINTABLE, as a quoted escape "\\u202e" or "\\e[31m" makes one, which the
+        check of the raw text cannot see) refused naming the field."""
         if isinstance(y.value, bool) or isinstance(y.value, (dict, list)) or y.value is None:
             raise self.error(y, f"expected text, got {_describe(y.value)}")
-        return str(y.value)
+        text = str(y.value)
+        bad = non_printable(text)
+        if bad is not None:
+            raise self.error(y, f"{bad} in {text!r}; remove it")
+        return text
 
     def boolean(self, y: _Y) -> bool:
         if not isinstance(y.value, bool):
@@ -731,6 +738,9 @@ def _check_name(r: _Reader, y: _Y, name: str, what: str) -> None:
     if not name.strip() or name.strip() in (".", "..") or len(name) > MAX_NAME_CHARS:
         raise r.error(y, f"{what} {name!r} is not usable: give 1 to {MAX_NAME_CHARS} "
                          "characters of text other than '.' and '..'")
+    bad = non_printable(name)          # (a material's name is a key, not read by r.string)
+    if bad is not None:
+        raise r.error(y, f"{bad} in the {what} {name!r}; remove it")
 
 
 def _read_geometry(r: _Reader, y: _Y) -> tuple[float, float, float]:
@@ -1148,12 +1158,7 @@ def _source_text(r: _Reader, y: _Y) -> str:
     YAML block or a quoted "\\n" read as spaces), refused where longer than
     :data:`MAX_SOURCE_CHARS` or holding a control character a quoted YAML escape can make
     ("\\e[31m", which the check of the raw text cannot see)."""
-    text = r.string(y)
-    bad = _NON_PRINTABLE.search(text) or re.search("[\x00-\x08\x0b-\x1f\x7f]", text)
-    if bad is not None:
-        raise r.error(y, f"non-printable character U+{ord(bad.group()):04X} in the text; "
-                         "remove it")
-    text = " ".join(text.split())
+    text = " ".join(r.string(y).split())      # (r.string refuses a control character)
     if len(text) > MAX_SOURCE_CHARS:
         raise r.error(y, f"{len(text)} characters, more than {MAX_SOURCE_CHARS}: a line "
                          "saying how the standard deviations were made is expected")
@@ -1851,8 +1856,8 @@ def non_specimen_text(path) -> str | None:
 
 
 def read_specimen(path, *, log_warnings: bool = True) -> Specimen:
-    """Read a specimen YAML file (UTF-8) and validate it; see :func:`load_specimen_text`
-    (``log_warnings`` too)."""
+    """Read a specimen YAML file (UTF-8, or UTF-16 with its byte-order mark) and validate it;
+    see :func:`load_specimen_text` (``log_warnings`` too)."""
     name = str(path)
     p = Path(path)
     try:
@@ -1880,13 +1885,24 @@ def read_specimen(path, *, log_warnings: bool = True) -> Specimen:
         raise SpecimenError("is a folder, not a specimen file", path=name) from exc
     except OSError as exc:
         raise SpecimenError(f"cannot read the file: {exc.strerror or exc}", path=name) from exc
-    try:
-        text = data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        line = data[:exc.start].count(b"\n") + 1
-        raise SpecimenError(f"not UTF-8 text (byte 0x{data[exc.start]:02x} at byte "
-                            f"{exc.start + 1}); save the file as UTF-8", path=name,
-                            line=line) from exc
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        # UTF-16 with its byte-order mark, as Windows Notepad's "Unicode" saves it; YAML
+        # 1.1 reads it (yaml.org, YAML 1.1, 5.1 "Character Set": UTF-8, UTF-16 with a BOM);
+        # it was "not UTF-8 text (byte 0xff at byte 1)"
+        try:
+            text = data.decode("utf-16")
+        except UnicodeDecodeError as exc:
+            raise SpecimenError(f"UTF-16 text (its byte-order mark) that cannot be read as "
+                                f"such ({exc.reason} at byte {exc.start + 1}); save the file "
+                                "as UTF-8", path=name) from exc
+    else:
+        try:
+            text = data.decode("utf-8-sig")
+        except UnicodeDecodeError as exc:
+            line = data[:exc.start].count(b"\n") + 1
+            raise SpecimenError(f"not UTF-8 text (byte 0x{data[exc.start]:02x} at byte "
+                                f"{exc.start + 1}); save the file as UTF-8", path=name,
+                                line=line) from exc
     if not text.strip():
         raise SpecimenError("the file is empty; expected a mapping with geometry, materials, "
                             "layup, ...", path=name)

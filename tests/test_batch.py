@@ -2314,3 +2314,17 @@ def test_batch_text_output_names_a_specimens_warning_once(tmp_path):
     assert p.stderr == ""
     below = p.stdout.split("\nwarnings:\n", 1)[1].splitlines()
     assert below[:2] == ["  S2.1 (rad):", f"    {warning}"]
+
+@pytest.mark.parametrize("name", ["summary.csv", "summary.json"])
+def test_a_summary_saved_with_a_bom_reads_as_without(batch_run, tmp_path, name):
+    """A summary opened and saved again in an editor on Windows (Excel's 'CSV UTF-8', Notepad)
+    begins with a UTF-8 BOM: report refused it ('not a laminid batch summary (columns name,
+    status, ... expected)', its first column read as '\\ufeffname'; JSON: 'Unexpected UTF-8
+    BOM'). It is read as the file without one: the same rows, E1 to the last digit."""
+    _, out, _ = batch_run
+    bom = tmp_path / name
+    bom.write_bytes(b"\xef\xbb\xbf" + (out / name).read_bytes().replace(b"\n", b"\r\n"))
+    want = read_summary(out / name)
+    got = read_summary(bom)
+    assert [r["name"] for r in got] == [r["name"] for r in want]
+    assert got[0]["materials"]["IM7/977-2"]["E1"] == want[0]["materials"]["IM7/977-2"]["E1"]

@@ -210,6 +210,10 @@ NOWHERE = "TCPIP::127.0.0.1::1::SOCKET"
     ("--units", "", "--units: empty; give the FRF's engineering units, e.g. Pa/N or "
                     "(m/s^2)/N, or leave the option out for V/V"),
     ("--units", "  ", "--units: empty; give the FRF's engineering units"),
+    # was: written into the file, which fit-frf then refused (errors.NON_PRINTABLE)
+    ("--units", "g/N\u202e", "--units 'g/N\\u202e': non-printable character U+202E "
+                              "(RIGHT-TO-LEFT OVERRIDE) in it; give the FRF's engineering "
+                              "units as plain text, e.g. Pa/N"),
     # was: "" silently the default backend
     ("--visa-backend", "", "--visa-backend: empty; give @py, @ivi or file.yaml@sim, or leave "
                            "the option out"),

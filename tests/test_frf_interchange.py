@@ -1389,10 +1389,93 @@ def test_a_matlab_v73_mat_file_is_read_as_plain_hdf5(tmp_path, case, freq_shape)
                    .ljust(116) + bytes(8) + b"\x00\x01IM" + bytes(64))
     r = run(["fit-frf", str(v5)])
     assert (r.exit_code, r.stderr) == (2, (
-        f"laminid: error: {v5}: a MATLAB MAT-file of version 5.0 (save's default), not HDF5, "
-        "which laminid does not read; in MATLAB save the frequency and FRF variables again "
-        "with '-v7.3' (save('old.mat', 'f', 'H', '-v7.3'), an HDF5 file laminid reads), or "
-        "write them as a CSV\n"))
+        f"laminid: error: {v5}: not a MATLAB MAT-file laminid can read (Did not read any "
+        "bytes); save the frequency and FRF variables again, or write them as a CSV\n"))
+
+
+def _matlab_char(f, name, text):
+    """A MATLAB char variable as save -v7.3 writes it: UTF-16 codes, 1 x n stored n x 1."""
+    d = f.create_dataset(name, data=np.array([[ord(c)] for c in text], np.uint16))
+    d.attrs["MATLAB_class"] = np.bytes_("char")
+
+
+@pytest.mark.parametrize("unit, scale", [("kHz", 1e-3), ("rad/s", 2 * np.pi), ("Hz", 1.0)])
+@pytest.mark.parametrize("version", ["v5", "v7.3"])
+def test_a_mat_files_units_variable_gives_the_frequency_unit(tmp_path, case, version, unit,
+                                                            scale):
+    """MATLAB writes no attribute, so a lab saves a text variable units = 'kHz' beside f and
+    H: it was not read (v7.3: its char codes a numeric dataset; v5, scipy.io.savemat and
+    save's default, refused as no HDF5), a kHz axis read as Hz, every mode 1000 times too
+    low. Read as the frequency's unit now, in both versions, the frequency in Hz to 1e-12;
+    frf_unit gives the FRFs'."""
+    f, H = case.freq[:UNIT_LINES], case.frf[:, :UNIT_LINES]
+    path = tmp_path / "plate.mat"
+    if version == "v5":
+        import scipy.io
+
+        scipy.io.savemat(path, {"f": f * scale, "H": H.T, "units": unit, "frf_unit": "g/N"})
+    else:
+        _matlab_v73(path, f * scale, H, (-1, 1))
+        with h5py.File(path, "r+") as h5:
+            _matlab_char(h5, "units", unit)
+            _matlab_char(h5, "frf_unit", "g/N")
+    fs = io.read_frf(path)
+    np.testing.assert_allclose(fs.freq, f, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(fs.frf, H, rtol=1e-15, atol=0)
+    assert fs.units == "g/N" and "warnings" not in fs.meta
+
+
+@pytest.mark.parametrize("variables, words", [
+    ({"units": "mm"}, "variable 'units' is 'mm': neither a frequency unit laminid reads (Hz, "
+                      "kHz, rad/s, 1/s) nor an FRF's (a response over a force, 'g/N'); name "
+                      "the frequency's 'freq_unit' and the FRFs' 'frf_unit'"),
+    ({"freq_unit": "cycles"}, "variable 'freq_unit' is 'cycles', not a frequency unit laminid "
+                              "reads (Hz, kHz, rad/s, 1/s); the frequencies would be read in "
+                              "the wrong unit"),
+    ({"f_kHz": None, "unit": "Hz"}, "variable 'unit' gives the frequency in 'Hz', its name in "
+                                    "'khz' ('/f_kHz'): which is meant cannot be told")])
+@pytest.mark.parametrize("version", ["v5", "v7.3"])
+def test_a_mat_files_unknown_or_contradicting_unit_is_refused(tmp_path, case, version,
+                                                             variables, words):
+    """A units variable laminid cannot read as a frequency unit is refused naming it, not
+    left out (the axis then read as Hz); one contradicting the axis' name too."""
+    import scipy.io
+
+    f, H = case.freq[:UNIT_LINES], case.frf[:, :UNIT_LINES]
+    name = "f_kHz" if "f_kHz" in variables else "f"
+    texts = {k: v for k, v in variables.items() if v is not None}
+    path = tmp_path / "plate.mat"
+    if version == "v5":
+        scipy.io.savemat(path, {name: f, "H": H, **texts})
+    else:
+        with h5py.File(path, "w", userblock_size=512) as h5:
+            h5[name], h5["H"] = f.reshape(-1, 1), H
+            for k, v in texts.items():
+                _matlab_char(h5, k, v)
+    r = run(["fit-frf", str(path)])
+    assert (r.exit_code, r.stderr) == (2, f"laminid: error: {path}: {words}\n")
+
+
+def test_a_damaged_v5_mat_file_is_refused_never_a_crash(tmp_path):
+    """A bit-flipped version 5 MAT-file: scipy's reader crashed the process (SIGSEGV) on
+    this one (byte 632 of the file below set to 193, found by flipping bytes); it is read
+    first in a child process, as an HDF5 file is, and refused naming the file; a truncated
+    one by scipy's reason."""
+    import scipy.io
+
+    path = tmp_path / "bad.mat"
+    scipy.io.savemat(path, {"f": np.linspace(100, 2000, 50), "H": np.full((50, 2), 1 + 2j),
+                            "units": "Hz"})
+    data = bytearray(path.read_bytes())
+    path.write_bytes(data[:len(data) // 2])
+    with pytest.raises(FrfError, match=rf"^{path}: not a MATLAB MAT-file laminid can read"):
+        io.read_frf(path)
+    data[632] = 193
+    path.write_bytes(data)
+    with pytest.raises(FrfError) as info:
+        io.read_frf(path)
+    assert str(info.value) == (f"{path}: scipy's MAT-file reader crashed reading the file "
+                               "(SIGSEGV); the file is damaged")
 
 
 def test_a_uff_of_ascii_and_binary_records_mixed_is_read_whole(tmp_path, case):
@@ -1455,3 +1538,71 @@ def test_a_coherence_record_not_used_is_said_with_why(tmp_path, case):
         f"{path}: coherence (function type 6) not used: type-58 record 2: 10 lines where the "
         f"FRFs have {f.size}; type-58 record 4: no FRF record of its DOF left to pair it with; "
         "type-58 record 6: no FRF record of its DOF left to pair it with"]
+
+
+@pytest.mark.parametrize("edit, why", [
+    (lambda x: np.where(np.arange(x.size) == 7, np.nan, x), "NaN or inf at index 7"),
+    (lambda x: x - 1000.0, "it starts below 0 Hz (-995)"),
+    (lambda x: np.concatenate([x[:10], x[9:-1]]), "not increasing at index 10 (50, then 50)")])
+def test_a_frequency_dataset_that_is_no_axis_says_why(tmp_path, edit, why):
+    """A plain HDF5 file whose '/freq' holds a NaN, starts below 0 or repeats a line was
+    refused with 'frequency candidates: none' beside it, the lab left to guess why; the
+    message says what is wrong with it."""
+    f = np.linspace(5.0, 2000.0, 400)
+    path = tmp_path / "p.h5"
+    with h5py.File(path, "w") as h5:
+        h5["freq"], h5["H"] = edit(f), np.ones((2, 400)) * (1 + 1j)
+    with pytest.raises(FrfError) as info:
+        io.read_frf(path)
+    assert str(info.value) == (
+        f"{path}: no frequency axis matches an FRF dataset; frequency candidates: none; FRF "
+        "candidates: '/H' (2 x 400) (an FRF axis must have the frequency's length); '/freq' "
+        f"is no axis: {why}")
+
+
+def test_a_declared_huge_dataset_is_not_read_into_memory(tmp_path):
+    """A plain HDF5 file declares its datasets' sizes before any data: a '/freq' of 10**9
+    lines (chunked, nothing written: a 1.6 kB file) was read whole to check it as an axis,
+    7.5 GiB ('MemoryError' where memory is limited, else the machine's memory taken); it is
+    named as more lines than laminid reads without being read, as is an FRF of 10**6
+    points (400 million values)."""
+    path = tmp_path / "big.h5"
+    with h5py.File(path, "w") as h5:
+        h5.create_dataset("freq", shape=(10**9,), dtype=float, chunks=(1024,))
+        h5.create_dataset("H", shape=(2, 10**9), dtype=complex, chunks=(1, 1024))
+    with pytest.raises(FrfError) as info:
+        io.read_frf(path)
+    assert str(info.value).endswith("; '/freq' is no axis: 1000000000 lines, more than "
+                                    "laminid reads (1000000)")
+    with h5py.File(path, "w") as h5:
+        h5["freq"] = np.linspace(5.0, 2000.0, 400)
+        h5.create_dataset("H", shape=(10**6, 400), dtype=complex, chunks=(16, 400))
+    with pytest.raises(FrfError) as info:
+        io.read_frf(path)
+    assert str(info.value) == (f"{path}: '/H': 1000000 FRFs of 400 lines (400000000 values), "
+                               "more than laminid reads (50000000); split the file")
+
+
+def test_a_mat_files_variable_larger_than_laminid_reads_is_left_out(tmp_path, monkeypatch):
+    """A compressed v5 MAT-file's variable of 10**8 zeros is 150 kB on disk and 800 MB once
+    read: each variable's size is taken from its header first and one larger than laminid
+    reads is not loaded (here the limit lowered to 1000 values), and named where no FRF is
+    found; the file's FRF read as before."""
+    import scipy.io
+
+    from laminid_cli.frf import generic_h5
+
+    monkeypatch.setattr(generic_h5, "MAX_FRF_VALUES", 1000)
+    f = np.linspace(5.0, 2000.0, 400)
+    H = np.exp(1j * f / 300.0)[None, :]
+    path = tmp_path / "p.mat"
+    scipy.io.savemat(path, {"f": f, "H": H, "freq_unit": "Hz", "T": np.zeros(2000)},
+                     do_compression=True)
+    fs = generic_h5.read_mat_frf(path, probe=False)
+    np.testing.assert_array_equal(fs.freq, f)
+    np.testing.assert_array_equal(fs.frf, H)
+    scipy.io.savemat(path, {"f": f, "H": np.zeros((2, 400)), "T": np.zeros(2000)})
+    with pytest.raises(FrfError) as info:
+        generic_h5.read_mat_frf(path, probe=False)
+    assert str(info.value).endswith("; left out, larger than laminid reads (1000 values): "
+                                    "'T' (2000 values)")

@@ -742,6 +742,68 @@ def test_a_spreadsheets_division_by_zero_at_0_hz_is_dropped_as_nan(tmp_path, dc_
     assert str(info.value).startswith(f"{path}: line 6, column 2 ('H1_re'): '{error}' is ")
 
 
+@pytest.mark.parametrize("error", ["#DIV/0!", "#VALUE!", "#N/A", "#REF!"])
+@pytest.mark.parametrize("where", ["middle", "first"])
+def test_a_spreadsheet_error_as_the_frequency_is_refused_by_line_not_skipped(tmp_path, dc_truth,
+                                                                           error, where):
+    """A spreadsheet's error value in the frequency column begins the line with '#': it was
+    skipped as a comment line, the measured line lost without a word (in the middle), or
+    taken for numpy's commented header (the first line, no header above: its error value the
+    frequency's name). It is refused naming the line and the column, as the same value in an
+    FRF column is (the 0 Hz line's #DIV/0!, X/F at F = 0, the one case dropped)."""
+    freq, H = dc_truth
+    rows = [",".join([repr(float(f))] + [repr(float(v)) for h in H[:, k] for v in (h.real,
+                                                                                      h.imag)])
+            for k, f in enumerate(freq) if k]
+    k = 3 if where == "middle" else 0
+    rows[k] = error + rows[k][rows[k].index(","):]
+    head = "f [Hz],H1_re,H1_im,H2_re,H2_im\n" if where == "middle" else ""
+    path = tmp_path / "sheet.csv"
+    path.write_text(head + "\n".join(rows) + "\n")
+    with pytest.raises(FrfError) as info:
+        io.read_frf(path)
+    column = "column 1 ('f [Hz]')" if where == "middle" else "column 1 (no header)"
+    assert str(info.value) == (f"{path}: line {k + 1 + bool(head)}, {column}: '{error}' is a "
+                               "spreadsheet's error value, not a number (the formula of that "
+                               "cell failed: correct it in the sheet and save the CSV again)")
+
+
+def test_a_comment_line_beginning_like_an_error_value_is_still_a_comment(tmp_path, dc_truth):
+    """Only a whole first cell that is an error value makes a '#' line data: '#NAME of the
+    test' and '#N/Aside' stay comments."""
+    freq, H = dc_truth
+    rows = [",".join([repr(float(f)), repr(float(H[0, k].real)), repr(float(H[0, k].imag))])
+            for k, f in enumerate(freq) if k]
+    path = tmp_path / "c.csv"
+    path.write_text("#NAME of the test\n#N/Aside\nf [Hz],H1_re,H1_im\n" + "\n".join(rows))
+    np.testing.assert_array_equal(io.read_frf(path).freq, freq[1:])
+
+
+def test_an_excel_csv_with_a_thousands_separator_reads_its_frequencies(tmp_path, dc_truth):
+    """Excel writes a column formatted 'Use 1000 separator' as quoted "1,000.5" cells in a
+    ','-separated CSV: the line at 1000 Hz was refused ("'1,000.5' is not a number"). ','
+    is read as grouping thousands where every ',' in the file's numbers is followed by groups
+    of 3 digits and its decimal mark is '.', with a note; the axis as written, exactly. A
+    file with a decimal comma in a quoted cell ("0,5") is read as before (refused)."""
+    freq, H = dc_truth
+    f = freq[1:] * 3.0                                  # 1.5 .. 1200 Hz, so some above 1000
+    rows = [",".join([f'"{x:,.1f}"', repr(float(h.real)), repr(float(h.imag))])
+            for x, h in zip(f, H[0, 1:])]
+    path = tmp_path / "excel.csv"
+    path.write_text("Frequency (Hz),H1 Real,H1 Imag\r\n" + "\r\n".join(rows) + "\r\n")
+    fs = io.read_frf(path)
+    np.testing.assert_array_equal(fs.freq, f)
+    np.testing.assert_array_equal(fs.frf[0], H[0, 1:])
+    k = int(np.argmax(f >= 1000)) + 2
+    assert fs.meta["notes"][0] == (
+        f"{path}: ',' read as a thousands separator (line {k}, column 1 ('Frequency (Hz)'): "
+        f"'{f[k - 2]:,.1f}' is {float(f[k - 2])!r}): every ',' in the file's numbers is followed "
+        "by groups of 3 digits, and its decimal mark is '.'")
+    path.write_text(path.read_text().replace('"1.5"', '"1,5"'))
+    with pytest.raises(FrfError, match="line 2, column 1 .*'1,5' is not a number"):
+        io.read_frf(path)
+
+
 def test_a_header_of_names_over_units_gives_the_points_and_the_unit(tmp_path, dc_truth):
     """Column names over a line of their units, as loggers and spreadsheets write them: the
     units' line was taken for the header and the names' line skipped as a title, so the

@@ -1558,3 +1558,126 @@ def test_a_wide_summary_column_edited_to_end_in_a_bracket_is_not_a_traceback(tmp
     r = run("report", path, "-o", tmp_path / "r.pdf")
     assert r.exit_code == 2 and "Traceback" not in r.output
     assert f"{path}: no identified specimen in the summary" in r.output   # E1 has no column
+
+
+@pytest.mark.parametrize("old, new, field, shown", [
+    ("name: S1.1", 'name: "S1\\u202e1.2"', "name", "non-printable character U+202E "
+     "(RIGHT-TO-LEFT OVERRIDE) in 'S1\\u202e1.2'; remove it"),
+    ("  IM7/977-2:", '  "IM7\\u2066/977-2":', "materials.IM7\\u2066/977-2",
+     "non-printable character U+2066 (LEFT-TO-RIGHT ISOLATE) in the material name "
+     "'IM7\\u2066/977-2'; remove it"),
+    (BASE.splitlines()[10], 'description: "plate \\e[31mred"', "description",
+     "non-printable character U+001B in 'plate \\x1b[31mred'; remove it"),
+    ("name: S1.1", 'name: "S1\\u200b.1"', "name", "non-printable character U+200B "
+     "(ZERO WIDTH SPACE) in 'S1\\u200b.1'; remove it")])
+def test_a_specimens_text_with_a_bidi_override_or_invisible_character_is_refused(
+        tmp_path, old, new, field, shown):
+    """A quoted YAML escape makes a right-to-left override ('S1\\u202e1.2' printed as
+    'S12.11'), an isolate or a zero width space in a name, which the raw text check (YAML's
+    own rule: C0/C1 controls) let through; only sigma_source refused the C0 ones. Every text
+    of a specimen is held to errors.NON_PRINTABLE now, the field named."""
+    code, out, path = modes_error(tmp_path, BASE.replace(old, new, 1))
+    assert code == 2 and f", field '{field}': {shown}" in out, out
+
+
+def _bidi_frf(tmp_path, kind):
+    """An FRF file of each reader whose printed text holds a bidi override or an ESC."""
+    import h5py
+    import numpy as np
+    import scipy.io
+
+    from laminid_cli.frf.store import write_frf_h5
+
+    f = np.linspace(100.0, 2000.0, 64)
+    H = np.exp(1j * f / 300.0)[None, :] * np.array([[1.0], [2.0]])
+    if kind == "laminid hdf5":
+        path = write_frf_h5(tmp_path / "p.frf.h5", f, H, units="g/N", labels=["1\u202e2", "3"])
+        return path, "point label 1 ('1\\u202e2'): non-printable character U+202E (RIGHT-TO-" \
+                     "LEFT OVERRIDE)"
+    if kind == "plain hdf5":
+        path = tmp_path / "p.h5"
+        with h5py.File(path, "w") as h5:
+            h5["f"] = f
+            h5["f"].attrs["units"] = "Hz"
+            h5["H"] = H
+            h5["H"].attrs["units"] = "g/\x1b[31mN"
+        return path, "the FRF unit ('g/\\x1b[31mN'): non-printable character U+001B"
+    if kind == "mat":
+        path = tmp_path / "p.mat"
+        scipy.io.savemat(path, {"f": f, "H": H, "freq_unit": "Hz", "frf_unit": "g/N\u2067"})
+        return path, "the FRF unit ('g/N\\u2067'): non-printable character U+2067 (RIGHT-TO-" \
+                     "LEFT ISOLATE)"
+    path = tmp_path / "p.csv"
+    rows = [f"{x!r},{h.real!r},{h.imag!r}" for x, h in zip(f, H[0])]
+    path.write_text("f [Hz],H\u202e1_re,H1_im\n" + "\n".join(rows) + "\n", encoding="utf-8")
+    return path, "line 1, column 2 ('H\\u202e1_re'): non-printable character U+202E"
+
+
+@pytest.mark.parametrize("kind", ["laminid hdf5", "plain hdf5", "mat", "csv"])
+def test_an_frf_files_printed_text_with_a_bidi_override_or_escape_is_refused(tmp_path, kind):
+    """An HDF5 point label '1\\u202e2' was printed in fit-frf's table as '21', an ESC in a
+    units attribute coloured the terminal; every reader's set is held to
+    errors.NON_PRINTABLE (labels, units, the meta's words), the file and the text named,
+    exit 2 and nothing written."""
+    path, words = _bidi_frf(tmp_path, kind)
+    out = tmp_path / "fit.png"
+    r = run("fit-frf", path, "--plot", out)
+    assert r.exit_code == 2 and not out.exists()
+    assert r.output.startswith(f"laminid: error: {path}: {words}"), r.output
+    assert r.output.count("\n") == 1 and "Traceback" not in r.output
+
+
+@pytest.mark.parametrize("encoding", ["utf-16", "utf-16-be-bom", "utf-8-sig-crlf"])
+def test_a_specimen_saved_as_unicode_text_or_with_bom_and_crlf_reads_as_utf8(tmp_path,
+                                                                           encoding):
+    """Windows Notepad's "Unicode" (UTF-16 with its byte-order mark), which YAML reads, was
+    refused as 'not UTF-8 text (byte 0xff at byte 1)'; it gives the same specimen as the UTF-8
+    file now (its frequencies and sides exactly), as a UTF-8 file with BOM and CRLF does."""
+    from laminid_cli.specimen import read_specimen
+
+    text = BASE.replace("Example 1", "Example 1, 45°")
+    if encoding == "utf-16":
+        data = text.encode("utf-16")                       # BOM, native (little) endian
+    elif encoding == "utf-16-be-bom":
+        data = b"\xfe\xff" + text.encode("utf-16-be")
+    else:
+        data = text.replace("\n", "\r\n").encode("utf-8-sig")
+    path = tmp_path / "plate.yaml"
+    path.write_bytes(data)
+    got, want = read_specimen(path), read_specimen(S11)
+    assert (got.a, got.b, got.h) == (want.a, want.b, want.h)
+    assert got.description.endswith("Example 1, 45°")
+    assert list(got.measured.freq) == list(want.measured.freq)
+    path.write_bytes(data[:-1] if encoding != "utf-8-sig-crlf" else b"\xff\xfe" + b"a\x00b")
+    r = run("modes", path, "--mesh", "4x4")
+    assert r.exit_code == 2 and f"laminid: error: {path}: UTF-16 text (its byte-order mark) " \
+                                "that cannot be read as such (truncated data at byte" in r.output
+
+
+def test_an_frf_files_unprinted_words_are_not_held_to_the_rule_but_printed_ones_are(
+        tmp_path):
+    """The rule holds for the text laminid prints or writes again (errors.NON_PRINTABLE,
+    store.PRINTED_META): an instrument identity with a bidi override in a laminid FRF file
+    is refused; a UFF record's id padded with a NUL by another tool, which nothing prints,
+    is read, its FRFs as written."""
+    import h5py
+    import numpy as np
+
+    from laminid_cli.frf.io import read_frf, write_frf
+    from laminid_cli.frf.store import FrfSet, write_frf_h5
+
+    f = np.linspace(100.0, 2000.0, 64)
+    H = np.exp(1j * f / 300.0)[None, :] * np.array([[1.0], [2.0]])
+    path = write_frf_h5(tmp_path / "p.frf.h5", f, H, units="g/N")
+    with h5py.File(path, "r+") as h5:
+        h5.require_group("instrument").attrs["model"] = "SR785\u202e"
+    r = run("fit-frf", path)
+    assert (r.exit_code, r.output) == (2, (
+        f"laminid: error: {path}: instrument model ('SR785\\u202e'): non-printable character "
+        "U+202E (RIGHT-TO-LEFT OVERRIDE) in it; remove it (it can make a printed line show "
+        "other text than the file's)\n"))
+    uff = write_frf(tmp_path / "p.uff", FrfSet(freq=f, frf=H, labels=("1", "2"), units="g/N"))
+    uff.write_bytes(uff.read_bytes().replace(b"FRF 1 ", b"FRF\x001 ", 1))
+    fs = read_frf(uff)
+    assert fs.meta["uff_ids"][0] == "FRF\x001"
+    np.testing.assert_allclose(fs.frf, H, rtol=1e-11, atol=0)     # (ASCII UFF: 12 digits)

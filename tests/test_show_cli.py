@@ -283,3 +283,152 @@ def test_a_folder_names_the_result_files_it_holds(tmp_path):
     empty.mkdir()
     r = run("show", empty)
     assert r.stderr == f"laminid: error: {empty}: is a folder, not a file\n"
+
+
+@pytest.mark.parametrize("edit, words", [
+    (lambda f: f["materials/IM7_977-2"].__delitem__("E1") or
+     f["materials/IM7_977-2"].create_dataset("E1", data="abc"),
+     "dataset '/materials/IM7_977-2/E1' holds 'abc', not numbers; the result file is damaged "
+     "or was edited"),
+    (lambda f: f["specimen"].__delitem__("a") or f["specimen"].create_dataset("a", data=[1, 2]),
+     "dataset '/specimen/a' holds 2 values, where one number is expected; the result file is "
+     "damaged or was edited"),
+    (lambda f: f["frequencies"].__delitem__("model") or
+     f["frequencies"].create_dataset("model", data=np.array([b"x"] * 12)),
+     "dataset '/frequencies/model' holds [b'x', b'x', b'x', b'x', b'x', b'x', ..., not numbers; the "
+     "result file is damaged or was edited")])
+@pytest.mark.parametrize("command", ["show", "report"])
+def test_a_result_with_text_where_a_number_belongs_is_refused_naming_the_dataset(
+        single, tmp_path, edit, words, command):
+    """A result file edited by hand or damaged with text where a number is stored: show and
+    report died of 'ValueError: could not convert string to float: b'abc'' (a traceback,
+    exit 1); the file and the dataset are named, exit 2, no report written."""
+    out, _ = single
+    edited = tmp_path / "edited.result.h5"
+    edited.write_bytes(out.read_bytes())
+    with h5py.File(edited, "r+") as f:
+        edit(f)
+    pdf = tmp_path / "r.pdf"
+    r = run(command, edited, *(["-o", pdf] if command == "report" else []))
+    assert (r.exit_code, r.output) == (2, f"laminid: error: {edited}: {words}\n")
+    assert not pdf.exists()
+
+
+def _set(path, value):
+    def edit(f):
+        del f[path]
+        f[path] = value
+    return edit
+
+
+@pytest.mark.parametrize("edit, words", [
+    (_set("specimen/a", np.nan), "dataset '/specimen/a' is nan, not a plate's length in m"),
+    (_set("specimen/h", -3e-3), "dataset '/specimen/h' is -0.003, not a plate's length in m"),
+    (_set("materials/IM7_977-2/E1", np.inf),
+     "dataset '/materials/IM7_977-2/E1' is inf, not a finite number"),
+    (lambda f: f["mesh/elements"].__setitem__(0, 10**9),
+     "dataset '/mesh/elements' names nodes outside 0 .. 132 (the nodes of mesh/nodes)"),
+    (_set("mesh/nodes", np.zeros((0, 2))),
+     "dataset '/mesh/nodes' holds 0 x 2 values, not the finite x, y of at least one node"),
+    (lambda f: f["modes/w"].__setitem__((0, 0), np.inf),
+     "dataset '/modes/w' holds 133 x 12 values, not finite mode shapes at the 133 nodes"),
+    (_set("frequencies/model", np.zeros(3)),
+     "dataset '/frequencies/model' holds 3 values, frequencies/measured 12")])
+def test_a_result_whose_values_cannot_be_drawn_is_refused_naming_the_dataset(
+        single, tmp_path, edit, words):
+    """A damaged or hand-edited result: report died with a traceback on each (a NaN side:
+    'Axis limits cannot be NaN or Inf'; an element naming node 10**9: 'index 1000000000 is
+    out of bounds'; 3 model frequencies for 12 measured: 'shape mismatch'); the file and the
+    dataset are named, exit 2, no report written."""
+    out, _ = single
+    edited = tmp_path / "edited.result.h5"
+    edited.write_bytes(out.read_bytes())
+    with h5py.File(edited, "r+") as f:
+        edit(f)
+    pdf = tmp_path / "r.pdf"
+    r = run("report", edited, "-o", pdf)
+    assert (r.exit_code, r.output) == (2, f"laminid: error: {edited}: {words}; the result "
+                                          "file is damaged or was edited\n")
+    assert not pdf.exists()
+
+
+def _summary_name(f):
+    s = json.loads(f["summary_json"][()])
+    s["specimen"] = "S1\u202e1.2"
+    del f["summary_json"]
+    f["summary_json"] = json.dumps(s)
+
+
+@pytest.mark.parametrize("edit, words", [
+    (lambda f: f["specimen"].attrs.__setitem__("name", "S1\u202e1.2"),
+     "attribute 'name' of '/specimen' ('S1\\u202e1.2'): non-printable character U+202E "
+     "(RIGHT-TO-LEFT OVERRIDE) in it"),
+    (lambda f: f["specimen"].attrs.__setitem__("description", "plate \x1b[31mred"),
+     "attribute 'description' of '/specimen' ('plate \\x1b[31mred'): non-printable character "
+     "U+001B in it"),
+    (_summary_name, "/summary_json, field 'specimen' ('S1\\u202e1.2'): non-printable "
+                    "character U+202E (RIGHT-TO-LEFT OVERRIDE) in it")])
+def test_a_results_text_with_a_bidi_override_or_escape_is_refused(single, tmp_path, edit,
+                                                                  words):
+    """A result file's name, description or summary text with a right-to-left override or
+    an ESC (edited, or written by another tool) was printed by show and drawn by report as
+    it came, 'S1\\u202e1.2' shown as 'S12.11'; refused as the specimen reader refuses it
+    (errors.NON_PRINTABLE), the file and the field named."""
+    out, _ = single
+    edited = tmp_path / "edited.result.h5"
+    edited.write_bytes(out.read_bytes())
+    with h5py.File(edited, "r+") as f:
+        edit(f)
+    r = run("show", edited)
+    assert (r.exit_code, r.output) == (2, f"laminid: error: {edited}: {words}; the result "
+                                          "file is damaged or was edited\n")
+
+
+@pytest.mark.parametrize("edit, words", [
+    (lambda f: f["modes/w"].__setitem__((0, 0), np.inf),
+     "dataset modes/w holds 133 x 12 values, not finite mode shapes at the 133 nodes"),
+    (_set("mesh/nodes", np.zeros((0, 2))),
+     "dataset mesh/nodes holds 0 x 2 values, not the finite x, y of at least one node")])
+def test_export_of_shapes_that_are_not_finite_writes_no_uff(single, tmp_path, edit, words):
+    """export wrote a UFF of 0 nodes, or with 'inf' in a mode's record, from a damaged
+    result, exit 0; refused naming the dataset, no file written."""
+    out, _ = single
+    edited = tmp_path / "edited.result.h5"
+    edited.write_bytes(out.read_bytes())
+    with h5py.File(edited, "r+") as f:
+        edit(f)
+    unv = tmp_path / "modes.unv"
+    r = run("export", edited, "-o", unv)
+    assert (r.exit_code, r.output) == (2, f"laminid: error: {edited}: {words}; the file is "
+                                          "damaged or was edited\n")
+    assert not unv.exists()
+
+
+def test_export_of_a_result_whose_name_has_a_bidi_override_writes_no_uff(single, tmp_path):
+    """The specimen's name goes into each UFF 55 record's id2 ('specimen S1\\u202e1.2'): the
+    override was written into the file; refused as the readers refuse it."""
+    out, _ = single
+    edited = tmp_path / "edited.result.h5"
+    edited.write_bytes(out.read_bytes())
+    with h5py.File(edited, "r+") as f:
+        f["specimen"].attrs["name"] = "S1\u202e1.2"
+    unv = tmp_path / "modes.unv"
+    r = run("export", edited, "-o", unv)
+    assert (r.exit_code, r.output) == (2, (
+        f"laminid: error: {edited}: the specimen's name 'S1\\u202e1.2' (attribute 'name' of "
+        "/specimen): non-printable character U+202E (RIGHT-TO-LEFT OVERRIDE) in it; remove "
+        "it\n"))
+    assert not unv.exists()
+
+
+@pytest.mark.parametrize("command", ["show", "report"])
+def test_an_empty_result_file_is_said_to_be_empty(tmp_path, command):
+    """A 0-byte result (a copy cut off before it began) was 'not an HDF5 file, so not a
+    laminid identification result', as a file of another kind; it says it is empty."""
+    path = tmp_path / "s.result.h5"
+    path.write_bytes(b"")
+    r = run(command, path)
+    assert r.exit_code == 2 and r.output.startswith(
+        f"laminid: error: {path}: the file is empty (0 bytes), a copy that did not finish?; "
+        "copy it again, or make it again with laminid identify SPEC.yaml")
+    assert r.output.count("\n") == 1

@@ -417,6 +417,7 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
     """
     ctx.with_resource(_sigint_stops_it_even_in_the_background())
     from laminid_cli.errors import FrfError, LaminidError, sigterm_raises_terminated
+    from laminid_cli.errors import non_printable
     from laminid_cli.frf.store import FrfWriter
     from laminid_cli.instrument.base import AcquisitionSettings
     from laminid_cli.instrument.registry import open_analyser
@@ -431,6 +432,11 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
     if units is not None and not units.strip():
         raise AnalyserSetupError("--units: empty; give the FRF's engineering units, e.g. Pa/N "
                                  "or (m/s^2)/N, or leave the option out for V/V")
+    bad = non_printable(units)
+    if bad is not None:
+        # (written into the file, whose readers refuse it: the session's file unreadable)
+        raise AnalyserSetupError(f"--units {units!r}: {bad} in it; give the FRF's "
+                                 "engineering units as plain text, e.g. Pa/N")
     if visa_backend is not None and not visa_backend.strip():
         raise AnalyserSetupError("--visa-backend: empty; give @py, @ivi or file.yaml@sim, or "
                                  "leave the option out")

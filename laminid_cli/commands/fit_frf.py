@@ -74,7 +74,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     A plain HDF5 file of another tool is read too: a 1-D frequency dataset and a complex FRF
     dataset of matching length (either orientation), found by name, shape and units
     attributes; name them with --freq-dataset/--frf-dataset when several fit (also a MATLAB
-    MAT-file saved with '-v7.3', .mat, which is HDF5; version 5 is refused). A CSV file holds
+    MAT-file, .mat, of any version; a text variable freq_unit = 'kHz' gives the frequency's
+    unit, frf_unit the FRFs', units either). A CSV file holds
     the frequency (its unit in the header, 'f [kHz]', 'f [Hz]', 'f [rad/s]': a header that
     states none is read as Hz with a warning, and refused where its values end below 100),
     then per FRF a real and an imaginary column, one column of complex numbers

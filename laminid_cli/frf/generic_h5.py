@@ -25,6 +25,10 @@ them:
   by name). Its ``units`` attribute becomes the FRF
   units (without one: not stated, None, with a note).
 - **coherence** (optional): a real dataset whose name contains ``coh``, of the FRF's shape.
+- **units variables** (optional): a top-level text (MATLAB char, HDF5 string) named
+  ``freq_unit`` (the frequency's, where its dataset has no units attribute), ``frf_unit``
+  (the FRFs'), ``units``/``unit`` (either, or both "Hz, g/N"): :func:`said_units`. A MAT-file
+  of version 4 or 5 (no HDF5) is read by :func:`read_mat_frf` into an HDF5 file in memory.
 
 When several frequency/FRF pairs fit, the error lists them and the options to choose
 (``--freq-dataset``, ``--frf-dataset`` of ``fit-frf``); a named path that is missing or does
@@ -44,7 +48,9 @@ from pathlib import Path
 import numpy as np
 
 from laminid_cli.errors import FrfError
-from laminid_cli.frf.store import (FORMAT, FrfSet, nonfinite_dc_lines, nonfinite_dc_warning,
+from laminid_cli.frf.store import (FORMAT, MAX_FREQ_LINES, MAX_FRF_VALUES, FrfSet,
+                                   check_frf_size,
+                                   nonfinite_dc_lines, nonfinite_dc_warning,
                                    probe_hdf5_file, read_frf_h5, read_hdf5,
                                    unit_not_stated_note, unstated_freq_warning,
                                    validate_frf_arrays)
@@ -141,8 +147,8 @@ def _datasets(f) -> list[_Dataset]:
     found = []
 
     def visit(name, obj):
-        if not isinstance(obj, h5py.Dataset):
-            return
+        if not isinstance(obj, h5py.Dataset) or _is_matlab_char(obj):
+            return              # (a MATLAB text, uint16 codes: no frequency, no FRF)
         # (n_points, 1, n_freq) of one reference, as MIMO layouts store it: its 2-D squeeze
         shape = tuple(obj.shape) if obj.ndim <= 2 else tuple(n for n in obj.shape if n != 1)
         if len(shape) not in (1, 2):
@@ -153,6 +159,97 @@ def _datasets(f) -> list[_Dataset]:
 
     f.visititems(visit)
     return found + _real_imag_pairs(found) + _attribute_axes(f)
+
+
+def _is_matlab_char(ds) -> bool:
+    """Whether ``ds`` is a MATLAB char array as save -v7.3 writes one: UTF-16 code units
+    (uint16) with the attribute MATLAB_class 'char' (MathWorks, "MAT-File Versions": v7.3
+    is HDF5; the class attribute as MATLAB writes it)."""
+    return _text(ds.attrs.get("MATLAB_class", b"")).strip() == "char"
+
+
+def _variable_text(ds) -> str | None:
+    """The text of a dataset that holds one: a MATLAB char array (its rows joined by ', '),
+    an HDF5 string (or a 1-element array of one); None for any other dataset."""
+    if _is_matlab_char(ds):
+        if "MATLAB_empty" in ds.attrs:
+            return ""
+        codes = np.atleast_2d(np.asarray(ds[()])).T     # MATLAB's rows x columns
+        rows = ["".join(chr(int(c)) for c in row) for row in codes.astype(np.uint16)]
+        return ", ".join(r.strip() for r in rows)
+    if ds.dtype.kind in "SOU" and ds.size == 1:
+        return _text(ds[()]).strip()
+    return None
+
+
+#: the names (any case) of a text variable that gives the frequency's unit, the FRFs', or
+#: either (or both: "Hz, g/N"), at the top of a MAT-file or plain HDF5 file: MATLAB cannot
+#: write an attribute, so a lab saves ``units = 'kHz'`` beside ``f`` and ``H``; it was not
+#: read, a kHz or rad/s axis read as Hz (with no more than the unstated-unit warning)
+FREQ_UNIT_VARIABLES = ("freq_unit", "freq_units", "frequency_unit", "frequency_units",
+                       "f_unit", "f_units", "funit", "frequnit")
+FRF_UNIT_VARIABLES = ("frf_unit", "frf_units", "h_unit", "h_units")
+ANY_UNIT_VARIABLES = ("units", "unit")
+
+
+def _is_frf_unit(text: str) -> bool:
+    """A text that reads as an FRF's unit: a response over a force ("g/N", "m s^-2 N^-1")."""
+    return "/" in text or "-1" in text
+
+
+def said_units(f, path) -> tuple[tuple[str, str, float] | None, str | None]:
+    """The units the top-level text variables of ``f`` give (:data:`FREQ_UNIT_VARIABLES`,
+    :data:`FRF_UNIT_VARIABLES`, :data:`ANY_UNIT_VARIABLES`): ((variable, unit, factor to
+    Hz) of the frequency or None, the FRFs' unit or None). FrfError naming the variable for
+    a frequency unit laminid does not read ("mm", "cycles"), and for a ``units`` that is
+    neither a frequency's nor an FRF's: a frequency in an unknown unit is not read as Hz."""
+    import h5py
+
+    texts = {}
+    for name, obj in f.items():
+        if isinstance(obj, h5py.Dataset):
+            text = _variable_text(obj)
+            if text is not None:
+                texts.setdefault(name.lower(), (name, text))
+    freq = frf = None
+    for key in FREQ_UNIT_VARIABLES:
+        if key in texts:
+            name, text = texts[key]
+            freq = (name, text, _unit_variable_factor(path, name, text))
+            break
+    for key in FRF_UNIT_VARIABLES:
+        if key in texts:
+            frf = texts[key][1] or None
+            break
+    for key in ANY_UNIT_VARIABLES:
+        if key not in texts:
+            continue
+        name, text = texts[key]
+        items = [v.strip() for v in re.split(r"[,;]", text)]
+        if len(items) == 2 and freq_unit_factor(items[0]) is not None \
+                and _is_frf_unit(items[1]):                # "Hz, g/N"
+            freq = freq or (name, items[0], freq_unit_factor(items[0]))
+            frf = frf or items[1]
+        elif len(items) == 1 and freq_unit_factor(text) is not None:
+            freq = freq or (name, text, freq_unit_factor(text))
+        elif len(items) == 1 and _is_frf_unit(text):
+            frf = frf or text
+        elif text:
+            raise FrfError(f"{path}: variable {name!r} is {text!r}: neither a frequency unit "
+                           "laminid reads (Hz, kHz, rad/s, 1/s) nor an FRF's (a response "
+                           "over a force, 'g/N'); name the frequency's 'freq_unit' and the "
+                           "FRFs' 'frf_unit'")
+        break
+    return freq, frf
+
+
+def _unit_variable_factor(path, name: str, text: str) -> float:
+    factor = freq_unit_factor(text) if text else None
+    if factor is None:
+        raise FrfError(f"{path}: variable {name!r} is {text!r}, not a frequency unit laminid "
+                       "reads (Hz, kHz, rad/s, 1/s); the frequencies would be read in the "
+                       "wrong unit")
+    return factor
 
 
 def _attribute_axes(f) -> list[_Dataset]:
@@ -276,7 +373,8 @@ def _freq_factor(units: str | None) -> float | None:
 
 
 def _is_axis(f, d: _Dataset) -> bool:
-    if d.length is None or d.length < 2 or d.kind == "c" or _freq_factor(d.units) is None:
+    if d.length is None or d.length < 2 or d.kind == "c" or _freq_factor(d.units) is None \
+            or d.length > MAX_FREQ_LINES:       # (not read: 10**9 lines were 7.5 GiB)
         return False
     x = np.asarray(_values(f, d.path), dtype=float).reshape(-1)
     return bool(np.all(np.isfinite(x)) and x[0] >= 0 and np.all(np.diff(x) > 0))
@@ -338,12 +436,14 @@ def _choose(path: Path, f, datasets, freq_path, frf_path):
         # only "frequency candidates: none" beside a '/freq' of the FRF's length
         aside = [d for d in datasets if d.units and d.kind != "c" and d.length
                  and _freq_factor(d.units) is None and _FREQ_NAME.search(d.name)]
+        why = _not_an_axis(f, [d for d in datasets if d not in aside and d not in axes
+                               and not d.is_attribute and _FREQ_NAME.search(d.name)])
         raise FrfError(
             f"{path}: no frequency axis matches an FRF dataset; frequency candidates: "
             f"{_listing(axes)}; FRF candidates: {_listing(frfs)} (an FRF axis must have the "
             "frequency's length)" + (
                 f"; set aside for a units attribute that is no frequency unit laminid reads "
-                f"({', '.join(FREQ_UNITS)}): {_listing(aside)}" if aside else ""))
+                f"({', '.join(FREQ_UNITS)}): {_listing(aside)}" if aside else "") + why)
     if len(pairs) > 1:
         best = min(_rank(a) for a, _ in pairs)
         pairs = [(a, h) for a, h in pairs if _rank(a) == best]
@@ -352,6 +452,37 @@ def _choose(path: Path, f, datasets, freq_path, frf_path):
         raise FrfError(f"{path}: several frequency/FRF dataset pairs fit: {listing}; choose "
                        "one with --freq-dataset PATH and --frf-dataset PATH")
     return pairs[0]
+
+
+def _not_an_axis(f, named) -> str:
+    """Why datasets named as a frequency ('/freq') are no axis, for the message that finds
+    none ('frequency candidates: none' beside a '/freq' of negative or NaN values left the
+    lab to guess): "; '/freq' is no axis: it starts below 0 Hz (-2000)"."""
+    import h5py
+
+    said = []
+    for d in named[:3]:
+        obj = f.get(d.path)
+        if not isinstance(obj, h5py.Dataset):
+            continue
+        if d.length is None or d.kind == "c" or d.units:
+            continue                # a matrix, an FRF ('freq_response'), units said above
+        if d.length > MAX_FREQ_LINES:
+            said.append(f"'{d.path}' is no axis: {d.length} lines, more than laminid reads "
+                        f"({MAX_FREQ_LINES})")
+            continue
+        x = np.asarray(obj[()], dtype=float).reshape(-1)
+        if x.size < 2:
+            reason = f"{x.size} value(s), fewer than 2"
+        elif not np.all(np.isfinite(x)):
+            reason = f"NaN or inf at index {int(np.argmin(np.isfinite(x)))}"
+        elif x[0] < 0:
+            reason = f"it starts below 0 Hz ({x[0]:g})"
+        else:
+            k = int(np.argmin(np.diff(x) > 0))
+            reason = f"not increasing at index {k + 1} ({x[k]:g}, then {x[k + 1]:g})"
+        said.append(f"'{d.path}' is no axis: {reason}")
+    return "".join(f"; {s}" for s in said)
 
 
 def _many_axes(f) -> str:
@@ -397,13 +528,25 @@ def _read_generic(f, path: Path, freq_dataset, frf_dataset) -> FrfSet:
         what = f"dataset '{axis.path}' (no units attribute)"
         target = f"['{axis.path}'].attrs['units']"
     how = f"h5py.File('{path}', 'r+'){target} = 'kHz' (or 'rad/s')"
+    if path.suffix.lower() == ".mat":
+        how = (f"save a text variable freq_unit = 'kHz' (or 'rad/s') beside '{axis.name}' "
+               "in the MAT-file")
+        target = ""
+    said_freq, said_frf = said_units(f, path)
+    if said_freq is not None:
+        _check_said_unit(path, axis, said_freq)
     if axis.units:
         factor, stated = _freq_factor(axis.units), True
+    elif said_freq is not None:
+        factor, stated = said_freq[2], True
     else:
         unit = name_freq_unit(
             axis.name, f"{path}: {what.removesuffix(')')}; give it one, 'Hz' or 'rad/s': "
-                       f"h5py.File(file, 'r+'){target} = 'rad/s')")
+                       + (f"h5py.File(file, 'r+'){target} = 'rad/s')" if target else
+                          "a text variable freq_unit = 'rad/s' beside it)"))
         factor, stated = (1.0 if unit is None else FREQ_UNITS[unit]), unit is not None
+    n_points = math.prod(frf_d.shape) // axis.length
+    check_frf_size(n_points, axis.length, f"{path}: '{frf_d.path}'")   # before reading it
     freq = np.asarray(_values(f, axis.path), dtype=float).reshape(-1) * factor
     if frf_d.parts:
         values = np.asarray(f[frf_d.parts[0]][()], dtype=float) \
@@ -417,7 +560,7 @@ def _read_generic(f, path: Path, freq_dataset, frf_dataset) -> FrfSet:
             coherence = _orient(np.asarray(f[d.path][()], dtype=float).reshape(d.shape),
                                 freq.size)
             break
-    units = frf_d.units or None
+    units = frf_d.units or said_frf or None
     warnings = []
     dc = nonfinite_dc_lines(freq, frf.T) if np.ndim(frf) == 2 else 0  # (points, lines)
     if dc:
@@ -433,14 +576,98 @@ def _read_generic(f, path: Path, freq_dataset, frf_dataset) -> FrfSet:
         warnings.append(unstated_freq_warning(
             f"{path}: {what}", freq, f"give it one: {how}",
             f"a {axis.name}_units attribute 'Hz'" if axis.is_attribute
-            else "a units attribute 'Hz'"))
+            else "a units attribute 'Hz'" if target else "a variable freq_unit = 'Hz'"))
     if warnings:
         meta["warnings"] = warnings
     if units is None:
         where = frf_d.parts[0] if frf_d.parts else frf_d.path
-        meta["notes"] = [unit_not_stated_note(path, f"no 'units' attribute on '{where}'")]
+        meta["notes"] = [unit_not_stated_note(path, f"no 'units' attribute on '{where}'"
+                                              + ("" if target else " nor a variable frf_unit"))]
     return FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels, units=units,
                   source=str(path), meta=meta)
+
+
+def _check_said_unit(path, axis: _Dataset, said: tuple[str, str, float]) -> None:
+    """FrfError where a units variable contradicts the unit the axis states itself (its
+    units attribute, or its name: "f_kHz" beside units = 'Hz')."""
+    name, text, factor = said
+    own = axis.units if axis.units else None
+    if own is None:
+        try:
+            own = name_freq_unit(axis.name, "")
+        except FrfError:            # "omega": the variable says which
+            own = None
+    if own is None or _freq_factor(own) is None:
+        return
+    if not math.isclose(_freq_factor(own), factor, rel_tol=1e-12):
+        source = "its units attribute" if axis.units else "its name"
+        raise FrfError(f"{path}: variable {name!r} gives the frequency in {text!r}, "
+                       f"{source} in {own!r} ('{axis.path}'): which is meant cannot be told")
+
+
+def read_mat_frf(path, freq_dataset: str | None = None,
+                 frf_dataset: str | None = None, probe: bool = True) -> FrfSet:
+    """FRFs from a MATLAB MAT-file of version 4 or 5 (MATLAB's save without '-v7.3',
+    scipy.io.savemat; not HDF5), read with scipy.io.loadmat and then as a plain HDF5 file
+    (:func:`_read_generic`, here an HDF5 file in memory): numeric variables (those of a
+    struct as its group's), a char variable as text (units, :func:`said_units`); cell
+    arrays are left out. FrfError naming the file for one scipy cannot read; with ``probe``
+    the file is read first in a child process (:func:`~laminid_cli.frf.store.probe_hdf5_file`):
+    scipy's reader crashed this process (SIGSEGV) on a damaged file, as libhdf5 can."""
+    import io as _io
+    import struct
+    import zlib
+
+    import h5py
+    import scipy.io
+
+    path = Path(path)
+    if path.stat().st_size == 0:
+        raise FrfError(f"{path}: the file is empty (0 bytes), not a MAT-file")
+    if probe:
+        probe_hdf5_file(path, reader="read_mat_frf", module="laminid_cli.frf.generic_h5",
+                        library="scipy's MAT-file reader")
+    try:
+        # each variable's size from its header first (scipy.io.whosmat): one larger than
+        # laminid reads (a compressed one of 10**8 zeros is 150 kB on disk) is left out,
+        # not decompressed into memory; named where no FRF is found
+        sizes = {name: math.prod(shape) for name, shape, _ in scipy.io.whosmat(path)}
+        big = [f"'{n}' ({n_values} values)" for n, n_values in sizes.items()
+               if n_values > MAX_FRF_VALUES]
+        variables = scipy.io.loadmat(path, squeeze_me=False, chars_as_strings=True,
+                                     variable_names=[n for n, n_values in sizes.items()
+                                                     if n_values <= MAX_FRF_VALUES])
+    except (scipy.io.matlab.MatReadError, ValueError, TypeError, OSError, EOFError,
+            IndexError, KeyError, AttributeError, NotImplementedError, struct.error,
+            zlib.error, ArithmeticError, MemoryError) as exc:
+        reason = str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__
+        raise FrfError(f"{path}: not a MATLAB MAT-file laminid can read ({reason}); save the "
+                       "frequency and FRF variables again, or write them as a CSV") from exc
+    with h5py.File(_io.BytesIO(), "w") as f:
+        for name, value in variables.items():
+            if not name.startswith("__"):
+                _put_variable(f, name, value, depth=0)
+        try:
+            return _read_generic(f, path, freq_dataset, frf_dataset)
+        except FrfError as exc:
+            if not big:
+                raise
+            raise FrfError(f"{exc}; left out, larger than laminid reads ({MAX_FRF_VALUES} "
+                           f"values): {', '.join(big)}") from exc
+
+
+def _put_variable(group, name: str, value, depth: int) -> None:
+    """A loadmat variable into an HDF5 group: numbers as a dataset, text as a string, a
+    1 x 1 struct as a group of its fields (two levels); anything else left out."""
+    arr = np.asarray(value)
+    if arr.dtype.kind in "fiuc" and arr.ndim >= 1:
+        group.create_dataset(name, data=arr)
+    elif arr.dtype.kind == "U":
+        group.create_dataset(name, data=", ".join(str(t).strip() for t in arr.reshape(-1)))
+    elif arr.dtype.names and arr.size == 1 and depth < 2:
+        sub = group.create_group(name)
+        for field in arr.dtype.names:
+            _put_variable(sub, field, arr[field].reshape(-1)[0], depth + 1)
 
 
 def read_any_frf_h5(path, freq_dataset: str | None = None,

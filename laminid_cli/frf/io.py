@@ -63,8 +63,10 @@ Formats (:data:`FORMATS`, chosen by suffix unless given):
     Separator ``;`` tab ``,`` (the first found in the first line) or blanks; with ``;`` or tab
     a decimal comma is read too (``125,05``, as a European spreadsheet writes), and '.' as its
     thousands separator (``1.000,5``) where the whole file says so (:func:`_csv_thousands`,
-    with a note; refused where a decimal point shares the file); ``#`` comment
-    lines (``# ... units Pa/N``, ``# Units: g/N``, ``# Units: Hz, g/N`` give the FRF unit, and the
+    with a note; refused where a decimal point shares the file; with ',' a quoted "1,000.5"
+    reads as 1000.5 where the whole file says so, :func:`_csv_comma_thousands`); ``#`` comment
+    lines (not one beginning with a spreadsheet's error value, ``#VALUE!,1.2,...``: a data
+    line whose frequency cell is broken, refused by line and column; ``# ... units Pa/N``, ``# Units: g/N``, ``# Units: Hz, g/N`` give the FRF unit, and the
     last the frequency's: :func:`_csv_units_comment`; else a unit closing every FRF column's
     name, ``H1_re [g/N]``, ``Pt1 Magnitude (g/N)``: :func:`_csv_header_units`; without one the
     unit is not stated:
@@ -92,6 +94,7 @@ from laminid_cli.errors import (NON_PRINTABLE, FrfError, LaminidError, OutputExi
                                  about_file)
 from laminid_cli.filekinds import binary_kind
 from laminid_cli.frf.store import (UNSTATED_FREQ_MIN_SPAN_HZ, FrfSet, check_frf_arrays,
+                                   check_frf_texts,
                                    check_frf_size, nonfinite_dc_lines, nonfinite_dc_warning,
                                    read_frf_h5, resonance_lines,
                                    unit_not_stated_note, unstated_freq_warning,
@@ -104,11 +107,6 @@ __all__ = ["FORMATS", "SUFFIXES", "UNSTATED_FREQ_MIN_SPAN_HZ", "check_frf_arrays
 FORMATS = ("hdf5", "uff", "csv")
 SUFFIXES = {".h5": "hdf5", ".hdf5": "hdf5", ".hdf": "hdf5", ".mat": "hdf5", ".uff": "uff",
             ".unv": "uff", ".csv": "csv", ".txt": "csv"}
-#: the text a MATLAB MAT-file begins with (its 116-byte descriptive header: "MATLAB 5.0
-#: MAT-file, Platform: ..."; MathWorks, "MAT-File Format", Level 5 MAT-File Format, header),
-#: and the version of a v7.3 file, HDF5 behind a 512-byte user block, which the plain HDF5
-#: reader reads; a version 5 (v6, v7: save's default) file is no HDF5
-MAT_HEADER = b"MATLAB "
 
 #: UFF 58 function types (record 6, field 1: 4 frequency response function, 6 coherence), and
 #: the abscissa's specific data type for frequency (Hz; record 8, field 1: 18). Source: the
@@ -158,6 +156,20 @@ UFF_ASCII = str.maketrans({"²": "^2", "³": "^3", "µ": "u", "μ": "u", "°": "
 #: 0 Hz line (H = X/F, F 0 at DC) they are NaN, and that line is dropped with a warning
 #: (:func:`~laminid_cli.frf.store.nonfinite_dc_lines`); anywhere else still "not a number"
 CSV_SHEET_ERRORS = ("#DIV/0!", "#NUM!")
+#: a spreadsheet's error value as a line's first cell ("#DIV/0!,1.2,3.4", "#N/A;..."): the
+#: line is data whose frequency cell is broken, not a '#' comment line (it was skipped as
+#: one, a line of the file lost without a word; or taken for numpy's commented header); the
+#: error values of Excel and LibreOffice Calc (Microsoft, "How to correct a #... error";
+#: LibreOffice Help, "Error codes in LibreOffice Calc")
+_SHEET_ERROR_FIRST = re.compile(r'\s*"?#(?:DIV/0!|VALUE!|N/A|NUM!|REF!|NAME\?|NULL!|SPILL!|'
+                                r'CALC!|FIELD!|BLOCKED!|BUSY!|CONNECT!|UNKNOWN!|GETTING_DATA)'
+                                r'"?\s*(?:[,;\t ]|\Z)', re.IGNORECASE)
+
+
+def is_comment_line(line: str) -> bool:
+    """Whether a CSV text line is a '#' comment: it begins with '#', and not with a
+    spreadsheet's error value (:data:`_SHEET_ERROR_FIRST`)."""
+    return line.lstrip().startswith("#") and not _SHEET_ERROR_FIRST.match(line)
 #: text FRF files (UFF, CSV) larger than this are refused before they are read (1 GB: the
 #: 50 million values of MAX_FRF_VALUES at ~20 characters each)
 MAX_TEXT_FILE_BYTES = 1_000_000_000
@@ -201,8 +213,11 @@ def _read_frf(path: Path, fmt: str | None, h5_paths: dict) -> FrfSet:
         raise FrfError(f"{path}: file not found")
     if path.is_dir():
         raise FrfError(f"{path}: is a folder, not an FRF file")
-    if fmt == "hdf5" and path.suffix.lower() == ".mat":
-        _check_mat_file(path)
+    if fmt == "hdf5" and path.suffix.lower() == ".mat" and not _is_hdf5(path):
+        from laminid_cli.frf.generic_h5 import read_mat_frf
+
+        # version 4 or 5 (save's default, scipy.io.savemat): no HDF5
+        return _some_points(path, read_mat_frf(path, **h5_paths))
     if fmt != "hdf5":
         size = path.stat().st_size
         if size > MAX_TEXT_FILE_BYTES:
@@ -210,29 +225,24 @@ def _read_frf(path: Path, fmt: str | None, h5_paths: dict) -> FrfSet:
                            f"reads ({MAX_TEXT_FILE_BYTES / 1e9:g} GB)")
     fs = {"hdf5": lambda p: read_any_frf_h5(p, **h5_paths), "uff": read_frf_uff,
           "csv": read_frf_csv}[fmt](path)
+    return _some_points(path, fs)
+
+
+def _some_points(path: Path, fs: FrfSet) -> FrfSet:
     if fs.n_points == 0:
         raise FrfError(f"{path}: the file holds no FRF (0 measurement points)")
-    return fs
+    return check_frf_texts(fs, path)
 
 
-def _check_mat_file(path: Path) -> None:
-    """A MATLAB MAT-file (``.mat``) is read as HDF5 where it is one (saved with '-v7.3');
-    FrfError for one of version 5 (save's default), which is not, naming the save that makes
-    one laminid reads (it said 'unknown FRF file type .mat')."""
+def _is_hdf5(path: Path) -> bool:
+    """Whether ``path`` is HDF5 (a MAT-file saved with '-v7.3' is: read as a plain HDF5
+    file); a file that cannot be opened counts as one, the HDF5 reader says why."""
     import h5py
 
     try:
-        with open(path, "rb") as fh:
-            head = fh.read(128)
+        return bool(h5py.is_hdf5(str(path)))
     except OSError:
-        return                      # the HDF5 reader's message
-    if h5py.is_hdf5(str(path)) or not head.startswith(MAT_HEADER):
-        return
-    version = head[7:10].decode("ascii", "replace")
-    raise FrfError(f"{path}: a MATLAB MAT-file of version {version} (save's default), not "
-                   "HDF5, which laminid does not read; in MATLAB save the frequency and FRF "
-                   f"variables again with '-v7.3' (save('{path.name}', 'f', 'H', '-v7.3'), an "
-                   "HDF5 file laminid reads), or write them as a CSV")
+        return True
 
 
 def write_frf(path, fs: FrfSet, fmt: str | None = None, *, overwrite: bool = False) -> Path:
@@ -286,7 +296,7 @@ def describe_content(path) -> tuple[str, str | None]:
     quoted = repr(first if len(first) <= 50 else first[:47] + "...")
     if first.startswith(("{", "[")):
         return f"JSON text (first line {quoted})", None
-    data = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    data = [ln for ln in text.splitlines() if ln.strip() and not is_comment_line(ln)]
     if data and any(c in data[0] for c in ",;\t"):
         return f"text in columns, as a CSV FRF file is (first line {quoted})", "csv"
     return f"text whose first line is {quoted}", None
@@ -413,7 +423,7 @@ def _commented_header(text: str, first_data: int, sep: str | None, n: int
     if first_data < 2:
         return None
     above = lines[first_data - 2].strip()
-    if not above.startswith("#"):
+    if not is_comment_line(above):
         return None
     cells = _split(above.lstrip("#").strip(), sep)
     if len(cells) != n or not cells[0]:
@@ -495,6 +505,9 @@ def _not_a_number(cell: str, complex_cells: bool = False) -> str:
     ``complex_cells``: in a file of complex numbers (the forms it reads named)."""
     if not cell:
         return "empty, where a number is expected"
+    if _SHEET_ERROR_FIRST.fullmatch(cell):
+        return (f"{_quoted(cell)} is a spreadsheet's error value, not a number (the formula "
+                "of that cell failed: correct it in the sheet and save the CSV again)")
     if complex_cells:
         return (f"{_quoted(cell)} is neither a number nor a complex number (a+bj, a+bi, "
                 "(a+bj))")
@@ -764,6 +777,32 @@ _CSV_GROUPED = re.compile(r"[+-]?[1-9]\d{0,2}(?:\.\d{3})+(?:,\d*)?(?:[eE][+-]?\d
 _CSV_DECIMAL_POINT = re.compile(r"[+-]?(?:\d+\.\d*|\.\d+)(?:[eE][+-]?\d+)?")
 
 
+#: a number with ',' grouping thousands and '.' its decimal point ("1,000.5", "12,500"), as a
+#: spreadsheet writes a cell formatted with a 1000 separator: quoted in a ','-separated file
+_CSV_COMMA_GROUPED = re.compile(r"[+-]?[1-9]\d{0,2}(?:,\d{3})+(?:\.\d*)?(?:[eE][+-]?\d+)?")
+
+
+def _csv_comma_thousands(lines) -> str | None:
+    """Whether ',' groups thousands in the data ``lines`` of a ','-separated CSV file (a
+    cell holding a ',' is quoted there): the first such cell, or None. Decided by the whole
+    file: every cell with a ',' a number grouped in threes (:data:`_CSV_COMMA_GROUPED`), and
+    a decimal point somewhere, so that '.' is the decimal mark ("1,000.0" in an Excel CSV of
+    a column formatted 'Use 1000 separator' was refused as "not a number"); a "0,5" in
+    the file (a decimal comma) leaves every cell as it was."""
+    if not any('"' in ln for _, ln in lines):
+        return None                 # (no quoted cell: no ',' within a number; not split)
+    grouped = None
+    point = False
+    for lineno, ln in lines:
+        for j, cell in enumerate(_split(ln, ",")):
+            if "," in cell:
+                if not _CSV_COMMA_GROUPED.fullmatch(cell):
+                    return None
+                grouped = grouped or (lineno, j, cell)
+            point = point or "." in cell
+    return grouped if point else None
+
+
 def _csv_thousands(path, lines, sep: str | None, header: list[str] | None) -> str | None:
     """Whether '.' groups thousands in the data ``lines`` ((number, text)) of a CSV file: the
     note saying it is read so, or None where it is not. Decided by the whole file, never by
@@ -773,6 +812,13 @@ def _csv_thousands(path, lines, sep: str | None, header: list[str] | None) -> st
     FrfError naming both cells where a grouped cell and a decimal point ("1.5") share the
     file: "1.000" is then 1 or 1000, and nothing in the file says which. A file without a
     decimal comma keeps '.' the decimal point, as before ("1.250;0.002" is 1.25)."""
+    if sep == ",":
+        where = _csv_comma_thousands(lines)
+        return None if where is None else (
+            f"{path}: ',' read as a thousands separator (line {where[0]}, "
+            f"{_csv_column(header, where[1])}: {_quoted(where[2])} is "
+            f"{float(where[2].replace(',', ''))!r}): every ',' in the file's numbers is "
+            "followed by groups of 3 digits, and its decimal mark is '.'")
     if sep not in (";", "\t"):
         return None
     body = "\n".join(ln for _, ln in lines)
@@ -917,7 +963,7 @@ def csv_frequency_first(path, rows) -> bool:
     from laminid_cli.frf.generic_h5 import _ANGULAR_NAME, _FREQ_NAME
 
     lines = [(i + 1, ln) for i, ln in enumerate(rows)
-             if ln.strip() and not ln.lstrip().startswith("#")]
+             if ln.strip() and not is_comment_line(ln)]
     if not lines:
         return False
     first = lines[_csv_preamble(lines)][1]
@@ -1005,7 +1051,7 @@ def read_frf_csv(path) -> FrfSet:
         _check_names(path, units_line, [units], "FRF unit")
     # a line of separators only (",,,,", a spreadsheet's formatted empty row) is blank
     lines = [(i + 1, ln) for i, ln in enumerate(text.splitlines())
-             if ln.strip(' \t,;"') and not ln.lstrip().startswith("#")]
+             if ln.strip(' \t,;"') and not is_comment_line(ln)]
     if len(lines) > 1:
         check_frf_size(1, len(lines) - 1, str(path))
     if not lines:
@@ -1037,6 +1083,8 @@ def read_frf_csv(path) -> FrfSet:
         """A cell's value: a float, or a complex for a cell in complex syntax."""
         if thousands and "." in cell and _CSV_GROUPED.fullmatch(cell):
             return _grouped_number(cell)           # "1.000,5"
+        if thousands and sep == "," and "," in cell and _CSV_COMMA_GROUPED.fullmatch(cell):
+            return float(cell.replace(",", ""))    # "1,000.5", quoted
         if sep in (";", "\t") and "," in cell and "." not in cell:
             cell = cell.replace(",", ".")          # the decimal comma
         try:
@@ -1045,7 +1093,7 @@ def read_frf_csv(path) -> FrfSet:
             return parse_complex_cell(cell)
 
     cells = _split(first, sep)
-    if not _csv_number(cells[0], sep):
+    if not _csv_number(cells[0], sep) and not _SHEET_ERROR_FIRST.match(first):
         # the frequency's name: a first line whose first cell is a number is data, and a bad
         # cell in it is named as such (it was taken for the header, the line lost)
         header = cells if two_line is None else two_line

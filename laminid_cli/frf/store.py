@@ -96,6 +96,51 @@ class FrfSet:
         return int(self.frf.shape[0])
 
 
+#: the words of an FRF set's ``meta`` that laminid prints or writes again (a point's unit, the
+#: instrument's identity and settings, a point's records, the datasets read); not a UFF
+#: record's ids, which nothing prints (a tool may pad them with NULs)
+PRINTED_META = ("point_units", "instrument", "settings", "points", "frequency_dataset",
+                "frf_dataset")
+
+
+def check_frf_texts(fs: FrfSet, path) -> FrfSet:
+    """``fs`` as read from ``path``, FrfError naming the file and where for a text in it that
+    laminid prints (a point label, the FRF unit, a point's unit, channel name or other
+    record, the instrument's and settings' words: :data:`PRINTED_META`) holding a character
+    of :data:`~laminid_cli.errors.NON_PRINTABLE`: an HDF5 label "1\\u202e2" printed as "21" in
+    fit-frf's table, an ESC in a units attribute coloured the terminal. Every reader's set
+    passes here (io.read_frf, read_frf_h5)."""
+    from laminid_cli.errors import non_printable
+
+    def texts():
+        for k, label in enumerate(fs.labels, start=1):
+            yield f"point label {k}", label
+        yield "the FRF unit", fs.units
+        for key in PRINTED_META:
+            if key in fs.meta:
+                yield from _walk(key.replace("_", " "), fs.meta[key])
+
+    for where, text in texts():
+        bad = non_printable(text)
+        if bad is not None:
+            raise FrfError(f"{path}: {where} ({text!r}): {bad} in it; remove it (it can make "
+                           "a printed line show other text than the file's)")
+    return fs
+
+
+def _walk(where: str, value):
+    """(where, text) of every str in ``value`` (lists and dicts of a set's meta)."""
+    if isinstance(value, str):
+        yield where, value
+    elif isinstance(value, dict):
+        for k, v in value.items():
+            yield from _walk(f"{where} {k!s}", str(k))
+            yield from _walk(f"{where} {k!s}", v)
+    elif isinstance(value, (list, tuple)):
+        for i, v in enumerate(value, start=1):
+            yield from _walk(f"{where} {i}", v)
+
+
 #: how laminid writes the FRF unit of a file that states none (its :attr:`FrfSet.units` None;
 #: in --json ``units`` null): "1" read as if the FRFs were dimensionless
 UNIT_NOT_STATED = "unit not stated in file"
@@ -297,7 +342,8 @@ except LaminidError:
 
 
 def probe_hdf5_file(path, reader: str = "read_frf_h5",
-                    timeout: float | None = None, module: str = "laminid_cli.frf.store") -> None:
+                    timeout: float | None = None, module: str = "laminid_cli.frf.store",
+                    library: str = "the HDF5 library") -> None:
     """Read an HDF5 file once in a child process before this process touches it.
 
     libhdf5 can crash (segmentation fault) or loop on a damaged file (seen on files with one
@@ -305,7 +351,8 @@ def probe_hdf5_file(path, reader: str = "read_frf_h5",
     child takes that risk. Raises :class:`FrfError` when the child dies by a crash signal,
     fails without a LaminidError, or does not finish within ``timeout`` seconds (default
     :data:`H5_PROBE_TIMEOUT_S`). ``reader`` names a function of ``module`` taking
-    ``(path, probe=False)``.
+    ``(path, probe=False)``; ``library`` names what reads the file in the messages (scipy's
+    MAT-file reader crashes alike on a damaged version 5 MAT-file).
 
     The child is a fork of this process where that is safe (:func:`_fork_is_safe`), 20–30 ms
     with the modules already imported; elsewhere a new interpreter (0.2–0.3 s). Whatever a
@@ -322,12 +369,12 @@ def probe_hdf5_file(path, reader: str = "read_frf_h5",
     if outcome is None:
         return
     if outcome == _TIMEOUT:
-        raise FrfError(f"{path}: the HDF5 library did not finish reading the file in "
+        raise FrfError(f"{path}: {library} did not finish reading the file in "
                        f"{timeout:g} s{' (two tries)' if tries > 1 else ''}; the file is "
                        "damaged")
     returncode, tail = outcome
     if returncode < 0:
-        raise FrfError(f"{path}: the HDF5 library crashed reading the file "
+        raise FrfError(f"{path}: {library} crashed reading the file "
                        f"({_signal_name(-returncode)}); the file is damaged")
     if returncode != 0:
         raise FrfError(f"{path}: the file cannot be read "
@@ -635,8 +682,8 @@ def _read_open_h5(f, path: Path) -> FrfSet:
                                                     "acquire --units records it")]
     if frf.shape[0]:
         freq, frf, coherence = check_frf_arrays(freq, frf, coherence, source=str(path))
-    return FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels, units=units,
-                  source=str(path), meta=meta)
+    return check_frf_texts(FrfSet(freq=freq, frf=frf, coherence=coherence, labels=labels,
+                                  units=units, source=str(path), meta=meta), path)
 
 
 def _attrs(f, name: str) -> dict:

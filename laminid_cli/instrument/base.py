@@ -23,7 +23,7 @@ from typing import Callable, ClassVar, Mapping
 
 import numpy as np
 
-from laminid_cli.errors import InstrumentError
+from laminid_cli.errors import NON_PRINTABLE, InstrumentError
 from laminid_cli.instrument.transport import AnalyserSetupError, Transport
 
 log = logging.getLogger(__name__)
@@ -195,7 +195,11 @@ class Analyser:
     def idn(self) -> str:
         """The ``*IDN?`` answer (IEEE 488.2 common command, all analysers)."""
         if self._idn is None:
-            self._idn = self.transport.query("*IDN?")
+            # a control or bidi character in the answer (a device's firmware, a line's
+            # noise) is written as '?': the identity goes into the FRF file, whose readers
+            # refuse such text (errors.NON_PRINTABLE), and the file acquire wrote was then
+            # unreadable by fit-frf
+            self._idn = NON_PRINTABLE.sub("?", self.transport.query("*IDN?"))
         return self._idn
 
     def identity(self) -> dict:

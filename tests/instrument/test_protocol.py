@@ -339,3 +339,12 @@ def test_axis_with_other_lines_than_set_is_refused_by_name():
                                               r"lines but 800 lines were set \(span 1600 Hz\); "
                                               r"the resolution command was not taken"):
         dsa.check_axis(SETTINGS, np.arange(101.0))
+
+
+def test_an_identity_with_a_control_character_is_kept_printable():
+    """An *IDN? answer with an ESC or a bidi override inside (stripped at its ends only) went
+    into the FRF file acquire writes, whose readers refuse such text: the file acquire wrote
+    could not be read by fit-frf. Each such character is written as '?'."""
+    dsa = SR785(ScriptedTransport([("*IDN?", "Stanford\x1b[31m,SR785\u202e,s/n1,ver1")]))
+    assert dsa.idn == "Stanford?[31m,SR785?,s/n1,ver1"
+    assert dsa.identity()["idn"] == dsa.idn
