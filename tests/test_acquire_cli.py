@@ -424,6 +424,36 @@ def test_faults_exit_1_and_keep_every_finished_point(tmp_path, emu_cls, fault, m
     assert read_frf_h5(out).labels == ("1", "2", "3")
 
 
+@pytest.mark.parametrize("emu_cls, command, sent", [
+    (HP35670AEmulator, "*ESR?", "*ESR?"),
+    (HP35670AEmulator, "STAT:QUES:VOLT:EVEN?", "STAT:QUES:VOLT:EVEN?"),
+    (HP35670AEmulator, "SYST:ERR?", "SYST:ERR?"),
+    (SR785Emulator, "DSPS? 1", "DSPS? 1"),
+    (SR785Emulator, "NAVG?", "NAVG? 0"),
+    (SR785Emulator, "INPS?", "INPS?"),
+    (SR785Emulator, "DSPN?", "DSPN? 0"),
+    (SR785Emulator, "ERRS?", "ERRS?"),
+])
+def test_a_garbled_answer_stops_in_one_line_and_keeps_the_finished_points(
+        tmp_path, emu_cls, command, sent):
+    """A status or count query answered with no number (line noise, another talker) raised
+    a ValueError traceback (the 35670A's *ESR?, the SR785's NAVG?, DSPN?...) or, for the
+    SR785's DSPS? 1, was taken for "not done yet" and polled for ever; it is an analyser
+    fault: one line naming the resource, the command and the answer, exit 1, point 1 kept."""
+    out = tmp_path / "g.h5"
+    with emu_cls(faults=[Fault(command, "garbage", 2)]) as emu:
+        r = acquire(emu, out, "--no-prompt")
+        resource = emu.resource
+    assert r.exit_code == 1, r.output
+    line = r.output.strip().splitlines()[-1]
+    assert line.startswith("laminid: error: point 2: analyser TCPIP0::127.0.0.1::"
+                           f"{resource.split('::')[2]}::SOCKET: the ")
+    assert f"answered {sent} with '\\x15#?garbage'" in line
+    assert "point 2 not saved; 1 point(s) saved in" in line and "--resume" in line
+    s = read_frf_h5(out)
+    assert s.labels == ("1",) and s.meta["complete"] is False
+
+
 def test_hp_error_queue_after_configuring_exits_1(tmp_path):
     out = tmp_path / "e.h5"
     with HP35670AEmulator(faults=[Fault("WIND2:EXP", "error", 0)]) as emu:
