@@ -565,6 +565,38 @@ def test_ctrl_c_keeps_the_file_and_prints_the_resume_command(tmp_path, hp, monke
     assert hp.log[-1] == "ABOR"
 
 
+@pytest.mark.parametrize("emu_cls", [HP35670AEmulator, SR785Emulator])
+def test_ctrl_c_after_the_last_hit_saves_the_point_being_read(tmp_path, emu_cls, monkeypatch):
+    """Ctrl-C while point 2's FRF is read (every hit taken: an operator stopping just after
+    the last hit) threw the point away ('1 point(s) saved'); the stop now waits until the
+    point is read and saved, then ends the session as before (exit 130, --resume)."""
+    import os
+    import signal
+
+    from laminid_cli.instrument import hp35670a, sr785
+
+    driver = hp35670a.HP35670A if emu_cls is HP35670AEmulator else sr785.SR785
+    real = driver.read_frf
+    calls = []
+
+    def ctrl_c_during_the_second_transfer(self):
+        calls.append(1)
+        if len(calls) == 2:
+            os.kill(os.getpid(), signal.SIGINT)   # delivered at once, in the main thread
+        return real(self)
+
+    monkeypatch.setattr(driver, "read_frf", ctrl_c_during_the_second_transfer)
+    out = tmp_path / "k.h5"
+    with emu_cls() as emu:
+        r = acquire(emu, out, "--no-prompt")
+    assert r.exit_code == 130, r.output
+    assert "point 2: 3 hits, coherence at resonances" in r.output
+    assert "interrupted; 2 point(s) saved in" in r.output and "--resume" in r.output
+    s = read_frf_h5(out)
+    assert s.labels == ("1", "2") and s.meta["complete"] is False
+    assert np.all(np.isfinite(s.frf[1])) and np.abs(s.frf[1]).max() > 0
+
+
 def test_json_summary_also_when_the_session_is_interrupted(tmp_path, hp, monkeypatch):
     """--json with Ctrl-C during point 2 (saved, then interrupted): stdout still holds the
     summary (it held nothing, exit 130): point 1 measured and saved in this run, 2 in the

@@ -349,10 +349,15 @@ class Analyser:
         raise NotImplementedError
 
     def measure(self, n_averages: int, progress: ProgressCallback | None = None,
-                freq: np.ndarray | None = None) -> Measurement:
-        """Start, wait for ``n_averages`` hits, read FRF + coherence of one point."""
+                freq: np.ndarray | None = None,
+                averaged: Callable[[], object] | None = None) -> Measurement:
+        """Start, wait for ``n_averages`` hits, read FRF + coherence of one point.
+        ``averaged`` is called once every hit is taken, before the transfers (the session
+        holds Ctrl-C/SIGTERM from there until the point is saved)."""
         self.start()
         self.wait_until_done(n_averages, progress)
+        if averaged is not None:
+            averaged()
         channels = self.overloaded_channels()
         freq = self.read_frequency() if freq is None else freq
         frf = self._read_checked("FRF", self.read_frf)

@@ -9,6 +9,7 @@ point, and ``--resume`` continues with the points not yet in it.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 from dataclasses import dataclass, field
@@ -207,20 +208,29 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
                 def progress(hits, n, _label=label, _index=index):
                     ui.progress(_label, _index, total, hits, n)
 
-                try:
-                    m = analyser.measure(settings.averages, progress=progress)
-                except InstrumentError as exc:
-                    raise InstrumentError(f"point {label}: {exc}; point {label} not saved") \
-                        from exc
-                if m.freq.shape != writer.freq.shape or not np.allclose(m.freq, writer.freq,
-                                                                        rtol=1e-9):
-                    raise InstrumentError(
-                        f"{analyser.MODEL}: the frequency axis changed during the session "
-                        f"({m.freq.size} lines, {m.freq[0]:g}-{m.freq[-1]:g} Hz; the file has "
-                        f"{writer.freq.size}, {writer.freq[0]:g}-{writer.freq[-1]:g} Hz); were "
-                        "the analyser's settings changed on its front panel?")
-                # a stop asked for while the point is written waits for it (and its line)
-                with stop_signals_held():
+                # a stop asked for once every hit of the point is taken (while its traces
+                # are read and it is written) waits for it to be saved (and its line said):
+                # an operator's Ctrl-C just after the last hit no longer throws the hits away
+                with contextlib.ExitStack() as held:
+                    def hold(_held=held, _on=[]):
+                        if not _on:           # once: a second call is a no-op
+                            _held.enter_context(stop_signals_held())
+                            _on.append(True)
+
+                    try:
+                        m = analyser.measure(settings.averages, progress=progress,
+                                             averaged=hold)
+                    except InstrumentError as exc:
+                        raise InstrumentError(f"point {label}: {exc}; point {label} not "
+                                              "saved") from exc
+                    if m.freq.shape != writer.freq.shape or \
+                            not np.allclose(m.freq, writer.freq, rtol=1e-9):
+                        raise InstrumentError(
+                            f"{analyser.MODEL}: the frequency axis changed during the session "
+                            f"({m.freq.size} lines, {m.freq[0]:g}-{m.freq[-1]:g} Hz; the file "
+                            f"has {writer.freq.size}, {writer.freq[0]:g}-{writer.freq[-1]:g} "
+                            "Hz); were the analyser's settings changed on its front panel?")
+                    hold()      # an analyser without the callback: from here at the latest
                     try:
                         writer.add_point(label, m.frf, m.coherence, n_averages=m.n_averages,
                                          overloads=m.overloads, replace=replace)

@@ -24,12 +24,14 @@ class FakeAnalyser:
         self.outcomes = list(outcomes)
         self.aborted = 0
 
-    def measure(self, n_averages, progress=None):
+    def measure(self, n_averages, progress=None, averaged=None):
         outcome = self.outcomes.pop(0)
         if isinstance(outcome, BaseException):
             raise outcome
         if progress:
             progress(n_averages, n_averages)
+        if averaged:
+            averaged()
         frf = 1.0 / (50.0 ** 2 - FREQ ** 2 + 2j * 0.02 * 50.0 * FREQ)
         return Measurement(freq=FREQ, frf=frf, coherence=np.full(FREQ.shape, outcome),
                            n_averages=n_averages, overloads=0)
