@@ -597,6 +597,43 @@ def test_ctrl_c_after_the_last_hit_saves_the_point_being_read(tmp_path, emu_cls,
     assert np.all(np.isfinite(s.frf[1])) and np.abs(s.frf[1]).max() > 0
 
 
+@pytest.mark.parametrize("emu_cls, said", [
+    (HP35670AEmulator, r"point 2 stopped before its 3 hits were taken, not saved"),
+    (SR785Emulator, r"point 2 stopped at [12] of 3 hits, not saved"),   # 1 (a hit may land)
+])
+def test_ctrl_c_during_the_hits_says_which_points_hits_are_discarded(tmp_path, emu_cls, said,
+                                                                      monkeypatch):
+    """Ctrl-C while point 2's hits were taken said only '1 point(s) saved': nothing told the
+    operator that point 2's hits so far were gone; the stop message says so."""
+    import re
+
+    from laminid_cli.instrument import hp35670a, sr785
+
+    driver = hp35670a.HP35670A if emu_cls is HP35670AEmulator else sr785.SR785
+    real = driver.is_done
+    points_done, seen_hit = [], []
+
+    def ctrl_c_once_point_2_has_a_hit(self):
+        done = real(self)
+        if done:
+            points_done.append(1)
+        elif len(points_done) == 1:                       # waiting for point 2's hits
+            if seen_hit:                                  # the poll after: progress said it
+                raise KeyboardInterrupt
+            if self.hits_done() != 0:                     # a hit (the 35670A: -1, unknown)
+                seen_hit.append(1)
+        return done
+
+    monkeypatch.setattr(driver, "is_done", ctrl_c_once_point_2_has_a_hit)
+    out = tmp_path / "h.h5"
+    with emu_cls(hit_interval_s=0.2) as emu:
+        r = acquire(emu, out, "--no-prompt")
+    assert r.exit_code == 130, r.output
+    assert re.search(f"interrupted; 1 point\\(s\\) saved in {re.escape(str(out))}; {said}; "
+                     "continue with: ", r.output), r.output
+    assert read_frf_h5(out).labels == ("1",)
+
+
 def test_json_summary_also_when_the_session_is_interrupted(tmp_path, hp, monkeypatch):
     """--json with Ctrl-C during point 2 (saved, then interrupted): stdout still holds the
     summary (it held nothing, exit 130): point 1 measured and saved in this run, 2 in the

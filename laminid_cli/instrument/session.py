@@ -192,6 +192,8 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
     todo = [label for label in labels if label not in writer.labels]
     result = SessionResult()
     total = len(labels)
+    #: the point whose hits are being taken: [label, hits done (-1 unknown), hits wanted]
+    taking: list = []
     try:
         for label in todo:
             index = labels.index(label) + 1
@@ -206,6 +208,7 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
             replace = False
             while True:
                 def progress(hits, n, _label=label, _index=index):
+                    taking[:] = [_label, hits, n]
                     ui.progress(_label, _index, total, hits, n)
 
                 # a stop asked for once every hit of the point is taken (while its traces
@@ -216,6 +219,7 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
                         if not _on:           # once: a second call is a no-op
                             _held.enter_context(stop_signals_held())
                             _on.append(True)
+                            taking.clear()    # every hit taken: the point is kept
 
                     try:
                         m = analyser.measure(settings.averages, progress=progress,
@@ -261,11 +265,12 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
     except Terminated:
         _stop(analyser)
         raise _stopped(AcquisitionTerminated(_saved_message("terminated (SIGTERM)", writer,
-                                                            options)),
+                                                            options, _hits_lost(taking))),
                        result, writer) from None
     except KeyboardInterrupt:
         _stop(analyser)
-        raise _stopped(AcquisitionInterrupted(_saved_message("interrupted", writer, options)),
+        raise _stopped(AcquisitionInterrupted(_saved_message("interrupted", writer, options,
+                                                             _hits_lost(taking))),
                        result, writer) from None
     except NoOperatorInput as exc:
         _stop(analyser)
@@ -300,12 +305,24 @@ def _stop(analyser: Analyser) -> None:
         log.debug("could not abort the measurement", exc_info=True)
 
 
-def _saved_message(prefix: str, writer, options: SessionOptions) -> str:
+def _hits_lost(taking: list) -> str:
+    """What a stop during a point's hits discards ("" when no hits were being taken)."""
+    if not taking:
+        return ""
+    label, hits, n = taking
+    if hits < 0:                             # an analyser that cannot tell (the 35670A)
+        return f"point {label} stopped before its {n} hits were taken, not saved"
+    return f"point {label} stopped at {hits} of {n} hits, not saved"
+
+
+def _saved_message(prefix: str, writer, options: SessionOptions, also: str = "") -> str:
     n = writer.n_points
+    also = f"; {also}" if also else ""
     if n and not writer.path.exists():      # removed (its folder too?) during the session
-        return f"{prefix}; {writer.path} is gone, with the {n} point(s) saved in it"
+        return f"{prefix}; {writer.path} is gone, with the {n} point(s) saved in it{also}"
     msg = f"{prefix}; {n} point(s) saved in {writer.path}" if n else \
         f"{prefix}; no point finished" + (f" (file {writer.path})" if writer.path.exists() else "")
+    msg += also
     if options.resume_hint and writer.path.exists():   # nothing to resume without the file
         msg += f"; continue with: {options.resume_hint}"
     return msg
