@@ -192,7 +192,8 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
     todo = [label for label in labels if label not in writer.labels]
     result = SessionResult()
     total = len(labels)
-    #: the point whose hits are being taken: [label, hits done (-1 unknown), hits wanted]
+    #: the point whose hits are being taken: [label, hits done (-1 unknown), hits wanted,
+    #: True when it is a repeat of a point already saved]
     taking: list = []
     try:
         for label in todo:
@@ -208,7 +209,7 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
             replace = False
             while True:
                 def progress(hits, n, _label=label, _index=index):
-                    taking[:] = [_label, hits, n]
+                    taking[:] = [_label, hits, n, replace]
                     ui.progress(_label, _index, total, hits, n)
 
                 # a stop asked for once every hit of the point is taken (while its traces
@@ -309,10 +310,12 @@ def _hits_lost(taking: list) -> str:
     """What a stop during a point's hits discards ("" when no hits were being taken)."""
     if not taking:
         return ""
-    label, hits, n = taking
+    label, hits, n, repeat = taking
+    what = f"point {label}'s repeat" if repeat else f"point {label}"
+    kept = f" (the point {label} measured before is kept)" if repeat else ""
     if hits < 0:                             # an analyser that cannot tell (the 35670A)
-        return f"point {label} stopped before its {n} hits were taken, not saved"
-    return f"point {label} stopped at {hits} of {n} hits, not saved"
+        return f"{what} stopped before its {n} hits were taken, not saved{kept}"
+    return f"{what} stopped at {hits} of {n} hits, not saved{kept}"
 
 
 def _saved_message(prefix: str, writer, options: SessionOptions, also: str = "") -> str:
