@@ -454,6 +454,20 @@ def test_a_garbled_answer_stops_in_one_line_and_keeps_the_finished_points(
     assert s.labels == ("1",) and s.meta["complete"] is False
 
 
+def test_a_garbled_trace_block_names_the_analyser_and_the_query(tmp_path):
+    """A 35670A trace answered with no IEEE 488.2 block said only "expected an IEEE 488.2
+    definite-length block ..., got b'\\x15#'": not which analyser nor which query."""
+    out = tmp_path / "b.h5"
+    with HP35670AEmulator(faults=[Fault("CALC1:DATA?", "garbage", 2)]) as emu:
+        r = acquire(emu, out, "--no-prompt")
+        port = emu.resource.split("::")[2]
+    assert r.exit_code == 1, r.output
+    assert (f"laminid: error: point 2: analyser TCPIP0::127.0.0.1::{port}::SOCKET: answer to "
+            "'CALC1:DATA?': expected an IEEE 488.2 definite-length block ('#<n><length>'), "
+            "got b'\\x15#'; point 2 not saved; 1 point(s) saved in") in r.output
+    assert read_frf_h5(out).labels == ("1",)
+
+
 def test_hp_error_queue_after_configuring_exits_1(tmp_path):
     out = tmp_path / "e.h5"
     with HP35670AEmulator(faults=[Fault("WIND2:EXP", "error", 0)]) as emu:
