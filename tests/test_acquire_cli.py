@@ -611,6 +611,37 @@ def test_ctrl_c_after_the_last_hit_saves_the_point_being_read(tmp_path, emu_cls,
     assert np.all(np.isfinite(s.frf[1])) and np.abs(s.frf[1]).max() > 0
 
 
+def test_a_fault_while_a_stop_waits_for_the_point_is_said_with_the_stop(tmp_path, monkeypatch):
+    """Ctrl-C while point 2 is read waits for it; if the transfer then fails (no answer
+    within --timeout), the stop said only 'interrupted; 1 point(s) saved', not why point 2,
+    whose hits were all taken, is not in the file."""
+    import os
+    import signal
+
+    from laminid_cli.instrument import hp35670a
+
+    real = hp35670a.HP35670A.read_frf
+    calls = []
+
+    def ctrl_c_during_the_second_transfer(self):
+        calls.append(1)
+        if len(calls) == 2:
+            os.kill(os.getpid(), signal.SIGINT)
+        return real(self)
+
+    monkeypatch.setattr(hp35670a.HP35670A, "read_frf", ctrl_c_during_the_second_transfer)
+    out = tmp_path / "s.h5"
+    with HP35670AEmulator(faults=[Fault("CALC1:DATA?", "silent", 2)]) as emu:
+        r = acquire(emu, out, "--no-prompt")
+    assert r.exit_code == 130, r.output
+    line = r.output.strip().splitlines()[-1]
+    assert line.startswith(f"laminid: stopped: interrupted; 1 point(s) saved in {out}; point 2: "
+                           "analyser TCPIP0::127.0.0.1::"), line
+    assert ("did not answer within 0.5 s (waiting for the answer to 'CALC1:DATA?', binary "
+            "read)); point 2 not saved; continue with: ") in line
+    assert read_frf_h5(out).labels == ("1",)
+
+
 @pytest.mark.parametrize("emu_cls, said", [
     (HP35670AEmulator, r"point 2 stopped before its 3 hits were taken, not saved"),
     (SR785Emulator, r"point 2 stopped at [12] of 3 hits, not saved"),   # 1 (a hit may land)

@@ -263,15 +263,15 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
                         f"every point is measured, but {writer.path} could not be marked "
                         f"complete: {exc.strerror or exc}; its points are all saved and "
                         "fit-frf reads it as it is") from exc
-    except Terminated:
+    except Terminated as exc:
         _stop(analyser)
         raise _stopped(AcquisitionTerminated(_saved_message("terminated (SIGTERM)", writer,
-                                                            options, _hits_lost(taking))),
+                                                            options, _lost(exc, taking))),
                        result, writer) from None
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         _stop(analyser)
         raise _stopped(AcquisitionInterrupted(_saved_message("interrupted", writer, options,
-                                                             _hits_lost(taking))),
+                                                             _lost(exc, taking))),
                        result, writer) from None
     except NoOperatorInput as exc:
         _stop(analyser)
@@ -304,6 +304,16 @@ def _stop(analyser: Analyser) -> None:
         analyser.abort()
     except (InstrumentError, OSError):
         log.debug("could not abort the measurement", exc_info=True)
+
+
+def _lost(stop: BaseException, taking: list) -> str:
+    """What the stop ``stop`` leaves unsaved: a fault that ended the point it waited for
+    (a stop held while a point is read comes after it: the fault is its context), else the
+    hits of the point being taken."""
+    fault = stop.__context__
+    if isinstance(fault, (InstrumentError, PointNotWritten)):
+        return str(fault)
+    return _hits_lost(taking)
 
 
 def _hits_lost(taking: list) -> str:
