@@ -44,12 +44,16 @@ Commands no public source gives are marked **unconfirmed**, with where we looked
     kHz, 1 = 102.4 kHz); pyHegel SR780 ``freq_baseline`` (``FBAS 2,{val}``, index of [100e3,
     102.4e3])
 ``FSPN 2,<Hz>``
-    LIGO script ``FSPN2,``; pySR785 ``stop_Hz`` (spans 102.4 kHz/2^k)
+    LIGO script ``FSPN2,``; pySR785 ``stop_Hz`` (spans 102.4 kHz/2^k); SR785 manual p. 5-26
+    ("Commands and Units": ``FSPN 2, 51200`` sets a 51.2 kHz span, Hz being the default unit
+    when none is sent, and a query answers in that default unit: ``FSPN? 0`` gives Hz)
 ``FLIN 2,<i>``
     LIGO script / pySR785: 0..3 = 100, 200, 400, 800 lines; Roy SR785 ``lines`` (``FLIN 2,``,
     manual pdf p. 205); Labber SR785 ``FLIN ? 0`` table
 ``FSTR 2,<Hz>``
-    pySR785 ``start_Hz`` (``FSTR 2,``)
+    pySR785 ``start_Hz`` (``FSTR 2,``); SR785 manual p. 5-25 ("Command Syntax": ``FSTR (?) d
+    {, f}``, ``FSTR 0, 1.024E3`` sets display A's start to 1024 Hz, ``FSTR ? 0`` queries it;
+    d = 2 sets both displays and is not allowed in a query, hence ``FSTR? 0``)
 ``FAVG 2,1``
     LIGO script "Averaging On"
 ``FAVM 2,2``
