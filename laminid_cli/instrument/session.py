@@ -216,10 +216,12 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
                 # are read and it is written) waits for it to be saved (and its line said):
                 # an operator's Ctrl-C just after the last hit no longer throws the hits away
                 with contextlib.ExitStack() as held:
-                    def hold(_held=held, _on=[]):
-                        if not _on:           # once: a second call is a no-op
+                    holding: list = []
+
+                    def hold(_held=held, _holding=holding):
+                        if not _holding:      # once: a second call is a no-op
                             _held.enter_context(stop_signals_held())
-                            _on.append(True)
+                            _holding.append(True)
                             taking.clear()    # every hit taken: the point is kept
 
                     try:
