@@ -424,6 +424,50 @@ def test_faults_exit_1_and_keep_every_finished_point(tmp_path, emu_cls, fault, m
     assert read_frf_h5(out).labels == ("1", "2", "3")
 
 
+@pytest.mark.parametrize("emu_cls, command, sent", [
+    (HP35670AEmulator, "*ESR?", "*ESR?"),
+    (HP35670AEmulator, "STAT:QUES:VOLT:EVEN?", "STAT:QUES:VOLT:EVEN?"),
+    (HP35670AEmulator, "SYST:ERR?", "SYST:ERR?"),
+    (SR785Emulator, "DSPS? 1", "DSPS? 1"),
+    (SR785Emulator, "NAVG?", "NAVG? 0"),
+    (SR785Emulator, "INPS?", "INPS?"),
+    (SR785Emulator, "DSPN?", "DSPN? 0"),
+    (SR785Emulator, "ERRS?", "ERRS?"),
+])
+def test_a_garbled_answer_stops_in_one_line_and_keeps_the_finished_points(
+        tmp_path, emu_cls, command, sent):
+    """A status or count query answered with no number (line noise, another talker) raised
+    a ValueError traceback (the 35670A's *ESR?, the SR785's NAVG?, DSPN?...) or, for the
+    SR785's DSPS? 1, was taken for "not done yet" and polled for ever; it is an analyser
+    fault: one line naming the resource, the command and the answer, exit 1, point 1 kept."""
+    out = tmp_path / "g.h5"
+    with emu_cls(faults=[Fault(command, "garbage", 2)]) as emu:
+        r = acquire(emu, out, "--no-prompt")
+        resource = emu.resource
+    assert r.exit_code == 1, r.output
+    line = r.output.strip().splitlines()[-1]
+    assert line.startswith("laminid: error: point 2: analyser TCPIP0::127.0.0.1::"
+                           f"{resource.split('::')[2]}::SOCKET: the ")
+    assert f"answered {sent} with '\\x15#?garbage'" in line
+    assert "point 2 not saved; 1 point(s) saved in" in line and "--resume" in line
+    s = read_frf_h5(out)
+    assert s.labels == ("1",) and s.meta["complete"] is False
+
+
+def test_a_garbled_trace_block_names_the_analyser_and_the_query(tmp_path):
+    """A 35670A trace answered with no IEEE 488.2 block said only "expected an IEEE 488.2
+    definite-length block ..., got b'\\x15#'": not which analyser nor which query."""
+    out = tmp_path / "b.h5"
+    with HP35670AEmulator(faults=[Fault("CALC1:DATA?", "garbage", 2)]) as emu:
+        r = acquire(emu, out, "--no-prompt")
+        port = emu.resource.split("::")[2]
+    assert r.exit_code == 1, r.output
+    assert (f"laminid: error: point 2: analyser TCPIP0::127.0.0.1::{port}::SOCKET: answer to "
+            "'CALC1:DATA?': expected an IEEE 488.2 definite-length block ('#<n><length>'), "
+            "got b'\\x15#'; point 2 not saved; 1 point(s) saved in") in r.output
+    assert read_frf_h5(out).labels == ("1",)
+
+
 def test_hp_error_queue_after_configuring_exits_1(tmp_path):
     out = tmp_path / "e.h5"
     with HP35670AEmulator(faults=[Fault("WIND2:EXP", "error", 0)]) as emu:
@@ -533,6 +577,106 @@ def test_ctrl_c_keeps_the_file_and_prints_the_resume_command(tmp_path, hp, monke
     while hp.log[-1] != "ABOR" and time.monotonic() < deadline:
         time.sleep(0.01)
     assert hp.log[-1] == "ABOR"
+
+
+@pytest.mark.parametrize("emu_cls", [HP35670AEmulator, SR785Emulator])
+def test_ctrl_c_after_the_last_hit_saves_the_point_being_read(tmp_path, emu_cls, monkeypatch):
+    """Ctrl-C while point 2's FRF is read (every hit taken: an operator stopping just after
+    the last hit) threw the point away ('1 point(s) saved'); the stop now waits until the
+    point is read and saved, then ends the session as before (exit 130, --resume)."""
+    import os
+    import signal
+
+    from laminid_cli.instrument import hp35670a, sr785
+
+    driver = hp35670a.HP35670A if emu_cls is HP35670AEmulator else sr785.SR785
+    real = driver.read_frf
+    calls = []
+
+    def ctrl_c_during_the_second_transfer(self):
+        calls.append(1)
+        if len(calls) == 2:
+            os.kill(os.getpid(), signal.SIGINT)   # delivered at once, in the main thread
+        return real(self)
+
+    monkeypatch.setattr(driver, "read_frf", ctrl_c_during_the_second_transfer)
+    out = tmp_path / "k.h5"
+    with emu_cls() as emu:
+        r = acquire(emu, out, "--no-prompt")
+    assert r.exit_code == 130, r.output
+    assert "point 2: 3 hits, coherence at resonances" in r.output
+    assert "interrupted; 2 point(s) saved in" in r.output and "--resume" in r.output
+    s = read_frf_h5(out)
+    assert s.labels == ("1", "2") and s.meta["complete"] is False
+    assert np.all(np.isfinite(s.frf[1])) and np.abs(s.frf[1]).max() > 0
+
+
+def test_a_fault_while_a_stop_waits_for_the_point_is_said_with_the_stop(tmp_path, monkeypatch):
+    """Ctrl-C while point 2 is read waits for it; if the transfer then fails (no answer
+    within --timeout), the stop said only 'interrupted; 1 point(s) saved', not why point 2,
+    whose hits were all taken, is not in the file."""
+    import os
+    import signal
+
+    from laminid_cli.instrument import hp35670a
+
+    real = hp35670a.HP35670A.read_frf
+    calls = []
+
+    def ctrl_c_during_the_second_transfer(self):
+        calls.append(1)
+        if len(calls) == 2:
+            os.kill(os.getpid(), signal.SIGINT)
+        return real(self)
+
+    monkeypatch.setattr(hp35670a.HP35670A, "read_frf", ctrl_c_during_the_second_transfer)
+    out = tmp_path / "s.h5"
+    with HP35670AEmulator(faults=[Fault("CALC1:DATA?", "silent", 2)]) as emu:
+        r = acquire(emu, out, "--no-prompt")
+    assert r.exit_code == 130, r.output
+    line = r.output.strip().splitlines()[-1]
+    assert line.startswith(f"laminid: stopped: interrupted; 1 point(s) saved in {out}; point 2: "
+                           "analyser TCPIP0::127.0.0.1::"), line
+    assert ("did not answer within 0.5 s (waiting for the answer to 'CALC1:DATA?', binary "
+            "read)); point 2 not saved; continue with: ") in line
+    assert read_frf_h5(out).labels == ("1",)
+
+
+@pytest.mark.parametrize("emu_cls, said", [
+    (HP35670AEmulator, r"point 2 stopped before its 3 hits were taken, not saved"),
+    (SR785Emulator, r"point 2 stopped at [12] of 3 hits, not saved"),   # 1 (a hit may land)
+])
+def test_ctrl_c_during_the_hits_says_which_points_hits_are_discarded(tmp_path, emu_cls, said,
+                                                                      monkeypatch):
+    """Ctrl-C while point 2's hits were taken said only '1 point(s) saved': nothing told the
+    operator that point 2's hits so far were gone; the stop message says so."""
+    import re
+
+    from laminid_cli.instrument import hp35670a, sr785
+
+    driver = hp35670a.HP35670A if emu_cls is HP35670AEmulator else sr785.SR785
+    real = driver.is_done
+    points_done, seen_hit = [], []
+
+    def ctrl_c_once_point_2_has_a_hit(self):
+        done = real(self)
+        if done:
+            points_done.append(1)
+        elif len(points_done) == 1:                       # waiting for point 2's hits
+            if seen_hit:                                  # the poll after: progress said it
+                raise KeyboardInterrupt
+            if self.hits_done() != 0:                     # a hit (the 35670A: -1, unknown)
+                seen_hit.append(1)
+        return done
+
+    monkeypatch.setattr(driver, "is_done", ctrl_c_once_point_2_has_a_hit)
+    out = tmp_path / "h.h5"
+    with emu_cls(hit_interval_s=0.2) as emu:
+        r = acquire(emu, out, "--no-prompt")
+    assert r.exit_code == 130, r.output
+    assert re.search(f"interrupted; 1 point\\(s\\) saved in {re.escape(str(out))}; {said}; "
+                     "continue with: ", r.output), r.output
+    assert read_frf_h5(out).labels == ("1",)
 
 
 def test_json_summary_also_when_the_session_is_interrupted(tmp_path, hp, monkeypatch):

@@ -202,6 +202,29 @@ class Analyser:
             self._idn = NON_PRINTABLE.sub("?", self.transport.query("*IDN?"))
         return self._idn
 
+    def query_number(self, command: str, *, integer: bool = False, allowed=None):
+        """The analyser's answer to ``command`` as a number (``integer``: a whole number, as
+        a status word or a count). An answer that is none (line noise, another talker, a
+        garbled reply), or not among ``allowed``, raises :class:`InstrumentError` naming the
+        resource, the command and the answer, so the session stops with its finished points
+        kept instead of a traceback or a poll that never ends."""
+        answer = self.transport.query(command)
+        try:
+            value = float(answer)
+            if not math.isfinite(value) or (integer and value != int(value)):
+                raise ValueError(answer)
+        except ValueError:
+            value = None
+        if integer and value is not None:
+            value = int(value)
+        if value is None or (allowed is not None and value not in allowed):
+            want = "" if allowed is None else \
+                f" (expected {' or '.join(str(a) for a in allowed)})"
+            raise InstrumentError(f"analyser {self.transport.resource}: the {self.MODEL} "
+                                  f"answered {command} with {answer!r}, not "
+                                  f"{'an integer' if integer else 'a number'}{want}")
+        return value
+
     def identity(self) -> dict:
         return {"idn": self.idn, "model": self.MODEL, "resource": self.transport.resource,
                 "manual": self.MANUAL}
@@ -330,10 +353,15 @@ class Analyser:
         raise NotImplementedError
 
     def measure(self, n_averages: int, progress: ProgressCallback | None = None,
-                freq: np.ndarray | None = None) -> Measurement:
-        """Start, wait for ``n_averages`` hits, read FRF + coherence of one point."""
+                freq: np.ndarray | None = None,
+                averaged: Callable[[], object] | None = None) -> Measurement:
+        """Start, wait for ``n_averages`` hits, read FRF + coherence of one point.
+        ``averaged`` is called once every hit is taken, before the transfers (the session
+        holds Ctrl-C/SIGTERM from there until the point is saved)."""
         self.start()
         self.wait_until_done(n_averages, progress)
+        if averaged is not None:
+            averaged()
         channels = self.overloaded_channels()
         freq = self.read_frequency() if freq is None else freq
         frf = self._read_checked("FRF", self.read_frf)

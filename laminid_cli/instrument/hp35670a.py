@@ -206,11 +206,11 @@ class HP35670A(Analyser):
         self.send_checked(self.TRANSFER_SETUP, "setting the data formats")
 
     def read_settings(self) -> AcquisitionSettings:
-        q = self.transport.query
+        q = self.query_number
         nan = math.nan
         return AcquisitionSettings(
-            span_hz=float(q("FREQ:SPAN?")), start_hz=float(q("FREQ:STAR?")),
-            lines=int(float(q("FREQ:RES?"))), averages=int(float(q("AVER:COUN?"))),
+            span_hz=q("FREQ:SPAN?"), start_hz=q("FREQ:STAR?"),
+            lines=q("FREQ:RES?", integer=True), averages=q("AVER:COUN?", integer=True),
             trigger_level_pct=nan, pretrigger_s=nan, force_window_s=nan, exp_window_s=nan)
 
     def command_errors(self) -> list[str]:
@@ -223,8 +223,9 @@ class HP35670A(Analyser):
                 if int(code) == 0:
                     return errors
             except ValueError as exc:
-                raise InstrumentError(f"{self.MODEL}: unexpected answer to SYST:ERR?: "
-                                      f"{answer!r}") from exc
+                raise InstrumentError(f"analyser {self.transport.resource}: the {self.MODEL} "
+                                      f"answered SYST:ERR? with {answer!r}, not an error "
+                                      "entry (<code>,\"<text>\")") from exc
             errors.append(answer)
         return errors
 
@@ -239,11 +240,11 @@ class HP35670A(Analyser):
         self._measuring = True
 
     def is_done(self) -> bool:
-        return bool(int(self.transport.query("*ESR?")) & 1)
+        return bool(self.query_number("*ESR?", integer=True) & 1)
 
     def overloaded_channels(self) -> tuple[int, ...]:
         """Channels that went over range during the average (STATus:QUEStionable:VOLTage)."""
-        word = int(self.transport.query("STAT:QUES:VOLT:EVEN?"))
+        word = self.query_number("STAT:QUES:VOLT:EVEN?", integer=True)
         return tuple(ch for ch, bit in enumerate(OVERLOAD_BITS, 1) if word & bit)
 
     def _read_doubles(self, command: str) -> np.ndarray:

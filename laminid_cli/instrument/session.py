@@ -9,6 +9,7 @@ point, and ``--resume`` continues with the points not yet in it.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 from dataclasses import dataclass, field
@@ -191,6 +192,9 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
     todo = [label for label in labels if label not in writer.labels]
     result = SessionResult()
     total = len(labels)
+    #: the point whose hits are being taken: [label, hits done (-1 unknown), hits wanted,
+    #: True when it is a repeat of a point already saved]
+    taking: list = []
     try:
         for label in todo:
             index = labels.index(label) + 1
@@ -205,22 +209,35 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
             replace = False
             while True:
                 def progress(hits, n, _label=label, _index=index):
+                    taking[:] = [_label, hits, n, replace]
                     ui.progress(_label, _index, total, hits, n)
 
-                try:
-                    m = analyser.measure(settings.averages, progress=progress)
-                except InstrumentError as exc:
-                    raise InstrumentError(f"point {label}: {exc}; point {label} not saved") \
-                        from exc
-                if m.freq.shape != writer.freq.shape or not np.allclose(m.freq, writer.freq,
-                                                                        rtol=1e-9):
-                    raise InstrumentError(
-                        f"{analyser.MODEL}: the frequency axis changed during the session "
-                        f"({m.freq.size} lines, {m.freq[0]:g}-{m.freq[-1]:g} Hz; the file has "
-                        f"{writer.freq.size}, {writer.freq[0]:g}-{writer.freq[-1]:g} Hz); were "
-                        "the analyser's settings changed on its front panel?")
-                # a stop asked for while the point is written waits for it (and its line)
-                with stop_signals_held():
+                # a stop asked for once every hit of the point is taken (while its traces
+                # are read and it is written) waits for it to be saved (and its line said):
+                # an operator's Ctrl-C just after the last hit no longer throws the hits away
+                with contextlib.ExitStack() as held:
+                    holding: list = []
+
+                    def hold(_held=held, _holding=holding):
+                        if not _holding:      # once: a second call is a no-op
+                            _held.enter_context(stop_signals_held())
+                            _holding.append(True)
+                            taking.clear()    # every hit taken: the point is kept
+
+                    try:
+                        m = analyser.measure(settings.averages, progress=progress,
+                                             averaged=hold)
+                    except InstrumentError as exc:
+                        raise InstrumentError(f"point {label}: {exc}; point {label} not "
+                                              "saved") from exc
+                    if m.freq.shape != writer.freq.shape or \
+                            not np.allclose(m.freq, writer.freq, rtol=1e-9):
+                        raise InstrumentError(
+                            f"{analyser.MODEL}: the frequency axis changed during the session "
+                            f"({m.freq.size} lines, {m.freq[0]:g}-{m.freq[-1]:g} Hz; the file "
+                            f"has {writer.freq.size}, {writer.freq[0]:g}-{writer.freq[-1]:g} "
+                            "Hz); were the analyser's settings changed on its front panel?")
+                    hold()      # an analyser without the callback: from here at the latest
                     try:
                         writer.add_point(label, m.frf, m.coherence, n_averages=m.n_averages,
                                          overloads=m.overloads, replace=replace)
@@ -248,14 +265,15 @@ def run_session(analyser: Analyser, writer, settings: AcquisitionSettings,
                         f"every point is measured, but {writer.path} could not be marked "
                         f"complete: {exc.strerror or exc}; its points are all saved and "
                         "fit-frf reads it as it is") from exc
-    except Terminated:
+    except Terminated as exc:
         _stop(analyser)
         raise _stopped(AcquisitionTerminated(_saved_message("terminated (SIGTERM)", writer,
-                                                            options)),
+                                                            options, _lost(exc, taking))),
                        result, writer) from None
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         _stop(analyser)
-        raise _stopped(AcquisitionInterrupted(_saved_message("interrupted", writer, options)),
+        raise _stopped(AcquisitionInterrupted(_saved_message("interrupted", writer, options,
+                                                             _lost(exc, taking))),
                        result, writer) from None
     except NoOperatorInput as exc:
         _stop(analyser)
@@ -290,12 +308,36 @@ def _stop(analyser: Analyser) -> None:
         log.debug("could not abort the measurement", exc_info=True)
 
 
-def _saved_message(prefix: str, writer, options: SessionOptions) -> str:
+def _lost(stop: BaseException, taking: list) -> str:
+    """What the stop ``stop`` leaves unsaved: a fault that ended the point it waited for
+    (a stop held while a point is read comes after it: the fault is its context), else the
+    hits of the point being taken."""
+    fault = stop.__context__
+    if isinstance(fault, (InstrumentError, PointNotWritten)):
+        return str(fault)
+    return _hits_lost(taking)
+
+
+def _hits_lost(taking: list) -> str:
+    """What a stop during a point's hits discards ("" when no hits were being taken)."""
+    if not taking:
+        return ""
+    label, hits, n, repeat = taking
+    what = f"point {label}'s repeat" if repeat else f"point {label}"
+    kept = f" (the point {label} measured before is kept)" if repeat else ""
+    if hits < 0:                             # an analyser that cannot tell (the 35670A)
+        return f"{what} stopped before its {n} hits were taken, not saved{kept}"
+    return f"{what} stopped at {hits} of {n} hits, not saved{kept}"
+
+
+def _saved_message(prefix: str, writer, options: SessionOptions, also: str = "") -> str:
     n = writer.n_points
+    also = f"; {also}" if also else ""
     if n and not writer.path.exists():      # removed (its folder too?) during the session
-        return f"{prefix}; {writer.path} is gone, with the {n} point(s) saved in it"
+        return f"{prefix}; {writer.path} is gone, with the {n} point(s) saved in it{also}"
     msg = f"{prefix}; {n} point(s) saved in {writer.path}" if n else \
         f"{prefix}; no point finished" + (f" (file {writer.path})" if writer.path.exists() else "")
+    msg += also
     if options.resume_hint and writer.path.exists():   # nothing to resume without the file
         msg += f"; continue with: {options.resume_hint}"
     return msg

@@ -44,12 +44,16 @@ Commands no public source gives are marked **unconfirmed**, with where we looked
     kHz, 1 = 102.4 kHz); pyHegel SR780 ``freq_baseline`` (``FBAS 2,{val}``, index of [100e3,
     102.4e3])
 ``FSPN 2,<Hz>``
-    LIGO script ``FSPN2,``; pySR785 ``stop_Hz`` (spans 102.4 kHz/2^k)
+    LIGO script ``FSPN2,``; pySR785 ``stop_Hz`` (spans 102.4 kHz/2^k); SR785 manual p. 5-26
+    ("Commands and Units": ``FSPN 2, 51200`` sets a 51.2 kHz span, Hz being the default unit
+    when none is sent, and a query answers in that default unit: ``FSPN? 0`` gives Hz)
 ``FLIN 2,<i>``
     LIGO script / pySR785: 0..3 = 100, 200, 400, 800 lines; Roy SR785 ``lines`` (``FLIN 2,``,
     manual pdf p. 205); Labber SR785 ``FLIN ? 0`` table
 ``FSTR 2,<Hz>``
-    pySR785 ``start_Hz`` (``FSTR 2,``)
+    pySR785 ``start_Hz`` (``FSTR 2,``); SR785 manual p. 5-25 ("Command Syntax": ``FSTR (?) d
+    {, f}``, ``FSTR 0, 1.024E3`` sets display A's start to 1024 Hz, ``FSTR ? 0`` queries it;
+    d = 2 sets both displays and is not allowed in a query, hence ``FSTR? 0``)
 ``FAVG 2,1``
     LIGO script "Averaging On"
 ``FAVM 2,2``
@@ -308,16 +312,17 @@ class SR785(Analyser):
         self.send_checked(self.TRANSFER_SETUP, "setting the display views")
 
     def read_settings(self) -> AcquisitionSettings:
-        q = self.transport.query
+        q = self.query_number
         nan = math.nan
         return AcquisitionSettings(
-            span_hz=float(q("FSPN? 0")), start_hz=float(q("FSTR? 0")),
-            lines=LINES[int(q("FLIN? 0"))], averages=int(float(q("FAVN? 0"))),
-            trigger_level_pct=float(q("TLVL?")), pretrigger_s=nan, force_window_s=nan,
+            span_hz=q("FSPN? 0"), start_hz=q("FSTR? 0"),
+            lines=LINES[q("FLIN? 0", integer=True, allowed=range(len(LINES)))],
+            averages=q("FAVN? 0", integer=True),
+            trigger_level_pct=q("TLVL?"), pretrigger_s=nan, force_window_s=nan,
             exp_window_s=nan)
 
     def _esr_errors(self) -> list[str]:
-        text = esr_text(int(self.transport.query("*ESR?")))
+        text = esr_text(self.query_number("*ESR?", integer=True))
         return [text] if text else []
 
     def command_errors(self) -> list[str]:
@@ -327,7 +332,7 @@ class SR785(Analyser):
     def transfer_errors(self) -> list[str]:
         """Error status word (``ERRS?``) and standard event status (``*ESR?``), both cleared
         by reading; any error bit raised during the transfer is returned as text."""
-        text = errs_text(int(self.transport.query("ERRS?")))
+        text = errs_text(self.query_number("ERRS?", integer=True))
         return ([text] if text else []) + self._esr_errors()
 
     # -------------------------------------------------------------- measuring
@@ -337,18 +342,20 @@ class SR785(Analyser):
         self._measuring = True
 
     def is_done(self) -> bool:
-        return self.transport.query(f"DSPS? {DSPS_AVGA}").strip() == "1"
+        # DSPS? d answers the one bit, 0 or 1: anything else is no "not yet" (a garbled
+        # answer would otherwise be polled for ever)
+        return self.query_number(f"DSPS? {DSPS_AVGA}", integer=True, allowed=(0, 1)) == 1
 
     def hits_done(self) -> int:
-        return int(float(self.transport.query("NAVG? 0")))
+        return self.query_number("NAVG? 0", integer=True)
 
     def overloaded_channels(self) -> tuple[int, ...]:
         """Channels over full scale during the average (INPS?, :data:`INPS_OVERLOAD_BITS`)."""
-        word = int(self.transport.query("INPS?"))
+        word = self.query_number("INPS?", integer=True)
         return tuple(ch for ch, bit in enumerate(INPS_OVERLOAD_BITS, 1) if word & bit)
 
     def _display_length(self, display: int) -> int:
-        n = int(self.transport.query(f"DSPN? {display}"))
+        n = self.query_number(f"DSPN? {display}", integer=True)
         if n < 2:
             raise InstrumentError(f"{self.MODEL}: display {display} has {n} bins")
         return n
@@ -361,10 +368,10 @@ class SR785(Analyser):
 
     def read_frequency(self) -> np.ndarray:
         """Axis of display A, Hz: start + j * span / lines (Frequency commands, DSPN?)."""
-        q = self.transport.query
-        start = float(q("FSTR? 0"))
-        span = float(q("FSPN? 0"))
-        lines = LINES[int(q("FLIN? 0"))]
+        q = self.query_number
+        start = q("FSTR? 0")
+        span = q("FSPN? 0")
+        lines = LINES[q("FLIN? 0", integer=True, allowed=range(len(LINES)))]
         n = self._display_length(0)
         return start + np.arange(n) * (span / lines)
 

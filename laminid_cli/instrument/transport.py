@@ -275,7 +275,11 @@ class VisaTransport:
         head = self.read_bytes(2)
         n_digits = int(head[1:2]) if head[1:2].isdigit() else 0
         head += self.read_bytes(n_digits)
-        _, count = parse_block_header(head)
+        try:
+            _, count = parse_block_header(head)
+        except InstrumentError as exc:      # which analyser and query: the message is alone
+            raise InstrumentError(f"analyser {self.resource}: answer to {self._last!r}: "
+                                  f"{exc}") from exc
         data = self.read_bytes(count)
         self._drain_terminator()
         return data

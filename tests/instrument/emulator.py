@@ -64,7 +64,8 @@ class Fault:
     "drop" (send part of the block, then close the connection), "error" (report an error for
     the command instead of executing it: SCPI error queue / ESR execution-error bit), "flag"
     (execute it and send the data, but raise an error during the transfer: 35670A error queue
-    ``-230,"Data corrupt or stale"``; SR785 ``*ESR?`` bit 4).
+    ``-230,"Data corrupt or stale"``; SR785 ``*ESR?`` bit 4), "garbage" (answer a line that
+    is no number, ``\x15#?garbage``).
     ``measurement`` 0 = before any measurement (configuration). ``times``: how often the fault
     fires (0 = every time the command comes in that measurement).
     """
@@ -326,6 +327,8 @@ class EmulatorBase:
             return payload[: max(len(payload) // 3, 1)]
         if fault.kind == "drop":
             raise _Drop(payload[: max(len(payload) // 3, 1)])
+        if fault.kind == "garbage":         # a line noise / another talker's text
+            return b"\x15#?garbage\n"
         return payload
 
 

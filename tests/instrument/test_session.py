@@ -24,12 +24,14 @@ class FakeAnalyser:
         self.outcomes = list(outcomes)
         self.aborted = 0
 
-    def measure(self, n_averages, progress=None):
+    def measure(self, n_averages, progress=None, averaged=None):
         outcome = self.outcomes.pop(0)
         if isinstance(outcome, BaseException):
             raise outcome
         if progress:
             progress(n_averages, n_averages)
+        if averaged:
+            averaged()
         frf = 1.0 / (50.0 ** 2 - FREQ ** 2 + 2j * 0.02 * 50.0 * FREQ)
         return Measurement(freq=FREQ, frf=frf, coherence=np.full(FREQ.shape, outcome),
                            n_averages=n_averages, overloads=0)
@@ -305,3 +307,29 @@ def test_a_full_disk_when_marking_the_file_complete_says_every_point_is_saved(tm
         "point(s) saved in")
     assert info.value.result.complete and info.value.result.n_saved == 2
     assert read_frf_h5(tmp_path / "s.h5").labels == ("1", "2")
+
+
+class StoppedAfterTwoHits(FakeAnalyser):
+    """Its second measurement is stopped (Ctrl-C) after two of the hits."""
+
+    def measure(self, n_averages, progress=None, averaged=None):
+        if len(self.outcomes) == 1:
+            progress(2, n_averages)
+            raise KeyboardInterrupt
+        return super().measure(n_averages, progress, averaged)
+
+
+def test_a_stop_during_a_repeats_hits_says_the_point_measured_before_is_kept(tmp_path):
+    """The stop message says which point's hits it discarded; for the repeat of a poor point
+    it must not read as if that point were lost: its first measurement is in the file."""
+    from laminid_cli.instrument.session import AcquisitionInterrupted
+
+    ui = ScriptUI(ready=["go"], repeat=[True])
+    with pytest.raises(AcquisitionInterrupted) as info:
+        run_session(StoppedAfterTwoHits([0.5, 0.99]), writer(tmp_path), SETTINGS,
+                    SessionOptions(n_points=2, coherence_min=0.9), ui)
+    assert ("; point 1's repeat stopped at 2 of 4 hits, not saved (the point 1 measured "
+            "before is kept)") in str(info.value)
+    s = read_frf_h5(tmp_path / "s.h5")
+    assert s.labels == ("1",)
+    np.testing.assert_allclose(s.coherence[0], 0.5)       # the poor point, as measured
