@@ -13,21 +13,11 @@ import numpy as np
 import pytest
 
 from laminid_cli.global_uncertainty import KEYS, global_intervals
-from laminid_cli.laminate import Laminate
-from laminid_cli.material import CONSTANT_NAMES, ElasticConstants
+from laminid_cli.material import ElasticConstants
 from laminid_cli.uncertainty import MonteCarlo, range_ends_at_bound, sorted_ends_at_bound
 from tests.mcfix import sure_width
 
-C0 = ElasticConstants(E1=150e9, E2=9e9, G12=5e9, G13=4.5e9, G23=3e9, nu12=0.3)
-LABELS = tuple(f"m.{k}" for k in CONSTANT_NAMES)
-
-
-def laminate(angles_deg):
-    n = len(angles_deg)
-    h = 2e-3
-    return Laminate(z=np.linspace(-h / 2, h / 2, n + 1), angle=np.radians(angles_deg),
-                    material_index=np.zeros(n, int), material_names=("m",),
-                    density=np.full(n, 1500.0), constants=(C0,))
+from tests.test_global_uncertainty import C0, LABELS, laminate
 
 
 def fake_u(labels, rel=0.01):

@@ -285,6 +285,15 @@ def test_a_folder_names_the_result_files_it_holds(tmp_path):
     assert r.stderr == f"laminid: error: {empty}: is a folder, not a file\n"
 
 
+def _edited_copy(out, tmp_path, edit):
+    """A copy of the result ``out`` (tmp_path/edited.result.h5) with ``edit(h5py file)`` done."""
+    edited = tmp_path / "edited.result.h5"
+    edited.write_bytes(out.read_bytes())
+    with h5py.File(edited, "r+") as f:
+        edit(f)
+    return edited
+
+
 @pytest.mark.parametrize("edit, words", [
     (lambda f: f["materials/IM7_977-2"].__delitem__("E1") or
      f["materials/IM7_977-2"].create_dataset("E1", data="abc"),
@@ -304,10 +313,7 @@ def test_a_result_with_text_where_a_number_belongs_is_refused_naming_the_dataset
     report died of 'ValueError: could not convert string to float: b'abc'' (a traceback,
     exit 1); the file and the dataset are named, exit 2, no report written."""
     out, _ = single
-    edited = tmp_path / "edited.result.h5"
-    edited.write_bytes(out.read_bytes())
-    with h5py.File(edited, "r+") as f:
-        edit(f)
+    edited = _edited_copy(out, tmp_path, edit)
     pdf = tmp_path / "r.pdf"
     r = run(command, edited, *(["-o", pdf] if command == "report" else []))
     assert (r.exit_code, r.output) == (2, f"laminid: error: {edited}: {words}\n")
@@ -341,10 +347,7 @@ def test_a_result_whose_values_cannot_be_drawn_is_refused_naming_the_dataset(
     out of bounds'; 3 model frequencies for 12 measured: 'shape mismatch'); the file and the
     dataset are named, exit 2, no report written."""
     out, _ = single
-    edited = tmp_path / "edited.result.h5"
-    edited.write_bytes(out.read_bytes())
-    with h5py.File(edited, "r+") as f:
-        edit(f)
+    edited = _edited_copy(out, tmp_path, edit)
     pdf = tmp_path / "r.pdf"
     r = run("report", edited, "-o", pdf)
     assert (r.exit_code, r.output) == (2, f"laminid: error: {edited}: {words}; the result "
@@ -375,10 +378,7 @@ def test_a_results_text_with_a_bidi_override_or_escape_is_refused(single, tmp_pa
     it came, 'S1\\u202e1.2' shown as 'S12.11'; refused as the specimen reader refuses it
     (errors.NON_PRINTABLE), the file and the field named."""
     out, _ = single
-    edited = tmp_path / "edited.result.h5"
-    edited.write_bytes(out.read_bytes())
-    with h5py.File(edited, "r+") as f:
-        edit(f)
+    edited = _edited_copy(out, tmp_path, edit)
     r = run("show", edited)
     assert (r.exit_code, r.output) == (2, f"laminid: error: {edited}: {words}; the result "
                                           "file is damaged or was edited\n")
@@ -393,10 +393,7 @@ def test_export_of_shapes_that_are_not_finite_writes_no_uff(single, tmp_path, ed
     """export wrote a UFF of 0 nodes, or with 'inf' in a mode's record, from a damaged
     result, exit 0; refused naming the dataset, no file written."""
     out, _ = single
-    edited = tmp_path / "edited.result.h5"
-    edited.write_bytes(out.read_bytes())
-    with h5py.File(edited, "r+") as f:
-        edit(f)
+    edited = _edited_copy(out, tmp_path, edit)
     unv = tmp_path / "modes.unv"
     r = run("export", edited, "-o", unv)
     assert (r.exit_code, r.output) == (2, f"laminid: error: {edited}: {words}; the file is "
@@ -408,10 +405,8 @@ def test_export_of_a_result_whose_name_has_a_bidi_override_writes_no_uff(single,
     """The specimen's name goes into each UFF 55 record's id2 ('specimen S1\\u202e1.2'): the
     override was written into the file; refused as the readers refuse it."""
     out, _ = single
-    edited = tmp_path / "edited.result.h5"
-    edited.write_bytes(out.read_bytes())
-    with h5py.File(edited, "r+") as f:
-        f["specimen"].attrs["name"] = "S1\u202e1.2"
+    edited = _edited_copy(out, tmp_path,
+                          lambda f: f["specimen"].attrs.__setitem__("name", "S1\u202e1.2"))
     unv = tmp_path / "modes.unv"
     r = run("export", edited, "-o", unv)
     assert (r.exit_code, r.output) == (2, (
