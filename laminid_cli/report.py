@@ -1278,8 +1278,8 @@ def _bound_panel(ax, k, v, iv, x, ymin, ymax):
             # Monte Carlo bar's end words)
             y = _gpa(k, far)
             _profile_line(ax, x, v, y, ymin, ymax, f"profile:\nflat to\n{fmt_value(k, far)}",
-                          xytext=(6, -3 if y > v else 3), va="top" if y > v else "bottom",
-                          ha="left")
+                          open_end=True, xytext=(6, -3 if y > v else 3),
+                          va="top" if y > v else "bottom", ha="left")
     # from the arrow's middle into the panel (centred there, the words of a limit at the
     # panel's edge ran out of it, over the value written under the panel)
     ax.annotate("\n".join(textwrap.wrap(words, 12)), (x, _between(ax, v, edge)), xytext=(5, 0),
@@ -1288,14 +1288,18 @@ def _bound_panel(ax, k, v, iv, x, ymin, ymax):
                 gid="bound-statement")
 
 
-def _profile_line(ax, x, v, y, ymin, ymax, label, **label_kw):
+def _profile_line(ax, x, v, y, ymin, ymax, label, *, open_end=False, **label_kw):
     """A profile's values the fit does not reject, dotted from the limit ``v`` to ``y``
     (display unit) with a cap there, or to the panel's edge with an arrow head where ``y`` is
-    out of view; ``label`` at that end (``label_kw``: its placement)."""
+    out of view; ``label`` at that end (``label_kw``: its placement). ``open_end``: ``y`` is
+    the end of a flat profile's scan, which the fit does not reject either (nothing beyond
+    was tried): an arrow head there too, never a cap (a cap, as a bounded profile's, said the
+    fit rejects what lies beyond: hybrid CM's glass E2 'flat to 0.9' and G12 '< 18.50' were
+    drawn alike)."""
     up = y > v
     end = min(y, ymax) if up else max(y, ymin)
     ax.plot([x, x], [v, end], ls=(0, (1, 1.5)), color=INTERVAL_COLOR, lw=2.5, gid="profile")
-    if end == y:
+    if end == y and not open_end:
         ax.plot([x], [y], "_", ms=14, mew=2.5, color=INTERVAL_COLOR, gid="profile-cap")
     else:
         ax.plot([x], [end], "^" if up else "v", ms=6, color=INTERVAL_COLOR, clip_on=False,
@@ -1562,11 +1566,17 @@ def _interval_legend(r: ResultFile) -> tuple[list, list[str]]:
         items.append(((Line2D([], [], ls="none", marker="v", ms=7, color="k", mfc="w"),
                        Line2D([], [], ls="none", marker="^", ms=7, color="k", mfc="w")),
                       "stopped on a search limit: not identified"))
-    if any(np.isfinite(getattr(iv, "profile_bound", np.nan))
-           or (iv.at_bound and iv.profile_kind == "flat") for iv in ivs):
-        # dotted, without the end's cap (the cap hid the dots at a legend handle's length)
+    bounded = any(np.isfinite(getattr(iv, "profile_bound", np.nan)) for iv in ivs)
+    flat = any(iv.at_bound and iv.profile_kind == "flat" for iv in ivs)
+    if bounded or flat:
+        # dotted, without the end's cap (the cap hid the dots at a legend handle's length);
+        # what its ends say where both kinds are drawn (a flat one's end has an arrow head)
         items.append((Line2D([], [], color=INTERVAL_COLOR, lw=2.5, ls=(0, (1, 1.5))),
-                      "values the fit does not reject (profile)"))
+                      "values the fit does not reject (profile)" + (
+                          ";\ncap: it rejects beyond; arrow head: the end\nof its scan, "
+                          "not tried beyond" if bounded and flat else
+                          ";\narrow head: the end of its scan, not tried beyond" if flat
+                          else "")))
     why = {fixed_words(r, m, k) for m in r.materials for k in CONSTANTS} - {None}
     if why:
         only = next(iter(why)) if len(why) == 1 else ""
