@@ -1698,9 +1698,19 @@ def interval_page(r: ResultFile):
                   + _mc_fixed_legend(u))
     if shortened:
         title += ";\n" + "\n".join(textwrap.wrap(shortened, _wrap_width(fig, 8) - 10))
-    ax_leg.legend(handles, labels, loc="center", ncol=4, fontsize=8,
-                  handler_map={tuple: HandlerTuple(ndivide=None)}, title=title,
-                  title_fontsize=8)
+    # as many columns as the page's width takes (up to four): hybrid CM with a Monte Carlo
+    # (nine entries) ran its four columns off both edges of the page, and the constrained
+    # layout squeezed the panels to half the page's width, their titles over each other
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
+    renderer = canvas.get_renderer()
+    for ncol in range(min(len(handles), 4), 0, -1):
+        legend = ax_leg.legend(handles, labels, loc="center", ncol=ncol, fontsize=8,
+                               handler_map={tuple: HandlerTuple(ndivide=None)}, title=title,
+                               title_fontsize=8)
+        if legend.get_window_extent(renderer).width <= 0.97 * fig.bbox.width:
+            break
     _status_banner(fig, r)
     _clear_bound_statements(fig, axes.flat)
     return fig

@@ -1565,3 +1565,35 @@ def test_the_constants_table_of_one_material_names_it(s11):
     table's title names it."""
     fig = result_page(s11, "summary")
     assert ax(fig, "constants").get_title(loc="left") == "identified constants of IM7/977-2"
+
+
+def test_interval_legend_of_many_long_entries_stays_on_the_page(s21_mc, monkeypatch):
+    """The interval page's legend takes as many columns as the page's width holds: hybrid CM
+    with a Monte Carlo (the nine entries below, its legend as drawn) ran four columns off
+    both edges of the page, and the constrained layout squeezed the panels into half its
+    width, their titles over each other."""
+    from laminid_cli import report
+    from laminid_cli.resultfile import read_result
+
+    res = read_result(s21_mc)
+    handles, labels = report._interval_legend(res)
+    long = ["interval within ±5% of the value: well determined", "within ±30%: weak",
+            "95% interval", "identified",
+            "not determined (interval or Monte Carlo range too wide)",
+            "stopped on a search limit: not identified",
+            "values the fit does not reject (profile);\ncap: it rejects beyond; arrow head: "
+            "the end\nof its scan, not tried beyond",
+            "Monte Carlo range (95% of the trials)", "Monte Carlo range for sure (90 %)"]
+    many = (handles + handles)[:len(long)]
+    monkeypatch.setattr(report, "_interval_legend", lambda r: (many, long))
+    fig = report.interval_page(res)
+    fig.draw_without_rendering()
+    page = fig.bbox
+    legend = next(a.get_legend() for a in fig.axes if a.get_legend() is not None)
+    box = legend.get_window_extent()
+    assert page.x0 <= box.x0 and box.x1 <= page.x1, (box, page)
+    assert [t.get_text() for t in legend.get_texts()] == long
+    panels = [a for a in fig.axes if (a.get_gid() or "").startswith("interval-")]
+    assert len(panels) == 6
+    # six panels across the page: each at least a tenth of its width (squeezed: 0.04)
+    assert min(a.get_window_extent().width for a in panels) >= 0.1 * page.width
