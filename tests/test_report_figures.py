@@ -1597,3 +1597,25 @@ def test_interval_legend_of_many_long_entries_stays_on_the_page(s21_mc, monkeypa
     assert len(panels) == 6
     # six panels across the page: each at least a tenth of its width (squeezed: 0.04)
     assert min(a.get_window_extent().width for a in panels) >= 0.1 * page.width
+
+
+def test_monte_carlo_end_words_running_into_each_other_leave_out_the_widths_for_sure():
+    """On the short panels of hybrid CM with a Monte Carlo, glass nu12's range ran off both
+    ends: "to 0.8603 (for sure 0.1822) search limit" was written over "from -0.6637 (for
+    sure -0.4006)". Where the two ends' words overlap, the "(for sure ...)" lines are left
+    out of both (the range's ends and "search limit" stay); where they do not, all stay."""
+    from laminid_cli.report import _figure, _shorten_crowded_mc_end_words
+
+    fig = _figure()
+    short, tall = fig.subplots(1, 2)
+    up_words, low_words = "to\n0.8603\n(for sure\n0.1822)\nsearch\nlimit", \
+        "from\n-0.6637\n(for sure\n-0.4006)"
+    for a, (y_up, y_low) in ((short, (0.52, 0.48)), (tall, (0.98, 0.02))):
+        a.annotate(up_words, (0, y_up), fontsize=6.5, va="top",
+                   gid="monte-carlo-upper-end")
+        a.annotate(low_words, (0, y_low), fontsize=6.5, va="bottom",
+                   gid="monte-carlo-lower-end")
+    _shorten_crowded_mc_end_words(fig, [short, tall])
+    assert [t.get_text() for t in short.texts] == ["to\n0.8603\nsearch\nlimit",
+                                                   "from\n-0.6637"]
+    assert [t.get_text() for t in tall.texts] == [up_words, low_words]
