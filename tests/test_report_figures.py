@@ -1619,3 +1619,35 @@ def test_monte_carlo_end_words_running_into_each_other_leave_out_the_widths_for_
     assert [t.get_text() for t in short.texts] == ["to\n0.8603\nsearch\nlimit",
                                                    "from\n-0.6637"]
     assert [t.get_text() for t in tall.texts] == [up_words, low_words]
+
+
+def test_interval_end_words_stay_inside_a_short_panel(s21):
+    """The words of an interval's end off the panel ("to ...", "from ...") hang from the
+    panel's edge into it: centred on the arrow's foot (8 % of the panel inside its edge),
+    their two lines ran over the frame of a short panel (hybrid CM's glass E1 with a Monte
+    Carlo: "from 0.00272" over the panel's foot)."""
+    import dataclasses
+
+    import matplotlib.pyplot as plt
+
+    from laminid_cli.report import interval_panel
+    from laminid_cli.resultfile import read_result
+
+    res = read_result(s21)
+    m = next(iter(res.materials))
+    u = res.uncertainty
+    v = res.materials[m]["G23"]
+    ivs = tuple(dataclasses.replace(iv, lower=v / 1e5, upper=v * 1e5)
+                if iv.constant == "G23" else iv for iv in u.intervals)
+    fig, a = plt.subplots(figsize=(1.6, 1.1))
+    interval_panel(a, dataclasses.replace(res, uncertainty=dataclasses.replace(
+        u, intervals=ivs)), m, "G23", log=True)
+    a.set_xlim(-0.75, 0.75)                             # as the intervals page
+    fig.draw_without_rendering()
+    ends = {t.get_text().split("\n")[0]: t.get_window_extent() for t in a.texts
+            if t.get_gid() == "interval-end"}
+    assert set(ends) == {"to", "from"}
+    box = a.get_window_extent()
+    for word, e in ends.items():
+        assert box.y0 <= e.y0 and e.y1 <= box.y1, (word, e, box)
+    plt.close(fig)
