@@ -1532,6 +1532,13 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0,
         hollow = iv is not None and iv.verdict.startswith("not")
         ax.plot([x], [g(v)], "o", ms=7, color="k", mfc="w" if hollow else "k", zorder=5,
                 gid="value")
+        if iv is not None and iv.verdict.endswith(HELD_BY_PRIOR):
+            # mostly the file's prior, not the modes': a filled dot with a narrow interval
+            # and a green band read as a constant the modes determine (S1.2 with prior
+            # {nu12: 1.0}, 0.350 [0.347, 0.353] on its reference); the "~" of the page
+            # across specimens and of the terminal's table
+            ax.annotate(PRIOR_MARK, (x, g(v)), xytext=(6, 4), textcoords="offset points",
+                        fontsize=12, weight="bold", color="k", gid="prior")
     if ref is not None and gref[0] == gref[1]:
         ax.plot([x + 0.25], [gref[0]], "D", ms=6, color="C3", zorder=5, gid="reference")
     elif ref is not None:
@@ -1590,6 +1597,10 @@ def _interval_legend(r: ResultFile) -> tuple[list, list[str]]:
                  "fixed (not identified; why: below the panel)")
         items.append((Line2D([], [], ls="none", marker="s", ms=7, color=FIXED_COLOR, mfc="w",
                              mew=1.5), label))
+    if any(not iv.at_bound and iv.verdict.endswith(HELD_BY_PRIOR) for iv in ivs):
+        items.append((Line2D([], [], ls="none", marker=r"$\sim$", ms=8, color="k"),
+                      f"{PRIOR_MARK}: held by its prior (mostly the file's prior value, "
+                      "not the modes')"))
     refs = [r.reference.get(m, {}).get(k) for m in r.materials for k in CONSTANTS]
     if any(ref is not None and ref[0] == ref[1] for ref in refs):
         # a bare point reads as an exact value: say that the file gave it no uncertainty

@@ -1651,3 +1651,28 @@ def test_interval_end_words_stay_inside_a_short_panel(s21):
     for word, e in ends.items():
         assert box.y0 <= e.y0 and e.y1 <= box.y1, (word, e, box)
     plt.close(fig)
+
+
+def test_a_value_held_by_its_prior_is_marked_on_its_interval_panel(s12_prior, s11):
+    """S1.2 with a prior on nu12: its panel drew a filled dot, a narrow interval and the
+    green band on its reference, as a constant the modes determine (only the words under the
+    panel said "held by the prior"). It has the "~" of the page across specimens beside the
+    value, and the legend keys it; a page without such a value has neither."""
+    from laminid_cli.resultfile import read_result
+
+    res = read_result(s12_prior)
+    m = next(iter(res.materials))
+    fig = result_page(s12_prior, "intervals")
+    a = ax(fig, f"interval-{m}.nu12")
+    mark = next(t for t in a.texts if t.get_gid() == "prior")
+    assert mark.get_text() == "~" and mark.xy[1] == pytest.approx(res.materials[m]["nu12"])
+    legend = next(x.get_legend() for x in fig.axes if x.get_legend() is not None)
+    assert ("~: held by its prior (mostly the file's prior value, not the modes')"
+            in [t.get_text() for t in legend.get_texts()])
+    # only that constant's panel, and no key on a page without a prior
+    assert [x.get_gid() for x in fig.axes if any(t.get_gid() == "prior" for t in x.texts)] \
+        == [f"interval-{m}.nu12"]
+    other = result_page(s11, "intervals")
+    assert not [t for x in other.axes for t in x.texts if t.get_gid() == "prior"]
+    legend = next(x.get_legend() for x in other.axes if x.get_legend() is not None)
+    assert not [t for t in legend.get_texts() if "held by its prior" in t.get_text()]
