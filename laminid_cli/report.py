@@ -1729,7 +1729,33 @@ def interval_page(r: ResultFile):
     _status_banner(fig, r)
     _clear_bound_statements(fig, axes.flat)
     _shorten_crowded_mc_end_words(fig, axes.flat)
+    _tidy_mc_limit_words(fig, axes.flat)
     return fig
+
+
+def _tidy_mc_limit_words(fig, axes) -> None:
+    """One "search limit (both ends)" where the words "search limit" of the two ends of a
+    Monte Carlo bar run into each other: :func:`_limit_ends_together` joins them where the
+    ends are near in the panel's height, but on a short panel words of ends farther apart
+    meet as well (hybrid CM with measured damping and a Monte Carlo, 8x8: glass E2's range
+    30-58 GPa, two "search limit" written over each other, the upper one over the frame)."""
+    pairs = []
+    for ax in axes:
+        up = [t for t in ax.texts if t.get_gid() == "monte-carlo-upper-limit"]
+        low = [t for t in ax.texts if t.get_gid() == "monte-carlo-lower-limit"]
+        if up and low:
+            pairs.append((up[0], low[0]))
+    if not pairs:
+        return
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)                       # the constrained layout: the panels' final size
+    for up, low in pairs:
+        if up.get_window_extent(renderer).overlaps(low.get_window_extent(renderer)):
+            # the upper end's, hanging from it (as the joined words of near ends say)
+            up.set_text("search\nlimit\n(both\nends)")
+            low.remove()
 
 
 #: the gids of the words at the two ends of a Monte Carlo bar (:func:`_mc_end_label`)

@@ -1676,3 +1676,25 @@ def test_a_value_held_by_its_prior_is_marked_on_its_interval_panel(s12_prior, s1
     assert not [t for x in other.axes for t in x.texts if t.get_gid() == "prior"]
     legend = next(x.get_legend() for x in other.axes if x.get_legend() is not None)
     assert not [t for t in legend.get_texts() if "held by its prior" in t.get_text()]
+
+
+def test_two_search_limit_words_running_into_each_other_are_said_once():
+    """Hybrid CM with measured damping and a Monte Carlo (8x8): glass E2's range 30-58 GPa,
+    both ends set by trials on search limits, too far apart in the panel to be joined
+    beforehand (_limit_ends_together) but near enough on its short panel for the two
+    "search limit" to be written over each other. Where they overlap, one "search limit
+    (both ends)" hangs from the upper end; where they do not, both stay."""
+    from laminid_cli.report import _figure, _tidy_mc_limit_words
+
+    fig = _figure()
+    short, tall = fig.subplots(1, 2)
+    for a, (y_up, y_low) in ((short, (0.52, 0.48)), (tall, (0.98, 0.02))):
+        a.annotate("search\nlimit", (0, y_up), fontsize=6.5, va="top",
+                   gid="monte-carlo-upper-limit")
+        a.annotate("search\nlimit", (0, y_low), fontsize=6.5, va="bottom",
+                   gid="monte-carlo-lower-limit")
+    _tidy_mc_limit_words(fig, [short, tall])
+    assert [(t.get_gid(), t.get_text(), t.xy[1]) for t in short.texts] == [
+        ("monte-carlo-upper-limit", "search\nlimit\n(both\nends)", 0.52)]
+    assert [(t.get_gid(), t.get_text()) for t in tall.texts] == [
+        ("monte-carlo-upper-limit", "search\nlimit"), ("monte-carlo-lower-limit", "search\nlimit")]
