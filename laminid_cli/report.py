@@ -1738,24 +1738,41 @@ def _tidy_mc_limit_words(fig, axes) -> None:
     Monte Carlo bar run into each other: :func:`_limit_ends_together` joins them where the
     ends are near in the panel's height, but on a short panel words of ends farther apart
     meet as well (hybrid CM with measured damping and a Monte Carlo, 8x8: glass E2's range
-    30-58 GPa, two "search limit" written over each other, the upper one over the frame)."""
-    pairs = []
+    30-58 GPa, two "search limit" written over each other, the upper one over the frame).
+    Then every word of a Monte Carlo bar that runs over the top or the foot of its panel is
+    moved inside it: the joined words of near ends are centred on the bar's middle, which
+    near the panel's foot put them over the frame and the value written under the panel
+    (the same hybrid's glass G12, 0.0054-0.0060 GPa)."""
+    axes = list(axes)
+    pairs, words = [], []
     for ax in axes:
         up = [t for t in ax.texts if t.get_gid() == "monte-carlo-upper-limit"]
         low = [t for t in ax.texts if t.get_gid() == "monte-carlo-lower-limit"]
         if up and low:
             pairs.append((up[0], low[0]))
-    if not pairs:
+        words += [(ax, t) for t in ax.texts
+                  if (t.get_gid() or "").startswith("monte-carlo") and t.get_text()]
+    if not words:
         return
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     renderer = FigureCanvasAgg(fig).get_renderer()
-    fig.draw(renderer)                       # the constrained layout: the panels' final size
+    fig.get_layout_engine().execute(fig)     # the panels' final size, drawing nothing
     for up, low in pairs:
         if up.get_window_extent(renderer).overlaps(low.get_window_extent(renderer)):
             # the upper end's, hanging from it (as the joined words of near ends say)
             up.set_text("search\nlimit\n(both\nends)")
             low.remove()
+    for ax, t in words:
+        if t not in ax.texts:
+            continue
+        e, b = t.get_window_extent(renderer), ax.get_window_extent(renderer)
+        if e.height >= b.height:
+            continue
+        dy = b.y0 - e.y0 if e.y0 < b.y0 else b.y1 - e.y1 if e.y1 > b.y1 else 0.0
+        if dy:
+            dx, dy0 = t.xyann
+            t.xyann = (dx, dy0 + dy * 72.0 / fig.dpi)      # pixels to the offset's points
 
 
 #: the gids of the words at the two ends of a Monte Carlo bar (:func:`_mc_end_label`)

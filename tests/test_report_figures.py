@@ -1698,3 +1698,36 @@ def test_two_search_limit_words_running_into_each_other_are_said_once():
         ("monte-carlo-upper-limit", "search\nlimit\n(both\nends)", 0.52)]
     assert [(t.get_gid(), t.get_text()) for t in tall.texts] == [
         ("monte-carlo-upper-limit", "search\nlimit"), ("monte-carlo-lower-limit", "search\nlimit")]
+
+
+def test_monte_carlo_words_over_a_panels_foot_are_moved_inside_it():
+    """The joined "search limit (both ends)" is centred on the bar's middle: on a short
+    panel with the bar near its foot (hybrid CM with measured damping and a Monte Carlo,
+    8x8: glass G12's range 0.0054-0.0060 GPa) its words ran 11 pixels below the frame, over
+    the value written under the panel. Words of a Monte Carlo bar over the panel's foot or
+    top are moved inside it; words inside stay where they are."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from laminid_cli.report import _figure, _tidy_mc_limit_words
+
+    fig = _figure()
+    a = fig.subplots(3, 1)[0]                                       # a short panel
+    low = a.annotate("search\nlimit\n(both\nends)", (0, 0.02), xytext=(-4, 0),
+                     textcoords="offset points", fontsize=6.5, va="center",
+                     gid="monte-carlo-both-limit")
+    top = a.annotate("search\nlimit", (0, 0.99), xytext=(-4, 3), textcoords="offset points",
+                     fontsize=6.5, va="bottom", gid="monte-carlo-upper-limit")
+    mid = a.annotate("search\nlimit", (0, 0.5), xytext=(-4, 3), textcoords="offset points",
+                     fontsize=6.5, va="bottom", gid="monte-carlo-lower-limit")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    box = a.get_window_extent(renderer)
+    assert low.get_window_extent(renderer).y0 < box.y0 - 5            # as drawn before
+    assert top.get_window_extent(renderer).y1 > box.y1 + 5
+    _tidy_mc_limit_words(fig, [a])
+    fig.draw(renderer)
+    box = a.get_window_extent(renderer)
+    for t in (low, top):
+        e = t.get_window_extent(renderer)
+        assert box.y0 - 0.5 <= e.y0 and e.y1 <= box.y1 + 0.5, (t.get_text(), e, box)
+    assert mid.xyann == (-4, 3)
