@@ -2772,6 +2772,9 @@ def _across_point(ax, k, xi, v, d: Doubt | None, color, tag):
 #: the mark beside a value held by its prior on the page across specimens (the terminal
 #: table's, batch.MARK_PRIOR)
 PRIOR_MARK = "~"
+#: the mark beside the values of a specimen whose fit did not converge on the page across
+#: specimens
+NOT_CONVERGED_MARK = "nc"
 
 
 def _prior_mark(ax, xi, v, color, tag) -> None:
@@ -2836,6 +2839,7 @@ def constants_across_page(done, title: str, absent=()):
     offsets = {m: (c - (nm - 1) / 2) * width for c, m in enumerate(materials)}
     kinds: set[str] = set()
     has_mc = has_mc_limit = has_ref = has_ref_range = has_profile = has_interval = False
+    has_nc = False
     for ax, k in zip(axes, CONSTANTS):
         ax.set_gid(f"across-{k}")
         vals, ends, bars = [], [], []
@@ -2848,6 +2852,14 @@ def constants_across_page(done, title: str, absent=()):
                 xi = i + offsets[m]
                 d = doubt_of_row(row, m, k, r)
                 kinds.add(_across_point(ax, k, xi, v, d, color, f"{name}-{m}"))
+                if "not_converged" in _row_check(row, r):
+                    # the optimiser's last point, not an identification: drawn as one it read
+                    # as the specimen's constants (S1.1 stopped by --max-evaluations 8, its
+                    # E1 a filled dot with an interval beside the others)
+                    has_nc = True
+                    ax.annotate(NOT_CONVERGED_MARK, (xi, v), xytext=(4, -10),
+                                textcoords="offset points", fontsize=7, color=color,
+                                weight="bold", gid=f"not-converged-{name}-{m}")
                 vals.append(v)
                 if d is not None and not d.fixed and not d.at_bound and np.isfinite(d.lower):
                     lo, hi = _gpa(k, d.lower), _gpa(k, d.upper)
@@ -2954,6 +2966,10 @@ def constants_across_page(done, title: str, absent=()):
         handles["Monte Carlo range" + (" (*: end set by trials on a search limit)"
                                        if has_mc_limit else "")] = Line2D([], [], color=MC_COLOR,
                                                                           lw=2.2)
+    if has_nc:
+        handles[f"{NOT_CONVERGED_MARK}: not converged (the optimiser's last point, not an "
+                "identification)"] = Line2D([], [], ls="none", ms=10, color=grey,
+                                            marker=rf"$\mathrm{{{NOT_CONVERGED_MARK}}}$")
     if has_profile:
         handles["values the fit does not reject (profile of a constant on a search limit)"] = \
             Line2D([], [], ls=(0, (1, 1.5)), color=grey, lw=1.6)

@@ -1731,3 +1731,30 @@ def test_monte_carlo_words_over_a_panels_foot_are_moved_inside_it():
         e = t.get_window_extent(renderer)
         assert box.y0 - 0.5 <= e.y0 and e.y1 <= box.y1 + 0.5, (t.get_text(), e, box)
     assert mid.xyann == (-4, 3)
+
+
+def test_constants_across_specimens_mark_the_values_of_a_fit_that_did_not_converge(tmp_path):
+    """A specimen whose fit did not converge (S1.1 stopped by --max-evaluations 8) had its
+    values drawn as identified ones, a filled dot with its interval beside the others; only
+    the status line under the panels said 'not_converged'. Each of its values has "nc"
+    beside it, keyed in the legend; a converged specimen's have none."""
+    from laminid_cli.batch import write_summary_csv
+    from tests.test_report import _summary_rows
+
+    h, q = _summary_rows()
+    q = q | {"status": "check", "converged": False, "reason": "not_converged",
+             "reasons": [{"code": "not_converged", "text": "..."}]}
+    path = tmp_path / "summary.csv"
+    write_summary_csv(path, [h, q])
+    fig = {p.name: p.figure for p in report_pages(path)}["constants"]
+    marks = [(a.get_gid(), t.get_gid(), t.get_text(), t.xy[1]) for a in fig.axes
+             for t in a.texts if (t.get_gid() or "").startswith("not-converged")]
+    k_of = {f"across-{k}": k for k in q["materials"]["carbon"]}
+    assert sorted(m[0] for m in marks) == sorted(k_of)                # Q's six, none of H's
+    for gid, tag, text, y in marks:
+        k = k_of[gid]
+        assert tag == "not-converged-Q-carbon" and text == "nc"
+        assert y == pytest.approx(q["materials"]["carbon"][k] / (1 if k == "nu12" else 1e9))
+    legend = next(a.get_legend() for a in fig.axes if a.get_legend() is not None)
+    assert ("nc: not converged (the optimiser's last point, not an identification)"
+            in [t.get_text() for t in legend.get_texts()])
