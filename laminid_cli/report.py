@@ -1297,8 +1297,8 @@ def _bound_panel(ax, k, v, iv, x, ymin, ymax):
             # Monte Carlo bar's end words)
             y = _gpa(k, far)
             _profile_line(ax, x, v, y, ymin, ymax, f"profile:\nflat to\n{fmt_value(k, far)}",
-                          xytext=(6, -3 if y > v else 3), va="top" if y > v else "bottom",
-                          ha="left")
+                          open_end=True, xytext=(6, -3 if y > v else 3),
+                          va="top" if y > v else "bottom", ha="left")
     # from the arrow's middle into the panel (centred there, the words of a limit at the
     # panel's edge ran out of it, over the value written under the panel)
     ax.annotate("\n".join(textwrap.wrap(words, 12)), (x, _between(ax, v, edge)), xytext=(5, 0),
@@ -1307,14 +1307,18 @@ def _bound_panel(ax, k, v, iv, x, ymin, ymax):
                 gid="bound-statement")
 
 
-def _profile_line(ax, x, v, y, ymin, ymax, label, **label_kw):
+def _profile_line(ax, x, v, y, ymin, ymax, label, *, open_end=False, **label_kw):
     """A profile's values the fit does not reject, dotted from the limit ``v`` to ``y``
     (display unit) with a cap there, or to the panel's edge with an arrow head where ``y`` is
-    out of view; ``label`` at that end (``label_kw``: its placement)."""
+    out of view; ``label`` at that end (``label_kw``: its placement). ``open_end``: ``y`` is
+    the end of a flat profile's scan, which the fit does not reject either (nothing beyond
+    was tried): an arrow head there too, never a cap (a cap, as a bounded profile's, said the
+    fit rejects what lies beyond: hybrid CM's glass E2 'flat to 0.9' and G12 '< 18.50' were
+    drawn alike)."""
     up = y > v
     end = min(y, ymax) if up else max(y, ymin)
     ax.plot([x, x], [v, end], ls=(0, (1, 1.5)), color=INTERVAL_COLOR, lw=2.5, gid="profile")
-    if end == y:
+    if end == y and not open_end:
         ax.plot([x], [y], "_", ms=14, mew=2.5, color=INTERVAL_COLOR, gid="profile-cap")
     else:
         ax.plot([x], [end], "^" if up else "v", ms=6, color=INTERVAL_COLOR, clip_on=False,
@@ -1526,9 +1530,13 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0,
                 # (an end <= 0, of a linear interval, is off a log panel's foot: said so in
                 # the legend)
                 off_log = ax.get_yscale() == "log" and g(end) <= 0
-                ax.annotate(f"{'to' if up else 'from'}\n{fmt_value(k, end)}", (x, tail),
-                            xytext=(5, 0), textcoords="offset points", fontsize=7,
-                            va="center", ha="left", color=INTERVAL_COLOR,
+                # (from the edge into the panel: centred on the arrow's foot, 8 % of a short
+                # panel inside, the end's two lines ran over its frame, hybrid CM's glass
+                # E1 "from 0.00272" over the panel's foot)
+                ax.annotate(f"{'to' if up else 'from'}\n{fmt_value(k, end)}", (x, edge),
+                            xytext=(5, -1 if up else 1), textcoords="offset points",
+                            fontsize=7, va="top" if up else "bottom", ha="left",
+                            color=INTERVAL_COLOR,
                             gid="interval-end-below-log" if off_log else "interval-end")
     if rng is not None:
         _monte_carlo_bar(ax, k, rng, x - 0.25, ymin, ymax)
@@ -1543,6 +1551,13 @@ def interval_panel(ax, r: ResultFile, m: str, k: str, *, x: float = 0.0,
         hollow = iv is not None and iv.verdict.startswith("not")
         ax.plot([x], [g(v)], "o", ms=7, color="k", mfc="w" if hollow else "k", zorder=5,
                 gid="value")
+        if iv is not None and iv.verdict.endswith(HELD_BY_PRIOR):
+            # mostly the file's prior, not the modes': a filled dot with a narrow interval
+            # and a green band read as a constant the modes determine (S1.2 with prior
+            # {nu12: 1.0}, 0.350 [0.347, 0.353] on its reference); the "~" of the page
+            # across specimens and of the terminal's table
+            ax.annotate(PRIOR_MARK, (x, g(v)), xytext=(6, 4), textcoords="offset points",
+                        fontsize=12, weight="bold", color="k", gid="prior")
     if ref is not None and gref[0] == gref[1]:
         ax.plot([x + 0.25], [gref[0]], "D", ms=6, color="C3", zorder=5, gid="reference")
     elif ref is not None:
@@ -1581,11 +1596,17 @@ def _interval_legend(r: ResultFile) -> tuple[list, list[str]]:
         items.append(((Line2D([], [], ls="none", marker="v", ms=7, color="k", mfc="w"),
                        Line2D([], [], ls="none", marker="^", ms=7, color="k", mfc="w")),
                       "stopped on a search limit: not identified"))
-    if any(np.isfinite(getattr(iv, "profile_bound", np.nan))
-           or (iv.at_bound and iv.profile_kind == "flat") for iv in ivs):
-        # dotted, without the end's cap (the cap hid the dots at a legend handle's length)
+    bounded = any(np.isfinite(getattr(iv, "profile_bound", np.nan)) for iv in ivs)
+    flat = any(iv.at_bound and iv.profile_kind == "flat" for iv in ivs)
+    if bounded or flat:
+        # dotted, without the end's cap (the cap hid the dots at a legend handle's length);
+        # what its ends say where both kinds are drawn (a flat one's end has an arrow head)
         items.append((Line2D([], [], color=INTERVAL_COLOR, lw=2.5, ls=(0, (1, 1.5))),
-                      "values the fit does not reject (profile)"))
+                      "values the fit does not reject (profile)" + (
+                          ";\ncap: it rejects beyond; arrow head: the end\nof its scan, "
+                          "not tried beyond" if bounded and flat else
+                          ";\narrow head: the end of its scan, not tried beyond" if flat
+                          else "")))
     why = {fixed_words(r, m, k) for m in r.materials for k in CONSTANTS} - {None}
     if why:
         only = next(iter(why)) if len(why) == 1 else ""
@@ -1595,6 +1616,10 @@ def _interval_legend(r: ResultFile) -> tuple[list, list[str]]:
                  "fixed (not identified; why: below the panel)")
         items.append((Line2D([], [], ls="none", marker="s", ms=7, color=FIXED_COLOR, mfc="w",
                              mew=1.5), label))
+    if any(not iv.at_bound and iv.verdict.endswith(HELD_BY_PRIOR) for iv in ivs):
+        items.append((Line2D([], [], ls="none", marker=r"$\sim$", ms=8, color="k"),
+                      f"{PRIOR_MARK}: held by its prior (mostly the file's prior value, "
+                      "not the modes')"))
     refs = [r.reference.get(m, {}).get(k) for m in r.materials for k in CONSTANTS]
     if any(ref is not None and ref[0] == ref[1] for ref in refs):
         # a bare point reads as an exact value: say that the file gave it no uncertainty
@@ -1707,12 +1732,98 @@ def interval_page(r: ResultFile):
                   + _mc_fixed_legend(u))
     if shortened:
         title += ";\n" + "\n".join(textwrap.wrap(shortened, _wrap_width(fig, 8) - 10))
-    ax_leg.legend(handles, labels, loc="center", ncol=4, fontsize=8,
-                  handler_map={tuple: HandlerTuple(ndivide=None)}, title=title,
-                  title_fontsize=8)
+    # as many columns as the page's width takes (up to four): hybrid CM with a Monte Carlo
+    # (nine entries) ran its four columns off both edges of the page, and the constrained
+    # layout squeezed the panels to half the page's width, their titles over each other
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
+    renderer = canvas.get_renderer()
+    for ncol in range(min(len(handles), 4), 0, -1):
+        legend = ax_leg.legend(handles, labels, loc="center", ncol=ncol, fontsize=8,
+                               handler_map={tuple: HandlerTuple(ndivide=None)}, title=title,
+                               title_fontsize=8)
+        if legend.get_window_extent(renderer).width <= 0.97 * fig.bbox.width:
+            break
     _status_banner(fig, r)
     _clear_bound_statements(fig, axes.flat)
+    _shorten_crowded_mc_end_words(fig, axes.flat)
+    _tidy_mc_limit_words(fig, axes.flat)
     return fig
+
+
+def _tidy_mc_limit_words(fig, axes) -> None:
+    """One "search limit (both ends)" where the words "search limit" of the two ends of a
+    Monte Carlo bar run into each other: :func:`_limit_ends_together` joins them where the
+    ends are near in the panel's height, but on a short panel words of ends farther apart
+    meet as well (hybrid CM with measured damping and a Monte Carlo, 8x8: glass E2's range
+    30-58 GPa, two "search limit" written over each other, the upper one over the frame).
+    Then every word of a Monte Carlo bar that runs over the top or the foot of its panel is
+    moved inside it: the joined words of near ends are centred on the bar's middle, which
+    near the panel's foot put them over the frame and the value written under the panel
+    (the same hybrid's glass G12, 0.0054-0.0060 GPa)."""
+    axes = list(axes)
+    pairs, words = [], []
+    for ax in axes:
+        up = [t for t in ax.texts if t.get_gid() == "monte-carlo-upper-limit"]
+        low = [t for t in ax.texts if t.get_gid() == "monte-carlo-lower-limit"]
+        if up and low:
+            pairs.append((up[0], low[0]))
+        words += [(ax, t) for t in ax.texts
+                  if (t.get_gid() or "").startswith("monte-carlo") and t.get_text()]
+    if not words:
+        return
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.get_layout_engine().execute(fig)     # the panels' final size, drawing nothing
+    for up, low in pairs:
+        if up.get_window_extent(renderer).overlaps(low.get_window_extent(renderer)):
+            # the upper end's, hanging from it (as the joined words of near ends say)
+            up.set_text("search\nlimit\n(both\nends)")
+            low.remove()
+    for ax, t in words:
+        if t not in ax.texts:
+            continue
+        e, b = t.get_window_extent(renderer), ax.get_window_extent(renderer)
+        if e.height >= b.height:
+            continue
+        dy = b.y0 - e.y0 if e.y0 < b.y0 else b.y1 - e.y1 if e.y1 > b.y1 else 0.0
+        if dy:
+            dx, dy0 = t.xyann
+            t.xyann = (dx, dy0 + dy * 72.0 / fig.dpi)      # pixels to the offset's points
+
+
+#: the gids of the words at the two ends of a Monte Carlo bar (:func:`_mc_end_label`)
+MC_END_GIDS = {"upper": ("monte-carlo-upper-end", "monte-carlo-upper-limit"),
+               "lower": ("monte-carlo-lower-end", "monte-carlo-lower-limit")}
+
+
+def _shorten_crowded_mc_end_words(fig, axes) -> None:
+    """Leave the "(for sure ...)" lines out of the words at both ends of a Monte Carlo bar
+    where the two ends' words run into each other: on the short panels of hybrid CM with a
+    Monte Carlo, glass nu12's "to 0.8603 (for sure 0.1822)" over its "from -0.6637 (for sure
+    -0.4006) search limit", neither readable. The range's ends and "search limit" stay; the
+    thick bar still shows the width for sure, and a verdict it set is under the panel."""
+    import re
+
+    pairs = []
+    for ax in axes:
+        ends = {side: [t for t in ax.texts if t.get_gid() in gids]
+                for side, gids in MC_END_GIDS.items()}
+        if ends["upper"] and ends["lower"] and any(
+                "(for sure" in t.get_text() for t in ends["upper"] + ends["lower"]):
+            pairs.append((ends["upper"][0], ends["lower"][0]))
+    if not pairs:
+        return
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)                       # the constrained layout: the panels' final size
+    for up, low in pairs:
+        if up.get_window_extent(renderer).overlaps(low.get_window_extent(renderer)):
+            for t in (up, low):
+                t.set_text(re.sub(r"\n\(for sure\n[^)]*\)", "", t.get_text()))
 
 
 def _clear_bound_statements(fig, axes) -> None:
@@ -2692,6 +2803,9 @@ def _across_point(ax, k, xi, v, d: Doubt | None, color, tag):
 #: the mark beside a value held by its prior on the page across specimens (the terminal
 #: table's, batch.MARK_PRIOR)
 PRIOR_MARK = "~"
+#: the mark beside the values of a specimen whose fit did not converge on the page across
+#: specimens
+NOT_CONVERGED_MARK = "nc"
 
 
 def _prior_mark(ax, xi, v, color, tag) -> None:
@@ -2756,6 +2870,7 @@ def constants_across_page(done, title: str, absent=()):
     offsets = {m: (c - (nm - 1) / 2) * width for c, m in enumerate(materials)}
     kinds: set[str] = set()
     has_mc = has_mc_limit = has_ref = has_ref_range = has_profile = has_interval = False
+    has_nc = False
     for ax, k in zip(axes, CONSTANTS):
         ax.set_gid(f"across-{k}")
         vals, ends, bars = [], [], []
@@ -2768,6 +2883,14 @@ def constants_across_page(done, title: str, absent=()):
                 xi = i + offsets[m]
                 d = doubt_of_row(row, m, k, r)
                 kinds.add(_across_point(ax, k, xi, v, d, color, f"{name}-{m}"))
+                if "not_converged" in _row_check(row, r):
+                    # the optimiser's last point, not an identification: drawn as one it read
+                    # as the specimen's constants (S1.1 stopped by --max-evaluations 8, its
+                    # E1 a filled dot with an interval beside the others)
+                    has_nc = True
+                    ax.annotate(NOT_CONVERGED_MARK, (xi, v), xytext=(4, -10),
+                                textcoords="offset points", fontsize=7, color=color,
+                                weight="bold", gid=f"not-converged-{name}-{m}")
                 vals.append(v)
                 if d is not None and not d.fixed and not d.at_bound and np.isfinite(d.lower):
                     lo, hi = _gpa(k, d.lower), _gpa(k, d.upper)
@@ -2874,6 +2997,10 @@ def constants_across_page(done, title: str, absent=()):
         handles["Monte Carlo range" + (" (*: end set by trials on a search limit)"
                                        if has_mc_limit else "")] = Line2D([], [], color=MC_COLOR,
                                                                           lw=2.2)
+    if has_nc:
+        handles[f"{NOT_CONVERGED_MARK}: not converged (the optimiser's last point, not an "
+                "identification)"] = Line2D([], [], ls="none", ms=10, color=grey,
+                                            marker=rf"$\mathrm{{{NOT_CONVERGED_MARK}}}$")
     if has_profile:
         handles["values the fit does not reject (profile of a constant on a search limit)"] = \
             Line2D([], [], ls=(0, (1, 1.5)), color=grey, lw=1.6)

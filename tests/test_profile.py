@@ -143,8 +143,9 @@ def test_s21_g13_is_flat_in_json_hdf5_terminal_and_report(s21_8x8, s21_8x8_termi
     stmt = next(t for t in a.texts if t.get_gid() == "bound-statement").get_text()
     assert stmt.replace("\n", " ") == "stopped on the lower search limit: no interval", stmt
     # the values the fit does not reject: dotted from the limit up to 18.5 GPa, 6300 x the
-    # limit, on a log panel (on a linear one, 0 .. 0.0035 GPa, it ran off the top), capped
-    # there with the far end's value beside it
+    # limit, on a log panel (on a linear one, 0 .. 0.0035 GPa, it ran off the top), an arrow
+    # head there (the end of the scan, not tried beyond: no cap, which says the fit rejects
+    # what lies beyond) with the far end's value beside it
     assert a.get_yscale() == "log"
     line = next(x for x in a.lines if x.get_gid() == "profile")
     (x0, x1), (y0, y1) = line.get_data()
@@ -152,7 +153,7 @@ def test_s21_g13_is_flat_in_json_hdf5_terminal_and_report(s21_8x8, s21_8x8_termi
     assert y0 == pytest.approx(prof_limit := iv.value / 1e9, rel=1e-9)
     assert y1 == pytest.approx(18.5, rel=1e-9)
     cap = next(x for x in a.lines if x.get_gid() == "profile-cap")
-    assert cap.get_marker() == "_" and cap.get_ydata()[0] == y1
+    assert cap.get_marker() == "^" and cap.get_ydata()[0] == y1
     label = next(t for t in a.texts if t.get_gid() == "profile-label").get_text()
     assert label == "profile:\nflat to\n18.50" and ymin < prof_limit and 18.5 < ymax < 40
     text = s21_8x8_terminal              # conftest.py: identify S2.1 --mesh 8x8 --no-output
@@ -421,7 +422,9 @@ def test_an_unfinished_fit_above_the_threshold_gives_no_profile(monkeypatch):
 def test_a_flat_profile_of_the_values_size_is_drawn_to_its_end(s21_8x8):
     """A flat profile whose far end is of the value's size (hybrid CM's glass E2: 55.5 GPa on
     its upper limit, flat down to 0.9 GPa; carbon nu12 0.95 down to 0) is drawn to that end,
-    with a cap and its value, the panel widened to show it, on a linear axis (within a decade
+    with an arrow head (the end of the scan: the fit does not reject what lies beyond, it was
+    not tried; a cap, as a bounded profile has, said it was rejected) and its value, the
+    panel widened to show it, on a linear axis (within a decade
     of the value); a far end a decade and more away is drawn on a log panel (the S2.1 test
     above). S2.1's G13 (8x8) with its far end moved to 2.9 x the limit stands in for it."""
     import dataclasses as dc
@@ -448,10 +451,33 @@ def test_a_flat_profile_of_the_values_size_is_drawn_to_its_end(s21_8x8):
     assert line.get_ydata()[1] == pytest.approx(far / 1e9) and far / 1e9 < ymax
     assert ax.get_yscale() == "linear"
     cap = next(x for x in ax.lines if x.get_gid() == "profile-cap")
-    assert cap.get_marker() == "_" and cap.get_ydata()[0] == pytest.approx(far / 1e9)
+    assert cap.get_marker() == "^" and cap.get_ydata()[0] == pytest.approx(far / 1e9)
     label = next(t for t in ax.texts if t.get_gid() == "profile-label").get_text()
     assert label.split("\n")[:2] == ["profile:", "flat to"]
     plt.close(fig)
+    # the same end where the fit rejects beyond it (a bounded profile): a cap
+    bounded = dc.replace(flat, profile_bound=far, profile_far=np.nan,
+                         profile_text="the fit rejects G13 above")
+    ub = dc.replace(r.uncertainty, intervals=tuple(bounded if x is iv else x
+                                                   for x in r.uncertainty.intervals))
+    fig, ax = plt.subplots()
+    interval_panel(ax, dc.replace(r, uncertainty=ub), m, "G13")
+    cap = next(x for x in ax.lines if x.get_gid() == "profile-cap")
+    assert cap.get_marker() == "_" and cap.get_ydata()[0] == pytest.approx(far / 1e9)
+    plt.close(fig)
+    # the legend says which end is which where a page has both, and the arrow head alone
+    # where it has flat profiles only
+    from laminid_cli.report import _interval_legend
+
+    both = dc.replace(u, intervals=u.intervals + (bounded,))
+    words = [t for _, t in zip(*_interval_legend(dc.replace(r, uncertainty=both)))
+             if t.startswith("values the fit does not reject")]
+    assert words == ["values the fit does not reject (profile);\ncap: it rejects beyond; "
+                     "arrow head: the end\nof its scan, not tried beyond"]
+    words = [t for _, t in zip(*_interval_legend(dc.replace(r, uncertainty=u)))
+             if t.startswith("values the fit does not reject")]
+    assert words == ["values the fit does not reject (profile);\narrow head: the end of its "
+                     "scan, not tried beyond"]
 
 
 def test_the_check_between_the_limit_and_a_flat_far_end_uses_the_quick_fit():

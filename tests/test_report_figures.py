@@ -1565,3 +1565,196 @@ def test_the_constants_table_of_one_material_names_it(s11):
     table's title names it."""
     fig = result_page(s11, "summary")
     assert ax(fig, "constants").get_title(loc="left") == "identified constants of IM7/977-2"
+
+
+def test_interval_legend_of_many_long_entries_stays_on_the_page(s21_mc, monkeypatch):
+    """The interval page's legend takes as many columns as the page's width holds: hybrid CM
+    with a Monte Carlo (the nine entries below, its legend as drawn) ran four columns off
+    both edges of the page, and the constrained layout squeezed the panels into half its
+    width, their titles over each other."""
+    from laminid_cli import report
+    from laminid_cli.resultfile import read_result
+
+    res = read_result(s21_mc)
+    handles, labels = report._interval_legend(res)
+    long = ["interval within ±5% of the value: well determined", "within ±30%: weak",
+            "95% interval", "identified",
+            "not determined (interval or Monte Carlo range too wide)",
+            "stopped on a search limit: not identified",
+            "values the fit does not reject (profile);\ncap: it rejects beyond; arrow head: "
+            "the end\nof its scan, not tried beyond",
+            "Monte Carlo range (95% of the trials)", "Monte Carlo range for sure (90 %)"]
+    many = (handles + handles)[:len(long)]
+    monkeypatch.setattr(report, "_interval_legend", lambda r: (many, long))
+    fig = report.interval_page(res)
+    fig.draw_without_rendering()
+    page = fig.bbox
+    legend = next(a.get_legend() for a in fig.axes if a.get_legend() is not None)
+    box = legend.get_window_extent()
+    assert page.x0 <= box.x0 and box.x1 <= page.x1, (box, page)
+    assert [t.get_text() for t in legend.get_texts()] == long
+    panels = [a for a in fig.axes if (a.get_gid() or "").startswith("interval-")]
+    assert len(panels) == 6
+    # six panels across the page: each at least a tenth of its width (squeezed: 0.04)
+    assert min(a.get_window_extent().width for a in panels) >= 0.1 * page.width
+
+
+def test_monte_carlo_end_words_running_into_each_other_leave_out_the_widths_for_sure():
+    """On the short panels of hybrid CM with a Monte Carlo, glass nu12's range ran off both
+    ends: "to 0.8603 (for sure 0.1822) search limit" was written over "from -0.6637 (for
+    sure -0.4006)". Where the two ends' words overlap, the "(for sure ...)" lines are left
+    out of both (the range's ends and "search limit" stay); where they do not, all stay."""
+    from laminid_cli.report import _figure, _shorten_crowded_mc_end_words
+
+    fig = _figure()
+    short, tall = fig.subplots(1, 2)
+    up_words, low_words = "to\n0.8603\n(for sure\n0.1822)\nsearch\nlimit", \
+        "from\n-0.6637\n(for sure\n-0.4006)"
+    for a, (y_up, y_low) in ((short, (0.52, 0.48)), (tall, (0.98, 0.02))):
+        a.annotate(up_words, (0, y_up), fontsize=6.5, va="top",
+                   gid="monte-carlo-upper-end")
+        a.annotate(low_words, (0, y_low), fontsize=6.5, va="bottom",
+                   gid="monte-carlo-lower-end")
+    _shorten_crowded_mc_end_words(fig, [short, tall])
+    assert [t.get_text() for t in short.texts] == ["to\n0.8603\nsearch\nlimit",
+                                                   "from\n-0.6637"]
+    assert [t.get_text() for t in tall.texts] == [up_words, low_words]
+
+
+def test_interval_end_words_stay_inside_a_short_panel(s21):
+    """The words of an interval's end off the panel ("to ...", "from ...") hang from the
+    panel's edge into it: centred on the arrow's foot (8 % of the panel inside its edge),
+    their two lines ran over the frame of a short panel (hybrid CM's glass E1 with a Monte
+    Carlo: "from 0.00272" over the panel's foot)."""
+    import dataclasses
+
+    import matplotlib.pyplot as plt
+
+    from laminid_cli.report import interval_panel
+    from laminid_cli.resultfile import read_result
+
+    res = read_result(s21)
+    m = next(iter(res.materials))
+    u = res.uncertainty
+    v = res.materials[m]["G23"]
+    ivs = tuple(dataclasses.replace(iv, lower=v / 1e5, upper=v * 1e5)
+                if iv.constant == "G23" else iv for iv in u.intervals)
+    fig, a = plt.subplots(figsize=(1.6, 1.1))
+    interval_panel(a, dataclasses.replace(res, uncertainty=dataclasses.replace(
+        u, intervals=ivs)), m, "G23", log=True)
+    a.set_xlim(-0.75, 0.75)                             # as the intervals page
+    fig.draw_without_rendering()
+    ends = {t.get_text().split("\n")[0]: t.get_window_extent() for t in a.texts
+            if t.get_gid() == "interval-end"}
+    assert set(ends) == {"to", "from"}
+    box = a.get_window_extent()
+    for word, e in ends.items():
+        assert box.y0 <= e.y0 and e.y1 <= box.y1, (word, e, box)
+    plt.close(fig)
+
+
+def test_a_value_held_by_its_prior_is_marked_on_its_interval_panel(s12_prior, s11):
+    """S1.2 with a prior on nu12: its panel drew a filled dot, a narrow interval and the
+    green band on its reference, as a constant the modes determine (only the words under the
+    panel said "held by the prior"). It has the "~" of the page across specimens beside the
+    value, and the legend keys it; a page without such a value has neither."""
+    from laminid_cli.resultfile import read_result
+
+    res = read_result(s12_prior)
+    m = next(iter(res.materials))
+    fig = result_page(s12_prior, "intervals")
+    a = ax(fig, f"interval-{m}.nu12")
+    mark = next(t for t in a.texts if t.get_gid() == "prior")
+    assert mark.get_text() == "~" and mark.xy[1] == pytest.approx(res.materials[m]["nu12"])
+    legend = next(x.get_legend() for x in fig.axes if x.get_legend() is not None)
+    assert ("~: held by its prior (mostly the file's prior value, not the modes')"
+            in [t.get_text() for t in legend.get_texts()])
+    # only that constant's panel, and no key on a page without a prior
+    assert [x.get_gid() for x in fig.axes if any(t.get_gid() == "prior" for t in x.texts)] \
+        == [f"interval-{m}.nu12"]
+    other = result_page(s11, "intervals")
+    assert not [t for x in other.axes for t in x.texts if t.get_gid() == "prior"]
+    legend = next(x.get_legend() for x in other.axes if x.get_legend() is not None)
+    assert not [t for t in legend.get_texts() if "held by its prior" in t.get_text()]
+
+
+def test_two_search_limit_words_running_into_each_other_are_said_once():
+    """Hybrid CM with measured damping and a Monte Carlo (8x8): glass E2's range 30-58 GPa,
+    both ends set by trials on search limits, too far apart in the panel to be joined
+    beforehand (_limit_ends_together) but near enough on its short panel for the two
+    "search limit" to be written over each other. Where they overlap, one "search limit
+    (both ends)" hangs from the upper end; where they do not, both stay."""
+    from laminid_cli.report import _figure, _tidy_mc_limit_words
+
+    fig = _figure()
+    short, tall = fig.subplots(1, 2)
+    for a, (y_up, y_low) in ((short, (0.52, 0.48)), (tall, (0.98, 0.02))):
+        a.annotate("search\nlimit", (0, y_up), fontsize=6.5, va="top",
+                   gid="monte-carlo-upper-limit")
+        a.annotate("search\nlimit", (0, y_low), fontsize=6.5, va="bottom",
+                   gid="monte-carlo-lower-limit")
+    _tidy_mc_limit_words(fig, [short, tall])
+    assert [(t.get_gid(), t.get_text(), t.xy[1]) for t in short.texts] == [
+        ("monte-carlo-upper-limit", "search\nlimit\n(both\nends)", 0.52)]
+    assert [(t.get_gid(), t.get_text()) for t in tall.texts] == [
+        ("monte-carlo-upper-limit", "search\nlimit"), ("monte-carlo-lower-limit", "search\nlimit")]
+
+
+def test_monte_carlo_words_over_a_panels_foot_are_moved_inside_it():
+    """The joined "search limit (both ends)" is centred on the bar's middle: on a short
+    panel with the bar near its foot (hybrid CM with measured damping and a Monte Carlo,
+    8x8: glass G12's range 0.0054-0.0060 GPa) its words ran 11 pixels below the frame, over
+    the value written under the panel. Words of a Monte Carlo bar over the panel's foot or
+    top are moved inside it; words inside stay where they are."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from laminid_cli.report import _figure, _tidy_mc_limit_words
+
+    fig = _figure()
+    a = fig.subplots(3, 1)[0]                                       # a short panel
+    low = a.annotate("search\nlimit\n(both\nends)", (0, 0.02), xytext=(-4, 0),
+                     textcoords="offset points", fontsize=6.5, va="center",
+                     gid="monte-carlo-both-limit")
+    top = a.annotate("search\nlimit", (0, 0.99), xytext=(-4, 3), textcoords="offset points",
+                     fontsize=6.5, va="bottom", gid="monte-carlo-upper-limit")
+    mid = a.annotate("search\nlimit", (0, 0.5), xytext=(-4, 3), textcoords="offset points",
+                     fontsize=6.5, va="bottom", gid="monte-carlo-lower-limit")
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    box = a.get_window_extent(renderer)
+    assert low.get_window_extent(renderer).y0 < box.y0 - 5            # as drawn before
+    assert top.get_window_extent(renderer).y1 > box.y1 + 5
+    _tidy_mc_limit_words(fig, [a])
+    fig.draw(renderer)
+    box = a.get_window_extent(renderer)
+    for t in (low, top):
+        e = t.get_window_extent(renderer)
+        assert box.y0 - 0.5 <= e.y0 and e.y1 <= box.y1 + 0.5, (t.get_text(), e, box)
+    assert mid.xyann == (-4, 3)
+
+
+def test_constants_across_specimens_mark_the_values_of_a_fit_that_did_not_converge(tmp_path):
+    """A specimen whose fit did not converge (S1.1 stopped by --max-evaluations 8) had its
+    values drawn as identified ones, a filled dot with its interval beside the others; only
+    the status line under the panels said 'not_converged'. Each of its values has "nc"
+    beside it, keyed in the legend; a converged specimen's have none."""
+    from laminid_cli.batch import write_summary_csv
+    from tests.test_report import _summary_rows
+
+    h, q = _summary_rows()
+    q = q | {"status": "check", "converged": False, "reason": "not_converged",
+             "reasons": [{"code": "not_converged", "text": "..."}]}
+    path = tmp_path / "summary.csv"
+    write_summary_csv(path, [h, q])
+    fig = {p.name: p.figure for p in report_pages(path)}["constants"]
+    marks = [(a.get_gid(), t.get_gid(), t.get_text(), t.xy[1]) for a in fig.axes
+             for t in a.texts if (t.get_gid() or "").startswith("not-converged")]
+    k_of = {f"across-{k}": k for k in q["materials"]["carbon"]}
+    assert sorted(m[0] for m in marks) == sorted(k_of)                # Q's six, none of H's
+    for gid, tag, text, y in marks:
+        k = k_of[gid]
+        assert tag == "not-converged-Q-carbon" and text == "nc"
+        assert y == pytest.approx(q["materials"]["carbon"][k] / (1 if k == "nu12" else 1e9))
+    legend = next(a.get_legend() for a in fig.axes if a.get_legend() is not None)
+    assert ("nc: not converged (the optimiser's last point, not an identification)"
+            in [t.get_text() for t in legend.get_texts()])
