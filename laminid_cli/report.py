@@ -2734,6 +2734,18 @@ def material_labels(r: ResultFile) -> tuple[dict[str, str], str | None]:
 
 
 MC_COLOR = "0.62"
+
+
+def mc_tint(color) -> tuple:
+    """A Monte Carlo bar's colour on the pages across specimens: its material's ``color``
+    half-way to white. Grey, the bars of two materials of one specimen side by side (hybrid
+    CM's glass and carbon) could be pinned on either: the glass bar, right of the glass dot,
+    stands next to the carbon dot."""
+    from matplotlib.colors import to_rgb
+
+    return tuple(0.5 * c + 0.5 for c in to_rgb(color))
+
+
 #: the least span of a linear panel across specimens, as a fraction of its largest value: the
 #: width of the verdicts' "well determined" band (a 95 % half-width of 5 %, either way), so
 #: that differences well inside it are not drawn as if they were apart
@@ -2850,7 +2862,8 @@ def constants_across_page(done, title: str, absent=()):
     """One panel per constant: each specimen on the x axis, the materials of one specimen side
     by side, each with the doubt the summary gives it: interval bar, hollow "?" when not
     determined, a triangle when it stopped on a search limit (no interval), a grey square when
-    fixed, the Monte Carlo range in grey beside the interval; reference values from the result
+    fixed, the Monte Carlo range beside the interval, a pale bar of the material's colour
+    (:func:`mc_tint`); reference values from the result
     files where found. ``absent``: the summary's specimens without a result ("name (status)"),
     named in the notes."""
     from matplotlib.legend_handler import HandlerTuple
@@ -2903,7 +2916,7 @@ def constants_across_page(done, title: str, absent=()):
                     marks = (d.mc_lower_at_limit, d.mc_upper_at_limit)
                     has_mc_limit |= any(marks)
                     bars.append((xi + 0.55 * width, _gpa(k, d.mc_lower), _gpa(k, d.mc_upper),
-                                 MC_COLOR, 2.2, "monte-carlo", marks, "-"))
+                                 mc_tint(color), 2.2, f"monte-carlo-{name}-{m}", marks, "-"))
                 if d is not None and d.at_bound and d.profile in ("bound", "flat"):
                     # the values the fit does not reject: from the limit to the profile's
                     # bound, or (flat) to the other end of its scan (an arrow where that is
@@ -2994,9 +3007,11 @@ def constants_across_page(done, title: str, absent=()):
             h, text = marks[kind]
             handles[text] = h
     if has_mc:
-        handles["Monte Carlo range" + (" (*: end set by trials on a search limit)"
-                                       if has_mc_limit else "")] = Line2D([], [], color=MC_COLOR,
-                                                                          lw=2.2)
+        # (the pale bar of each material's colour, as drawn)
+        handles["Monte Carlo range: pale bar of the material's colour, right of its value"
+                + (" (*: end set by trials on a search limit)" if has_mc_limit else "")] = \
+            tuple(Line2D([], [], color=mc_tint(f"C{c % 10}"), lw=2.2)
+                  for c in range(len(materials)))
     if has_nc:
         handles[f"{NOT_CONVERGED_MARK}: not converged (the optimiser's last point, not an "
                 "identification)"] = Line2D([], [], ls="none", ms=10, color=grey,

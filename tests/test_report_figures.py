@@ -1758,3 +1758,48 @@ def test_constants_across_specimens_mark_the_values_of_a_fit_that_did_not_conver
     legend = next(a.get_legend() for a in fig.axes if a.get_legend() is not None)
     assert ("nc: not converged (the optimiser's last point, not an identification)"
             in [t.get_text() for t in legend.get_texts()])
+
+
+def test_monte_carlo_bars_across_specimens_have_their_materials_colour(tmp_path):
+    """The Monte Carlo bars of two materials of one specimen (hybrid CM's glass and carbon)
+    stand side by side; grey, either could be pinned on either material (the glass bar, right
+    of the glass dot, stands next to the carbon dot). Each is its material's colour, pale
+    (mc_tint: half-way to white), on the constants' and the loss factors' pages, and the
+    legend's key shows each material's pale bar."""
+    from matplotlib.colors import to_rgb
+
+    from laminid_cli.batch import write_summary_csv
+    from laminid_cli.report import mc_tint
+    from tests.test_report import _summary_rows
+
+    h, q = _summary_rows()
+    for m in ("glass", "carbon"):
+        h["intervals"][m]["E1"] |= {"mc_lower": 0.9 * h["materials"][m]["E1"],
+                                    "mc_upper": 1.1 * h["materials"][m]["E1"],
+                                    "mc_lower_at_limit": False, "mc_upper_at_limit": False}
+    h["damping"] = {m: {"eta11": {"value": e, "lower": 0.9 * e, "upper": 1.1 * e,
+                                  "verdict": "well determined", "at_bound": False,
+                                  "bound_side": "", "bound_limit": None, "mc_lower": 0.8 * e,
+                                  "mc_upper": 1.2 * e, "mc_lower_at_limit": False,
+                                  "mc_upper_at_limit": False}}
+                    for m, e in (("glass", 0.002), ("carbon", 0.004))}
+    path = tmp_path / "summary.csv"
+    write_summary_csv(path, [h, q])
+    pages = {p.name: p.figure for p in report_pages(path)}
+    for page, panel in (("constants", "across-E1"), ("loss-factors", "across-eta11")):
+        a = ax(pages[page], panel)
+        for m in ("glass", "carbon"):
+            dot = next(ln for ln in a.get_lines() if ln.get_gid() == f"value-H-{m}")
+            bar = next(ln for ln in a.get_lines() if ln.get_gid() == f"monte-carlo-H-{m}")
+            assert to_rgb(bar.get_color()) == pytest.approx(mc_tint(dot.get_color()), abs=1e-12)
+            assert bar.get_xdata()[0] > dot.get_xdata()[0]          # right of its own value
+        colours = {to_rgb(ln.get_color()) for ln in a.get_lines()
+                   if (ln.get_gid() or "").startswith("monte-carlo")}
+        assert len(colours) == 2 and to_rgb("0.62") not in colours  # none grey, two apart
+        legend = next(x.get_legend() for x in pages[page].axes if x.get_legend() is not None)
+        from matplotlib.lines import Line2D
+
+        keys = {to_rgb(ln.get_color()) for ln in legend.findobj(Line2D)}
+        assert colours <= keys                   # each material's pale bar in the key
+        assert "pale bar of the material's colour" in next(
+            t.get_text() for t in legend.get_texts() if t.get_text().startswith("Monte Carlo"))
