@@ -2883,10 +2883,10 @@ def constants_across_page(done, title: str, absent=()):
     offsets = {m: (c - (nm - 1) / 2) * width for c, m in enumerate(materials)}
     kinds: set[str] = set()
     has_mc = has_mc_limit = has_ref = has_ref_range = has_profile = has_interval = False
-    has_nc = False
+    has_nc = has_flat = has_bounded = False
     for ax, k in zip(axes, CONSTANTS):
         ax.set_gid(f"across-{k}")
-        vals, ends, bars = [], [], []
+        vals, ends, bars, profile_ends = [], [], [], []
         for c, m in enumerate(materials):
             color = f"C{c % 10}"
             for i, (name, (row, mats, r)) in enumerate(zip(names, done)):
@@ -2929,6 +2929,7 @@ def constants_across_page(done, title: str, absent=()):
                         ends.append(far)
                     bars.append((xi, min(v, far), max(v, far), color, 1.6, "profile",
                                  (False, False), (0, (1, 1.5))))
+                    profile_ends.append((xi, v, far, d.profile, color, f"{name}-{m}"))
                 ref = r.reference.get(m, {}).get(k) if r is not None else None
                 if ref is not None and ref[0] == ref[1]:
                     has_ref = True
@@ -2967,6 +2968,22 @@ def constants_across_page(done, title: str, absent=()):
             for xi, blo, bhi, color, lw, gid, marks, ls in bars:
                 _clipped_bar(ax, k, xi, blo, bhi, ymin, ymax, color, lw=lw, gid=gid,
                              marks=marks, ls=ls)
+            for xi, v, far, kind, color, tag in profile_ends:
+                # the profile's end in view as on the intervals page: a cap where the fit
+                # rejects beyond (a bound), an arrow head at the end of a flat profile's scan
+                # (not rejected there, not tried beyond); drawn alike, hybrid CM's glass E2
+                # (flat to 0.9 GPa) read as bounded as its G12 (< 18.5 GPa). Off the panel:
+                # the bar's arrow at the edge
+                if not ymin <= far <= ymax:
+                    continue
+                if kind == "bound":
+                    has_bounded = True
+                    ax.plot([xi], [far], "_", ms=9, mew=1.6, color=color, zorder=5,
+                            gid=f"profile-cap-{tag}")
+                else:
+                    has_flat = True
+                    ax.plot([xi], [far], "^" if far > v else "v", ms=5, color=color,
+                            zorder=5, clip_on=False, gid=f"profile-end-{tag}")
         style_across_panel(ax, f"{k} ({_unit(k)}{', log scale' if log else ''})", ticks)
         if log:
             log_axis_ticks(ax)
@@ -3017,7 +3034,13 @@ def constants_across_page(done, title: str, absent=()):
                 "identification)"] = Line2D([], [], ls="none", ms=10, color=grey,
                                             marker=rf"$\mathrm{{{NOT_CONVERGED_MARK}}}$")
     if has_profile:
-        handles["values the fit does not reject (profile of a constant on a search limit)"] = \
+        # what its ends say, as on the intervals page (dotted alone: a cap or an arrow head
+        # hid the dots at a handle's length)
+        handles["values the fit does not reject (profile of a constant on a search limit)"
+                + (";\ncap: it rejects beyond; arrow head: the end of its scan, not tried "
+                   "beyond" if has_bounded and has_flat else
+                   ";\narrow head: the end of its scan, not tried beyond" if has_flat else
+                   ";\ncap: it rejects beyond" if has_bounded else "")] = \
             Line2D([], [], ls=(0, (1, 1.5)), color=grey, lw=1.6)
     if has_ref:
         handles["reference value " + REFERENCE_POINT_WORDS.removeprefix("reference ")] = \

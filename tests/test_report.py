@@ -793,8 +793,11 @@ def test_report_of_a_batch_summary(batch_dir, tmp_path, monkeypatch):
         legend = [t.get_text() for t in pages["constants"].legends[0].get_texts()] if \
             pages["constants"].legends else [t.get_text() for a in pages["constants"].axes
                                             if a.get_legend() for t in a.get_legend().get_texts()]
-        assert "values the fit does not reject (profile of a constant on a search limit)" \
-            in legend
+        assert "values the fit does not reject (profile of a constant on a search limit);" \
+            "\ncap: it rejects beyond" in legend
+        (cap,) = [ln for ln in g.get_lines() if ln.get_gid() == "profile-cap-S2.1-E-glass/R368"]
+        assert cap.get_marker() == "_"                   # where the fit rejects beyond
+        assert cap.get_ydata()[0] == pytest.approx(s21.profile_bound / 1e9, rel=1e-12)
 
 
 def test_summary_puts_the_materials_of_one_specimen_side_by_side(tmp_path):

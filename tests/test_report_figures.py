@@ -444,7 +444,7 @@ def test_constants_across_specimens_legend_inside_the_page(tmp_path):
     legend = next(a.get_legend() for a in fig.axes if a.get_legend() is not None)
     texts = [t.get_text() for t in legend.get_texts()]
     assert len(texts) >= 5 and "values the fit does not reject (profile of a constant on a " \
-        "search limit)" in texts
+        "search limit);\narrow head: the end of its scan, not tried beyond" in texts
     box = legend.get_window_extent(renderer)
     assert 0 <= box.x0 and box.x1 <= fig.bbox.width
     panels = [a.get_window_extent(renderer) for a in fig.axes
@@ -1803,3 +1803,53 @@ def test_monte_carlo_bars_across_specimens_have_their_materials_colour(tmp_path)
         assert colours <= keys                   # each material's pale bar in the key
         assert "pale bar of the material's colour" in next(
             t.get_text() for t in legend.get_texts() if t.get_text().startswith("Monte Carlo"))
+
+
+def test_constants_across_specimens_tell_a_bounded_profile_from_a_flat_one():
+    """A profile bounded where the fit rejects (hybrid CM's glass G12 on its lower limit,
+    rejected above 18.5 GPa) and a flat one, not rejected up to the end of its scan (glass E2
+    on its upper limit, flat down to 0.9 GPa; carbon nu12 0.95 flat to 0) were the same
+    dotted bar ending bare. As on the intervals page: a cap at the bound, an arrow head at
+    the end of the flat one's scan pointing away from the value, and the legend says which
+    is which."""
+    from laminid_cli.report import constants_across_page
+
+    at = dict(verdict="at bound — not identified", at_bound=True)
+    mats = {"glass": {"E1": 58e9, "E2": 55.5e9, "G12": 5.9e6, "G13": 3e9, "G23": 3e9,
+                      "nu12": 0.3},
+            "carbon": {"E1": 87e9, "E2": 8e9, "G12": 4.8e9, "G13": 3e9, "G23": 3e9,
+                       "nu12": 0.95}}
+    row = {"name": "H", "status": "check", "intervals": {
+        "glass": {"E2": dict(at, bound_side="upper", bound_limit=55.5e9, profile="flat",
+                             profile_bound=None, profile_far=0.9e9),
+                  "G12": dict(at, bound_side="lower", bound_limit=5.9e6, profile="bound",
+                              profile_bound=18.5e9, profile_far=None)},
+        "carbon": {"nu12": dict(at, bound_side="upper", bound_limit=0.95, profile="flat",
+                                profile_bound=None, profile_far=0.0)}}}
+    fig = constants_across_page([(row, mats, None)], "t")
+    for panel, tag, marker, y in (("across-G12", "profile-cap-H-glass", "_", 18.5),
+                                  ("across-E2", "profile-end-H-glass", "v", 0.9),
+                                  ("across-nu12", "profile-end-H-carbon", "v", 0.0)):
+        a = ax(fig, panel)
+        ends = [ln for ln in a.get_lines() if (ln.get_gid() or "").startswith("profile-")]
+        assert [ln.get_gid() for ln in ends] == [tag]
+        assert ends[0].get_marker() == marker
+        assert ends[0].get_ydata()[0] == pytest.approx(y, rel=1e-12)
+        lo, hi = a.get_ylim()
+        assert lo <= y <= hi                                     # in view, not off the panel
+        bar = next(ln for ln in a.get_lines() if ln.get_gid() == "profile")
+        assert ends[0].get_color() == bar.get_color()            # its material's
+    legend = next(a.get_legend() for a in fig.axes if a.get_legend() is not None)
+    assert ("values the fit does not reject (profile of a constant on a search limit);\n"
+            "cap: it rejects beyond; arrow head: the end of its scan, not tried beyond"
+            in [t.get_text() for t in legend.get_texts()])
+    # a page of flat profiles only: the arrow head alone in the legend, no cap drawn
+    only = {"name": "H", "status": "check",
+            "intervals": {"carbon": row["intervals"]["carbon"]}}
+    fig = constants_across_page([(only, {"carbon": mats["carbon"]}, None)], "t")
+    legend = next(a.get_legend() for a in fig.axes if a.get_legend() is not None)
+    assert ("values the fit does not reject (profile of a constant on a search limit);\n"
+            "arrow head: the end of its scan, not tried beyond"
+            in [t.get_text() for t in legend.get_texts()])
+    assert not [ln for a in fig.axes for ln in a.get_lines()
+                if (ln.get_gid() or "").startswith("profile-cap")]
