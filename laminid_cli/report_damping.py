@@ -599,8 +599,9 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
     from matplotlib.lines import Line2D
 
     from laminid_cli.damping import LEANS_WORDS, TERMS, leans_on
-    from laminid_cli.report import (FIXED_COLOR, _clipped_bar, _figure, _footer, axis_names,
-                                    mc_tint, specimen_labels, style_across_panel)
+    from laminid_cli.report import (FIXED_COLOR, NOT_CONVERGED_MARK, _clipped_bar, _figure,
+                                    _footer, _row_check, axis_names, mc_tint, specimen_labels,
+                                    style_across_panel)
 
     rows = [row for row in rows if row.get("damping")]
     names = specimen_labels(rows)
@@ -619,7 +620,7 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
     kinds: set[str] = set()
     #: {(specimen, the constants it leans on): [its loss factors whose interval is too narrow]}
     leaning: dict[tuple[str, str], list[str]] = {}
-    has_mc = has_mc_limit = False
+    has_mc = has_mc_limit = has_nc = False
     on_top = dict(zorder=6, clip_on=False)
     for ax, k in zip(axes, TERMS):
         name = f"eta{k}"
@@ -648,13 +649,24 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                     bars.append((xi + 0.55 * width, mlo, mhi, mc_tint(color),
                                  f"monte-carlo-{tag}", limits, "-"))
                     loose.append(mhi)
+                at_bound = bool(e.get("at_bound")) or verdict.startswith("at bound")
+                if "not_converged" in _row_check(row, None):
+                    # refitted at the optimiser's last point, not at identified constants: as
+                    # on the constants' page (S1.1 and S1.4 stopped by --max-evaluations 8,
+                    # their loss factors drawn as any others)
+                    has_nc = True
+                    ax.annotate(NOT_CONVERGED_MARK, (xi, 0.0 if at_bound else v),
+                                xytext=(4, -10 if v > 0 and not at_bound else 3),
+                                textcoords="offset points", fontsize=7, color=color,
+                                weight="bold", annotation_clip=False,
+                                gid=f"not-converged-{tag}")
                 if verdict == "fixed":
                     ax.plot([xi], [v], "s", ms=6, color=FIXED_COLOR, mfc="w", mew=1.3,
                             gid=f"fixed-{tag}", **on_top)
                     kinds.add("fixed")
                     vals.append(v)
                     continue
-                if bool(e.get("at_bound")) or verdict.startswith("at bound"):
+                if at_bound:
                     ax.plot([xi], [0.0], "v", ms=7, color=color, mfc="w", mew=1.3,
                             gid=f"at-bound-{tag}", **on_top)
                     kinds.add("at bound")
@@ -729,6 +741,11 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                    if has_mc_limit else "")] = tuple(
                        Line2D([], [], color=mc_tint(f"C{c % 10}"), lw=2.2)
                        for c in range(len(materials)))
+    if has_nc:
+        handles[f"{NOT_CONVERGED_MARK}: not converged (refitted at the optimiser's\nlast "
+                "point, not at identified constants)"] = Line2D(
+                    [], [], ls="none", ms=10, color=grey,
+                    marker=rf"$\mathrm{{{NOT_CONVERGED_MARK}}}$")
     ax_leg = fig.add_subplot(gs[1, 2])             # the sixth cell: clear of the panels
     ax_leg.axis("off")
     ax_leg.set_gid("legend")

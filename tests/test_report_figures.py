@@ -1853,3 +1853,41 @@ def test_constants_across_specimens_tell_a_bounded_profile_from_a_flat_one():
             in [t.get_text() for t in legend.get_texts()])
     assert not [ln for a in fig.axes for ln in a.get_lines()
                 if (ln.get_gid() or "").startswith("profile-cap")]
+
+
+def test_loss_factors_across_specimens_mark_those_of_a_fit_that_did_not_converge(tmp_path):
+    """The loss factors of a specimen whose fit did not converge (S1.1 and S1.4 stopped by
+    --max-evaluations 8: refitted at the optimiser's last point) were drawn as any others.
+    Each has "nc" beside it, as on the constants' page (one held at 0: at 0), keyed in the
+    legend; a converged specimen's have none."""
+    from laminid_cli.batch import write_summary_csv
+    from tests.test_report import _summary_rows
+
+    h, q = _summary_rows()
+    free = {"at_bound": False, "bound_side": "", "bound_limit": None}
+    lf = {"eta11": {"value": 0.002, "lower": 0.0018, "upper": 0.0022,
+                    "verdict": "well determined"} | free,
+          "eta22": {"value": 0.0, "lower": None, "upper": None,
+                    "verdict": "at bound — not identified", "at_bound": True,
+                    "bound_side": "lower", "bound_limit": 0.0}}
+    h["damping"] = {"carbon": lf}
+    q = q | {"status": "check", "converged": False, "reason": "not_converged",
+             "reasons": [{"code": "not_converged", "text": "..."}],
+             "damping": {"carbon": {"eta11": dict(lf["eta11"], value=0.003),
+                                    "eta22": lf["eta22"]}}}
+    path = tmp_path / "summary.csv"
+    write_summary_csv(path, [h, q])
+    fig = {p.name: p.figure for p in report_pages(path)}["loss-factors"]
+    marks = {a.get_gid(): [(t.get_gid(), t.get_text(), t.xy[1]) for t in a.texts
+                           if (t.get_gid() or "").startswith("not-converged")]
+             for a in fig.axes}
+    assert marks["across-eta11"] == [("not-converged-Q-carbon", "nc", pytest.approx(0.3))]
+    assert marks["across-eta22"] == [("not-converged-Q-carbon", "nc", 0.0)]   # H's: none
+    dot = next(ln for ln in ax(fig, "across-eta11").get_lines()
+               if ln.get_gid() == "value-Q-carbon")
+    mark = next(t for t in ax(fig, "across-eta11").texts
+                if t.get_gid() == "not-converged-Q-carbon")
+    assert mark.xy[0] == dot.get_xdata()[0] and mark.get_color() == dot.get_color()
+    legend = [t.get_text() for t in ax(fig, "legend").get_legend().get_texts()]
+    assert ("nc: not converged (refitted at the optimiser's\nlast point, not at identified "
+            "constants)") in legend
