@@ -1891,3 +1891,43 @@ def test_loss_factors_across_specimens_mark_those_of_a_fit_that_did_not_converge
     legend = [t.get_text() for t in ax(fig, "legend").get_legend().get_texts()]
     assert ("nc: not converged (refitted at the optimiser's\nlast point, not at identified "
             "constants)") in legend
+
+
+def test_a_wide_summary_draws_the_profiles_of_its_result_files(tmp_path):
+    """A --wide summary.csv has no profile columns: hybrid CM's glass G12 (on its lower
+    limit, rejected above 18.5 GPa) and E2 (on its upper limit, flat down to 0.9 GPa) were
+    bare triangles where the long summary draws their profiles dotted, to a cap and to an
+    arrow head. Where the result file is found its profile is drawn, as from the long one;
+    without it, none."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from laminid_cli.batch import read_summary, write_summary_csv
+    from laminid_cli.report import constants_across_page
+    from tests.test_report import _summary_rows
+
+    h = _summary_rows()[0]
+    h["materials"]["glass"]["E2"] = 55.5e9
+    h["intervals"]["glass"]["E2"]["bound_limit"] = 55.5e9
+    write_summary_csv(tmp_path / "wide.csv", [h], wide=True)
+    (row,) = read_summary(tmp_path / "wide.csv")
+    assert "profile" not in row["intervals"]["glass"]["G12"]           # no such column
+    ivs = {"G12": SimpleNamespace(profile_kind="bound", profile_bound=18.5e9,
+                                  profile_far=np.nan),
+           "E2": SimpleNamespace(profile_kind="flat", profile_bound=np.nan,
+                                 profile_far=0.9e9)}
+    r = SimpleNamespace(reference={}, status=None, uncertainty=SimpleNamespace(
+        get=lambda m, k: ivs.get(k) if m == "glass" else None))
+    fig = constants_across_page([(row, row["materials"], r)], "t")
+    for k, gid, marker, far in (("G12", "profile-cap-H-glass", "_", 18.5),
+                                ("E2", "profile-end-H-glass", "v", 0.9)):
+        a = ax(fig, f"across-{k}")
+        line = next(ln for ln in a.get_lines() if ln.get_gid() == "profile")
+        v = row["materials"]["glass"][k] / 1e9
+        assert sorted(line.get_ydata()) == pytest.approx(sorted([v, far]), rel=1e-12)
+        end = next(ln for ln in a.get_lines() if ln.get_gid() == gid)
+        assert end.get_marker() == marker and end.get_ydata()[0] == pytest.approx(far)
+    fig = constants_across_page([(row, row["materials"], None)], "t")        # no result file
+    assert not [ln for a in fig.axes for ln in a.get_lines()
+                if (ln.get_gid() or "").startswith("profile")]
