@@ -16,7 +16,8 @@ def test_damped_copy_text_of_every_shipped_specimen_reads_with_its_damping(src, 
     """The damping lines were inserted right after the line of 'frequencies:', inside
     hybrid-cm.yaml's list continued over three lines (a YAML error; the file was repaired by
     hand). Every shipped specimen's copy reads, its frequencies as before, with the damping
-    and sigmas written (to 1e-12; none where no mode was found), and a model's frequencies put in place of the list."""
+    and sigmas written (to 1e-12; none where no mode was found), and a model's frequencies
+    put in place of the list."""
     spec = read_specimen(src, log_warnings=False)
     f = spec.measured.freq
     n = f.size
