@@ -2839,18 +2839,21 @@ def _prior_mark(ax, xi, v, color, tag) -> None:
 
 
 def _clipped_bar(ax, k, xi, lo, hi, ymin, ymax, color, *, lw, gid, marks=(False, False),
-                 arrow=True, ls="-"):
+                 arrow=True, ls="-", pale=False):
     """A vertical bar lo..hi (display unit) clipped to the panel, with an arrow where it runs
-    off and a "*" at an end set on a search limit (``marks``: lower, upper)."""
+    off and a "*" at an end set on a search limit (``marks``: lower, upper). ``pale``: the bar
+    and its arrows in :func:`mc_tint` of ``color`` (a Monte Carlo range), the "*" in
+    ``color`` itself (pale, it was hard to make out)."""
     a, b = max(lo, ymin) if np.isfinite(lo) else ymin, min(hi, ymax) if np.isfinite(hi) else ymax
     if a > b:
         return
-    ax.plot([xi, xi], [a, b], ls=ls, color=color, lw=lw, alpha=0.85, gid=gid,
+    bar = mc_tint(color) if pale else color
+    ax.plot([xi, xi], [a, b], ls=ls, color=bar, lw=lw, alpha=0.85, gid=gid,
             solid_capstyle="butt")
     for end, edge, up in ((hi, ymax, True), (lo, ymin, False)):
         if arrow and (not np.isfinite(end) or (end > ymax if up else end < ymin)):
             ax.annotate("", (xi, edge), xytext=(xi, _inward(ax, edge, 0.07, ymin, ymax, up)),
-                        arrowprops=dict(arrowstyle="-|>", color=color, lw=1))
+                        arrowprops=dict(arrowstyle="-|>", color=bar, lw=1))
     for end, mark, up in ((lo, marks[0], False), (hi, marks[1], True)):
         if mark:
             y = min(max(end, ymin), ymax)
@@ -2926,7 +2929,7 @@ def constants_across_page(done, title: str, absent=()):
                     marks = (d.mc_lower_at_limit, d.mc_upper_at_limit)
                     has_mc_limit |= any(marks)
                     bars.append((xi + 0.55 * width, _gpa(k, d.mc_lower), _gpa(k, d.mc_upper),
-                                 mc_tint(color), 2.2, f"monte-carlo-{name}-{m}", marks, "-"))
+                                 color, 2.2, f"monte-carlo-{name}-{m}", marks, "-"))
                 if d is not None and d.at_bound and d.profile in ("bound", "flat"):
                     # the values the fit does not reject: from the limit to the profile's
                     # bound, or (flat) to the other end of its scan (an arrow where that is
@@ -2977,7 +2980,7 @@ def constants_across_page(done, title: str, absent=()):
             ax.set_ylim(ymin, ymax)
             for xi, blo, bhi, color, lw, gid, marks, ls in bars:
                 _clipped_bar(ax, k, xi, blo, bhi, ymin, ymax, color, lw=lw, gid=gid,
-                             marks=marks, ls=ls)
+                             marks=marks, ls=ls, pale=gid.startswith("monte-carlo"))
             for xi, v, far, kind, color, tag in profile_ends:
                 # the profile's end in view as on the intervals page: a cap where the fit
                 # rejects beyond (a bound), an arrow head at the end of a flat profile's scan

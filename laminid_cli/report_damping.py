@@ -646,8 +646,8 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                     # damping page mark it (the bound's end, not the data's)
                     limits = (bool(e.get("mc_lower_at_limit")), bool(e.get("mc_upper_at_limit")))
                     has_mc_limit = has_mc_limit or any(limits)
-                    bars.append((xi + 0.55 * width, mlo, mhi, mc_tint(color),
-                                 f"monte-carlo-{tag}", limits, "-"))
+                    bars.append((xi + 0.55 * width, mlo, mhi, color, f"monte-carlo-{tag}",
+                                 limits, "-"))
                     loose.append(mhi)
                 at_bound = bool(e.get("at_bound")) or verdict.startswith("at bound")
                 if "not_converged" in _row_check(row, None):
@@ -710,7 +710,7 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
         for xi, lo, hi, color, gid, limits, ls in bars:
             _clipped_bar(ax, name, xi, lo, hi, 0.0, ymax, color,
                          lw=2.2 if gid.startswith("monte-carlo") else 1.2, gid=gid,
-                         marks=limits, ls=ls)
+                         marks=limits, ls=ls, pale=gid.startswith("monte-carlo"))
         style_across_panel(ax, f"\u03b7{k} (%)", ticks)
         ax.set_ylabel("loss factor (%)", fontsize=8)
     handles = {m: Line2D([], [], ls="none", marker="o", ms=6, color=f"C{c % 10}")

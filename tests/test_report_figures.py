@@ -1931,3 +1931,32 @@ def test_a_wide_summary_draws_the_profiles_of_its_result_files(tmp_path):
     fig = constants_across_page([(row, row["materials"], None)], "t")        # no result file
     assert not [ln for a in fig.axes for ln in a.get_lines()
                 if (ln.get_gid() or "").startswith("profile")]
+
+
+def test_a_monte_carlo_ends_star_across_specimens_is_in_its_materials_full_colour(tmp_path):
+    """The "*" on a Monte Carlo end set by trials on a search limit took its bar's pale tint
+    (hybrid CM's carbon nu12, 6x6, 10 trials: a light orange star hard to make out); it is in
+    its material's own colour, the bar pale."""
+    from matplotlib.colors import to_rgb
+
+    from laminid_cli.batch import write_summary_csv
+    from laminid_cli.report import mc_tint
+    from tests.test_report import _summary_rows
+
+    h, q = _summary_rows()
+    free = {"at_bound": False, "bound_side": "", "bound_limit": None}
+    h["damping"] = {"carbon": {"eta13": {"value": 0.0077, "lower": 0.0, "upper": 0.017,
+                                         "verdict": "weak", "mc_lower": 0.0,
+                                         "mc_upper": 0.0102, "mc_lower_at_limit": True,
+                                         "mc_upper_at_limit": False} | free}}
+    path = tmp_path / "summary.csv"
+    write_summary_csv(path, [h, q])
+    pages = {p.name: p.figure for p in report_pages(path)}
+    for page, panel in (("constants", "across-G12"), ("loss-factors", "across-eta13")):
+        a = ax(pages[page], panel)
+        dot = next(ln for ln in a.get_lines() if ln.get_gid() == "value-H-carbon")
+        bar = next(ln for ln in a.get_lines() if ln.get_gid() == "monte-carlo-H-carbon")
+        (star,) = [t for t in a.texts if t.get_gid() == "monte-carlo-H-carbon-search-limit"]
+        assert star.get_text() == "*"
+        assert to_rgb(star.get_color()) == to_rgb(dot.get_color())
+        assert to_rgb(bar.get_color()) == pytest.approx(mc_tint(dot.get_color()), abs=1e-12)
