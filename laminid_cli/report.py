@@ -2634,8 +2634,18 @@ def doubt_of_row(row, m: str, k: str, r: ResultFile | None = None) -> Doubt | No
     """The :class:`Doubt` of constant ``k`` of material ``m`` from the summary row's own
     columns (summary.json, long summary.csv, a wide one's interval and verdict columns, which
     do not say the side of a bound); from the result file ``r`` only when the row has none (a
-    wide summary.csv written before those columns); None when neither says anything."""
+    wide summary.csv written before those columns), and the profile of a constant at a bound,
+    which a wide one has no columns for; None when neither says anything."""
     e = (row.get("intervals") or {}).get(m, {}).get(k)
+    if e is not None and "profile" not in e and e.get("at_bound") and r is not None \
+            and r.uncertainty is not None and r.uncertainty.get(m, k) is not None:
+        # a wide summary.csv has no profile columns: its result file's profile where found
+        # (hybrid CM's glass G12, rejected above 18.5 GPa, and E2, flat to 0.9 GPa, were bare
+        # triangles beside the long summary's dotted profiles)
+        iv = r.uncertainty.get(m, k)
+        e = dict(e, profile=iv.profile_kind,
+                 profile_bound=iv.profile_bound if np.isfinite(iv.profile_bound) else None,
+                 profile_far=iv.profile_far if np.isfinite(iv.profile_far) else None)
     if e is not None:
         verdict = str(e.get("verdict") or "")
         profile = profile_kind(e.get("profile_bound"), "") or str(e.get("profile") or "")
@@ -2734,6 +2744,18 @@ def material_labels(r: ResultFile) -> tuple[dict[str, str], str | None]:
 
 
 MC_COLOR = "0.62"
+
+
+def mc_tint(color) -> tuple:
+    """A Monte Carlo bar's colour on the pages across specimens: its material's ``color``
+    half-way to white. Grey, the bars of two materials of one specimen side by side (hybrid
+    CM's glass and carbon) could be pinned on either: the glass bar, right of the glass dot,
+    stands next to the carbon dot."""
+    from matplotlib.colors import to_rgb
+
+    return tuple(0.5 * c + 0.5 for c in to_rgb(color))
+
+
 #: the least span of a linear panel across specimens, as a fraction of its largest value: the
 #: width of the verdicts' "well determined" band (a 95 % half-width of 5 %, either way), so
 #: that differences well inside it are not drawn as if they were apart
@@ -2817,18 +2839,21 @@ def _prior_mark(ax, xi, v, color, tag) -> None:
 
 
 def _clipped_bar(ax, k, xi, lo, hi, ymin, ymax, color, *, lw, gid, marks=(False, False),
-                 arrow=True, ls="-"):
+                 arrow=True, ls="-", pale=False):
     """A vertical bar lo..hi (display unit) clipped to the panel, with an arrow where it runs
-    off and a "*" at an end set on a search limit (``marks``: lower, upper)."""
+    off and a "*" at an end set on a search limit (``marks``: lower, upper). ``pale``: the bar
+    and its arrows in :func:`mc_tint` of ``color`` (a Monte Carlo range), the "*" in
+    ``color`` itself (pale, it was hard to make out)."""
     a, b = max(lo, ymin) if np.isfinite(lo) else ymin, min(hi, ymax) if np.isfinite(hi) else ymax
     if a > b:
         return
-    ax.plot([xi, xi], [a, b], ls=ls, color=color, lw=lw, alpha=0.85, gid=gid,
+    bar = mc_tint(color) if pale else color
+    ax.plot([xi, xi], [a, b], ls=ls, color=bar, lw=lw, alpha=0.85, gid=gid,
             solid_capstyle="butt")
     for end, edge, up in ((hi, ymax, True), (lo, ymin, False)):
         if arrow and (not np.isfinite(end) or (end > ymax if up else end < ymin)):
             ax.annotate("", (xi, edge), xytext=(xi, _inward(ax, edge, 0.07, ymin, ymax, up)),
-                        arrowprops=dict(arrowstyle="-|>", color=color, lw=1))
+                        arrowprops=dict(arrowstyle="-|>", color=bar, lw=1))
     for end, mark, up in ((lo, marks[0], False), (hi, marks[1], True)):
         if mark:
             y = min(max(end, ymin), ymax)
@@ -2850,7 +2875,8 @@ def constants_across_page(done, title: str, absent=()):
     """One panel per constant: each specimen on the x axis, the materials of one specimen side
     by side, each with the doubt the summary gives it: interval bar, hollow "?" when not
     determined, a triangle when it stopped on a search limit (no interval), a grey square when
-    fixed, the Monte Carlo range in grey beside the interval; reference values from the result
+    fixed, the Monte Carlo range beside the interval, a pale bar of the material's colour
+    (:func:`mc_tint`); reference values from the result
     files where found. ``absent``: the summary's specimens without a result ("name (status)"),
     named in the notes."""
     from matplotlib.legend_handler import HandlerTuple
@@ -2870,10 +2896,10 @@ def constants_across_page(done, title: str, absent=()):
     offsets = {m: (c - (nm - 1) / 2) * width for c, m in enumerate(materials)}
     kinds: set[str] = set()
     has_mc = has_mc_limit = has_ref = has_ref_range = has_profile = has_interval = False
-    has_nc = False
+    has_nc = has_flat = has_bounded = False
     for ax, k in zip(axes, CONSTANTS):
         ax.set_gid(f"across-{k}")
-        vals, ends, bars = [], [], []
+        vals, ends, bars, profile_ends = [], [], [], []
         for c, m in enumerate(materials):
             color = f"C{c % 10}"
             for i, (name, (row, mats, r)) in enumerate(zip(names, done)):
@@ -2903,7 +2929,7 @@ def constants_across_page(done, title: str, absent=()):
                     marks = (d.mc_lower_at_limit, d.mc_upper_at_limit)
                     has_mc_limit |= any(marks)
                     bars.append((xi + 0.55 * width, _gpa(k, d.mc_lower), _gpa(k, d.mc_upper),
-                                 MC_COLOR, 2.2, "monte-carlo", marks, "-"))
+                                 color, 2.2, f"monte-carlo-{name}-{m}", marks, "-"))
                 if d is not None and d.at_bound and d.profile in ("bound", "flat"):
                     # the values the fit does not reject: from the limit to the profile's
                     # bound, or (flat) to the other end of its scan (an arrow where that is
@@ -2916,6 +2942,7 @@ def constants_across_page(done, title: str, absent=()):
                         ends.append(far)
                     bars.append((xi, min(v, far), max(v, far), color, 1.6, "profile",
                                  (False, False), (0, (1, 1.5))))
+                    profile_ends.append((xi, v, far, d.profile, color, f"{name}-{m}"))
                 ref = r.reference.get(m, {}).get(k) if r is not None else None
                 if ref is not None and ref[0] == ref[1]:
                     has_ref = True
@@ -2953,7 +2980,23 @@ def constants_across_page(done, title: str, absent=()):
             ax.set_ylim(ymin, ymax)
             for xi, blo, bhi, color, lw, gid, marks, ls in bars:
                 _clipped_bar(ax, k, xi, blo, bhi, ymin, ymax, color, lw=lw, gid=gid,
-                             marks=marks, ls=ls)
+                             marks=marks, ls=ls, pale=gid.startswith("monte-carlo"))
+            for xi, v, far, kind, color, tag in profile_ends:
+                # the profile's end in view as on the intervals page: a cap where the fit
+                # rejects beyond (a bound), an arrow head at the end of a flat profile's scan
+                # (not rejected there, not tried beyond); drawn alike, hybrid CM's glass E2
+                # (flat to 0.9 GPa) read as bounded as its G12 (< 18.5 GPa). Off the panel:
+                # the bar's arrow at the edge
+                if not ymin <= far <= ymax:
+                    continue
+                if kind == "bound":
+                    has_bounded = True
+                    ax.plot([xi], [far], "_", ms=9, mew=1.6, color=color, zorder=5,
+                            gid=f"profile-cap-{tag}")
+                else:
+                    has_flat = True
+                    ax.plot([xi], [far], "^" if far > v else "v", ms=5, color=color,
+                            zorder=5, clip_on=False, gid=f"profile-end-{tag}")
         style_across_panel(ax, f"{k} ({_unit(k)}{', log scale' if log else ''})", ticks)
         if log:
             log_axis_ticks(ax)
@@ -2994,15 +3037,23 @@ def constants_across_page(done, title: str, absent=()):
             h, text = marks[kind]
             handles[text] = h
     if has_mc:
-        handles["Monte Carlo range" + (" (*: end set by trials on a search limit)"
-                                       if has_mc_limit else "")] = Line2D([], [], color=MC_COLOR,
-                                                                          lw=2.2)
+        # (the pale bar of each material's colour, as drawn)
+        handles["Monte Carlo range: pale bar of the material's colour, right of its value"
+                + (" (*: end set by trials on a search limit)" if has_mc_limit else "")] = \
+            tuple(Line2D([], [], color=mc_tint(f"C{c % 10}"), lw=2.2)
+                  for c in range(len(materials)))
     if has_nc:
         handles[f"{NOT_CONVERGED_MARK}: not converged (the optimiser's last point, not an "
                 "identification)"] = Line2D([], [], ls="none", ms=10, color=grey,
                                             marker=rf"$\mathrm{{{NOT_CONVERGED_MARK}}}$")
     if has_profile:
-        handles["values the fit does not reject (profile of a constant on a search limit)"] = \
+        # what its ends say, as on the intervals page (dotted alone: a cap or an arrow head
+        # hid the dots at a handle's length)
+        handles["values the fit does not reject (profile of a constant on a search limit)"
+                + (";\ncap: it rejects beyond; arrow head: the end of its scan, not tried "
+                   "beyond" if has_bounded and has_flat else
+                   ";\narrow head: the end of its scan, not tried beyond" if has_flat else
+                   ";\ncap: it rejects beyond" if has_bounded else "")] = \
             Line2D([], [], ls=(0, (1, 1.5)), color=grey, lw=1.6)
     if has_ref:
         handles["reference value " + REFERENCE_POINT_WORDS.removeprefix("reference ")] = \

@@ -593,13 +593,15 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
     it, in the marks of the constants' page: interval bar, hollow "?" when not determined by
     the damping, a hollow triangle at 0 without a bar when held at 0 by eta >= 0 (no
     interval: :func:`loss_factor_rows`), a grey square when fixed (--fix); with a Monte Carlo
-    (each trial refitted the loss factors at its own constants) its range in grey beside the
-    interval."""
+    (each trial refitted the loss factors at its own constants) its range beside the
+    interval, a pale bar of the material's colour."""
+    from matplotlib.legend_handler import HandlerTuple
     from matplotlib.lines import Line2D
 
     from laminid_cli.damping import LEANS_WORDS, TERMS, leans_on
-    from laminid_cli.report import (FIXED_COLOR, MC_COLOR, _clipped_bar, _figure, _footer,
-                                    axis_names, specimen_labels, style_across_panel)
+    from laminid_cli.report import (FIXED_COLOR, NOT_CONVERGED_MARK, _clipped_bar, _figure,
+                                    _footer, _row_check, axis_names, mc_tint, specimen_labels,
+                                    style_across_panel)
 
     rows = [row for row in rows if row.get("damping")]
     names = specimen_labels(rows)
@@ -618,7 +620,7 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
     kinds: set[str] = set()
     #: {(specimen, the constants it leans on): [its loss factors whose interval is too narrow]}
     leaning: dict[tuple[str, str], list[str]] = {}
-    has_mc = has_mc_limit = False
+    has_mc = has_mc_limit = has_nc = False
     on_top = dict(zorder=6, clip_on=False)
     for ax, k in zip(axes, TERMS):
         name = f"eta{k}"
@@ -644,16 +646,27 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
                     # damping page mark it (the bound's end, not the data's)
                     limits = (bool(e.get("mc_lower_at_limit")), bool(e.get("mc_upper_at_limit")))
                     has_mc_limit = has_mc_limit or any(limits)
-                    bars.append((xi + 0.55 * width, mlo, mhi, MC_COLOR, f"monte-carlo-{tag}",
+                    bars.append((xi + 0.55 * width, mlo, mhi, color, f"monte-carlo-{tag}",
                                  limits, "-"))
                     loose.append(mhi)
+                at_bound = bool(e.get("at_bound")) or verdict.startswith("at bound")
+                if "not_converged" in _row_check(row, None):
+                    # refitted at the optimiser's last point, not at identified constants: as
+                    # on the constants' page (S1.1 and S1.4 stopped by --max-evaluations 8,
+                    # their loss factors drawn as any others)
+                    has_nc = True
+                    ax.annotate(NOT_CONVERGED_MARK, (xi, 0.0 if at_bound else v),
+                                xytext=(4, -10 if v > 0 and not at_bound else 3),
+                                textcoords="offset points", fontsize=7, color=color,
+                                weight="bold", annotation_clip=False,
+                                gid=f"not-converged-{tag}")
                 if verdict == "fixed":
                     ax.plot([xi], [v], "s", ms=6, color=FIXED_COLOR, mfc="w", mew=1.3,
                             gid=f"fixed-{tag}", **on_top)
                     kinds.add("fixed")
                     vals.append(v)
                     continue
-                if bool(e.get("at_bound")) or verdict.startswith("at bound"):
+                if at_bound:
                     ax.plot([xi], [0.0], "v", ms=7, color=color, mfc="w", mew=1.3,
                             gid=f"at-bound-{tag}", **on_top)
                     kinds.add("at bound")
@@ -696,7 +709,8 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
         ax.set_ylim(0.0, ymax)
         for xi, lo, hi, color, gid, limits, ls in bars:
             _clipped_bar(ax, name, xi, lo, hi, 0.0, ymax, color,
-                         lw=2.2 if color == MC_COLOR else 1.2, gid=gid, marks=limits, ls=ls)
+                         lw=2.2 if gid.startswith("monte-carlo") else 1.2, gid=gid,
+                         marks=limits, ls=ls, pale=gid.startswith("monte-carlo"))
         style_across_panel(ax, f"\u03b7{k} (%)", ticks)
         ax.set_ylabel("loss factor (%)", fontsize=8)
     handles = {m: Line2D([], [], ls="none", marker="o", ms=6, color=f"C{c % 10}")
@@ -720,13 +734,23 @@ def loss_factors_across_page(rows, title: str, confidence: float | None = None):
             h, text = marks[kind]
             handles[text] = h
     if has_mc:
-        handles["Monte Carlo range (each trial refits\nthe loss factors at its own constants)"
+        # (the pale bar of each material's colour, as drawn)
+        handles["Monte Carlo range (each trial refits\nthe loss factors at its own constants):"
+                "\npale bar of the material's colour, right of its value"
                 + ("\n*: end set by refits held at 0 (\u03b7 \u2265 0),\nnot by the data"
-                   if has_mc_limit else "")] = Line2D([], [], color=MC_COLOR, lw=2.2)
+                   if has_mc_limit else "")] = tuple(
+                       Line2D([], [], color=mc_tint(f"C{c % 10}"), lw=2.2)
+                       for c in range(len(materials)))
+    if has_nc:
+        handles[f"{NOT_CONVERGED_MARK}: not converged (refitted at the optimiser's\nlast "
+                "point, not at identified constants)"] = Line2D(
+                    [], [], ls="none", ms=10, color=grey,
+                    marker=rf"$\mathrm{{{NOT_CONVERGED_MARK}}}$")
     ax_leg = fig.add_subplot(gs[1, 2])             # the sixth cell: clear of the panels
     ax_leg.axis("off")
     ax_leg.set_gid("legend")
     ax_leg.legend(list(handles.values()), list(handles), loc="center", fontsize=8,
+                  handler_map={tuple: HandlerTuple(ndivide=None)},
                   title=f"colour: material; bars: {_confidence_words(confidence)}confidence "
                         "interval\nof the summary (arrow: runs off the panel)",
                   title_fontsize=8, frameon=False)

@@ -793,8 +793,11 @@ def test_report_of_a_batch_summary(batch_dir, tmp_path, monkeypatch):
         legend = [t.get_text() for t in pages["constants"].legends[0].get_texts()] if \
             pages["constants"].legends else [t.get_text() for a in pages["constants"].axes
                                             if a.get_legend() for t in a.get_legend().get_texts()]
-        assert "values the fit does not reject (profile of a constant on a search limit)" \
-            in legend
+        assert "values the fit does not reject (profile of a constant on a search limit);" \
+            "\ncap: it rejects beyond" in legend
+        (cap,) = [ln for ln in g.get_lines() if ln.get_gid() == "profile-cap-S2.1-E-glass/R368"]
+        assert cap.get_marker() == "_"                   # where the fit rejects beyond
+        assert cap.get_ydata()[0] == pytest.approx(s21.profile_bound / 1e9, rel=1e-12)
 
 
 def test_summary_puts_the_materials_of_one_specimen_side_by_side(tmp_path):
@@ -1652,17 +1655,18 @@ def test_summary_pages_take_the_doubt_from_the_summary_itself(tmp_path, kind):
     v = _line(a, "value-H-carbon")
     assert v.get_markerfacecolor() == v.get_color()                        # filled
     lo, hi = a.get_ylim()
-    mc = [ln for ln in a.get_lines() if ln.get_gid() == "monte-carlo"]
-    assert len(mc) == 1
+    mc = [ln for ln in a.get_lines() if (ln.get_gid() or "").startswith("monte-carlo")]
+    assert [ln.get_gid() for ln in mc] == ["monte-carlo-H-carbon"]
     assert np.allclose(mc[0].get_ydata(), [max(0.01025, lo), 4.894], rtol=1e-12)
-    star = next(t for t in a.texts if t.get_gid() == "monte-carlo-search-limit")
+    star = next(t for t in a.texts if t.get_gid() == "monte-carlo-H-carbon-search-limit")
     assert star.get_text() == "*" and star.xy[1] == pytest.approx(max(0.01025, lo))
     legend = [t.get_text() for a in fig.axes if a.get_legend() is not None
               for t in a.get_legend().get_texts()]
     for text in ("?: not determined (interval too wide)",
                  "stopped on a lower / upper search limit: not identified, no interval",
                  "fixed at its initial value: not identified",
-                 "Monte Carlo range (*: end set by trials on a search limit)"):
+                 "Monte Carlo range: pale bar of the material's colour, right of its value "
+                 "(*: end set by trials on a search limit)"):
         assert text in legend
     footer = " ".join(t.get_text() for t in fig.texts).replace("\n", " ")
     assert "result file not found (no reference values): H, Q" in footer
@@ -1983,7 +1987,7 @@ def test_summary_loss_factor_page_draws_their_monte_carlo_range(tmp_path, kind):
     legend saying what it means; it had none past the result file."""
     from laminid_cli.batch import read_summary
     from laminid_cli.damping import VERDICT_NOT_DAMPING
-    from laminid_cli.report import MC_COLOR
+    from laminid_cli.report import mc_tint
 
     rows = _summary_rows()
     free = {"at_bound": False, "bound_side": "", "bound_limit": None}
@@ -2010,7 +2014,8 @@ def test_summary_loss_factor_page_draws_their_monte_carlo_range(tmp_path, kind):
     fig = {p.name: p.figure for p in report_pages(path)}["loss-factors"]
     a = ax(fig, "across-eta11")
     mc = _line(a, "monte-carlo-H-glass")
-    assert np.allclose(mc.get_ydata(), [0.12, 0.31], rtol=1e-12) and mc.get_color() == MC_COLOR
+    assert np.allclose(mc.get_ydata(), [0.12, 0.31], rtol=1e-12)
+    assert mc.get_color() == mc_tint(_line(a, "value-H-glass").get_color())   # glass's, pale
     assert mc.get_xdata()[0] > _line(a, "interval-H-glass").get_xdata()[0]
     assert not [t for t in a.texts if t.get_gid() == "monte-carlo-H-glass-search-limit"]
     a = ax(fig, "across-eta13")

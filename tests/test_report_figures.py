@@ -444,7 +444,7 @@ def test_constants_across_specimens_legend_inside_the_page(tmp_path):
     legend = next(a.get_legend() for a in fig.axes if a.get_legend() is not None)
     texts = [t.get_text() for t in legend.get_texts()]
     assert len(texts) >= 5 and "values the fit does not reject (profile of a constant on a " \
-        "search limit)" in texts
+        "search limit);\narrow head: the end of its scan, not tried beyond" in texts
     box = legend.get_window_extent(renderer)
     assert 0 <= box.x0 and box.x1 <= fig.bbox.width
     panels = [a.get_window_extent(renderer) for a in fig.axes
@@ -1758,3 +1758,205 @@ def test_constants_across_specimens_mark_the_values_of_a_fit_that_did_not_conver
     legend = next(a.get_legend() for a in fig.axes if a.get_legend() is not None)
     assert ("nc: not converged (the optimiser's last point, not an identification)"
             in [t.get_text() for t in legend.get_texts()])
+
+
+def test_monte_carlo_bars_across_specimens_have_their_materials_colour(tmp_path):
+    """The Monte Carlo bars of two materials of one specimen (hybrid CM's glass and carbon)
+    stand side by side; grey, either could be pinned on either material (the glass bar, right
+    of the glass dot, stands next to the carbon dot). Each is its material's colour, pale
+    (mc_tint: half-way to white), on the constants' and the loss factors' pages, and the
+    legend's key shows each material's pale bar."""
+    from matplotlib.colors import to_rgb
+
+    from laminid_cli.batch import write_summary_csv
+    from laminid_cli.report import mc_tint
+    from tests.test_report import _summary_rows
+
+    h, q = _summary_rows()
+    for m in ("glass", "carbon"):
+        h["intervals"][m]["E1"] |= {"mc_lower": 0.9 * h["materials"][m]["E1"],
+                                    "mc_upper": 1.1 * h["materials"][m]["E1"],
+                                    "mc_lower_at_limit": False, "mc_upper_at_limit": False}
+    h["damping"] = {m: {"eta11": {"value": e, "lower": 0.9 * e, "upper": 1.1 * e,
+                                  "verdict": "well determined", "at_bound": False,
+                                  "bound_side": "", "bound_limit": None, "mc_lower": 0.8 * e,
+                                  "mc_upper": 1.2 * e, "mc_lower_at_limit": False,
+                                  "mc_upper_at_limit": False}}
+                    for m, e in (("glass", 0.002), ("carbon", 0.004))}
+    path = tmp_path / "summary.csv"
+    write_summary_csv(path, [h, q])
+    pages = {p.name: p.figure for p in report_pages(path)}
+    for page, panel in (("constants", "across-E1"), ("loss-factors", "across-eta11")):
+        a = ax(pages[page], panel)
+        for m in ("glass", "carbon"):
+            dot = next(ln for ln in a.get_lines() if ln.get_gid() == f"value-H-{m}")
+            bar = next(ln for ln in a.get_lines() if ln.get_gid() == f"monte-carlo-H-{m}")
+            assert to_rgb(bar.get_color()) == pytest.approx(mc_tint(dot.get_color()), abs=1e-12)
+            assert bar.get_xdata()[0] > dot.get_xdata()[0]          # right of its own value
+        colours = {to_rgb(ln.get_color()) for ln in a.get_lines()
+                   if (ln.get_gid() or "").startswith("monte-carlo")}
+        assert len(colours) == 2 and to_rgb("0.62") not in colours  # none grey, two apart
+        legend = next(x.get_legend() for x in pages[page].axes if x.get_legend() is not None)
+        from matplotlib.lines import Line2D
+
+        keys = {to_rgb(ln.get_color()) for ln in legend.findobj(Line2D)}
+        assert colours <= keys                   # each material's pale bar in the key
+        assert "pale bar of the material's colour" in next(
+            t.get_text() for t in legend.get_texts() if t.get_text().startswith("Monte Carlo"))
+
+
+def test_constants_across_specimens_tell_a_bounded_profile_from_a_flat_one():
+    """A profile bounded where the fit rejects (hybrid CM's glass G12 on its lower limit,
+    rejected above 18.5 GPa) and a flat one, not rejected up to the end of its scan (glass E2
+    on its upper limit, flat down to 0.9 GPa; carbon nu12 0.95 flat to 0) were the same
+    dotted bar ending bare. As on the intervals page: a cap at the bound, an arrow head at
+    the end of the flat one's scan pointing away from the value, and the legend says which
+    is which."""
+    from laminid_cli.report import constants_across_page
+
+    at = dict(verdict="at bound — not identified", at_bound=True)
+    mats = {"glass": {"E1": 58e9, "E2": 55.5e9, "G12": 5.9e6, "G13": 3e9, "G23": 3e9,
+                      "nu12": 0.3},
+            "carbon": {"E1": 87e9, "E2": 8e9, "G12": 4.8e9, "G13": 3e9, "G23": 3e9,
+                       "nu12": 0.95}}
+    row = {"name": "H", "status": "check", "intervals": {
+        "glass": {"E2": dict(at, bound_side="upper", bound_limit=55.5e9, profile="flat",
+                             profile_bound=None, profile_far=0.9e9),
+                  "G12": dict(at, bound_side="lower", bound_limit=5.9e6, profile="bound",
+                              profile_bound=18.5e9, profile_far=None)},
+        "carbon": {"nu12": dict(at, bound_side="upper", bound_limit=0.95, profile="flat",
+                                profile_bound=None, profile_far=0.0)}}}
+    fig = constants_across_page([(row, mats, None)], "t")
+    for panel, tag, marker, y in (("across-G12", "profile-cap-H-glass", "_", 18.5),
+                                  ("across-E2", "profile-end-H-glass", "v", 0.9),
+                                  ("across-nu12", "profile-end-H-carbon", "v", 0.0)):
+        a = ax(fig, panel)
+        ends = [ln for ln in a.get_lines() if (ln.get_gid() or "").startswith("profile-")]
+        assert [ln.get_gid() for ln in ends] == [tag]
+        assert ends[0].get_marker() == marker
+        assert ends[0].get_ydata()[0] == pytest.approx(y, rel=1e-12)
+        lo, hi = a.get_ylim()
+        assert lo <= y <= hi                                     # in view, not off the panel
+        bar = next(ln for ln in a.get_lines() if ln.get_gid() == "profile")
+        assert ends[0].get_color() == bar.get_color()            # its material's
+    legend = next(a.get_legend() for a in fig.axes if a.get_legend() is not None)
+    assert ("values the fit does not reject (profile of a constant on a search limit);\n"
+            "cap: it rejects beyond; arrow head: the end of its scan, not tried beyond"
+            in [t.get_text() for t in legend.get_texts()])
+    # a page of flat profiles only: the arrow head alone in the legend, no cap drawn
+    only = {"name": "H", "status": "check",
+            "intervals": {"carbon": row["intervals"]["carbon"]}}
+    fig = constants_across_page([(only, {"carbon": mats["carbon"]}, None)], "t")
+    legend = next(a.get_legend() for a in fig.axes if a.get_legend() is not None)
+    assert ("values the fit does not reject (profile of a constant on a search limit);\n"
+            "arrow head: the end of its scan, not tried beyond"
+            in [t.get_text() for t in legend.get_texts()])
+    assert not [ln for a in fig.axes for ln in a.get_lines()
+                if (ln.get_gid() or "").startswith("profile-cap")]
+
+
+def test_loss_factors_across_specimens_mark_those_of_a_fit_that_did_not_converge(tmp_path):
+    """The loss factors of a specimen whose fit did not converge (S1.1 and S1.4 stopped by
+    --max-evaluations 8: refitted at the optimiser's last point) were drawn as any others.
+    Each has "nc" beside it, as on the constants' page (one held at 0: at 0), keyed in the
+    legend; a converged specimen's have none."""
+    from laminid_cli.batch import write_summary_csv
+    from tests.test_report import _summary_rows
+
+    h, q = _summary_rows()
+    free = {"at_bound": False, "bound_side": "", "bound_limit": None}
+    lf = {"eta11": {"value": 0.002, "lower": 0.0018, "upper": 0.0022,
+                    "verdict": "well determined"} | free,
+          "eta22": {"value": 0.0, "lower": None, "upper": None,
+                    "verdict": "at bound — not identified", "at_bound": True,
+                    "bound_side": "lower", "bound_limit": 0.0}}
+    h["damping"] = {"carbon": lf}
+    q = q | {"status": "check", "converged": False, "reason": "not_converged",
+             "reasons": [{"code": "not_converged", "text": "..."}],
+             "damping": {"carbon": {"eta11": dict(lf["eta11"], value=0.003),
+                                    "eta22": lf["eta22"]}}}
+    path = tmp_path / "summary.csv"
+    write_summary_csv(path, [h, q])
+    fig = {p.name: p.figure for p in report_pages(path)}["loss-factors"]
+    marks = {a.get_gid(): [(t.get_gid(), t.get_text(), t.xy[1]) for t in a.texts
+                           if (t.get_gid() or "").startswith("not-converged")]
+             for a in fig.axes}
+    assert marks["across-eta11"] == [("not-converged-Q-carbon", "nc", pytest.approx(0.3))]
+    assert marks["across-eta22"] == [("not-converged-Q-carbon", "nc", 0.0)]   # H's: none
+    dot = next(ln for ln in ax(fig, "across-eta11").get_lines()
+               if ln.get_gid() == "value-Q-carbon")
+    mark = next(t for t in ax(fig, "across-eta11").texts
+                if t.get_gid() == "not-converged-Q-carbon")
+    assert mark.xy[0] == dot.get_xdata()[0] and mark.get_color() == dot.get_color()
+    legend = [t.get_text() for t in ax(fig, "legend").get_legend().get_texts()]
+    assert ("nc: not converged (refitted at the optimiser's\nlast point, not at identified "
+            "constants)") in legend
+
+
+def test_a_wide_summary_draws_the_profiles_of_its_result_files(tmp_path):
+    """A --wide summary.csv has no profile columns: hybrid CM's glass G12 (on its lower
+    limit, rejected above 18.5 GPa) and E2 (on its upper limit, flat down to 0.9 GPa) were
+    bare triangles where the long summary draws their profiles dotted, to a cap and to an
+    arrow head. Where the result file is found its profile is drawn, as from the long one;
+    without it, none."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from laminid_cli.batch import read_summary, write_summary_csv
+    from laminid_cli.report import constants_across_page
+    from tests.test_report import _summary_rows
+
+    h = _summary_rows()[0]
+    h["materials"]["glass"]["E2"] = 55.5e9
+    h["intervals"]["glass"]["E2"]["bound_limit"] = 55.5e9
+    write_summary_csv(tmp_path / "wide.csv", [h], wide=True)
+    (row,) = read_summary(tmp_path / "wide.csv")
+    assert "profile" not in row["intervals"]["glass"]["G12"]           # no such column
+    ivs = {"G12": SimpleNamespace(profile_kind="bound", profile_bound=18.5e9,
+                                  profile_far=np.nan),
+           "E2": SimpleNamespace(profile_kind="flat", profile_bound=np.nan,
+                                 profile_far=0.9e9)}
+    r = SimpleNamespace(reference={}, status=None, uncertainty=SimpleNamespace(
+        get=lambda m, k: ivs.get(k) if m == "glass" else None))
+    fig = constants_across_page([(row, row["materials"], r)], "t")
+    for k, gid, marker, far in (("G12", "profile-cap-H-glass", "_", 18.5),
+                                ("E2", "profile-end-H-glass", "v", 0.9)):
+        a = ax(fig, f"across-{k}")
+        line = next(ln for ln in a.get_lines() if ln.get_gid() == "profile")
+        v = row["materials"]["glass"][k] / 1e9
+        assert sorted(line.get_ydata()) == pytest.approx(sorted([v, far]), rel=1e-12)
+        end = next(ln for ln in a.get_lines() if ln.get_gid() == gid)
+        assert end.get_marker() == marker and end.get_ydata()[0] == pytest.approx(far)
+    fig = constants_across_page([(row, row["materials"], None)], "t")        # no result file
+    assert not [ln for a in fig.axes for ln in a.get_lines()
+                if (ln.get_gid() or "").startswith("profile")]
+
+
+def test_a_monte_carlo_ends_star_across_specimens_is_in_its_materials_full_colour(tmp_path):
+    """The "*" on a Monte Carlo end set by trials on a search limit took its bar's pale tint
+    (hybrid CM's carbon nu12, 6x6, 10 trials: a light orange star hard to make out); it is in
+    its material's own colour, the bar pale."""
+    from matplotlib.colors import to_rgb
+
+    from laminid_cli.batch import write_summary_csv
+    from laminid_cli.report import mc_tint
+    from tests.test_report import _summary_rows
+
+    h, q = _summary_rows()
+    free = {"at_bound": False, "bound_side": "", "bound_limit": None}
+    h["damping"] = {"carbon": {"eta13": {"value": 0.0077, "lower": 0.0, "upper": 0.017,
+                                         "verdict": "weak", "mc_lower": 0.0,
+                                         "mc_upper": 0.0102, "mc_lower_at_limit": True,
+                                         "mc_upper_at_limit": False} | free}}
+    path = tmp_path / "summary.csv"
+    write_summary_csv(path, [h, q])
+    pages = {p.name: p.figure for p in report_pages(path)}
+    for page, panel in (("constants", "across-G12"), ("loss-factors", "across-eta13")):
+        a = ax(pages[page], panel)
+        dot = next(ln for ln in a.get_lines() if ln.get_gid() == "value-H-carbon")
+        bar = next(ln for ln in a.get_lines() if ln.get_gid() == "monte-carlo-H-carbon")
+        (star,) = [t for t in a.texts if t.get_gid() == "monte-carlo-H-carbon-search-limit"]
+        assert star.get_text() == "*"
+        assert to_rgb(star.get_color()) == to_rgb(dot.get_color())
+        assert to_rgb(bar.get_color()) == pytest.approx(mc_tint(dot.get_color()), abs=1e-12)
