@@ -835,6 +835,16 @@ def test_a_terminal_is_told_each_step_of_the_uncertainty():
     assert "G23" in out
 
 
+def test_a_terminal_is_told_the_monte_carlo_trials_done():
+    """The Monte Carlo's bar said its percentage only; it counts the trials ("6/6"), and
+    the steps around it are told on their own lines. S2.1 (6x6), 6 trials."""
+    lines, _ = _identify_on_a_terminal("specimens/example2/S2.1.yaml", "--mesh", "6x6",
+                                       "--monte-carlo", "6", "-j", "1")
+    bars = [ln for ln in lines if "Monte Carlo trials" in ln]
+    assert bars[0].endswith("]  0/6") and bars[-1].endswith("]  6/6"), bars
+    assert lines.index("linearised intervals") < lines.index(bars[0])
+
+
 def test_no_step_is_told_on_a_pipe_or_with_json():
     """The steps' lines are a terminal's only: stderr on a pipe (a log) or --json gets none
     of them (nor the evaluations), as the profiles' count before."""

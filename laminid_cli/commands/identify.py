@@ -180,7 +180,9 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
             bar = None
         if bar is None:
             click.echo("", err=True)
-            bar = click.progressbar(length=total, label="Monte Carlo", file=sys.stderr)
+            # trials k/N beside the percentage (the bar alone said 5 % steps of 20 trials)
+            bar = click.progressbar(length=total, label="Monte Carlo trials", file=sys.stderr,
+                                    show_pos=True)
             bar.__enter__()
             last[0] = 0
         bar.update(done - last[0])          # (a chunk of trials at a time)
