@@ -743,6 +743,12 @@ def test_profiles_in_forked_workers_are_the_ones_made_in_turn(hybrid_cm_6x6):
     # workers (through a pipe) as in turn (the lines of evaluations, told by the clock, aside)
     told = {j: sorted(f for f in fits[j] if ", evaluation" not in f[2]) for j in (1, 2)}
     assert told[2] == told[1]
+    # within a fit on the profile's reduced model: its making (once a profile), its steps
+    for lab in labels:
+        assert sum(x == lab and t.endswith(", building its reduced model")
+                   for x, _, t in told[1]) <= 1
+    assert any(t.endswith(", reduced model, step 2") for _, _, t in told[1])
+    told = {j: [f for f in told[j] if ", " not in f[2]] for j in (1, 2)}      # each fit once
     assert {lab for lab, _, _ in told[1]} == set(labels)
     for lab in labels:
         ns = [n for x, n, _ in told[1] if x == lab]
@@ -827,9 +833,15 @@ def test_a_terminal_is_told_each_step_of_the_uncertainty():
     steps = [ln for ln in lines[first:]
              if not (ln.startswith("run ") and ": evaluation" in ln
                      and not ln.split(": evaluation")[1].strip().startswith("1,"))
-             and not (ln.startswith("profile of ") and "fit 1," not in ln)]
+             and not (ln.startswith("profile of ") and not ln.endswith("fit 1, G23 = 18.5 GPa"))]
     assert steps == FIX_UNDETERMINED_STEPS
-    fits = [ln for ln in lines if ln.startswith("profile of E-glass/R368.G23 (0 of 1 done)")]
+    # the first fit on the profile's reduced model: its making, then its steps
+    assert ("profile of E-glass/R368.G23 (0 of 1 done): fit 1, G23 = 18.5 GPa, building its "
+            "reduced model") in lines
+    assert ("profile of E-glass/R368.G23 (0 of 1 done): fit 1, G23 = 18.5 GPa, reduced model, "
+            "step 1") in lines
+    fits = [ln for ln in lines if ln.startswith("profile of E-glass/R368.G23 (0 of 1 done)")
+            and ", " not in ln.split("done): fit ")[1].split(", ", 1)[1]]
     assert len(fits) >= 3 and fits[1] == ("profile of E-glass/R368.G23 (0 of 1 done): fit 2, "
                                           "G23 = 18.5 GPa from the initial values")
     assert "G23" in out
