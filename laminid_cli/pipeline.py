@@ -183,7 +183,9 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
         mc_progress : ``mc_progress(done, total)`` after each Monte Carlo trial;
         profile_progress : ``profile_progress(done, total, label)`` after each profile of a
         constant on a search limit; stage_progress : ``stage_progress(text)`` before a
-        step that reports no progress of its own (the mesh check's solve on the finer mesh)
+        step that reports no progress of its own (the mesh check's solve on the finer mesh,
+        the linearised intervals, an identification again: evaluation lines follow) and at
+        each fit of a profile (laminid_cli.uncertainty.assess)
     loss_fix_needs_damping : a loss factor in ``options.fix_loss`` for a specimen without
         measured damping is an error (``identify``); False ignores it there (``batch``, where
         one --fix serves specimens with and without damping). Bad names or values are always
@@ -231,7 +233,7 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
     def run(fms, accept=None):
         return assess(list(fms) if joint else fms[0], options.identify, options.uncertainty,
                       joint=joint, progress=progress, mc_progress=mc_progress, accept=accept,
-                      profile_progress=profile_progress)
+                      profile_progress=profile_progress, stage_progress=stage_progress)
 
     a = run(fms, bending_holds)
     notes = []
@@ -240,6 +242,8 @@ def run_identification(specimens, options: RunOptions = RunOptions(), *, progres
         # equations alone are not the plate any more; identified again on the whole plate
         fms = tuple(fm.whole if fm.whole is not None else fm for fm in fms)
         notes.append("; ".join(low) + ": identified on the whole plate's equations")
+        if stage_progress is not None:
+            stage_progress("again on the whole plate's equations")
         a = run(fms)
     result = a.result
     summary = joint_identification_summary(result) if joint else identification_summary(result)

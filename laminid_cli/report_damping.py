@@ -84,13 +84,18 @@ def loss_factor_rows(d: dict) -> list[list[str]]:
     one."""
     from laminid_cli.intervals import width_text
     from laminid_cli.report import short_verdict
+    from laminid_cli.units import number_text
+
+    def pct(x) -> str:
+        return number_text(100 * float(x), ".3f")
 
     rows = []
     mc = d.get("monte_carlo") or {}
     from_mc = set(d.get("verdict_from_monte_carlo") or ())
     for k, lab in enumerate(d["labels"]):
+        # the ends in the value's digits (.3f), as the terminal's and the constants' tables
         interval = (HELD_INTERVAL if d["at_bound"][k]
-                    else f"[{100 * d['lower'][k]:.3g}, {100 * d['upper'][k]:.3g}]")
+                    else f"[{pct(d['lower'][k])}, {pct(d['upper'][k])}]")
         verdict = ("held at 0 by η ≥ 0: not identified" if d["at_bound"][k]
                    else short_verdict(d["verdict"][k]))
         if "lower" in mc and d["at_bound"][k]:
@@ -104,7 +109,7 @@ def loss_factor_rows(d: dict) -> list[list[str]]:
             # the range of the loss factor refitted in each trial at its own constants
             mlo, mhi = np.ravel(mc["lower"])[k], np.ravel(mc["upper"])[k]
             zero = "*" if bool(np.ravel(mc.get("lower_at_zero", [0] * (k + 1)))[k]) else ""
-            interval += f"\nMonte Carlo {100 * mlo:.3g}{zero}–{100 * mhi:.3g}"
+            interval += f"\nMonte Carlo {pct(mlo)}{zero}–{pct(mhi)}"
             if lab in from_mc:
                 value = d["value"][k]
                 rel = 0.5 * (mhi - mlo) / value

@@ -923,6 +923,47 @@ def _read_plies(r: _Reader, top: dict, root: _Y, h: float,
                  for (angle, _, _), m, t in zip(raw, ply_materials, thickness))
 
 
+#: words of a specimen's name, description or comments that say its laminate is unsymmetric
+#: on purpose (no warning of a forgotten 's' then): unsymmetric, asymmetric, non-symmetric,
+#: antisymmetric, (bending-extension) coupled / coupling
+UNSYMMETRIC_WORDS = re.compile(r"un-?sym|asym|non-?sym|anti-?sym|coupl", re.IGNORECASE)
+
+
+def _comments(text: str) -> list[str]:
+    """The YAML comments of ``text`` (a '#' at a line's start or after a blank, to its end;
+    one inside a quoted string is taken too: these are only searched for words)."""
+    return re.findall(r"(?:^|\s)#(.*)$", text, re.MULTILINE)
+
+
+def _mirrored(a: Ply, b: Ply) -> bool:
+    """Whether plies ``a`` and ``b`` are each other's mirror about the mid-plane: the same
+    material and thickness, angles equal modulo 180 degrees."""
+    turn = (a.angle_deg - b.angle_deg) % 180.0
+    return (a.material == b.material and min(turn, 180.0 - turn) < 1e-9
+            and abs(a.thickness - b.thickness) <= 1e-9 * max(a.thickness, b.thickness))
+
+
+def _warn_unsymmetric(r: _Reader, top: dict, plies, words: str) -> None:
+    """A warning (not an error: an unsymmetric laminate is a laminate, modelled whole, its
+    bending and extension coupled) where the plies are not symmetric about the mid-plane and
+    the specimen's name, description and comments (``words``) do not say so on purpose
+    (:data:`UNSYMMETRIC_WORDS`): a code whose 's' was forgotten, "[45_3/0_3/-45_3/90_3]" for
+    "[45_3/0_3/-45_3/90_3]s", gave 12 plies sharing h, twice as thick each, silently."""
+    n = len(plies)
+    if all(_mirrored(plies[k], plies[n - 1 - k]) for k in range(n // 2)) \
+            or UNSYMMETRIC_WORDS.search(words):
+        return
+    key = "layup" if "layup" in top else "plies"
+    t = sorted(p.thickness * 1e3 for p in plies)
+    each = (f"{t[0]:.4f} mm" if t[-1] - t[0] <= 1e-9 * t[-1] else
+            f"{t[0]:.4f} to {t[-1]:.4f} mm")
+    fix = ("end the code with 's'" if key == "layup" else
+           "list the plies of both halves")
+    r.warn(f"{r.path}:{top[key].line}, field '{key}': {n} plies of {each}: unsymmetric; "
+           f"bending-extension coupled; if a symmetric laminate was meant, {fix} "
+           "('unsymmetric' in its description leaves this warning out)")
+
+
 #: ply angles written without a unit that are all, to this (rad), non-zero multiples of pi/12
 #: (15 deg) within +-pi/2 are radians, and refused: 0.785 is pi/4 to 4e-4 (3 decimals),
 #: 1.57 pi/2 to 8e-4 (2 decimals). No laminate is laid up at 0.785 degrees, and no multiple
@@ -1595,6 +1636,7 @@ def load_specimen_text(text: str, path: str = "<string>", *,
                                            f"(valid: {', '.join(BOUNDARIES)})")
 
     plies = _read_plies(r, top, root, h, materials)
+    _warn_unsymmetric(r, top, plies, " ".join((name, description, *_comments(text))))
     densities = _resolve_densities(r, top, root, a, b, h, mass, materials, plies)
     _check_derived_densities(r, top, root, densities, materials, h=h, n_plies=len(plies))
     measured = _read_measured(r, top["measured"]) if "measured" in top else None

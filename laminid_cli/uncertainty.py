@@ -996,6 +996,10 @@ class TrialModel(VariableSet):
     further enrichment.
     """
 
+    #: ``step_progress(text)`` before each optimisation of :meth:`solve` (a profile's fit,
+    #: :func:`with_profiles`: its reduced fits make up to 5 of 0.2 to 0.75 s); None: nothing
+    step_progress = None
+
     def __init__(self, fm, result, tau2: float, bound: float = TRIAL_BOUND, moved=(),
                  rel_sd=None, profiled: str = "", iterations: int = TRIAL_GN_ITERATIONS,
                  ftol: float = 0.0, step_iterations: int = 50):
@@ -1737,7 +1741,15 @@ class TrialModel(VariableSet):
         basis, Y_ref, L = self.basis, self.Y_ref, self.L
         x0, model0 = start
         ref = None
+        steps = [0]
+
+        def stepping():
+            steps[0] += 1
+            if self.step_progress is not None:
+                self.step_progress(f"reduced model, step {steps[0]}")
+
         for rounds in range(1, TRIAL_ROUNDS + 1):
+            stepping()
             gn = self._gauss_newton(basis, x0, lam_meas, w, Y_ref,
                                     model0 if rounds == 1 else None)
             if gn is not None and not gn[2]:
@@ -1745,6 +1757,7 @@ class TrialModel(VariableSet):
             # else SLSQP, restarted from its answer while that moves (its quasi-Newton model
             # starts from the Gauss-Newton scaling again: flat valleys are followed to the end)
             for _ in range(0 if gn is not None else TRIAL_RESTARTS):
+                stepping()
                 x, model = self._minimise(basis, x0, lam_meas, w, Y_ref)
                 step = float(np.max(np.abs(L.T @ (x - x0))))
                 x0 = x
@@ -2839,7 +2852,7 @@ SPREAD_AXIS_MIN = 1e-6
 
 
 def fixed_spread_moves(u: Uncertainty, before: Uncertainty, result, fms, sigmas, kw: dict,
-                       joint: bool):
+                       joint: bool, progress=None):
     """(DP, DF): the moves of the free constants (p, a) and of the fixed values (k, a), SI,
     along each principal axis of the fixed values' spread before fixing (C_f of
     :func:`_fixed_spread`, on ln P for moduli): the others identified again with the fixed
@@ -2849,13 +2862,15 @@ def fixed_spread_moves(u: Uncertainty, before: Uncertainty, result, fms, sigmas,
     spread (S1.3's G13: +-60 times in ln G) counts only as far as the search would go. The
     secants, not the tangent of :func:`fixed_value_regression`: over such spreads the
     constants' response bends (E1 does not fall without end as G13 grows). None where an
-    identification fails (the first-order count is used then)."""
+    identification fails (the first-order count is used then). ``progress(done, total)``
+    before each identification (S1.1 at 16x16: six, 1.1 s)."""
     draw = fixed_draw_of(u, before, result)
     if draw is None:
         return None
     z0, lo, hi, lam, V = draw.z_space()
     DP, DF = [], []
-    for i in np.flatnonzero(lam > SPREAD_AXIS_MIN * max(lam.max(), 0.0)):
+    axes = np.flatnonzero(lam > SPREAD_AXIS_MIN * max(lam.max(), 0.0))
+    for n, i in enumerate(axes):
         d = np.sqrt(lam[i]) * V[:, i]
         # the step is taken either way: each component needs room on both of its sides
         nz = d != 0
@@ -2865,6 +2880,8 @@ def fixed_spread_moves(u: Uncertainty, before: Uncertainty, result, fms, sigmas,
         ends = []
         for sign in (1.0, -1.0):
             f = draw.values(z0 + sign * alpha * d)
+            if progress is not None:
+                progress(2 * n + (sign < 0), 2 * len(axes))
             try:
                 r, _ = refit_held(result, fms, sigmas, kw, joint,
                                   {lab: float(v) for lab, v in zip(draw.labels, f)})
@@ -3181,18 +3198,20 @@ def profile_bound(label: str, side: str, limit: float, far: float, delta, thresh
     return Profile(label, side, limit, bound, far, d_far, threshold, runs, text)
 
 
-def _identify_again(result, fms, opts, start, joint: bool):
+def _identify_again(result, fms, opts, start, joint: bool, progress=None):
     """The plate(s) of ``fms`` identified with ``opts`` from ``start``, on a copy of
     ``result``'s reduced basis (one per plate when ``joint``): the refits of the profiles
-    (:func:`refit_held`) and of the fixed values' check (:func:`_refit_releasing`)."""
+    (:func:`refit_held`) and of the fixed values' check (:func:`_refit_releasing`).
+    ``progress``: identify()'s, after each evaluation."""
     from laminid_cli.identify import identify
     from laminid_cli.joint import identify_joint
 
     bases = result.basis
     if joint:
-        return identify_joint(list(fms), opts, start=start,
+        return identify_joint(list(fms), opts, progress, start=start,
                               basis=None if bases is None else [b.copy() for b in bases])
-    return identify(fms[0], opts, start=start, basis=None if bases is None else bases.copy())
+    return identify(fms[0], opts, progress, start=start,
+                    basis=None if bases is None else bases.copy())
 
 
 def _held_options(result, held: dict, max_evaluations: int):
@@ -3214,7 +3233,7 @@ def _held_options(result, held: dict, max_evaluations: int):
 
 def refit_held(result, fms, sigmas, kw: dict, joint: bool, label, value=None,
                max_evaluations: int = PROFILE_EVALUATIONS, unconverged: bool = False,
-               from_initial: bool = False, model=None):
+               from_initial: bool = False, model=None, progress=None):
     """(result, uncertainty) of the others identified again with the constant ``label`` held
     at ``value`` (SI; or ``label`` a {label: value} of several): from ``result``'s optimum (a
     short walk; where other constants sit on a limit a run may not start from, E2 = E1
@@ -3224,7 +3243,7 @@ def refit_held(result, fms, sigmas, kw: dict, joint: bool, label, value=None,
     then its best point is returned (``result.converged`` False), whose chi2 is an upper
     bound of the fit's. ``model``: the profile's reduced model (:func:`profile_model`), which
     a fit from the optimum tries first (:func:`refit_reduced`); identify() where it gives no
-    answer."""
+    answer, ``progress`` its own (after each evaluation)."""
     held = dict(label) if isinstance(label, dict) else {label: value}
     if model is not None and not from_initial:
         out = refit_reduced(model, result, fms, sigmas, kw, held, max_evaluations)
@@ -3242,7 +3261,7 @@ def refit_held(result, fms, sigmas, kw: dict, joint: bool, label, value=None,
             m = names.index(name)
             start[m] = dataclasses.replace(start[m], **{k: v})
         try:
-            r = _identify_again(result, fms_v, opts, start, joint)
+            r = _identify_again(result, fms_v, opts, start, joint, progress)
             break
         except FitInputError as exc:
             if step != PROFILE_STEPS[-1]:
@@ -3395,14 +3414,17 @@ def _profile_job(j: int):
 
 
 def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool, jobs=1,
-                  progress=None) -> Uncertainty:
+                  progress=None, fit_progress=None) -> Uncertainty:
     """``u`` with a :class:`Profile` of each constant that stopped on a limit of the search
     (``profiles``; {} when none did). ``fms``/``sigmas``: the plates' forward models and
     frequency sigmas (lists); ``kw``: the interval settings of :func:`uncertainty_of`.
     ``jobs``: processes (None: the cores), one constant's profile each at a time (forked
     where the trials fork, :func:`_trial_pool_context`; else one after the other): hybrid
     CM's five, 0.9 to 9.5 s of CPU each (stop 44), 24 s one after the other. ``progress(done, total, label)``
-    after each profile (and ``progress(0, total, None)`` before the first). A single plate
+    after each profile (and ``progress(0, total, None)`` before the first);
+    ``fit_progress(label, n, text)`` before each fit of a profile, its n-th ("G12 = 7.68 GPa",
+    "... from the initial values"), told from the workers through a pipe (hybrid CM's
+    profiles make 5 to 12 fits of 0.2 to 0.5 s each). A single plate
     of the reduced solver makes each profile's fits from the optimum on a reduced model of its
     own (:func:`profile_model`, :func:`refit_reduced`: Levenberg-Marquardt, its answers checked
     against the full model), identify() where that gives no answer; the fits from the initial
@@ -3429,6 +3451,7 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool, jo
         initial = float(getattr(result.initial[m], k))
 
         unfinished = []
+        fits = [0]
         # the reduced model of the fits from the optimum (:func:`refit_reduced`), made at the
         # first of them; [None] where none can be made
         reduced = []
@@ -3447,11 +3470,34 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool, jo
             def fit(from_initial):
                 cap = min(max_evaluations, PROFILE_INITIAL_EVALUATIONS) if from_initial \
                     else max_evaluations
+                fits[0] += 1
+                text = f"{k} = {_show(k, v)}" + (" from the initial values" if from_initial
+                                                  else "")
+                tell(lab, fits[0], text)
+                said = [time.perf_counter()]
+
+                def evaluations(n, objective, rms, n_fit=fits[0], text=text):
+                    # a fit of a few seconds (hybrid CM's glass G13 at 18.5 GPa: 4.8 s): its
+                    # evaluations, four times a second at most
+                    if time.perf_counter() - said[0] >= 0.25:
+                        said[0] = time.perf_counter()
+                        tell(lab, n_fit, f"{text}, evaluation {n}")
                 if not from_initial and not reduced:
+                    tell(lab, fits[0], f"{text}, building its reduced model")
                     reduced.append(profile_model(result, fms, sigmas, u, lab))
-                r, uc = refit_held(result, fms, sigmas, kw, joint, lab, v, unconverged=True,
-                                   max_evaluations=cap, from_initial=from_initial,
-                                   model=reduced[0] if reduced else None)
+                model = reduced[0] if reduced and not from_initial else None
+                if model is not None and fit_progress is not None:
+                    model.step_progress = functools.partial(
+                        lambda n_fit, text, t: tell(lab, n_fit, f"{text}, {t}"), fits[0], text)
+                try:
+                    r, uc = refit_held(result, fms, sigmas, kw, joint, lab, v,
+                                       unconverged=True, max_evaluations=cap,
+                                       from_initial=from_initial, model=model,
+                                       progress=evaluations if fit_progress is not None
+                                       else None)
+                finally:
+                    if model is not None:
+                        model.step_progress = None
                 chi2 = uc.chi2
                 wp = prior.get(name, {}).get(k, 0.0)
                 if wp > 0:
@@ -3513,6 +3559,21 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool, jo
 
     todo = [j for j, b in enumerate(u.at_bound) if b]
     out = {}
+    jobs = _processes(jobs, len(todo))
+    context = _trial_pool_context() if jobs > 1 else None
+    # the fits' progress: told at once in this process, through a pipe from forked workers
+    # (drained between their results below)
+    pipe = context.SimpleQueue() if context is not None and fit_progress is not None else None
+
+    def tell(label, n, text):
+        if pipe is not None:
+            pipe.put((label, n, text))
+        elif fit_progress is not None:
+            fit_progress(label, n, text)
+
+    def drain():
+        while pipe is not None and not pipe.empty():
+            fit_progress(*pipe.get())
 
     def done(j, p):
         out[u.labels[j]] = p
@@ -3521,13 +3582,11 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool, jo
 
     if progress is not None and todo:
         progress(0, len(todo), None)
-    jobs = _processes(jobs, len(todo))
-    context = _trial_pool_context() if jobs > 1 else None
     if context is None:
         for j in todo:
             done(j, profile_of(j))
     else:
-        from concurrent.futures import ProcessPoolExecutor, as_completed
+        from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
         # forked workers inherit the result, models and this closure (no pickling)
         _PROFILE_JOB["run"] = profile_of
@@ -3535,10 +3594,18 @@ def with_profiles(u: Uncertainty, result, fms, sigmas, kw: dict, joint: bool, jo
             with ProcessPoolExecutor(max_workers=jobs, mp_context=context,
                                      initializer=_stops_with_parent) as pool:
                 futures = {pool.submit(_profile_job, j): j for j in todo}
-                for fut in as_completed(futures):
-                    done(futures[fut], fut.result())
+                pending = set(futures)
+                while pending:
+                    # (a quarter second at most between the fits' words and the terminal)
+                    finished, pending = wait(pending, timeout=None if pipe is None else 0.25,
+                                             return_when=FIRST_COMPLETED)
+                    drain()
+                    for fut in finished:
+                        done(futures[fut], fut.result())
         finally:
             _PROFILE_JOB.clear()
+            if pipe is not None:
+                pipe.close()
     # in the constants' order, whichever finished first
     return dataclasses.replace(u, profiles={u.labels[j]: out[u.labels[j]] for j in todo})
 
@@ -3834,7 +3901,7 @@ class Assessment:
 
 def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
            joint: bool = False, progress=None, mc_progress=None, accept=None,
-           profile_progress=None) -> Assessment:
+           profile_progress=None, stage_progress=None) -> Assessment:
     """Identify (one plate, or several jointly), then compute the uncertainty; optionally fix
     the flagged constants and identify again (until nothing new is flagged), and run the
     Monte Carlo check on the final result (with ``fix_undetermined``, the constants its range
@@ -3842,7 +3909,12 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
 
     ``fms``: a ForwardModel, or a sequence of them with ``joint=True``. ``progress`` is passed to
     the identification, ``mc_progress(done, total)`` to :func:`monte_carlo`,
-    ``profile_progress(done, total, label)`` to :func:`with_profiles`. ``accept(result)``
+    ``profile_progress(done, total, label)`` to :func:`with_profiles`;
+    ``stage_progress(text)`` before each step that says nothing of its own (the linearised
+    intervals, an identification again by --fix-undetermined, the fixed values' checks) and
+    at each fit of a profile ("profile of glass.G12 (1 of 5 done): fit 3, G12 = 7.68 GPa":
+    hybrid CM's profiles take 1.4 to 3.4 s each, the fixed values' checks of S1.1 at 16x16
+    1.1 s, with nothing said). ``accept(result)``
     is asked about the final result, before the Monte Carlo: False returns the assessment
     without it (``monte_carlo`` None), for a caller that will identify again (the pipeline,
     when the bending equations alone no longer describe the plate at the answer).
@@ -3866,9 +3938,14 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
         return identify(fm_list[0], opts, progress,
                         basis=None if basis is None else basis.copy())
 
+    def stage(text):
+        if stage_progress is not None:
+            stage_progress(text)
+
     fms_arg = fm_list if joint else fm_list[0]
     sig_arg = sigmas if joint else sigmas[0]
     result = run(options)
+    stage("linearised intervals")
     unc = uncertainty_of(result, fms_arg, sig_arg, **kw)
     first = unc
     fixed: list[str] = []
@@ -3917,8 +3994,10 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
             log.info("fixing undetermined constants at their initial values: %s", ", ".join(new))
             options = dataclasses.replace(options, fix=tuple(options.fix) + tuple(new))
             earlier.append(result)
+            stage(_run_words(runs + 1, fixed))
             result = run(options, result.basis)      # the basis spans the path already walked
             runs += 1
+            stage("linearised intervals")
             unc = uncertainty_of(result, fms_arg, sig_arg, **kw)
         if mc is not None and len(fixed) == fixed_before:
             break             # the Monte Carlo's flags fixed nothing: it stands for this result
@@ -3941,7 +4020,11 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
         u0 = unc if mc is None else linearised
         obs = [observations(fm, plate, s, u0.labels + u0.fixed)
                for (fm, plate), s in zip(_parts(result, fms_arg), sigmas)]
-        moves = fixed_spread_moves(u0, first, result, fm_list, sigmas, kw, joint)
+        moves = fixed_spread_moves(
+            u0, first, result, fm_list, sigmas, kw, joint,
+            progress=lambda done, total: stage(
+                f"the fixed values' spread: the others identified with them moved, {done} of "
+                f"{total} done"))
         unc = counting_fixed_spread(u0, first, obs, material_states(result),
                                     result.options.nu_max, moves)
         if moves is None and unc.spread_counted:
@@ -3957,6 +4040,7 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
                 # them from their spread before fixing (the same frequency draws), so that
                 # its ranges count that spread as the intervals do
                 mc_given = mc
+                stage("Monte Carlo again, the fixed values drawn from their spread")
                 mc = monte_carlo(result, fms_arg, sig_arg, unc, uopts.monte_carlo,
                                  jobs=uopts.jobs, seed=uopts.seed, progress=mc_progress,
                                  fixed_draw=draw)
@@ -3967,12 +4051,28 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
     if accepted:
         # how far the fit lets a constant on a search limit go (identifications of the
         # others with it held): only for the result that stands
+        count = [0, 0]
+
+        def profile_done(done, total, label):
+            count[:] = [done, total]
+            if profile_progress is not None:
+                profile_progress(done, total, label)
+
+        def profile_fit(label, n, text):
+            stage(f"profile of {label} ({count[0]} of {count[1]} done): fit {n}, {text}")
+
         unc = with_profiles(unc, result, fm_list, sigmas, kw, joint, jobs=uopts.jobs,
-                            progress=profile_progress)
+                            progress=profile_done,
+                            fit_progress=None if stage_progress is None else profile_fit)
         if fixed:
+            if unc.spread_not_counted:
+                stage("the fixed values on a search limit: the others identified with each "
+                      "at its ends")
             unc = with_fixed_ranges(unc, first, result, fm_list, sigmas, kw, joint)
             if result.converged and (earlier[0].converged if earlier else True):
                 # an unfinished fit's chi2 is only an upper bound of its minimum
+                stage("do the modes reject the fixed values? the others identified with them "
+                      "released")
                 unc = with_fixed_check(unc, first, fixed, result, fm_list, sigmas, kw, joint)
     # a constant judged in an earlier run was judged on that run's values, not the ones shown
     kept_free = {lab: why if kept_run[lab] == runs else _judged_in_run(why, kept_run[lab])
@@ -3982,6 +4082,15 @@ def assess(fms, options, uopts: UncertaintyOptions = UncertaintyOptions(), *,
                       monte_carlo=mc, runs=runs, earlier_results=tuple(earlier),
                       fixed_widths=fixed_widths, kept_free=kept_free,
                       monte_carlo_given_fixed=mc_given)
+
+
+def _run_words(run: int, fixed) -> str:
+    """The progress words of --fix-undetermined's identification ``run`` with the constants
+    ``fixed`` (labels) held: "run 2, G13, G23 fixed as undetermined" (short names; the
+    evaluation lines follow it)."""
+    names = list(dict.fromkeys(lab.rsplit(".", 1)[1] for lab in fixed))
+    shown = ", ".join(names[:4]) + (f" and {len(names) - 4} more" if len(names) > 4 else "")
+    return f"run {run}, {shown} fixed as undetermined"
 
 
 def _initial_rejected(result, u: Uncertainty, label: str, fixing=()) -> str:

@@ -453,7 +453,7 @@ def test_a_loss_factor_held_at_0_has_no_interval_anywhere(tmp_path):
     for name in ("eta12", "eta23"):
         assert "none: held at 0  at bound — not identified" in lines[name]
         assert "<=" not in lines[name]
-    assert f"{100 * per['eta11']['lower']:.3g} .. {100 * per['eta11']['upper']:.3g}" \
+    assert f"{100 * per['eta11']['lower']:.3f} .. {100 * per['eta11']['upper']:.3f}" \
         in lines["eta11"]
     # a file written before stored 0 .. upper in its summary: laminid show prints none either
     from laminid_cli.commands.text import format_damping
@@ -464,8 +464,8 @@ def test_a_loss_factor_held_at_0_has_no_interval_anywhere(tmp_path):
     assert len(shown) == 1 and "none: held at 0" in shown[0] and "0.0092" not in shown[0]
     rows = {row[0]: row for row in loss_factor_rows(read_damping(out))}
     assert rows["E-glass/R368.eta12"][2] == rows["E-glass/R368.eta23"][2] == "none — held at 0"
-    assert rows["E-glass/R368.eta11"][2] == (f"[{100 * per['eta11']['lower']:.3g}, "
-                                             f"{100 * per['eta11']['upper']:.3g}]")
+    assert rows["E-glass/R368.eta11"][2] == (f"[{100 * per['eta11']['lower']:.3f}, "
+                                             f"{100 * per['eta11']['upper']:.3f}]")
     batch = damping_of_file(read_result(out).damping)["E-glass/R368"]
     assert (batch["eta12"]["lower"], batch["eta12"]["upper"]) == (None, None)
     assert batch["eta11"]["lower"] == per["eta11"]["lower"]
@@ -607,3 +607,34 @@ def test_fix_takes_loss_factors_in_percent_on_the_command_line(frf_case):
     assert ("laminid: error: --fix eta13=12x: eta13 = '12x': unknown unit 'x' in '12x'; "
             "expected a plain number or a percentage (0.004 or '0.4 %')") in r.output
     assert "Traceback" not in r.output
+
+
+def test_a_loss_factors_interval_has_its_values_digits():
+    """The interval's ends were written with 3 significant digits beside a value with 3
+    decimals ("0.199  0.178 .. 0.22": the top end looked a digit short, its doubt
+    narrower); in the terminal and the report they have the value's decimals, as the
+    constants' intervals have the value's (_num), and so has the Monte Carlo range."""
+    from laminid_cli.commands.text import format_damping
+    from laminid_cli.report_damping import loss_factor_rows
+
+    v = {"value": 0.00199, "lower": 0.00178, "upper": 0.0022, "verdict": "identified"}
+    d = {"method": "modal strain energy", "confidence": 0.95,
+         "loss_factors": {"glass": {"eta11": v}}, "s2": 1.0,
+         "scaling": {"used": "stated"}, "sigma_source": "damping_sigma", "dof": 3,
+         "energy_share_labels": ["glass.eta11"], "measured_loss_factor": [0.002],
+         "measured_sigma": [0.0001], "used": [True], "model_loss_factor": [0.00199],
+         "energy_shares": [[1.0]],
+         "monte_carlo": {"refits": 20, "trials": 20, "sigma_factor": 1.0, "time_s": 0.5,
+                         "loss_factors": {"glass": {"eta11": {
+                             "linearized_std": 1e-4, "std": 1.1e-4, "ratio": 1.1,
+                             "lower": 0.0, "upper": 0.0021, "lower_at_zero": True}}}}}
+    lines = format_damping(d)
+    assert "  eta11            0.199       0.178 .. 0.220  identified" in lines
+    assert [ln for ln in lines if ln.startswith("  eta11") and "*" in ln] == [
+        "  eta11                  0.01             0.011   1.10        0.000* .. 0.210"]
+    rows = loss_factor_rows({"labels": ["glass.eta11"], "value": [0.00199],
+                             "lower": [0.00178], "upper": [0.0022], "at_bound": [False],
+                             "verdict": ["identified"],
+                             "monte_carlo": {"lower": [0.0], "upper": [0.0021],
+                                             "lower_at_zero": [True]}})
+    assert rows[0][1:3] == ["0.199", "[0.178, 0.220]\nMonte Carlo 0.000*–0.210"]

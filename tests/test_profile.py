@@ -724,8 +724,11 @@ def test_profiles_in_forked_workers_are_the_ones_made_in_turn(hybrid_cm_6x6):
                                              for x, s in zip(u.labels, u.bound_side)),
                             bound_limit=limit)
     seen = {1: [], 2: []}
+    fits = {1: [], 2: []}
     made = {j: with_profiles(u, r, [fm], [sigma], {}, False, jobs=j,
-                             progress=lambda d, n, lab, j=j: seen[j].append((d, n, lab)))
+                             progress=lambda d, n, lab, j=j: seen[j].append((d, n, lab)),
+                             fit_progress=lambda lab, n, text, j=j: fits[j].append(
+                                 (lab, n, text)))
             for j in (1, 2)}
     assert list(made[2].profiles) == labels
     for lab in labels:                       # (NaN where no bound: equal to NaN here)
@@ -736,13 +739,26 @@ def test_profiles_in_forked_workers_are_the_ones_made_in_turn(hybrid_cm_6x6):
         assert [d for d, _, _ in seen[j]] == [0, 1, 2, 3] and {n for _, n, _ in seen[j]} == {3}
         assert seen[j][0][2] is None
         assert sorted(lab for _, _, lab in seen[j][1:]) == sorted(labels)
+    # each fit of each profile is told, numbered from 1, with the value held: from the forked
+    # workers (through a pipe) as in turn (the lines of evaluations, told by the clock, aside)
+    told = {j: sorted(f for f in fits[j] if ", evaluation" not in f[2]) for j in (1, 2)}
+    assert told[2] == told[1]
+    # within a fit on the profile's reduced model: its making (once a profile), its steps
+    for lab in labels:
+        assert sum(x == lab and t.endswith(", building its reduced model")
+                   for x, _, t in told[1]) <= 1
+    assert any(t.endswith(", reduced model, step 2") for _, _, t in told[1])
+    told = {j: [f for f in told[j] if ", " not in f[2]] for j in (1, 2)}      # each fit once
+    assert {lab for lab, _, _ in told[1]} == set(labels)
+    for lab in labels:
+        ns = [n for x, n, _ in told[1] if x == lab]
+        assert ns == list(range(1, len(ns) + 1)) and len(ns) >= made[1].profiles[lab].runs
+    assert ("glass.E2", 1, "E2 = 0.9 GPa") in told[1]
 
 
-def test_a_terminal_is_told_the_profiles_progress():
-    """On a terminal, identify shows where the profiles are (they take a few to 10 s each,
-    after the identification's last evaluation line): '0 of 1 done' when they start, then
-    each one done with its label. S2.1 (6x6) has one, G13 on its lower limit (1e-4 E1); its
-    stderr is a pseudo-terminal here, its stdout a pipe (the tables)."""
+def _identify_on_a_terminal(*args) -> tuple[list[str], str]:
+    """``laminid identify ARGS --no-output`` with stderr a pseudo-terminal and stdout a pipe
+    (the tables): (stderr's lines as drawn, each ``\\r`` starting one, stripped; stdout)."""
     import os
     import pty
     import select
@@ -750,9 +766,8 @@ def test_a_terminal_is_told_the_profiles_progress():
     import sys
 
     master, slave = pty.openpty()
-    p = subprocess.Popen([sys.executable, "-m", "laminid_cli", "identify",
-                          "specimens/example2/S2.1.yaml", "--mesh", "6x6", "--no-output"],
-                         stdout=subprocess.PIPE, stderr=slave)
+    p = subprocess.Popen([sys.executable, "-m", "laminid_cli", "identify", *args,
+                          "--no-output"], stdout=subprocess.PIPE, stderr=slave)
     os.close(slave)
     err = b""
     while True:                    # read while it runs: a full pty buffer would block it
@@ -769,12 +784,93 @@ def test_a_terminal_is_told_the_profiles_progress():
     out = p.communicate(timeout=120)[0].decode()
     os.close(master)
     assert p.returncode == 0, err.decode(errors="replace")
-    lines = err.decode().replace("\r\n", "\n").split("\r")
-    said = [ln.strip() for ln in lines if "profiles of the constants" in ln]
+    lines = err.decode().replace("\r\n", "\n").replace("\n", "\r").split("\r")
+    return [ln.strip() for ln in lines if ln.strip()], out
+
+
+def test_a_terminal_is_told_the_profiles_progress():
+    """On a terminal, identify shows where the profiles are (they take a few to 10 s each,
+    after the identification's last evaluation line): '0 of 1 done' when they start, then
+    each one done with its label. S2.1 (6x6) has one, G13 on its lower limit (1e-4 E1); its
+    stderr is a pseudo-terminal here, its stdout a pipe (the tables)."""
+    lines, out = _identify_on_a_terminal("specimens/example2/S2.1.yaml", "--mesh", "6x6")
+    said = [ln for ln in lines if "profiles of the constants" in ln]
     assert said == ["profiles of the constants on a search limit: 0 of 1 done",
                     "profiles of the constants on a search limit: 1 of 1 done "
                     "(E-glass/R368.G13)"]
     assert "profile: the fit rejects G13 above" in out
+
+
+#: S2.1 (6x6) with --fix-undetermined, on a terminal: each step after the identification's
+#: evaluations, in its order (a profile's fits after their first, with its evaluations if
+#: slow, are left out: their number depends on the clock)
+FIX_UNDETERMINED_STEPS = [
+    "linearised intervals",
+    "run 2, G13 fixed as undetermined",
+    "run 2, G13 fixed as undetermined: evaluation    1, RMS 14.8616 %",
+    "linearised intervals",
+    "run 3, G13, nu12 fixed as undetermined",
+    "run 3, G13, nu12 fixed as undetermined: evaluation    1, RMS 14.8616 %",
+    "linearised intervals",
+    "the fixed values' spread: the others identified with them moved, 0 of 2 done",
+    "the fixed values' spread: the others identified with them moved, 1 of 2 done",
+    "profiles of the constants on a search limit: 0 of 1 done",
+    "profile of E-glass/R368.G23 (0 of 1 done): fit 1, G23 = 18.5 GPa",
+    "profiles of the constants on a search limit: 1 of 1 done (E-glass/R368.G23)",
+    "the fixed values on a search limit: the others identified with each at its ends",
+    "do the modes reject the fixed values? the others identified with them released"]
+
+
+def test_a_terminal_is_told_each_step_of_the_uncertainty():
+    """After the identification's last evaluation line, a terminal was told nothing but the
+    profiles' count until the tables (S1.1 at 16x16 with --fix-undetermined: 2.7 s, its
+    fixed values' checks 1.1 s; hybrid CM's first profile 2.4 s at "0 of 5 done"): now each
+    step (linearised intervals, each run of --fix-undetermined on its evaluation lines, the
+    fixed values' checks) and each fit of a profile with the value held. S2.1 (6x6)."""
+    lines, out = _identify_on_a_terminal("specimens/example2/S2.1.yaml", "--mesh", "6x6",
+                                         "--fix-undetermined")
+    first = lines.index("linearised intervals")
+    steps = [ln for ln in lines[first:]
+             if not (ln.startswith("run ") and ": evaluation" in ln
+                     and not ln.split(": evaluation")[1].strip().startswith("1,"))
+             and not (ln.startswith("profile of ") and not ln.endswith("fit 1, G23 = 18.5 GPa"))]
+    assert steps == FIX_UNDETERMINED_STEPS
+    # the first fit on the profile's reduced model: its making, then its steps
+    assert ("profile of E-glass/R368.G23 (0 of 1 done): fit 1, G23 = 18.5 GPa, building its "
+            "reduced model") in lines
+    assert ("profile of E-glass/R368.G23 (0 of 1 done): fit 1, G23 = 18.5 GPa, reduced model, "
+            "step 1") in lines
+    fits = [ln for ln in lines if ln.startswith("profile of E-glass/R368.G23 (0 of 1 done)")
+            and ", " not in ln.split("done): fit ")[1].split(", ", 1)[1]]
+    assert len(fits) >= 3 and fits[1] == ("profile of E-glass/R368.G23 (0 of 1 done): fit 2, "
+                                          "G23 = 18.5 GPa from the initial values")
+    assert "G23" in out
+
+
+def test_a_terminal_is_told_the_monte_carlo_trials_done():
+    """The Monte Carlo's bar said its percentage only; it counts the trials ("6/6"), and
+    the steps around it are told on their own lines. S2.1 (6x6), 6 trials."""
+    lines, _ = _identify_on_a_terminal("specimens/example2/S2.1.yaml", "--mesh", "6x6",
+                                       "--monte-carlo", "6", "-j", "1")
+    bars = [ln for ln in lines if "Monte Carlo trials" in ln]
+    assert bars[0].endswith("]  0/6") and bars[-1].endswith("]  6/6"), bars
+    assert lines.index("linearised intervals") < lines.index(bars[0])
+
+
+def test_no_step_is_told_on_a_pipe_or_with_json():
+    """The steps' lines are a terminal's only: stderr on a pipe (a log) or --json gets none
+    of them (nor the evaluations), as the profiles' count before."""
+    from click.testing import CliRunner
+
+    from laminid_cli.cli import cli
+
+    for extra in ([], ["--json"]):
+        r = CliRunner().invoke(cli, ["identify", "specimens/example2/S2.1.yaml", "--mesh",
+                                      "6x6", "--fix-undetermined", "--no-output", *extra])
+        assert r.exit_code == 0, r.output
+        for words in ("linearised intervals", "fixed as undetermined", "evaluation",
+                      "profile of", "the fixed values' spread", "do the modes reject"):
+            assert words not in r.stderr, (extra, r.stderr)
 
 
 def test_a_rejection_from_the_optimum_is_checked_from_the_initial_values(hybrid_cm_6x6,

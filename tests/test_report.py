@@ -1858,7 +1858,7 @@ def test_damping_page_fits_the_page_and_ends_with_the_status(damped, tmp_path):
     row = loss_factor_rows(held)[0]
     assert row[2] == "none — held at 0"
     assert row[3] == "held at 0 by η ≥ 0: not identified"
-    assert loss_factor_rows(held)[1][2] == f"[{100 * d['lower'][1]:.3g}, {100 * d['upper'][1]:.3g}]"
+    assert loss_factor_rows(held)[1][2] == f"[{100 * d['lower'][1]:.3f}, {100 * d['upper'][1]:.3f}]"
     # a Monte Carlo range hundreds of times the value: its widths as the note under the table
     # and the terminal write them (was "±27339 %", beside the note's "±273x")
     n = len(d["labels"])
@@ -1874,7 +1874,7 @@ def test_damping_page_fits_the_page_and_ends_with_the_status(damped, tmp_path):
                                     refits=20))
     rows = loss_factor_rows(held_mc)
     assert rows[0][2] == "none — held at 0\nMonte Carlo: held in 13 of 20"
-    assert rows[1][2].startswith(f"[{100 * d['lower'][1]:.3g}, ") and "Monte Carlo 0*–" in rows[1][2]
+    assert rows[1][2].startswith(f"[{100 * d['lower'][1]:.3f}, ") and "Monte Carlo 0.000*–" in rows[1][2]
     write_pages([type("P", (), {"name": "d", "figure": fig})()], tmp_path / "d.png")
 
 
@@ -2149,10 +2149,10 @@ def test_summary_with_loss_factors_has_a_loss_factor_page(tmp_path, kind, monkey
     table = ax(pages["loss-factor-table"], "loss-factors").tables[0]
     cells = {(i, j): c.get_text().get_text() for (i, j), c in table.get_celld().items()}
     body = [[cells[i, j] for j in range(5)] for i in range(1, 5)]
-    assert body == [["H", "glass.eta11", "0.200", "[0.17, 0.23]", "weak"],
+    assert body == [["H", "glass.eta11", "0.200", "[0.170, 0.230]", "weak"],
                     ["H", "glass.eta22", "0.000", "none — held at 0",
                      "held at 0 by \u03b7 \u2265 0: not identified"],
-                    ["H", "glass.eta13", "2.000", "[0, 9]", "not determined"],
+                    ["H", "glass.eta13", "2.000", "[0.000, 9.000]", "not determined"],
                     ["H", "glass.eta23", "1.200", "none — fixed",
                      "fixed at the value given (not identified)"]]
     assert (5, 0) not in cells                                  # Q has no loss factors

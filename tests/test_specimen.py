@@ -760,13 +760,15 @@ def test_ply_angles_that_look_like_radians_are_warned(caplog, new, line, field, 
     with caplog.at_level(logging.WARNING, logger="laminid_cli.specimen"):
         spec = load_specimen_text(edit(BASE, 'layup: "[0/90]s"', new), "plate.yaml")
     msg = [r.getMessage() for r in caplog.records if "radians" in r.getMessage()]
+    # (the two plies of a 'plies' list here are an unsymmetric laminate: warned of too)
+    radians = tuple(w for w in spec.warnings if "unsymmetric" not in w)
     if warned is None:
-        assert msg == [] and spec.warnings == ()
+        assert msg == [] and radians == ()
         return
     warning = (f"plate.yaml:{line}, field '{field}': the ply angles {warned} look like "
                f"radians; laminid reads ply angles in degrees (write {degrees})")
     assert msg == [warning]
-    assert spec.warnings == (warning,)      # kept for the commands' --json 'warnings'
+    assert radians == (warning,)      # kept for the commands' --json 'warnings'
     assert spec.plies[1].angle_deg == float(warned.split(",")[0])   # still read as degrees
 
 
@@ -1218,3 +1220,42 @@ def test_a_plus_minus_reference_whose_half_width_is_not_finite_says_so(tmp_path,
                 f"reference:\n  materials: {{CFRP: {{E1: 170 ± {half} GPa}}}}")
     bad(tmp_path, text, None, "reference.materials.CFRP.E1",
         f"'170 ± {half} GPa': the half-width '{half}' is not a finite number")
+
+
+def test_an_unsymmetric_layup_is_warned_of_unless_the_file_says_so(caplog):
+    """A forgotten 's' ("[45_3/0_3/-45_3/90_3]" for "[45_3/0_3/-45_3/90_3]s") was read
+    silently: 12 plies sharing h, each twice as thick, a laminate with bending-extension
+    coupling. Not refused (an unsymmetric laminate is one, modelled whole), but warned of with
+    the ply count and thickness, unless the name, description or a comment says it is
+    unsymmetric on purpose; a symmetric laminate (even, odd, or -90 mirroring 90) is not."""
+    code = edit(BASE, 'layup: "[0/90]s"', 'layup: "[45_3/0_3/-45_3/90_3]"')
+    with caplog.at_level(logging.WARNING, logger="laminid_cli.specimen"):
+        spec = load_specimen_text(code, "plate.yaml")
+    warning = (f"plate.yaml:{L_LAYUP}, field 'layup': 12 plies of 0.2500 mm: unsymmetric; "
+               "bending-extension coupled; if a symmetric laminate was meant, end the code "
+               "with 's' ('unsymmetric' in its description leaves this warning out)")
+    assert spec.warnings == (warning,)
+    assert [r.getMessage() for r in caplog.records] == [warning]
+    assert len(spec.plies) == 12 and spec.plies[0].thickness == pytest.approx(2.5e-4, rel=1e-12)
+    plies = edit(BASE, 'layup: "[0/90]s"', "plies:\n  - {angle: 0, thickness: 1 mm}\n"
+                                           "  - {angle: 90, thickness: 2 mm}")
+    assert load_specimen_text(plies, "plate.yaml").warnings == (
+        f"plate.yaml:{L_LAYUP}, field 'plies': 2 plies of 1.0000 to 2.0000 mm: unsymmetric; "
+        "bending-extension coupled; if a symmetric laminate was meant, list the plies of both "
+        "halves ('unsymmetric' in its description leaves this warning out)",)
+    for said in ("description: an unsymmetric cross-ply\n", "name: T-asym\n",
+                 "# bending-extension coupled on purpose\n"):
+        assert load_specimen_text(said + code.replace("name: T\n", ""), "p.yaml").warnings == ()
+    for layup in ("[0/90]s", "[0/90/0]", "[90/0/-90]", "[45_3/0_3/-45_3/90_3]s", "[0]"):
+        assert load_specimen_text(edit(BASE, 'layup: "[0/90]s"', f'layup: "{layup}"'),
+                                  "p.yaml").warnings == (), layup
+
+
+def test_an_unsymmetric_laminate_is_modelled_whole():
+    """The warned layup keeps its model: coupled, so identified on the whole plate's
+    equations (forward.bending_model leaves it as it is), as before the warning."""
+    from laminid_cli.forward import bending_model, build_forward_model
+
+    code = edit(BASE, 'layup: "[0/90]s"', 'layup: "[45_3/0_3/-45_3/90_3]"')
+    fm = build_forward_model(load_specimen_text(code, "plate.yaml", log_warnings=False), (4, 4))
+    assert not fm.plate.decoupled and bending_model(fm) is fm

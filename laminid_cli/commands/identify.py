@@ -154,10 +154,17 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
                                     inputs=specs))
     show_progress = not as_json and stderr_is_terminal() and not quiet()
 
+    # the step under way (laminid_cli.uncertainty.assess: "run 2, G13 fixed as undetermined"),
+    # named on the evaluation lines of an identification again
+    phase = [""]
+
     def progress(n, objective, rms):
-        if show_progress:
+        if show_progress and phase[0]:
+            click.echo("\r" + f"  {phase[0]}: evaluation {n:>4}, RMS {rms:.4f} %".ljust(78),
+                       err=True, nl=False)
+        elif show_progress:
             click.echo(f"\r  evaluation {n:>4}: objective {objective:10.4g}, RMS residual "
-                       f"{rms:8.4f} %", err=True, nl=False)
+                       f"{rms:8.4f} %".ljust(78), err=True, nl=False)
 
     bar = None
     last = [0]
@@ -173,7 +180,9 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
             bar = None
         if bar is None:
             click.echo("", err=True)
-            bar = click.progressbar(length=total, label="Monte Carlo", file=sys.stderr)
+            # trials k/N beside the percentage (the bar alone said 5 % steps of 20 trials)
+            bar = click.progressbar(length=total, label="Monte Carlo trials", file=sys.stderr,
+                                    show_pos=True)
             bar.__enter__()
             last[0] = 0
         bar.update(done - last[0])          # (a chunk of trials at a time)
@@ -188,9 +197,18 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
 
     def stage_progress(text):
         # a step with no progress of its own: the mesh check's finer mesh (S1.1 at 24x24:
-        # 11.6 s under the last "evaluation" line, which looked stuck)
-        if show_progress:
-            click.echo("\r" + f"  {text}".ljust(78), err=True, nl=False)
+        # 11.6 s under the last "evaluation" line, which looked stuck), the linearised
+        # intervals, --fix-undetermined's runs and checks, each fit of a profile (hybrid CM's
+        # first profile: 2.4 s at "0 of 5 done")
+        nonlocal bar
+        phase[0] = text
+        if not show_progress:
+            return
+        if bar is not None:
+            # the Monte Carlo's bar is finished: kept on its line, the step on the next
+            bar.__exit__(None, None, None)
+            bar = None
+        click.echo("\r" + f"  {text}".ljust(78), err=True, nl=False)
 
     try:
         run = run_identification(specs, options, progress=progress, mc_progress=mc_progress,

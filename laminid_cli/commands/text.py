@@ -629,7 +629,9 @@ def format_damping(d: dict) -> list[str]:
                 # written before kept 0 .. a one-sided upper: not shown either)
                 cell = "none: held at 0"
             else:
-                cell = f"{fmt(100 * v['lower'], '.3g')} .. {fmt(100 * v['upper'], '.3g')}"
+                # the ends in the value's digits, as the constants' (_num): "0.178 .. 0.22"
+                # beside a value of 0.199 read as a narrower doubt at the top
+                cell = f"{fmt(100 * v['lower'], '.3f')} .. {fmt(100 * v['upper'], '.3f')}"
             lines.append(f"  {lab:<{24 if many else 12}} {fmt(100 * v['value'], '9.3f')} "
                          f"{cell:>20}  {v['verdict']}")
     s2 = d["s2"]
@@ -676,8 +678,8 @@ def format_damping_monte_carlo(d: dict) -> list[str]:
     for mat, per in mc["loss_factors"].items():
         for name, v in per.items():
             lab = f"{mat}.{name}" if many else name
-            lo = fmt(100 * v["lower"], ".3g") + ("*" if v.get("lower_at_zero") else "")
-            hi = fmt(100 * v["upper"], ".3g")
+            lo = fmt(100 * v["lower"], ".3f") + ("*" if v.get("lower_at_zero") else "")
+            hi = fmt(100 * v["upper"], ".3f")             # (the value's digits, as above)
             lines.append(f"  {lab:<{w}} {fmt(100 * v['linearized_std'], '14.3g'):>14} "
                          f"{fmt(100 * v['std'], '17.3g'):>17} {fmt(v['ratio'], '6.2f'):>6}  "
                          f"{lo:>12} .. {hi}")
