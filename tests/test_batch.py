@@ -2328,3 +2328,26 @@ def test_a_summary_saved_with_a_bom_reads_as_without(batch_run, tmp_path, name):
     got = read_summary(bom)
     assert [r["name"] for r in got] == [r["name"] for r in want]
     assert got[0]["materials"]["IM7/977-2"]["E1"] == want[0]["materials"]["IM7/977-2"]["E1"]
+
+
+def test_an_entry_named_yaml_that_is_no_file_is_said_skipped(tmp_path):
+    """A folder searched for *.yaml holding a folder named x.yaml (nothing in it), a broken
+    link named dead.yaml: passed over without a word (only 'no specimen file found'); each is
+    a warning naming it and what it is, as a *.yaml file that is no specimen is. A folder
+    named *.yml whose specimens are taken is searched as any other, no warning."""
+    specs = tmp_path / "in"
+    (specs / "x.yaml").mkdir(parents=True)
+    (specs / "dead.yaml").symlink_to(tmp_path / "nowhere.yaml")
+    r = run("batch", specs, "--mesh", MESH, "--out", tmp_path / "out")
+    assert (r.exit_code, r.stderr) == (2, (
+        f"warning: {specs / 'dead.yaml'}: a broken symbolic link, not a specimen file; "
+        "skipped\n"
+        f"warning: {specs / 'x.yaml'}: a folder, not a specimen file (YAML text), with no "
+        "specimen file in it; skipped\n"
+        f"laminid: error: no specimen file (*.yaml, *.yml) found in {specs}\n"))
+    (specs / "full.yml").mkdir()
+    (specs / "full.yml" / "p1.yaml").write_text("x")
+    skipped = []
+    found = discover_specimens([specs], skipped=skipped)
+    assert [n for _, n in found] == ["full.yml/p1"]
+    assert sorted(p.name for p, _ in skipped) == ["dead.yaml", "x.yaml"]

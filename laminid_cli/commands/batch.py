@@ -82,7 +82,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     and listed in summary.json ('duplicates'); both still run. A file that can be no
     specimen (a result, FRF or modes file: HDF5; a PDF, ...) is refused when named among
     INPUTS, before anything runs (exit 2, naming each and what it is), and skipped with a
-    warning when a folder holds it as *.yaml. Exit code 0 when all converged (status ok or
+    warning when a folder holds it as *.yaml, as is an entry so named that is no file (a
+    folder with no specimen in it, a broken link). Exit code 0 when all converged (status ok or
     check), 1 when any failed or did not converge, 2 for bad usage (no specimen found, a
     file named that is no specimen); 130 after Ctrl-C and 143 after SIGTERM (kill, timeout,
     a scheduler's time limit), each of which stops the batch with both summaries written
@@ -154,14 +155,15 @@ def _batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check,
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise BatchError(f"--out {out}: exists and is not a folder")
-    specimens = discover_specimens(inputs, exclude=[out])
+    passed_over: list = []              # entries named *.yaml that are no files: said
+    specimens = discover_specimens(inputs, exclude=[out], skipped=passed_over)
     # a result, FRF or modes file (HDF5), a PDF... ran as a specimen and failed as one: one
     # named is refused before anything runs, one a folder holds as *.yaml is skipped, said
     specimens, named, found = sort_out_non_specimens(specimens, inputs)
     if named:
         raise BatchError(printable(non_specimens_message(named)))
     if not quiet():
-        for path, what in found:
+        for path, what in sorted(found + passed_over, key=lambda t: str(t[0])):
             click.echo(printable(f"warning: {path}: {what}; skipped"), err=True)
     if not specimens:
         raise BatchError(f"no specimen file (*.yaml, *.yml) found in {', '.join(inputs)}")
