@@ -374,7 +374,11 @@ def _compose(text: str, path: str) -> _Y:
             raise SpecimenError(f"not valid YAML: {' '.join(str(exc).split())}",
                                 path=path) from exc
         if node is None:
-            raise SpecimenError("the file is empty; expected a mapping with geometry, materials, "
+            comments = sum(1 for ln in text.splitlines() if ln.lstrip().startswith("#"))
+            # (a file of comments alone was 'the file is empty', which the lab saw it is not)
+            what = (f"holds only comments ({comments} '#' line{'s' if comments > 1 else ''}), "
+                    "no data" if comments else "the file is empty")
+            raise SpecimenError(f"{what}; expected a mapping with geometry, materials, "
                                 "layup, ...", path=path)
         return _convert(node, loader, "", path, set())
     finally:

@@ -71,6 +71,18 @@ def test_yaml_control_character_is_refused_with_its_line(tmp_path):
     assert f"{path}:{line}: non-printable character U+0007" in out
 
 
+@pytest.mark.parametrize("text, words", [
+    ("# plate S1.1\n# measured 2024-03-01\n", "holds only comments (2 '#' lines), no data"),
+    ("\n# to be filled in\n\n", "holds only comments (1 '#' line), no data"),
+    ("\n  \n", "the file is empty")])
+def test_a_specimen_of_comments_alone_says_so(tmp_path, text, words):
+    """A specimen file holding comments only was 'the file is empty', which its author,
+    looking at its lines, saw it is not; it says so, the file named."""
+    code, out, path = modes_error(tmp_path, text)
+    assert (code, out) == (2, f"laminid: error: {path}: {words}; expected a mapping with "
+                              "geometry, materials, layup, ...\n")
+
+
 def test_yaml_merge_key_is_refused(tmp_path):
     text = BASE.replace("geometry:\n", "g0: &g {a: 1}\ngeometry:\n  <<: *g\n")
     code, out, path = modes_error(tmp_path, text)
