@@ -747,6 +747,19 @@ def _check_name(r: _Reader, y: _Y, name: str, what: str) -> None:
         raise r.error(y, f"{bad} in the {what} {name!r}; remove it")
 
 
+def _check_file_name(path: str, name: str) -> None:
+    """The specimen name taken from the file's name (no ``name:`` in it) held to the rule of
+    :func:`_check_name` (errors.NON_PRINTABLE: a right-to-left override or an ESC in the
+    file's name went into the tables, result files and reports unchecked)."""
+    bad = non_printable(name)
+    if bad is not None or not name.strip() or len(name) > MAX_NAME_CHARS:
+        what = (f"{bad} in it" if bad is not None else
+                f"not usable: give 1 to {MAX_NAME_CHARS} characters of text")
+        raise SpecimenError(f"the specimen name {name!r}, taken from the file's name (the "
+                            f"file has no 'name:'): {what}; give the specimen a 'name:' line, "
+                            "or rename the file", path=path)
+
+
 def _read_geometry(r: _Reader, y: _Y) -> tuple[float, float, float]:
     g = r.mapping(y, required=("a", "b", "h"))
     a, b, h = (r.positive(g[k], "length") for k in ("a", "b", "h"))
@@ -1569,6 +1582,8 @@ def load_specimen_text(text: str, path: str = "<string>", *,
     name = r.string(top["name"]) if "name" in top else Path(path).stem
     if "name" in top:
         _check_name(r, top["name"], name, "specimen name")
+    else:
+        _check_file_name(path, name)
     description = r.string(top["description"]) if "description" in top else ""
     a, b, h = _read_geometry(r, top["geometry"])
     mass = r.positive(top["mass"], "mass") if "mass" in top else None
