@@ -1510,7 +1510,9 @@ def test_a_mat_files_cell_array_of_labels_names_the_points(tmp_path, case, versi
     (["1+Z", "2+Z"], "is a cell array of 2 entries, the FRF {frf} has 5 points: which label "
                      "goes with which point cannot be told; give one text per point"),
     (["1+Z", 2.0, "3", "4", "5"], "is a cell array whose entry 2 is no text; laminid reads a "
-                                  "cell array of texts, one per point, as the point labels")])
+                                  "cell array of texts, one per point, as the point labels"),
+    (["1+Z", "", "3", "4", "5"], "is a cell array whose entry 2 is an empty text, where a "
+                                 "point label is expected")])
 @pytest.mark.parametrize("version", ["v5", "v7.3"])
 def test_a_mat_files_labels_that_cannot_be_the_points_are_refused(tmp_path, case, version,
                                                                   entries, words):

@@ -676,8 +676,8 @@ def point_labels(f, path, n_points: int, frf_d: _Dataset) -> tuple[str, ...] | N
         labels = ["".join(map(chr, row)).strip() for row in codes.astype(np.uint16)]
     empty = next((k for k, t in enumerate(labels, start=1) if not t), None)
     if empty is not None:
-        raise FrfError(f"{where}: entry {empty} is an empty text, where a point label is "
-                       "expected")
+        raise FrfError(f"{where}{' is a cell array whose' if cell else ':'} entry {empty} is "
+                       "an empty text, where a point label is expected")
     return tuple(labels)
 
 
