@@ -365,9 +365,9 @@ def _mesh_limits() -> tuple[int, int]:
     return (2 * n + 1) ** 2 - n * n, n * n
 
 
-#: rows of /history (and of swaps, warnings: a note per evaluation at most): the largest
-#: --max-evaluations (100000, commands/_common.fit_options), twice for the run that
-#: --fix-undetermined repeats
+#: rows of /history (and of swaps, warnings: a note per evaluation at most): twice the
+#: largest --max-evaluations (100000, commands/_common.fit_options), which caps a run's
+#: evaluations in all; the factor a margin, not a count
 MAX_HISTORY_ROWS = 2 * 100_000
 #: values along any other axis (modes, constants, labels): each is an entry of the specimen's
 #: YAML, which holds at most specimen.MAX_YAML_NODES (100000)
