@@ -323,15 +323,24 @@ def sort_out_non_specimens(specimens, inputs) -> tuple[list, list, list]:
     ``inputs`` name (the command refuses them: a result or FRF file among the files given is
     a slip to be told before anything runs), ``found`` those found in an input folder (a
     ``*.yaml`` that is none: skipped with a warning)."""
+    from laminid_cli.errors import escaped, non_printable
     from laminid_cli.specimen import non_specimen_text
 
     named_inputs = {Path(i).resolve() for i in inputs if Path(i).is_file()}
     kept, named, found = [], [], []
     for path, name in specimens:
         what = non_specimen_text(path)
+        is_named = Path(path).resolve() in named_inputs
+        bad = non_printable(name)
+        if bad is not None:
+            # the batch name, from the file's path, is printed and written into the summaries
+            # and the result's file name: a right-to-left override in it went there as it was
+            what = (f"its batch name '{escaped(name)}', from the file's path: {bad} in it; "
+                    "rename the file")
+            path = escaped(str(path))
         if what is None:
             kept.append((path, name))
-        elif Path(path).resolve() in named_inputs:
+        elif is_named:
             named.append((path, what))
         else:
             found.append((path, what))

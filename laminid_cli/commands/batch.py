@@ -123,6 +123,7 @@ def _batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check,
                                    stored_hash, write_summary_csv, write_summary_json)
     from laminid_cli.batch import _interruption as interruption
     from laminid_cli.batch import _note_sigint as note_sigint
+    from laminid_cli.errors import escaped
 
     def _unfinished_row(job):
         """The row of a job this run did not finish (Ctrl-C, a lost scheduler)."""
@@ -166,7 +167,8 @@ def _batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check,
         for path, what in sorted(found + passed_over, key=lambda t: str(t[0])):
             click.echo(printable(f"warning: {path}: {what}; skipped"), err=True)
     if not specimens:
-        raise BatchError(f"no specimen file (*.yaml, *.yml) found in {', '.join(inputs)}")
+        raise BatchError(printable(f"no specimen file (*.yaml, *.yml) found in "
+                                   f"{escaped(', '.join(inputs))}"))
     docs = load_specimen_docs(p for p, _ in specimens)        # read once for both checks
     check_fix_materials([p for p, _ in specimens], options, docs)  # before anything is touched
     # one plate's data in two files (a copy under another name): said, recorded, still run
