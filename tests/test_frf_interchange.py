@@ -1525,6 +1525,21 @@ def test_a_mat_files_labels_that_cannot_be_the_points_are_refused(tmp_path, case
         2, f"laminid: error: {path}: variable 'labels' {words.format(frf=frf)}\n")
 
 
+def test_labels_of_a_huge_declared_text_are_refused_unread(tmp_path, case):
+    """A labels variable of fixed-length texts of 10**9 bytes each (chunked, unwritten: a
+    small file) would be read whole, 5 GB for 5 points; refused by its declared size."""
+    path = _matlab_v73(tmp_path / "plate.mat", case.freq[:UNIT_LINES],
+                       case.frf[:, :UNIT_LINES], (-1, 1))
+    with h5py.File(path, "r+") as h5:
+        h5.create_dataset("labels", shape=(5,), dtype="S1000000000", chunks=(1,),
+                          compression="gzip")
+    assert path.stat().st_size < 1e6
+    r = run(["fit-frf", str(path)])
+    assert (r.exit_code, r.stderr) == (2, (
+        f"laminid: error: {path}: variable 'labels': texts of 1000000000 bytes, more than a "
+        "point label laminid reads (200 characters)\n"))
+
+
 def test_a_damaged_v5_mat_file_is_refused_never_a_crash(tmp_path):
     """A bit-flipped version 5 MAT-file: scipy's reader crashed the process (SIGSEGV) on
     this one (byte 632 of the file below set to 193, found by flipping bytes); it is read

@@ -657,7 +657,10 @@ def point_labels(f, path, n_points: int, frf_d: _Dataset) -> tuple[str, ...] | N
         # MATLAB's column-major order is h5py's C order of the reversed dimensions
         labels = []
         for k, ref in enumerate(np.asarray(ds[()]).reshape(-1), start=1):
-            target = f[ref] if ref else None
+            try:
+                target = f[ref] if ref else None
+            except (ValueError, KeyError, OSError):     # a reference to nothing readable
+                target = None
             if not isinstance(target, h5py.Dataset) or not _is_matlab_char(target):
                 raise FrfError(f"{where} is a cell array whose entry {k} is no text; laminid "
                                "reads a cell array of texts, one per point, as the point "
@@ -667,6 +670,9 @@ def point_labels(f, path, n_points: int, frf_d: _Dataset) -> tuple[str, ...] | N
                                f"than a point label laminid reads ({MAX_LABEL_CHARS})")
             labels.append(_variable_text(target))
     elif ds.dtype.kind in "SOU":
+        if ds.dtype.itemsize > 4 * MAX_LABEL_CHARS:          # fixed-length texts, not read
+            raise FrfError(f"{where}: texts of {ds.dtype.itemsize} bytes, more than a point "
+                           f"label laminid reads ({MAX_LABEL_CHARS} characters)")
         labels = [_text(x).strip() for x in np.asarray(ds[()]).reshape(-1)]
     else:                                           # a char matrix, one label a row
         if ds.size > MAX_LABEL_CHARS * n_points:
