@@ -190,7 +190,8 @@ class Outcome:
 # discovery, hashing, planning
 
 
-def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
+def discover_specimens(inputs, exclude=(), skipped: list | None = None
+                       ) -> list[tuple[Path, str]]:
     """Specimen files of the inputs and their unique names.
 
     Parameters
@@ -200,6 +201,10 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
         once), files are taken whatever their suffix
     exclude : folders not to search (the output folder) where they lie below an input folder
         (an input folder inside one, or itself one, is searched: results beside specimens)
+    skipped : a list to which (path, what) is appended of each entry of an input folder
+        named ``*.yaml``/``*.yml`` that is no specimen file: a folder that holds none (a
+        folder named x.yaml is searched like any other; one with nothing taken from it was
+        passed over without a word), a broken symbolic link, not a regular file
 
     Returns
     -------
@@ -219,12 +224,27 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
         if p.is_dir():
             roots.append(p.resolve())
             below = [e for e in exclude if not _inside(p.resolve(), e)]
-            for f in sorted(_files_below(p)):
+            folders: list[Path] = []
+            taken = []
+            for f in sorted(_files_below(p, folders)):
                 rel = f.relative_to(p)
-                if (f.suffix.lower() in SPECIMEN_SUFFIXES and f.is_file()
-                        and not any(_inside(f.resolve(), e) for e in below)):
+                if f.suffix.lower() not in SPECIMEN_SUFFIXES \
+                        or any(_inside(f.resolve(), e) for e in below):
+                    continue
+                if f.is_file():
                     found.setdefault(f.resolve(), f)
                     placed.setdefault(f.resolve(), p.resolve() / rel)
+                    taken.append(f)
+                elif skipped is not None:
+                    skipped.append((f, "a broken symbolic link, not a specimen file" if
+                                    f.is_symlink() and not f.exists() else
+                                    "not a regular file, so not a specimen file"))
+            if skipped is not None:
+                skipped += [(d, "a folder, not a specimen file (YAML text), with no specimen "
+                                "file in it") for d in folders
+                            if d.suffix.lower() in SPECIMEN_SUFFIXES
+                            and not any(_inside(d.resolve(), e) for e in below)
+                            and not any(_inside(t, d) for t in taken)]
         elif p.exists():
             roots.append(p.resolve().parent)
             found.setdefault(p.resolve(), p)
@@ -248,11 +268,12 @@ def discover_specimens(inputs, exclude=()) -> list[tuple[Path, str]]:
     return sorted(out, key=lambda t: t[1])
 
 
-def _files_below(folder: Path):
+def _files_below(folder: Path, folders: list | None = None):
     """The paths below ``folder`` that are no folders, hidden names (and what is below them)
     skipped. A symbolic link to a folder is followed (pathlib's rglob skipped it, and with it
     every specimen of a lab's linked folder, without a word), each real folder once, so that a
-    link to a folder above it ends there rather than going round."""
+    link to a folder above it ends there rather than going round. The folders below it are
+    appended to ``folders`` as they are searched."""
     seen = set()
 
     def walk(d: Path):
@@ -273,6 +294,8 @@ def _files_below(folder: Path):
             except OSError:
                 is_dir = False
             if is_dir:
+                if folders is not None:
+                    folders.append(path)
                 yield from walk(path)
             else:
                 yield path
@@ -300,15 +323,24 @@ def sort_out_non_specimens(specimens, inputs) -> tuple[list, list, list]:
     ``inputs`` name (the command refuses them: a result or FRF file among the files given is
     a slip to be told before anything runs), ``found`` those found in an input folder (a
     ``*.yaml`` that is none: skipped with a warning)."""
+    from laminid_cli.errors import escaped, non_printable
     from laminid_cli.specimen import non_specimen_text
 
     named_inputs = {Path(i).resolve() for i in inputs if Path(i).is_file()}
     kept, named, found = [], [], []
     for path, name in specimens:
         what = non_specimen_text(path)
+        is_named = Path(path).resolve() in named_inputs
+        bad = non_printable(name)
+        if bad is not None:
+            # the batch name, from the file's path, is printed and written into the summaries
+            # and the result's file name: a right-to-left override in it went there as it was
+            what = (f"its batch name '{escaped(name)}', from the file's path: {bad} in it; "
+                    "rename the file")
+            path = escaped(str(path))
         if what is None:
             kept.append((path, name))
-        elif Path(path).resolve() in named_inputs:
+        elif is_named:
             named.append((path, what))
         else:
             found.append((path, what))

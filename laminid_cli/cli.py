@@ -92,14 +92,17 @@ class LazyGroup(click.Group):
                 formatter.write_dl(rows)
 
     def invoke(self, ctx):
-        from laminid_cli.errors import LaminidError
+        from laminid_cli.errors import LaminidError, escaped
 
         try:
             return super().invoke(ctx)
         except LaminidError as exc:
             _echo_json_error(ctx, _error_document(exc, str(exc), exc.exit_code, file=exc.path,
                                                   field=exc.field, line=exc.line))
-            click.echo(f"laminid: {getattr(exc, 'label', 'error')}: {exc}", err=True)
+            # escaped: a file's name in the message ('S1\u202e1.yaml') acted on the line
+            # that reports it (its refused text is escaped by the message itself)
+            click.echo(f"laminid: {getattr(exc, 'label', 'error')}: {escaped(str(exc))}",
+                       err=True)
             ctx.exit(exc.exit_code)
         except click.UsageError as exc:
             if isinstance(exc, click.NoSuchOption) and exc.option_name in _GROUP_OPTIONS:

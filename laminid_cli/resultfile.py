@@ -353,6 +353,90 @@ def combined_reference(plates) -> tuple[dict, list[str]]:
 
 
 # ----------------------------------------------------------------------------------------------
+# the most a result file's datasets hold, from what laminid writes: checked on the declared
+# shapes before anything is read (a tampered /history of 10**9 rows, chunked and unwritten: a
+# 200 kB file, was read whole, 44.7 GiB, a MemoryError traceback)
+
+def _mesh_limits() -> tuple[int, int]:
+    """(nodes, elements) of the finest mesh laminid builds (fe.mesh.MAX_ELEMENTS_PER_SIDE a
+    side, 8-node elements: 120801 nodes, 40000 elements)."""
+    from laminid_cli.fe.mesh import MAX_ELEMENTS_PER_SIDE as n
+
+    return (2 * n + 1) ** 2 - n * n, n * n
+
+
+#: rows of /history (and of swaps, warnings: a note per evaluation at most): twice the
+#: largest --max-evaluations (100000, commands/_common.fit_options), which caps a run's
+#: evaluations in all; the factor a margin, not a count
+MAX_HISTORY_ROWS = 2 * 100_000
+#: values along any other axis (modes, constants, labels): each is an entry of the specimen's
+#: YAML, which holds at most specimen.MAX_YAML_NODES (100000)
+MAX_AXIS_VALUES = 100_000
+
+
+def _row_limit(name: str) -> tuple[int, str]:
+    """(most rows, what bounds them) of the dataset named ``name`` (its HDF5 path)."""
+    from laminid_cli.commands._common import TrialCount
+
+    nodes, elements = _mesh_limits()
+    parts = name.strip("/").split("/")
+    last, parent = parts[-1], (parts[-2] if len(parts) > 1 else "")
+    if (parent, last) in (("mesh", "nodes"), ("modes", "w")):
+        return nodes, f"the nodes of the finest mesh laminid builds ({nodes})"
+    if (parent, last) == ("mesh", "elements"):
+        return elements, f"the elements of the finest mesh laminid builds ({elements})"
+    if (parent, last) in (("modes", "phi"), ("modes", "dofs")):
+        return 9 * nodes, f"the equations of the finest mesh laminid builds ({9 * nodes})"
+    if parent == "history" or last in ("swaps", "warnings"):
+        return MAX_HISTORY_ROWS, f"the evaluations laminid records ({MAX_HISTORY_ROWS})"
+    if parent == "monte_carlo" and last in ("samples", "fixed_samples"):
+        return TrialCount.MAX_TRIALS, f"the Monte Carlo trials ({TrialCount.MAX_TRIALS})"
+    return MAX_AXIS_VALUES, f"the modes or constants a specimen holds ({MAX_AXIS_VALUES})"
+
+
+def check_declared_sizes(f, path, error: type[Exception] | None = None,
+                         what: str = "the result file") -> None:
+    """``error`` (ResultFileError by default) naming the file and the dataset where a
+    dataset of the open result (or modes) file ``f`` declares more values than laminid
+    writes there (:func:`_row_limit` along its first axis, :data:`MAX_AXIS_VALUES` along
+    the others) or more bytes than this process may use; only the shapes are looked at."""
+    import h5py
+
+    from laminid_cli.memory import available_memory_bytes
+
+    def visit(name, obj):       # (a value returned stops the visit)
+        if isinstance(obj, h5py.Dataset) and obj.shape:
+            return _size_problem(obj, available_memory_bytes)
+        return None
+
+    found = f.visititems(visit)
+    if found is not None:
+        name, shape, reason = found
+        raise (error or ResultFileError)(
+            f"{path}: dataset '/{name.strip('/')}' declares {' x '.join(map(str, shape))} "
+            f"values, {reason}; {what} is damaged or was edited")
+
+
+def _size_problem(ds, available) -> tuple | None:
+    from laminid_cli.memory import format_bytes
+
+    shape = ds.shape
+    rows, bound = _row_limit(ds.name)
+    if shape[0] > rows:
+        return ds.name, shape, f"more rows than {bound}"
+    other = max(shape[1:], default=1)
+    if other > MAX_AXIS_VALUES:
+        return ds.name, shape, (f"more than {MAX_AXIS_VALUES} along an axis (the modes or "
+                                "constants a specimen holds)")
+    need = float(np.prod(shape, dtype=float)) * max(ds.dtype.itemsize, 8)
+    room = available()
+    if room is not None and need > room / 2:
+        return ds.name, shape, (f"{format_bytes(need)} to read, more than half the memory "
+                                f"available ({format_bytes(room)})")
+    return None
+
+
+# ----------------------------------------------------------------------------------------------
 
 
 def decode(v):
@@ -949,6 +1033,7 @@ def _open_result(path: Path):
             raise ResultFileError(f"{path}: schema_version {version} is not readable by this "
                                   f"laminid (reads {', '.join(map(str, READABLE_VERSIONS))}); "
                                   "update laminid")
+        check_declared_sizes(f, path)       # before any dataset is read
         yield f, fmt, version
 
 

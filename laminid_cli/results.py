@@ -378,6 +378,9 @@ def read_h5(path) -> dict:
         return out
 
     with h5py.File(path, "r") as f:
+        from laminid_cli.resultfile import check_declared_sizes
+
+        check_declared_sizes(f, path, what="the file")     # before reading it whole
         return walk(f)
 
 

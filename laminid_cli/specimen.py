@@ -374,7 +374,11 @@ def _compose(text: str, path: str) -> _Y:
             raise SpecimenError(f"not valid YAML: {' '.join(str(exc).split())}",
                                 path=path) from exc
         if node is None:
-            raise SpecimenError("the file is empty; expected a mapping with geometry, materials, "
+            comments = sum(1 for ln in text.splitlines() if ln.lstrip().startswith("#"))
+            # (a file of comments alone was 'the file is empty', which the lab saw it is not)
+            what = (f"holds only comments ({comments} '#' line{'s' if comments > 1 else ''}), "
+                    "no data" if comments else "the file is empty")
+            raise SpecimenError(f"{what}; expected a mapping with geometry, materials, "
                                 "layup, ...", path=path)
         return _convert(node, loader, "", path, set())
     finally:
@@ -741,6 +745,19 @@ def _check_name(r: _Reader, y: _Y, name: str, what: str) -> None:
     bad = non_printable(name)          # (a material's name is a key, not read by r.string)
     if bad is not None:
         raise r.error(y, f"{bad} in the {what} {name!r}; remove it")
+
+
+def _check_file_name(path: str, name: str) -> None:
+    """The specimen name taken from the file's name (no ``name:`` in it) held to the rule of
+    :func:`_check_name` (errors.NON_PRINTABLE: a right-to-left override or an ESC in the
+    file's name went into the tables, result files and reports unchecked)."""
+    bad = non_printable(name)
+    if bad is not None or not name.strip() or len(name) > MAX_NAME_CHARS:
+        what = (f"{bad} in it" if bad is not None else
+                f"not usable: give 1 to {MAX_NAME_CHARS} characters of text")
+        raise SpecimenError(f"the specimen name {name!r}, taken from the file's name (the "
+                            f"file has no 'name:'): {what}; give the specimen a 'name:' line, "
+                            "or rename the file", path=path)
 
 
 def _read_geometry(r: _Reader, y: _Y) -> tuple[float, float, float]:
@@ -1606,6 +1623,8 @@ def load_specimen_text(text: str, path: str = "<string>", *,
     name = r.string(top["name"]) if "name" in top else Path(path).stem
     if "name" in top:
         _check_name(r, top["name"], name, "specimen name")
+    else:
+        _check_file_name(path, name)
     description = r.string(top["description"]) if "description" in top else ""
     a, b, h = _read_geometry(r, top["geometry"])
     mass = r.positive(top["mass"], "mass") if "mass" in top else None

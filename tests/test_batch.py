@@ -2328,3 +2328,48 @@ def test_a_summary_saved_with_a_bom_reads_as_without(batch_run, tmp_path, name):
     got = read_summary(bom)
     assert [r["name"] for r in got] == [r["name"] for r in want]
     assert got[0]["materials"]["IM7/977-2"]["E1"] == want[0]["materials"]["IM7/977-2"]["E1"]
+
+
+def test_an_entry_named_yaml_that_is_no_file_is_said_skipped(tmp_path):
+    """A folder searched for *.yaml holding a folder named x.yaml (nothing in it), a broken
+    link named dead.yaml: passed over without a word (only 'no specimen file found'); each is
+    a warning naming it and what it is, as a *.yaml file that is no specimen is. A folder
+    named *.yml whose specimens are taken is searched as any other, no warning."""
+    specs = tmp_path / "in"
+    (specs / "x.yaml").mkdir(parents=True)
+    (specs / "dead.yaml").symlink_to(tmp_path / "nowhere.yaml")
+    r = run("batch", specs, "--mesh", MESH, "--out", tmp_path / "out")
+    assert (r.exit_code, r.stderr) == (2, (
+        f"warning: {specs / 'dead.yaml'}: a broken symbolic link, not a specimen file; "
+        "skipped\n"
+        f"warning: {specs / 'x.yaml'}: a folder, not a specimen file (YAML text), with no "
+        "specimen file in it; skipped\n"
+        f"laminid: error: no specimen file (*.yaml, *.yml) found in {specs}\n"))
+    (specs / "full.yml").mkdir()
+    (specs / "full.yml" / "p1.yaml").write_text("x")
+    skipped = []
+    found = discover_specimens([specs], skipped=skipped)
+    assert [n for _, n in found] == ["full.yml/p1"]
+    assert sorted(p.name for p, _ in skipped) == ["dead.yaml", "x.yaml"]
+
+
+def test_a_batch_name_with_a_bidi_override_is_refused_or_skipped(tmp_path):
+    """The batch name comes from the file's path and goes into the progress lines, both
+    summaries and the result's file name: a right-to-left override in it ('S1\\u202e1.yaml'
+    listed as 'S11.yaml' backwards) went there as it was, even with a 'name:' in the file.
+    A file found in a folder is skipped with a warning, one named among the inputs refused,
+    each naming the character with the path escaped; nothing written."""
+    specs = tmp_path / "in"
+    specs.mkdir()
+    bad = specs / "S1\u202e1.yaml"
+    bad.write_text(SPECS["example2/S2.1.yaml"])
+    shown = f"{specs}/S1\\u202e1.yaml"
+    words = ("its batch name 'S1\\u202e1', from the file's path: non-printable character "
+             "U+202E (RIGHT-TO-LEFT OVERRIDE) in it; rename the file")
+    r = run("batch", specs, "--mesh", MESH, "--out", tmp_path / "out")
+    assert (r.exit_code, r.stderr) == (2, (
+        f"warning: {shown}: {words}; skipped\n"
+        f"laminid: error: no specimen file (*.yaml, *.yml) found in {specs}\n"))
+    r = run("batch", bad, "--mesh", MESH, "--out", tmp_path / "out")
+    assert r.exit_code == 2 and r.stderr.startswith(f"laminid: error: {shown}: {words}; ")
+    assert "\u202e" not in r.stderr and not (tmp_path / "out").exists()

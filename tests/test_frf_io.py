@@ -101,7 +101,13 @@ def test_csv_variants(tmp_path):
     ("1,1\n2,1\n", "2 columns"),
     ("1,1,0\n2,1,0,3\n", ":2: 4 columns"),
     ("1,1,0\n2,x,0\n", "not a number"),
-    ("# nothing\n", "no data lines"),
+    # a file of comments alone was 'no data lines', as an empty one
+    ("# nothing\n", r"bad.csv: holds only comments \(1 '#' line\), no data \(expected "
+                    r"columns freq, re_1, im_1, ...\)$"),
+    ("# f [Hz], H1\n\n# saved by hand\n", r"holds only comments \(2 '#' lines\), no data"),
+    ("", r"bad.csv: the file is empty \(0 bytes\) \(expected"),
+    ("\n \n", r"bad.csv: holds only blank lines, no data \(expected"),
+    (",,,\n", "no data lines"),
 ])
 def test_bad_csv(tmp_path, text, message):
     p = tmp_path / "bad.csv"

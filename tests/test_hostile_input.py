@@ -71,6 +71,18 @@ def test_yaml_control_character_is_refused_with_its_line(tmp_path):
     assert f"{path}:{line}: non-printable character U+0007" in out
 
 
+@pytest.mark.parametrize("text, words", [
+    ("# plate S1.1\n# measured 2024-03-01\n", "holds only comments (2 '#' lines), no data"),
+    ("\n# to be filled in\n\n", "holds only comments (1 '#' line), no data"),
+    ("\n  \n", "the file is empty")])
+def test_a_specimen_of_comments_alone_says_so(tmp_path, text, words):
+    """A specimen file holding comments only was 'the file is empty', which its author,
+    looking at its lines, saw it is not; it says so, the file named."""
+    code, out, path = modes_error(tmp_path, text)
+    assert (code, out) == (2, f"laminid: error: {path}: {words}; expected a mapping with "
+                              "geometry, materials, layup, ...\n")
+
+
 def test_yaml_merge_key_is_refused(tmp_path):
     text = BASE.replace("geometry:\n", "g0: &g {a: 1}\ngeometry:\n  <<: *g\n")
     code, out, path = modes_error(tmp_path, text)
@@ -123,6 +135,26 @@ def test_unusable_specimen_name_is_refused_not_an_hdf5_error(tmp_path, line, fie
     # found by the fuzz test: an empty name (block scalar '|') made h5py raise TypeError
     code, out, path = modes_error(tmp_path, BASE.replace("name: S1.1", line))
     assert code == 2 and f"field '{field}': specimen name" in out and "is not usable" in out
+
+
+@pytest.mark.parametrize("file_name, shown, bad", [
+    ("S1\u202e1.yaml", "'S1\\u202e1'", "non-printable character U+202E (RIGHT-TO-LEFT OVERRIDE)"),
+    ("S1\x1b[31m.yaml", "'S1\\x1b[31m'", "non-printable character U+001B")])
+def test_a_specimen_name_taken_from_the_file_name_is_checked_as_one_written(
+        tmp_path, file_name, shown, bad):
+    """Without 'name:' the specimen is named after its file; a right-to-left override or an
+    ESC in the file's name went into the tables, result files and reports unchecked, where
+    'name: S1\u202e1' is refused (errors.NON_PRINTABLE); refused the same, the file named."""
+    text = "".join(ln for ln in BASE.splitlines(keepends=True) if not ln.startswith("name:"))
+    path = spec(tmp_path, text, file_name)
+    r = run("modes", path, "--mesh", "4x4")
+    # the path escaped too: its character acted on the line (an ESC sequence, on a terminal)
+    assert (r.exit_code, r.output) == (2, (
+        f"laminid: error: {tmp_path}/{shown[1:-1]}.yaml: the specimen name {shown}, taken from the file's name (the "
+        f"file has no 'name:'): {bad} in it; give the specimen a 'name:' line, or rename the "
+        "file\n"))
+    r = run("modes", spec(tmp_path, text, "S1.1.yaml"), "--mesh", "4x4")
+    assert r.exit_code == 0 and r.output.count("S1.1 — IM7/977-2") == 1, r.output
 
 
 # ---------------------------------------------------------------------------------- units

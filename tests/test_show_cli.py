@@ -427,3 +427,61 @@ def test_an_empty_result_file_is_said_to_be_empty(tmp_path, command):
         f"laminid: error: {path}: the file is empty (0 bytes), a copy that did not finish?; "
         "copy it again, or make it again with laminid identify SPEC.yaml")
     assert r.output.count("\n") == 1
+
+
+def _declared(path, rows):
+    """An edit replacing dataset ``path`` with one of ``rows`` rows (its other axes kept),
+    chunked and compressed with nothing written: a file of a few hundred kB declaring it."""
+    def edit(f):
+        old = f[path] if path in f else None
+        tail = old.shape[1:] if old is not None else (6,)
+        if old is not None:
+            del f[path]
+        f.create_dataset(path, shape=(rows, *tail), dtype=float, chunks=(1000, *tail),
+                         compression="gzip")
+    return edit
+
+
+@pytest.mark.parametrize("command, path, shown, words", [
+    ("show", "history/constants", "1000000000 x 6",
+     "more rows than the evaluations laminid records (200000)"),
+    ("report", "modes/w", "1000000000 x 12",
+     "more rows than the nodes of the finest mesh laminid builds (120801)"),
+    ("show", "uncertainty/monte_carlo/samples", "1000000000 x 6",
+     "more rows than the Monte Carlo trials (100000)"),
+    ("export", "history/x", "1000000000 x 6",
+     "more rows than the evaluations laminid records (200000)")])
+def test_a_result_declaring_a_huge_dataset_is_refused_before_it_is_read(
+        single, tmp_path, command, path, shown, words):
+    """A tampered result whose /history/constants (or /modes/w, the Monte Carlo samples)
+    declares 10**9 rows, chunked and unwritten (a 200 kB file), was read whole: 44.7 GiB, a
+    MemoryError traceback (or the machine's memory taken). The declared shapes are checked
+    against what laminid writes before anything is read; the dataset named, exit 2, no
+    output file."""
+    out, _ = single
+    edited = _edited_copy(out, tmp_path, _declared(path, 10**9))
+    assert edited.stat().st_size < 2e6
+    target = tmp_path / ("r.pdf" if command == "report" else "m.unv")
+    r = run(command, edited, *(["-o", target] if command != "show" else []))
+    tail = "the result file" if command != "export" else "the file"
+    assert (r.exit_code, r.output) == (2, f"laminid: error: {edited}: dataset '/{path}' "
+                                          f"declares {shown} values, {words}; {tail} is "
+                                          "damaged or was edited\n")
+    assert not target.exists()
+
+
+def test_a_result_dataset_larger_than_the_memory_is_refused(single, tmp_path, monkeypatch):
+    """Within the limits of what laminid writes a dataset may still not fit the memory left:
+    a covariance of 20000 x 6 values (0.96 MB) with 1.5 MB available is refused, named; with
+    1 GB it is shown."""
+    out, _ = single
+    edited = _edited_copy(out, tmp_path, _declared("uncertainty/covariance", 20000))
+    monkeypatch.setattr("laminid_cli.memory.available_memory_bytes", lambda: 1.5e6)
+    r = run("show", edited)
+    assert (r.exit_code, r.output) == (2, (
+        f"laminid: error: {edited}: dataset '/uncertainty/covariance' declares 20000 x 6 "
+        "values, 0.96 MB to read, more than half the memory available (1.5 MB); the result "
+        "file is damaged or was edited\n"))
+    monkeypatch.setattr("laminid_cli.memory.available_memory_bytes", lambda: 1e9)
+    r = run("show", edited)           # with room it is read (show does not use the covariance)
+    assert r.exit_code == 0, r.output

@@ -1081,7 +1081,7 @@ def test_ambiguous_tag(tmp_path):
 
 @pytest.mark.parametrize("content, line, words", [
     ("", None, ["empty"]),
-    ("   \n# only a comment\n", None, ["empty"]),
+    ("   \n# only a comment\n", None, ["holds only comments (1 '#' line), no data"]),
     ("- 1\n- 2\n", 1, ["expected a mapping", "got a list"]),
     ("just text\n", 1, ["expected a mapping", "'just text'"]),
     ("geometry: [a\n", 2, ["not valid YAML"]),

@@ -82,7 +82,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     and listed in summary.json ('duplicates'); both still run. A file that can be no
     specimen (a result, FRF or modes file: HDF5; a PDF, ...) is refused when named among
     INPUTS, before anything runs (exit 2, naming each and what it is), and skipped with a
-    warning when a folder holds it as *.yaml. Exit code 0 when all converged (status ok or
+    warning when a folder holds it as *.yaml, as is an entry so named that is no file (a
+    folder with no specimen in it, a broken link). Exit code 0 when all converged (status ok or
     check), 1 when any failed or did not converge, 2 for bad usage (no specimen found, a
     file named that is no specimen); 130 after Ctrl-C and 143 after SIGTERM (kill, timeout,
     a scheduler's time limit), each of which stops the batch with both summaries written
@@ -122,6 +123,7 @@ def _batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check,
                                    stored_hash, write_summary_csv, write_summary_json)
     from laminid_cli.batch import _interruption as interruption
     from laminid_cli.batch import _note_sigint as note_sigint
+    from laminid_cli.errors import escaped
 
     def _unfinished_row(job):
         """The row of a job this run did not finish (Ctrl-C, a lost scheduler)."""
@@ -154,17 +156,19 @@ def _batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check,
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise BatchError(f"--out {out}: exists and is not a folder")
-    specimens = discover_specimens(inputs, exclude=[out])
+    passed_over: list = []              # entries named *.yaml that are no files: said
+    specimens = discover_specimens(inputs, exclude=[out], skipped=passed_over)
     # a result, FRF or modes file (HDF5), a PDF... ran as a specimen and failed as one: one
     # named is refused before anything runs, one a folder holds as *.yaml is skipped, said
     specimens, named, found = sort_out_non_specimens(specimens, inputs)
     if named:
         raise BatchError(printable(non_specimens_message(named)))
     if not quiet():
-        for path, what in found:
+        for path, what in sorted(found + passed_over, key=lambda t: str(t[0])):
             click.echo(printable(f"warning: {path}: {what}; skipped"), err=True)
     if not specimens:
-        raise BatchError(f"no specimen file (*.yaml, *.yml) found in {', '.join(inputs)}")
+        raise BatchError(printable(f"no specimen file (*.yaml, *.yml) found in "
+                                   f"{escaped(', '.join(inputs))}"))
     docs = load_specimen_docs(p for p, _ in specimens)        # read once for both checks
     check_fix_materials([p for p, _ in specimens], options, docs)  # before anything is touched
     # one plate's data in two files (a copy under another name): said, recorded, still run

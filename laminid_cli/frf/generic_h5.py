@@ -29,6 +29,10 @@ them:
   ``freq_unit`` (the frequency's, where its dataset has no units attribute), ``frf_unit``
   (the FRFs'), ``units``/``unit`` (either, or both "Hz, g/N"): :func:`said_units`. A MAT-file
   of version 4 or 5 (no HDF5) is read by :func:`read_mat_frf` into an HDF5 file in memory.
+- **point labels** (optional): a top-level variable ``labels`` (or ``points``,
+  ``point_labels``, ...: :data:`POINT_LABEL_VARIABLES`, any case) of one text per point, a
+  MATLAB cell array of char (v7.3: references into '#refs#'; v5), an HDF5 string array or a
+  char matrix of a label a row; without one the points are numbered 1, 2, ...
 
 When several frequency/FRF pairs fit, the error lists them and the options to choose
 (``--freq-dataset``, ``--frf-dataset`` of ``fit-frf``); a named path that is missing or does
@@ -568,7 +572,8 @@ def _read_generic(f, path: Path, freq_dataset, frf_dataset) -> FrfSet:
         freq, frf = freq[dc:], frf[:, dc:]
         coherence = None if coherence is None else coherence[..., dc:]
     validate_frf_arrays(freq, frf, coherence, source=str(path))
-    labels = tuple(str(i + 1) for i in range(frf.shape[0]))
+    labels = point_labels(f, path, frf.shape[0], frf_d) \
+        or tuple(str(i + 1) for i in range(frf.shape[0]))
     meta = {"frequency_dataset": axis.path, "frf_dataset": frf_d.path}
     if not stated:
         # neither a units attribute nor a unit in the name ("f", "freq"): Hz, said, and
@@ -605,13 +610,91 @@ def _check_said_unit(path, axis: _Dataset, said: tuple[str, str, float]) -> None
                        f"{source} in {own!r} ('{axis.path}'): which is meant cannot be told")
 
 
+#: the names (any case) of a top-level variable of texts, one per point, that gives the
+#: points' labels ("1+Z", "tip"); without one the points are numbered 1, 2, ...
+POINT_LABEL_VARIABLES = ("labels", "label", "point_labels", "point_label", "point_names",
+                         "points")
+#: longest point label read from a MAT-file or plain HDF5 file (a longer text: refused)
+MAX_LABEL_CHARS = 200
+
+
+def point_labels(f, path, n_points: int, frf_d: _Dataset) -> tuple[str, ...] | None:
+    """The point labels of the top-level variable named as such (:data:`POINT_LABEL_VARIABLES`)
+    when it holds texts: a MATLAB cell array of char (save -v7.3: a dataset of HDF5 object
+    references to char arrays in the group '#refs#', its attribute MATLAB_class 'cell'; a
+    v5 MAT-file's cell as :func:`_put_variable` stores it), an HDF5 string array, or a
+    MATLAB char matrix of one label a row. None without such a variable, or one of numbers
+    (point numbers) or a single text beside several points (a title): the points are then
+    numbered 1, 2, ... FrfError naming the variable where it is a cell of anything but
+    texts, holds an empty text, or another count of texts than the FRF has points (a cell of
+    labels was not read: the FRFs were numbered whatever it said)."""
+    import h5py
+
+    named = [(name, obj) for name, obj in f.items() if isinstance(obj, h5py.Dataset)
+             and name.lower() in POINT_LABEL_VARIABLES]
+    if not named:
+        return None
+    name, ds = named[0]
+    where = f"{path}: variable {name!r}"
+    cell = h5py.check_ref_dtype(ds.dtype) is not None or "laminid_cell" in ds.attrs
+    if "laminid_cell" in ds.attrs and ds.attrs["laminid_cell"]:     # a v5 cell of others
+        raise FrfError(f"{where} is a cell array whose {_text(ds.attrs['laminid_cell'])}; "
+                       "laminid reads a cell array of texts, one per point, as the point "
+                       "labels")
+    # (a MATLAB char matrix of r rows, c columns: HDF5 dimensions (c, r))
+    count = ds.size if ds.dtype.kind in "SOU" or cell else \
+        ds.shape[-1] if _is_matlab_char(ds) and ds.ndim == 2 else 0
+    if not cell and (count <= 1 < n_points or not count
+                     or not (ds.dtype.kind in "SOU" or _is_matlab_char(ds))
+                     or "MATLAB_empty" in ds.attrs):
+        return None                      # numbers, or one text beside several points
+    if count != n_points:
+        what = f"a cell array of {count} entries" if cell else f"a list of {count} texts"
+        raise FrfError(f"{where} is {what}, the FRF {frf_d.describe()} has "
+                       f"{n_points} points: which label goes with which point cannot be "
+                       "told; give one text per point")
+    if h5py.check_ref_dtype(ds.dtype) is not None:
+        # MATLAB's column-major order is h5py's C order of the reversed dimensions
+        labels = []
+        for k, ref in enumerate(np.asarray(ds[()]).reshape(-1), start=1):
+            try:
+                target = f[ref] if ref else None
+            except (ValueError, KeyError, OSError):     # a reference to nothing readable
+                target = None
+            if not isinstance(target, h5py.Dataset) or not _is_matlab_char(target):
+                raise FrfError(f"{where} is a cell array whose entry {k} is no text; laminid "
+                               "reads a cell array of texts, one per point, as the point "
+                               "labels")
+            if target.size > MAX_LABEL_CHARS:
+                raise FrfError(f"{where}: entry {k} holds {target.size} characters, more "
+                               f"than a point label laminid reads ({MAX_LABEL_CHARS})")
+            labels.append(_variable_text(target))
+    elif ds.dtype.kind in "SOU":
+        if ds.dtype.itemsize > 4 * MAX_LABEL_CHARS:          # fixed-length texts, not read
+            raise FrfError(f"{where}: texts of {ds.dtype.itemsize} bytes, more than a point "
+                           f"label laminid reads ({MAX_LABEL_CHARS} characters)")
+        labels = [_text(x).strip() for x in np.asarray(ds[()]).reshape(-1)]
+    else:                                           # a char matrix, one label a row
+        if ds.size > MAX_LABEL_CHARS * n_points:
+            raise FrfError(f"{where}: {ds.size} characters, more than {n_points} point "
+                           f"labels of {MAX_LABEL_CHARS} hold")
+        codes = np.atleast_2d(np.asarray(ds[()])).T                 # MATLAB's rows x columns
+        labels = ["".join(map(chr, row)).strip() for row in codes.astype(np.uint16)]
+    empty = next((k for k, t in enumerate(labels, start=1) if not t), None)
+    if empty is not None:
+        raise FrfError(f"{where}{' is a cell array whose' if cell else ':'} entry {empty} is "
+                       "an empty text, where a point label is expected")
+    return tuple(labels)
+
+
 def read_mat_frf(path, freq_dataset: str | None = None,
                  frf_dataset: str | None = None, probe: bool = True) -> FrfSet:
     """FRFs from a MATLAB MAT-file of version 4 or 5 (MATLAB's save without '-v7.3',
     scipy.io.savemat; not HDF5), read with scipy.io.loadmat and then as a plain HDF5 file
     (:func:`_read_generic`, here an HDF5 file in memory): numeric variables (those of a
-    struct as its group's), a char variable as text (units, :func:`said_units`); cell
-    arrays are left out. FrfError naming the file for one scipy cannot read; with ``probe``
+    struct as its group's), a char variable as text (units, :func:`said_units`), a cell
+    array of texts as a string list (point labels, :func:`point_labels`); other cells are
+    left out. FrfError naming the file for one scipy cannot read; with ``probe``
     the file is read first in a child process (:func:`~laminid_cli.frf.store.probe_hdf5_file`):
     scipy's reader crashed this process (SIGSEGV) on a damaged file, as libhdf5 can."""
     import io as _io
@@ -658,7 +741,10 @@ def read_mat_frf(path, freq_dataset: str | None = None,
 
 def _put_variable(group, name: str, value, depth: int) -> None:
     """A loadmat variable into an HDF5 group: numbers as a dataset, text as a string, a
-    1 x 1 struct as a group of its fields (two levels); anything else left out."""
+    1 x 1 struct as a group of its fields (two levels), a top-level cell array as below;
+    anything else left out."""
+    import h5py
+
     arr = np.asarray(value)
     if arr.dtype.kind in "fiuc" and arr.ndim >= 1:
         group.create_dataset(name, data=arr)
@@ -668,6 +754,21 @@ def _put_variable(group, name: str, value, depth: int) -> None:
         sub = group.create_group(name)
         for field in arr.dtype.names:
             _put_variable(sub, field, arr[field].reshape(-1)[0], depth + 1)
+    elif arr.dtype == object and depth == 0:
+        # a cell array (loadmat: an object array of its entries, each an array): of texts,
+        # a string dataset in MATLAB's order (point labels: point_labels); of anything
+        # else, an empty one that says what, refused there if named as labels
+        items = arr.reshape(-1, order="F")
+        other = next((k for k, x in enumerate(items, start=1)
+                      if np.asarray(x).dtype.kind != "U" or np.asarray(x).size > 1), None)
+        if other is None:
+            d = group.create_dataset(name, data=np.array(
+                ["".join(np.asarray(x).reshape(-1).tolist()).strip() for x in items],
+                dtype=object), dtype=h5py.string_dtype())
+            d.attrs["laminid_cell"] = ""
+        else:
+            d = group.create_dataset(name, data=np.zeros(0))
+            d.attrs["laminid_cell"] = f"entry {other} is no text"
 
 
 def read_any_frf_h5(path, freq_dataset: str | None = None,

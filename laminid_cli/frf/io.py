@@ -1055,7 +1055,12 @@ def read_frf_csv(path) -> FrfSet:
     if len(lines) > 1:
         check_frf_size(1, len(lines) - 1, str(path))
     if not lines:
-        raise FrfError(f"{path}: no data lines (expected columns freq, re_1, im_1, ...)")
+        comments = sum(1 for ln in text.splitlines() if is_comment_line(ln))
+        # ('no data lines' said of a file of comments alone as of an empty one)
+        what = (f"holds only comments ({comments} '#' line{'s' if comments > 1 else ''}), no "
+                "data" if comments else "the file is empty (0 bytes)" if not text else
+                "holds only blank lines, no data" if not text.strip() else "no data lines")
+        raise FrfError(f"{path}: {what} (expected columns freq, re_1, im_1, ...)")
     notes: list[str] = []
     preamble = _csv_preamble(lines)
     two_line = _csv_two_line_header(lines[preamble - 1][1], lines[preamble][1]) \
