@@ -1417,8 +1417,9 @@ def csv_header(materials, mesh_check: bool = False, damped=(),
     constant's value, then its interval and verdict (:func:`wide_columns`; the value columns
     keep the names they had before these); ``mesh_check``: with MESH_WIDE_COLUMNS before
     ``flagged``. After ``flagged`` (so that the columns before keep their names and places):
-    each constant's side of a bound (:func:`wide_bound_column`), with ``monte_carlo`` its
-    Monte Carlo range (:func:`wide_mc_columns`), then the ply loss factors of each material
+    each constant's side of a bound, its limit and its profile (:func:`wide_bound_columns`),
+    with ``monte_carlo`` its Monte Carlo range (:func:`wide_mc_columns`), then the ply loss
+    factors of each material
     of ``damped`` (value, interval, verdict: :func:`wide_columns`, unit "1"; with
     ``monte_carlo`` their range too)."""
     cols = ["name", "specimen", "path", "status", "reasons"]
@@ -1426,7 +1427,7 @@ def csv_header(materials, mesh_check: bool = False, damped=(),
     cols += ["rms_residual [%]", "evaluations", "time [s]", "cached", "result",
              "stale_result", *(MESH_WIDE_COLUMNS if mesh_check else ()), "flagged"]
     for m in materials:
-        cols += [wide_bound_column(m, k) for k in CONSTANTS]
+        cols += [c for k in CONSTANTS for c in wide_bound_columns(m, k)]
         if monte_carlo:
             cols += [c for k in CONSTANTS for c in wide_mc_columns(m, k)]
     for m in damped:
@@ -1442,6 +1443,33 @@ def wide_bound_column(material: str, constant: str) -> str:
     bound_side": "lower", "upper", empty when it is not at a bound), the long form's
     ``bound_side``."""
     return f"{material} {constant} bound_side"
+
+
+def wide_bound_columns(material: str, constant: str) -> tuple[str, str, str, str, str]:
+    """The wide summary's columns of a constant stopped on a search limit, the long form's
+    bound_side, bound_limit, profile_bound, profile, profile_far named as its Monte Carlo
+    columns are (:func:`wide_mc_columns`), the unit in the headers: "IM7/977-2 G13
+    bound_side" (:func:`wide_bound_column`), "... bound_limit [Pa]", "... profile_bound [Pa]",
+    "... profile" (bound, flat, none), "... profile_far [Pa]"; empty when it is not at a
+    bound.
+
+    Why: without them a spreadsheet reading the wide CSV alone could not tell a constant the
+    data bound (S2.1's G13 at 6x6: on its lower limit, rejected above ~1.5 GPa) from one the
+    modes do not determine at all (a flat profile), nor could the report draw its profile
+    without the result files."""
+    unit = CONSTANT_UNITS.get(constant, "1")
+    return (wide_bound_column(material, constant),
+            f"{material} {constant} bound_limit [{unit}]",
+            f"{material} {constant} profile_bound [{unit}]", f"{material} {constant} profile",
+            f"{material} {constant} profile_far [{unit}]")
+
+
+def _bound_cells(iv: dict) -> list[str]:
+    """The wide summary's cells of one constant's bound and profile
+    (:func:`wide_bound_columns`), written as the long form writes them."""
+    return [iv.get("bound_side") or "", _num(iv.get("bound_limit")),
+            _num(iv.get("profile_bound")), iv.get("profile") or "",
+            _num(iv.get("profile_far"))]
 
 
 def wide_mc_columns(material: str, name: str) -> tuple[str, str, str]:
@@ -1715,7 +1743,7 @@ def write_summary_csv(path, rows, wide: bool = False, options: dict | None = Non
         values.append(flagged_text(r))
         for m in mats:
             ivs = (r.get("intervals") or {}).get(m, {})
-            values += [(ivs.get(k) or {}).get("bound_side") or "" for k in CONSTANTS]
+            values += [c for k in CONSTANTS for c in _bound_cells(ivs.get(k) or {})]
             if mc:
                 values += [c for k in CONSTANTS for c in _mc_cells(ivs.get(k) or {})]
         for m in damped:
@@ -2053,8 +2081,9 @@ def _intervals_of_wide(rec: dict, mats: dict, flagged: dict, where: tuple) -> di
     """A wide summary record's ``intervals`` ({material: {constant: entry}}, the long reader's
     keys) from its interval and verdict columns (:func:`wide_columns`) and its ``flagged``
     words; None for a summary written before those columns. A constant whose three cells are
-    empty (no uncertainty) gets no entry. The side of a bound is not in the wide summary
-    (bound_side "")."""
+    empty (no uncertainty) gets no entry. The side of a bound, its limit and the profile
+    (:func:`wide_bound_columns`) as the long reader gives them; a summary written before
+    those columns: bound_side "", bound_limit None, no profile keys."""
     found = False
     out: dict[str, dict] = {}
     for col in rec:
@@ -2071,13 +2100,22 @@ def _intervals_of_wide(rec: dict, mats: dict, flagged: dict, where: tuple) -> di
             continue
         word = flagged.get(m, {}).get(k, "")
         # (the side: summaries written before its column do not say, "")
-        side = rec.get(wide_bound_column(m, k)) or ""
+        side_col, limit_col, pb_col, kind_col, far_col = wide_bound_columns(m, k)
+        side = rec.get(side_col) or ""
         iv = out.setdefault(m, {})[k] = {
             "lower": lower, "upper": upper, "verdict": verdict,
             "at_bound": verdict == VERDICT_AT_BOUND or word == FLAG_AT_BOUND or bool(side),
-            "bound_side": side, "bound_limit": None,
+            "bound_side": side,
+            # (summaries written before its column: None, as before)
+            "bound_limit": _number_cell(where, limit_col, rec.get(limit_col)),
             "flagged": word == FLAG_UNDETERMINED, "assumed": word == FLAG_ASSUMED,
             "flag": word}
+        if kind_col in rec:
+            # the profile, in the long reader's keys; a summary written before these columns
+            # has none of them (the report takes the result file's profile where found)
+            iv.update(profile_bound=_number_cell(where, pb_col, rec.get(pb_col)),
+                      profile=rec.get(kind_col) or "",
+                      profile_far=_number_cell(where, far_col, rec.get(far_col)))
         iv.update(_mc_of_wide(rec, m, k))
     return out if found else None
 

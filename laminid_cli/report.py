@@ -2634,12 +2634,14 @@ def doubt_of_row(row, m: str, k: str, r: ResultFile | None = None) -> Doubt | No
     """The :class:`Doubt` of constant ``k`` of material ``m`` from the summary row's own
     columns (summary.json, long summary.csv, a wide one's interval and verdict columns, which
     do not say the side of a bound); from the result file ``r`` only when the row has none (a
-    wide summary.csv written before those columns), and the profile of a constant at a bound,
-    which a wide one has no columns for; None when neither says anything."""
+    wide summary.csv written before those columns), and the profile of a constant at a bound
+    where the row has none (a wide one written before its profile columns); None when neither
+    says anything."""
     e = (row.get("intervals") or {}).get(m, {}).get(k)
     if e is not None and "profile" not in e and e.get("at_bound") and r is not None \
             and r.uncertainty is not None and r.uncertainty.get(m, k) is not None:
-        # a wide summary.csv has no profile columns: its result file's profile where found
+        # a wide summary.csv written before its profile columns (wide_bound_columns): its
+        # result file's profile where found
         # (hybrid CM's glass G12, rejected above 18.5 GPa, and E2, flat to 0.9 GPa, were bare
         # triangles beside the long summary's dotted profiles)
         iv = r.uncertainty.get(m, k)

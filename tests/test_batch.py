@@ -181,6 +181,20 @@ def test_summary_csv_and_table_have_the_shape_of_table_2(batch_run, tmp_path):
     back_wide = read_summary(wide / "summary.csv")[1]["intervals"]["E-glass/R368"]
     assert back_wide["G13"]["bound_side"] == "lower" and back_wide["G13"]["at_bound"]
     assert back_wide["G23"]["bound_side"] == "" and not back_wide["G23"]["at_bound"]
+    # ... its limit and where its profile says the fit rejects it, the long form's cells (the
+    # wide one said neither: a constant the data bound read as one the modes do not determine)
+    for col, key in (("bound_limit [Pa]", "bound_limit"),
+                     ("profile_bound [Pa]", "profile_bound")):
+        assert float(w[1][f"E-glass/R368 G13 {col}"]) == pytest.approx(float(g13[key]),
+                                                                        rel=1e-12)
+    assert w[1]["E-glass/R368 G13 profile"] == g13["profile"] == "bound"
+    assert w[1]["E-glass/R368 G13 profile_far [Pa]"] == g13["profile_far"]
+    assert back_wide["G13"]["bound_limit"] == pytest.approx(g13_limit, rel=1e-12)
+    assert back_wide["G13"]["profile_bound"] == pytest.approx(g13_profile, rel=1e-12)
+    assert back_wide["G13"]["profile"] == "bound"
+    assert all(w[1][f"E-glass/R368 {k} {c}"] == "" for k in ("E1", "E2", "G12", "G23")
+               for c in ("bound_limit [Pa]", "profile_bound [Pa]", "profile",
+                         "profile_far [Pa]"))
 
 
 def test_wide_summary_gives_each_value_its_interval_and_verdict(batch_run, tmp_path):
@@ -206,16 +220,23 @@ def test_wide_summary_gives_each_value_its_interval_and_verdict(batch_run, tmp_p
     m1, m2 = "IM7/977-2", "E-glass/R368"
     # the value columns keep their names and order; the three new ones follow each
     values = [c for c in header if c.endswith(("[Pa]", "[1]")) and " lower " not in c
-              and " upper " not in c]
+              and " upper " not in c
+              and not c.endswith((" bound_limit [Pa]", " profile_bound [Pa]",
+                                  " profile_far [Pa]", " bound_limit [1]",
+                                  " profile_bound [1]", " profile_far [1]"))]
     assert values == [f"{m} {k} [{'1' if k == 'nu12' else 'Pa'}]" for m in (m1, m2)
                       for k in CONSTANTS]
     i = header.index(f"{m1} E2 [Pa]")
     assert header[i:i + 5] == [f"{m1} E2 [Pa]", f"{m1} E2 lower [Pa]", f"{m1} E2 upper [Pa]",
                                f"{m1} E2 verdict", f"{m1} G12 [Pa]"]
     # 'flagged' ends the old columns; after it (new, so old readers find theirs in place)
-    # each constant's side of a bound
+    # each constant's side of a bound, its limit and its profile (the long form's bound_side,
+    # bound_limit, profile_bound, profile, profile_far)
     k = header.index("flagged")
-    assert header[k + 1:] == [f"{m} {c} bound_side" for m in (m1, m2) for c in CONSTANTS]
+    assert header[k + 1:] == [f"{m} {c} {x}" for m in (m1, m2) for c in CONSTANTS for x in (
+        "bound_side", f"bound_limit [{'1' if c == 'nu12' else 'Pa'}]",
+        f"profile_bound [{'1' if c == 'nu12' else 'Pa'}]", "profile",
+        f"profile_far [{'1' if c == 'nu12' else 'Pa'}]")]
     n_checked = 0
     for row, spec in zip(w, doc["specimens"]):
         m = m1 if row["name"] == "example1/S1.4" else m2

@@ -1683,7 +1683,8 @@ def old_wide(path, to, flagged: bool = True):
     keep = [c for c in recs[0] if not re.search(r" (lower|upper) \[[^]]*\]$| verdict$", c)
             and (flagged or c != "flagged")
             # (nor the columns after 'flagged': sides of a bound, ranges, loss factors)
-            and not re.search(r" (bound_side|mc_lower \[.*|mc_upper \[.*|mc_search_limit)$"
+            and not re.search(r" (bound_side|mc_lower \[.*|mc_upper \[.*|mc_search_limit"
+                              r"|bound_limit \[.*|profile_bound \[.*|profile|profile_far \[.*)$"
                               r"|^\S+ eta\d\d ", c)]
     assert len(keep) < len(recs[0])
     with open(to, "w", newline="") as fh:
@@ -1788,6 +1789,94 @@ def test_a_wide_summary_alone_draws_the_long_summarys_bars(tmp_path):
     assert at_bound(figs["wide"]) == at_bound(figs["long"]) and len(at_bound(figs["long"])) >= 3
     foot = " ".join(t.get_text() for t in figs["wide"].texts).replace("\n", " ")
     assert "no intervals" not in foot and "without their doubt" not in foot
+
+
+def test_a_wide_summary_alone_has_the_long_summarys_bounds_and_profiles(tmp_path):
+    """--wide had each constant's bound_side but not its bound_limit nor its profile, so the
+    wide CSV alone could not tell a constant the data bound (glass G12 on its lower limit,
+    rejected above 18.5 GPa) from one they do not determine (glass E2, flat down to 0.9 GPa),
+    and its report drew no profile without the result files. Its columns "glass G12
+    bound_limit [Pa]", "... profile_bound [Pa]", "... profile", "... profile_far [Pa]" (nu12's
+    in [1]), after each bound_side, hold the long summary's cells (1e-12 relative), empty where
+    the long ones are; read_summary gives the long reader's keys and values back; the report
+    of the wide CSV alone draws the long one's profiles, caps and arrow heads."""
+    import csv
+
+    from laminid_cli.batch import CONSTANTS, BatchError, read_summary, write_summary_csv
+
+    rows = _summary_rows()
+    g = rows[0]["intervals"]["glass"]
+    g["G12"].update(profile="bound", profile_bound=18.5e9, profile_far=0.4e9)
+    g["E2"].update(profile="flat", profile_bound=None, profile_far=0.9e9)
+    g["nu12"].update(profile="none", profile_bound=None, profile_far=None)
+    (tmp_path / "long").mkdir()
+    (tmp_path / "wide").mkdir()
+    write_summary_csv(tmp_path / "long" / "summary.csv", rows)
+    write_summary_csv(tmp_path / "wide" / "summary.csv", rows, wide=True)
+    with open(tmp_path / "long" / "summary.csv", newline="") as fh:
+        long = {(x["name"], x["material"], x["constant"]): x
+                for x in csv.DictReader(ln for ln in fh if not ln.startswith("#"))}
+    with open(tmp_path / "wide" / "summary.csv", newline="") as fh:
+        reader = csv.DictReader(ln for ln in fh if not ln.startswith("#"))
+        header, wide = reader.fieldnames, {x["name"]: x for x in reader}
+    i = header.index("glass nu12 bound_side")
+    assert header[i:i + 5] == ["glass nu12 bound_side", "glass nu12 bound_limit [1]",
+                               "glass nu12 profile_bound [1]", "glass nu12 profile",
+                               "glass nu12 profile_far [1]"]
+    n = 0
+    for (name, m, k), rec in long.items():
+        unit = rec["unit"]
+        for key, col in (("bound_limit", f"bound_limit [{unit}]"),
+                         ("profile_bound", f"profile_bound [{unit}]"),
+                         ("profile_far", f"profile_far [{unit}]")):
+            cell = wide[name][f"{m} {k} {col}"]
+            assert (cell == "") is (rec[key] == ""), (name, m, k, key)
+            if cell:
+                assert float(cell) == pytest.approx(float(rec[key]), rel=1e-12, abs=0.0)
+                n += 1
+        assert wide[name][f"{m} {k} profile"] == rec["profile"]
+    assert n == 6                     # 3 limits, G12's bound, G12's and E2's far ends
+    assert wide["H"]["glass G12 profile"] == "bound" and wide["H"]["glass E2 profile"] == "flat"
+    assert wide["H"]["glass nu12 profile"] == "none" and wide["H"]["glass E1 profile"] == ""
+    # read back: the long reader's keys and values
+    back = {kind: read_summary(tmp_path / kind / "summary.csv")[0]["intervals"]["glass"]
+            for kind in ("long", "wide")}
+    keys = ("bound_side", "bound_limit", "profile_bound", "profile", "profile_far")
+    for k in CONSTANTS:
+        if k == "G13":                                   # fixed: no entry in either
+            continue
+        assert [back["wide"][k][x] for x in keys] == [back["long"][k][x] for x in keys], k
+    assert back["wide"]["G12"]["profile_bound"] == pytest.approx(18.5e9, rel=1e-12)
+    assert back["wide"]["E2"]["profile_far"] == pytest.approx(0.9e9, rel=1e-12)
+    assert back["wide"]["E2"]["bound_limit"] == pytest.approx(58.47e9, rel=1e-12)
+    # a cell edited to text: the file, its line and the column named, as the other cells
+    text = (tmp_path / "wide" / "summary.csv").read_text()
+    bad = tmp_path / "bad.csv"
+    bad.write_text(text.replace(",18500000000.0,bound,", ",n/a,bound,", 1))
+    assert bad.read_text() != text
+    with pytest.raises(BatchError, match=r"bad\.csv:\d+, column 'glass G12 profile_bound "
+                                         r"\[Pa\]': 'n/a' is not a number"):
+        read_summary(bad)
+    # the report of the wide CSV alone (no result file beside it) draws the long one's
+    assert not list(tmp_path.rglob("*.result.h5"))
+    figs = {kind: {p.name: p.figure for p in report_pages(tmp_path / kind / "summary.csv")}[
+        "constants"] for kind in ("long", "wide")}
+
+    def profiles(fig):
+        return {(a.get_gid(), ln.get_gid()): (ln.get_marker(), tuple(ln.get_ydata()))
+                for a in fig.axes for ln in a.get_lines()
+                if (ln.get_gid() or "").startswith("profile")}
+
+    drawn = profiles(figs["wide"])
+    assert set(drawn) == set(profiles(figs["long"]))
+    for key, (marker, ys) in profiles(figs["long"]).items():
+        assert drawn[key][0] == marker and np.allclose(drawn[key][1], ys, rtol=1e-12), key
+    assert drawn[("across-G12", "profile-cap-H-glass")][0] == "_"
+    assert drawn[("across-G12", "profile-cap-H-glass")][1][0] == pytest.approx(18.5, rel=1e-12)
+    assert sorted(drawn[("across-G12", "profile")][1]) == pytest.approx([5.949e-3, 18.5],
+                                                                       rel=1e-12)
+    assert drawn[("across-E2", "profile-end-H-glass")][0] == "v"
+    assert sorted(drawn[("across-E2", "profile")][1]) == pytest.approx([0.9, 58.47], rel=1e-12)
 
 
 def test_batch_summary_alone_keeps_its_verdicts(batch_dir, tmp_path):

@@ -1894,11 +1894,13 @@ def test_loss_factors_across_specimens_mark_those_of_a_fit_that_did_not_converge
 
 
 def test_a_wide_summary_draws_the_profiles_of_its_result_files(tmp_path):
-    """A --wide summary.csv has no profile columns: hybrid CM's glass G12 (on its lower
-    limit, rejected above 18.5 GPa) and E2 (on its upper limit, flat down to 0.9 GPa) were
-    bare triangles where the long summary draws their profiles dotted, to a cap and to an
-    arrow head. Where the result file is found its profile is drawn, as from the long one;
-    without it, none."""
+    """A --wide summary.csv written before its profile columns: hybrid CM's glass G12 (on
+    its lower limit, rejected above 18.5 GPa) and E2 (on its upper limit, flat down to 0.9
+    GPa) were bare triangles where the long summary draws their profiles dotted, to a cap and
+    to an arrow head. Where the result file is found its profile is drawn, as from the long
+    one; without it, none."""
+    import csv
+    import re
     from types import SimpleNamespace
 
     import numpy as np
@@ -1910,8 +1912,18 @@ def test_a_wide_summary_draws_the_profiles_of_its_result_files(tmp_path):
     h = _summary_rows()[0]
     h["materials"]["glass"]["E2"] = 55.5e9
     h["intervals"]["glass"]["E2"]["bound_limit"] = 55.5e9
-    write_summary_csv(tmp_path / "wide.csv", [h], wide=True)
+    write_summary_csv(tmp_path / "new.csv", [h], wide=True)
+    with open(tmp_path / "new.csv", newline="") as fh:             # without those columns
+        recs = list(csv.DictReader(ln for ln in fh if not ln.startswith("#")))
+    keep = [c for c in recs[0]
+            if not re.search(r" (bound_limit|profile_bound|profile_far) \[.*\]$| profile$", c)]
+    assert len(recs[0]) - len(keep) == 4 * 12
+    with open(tmp_path / "wide.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, keep, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(recs)
     (row,) = read_summary(tmp_path / "wide.csv")
+    assert row["intervals"]["glass"]["G12"]["bound_limit"] is None     # as before
     assert "profile" not in row["intervals"]["glass"]["G12"]           # no such column
     ivs = {"G12": SimpleNamespace(profile_kind="bound", profile_bound=18.5e9,
                                   profile_far=np.nan),

@@ -36,7 +36,9 @@ from laminid_cli.commands._common import (echo_json, fit_options, json_option,
                    "[Pa]', '... verdict') instead of one row per specimen, material and "
                    "constant; its column 'flagged' names the constants at a bound, "
                    "undetermined, fixed or held by their prior; after it each constant's "
-                   "bound_side, with --monte-carlo its range ('... mc_lower [Pa]', '... "
+                   "bound_side, bound_limit, profile_bound, profile and profile_far (as the "
+                   "long form's: '... G13 profile_bound [Pa]', empty when not at a bound), "
+                   "with --monte-carlo its range ('... mc_lower [Pa]', '... "
                    "mc_upper [Pa]', '... mc_search_limit'), then the ply loss factors where "
                    "damping was measured ('IM7/977-2 eta22 [1]', its interval, verdict and "
                    "range).")
@@ -61,7 +63,8 @@ def batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check, 
     value), the Monte Carlo range with --monte-carlo (mc_search_limit: its ends set by
     trials on a search limit), unit and status, then the ply loss factors where damping
     was measured; --wide one row per specimen, each constant's value, interval and verdict,
-    then its side of a bound, its Monte Carlo range and the loss factors;
+    then its side of a bound, its limit and profile, its Monte Carlo range and the loss
+    factors;
     both forms the run options, as summary.json's
     "options", in '#' lines above the header; summary.json a units map). Every result has a
     status, ok or check with its reasons, shown in the table, and its warnings (the specimen
