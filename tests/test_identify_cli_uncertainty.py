@@ -158,7 +158,7 @@ def test_the_monte_carlo_tables_lines_end_without_trailing_spaces():
         "refits": 8, "trials": 8, "sigma_factor": 1.0, "time_s": 0.1,
         "loss_factors": {MAT: {"eta11": one, "eta22": dict(one, upper=0.0456)}}}}
     table = format_damping_monte_carlo(d)
-    assert table[3].endswith("1.01 .. 1.23") and table[4].endswith("1.01 .. 4.56")
+    assert table[3].endswith("1.010 .. 1.230") and table[4].endswith("1.010 .. 4.560")
     assert all(x == x.rstrip() for x in table), table
 
 
