@@ -168,3 +168,50 @@ def test_modes_prints_the_density_from_the_mass_and_the_dimensions():
     rho = float(re.search(rf"density ({NUM}) kg/m\^3", r.output).group(1))
     assert rho == pytest.approx(0.3225 / (0.2105 * 0.311 * 0.00306), abs=0.05)
     assert "mass 0.3225 kg (model 0.3225 kg)" in r.output
+
+
+@pytest.fixture(scope="module")
+def printed_damping(tmp_path_factory):
+    """identify --mesh 6x6 of S1.1 with synthetic modal damping (tests/dampspec.py: ply loss
+    factors 0.2, 1.2, 1.5, 1.0, 1.0 %, damping sigma 2 % of each zeta, 3 % noise, seed 1):
+    (terminal text, the noisy zeta written in the file, its sigma)."""
+    from tests.dampspec import damped_copy
+
+    spec = tmp_path_factory.mktemp("damp") / "S1.1-damped.yaml"
+    zeta = damped_copy("specimens/example1/S1.1.yaml", spec,
+                       np.array([0.002, 0.012, 0.015, 0.01, 0.01]), sigma_rel=0.02, mesh="6x6",
+                       noise=0.03, seed=1)
+    noisy = zeta * (1 + 0.03 * np.random.default_rng(1).standard_normal(zeta.size))
+    r = run("identify", spec, "--mesh", "6x6", "--no-output")
+    assert r.exit_code == 0, r.output
+    return r.output, noisy, 0.02 * zeta
+
+
+def test_modal_loss_factors_from_the_printed_shares_and_ply_loss_factors(printed_damping):
+    """Modal strain energy: each mode's model eta = sum_k U_k eta_k (printed shares, %, and
+    printed ply loss factors), within the printed digits; the shares sum to 100 within
+    5 x 0.05; measured = 2 zeta and '+/-' = 2 sigma of the file's values; s2 =
+    chi2 / (12 - 5) with chi2 from the file's damping and sigma and the printed model column
+    (measured: s2 within [0.97, 1.20], printed 1.11)."""
+    out, zeta, sigma = printed_damping
+    eta = dict(re.findall(rf"^\s+(eta11|eta22|eta12|eta13|eta23)\s+({NUM})\s", out, re.M))
+    assert list(eta) == ["eta11", "eta22", "eta12", "eta13", "eta23"], out
+    e = np.array([float(v) for v in eta.values()])
+    ue = np.array([half_ulp(v) for v in eta.values()])
+    block = out.split("strain-energy shares (%) of each mode")[1]
+    rows = re.findall(rf"^\s+(\d+)((?:\s+{NUM}){{8}})$", block, re.M)
+    assert [int(r[0]) for r in rows] == list(range(1, 13)), block
+    t = np.array([[float(x) for x in r[1].split()] for r in rows])
+    meas, pm, model, U = t[:, 0], t[:, 1], t[:, 2], t[:, 3:]
+    np.testing.assert_allclose(U.sum(axis=1), 100, rtol=0, atol=5 * 0.05 + 1e-9)
+    bound = (0.05 * e + U * ue).sum(axis=1) / 100 + 0.0005 + 1e-12
+    np.testing.assert_array_less(np.abs(model - U @ e / 100), bound)
+    np.testing.assert_allclose(meas, 200 * zeta, rtol=0, atol=0.0005 + 1e-12)
+    np.testing.assert_allclose(pm, 200 * sigma, rtol=0, atol=0.0005 + 1e-12)
+    d_lo = np.abs(200 * zeta - model) - 0.0005             # the model column's rounding
+    d_hi = np.abs(200 * zeta - model) + 0.0005
+    chi2_lo = (np.clip(d_lo, 0, None) ** 2 / (200 * sigma) ** 2).sum()
+    chi2_hi = (d_hi ** 2 / (200 * sigma) ** 2).sum()
+    m = re.search(rf"intervals from: .*; s2 = ({NUM}) \((\d+) degrees of freedom\)", out)
+    assert m and int(m.group(2)) == 12 - 5, out
+    assert chi2_lo / 7 - half_ulp(m.group(1)) <= float(m.group(1)) <= chi2_hi / 7 + half_ulp(m.group(1))
