@@ -215,3 +215,18 @@ def test_modal_loss_factors_from_the_printed_shares_and_ply_loss_factors(printed
     m = re.search(rf"intervals from: .*; s2 = ({NUM}) \((\d+) degrees of freedom\)", out)
     assert m and int(m.group(2)) == 12 - 5, out
     assert chi2_lo / 7 - half_ulp(m.group(1)) <= float(m.group(1)) <= chi2_hi / 7 + half_ulp(m.group(1))
+
+
+def test_s2_and_chi2_keep_their_trailing_zeros(s11_fix_undetermined_6x6):
+    """A chi2 of 12.0 and s2 of 2.0 were printed "chi2 12" and "s2 = 2" (format g): read as
+    exact beside "s2 = 0.286". Three significant digits, as the Monte Carlo table's."""
+    import copy
+
+    from laminid_cli.commands.text import format_uncertainty
+
+    u = copy.deepcopy(s11_fix_undetermined_6x6[0]["uncertainty"])
+    u["a_posteriori"].update(chi2=12.0, s2=2.0)
+    u["scaling"].update(used="residuals", variance_factor=2.0)
+    text = "\n".join(format_uncertainty(u))
+    assert "s2 = chi2/(n-p) = 2.00 (chi2 12.0, " in text
+    assert "covariance scaled by s2 = 2.00 (Student t quantile)" in text

@@ -33,6 +33,15 @@ def fmt(value, spec: str, missing: str = "-") -> str:
     return number_text(value, spec)
 
 
+def _sig3(value, missing: str = "-") -> str:
+    """Three significant digits with their trailing zeros, as units.significant_text: s2 and
+    chi2 "2.00", not "2" (``g`` dropped them, and "chi2 2" beside "s2 0.286" read as exact)."""
+    if value is None or not math.isfinite(value):
+        return missing
+    text = number_text(value, "#.3g")
+    return text[:-1] if text.endswith(".") else text
+
+
 def format_constant(name: str, value) -> str:
     """'117.2 GPa' for moduli, '0.350' for Poisson ratios."""
     if value is None or not math.isfinite(value):
@@ -398,10 +407,10 @@ def format_uncertainty(u: dict) -> list[str]:
         small = small_chi2_note(ap["chi2"], ap["dof"], "frequency sigma")
         fit = (small if small else "residuals consistent with it" if s2 <= 2 else
                "the model misses the data by more than that (model error or sigma too small)")
-        lines.append(f"  a-posteriori variance factor s2 = chi2/(n-p) = {s2:.3g} (chi2 "
-                     f"{ap['chi2']:.3g}, {ap['dof']} degrees of freedom): {fit}")
+        lines.append(f"  a-posteriori variance factor s2 = chi2/(n-p) = {_sig3(s2)} (chi2 "
+                     f"{_sig3(ap['chi2'])}, {ap['dof']} degrees of freedom): {fit}")
     used = ("stated frequency sigma (normal quantile)" if sc["used"] == "stated" else
-            f"covariance scaled by s2 = {sc['variance_factor']:.3g} (Student t quantile)")
+            f"covariance scaled by s2 = {_sig3(sc['variance_factor'])} (Student t quantile)")
     lines.append(f"  intervals from: {used}; --covariance-scale {sc['requested']}")
     cond = u["condition_number"]
     weakest = " ".join(f"{number_text(c, '+.2f')} {lab}" for lab, c in
@@ -638,7 +647,7 @@ def format_damping(d: dict) -> list[str]:
     used = ("stated damping sigma (normal quantile)" if d["scaling"]["used"] == "stated" else
             "scaled by s2 (Student t quantile)")
     lines.append(f"  damping standard deviations: {d['sigma_source'] or '-'}; intervals from: "
-                 f"{used}; s2 = {fmt(s2, '.3g')} ({d['dof']} degrees of freedom)")
+                 f"{used}; s2 = {_sig3(s2)} ({d['dof']} degrees of freedom)")
     for note in d.get("notes", []):
         lines.append(f"  note: {note}")
     lines += format_damping_monte_carlo(d)
