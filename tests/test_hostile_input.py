@@ -1713,3 +1713,40 @@ def test_an_frf_files_unprinted_words_are_not_held_to_the_rule_but_printed_ones_
     fs = read_frf(uff)
     assert fs.meta["uff_ids"][0] == "FRF\x001"
     np.testing.assert_allclose(fs.frf, H, rtol=1e-11, atol=0)     # (ASCII UFF: 12 digits)
+
+
+def test_a_warning_escapes_a_non_printable_character_of_a_folder_name(tmp_path):
+    """A specimen in a folder 'bd\u202e': modes' coarse-mesh warning printed the path as it
+    was, the override reversing the rest of the line; escaped as the error line escapes it
+    (errors.NON_PRINTABLE), --json's 'warnings' keeping the path as read."""
+    folder = tmp_path / "bd\u202e"
+    folder.mkdir()
+    path = spec(folder, BASE, "S1.1.yaml")
+    r = run("modes", path, "--mesh", "2x2")
+    assert r.exit_code == 0, r.output
+    assert f"warning: {tmp_path}/bd\\u202e/S1.1.yaml: the mesh 2x2 (189 equations)" in r.stderr
+    assert "\u202e" not in r.stderr
+    r = run("modes", path, "--mesh", "2x2", "--json")
+    assert r.exit_code == 0 and "\u202e" not in r.stderr
+    assert json.loads(r.stdout)["warnings"][0].startswith(f"{path}: the mesh 2x2")
+    # identify's, at its report's end (stdout)
+    r = run("identify", path, "--mesh", "3x3", "--no-output")
+    assert r.exit_code == 0, r.output
+    assert f"warning: {tmp_path}/bd\\u202e/S1.1.yaml: the mesh 3x3 (360 equations)" in r.stdout
+    assert "\u202e" not in r.output
+
+
+def test_a_logged_warning_escapes_a_non_printable_character():
+    """The specimen reader's warnings (logged, naming the file) go through the command line's
+    log formatter, which escapes them as the error line does: 'S1\x1b[31m' as 'S1\\x1b[31m'."""
+    import logging
+
+    from laminid_cli.cli import _UserFormatter, _LOG_FORMAT
+
+    record = logging.LogRecord("laminid_cli.specimen", logging.WARNING, __file__, 1,
+                               "%s: a layup", ("bd/S1\x1b[31m\u202e.yaml",), None)
+    assert _UserFormatter(_LOG_FORMAT).format(record) == (
+        "warning: bd/S1\\x1b[31m\\u202e.yaml: a layup")
+    record.name = "h5py"
+    assert _UserFormatter(_LOG_FORMAT).format(record) == (
+        "WARNING h5py: bd/S1\\x1b[31m\\u202e.yaml: a layup")

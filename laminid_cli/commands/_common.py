@@ -166,9 +166,11 @@ def echo_frf_warnings(fs) -> list[str]:
     """The warnings the reader of the FRF set ``fs`` left in its ``meta`` (a frequency unit
     not stated: laminid_cli.frf.io), each on stderr as ``warning: ...``; returned for --json's
     ``warnings``."""
+    from laminid_cli.errors import escaped
+
     warnings = list(fs.meta.get("warnings") or ())
     for warning in warnings:
-        click.echo(f"warning: {warning}", err=True)
+        click.echo(escaped(f"warning: {warning}"), err=True)
     return warnings
 
 

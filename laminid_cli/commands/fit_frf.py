@@ -137,7 +137,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
 
     import numpy as np
 
-    from laminid_cli.errors import OutputExistsError, SpecimenError
+    from laminid_cli.errors import OutputExistsError, SpecimenError, escaped
     from laminid_cli.frf import rfp
     from laminid_cli.frf.io import negative_direction_points, point_quality_notes, read_frf
     from laminid_cli.frf.store import units_text
@@ -173,7 +173,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     # a terminal is told what runs: the fit and the plot took 2.8-7.6 s (the synthetic S1.1's
     # 8 FRFs, busy machine) with nothing on it, the table printed after the plot
     show_progress = not as_json and stderr_is_terminal() and not quiet()
-    head = f"  fitting {fs.n_points} FRF{'' if fs.n_points == 1 else 's'} of {frf_file}"
+    head = escaped(f"  fitting {fs.n_points} FRF{'' if fs.n_points == 1 else 's'} of "
+                   f"{frf_file}")
     if show_progress:
         click.echo(head, err=True, nl=False)
     try:
@@ -223,7 +224,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         from laminid_cli.frf.plot import plot_fit
 
         if show_progress:
-            click.echo("\r" + f"  drawing {plot_path}".ljust(len(head)), err=True, nl=False)
+            click.echo("\r" + escaped(f"  drawing {plot_path}").ljust(len(head)), err=True,
+                       nl=False)
         try:
             plot_fit(plot_path, fs.freq, fs.frf, fit, units=fs.units, coherence=fs.coherence,
                      title=f"{Path(frf_file).name}: {len(fit.modes)} modes", sigma_hz=sigma)

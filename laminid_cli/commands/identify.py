@@ -115,7 +115,8 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
     import dataclasses
     import sys
 
-    from laminid_cli.errors import FitInputError, InputFileError, LaminidError, SpecimenError
+    from laminid_cli.errors import (FitInputError, InputFileError, LaminidError, SpecimenError,
+                                    escaped)
     from laminid_cli.pipeline import fix_list_hint, run_identification, write_result
 
     if no_output and output is not None:
@@ -208,7 +209,7 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
             # the Monte Carlo's bar is finished: kept on its line, the step on the next
             bar.__exit__(None, None, None)
             bar = None
-        click.echo("\r" + f"  {text}".ljust(78), err=True, nl=False)
+        click.echo("\r" + escaped(f"  {text}").ljust(78), err=True, nl=False)
 
     try:
         run = run_identification(specs, options, progress=progress, mc_progress=mc_progress,
@@ -226,8 +227,8 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
             moved, why = set_aside(out)
             if show_progress:
                 click.echo("", err=True)
-            click.echo(f"laminid: {out}: the earlier result of another input " + (
-                f"moved to {moved}" if moved is not None else f"left in place ({why})"),
+            click.echo(escaped(f"laminid: {out}: the earlier result of another input " + (
+                f"moved to {moved}" if moved is not None else f"left in place ({why})")),
                 err=True)
         raise
     except KeyboardInterrupt:
@@ -236,9 +237,10 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
         if show_progress:
             click.echo("", err=True)
         if out is not None:
-            click.echo(f"laminid: nothing written to {out}: the result is written when every "
-                       "step has finished" + (" (an earlier result there is left as it was)"
-                                              if out.exists() else ""), err=True)
+            click.echo(escaped(f"laminid: nothing written to {out}: the result is written "
+                               "when every step has finished"
+                               + (" (an earlier result there is left as it was)"
+                                  if out.exists() else "")), err=True)
         raise
     finally:
         if bar is not None:
@@ -246,7 +248,7 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
     if show_progress:
         click.echo("", err=True)
     for note in run.notes if not quiet() else ():     # -q: only errors on stderr
-        click.echo(f"laminid: note: {note}", err=True)
+        click.echo(escaped(f"laminid: note: {note}"), err=True)
     summary = dict(run.summary)
     if out is not None:
         write_result(out, run)

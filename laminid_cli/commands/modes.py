@@ -47,6 +47,7 @@ def modes(spec, mesh, n_modes, boundary, as_json, output, force):
     from laminid_cli.fe.assembly import boundary_code
     from laminid_cli.forward import (build_forward_model, coarse_mesh, far_from_model,
                                      modes_summary)
+    from laminid_cli.errors import escaped
     from laminid_cli.specimen import read_specimen
 
     out = check_output_path(output, force, inputs=[spec])
@@ -76,7 +77,8 @@ def modes(spec, mesh, n_modes, boundary, as_json, output, force):
     warnings = list(specimen.warnings)
     coarse = coarse_mesh(fm, n_modes)
     if coarse is not None:
-        click.echo(f"warning: {spec}: {coarse}", err=True)
+        # escaped: a folder's 'bd\u202e' reversed the line (--json keeps the path as read)
+        click.echo(escaped(f"warning: {spec}: {coarse}"), err=True)
         warnings.append(f"{spec}: {coarse}")
     solving = f"  solving {n_modes} modes of {fm.plate.n_dofs} equations"
     step(solving)
@@ -91,7 +93,7 @@ def modes(spec, mesh, n_modes, boundary, as_json, output, force):
                          np.asarray(fr["weight"], float))
     if far is not None and fm.plate.boundary == boundary_code(specimen.boundary):
         # (measured on the specimen's boundary: another --boundary is expected to be far off)
-        click.echo(f"warning: {spec}: {far}", err=True)
+        click.echo(escaped(f"warning: {spec}: {far}"), err=True)
         warnings.append(f"{spec}: {far}")
     if out is not None:
         from laminid_cli.results import write_modes_file
