@@ -1995,6 +1995,24 @@ def _number_cell(where: tuple, column: str, text) -> float | None:
     return value
 
 
+#: the words of a summary's profile cell (resultfile.profile_kind; empty: no profile)
+PROFILE_WORDS = ("bound", "flat", "none")
+
+
+def _profile_cell(where: tuple, column: str, text) -> str:
+    """A profile cell of a summary.csv: "" where empty; BatchError naming the file, its line
+    and the column where it is another word (edited by hand: 'Bound' or 'rejected' was taken
+    as it stood, a profile the report then neither drew nor named)."""
+    if text in ("", None):
+        return ""
+    if text not in PROFILE_WORDS:
+        path, line = where
+        shown = text if len(str(text)) <= 40 else str(text)[:37] + "..."
+        raise BatchError(f"{path}:{line}, column {column!r}: {shown!r} is not a profile's word "
+                         f"({', '.join(PROFILE_WORDS)}; empty where there is none)")
+    return text
+
+
 def _interval_cells(where: tuple, lo_col: str, hi_col: str, rec: dict) -> tuple:
     """An interval's ends from their cells (:func:`_number_cell`), BatchError where the lower
     is above the upper."""
@@ -2075,6 +2093,10 @@ def _check_json_rows(path: Path, rows) -> None:
                     else:
                         for end in ("value", "lower", "upper"):
                             number_or_null(f"{at}.{key}.{m}.{k}.{end}", v.get(end))
+                        if v.get("profile") not in (None, "", *PROFILE_WORDS):
+                            bad(f"{at}.{key}.{m}.{k}.profile",
+                                f"expected {', '.join(PROFILE_WORDS)} or empty",
+                                v["profile"])
 
 
 def _intervals_of_wide(rec: dict, mats: dict, flagged: dict, where: tuple) -> dict | None:
@@ -2114,7 +2136,7 @@ def _intervals_of_wide(rec: dict, mats: dict, flagged: dict, where: tuple) -> di
             # the profile, in the long reader's keys; a summary written before these columns
             # has none of them (the report takes the result file's profile where found)
             iv.update(profile_bound=_number_cell(where, pb_col, rec.get(pb_col)),
-                      profile=rec.get(kind_col) or "",
+                      profile=_profile_cell(where, kind_col, rec.get(kind_col)),
                       profile_far=_number_cell(where, far_col, rec.get(far_col)))
         iv.update(_mc_of_wide(rec, m, k))
     return out if found else None
@@ -2255,7 +2277,7 @@ def _rows_of_long(records, path: Path, line_of: dict) -> list[dict]:
                 "at_bound": bool(side) or rec.get("verdict", "") == VERDICT_AT_BOUND,
                 "bound_side": side, "bound_limit": _float(rec.get("bound_limit")),
                 "profile_bound": _float(rec.get("profile_bound")),
-                "profile": rec.get("profile") or "",
+                "profile": _profile_cell(where, "profile", rec.get("profile")),
                 "profile_far": _float(rec.get("profile_far")),
                 # a value --fix-undetermined held (its verdict is "fixed" as a known one's)
                 "assumed": rec.get("flag") == FLAG_ASSUMED}

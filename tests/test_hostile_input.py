@@ -1750,3 +1750,41 @@ def test_a_logged_warning_escapes_a_non_printable_character():
     record.name = "h5py"
     assert _UserFormatter(_LOG_FORMAT).format(record) == (
         "WARNING h5py: bd/S1\\x1b[31m\\u202e.yaml: a layup")
+
+
+@pytest.mark.parametrize("kind", ["wide", "long", "json"])
+def test_a_summary_profile_edited_to_another_word_is_refused(tmp_path, kind):
+    """A profile cell edited by hand ('Bound', 'rejected') was taken as it stood: a profile
+    the report neither drew nor named. Refused naming the file, line and column (the JSON
+    summary's field), as a number cell that is text; 'flat' still read."""
+    if kind == "wide":
+        path = tmp_path / "summary.csv"
+        head = (WIDE_HEADER + ",M E1 bound_side,M E1 bound_limit [Pa],M E1 profile_bound [Pa],"
+                "M E1 profile,M E1 profile_far [Pa]\n")
+        row = "S1,S1,S1.yaml,ok,,1.7e11,1.6e11,1.8e11,at bound,0.5,,,upper,1.8e11,,{},2e11\n"
+        column = "M E1 profile"
+    elif kind == "long":
+        path = tmp_path / "summary.csv"
+        head = ("name,specimen,status,reasons,material,constant,value,lower,upper,verdict,unit,"
+                "bound_side,bound_limit,profile_bound,profile,profile_far\n")
+        row = "S1,S1,ok,,M,E1,1.7e11,1.6e11,1.8e11,at bound,Pa,upper,1.8e11,,{},2e11\n"
+        column = "profile"
+    if kind != "json":
+        path.write_text("# laminid batch summary\n" + head + row.format("flat"), encoding="utf-8")
+        from laminid_cli.batch import read_summary
+
+        assert read_summary(path)[0]["intervals"]["M"]["E1"]["profile"] == "flat"
+        path.write_text("# laminid batch summary\n" + head + row.format("Bound"), encoding="utf-8")
+        said = (f"{path}:3, column '{column}': 'Bound' is not a profile's word (bound, flat, "
+                "none; empty where there is none)")
+    else:
+        path = tmp_path / "summary.json"
+        path.write_text(json.dumps({"format": "laminid-batch-summary", "specimens": [
+            {"name": "S1", "specimen": "S1", "status": "ok", "materials": {"M": {"E1": 1.7e11}},
+             "intervals": {"M": {"E1": {"lower": 1.6e11, "upper": 1.8e11, "profile": "Bound"}}}}]}))
+        said = (f"{path}: field 'specimens[0].intervals.M.E1.profile': expected bound, flat, "
+                "none or empty, got 'Bound'")
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert (r.exit_code, "Traceback" in r.output) == (2, False), r.output
+    assert said in r.output, r.output
+    assert not (tmp_path / "r.pdf").exists()
