@@ -996,7 +996,7 @@ def test_output_naming_a_folder_is_refused_in_laminids_format(tmp_path, args, op
 @pytest.mark.parametrize("args, line", [
     (["modes", "{folder}"], "{folder}: is a folder, not a file"),
     (["identify", "{folder}", "--no-output"], "{folder}: is a folder, not a file; "
-     "'laminid batch {folder}' identifies every specimen in a folder"),
+     "it holds no specimen file (*.yaml, *.yml)"),
     (["fit-frf", "{folder}"], "{folder}: is a folder, not a file"),
     (["export", "{folder}", "-o", "{tmp}/x.uff"], "{folder}: is a folder, not a file"),
     (["report", "{folder}"], "{folder}: is a folder, not a file"),
@@ -1014,6 +1014,31 @@ def test_input_file_that_is_a_folder_or_missing_is_refused_in_laminids_format(tm
     assert r.exit_code == 2
     assert r.stderr == f"laminid: error: {line.format(folder=folder, tmp=tmp_path)}\n"
     assert r.stdout == ""
+
+
+def test_identify_of_a_folder_names_batch_only_where_it_holds_specimen_files(tmp_path):
+    """identify FOLDER named batch whatever the folder held: of a batch's --out (result files
+    and summary.csv) or a folder of FRF files, batch then found no specimen file. It names
+    batch for a folder with specimen files (in a subfolder too, as batch searches), else says
+    it holds none and names what it holds with the command that takes it."""
+    specs, res, frf = tmp_path / "specs", tmp_path / "res", tmp_path / "frf"
+    for folder in (specs / "sub", res / "S1", frf):
+        folder.mkdir(parents=True)
+    (specs / "sub" / "S1.yaml").write_text(BASE)
+    (res / "S1" / "S1.result.h5").write_bytes(b"")
+    (res / "summary.csv").write_text("name,status\n")
+    (frf / "a.frf.h5").write_bytes(b"")
+    (frf / "b.uff").write_text("")
+    for folder, said in [
+            (specs, f"'laminid batch {specs}' identifies every specimen in a folder"),
+            (res, f"it holds no specimen file (*.yaml, *.yml) but 1 result file: 'laminid show "
+                  f"{res}/S1/S1.result.h5' prints it, 'laminid report {res}/summary.csv' draws "
+                  "the batch"),
+            (frf, f"it holds no specimen file (*.yaml, *.yml) but 2 FRF files: 'laminid fit-frf "
+                  f"{frf}/a.frf.h5' takes one")]:
+        r = run("identify", folder, "--no-output")
+        assert r.exit_code == 2 and r.stdout == ""
+        assert r.stderr == f"laminid: error: {folder}: is a folder, not a file; {said}\n"
 
 
 def test_report_of_a_batch_folder_names_its_summary(tmp_path):

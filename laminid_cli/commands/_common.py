@@ -106,6 +106,10 @@ class InputFile(click.Path):
         return value
 
 
+#: the FRF files a folder holds, as fit-frf names them for a folder given as FRF_FILE
+FRF_PATTERNS = ("*.frf.h5", "*.uff", "*.unv", "*.csv", "*.txt", "*.mat")
+
+
 def files_hint(command: str, patterns, what: str):
     """A ``folder_hint`` for :class:`InputFile`: what a folder given for a file holds that
     ``laminid COMMAND`` takes (``patterns`` in the folder itself), one named in the command

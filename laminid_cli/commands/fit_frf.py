@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import click
 
-from laminid_cli.commands._common import (OUTPUT_FILE, SIGMA_REL, InputFile, check_output_path,
-                                          echo_frf_warnings, echo_json, force_option,
+from laminid_cli.commands._common import (FRF_PATTERNS, OUTPUT_FILE, SIGMA_REL, InputFile,
+                                          check_output_path, echo_frf_warnings, echo_json, force_option,
                                           files_hint, frf_json_option, quiet,
                                           stderr_is_terminal, writable_target)
 
@@ -37,8 +37,8 @@ FALSE_ALARM_UNIT = ("1 (a probability: that noise alone gives a pole whose modal
 
 
 @click.command("fit-frf")
-@click.argument("frf_file", type=InputFile(folder_hint=files_hint(
-    "fit-frf", ("*.frf.h5", "*.uff", "*.unv", "*.csv", "*.txt", "*.mat"), "FRF file")))
+@click.argument("frf_file", type=InputFile(folder_hint=files_hint("fit-frf", FRF_PATTERNS,
+                                                                  "FRF file")))
 @click.option("--band", "bands", multiple=True, callback=_parse_bands, metavar="LO:HI",
               help="Frequency band in Hz to fit (repeatable); a band with more than six "
                    "resonance peaks is fitted as overlapping sub-bands (the first line lists "

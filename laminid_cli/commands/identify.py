@@ -34,11 +34,23 @@ def logged_specimen_warnings(forward_models, joint: bool) -> set[str]:
 
 
 def batch_hint(folder: Path) -> str:
-    """What identify says of a folder given as SPEC: batch is the command for folders."""
+    """What identify says of a folder given as SPEC: batch is the command for a folder of
+    specimen files (searched as batch does, in its subfolders too); of one without any, that
+    it holds none, and the result or FRF files it holds with the command that takes them (it
+    named batch, which then found no specimen file)."""
     import shlex
 
-    return (f"; 'laminid batch {shlex.quote(str(folder))}' identifies every specimen in a "
-            "folder")
+    from laminid_cli.commands._common import FRF_PATTERNS, files_hint
+    from laminid_cli.commands.show import results_hint
+
+    if any(p.is_file() and not any(part.startswith(".") for part in p.relative_to(folder).parts)
+           for pattern in ("*.yaml", "*.yml") for p in folder.rglob(pattern)):
+        return (f"; 'laminid batch {shlex.quote(str(folder))}' identifies every specimen in a "
+                "folder")
+    held = [h.removeprefix("; it holds ") for h in
+            (results_hint(folder), files_hint("fit-frf", FRF_PATTERNS, "FRF file")(folder)) if h]
+    return "; it holds no specimen file (*.yaml, *.yml)" + (
+        " but " + "; and ".join(held) if held else "")
 
 
 @click.command(short_help="Identify ply elastic constants from measured frequencies.")
