@@ -290,10 +290,12 @@ NOT_HDF5_SUFFIXES = (".json", ".csv", ".txt", ".yaml", ".yml", ".pdf", ".png", "
                      ".xls", ".xlsx", ".mat")
 
 
-def check_hdf5_name(path, what: str, option: str = "-o") -> None:
+def check_hdf5_name(path, what: str, option: str = "-o",
+                    csv: str = "laminid batch writes summary.csv") -> None:
     """Refuse an output named like another format (:data:`NOT_HDF5_SUFFIXES`): ``what`` the
     command writes HDF5 there ("identify writes its result"), said with the way to get the
-    other format when there is one."""
+    other format when there is one (``csv``: the command's, for a .csv name: batch's summary
+    of results; acquire's FRFs have none)."""
     from laminid_cli.errors import OutputExistsError
 
     if path is None:
@@ -303,7 +305,7 @@ def check_hdf5_name(path, what: str, option: str = "-o") -> None:
         hint = {".json": "; --json prints JSON on stdout", ".uff": "; laminid export writes UFF",
                 ".unv": "; laminid export writes UFF", ".pdf": "; laminid report writes PDF",
                 ".png": "; laminid report writes PNG",
-                ".csv": "; laminid batch writes summary.csv"}.get(suffix, "")
+                ".csv": f"; {csv}"}.get(suffix, "")
         raise OutputExistsError(f"{path}: {what} as HDF5; name it .h5 ({option}){hint}",
                                 path=path)
 

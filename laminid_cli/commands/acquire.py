@@ -446,7 +446,9 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
     if resume and not out.exists() and not quiet():
         # scripts may pass --resume every time: a new file, said so (not silently)
         click.echo(f"laminid: note: {out}: no file to resume; starting a new one", err=True)
-    check_hdf5_name(out, "acquire writes the FRFs")
+    # (.csv: it named batch's summary.csv, no FRFs; export writes UFF only, its --help)
+    check_hdf5_name(out, "acquire writes the FRFs", csv="no laminid command writes FRFs as "
+                    "CSV: laminid export writes them as a Universal File (.uff)")
     resume = resume and out.exists()
     if not resume and not force and out.is_file():
         _refuse_unfinished(out)

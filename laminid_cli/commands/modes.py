@@ -51,7 +51,8 @@ def modes(spec, mesh, n_modes, boundary, as_json, output, force):
     from laminid_cli.specimen import read_specimen
 
     out = check_output_path(output, force, inputs=[spec])
-    check_hdf5_name(output, "modes writes the modes")
+    check_hdf5_name(output, "modes writes the modes", csv="--json prints the frequencies as "
+                    "JSON, laminid export writes the mode shapes as a Universal File (.uff)")
     specimen = read_specimen(spec)
     # a terminal is told what runs, on a line erased when done (a convergence check on 40x40
     # with 40 modes took 10 s, busy machine, with nothing on it; 12x12 0.4 s)
