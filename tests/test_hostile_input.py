@@ -1813,3 +1813,38 @@ def test_a_summary_profile_edited_to_another_word_is_refused(tmp_path, kind):
     assert (r.exit_code, "Traceback" in r.output) == (2, False), r.output
     assert said in r.output, r.output
     assert not (tmp_path / "r.pdf").exists()
+
+
+@pytest.mark.parametrize("kind, column", [
+    ("long", "bound_limit"), ("long", "profile_far"), ("long", "mc_lower"),
+    ("long", "rms_residual [%]"), ("wide", "rms_residual [%]"), ("wide", "M E1 mc_upper [Pa]")])
+def test_a_summary_number_beside_the_constants_edited_to_text_is_refused(tmp_path, kind,
+                                                                          column):
+    """A constant's value or interval end edited to 'n/a' was refused (file, line, column);
+    the summary's other numbers (the residual, a bound's limit, a profile's end, a Monte Carlo
+    range) were read as none, the report drawing without them. Refused the same."""
+    path = tmp_path / "summary.csv"
+    if kind == "long":
+        cols = ["name", "specimen", "status", "reasons", "material", "constant", "value", "lower",
+                "upper", "verdict", "unit", "bound_side", "bound_limit", "profile_bound",
+                "profile", "profile_far", "mc_lower", "mc_upper", "mc_search_limit",
+                "rms_residual [%]"]
+        cells = ["S1", "S1", "ok", "", "M", "E1", "1.7e11", "1.6e11", "1.8e11", "at bound", "Pa",
+                 "upper", "1.8e11", "", "flat", "2e11", "1.65e11", "1.8e11", "upper", "0.5"]
+    else:
+        cols = WIDE_HEADER.split(",") + ["M E1 mc_lower [Pa]", "M E1 mc_upper [Pa]",
+                                          "M E1 mc_search_limit"]
+        cells = ["S1", "S1", "S1.yaml", "ok", "", "1.7e11", "1.6e11", "1.8e11", "weak", "0.5", "",
+                 "", "1.65e11", "1.75e11", ""]
+    text = "# laminid batch summary\n" + ",".join(cols) + "\n" + ",".join(cells) + "\n"
+    path.write_text(text, encoding="utf-8")
+    from laminid_cli.batch import read_summary
+
+    assert read_summary(path)[0]["rms_residual_percent"] == 0.5
+    cells[cols.index(column)] = "n/a"
+    path.write_text("# laminid batch summary\n" + ",".join(cols) + "\n" + ",".join(cells) + "\n",
+                    encoding="utf-8")
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert (r.exit_code, "Traceback" in r.output) == (2, False), r.output
+    assert f"{path}:3, column '{column}': 'n/a' is not a number" in r.output, r.output
+    assert not (tmp_path / "r.pdf").exists()
