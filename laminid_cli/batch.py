@@ -1997,19 +1997,29 @@ def _number_cell(where: tuple, column: str, text) -> float | None:
 
 #: the words of a summary's profile cell (resultfile.profile_kind; empty: no profile)
 PROFILE_WORDS = ("bound", "flat", "none")
+#: the words of a bound_side cell (empty: not at a bound) and of an mc_search_limit cell
+#: (search_limit_text; empty: no end set by trials on a limit)
+SIDE_WORDS = ("lower", "upper")
+SEARCH_LIMIT_WORDS = ("lower", "upper", "both")
 
 
 def _profile_cell(where: tuple, column: str, text) -> str:
     """A profile cell of a summary.csv: "" where empty; BatchError naming the file, its line
     and the column where it is another word (edited by hand: 'Bound' or 'rejected' was taken
     as it stood, a profile the report then neither drew nor named)."""
+    return _word_cell(where, column, text, PROFILE_WORDS, "a profile's word")
+
+
+def _word_cell(where: tuple, column: str, text, words, what: str) -> str:
+    """A cell of a summary.csv that holds one of ``words`` or nothing: "" where empty;
+    BatchError naming the file, its line, the column and the words where it is another."""
     if text in ("", None):
         return ""
-    if text not in PROFILE_WORDS:
+    if text not in words:
         path, line = where
         shown = text if len(str(text)) <= 40 else str(text)[:37] + "..."
-        raise BatchError(f"{path}:{line}, column {column!r}: {shown!r} is not a profile's word "
-                         f"({', '.join(PROFILE_WORDS)}; empty where there is none)")
+        raise BatchError(f"{path}:{line}, column {column!r}: {shown!r} is not {what} "
+                         f"({', '.join(words)}; empty where there is none)")
     return text
 
 
@@ -2131,7 +2141,7 @@ def _intervals_of_wide(rec: dict, mats: dict, flagged: dict, where: tuple) -> di
         word = flagged.get(m, {}).get(k, "")
         # (the side: summaries written before its column do not say, "")
         side_col, limit_col, pb_col, kind_col, far_col = wide_bound_columns(m, k)
-        side = rec.get(side_col) or ""
+        side = _word_cell(where, side_col, rec.get(side_col), SIDE_WORDS, "a bound's side")
         iv = out.setdefault(m, {})[k] = {
             "lower": lower, "upper": upper, "verdict": verdict,
             "at_bound": verdict == VERDICT_AT_BOUND or word == FLAG_AT_BOUND or bool(side),
@@ -2158,7 +2168,9 @@ def _mc_keys(rec: dict, lo_col: str, hi_col: str, limit_col: str, where: tuple) 
     {} where it has none (no Monte Carlo, a summary written before those columns)."""
     if rec.get(lo_col) in ("", None):
         return {}
-    limit = rec.get(limit_col) or ""
+    # ('Lower' was taken as neither end)
+    limit = _word_cell(where, limit_col, rec.get(limit_col), SEARCH_LIMIT_WORDS,
+                       "a Monte Carlo range's ends")
     return {"mc_lower": _cell(where, rec, lo_col), "mc_upper": _cell(where, rec, hi_col),
             "mc_lower_at_limit": limit in ("lower", "both"),
             "mc_upper_at_limit": limit in ("upper", "both")}
@@ -2276,7 +2288,8 @@ def _rows_of_long(records, path: Path, line_of: dict) -> list[dict]:
         m, k = rec.get("material"), rec.get("constant")
         if m and k in CONSTANTS and rec.get("value") not in ("", None):
             r["materials"].setdefault(m, {})[k] = _number_cell(where, "value", rec["value"])
-            side = rec.get("bound_side") or ""
+            side = _word_cell(where, "bound_side", rec.get("bound_side"), SIDE_WORDS,
+                              "a bound's side")
             lower, upper = _interval_cells(where, "lower", "upper", rec)
             iv = r["intervals"].setdefault(m, {})[k] = {
                 "lower": lower, "upper": upper,
@@ -2291,7 +2304,8 @@ def _rows_of_long(records, path: Path, line_of: dict) -> list[dict]:
                 "assumed": rec.get("flag") == FLAG_ASSUMED}
             iv.update(_mc_keys(rec, "mc_lower", "mc_upper", "mc_search_limit", where))
         elif m and k and k.startswith("eta") and rec.get("value") not in ("", None):
-            side = rec.get("bound_side") or ""
+            side = _word_cell(where, "bound_side", rec.get("bound_side"), SIDE_WORDS,
+                              "a bound's side")
             lower, upper = _interval_cells(where, "lower", "upper", rec)
             eta = r.setdefault("damping", {}).setdefault(m, {})[k] = {
                 "value": _number_cell(where, "value", rec["value"]), "lower": lower,

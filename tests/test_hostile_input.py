@@ -1848,3 +1848,30 @@ def test_a_summary_number_beside_the_constants_edited_to_text_is_refused(tmp_pat
     assert (r.exit_code, "Traceback" in r.output) == (2, False), r.output
     assert f"{path}:3, column '{column}': 'n/a' is not a number" in r.output, r.output
     assert not (tmp_path / "r.pdf").exists()
+
+
+@pytest.mark.parametrize("column, words", [
+    ("bound_side", "a bound's side (lower, upper"),
+    ("mc_search_limit", "a Monte Carlo range's ends (lower, upper, both")])
+def test_a_long_summary_side_edited_to_another_word_is_refused(tmp_path, column, words):
+    """A bound's side or the Monte Carlo's search-limit ends edited to 'Upper' was taken as
+    it stood (a side, at_bound, that the report then drew on neither end; no end); refused
+    naming the file, line, column and the words, as a profile's."""
+    path = tmp_path / "summary.csv"
+    cols = ["name", "specimen", "status", "reasons", "material", "constant", "value", "lower",
+            "upper", "verdict", "unit", "bound_side", "bound_limit", "mc_lower", "mc_upper",
+            "mc_search_limit"]
+    cells = ["S1", "S1", "ok", "", "M", "E1", "1.7e11", "1.6e11", "1.8e11", "at bound", "Pa",
+             "upper", "1.8e11", "1.65e11", "1.8e11", "upper"]
+    from laminid_cli.batch import read_summary
+
+    path.write_text(",".join(cols) + "\n" + ",".join(cells) + "\n", encoding="utf-8")
+    iv = read_summary(path)[0]["intervals"]["M"]["E1"]
+    assert (iv["bound_side"], iv["mc_upper_at_limit"]) == ("upper", True)
+    cells[cols.index(column)] = "Upper"
+    path.write_text(",".join(cols) + "\n" + ",".join(cells) + "\n", encoding="utf-8")
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert (r.exit_code, "Traceback" in r.output) == (2, False), r.output
+    assert (f"{path}:2, column '{column}': 'Upper' is not {words}; empty where there is none)"
+            in r.output), r.output
+    assert not (tmp_path / "r.pdf").exists()
