@@ -1875,3 +1875,17 @@ def test_a_long_summary_side_edited_to_another_word_is_refused(tmp_path, column,
     assert (f"{path}:2, column '{column}': 'Upper' is not {words}; empty where there is none)"
             in r.output), r.output
     assert not (tmp_path / "r.pdf").exists()
+
+
+def test_acquire_note_escapes_a_non_printable_character_of_a_folder_name(tmp_path):
+    """acquire --resume of a file not there yet says so on a note line, which printed the
+    path as it was ('bd\u202e/a.frf.h5'); escaped as the error line escapes it (the analyser
+    then cannot be opened here: its error follows, exit 2 or 1)."""
+    folder = tmp_path / "bd\u202e"
+    folder.mkdir()
+    r = run("acquire", "--analyser", "GPIB0::5", "--points", "4", "--resume", "-o",
+            folder / "a.frf.h5")
+    assert r.exit_code in (1, 2) and "Traceback" not in r.output, r.output
+    assert (f"laminid: note: {tmp_path}/bd\\u202e/a.frf.h5: no file to resume; starting a new "
+            "one\n") in r.stderr
+    assert "\u202e" not in r.stderr

@@ -416,7 +416,7 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
       laminid fit-frf plate.frf.h5 --into plate.yaml
     """
     ctx.with_resource(_sigint_stops_it_even_in_the_background())
-    from laminid_cli.errors import FrfError, LaminidError, sigterm_raises_terminated
+    from laminid_cli.errors import FrfError, LaminidError, escaped, sigterm_raises_terminated
     from laminid_cli.errors import non_printable
     from laminid_cli.frf.store import FrfWriter
     from laminid_cli.instrument.base import AcquisitionSettings
@@ -445,7 +445,8 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
     units = units or "V/V"
     if resume and not out.exists() and not quiet():
         # scripts may pass --resume every time: a new file, said so (not silently)
-        click.echo(f"laminid: note: {out}: no file to resume; starting a new one", err=True)
+        click.echo(escaped(f"laminid: note: {out}: no file to resume; starting a new one"),
+                   err=True)
     # (.csv: it named batch's summary.csv, no FRFs; export writes UFF only, its --help)
     check_hdf5_name(out, "acquire writes the FRFs", csv="no laminid command writes FRFs as "
                     "CSV: laminid export writes them as a Universal File (.uff)")
