@@ -1754,11 +1754,15 @@ def test_a_warning_escapes_a_non_printable_character_of_a_folder_name(tmp_path):
     r = run("modes", path, "--mesh", "2x2", "--json")
     assert r.exit_code == 0 and "\u202e" not in r.stderr
     assert json.loads(r.stdout)["warnings"][0].startswith(f"{path}: the mesh 2x2")
-    # identify's, at its report's end (stdout)
-    r = run("identify", path, "--mesh", "3x3", "--no-output")
+    # identify's, at its report's end (stdout), and the line naming its result
+    r = run("identify", path, "--mesh", "3x3")
     assert r.exit_code == 0, r.output
     assert f"warning: {tmp_path}/bd\\u202e/S1.1.yaml: the mesh 3x3 (360 equations)" in r.stdout
-    assert "\u202e" not in r.output
+    assert f"\nwritten: {tmp_path}/bd\\u202e/S1.1.result.h5\n" in r.stdout
+    assert "\u202e" not in r.output and (folder / "S1.1.result.h5").is_file()
+    r = run("modes", path, "--mesh", "4x4", "-o", folder / "m.h5")
+    assert r.exit_code == 0 and "\u202e" not in r.output, r.output
+    assert f"\nwritten: {tmp_path}/bd\\u202e/m.h5\n" in r.stdout
 
 
 def test_a_logged_warning_escapes_a_non_printable_character():

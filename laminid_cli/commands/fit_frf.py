@@ -5,8 +5,8 @@ from __future__ import annotations
 import click
 
 from laminid_cli.commands._common import (FRF_PATTERNS, OUTPUT_FILE, SIGMA_REL, InputFile,
-                                          check_output_path, echo_frf_warnings, echo_json, force_option,
-                                          files_hint, frf_json_option, quiet,
+                                          check_output_path, echo_frf_warnings, echo_json,
+                                          files_hint, force_option, frf_json_option, quiet,
                                           stderr_is_terminal, writable_target)
 
 
@@ -292,8 +292,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         return
     bands_txt = ", ".join(f"{b.band_hz[0]:g}-{b.band_hz[1]:g}" for b in fit.bands)
     frfs = f"{fs.n_points} FRF{'' if fs.n_points == 1 else 's'}"     # (was "1 FRFs")
-    click.echo(f"{frf_file}: {frfs} ({units_text(fs.units)}), {fs.freq.size} lines, "
-               f"bands {bands_txt} Hz")
+    click.echo(escaped(f"{frf_file}: {frfs} ({units_text(fs.units)}), {fs.freq.size} lines, "
+                       f"bands {bands_txt} Hz"))
     windowed = wc.exp_window_s is not None
     if not fit.modes:
         click.echo("no stable mode found")
@@ -324,15 +324,16 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     for note in notes:
         click.echo(f"note: {note}")
     if plot_path is not None:
-        click.echo(f"plot written to {plot_path}")
+        click.echo(escaped(f"plot written to {plot_path}"))
     if into is not None:
         what = "frequencies and damping ratios" if into.damping_written else \
             "frequencies (no damping ratio: none is above the window's)"
         if into.unchanged:
-            click.echo(f"{spec_path} already holds these {len(fit.modes)} {what}: left "
-                       "unchanged (no backup made)")
+            click.echo(escaped(f"{spec_path} already holds these {len(fit.modes)} {what}: "
+                               "left unchanged (no backup made)"))
         else:
-            click.echo(f"{len(fit.modes)} {what} written to {spec_path} ({into.backup_text})")
+            click.echo(escaped(f"{len(fit.modes)} {what} written to {spec_path} "
+                               f"({into.backup_text})"))
         for note in into.damping_notes:
             click.echo(f"note: {note}")
         for note in into.weight_notes:

@@ -281,7 +281,7 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
         if "damping" in summary:
             click.echo("\n" + "\n".join(format_damping(summary["damping"])))
         if out is not None:
-            click.echo(f"\nwritten: {out}" + (" (replaced the previous result of this "
+            click.echo(escaped(f"\nwritten: {out}") + (" (replaced the previous result of this "
                                               "specimen: a derived file)" if replacing else ""))
     if not run.converged:
         click.echo(f"laminid: identification did not converge: {run.result.status}", err=True)

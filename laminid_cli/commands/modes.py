@@ -108,4 +108,4 @@ def modes(spec, mesh, n_modes, boundary, as_json, output, force):
     else:
         click.echo(format_modes_report(summary))
         if out is not None:
-            click.echo(f"\nwritten: {out}")
+            click.echo(escaped(f"\nwritten: {out}"))

@@ -142,5 +142,6 @@ def report(source, output, frf_path, dpi, force):
         if show_progress:               # the line ends before the result or an error
             click.echo("", err=True)
     names = ", ".join(p.name for p in pages)
-    click.echo(f"{len(pages)} pages ({names}) written to " + ", ".join(map(str, written))
+    click.echo(escaped(f"{len(pages)} pages ({names}) written to "
+                       + ", ".join(map(str, written)))
                + (" (replaced the previous report of this result)" if replacing else ""))
