@@ -1760,6 +1760,9 @@ def test_a_warning_escapes_a_non_printable_character_of_a_folder_name(tmp_path):
     assert f"warning: {tmp_path}/bd\\u202e/S1.1.yaml: the mesh 3x3 (360 equations)" in r.stdout
     assert f"\nwritten: {tmp_path}/bd\\u202e/S1.1.result.h5\n" in r.stdout
     assert "\u202e" not in r.output and (folder / "S1.1.result.h5").is_file()
+    r = run("show", folder / "S1.1.result.h5")
+    assert r.exit_code == 0 and "\u202e" not in r.output, r.output
+    assert r.stdout.startswith(f"{tmp_path}/bd\\u202e/S1.1.result.h5: written ")
     r = run("modes", path, "--mesh", "4x4", "-o", folder / "m.h5")
     assert r.exit_code == 0 and "\u202e" not in r.output, r.output
     assert f"\nwritten: {tmp_path}/bd\\u202e/m.h5\n" in r.stdout
