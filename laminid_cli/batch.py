@@ -1944,14 +1944,14 @@ def read_summary(path) -> list[dict]:
         damping = _damping_of_wide(rec, where)
         if damping:
             flags["damping"] = damping
-        rows.append(flags | {"mesh_check": _mesh_of_csv(rec),
+        rows.append(flags | {"mesh_check": _mesh_of_csv(rec, where),
                              "name": rec["name"], "specimen": rec.get("specimen", ""),
                      "path": rec.get("path", ""), "status": rec["status"],
                      "reason": rec.get("reasons", rec.get("reason", "")),
                      "cached": rec.get("cached") == "yes", "materials": mats,
-                     "rms_residual_percent": _float(rec.get("rms_residual [%]")),
-                     "evaluations": _float(rec.get("evaluations")),
-                     "time_s": _float(rec.get("time [s]")),
+                     "rms_residual_percent": _cell(where, rec, "rms_residual [%]"),
+                     "evaluations": _cell(where, rec, "evaluations"),
+                     "time_s": _cell(where, rec, "time [s]"),
                      "result": str(path.parent / res) if res else None,
                      "stale_result": _path_of_csv(rec, "stale_result", path)})
     return rows
@@ -1993,6 +1993,42 @@ def _number_cell(where: tuple, column: str, text) -> float | None:
                          f"{'a finite number' if value is not None else 'a number'} (empty "
                          "where there is none)")
     return value
+
+
+#: the words of a summary's profile cell (resultfile.profile_kind; empty: no profile)
+PROFILE_WORDS = ("bound", "flat", "none")
+#: the words of a bound_side cell (empty: not at a bound) and of an mc_search_limit cell
+#: (search_limit_text; empty: no end set by trials on a limit)
+SIDE_WORDS = ("lower", "upper")
+SEARCH_LIMIT_WORDS = ("lower", "upper", "both")
+
+
+def _profile_cell(where: tuple, column: str, text) -> str:
+    """A profile cell of a summary.csv: "" where empty; BatchError naming the file, its line
+    and the column where it is another word (edited by hand: 'Bound' or 'rejected' was taken
+    as it stood, a profile the report then neither drew nor named)."""
+    return _word_cell(where, column, text, PROFILE_WORDS, "a profile's word")
+
+
+def _word_cell(where: tuple, column: str, text, words, what: str) -> str:
+    """A cell of a summary.csv that holds one of ``words`` or nothing: "" where empty;
+    BatchError naming the file, its line, the column and the words where it is another."""
+    if text in ("", None):
+        return ""
+    if text not in words:
+        path, line = where
+        shown = text if len(str(text)) <= 40 else str(text)[:37] + "..."
+        raise BatchError(f"{path}:{line}, column {column!r}: {shown!r} is not {what} "
+                         f"({', '.join(words)}; empty where there is none)")
+    return text
+
+
+def _cell(where: tuple, rec: dict, column: str) -> float | None:
+    """:func:`_number_cell` of ``rec``'s ``column`` (None where the summary has no such
+    column): the summary's other numbers (the residual, a bound's limit, a profile's ends, a
+    Monte Carlo range, the mesh check) edited to text were read as none, where a constant's
+    were refused."""
+    return _number_cell(where, column, rec.get(column))
 
 
 def _interval_cells(where: tuple, lo_col: str, hi_col: str, rec: dict) -> tuple:
@@ -2075,6 +2111,10 @@ def _check_json_rows(path: Path, rows) -> None:
                     else:
                         for end in ("value", "lower", "upper"):
                             number_or_null(f"{at}.{key}.{m}.{k}.{end}", v.get(end))
+                        if v.get("profile") not in (None, "", *PROFILE_WORDS):
+                            bad(f"{at}.{key}.{m}.{k}.profile",
+                                f"expected {', '.join(PROFILE_WORDS)} or empty",
+                                v["profile"])
 
 
 def _intervals_of_wide(rec: dict, mats: dict, flagged: dict, where: tuple) -> dict | None:
@@ -2101,7 +2141,7 @@ def _intervals_of_wide(rec: dict, mats: dict, flagged: dict, where: tuple) -> di
         word = flagged.get(m, {}).get(k, "")
         # (the side: summaries written before its column do not say, "")
         side_col, limit_col, pb_col, kind_col, far_col = wide_bound_columns(m, k)
-        side = rec.get(side_col) or ""
+        side = _word_cell(where, side_col, rec.get(side_col), SIDE_WORDS, "a bound's side")
         iv = out.setdefault(m, {})[k] = {
             "lower": lower, "upper": upper, "verdict": verdict,
             "at_bound": verdict == VERDICT_AT_BOUND or word == FLAG_AT_BOUND or bool(side),
@@ -2114,13 +2154,13 @@ def _intervals_of_wide(rec: dict, mats: dict, flagged: dict, where: tuple) -> di
             # the profile, in the long reader's keys; a summary written before these columns
             # has none of them (the report takes the result file's profile where found)
             iv.update(profile_bound=_number_cell(where, pb_col, rec.get(pb_col)),
-                      profile=rec.get(kind_col) or "",
+                      profile=_profile_cell(where, kind_col, rec.get(kind_col)),
                       profile_far=_number_cell(where, far_col, rec.get(far_col)))
-        iv.update(_mc_of_wide(rec, m, k))
+        iv.update(_mc_of_wide(rec, m, k, where))
     return out if found else None
 
 
-def _mc_keys(rec: dict, lo_col: str, hi_col: str, limit_col: str) -> dict:
+def _mc_keys(rec: dict, lo_col: str, hi_col: str, limit_col: str, where: tuple) -> dict:
     """The Monte Carlo keys (mc_lower, mc_upper, mc_lower_at_limit, mc_upper_at_limit) of one
     constant or loss factor of a summary.csv record, from its range's columns and the one
     saying which ends trials on a search limit set (:func:`search_limit_text`: the long
@@ -2128,15 +2168,17 @@ def _mc_keys(rec: dict, lo_col: str, hi_col: str, limit_col: str) -> dict:
     {} where it has none (no Monte Carlo, a summary written before those columns)."""
     if rec.get(lo_col) in ("", None):
         return {}
-    limit = rec.get(limit_col) or ""
-    return {"mc_lower": _float(rec[lo_col]), "mc_upper": _float(rec.get(hi_col)),
+    # ('Lower' was taken as neither end)
+    limit = _word_cell(where, limit_col, rec.get(limit_col), SEARCH_LIMIT_WORDS,
+                       "a Monte Carlo range's ends")
+    return {"mc_lower": _cell(where, rec, lo_col), "mc_upper": _cell(where, rec, hi_col),
             "mc_lower_at_limit": limit in ("lower", "both"),
             "mc_upper_at_limit": limit in ("upper", "both")}
 
 
-def _mc_of_wide(rec: dict, material: str, name: str) -> dict:
+def _mc_of_wide(rec: dict, material: str, name: str, where: tuple) -> dict:
     """:func:`_mc_keys` of one constant or loss factor of a wide summary record."""
-    return _mc_keys(rec, *wide_mc_columns(material, name))
+    return _mc_keys(rec, *wide_mc_columns(material, name), where)
 
 
 def _damping_of_wide(rec: dict, where: tuple) -> dict:
@@ -2160,7 +2202,7 @@ def _damping_of_wide(rec: dict, where: tuple) -> dict:
             "value": _number_cell(where, value_col, rec[value_col]), "lower": lower,
             "upper": upper, "verdict": verdict, "at_bound": hit,
             "bound_side": "lower" if hit else "", "bound_limit": 0.0 if hit else None,
-            **_mc_of_wide(rec, m, k)}
+            **_mc_of_wide(rec, m, k, where)}
     return out
 
 
@@ -2239,47 +2281,49 @@ def _rows_of_long(records, path: Path, line_of: dict) -> list[dict]:
                 "name": rec["name"], "specimen": rec.get("specimen", ""), "path": "",
                 "status": rec["status"], "reason": rec.get("reasons", ""), "cached": False,
                 "materials": {}, "intervals": {},
-                "rms_residual_percent": _float(rec.get("rms_residual [%]")),
-                "evaluations": None, "time_s": None, "mesh_check": _mesh_of_csv(rec),
+                "rms_residual_percent": _cell(where, rec, "rms_residual [%]"),
+                "evaluations": None, "time_s": None, "mesh_check": _mesh_of_csv(rec, where),
                 "result": str(path.parent / res) if res else None,
                 "stale_result": _path_of_csv(rec, "stale_result", path)}
         m, k = rec.get("material"), rec.get("constant")
         if m and k in CONSTANTS and rec.get("value") not in ("", None):
             r["materials"].setdefault(m, {})[k] = _number_cell(where, "value", rec["value"])
-            side = rec.get("bound_side") or ""
+            side = _word_cell(where, "bound_side", rec.get("bound_side"), SIDE_WORDS,
+                              "a bound's side")
             lower, upper = _interval_cells(where, "lower", "upper", rec)
             iv = r["intervals"].setdefault(m, {})[k] = {
                 "lower": lower, "upper": upper,
                 "verdict": rec.get("verdict", ""),
                 # (summaries written before the bound columns: the verdict says it)
                 "at_bound": bool(side) or rec.get("verdict", "") == VERDICT_AT_BOUND,
-                "bound_side": side, "bound_limit": _float(rec.get("bound_limit")),
-                "profile_bound": _float(rec.get("profile_bound")),
-                "profile": rec.get("profile") or "",
-                "profile_far": _float(rec.get("profile_far")),
+                "bound_side": side, "bound_limit": _cell(where, rec, "bound_limit"),
+                "profile_bound": _cell(where, rec, "profile_bound"),
+                "profile": _profile_cell(where, "profile", rec.get("profile")),
+                "profile_far": _cell(where, rec, "profile_far"),
                 # a value --fix-undetermined held (its verdict is "fixed" as a known one's)
                 "assumed": rec.get("flag") == FLAG_ASSUMED}
-            iv.update(_mc_keys(rec, "mc_lower", "mc_upper", "mc_search_limit"))
+            iv.update(_mc_keys(rec, "mc_lower", "mc_upper", "mc_search_limit", where))
         elif m and k and k.startswith("eta") and rec.get("value") not in ("", None):
-            side = rec.get("bound_side") or ""
+            side = _word_cell(where, "bound_side", rec.get("bound_side"), SIDE_WORDS,
+                              "a bound's side")
             lower, upper = _interval_cells(where, "lower", "upper", rec)
             eta = r.setdefault("damping", {}).setdefault(m, {})[k] = {
                 "value": _number_cell(where, "value", rec["value"]), "lower": lower,
                 "upper": upper, "verdict": rec.get("verdict", ""),
                 "at_bound": bool(side), "bound_side": side,
-                "bound_limit": _float(rec.get("bound_limit"))}
-            eta.update(_mc_keys(rec, "mc_lower", "mc_upper", "mc_search_limit"))
+                "bound_limit": _cell(where, rec, "bound_limit")}
+            eta.update(_mc_keys(rec, "mc_lower", "mc_upper", "mc_search_limit", where))
     return list(rows.values())
 
 
-def _mesh_of_csv(rec: dict) -> dict | None:
+def _mesh_of_csv(rec: dict, where: tuple) -> dict | None:
     """The row's ``mesh_check`` as far as a summary.csv gives it (max_change_sigma,
     max_shift_half_width, coarse_mesh from its reasons); None without a check."""
     if rec.get("mesh_max_shift_half_width") in ("", None) and \
             rec.get("mesh_max_change_sigma") in ("", None):
         return None
-    return {"max_change_sigma": _float(rec.get("mesh_max_change_sigma")),
-            "max_shift_half_width": _float(rec.get("mesh_max_shift_half_width")),
+    return {"max_change_sigma": _cell(where, rec, "mesh_max_change_sigma"),
+            "max_shift_half_width": _cell(where, rec, "mesh_max_shift_half_width"),
             "coarse_mesh": "coarse_mesh" in (rec.get("reasons") or "")}
 
 
@@ -2288,13 +2332,6 @@ def _path_of_csv(rec: dict, column: str, path: Path) -> str | None:
     summary written before the column)."""
     text = rec.get(column) or None
     return str(path.parent / text) if text else None
-
-
-def _float(text):
-    try:
-        return float(text)
-    except (TypeError, ValueError):
-        return None
 
 
 def _mark(row: dict, material: str, constant: str) -> str:

@@ -244,26 +244,40 @@ def configure_logging(level: int) -> None:
     root = logging.getLogger()
     before = list(root.handlers)
     logging.basicConfig(level=level, format=_LOG_FORMAT)
-    if level >= logging.WARNING:
-        # only the handler basicConfig just added
-        for handler in root.handlers:
-            if handler not in before:
-                handler.setFormatter(_UserFormatter(_LOG_FORMAT))
+    # only the handler basicConfig just added
+    for handler in root.handlers:
+        if handler not in before:
+            handler.setFormatter((_UserFormatter if level >= logging.WARNING
+                                  else _EscapingFormatter)(_LOG_FORMAT))
 
 
 _LOG_FORMAT = "%(levelname)s %(name)s: %(message)s"
 
 
-class _UserFormatter(logging.Formatter):
+class _EscapingFormatter(logging.Formatter):
+    """Each record with its errors.NON_PRINTABLE characters escaped, as the error line has
+    them (a file's name 'bd/S1\u202e1.yaml' in the specimen reader's warning reversed the
+    rest of the line, an ESC sequence in it acted on the terminal)."""
+
+    def format(self, record):
+        from laminid_cli.errors import escaped
+
+        return escaped(self._format(record))
+
+    def _format(self, record):
+        return super().format(record)
+
+
+class _UserFormatter(_EscapingFormatter):
     """laminid's own warnings and errors as the commands write theirs ("warning: ..."), with
     a traceback where the record has one; other libraries' records name their logger."""
 
     _own = logging.Formatter("%(message)s")
 
-    def format(self, record):
+    def _format(self, record):
         if record.name.split(".")[0] == "laminid_cli":
             return f"{record.levelname.lower()}: {self._own.format(record)}"
-        return super().format(record)
+        return super()._format(record)
 
 
 def main():  # kept for callers of the old entry point: laminid_cli.__main__.main

@@ -1068,7 +1068,10 @@ def read_stored_summary(path) -> tuple[dict, dict]:
             raise ResultFileError(f"{path}: /summary_json is not readable JSON ({exc})") from exc
         if not isinstance(summary, dict):
             raise ResultFileError(f"{path}: /summary_json is not a summary (a JSON object)")
-        found = non_printable_in(summary)
+        # (not the paths laminid took from the file system, nor the warnings naming them: a
+        # specimen in a folder 'bd\u202e' gave a result that show refused as damaged; show
+        # prints them escaped, --json as read)
+        found = non_printable_in(_without_paths(summary))
         if found is not None:
             where, text, bad = found
             raise ResultFileError(f"{path}: /summary_json, field '{escaped(where)}' "
@@ -1085,6 +1088,20 @@ def read_stored_summary(path) -> tuple[dict, dict]:
         elif "yaml" in f["specimen"]:
             restate_reference_ranges(summary.get("reference"), _s(f["specimen"]["yaml"][()]))
     return summary, written
+
+
+#: the keys of a stored summary (at any depth) whose text is a path from the file system or
+#: names one (read_stored_summary): what laminid refuses in a name may be in a folder's name
+_PATH_KEYS = ("path", "output", "warnings")
+
+
+def _without_paths(value):
+    """``value`` (a stored summary) without the items of :data:`_PATH_KEYS`."""
+    if isinstance(value, dict):
+        return {k: _without_paths(v) for k, v in value.items() if k not in _PATH_KEYS}
+    if isinstance(value, list):
+        return [_without_paths(v) for v in value]
+    return value
 
 
 def _read(f, path, fmt, version) -> ResultFile:

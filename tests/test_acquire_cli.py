@@ -1364,3 +1364,21 @@ def test_a_forced_model_that_contradicts_a_known_identity_is_refused(tmp_path, h
         " identifies as the 35670A ('HEWLETT-PACKARD,35670A,")
     assert "not the SR785; use --model auto or the 35670A's name" in r.stderr
     assert not out.exists() and not any(c.startswith("FSTR") for c in hp.log)
+
+
+def test_acquire_lines_escape_a_non_printable_character_of_the_folder(tmp_path, hp):
+    """acquire's closing line ('<out>: 1 point(s) ...; next: laminid fit-frf <out> ...') and
+    those of a complete file given --resume printed the path as it was: a folder 'bd\u202e'
+    reversed them; escaped as the error line escapes it, the file written where asked."""
+    folder = tmp_path / "bd\u202e"
+    folder.mkdir()
+    out = folder / "plate.frf.h5"
+    r = acquire(hp, out, "--no-prompt", points=1)
+    assert r.exit_code == 0, r.output
+    shown = f"{tmp_path}/bd\\u202e/plate.frf.h5"
+    assert f"{shown}: 1 point(s), 801 lines 0-1600 Hz; next: laminid fit-frf {shown} " in r.stderr
+    assert "\u202e" not in r.stderr and read_frf_h5(out).n_points == 1
+    r = acquire(hp, out, "--no-prompt", "--resume", points=1)
+    assert r.exit_code == 0, r.output
+    assert f"{shown}: already complete: 1 point (1), 801 lines" in r.stderr
+    assert "\u202e" not in r.stderr

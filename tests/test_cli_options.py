@@ -292,6 +292,11 @@ def _run_args(command, tmp_path) -> list:
     ("identify", "r.json", "--json prints JSON on stdout"),
     ("identify", "r.csv", "laminid batch writes summary.csv"),
     ("modes", "m.uff", "laminid export writes UFF"),
+    # (batch's summary.csv is no table of modes, nor of FRFs)
+    ("modes", "m.csv", "; --json prints the frequencies as JSON, laminid export writes the mode "
+                       "shapes as a Universal File (.uff)\n"),
+    ("acquire", "a.csv", "; no laminid command writes FRFs as CSV: laminid export writes them "
+                         "as a Universal File (.uff)\n"),
     ("modes", "m.txt", ""),
 ])
 def test_an_hdf5_output_named_like_another_format_is_refused(tmp_path, command, name, hint):
@@ -299,7 +304,8 @@ def test_an_hdf5_output_named_like_another_format_is_refused(tmp_path, command, 
     and a user expecting JSON gets none); now refused before the work, with where that format
     comes from; no file written."""
     out = tmp_path / name
-    r = run(command, S11, "--mesh", "4x4", "-o", out)
+    r = run(command, *(["--analyser", "GPIB0::5", "--points", "4"] if command == "acquire"
+                       else [S11, "--mesh", "4x4"]), "-o", out)
     no_traceback(r)
     assert r.exit_code == 2
     assert f"{out}: {command} writes" in r.output and "as HDF5; name it .h5 (-o)" in r.output

@@ -996,7 +996,7 @@ def test_output_naming_a_folder_is_refused_in_laminids_format(tmp_path, args, op
 @pytest.mark.parametrize("args, line", [
     (["modes", "{folder}"], "{folder}: is a folder, not a file"),
     (["identify", "{folder}", "--no-output"], "{folder}: is a folder, not a file; "
-     "'laminid batch {folder}' identifies every specimen in a folder"),
+     "it holds no specimen file (*.yaml, *.yml)"),
     (["fit-frf", "{folder}"], "{folder}: is a folder, not a file"),
     (["export", "{folder}", "-o", "{tmp}/x.uff"], "{folder}: is a folder, not a file"),
     (["report", "{folder}"], "{folder}: is a folder, not a file"),
@@ -1014,6 +1014,31 @@ def test_input_file_that_is_a_folder_or_missing_is_refused_in_laminids_format(tm
     assert r.exit_code == 2
     assert r.stderr == f"laminid: error: {line.format(folder=folder, tmp=tmp_path)}\n"
     assert r.stdout == ""
+
+
+def test_identify_of_a_folder_names_batch_only_where_it_holds_specimen_files(tmp_path):
+    """identify FOLDER named batch whatever the folder held: of a batch's --out (result files
+    and summary.csv) or a folder of FRF files, batch then found no specimen file. It names
+    batch for a folder with specimen files (in a subfolder too, as batch searches), else says
+    it holds none and names what it holds with the command that takes it."""
+    specs, res, frf = tmp_path / "specs", tmp_path / "res", tmp_path / "frf"
+    for folder in (specs / "sub", res / "S1", frf):
+        folder.mkdir(parents=True)
+    (specs / "sub" / "S1.yaml").write_text(BASE)
+    (res / "S1" / "S1.result.h5").write_bytes(b"")
+    (res / "summary.csv").write_text("name,status\n")
+    (frf / "a.frf.h5").write_bytes(b"")
+    (frf / "b.uff").write_text("")
+    for folder, said in [
+            (specs, f"'laminid batch {specs}' identifies every specimen in a folder"),
+            (res, f"it holds no specimen file (*.yaml, *.yml) but 1 result file: 'laminid show "
+                  f"{res}/S1/S1.result.h5' prints it, 'laminid report {res}/summary.csv' draws "
+                  "the batch"),
+            (frf, f"it holds no specimen file (*.yaml, *.yml) but 2 FRF files: 'laminid fit-frf "
+                  f"{frf}/a.frf.h5' takes one")]:
+        r = run("identify", folder, "--no-output")
+        assert r.exit_code == 2 and r.stdout == ""
+        assert r.stderr == f"laminid: error: {folder}: is a folder, not a file; {said}\n"
 
 
 def test_report_of_a_batch_folder_names_its_summary(tmp_path):
@@ -1713,3 +1738,161 @@ def test_an_frf_files_unprinted_words_are_not_held_to_the_rule_but_printed_ones_
     fs = read_frf(uff)
     assert fs.meta["uff_ids"][0] == "FRF\x001"
     np.testing.assert_allclose(fs.frf, H, rtol=1e-11, atol=0)     # (ASCII UFF: 12 digits)
+
+
+def test_a_warning_escapes_a_non_printable_character_of_a_folder_name(tmp_path):
+    """A specimen in a folder 'bd\u202e': modes' coarse-mesh warning printed the path as it
+    was, the override reversing the rest of the line; escaped as the error line escapes it
+    (errors.NON_PRINTABLE), --json's 'warnings' keeping the path as read."""
+    folder = tmp_path / "bd\u202e"
+    folder.mkdir()
+    path = spec(folder, BASE, "S1.1.yaml")
+    r = run("modes", path, "--mesh", "2x2")
+    assert r.exit_code == 0, r.output
+    assert f"warning: {tmp_path}/bd\\u202e/S1.1.yaml: the mesh 2x2 (189 equations)" in r.stderr
+    assert "\u202e" not in r.stderr
+    r = run("modes", path, "--mesh", "2x2", "--json")
+    assert r.exit_code == 0 and "\u202e" not in r.stderr
+    assert json.loads(r.stdout)["warnings"][0].startswith(f"{path}: the mesh 2x2")
+    # identify's, at its report's end (stdout), and the line naming its result
+    r = run("identify", path, "--mesh", "3x3")
+    assert r.exit_code == 0, r.output
+    assert f"warning: {tmp_path}/bd\\u202e/S1.1.yaml: the mesh 3x3 (360 equations)" in r.stdout
+    assert f"\nwritten: {tmp_path}/bd\\u202e/S1.1.result.h5\n" in r.stdout
+    assert "\u202e" not in r.output and (folder / "S1.1.result.h5").is_file()
+    r = run("show", folder / "S1.1.result.h5")
+    assert r.exit_code == 0 and "\u202e" not in r.output, r.output
+    assert r.stdout.startswith(f"{tmp_path}/bd\\u202e/S1.1.result.h5: written ")
+    r = run("modes", path, "--mesh", "4x4", "-o", folder / "m.h5")
+    assert r.exit_code == 0 and "\u202e" not in r.output, r.output
+    assert f"\nwritten: {tmp_path}/bd\\u202e/m.h5\n" in r.stdout
+
+
+def test_a_logged_warning_escapes_a_non_printable_character():
+    """The specimen reader's warnings (logged, naming the file) go through the command line's
+    log formatter, which escapes them as the error line does: 'S1\x1b[31m' as 'S1\\x1b[31m'."""
+    import logging
+
+    from laminid_cli.cli import _UserFormatter, _LOG_FORMAT
+
+    record = logging.LogRecord("laminid_cli.specimen", logging.WARNING, __file__, 1,
+                               "%s: a layup", ("bd/S1\x1b[31m\u202e.yaml",), None)
+    assert _UserFormatter(_LOG_FORMAT).format(record) == (
+        "warning: bd/S1\\x1b[31m\\u202e.yaml: a layup")
+    record.name = "h5py"
+    assert _UserFormatter(_LOG_FORMAT).format(record) == (
+        "WARNING h5py: bd/S1\\x1b[31m\\u202e.yaml: a layup")
+
+
+@pytest.mark.parametrize("kind", ["wide", "long", "json"])
+def test_a_summary_profile_edited_to_another_word_is_refused(tmp_path, kind):
+    """A profile cell edited by hand ('Bound', 'rejected') was taken as it stood: a profile
+    the report neither drew nor named. Refused naming the file, line and column (the JSON
+    summary's field), as a number cell that is text; 'flat' still read."""
+    if kind == "wide":
+        path = tmp_path / "summary.csv"
+        head = (WIDE_HEADER + ",M E1 bound_side,M E1 bound_limit [Pa],M E1 profile_bound [Pa],"
+                "M E1 profile,M E1 profile_far [Pa]\n")
+        row = "S1,S1,S1.yaml,ok,,1.7e11,1.6e11,1.8e11,at bound,0.5,,,upper,1.8e11,,{},2e11\n"
+        column = "M E1 profile"
+    elif kind == "long":
+        path = tmp_path / "summary.csv"
+        head = ("name,specimen,status,reasons,material,constant,value,lower,upper,verdict,unit,"
+                "bound_side,bound_limit,profile_bound,profile,profile_far\n")
+        row = "S1,S1,ok,,M,E1,1.7e11,1.6e11,1.8e11,at bound,Pa,upper,1.8e11,,{},2e11\n"
+        column = "profile"
+    if kind != "json":
+        path.write_text("# laminid batch summary\n" + head + row.format("flat"), encoding="utf-8")
+        from laminid_cli.batch import read_summary
+
+        assert read_summary(path)[0]["intervals"]["M"]["E1"]["profile"] == "flat"
+        path.write_text("# laminid batch summary\n" + head + row.format("Bound"), encoding="utf-8")
+        said = (f"{path}:3, column '{column}': 'Bound' is not a profile's word (bound, flat, "
+                "none; empty where there is none)")
+    else:
+        path = tmp_path / "summary.json"
+        path.write_text(json.dumps({"format": "laminid-batch-summary", "specimens": [
+            {"name": "S1", "specimen": "S1", "status": "ok", "materials": {"M": {"E1": 1.7e11}},
+             "intervals": {"M": {"E1": {"lower": 1.6e11, "upper": 1.8e11, "profile": "Bound"}}}}]}))
+        said = (f"{path}: field 'specimens[0].intervals.M.E1.profile': expected bound, flat, "
+                "none or empty, got 'Bound'")
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert (r.exit_code, "Traceback" in r.output) == (2, False), r.output
+    assert said in r.output, r.output
+    assert not (tmp_path / "r.pdf").exists()
+
+
+@pytest.mark.parametrize("kind, column", [
+    ("long", "bound_limit"), ("long", "profile_far"), ("long", "mc_lower"),
+    ("long", "rms_residual [%]"), ("wide", "rms_residual [%]"), ("wide", "M E1 mc_upper [Pa]")])
+def test_a_summary_number_beside_the_constants_edited_to_text_is_refused(tmp_path, kind,
+                                                                          column):
+    """A constant's value or interval end edited to 'n/a' was refused (file, line, column);
+    the summary's other numbers (the residual, a bound's limit, a profile's end, a Monte Carlo
+    range) were read as none, the report drawing without them. Refused the same."""
+    path = tmp_path / "summary.csv"
+    if kind == "long":
+        cols = ["name", "specimen", "status", "reasons", "material", "constant", "value", "lower",
+                "upper", "verdict", "unit", "bound_side", "bound_limit", "profile_bound",
+                "profile", "profile_far", "mc_lower", "mc_upper", "mc_search_limit",
+                "rms_residual [%]"]
+        cells = ["S1", "S1", "ok", "", "M", "E1", "1.7e11", "1.6e11", "1.8e11", "at bound", "Pa",
+                 "upper", "1.8e11", "", "flat", "2e11", "1.65e11", "1.8e11", "upper", "0.5"]
+    else:
+        cols = WIDE_HEADER.split(",") + ["M E1 mc_lower [Pa]", "M E1 mc_upper [Pa]",
+                                          "M E1 mc_search_limit"]
+        cells = ["S1", "S1", "S1.yaml", "ok", "", "1.7e11", "1.6e11", "1.8e11", "weak", "0.5", "",
+                 "", "1.65e11", "1.75e11", ""]
+    text = "# laminid batch summary\n" + ",".join(cols) + "\n" + ",".join(cells) + "\n"
+    path.write_text(text, encoding="utf-8")
+    from laminid_cli.batch import read_summary
+
+    assert read_summary(path)[0]["rms_residual_percent"] == 0.5
+    cells[cols.index(column)] = "n/a"
+    path.write_text("# laminid batch summary\n" + ",".join(cols) + "\n" + ",".join(cells) + "\n",
+                    encoding="utf-8")
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert (r.exit_code, "Traceback" in r.output) == (2, False), r.output
+    assert f"{path}:3, column '{column}': 'n/a' is not a number" in r.output, r.output
+    assert not (tmp_path / "r.pdf").exists()
+
+
+@pytest.mark.parametrize("column, words", [
+    ("bound_side", "a bound's side (lower, upper"),
+    ("mc_search_limit", "a Monte Carlo range's ends (lower, upper, both")])
+def test_a_long_summary_side_edited_to_another_word_is_refused(tmp_path, column, words):
+    """A bound's side or the Monte Carlo's search-limit ends edited to 'Upper' was taken as
+    it stood (a side, at_bound, that the report then drew on neither end; no end); refused
+    naming the file, line, column and the words, as a profile's."""
+    path = tmp_path / "summary.csv"
+    cols = ["name", "specimen", "status", "reasons", "material", "constant", "value", "lower",
+            "upper", "verdict", "unit", "bound_side", "bound_limit", "mc_lower", "mc_upper",
+            "mc_search_limit"]
+    cells = ["S1", "S1", "ok", "", "M", "E1", "1.7e11", "1.6e11", "1.8e11", "at bound", "Pa",
+             "upper", "1.8e11", "1.65e11", "1.8e11", "upper"]
+    from laminid_cli.batch import read_summary
+
+    path.write_text(",".join(cols) + "\n" + ",".join(cells) + "\n", encoding="utf-8")
+    iv = read_summary(path)[0]["intervals"]["M"]["E1"]
+    assert (iv["bound_side"], iv["mc_upper_at_limit"]) == ("upper", True)
+    cells[cols.index(column)] = "Upper"
+    path.write_text(",".join(cols) + "\n" + ",".join(cells) + "\n", encoding="utf-8")
+    r = run("report", path, "-o", tmp_path / "r.pdf")
+    assert (r.exit_code, "Traceback" in r.output) == (2, False), r.output
+    assert (f"{path}:2, column '{column}': 'Upper' is not {words}; empty where there is none)"
+            in r.output), r.output
+    assert not (tmp_path / "r.pdf").exists()
+
+
+def test_acquire_note_escapes_a_non_printable_character_of_a_folder_name(tmp_path):
+    """acquire --resume of a file not there yet says so on a note line, which printed the
+    path as it was ('bd\u202e/a.frf.h5'); escaped as the error line escapes it (the analyser
+    then cannot be opened here: its error follows, exit 2 or 1)."""
+    folder = tmp_path / "bd\u202e"
+    folder.mkdir()
+    r = run("acquire", "--analyser", "GPIB0::5", "--points", "4", "--resume", "-o",
+            folder / "a.frf.h5")
+    assert r.exit_code in (1, 2) and "Traceback" not in r.output, r.output
+    assert (f"laminid: note: {tmp_path}/bd\\u202e/a.frf.h5: no file to resume; starting a new "
+            "one\n") in r.stderr
+    assert "\u202e" not in r.stderr

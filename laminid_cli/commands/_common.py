@@ -106,6 +106,10 @@ class InputFile(click.Path):
         return value
 
 
+#: the FRF files a folder holds, as fit-frf names them for a folder given as FRF_FILE
+FRF_PATTERNS = ("*.frf.h5", "*.uff", "*.unv", "*.csv", "*.txt", "*.mat")
+
+
 def files_hint(command: str, patterns, what: str):
     """A ``folder_hint`` for :class:`InputFile`: what a folder given for a file holds that
     ``laminid COMMAND`` takes (``patterns`` in the folder itself), one named in the command
@@ -166,9 +170,11 @@ def echo_frf_warnings(fs) -> list[str]:
     """The warnings the reader of the FRF set ``fs`` left in its ``meta`` (a frequency unit
     not stated: laminid_cli.frf.io), each on stderr as ``warning: ...``; returned for --json's
     ``warnings``."""
+    from laminid_cli.errors import escaped
+
     warnings = list(fs.meta.get("warnings") or ())
     for warning in warnings:
-        click.echo(f"warning: {warning}", err=True)
+        click.echo(escaped(f"warning: {warning}"), err=True)
     return warnings
 
 
@@ -284,10 +290,12 @@ NOT_HDF5_SUFFIXES = (".json", ".csv", ".txt", ".yaml", ".yml", ".pdf", ".png", "
                      ".xls", ".xlsx", ".mat")
 
 
-def check_hdf5_name(path, what: str, option: str = "-o") -> None:
+def check_hdf5_name(path, what: str, option: str = "-o",
+                    csv: str = "laminid batch writes summary.csv") -> None:
     """Refuse an output named like another format (:data:`NOT_HDF5_SUFFIXES`): ``what`` the
     command writes HDF5 there ("identify writes its result"), said with the way to get the
-    other format when there is one."""
+    other format when there is one (``csv``: the command's, for a .csv name: batch's summary
+    of results; acquire's FRFs have none)."""
     from laminid_cli.errors import OutputExistsError
 
     if path is None:
@@ -297,7 +305,7 @@ def check_hdf5_name(path, what: str, option: str = "-o") -> None:
         hint = {".json": "; --json prints JSON on stdout", ".uff": "; laminid export writes UFF",
                 ".unv": "; laminid export writes UFF", ".pdf": "; laminid report writes PDF",
                 ".png": "; laminid report writes PNG",
-                ".csv": "; laminid batch writes summary.csv"}.get(suffix, "")
+                ".csv": f"; {csv}"}.get(suffix, "")
         raise OutputExistsError(f"{path}: {what} as HDF5; name it .h5 ({option}){hint}",
                                 path=path)
 

@@ -229,6 +229,7 @@ def _say_complete(out: Path, old, points: int, as_json: bool) -> None:
     import shlex
 
     from laminid_cli.commands._common import echo_json
+    from laminid_cli.errors import escaped
 
     n = old.n_points
     labels = ", ".join(old.labels)
@@ -239,13 +240,15 @@ def _say_complete(out: Path, old, points: int, as_json: bool) -> None:
     state = ("already complete" if marked else
              "every point measured (the file is not marked complete: its session stopped "
              "after saving the last point)")
-    click.echo(f"{out}: {state}: {n} point{'s' if n != 1 else ''} ({labels}), {freq.size} "
-               f"lines {freq[0]:g}-{freq[-1]:g} Hz, {old.units}{more}; nothing to measure: "
-               "the analyser was not opened and the file is unchanged", err=True)
-    click.echo(f"next: laminid fit-frf {q} --into specimen.yaml; to measure the plate again "
-               f"write another file (-o NEW.frf.h5) or replace this one (--force, without "
-               f"--resume: its {n} point{'s' if n != 1 else ''} would be lost); to add points "
-               f"--resume --points {n + 1} or more", err=True)
+    # escaped: a folder 'bd\u202e' in the path reversed the lines (--json keeps it as read)
+    click.echo(escaped(f"{out}: {state}: {n} point{'s' if n != 1 else ''} ({labels}), "
+                       f"{freq.size} lines {freq[0]:g}-{freq[-1]:g} Hz, {old.units}{more}; "
+                       "nothing to measure: the analyser was not opened and the file is "
+                       "unchanged"), err=True)
+    click.echo(escaped(f"next: laminid fit-frf {q} --into specimen.yaml; to measure the plate "
+                       "again write another file (-o NEW.frf.h5) or replace this one (--force, "
+                       f"without --resume: its {n} point{'s' if n != 1 else ''} would be lost); "
+                       f"to add points --resume --points {n + 1} or more"), err=True)
     if as_json:
         echo_json(_json_summary(out, points, old.units, freq, old.meta.get("instrument") or {},
                                 complete=True, already_complete=True, points_saved=n))
@@ -416,7 +419,7 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
       laminid fit-frf plate.frf.h5 --into plate.yaml
     """
     ctx.with_resource(_sigint_stops_it_even_in_the_background())
-    from laminid_cli.errors import FrfError, LaminidError, sigterm_raises_terminated
+    from laminid_cli.errors import FrfError, LaminidError, escaped, sigterm_raises_terminated
     from laminid_cli.errors import non_printable
     from laminid_cli.frf.store import FrfWriter
     from laminid_cli.instrument.base import AcquisitionSettings
@@ -445,8 +448,11 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
     units = units or "V/V"
     if resume and not out.exists() and not quiet():
         # scripts may pass --resume every time: a new file, said so (not silently)
-        click.echo(f"laminid: note: {out}: no file to resume; starting a new one", err=True)
-    check_hdf5_name(out, "acquire writes the FRFs")
+        click.echo(escaped(f"laminid: note: {out}: no file to resume; starting a new one"),
+                   err=True)
+    # (.csv: it named batch's summary.csv, no FRFs; export writes UFF only, its --help)
+    check_hdf5_name(out, "acquire writes the FRFs", csv="no laminid command writes FRFs as "
+                    "CSV: laminid export writes them as a Universal File (.uff)")
     resume = resume and out.exists()
     if not resume and not force and out.is_file():
         _refuse_unfinished(out)
@@ -510,8 +516,8 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
             writer = FrfWriter(out, freq, units=units, settings=attrs,
                                instrument=dsa.identity(), resume=resume, overwrite=force)
             if resume:
-                click.echo(f"{out}: resuming, {writer.n_points} of {points} point(s) already "
-                           "measured", err=True)
+                click.echo(escaped(f"{out}: resuming, {writer.n_points} of {points} point(s) "
+                                   "already measured"), err=True)
             identity = dsa.identity()
 
             def summary(result, stopped=None):
@@ -551,6 +557,6 @@ def acquire(ctx, analyser, model, visa_backend, timeout, span, start, lines, ave
 
         raise SessionIncomplete(f"{out}: {result.n_saved} of {points} point(s) saved; "
                                 f"continue with: {hint}")
-    click.echo(f"{out}: {result.n_saved} point(s), {freq.size} lines "
-               f"{freq[0]:g}-{freq[-1]:g} Hz; next: laminid fit-frf {out} --into "
-               "specimen.yaml", err=True)
+    click.echo(escaped(f"{out}: {result.n_saved} point(s), {freq.size} lines "
+                       f"{freq[0]:g}-{freq[-1]:g} Hz; next: laminid fit-frf {out} --into "
+                       "specimen.yaml"), err=True)

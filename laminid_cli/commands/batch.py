@@ -168,7 +168,7 @@ def _batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check,
         raise BatchError(printable(non_specimens_message(named)))
     if not quiet():
         for path, what in sorted(found + passed_over, key=lambda t: str(t[0])):
-            click.echo(printable(f"warning: {path}: {what}; skipped"), err=True)
+            click.echo(escaped(printable(f"warning: {path}: {what}; skipped")), err=True)
     if not specimens:
         raise BatchError(printable(f"no specimen file (*.yaml, *.yml) found in "
                                    f"{escaped(', '.join(inputs))}"))
@@ -179,7 +179,8 @@ def _batch(inputs, n_jobs, out_dir, scheduler, options, force, wide, mesh_check,
                   for g in duplicate_specimens([p for p, _ in specimens], docs)]
     if not quiet():
         for group in duplicates:
-            click.echo(f"warning: {duplicate_text(p for p, _ in group)}", err=True)
+            click.echo(escaped(printable(f"warning: {duplicate_text(p for p, _ in group)}")),
+                       err=True)
     duplicates = [[name for _, name in group] for group in duplicates]
     if out.is_symlink() and not out.exists():
         # mkdir said only "cannot create the folder (File exists)" of a link to nothing

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import click
 
-from laminid_cli.commands._common import (OUTPUT_FILE, SIGMA_REL, InputFile, check_output_path,
-                                          echo_frf_warnings, echo_json, force_option,
-                                          files_hint, frf_json_option, quiet,
+from laminid_cli.commands._common import (FRF_PATTERNS, OUTPUT_FILE, SIGMA_REL, InputFile,
+                                          check_output_path, echo_frf_warnings, echo_json,
+                                          files_hint, force_option, frf_json_option, quiet,
                                           stderr_is_terminal, writable_target)
 
 
@@ -37,8 +37,8 @@ FALSE_ALARM_UNIT = ("1 (a probability: that noise alone gives a pole whose modal
 
 
 @click.command("fit-frf")
-@click.argument("frf_file", type=InputFile(folder_hint=files_hint(
-    "fit-frf", ("*.frf.h5", "*.uff", "*.unv", "*.csv", "*.txt", "*.mat"), "FRF file")))
+@click.argument("frf_file", type=InputFile(folder_hint=files_hint("fit-frf", FRF_PATTERNS,
+                                                                  "FRF file")))
 @click.option("--band", "bands", multiple=True, callback=_parse_bands, metavar="LO:HI",
               help="Frequency band in Hz to fit (repeatable); a band with more than six "
                    "resonance peaks is fitted as overlapping sub-bands (the first line lists "
@@ -137,7 +137,7 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
 
     import numpy as np
 
-    from laminid_cli.errors import OutputExistsError, SpecimenError
+    from laminid_cli.errors import OutputExistsError, SpecimenError, escaped
     from laminid_cli.frf import rfp
     from laminid_cli.frf.io import negative_direction_points, point_quality_notes, read_frf
     from laminid_cli.frf.store import units_text
@@ -173,7 +173,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     # a terminal is told what runs: the fit and the plot took 2.8-7.6 s (the synthetic S1.1's
     # 8 FRFs, busy machine) with nothing on it, the table printed after the plot
     show_progress = not as_json and stderr_is_terminal() and not quiet()
-    head = f"  fitting {fs.n_points} FRF{'' if fs.n_points == 1 else 's'} of {frf_file}"
+    head = escaped(f"  fitting {fs.n_points} FRF{'' if fs.n_points == 1 else 's'} of "
+                   f"{frf_file}")
     if show_progress:
         click.echo(head, err=True, nl=False)
     try:
@@ -223,7 +224,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         from laminid_cli.frf.plot import plot_fit
 
         if show_progress:
-            click.echo("\r" + f"  drawing {plot_path}".ljust(len(head)), err=True, nl=False)
+            click.echo("\r" + escaped(f"  drawing {plot_path}").ljust(len(head)), err=True,
+                       nl=False)
         try:
             plot_fit(plot_path, fs.freq, fs.frf, fit, units=fs.units, coherence=fs.coherence,
                      title=f"{Path(frf_file).name}: {len(fit.modes)} modes", sigma_hz=sigma)
@@ -290,8 +292,8 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
         return
     bands_txt = ", ".join(f"{b.band_hz[0]:g}-{b.band_hz[1]:g}" for b in fit.bands)
     frfs = f"{fs.n_points} FRF{'' if fs.n_points == 1 else 's'}"     # (was "1 FRFs")
-    click.echo(f"{frf_file}: {frfs} ({units_text(fs.units)}), {fs.freq.size} lines, "
-               f"bands {bands_txt} Hz")
+    click.echo(escaped(f"{frf_file}: {frfs} ({units_text(fs.units)}), {fs.freq.size} lines, "
+                       f"bands {bands_txt} Hz"))
     windowed = wc.exp_window_s is not None
     if not fit.modes:
         click.echo("no stable mode found")
@@ -322,15 +324,16 @@ def fit_frf(frf_file, bands, n_modes, fmt, freq_dataset, frf_dataset, plot_path,
     for note in notes:
         click.echo(f"note: {note}")
     if plot_path is not None:
-        click.echo(f"plot written to {plot_path}")
+        click.echo(escaped(f"plot written to {plot_path}"))
     if into is not None:
         what = "frequencies and damping ratios" if into.damping_written else \
             "frequencies (no damping ratio: none is above the window's)"
         if into.unchanged:
-            click.echo(f"{spec_path} already holds these {len(fit.modes)} {what}: left "
-                       "unchanged (no backup made)")
+            click.echo(escaped(f"{spec_path} already holds these {len(fit.modes)} {what}: "
+                               "left unchanged (no backup made)"))
         else:
-            click.echo(f"{len(fit.modes)} {what} written to {spec_path} ({into.backup_text})")
+            click.echo(escaped(f"{len(fit.modes)} {what} written to {spec_path} "
+                               f"({into.backup_text})"))
         for note in into.damping_notes:
             click.echo(f"note: {note}")
         for note in into.weight_notes:

@@ -34,11 +34,23 @@ def logged_specimen_warnings(forward_models, joint: bool) -> set[str]:
 
 
 def batch_hint(folder: Path) -> str:
-    """What identify says of a folder given as SPEC: batch is the command for folders."""
+    """What identify says of a folder given as SPEC: batch is the command for a folder of
+    specimen files (searched as batch does, in its subfolders too); of one without any, that
+    it holds none, and the result or FRF files it holds with the command that takes them (it
+    named batch, which then found no specimen file)."""
     import shlex
 
-    return (f"; 'laminid batch {shlex.quote(str(folder))}' identifies every specimen in a "
-            "folder")
+    from laminid_cli.commands._common import FRF_PATTERNS, files_hint
+    from laminid_cli.commands.show import results_hint
+
+    if any(p.is_file() and not any(part.startswith(".") for part in p.relative_to(folder).parts)
+           for pattern in ("*.yaml", "*.yml") for p in folder.rglob(pattern)):
+        return (f"; 'laminid batch {shlex.quote(str(folder))}' identifies every specimen in a "
+                "folder")
+    held = [h.removeprefix("; it holds ") for h in
+            (results_hint(folder), files_hint("fit-frf", FRF_PATTERNS, "FRF file")(folder)) if h]
+    return "; it holds no specimen file (*.yaml, *.yml)" + (
+        " but " + "; and ".join(held) if held else "")
 
 
 @click.command(short_help="Identify ply elastic constants from measured frequencies.")
@@ -115,7 +127,8 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
     import dataclasses
     import sys
 
-    from laminid_cli.errors import FitInputError, InputFileError, LaminidError, SpecimenError
+    from laminid_cli.errors import (FitInputError, InputFileError, LaminidError, SpecimenError,
+                                    escaped)
     from laminid_cli.pipeline import fix_list_hint, run_identification, write_result
 
     if no_output and output is not None:
@@ -208,7 +221,7 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
             # the Monte Carlo's bar is finished: kept on its line, the step on the next
             bar.__exit__(None, None, None)
             bar = None
-        click.echo("\r" + f"  {text}".ljust(78), err=True, nl=False)
+        click.echo("\r" + escaped(f"  {text}").ljust(78), err=True, nl=False)
 
     try:
         run = run_identification(specs, options, progress=progress, mc_progress=mc_progress,
@@ -226,8 +239,8 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
             moved, why = set_aside(out)
             if show_progress:
                 click.echo("", err=True)
-            click.echo(f"laminid: {out}: the earlier result of another input " + (
-                f"moved to {moved}" if moved is not None else f"left in place ({why})"),
+            click.echo(escaped(f"laminid: {out}: the earlier result of another input " + (
+                f"moved to {moved}" if moved is not None else f"left in place ({why})")),
                 err=True)
         raise
     except KeyboardInterrupt:
@@ -236,9 +249,10 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
         if show_progress:
             click.echo("", err=True)
         if out is not None:
-            click.echo(f"laminid: nothing written to {out}: the result is written when every "
-                       "step has finished" + (" (an earlier result there is left as it was)"
-                                              if out.exists() else ""), err=True)
+            click.echo(escaped(f"laminid: nothing written to {out}: the result is written "
+                               "when every step has finished"
+                               + (" (an earlier result there is left as it was)"
+                                  if out.exists() else "")), err=True)
         raise
     finally:
         if bar is not None:
@@ -246,7 +260,7 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
     if show_progress:
         click.echo("", err=True)
     for note in run.notes if not quiet() else ():     # -q: only errors on stderr
-        click.echo(f"laminid: note: {note}", err=True)
+        click.echo(escaped(f"laminid: note: {note}"), err=True)
     summary = dict(run.summary)
     if out is not None:
         write_result(out, run)
@@ -267,7 +281,7 @@ def identify(specs, options, joint, jobs, as_json, output, no_output, force, mes
         if "damping" in summary:
             click.echo("\n" + "\n".join(format_damping(summary["damping"])))
         if out is not None:
-            click.echo(f"\nwritten: {out}" + (" (replaced the previous result of this "
+            click.echo(escaped(f"\nwritten: {out}") + (" (replaced the previous result of this "
                                               "specimen: a derived file)" if replacing else ""))
     if not run.converged:
         click.echo(f"laminid: identification did not converge: {run.result.status}", err=True)

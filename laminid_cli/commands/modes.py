@@ -47,10 +47,12 @@ def modes(spec, mesh, n_modes, boundary, as_json, output, force):
     from laminid_cli.fe.assembly import boundary_code
     from laminid_cli.forward import (build_forward_model, coarse_mesh, far_from_model,
                                      modes_summary)
+    from laminid_cli.errors import escaped
     from laminid_cli.specimen import read_specimen
 
     out = check_output_path(output, force, inputs=[spec])
-    check_hdf5_name(output, "modes writes the modes")
+    check_hdf5_name(output, "modes writes the modes", csv="--json prints the frequencies as "
+                    "JSON, laminid export writes the mode shapes as a Universal File (.uff)")
     specimen = read_specimen(spec)
     # a terminal is told what runs, on a line erased when done (a convergence check on 40x40
     # with 40 modes took 10 s, busy machine, with nothing on it; 12x12 0.4 s)
@@ -76,7 +78,8 @@ def modes(spec, mesh, n_modes, boundary, as_json, output, force):
     warnings = list(specimen.warnings)
     coarse = coarse_mesh(fm, n_modes)
     if coarse is not None:
-        click.echo(f"warning: {spec}: {coarse}", err=True)
+        # escaped: a folder's 'bd\u202e' reversed the line (--json keeps the path as read)
+        click.echo(escaped(f"warning: {spec}: {coarse}"), err=True)
         warnings.append(f"{spec}: {coarse}")
     solving = f"  solving {n_modes} modes of {fm.plate.n_dofs} equations"
     step(solving)
@@ -91,7 +94,7 @@ def modes(spec, mesh, n_modes, boundary, as_json, output, force):
                          np.asarray(fr["weight"], float))
     if far is not None and fm.plate.boundary == boundary_code(specimen.boundary):
         # (measured on the specimen's boundary: another --boundary is expected to be far off)
-        click.echo(f"warning: {spec}: {far}", err=True)
+        click.echo(escaped(f"warning: {spec}: {far}"), err=True)
         warnings.append(f"{spec}: {far}")
     if out is not None:
         from laminid_cli.results import write_modes_file
@@ -105,4 +108,4 @@ def modes(spec, mesh, n_modes, boundary, as_json, output, force):
     else:
         click.echo(format_modes_report(summary))
         if out is not None:
-            click.echo(f"\nwritten: {out}")
+            click.echo(escaped(f"\nwritten: {out}"))

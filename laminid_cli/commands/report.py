@@ -98,6 +98,7 @@ def report(source, output, frf_path, dpi, force):
       laminid report results/example2/S2.1.result.h5 -o S2.1.png
       laminid report results/summary.csv -o study.pdf
     """
+    from laminid_cli.errors import escaped
     from laminid_cli.report import REPORT_SUFFIXES, ReportError, report_pages, write_pages
 
     if output:
@@ -119,11 +120,11 @@ def report(source, output, frf_path, dpi, force):
     # a terminal is told where the report is (S1.1: 5 s, hybrid CM: 15 s on a busy machine,
     # with nothing said before)
     show_progress = stderr_is_terminal() and not quiet()
-    head = f"  reading {source} and laying out its pages"
+    head = escaped(f"  reading {source} and laying out its pages")
 
     def progress(k, n, name):
         if show_progress:          # (as wide as the line before: none of it left over)
-            click.echo("\r" + f"  drawing page {k} of {n} ({name})".ljust(len(head)),
+            click.echo("\r" + escaped(f"  drawing page {k} of {n} ({name})").ljust(len(head)),
                        err=True, nl=False)
 
     if show_progress:
@@ -141,5 +142,6 @@ def report(source, output, frf_path, dpi, force):
         if show_progress:               # the line ends before the result or an error
             click.echo("", err=True)
     names = ", ".join(p.name for p in pages)
-    click.echo(f"{len(pages)} pages ({names}) written to " + ", ".join(map(str, written))
+    click.echo(escaped(f"{len(pages)} pages ({names}) written to "
+                       + ", ".join(map(str, written)))
                + (" (replaced the previous report of this result)" if replacing else ""))

@@ -71,8 +71,11 @@ def show(result, as_json):
     # the mesh, which identify's own output leaves to the command line that gave it: a
     # batch's result (or one made by somebody else) did not say whether it was 12x12 or 6x6
     mesh = summary.get("mesh") or {}
-    click.echo(f"{result}: written {written['created'] or '(date not recorded)'} by "
-               f"laminid {written['laminid_version'] or '?'}"
+    from laminid_cli.errors import escaped
+
+    # escaped: a folder's 'bd\u202e' reversed the line (--json keeps the path as read)
+    click.echo(escaped(f"{result}: written {written['created'] or '(date not recorded)'} by "
+                       f"laminid {written['laminid_version'] or '?'}")
                + (f" ({written['command']})" if written["command"] else "")
                + (f", mesh {mesh['nx']}x{mesh['ny']}" if mesh.get("nx") and mesh.get("ny")
                   else "") + "\n")

@@ -208,8 +208,11 @@ def _closing_lines(s: dict) -> list[str]:
     if s.get("uncertainty"):
         lines.append("")
         lines += format_uncertainty(s["uncertainty"])
+    from laminid_cli.errors import escaped
+
     lines += [f"note: {msg}" for msg in s.get("swaps", [])]
-    lines += [f"warning: {msg}" for msg in s.get("warnings", [])]
+    # escaped: identify's coarse-mesh warning names the file ('bd\u202e/S1.1.yaml')
+    lines += [escaped(f"warning: {msg}") for msg in s.get("warnings", [])]
     return lines
 
 
