@@ -2105,13 +2105,6 @@ def sorted_ends_at_bound(values, on_limit, confidence: float) -> tuple[bool, boo
     return bool(lim[k]), bool(lim[n - 1 - k])
 
 
-def trials_at_bounds(result, labels, samples) -> tuple[np.ndarray, np.ndarray]:
-    """Per free constant (``labels``), the trials (rows of ``samples``, over ``labels``) whose
-    answer has it on a lower / upper limit of the search (:func:`trial_bound_flags`)."""
-    flags = trial_bound_flags(result, labels, samples)
-    return (flags < 0).sum(axis=0), (flags > 0).sum(axis=0)
-
-
 def trial_bound_flags(result, labels, samples) -> np.ndarray:
     """(n, p) int8 over the trials (rows of ``samples``, over ``labels``): -1 where the
     trial's answer has the constant on a lower limit of the search, +1 on an upper one, 0
