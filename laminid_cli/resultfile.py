@@ -365,10 +365,10 @@ def _mesh_limits() -> tuple[int, int]:
     return (2 * n + 1) ** 2 - n * n, n * n
 
 
-#: rows of /history (and of swaps, warnings: a note per evaluation at most): twice the
-#: largest --max-evaluations (100000, commands/_common.fit_options), which caps a run's
-#: evaluations in all; the factor a margin, not a count
-MAX_HISTORY_ROWS = 2 * 100_000
+#: rows of /history (and of swaps, warnings: a note per evaluation at most), in the largest
+#: --max-evaluations (commands._common.MAX_EVALUATIONS, which caps a run's evaluations in
+#: all): twice, the factor a margin, not a count
+HISTORY_ROWS_PER_EVALUATION = 2
 #: values along any other axis (modes, constants, labels): each is an entry of the specimen's
 #: YAML, which holds at most specimen.MAX_YAML_NODES (100000)
 MAX_AXIS_VALUES = 100_000
@@ -376,7 +376,7 @@ MAX_AXIS_VALUES = 100_000
 
 def _row_limit(name: str) -> tuple[int, str]:
     """(most rows, what bounds them) of the dataset named ``name`` (its HDF5 path)."""
-    from laminid_cli.commands._common import TrialCount
+    from laminid_cli.commands._common import MAX_EVALUATIONS, TrialCount
 
     nodes, elements = _mesh_limits()
     parts = name.strip("/").split("/")
@@ -388,7 +388,8 @@ def _row_limit(name: str) -> tuple[int, str]:
     if (parent, last) in (("modes", "phi"), ("modes", "dofs")):
         return 9 * nodes, f"the equations of the finest mesh laminid builds ({9 * nodes})"
     if parent == "history" or last in ("swaps", "warnings"):
-        return MAX_HISTORY_ROWS, f"the evaluations laminid records ({MAX_HISTORY_ROWS})"
+        rows = HISTORY_ROWS_PER_EVALUATION * MAX_EVALUATIONS
+        return rows, f"the evaluations laminid records ({rows})"
     if parent == "monte_carlo" and last in ("samples", "fixed_samples"):
         return TrialCount.MAX_TRIALS, f"the Monte Carlo trials ({TrialCount.MAX_TRIALS})"
     return MAX_AXIS_VALUES, f"the modes or constants a specimen holds ({MAX_AXIS_VALUES})"

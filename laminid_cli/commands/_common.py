@@ -30,6 +30,11 @@ class FiniteFloat(click.FloatRange):
         return super()._describe_range()
 
 
+#: the most evaluations --max-evaluations allows (a run's evaluations in all; the result
+#: file's reader bounds its /history by it: laminid_cli.resultfile._row_limit)
+MAX_EVALUATIONS = 100000
+
+
 class TrialCount(click.IntRange):
     """The number of Monte Carlo trials: 0 (off) or 2..:data:`MAX_TRIALS` (one trial has no
     spread; the trials' perturbations are drawn up front, so a huge number fills the memory)."""
@@ -441,7 +446,7 @@ fit_options = _apply([
                   show_default=True, help="Step tolerance on the scaled design variables."),
     click.option("--ftol", type=FiniteFloat(min=0, min_open=True), default=1e-8,
                   show_default=True, help="Relative tolerance on the objective."),
-    click.option("--max-evaluations", type=click.IntRange(2, 100000), default=3000,
+    click.option("--max-evaluations", type=click.IntRange(2, MAX_EVALUATIONS), default=3000,
                   show_default=True, help="Most model evaluations of the identification in all "
                   "(full and reduced-model ones, every stage; the answer's final check may add "
                   "a few) before giving up: then 'not converged', exit 1. The paper's plates "
